@@ -1,0 +1,39 @@
+# sarproc: the two set-up commands (README) and the reproduction / benchmark targets.
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+SARPROC := $(VENV)/bin/sarproc
+STAMP := $(VENV)/.installed
+TEST_STAMP := $(VENV)/.installed-test
+
+.PHONY: demo test venv clean bench
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e .
+	touch $@
+
+$(TEST_STAMP): $(STAMP) pyproject.toml
+	$(PY) -m pip install --quiet -e '.[test]'
+	touch $@
+
+venv: $(STAMP)
+
+demo: $(STAMP)
+	mkdir -p results/demo
+	$(SARPROC) simulate configs/demo.yaml -o results/demo/raw.h5 --overwrite
+	$(SARPROC) backproject results/demo/raw.h5 --config configs/demo.yaml -o results/demo/image.h5 --overwrite
+	$(SARPROC) evaluate results/demo/image.h5 -o results/demo/report.json --plot results/demo --expect configs/demo_expect.yaml
+
+test: $(TEST_STAMP)
+	$(PY) -m pytest -q
+
+bench: $(STAMP)
+	$(PY) scripts/bench_foundation.py
+
+clean:
+	rm -rf results build *.egg-info
+
+# Paper-specific targets live in mk/*.mk, one file per paper.
+-include mk/*.mk

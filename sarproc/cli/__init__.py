@@ -1,0 +1,1 @@
+"""Command-line layer: parse, load, call the numerical core, save. Nothing numerical here."""

@@ -1,0 +1,31 @@
+"""sarproc backproject RAW.h5 -o IMAGE.h5 [--config FILE.yaml]"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import click
+
+from .options import common_options, input_argument, load_config, summary, want_progress
+
+
+@click.command()
+@input_argument
+@common_options
+def backproject(input_path: Path, output: Path, config_path, overwrite: bool, progress):
+    """Exact time-domain backprojection of a raw product onto a frame grid (section `backproject:`)."""
+    from ..backprojection import BackprojectParams, backproject as run
+    from ..io import check_output_path, read_product, write_product
+    from .progress import progress_factory
+
+    check_output_path(output, [input_path], overwrite)
+    params = load_config(BackprojectParams, config_path, section="backproject")
+    raw = read_product(input_path, kinds=("raw", "raw_multichannel", "raw_array"))
+    start = time.perf_counter()
+    image = run(raw, params, progress=progress_factory(want_progress(progress), "backproject"))
+    image.history[-1]["command"] = f"sarproc backproject {input_path}"
+    write_product(output, image, inputs=[input_path], overwrite=overwrite)
+    n_az, n_rg = image.data.shape
+    summary(f"backproject: {n_az}x{n_rg} image in frame {image.attrs['frame']['name']} -> {output} "
+            f"({time.perf_counter() - start:.2f} s)")

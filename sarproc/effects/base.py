@@ -1,0 +1,67 @@
+"""The effect plugin interface of the simulator.
+
+The simulator computes the ideal case (one channel at the platform, straight track, static
+targets, fixed receive gate, unit gains, no noise) and lets each declared effect change one
+or more of these through hooks. Every hook receives the current value and returns the new
+one, so effects compose in ``order``. Hooks an effect does not override cost nothing.
+
+Shapes: ``t`` (n_t,) azimuth times, s; positions in m; ``target_pos`` (n_t, n_tg, 3);
+gains complex (n_t, n_tg); gate offsets (n_t,) s; signal blocks (n_ch, n_t, n_range) complex.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+EFFECTS: dict[str, type] = {}
+
+
+def register_effect(key: str):
+    """Class decorator: make an effect available under ``effects.<key>`` in scene YAML."""
+    def deco(cls):
+        cls.key = key
+        EFFECTS[key] = cls
+        return cls
+    return deco
+
+
+class Effect:
+    key = "base"
+    order = 50           # application order: geometry (10s), gains (50s), noise last (90s)
+    product_kind = None  # e.g. "raw_array": the raw product type this effect implies
+
+    class Params:  # replaced by a frozen dataclass in each effect
+        pass
+
+    def __init__(self, params, scene_params, radar):
+        self.params = params
+        self.scene_params = scene_params
+        self.radar = radar
+
+    def update_radar(self, radar):
+        """Record what the effect adds to the radar metadata (e.g. beamwidths, channels)."""
+        return radar
+
+    def channels(self, tx_offset: np.ndarray, rx_offsets: np.ndarray):
+        """Transmit offset (3,) and receive offsets (n_ch, 3) relative to the platform position."""
+        return tx_offset, rx_offsets
+
+    def platform_positions(self, t: np.ndarray, positions: np.ndarray) -> np.ndarray:
+        return positions
+
+    def target_positions(self, t: np.ndarray, target_pos: np.ndarray, velocity: np.ndarray) -> np.ndarray:
+        return target_pos
+
+    def gate_offsets(self, t: np.ndarray, offsets: np.ndarray, reference_delay: float) -> np.ndarray:
+        return offsets
+
+    def gains(self, t, platform_pos, target_pos, channel: int, gains):
+        return gains
+
+    def finalize(self, block: np.ndarray, rng: np.random.Generator, signal_power: float) -> np.ndarray:
+        """Last touch on a finished block of pulses (noise)."""
+        return block
+
+    def aux(self) -> dict:
+        """Extra arrays to store with the raw product."""
+        return {}
