@@ -185,8 +185,11 @@ def _make_axes(shape, dims, coords, theoretical_irw, irw_factor) -> list[_Axis]:
 
 def window_slices(center, half, shape):
     """Slices of the box ``center +- half`` (integer samples) clipped to ``shape``."""
-    return tuple(slice(max(0, int(c) - int(h)), min(int(n), int(c) + int(h) + 1))
-                 for c, h, n in zip(center, half, shape))
+    out = []
+    for c, h, n in zip(center, half, shape):
+        lo = min(max(0, int(c) - int(h)), int(n))
+        out.append(slice(lo, max(lo, min(int(n), int(c) + int(h) + 1))))  # empty, never negative
+    return tuple(out)
 
 
 def extract_chip(data: np.ndarray, center, half) -> tuple[np.ndarray, bool]:
