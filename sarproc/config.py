@@ -131,7 +131,8 @@ def _build(cls, mapping: dict, where: str):
     unknown = sorted(set(mapping) - set(fields))
     if unknown:
         raise InputError(
-            f"{where}: unknown key(s) {', '.join(map(repr, unknown))}; allowed: {', '.join(sorted(fields))}"
+            f"{where + ': ' if where else ''}unknown key(s) {', '.join(map(repr, unknown))}; "
+            f"allowed: {', '.join(sorted(fields))}"
         )
     kwargs = {}
     for name, f in fields.items():
@@ -142,15 +143,12 @@ def _build(cls, mapping: dict, where: str):
             raise InputError(f"{key}: required key is missing" + (f" ({f.metadata['doc']})" if f.metadata.get("doc") else ""))
     try:
         obj = cls(**kwargs)
-    except InputError as exc:
-        raise InputError(f"{where}: {exc}" if where and not str(exc).startswith(where) else str(exc)) from None
-    check = getattr(obj, "validate", None)
-    if check is not None:
-        try:
+        check = getattr(obj, "validate", None)
+        if check is not None:
             check()
-        except InputError as exc:
-            msg = str(exc)
-            raise InputError(msg if msg.startswith(where) else f"{where}: {msg}") from None
+    except InputError as exc:
+        msg = str(exc)
+        raise InputError(f"{where}: {msg}" if where and not msg.startswith(where) else msg) from None
     return obj
 
 

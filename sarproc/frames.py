@@ -125,6 +125,34 @@ class LosFrame(Frame):
         return d @ self.u_azimuth, self.reference_range + d @ self.u_range
 
 
+@register_frame("elevation")
+class ElevationFrame(Frame):
+    """Paper 004's cylindrical frame about the platform track (Du 2010, eq. 3), 3D.
+
+    Axes (elevation, azimuth, range): elevation is the across-track angle from nadir in rad
+    (positive towards +y), azimuth is x, range the slant distance from the track (x, 0, H):
+    P = (x, r sin(elevation), H - r cos(elevation)).
+    """
+
+    axes = ("elevation", "azimuth", "range")
+
+    def __init__(self, altitude: float):
+        self.altitude = float(altitude)
+
+    def params(self):
+        return {"altitude": self.altitude}
+
+    def to_xyz(self, elevation, azimuth, range_):
+        el, az, r = np.broadcast_arrays(np.asarray(elevation, float), np.asarray(azimuth, float),
+                                        np.asarray(range_, float))
+        return np.stack([az, r * np.sin(el), self.altitude - r * np.cos(el)], axis=-1)
+
+    def from_xyz(self, xyz):
+        xyz = np.asarray(xyz, float)
+        down = self.altitude - xyz[..., 2]
+        return np.arctan2(xyz[..., 1], down), xyz[..., 0].copy(), np.hypot(xyz[..., 1], down)
+
+
 def frame_from_spec(spec) -> Frame:
     """Rebuild a frame from its JSON spec (a dict or a JSON string)."""
     if isinstance(spec, (bytes, str)):
@@ -147,6 +175,8 @@ def make_frame(name: str, radar: RadarMetadata, **params) -> Frame:
     if name == "los":
         return LosFrame(params.get("origin", radar.scene_center),
                         params.get("aperture_center", aperture_center_position(radar)))
+    if name == "elevation":
+        return ElevationFrame(params.get("altitude", radar.altitude))
     if name in _FRAMES:
         return _FRAMES[name](**params)
     raise InputError(f"unknown image frame {name!r}; known: {sorted(_FRAMES) + ['zero_doppler']}")

@@ -169,6 +169,8 @@ def _attr_value(v):
             return v
     if isinstance(v, np.generic):
         return v.item()
+    if isinstance(v, np.ndarray) and v.ndim == 1 and v.dtype.kind in "fiu":
+        return v.tolist()  # the same list an in-memory product carries
     return v
 
 

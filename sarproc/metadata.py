@@ -34,6 +34,7 @@ class RadarMetadata:
       scene_center: (x, y, z) of the scene centre, m.  mode: stripmap | spotlight | sliding_spotlight.
       azimuth_beamwidth / elevation_beamwidth: one-way -3 dB beamwidths, rad (0: no pattern).
       aperture_time: s.  n_channels: receive channels.
+      beam_rotation_range: sliding spotlight rotation point's slant range from the aperture centre, m.
     """
 
     carrier_frequency: float
@@ -52,6 +53,7 @@ class RadarMetadata:
     elevation_beamwidth: float = 0.0
     aperture_time: float = 0.0
     n_channels: int = 1
+    beam_rotation_range: float = 0.0
 
     @property
     def wavelength(self) -> float:
@@ -126,7 +128,7 @@ def scene_center_from_geometry(reference_range: float, squint: float, altitude: 
     With altitude 0 this is paper 000's slant-plane geometry: (r sin(theta), r cos(theta), 0).
     """
     across = (reference_range * math.cos(squint)) ** 2 - altitude**2
-    if across <= 0:
+    if across < 0:
         raise InputError(
             f"geometry: reference range {reference_range:g} m at squint {math.degrees(squint):.3g} deg "
             f"does not reach the ground from altitude {altitude:g} m"

@@ -11,6 +11,7 @@ from .errors import InputError
 from .metadata import RadarMetadata
 
 WINDOWS = ("none", "hamming")
+FILTERS = ("flat", "matched")
 
 
 def chirp_replica(radar: RadarMetadata) -> tuple[np.ndarray, int]:
@@ -33,22 +34,34 @@ def spectral_window(name: str, freqs: np.ndarray, bandwidth: float) -> np.ndarra
     raise InputError(f"range window {name!r} is not one of {list(WINDOWS)}")
 
 
-def range_compress(signal: np.ndarray, radar: RadarMetadata, window: str = "none", workers: int = -1) -> np.ndarray:
-    """Matched-filter the last axis of ``signal``; a target's peak lands at its delay's sample.
+def range_compress(signal: np.ndarray, radar: RadarMetadata, window: str = "none", workers: int = -1,
+                   filter: str = "flat") -> np.ndarray:
+    """Range-compress the last axis of ``signal``; a target's peak lands at its delay's sample.
 
+    ``filter='matched'`` is the classic matched filter conj(H(f)): its output spectrum is
+    |H(f)|^2, whose Fresnel ripples (finite time-bandwidth product) raise the far side lobes.
+    ``filter='flat'`` (default) divides by H(f) inside |f| <= B/2 instead, so the compressed
+    spectrum is exactly rect(f/B) (times ``window``): the ideal sinc the theory refers to.
     ``signal`` (..., n_range) complex; returns complex64 of the same shape, normalised so a
     unit-amplitude echo compresses to a peak of about 1.
     """
+    if filter not in FILTERS:
+        raise InputError(f"range filter {filter!r} is not one of {list(FILTERS)}")
     n_rg = signal.shape[-1]
     h, half = chirp_replica(radar)
     n_fft = sfft.next_fast_len(n_rg + len(h), real=False)
     h_circ = np.zeros(n_fft, complex)
     h_circ[: half + 1] = h[half:]
     h_circ[n_fft - half:] = h[:half]
-    filt = np.conj(sfft.fft(h_circ)) / np.count_nonzero(h)
-    if window != "none":
-        f = sfft.fftfreq(n_fft, 1.0 / radar.range_sampling_rate)
-        filt = filt * spectral_window(window, f, radar.bandwidth)
+    spec_h = sfft.fft(h_circ)
+    f = sfft.fftfreq(n_fft, 1.0 / radar.range_sampling_rate)
+    if filter == "matched":
+        filt = np.conj(spec_h) / np.count_nonzero(h)
+        if window != "none":
+            filt = filt * spectral_window(window, f, radar.bandwidth)
+    else:
+        band = spectral_window(window, f, radar.bandwidth)
+        filt = np.where(band > 0, band / np.where(band > 0, spec_h, 1), 0) * (np.count_nonzero(band) / n_fft)
     spec = sfft.fft(signal, n=n_fft, axis=-1, workers=workers)
     spec *= filt.astype(np.complex64 if signal.dtype == np.complex64 else complex)
     out = sfft.ifft(spec, axis=-1, workers=workers)[..., :n_rg]
