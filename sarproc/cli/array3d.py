@@ -1,0 +1,53 @@
+"""sarproc array3d RAW.h5 -o CUBE.h5 [--config FILE.yaml] [--channel-image N --channel-output IMG.h5]"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import click
+
+from .options import common_options, input_argument, load_config, summary, want_progress
+
+
+@click.command()
+@input_argument
+@common_options
+@click.option("--channel-image", type=int, default=None, metavar="N",
+              help="Also write receiver N's 2D image (1-based) before elevation compression (paper Fig. 5).")
+@click.option("--channel-output", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Output of --channel-image (an `image` product, dims azimuth, range).")
+def array3d(input_path: Path, output: Path, config_path, overwrite: bool, progress, channel_image, channel_output):
+    """Linear-array down-looking 3D SAR (paper 004): range, azimuth and elevation-angle compression.
+
+    Reads a raw_array product, writes an image3d cube with dims (elevation, azimuth, range),
+    elevation in rad. Parameters: section `array3d:` of --config.
+    """
+    from ..array3d import Array3DParams, array3d_product
+    from ..errors import InputError
+    from ..io import check_output_path, read_product, write_product
+    from .progress import progress_factory
+
+    if (channel_image is None) != (channel_output is None):
+        raise InputError("--channel-image and --channel-output go together")
+    check_output_path(output, [input_path], overwrite)
+    if channel_output is not None:
+        check_output_path(channel_output, [input_path], overwrite)
+        if Path(channel_output).resolve() == Path(output).resolve():
+            raise InputError(f"{channel_output}: --channel-output is the same file as --output")
+    params = load_config(Array3DParams, config_path, section="array3d")
+    raw = read_product(input_path, kinds=("raw_array",))
+    start = time.perf_counter()
+    try:
+        cube, chan = array3d_product(raw, params, channel_image=channel_image,
+                                     progress=progress_factory(want_progress(progress), "array3d"),
+                                     command=f"sarproc array3d {input_path}")
+    except InputError as exc:
+        raise InputError(f"{input_path}: {exc}") from None
+    write_product(output, cube, inputs=[input_path], overwrite=overwrite)
+    if chan is not None:
+        write_product(channel_output, chan, inputs=[input_path], overwrite=overwrite)
+    shape = "x".join(map(str, cube.data.shape))
+    summary(f"array3d: {shape} (elevation x azimuth x range) cube -> {output}"
+            + (f", channel {channel_image} image -> {channel_output}" if chan is not None else "")
+            + f" ({time.perf_counter() - start:.2f} s)")
