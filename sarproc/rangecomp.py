@@ -61,7 +61,8 @@ def range_compress(signal: np.ndarray, radar: RadarMetadata, window: str = "none
             filt = filt * spectral_window(window, f, radar.bandwidth)
     else:
         band = spectral_window(window, f, radar.bandwidth)
-        filt = np.where(band > 0, band / np.where(band > 0, spec_h, 1), 0) * (np.count_nonzero(band) / n_fft)
+        # Unit-amplitude echo -> rect spectrum of height n_fft / n_band -> unit peak.
+        filt = np.where(band > 0, band / np.where(band > 0, spec_h, 1), 0) * (n_fft / np.count_nonzero(band))
     spec = sfft.fft(signal, n=n_fft, axis=-1, workers=workers)
     spec *= filt.astype(np.complex64 if signal.dtype == np.complex64 else complex)
     out = sfft.ifft(spec, axis=-1, workers=workers)[..., :n_rg]
