@@ -316,3 +316,14 @@ def test_expectations_checks_and_overrides():
         expectations_from_mapping({"pslr": [-14, -13]}, "e.yaml")
     with pytest.raises(InputError, match=r"e.yaml: axes.range: unknown key\(s\) 'foo'"):
         expectations_from_mapping({"axes": {"range": {"foo": 1}}}, "e.yaml")
+
+
+def test_missing_response_gives_undefined_metrics_that_fail_checks():
+    coords = [axis_coords(128, STEP2[0]), axis_coords(128, STEP2[1])]
+    rep = evaluate_image(np.zeros((128, 128), np.complex64), ("azimuth", "range"), coords, RES2, [(0.0, 0.0)],
+                         names=["A"])
+    m = rep.targets[0].axes[0]
+    assert np.isnan(m.irw) and np.isnan(m.position_error)
+    assert json.loads(json.dumps(rep.to_dict(), allow_nan=False))["targets"][0]["axes"][0]["irw"] is None
+    fails = check_report(rep, expectations_from_mapping({"irw_ratio_max": 1.05, "position_cells_max": 0.5}))
+    assert len(fails) == 4
