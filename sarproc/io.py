@@ -175,6 +175,14 @@ def _attr_value(v):
 
 
 def read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
+    """Read a product; see :func:`_read_product`. Low-level HDF5 errors become InputError."""
+    try:
+        return _read_product(path, kinds, load=load, check_finite=check_finite)
+    except (OSError, RuntimeError, KeyError, TypeError) as exc:
+        raise InputError(f"{path}: damaged or non-conforming product: {exc}") from None
+
+
+def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
     """Read a product; ``kinds`` restricts the accepted product types (the error names them).
 
     With ``load=False`` only metadata is read: ``data`` is an empty array of the right dtype
