@@ -58,6 +58,9 @@ def atomic_path(output: Path):
     output = Path(output)
     fd, tmp = tempfile.mkstemp(prefix=f".{output.name}.", suffix=".tmp", dir=output.parent)
     os.close(fd)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)  # mkstemp's 0600 would hide outputs from other users
     try:
         yield Path(tmp)
         os.replace(tmp, output)

@@ -19,6 +19,7 @@ from typing import Iterator
 import numpy as np
 
 from .metadata import C
+from .phasor import unit_phasor
 from .product import Product
 from .scene import Scene
 
@@ -148,8 +149,10 @@ def echo_block(scene: Scene, plan: SimulationPlan, t: np.ndarray) -> np.ndarray:
             idx = first[:, None] + k_idx                                 # (n_live, n_env)
             dt = idx / fs - rel[:, None]                                  # fast time from echo centre, s
             inside = np.abs(dt) <= tp / 2
-            phase = np.pi * k * dt**2 - 2 * np.pi * r.carrier_frequency * tau_j[:, None]
-            val = np.where(inside, g[live, None] * np.exp(1j * phase), 0)
+            # Phase in float64 cycles, reduced to [0, 1) before the (fast) float32 cos/sin.
+            cycles = 0.5 * k * dt**2 - r.carrier_frequency * tau_j[:, None]
+            cycles -= np.floor(cycles)
+            val = np.where(inside, g[live, None] * unit_phasor(cycles), 0)
             out[ch, rows[live], idx + guard] += val
     return out[:, :, guard:guard + n_rg]
 
