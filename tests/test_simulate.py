@@ -109,3 +109,16 @@ def test_undeclared_effects_are_not_simulated(scene_mapping):
 def test_bad_scenes_are_refused_with_the_key(scene_mapping, changes, message):
     with pytest.raises(InputError, match=message):
         scene_from_mapping(scene_mapping(**changes), source="scene.yaml")
+
+
+def test_prf_and_folding_warnings(scene_mapping, caplog):
+    m = scene_mapping(radar={"prf": "100 Hz"}, acquisition={"mode": "stripmap", "aperture_time": "0.5 s"},
+                      effects={"antenna": {"azimuth_beamwidth": "3 deg"}})
+    with caplog.at_level("WARNING"):
+        scene_from_mapping(m)
+    assert "below the beam's Doppler bandwidth" in caplog.text
+    caplog.clear()
+    m = scene_mapping(radar={"prf": "100 Hz"}, targets={"points": [{"name": "A"}, {"name": "B", "azimuth": "60 m"}]})
+    with caplog.at_level("WARNING"):
+        scene_from_mapping(m)
+    assert "azimuth spectrum folds" in caplog.text
