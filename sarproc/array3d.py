@@ -334,9 +334,9 @@ def elevation_compress(images: np.ndarray, ranges: np.ndarray, geom: ArrayGeomet
     out = np.empty((len(theta), n_az, n_rg), dtype=ctype)
     if params.cross_track_rcmc_elevation == "per_bin":
         # One product per range frequency: eq. (21) at theta_k and the DFT of eq. (26) together.
-        spec = spec.transpose(2, 0, 1)                           # (n_f, n_ch, n_az)
-        y = np.empty((len(theta), n_az, n_fft), dtype=ctype)
-        per_f = len(theta) * n_ch + len(theta) * n_az + n_ch * n_az
+        spec = np.ascontiguousarray(spec.transpose(2, 0, 1))     # (n_f, n_ch, n_az)
+        y = np.empty((n_fft, len(theta), n_az), dtype=ctype)
+        per_f = 2 * len(theta) * n_ch + len(theta) * n_az + n_ch * n_az
         fb = max(1, int(params.block_elements // max(per_f, 1)))
         blocks = range(0, n_fft, fb)
         if progress is not None:
@@ -346,10 +346,10 @@ def elevation_compress(images: np.ndarray, ranges: np.ndarray, geom: ArrayGeomet
             ph = -2 * np.pi * (fc + f[s:e, None, None]) * w[None, :, None] * v[None, None, :] / C
             ph = ph + fac[:, s:e].T[:, None, :]
             kern = (np.exp(1j * ph) * scale).astype(ctype)       # (n_b, n_el, n_ch)
-            y[:, :, s:e] = np.matmul(kern, spec[s:e]).transpose(1, 2, 0)
-        for s in range(0, len(theta), max(1, int(params.block_elements // max(n_az * n_fft, 1)))):
-            e = min(s + max(1, int(params.block_elements // max(n_az * n_fft, 1))), len(theta))
-            out[s:e] = sfft.ifft(y[s:e], axis=-1, workers=workers)[..., :n_rg]
+            np.matmul(kern, spec[s:e], out=y[s:e])
+        del spec
+        y = sfft.ifft(y, axis=0, workers=workers, overwrite_x=True)[:n_rg]    # (n_rg, n_el, n_az)
+        out[...] = y.transpose(1, 2, 0)
         return out
     if np.any(fac != 0):
         spec *= np.exp(1j * fac)[:, None, :].astype(ctype)
