@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import beam
 from .config import as_dict, build, load_yaml, param
 from .errors import InputError
 from .frames import frame_coordinates, frame_names, make_frame
@@ -261,15 +262,20 @@ def _sanity_warnings(scene: Scene) -> None:
         beam_doppler = 2 * r.velocity * math.cos(r.squint) * r.azimuth_beamwidth / lam
         if r.prf < beam_doppler:
             log.warning("PRF %.4g Hz is below the beam's Doppler bandwidth %.4g Hz: azimuth aliasing", r.prf, beam_doppler)
-    if len(scene.target_xyz):
-        t = scene.azimuth_time()[[0, -1]]
-        pos = np.stack([r.velocity * t, np.zeros(2), np.full(2, r.altitude)], axis=1)
-        d = scene.target_xyz[None, :, :] - pos[:, None, :]
+    if len(scene.target_xyz) and scene.n_pulses <= 200_000:
+        # Doppler of every target over the pulses whose -3 dB beam sees it (all without a beam).
+        t = scene.azimuth_time()
+        pos = np.stack([r.velocity * t, np.zeros_like(t), np.full_like(t, r.altitude)], axis=1)
+        tg = np.broadcast_to(scene.target_xyz, (len(t),) + scene.target_xyz.shape)
+        d = tg - pos[:, None, :]
         fd = 2 * r.velocity * d[..., 0] / np.linalg.norm(d, axis=-1) / lam
-        span = float(fd.max() - fd.min())
+        if r.azimuth_beamwidth > 0:
+            az, _ = beam.off_boresight_angles(beam.boresight(r, pos), pos, tg)
+            fd = fd[np.abs(az) <= r.azimuth_beamwidth / 2]
+        span = float(fd.max() - fd.min()) if fd.size else 0.0
         if span > r.prf:
-            log.warning("total Doppler span of the scene %.4g Hz exceeds the PRF %.4g Hz: the azimuth spectrum folds",
-                        span, r.prf)
+            log.warning("total Doppler span of the illuminated scene %.4g Hz exceeds the PRF %.4g Hz: "
+                        "the azimuth spectrum folds", span, r.prf)
     if scene.n_pulses > 200_000:
         raise InputError(f"{scene.source}: acquisition: {scene.n_pulses} pulses is more than this simulator handles")
 
