@@ -25,17 +25,28 @@ from .product import Product
 from .rangecomp import WINDOWS, range_compress
 
 
-def upsample_range(rc: np.ndarray, factor: int, workers: int = -1) -> np.ndarray:
-    """FFT zero-padding upsampling along the last axis of a baseband signal (band centred at 0)."""
-    if factor == 1:
-        return rc
+def upsample_range(rc: np.ndarray, factor: int, workers: int = -1, pad: int = 0) -> np.ndarray:
+    """FFT zero-padding upsampling along the last axis of a baseband signal (band centred at 0).
+
+    Returns complex64 (..., n * factor + pad); the ``pad`` trailing samples are zero.
+    """
     n = rc.shape[-1]
-    spec = sfft.fft(rc, axis=-1, workers=workers)
-    up = np.zeros(rc.shape[:-1] + (n * factor,), dtype=spec.dtype)
+    out = np.zeros(rc.shape[:-1] + (n * factor + pad,), np.complex64)
+    if factor == 1:
+        out[..., :n] = rc
+        return out
+    # Pulse by pulse in blocks, so the complex128 spectra never exceed a few tens of MB.
+    rows = max(1, (32 << 20) // (16 * n * factor))
+    flat_in = rc.reshape(-1, n)
+    flat_out = out.reshape(-1, out.shape[-1])
     pos = (n + 1) // 2
-    up[..., :pos] = spec[..., :pos]
-    up[..., n * factor - (n - pos):] = spec[..., pos:]
-    return (sfft.ifft(up, axis=-1, workers=workers) * factor).astype(np.complex64)
+    for s in range(0, flat_in.shape[0], rows):
+        spec = sfft.fft(flat_in[s:s + rows], axis=-1, workers=workers)
+        up = np.zeros((spec.shape[0], n * factor), dtype=spec.dtype)
+        up[:, :pos] = spec[:, :pos]
+        up[:, n * factor - (n - pos):] = spec[:, pos:]
+        flat_out[s:s + rows, :n * factor] = sfft.ifft(up, axis=-1, workers=workers) * factor
+    return out
 
 
 def _ranges(platform: np.ndarray, points_c: np.ndarray, points_sq: np.ndarray) -> np.ndarray:
@@ -99,10 +110,9 @@ def backproject_points(rc, range_time, tx_pos, rx_pos, points, carrier_frequency
     tx_pos, rx_pos = np.asarray(tx_pos, float), np.asarray(rx_pos, float)
     monostatic = np.array_equal(tx_pos, rx_pos)
     dt = (range_time[-1] - range_time[0]) / (n_rg - 1) if n_rg > 1 else 1.0
-    up = upsample_range(np.asarray(rc, np.complex64), upsample)
-    n_up = up.shape[-1]
     # One zero sample past each pulse: reads outside the window land on it and add nothing.
-    flat = np.concatenate([up, np.zeros((n_az, 1), np.complex64)], axis=1).ravel()
+    flat = upsample_range(rc, upsample, pad=1).ravel()
+    n_up = n_rg * upsample
     gate = np.zeros(n_az) if gate_offset is None else np.asarray(gate_offset, float)
     origin = points.mean(axis=0) if len(points) else np.zeros(3)
     points_c = points - origin
