@@ -39,7 +39,7 @@ import scipy.fft as sfft
 from .config import as_dict, param
 from .errors import InputError, ProcessingError
 from .frames import SquintFrame, targets_in_frame
-from .interp import KERNELS
+from .interp import KERNELS, resample_rows
 from .metadata import C
 from .nlcs import VARIANTS, compression_phase, group_delay_span, nlcs_coefficients, position_terms
 from .preprocess import PRECISIONS, complex_dtype, correction_frequency
@@ -67,7 +67,10 @@ class FineFocusParams:
                                              "default: range window / scene depth, clipped to [1.2, 4]")
     range_filter: str = param(default="flat", choices=("flat", "phase"), doc="range matched filter")
     reference_range: float | None = param("length", default=None, gt=0,
-                                          doc="r_ref of the bulk compression; default: the coarse step's")
+                                          doc="range of the bulk compression and centre of the output range "
+                                              "window; default: the middle of the coarse step's scene box")
+    flow1_geometry: str = param(default="resample", choices=("resample", "none"),
+                                doc="flow 1: resample azimuth to undo the x_n^2 sin(theta)/r shift of edge targets")
     output_frame: str = param(default="squint", choices=("squint", "lrwc"), doc="image frame (see module doc)")
     crop_margin: float = param("length", default=150.0, ge=0, doc="image kept around the coarse step's scene box")
     window_margin: float = param(default=1.15, ge=1.0, doc="flow 2: time/frequency window over the needed span")
@@ -144,8 +147,8 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams()) -> 
     Fa = 1.0 / dtc
     if abs(t_c[M // 2]) > 1e-9 * max(1.0, abs(dtc)) * 1e6:
         raise InputError("fine-focus: the coarse azimuth grid is not centred on t' = 0")
-    r_ref = params.reference_range or float(at.get("coarse_reference_range", radar.reference_range))
     box = [float(b) for b in at["scene_box"]]
+    r_ref = params.reference_range or 0.5 * (box[2] + box[3])
     t_first, t_last = float(at["aperture_start"]), float(at["aperture_end"])
     n_pulses = int(at["n_pulses"])
     T_ap = n_pulses / radar.prf
@@ -214,6 +217,17 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams()) -> 
             RD[:, s:e] = cifft(RD[:, s:e] * h.astype(cdt), 0)
         x = v * t_c
         keep = (x >= x_lo) & (x <= x_hi)
+        if params.flow1_geometry == "resample":
+            # flow 1 puts a target at x_n + x_n^2 sin(theta) / r: the residual quadratic phase
+            # x_n sin(theta) g2 f_a^2 is linear around the target's Doppler centre -K t_n (spotlight)
+            idx = np.flatnonzero(keep)
+            xs = x[idx]
+            for s in range(0, N, params.block_range):
+                e = min(s + params.block_range, N)
+                src = xs[:, None] + xs[:, None] ** 2 * s_th / r[None, s:e]
+                pos = (src - x[0]) / (x[1] - x[0])
+                RD[idx, s:e] = resample_rows(RD[:, s:e].T, pos.T, "knab", 16,
+                                             oversampling=max(1.1, Fa / max(float(at.get("total_doppler_bandwidth", Fa / 1.2)), 1.0))).T
         img, x = RD[keep], x[keep]
         alpha = None
     else:

@@ -7,7 +7,7 @@ positions. Kernels (``length`` = number of taps):
   linear       2 taps, triangle.
   cubic        4 taps, Keys' cubic convolution (a = -0.5).
   sinc         ``length`` taps of sinc(d) times a Kaiser window of shape ``beta``.
-  knab         ``length`` taps of Knab's kernel: sinc(d) cosh(pi nu sqrt(1 - (2d/L)^2)) / cosh(pi nu),
+  knab         ``length`` taps of Knab's kernel: sinc(d) cosh(pi nu (L/2) sqrt(1 - (2d/L)^2)) / cosh(pi nu L/2),
                nu = 1 - 1/oversampling, optimal for a signal oversampled by ``oversampling``
                (Knab 1979; the usual choice for SAR frequency-domain interpolation).
 
@@ -37,7 +37,7 @@ def kernel_length(kernel: str, length: int | None = None) -> int:
 
 
 def kernel_weights(d: np.ndarray, kernel: str, length: int, *, oversampling: float = 1.25,
-                   beta: float = 2.5) -> np.ndarray:
+                   beta: float = 6.0) -> np.ndarray:
     """Unnormalised kernel value at distance ``d`` (samples) from the interpolation point."""
     d = np.asarray(d, dtype=float)
     if kernel == "nearest":
@@ -55,44 +55,63 @@ def kernel_weights(d: np.ndarray, kernel: str, length: int, *, oversampling: flo
         win = np.i0(beta * np.sqrt(arg)) / np.i0(beta)
     elif kernel == "knab":
         nu = 1.0 - 1.0 / max(float(oversampling), 1.0 + 1e-6)
-        win = np.cosh(np.pi * nu * np.sqrt(arg)) / np.cosh(np.pi * nu)
+        win = np.cosh(np.pi * nu * half * np.sqrt(arg)) / np.cosh(np.pi * nu * half)
     else:
         raise ValueError(f"unknown interpolation kernel {kernel!r}; known: {KERNELS}")
     return np.sinc(d) * win * (np.abs(d) < half)
 
 
+_TABLE_STEPS = 2048
+
+
+def _weight_table(kernel, taps, oversampling, beta):
+    d = np.linspace(-taps / 2, taps / 2, taps * _TABLE_STEPS + 1)
+    return d, kernel_weights(d, kernel, taps, oversampling=oversampling, beta=beta)
+
+
 def resample_rows(data: np.ndarray, positions: np.ndarray, kernel: str = "knab", length: int | None = None, *,
-                  oversampling: float = 1.25, beta: float = 2.5, out_dtype=None) -> np.ndarray:
+                  oversampling: float = 1.25, beta: float = 6.0, out_dtype=None) -> np.ndarray:
     """Interpolate each row of ``data`` at fractional sample ``positions``.
 
     data: (n_rows, n_in) real or complex, samples at 0 .. n_in-1 along the last axis.
     positions: (n_rows, n_out) or (n_out,) float sample positions (NaN gives 0).
-    Returns (n_rows, n_out) of ``out_dtype`` (default: data's dtype).
+    Returns (n_rows, n_out) of ``out_dtype`` (default: data's dtype). Windowed-sinc weights come
+    from a table of 2048 steps per sample, linearly interpolated (relative error below 1e-6).
     """
     data = np.asarray(data)
     n_rows, n_in = data.shape
     pos = np.broadcast_to(np.asarray(positions, dtype=float), (n_rows, np.shape(positions)[-1]))
     taps = kernel_length(kernel, length)
-    bad = ~np.isfinite(pos)
-    pos = np.where(bad, -1e9, pos)
+    pad = taps + 1
+    width = n_in + 2 * pad
+    padded = np.zeros((n_rows, width), dtype=np.result_type(data.dtype, np.complex64)
+                      if np.iscomplexobj(data) else data.dtype)
+    padded[:, pad:pad + n_in] = data
+    flat = padded.ravel()
+    bad = ~np.isfinite(pos) | (pos < -pad / 2) | (pos > n_in - 1 + pad / 2)
+    pos = np.where(bad, -pad / 2, pos)
     if kernel == "nearest":
         base = np.floor(pos + 0.5).astype(np.int64)
         first = 0
     else:
         base = np.floor(pos).astype(np.int64)
         first = -(taps // 2) + 1
+    frac = pos - base
+    row0 = (np.arange(n_rows, dtype=np.int64) * width + pad)[:, None]
     out = np.zeros(pos.shape, dtype=out_dtype or data.dtype)
-    wsum = np.zeros(pos.shape, dtype=float)
-    rows = np.arange(n_rows)[:, None]
+    table = _weight_table(kernel, taps, oversampling, beta) if kernel in ("sinc", "knab") else None
+    wsum = np.zeros(pos.shape, dtype=float) if table is not None else None
     for j in range(taps):
-        idx = base + first + j
-        w = kernel_weights(pos - idx, kernel, taps, oversampling=oversampling, beta=beta)
-        wsum += w
-        inside = (idx >= 0) & (idx < n_in)
-        w = np.where(inside, w, 0.0)
-        vals = data[rows, np.clip(idx, 0, n_in - 1)]
+        off = first + j
+        dist = frac - off
+        if table is not None:
+            w = np.interp(dist, table[0], table[1])
+            wsum += w
+        else:
+            w = kernel_weights(dist, kernel, taps)
+        vals = flat[row0 + base + off]
         out += (w * vals).astype(out.dtype, copy=False)
-    if kernel in ("sinc", "knab"):
+    if table is not None:
         out /= np.where(wsum > 0, wsum, 1.0).astype(out.real.dtype)
     out[bad] = 0
     return out
