@@ -89,8 +89,10 @@ def doppler_budget(radar: RadarMetadata, t_first: float, t_last: float, box, k: 
     """Exact-geometry Doppler numbers of a scene box over the aperture.
 
     Returns ``total_bandwidth`` (span of the Doppler frequencies after the nonlinear correction,
-    what F_a'' must hold), ``deramp_spread`` (span of Doppler + k t after the given correction,
-    what the PRF must hold) and the per-corner extremes, all Hz.
+    what F_a'' must hold), ``deramp_spread`` (span of Doppler + k t after the given correction) and
+    ``deramp_extent``: what the PRF must hold, the larger of that spread (no two parts of the scene may
+    overlap in the circular DFT window) and twice the largest magnitude after the nonlinear correction
+    (the focused scene must sit inside the window centred on zero), all Hz.
     """
     xa, xb, ra, rb = box
     s, c = math.sin(radar.squint), math.cos(radar.squint)
@@ -108,8 +110,15 @@ def doppler_budget(radar: RadarMetadata, t_first: float, t_last: float, box, k: 
     f_nl = -2 * f * rdot / C + beta["nonlinear"]
     f_m = -2 * f * rdot / C + beta[method]
     der = f_m + k * t[None, :, None]
+    der_nl = f_nl + k * t[None, :, None]
+    if method == "none":
+        # the squint centroid 2 v sin(theta) / lambda is known to the pulses only modulo the PRF
+        c0 = 2 * radar.carrier_frequency * v * s / C
+        prf = radar.prf
+        der = der - (c0 - (np.mod(c0 + prf / 2, prf) - prf / 2))
     return {"total_bandwidth": float(f_nl.max() - f_nl.min()), "doppler_min": float(f_nl.min()),
-            "doppler_max": float(f_nl.max()), "deramp_spread": float(der.max() - der.min())}
+            "doppler_max": float(f_nl.max()), "deramp_spread": float(der.max() - der.min()),
+            "deramp_extent": float(max(2 * np.abs(der_nl).max(), der.max() - der.min()))}
 
 
 def specan(signal: np.ndarray, azimuth_time: np.ndarray, prf: float, k: float, n_out: int,
@@ -164,11 +173,12 @@ def coarse_focus(pre: Product, params: CoarseFocusParams = CoarseFocusParams()) 
         n_out = sfft.next_fast_len(max(len(t), int(math.ceil(need))))
     f_out = n_out * k / prf
     problems = []
-    if budget["deramp_spread"] > prf:
-        problems.append(f"the deramped Doppler spread {budget['deramp_spread']:.1f} Hz exceeds the PRF {prf:.1f} Hz "
+    if budget["deramp_extent"] > prf:
+        fix = "raise the PRF or shrink the scene" + ("" if method == "nonlinear" else " or use the nonlinear correction")
+        problems.append(f"the deramped Doppler spread {budget['deramp_spread']:.1f} Hz (extent about zero "
+                        f"{budget['deramp_extent']:.1f} Hz) exceeds the PRF {prf:.1f} Hz "
                         f"(Doppler correction {method!r}, scene x_n in [{box[0]:.0f}, {box[1]:.0f}] m, "
-                        f"r_0 in [{box[2]:.0f}, {box[3]:.0f}] m): the scene folds after deramping; raise the PRF, "
-                        "shrink the scene or use the nonlinear correction")
+                        f"r_0 in [{box[2]:.0f}, {box[3]:.0f}] m): the scene folds after deramping; {fix}")
     if budget["total_bandwidth"] > f_out:
         problems.append(f"F_a'' = {f_out:.1f} Hz is below the total Doppler bandwidth {budget['total_bandwidth']:.1f} "
                         "Hz; raise coarse_focus.azimuth_samples")
@@ -185,6 +195,7 @@ def coarse_focus(pre: Product, params: CoarseFocusParams = CoarseFocusParams()) 
         "coarse_reference_range": float(r_ref),
         "aperture_start": float(t[0]), "aperture_end": float(t[-1]), "n_pulses": int(len(t)),
         "total_doppler_bandwidth": budget["total_bandwidth"], "deramp_spread": budget["deramp_spread"],
+        "deramp_extent": budget["deramp_extent"],
         "scene_box": [float(b) for b in box],
         "aliased": bool(problems),
     })
@@ -193,6 +204,7 @@ def coarse_focus(pre: Product, params: CoarseFocusParams = CoarseFocusParams()) 
     entry = as_dict(params)
     entry.update({"resolved_reference_range": float(r_ref), "resolved_azimuth_samples": int(n_out),
                   "azimuth_sampling_rate": float(f_out), "deramp_rate": float(k),
-                  "deramp_spread": budget["deramp_spread"], "total_doppler_bandwidth": budget["total_bandwidth"]})
+                  "deramp_spread": budget["deramp_spread"], "deramp_extent": budget["deramp_extent"],
+                  "total_doppler_bandwidth": budget["total_bandwidth"]})
     out.history.append(history_entry("coarse_focus", entry))
     return out

@@ -111,14 +111,22 @@ def _range_filter(radar, f_r: np.ndarray, kind: str) -> np.ndarray:
     return np.where(band, 1.0 / np.where(band, H, 1), 0) * np.count_nonzero(h)
 
 
-def _residual_doppler(S, t_c, f_r, k, beta):
-    """Apply the missing part of eq. (7) after the coarse step (exact when nothing folded)."""
+def _residual_doppler(S, t_c, f_r, k, beta, prf):
+    """Apply the missing part of eq. (7) after the coarse step (exact when nothing folded).
+
+    (s e^{j2 pi beta t}) * h (t') = e^{j2 pi beta t'} e^{-j pi beta^2/k} (s * h)(t' - beta/k). The pulses only
+    know beta modulo the PRF, so beta is wrapped to [-PRF/2, PRF/2); the modulation is applied first
+    (it centres the spectrum on the F_a'' grid), then the circular shift by beta/k (FFT phase ramp).
+    S: (n_t', n_fr) in the (t', f_r) domain, modified in place and returned.
+    """
     M = S.shape[0]
+    beta = np.mod(beta + prf / 2, prf) - prf / 2
     f_a = centred(M, 1.0 / (M * (t_c[1] - t_c[0])))
+    S *= np.exp(2j * np.pi * np.mod(t_c[:, None] * beta[None, :], 1.0))
     X = cfft(S, 0)
-    X *= np.exp(-2j * np.pi * f_a[:, None] * beta[None, :] / k)
+    X *= np.exp(-2j * np.pi * np.mod(f_a[:, None] * beta[None, :] / k, 1.0))
     S = cifft(X, 0)
-    S *= np.exp(2j * np.pi * np.mod(t_c[:, None] * beta[None, :], 1.0) - 1j * np.pi * np.mod(beta**2 / k, 2.0)[None, :])
+    S *= np.exp(1j * np.pi * np.mod(beta**2 / k, 2.0))[None, :]
     return S
 
 
@@ -172,7 +180,7 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams()) -> 
     S = sfft.fftshift(sfft.fft(coarse.data.astype(cdt), n=N, axis=1, workers=-1), axes=1)
     if method != "nonlinear":
         beta = correction_frequency(radar, f_r, "nonlinear") - correction_frequency(radar, f_r, method)
-        S = _residual_doppler(S, t_c, f_r, k, beta)
+        S = _residual_doppler(S, t_c, f_r, k, beta, radar.prf)
     S = cfft(S, 0)
     f_a = centred(M, Fa / M)
 
@@ -317,42 +325,56 @@ def _flow2(RD, t_c, f_a, r, k, model, radar, params, box, aperture, cdt, xlim):
         raise InputError(f"fine-focus: flow 2 needs {N2} azimuth samples (alpha = {alpha}, dispersion {disp:.3g} s); "
                          "alpha too close to 1/2 or the scene too wide; change fine_focus.alpha or max_samples")
     df = Fa / L1
-    f1 = centred(L1, df)
-    f2 = centred(N2, df)
     F2 = N2 * df
-    t2 = centred(N2, 1.0 / F2)
+    # FFT order throughout (index 0 = zero time / frequency): no shifts inside the block loop
+    f1 = sfft.fftfreq(L1, 1.0 / (L1 * df))
+    f2 = sfft.fftfreq(N2, 1.0 / F2)
+    t2 = sfft.fftfreq(N2, df)
     x_img = 2 * alpha * v * t2
-    keep = (x_img >= xlim[0]) & (x_img <= xlim[1])
-    out = np.empty((int(keep.sum()), N), np.complex64)
-    ref = np.exp(1j * np.pi * f1**2 / k)
+    keep = np.flatnonzero((x_img >= xlim[0]) & (x_img <= xlim[1]))
+    keep = keep[np.argsort(x_img[keep])]
+    out = np.empty((len(keep), N), np.complex64)
+    pdt = np.complex64
+    ref = np.exp(1j * np.mod(np.pi * f1**2 / k, 2 * np.pi)).astype(pdt)
     gc_full, okc = model.Gc(f2)
-    hopc_poly = g2 * f2**2
-    o1 = L1 // 2 - M // 2
-    o2 = N2 // 2 - L1 // 2
+    hopc = np.where(okc, gc_full - g2 * f2**2, 0.0)
+    f3, f4 = f2**3, f2**4
+    tt2, tt3, tt4 = t2**2, t2**3, t2**4
+    hm, hl = (M + 1) // 2, M // 2              # positive / negative halves of an FFT-ordered axis
+    gm, gl = (L1 + 1) // 2, L1 // 2
+    twopi = 2 * np.pi
+
+    def phasor(ph):
+        return np.exp(1j * np.mod(ph, twopi).astype(np.float32))
+
     for s in range(0, N, params.block_range):
         e = min(s + params.block_range, N)
         nb = e - s
-        comp = cifft(RD[:, s:e], 0)                                   # compact coarse domain (reference in)
+        comp = sfft.ifft(sfft.ifftshift(RD[:, s:e], axes=0), axis=0, workers=-1)   # compact t' (reference in)
         pad = np.zeros((L1, nb), cdt)
-        pad[o1:o1 + M] = comp
-        X1 = cfft(pad, 0) * ref[:, None].astype(cdt)
+        pad[:hm] = comp[:hm]
+        if hl:
+            pad[L1 - hl:] = comp[M - hl:]
+        X1 = sfft.fft(pad, axis=0, workers=-1)
+        X1 *= ref[:, None]
         X = np.zeros((N2, nb), cdt)
-        X[o2:o2 + L1] = X1
+        X[:gm] = X1[:gm]
+        if gl:
+            X[N2 - gl:] = X1[L1 - gl:]
         rr = r[s:e][None, :]
-        ph = np.zeros((N2, nb))
-        if variant == "modified":                                     # eq. (22), exact
-            ph += np.where(okc[:, None], rr * (gc_full[:, None] - hopc_poly[:, None]), 0)
         Y3, Y4 = co["Y3"][s:e][None, :], co["Y4"][s:e][None, :]
-        ph += np.pi * (Y3 * f2[:, None] ** 3 + Y4 * f2[:, None] ** 4)  # eq. (24)
-        X *= np.exp(1j * np.mod(ph, 2 * np.pi)).astype(cdt)
-        xt = cifft(X, 0)
+        ph = np.pi * (Y3 * f3[:, None] + Y4 * f4[:, None])                        # eq. (24)
+        if variant == "modified":
+            ph += rr * hopc[:, None]                                               # eq. (22), exact
+        X *= phasor(ph)
+        xt = sfft.ifft(X, axis=0, workers=-1, overwrite_x=True)
         q2, q3, q4 = co["q2"][s:e][None, :], co["q3"][s:e][None, :], co["q4"][s:e][None, :]
-        tt = t2[:, None]
-        xt *= np.exp(1j * np.mod(np.pi * (q2 * tt**2 + q3 * tt**3 + q4 * tt**4), 2 * np.pi)).astype(cdt)  # eq. (27)
-        X = cfft(xt, 0)
-        theta0 = _theta0_block(f2, K, co, s, e)                       # eq. (33), exact
-        X *= np.exp(-1j * np.mod(theta0, 2 * np.pi)).astype(cdt)
-        out[:, s:e] = cifft(X, 0)[keep]
+        xt *= phasor(np.pi * (q2 * tt2[:, None] + q3 * tt3[:, None] + q4 * tt4[:, None]))  # eq. (27)
+        X = sfft.fft(xt, axis=0, workers=-1, overwrite_x=True)
+        theta0 = _theta0_block(f2, K, co, s, e)                                    # eq. (33), exact
+        X *= phasor(-theta0)
+        img = sfft.ifft(X, axis=0, workers=-1, overwrite_x=True)
+        out[:, s:e] = img[keep]
     info = {"alpha": float(alpha), "nlcs_azimuth_samples": int(N2), "nlcs_time_window": float(N2 / F2),
             "nlcs_sampling_rate": float(F2), "nlcs_dispersion": float(disp),
             "nlcs_c3_max": float(np.abs(pos["c3"]).max()), "nlcs_c2_max": float(np.abs(pos["c2"]).max()),
