@@ -58,7 +58,8 @@ class FineFocusParams:
                              doc="1 = direct azimuth compression, 2 = modified NLCS; null = automatic from eq. (17)")
     nlcs_variant: str = param(default="modified", choices=VARIANTS,
                               doc="modified (paper), separated (two-dimension-separated), classic (NLCS)")
-    alpha: float = param(default=0.8, gt=0, lt=10, doc="NLCS output scaling: targets land at t_n / (2 alpha)")
+    alpha: float = param(default=0.4, gt=0, lt=10, doc="NLCS output scaling: targets land at t_n / (2 alpha); "
+                         "below 1/2 the scaled spectrum (2 alpha B_d + |2 alpha - 1| x scene spread) needs no extra room")
     stolt_model: str = param(default="exact", choices=MODELS,
                              doc="exact 2D spectrum, or paper = eqs. (14)-(15) (odd terms >= 5 dropped)")
     stolt_kernel: str = param(default="knab", choices=KERNELS, doc="Stolt interpolation kernel")
