@@ -7,6 +7,7 @@ positions. Kernels (``length`` = number of taps):
   linear       2 taps, triangle.
   cubic        4 taps, Keys' cubic convolution (a = -0.5).
   sinc         ``length`` taps of sinc(d) times a Kaiser window of shape ``beta``.
+  lanczos      ``length`` taps of sinc(d) sinc(2d / length).
   knab         ``length`` taps of Knab's kernel: sinc(d) cosh(pi nu (L/2) sqrt(1 - (2d/L)^2)) / cosh(pi nu L/2),
                nu = 1 - 1/oversampling, optimal for a signal oversampled by ``oversampling``
                (Knab 1979; the usual choice for SAR frequency-domain interpolation).
@@ -20,8 +21,9 @@ from __future__ import annotations
 
 import numpy as np
 
-KERNELS = ("nearest", "linear", "cubic", "sinc", "knab")
-DEFAULT_LENGTH = {"nearest": 1, "linear": 2, "cubic": 4, "sinc": 8, "knab": 8}
+KERNELS = ("nearest", "linear", "cubic", "sinc", "lanczos", "knab")
+DEFAULT_LENGTH = {"nearest": 1, "linear": 2, "cubic": 4, "sinc": 8, "lanczos": 8, "knab": 8}
+TABULATED = ("sinc", "lanczos", "knab")  # weights from a table, renormalised to unit DC gain
 
 
 def kernel_length(kernel: str, length: int | None = None) -> int:
@@ -53,6 +55,8 @@ def kernel_weights(d: np.ndarray, kernel: str, length: int, *, oversampling: flo
     arg = np.clip(1.0 - (d / half) ** 2, 0.0, None)
     if kernel == "sinc":
         win = np.i0(beta * np.sqrt(arg)) / np.i0(beta)
+    elif kernel == "lanczos":
+        win = np.sinc(d / half)
     elif kernel == "knab":
         nu = 1.0 - 1.0 / max(float(oversampling), 1.0 + 1e-6)
         win = np.cosh(np.pi * nu * half * np.sqrt(arg)) / np.cosh(np.pi * nu * half)
@@ -99,7 +103,7 @@ def resample_rows(data: np.ndarray, positions: np.ndarray, kernel: str = "knab",
     frac = pos - base
     row0 = (np.arange(n_rows, dtype=np.int64) * width + pad)[:, None]
     out = np.zeros(pos.shape, dtype=out_dtype or data.dtype)
-    table = _weight_table(kernel, taps, oversampling, beta) if kernel in ("sinc", "knab") else None
+    table = _weight_table(kernel, taps, oversampling, beta) if kernel in TABULATED else None
     wsum = np.zeros(pos.shape, dtype=float) if table is not None else None
     for j in range(taps):
         off = first + j
@@ -115,3 +119,14 @@ def resample_rows(data: np.ndarray, positions: np.ndarray, kernel: str = "knab",
         out /= np.where(wsum > 0, wsum, 1.0).astype(out.real.dtype)
     out[bad] = 0
     return out
+
+
+def resample(data: np.ndarray, positions: np.ndarray, kernel: str = "knab", length: int | None = None,
+             **kwargs) -> np.ndarray:
+    """:func:`resample_rows` for ``data`` (..., n_in) with ``positions`` broadcasting to (..., n_out)."""
+    data = np.asarray(data)
+    pos = np.asarray(positions, dtype=float)
+    lead = np.broadcast_shapes(data.shape[:-1], pos.shape[:-1])
+    rows = np.broadcast_to(data, lead + data.shape[-1:]).reshape(-1, data.shape[-1])
+    pos = np.broadcast_to(pos, lead + pos.shape[-1:]).reshape(-1, pos.shape[-1])
+    return resample_rows(rows, pos, kernel, length, **kwargs).reshape(lead + pos.shape[-1:])
