@@ -43,6 +43,7 @@ from .interp import KERNELS, resample_rows
 from .metadata import C
 from .nlcs import VARIANTS, compression_phase, group_delay_span, nlcs_coefficients, position_terms
 from .preprocess import PRECISIONS, complex_dtype, correction_frequency
+from .phasor import unit_phasor
 from .product import Product
 from .rangecomp import chirp_replica
 from .stolt import MODELS, SpectrumModel, stolt_resample
@@ -75,10 +76,24 @@ class FineFocusParams:
     output_frame: str = param(default="squint", choices=("squint", "lrwc"), doc="image frame (see module doc)")
     crop_margin: float = param("length", default=150.0, ge=0, doc="image kept around the coarse step's scene box")
     window_margin: float = param(default=1.15, ge=1.0, doc="flow 2: time/frequency window over the needed span")
-    precision: str = param(default="float64", choices=PRECISIONS, doc="intermediate complex precision")
+    precision: str = param(default="float64", choices=PRECISIONS,
+                           doc="intermediate complex precision of data and FFTs (phases are float64, reduced to "
+                               "cycles and turned into complex64 phasors, ~1e-7 rad)")
     block_rows: int = param(default=128, ge=1, doc="azimuth-frequency rows per Stolt block")
     block_range: int = param(default=256, ge=1, doc="range bins per azimuth block")
     max_samples: int = param(default=600_000_000, ge=1, doc="refuse working arrays larger than this")
+
+
+def cycles(phase):
+    """Phase (rad, float64) reduced to cycles in [0, 1) for :func:`sarproc.phasor.unit_phasor`."""
+    c = np.multiply(phase, 1.0 / (2 * np.pi))
+    c -= np.floor(c)
+    return c
+
+
+def phasor(phase):
+    """exp(j phase) as complex64 from a float64 phase (float32 cos/sin of the reduced phase, ~1e-7 rad)."""
+    return unit_phasor(cycles(phase))
 
 
 def cfft(x, axis=0):
@@ -107,8 +122,13 @@ def _range_filter(radar, f_r: np.ndarray, kind: str) -> np.ndarray:
     if kind == "phase":
         return np.where(band, np.exp(1j * np.pi * f_r**2 / radar.chirp_rate), 0)
     h, half = chirp_replica(radar)
-    tau = (np.arange(len(h)) - half) / radar.range_sampling_rate
-    H = np.exp(-2j * np.pi * f_r[:, None] * tau[None, :]) @ h          # spectrum of the centred replica
+    n = len(f_r)
+    if len(h) > n:
+        raise InputError(f"fine-focus: the chirp ({len(h)} samples) is longer than the range FFT ({n})")
+    circ = np.zeros(n, complex)                                           # replica centred on tau = 0
+    circ[: half + 1] = h[half:]
+    circ[n - half:] = h[:half]
+    H = sfft.fftshift(sfft.fft(circ))                                     # on the centred f_r grid
     return np.where(band, 1.0 / np.where(band, H, 1), 0) * np.count_nonzero(h)
 
 
@@ -203,7 +223,7 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams()) -> 
         fa = f_a[s:e, None]
         blk = S[s:e] * hr[None, :].astype(cdt)
         g_full, ok = model.G(radar.carrier_frequency + f_r[None, :], fa)
-        blk *= np.where(ok, np.exp(1j * np.mod(r_ref * g_full, 2 * np.pi)), 0).astype(cdt)
+        blk *= np.where(ok, phasor(r_ref * g_full), 0).astype(cdt)
         blk, m_ = stolt_resample(blk, f_r, f_a[s:e], model, params.stolt_kernel, params.stolt_length,
                                  oversampling=over, band=radar.bandwidth)
         masked += m_
@@ -222,7 +242,7 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams()) -> 
     if flow == 1:
         for s in range(0, N, params.block_range):
             e = min(s + params.block_range, N)
-            h = np.where(okc[:, None], np.exp(1j * np.mod(r[None, s:e] * gc[:, None], 2 * np.pi)), 0) * ref[:, None]
+            h = np.where(okc[:, None], phasor(r[None, s:e] * gc[:, None]), 0) * ref[:, None]
             RD[:, s:e] = cifft(RD[:, s:e] * h.astype(cdt), 0)
         x = v * t_c
         keep = (x >= x_lo) & (x <= x_hi)
@@ -250,8 +270,8 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams()) -> 
     # ---- 4. geometric correction in range (squint frame) and crop
     if params.output_frame == "squint":
         spec = cfft(img, 1)
-        spec *= np.exp(1j * (2 * np.pi * f_r[None, :] * (2 * x[:, None] * s_th / C)
-                             + np.mod(4 * np.pi * radar.carrier_frequency * x * s_th / C, 2 * np.pi)[:, None]))
+        spec *= phasor(2 * np.pi * f_r[None, :] * (2 * x[:, None] * s_th / C)
+                       + np.mod(4 * np.pi * radar.carrier_frequency * x * s_th / C, 2 * np.pi)[:, None])
         img = cifft(spec, 1)
         frame = SquintFrame(th, radar.altitude)
         rlo, rhi = box[2] - params.crop_margin, box[3] + params.crop_margin
@@ -346,7 +366,7 @@ def _flow2(RD, t_c, f_a, r, k, model, radar, params, box, aperture, cdt, xlim):
     twopi = 2 * np.pi
 
     def phasor(ph):
-        return np.exp(1j * np.mod(ph, twopi).astype(np.float32))
+        return unit_phasor(cycles(ph))
 
     for s in range(0, N, params.block_range):
         e = min(s + params.block_range, N)

@@ -27,6 +27,7 @@ import scipy.fft as sfft
 from .config import as_dict, param
 from .errors import InputError
 from .metadata import C, RadarMetadata
+from .phasor import unit_phasor
 from .product import Product
 
 METHODS = ("nonlinear", "linear", "none")
@@ -81,8 +82,8 @@ def doppler_correction(signal: np.ndarray, azimuth_time: np.ndarray, radar: Rada
     for s in range(0, len(t), block_pulses):
         e = min(s + block_pulses, len(t))
         spec = sfft.fft(signal[s:e].astype(cdt), axis=1, workers=-1)
-        # float64 phase (beta t reaches 2e5 Hz * 1 s), applied at working precision
-        spec *= np.exp(2j * np.pi * (t[s:e, None] * beta[None, :])).astype(cdt)
+        cyc = t[s:e, None] * beta[None, :]                 # float64 cycles (beta t reaches 2e5)
+        spec *= unit_phasor(cyc - np.floor(cyc))
         out[s:e] = sfft.ifft(spec, axis=1, workers=-1)
     return out
 
