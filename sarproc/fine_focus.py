@@ -38,7 +38,7 @@ import scipy.fft as sfft
 
 from .config import as_dict, param
 from .errors import InputError, ProcessingError
-from .frames import SquintFrame, targets_in_frame
+from .frames import SquintFrame, SquintLrwcFrame, targets_in_frame
 from .interp import KERNELS, resample_rows
 from .metadata import C
 from .nlcs import VARIANTS, compression_phase, group_delay_span, nlcs_coefficients, position_terms
@@ -298,8 +298,7 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams()) -> 
 
 
 def _lrwc_frame(squint, altitude):
-    from .frames import frame_from_spec
-    return frame_from_spec({"name": "squint_lrwc", "squint": squint, "altitude": altitude})
+    return SquintLrwcFrame(squint, altitude)
 
 
 def _flow2(RD, t_c, f_a, r, k, model, radar, params, box, aperture, cdt, xlim):
@@ -402,41 +401,6 @@ def _flow2(RD, t_c, f_a, r, k, model, radar, params, box, aperture, cdt, xlim):
             "nlcs_position_error_max_m": float(2 * alpha * v * (np.abs(pos["c2"]).max() * tn.max() ** 2
                                                               + np.abs(pos["c3"]).max() * np.abs(tn).max() ** 3))}
     return out, x_img[keep], info
-
-
-def _register_lrwc():
-    from .frames import _FRAMES, Frame, register_frame
-
-    if "squint_lrwc" in _FRAMES:
-        return
-
-    @register_frame("squint_lrwc")
-    class SquintLrwcFrame(Frame):
-        """Paper 000's frame before the final range correction: (x_n, r_0 + x_n sin(theta)).
-
-        The range axis is the range after linear range-walk correction (about the range from the
-        aperture centre); the fast chain's point response is separable along these axes.
-        """
-
-        axes = ("azimuth", "range")
-
-        def __init__(self, squint: float, altitude: float = 0.0):
-            self.base = SquintFrame(squint, altitude)
-            self.squint, self.altitude = float(squint), float(altitude)
-
-        def params(self):
-            return {"squint": self.squint, "altitude": self.altitude}
-
-        def to_xyz(self, azimuth, range_):
-            az = np.asarray(azimuth, float)
-            return self.base.to_xyz(az, np.asarray(range_, float) - az * math.sin(self.squint))
-
-        def from_xyz(self, xyz):
-            xn, r0 = self.base.from_xyz(xyz)
-            return xn, r0 + xn * math.sin(self.squint)
-
-
-_register_lrwc()
 
 
 def _theta0_block(f, K, co, s, e):

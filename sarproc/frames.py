@@ -9,6 +9,7 @@ Frames (2D ones map onto z = 0 except ``los``, which is the slant plane):
           track point (x_n, 0, H) along the ray squinted by ``squint`` to the target on z = 0,
           so P = (x_n + r_0 sin(theta), sqrt((r_0 cos(theta))^2 - H^2), 0). squint = 0 gives
           the zero-Doppler (closest approach) frame.
+  squint_lrwc: (x_n, r_0 + x_n sin(theta)), the squint frame before paper 000's final range shift.
   ground: (azimuth, range) = (x, y) on z = 0.
   los:    slant-plane Cartesian frame of a spotlight aperture: ``range`` is slant range from
           the aperture centre measured along the line of sight to the scene centre, ``azimuth``
@@ -83,6 +84,33 @@ class SquintFrame(Frame):
         rho = np.hypot(xyz[..., 1], self.altitude - xyz[..., 2])
         r0 = rho / math.cos(self.squint)
         return xyz[..., 0] - r0 * math.sin(self.squint), r0
+
+
+@register_frame("squint_lrwc")
+class SquintLrwcFrame(Frame):
+    """Paper 000's frame before the final range correction: (x_n, r_0 + x_n sin(theta)).
+
+    The range axis is the range after linear range-walk correction (about the range from the
+    aperture centre); the fast chain's point response is separable along these axes, so
+    quality metrics are read here while positions are read in the ``squint`` frame.
+    """
+
+    axes = ("azimuth", "range")
+
+    def __init__(self, squint: float, altitude: float = 0.0):
+        self.base = SquintFrame(squint, altitude)
+        self.squint, self.altitude = float(squint), float(altitude)
+
+    def params(self):
+        return {"squint": self.squint, "altitude": self.altitude}
+
+    def to_xyz(self, azimuth, range_):
+        az = np.asarray(azimuth, float)
+        return self.base.to_xyz(az, np.asarray(range_, float) - az * math.sin(self.squint))
+
+    def from_xyz(self, xyz):
+        xn, r0 = self.base.from_xyz(xyz)
+        return xn, r0 + xn * math.sin(self.squint)
 
 
 @register_frame("ground")
@@ -168,6 +196,8 @@ def make_frame(name: str, radar: RadarMetadata, **params) -> Frame:
     """A frame with parameters taken from the radar geometry unless given."""
     if name == "squint":
         return SquintFrame(params.get("squint", radar.squint), params.get("altitude", radar.altitude))
+    if name == "squint_lrwc":
+        return SquintLrwcFrame(params.get("squint", radar.squint), params.get("altitude", radar.altitude))
     if name == "zero_doppler":
         return SquintFrame(0.0, params.get("altitude", radar.altitude))
     if name == "ground":
