@@ -37,3 +37,13 @@ clean:
 
 # Paper-specific targets live in mk/*.mk, one file per paper.
 -include mk/*.mk
+
+# The backprojection reference against theory on the two test scenes (issue 2), via the CLI.
+.PHONY: check-backprojection
+check-backprojection: $(STAMP)
+	mkdir -p results/bp
+	for s in stripmap squint30; do \
+	  $(SARPROC) simulate configs/bp_$$s.yaml -o results/bp/raw_$$s.h5 --overwrite && \
+	  $(SARPROC) backproject results/bp/raw_$$s.h5 --config configs/bp_$$s.yaml -o results/bp/image_$$s.h5 --overwrite && \
+	  $(SARPROC) evaluate results/bp/image_$$s.h5 -o results/bp/report_$$s.json --expect configs/bp_expect.yaml || exit 1; \
+	done

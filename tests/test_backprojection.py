@@ -1,38 +1,20 @@
 """Backprojection is the reference: it must reach theory on simulated point targets."""
 
-import time
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+from sarproc.config import load_yaml
 from sarproc.backprojection import BackprojectParams, backproject, backproject_points
 from sarproc.quality import evaluate_product
 from sarproc.rangecomp import range_compress
 from sarproc.scene import scene_from_mapping
 from sarproc.simulate import simulate
 
-STRIPMAP = {
-    "radar": {"carrier_frequency": "10 GHz", "bandwidth": "100 MHz", "pulse_duration": "1 us",
-              "range_sampling_rate": "120 MHz", "prf": "400 Hz"},
-    "platform": {"velocity": "100 m/s", "altitude": "500 m"},
-    "geometry": {"reference_range": "2 km", "squint": "0 deg"},
-    "acquisition": {"mode": "stripmap", "aperture_time": "1.0 s"},
-    "effects": {"antenna": {"pattern": "rect", "azimuth_beamwidth": "2 deg"}},
-    "targets": {"frame": "zero_doppler", "points": [
-        {"name": "A"}, {"name": "B", "azimuth": "15 m", "range": "40 m", "amplitude": 0.6},
-        {"name": "C", "azimuth": "-12 m", "range": "-45 m", "phase": "60 deg"}]},
-}
-
-SQUINT_SPOTLIGHT = {
-    "radar": {"carrier_frequency": "10 GHz", "bandwidth": "150 MHz", "pulse_duration": "1 us",
-              "range_sampling_rate": "180 MHz", "prf": "300 Hz"},
-    "platform": {"velocity": "150 m/s", "altitude": "2 km"},
-    "geometry": {"reference_range": "6 km", "squint": "30 deg"},
-    "acquisition": {"mode": "spotlight", "azimuth_resolution": "1 m"},
-    "targets": {"frame": "los", "points": [
-        {"name": "O"}, {"name": "P", "azimuth": "30 m", "range": "-40 m"},
-        {"name": "Q", "azimuth": "-35 m", "range": "45 m", "amplitude": 0.5}]},
-}
+CONFIGS = Path(__file__).resolve().parents[1] / "configs"
+STRIPMAP = load_yaml(CONFIGS / "bp_stripmap.yaml")
+SQUINT_SPOTLIGHT = load_yaml(CONFIGS / "bp_squint30.yaml")
 
 
 def _assert_theory(report, irw_tol, db_tol, pos_cells):
