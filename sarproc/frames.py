@@ -18,6 +18,7 @@ Frames (2D ones map onto z = 0 except ``los``, which is the slant plane):
 
 from __future__ import annotations
 
+import abc
 import json
 import math
 
@@ -37,17 +38,19 @@ def register_frame(name: str):
     return deco
 
 
-class Frame:
+class Frame(abc.ABC):
     """Base class. ``axes`` names the image axes in the order of ``to_xyz`` arguments."""
 
     name = "base"
     axes: tuple[str, ...] = ("azimuth", "range")
 
-    def to_xyz(self, *coords) -> np.ndarray:  # pragma: no cover - interface
-        raise NotImplementedError
+    @abc.abstractmethod
+    def to_xyz(self, *coords) -> np.ndarray:
+        """Scene positions (..., 3) of points given by their frame coordinates."""
 
-    def from_xyz(self, xyz) -> tuple[np.ndarray, ...]:  # pragma: no cover - interface
-        raise NotImplementedError
+    @abc.abstractmethod
+    def from_xyz(self, xyz) -> tuple[np.ndarray, ...]:
+        """Frame coordinates, one array per axis, of scene positions (..., 3)."""
 
     def params(self) -> dict:
         return {}

@@ -1,0 +1,18 @@
+"""Assertions shared by several test modules."""
+
+from __future__ import annotations
+
+import pytest
+
+
+def assert_theory(report, irw_tol=0.03, db_tol=0.3, pos_cells=0.05, n_targets=None):
+    """Every target and axis of a quality report at theory: unweighted sinc IRW/PSLR/ISLR, position."""
+    if n_targets is not None:
+        assert len(report.targets) == n_targets
+    for t in report.targets:
+        for ax in t.axes:
+            where = f"{t.name}/{ax.axis}"
+            assert abs(ax.irw_ratio - 1) < irw_tol, where
+            assert ax.pslr_db == pytest.approx(-13.26, abs=db_tol), where
+            assert ax.islr_db == pytest.approx(-10.16, abs=db_tol), where
+            assert abs(ax.position_error_cells) < pos_cells, where
