@@ -151,7 +151,7 @@ def _residual_doppler(S, t_c, f_r, k, beta, prf):
     return S
 
 
-def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams()) -> Product:
+def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), progress=None) -> Product:
     """``coarse`` product -> focused ``image`` product in the squint frame (see module doc)."""
     from .io import history_entry
 
@@ -218,7 +218,8 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams()) -> 
                          f"{2 * half_win:.0f} m range window centred on r_ref = {r_ref:.0f} m")
     hr = _range_filter(radar, f_r, params.range_filter) * np.exp(-2j * np.pi * f_r * tau[0])
     masked = 0
-    for s in range(0, M, params.block_rows):
+    blocks = range(0, M, params.block_rows)
+    for s in (progress(blocks) if progress is not None else blocks):
         e = min(s + params.block_rows, M)
         fa = f_a[s:e, None]
         blk = S[s:e] * hr[None, :].astype(cdt)

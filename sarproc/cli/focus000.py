@@ -12,17 +12,18 @@ from pathlib import Path
 
 import click
 
-from .options import common_options, input_argument, load_config, summary
+from .options import common_options, input_argument, load_config, summary, want_progress
 
 
-def _run(stage: str, input_path: Path, output: Path, config_path, overwrite: bool, kinds, params_cls, func):
+def _run(stage: str, input_path: Path, output: Path, config_path, overwrite: bool, kinds, params_cls, func,
+         progress=None):
     from ..io import check_output_path, read_product, write_product
 
     check_output_path(output, [input_path], overwrite)
     params = load_config(params_cls, config_path, section=stage)
     product = read_product(input_path, kinds=kinds)
     start = time.perf_counter()
-    out = func(product, params)
+    out = func(product, params) if progress is None else func(product, params, progress=progress)
     out.history[-1]["command"] = f"sarproc {stage.replace('_', '-')} {input_path}"
     write_product(output, out, inputs=[input_path], overwrite=overwrite)
     return out, time.perf_counter() - start
@@ -62,6 +63,9 @@ def fine_focus(input_path: Path, output: Path, config_path, overwrite: bool, pro
     """Stolt range focusing and azimuth compression, flow 1 or NLCS flow 2 (section `fine_focus:`)."""
     from ..fine_focus import FineFocusParams, fine_focus as run
 
-    out, dt = _run("fine_focus", input_path, output, config_path, overwrite, ("coarse",), FineFocusParams, run)
+    from .progress import progress_factory
+
+    out, dt = _run("fine_focus", input_path, output, config_path, overwrite, ("coarse",), FineFocusParams, run,
+                   progress=progress_factory(want_progress(progress), "fine-focus"))
     summary(f"fine-focus: flow {out.attrs['flow']}, {out.data.shape[0]}x{out.data.shape[1]} image in frame "
             f"{out.attrs['frame']['name']} -> {output} ({dt:.2f} s)")
