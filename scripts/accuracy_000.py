@@ -206,13 +206,7 @@ def hard_cases(out: Path):
         return img, f"raw stored {raw.data.dtype}, all intermediates complex64", None
 
     def sqrt_limit():
-        cfg = {"radar": {"carrier_frequency": "10 GHz", "bandwidth": "20 MHz", "pulse_duration": "2 us",
-                         "range_sampling_rate": "24 MHz", "prf": "800 Hz"},
-               "platform": {"velocity": "100 m/s"}, "geometry": {"squint": "60 deg", "reference_range": "1 km"},
-               "acquisition": {"aperture_time": "1.5 s"},
-               "targets": {"frame": "squint", "origin": "scene_center",
-                           "points": [{"name": "C", "azimuth": "0 m", "range": "0 m"}]},
-               "preprocess": {}, "coarse_focus": {"azimuth_samples": 9216}, "fine_focus": {"output_frame": "lrwc"}}
+        cfg = yaml.safe_load((ROOT / "configs" / "an2012_hard_sqrt_limit.yaml").read_text())
         raw, c, img = _chain(cfg)
         lim = 2 * 10e9 * 100 * (1 - math.sin(math.radians(60))) / 299792458.0
         return img, (f"F_a''/2 = {c.attrs['azimuth_sampling_rate'] / 2:.0f} Hz beyond the limit {lim:.0f} Hz; "

@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from sarproc.config import load_yaml
 from sarproc.array3d import Array3DParams, array3d_product
 from sarproc.config import as_dict, build
 from sarproc.errors import InputError
@@ -57,19 +58,7 @@ SETTINGS = [
     ("range filter flat", {"range_filter": "flat"}),
 ]
 
-WIDE = {
-    "radar": {"carrier_frequency": "10 GHz", "bandwidth": "2.5 GHz", "pulse_duration": "0.1 us",
-              "range_sampling_rate": "3 GHz", "prf": "400 Hz"},
-    "platform": {"velocity": "50 m/s", "altitude": "200 m"},
-    "geometry": {"reference_range": "200 m"},
-    "acquisition": {"mode": "stripmap", "n_pulses": 81, "range_margin": "1 m"},
-    "targets": {"frame": "elevation", "origin": "absolute", "points": [
-        {"name": "N", "azimuth": "0 m", "range": "190 m", "elevation": "0 deg"},
-        {"name": "M", "azimuth": "0 m", "range": "200 m", "elevation": "15 deg"},
-        {"name": "E", "azimuth": "0 m", "range": "210 m", "elevation": "30 deg"}]},
-    "effects": {"antenna": {"pattern": "rect", "azimuth_beamwidth": "2 deg"},
-                "cross_track_array": {"n_receivers": 40, "spacing": "0.025 m"}},
-}
+WIDE = load_yaml(Path(__file__).resolve().parents[1] / "configs" / "du2010_wide_swath.yaml")
 WIDE_SETTINGS = [s for s in SETTINGS if s[0].startswith(("default", "eq2", "no cross", "float64"))] + [
     ("eq21 reference (30 deg)", {"cross_track_rcmc_elevation": "reference", "reference_elevation": "30 deg"})]
 

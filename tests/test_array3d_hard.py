@@ -5,6 +5,7 @@ and its quality loss is measured (scripts/accuracy_004.py reports the same numbe
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,27 +18,15 @@ from sarproc.errors import InputError
 from sarproc.io import write_product
 from sarproc.metadata import C
 from sarproc.quality import evaluate_product
+from sarproc.config import load_yaml
 from sarproc.scene import scene_from_mapping
 from sarproc.simulate import simulate
 
 from conftest import merge
 from test_array3d import D, LAM, reduced
 
-# Wide cross-track swath: +-30 deg at 10 GHz with 2.5 GHz bandwidth and a 1 m array, so the
-# cross-track RCM v_n sin(theta) spans 0.49 m = 8 range cells (0.06 m) at 30 deg.
-WIDE = {
-    "radar": {"carrier_frequency": "10 GHz", "bandwidth": "2.5 GHz", "pulse_duration": "0.1 us",
-              "range_sampling_rate": "3 GHz", "prf": "400 Hz"},
-    "platform": {"velocity": "50 m/s", "altitude": "200 m"},
-    "geometry": {"reference_range": "200 m"},
-    "acquisition": {"mode": "stripmap", "n_pulses": 81, "range_margin": "1 m"},
-    "targets": {"frame": "elevation", "origin": "absolute", "points": [
-        {"name": "N", "azimuth": "0 m", "range": "190 m", "elevation": "0 deg"},
-        {"name": "M", "azimuth": "0 m", "range": "200 m", "elevation": "15 deg"},
-        {"name": "E", "azimuth": "0 m", "range": "210 m", "elevation": "30 deg"}]},
-    "effects": {"antenna": {"pattern": "rect", "azimuth_beamwidth": "2 deg"},
-                "cross_track_array": {"n_receivers": 40, "spacing": "0.025 m"}},
-}
+# Wide cross-track swath (+-30 deg, cross-track RCM over 8 range cells): see the config's comments.
+WIDE = load_yaml(Path(__file__).resolve().parents[1] / "configs" / "du2010_wide_swath.yaml")
 
 
 def finite(product):

@@ -397,13 +397,7 @@ def test_hard_target_at_the_data_window_edge():
 def test_hard_stolt_square_root_limit_is_masked():
     """Slow platform at 60 deg squint: the coarse grid is made so wide that part of the azimuth band lies
     beyond the exact spectrum's square-root limit 2 f v (1 - sin theta) / c; it is masked and counted."""
-    cfg = {"radar": {"carrier_frequency": "10 GHz", "bandwidth": "20 MHz", "pulse_duration": "2 us",
-                     "range_sampling_rate": "24 MHz", "prf": "800 Hz"},
-           "platform": {"velocity": "100 m/s"}, "geometry": {"squint": "60 deg", "reference_range": "1 km"},
-           "acquisition": {"aperture_time": "1.5 s"},
-           "targets": {"frame": "squint", "origin": "scene_center",
-                       "points": [{"name": "C", "azimuth": "0 m", "range": "0 m"}]},
-           "preprocess": {}, "coarse_focus": {"azimuth_samples": 9216}, "fine_focus": {"output_frame": "lrwc"}}
+    cfg = load_cfg("an2012_hard_sqrt_limit.yaml")
     raw, c, img = run_chain(cfg)
     limit = 2 * 10e9 * 100 * (1 - math.sin(math.radians(60))) / 299792458.0
     assert c.attrs["azimuth_sampling_rate"] / 2 > limit          # the band edge f_a = F_a''/2 is beyond it
