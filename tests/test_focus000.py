@@ -325,8 +325,11 @@ def test_fast_chain_agrees_with_backprojection(squint):
     _compare_with_bp(raw, img)
 
 
-def test_fast_chain_flow2_agrees_with_backprojection():
+@pytest.mark.parametrize("squint", [0, 30, 45, 60])
+def test_fast_chain_flow2_agrees_with_backprojection(squint):
+    """The modified NLCS (flow 2, forced) against backprojection at every squint of the issue."""
     cfg = load_cfg("an2012_exp2_small.yaml")
+    cfg["geometry"]["squint"] = f"{squint} deg"
     cfg["targets"]["points"] = [p for p in cfg["targets"]["points"] if p["name"] in ("C", "E")]
     raw, _, img = run_chain(cfg, ff={"output_frame": "lrwc", "flow": 2})
     _compare_with_bp(raw, img)
