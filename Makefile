@@ -47,3 +47,8 @@ check-backprojection: $(STAMP)
 	  $(SARPROC) backproject results/bp/raw_$$s.h5 --config configs/bp_$$s.yaml -o results/bp/image_$$s.h5 --overwrite && \
 	  $(SARPROC) evaluate results/bp/image_$$s.h5 -o results/bp/report_$$s.json --expect configs/bp_expect.yaml || exit 1; \
 	done
+
+# The reference's own knobs (range upsampling x interpolation): time vs quality (results/bp-accuracy/).
+.PHONY: accuracy-backprojection
+accuracy-backprojection: $(STAMP)
+	$(PY) scripts/accuracy_backprojection.py --out results/bp-accuracy

@@ -1,0 +1,107 @@
+#!/usr/bin/env python
+"""Accuracy versus time for the backprojection reference: range upsampling x interpolation.
+
+    python scripts/accuracy_backprojection.py [--out results/bp-accuracy] [--repeat 2]
+
+On the two reference scenes of ``make check-backprojection`` (configs/bp_stripmap.yaml,
+configs/bp_squint30.yaml) each setting of ``backproject.upsample`` and ``backproject.interpolation``
+is timed (best of ``--repeat`` in-process runs, same raw data, same grid) and its image compared with
+the finest setting (upsample 32, linear): max |image - finest| / max |finest| in dB, and the worst
+point-target quality over targets and axes (|IRW/theory - 1|, PSLR, ISLR, |position error| in cells).
+Writes ``table.md`` and ``table.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from sarproc.backprojection import BackprojectParams, backproject
+from sarproc.config import build, load_yaml
+from sarproc.quality import evaluate_product
+from sarproc.scene import scene_from_mapping
+from sarproc.simulate import simulate
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENES = ("bp_stripmap.yaml", "bp_squint30.yaml")
+SETTINGS = [(u, "nearest") for u in (1, 4, 16)] + [(u, "linear") for u in (1, 2, 4, 8, 16, 32)]
+REFERENCE = (32, "linear")
+TOL = {"irw": 0.03, "pslr": 0.3, "islr": 0.3, "pos": 0.05}   # issue 2's tolerances for the reference
+
+
+def worst(report):
+    axes = [a for t in report.targets for a in t.axes]
+    return {"irw_dev": max(abs(a.irw_ratio - 1) for a in axes),
+            "pslr": max(a.pslr_db for a in axes), "islr": max(a.islr_db for a in axes),
+            "pos": max(abs(a.position_error_cells) for a in axes)}
+
+
+def within(q):
+    return (q["irw_dev"] < TOL["irw"] and abs(q["pslr"] + 13.26) < TOL["pslr"]
+            and abs(q["islr"] + 10.16) < TOL["islr"] and q["pos"] < TOL["pos"])
+
+
+def run_scene(name, repeat):
+    mapping = load_yaml(ROOT / "configs" / name)
+    stage = mapping.pop("backproject", {}) or {}
+    raw = simulate(scene_from_mapping(mapping, name))
+    rows, images = [], {}
+    for upsample, interp in [REFERENCE] + [s for s in SETTINGS if s != REFERENCE]:
+        params = build(BackprojectParams, {**stage, "upsample": upsample, "interpolation": interp}, name, "backproject")
+        best = np.inf
+        for _ in range(repeat):
+            t0 = time.perf_counter()
+            img = backproject(raw, params)
+            best = min(best, time.perf_counter() - t0)
+        images[(upsample, interp)] = img.data
+        ref = images[REFERENCE]
+        dev = np.abs(img.data - ref).max() / np.abs(ref).max()
+        q = worst(evaluate_product(img))
+        rows.append({"upsample": upsample, "interpolation": interp, "time_s": best,
+                     "deviation_db": float(20 * np.log10(max(dev, 1e-30))), **q, "within": within(q)})
+    rows.sort(key=lambda r: (r["interpolation"], r["upsample"]))
+    shape = next(iter(images.values())).shape
+    return {"scene": name, "raw_shape": list(raw.data.shape), "image_shape": list(shape), "rows": rows}
+
+
+def table(result):
+    ref_t = next(r["time_s"] for r in result["rows"] if (r["upsample"], r["interpolation"]) == REFERENCE)
+    lines = [f"## {result['scene']}", "",
+             f"Raw {result['raw_shape'][0]} x {result['raw_shape'][1]}, image {result['image_shape'][0]} x "
+             f"{result['image_shape'][1]}; deviation from upsample {REFERENCE[0]} {REFERENCE[1]}.", "",
+             "| interpolation | upsample | time (s) | time / finest | deviation (dB) | worst IRW dev | "
+             "worst PSLR (dB) | worst ISLR (dB) | worst position (cells) | within issue-2 tolerance |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+    for r in result["rows"]:
+        is_ref = (r["upsample"], r["interpolation"]) == REFERENCE
+        dev = "reference" if is_ref else f"{r['deviation_db']:.1f}"
+        lines.append(f"| {r['interpolation']} | {r['upsample']} | {r['time_s']:.2f} | {r['time_s'] / ref_t:.2f} | "
+                     f"{dev} | {r['irw_dev']:.3f} | {r['pslr']:.2f} | {r['islr']:.2f} | "
+                     f"{r['pos']:.3f} | {'yes' if r['within'] else 'NO'} |")
+    return "\n".join(lines)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--out", type=Path, default=ROOT / "results" / "bp-accuracy")
+    ap.add_argument("--repeat", type=int, default=2)
+    args = ap.parse_args(argv)
+    results = [run_scene(s, args.repeat) for s in SCENES]
+    head = ["# Backprojection reference: accuracy versus time", "",
+            "Knobs: `backproject.upsample` (range FFT upsampling before interpolation) and "
+            "`backproject.interpolation`. Tolerances of issue 2: IRW 3 %, PSLR -13.26 +- 0.3 dB, "
+            "ISLR -10.16 +- 0.3 dB, position 0.05 cell. Times are best of "
+            f"{args.repeat} in-process runs on this machine.", ""]
+    text = "\n".join(head + ["\n\n".join(table(r) for r in results)]) + "\n"
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "table.md").write_text(text)
+    (args.out / "table.json").write_text(json.dumps(results, indent=1))
+    print(text)
+
+
+if __name__ == "__main__":
+    main()
