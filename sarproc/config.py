@@ -111,6 +111,10 @@ def _convert(value, tp, meta, where):
     return value
 
 
+SI_SYMBOL = {"frequency": "Hz", "length": "m", "time": "s", "angle": "rad", "velocity": "m/s",
+             "chirp_rate": "Hz/s", "decibel": "dB"}
+
+
 def _check_bounds(x, meta, where, raw):
     if isinstance(x, float) and math.isnan(x):
         raise InputError(f"{where}: NaN is not allowed")
@@ -119,7 +123,8 @@ def _check_bounds(x, meta, where, raw):
     for key, ok, sym in tests:
         bound = meta.get(key)
         if bound is not None and not ok(x, bound):
-            raise InputError(f"{where}: {raw!r} is out of range: must be {sym} {bound:g} (SI)")
+            si = SI_SYMBOL.get(meta.get("unit"), "")
+            raise InputError(f"{where}: {raw!r} is out of range: must be {sym} {bound:g}{' ' + si if si else ''}")
     choices = meta.get("choices")
     if choices and x not in choices:
         raise InputError(f"{where}: {raw!r} is not one of {list(choices)}")

@@ -63,9 +63,9 @@ def test_build_converts_nested_models():
 @pytest.mark.parametrize("mapping,message", [
     ({"frequency": "1 GHz", "colour": 1}, r"f.yaml: unknown key\(s\) 'colour'"),
     ({}, "f.yaml: frequency: required key is missing"),
-    ({"frequency": "-1 GHz"}, r"f.yaml: frequency: '-1 GHz' is out of range: must be > 0"),
+    ({"frequency": "-1 GHz"}, r"f.yaml: frequency: '-1 GHz' is out of range: must be > 0 Hz$"),
     ({"frequency": "1 GHz", "name": "z"}, "f.yaml: name: 'z' is not one of"),
-    ({"frequency": "1 GHz", "inner": {"width": "0 m"}}, "f.yaml: inner.width: '0 m' is out of range"),
+    ({"frequency": "1 GHz", "inner": {"width": "0 m"}}, "f.yaml: inner.width: '0 m' is out of range: must be > 0 m$"),
     ({"frequency": "1 GHz", "items": [{"width": "1 m"}, {"wide": 1}]}, r"f.yaml: items\[1\]: unknown key"),
 ])
 def test_build_errors_name_file_and_key(mapping, message):
