@@ -55,7 +55,7 @@ class CoarseFocusParams:
     scene_margin: float = param("length", default=100.0, ge=0, doc="margin around the targets for default extents")
     on_alias: str = param(default="error", choices=("error", "warn"),
                           doc="deramped spectrum wider than the PRF: refuse (error) or go on and record it (warn)")
-    precision: str = param(default="float64", choices=PRECISIONS, doc="intermediate complex precision")
+    precision: str = param(default="float32", choices=PRECISIONS, doc="intermediate complex precision")
     block_range: int = param(default=1024, ge=1, doc="range samples per FFT block (memory bound)")
 
 

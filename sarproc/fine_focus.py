@@ -76,7 +76,7 @@ class FineFocusParams:
     output_frame: str = param(default="squint", choices=("squint", "lrwc"), doc="image frame (see module doc)")
     crop_margin: float = param("length", default=150.0, ge=0, doc="image kept around the coarse step's scene box")
     window_margin: float = param(default=1.15, ge=1.0, doc="flow 2: time/frequency window over the needed span")
-    precision: str = param(default="float64", choices=PRECISIONS,
+    precision: str = param(default="float32", choices=PRECISIONS,
                            doc="intermediate complex precision of data and FFTs (phases are float64, reduced to "
                                "cycles and turned into complex64 phasors, ~1e-7 rad)")
     block_rows: int = param(default=128, ge=1, doc="azimuth-frequency rows per Stolt block")

@@ -40,7 +40,7 @@ class PreprocessParams:
 
     method: str = param(default="nonlinear", choices=METHODS,
                         doc="nonlinear (eq. 7), linear (method 1) or none (original two-step)")
-    precision: str = param(default="float64", choices=PRECISIONS,
+    precision: str = param(default="float32", choices=PRECISIONS,
                            doc="intermediate complex precision (phases are always float64)")
     block_pulses: int = param(default=512, ge=1, doc="pulses per FFT block (memory bound)")
 

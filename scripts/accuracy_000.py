@@ -31,7 +31,7 @@ ROOT = Path(__file__).resolve().parents[1]
 STAGES = ("preprocess", "coarse_focus", "fine_focus")
 
 SETTINGS = [
-    ("baseline: knab 8, exact, flow 2 modified, alpha 0.4, float64", {}),
+    ("baseline: knab 8, exact, flow 2 modified, alpha 0.4, float32", {}),
     ("stolt nearest", {"fine_focus": {"stolt_kernel": "nearest"}}),
     ("stolt linear", {"fine_focus": {"stolt_kernel": "linear"}}),
     ("stolt cubic", {"fine_focus": {"stolt_kernel": "cubic"}}),
@@ -46,8 +46,8 @@ SETTINGS = [
     ("alpha 0.3", {"fine_focus": {"alpha": 0.3}}),
     ("alpha 0.45", {"fine_focus": {"alpha": 0.45}}),
     ("range filter phase-only (eq. 14)", {"fine_focus": {"range_filter": "phase"}}),
-    ("float32 intermediates", {"preprocess": {"precision": "float32"}, "coarse_focus": {"precision": "float32"},
-                               "fine_focus": {"precision": "float32"}}),
+    ("float64 intermediates", {"preprocess": {"precision": "float64"}, "coarse_focus": {"precision": "float64"},
+                               "fine_focus": {"precision": "float64"}}),
 ]
 
 
