@@ -78,7 +78,7 @@ class FineFocusParams:
     window_margin: float = param(default=1.15, ge=1.0, doc="flow 2: time/frequency window over the needed span")
     precision: str = param(default="float32", choices=PRECISIONS,
                            doc="intermediate complex precision of data and FFTs (phases are float64, reduced to "
-                               "cycles and turned into complex64 phasors, ~1e-7 rad)")
+                               "cycles and turned into complex64 phasors, < 1e-6 rad)")
     block_rows: int = param(default=128, ge=1, doc="azimuth-frequency rows per Stolt block")
     block_range: int = param(default=256, ge=1, doc="range bins per azimuth block")
     max_samples: int = param(default=600_000_000, ge=1, doc="refuse working arrays larger than this")
@@ -92,7 +92,7 @@ def cycles(phase):
 
 
 def phasor(phase):
-    """exp(j phase) as complex64 from a float64 phase (float32 cos/sin of the reduced phase, ~1e-7 rad)."""
+    """exp(j phase) as complex64 from a float64 phase (float32 cos/sin of the reduced phase, < 1e-6 rad)."""
     return unit_phasor(cycles(phase))
 
 
@@ -364,9 +364,6 @@ def _flow2(RD, t_c, f_a, r, k, model, radar, params, box, aperture, cdt, xlim):
     hm, hl = (M + 1) // 2, M // 2              # positive / negative halves of an FFT-ordered axis
     gm, gl = (L1 + 1) // 2, L1 // 2
     twopi = 2 * np.pi
-
-    def phasor(ph):
-        return unit_phasor(cycles(ph))
 
     for s in range(0, N, params.block_range):
         e = min(s + params.block_range, N)
