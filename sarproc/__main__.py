@@ -1,3 +1,3 @@
-from .cli.main import cli
+from sarproc.cli.main import cli
 
 cli(prog_name="sarproc")

@@ -52,13 +52,13 @@ SETTINGS = [
 
 
 def run_scene(scene: Path, repeat: int):
-    from sarproc.coarse_focus import CoarseFocusParams, coarse_focus
-    from sarproc.config import build
-    from sarproc.fine_focus import FineFocusParams, fine_focus
-    from sarproc.preprocess import PreprocessParams, preprocess
-    from sarproc.quality import evaluate_product
-    from sarproc.scene import scene_from_mapping
-    from sarproc.simulate import simulate
+    from sarproc.focus.squint_deramp.coarse_focus import CoarseFocusParams, coarse_focus
+    from sarproc.product.config import build
+    from sarproc.focus.squint_deramp.fine_focus import FineFocusParams, fine_focus
+    from sarproc.focus.squint_deramp.preprocess import PreprocessParams, preprocess
+    from sarproc.quality.metrics import evaluate_product
+    from sarproc.simulation.scene import scene_from_mapping
+    from sarproc.simulation.simulate import simulate
 
     base = yaml.safe_load(scene.read_text())
     raw = simulate(scene_from_mapping({k: v for k, v in base.items() if k not in STAGES}))
@@ -143,12 +143,12 @@ def main(argv=None):
 
 
 def _chain(cfg, raw=None, **over):
-    from sarproc.coarse_focus import CoarseFocusParams, coarse_focus
-    from sarproc.config import build
-    from sarproc.fine_focus import FineFocusParams, fine_focus
-    from sarproc.preprocess import PreprocessParams, preprocess
-    from sarproc.scene import scene_from_mapping
-    from sarproc.simulate import simulate
+    from sarproc.focus.squint_deramp.coarse_focus import CoarseFocusParams, coarse_focus
+    from sarproc.product.config import build
+    from sarproc.focus.squint_deramp.fine_focus import FineFocusParams, fine_focus
+    from sarproc.focus.squint_deramp.preprocess import PreprocessParams, preprocess
+    from sarproc.simulation.scene import scene_from_mapping
+    from sarproc.simulation.simulate import simulate
 
     cfg = copy.deepcopy(cfg)
     for s in STAGES:
@@ -161,7 +161,7 @@ def _chain(cfg, raw=None, **over):
 
 
 def _worst(img, names=None):
-    from sarproc.quality import evaluate_product
+    from sarproc.quality.metrics import evaluate_product
     rep = evaluate_product(img)
     ts = [t for t in rep.targets if names is None or t.name in names]
     ax = ("azimuth", "range")
@@ -172,7 +172,7 @@ def _worst(img, names=None):
 def hard_cases(out: Path):
     import math
 
-    from sarproc.errors import InputError
+    from sarproc.product.errors import InputError
     small = yaml.safe_load((ROOT / "configs" / "an2012_exp1_small.yaml").read_text())
     pts3 = [{"name": "C", "azimuth": "0 m", "range": "0 m"}, {"name": "E", "azimuth": "200 m", "range": "500 m"},
             {"name": "W", "azimuth": "-200 m", "range": "-500 m"}]
@@ -194,7 +194,7 @@ def hard_cases(out: Path):
         cfg["targets"]["points"] = pts3
         cfg["coarse_focus"] = {"scene_margin": "60 m"}
         raw, _, img = _chain(cfg, fine_focus={"output_frame": "lrwc"})
-        return img, "exp1_small geometry at 60 deg (agreement with backprojection: tests/test_focus000.py)", None
+        return img, "exp1_small geometry at 60 deg (agreement with backprojection: tests/focus/test_squint_deramp.py)", None
 
     def far800():
         cfg = copy.deepcopy(small)

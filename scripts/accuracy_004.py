@@ -28,13 +28,13 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from sarproc.config import load_yaml
-from sarproc.array3d import Array3DParams, array3d_product
-from sarproc.config import as_dict, build
-from sarproc.errors import InputError
-from sarproc.quality import evaluate_product
-from sarproc.scene import scene_from_mapping
-from sarproc.simulate import simulate
+from sarproc.product.config import load_yaml
+from sarproc.focus.array3d.linear_array import Array3DParams, array3d_product
+from sarproc.product.config import as_dict, build
+from sarproc.product.errors import InputError
+from sarproc.quality.metrics import evaluate_product
+from sarproc.simulation.scene import scene_from_mapping
+from sarproc.simulation.simulate import simulate
 
 SETTINGS = [
     ("default (sinc 16, per_bin, pad 4, float32)", {}),

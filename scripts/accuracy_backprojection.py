@@ -20,11 +20,11 @@ from pathlib import Path
 
 import numpy as np
 
-from sarproc.backprojection import BackprojectParams, backproject
-from sarproc.config import build, load_yaml
-from sarproc.quality import evaluate_product
-from sarproc.scene import scene_from_mapping
-from sarproc.simulate import simulate
+from sarproc.focus.backprojection import BackprojectParams, backproject
+from sarproc.product.config import build, load_yaml
+from sarproc.quality.metrics import evaluate_product
+from sarproc.simulation.scene import scene_from_mapping
+from sarproc.simulation.simulate import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = ("bp_stripmap.yaml", "bp_squint30.yaml")

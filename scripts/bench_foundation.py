@@ -17,9 +17,9 @@ from pathlib import Path
 import numpy as np
 import scipy.fft as sfft
 
-from sarproc.backprojection import BackprojectParams, backproject
-from sarproc.scene import scene_from_mapping
-from sarproc.simulate import plan_simulation, simulate_blocks
+from sarproc.focus.backprojection import BackprojectParams, backproject
+from sarproc.simulation.scene import scene_from_mapping
+from sarproc.simulation.simulate import plan_simulation, simulate_blocks
 
 
 def scene(n_targets: int, aperture_s: float, bandwidth_mhz: float) -> dict:
@@ -63,7 +63,7 @@ def main():
     _, t_fft = timed(lambda: sfft.fft2(x, workers=-1))
     rows.append(("simulate", f"{n_az}x{n_rg}, 25 targets", t_sim, t_sim / t_fft,
                  f"{target_samples / t_sim / 1e6:.1f} M target-samples/s", peak_sim / 2**20))
-    from sarproc.simulate import simulate
+    from sarproc.simulation.simulate import simulate
     raw = simulate(sc)
     params = BackprojectParams(frame="los", azimuth_extent=150.0, range_extent=150.0)
     tracemalloc.start()

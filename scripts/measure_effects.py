@@ -1,6 +1,6 @@
 """Numbers quoted for the range_gate and platform_motion effects: window lengths with and without the
 varied gate, and backprojection metrics with the platform motion known and ignored (scenes of
-tests/test_effects.py). Run: .venv/bin/python scripts/measure_effects.py"""
+tests/simulation/test_effects.py). Run: .venv/bin/python scripts/measure_effects.py"""
 
 import dataclasses
 import sys
@@ -10,10 +10,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_effects import SQUINT50, MOTION, with_effects
-from sarproc.scene import scene_from_mapping
-from sarproc.simulate import simulate
-from sarproc.backprojection import backproject, BackprojectParams
-from sarproc.quality import evaluate_product
+from sarproc.simulation.scene import scene_from_mapping
+from sarproc.simulation.simulate import simulate
+from sarproc.focus.backprojection import backproject, BackprojectParams
+from sarproc.quality.metrics import evaluate_product
 bp = BackprojectParams(frame="los", margin_cells=28)
 def show(tag, raw):
     rep = evaluate_product(backproject(raw, bp))

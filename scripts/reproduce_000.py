@@ -61,7 +61,7 @@ def fft_reference(path):
     """Seconds of one complex64 2D FFT (scipy.fft.fft2, all workers) of the dataset in ``path``."""
     import scipy.fft as sfft
 
-    from sarproc.io import read_product
+    from sarproc.product.io import read_product
     p = read_product(path, check_finite=False)
     a = np.ascontiguousarray(p.data, dtype=np.complex64)
     sfft.fft2(a[:64], workers=-1)
@@ -130,7 +130,7 @@ def image_figure(paths, titles, out, boxes=None, dyn=40.0):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from sarproc.io import read_product
+    from sarproc.product.io import read_product
     fig, axes = plt.subplots(1, len(paths), figsize=(5 * len(paths), 5), squeeze=False)
     for ax, p, title in zip(axes[0], paths, titles):
         img = read_product(p)
@@ -157,7 +157,7 @@ def mosaic_figure(paths, titles, out, half=60.0):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from sarproc.io import read_product
+    from sarproc.product.io import read_product
     fig, axes = plt.subplots(1, len(paths), figsize=(5 * len(paths), 5.3), squeeze=False)
     for ax, p, title in zip(axes[0], paths, titles):
         img = read_product(p)
@@ -196,13 +196,13 @@ def mosaic_figure(paths, titles, out, half=60.0):
 
 def chips_figure(rows, out, names, half_nulls=10.0):
     """Fig. 9-like: |image| around each named target, one row per image (dB), upsampled 8x by the
-    band-centred interpolation of sarproc.quality (the paper also zero-pads before display)."""
+    band-centred interpolation of sarproc.quality.metrics (the paper also zero-pads before display)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from sarproc.io import read_product
-    from sarproc.quality import evaluate_product, target_patch
+    from sarproc.product.io import read_product
+    from sarproc.quality.metrics import evaluate_product, target_patch
     fig, axes = plt.subplots(len(rows), len(names), figsize=(3 * len(names), 3 * len(rows)), squeeze=False)
     for i, (path, label) in enumerate(rows):
         img = read_product(path)
@@ -262,7 +262,7 @@ def exp1(out: Path, log):
         run(["fine-focus", out / "coarse_prf1850.h5", "-o", out / f"{name}.h5", "--config", cfg, "--overwrite"], log)
         run(["evaluate", out / f"{name}.h5", "-o", out / f"{name}.json"], log)
 
-    from sarproc.io import read_product
+    from sarproc.product.io import read_product
     for method in ("none", "linear", "nonlinear"):
         co = read_product(out / f"coarse_{method}.h5", load=False)
         lines.append(f"## {method}")
@@ -325,7 +325,7 @@ def exp1(out: Path, log):
               "quadratic phase is ~0.65 rad at the band edge: azimuth PSLR about -12.3 dB at the edge columns (eq. 17 "
               "allows pi/4). Flow 2 removes it.",
               "- The baselines fail exactly where their deramped spectra fold (the residual Doppler correction applied "
-              "after the coarse step is exact when nothing folds: tests/test_focus000.py::"
+              "after the coarse step is exact when nothing folds: tests/focus/test_squint_deramp.py::"
               "test_baselines_focus_when_nothing_folds); our 'none' keeps the centre column focused because the "
               "constant squint centroid is handled modulo the PRF.",
               "- Metrics are read in the squint_lrwc frame; in the squint frame the azimuth cut at fixed r_0 crosses "
@@ -395,7 +395,7 @@ def exp2(out: Path, log):
     chain = sum(w for n, w, _, _ in timing if n != "simulate")
     lines += ["", f"End to end (simulate + 3 stages): {total:.1f} s; processing chain alone: {chain:.1f} s; peak memory "
               f"{max(m for _, _, m, _ in timing):.0f} MiB (largest stage).", ""]
-    from sarproc.io import read_product
+    from sarproc.product.io import read_product
     img = read_product(out / "image_flow2.h5", load=False)
     h = img.history[-1]["parameters"]
     co = read_product(out / "coarse.h5", load=False)

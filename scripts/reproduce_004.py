@@ -30,15 +30,15 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from sarproc.array3d import Array3DParams, array3d_product, focus_array3d
-from sarproc.backprojection import backproject_points
-from sarproc.config import build
-from sarproc.frames import ElevationFrame
-from sarproc.io import read_product
-from sarproc.quality import evaluate_image, evaluate_product
-from sarproc.rangecomp import range_compress
-from sarproc.scene import scene_from_mapping
-from sarproc.simulate import simulate
+from sarproc.focus.array3d.linear_array import Array3DParams, array3d_product, focus_array3d
+from sarproc.focus.backprojection import backproject_points
+from sarproc.product.config import build
+from sarproc.product.frames import ElevationFrame
+from sarproc.product.io import read_product
+from sarproc.quality.metrics import evaluate_image, evaluate_product
+from sarproc.dsp.rangecomp import range_compress
+from sarproc.simulation.scene import scene_from_mapping
+from sarproc.simulation.simulate import simulate
 
 PAPER_T3 = {  # target: (az m, rg m, el deg, PSLR az, rg, el, ISLR az, rg, el)
     "1": (0.43, 0.40, 0.23, -13.01, -13.25, -13.18, -9.96, -10.46, -10.12),

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from .options import common_options, input_argument, load_config, summary, want_progress
+from sarproc.cli.options import common_options, input_argument, load_config, summary, want_progress
 
 
 @click.command()
@@ -15,9 +15,9 @@ from .options import common_options, input_argument, load_config, summary, want_
 @common_options
 def backproject(input_path: Path, output: Path, config_path, overwrite: bool, progress):
     """Exact time-domain backprojection of a raw product onto a frame grid (section `backproject:`)."""
-    from ..backprojection import BackprojectParams, backproject as run
-    from ..io import check_output_path, read_product, write_product
-    from .progress import progress_factory
+    from sarproc.focus.backprojection import BackprojectParams, backproject as run
+    from sarproc.product.io import check_output_path, read_product, write_product
+    from sarproc.cli.progress import progress_factory
 
     check_output_path(output, [input_path], overwrite)
     params = load_config(BackprojectParams, config_path, section="backproject")

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-from .options import config_option, input_argument, load_config
+from sarproc.cli.options import config_option, input_argument, load_config
 
 
 def _fmt(x: float, spec: str) -> str:
@@ -41,7 +41,7 @@ def markdown_table(report, units: dict) -> str:
 
 
 def _write_text_atomic(path: Path, text: str) -> None:
-    from ..io import atomic_path
+    from sarproc.product.io import atomic_path
 
     with atomic_path(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
@@ -63,11 +63,11 @@ def evaluate(input_path: Path, output, plot_dir, expect_path, config_path):
     upsample, islr_nulls, margin_nulls, irw_factor). Prints a Markdown table; exit status 1
     when --expect tolerances fail, 2 on bad input.
     """
-    from ..config import load_yaml
-    from ..errors import InputError
-    from ..io import check_output_path, read_product
-    from ..product import UNITS
-    from ..quality import EvaluateParams, check_report, evaluate_product, expectations_from_mapping
+    from sarproc.product.config import load_yaml
+    from sarproc.product.errors import InputError
+    from sarproc.product.io import check_output_path, read_product
+    from sarproc.product.model import UNITS
+    from sarproc.quality.metrics import EvaluateParams, check_report, evaluate_product, expectations_from_mapping
 
     # Every argument is checked before the (possibly long) evaluation.
     params = load_config(EvaluateParams, config_path, section="evaluate")
@@ -105,8 +105,8 @@ def evaluate(input_path: Path, output, plot_dir, expect_path, config_path):
 def _plots(plot_dir: Path, product, report, units, params) -> None:
     import numpy as np
 
-    from ..io import atomic_path
-    from ..plotting import plot_quicklook, plot_target, safe_name
+    from sarproc.product.io import atomic_path
+    from sarproc.quality.plotting import plot_quicklook, plot_target, safe_name
 
     plot_dir.mkdir(parents=True, exist_ok=True)
     truth = np.stack([product.targets[d].astype(float) for d in product.dims], axis=1)

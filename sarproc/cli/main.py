@@ -13,16 +13,16 @@ import sys
 
 import click
 
-from .. import __version__
-from ..errors import InputError, ProcessingError
+from sarproc import __version__
+from sarproc.product.errors import InputError, ProcessingError
 
 COMMANDS = {
     "simulate": "sarproc.cli.simulate:simulate",
-    "preprocess": "sarproc.cli.focus000:preprocess",
-    "coarse-focus": "sarproc.cli.focus000:coarse_focus",
-    "fine-focus": "sarproc.cli.focus000:fine_focus",
-    "pfa2": "sarproc.cli.pfa2:pfa2",
-    "reconstruct": "sarproc.cli.reconstruct:reconstruct",
+    "preprocess": "sarproc.cli.squint_deramp:preprocess",
+    "coarse-focus": "sarproc.cli.squint_deramp:coarse_focus",
+    "fine-focus": "sarproc.cli.squint_deramp:fine_focus",
+    "pfa2": "sarproc.cli.pfa:pfa2",
+    "reconstruct": "sarproc.cli.multichannel:reconstruct",
     "array3d": "sarproc.cli.array3d:array3d",
     "backproject": "sarproc.cli.backproject:backproject",
     "evaluate": "sarproc.cli.evaluate:evaluate",

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from ..config import build, load_yaml
+from sarproc.product.config import build, load_yaml
 
 output_option = click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
                              help="Output HDF5 product.")

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from .options import output_option, overwrite_option, progress_option, summary, want_progress
+from sarproc.cli.options import output_option, overwrite_option, progress_option, summary, want_progress
 
 
 @click.command()
@@ -17,10 +17,10 @@ from .options import output_option, overwrite_option, progress_option, summary, 
 @progress_option
 def simulate(scene_path: Path, output: Path, overwrite: bool, progress):
     """Simulate exact-geometry raw echoes of the point targets declared in SCENE_PATH."""
-    from ..io import ProductWriter, check_output_path, history_entry
-    from ..scene import load_scene
-    from ..simulate import plan_simulation, simulate_blocks
-    from .progress import progress_factory
+    from sarproc.product.io import ProductWriter, check_output_path, history_entry
+    from sarproc.simulation.scene import load_scene
+    from sarproc.simulation.simulate import plan_simulation, simulate_blocks
+    from sarproc.cli.progress import progress_factory
 
     check_output_path(output, [scene_path], overwrite)
     start = time.perf_counter()

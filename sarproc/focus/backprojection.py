@@ -1,0 +1,254 @@
+"""Exact time-domain backprojection: the reference every fast focuser is checked against.
+
+For each pixel P and pulse p, the two-way path R = |P_tx - P| + |P_rx - P| is computed in
+float64, the range-compressed pulse is read at delay R / c (FFT upsampling followed by linear
+interpolation) and multiplied by exp(+j 2 pi f_c R / c). Pulses are processed in blocks and
+pixels are vectorised, so memory is bounded by ``block_elements``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+
+import numpy as np
+import scipy.fft as sfft
+
+from sarproc.product import beam
+from sarproc.product.config import as_dict, param
+from sarproc.product.errors import InputError
+from sarproc.product.frames import make_frame, targets_in_frame
+from sarproc.product.metadata import C
+from sarproc.dsp.phasor import unit_phasor
+from sarproc.product.model import Product
+from sarproc.dsp.rangecomp import WINDOWS, range_compress
+
+
+def upsample_range(rc: np.ndarray, factor: int, workers: int = -1, pad: int = 0) -> np.ndarray:
+    """FFT zero-padding upsampling along the last axis of a baseband signal (band centred at 0).
+
+    Returns complex64 (..., n * factor + pad); the ``pad`` trailing samples are zero.
+    """
+    n = rc.shape[-1]
+    out = np.zeros(rc.shape[:-1] + (n * factor + pad,), np.complex64)
+    if factor == 1:
+        out[..., :n] = rc
+        return out
+    # Pulse by pulse in blocks, so the complex128 spectra never exceed a few tens of MB.
+    rows = max(1, (32 << 20) // (16 * n * factor))
+    flat_in = rc.reshape(-1, n)
+    flat_out = out.reshape(-1, out.shape[-1])
+    pos = (n + 1) // 2
+    for s in range(0, flat_in.shape[0], rows):
+        spec = sfft.fft(flat_in[s:s + rows], axis=-1, workers=workers)
+        up = np.zeros((spec.shape[0], n * factor), dtype=spec.dtype)
+        up[:, :pos] = spec[:, :pos]
+        up[:, n * factor - (n - pos):] = spec[:, pos:]
+        flat_out[s:s + rows, :n * factor] = sfft.ifft(up, axis=-1, workers=workers) * factor
+    return out
+
+
+def _ranges(platform: np.ndarray, points_c: np.ndarray, points_sq: np.ndarray) -> np.ndarray:
+    """|platform - point| (n_b, n_points) via |p|^2 + |t|^2 - 2 t.p (one BLAS product).
+
+    Both sets are relative to the points' centroid, so the squared norms stay near r^2 and
+    the float64 cancellation error is ~1e-16 r^2 / r, far below a millimetre even at 800 km.
+    """
+    r2 = platform @ (-2.0 * points_c.T)
+    r2 += points_sq[None, :]
+    r2 += np.einsum("ij,ij->i", platform, platform)[:, None]
+    return np.sqrt(r2, out=r2)
+
+
+def _backproject_block(s, e, flat, stride, n_up, scale, t0, gate, tx_c, rx_c, monostatic, points_c, points_sq,
+                       carrier_frequency, interpolation):
+    r = _ranges(tx_c[s:e], points_c, points_sq)
+    if monostatic:
+        r *= 2.0
+    else:
+        r += _ranges(rx_c[s:e], points_c, points_sq)
+    # Fractional sample of the upsampled pulse: (R / c - t0 - gate) * f_s * upsample.
+    pos = r * (scale / C)
+    pos -= ((t0 + gate[s:e]) * scale)[:, None]
+    rows = (np.arange(s, e) * stride)[:, None]
+    if interpolation == "nearest":
+        idx = np.rint(pos).astype(np.int64)
+        idx[(idx < 0) | (idx >= n_up)] = n_up                      # the zero sample
+        val = flat[idx + rows]
+    else:
+        i0 = np.floor(pos)
+        w = (pos - i0).astype(np.float32)
+        i0 = i0.astype(np.int64)
+        i0[(i0 < 0) | (i0 >= n_up - 1)] = n_up - 1                 # last sample pairs with the zero sample
+        i0 += rows
+        lo = flat[i0]
+        val = lo + (flat[i0 + 1] - lo) * w
+    # Carrier phase in float64 cycles, reduced to [0, 1) before the complex64 exponential.
+    cyc = r * (carrier_frequency / C)
+    cyc -= np.floor(cyc)
+    val *= unit_phasor(cyc)
+    return val.sum(axis=0, dtype=np.complex128)
+
+
+def backproject_points(rc, range_time, tx_pos, rx_pos, points, carrier_frequency, *, upsample: int = 8,
+                       interpolation: str = "linear", gate_offset=None, block_elements: int = 131_072,
+                       progress=None, workers: int | None = None) -> np.ndarray:
+    """Backproject range-compressed pulses onto arbitrary points.
+
+    rc: (n_az, n_range) complex range-compressed data; range_time: (n_range,) s, uniform;
+    tx_pos, rx_pos: (n_az, 3) m; points: (n_points, 3) m; gate_offset: (n_az,) s or None;
+    interpolation: 'linear' or 'nearest' on the range signal upsampled ``upsample`` times.
+    Returns (n_points,) complex128: the sum over pulses divided by n_az. Blocks of pulses run
+    on ``workers`` threads (numpy releases the GIL; default: all cores).
+    """
+    from concurrent.futures import ThreadPoolExecutor
+
+    rc = np.asarray(rc)
+    n_az, n_rg = rc.shape
+    points = np.asarray(points, float).reshape(-1, 3)
+    tx_pos, rx_pos = np.asarray(tx_pos, float), np.asarray(rx_pos, float)
+    monostatic = np.array_equal(tx_pos, rx_pos)
+    dt = (range_time[-1] - range_time[0]) / (n_rg - 1) if n_rg > 1 else 1.0
+    # One zero sample past each pulse: reads outside the window land on it and add nothing.
+    flat = upsample_range(rc, upsample, pad=1).ravel()
+    n_up = n_rg * upsample
+    gate = np.zeros(n_az) if gate_offset is None else np.asarray(gate_offset, float)
+    origin = points.mean(axis=0) if len(points) else np.zeros(3)
+    points_c = points - origin
+    points_sq = np.einsum("ij,ij->i", points_c, points_c)
+    block = max(1, int(block_elements // max(len(points), 1)))
+    spans = [(s, min(s + block, n_az)) for s in range(0, n_az, block)]
+    args = (flat, n_up + 1, n_up, upsample / dt, range_time[0], gate, tx_pos - origin, rx_pos - origin,
+            monostatic, points_c, points_sq, carrier_frequency, interpolation)
+    acc = np.zeros(len(points), np.complex128)
+    n_workers = workers or os.cpu_count() or 1
+    with ThreadPoolExecutor(max_workers=n_workers) as pool:
+        results = pool.map(lambda span: _backproject_block(*span, *args), spans)
+        if progress is not None:
+            results = progress(results)
+        for part in results:
+            acc += part
+    return acc / n_az
+
+
+@dataclasses.dataclass(frozen=True)
+class BackprojectParams:
+    frame: str = param(default="product", doc="image frame: product (the raw product's target frame), squint, "
+                                               "zero_doppler, ground or los")
+    azimuth_extent: float | None = param("length", default=None, gt=0, doc="grid size along azimuth; "
+                                         "default: the targets' span plus 2 x margin_cells")
+    range_extent: float | None = param("length", default=None, gt=0, doc="grid size along range; default as azimuth")
+    azimuth_spacing: float | None = param("length", default=None, gt=0, doc="default: theoretical IRW / oversample")
+    range_spacing: float | None = param("length", default=None, gt=0, doc="default: theoretical IRW / oversample")
+    azimuth_center: float | None = param("length", default=None, doc="grid centre (frame coordinate); "
+                                         "default: middle of the targets, else the scene centre")
+    range_center: float | None = param("length", default=None, doc="grid centre along range (frame coordinate)")
+    oversample: float = param(default=2.0, ge=1.0, doc="pixels per theoretical IRW for default spacings")
+    margin_cells: float = param(default=24.0, ge=0, doc="resolution cells around the targets for default extents")
+    upsample: int = param(default=8, ge=1, le=64, doc="range FFT upsampling before interpolation")
+    interpolation: str = param(default="linear", choices=("linear", "nearest"), doc="range interpolation")
+    range_window: str = param(default="none", choices=WINDOWS, doc="range spectral taper")
+    azimuth_window: str = param(default="none", choices=("none", "hamming"), doc="taper over the pulses")
+    max_pixels: int = param(default=16_000_000, ge=1, doc="refuse grids larger than this")
+
+
+def _unit_los(tx, points):
+    d = points[None, :, :] - tx[:, None, :]
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+def theoretical_irw(product: Product, frame, centre_coords) -> list[float]:
+    """Theoretical -3 dB widths along each frame axis at ``centre_coords``, axis units.
+
+    Range axis: 0.886 / ((2B/c) |u . e_range|) with u the line of sight at the aperture
+    centre; azimuth axis: 0.886 / ((2/lambda) span_t(u(t) . e_azimuth)) over the pulses whose
+    -3 dB beam contains the point (all pulses without an antenna pattern). This is the width of
+    uniform weighting over that span; a tapered antenna pattern widens the real response.
+    """
+    r = product.radar
+    pos = product.aux["platform_position"]
+    p0 = frame.to_xyz(*centre_coords)
+    lit = beam.illuminated(r, pos, p0)
+    if np.any(lit):
+        pos = pos[lit]
+    eps = 1e-3
+    widths = []
+    u = _unit_los(pos, p0.reshape(1, 3))[:, 0, :]
+    u_mid = u[len(u) // 2]
+    for i, ax in enumerate(frame.axes):
+        shifted = list(centre_coords)
+        shifted[i] = shifted[i] + eps
+        e = (frame.to_xyz(*shifted) - p0) / eps   # derivative of position along the axis
+        if ax == "range":
+            widths.append(0.886 / ((2 * r.bandwidth / C) * abs(float(u_mid @ e))))
+        else:
+            proj = u @ e
+            widths.append(0.886 / ((2 / r.wavelength) * float(proj.max() - proj.min())))
+    return widths
+
+
+def _default_grid(params: BackprojectParams, product: Product, frame, irw_guess):
+    t = targets_in_frame(product.targets, frame)
+    coords = {ax: t[ax] for ax in frame.axes}
+    centre_scene = [float(c) for c in frame.from_xyz(np.asarray(product.radar.scene_center))]
+    axes = {}
+    for i, ax in enumerate(frame.axes):
+        spacing = getattr(params, f"{ax}_spacing") or irw_guess[i] / params.oversample
+        vals = coords[ax]
+        centre = getattr(params, f"{ax}_center")
+        if centre is None:
+            centre = float((vals.min() + vals.max()) / 2) if len(vals) else centre_scene[i]
+        extent = getattr(params, f"{ax}_extent")
+        if extent is None:
+            span = float(vals.max() - vals.min()) if len(vals) else 0.0
+            extent = span + 2 * params.margin_cells * irw_guess[i]
+        n = max(2, int(math.ceil(extent / spacing)))
+        axes[ax] = centre + (np.arange(n) - n // 2) * spacing
+    return axes
+
+
+def backproject(raw: Product, params: BackprojectParams = BackprojectParams(), progress=None) -> Product:
+    """Focus a raw product (one or several channels, summed coherently) onto a frame grid."""
+    if raw.kind not in ("raw", "raw_multichannel", "raw_array"):
+        raise InputError(f"backproject needs a raw product, got {raw.kind!r}")
+    radar = raw.radar
+    if params.frame == "product":
+        spec = raw.attrs.get("frame") or {"name": "squint"}
+        frame = make_frame(spec["name"], radar, **{k: v for k, v in spec.items() if k != "name"})
+    else:
+        frame = make_frame(params.frame, radar)
+    if len(frame.axes) != 2:
+        raise InputError(f"backproject: frame {frame.name!r} is not 2D; use backproject_points for 3D grids")
+    centre_scene = [float(c) for c in frame.from_xyz(np.asarray(radar.scene_center))]
+    irw0 = theoretical_irw(raw, frame, centre_scene)
+    grid = _default_grid(params, raw, frame, irw0)
+    n_pix = len(grid["azimuth"]) * len(grid["range"])
+    if n_pix > params.max_pixels:
+        raise InputError(f"backproject: grid of {n_pix} pixels exceeds max_pixels {params.max_pixels}; "
+                         "set azimuth/range extents or spacings")
+    az, rg = np.meshgrid(grid["azimuth"], grid["range"], indexing="ij")
+    points = frame.to_xyz(az.ravel(), rg.ravel())
+    data = raw.data if raw.data.ndim == 3 else raw.data[None]
+    pos = raw.aux["platform_position"]
+    tx_off = raw.aux.get("tx_offset", np.zeros(3))
+    rx_offs = raw.aux.get("rx_offset", np.zeros((1, 3)))
+    taper = np.ones(data.shape[1])
+    if params.azimuth_window == "hamming":
+        taper = np.hamming(data.shape[1])
+    img = np.zeros(len(points), np.complex128)
+    for ch in range(data.shape[0]):
+        rc = range_compress(data[ch], radar, params.range_window) * taper[:, None].astype(np.float32)
+        img += backproject_points(rc, raw.coords["range_time"], pos + tx_off, pos + rx_offs[ch], points,
+                                  radar.carrier_frequency, upsample=params.upsample,
+                                  interpolation=params.interpolation,
+                                  gate_offset=raw.aux.get("range_gate_offset"), progress=progress)
+    img /= data.shape[0]
+    centre_img = [float(np.mean(grid[ax])) for ax in frame.axes]
+    attrs = {"frame": frame.spec, "theoretical_irw": theoretical_irw(raw, frame, centre_img)}
+    from sarproc.product.io import history_entry
+    out = raw.derive("image", img.reshape(az.shape).astype(np.complex64), ("azimuth", "range"),
+                     {"azimuth": grid["azimuth"], "range": grid["range"]},
+                     targets=targets_in_frame(raw.targets, frame), attrs=attrs)
+    out.history.append(history_entry("backproject", as_dict(params)))
+    return out

@@ -1,0 +1,210 @@
+"""Azimuth coarse focusing by deramping / SPECAN (An et al. 2012, sec. 3.2; Lanari et al. 2001).
+
+After the Doppler-centroid correction a target at (x_n = v t_n, r_0) has the azimuth phase
+pi f_dr (t - t_n)^2 + ..., f_dr = -2 v^2 cos^2(theta) / (lambda r_0) (eqs. 3, 9). The coarse step
+is the azimuth convolution of eq. (11) with the reference chirp h(t) = exp(j pi k t^2),
+k = -f_dr,ref = 2 v^2 cos^2(theta) / (lambda r_ref) (eq. 10 with this file's sign convention),
+evaluated as reference multiply -> DFT -> residual phase:
+
+    y(t'_m) = sum_n s(t_n) h(t'_m - t_n)
+            = exp(j pi k t'_m^2) sum_n [s(t_n) exp(j pi k t_n^2)] exp(-j 2 pi k t'_m t_n)
+
+on the output grid t'_m = (m - M/2) / F_a'', F_a'' = M k / PRF (the DFT of length M >= n_pulses
+of the deramped pulses). Because the convolution is exact, the output spectrum is the
+unfolded spectrum of the input times H(f) = FT{h} (eq. 12) as long as the *deramped* signal is
+not aliased: its instantaneous frequencies (Doppler + k t) over the scene, the aperture and the
+range band must span less than the PRF, and F_a'' must exceed the total Doppler bandwidth.
+Both are checked here from the exact geometry; :func:`doppler_budget` returns the numbers.
+
+Input (azimuth_time, range_time); output (azimuth_time, range_time) on the t' grid, complex64.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+
+import numpy as np
+import scipy.fft as sfft
+
+from sarproc.product.config import as_dict, param
+from sarproc.product.errors import InputError
+from sarproc.product.frames import SquintFrame
+from sarproc.product.metadata import C, RadarMetadata
+from sarproc.focus.squint_deramp.preprocess import METHODS, PRECISIONS, complex_dtype
+from sarproc.product.model import Product
+
+log = logging.getLogger(__name__)
+
+
+@dataclasses.dataclass(frozen=True)
+class CoarseFocusParams:
+    """``coarse_focus:`` section."""
+
+    reference_range: float | None = param("length", default=None, gt=0,
+                                          doc="r_ref of eq. (10); default: the radar reference range")
+    azimuth_samples: int | None = param(default=None, ge=2, doc="DFT length M (>= pulses); default: "
+                                        "smallest fast length with F_a'' >= bandwidth_margin x total bandwidth")
+    bandwidth_margin: float = param(default=1.2, ge=1.0, doc="F_a'' / total Doppler bandwidth for the default M")
+    scene_azimuth_extent: float | None = param("length", default=None, gt=0,
+                                               doc="scene width along x_n used by the alias checks; "
+                                                   "default: the targets' span plus 2 scene_margin")
+    scene_range_extent: float | None = param("length", default=None, gt=0,
+                                             doc="scene depth along r_0; default: targets' span plus 2 scene_margin")
+    scene_margin: float = param("length", default=100.0, ge=0, doc="margin around the targets for default extents")
+    on_alias: str = param(default="error", choices=("error", "warn"),
+                          doc="deramped spectrum wider than the PRF: refuse (error) or go on and record it (warn)")
+    precision: str = param(default="float32", choices=PRECISIONS, doc="intermediate complex precision")
+    block_range: int = param(default=1024, ge=1, doc="range samples per FFT block (memory bound)")
+
+
+def deramp_rate(radar: RadarMetadata, reference_range: float) -> float:
+    """k = -f_dr,ref > 0, Hz/s (eqs. 3, 10)."""
+    return 2.0 * radar.velocity**2 * math.cos(radar.squint) ** 2 / (radar.wavelength * reference_range)
+
+
+def scene_box(product: Product, params: CoarseFocusParams, reference_range: float):
+    """(x_n min, x_n max, r_0 min, r_0 max) of the scene in the squint frame, m."""
+    frame = SquintFrame(product.radar.squint, product.radar.altitude)
+    xc, rc = frame.from_xyz(np.asarray(product.radar.scene_center))
+    t = product.targets
+    if len(t):
+        xn, r0 = frame.from_xyz(np.stack([t["x"], t["y"], t["z"]], axis=-1))
+    else:
+        xn, r0 = np.array([float(xc)]), np.array([float(rc)])
+    m = params.scene_margin
+    if params.scene_azimuth_extent is not None:
+        xa, xb = float(xc) - params.scene_azimuth_extent / 2, float(xc) + params.scene_azimuth_extent / 2
+    else:
+        xa, xb = float(xn.min()) - m, float(xn.max()) + m
+    if params.scene_range_extent is not None:
+        ra, rb = float(rc) - params.scene_range_extent / 2, float(rc) + params.scene_range_extent / 2
+    else:
+        ra, rb = float(r0.min()) - m, float(r0.max()) + m
+    return xa, xb, ra, rb
+
+
+def doppler_budget(radar: RadarMetadata, t_first: float, t_last: float, box, k: float, method: str) -> dict:
+    """Exact-geometry Doppler numbers of a scene box over the aperture.
+
+    Returns ``total_bandwidth`` (span of the Doppler frequencies after the nonlinear correction,
+    what F_a'' must hold), ``deramp_spread`` (span of Doppler + k t after the given correction) and
+    ``deramp_extent``: what the PRF must hold, the larger of that spread (no two parts of the scene may
+    overlap in the circular DFT window) and twice the largest magnitude after the nonlinear correction
+    (the focused scene must sit inside the window centred on zero), all Hz.
+    """
+    xa, xb, ra, rb = box
+    s, c = math.sin(radar.squint), math.cos(radar.squint)
+    v = radar.velocity
+    xn, r0 = np.meshgrid(np.linspace(xa, xb, 9), np.linspace(ra, rb, 5), indexing="ij")
+    X, Y = (xn + r0 * s).ravel(), (r0 * c).ravel()
+    t = np.linspace(t_first, t_last, 129)
+    f = radar.carrier_frequency + np.array([-0.5, 0.0, 0.5])[:, None, None] * radar.bandwidth
+    u = v * t[None, :, None] - X[None, None, :]
+    rdot = v * u / np.sqrt(u**2 + Y[None, None, :] ** 2)                          # (1, n_t, n_pts)
+    beta = {"nonlinear": -2 * f * v * s / C, "linear": -2 * radar.carrier_frequency * v * s / C + 0 * f,
+            "none": 0 * f}
+    if method not in beta:
+        raise InputError(f"unknown Doppler correction {method!r}; known: {list(METHODS)}")
+    f_nl = -2 * f * rdot / C + beta["nonlinear"]
+    f_m = -2 * f * rdot / C + beta[method]
+    der = f_m + k * t[None, :, None]
+    der_nl = f_nl + k * t[None, :, None]
+    if method == "none":
+        # the squint centroid 2 v sin(theta) / lambda is known to the pulses only modulo the PRF
+        c0 = 2 * radar.carrier_frequency * v * s / C
+        prf = radar.prf
+        der = der - (c0 - (np.mod(c0 + prf / 2, prf) - prf / 2))
+    return {"total_bandwidth": float(f_nl.max() - f_nl.min()), "doppler_min": float(f_nl.min()),
+            "doppler_max": float(f_nl.max()), "deramp_spread": float(der.max() - der.min()),
+            "deramp_extent": float(max(2 * np.abs(der_nl).max(), der.max() - der.min()))}
+
+
+def specan(signal: np.ndarray, azimuth_time: np.ndarray, prf: float, k: float, n_out: int,
+           precision: str = "float64", block_range: int = 1024) -> tuple[np.ndarray, np.ndarray]:
+    """Discrete eq. (11): returns (y (n_out, n_rg) complex64, t' (n_out,) s)."""
+    n_az, n_rg = signal.shape
+    if n_out < n_az:
+        raise InputError(f"coarse_focus.azimuth_samples: {n_out} is below the {n_az} pulses")
+    cdt = complex_dtype(precision)
+    t = np.asarray(azimuth_time, float)
+    t0 = t[0]
+    m = np.arange(n_out)
+    half = n_out // 2
+    dt_out = prf / (n_out * k)
+    t_out = (m - half) * dt_out
+    n = np.arange(n_az)
+    # reference multiply (eq. 10) with the DFT index shift folded in, float64 phases
+    pre = np.exp(1j * (np.pi * k * t**2 + 2 * np.pi * half * n / n_out)).astype(cdt)
+    post = np.exp(1j * (np.pi * k * t_out**2 - 2 * np.pi * (m - half) * prf * t0 / n_out)).astype(cdt)
+    out = np.empty((n_out, n_rg), np.complex64)
+    for s in range(0, n_rg, block_range):
+        e = min(s + block_range, n_rg)
+        blk = signal[:, s:e].astype(cdt) * pre[:, None]
+        spec = sfft.fft(blk, n=n_out, axis=0, workers=-1)
+        out[:, s:e] = spec * post[:, None]
+    return out, t_out
+
+
+def coarse_focus(pre: Product, params: CoarseFocusParams = CoarseFocusParams()) -> Product:
+    """``preprocessed`` product -> ``coarse`` product on the deramped azimuth grid t'."""
+    from sarproc.product.io import history_entry
+
+    if pre.kind != "preprocessed":
+        raise InputError(f"coarse-focus needs a 'preprocessed' product, got {pre.kind!r}")
+    radar = pre.radar
+    t = np.asarray(pre.coords["azimuth_time"], float)
+    if len(t) < 2:
+        raise InputError("coarse-focus: need at least two pulses")
+    prf = radar.prf
+    dt = np.diff(t)
+    if not np.allclose(dt, 1.0 / prf, rtol=1e-6, atol=0):
+        raise InputError("coarse-focus: azimuth_time is not uniformly sampled at the PRF")
+    r_ref = params.reference_range or radar.reference_range
+    k = deramp_rate(radar, r_ref)
+    method = pre.attrs.get("doppler_correction", "none")
+    box = scene_box(pre, params, r_ref)
+    budget = doppler_budget(radar, t[0], t[-1], box, k, method)
+    if params.azimuth_samples is not None:
+        n_out = params.azimuth_samples
+    else:
+        need = params.bandwidth_margin * budget["total_bandwidth"] * prf / k
+        n_out = sfft.next_fast_len(max(len(t), int(math.ceil(need))))
+    f_out = n_out * k / prf
+    problems = []
+    if budget["deramp_extent"] > prf:
+        fix = "raise the PRF or shrink the scene" + ("" if method == "nonlinear" else " or use the nonlinear correction")
+        problems.append(f"the deramped Doppler spread {budget['deramp_spread']:.1f} Hz (extent about zero "
+                        f"{budget['deramp_extent']:.1f} Hz) exceeds the PRF {prf:.1f} Hz "
+                        f"(Doppler correction {method!r}, scene x_n in [{box[0]:.0f}, {box[1]:.0f}] m, "
+                        f"r_0 in [{box[2]:.0f}, {box[3]:.0f}] m): the scene folds after deramping; {fix}")
+    if budget["total_bandwidth"] > f_out:
+        problems.append(f"F_a'' = {f_out:.1f} Hz is below the total Doppler bandwidth {budget['total_bandwidth']:.1f} "
+                        "Hz; raise coarse_focus.azimuth_samples")
+    if problems:
+        msg = "coarse-focus: " + "; ".join(problems)
+        if params.on_alias == "error":
+            raise InputError(msg + " (set coarse_focus.on_alias: warn to process anyway)")
+        log.warning(msg)
+    data, t_out = specan(pre.data, t, prf, k, n_out, params.precision, params.block_range)
+    attrs = dict(pre.attrs)
+    attrs.update({
+        "azimuth_sampling_rate": float(f_out),          # F_a'' (Hz)
+        "deramp_rate": float(k),                        # k = -f_dr,ref (Hz/s)
+        "coarse_reference_range": float(r_ref),
+        "aperture_start": float(t[0]), "aperture_end": float(t[-1]), "n_pulses": int(len(t)),
+        "total_doppler_bandwidth": budget["total_bandwidth"], "deramp_spread": budget["deramp_spread"],
+        "deramp_extent": budget["deramp_extent"],
+        "scene_box": [float(b) for b in box],
+        "aliased": bool(problems),
+    })
+    out = pre.derive("coarse", data, ("azimuth_time", "range_time"),
+                     {"azimuth_time": t_out, "range_time": pre.coords["range_time"]}, attrs=attrs)
+    entry = as_dict(params)
+    entry.update({"resolved_reference_range": float(r_ref), "resolved_azimuth_samples": int(n_out),
+                  "azimuth_sampling_rate": float(f_out), "deramp_rate": float(k),
+                  "deramp_spread": budget["deramp_spread"], "deramp_extent": budget["deramp_extent"],
+                  "total_doppler_bandwidth": budget["total_bandwidth"]})
+    out.history.append(history_entry("coarse_focus", entry))
+    return out

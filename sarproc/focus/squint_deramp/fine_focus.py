@@ -1,0 +1,425 @@
+"""Fine focusing of coarse-focused squint spotlight data (An et al. 2012, secs. 4-5, fig. 7).
+
+Chain (all per-row / per-column operations vectorised, blocks bound the memory):
+
+1. 2D spectrum of the coarse product (azimuth: centred DFT of the t' grid; range: DFT referred to
+   absolute fast time). For the baseline corrections (linear / none) the missing part of eq. (7)
+   is applied after the coarse step through the exact identity
+   (s e^{j2 pi beta t}) * h (t') = e^{j2 pi beta t'} e^{-j pi beta^2/k} (s * h)(t' - beta/k); it is exact
+   when the deramped data did not fold, so whatever breaks in those images comes from folding.
+2. Range matched filter (``flat``: divide by the chirp spectrum inside |f_r| <= B/2, the ideal
+   sinc; ``phase``: exp(j pi f_r^2 / K_r) of eq. 14), a bulk reference-function multiply at r_ref,
+   the modified Stolt mapping (eq. 15, :mod:`sarproc.focus.squint_deramp.stolt`) with the chosen kernel, and a range
+   IFFT to the range-Doppler domain of eq. (16).
+3. Azimuth compression: eq. (12)'s reference spectrum exp(-j pi f_a^2 / k) is removed and
+   - flow 1: exp(+j r G_c(f_a)) at every range bin r (direct compression, valid inside the depth
+     of focus of eq. 17), or
+   - flow 2: data are zero-padded in the compact coarse domain so that the full aperture fits in
+     the time window, then eq. (22) (higher-order compensation), eq. (24) (quartic filter),
+     eq. (27) (nonlinear chirp scaling, coefficients :mod:`sarproc.focus.squint_deramp.nlcs`), eq. (33) (azimuth filter).
+4. Geometric correction: azimuth axis x_n = 2 alpha v t (flow 2) or v t (flow 1); range: every
+   azimuth line is shifted by -x_n sin(theta) (the range phase factor of sec. 4.2), giving the
+   squint frame (x_n, r_0). With ``output_frame: lrwc`` the range shift is skipped and the image is
+   in the ``squint_lrwc`` frame (x_n, r_0 + x_n sin(theta)), where the point response is separable.
+
+Theoretical IRW (attrs ``theoretical_irw``, [azimuth, range], metres): azimuth 0.886 v / B_d with
+B_d = |K(r_c)| T the processed Doppler bandwidth of a target (T = n_pulses / PRF, K the FM rate at
+the scene centre range), range 0.886 c / (2 B).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+
+import numpy as np
+import scipy.fft as sfft
+
+from sarproc.product.config import as_dict, param
+from sarproc.product.errors import InputError, ProcessingError
+from sarproc.product.frames import SquintFrame, SquintLrwcFrame, targets_in_frame
+from sarproc.dsp.interp import KERNELS, resample_rows
+from sarproc.product.metadata import C
+from sarproc.focus.squint_deramp.nlcs import VARIANTS, compression_phase, group_delay_span, nlcs_coefficients, position_terms
+from sarproc.focus.squint_deramp.preprocess import PRECISIONS, complex_dtype, correction_frequency
+from sarproc.dsp.phasor import unit_phasor
+from sarproc.product.model import Product
+from sarproc.dsp.rangecomp import chirp_replica
+from sarproc.focus.squint_deramp.stolt import MODELS, SpectrumModel, stolt_resample
+
+log = logging.getLogger(__name__)
+
+
+@dataclasses.dataclass(frozen=True)
+class FineFocusParams:
+    """``fine_focus:`` section."""
+
+    flow: int | None = param(default=None, choices=(1, 2),
+                             doc="1 = direct azimuth compression, 2 = modified NLCS; null = automatic from eq. (17)")
+    nlcs_variant: str = param(default="modified", choices=VARIANTS,
+                              doc="modified (paper), separated (two-dimension-separated), classic (NLCS)")
+    alpha: float = param(default=0.4, gt=0, lt=10, doc="NLCS output scaling: targets land at t_n / (2 alpha); "
+                         "below 1/2 the scaled spectrum (2 alpha B_d + |2 alpha - 1| x scene spread) needs no extra room")
+    stolt_model: str = param(default="exact", choices=MODELS,
+                             doc="exact 2D spectrum, or paper = eqs. (14)-(15) (odd terms >= 5 dropped)")
+    stolt_kernel: str = param(default="knab", choices=KERNELS, doc="Stolt interpolation kernel")
+    stolt_length: int = param(default=8, ge=1, le=64, doc="taps of the sinc/knab Stolt kernel")
+    stolt_oversampling: float | None = param(default=None, gt=1, doc="Knab design oversampling; "
+                                             "default: range window / scene depth, clipped to [1.2, 4]")
+    range_filter: str = param(default="flat", choices=("flat", "phase"), doc="range matched filter")
+    reference_range: float | None = param("length", default=None, gt=0,
+                                          doc="range of the bulk compression and centre of the output range "
+                                              "window; default: the middle of the coarse step's scene box")
+    flow1_geometry: str = param(default="resample", choices=("resample", "none"),
+                                doc="flow 1: resample azimuth to undo the x_n^2 sin(theta)/r shift of edge targets")
+    output_frame: str = param(default="squint", choices=("squint", "lrwc"), doc="image frame (see module doc)")
+    crop_margin: float = param("length", default=150.0, ge=0, doc="image kept around the coarse step's scene box")
+    window_margin: float = param(default=1.15, ge=1.0, doc="flow 2: time/frequency window over the needed span")
+    precision: str = param(default="float32", choices=PRECISIONS,
+                           doc="intermediate complex precision of data and FFTs (phases are float64, reduced to "
+                               "cycles and turned into complex64 phasors, < 1e-6 rad)")
+    block_rows: int = param(default=128, ge=1, doc="azimuth-frequency rows per Stolt block")
+    block_range: int = param(default=256, ge=1, doc="range bins per azimuth block")
+    max_samples: int = param(default=600_000_000, ge=1, doc="refuse working arrays larger than this")
+
+
+def cycles(phase):
+    """Phase (rad, float64) reduced to cycles in [0, 1) for :func:`sarproc.dsp.phasor.unit_phasor`."""
+    c = np.multiply(phase, 1.0 / (2 * np.pi))
+    c -= np.floor(c)
+    return c
+
+
+def phasor(phase):
+    """exp(j phase) as complex64 from a float64 phase (float32 cos/sin of the reduced phase, < 1e-6 rad)."""
+    return unit_phasor(cycles(phase))
+
+
+def cfft(x, axis=0):
+    """Centred DFT: time index centred on N//2 -> frequency index centred on N//2."""
+    return sfft.fftshift(sfft.fft(sfft.ifftshift(x, axes=axis), axis=axis, workers=-1), axes=axis)
+
+
+def cifft(x, axis=0):
+    return sfft.fftshift(sfft.ifft(sfft.ifftshift(x, axes=axis), axis=axis, workers=-1), axes=axis)
+
+
+def centred(n: int, step: float) -> np.ndarray:
+    return (np.arange(n) - n // 2) * step
+
+
+def depth_of_focus_half_width(radar, resolution: float) -> float:
+    """|x_n| limit of eq. (17): 2 rho_a^2 cos^2(theta) / (lambda |sin(theta)|), m (inf at zero squint)."""
+    s = abs(math.sin(radar.squint))
+    if s < 1e-12:
+        return math.inf
+    return 2 * resolution**2 * math.cos(radar.squint) ** 2 / (radar.wavelength * s)
+
+
+def _range_filter(radar, f_r: np.ndarray, kind: str) -> np.ndarray:
+    band = np.abs(f_r) <= radar.bandwidth / 2
+    if kind == "phase":
+        return np.where(band, np.exp(1j * np.pi * f_r**2 / radar.chirp_rate), 0)
+    h, half = chirp_replica(radar)
+    n = len(f_r)
+    if len(h) > n:
+        raise InputError(f"fine-focus: the chirp ({len(h)} samples) is longer than the range FFT ({n})")
+    circ = np.zeros(n, complex)                                           # replica centred on tau = 0
+    circ[: half + 1] = h[half:]
+    circ[n - half:] = h[:half]
+    H = sfft.fftshift(sfft.fft(circ))                                     # on the centred f_r grid
+    return np.where(band, 1.0 / np.where(band, H, 1), 0) * np.count_nonzero(h)
+
+
+def _residual_doppler(S, t_c, f_r, k, beta, prf):
+    """Apply the missing part of eq. (7) after the coarse step (exact when nothing folded).
+
+    (s e^{j2 pi beta t}) * h (t') = e^{j2 pi beta t'} e^{-j pi beta^2/k} (s * h)(t' - beta/k). The pulses only
+    know beta modulo the PRF, so beta is wrapped to [-PRF/2, PRF/2); the modulation is applied first
+    (it centres the spectrum on the F_a'' grid), then the circular shift by beta/k (FFT phase ramp).
+    S: (n_t', n_fr) in the (t', f_r) domain, modified in place and returned.
+    """
+    M = S.shape[0]
+    beta = np.mod(beta + prf / 2, prf) - prf / 2
+    f_a = centred(M, 1.0 / (M * (t_c[1] - t_c[0])))
+    S *= np.exp(2j * np.pi * np.mod(t_c[:, None] * beta[None, :], 1.0))
+    X = cfft(S, 0)
+    X *= np.exp(-2j * np.pi * np.mod(f_a[:, None] * beta[None, :] / k, 1.0))
+    S = cifft(X, 0)
+    S *= np.exp(1j * np.pi * np.mod(beta**2 / k, 2.0))[None, :]
+    return S
+
+
+def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), progress=None) -> Product:
+    """``coarse`` product -> focused ``image`` product in the squint frame (see module doc)."""
+    from sarproc.product.io import history_entry
+
+    if coarse.kind != "coarse":
+        raise InputError(f"fine-focus needs a 'coarse' product, got {coarse.kind!r}")
+    radar = coarse.radar
+    at = coarse.attrs
+    for key in ("deramp_rate", "azimuth_sampling_rate", "aperture_start", "aperture_end", "n_pulses", "scene_box"):
+        if key not in at:
+            raise InputError(f"fine-focus: coarse product lacks attribute {key!r} (not made by coarse-focus?)")
+    k = float(at["deramp_rate"])
+    method = at.get("doppler_correction", "none")
+    v, th = radar.velocity, radar.squint
+    s_th, c_th = math.sin(th), math.cos(th)
+    lam = radar.wavelength
+    fs = radar.range_sampling_rate
+    cdt = complex_dtype(params.precision)
+    t_c = np.asarray(coarse.coords["azimuth_time"], float)
+    tau = np.asarray(coarse.coords["range_time"], float)
+    M, n_r = len(t_c), len(tau)
+    dtc = t_c[1] - t_c[0]
+    Fa = 1.0 / dtc
+    if abs(t_c[M // 2]) > 1e-9 * max(1.0, abs(dtc)) * 1e6:
+        raise InputError("fine-focus: the coarse azimuth grid is not centred on t' = 0")
+    box = [float(b) for b in at["scene_box"]]
+    r_ref = params.reference_range or 0.5 * (box[2] + box[3])
+    t_first, t_last = float(at["aperture_start"]), float(at["aperture_end"])
+    n_pulses = int(at["n_pulses"])
+    T_ap = n_pulses / radar.prf
+    model = SpectrumModel(radar.carrier_frequency, v, th, params.stolt_model)
+    g2, g3 = model.taylor()
+
+    # ---- flow choice (eq. 17)
+    r_c = 0.5 * (box[2] + box[3])
+    K_c = -2 * v**2 * c_th**2 / (lam * r_c)
+    rho_a = v / (abs(K_c) * T_ap)
+    half_adof = depth_of_focus_half_width(radar, rho_a)
+    scene_half = max(abs(box[0]), abs(box[1]))
+    flow = params.flow or (1 if scene_half <= half_adof else 2)
+
+    # ---- 1. range FFT (padded against circular wrap of the chirp), residual Doppler correction
+    n_chirp = int(math.ceil(radar.pulse_duration * fs))
+    N = sfft.next_fast_len(n_r + n_chirp)
+    if M * N > params.max_samples:
+        raise InputError(f"fine-focus: working array {M} x {N} exceeds fine_focus.max_samples {params.max_samples}")
+    f_r = centred(N, fs / N)
+    S = sfft.fftshift(sfft.fft(coarse.data.astype(cdt), n=N, axis=1, workers=-1), axes=1)
+    if method != "nonlinear":
+        beta = correction_frequency(radar, f_r, "nonlinear") - correction_frequency(radar, f_r, method)
+        S = _residual_doppler(S, t_c, f_r, k, beta, radar.prf)
+    S = cfft(S, 0)
+    f_a = centred(M, Fa / M)
+
+    # ---- 2. range compression, bulk RFM, Stolt, range IFFT -> range-Doppler (f_a, r)
+    tau_ref = 2 * r_ref / C
+    r = r_ref + centred(N, C / (2 * fs))
+    depth = max(box[3] - box[2], 1.0) + abs(s_th) * (box[1] - box[0])
+    over = params.stolt_oversampling or float(np.clip((N / fs) / (2 * (depth + 4 * C / (2 * radar.bandwidth)) / C),
+                                                      1.2, 4.0))
+    half_win = (N / 2) * C / (2 * fs)
+    if max(abs(box[2] + min(0, box[0] * s_th, box[1] * s_th) - r_ref),
+           abs(box[3] + max(0, box[0] * s_th, box[1] * s_th) - r_ref)) > half_win:
+        raise InputError(f"fine-focus: the scene (r_0 in [{box[2]:.0f}, {box[3]:.0f}] m) does not fit the "
+                         f"{2 * half_win:.0f} m range window centred on r_ref = {r_ref:.0f} m")
+    hr = _range_filter(radar, f_r, params.range_filter) * np.exp(-2j * np.pi * f_r * tau[0])
+    masked = 0
+    blocks = range(0, M, params.block_rows)
+    for s in (progress(blocks) if progress is not None else blocks):
+        e = min(s + params.block_rows, M)
+        fa = f_a[s:e, None]
+        blk = S[s:e] * hr[None, :].astype(cdt)
+        g_full, ok = model.G(radar.carrier_frequency + f_r[None, :], fa)
+        blk *= np.where(ok, phasor(r_ref * g_full), 0).astype(cdt)
+        blk, m_ = stolt_resample(blk, f_r, f_a[s:e], model, params.stolt_kernel, params.stolt_length,
+                                 oversampling=over, band=radar.bandwidth)
+        masked += m_
+        gc, okc = model.Gc(f_a[s:e])
+        blk *= np.where(okc, np.exp(-1j * np.mod(r_ref * gc, 2 * np.pi)), 0)[:, None].astype(cdt)
+        S[s:e] = cifft(blk, 1)
+    RD = S  # (f_a, r): envelope at r_LRWC, azimuth phase -r_0 G_c(f_a) - 2 pi f_a t_n, reference still in
+    del S
+
+    # ---- 3. azimuth compression
+    gc, okc = model.Gc(f_a)
+    ref = np.exp(1j * np.pi * f_a**2 / k)                                  # removes eq. (12)'s reference
+    x_lo, x_hi = box[0] - params.crop_margin, box[1] + params.crop_margin
+    info = {"flow": flow, "depth_of_focus_half_width": half_adof, "scene_half_width": scene_half,
+            "stolt_oversampling": over, "stolt_masked_fraction": masked / float(M * N)}
+    if flow == 1:
+        for s in range(0, N, params.block_range):
+            e = min(s + params.block_range, N)
+            h = np.where(okc[:, None], phasor(r[None, s:e] * gc[:, None]), 0) * ref[:, None]
+            RD[:, s:e] = cifft(RD[:, s:e] * h.astype(cdt), 0)
+        x = v * t_c
+        keep = (x >= x_lo) & (x <= x_hi)
+        if params.flow1_geometry == "resample":
+            # flow 1 puts a target at x_n + x_n^2 sin(theta) / r: the residual quadratic phase
+            # x_n sin(theta) g2 f_a^2 is linear around the target's Doppler centre -K t_n (spotlight)
+            idx = np.flatnonzero(keep)
+            xs = x[idx]
+            for s in range(0, N, params.block_range):
+                e = min(s + params.block_range, N)
+                src = xs[:, None] + xs[:, None] ** 2 * s_th / r[None, s:e]
+                pos = (src - x[0]) / (x[1] - x[0])
+                RD[idx, s:e] = resample_rows(RD[:, s:e].T, pos.T, "knab", 16,
+                                             oversampling=max(1.1, Fa / max(float(at.get("total_doppler_bandwidth", Fa / 1.2)), 1.0))).T
+        img, x = RD[keep], x[keep]
+        alpha = None
+    else:
+        img, x, extra = _flow2(RD, t_c, f_a, r, k, model, radar, params, box, (t_first, t_last), cdt, (x_lo, x_hi))
+        info.update(extra)
+        alpha = extra["alpha"]
+    del RD
+    if not np.all(np.isfinite(img)):
+        raise ProcessingError("fine-focus: the image has NaN/Inf values (numerical breakdown)")
+
+    # ---- 4. geometric correction in range (squint frame) and crop
+    if params.output_frame == "squint":
+        spec = cfft(img, 1)
+        spec *= phasor(2 * np.pi * f_r[None, :] * (2 * x[:, None] * s_th / C)
+                       + np.mod(4 * np.pi * radar.carrier_frequency * x * s_th / C, 2 * np.pi)[:, None])
+        img = cifft(spec, 1)
+        frame = SquintFrame(th, radar.altitude)
+        rlo, rhi = box[2] - params.crop_margin, box[3] + params.crop_margin
+    else:
+        frame = _lrwc_frame(th, radar.altitude)
+        rlo = box[2] + min(box[0] * s_th, box[1] * s_th) - params.crop_margin
+        rhi = box[3] + max(box[0] * s_th, box[1] * s_th) + params.crop_margin
+    keep_r = (r >= rlo) & (r <= rhi)
+    img = np.ascontiguousarray(img[:, keep_r]).astype(np.complex64)
+    coords = {"azimuth": x, "range": r[keep_r]}
+    irw = [0.886 * v / (abs(K_c) * T_ap), 0.886 * C / (2 * radar.bandwidth)]
+    attrs = {"frame": frame.spec, "theoretical_irw": irw, "flow": int(flow),
+             "doppler_correction": method, "alpha": alpha if alpha is not None else 0.0,
+             "stolt_masked_fraction": info["stolt_masked_fraction"],
+             "depth_of_focus_half_width": half_adof}
+    out = coarse.derive("image", img, ("azimuth", "range"), coords, attrs=attrs,
+                        targets=targets_in_frame(coarse.targets, frame))
+    entry = as_dict(params)
+    entry.update({k_: (float(v_) if isinstance(v_, (float, np.floating)) else v_) for k_, v_ in info.items()})
+    entry["resolved_flow"] = int(flow)
+    entry["resolved_reference_range"] = r_ref
+    out.history.append(history_entry("fine_focus", entry))
+    return out
+
+
+def _lrwc_frame(squint, altitude):
+    return SquintLrwcFrame(squint, altitude)
+
+
+def _flow2(RD, t_c, f_a, r, k, model, radar, params, box, aperture, cdt, xlim):
+    """Modified NLCS azimuth compression; returns (image (n_x, N), x (n_x,), info)."""
+    v, th = radar.velocity, radar.squint
+    s_th, c_th = math.sin(th), math.cos(th)
+    lam = radar.wavelength
+    M, N = RD.shape
+    dtc = t_c[1] - t_c[0]
+    Fa = 1.0 / dtc
+    g2, g3 = model.taylor()
+    K = -2 * v**2 * c_th**2 / (lam * r)
+    eps = v * s_th / r
+    p = v * s_th * g3 / np.pi
+    variant = params.nlcs_variant
+    try:
+        co = nlcs_coefficients(K, eps, 0.0 if variant != "modified" else p, params.alpha, variant)
+    except ValueError as exc:
+        raise InputError(f"fine_focus.alpha: {exc}") from None
+    alpha = co["alpha"]
+    pos = position_terms(K, eps, p, co)
+    t_first, t_last = aperture
+    tn = np.linspace(box[0], box[1], 33) / v
+    # frequency span after scaling, over aperture times, scene positions and range bins (two extremes)
+    t = np.linspace(t_first, t_last, 65)
+    spans = []
+    disp = 0.0
+    for j in (0, N // 2, N - 1):
+        Kj = K[j]
+        Ka = Kj / (1 - eps[j] * tn[None, :])
+        fr = Ka * (t[:, None] - tn[None, :])
+        Fv = fr + co["q2"][j] * t[:, None] + 1.5 * co["q3"][j] * t[:, None] ** 2 + 2 * co["q4"][j] * t[:, None] ** 3
+        spans.append(np.abs(Fv).max())
+        spans.append(np.abs(fr).max())
+        cj = {kk: (vv[j] if np.ndim(vv) else vv) for kk, vv in co.items() if kk != "alpha"}
+        disp = max(disp, group_delay_span(-Fa / 2, Fa / 2, cj))
+    F_need = 2 * max(spans) * params.window_margin
+    t_img = pos["a1"].max() * np.abs(tn).max() + np.abs(pos["c2"]).max() * tn.max() ** 2 + np.abs(pos["c3"]).max() * np.abs(tn).max() ** 3
+    T_need = 2 * max(abs(t_first), abs(t_last), t_img) + 2 * disp
+    T_need = max(T_need * params.window_margin, M * dtc)
+    L1 = sfft.next_fast_len(int(math.ceil(T_need / dtc)))
+    N2 = sfft.next_fast_len(max(L1, int(math.ceil(L1 * F_need / Fa))))
+    if N2 * min(N, params.block_range) > params.max_samples or N2 > 4_000_000:
+        raise InputError(f"fine-focus: flow 2 needs {N2} azimuth samples (alpha = {alpha}, dispersion {disp:.3g} s); "
+                         "alpha too close to 1/2 or the scene too wide; change fine_focus.alpha or max_samples")
+    df = Fa / L1
+    F2 = N2 * df
+    # FFT order throughout (index 0 = zero time / frequency): no shifts inside the block loop
+    f1 = sfft.fftfreq(L1, 1.0 / (L1 * df))
+    f2 = sfft.fftfreq(N2, 1.0 / F2)
+    t2 = sfft.fftfreq(N2, df)
+    x_img = 2 * alpha * v * t2
+    keep = np.flatnonzero((x_img >= xlim[0]) & (x_img <= xlim[1]))
+    keep = keep[np.argsort(x_img[keep])]
+    out = np.empty((len(keep), N), np.complex64)
+    pdt = np.complex64
+    ref = np.exp(1j * np.mod(np.pi * f1**2 / k, 2 * np.pi)).astype(pdt)
+    gc_full, okc = model.Gc(f2)
+    hopc = np.where(okc, gc_full - g2 * f2**2, 0.0)
+    f3, f4 = f2**3, f2**4
+    tt2, tt3, tt4 = t2**2, t2**3, t2**4
+    hm, hl = (M + 1) // 2, M // 2              # positive / negative halves of an FFT-ordered axis
+    gm, gl = (L1 + 1) // 2, L1 // 2
+    twopi = 2 * np.pi
+
+    for s in range(0, N, params.block_range):
+        e = min(s + params.block_range, N)
+        nb = e - s
+        comp = sfft.ifft(sfft.ifftshift(RD[:, s:e], axes=0), axis=0, workers=-1)   # compact t' (reference in)
+        pad = np.zeros((L1, nb), cdt)
+        pad[:hm] = comp[:hm]
+        if hl:
+            pad[L1 - hl:] = comp[M - hl:]
+        X1 = sfft.fft(pad, axis=0, workers=-1)
+        X1 *= ref[:, None]
+        X = np.zeros((N2, nb), cdt)
+        X[:gm] = X1[:gm]
+        if gl:
+            X[N2 - gl:] = X1[L1 - gl:]
+        rr = r[s:e][None, :]
+        Y3, Y4 = co["Y3"][s:e][None, :], co["Y4"][s:e][None, :]
+        ph = np.pi * (Y3 * f3[:, None] + Y4 * f4[:, None])                        # eq. (24)
+        if variant == "modified":
+            ph += rr * hopc[:, None]                                               # eq. (22), exact
+        X *= phasor(ph)
+        xt = sfft.ifft(X, axis=0, workers=-1, overwrite_x=True)
+        q2, q3, q4 = co["q2"][s:e][None, :], co["q3"][s:e][None, :], co["q4"][s:e][None, :]
+        xt *= phasor(np.pi * (q2 * tt2[:, None] + q3 * tt3[:, None] + q4 * tt4[:, None]))  # eq. (27)
+        X = sfft.fft(xt, axis=0, workers=-1, overwrite_x=True)
+        theta0 = _theta0_block(f2, K, co, s, e)                                    # eq. (33), exact
+        X *= phasor(-theta0)
+        img = sfft.ifft(X, axis=0, workers=-1, overwrite_x=True)
+        out[:, s:e] = img[keep]
+    info = {"alpha": float(alpha), "nlcs_azimuth_samples": int(N2), "nlcs_time_window": float(N2 / F2),
+            "nlcs_sampling_rate": float(F2), "nlcs_dispersion": float(disp),
+            "nlcs_c3_max": float(np.abs(pos["c3"]).max()), "nlcs_c2_max": float(np.abs(pos["c2"]).max()),
+            "nlcs_position_error_max_m": float(2 * alpha * v * (np.abs(pos["c2"]).max() * tn.max() ** 2
+                                                              + np.abs(pos["c3"]).max() * np.abs(tn).max() ** 3))}
+    return out, x_img[keep], info
+
+
+def _theta0_block(f, K, co, s, e):
+    """Exact eq. (33) phase for range bins s..e-1: evaluated at three nodes, quadratic in the bin index.
+
+    The coefficients vary like 1/r, so over a block (a few km at hundreds of km) the cubic term of
+    the interpolation is below 1e-3 rad; the nodes themselves are exact (Newton, :func:`compression_phase`).
+    """
+    nodes = sorted({s, (s + e - 1) // 2, e - 1})
+    vals = []
+    for j in nodes:
+        cj = {kk: float(vv[j]) for kk, vv in co.items() if kk != "alpha"}
+        vals.append(compression_phase(f, float(K[j]), cj))
+    idx = np.arange(s, e, dtype=float)
+    if len(nodes) == 1:
+        return np.repeat(vals[0][:, None], e - s, axis=1)
+    out = np.zeros((len(f), e - s))
+    for a, (ja, va) in enumerate(zip(nodes, vals)):
+        w = np.ones_like(idx)
+        for b, jb in enumerate(nodes):
+            if b != a:
+                w *= (idx - jb) / (ja - jb)
+        out += va[:, None] * w[None, :]
+    return out

@@ -1,0 +1,203 @@
+"""Typed parameter models built from YAML mappings, with units, bounds and unknown-key checks.
+
+A parameter model is a frozen dataclass whose fields are declared with :func:`param`.
+:func:`build` turns a mapping (from YAML) into such a dataclass, converting quantities to SI,
+checking bounds and choices, recursing into nested models and lists of models, and naming the
+file and the dotted key path in every error. :func:`as_dict` gives the resolved values back
+(SI floats) for the product history.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import typing
+from pathlib import Path
+
+import yaml
+
+from sarproc.product.errors import InputError
+from sarproc.product.units import parse_quantity
+
+MISSING = dataclasses.MISSING
+
+
+def param(
+    unit: str | None = None,
+    default=MISSING,
+    *,
+    gt: float | None = None,
+    ge: float | None = None,
+    lt: float | None = None,
+    le: float | None = None,
+    choices: tuple | None = None,
+    doc: str = "",
+):
+    """Declare a parameter: ``unit`` is a quantity kind of :mod:`sarproc.product.units` (or None)."""
+    meta = {"unit": unit, "gt": gt, "ge": ge, "lt": lt, "le": le, "choices": choices, "doc": doc}
+    if isinstance(default, (list, dict)):
+        return dataclasses.field(default_factory=lambda d=default: type(d)(d), metadata=meta)
+    return dataclasses.field(default=default, metadata=meta)
+
+
+def load_yaml(path) -> dict:
+    """Read a YAML mapping; errors name the file."""
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path}: file not found")
+    try:
+        with open(path, encoding="utf-8") as fh:
+            data = yaml.safe_load(fh)
+    except yaml.YAMLError as exc:
+        raise InputError(f"{path}: not valid YAML: {exc}") from None
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise InputError(f"{path}: expected a mapping at the top level, got {type(data).__name__}")
+    return data
+
+
+def _is_model(tp) -> bool:
+    return isinstance(tp, type) and dataclasses.is_dataclass(tp)
+
+
+def _convert(value, tp, meta, where):
+    origin = typing.get_origin(tp)
+    args = typing.get_args(tp)
+    if origin is typing.Union or (origin is not None and str(origin) == "<class 'types.UnionType'>"):
+        non_none = [a for a in args if a is not type(None)]
+        if value is None and len(non_none) < len(args):
+            return None
+        tp = non_none[0]
+        origin, args = typing.get_origin(tp), typing.get_args(tp)
+    if _is_model(tp):
+        if not isinstance(value, dict):
+            raise InputError(f"{where}: expected a mapping, got {type(value).__name__}")
+        return _build(tp, value, where)
+    if origin in (list, tuple):
+        item_tp = args[0] if args else typing.Any
+        if not isinstance(value, (list, tuple)):
+            raise InputError(f"{where}: expected a list, got {type(value).__name__}")
+        items = [_convert(v, item_tp, meta, f"{where}[{i}]") for i, v in enumerate(value)]
+        return tuple(items)
+    if origin is dict or tp is dict:
+        if not isinstance(value, dict):
+            raise InputError(f"{where}: expected a mapping, got {type(value).__name__}")
+        return dict(value)
+    if tp is float:
+        unit = meta.get("unit") or "dimensionless"
+        out = parse_quantity(value, unit, where)
+        _check_bounds(out, meta, where, value)
+        return out
+    if tp is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            if isinstance(value, float) and value.is_integer():
+                value = int(value)
+            else:
+                raise InputError(f"{where}: expected an integer, got {value!r}")
+        _check_bounds(value, meta, where, value)
+        return int(value)
+    if tp is bool:
+        if not isinstance(value, bool):
+            raise InputError(f"{where}: expected true or false, got {value!r}")
+        return value
+    if tp is str:
+        if not isinstance(value, str):
+            raise InputError(f"{where}: expected a string, got {value!r}")
+        choices = meta.get("choices")
+        if choices and value not in choices:
+            raise InputError(f"{where}: {value!r} is not one of {list(choices)}")
+        return value
+    return value
+
+
+SI_SYMBOL = {"frequency": "Hz", "length": "m", "time": "s", "angle": "rad", "velocity": "m/s",
+             "chirp_rate": "Hz/s", "decibel": "dB"}
+
+
+def _check_bounds(x, meta, where, raw):
+    if isinstance(x, float) and math.isnan(x):
+        raise InputError(f"{where}: NaN is not allowed")
+    tests = (("gt", lambda a, b: a > b, ">"), ("ge", lambda a, b: a >= b, ">="),
+             ("lt", lambda a, b: a < b, "<"), ("le", lambda a, b: a <= b, "<="))
+    for key, ok, sym in tests:
+        bound = meta.get(key)
+        if bound is not None and not ok(x, bound):
+            si = SI_SYMBOL.get(meta.get("unit"), "")
+            raise InputError(f"{where}: {raw!r} is out of range: must be {sym} {bound:g}{' ' + si if si else ''}")
+    choices = meta.get("choices")
+    if choices and x not in choices:
+        raise InputError(f"{where}: {raw!r} is not one of {list(choices)}")
+
+
+def _build(cls, mapping: dict, where: str):
+    hints = typing.get_type_hints(cls)
+    fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
+    unknown = sorted(set(mapping) - set(fields))
+    if unknown:
+        raise InputError(
+            f"{where + ': ' if where else ''}unknown key(s) {', '.join(map(repr, unknown))}; "
+            f"allowed: {', '.join(sorted(fields))}"
+        )
+    kwargs = {}
+    for name, f in fields.items():
+        key = f"{where}.{name}" if where else name
+        if name in mapping:
+            kwargs[name] = _convert(mapping[name], hints[name], f.metadata, key)
+        elif f.default is MISSING and f.default_factory is MISSING:
+            raise InputError(f"{key}: required key is missing" + (f" ({f.metadata['doc']})" if f.metadata.get("doc") else ""))
+    try:
+        obj = cls(**kwargs)
+        check = getattr(obj, "validate", None)
+        if check is not None:
+            check()
+    except InputError as exc:
+        msg = str(exc)
+        raise InputError(f"{where}: {msg}" if where and not msg.startswith(where) else msg) from None
+    return obj
+
+
+def build(cls, mapping: dict | None, source: str = "", section: str = ""):
+    """Build parameter model ``cls`` from ``mapping``; errors read ``source: section.key: why``.
+
+    A model may define ``validate(self)`` raising :class:`InputError` for cross-field checks.
+    """
+    mapping = {} if mapping is None else mapping
+    try:
+        return _build(cls, mapping, section)
+    except InputError as exc:
+        prefix = f"{source}: " if source else ""
+        raise InputError(prefix + str(exc)) from None
+
+
+def as_dict(obj) -> dict:
+    """Resolved parameters as plain Python values (SI floats), for history and YAML dumps."""
+    def conv(v):
+        if dataclasses.is_dataclass(v):
+            return {f.name: conv(getattr(v, f.name)) for f in dataclasses.fields(v)}
+        if isinstance(v, (list, tuple)):
+            return [conv(x) for x in v]
+        if isinstance(v, dict):
+            return {k: conv(x) for k, x in v.items()}
+        if hasattr(v, "item") and callable(v.item):
+            return v.item()
+        return v
+    return conv(obj)
+
+
+def describe(cls, indent: int = 0) -> str:
+    """Printable documentation of a model's keys, units and defaults."""
+    lines = []
+    hints = typing.get_type_hints(cls)
+    for f in dataclasses.fields(cls):
+        meta = f.metadata
+        default = "required" if f.default is MISSING and f.default_factory is MISSING else (
+            f"default {f.default!r}" if f.default is not MISSING else "default from factory")
+        unit = f" [{meta.get('unit')}]" if meta.get("unit") else ""
+        choices = f" one of {list(meta['choices'])}" if meta.get("choices") else ""
+        lines.append(f"{' ' * indent}{f.name}{unit}: {meta.get('doc', '')}{choices} ({default})")
+        tp = hints[f.name]
+        inner = [a for a in typing.get_args(tp) if _is_model(a)] or ([tp] if _is_model(tp) else [])
+        for sub in inner:
+            lines.append(describe(sub, indent + 2))
+    return "\n".join(lines)

@@ -1,0 +1,236 @@
+"""Image frames: named coordinate systems mapping image axes to scene (x, y, z) positions.
+
+Every image stores its frame as a JSON spec (``{"name": ..., params}``) in the ``frame``
+attribute, so evaluate and backproject can map targets and pixels. New frames register
+themselves with :func:`register_frame` (paper 004 adds a 3D elevation frame this way).
+
+Frames (2D ones map onto z = 0 except ``los``, which is the slant plane):
+  squint: paper 000's frame. (azimuth, range) = (x_n, r_0): r_0 is the distance from the
+          track point (x_n, 0, H) along the ray squinted by ``squint`` to the target on z = 0,
+          so P = (x_n + r_0 sin(theta), sqrt((r_0 cos(theta))^2 - H^2), 0). squint = 0 gives
+          the zero-Doppler (closest approach) frame.
+  squint_lrwc: (x_n, r_0 + x_n sin(theta)), the squint frame before paper 000's final range shift.
+  ground: (azimuth, range) = (x, y) on z = 0.
+  los:    slant-plane Cartesian frame of a spotlight aperture: ``range`` is slant range from
+          the aperture centre measured along the line of sight to the scene centre, ``azimuth``
+          the distance from the scene centre along the velocity direction orthogonal to it.
+"""
+
+from __future__ import annotations
+
+import abc
+import json
+import math
+
+import numpy as np
+
+from sarproc.product.errors import InputError
+from sarproc.product.metadata import RadarMetadata, aperture_center_position
+
+_FRAMES: dict[str, type] = {}
+
+
+def register_frame(name: str):
+    def deco(cls):
+        cls.name = name
+        _FRAMES[name] = cls
+        return cls
+    return deco
+
+
+class Frame(abc.ABC):
+    """Base class. ``axes`` names the image axes in the order of ``to_xyz`` arguments."""
+
+    name = "base"
+    axes: tuple[str, ...] = ("azimuth", "range")
+
+    @abc.abstractmethod
+    def to_xyz(self, *coords) -> np.ndarray:
+        """Scene positions (..., 3) of points given by their frame coordinates."""
+
+    @abc.abstractmethod
+    def from_xyz(self, xyz) -> tuple[np.ndarray, ...]:
+        """Frame coordinates, one array per axis, of scene positions (..., 3)."""
+
+    def params(self) -> dict:
+        return {}
+
+    @property
+    def spec(self) -> dict:
+        return {"name": self.name, **self.params()}
+
+    def to_json(self) -> str:
+        return json.dumps(self.spec)
+
+
+@register_frame("squint")
+class SquintFrame(Frame):
+    axes = ("azimuth", "range")
+
+    def __init__(self, squint: float, altitude: float = 0.0):
+        self.squint = float(squint)
+        self.altitude = float(altitude)
+
+    def params(self):
+        return {"squint": self.squint, "altitude": self.altitude}
+
+    def to_xyz(self, azimuth, range_):
+        azimuth, range_ = np.broadcast_arrays(np.asarray(azimuth, float), np.asarray(range_, float))
+        s, c = math.sin(self.squint), math.cos(self.squint)
+        across2 = (range_ * c) ** 2 - self.altitude**2
+        if np.any(across2 < 0):
+            raise InputError("squint frame: a range is shorter than the altitude allows")
+        return np.stack([azimuth + range_ * s, np.sqrt(across2), np.zeros_like(azimuth)], axis=-1)
+
+    def from_xyz(self, xyz):
+        xyz = np.asarray(xyz, float)
+        rho = np.hypot(xyz[..., 1], self.altitude - xyz[..., 2])
+        r0 = rho / math.cos(self.squint)
+        return xyz[..., 0] - r0 * math.sin(self.squint), r0
+
+
+@register_frame("squint_lrwc")
+class SquintLrwcFrame(Frame):
+    """Paper 000's frame before the final range correction: (x_n, r_0 + x_n sin(theta)).
+
+    The range axis is the range after linear range-walk correction (about the range from the
+    aperture centre); the fast chain's point response is separable along these axes, so
+    quality metrics are read here while positions are read in the ``squint`` frame.
+    """
+
+    axes = ("azimuth", "range")
+
+    def __init__(self, squint: float, altitude: float = 0.0):
+        self.base = SquintFrame(squint, altitude)
+        self.squint, self.altitude = float(squint), float(altitude)
+
+    def params(self):
+        return {"squint": self.squint, "altitude": self.altitude}
+
+    def to_xyz(self, azimuth, range_):
+        az = np.asarray(azimuth, float)
+        return self.base.to_xyz(az, np.asarray(range_, float) - az * math.sin(self.squint))
+
+    def from_xyz(self, xyz):
+        xn, r0 = self.base.from_xyz(xyz)
+        return xn, r0 + xn * math.sin(self.squint)
+
+
+@register_frame("ground")
+class GroundFrame(Frame):
+    axes = ("azimuth", "range")
+
+    def to_xyz(self, azimuth, range_):
+        azimuth, range_ = np.broadcast_arrays(np.asarray(azimuth, float), np.asarray(range_, float))
+        return np.stack([azimuth, range_, np.zeros_like(azimuth)], axis=-1)
+
+    def from_xyz(self, xyz):
+        xyz = np.asarray(xyz, float)
+        return xyz[..., 0].copy(), xyz[..., 1].copy()
+
+
+@register_frame("los")
+class LosFrame(Frame):
+    axes = ("azimuth", "range")
+
+    def __init__(self, origin, aperture_center, velocity_dir=(1.0, 0.0, 0.0)):
+        self.origin = np.asarray(origin, float).reshape(3)
+        self.aperture_center = np.asarray(aperture_center, float).reshape(3)
+        los = self.origin - self.aperture_center
+        self.reference_range = float(np.linalg.norm(los))
+        self.u_range = los / self.reference_range
+        v = np.asarray(velocity_dir, float).reshape(3)
+        u_az = v - np.dot(v, self.u_range) * self.u_range
+        self.u_azimuth = u_az / np.linalg.norm(u_az)
+
+    def params(self):
+        return {"origin": self.origin.tolist(), "aperture_center": self.aperture_center.tolist()}
+
+    def to_xyz(self, azimuth, range_):
+        azimuth, range_ = np.broadcast_arrays(np.asarray(azimuth, float), np.asarray(range_, float))
+        return (self.origin + azimuth[..., None] * self.u_azimuth
+                + (range_ - self.reference_range)[..., None] * self.u_range)
+
+    def from_xyz(self, xyz):
+        d = np.asarray(xyz, float) - self.origin
+        return d @ self.u_azimuth, self.reference_range + d @ self.u_range
+
+
+@register_frame("elevation")
+class ElevationFrame(Frame):
+    """Paper 004's cylindrical frame about the platform track (Du 2010, eq. 3), 3D.
+
+    Axes (elevation, azimuth, range): elevation is the across-track angle from nadir in rad
+    (positive towards +y), azimuth is x, range the slant distance from the track (x, 0, H):
+    P = (x, r sin(elevation), H - r cos(elevation)).
+    """
+
+    axes = ("elevation", "azimuth", "range")
+
+    def __init__(self, altitude: float):
+        self.altitude = float(altitude)
+
+    def params(self):
+        return {"altitude": self.altitude}
+
+    def to_xyz(self, elevation, azimuth, range_):
+        el, az, r = np.broadcast_arrays(np.asarray(elevation, float), np.asarray(azimuth, float),
+                                        np.asarray(range_, float))
+        return np.stack([az, r * np.sin(el), self.altitude - r * np.cos(el)], axis=-1)
+
+    def from_xyz(self, xyz):
+        xyz = np.asarray(xyz, float)
+        down = self.altitude - xyz[..., 2]
+        return np.arctan2(xyz[..., 1], down), xyz[..., 0].copy(), np.hypot(xyz[..., 1], down)
+
+
+def frame_from_spec(spec) -> Frame:
+    """Rebuild a frame from its JSON spec (a dict or a JSON string)."""
+    if isinstance(spec, (bytes, str)):
+        spec = json.loads(spec)
+    spec = dict(spec)
+    name = spec.pop("name", None)
+    if name not in _FRAMES:
+        raise InputError(f"unknown image frame {name!r}; known: {sorted(_FRAMES)}")
+    return _FRAMES[name](**spec)
+
+
+def make_frame(name: str, radar: RadarMetadata, **params) -> Frame:
+    """A frame with parameters taken from the radar geometry unless given."""
+    if name == "squint":
+        return SquintFrame(params.get("squint", radar.squint), params.get("altitude", radar.altitude))
+    if name == "squint_lrwc":
+        return SquintLrwcFrame(params.get("squint", radar.squint), params.get("altitude", radar.altitude))
+    if name == "zero_doppler":
+        return SquintFrame(0.0, params.get("altitude", radar.altitude))
+    if name == "ground":
+        return GroundFrame()
+    if name == "los":
+        return LosFrame(params.get("origin", radar.scene_center),
+                        params.get("aperture_center", aperture_center_position(radar)))
+    if name == "elevation":
+        return ElevationFrame(params.get("altitude", radar.altitude))
+    if name in _FRAMES:
+        return _FRAMES[name](**params)
+    raise InputError(f"unknown image frame {name!r}; known: {sorted(_FRAMES) + ['zero_doppler']}")
+
+
+def frame_coordinates(frame: Frame, xyz) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(azimuth, range, elevation) of points ``xyz`` (n, 3) in ``frame``; zeros for axes it lacks."""
+    xyz = np.asarray(xyz, float).reshape(-1, 3)
+    values = dict(zip(frame.axes, frame.from_xyz(xyz))) if len(xyz) else {}
+    zero = np.zeros(len(xyz))
+    return tuple(np.asarray(values.get(ax, zero), float) for ax in ("azimuth", "range", "elevation"))
+
+
+def targets_in_frame(targets: np.ndarray, frame: Frame) -> np.ndarray:
+    """A copy of a targets table with (azimuth, range, elevation) recomputed in ``frame``."""
+    out = np.array(targets, copy=True)
+    xyz = np.stack([out["x"], out["y"], out["z"]], axis=-1)
+    for name, values in zip(("azimuth", "range", "elevation"), frame_coordinates(frame, xyz)):
+        out[name] = values
+    return out
+
+
+def frame_names() -> list[str]:
+    return sorted(_FRAMES) + ["zero_doppler"]

@@ -1,0 +1,92 @@
+"""In-memory product: what every stage takes and returns (no I/O here).
+
+A Product mirrors one HDF5 file of the contract: a kind (``raw``, ``image``, ...), one complex
+array with labelled dims and SI coordinates, the radar metadata, the targets table, auxiliary
+per-pulse datasets and the processing history.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from sarproc.product.metadata import RadarMetadata
+
+PRODUCT_KINDS = ("raw", "raw_multichannel", "raw_array", "preprocessed", "coarse", "image", "image3d")
+
+# Targets table carried through every stage. (x, y, z) is the true scene-frame position at
+# azimuth time 0; (azimuth, range, elevation) is the same point in the frame of the product's
+# axes (elevation is 0 for 2D frames); velocity is (vx, vy, vz), m/s.
+TARGET_DTYPE = np.dtype([
+    ("name", "S32"),
+    ("x", "f8"), ("y", "f8"), ("z", "f8"),
+    ("azimuth", "f8"), ("range", "f8"), ("elevation", "f8"),
+    ("amplitude", "c16"),
+    ("vx", "f8"), ("vy", "f8"), ("vz", "f8"),
+])
+
+UNITS = {"azimuth_time": "s", "range_time": "s", "channel": "1", "azimuth": "m", "range": "m",
+         "elevation": "rad"}
+
+DATA_NAME = {"raw": "signal", "raw_multichannel": "signal", "raw_array": "signal",
+             "preprocessed": "signal", "coarse": "signal", "image": "image", "image3d": "image"}
+
+
+@dataclasses.dataclass
+class Product:
+    """One product. ``data`` has shape ``tuple(len(coords[d]) for d in dims)``.
+
+    ``attrs`` are attributes of the data set (e.g. ``frame`` for images, ``theoretical_irw``);
+    ``aux`` holds extra named arrays (``platform_position`` (n_az, 3) m, ``rx_offset``
+    (n_channel, 3) m, ``range_gate_offset`` (n_az,) s, ...). ``history`` is a list of dicts.
+    """
+
+    kind: str
+    data: np.ndarray
+    dims: tuple[str, ...]
+    coords: dict[str, np.ndarray]
+    radar: RadarMetadata
+    targets: np.ndarray
+    attrs: dict = dataclasses.field(default_factory=dict)
+    aux: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
+    history: list[dict] = dataclasses.field(default_factory=list)
+
+    def __post_init__(self):
+        if self.kind not in PRODUCT_KINDS:
+            raise ValueError(f"unknown product kind {self.kind!r}")
+        shape = tuple(len(self.coords[d]) for d in self.dims)
+        if tuple(self.data.shape) != shape:
+            raise ValueError(f"data shape {self.data.shape} does not match coords {shape} for dims {self.dims}")
+
+    @property
+    def data_name(self) -> str:
+        return DATA_NAME[self.kind]
+
+    def derive(self, kind: str, data, dims, coords, **changes) -> "Product":
+        """New product from this one (targets, radar, aux and history carried forward)."""
+        base = dict(radar=self.radar, targets=self.targets.copy(), attrs={}, aux=dict(self.aux),
+                    history=list(self.history))
+        base.update(changes)
+        return Product(kind=kind, data=data, dims=tuple(dims), coords=dict(coords), **base)
+
+
+def make_targets(names, xyz, amplitude, velocity=None, frame_coords=None) -> np.ndarray:
+    """Build a TARGET_DTYPE table; ``frame_coords`` is (azimuth, range, elevation) arrays."""
+    xyz = np.atleast_2d(np.asarray(xyz, dtype=float))
+    n = xyz.shape[0]
+    t = np.zeros(n, dtype=TARGET_DTYPE)
+    t["name"] = [str(s).encode() for s in names]
+    t["x"], t["y"], t["z"] = xyz[:, 0], xyz[:, 1], xyz[:, 2]
+    t["amplitude"] = np.asarray(amplitude, dtype=complex)
+    if velocity is not None:
+        vel = np.atleast_2d(np.asarray(velocity, dtype=float))
+        t["vx"], t["vy"], t["vz"] = vel[:, 0], vel[:, 1], vel[:, 2]
+    if frame_coords is not None:
+        for name, val in zip(("azimuth", "range", "elevation"), frame_coords):
+            t[name] = val
+    return t
+
+
+def target_names(targets: np.ndarray) -> list[str]:
+    return [n.decode() if isinstance(n, bytes) else str(n) for n in targets["name"]]

@@ -1,0 +1,104 @@
+"""Figures for ``sarproc evaluate --plot``: a dB quicklook and per-target contour plots.
+
+matplotlib is imported inside the functions (it is slow to import) and only through its
+object-oriented API with the Agg canvas, so no display or global pyplot state is involved.
+Images are ``(azimuth, range)`` or ``(elevation, azimuth, range)``; the last axis is drawn
+horizontally.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+CONTOUR_LEVELS_DB = (-40, -30, -20, -13.26, -10, -6, -3)
+
+
+def safe_name(name: str) -> str:
+    """File-name-safe version of a target name (stable: same name, same file)."""
+    return re.sub(r"[^A-Za-z0-9_.-]", "_", name) or "_"
+
+
+def _figure(n_panels: int, width=5.0, height=4.2):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(width * n_panels, height), layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig, [fig.add_subplot(1, n_panels, i + 1) for i in range(n_panels)]
+
+
+def _pairs(ndim: int) -> list[tuple[int, int]]:
+    # (vertical axis, horizontal axis) index pairs: the image itself in 2D; the three
+    # projections (azimuth-range, elevation-range, elevation-azimuth) in 3D.
+    return [(0, 1)] if ndim == 2 else [(1, 2), (0, 2), (0, 1)]
+
+
+def _label(dim: str, units: dict) -> str:
+    u = units.get(dim, "")
+    return f"{dim} ({u})" if u else dim
+
+
+def plot_quicklook(path, data, dims, coords, truth=None, names=(), units=None, dynamic_range_db=50.0,
+                   title="") -> Path:
+    """dB image (3D: maximum projections) normalised to its peak, truth marked; writes ``path`` (PNG)."""
+    units = units or {}
+    mag = np.abs(np.asarray(data))
+    peak = mag.max() if mag.size and mag.max() > 0 else 1.0
+    pairs = _pairs(mag.ndim)
+    fig, axs = _figure(len(pairs))
+    for ax, (v, h) in zip(axs, pairs):
+        other = tuple(a for a in range(mag.ndim) if a not in (v, h))
+        proj = mag.max(axis=other) if other else mag
+        db = 20 * np.log10(np.maximum(proj / peak, 10 ** (-dynamic_range_db / 20)))
+        cv, ch = np.asarray(coords[dims[v]]), np.asarray(coords[dims[h]])
+        extent = (ch[0], ch[-1], cv[0], cv[-1])
+        im = ax.imshow(db, origin="lower", aspect="auto", extent=extent, cmap="gray",
+                       vmin=-dynamic_range_db, vmax=0, interpolation="nearest")
+        if truth is not None and len(truth):
+            t = np.asarray(truth, dtype=float)
+            ax.scatter(t[:, h], t[:, v], s=80, facecolors="none", edgecolors="tab:red", linewidths=1.0)
+            for n, row in zip(names, t):
+                ax.annotate(str(n), (row[h], row[v]), xytext=(5, 5), textcoords="offset points",
+                            color="tab:red", fontsize=8)
+        ax.set_xlabel(_label(dims[h], units))
+        ax.set_ylabel(_label(dims[v], units))
+        if other:
+            ax.set_title(f"max over {', '.join(dims[o] for o in other)}", fontsize=9)
+        fig.colorbar(im, ax=ax, label="dB")
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.savefig(path, dpi=110, format="png")
+    return Path(path)
+
+
+def plot_target(path, data, dims, coords, theoretical_irw, target, units=None, params=None,
+                half_width_nulls: float = 4.0, upsample: int = 8) -> Path:
+    """Contours (dB) of the upsampled response around one target's peak, one panel per axis pair.
+
+    ``target`` is a :class:`sarproc.quality.metrics.TargetReport`; offsets are drawn relative to the
+    refined peak in axis units, with the -3 dB contour emphasised. Writes ``path`` (PNG).
+    """
+    from sarproc.quality.metrics import target_patch
+
+    units = units or {}
+    pairs = _pairs(np.ndim(data))
+    fig, axs = _figure(len(pairs), width=4.6)
+    for ax, (v, h) in zip(axs, pairs):
+        off_v, off_h, vals = target_patch(data, dims, coords, theoretical_irw, target, pair=(v, h),
+                                          half_width_nulls=half_width_nulls, upsample=upsample, params=params)
+        db = 20 * np.log10(np.maximum(np.abs(vals), 1e-6))
+        cs = ax.contourf(off_h, off_v, db, levels=np.arange(-40, 0.1, 2.5), cmap="viridis", extend="min")
+        ax.contour(off_h, off_v, db, levels=list(CONTOUR_LEVELS_DB), colors="k", linewidths=0.5,
+                   linestyles="solid")
+        ax.contour(off_h, off_v, db, levels=[-3], colors="w", linewidths=1.2, linestyles="solid")
+        ax.set_xlabel(f"{_label(dims[h], units)} from peak")
+        ax.set_ylabel(f"{_label(dims[v], units)} from peak")
+        ax.set_title("\n".join(f"{d}: IRW {target.axis(d).irw:.3g} {units.get(d, '')}, "
+                               f"PSLR {target.axis(d).pslr_db:.2f} dB" for d in (dims[h], dims[v])), fontsize=8)
+        fig.colorbar(cs, ax=ax, label="dB")
+    fig.suptitle(f"target {target.name}", fontsize=10)
+    fig.savefig(path, dpi=110, format="png")
+    return Path(path)

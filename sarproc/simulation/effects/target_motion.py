@@ -1,0 +1,21 @@
+"""Moving targets: each target moves at its constant (vx, vy, vz) from its position at t = 0."""
+
+from __future__ import annotations
+
+import dataclasses
+
+from sarproc.simulation.effects.base import Effect, register_effect
+
+
+@dataclasses.dataclass(frozen=True)
+class TargetMotionParams:
+    pass
+
+
+@register_effect("target_motion")
+class TargetMotion(Effect):
+    order = 20
+    Params = TargetMotionParams
+
+    def target_positions(self, t, target_pos, velocity):
+        return target_pos + t[:, None, None] * velocity[None, :, :]

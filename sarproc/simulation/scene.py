@@ -1,0 +1,286 @@
+"""Scene model: the YAML file that declares radar, geometry, acquisition, targets and effects.
+
+Quantities accept units ("10 GHz", "300 km", "30 deg"); angles must carry one. Unknown keys are
+refused. Only the effects listed under ``effects:`` are simulated. A scene file may also hold
+the parameter sections of processing stages (``backproject:``, ``evaluate:`` ...), which the
+scene loader ignores and each stage reads for itself.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+from pathlib import Path
+
+import numpy as np
+
+from sarproc.product import beam
+from sarproc.product.config import as_dict, build, load_yaml, param
+from sarproc.product.errors import InputError
+from sarproc.product.frames import frame_coordinates, frame_names, make_frame
+from sarproc.product.metadata import C, RadarMetadata, scene_center_from_geometry
+from sarproc.product.model import make_targets
+
+log = logging.getLogger(__name__)
+
+STAGE_SECTIONS = ("backproject", "preprocess", "coarse_focus", "fine_focus", "pfa2", "reconstruct", "array3d",
+                  "evaluate")
+
+
+@dataclasses.dataclass(frozen=True)
+class RadarParams:
+    carrier_frequency: float = param("frequency", gt=0, doc="carrier frequency f_c")
+    bandwidth: float = param("frequency", gt=0, doc="chirp bandwidth B")
+    pulse_duration: float = param("time", gt=0, doc="chirp duration T_p")
+    range_sampling_rate: float = param("frequency", gt=0, doc="complex range sampling rate f_s (>= B)")
+    prf: float = param("frequency", gt=0, doc="pulse repetition frequency")
+    chirp: str = param(default="up", choices=("up", "down"), doc="chirp direction")
+
+    def validate(self):
+        if self.range_sampling_rate < self.bandwidth:
+            raise InputError(f"range_sampling_rate: {self.range_sampling_rate:g} Hz is below the bandwidth "
+                             f"{self.bandwidth:g} Hz; complex sampling needs f_s >= B")
+        if self.bandwidth >= self.carrier_frequency:
+            raise InputError("bandwidth: must be smaller than carrier_frequency")
+
+
+@dataclasses.dataclass(frozen=True)
+class PlatformParams:
+    velocity: float = param("velocity", gt=0, doc="platform speed along +x")
+    altitude: float = param("length", default=0.0, ge=0, doc="height over the target plane; 0 = slant-plane geometry")
+
+
+@dataclasses.dataclass(frozen=True)
+class GeometryParams:
+    reference_range: float = param("length", gt=0, doc="slant range from the aperture centre to the scene centre")
+    squint: float = param("angle", default=0.0, gt=-math.radians(89), lt=math.radians(89),
+                          doc="squint of the line of sight to the scene centre at the aperture centre (+ forward)")
+
+
+@dataclasses.dataclass(frozen=True)
+class RangeWindow:
+    start: float = param("length", gt=0, doc="slant range of the first sample (two-way path / 2)")
+    end: float = param("length", gt=0, doc="slant range of the last sample")
+
+    def validate(self):
+        if self.end <= self.start:
+            raise InputError("end: must be greater than start")
+
+
+@dataclasses.dataclass(frozen=True)
+class AcquisitionParams:
+    mode: str = param(default="spotlight", choices=("stripmap", "spotlight", "sliding_spotlight"),
+                      doc="beam steering; stripmap and sliding_spotlight need effects.antenna")
+    aperture_time: float | None = param("time", default=None, gt=0, doc="synthetic aperture duration")
+    azimuth_resolution: float | None = param("length", default=None, gt=0,
+                                             doc="sets aperture_time = 0.886 lambda R / (2 rho v cos^2 squint)")
+    n_pulses: int | None = param(default=None, ge=1, doc="number of pulses")
+    range_window: RangeWindow | None = param(default=None, doc="receive window; default covers every echo")
+    range_margin: float = param("length", default=0.0, ge=0, doc="extra slant range on both sides of the auto window")
+
+    def validate(self):
+        given = [k for k in ("aperture_time", "azimuth_resolution", "n_pulses") if getattr(self, k) is not None]
+        if len(given) != 1:
+            raise InputError("give exactly one of aperture_time, azimuth_resolution, n_pulses"
+                             + (f" (got {', '.join(given)})" if given else ""))
+
+
+@dataclasses.dataclass(frozen=True)
+class TargetPoint:
+    name: str = param(doc="target label")
+    azimuth: float = param("length", default=0.0, doc="azimuth coordinate in targets.frame")
+    range: float = param("length", default=0.0, doc="range coordinate in targets.frame")
+    elevation: float = param("angle", default=0.0, doc="elevation coordinate (3D frames only)")
+    amplitude: float = param(default=1.0, ge=0, doc="echo amplitude")
+    phase: float = param("angle", default=0.0, doc="echo phase")
+    velocity: tuple[float, ...] = param("velocity", default=(0.0, 0.0, 0.0), doc="(vx, vy, vz); needs effects.target_motion")
+
+    def validate(self):
+        if len(self.velocity) != 3:
+            raise InputError(f"velocity: expected three components (vx, vy, vz), got {len(self.velocity)}")
+
+
+@dataclasses.dataclass(frozen=True)
+class TargetGrid:
+    azimuth_count: int = param(ge=1)
+    range_count: int = param(ge=1)
+    azimuth_spacing: float = param("length", ge=0)
+    range_spacing: float = param("length", ge=0)
+    amplitude: float = param(default=1.0, ge=0)
+    prefix: str = param(default="G")
+
+
+@dataclasses.dataclass(frozen=True)
+class TargetsParams:
+    frame: str = param(default="squint", doc="frame of the target coordinates (squint, zero_doppler, ground, los, ...)")
+    origin: str = param(default="scene_center", choices=("scene_center", "absolute"),
+                        doc="coordinates are offsets from the scene centre, or absolute frame coordinates")
+    points: tuple[TargetPoint, ...] = param(default=(), doc="point targets")
+    grid: TargetGrid | None = param(default=None, doc="a regular grid of targets centred on the origin")
+
+    def validate(self):
+        if self.frame not in frame_names():
+            raise InputError(f"frame: {self.frame!r} is not one of {frame_names()}")
+        names = [p.name for p in self.points]
+        if len(set(names)) != len(names):
+            raise InputError("points: target names must be unique")
+
+
+@dataclasses.dataclass(frozen=True)
+class SimulationParams:
+    block_pulses: int = param(default=256, ge=1, doc="pulses simulated per block (bounds memory)")
+    seed: int = param(default=0, ge=0, doc="random seed for noise")
+
+
+@dataclasses.dataclass(frozen=True)
+class SceneParams:
+    radar: RadarParams = param()
+    platform: PlatformParams = param()
+    geometry: GeometryParams = param()
+    acquisition: AcquisitionParams = param()
+    targets: TargetsParams = param(default=TargetsParams())
+    effects: dict = param(default={}, doc="effect name -> its parameters; only these are simulated")
+    simulation: SimulationParams = param(default=SimulationParams())
+
+
+@dataclasses.dataclass
+class Scene:
+    """A loaded scene: typed parameters, effect plugins, derived metadata and targets."""
+
+    params: SceneParams
+    radar: RadarMetadata
+    effects: list  # instances of sarproc.simulation.effects.base.Effect, in application order
+    target_xyz: np.ndarray  # (n_targets, 3) m at azimuth time 0
+    target_velocity: np.ndarray  # (n_targets, 3) m/s
+    target_amplitude: np.ndarray  # (n_targets,) complex
+    target_names: list[str]
+    target_frame: object
+    source: str = "<mapping>"
+
+    @property
+    def n_pulses(self) -> int:
+        return int(round(self.radar.aperture_time * self.radar.prf)) or 1
+
+    def azimuth_time(self) -> np.ndarray:
+        """Pulse times, s, centred on the aperture centre."""
+        n = self.n_pulses
+        return (np.arange(n) - (n - 1) / 2.0) / self.radar.prf
+
+    def targets_table(self) -> np.ndarray:
+        return make_targets(self.target_names, self.target_xyz.reshape(-1, 3), self.target_amplitude,
+                            self.target_velocity.reshape(-1, 3),
+                            frame_coordinates(self.target_frame, self.target_xyz))
+
+    def resolved(self) -> dict:
+        return as_dict(self.params)
+
+
+def _aperture_time(p: SceneParams, wavelength: float) -> float:
+    a = p.acquisition
+    if a.aperture_time is not None:
+        return a.aperture_time
+    if a.n_pulses is not None:
+        return a.n_pulses / p.radar.prf
+    cos2 = math.cos(p.geometry.squint) ** 2
+    return 0.886 * wavelength * p.geometry.reference_range / (2 * a.azimuth_resolution * p.platform.velocity * cos2)
+
+
+def _targets(p: SceneParams, radar: RadarMetadata, source: str):
+    t = p.targets
+    frame = make_frame(t.frame, radar)
+    axes = frame.axes
+    points = list(t.points)
+    if t.grid is not None:
+        g = t.grid
+        for i in range(g.azimuth_count):
+            for j in range(g.range_count):
+                points.append(TargetPoint(name=f"{g.prefix}{i:02d}_{j:02d}",
+                                          azimuth=(i - (g.azimuth_count - 1) / 2) * g.azimuth_spacing,
+                                          range=(j - (g.range_count - 1) / 2) * g.range_spacing,
+                                          amplitude=g.amplitude))
+    names = [pt.name for pt in points]
+    if len(set(names)) != len(names):
+        raise InputError(f"{source}: targets: target names must be unique")
+    if not points:
+        return frame, np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, complex), []
+    coords = {ax: np.array([getattr(pt, ax) for pt in points], float) for ax in axes}
+    if t.origin == "scene_center":
+        centre = frame.from_xyz(np.asarray(radar.scene_center))
+        for ax, c in zip(axes, centre):
+            coords[ax] = coords[ax] + float(c)
+    try:
+        xyz = frame.to_xyz(*(coords[ax] for ax in axes))
+    except InputError as exc:
+        raise InputError(f"{source}: targets: {exc}") from None
+    vel = np.array([pt.velocity for pt in points], float)
+    amp = np.array([pt.amplitude * np.exp(1j * pt.phase) for pt in points])
+    return frame, xyz, vel, amp, names
+
+
+def scene_from_mapping(mapping: dict, source: str = "<mapping>") -> Scene:
+    """Validate a scene mapping (as read from YAML) and derive its metadata and targets."""
+    from sarproc.simulation.effects import build_effects
+
+    mapping = dict(mapping)
+    for section in STAGE_SECTIONS:
+        mapping.pop(section, None)
+    p = build(SceneParams, mapping, source=source)
+    r, g, pl = p.radar, p.geometry, p.platform
+    wavelength = C / r.carrier_frequency
+    try:
+        centre = scene_center_from_geometry(g.reference_range, g.squint, pl.altitude)
+    except InputError as exc:
+        raise InputError(f"{source}: {exc}") from None
+    radar = RadarMetadata(
+        carrier_frequency=r.carrier_frequency, bandwidth=r.bandwidth, pulse_duration=r.pulse_duration,
+        chirp_rate=(1 if r.chirp == "up" else -1) * r.bandwidth / r.pulse_duration,
+        range_sampling_rate=r.range_sampling_rate, prf=r.prf, velocity=pl.velocity, altitude=pl.altitude,
+        squint=g.squint, reference_range=g.reference_range, scene_center=centre, mode=p.acquisition.mode,
+        aperture_time=_aperture_time(p, wavelength),
+    )
+    frame, xyz, vel, amp, names = _targets(p, radar, source)
+    effects = build_effects(p.effects, p, radar, source)
+    keys = {e.key for e in effects}
+    if np.any(vel != 0) and "target_motion" not in keys:
+        raise InputError(f"{source}: targets: a target has a velocity but effects.target_motion is not declared")
+    if p.acquisition.mode in ("stripmap", "sliding_spotlight") and "antenna" not in keys:
+        raise InputError(f"{source}: acquisition.mode: {p.acquisition.mode} needs effects.antenna (a beam to steer)")
+    for e in effects:
+        radar = e.update_radar(radar)
+    scene = Scene(params=p, radar=radar, effects=effects, target_xyz=xyz, target_velocity=vel,
+                  target_amplitude=amp, target_names=names, target_frame=frame, source=source)
+    _sanity_warnings(scene)
+    return scene
+
+
+def _sanity_warnings(scene: Scene) -> None:
+    """Warn (not fail) on settings that are legal but usually unintended."""
+    r = scene.radar
+    lam = r.wavelength
+    if r.azimuth_beamwidth > 0:
+        beam_doppler = 2 * r.velocity * math.cos(r.squint) * r.azimuth_beamwidth / lam
+        if r.prf < beam_doppler:
+            log.warning("PRF %.4g Hz is below the beam's Doppler bandwidth %.4g Hz: azimuth aliasing", r.prf, beam_doppler)
+    if len(scene.target_xyz) and scene.n_pulses <= 200_000:
+        # Doppler of every target over the pulses whose -3 dB beam sees it (all without a beam).
+        t = scene.azimuth_time()
+        pos = np.stack([r.velocity * t, np.zeros_like(t), np.full_like(t, r.altitude)], axis=1)
+        tg = np.broadcast_to(scene.target_xyz, (len(t),) + scene.target_xyz.shape)
+        d = tg - pos[:, None, :]
+        fd = 2 * r.velocity * d[..., 0] / np.linalg.norm(d, axis=-1) / lam
+        if r.azimuth_beamwidth > 0:
+            az, _ = beam.off_boresight_angles(beam.boresight(r, pos), pos, tg)
+            fd = fd[np.abs(az) <= r.azimuth_beamwidth / 2]
+        span = float(fd.max() - fd.min()) if fd.size else 0.0
+        if span > r.prf:
+            log.warning("total Doppler span of the illuminated scene %.4g Hz exceeds the PRF %.4g Hz: "
+                        "the azimuth spectrum folds", span, r.prf)
+    if scene.n_pulses > 200_000:
+        raise InputError(f"{scene.source}: acquisition: {scene.n_pulses} pulses is more than this simulator handles")
+
+
+def load_scene(path) -> Scene:
+    """Load and validate a scene YAML file."""
+    path = Path(path)
+    return scene_from_mapping(load_yaml(path), source=str(path))

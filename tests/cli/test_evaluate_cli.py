@@ -1,0 +1,217 @@
+"""`sarproc evaluate` end to end on small analytic image products written with sarproc.product.io."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from sarproc.cli.main import cli
+from sarproc.product.io import write_product
+from sarproc.product.metadata import RadarMetadata
+from sarproc.product.model import Product, make_targets
+
+RES = (1.0, 0.8)                 # theoretical IRW (azimuth, range), m
+STEP = (0.6, 0.5)                # pixel spacing, m
+TARGETS = {"A": (-15.3, -12.2), "B": (16.4, 14.15)}   # > 30 cells apart
+
+
+def radar():
+    return RadarMetadata(carrier_frequency=10e9, bandwidth=150e6, pulse_duration=2e-6, chirp_rate=7.5e13,
+                         range_sampling_rate=180e6, prf=500.0, velocity=150.0, altitude=0.0, squint=0.0,
+                         reference_range=10e3, scene_center=(0.0, 10e3, 0.0))
+
+
+def sinc_image(coords, res, truth, doppler):
+    """Separable unweighted responses (band-limited, sampled directly) with a Doppler offset."""
+    out = 0
+    for t in truth:
+        factors = [np.sinc(0.886 / r * (c - x0)) * np.exp(2j * np.pi * f * (c - x0))
+                   for c, r, x0, f in zip(coords, res, t, doppler)]
+        grid = factors[0]
+        for f in factors[1:]:
+            grid = np.multiply.outer(grid, f)
+        out = out + grid
+    return out.astype(np.complex64)
+
+
+def make_image(path, *, irw=True, three_d=False, ghost_db=None):
+    names = list(TARGETS)
+    truth = [TARGETS[n] for n in names]
+    if three_d:
+        dims, res, steps = ("elevation", "azimuth", "range"), (0.02,) + RES, (0.012,) + STEP
+        truth = [(0.0011 * (i + 1),) + t for i, t in enumerate(truth)]
+        shape = (48, 128, 128)
+    else:
+        dims, res, steps, shape = ("azimuth", "range"), RES, STEP, (128, 128)
+    coords = {d: (np.arange(n) - n // 2) * s for d, n, s in zip(dims, shape, steps)}
+    doppler = tuple(0.3 / s for s in steps)          # band centres 0.3 cycles/sample
+    data = sinc_image([coords[d] for d in dims], res, truth, doppler)
+    if ghost_db is not None:
+        ghost = truth[0][:-2] + (-20.0, 20.0)     # outside both targets' +-20-cell boxes
+        data = data + 10 ** (ghost_db / 20) * sinc_image([coords[d] for d in dims], res, [ghost], doppler)
+    frame = [np.zeros(len(names))] * 3
+    for i, d in enumerate(dims):
+        frame[("azimuth", "range", "elevation").index(d)] = np.array([t[i] for t in truth])
+    targets = make_targets(names, np.zeros((len(names), 3)), np.ones(len(names)), frame_coords=frame)
+    attrs = {"frame": {"name": "ground"}}
+    if irw:
+        attrs["theoretical_irw"] = list(res)
+    prod = Product(kind="image3d" if three_d else "image", data=data, dims=dims, coords=coords, radar=radar(),
+                   targets=targets, attrs=attrs)
+    write_product(path, prod)
+    return path
+
+
+@pytest.fixture(scope="module")
+def image2d(tmp_path_factory):
+    return make_image(tmp_path_factory.mktemp("img") / "image.h5")
+
+
+def run(*args):
+    return CliRunner().invoke(cli, ["evaluate", *map(str, args)])
+
+
+def test_table_json_and_plots(image2d, tmp_path):
+    report, plots = tmp_path / "report.json", tmp_path / "plots"
+    res = run(image2d, "-o", report, "--plot", plots)
+    assert res.exit_code == 0, res.output
+    assert "| A | azimuth |" in res.output and "| B | range |" in res.output
+    assert "False target:" in res.output
+    doc = json.loads(report.read_text())
+    assert doc["dims"] == ["azimuth", "range"] and doc["units"] == {"azimuth": "m", "range": "m"}
+    for t in doc["targets"]:
+        for m in t["axes"]:
+            assert abs(m["irw_ratio"] - 1) < 0.005
+            assert abs(m["pslr_db"] + 13.26) < 0.1
+            assert abs(m["islr_db"] + 10.16) < 0.1
+            assert abs(m["position_error_cells"]) < 0.02
+    assert sorted(p.name for p in plots.iterdir()) == ["quicklook.png", "target_A.png", "target_B.png"]
+    for p in plots.iterdir():
+        assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # JSON output never replaces the input.
+    res = run(image2d, "-o", image2d)
+    assert res.exit_code == 2 and "input" in res.output
+
+
+def test_3d_image_with_config(tmp_path):
+    img = make_image(tmp_path / "cube.h5", three_d=True)
+    cfg = tmp_path / "cfg.yaml"
+    cfg.write_text("evaluate:\n  upsample: 32\n  guard_cells: 15\n")
+    report = tmp_path / "r.json"
+    res = run(img, "--config", cfg, "-o", report, "--plot", tmp_path / "p")
+    assert res.exit_code == 0, res.output
+    doc = json.loads(report.read_text())
+    assert doc["params"]["upsample"] == 32 and doc["params"]["guard_cells"] == 15
+    for t in doc["targets"]:
+        assert [m["axis"] for m in t["axes"]] == ["elevation", "azimuth", "range"]
+        for m in t["axes"]:
+            assert abs(m["irw_ratio"] - 1) < 0.005 and abs(m["position_error_cells"]) < 0.02
+    assert "| A | elevation |" in res.output and " rad |" in res.output
+    assert (tmp_path / "p" / "target_B.png").exists()
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("evaluate:\n  upsample: 4\n")
+    res = run(img, "--config", bad)
+    assert res.exit_code == 2 and "evaluate.upsample" in res.output
+
+
+EXPECT_OK = """\
+irw_ratio_max: 1.05        # IRW / theory
+pslr_db: [-13.76, -12.76]
+islr_db: [-10.66, -9.66]
+position_cells_max: 0.5
+false_target_db_max: -30
+axes: {range: {irw_ratio_max: 1.1}}
+targets: {B: {pslr_db: [-20, -12]}}
+"""
+
+
+def test_expect_pass_and_fail(image2d, tmp_path):
+    ok = tmp_path / "ok.yaml"
+    ok.write_text(EXPECT_OK)
+    res = run(image2d, "--expect", ok)
+    assert res.exit_code == 0, res.output
+    assert "all checks passed" in res.output
+
+    fail = tmp_path / "fail.yaml"
+    fail.write_text("irw_ratio_max: 0.99\ntargets: {B: {axes: {range: {islr_db: [-9, -8]}}}}\n")
+    report = tmp_path / "r.json"
+    res = run(image2d, "--expect", fail, "-o", report)
+    assert res.exit_code == 1, res.output
+    fails = [ln for ln in res.output.splitlines() if ln.startswith("FAIL")]
+    assert len(fails) == 5                      # 4 IRW checks + B's range ISLR
+    assert any("target B axis range: islr_db" in ln and "in [-9, -8]" in ln for ln in fails)
+    assert any("target A axis azimuth: irw_ratio" in ln and "<= 0.99" in ln for ln in fails)
+    doc = json.loads(report.read_text())
+    assert doc["expect"]["passed"] is False and len(doc["expect"]["failures"]) == 5
+
+
+def test_false_target_gate(tmp_path):
+    img = make_image(tmp_path / "ghost.h5", ghost_db=-24.0)
+    exp = tmp_path / "e.yaml"
+    exp.write_text("false_target_db_max: -30\n")
+    res = run(img, "--expect", exp)
+    assert res.exit_code == 1
+    line = next(ln for ln in res.output.splitlines() if ln.startswith("FAIL false target"))
+    level = float(line.split("=")[1].split(",")[0])
+    assert level == pytest.approx(-24.0, abs=0.1)
+
+
+@pytest.mark.parametrize("content, match", [
+    ("pslr: [-14, -13]\n", "unknown key(s) 'pslr'"),
+    ("targets: {Z: {pslr_db: [-14, -13]}}\n", "targets.Z: the image has no target 'Z'"),
+    ("axes: {range: {irw_ratio_max: 3 m}}\n", "axes.range.irw_ratio_max"),
+    ("pslr_db: [-12, -14]\n", "lo <= hi"),
+])
+def test_bad_expect_file(image2d, tmp_path, content, match):
+    exp = tmp_path / "e.yaml"
+    exp.write_text(content)
+    res = run(image2d, "--expect", exp)
+    assert res.exit_code == 2
+    assert str(exp) in res.output and match in res.output
+
+
+def test_bad_inputs_exit_2(tmp_path, image2d):
+    res = run(tmp_path / "missing.h5")
+    assert res.exit_code == 2 and "missing.h5: file not found" in res.output
+
+    no_irw = make_image(tmp_path / "no_irw.h5", irw=False)
+    res = run(no_irw)
+    assert res.exit_code == 2 and "no_irw.h5" in res.output and "theoretical_irw" in res.output
+
+    raw = tmp_path / "raw.h5"
+    coords = {"azimuth_time": np.arange(8) * 1e-3, "range_time": np.arange(16) * 1e-8}
+    write_product(raw, Product(kind="raw", data=np.zeros((8, 16), np.complex64), dims=("azimuth_time", "range_time"),
+                               coords=coords, radar=radar(), targets=make_targets(["A"], [[0, 1e4, 0]], [1.0])))
+    res = run(raw)
+    assert res.exit_code == 2 and "raw.h5" in res.output and "'raw'" in res.output
+
+    nan = tmp_path / "nan.h5"
+    shutil.copy(image2d, nan)
+    with h5py.File(nan, "r+") as f:
+        f["image"][3, 3] = np.nan
+    res = run(nan)
+    assert res.exit_code == 2 and "NaN" in res.output
+
+    outside = tmp_path / "outside.h5"
+    make_image(outside)
+    with h5py.File(outside, "r+") as f:
+        t = f["targets"][()]
+        t["range"][0] = 1e4
+        f["targets"][...] = t
+    res = run(outside)
+    assert res.exit_code == 2 and "outside.h5" in res.output and "target 'A'" in res.output
+
+
+def test_subprocess_and_help(image2d):
+    res = subprocess.run([sys.executable, "-m", "sarproc", "evaluate", str(image2d)], capture_output=True, text=True,
+                         timeout=120)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.startswith("| target | axis |")
+    assert CliRunner().invoke(cli, ["evaluate", "--help"]).exit_code == 0
