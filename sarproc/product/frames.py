@@ -14,6 +14,10 @@ Frames (2D ones map onto z = 0 except ``los``, which is the slant plane):
   los:    slant-plane Cartesian frame of a spotlight aperture: ``range`` is slant range from
           the aperture centre measured along the line of sight to the scene centre, ``azimuth``
           the distance from the scene centre along the velocity direction orthogonal to it.
+  ground_los: paper 002's ground frame (x', y') (Nie 2016, eq. 6): on z = 0, ``range`` along the
+          ground projection of the line of sight from the aperture centre to the origin (ground
+          range from the aperture centre's nadir), ``azimuth`` across it, (azimuth, range, up)
+          right-handed. The polar-format images live here.
 """
 
 from __future__ import annotations
@@ -156,6 +160,46 @@ class LosFrame(Frame):
         return d @ self.u_azimuth, self.reference_range + d @ self.u_range
 
 
+@register_frame("ground_los")
+class GroundLosFrame(Frame):
+    """Ground plane rotated onto the aperture centre's line of sight (Nie 2016, eq. 6).
+
+    e_r is the unit ground projection of origin - aperture_center, e_a = e_r x z (so that
+    e_a x e_r = z); azimuth = (P - origin) . e_a, range = R_g + (P - origin) . e_r with R_g the
+    ground distance from the aperture centre's nadir to the origin. Points map onto z = origin z.
+    """
+
+    axes = ("azimuth", "range")
+
+    def __init__(self, origin, aperture_center):
+        self.origin = np.asarray(origin, float).reshape(3)
+        self.aperture_center = np.asarray(aperture_center, float).reshape(3)
+        d = self.origin[:2] - self.aperture_center[:2]
+        self.ground_range = float(np.hypot(*d))
+        if not self.ground_range > 0:
+            raise InputError("ground_los frame: the aperture centre is above the origin (no ground line of sight)")
+        er = d / self.ground_range
+        self.u_range = np.array([er[0], er[1], 0.0])
+        self.u_azimuth = np.array([er[1], -er[0], 0.0])
+
+    @property
+    def rotation(self) -> float:
+        """Angle of e_r from +y towards +x, rad (the ground squint theta_0 of eq. 6)."""
+        return float(math.atan2(self.u_range[0], self.u_range[1]))
+
+    def params(self):
+        return {"origin": self.origin.tolist(), "aperture_center": self.aperture_center.tolist()}
+
+    def to_xyz(self, azimuth, range_):
+        azimuth, range_ = np.broadcast_arrays(np.asarray(azimuth, float), np.asarray(range_, float))
+        return (self.origin + azimuth[..., None] * self.u_azimuth
+                + (range_ - self.ground_range)[..., None] * self.u_range)
+
+    def from_xyz(self, xyz):
+        d = np.asarray(xyz, float) - self.origin
+        return d @ self.u_azimuth, self.ground_range + d @ self.u_range
+
+
 @register_frame("elevation")
 class ElevationFrame(Frame):
     """Paper 004's cylindrical frame about the platform track (Du 2010, eq. 3), 3D.
@@ -208,6 +252,9 @@ def make_frame(name: str, radar: RadarMetadata, **params) -> Frame:
     if name == "los":
         return LosFrame(params.get("origin", radar.scene_center),
                         params.get("aperture_center", aperture_center_position(radar)))
+    if name == "ground_los":
+        return GroundLosFrame(params.get("origin", radar.scene_center),
+                              params.get("aperture_center", aperture_center_position(radar)))
     if name == "elevation":
         return ElevationFrame(params.get("altitude", radar.altitude))
     if name in _FRAMES:
