@@ -40,21 +40,70 @@ def param(
     return dataclasses.field(default=default, metadata=meta)
 
 
+class _StrictLoader(yaml.SafeLoader):
+    """SafeLoader that refuses a key given twice in one mapping (plain YAML keeps the last)."""
+
+
+def _construct_mapping(loader, node, deep=False):
+    loader.flatten_mapping(node)
+    seen = {}
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=True)
+        try:
+            hash(key)
+        except TypeError:
+            raise InputError(f"line {key_node.start_mark.line + 1}: a mapping key must be a plain name") from None
+        if key in seen:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"key {key!r} is given twice (first on line {seen[key] + 1}); keep one",
+                key_node.start_mark)
+        seen[key] = key_node.start_mark.line
+    return loader.construct_mapping(node, deep=deep)
+
+
+_StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+
+
 def load_yaml(path) -> dict:
-    """Read a YAML mapping; errors name the file."""
+    """Read a YAML mapping (UTF-8, no key given twice); errors name the file and the line."""
     path = Path(path)
     if not path.exists():
         raise InputError(f"{path}: file not found")
+    if path.is_dir():
+        raise InputError(f"{path}: is a directory; expected a YAML file")
     try:
-        with open(path, encoding="utf-8") as fh:
-            data = yaml.safe_load(fh)
+        text = path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not a UTF-8 text file (byte {exc.start}); expected YAML") from None
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read: {exc.strerror}") from None
+    if "\x00" in text:
+        raise InputError(f"{path}: contains NUL bytes (a binary file?); expected YAML")
+    try:
+        data = yaml.load(text, Loader=_StrictLoader)  # noqa: S506 - a SafeLoader subclass
     except yaml.YAMLError as exc:
-        raise InputError(f"{path}: not valid YAML: {exc}") from None
+        raise InputError(f"{path}: not valid YAML: {' '.join(str(exc).split())}") from None
+    except InputError as exc:
+        raise InputError(f"{path}: {exc}") from None
     if data is None:
         data = {}
     if not isinstance(data, dict):
         raise InputError(f"{path}: expected a mapping at the top level, got {type(data).__name__}")
+    _check_keys(data, path, "")
     return data
+
+
+def _check_keys(data, path, where):
+    """Every mapping key must be a string (``1:`` or ``true:`` is a typo, not a parameter)."""
+    if isinstance(data, dict):
+        for k, v in data.items():
+            if not isinstance(k, str):
+                at = f"{where}: " if where else ""
+                raise InputError(f"{path}: {at}key {k!r} is not a name; keys are words like 'prf'")
+            _check_keys(v, path, f"{where}.{k}" if where else k)
+    elif isinstance(data, list):
+        for i, v in enumerate(data):
+            _check_keys(v, path, f"{where}[{i}]")
 
 
 def _is_model(tp) -> bool:
@@ -133,11 +182,11 @@ def _check_bounds(x, meta, where, raw):
 def _build(cls, mapping: dict, where: str):
     hints = typing.get_type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
-    unknown = sorted(set(mapping) - set(fields))
+    unknown = sorted((k for k in mapping if k not in fields), key=str)
     if unknown:
         raise InputError(
-            f"{where + ': ' if where else ''}unknown key(s) {', '.join(map(repr, unknown))}; "
-            f"allowed: {', '.join(sorted(fields))}"
+            f"{where + ': ' if where else ''}unknown key(s) {', '.join(map(repr, unknown))}"
+            f"{did_you_mean(unknown, fields)}; allowed: {', '.join(sorted(fields))}"
         )
     kwargs = {}
     for name, f in fields.items():
@@ -157,12 +206,27 @@ def _build(cls, mapping: dict, where: str):
     return obj
 
 
+def did_you_mean(unknown, known) -> str:
+    """' (did you mean 'x'?)' for the first unknown name close to a known one, else ''."""
+    import difflib
+
+    for name in unknown:
+        close = difflib.get_close_matches(str(name), list(known), n=1, cutoff=0.6)
+        if close:
+            return f" (did you mean {close[0]!r}?)"
+    return ""
+
+
 def build(cls, mapping: dict | None, source: str = "", section: str = ""):
     """Build parameter model ``cls`` from ``mapping``; errors read ``source: section.key: why``.
 
     A model may define ``validate(self)`` raising :class:`InputError` for cross-field checks.
     """
     mapping = {} if mapping is None else mapping
+    if not isinstance(mapping, dict):
+        prefix = f"{source}: " if source else ""
+        raise InputError(f"{prefix}{section or 'parameters'}: expected a mapping of keys, "
+                         f"got {type(mapping).__name__} {mapping!r}")
     try:
         return _build(cls, mapping, section)
     except InputError as exc:

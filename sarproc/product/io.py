@@ -1,30 +1,50 @@
 """HDF5 product I/O: the one place that reads and writes files (see ARCHITECTURE.md).
 
-Writes are atomic: everything goes to a temporary file in the target directory that is
-renamed over the output only when complete; on any error it is removed. An output that is
-the input, or that exists without ``overwrite``, is refused before any work is done.
+Writes are atomic: everything goes to a temporary file ``.<name>.<host>.<pid>.<random>.sarproc-tmp``
+in the target directory (matched by ``.gitignore``); it is published only when complete and
+removed on any error or signal. Without ``overwrite`` it is published by hard link then unlink,
+which cannot replace a file that another run created meanwhile. Temporary files of runs that
+died (SIGKILL, power loss) are removed by the next run writing to the same directory. An output
+that is the input, that exists without ``overwrite``, or whose directory is not writable is
+refused before any work is done. A failed HDF5 write (full disk, file-size limit, read-only
+file system) becomes a one-line ProcessingError; the damaged HDF5 handle is never closed again
+(the library can crash doing so), see :func:`hdf5_handles_damaged`.
 """
 
 from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import errno as _errno
 import json
+import math
 import os
-import tempfile
+import re
+import secrets
+import socket
 from pathlib import Path
 
 import h5py
 import numpy as np
 
 from sarproc import __version__
-from sarproc.product.errors import InputError
+from sarproc.product.errors import InputError, ProcessingError
 from sarproc.product.metadata import FORMAT_VERSION, RadarMetadata
-from sarproc.product.model import DATA_NAME, PRODUCT_KINDS, TARGET_DTYPE, UNITS, Product
+from sarproc.product.model import (AUX_DIM_DOC, AUX_LAYOUT, DATA_NAME, KIND_DIMS, PRODUCT_KINDS, TARGET_DTYPE,
+                                   TARGET_UNITS, UNITS, Product)
 
 LONG_NAMES = {"azimuth_time": "azimuth (slow) time from aperture centre", "range_time": "range (fast) time since transmit",
               "channel": "receive channel index", "azimuth": "azimuth position", "range": "range position",
               "elevation": "elevation angle"}
+
+TMP_SUFFIX = ".sarproc-tmp"
+_HOST = re.sub(r"[^A-Za-z0-9-]", "-", socket.gethostname())[:32] or "host"
+_DAMAGED: list = []   # h5py objects of files whose write failed: kept alive, never closed
+
+
+def hdf5_handles_damaged() -> bool:
+    """True after a failed HDF5 write: the process must end with ``os._exit`` (HDF5 may crash on cleanup)."""
+    return bool(_DAMAGED)
 
 
 def history_entry(command: str, params: dict | None = None) -> dict:
@@ -34,8 +54,56 @@ def history_entry(command: str, params: dict | None = None) -> dict:
             "parameters": params or {}}
 
 
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def clean_stale_temporaries(directory) -> list[Path]:
+    """Remove temporaries of dead sarproc runs on this host in ``directory``; returns what went."""
+    removed = []
+    directory = Path(directory)
+    try:
+        entries = list(directory.glob(f".*{TMP_SUFFIX}"))
+    except OSError:
+        return removed
+    for p in entries:
+        parts = p.name[: -len(TMP_SUFFIX)].rsplit(".", 3)
+        if len(parts) != 4 or parts[1] != _HOST or not parts[2].isdigit():
+            continue
+        if int(parts[2]) != os.getpid() and not _pid_alive(int(parts[2])):
+            with contextlib.suppress(OSError):
+                p.unlink()
+                removed.append(p)
+    return removed
+
+
+def _temporary_name(output: Path) -> Path:
+    return output.parent / f".{output.name}.{_HOST}.{os.getpid()}.{secrets.token_hex(4)}{TMP_SUFFIX}"
+
+
+def _os_cause(exc: OSError) -> str:
+    """'No space left on device (ENOSPC)' from an OSError, including h5py's wrapped ones."""
+    code = exc.errno
+    if code is None:
+        m = re.search(r"errno = (\d+)", str(exc))
+        code = int(m.group(1)) if m else None
+    if code is None:
+        return " ".join(str(exc).split())[:200]
+    return f"{os.strerror(code)} ({_errno.errorcode.get(code, code)})"
+
+
 def check_output_path(output, inputs=(), overwrite: bool = False) -> Path:
-    """Refuse to write over an input, or over an existing file without ``overwrite``."""
+    """Refuse to write over an input, over an existing file without ``overwrite``, or where no file can be made.
+
+    The directory's writability is proven by creating (and removing) a temporary file there, so a
+    read-only, full-quota or missing location fails now, before any computation.
+    """
     out = Path(output)
     for inp in inputs:
         inp = Path(inp)
@@ -43,29 +111,62 @@ def check_output_path(output, inputs=(), overwrite: bool = False) -> Path:
             raise InputError(f"{out}: output is the input file; refusing to write over an input")
         if inp.resolve() == out.resolve():
             raise InputError(f"{out}: output is the input file; refusing to write over an input")
+    if out.is_dir():
+        raise InputError(f"{out}: output is a directory; give a file name")
     if out.exists() and not overwrite:
         raise InputError(f"{out}: output exists; pass --overwrite to replace it")
-    if out.exists() and out.is_dir():
-        raise InputError(f"{out}: output is a directory")
-    if not out.parent.exists():
-        raise InputError(f"{out}: output directory {out.parent} does not exist")
+    parent = out.parent
+    if not parent.exists():
+        raise InputError(f"{out}: output directory {parent} does not exist; create it first")
+    if not parent.is_dir():
+        raise InputError(f"{out}: {parent} is not a directory")
+    clean_stale_temporaries(parent)
+    probe = _temporary_name(out)
+    try:
+        fd = os.open(probe, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600)
+    except OSError as exc:
+        raise InputError(f"{out}: cannot create files in {parent}: {_os_cause(exc)}; choose a writable location") from None
+    os.close(fd)
+    os.unlink(probe)
     return out
 
 
-@contextlib.contextmanager
-def atomic_path(output: Path):
-    """Yield a temporary path next to ``output``; rename it over ``output`` on success."""
-    output = Path(output)
-    fd, tmp = tempfile.mkstemp(prefix=f".{output.name}.", suffix=".tmp", dir=output.parent)
-    os.close(fd)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)  # mkstemp's 0600 would hide outputs from other users
-    try:
-        yield Path(tmp)
+def _publish(tmp: Path, output: Path, overwrite: bool) -> None:
+    """Move ``tmp`` to ``output``: replace with ``overwrite``, else link-then-unlink (never replaces)."""
+    if overwrite:
         os.replace(tmp, output)
+        return
+    try:
+        os.link(tmp, output)
+    except FileExistsError:
+        raise InputError(f"{output}: another process created this file while this run was writing; "
+                         "not replaced (pass --overwrite to replace it)") from None
+    except OSError as exc:
+        if exc.errno not in (_errno.EPERM, _errno.ENOTSUP, _errno.EOPNOTSUPP, _errno.EXDEV, _errno.EMLINK):
+            raise
+        # No hard links here (some network/FAT file systems): claim the name exclusively, then replace it.
+        try:
+            os.close(os.open(output, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
+        except FileExistsError:
+            raise InputError(f"{output}: another process created this file while this run was writing; "
+                             "not replaced (pass --overwrite to replace it)") from None
+        os.replace(tmp, output)
+        return
+    os.unlink(tmp)
+
+
+@contextlib.contextmanager
+def atomic_path(output: Path, overwrite: bool = True):
+    """Yield a temporary path next to ``output``; publish it as ``output`` on success, remove it on failure."""
+    output = Path(output)
+    tmp = _temporary_name(output)
+    fd = os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666)  # the umask applies, as for any new file
+    os.close(fd)
+    try:
+        yield tmp
+        _publish(tmp, output, overwrite)
     except BaseException:
-        with contextlib.suppress(FileNotFoundError):
+        with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
 
@@ -79,8 +180,12 @@ def _write_header(f: h5py.File, product_kind: str, radar: RadarMetadata, targets
         g.attrs[k] = v
     t = np.asarray(targets, dtype=TARGET_DTYPE)
     dset = f.create_dataset("targets", data=t)
+    dset.attrs["long_name"] = "true point targets, carried from the scene"
+    dset.attrs["field_units"] = json.dumps(TARGET_UNITS)
     # A labelled 'target' axis keeps netCDF readers (xarray/h5netcdf) from inventing phony dims.
     scale = f.create_dataset("target", data=np.arange(len(t), dtype=np.int64))
+    scale.attrs["units"] = "1"
+    scale.attrs["long_name"] = "target index"
     scale.make_scale("target")
     dset.dims[0].attach_scale(scale)
 
@@ -94,6 +199,36 @@ def _write_scales(f: h5py.File, dset, dims, coords):
         sc.make_scale(d)
         dset.dims[i].attach_scale(sc)
         dset.dims[i].label = d
+
+
+def _write_aux(f: h5py.File, aux: dict):
+    """Aux arrays under ``aux/`` with named dims (index scales in the group) and CF units."""
+    g = f.create_group("aux")
+    scales = {}
+
+    def scale(name, n):
+        key = (name, n)
+        if key not in scales:
+            dname = name if name not in g else f"{name}_{n}"
+            sc = g.create_dataset(dname, data=np.arange(n, dtype=np.int64))
+            sc.attrs["units"] = "1"
+            sc.attrs["long_name"] = AUX_DIM_DOC.get(name, f"index along {name}")
+            sc.make_scale(dname)
+            scales[key] = sc
+        return scales[key]
+
+    for k, v in aux.items():
+        arr = np.asarray(v)
+        d = g.create_dataset(k, data=arr)
+        dims, units, doc = AUX_LAYOUT.get(k, (None, None, None))
+        if dims is None or len(dims) != arr.ndim:
+            dims = tuple(f"{k}_axis{i}" for i in range(arr.ndim))
+        if units is not None:
+            d.attrs["units"] = units
+        if doc:
+            d.attrs["long_name"] = doc
+        for i, name in enumerate(dims):
+            d.dims[i].attach_scale(scale(name, arr.shape[i]))
 
 
 def _chunks(shape):
@@ -117,6 +252,8 @@ class ProductWriter:
     """Stream a product's data in blocks along its first non-channel axis, atomically.
 
     Use as a context manager; the file appears at ``output`` only if the block exits cleanly.
+    A write error (full disk, file-size limit, read-only file system) raises ProcessingError
+    naming the output and the cause; the temporary file is removed either way.
     """
 
     def __init__(self, output, kind, dims, coords, radar, targets, *, attrs=None, aux=None,
@@ -124,31 +261,70 @@ class ProductWriter:
         if kind not in PRODUCT_KINDS:
             raise ValueError(f"unknown product kind {kind!r}")
         self.output = check_output_path(output, inputs, overwrite)
+        self.overwrite = overwrite
         self.kind, self.dims, self.coords = kind, tuple(dims), coords
         self.shape = tuple(len(coords[d]) for d in self.dims)
         self._args = (radar, targets, list(history), attrs or {}, aux or {}, dtype)
+        self.file = None
+
+    def _failed(self, exc: OSError):
+        # HDF5 cannot be trusted with this file any more: keep its objects alive, never close them.
+        if self.file is not None:
+            _DAMAGED.append((self.file, getattr(self, "dset", None)))
+            self.file = None
+        return ProcessingError(f"{self.output}: cannot write the product: {_os_cause(exc)}; nothing was written")
 
     def __enter__(self):
-        self._ctx = atomic_path(self.output)
+        self._ctx = atomic_path(self.output, overwrite=self.overwrite)
         tmp = self._ctx.__enter__()
         radar, targets, history, attrs, aux, dtype = self._args
-        self.file = h5py.File(tmp, "w")
-        _write_header(self.file, self.kind, radar, targets, history)
-        self.dset = self.file.create_dataset(DATA_NAME[self.kind], shape=self.shape, dtype=dtype,
-                                             chunks=_chunks(self.shape))
-        _write_attrs(self.dset, attrs)
-        _write_scales(self.file, self.dset, self.dims, self.coords)
-        if aux:
-            g = self.file.create_group("aux")
-            for k, v in aux.items():
-                g.create_dataset(k, data=np.asarray(v))
+        try:
+            self.file = h5py.File(tmp, "w")
+            _write_header(self.file, self.kind, radar, targets, history)
+            self.dset = self.file.create_dataset(DATA_NAME[self.kind], shape=self.shape, dtype=dtype,
+                                                 chunks=_chunks(self.shape))
+            self.dset.attrs["units"] = "1"  # complex amplitude, arbitrary (uncalibrated) scale
+            self.dset.attrs["long_name"] = ("complex baseband echo samples" if DATA_NAME[self.kind] == "signal"
+                                            else "complex image")
+            _write_attrs(self.dset, attrs)
+            _write_scales(self.file, self.dset, self.dims, self.coords)
+            if aux:
+                _write_aux(self.file, aux)
+        except OSError as exc:
+            err = self._failed(exc)
+            self._ctx.__exit__(type(err), err, None)
+            raise err from None
+        except BaseException as exc:
+            self._close_quietly()
+            self._ctx.__exit__(type(exc), exc, exc.__traceback__)
+            raise
         return self
 
     def write(self, index, block):
-        self.dset[index] = block
+        try:
+            self.dset[index] = block
+        except OSError as exc:
+            raise self._failed(exc) from None
+
+    def _close_quietly(self):
+        if self.file is not None:
+            f, self.file = self.file, None
+            try:
+                f.close()
+            except OSError:
+                _DAMAGED.append((f, getattr(self, "dset", None)))
 
     def __exit__(self, exc_type, exc, tb):
-        self.file.close()
+        if exc_type is None:
+            try:
+                self.file.close()
+                self.file = None
+            except OSError as err:
+                failure = self._failed(err)
+                self._ctx.__exit__(type(failure), failure, None)
+                raise failure from None
+        else:
+            self._close_quietly()
         return self._ctx.__exit__(exc_type, exc, tb)
 
 
@@ -160,6 +336,9 @@ def write_product(output, product: Product, *, inputs=(), overwrite=False) -> Pa
                        inputs=inputs, overwrite=overwrite) as w:
         w.write(Ellipsis, product.data)
     return Path(output)
+
+
+_INTERNAL_ATTRS = ("DIMENSION_LIST", "REFERENCE_LIST", "CLASS", "NAME", "units", "long_name")
 
 
 def _attr_value(v):
@@ -181,21 +360,52 @@ def read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
     """Read a product; see :func:`_read_product`. Low-level HDF5 errors become InputError."""
     try:
         return _read_product(path, kinds, load=load, check_finite=check_finite)
-    except (OSError, RuntimeError, KeyError, TypeError) as exc:
-        raise InputError(f"{path}: damaged or non-conforming product: {exc}") from None
+    except (OSError, RuntimeError, KeyError, TypeError, ValueError) as exc:
+        if isinstance(exc, InputError):
+            raise
+        raise InputError(f"{path}: damaged or non-conforming product: {' '.join(str(exc).split())[:300]}") from None
+
+
+def _is_scale(dset) -> bool:
+    cls = dset.attrs.get("CLASS")
+    return (cls.decode() if isinstance(cls, bytes) else cls) == "DIMENSION_SCALE"
+
+
+def _check_aux(path, aux: dict, kind: str, n_pulses: int | None, n_channels: int | None):
+    """Aux arrays: numeric, finite, and shaped like the product they travel with."""
+    for k, v in aux.items():
+        where = f"{path}: dataset 'aux/{k}'"
+        if v.dtype.kind not in "fiuc":
+            raise InputError(f"{where} must be numeric, got {v.dtype}")
+        if not np.all(np.isfinite(v)):
+            raise InputError(f"{where} contains NaN or Inf")
+        dims = AUX_LAYOUT.get(k, (None,))[0]
+        if dims is None:
+            continue
+        if v.ndim != len(dims) or (dims[-1] == "xyz" and v.shape[-1] != 3):
+            want = " x ".join("3" if d == "xyz" else f"n_{d}" for d in dims)
+            raise InputError(f"{where} has shape {v.shape}, expected ({want})")
+        if dims[0] == "pulse" and n_pulses is not None and len(v) != n_pulses:
+            raise InputError(f"{where} has {len(v)} rows but the product has {n_pulses} pulses (azimuth_time); "
+                             "one row per pulse is needed")
+        if dims[0] == "receiver" and n_channels is not None and len(v) != n_channels:
+            raise InputError(f"{where} has {len(v)} receivers but the signal has {n_channels} channels")
 
 
 def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
     """Read a product; ``kinds`` restricts the accepted product types (the error names them).
 
     With ``load=False`` only metadata is read: ``data`` is an empty array of the right dtype
-    and ``attrs['shape']`` holds the stored shape (cheap inspection of big files).
+    and ``attrs['shape']`` holds the stored shape (cheap inspection of big files). Every check
+    of the layout (dims, scales, dtypes, attribute types, aux shapes) runs in both modes.
     """
     path = Path(path)
     if not path.exists():
         raise InputError(f"{path}: file not found")
     if path.is_dir():
         raise InputError(f"{path}: is a directory, expected an HDF5 product")
+    if not os.access(path, os.R_OK):
+        raise InputError(f"{path}: not readable (permission denied)")
     if not h5py.is_hdf5(path):
         raise InputError(f"{path}: not an HDF5 file")
     try:
@@ -206,8 +416,8 @@ def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
         kind = _attr_value(f.attrs.get("product"))
         if kind is None:
             raise InputError(f"{path}: missing root attribute 'product' (not a sarproc product)")
-        if kind not in PRODUCT_KINDS:
-            raise InputError(f"{path}: root attribute 'product' is {kind!r}, not a known product type")
+        if not isinstance(kind, str) or kind not in PRODUCT_KINDS:
+            raise InputError(f"{path}: root attribute 'product' is {kind!r}, not one of {list(PRODUCT_KINDS)}")
         if kinds is not None and kind not in kinds:
             raise InputError(f"{path}: product type is {kind!r}; this stage needs {' or '.join(map(repr, kinds))}")
         fmt = _attr_value(f.attrs.get("sarproc_format"))
@@ -218,21 +428,40 @@ def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
         history = _attr_value(f.attrs.get("history", "[]"))
         if not isinstance(history, list):
             raise InputError(f"{path}: root attribute 'history' is not a JSON list")
-        if "radar" not in f:
+        if "radar" not in f or not isinstance(f["radar"], h5py.Group):
             raise InputError(f"{path}: missing group 'radar'")
         radar = RadarMetadata.from_attrs(f["radar"].attrs, where=f"{path}: radar")
         name = DATA_NAME[kind]
-        if name not in f:
+        if name not in f or not isinstance(f[name], h5py.Dataset):
             raise InputError(f"{path}: missing dataset {name!r}")
         dset = f[name]
+        if dset.dtype.kind != "c":
+            raise InputError(f"{path}: dataset {name!r} is {dset.dtype} but must be complex (I/Q, complex64); "
+                             "real-valued samples cannot be focused; convert them to complex baseband")
         dims, coords = [], {}
         for i, dim in enumerate(dset.dims):
             if len(dim) == 0:
                 raise InputError(f"{path}: dataset {name!r} axis {i} has no dimension scale attached")
             scale = dim[0]
             dname = scale.name.lstrip("/")
+            values = scale[()]
+            if np.ndim(values) != 1 or np.asarray(values).dtype.kind not in "fiu":
+                raise InputError(f"{path}: dimension scale {dname!r} must be a 1-D numeric array")
+            if len(values) != dset.shape[i]:
+                raise InputError(f"{path}: dataset {name!r} has {dset.shape[i]} samples along {dname!r} but the "
+                                 f"dimension scale {dname!r} holds {len(values)} values; they must agree")
+            if not np.all(np.isfinite(values)):
+                raise InputError(f"{path}: dimension scale {dname!r} contains NaN or Inf")
+            if dname != "channel" and len(values) > 1 and not np.all(np.diff(values) > 0):
+                raise InputError(f"{path}: dimension scale {dname!r} must increase strictly")
             dims.append(dname)
-            coords[dname] = scale[()]
+            coords[dname] = values
+        if tuple(dims) != KIND_DIMS[kind]:
+            raise InputError(f"{path}: dataset {name!r} has dims {tuple(dims)}; a {kind!r} product needs "
+                             f"{KIND_DIMS[kind]}")
+        if "channel" in dims and len(coords["channel"]) != radar.n_channels:
+            raise InputError(f"{path}: dataset {name!r} has {len(coords['channel'])} channels but radar attribute "
+                             f"'n_channels' is {radar.n_channels}")
         if "targets" not in f:
             raise InputError(f"{path}: missing dataset 'targets'")
         targets = np.asarray(f["targets"][()])
@@ -240,9 +469,28 @@ def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
         if missing:
             raise InputError(f"{path}: dataset 'targets' lacks field(s) {missing}")
         targets = targets.astype(TARGET_DTYPE)
-        attrs = {k: _attr_value(v) for k, v in dset.attrs.items()
-                 if k not in ("DIMENSION_LIST", "REFERENCE_LIST", "CLASS", "NAME")}
-        aux = {k: v[()] for k, v in f["aux"].items()} if "aux" in f else {}
+        for field in ("x", "y", "z", "azimuth", "range", "elevation"):
+            if not np.all(np.isfinite(targets[field])):
+                raise InputError(f"{path}: dataset 'targets' field {field!r} contains NaN or Inf")
+        attrs = {k: _attr_value(v) for k, v in dset.attrs.items() if k not in _INTERNAL_ATTRS}
+        if kind in ("image", "image3d"):
+            frame = attrs.get("frame")
+            if not (isinstance(frame, dict) and isinstance(frame.get("name"), str)):
+                raise InputError(f"{path}: dataset {name!r} attribute 'frame' must be a JSON object with a 'name'")
+            irw = attrs.get("theoretical_irw")
+            if irw is not None and not (isinstance(irw, list) and len(irw) == len(dims)
+                                        and all(isinstance(x, (int, float)) and math.isfinite(x) and x > 0
+                                                for x in irw)):
+                raise InputError(f"{path}: dataset {name!r} attribute 'theoretical_irw' must list {len(dims)} "
+                                 f"positive widths (one per axis {tuple(dims)}), got {irw!r}")
+        aux = {}
+        if "aux" in f:
+            for k, v in f["aux"].items():
+                if isinstance(v, h5py.Dataset) and not _is_scale(v):
+                    aux[k] = v[()]
+        n_pulses = len(coords["azimuth_time"]) if kind in ("raw", "raw_multichannel", "raw_array",
+                                                            "preprocessed") else None
+        _check_aux(path, aux, kind, n_pulses, len(coords["channel"]) if "channel" in coords else None)
         if load:
             data = dset[()]
             if check_finite and not np.all(np.isfinite(data)):

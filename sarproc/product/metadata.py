@@ -35,6 +35,9 @@ class RadarMetadata:
       azimuth_beamwidth / elevation_beamwidth: one-way -3 dB beamwidths, rad (0: no pattern).
       aperture_time: s.  n_channels: receive channels.
       beam_rotation_range: sliding spotlight rotation point's slant range from the aperture centre, m.
+      reference_utc: optional absolute time of azimuth time 0, ISO 8601 UTC ('2024-05-01T10:00:00.000000Z').
+      reference_latitude / reference_longitude: optional WGS84 geodetic position of the scene centre, rad.
+      reference_height: its height above the WGS84 ellipsoid, m. (All four absent = a local scene.)
     """
 
     carrier_frequency: float
@@ -54,6 +57,10 @@ class RadarMetadata:
     aperture_time: float = 0.0
     n_channels: int = 1
     beam_rotation_range: float = 0.0
+    reference_utc: str | None = None
+    reference_latitude: float | None = None
+    reference_longitude: float | None = None
+    reference_height: float | None = None
 
     @property
     def wavelength(self) -> float:
@@ -80,16 +87,36 @@ class RadarMetadata:
             raise InputError(f"radar.squint: {self.squint!r} rad must be within (-90, 90) deg")
         if self.altitude < 0:
             raise InputError(f"radar.altitude: must be >= 0, got {self.altitude!r}")
+        if self.mode not in ("stripmap", "spotlight", "sliding_spotlight"):
+            raise InputError(f"radar.mode: {self.mode!r} is not one of stripmap, spotlight, sliding_spotlight")
+        if self.n_channels < 1:
+            raise InputError(f"radar.n_channels: must be >= 1, got {self.n_channels!r}")
+        geo = (self.reference_latitude, self.reference_longitude, self.reference_height)
+        if any(g is not None for g in geo) and any(g is None for g in geo):
+            raise InputError("radar.reference_latitude/longitude/height: give all three or none")
+        if self.reference_latitude is not None and not abs(self.reference_latitude) <= math.pi / 2:
+            raise InputError(f"radar.reference_latitude: {self.reference_latitude!r} rad is outside [-90, 90] deg")
+        if self.reference_longitude is not None and not abs(self.reference_longitude) <= math.pi:
+            raise InputError(f"radar.reference_longitude: {self.reference_longitude!r} rad is outside [-180, 180] deg")
+        if self.reference_height is not None and not math.isfinite(self.reference_height):
+            raise InputError("radar.reference_height: must be finite")
+        if self.reference_utc is not None:
+            parse_utc(self.reference_utc, "radar.reference_utc")
 
     def to_attrs(self) -> dict:
+        """HDF5 attributes: every set field (None ones are left out) and a JSON ``units`` map."""
         out = {}
         for f in dataclasses.fields(self):
             v = getattr(self, f.name)
+            if v is None:
+                continue
             out[f.name] = np.asarray(v, dtype=float) if f.name == "scene_center" else v
+        out["units"] = json.dumps({k: RADAR_UNITS[k] for k in out if k in RADAR_UNITS})
         return out
 
     @classmethod
     def from_attrs(cls, attrs, where: str = "radar") -> "RadarMetadata":
+        """Read back :meth:`to_attrs`; a missing or mistyped attribute is named with ``where``."""
         kwargs = {}
         for f in dataclasses.fields(cls):
             if f.name not in attrs:
@@ -97,17 +124,16 @@ class RadarMetadata:
                     raise InputError(f"{where}: missing attribute {f.name!r}")
                 continue
             v = attrs[f.name]
-            if f.name == "scene_center":
-                v = tuple(float(a) for a in np.asarray(v, dtype=float).reshape(3))
-            elif f.name == "mode":
-                v = v.decode() if isinstance(v, bytes) else str(v)
-            elif f.name == "n_channels":
-                v = int(v)
-            else:
-                v = float(v)
-            kwargs[f.name] = v
-        meta = cls(**kwargs)
-        meta.validate()
+            kwargs[f.name] = _attr_as(f.name, v, where)
+        try:
+            meta = cls(**kwargs)
+            meta.validate()
+        except InputError as exc:
+            msg = str(exc)
+            if msg.startswith("radar."):  # name the file and the attribute: "<file>: radar: attribute 'prf': ..."
+                key, _, rest = msg[len("radar."):].partition(":")
+                raise InputError(f"{where}: attribute {key!r}:{rest}") from None
+            raise InputError(f"{where}: {msg}") from None
         return meta
 
     def replace(self, **changes) -> "RadarMetadata":
@@ -115,6 +141,68 @@ class RadarMetadata:
 
     def to_json(self) -> str:
         return json.dumps(dataclasses.asdict(self))
+
+
+# Units of the radar attributes (CF/UDUNITS spellings), stored as the group's JSON ``units`` map.
+RADAR_UNITS = {
+    "carrier_frequency": "Hz", "bandwidth": "Hz", "pulse_duration": "s", "chirp_rate": "Hz/s",
+    "range_sampling_rate": "Hz", "prf": "Hz", "velocity": "m/s", "altitude": "m", "squint": "rad",
+    "reference_range": "m", "scene_center": "m", "mode": "", "azimuth_beamwidth": "rad",
+    "elevation_beamwidth": "rad", "aperture_time": "s", "n_channels": "1", "beam_rotation_range": "m",
+    "reference_utc": "UTC (ISO 8601)", "reference_latitude": "rad", "reference_longitude": "rad",
+    "reference_height": "m",
+}
+
+_STRING_FIELDS = ("mode", "reference_utc")
+
+
+def _attr_as(name: str, v, where: str):
+    """One radar attribute converted to its field's type; a wrong type names the attribute."""
+    if isinstance(v, bytes):
+        try:
+            v = v.decode()
+        except UnicodeDecodeError:
+            raise InputError(f"{where}: attribute {name!r} is not UTF-8 text") from None
+    arr = np.asarray(v)
+    if name in _STRING_FIELDS:
+        if not isinstance(v, str):
+            raise InputError(f"{where}: attribute {name!r} must be a string, got {arr.dtype} {v!r}")
+        return v
+    unit = RADAR_UNITS.get(name, "")
+    if arr.dtype.kind not in "fiu":
+        raise InputError(f"{where}: attribute {name!r} must be a number{' in ' + unit if unit not in ('', '1') else ''}"
+                         f", got {arr.dtype.name} {v!r}; store it as a float in SI")
+    if name == "scene_center":
+        if arr.size != 3:
+            raise InputError(f"{where}: attribute 'scene_center' must hold 3 numbers (x, y, z) m, got {arr.size}")
+        out = tuple(float(a) for a in arr.astype(float).reshape(3))
+        if not all(math.isfinite(a) for a in out):
+            raise InputError(f"{where}: attribute 'scene_center' must be finite, got {out}")
+        return out
+    if arr.size != 1:
+        raise InputError(f"{where}: attribute {name!r} must be a single number, got shape {arr.shape}")
+    if name == "n_channels":
+        if arr.dtype.kind == "f" and not float(arr).is_integer():
+            raise InputError(f"{where}: attribute 'n_channels' must be an integer, got {v!r}")
+        return int(arr)
+    out = float(arr)
+    if not math.isfinite(out):
+        raise InputError(f"{where}: attribute {name!r} must be finite, got {out!r}")
+    return out
+
+
+def parse_utc(text: str, where: str = "reference time") -> str:
+    """ISO 8601 time with a zone (or 'Z') -> canonical UTC string 'YYYY-MM-DDTHH:MM:SS.ffffffZ'."""
+    import datetime as dt
+
+    s = str(text).strip()
+    try:
+        t = dt.datetime.fromisoformat(s[:-1] + "+00:00" if s.endswith(("Z", "z")) else s)
+    except ValueError:
+        raise InputError(f"{where}: cannot read {text!r} as an ISO 8601 time; write e.g. '2024-05-01T10:00:00Z'") from None
+    if t.tzinfo is None:
+        raise InputError(f"{where}: {text!r} has no time zone; append 'Z' for UTC")
+    return t.astimezone(dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
 
 
 def aperture_center_position(radar: RadarMetadata) -> np.ndarray:
@@ -130,8 +218,9 @@ def scene_center_from_geometry(reference_range: float, squint: float, altitude: 
     across = (reference_range * math.cos(squint)) ** 2 - altitude**2
     if across < 0:
         raise InputError(
-            f"geometry: reference range {reference_range:g} m at squint {math.degrees(squint):.3g} deg "
-            f"does not reach the ground from altitude {altitude:g} m"
+            f"geometry.reference_range: {reference_range:g} m at geometry.squint {math.degrees(squint):.3g} deg "
+            f"does not reach the ground from platform.altitude {altitude:g} m; the slant range must exceed "
+            f"{altitude / max(math.cos(squint), 1e-12):.6g} m"
         )
     return (reference_range * math.sin(squint), math.sqrt(across), 0.0)
 

@@ -29,6 +29,30 @@ TARGET_DTYPE = np.dtype([
 UNITS = {"azimuth_time": "s", "range_time": "s", "channel": "1", "azimuth": "m", "range": "m",
          "elevation": "rad"}
 
+# Dims of the data set of each kind (the reader refuses others).
+KIND_DIMS = {"raw": ("azimuth_time", "range_time"), "preprocessed": ("azimuth_time", "range_time"),
+             "coarse": ("azimuth_time", "range_time"),
+             "raw_multichannel": ("channel", "azimuth_time", "range_time"),
+             "raw_array": ("channel", "azimuth_time", "range_time"),
+             "image": ("azimuth", "range"), "image3d": ("elevation", "azimuth", "range")}
+
+# Auxiliary arrays: named dims (netCDF readers see no phony dims), CF units, description.
+# ``pulse`` is the transmit-pulse axis (the raw product's azimuth_time), ``receiver`` the receive
+# channels, ``xyz`` the scene-frame components.
+AUX_LAYOUT = {
+    "platform_position": (("pulse", "xyz"), "m", "platform (antenna phase centre) position per pulse, scene frame"),
+    "tx_offset": (("xyz",), "m", "transmitter offset from the platform position"),
+    "rx_offset": (("receiver", "xyz"), "m", "receiver offsets from the platform position"),
+    "range_gate_offset": (("pulse",), "s", "receive-window start offset per pulse"),
+}
+AUX_DIM_DOC = {"pulse": "transmit pulse index", "receiver": "receive channel index",
+               "xyz": "scene-frame component: 0 = x (along track), 1 = y, 2 = z (up)"}
+
+# Units of the targets table's fields (the table is a compound dataset: one map, no single unit).
+TARGET_UNITS = {"name": "", "x": "m", "y": "m", "z": "m", "azimuth": "frame axis unit (m)",
+                "range": "frame axis unit (m)", "elevation": "rad (3D frames), else 0",
+                "amplitude": "1", "vx": "m/s", "vy": "m/s", "vz": "m/s"}
+
 DATA_NAME = {"raw": "signal", "raw_multichannel": "signal", "raw_array": "signal",
              "preprocessed": "signal", "coarse": "signal", "image": "image", "image3d": "image"}
 

@@ -1,0 +1,137 @@
+"""Up-front resource plans: what a stage will write, hold in memory and take, checked before work.
+
+A stage estimates its :class:`Plan` from the input's metadata (shapes, parameters) before it
+reads the data. :func:`check_plan` refuses (InputError, exit 2) a plan that cannot fit: an
+output larger than the free space of its directory or the process's file-size limit, or working
+memory above ``--max-memory`` or the memory available now. Estimates are deliberately simple
+(array sizes times the copies a stage holds), so they are upper bounds within a small factor.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import re
+from pathlib import Path
+
+from sarproc.product.errors import InputError
+
+_SIZE = re.compile(r"^\s*(\d+(?:\.\d*)?|\.\d+)\s*([kKMGT]?)(i?)(B?)\s*$")
+_FACTOR = {"": 1, "k": 1e3, "K": 1e3, "M": 1e6, "G": 1e9, "T": 1e12}
+
+
+def parse_size(text: str, where: str = "--max-memory") -> int:
+    """Bytes of ``'4G'``, ``'500 MB'``, ``'2GiB'`` or a plain byte count."""
+    m = _SIZE.match(str(text))
+    if not m:
+        raise InputError(f"{where}: cannot read {text!r} as a size; write e.g. '8G', '500 MB' or '2 GiB'")
+    number, prefix, binary = float(m.group(1)), m.group(2), m.group(3)
+    power = {"": 0, "k": 1, "K": 1, "M": 2, "G": 3, "T": 4}[prefix]
+    factor = 1024**power if binary else _FACTOR[prefix]
+    out = int(number * factor)
+    if out <= 0:
+        raise InputError(f"{where}: {text!r} must be positive")
+    return out
+
+
+def human(n: float) -> str:
+    """Bytes as a short decimal string ('1.2 GB')."""
+    for unit in ("B", "kB", "MB", "GB", "TB"):
+        if abs(n) < 1000 or unit == "TB":
+            return f"{n:.3g} {unit}" if unit != "B" else f"{int(n)} B"
+        n /= 1000
+    return f"{n:.3g} TB"
+
+
+def human_time(s: float) -> str:
+    if s < 60:
+        return f"{s:.2g} s"
+    if s < 3600:
+        return f"{s / 60:.2g} min"
+    return f"{s / 3600:.2g} h"
+
+
+@dataclasses.dataclass
+class Plan:
+    """A stage's estimate: output bytes (per output file), peak working memory, run time."""
+
+    stage: str
+    output_bytes: float
+    memory_bytes: float
+    seconds: float
+    detail: str = ""
+
+    def describe(self) -> str:
+        return (f"{self.stage}: plan: output ~{human(self.output_bytes)}, working memory ~{human(self.memory_bytes)}, "
+                f"run time ~{human_time(self.seconds)}" + (f" ({self.detail})" if self.detail else ""))
+
+
+def available_memory() -> int | None:
+    """Bytes of memory available to new allocations now (MemAvailable, bounded by a cgroup limit)."""
+    avail = None
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    avail = int(line.split()[1]) * 1024
+                    break
+    except OSError:
+        pass
+    for path in ("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"):
+        try:
+            text = Path(path).read_text().strip()
+        except OSError:
+            continue
+        if text.isdigit() and int(text) < 1 << 60:
+            used = 0
+            for cur in ("/sys/fs/cgroup/memory.current", "/sys/fs/cgroup/memory/memory.usage_in_bytes"):
+                try:
+                    used = int(Path(cur).read_text().strip())
+                    break
+                except (OSError, ValueError):
+                    continue
+            room = int(text) - used
+            avail = room if avail is None else min(avail, room)
+            break
+    return avail
+
+
+def file_size_limit() -> int | None:
+    """The process's RLIMIT_FSIZE soft limit in bytes, or None when unlimited."""
+    try:
+        import resource
+    except ImportError:  # pragma: no cover - not on POSIX
+        return None
+    soft, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
+    return None if soft == resource.RLIM_INFINITY else int(soft)
+
+
+def check_plan(plan: Plan, outputs=(), max_memory: int | None = None) -> None:
+    """Refuse (InputError) a plan whose output or memory cannot fit; a message says the fix."""
+    for out in outputs:
+        out = Path(out)
+        try:
+            st = os.statvfs(out.parent if str(out.parent) else ".")
+            free = st.f_bavail * st.f_frsize
+        except OSError:
+            free = None
+        if free is not None and plan.output_bytes > free:
+            raise InputError(f"{out}: the output needs ~{human(plan.output_bytes)} but {out.parent} has only "
+                             f"{human(free)} free; free space, write elsewhere or shrink the scene")
+        limit = file_size_limit()
+        if limit is not None and plan.output_bytes > limit:
+            raise InputError(f"{out}: the output needs ~{human(plan.output_bytes)} but this process may write files "
+                             f"of at most {human(limit)} (ulimit -f); raise the limit or shrink the scene")
+    if max_memory is not None and plan.memory_bytes > max_memory:
+        raise InputError(f"{plan.stage}: needs ~{human(plan.memory_bytes)} of working memory, above --max-memory "
+                         f"{human(max_memory)}; raise --max-memory or shrink the scene or its blocks")
+    avail = available_memory()
+    if avail is not None and plan.memory_bytes > avail:
+        raise InputError(f"{plan.stage}: needs ~{human(plan.memory_bytes)} of working memory but only {human(avail)} "
+                         f"is available; shrink the scene or its blocks, or run on a larger machine")
+
+
+def complex_bytes(*shape: float, itemsize: int = 8) -> float:
+    """Bytes of a complex array of ``shape`` (complex64 by default)."""
+    return float(math.prod(float(s) for s in shape)) * itemsize
