@@ -1,3 +1,3 @@
-from sarproc.cli.main import cli
+from sarproc.cli.main import main
 
-cli(prog_name="sarproc")
+main()

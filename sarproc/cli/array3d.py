@@ -25,25 +25,21 @@ def array3d(input_path: Path, output: Path, config_path, overwrite: bool, progre
     """
     from sarproc.focus.array3d.linear_array import Array3DParams, array3d_product
     from sarproc.product.errors import InputError
-    from sarproc.product.io import check_output_path, read_product, write_product
+    from sarproc.product.io import write_product
     from sarproc.cli.progress import progress_factory
+    from sarproc.cli.stage import array3d_estimate, naming, prepare
 
     if (channel_image is None) != (channel_output is None):
         raise InputError("--channel-image and --channel-output go together")
-    check_output_path(output, [input_path], overwrite)
-    if channel_output is not None:
-        check_output_path(channel_output, [input_path], overwrite)
-        if Path(channel_output).resolve() == Path(output).resolve():
-            raise InputError(f"{channel_output}: --channel-output is the same file as --output")
-    params = load_config(Array3DParams, config_path, section="array3d")
-    raw = read_product(input_path, kinds=("raw_array",))
+    if channel_output is not None and Path(channel_output).resolve() == Path(output).resolve():
+        raise InputError(f"{channel_output}: --channel-output is the same file as --output")
+    params, raw = prepare("array3d", input_path, [output, channel_output], config_path, overwrite, ("raw_array",),
+                          Array3DParams, "array3d", array3d_estimate)
     start = time.perf_counter()
-    try:
+    with naming(input_path, config_path, "array3d"):
         cube, chan = array3d_product(raw, params, channel_image=channel_image,
                                      progress=progress_factory(want_progress(progress), "array3d"),
                                      command=f"sarproc array3d {input_path}")
-    except InputError as exc:
-        raise InputError(f"{input_path}: {exc}") from None
     write_product(output, cube, inputs=[input_path], overwrite=overwrite)
     if chan is not None:
         write_product(channel_output, chan, inputs=[input_path], overwrite=overwrite)

@@ -16,14 +16,16 @@ from sarproc.cli.options import common_options, input_argument, load_config, sum
 def backproject(input_path: Path, output: Path, config_path, overwrite: bool, progress):
     """Exact time-domain backprojection of a raw product onto a frame grid (section `backproject:`)."""
     from sarproc.focus.backprojection import BackprojectParams, backproject as run
-    from sarproc.product.io import check_output_path, read_product, write_product
+    from sarproc.product.io import write_product
     from sarproc.cli.progress import progress_factory
+    from sarproc.cli.stage import backproject_estimate, naming, prepare
 
-    check_output_path(output, [input_path], overwrite)
-    params = load_config(BackprojectParams, config_path, section="backproject")
-    raw = read_product(input_path, kinds=("raw", "raw_multichannel", "raw_array"))
+    params, raw = prepare("backproject", input_path, [output], config_path, overwrite,
+                          ("raw", "raw_multichannel", "raw_array"), BackprojectParams, "backproject",
+                          backproject_estimate)
     start = time.perf_counter()
-    image = run(raw, params, progress=progress_factory(want_progress(progress), "backproject"))
+    with naming(input_path, config_path, "backproject"):
+        image = run(raw, params, progress=progress_factory(want_progress(progress), "backproject"))
     image.history[-1]["command"] = f"sarproc backproject {input_path}"
     write_product(output, image, inputs=[input_path], overwrite=overwrite)
     n_az, n_rg = image.data.shape

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 from pathlib import Path
 
 import click
 
-from sarproc.cli.options import config_option, input_argument, load_config
+from sarproc.cli.options import config_option, info, input_argument, load_config, max_memory, max_memory_option, summary, verbosity
 
 
 def _fmt(x: float, spec: str) -> str:
@@ -40,49 +41,63 @@ def markdown_table(report, units: dict) -> str:
     return "\n".join(lines)
 
 
-def _write_text_atomic(path: Path, text: str) -> None:
+def _write_text_atomic(path: Path, text: str, overwrite: bool = True) -> None:
     from sarproc.product.io import atomic_path
 
-    with atomic_path(path) as tmp:
+    with atomic_path(path, overwrite=overwrite) as tmp:
         tmp.write_text(text, encoding="utf-8")
 
 
 @click.command()
 @input_argument
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="Write the report as JSON (replaced if it exists; never the input).")
+              help="Write the report as JSON (never the input; an existing file needs --overwrite).")
+@click.option("--overwrite", is_flag=True, help="Replace an existing -o report.")
 @click.option("--plot", "plot_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Directory for quicklook.png and target_<name>.png (created if missing).")
 @click.option("--expect", "expect_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="YAML tolerances; exit 1 if any check fails.")
 @config_option
-def evaluate(input_path: Path, output, plot_dir, expect_path, config_path):
+@max_memory_option
+def evaluate(input_path: Path, output, overwrite, plot_dir, expect_path, config_path):
     """Point-target metrics of an image: IRW, PSLR, ISLR, position error and false-target level.
 
     Parameters come from the `evaluate:` section of --config (search_cells, guard_cells,
     upsample, islr_nulls, margin_nulls, irw_factor). Prints a Markdown table; exit status 1
     when --expect tolerances fail, 2 on bad input.
     """
+    from sarproc.cli.stage import evaluate_estimate, naming
+    from sarproc.product.budget import check_plan
     from sarproc.product.config import load_yaml
     from sarproc.product.errors import InputError
     from sarproc.product.io import check_output_path, read_product
     from sarproc.product.model import UNITS
     from sarproc.quality.metrics import EvaluateParams, check_report, evaluate_product, expectations_from_mapping
 
-    # Every argument is checked before the (possibly long) evaluation.
+    # Every argument is checked before the (possibly long) evaluation: config, tolerances, the
+    # image's layout, then the outputs.
     params = load_config(EvaluateParams, config_path, section="evaluate")
     expect = expectations_from_mapping(load_yaml(expect_path), str(expect_path)) if expect_path else None
+    header = read_product(input_path, kinds=("image", "image3d"), load=False)
     if output is not None:
-        check_output_path(output, [input_path], overwrite=True)
-    if plot_dir is not None and plot_dir.exists() and not plot_dir.is_dir():
-        raise InputError(f"{plot_dir}: --plot needs a directory, this is a file")
+        check_output_path(output, [input_path], overwrite=overwrite)
+    if plot_dir is not None:
+        if plot_dir.exists() and not plot_dir.is_dir():
+            raise InputError(f"{plot_dir}: --plot needs a directory, this is a file")
+        # an existing folder must take new files; a missing one must be creatable
+        check_output_path(plot_dir / "quicklook.png" if plot_dir.exists() else plot_dir, [input_path], overwrite=True)
+    plan = evaluate_estimate("evaluate", header, params)
+    info(plan.describe())
+    check_plan(plan, [output] if output is not None else [], max_memory())
 
     product = read_product(input_path, kinds=("image", "image3d"))
-    report = evaluate_product(product, params, source=str(input_path))
+    with naming(input_path, config_path, "evaluate"):
+        report = evaluate_product(product, params, source=str(input_path))
     failures = check_report(report, expect, source=str(expect_path)) if expect else []
     units = {d: UNITS.get(d, "") for d in product.dims}
 
-    click.echo(markdown_table(report, units))
+    if verbosity() >= 0:
+        click.echo(markdown_table(report, units))
     if output is not None:
         doc = {"input": str(input_path), "units": units, **report.to_dict()}
         if expect is not None:
@@ -90,7 +105,7 @@ def evaluate(input_path: Path, output, plot_dir, expect_path, config_path):
                              "failures": [{"target": f.target, "axis": f.axis, "metric": f.metric,
                                            "value": f.value if math.isfinite(f.value) else None, "bound": f.bound}
                                           for f in failures]}
-        _write_text_atomic(output, json.dumps(doc, indent=2, allow_nan=False) + "\n")
+        _write_text_atomic(output, json.dumps(doc, indent=2, allow_nan=False) + "\n", overwrite)
     if plot_dir is not None:
         _plots(plot_dir, product, report, units, params)
     if expect is not None:
@@ -99,16 +114,27 @@ def evaluate(input_path: Path, output, plot_dir, expect_path, config_path):
         if failures:
             click.echo(f"evaluate: {len(failures)} check(s) failed against {expect_path}", err=True)
             click.get_current_context().exit(1)
-        click.echo(f"evaluate: all checks passed against {expect_path}")
+        summary(f"evaluate: all checks passed against {expect_path}")
 
 
 def _plots(plot_dir: Path, product, report, units, params) -> None:
+    created = not plot_dir.exists()
+    plot_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        _draw(plot_dir, product, report, units, params)
+    except BaseException:
+        if created:  # leave no empty folder behind
+            with contextlib.suppress(OSError):
+                plot_dir.rmdir()
+        raise
+
+
+def _draw(plot_dir: Path, product, report, units, params) -> None:
     import numpy as np
 
     from sarproc.product.io import atomic_path
     from sarproc.quality.plotting import plot_quicklook, plot_target, safe_name
 
-    plot_dir.mkdir(parents=True, exist_ok=True)
     truth = np.stack([product.targets[d].astype(float) for d in product.dims], axis=1)
     names = [t.name for t in report.targets]
     irw = product.attrs["theoretical_irw"]

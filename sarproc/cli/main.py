@@ -6,10 +6,17 @@ to COMMANDS. Modules that do not exist yet are simply not listed.
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import importlib
 import importlib.util
 import logging
+import os
+import re
+import signal
 import sys
+import threading
+import traceback
 
 import click
 
@@ -39,6 +46,48 @@ class ProcessingFailed(click.ClickException):
     exit_code = 1
 
 
+class Interrupted(BaseException):
+    """A termination signal arrived: unwinds like KeyboardInterrupt so every temporary file is removed."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+# Signals a batch scheduler or a terminal sends to end a run; each exits 128 + signal number.
+_STOP_SIGNALS = tuple(getattr(signal, n) for n in ("SIGTERM", "SIGINT", "SIGHUP") if hasattr(signal, n))
+
+
+@contextlib.contextmanager
+def _signals_unwind():
+    """Turn SIGTERM/SIGINT/SIGHUP into :class:`Interrupted` (once; later ones are ignored while cleaning up)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    fired = []
+
+    def handler(signum, frame):
+        if fired:
+            return
+        fired.append(signum)
+        raise Interrupted(signum)
+
+    previous = {s: signal.signal(s, handler) for s in _STOP_SIGNALS}
+    try:
+        yield
+    finally:
+        for s, h in previous.items():
+            signal.signal(s, h)
+
+
+# errno values that mean the output could not be stored (processing failure, exit 1).
+_WRITE_ERRNOS = {errno.ENOSPC, errno.EFBIG, errno.EROFS, errno.EDQUOT, errno.EIO}
+
+
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())
+
+
 def _available(target: str) -> bool:
     return importlib.util.find_spec(target.split(":")[0]) is not None
 
@@ -54,15 +103,52 @@ class LazyGroup(click.Group):
         module, attr = target.split(":")
         return getattr(importlib.import_module(module), attr)
 
+    def parse_args(self, ctx, args):
+        # -q / -v / -vv may come anywhere (also after the subcommand): move them in front of it.
+        front, rest = [], []
+        for i, a in enumerate(args):
+            if a == "--":
+                rest.extend(args[i:])
+                break
+            (front if a in ("-q", "--quiet", "--verbose") or re.fullmatch(r"-v+", a) else rest).append(a)
+        return super().parse_args(ctx, front + rest)
+
     def invoke(self, ctx):
+        verbosity = -1 if ctx.params.get("quiet") else int(ctx.params.get("verbose") or 0)
+        ctx.meta["sarproc.verbosity"] = verbosity
         try:
-            return super().invoke(ctx)
+            with _signals_unwind():
+                return super().invoke(ctx)
         except InputError as exc:
             raise BadInput(str(exc)) from None
         except ProcessingError as exc:
-            raise ProcessingFailed(str(exc)) from None
+            raise ProcessingFailed(_one_line(exc)) from None
+        except (click.ClickException, click.exceptions.Exit, click.Abort):
+            raise
+        except Interrupted as exc:
+            name = signal.Signals(exc.signum).name
+            click.echo(f"Error: interrupted by {name}; no output was written", err=True)
+            ctx.exit(128 + exc.signum)
+        except KeyboardInterrupt:
+            click.echo("Error: interrupted by SIGINT; no output was written", err=True)
+            ctx.exit(128 + signal.SIGINT)
         except MemoryError:
-            raise ProcessingFailed("out of memory; reduce the scene or the block size") from None
+            raise ProcessingFailed("out of memory; reduce the scene or the block size "
+                                   "(sarproc -v prints each stage's memory estimate)") from None
+        except OSError as exc:
+            if verbosity >= 2:
+                traceback.print_exc()
+            name = f"{exc.filename}: " if exc.filename else ""
+            if exc.errno in _WRITE_ERRNOS or exc.errno is None:
+                from sarproc.product.io import _os_cause
+
+                raise ProcessingFailed(f"{name}{_os_cause(exc)}") from None
+            raise BadInput(f"{name}{exc.strerror or _one_line(exc)}") from None
+        except Exception as exc:  # a bug: one line, the traceback with -vv
+            if verbosity >= 2:
+                traceback.print_exc()
+            hint = "" if verbosity >= 2 else " (run with -vv for the traceback)"
+            raise ProcessingFailed(f"internal error: {type(exc).__name__}: {_one_line(exc)[:300]}{hint}") from None
 
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
@@ -76,9 +162,25 @@ def cli(verbose: int, quiet: bool):
     Exit status: 0 success, 1 processing failure, 2 bad usage or bad input.
     """
     level = logging.ERROR if quiet else (logging.WARNING, logging.INFO, logging.DEBUG)[min(verbose, 2)]
-    logging.basicConfig(level=level, format="sarproc: %(levelname)s: %(message)s", stream=sys.stderr, force=True)
+    # Only sarproc's own loggers get more verbose; libraries (h5py logs every type conversion at
+    # DEBUG) stay at WARNING, or ERROR with -q.
+    logging.basicConfig(level=logging.ERROR if quiet else logging.WARNING,
+                        format="sarproc: %(levelname)s: %(message)s", stream=sys.stderr, force=True)
+    logging.getLogger("sarproc").setLevel(level)
     logging.captureWarnings(True)
 
 
-def main():  # pragma: no cover - console entry
-    cli()
+def main(args=None):  # pragma: no cover - console entry (exercised by subprocess tests)
+    """Console entry: run the group; after a failed HDF5 write end without HDF5's cleanup (it can crash)."""
+    try:
+        cli.main(args=args, prog_name="sarproc")
+        code = 0
+    except SystemExit as exc:
+        code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    from sarproc.product.io import hdf5_handles_damaged
+
+    if hdf5_handles_damaged():
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    sys.exit(code)

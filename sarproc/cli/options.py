@@ -19,30 +19,98 @@ progress_option = click.option("--progress/--no-progress", default=None,
 input_argument = click.argument("input_path", type=click.Path(path_type=Path))
 
 
+def _store_max_memory(ctx, param, value):
+    if value is not None:
+        from sarproc.product.budget import parse_size
+        from sarproc.product.errors import InputError
+
+        try:
+            ctx.meta["sarproc.max_memory"] = parse_size(value)
+        except InputError as exc:
+            raise click.BadParameter(str(exc).split(": ", 1)[-1]) from None
+    return value
+
+
+# Stored in the context (expose_value=False), so every stage has it without a new argument.
+max_memory_option = click.option("--max-memory", metavar="SIZE", default=None, expose_value=False,
+                                 callback=_store_max_memory,
+                                 help="Refuse to start when the estimated working memory exceeds SIZE (e.g. 8G).")
+
+
 def common_options(func):
-    """-o, --config, --overwrite, --progress in one decorator."""
-    for opt in (progress_option, overwrite_option, config_option, output_option):
+    """-o, --config, --overwrite, --progress, --max-memory in one decorator."""
+    for opt in (max_memory_option, progress_option, overwrite_option, config_option, output_option):
         func = opt(func)
     return func
 
 
+def verbosity() -> int:
+    """-1 with -q, else the number of -v given (0 by default)."""
+    ctx = click.get_current_context(silent=True)
+    return 0 if ctx is None else int(ctx.meta.get("sarproc.verbosity", 0))
+
+
+def max_memory() -> int | None:
+    ctx = click.get_current_context(silent=True)
+    return None if ctx is None else ctx.meta.get("sarproc.max_memory")
+
+
 def want_progress(flag) -> bool:
+    if verbosity() < 0:
+        return False
     return sys.stderr.isatty() if flag is None else bool(flag)
+
+
+# Top-level sections a --config file may hold: every stage's own, and a scene's (one file can
+# describe a scene and its processing). New stages add theirs to STAGE_SECTIONS.
+STAGE_SECTIONS = ("backproject", "preprocess", "coarse_focus", "fine_focus", "pfa2", "reconstruct", "array3d",
+                  "evaluate", "sweep")
+
+
+def known_sections() -> tuple[str, ...]:
+    import dataclasses
+
+    from sarproc.simulation.scene import STAGE_SECTIONS as SCENE_STAGE_SECTIONS, SceneParams
+
+    scene = tuple(f.name for f in dataclasses.fields(SceneParams))
+    return tuple(dict.fromkeys(STAGE_SECTIONS + tuple(SCENE_STAGE_SECTIONS) + scene))
+
+
+def check_sections(data: dict, path) -> None:
+    """Refuse a top-level key that is no stage's and no scene's section (a typo would be ignored)."""
+    from sarproc.product.config import did_you_mean
+    from sarproc.product.errors import InputError
+
+    known = known_sections()
+    unknown = [k for k in data if k not in known]
+    if unknown:
+        raise InputError(f"{path}: unknown section(s) {', '.join(map(repr, unknown))}{did_you_mean(unknown, known)}; "
+                         f"a config file holds stage sections ({', '.join(STAGE_SECTIONS)}) and scene sections")
 
 
 def load_config(cls, path, section: str | None = None):
     """Build parameter model ``cls`` from a YAML file (or defaults when ``path`` is None).
 
     With ``section``, only that top-level key of the file is used, so one YAML file can hold
-    the parameters of several stages.
+    the parameters of several stages (and a scene); any other top-level key is refused.
     """
     if path is None:
         return build(cls, {}, source="defaults")
     data = load_yaml(path)
     if section is not None:
-        data = data.get(section, {}) or {}
+        check_sections(data, path)
+        data = data.get(section, {})
+        data = {} if data is None else data
     return build(cls, data, source=str(path), section=section or "")
 
 
 def summary(msg: str) -> None:
-    click.echo(msg)
+    """The one success line of a stage (silenced by -q)."""
+    if verbosity() >= 0:
+        click.echo(msg)
+
+
+def info(msg: str) -> None:
+    """A line shown with -v (plans, chosen defaults), on stderr so pipelines keep stdout clean."""
+    if verbosity() >= 1:
+        click.echo(msg, err=True)

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import click
 
-from sarproc.cli.options import output_option, overwrite_option, progress_option, summary, want_progress
+from sarproc.cli.options import (info, max_memory, max_memory_option, output_option, overwrite_option,
+                                 progress_option, summary, want_progress)
 
 
 @click.command()
@@ -15,17 +16,25 @@ from sarproc.cli.options import output_option, overwrite_option, progress_option
 @output_option
 @overwrite_option
 @progress_option
+@max_memory_option
 def simulate(scene_path: Path, output: Path, overwrite: bool, progress):
     """Simulate exact-geometry raw echoes of the point targets declared in SCENE_PATH."""
+    from sarproc.product.budget import check_plan
     from sarproc.product.io import ProductWriter, check_output_path, history_entry
     from sarproc.simulation.scene import load_scene
     from sarproc.simulation.simulate import plan_simulation, simulate_blocks
     from sarproc.cli.progress import progress_factory
+    from sarproc.cli.stage import naming, simulate_estimate
 
-    check_output_path(output, [scene_path], overwrite)
     start = time.perf_counter()
-    scene = load_scene(scene_path)
-    plan = plan_simulation(scene)
+    scene = load_scene(scene_path)           # the scene is validated before the output is looked at
+    check_output_path(output, [scene_path], overwrite)
+    with naming(scene_path):
+        plan_estimate = simulate_estimate(scene)
+    info(plan_estimate.describe())
+    check_plan(plan_estimate, [output], max_memory())
+    with naming(scene_path):
+        plan = plan_simulation(scene)
     history = [history_entry(f"sarproc simulate {scene_path}", scene.resolved())]
     with ProductWriter(output, plan.kind, plan.dims, plan.coords, plan.radar, plan.targets,
                        attrs={"frame": scene.target_frame.spec}, aux=plan.aux, history=history,

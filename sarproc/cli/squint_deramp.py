@@ -16,14 +16,15 @@ from sarproc.cli.options import common_options, input_argument, load_config, sum
 
 
 def _run(stage: str, input_path: Path, output: Path, config_path, overwrite: bool, kinds, params_cls, func,
-         progress=None):
-    from sarproc.product.io import check_output_path, read_product, write_product
+         progress=None, estimate=None):
+    from sarproc.product.io import write_product
+    from sarproc.cli.stage import naming, prepare
 
-    check_output_path(output, [input_path], overwrite)
-    params = load_config(params_cls, config_path, section=stage)
-    product = read_product(input_path, kinds=kinds)
+    params, product = prepare(stage.replace("_", "-"), input_path, [output], config_path, overwrite, kinds,
+                              params_cls, stage, estimate)
     start = time.perf_counter()
-    out = func(product, params) if progress is None else func(product, params, progress=progress)
+    with naming(input_path, config_path, stage):
+        out = func(product, params) if progress is None else func(product, params, progress=progress)
     out.history[-1]["command"] = f"sarproc {stage.replace('_', '-')} {input_path}"
     write_product(output, out, inputs=[input_path], overwrite=overwrite)
     return out, time.perf_counter() - start
@@ -36,7 +37,10 @@ def preprocess(input_path: Path, output: Path, config_path, overwrite: bool, pro
     """Doppler-centroid correction of a raw product (paper 000 eq. 7; section `preprocess:`)."""
     from sarproc.focus.squint_deramp.preprocess import PreprocessParams, preprocess as run
 
-    out, dt = _run("preprocess", input_path, output, config_path, overwrite, ("raw",), PreprocessParams, run)
+    from sarproc.cli.stage import preprocess_estimate
+
+    out, dt = _run("preprocess", input_path, output, config_path, overwrite, ("raw",), PreprocessParams, run,
+                   estimate=preprocess_estimate)
     summary(f"preprocess: {out.attrs['doppler_correction']} correction, {out.data.shape[0]}x{out.data.shape[1]} "
             f"-> {output} ({dt:.2f} s)")
 
@@ -48,8 +52,10 @@ def coarse_focus(input_path: Path, output: Path, config_path, overwrite: bool, p
     """Azimuth deramp / SPECAN coarse focusing (paper 000 eqs. 9-11; section `coarse_focus:`)."""
     from sarproc.focus.squint_deramp.coarse_focus import CoarseFocusParams, coarse_focus as run
 
+    from sarproc.cli.stage import coarse_focus_estimate
+
     out, dt = _run("coarse_focus", input_path, output, config_path, overwrite, ("preprocessed",),
-                   CoarseFocusParams, run)
+                   CoarseFocusParams, run, estimate=coarse_focus_estimate)
     a = out.attrs
     summary(f"coarse-focus: F_a'' = {a['azimuth_sampling_rate']:.1f} Hz, deramped spread "
             f"{a['deramp_spread']:.1f} Hz (PRF {out.radar.prf:.1f} Hz), {out.data.shape[0]}x{out.data.shape[1]} "
@@ -64,8 +70,9 @@ def fine_focus(input_path: Path, output: Path, config_path, overwrite: bool, pro
     from sarproc.focus.squint_deramp.fine_focus import FineFocusParams, fine_focus as run
 
     from sarproc.cli.progress import progress_factory
+    from sarproc.cli.stage import fine_focus_estimate
 
     out, dt = _run("fine_focus", input_path, output, config_path, overwrite, ("coarse",), FineFocusParams, run,
-                   progress=progress_factory(want_progress(progress), "fine-focus"))
+                   progress=progress_factory(want_progress(progress), "fine-focus"), estimate=fine_focus_estimate)
     summary(f"fine-focus: flow {out.attrs['flow']}, {out.data.shape[0]}x{out.data.shape[1]} image in frame "
             f"{out.attrs['frame']['name']} -> {output} ({dt:.2f} s)")
