@@ -24,7 +24,7 @@ demo: $(STAMP)
 	mkdir -p results/demo
 	$(SARPROC) simulate configs/demo.yaml -o results/demo/raw.h5 --overwrite
 	$(SARPROC) backproject results/demo/raw.h5 --config configs/demo.yaml -o results/demo/image.h5 --overwrite
-	$(SARPROC) evaluate results/demo/image.h5 -o results/demo/report.json --plot results/demo --expect configs/demo_expect.yaml
+	$(SARPROC) evaluate results/demo/image.h5 -o results/demo/report.json --overwrite --plot results/demo --expect configs/demo_expect.yaml
 
 test: $(TEST_STAMP)
 	$(PY) -m pytest -q
@@ -45,7 +45,7 @@ check-backprojection: $(STAMP)
 	for s in stripmap squint30; do \
 	  $(SARPROC) simulate configs/bp_$$s.yaml -o results/bp/raw_$$s.h5 --overwrite && \
 	  $(SARPROC) backproject results/bp/raw_$$s.h5 --config configs/bp_$$s.yaml -o results/bp/image_$$s.h5 --overwrite && \
-	  $(SARPROC) evaluate results/bp/image_$$s.h5 -o results/bp/report_$$s.json --expect configs/bp_expect.yaml || exit 1; \
+	  $(SARPROC) evaluate results/bp/image_$$s.h5 -o results/bp/report_$$s.json --overwrite --expect configs/bp_expect.yaml || exit 1; \
 	done
 
 # The reference's own knobs (range upsampling x interpolation): time vs quality (results/bp-accuracy/).

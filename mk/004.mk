@@ -6,8 +6,8 @@ reproduce-004: $(STAMP)
 	$(SARPROC) simulate configs/du2010.yaml -o results/004/raw.h5 --overwrite --no-progress
 	$(SARPROC) array3d results/004/raw.h5 -o results/004/cube.h5 --config configs/du2010.yaml --overwrite --no-progress \
 		--channel-image 14 --channel-output results/004/image_channel14.h5
-	$(SARPROC) evaluate results/004/cube.h5 -o results/004/report_cube.json --plot results/004/plots_cube > results/004/report_cube.md
-	$(SARPROC) evaluate results/004/image_channel14.h5 -o results/004/report_channel14.json > results/004/report_channel14.md
+	$(SARPROC) evaluate results/004/cube.h5 -o results/004/report_cube.json --overwrite --plot results/004/plots_cube > results/004/report_cube.md
+	$(SARPROC) evaluate results/004/image_channel14.h5 -o results/004/report_channel14.json --overwrite > results/004/report_channel14.md
 	$(PY) scripts/reproduce_004.py --results results/004 --config configs/du2010.yaml
 
 accuracy-004: $(STAMP)
