@@ -242,13 +242,13 @@ def exp1(out: Path, log):
                  "--overwrite"], log)
             name = f"image_{method}" + ("" if frame == "squint" else "_lrwc")
             run(["fine-focus", out / f"coarse_{method}.h5", "-o", out / f"{name}.h5", "--config", cfg, "--overwrite"], log)
-            run(["evaluate", out / f"{name}.h5", "-o", out / f"{name}.json"], log)
+            run(["evaluate", out / f"{name}.h5", "-o", out / f"{name}.json", "--overwrite"], log)
         summary[method] = (report(out / f"image_{method}_lrwc.json"), report(out / f"image_{method}.json"))
     # the paper's flow 1 vs flow 2 for the nonlinear chain, and the PRF margin
     cfg = write_cfg(out / "cfg_nonlinear_flow2.yaml", base, fine_focus={"output_frame": "lrwc", "flow": 2})
     run(["fine-focus", out / "coarse_nonlinear.h5", "-o", out / "image_nonlinear_flow2_lrwc.h5", "--config", cfg,
          "--overwrite"], log)
-    run(["evaluate", out / "image_nonlinear_flow2_lrwc.h5", "-o", out / "image_nonlinear_flow2_lrwc.json"], log)
+    run(["evaluate", out / "image_nonlinear_flow2_lrwc.h5", "-o", out / "image_nonlinear_flow2_lrwc.json", "--overwrite"], log)
     scene = copy.deepcopy(base)
     scene["radar"]["prf"] = "1850 Hz"
     scene_path = out / "scene_prf1850.yaml"
@@ -260,7 +260,7 @@ def exp1(out: Path, log):
         run(["coarse-focus", out / "pre_prf1850.h5", "-o", out / "coarse_prf1850.h5", "--config", cfg, "--overwrite"], log)
         name = f"image_nonlinear_prf1850_flow{flow}" + ("_lrwc" if frame == "lrwc" else "")
         run(["fine-focus", out / "coarse_prf1850.h5", "-o", out / f"{name}.h5", "--config", cfg, "--overwrite"], log)
-        run(["evaluate", out / f"{name}.h5", "-o", out / f"{name}.json"], log)
+        run(["evaluate", out / f"{name}.h5", "-o", out / f"{name}.json", "--overwrite"], log)
 
     from sarproc.product.io import read_product
     for method in ("none", "linear", "nonlinear"):
@@ -348,14 +348,14 @@ def exp2(out: Path, log):
         w, m = run([cmd, src, "-o", dst, "--config", cfg, "--overwrite"], log)
         ref, shape = fft_reference(src)
         timing.append((cmd, w, m, (ref, shape)))
-    run(["evaluate", out / "image_flow2.h5", "-o", out / "image_flow2.json"], log)
+    run(["evaluate", out / "image_flow2.h5", "-o", out / "image_flow2.json", "--overwrite"], log)
     for flow in (2, 1):
         c = write_cfg(out / f"cfg_flow{flow}_lrwc.yaml", base, fine_focus={"output_frame": "lrwc", "flow": flow})
         run(["fine-focus", out / "coarse.h5", "-o", out / f"image_flow{flow}_lrwc.h5", "--config", c, "--overwrite"], log)
-        run(["evaluate", out / f"image_flow{flow}_lrwc.h5", "-o", out / f"image_flow{flow}_lrwc.json"], log)
+        run(["evaluate", out / f"image_flow{flow}_lrwc.h5", "-o", out / f"image_flow{flow}_lrwc.json", "--overwrite"], log)
     c = write_cfg(out / "cfg_flow1.yaml", base, fine_focus={"output_frame": "squint", "flow": 1})
     run(["fine-focus", out / "coarse.h5", "-o", out / "image_flow1.h5", "--config", c, "--overwrite"], log)
-    run(["evaluate", out / "image_flow1.h5", "-o", out / "image_flow1.json"], log)
+    run(["evaluate", out / "image_flow1.h5", "-o", out / "image_flow1.json", "--overwrite"], log)
 
     r2, r1 = report(out / "image_flow2_lrwc.json"), report(out / "image_flow1_lrwc.json")
     p2, p1 = report(out / "image_flow2.json"), report(out / "image_flow1.json")
