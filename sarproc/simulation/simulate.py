@@ -125,13 +125,17 @@ def echo_block(scene: Scene, plan: SimulationPlan, t: np.ndarray) -> np.ndarray:
     t0 = plan.coords["range_time"][0]
     n_rg = len(plan.coords["range_time"])
     n_env = int(math.ceil(tp * fs)) + 2          # samples an envelope can touch
-    guard = n_env                                # columns on each side so indices never clip
+    if n_env > n_rg:
+        # A pulse longer than the window: evaluate every window sample (memory n_t x n_range).
+        width, guard = n_rg, 0
+    else:
+        width, guard = n_env, n_env              # columns on each side take echoes cut by the window
     pos = _positions(scene, t)
     tg = _target_positions(scene, t)
     gate = _gate_offsets(scene, t, 2 * r.reference_range / C)
     out = np.zeros((len(plan.rx_offsets), len(t), n_rg + 2 * guard), dtype=np.complex128)
     rows = np.arange(len(t))[:, None]
-    k_idx = np.arange(n_env)[None, :]
+    k_idx = np.arange(width)[None, :]
     for ch, rx in enumerate(plan.rx_offsets):
         tau = _delays(pos + plan.tx_offset, pos + rx, tg)                # (n_t, n_tg)
         gains = np.broadcast_to(scene.target_amplitude[None, :], tau.shape).astype(complex)
@@ -145,8 +149,10 @@ def echo_block(scene: Scene, plan: SimulationPlan, t: np.ndarray) -> np.ndarray:
             tau_j = tau[live, j]
             rel = tau_j - gate[live] - t0                                # delay inside the window, s
             first = np.ceil((rel - tp / 2) * fs).astype(np.int64)
-            first = np.clip(first, -guard, n_rg + 1)
-            idx = first[:, None] + k_idx                                 # (n_live, n_env)
+            # An echo starting more than `guard` samples outside the window has no sample inside it:
+            # clipping keeps its evaluation in the guard columns (idx + guard in [0, n_rg + 2 guard)).
+            first = np.clip(first, -guard, n_rg + guard - width)
+            idx = first[:, None] + k_idx                                 # (n_live, width)
             dt = idx / fs - rel[:, None]                                  # fast time from echo centre, s
             inside = np.abs(dt) <= tp / 2
             # Phase in float64 cycles, reduced to [0, 1) before the (fast) float32 cos/sin.
