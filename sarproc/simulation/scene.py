@@ -128,6 +128,30 @@ class TargetsParams:
 
 
 @dataclasses.dataclass(frozen=True)
+class ReferenceParams:
+    """Optional absolute placement of the local scene (for standard formats such as SICD/CPHD)."""
+
+    time: str | None = param(default=None, doc="UTC of azimuth time 0 (the aperture centre), ISO 8601 with a zone, "
+                                               "e.g. '2024-05-01T10:00:00Z'")
+    latitude: float | None = param("angle", default=None, ge=-math.pi / 2, le=math.pi / 2,
+                                   doc="WGS84 geodetic latitude of the scene centre")
+    longitude: float | None = param("angle", default=None, ge=-math.pi, le=math.pi,
+                                    doc="WGS84 geodetic longitude of the scene centre")
+    height: float | None = param("length", default=None, doc="height of the scene centre above the WGS84 ellipsoid "
+                                                             "(default 0 m when latitude and longitude are given)")
+
+    def validate(self):
+        if (self.latitude is None) != (self.longitude is None):
+            raise InputError("latitude/longitude: give both or neither")
+        if self.height is not None and self.latitude is None:
+            raise InputError("height: needs latitude and longitude")
+        if self.time is not None:
+            from sarproc.product.metadata import parse_utc
+
+            parse_utc(self.time, "time")
+
+
+@dataclasses.dataclass(frozen=True)
 class SimulationParams:
     block_pulses: int = param(default=256, ge=1, doc="pulses simulated per block (bounds memory)")
     seed: int = param(default=0, ge=0, doc="random seed for noise")
@@ -142,6 +166,7 @@ class SceneParams:
     targets: TargetsParams = param(default=TargetsParams())
     effects: dict = param(default={}, doc="effect name -> its parameters; only these are simulated")
     simulation: SimulationParams = param(default=SimulationParams())
+    reference: ReferenceParams = param(default=ReferenceParams(), doc="optional UTC time and geodetic scene centre")
 
 
 @dataclasses.dataclass
@@ -218,6 +243,19 @@ def _targets(p: SceneParams, radar: RadarMetadata, source: str):
     return frame, xyz, vel, amp, names
 
 
+def _reference(ref: ReferenceParams) -> dict:
+    """RadarMetadata fields of the optional absolute reference (canonical UTC string, rad, m)."""
+    from sarproc.product.metadata import parse_utc
+
+    out = {}
+    if ref.time is not None:
+        out["reference_utc"] = parse_utc(ref.time, "reference.time")
+    if ref.latitude is not None:
+        out.update(reference_latitude=ref.latitude, reference_longitude=ref.longitude,
+                   reference_height=ref.height if ref.height is not None else 0.0)
+    return out
+
+
 def scene_from_mapping(mapping: dict, source: str = "<mapping>") -> Scene:
     """Validate a scene mapping (as read from YAML) and derive its metadata and targets."""
     from sarproc.simulation.effects import build_effects
@@ -238,6 +276,7 @@ def scene_from_mapping(mapping: dict, source: str = "<mapping>") -> Scene:
         range_sampling_rate=r.range_sampling_rate, prf=r.prf, velocity=pl.velocity, altitude=pl.altitude,
         squint=g.squint, reference_range=g.reference_range, scene_center=centre, mode=p.acquisition.mode,
         aperture_time=_aperture_time(p, wavelength),
+        **_reference(p.reference),
     )
     frame, xyz, vel, amp, names = _targets(p, radar, source)
     effects = build_effects(p.effects, p, radar, source)

@@ -418,7 +418,7 @@ def array3d_product(raw, params: Array3DParams = Array3DParams(), *, channel_ima
                       {"elevation": res.elevation, "azimuth": res.azimuth, "range": res.range},
                       targets=targets_in_frame(raw.targets, frame),
                       attrs={"frame": frame.spec, "theoretical_irw": [float(x) for x in res.theoretical_irw],
-                             "units": ["rad", "m", "m"],
+                             "axis_units": ["rad", "m", "m"],  # the values are complex amplitudes (units "1")
                              "theoretical_irw_note": (
                                  "unweighted -3 dB widths at nadir: elevation = array-factor width of the receiver "
                                  "offsets (0.886 lambda / (N d) for many receivers), azimuth = 0.886 / (4 sin(beta_az/2) "
@@ -431,7 +431,7 @@ def array3d_product(raw, params: Array3DParams = Array3DParams(), *, channel_ima
                           {"azimuth": res.azimuth, "range": res.range},
                           targets=targets_in_frame(raw.targets, f2),
                           attrs={"frame": f2.spec, "theoretical_irw": [float(x) for x in res.channel_irw],
-                                 "units": ["m", "m"], "channel": int(channel_image),
+                                 "axis_units": ["m", "m"], "channel": int(channel_image),
                                  "rx_offset": [float(x) for x in np.asarray(raw.aux["rx_offset"])[channel_image - 1]]},
                           history=list(raw.history) + [history_entry(
                               command + f" --channel-image {channel_image}",
