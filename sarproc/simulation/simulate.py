@@ -52,10 +52,25 @@ def _positions(scene: Scene, t: np.ndarray) -> np.ndarray:
     return pos
 
 
-def _target_positions(scene: Scene, t: np.ndarray) -> np.ndarray:
-    pos = np.broadcast_to(scene.target_xyz[None, :, :], (len(t),) + scene.target_xyz.shape).copy()
+def _scatterers(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(xyz (n, 3), velocity (n, 3), amplitude (n,)): the scene's targets, then effects' static clutter."""
+    xyz, vel, amp = [scene.target_xyz.reshape(-1, 3)], [scene.target_velocity.reshape(-1, 3)], [scene.target_amplitude]
     for e in scene.effects:
-        pos = e.target_positions(t, pos, scene.target_velocity)
+        extra = e.scatterers()
+        if extra is not None:
+            xyz.append(np.asarray(extra[0], float).reshape(-1, 3))
+            vel.append(np.zeros_like(xyz[-1]))
+            amp.append(np.asarray(extra[1], complex).reshape(-1))
+    if len(xyz) == 1:
+        return xyz[0], vel[0], amp[0]
+    return np.concatenate(xyz), np.concatenate(vel), np.concatenate(amp)
+
+
+def _target_positions(scene: Scene, t: np.ndarray) -> np.ndarray:
+    xyz, vel, _ = _scatterers(scene)
+    pos = np.broadcast_to(xyz[None, :, :], (len(t),) + xyz.shape).copy()
+    for e in scene.effects:
+        pos = e.target_positions(t, pos, vel)
     return pos
 
 
@@ -85,7 +100,7 @@ def plan_simulation(scene: Scene) -> SimulationPlan:
     acq = scene.params.acquisition
     if acq.range_window is not None:
         start, end = 2 * acq.range_window.start / C, 2 * acq.range_window.end / C
-    elif len(scene.target_xyz):
+    elif len(_scatterers(scene)[0]):
         # Delays over every pulse, channel and target; gate offsets shift the window per pulse.
         pos = _positions(scene, t)
         tg = _target_positions(scene, t)
@@ -132,13 +147,14 @@ def echo_block(scene: Scene, plan: SimulationPlan, t: np.ndarray) -> np.ndarray:
         width, guard = n_env, n_env              # columns on each side take echoes cut by the window
     pos = _positions(scene, t)
     tg = _target_positions(scene, t)
+    amplitude = _scatterers(scene)[2]
     gate = _gate_offsets(scene, t, 2 * r.reference_range / C)
     out = np.zeros((len(plan.rx_offsets), len(t), n_rg + 2 * guard), dtype=np.complex128)
     rows = np.arange(len(t))[:, None]
     k_idx = np.arange(width)[None, :]
     for ch, rx in enumerate(plan.rx_offsets):
         tau = _delays(pos + plan.tx_offset, pos + rx, tg)                # (n_t, n_tg)
-        gains = np.broadcast_to(scene.target_amplitude[None, :], tau.shape).astype(complex)
+        gains = np.broadcast_to(amplitude[None, :], tau.shape).astype(complex)
         for e in scene.effects:
             gains = e.gains(t, pos, tg, ch, gains)
         for j in range(tau.shape[1]):

@@ -58,6 +58,10 @@ class Effect:
     def gains(self, t, platform_pos, target_pos, channel: int, gains):
         return gains
 
+    def scatterers(self):
+        """Extra static point scatterers (clutter): None, or (xyz (n, 3) m, complex amplitudes (n,))."""
+        return None
+
     def finalize(self, block: np.ndarray, rng: np.random.Generator, signal_power: float) -> np.ndarray:
         """Last touch on a finished block of pulses (noise)."""
         return block

@@ -1,0 +1,128 @@
+"""Along-track channel model and the multichannel reconstruction filter bank (paper 003; Krieger 2004).
+
+Channel model (derived in docs/multichannel.md, checked against the exact bistatic simulator
+by tests/focus/test_multichannel.py). One transmitter at the platform, receiver n at
+along-track offset dx_n; platform speed v along +x, a point target moving with along-track
+velocity v_a (+x) and slant-range velocity v_r (away from the track, slant plane). In the frame
+of the target the platform moves at v - v_a, so the receiver's bistatic path at pulse time t is
+the monostatic path of a phase centre half-way between transmitter and receiver, which the
+monostatic radar would occupy at time t + tau_n:
+
+    tau_n = dx_n / (2 (v - v_a))                                           (1)
+
+up to two terms. (a) The part of the target's motion the time shift does not absorb (its
+slant-range motion during tau_n) lengthens the monostatic path by -2 v_r cos(theta) tau_n, a
+channel phase  exp(+j 4 pi v_r cos(theta) tau_n / lambda)  (the channel phase imbalance of
+paper 003, its eq. (8), second term). (b) The bistatic path exceeds twice the monostatic one
+by the geometric constant
+
+    e_n = dx_n^2 cos^2(theta) / (4 R)                                      (2)
+
+(paper 003 eq. (8), first term: the same for static and moving targets). With the squint
+Doppler history removed (deramp.py) and the target's Doppler offset
+f_v = -2 v_los / lambda, v_los = v_r cos(theta) + v_a sin(theta), taken out, channel n of a
+moving target is the monostatic baseband signal g delayed by tau_n, exactly as for a static
+target: s_n(t) = g(t + tau_n). Its spectrum, sampled at PRF, aliases N bands:
+
+    S_n(f) = sum_j H_nj(f) G(f + j PRF),   H_nj(f) = exp(j 2 pi (f + j PRF) tau_n)        (3)
+
+for f in the base band and the N aliases j whose frequencies f + j PRF lie in the processed band
+[f_0 - N PRF / 2, f_0 + N PRF / 2). The reconstruction filter bank (Krieger, Gebert, Moreira
+2004) inverts H per frequency, G = P S with P = H^-1, and places the N bands side by side in a
+spectrum sampled at N PRF (scaled by N, the DFT length ratio). When H is ill-conditioned
+(non-uniform phase centres, e.g. PRF far from 2 v / (N d)) the Tikhonov solution
+
+    P = (H^H H + mu s_max^2 I)^-1 H^H                                      (4)
+
+trades residual ambiguities for noise. The noise gain reported is mean_f sum_jn |P_jn|^2, 1
+(0 dB) for uniform sampling (H / sqrt(N) unitary), the SNR scaling factor of Krieger 2004.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+
+def channel_delays(along_track_offsets, velocity: float, along_track_velocity: float = 0.0) -> np.ndarray:
+    """tau_n = dx_n / (2 (v - v_a)), s (eq. 1)."""
+    rel = velocity - along_track_velocity
+    if not rel > 0:
+        raise ValueError(f"relative along-track velocity v - v_a = {rel:g} m/s must be > 0")
+    return np.asarray(along_track_offsets, float) / (2.0 * rel)
+
+
+def bistatic_excess(along_track_offsets, squint: float, slant_range: float) -> np.ndarray:
+    """e_n = dx_n^2 cos^2(theta) / (4 R), m: bistatic path minus twice the phase-centre path (eq. 2)."""
+    dx = np.asarray(along_track_offsets, float)
+    return dx**2 * math.cos(squint) ** 2 / (4.0 * slant_range)
+
+
+def line_of_sight_velocity(radial_velocity: float, along_track_velocity: float, squint: float) -> float:
+    """v_los = v_r cos(theta) + v_a sin(theta): range rate due to the target's motion at beam centre."""
+    return radial_velocity * math.cos(squint) + along_track_velocity * math.sin(squint)
+
+
+@dataclasses.dataclass(frozen=True)
+class FilterBank:
+    """Reconstruction filters for one channel geometry and PRF.
+
+    matrix: (n_az, N, N) complex, P[a, j, n] maps channel n to band j at base bin a;
+    out_index: (n_az, N) int, bin of band j in the N n_az output spectrum;
+    condition: (n_az,) condition number of H per base bin; noise_gain: mean sum |P|^2.
+    """
+
+    matrix: np.ndarray
+    out_index: np.ndarray
+    condition: np.ndarray
+    noise_gain: float
+    regularization: float
+
+    @property
+    def max_condition(self) -> float:
+        return float(np.max(self.condition))
+
+
+def band_frequencies(n_az: int, prf: float, n_bands: int, band_center: float = 0.0) -> np.ndarray:
+    """(n_az, n_bands) frequencies f + j PRF of each base bin's aliases inside the processed band, Hz."""
+    f = np.fft.fftfreq(n_az, 1.0 / prf)
+    lo = band_center - n_bands * prf / 2.0
+    # First alias at or above the band's lower edge; a small tolerance keeps exact edges in.
+    j0 = np.ceil((lo - f) / prf - 1e-9)
+    return f[:, None] + (j0[:, None] + np.arange(n_bands)[None, :]) * prf
+
+
+def filter_bank(tau, prf: float, n_az: int, band_center: float = 0.0, regularization: float = 0.0) -> FilterBank:
+    """Filters P(f) = H(f)^-1 (eq. 3) or the Tikhonov solution (eq. 4) for ``n_az`` azimuth bins."""
+    tau = np.asarray(tau, float)
+    n = len(tau)
+    fo = band_frequencies(n_az, prf, n, band_center)                        # (n_az, N)
+    h = np.exp(2j * np.pi * tau[None, :, None] * fo[:, None, :])            # (n_az, N_ch, N_band), eq. (3)
+    s = np.linalg.svd(h, compute_uv=False)
+    cond = s[:, 0] / np.maximum(s[:, -1], 1e-300)
+    if regularization > 0:
+        hh = np.conj(np.swapaxes(h, 1, 2))
+        mu = regularization * s[:, :1, None] ** 2
+        p = np.linalg.solve(hh @ h + mu * np.eye(n)[None], hh)               # eq. (4)
+    else:
+        p = np.linalg.inv(h)
+    out_index = np.rint(fo * n_az / prf).astype(np.int64) % (n * n_az)
+    gain = float(np.mean(np.sum(np.abs(p) ** 2, axis=(1, 2))))
+    return FilterBank(matrix=p, out_index=out_index, condition=cond, noise_gain=gain, regularization=regularization)
+
+
+def apply_filter_bank(spectra: np.ndarray, bank: FilterBank) -> np.ndarray:
+    """Channel azimuth spectra (N, n_az, ...) -> reconstructed spectrum (N n_az, ...) at N PRF.
+
+    Bins follow numpy's FFT order for a length-N n_az transform; complex64 in, complex64 out.
+    """
+    n, n_az = spectra.shape[:2]
+    rest = spectra.shape[2:]
+    s = np.moveaxis(spectra, 0, 1).reshape(n_az, n, -1)                     # (n_az, N, m)
+    z = bank.matrix.astype(np.complex64) @ s                                  # (n_az, N_band, m)
+    out = np.empty((n * n_az,) + (s.shape[-1],), np.complex64)
+    out[bank.out_index.reshape(-1)] = z.reshape(n_az * n, -1)
+    out *= np.float32(n)
+    return out.reshape((n * n_az,) + rest)

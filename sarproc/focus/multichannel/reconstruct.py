@@ -1,0 +1,456 @@
+"""The ``reconstruct`` stage (paper 003, Xu et al.; Fig. 6 flow): multichannel squint raw -> one channel at N PRF.
+
+Flow, on a ``raw_multichannel`` product (channel, azimuth_time, range_time):
+
+1. range FFT (zero-padded so the walk correction cannot wrap), compression by the chirp phase,
+   per-channel deramp of the squint Doppler history at t + tau_n and removal of the bistatic
+   excess path e_n (deramp.py, channels.py eqs. 1-2);
+2. conventional reconstruction: filter bank of the static-scene channel delays over the band
+   |f| < N PRF / 2 (channels.py eq. 3; Tikhonov eq. 4 when ``regularization`` > 0);
+3. (``method: modified``) moving-target windows: range cells whose reconstructed signal has a
+   Doppler centroid beyond ``detection_velocity`` (or, with ``clutter_suppression``, whose
+   energy survives the clutter null), grouped and widened by ``window_margin`` cells; for each,
+   the slant-range velocity is searched (velocity.py eq. 5), the along-track velocity found by
+   autofocus, and the window reconstructed with the modified filter bank (the target's Doppler
+   offset and channel delays) and its range acceleration matched to a static point's;
+4. inverse deramp on the N PRF grid, decompression, crop: a ``raw`` product whose phase centre is
+   the transmitter, sampled at N PRF, which ``backproject`` focuses.
+
+Clutter suppression with redundant channels: where the static clutter band |f| <= B_a / 2
+covers only M < N of the N aliases of a base frequency, the channel vector is projected onto the
+orthogonal complement of the M static steering vectors (columns of H, eq. 3); static scatterers
+cancel and what remains is moving. The energy ratio after/before is reported in dB.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+
+import numpy as np
+import scipy.fft as sfft
+
+from sarproc.focus.multichannel import channels, deramp, velocity
+from sarproc.product.config import as_dict, param
+from sarproc.product.errors import InputError
+from sarproc.product.metadata import C
+from sarproc.product.model import Product
+
+log = logging.getLogger(__name__)
+
+
+@dataclasses.dataclass(frozen=True)
+class ReconstructParams:
+    method: str = param(default="modified", choices=("conventional", "modified"), doc=(
+        "conventional: static-scene filter bank everywhere; modified: also detect moving targets, estimate their "
+        "velocities and reconstruct them with the modified filter bank"))
+    doppler_bandwidth: float | None = param("frequency", default=None, gt=0, doc=(
+        "target Doppler band B_a for the leakage criterion and the clutter null; default 2 v cos(squint) beta / "
+        "lambda from the azimuth beamwidth"))
+    regularization: float = param(default=0.0, ge=0, doc="Tikhonov mu (relative to the largest singular value^2)")
+    max_condition: float = param(default=100.0, gt=1, doc="warn when the filter bank's condition number exceeds this")
+    detection: str = param(default="auto", choices=("auto", "whole"), doc=(
+        "auto: moving-target windows from the data; whole: the whole swath is one moving target"))
+    detection_velocity: float = param("velocity", default=1.0, gt=0, doc=(
+        "a range cell is moving when its Doppler centroid exceeds 2 v / lambda of this line-of-sight velocity"))
+    detection_level: float = param("decibel", default=-30.0, lt=0, doc="ignore range cells weaker than this "
+                                   "relative to the strongest")
+    window_margin: int = param(default=16, ge=1, doc="range cells added on each side of a moving-target window")
+    radial_velocity: float | None = param("velocity", default=None, doc="use this slant-range velocity (no search)")
+    along_track_velocity: float | None = param("velocity", default=None, doc="use this along-track velocity "
+                                               "(no autofocus)")
+    velocity_min: float = param("velocity", default=-20.0, doc="lower bound of the slant-range velocity search")
+    velocity_max: float = param("velocity", default=20.0, doc="upper bound of the slant-range velocity search")
+    velocity_step: float = param("velocity", default=0.1, gt=0, doc="precision of the search grid")
+    coarse_step: float = param("velocity", default=2.0, gt=0, doc="first grid step of the fast search")
+    search: str = param(default="fast", choices=("fast", "exhaustive"), doc="coarse-to-fine or a full grid")
+    autofocus: bool = param(default=True, doc="estimate the along-track velocity by azimuth autofocus")
+    autofocus_span: float = param("velocity", default=30.0, gt=0, doc="along-track search over +-span")
+    clutter_suppression: bool = param(default=False, doc="null static clutter with redundant channels; report it "
+                                      "and detect moving targets on the residual")
+
+    def validate(self):
+        if self.velocity_max <= self.velocity_min:
+            raise InputError("velocity_max: must be greater than velocity_min")
+        if self.coarse_step < self.velocity_step:
+            raise InputError("coarse_step: must be >= velocity_step")
+
+
+@dataclasses.dataclass(frozen=True)
+class MovingTarget:
+    """One moving-target window and what was estimated for it."""
+
+    first_cell: int
+    last_cell: int
+    slant_range: float          # m, window centre at its beam-centre time
+    radial_velocity: float      # m/s (estimated or given)
+    along_track_velocity: float  # m/s
+    beam_centre_time: float     # s
+    leakage: float              # eq. (5) at the estimate
+    at_bound: bool
+    search: np.ndarray          # (n, 2) velocity, leakage
+    autofocus: np.ndarray       # (n, 2) velocity, sharpness (empty if not run)
+
+
+@dataclasses.dataclass
+class _Geometry:
+    prf: float
+    times: np.ndarray
+    out_times: np.ndarray
+    dx: np.ndarray
+    tau0: np.ndarray
+    n: int
+    velocity: float
+    squint: float
+    fc: float
+    half_band: float
+    fs: float
+
+
+def _check_input(raw: Product) -> None:
+    if raw.kind != "raw_multichannel":
+        raise InputError(f"reconstruct needs a raw_multichannel product, got {raw.kind!r}")
+    if "range_gate_offset" in raw.aux:
+        raise InputError("reconstruct: a varying receive range gate (aux range_gate_offset) is not supported")
+    rx = np.asarray(raw.aux.get("rx_offset", np.zeros((1, 3))), float).reshape(-1, 3)
+    tx = np.asarray(raw.aux.get("tx_offset", np.zeros(3)), float).reshape(3)
+    if rx.shape[0] != raw.data.shape[0]:
+        raise InputError(f"reconstruct: aux rx_offset has {rx.shape[0]} rows for {raw.data.shape[0]} channels")
+    if np.any(np.abs(rx[:, 1:] - tx[1:]) > 1e-9):
+        raise InputError("reconstruct: receivers must be displaced along track only (aux rx_offset y, z = tx's)")
+    t = np.asarray(raw.coords["azimuth_time"], float)
+    if len(t) > 1 and not np.allclose(np.diff(t), 1.0 / raw.radar.prf, rtol=1e-6, atol=0):
+        raise InputError("reconstruct: azimuth_time is not sampled uniformly at the radar PRF")
+
+
+def _geometry(raw: Product, params: ReconstructParams) -> _Geometry:
+    r = raw.radar
+    rx = np.asarray(raw.aux.get("rx_offset"), float).reshape(-1, 3)
+    tx = np.asarray(raw.aux.get("tx_offset", np.zeros(3)), float).reshape(3)
+    dx = rx[:, 0] - tx[0]
+    n = len(dx)
+    t = np.asarray(raw.coords["azimuth_time"], float)
+    band = params.doppler_bandwidth
+    if band is None:
+        if r.azimuth_beamwidth <= 0:
+            raise InputError("reconstruct.doppler_bandwidth: required (the product has no azimuth beamwidth)")
+        band = 2 * r.velocity * math.cos(r.squint) * r.azimuth_beamwidth / r.wavelength
+    out_times = t[0] + np.arange(n * len(t)) / (n * r.prf)
+    return _Geometry(prf=r.prf, times=t, out_times=out_times, dx=dx, tau0=channels.channel_delays(dx, r.velocity),
+                     n=n, velocity=r.velocity, squint=r.squint, fc=r.carrier_frequency, half_band=band / 2,
+                     fs=r.range_sampling_rate)
+
+
+def _to_deramped(raw: Product, g: _Geometry) -> tuple[np.ndarray, np.ndarray, int]:
+    """Channels in (azimuth time, range frequency), compressed and deramped; also f_r and the lead offset."""
+    r = raw.radar
+    n_ch, n_az, n_rg = raw.data.shape
+    walk = (g.velocity * abs(math.sin(g.squint)) + 50.0) * float(np.max(np.abs(g.times)) + 1.0 / g.prf)
+    lead = int(math.ceil(2 * walk / C * g.fs)) + 8
+    n_fft = sfft.next_fast_len(n_rg + 2 * lead)
+    f_r = sfft.fftfreq(n_fft, 1.0 / g.fs)
+    buf = np.zeros((n_ch, n_az, n_fft), np.complex64)
+    buf[:, :, lead:lead + n_rg] = raw.data
+    spec = sfft.fft(buf, axis=-1, workers=-1)
+    del buf
+    comp = deramp.compression_phasor(f_r, r.chirp_rate)
+    excess = channels.bistatic_excess(g.dx, g.squint, r.reference_range)
+    for k in range(n_ch):
+        spec[k] *= deramp.deramp_phasor(g.times + g.tau0[k], f_r, g.velocity, g.squint, g.fc)
+        spec[k] *= comp * deramp.path_phasor(f_r, excess[k], g.fc)
+    return spec, f_r, lead
+
+
+def _reconstruct(spec_tf: np.ndarray, bank: channels.FilterBank) -> np.ndarray:
+    """(N, n_az, m) channels in azimuth time -> (N n_az, m) reconstructed spectrum (azimuth frequency)."""
+    return channels.apply_filter_bank(sfft.fft(spec_tf, axis=1, workers=-1), bank)
+
+
+def _doppler_centroid(y_tr: np.ndarray, out_prf: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per range cell: power and the lag-one Doppler centroid of a (n_t, n_r) signal."""
+    acf = np.sum(y_tr[1:] * np.conj(y_tr[:-1]), axis=0)
+    power = np.sum(np.abs(y_tr) ** 2, axis=0)
+    return power, np.angle(acf) * out_prf / (2 * math.pi)
+
+
+def _windows(mask: np.ndarray, margin: int) -> list[tuple[int, int]]:
+    """Contiguous True runs (gaps up to ``margin`` bridged), widened by ``margin`` cells: [first, last)."""
+    idx = np.nonzero(mask)[0]
+    if len(idx) == 0:
+        return []
+    runs, start, prev = [], idx[0], idx[0]
+    for i in idx[1:]:
+        if i - prev > 2 * margin:
+            runs.append((start, prev))
+            start = i
+        prev = i
+    runs.append((start, prev))
+    n = len(mask)
+    return [(max(0, a - margin), min(n, b + margin + 1)) for a, b in runs]
+
+
+class _Window:
+    """One moving-target window: channel data in (t, f_r) over its L range cells, and its reconstruction."""
+
+    def __init__(self, x_tf: np.ndarray, f_r: np.ndarray, g: _Geometry, params: ReconstructParams):
+        self.x, self.f_r, self.g, self.params = x_tf, f_r, g, params
+        self.out_f = sfft.fftfreq(g.n * len(g.times), 1.0 / (g.n * g.prf))
+        self._banks: dict[float, channels.FilterBank] = {}
+
+    def bank(self, v_a: float) -> channels.FilterBank:
+        key = round(v_a, 9)
+        if key not in self._banks:
+            tau = channels.channel_delays(self.g.dx, self.g.velocity, v_a)
+            self._banks[key] = channels.filter_bank(tau, self.g.prf, len(self.g.times),
+                                                    regularization=self.params.regularization)
+        return self._banks[key]
+
+    def demodulated_spectrum(self, v_r: float, v_a: float) -> np.ndarray:
+        """Reconstructed spectrum (N n_az, L) with the trial target's Doppler offset removed (band centred on 0)."""
+        g = self.g
+        v_los = channels.line_of_sight_velocity(v_r, v_a, g.squint)
+        demod = deramp.doppler_shift_phasor(g.times, self.f_r, v_los, g.fc, sign=-1)
+        return _reconstruct(self.x * demod[None], self.bank(v_a))
+
+    def leakage(self, v_r: float, v_a: float) -> float:
+        return velocity.out_of_band_fraction(self.demodulated_spectrum(v_r, v_a), self.out_f, self.g.half_band)
+
+    def output(self, v_r: float, v_a: float, t_c: float, slant_range: float, focus_along_track: bool) -> np.ndarray:
+        """Target reconstructed at N PRF in (t', f_r), Doppler offset restored, FM rate matched to a static point."""
+        g = self.g
+        y = sfft.ifft(self.demodulated_spectrum(v_r, v_a), axis=0, workers=-1)
+        v_los = channels.line_of_sight_velocity(v_r, v_a, g.squint)
+        y *= deramp.doppler_shift_phasor(g.out_times, self.f_r, v_los, g.fc, sign=+1)
+        if focus_along_track:
+            y *= self.acceleration_fix(v_r, v_a, t_c, slant_range)
+        return y
+
+    def acceleration_fix(self, v_r, v_a, t_c, slant_range):
+        g = self.g
+        # R''_moving - R''_static with the same R': ((v - v_a)^2 + v_r^2 - v^2) / R (velocity.py).
+        d_acc = ((g.velocity - v_a) ** 2 + v_r**2 - g.velocity**2) / slant_range
+        return deramp.quadratic_phasor(g.out_times, self.f_r, d_acc, t_c, g.fc)
+
+    def walk_rate(self, v_r: float, v_a: float) -> float:
+        """Residual range walk (m/s) of the target after removing the trial Doppler offset: 0 at the true v_los.
+
+        The leakage criterion cannot tell velocities whose Doppler offsets differ by a multiple of the PRF
+        (the channel samples are the same); their range walks differ by lambda PRF / 2 per second.
+        """
+        g = self.g
+        y = sfft.ifft(sfft.ifft(self.demodulated_spectrum(v_r, v_a), axis=0, workers=-1), axis=1, workers=-1)
+        p = np.abs(y) ** 2
+        w = p.sum(axis=1)
+        keep = w > 0.1 * w.max() if w.max() > 0 else w > 0
+        cells = np.arange(p.shape[1])
+        centre = (p[keep] @ cells) / w[keep]
+        tt = g.out_times[keep]
+        if len(tt) < 3:
+            return 0.0
+        slope = np.polyfit(tt, centre, 1, w=np.sqrt(w[keep]))[0]
+        return float(slope * C / (2 * g.fs))
+
+    def sharpness(self, y_dem: np.ndarray, v_r: float, v_a: float, t_c: float, slant_range: float) -> float:
+        g = self.g
+        acc = velocity.range_acceleration(g.velocity, v_a, v_r, g.squint, slant_range)
+        z = y_dem * deramp.quadratic_phasor(g.out_times, self.f_r, acc, t_c, g.fc)
+        return velocity.sharpness(sfft.ifft(sfft.fft(z, axis=0, workers=-1), axis=1, workers=-1))
+
+
+def _estimate(win: _Window, params: ReconstructParams, g: _Geometry, centre_range: float) -> MovingTarget:
+    """Slant-range velocity by the leakage search, along-track by autofocus, then a refined search."""
+    empty = np.zeros((0, 2))
+    can_search = g.n * g.prf > 2 * g.half_band
+    if not can_search and params.radial_velocity is None:
+        log.warning("reconstruct: N PRF = %.4g Hz leaves no band outside the Doppler band %.4g Hz; "
+                    "slant-range velocity not estimated (0 used)", g.n * g.prf, 2 * g.half_band)
+    v_a = params.along_track_velocity if params.along_track_velocity is not None else 0.0
+
+    def search(v_a_now, lo, hi, coarse):
+        return velocity.fast_search(lambda u: win.leakage(u, v_a_now), lo, hi, params.velocity_step, coarse,
+                                    exhaustive=params.search == "exhaustive")
+
+    result = None
+    if params.radial_velocity is not None:
+        v_r = params.radial_velocity
+    elif can_search:
+        result = search(v_a, params.velocity_min, params.velocity_max, params.coarse_step)
+        v_r = _resolve_blind_velocity(win, result.estimate, v_a, params, g)
+        if abs(v_r - result.estimate) > params.velocity_step:
+            lo, hi = max(params.velocity_min, v_r - params.coarse_step), min(params.velocity_max, v_r + params.coarse_step)
+            alias = search(v_a, lo, hi, params.coarse_step / 4)
+            trials = np.concatenate([result.trials, alias.trials])
+            result = velocity.SearchResult(alias.estimate, alias.at_bound, trials[np.argsort(trials[:, 0])],
+                                           result.evaluations + alias.evaluations)
+            v_r = alias.estimate
+    else:
+        v_r = 0.0
+    y_dem = sfft.ifft(win.demodulated_spectrum(v_r, v_a), axis=0, workers=-1)
+    p = np.sum(np.abs(y_dem) ** 2, axis=1)
+    t_c = float(np.sum(g.out_times * p) / np.sum(p)) if np.sum(p) > 0 else 0.0
+    slant_range = centre_range - g.velocity * math.sin(g.squint) * t_c
+    af = empty
+    if params.autofocus and params.along_track_velocity is None:
+        v_los = channels.line_of_sight_velocity(v_r, 0.0, g.squint)
+
+        def crit(u):  # keep the line-of-sight velocity found by the search while v_a varies
+            vr_u = (v_los - u * math.sin(g.squint)) / math.cos(g.squint)
+            return win.sharpness(y_dem, vr_u, u, t_c, slant_range)
+
+        v_a, af = velocity.maximise(crit, -params.autofocus_span, params.autofocus_span, 1.0)
+        v_a, af2 = velocity.maximise(crit, v_a - 1.0, v_a + 1.0, 0.05)
+        af = np.concatenate([af, af2])
+        v_r = (v_los - v_a * math.sin(g.squint)) / math.cos(g.squint)
+        if params.radial_velocity is None and can_search:
+            # Refine v_r with the along-track velocity known (the channel delays depend on it).
+            span = 5 * params.velocity_step
+            lo, hi = max(params.velocity_min, v_r - span), min(params.velocity_max, v_r + span)
+            fine = search(v_a, lo, hi, params.velocity_step)
+            trials = np.concatenate([result.trials, fine.trials])
+            result = velocity.SearchResult(fine.estimate, result.at_bound, trials[np.argsort(trials[:, 0])],
+                                           result.evaluations + fine.evaluations)
+            v_r = fine.estimate
+    leak = win.leakage(v_r, v_a) if can_search else float("nan")
+    if result is not None and result.at_bound:
+        log.warning("reconstruct: slant-range velocity estimate %.2f m/s is on the search bound "
+                    "[%g, %g] m/s; the target may move faster", v_r, params.velocity_min, params.velocity_max)
+    return MovingTarget(first_cell=0, last_cell=0, slant_range=slant_range, radial_velocity=float(v_r),
+                        along_track_velocity=float(v_a), beam_centre_time=t_c, leakage=leak,
+                        at_bound=bool(result.at_bound) if result is not None else False,
+                        search=result.trials if result is not None else empty, autofocus=af)
+
+
+def blind_velocity_period(g: _Geometry) -> float:
+    """Slant-range velocity step lambda PRF / (2 cos(theta)) whose Doppler offset is one PRF (m/s)."""
+    return C / g.fc * g.prf / (2 * math.cos(g.squint))
+
+
+def _resolve_blind_velocity(win: _Window, estimate: float, v_a: float, params: ReconstructParams,
+                            g: _Geometry) -> float:
+    """Among the leakage minimum and its blind-velocity aliases inside the bounds, the one without range walk."""
+    period = blind_velocity_period(g)
+    k_lo = math.ceil((params.velocity_min - estimate) / period - 1e-9)
+    k_hi = math.floor((params.velocity_max - estimate) / period + 1e-9)
+    candidates = [estimate + k * period for k in range(k_lo, k_hi + 1)] or [estimate]
+    if len(candidates) == 1:
+        return estimate
+    walks = [abs(win.walk_rate(u, v_a)) for u in candidates]
+    return float(candidates[int(np.argmin(walks))])
+
+
+def clutter_null(spec_fa: np.ndarray, g: _Geometry) -> tuple[np.ndarray, int]:
+    """Project channel spectra (N, n_az, m) onto the complement of the static clutter steering vectors.
+
+    Returns the residual (same shape) and the fewest redundant channels over the base bins.
+    """
+    n, n_az = spec_fa.shape[:2]
+    fo = channels.band_frequencies(n_az, g.prf, n)
+    h = np.exp(2j * np.pi * g.tau0[None, :, None] * fo[:, None, :])         # (n_az, N, N), eq. (3)
+    clutter = np.abs(fo) <= g.half_band                                      # aliases the static band covers
+    a = h * clutter[:, None, :]
+    proj = np.eye(n)[None] - a @ np.linalg.pinv(a, rcond=1e-10)
+    s = np.moveaxis(spec_fa, 0, 1).reshape(n_az, n, -1)
+    res = (proj.astype(np.complex64) @ s).reshape((n_az, n) + spec_fa.shape[2:])
+    return np.moveaxis(res, 1, 0), int(n - clutter.sum(axis=1).max())
+
+
+def reconstruct(raw: Product, params: ReconstructParams = ReconstructParams(), progress=None) -> Product:
+    """Reconstruct a raw_multichannel product into a single-channel raw product at N PRF (module docstring)."""
+    _check_input(raw)
+    g = _geometry(raw, params)
+    r = raw.radar
+    n_ch, n_az, n_rg = raw.data.shape
+    if g.n * g.prf < 2 * g.half_band:
+        log.warning("reconstruct: N PRF = %.4g Hz is below the Doppler bandwidth %.4g Hz: the output stays aliased",
+                    g.n * g.prf, 2 * g.half_band)
+    bank = channels.filter_bank(g.tau0, g.prf, n_az, regularization=params.regularization)
+    if bank.max_condition > params.max_condition:
+        log.warning("reconstruct: filter bank condition number %.3g exceeds %.3g (noise gain %.1f dB)%s",
+                    bank.max_condition, params.max_condition, 10 * math.log10(bank.noise_gain),
+                    "" if params.regularization > 0 else "; set reconstruct.regularization")
+    spec, f_r, lead = _to_deramped(raw, g)                                   # (N, n_az, n_fft) in (t, f_r)
+    info = {"n_channels": n_ch, "prf_in": g.prf, "prf_out": g.n * g.prf, "doppler_bandwidth": 2 * g.half_band,
+            "condition_number": bank.max_condition, "noise_gain_db": 10 * math.log10(bank.noise_gain),
+            "uniform_prf": 2 * g.velocity / (n_ch * float(np.mean(np.diff(g.dx)))) if n_ch > 1 else g.prf,
+            "method": params.method}
+    residual_power = None
+    if params.clutter_suppression:
+        spec_fa = sfft.fft(spec, axis=1, workers=-1)
+        res, dof = clutter_null(spec_fa, g)
+        before, after = float(np.sum(np.abs(spec_fa) ** 2)), float(np.sum(np.abs(res) ** 2))
+        info["clutter_redundant_channels"] = dof
+        info["clutter_suppression_db"] = 10 * math.log10(after / before) if before > 0 and after > 0 else None
+        if dof <= 0:
+            log.warning("reconstruct: no redundant channel (N PRF barely covers the Doppler band): no clutter null")
+        residual_power = np.sum(np.abs(sfft.ifft(res, axis=-1, workers=-1)) ** 2, axis=(0, 1))
+        del spec_fa, res
+    y = sfft.ifft(_reconstruct(spec, bank), axis=0, workers=-1)              # (N n_az, n_fft) in (t', f_r)
+    movers: list[MovingTarget] = []
+    if params.method == "modified":
+        y_tr = sfft.ifft(y, axis=1, workers=-1)
+        x_tr = sfft.ifft(spec, axis=-1, workers=-1)
+        if params.detection == "whole":
+            spans = [(0, y_tr.shape[1])]
+        else:
+            power, centroid = _doppler_centroid(y_tr, g.n * g.prf)
+            if residual_power is not None:
+                power = residual_power
+            strong = power > power.max() * 10 ** (params.detection_level / 10) if power.max() > 0 else power > 0
+            moving = strong if residual_power is not None else \
+                strong & (np.abs(centroid) > 2 * params.detection_velocity / r.wavelength)
+            spans = _windows(moving, params.window_margin)
+        spans_iter = progress(spans) if progress is not None else spans
+        for a, b in spans_iter:
+            f_w = sfft.fftfreq(b - a, 1.0 / g.fs)
+            win = _Window(sfft.fft(x_tr[:, :, a:b], axis=-1, workers=-1), f_w, g, params)
+            centre_range = C / 2 * (raw.coords["range_time"][0] + ((a + b - 1) / 2 - lead) / g.fs)
+            mt = _estimate(win, params, g, centre_range)
+            mt = dataclasses.replace(mt, first_cell=a, last_cell=b)
+            movers.append(mt)
+            y_w = win.output(mt.radial_velocity, mt.along_track_velocity, mt.beam_centre_time, mt.slant_range,
+                             focus_along_track=True)
+            y_tr[:, a:b] = sfft.ifft(y_w, axis=1, workers=-1)
+        del x_tr
+        y = sfft.fft(y_tr, axis=1, workers=-1)
+        del y_tr
+    del spec
+    y *= deramp.deramp_phasor(g.out_times, f_r, g.velocity, g.squint, g.fc, sign=+1)
+    y *= deramp.compression_phasor(f_r, r.chirp_rate, sign=-1)[None, :]
+    out = sfft.ifft(y, axis=1, workers=-1)[:, lead:lead + n_rg].astype(np.complex64)
+    return _output_product(raw, params, g, out, info, movers)
+
+
+def _output_product(raw, params, g, out, info, movers) -> Product:
+    from sarproc.product.io import history_entry
+
+    pos = raw.aux["platform_position"]
+    out_pos = np.stack([np.interp(g.out_times, g.times, pos[:, k]) for k in range(3)], axis=1)
+    # Beyond the last input pulse the track is extrapolated linearly (straight-line flight).
+    if len(g.times) > 1:
+        late = g.out_times > g.times[-1]
+        vel = (pos[-1] - pos[-2]) / (g.times[-1] - g.times[-2])
+        out_pos[late] = pos[-1] + (g.out_times[late] - g.times[-1])[:, None] * vel
+    tx = np.asarray(raw.aux.get("tx_offset", np.zeros(3)), float).reshape(3)
+    aux = {k: v for k, v in raw.aux.items() if k not in ("platform_position", "rx_offset", "tx_offset")}
+    aux.update(platform_position=out_pos, tx_offset=tx, rx_offset=tx.reshape(1, 3))
+    info["moving_targets"] = []
+    for k, mt in enumerate(movers):
+        info["moving_targets"].append({
+            "first_cell": mt.first_cell, "last_cell": mt.last_cell, "slant_range": mt.slant_range,
+            "radial_velocity": mt.radial_velocity, "along_track_velocity": mt.along_track_velocity,
+            "beam_centre_time": mt.beam_centre_time, "leakage": mt.leakage, "at_bound": mt.at_bound,
+            "search_evaluations": int(len(mt.search))})
+        aux[f"velocity_search_{k}"] = mt.search
+        if len(mt.autofocus):
+            aux[f"autofocus_{k}"] = mt.autofocus
+    if movers:
+        aux["estimated_velocity"] = np.array([[m.radial_velocity, m.along_track_velocity] for m in movers])
+    radar = raw.radar.replace(prf=g.n * g.prf, n_channels=1)
+    attrs = {k: v for k, v in raw.attrs.items()}
+    attrs["reconstruct"] = info
+    prod = raw.derive("raw", out, ("azimuth_time", "range_time"),
+                      {"azimuth_time": g.out_times, "range_time": raw.coords["range_time"]},
+                      radar=radar, attrs=attrs, aux=aux)
+    prod.history.append(history_entry("reconstruct", as_dict(params)))
+    return prod
