@@ -172,6 +172,15 @@ def cli(verbose: int, quiet: bool):
 
 def main(args=None):  # pragma: no cover - console entry (exercised by subprocess tests)
     """Console entry: run the group; after a failed HDF5 write end without HDF5's cleanup (it can crash)."""
+    default_hook = sys.unraisablehook
+
+    def quiet_after_failed_write(unraisable):  # h5py objects of a damaged file complain when freed
+        from sarproc.product.io import hdf5_handles_damaged
+
+        if not hdf5_handles_damaged():
+            default_hook(unraisable)
+
+    sys.unraisablehook = quiet_after_failed_write
     try:
         cli.main(args=args, prog_name="sarproc")
         code = 0

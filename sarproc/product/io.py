@@ -87,9 +87,9 @@ def _temporary_name(output: Path) -> Path:
     return output.parent / f".{output.name}.{_HOST}.{os.getpid()}.{secrets.token_hex(4)}{TMP_SUFFIX}"
 
 
-def _os_cause(exc: OSError) -> str:
+def _os_cause(exc: Exception) -> str:
     """'No space left on device (ENOSPC)' from an OSError, including h5py's wrapped ones."""
-    code = exc.errno
+    code = getattr(exc, "errno", None)
     if code is None:
         m = re.search(r"errno = (\d+)", str(exc))
         code = int(m.group(1)) if m else None
@@ -267,7 +267,7 @@ class ProductWriter:
         self._args = (radar, targets, list(history), attrs or {}, aux or {}, dtype)
         self.file = None
 
-    def _failed(self, exc: OSError):
+    def _failed(self, exc: Exception):
         # HDF5 cannot be trusted with this file any more: keep its objects alive, never close them.
         if self.file is not None:
             _DAMAGED.append((self.file, getattr(self, "dset", None)))
@@ -290,7 +290,7 @@ class ProductWriter:
             _write_scales(self.file, self.dset, self.dims, self.coords)
             if aux:
                 _write_aux(self.file, aux)
-        except OSError as exc:
+        except (OSError, RuntimeError) as exc:  # h5py reports some failed writes as RuntimeError
             err = self._failed(exc)
             self._ctx.__exit__(type(err), err, None)
             raise err from None
@@ -303,7 +303,7 @@ class ProductWriter:
     def write(self, index, block):
         try:
             self.dset[index] = block
-        except OSError as exc:
+        except (OSError, RuntimeError) as exc:
             raise self._failed(exc) from None
 
     def _close_quietly(self):
@@ -311,7 +311,7 @@ class ProductWriter:
             f, self.file = self.file, None
             try:
                 f.close()
-            except OSError:
+            except (OSError, RuntimeError):
                 _DAMAGED.append((f, getattr(self, "dset", None)))
 
     def __exit__(self, exc_type, exc, tb):
@@ -319,7 +319,7 @@ class ProductWriter:
             try:
                 self.file.close()
                 self.file = None
-            except OSError as err:
+            except (OSError, RuntimeError) as err:
                 failure = self._failed(err)
                 self._ctx.__exit__(type(failure), failure, None)
                 raise failure from None
