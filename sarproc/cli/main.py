@@ -33,6 +33,7 @@ COMMANDS = {
     "array3d": "sarproc.cli.array3d:array3d",
     "backproject": "sarproc.cli.backproject:backproject",
     "evaluate": "sarproc.cli.evaluate:evaluate",
+    "sweep": "sarproc.cli.sweep:sweep",
 }
 
 

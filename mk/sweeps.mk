@@ -1,0 +1,11 @@
+# Sweeps on Dask (issue 14): sarproc sweep, see docs/sweeps.md.
+DIST_STAMP := $(VENV)/.installed-distributed
+
+$(DIST_STAMP): $(STAMP) pyproject.toml
+	$(PY) -m pip install --quiet -e '.[distributed]'
+	touch $@
+
+.PHONY: sweep-backprojection
+# The backprojection knobs (make accuracy-backprojection) as an 18-task sweep on a local Dask cluster.
+sweep-backprojection: $(DIST_STAMP)
+	$(SARPROC) sweep configs/sweeps/backprojection.yaml

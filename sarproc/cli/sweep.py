@@ -1,0 +1,81 @@
+"""sarproc sweep SWEEP.yaml [-o DIR] [--scheduler serial|local|ADDRESS] [--workers N]"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from sarproc.cli.options import summary
+
+
+@click.command()
+@click.argument("sweep_path", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Output directory (default: the sweep file's 'output:').")
+@click.option("--scheduler", default="local", show_default=True,
+              help="'local' (a new Dask LocalCluster), 'serial' (this process, no Dask) or the address of a "
+                   "running Dask scheduler, e.g. tcp://host:8786.")
+@click.option("--workers", type=click.IntRange(min=1), default=None,
+              help="Workers of the local cluster (default: the number of cores).")
+@click.option("--threads-per-worker", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Threads of each local worker (the stages use all cores of their worker already).")
+@click.option("--processes/--threads", default=True, show_default=True,
+              help="Local workers as processes or as threads of this process.")
+@click.option("--list", "list_only", is_flag=True, help="Print the tasks and exit.")
+def sweep(sweep_path: Path, output, scheduler: str, workers, threads_per_worker: int, processes: bool,
+          list_only: bool):
+    """Run a grid of scenes x stage knobs (simulate -> focus -> evaluate) and gather one table.
+
+    Every step writes its own product under DIR (raw/, tasks/<id>/); a step whose output already
+    exists with the same resolved inputs is skipped, so a killed sweep resumes when rerun. Writes
+    DIR/table.md, DIR/table.json and DIR/plot.png. Dask is needed unless --scheduler serial
+    (pip install 'sarproc[distributed]'); see docs/sweeps.md for a SLURM cluster.
+    """
+    import logging
+    import os
+
+    from sarproc.cli.sweep_tasks import local_client, plan_sweep, run_dask, run_serial, write_results
+    from sarproc.product.errors import InputError, ProcessingError
+
+    plan = plan_sweep(sweep_path, output)
+    if list_only:
+        for task in plan.tasks:
+            click.echo(f"{task.task_id}\t{task.directory}")
+        summary(f"sweep: {len(plan.tasks)} tasks, {len(plan.sims)} raw products")
+        return
+    if scheduler == "serial":
+        outcome = run_serial(plan)
+        runner = "serial"
+    else:
+        try:
+            from dask.distributed import Client
+        except ImportError:
+            raise InputError("--scheduler: Dask is not installed; pip install 'sarproc[distributed]' "
+                             "or use --scheduler serial") from None
+        # distributed logs its cluster's life at INFO; show it only when sarproc itself is verbose
+        logging.getLogger("distributed").setLevel(max(logging.getLogger().level, logging.WARNING))
+        if scheduler == "local":
+            client = local_client(workers or os.cpu_count() or 1, threads_per_worker, processes)
+            runner = f"local Dask cluster, {len(client.scheduler_info()['workers'])} workers"
+        else:
+            try:
+                client = Client(scheduler)   # waits distributed.comm.timeouts.connect (dask config)
+            except (OSError, ValueError) as exc:
+                raise InputError(f"--scheduler: cannot reach Dask scheduler {scheduler}: {exc}") from None
+            runner = f"Dask scheduler {scheduler}, {len(client.scheduler_info()['workers'])} workers"
+        try:
+            outcome = run_dask(plan, client)
+        finally:
+            cluster = client.cluster if scheduler == "local" else None
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    paths = write_results(plan, outcome, runner)
+    skipped = sum(1 for r in outcome.rows if r["skipped"])
+    for task, error in outcome.failures:
+        click.echo(f"sweep: task {task} failed: {error}", err=True)
+    summary(f"sweep: {len(outcome.rows)}/{len(plan.tasks)} tasks ({skipped} already done) on {runner} "
+            f"in {outcome.seconds:.1f} s -> {paths['md']}")
+    if outcome.failures:
+        raise ProcessingError(f"sweep: {len(outcome.failures)} task(s) failed; rerun to retry them")

@@ -1,0 +1,474 @@
+"""Sweeps: scenes x stage knobs expanded into tasks, run serially or on Dask, gathered into one table.
+
+A sweep YAML names the scenes, the focusing chain and the knobs to vary::
+
+    scenes:                          # name: scene YAML (relative to this file); its stage sections are the base
+      stripmap: ../bp_stripmap.yaml
+    focus: backproject               # or a chain: [preprocess, coarse-focus, fine-focus]
+    set: {backproject.margin_cells: 8}            # dotted key: value, applied to every task
+    grid:                                         # dotted key: [values], cartesian product
+      backproject.upsample: [1, 4, 16]
+    cases:                                        # listed settings, each combined with every grid point
+      - {backproject.interpolation: nearest}
+      - {backproject.interpolation: linear}
+    output: ../../results/sweep-bp               # default for -o (relative to this file)
+
+Each task is one scene YAML with the knobs applied (written to ``tasks/<id>/config.yaml``): the raw
+product is simulated from it (shared by every task whose scene sections resolve the same), each
+focusing command of the chain runs with ``--config config.yaml``, then ``evaluate``. The stages are
+the CLI's own commands, invoked in-process, so a sweep's products are exactly those of the shell
+pipeline. Each output gets a ``<file>.done.json`` record with the key of its resolved inputs (sarproc
+version, command, config, the key of its input product) and its run time; an output whose record
+holds the same key is not recomputed. A killed sweep thus resumes where it stopped.
+
+Dask is optional: ``run_serial`` needs nothing beyond sarproc; ``run_dask`` needs ``dask.distributed``
+(``pip install 'sarproc[distributed]'``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import copy
+import dataclasses
+import hashlib
+import io
+import itertools
+import json
+import math
+import re
+import sys
+import threading
+import time
+from pathlib import Path
+
+from sarproc import __version__
+from sarproc.product.config import build, load_yaml, param
+from sarproc.product.errors import InputError, ProcessingError
+
+TIME_COLUMNS = ("simulate_s", "focus_s", "evaluate_s")
+QUALITY_COLUMNS = ("irw_dev", "pslr_db", "islr_db", "position_cells", "false_target_db")
+
+
+@dataclasses.dataclass(frozen=True)
+class SweepParams:
+    scenes: dict = param(doc="name: scene YAML path (relative to the sweep file)")
+    focus: tuple[str, ...] = param(default=("backproject",), doc="focusing command, or a chain of them")
+    set: dict = param(default={}, doc="dotted key: value applied to every task")
+    grid: dict = param(default={}, doc="dotted key: list of values; the tasks span their cartesian product")
+    cases: tuple[dict, ...] = param(default=(), doc="listed settings (dotted key: value), each crossed with the grid")
+    output: str | None = param(default=None, doc="output directory (relative to the sweep file)")
+
+    def validate(self):
+        from sarproc.cli.main import COMMANDS
+
+        if not self.scenes:
+            raise InputError("scenes: at least one scene is needed")
+        for name in self.focus:
+            if name not in COMMANDS or name in ("simulate", "evaluate", "sweep"):
+                raise InputError(f"focus: {name!r} is not a focusing command of sarproc")
+        for key, values in self.grid.items():
+            if not isinstance(values, list) or not values:
+                raise InputError(f"grid.{key}: expected a non-empty list of values")
+        for i, case in enumerate(self.cases):
+            if not case:
+                raise InputError(f"cases[{i}]: an empty case")
+
+
+@dataclasses.dataclass(frozen=True)
+class SimJob:
+    """One raw product, shared by every task whose scene resolves the same."""
+
+    key: str
+    scene_yaml: Path
+    raw: Path
+    config: dict
+
+
+@dataclasses.dataclass(frozen=True)
+class Task:
+    task_id: str
+    scene: str
+    setting: dict        # dotted key -> value (grid point and case)
+    config: dict         # the scene mapping with every knob applied
+    directory: Path
+    focus: tuple[str, ...]
+    sim_key: str
+
+
+@dataclasses.dataclass(frozen=True)
+class Plan:
+    source: Path
+    output: Path
+    knobs: tuple[str, ...]
+    sims: tuple[SimJob, ...]
+    tasks: tuple[Task, ...]
+
+
+def digest(obj) -> str:
+    """sha256 of a JSON-serialisable object (sorted keys, so dict order does not matter)."""
+    text = json.dumps(obj, sort_keys=True, default=str, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def set_dotted(mapping: dict, key: str, value, where: str) -> None:
+    """mapping['a']['b'] = value for key 'a.b' (intermediate mappings created)."""
+    parts = key.split(".")
+    node = mapping
+    for part in parts[:-1]:
+        child = node.setdefault(part, {})
+        if not isinstance(child, dict):
+            raise InputError(f"{where}: {key!r}: {part!r} is not a mapping in the scene")
+        node = child
+    node[parts[-1]] = copy.deepcopy(value)
+
+
+def _slug(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9.=_+-]+", "_", text).strip("_") or "x"
+
+
+def _task_id(scene: str, setting: dict) -> str:
+    parts = [scene] + [f"{k.rsplit('.', 1)[-1]}={v}" for k, v in setting.items()]
+    return _slug("__".join(parts))
+
+
+def plan_sweep(path, output=None) -> Plan:
+    """Expand a sweep YAML into simulation jobs and tasks; every scene is validated first."""
+    from sarproc.simulation.scene import scene_from_mapping
+
+    path = Path(path)
+    raw = load_yaml(path)
+    if isinstance(raw.get("focus"), str):
+        raw["focus"] = [raw["focus"]]
+    params = build(SweepParams, raw, source=str(path))
+    base_dir = path.parent
+    out = Path(output) if output is not None else (base_dir / params.output if params.output else None)
+    if out is None:
+        raise InputError(f"{path}: no output directory: pass -o DIR or set 'output:' in the sweep file")
+    grid_keys = list(params.grid)
+    points = [dict(zip(grid_keys, combo)) for combo in itertools.product(*params.grid.values())]
+    cases = [dict(c) for c in params.cases] or [{}]
+    knobs = tuple(dict.fromkeys(grid_keys + [k for c in cases for k in c]))
+    sims: dict[str, SimJob] = {}
+    tasks: list[Task] = []
+    for scene_name, scene_path in params.scenes.items():
+        scene_file = base_dir / str(scene_path)
+        base = load_yaml(scene_file)
+        for key, value in params.set.items():
+            set_dotted(base, key, value, f"{path}: set")
+        for case in cases:
+            for point in points:
+                setting = {**point, **case}
+                config = copy.deepcopy(base)
+                for key, value in setting.items():
+                    set_dotted(config, key, value, f"{path}: grid/cases")
+                where = f"{scene_file} with {setting}" if setting else str(scene_file)
+                scene = scene_from_mapping(copy.deepcopy(config), source=where)
+                sim_key = digest({"sarproc": __version__, "command": "simulate", "scene": scene.resolved()})
+                if sim_key not in sims:
+                    stem = f"{_slug(scene_name)}-{sim_key[:10]}"
+                    sims[sim_key] = SimJob(sim_key, out / "raw" / f"{stem}.yaml", out / "raw" / f"{stem}.h5",
+                                           config)
+                task_id = _task_id(scene_name, setting)
+                tasks.append(Task(task_id, scene_name, setting, config, out / "tasks" / task_id,
+                                  params.focus, sim_key))
+    ids = [t.task_id for t in tasks]
+    if len(set(ids)) != len(ids):  # knob names that differ only before their last dot, or repeated values
+        tasks = [dataclasses.replace(t, task_id=f"{i:03d}-{t.task_id}", directory=out / "tasks" / f"{i:03d}-{t.task_id}")
+                 for i, t in enumerate(tasks)]
+    return Plan(path, out, knobs, tuple(sims.values()), tuple(tasks))
+
+
+# --- running one step ------------------------------------------------------------------------------
+
+_local = threading.local()
+_install_lock = threading.Lock()
+_installed = [0, None]   # active captures, the stream replaced
+
+
+class _ThreadRoutedStdout(io.TextIOBase):
+    """sys.stdout stand-in: text written by a thread that captures goes to its buffer, the rest through.
+
+    Steps run in worker threads (a Dask worker with several threads); swapping sys.stdout per step
+    (contextlib.redirect_stdout) would mix their outputs and restore the wrong stream.
+    """
+
+    def __init__(self, fallback):
+        self._fallback = fallback
+
+    @property
+    def encoding(self):
+        return getattr(self._fallback, "encoding", "utf-8")
+
+    def writable(self):
+        return True
+
+    def write(self, text):
+        buf = getattr(_local, "buffer", None)
+        return (buf if buf is not None else self._fallback).write(text)
+
+    def flush(self):
+        buf = getattr(_local, "buffer", None)
+        if buf is None:
+            self._fallback.flush()
+
+
+@contextlib.contextmanager
+def captured_stdout():
+    """Collect what this thread prints (click.echo) into a StringIO."""
+    with _install_lock:
+        if _installed[0] == 0:
+            _installed[1] = sys.stdout
+            sys.stdout = _ThreadRoutedStdout(sys.stdout)
+        _installed[0] += 1
+    _local.buffer = buf = io.StringIO()
+    try:
+        yield buf
+    finally:
+        _local.buffer = None
+        with _install_lock:
+            _installed[0] -= 1
+            if _installed[0] == 0 and isinstance(sys.stdout, _ThreadRoutedStdout):
+                sys.stdout = _installed[1]
+
+
+def invoke(command: str, args) -> str:
+    """Run ``sarproc COMMAND ARGS`` in this process; returns what it printed."""
+    from sarproc.cli.main import cli
+
+    cmd = cli.get_command(None, command)
+    if cmd is None:
+        raise InputError(f"sarproc {command}: command not available")
+    with captured_stdout() as buf:
+        cmd.main(args=[str(a) for a in args], prog_name=f"sarproc {command}", standalone_mode=False)
+    return buf.getvalue()
+
+
+def _record_path(output: Path) -> Path:
+    return output.with_name(output.name + ".done.json")
+
+
+def run_step(command: str, args, output: Path, key: str) -> dict:
+    """Run one stage unless ``output`` exists with a record of the same key; returns the record."""
+    from sarproc.product.io import atomic_path
+
+    record_path = _record_path(output)
+    if output.exists() and record_path.exists():
+        try:
+            record = json.loads(record_path.read_text())
+        except (OSError, json.JSONDecodeError):
+            record = {}
+        if record.get("key") == key:
+            return {**record, "skipped": True}
+    output.parent.mkdir(parents=True, exist_ok=True)
+    start = time.perf_counter()
+    try:
+        printed = invoke(command, args)
+    except Exception as exc:  # noqa: BLE001 - the step's own error, named with its command
+        raise ProcessingError(f"sarproc {command} {' '.join(map(str, args))}: {exc}") from exc
+    record = {"key": key, "command": f"sarproc {command}", "seconds": time.perf_counter() - start,
+              "summary": printed.strip().splitlines()[-1] if printed.strip() else ""}
+    with atomic_path(record_path) as tmp:
+        tmp.write_text(json.dumps(record, indent=1) + "\n")
+    return {**record, "skipped": False}
+
+
+def _write_yaml_if_changed(path: Path, mapping: dict) -> None:
+    import yaml
+
+    from sarproc.product.io import atomic_path
+
+    text = yaml.safe_dump(mapping, sort_keys=False)
+    if path.exists() and path.read_text() == text:
+        return
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path) as tmp:
+        tmp.write_text(text)
+
+
+def run_simulation(job: SimJob) -> dict:
+    """Simulate one raw product (or find it done); returns its record."""
+    _write_yaml_if_changed(job.scene_yaml, job.config)
+    rec = run_step("simulate", [job.scene_yaml, "-o", job.raw, "--overwrite", "--no-progress"], job.raw, job.key)
+    return {**rec, "path": str(job.raw)}
+
+
+def _without(mapping: dict, section: str) -> dict:
+    return {k: v for k, v in mapping.items() if k != section}
+
+
+def run_task(task: Task, sim: dict) -> dict:
+    """Focus chain and evaluate of one task (each step skipped when done); returns its table row."""
+    config_path = task.directory / "config.yaml"
+    _write_yaml_if_changed(config_path, task.config)
+    source, key = Path(sim["path"]), sim["key"]
+    focus_s, skipped = 0.0, [sim["skipped"]]
+    for command in task.focus:
+        out = task.directory / f"{command}.h5"
+        # evaluate's own knobs do not change the image: leave them out of the focusing keys
+        key = digest({"sarproc": __version__, "command": command, "input": key,
+                      "config": _without(task.config, "evaluate")})
+        rec = run_step(command, [source, "--config", config_path, "-o", out, "--overwrite", "--no-progress"],
+                       out, key)
+        focus_s += rec["seconds"]
+        skipped.append(rec["skipped"])
+        source = out
+    report = task.directory / "report.json"
+    key = digest({"sarproc": __version__, "command": "evaluate", "input": key, "config": task.config.get("evaluate")})
+    rec = run_step("evaluate", [source, "--config", config_path, "-o", report], report, key)
+    skipped.append(rec["skipped"])
+    quality = summarise_report(json.loads(report.read_text()))
+    return {"task": task.task_id, "scene": task.scene, **task.setting,
+            "simulate_s": sim["seconds"], "focus_s": focus_s, "evaluate_s": rec["seconds"], **quality,
+            "skipped": all(skipped)}
+
+
+def summarise_report(report: dict) -> dict:
+    """Worst quality over targets and axes of an evaluate report (None where nothing was measured)."""
+    axes = [a for t in report.get("targets", []) for a in t.get("axes", [])]
+
+    def worst(values):
+        vals = [v for v in values if v is not None and math.isfinite(v)]
+        return max(vals) if vals else None
+
+    ft = report.get("false_target")
+    return {"irw_dev": worst(abs(a["irw_ratio"] - 1) for a in axes if a.get("irw_ratio") is not None),
+            "pslr_db": worst(a.get("pslr_db") for a in axes),
+            "islr_db": worst(a.get("islr_db") for a in axes),
+            "position_cells": worst(abs(a["position_error_cells"]) for a in axes
+                                    if a.get("position_error_cells") is not None),
+            "false_target_db": ft.get("level_db") if ft else None}
+
+
+# --- runners ---------------------------------------------------------------------------------------
+
+@dataclasses.dataclass
+class Outcome:
+    rows: list
+    failures: list       # (task id or raw path, message)
+    seconds: float
+
+
+def _order(plan: Plan, rows: list) -> list:
+    index = {t.task_id: i for i, t in enumerate(plan.tasks)}
+    return sorted(rows, key=lambda r: index[r["task"]])
+
+
+def run_serial(plan: Plan, on_row=None) -> Outcome:
+    """Every task in this process, one after the other (no Dask needed)."""
+    start = time.perf_counter()
+    sims, rows, failures = {}, [], []
+    for job in plan.sims:
+        try:
+            sims[job.key] = run_simulation(job)
+        except (InputError, ProcessingError) as exc:
+            failures.append((str(job.raw), str(exc)))
+    for task in plan.tasks:
+        if task.sim_key not in sims:
+            failures.append((task.task_id, "its raw product could not be simulated"))
+            continue
+        try:
+            row = run_task(task, sims[task.sim_key])
+        except (InputError, ProcessingError) as exc:
+            failures.append((task.task_id, str(exc)))
+            continue
+        rows.append(row)
+        if on_row:
+            on_row(row)
+    return Outcome(_order(plan, rows), failures, time.perf_counter() - start)
+
+
+def local_client(workers: int, threads_per_worker: int = 1, processes: bool = True):
+    """A distributed Client on a new LocalCluster (no dashboard: sweeps run unattended)."""
+    from dask.distributed import Client, LocalCluster
+
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=threads_per_worker, processes=processes,
+                           dashboard_address=None)
+    return Client(cluster)
+
+
+def run_dask(plan: Plan, client, on_row=None) -> Outcome:
+    """Submit the simulations and the tasks (each depending on its raw product) to a Dask client."""
+    from dask.distributed import as_completed
+
+    start = time.perf_counter()
+    sim_futures = {job.key: client.submit(run_simulation, job, key=f"simulate-{job.key[:16]}", pure=False)
+                   for job in plan.sims}
+    task_futures = {client.submit(run_task, task, sim_futures[task.sim_key], key=f"task-{task.task_id}",
+                                  pure=False): task for task in plan.tasks}
+    rows, failures = [], []
+    for future in as_completed(task_futures):
+        task = task_futures[future]
+        if future.status == "error":
+            failures.append((task.task_id, str(future.exception())))
+            continue
+        row = future.result()
+        rows.append(row)
+        if on_row:
+            on_row(row)
+    return Outcome(_order(plan, rows), failures, time.perf_counter() - start)
+
+
+# --- table and plot --------------------------------------------------------------------------------
+
+def _cell(v) -> str:
+    if v is None:
+        return "n/a"
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    return str(v)
+
+
+def markdown_table(plan: Plan, rows: list) -> str:
+    columns = ["scene", *plan.knobs, *TIME_COLUMNS, *QUALITY_COLUMNS]
+    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+    for row in rows:
+        lines.append("| " + " | ".join(_cell(row.get(c)) for c in columns) + " |")
+    return "\n".join(lines)
+
+
+def write_results(plan: Plan, outcome: Outcome, runner: str) -> dict[str, Path]:
+    """table.json, table.md and plot.png in the sweep's output directory."""
+    from sarproc.product.io import atomic_path
+
+    plan.output.mkdir(parents=True, exist_ok=True)
+    doc = {"sweep": str(plan.source), "sarproc": __version__, "runner": runner,
+           "wall_s": outcome.seconds, "knobs": list(plan.knobs),
+           "rows": [{k: v for k, v in r.items() if k != "skipped"} for r in outcome.rows],
+           "failures": [{"task": t, "error": e} for t, e in outcome.failures]}
+    paths = {"json": plan.output / "table.json", "md": plan.output / "table.md", "plot": plan.output / "plot.png"}
+    with atomic_path(paths["json"]) as tmp:
+        tmp.write_text(json.dumps(doc, indent=1) + "\n")
+    head = (f"# Sweep {plan.source.name}\n\nTimes are each step's own wall time (s); quality is the worst over "
+            "targets and axes: |IRW/theory - 1|, PSLR and ISLR (dB), |position error| (cells), "
+            "false-target level (dB).\n\n")
+    with atomic_path(paths["md"]) as tmp:
+        tmp.write_text(head + markdown_table(plan, outcome.rows) + "\n")
+    if outcome.rows:
+        with atomic_path(paths["plot"]) as tmp:
+            plot_sweep(tmp, plan, outcome.rows)
+    return paths
+
+
+def plot_sweep(path: Path, plan: Plan, rows: list) -> None:
+    """Focus time against worst IRW deviation and worst PSLR, one marker per setting and scene."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5), constrained_layout=True)
+    for scene in dict.fromkeys(r["scene"] for r in rows):
+        sel = [r for r in rows if r["scene"] == scene]
+        for ax, column, label in ((axes[0], "irw_dev", "worst |IRW / theory - 1|"),
+                                  (axes[1], "pslr_db", "worst PSLR (dB)")):
+            pts = [(r["focus_s"], r[column], r) for r in sel if r[column] is not None]
+            ax.plot([p[0] for p in pts], [p[1] for p in pts], "o", label=scene)
+            for x, y, r in pts:
+                ax.annotate(", ".join(_cell(r.get(k)) for k in plan.knobs), (x, y), fontsize=6,
+                            xytext=(3, 3), textcoords="offset points")
+            ax.set_xlabel("focus time (s)")
+            ax.set_ylabel(label)
+    axes[0].legend()
+    fig.suptitle(f"sweep {plan.source.name}: accuracy versus time")
+    fig.savefig(path, dpi=110, format="png")
+    plt.close(fig)
