@@ -4,9 +4,14 @@ from __future__ import annotations
 
 
 def progress_factory(enabled: bool, desc: str):
-    """A callable wrapping an iterable in a tqdm bar, or None when bars are off."""
+    """A callable wrapping an iterable in a tqdm bar (total from ``len`` or ``total=``), or None when off."""
     if not enabled:
         return None
     from tqdm import tqdm
 
-    return lambda it: tqdm(it, desc=desc, unit="block", leave=False)
+    def bar(it, total=None):
+        if total is None and hasattr(it, "__len__"):
+            total = len(it)
+        return tqdm(it, desc=desc, unit="block", total=total, leave=False)
+
+    return bar

@@ -24,7 +24,7 @@ def _run(stage: str, input_path: Path, output: Path, config_path, overwrite: boo
                               params_cls, stage, estimate)
     start = time.perf_counter()
     with naming(input_path, config_path, stage):
-        out = func(product, params) if progress is None else func(product, params, progress=progress)
+        out = func(product, params, progress=progress)
     out.history[-1]["command"] = f"sarproc {stage.replace('_', '-')} {input_path}"
     write_product(output, out, inputs=[input_path], overwrite=overwrite)
     return out, time.perf_counter() - start
@@ -39,8 +39,10 @@ def preprocess(input_path: Path, output: Path, config_path, overwrite: bool, pro
 
     from sarproc.cli.stage import preprocess_estimate
 
+    from sarproc.cli.progress import progress_factory
+
     out, dt = _run("preprocess", input_path, output, config_path, overwrite, ("raw",), PreprocessParams, run,
-                   estimate=preprocess_estimate)
+                   progress=progress_factory(want_progress(progress), "preprocess"), estimate=preprocess_estimate)
     summary(f"preprocess: {out.attrs['doppler_correction']} correction, {out.data.shape[0]}x{out.data.shape[1]} "
             f"-> {output} ({dt:.2f} s)")
 
@@ -54,8 +56,11 @@ def coarse_focus(input_path: Path, output: Path, config_path, overwrite: bool, p
 
     from sarproc.cli.stage import coarse_focus_estimate
 
+    from sarproc.cli.progress import progress_factory
+
     out, dt = _run("coarse_focus", input_path, output, config_path, overwrite, ("preprocessed",),
-                   CoarseFocusParams, run, estimate=coarse_focus_estimate)
+                   CoarseFocusParams, run, progress=progress_factory(want_progress(progress), "coarse-focus"),
+                   estimate=coarse_focus_estimate)
     a = out.attrs
     summary(f"coarse-focus: F_a'' = {a['azimuth_sampling_rate']:.1f} Hz, deramped spread "
             f"{a['deramp_spread']:.1f} Hz (PRF {out.radar.prf:.1f} Hz), {out.data.shape[0]}x{out.data.shape[1]} "

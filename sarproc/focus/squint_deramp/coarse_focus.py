@@ -122,7 +122,7 @@ def doppler_budget(radar: RadarMetadata, t_first: float, t_last: float, box, k: 
 
 
 def specan(signal: np.ndarray, azimuth_time: np.ndarray, prf: float, k: float, n_out: int,
-           precision: str = "float64", block_range: int = 1024) -> tuple[np.ndarray, np.ndarray]:
+           precision: str = "float64", block_range: int = 1024, progress=None) -> tuple[np.ndarray, np.ndarray]:
     """Discrete eq. (11): returns (y (n_out, n_rg) complex64, t' (n_out,) s)."""
     n_az, n_rg = signal.shape
     if n_out < n_az:
@@ -139,7 +139,8 @@ def specan(signal: np.ndarray, azimuth_time: np.ndarray, prf: float, k: float, n
     pre = np.exp(1j * (np.pi * k * t**2 + 2 * np.pi * half * n / n_out)).astype(cdt)
     post = np.exp(1j * (np.pi * k * t_out**2 - 2 * np.pi * (m - half) * prf * t0 / n_out)).astype(cdt)
     out = np.empty((n_out, n_rg), np.complex64)
-    for s in range(0, n_rg, block_range):
+    starts = range(0, n_rg, block_range)
+    for s in (progress(starts) if progress is not None else starts):
         e = min(s + block_range, n_rg)
         blk = signal[:, s:e].astype(cdt) * pre[:, None]
         spec = sfft.fft(blk, n=n_out, axis=0, workers=-1)
@@ -147,7 +148,7 @@ def specan(signal: np.ndarray, azimuth_time: np.ndarray, prf: float, k: float, n
     return out, t_out
 
 
-def coarse_focus(pre: Product, params: CoarseFocusParams = CoarseFocusParams()) -> Product:
+def coarse_focus(pre: Product, params: CoarseFocusParams = CoarseFocusParams(), progress=None) -> Product:
     """``preprocessed`` product -> ``coarse`` product on the deramped azimuth grid t'."""
     from sarproc.product.io import history_entry
 
@@ -187,7 +188,7 @@ def coarse_focus(pre: Product, params: CoarseFocusParams = CoarseFocusParams()) 
         if params.on_alias == "error":
             raise InputError(msg + " (set coarse_focus.on_alias: warn to process anyway)")
         log.warning(msg)
-    data, t_out = specan(pre.data, t, prf, k, n_out, params.precision, params.block_range)
+    data, t_out = specan(pre.data, t, prf, k, n_out, params.precision, params.block_range, progress)
     attrs = dict(pre.attrs)
     attrs.update({
         "azimuth_sampling_rate": float(f_out),          # F_a'' (Hz)

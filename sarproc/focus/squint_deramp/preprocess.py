@@ -62,7 +62,8 @@ def correction_frequency(radar: RadarMetadata, f_r: np.ndarray, method: str) -> 
 
 
 def doppler_correction(signal: np.ndarray, azimuth_time: np.ndarray, radar: RadarMetadata,
-                       method: str = "nonlinear", precision: str = "float64", block_pulses: int = 512) -> np.ndarray:
+                       method: str = "nonlinear", precision: str = "float64", block_pulses: int = 512,
+                       progress=None) -> np.ndarray:
     """Apply the Doppler-centroid correction to ``signal`` (n_az, n_rg); returns a new complex64 array."""
     if signal.ndim != 2 or signal.shape[0] != len(azimuth_time):
         raise InputError(f"preprocess: signal shape {signal.shape} does not match {len(azimuth_time)} pulses")
@@ -79,7 +80,8 @@ def doppler_correction(signal: np.ndarray, azimuth_time: np.ndarray, radar: Rada
         return out
     f_r = sfft.fftfreq(n_rg, 1.0 / radar.range_sampling_rate)
     beta = correction_frequency(radar, f_r, method)
-    for s in range(0, len(t), block_pulses):
+    starts = range(0, len(t), block_pulses)
+    for s in (progress(starts) if progress is not None else starts):
         e = min(s + block_pulses, len(t))
         spec = sfft.fft(signal[s:e].astype(cdt), axis=1, workers=-1)
         cyc = t[s:e, None] * beta[None, :]                 # float64 cycles (beta t reaches 2e5)
@@ -88,7 +90,7 @@ def doppler_correction(signal: np.ndarray, azimuth_time: np.ndarray, radar: Rada
     return out
 
 
-def preprocess(raw: Product, params: PreprocessParams = PreprocessParams()) -> Product:
+def preprocess(raw: Product, params: PreprocessParams = PreprocessParams(), progress=None) -> Product:
     """Raw product -> ``preprocessed`` product (same axes), with the correction recorded in attrs."""
     from sarproc.product.io import history_entry
 
@@ -97,7 +99,7 @@ def preprocess(raw: Product, params: PreprocessParams = PreprocessParams()) -> P
     if tuple(raw.dims) != ("azimuth_time", "range_time"):
         raise InputError(f"preprocess: raw dims {raw.dims} must be ('azimuth_time', 'range_time')")
     data = doppler_correction(raw.data, raw.coords["azimuth_time"], raw.radar, params.method, params.precision,
-                              params.block_pulses)
+                              params.block_pulses, progress)
     attrs = dict(raw.attrs)
     attrs["doppler_correction"] = params.method
     out = raw.derive("preprocessed", data, raw.dims, raw.coords, attrs=attrs)
