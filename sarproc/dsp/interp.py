@@ -71,11 +71,18 @@ _TABLE_STEPS = 2048
 
 
 @functools.lru_cache(maxsize=32)
-def _weight_table(kernel, taps, oversampling, beta):
-    """Kernel values at d = -taps/2 + i / _TABLE_STEPS, i = 0 .. taps * _TABLE_STEPS, plus one trailing zero
-    so that linear interpolation may read one entry past the end."""
-    d = np.linspace(-taps / 2, taps / 2, taps * _TABLE_STEPS + 1)
-    return np.r_[kernel_weights(d, kernel, taps, oversampling=oversampling, beta=beta), 0.0]
+def _weight_table(kernel, taps, oversampling, beta, steps=_TABLE_STEPS):
+    d = np.linspace(-taps / 2, taps / 2, taps * steps + 1)
+    table = np.r_[kernel_weights(d, kernel, taps, oversampling=oversampling, beta=beta), 0.0]
+    table.flags.writeable = False
+    return table
+
+
+def weight_table(kernel: str, taps: int, oversampling: float = 1.25, beta: float = 6.0,
+                 steps: int = _TABLE_STEPS) -> np.ndarray:
+    """Kernel values at d = -taps/2 + i / steps, i = 0 .. taps * steps, plus one trailing zero so that
+    linear interpolation in the table may read one entry past the end (read-only, cached)."""
+    return _weight_table(kernel, int(taps), float(oversampling), float(beta), int(steps))
 
 
 def resample_rows(data: np.ndarray, positions: np.ndarray, kernel: str = "knab", length: int | None = None, *,

@@ -1,0 +1,250 @@
+"""Compiled, tiled, parallel backprojection kernel (numba).
+
+Same sum as the float64 reference of :mod:`sarproc.focus.backprojection`, arranged for speed:
+
+- Pixels are grouped into small spatial tiles. Per tile and pulse the range from the antenna to the
+  tile centre R_0 and its unit vector u are computed in float64; a pixel at d from the centre then
+  differs by dR = R_0 a / (1 + sqrt(1 + a)), a = 2 u.d / R_0' + |d|^2 / R_0^2 (the exact root of
+  |c + d - p|^2 = R_0^2 + 2 R_0 u.d + |d|^2, written without cancellation), evaluated in float32: its
+  relative error is ~1e-7 of a few tens of metres, i.e. micrometres.
+- The range-sample position and the carrier phase are split the same way: float64 integer sample and
+  reduced phase cycles per tile and pulse, float32 offsets per pixel.
+- exp(j 2 pi cycles) comes from a short polynomial on the quarter-cycle-reduced argument (|error| < 1e-7,
+  vectorisable, no libm call); the range signal is read by linear interpolation of an (upsampled) pulse,
+  nearest sample, or a short tabulated windowed-sinc / Knab kernel on the samples as they are.
+- Tiles run in parallel (numba prange), each accumulating its pixels over pulses in a small float32 buffer
+  that stays in the L1 cache; no BLAS, no Python in the hot loop.
+
+Kernels are compiled on first use and cached on disk (``cache=True``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+INTERPOLATIONS = ("nearest", "linear", "sinc", "lanczos", "knab")
+_TABLE_STEPS = 256          # table entries per sample for the windowed-sinc kernels (linear in between)
+
+_TWO_PI = np.float32(2 * np.pi)
+
+
+@numba.njit(fastmath=True, error_model="numpy", cache=True)
+def _unit_phasor(c):
+    """(cos, sin)(2 pi c) for float32 c with |c| <= 0.5: Taylor polynomials on |2 pi r| <= pi/2."""
+    k = np.floor(c * np.float32(2.0) + np.float32(0.5))                  # nearest half cycle: -1, 0 or 1
+    r = c - k * np.float32(0.5)                                           # |r| <= 1/4
+    sgn = np.float32(1.0) - np.float32(2.0) * k * k                       # (-1)^k
+    z = r * _TWO_PI
+    z2 = z * z
+    s = z * (np.float32(1.0) - z2 * np.float32(1 / 6) * (np.float32(1.0) - z2 * np.float32(1 / 20) * (
+        np.float32(1.0) - z2 * np.float32(1 / 42) * (np.float32(1.0) - z2 * np.float32(1 / 72) * (
+            np.float32(1.0) - z2 * np.float32(1 / 110) * (np.float32(1.0) - z2 * np.float32(1 / 156)))))))
+    co = np.float32(1.0) - z2 * np.float32(0.5) * (np.float32(1.0) - z2 * np.float32(1 / 12) * (
+        np.float32(1.0) - z2 * np.float32(1 / 30) * (np.float32(1.0) - z2 * np.float32(1 / 56) * (
+            np.float32(1.0) - z2 * np.float32(1 / 90) * (np.float32(1.0) - z2 * np.float32(1 / 132) * (
+                np.float32(1.0) - z2 * np.float32(1 / 182)))))))
+    return co * sgn, s * sgn
+
+
+@numba.njit(fastmath=True, error_model="numpy", cache=True)
+def _offset(ux, uy, uz, inv_r, r0, dx, dy, dz, d2):
+    """|c + d - p| - |c - p| for u = (c - p) / |c - p|, in float32 without cancellation."""
+    a = np.float32(2.0) * (ux * dx + uy * dy + uz * dz) * inv_r + d2 * inv_r * inv_r
+    return r0 * a / (np.float32(1.0) + np.sqrt(np.float32(1.0) + a))
+
+
+@numba.njit(error_model="numpy", cache=True)
+def _reference(cx, cy, cz, px, py, pz):
+    """float64 range from antenna p to tile centre c and float32 (unit vector, 1/R, R)."""
+    ax, ay, az = cx - px, cy - py, cz - pz
+    r = math.sqrt(ax * ax + ay * ay + az * az)
+    return r, np.float32(ax / r), np.float32(ay / r), np.float32(az / r), np.float32(1.0 / r), np.float32(r)
+
+
+@numba.njit(error_model="numpy", cache=True)
+def _pulse_reference(cx, cy, cz, tx, rx, p, monostatic, scale, first, kc):
+    """Per tile and pulse, float64: integer sample and float32 fraction of the centre's delay, its reduced
+    carrier cycles, and the float32 geometry (unit vectors, 1/R, R) of both legs."""
+    r_tx, ux, uy, uz, inv_t, r0_t = _reference(cx, cy, cz, tx[p, 0], tx[p, 1], tx[p, 2])
+    if monostatic:
+        r_tot = 2.0 * r_tx
+        vx, vy, vz, inv_r, r0_r = ux, uy, uz, inv_t, r0_t
+    else:
+        r_rx, vx, vy, vz, inv_r, r0_r = _reference(cx, cy, cz, rx[p, 0], rx[p, 1], rx[p, 2])
+        r_tot = r_tx + r_rx
+    pos0 = r_tot * scale + first[p]
+    base = math.floor(pos0)
+    cyc = r_tot * kc
+    cyc0 = np.float32(cyc - math.floor(cyc))
+    return np.int64(base), np.float32(pos0 - base), cyc0, (ux, uy, uz, inv_t, r0_t, vx, vy, vz, inv_r, r0_r)
+
+
+@numba.njit(fastmath=True, error_model="numpy", cache=True)
+def _positions(dr, frac, cos_, sin_, dx, dy, dz, d2, frac0, cyc0, geo, monostatic, scale32, kc32):
+    """Per pixel of a tile, for one pulse: sample position offset (float32, from the tile's integer base
+    sample) and carrier phasor. Branch-free over pixels, so the loop vectorises."""
+    ux, uy, uz, inv_t, r0_t, vx, vy, vz, inv_r, r0_r = geo
+    half = np.float32(0.5)
+    if monostatic:
+        for i in range(len(dr)):
+            dr[i] = np.float32(2.0) * _offset(ux, uy, uz, inv_t, r0_t, dx[i], dy[i], dz[i], d2[i])
+    else:
+        for i in range(len(dr)):
+            dr[i] = (_offset(ux, uy, uz, inv_t, r0_t, dx[i], dy[i], dz[i], d2[i])
+                     + _offset(vx, vy, vz, inv_r, r0_r, dx[i], dy[i], dz[i], d2[i]))
+    for i in range(len(dr)):
+        frac[i] = frac0 + dr[i] * scale32
+        c = cyc0 + dr[i] * kc32
+        c = c - np.floor(c + half)
+        co, si = _unit_phasor(c)
+        cos_[i] = co
+        sin_[i] = si
+
+
+@numba.njit(fastmath=True, error_model="numpy", cache=True)
+def _accumulate_linear(acc_re, acc_im, frac, cos_, sin_, row, ibase, n_s):
+    one = np.float32(1.0)
+    zero = np.float32(0.0)
+    for i in range(len(acc_re)):
+        fl = np.floor(frac[i])
+        w = frac[i] - fl
+        j = ibase + np.int32(fl)
+        ok = (j >= 0) & (j < n_s - 1)
+        jc = np.int32(2) * min(max(j, np.int32(0)), np.int32(n_s - 2))
+        w0 = (one - w) if ok else zero
+        w1 = w if ok else zero
+        vr = row[jc] * w0 + row[jc + 2] * w1
+        vi = row[jc + 1] * w0 + row[jc + 3] * w1
+        acc_re[i] += vr * cos_[i] - vi * sin_[i]
+        acc_im[i] += vr * sin_[i] + vi * cos_[i]
+
+
+@numba.njit(fastmath=True, error_model="numpy", cache=True)
+def _accumulate_nearest(acc_re, acc_im, frac, cos_, sin_, row, ibase, n_s):
+    zero = np.float32(0.0)
+    for i in range(len(acc_re)):
+        j = ibase + np.int32(np.floor(frac[i] + np.float32(0.5)))
+        ok = (j >= 0) & (j < n_s)
+        jc = np.int32(2) * min(max(j, np.int32(0)), np.int32(n_s - 1))
+        vr = row[jc] if ok else zero
+        vi = row[jc + 1] if ok else zero
+        acc_re[i] += vr * cos_[i] - vi * sin_[i]
+        acc_im[i] += vr * sin_[i] + vi * cos_[i]
+
+
+@numba.njit(fastmath=True, error_model="numpy", cache=True)
+def _accumulate_table(acc_re, acc_im, frac, cos_, sin_, row, ibase, n_s, table, taps, vr, vi, wsum):
+    """Tap m is sample j - taps/2 + 1 + m, at distance w + taps/2 - 1 - m from the point: table index
+    (distance + taps/2) * steps, as in sarproc.dsp.interp. Loop over taps outside, pixels inside."""
+    zero = np.float32(0.0)
+    steps = np.float32(_TABLE_STEPS)
+    n = len(acc_re)
+    for i in range(n):
+        vr[i] = zero
+        vi[i] = zero
+        wsum[i] = zero
+    for m in range(taps):
+        shift = np.float32(taps - 1 - m)
+        off = np.int32(m - taps // 2 + 1)
+        for i in range(n):
+            fl = np.floor(frac[i])
+            q = (frac[i] - fl + shift) * steps
+            qf = np.floor(q)
+            qi = np.int32(qf)
+            wt = table[qi] + (table[qi + 1] - table[qi]) * (q - qf)
+            wsum[i] += wt
+            jj = ibase + np.int32(fl) + off
+            ok = (jj >= 0) & (jj < n_s)
+            jc = np.int32(2) * min(max(jj, np.int32(0)), np.int32(n_s - 1))
+            wv = wt if ok else zero
+            vr[i] += row[jc] * wv
+            vi[i] += row[jc + 1] * wv
+    for i in range(n):
+        inv = np.float32(1.0) / wsum[i]
+        a = vr[i] * inv
+        b = vi[i] * inv
+        acc_re[i] += a * cos_[i] - b * sin_[i]
+        acc_im[i] += a * sin_[i] + b * cos_[i]
+
+
+@numba.njit(parallel=True, error_model="numpy", cache=True)
+def backproject_tiles(pulses, first, scale, kc, tx, rx, monostatic, centres, tile_start, d, mode, table, taps,
+                      acc):
+    """Add the pulses' contributions to ``acc`` (complex128, one entry per sorted pixel).
+
+    pulses: (n_pulses, 2 n_samples) float32, the complex64 pulses viewed as (re, im) pairs, sample j at
+    range-delay index j (reads outside 0 .. n_samples-1 add nothing);
+    first: (n_pulses,) float64, sample position of zero two-way path (-(t0 + gate) * fs); scale: samples per
+    metre of two-way path (fs / c); kc: carrier cycles per metre (f_c / c); tx, rx: (n_pulses, 3) float64
+    relative to the tiles' origin; centres: (n_tiles, 3) float64; tile_start: (n_tiles + 1,) int64 into the
+    sorted pixels; d: (4, n_pixels) float32 rows dx, dy, dz, |d|^2 of each pixel from its tile centre;
+    mode: 0 nearest, 1 linear, 2 tabulated kernel of ``taps`` taps with ``table`` (taps * steps + 2 entries).
+    """
+    n_pulses = pulses.shape[0]
+    n_s = np.int32(pulses.shape[1] // 2)
+    n_tiles = len(tile_start) - 1
+    scale32 = np.float32(scale)
+    kc32 = np.float32(kc)
+    for t in numba.prange(n_tiles):
+        s0, s1 = tile_start[t], tile_start[t + 1]
+        n = s1 - s0
+        acc_re = np.zeros(n, np.float32)
+        acc_im = np.zeros(n, np.float32)
+        scratch = np.empty((7, n), np.float32)
+        dx, dy, dz, d2 = d[0, s0:s1], d[1, s0:s1], d[2, s0:s1], d[3, s0:s1]
+        cx, cy, cz = centres[t, 0], centres[t, 1], centres[t, 2]
+        for p in range(n_pulses):
+            ibase, frac0, cyc0, geo = _pulse_reference(cx, cy, cz, tx, rx, p, monostatic, scale, first, kc)
+            _positions(scratch[0], scratch[1], scratch[2], scratch[3], dx, dy, dz, d2, frac0, cyc0, geo,
+                       monostatic, scale32, kc32)
+            # the tile's base sample, clipped so that int32 offsets cannot overflow (far reads are masked anyway)
+            ib = np.int32(min(max(ibase, -(1 << 28)), 1 << 28))
+            if mode == 1:
+                _accumulate_linear(acc_re, acc_im, scratch[1], scratch[2], scratch[3], pulses[p], ib, n_s)
+            elif mode == 0:
+                _accumulate_nearest(acc_re, acc_im, scratch[1], scratch[2], scratch[3], pulses[p], ib, n_s)
+            else:
+                _accumulate_table(acc_re, acc_im, scratch[1], scratch[2], scratch[3], pulses[p], ib, n_s, table,
+                                  taps, scratch[4], scratch[5], scratch[6])
+        for i in range(n):
+            acc[s0 + i] += complex(acc_re[i], acc_im[i])
+
+
+def make_tiles(points: np.ndarray, tile_size: float, max_tile: int = 1024):
+    """Group points into spatial tiles of about ``tile_size`` metres (at most ``max_tile`` points each).
+
+    Returns (order, tile_start, centres, origin, d): points[order] are grouped by tile, tile t holding
+    sorted indices tile_start[t] .. tile_start[t+1]-1; centres (n_tiles, 3) float64 relative to ``origin``;
+    d (4, n) float32: offsets of the sorted points from their tile centre and their squared norm.
+    """
+    points = np.asarray(points, float).reshape(-1, 3)
+    n = len(points)
+    if n == 0:
+        return (np.zeros(0, np.int64), np.zeros(1, np.int64), np.zeros((0, 3)), np.zeros(3),
+                np.zeros((4, 0), np.float32))
+    origin = 0.5 * (points.min(axis=0) + points.max(axis=0))
+    rel = points - origin
+    cell = np.floor((rel - rel.min(axis=0)) / tile_size).astype(np.int64)
+    dims = cell.max(axis=0) + 1
+    key = (cell[:, 0] * dims[1] + cell[:, 1]) * dims[2] + cell[:, 2]
+    order = np.argsort(key, kind="stable")
+    key = key[order]
+    starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    bounds = []
+    for s, e in zip(starts, np.r_[starts[1:], n]):
+        bounds.extend(range(s, e, max_tile))
+    tile_start = np.array(bounds + [n], np.int64)
+    counts = np.diff(tile_start)
+    tile_of = np.repeat(np.arange(len(counts)), counts)
+    srel = rel[order]
+    lo = np.minimum.reduceat(srel, tile_start[:-1], axis=0)
+    hi = np.maximum.reduceat(srel, tile_start[:-1], axis=0)
+    centres = 0.5 * (lo + hi)
+    dd = srel - centres[tile_of]
+    d = np.empty((4, n), np.float32)
+    d[:3] = dd.T
+    d[3] = np.einsum("ij,ij->i", dd, dd)
+    return order, tile_start, centres, origin, d
