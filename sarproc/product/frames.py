@@ -59,6 +59,11 @@ class Frame(abc.ABC):
     def params(self) -> dict:
         return {}
 
+    def metric(self):
+        """Local basis of the image plane: row a is the displacement (m) per unit of axis a, or None
+        when the axes are not lengths. Quality metrics use it to give widths along oblique cuts."""
+        return None
+
     @property
     def spec(self) -> dict:
         return {"name": self.name, **self.params()}
@@ -77,6 +82,11 @@ class SquintFrame(Frame):
 
     def params(self):
         return {"squint": self.squint, "altitude": self.altitude}
+
+    def metric(self):
+        # slant plane: x_n along track, r_0 along the squinted ray (skewed axes)
+        s, c = math.sin(self.squint), math.cos(self.squint)
+        return np.array([[1.0, 0.0], [s, c]])
 
     def to_xyz(self, azimuth, range_):
         azimuth, range_ = np.broadcast_arrays(np.asarray(azimuth, float), np.asarray(range_, float))
@@ -111,6 +121,11 @@ class SquintLrwcFrame(Frame):
     def params(self):
         return {"squint": self.squint, "altitude": self.altitude}
 
+    def metric(self):
+        # x_n at fixed r_0 + x_n sin(theta) moves across the line of sight: (c^2, -s c)
+        s, c = math.sin(self.squint), math.cos(self.squint)
+        return np.array([[c * c, -s * c], [s, c]])
+
     def to_xyz(self, azimuth, range_):
         az = np.asarray(azimuth, float)
         return self.base.to_xyz(az, np.asarray(range_, float) - az * math.sin(self.squint))
@@ -123,6 +138,9 @@ class SquintLrwcFrame(Frame):
 @register_frame("ground")
 class GroundFrame(Frame):
     axes = ("azimuth", "range")
+
+    def metric(self):
+        return np.eye(2)
 
     def to_xyz(self, azimuth, range_):
         azimuth, range_ = np.broadcast_arrays(np.asarray(azimuth, float), np.asarray(range_, float))
@@ -149,6 +167,9 @@ class LosFrame(Frame):
 
     def params(self):
         return {"origin": self.origin.tolist(), "aperture_center": self.aperture_center.tolist()}
+
+    def metric(self):
+        return np.eye(2)
 
     def to_xyz(self, azimuth, range_):
         azimuth, range_ = np.broadcast_arrays(np.asarray(azimuth, float), np.asarray(range_, float))
@@ -189,6 +210,9 @@ class GroundLosFrame(Frame):
 
     def params(self):
         return {"origin": self.origin.tolist(), "aperture_center": self.aperture_center.tolist()}
+
+    def metric(self):
+        return np.eye(2)
 
     def to_xyz(self, azimuth, range_):
         azimuth, range_ = np.broadcast_arrays(np.asarray(azimuth, float), np.asarray(range_, float))
