@@ -69,6 +69,8 @@ class ReconstructParams:
     autofocus_span: float = param("velocity", default=30.0, gt=0, doc="along-track search over +-span")
     clutter_suppression: bool = param(default=False, doc="null static clutter with redundant channels; report it "
                                       "and detect moving targets on the residual")
+    clutter_band: float = param(default=1.2, gt=0, doc=(
+        "width of the nulled static band over the Doppler bandwidth (above 1: the spectral tails of the beam)"))
 
     def validate(self):
         if self.velocity_max <= self.velocity_min:
@@ -167,11 +169,18 @@ def _reconstruct(spec_tf: np.ndarray, bank: channels.FilterBank) -> np.ndarray:
     return channels.apply_filter_bank(sfft.fft(spec_tf, axis=1, workers=-1), bank)
 
 
-def _doppler_centroid(y_tr: np.ndarray, out_prf: float) -> tuple[np.ndarray, np.ndarray]:
-    """Per range cell: power and the lag-one Doppler centroid of a (n_t, n_r) signal."""
-    acf = np.sum(y_tr[1:] * np.conj(y_tr[:-1]), axis=0)
-    power = np.sum(np.abs(y_tr) ** 2, axis=0)
-    return power, np.angle(acf) * out_prf / (2 * math.pi)
+def _doppler_centroid(y_fr: np.ndarray, frequencies: np.ndarray, smooth: int = 5) -> tuple[np.ndarray, np.ndarray]:
+    """Per range cell of a (n_f, n_r) azimuth spectrum: power and Doppler centroid sum f |Y|^2 / sum |Y|^2.
+
+    The centroid is the plain (not circular) mean over the processed band: a static target whose
+    range cell holds only its aperture ends (Doppler +-B_a / 2, by range curvature) averages to 0,
+    where a lag-one estimate would read N PRF / 2. Both sums run over ``smooth`` neighbouring cells.
+    """
+    p = np.abs(y_fr) ** 2
+    kernel = np.ones(smooth)
+    power = np.convolve(p.sum(axis=0), kernel, mode="same")
+    first = np.convolve(frequencies @ p, kernel, mode="same")
+    return power, np.divide(first, power, out=np.zeros_like(first), where=power > 0)
 
 
 def _windows(mask: np.ndarray, margin: int) -> list[tuple[int, int]]:
@@ -339,7 +348,7 @@ def _resolve_blind_velocity(win: _Window, estimate: float, v_a: float, params: R
     return float(candidates[int(np.argmin(walks))])
 
 
-def clutter_null(spec_fa: np.ndarray, g: _Geometry) -> tuple[np.ndarray, int]:
+def clutter_null(spec_fa: np.ndarray, g: _Geometry, band_factor: float = 1.0) -> tuple[np.ndarray, int]:
     """Project channel spectra (N, n_az, m) onto the complement of the static clutter steering vectors.
 
     Returns the residual (same shape) and the fewest redundant channels over the base bins.
@@ -347,7 +356,7 @@ def clutter_null(spec_fa: np.ndarray, g: _Geometry) -> tuple[np.ndarray, int]:
     n, n_az = spec_fa.shape[:2]
     fo = channels.band_frequencies(n_az, g.prf, n)
     h = np.exp(2j * np.pi * g.tau0[None, :, None] * fo[:, None, :])         # (n_az, N, N), eq. (3)
-    clutter = np.abs(fo) <= g.half_band                                      # aliases the static band covers
+    clutter = np.abs(fo) <= g.half_band * band_factor                        # aliases the static band covers
     a = h * clutter[:, None, :]
     proj = np.eye(n)[None] - a @ np.linalg.pinv(a, rcond=1e-10)
     s = np.moveaxis(spec_fa, 0, 1).reshape(n_az, n, -1)
@@ -370,14 +379,14 @@ def reconstruct(raw: Product, params: ReconstructParams = ReconstructParams(), p
                     bank.max_condition, params.max_condition, 10 * math.log10(bank.noise_gain),
                     "" if params.regularization > 0 else "; set reconstruct.regularization")
     spec, f_r, lead = _to_deramped(raw, g)                                   # (N, n_az, n_fft) in (t, f_r)
-    info = {"n_channels": n_ch, "prf_in": g.prf, "prf_out": g.n * g.prf, "doppler_bandwidth": 2 * g.half_band,
+    info = {"n_channels": int(n_ch), "prf_in": float(g.prf), "prf_out": g.n * g.prf, "doppler_bandwidth": 2 * g.half_band,
             "condition_number": bank.max_condition, "noise_gain_db": 10 * math.log10(bank.noise_gain),
             "uniform_prf": 2 * g.velocity / (n_ch * float(np.mean(np.diff(g.dx)))) if n_ch > 1 else g.prf,
             "method": params.method}
     residual_power = None
     if params.clutter_suppression:
         spec_fa = sfft.fft(spec, axis=1, workers=-1)
-        res, dof = clutter_null(spec_fa, g)
+        res, dof = clutter_null(spec_fa, g, params.clutter_band)
         before, after = float(np.sum(np.abs(spec_fa) ** 2)), float(np.sum(np.abs(res) ** 2))
         info["clutter_redundant_channels"] = dof
         info["clutter_suppression_db"] = 10 * math.log10(after / before) if before > 0 and after > 0 else None
@@ -385,15 +394,18 @@ def reconstruct(raw: Product, params: ReconstructParams = ReconstructParams(), p
             log.warning("reconstruct: no redundant channel (N PRF barely covers the Doppler band): no clutter null")
         residual_power = np.sum(np.abs(sfft.ifft(res, axis=-1, workers=-1)) ** 2, axis=(0, 1))
         del spec_fa, res
-    y = sfft.ifft(_reconstruct(spec, bank), axis=0, workers=-1)              # (N n_az, n_fft) in (t', f_r)
+    y = _reconstruct(spec, bank)                                             # (N n_az, n_fft) in (f_a, f_r)
     movers: list[MovingTarget] = []
+    if params.method == "modified" and params.detection == "auto":
+        out_f = sfft.fftfreq(y.shape[0], 1.0 / (g.n * g.prf))
+        power, centroid = _doppler_centroid(sfft.ifft(y, axis=1, workers=-1), out_f)
+    y = sfft.ifft(y, axis=0, workers=-1)                                     # (t', f_r)
     if params.method == "modified":
         y_tr = sfft.ifft(y, axis=1, workers=-1)
         x_tr = sfft.ifft(spec, axis=-1, workers=-1)
         if params.detection == "whole":
             spans = [(0, y_tr.shape[1])]
         else:
-            power, centroid = _doppler_centroid(y_tr, g.n * g.prf)
             if residual_power is not None:
                 power = residual_power
             strong = power > power.max() * 10 ** (params.detection_level / 10) if power.max() > 0 else power > 0
@@ -437,9 +449,9 @@ def _output_product(raw, params, g, out, info, movers) -> Product:
     info["moving_targets"] = []
     for k, mt in enumerate(movers):
         info["moving_targets"].append({
-            "first_cell": mt.first_cell, "last_cell": mt.last_cell, "slant_range": mt.slant_range,
+            "first_cell": int(mt.first_cell), "last_cell": int(mt.last_cell), "slant_range": float(mt.slant_range),
             "radial_velocity": mt.radial_velocity, "along_track_velocity": mt.along_track_velocity,
-            "beam_centre_time": mt.beam_centre_time, "leakage": mt.leakage, "at_bound": mt.at_bound,
+            "beam_centre_time": float(mt.beam_centre_time), "leakage": float(mt.leakage), "at_bound": bool(mt.at_bound),
             "search_evaluations": int(len(mt.search))})
         aux[f"velocity_search_{k}"] = mt.search
         if len(mt.autofocus):
