@@ -23,6 +23,12 @@ def backproject(input_path: Path, output: Path, config_path, overwrite: bool, pr
     params, raw = prepare("backproject", input_path, [output], config_path, overwrite,
                           ("raw", "raw_multichannel", "raw_array"), BackprojectParams, "backproject",
                           backproject_estimate)
+    from sarproc.product.frames import frame_names
+    from sarproc.product.errors import InputError
+
+    if params.frame != "product" and params.frame not in frame_names():
+        raise InputError(f"{config_path}: backproject.frame: {params.frame!r} is not 'product' or one of "
+                         f"{frame_names()}")
     start = time.perf_counter()
     with naming(input_path, config_path, "backproject"):
         image = run(raw, params, progress=progress_factory(want_progress(progress), "backproject"))

@@ -32,8 +32,8 @@ def simulate(scene_path: Path, output: Path, overwrite: bool, progress):
     with naming(scene_path):
         plan_estimate = simulate_estimate(scene)
     info(plan_estimate.describe())
-    check_plan(plan_estimate, [output], max_memory())
     with naming(scene_path):
+        check_plan(plan_estimate, [output], max_memory())
         plan = plan_simulation(scene)
     history = [history_entry(f"sarproc simulate {scene_path}", scene.resolved())]
     with ProductWriter(output, plan.kind, plan.dims, plan.coords, plan.radar, plan.targets,

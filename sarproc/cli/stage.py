@@ -50,7 +50,8 @@ def prepare(stage: str, input_path: Path, outputs, config_path, overwrite: bool,
     with naming(input_path, config_path, section):
         plan = (estimate or generic_estimate)(stage, header, params)
     info(plan.describe())
-    check_plan(plan, outputs, max_memory())
+    with naming(input_path):
+        check_plan(plan, outputs, max_memory())
     product = read_product(input_path, kinds=kinds)
     return params, product
 

@@ -107,6 +107,10 @@ def file_size_limit() -> int | None:
     return None if soft == resource.RLIM_INFINITY else int(soft)
 
 
+def _why(plan: Plan) -> str:
+    return f" ({plan.detail})" if plan.detail else ""
+
+
 def check_plan(plan: Plan, outputs=(), max_memory: int | None = None) -> None:
     """Refuse (InputError) a plan whose output or memory cannot fit; a message says the fix."""
     for out in outputs:
@@ -117,18 +121,18 @@ def check_plan(plan: Plan, outputs=(), max_memory: int | None = None) -> None:
         except OSError:
             free = None
         if free is not None and plan.output_bytes > free:
-            raise InputError(f"{out}: the output needs ~{human(plan.output_bytes)} but {out.parent} has only "
+            raise InputError(f"{out}: the output needs ~{human(plan.output_bytes)}{_why(plan)} but {out.parent} has only "
                              f"{human(free)} free; free space, write elsewhere or shrink the scene")
         limit = file_size_limit()
         if limit is not None and plan.output_bytes > limit:
-            raise InputError(f"{out}: the output needs ~{human(plan.output_bytes)} but this process may write files "
+            raise InputError(f"{out}: the output needs ~{human(plan.output_bytes)}{_why(plan)} but this process may write files "
                              f"of at most {human(limit)} (ulimit -f); raise the limit or shrink the scene")
     if max_memory is not None and plan.memory_bytes > max_memory:
-        raise InputError(f"{plan.stage}: needs ~{human(plan.memory_bytes)} of working memory, above --max-memory "
+        raise InputError(f"{plan.stage}: needs ~{human(plan.memory_bytes)} of working memory{_why(plan)}, above --max-memory "
                          f"{human(max_memory)}; raise --max-memory or shrink the scene or its blocks")
     avail = available_memory()
     if avail is not None and plan.memory_bytes > avail:
-        raise InputError(f"{plan.stage}: needs ~{human(plan.memory_bytes)} of working memory but only {human(avail)} "
+        raise InputError(f"{plan.stage}: needs ~{human(plan.memory_bytes)} of working memory{_why(plan)} but only {human(avail)} "
                          f"is available; shrink the scene or its blocks, or run on a larger machine")
 
 

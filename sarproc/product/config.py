@@ -206,7 +206,12 @@ def _build(cls, mapping: dict, where: str):
             check()
     except InputError as exc:
         msg = str(exc)
-        raise InputError(f"{where}: {msg}" if where and not msg.startswith(where) else msg) from None
+        head = msg.split(":", 1)[0]
+        if where and head in fields:        # "frame: ..." from validate() -> "targets.frame: ..."
+            msg = f"{where}.{msg}"
+        elif where and not msg.startswith(where):
+            msg = f"{where}: {msg}"
+        raise InputError(msg) from None
     return obj
 
 

@@ -438,6 +438,9 @@ def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
         if dset.dtype.kind != "c":
             raise InputError(f"{path}: dataset {name!r} is {dset.dtype} but must be complex (I/Q, complex64); "
                              "real-valued samples cannot be focused; convert them to complex baseband")
+        if dset.ndim != len(KIND_DIMS[kind]):
+            raise InputError(f"{path}: dataset {name!r} has {dset.ndim} dims {dset.shape}; a {kind!r} product needs "
+                             f"{len(KIND_DIMS[kind])} dims {KIND_DIMS[kind]}")
         dims, coords = [], {}
         for i, dim in enumerate(dset.dims):
             if len(dim) == 0:
@@ -490,7 +493,7 @@ def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
                     aux[k] = v[()]
         n_pulses = len(coords["azimuth_time"]) if kind in ("raw", "raw_multichannel", "raw_array",
                                                             "preprocessed") else None
-        _check_aux(path, aux, kind, n_pulses, len(coords["channel"]) if "channel" in coords else None)
+        _check_aux(path, aux, kind, n_pulses, len(coords["channel"]) if "channel" in coords else radar.n_channels)
         if load:
             data = dset[()]
             if check_finite and not np.all(np.isfinite(data)):

@@ -96,7 +96,7 @@ def test_undeclared_effects_are_not_simulated(scene_mapping):
 
 @pytest.mark.parametrize("changes,message", [
     ({"acquisition": {"mode": "stripmap"}}, "acquisition.mode: stripmap needs effects.antenna"),
-    ({"radar": {"range_sampling_rate": "80 MHz"}}, "radar: range_sampling_rate: 8e.07 Hz is below the bandwidth"),
+    ({"radar": {"range_sampling_rate": "80 MHz"}}, "radar.range_sampling_rate: 8e.07 Hz is below the bandwidth"),
     ({"radar": {"bandwidth": "10 m"}}, r"radar.bandwidth: unit 'm' is not a frequency unit"),
     ({"radar": {"bandwidth": "-5 MHz"}}, "radar.bandwidth: '-5 MHz' is out of range"),
     ({"geometry": {"squint": 30}}, "geometry.squint: an angle needs a unit"),
