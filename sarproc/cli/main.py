@@ -34,6 +34,9 @@ COMMANDS = {
     "backproject": "sarproc.cli.backproject:backproject",
     "evaluate": "sarproc.cli.evaluate:evaluate",
     "sweep": "sarproc.cli.sweep:sweep",
+    "export-sicd": "sarproc.cli.formats:export_sicd",
+    "export-cphd": "sarproc.cli.formats:export_cphd",
+    "import-cphd": "sarproc.cli.formats:import_cphd",
 }
 
 

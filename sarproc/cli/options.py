@@ -64,7 +64,7 @@ def want_progress(flag) -> bool:
 # Top-level sections a --config file may hold: every stage's own, and a scene's (one file can
 # describe a scene and its processing). New stages add theirs to STAGE_SECTIONS.
 STAGE_SECTIONS = ("backproject", "preprocess", "coarse_focus", "fine_focus", "pfa2", "reconstruct", "array3d",
-                  "evaluate", "sweep")
+                  "evaluate", "sweep", "geolocation")
 
 
 def known_sections() -> tuple[str, ...]:

@@ -314,7 +314,7 @@ def run_task(task: Task, sim: dict) -> dict:
         source = out
     report = task.directory / "report.json"
     key = digest({"sarproc": __version__, "command": "evaluate", "input": key, "config": task.config.get("evaluate")})
-    rec = run_step("evaluate", [source, "--config", config_path, "-o", report], report, key)
+    rec = run_step("evaluate", [source, "--config", config_path, "-o", report, "--overwrite"], report, key)
     skipped.append(rec["skipped"])
     quality = summarise_report(json.loads(report.read_text()))
     return {"task": task.task_id, "scene": task.scene, **task.setting,

@@ -1,0 +1,340 @@
+"""Raw phase history to CPHD 1.1.0 (NGA.STND.0068) through NGA's sarkit, and back.
+
+Export (single-channel monostatic ``raw`` products): each pulse is taken to the CPHD FX domain, the
+compensated phase history of the standard: its range spectrum on the full FFT grid of the range
+compression (N = next_fast_len(n_range + replica length) bins at f_s / N) divided by the chirp's
+spectrum (deramp), referenced to the start of its receive window, and compensated to the scene
+reference point (SRP = scene centre) so that a scatterer at the SRP has the same phase at every
+frequency:
+
+    S(f) = X(f_b) / H(f_b) * exp(-j 2 pi f_b t_start) * exp(+j 2 pi f tau_srp),   f = f_c + f_b
+
+For an echo inside its window X / H = A exp(-j 2 pi f tau), so S = A exp(-j 2 pi f (tau - tau_srp)),
+the CPHD signal model. FX1/FX2 (f_c -+ B/2) mark the transmitted band; the samples outside it are
+kept so that import inverts export exactly: X = S * H * (the two phases)^-1 and the raw pulse is the
+first n_range samples of the inverse FFT. TOA1/TOA2 are the receive window relative to tau_srp.
+Platform positions (ECF through geolocation.py) are used for transmit and receive alike (the
+simulator's stop-and-go model). sarproc's own metadata (radar, targets, frame) travels in
+ProductInfo/Parameter entries named ``sarproc.*`` so that a round trip is lossless; a CPHD written by
+another program is imported from its standard fields alone.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import scipy.fft as sfft
+
+from sarproc import __version__
+from sarproc.product.errors import InputError
+from sarproc.product.geolocation import Placement, ecf_to_geodetic, utc_string
+from sarproc.product.metadata import C, RadarMetadata
+from sarproc.product.model import TARGET_DTYPE, Product
+from sarproc.product.sicd import MODE_TYPE, consistency_summary, pulse_times, require_sarkit
+
+CPHD_NS = "http://api.nsgreg.nga.mil/schema/cphd/1.1.0"
+CHANNEL = "sarproc-channel-1"
+
+
+def _replica_spectrum(radar: RadarMetadata, n_fft: int) -> np.ndarray:
+    # the same centred replica as dsp.rangecomp.chirp_replica (product may not import dsp): samples at
+    # k / f_s for |k| <= floor(T_p f_s / 2), circularly centred on sample 0
+    fs, tp = radar.range_sampling_rate, radar.pulse_duration
+    half = int(math.floor(tp * fs / 2))
+    tau = np.arange(-half, half + 1) / fs
+    h = np.where(np.abs(tau) <= tp / 2, np.exp(1j * np.pi * radar.chirp_rate * tau**2), 0)
+    circ = np.zeros(n_fft, complex)
+    circ[: half + 1] = h[half:]
+    circ[n_fft - half:] = h[:half]
+    return sfft.fft(circ)
+
+
+def fft_size(radar: RadarMetadata, n_range: int) -> int:
+    half = int(math.floor(radar.pulse_duration * radar.range_sampling_rate / 2))
+    return sfft.next_fast_len(n_range + 2 * half + 1, real=False)
+
+
+def _targets_to_json(targets: np.ndarray) -> list:
+    out = []
+    for t in targets:
+        row = {}
+        for name in TARGET_DTYPE.names:
+            v = t[name]
+            row[name] = (v.decode() if isinstance(v, bytes) else [float(v.real), float(v.imag)]
+                         if np.iscomplexobj(v) else float(v))
+        out.append(row)
+    return out
+
+
+def _targets_from_json(rows: list) -> np.ndarray:
+    t = np.zeros(len(rows), TARGET_DTYPE)
+    for i, row in enumerate(rows):
+        for name in TARGET_DTYPE.names:
+            v = row[name]
+            t[i][name] = v.encode() if name == "name" else complex(*v) if name == "amplitude" else v
+    return t
+
+
+def _cycles_phasor(cycles: np.ndarray) -> np.ndarray:
+    """exp(j 2 pi cycles) with the integer part removed in float64 first."""
+    return np.exp(2j * np.pi * (cycles - np.floor(cycles)))
+
+
+def to_cphd_signal(signal, radar, t_start, tau_srp, n_fft):
+    """(n_pulses, n_range) raw -> (n_pulses, n_fft) FX-domain CPHD signal (frequency ascending), complex64."""
+    fb = (np.arange(n_fft) - n_fft // 2) * (radar.range_sampling_rate / n_fft)
+    h = np.fft.fftshift(_replica_spectrum(radar, n_fft))
+    x = np.fft.fftshift(sfft.fft(signal, n=n_fft, axis=-1, workers=-1), axes=-1)
+    cycles = -fb[None, :] * t_start[:, None] + (radar.carrier_frequency + fb)[None, :] * tau_srp[:, None]
+    return (x / h * _cycles_phasor(cycles)).astype(np.complex64)
+
+
+def from_cphd_signal(fx, radar, t_start, tau_srp, n_range):
+    """Inverse of :func:`to_cphd_signal`: (n_pulses, n_fft) -> (n_pulses, n_range) raw, complex64."""
+    n_fft = fx.shape[-1]
+    fb = (np.arange(n_fft) - n_fft // 2) * (radar.range_sampling_rate / n_fft)
+    h = np.fft.fftshift(_replica_spectrum(radar, n_fft))
+    cycles = fb[None, :] * t_start[:, None] - (radar.carrier_frequency + fb)[None, :] * tau_srp[:, None]
+    x = np.asarray(fx, complex) * h * _cycles_phasor(cycles)
+    return sfft.ifft(np.fft.ifftshift(x, axes=-1), axis=-1, workers=-1)[:, :n_range].astype(np.complex64)
+
+
+def _pvp_layout(names_sizes):
+    """PVP XML entries and the matching dtype (8-byte words, in order)."""
+    offset, xml, fields = 0, {}, []
+    for name, size in names_sizes:
+        xml[name] = {"Offset": offset, "Size": size, "dtype": np.dtype(("f8", (3,))) if size == 3 else np.dtype("f8")}
+        fields.append((name, ">f8", (3,)) if size == 3 else (name, ">f8"))
+        offset += size
+    return xml, np.dtype(fields), offset * 8
+
+
+PVP_FIELDS = [("TxTime", 1), ("TxPos", 3), ("TxVel", 3), ("RcvTime", 1), ("RcvPos", 3), ("RcvVel", 3),
+              ("SRPPos", 3), ("aFDOP", 1), ("aFRR1", 1), ("aFRR2", 1), ("FX1", 1), ("FX2", 1), ("TOA1", 1),
+              ("TOA2", 1), ("TDTropoSRP", 1), ("SC0", 1), ("SCSS", 1)]
+
+
+def cphd_parts(raw: Product, place: Placement):
+    """(xml tree, signal (n_pulses, n_fft) complex64, pvps) of a raw product."""
+    import lxml.etree
+    import sarkit.cphd as skcphd
+
+    if raw.kind != "raw" or raw.dims != ("azimuth_time", "range_time"):
+        raise InputError(f"CPHD export handles single-channel raw products; got {raw.kind} {raw.dims}")
+    for key in ("tx_offset", "rx_offset"):
+        if np.any(np.asarray(raw.aux.get(key, 0.0)) != 0):
+            raise InputError(f"CPHD export: aux/{key} is not zero; only monostatic raw data are exported")
+    r = raw.radar
+    t = pulse_times(raw)
+    n_pulses, n_range = raw.data.shape
+    rt = np.asarray(raw.coords["range_time"], float)
+    fs = r.range_sampling_rate
+    gate = np.asarray(raw.aux.get("range_gate_offset", np.zeros(n_pulses)), float)
+    t_start = rt[0] + gate
+    pos = place.to_ecf(raw.aux["platform_position"])
+    vel = np.gradient(pos, t, axis=0) if n_pulses > 1 else place.vector_to_ecf([r.velocity, 0, 0])[None]
+    srp = place.to_ecf(np.asarray(r.scene_center, float))
+    tau_srp = 2 * np.linalg.norm(pos - srp, axis=1) / C
+    n_fft = fft_size(r, n_range)
+    signal = to_cphd_signal(raw.data, r, t_start, tau_srp, n_fft)
+    fb0 = -(n_fft // 2) * fs / n_fft
+    f1, f2 = r.carrier_frequency - r.bandwidth / 2, r.carrier_frequency + r.bandwidth / 2
+    toa1, toa2 = t_start - tau_srp, t_start + (n_range - 1) / fs - tau_srp
+
+    pvp_xml, pvp_dtype, pvp_bytes = _pvp_layout(PVP_FIELDS)
+    pvps = np.zeros(n_pulses, pvp_dtype)
+    tx_time = t - t[0]                                  # CPHD times run from the collection start
+    pvps["TxTime"], pvps["TxPos"], pvps["TxVel"] = tx_time, pos, vel
+    pvps["RcvTime"], pvps["RcvPos"], pvps["RcvVel"] = tx_time + tau_srp, pos, vel
+    pvps["SRPPos"] = srp
+    u = (pos - srp) / np.linalg.norm(pos - srp, axis=1, keepdims=True)
+    pvps["aFDOP"] = -2.0 / C * np.sum(vel * u, axis=1)  # rdot of the SRP, both ways (CPHD 1.1 eq.)
+    pvps["FX1"], pvps["FX2"] = f1, f2
+    pvps["TOA1"], pvps["TOA2"] = toa1, toa2
+    pvps["SC0"], pvps["SCSS"] = r.carrier_frequency + fb0, fs / n_fft
+    toa_fixed = bool(np.all(toa1 == toa1[0]) and np.all(toa2 == toa2[0]))
+
+    ia = _image_area(raw, place)
+    lat, lon, h = place.lat_lon_height
+    iarp_llh = np.array([math.degrees(lat), math.degrees(lon), h])
+    cod_time = float(-t[0])                             # aperture centre
+    root = skcphd.ElementWrapper(lxml.etree.Element(f"{{{CPHD_NS}}}CPHD"))
+    root["CollectionID"] = {"CollectorName": "sarproc simulator", "CoreName": "sarproc_raw",
+                            "CollectType": "MONOSTATIC", "RadarMode": {"ModeType": MODE_TYPE.get(r.mode, "SPOTLIGHT")},
+                            "Classification": "UNCLASSIFIED", "ReleaseInfo": "UNRESTRICTED"}
+    root["Global"] = {"DomainType": "FX", "SGN": -1,
+                      "Timeline": {"CollectionStart": _dt(place.datetime64(float(t[0]))),
+                                   "TxTime1": float(tx_time[0]), "TxTime2": float(tx_time[-1])},
+                      "FxBand": {"FxMin": f1, "FxMax": f2},
+                      "TOASwath": {"TOAMin": float(toa1.min()), "TOAMax": float(toa2.max())}}
+    root["SceneCoordinates"] = {
+        "EarthModel": "WGS_84", "IARP": {"ECF": place.origin_ecf, "LLH": iarp_llh},
+        "ReferenceSurface": {"Planar": {"uIAX": place.rotation[:, 0], "uIAY": place.rotation[:, 1]}},
+        "ImageArea": {"X1Y1": ia[0], "X2Y2": ia[1]},
+        "ImageAreaCornerPoints": _corner_points(place, ia),
+        "ImageGrid": _image_grid(ia, C / (2 * r.bandwidth) / 1.5)}
+    root["Data"] = {"SignalArrayFormat": "CF8", "NumBytesPVP": pvp_bytes, "NumCPHDChannels": 1,
+                    "Channel": [{"Identifier": CHANNEL, "NumVectors": n_pulses, "NumSamples": n_fft,
+                                 "SignalArrayByteOffset": 0, "PVPArrayByteOffset": 0}],
+                    "NumSupportArrays": 0}
+    root["Channel"] = {"RefChId": CHANNEL, "FXFixedCPHD": True, "TOAFixedCPHD": toa_fixed, "SRPFixedCPHD": True,
+                       "Parameters": [{"Identifier": CHANNEL, "RefVectorIndex": n_pulses // 2, "FXFixed": True,
+                                       "TOAFixed": toa_fixed, "SRPFixed": True,
+                                       "Polarization": {"TxPol": "V", "RcvPol": "V"},
+                                       "FxC": r.carrier_frequency, "FxBW": r.bandwidth,
+                                       "TOASaved": float(toa2.max() - toa1.min()),
+                                       "DwellTimes": {"CODId": "cod", "DwellId": "dwell"},
+                                       "TxRcv": {"TxWFId": ["tx"], "RcvId": ["rcv"]}}]}
+    root["PVP"] = pvp_xml
+    root["Dwell"] = {"NumCODTimes": 1, "CODTime": [{"Identifier": "cod", "CODTimePoly": np.array([[cod_time]])}],
+                     "NumDwellTimes": 1,
+                     "DwellTime": [{"Identifier": "dwell", "DwellTimePoly": np.array([[float(tx_time[-1])]])}]}
+    root["TxRcv"] = {"NumTxWFs": 1, "TxWFParameters": [{"Identifier": "tx", "PulseLength": r.pulse_duration,
+                                                        "RFBandwidth": r.bandwidth, "FreqCenter": r.carrier_frequency,
+                                                        "LFMRate": r.chirp_rate, "Polarization": "V"}],
+                     "NumRcvs": 1, "RcvParameters": [{"Identifier": "rcv", "WindowLength": n_range / fs,
+                                                      "SampleRate": fs, "IFFilterBW": fs,
+                                                      "FreqCenter": r.carrier_frequency, "Polarization": "V"}]}
+    sarproc_meta = {"sarproc.radar": r.to_json(),
+                    "sarproc.targets": json.dumps(_targets_to_json(raw.targets)),
+                    "sarproc.frame": json.dumps(raw.attrs.get("frame")),
+                    "sarproc.azimuth_time0": repr(float(t[0])),
+                    "sarproc.range_time0": repr(float(rt[0])),
+                    "sarproc.placement": json.dumps({"anchor": place.anchor.tolist(), "heading": place.heading}),
+                    "sarproc.history": json.dumps(raw.history)}
+    root["ProductInfo"] = {"CreationInfo": [{"Application": f"sarproc {__version__}",
+                                             "DateTime": _dt(np.datetime64("now", "us"))}],
+                           "Parameter": [(k, v) for k, v in sarproc_meta.items()]}
+    tree = root.elem.getroottree()
+    # ReferenceGeometry from the PVPs, as sarkit's checker recomputes it (CPHD vol. 1, 6.5)
+    refgeom = skcphd.compute_reference_geometry(tree, pvps)
+    tree.getroot().find(f"{{{CPHD_NS}}}Dwell").addnext(refgeom)
+    return tree, signal, pvps
+
+
+def _image_area(raw: Product, place: Placement):
+    """Image area (m, in the IA frame about the scene centre): the targets' span plus 100 m."""
+    if len(raw.targets):
+        xy = np.stack([raw.targets["x"], raw.targets["y"]], 1) - np.asarray(raw.radar.scene_center)[:2]
+        lo, hi = xy.min(0) - 100.0, xy.max(0) + 100.0
+    else:
+        lo, hi = np.array([-100.0, -100.0]), np.array([100.0, 100.0])
+    return lo, hi
+
+
+def _image_grid(ia, spacing: float) -> dict:
+    """A regular grid over the image area (IARP at line 0, sample 0), 1.5 samples per slant resolution."""
+    (x1, y1), (x2, y2) = ia
+    # cell k spans ((k - 0.5) d, (k + 0.5) d): the first and last cells hold the area's edges
+    first_line, end_line = round(x1 / spacing + 0.5), round(x2 / spacing + 0.5)
+    first_sample, end_sample = round(y1 / spacing + 0.5), round(y2 / spacing + 0.5)
+    return {"IARPLocation": np.array([0.0, 0.0]),
+            "IAXExtent": {"LineSpacing": spacing, "FirstLine": first_line, "NumLines": end_line - first_line},
+            "IAYExtent": {"SampleSpacing": spacing, "FirstSample": first_sample,
+                          "NumSamples": end_sample - first_sample}}
+
+
+def _corner_points(place: Placement, ia):
+    (x1, y1), (x2, y2) = ia
+    pts = []
+    for x, y in ((x1, y1), (x1, y2), (x2, y2), (x2, y1)):
+        ecf = place.origin_ecf + x * place.rotation[:, 0] + y * place.rotation[:, 1]
+        pts.append(np.degrees(ecf_to_geodetic(ecf)[:2]))
+    return np.array(pts)
+
+
+def _dt(t: np.datetime64):
+    import datetime as dt
+
+    return dt.datetime.fromisoformat(utc_string(t).replace("Z", "+00:00"))
+
+
+def write_cphd(path, raw: Product, place: Placement) -> dict:
+    """Write a raw product as a CPHD file (atomically); returns sizes for the summary."""
+    require_sarkit()
+    import sarkit.cphd as skcphd
+
+    from sarproc.product.io import atomic_path
+
+    tree, signal, pvps = cphd_parts(raw, place)
+    meta = skcphd.Metadata(xmltree=tree, file_header_part=skcphd.FileHeaderPart(
+        additional_kvps={"CLASSIFICATION": "UNCLASSIFIED", "RELEASE_INFO": "UNRESTRICTED"}))
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh, skcphd.Writer(fh, meta) as writer:
+        writer.write_signal(CHANNEL, signal)
+        writer.write_pvp(CHANNEL, pvps)
+    return {"vectors": signal.shape[0], "samples": signal.shape[1]}
+
+
+def _params(tree) -> dict:
+    return {p.get("name"): p.text for p in tree.getroot().findall("{*}ProductInfo/{*}Parameter")}
+
+
+def read_cphd(path) -> Product:
+    """A raw product from a CPHD file (first channel, FX domain)."""
+    require_sarkit()
+    import sarkit.cphd as skcphd
+
+    try:
+        with open(path, "rb") as fh, skcphd.Reader(fh) as reader:
+            tree = reader.metadata.xmltree
+            ch = tree.getroot().findtext("{*}Data/{*}Channel/{*}Identifier")
+            fx, pvps = reader.read_channel(ch)
+    except (OSError, ValueError, KeyError, RuntimeError) as exc:
+        raise InputError(f"{path}: cannot read as CPHD: {exc}") from None
+    xh = skcphd.XmlHelper(tree)
+    if xh.load("{*}Global/{*}DomainType") != "FX":
+        raise InputError(f"{path}: Global/DomainType is not FX; only FX-domain CPHD is imported")
+    extra = _params(tree)
+    if "sarproc.radar" in extra:
+        radar = RadarMetadata(**_radar_kwargs(json.loads(extra["sarproc.radar"])))
+    else:
+        raise InputError(f"{path}: no sarproc.radar parameter; import of CPHD files written by other programs "
+                         "is not supported yet")
+    place_info = json.loads(extra["sarproc.placement"])
+    iarp = xh.load("{*}SceneCoordinates/{*}IARP/{*}ECF")
+    ux = xh.load("{*}SceneCoordinates/{*}ReferenceSurface/{*}Planar/{*}uIAX")
+    uy = xh.load("{*}SceneCoordinates/{*}ReferenceSurface/{*}Planar/{*}uIAY")
+    llh = xh.load("{*}SceneCoordinates/{*}IARP/{*}LLH")
+    place = Placement(utc="", lat_lon_height=(math.radians(llh[0]), math.radians(llh[1]), llh[2]),
+                      heading=place_info["heading"], anchor=np.asarray(place_info["anchor"], float),
+                      origin_ecf=np.asarray(iarp, float), rotation=np.stack([ux, uy, np.cross(ux, uy)], axis=1))
+    pos_ecf = np.asarray(pvps["TxPos"], float)
+    srp = np.asarray(pvps["SRPPos"], float)
+    tau_srp = 2 * np.linalg.norm(pos_ecf - srp, axis=1) / C
+    t_start = tau_srp + np.asarray(pvps["TOA1"], float)
+    fs = radar.range_sampling_rate
+    n_range = int(round((float(pvps["TOA2"][0]) - float(pvps["TOA1"][0])) * fs)) + 1
+    data = from_cphd_signal(fx, radar, t_start, tau_srp, n_range)
+    t0 = float(extra.get("sarproc.range_time0", t_start.min()))
+    gate = t_start - t0
+    tx_time = np.asarray(pvps["TxTime"], float)
+    az_t0 = float(extra.get("sarproc.azimuth_time0", -(tx_time[0] + tx_time[-1]) / 2))
+    coords = {"azimuth_time": tx_time + az_t0, "range_time": t0 + np.arange(n_range) / fs}
+    aux = {"platform_position": place.from_ecf(pos_ecf), "tx_offset": np.zeros(3), "rx_offset": np.zeros((1, 3))}
+    if np.any(np.abs(gate) > 1e-12):
+        aux["range_gate_offset"] = gate
+    frame = json.loads(extra.get("sarproc.frame", "null"))
+    targets = _targets_from_json(json.loads(extra.get("sarproc.targets", "[]")))
+    history = json.loads(extra.get("sarproc.history", "[]"))
+    return Product(kind="raw", data=data, dims=("azimuth_time", "range_time"), coords=coords, radar=radar,
+                   targets=targets, attrs={"frame": frame} if frame else {}, aux=aux, history=history)
+
+
+def _radar_kwargs(d: dict) -> dict:
+    d = dict(d)
+    d["scene_center"] = tuple(d["scene_center"])
+    return d
+
+
+def check_cphd(path) -> dict:
+    """Run sarkit's CphdConsistency (schema, header, PVPs, reference geometry, signal) on a CPHD file."""
+    require_sarkit()
+    import sarkit.verification as skver
+
+    with open(path, "rb") as fh:
+        con = skver.CphdConsistency.from_file(fh, thorough=True)
+        con.check()
+    return consistency_summary(con)
+
