@@ -73,7 +73,11 @@ def with_change(base: dict, section: str, key: str | None, value):
 
 @pytest.fixture(scope="session")
 def products(tmp_path_factory):
-    d = tmp_path_factory.mktemp("products")
+    return build_products(tmp_path_factory.mktemp("products"))
+
+
+def build_products(d: Path) -> Path:
+    """raw.h5, image.h5, pre.h5, raw_array.h5 (and their scene/config files) in ``d``."""
     dump(d / "scene.yaml", SCENE)
     dump(d / "bp.yaml", {"backproject": BP})
     steps = [("simulate", d / "scene.yaml", "-o", d / "raw.h5"),
@@ -563,7 +567,7 @@ def snapshot(folder: Path) -> dict[str, str]:
 def run_case(name, tmp: Path, products: Path) -> dict:
     """Run one case; returns what the report counts (and the assertions read)."""
     args, code, must = CASES[name](tmp, products)
-    args = [str(tmp / "plots") if a == "PLOTS" else a for a in args]
+    args = [tmp / "plots" if a == "PLOTS" else a for a in args]
     before = snapshot(tmp)
     res = invoke(args)
     after = snapshot(tmp)
@@ -572,6 +576,7 @@ def run_case(name, tmp: Path, products: Path) -> dict:
     return {
         "name": name, "args": args, "code": res.exit_code, "want_code": code, "output": out,
         "missing": [m for m in must if m not in out],
+        "file_named": any(Path(a).name in out for a in args if isinstance(a, Path)),
         "traceback": "Traceback" in out or crashed,
         "silent_accept": res.exit_code == 0,
         "leftovers": sorted(set(after) - set(before)),
