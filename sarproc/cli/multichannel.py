@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from sarproc.cli.options import common_options, input_argument, load_config, summary, want_progress
+from sarproc.cli.options import common_options, input_argument, summary, want_progress
 
 
 @click.command()
@@ -23,17 +23,15 @@ def reconstruct(input_path: Path, output: Path, config_path, overwrite: bool, pr
     """
     from sarproc.cli.progress import progress_factory
     from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct as run
-    from sarproc.product.errors import InputError
-    from sarproc.product.io import check_output_path, read_product, write_product
+    from sarproc.cli.stage import naming, prepare
+    from sarproc.product.io import write_product
 
-    check_output_path(output, [input_path], overwrite)
-    params = load_config(ReconstructParams, config_path, section="reconstruct")
-    raw = read_product(input_path, kinds=("raw_multichannel",))
+    # config, input header, output location, plan (the output holds as many samples as the input)
+    params, raw = prepare("reconstruct", input_path, [output], config_path, overwrite, ("raw_multichannel",),
+                          ReconstructParams, "reconstruct")
     start = time.perf_counter()
-    try:
+    with naming(input_path, config_path, "reconstruct"):
         out = run(raw, params, progress=progress_factory(want_progress(progress), "reconstruct"))
-    except InputError as exc:
-        raise InputError(f"{input_path}: {exc}") from None
     out.history[-1]["command"] = f"sarproc reconstruct {input_path}"
     write_product(output, out, inputs=[input_path], overwrite=overwrite)
     info = out.attrs["reconstruct"]
