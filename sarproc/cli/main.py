@@ -29,6 +29,7 @@ COMMANDS = {
     "coarse-focus": "sarproc.cli.squint_deramp:coarse_focus",
     "fine-focus": "sarproc.cli.squint_deramp:fine_focus",
     "pfa2": "sarproc.cli.pfa:pfa2",
+    "import-gotcha": "sarproc.cli.pfa:import_gotcha",
     "reconstruct": "sarproc.cli.multichannel:reconstruct",
     "array3d": "sarproc.cli.array3d:array3d",
     "backproject": "sarproc.cli.backproject:backproject",
