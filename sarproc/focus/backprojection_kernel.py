@@ -25,28 +25,10 @@ import math
 import numba
 import numpy as np
 
+from sarproc.dsp.phasor import cis_cycles32
+
 INTERPOLATIONS = ("nearest", "linear", "sinc", "lanczos", "knab")
 _TABLE_STEPS = 256          # table entries per sample for the windowed-sinc kernels (linear in between)
-
-_TWO_PI = np.float32(2 * np.pi)
-
-
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
-def _unit_phasor(c):
-    """(cos, sin)(2 pi c) for float32 c with |c| <= 0.5: Taylor polynomials on |2 pi r| <= pi/2."""
-    k = np.floor(c * np.float32(2.0) + np.float32(0.5))                  # nearest half cycle: -1, 0 or 1
-    r = c - k * np.float32(0.5)                                           # |r| <= 1/4
-    sgn = np.float32(1.0) - np.float32(2.0) * k * k                       # (-1)^k
-    z = r * _TWO_PI
-    z2 = z * z
-    s = z * (np.float32(1.0) - z2 * np.float32(1 / 6) * (np.float32(1.0) - z2 * np.float32(1 / 20) * (
-        np.float32(1.0) - z2 * np.float32(1 / 42) * (np.float32(1.0) - z2 * np.float32(1 / 72) * (
-            np.float32(1.0) - z2 * np.float32(1 / 110) * (np.float32(1.0) - z2 * np.float32(1 / 156)))))))
-    co = np.float32(1.0) - z2 * np.float32(0.5) * (np.float32(1.0) - z2 * np.float32(1 / 12) * (
-        np.float32(1.0) - z2 * np.float32(1 / 30) * (np.float32(1.0) - z2 * np.float32(1 / 56) * (
-            np.float32(1.0) - z2 * np.float32(1 / 90) * (np.float32(1.0) - z2 * np.float32(1 / 132) * (
-                np.float32(1.0) - z2 * np.float32(1 / 182)))))))
-    return co * sgn, s * sgn
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=True)
@@ -99,7 +81,7 @@ def _positions(dr, frac, cos_, sin_, dx, dy, dz, d2, frac0, cyc0, geo, monostati
         frac[i] = frac0 + dr[i] * scale32
         c = cyc0 + dr[i] * kc32
         c = c - np.floor(c + half)
-        co, si = _unit_phasor(c)
+        co, si = cis_cycles32(c)
         cos_[i] = co
         sin_[i] = si
 

@@ -65,13 +65,6 @@ def test_knab_on_twice_oversampled_samples_is_closer_to_truth_than_linear_x8(squ
     assert db(knab, truth) < db(lin, truth) - 3
 
 
-def test_unit_phasor_polynomial():
-    c = np.linspace(-0.5, 0.5, 20001).astype(np.float32)
-    co, si = np.array([bk._unit_phasor(x) for x in c[::7]]).T
-    exact = np.exp(2j * np.pi * c[::7].astype(float))
-    assert np.abs(co + 1j * si - exact).max() < 5e-7
-
-
 @pytest.mark.parametrize("r0", [1_000.0, 800_000.0])
 def test_float32_offset_from_tile_centre_is_micrometre_exact(r0):
     rng = np.random.default_rng(3)
