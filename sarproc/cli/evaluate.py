@@ -113,8 +113,7 @@ def evaluate(input_path: Path, output, overwrite, plot_dir, expect_path, config_
     failures = check_report(report, expect, source=str(expect_path)) if expect else []
     units = {d: UNITS.get(d, "") for d in product.dims}
 
-    if verbosity() >= 0:
-        click.echo(markdown_table(report, units))
+    # Files first, the table last: a full disk fails before anything is printed.
     if output is not None:
         doc = {"input": str(input_path), "units": units, **report.to_dict()}
         if expect is not None:
@@ -125,6 +124,8 @@ def evaluate(input_path: Path, output, overwrite, plot_dir, expect_path, config_
         _write_text_atomic(output, json.dumps(doc, indent=2, allow_nan=False) + "\n", overwrite)
     if plot_dir is not None:
         _plots(plot_dir, product, report, units, params)
+    if verbosity() >= 0:
+        click.echo(markdown_table(report, units))
     if expect is not None:
         for f in failures:
             click.echo(str(f), err=True)

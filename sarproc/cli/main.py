@@ -7,7 +7,6 @@ to COMMANDS. Modules that do not exist yet are simply not listed.
 from __future__ import annotations
 
 import contextlib
-import errno
 import importlib
 import importlib.util
 import logging
@@ -85,10 +84,6 @@ def _signals_unwind():
             signal.signal(s, h)
 
 
-# errno values that mean the output could not be stored (processing failure, exit 1).
-_WRITE_ERRNOS = {errno.ENOSPC, errno.EFBIG, errno.EROFS, errno.EDQUOT, errno.EIO}
-
-
 def _one_line(text: str) -> str:
     return " ".join(str(text).split())
 
@@ -143,10 +138,10 @@ class LazyGroup(click.Group):
         except OSError as exc:
             if verbosity >= 2:
                 traceback.print_exc()
-            name = f"{exc.filename}: " if exc.filename else ""
-            if exc.errno in _WRITE_ERRNOS or exc.errno is None:
-                from sarproc.product.io import _os_cause
+            from sarproc.product.io import WRITE_ERRNOS, _os_cause
 
+            name = f"{exc.filename}: " if exc.filename else ""
+            if exc.errno in WRITE_ERRNOS or exc.errno is None:
                 raise ProcessingFailed(f"{name}{_os_cause(exc)}") from None
             raise BadInput(f"{name}{exc.strerror or _one_line(exc)}") from None
         except Exception as exc:  # a bug: one line, the traceback with -vv

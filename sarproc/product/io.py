@@ -87,12 +87,22 @@ def _temporary_name(output: Path) -> Path:
     return output.parent / f".{output.name}.{_HOST}.{os.getpid()}.{secrets.token_hex(4)}{TMP_SUFFIX}"
 
 
-def _os_cause(exc: Exception) -> str:
-    """'No space left on device (ENOSPC)' from an OSError, including h5py's wrapped ones."""
+# errno values meaning the output could not be stored (a processing failure, exit 1)
+WRITE_ERRNOS = {_errno.ENOSPC, _errno.EFBIG, _errno.EROFS, _errno.EDQUOT, _errno.EIO}
+
+
+def _errno_of(exc: Exception) -> int | None:
+    """The errno of an OSError, or the one h5py quotes in its message ('errno = 28')."""
     code = getattr(exc, "errno", None)
     if code is None:
         m = re.search(r"errno = (\d+)", str(exc))
         code = int(m.group(1)) if m else None
+    return code
+
+
+def _os_cause(exc: Exception) -> str:
+    """'No space left on device (ENOSPC)' from an OSError, including h5py's wrapped ones."""
+    code = _errno_of(exc)
     if code is None:
         return " ".join(str(exc).split())[:200]
     return f"{os.strerror(code)} ({_errno.errorcode.get(code, code)})"
@@ -165,6 +175,12 @@ def atomic_path(output: Path, overwrite: bool = True):
     try:
         yield tmp
         _publish(tmp, output, overwrite)
+    except OSError as exc:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        if _errno_of(exc) in WRITE_ERRNOS:   # full disk, file-size limit, read-only: name the output
+            raise ProcessingError(f"{output}: cannot write: {_os_cause(exc)}; nothing was written") from None
+        raise
     except BaseException:
         with contextlib.suppress(OSError):
             os.unlink(tmp)

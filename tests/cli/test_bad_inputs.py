@@ -724,6 +724,24 @@ def test_file_size_limit(tmp_path):
     assert snapshot(tmp_path) == before
 
 
+def test_evaluate_figures_on_a_full_disk(tmp_path, products):
+    """The report fits under the file-size limit, a figure does not: exit 1 naming it, no folder left."""
+    image = tmp_path / "image.h5"
+    shutil.copy(products / "image.h5", image)
+    probe = sarproc("evaluate", image, "-o", tmp_path / "probe.json", "-q")
+    assert probe.wait(60) == 0
+    probe.communicate()
+    limit_kb = (tmp_path / "probe.json").stat().st_size // 1024 + 2
+    (tmp_path / "probe.json").unlink()
+    before = snapshot(tmp_path)
+    proc = sarproc("evaluate", image, "-o", tmp_path / "r.json", "--plot", tmp_path / "plots", limit_kb=limit_kb)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 1, err
+    assert "plots/quicklook.png: cannot write: File too large (EFBIG)" in err and "Traceback" not in err
+    assert out == ""   # no table printed before the failure
+    assert set(snapshot(tmp_path)) - set(before) == {"r.json"}   # the complete report only; no plots/, no temporaries
+
+
 def test_two_concurrent_writers_never_replace_each_other(tmp_path):
     a = dump(tmp_path / "a.yaml", SLOW)
     b = dump(tmp_path / "b.yaml", {**SLOW, "geometry": {"reference_range": "2 km", "squint": "5 deg"}})
