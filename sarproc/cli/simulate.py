@@ -7,6 +7,7 @@ from pathlib import Path
 
 import click
 
+from sarproc.cli.dask_map import scheduler_option
 from sarproc.cli.options import (info, max_memory, max_memory_option, output_option, overwrite_option,
                                  progress_option, summary, want_progress)
 
@@ -17,12 +18,14 @@ from sarproc.cli.options import (info, max_memory, max_memory_option, output_opt
 @overwrite_option
 @progress_option
 @max_memory_option
-def simulate(scene_path: Path, output: Path, overwrite: bool, progress):
+@scheduler_option
+def simulate(scene_path: Path, output: Path, overwrite: bool, progress, scheduler):
     """Simulate exact-geometry raw echoes of the point targets declared in SCENE_PATH."""
     from sarproc.product.budget import check_plan
     from sarproc.product.io import ProductWriter, check_output_path, history_entry
     from sarproc.simulation.scene import load_scene
     from sarproc.simulation.simulate import plan_simulation, simulate_blocks
+    from sarproc.cli.dask_map import dask_mapper, scheduler_client
     from sarproc.cli.progress import progress_factory
     from sarproc.cli.stage import naming, simulate_estimate
 
@@ -38,8 +41,9 @@ def simulate(scene_path: Path, output: Path, overwrite: bool, progress):
     history = [history_entry(f"sarproc simulate {scene_path}", scene.resolved())]
     with ProductWriter(output, plan.kind, plan.dims, plan.coords, plan.radar, plan.targets,
                        attrs={"frame": scene.target_frame.spec}, aux=plan.aux, history=history,
-                       inputs=[scene_path], overwrite=overwrite) as writer:
-        for sl, block in simulate_blocks(scene, plan, progress_factory(want_progress(progress), "simulate")):
+                       inputs=[scene_path], overwrite=overwrite) as writer, scheduler_client(scheduler) as client:
+        mapper = dask_mapper(client, "simulate-block") if client is not None else None
+        for sl, block in simulate_blocks(scene, plan, progress_factory(want_progress(progress), "simulate"), mapper):
             writer.write((slice(None), sl, slice(None)) if plan.kind != "raw" else (sl, slice(None)),
                          block if plan.kind != "raw" else block[0])
     shape = "x".join(map(str, plan.shape))

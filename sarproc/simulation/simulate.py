@@ -179,19 +179,24 @@ def echo_block(scene: Scene, plan: SimulationPlan, t: np.ndarray) -> np.ndarray:
     return out[:, :, guard:guard + n_rg]
 
 
-def simulate_blocks(scene: Scene, plan: SimulationPlan | None = None, progress=None) -> Iterator[tuple[slice, np.ndarray]]:
-    """Yield (pulse slice, (n_ch, n_t, n_range) complex64 block) over the whole acquisition."""
+def simulate_blocks(scene: Scene, plan: SimulationPlan | None = None, progress=None,
+                    mapper=None) -> Iterator[tuple[slice, np.ndarray]]:
+    """Yield (pulse slice, (n_ch, n_t, n_range) complex64 block) over the whole acquisition.
+
+    ``mapper`` (any map-like yielding in input order, e.g. one over Dask workers) computes the blocks'
+    echoes elsewhere; the effects' finalize steps (noise from one seeded generator) run here, in
+    order, so the data are the same with or without it.
+    """
+    import functools
+
     plan = plan or plan_simulation(scene)
     t_all = plan.coords["azimuth_time"]
     rng = np.random.default_rng(scene.params.simulation.seed)
     power = float(np.max(np.abs(scene.target_amplitude)) ** 2) if len(scene.target_amplitude) else 0.0
     step = plan.block_pulses
-    starts = range(0, len(t_all), step)
-    if progress is not None:
-        starts = progress(starts)
-    for s in starts:
-        sl = slice(s, min(s + step, len(t_all)))
-        block = echo_block(scene, plan, t_all[sl])
+    slices = [slice(s, min(s + step, len(t_all))) for s in range(0, len(t_all), step)]
+    echoes = (mapper or map)(functools.partial(echo_block, scene, plan), (t_all[sl] for sl in slices))
+    for sl, block in zip(progress(slices) if progress is not None else slices, echoes):
         for e in scene.effects:
             block = e.finalize(block, rng, power)
         yield sl, block.astype(np.complex64)
