@@ -93,51 +93,6 @@ def pfa_distortion(positions, reference, point, e_azimuth, e_range, carrier_freq
                       spread_range=float(abs(coef[4]) * wa + abs(coef[5]) * wr))
 
 
-def pfa_peak(positions, reference, point, e_azimuth, e_range, carrier_frequency, rect: Rect,
-             guess: tuple[float, float], n: int = 32, pad: int = 16) -> tuple[float, float]:
-    """Where PFA (reference ``reference``, support ``rect``) puts the peak of ``point``, m.
-
-    The response is sum_k exp{j [Phi(k) - k . x]} with Phi = K (r_ref - r_p) exact; its peak is
-    found by a zero-padded FFT of exp{j [Phi(k) - k . guess]} on an n x n lattice of the support
-    and a parabolic refinement (the linear fit of :func:`pfa_distortion` misplaces defocused or
-    skewed responses by a few hundredths of a cell, which shows at sub-image seams).
-    """
-    pos = np.asarray(positions, float)
-    ua, ur = los_components(pos, reference, e_azimuth, e_range)
-    dka = (rect.ka_hi - rect.ka_lo) / n
-    dkr = (rect.kr_hi - rect.kr_lo) / n
-    ka = rect.ka_lo + dka * (np.arange(n) + 0.5)
-    kr = rect.kr_lo + dkr * (np.arange(n) + 0.5)
-    KA, KR = np.meshgrid(ka, kr, indexing="ij")
-    ratio = ua / ur
-    order = np.argsort(ratio)
-    t = np.interp((KA / KR).ravel(), ratio[order], np.arange(len(pos), dtype=float)[order])
-    lo = np.clip(np.floor(t).astype(int), 0, len(pos) - 2)
-    w = (t - lo)[:, None]
-    p = pos[lo] * (1 - w) + pos[lo + 1] * w
-    d = p - np.asarray(reference, float)
-    u = d / np.linalg.norm(d, axis=1, keepdims=True)
-    k = KR.ravel() / (u @ np.asarray(e_range, float))
-    phase = k * (np.linalg.norm(d, axis=1) - np.linalg.norm(p - np.asarray(point, float), axis=1))
-    phase -= KA.ravel() * guess[0] + KR.ravel() * guess[1]
-    field = np.exp(1j * np.mod(phase, 2 * math.pi)).reshape(n, n)
-    m = n * pad
-    # |sum exp{j (eps - k . delta)}| over delta: an inverse DFT in delta (k offsets from the lattice start)
-    spec = np.abs(sfft.ifft2(field, s=(m, m)))
-    i, j = np.unravel_index(np.argmax(spec), spec.shape)
-
-    def vertex(cm, c0, cp):
-        den = cm - 2 * c0 + cp
-        return 0.0 if den == 0 else 0.5 * (cm - cp) / den
-
-    di = i + vertex(spec[i - 1, j], spec[i, j], spec[(i + 1) % m, j])
-    dj = j + vertex(spec[i, j - 1], spec[i, j], spec[i, (j + 1) % m])
-    step_a, step_r = 2 * math.pi / (m * dka), 2 * math.pi / (m * dkr)
-    da = (di if di < m / 2 else di - m) * step_a
-    dr = (dj if dj < m / 2 else dj - m) * step_r
-    return guess[0] + da, guess[1] + dr
-
-
 @dataclasses.dataclass(frozen=True)
 class SubImageTask:
     """Everything one sub-image needs, as plain arrays (picklable; no product, no file).
@@ -276,8 +231,7 @@ def _carrier(a, r, ka, kr, sign) -> np.ndarray:
 def distortion_field(task: SubImageTask, core: Grid, n: int = 9):
     """Displacement D(p) - p of the second PFA over the core (offsets from s), m: two splines (a, r).
 
-    Sampled by :func:`pfa_distortion` / :func:`pfa_peak` on an n x n lattice and interpolated by
-    bicubic splines.
+    Sampled by :func:`pfa_distortion` on an n x n lattice and interpolated by bicubic splines.
     """
     sa, sr = task.center_offset
     la = np.linspace(core.a[0], core.a[-1], n) - sa
@@ -291,9 +245,7 @@ def distortion_field(task: SubImageTask, core: Grid, n: int = 9):
         for j, r in enumerate(lr):
             point = task.center + a * e_a + r * e_r
             d = pfa_distortion(task.positions, task.center, point, e_a, e_r, task.carrier_frequency, task.band, rect)
-            pa, pr = pfa_peak(task.positions, task.center, point, e_a, e_r, task.carrier_frequency, rect,
-                              (d.azimuth, d.range))
-            da[i, j], dr[i, j] = pa - a, pr - r
+            da[i, j], dr[i, j] = d.azimuth - a, d.range - r
     return RectBivariateSpline(la, lr, da), RectBivariateSpline(la, lr, dr)
 
 

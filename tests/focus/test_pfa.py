@@ -1,0 +1,182 @@
+"""Paper 002 (Nie 2016) polar-format chain on the reduced Table 1 scene (configs/nie2016_small.yaml).
+
+The reduced scene keeps Table 1's angles (squint, depression, angular aperture, fractional
+bandwidth) and shrinks sqrt(R / lambda), so eq. (7)'s radius is 77 m and the 5 x 5 grid (80 m
+apart) reaches 2.9 radii: plain PFA must focus the centre and not the corner, the two-step PFA
+every target, with sub-image seams through the middle row and column of the grid.
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sarproc.focus.backprojection import backproject_points, theoretical_irw
+from sarproc.focus.pfa.chain import Pfa2Params, antenna_positions, image_frame, pfa2
+from sarproc.focus.pfa.two_step import local_irw, pfa_distortion
+from sarproc.dsp.rangecomp import range_compress
+from sarproc.product.config import load_yaml
+from sarproc.product.model import target_names
+from sarproc.quality.metrics import evaluate_image, evaluate_product
+from sarproc.simulation.scene import scene_from_mapping
+from sarproc.simulation.simulate import simulate
+
+from conftest import merge
+
+CONFIGS = Path(__file__).resolve().parents[2] / "configs"
+SMALL = load_yaml(CONFIGS / "nie2016_small.yaml")
+THREE = {"targets": {"frame": "ground_los", "grid": None,
+                     "points": [{"name": "C"}, {"name": "P", "azimuth": "30 m", "range": "-25 m"},
+                                {"name": "Q", "azimuth": "-20 m", "range": "35 m"}]}}
+
+
+@pytest.fixture(scope="module")
+def raw_small():
+    return simulate(scene_from_mapping(SMALL))
+
+
+@pytest.fixture(scope="module")
+def two_step_image(raw_small):
+    return pfa2(raw_small, Pfa2Params(method="two_step"))
+
+
+def _local_theory(raw, target):
+    frame = image_frame(raw)
+    r = raw.radar
+    point = np.array([target["x"], target["y"], target["z"]])
+    return local_irw(antenna_positions(raw), point, frame.u_azimuth, frame.u_range, r.carrier_frequency,
+                     (-r.bandwidth / 2, r.bandwidth / 2))
+
+
+def test_plain_pfa_focuses_the_centre_and_defocuses_the_edge(raw_small):
+    image = pfa2(raw_small, Pfa2Params(method="plain"))
+    assert image.attrs["frame"]["name"] == "ground_los" and np.all(np.isfinite(image.data))
+    report = evaluate_product(image)
+    centre = report.target("T02_02")
+    for ax in centre.axes:
+        assert abs(ax.irw_ratio - 1) < 0.03 and abs(ax.position_error_cells) < 0.05, ax
+        assert ax.pslr_db == pytest.approx(-13.26, abs=0.3) and ax.islr_db == pytest.approx(-10.16, abs=0.3), ax
+    # corner M (2.9 valid radii): the response sits where eq. (5) predicts and is defocused there
+    frame = image_frame(raw_small)
+    t = raw_small.targets[target_names(raw_small.targets).index("T00_00")]
+    r = raw_small.radar
+    d = pfa_distortion(antenna_positions(raw_small), frame.origin, np.array([t["x"], t["y"], t["z"]]),
+                       frame.u_azimuth, frame.u_range, r.carrier_frequency, (-r.bandwidth / 2, r.bandwidth / 2))
+    a, g = image.coords["azimuth"], image.coords["range"] - frame.ground_range
+    i, j = np.argmin(abs(a - d.azimuth)), np.argmin(abs(g - d.range))
+    local = np.abs(image.data[max(i - 20, 0):i + 21, max(j - 20, 0):j + 21]).max()
+    assert local < 0.6 * centre.peak_amplitude
+
+
+def test_two_step_focuses_every_target_seams_included(raw_small, two_step_image):
+    image = two_step_image
+    assert image.attrs["subimages"] == 16 and np.all(np.isfinite(image.data))
+    report = evaluate_product(image)
+    assert len(report.targets) == 25
+    for rep, tg in zip(report.targets, image.targets):
+        theory = _local_theory(raw_small, tg)
+        for ax, th in zip(rep.axes, theory):
+            where = f"{rep.name}/{ax.axis}"
+            assert abs(ax.irw / th - 1) < 0.05, where
+            assert ax.pslr_db == pytest.approx(-13.26, abs=0.5), where
+            assert ax.islr_db == pytest.approx(-10.16, abs=0.5), where
+            assert abs(ax.position_error_cells) < 0.1, where
+    assert report.false_target.level_db < -30
+
+
+def test_two_step_agrees_with_backprojection(raw_small, two_step_image):
+    """Chips around three targets, backprojected on the same ground_los pixels: same positions."""
+    image = two_step_image
+    frame = image_frame(raw_small)
+    rc = range_compress(raw_small.data, raw_small.radar)
+    pos = antenna_positions(raw_small)
+    a_all, g_all = image.coords["azimuth"], image.coords["range"]
+    irw = image.attrs["theoretical_irw"]
+    for name in ("T02_02", "T01_03", "T03_01"):
+        k = target_names(image.targets).index(name)
+        t = image.targets[k]
+        i, j = np.argmin(abs(a_all - t["azimuth"])), np.argmin(abs(g_all - t["range"]))
+        a, g = a_all[i - 36:i + 37], g_all[j - 36:j + 37]
+        A, G = np.meshgrid(a, g, indexing="ij")
+        chip = backproject_points(rc, raw_small.coords["range_time"], pos, pos, frame.to_xyz(A.ravel(), G.ravel()),
+                                  raw_small.radar.carrier_frequency,
+                                  gate_offset=raw_small.aux["range_gate_offset"]).reshape(A.shape)
+        truth = [[t["azimuth"], t["range"]]]
+        bp = evaluate_image(chip, ("azimuth", "range"), {"azimuth": a, "range": g}, irw, truth, [name]).targets[0]
+        pf = evaluate_image(image.data[i - 36:i + 37, j - 36:j + 37], ("azimuth", "range"),
+                            {"azimuth": a, "range": g}, irw, truth, [name]).targets[0]
+        # each against its own theory: PFA keeps the inscribed rectangle, backprojection the whole polar sector
+        bp_theory = theoretical_irw(raw_small, frame, [t["azimuth"], t["range"]])
+        for ax_bp, ax_pf, th_bp, th_pf in zip(bp.axes, pf.axes, bp_theory, _local_theory(raw_small, t)):
+            assert abs(ax_bp.position - ax_pf.position) < 0.1 * ax_bp.irw_theory, (name, ax_bp.axis)
+            assert abs(ax_bp.position_error_cells) < 0.1 and abs(ax_pf.position_error_cells) < 0.1
+            assert abs(ax_bp.irw / th_bp - 1) < 0.05 and abs(ax_pf.irw / th_pf - 1) < 0.05, (name, ax_bp.axis)
+
+
+def test_varied_gate_and_fixed_gate_focus_to_the_same_image():
+    gated = merge(SMALL, THREE)
+    fixed = merge(gated, {"effects": None})
+    raw_g, raw_f = simulate(scene_from_mapping(gated)), simulate(scene_from_mapping(fixed))
+    assert "range_gate_offset" in raw_g.aux and "range_gate_offset" not in raw_f.aux
+    assert raw_g.data.shape[1] < raw_f.data.shape[1]           # the varied gate records fewer samples
+    grid = dict(method="plain", azimuth_extent=90.0, range_extent=90.0, azimuth_spacing=0.25, range_spacing=0.22)
+    img_g = pfa2(raw_g, Pfa2Params(**grid)).data
+    img_f = pfa2(raw_f, Pfa2Params(**grid)).data
+    diff = 10 * np.log10(np.sum(np.abs(img_g - img_f) ** 2) / np.sum(np.abs(img_f) ** 2))
+    assert diff < -50, diff
+
+
+SLIDING = merge(SMALL, {
+    "radar": {"prf": "320 Hz"}, "acquisition": {"mode": "sliding_spotlight"},
+    "effects": {"antenna": {"azimuth_beamwidth": "4 deg", "pattern": "rect", "rotation_range": "6 km"}},
+    "targets": {"frame": "ground_los", "grid": None,
+                "points": [{"name": "L", "azimuth": "-100 m"}, {"name": "C"},
+                           {"name": "R", "azimuth": "100 m", "range": "20 m"}]}})
+
+
+def test_subaperture_dealiasing_removes_the_fold(caplog):
+    """PRF above the footprint's deramped band, below the swept scene's: edge targets fold without Fig. 2."""
+    raw = simulate(scene_from_mapping(SLIDING))
+    with caplog.at_level("WARNING"):
+        off = pfa2(raw, Pfa2Params(method="two_step", dealias="off"))
+    assert off.attrs["dealias"]["folds"] and "fold" in caplog.text
+    caplog.clear()
+    with caplog.at_level("WARNING"):
+        on = pfa2(raw, Pfa2Params(method="two_step", dealias="auto"))
+    assert on.attrs["dealias"]["applied"] and not on.attrs["dealias"]["folds"] and "fold" not in caplog.text
+    r_off, r_on = evaluate_product(off), evaluate_product(on)
+    for name in ("L", "R"):
+        t_on, t_off = r_on.target(name), r_off.target(name)
+        assert t_on.peak_amplitude > 1.5 * t_off.peak_amplitude          # the folded energy is back
+        rng = t_on.axis("range")
+        assert abs(rng.position_error_cells) < 0.1 and rng.pslr_db == pytest.approx(-13.26, abs=0.5)
+        assert abs(t_on.axis("azimuth").position_error_cells) < 0.2
+    assert r_on.false_target.level_db < -30
+
+
+@pytest.mark.parametrize("change", [
+    {"targets": {"frame": "ground_los", "grid": None,
+                 "points": [{"name": "C"}, {"name": "E", "azimuth": "54.6 m", "range": "54.6 m"}]}},
+    {"effects": {"range_gate": {"pulses_per_step": 1}}},
+    {"effects": {"range_gate": {"pulses_per_step": 62}}},
+    {"geometry": {"squint": "45 deg"}},
+], ids=["target-at-valid-radius", "gate-step-every-pulse", "gate-step-every-62", "squint-45"])
+def test_hard_cases_stay_finite_and_focused(change):
+    scene = merge(merge(SMALL, THREE), change)
+    image = pfa2(simulate(scene_from_mapping(scene)), Pfa2Params(method="two_step"))
+    assert np.all(np.isfinite(image.data))
+    report = evaluate_product(image)
+    for t in report.targets:
+        for ax in t.axes:
+            assert abs(ax.position_error_cells) < 0.1, (t.name, ax.axis)
+            assert ax.pslr_db == pytest.approx(-13.26, abs=0.5), (t.name, ax.axis)
+
+
+def test_prf_barely_above_the_footprint_band_is_refused_or_warned():
+    """2 % above the deramped footprint band leaves no sub-aperture room: a clear refusal, not a ghost."""
+    from sarproc.product.errors import InputError
+
+    scene = merge(SLIDING, {"radar": {"prf": "150 Hz"}})
+    raw = simulate(scene_from_mapping(scene))
+    with pytest.raises(InputError, match="raise the PRF"):
+        pfa2(raw, Pfa2Params(method="plain", dealias="on"))
