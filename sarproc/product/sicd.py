@@ -7,10 +7,11 @@ scene left of the track that means the azimuth axis is reversed. So the SICD pix
 ``image.T`` with its columns flipped when needed: :func:`sicd_pixels` and :func:`image_from_sicd` do
 and undo exactly this, nothing else (pixels are complex64 -> RE32F_IM32F, bit for bit).
 
-Spatial frequency: the images keep the carrier phase of backprojection, exp(+j 2 pi (2 f_c / c) R),
-so their spectrum along a grid axis sits at k = (2 f_c / c) u_los . u_axis, folded by the pixel
-spacing. KCtr is the multiple of 1/SS nearest k and DeltaKCOAPoly the constant remainder (its value
-at the scene reference point; the line of sight turns slowly across the image).
+Spatial frequency: DeltaKCOAPoly is where the pixels' spectrum is centred along each axis (measured
+on the data: backprojection keeps the carrier phase exp(+j 2 pi (2 f_c / c) R), so its spectrum sits at
+(2 f_c / c) u_los . u_axis folded by the pixel spacing; a basebanded image sits at 0), and KCtr the
+rest of (2 f_c / c) u_los . u_axis at the scene reference point. Both are constants: the line of
+sight turns slowly across the image.
 
 The times and the Earth placement come from :mod:`sarproc.product.geolocation`. sarkit is imported
 only inside the functions (optional extra ``sarproc[formats]``).
@@ -121,10 +122,13 @@ def image_from_sicd(pixels: np.ndarray, flip_cols: bool) -> np.ndarray:
     return np.ascontiguousarray((pixels[:, ::-1] if flip_cols else pixels).T)
 
 
-def _fold(k: float, ss: float) -> tuple[float, float]:
-    """k -> (KCtr, DeltaKCOA): the multiple of 1/SS nearest k, and the remainder within +-1/(2 SS)."""
-    kctr = round(k * ss) / ss
-    return kctr, k - kctr
+def spectral_centre(pixels: np.ndarray, axis: int, ss: float) -> float:
+    """Centre of the data's spectrum along ``axis``, cycles/m in [-1/(2 SS), 1/(2 SS)) (circular mean of power)."""
+    spec = np.abs(np.fft.fft(pixels, axis=axis)) ** 2
+    power = spec.sum(axis=1 - axis)
+    n = len(power)
+    phase = np.angle(np.sum(power * np.exp(2j * np.pi * np.arange(n) / n)))
+    return float(phase / (2 * np.pi * ss))
 
 
 def sicd_xml(product: Product, place: Placement, *, image_formation: str = "OTHER"):
@@ -153,8 +157,13 @@ def sicd_xml(product: Product, place: Placement, *, image_formation: str = "OTHE
         time_coa[0, 1] = float(grid.u_col @ vx) / r.velocity**2
     irw_az, irw_rg = (float(w) for w in product.attrs["theoretical_irw"])
     dims = {}
-    for name, u, ss, irw in (("Row", grid.u_row, grid.ss_row, irw_rg), ("Col", grid.u_col, grid.ss_col, irw_az)):
-        kctr, dk = _fold(2.0 * r.carrier_frequency / C * float(u_los @ u), ss)
+    pixels = sicd_pixels(product.data, grid)
+    for axis, (name, u, ss, irw) in enumerate((("Row", grid.u_row, grid.ss_row, irw_rg),
+                                               ("Col", grid.u_col, grid.ss_col, irw_az))):
+        # where the pixels' spectrum sits (measured: backprojection keeps the carrier, a polar-format image
+        # may be basebanded) and the spatial frequency it stands for, KCtr + DeltaKCOA = (2 f_c / c) u_los . u
+        dk = spectral_centre(pixels, axis, ss)
+        kctr = 2.0 * r.carrier_frequency / C * float(u_los @ u) - dk
         bw = KAPFAC / irw
         lo, hi = dk - bw / 2, dk + bw / 2
         if lo < -0.5 / ss or hi > 0.5 / ss:           # support wraps around the folding frequency
