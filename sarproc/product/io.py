@@ -30,8 +30,8 @@ import numpy as np
 from sarproc import __version__
 from sarproc.product.errors import InputError, ProcessingError
 from sarproc.product.metadata import FORMAT_VERSION, RadarMetadata
-from sarproc.product.model import (AUX_DIM_DOC, AUX_LAYOUT, DATA_NAME, KIND_DIMS, PRODUCT_KINDS, TARGET_DTYPE,
-                                   TARGET_UNITS, UNITS, Product)
+from sarproc.product.model import (AUX_DIM_DOC, AUX_LAYOUT, DATA_ATTR_UNITS, DATA_NAME, KIND_DIMS, PRODUCT_KINDS,
+                                   TARGET_DTYPE, TARGET_UNITS, UNITS, Product)
 
 LONG_NAMES = {"azimuth_time": "azimuth (slow) time from aperture centre", "range_time": "range (fast) time since transmit",
               "channel": "receive channel index", "azimuth": "azimuth position", "range": "range position",
@@ -303,6 +303,9 @@ class ProductWriter:
             self.dset.attrs["long_name"] = ("complex baseband echo samples" if DATA_NAME[self.kind] == "signal"
                                             else "complex image")
             _write_attrs(self.dset, attrs)
+            known = {k: DATA_ATTR_UNITS[k] for k in attrs if k in DATA_ATTR_UNITS}
+            if known:
+                self.dset.attrs["attribute_units"] = json.dumps(known)
             _write_scales(self.file, self.dset, self.dims, self.coords)
             if aux:
                 _write_aux(self.file, aux)
@@ -354,7 +357,7 @@ def write_product(output, product: Product, *, inputs=(), overwrite=False) -> Pa
     return Path(output)
 
 
-_INTERNAL_ATTRS = ("DIMENSION_LIST", "REFERENCE_LIST", "CLASS", "NAME", "units", "long_name")
+_INTERNAL_ATTRS = ("DIMENSION_LIST", "REFERENCE_LIST", "CLASS", "NAME", "units", "long_name", "attribute_units")
 
 
 def _attr_value(v):
@@ -492,6 +495,13 @@ def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
             if not np.all(np.isfinite(targets[field])):
                 raise InputError(f"{path}: dataset 'targets' field {field!r} contains NaN or Inf")
         attrs = {k: _attr_value(v) for k, v in dset.attrs.items() if k not in _INTERNAL_ATTRS}
+        for key in DATA_ATTR_UNITS:
+            v = attrs.get(key)
+            values = v if isinstance(v, list) else [v]
+            if v is not None and not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+                                         for x in values):
+                raise InputError(f"{path}: dataset {name!r} attribute {key!r} must be a finite number or list of "
+                                 f"numbers ({DATA_ATTR_UNITS[key]}), got {v!r}")
         if kind in ("image", "image3d"):
             frame = attrs.get("frame")
             if not (isinstance(frame, dict) and isinstance(frame.get("name"), str)):

@@ -53,6 +53,15 @@ TARGET_UNITS = {"name": "", "x": "m", "y": "m", "z": "m", "azimuth": "frame axis
                 "range": "frame axis unit (m)", "elevation": "rad (3D frames), else 0",
                 "amplitude": "1", "vx": "m/s", "vy": "m/s", "vz": "m/s"}
 
+# Units of the numeric attributes stages put on the data set, stored as its JSON map
+# ``attribute_units`` and type-checked by the reader (a number, or a list of numbers).
+DATA_ATTR_UNITS = {
+    "azimuth_sampling_rate": "Hz", "deramp_rate": "Hz/s", "coarse_reference_range": "m",
+    "aperture_start": "s", "aperture_end": "s", "n_pulses": "1", "total_doppler_bandwidth": "Hz",
+    "deramp_spread": "Hz", "deramp_extent": "Hz", "scene_box": "m",
+    "theoretical_irw": "axis units (m; rad for elevation)",
+}
+
 DATA_NAME = {"raw": "signal", "raw_multichannel": "signal", "raw_array": "signal",
              "preprocessed": "signal", "coarse": "signal", "image": "image", "image3d": "image"}
 

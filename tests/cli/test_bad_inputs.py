@@ -83,6 +83,8 @@ def build_products(d: Path) -> Path:
     steps = [("simulate", d / "scene.yaml", "-o", d / "raw.h5"),
              ("backproject", d / "raw.h5", "--config", d / "bp.yaml", "-o", d / "image.h5"),
              ("preprocess", d / "raw.h5", "-o", d / "pre.h5"),
+             ("coarse-focus", d / "pre.h5", "--config", dump(d / "coarse.yaml", {"coarse_focus": {"scene_margin": "10 m"}}),
+              "-o", d / "coarse.h5"),
              ("simulate", dump(d / "array.yaml", ARRAY_SCENE), "-o", d / "raw_array.h5")]
     for args in steps:
         res = invoke(args)
@@ -416,6 +418,15 @@ product_case("h5-image-irw-length", set_attr("image", "theoretical_irw", np.arra
              stage="evaluate", product="image.h5")
 product_case("h5-image-irw-negative", set_attr("image", "theoretical_irw", np.array([1.0, -1.0])),
              "theoretical_irw", stage="evaluate", product="image.h5")
+product_case("h5-coarse-lacks-sampling-rate", del_attr("signal", "azimuth_sampling_rate"), "'azimuth_sampling_rate'",
+             stage="fine-focus", product="coarse.h5")
+product_case("h5-coarse-sampling-rate-text", set_attr("signal", "azimuth_sampling_rate", "fast"), "azimuth_sampling_rate",
+             stage="fine-focus", product="coarse.h5")
+config_case("config-fine-flow", {"fine_focus": {"flow": 3}}, "fine_focus.flow", stage="fine-focus", product="coarse.h5")
+config_case("config-fine-kernel", {"fine_focus": {"stolt_kernel": "magic"}}, "fine_focus.stolt_kernel",
+            stage="fine-focus", product="coarse.h5")
+config_case("config-fine-max-samples", {"fine_focus": {"max_samples": 1000}}, "fine_focus.max_samples",
+            stage="fine-focus", product="coarse.h5")
 product_case("h5-array-channels-vs-radar", set_attr("radar", "n_channels", 7), "n_channels", stage="array3d",
              product="raw_array.h5")
 product_case("h5-array-rx-offsets", replace_dataset("aux/rx_offset", lambda a: a[:2]), "aux/rx_offset",
