@@ -9,3 +9,8 @@ $(DIST_STAMP): $(STAMP) pyproject.toml
 # The backprojection knobs (make accuracy-backprojection) as an 18-task sweep on a local Dask cluster.
 sweep-backprojection: $(DIST_STAMP)
 	$(SARPROC) sweep configs/sweeps/backprojection.yaml
+
+.PHONY: sweep-000
+# Paper 000's accuracy knobs (make accuracy-000) as a 32-task sweep on a local Dask cluster.
+sweep-000: $(DIST_STAMP)
+	$(SARPROC) sweep configs/sweeps/accuracy_000.yaml

@@ -35,6 +35,7 @@ import io
 import itertools
 import json
 import math
+import os
 import re
 import sys
 import threading
@@ -141,7 +142,8 @@ def plan_sweep(path, output=None) -> Plan:
         raw["focus"] = [raw["focus"]]
     params = build(SweepParams, raw, source=str(path))
     base_dir = path.parent
-    out = Path(output) if output is not None else (base_dir / params.output if params.output else None)
+    out = Path(output) if output is not None else (
+        Path(os.path.normpath(base_dir / params.output)) if params.output else None)
     if out is None:
         raise InputError(f"{path}: no output directory: pass -o DIR or set 'output:' in the sweep file")
     grid_keys = list(params.grid)
@@ -421,8 +423,9 @@ def _cell(v) -> str:
 def markdown_table(plan: Plan, rows: list) -> str:
     columns = ["scene", *plan.knobs, *TIME_COLUMNS, *QUALITY_COLUMNS]
     lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
-    for row in rows:
-        lines.append("| " + " | ".join(_cell(row.get(c)) for c in columns) + " |")
+    for row in rows:   # a knob a task does not set keeps its default: blank
+        lines.append("| " + " | ".join(_cell(row.get(c)) if c in row or c not in plan.knobs else ""
+                                       for c in columns) + " |")
     return "\n".join(lines)
 
 
