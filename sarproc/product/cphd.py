@@ -29,7 +29,7 @@ import scipy.fft as sfft
 
 from sarproc import __version__
 from sarproc.product.errors import InputError
-from sarproc.product.geolocation import Placement, ecf_to_geodetic, utc_string
+from sarproc.product.geolocation import Placement, ecf_to_geodetic, utc_datetime
 from sarproc.product.metadata import C, RadarMetadata
 from sarproc.product.model import TARGET_DTYPE, Product
 from sarproc.product.sicd import MODE_TYPE, consistency_summary, pulse_times, require_sarkit
@@ -165,7 +165,7 @@ def cphd_parts(raw: Product, place: Placement):
                             "CollectType": "MONOSTATIC", "RadarMode": {"ModeType": MODE_TYPE.get(r.mode, "SPOTLIGHT")},
                             "Classification": "UNCLASSIFIED", "ReleaseInfo": "UNRESTRICTED"}
     root["Global"] = {"DomainType": "FX", "SGN": -1,
-                      "Timeline": {"CollectionStart": _dt(place.datetime64(float(t[0]))),
+                      "Timeline": {"CollectionStart": utc_datetime(place.datetime64(float(t[0]))),
                                    "TxTime1": float(tx_time[0]), "TxTime2": float(tx_time[-1])},
                       "FxBand": {"FxMin": f1, "FxMax": f2},
                       "TOASwath": {"TOAMin": float(toa1.min()), "TOAMax": float(toa2.max())}}
@@ -205,7 +205,7 @@ def cphd_parts(raw: Product, place: Placement):
                     "sarproc.placement": json.dumps({"anchor": place.anchor.tolist(), "heading": place.heading}),
                     "sarproc.history": json.dumps(raw.history)}
     root["ProductInfo"] = {"CreationInfo": [{"Application": f"sarproc {__version__}",
-                                             "DateTime": _dt(np.datetime64("now", "us"))}],
+                                             "DateTime": utc_datetime(np.datetime64("now", "us"))}],
                            "Parameter": [(k, v) for k, v in sarproc_meta.items()]}
     tree = root.elem.getroottree()
     # ReferenceGeometry from the PVPs, as sarkit's checker recomputes it (CPHD vol. 1, 6.5)
@@ -244,11 +244,6 @@ def _corner_points(place: Placement, ia):
         pts.append(np.degrees(ecf_to_geodetic(ecf)[:2]))
     return np.array(pts)
 
-
-def _dt(t: np.datetime64):
-    import datetime as dt
-
-    return dt.datetime.fromisoformat(utc_string(t).replace("Z", "+00:00"))
 
 
 def write_cphd(path, raw: Product, place: Placement) -> dict:

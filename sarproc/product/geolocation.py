@@ -134,3 +134,8 @@ def placement(radar: RadarMetadata, params: GeolocationParams = GeolocationParam
 def utc_string(t: np.datetime64) -> str:
     """numpy datetime64 -> ISO 8601 UTC with microseconds."""
     return dt.datetime.fromisoformat(str(np.datetime_as_string(t, unit="us"))).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
+
+
+def utc_datetime(t: np.datetime64) -> dt.datetime:
+    """numpy datetime64 -> timezone-aware datetime (UTC, microseconds), as sarkit's XML dates take them."""
+    return dt.datetime.fromisoformat(utc_string(t).replace("Z", "+00:00"))

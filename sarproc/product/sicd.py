@@ -20,14 +20,13 @@ only inside the functions (optional extra ``sarproc[formats]``).
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
 
 from sarproc import __version__
 from sarproc.product.errors import InputError
 from sarproc.product.frames import frame_from_spec
-from sarproc.product.geolocation import Placement, ecf_to_geodetic, utc_string
+from sarproc.product.geolocation import Placement, ecf_to_geodetic, utc_datetime
 from sarproc.product.metadata import C
 from sarproc.product.model import Product
 
@@ -181,7 +180,7 @@ def sicd_xml(product: Product, place: Placement, *, image_formation: str = "OTHE
     root["CollectionInfo"] = {"CollectorName": "sarproc simulator", "CoreName": f"sarproc_{product.kind}",
                               "CollectType": "MONOSTATIC", "RadarMode": {"ModeType": MODE_TYPE.get(r.mode, "SPOTLIGHT")},
                               "Classification": "UNCLASSIFIED"}
-    root["ImageCreation"] = {"Application": f"sarproc {__version__}", "DateTime": _dt(created),
+    root["ImageCreation"] = {"Application": f"sarproc {__version__}", "DateTime": utc_datetime(created),
                              "Profile": "sarproc export-sicd"}
     root["ImageData"] = {"PixelType": "RE32F_IM32F", "NumRows": n_rows, "NumCols": n_cols, "FirstRow": 0,
                          "FirstCol": 0, "FullImage": {"NumRows": n_rows, "NumCols": n_cols},
@@ -191,7 +190,7 @@ def sicd_xml(product: Product, place: Placement, *, image_formation: str = "OTHE
                        "ImageCorners": np.zeros((4, 2))}   # projected below, once the geometry is complete
     root["Grid"] = {"ImagePlane": "SLANT" if abs(float(np.cross(grid.u_row, grid.u_col) @ place.rotation[:, 2])) < 0.999
                     else "GROUND", "Type": "PLANE", "TimeCOAPoly": time_coa, "Row": dims["Row"], "Col": dims["Col"]}
-    root["Timeline"] = {"CollectStart": _dt(collect_start), "CollectDuration": duration,
+    root["Timeline"] = {"CollectStart": utc_datetime(collect_start), "CollectDuration": duration,
                         "IPP": {"@size": 1, "Set": [{"TStart": 0.0, "TEnd": duration, "IPPStart": 0,
                                          "IPPEnd": len(t) - 1, "IPPPoly": np.array([0.0, r.prf]),
                                          "@index": 1}]}}
@@ -222,11 +221,6 @@ def sicd_xml(product: Product, place: Placement, *, image_formation: str = "OTHE
     root["GeoData"]["ImageCorners"] = np.degrees(ecf_to_geodetic(ground)[:, :2])
     return tree, grid
 
-
-def _dt(t: np.datetime64):
-    import datetime as dt
-
-    return dt.datetime.fromisoformat(utc_string(t).replace("Z", "+00:00"))
 
 
 def write_sicd(path, product: Product, place: Placement, *, image_formation: str = "OTHER") -> SicdGrid:
