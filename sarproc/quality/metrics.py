@@ -522,21 +522,28 @@ def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
         V, f_c = _support(chip, nulls, params)
         found.append({"peak_index": peak_index, "raw": chip, "chip": chip, "pos": pos, "value": value, "V": V,
                       "f_c": f_c, "removed": ()})
-    # Passes 2-3: remove the neighbours' fitted ideal responses from each raw chip; the models of the
-    # last pass come from chips already cleaned once (a neighbour biases a model's band centre).
-    for _ in range(2 if params.remove_neighbours else 0):
-        refit = []
+    # Pass 2: the ideal responses of every group of targets whose chips overlap are fitted jointly to
+    # the image; each target is then measured on its chip minus the other members' fitted responses.
+    if params.remove_neighbours:
+        models = _neighbour_models(data, found, nulls, half, params)
         for i, f in enumerate(found):
-            cleaned, members = _remove_neighbours(f["raw"], i, found, nulls, params)
-            if not members or not abs(f["value"]) > 0:
-                refit.append(f)
+            shape = np.array(f["raw"].shape)
+            lo, hi = f["raw"].origin - np.asarray(nulls), f["raw"].origin + shape - 1 + np.asarray(nulls)
+            others = [j for j, m in models.items() if j != i and i in m["group"] and
+                      np.all(m["pos"] >= lo) and np.all(m["pos"] <= hi)]
+            if not others or not abs(f["value"]) > 0:
                 continue
-            chip = _Chip(None, f["peak_index"], half, chip=(cleaned, f["raw"].clipped))
+            grid = np.meshgrid(*[np.arange(n) + o for n, o in zip(shape, f["raw"].origin)], indexing="ij")
+            points = np.stack([g.ravel() for g in grid], axis=0).astype(float)
+            hamming = params.irw_factor > 1.1
+            cleaned = f["raw"].data.ravel() - sum(
+                models[j]["amp"] * _ideal_response(points, models[j]["pos"], models[j]["V"], nulls, models[j]["f_c"],
+                                                   hamming) for j in others)
+            chip = _Chip(None, f["peak_index"], half, chip=(cleaned.reshape(f["raw"].shape), f["raw"].clipped))
             pos, value = chip.refine_peak(f["pos"])
             V, f_c = _support(chip, nulls, params)
-            refit.append({**f, "chip": chip, "pos": pos, "value": value, "V": V, "f_c": f_c,
-                          "removed": tuple(names[j] for j in members)})
-        found = refit
+            found[i] = {**f, "chip": chip, "pos": pos, "value": value, "V": V, "f_c": f_c,
+                        "removed": tuple(names[j] for j in others)}
     reports = [_measure(f["chip"], axes, f["peak_index"], f["pos"], f["value"], f["V"], t, name, params, metric,
                         f["removed"]) for f, name, t in zip(found, names, truth)]
     false = _false_target(data, mag, axes, truth, [f["peak_index"] for f in found], reports, half, params)
@@ -549,71 +556,81 @@ def _support(chip: "_Chip", nulls, params):
     return np.eye(chip.data.ndim), np.asarray(chip.centers, dtype=float)
 
 
-def _remove_neighbours(chip: "_Chip", i: int, found: list, nulls, params):
-    """Chip of target i minus the fitted ideal responses of the other targets whose peaks lie in it.
+def _neighbour_models(data, found: list, nulls, half, params) -> dict:
+    """Ideal responses fitted jointly to every group of targets whose chips overlap.
 
-    Every response in the chip (target i's too, so that its side lobes are not charged to a
-    neighbour) gets a complex amplitude, fitted jointly by least squares on the samples within a
-    null of every peak; then each response's position and band centre are refined by two
-    Gauss-Newton sweeps on its own main lobe, the others held fixed (a neighbour's band centre,
-    estimated on its own chip, is biased by this target's side lobes). Returns (cleaned chip,
-    indices of the removed targets).
+    Each member gets a complex amplitude, and its position, band centre and ridge directions (first
+    estimated on its own chip, where the others' side lobes bias them) are refined by three joint
+    Gauss-Newton steps on the samples within 3 nulls of every member's peak (about two per null).
+    Returns {target index: {"pos", "f_c", "V", "amp", "group"}} for members of groups of two or more.
     """
-    shape = np.array(chip.shape)
-    lo, hi = chip.origin, chip.origin + shape - 1
     nulls = np.asarray(nulls, dtype=float)
-    members = [j for j, f in enumerate(found) if j == i or
-               (abs(f["value"]) > 0 and np.all(f["pos"] >= lo - nulls) and np.all(f["pos"] <= hi + nulls))]
-    if len(members) == 1:
-        return chip.data, ()
+    reach = np.asarray(half, dtype=float) + nulls
+    live = [j for j, f in enumerate(found) if abs(f["value"]) > 0]
+    group = {j: {j} for j in live}
+    for j in live:
+        for k in live:
+            if k > j and np.all(np.abs(found[j]["pos"] - found[k]["pos"]) <= reach) and group[j] is not group[k]:
+                merged = group[j] | group[k]
+                for q in merged:
+                    group[q] = merged
     hamming = params.irw_factor > 1.1
-    ndim = chip.data.ndim
-    grid = np.stack(np.meshgrid(*[np.arange(n) for n in chip.shape], indexing="ij"), axis=0)
-    points = grid.reshape(ndim, -1) + chip.origin[:, None]
-    data = chip.data.ravel()
-    boxes = []
-    for j in members:
-        mask = np.zeros(chip.shape, dtype=bool)
-        r = np.maximum(1, np.ceil(3 * nulls)).astype(int)   # main lobe and first side lobes: the carrier shows
-        mask[window_slices(np.rint(found[j]["pos"] - chip.origin).astype(int), r, chip.shape)] = True
-        boxes.append(np.flatnonzero(mask))
-    union = np.unique(np.concatenate(boxes))
-    pos = [np.array(found[j]["pos"], dtype=float) for j in members]
-    f_c = [np.array(found[j]["f_c"], dtype=float) for j in members]
-    V = [found[j]["V"] for j in members]
-    V = [np.array(v, dtype=float) for v in V]
-    model = lambda k, idx, p=None, v=None: _ideal_response(  # noqa: E731
-        points[:, idx], pos[k] if p is None else p, V[k] if v is None else v, nulls, f_c[k], hamming)
+    ndim = data.ndim
     skew = [(a, b) for a in range(ndim) for b in range(ndim) if a != b]   # free entries of V
-    amp = np.zeros(len(members), complex)
-    for _ in range(3):  # joint Gauss-Newton on amplitudes, band centres and positions
-        cols = []
-        for k in range(len(members)):
-            m = model(k, union)
-            offs = points[:, union] - pos[k][:, None]
-            cols += [m] + [2j * np.pi * offs[a] * m for a in range(ndim)]
-            for a in range(ndim):
-                d = np.zeros(ndim)
-                d[a] = 0.05
-                cols.append((model(k, union, p=pos[k] + d) - model(k, union, p=pos[k] - d)) / 0.1)
-            for a, b in skew:
-                d = np.zeros((ndim, ndim))
-                d[a, b] = 0.002
-                cols.append((model(k, union, v=V[k] + d) - model(k, union, v=V[k] - d)) / 0.004)
-        sol = np.linalg.lstsq(np.stack(cols, axis=1), data[union], rcond=None)[0].reshape(len(members), -1)
-        for k in range(len(members)):
-            amp[k] = sol[k, 0]
-            if sol[k, 0] != 0:
-                step = (sol[k, 1:] / sol[k, 0]).real
-                f_c[k] = f_c[k] + np.clip(step[:ndim], -0.02, 0.02)
-                pos[k] = pos[k] + np.clip(step[ndim:2 * ndim], -0.3, 0.3)
+    stride = np.maximum(1, np.floor(nulls / 2)).astype(int)
+    r = np.ceil(3 * nulls).astype(int)
+    models, done = {}, set()
+    for j in live:
+        members = sorted(group[j])
+        if len(members) < 2 or members[0] in done:
+            continue
+        done.add(members[0])
+        boxes = []
+        for k in members:
+            c = np.rint(found[k]["pos"]).astype(int)
+            axes_pts = [np.arange(max(0, ci - ri), min(n, ci + ri + 1), st)
+                        for ci, ri, n, st in zip(c, r, data.shape, stride)]
+            g = np.meshgrid(*axes_pts, indexing="ij")
+            boxes.append(np.stack([x.ravel() for x in g], axis=0))
+        points = np.unique(np.concatenate(boxes, axis=1), axis=1)
+        y = data[tuple(points)].astype(complex)
+        points = points.astype(float)
+        pos = [np.array(found[k]["pos"], dtype=float) for k in members]
+        f_c = [np.array(found[k]["f_c"], dtype=float) for k in members]
+        V = [np.array(found[k]["V"], dtype=float) for k in members]
+        model = lambda q, p=None, v=None: _ideal_response(  # noqa: E731
+            points, pos[q] if p is None else p, V[q] if v is None else v, nulls, f_c[q], hamming)
+        for _ in range(8):   # converges linearly (about halving) on skewed supports; stop when settled
+            cols = []
+            for q in range(len(members)):
+                m = model(q)
+                offs = points - pos[q][:, None]
+                cols += [m] + [2j * np.pi * offs[a] * m for a in range(ndim)]
+                for a in range(ndim):
+                    d = np.zeros(ndim)
+                    d[a] = 0.05
+                    cols.append((model(q, p=pos[q] + d) - model(q, p=pos[q] - d)) / 0.1)
+                for a, b in skew:
+                    d = np.zeros((ndim, ndim))
+                    d[a, b] = 0.002
+                    cols.append((model(q, v=V[q] + d) - model(q, v=V[q] - d)) / 0.004)
+            sol = np.linalg.lstsq(np.stack(cols, axis=1), y, rcond=None)[0].reshape(len(members), -1)
+            largest = 0.0
+            for q in range(len(members)):
+                if sol[q, 0] == 0:
+                    continue
+                step = (sol[q, 1:] / sol[q, 0]).real
+                largest = max(largest, float(np.abs(step[:ndim]).max() * 100), float(np.abs(step[ndim:]).max()))
+                f_c[q] = f_c[q] + np.clip(step[:ndim], -0.02, 0.02)
+                pos[q] = pos[q] + np.clip(step[ndim:2 * ndim], -0.3, 0.3)
                 for (a, b), dv in zip(skew, np.clip(step[2 * ndim:], -0.05, 0.05)):
-                    V[k][a, b] += dv
-    amp = np.linalg.lstsq(np.stack([model(k, union) for k in range(len(members))], axis=1), data[union],
-                          rcond=None)[0]
-    everything = np.arange(data.size)
-    cleaned = data - sum(amp[k] * model(k, everything) for k, j in enumerate(members) if j != i)
-    return cleaned.reshape(chip.shape), tuple(j for j in members if j != i)
+                    V[q][a, b] += dv
+            if largest < 1e-3:   # band centres within 1e-5 cycles/sample, positions and skews within 1e-3
+                break
+        amp = np.linalg.lstsq(np.stack([model(q) for q in range(len(members))], axis=1), y, rcond=None)[0]
+        for q, k in enumerate(members):
+            models[k] = {"pos": pos[q], "f_c": f_c[q], "V": V[q], "amp": amp[q], "group": set(members)}
+    return models
 
 
 def _measure(chip: "_Chip", axes, peak_index, pos, value, V, truth, name, params, metric, removed) -> TargetReport:
