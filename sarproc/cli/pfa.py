@@ -10,14 +10,17 @@ from pathlib import Path
 
 import click
 
+from sarproc.cli.dask_map import scheduler_option
 from sarproc.cli.options import common_options, input_argument, summary, want_progress
 
 
 @click.command()
 @input_argument
 @common_options
-def pfa2(input_path: Path, output: Path, config_path, overwrite: bool, progress):
+@scheduler_option
+def pfa2(input_path: Path, output: Path, config_path, overwrite: bool, progress, scheduler):
     """Polar format with the varied gate, sub-aperture de-aliasing and two-step PFA (section `pfa2:`)."""
+    from sarproc.cli.dask_map import dask_mapper, scheduler_client
     from sarproc.cli.progress import progress_factory
     from sarproc.cli.stage import naming, prepare
     from sarproc.focus.pfa.chain import Pfa2Params, pfa2 as run
@@ -25,8 +28,10 @@ def pfa2(input_path: Path, output: Path, config_path, overwrite: bool, progress)
 
     params, raw = prepare("pfa2", input_path, [output], config_path, overwrite, ("raw",), Pfa2Params, "pfa2")
     start = time.perf_counter()
-    with naming(input_path, config_path, "pfa2"):
-        image = run(raw, params, progress=progress_factory(want_progress(progress), "pfa2"))
+    with naming(input_path, config_path, "pfa2"), scheduler_client(scheduler) as client:
+        # with --scheduler, the two-step sub-images are Dask tasks (same mosaic as the serial run)
+        mapper = dask_mapper(client, "pfa2-subimage") if client is not None else None
+        image = run(raw, params, progress=progress_factory(want_progress(progress), "pfa2"), mapper=mapper)
     image.history[-1]["command"] = f"sarproc pfa2 {input_path}"
     write_product(output, image, inputs=[input_path], overwrite=overwrite)
     n_az, n_rg = image.data.shape
