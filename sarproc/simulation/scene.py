@@ -261,6 +261,7 @@ def scene_from_mapping(mapping: dict, source: str = "<mapping>") -> Scene:
     from sarproc.simulation.effects import build_effects
 
     mapping = dict(mapping)
+    declared = tuple(section for section in STAGE_SECTIONS if section in mapping and section != "evaluate")
     for section in STAGE_SECTIONS:
         mapping.pop(section, None)
     p = build(SceneParams, mapping, source=source)
@@ -289,34 +290,86 @@ def scene_from_mapping(mapping: dict, source: str = "<mapping>") -> Scene:
         radar = e.update_radar(radar)
     scene = Scene(params=p, radar=radar, effects=effects, target_xyz=xyz, target_velocity=vel,
                   target_amplitude=amp, target_names=names, target_frame=frame, source=source)
-    _sanity_warnings(scene)
+    _sanity_warnings(scene, declared)
     return scene
 
 
-def _sanity_warnings(scene: Scene) -> None:
-    """Warn (not fail) on settings that are legal but usually unintended."""
+# Chains that take out a spotlight scene's total Doppler span before any FFT over azimuth: deramp /
+# SPECAN (An 2012), motion compensation to the scene centre then polar format (Nie 2016), and the
+# time-domain reference. They need only the instantaneous spread across the scene within the PRF.
+UNFOLDING_CHAINS = {"coarse_focus": "deramp chain (coarse-focus)", "pfa2": "pfa2 (motion compensation "
+                    "to the scene centre)", "backproject": "backproject (time domain)"}
+
+
+def doppler_folding(scene: Scene) -> dict | None:
+    """Exact-geometry Doppler numbers of the targets over the pulses whose -3 dB beam sees them.
+
+    Returns None without targets, else (all Hz): ``own`` (the widest single target's Doppler
+    history), ``spread`` (the widest instantaneous spread across the illuminated targets), ``span``
+    (all targets over all pulses), ``rate`` (the azimuth sampling rate: PRF x azimuth channels).
+    """
     r = scene.radar
-    lam = r.wavelength
+    if not len(scene.target_xyz):
+        return None
+    t = scene.azimuth_time()
+    pos = np.stack([r.velocity * t, np.zeros_like(t), np.full_like(t, r.altitude)], axis=1)
+    tg = np.broadcast_to(scene.target_xyz, (len(t),) + scene.target_xyz.shape)
+    d = tg - pos[:, None, :]
+    fd = 2 * r.velocity * d[..., 0] / np.linalg.norm(d, axis=-1) / r.wavelength      # (n_pulses, n_targets)
     if r.azimuth_beamwidth > 0:
-        beam_doppler = 2 * r.velocity * math.cos(r.squint) * r.azimuth_beamwidth / lam
-        if r.prf < beam_doppler:
-            log.warning("PRF %.4g Hz is below the beam's Doppler bandwidth %.4g Hz: azimuth aliasing", r.prf, beam_doppler)
-    if len(scene.target_xyz) and scene.n_pulses <= 200_000:
-        # Doppler of every target over the pulses whose -3 dB beam sees it (all without a beam).
-        t = scene.azimuth_time()
-        pos = np.stack([r.velocity * t, np.zeros_like(t), np.full_like(t, r.altitude)], axis=1)
-        tg = np.broadcast_to(scene.target_xyz, (len(t),) + scene.target_xyz.shape)
-        d = tg - pos[:, None, :]
-        fd = 2 * r.velocity * d[..., 0] / np.linalg.norm(d, axis=-1) / lam
-        if r.azimuth_beamwidth > 0:
-            az, _ = beam.off_boresight_angles(beam.boresight(r, pos), pos, tg)
-            fd = fd[np.abs(az) <= r.azimuth_beamwidth / 2]
-        span = float(fd.max() - fd.min()) if fd.size else 0.0
-        if span > r.prf:
-            log.warning("total Doppler span of the illuminated scene %.4g Hz exceeds the PRF %.4g Hz: "
-                        "the azimuth spectrum folds", span, r.prf)
+        az, _ = beam.off_boresight_angles(beam.boresight(r, pos), pos, tg)
+        fd = np.where(np.abs(az) <= r.azimuth_beamwidth / 2, fd, np.nan)
+    if not np.any(np.isfinite(fd)):
+        return None
+    with np.errstate(invalid="ignore"):
+        lit_t = np.isfinite(fd).any(axis=1)
+        lit_k = np.isfinite(fd).any(axis=0)
+        own = np.nanmax(fd[:, lit_k], axis=0) - np.nanmin(fd[:, lit_k], axis=0)
+        spread = np.nanmax(fd[lit_t], axis=1) - np.nanmin(fd[lit_t], axis=1)
+    channels = r.n_channels if any(e.key == "azimuth_channels" for e in scene.effects) else 1
+    return {"own": float(own.max()), "spread": float(spread.max()), "span": float(np.nanmax(fd) - np.nanmin(fd)),
+            "rate": float(r.prf * channels), "channels": int(channels)}
+
+
+def _sanity_warnings(scene: Scene, declared: tuple = ()) -> None:
+    """Warn (not fail) on settings that are legal but usually unintended, only when true for the scene.
+
+    Azimuth folding is judged on the targets' exact Doppler histories (:func:`doppler_folding`):
+    a target whose own history is wider than the azimuth sampling rate aliases whatever the
+    processor; a total span wider than the PRF only folds the spectrum, which the chains in
+    ``UNFOLDING_CHAINS`` take out when the instantaneous spread fits (logged at info level then).
+    """
+    r = scene.radar
     if scene.n_pulses > 200_000:
         raise InputError(f"{scene.source}: acquisition: {scene.n_pulses} pulses is more than this simulator handles")
+    dop = doppler_folding(scene)
+    if dop is None:
+        return
+    rate = dop["rate"]
+    sampling = f"PRF {r.prf:.4g} Hz" + (f" x {dop['channels']} azimuth channels" if dop["channels"] > 1 else "")
+    # What must fit in the sampling rate is what the radar sees at one time: the beam's Doppler band in
+    # stripmap (every point of the footprint), the spread across the scene's targets in spotlight.
+    if r.mode != "spotlight" and r.azimuth_beamwidth > 0:
+        seen, what = 2 * r.velocity * math.cos(r.squint) * r.azimuth_beamwidth / r.wavelength, "the beam's Doppler band"
+    else:
+        seen, what = dop["spread"], "the targets' instantaneous Doppler spread"
+    if seen > rate:
+        f_dr = 2 * (r.velocity * math.cos(r.squint)) ** 2 / (r.wavelength * r.reference_range)
+        log.warning("%s: %s is %.4g Hz, more than the azimuth sampling rate %.4g Hz (%s): azimuth aliasing by %.4g Hz; "
+                    "ghosts of each target appear %.4g m away along track (rate / FM rate x v at the reference "
+                    "range), and no processing chain undoes this (raise the PRF or narrow the beam / scene)",
+                    scene.source, what, seen, rate, sampling, seen - rate, rate / f_dr * r.velocity)
+        return
+    if dop["span"] <= rate:
+        return
+    undo = [UNFOLDING_CHAINS[s] for s in declared if s in UNFOLDING_CHAINS]
+    text = (f"{scene.source}: the scene's azimuth spectrum spans {dop['span']:.4g} Hz over the {sampling} and folds "
+            f"by {dop['span'] - rate:.4g} Hz; {what} is at most {seen:.4g} Hz, within the sampling rate")
+    if undo:
+        log.info("%s: the declared %s unfolds it", text, " and ".join(undo))
+    else:
+        log.warning("%s, but no declared stage unfolds it (declare one of: %s); an azimuth FFT of the raw data "
+                    "will alias", text, ", ".join(sorted(UNFOLDING_CHAINS)))
 
 
 def load_scene(path) -> Scene:

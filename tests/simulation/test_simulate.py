@@ -116,9 +116,9 @@ def test_prf_and_folding_warnings(scene_mapping, caplog):
                       effects={"antenna": {"azimuth_beamwidth": "3 deg"}})
     with caplog.at_level("WARNING"):
         scene_from_mapping(m)
-    assert "below the beam's Doppler bandwidth" in caplog.text
+    assert "the beam's Doppler band" in caplog.text and "azimuth aliasing" in caplog.text
     caplog.clear()
     m = scene_mapping(radar={"prf": "100 Hz"}, targets={"points": [{"name": "A"}, {"name": "B", "azimuth": "60 m"}]})
     with caplog.at_level("WARNING"):
         scene_from_mapping(m)
-    assert "azimuth spectrum folds" in caplog.text
+    assert "instantaneous Doppler spread" in caplog.text and "azimuth aliasing" in caplog.text
