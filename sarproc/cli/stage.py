@@ -17,7 +17,7 @@ import math
 from pathlib import Path
 
 from sarproc.cli.options import info, load_config, max_memory
-from sarproc.product.budget import Plan, check_plan, complex_bytes
+from sarproc.product.budget import Plan, check_plan, complex_bytes, stored_bytes
 from sarproc.product.errors import InputError
 
 C = 299_792_458.0
@@ -71,7 +71,7 @@ def preprocess_estimate(stage, header, params) -> Plan:
     n_az, n_rg = _shape(header)
     b = complex_bytes(n_az, n_rg)
     block = complex_bytes(min(params.block_pulses, n_az), n_rg, itemsize=16) * 4
-    return Plan(stage, b, 2 * b + block, n_az * n_rg * 40e-9, f"{n_az} x {n_rg} samples")
+    return Plan(stage, stored_bytes(n_az, n_rg), 2 * b + block, n_az * n_rg * 40e-9, f"{n_az} x {n_rg} samples")
 
 
 def coarse_focus_estimate(stage, header, params) -> Plan:
@@ -79,7 +79,7 @@ def coarse_focus_estimate(stage, header, params) -> Plan:
     n_out = params.azimuth_samples or 2 * n_az   # the default M is the PRF-limited length, at most about 2x
     out = complex_bytes(n_out, n_rg)
     block = complex_bytes(n_out, min(params.block_range, n_rg), itemsize=16) * 3
-    return Plan(stage, out, complex_bytes(n_az, n_rg) + out + block, n_out * n_rg * 60e-9,
+    return Plan(stage, stored_bytes(n_out, n_rg), complex_bytes(n_az, n_rg) + out + block, n_out * n_rg * 60e-9,
                 f"{n_az} pulses -> ~{n_out} azimuth samples x {n_rg}")
 
 
@@ -91,7 +91,8 @@ def fine_focus_estimate(stage, header, params) -> Plan:
         raise InputError(f"fine_focus.max_samples: the working array {M} x {N} exceeds {params.max_samples}; "
                          "raise it or shrink the scene")
     work = complex_bytes(M, N, itemsize=8 if params.precision == "float32" else 16)
-    return Plan(stage, complex_bytes(M, N), complex_bytes(M, n_r) + 4 * work, M * N * params.stolt_length * 25e-9,
+    # spectra, Stolt output, azimuth blocks and kernel tables: about ten working arrays (measured)
+    return Plan(stage, stored_bytes(M, N), complex_bytes(M, n_r) + 10 * work, M * N * params.stolt_length * 25e-9,
                 f"working array {M} x {N}")
 
 
@@ -117,7 +118,8 @@ def backproject_estimate(stage, header, params) -> Plan:
     raw = complex_bytes(n_ch, n_az, n_rg)
     up = complex_bytes(n_az, n_rg * params.upsample)
     per = 4e-9 if params.engine == "compiled" else 25e-9
-    return Plan(stage, complex_bytes(n_pix), raw + 2 * up + complex_bytes(n_pix, itemsize=16),
+    jit = 60e6 if params.engine == "compiled" else 0.0   # numba's compiler, measured once per process
+    return Plan(stage, stored_bytes(*n), raw + 2 * up + complex_bytes(n_pix, itemsize=16) + jit,
                 n_ch * n_az * n_pix * per, f"~{n[0]} x {n[1]} pixels from {n_ch * n_az} pulses")
 
 
@@ -127,7 +129,7 @@ def array3d_estimate(stage, header, params) -> Plan:
     raw = complex_bytes(n_ch, n_az, n_rg)
     cube = complex_bytes(n_el, n_az, n_rg)
     item = 8 if params.precision == "float32" else 16
-    return Plan(stage, cube, raw + 2 * complex_bytes(n_ch, n_az, n_rg, itemsize=item) + 2 * cube,
+    return Plan(stage, stored_bytes(n_el, n_az, n_rg), raw + 2 * complex_bytes(n_ch, n_az, n_rg, itemsize=item) + 2 * cube,
                 n_ch * n_az * n_rg * 80e-9 + n_el * n_az * n_rg * 20e-9,
                 f"{n_ch} channels -> ~{n_el} elevation bins x {n_az} x {n_rg}")
 
@@ -164,7 +166,7 @@ def simulate_estimate(scene) -> Plan:
     n_rg = int(math.ceil(span * fs)) + 1
     n_env = min(int(math.ceil(r.pulse_duration * fs)) + 2, n_rg)
     block = min(scene.params.simulation.block_pulses, n_p)
-    out = complex_bytes(n_ch, n_p, n_rg)
+    out = stored_bytes(*((n_ch,) if n_ch > 1 else ()), n_p, n_rg)
     # The automatic window takes delays of every pulse, channel and target at once (plan_simulation).
     window_plan = 0.0 if acq.range_window is not None else n_p * n_tg * 8.0 * (n_ch + 7)
     mem = (complex_bytes(n_ch, block, n_rg + 2 * n_env, itemsize=16) + complex_bytes(block, n_env, itemsize=16) * 6

@@ -139,3 +139,13 @@ def check_plan(plan: Plan, outputs=(), max_memory: int | None = None) -> None:
 def complex_bytes(*shape: float, itemsize: int = 8) -> float:
     """Bytes of a complex array of ``shape`` (complex64 by default)."""
     return float(math.prod(float(s) for s in shape)) * itemsize
+
+
+def stored_bytes(*shape: int, itemsize: int = 8) -> float:
+    """Bytes an HDF5 product's data set of ``shape`` takes on disk: whole chunks (see io._chunks)."""
+    from sarproc.product.io import _chunks
+
+    shape = tuple(max(1, int(n)) for n in shape)
+    chunk = _chunks(shape)
+    n_chunks = math.prod(math.ceil(n / c) for n, c in zip(shape, chunk))
+    return float(n_chunks * math.prod(chunk) * itemsize)
