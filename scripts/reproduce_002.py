@@ -79,17 +79,25 @@ def main():
     t0 = time.perf_counter()
     sfft.fft2(raw.data, workers=-1)
     fft_unit = time.perf_counter() - t0
-    images = {}
+    # one image at a time: evaluate, keep the numbers and the corner's patch, drop the pixels (memory)
+    corner = args.corner or raw.targets["name"][0].decode()
+    results, attrs, patches = {}, {}, {}
     for method, name in (("plain", "image_pfa.h5"), ("two_step", "image_pfa2.h5")):
         params = build(Pfa2Params, {**cfg, "method": method}, source=str(args.config), section="pfa2")
-        images[method] = pfa2(raw, params)
-        write_product(args.out / name, images[method], overwrite=True)
+        img = pfa2(raw, params)
+        write_product(args.out / name, img, overwrite=True)
+        results[method] = table(raw, img)
+        attrs[method] = dict(img.attrs)
+        tr = evaluate_product(img).target(corner)
+        patches[method] = target_patch(img.data, img.dims, img.coords, img.attrs["theoretical_irw"], tr,
+                                       half_width_nulls=6, upsample=8)
+        del img
     peak_gb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
-    plain_rows, plain_false = table(raw, images["plain"])
-    two_rows, two_false = table(raw, images["two_step"])
-    radius = images["two_step"].attrs["valid_radius_eq7"]
-    t_plain = images["plain"].attrs["stage_seconds"]["total"]
-    t_two = images["two_step"].attrs["stage_seconds"]["total"]
+    plain_rows, plain_false = results["plain"]
+    two_rows, two_false = results["two_step"]
+    radius = attrs["two_step"]["valid_radius_eq7"]
+    t_plain = attrs["plain"]["stage_seconds"]["total"]
+    t_two = attrs["two_step"]["stage_seconds"]["total"]
     # curve: worst badness vs distance (plain)
     d = np.array([r["dist"] for r in plain_rows])
     b = np.array([badness(r) for r in plain_rows])
@@ -108,14 +116,9 @@ def main():
     plt.close()
     broken = sorted(r["dist"] for r in plain_rows if badness(r) > 1)
     # fig M: contours, plain vs two-step
-    corner = args.corner or plain_rows[0]["name"]
     fig, axs = plt.subplots(1, 2, figsize=(9, 4))
     for axp, (method, title) in zip(axs, (("plain", "(a) PFA"), ("two_step", "(b) two-step PFA"))):
-        img = images[method]
-        rep = evaluate_product(img)
-        tr = rep.target(corner)
-        x, y, v = target_patch(img.data, img.dims, img.coords, img.attrs["theoretical_irw"], tr,
-                               half_width_nulls=6, upsample=8)
+        x, y, v = patches[method]
         axp.contour(x, y, 20 * np.log10(np.abs(v).T + 1e-9), levels=[-30, -20, -13, -6, -3])
         axp.set_title(f"{title}: {corner}")
         axp.set_xlabel("azimuth (m)")
@@ -133,12 +136,12 @@ def main():
                        f"{r['pos'][0]:+.3f} / {r['pos'][1]:+.3f} | {'yes' if within(r) else 'NO'} |")
         return out
 
-    st_p, st_t = images["plain"].attrs["stage_seconds"], images["two_step"].attrs["stage_seconds"]
+    st_p, st_t = attrs["plain"]["stage_seconds"], attrs["two_step"]["stage_seconds"]
     lines = [f"# Paper 002 reproduction: {args.config}", "",
              f"- raw: {n_az} pulses x {n_rg} samples; simulate {t_sim:.1f} s; one 2-D FFT of that size "
              f"{fft_unit:.2f} s (the unit below)",
-             f"- eq. (7) valid radius {radius:.1f} m; two-step: {images['two_step'].attrs['subimages']} sub-images of "
-             f"{images['two_step'].attrs['subimage_core']:.1f} m",
+             f"- eq. (7) valid radius {radius:.1f} m; two-step: {attrs['two_step']['subimages']} sub-images of "
+             f"{attrs['two_step']['subimage_core']:.1f} m",
              f"- plain PFA: {sum(within(r) for r in plain_rows)}/{len(plain_rows)} targets in tolerance; first target "
              f"out of tolerance at {broken[0] if broken else float('nan'):.0f} m from the centre; false target "
              f"{plain_false.level_db:.1f} dB",

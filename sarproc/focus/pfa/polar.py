@@ -148,6 +148,13 @@ def grid_dft(x: np.ndarray, u0: float, du: float, v0: float, dv: float, n_out: i
     Needs 2 pi / (du dv) = M, an integer >= the input and output lengths. float64 phases;
     returns complex64 for complex64 input.
     """
+    if x.ndim == 2 and x.shape[0] * int(round(2 * math.pi / (du * dv))) > (1 << 24):
+        # bound the FFT's working set: ~16 M samples per block of rows
+        rows = max(1, (1 << 24) // int(round(2 * math.pi / (du * dv))))
+        out = np.empty((x.shape[0], n_out), np.complex64 if x.dtype == np.complex64 else np.complex128)
+        for s in range(0, x.shape[0], rows):
+            out[s:s + rows] = grid_dft(x[s:s + rows], u0, du, v0, dv, n_out, sign, workers)
+        return out
     n_in = x.shape[-1]
     m = int(round(2 * math.pi / (du * dv)))
     if abs(m * du * dv - 2 * math.pi) > 1e-6 or m < max(n_in, n_out):
@@ -215,9 +222,17 @@ def polar_to_rect(ph, ua, ur, kg: KGrid, interp: Interpolation, block: int = 256
                             oversampling=over)
         out *= _phasor(-f_new * tc)
         rng[s:e] = out
-    pos = _pulse_positions(ua / ur, kg.ka[None, :] / kr[:, None])          # (n_kr, n_ka)
-    return resample_rows(np.ascontiguousarray(rng.T), pos, interp.azimuth_kernel, interp.azimuth_length,
-                         oversampling=interp.azimuth_oversampling)
+    rng_t = np.ascontiguousarray(rng.T)                                     # (n_kr, n_pulses)
+    del rng
+    out = np.empty((kg.n_kr, kg.n_ka), np.complex64)
+    rows = max(1, (1 << 22) // max(kg.n_ka, 1))                             # ~4 M outputs per block
+    ratio = ua / ur
+    for s in range(0, kg.n_kr, rows):
+        e = min(s + rows, kg.n_kr)
+        pos = _pulse_positions(ratio, kg.ka[None, :] / kr[s:e, None])       # azimuth pass at constant k_r
+        out[s:e] = resample_rows(rng_t[s:e], pos, interp.azimuth_kernel, interp.azimuth_length,
+                                 oversampling=interp.azimuth_oversampling)
+    return out
 
 
 def rect_to_polar(spec: np.ndarray, kg: KGrid, ua, ur, carrier_frequency, freqs, interp: Interpolation,
