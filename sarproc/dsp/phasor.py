@@ -47,35 +47,46 @@ def cis_cycles32(c):
     return co * sgn, s * sgn
 
 
-@numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=True)
-def _separable_kernel(x, rows, cols, scale):
-    n, m = x.shape
-    k_terms = rows.shape[0]
-    for i in numba.prange(n):
-        for j in range(m):
-            ph = 0.0
-            for k in range(k_terms):
-                ph += rows[k, i] * cols[k, j]
-            c = ph * scale
-            c -= np.floor(c + 0.5)
-            co, si = cis_cycles32(np.float32(c))
-            v = x[i, j]
-            x[i, j] = complex(v.real * co - v.imag * si, v.real * si + v.imag * co)
+@numba.njit(fastmath=True, error_model="numpy", cache=True)
+def _rotate_row(xr, a0, a1, a2, a3, c0, c1, c2, c3, scale):
+    """xr (2m interleaved re, im) *= exp(j 2 pi scale (a0 c0 + a1 c1 + a2 c2 + a3 c3)); vectorisable."""
+    for j in range(len(c0)):
+        c = (a0 * c0[j] + a1 * c1[j] + a2 * c2[j] + a3 * c3[j]) * scale
+        c -= np.floor(c + 0.5)
+        co, si = cis_cycles32(np.float32(c))
+        re = xr[2 * j]
+        im = xr[2 * j + 1]
+        xr[2 * j] = re * co - im * si
+        xr[2 * j + 1] = re * si + im * co
 
 
-@numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=True)
-def _field_kernel(x, phase, mask, use_mask, scale):
-    n, m = x.shape
-    for i in numba.prange(n):
-        for j in range(m):
-            if use_mask and not mask[i, j]:
-                x[i, j] = 0
-                continue
-            c = phase[i, j] * scale
-            c -= np.floor(c + 0.5)
-            co, si = cis_cycles32(np.float32(c))
-            v = x[i, j]
-            x[i, j] = complex(v.real * co - v.imag * si, v.real * si + v.imag * co)
+@numba.njit(parallel=True, error_model="numpy", cache=True)
+def _separable_kernel(xf, rows, cols, scale):
+    """Rows of xf (n, 2m) float view of complex data; rows (4, n), cols (4, m) float64."""
+    for i in numba.prange(xf.shape[0]):
+        _rotate_row(xf[i], rows[0, i], rows[1, i], rows[2, i], rows[3, i], cols[0], cols[1], cols[2], cols[3],
+                    scale)
+
+
+@numba.njit(fastmath=True, error_model="numpy", cache=True)
+def _rotate_row_field(xr, phase, mask, use_mask, scale):
+    for j in range(len(phase)):
+        c = phase[j] * scale
+        c -= np.floor(c + 0.5)
+        co, si = cis_cycles32(np.float32(c))
+        if use_mask and not mask[j]:
+            co = np.float32(0.0)
+            si = np.float32(0.0)
+        re = xr[2 * j]
+        im = xr[2 * j + 1]
+        xr[2 * j] = re * co - im * si
+        xr[2 * j + 1] = re * si + im * co
+
+
+@numba.njit(parallel=True, error_model="numpy", cache=True)
+def _field_kernel(xf, phase, mask, use_mask, scale):
+    for i in numba.prange(xf.shape[0]):
+        _rotate_row_field(xf[i], phase[i], mask[i], use_mask, scale)
 
 
 def multiply_separable_phase(x: np.ndarray, rows, cols, *, cycles: bool = False) -> np.ndarray:
@@ -86,9 +97,16 @@ def multiply_separable_phase(x: np.ndarray, rows, cols, *, cycles: bool = False)
     """
     rows = np.ascontiguousarray(np.atleast_2d(np.asarray(rows, float)))
     cols = np.ascontiguousarray(np.atleast_2d(np.asarray(cols, float)))
-    if rows.shape != (len(cols), x.shape[0]) or cols.shape[1] != x.shape[1]:
-        raise ValueError(f"rows {rows.shape} / cols {cols.shape} do not match x {x.shape}")
-    _separable_kernel(x, rows, cols, 1.0 if cycles else _INV_TWO_PI)
+    if rows.shape != (len(cols), x.shape[0]) or cols.shape[1] != x.shape[1] or len(rows) > 4:
+        raise ValueError(f"rows {rows.shape} / cols {cols.shape} do not match x {x.shape} (at most 4 terms)")
+    if len(rows) < 4:                                  # the kernel takes exactly four terms
+        rows = np.concatenate([rows, np.zeros((4 - len(rows), rows.shape[1]))])
+        cols = np.concatenate([cols, np.zeros((4 - len(cols), cols.shape[1]))])
+    flat = x if x.flags.c_contiguous else np.ascontiguousarray(x)
+    _separable_kernel(flat.view(flat.real.dtype).reshape(x.shape[0], -1), rows, cols,
+                      1.0 if cycles else _INV_TWO_PI)
+    if flat is not x:
+        x[...] = flat
     return x
 
 
@@ -97,5 +115,9 @@ def multiply_phase(x: np.ndarray, phase: np.ndarray, mask: np.ndarray | None = N
     """x *= where(mask, exp(j scale phase), 0) in place (x, phase, mask: same 2D shape; phase float64)."""
     phase = np.broadcast_to(np.asarray(phase, float), x.shape)
     m = np.broadcast_to(mask if mask is not None else np.ones((1, 1), bool), x.shape)
-    _field_kernel(x, phase, m, mask is not None, scale * (1.0 if cycles else _INV_TWO_PI))
+    flat = x if x.flags.c_contiguous else np.ascontiguousarray(x)
+    _field_kernel(flat.view(flat.real.dtype).reshape(x.shape[0], -1), phase, m, mask is not None,
+                  scale * (1.0 if cycles else _INV_TWO_PI))
+    if flat is not x:
+        x[...] = flat
     return x

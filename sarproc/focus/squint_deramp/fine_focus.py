@@ -43,7 +43,7 @@ from sarproc.dsp.interp import KERNELS, resample_rows
 from sarproc.product.metadata import C
 from sarproc.focus.squint_deramp.nlcs import VARIANTS, compression_phase, group_delay_span, nlcs_coefficients, position_terms
 from sarproc.focus.squint_deramp.preprocess import PRECISIONS, complex_dtype, correction_frequency
-from sarproc.dsp.phasor import unit_phasor
+from sarproc.dsp.phasor import multiply_phase, multiply_separable_phase, unit_phasor
 from sarproc.product.model import Product
 from sarproc.dsp.rangecomp import chirp_replica
 from sarproc.focus.squint_deramp.stolt import MODELS, SpectrumModel, stolt_resample
@@ -217,14 +217,15 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
         raise InputError(f"fine-focus: the scene (r_0 in [{box[2]:.0f}, {box[3]:.0f}] m) does not fit the "
                          f"{2 * half_win:.0f} m range window centred on r_ref = {r_ref:.0f} m")
     hr = _range_filter(radar, f_r, params.range_filter) * np.exp(-2j * np.pi * f_r * tau[0])
+    hr = hr.astype(cdt)
     masked = 0
     blocks = range(0, M, params.block_rows)
     for s in (progress(blocks) if progress is not None else blocks):
         e = min(s + params.block_rows, M)
         fa = f_a[s:e, None]
-        blk = S[s:e] * hr[None, :].astype(cdt)
+        blk = S[s:e] * hr[None, :]
         g_full, ok = model.G(radar.carrier_frequency + f_r[None, :], fa)
-        blk *= np.where(ok, phasor(r_ref * g_full), 0).astype(cdt)
+        multiply_phase(blk, g_full, ok, scale=r_ref)                     # fused: no phase field stored
         blk, m_ = stolt_resample(blk, f_r, f_a[s:e], model, params.stolt_kernel, params.stolt_length,
                                  oversampling=over, band=radar.bandwidth)
         masked += m_
@@ -243,8 +244,9 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
     if flow == 1:
         for s in range(0, N, params.block_range):
             e = min(s + params.block_range, N)
-            h = np.where(okc[:, None], phasor(r[None, s:e] * gc[:, None]), 0) * ref[:, None]
-            RD[:, s:e] = cifft(RD[:, s:e] * h.astype(cdt), 0)
+            blk = RD[:, s:e] * np.where(okc, ref, 0)[:, None].astype(cdt)
+            multiply_separable_phase(blk, np.where(okc, gc, 0)[None, :], r[None, s:e])
+            RD[:, s:e] = cifft(blk, 0)
         x = v * t_c
         keep = (x >= x_lo) & (x <= x_hi)
         if params.flow1_geometry == "resample":
@@ -271,8 +273,8 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
     # ---- 4. geometric correction in range (squint frame) and crop
     if params.output_frame == "squint":
         spec = cfft(img, 1)
-        spec *= phasor(2 * np.pi * f_r[None, :] * (2 * x[:, None] * s_th / C)
-                       + np.mod(4 * np.pi * radar.carrier_frequency * x * s_th / C, 2 * np.pi)[:, None])
+        multiply_separable_phase(spec, [2 * x * s_th / C, np.mod(4 * np.pi * radar.carrier_frequency * x * s_th / C,
+                                                                 2 * np.pi)], [2 * np.pi * f_r, np.ones_like(f_r)])
         img = cifft(spec, 1)
         frame = SquintFrame(th, radar.altitude)
         rlo, rhi = box[2] - params.crop_margin, box[3] + params.crop_margin
@@ -359,8 +361,8 @@ def _flow2(RD, t_c, f_a, r, k, model, radar, params, box, aperture, cdt, xlim):
     ref = np.exp(1j * np.mod(np.pi * f1**2 / k, 2 * np.pi)).astype(pdt)
     gc_full, okc = model.Gc(f2)
     hopc = np.where(okc, gc_full - g2 * f2**2, 0.0)
-    f3, f4 = f2**3, f2**4
-    tt2, tt3, tt4 = t2**2, t2**3, t2**4
+    rows24 = [np.pi * f2**3, np.pi * f2**4] + ([hopc] if variant == "modified" else [])
+    rows27 = [np.pi * t2**2, np.pi * t2**3, np.pi * t2**4]
     hm, hl = (M + 1) // 2, M // 2              # positive / negative halves of an FFT-ordered axis
     gm, gl = (L1 + 1) // 2, L1 // 2
     twopi = 2 * np.pi
@@ -379,18 +381,13 @@ def _flow2(RD, t_c, f_a, r, k, model, radar, params, box, aperture, cdt, xlim):
         X[:gm] = X1[:gm]
         if gl:
             X[N2 - gl:] = X1[L1 - gl:]
-        rr = r[s:e][None, :]
-        Y3, Y4 = co["Y3"][s:e][None, :], co["Y4"][s:e][None, :]
-        ph = np.pi * (Y3 * f3[:, None] + Y4 * f4[:, None])                        # eq. (24)
-        if variant == "modified":
-            ph += rr * hopc[:, None]                                               # eq. (22), exact
-        X *= phasor(ph)
+        # eq. (24) pi (Y3 f^3 + Y4 f^4), plus eq. (22) r hopc(f) (exact) for the modified variant
+        multiply_separable_phase(X, rows24, [co["Y3"][s:e], co["Y4"][s:e], r[s:e]][:len(rows24)])
         xt = sfft.ifft(X, axis=0, workers=-1, overwrite_x=True)
-        q2, q3, q4 = co["q2"][s:e][None, :], co["q3"][s:e][None, :], co["q4"][s:e][None, :]
-        xt *= phasor(np.pi * (q2 * tt2[:, None] + q3 * tt3[:, None] + q4 * tt4[:, None]))  # eq. (27)
+        multiply_separable_phase(xt, rows27, [co["q2"][s:e], co["q3"][s:e], co["q4"][s:e]])     # eq. (27)
         X = sfft.fft(xt, axis=0, workers=-1, overwrite_x=True)
-        theta0 = _theta0_block(f2, K, co, s, e)                                    # eq. (33), exact
-        X *= phasor(-theta0)
+        vals, weights = _theta0_terms(f2, K, co, s, e)                             # eq. (33), exact
+        multiply_separable_phase(X, -vals, weights)
         img = sfft.ifft(X, axis=0, workers=-1, overwrite_x=True)
         out[:, s:e] = img[keep]
     info = {"alpha": float(alpha), "nlcs_azimuth_samples": int(N2), "nlcs_time_window": float(N2 / F2),
@@ -401,11 +398,13 @@ def _flow2(RD, t_c, f_a, r, k, model, radar, params, box, aperture, cdt, xlim):
     return out, x_img[keep], info
 
 
-def _theta0_block(f, K, co, s, e):
+def _theta0_terms(f, K, co, s, e):
     """Exact eq. (33) phase for range bins s..e-1: evaluated at three nodes, quadratic in the bin index.
 
-    The coefficients vary like 1/r, so over a block (a few km at hundreds of km) the cubic term of
-    the interpolation is below 1e-3 rad; the nodes themselves are exact (Newton, :func:`compression_phase`).
+    Returns (vals (n_nodes, len(f)), weights (n_nodes, e - s)): theta0[i, j] = sum_a vals[a, i] weights[a, j]
+    (Lagrange weights), so the field need never be stored. The coefficients vary like 1/r, so over a block
+    (a few km at hundreds of km) the cubic term of the interpolation is below 1e-3 rad; the nodes themselves
+    are exact (Newton, :func:`compression_phase`).
     """
     nodes = sorted({s, (s + e - 1) // 2, e - 1})
     vals = []
@@ -413,13 +412,9 @@ def _theta0_block(f, K, co, s, e):
         cj = {kk: float(vv[j]) for kk, vv in co.items() if kk != "alpha"}
         vals.append(compression_phase(f, float(K[j]), cj))
     idx = np.arange(s, e, dtype=float)
-    if len(nodes) == 1:
-        return np.repeat(vals[0][:, None], e - s, axis=1)
-    out = np.zeros((len(f), e - s))
-    for a, (ja, va) in enumerate(zip(nodes, vals)):
-        w = np.ones_like(idx)
-        for b, jb in enumerate(nodes):
-            if b != a:
-                w *= (idx - jb) / (ja - jb)
-        out += va[:, None] * w[None, :]
-    return out
+    weights = np.ones((len(nodes), e - s))
+    for a, ja in enumerate(nodes):
+        for jb in nodes:
+            if jb != ja:
+                weights[a] *= (idx - jb) / (ja - jb)
+    return np.array(vals), weights
