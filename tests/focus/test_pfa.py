@@ -13,7 +13,8 @@ import pytest
 
 from sarproc.focus.backprojection import backproject_points, theoretical_irw
 from sarproc.focus.pfa.chain import Pfa2Params, antenna_positions, image_frame, pfa2
-from sarproc.focus.pfa.two_step import local_irw, pfa_distortion
+from sarproc.focus.pfa.correction import pfa_distortion
+from sarproc.focus.pfa.two_step import local_irw
 from sarproc.dsp.rangecomp import range_compress
 from sarproc.product.config import load_yaml
 from sarproc.product.model import target_names

@@ -20,6 +20,7 @@ import numpy as np
 from sarproc.dsp.interp import KERNELS
 from sarproc.dsp.rangecomp import WINDOWS
 from sarproc.focus.pfa import dealias as dealias_mod
+from sarproc.focus.pfa.correction import PfaGeometry, distortion_field, extended_grid, warp_to_truth
 from sarproc.focus.pfa.phase_history import compensate
 from sarproc.focus.pfa.polar import (Grid, Interpolation, data_sampling, los_components, make_kgrid, pfa,
                                      polar_support, wavenumbers)
@@ -65,6 +66,9 @@ class Pfa2Params:
     subimage_oversampling: float = param(default=1.5, ge=1.1, le=4, doc=(
         "two_step: sampling of a sub-image's decimated signal over what its window's extent needs"))
     valid_radius_factor: float = param(default=1.3, gt=0, doc="K_a of eq. (7), main-lobe broadening factor")
+    correct_distortion: bool = param(default=False, doc=(
+        "plain: read the image back at the planar-wavefront distortion of every pixel (true geometry, "
+        "phase 0 at each peak); off, plain PFA's image is the paper's, distortion included"))
     dealias: str = param(default="auto", choices=dealias_mod.MODES, doc=(
         "sliding-spotlight sub-aperture de-aliasing (Fig. 2): auto (when the deramped scene band exceeds the PRF), "
         "on, off"))
@@ -147,7 +151,10 @@ def pfa2(raw: Product, params: Pfa2Params = Pfa2Params(), progress=None, mapper:
     az_os = max(1.05, alias["azimuth_oversampling"])
     attrs = {"method": params.method, "dealias": alias}
     t0 = time.perf_counter()
-    if params.method == "plain":
+    if params.method == "plain" and params.correct_distortion:
+        img, kg = _plain_corrected(ph, rect, grid, origin, e_a, e_r, _interp(params, az_os))
+        timing["pfa"] = time.perf_counter() - t0
+    elif params.method == "plain":
         img, kg = pfa(ph, e_a, e_r, grid, rect=rect, interp=_interp(params, az_os))
         timing["pfa"] = time.perf_counter() - t0
     else:
@@ -169,6 +176,21 @@ def pfa2(raw: Product, params: Pfa2Params = Pfa2Params(), progress=None, mapper:
     out.aux = {k: v for k, v in raw.aux.items() if k in ("platform_position", "tx_offset", "rx_offset")}
     out.history.append(history_entry("pfa2", as_dict(params)))
     return out
+
+
+def _plain_corrected(ph, rect, grid: Grid, origin, e_a, e_r, interp: Interpolation):
+    """Plain PFA on a grid grown by the distortion, read back at each pixel's distorted position."""
+    ua, ur = los_components(ph.positions, origin, e_a, e_r)
+    k_max = float(wavenumbers(ph.carrier_frequency, ph.freqs[-1]))
+    geo = PfaGeometry(ph.positions, np.asarray(origin, float), np.asarray(e_a), np.asarray(e_r),
+                      ph.carrier_frequency, (float(ph.freqs[0]), float(ph.freqs[-1])))
+    dka, dkr = data_sampling(ua, ur, k_max, ph.freq_step)
+    kg0, _ = make_kgrid(rect, dka, dkr, grid.da, grid.dr, grid.n_a, grid.n_r)
+    warp = distortion_field(geo, kg0, grid)
+    ext = extended_grid(grid, warp)
+    kg, _ = make_kgrid(rect, dka, dkr, ext.da, ext.dr, ext.n_a, ext.n_r)
+    img, _ = pfa(ph, e_a, e_r, ext, kgrid=kg, interp=interp)
+    return warp_to_truth(img, ext, grid, warp, geo, kg, interp), kg
 
 
 def _rect_irw(rect) -> tuple[float, float]:

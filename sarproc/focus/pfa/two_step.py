@@ -32,10 +32,9 @@ from typing import Callable, Iterable
 
 import numpy as np
 import scipy.fft as sfft
-from scipy.interpolate import RectBivariateSpline
 
-from sarproc.dsp.interp import resample_rows
 from sarproc.dsp.phasor import unit_phasor
+from sarproc.focus.pfa.correction import PfaGeometry, distortion_field, extended_grid, pfa_distortion, warp_to_truth
 from sarproc.focus.pfa.phase_history import PhaseHistory, reference_ranges
 from sarproc.focus.pfa.polar import (Grid, Interpolation, KGrid, Rect, image_to_rect, los_components, make_kgrid,
                                      pfa, polar_support, rect_to_polar, wavenumbers)
@@ -45,52 +44,6 @@ from sarproc.product.metadata import C
 def valid_radius(azimuth_resolution: float, reference_range: float, wavelength: float, ka: float = 1.3) -> float:
     """eq. (7), Nie 2016: r_0 <= (2 rho_a / K_a) sqrt(R_ac / lambda), m."""
     return 2 * azimuth_resolution / ka * math.sqrt(reference_range / wavelength)
-
-
-@dataclasses.dataclass(frozen=True)
-class Distortion:
-    """Where plain PFA (reference O) puts a point, and how far its response spreads, m."""
-
-    azimuth: float
-    range: float
-    spread_azimuth: float
-    spread_range: float
-
-
-def pfa_distortion(positions, reference, point, e_azimuth, e_range, carrier_frequency, freqs,
-                   rect: Rect | None = None, n: int = 11) -> Distortion:
-    """Least-squares cubic fit of the exact phase K (r_O - r_p) over (k_a, k_r) (eqs. 4-5).
-
-    The samples are an n x n lattice over ``rect`` (default: the inscribed polar support), each
-    mapped back to its pulse (antenna position interpolated) and wavenumber. The linear
-    coefficients at the rectangle's centre are where PFA puts the point; the quadratic ones,
-    times the rectangle's extent, the spread of its defocus.
-    """
-    pos = np.asarray(positions, float)
-    ua, ur = los_components(pos, reference, e_azimuth, e_range)
-    if rect is None:
-        rect = polar_support(ua, ur, carrier_frequency, np.asarray(freqs), "inscribed")
-    ka, kr = np.meshgrid(np.linspace(rect.ka_lo, rect.ka_hi, n), np.linspace(rect.kr_lo, rect.kr_hi, n))
-    ka, kr = ka.ravel(), kr.ravel()
-    ratio = ua / ur
-    order = np.argsort(ratio)
-    t = np.interp(ka / kr, ratio[order], np.arange(len(pos), dtype=float)[order])
-    lo = np.clip(np.floor(t).astype(int), 0, len(pos) - 2)
-    w = (t - lo)[:, None]
-    p = pos[lo] * (1 - w) + pos[lo + 1] * w
-    d = p - np.asarray(reference, float)
-    u = d / np.linalg.norm(d, axis=1, keepdims=True)
-    k = kr / (u @ np.asarray(e_range, float))
-    phase = k * (np.linalg.norm(d, axis=1) - np.linalg.norm(p - np.asarray(point, float), axis=1))
-    ca, cr = (rect.ka_lo + rect.ka_hi) / 2, (rect.kr_lo + rect.kr_hi) / 2
-    x, y = ka - ca, kr - cr
-    design = np.stack([np.ones_like(x), x, y, 0.5 * x * x, x * y, 0.5 * y * y,
-                       x**3 / 6, x * x * y / 2, x * y * y / 2, y**3 / 6], axis=1)
-    coef, *_ = np.linalg.lstsq(design, phase, rcond=None)
-    wa, wr = rect.ka_hi - rect.ka_lo, rect.kr_hi - rect.kr_lo
-    return Distortion(azimuth=float(coef[1]), range=float(coef[2]),
-                      spread_azimuth=float(abs(coef[3]) * wa + abs(coef[4]) * wr),
-                      spread_range=float(abs(coef[4]) * wa + abs(coef[5]) * wr))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -160,93 +113,21 @@ def focus_subimage(task: SubImageTask) -> np.ndarray:
     """One sub-image of the two-step PFA: its core pixels (n_a, n_r) complex64 (step 4, eq. 10).
 
     The second PFA still has eq. (5)'s planar-wavefront distortion, small near s but up to a
-    cell or so at a core's corners; it is known from the geometry (:func:`pfa_distortion`), so
-    the sub-image is read back at the distorted place of each true pixel position (the
-    "translation" correction done per pixel).
+    cell or so at a core's corners; it is known from the geometry, so the sub-image is read back
+    at the distorted place of each true pixel (:mod:`.correction`; the "translation" correction
+    done per pixel) and each response's non-planar carrier phase is removed.
     """
     ph = subimage_phase_history(task)
     sa, sr = task.center_offset
-    c, kg = task.core, task.kgrid
-    fa, fr = distortion_field(task, c)
-    a_core, r_core = c.a - sa, c.r - sr
-    warp_a = fa(a_core, r_core)
-    warp_r = fr(a_core, r_core)
-    margin_a = 8 + int(math.ceil(np.max(np.abs(warp_a)) / c.da))
-    margin_r = 8 + int(math.ceil(np.max(np.abs(warp_r)) / c.dr))
-    grid = Grid(a_core[0] - margin_a * c.da, c.da, c.n_a + 2 * margin_a,
-                r_core[0] - margin_r * c.dr, c.dr, c.n_r + 2 * margin_r)       # relative to s, with margins
+    c = task.core
+    core = Grid(c.a0 - sa, c.da, c.n_a, c.r0 - sr, c.dr, c.n_r)           # relative to s
+    geo = PfaGeometry(task.positions, np.asarray(task.center, float), np.asarray(task.e_azimuth),
+                      np.asarray(task.e_range), task.carrier_frequency, task.band)
+    warp = distortion_field(geo, task.kgrid, core)
+    grid = extended_grid(core, warp)
     interp = dataclasses.replace(task.interp, azimuth_oversampling=task.oversampling)
-    img, _ = pfa(ph, task.e_azimuth, task.e_range, grid, kgrid=kg, interp=interp, workers=1)
-    # to baseband (the rectangle's centre carrier), read at the distorted positions, back to band-pass
-    kc_a, kc_r = kg.ka0 + (kg.n_ka - 1) / 2 * kg.dka, kg.kr0 + (kg.n_kr - 1) / 2 * kg.dkr
-    img *= _carrier(grid.a, grid.r, kc_a, kc_r, +1)
-    os_a = 2 * math.pi / (kg.n_ka * kg.dka * c.da)
-    os_r = 2 * math.pi / (kg.n_kr * kg.dkr * c.dr)
-    # pass 1 (range): row a_i of the image holds the points p = (a, r) with D_a(p) = a_i; read D_r(p)
-    A, R = np.meshgrid(grid.a, r_core, indexing="ij")
-    a_true = A - fa(A, R, grid=False)
-    a_true = A - fa(a_true, R, grid=False)
-    pos_r = (R + fr(a_true, R, grid=False) - grid.r0) / c.dr                        # (n_a_ext, n_r)
-    tmp = resample_rows(img, pos_r, interp.range_kernel, interp.range_length, oversampling=os_r)
-    # pass 2 (azimuth): the true pixel (a, r) sits in row D_a(a, r) of pass 1's output
-    pos_a = (a_core[:, None] + warp_a - grid.a0) / c.da                              # (n_a, n_r)
-    out = resample_rows(np.ascontiguousarray(tmp.T), np.ascontiguousarray(pos_a.T), interp.azimuth_kernel,
-                        interp.azimuth_length, oversampling=os_a).T
-    out = out * _carrier(a_core, r_core, kc_a, kc_r, -1)
-    out *= residual_phase(task, a_core, r_core, kc_a, kc_r)
-    return np.ascontiguousarray(out, dtype=np.complex64)
-
-
-def residual_phase(task: SubImageTask, a_rel, r_rel, kc_a: float, kc_r: float) -> np.ndarray:
-    """exp{-j [Phi_p(k_c) - k_c . (p - s)]} (n_a, n_r) complex64 over core pixels p (offsets from s).
-
-    A response's phase is the data's phase at the rectangle's centre k_c, K_c (r_s - r_p) at the
-    pulse and frequency that map to k_c; its non-planar part differs from sub-image to sub-image,
-    so it is removed exactly (every response then has phase 0 at its peak, as backprojection's,
-    and the mosaic is continuous in phase across seams).
-    """
-    e_a, e_r = np.asarray(task.e_azimuth), np.asarray(task.e_range)
-    ua, ur = los_components(task.positions, task.center, e_a, e_r)
-    idx = np.arange(len(ua), dtype=float)
-    ratio = ua / ur
-    order = np.argsort(ratio)
-    t_c = float(np.interp(kc_a / kc_r, ratio[order], idx[order]))
-    lo = int(min(max(math.floor(t_c), 0), len(idx) - 2))
-    w = t_c - lo
-    p_c = task.positions[lo] * (1 - w) + task.positions[lo + 1] * w
-    u = (p_c - task.center) / np.linalg.norm(p_c - task.center)
-    k_c = kc_r / float(u @ e_r)
-    pts = task.center + a_rel[:, None, None] * e_a + r_rel[None, :, None] * e_r
-    r_p = np.linalg.norm(pts - p_c, axis=-1)
-    r_s = float(np.linalg.norm(p_c - task.center))
-    eps = k_c * (r_s - r_p) - (kc_a * a_rel[:, None] + kc_r * r_rel[None, :])
-    return np.exp(-1j * np.mod(eps, 2 * math.pi)).astype(np.complex64)
-
-
-def _carrier(a, r, ka, kr, sign) -> np.ndarray:
-    ph = (np.outer(np.asarray(a) * ka, np.ones(len(r))) + np.asarray(r)[None, :] * kr) * sign
-    return np.exp(1j * (ph % (2 * math.pi))).astype(np.complex64)
-
-
-def distortion_field(task: SubImageTask, core: Grid, n: int = 9):
-    """Displacement D(p) - p of the second PFA over the core (offsets from s), m: two splines (a, r).
-
-    Sampled by :func:`pfa_distortion` on an n x n lattice and interpolated by bicubic splines.
-    """
-    sa, sr = task.center_offset
-    la = np.linspace(core.a[0], core.a[-1], n) - sa
-    lr = np.linspace(core.r[0], core.r[-1], n) - sr
-    e_a, e_r = np.asarray(task.e_azimuth), np.asarray(task.e_range)
-    kg = task.kgrid
-    rect = Rect(kg.ka0, kg.ka0 + (kg.n_ka - 1) * kg.dka, kg.kr0, kg.kr0 + (kg.n_kr - 1) * kg.dkr)
-    da = np.empty((n, n))
-    dr = np.empty((n, n))
-    for i, a in enumerate(la):
-        for j, r in enumerate(lr):
-            point = task.center + a * e_a + r * e_r
-            d = pfa_distortion(task.positions, task.center, point, e_a, e_r, task.carrier_frequency, task.band, rect)
-            da[i, j], dr[i, j] = d.azimuth - a, d.range - r
-    return RectBivariateSpline(la, lr, da), RectBivariateSpline(la, lr, dr)
+    img, _ = pfa(ph, task.e_azimuth, task.e_range, grid, kgrid=task.kgrid, interp=interp, workers=1)
+    return warp_to_truth(img, grid, core, warp, geo, task.kgrid, interp)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -1,0 +1,81 @@
+"""sarproc pfa2 and sarproc import-gotcha through the command line."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from click.testing import CliRunner
+
+from sarproc.cli.main import cli
+from sarproc.product.io import read_product
+
+ROOT = Path(__file__).resolve().parents[2]
+GOTCHA = ROOT.parent / "shared" / "data" / "gotcha"
+SMALL = yaml.safe_load((ROOT / "configs" / "nie2016_small.yaml").read_text())
+
+
+def run(*args):
+    return CliRunner().invoke(cli, [str(a) for a in args], catch_exceptions=False)
+
+
+@pytest.fixture(scope="module")
+def raw_file(tmp_path_factory):
+    d = tmp_path_factory.mktemp("pfa")
+    scene = dict(SMALL, targets={"frame": "ground_los", "points": [{"name": "C"}, {"name": "P", "azimuth": "20 m"}]})
+    (d / "scene.yaml").write_text(yaml.safe_dump(scene))
+    res = run("simulate", d / "scene.yaml", "-o", d / "raw.h5")
+    assert res.exit_code == 0, res.output
+    return d / "raw.h5"
+
+
+def test_pfa2_help_lists_the_section():
+    res = run("pfa2", "--help")
+    assert res.exit_code == 0 and "pfa2:" in res.output
+    assert run("import-gotcha", "--help").exit_code == 0
+
+
+def test_pfa2_writes_a_ground_los_image(tmp_path, raw_file):
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(yaml.safe_dump({"pfa2": {"method": "plain", "azimuth_extent": "60 m", "range_extent": "40 m"}}))
+    res = run("pfa2", raw_file, "-o", tmp_path / "image.h5", "--config", cfg)
+    assert res.exit_code == 0, res.output
+    img = read_product(tmp_path / "image.h5")
+    assert img.kind == "image" and img.attrs["frame"]["name"] == "ground_los"
+    assert img.dims == ("azimuth", "range") and len(img.attrs["theoretical_irw"]) == 2
+    assert res.exit_code == 0 and run("evaluate", tmp_path / "image.h5", "-o", tmp_path / "r.json").exit_code == 0
+
+
+def test_pfa2_bad_key_and_value_exit_2(tmp_path, raw_file):
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(yaml.safe_dump({"pfa2": {"methd": "plain"}}))
+    res = run("pfa2", raw_file, "-o", tmp_path / "image.h5", "--config", cfg)
+    assert res.exit_code == 2 and "methd" in res.output and str(cfg) in res.output
+    cfg.write_text(yaml.safe_dump({"pfa2": {"method": "three_step"}}))
+    res = run("pfa2", raw_file, "-o", tmp_path / "image.h5", "--config", cfg)
+    assert res.exit_code == 2 and "pfa2.method" in res.output
+    assert not (tmp_path / "image.h5").exists()
+
+
+@pytest.mark.skipif(not GOTCHA.exists(), reason="Gotcha data not present")
+def test_gotcha_pfa_and_backprojection_agree(tmp_path):
+    res = run("import-gotcha", GOTCHA, "-o", tmp_path / "raw.h5")
+    assert res.exit_code == 0, res.output
+    raw = read_product(tmp_path / "raw.h5")
+    assert raw.kind == "raw" and raw.aux["platform_position"].shape == (raw.data.shape[0], 3)
+    from sarproc.focus.pfa.chain import image_frame
+
+    # 24 m x 24 m around the brightest scatterer (a calibration-like point 22 m, 15 m from the centre)
+    grid = {"azimuth_extent": 24.0, "range_extent": 24.0, "azimuth_spacing": 0.1, "range_spacing": 0.1,
+            "azimuth_center": 22.0, "range_center": image_frame(raw).ground_range + 15.0}
+    cfg = tmp_path / "g.yaml"
+    cfg.write_text(yaml.safe_dump({"pfa2": {"method": "plain", "correct_distortion": True, **grid}, "backproject": {"frame": "product", **grid}}))
+    assert run("pfa2", tmp_path / "raw.h5", "-o", tmp_path / "pfa.h5", "--config", cfg).exit_code == 0
+    assert run("backproject", tmp_path / "raw.h5", "-o", tmp_path / "bp.h5", "--config", cfg).exit_code == 0
+    a, b = read_product(tmp_path / "pfa.h5"), read_product(tmp_path / "bp.h5")
+    assert all(np.allclose(a.coords[d], b.coords[d]) for d in ("azimuth", "range"))
+    A, B = np.abs(a.data), np.abs(b.data)
+    ncc = ((A - A.mean()) * (B - B.mean())).sum() / np.sqrt(((A - A.mean()) ** 2).sum() * ((B - B.mean()) ** 2).sum())
+    assert ncc > 0.95
+    ia, ib = np.unravel_index(np.argmax(A), A.shape), np.unravel_index(np.argmax(B), B.shape)
+    assert max(abs(i - j) for i, j in zip(ia, ib)) <= 1          # the brightest point on the same pixel
