@@ -53,6 +53,8 @@ class CoarseFocusParams:
     scene_range_extent: float | None = param("length", default=None, gt=0,
                                              doc="scene depth along r_0; default: targets' span plus 2 scene_margin")
     scene_margin: float = param("length", default=100.0, ge=0, doc="margin around the targets for default extents")
+    fold_check: bool = param(default=True, doc=(
+        "measure where the data's deramped energy lies and detect energy that folded (nonlinear correction only)"))
     on_alias: str = param(default="error", choices=("error", "warn"),
                           doc="deramped spectrum wider than the PRF: refuse (error) or go on and record it (warn)")
     precision: str = param(default="float32", choices=PRECISIONS, doc="intermediate complex precision")
@@ -148,6 +150,127 @@ def specan(signal: np.ndarray, azimuth_time: np.ndarray, prf: float, k: float, n
     return out, t_out
 
 
+def deramp_interval(radar: RadarMetadata, t_first: float, t_last: float, box, k: float) -> tuple[float, float]:
+    """Deramped frequencies (Hz, after the nonlinear correction, aperture mean) spanned by a scene box:
+    where its responses land on the coarse grid (t' = f / k)."""
+    xa, xb, ra, rb = box
+    s, c = math.sin(radar.squint), math.cos(radar.squint)
+    xn, r0 = np.meshgrid(np.linspace(xa, xb, 9), np.linspace(ra, rb, 5), indexing="ij")
+    X, Y = (xn + r0 * s).ravel(), (r0 * c).ravel()
+    t = np.linspace(t_first, t_last, 129)[:, None]
+    u = radar.velocity * t - X[None, :]
+    rdot = radar.velocity * u / np.sqrt(u**2 + Y[None, :] ** 2)
+    der = (-2 * radar.carrier_frequency * (rdot + radar.velocity * s) / C + k * t).mean(axis=0)
+    return float(der.min()), float(der.max())
+
+
+def deramped_folds(signal: np.ndarray, azimuth_time: np.ndarray, radar: RadarMetadata, k: float, n_out: int,
+                   box_interval: tuple[float, float], level_db: float = -30.0, max_columns: int = 96) -> list[dict]:
+    """Where the data's deramped energy lies, and which of it folded (data-driven, issue 9).
+
+    The deramped azimuth spectrum of two range sub-bands (lower and upper third of the chirp band) is
+    formed with :func:`specan` on up to ``max_columns`` range frequencies each. After the nonlinear
+    correction a response's deramped frequency scales with the carrier plus range frequency, so a
+    response whose true deramped frequency is f = f_app + n PRF (folded n times) moves by f x (band
+    separation) / f_c between the two sub-bands: the shift of the sub-bands' power centroids within
+    +-PRF/10 of a peak measures f, hence n. That is decidable when a PRF of frequency moves a peak
+    by at least 4 coarse resolution cells between the sub-bands (PRF x band separation / f_c x
+    aperture time >= 4); otherwise only the energy outside the box is reported (``n`` None).
+
+    Returns one dict per response peak above ``level_db`` (relative to the strongest): ``f_app`` and
+    ``t_app`` (deramped frequency Hz and coarse time s where it lands), ``n`` (folds, None when not
+    resolvable), ``f_true`` and ``t_true``, ``level_db``, ``inside_box`` (f_app within ``box_interval``).
+    """
+    n_az, n_rg = signal.shape
+    prf, fc, bw = radar.prf, radar.carrier_frequency, radar.bandwidth
+    fr = sfft.fftfreq(n_rg, 1.0 / radar.range_sampling_rate)
+    spec = sfft.fft(np.asarray(signal), axis=1, workers=-1)
+    power, centre = [], []
+    for lo, hi in ((-0.45, -0.15), (0.15, 0.45)):
+        cols = np.flatnonzero((fr > lo * bw) & (fr < hi * bw))
+        if cols.size == 0:
+            return []
+        cols = cols[np.linspace(0, cols.size - 1, min(cols.size, max_columns)).round().astype(int)]
+        y, _ = specan(spec[:, cols], azimuth_time, prf, k, n_out, "float32")
+        power.append((np.abs(y) ** 2).sum(axis=1))
+        centre.append(float(fr[cols].mean()))
+    del spec
+    p_lo, p_hi = power
+    total = p_lo + p_hi
+    if not total.max() > 0:
+        return []
+    half = n_out // 2
+    freq = (np.arange(n_out) - half) * prf / n_out        # deramped frequency of each coarse bin
+    cell = n_out / n_az                                  # bins per coarse resolution cell (1/T)
+    aperture = n_az / prf
+    resolvable = prf * (centre[1] - centre[0]) / fc * aperture >= 4.0
+    w = max(1, int(round(3 * cell)))
+    padded = np.concatenate([total[-w:], total, total[:w]])
+    local_max = np.lib.stride_tricks.sliding_window_view(padded, 2 * w + 1).max(axis=1) == total
+    peaks = np.flatnonzero(local_max & (total >= total.max() * 10 ** (level_db / 10)))
+    accepted = []
+    for i in peaks[np.argsort(total[peaks])[::-1]]:   # side lobes of a much stronger nearby peak are not responses
+        near = [j for j in accepted if abs((i - j + half) % n_out - half) < 12 * cell and total[j] > 10 * total[i]]
+        if not near:
+            accepted.append(int(i))
+
+    reach = max(int(round(20 * cell)), int(round(0.1 * n_out)))     # +-PRF/10 around a peak, >= 20 cells
+    slope = (centre[1] - centre[0]) / fc                 # sub-band shift per Hz of true deramped frequency
+
+    def true_frequency(i, r):  # power-centroid shift between the sub-bands within +-r bins of peak i, as Hz
+        window = np.arange(-r, r + 1)
+        idx = (i + window) % n_out
+        f_win = freq[i] + window * prf / n_out
+        c_lo, c_hi = (np.sum(p[idx] * f_win) / np.sum(p[idx]) for p in (p_lo, p_hi))
+        return (c_hi - c_lo) / slope
+
+    out = []
+    for i in accepted[:32]:
+        f_app = float(freq[i])
+        n = None
+        if resolvable:
+            # A response far outside the window is smeared (its FM rate differs from the reference):
+            # look again over twice the width when the narrow window finds no fold.
+            for r in (reach, 2 * reach):
+                f_est = true_frequency(i, r)
+                n = int(round((f_est - f_app) / prf))
+                if n != 0 and abs(f_est - f_app - n * prf) > prf / 4:   # not a clean fold: no claim
+                    n = 0
+                if n:
+                    break
+        f_true = f_app + (n or 0) * prf
+        if any(o["n"] == n and abs(o["f_app"] - f_app) <= reach * prf / n_out for o in out):
+            continue   # another peak of the same (smeared) response
+        out.append({"f_app": f_app, "t_app": f_app / k, "n": n, "f_true": f_true, "t_true": f_true / k,
+                    "level_db": float(10 * np.log10(total[i] / total.max())),
+                    "inside_box": bool(box_interval[0] - 2 / aperture <= f_app <= box_interval[1] + 2 / aperture)})
+    return out
+
+
+def _fold_messages(found: list[dict], radar: RadarMetadata, k: float, box) -> tuple[list[str], list[str]]:
+    """(problems, notes) worded from :func:`deramped_folds`; x_n is read as v t' (flow 1's axis)."""
+    v, prf = radar.velocity, radar.prf
+    where = f"the scene box x_n in [{box[0]:.0f}, {box[1]:.0f}] m"
+    problems, notes = [], []
+    for f in found:
+        if f["n"]:
+            problems.append(
+                f"deramped energy at t' = {f['t_app']:.4g} s ({f['level_db']:.1f} dB below the strongest response) is "
+                f"a fold: its range-band slope puts it {f['n']:+d} PRF away at {f['f_true']:.1f} Hz, outside the "
+                f"deramped window +-{prf / 2:.1f} Hz; cause: a scatterer at x_n ~ {v * f['t_true']:.0f} m, outside "
+                f"{where}; fine focus would process it with a Doppler {f['n']:+d} PRF off, so it is not imaged at "
+                f"x_n ~ {v * f['t_true']:.0f} m but lands near x_n ~ {v * f['t_app']:.0f} m (a ghost) or smeared. "
+                "Raise the PRF or remove the scatterer from the data (a larger box does not help: the window is the PRF)")
+        elif f["n"] is None and not f["inside_box"] and f["level_db"] >= -20.0:   # not a box-edge target's smear
+            notes.append(
+                f"deramped energy at t' = {f['t_app']:.4g} s ({f['level_db']:.1f} dB) lies outside {where}; the range "
+                f"band is too narrow for this aperture to tell whether it folded: it is a scatterer at x_n ~ "
+                f"{v * f['t_app']:.0f} m or the fold of one at x_n ~ {v * (f['t_app'] + prf / k):.0f} m or "
+                f"{v * (f['t_app'] - prf / k):.0f} m (a ghost); declare coarse_focus.scene_azimuth_extent to cover "
+                "the scene so the alias check sees it")
+    return problems, notes
+
+
 def coarse_focus(pre: Product, params: CoarseFocusParams = CoarseFocusParams(), progress=None) -> Product:
     """``preprocessed`` product -> ``coarse`` product on the deramped azimuth grid t'."""
     from sarproc.product.io import history_entry
@@ -183,6 +306,13 @@ def coarse_focus(pre: Product, params: CoarseFocusParams = CoarseFocusParams(), 
     if budget["total_bandwidth"] > f_out:
         problems.append(f"F_a'' = {f_out:.1f} Hz is below the total Doppler bandwidth {budget['total_bandwidth']:.1f} "
                         "Hz; raise coarse_focus.azimuth_samples")
+    folds = []
+    if params.fold_check and method == "nonlinear":
+        folds = deramped_folds(pre.data, t, radar, k, n_out, deramp_interval(radar, t[0], t[-1], box, k))
+        fold_problems, notes = _fold_messages(folds, radar, k, box)
+        problems += fold_problems
+        for note in notes:
+            log.warning("coarse-focus: %s", note)
     if problems:
         msg = "coarse-focus: " + "; ".join(problems)
         if params.on_alias == "error":
@@ -199,6 +329,7 @@ def coarse_focus(pre: Product, params: CoarseFocusParams = CoarseFocusParams(), 
         "deramp_extent": budget["deramp_extent"],
         "scene_box": [float(b) for b in box],
         "aliased": bool(problems),
+        "folds": [{k_: v_ for k_, v_ in f.items()} for f in folds if f["n"]],
     })
     out = pre.derive("coarse", data, ("azimuth_time", "range_time"),
                      {"azimuth_time": t_out, "range_time": pre.coords["range_time"]}, attrs=attrs)
