@@ -126,3 +126,32 @@ def apply_filter_bank(spectra: np.ndarray, bank: FilterBank) -> np.ndarray:
     out[bank.out_index.reshape(-1)] = z.reshape(n_az * n, -1)
     out *= np.float32(n)
     return out.reshape((n * n_az,) + rest)
+
+
+def ghost_level_db(tau, prf: float, error_phase, half_band: float, n_az: int = 256) -> float:
+    """First-order false-target level (dB) left by a channel phase error phi_n (eq. 6, docs/multichannel.md).
+
+    A complex phi_n also carries an amplitude error: the channel gain is exp(j phi_n).
+
+    The reconstruction sees diag(e^{j phi}) H instead of H (eq. 3), so band j' leaks into band j through
+    E = P diag(e^{j phi}) H (E = I without error). A target whose spectrum is flat over |f| <= half_band
+    fills band j at base bin a where |f_a + j PRF| <= half_band (occupancy o_aj); the pieces moved by k
+    bands form a ghost k PRF away whose peak, relative to the target's, is
+
+        |sum_a sum_j E[a, j + k, j] o_aj| / sum_a sum_j o_aj                                  (6)
+
+    The largest over k = +-1 .. +-(N - 1) is returned (-inf without error).
+    """
+    tau = np.asarray(tau, float)
+    n = len(tau)
+    bank = filter_bank(tau, prf, n_az)
+    fo = band_frequencies(n_az, prf, n)
+    h = np.exp(2j * np.pi * tau[None, :, None] * fo[:, None, :])
+    e = bank.matrix @ (np.exp(1j * np.asarray(error_phase, complex))[None, :, None] * h)
+    occ = (np.abs(fo) <= half_band).astype(float)
+    best = 0.0
+    for k in range(1, n):
+        for sign in (1, -1):
+            s = sum(np.sum(e[:, j + sign * k, j] * occ[:, j]) for j in range(n) if 0 <= j + sign * k < n)
+            best = max(best, abs(s) / occ.sum())
+    return float(20 * np.log10(best)) if best > 0 else float("-inf")
