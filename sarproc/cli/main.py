@@ -62,18 +62,23 @@ class Interrupted(BaseException):
 _STOP_SIGNALS = tuple(getattr(signal, n) for n in ("SIGTERM", "SIGINT", "SIGHUP") if hasattr(signal, n))
 
 
+# The signal that ended this run. Kept apart from the exception because a C library (HDF5) can
+# swallow an exception raised inside one of its callbacks and report its own error instead.
+_FIRED: list[int] = []
+
+
 @contextlib.contextmanager
 def _signals_unwind():
     """Turn SIGTERM/SIGINT/SIGHUP into :class:`Interrupted` (once; later ones are ignored while cleaning up)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    fired = []
+    _FIRED.clear()
 
     def handler(signum, frame):
-        if fired:
+        if _FIRED:
             return
-        fired.append(signum)
+        _FIRED.append(signum)
         raise Interrupted(signum)
 
     previous = {s: signal.signal(s, handler) for s in _STOP_SIGNALS}
@@ -117,8 +122,15 @@ class LazyGroup(click.Group):
         verbosity = -1 if ctx.params.get("quiet") else int(ctx.params.get("verbose") or 0)
         ctx.meta["sarproc.verbosity"] = verbosity
         try:
-            with _signals_unwind():
-                return super().invoke(ctx)
+            try:
+                with _signals_unwind():
+                    return super().invoke(ctx)
+            except (click.exceptions.Exit, KeyboardInterrupt):
+                raise
+            except BaseException:
+                if _FIRED:   # whatever the signal interrupted failed as a consequence
+                    raise Interrupted(_FIRED[0]) from None
+                raise
         except InputError as exc:
             raise BadInput(str(exc)) from None
         except ProcessingError as exc:

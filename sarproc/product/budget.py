@@ -120,20 +120,17 @@ def check_plan(plan: Plan, outputs=(), max_memory: int | None = None) -> None:
             free = st.f_bavail * st.f_frsize
         except OSError:
             free = None
-        if free is not None and plan.output_bytes > free:
-            raise InputError(f"{out}: the output needs ~{human(plan.output_bytes)}{_why(plan)} but {out.parent} has only "
-                             f"{human(free)} free; free space, write elsewhere or shrink the scene")
-        limit = file_size_limit()
-        if limit is not None and plan.output_bytes > limit:
-            raise InputError(f"{out}: the output needs ~{human(plan.output_bytes)}{_why(plan)} but this process may write files "
-                             f"of at most {human(limit)} (ulimit -f); raise the limit or shrink the scene")
-    if max_memory is not None and plan.memory_bytes > max_memory:
-        raise InputError(f"{plan.stage}: needs ~{human(plan.memory_bytes)} of working memory{_why(plan)}, above --max-memory "
-                         f"{human(max_memory)}; raise --max-memory or shrink the scene or its blocks")
-    avail = available_memory()
-    if avail is not None and plan.memory_bytes > avail:
-        raise InputError(f"{plan.stage}: needs ~{human(plan.memory_bytes)} of working memory{_why(plan)} but only {human(avail)} "
-                         f"is available; shrink the scene or its blocks, or run on a larger machine")
+        for room, where, fix in ((free, f"{out.parent} has only {{}} free", "free space, write elsewhere"),
+                                 (file_size_limit(), "this process may write files of at most {} (ulimit -f)",
+                                  "raise the limit")):
+            if room is not None and plan.output_bytes > room:
+                raise InputError(f"{out}: the output needs ~{human(plan.output_bytes)}{_why(plan)} but "
+                                 f"{where.format(human(room))}; {fix} or shrink the scene")
+    for room, where, fix in ((max_memory, "above --max-memory {}", "raise --max-memory"),
+                             (available_memory(), "but only {} is available", "run on a larger machine")):
+        if room is not None and plan.memory_bytes > room:
+            raise InputError(f"{plan.stage}: needs ~{human(plan.memory_bytes)} of working memory{_why(plan)}, "
+                             f"{where.format(human(room))}; {fix} or shrink the scene or its blocks")
 
 
 def complex_bytes(*shape: float, itemsize: int = 8) -> float:

@@ -26,14 +26,10 @@ from click.testing import CliRunner
 
 from sarproc.cli.main import cli
 
-SCENE = {
-    "radar": {"carrier_frequency": "10 GHz", "bandwidth": "100 MHz", "pulse_duration": "1 us",
-              "range_sampling_rate": "120 MHz", "prf": "400 Hz"},
-    "platform": {"velocity": "100 m/s", "altitude": "0 m"},
-    "geometry": {"reference_range": "2 km", "squint": "10 deg"},
-    "acquisition": {"mode": "spotlight", "aperture_time": "0.2 s"},
-    "targets": {"frame": "squint", "points": [{"name": "A"}, {"name": "B", "range": "10 m", "azimuth": "4 m"}]},
-}
+from conftest import BASE_SCENE, merge
+
+SCENE = merge(BASE_SCENE, {"geometry": {"squint": "10 deg"}, "acquisition": {"aperture_time": "0.2 s"},
+                           "targets": {"points": [{"name": "A"}, {"name": "B", "range": "10 m", "azimuth": "4 m"}]}})
 BP = {"azimuth_extent": "20 m", "range_extent": "24 m"}
 
 ARRAY_SCENE = {
