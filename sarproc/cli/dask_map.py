@@ -13,6 +13,7 @@ import collections
 import contextlib
 import itertools
 import os
+import uuid
 
 import click
 
@@ -29,17 +30,19 @@ def dask_mapper(client, key_prefix: str = "task", window: int | None = None):
         window = 2 * max(1, sum(w.get("nthreads", 1) for w in client.scheduler_info()["workers"].values()))
 
     def mapper(func, items):
+        # keys unique to this call: two runs on one long-lived scheduler must never share results
+        prefix = f"{key_prefix}-{uuid.uuid4().hex[:12]}"
         counter = itertools.count()
         pending = collections.deque()
         items = iter(items)
         for item in itertools.islice(items, window):
-            pending.append(client.submit(func, item, key=f"{key_prefix}-{next(counter)}", pure=False))
+            pending.append(client.submit(func, item, key=f"{prefix}-{next(counter)}", pure=False))
         while pending:
             future = pending.popleft()
             result = future.result()
             future.release()
             for item in itertools.islice(items, 1):
-                pending.append(client.submit(func, item, key=f"{key_prefix}-{next(counter)}", pure=False))
+                pending.append(client.submit(func, item, key=f"{prefix}-{next(counter)}", pure=False))
             yield result
 
     return mapper

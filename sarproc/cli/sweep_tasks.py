@@ -40,6 +40,7 @@ import re
 import sys
 import threading
 import time
+import uuid
 from pathlib import Path
 
 from sarproc import __version__
@@ -393,9 +394,10 @@ def run_dask(plan: Plan, client, on_row=None) -> Outcome:
     from dask.distributed import as_completed
 
     start = time.perf_counter()
-    sim_futures = {job.key: client.submit(run_simulation, job, key=f"simulate-{job.key[:16]}", pure=False)
+    run = uuid.uuid4().hex[:12]        # keys unique to this run: a long-lived scheduler may see the sweep again
+    sim_futures = {job.key: client.submit(run_simulation, job, key=f"simulate-{job.key[:16]}-{run}", pure=False)
                    for job in plan.sims}
-    task_futures = {client.submit(run_task, task, sim_futures[task.sim_key], key=f"task-{task.task_id}",
+    task_futures = {client.submit(run_task, task, sim_futures[task.sim_key], key=f"task-{task.task_id}-{run}",
                                   pure=False): task for task in plan.tasks}
     rows, failures = [], []
     for future in as_completed(task_futures):
