@@ -193,11 +193,20 @@ def main(args=None):  # pragma: no cover - console entry (exercised by subproces
             default_hook(unraisable)
 
     sys.unraisablehook = quiet_after_failed_write
+
+    def early(signum, frame):   # before a stage starts (argument parsing, imports): nothing to clean
+        raise Interrupted(signum)
+
+    for s in _STOP_SIGNALS:
+        signal.signal(s, early)
     try:
         cli.main(args=args, prog_name="sarproc")
         code = 0
     except SystemExit as exc:
         code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    except Interrupted as exc:
+        print(f"Error: interrupted by {signal.Signals(exc.signum).name}", file=sys.stderr)
+        code = 128 + exc.signum
     from sarproc.product.io import hdf5_handles_damaged
 
     if hdf5_handles_damaged():
