@@ -12,7 +12,7 @@ reproduce-002: $(STAMP)
 # The reduced scene of the tests (seconds).
 reproduce-002-small: $(STAMP)
 	mkdir -p results/002-small
-	$(PY) scripts/reproduce_002.py --config configs/nie2016_small.yaml --out results/002-small
+	$(PY) scripts/reproduce_002.py --config configs/nie2016_small.yaml --out results/002-small --corrected-plain
 
 reproduce-gotcha: $(STAMP)
 	mkdir -p results/gotcha
