@@ -241,8 +241,11 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
     x_lo, x_hi = box[0] - params.crop_margin, box[1] + params.crop_margin
     info = {"flow": flow, "depth_of_focus_half_width": half_adof, "scene_half_width": scene_half,
             "stolt_oversampling": over, "stolt_masked_fraction": masked / float(M * N)}
+    azimuth_blocks = range(0, N, params.block_range)   # a second progress bar: azimuth compression
+    if progress is not None:
+        azimuth_blocks = progress(azimuth_blocks)
     if flow == 1:
-        for s in range(0, N, params.block_range):
+        for s in azimuth_blocks:
             e = min(s + params.block_range, N)
             blk = RD[:, s:e] * np.where(okc, ref, 0)[:, None].astype(cdt)
             multiply_separable_phase(blk, np.where(okc, gc, 0)[None, :], r[None, s:e])
@@ -263,7 +266,8 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
         img, x = RD[keep], x[keep]
         alpha = None
     else:
-        img, x, extra = _flow2(RD, t_c, f_a, r, k, model, radar, params, box, (t_first, t_last), cdt, (x_lo, x_hi))
+        img, x, extra = _flow2(RD, t_c, f_a, r, k, model, radar, params, box, (t_first, t_last), cdt, (x_lo, x_hi),
+                               azimuth_blocks)
         info.update(extra)
         alpha = extra["alpha"]
     del RD
@@ -304,7 +308,7 @@ def _lrwc_frame(squint, altitude):
     return SquintLrwcFrame(squint, altitude)
 
 
-def _flow2(RD, t_c, f_a, r, k, model, radar, params, box, aperture, cdt, xlim):
+def _flow2(RD, t_c, f_a, r, k, model, radar, params, box, aperture, cdt, xlim, blocks):
     """Modified NLCS azimuth compression; returns (image (n_x, N), x (n_x,), info)."""
     v, th = radar.velocity, radar.squint
     s_th, c_th = math.sin(th), math.cos(th)
@@ -367,7 +371,7 @@ def _flow2(RD, t_c, f_a, r, k, model, radar, params, box, aperture, cdt, xlim):
     gm, gl = (L1 + 1) // 2, L1 // 2
     twopi = 2 * np.pi
 
-    for s in range(0, N, params.block_range):
+    for s in blocks:
         e = min(s + params.block_range, N)
         nb = e - s
         comp = sfft.ifft(sfft.ifftshift(RD[:, s:e], axes=0), axis=0, workers=-1)   # compact t' (reference in)
