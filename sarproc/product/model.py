@@ -49,8 +49,7 @@ AUX_DIM_DOC = {"pulse": "transmit pulse index", "receiver": "receive channel ind
                "xyz": "scene-frame component: 0 = x (along track), 1 = y, 2 = z (up)"}
 
 # Units of the targets table's fields (the table is a compound dataset: one map, no single unit).
-TARGET_UNITS = {"name": "", "x": "m", "y": "m", "z": "m", "azimuth": "frame axis unit (m)",
-                "range": "frame axis unit (m)", "elevation": "rad (3D frames), else 0",
+TARGET_UNITS = {"name": "", "x": "m", "y": "m", "z": "m", "azimuth": "m", "range": "m", "elevation": "rad",
                 "amplitude": "1", "vx": "m/s", "vy": "m/s", "vz": "m/s"}
 
 # Units of the numeric attributes stages put on the data set, stored as its JSON map
