@@ -151,19 +151,13 @@ class GroundFrame(Frame):
         return xyz[..., 0].copy(), xyz[..., 1].copy()
 
 
-@register_frame("los")
-class LosFrame(Frame):
-    axes = ("azimuth", "range")
+class _PlaneFrame(Frame):
+    """A plane through ``origin`` with orthonormal axes u_azimuth, u_range; range counted from ``range0``.
 
-    def __init__(self, origin, aperture_center, velocity_dir=(1.0, 0.0, 0.0)):
-        self.origin = np.asarray(origin, float).reshape(3)
-        self.aperture_center = np.asarray(aperture_center, float).reshape(3)
-        los = self.origin - self.aperture_center
-        self.reference_range = float(np.linalg.norm(los))
-        self.u_range = los / self.reference_range
-        v = np.asarray(velocity_dir, float).reshape(3)
-        u_az = v - np.dot(v, self.u_range) * self.u_range
-        self.u_azimuth = u_az / np.linalg.norm(u_az)
+    Subclasses set origin, aperture_center, u_azimuth, u_range and range0 (m).
+    """
+
+    axes = ("azimuth", "range")
 
     def params(self):
         return {"origin": self.origin.tolist(), "aperture_center": self.aperture_center.tolist()}
@@ -174,23 +168,36 @@ class LosFrame(Frame):
     def to_xyz(self, azimuth, range_):
         azimuth, range_ = np.broadcast_arrays(np.asarray(azimuth, float), np.asarray(range_, float))
         return (self.origin + azimuth[..., None] * self.u_azimuth
-                + (range_ - self.reference_range)[..., None] * self.u_range)
+                + (range_ - self.range0)[..., None] * self.u_range)
 
     def from_xyz(self, xyz):
         d = np.asarray(xyz, float) - self.origin
-        return d @ self.u_azimuth, self.reference_range + d @ self.u_range
+        return d @ self.u_azimuth, self.range0 + d @ self.u_range
+
+
+@register_frame("los")
+class LosFrame(_PlaneFrame):
+
+    def __init__(self, origin, aperture_center, velocity_dir=(1.0, 0.0, 0.0)):
+        self.origin = np.asarray(origin, float).reshape(3)
+        self.aperture_center = np.asarray(aperture_center, float).reshape(3)
+        los = self.origin - self.aperture_center
+        self.reference_range = float(np.linalg.norm(los))
+        self.u_range = los / self.reference_range
+        v = np.asarray(velocity_dir, float).reshape(3)
+        u_az = v - np.dot(v, self.u_range) * self.u_range
+        self.u_azimuth = u_az / np.linalg.norm(u_az)
+        self.range0 = self.reference_range
 
 
 @register_frame("ground_los")
-class GroundLosFrame(Frame):
+class GroundLosFrame(_PlaneFrame):
     """Ground plane rotated onto the aperture centre's line of sight (Nie 2016, eq. 6).
 
     e_r is the unit ground projection of origin - aperture_center, e_a = e_r x z (so that
     e_a x e_r = z); azimuth = (P - origin) . e_a, range = R_g + (P - origin) . e_r with R_g the
     ground distance from the aperture centre's nadir to the origin. Points map onto z = origin z.
     """
-
-    axes = ("azimuth", "range")
 
     def __init__(self, origin, aperture_center):
         self.origin = np.asarray(origin, float).reshape(3)
@@ -202,26 +209,12 @@ class GroundLosFrame(Frame):
         er = d / self.ground_range
         self.u_range = np.array([er[0], er[1], 0.0])
         self.u_azimuth = np.array([er[1], -er[0], 0.0])
+        self.range0 = self.ground_range
 
     @property
     def rotation(self) -> float:
         """Angle of e_r from +y towards +x, rad (the ground squint theta_0 of eq. 6)."""
         return float(math.atan2(self.u_range[0], self.u_range[1]))
-
-    def params(self):
-        return {"origin": self.origin.tolist(), "aperture_center": self.aperture_center.tolist()}
-
-    def metric(self):
-        return np.eye(2)
-
-    def to_xyz(self, azimuth, range_):
-        azimuth, range_ = np.broadcast_arrays(np.asarray(azimuth, float), np.asarray(range_, float))
-        return (self.origin + azimuth[..., None] * self.u_azimuth
-                + (range_ - self.ground_range)[..., None] * self.u_range)
-
-    def from_xyz(self, xyz):
-        d = np.asarray(xyz, float) - self.origin
-        return d @ self.u_azimuth, self.ground_range + d @ self.u_range
 
 
 @register_frame("elevation")
