@@ -393,6 +393,9 @@ def array3d_product(raw, params: Array3DParams = Array3DParams(), *, channel_ima
     2D ``image`` of that channel before elevation compression (paper Fig. 5), else None.
     Returns (cube product, channel product or None).
     """
+    import logging
+
+    from sarproc.focus.array3d.ambiguity import elevation_ambiguities
     from sarproc.product.config import as_dict
     from sarproc.product.frames import ElevationFrame, SquintFrame, targets_in_frame
     from sarproc.product.io import history_entry
@@ -413,7 +416,12 @@ def array3d_product(raw, params: Array3DParams = Array3DParams(), *, channel_ima
                         raw.aux["rx_offset"], raw.radar, params, keep_channel_images=channel_image is not None,
                         progress=progress)
     frame = ElevationFrame(raw.radar.altitude)
-    entry = history_entry(command, {**as_dict(params), "derived": res.info})
+    ambiguities = elevation_ambiguities(res.cube, res.elevation, res.azimuth, res.range, raw.radar.elevation_beamwidth,
+                                        raw.radar.wavelength, np.asarray(raw.aux["rx_offset"])[:, 1],
+                                        res.theoretical_irw[0])
+    for msg in ambiguities:
+        logging.getLogger(__name__).warning("array3d: %s", msg)
+    entry = history_entry(command, {**as_dict(params), "derived": {**res.info, "elevation_ambiguities": ambiguities}})
     cube = raw.derive("image3d", res.cube, ("elevation", "azimuth", "range"),
                       {"elevation": res.elevation, "azimuth": res.azimuth, "range": res.range},
                       targets=targets_in_frame(raw.targets, frame),
