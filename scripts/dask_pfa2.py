@@ -99,7 +99,7 @@ def main(argv=None):
     rows = [{"run": "serial (builtin map)", "workers": 0, "wall_s": t_serial, "cold_s": t_cold, "max_diff_db": None}]
     peak = np.abs(serial.data).max()
     for workers in (1, 2):
-        with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None) as cl, \
+        with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0") as cl, \
                 Client(cl) as client:
             client.wait_for_workers(workers)           # workers up before the clock starts
             t0 = time.perf_counter()

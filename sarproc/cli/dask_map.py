@@ -65,7 +65,7 @@ def scheduler_client(scheduler: str | None):
     logging.getLogger("distributed").setLevel(max(logging.getLogger().level, logging.WARNING))
     if scheduler == "local":
         with LocalCluster(n_workers=os.cpu_count() or 1, threads_per_worker=1, processes=True,
-                          dashboard_address=None) as cluster, Client(cluster) as client:
+                          dashboard_address=":0") as cluster, Client(cluster) as client:
             yield client
         return
     try:

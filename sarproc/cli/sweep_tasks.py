@@ -381,11 +381,11 @@ def run_serial(plan: Plan, on_row=None) -> Outcome:
 
 
 def local_client(workers: int, threads_per_worker: int = 1, processes: bool = True):
-    """A distributed Client on a new LocalCluster (no dashboard: sweeps run unattended)."""
+    """A distributed Client on a new LocalCluster (its HTTP server on a free port: several may run at once)."""
     from dask.distributed import Client, LocalCluster
 
     cluster = LocalCluster(n_workers=workers, threads_per_worker=threads_per_worker, processes=processes,
-                           dashboard_address=None)
+                           dashboard_address=":0")
     return Client(cluster)
 
 

@@ -68,7 +68,7 @@ def test_plan_shares_raw_products_and_validates(sweep_file):
 def test_local_cluster_gives_the_serial_table(sweep_file, serial, tmp_path):
     plan = plan_sweep(sweep_file, tmp_path / "dask")
     with distributed.Client(distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
-                                                     dashboard_address=None)) as client:
+                                                     dashboard_address=":0")) as client:
         assert len(client.scheduler_info()["workers"]) == 2
         on_dask = run_dask(plan, client)
     assert not on_dask.failures
