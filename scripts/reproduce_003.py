@@ -46,6 +46,8 @@ def scene_mapping(path, points=None, **radar):
     m = load_yaml(path)
     if points is not None:
         m["targets"]["points"] = points
+        if any("velocity" in pt for pt in points):
+            m["effects"].setdefault("target_motion", {})
     m.setdefault("radar", {}).update(radar)
     return m
 
@@ -72,7 +74,7 @@ def focus(rec, raw, bp: BackprojectParams, theory_from_truth=False):
     return img
 
 
-def ghost_strips(rec, raw, extent_ghosts=1.5):
+def ghost_strips(rec, raw, extent_ghosts=1.5, **bp_knobs):
     """{target: (MFTA dB, strip image)} on azimuth strips around each target (module docstring)."""
     r = rec.radar
     ka = 2 * (r.velocity * math.cos(r.squint)) ** 2 / (r.wavelength * r.reference_range)
@@ -83,7 +85,7 @@ def ghost_strips(rec, raw, extent_ghosts=1.5):
         one = copy.copy(moved)
         one.targets = moved.targets[k:k + 1]
         strip = backproject(one, BackprojectParams(frame="squint_lrwc", azimuth_extent=extent, range_extent=30.0,
-                                                   oversample=1.2))
+                                                   oversample=1.2, **bp_knobs))
         guard = STRIP_GUARD * extent / (2 * extent_ghosts) / strip.attrs["theoretical_irw"][0]
         rep = evaluate_product(strip, EvaluateParams(guard_cells=guard))
         name = moved.targets["name"][k].decode()
