@@ -209,7 +209,7 @@ def polar_to_rect(ph, ua, ur, kg: KGrid, interp: Interpolation, block: int = 256
     n_az = ph.data.shape[0]
     fc, f0, dfr = ph.carrier_frequency, float(ph.freqs[0]), ph.freq_step
     kr = kg.kr
-    rng = np.empty((n_az, kg.n_kr), np.complex64)
+    rng_t = np.empty((kg.n_kr, n_az), np.complex64)      # range pass written transposed: one copy less
     for s in range(0, n_az, block):
         e = min(s + block, n_az)
         tc = ph.delay_center[s:e, None]
@@ -221,9 +221,7 @@ def polar_to_rect(ph, ua, ur, kg: KGrid, interp: Interpolation, block: int = 256
         out = resample_rows(rows, (f_new - f0) / dfr, interp.range_kernel, interp.range_length,
                             oversampling=over)
         out *= _phasor(-f_new * tc)
-        rng[s:e] = out
-    rng_t = np.ascontiguousarray(rng.T)                                     # (n_kr, n_pulses)
-    del rng
+        rng_t[:, s:e] = out.T
     out = np.empty((kg.n_kr, kg.n_ka), np.complex64)
     rows = max(1, (1 << 22) // max(kg.n_ka, 1))                             # ~4 M outputs per block
     ratio = ua / ur
