@@ -209,6 +209,16 @@ def test_moving_target_with_along_track_velocity_is_estimated_and_focused():
     assert report.targets[0].axis("azimuth").irw_ratio > 1.2       # v_a defocuses the conventional result
 
 
+def test_noise_gives_no_false_window_and_keeps_the_estimate():
+    """Raw SNR 0 dB: noise-only range cells stay below the detection floor; C is still estimated."""
+    m = scene([mover("C", v_r=10.0, v_a=10.0)])
+    m["effects"]["noise"] = {"snr": "0 dB"}
+    raw = simulate(scene_from_mapping(m))
+    (mt,) = reconstruct(raw, ReconstructParams()).attrs["reconstruct"]["moving_targets"]
+    assert mt["radial_velocity"] == pytest.approx(10.0, abs=0.1)
+    assert mt["along_track_velocity"] == pytest.approx(10.0, abs=0.3)
+
+
 def test_blind_velocities_are_told_apart_by_range_walk():
     """v_r and v_r - lambda PRF / (2 cos) give the same channel samples; the estimate must not take the alias."""
     raw = simulate(scene_from_mapping(scene([mover(v_r=-12.0)])))

@@ -56,6 +56,8 @@ class ReconstructParams:
         "a range cell is moving when its Doppler centroid exceeds 2 v / lambda of this line-of-sight velocity"))
     detection_level: float = param("decibel", default=-30.0, lt=0, doc="ignore range cells weaker than this "
                                    "relative to the strongest")
+    detection_snr: float = param("decibel", default=6.0, ge=0, doc=(
+        "and stronger than the median range cell (the noise and clutter floor) by this much"))
     window_margin: int = param(default=16, ge=1, doc="range cells added on each side of a moving-target window")
     radial_velocity: float | None = param("velocity", default=None, doc="use this slant-range velocity (no search)")
     along_track_velocity: float | None = param("velocity", default=None, doc="use this along-track velocity "
@@ -408,7 +410,10 @@ def reconstruct(raw: Product, params: ReconstructParams = ReconstructParams(), p
         else:
             if residual_power is not None:
                 power = residual_power
-            strong = power > power.max() * 10 ** (params.detection_level / 10) if power.max() > 0 else power > 0
+            live = power[power > 0]
+            floor = float(np.median(live)) if len(live) else 0.0
+            strong = (power > power.max() * 10 ** (params.detection_level / 10)) & \
+                (power > floor * 10 ** (params.detection_snr / 10)) & (power > 0)
             moving = strong if residual_power is not None else \
                 strong & (np.abs(centroid) > 2 * params.detection_velocity / r.wavelength)
             spans = _windows(moving, params.window_margin)
