@@ -7,9 +7,10 @@ Flow, on a ``raw_multichannel`` product (channel, azimuth_time, range_time):
    excess path e_n (deramp.py, channels.py eqs. 1-2);
 2. conventional reconstruction: filter bank of the static-scene channel delays over the band
    |f| < N PRF / 2 (channels.py eq. 3; Tikhonov eq. 4 when ``regularization`` > 0);
-3. (``method: modified``) moving-target windows: range cells whose reconstructed signal has a
-   Doppler centroid beyond ``detection_velocity`` (or, with ``clutter_suppression``, whose
-   energy survives the clutter null), grouped and widened by ``window_margin`` cells; for each,
+3. (``method: modified``) moving-target windows: range cells above ``detection_level`` of the
+   strongest and ``detection_snr`` over the median cell whose reconstructed signal has a Doppler
+   centroid beyond ``detection_velocity`` (or, with ``clutter_suppression``, whose energy survives
+   the clutter null), grouped and widened by ``window_margin`` cells; for each,
    the slant-range velocity is searched (velocity.py eq. 5), the along-track velocity found by
    autofocus, and the window reconstructed with the modified filter bank (the target's Doppler
    offset and channel delays) and its range acceleration matched to a static point's;
