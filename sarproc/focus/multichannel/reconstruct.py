@@ -288,13 +288,18 @@ def _estimate(win: _Window, params: ReconstructParams, g: _Geometry, centre_rang
         v_r = params.radial_velocity
     elif can_search:
         result = search(v_a, params.velocity_min, params.velocity_max, params.coarse_step)
-        v_r = _resolve_blind_velocity(win, result.estimate, v_a, params, g)
+        v_r, beyond = _resolve_blind_velocity(win, result.estimate, v_a, params, g)
+        if beyond:
+            log.warning("reconstruct: no slant-range velocity in [%g, %g] m/s matches the target's range walk; "
+                        "it lies beyond the search bound (best candidate %.2f m/s)",
+                        params.velocity_min, params.velocity_max, v_r)
+            result = dataclasses.replace(result, at_bound=True)
         if abs(v_r - result.estimate) > params.velocity_step:
             lo, hi = max(params.velocity_min, v_r - params.coarse_step), min(params.velocity_max, v_r + params.coarse_step)
             alias = search(v_a, lo, hi, params.coarse_step / 4)
             trials = np.concatenate([result.trials, alias.trials])
-            result = velocity.SearchResult(alias.estimate, alias.at_bound, trials[np.argsort(trials[:, 0])],
-                                           result.evaluations + alias.evaluations)
+            result = velocity.SearchResult(alias.estimate, alias.at_bound or result.at_bound,
+                                           trials[np.argsort(trials[:, 0])], result.evaluations + alias.evaluations)
             v_r = alias.estimate
     else:
         v_r = 0.0
@@ -339,16 +344,20 @@ def blind_velocity_period(g: _Geometry) -> float:
 
 
 def _resolve_blind_velocity(win: _Window, estimate: float, v_a: float, params: ReconstructParams,
-                            g: _Geometry) -> float:
-    """Among the leakage minimum and its blind-velocity aliases inside the bounds, the one without range walk."""
+                            g: _Geometry) -> tuple[float, bool]:
+    """Among the leakage minimum and its blind-velocity aliases inside the bounds, the one without range walk.
+
+    Returns (velocity, beyond): ``beyond`` when even the best candidate keeps a residual walk of more than
+    half the walk step lambda PRF / 2 between aliases, i.e. the true velocity is an alias outside the bounds.
+    """
     period = blind_velocity_period(g)
     k_lo = math.ceil((params.velocity_min - estimate) / period - 1e-9)
     k_hi = math.floor((params.velocity_max - estimate) / period + 1e-9)
     candidates = [estimate + k * period for k in range(k_lo, k_hi + 1)] or [estimate]
-    if len(candidates) == 1:
-        return estimate
     walks = [abs(win.walk_rate(u, v_a)) for u in candidates]
-    return float(candidates[int(np.argmin(walks))])
+    best = int(np.argmin(walks))
+    step = C / g.fc * g.prf / 2
+    return float(candidates[best]), bool(walks[best] > 0.5 * step)
 
 
 def clutter_null(spec_fa: np.ndarray, g: _Geometry, band_factor: float = 1.0) -> tuple[np.ndarray, int]:
