@@ -16,7 +16,7 @@ first n_range samples of the inverse FFT. TOA1/TOA2 are the receive window relat
 Platform positions (ECF through geolocation.py) are used for transmit and receive alike (the
 simulator's stop-and-go model). sarproc's own metadata (radar, targets, frame) travels in
 ProductInfo/Parameter entries named ``sarproc.*`` so that a round trip is lossless; a CPHD written by
-another program is imported from its standard fields alone.
+another program is imported from its standard fields alone (:func:`_foreign_raw`).
 """
 
 from __future__ import annotations
@@ -116,8 +116,11 @@ PVP_FIELDS = [("TxTime", 1), ("TxPos", 3), ("TxVel", 3), ("RcvTime", 1), ("RcvPo
               ("TOA2", 1), ("TDTropoSRP", 1), ("SC0", 1), ("SCSS", 1)]
 
 
-def cphd_parts(raw: Product, place: Placement):
-    """(xml tree, signal (n_pulses, n_fft) complex64, pvps) of a raw product."""
+def cphd_parts(raw: Product, place: Placement, sarproc_metadata: bool = True):
+    """(xml tree, signal (n_pulses, n_fft) complex64, pvps) of a raw product.
+
+    ``sarproc_metadata=False`` leaves out the ``sarproc.*`` parameters (a file as another program would see it).
+    """
     import lxml.etree
     import sarkit.cphd as skcphd
 
@@ -205,8 +208,9 @@ def cphd_parts(raw: Product, place: Placement):
                     "sarproc.placement": json.dumps({"anchor": place.anchor.tolist(), "heading": place.heading}),
                     "sarproc.history": json.dumps(raw.history)}
     root["ProductInfo"] = {"CreationInfo": [{"Application": f"sarproc {__version__}",
-                                             "DateTime": utc_datetime(np.datetime64("now", "us"))}],
-                           "Parameter": [(k, v) for k, v in sarproc_meta.items()]}
+                                             "DateTime": utc_datetime(np.datetime64("now", "us"))}]}
+    if sarproc_metadata:
+        root["ProductInfo"]["Parameter"] = [(k, v) for k, v in sarproc_meta.items()]
     tree = root.elem.getroottree()
     # ReferenceGeometry from the PVPs, as sarkit's checker recomputes it (CPHD vol. 1, 6.5)
     refgeom = skcphd.compute_reference_geometry(tree, pvps)
@@ -246,14 +250,14 @@ def _corner_points(place: Placement, ia):
 
 
 
-def write_cphd(path, raw: Product, place: Placement) -> dict:
+def write_cphd(path, raw: Product, place: Placement, sarproc_metadata: bool = True) -> dict:
     """Write a raw product as a CPHD file (atomically); returns sizes for the summary."""
     require_sarkit()
     import sarkit.cphd as skcphd
 
     from sarproc.product.io import atomic_path
 
-    tree, signal, pvps = cphd_parts(raw, place)
+    tree, signal, pvps = cphd_parts(raw, place, sarproc_metadata)
     meta = skcphd.Metadata(xmltree=tree, file_header_part=skcphd.FileHeaderPart(
         additional_kvps={"CLASSIFICATION": "UNCLASSIFIED", "RELEASE_INFO": "UNRESTRICTED"}))
     with atomic_path(path) as tmp, open(tmp, "wb") as fh, skcphd.Writer(fh, meta) as writer:
@@ -282,11 +286,9 @@ def read_cphd(path) -> Product:
     if xh.load("{*}Global/{*}DomainType") != "FX":
         raise InputError(f"{path}: Global/DomainType is not FX; only FX-domain CPHD is imported")
     extra = _params(tree)
-    if "sarproc.radar" in extra:
-        radar = RadarMetadata(**_radar_kwargs(json.loads(extra["sarproc.radar"])))
-    else:
-        raise InputError(f"{path}: no sarproc.radar parameter; import of CPHD files written by other programs "
-                         "is not supported yet")
+    if "sarproc.radar" not in extra:
+        return _foreign_raw(path, xh, fx, pvps)
+    radar = RadarMetadata(**_radar_kwargs(json.loads(extra["sarproc.radar"])))
     place_info = json.loads(extra["sarproc.placement"])
     iarp = xh.load("{*}SceneCoordinates/{*}IARP/{*}ECF")
     ux = xh.load("{*}SceneCoordinates/{*}ReferenceSurface/{*}Planar/{*}uIAX")
@@ -315,6 +317,40 @@ def read_cphd(path) -> Product:
     history = json.loads(extra.get("sarproc.history", "[]"))
     return Product(kind="raw", data=data, dims=("azimuth_time", "range_time"), coords=coords, radar=radar,
                    targets=targets, attrs={"frame": frame} if frame else {}, aux=aux, history=history)
+
+
+def _foreign_raw(path, xh, fx, pvps) -> Product:
+    """A CPHD written by another program: its in-band FX samples as Gotcha-style phase history.
+
+    FX-domain CPHD is the dechirped phase history compensated to the SRP, exp(-j 2 pi f (tau - tau_srp)):
+    the model of the Gotcha files, so the same conversion (gotcha.py: a unit-impulse "chirp" recorded in a
+    window that follows the SRP) makes a raw product pfa2 and backproject focus. The scene frame is the
+    CPHD's image-area frame (uIAX, uIAY, their normal) about the SRP; the antenna phase centre of each
+    vector is the mean of its transmit and receive positions (exact for stop-and-go monostatic data).
+    Only the samples inside [FX1, FX2] are kept. No targets are known: give the focusers grid extents.
+    """
+    from sarproc.product.gotcha import gotcha_product
+    from sarproc.product.io import history_entry
+
+    if not (xh.load("{*}Channel/{*}FXFixedCPHD") and xh.load("{*}Channel/{*}SRPFixedCPHD")):
+        raise InputError(f"{path}: only CPHD with fixed FX band and fixed SRP (FXFixedCPHD, SRPFixedCPHD) is imported")
+    ux = xh.load("{*}SceneCoordinates/{*}ReferenceSurface/{*}Planar/{*}uIAX")
+    uy = xh.load("{*}SceneCoordinates/{*}ReferenceSurface/{*}Planar/{*}uIAY")
+    if ux is None or uy is None:
+        raise InputError(f"{path}: SceneCoordinates/ReferenceSurface is not Planar; only planar image areas are imported")
+    rot = np.stack([ux, uy, np.cross(ux, uy)], axis=1)
+    srp = np.asarray(pvps["SRPPos"][0], float)
+    apc = 0.5 * (np.asarray(pvps["TxPos"], float) + np.asarray(pvps["RcvPos"], float))
+    pos = (apc - srp) @ rot
+    f = float(pvps["SC0"][0]) + float(pvps["SCSS"][0]) * np.arange(fx.shape[1])
+    band = (f >= float(pvps["FX1"][0]) - 1e-6) & (f <= float(pvps["FX2"][0]) + 1e-6)
+    if np.count_nonzero(band) < 2:
+        raise InputError(f"{path}: fewer than two FX samples inside [FX1, FX2]")
+    raw = gotcha_product({"phase_history": np.asarray(fx[:, band]), "freq": f[band], "positions": pos,
+                          "r0": np.linalg.norm(pos, axis=1), "files": [str(path)]})
+    raw.history = [history_entry(f"import-cphd {path}", {"source": "CPHD (standard fields only)",
+                                                          "fx_samples_in_band": int(np.count_nonzero(band))})]
+    return raw
 
 
 def _radar_kwargs(d: dict) -> dict:
