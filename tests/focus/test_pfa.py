@@ -173,11 +173,12 @@ def test_hard_cases_stay_finite_and_focused(change):
             assert ax.pslr_db == pytest.approx(-13.26, abs=0.5), (t.name, ax.axis)
 
 
-def test_prf_barely_above_the_footprint_band_is_refused_or_warned():
-    """2 % above the deramped footprint band leaves no sub-aperture room: a clear refusal, not a ghost."""
+def test_prf_barely_above_the_footprint_band_is_refused():
+    """2 % above the footprint's deramped band (202.6 Hz here; the swept scene needs 469 Hz) leaves a
+    sub-aperture no room to slide: a clear refusal naming the fix, not a ghost."""
     from sarproc.product.errors import InputError
 
-    scene = merge(SLIDING, {"radar": {"prf": "150 Hz"}})
+    scene = merge(SLIDING, {"radar": {"prf": "207 Hz"}})
     raw = simulate(scene_from_mapping(scene))
     with pytest.raises(InputError, match="raise the PRF"):
         pfa2(raw, Pfa2Params(method="plain", dealias="on"))
