@@ -130,7 +130,9 @@ def _slug(text: str) -> str:
 
 def _task_id(scene: str, setting: dict) -> str:
     parts = [scene] + [f"{k.rsplit('.', 1)[-1]}={v}" for k, v in setting.items()]
-    return _slug("__".join(parts))
+    slug = _slug("__".join(parts))
+    # directory names stay well under file-system limits; the hash keeps long ones distinct
+    return slug if len(slug) <= 100 else f"{slug[:80]}__{digest(setting)[:12]}"
 
 
 def plan_sweep(path, output=None) -> Plan:
