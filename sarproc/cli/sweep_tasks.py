@@ -135,6 +135,31 @@ def _task_id(scene: str, setting: dict) -> str:
     return slug if len(slug) <= 100 else f"{slug[:80]}__{digest(setting)[:12]}"
 
 
+# command -> (its --config section, its parameter model): checked for every task before anything runs
+STAGE_PARAMS = {
+    "backproject": ("backproject", "sarproc.focus.backprojection:BackprojectParams"),
+    "preprocess": ("preprocess", "sarproc.focus.squint_deramp.preprocess:PreprocessParams"),
+    "coarse-focus": ("coarse_focus", "sarproc.focus.squint_deramp.coarse_focus:CoarseFocusParams"),
+    "fine-focus": ("fine_focus", "sarproc.focus.squint_deramp.fine_focus:FineFocusParams"),
+    "pfa2": ("pfa2", "sarproc.focus.pfa.chain:Pfa2Params"),
+    "array3d": ("array3d", "sarproc.focus.array3d.linear_array:Array3DParams"),
+    "reconstruct": ("reconstruct", "sarproc.focus.multichannel.reconstruct:ReconstructParams"),
+    "evaluate": ("evaluate", "sarproc.quality.metrics:EvaluateParams"),
+}
+
+
+def check_stage_sections(config: dict, commands, where: str) -> None:
+    """Build each stage's parameters from ``config`` (bad knobs fail here, naming the task and key)."""
+    import importlib
+
+    for command in commands:
+        if command not in STAGE_PARAMS:
+            continue          # checked when it runs
+        section, target = STAGE_PARAMS[command]
+        module, name = target.split(":")
+        build(getattr(importlib.import_module(module), name), config.get(section) or {}, where, section)
+
+
 def plan_sweep(path, output=None) -> Plan:
     """Expand a sweep YAML into simulation jobs and tasks; every scene is validated first."""
     from sarproc.simulation.scene import scene_from_mapping
@@ -168,6 +193,7 @@ def plan_sweep(path, output=None) -> Plan:
                     set_dotted(config, key, value, f"{path}: grid/cases")
                 where = f"{scene_file} with {setting}" if setting else str(scene_file)
                 scene = scene_from_mapping(copy.deepcopy(config), source=where)
+                check_stage_sections(config, (*params.focus, "evaluate"), where)
                 sim_key = digest({"sarproc": __version__, "command": "simulate", "scene": scene.resolved()})
                 if sim_key not in sims:
                     stem = f"{_slug(scene_name)}-{sim_key[:10]}"

@@ -63,6 +63,11 @@ def test_plan_shares_raw_products_and_validates(sweep_file):
     bad.write_text(yaml.safe_dump({"scenes": {"one": "one.yaml"}, "grid": {"radar.prf": ["-1 Hz"]}, "output": "x"}))
     with pytest.raises(InputError, match="radar.prf"):
         plan_sweep(bad)
+    # a stage knob out of range is refused at planning, before any task runs
+    bad.write_text(yaml.safe_dump({"scenes": {"one": "one.yaml"}, "grid": {"backproject.upsample": [4, 0]},
+                                   "output": "x"}))
+    with pytest.raises(InputError, match=r"'backproject.upsample': 0}: backproject.upsample: 0 is out of range"):
+        plan_sweep(bad)
 
 
 def test_local_cluster_gives_the_serial_table(sweep_file, serial, tmp_path):
