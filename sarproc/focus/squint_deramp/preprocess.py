@@ -27,7 +27,7 @@ import scipy.fft as sfft
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import C, RadarMetadata
-from sarproc.dsp.phasor import unit_phasor
+from sarproc.dsp.phasor import multiply_separable_phase
 from sarproc.product.model import Product
 
 METHODS = ("nonlinear", "linear", "none")
@@ -78,15 +78,18 @@ def doppler_correction(signal: np.ndarray, azimuth_time: np.ndarray, radar: Rada
         beta = correction_frequency(radar, np.zeros(1), method)[0]
         out[...] = signal * np.exp(2j * np.pi * beta * t)[:, None].astype(cdt)
         return out
-    f_r = sfft.fftfreq(n_rg, 1.0 / radar.range_sampling_rate)
+    # FFT length from next_fast_len (6483 = 3 x 2161 samples took 3.4x longer than 6561); the correction is a
+    # range shift, so the padding also keeps a little of what walks past the window's end from wrapping around
+    n_fft = sfft.next_fast_len(n_rg)
+    f_r = sfft.fftfreq(n_fft, 1.0 / radar.range_sampling_rate)
     beta = correction_frequency(radar, f_r, method)
     starts = range(0, len(t), block_pulses)
     for s in (progress(starts) if progress is not None else starts):
         e = min(s + block_pulses, len(t))
-        spec = sfft.fft(signal[s:e].astype(cdt), axis=1, workers=-1)
-        cyc = t[s:e, None] * beta[None, :]                 # float64 cycles (beta t reaches 2e5)
-        spec *= unit_phasor(cyc - np.floor(cyc))
-        out[s:e] = sfft.ifft(spec, axis=1, workers=-1)
+        spec = sfft.fft(signal[s:e].astype(cdt), n=n_fft, axis=1, workers=-1)
+        # float64 cycles beta t (they reach 2e5), summed and turned into phasors inside one compiled loop
+        multiply_separable_phase(spec, [t[s:e]], [beta], cycles=True)
+        out[s:e] = sfft.ifft(spec, axis=1, workers=-1, overwrite_x=True)[:, :n_rg]
     return out
 
 
