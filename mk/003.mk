@@ -8,8 +8,8 @@ reproduce-003: $(STAMP)
 	$(SARPROC) reconstruct results/003/raw_mc.h5 -o results/003/raw_modified.h5 --config configs/xu_scene.yaml --overwrite --no-progress
 	$(PY) scripts/reproduce_003.py --results results/003 --config configs/xu_scene.yaml
 	$(PY) scripts/hard_cases_003.py --results results/003 --config configs/xu_small.yaml
-	$(SARPROC) evaluate results/003/image_modified.h5 -o results/003/report_modified.json --config configs/xu_scene.yaml > results/003/report_modified.md
-	$(SARPROC) evaluate results/003/image_conventional.h5 -o results/003/report_conventional.json --config configs/xu_scene.yaml > results/003/report_conventional.md
+	$(SARPROC) evaluate results/003/image_modified.h5 -o results/003/report_modified.json --config configs/xu_scene.yaml --overwrite > results/003/report_modified.md
+	$(SARPROC) evaluate results/003/image_conventional.h5 -o results/003/report_conventional.json --config configs/xu_scene.yaml --overwrite > results/003/report_conventional.md
 
 accuracy-003: $(STAMP)
 	mkdir -p results/003-accuracy
