@@ -16,15 +16,13 @@ Writes table.md, table.json and accuracy.png under --results.
 from __future__ import annotations
 
 import argparse
-import copy
 import json
 import time
 from pathlib import Path
 
-import numpy as np
 
 from reproduce_003 import focus, ghost_strips, scene_mapping, sim
-from sarproc.focus.backprojection import BackprojectParams, backproject
+from sarproc.focus.backprojection import BackprojectParams
 from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct
 from sarproc.quality.metrics import EvaluateParams, evaluate_product
 
