@@ -20,7 +20,6 @@ import json
 import time
 from pathlib import Path
 
-
 from reproduce_003 import focus, ghost_strips, scene_mapping, sim
 from sarproc.focus.backprojection import BackprojectParams
 from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct
