@@ -61,31 +61,21 @@ def want_progress(flag) -> bool:
     return sys.stderr.isatty() if flag is None else bool(flag)
 
 
-# Top-level sections a --config file may hold: every stage's own, and a scene's (one file can
-# describe a scene and its processing). New stages add theirs to STAGE_SECTIONS.
-STAGE_SECTIONS = ("backproject", "preprocess", "coarse_focus", "fine_focus", "pfa2", "reconstruct", "array3d",
-                  "evaluate", "sweep", "geolocation")
-
-
-def known_sections() -> tuple[str, ...]:
+def check_sections(data: dict, path) -> None:
+    """Refuse a top-level key that is no stage's, no other command's and no scene's section (a typo
+    would otherwise be ignored and the defaults used)."""
     import dataclasses
 
-    from sarproc.simulation.scene import STAGE_SECTIONS as SCENE_STAGE_SECTIONS, SceneParams
-
-    scene = tuple(f.name for f in dataclasses.fields(SceneParams))
-    return tuple(dict.fromkeys(STAGE_SECTIONS + tuple(SCENE_STAGE_SECTIONS) + scene))
-
-
-def check_sections(data: dict, path) -> None:
-    """Refuse a top-level key that is no stage's and no scene's section (a typo would be ignored)."""
-    from sarproc.product.config import did_you_mean
+    from sarproc.product.config import OTHER_SECTIONS, STAGE_SECTIONS, did_you_mean
     from sarproc.product.errors import InputError
+    from sarproc.simulation.scene import SceneParams
 
-    known = known_sections()
+    commands = STAGE_SECTIONS + OTHER_SECTIONS
+    known = commands + tuple(f.name for f in dataclasses.fields(SceneParams))
     unknown = [k for k in data if k not in known]
     if unknown:
         raise InputError(f"{path}: unknown section(s) {', '.join(map(repr, unknown))}{did_you_mean(unknown, known)}; "
-                         f"a config file holds stage sections ({', '.join(STAGE_SECTIONS)}) and scene sections")
+                         f"a config file holds command sections ({', '.join(commands)}) and scene sections")
 
 
 def load_config(cls, path, section: str | None = None):

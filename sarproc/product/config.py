@@ -21,6 +21,13 @@ from sarproc.product.units import parse_quantity
 
 MISSING = dataclasses.MISSING
 
+# Top-level sections one YAML file may hold besides a scene's: each processing stage reads its
+# own (STAGE_SECTIONS), other commands theirs (OTHER_SECTIONS). Any other key is refused, so a
+# misspelt section cannot be ignored silently. A new stage adds its section here.
+STAGE_SECTIONS = ("backproject", "preprocess", "coarse_focus", "fine_focus", "pfa2", "reconstruct", "array3d",
+                  "evaluate")
+OTHER_SECTIONS = ("geolocation", "sweep")
+
 
 def param(
     unit: str | None = None,

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from sarproc.product import beam
-from sarproc.product.config import as_dict, build, load_yaml, param
+from sarproc.product.config import OTHER_SECTIONS, STAGE_SECTIONS, as_dict, build, load_yaml, param
 from sarproc.product.errors import InputError
 from sarproc.product.frames import frame_coordinates, frame_names, make_frame
 from sarproc.product.metadata import C, RadarMetadata, scene_center_from_geometry
@@ -24,8 +24,6 @@ from sarproc.product.model import make_targets
 
 log = logging.getLogger(__name__)
 
-STAGE_SECTIONS = ("backproject", "preprocess", "coarse_focus", "fine_focus", "pfa2", "reconstruct", "array3d",
-                  "evaluate")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -262,7 +260,7 @@ def scene_from_mapping(mapping: dict, source: str = "<mapping>") -> Scene:
 
     mapping = dict(mapping)
     declared = tuple(section for section in STAGE_SECTIONS if section in mapping and section != "evaluate")
-    for section in STAGE_SECTIONS:
+    for section in STAGE_SECTIONS + OTHER_SECTIONS:
         mapping.pop(section, None)
     p = build(SceneParams, mapping, source=source)
     r, g, pl = p.radar, p.geometry, p.platform
