@@ -39,13 +39,17 @@ def markdown_table(report, units: dict) -> str:
             window = "truncated" if m.truncated else "full"
             if t.neighbours_removed:
                 window += f", minus {'+'.join(t.neighbours_removed)}"
+            if m.contaminated_db is not None:
+                window += f", contaminated ({m.contaminated_db:.1f} dB)"
             lines.append(f"| {t.name} | {m.axis} | {_direction(m, report.dims)} | {_fmt(m.irw, '.4g')} {u} | "
                          f"{_fmt(m.irw_ratio, '.4f')} | {_fmt(m.pslr_db, '.2f')} | {_fmt(m.islr_db, '.2f')} | "
                          f"{_fmt(m.position_error, '.3g')} {u} | {_fmt(m.position_error_cells, '.4f')} | {window} | "
                          f"{_fmt(i.irw_ratio, '.4f')} | {_fmt(i.pslr_db, '.2f')} | {_fmt(i.islr_db, '.2f')} |")
     lines.append("\nCuts along each response's principal axes (side-lobe ridges, from the chip's spectral support); "
                  "'truncated': the ISLR window reaches the image edge (unverified); 'minus X': the fitted ideal "
-                 "response of target X was subtracted first.")
+                 "response of target X was subtracted first; 'contaminated': neighbours that ideal responses do not fit "
+                 "(fit residual above -30 dB) still put that much energy, relative to the main lobe, in the window "
+                 "(unverified).")
     ft = report.false_target
     if ft is None:
         lines.append("\nFalse target: none (no pixel lies outside the target neighbourhoods of "

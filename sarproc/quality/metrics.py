@@ -102,6 +102,8 @@ class AxisMetrics:
     direction: tuple = ()       # cut direction in axis units per unit along its own axis (dims order)
     angle_deg: float = 0.0      # angle between the cut and its image axis (metric if given, else in nulls)
     truncated: bool = False     # the ISLR window (+2 nulls) of this cut leaves the image: unverified
+    contaminated_db: Optional[float] = None  # neighbours poorly fitted by ideal responses put this much energy
+                                              # (dB of the main lobe's) in the ISLR window: unverified
 
 
 @dataclasses.dataclass(frozen=True)
@@ -543,9 +545,10 @@ def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
             pos, value = chip.refine_peak(f["pos"])
             V, f_c = _support(chip, nulls, params)
             found[i] = {**f, "chip": chip, "pos": pos, "value": value, "V": V, "f_c": f_c,
-                        "removed": tuple(names[j] for j in others)}
+                        "removed": tuple(names[j] for j in others),
+                        "residual_models": [models[j] for j in others if models[j]["misfit"] > NEIGHBOUR_MISFIT]}
     reports = [_measure(f["chip"], axes, f["peak_index"], f["pos"], f["value"], f["V"], t, name, params, metric,
-                        f["removed"]) for f, name, t in zip(found, names, truth)]
+                        f["removed"], f.get("residual_models", []), names, found) for f, name, t in zip(found, names, truth)]
     false = _false_target(data, mag, axes, truth, [f["peak_index"] for f in found], reports, half, params)
     return QualityReport(dims=dims, targets=tuple(reports), false_target=false, params=params)
 
@@ -627,13 +630,18 @@ def _neighbour_models(data, found: list, nulls, half, params) -> dict:
                     V[q][a, b] += dv
             if largest < 1e-3:   # band centres within 1e-5 cycles/sample, positions and skews within 1e-3
                 break
-        amp = np.linalg.lstsq(np.stack([model(q) for q in range(len(members))], axis=1), y, rcond=None)[0]
+        basis = np.stack([model(q) for q in range(len(members))], axis=1)
+        amp = np.linalg.lstsq(basis, y, rcond=None)[0]
+        # How well ideal responses explain the group: a poor fit leaves the neighbours' side lobes in.
+        misfit = float(np.sum(np.abs(y - basis @ amp) ** 2) / max(np.sum(np.abs(y) ** 2), 1e-300))
         for q, k in enumerate(members):
-            models[k] = {"pos": pos[q], "f_c": f_c[q], "V": V[q], "amp": amp[q], "group": set(members)}
+            models[k] = {"pos": pos[q], "f_c": f_c[q], "V": V[q], "amp": amp[q], "group": set(members),
+                         "misfit": misfit}
     return models
 
 
-def _measure(chip: "_Chip", axes, peak_index, pos, value, V, truth, name, params, metric, removed) -> TargetReport:
+def _measure(chip: "_Chip", axes, peak_index, pos, value, V, truth, name, params, metric, removed,
+             residual_models=(), names=(), found=()) -> TargetReport:
     peak2 = abs(value) ** 2
     if peak2 == 0:
         pos = np.full(len(axes), np.nan)
@@ -641,9 +649,34 @@ def _measure(chip: "_Chip", axes, peak_index, pos, value, V, truth, name, params
     image_axes = [_cut(chip, axes, a, eye[a], pos, peak2, truth, params, metric) for a in range(len(axes))]
     principal = [image_axes[a] if np.array_equal(V[a], eye[a]) else
                  _cut(chip, axes, a, V[a], pos, peak2, truth, params, metric) for a in range(len(axes))]
+    if residual_models and peak2 > 0:
+        principal = [_contamination(m, axes, a, V[a], pos, peak2, residual_models, params)
+                     for a, m in enumerate(principal)]
     return TargetReport(name=name, peak_amplitude=abs(value), peak_phase=float(np.angle(value)),
                         peak_index=tuple(peak_index), chip_clipped=chip.clipped, axes=tuple(principal),
                         image_axes=tuple(image_axes), neighbours_removed=tuple(removed))
+
+
+NEIGHBOUR_MISFIT = 1e-3   # group fit residual (energy ratio) above which subtracted neighbours may leave side lobes
+CONTAMINATION = 0.01     # neighbours' modelled energy in a cut's ISLR window / the main lobe's: flag above
+
+
+def _contamination(m: AxisMetrics, axes, a, v, pos, peak2, models, params) -> AxisMetrics:
+    """Flag a cut whose ISLR window holds more than CONTAMINATION of its main-lobe energy from neighbours
+    that ideal responses did not fit well (so their subtraction leaves an unknown residual)."""
+    ax = axes[a]
+    window = params.islr_nulls * ax.null
+    t = np.arange(-int(math.ceil(window * 4)), int(math.ceil(window * 4)) + 1) / 4.0
+    points = pos[:, None] + np.outer(v, t)
+    hamming = params.irw_factor > 1.1
+    nulls = [x.null for x in axes]
+    energy = sum(np.sum(np.abs(mod["amp"] * _ideal_response(points, mod["pos"], mod["V"], nulls, mod["f_c"], hamming))
+                        ** 2) for mod in models) / 4.0
+    main = peak2 * 0.903 * ax.null          # unweighted main-lobe energy along the cut (0.903 of the total)
+    ratio = float(energy / main)
+    if ratio <= CONTAMINATION:
+        return m
+    return dataclasses.replace(m, contaminated_db=float(10 * np.log10(ratio)))
 
 
 def _cut(chip: "_Chip", axes, a, v, pos, peak2, truth, params, metric) -> AxisMetrics:
@@ -860,7 +893,7 @@ class CheckFailure:
 
     def __str__(self):
         where = "false target" if self.target is None else f"target {self.target} axis {self.axis}"
-        if self.metric == "truncated":
+        if self.metric in ("truncated", "contaminated"):
             return f"FAIL {where}: unverified, {self.bound}"
         return f"FAIL {where}: {self.metric} = {self.value:.4g}, expected {self.bound}"
 
@@ -892,6 +925,11 @@ def check_report(report: QualityReport, expect: Expectations, source: str = "") 
             if m.truncated and any(bound[k] is not None for k in METRIC_KEYS if k != "position_cells_max"):
                 # a cut measured on a window that leaves the image is never counted as a pass
                 fail("truncated", math.nan, "the cut's ISLR window reaches the image edge (truncated)")
+                continue
+            if m.contaminated_db is not None and any(bound[k] is not None for k in METRIC_KEYS
+                                                     if k != "position_cells_max"):
+                fail("contaminated", m.contaminated_db, f"neighbours that ideal responses do not fit put "
+                     f"{m.contaminated_db:.1f} dB of the main-lobe energy in the ISLR window (contaminated)")
                 continue
             # NaN compares False everywhere, so each test is written to fail on NaN.
             if bound["irw_ratio_max"] is not None and not m.irw_ratio <= bound["irw_ratio_max"]:
