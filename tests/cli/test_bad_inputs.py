@@ -217,8 +217,10 @@ scene_case("scene-reference-longitude-bare", {**SCENE, "reference": {"latitude":
 scene_case("scene-reference-height-alone", {**SCENE, "reference": {"height": "10 m"}}, "reference", "height")
 # sizes refused by the plan before any work (the message names the output and what does not fit)
 scene_case("scene-output-too-large", {**SCENE, "acquisition": {"n_pulses": 199000, "range_window":
-                                                               {"start": "2 km", "end": "78 km"}}}, "raw.h5", "needs")
-scene_case("scene-pulse-two-seconds", with_change(SCENE, "radar", "pulse_duration", "2 s"), "raw.h5", "needs")
+                                                               {"start": "2 km", "end": "78 km"}}}, "raw.h5", "needs",
+           "acquisition.range_window")
+scene_case("scene-pulse-two-seconds", with_change(SCENE, "radar", "pulse_duration", "2 s"), "raw.h5", "needs",
+           "radar.pulse_duration 2 s")
 
 
 # --- stage configs (--config): file problems, sections, keys
