@@ -143,3 +143,23 @@ def test_cut_reaching_the_edge_is_truncated_and_unverified():
     fails = check_report(rep, exp)
     assert [(f.target, f.axis, f.metric) for f in fails] == [("B", "range", "truncated")]
     assert "unverified" in str(fails[0])
+
+
+def test_poorly_modelled_neighbour_is_flagged_contaminated():
+    # Both responses carry a quadratic phase along azimuth (pi q x^2, 0.9 rad two nulls out) that the
+    # flat-spectrum neighbour model lacks: the subtraction cannot be trusted, the cut says so.
+    bx, by = 0.886 / 1.0, 0.886 / 0.8
+    targets = [(0.1, -0.2), (0.1 + 10 / bx, -0.2)]
+    img, coords, metric, theory = skewed_image(0.0, bx, by, targets)
+    a = axis_coords(200, 0.5)
+    chirp = np.exp(1j * 0.9 / (2 / bx) ** 2 * np.add.outer(
+        np.minimum((a - targets[0][0]) ** 2, (a - targets[1][0]) ** 2), np.zeros(200)))
+    img = (img * chirp).astype(np.complex64)
+    rep = evaluate_image(img, DIMS, coords, theory, targets, names=["A", "B"], metric=metric)
+    for t in rep.targets:
+        assert t.axes[0].contaminated_db is not None and t.axes[0].contaminated_db > -20
+        assert t.axes[1].contaminated_db is None          # nothing of the neighbour along range
+    fails = check_report(rep, expectations_from_mapping({"pslr_db": [-30, 0]}))
+    assert {(f.target, f.axis, f.metric) for f in fails} == {("A", "azimuth", "contaminated"),
+                                                             ("B", "azimuth", "contaminated")}
+    assert all("unverified" in str(f) for f in fails)
