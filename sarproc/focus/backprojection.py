@@ -110,7 +110,7 @@ def backproject_points(rc, range_time, tx_pos, rx_pos, points, carrier_frequency
                        interpolation: str = "linear", gate_offset=None, block_elements: int = 131_072,
                        progress=None, workers: int | None = None, engine: str = "reference",
                        kernel_length: int = 8, oversampling: float | None = None,
-                       tile_points: int = 256) -> np.ndarray:
+                       tile_points: int = 1024) -> np.ndarray:
     """Backproject range-compressed pulses onto arbitrary points.
 
     rc: (n_az, n_range) complex range-compressed data; range_time: (n_range,) s, uniform;
@@ -182,7 +182,6 @@ def _backproject_compiled(rc, t0, dt, gate, tx_pos, rx_pos, monostatic, points, 
     n_az, n_rg = rc.shape
     if len(points) == 0:
         return np.zeros(0, np.complex128)
-    pulses_f = upsample_range(rc, upsample).view(np.float32)        # (n_az, 2 n_samples): re, im pairs
     mode = {"nearest": 0, "linear": 1}.get(interpolation, 2)
     taps = 0
     table = np.zeros(2, np.float32)
@@ -196,14 +195,15 @@ def _backproject_compiled(rc, t0, dt, gate, tx_pos, rx_pos, monostatic, points, 
     tx_c = np.ascontiguousarray(tx_pos - origin)
     rx_c = np.ascontiguousarray(rx_pos - origin)
     acc = np.zeros(len(points), np.complex128)
-    chunk = max(1, min(n_az, 64))
+    chunk = max(1, min(n_az, 128))             # pulses upsampled and backprojected at a time (bounded memory)
     spans = [(s, min(s + chunk, n_az)) for s in range(0, n_az, chunk)]
     old = numba.get_num_threads()
     if workers:
         numba.set_num_threads(max(1, min(int(workers), numba.config.NUMBA_NUM_THREADS)))
     try:
         for s, e in (progress(spans) if progress is not None else spans):
-            bk.backproject_tiles(pulses_f[s:e], first[s:e], fs_up / C, carrier_frequency / C, tx_c[s:e], rx_c[s:e],
+            pulses_f = upsample_range(rc[s:e], upsample).view(np.float32)   # (n, 2 n_samples): re, im pairs
+            bk.backproject_tiles(pulses_f, first[s:e], fs_up / C, carrier_frequency / C, tx_c[s:e], rx_c[s:e],
                                  monostatic, centres, tile_start, d, mode, table, taps, acc)
     finally:
         numba.set_num_threads(old)

@@ -87,19 +87,36 @@ def _positions(dr, frac, cos_, sin_, dx, dy, dz, d2, frac0, cyc0, geo, monostati
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=True)
-def _accumulate_linear(acc_re, acc_im, frac, cos_, sin_, row, ibase, n_s):
+def _split_linear(frac, jc, w0, w1, ibase, n_s):
+    """Sample index (clipped, as float pairs) and the two masked linear weights; vectorises."""
     one = np.float32(1.0)
     zero = np.float32(0.0)
-    for i in range(len(acc_re)):
+    for i in range(len(frac)):
         fl = np.floor(frac[i])
         w = frac[i] - fl
         j = ibase + np.int32(fl)
         ok = (j >= 0) & (j < n_s - 1)
-        jc = np.int32(2) * min(max(j, np.int32(0)), np.int32(n_s - 2))
-        w0 = (one - w) if ok else zero
-        w1 = w if ok else zero
-        vr = row[jc] * w0 + row[jc + 2] * w1
-        vi = row[jc + 1] * w0 + row[jc + 3] * w1
+        jc[i] = min(max(j, np.int32(0)), np.int32(n_s - 2))
+        w0[i] = (one - w) if ok else zero
+        w1[i] = w if ok else zero
+
+
+@numba.njit(fastmath=True, error_model="numpy", cache=True)
+def _gather_pairs(row, jc, g):
+    """g[2i], g[2i + 1] = row[jc[i]], row[jc[i] + 1] (complex64): the only indirect loads, kept alone in their
+    loop (numba cannot tell the compiler they do not alias the stores, so this loop stays scalar; vector
+    gathers measured 10 % slower here)."""
+    for i in range(len(jc)):
+        k = jc[i]
+        g[2 * i] = row[k]
+        g[2 * i + 1] = row[k + 1]
+
+
+@numba.njit(fastmath=True, error_model="numpy", cache=True)
+def _combine_linear(acc_re, acc_im, g, w0, w1, cos_, sin_):
+    for i in range(len(acc_re)):
+        vr = g[4 * i] * w0[i] + g[4 * i + 2] * w1[i]
+        vi = g[4 * i + 1] * w0[i] + g[4 * i + 3] * w1[i]
         acc_re[i] += vr * cos_[i] - vi * sin_[i]
         acc_im[i] += vr * sin_[i] + vi * cos_[i]
 
@@ -170,12 +187,16 @@ def backproject_tiles(pulses, first, scale, kc, tx, rx, monostatic, centres, til
     n_tiles = len(tile_start) - 1
     scale32 = np.float32(scale)
     kc32 = np.float32(kc)
+    pulses_c = pulses.view(np.complex64)
     for t in numba.prange(n_tiles):
         s0, s1 = tile_start[t], tile_start[t + 1]
         n = s1 - s0
         acc_re = np.zeros(n, np.float32)
         acc_im = np.zeros(n, np.float32)
         scratch = np.empty((7, n), np.float32)
+        jc = np.empty(n, np.int32)
+        gc = np.empty(2 * n, np.complex64)
+        g = gc.view(np.float32)
         dx, dy, dz, d2 = d[0, s0:s1], d[1, s0:s1], d[2, s0:s1], d[3, s0:s1]
         cx, cy, cz = centres[t, 0], centres[t, 1], centres[t, 2]
         for p in range(n_pulses):
@@ -185,7 +206,9 @@ def backproject_tiles(pulses, first, scale, kc, tx, rx, monostatic, centres, til
             # the tile's base sample, clipped so that int32 offsets cannot overflow (far reads are masked anyway)
             ib = np.int32(min(max(ibase, -(1 << 28)), 1 << 28))
             if mode == 1:
-                _accumulate_linear(acc_re, acc_im, scratch[1], scratch[2], scratch[3], pulses[p], ib, n_s)
+                _split_linear(scratch[1], jc, scratch[4], scratch[5], ib, n_s)
+                _gather_pairs(pulses_c[p], jc, gc)
+                _combine_linear(acc_re, acc_im, g, scratch[4], scratch[5], scratch[2], scratch[3])
             elif mode == 0:
                 _accumulate_nearest(acc_re, acc_im, scratch[1], scratch[2], scratch[3], pulses[p], ib, n_s)
             else:
