@@ -6,7 +6,7 @@ SARPROC := $(VENV)/bin/sarproc
 STAMP := $(VENV)/.installed
 TEST_STAMP := $(VENV)/.installed-test
 
-.PHONY: demo test venv clean bench
+.PHONY: demo test venv clean bench bench-venv
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -29,8 +29,18 @@ demo: $(STAMP)
 test: $(TEST_STAMP)
 	$(PY) -m pytest -q
 
-bench: $(STAMP)
-	$(PY) scripts/bench_foundation.py
+# Stage timings interleaved in one run, beside FastSAR (installed only in the bench venv .venv-bench,
+# never a runtime dependency); results/bench/latest.json (+ a timestamped copy). Heavy: waits for heavy.lock.
+BENCH_VENV := .venv-bench
+$(BENCH_VENV)/.installed:
+	$(PYTHON) -m venv $(BENCH_VENV)
+	$(BENCH_VENV)/bin/pip install --quiet 'fastsar==0.1.8' numpy scipy
+	touch $@
+
+bench-venv: $(BENCH_VENV)/.installed
+
+bench: $(STAMP) $(BENCH_VENV)/.installed
+	flock /tmp/heavy.lock nice $(PY) scripts/bench.py --fastsar-python $(BENCH_VENV)/bin/python
 
 clean:
 	rm -rf results build *.egg-info
