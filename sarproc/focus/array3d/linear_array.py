@@ -44,6 +44,7 @@ import scipy.fft as sfft
 from sarproc.product.config import param
 from sarproc.product.errors import InputError, ProcessingError
 from sarproc.dsp.interp import KERNELS, resample
+from sarproc.dsp.phasor import multiply_phase, multiply_separable_phase
 from sarproc.product.metadata import C, RadarMetadata
 from sarproc.dsp.rangecomp import chirp_replica
 
@@ -264,12 +265,14 @@ def elevation_compress(images: np.ndarray, ranges: np.ndarray, geom: ArrayGeomet
     pad = int(math.ceil(2 * shift_max / C * fs)) + 4
     n_fft = sfft.next_fast_len(n_rg + pad)
     f = sfft.fftfreq(n_fft, 1.0 / fs)                            # baseband range frequency, Hz
-    # Range-frequency factors per channel, (n_ch, n_f): eq. (20) and eq. (21) at a reference theta.
-    fac = np.zeros((n_ch, n_fft))
+    # Range-frequency factors per channel, fac = outer(fac_per_hz, f) (n_ch, n_f): eq. (20) and eq. (21) at a
+    # reference theta, both linear in f.
+    fac_per_hz = np.zeros(n_ch)
     if params.cross_track_rcmc_range == "reference":
-        fac += np.pi * np.outer(v**2, f) / (C * r_ref)           # eq. (20)
+        fac_per_hz += np.pi * v**2 / (C * r_ref)                 # eq. (20)
     if params.cross_track_rcmc_elevation == "reference":
-        fac += -2 * np.pi * np.outer(v * math.sin(params.reference_elevation), f) / C   # eq. (21)
+        fac_per_hz += -2 * np.pi * v * math.sin(params.reference_elevation) / C   # eq. (21)
+    fac = np.outer(fac_per_hz, f)
     spec = sfft.fft(x, n=n_fft, axis=-1, workers=workers)        # (n_ch, n_az, n_f)
     scale = 1.0 / n_ch
     out = np.empty((len(theta), n_az, n_rg), dtype=ctype)
@@ -284,10 +287,11 @@ def elevation_compress(images: np.ndarray, ranges: np.ndarray, geom: ArrayGeomet
             blocks = progress(blocks)
         for s in blocks:
             e = min(s + fb, n_fft)
-            ph = -2 * np.pi * (fc + f[s:e, None, None]) * w[None, :, None] * v[None, None, :] / C
-            ph = ph + fac[:, s:e].T[:, None, :]
-            kern = (np.exp(1j * ph) * scale).astype(ctype)       # (n_b, n_el, n_ch)
-            np.matmul(kern, spec[s:e], out=y[s:e])
+            # phase -2 pi (f_c + f) w_k v_n / c + f fac_per_hz[n], generated straight into the kernel (fused)
+            kern = np.full((e - s, len(theta) * n_ch), scale, dtype=ctype)
+            multiply_separable_phase(kern, [fc + f[s:e], f[s:e]], [(-2 * np.pi / C) * np.outer(w, v).ravel(),
+                                                                   np.tile(fac_per_hz, len(theta))])
+            np.matmul(kern.reshape(e - s, len(theta), n_ch), spec[s:e], out=y[s:e])
         del spec
         y = sfft.ifft(y, axis=0, workers=workers, overwrite_x=True)[:n_rg]    # (n_rg, n_el, n_az)
         out[...] = y.transpose(1, 2, 0)
