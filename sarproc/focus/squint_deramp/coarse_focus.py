@@ -173,7 +173,9 @@ def deramped_folds(signal: np.ndarray, azimuth_time: np.ndarray, radar: RadarMet
     correction a response's deramped frequency scales with the carrier plus range frequency, so a
     response whose true deramped frequency is f = f_app + n PRF (folded n times) moves by f x (band
     separation) / f_c between the two sub-bands: the shift of the sub-bands' power centroids within
-    +-PRF/10 of a peak measures f, hence n. That is decidable when a PRF of frequency moves a peak
+    +-PRF/10 of a peak (+-PRF/5 for smeared responses with no comparable neighbour there) measures f,
+    hence n, and a fold is claimed only when the shift of the sub-bands' own peaks gives the same n.
+    That is decidable when a PRF of frequency moves a peak
     by at least 4 coarse resolution cells between the sub-bands (PRF x band separation / f_c x
     aperture time >= 4); otherwise only the energy outside the box is reported (``n`` None).
 
@@ -224,20 +226,41 @@ def deramped_folds(signal: np.ndarray, azimuth_time: np.ndarray, radar: RadarMet
         c_lo, c_hi = (np.sum(p[idx] * f_win) / np.sum(p[idx]) for p in (p_lo, p_hi))
         return (c_hi - c_lo) / slope
 
+    def peak_frequency(i):  # the same from the sub-bands' own peaks near peak i (parabolic refinement)
+        r = int(math.ceil(4 * prf * abs(slope) * n_out / prf + 3 * cell))
+        window = np.arange(-r, r + 1)
+        pos = []
+        for p in (p_lo, p_hi):
+            v = p[(i + window) % n_out]
+            j = int(np.argmax(v))
+            frac = 0.0
+            if 0 < j < len(v) - 1:
+                d = v[j - 1] - 2 * v[j] + v[j + 1]
+                frac = 0.5 * (v[j - 1] - v[j + 1]) / d if d < 0 else 0.0
+            pos.append((window[j] + frac) * prf / n_out)
+        return (pos[1] - pos[0]) / slope
+
     out = []
     for i in accepted[:32]:
         f_app = float(freq[i])
         n = None
         if resolvable:
             # A response far outside the window is smeared (its FM rate differs from the reference):
-            # look again over twice the width when the narrow window finds no fold.
-            for r in (reach, 2 * reach):
+            # look again over twice the width when the narrow window finds no fold, unless another
+            # comparable response lies in the wider window (its energy would bias the centroids).
+            crowded = any(reach < abs((i - j + half) % n_out - half) <= 2 * reach and total[j] >= total[i] / 2
+                          for j in accepted if j != i)
+            for r in (reach,) if crowded else (reach, 2 * reach):
                 f_est = true_frequency(i, r)
                 n = int(round((f_est - f_app) / prf))
                 if n != 0 and abs(f_est - f_app - n * prf) > prf / 4:   # not a clean fold: no claim
                     n = 0
                 if n:
                     break
+            # A fold is claimed only when the sub-bands' own peaks say the same (no false alarm from
+            # the smeared energy of neighbouring responses inside the centroid window).
+            if n and int(round((peak_frequency(i) - f_app) / prf)) != n:
+                n = 0
         f_true = f_app + (n or 0) * prf
         if any(o["n"] == n and abs(o["f_app"] - f_app) <= reach * prf / n_out for o in out):
             continue   # another peak of the same (smeared) response
