@@ -7,9 +7,10 @@ at every w + m lambda / d, and the processed sector |theta| <= psi = asin(lambda
 of a range cell for short arrays), so the processor cannot tell it from a real scatterer; what it
 can say from the metadata and the data:
 
-* whether the elevation beam (one-way -3 dB width beta, centred on nadir; beta = 0: no pattern,
-  everything illuminated) reaches beyond the sector, by more than half an elevation resolution
-  cell (a sliver narrower than that images where the scatterer is anyway);
+* whether the elevation beam recorded in the product (one-way -3 dB width beta, centred on nadir)
+  reaches beyond the sector, by more than half an elevation resolution cell (a sliver narrower
+  than that images where the scatterer is anyway); with no pattern recorded (beta = 0) there is
+  nothing to compare and nothing is said;
 * which bins the folded part of the beam lands in (the alias band), and which strong responses of
   the cube lie there: each is named with the true elevation it would have if it is a fold.
 """
@@ -36,11 +37,11 @@ def alias_of(theta: float, wavelength: float, spacing: float) -> float:
 
 def alias_bands(beamwidth: float, wavelength: float, spacing: float, resolution: float) -> list[tuple]:
     """Folded parts of the beam: [(true lo, true hi, alias lo, alias hi)] in rad, empty when the beam
-    stays within the sector (to half a resolution cell). beamwidth 0 means no pattern (up to 90 deg)."""
+    stays within the sector (to half a resolution cell) or no pattern is recorded (beamwidth 0)."""
     psi = unambiguous_half_sector(wavelength, spacing)
-    edge = math.pi / 2 if beamwidth <= 0 else beamwidth / 2
-    if edge <= psi + resolution / 2 or psi >= math.pi / 2:
-        return []
+    if beamwidth <= 0 or beamwidth / 2 <= psi + resolution / 2 or psi >= math.pi / 2:
+        return []   # no pattern recorded (nothing to compare), or the beam stays within the sector
+    edge = beamwidth / 2
     bands = []
     period = wavelength / spacing
     for sign in (1.0, -1.0):   # the first fold: w - sign lambda/d (a sliver maps monotonically)
@@ -69,8 +70,7 @@ def elevation_ambiguities(cube: np.ndarray, elevation: np.ndarray, azimuth: np.n
     if not bands:
         return []
     psi = unambiguous_half_sector(wavelength, spacing)
-    beam = "no elevation pattern (the whole half space)" if beamwidth <= 0 else \
-        f"the elevation beam +-{math.degrees(beamwidth / 2):.3g} deg"
+    beam = f"the elevation beam +-{math.degrees(beamwidth / 2):.3g} deg"
     msgs = [f"{beam} reaches beyond the unambiguous sector +-{math.degrees(psi):.3g} deg = +-asin(lambda/2d) "
             f"(d = {spacing:.4g} m): scatterers at {', '.join(f'{math.degrees(lo):+.3g}..{math.degrees(hi):+.3g}' for lo, hi, _, _ in bands)} "
             f"deg fold, fully focused and at full strength, onto "
@@ -91,7 +91,10 @@ def elevation_ambiguities(cube: np.ndarray, elevation: np.ndarray, azimuth: np.n
         if level < level_db:
             continue
         th = float(elevation[sel[k[0]]])
-        line = mag[:, k[1], k[2]]
+        # strongest response per elevation near this (azimuth, range): cross-track range migration
+        # moves a response's side lobes by a bin or two in range across elevation
+        near = mag[:, max(0, k[1] - 1):k[1] + 2, max(0, k[2] - 2):k[2] + 3]
+        line = near.reshape(len(elevation), -1).max(axis=1)
         top = int(np.argmax(line))
         if elevation[top] != th:
             dw = math.sin(th) - math.sin(float(elevation[top]))
