@@ -96,13 +96,33 @@ def phasor(phase):
     return unit_phasor(cycles(phase))
 
 
-def cfft(x, axis=0):
+def _alternate(x, axis, start):
+    """x[..., start::2, ...] *= -1 along ``axis``, in place."""
+    idx = [slice(None)] * x.ndim
+    idx[axis] = slice(start, None, 2)
+    x[tuple(idx)] *= -1
+
+
+def _centred(transform, x, axis, overwrite):
+    n = x.shape[axis]
+    if n % 2:
+        return sfft.fftshift(transform(sfft.ifftshift(x, axes=axis), axis=axis, workers=-1), axes=axis)
+    # even n: the two shifts are the modulations (-1)^n before and (-1)^(k - n/2) after the transform, done
+    # in place (no rolled copies of the array)
+    y = x if overwrite else x.copy()
+    _alternate(y, axis, 1)
+    y = transform(y, axis=axis, workers=-1, overwrite_x=True)
+    _alternate(y, axis, (n // 2 + 1) % 2)
+    return y
+
+
+def cfft(x, axis=0, overwrite=False):
     """Centred DFT: time index centred on N//2 -> frequency index centred on N//2."""
-    return sfft.fftshift(sfft.fft(sfft.ifftshift(x, axes=axis), axis=axis, workers=-1), axes=axis)
+    return _centred(sfft.fft, x, axis, overwrite)
 
 
-def cifft(x, axis=0):
-    return sfft.fftshift(sfft.ifft(sfft.ifftshift(x, axes=axis), axis=axis, workers=-1), axes=axis)
+def cifft(x, axis=0, overwrite=False):
+    return _centred(sfft.ifft, x, axis, overwrite)
 
 
 def centred(n: int, step: float) -> np.ndarray:
@@ -144,9 +164,9 @@ def _residual_doppler(S, t_c, f_r, k, beta, prf):
     beta = np.mod(beta + prf / 2, prf) - prf / 2
     f_a = centred(M, 1.0 / (M * (t_c[1] - t_c[0])))
     S *= np.exp(2j * np.pi * np.mod(t_c[:, None] * beta[None, :], 1.0))
-    X = cfft(S, 0)
+    X = cfft(S, 0, overwrite=True)
     X *= np.exp(-2j * np.pi * np.mod(f_a[:, None] * beta[None, :] / k, 1.0))
-    S = cifft(X, 0)
+    S = cifft(X, 0, overwrite=True)
     S *= np.exp(1j * np.pi * np.mod(beta**2 / k, 2.0))[None, :]
     return S
 
@@ -198,11 +218,17 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
     if M * N > params.max_samples:
         raise InputError(f"fine-focus: working array {M} x {N} exceeds fine_focus.max_samples {params.max_samples}")
     f_r = centred(N, fs / N)
-    S = sfft.fftshift(sfft.fft(coarse.data.astype(cdt), n=N, axis=1, workers=-1), axes=1)
+    S = np.zeros((M, N), cdt)                                  # zero padded in one copy, transformed in place
+    S[:, :n_r] = coarse.data
+    if N % 2 == 0:
+        _alternate(S[:, :n_r], 1, 1)                              # fftshift of the spectrum as (-1)^n in time
+        S = sfft.fft(S, axis=1, workers=-1, overwrite_x=True)
+    else:
+        S = sfft.fftshift(sfft.fft(S, axis=1, workers=-1, overwrite_x=True), axes=1)
     if method != "nonlinear":
         beta = correction_frequency(radar, f_r, "nonlinear") - correction_frequency(radar, f_r, method)
         S = _residual_doppler(S, t_c, f_r, k, beta, radar.prf)
-    S = cfft(S, 0)
+    S = cfft(S, 0, overwrite=True)
     f_a = centred(M, Fa / M)
 
     # ---- 2. range compression, bulk RFM, Stolt, range IFFT -> range-Doppler (f_a, r)
@@ -231,7 +257,7 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
         masked += m_
         gc, okc = model.Gc(f_a[s:e])
         blk *= np.where(okc, np.exp(-1j * np.mod(r_ref * gc, 2 * np.pi)), 0)[:, None].astype(cdt)
-        S[s:e] = cifft(blk, 1)
+        S[s:e] = cifft(blk, 1, overwrite=True)
     RD = S  # (f_a, r): envelope at r_LRWC, azimuth phase -r_0 G_c(f_a) - 2 pi f_a t_n, reference still in
     del S
 
@@ -249,7 +275,7 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
             e = min(s + params.block_range, N)
             blk = RD[:, s:e] * np.where(okc, ref, 0)[:, None].astype(cdt)
             multiply_separable_phase(blk, np.where(okc, gc, 0)[None, :], r[None, s:e])
-            RD[:, s:e] = cifft(blk, 0)
+            RD[:, s:e] = cifft(blk, 0, overwrite=True)
         x = v * t_c
         keep = (x >= x_lo) & (x <= x_hi)
         if params.flow1_geometry == "resample":
@@ -276,10 +302,10 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
 
     # ---- 4. geometric correction in range (squint frame) and crop
     if params.output_frame == "squint":
-        spec = cfft(img, 1)
+        spec = cfft(img, 1, overwrite=True)
         multiply_separable_phase(spec, [2 * x * s_th / C, np.mod(4 * np.pi * radar.carrier_frequency * x * s_th / C,
                                                                  2 * np.pi)], [2 * np.pi * f_r, np.ones_like(f_r)])
-        img = cifft(spec, 1)
+        img = cifft(spec, 1, overwrite=True)
         frame = SquintFrame(th, radar.altitude)
         rlo, rhi = box[2] - params.crop_margin, box[3] + params.crop_margin
     else:
@@ -374,7 +400,11 @@ def _flow2(RD, t_c, f_a, r, k, model, radar, params, box, aperture, cdt, xlim, b
     for s in blocks:
         e = min(s + params.block_range, N)
         nb = e - s
-        comp = sfft.ifft(sfft.ifftshift(RD[:, s:e], axes=0), axis=0, workers=-1)   # compact t' (reference in)
+        if M % 2 == 0:                                                 # compact t' (reference in)
+            comp = sfft.ifft(RD[:, s:e], axis=0, workers=-1)
+            _alternate(comp, 0, 1)                                     # the ifftshift, as (-1)^n after
+        else:
+            comp = sfft.ifft(sfft.ifftshift(RD[:, s:e], axes=0), axis=0, workers=-1)
         pad = np.zeros((L1, nb), cdt)
         pad[:hm] = comp[:hm]
         if hl:
