@@ -1,12 +1,13 @@
 #!/usr/bin/env python
-"""Accuracy versus time for the backprojection reference: range upsampling x interpolation.
+"""Accuracy versus time for backprojection: engine x range upsampling x interpolation.
 
     python scripts/accuracy_backprojection.py [--out results/bp-accuracy] [--repeat 2]
 
 On the two reference scenes of ``make check-backprojection`` (configs/bp_stripmap.yaml,
-configs/bp_squint30.yaml) each setting of ``backproject.upsample`` and ``backproject.interpolation``
-is timed (best of ``--repeat`` in-process runs, same raw data, same grid) and its image compared with
-the finest setting (upsample 32, linear): max |image - finest| / max |finest| in dB, and the worst
+configs/bp_squint30.yaml) each setting of ``backproject.engine``, ``backproject.upsample`` and
+``backproject.interpolation`` is timed (best of ``--repeat`` in-process runs, same raw data, same grid)
+and its image compared with the finest setting (float64 reference engine, upsample 32, linear):
+max |image - finest| / max |finest| in dB, and the worst
 point-target quality over targets and axes (|IRW/theory - 1|, PSLR, ISLR, |position error| in cells).
 Writes ``table.md`` and ``table.json``.
 """
@@ -28,8 +29,11 @@ from sarproc.simulation.simulate import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = ("bp_stripmap.yaml", "bp_squint30.yaml")
-SETTINGS = [(u, "nearest") for u in (1, 4, 16)] + [(u, "linear") for u in (1, 2, 4, 8, 16, 32)]
-REFERENCE = (32, "linear")
+SETTINGS = ([("reference", u, "nearest") for u in (1, 4, 16)]
+            + [("reference", u, "linear") for u in (1, 2, 4, 8, 16, 32)]
+            + [("compiled", u, "linear") for u in (4, 8, 16)]
+            + [("compiled", u, "knab") for u in (1, 2, 4)])
+REFERENCE = ("reference", 32, "linear")
 TOL = {"irw": 0.03, "pslr": 0.3, "islr": 0.3, "pos": 0.05}   # issue 2's tolerances for the reference
 
 
@@ -50,36 +54,38 @@ def run_scene(name, repeat):
     stage = mapping.pop("backproject", {}) or {}
     raw = simulate(scene_from_mapping(mapping, name))
     rows, images = [], {}
-    for upsample, interp in [REFERENCE] + [s for s in SETTINGS if s != REFERENCE]:
-        params = build(BackprojectParams, {**stage, "upsample": upsample, "interpolation": interp}, name, "backproject")
+    for engine, upsample, interp in [REFERENCE] + [s for s in SETTINGS if s != REFERENCE]:
+        params = build(BackprojectParams, {**stage, "engine": engine, "upsample": upsample, "interpolation": interp},
+                       name, "backproject")
         best = np.inf
         for _ in range(repeat):
             t0 = time.perf_counter()
             img = backproject(raw, params)
             best = min(best, time.perf_counter() - t0)
-        images[(upsample, interp)] = img.data
+        images[(engine, upsample, interp)] = img.data
         ref = images[REFERENCE]
         dev = np.abs(img.data - ref).max() / np.abs(ref).max()
         q = worst(evaluate_product(img))
-        rows.append({"upsample": upsample, "interpolation": interp, "time_s": best,
+        rows.append({"engine": engine, "upsample": upsample, "interpolation": interp, "time_s": best,
                      "deviation_db": float(20 * np.log10(max(dev, 1e-30))), **q, "within": within(q)})
-    rows.sort(key=lambda r: (r["interpolation"], r["upsample"]))
+    rows.sort(key=lambda r: (r["engine"] != "reference", r["interpolation"], r["upsample"]))
     shape = next(iter(images.values())).shape
     return {"scene": name, "raw_shape": list(raw.data.shape), "image_shape": list(shape), "rows": rows}
 
 
 def table(result):
-    ref_t = next(r["time_s"] for r in result["rows"] if (r["upsample"], r["interpolation"]) == REFERENCE)
+    ref_t = next(r["time_s"] for r in result["rows"] if (r["engine"], r["upsample"], r["interpolation"]) == REFERENCE)
     lines = [f"## {result['scene']}", "",
              f"Raw {result['raw_shape'][0]} x {result['raw_shape'][1]}, image {result['image_shape'][0]} x "
-             f"{result['image_shape'][1]}; deviation from upsample {REFERENCE[0]} {REFERENCE[1]}.", "",
-             "| interpolation | upsample | time (s) | time / finest | deviation (dB) | worst IRW dev | "
+             f"{result['image_shape'][1]}; deviation from the {REFERENCE[0]} engine, upsample {REFERENCE[1]} "
+             f"{REFERENCE[2]}.", "",
+             "| engine | interpolation | upsample | time (s) | time / finest | deviation (dB) | worst IRW dev | "
              "worst PSLR (dB) | worst ISLR (dB) | worst position (cells) | within issue-2 tolerance |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
     for r in result["rows"]:
-        is_ref = (r["upsample"], r["interpolation"]) == REFERENCE
+        is_ref = (r["engine"], r["upsample"], r["interpolation"]) == REFERENCE
         dev = "reference" if is_ref else f"{r['deviation_db']:.1f}"
-        lines.append(f"| {r['interpolation']} | {r['upsample']} | {r['time_s']:.2f} | {r['time_s'] / ref_t:.2f} | "
+        lines.append(f"| {r['engine']} | {r['interpolation']} | {r['upsample']} | {r['time_s']:.2f} | {r['time_s'] / ref_t:.2f} | "
                      f"{dev} | {r['irw_dev']:.3f} | {r['pslr']:.2f} | {r['islr']:.2f} | "
                      f"{r['pos']:.3f} | {'yes' if r['within'] else 'NO'} |")
     return "\n".join(lines)
@@ -92,8 +98,9 @@ def main(argv=None):
     args = ap.parse_args(argv)
     results = [run_scene(s, args.repeat) for s in SCENES]
     head = ["# Backprojection reference: accuracy versus time", "",
-            "Knobs: `backproject.upsample` (range FFT upsampling before interpolation) and "
-            "`backproject.interpolation`. Tolerances of issue 2: IRW 3 %, PSLR -13.26 +- 0.3 dB, "
+            "Knobs: `backproject.engine` (float64 numpy reference or the compiled tiled kernel), "
+            "`backproject.upsample` (range FFT upsampling before interpolation) and "
+            "`backproject.interpolation` (knab: 8 taps on the upsampled samples, compiled engine only). Tolerances of issue 2: IRW 3 %, PSLR -13.26 +- 0.3 dB, "
             "ISLR -10.16 +- 0.3 dB, position 0.05 cell. Times are best of "
             f"{args.repeat} in-process runs on this machine.", ""]
     text = "\n".join(head + ["\n\n".join(table(r) for r in results)]) + "\n"
