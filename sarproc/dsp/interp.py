@@ -81,6 +81,18 @@ def _weight_table(kernel, taps, oversampling, beta, steps=_TABLE_STEPS):
     return table
 
 
+@functools.lru_cache(maxsize=32)
+def _tap_table(kernel, taps, oversampling, beta, dtype):
+    """(steps + 1, taps): row c holds the weights of taps m = 0 .. taps-1 (sample floor(p) + 1 - taps/2 + m)
+    for a fraction c / steps, i.e. the kernel at distance c / steps + taps/2 - 1 - m."""
+    flat = _weight_table(kernel, taps, oversampling, beta)
+    c = np.arange(_TABLE_STEPS + 1)[:, None]
+    m = np.arange(taps)[None, :]
+    table = np.ascontiguousarray(flat[c + (taps - 1 - m) * _TABLE_STEPS], dtype=dtype)
+    table.flags.writeable = False
+    return table
+
+
 def weight_table(kernel: str, taps: int, oversampling: float = 1.25, beta: float = 6.0,
                  steps: int = _TABLE_STEPS) -> np.ndarray:
     """Kernel values at d = -taps/2 + i / steps, i = 0 .. taps * steps, plus one trailing zero so that
@@ -91,62 +103,73 @@ def weight_table(kernel: str, taps: int, oversampling: float = 1.25, beta: float
 _MODES = {"nearest": 0, "linear": 1, "cubic": 2}   # any other kernel: tabulated (3)
 
 
-@numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=True)
-def _resample_kernel(data, pos, out, mode, taps, table, steps, zero, lo, hi):
-    """out[r, j] = sum over taps of data[r, i] w(pos[r, j] - i); zeros outside the row; pos outside [lo, hi]
-    (or NaN) gives ``zero``. Tabulated weights are renormalised to unit sum."""
-    n_rows, n_in = data.shape
-    n_out = out.shape[1]
+@numba.njit(fastmath=True, error_model="numpy", cache=True)
+def _resample_row(row, pos, out, mode, taps, table, steps, zero, lo_pos, hi_pos):
+    """One row: out[j] = sum over taps of row[i] w(pos[j] - i); zeros outside the row; pos outside
+    [lo_pos, hi_pos] (or NaN) gives ``zero``. Tabulated weights are renormalised to unit sum."""
+    n_in = len(row)
     half = taps // 2
-    for r in numba.prange(n_rows):
-        for j in range(n_out):
-            p = pos[r, j]
-            if not (p >= lo and p <= hi):
-                out[r, j] = zero
-                continue
-            acc = zero
-            if mode == 0:
-                b = int(math.floor(p + 0.5))
-                if b >= 0 and b < n_in:
-                    acc += data[r, b]
-            elif mode == 1:
-                b = int(math.floor(p))
-                f = table.dtype.type(p - b)
-                if b >= 0 and b < n_in:
-                    acc += data[r, b] * (1 - f)
-                if b + 1 >= 0 and b + 1 < n_in:
-                    acc += data[r, b + 1] * f
-            elif mode == 2:
-                b = int(math.floor(p))
-                for off in range(-1, 3):
-                    i = b + off
-                    if i >= 0 and i < n_in:
-                        x = abs(table.dtype.type(p - i))                 # Keys' cubic convolution, a = -0.5
-                        if x <= 1:
-                            w = (1.5 * x - 2.5) * x * x + 1
-                        elif x < 2:
-                            w = ((-0.5 * x + 2.5) * x - 4) * x + 2
-                        else:
-                            w = 0.0 * x
-                        acc += data[r, i] * w
-            else:
-                b = int(math.floor(p))
-                q = (p - b) * steps
-                cell = int(math.floor(q))
-                t = table.dtype.type(q - cell)
-                wsum = table.dtype.type(0)
-                # tap off = 1 - half .. half at distance frac - off: table index (frac - off + half) * steps
+    for j in range(len(out)):
+        p = pos[j]
+        if not (p >= lo_pos and p <= hi_pos):
+            out[j] = zero
+            continue
+        acc = zero
+        if mode == 0:
+            b = int(math.floor(p + 0.5))
+            if b >= 0 and b < n_in:
+                acc += row[b]
+        elif mode == 1:
+            b = int(math.floor(p))
+            f = table.dtype.type(p - b)
+            if b >= 0 and b < n_in:
+                acc += row[b] * (1 - f)
+            if b + 1 >= 0 and b + 1 < n_in:
+                acc += row[b + 1] * f
+        elif mode == 2:
+            b = int(math.floor(p))
+            for off in range(-1, 3):
+                i = b + off
+                if i >= 0 and i < n_in:
+                    x = abs(table.dtype.type(p - i))                     # Keys' cubic convolution, a = -0.5
+                    if x <= 1:
+                        w = (1.5 * x - 2.5) * x * x + 1
+                    elif x < 2:
+                        w = ((-0.5 * x + 2.5) * x - 4) * x + 2
+                    else:
+                        w = 0.0 * x
+                    acc += row[i] * w
+        else:
+            b = int(math.floor(p))
+            q = (p - b) * steps
+            cell = int(math.floor(q))
+            t = table.dtype.type(q - cell)
+            wsum = table.dtype.type(0)
+            # tap m reads sample b + 1 - half + m; its weights at this cell and the next are contiguous rows
+            # of ``table`` (see resample_rows), so the tap loop is a short dot product
+            first = b + 1 - half
+            if first >= 0 and first + taps <= n_in:
                 for m in range(taps):
-                    off = m + 1 - half
-                    k = cell + (half - off) * steps
-                    w = table[k] + (table[k + 1] - table[k]) * t
+                    w = table[cell, m] + (table[cell + 1, m] - table[cell, m]) * t
                     wsum += w
-                    i = b + off
+                    acc += row[first + m] * w
+            else:
+                for m in range(taps):
+                    w = table[cell, m] + (table[cell + 1, m] - table[cell, m]) * t
+                    wsum += w
+                    i = first + m
                     if i >= 0 and i < n_in:
-                        acc += data[r, i] * w
-                if wsum > 0:
-                    acc = acc / wsum
-            out[r, j] = acc
+                        acc += row[i] * w
+            if wsum > 0:
+                acc = acc / wsum
+        out[j] = acc
+
+
+@numba.njit(parallel=True, error_model="numpy", cache=True)
+def _resample_kernel(data, pos, out, mode, taps, table, steps, zero, lo_pos, hi_pos):
+    """Rows in parallel (the per-row work is a separate function: no accumulator is shared across rows)."""
+    for r in numba.prange(data.shape[0]):
+        _resample_row(data[r], pos[r], out[r], mode, taps, table, steps, zero, lo_pos, hi_pos)
 
 
 def resample_rows(data: np.ndarray, positions: np.ndarray, kernel: str = "knab", length: int | None = None, *,
@@ -168,9 +191,9 @@ def resample_rows(data: np.ndarray, positions: np.ndarray, kernel: str = "knab",
     wdt = out.real.dtype if np.issubdtype(out.dtype, np.inexact) else np.dtype(np.float64)
     mode = _MODES.get(kernel, 3)
     if mode == 3:
-        table = _weight_table(kernel, taps, float(oversampling), float(beta)).astype(wdt)
+        table = _tap_table(kernel, taps, float(oversampling), float(beta), wdt)
     else:
-        table = np.zeros(2, wdt)
+        table = np.zeros((2, 1), wdt)
     if not np.issubdtype(data.dtype, np.inexact):
         data = data.astype(np.float64)
     if n_rows and pos.shape[1]:
