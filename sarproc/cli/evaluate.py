@@ -82,9 +82,13 @@ def _write_text_atomic(path: Path, text: str, overwrite: bool = True) -> None:
 def evaluate(input_path: Path, output, overwrite, plot_dir, expect_path, config_path):
     """Point-target metrics of an image: IRW, PSLR, ISLR, position error and false-target level.
 
+    Cuts run along each response's principal axes (its side-lobe ridges, found from the chip's
+    spectral support); the image-axis cuts are extra columns. Neighbours inside a chip are fitted
+    as ideal responses and subtracted; a cut reaching the image edge is 'truncated', one left with
+    poorly fitted neighbour energy 'contaminated': --expect counts both as unverified (fail).
     Parameters come from the `evaluate:` section of --config (search_cells, guard_cells,
-    upsample, islr_nulls, margin_nulls, irw_factor). Prints a Markdown table; exit status 1
-    when --expect tolerances fail, 2 on bad input.
+    upsample, islr_nulls, margin_nulls, irw_factor, principal_axes, remove_neighbours). Prints a
+    Markdown table; exit status 1 when --expect tolerances fail, 2 on bad input.
     """
     from sarproc.cli.stage import evaluate_estimate, naming
     from sarproc.product.budget import check_plan
