@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 from sarproc.dsp.interp import resample_rows
@@ -117,6 +118,20 @@ class SpectrumModel:
         return f - self.fc, ok & ok0
 
 
+@numba.njit(parallel=True, error_model="numpy", cache=True)
+def _node_positions(s_n, ok_n, seg, w, f0, df, half_band, out):
+    """out[i, j]: sample position (f - f0) / df of the source frequency, linear between the exact nodes
+    seg[j], seg[j] + 1 (weight w[j]); NaN where a node is invalid or the source is outside the band."""
+    for i in numba.prange(out.shape[0]):
+        for j in range(out.shape[1]):
+            k = seg[j]
+            src = s_n[i, k] * (1.0 - w[j]) + s_n[i, k + 1] * w[j]
+            if ok_n[i, k] and ok_n[i, k + 1] and abs(src) <= half_band:
+                out[i, j] = (src - f0) / df
+            else:
+                out[i, j] = np.nan
+
+
 def stolt_resample(spec: np.ndarray, f_r: np.ndarray, f_a: np.ndarray, model: SpectrumModel,
                    kernel: str = "knab", length: int | None = 8, oversampling: float = 1.5,
                    band: float | None = None):
@@ -137,14 +152,15 @@ def stolt_resample(spec: np.ndarray, f_r: np.ndarray, f_a: np.ndarray, model: Sp
         j = np.arange(n)
         seg = np.clip(np.searchsorted(nodes, j, side="right") - 1, 0, len(nodes) - 2)
         w = (j - nodes[seg]) / (nodes[seg + 1] - nodes[seg])
-        src = s_n[:, seg] * (1 - w) + s_n[:, seg + 1] * w
-        ok = ok_n[:, seg] & ok_n[:, seg + 1]
+        pos = np.empty((len(f_a), n))
+        half_band = np.inf if band is None else band / 2 + 1e-9 * band
+        _node_positions(np.ascontiguousarray(s_n), np.ascontiguousarray(ok_n), seg, w, float(f_r[0]), float(df),
+                        half_band, pos)                                 # one parallel pass, no temporaries
     else:
         src, ok = model.source_frequency(f_r[None, :], f_a[:, None])
-    if band is not None:
-        ok &= np.abs(src) <= band / 2 + 1e-9 * band
-    pos = (src - f_r[0]) / df
-    pos = np.where(ok, pos, np.nan)
+        if band is not None:
+            ok &= np.abs(src) <= band / 2 + 1e-9 * band
+        pos = np.where(ok, (src - f_r[0]) / df, np.nan)
     out = resample_rows(spec, pos, kernel, length, oversampling=oversampling)
     # count only in-band samples lost to the square-root limit
     lim_ok = model.mapped_frequency(np.zeros(1), f_a)[1]
