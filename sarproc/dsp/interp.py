@@ -82,22 +82,21 @@ def _weight_table(kernel, taps, oversampling, beta, steps=_TABLE_STEPS):
 
 
 @functools.lru_cache(maxsize=32)
-def _tap_table(kernel, taps, oversampling, beta, dtype):
-    """(steps + 1, taps): row c holds the weights of taps m = 0 .. taps-1 (sample floor(p) + 1 - taps/2 + m)
-    for a fraction c / steps, i.e. the kernel at distance c / steps + taps/2 - 1 - m."""
-    flat = _weight_table(kernel, taps, oversampling, beta)
-    c = np.arange(_TABLE_STEPS + 1)[:, None]
+def _tap_table(kernel, taps, oversampling, beta, dtype, steps=_TABLE_STEPS):
+    flat = _weight_table(kernel, taps, oversampling, beta, steps)
+    c = np.arange(steps + 1)[:, None]
     m = np.arange(taps)[None, :]
-    table = np.ascontiguousarray(flat[c + (taps - 1 - m) * _TABLE_STEPS], dtype=dtype)
+    table = np.ascontiguousarray(flat[c + (taps - 1 - m) * steps], dtype=dtype)
     table.flags.writeable = False
     return table
 
 
-def weight_table(kernel: str, taps: int, oversampling: float = 1.25, beta: float = 6.0,
-                 steps: int = _TABLE_STEPS) -> np.ndarray:
-    """Kernel values at d = -taps/2 + i / steps, i = 0 .. taps * steps, plus one trailing zero so that
-    linear interpolation in the table may read one entry past the end (read-only, cached)."""
-    return _weight_table(kernel, int(taps), float(oversampling), float(beta), int(steps))
+def tap_table(kernel: str, taps: int, oversampling: float = 1.25, dtype=np.float64, beta: float = 6.0,
+              steps: int = _TABLE_STEPS) -> np.ndarray:
+    """(steps + 1, taps), read-only, cached: row c holds the weights of taps m = 0 .. taps-1 (sample
+    floor(p) + 1 - taps/2 + m) for the fraction p - floor(p) = c / steps, i.e. the kernel at distance
+    c / steps + taps/2 - 1 - m; interpolate linearly between rows c and c + 1."""
+    return _tap_table(kernel, int(taps), float(oversampling), float(beta), np.dtype(dtype), int(steps))
 
 
 _MODES = {"nearest": 0, "linear": 1, "cubic": 2}   # any other kernel: tabulated (3)

@@ -176,7 +176,7 @@ def _backproject_compiled(rc, t0, dt, gate, tx_pos, rx_pos, monostatic, points, 
                           interpolation, kernel_length, oversampling, tile_points, progress, workers):
     import numba
 
-    from sarproc.dsp.interp import kernel_length as taps_of, weight_table
+    from sarproc.dsp.interp import kernel_length as taps_of, tap_table
     from sarproc.focus import backprojection_kernel as bk
 
     n_az, n_rg = rc.shape
@@ -184,10 +184,10 @@ def _backproject_compiled(rc, t0, dt, gate, tx_pos, rx_pos, monostatic, points, 
         return np.zeros(0, np.complex128)
     mode = {"nearest": 0, "linear": 1}.get(interpolation, 2)
     taps = 0
-    table = np.zeros(2, np.float32)
+    table = np.zeros((2, 1), np.float32)
     if mode == 2:
         taps = taps_of(interpolation, kernel_length)
-        table = weight_table(interpolation, taps, oversampling, steps=bk._TABLE_STEPS).astype(np.float32)
+        table = tap_table(interpolation, taps, oversampling, np.float32, steps=bk._TABLE_STEPS)
     order, tile_start, centres, origin, d = bk.make_tiles(points, _tile_size(points, tile_points),
                                                           max_tile=4 * tile_points)
     fs_up = upsample / dt

@@ -135,38 +135,44 @@ def _accumulate_nearest(acc_re, acc_im, frac, cos_, sin_, row, ibase, n_s):
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=True)
-def _accumulate_table(acc_re, acc_im, frac, cos_, sin_, row, ibase, n_s, table, taps, vr, vi, wsum):
-    """Tap m is sample j - taps/2 + 1 + m, at distance w + taps/2 - 1 - m from the point: table index
-    (distance + taps/2) * steps, as in sarproc.dsp.interp. Loop over taps outside, pixels inside."""
+def _accumulate_table(acc_re, acc_im, frac, cos_, sin_, row, ibase, n_s, table, taps):
+    """Tabulated kernel: pixel i reads samples j - taps/2 + 1 .. j + taps/2 (row: complex64) with the weights
+    of its fraction cell, one contiguous row of ``table`` (steps + 1, taps) per cell (sarproc.dsp.interp
+    .tap_table), linearly interpolated between cells; the tap loop is a short contiguous dot product."""
     zero = np.float32(0.0)
     steps = np.float32(_TABLE_STEPS)
-    n = len(acc_re)
-    for i in range(n):
-        vr[i] = zero
-        vi[i] = zero
-        wsum[i] = zero
-    for m in range(taps):
-        shift = np.float32(taps - 1 - m)
-        off = np.int32(m - taps // 2 + 1)
-        for i in range(n):
-            fl = np.floor(frac[i])
-            q = (frac[i] - fl + shift) * steps
-            qf = np.floor(q)
-            qi = np.int32(qf)
-            wt = table[qi] + (table[qi + 1] - table[qi]) * (q - qf)
-            wsum[i] += wt
-            jj = ibase + np.int32(fl) + off
-            ok = (jj >= 0) & (jj < n_s)
-            jc = np.int32(2) * min(max(jj, np.int32(0)), np.int32(n_s - 1))
-            wv = wt if ok else zero
-            vr[i] += row[jc] * wv
-            vi[i] += row[jc + 1] * wv
-    for i in range(n):
-        inv = np.float32(1.0) / wsum[i]
-        a = vr[i] * inv
-        b = vi[i] * inv
-        acc_re[i] += a * cos_[i] - b * sin_[i]
-        acc_im[i] += a * sin_[i] + b * cos_[i]
+    half = taps // 2
+    for i in range(len(acc_re)):
+        fl = np.floor(frac[i])
+        q = (frac[i] - fl) * steps
+        qf = np.floor(q)
+        cell = np.int32(qf)
+        t = q - qf
+        first = ibase + np.int32(fl) + np.int32(1 - half)
+        vr = zero
+        vi = zero
+        wsum = zero
+        if first >= 0 and first + taps <= n_s:
+            for m in range(taps):
+                wt = table[cell, m] + (table[cell + 1, m] - table[cell, m]) * t
+                wsum += wt
+                v = row[first + m]
+                vr += v.real * wt
+                vi += v.imag * wt
+        else:
+            for m in range(taps):
+                wt = table[cell, m] + (table[cell + 1, m] - table[cell, m]) * t
+                wsum += wt
+                k = first + m
+                if k >= 0 and k < n_s:
+                    v = row[k]
+                    vr += v.real * wt
+                    vi += v.imag * wt
+        inv = np.float32(1.0) / wsum
+        vr *= inv
+        vi *= inv
+        acc_re[i] += vr * cos_[i] - vi * sin_[i]
+        acc_im[i] += vr * sin_[i] + vi * cos_[i]
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=True)
@@ -180,7 +186,7 @@ def backproject_tiles(pulses, first, scale, kc, tx, rx, monostatic, centres, til
     metre of two-way path (fs / c); kc: carrier cycles per metre (f_c / c); tx, rx: (n_pulses, 3) float64
     relative to the tiles' origin; centres: (n_tiles, 3) float64; tile_start: (n_tiles + 1,) int64 into the
     sorted pixels; d: (4, n_pixels) float32 rows dx, dy, dz, |d|^2 of each pixel from its tile centre;
-    mode: 0 nearest, 1 linear, 2 tabulated kernel of ``taps`` taps with ``table`` (taps * steps + 2 entries).
+    mode: 0 nearest, 1 linear, 2 tabulated kernel of ``taps`` taps with ``table`` (steps + 1, taps).
     """
     n_pulses = pulses.shape[0]
     n_s = np.int32(pulses.shape[1] // 2)
@@ -212,8 +218,8 @@ def backproject_tiles(pulses, first, scale, kc, tx, rx, monostatic, centres, til
             elif mode == 0:
                 _accumulate_nearest(acc_re, acc_im, scratch[1], scratch[2], scratch[3], pulses[p], ib, n_s)
             else:
-                _accumulate_table(acc_re, acc_im, scratch[1], scratch[2], scratch[3], pulses[p], ib, n_s, table,
-                                  taps, scratch[4], scratch[5], scratch[6])
+                _accumulate_table(acc_re, acc_im, scratch[1], scratch[2], scratch[3], pulses_c[p], ib, n_s, table,
+                                  taps)
         for i in range(n):
             acc[s0 + i] += complex(acc_re[i], acc_im[i])
 
