@@ -44,7 +44,7 @@ import scipy.fft as sfft
 from sarproc.product.config import param
 from sarproc.product.errors import InputError, ProcessingError
 from sarproc.dsp.interp import KERNELS, resample
-from sarproc.dsp.phasor import multiply_phase, multiply_separable_phase
+from sarproc.dsp.phasor import multiply_separable_phase
 from sarproc.product.metadata import C, RadarMetadata
 from sarproc.dsp.rangecomp import chirp_replica
 
