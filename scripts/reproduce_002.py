@@ -13,7 +13,6 @@ stage times, the two-step / plain cost ratio beside the paper's estimate, peak m
 from __future__ import annotations
 
 import argparse
-import math
 import resource
 import time
 from pathlib import Path

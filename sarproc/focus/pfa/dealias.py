@@ -35,7 +35,6 @@ from sarproc.focus.pfa.phase_history import PhaseHistory, reference_ranges
 from sarproc.focus.pfa.polar import los_components, wavenumbers
 from sarproc.product import beam
 from sarproc.product.errors import InputError
-from sarproc.product.metadata import C
 
 log = logging.getLogger(__name__)
 
