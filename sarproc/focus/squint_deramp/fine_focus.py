@@ -397,33 +397,41 @@ def _flow2(RD, t_c, f_a, r, k, model, radar, params, box, aperture, cdt, xlim, b
     gm, gl = (L1 + 1) // 2, L1 // 2
     twopi = 2 * np.pi
 
+    nb_max = min(params.block_range, N)
+    pad_buf = np.empty((nb_max, L1), cdt)
+    x_buf = np.empty((nb_max, N2), cdt)
     for s in blocks:
         e = min(s + params.block_range, N)
         nb = e - s
+        # the block is processed transposed, (range bins, azimuth): every FFT runs along contiguous memory
+        blk = RD[:, s:e].T
         if M % 2 == 0:                                                 # compact t' (reference in)
-            comp = sfft.ifft(RD[:, s:e], axis=0, workers=-1)
-            _alternate(comp, 0, 1)                                     # the ifftshift, as (-1)^n after
+            comp = sfft.ifft(blk, axis=1, workers=-1)
+            _alternate(comp, 1, 1)                                     # the ifftshift, as (-1)^n after
         else:
-            comp = sfft.ifft(sfft.ifftshift(RD[:, s:e], axes=0), axis=0, workers=-1)
-        pad = np.zeros((L1, nb), cdt)
-        pad[:hm] = comp[:hm]
+            comp = sfft.ifft(sfft.ifftshift(blk, axes=1), axis=1, workers=-1)
+        # zero-padded buffers reused from block to block (the transforms below may overwrite them)
+        pad = pad_buf[:nb]
+        pad[:, :hm] = comp[:, :hm]
+        pad[:, hm:L1 - hl] = 0
         if hl:
-            pad[L1 - hl:] = comp[M - hl:]
-        X1 = sfft.fft(pad, axis=0, workers=-1)
-        X1 *= ref[:, None]
-        X = np.zeros((N2, nb), cdt)
-        X[:gm] = X1[:gm]
+            pad[:, L1 - hl:] = comp[:, M - hl:]
+        X1 = sfft.fft(pad, axis=1, workers=-1, overwrite_x=True)
+        X1 *= ref[None, :]
+        X = x_buf[:nb]
+        X[:, :gm] = X1[:, :gm]
+        X[:, gm:N2 - gl] = 0
         if gl:
-            X[N2 - gl:] = X1[L1 - gl:]
+            X[:, N2 - gl:] = X1[:, L1 - gl:]
         # eq. (24) pi (Y3 f^3 + Y4 f^4), plus eq. (22) r hopc(f) (exact) for the modified variant
-        multiply_separable_phase(X, rows24, [co["Y3"][s:e], co["Y4"][s:e], r[s:e]][:len(rows24)])
-        xt = sfft.ifft(X, axis=0, workers=-1, overwrite_x=True)
-        multiply_separable_phase(xt, rows27, [co["q2"][s:e], co["q3"][s:e], co["q4"][s:e]])     # eq. (27)
-        X = sfft.fft(xt, axis=0, workers=-1, overwrite_x=True)
+        multiply_separable_phase(X, [co["Y3"][s:e], co["Y4"][s:e], r[s:e]][:len(rows24)], rows24)
+        xt = sfft.ifft(X, axis=1, workers=-1, overwrite_x=True)
+        multiply_separable_phase(xt, [co["q2"][s:e], co["q3"][s:e], co["q4"][s:e]], rows27)     # eq. (27)
+        X = sfft.fft(xt, axis=1, workers=-1, overwrite_x=True)
         vals, weights = _theta0_terms(f2, K, co, s, e)                             # eq. (33), exact
-        multiply_separable_phase(X, -vals, weights)
-        img = sfft.ifft(X, axis=0, workers=-1, overwrite_x=True)
-        out[:, s:e] = img[keep]
+        multiply_separable_phase(X, weights, -vals)
+        img = sfft.ifft(X, axis=1, workers=-1, overwrite_x=True)
+        out[:, s:e] = img[:, keep].T
     info = {"alpha": float(alpha), "nlcs_azimuth_samples": int(N2), "nlcs_time_window": float(N2 / F2),
             "nlcs_sampling_rate": float(F2), "nlcs_dispersion": float(disp),
             "nlcs_c3_max": float(np.abs(pos["c3"]).max()), "nlcs_c2_max": float(np.abs(pos["c2"]).max()),
