@@ -289,7 +289,7 @@ def figures(res, images, strips, spectra, err_rows, vel_rows):
         for method, style in (("conventional", "r-"), ("modified", "k-")):
             f, pw = spectra[(label, method)]
             ax.plot(f, 10 * np.log10(pw / pw.max() + 1e-12), style, lw=0.6, label=method)
-        ax.set_title(f"{label}: reconstructed Doppler spectrum (squint history removed)")
+        ax.set_title(f"{label}: reconstructed Doppler spectrum", fontsize=10)
         ax.set_xlabel("Doppler, Hz")
         ax.set_ylim(-60, 3)
         ax.legend()
