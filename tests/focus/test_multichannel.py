@@ -308,3 +308,19 @@ def test_wrong_products_are_refused():
         from sarproc.product.config import build
         build(ReconstructParams, {"velocity_min": "5 m/s", "velocity_max": "-5 m/s"}, source="t.yaml",
               section="reconstruct")
+
+
+def test_multichannel_and_clutter_effects_declare_their_geometry_and_cost():
+    raw = simulate(scene_from_mapping(scene()))
+    assert raw.kind == "raw_multichannel" and raw.dims == ("channel", "azimuth_time", "range_time")
+    np.testing.assert_allclose(raw.aux["rx_offset"], [[-5, 0, 0], [0, 0, 0], [5, 0, 0]])
+    np.testing.assert_allclose(raw.aux["tx_offset"], [0, 0, 0])
+    m = scene()
+    m["effects"]["clutter"] = {"n_scatterers": 1000, "azimuth_extent": "100 m", "range_extent": "100 m",
+                               "max_evaluations": 1e6}
+    with pytest.raises(InputError, match="max_evaluations"):   # 600 pulses x 3 ch x 1000 x 146 samples
+        scene_from_mapping(m)
+    with pytest.raises(InputError, match="phase_imbalance"):
+        m = scene()
+        m["effects"]["azimuth_channels"]["phase_imbalance"] = ["1 deg"]
+        scene_from_mapping(m)
