@@ -299,24 +299,83 @@ UNFOLDING_CHAINS = {"coarse_focus": "deramp chain (coarse-focus)", "pfa2": "pfa2
                     "to the scene centre)", "backproject": "backproject (time domain)"}
 
 
-def doppler_folding(scene: Scene) -> dict | None:
+# The folding check's cost is bounded whatever the scene's size: at most this many pulses (evenly
+# spaced, first and last included) and this many targets, evaluated in blocks of FOLDING_BLOCK targets.
+FOLDING_MAX_PULSES = 512
+FOLDING_MAX_TARGETS = 1024
+FOLDING_BLOCK = 128
+
+
+def _folding_pulses(n: int, cap: int) -> np.ndarray:
+    """Indices of at most ``cap`` evenly spaced pulses, the first and the last included."""
+    return np.unique(np.round(np.linspace(0, n - 1, min(n, cap))).astype(int))
+
+
+def _folding_targets(scene: Scene, t_ends: np.ndarray, cap: int) -> np.ndarray:
+    """Indices of the targets that decide the Doppler extremes, at most about ``cap`` of them.
+
+    The platform flies along x at height h, so a target's Doppler at time t is
+    2 v / lambda * sin of the angle of (x - v t, rho), rho = sqrt(y^2 + (z - h)^2): a function of
+    the direction from (v t, 0) in the (x, rho) half-plane, whose level sets are rays. Its largest and
+    smallest values over the targets therefore sit on the vertices of their convex hull in (x, rho),
+    at every time. Kept besides: the hull (thinned to half the cap when larger), each coordinate's
+    extremes, the targets with the widest end-to-end Doppler history (the widest own histories, a
+    history being monotonic in time), and an even sample of the rest to fill the cap (for beams,
+    whose illumination is not decided by the hull).
+    """
+    xyz = scene.target_xyz
+    n = len(xyz)
+    if n <= cap:
+        return np.arange(n)
+    r = scene.radar
+    x, rho = xyz[:, 0], np.hypot(xyz[:, 1], xyz[:, 2] - r.altitude)
+    keep = [np.argmin(c) for c in (x, xyz[:, 1], xyz[:, 2], rho)] + [np.argmax(c) for c in (x, xyz[:, 1], xyz[:, 2], rho)]
+    try:
+        from scipy.spatial import ConvexHull, QhullError
+
+        hull = ConvexHull(np.stack([x, rho], axis=1)).vertices
+    except (ImportError, QhullError, ValueError):   # all targets on one line: the extremes above are its ends
+        hull = np.zeros(0, int)
+    if len(hull) > cap // 2:
+        hull = hull[_folding_pulses(len(hull), cap // 2)]
+    ends = 2 * r.velocity / r.wavelength * (x[None, :] - r.velocity * t_ends[:, None]) / np.hypot(
+        x[None, :] - r.velocity * t_ends[:, None], rho[None, :])
+    widest = np.argsort(ends[0] - ends[1])[-(cap // 8):]
+    chosen = np.unique(np.concatenate([np.asarray(keep, int), hull, widest]))
+    rest = max(cap - len(chosen), 0)
+    return np.unique(np.concatenate([chosen, _folding_pulses(n, rest) if rest else np.zeros(0, int)]))
+
+
+def doppler_folding(scene: Scene, max_pulses: int | None = None, max_targets: int | None = None) -> dict | None:
     """Exact-geometry Doppler numbers of the targets over the pulses whose -3 dB beam sees them.
 
     Returns None without targets, else (all Hz): ``own`` (the widest single target's Doppler
     history), ``spread`` (the widest instantaneous spread across the illuminated targets), ``span``
     (all targets over all pulses), ``rate`` (the azimuth sampling rate: PRF x azimuth channels).
+    Evaluated on at most ``max_pulses`` x ``max_targets`` (pulse, target) pairs, in blocks of targets,
+    so that loading a scene of any size stays cheap (see :func:`_folding_targets`); smaller scenes
+    are evaluated on every pulse and target.
     """
     r = scene.radar
     if not len(scene.target_xyz):
         return None
-    t = scene.azimuth_time()
+    max_pulses = max_pulses or FOLDING_MAX_PULSES
+    max_targets = max_targets or FOLDING_MAX_TARGETS
+    t_all = scene.azimuth_time()
+    t = t_all[_folding_pulses(len(t_all), max_pulses)]
+    targets = scene.target_xyz[_folding_targets(scene, t[[0, -1]], max_targets)]
     pos = np.stack([r.velocity * t, np.zeros_like(t), np.full_like(t, r.altitude)], axis=1)
-    tg = np.broadcast_to(scene.target_xyz, (len(t),) + scene.target_xyz.shape)
-    d = tg - pos[:, None, :]
-    fd = 2 * r.velocity * d[..., 0] / np.linalg.norm(d, axis=-1) / r.wavelength      # (n_pulses, n_targets)
-    if r.azimuth_beamwidth > 0:
-        az, _ = beam.off_boresight_angles(beam.boresight(r, pos), pos, tg)
-        fd = np.where(np.abs(az) <= r.azimuth_beamwidth / 2, fd, np.nan)
+    bore = beam.boresight(r, pos) if r.azimuth_beamwidth > 0 else None
+    columns = []
+    for k0 in range(0, len(targets), FOLDING_BLOCK):
+        tg = np.broadcast_to(targets[k0:k0 + FOLDING_BLOCK], (len(t),) + targets[k0:k0 + FOLDING_BLOCK].shape)
+        d = tg - pos[:, None, :]
+        fd = 2 * r.velocity * d[..., 0] / np.linalg.norm(d, axis=-1) / r.wavelength      # (pulses, block)
+        if bore is not None:
+            az, _ = beam.off_boresight_angles(bore, pos, tg)
+            fd = np.where(np.abs(az) <= r.azimuth_beamwidth / 2, fd, np.nan)
+        columns.append(fd)
+    fd = np.concatenate(columns, axis=1)
     if not np.any(np.isfinite(fd)):
         return None
     with np.errstate(invalid="ignore"):

@@ -63,3 +63,37 @@ def test_stripmap_beam_wider_than_the_sampling_rate(scene_mapping, caplog):
     assert [lvl for lvl, _ in msgs] == ["WARNING"] and "the beam's Doppler band is 232" in msgs[0][1]
     _, msgs = messages(caplog, scene_mapping(radar={"prf": "300 Hz"}, **base))
     assert msgs == []
+
+
+@pytest.mark.parametrize("changes", [
+    {},                                                                              # spotlight, no beam
+    {"geometry": {"squint": "20 deg"}},
+    {"platform": {"altitude": "1 km"}, "geometry": {"reference_range": "2.5 km"}},
+    {"effects": {"antenna": {"azimuth_beamwidth": "3 deg"}}},                          # spotlight with a beam
+    {"acquisition": {"mode": "stripmap", "aperture_time": "4 s"}, "effects": {"antenna": {"azimuth_beamwidth": "3 deg"}}},
+])
+def test_bounded_check_agrees_with_every_pulse_and_target(scene_mapping, changes):
+    # 41 x 31 targets over 2 s (800 pulses) evaluated fully, then on 64 pulses x 200 targets.
+    m = scene_mapping(**{"acquisition": {"aperture_time": "2 s"}, **changes})
+    m["targets"] = {"grid": {"azimuth_count": 41, "range_count": 31, "azimuth_spacing": "3 m", "range_spacing": "4 m"}}
+    scene = scene_from_mapping(m, source="scene.yaml")
+    full = doppler_folding(scene, max_pulses=10**6, max_targets=10**6)
+    bounded = doppler_folding(scene, max_pulses=64, max_targets=200)
+    for key in ("own", "spread", "span"):
+        assert bounded[key] == pytest.approx(full[key], rel=0.01, abs=0.5), key
+
+
+def test_loading_many_targets_does_not_allocate_pulses_times_targets(scene_mapping):
+    # 4000 pulses x 20,000 targets: one float64 (pulses x targets) array alone would be 640 MB.
+    import tracemalloc
+
+    m = scene_mapping(acquisition={"aperture_time": "10 s"})
+    m["targets"] = {"grid": {"azimuth_count": 200, "range_count": 100, "azimuth_spacing": "1 m", "range_spacing": "1 m"}}
+    tracemalloc.start()
+    try:
+        scene = scene_from_mapping(m, source="scene.yaml")
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert scene.n_pulses == 4000 and len(scene.target_xyz) == 20_000
+    assert peak < 64e6, f"{peak / 1e6:.0f} MB"
