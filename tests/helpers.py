@@ -16,3 +16,23 @@ def assert_theory(report, irw_tol=0.03, db_tol=0.3, pos_cells=0.05, n_targets=No
             assert ax.pslr_db == pytest.approx(-13.26, abs=db_tol), where
             assert ax.islr_db == pytest.approx(-10.16, abs=db_tol), where
             assert abs(ax.position_error_cells) < pos_cells, where
+
+
+def progress_recorder(bars: list):
+    """A stage ``progress`` callable that records each bar as {'total', 'done'} in ``bars``."""
+    def progress(iterable, total=None):
+        if total is None and hasattr(iterable, "__len__"):
+            total = len(iterable)
+        bar = {"total": total, "done": 0}
+        bars.append(bar)
+        for item in iterable:
+            yield item
+            bar["done"] += 1
+    return progress
+
+
+def assert_bars_complete(bars: list, count=None):
+    """Every bar had a total and reached it."""
+    assert bars and (count is None or len(bars) == count), bars
+    for bar in bars:
+        assert bar["total"] is not None and bar["total"] > 0 and bar["done"] == bar["total"], bars

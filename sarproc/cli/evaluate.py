@@ -9,7 +9,8 @@ from pathlib import Path
 
 import click
 
-from sarproc.cli.options import config_option, info, input_argument, load_config, max_memory, max_memory_option, summary, verbosity
+from sarproc.cli.options import (config_option, info, input_argument, load_config, max_memory, max_memory_option,
+                                 progress_option, summary, verbosity, want_progress)
 
 
 def _fmt(x: float, spec: str) -> str:
@@ -78,8 +79,9 @@ def _write_text_atomic(path: Path, text: str, overwrite: bool = True) -> None:
 @click.option("--expect", "expect_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="YAML tolerances; exit 1 if any check fails.")
 @config_option
+@progress_option
 @max_memory_option
-def evaluate(input_path: Path, output, overwrite, plot_dir, expect_path, config_path):
+def evaluate(input_path: Path, output, overwrite, plot_dir, expect_path, config_path, progress):
     """Point-target metrics of an image: IRW, PSLR, ISLR, position error and false-target level.
 
     Cuts run along each response's principal axes (its side-lobe ridges, found from the chip's
@@ -90,6 +92,7 @@ def evaluate(input_path: Path, output, overwrite, plot_dir, expect_path, config_
     upsample, islr_nulls, margin_nulls, irw_factor, principal_axes, remove_neighbours). Prints a
     Markdown table; exit status 1 when --expect tolerances fail, 2 on bad input.
     """
+    from sarproc.cli.progress import progress_factory
     from sarproc.cli.stage import evaluate_estimate, naming
     from sarproc.product.budget import check_plan
     from sarproc.product.config import load_yaml
@@ -117,7 +120,8 @@ def evaluate(input_path: Path, output, overwrite, plot_dir, expect_path, config_
 
     product = read_product(input_path, kinds=("image", "image3d"))
     with naming(input_path, config_path, "evaluate"):
-        report = evaluate_product(product, params, source=str(input_path))
+        report = evaluate_product(product, params, source=str(input_path),
+                                  progress=progress_factory(want_progress(progress), "evaluate"))
     failures = check_report(report, expect, source=str(expect_path)) if expect else []
     units = {d: UNITS.get(d, "") for d in product.dims}
 

@@ -156,7 +156,7 @@ def backproject_points(rc, range_time, tx_pos, rx_pos, points, carrier_frequency
     with ThreadPoolExecutor(max_workers=n_workers) as pool:
         results = pool.map(lambda span: _backproject_block(*span, *args), spans)
         if progress is not None:
-            results = progress(results)
+            results = progress(results, total=len(spans))
         for part in results:
             acc += part
     return acc / n_az

@@ -58,6 +58,7 @@ import scipy.fft
 import scipy.interpolate
 
 from sarproc.product.config import param
+from sarproc.product.steps import steps, wrapped
 from sarproc.product.errors import InputError
 
 SINC_IRW_FACTOR = 0.886  # -3 dB width of sinc^2 times the bandwidth (0.8859 exactly)
@@ -467,7 +468,7 @@ def _cut_metrics(p: np.ndarray, step: float, center: int, window: float) -> tupl
 
 
 def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
-                   params: EvaluateParams | None = None, metric=None) -> QualityReport:
+                   params: EvaluateParams | None = None, metric=None, progress=None) -> QualityReport:
     """Measure every target of a 2D (azimuth, range) or 3D (elevation, azimuth, range) image.
 
     data: complex image, shape ``tuple(len(coords[d]) for d in dims)``; dims: axis names;
@@ -476,7 +477,8 @@ def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
     response, the -3 dB extent along that axis of the ridge that belongs to it); truth:
     (n_targets, ndim) true positions (axis units, dims order); names: n_targets labels;
     metric: optional (ndim, k) matrix, row a the physical displacement per unit of axis a (e.g.
-    the slant-plane basis of a skewed frame): cut widths are then lengths along the cut.
+    the slant-plane basis of a skewed frame): cut widths are then lengths along the cut;
+    progress: optional callable wrapping an iterable (one bar over the targets' passes).
     Raises InputError.
     """
     params = params or EvaluateParams()
@@ -506,9 +508,13 @@ def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
     mag = np.abs(data)
     half = [ax.nulls_to_samples(params.islr_nulls + params.margin_nulls) for ax in axes]
     nulls = [ax.null for ax in axes]
+    # One bar over the whole evaluation: each target's pass 1, pass 2 (when neighbours are removed) and
+    # measurement, then the false-target search.
+    n_tg = len(names)
+    done = steps(progress, n_tg * (3 if params.remove_neighbours else 2) + 1)
     # Pass 1: every target's peak and support (the neighbour models of pass 2).
     found = []
-    for name, t in zip(names, truth):
+    for name, t in wrapped(done, list(zip(names, truth))):
         idx = np.array([ax.to_index(x) for ax, x in zip(axes, t)])
         for ax, i, x in zip(axes, idx, t):
             if not (-0.5 <= i <= ax.size - 0.5):
@@ -528,7 +534,7 @@ def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
     # the image; each target is then measured on its chip minus the other members' fitted responses.
     if params.remove_neighbours:
         models = _neighbour_models(data, found, nulls, half, params)
-        for i, f in enumerate(found):
+        for i, f in wrapped(done, list(enumerate(found))):
             shape = np.array(f["raw"].shape)
             lo, hi = f["raw"].origin - np.asarray(nulls), f["raw"].origin + shape - 1 + np.asarray(nulls)
             others = [j for j, m in models.items() if j != i and i in m["group"] and
@@ -548,8 +554,10 @@ def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
                         "removed": tuple(names[j] for j in others),
                         "residual_models": [models[j] for j in others if models[j]["misfit"] > NEIGHBOUR_MISFIT]}
     reports = [_measure(f["chip"], axes, f["peak_index"], f["pos"], f["value"], f["V"], t, name, params, metric,
-                        f["removed"], f.get("residual_models", []), names, found) for f, name, t in zip(found, names, truth)]
+                        f["removed"], f.get("residual_models", []), names, found)
+               for f, name, t in wrapped(done, list(zip(found, names, truth)))]
     false = _false_target(data, mag, axes, truth, [f["peak_index"] for f in found], reports, half, params)
+    done()
     return QualityReport(dims=dims, targets=tuple(reports), false_target=false, params=params)
 
 
@@ -791,7 +799,7 @@ def frame_metric(product):
     return None if m is None or tuple(getattr(frame, "axes", ())) != tuple(product.dims) else m
 
 
-def evaluate_product(product, params: EvaluateParams | None = None, source: str = "") -> QualityReport:
+def evaluate_product(product, params: EvaluateParams | None = None, source: str = "", progress=None) -> QualityReport:
     """Evaluate an ``image``/``image3d`` :class:`sarproc.product.model.Product` against its targets table.
 
     Truth per target is the targets field named like each dim; theory is
@@ -811,7 +819,7 @@ def evaluate_product(product, params: EvaluateParams | None = None, source: str 
     truth = np.stack([product.targets[d].astype(float) for d in product.dims], axis=1)
     try:
         return evaluate_image(product.data, product.dims, product.coords, irw, truth, names, params,
-                              metric=frame_metric(product))
+                              metric=frame_metric(product), progress=progress)
     except InputError as exc:
         raise InputError(f"{where}{exc}") from None
 

@@ -340,3 +340,15 @@ def test_elevation_irw_formula():
     assert elevation_irw(v, LAM) == pytest.approx(0.886 * LAM / (28 * D), rel=0.005)
     # Two receivers: |cos(pi d w / lambda)| falls 3 dB at w = lambda / (4 d).
     assert elevation_irw(np.array([-D / 2, D / 2]), LAM) == pytest.approx(LAM / (2 * D), rel=1e-3)
+
+
+@pytest.mark.parametrize("rcmc", ["per_bin", "reference"])
+def test_progress_one_bar_over_the_whole_chain(single, rcmc):
+    from helpers import assert_bars_complete, progress_recorder
+
+    raw, _ = single
+    bars = []
+    array3d_product(raw, Array3DParams(cross_track_rcmc_elevation=rcmc, block_elements=20_000),
+                    progress=progress_recorder(bars))
+    assert_bars_complete(bars, count=1)
+    assert bars[0]["total"] > 3                      # range compression, azimuth focusing, elevation blocks

@@ -75,3 +75,17 @@ def test_hard_case_800_km_squint_60_deg_complex64():
     image = backproject(raw, BackprojectParams(frame="los", margin_cells=28))
     assert np.all(np.isfinite(image.data))
     assert_theory(evaluate_product(image), irw_tol=0.03, db_tol=0.3, pos_cells=0.05)
+
+
+def test_reference_engine_progress_has_a_total():
+    from helpers import assert_bars_complete, progress_recorder
+
+    raw = simulate(scene_from_mapping(SQUINT_SPOTLIGHT))
+    rc = range_compress(raw.data, raw.radar)
+    pos = raw.aux["platform_position"]
+    pts = np.array(raw.radar.scene_center)[None, :] + np.zeros((4, 3))
+    bars = []
+    backproject_points(rc, raw.coords["range_time"], pos, pos, pts, raw.radar.carrier_frequency,
+                       block_elements=len(pts) * 50, progress=progress_recorder(bars))
+    assert_bars_complete(bars, count=1)
+    assert bars[0]["total"] == -(-len(pos) // 50)

@@ -468,3 +468,18 @@ def test_cli_chain_and_errors(tmp_path):
     assert r.exit_code == 2 and "alpha" in r.output
     for cmd in ("preprocess", "coarse-focus", "fine-focus"):
         assert run(cli, [cmd, "--help"]).exit_code == 0
+
+
+def test_flow1_progress_covers_the_resampling():
+    from helpers import assert_bars_complete, progress_recorder
+
+    cfg = load_cfg("an2012_exp1_small.yaml")
+    cfg["radar"]["prf"] = "2000 Hz"
+    cfg["targets"]["points"] = [p for p in cfg["targets"]["points"] if p["name"] in ("C", "NE")]
+    _, c, _ = run_chain(cfg, ff={"flow": 1})
+    bars = []
+    img = fine_focus(c, build(FineFocusParams, {**(cfg["fine_focus"] or {}), "flow": 1, "flow1_geometry": "resample"}),
+                     progress=progress_recorder(bars))
+    assert img.attrs["flow"] == 1
+    # range-frequency blocks, azimuth compression, the geometric resampling: each with its total
+    assert_bars_complete(bars, count=3)

@@ -327,3 +327,15 @@ def test_missing_response_gives_undefined_metrics_that_fail_checks():
     assert json.loads(json.dumps(rep.to_dict(), allow_nan=False))["targets"][0]["axes"][0]["irw"] is None
     fails = check_report(rep, expectations_from_mapping({"irw_ratio_max": 1.05, "position_cells_max": 0.5}))
     assert len(fails) == 4
+
+
+def test_progress_one_bar_over_every_target():
+    from helpers import assert_bars_complete, progress_recorder
+
+    coords = [axis_coords(256, STEP2[0]), axis_coords(300, STEP2[1])]
+    targets = [(0.0, 0.0), (30 * STEP2[0], -40 * STEP2[1]), (-50 * STEP2[0], 20 * STEP2[1])]
+    img = separable_image(coords, [sinc_psf(b) for b in BW2], targets).astype(np.complex64)
+    bars = []
+    evaluate_image(img, ("azimuth", "range"), coords, RES2, targets, progress=progress_recorder(bars))
+    assert_bars_complete(bars, count=1)
+    assert bars[0]["total"] == 3 * len(targets) + 1      # pass 1, neighbour pass, measurement; false targets

@@ -46,6 +46,7 @@ from sarproc.product.errors import InputError, ProcessingError
 from sarproc.dsp.interp import KERNELS, resample
 from sarproc.dsp.phasor import multiply_separable_phase
 from sarproc.product.metadata import C, RadarMetadata
+from sarproc.product.steps import steps, wrapped
 from sarproc.dsp.rangecomp import chirp_replica
 
 
@@ -261,9 +262,7 @@ def elevation_compress(images: np.ndarray, ranges: np.ndarray, geom: ArrayGeomet
     if params.deramp:                                            # eq. (23): exp(j pi K_e v_n^2), K_e = 1/(lambda r)
         x = x * np.exp(1j * np.pi * v[:, None, None] ** 2 / (lam * ranges[None, None, :])).astype(ctype)
     r_ref = params.reference_range or float(ranges[len(ranges) // 2])
-    shift_max = float(np.max(np.abs(v)) * np.max(np.abs(w)) + np.max(v**2) / (2 * r_ref))
-    pad = int(math.ceil(2 * shift_max / C * fs)) + 4
-    n_fft = sfft.next_fast_len(n_rg + pad)
+    n_fft, blocks, step = _elevation_blocks(images.shape, ranges, geom, theta, radar, params)
     f = sfft.fftfreq(n_fft, 1.0 / fs)                            # baseband range frequency, Hz
     # Range-frequency factors per channel, fac = outer(fac_per_hz, f) (n_ch, n_f): eq. (20) and eq. (21) at a
     # reference theta, both linear in f.
@@ -280,13 +279,8 @@ def elevation_compress(images: np.ndarray, ranges: np.ndarray, geom: ArrayGeomet
         # One product per range frequency: eq. (21) at theta_k and the DFT of eq. (26) together.
         spec = np.ascontiguousarray(spec.transpose(2, 0, 1))     # (n_f, n_ch, n_az)
         y = np.empty((n_fft, len(theta), n_az), dtype=ctype)
-        per_f = 2 * len(theta) * n_ch + len(theta) * n_az + n_ch * n_az
-        fb = max(1, int(params.block_elements // max(per_f, 1)))
-        blocks = range(0, n_fft, fb)
-        if progress is not None:
-            blocks = progress(blocks)
-        for s in blocks:
-            e = min(s + fb, n_fft)
+        for s in (progress(blocks) if progress is not None else blocks):
+            e = min(s + step, n_fft)
             # phase -2 pi (f_c + f) w_k v_n / c + f fac_per_hz[n], generated straight into the kernel (fused)
             kern = np.full((e - s, len(theta) * n_ch), scale, dtype=ctype)
             multiply_separable_phase(kern, [fc + f[s:e], f[s:e]], [(-2 * np.pi / C) * np.outer(w, v).ravel(),
@@ -301,11 +295,30 @@ def elevation_compress(images: np.ndarray, ranges: np.ndarray, geom: ArrayGeomet
     x = sfft.ifft(spec, axis=-1, workers=workers, overwrite_x=True)[..., :n_rg]
     kern = (np.exp(-2j * np.pi * np.outer(w, v) / lam) * scale).astype(ctype)   # eq. (26) DFT, (n_el, n_ch)
     flat = x.reshape(n_ch, -1)
-    cb = max(1, int(params.block_elements // max(len(theta) + n_ch, 1)))
     out2 = out.reshape(len(theta), -1)
-    for s in range(0, flat.shape[1], cb):
-        out2[:, s:s + cb] = kern @ flat[:, s:s + cb]
+    for s in (progress(blocks) if progress is not None else blocks):
+        out2[:, s:s + step] = kern @ flat[:, s:s + step]
     return out
+
+
+def _elevation_blocks(shape, ranges, geom: ArrayGeometry, theta, radar: RadarMetadata, params: Array3DParams):
+    """(n_fft, block starts, block length) of :func:`elevation_compress` on (n_ch, n_az, n_rg) images.
+
+    The range FFT is padded by the largest cross-track range shift (eqs. 20, 21); the blocks run
+    over range frequencies (per-bin RCMC) or over (azimuth, range) pixels, params.block_elements each.
+    """
+    n_ch, n_az, n_rg = shape
+    v, w = geom.offsets, np.sin(theta)
+    r_ref = params.reference_range or float(ranges[len(ranges) // 2])
+    shift_max = float(np.max(np.abs(v)) * np.max(np.abs(w)) + np.max(v**2) / (2 * r_ref))
+    pad = int(math.ceil(2 * shift_max / C * radar.range_sampling_rate)) + 4
+    n_fft = sfft.next_fast_len(n_rg + pad)
+    if params.cross_track_rcmc_elevation == "per_bin":
+        per_f = 2 * len(theta) * n_ch + len(theta) * n_az + n_ch * n_az
+        step = max(1, int(params.block_elements // max(per_f, 1)))
+        return n_fft, range(0, n_fft, step), step
+    step = max(1, int(params.block_elements // max(len(theta) + n_ch, 1)))
+    return n_fft, range(0, n_az * n_rg, step), step
 
 
 def _along_track(platform_position: np.ndarray, radar: RadarMetadata) -> tuple[np.ndarray, float]:
@@ -352,9 +365,6 @@ def focus_array3d(signal: np.ndarray, range_time: np.ndarray, platform_position:
     lam = radar.wavelength
     ranges = C * range_time / 2.0
 
-    rc = range_compress(signal, radar, ctype, workers, params.range_filter)
-    images = azimuth_focus(rc, du, ranges, radar, params, ctype, workers)
-    del rc
     theta = elevation_grid(geom, lam, params)
     if params.crop_range:
         keep = np.nonzero((range_time >= range_time[0] + radar.pulse_duration / 2)
@@ -365,9 +375,18 @@ def focus_array3d(signal: np.ndarray, range_time: np.ndarray, platform_position:
         sl = slice(int(keep[0]), int(keep[-1]) + 1)
     else:
         sl = slice(None)
+    # One bar over the whole chain: range compression, azimuth focusing, then each elevation block.
+    n_kept = len(range(n_rg)[sl])
+    blocks = _elevation_blocks((n_ch, n_az, n_kept), ranges[sl], geom, theta, radar, params)[1]
+    done = steps(progress, 2 + len(blocks))
+    rc = range_compress(signal, radar, ctype, workers, params.range_filter)
+    done()
+    images = azimuth_focus(rc, du, ranges, radar, params, ctype, workers)
+    done()
+    del rc
     # Elevation compression works on the cropped range span plus a guard for the range shifts.
     cube = elevation_compress(images[:, :, sl], ranges[sl], geom, theta, radar, params, ctype, workers,
-                              progress)
+                              None if progress is None else (lambda it, total=None: wrapped(done, it)))
     b_az = azimuth_bandwidth(radar, du)
     irw_az = 0.886 / b_az
     irw_rg = 0.886 * C / (2 * radar.bandwidth)

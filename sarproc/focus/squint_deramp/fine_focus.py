@@ -283,7 +283,8 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
             # x_n sin(theta) g2 f_a^2 is linear around the target's Doppler centre -K t_n (spotlight)
             idx = np.flatnonzero(keep)
             xs = x[idx]
-            for s in range(0, N, params.block_range):
+            resample_blocks = range(0, N, params.block_range)   # a third bar: the geometric resampling
+            for s in (progress(resample_blocks) if progress is not None else resample_blocks):
                 e = min(s + params.block_range, N)
                 src = xs[:, None] + xs[:, None] ** 2 * s_th / r[None, s:e]
                 pos = (src - x[0]) / (x[1] - x[0])
