@@ -297,6 +297,9 @@ def backproject(raw: Product, params: BackprojectParams = BackprojectParams(), p
     """Focus a raw product (one or several channels, summed coherently) onto a frame grid."""
     if raw.kind not in ("raw", "raw_multichannel", "raw_array"):
         raise InputError(f"backproject needs a raw product, got {raw.kind!r}")
+    if params.interpolation in ("knab", "sinc", "lanczos") and params.kernel_length % 2:
+        raise InputError(f"backproject.kernel_length: {params.kernel_length} taps; the {params.interpolation} "
+                         "kernel needs an even number")
     if params.engine == "reference" and params.interpolation not in ("linear", "nearest"):
         raise InputError(f"backproject.interpolation: {params.interpolation!r} needs backproject.engine: compiled "
                          "(the reference engine interpolates linear or nearest)")

@@ -95,3 +95,8 @@ def test_tiles_partition_the_points():
 def test_reference_engine_refuses_windowed_sinc_kernels(squint_raw):
     with pytest.raises(InputError, match="engine"):
         backproject(squint_raw, BackprojectParams(frame="los", engine="reference", interpolation="knab"))
+
+
+def test_odd_kernel_length_is_refused_with_its_key(squint_raw):
+    with pytest.raises(InputError, match="kernel_length"):
+        backproject(squint_raw, BackprojectParams(frame="los", interpolation="knab", kernel_length=7))
