@@ -50,16 +50,24 @@ def export_sicd(input_path: Path, output: Path, config_path, overwrite: bool, re
     """Export a focused 2D image product to SICD (NITF), checked by sarkit's SicdConsistency."""
     import numpy as np
 
+    from sarproc.cli.stage import export_sicd_estimate, naming, plan_outputs
     from sarproc.product.geolocation import GeolocationParams, placement
-    from sarproc.product.io import check_output_path, read_product
-    from sarproc.product.sicd import check_sicd, image_from_sicd, read_sicd, require_sarkit, write_sicd
+    from sarproc.product.io import read_product
+    from sarproc.product.sicd import (check_sicd, image_from_sicd, image_grid, read_sicd, require_sarkit,
+                                      write_sicd)
     from sarproc.product.errors import ProcessingError
 
     require_sarkit()
+    # config, input header (and its placement), output location, plan; then the data
     params = load_config(GeolocationParams, config_path, section="geolocation")
-    check_output_path(output, [input_path], overwrite)
+    header = read_product(input_path, kinds=("image",), load=False)
+    with naming(input_path, config_path, "geolocation"):
+        place = placement(header.radar, params)
+        image_grid(header, place)                # a plane, orthogonal, uniform grid (no pixels read)
+    plan_outputs(input_path, [output], overwrite, lambda: export_sicd_estimate("export-sicd", header, params))
     image = read_product(input_path, kinds=("image",))
-    grid = write_sicd(output, image, placement(image.radar, params))
+    with naming(input_path):
+        grid = write_sicd(output, image, place)
     _, pixels = read_sicd(output)
     if not np.array_equal(image_from_sicd(pixels, grid.flip_cols), image.data):
         raise ProcessingError(f"{output}: the pixels read back differ from {input_path}")
@@ -79,15 +87,20 @@ def export_sicd(input_path: Path, output: Path, config_path, overwrite: bool, re
 @check_option
 def export_cphd(input_path: Path, output: Path, config_path, overwrite: bool, report_path):
     """Export a single-channel raw product to CPHD 1.1.0 (FX domain), checked by sarkit's CphdConsistency."""
+    from sarproc.cli.stage import export_cphd_estimate, naming, plan_outputs
     from sarproc.product.cphd import check_cphd, require_sarkit, write_cphd
     from sarproc.product.geolocation import GeolocationParams, placement
-    from sarproc.product.io import check_output_path, read_product
+    from sarproc.product.io import read_product
 
     require_sarkit()
     params = load_config(GeolocationParams, config_path, section="geolocation")
-    check_output_path(output, [input_path], overwrite)
+    header = read_product(input_path, kinds=("raw",), load=False)
+    with naming(input_path, config_path, "geolocation"):
+        place = placement(header.radar, params)
+    plan_outputs(input_path, [output], overwrite, lambda: export_cphd_estimate("export-cphd", header, params))
     raw = read_product(input_path, kinds=("raw",))
-    sizes = write_cphd(output, raw, placement(raw.radar, params))
+    with naming(input_path):
+        sizes = write_cphd(output, raw, place)
     result = check_cphd(output)
     summary(f"export-cphd: {sizes['vectors']} vectors x {sizes['samples']} FX samples -> {output}")
     summary(_check_line("CPHD", result))
@@ -104,11 +117,13 @@ def import_cphd(input_path: Path, output: Path, overwrite: bool):
     Files from export-cphd come back losslessly; others are read from their standard fields alone
     (no targets: give the focusers grid extents). See docs/formats.md.
     """
-    from sarproc.product.cphd import read_cphd, require_sarkit
-    from sarproc.product.io import check_output_path, history_entry, write_product
+    from sarproc.cli.stage import import_cphd_estimate, plan_outputs
+    from sarproc.product.cphd import cphd_header, read_cphd, require_sarkit
+    from sarproc.product.io import history_entry, write_product
 
     require_sarkit()
-    check_output_path(output, [input_path], overwrite)
+    header = cphd_header(input_path)            # the XML is checked before the output is looked at
+    plan_outputs(input_path, [output], overwrite, lambda: import_cphd_estimate("import-cphd", header))
     raw = read_cphd(input_path)
     raw.history.append(history_entry(f"sarproc import-cphd {input_path}", {}))
     write_product(output, raw, inputs=[input_path], overwrite=overwrite)

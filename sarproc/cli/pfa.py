@@ -49,13 +49,12 @@ def pfa2(input_path: Path, output: Path, config_path, overwrite: bool, progress,
               help="Apply the files' autofocus solution (af.r_correct, af.ph_correct).")
 def import_gotcha(inputs, output: Path, overwrite: bool, autofocus: bool):
     """Convert AFRL Gotcha phase-history .mat files (one pass, consecutive azimuths) into a raw product."""
-    from sarproc.product.gotcha import gotcha_product, read_gotcha
-    from sarproc.product.io import check_output_path, write_product
+    from sarproc.cli.stage import import_gotcha_estimate, plan_outputs
+    from sarproc.product.gotcha import gotcha_files, gotcha_product, read_gotcha
+    from sarproc.product.io import write_product
 
-    files = []
-    for p in inputs:
-        files.extend(sorted(Path(p).glob("*.mat")) if Path(p).is_dir() else [Path(p)])
-    check_output_path(output, files, overwrite)
+    files = gotcha_files(inputs)                # every file checked before the output is looked at
+    plan_outputs(files[0], [output], overwrite, lambda: import_gotcha_estimate("import-gotcha", files), inputs=files)
     raw = gotcha_product(read_gotcha(files, autofocus=autofocus))
     raw.history[-1]["command"] = "sarproc import-gotcha " + " ".join(map(str, inputs))
     write_product(output, raw, inputs=files, overwrite=overwrite)

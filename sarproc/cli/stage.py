@@ -40,20 +40,32 @@ def naming(input_path, config_path=None, section: str | None = None):
 def prepare(stage: str, input_path: Path, outputs, config_path, overwrite: bool, kinds, params_cls,
             section: str, estimate=None):
     """Steps 1-5 above; returns (params, product) ready for the work."""
-    from sarproc.product.io import check_output_path, read_product
+    from sarproc.product.io import read_product
 
     params = load_config(params_cls, config_path, section=section)
     header = read_product(input_path, kinds=kinds, load=False)
+    plan_outputs(input_path, outputs, overwrite, lambda: (estimate or generic_estimate)(stage, header, params),
+                  config_path=config_path, section=section)
+    product = read_product(input_path, kinds=kinds)
+    return params, product
+
+
+def plan_outputs(input_path, outputs, overwrite: bool, estimate, inputs=None, config_path=None,
+                 section: str | None = None):
+    """Steps 3-4 above for a checked input: every output writable, then ``estimate()``'s plan printed
+    with -v and refused when it cannot fit. ``inputs``: the files the outputs must not replace
+    (default ``[input_path]``). Returns the plan."""
+    from sarproc.product.io import check_output_path
+
     outputs = [Path(o) for o in outputs if o is not None]
     for out in outputs:
-        check_output_path(out, [input_path], overwrite)
+        check_output_path(out, [input_path] if inputs is None else inputs, overwrite)
     with naming(input_path, config_path, section):
-        plan = (estimate or generic_estimate)(stage, header, params)
+        plan = estimate()
     info(plan.describe())
     with naming(input_path):
         check_plan(plan, outputs, max_memory())
-    product = read_product(input_path, kinds=kinds)
-    return params, product
+    return plan
 
 
 def _shape(header) -> tuple[int, ...]:
@@ -177,3 +189,30 @@ def simulate_estimate(scene) -> Plan:
     detail = (f"{n_ch} x {n_p} pulses x {n_rg} samples, {n_tg} targets; samples = {window} "
               f"x radar.range_sampling_rate {fs:g} Hz")
     return Plan("simulate", out, mem, seconds, detail)
+
+
+def export_sicd_estimate(stage, header, params) -> Plan:
+    """SICD holds complex64 pixels; the image, its reordered copy and the read-back are in memory."""
+    n = math.prod(_shape(header))
+    return Plan(stage, complex_bytes(n) + 1e5, 3 * complex_bytes(n), 2.0 + n * 50e-9, f"{n} pixels")
+
+
+def export_cphd_estimate(stage, header, params) -> Plan:
+    """CPHD holds the FX-domain signal (complex64) and 200 bytes of per-vector parameters per pulse."""
+    n_az, n_rg = _shape(header)[-2:]
+    n = n_az * n_rg
+    return Plan(stage, complex_bytes(n) + 200.0 * n_az + 1e5, complex_bytes(n) + 3 * complex_bytes(n, itemsize=16),
+                2.0 + n * 80e-9, f"{n_az} vectors x {n_rg} samples")
+
+
+def import_cphd_estimate(stage, cphd: dict) -> Plan:
+    n_v, n_s = cphd["vectors"], cphd["samples"]
+    n = n_v * n_s
+    return Plan(stage, stored_bytes(n_v, n_s), complex_bytes(n) + 3 * complex_bytes(n, itemsize=16), 1.0 + n * 80e-9,
+                f"{n_v} vectors x {n_s} samples")
+
+
+def import_gotcha_estimate(stage, files) -> Plan:
+    """Gotcha files store complex64 samples: the product is about their size; read as complex128, twice."""
+    size = float(sum(Path(f).stat().st_size for f in files))
+    return Plan(stage, size, 5 * size, 0.5 + size * 10e-9, f"{len(files)} file(s), {size / 1e6:.3g} MB")

@@ -369,3 +369,29 @@ def check_cphd(path) -> dict:
         con.check()
     return consistency_summary(con)
 
+
+
+def cphd_header(path) -> dict:
+    """Check a CPHD file's metadata without reading its signal; {'vectors', 'samples'} of its first channel.
+
+    Raises InputError naming the file and the XML field when it is no FX-domain CPHD.
+    """
+    require_sarkit()
+    import sarkit.cphd as skcphd
+
+    try:
+        with open(path, "rb") as fh, skcphd.Reader(fh) as reader:
+            tree = reader.metadata.xmltree
+    except (OSError, ValueError, KeyError, RuntimeError) as exc:
+        raise InputError(f"{path}: cannot read as CPHD: {exc}") from None
+    xh = skcphd.XmlHelper(tree)
+    if xh.load("{*}Global/{*}DomainType") != "FX":
+        raise InputError(f"{path}: Global/DomainType is not FX; only FX-domain CPHD is imported")
+    try:
+        vectors = int(xh.load("{*}Data/{*}Channel/{*}NumVectors"))
+        samples = int(xh.load("{*}Data/{*}Channel/{*}NumSamples"))
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{path}: Data/Channel/NumVectors, NumSamples: {exc}") from None
+    if vectors < 1 or samples < 1:
+        raise InputError(f"{path}: Data/Channel: {vectors} vectors x {samples} samples holds no signal")
+    return {"vectors": vectors, "samples": samples}

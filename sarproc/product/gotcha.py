@@ -111,3 +111,31 @@ def gotcha_product(g: dict) -> Product:
                    aux={"platform_position": pos, "range_gate_offset": gate, "tx_offset": np.zeros(3),
                         "rx_offset": np.zeros((1, 3))},
                    history=[history_entry("import-gotcha", {"files": g["files"], "nominal_prf": NOMINAL_PRF})])
+
+
+def gotcha_files(inputs) -> list[Path]:
+    """The .mat files named by ``inputs`` (files, or folders searched for *.mat), checked without reading data.
+
+    Each must exist and hold a MATLAB variable 'data'; raises InputError naming the file.
+    """
+    import scipy.io
+
+    files = []
+    for p in map(Path, inputs):
+        if p.is_dir():
+            found = sorted(p.glob("*.mat"))
+            if not found:
+                raise InputError(f"{p}: folder holds no .mat files")
+            files.extend(found)
+        else:
+            files.append(p)
+    for path in files:
+        if not path.is_file():
+            raise InputError(f"{path}: file not found")
+        try:
+            names = [v[0] for v in scipy.io.whosmat(path, appendmat=False)]
+        except (OSError, ValueError, TypeError, NotImplementedError, scipy.io.matlab.MatReadError) as exc:
+            raise InputError(f"{path}: not a MATLAB .mat file: {exc}") from None
+        if "data" not in names:
+            raise InputError(f"{path}: not a Gotcha phase-history .mat: no variable 'data' (has {names})")
+    return files

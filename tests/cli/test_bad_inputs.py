@@ -529,6 +529,77 @@ def _(tmp, products):
             tmp / "i.h5"], 2, ["raw_array.h5", "--channel-image 9"]
 
 
+# --- formats, imports and the generic-estimate stages: the same order (config, input, output, plan)
+for key, value in [("latitude", "100 deg"), ("longitude", 4), ("time", "yesterday"), ("heading", "10 m"),
+                   ("latitud", "10 deg")]:
+    for stage, product in (("export-sicd", "image.h5"), ("export-cphd", "raw.h5")):
+        config_case(f"config-{stage}-geolocation-{key}", {"geolocation": {key: value}}, "geolocation",
+                    f"'{key}'" if key == "latitud" else f"geolocation.{key}", stage=stage, product=product)
+
+
+@case("config-export-sicd-before-output-exists")
+def _(tmp, products):
+    shutil.copy(products / "image.h5", tmp / "image.h5")
+    (tmp / "out.nitf").write_text("keep me")
+    cfg = dump(tmp / "cfg.yaml", {"geolocation": {"latitude": "100 deg"}})
+    return ["export-sicd", tmp / "image.h5", "--config", cfg, "-o", tmp / "out.nitf"], 2, ["cfg.yaml", "geolocation.latitude"]
+
+
+config_case("config-pfa2-unknown-key", {"pfa2": {"methd": "two_step"}}, "pfa2", "'methd'", stage="pfa2")
+config_case("config-pfa2-bad-value", {"pfa2": {"method": "three_step"}}, "pfa2.method", stage="pfa2")
+config_case("config-reconstruct-unknown-key", {"reconstruct": {"methd": "modified"}}, "reconstruct", "'methd'",
+            stage="reconstruct")
+
+
+def format_case(name, stage, make_input, *must, out="out.h5"):
+    """``stage`` on the input ``make_input(tmp, products)`` builds; the output already exists (validation first)."""
+    def build(tmp, products):
+        src = make_input(tmp, products)
+        (tmp / out).write_text("keep me")
+        return [stage, src, "-o", tmp / out], 2, list(must)
+    case(name)(build)
+
+
+def copied(product):
+    return lambda tmp, products: shutil.copy(products / product, tmp / product) and tmp / product
+
+
+def written(name, data: bytes):
+    def make(tmp, products):
+        (tmp / name).write_bytes(data)
+        return tmp / name
+    return make
+
+
+def mat_file(name, variables):
+    def make(tmp, products):
+        import scipy.io
+
+        scipy.io.savemat(tmp / name, variables)
+        return tmp / name
+    return make
+
+
+format_case("export-sicd-of-raw", "export-sicd", copied("raw.h5"), "raw.h5", "'image'")
+format_case("export-sicd-skewed-frame", "export-sicd", copied("image.h5"), "image.h5", "skewed axes")
+format_case("export-cphd-of-image", "export-cphd", copied("image.h5"), "image.h5", "'raw'")
+format_case("export-cphd-of-raw-array", "export-cphd", copied("raw_array.h5"), "raw_array.h5", "'raw'")
+format_case("import-cphd-text", "import-cphd", written("x.cphd", b"CPHD/1.1.0\nnot really\n"), "x.cphd",
+            "cannot read as CPHD")
+format_case("import-cphd-hdf5", "import-cphd", copied("raw.h5"), "raw.h5", "cannot read as CPHD")
+format_case("import-cphd-directory", "import-cphd", lambda tmp, products: (tmp / "d.cphd").mkdir() or tmp / "d.cphd",
+            "d.cphd", "cannot read as CPHD")
+format_case("import-gotcha-not-mat", "import-gotcha", written("g.mat", b"not a mat file" * 20), "g.mat",
+            "not a MATLAB .mat file")
+format_case("import-gotcha-no-data-variable", "import-gotcha", mat_file("g.mat", {"x": np.arange(3)}), "g.mat",
+            "no variable 'data'")
+format_case("import-gotcha-missing", "import-gotcha", lambda tmp, products: tmp / "none.mat", "none.mat", "not found")
+format_case("import-gotcha-empty-folder", "import-gotcha", lambda tmp, products: (tmp / "g").mkdir() or tmp / "g",
+            "g", "no .mat files")
+format_case("import-gotcha-directory-named-mat", "import-gotcha",
+            lambda tmp, products: (tmp / "h.mat").mkdir() or (tmp / "h.mat"), "h.mat", "no .mat files")
+
+
 # --- usage and budgets
 @case("usage-unknown-command")
 def _(tmp, products):
@@ -763,3 +834,24 @@ def test_two_concurrent_writers_never_replace_each_other(tmp_path):
     loser = next(err for rc, err in results if rc == 2)
     assert "raw.h5" in loser and ("created this file while" in loser or "output exists" in loser)
     assert not list(tmp_path.glob(".*.sarproc-tmp"))
+
+
+def test_formats_and_imports_print_their_plan(tmp_path, products):
+    """export-sicd, export-cphd, import-cphd (and import-gotcha on the shared data) plan with -v."""
+    d = tmp_path
+    res = invoke(["backproject", products / "raw.h5", "--config",
+                  dump(d / "los.yaml", {"backproject": {**BP, "frame": "los"}}), "-o", d / "los.h5", "-q"])
+    assert res.exit_code == 0, res.output
+    res = invoke(["-v", "export-sicd", d / "los.h5", "-o", d / "i.nitf"])
+    assert res.exit_code == 0 and "export-sicd: plan: output ~" in res.output, res.output
+    # export-cphd's plan comes before the (slant-plane scene's) consistency verdict
+    res = invoke(["-v", "export-cphd", products / "raw.h5", "-o", d / "r.cphd"])
+    assert "export-cphd: plan: output ~" in res.output, res.output
+    if (d / "r.cphd").exists():                # written, then checked by sarkit
+        res = invoke(["-v", "import-cphd", d / "r.cphd", "-o", d / "r.h5"])
+        assert res.exit_code == 0 and "import-cphd: plan: output ~" in res.output, res.output
+    gotcha = Path(__file__).resolve().parents[3] / "shared" / "data" / "gotcha"
+    mats = sorted(gotcha.glob("*.mat"))[:1]
+    if mats:
+        res = invoke(["-v", "import-gotcha", mats[0], "-o", d / "g.h5"])
+        assert res.exit_code == 0 and "import-gotcha: plan: output ~" in res.output, res.output
