@@ -298,8 +298,6 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
         info.update(extra)
         alpha = extra["alpha"]
     del RD
-    if not np.all(np.isfinite(img)):
-        raise ProcessingError("fine-focus: the image has NaN/Inf values (numerical breakdown)")
 
     # ---- 4. geometric correction in range (squint frame) and crop
     if params.output_frame == "squint":
@@ -314,7 +312,10 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
         rlo = box[2] + min(box[0] * s_th, box[1] * s_th) - params.crop_margin
         rhi = box[3] + max(box[0] * s_th, box[1] * s_th) + params.crop_margin
     keep_r = (r >= rlo) & (r <= rhi)
-    img = np.ascontiguousarray(img[:, keep_r]).astype(np.complex64)
+    img = np.ascontiguousarray(img[:, keep_r], dtype=np.complex64)
+    # checked on what is handed out (squint frame: the range FFTs above carry any NaN into every row kept)
+    if not np.all(np.isfinite(img)):
+        raise ProcessingError("fine-focus: the image has NaN/Inf values (numerical breakdown)")
     coords = {"azimuth": x, "range": r[keep_r]}
     irw = [0.886 * v / (abs(K_c) * T_ap), 0.886 * C / (2 * radar.bandwidth)]
     attrs = {"frame": frame.spec, "theoretical_irw": irw, "flow": int(flow),
