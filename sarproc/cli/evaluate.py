@@ -42,6 +42,10 @@ def markdown_table(report, units: dict) -> str:
                 window += f", minus {'+'.join(t.neighbours_removed)}"
             if m.contaminated_db is not None:
                 window += f", contaminated ({m.contaminated_db:.1f} dB)"
+            if m.shortened_nulls is not None:
+                theory = "" if m.shortened_islr_theory_db is None else f" (sinc {m.shortened_islr_theory_db:.2f})"
+                window += (f", shortened to +-{m.shortened_nulls:g} nulls: PSLR {_fmt(m.shortened_pslr_db, '.2f')}, "
+                           f"ISLR {_fmt(m.shortened_islr_db, '.2f')}{theory}")
             lines.append(f"| {t.name} | {m.axis} | {_direction(m, report.dims)} | {_fmt(m.irw, '.4g')} {u} | "
                          f"{_fmt(m.irw_ratio, '.4f')} | {_fmt(m.pslr_db, '.2f')} | {_fmt(m.islr_db, '.2f')} | "
                          f"{_fmt(m.position_error, '.3g')} {u} | {_fmt(m.position_error_cells, '.4f')} | {window} | "
@@ -50,7 +54,8 @@ def markdown_table(report, units: dict) -> str:
                  "'truncated': the ISLR window reaches the image edge (unverified); 'minus X': the fitted ideal "
                  "response of target X was subtracted first; 'contaminated': neighbours that ideal responses do not fit "
                  "(fit residual above -30 dB) still put that much energy, relative to the main lobe, in the window "
-                 "(unverified).")
+                 "(unverified); 'shortened': the contaminated cut measured again on a window ending half-way to "
+                 "that neighbour (PSLR, ISLR over it, and an ideal sinc's ISLR over the same window; unverified).")
     ft = report.false_target
     if ft is None:
         lines.append("\nFalse target: none (no pixel lies outside the target neighbourhoods of "

@@ -163,3 +163,45 @@ def test_poorly_modelled_neighbour_is_flagged_contaminated():
     assert {(f.target, f.axis, f.metric) for f in fails} == {("A", "azimuth", "contaminated"),
                                                              ("B", "azimuth", "contaminated")}
     assert all("unverified" in str(f) for f in fails)
+
+
+def test_sinc_islr_over_shortened_windows():
+    # independent of sarproc: a dense midpoint sum of sinc^2 over the main lobe and the side lobes
+    from sarproc.quality.metrics import sinc_islr_db
+
+    x = (np.arange(2_000_000) + 0.5) / 100_000              # 0 .. 20 nulls, 1e5 points per null
+    p = np.sinc(x) ** 2
+    for w in (2, 3, 6, 10):
+        ref = 10 * np.log10(p[100_000:w * 100_000].sum() / p[:100_000].sum())
+        assert sinc_islr_db(w) == pytest.approx(ref, abs=1e-3)
+    assert sinc_islr_db(10) == pytest.approx(SINC_ISLR, abs=0.01)
+
+
+def test_contaminated_cut_is_also_measured_on_a_shortened_window():
+    # A is an ideal sinc; B, 6 nulls away along azimuth, carries a quadratic spectral phase (1 rad at the
+    # band edges) that the ideal neighbour model lacks, so its subtraction leaves a residual in A's window.
+    # The shortened window stops half-way to B (3 nulls, before B's main lobe at 5 nulls) and reads A's
+    # own side lobes: PSLR -13.26 dB and the sinc's ISLR over +-3 nulls.
+    from sarproc.quality.metrics import sinc_islr_db
+    from tests.quality.test_metrics import spectrum_psf
+
+    bx, by = 0.886 / 1.0, 0.886 / 0.8
+    targets = [(0.1, -0.2), (0.1 + 6 / bx, -0.2)]
+    a, r = axis_coords(200, 0.5), axis_coords(200, 0.5)
+    defocused = spectrum_psf(bx, np.ones_like, phase=lambda f: 1.0 * (2 * f) ** 2)
+    az_b = 0.8 * defocused(a - targets[1][0]) / defocused(np.zeros(1))[0]
+    img = np.outer(np.sinc(bx * (a - targets[0][0])) + az_b, np.sinc(by * (r - targets[0][1]))).astype(np.complex64)
+    rep = evaluate_image(img, DIMS, [a, r], (0.886 / bx, 0.886 / by), targets, names=["A", "B"])
+    m = rep.target("A").axes[0]
+    assert m.contaminated_db is not None
+    assert m.islr_db > SINC_ISLR + 1                       # the full window still holds B's residual
+    assert m.shortened_nulls == 3
+    assert m.shortened_islr_theory_db == pytest.approx(sinc_islr_db(3))
+    assert abs(m.shortened_pslr_db - SINC_PSLR) < 0.2, m
+    assert abs(m.shortened_islr_db - sinc_islr_db(3)) < 0.3, m
+    assert abs(m.irw_ratio - 1) < 0.01 and abs(m.position_error_cells) < 0.02
+    assert rep.target("A").axes[1].shortened_nulls is None      # range: nothing of B, nothing shortened
+    # --expect: a shortened window is not the contract's; the cut stays unverified
+    fails = check_report(rep, expectations_from_mapping({"pslr_db": [-30, 0], "islr_db": [-30, 0]}))
+    assert ("A", "azimuth", "contaminated") in {(f.target, f.axis, f.metric) for f in fails}
+    assert any("shortened" in str(f) and "unverified" in str(f) for f in fails if f.target == "A")
