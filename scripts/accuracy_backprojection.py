@@ -97,7 +97,7 @@ def main(argv=None):
     ap.add_argument("--repeat", type=int, default=2)
     args = ap.parse_args(argv)
     results = [run_scene(s, args.repeat) for s in SCENES]
-    head = ["# Backprojection reference: accuracy versus time", "",
+    head = ["# Backprojection: accuracy versus time (engine x upsampling x interpolation)", "",
             "Knobs: `backproject.engine` (float64 numpy reference or the compiled tiled kernel), "
             "`backproject.upsample` (range FFT upsampling before interpolation) and "
             "`backproject.interpolation` (knab: 8 taps on the upsampled samples, compiled engine only). Tolerances of issue 2: IRW 3 %, PSLR -13.26 +- 0.3 dB, "
