@@ -164,7 +164,10 @@ def backproject_points(rc, range_time, tx_pos, rx_pos, points, carrier_frequency
 
 def _tile_size(points: np.ndarray, tile_points: int) -> float:
     """Edge (m) of a square/cubic tile holding about ``tile_points`` points of a regular grid."""
-    ext = points.max(axis=0) - points.min(axis=0)
+    from sarproc.focus.backprojection_kernel import bounds
+
+    lo, hi = bounds(np.ascontiguousarray(points, dtype=float))
+    ext = hi - lo
     ext = ext[ext > 1e-9 * max(float(ext.max()), 1.0)]
     if len(ext) == 0:
         return 1.0

@@ -224,6 +224,86 @@ def backproject_tiles(pulses, first, scale, kc, tx, rx, monostatic, centres, til
             acc[s0 + i] += complex(acc_re[i], acc_im[i])
 
 
+@numba.njit(error_model="numpy", cache=True)
+def bounds(points):
+    """(min, max) over points (n, 3) float64 per coordinate, in one pass."""
+    lo = np.full(3, np.inf)
+    hi = np.full(3, -np.inf)
+    for i in range(points.shape[0]):
+        for k in range(3):
+            lo[k] = min(lo[k], points[i, k])
+            hi[k] = max(hi[k], points[i, k])
+    return lo, hi
+
+
+@numba.njit(error_model="numpy", cache=True)
+def _tile_layout(points, origin, tile_size, max_tile):
+    """Counting sort of the points by spatial cell, tiles of at most ``max_tile`` points, each tile's
+    bounding-box centre and the points' float32 offsets from it (one pass each, no temporaries)."""
+    n = points.shape[0]
+    lo = np.empty(3)
+    hi = np.empty(3)
+    for k in range(3):
+        lo[k] = np.inf
+        hi[k] = -np.inf
+    for i in range(n):
+        for k in range(3):
+            v = points[i, k] - origin[k]
+            lo[k] = min(lo[k], v)
+            hi[k] = max(hi[k], v)
+    dims = np.empty(3, np.int64)
+    for k in range(3):
+        dims[k] = np.int64(math.floor((hi[k] - lo[k]) / tile_size)) + 1
+    key = np.empty(n, np.int64)
+    for i in range(n):
+        c0 = np.int64(math.floor((points[i, 0] - origin[0] - lo[0]) / tile_size))
+        c1 = np.int64(math.floor((points[i, 1] - origin[1] - lo[1]) / tile_size))
+        c2 = np.int64(math.floor((points[i, 2] - origin[2] - lo[2]) / tile_size))
+        key[i] = (min(c0, dims[0] - 1) * dims[1] + min(c1, dims[1] - 1)) * dims[2] + min(c2, dims[2] - 1)
+    n_keys = dims[0] * dims[1] * dims[2]
+    count = np.zeros(n_keys + 1, np.int64)
+    for i in range(n):
+        count[key[i] + 1] += 1
+    for k in range(n_keys):
+        count[k + 1] += count[k]
+    order = np.empty(n, np.int64)
+    fill = count[:-1].copy()
+    for i in range(n):                      # stable: points keep their order inside a cell
+        order[fill[key[i]]] = i
+        fill[key[i]] += 1
+    n_tiles = 0
+    for k in range(n_keys):
+        m = count[k + 1] - count[k]
+        n_tiles += (m + max_tile - 1) // max_tile
+    tile_start = np.empty(n_tiles + 1, np.int64)
+    t = 0
+    for k in range(n_keys):
+        for s in range(count[k], count[k + 1], max_tile):
+            tile_start[t] = s
+            t += 1
+    tile_start[n_tiles] = n
+    centres = np.empty((n_tiles, 3))
+    d = np.empty((4, n), np.float32)
+    for t in range(n_tiles):
+        a = np.full(3, np.inf)
+        b = np.full(3, -np.inf)
+        for j in range(tile_start[t], tile_start[t + 1]):
+            for k in range(3):
+                v = points[order[j], k] - origin[k]
+                a[k] = min(a[k], v)
+                b[k] = max(b[k], v)
+        for k in range(3):
+            centres[t, k] = 0.5 * (a[k] + b[k])
+        for j in range(tile_start[t], tile_start[t + 1]):
+            r2 = 0.0
+            for k in range(3):
+                v = points[order[j], k] - origin[k] - centres[t, k]
+                d[k, j] = v
+                r2 += v * v
+            d[3, j] = r2
+    return order, tile_start, centres, d
+
+
 def make_tiles(points: np.ndarray, tile_size: float, max_tile: int = 1024):
     """Group points into spatial tiles of about ``tile_size`` metres (at most ``max_tile`` points each).
 
@@ -231,31 +311,12 @@ def make_tiles(points: np.ndarray, tile_size: float, max_tile: int = 1024):
     sorted indices tile_start[t] .. tile_start[t+1]-1; centres (n_tiles, 3) float64 relative to ``origin``;
     d (4, n) float32: offsets of the sorted points from their tile centre and their squared norm.
     """
-    points = np.asarray(points, float).reshape(-1, 3)
+    points = np.ascontiguousarray(np.asarray(points, float).reshape(-1, 3))
     n = len(points)
     if n == 0:
         return (np.zeros(0, np.int64), np.zeros(1, np.int64), np.zeros((0, 3)), np.zeros(3),
                 np.zeros((4, 0), np.float32))
-    origin = 0.5 * (points.min(axis=0) + points.max(axis=0))
-    rel = points - origin
-    cell = np.floor((rel - rel.min(axis=0)) / tile_size).astype(np.int64)
-    dims = cell.max(axis=0) + 1
-    key = (cell[:, 0] * dims[1] + cell[:, 1]) * dims[2] + cell[:, 2]
-    order = np.argsort(key, kind="stable")
-    key = key[order]
-    starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
-    bounds = []
-    for s, e in zip(starts, np.r_[starts[1:], n]):
-        bounds.extend(range(s, e, max_tile))
-    tile_start = np.array(bounds + [n], np.int64)
-    counts = np.diff(tile_start)
-    tile_of = np.repeat(np.arange(len(counts)), counts)
-    srel = rel[order]
-    lo = np.minimum.reduceat(srel, tile_start[:-1], axis=0)
-    hi = np.maximum.reduceat(srel, tile_start[:-1], axis=0)
-    centres = 0.5 * (lo + hi)
-    dd = srel - centres[tile_of]
-    d = np.empty((4, n), np.float32)
-    d[:3] = dd.T
-    d[3] = np.einsum("ij,ij->i", dd, dd)
+    lo, hi = bounds(points)
+    origin = 0.5 * (lo + hi)
+    order, tile_start, centres, d = _tile_layout(points, origin, float(tile_size), int(max_tile))
     return order, tile_start, centres, origin, d
