@@ -47,7 +47,8 @@ def markdown_table(report, units: dict) -> str:
                 window += (f", shortened to +-{m.shortened_nulls:g} nulls: PSLR {_fmt(m.shortened_pslr_db, '.2f')}, "
                            f"ISLR {_fmt(m.shortened_islr_db, '.2f')}{theory}")
             lines.append(f"| {t.name} | {m.axis} | {_direction(m, report.dims)} | {_fmt(m.irw, '.4g')} {u} | "
-                         f"{_fmt(m.irw_ratio, '.4f')} | {_fmt(m.pslr_db, '.2f')} | {_fmt(m.islr_db, '.2f')} | "
+                         f"{_fmt(m.irw_ratio, '.4f')}{' (own)' if m.theory == 'target' else ''} | "
+                         f"{_fmt(m.pslr_db, '.2f')} | {_fmt(m.islr_db, '.2f')} | "
                          f"{_fmt(m.position_error, '.3g')} {u} | {_fmt(m.position_error_cells, '.4f')} | {window} | "
                          f"{_fmt(i.irw_ratio, '.4f')} | {_fmt(i.pslr_db, '.2f')} | {_fmt(i.islr_db, '.2f')} |")
     lines.append("\nCuts along each response's principal axes (side-lobe ridges, from the chip's spectral support); "
@@ -55,7 +56,8 @@ def markdown_table(report, units: dict) -> str:
                  "response of target X was subtracted first; 'contaminated': neighbours that ideal responses do not fit "
                  "(fit residual above -30 dB) still put that much energy, relative to the main lobe, in the window "
                  "(unverified); 'shortened': the contaminated cut measured again on a window ending half-way to "
-                 "that neighbour (PSLR, ISLR over it, and an ideal sinc's ISLR over the same window; unverified).")
+                 "that neighbour (PSLR, ISLR over it, and an ideal sinc's ISLR over the same window; unverified); "
+                 "'(own)': the theory is the target's own IRW from the targets table (irw_<axis>), not the image's.")
     ft = report.false_target
     if ft is None:
         lines.append("\nFalse target: none (no pixel lies outside the target neighbourhoods of "

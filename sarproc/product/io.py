@@ -31,7 +31,8 @@ from sarproc import __version__
 from sarproc.product.errors import InputError, ProcessingError
 from sarproc.product.metadata import FORMAT_VERSION, RadarMetadata
 from sarproc.product.model import (AUX_DIM_DOC, AUX_LAYOUT, DATA_ATTR_UNITS, DATA_NAME, KIND_DIMS, PRODUCT_KINDS,
-                                   TARGET_DTYPE, TARGET_UNITS, UNITS, Product)
+                                   TARGET_DTYPE, TARGET_IRW_FIELDS, TARGET_UNITS, UNITS, Product,
+                                   as_target_table)
 
 LONG_NAMES = {"azimuth_time": "azimuth (slow) time from aperture centre", "range_time": "range (fast) time since transmit",
               "channel": "receive channel index", "azimuth": "azimuth position", "range": "range position",
@@ -194,7 +195,7 @@ def _write_header(f: h5py.File, product_kind: str, radar: RadarMetadata, targets
     g = f.create_group("radar")
     for k, v in radar.to_attrs().items():
         g.attrs[k] = v
-    t = np.asarray(targets, dtype=TARGET_DTYPE)
+    t = as_target_table(targets)
     dset = f.create_dataset("targets", data=t)
     dset.attrs["long_name"] = "true point targets, carried from the scene"
     dset.attrs["field_units"] = json.dumps(TARGET_UNITS)
@@ -487,13 +488,19 @@ def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
         if "targets" not in f:
             raise InputError(f"{path}: missing dataset 'targets'")
         targets = np.asarray(f["targets"][()])
-        missing = [n for n in TARGET_DTYPE.names if n not in (targets.dtype.names or ())]
+        missing = [n for n in TARGET_DTYPE.names if n not in (targets.dtype.names or ()) and
+                   n not in TARGET_IRW_FIELDS]       # irw_* are optional (older files): 0, not recorded
         if missing:
             raise InputError(f"{path}: dataset 'targets' lacks field(s) {missing}")
-        targets = targets.astype(TARGET_DTYPE)
+        targets = as_target_table(targets)
         for field in ("x", "y", "z", "azimuth", "range", "elevation"):
             if not np.all(np.isfinite(targets[field])):
                 raise InputError(f"{path}: dataset 'targets' field {field!r} contains NaN or Inf")
+        for field in TARGET_IRW_FIELDS:
+            v = targets[field]
+            if not np.all(np.isfinite(v) & (v >= 0)):
+                raise InputError(f"{path}: dataset 'targets' field {field!r} must be a positive IRW or 0 "
+                                 f"(not recorded)")
         attrs = {k: _attr_value(v) for k, v in dset.attrs.items() if k not in _INTERNAL_ATTRS}
         for key in DATA_ATTR_UNITS:
             v = attrs.get(key)

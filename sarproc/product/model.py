@@ -17,14 +17,18 @@ PRODUCT_KINDS = ("raw", "raw_multichannel", "raw_array", "preprocessed", "coarse
 
 # Targets table carried through every stage. (x, y, z) is the true scene-frame position at
 # azimuth time 0; (azimuth, range, elevation) is the same point in the frame of the product's
-# axes (elevation is 0 for 2D frames); velocity is (vx, vy, vz), m/s.
+# axes (elevation is 0 for 2D frames); velocity is (vx, vy, vz), m/s. irw_<axis> is the target's
+# own theoretical IRW along that image axis (same convention as the image attribute
+# ``theoretical_irw``), recorded by processors whose resolution varies over the scene; 0: not
+# recorded (the image attribute applies). Files written before these fields read as 0.
+TARGET_IRW_FIELDS = ("irw_azimuth", "irw_range", "irw_elevation")
 TARGET_DTYPE = np.dtype([
     ("name", "S32"),
     ("x", "f8"), ("y", "f8"), ("z", "f8"),
     ("azimuth", "f8"), ("range", "f8"), ("elevation", "f8"),
     ("amplitude", "c16"),
     ("vx", "f8"), ("vy", "f8"), ("vz", "f8"),
-])
+] + [(f, "f8") for f in TARGET_IRW_FIELDS])
 
 UNITS = {"azimuth_time": "s", "range_time": "s", "channel": "1", "azimuth": "m", "range": "m",
          "elevation": "rad"}
@@ -50,7 +54,8 @@ AUX_DIM_DOC = {"pulse": "transmit pulse index", "receiver": "receive channel ind
 
 # Units of the targets table's fields (the table is a compound dataset: one map, no single unit).
 TARGET_UNITS = {"name": "", "x": "m", "y": "m", "z": "m", "azimuth": "m", "range": "m", "elevation": "rad",
-                "amplitude": "1", "vx": "m/s", "vy": "m/s", "vz": "m/s"}
+                "amplitude": "1", "vx": "m/s", "vy": "m/s", "vz": "m/s",
+                "irw_azimuth": "m", "irw_range": "m", "irw_elevation": "rad"}
 
 # Units of the numeric attributes stages put on the data set, stored as its JSON map
 # ``attribute_units`` and type-checked by the reader (a number, or a list of numbers).
@@ -118,6 +123,19 @@ def make_targets(names, xyz, amplitude, velocity=None, frame_coords=None) -> np.
         for name, val in zip(("azimuth", "range", "elevation"), frame_coords):
             t[name] = val
     return t
+
+
+def as_target_table(table: np.ndarray) -> np.ndarray:
+    """``table`` as TARGET_DTYPE, field by field; irw_* fields it lacks (older files) become 0 (not recorded)."""
+    table = np.asarray(table)
+    missing = [f for f in TARGET_DTYPE.names if f not in (table.dtype.names or ()) and f not in TARGET_IRW_FIELDS]
+    if missing:
+        raise ValueError(f"targets table lacks field(s) {missing}")
+    out = np.zeros(table.shape, dtype=TARGET_DTYPE)
+    for f in TARGET_DTYPE.names:
+        if f in (table.dtype.names or ()):
+            out[f] = table[f]
+    return out
 
 
 def target_names(targets: np.ndarray) -> list[str]:

@@ -112,6 +112,7 @@ class AxisMetrics:
     shortened_pslr_db: Optional[float] = None
     shortened_islr_db: Optional[float] = None
     shortened_islr_theory_db: Optional[float] = None
+    theory: str = "image"       # whose theoretical IRW: 'image' (the image's per-axis value) or 'target' (its own)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -186,6 +187,7 @@ class _Axis:
     size: int
     irw: float       # theoretical IRW, axis units
     null: float      # null spacing 1/B in samples
+    theory: str = "image"   # whose IRW: the image's, or the target's own ('target')
 
     def to_index(self, x):
         return (np.asarray(x, dtype=float) - self.start) / self.step
@@ -475,7 +477,8 @@ def _cut_metrics(p: np.ndarray, step: float, center: int, window: float) -> tupl
 
 
 def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
-                   params: EvaluateParams | None = None, metric=None, progress=None) -> QualityReport:
+                   params: EvaluateParams | None = None, metric=None, progress=None,
+                   target_irw=None) -> QualityReport:
     """Measure every target of a 2D (azimuth, range) or 3D (elevation, azimuth, range) image.
 
     data: complex image, shape ``tuple(len(coords[d]) for d in dims)``; dims: axis names;
@@ -485,8 +488,12 @@ def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
     (n_targets, ndim) true positions (axis units, dims order); names: n_targets labels;
     metric: optional (ndim, k) matrix, row a the physical displacement per unit of axis a (e.g.
     the slant-plane basis of a skewed frame): cut widths are then lengths along the cut;
-    progress: optional callable wrapping an iterable (one bar over the targets' passes).
-    Raises InputError.
+    progress: optional callable wrapping an iterable (one bar over the targets' passes);
+    target_irw: optional (n_targets, ndim) per-target theoretical IRW (same convention as
+    theoretical_irw; NaN: use the image's), for images whose resolution varies with position: a
+    target's cuts (IRW ratio, position in cells, ISLR/PSLR window in its own nulls) then use it and
+    say so (``theory``). Chips are sized for the widest theory; supports and neighbour models keep
+    the image's. Raises InputError.
     """
     params = params or EvaluateParams()
     data = np.asarray(data)
@@ -512,8 +519,11 @@ def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
     if not np.all(np.isfinite(truth)):
         raise InputError("target positions contain NaN or Inf")
 
+    own_axes = _target_axes(axes, target_irw, truth.shape[0], params.irw_factor)
     mag = np.abs(data)
-    half = [ax.nulls_to_samples(params.islr_nulls + params.margin_nulls) for ax in axes]
+    # chips wide enough for every target's own ISLR window
+    half = [max(x[a].nulls_to_samples(params.islr_nulls + params.margin_nulls) for x in [axes] + own_axes)
+            for a in range(len(axes))]
     nulls = [ax.null for ax in axes]
     # One bar over the whole evaluation: each target's pass 1, pass 2 (when neighbours are removed) and
     # measurement, then the false-target search.
@@ -560,12 +570,38 @@ def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
             found[i] = {**f, "chip": chip, "pos": pos, "value": value, "V": V, "f_c": f_c,
                         "removed": tuple(names[j] for j in others),
                         "residual_models": [models[j] for j in others if models[j]["misfit"] > NEIGHBOUR_MISFIT]}
-    reports = [_measure(f["chip"], axes, f["peak_index"], f["pos"], f["value"], f["V"], t, name, params, metric,
+    reports = [_measure(f["chip"], own, f["peak_index"], f["pos"], f["value"], f["V"], t, name, params, metric,
                         f["removed"], f.get("residual_models", []), names, found)
-               for f, name, t in wrapped(done, list(zip(found, names, truth)))]
+               for f, name, t, own in wrapped(done, list(zip(found, names, truth, own_axes)))]
     false = _false_target(data, mag, axes, truth, [f["peak_index"] for f in found], reports, half, params)
     done()
     return QualityReport(dims=dims, targets=tuple(reports), false_target=false, params=params)
+
+
+def _target_axes(axes, target_irw, n_targets, irw_factor) -> list[list[_Axis]]:
+    """Each target's axes: the image's, with its own theoretical IRW (and null spacing) where it has one."""
+    if target_irw is None:
+        return [axes] * n_targets
+    irw = np.asarray(target_irw, dtype=float)
+    if irw.shape != (n_targets, len(axes)):
+        raise InputError(f"target_irw has shape {irw.shape}; expected ({n_targets}, {len(axes)}): one IRW per "
+                         f"target and axis, NaN where the image's applies")
+    if np.any(~np.isnan(irw) & ~(np.isfinite(irw) & (irw > 0))):
+        raise InputError("target_irw values must be positive and finite, or NaN (the image's theory applies)")
+    out = []
+    for row in irw:
+        own = []
+        for ax, v in zip(axes, row):
+            if np.isnan(v):
+                own.append(ax)
+                continue
+            null = float(v) / (irw_factor * abs(ax.step))
+            if null <= 1.0:
+                raise InputError(f"axis {ax.name!r}: spacing {abs(ax.step):.4g} is not finer than a target's null "
+                                 f"spacing {null * abs(ax.step):.4g} (its theoretical IRW {v:.4g})")
+            own.append(dataclasses.replace(ax, irw=float(v), null=null, theory="target"))
+        out.append(own)
+    return out
 
 
 def _support(chip: "_Chip", nulls, params):
@@ -651,7 +687,7 @@ def _neighbour_models(data, found: list, nulls, half, params) -> dict:
         misfit = float(np.sum(np.abs(y - basis @ amp) ** 2) / max(np.sum(np.abs(y) ** 2), 1e-300))
         for q, k in enumerate(members):
             models[k] = {"pos": pos[q], "f_c": f_c[q], "V": V[q], "amp": amp[q], "group": set(members),
-                         "misfit": misfit}
+                         "misfit": misfit, "nulls": nulls}
     return models
 
 
@@ -687,8 +723,9 @@ def _contamination(m: AxisMetrics, chip, axes, a, v, pos, peak2, models, truth, 
     hamming = params.irw_factor > 1.1
     nulls = [x.null for x in axes]
     main = peak2 * 0.903 * ax.null          # unweighted main-lobe energy along the cut (0.903 of the total)
-    ratios = [float(np.sum(np.abs(mod["amp"] * _ideal_response(points, mod["pos"], mod["V"], nulls, mod["f_c"],
-                                                               hamming)) ** 2) / 4.0 / main) for mod in models]
+    ratios = [float(np.sum(np.abs(mod["amp"] * _ideal_response(points, mod["pos"], mod["V"], mod["nulls"],
+                                                               mod["f_c"], hamming)) ** 2) / 4.0 / main)
+              for mod in models]
     ratio = sum(ratios)
     if ratio <= CONTAMINATION:
         return m
@@ -765,7 +802,7 @@ def _cut(chip: "_Chip", axes, a, v, pos, peak2, truth, params, metric) -> AxisMe
         axis=ax.name, irw=irw * length, irw_theory=ax.irw * factor, irw_ratio=irw * abs(ax.step) / ax.irw,
         pslr_db=pslr, islr_db=islr, mainlobe_width=main * length, position=x, truth=float(truth[a]),
         position_error=err, position_error_cells=err / ax.irw, band_center=chip.centers[a] / ax.step,
-        direction=tuple(float(c) for c in direction), angle_deg=angle, truncated=truncated)
+        direction=tuple(float(c) for c in direction), angle_deg=angle, truncated=truncated, theory=ax.theory)
 
 
 def _false_target(data, mag, axes, truth, peaks, reports, half, params) -> Optional[FalseTarget]:
@@ -839,8 +876,9 @@ def frame_metric(product):
 def evaluate_product(product, params: EvaluateParams | None = None, source: str = "", progress=None) -> QualityReport:
     """Evaluate an ``image``/``image3d`` :class:`sarproc.product.model.Product` against its targets table.
 
-    Truth per target is the targets field named like each dim; theory is
-    ``product.attrs['theoretical_irw']``. ``source`` (the file name) prefixes error messages.
+    Truth per target is the targets field named like each dim; theory is the target's own
+    ``irw_<dim>`` field where recorded (not 0; processors whose resolution varies over the scene),
+    else ``product.attrs['theoretical_irw']``. ``source`` (the file name) prefixes error messages.
     """
     where = f"{source}: " if source else ""
     irw = product.attrs.get("theoretical_irw")
@@ -854,9 +892,13 @@ def evaluate_product(product, params: EvaluateParams | None = None, source: str 
         raise InputError(f"{where}targets table is empty; nothing to evaluate")
     names = [n.decode() if isinstance(n, bytes) else str(n) for n in product.targets["name"]]
     truth = np.stack([product.targets[d].astype(float) for d in product.dims], axis=1)
+    own = np.stack([product.targets[f"irw_{d}"].astype(float) if f"irw_{d}" in fields else np.zeros(len(truth))
+                    for d in product.dims], axis=1)
+    own[own == 0] = np.nan          # 0 in the table: not recorded, the image's theory applies
     try:
         return evaluate_image(product.data, product.dims, product.coords, irw, truth, names, params,
-                              metric=frame_metric(product), progress=progress)
+                              metric=frame_metric(product), progress=progress,
+                              target_irw=own if np.any(~np.isnan(own)) else None)
     except InputError as exc:
         raise InputError(f"{where}{exc}") from None
 

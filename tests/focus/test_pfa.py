@@ -72,12 +72,14 @@ def test_plain_pfa_focuses_the_centre_and_defocuses_the_edge(raw_small):
 def test_two_step_focuses_every_target_seams_included(raw_small, two_step_image):
     image = two_step_image
     assert image.attrs["subimages"] == 16 and np.all(np.isfinite(image.data))
-    report = evaluate_product(image)
+    report = evaluate_product(image)        # with each target's own theory, recorded by pfa2 in the product
     assert len(report.targets) == 25
     for rep, tg in zip(report.targets, image.targets):
         theory = _local_theory(raw_small, tg)
         for ax, th in zip(rep.axes, theory):
             where = f"{rep.name}/{ax.axis}"
+            assert tg[f"irw_{ax.axis}"] == pytest.approx(th, rel=1e-3), where
+            assert ax.theory == "target" and abs(ax.irw_ratio - 1) < 0.05, where
             assert abs(ax.irw / th - 1) < 0.05, where
             assert ax.pslr_db == pytest.approx(-13.26, abs=0.5), where
             assert ax.islr_db == pytest.approx(-10.16, abs=0.5), where

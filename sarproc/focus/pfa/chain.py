@@ -24,7 +24,7 @@ from sarproc.focus.pfa.correction import PfaGeometry, distortion_field, extended
 from sarproc.focus.pfa.phase_history import compensate
 from sarproc.focus.pfa.polar import (Grid, Interpolation, data_sampling, los_components, make_kgrid, pfa,
                                      polar_support, wavenumbers)
-from sarproc.focus.pfa.two_step import (SubImageTask, mosaic, plan_tiles, run_tasks, tile_rects,
+from sarproc.focus.pfa.two_step import (SubImageTask, local_irw, mosaic, plan_tiles, run_tasks, tile_rects,
                                         valid_radius, window_slices)
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import InputError
@@ -171,8 +171,11 @@ def pfa2(raw: Product, params: Pfa2Params = Pfa2Params(), progress=None, mapper:
     })
     from sarproc.product.io import history_entry  # product layer; the core stays free of h5py at import
 
+    targets = targets_in_frame(raw.targets, frame)
+    if params.method == "two_step":     # each sub-image keeps its own support: the IRW varies over the scene
+        _record_target_irw(targets, ph, e_a, e_r)
     out = raw.derive("image", img, ("azimuth", "range"), {"azimuth": grid.a, "range": grid.r + frame.ground_range},
-                     targets=targets_in_frame(raw.targets, frame), attrs=attrs)
+                     targets=targets, attrs=attrs)
     out.aux = {k: v for k, v in raw.aux.items() if k in ("platform_position", "tx_offset", "rx_offset")}
     out.history.append(history_entry("pfa2", as_dict(params)))
     return out
@@ -191,6 +194,15 @@ def _plain_corrected(ph, rect, grid: Grid, origin, e_a, e_r, interp: Interpolati
     kg, _ = make_kgrid(rect, dka, dkr, ext.da, ext.dr, ext.n_a, ext.n_r)
     img, _ = pfa(ph, e_a, e_r, ext, kgrid=kg, interp=interp)
     return warp_to_truth(img, ext, grid, warp, geo, kg, interp), kg
+
+
+def _record_target_irw(targets: np.ndarray, ph, e_a, e_r) -> None:
+    """Fill each target's irw_azimuth / irw_range with the IRW of its own inscribed polar support (in place)."""
+    band = (float(ph.freqs[0]), float(ph.freqs[-1]))
+    for i in range(len(targets)):
+        point = np.array([targets["x"][i], targets["y"][i], targets["z"][i]], float)
+        targets["irw_azimuth"][i], targets["irw_range"][i] = local_irw(ph.positions, point, e_a, e_r,
+                                                                       ph.carrier_frequency, band)
 
 
 def _rect_irw(rect) -> tuple[float, float]:
