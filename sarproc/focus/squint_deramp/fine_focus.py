@@ -33,6 +33,7 @@ import dataclasses
 import logging
 import math
 
+import numba
 import numpy as np
 import scipy.fft as sfft
 
@@ -96,8 +97,25 @@ def phasor(phase):
     return unit_phasor(cycles(phase))
 
 
+@numba.njit(parallel=True, cache=True)
+def _negate_alternate_2d(x, axis, start):
+    n, m = x.shape
+    if axis == 0:
+        for i in numba.prange(n):
+            if i % 2 == start:
+                for j in range(m):
+                    x[i, j] = -x[i, j]
+    else:
+        for i in numba.prange(n):
+            for j in range(start, m, 2):
+                x[i, j] = -x[i, j]
+
+
 def _alternate(x, axis, start):
-    """x[..., start::2, ...] *= -1 along ``axis``, in place."""
+    """x[..., start::2, ...] *= -1 along ``axis``, in place (2D: rows in parallel)."""
+    if x.ndim == 2:
+        _negate_alternate_2d(x, axis, start)
+        return
     idx = [slice(None)] * x.ndim
     idx[axis] = slice(start, None, 2)
     x[tuple(idx)] *= -1
