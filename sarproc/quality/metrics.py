@@ -86,7 +86,8 @@ class EvaluateParams:
 
 @dataclasses.dataclass(frozen=True)
 class AxisMetrics:
-    """Metrics of one target along one image axis (lengths in the axis' units)."""
+    """Metrics of one target along one cut (lengths in metres along the cut where the frame gives a metric,
+    else in the axis' units)."""
 
     axis: str
     irw: float                  # -3 dB width of the main lobe
