@@ -52,7 +52,7 @@ def export_sicd(input_path: Path, output: Path, config_path, overwrite: bool, re
 
     from sarproc.cli.stage import export_sicd_estimate, naming, plan_outputs
     from sarproc.product.geolocation import GeolocationParams, placement
-    from sarproc.product.io import read_product
+    from sarproc.product.io import atomic_path, read_product
     from sarproc.product.sicd import (check_sicd, image_from_sicd, image_grid, read_sicd, require_sarkit,
                                       write_sicd)
     from sarproc.product.errors import ProcessingError
@@ -66,17 +66,19 @@ def export_sicd(input_path: Path, output: Path, config_path, overwrite: bool, re
         image_grid(header, place)                # a plane, orthogonal, uniform grid (no pixels read)
     plan_outputs(input_path, [output], overwrite, lambda: export_sicd_estimate("export-sicd", header, params))
     image = read_product(input_path, kinds=("image",))
-    with naming(input_path):
-        grid = write_sicd(output, image, place)
-    _, pixels = read_sicd(output)
-    if not np.array_equal(image_from_sicd(pixels, grid.flip_cols), image.data):
-        raise ProcessingError(f"{output}: the pixels read back differ from {input_path}")
-    result = check_sicd(output)
+    # written, read back and checked before it is published: a failed check leaves no file
+    with atomic_path(output, overwrite) as tmp:
+        with naming(input_path):
+            grid = write_sicd(tmp, image, place)
+        _, pixels = read_sicd(tmp)
+        if not np.array_equal(image_from_sicd(pixels, grid.flip_cols), image.data):
+            raise ProcessingError(f"{output}: the pixels read back differ from {input_path}")
+        result = check_sicd(tmp)
+        _finish("SICD", output, result, report_path)
     summary(f"export-sicd: {pixels.shape[0]}x{pixels.shape[1]} SICD (rows = range"
             f"{', columns = reversed azimuth' if grid.flip_cols else ', columns = azimuth'}) -> {output}; "
             "pixels read back identical")
     summary(_check_line("SICD", result))
-    _finish("SICD", output, result, report_path)
 
 
 @click.command("export-cphd")
@@ -90,7 +92,7 @@ def export_cphd(input_path: Path, output: Path, config_path, overwrite: bool, re
     from sarproc.cli.stage import export_cphd_estimate, naming, plan_outputs
     from sarproc.product.cphd import check_cphd, require_sarkit, write_cphd
     from sarproc.product.geolocation import GeolocationParams, placement
-    from sarproc.product.io import read_product
+    from sarproc.product.io import atomic_path, read_product
 
     require_sarkit()
     params = load_config(GeolocationParams, config_path, section="geolocation")
@@ -99,12 +101,13 @@ def export_cphd(input_path: Path, output: Path, config_path, overwrite: bool, re
         place = placement(header.radar, params)
     plan_outputs(input_path, [output], overwrite, lambda: export_cphd_estimate("export-cphd", header, params))
     raw = read_product(input_path, kinds=("raw",))
-    with naming(input_path):
-        sizes = write_cphd(output, raw, place)
-    result = check_cphd(output)
+    with atomic_path(output, overwrite) as tmp:        # published only once the checks pass
+        with naming(input_path):
+            sizes = write_cphd(tmp, raw, place)
+        result = check_cphd(tmp)
+        _finish("CPHD", output, result, report_path)
     summary(f"export-cphd: {sizes['vectors']} vectors x {sizes['samples']} FX samples -> {output}")
     summary(_check_line("CPHD", result))
-    _finish("CPHD", output, result, report_path)
 
 
 @click.command("import-cphd")

@@ -134,6 +134,7 @@ def gotcha_files(inputs) -> list[Path]:
             raise InputError(f"{path}: file not found")
         try:
             names = [v[0] for v in scipy.io.whosmat(path, appendmat=False)]
+        # scipy raises NotImplementedError for MATLAB v7.3 (HDF5-based) files, which it cannot read
         except (OSError, ValueError, TypeError, NotImplementedError, scipy.io.matlab.MatReadError) as exc:
             raise InputError(f"{path}: not a MATLAB .mat file: {exc}") from None
         if "data" not in names:

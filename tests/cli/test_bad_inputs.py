@@ -855,3 +855,13 @@ def test_formats_and_imports_print_their_plan(tmp_path, products):
     if mats:
         res = invoke(["-v", "import-gotcha", mats[0], "-o", d / "g.h5"])
         assert res.exit_code == 0 and "import-gotcha: plan: output ~" in res.output, res.output
+
+
+def test_export_failing_its_consistency_check_publishes_nothing(tmp_path, products):
+    """The slant-plane scene's CPHD fails sarkit's check (incidence 90 deg): exit 1, the checker's
+    verdict named, and no file at the output (the export is checked before it is published)."""
+    res = invoke(["export-cphd", products / "raw.h5", "-o", tmp_path / "r.cphd"])
+    assert res.exit_code == 1, res.output
+    assert "consistency checks failed" in res.output
+    assert not (tmp_path / "r.cphd").exists()
+    assert not list(tmp_path.glob(".*.sarproc-tmp"))
