@@ -16,16 +16,19 @@ from sarproc.cli.options import common_options, input_argument, load_config, sum
 
 
 def _run(stage: str, input_path: Path, output: Path, config_path, overwrite: bool, kinds, params_cls, func,
-         progress=None, estimate=None):
-    from sarproc.product.io import write_product
+         progress: bool | None, estimate):
+    """The shared body of the three commands: prepare (config, input, output, plan), run, write."""
+    from sarproc.cli.progress import progress_factory
     from sarproc.cli.stage import naming, prepare
+    from sarproc.product.io import write_product
 
-    params, product = prepare(stage.replace("_", "-"), input_path, [output], config_path, overwrite, kinds,
-                              params_cls, stage, estimate)
+    command = stage.replace("_", "-")
+    params, product = prepare(command, input_path, [output], config_path, overwrite, kinds, params_cls, stage,
+                              estimate)
     start = time.perf_counter()
     with naming(input_path, config_path, stage):
-        out = func(product, params, progress=progress)
-    out.history[-1]["command"] = f"sarproc {stage.replace('_', '-')} {input_path}"
+        out = func(product, params, progress=progress_factory(want_progress(progress), command))
+    out.history[-1]["command"] = f"sarproc {command} {input_path}"
     write_product(output, out, inputs=[input_path], overwrite=overwrite)
     return out, time.perf_counter() - start
 
@@ -35,14 +38,11 @@ def _run(stage: str, input_path: Path, output: Path, config_path, overwrite: boo
 @common_options
 def preprocess(input_path: Path, output: Path, config_path, overwrite: bool, progress):
     """Doppler-centroid correction of a raw product (paper 000 eq. 7; section `preprocess:`)."""
+    from sarproc.cli.stage import preprocess_estimate
     from sarproc.focus.squint_deramp.preprocess import PreprocessParams, preprocess as run
 
-    from sarproc.cli.stage import preprocess_estimate
-
-    from sarproc.cli.progress import progress_factory
-
     out, dt = _run("preprocess", input_path, output, config_path, overwrite, ("raw",), PreprocessParams, run,
-                   progress=progress_factory(want_progress(progress), "preprocess"), estimate=preprocess_estimate)
+                   progress, preprocess_estimate)
     summary(f"preprocess: {out.attrs['doppler_correction']} correction, {out.data.shape[0]}x{out.data.shape[1]} "
             f"-> {output} ({dt:.2f} s)")
 
@@ -52,15 +52,11 @@ def preprocess(input_path: Path, output: Path, config_path, overwrite: bool, pro
 @common_options
 def coarse_focus(input_path: Path, output: Path, config_path, overwrite: bool, progress):
     """Azimuth deramp / SPECAN coarse focusing (paper 000 eqs. 9-11; section `coarse_focus:`)."""
+    from sarproc.cli.stage import coarse_focus_estimate
     from sarproc.focus.squint_deramp.coarse_focus import CoarseFocusParams, coarse_focus as run
 
-    from sarproc.cli.stage import coarse_focus_estimate
-
-    from sarproc.cli.progress import progress_factory
-
     out, dt = _run("coarse_focus", input_path, output, config_path, overwrite, ("preprocessed",),
-                   CoarseFocusParams, run, progress=progress_factory(want_progress(progress), "coarse-focus"),
-                   estimate=coarse_focus_estimate)
+                   CoarseFocusParams, run, progress, coarse_focus_estimate)
     a = out.attrs
     summary(f"coarse-focus: F_a'' = {a['azimuth_sampling_rate']:.1f} Hz, deramped spread "
             f"{a['deramp_spread']:.1f} Hz (PRF {out.radar.prf:.1f} Hz), {out.data.shape[0]}x{out.data.shape[1]} "
@@ -72,12 +68,10 @@ def coarse_focus(input_path: Path, output: Path, config_path, overwrite: bool, p
 @common_options
 def fine_focus(input_path: Path, output: Path, config_path, overwrite: bool, progress):
     """Stolt range focusing and azimuth compression, flow 1 or NLCS flow 2 (section `fine_focus:`)."""
+    from sarproc.cli.stage import fine_focus_estimate
     from sarproc.focus.squint_deramp.fine_focus import FineFocusParams, fine_focus as run
 
-    from sarproc.cli.progress import progress_factory
-    from sarproc.cli.stage import fine_focus_estimate
-
     out, dt = _run("fine_focus", input_path, output, config_path, overwrite, ("coarse",), FineFocusParams, run,
-                   progress=progress_factory(want_progress(progress), "fine-focus"), estimate=fine_focus_estimate)
+                   progress, fine_focus_estimate)
     summary(f"fine-focus: flow {out.attrs['flow']}, {out.data.shape[0]}x{out.data.shape[1]} image in frame "
             f"{out.attrs['frame']['name']} -> {output} ({dt:.2f} s)")

@@ -21,7 +21,7 @@ import numpy as np
 
 from sarproc.product.config import param
 from sarproc.product.errors import InputError
-from sarproc.simulation.effects.base import Effect, register_effect
+from sarproc.simulation.effects.base import ReceiverArray, register_effect
 
 
 @dataclasses.dataclass(frozen=True)
@@ -48,7 +48,7 @@ def along_track_offsets(n_receivers: int, spacing: float) -> np.ndarray:
 
 
 @register_effect("azimuth_channels")
-class AzimuthChannels(Effect):
+class AzimuthChannels(ReceiverArray):
     order = 10
     Params = AzimuthChannelsParams
     product_kind = "raw_multichannel"
@@ -56,18 +56,12 @@ class AzimuthChannels(Effect):
     def __init__(self, params, scene_params, radar):
         super().__init__(params, scene_params, radar)
         self.dx = along_track_offsets(params.n_receivers, params.spacing)
+        self.receiver_offsets = np.zeros((len(self.dx), 3))
+        self.receiver_offsets[:, 0] = self.dx
         n = params.n_receivers
         phase = np.asarray(params.phase_imbalance or np.zeros(n), float)
         amp = np.asarray(params.amplitude_imbalance or np.zeros(n), float)
         self.channel_gain = (1.0 + amp) * np.exp(1j * phase)
-
-    def update_radar(self, radar):
-        return radar.replace(n_channels=self.params.n_receivers)
-
-    def channels(self, tx_offset, rx_offsets):
-        rx = np.zeros((len(self.dx), 3))
-        rx[:, 0] = self.dx
-        return np.zeros(3), rx
 
     def gains(self, t, platform_pos, target_pos, channel, gains):
         g = self.channel_gain[channel]

@@ -69,3 +69,16 @@ class Effect:
     def aux(self) -> dict:
         """Extra arrays to store with the raw product."""
         return {}
+
+
+class ReceiverArray(Effect):
+    """An effect that replaces the one monostatic channel by receivers at fixed offsets from the
+    transmitter (which stays at the platform position). Subclasses set ``receiver_offsets`` (n_ch, 3), m."""
+
+    receiver_offsets: np.ndarray
+
+    def update_radar(self, radar):
+        return radar.replace(n_channels=len(self.receiver_offsets))
+
+    def channels(self, tx_offset, rx_offsets):
+        return np.zeros(3), self.receiver_offsets

@@ -24,7 +24,7 @@ import numpy as np
 from sarproc.product.config import param
 from sarproc.product.errors import InputError
 from sarproc.simulation.effects.antenna import one_way_amplitude
-from sarproc.simulation.effects.base import Effect, register_effect
+from sarproc.simulation.effects.base import ReceiverArray, register_effect
 
 
 @dataclasses.dataclass(frozen=True)
@@ -57,7 +57,7 @@ def receiver_offsets(params: CrossTrackArrayParams) -> np.ndarray:
 
 
 @register_effect("cross_track_array")
-class CrossTrackArray(Effect):
+class CrossTrackArray(ReceiverArray):
     order = 10
     Params = CrossTrackArrayParams
     product_kind = "raw_array"
@@ -65,14 +65,8 @@ class CrossTrackArray(Effect):
     def __init__(self, params, scene_params, radar):
         super().__init__(params, scene_params, radar)
         self.v = receiver_offsets(params)
-
-    def update_radar(self, radar):
-        return radar.replace(n_channels=self.params.n_receivers)
-
-    def channels(self, tx_offset, rx_offsets):
-        rx = np.zeros((len(self.v), 3))
-        rx[:, 1] = self.v
-        return np.zeros(3), rx
+        self.receiver_offsets = np.zeros((len(self.v), 3))
+        self.receiver_offsets[:, 1] = self.v
 
     def gains(self, t, platform_pos, target_pos, channel, gains):
         if self.params.element_pattern == "none":
