@@ -172,12 +172,13 @@ def _resample_kernel(data, pos, out, mode, taps, table, steps, zero, lo_pos, hi_
 
 
 def resample_rows(data: np.ndarray, positions: np.ndarray, kernel: str = "knab", length: int | None = None, *,
-                  oversampling: float = 1.25, beta: float = 6.0, out_dtype=None) -> np.ndarray:
+                  oversampling: float = 1.25, beta: float = 6.0, out_dtype=None, out=None) -> np.ndarray:
     """Interpolate each row of ``data`` at fractional sample ``positions``.
 
     data: (n_rows, n_in) real or complex, samples at 0 .. n_in-1 along the last axis.
     positions: (n_rows, n_out) or (n_out,) float sample positions (NaN gives 0).
-    Returns (n_rows, n_out) of ``out_dtype`` (default: data's dtype). Windowed-sinc weights come
+    Returns (n_rows, n_out) of ``out_dtype`` (default: data's dtype), written into ``out`` when given (a
+    C-contiguous array of that shape, not overlapping ``data``: reused buffers). Windowed-sinc weights come
     from a table of 2048 steps per sample, linearly interpolated (relative error below 1e-6); the
     weights are computed in the output's real precision, so complex64 data stay complex64 throughout.
     """
@@ -186,7 +187,10 @@ def resample_rows(data: np.ndarray, positions: np.ndarray, kernel: str = "knab",
     pos = np.broadcast_to(np.asarray(positions, dtype=float), (n_rows, np.shape(positions)[-1]))
     taps = kernel_length(kernel, length)
     pad = taps + 1
-    out = np.empty(pos.shape, dtype=out_dtype or data.dtype)
+    if out is None:
+        out = np.empty(pos.shape, dtype=out_dtype or data.dtype)
+    elif out.shape != pos.shape or not out.flags.c_contiguous or np.shares_memory(out, data):
+        raise ValueError(f"resample_rows: out must be a C-contiguous {pos.shape} array apart from data")
     wdt = out.real.dtype if np.issubdtype(out.dtype, np.inexact) else np.dtype(np.float64)
     mode = _MODES.get(kernel, 3)
     if mode == 3:

@@ -23,6 +23,17 @@ def unit_phasor(cycles: np.ndarray) -> np.ndarray:
     return out
 
 
+@numba.njit(inline="always")
+def cmul(a, b):
+    """(re, im) of a * b (float64) rounded as numpy's SIMD complex64 loop rounds them, for compiled kernels that
+    must reproduce a numpy product: re = fma(a_r, b_r, -a_i b_i), im = fma(a_r, b_i, a_i b_r) with the second
+    product rounded to the inputs' precision; the fused one is exact in float64 for float32 inputs, so storing
+    the pair into a complex64 array rounds once, as the FMA does (complex128 inputs: the plain products)."""
+    re = np.float64(a.real) * np.float64(b.real) - np.float64(a.imag * b.imag)
+    im = np.float64(a.real) * np.float64(b.imag) + np.float64(a.imag * b.real)
+    return re, im
+
+
 # ---- compiled, fused phase fields (numba): phase in float64, reduced to cycles, then float32 -------------------
 
 _INV_TWO_PI = 1.0 / (2 * np.pi)
@@ -81,6 +92,11 @@ def _rotate_row_field(xr, phase, mask, use_mask, scale):
         im = xr[2 * j + 1]
         xr[2 * j] = re * co - im * si
         xr[2 * j + 1] = re * si + im * co
+
+
+rotate_row_field = _rotate_row_field
+"""Compiled building block of :func:`multiply_phase` for callers' own kernels: one row ``xr`` (float view,
+2m interleaved re, im) times where(mask, exp(j 2 pi scale phase), 0) (``use_mask`` False: no mask)."""
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=True)

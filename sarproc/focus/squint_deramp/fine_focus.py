@@ -39,12 +39,13 @@ import scipy.fft as sfft
 
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import InputError, ProcessingError
+from sarproc.focus.squint_deramp.block_copies import copy_rows, crop_columns, gather_columns, pad_rows, pad_spectrum, scale_rows
 from sarproc.product.frames import SquintFrame, SquintLrwcFrame, targets_in_frame
 from sarproc.dsp.interp import KERNELS, resample_rows
 from sarproc.product.metadata import C
 from sarproc.focus.squint_deramp.nlcs import VARIANTS, compression_phase, group_delay_span, nlcs_coefficients, position_terms
 from sarproc.focus.squint_deramp.preprocess import PRECISIONS, complex_dtype, correction_frequency
-from sarproc.dsp.phasor import multiply_phase, multiply_separable_phase, unit_phasor
+from sarproc.dsp.phasor import multiply_separable_phase, unit_phasor
 from sarproc.product.model import Product
 from sarproc.dsp.rangecomp import chirp_replica
 from sarproc.focus.squint_deramp.stolt import MODELS, SpectrumModel, stolt_resample
@@ -236,12 +237,12 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
     if M * N > params.max_samples:
         raise InputError(f"fine-focus: working array {M} x {N} exceeds fine_focus.max_samples {params.max_samples}")
     f_r = centred(N, fs / N)
-    S = np.zeros((M, N), cdt)                                  # zero padded in one copy, transformed in place
-    S[:, :n_r] = coarse.data
+    S = np.empty((M, N), cdt)                                  # zero padded in one parallel copy, transformed in place
     if N % 2 == 0:
-        _alternate(S[:, :n_r], 1, 1)                              # fftshift of the spectrum as (-1)^n in time
+        pad_rows(coarse.data, S, 1)                               # fftshift of the spectrum as (-1)^n in time
         S = sfft.fft(S, axis=1, workers=-1, overwrite_x=True)
     else:
+        pad_rows(coarse.data, S, -1)
         S = sfft.fftshift(sfft.fft(S, axis=1, workers=-1, overwrite_x=True), axes=1)
     if method != "nonlinear":
         beta = correction_frequency(radar, f_r, "nonlinear") - correction_frequency(radar, f_r, method)
@@ -262,20 +263,26 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
                          f"{2 * half_win:.0f} m range window centred on r_ref = {r_ref:.0f} m")
     hr = _range_filter(radar, f_r, params.range_filter) * np.exp(-2j * np.pi * f_r * tau[0])
     hr = hr.astype(cdt)
+    f_abs = radar.carrier_frequency + f_r
     masked = 0
+    stolt_buf = np.empty((min(params.block_rows, M), N), cdt)          # the resampled block, reused
     blocks = range(0, M, params.block_rows)
     for s in (progress(blocks) if progress is not None else blocks):
         e = min(s + params.block_rows, M)
-        fa = f_a[s:e, None]
-        blk = S[s:e] * hr[None, :]
-        g_full, ok = model.G(radar.carrier_frequency + f_r[None, :], fa)
-        multiply_phase(blk, g_full, ok, scale=r_ref)                     # fused: no phase field stored
+        blk = S[s:e]                                                      # in place: rewritten below
+        model.rotate(blk, f_abs, f_a[s:e], r_ref, pre=hr)                # fused: hr exp(j r_ref G), no field stored
         blk, m_ = stolt_resample(blk, f_r, f_a[s:e], model, params.stolt_kernel, params.stolt_length,
-                                 oversampling=over, band=radar.bandwidth)
+                                 oversampling=over, band=radar.bandwidth, out=stolt_buf[:e - s])
         masked += m_
         gc, okc = model.Gc(f_a[s:e])
-        blk *= np.where(okc, np.exp(-1j * np.mod(r_ref * gc, 2 * np.pi)), 0)[:, None].astype(cdt)
-        S[s:e] = cifft(blk, 1, overwrite=True)
+        fac = np.where(okc, np.exp(-1j * np.mod(r_ref * gc, 2 * np.pi)), 0).astype(cdt)
+        if N % 2 == 0:                                # the centred range IFFT with its (-1)^n modulations fused
+            scale_rows(blk, fac, 1)                   # into the row factor and the write-back
+            blk = sfft.ifft(blk, axis=1, workers=-1, overwrite_x=True)
+            copy_rows(blk, S[s:e], (N // 2 + 1) % 2)
+        else:
+            blk *= fac[:, None]
+            S[s:e] = cifft(blk, 1, overwrite=True)
     RD = S  # (f_a, r): envelope at r_LRWC, azimuth phase -r_0 G_c(f_a) - 2 pi f_a t_n, reference still in
     del S
 
@@ -330,9 +337,10 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
         rlo = box[2] + min(box[0] * s_th, box[1] * s_th) - params.crop_margin
         rhi = box[3] + max(box[0] * s_th, box[1] * s_th) + params.crop_margin
     keep_r = (r >= rlo) & (r <= rhi)
-    img = np.ascontiguousarray(img[:, keep_r], dtype=np.complex64)
+    cols = np.flatnonzero(keep_r)                                      # r ascending: one run of columns
+    img, finite = crop_columns(img, int(cols[0]) if cols.size else 0, int(cols[-1]) + 1 if cols.size else 0)
     # checked on what is handed out (squint frame: the range FFTs above carry any NaN into every row kept)
-    if not np.all(np.isfinite(img)):
+    if not finite:
         raise ProcessingError("fine-focus: the image has NaN/Inf values (numerical breakdown)")
     coords = {"azimuth": x, "range": r[keep_r]}
     irw = [0.886 * v / (abs(K_c) * T_ap), 0.886 * C / (2 * radar.bandwidth)]
@@ -413,8 +421,7 @@ def _flow2(RD, t_c, f_a, r, k, model, radar, params, box, aperture, cdt, xlim, b
     hopc = np.where(okc, gc_full - g2 * f2**2, 0.0)
     rows24 = [np.pi * f2**3, np.pi * f2**4] + ([hopc] if variant == "modified" else [])
     rows27 = [np.pi * t2**2, np.pi * t2**3, np.pi * t2**4]
-    hm, hl = (M + 1) // 2, M // 2              # positive / negative halves of an FFT-ordered axis
-    gm, gl = (L1 + 1) // 2, L1 // 2
+    no_factor = np.ones(0, pdt)
     twopi = 2 * np.pi
 
     nb_max = min(params.block_range, N)
@@ -427,22 +434,17 @@ def _flow2(RD, t_c, f_a, r, k, model, radar, params, box, aperture, cdt, xlim, b
         blk = RD[:, s:e].T
         if M % 2 == 0:                                                 # compact t' (reference in)
             comp = sfft.ifft(blk, axis=1, workers=-1)
-            _alternate(comp, 1, 1)                                     # the ifftshift, as (-1)^n after
+            alt = 1                                                    # the ifftshift, as (-1)^n after
         else:
             comp = sfft.ifft(sfft.ifftshift(blk, axes=1), axis=1, workers=-1)
-        # zero-padded buffers reused from block to block (the transforms below may overwrite them)
+            alt = -1
+        # zero-padded buffers reused from block to block (the transforms below may overwrite them), each
+        # filled in one parallel pass: the modulation, the zero padding and the reference multiply fused
         pad = pad_buf[:nb]
-        pad[:, :hm] = comp[:, :hm]
-        pad[:, hm:L1 - hl] = 0
-        if hl:
-            pad[:, L1 - hl:] = comp[:, M - hl:]
+        pad_spectrum(comp, pad, no_factor, alt)
         X1 = sfft.fft(pad, axis=1, workers=-1, overwrite_x=True)
-        X1 *= ref[None, :]
         X = x_buf[:nb]
-        X[:, :gm] = X1[:, :gm]
-        X[:, gm:N2 - gl] = 0
-        if gl:
-            X[:, N2 - gl:] = X1[:, L1 - gl:]
+        pad_spectrum(X1, X, ref, -1)
         # eq. (24) pi (Y3 f^3 + Y4 f^4), plus eq. (22) r hopc(f) (exact) for the modified variant
         multiply_separable_phase(X, [co["Y3"][s:e], co["Y4"][s:e], r[s:e]][:len(rows24)], rows24)
         xt = sfft.ifft(X, axis=1, workers=-1, overwrite_x=True)
@@ -451,7 +453,7 @@ def _flow2(RD, t_c, f_a, r, k, model, radar, params, box, aperture, cdt, xlim, b
         vals, weights = _theta0_terms(f2, K, co, s, e)                             # eq. (33), exact
         multiply_separable_phase(X, weights, -vals)
         img = sfft.ifft(X, axis=1, workers=-1, overwrite_x=True)
-        out[:, s:e] = img[:, keep].T
+        gather_columns(img, keep, out, s)                              # out[:, s:e] = img[:, keep].T
     info = {"alpha": float(alpha), "nlcs_azimuth_samples": int(N2), "nlcs_time_window": float(N2 / F2),
             "nlcs_sampling_rate": float(F2), "nlcs_dispersion": float(disp),
             "nlcs_c3_max": float(np.abs(pos["c3"]).max()), "nlcs_c2_max": float(np.abs(pos["c2"]).max()),

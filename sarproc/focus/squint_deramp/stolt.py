@@ -28,6 +28,7 @@ import numba
 import numpy as np
 
 from sarproc.dsp.interp import resample_rows
+from sarproc.dsp.phasor import cmul, rotate_row_field
 from sarproc.product.metadata import C
 
 MODELS = ("exact", "paper")
@@ -70,6 +71,35 @@ class SpectrumModel:
             g = 4 * np.pi * f / C * root - 2 * np.pi * self.s * f_a**3 / (
                 self.lam * self.c * self.f_aM**3 * q**1.5)
         return g, ok
+
+    def rotate(self, x, f, f_a, scale, pre=None):
+        """x[i, j] *= pre[j] where(ok, exp(j scale G(f[j], f_a[i])), 0) in place (x: (len(f_a), len(f)) complex,
+        C-contiguous); returns x. One parallel pass: G is evaluated per element in float64 by the same
+        operations as :meth:`G` (its f_a-only and f-only parts in numpy), the phasor by
+        :func:`sarproc.dsp.phasor.multiply_phase`'s row kernel, so the result equals
+        ``multiply_phase(x * pre, *G(f, f_a), scale=scale)``; no phase field is stored."""
+        f = np.asarray(f, float)
+        f_a = np.asarray(f_a, float)
+        if x.shape != (len(f_a), len(f)) or not x.flags.c_contiguous:
+            raise ValueError(f"rotate: x {x.shape} must be C-contiguous (len(f_a), len(f)) = ({len(f_a)}, {len(f)})")
+        a = C * f_a
+        lim = 2 * self.guard - self.guard**2
+        if self.model == "exact":
+            b = 2 * self.v * f
+            p = 4 * np.pi * f / C
+            q = 2 * np.pi * f_a * self.s / self.v
+            mode = 0
+        else:
+            b = 2 * self.v * self.c * f
+            p = 4 * np.pi * f / C
+            qq = np.clip(1 - (f_a / self.f_aM) ** 2, 1e-12, None)
+            q = -(2 * np.pi * self.s * f_a**3 / (self.lam * self.c * self.f_aM**3 * qq**1.5))
+            mode = 1
+        use_pre = pre is not None
+        pre = np.asarray(pre, x.dtype) if use_pre else np.ones(1, x.dtype)
+        _rotate_G(x.view(x.real.dtype).reshape(x.shape[0], -1), x, pre, use_pre, a, q, b, p, mode, self.s,
+                  self.s**2, self.c, lim, float(scale) * (1.0 / (2 * np.pi)))
+        return x
 
     def Gc(self, f_a):
         """Azimuth phase per metre at the carrier, G(f_c, f_a) - G(f_c, 0), and validity."""
@@ -119,6 +149,38 @@ class SpectrumModel:
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=True)
+def _rotate_G(xf, x, pre, use_pre, a, q, b, p, mode, s, s2, c, lim, scale):
+    """Rows of :meth:`SpectrumModel.rotate`; the float64 sums are written in :meth:`SpectrumModel.G`'s order
+    (no fastmath: same values): exact sigma = s + a_i / b_j, g = p_j (s^2 + c root) + q_i; paper
+    t = a_i / b_j, g = p_j root + q_i (q_i carries the minus sign)."""
+    m = len(b)
+    for i in numba.prange(x.shape[0]):
+        g = np.empty(m)
+        ok = np.empty(m, np.bool_)
+        ai = a[i]
+        qi = q[i]
+        for j in range(m):
+            if mode == 0:
+                sigma = s + ai / b[j]
+                arg = 1 - sigma * sigma
+            else:
+                t = ai / b[j]
+                arg = 1 - t * t
+            good = arg > lim
+            root = np.sqrt(arg if good else 1.0)
+            if mode == 0:
+                g[j] = p[j] * (s2 + c * root) + qi
+            else:
+                g[j] = p[j] * root + qi
+            ok[j] = good
+        if use_pre:
+            for j in range(m):
+                re, im = cmul(x[i, j], pre[j])                           # rounded as numpy's x * pre
+                x[i, j] = complex(re, im)
+        rotate_row_field(xf[i], g, ok, True, scale)
+
+
+@numba.njit(parallel=True, error_model="numpy", cache=True)
 def _node_positions(s_n, ok_n, seg, w, f0, df, half_band, out):
     """out[i, j]: sample position (f - f0) / df of the source frequency, linear between the exact nodes
     seg[j], seg[j] + 1 (weight w[j]); NaN where a node is invalid or the source is outside the band."""
@@ -134,12 +196,13 @@ def _node_positions(s_n, ok_n, seg, w, f0, df, half_band, out):
 
 def stolt_resample(spec: np.ndarray, f_r: np.ndarray, f_a: np.ndarray, model: SpectrumModel,
                    kernel: str = "knab", length: int | None = 8, oversampling: float = 1.5,
-                   band: float | None = None):
+                   band: float | None = None, out: np.ndarray | None = None):
     """Resample rows of ``spec`` (n_fa, n_fr, range frequency ascending and uniform) onto f_r'.
 
     spec[i, j] is the spectrum at (f_a[i], f_r[j]); the output has the same f_r grid, now read as
     f_r'. ``band``: keep |f_r| <= band/2 at the source (zero elsewhere). Returns (out, masked) with
-    ``masked`` the number of output samples zeroed by the square-root limit.
+    ``masked`` the number of output samples zeroed by the square-root limit. ``out``: a buffer of spec's shape
+    to write into (see :func:`sarproc.dsp.interp.resample_rows`).
     """
     df = f_r[1] - f_r[0]
     n = len(f_r)
@@ -161,7 +224,7 @@ def stolt_resample(spec: np.ndarray, f_r: np.ndarray, f_a: np.ndarray, model: Sp
         if band is not None:
             ok &= np.abs(src) <= band / 2 + 1e-9 * band
         pos = np.where(ok, (src - f_r[0]) / df, np.nan)
-    out = resample_rows(spec, pos, kernel, length, oversampling=oversampling)
+    out = resample_rows(spec, pos, kernel, length, oversampling=oversampling, out=out)
     # count only in-band samples lost to the square-root limit
     lim_ok = model.mapped_frequency(np.zeros(1), f_a)[1]
     masked = int(np.count_nonzero(~lim_ok)) * spec.shape[1]

@@ -1,0 +1,119 @@
+"""Compiled copies around the FFTs of fine focusing (rows in parallel, one pass each).
+
+Each kernel replaces a numpy sequence of the block loops of :mod:`sarproc.focus.squint_deramp.fine_focus`
+(zero padding, a (-1)^n modulation, a per-row or per-column factor, a transposed write-back) by one
+parallel pass that computes the same values: negation is exact and the complex multiplies round as numpy's
+SIMD loop does (:func:`sarproc.dsp.phasor.cmul`), so the image does not change.
+
+"Alternate" means x[..., j] negated for j % 2 == ``start`` (the (-1)^n modulation that turns an
+fftshift of an even-length axis into a sign flip, see ``fine_focus._centred``); ``start`` < 0: none.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from sarproc.dsp.phasor import cmul
+
+
+@numba.njit(parallel=True, cache=True)
+def pad_rows(src, dst, start):
+    """dst[i, :n] = alternate(src[i]), dst[i, n:] = 0 (n = src.shape[1] <= dst.shape[1])."""
+    n = src.shape[1]
+    m = dst.shape[1]
+    for i in numba.prange(dst.shape[0]):
+        for j in range(n):
+            v = src[i, j]
+            if j % 2 == start:
+                v = -v
+            dst[i, j] = v
+        for j in range(n, m):
+            dst[i, j] = 0
+
+
+@numba.njit(parallel=True, cache=True)
+def scale_rows(x, factor, start):
+    """x[i, j] = alternate(x[i, j] * factor[i]) in place."""
+    for i in numba.prange(x.shape[0]):
+        f = factor[i]
+        for j in range(x.shape[1]):
+            re, im = cmul(x[i, j], f)
+            if j % 2 == start:
+                re, im = -re, -im
+            x[i, j] = complex(re, im)
+
+
+@numba.njit(parallel=True, cache=True)
+def copy_rows(src, dst, start):
+    """dst[i, j] = alternate(src[i, j]) (same shapes)."""
+    for i in numba.prange(src.shape[0]):
+        for j in range(src.shape[1]):
+            v = src[i, j]
+            if j % 2 == start:
+                v = -v
+            dst[i, j] = v
+
+
+@numba.njit(parallel=True, cache=True)
+def pad_spectrum(src, dst, factor, start):
+    """Zero-pad (or crop) FFT-ordered rows: dst[i] holds the first (n+1)//2 and the last n//2 samples of
+    f(src[i]) (f(v)_j = alternate(v_j) * factor[j], factor of src's length; ``factor`` of length 0: none) at
+    the two ends of its longer axis, zeros between. src (rows, n), dst (rows, m), m >= n."""
+    n = src.shape[1]
+    m = dst.shape[1]
+    hi = (n + 1) // 2
+    lo = n // 2
+    scaled = factor.shape[0] > 0
+    for i in numba.prange(dst.shape[0]):
+        for j in range(hi):
+            v = src[i, j]
+            if j % 2 == start:
+                v = -v
+            if scaled:
+                re, im = cmul(v, factor[j])
+                v = complex(re, im)
+            dst[i, j] = v
+        for j in range(hi, m - lo):
+            dst[i, j] = 0
+        for jj in range(lo):
+            j = n - lo + jj
+            v = src[i, j]
+            if j % 2 == start:
+                v = -v
+            if scaled:
+                re, im = cmul(v, factor[j])
+                v = complex(re, im)
+            dst[i, m - lo + jj] = v
+
+
+@numba.njit(parallel=True, cache=True)
+def gather_columns(src, cols, dst, offset):
+    """dst[k, offset + i] = src[i, cols[k]]: selected columns of src written back as rows (transposed)."""
+    n = src.shape[0]
+    for k in numba.prange(len(cols)):
+        c = cols[k]
+        for i in range(n):
+            dst[k, offset + i] = src[i, c]
+
+
+@numba.njit(parallel=True, cache=True)
+def _crop_rows(src, lo, dst, bad):
+    n = dst.shape[1]
+    for i in numba.prange(dst.shape[0]):
+        b = False
+        for j in range(n):
+            v = src[i, lo + j]
+            dst[i, j] = v
+            if not (np.isfinite(v.real) and np.isfinite(v.imag)):
+                b = True
+        bad[i] = b
+
+
+def crop_columns(src: np.ndarray, lo: int, hi: int, dtype=np.complex64):
+    """(src[:, lo:hi] as a new C-contiguous ``dtype`` array, whether every value is finite), one parallel pass."""
+    dst = np.empty((src.shape[0], hi - lo), dtype)
+    bad = np.zeros(src.shape[0], np.bool_)
+    if dst.size:
+        _crop_rows(src, lo, dst, bad)
+    return dst, not bad.any()
