@@ -58,7 +58,4 @@ check-backprojection: $(STAMP)
 	  $(SARPROC) evaluate results/bp/image_$$s.h5 -o results/bp/report_$$s.json --overwrite --expect configs/bp_expect.yaml || exit 1; \
 	done
 
-# The reference's own knobs (range upsampling x interpolation): time vs quality (results/bp-accuracy/).
-.PHONY: accuracy-backprojection
-accuracy-backprojection: $(STAMP)
-	$(PY) scripts/accuracy_backprojection.py --out results/bp-accuracy
+# accuracy-backprojection (the reference's own knobs: time vs quality) is a sweep: mk/sweeps.mk.

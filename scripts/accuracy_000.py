@@ -106,8 +106,14 @@ def main(argv=None):
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "000-accuracy")
     ap.add_argument("--repeat", type=int, default=2)
     ap.add_argument("--no-hard", action="store_true", help="skip the hard-case table")
+    ap.add_argument("--hard-only", action="store_true",
+                    help="only the hard-case table (make accuracy-000 runs the settings as a sweep first)")
     a = ap.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
+    if a.hard_only:
+        hard_cases(a.out)
+        print(f"accuracy_000: {a.out / 'hardcases.md'}")
+        return
     scenes = a.scene or [ROOT / "configs" / "an2012_exp2_small.yaml", ROOT / "configs" / "an2012_airborne_small.yaml"]
     lines = ["# Paper 000 chain: accuracy versus time", "",
              "Metrics over all targets and both axes (squint_lrwc frame): worst |IRW/theory - 1|, highest PSLR, "
