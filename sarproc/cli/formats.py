@@ -46,16 +46,20 @@ check_option = click.option("--check-report", "report_path", type=click.Path(dir
 @config_option
 @overwrite_option
 @check_option
-def export_sicd(input_path: Path, output: Path, config_path, overwrite: bool, report_path):
+@click.option("--image-formation", type=click.Choice(["auto", "OTHER", "PFA"], case_sensitive=False), default="auto",
+              show_default=True, help="ImageFormAlgo: auto = PFA (Grid RGAZIM and a PFA block) for pfa2 images in "
+              "polar-format geometry (method plain), OTHER (Grid PLANE) for every other image; PFA only for pfa2 "
+              "images (docs/formats.md).")
+def export_sicd(input_path: Path, output: Path, config_path, overwrite: bool, report_path, image_formation: str):
     """Export a focused 2D image product to SICD (NITF), checked by sarkit's SicdConsistency."""
     import numpy as np
 
     from sarproc.cli.stage import export_sicd_estimate, naming, plan_outputs
     from sarproc.product.geolocation import GeolocationParams, placement
     from sarproc.product.io import atomic_path, read_product
-    from sarproc.product.sicd import (check_sicd, image_from_sicd, image_grid, read_sicd, require_sarkit,
-                                      write_sicd)
-    from sarproc.product.errors import ProcessingError
+    from sarproc.product.sicd import (check_sicd, formed_by_pfa, image_from_sicd, image_grid, read_sicd,
+                                      require_sarkit, write_sicd)
+    from sarproc.product.errors import InputError, ProcessingError
 
     require_sarkit()
     # config, input header (and its placement), output location, plan; then the data
@@ -64,12 +68,16 @@ def export_sicd(input_path: Path, output: Path, config_path, overwrite: bool, re
     with naming(input_path, config_path, "geolocation"):
         place = placement(header.radar, params)
         image_grid(header, place)                # a plane, orthogonal, uniform grid (no pixels read)
+    image_formation = None if image_formation.lower() == "auto" else image_formation.upper()
+    if image_formation == "PFA" and not formed_by_pfa(header):
+        raise InputError(f"{input_path}: --image-formation PFA needs an image made by pfa2 (its history and "
+                         "attribute 'support_rectangle')")
     plan_outputs(input_path, [output], overwrite, lambda: export_sicd_estimate("export-sicd", header, params))
     image = read_product(input_path, kinds=("image",))
     # written, read back and checked before it is published: a failed check leaves no file
     with atomic_path(output, overwrite) as tmp:
         with naming(input_path):
-            grid = write_sicd(tmp, image, place)
+            grid = write_sicd(tmp, image, place, image_formation=image_formation)
         _, pixels = read_sicd(tmp)
         if not np.array_equal(image_from_sicd(pixels, grid.flip_cols), image.data):
             raise ProcessingError(f"{output}: the pixels read back differ from {input_path}")

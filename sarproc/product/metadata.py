@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import re
 
 import numpy as np
 
@@ -38,6 +39,8 @@ class RadarMetadata:
       reference_utc: optional absolute time of azimuth time 0, ISO 8601 UTC ('2024-05-01T10:00:00.000000Z').
       reference_latitude / reference_longitude: optional WGS84 geodetic position of the scene centre, rad.
       reference_height: its height above the WGS84 ellipsoid, m. (All four absent = a local scene.)
+      polarization: optional transmit:receive polarisation, SICD spelling ('V:V', 'H:V', 'RHC:RHC', ...);
+        None = not recorded (the exports then write UNKNOWN).
     """
 
     carrier_frequency: float
@@ -61,6 +64,7 @@ class RadarMetadata:
     reference_latitude: float | None = None
     reference_longitude: float | None = None
     reference_height: float | None = None
+    polarization: str | None = None
 
     @property
     def wavelength(self) -> float:
@@ -102,6 +106,9 @@ class RadarMetadata:
             raise InputError("radar.reference_height: must be finite")
         if self.reference_utc is not None:
             parse_utc(self.reference_utc, "radar.reference_utc")
+        if self.polarization is not None and not POLARIZATION_RE.fullmatch(self.polarization):
+            raise InputError(f"radar.polarization: {self.polarization!r} is not TX:RCV with TX, RCV one of "
+                             f"{', '.join(POLARIZATIONS)} (e.g. 'V:V', 'H:V')")
 
     def to_attrs(self) -> dict:
         """HDF5 attributes: every set field (None ones are left out) and a JSON ``units`` map."""
@@ -150,10 +157,14 @@ RADAR_UNITS = {
     "reference_range": "m", "scene_center": "m", "mode": "", "azimuth_beamwidth": "rad",
     "elevation_beamwidth": "rad", "aperture_time": "s", "n_channels": "1", "beam_rotation_range": "m",
     "reference_utc": "UTC (ISO 8601)", "reference_latitude": "rad", "reference_longitude": "rad",
-    "reference_height": "m",
+    "reference_height": "m", "polarization": "",
 }
 
-_STRING_FIELDS = ("mode", "reference_utc")
+_STRING_FIELDS = ("mode", "reference_utc", "polarization")
+
+# single polarisations of SICD/CPHD (NGA.STND.0024 PolarizationType, less the OTHER* free forms)
+POLARIZATIONS = ("V", "H", "X", "Y", "S", "E", "RHC", "LHC")
+POLARIZATION_RE = re.compile(r"(V|H|X|Y|S|E|RHC|LHC):(V|H|X|Y|S|E|RHC|LHC)")
 
 
 def _attr_as(name: str, v, where: str):

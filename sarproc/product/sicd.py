@@ -20,6 +20,7 @@ only inside the functions (optional extra ``sarproc[formats]``).
 from __future__ import annotations
 
 import dataclasses
+import logging
 
 import numpy as np
 
@@ -29,6 +30,8 @@ from sarproc.product.frames import frame_from_spec
 from sarproc.product.geolocation import Placement, ecf_to_geodetic, utc_datetime
 from sarproc.product.metadata import C
 from sarproc.product.model import Product
+
+log = logging.getLogger(__name__)
 
 SICD_NS = "urn:SICD:1.4.0"
 KAPFAC = 0.88589   # -3 dB width x bandwidth of a uniformly weighted response (SICD's 0.886, sarkit's 0.8859)
@@ -75,8 +78,12 @@ class SicdGrid:
     shape: tuple[int, int]
 
 
-def image_grid(product: Product, place: Placement, tol: float = 1e-3) -> SicdGrid:
-    """Check the image is a plane, orthogonal, uniformly sampled grid and describe it in ECF."""
+def image_grid(product: Product, place: Placement, tol: float = 1e-3, scp_at=None) -> SicdGrid:
+    """Check the image is a plane, orthogonal, uniformly sampled grid and describe it in ECF.
+
+    The SCP is the centre pixel, or with ``scp_at`` (a scene point) the pixel on that point (refused
+    when the point is not on a pixel of the image).
+    """
     if product.kind != "image" or product.dims != ("azimuth", "range"):
         raise InputError(f"SICD export needs a 2D image product with dims (azimuth, range), got {product.kind} "
                          f"{product.dims}")
@@ -87,6 +94,13 @@ def image_grid(product: Product, place: Placement, tol: float = 1e-3) -> SicdGri
         if len(ax) < 2 or not np.allclose(step, step[0], rtol=1e-9, atol=0):
             raise InputError(f"SICD export: the image's {name} axis is not uniformly sampled")
     i0, j0 = len(az) // 2, len(rg) // 2
+    if scp_at is not None:
+        fa, fr = (float(np.asarray(c).reshape(-1)[0]) for c in frame.from_xyz(np.asarray(scp_at, float).reshape(1, 3)))
+        fi, fj = (fa - az[0]) / (az[1] - az[0]), (fr - rg[0]) / (rg[1] - rg[0])
+        i0, j0 = int(round(fi)), int(round(fj))
+        if (abs(fi - i0) > 1e-6 or abs(fj - j0) > 1e-6 or not 0 <= i0 < len(az) or not 0 <= j0 < len(rg)):
+            raise InputError(f"SICD export: the reference point {np.round(np.asarray(scp_at, float), 3).tolist()} m "
+                             f"is not on a pixel of the image (pixel {fi:.3f}, {fj:.3f})")
     p0 = frame.to_xyz(az[i0], rg[j0])
     d_col = frame.to_xyz(az[i0 + 1 if i0 + 1 < len(az) else i0 - 1], rg[j0]) - p0
     d_row = frame.to_xyz(az[i0], rg[j0 + 1 if j0 + 1 < len(rg) else j0 - 1]) - p0
@@ -130,13 +144,151 @@ def spectral_centre(pixels: np.ndarray, axis: int, ss: float) -> float:
     return float(phase / (2 * np.pi * ss))
 
 
-def sicd_xml(product: Product, place: Placement, *, image_formation: str = "OTHER"):
+def formed_by_pfa(product: Product) -> bool:
+    """True for images of ``pfa2`` (its last history step, with the k-space rectangle it recorded)."""
+    words = str(product.history[-1].get("command", "")).split() if product.history else []
+    if words[:1] == ["sarproc"]:           # the CLI records its command line: "sarproc pfa2 raw.h5 ..."
+        words = words[1:]
+    return words[:1] == ["pfa2"] and "support_rectangle" in product.attrs
+
+
+def polar_format_geometry(product: Product) -> bool:
+    """True for a pfa2 image whose pixels keep polar format's geometry (``method: plain`` without
+    ``correct_distortion``): a point appears where the planar-wavefront model about the scene centre puts
+    it, which is what SICD's PFA projection inverts. The two-step mosaic and the corrected plain image
+    lie on the true ground grid instead."""
+    if not formed_by_pfa(product):
+        return False
+    params = product.history[-1].get("parameters") or {}
+    return product.attrs.get("method") == "plain" and not params.get("correct_distortion", False)
+
+
+def image_formation_algo(product: Product) -> str:
+    """SICD ImageFormAlgo written by default: PFA for pfa2 images in polar-format geometry, else OTHER.
+
+    ImageFormAlgo PFA means Grid/Type RGAZIM and SICD's PFA projection (R/Rdot from PolarAngPoly and
+    SpatialFreqSFPoly: the planar-wavefront model about the SCP). Measured on configs/nie2016_small.yaml
+    (1.5 km range, docs/formats.md): in pfa2's ``plain`` image the targets' peaks lie up to 15 m from
+    their truth (wavefront curvature) and the PFA projection of the peaks lands within 4 cm of it; pfa2's
+    two-step mosaic is on the true ground grid, where the PLANE grid (OTHER) puts every target within
+    1 cm and the PFA projection would miss by up to 24 m. Backprojected (and every other) image is on a
+    true plane grid: OTHER. RGAZCOMP names another algorithm (range/azimuth compression with a linear
+    azimuth spatial frequency in slow time, RgAzComp/KazPoly) that no sarproc chain implements.
+    """
+    return "PFA" if polar_format_geometry(product) else "OTHER"
+
+
+def polarization(product: Product) -> tuple[str, str]:
+    """(TxPolarization, TxRcvPolarization) of SICD: the product's radar.polarization, else UNKNOWN."""
+    pol = getattr(product.radar, "polarization", None)
+    if not pol:
+        return "UNKNOWN", "UNKNOWN"
+    return pol.split(":")[0], pol
+
+
+@dataclasses.dataclass(frozen=True)
+class PfaGeometry:
+    """The PFA block of SICD (its sign conventions), derived from the track and pfa2's k-space rectangle.
+
+    Spatial frequency of a pulse at RF frequency f: k = (2 f / c) P(u_los), u_los the unit vector from the
+    ARP to the SCP and P the projection onto the focus plane (here the image plane: pfa2 formats its data
+    in the ground plane of the image). Krg = k . u_row, Kaz = k . u_col (cycles/m); polar angle
+    theta = atan2(Kaz, Krg) and KSF(theta) = |P(u_los)|, so |k| = (2 f / c) KSF(theta) (sarkit's
+    r_rdot_from_rgazim_pfa and _compute_pfa_min_max_fx use exactly these).
+    """
+
+    fpn: np.ndarray
+    ipn: np.ndarray
+    polar_ang_ref_time: float
+    polar_ang_poly: np.ndarray
+    spatial_freq_sf_poly: np.ndarray
+    krg: tuple[float, float]
+    kaz: tuple[float, float]
+    fit_residual: tuple[float, float]    # worst misfit of PolarAngPoly (rad) and SpatialFreqSFPoly
+
+
+def _polyfit_scaled(x: np.ndarray, y: np.ndarray, order: int) -> np.ndarray:
+    scale = max(float(np.abs(x).max()), 1e-12)
+    coefs = np.polynomial.polynomial.polyfit(x / scale, y, order)
+    return coefs / scale ** np.arange(order + 1)
+
+
+def pfa_geometry(product: Product, grid: SicdGrid, frame, t_rel: np.ndarray, t_coa: float) -> PfaGeometry:
+    """PFA parameters of a pfa2 image (scene-frame vectors; the caller maps them to ECF)."""
+    pos = np.asarray(product.aux["platform_position"], float)
+    e_row = frame.to_xyz(0.0, 1.0) - frame.to_xyz(0.0, 0.0)          # along range (rows)
+    e_az = frame.to_xyz(1.0, 0.0) - frame.to_xyz(0.0, 0.0)           # along azimuth
+    e_row, e_az = e_row / np.linalg.norm(e_row), e_az / np.linalg.norm(e_az)
+    e_col = -e_az if grid.flip_cols else e_az
+    normal = np.cross(e_row, e_col)                                  # away from the Earth (image_grid)
+    los = grid.scp_scene[None, :] - pos
+    los /= np.linalg.norm(los, axis=1, keepdims=True)
+    c_rg, c_az = los @ e_row, los @ e_col
+    theta = np.arctan2(c_az, c_rg)
+    ksf = np.hypot(c_rg, c_az)
+    order_t = int(min(5, len(t_rel) - 1))
+    ang_poly = _polyfit_scaled(t_rel - t_coa, theta, order_t)       # about t_coa, shifted below
+    # reference time: where the projected line of sight lies along the rows (theta = 0), nearest the COA
+    t_ref = 0.0
+    for _ in range(50):
+        val = np.polynomial.polynomial.polyval(t_ref, ang_poly)
+        der = np.polynomial.polynomial.polyval(t_ref, np.polynomial.polynomial.polyder(ang_poly))
+        step = val / der if der != 0 else 0.0
+        t_ref -= step
+        if abs(step) < 1e-12:
+            break
+    # the same polynomial in powers of (time from collect start)
+    shifted = np.polynomial.polynomial.Polynomial(ang_poly)(np.polynomial.polynomial.Polynomial([-t_coa, 1.0]))
+    ang_poly_abs = np.asarray(shifted.coef, float)
+    ang_poly_abs[0] -= float(np.polynomial.polynomial.polyval(t_ref + t_coa, ang_poly_abs))   # exactly 0 at t_ref
+    order_k = int(min(4, len(theta) - 1))
+    ksf_poly = _polyfit_scaled(theta, ksf, order_k) if np.ptp(theta) > 0 else np.array([float(ksf.mean())])
+    resid_t = float(np.abs(np.polynomial.polynomial.polyval(t_rel, ang_poly_abs) - theta).max())
+    resid_k = float(np.abs(np.polynomial.polynomial.polyval(theta, ksf_poly) - ksf).max())
+    # k-space rectangle of pfa2 (rad/m along e_a, e_r, line of sight towards the antenna): sample range
+    # widened by half a step each side (span n dk, the width the theoretical IRW stands for)
+    ka0, dka, n_ka, kr0, dkr, n_kr = (float(v) for v in product.attrs["support_rectangle"])
+    ka = np.array([ka0 - dka / 2, ka0 + (n_ka - 0.5) * dka])
+    kr = np.array([kr0 - dkr / 2, kr0 + (n_kr - 0.5) * dkr])
+    two_pi = 2 * np.pi
+    krg = np.sort(-kr / two_pi)                                      # e_row is pfa2's e_r
+    kaz = np.sort(-ka * float(e_col @ e_az) / two_pi)
+    return PfaGeometry(fpn=normal, ipn=normal, polar_ang_ref_time=float(t_ref + t_coa), polar_ang_poly=ang_poly_abs,
+                       spatial_freq_sf_poly=ksf_poly, krg=(float(krg[0]), float(krg[1])),
+                       kaz=(float(kaz[0]), float(kaz[1])), fit_residual=(resid_t, resid_k))
+
+
+def _unit(v):
+    v = np.asarray(v, float)
+    return v / np.linalg.norm(v)
+
+
+def sicd_xml(product: Product, place: Placement, *, image_formation: str | None = None):
     """The SICD XML tree of an image product (lxml ElementTree) and its grid."""
     import lxml.etree
     import sarkit.sicd as sksicd
 
     r = product.radar
+    auto = image_formation is None
+    if auto:
+        image_formation = image_formation_algo(product)
+    if image_formation not in ("OTHER", "PFA"):
+        raise InputError(f"SICD export: ImageFormAlgo {image_formation!r} is not one of OTHER, PFA")
+    if image_formation == "PFA" and not formed_by_pfa(product):
+        raise InputError("SICD export: ImageFormAlgo PFA needs an image of pfa2 (its recorded k-space rectangle)")
     grid = image_grid(product, place)
+    if image_formation == "PFA":
+        # the SCP is the point the phase history was formatted about (pfa2's frame origin)
+        try:
+            grid = image_grid(product, place, scp_at=frame_from_spec(product.attrs["frame"]).origin)
+        except InputError as exc:
+            if not auto:
+                raise
+            log.warning("%s: written as ImageFormAlgo OTHER (PFA needs the SCP there)", exc)
+            image_formation = "OTHER"
+    if image_formation == "PFA" and not polar_format_geometry(product):
+        log.warning("SICD export: ImageFormAlgo PFA for a pfa2 image on the true ground grid (two-step or "
+                    "distortion-corrected): SICD's PFA projection then misplaces pixels by the wavefront curvature")
     t = pulse_times(product)
     t_rel = t - t[0]                                   # SICD times run from CollectStart
     arp_ecf = place.to_ecf(product.aux["platform_position"])
@@ -155,14 +307,24 @@ def sicd_xml(product: Product, place: Placement, *, image_formation: str = "OTHE
         time_coa[1, 0] = float(grid.u_row @ vx) / r.velocity**2
         time_coa[0, 1] = float(grid.u_col @ vx) / r.velocity**2
     irw_az, irw_rg = (float(w) for w in product.attrs["theoretical_irw"])
+    pfa = None
+    if image_formation == "PFA":
+        pfa = pfa_geometry(product, grid, frame_from_spec(product.attrs["frame"]), t_rel, t_coa)
+        if pfa.fit_residual[0] > 1e-6 or pfa.fit_residual[1] > 1e-6:
+            raise InputError(f"SICD export: the polar angle / scale factor are not smooth polynomials (residuals "
+                             f"{pfa.fit_residual[0]:.3g} rad, {pfa.fit_residual[1]:.3g})")
     dims = {}
     pixels = sicd_pixels(product.data, grid)
     for axis, (name, u, ss, irw) in enumerate((("Row", grid.u_row, grid.ss_row, irw_rg),
                                                ("Col", grid.u_col, grid.ss_col, irw_az))):
         # where the pixels' spectrum sits (measured: backprojection keeps the carrier, a polar-format image
-        # may be basebanded) and the spatial frequency it stands for, KCtr + DeltaKCOA = (2 f_c / c) u_los . u
+        # may be basebanded) and the spatial frequency it stands for, KCtr + DeltaKCOA: (2 f_c / c) u_los . u
+        # at the SCP, or for PFA the centre of the processed k-space rectangle (Krg, Kaz)
         dk = spectral_centre(pixels, axis, ss)
-        kctr = 2.0 * r.carrier_frequency / C * float(u_los @ u) - dk
+        k_abs = 2.0 * r.carrier_frequency / C * float(u_los @ u)
+        if pfa is not None:
+            k_abs = float(np.mean(pfa.krg if name == "Row" else pfa.kaz))
+        kctr = k_abs - dk
         bw = KAPFAC / irw
         lo, hi = dk - bw / 2, dk + bw / 2
         if lo < -0.5 / ss or hi > 0.5 / ss:           # support wraps around the folding frequency
@@ -175,6 +337,7 @@ def sicd_xml(product: Product, place: Placement, *, image_formation: str = "OTHE
     duration = len(t) / r.prf                         # the last pulse's interval included (IPPEnd = n - 1)
     f_lo, f_hi = r.carrier_frequency - r.bandwidth / 2, r.carrier_frequency + r.bandwidth / 2
     created = np.datetime64("now", "us")
+    tx_pol, txrcv_pol = polarization(product)
 
     root = sksicd.ElementWrapper(lxml.etree.Element(f"{{{SICD_NS}}}SICD"))
     root["CollectionInfo"] = {"CollectorName": "sarproc simulator", "CoreName": f"sarproc_{product.kind}",
@@ -189,7 +352,7 @@ def sicd_xml(product: Product, place: Placement, *, image_formation: str = "OTHE
                        "SCP": {"ECF": scp_ecf, "LLH": np.array([*np.degrees(scp_llh[:2]), scp_llh[2]])},
                        "ImageCorners": np.zeros((4, 2))}   # projected below, once the geometry is complete
     root["Grid"] = {"ImagePlane": "SLANT" if abs(float(np.cross(grid.u_row, grid.u_col) @ place.rotation[:, 2])) < 0.999
-                    else "GROUND", "Type": "PLANE", "TimeCOAPoly": time_coa, "Row": dims["Row"], "Col": dims["Col"]}
+                    else "GROUND", "Type": "RGAZIM" if pfa is not None else "PLANE", "TimeCOAPoly": time_coa, "Row": dims["Row"], "Col": dims["Col"]}
     root["Timeline"] = {"CollectStart": utc_datetime(collect_start), "CollectDuration": duration,
                         "IPP": {"@size": 1, "Set": [{"TStart": 0.0, "TEnd": duration, "IPPStart": 0,
                                          "IPPEnd": len(t) - 1, "IPPPoly": np.array([0.0, r.prf]),
@@ -200,14 +363,19 @@ def sicd_xml(product: Product, place: Placement, *, image_formation: str = "OTHE
         "Waveform": {"@size": 1, "WFParameters": [{"TxPulseLength": r.pulse_duration, "TxRFBandwidth": r.bandwidth,
                                        "TxFreqStart": f_lo, "TxFMRate": r.chirp_rate, "RcvDemodType": "CHIRP",
                                        "ADCSampleRate": r.range_sampling_rate, "RcvFMRate": 0.0, "@index": 1}]},
-        "TxPolarization": "V",
-        "RcvChannels": {"@size": 1, "ChanParameters": [{"TxRcvPolarization": "V:V", "@index": 1}]},
+        "TxPolarization": tx_pol,
+        "RcvChannels": {"@size": 1, "ChanParameters": [{"TxRcvPolarization": txrcv_pol, "@index": 1}]},
     }
-    root["ImageFormation"] = {"RcvChanProc": {"NumChanProc": 1, "ChanIndex": [1]}, "TxRcvPolarizationProc": "V:V",
+    root["ImageFormation"] = {"RcvChanProc": {"NumChanProc": 1, "ChanIndex": [1]}, "TxRcvPolarizationProc": txrcv_pol,
                               "TStartProc": 0.0, "TEndProc": duration,
                               "TxFrequencyProc": {"MinProc": f_lo, "MaxProc": f_hi},
                               "ImageFormAlgo": image_formation, "STBeamComp": "NO", "ImageBeamComp": "NO",
                               "AzAutofocus": "NO", "RgAutofocus": "NO"}
+    if pfa is not None:      # schema order: the PFA block comes last (SCPCOA is put before it below)
+        root["PFA"] = {"FPN": place.vector_to_ecf(pfa.fpn), "IPN": place.vector_to_ecf(pfa.ipn),
+                       "PolarAngRefTime": pfa.polar_ang_ref_time, "PolarAngPoly": pfa.polar_ang_poly,
+                       "SpatialFreqSFPoly": pfa.spatial_freq_sf_poly, "Krg1": pfa.krg[0], "Krg2": pfa.krg[1],
+                       "Kaz1": pfa.kaz[0], "Kaz2": pfa.kaz[1]}
     tree = root.elem.getroottree()
     scpcoa = sksicd.compute_scp_coa(tree)
     # SCPCOA belongs after ImageFormation (schema order)
@@ -223,7 +391,7 @@ def sicd_xml(product: Product, place: Placement, *, image_formation: str = "OTHE
 
 
 
-def write_sicd(path, product: Product, place: Placement, *, image_formation: str = "OTHER") -> SicdGrid:
+def write_sicd(path, product: Product, place: Placement, *, image_formation: str | None = None) -> SicdGrid:
     """Write ``product`` (a 2D image) as a SICD NITF file at ``path`` (atomically)."""
     require_sarkit()
     import sarkit.sicd as sksicd

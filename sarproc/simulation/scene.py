@@ -19,7 +19,7 @@ from sarproc.product import beam
 from sarproc.product.config import OTHER_SECTIONS, STAGE_SECTIONS, as_dict, build, load_yaml, param
 from sarproc.product.errors import InputError
 from sarproc.product.frames import frame_coordinates, frame_names, make_frame
-from sarproc.product.metadata import C, RadarMetadata, scene_center_from_geometry
+from sarproc.product.metadata import POLARIZATION_RE, POLARIZATIONS, C, RadarMetadata, scene_center_from_geometry
 from sarproc.product.model import make_targets
 
 log = logging.getLogger(__name__)
@@ -34,8 +34,14 @@ class RadarParams:
     range_sampling_rate: float = param("frequency", gt=0, doc="complex range sampling rate f_s (>= B)")
     prf: float = param("frequency", gt=0, doc="pulse repetition frequency")
     chirp: str = param(default="up", choices=("up", "down"), doc="chirp direction")
+    polarization: str | None = param(default=None, doc=(
+        "optional transmit:receive polarisation ('V:V', 'H:H', 'H:V', ...; SICD spelling), recorded in the "
+        "products and written by export-sicd; absent: UNKNOWN"))
 
     def validate(self):
+        if self.polarization is not None and not POLARIZATION_RE.fullmatch(str(self.polarization)):
+            raise InputError(f"polarization: {self.polarization!r} is not TX:RCV with TX, RCV one of "
+                             f"{', '.join(POLARIZATIONS)} (e.g. 'V:V', 'H:V')")
         if self.range_sampling_rate < self.bandwidth:
             raise InputError(f"range_sampling_rate: {self.range_sampling_rate:g} Hz is below the bandwidth "
                              f"{self.bandwidth:g} Hz; complex sampling needs f_s >= B")
@@ -274,7 +280,7 @@ def scene_from_mapping(mapping: dict, source: str = "<mapping>") -> Scene:
         chirp_rate=(1 if r.chirp == "up" else -1) * r.bandwidth / r.pulse_duration,
         range_sampling_rate=r.range_sampling_rate, prf=r.prf, velocity=pl.velocity, altitude=pl.altitude,
         squint=g.squint, reference_range=g.reference_range, scene_center=centre, mode=p.acquisition.mode,
-        aperture_time=_aperture_time(p, wavelength),
+        aperture_time=_aperture_time(p, wavelength), polarization=r.polarization,
         **_reference(p.reference),
     )
     frame, xyz, vel, amp, names = _targets(p, radar, source)
