@@ -182,10 +182,12 @@ def cphd_parts(raw: Product, place: Placement, sarproc_metadata: bool = True):
                     "Channel": [{"Identifier": CHANNEL, "NumVectors": n_pulses, "NumSamples": n_fft,
                                  "SignalArrayByteOffset": 0, "PVPArrayByteOffset": 0}],
                     "NumSupportArrays": 0}
+    # radar.polarization ('H:V'), else CPHD's UNSPECIFIED
+    tx_pol, rcv_pol = r.polarization.split(":") if r.polarization else ("UNSPECIFIED", "UNSPECIFIED")
     root["Channel"] = {"RefChId": CHANNEL, "FXFixedCPHD": True, "TOAFixedCPHD": toa_fixed, "SRPFixedCPHD": True,
                        "Parameters": [{"Identifier": CHANNEL, "RefVectorIndex": n_pulses // 2, "FXFixed": True,
                                        "TOAFixed": toa_fixed, "SRPFixed": True,
-                                       "Polarization": {"TxPol": "V", "RcvPol": "V"},
+                                       "Polarization": {"TxPol": tx_pol, "RcvPol": rcv_pol},
                                        "FxC": r.carrier_frequency, "FxBW": r.bandwidth,
                                        "TOASaved": float(toa2.max() - toa1.min()),
                                        "DwellTimes": {"CODId": "cod", "DwellId": "dwell"},
@@ -196,10 +198,10 @@ def cphd_parts(raw: Product, place: Placement, sarproc_metadata: bool = True):
                      "DwellTime": [{"Identifier": "dwell", "DwellTimePoly": np.array([[float(tx_time[-1])]])}]}
     root["TxRcv"] = {"NumTxWFs": 1, "TxWFParameters": [{"Identifier": "tx", "PulseLength": r.pulse_duration,
                                                         "RFBandwidth": r.bandwidth, "FreqCenter": r.carrier_frequency,
-                                                        "LFMRate": r.chirp_rate, "Polarization": "V"}],
+                                                        "LFMRate": r.chirp_rate, "Polarization": tx_pol}],
                      "NumRcvs": 1, "RcvParameters": [{"Identifier": "rcv", "WindowLength": n_range / fs,
                                                       "SampleRate": fs, "IFFilterBW": fs,
-                                                      "FreqCenter": r.carrier_frequency, "Polarization": "V"}]}
+                                                      "FreqCenter": r.carrier_frequency, "Polarization": rcv_pol}]}
     sarproc_meta = {"sarproc.radar": r.to_json(),
                     "sarproc.targets": json.dumps(_targets_to_json(raw.targets)),
                     "sarproc.frame": json.dumps(raw.attrs.get("frame")),
@@ -346,8 +348,10 @@ def _foreign_raw(path, xh, fx, pvps) -> Product:
     band = (f >= float(pvps["FX1"][0]) - 1e-6) & (f <= float(pvps["FX2"][0]) + 1e-6)
     if np.count_nonzero(band) < 2:
         raise InputError(f"{path}: fewer than two FX samples inside [FX1, FX2]")
+    pol = [xh.load(f"{{*}}Channel/{{*}}Parameters/{{*}}Polarization/{{*}}{k}") for k in ("TxPol", "RcvPol")]
     raw = gotcha_product({"phase_history": np.asarray(fx[:, band]), "freq": f[band], "positions": pos,
-                          "r0": np.linalg.norm(pos, axis=1), "files": [str(path)]})
+                          "r0": np.linalg.norm(pos, axis=1), "files": [str(path)],
+                          "polarization": ":".join(pol) if None not in pol and "UNSPECIFIED" not in pol else None})
     raw.history = [history_entry(f"import-cphd {path}", {"source": "CPHD (standard fields only)",
                                                           "fx_samples_in_band": int(np.count_nonzero(band))})]
     return raw

@@ -10,15 +10,23 @@ scene centre: the window start is the varied gate 2 [r_0(t) - r_0(mid)] / c (aux
 
     x(t, n) = (1/N) exp{-j 4 pi f_c r_0 / c} sum_k S(t, f_k) exp{j 2 pi (f_k - f_c)(n - N/2) / f_s},
 
-with f_s = N df (N frequency samples df apart), f_c their mean and B = f_s. Any processor of
-raw products (pfa2, backproject) then sees the standard model at absolute delays 2 R_p / c.
+with f_s = N df (N frequency samples df apart, ascending), B = f_s and f_c = f_{N//2}, the sample the DFT of
+a pulse puts on its zero bin: every f_k - f_c is then a whole multiple of df, so x is periodic in n and its
+DFT holds exactly the N samples S(t, f_k) (times the carrier and delay factors), which is what a processor
+assumes when it FFT-upsamples or range-transforms a pulse. (With f_c the mean of an even number of samples
+the offsets fall half a bin off that grid: the pulse's DFT leaks, FFT interpolation of it is wrong between
+samples, and a backprojected Gotcha image came out 29 dB from FastSAR's image of the .mat, see
+docs/performance.md.) Any processor of raw products (pfa2, backproject) then sees the standard model at
+absolute delays 2 R_p / c.
 There is no time axis in the files: the PRF is nominal (``NOMINAL_PRF``) and the velocity the
-mean distance between pulses times it; antenna positions are stored per pulse.
+mean distance between pulses times it; antenna positions are stored per pulse. The polarisation is
+read from the AFRL file names (``..._HH.mat``: radar.polarization "H:H") when every file names the same.
 """
 
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -71,6 +79,15 @@ def read_gotcha(files, autofocus: bool = False) -> dict:
             "r0": np.concatenate(r0), "files": [str(f) for f in files]}
 
 
+def polarization_from_names(files) -> str | None:
+    """'H:V' when every file name ends in _HV.mat (the AFRL naming), else None (not recorded)."""
+    pols = set()
+    for f in files:
+        m = re.search(r"_([HV])([HV])\.mat$", Path(str(f)).name, re.IGNORECASE)
+        pols.add(f"{m.group(1).upper()}:{m.group(2).upper()}" if m else None)
+    return pols.pop() if len(pols) == 1 and None not in pols else None
+
+
 def gotcha_product(g: dict) -> Product:
     """The raw product (see the module docstring) of :func:`read_gotcha`'s arrays."""
     from sarproc.product.io import history_entry
@@ -80,10 +97,10 @@ def gotcha_product(g: dict) -> Product:
     n_az, n = s.shape
     df = float(freq[1] - freq[0])
     fs = n * abs(df)
-    fc = float(freq.mean())
-    fr = freq - fc
     if df < 0:  # descending frequencies: flip to ascending
-        s, fr = s[:, ::-1], fr[::-1]
+        s, freq = s[:, ::-1], freq[::-1]
+    fc = float(freq[n // 2])                       # the zero bin of a pulse's DFT (module docstring)
+    fr = freq - fc
     mid = n_az // 2
     r_ref = float(r0[mid])
     k = np.arange(n)
@@ -101,7 +118,8 @@ def gotcha_product(g: dict) -> Product:
     radar = RadarMetadata(carrier_frequency=fc, bandwidth=fs, pulse_duration=1.0 / fs, chirp_rate=fs * fs,
                           range_sampling_rate=fs, prf=NOMINAL_PRF, velocity=velocity,
                           altitude=float(p_mid[2]), squint=squint, reference_range=r_ref,
-                          scene_center=(0.0, 0.0, 0.0), mode="spotlight", aperture_time=n_az / NOMINAL_PRF)
+                          scene_center=(0.0, 0.0, 0.0), mode="spotlight", aperture_time=n_az / NOMINAL_PRF,
+                          polarization=g.get("polarization") or polarization_from_names(g["files"]))
     radar.validate()
     frame = GroundLosFrame((0.0, 0.0, 0.0), p_mid)
     times = (np.arange(n_az) - (n_az - 1) / 2) / NOMINAL_PRF

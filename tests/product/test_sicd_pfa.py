@@ -231,3 +231,35 @@ def test_bad_polarization_exits_2_naming_file_and_key(tmp_path):
                           capture_output=True, text=True)
     assert proc.returncode == 2
     assert str(scene) in proc.stderr and "radar.polarization" in proc.stderr
+
+
+def test_gotcha_polarization_from_the_afrl_file_names():
+    from sarproc.product.gotcha import polarization_from_names
+
+    assert polarization_from_names(["d/data_3dsar_pass1_az001_HH.mat", "data_3dsar_pass1_az002_HH.mat"]) == "H:H"
+    assert polarization_from_names(["x_hv.mat"]) == "H:V"
+    assert polarization_from_names(["x_HH.mat", "x_VV.mat"]) is None      # mixed: not one polarisation
+    assert polarization_from_names(["x.mat"]) is None
+
+
+@pytest.mark.parametrize("pol", ["H:V", None])
+def test_polarization_round_trips_through_cphd(pol, tmp_path):
+    from sarproc.product.cphd import check_cphd, read_cphd, write_cphd
+
+    mapping = load_yaml(ROOT / "configs" / "demo.yaml")
+    if pol is not None:
+        mapping["radar"]["polarization"] = pol
+    raw = simulate(scene_from_mapping(mapping, "demo.yaml"))
+    place = placement(raw.radar, build(GeolocationParams, GEO, "test", "geolocation"))
+    for own in (True, False):            # lossless (sarproc.* parameters) and standard fields only
+        path = tmp_path / f"raw_{own}.cphd"
+        write_cphd(path, raw, place, sarproc_metadata=own)
+        result = check_cphd(path)
+        assert result["passed"], result["report"]
+        assert read_cphd(path).radar.polarization == pol
+    import sarkit.cphd as skcphd
+
+    with open(tmp_path / "raw_False.cphd", "rb") as fh, skcphd.Reader(fh) as reader:
+        tree = reader.metadata.xmltree
+    want = pol.split(":") if pol else ["UNSPECIFIED", "UNSPECIFIED"]
+    assert [tree.findtext(f"./{{*}}Channel/{{*}}Parameters/{{*}}Polarization/{{*}}{k}") for k in ("TxPol", "RcvPol")] == want
