@@ -2,7 +2,7 @@
 CONFIG002 ?= configs/nie2016.yaml
 GOTCHA_DIR ?= ../shared/data/gotcha
 
-.PHONY: reproduce-002 reproduce-002-small reproduce-gotcha accuracy-002
+.PHONY: reproduce-002 reproduce-002-small reproduce-gotcha
 
 # Full Table 1 scene (heavy: about 11k pulses x 17k samples; serialised with other heavy runs).
 reproduce-002: $(STAMP)
@@ -21,6 +21,4 @@ reproduce-gotcha: $(STAMP)
 	$(SARPROC) backproject results/gotcha/raw.h5 --config configs/gotcha.yaml -o results/gotcha/image_bp.h5 --overwrite
 	$(PY) scripts/reproduce_gotcha.py --dir results/gotcha
 
-accuracy-002: $(STAMP)
-	mkdir -p results/002-accuracy
-	cd scripts && ../$(PY) accuracy_002.py --config ../configs/nie2016_small.yaml --out ../results/002-accuracy
+# accuracy-002 is a sweep: mk/sweeps.mk.
