@@ -1,0 +1,82 @@
+"""The sweeps behind `make accuracy-*` run exactly the settings of the scripts whose tables they replace."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import pytest
+
+from sarproc.cli.sweep_tasks import plan_sweep
+from sarproc.product.units import parse_quantity
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _script(name):
+    sys.path.insert(0, str(ROOT / "scripts"))          # accuracy_002 imports reproduce_002 from its folder
+    try:
+        spec = importlib.util.spec_from_file_location(name, ROOT / "scripts" / f"{name}.py")
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+    finally:
+        sys.path.remove(str(ROOT / "scripts"))
+    return module
+
+
+def test_backprojection_sweep_has_the_scripts_settings():
+    script = _script("accuracy_backprojection")
+    plan = plan_sweep(ROOT / "configs" / "sweeps" / "backprojection.yaml")
+    for scene in ("stripmap", "squint30"):
+        got = sorted((t.setting["backproject.engine"], t.setting["backproject.upsample"],
+                      t.setting["backproject.interpolation"]) for t in plan.tasks if t.scene == scene)
+        assert got == sorted(set(script.SETTINGS) | {script.REFERENCE})
+
+
+def test_000_sweep_has_the_scripts_settings_in_its_frame():
+    script = _script("accuracy_000")
+    plan = plan_sweep(ROOT / "configs" / "sweeps" / "accuracy_000.yaml")
+    for scene in ("exp2_small", "airborne_small"):
+        tasks = [t for t in plan.tasks if t.scene == scene]
+        assert all(t.config["fine_focus"]["output_frame"] == "lrwc" for t in tasks)   # the script's frame
+        got = []
+        for t in tasks:
+            over = {}
+            for key, value in t.setting.items():
+                section, name = key.split(".")
+                over.setdefault(section, {})[name] = value
+            got.append(over if over != {"fine_focus": {"stolt_kernel": "knab"}} else {})   # the baseline
+        assert sorted(map(repr, got)) == sorted(repr(o) for _, o in script.SETTINGS)
+
+
+def test_002_sweep_has_the_scripts_settings():
+    pytest.importorskip("matplotlib")
+    script = _script("accuracy_002")
+    plan = plan_sweep(ROOT / "configs" / "sweeps" / "accuracy_002.yaml")
+    from sarproc.focus.pfa.chain import Pfa2Params, pfa2
+    from sarproc.product.config import build, load_yaml
+    from sarproc.simulation.scene import scene_from_mapping
+    from sarproc.simulation.simulate import simulate
+
+    mapping = load_yaml(ROOT / "configs" / "nie2016_small.yaml")
+    image = pfa2(simulate(scene_from_mapping(mapping, "nie2016_small.yaml")),
+                 build(Pfa2Params, mapping.get("pfa2"), "nie2016_small.yaml", "pfa2"))
+    radius = image.attrs["valid_radius_eq7"]          # the script's sub-image sizes are fractions of it
+    wanted = []
+    for _, change in script.SETTINGS:
+        want = dict(change) if change else {"method": "two_step"}
+        if "subimage_size" in want:
+            want["subimage_size"] *= radius
+        wanted.append(want)
+    for task in plan.tasks:
+        got = {k.split(".", 1)[1]: v for k, v in task.setting.items()}
+        if isinstance(got.get("subimage_size"), str):
+            got["subimage_size"] = parse_quantity(got["subimage_size"], "length")
+        assert sum(script._same(got, w) or _close(got, w) for w in wanted) == 1, got
+    assert len(plan.tasks) == len(wanted)
+
+
+def _close(got, want):
+    return set(got) == set(want) and all(
+        abs(got[k] - want[k]) <= 1e-9 * abs(want[k]) if isinstance(want[k], float) else got[k] == want[k] for k in want)
