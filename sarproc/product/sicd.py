@@ -1,9 +1,12 @@
 """Focused 2D images to SICD (NGA.STND.0024, version 1.4.0) through NGA's sarkit, and back.
 
 A sarproc image lies on a plane grid of the scene frame (frames.py); SICD describes such a grid as
-Grid/Type PLANE with the row and column unit vectors in ECF. SICD rows run along range (away from the
-radar) and columns along azimuth, with the grid normal (row x col) pointing away from the Earth; for a
-scene left of the track that means the azimuth axis is reversed. So the SICD pixel array is
+Grid/Type PLANE with the row and column unit vectors in ECF (ImageFormAlgo OTHER); a pfa2 image that
+keeps polar format's geometry (method plain, uncorrected) is written as ImageFormAlgo PFA instead:
+Grid/Type RGAZIM and a PFA block (:func:`pfa_geometry`; :func:`image_formation_algo` says why by
+geometry). SICD rows run along range (away from the radar) and columns along azimuth, with the grid
+normal (row x col) pointing away from the Earth; for a scene left of the track that means the azimuth
+axis is reversed. So the SICD pixel array is
 ``image.T`` with its columns flipped when needed: :func:`sicd_pixels` and :func:`image_from_sicd` do
 and undo exactly this, nothing else (pixels are complex64 -> RE32F_IM32F, bit for bit).
 
@@ -258,11 +261,6 @@ def pfa_geometry(product: Product, grid: SicdGrid, frame, t_rel: np.ndarray, t_c
                        kaz=(float(kaz[0]), float(kaz[1])), fit_residual=(resid_t, resid_k))
 
 
-def _unit(v):
-    v = np.asarray(v, float)
-    return v / np.linalg.norm(v)
-
-
 def sicd_xml(product: Product, place: Placement, *, image_formation: str | None = None):
     """The SICD XML tree of an image product (lxml ElementTree) and its grid."""
     import lxml.etree
@@ -311,8 +309,12 @@ def sicd_xml(product: Product, place: Placement, *, image_formation: str | None 
     if image_formation == "PFA":
         pfa = pfa_geometry(product, grid, frame_from_spec(product.attrs["frame"]), t_rel, t_coa)
         if pfa.fit_residual[0] > 1e-6 or pfa.fit_residual[1] > 1e-6:
-            raise InputError(f"SICD export: the polar angle / scale factor are not smooth polynomials (residuals "
-                             f"{pfa.fit_residual[0]:.3g} rad, {pfa.fit_residual[1]:.3g})")
+            msg = (f"SICD export: the polar angle / scale factor are not smooth polynomials of the track (residuals "
+                   f"{pfa.fit_residual[0]:.3g} rad, {pfa.fit_residual[1]:.3g})")
+            if not auto:
+                raise InputError(msg)
+            log.warning("%s: written as ImageFormAlgo OTHER", msg)
+            image_formation, pfa = "OTHER", None      # the SCP on the formatting point is as good for PLANE
     dims = {}
     pixels = sicd_pixels(product.data, grid)
     for axis, (name, u, ss, irw) in enumerate((("Row", grid.u_row, grid.ss_row, irw_rg),
@@ -352,7 +354,8 @@ def sicd_xml(product: Product, place: Placement, *, image_formation: str | None 
                        "SCP": {"ECF": scp_ecf, "LLH": np.array([*np.degrees(scp_llh[:2]), scp_llh[2]])},
                        "ImageCorners": np.zeros((4, 2))}   # projected below, once the geometry is complete
     root["Grid"] = {"ImagePlane": "SLANT" if abs(float(np.cross(grid.u_row, grid.u_col) @ place.rotation[:, 2])) < 0.999
-                    else "GROUND", "Type": "RGAZIM" if pfa is not None else "PLANE", "TimeCOAPoly": time_coa, "Row": dims["Row"], "Col": dims["Col"]}
+                    else "GROUND", "Type": "RGAZIM" if pfa is not None else "PLANE", "TimeCOAPoly": time_coa,
+                    "Row": dims["Row"], "Col": dims["Col"]}
     root["Timeline"] = {"CollectStart": utc_datetime(collect_start), "CollectDuration": duration,
                         "IPP": {"@size": 1, "Set": [{"TStart": 0.0, "TEnd": duration, "IPPStart": 0,
                                          "IPPEnd": len(t) - 1, "IPPPoly": np.array([0.0, r.prf]),
