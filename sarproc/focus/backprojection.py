@@ -58,6 +58,25 @@ def upsample_range(rc: np.ndarray, factor: int, workers: int = -1, pad: int = 0,
     return out
 
 
+def upsample_into(rc: np.ndarray, buf: np.ndarray, workers: int = -1) -> np.ndarray:
+    """upsample_range(rc, length=buf.shape[-1]) of a (rows, n) block written into the reused complex64 buffer
+    ``buf`` (rows, m) in place (no zero-filled output, no copy of the inverse transform); returns buf."""
+    n, m = rc.shape[-1], buf.shape[-1]
+    if m == n:
+        buf[...] = rc
+        return buf
+    pos = (n + 1) // 2
+    spec = sfft.fft(rc, axis=-1, workers=workers)
+    spec *= np.float32(m / n)
+    buf[:, :pos] = spec[:, :pos]
+    buf[:, pos:m - (n - pos)] = 0
+    buf[:, m - (n - pos):] = spec[:, pos:]
+    out = sfft.ifft(buf, axis=-1, workers=workers, overwrite_x=True)
+    if out is not buf and not np.shares_memory(out, buf):
+        buf[...] = out
+    return buf
+
+
 def upsampled_length(n: int, factor: int) -> int:
     """Samples of a pulse of n upsampled about ``factor`` times: next_fast_len(n x factor) (1060 x 8 = 8480
     has the prime 53; 8505 transforms 2.5x faster), so the sample spacing is n / length of the input's."""
@@ -99,9 +118,12 @@ def _backproject_block(s, e, flat, stride, n_up, scale, t0, gate, tx_c, rx_c, mo
         i0 = np.floor(pos)
         w = (pos - i0).astype(np.float32)
         i0 = i0.astype(np.int64)
-        outside = (i0 < 0) | (i0 >= n_up)
-        i0[outside] = n_up - 1                                     # the last sample pairs with the zero sample,
-        w[outside] = 1.0                                           # and reads outside give exactly 0
+        # Samples outside the pulse are zero on both sides: i0 = -1 pairs the previous row's zero sample (the
+        # last row's for the first pulse, by wrap-around) with sample 0, i0 = n_up - 1 the last sample with
+        # this row's zero sample; further out, weight 1 on the zero sample gives exactly 0.
+        outside = (i0 < -1) | (i0 >= n_up)
+        i0[outside] = n_up - 1
+        w[outside] = 1.0
         i0 += rows
         lo = flat[i0]
         val = lo + (flat[i0 + 1] - lo) * w
@@ -172,8 +194,14 @@ def backproject_points(rc, range_time, tx_pos, rx_pos, points, carrier_frequency
     return acc / n_az
 
 
-def _tile_size(points: np.ndarray, tile_points: int) -> float:
-    """Edge (m) of a square/cubic tile holding about ``tile_points`` points of a regular grid."""
+# Largest tile radius in carrier cycles of one leg's path: a pixel's float32 offset of up to 2 x this many cycles
+# (monostatic) carries a rounding error of ~2^-24 of it, 3e-5 cycles (2e-4 rad) at 256.
+MAX_TILE_RADIUS_CYCLES = 256.0
+
+
+def _tile_size(points: np.ndarray, tile_points: int, max_radius: float = np.inf) -> float:
+    """Edge (m) of a square/cubic tile holding about ``tile_points`` points of a regular grid, capped so that a
+    tile's half-diagonal stays within ``max_radius`` (m): sparse points would otherwise make huge tiles."""
     from sarproc.focus.backprojection_kernel import bounds
 
     lo, hi = bounds(np.ascontiguousarray(points, dtype=float))
@@ -182,7 +210,7 @@ def _tile_size(points: np.ndarray, tile_points: int) -> float:
     if len(ext) == 0:
         return 1.0
     cell = (float(np.prod(ext)) / len(points)) ** (1.0 / len(ext))
-    return cell * tile_points ** (1.0 / len(ext))
+    return min(cell * tile_points ** (1.0 / len(ext)), 2 * max_radius / math.sqrt(len(ext)))
 
 
 def _backproject_compiled(rc, t0, dt, gate, tx_pos, rx_pos, monostatic, points, carrier_frequency, upsample,
@@ -201,24 +229,35 @@ def _backproject_compiled(rc, t0, dt, gate, tx_pos, rx_pos, monostatic, points, 
     if mode == 2:
         taps = taps_of(interpolation, kernel_length)
         table = tap_table(interpolation, taps, oversampling, np.float32, steps=bk._TABLE_STEPS)
-    order, tile_start, centres, origin, d = bk.make_tiles(points, _tile_size(points, tile_points),
-                                                          max_tile=4 * tile_points)
+    edge = _tile_size(points, tile_points, MAX_TILE_RADIUS_CYCLES * C / carrier_frequency)
+    order, tile_start, centres, origin, d = bk.make_tiles(points, edge, max_tile=4 * tile_points)
     n_up = upsampled_length(n_rg, upsample)
     fs_up = n_up / (n_rg * dt)
     first = -(t0 + gate) * fs_up
     tx_c = np.ascontiguousarray(tx_pos - origin)
     rx_c = np.ascontiguousarray(rx_pos - origin)
     acc = np.zeros(len(points), np.complex128)
-    chunk = max(1, min(n_az, 128))             # pulses upsampled and backprojected at a time (bounded memory)
+    chunk = max(1, min(n_az, 64))              # pulses upsampled and backprojected at a time (bounded memory)
     spans = [(s, min(s + chunk, n_az)) for s in range(0, n_az, chunk)]
+    if mode == 1:                              # each pulse's window of samples the pixels can reach
+        radius = np.sqrt(np.maximum.reduceat(d[3], tile_start[:-1])).astype(float)
+        lo, hi = bk.pulse_windows(first, fs_up / C, tx_c, rx_c, monostatic, centres, radius, n_up)
+        n_w = int((hi - lo).max()) + 3
+        first = first - lo + 1                 # positions counted in pair-table entries
+        pairs = np.empty((chunk, n_w + 1, 4), np.float32)
+    else:
+        pairs = np.zeros((1, 1, 4), np.float32)
     old = numba.get_num_threads()
     if workers:
         numba.set_num_threads(max(1, min(int(workers), numba.config.NUMBA_NUM_THREADS)))
     try:
+        buf = np.empty((chunk, n_up), np.complex64)
         for s, e in (progress(spans) if progress is not None else spans):
-            pulses_f = upsample_range(rc[s:e], upsample, length=n_up).view(np.float32)   # (n, 2 n_up): re, im
-            bk.backproject_tiles(pulses_f, first[s:e], fs_up / C, carrier_frequency / C, tx_c[s:e], rx_c[s:e],
-                                 monostatic, centres, tile_start, d, mode, table, taps, acc)
+            pulses = upsample_into(np.asarray(rc[s:e], np.complex64), buf[:e - s])
+            if mode == 1:
+                bk.pair_table(pulses, lo[s:e], pairs[:e - s])
+            bk.backproject_tiles(pulses, pairs[:e - s], first[s:e], fs_up / C, carrier_frequency / C, tx_c[s:e],
+                                 rx_c[s:e], monostatic, centres, tile_start, d, mode, table, taps, acc)
     finally:
         numba.set_num_threads(old)
     out = np.empty_like(acc)

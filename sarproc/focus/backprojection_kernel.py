@@ -4,16 +4,21 @@ Same sum as the float64 reference of :mod:`sarproc.focus.backprojection`, arrang
 
 - Pixels are grouped into small spatial tiles. Per tile and pulse the range from the antenna to the
   tile centre R_0 and its unit vector u are computed in float64; a pixel at d from the centre then
-  differs by dR = R_0 a / (1 + sqrt(1 + a)), a = 2 u.d / R_0' + |d|^2 / R_0^2 (the exact root of
-  |c + d - p|^2 = R_0^2 + 2 R_0 u.d + |d|^2, written without cancellation), evaluated in float32: its
-  relative error is ~1e-7 of a few tens of metres, i.e. micrometres.
+  differs by dR = u.d + (|d|^2 - (u.d)^2) / (2 R_0) - u.d (|d|^2 - (u.d)^2) / (2 R_0^2) (third order in d)
+  wherever the remainder keeps the phase error below EXPANSION_LIMIT_CYCLES, else by the exact root
+  dR = R_0 a / (1 + sqrt(1 + a)), a = 2 u.d / R_0 + |d|^2 / R_0^2, both in float32 (micrometres).
 - The range-sample position and the carrier phase are split the same way: float64 integer sample and
   reduced phase cycles per tile and pulse, float32 offsets per pixel.
-- exp(j 2 pi cycles) comes from a short polynomial on the quarter-cycle-reduced argument (|error| < 1e-7,
-  vectorisable, no libm call); the range signal is read by linear interpolation of an (upsampled) pulse,
-  nearest sample, or a short tabulated windowed-sinc / Knab kernel on the samples as they are.
-- Tiles run in parallel (numba prange), each accumulating its pixels over pulses in a small float32 buffer
-  that stays in the L1 cache; no BLAS, no Python in the hot loop.
+- exp(j 2 pi cycles) comes from short minimax polynomials on a quarter cycle (|error| < 1e-6, vectorisable,
+  no libm call).
+- Linear interpolation (the default) reads a pair table built once per pulse over the window of samples the
+  image can reach: entry k holds (x_s, x_{s+1} - x_s), so each pixel needs one 16-byte load at an unsigned
+  index (signed indices cost numba's negative-index wrap-around in the only scalar loop). Positions and
+  indices, the gather, and the interpolation + phasor + accumulation are three passes over L1-resident
+  scratch, the first and last vectorised. Nearest sample and tabulated windowed-sinc / Knab kernels read the
+  pulse itself.
+- Tiles run in parallel (numba prange), each accumulating its pixels over pulses in a small float32 buffer;
+  no BLAS, no Python in the hot loop.
 
 Kernels are compiled on first use and cached on disk (``cache=True``).
 """
@@ -25,10 +30,17 @@ import math
 import numba
 import numpy as np
 
-from sarproc.dsp.phasor import cis_cycles32
+from sarproc.dsp.phasor import cis_cycles32_short
 
 INTERPOLATIONS = ("nearest", "linear", "sinc", "lanczos", "knab")
 _TABLE_STEPS = 256          # table entries per sample for the windowed-sinc kernels (linear in between)
+
+
+# The pixel-to-centre path difference of a leg is expanded to third order in the pixel offset d when the
+# fourth-order remainder, below h^4 / (8 r^3) for a tile of radius h at range r (taken as h^4 / r^3 here, 8 x
+# margin), keeps the carrier phase error under this many cycles (6e-4 rad; float32 rounding alone is ~1e-4 rad);
+# otherwise the exact root is evaluated.
+EXPANSION_LIMIT_CYCLES = 1e-4
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=True)
@@ -38,87 +50,128 @@ def _offset(ux, uy, uz, inv_r, r0, dx, dy, dz, d2):
     return r0 * a / (np.float32(1.0) + np.sqrt(np.float32(1.0) + a))
 
 
+@numba.njit(fastmath=True, error_model="numpy", cache=True)
+def _offset_expanded(ux, uy, uz, half_inv_r, half_inv_r2, dx, dy, dz, d2):
+    """The same difference to third order in d: du + (|d|^2 - du^2) / (2r) - du (|d|^2 - du^2) / (2r^2), du = u.d
+    (no square root or division; used where the remainder is negligible, see EXPANSION_LIMIT_CYCLES)."""
+    du = ux * dx + uy * dy + uz * dz
+    return du + (d2 - du * du) * (half_inv_r - du * half_inv_r2)
+
+
 @numba.njit(error_model="numpy", cache=True)
-def _reference(cx, cy, cz, px, py, pz):
-    """float64 range from antenna p to tile centre c and float32 (unit vector, 1/R, R)."""
+def _reference(cx, cy, cz, px, py, pz, h4kc):
+    """float64 range from antenna p to tile centre c and the float32 leg geometry (unit vector, 1/R, R, 1/(2R),
+    1/(2R^2), whether the expansion is accurate enough: kc h^4 / R^3 below the limit)."""
     ax, ay, az = cx - px, cy - py, cz - pz
     r = math.sqrt(ax * ax + ay * ay + az * az)
-    return r, np.float32(ax / r), np.float32(ay / r), np.float32(az / r), np.float32(1.0 / r), np.float32(r)
+    ir = 1.0 / r
+    expand = h4kc * ir * ir * ir < EXPANSION_LIMIT_CYCLES
+    return r, (np.float32(ax * ir), np.float32(ay * ir), np.float32(az * ir), np.float32(ir), np.float32(r),
+               np.float32(0.5 * ir), np.float32(0.5 * ir * ir), expand)
 
 
 @numba.njit(error_model="numpy", cache=True)
-def _pulse_reference(cx, cy, cz, tx, rx, p, monostatic, scale, first, kc):
+def _pulse_reference(cx, cy, cz, tx, rx, p, monostatic, scale, first, kc, h4kc):
     """Per tile and pulse, float64: integer sample and float32 fraction of the centre's delay, its reduced
-    carrier cycles, and the float32 geometry (unit vectors, 1/R, R) of both legs."""
-    r_tx, ux, uy, uz, inv_t, r0_t = _reference(cx, cy, cz, tx[p, 0], tx[p, 1], tx[p, 2])
+    carrier cycles, and the float32 geometry of both legs."""
+    r_tx, geo_t = _reference(cx, cy, cz, tx[p, 0], tx[p, 1], tx[p, 2], h4kc)
     if monostatic:
         r_tot = 2.0 * r_tx
-        vx, vy, vz, inv_r, r0_r = ux, uy, uz, inv_t, r0_t
+        geo_r = geo_t
     else:
-        r_rx, vx, vy, vz, inv_r, r0_r = _reference(cx, cy, cz, rx[p, 0], rx[p, 1], rx[p, 2])
+        r_rx, geo_r = _reference(cx, cy, cz, rx[p, 0], rx[p, 1], rx[p, 2], h4kc)
         r_tot = r_tx + r_rx
     pos0 = r_tot * scale + first[p]
     base = math.floor(pos0)
     cyc = r_tot * kc
     cyc0 = np.float32(cyc - math.floor(cyc))
-    return np.int64(base), np.float32(pos0 - base), cyc0, (ux, uy, uz, inv_t, r0_t, vx, vy, vz, inv_r, r0_r)
+    return np.int64(base), np.float32(pos0 - base), cyc0, geo_t, geo_r
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=True)
-def _positions(dr, frac, cos_, sin_, dx, dy, dz, d2, frac0, cyc0, geo, monostatic, scale32, kc32):
-    """Per pixel of a tile, for one pulse: sample position offset (float32, from the tile's integer base
-    sample) and carrier phasor. Branch-free over pixels, so the loop vectorises."""
-    ux, uy, uz, inv_t, r0_t, vx, vy, vz, inv_r, r0_r = geo
-    half = np.float32(0.5)
-    if monostatic:
+def _add_leg(dr, dx, dy, dz, d2, geo, factor, first_leg):
+    """dr (+)= factor x the leg's path difference per pixel; branch-free loops, so they vectorise."""
+    ux, uy, uz, inv_r, r0, hir, hir2, expand = geo
+    if expand and first_leg:
         for i in range(len(dr)):
-            dr[i] = np.float32(2.0) * _offset(ux, uy, uz, inv_t, r0_t, dx[i], dy[i], dz[i], d2[i])
+            dr[i] = factor * _offset_expanded(ux, uy, uz, hir, hir2, dx[i], dy[i], dz[i], d2[i])
+    elif expand:
+        for i in range(len(dr)):
+            dr[i] += _offset_expanded(ux, uy, uz, hir, hir2, dx[i], dy[i], dz[i], d2[i])
+    elif first_leg:
+        for i in range(len(dr)):
+            dr[i] = factor * _offset(ux, uy, uz, inv_r, r0, dx[i], dy[i], dz[i], d2[i])
     else:
         for i in range(len(dr)):
-            dr[i] = (_offset(ux, uy, uz, inv_t, r0_t, dx[i], dy[i], dz[i], d2[i])
-                     + _offset(vx, vy, vz, inv_r, r0_r, dx[i], dy[i], dz[i], d2[i]))
+            dr[i] += _offset(ux, uy, uz, inv_r, r0, dx[i], dy[i], dz[i], d2[i])
+
+
+@numba.njit(fastmath=True, error_model="numpy", cache=True)
+def _path_differences(dr, dx, dy, dz, d2, geo_t, geo_r, monostatic):
+    if monostatic:
+        _add_leg(dr, dx, dy, dz, d2, geo_t, np.float32(2.0), True)
+    else:
+        _add_leg(dr, dx, dy, dz, d2, geo_t, np.float32(1.0), True)
+        _add_leg(dr, dx, dy, dz, d2, geo_r, np.float32(1.0), False)
+
+
+@numba.njit(fastmath=True, error_model="numpy", cache=True)
+def _positions(dr, frac, cos_, sin_, frac0, cyc0, scale32, kc32):
+    """Per pixel of a tile, for one pulse: sample position offset (float32, from the tile's integer base
+    sample) and carrier phasor."""
+    half = np.float32(0.5)
     for i in range(len(dr)):
         frac[i] = frac0 + dr[i] * scale32
         c = cyc0 + dr[i] * kc32
         c = c - np.floor(c + half)
-        co, si = cis_cycles32(c)
+        co, si = cis_cycles32_short(c)
         cos_[i] = co
         sin_[i] = si
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=True)
-def _split_linear(frac, jc, w0, w1, ibase, n_s):
-    """Sample index (clipped, as float pairs) and the two masked linear weights; vectorises."""
-    one = np.float32(1.0)
-    zero = np.float32(0.0)
-    for i in range(len(frac)):
-        fl = np.floor(frac[i])
-        w = frac[i] - fl
-        j = ibase + np.int32(fl)
-        ok = (j >= 0) & (j < n_s - 1)
-        jc[i] = min(max(j, np.int32(0)), np.int32(n_s - 2))
-        w0[i] = (one - w) if ok else zero
-        w1[i] = w if ok else zero
+def _indices(dr, jc, frac0, scale32, ibase, n_w):
+    """Pair-table entry of each pixel, clipped to the zero entries 0 and n_w (reads outside the window add
+    nothing)."""
+    lo = np.int32(0)
+    for i in range(len(dr)):
+        jc[i] = np.uint32(min(max(ibase + np.int32(np.floor(frac0 + dr[i] * scale32)), lo), n_w))
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=True)
-def _gather_pairs(row, jc, g):
-    """g[2i], g[2i + 1] = row[jc[i]], row[jc[i] + 1] (complex64): the only indirect loads, kept alone in their
-    loop (numba cannot tell the compiler they do not alias the stores, so this loop stays scalar; vector
-    gathers measured 10 % slower here)."""
-    for i in range(len(jc)):
-        k = jc[i]
-        g[2 * i] = row[k]
-        g[2 * i + 1] = row[k + 1]
-
-
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
-def _combine_linear(acc_re, acc_im, g, w0, w1, cos_, sin_):
+def _combine_from_dr(acc_re, acc_im, g, dr, frac0, cyc0, scale32, kc32):
+    """acc += (x_s + w (x_{s+1} - x_s)) exp(j 2 pi cycles) per pixel, w and the cycles recomputed from dr (cheaper
+    than storing and reloading them)."""
+    half = np.float32(0.5)
     for i in range(len(acc_re)):
-        vr = g[4 * i] * w0[i] + g[4 * i + 2] * w1[i]
-        vi = g[4 * i + 1] * w0[i] + g[4 * i + 3] * w1[i]
-        acc_re[i] += vr * cos_[i] - vi * sin_[i]
-        acc_im[i] += vr * sin_[i] + vi * cos_[i]
+        t = frac0 + dr[i] * scale32
+        w = t - np.floor(t)
+        c = cyc0 + dr[i] * kc32
+        c = c - np.floor(c + half)
+        co, si = cis_cycles32_short(c)
+        vr = g[4 * i] + w * g[4 * i + 2]
+        vi = g[4 * i + 1] + w * g[4 * i + 3]
+        acc_re[i] += vr * co - vi * si
+        acc_im[i] += vr * si + vi * co
+
+
+@numba.njit(fastmath=True, error_model="numpy", cache=True)
+def _path_indices_mono(dr, jc, dx, dy, dz, d2, geo, frac0, scale32, ibase, n_w):
+    """_path_differences and _indices in one pass for the common case: monostatic, expansion accurate."""
+    ux, uy, uz, inv_r, r0, hir, hir2, expand = geo
+    lo = np.int32(0)
+    two = np.float32(2.0)
+    for i in range(len(dr)):
+        x = two * _offset_expanded(ux, uy, uz, hir, hir2, dx[i], dy[i], dz[i], d2[i])
+        dr[i] = x
+        jc[i] = np.uint32(min(max(ibase + np.int32(np.floor(frac0 + x * scale32)), lo), n_w))
+
+
+@numba.njit(fastmath=True, error_model="numpy", cache=True)
+def _gather_pairs(pairs, jc, g):
+    """g[i] = pairs[jc[i]]: one 16-byte entry (sample, difference to the next) per pixel, the only indirect load."""
+    for i in range(len(jc)):
+        g[i] = pairs[jc[i]]
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=True)
@@ -127,7 +180,7 @@ def _accumulate_nearest(acc_re, acc_im, frac, cos_, sin_, row, ibase, n_s):
     for i in range(len(acc_re)):
         j = ibase + np.int32(np.floor(frac[i] + np.float32(0.5)))
         ok = (j >= 0) & (j < n_s)
-        jc = np.int32(2) * min(max(j, np.int32(0)), np.int32(n_s - 1))
+        jc = np.uint32(2 * min(max(j, np.int32(0)), np.int32(n_s - 1)))
         vr = row[jc] if ok else zero
         vi = row[jc + 1] if ok else zero
         acc_re[i] += vr * cos_[i] - vi * sin_[i]
@@ -153,10 +206,11 @@ def _accumulate_table(acc_re, acc_im, frac, cos_, sin_, row, ibase, n_s, table, 
         vi = zero
         wsum = zero
         if first >= 0 and first + taps <= n_s:
+            uf = np.uint32(first)
             for m in range(taps):
                 wt = table[cell, m] + (table[cell + 1, m] - table[cell, m]) * t
                 wsum += wt
-                v = row[first + m]
+                v = row[uf + np.uint32(m)]
                 vr += v.real * wt
                 vi += v.imag * wt
         else:
@@ -176,89 +230,151 @@ def _accumulate_table(acc_re, acc_im, frac, cos_, sin_, row, ibase, n_s, table, 
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=True)
-def backproject_tiles(pulses, first, scale, kc, tx, rx, monostatic, centres, tile_start, d, mode, table, taps,
-                      acc):
+def pulse_windows(first, scale, tx, rx, monostatic, centres, radius, n_s):
+    """Per pulse, the first and last sample any pixel's linear pair starts at (lo, hi: int64, within -1 .. n - 1),
+    from the tiles' centres and radii: |path - path_centre| <= 2 radius (one radius per leg), two samples of
+    margin. An empty window (no pixel reads the pulse) has lo = hi = 0."""
+    n_p = tx.shape[0]
+    lo = np.zeros(n_p, np.int64)
+    hi = np.zeros(n_p, np.int64)
+    for p in numba.prange(n_p):
+        a = np.inf
+        b = -np.inf
+        for t in range(centres.shape[0]):
+            rt = math.sqrt((centres[t, 0] - tx[p, 0]) ** 2 + (centres[t, 1] - tx[p, 1]) ** 2
+                           + (centres[t, 2] - tx[p, 2]) ** 2)
+            if monostatic:
+                r = 2.0 * rt
+            else:
+                r = rt + math.sqrt((centres[t, 0] - rx[p, 0]) ** 2 + (centres[t, 1] - rx[p, 1]) ** 2
+                                   + (centres[t, 2] - rx[p, 2]) ** 2)
+            a = min(a, (r - 2.0 * radius[t]) * scale + first[p])
+            b = max(b, (r + 2.0 * radius[t]) * scale + first[p])
+        s0 = max(math.floor(a) - 2, -1.0)       # sample -1 pairs a zero with sample 0
+        s1 = min(math.floor(b) + 3, n_s - 1.0)
+        if s1 >= s0:
+            lo[p] = np.int64(s0)
+            hi[p] = np.int64(s1)
+    return lo, hi
+
+
+@numba.njit(parallel=True, error_model="numpy", cache=True)
+def pair_table(pulses, lo, pairs):
+    """pairs[p, k] = (x_s, x_{s+1} - x_s) for the pulse's sample s = lo[p] + k - 1 (4 float32), samples outside the
+    pulse taken as zero (so s = -1 and s = n - 1 interpolate towards zero, as the reference does), and always
+    zero at k = 0 and k = W, where clipped positions land (pairs: (n, W + 1, 4))."""
+    n_p, n_s = pulses.shape
+    n_w = pairs.shape[1] - 1
+    zero = np.complex64(0.0)
+    for p in numba.prange(n_p):
+        for k in range(n_w + 1):
+            s = lo[p] + k - 1
+            if k == 0 or k == n_w or s < -1 or s >= n_s:
+                for m in range(4):
+                    pairs[p, k, m] = 0.0
+            else:
+                a = pulses[p, s] if s >= 0 else zero
+                b = pulses[p, s + 1] if s + 1 < n_s else zero
+                pairs[p, k, 0] = a.real
+                pairs[p, k, 1] = a.imag
+                pairs[p, k, 2] = b.real - a.real
+                pairs[p, k, 3] = b.imag - a.imag
+
+
+@numba.njit(parallel=True, error_model="numpy", cache=True)
+def backproject_tiles(pulses, pairs, first, scale, kc, tx, rx, monostatic, centres, tile_start, d, mode, table,
+                      taps, acc):
     """Add the pulses' contributions to ``acc`` (complex128, one entry per sorted pixel).
 
-    pulses: (n_pulses, 2 n_samples) float32, the complex64 pulses viewed as (re, im) pairs, sample j at
-    range-delay index j (reads outside 0 .. n_samples-1 add nothing);
-    first: (n_pulses,) float64, sample position of zero two-way path (-(t0 + gate) * fs); scale: samples per
-    metre of two-way path (fs / c); kc: carrier cycles per metre (f_c / c); tx, rx: (n_pulses, 3) float64
-    relative to the tiles' origin; centres: (n_tiles, 3) float64; tile_start: (n_tiles + 1,) int64 into the
-    sorted pixels; d: (4, n_pixels) float32 rows dx, dy, dz, |d|^2 of each pixel from its tile centre;
+    pulses: (n_pulses, n_samples) complex64, sample j at range-delay index j (reads outside 0 .. n_samples-1 add
+    nothing), read by modes 0 and 2; pairs: (n_pulses, W + 1, 4) float32, :func:`pair_table`, read by mode 1
+    (entry k at sample position k of ``first``'s count, i.e. first shifted by the window start);
+    first: (n_pulses,) float64, sample position of zero two-way path; scale: samples per metre of two-way path (fs / c); kc: carrier cycles per metre (f_c / c); tx, rx: (n_pulses, 3) float64 relative to the
+    tiles' origin; centres: (n_tiles, 3) float64; tile_start: (n_tiles + 1,) int64 into the sorted pixels;
+    d: (4, n_pixels) float32 rows dx, dy, dz, |d|^2 of each pixel from its tile centre;
     mode: 0 nearest, 1 linear, 2 tabulated kernel of ``taps`` taps with ``table`` (steps + 1, taps).
     """
-    n_pulses = pulses.shape[0]
-    n_s = np.int32(pulses.shape[1] // 2)
+    n_pulses = len(first)
+    n_s = np.int32(pairs.shape[1] - 1) if mode == 1 else np.int32(pulses.shape[1])
     n_tiles = len(tile_start) - 1
     scale32 = np.float32(scale)
     kc32 = np.float32(kc)
-    pulses_c = pulses.view(np.complex64)
     for t in numba.prange(n_tiles):
         s0, s1 = tile_start[t], tile_start[t + 1]
         n = s1 - s0
         acc_re = np.zeros(n, np.float32)
         acc_im = np.zeros(n, np.float32)
-        scratch = np.empty((7, n), np.float32)
-        jc = np.empty(n, np.int32)
-        gc = np.empty(2 * n, np.complex64)
-        g = gc.view(np.float32)
+        scratch = np.empty((4, n), np.float32)
+        jc = np.empty(n, np.uint32)
+        gq = np.empty(n, np.complex128)                # 16-byte pair entries, moved bit for bit
+        g = gq.view(np.float32)
         dx, dy, dz, d2 = d[0, s0:s1], d[1, s0:s1], d[2, s0:s1], d[3, s0:s1]
+        h2 = 0.0
+        for i in range(n):
+            h2 = max(h2, float(d2[i]))
+        h4kc = h2 * h2 * kc
         cx, cy, cz = centres[t, 0], centres[t, 1], centres[t, 2]
         for p in range(n_pulses):
-            ibase, frac0, cyc0, geo = _pulse_reference(cx, cy, cz, tx, rx, p, monostatic, scale, first, kc)
-            _positions(scratch[0], scratch[1], scratch[2], scratch[3], dx, dy, dz, d2, frac0, cyc0, geo,
-                       monostatic, scale32, kc32)
-            # the tile's base sample, clipped so that int32 offsets cannot overflow (far reads are masked anyway)
+            ibase, frac0, cyc0, geo_t, geo_r = _pulse_reference(cx, cy, cz, tx, rx, p, monostatic, scale, first, kc,
+                                                                h4kc)
+            # the tile's base sample, clipped so that int32 offsets cannot overflow (far reads add nothing anyway)
             ib = np.int32(min(max(ibase, -(1 << 28)), 1 << 28))
-            if mode == 1:
-                _split_linear(scratch[1], jc, scratch[4], scratch[5], ib, n_s)
-                _gather_pairs(pulses_c[p], jc, gc)
-                _combine_linear(acc_re, acc_im, g, scratch[4], scratch[5], scratch[2], scratch[3])
-            elif mode == 0:
-                _accumulate_nearest(acc_re, acc_im, scratch[1], scratch[2], scratch[3], pulses[p], ib, n_s)
+            fused = mode == 1 and monostatic and geo_t[7]
+            if fused:
+                _path_indices_mono(scratch[0], jc, dx, dy, dz, d2, geo_t, frac0, scale32, ib, n_s)
             else:
-                _accumulate_table(acc_re, acc_im, scratch[1], scratch[2], scratch[3], pulses_c[p], ib, n_s, table,
-                                  taps)
+                _path_differences(scratch[0], dx, dy, dz, d2, geo_t, geo_r, monostatic)
+            if mode == 1:
+                if not fused:
+                    _indices(scratch[0], jc, frac0, scale32, ib, n_s)
+                _gather_pairs(pairs[p].reshape(-1).view(np.complex128), jc, gq)
+                _combine_from_dr(acc_re, acc_im, g, scratch[0], frac0, cyc0, scale32, kc32)
+            else:
+                _positions(scratch[0], scratch[1], scratch[2], scratch[3], frac0, cyc0, scale32, kc32)
+                row = pulses[p]
+                if mode == 0:
+                    _accumulate_nearest(acc_re, acc_im, scratch[1], scratch[2], scratch[3], row.view(np.float32), ib,
+                                        n_s)
+                else:
+                    _accumulate_table(acc_re, acc_im, scratch[1], scratch[2], scratch[3], row, ib, n_s, table, taps)
         for i in range(n):
             acc[s0 + i] += complex(acc_re[i], acc_im[i])
 
 
-@numba.njit(error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=True)
 def bounds(points):
-    """(min, max) over points (n, 3) float64 per coordinate, in one pass."""
+    """(min, max) over points (n, 3) float64 per coordinate, in one vectorised pass (points must be finite)."""
     lo = np.full(3, np.inf)
     hi = np.full(3, -np.inf)
-    for i in range(points.shape[0]):
-        for k in range(3):
-            lo[k] = min(lo[k], points[i, k])
-            hi[k] = max(hi[k], points[i, k])
+    if points.shape[0] == 0:
+        return lo, hi
+    for k in range(3):
+        a = points[0, k]
+        b = points[0, k]
+        for i in range(points.shape[0]):
+            v = points[i, k]
+            a = min(a, v)
+            b = max(b, v)
+        lo[k] = a
+        hi[k] = b
     return lo, hi
 
 
-@numba.njit(error_model="numpy", cache=True)
-def _tile_layout(points, origin, tile_size, max_tile):
-    """Counting sort of the points by spatial cell, tiles of at most ``max_tile`` points, each tile's
-    bounding-box centre and the points' float32 offsets from it (one pass each, no temporaries)."""
+@numba.njit(parallel=True, error_model="numpy", cache=True)
+def _tile_layout(points, origin, lo, hi, tile_size, max_tile):
+    """Counting sort of the points by spatial cell (lo, hi: the points' bounds relative to ``origin``), tiles of
+    at most ``max_tile`` points, each tile's bounding-box centre and the points' float32 offsets from it. The
+    cell keys and the per-tile passes run in parallel; the sort itself is one serial counting pass."""
     n = points.shape[0]
-    lo = np.empty(3)
-    hi = np.empty(3)
-    for k in range(3):
-        lo[k] = np.inf
-        hi[k] = -np.inf
-    for i in range(n):
-        for k in range(3):
-            v = points[i, k] - origin[k]
-            lo[k] = min(lo[k], v)
-            hi[k] = max(hi[k], v)
     dims = np.empty(3, np.int64)
     for k in range(3):
         dims[k] = np.int64(math.floor((hi[k] - lo[k]) / tile_size)) + 1
     key = np.empty(n, np.int64)
-    for i in range(n):
-        c0 = np.int64(math.floor((points[i, 0] - origin[0] - lo[0]) / tile_size))
-        c1 = np.int64(math.floor((points[i, 1] - origin[1] - lo[1]) / tile_size))
-        c2 = np.int64(math.floor((points[i, 2] - origin[2] - lo[2]) / tile_size))
+    zero = np.int64(0)
+    for i in numba.prange(n):
+        c0 = max(np.int64(math.floor((points[i, 0] - origin[0] - lo[0]) / tile_size)), zero)
+        c1 = max(np.int64(math.floor((points[i, 1] - origin[1] - lo[1]) / tile_size)), zero)
+        c2 = max(np.int64(math.floor((points[i, 2] - origin[2] - lo[2]) / tile_size)), zero)
         key[i] = (min(c0, dims[0] - 1) * dims[1] + min(c1, dims[1] - 1)) * dims[2] + min(c2, dims[2] - 1)
     n_keys = dims[0] * dims[1] * dims[2]
     count = np.zeros(n_keys + 1, np.int64)
@@ -284,7 +400,7 @@ def _tile_layout(points, origin, tile_size, max_tile):
     tile_start[n_tiles] = n
     centres = np.empty((n_tiles, 3))
     d = np.empty((4, n), np.float32)
-    for t in range(n_tiles):
+    for t in numba.prange(n_tiles):
         a = np.full(3, np.inf)
         b = np.full(3, -np.inf)
         for j in range(tile_start[t], tile_start[t + 1]):
@@ -317,6 +433,9 @@ def make_tiles(points: np.ndarray, tile_size: float, max_tile: int = 1024):
         return (np.zeros(0, np.int64), np.zeros(1, np.int64), np.zeros((0, 3)), np.zeros(3),
                 np.zeros((4, 0), np.float32))
     lo, hi = bounds(points)
+    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+        raise ValueError("points must be finite")
     origin = 0.5 * (lo + hi)
-    order, tile_start, centres, d = _tile_layout(points, origin, float(tile_size), int(max_tile))
+    order, tile_start, centres, d = _tile_layout(points, origin, lo - origin, hi - origin, float(tile_size),
+                                                int(max_tile))
     return order, tile_start, centres, origin, d

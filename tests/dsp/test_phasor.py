@@ -3,13 +3,23 @@
 import numpy as np
 import pytest
 
-from sarproc.dsp.phasor import cis_cycles32, multiply_phase, multiply_separable_phase, unit_phasor
+from sarproc.dsp.phasor import (cis_cycles32, cis_cycles32_short, multiply_phase, multiply_separable_phase,
+                               unit_phasor)
 
 
 def test_quarter_cycle_polynomial_is_float32_exact():
     c = np.linspace(-0.5, 0.5, 2001).astype(np.float32)
     co, si = np.array([cis_cycles32(x) for x in c]).T
     assert np.abs(co + 1j * si - np.exp(2j * np.pi * c.astype(float))).max() < 5e-7
+
+
+def test_short_polynomial_is_within_a_micro_radian_over_the_whole_cycle():
+    """The backprojection's phasor: every float32 argument of [-1/2, 1/2] (quarter-cycle folds included)."""
+    c = np.concatenate([np.linspace(-0.5, 0.5, 20001), [-0.25, 0.25, -0.5, 0.5, 0.0, 1e-9, -1e-9]]).astype(np.float32)
+    co, si = np.array([cis_cycles32_short(x) for x in c]).T
+    err = np.abs(co + 1j * si - np.exp(2j * np.pi * c.astype(float)))
+    assert err.max() < 1e-6
+    assert err.max() > 1e-8                    # it is the shorter fit, not the exact one (the test can tell)
 
 
 @pytest.mark.parametrize("dtype", [np.complex64, np.complex128])

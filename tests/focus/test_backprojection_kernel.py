@@ -81,6 +81,88 @@ def test_float32_offset_from_tile_centre_is_micrometre_exact(r0):
         assert abs(got - exact) < 1e-5
 
 
+@pytest.mark.parametrize("r0", [2_000.0, 10_000.0, 800_000.0])
+def test_third_order_offset_is_within_its_remainder_bound(r0):
+    """The expansion used where kc h^4 / r^3 is small: its error stays below h^4 / (8 r^3) (plus float32 rounding)."""
+    rng = np.random.default_rng(5)
+    antenna = np.array([0.0, -r0 * 0.8, r0 * 0.6])
+    centre = np.array([3.0, -2.0, 0.0])
+    w = centre - antenna
+    r = np.linalg.norm(w)
+    u = (w / r).astype(np.float32)
+    for d in rng.uniform(-6, 6, (200, 3)):
+        h = np.linalg.norm(d)
+        exact = np.linalg.norm(centre + d - antenna) - r
+        d32 = d.astype(np.float32)
+        got = bk._offset_expanded(u[0], u[1], u[2], np.float32(0.5 / r), np.float32(0.5 / r**2), d32[0], d32[1],
+                                  d32[2], np.float32(d @ d))
+        assert abs(got - exact) < h**4 / (8 * r**3) + 3e-6
+
+
+def test_expansion_is_chosen_only_where_its_phase_error_is_negligible():
+    kc = 10e9 / 299_792_458.0                 # X band, cycles per metre
+    h = 7.0                                   # a 1024-pixel tile of 0.3 m pixels
+    near = bk._reference(0.0, 0.0, 0.0, 0.0, -300.0, 400.0, h**4 * kc)[1][7]         # 500 m
+    far = bk._reference(0.0, 0.0, 0.0, 0.0, -6_000.0, 8_000.0, h**4 * kc)[1][7]      # 10 km
+    assert not near and far
+    # the remainder bound h^4 / (8 r^3) in carrier cycles, the two-way path counting it twice
+    assert 2 * kc * h**4 / (8 * 10_000.0**3) < bk.EXPANSION_LIMIT_CYCLES < 2 * kc * h**4 / (8 * 500.0**3)
+
+
+def test_near_field_exact_root_and_pixels_outside_the_pulse_match_reference(squint_raw):
+    """Antennas 200 m from a 32 m grid (the expansion is refused, the exact root used) and a range window cut so
+    that part of the grid lies outside it (those pixels read nothing): the compiled engine equals the reference."""
+    c = 299_792_458.0
+    rc = range_compress(squint_raw.data, squint_raw.radar)
+    pos = squint_raw.aux["platform_position"]
+    rt = squint_raw.coords["range_time"]
+    centre = np.asarray(squint_raw.radar.scene_center)
+    r_mid = np.linalg.norm(centre - pos[len(pos) // 2])
+    f = 1 - 200.0 / r_mid
+    near = pos + f * (centre - pos)
+    rt = rt - 2 * f * r_mid / c                               # the centre's echo keeps its delay at mid-aperture
+    k = int(np.argmin(np.abs(rt - 2 * 200.0 / c)))
+    rc, rt = rc[:, k - 4:k + 16], rt[k - 4:k + 16]            # a 20-sample window: the grid's near part is outside
+    los = (centre - near[len(pos) // 2]) / 200.0
+    across = np.cross(los, [0.0, 0.0, 1.0])
+    across /= np.linalg.norm(across)
+    g = (np.arange(64) - 32) * 0.5
+    pts = (centre + g[:, None, None] * los + g[None, :, None] * across).reshape(-1, 3)
+    _, _, _, _, d = bk.make_tiles(pts, 16.0, max_tile=4096)
+    kc = squint_raw.radar.carrier_frequency / c
+    assert kc * d[3].max() ** 2 / 210.0**3 > 100 * bk.EXPANSION_LIMIT_CYCLES
+    args = (rc, rt, near, near, pts, squint_raw.radar.carrier_frequency)
+    ref = backproject_points(*args, engine="reference")
+    fast = backproject_points(*args, engine="compiled")
+    inside = np.abs(ref) > 0
+    assert 0.1 < inside.mean() < 0.9
+    assert np.all(fast[~inside] == 0)
+    assert db(fast, ref) < -60
+
+
+def test_sparse_points_get_tiles_small_enough_for_float32_phase(squint_raw):
+    """Few points spread over a kilometre would make kilometre tiles, whose float32 offsets (~2^-24 of 2 h f_c / c
+    cycles) cost accuracy; the tile edge is capped so the sparse grid matches the reference like a dense one."""
+    rc = range_compress(squint_raw.data, squint_raw.radar)
+    pos = squint_raw.aux["platform_position"]
+    centre = np.asarray(squint_raw.radar.scene_center)
+    a = np.linspace(-400, 400, 40)
+    pts = centre + np.stack(np.meshgrid(a, a, [0.0], indexing="ij"), -1).reshape(-1, 3)
+    args = (rc, squint_raw.coords["range_time"], pos, pos, pts, squint_raw.radar.carrier_frequency)
+    ref = backproject_points(*args, engine="reference")
+    fast = backproject_points(*args, engine="compiled")
+    assert db(fast, ref) < -60
+
+
+def test_upsample_into_equals_upsample_range():
+    from sarproc.focus.backprojection import upsample_into, upsample_range
+
+    rng = np.random.default_rng(2)
+    x = (rng.standard_normal((5, 1060)) + 1j * rng.standard_normal((5, 1060))).astype(np.complex64)
+    buf = np.full((5, 8505), np.nan, np.complex64)
+    np.testing.assert_array_equal(upsample_into(x, buf), upsample_range(x, 8, length=8505))
+
+
 def test_tiles_partition_the_points():
     rng = np.random.default_rng(1)
     pts = rng.uniform(-50, 50, (5000, 3)) + [1e5, 2e5, 0]
