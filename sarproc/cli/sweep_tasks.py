@@ -4,6 +4,7 @@ A sweep YAML names the scenes, the focusing chain and the knobs to vary::
 
     scenes:                          # name: scene YAML (relative to this file); its stage sections are the base
       stripmap: ../bp_stripmap.yaml
+      alone: {file: ../bp_stripmap.yaml, targets: [A], set: {radar.prf: 500 Hz}}   # a variant of a scene file
     focus: backproject               # or a chain: [preprocess, coarse-focus, fine-focus]
     set: {backproject.margin_cells: 8}            # dotted key: value, applied to every task
     grid:                                         # dotted key: [values], cartesian product
@@ -12,6 +13,11 @@ A sweep YAML names the scenes, the focusing chain and the knobs to vary::
       - {backproject.interpolation: nearest}
       - {backproject.interpolation: linear}
     output: ../../results/sweep-bp               # default for -o (relative to this file)
+    evaluate: true                                # false: no evaluate step (a chain whose product is no image)
+
+A scene given as a mapping is a variant of its ``file``: ``targets`` keeps only the named targets (a
+target simulated and focused alone), ``set`` applies dotted keys to this scene only (after the sweep's
+``set``, before the grid and cases).
 
 Each task is one scene YAML with the knobs applied (written to ``tasks/<id>/config.yaml``): the raw
 product is simulated from it (shared by every task whose scene sections resolve the same), each
@@ -53,12 +59,13 @@ QUALITY_COLUMNS = ("irw_dev", "pslr_db", "islr_db", "position_cells", "false_tar
 
 @dataclasses.dataclass(frozen=True)
 class SweepParams:
-    scenes: dict = param(doc="name: scene YAML path (relative to the sweep file)")
+    scenes: dict = param(doc="name: scene YAML path (relative to the sweep file), or {file:, targets:, set:}")
     focus: tuple[str, ...] = param(default=("backproject",), doc="focusing command, or a chain of them")
     set: dict = param(default={}, doc="dotted key: value applied to every task")
     grid: dict = param(default={}, doc="dotted key: list of values; the tasks span their cartesian product")
     cases: tuple[dict, ...] = param(default=(), doc="listed settings (dotted key: value), each crossed with the grid")
     output: str | None = param(default=None, doc="output directory (relative to the sweep file)")
+    evaluate: bool = param(default=True, doc="run evaluate on each task's last product (false: quality n/a)")
 
     def validate(self):
         from sarproc.cli.main import COMMANDS
@@ -74,6 +81,19 @@ class SweepParams:
         for i, case in enumerate(self.cases):
             if not case:
                 raise InputError(f"cases[{i}]: an empty case")
+        for name, entry in self.scenes.items():
+            if isinstance(entry, dict):
+                unknown = set(entry) - {"file", "targets", "set"}
+                if unknown or not isinstance(entry.get("file"), str):
+                    raise InputError(f"scenes.{name}: expected a scene YAML path or a mapping with 'file' "
+                                     f"(and optional 'targets', 'set'), got keys {sorted(entry)}")
+                targets = entry.get("targets")
+                if targets is not None and (not isinstance(targets, list) or not targets):
+                    raise InputError(f"scenes.{name}.targets: expected a non-empty list of target names")
+                if not isinstance(entry.get("set", {}), dict):
+                    raise InputError(f"scenes.{name}.set: expected a mapping of dotted keys")
+            elif not isinstance(entry, str):
+                raise InputError(f"scenes.{name}: expected a scene YAML path, got {entry!r}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -95,6 +115,7 @@ class Task:
     directory: Path
     focus: tuple[str, ...]
     sim_key: str
+    evaluate: bool = True
 
 
 @dataclasses.dataclass(frozen=True)
@@ -180,11 +201,16 @@ def plan_sweep(path, output=None) -> Plan:
     knobs = tuple(dict.fromkeys(grid_keys + [k for c in cases for k in c]))
     sims: dict[str, SimJob] = {}
     tasks: list[Task] = []
-    for scene_name, scene_path in params.scenes.items():
-        scene_file = base_dir / str(scene_path)
+    for scene_name, entry in params.scenes.items():
+        entry = entry if isinstance(entry, dict) else {"file": entry}
+        scene_file = base_dir / str(entry["file"])
         base = load_yaml(scene_file)
         for key, value in params.set.items():
             set_dotted(base, key, value, f"{path}: set")
+        for key, value in (entry.get("set") or {}).items():
+            set_dotted(base, key, value, f"{path}: scenes.{scene_name}.set")
+        if entry.get("targets") is not None:
+            base = _keep_targets(base, entry["targets"], f"{path}: scenes.{scene_name}.targets")
         for case in cases:
             for point in points:
                 setting = {**point, **case}
@@ -201,12 +227,24 @@ def plan_sweep(path, output=None) -> Plan:
                                            config)
                 task_id = _task_id(scene_name, setting)
                 tasks.append(Task(task_id, scene_name, setting, config, out / "tasks" / task_id,
-                                  params.focus, sim_key))
+                                  params.focus, sim_key, params.evaluate))
     ids = [t.task_id for t in tasks]
     if len(set(ids)) != len(ids):  # knob names that differ only before their last dot, or repeated values
         tasks = [dataclasses.replace(t, task_id=f"{i:03d}-{t.task_id}", directory=out / "tasks" / f"{i:03d}-{t.task_id}")
                  for i, t in enumerate(tasks)]
     return Plan(path, out, knobs, tuple(sims.values()), tuple(tasks))
+
+
+def _keep_targets(mapping: dict, names, where: str) -> dict:
+    """The scene with only the named point targets (in the order given)."""
+    points = (mapping.get("targets") or {}).get("points") or []
+    by_name = {str(p.get("name")): p for p in points if isinstance(p, dict)}
+    missing = [str(n) for n in names if str(n) not in by_name]
+    if missing:
+        raise InputError(f"{where}: no target named {missing} in the scene (it has {sorted(by_name)})")
+    out = copy.deepcopy(mapping)
+    out["targets"]["points"] = [copy.deepcopy(by_name[str(n)]) for n in names]
+    return out
 
 
 # --- running one step ------------------------------------------------------------------------------
@@ -343,6 +381,10 @@ def run_task(task: Task, sim: dict) -> dict:
         focus_s += rec["seconds"]
         skipped.append(rec["skipped"])
         source = out
+    if not task.evaluate:
+        return {"task": task.task_id, "scene": task.scene, **task.setting,
+                "simulate_s": sim["seconds"], "focus_s": focus_s, "evaluate_s": None,
+                **{c: None for c in QUALITY_COLUMNS}, "skipped": all(skipped)}
     report = task.directory / "report.json"
     key = digest({"sarproc": __version__, "command": "evaluate", "input": key, "config": task.config.get("evaluate")})
     rec = run_step("evaluate", [source, "--config", config_path, "-o", report, "--overwrite"], report, key)

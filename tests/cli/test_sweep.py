@@ -124,3 +124,34 @@ def test_sweep_cli_serial_and_list(sweep_file, tmp_path):
         res = CliRunner().invoke(cli, ["sweep", str(sweep_file), "--scheduler", "tcp://127.0.0.1:1", "-o",
                                        str(tmp_path / "x")])
     assert res.exit_code == 2 and "cannot reach Dask scheduler" in res.output
+
+
+def test_scene_variants_and_a_sweep_without_evaluate(tmp_path):
+    """A scene entry {file, targets, set} is a variant of its file for that scene only; evaluate: false
+    leaves the evaluate step out (quality n/a) but still runs the chain."""
+    points = [{"name": "A"}, {"name": "B", "azimuth": "8 m", "range": "6 m"}]
+    mapping = merge(BASE_SCENE, {"targets": {"frame": "squint", "points": points}, "backproject": {"margin_cells": 8}})
+    (tmp_path / "two.yaml").write_text(yaml.safe_dump(mapping))
+    sweep = {"scenes": {"both": "two.yaml",
+                        "b": {"file": "two.yaml", "targets": ["B"], "set": {"backproject.margin_cells": 4}}},
+             "focus": "backproject", "cases": [{"backproject.upsample": 4}], "output": "out", "evaluate": False}
+    path = tmp_path / "sweep.yaml"
+    path.write_text(yaml.safe_dump(sweep))
+    plan = plan_sweep(path)
+    both, b = sorted(plan.tasks, key=lambda t: t.scene != "both")
+    assert both.config["targets"]["points"] == points and both.config["backproject"]["margin_cells"] == 8
+    assert b.config["targets"]["points"] == points[1:] and b.config["backproject"]["margin_cells"] == 4
+    assert {k: v for k, v in b.config.items() if k not in ("targets", "backproject")} == \
+        {k: v for k, v in both.config.items() if k not in ("targets", "backproject")}
+    assert len(plan.sims) == 2 and not b.evaluate
+    outcome = run_serial(plan)
+    assert not outcome.failures and len(outcome.rows) == 2
+    for task, row in zip(plan.tasks, outcome.rows):
+        assert (task.directory / "backproject.h5").exists() and not (task.directory / "report.json").exists()
+        assert row["evaluate_s"] is None and all(row[c] is None for c in QUALITY_COLUMNS)
+    for entry, match in (({"file": "two.yaml", "targets": ["Z"]}, r"no target named \['Z'\]"),
+                         ({"file": "two.yaml", "target": ["A"]}, "expected a scene YAML path or a mapping"),
+                         ({"file": "two.yaml", "targets": []}, "non-empty list of target names")):
+        path.write_text(yaml.safe_dump({**sweep, "scenes": {"bad": entry}}))
+        with pytest.raises(InputError, match=match):
+            plan_sweep(path)
