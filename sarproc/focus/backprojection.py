@@ -135,7 +135,7 @@ def _backproject_block(s, e, flat, stride, n_up, scale, t0, gate, tx_c, rx_c, mo
 
 
 ENGINES = ("compiled", "reference")
-INTERPOLATIONS = ("linear", "nearest", "knab", "sinc", "lanczos")
+INTERPOLATIONS = ("linear", "nearest", "cubic", "knab", "sinc", "lanczos")
 
 
 def backproject_points(rc, range_time, tx_pos, rx_pos, points, carrier_frequency, *, upsample: int = 8,
@@ -148,7 +148,8 @@ def backproject_points(rc, range_time, tx_pos, rx_pos, points, carrier_frequency
     rc: (n_az, n_range) complex range-compressed data; range_time: (n_range,) s, uniform;
     tx_pos, rx_pos: (n_az, 3) m; points: (n_points, 3) m; gate_offset: (n_az,) s or None;
     interpolation: 'linear' or 'nearest' on the range signal upsampled ``upsample`` times, or (compiled
-    engine only) 'knab' / 'sinc' / 'lanczos' with ``kernel_length`` taps on the (upsampled) samples,
+    engine only) 'cubic' (four-sample Lagrange) on it, or 'knab' / 'sinc' / 'lanczos' with ``kernel_length``
+    taps on the (upsampled) samples,
     Knab designed for ``oversampling`` (default 1.25 x upsample).
     engine: 'reference' (numpy, float64 per pixel, pulse blocks on ``workers`` threads) or 'compiled'
     (numba, tiles of about ``tile_points`` pixels on ``workers`` threads; default: all cores).
@@ -232,7 +233,7 @@ def _backproject_compiled(rc, t0, dt, gate, tx_pos, rx_pos, monostatic, points, 
     n_az, n_rg = rc.shape
     if len(points) == 0:
         return np.zeros(0, np.complex128)
-    mode = {"nearest": 0, "linear": 1}.get(interpolation, 2)
+    mode = {"nearest": 0, "linear": 1, "cubic": 3}.get(interpolation, 2)
     taps = 0
     table = np.zeros((2, 1), np.float32)
     if mode == 2:
@@ -248,12 +249,13 @@ def _backproject_compiled(rc, t0, dt, gate, tx_pos, rx_pos, monostatic, points, 
     acc = np.zeros(len(points), np.complex128)
     chunk = max(1, min(n_az, 64))              # pulses upsampled and backprojected at a time (bounded memory)
     spans = [(s, min(s + chunk, n_az)) for s in range(0, n_az, chunk)]
-    if mode == 1:                              # each pulse's window of samples the pixels can reach
+    if mode in (1, 3):                         # each pulse's window of samples the pixels can reach
         radius = np.sqrt(np.maximum.reduceat(d[3], tile_start[:-1])).astype(float)
-        lo, hi = bk.pulse_windows(first, fs_up / C, tx_c, rx_c, monostatic, centres, radius, n_up)
+        lo, hi = bk.pulse_windows(first, fs_up / C, tx_c, rx_c, monostatic, centres, radius, n_up,
+                                  1 if mode == 1 else 2)
         n_w = int((hi - lo).max()) + 3
-        first = first - lo + 1                 # positions counted in pair-table entries
-        pairs = np.empty((chunk, n_w + 1, 4), np.float32)
+        first = first - lo + 1                 # positions counted in table entries
+        pairs = np.empty((chunk, n_w + 1, 4 if mode == 1 else 8), np.float32)
     else:
         pairs = np.zeros((1, 1, 4), np.float32)
     old = numba.get_num_threads()
@@ -265,6 +267,8 @@ def _backproject_compiled(rc, t0, dt, gate, tx_pos, rx_pos, monostatic, points, 
             pulses = upsample_into(np.asarray(rc[s:e], np.complex64), buf[:e - s])
             if mode == 1:
                 bk.pair_table(pulses, lo[s:e], pairs[:e - s])
+            elif mode == 3:
+                bk.cubic_table(pulses, lo[s:e], pairs[:e - s])
             bk.backproject_tiles(pulses, pairs[:e - s], first[s:e], fs_up / C, carrier_frequency / C, tx_c[s:e],
                                  rx_c[s:e], monostatic, centres, tile_start, d, mode, table, taps, acc)
     finally:
@@ -292,7 +296,8 @@ class BackprojectParams:
                                                         "rounded up to a fast FFT length)")
     interpolation: str = param(default="linear", choices=INTERPOLATIONS,
                                doc="range interpolation: linear / nearest on the upsampled pulse, or (compiled "
-                                   "engine) a kernel_length-tap knab / sinc / lanczos kernel on its samples")
+                                   "engine) cubic (four-sample Lagrange) on it or a kernel_length-tap knab / sinc / "
+                                   "lanczos kernel on its samples")
     kernel_length: int = param(default=8, ge=2, le=32, doc="taps of the knab / sinc / lanczos range kernel")
     engine: str = param(default="compiled", choices=ENGINES,
                         doc="compiled (tiled numba kernel, float32 per-pixel offsets) or reference (float64 numpy)")

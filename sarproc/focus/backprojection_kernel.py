@@ -32,7 +32,7 @@ import numpy as np
 
 from sarproc.dsp.phasor import cis_cycles32_short
 
-INTERPOLATIONS = ("nearest", "linear", "sinc", "lanczos", "knab")
+INTERPOLATIONS = ("nearest", "linear", "cubic", "sinc", "lanczos", "knab")
 _TABLE_STEPS = 256          # table entries per sample for the windowed-sinc kernels (linear in between)
 
 
@@ -168,6 +168,31 @@ def _path_indices_mono(dr, jc, dx, dy, dz, d2, geo, frac0, scale32, ibase, n_w):
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=True)
+def _combine_cubic(acc_re, acc_im, g, dr, frac0, cyc0, scale32, kc32):
+    """As _combine_from_dr for the cubic table: value c0 + w (c1 + w (c2 + w c3)), g holding (c0 .. c3) per pixel."""
+    half = np.float32(0.5)
+    for i in range(len(acc_re)):
+        t = frac0 + dr[i] * scale32
+        w = t - np.floor(t)
+        c = cyc0 + dr[i] * kc32
+        c = c - np.floor(c + half)
+        co, si = cis_cycles32_short(c)
+        vr = g[8 * i] + w * (g[8 * i + 2] + w * (g[8 * i + 4] + w * g[8 * i + 6]))
+        vi = g[8 * i + 1] + w * (g[8 * i + 3] + w * (g[8 * i + 5] + w * g[8 * i + 7]))
+        acc_re[i] += vr * co - vi * si
+        acc_im[i] += vr * si + vi * co
+
+
+@numba.njit(fastmath=True, error_model="numpy", cache=True)
+def _gather_quads(coef, jc, g):
+    """g[2i], g[2i + 1] = coef[2 jc[i]], coef[2 jc[i] + 1]: one 32-byte cubic entry per pixel."""
+    for i in range(len(jc)):
+        k = np.uint32(2) * jc[i]
+        g[2 * i] = coef[k]
+        g[2 * i + 1] = coef[k + np.uint32(1)]
+
+
+@numba.njit(fastmath=True, error_model="numpy", cache=True)
 def _gather_pairs(pairs, jc, g):
     """g[i] = pairs[jc[i]]: one 16-byte entry (sample, difference to the next) per pixel, the only indirect load."""
     for i in range(len(jc)):
@@ -230,10 +255,11 @@ def _accumulate_table(acc_re, acc_im, frac, cos_, sin_, row, ibase, n_s, table, 
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=True)
-def pulse_windows(first, scale, tx, rx, monostatic, centres, radius, n_s):
-    """Per pulse, the first and last sample any pixel's linear pair starts at (lo, hi: int64, within -1 .. n - 1),
-    from the tiles' centres and radii: |path - path_centre| <= 2 radius (one radius per leg), two samples of
-    margin. An empty window (no pixel reads the pulse) has lo = hi = 0."""
+def pulse_windows(first, scale, tx, rx, monostatic, centres, radius, n_s, reach):
+    """Per pulse, the first and last table sample any pixel's entry starts at (lo, hi: int64, within -reach ..
+    n - 2 + reach; an entry at s reads samples s + 1 - reach .. s + reach), from the tiles' centres and radii:
+    |path - path_centre| <= 2 radius (one radius per leg), two samples of margin. An empty window (no pixel
+    reads the pulse) has lo = hi = 0. reach: 1 for linear pairs, 2 for cubic entries."""
     n_p = tx.shape[0]
     lo = np.zeros(n_p, np.int64)
     hi = np.zeros(n_p, np.int64)
@@ -250,8 +276,8 @@ def pulse_windows(first, scale, tx, rx, monostatic, centres, radius, n_s):
                                    + (centres[t, 2] - rx[p, 2]) ** 2)
             a = min(a, (r - 2.0 * radius[t]) * scale + first[p])
             b = max(b, (r + 2.0 * radius[t]) * scale + first[p])
-        s0 = max(math.floor(a) - 2, -1.0)       # sample -1 pairs a zero with sample 0
-        s1 = min(math.floor(b) + 3, n_s - 1.0)
+        s0 = max(math.floor(a) - 2, -float(reach))         # entries this far out still touch sample 0
+        s1 = min(math.floor(b) + 3, n_s - 2.0 + reach)
         if s1 >= s0:
             lo[p] = np.int64(s0)
             hi[p] = np.int64(s1)
@@ -282,20 +308,56 @@ def pair_table(pulses, lo, pairs):
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=True)
+def cubic_table(pulses, lo, coef):
+    """coef[p, k] = the cubic Lagrange polynomial through samples s - 1 .. s + 2 (s = lo[p] + k - 1) as
+    (c0, c1, c2, c3), value c0 + w c1 + w^2 c2 + w^3 c3 at s + w (4 complex64 = 8 float32), samples outside the
+    pulse taken as zero; zero at k = 0 and k = W (coef: (n, W + 1, 8))."""
+    n_p, n_s = pulses.shape
+    n_w = coef.shape[1] - 1
+    zero = np.complex64(0.0)
+    third = np.float32(1.0 / 3.0)
+    sixth = np.float32(1.0 / 6.0)
+    half = np.float32(0.5)
+    for p in numba.prange(n_p):
+        for k in range(n_w + 1):
+            s = lo[p] + k - 1
+            if k == 0 or k == n_w or s < -2 or s > n_s:
+                for m in range(8):
+                    coef[p, k, m] = 0.0
+                continue
+            xm = pulses[p, s - 1] if 0 <= s - 1 < n_s else zero
+            x0 = pulses[p, s] if 0 <= s < n_s else zero
+            x1 = pulses[p, s + 1] if 0 <= s + 1 < n_s else zero
+            x2 = pulses[p, s + 2] if 0 <= s + 2 < n_s else zero
+            c1 = x1 - xm * third - x0 * half - x2 * sixth
+            c2 = (xm + x1) * half - x0
+            c3 = (x0 - x1) * half + (x2 - xm) * sixth
+            coef[p, k, 0] = x0.real
+            coef[p, k, 1] = x0.imag
+            coef[p, k, 2] = c1.real
+            coef[p, k, 3] = c1.imag
+            coef[p, k, 4] = c2.real
+            coef[p, k, 5] = c2.imag
+            coef[p, k, 6] = c3.real
+            coef[p, k, 7] = c3.imag
+
+
+@numba.njit(parallel=True, error_model="numpy", cache=True)
 def backproject_tiles(pulses, pairs, first, scale, kc, tx, rx, monostatic, centres, tile_start, d, mode, table,
                       taps, acc):
     """Add the pulses' contributions to ``acc`` (complex128, one entry per sorted pixel).
 
     pulses: (n_pulses, n_samples) complex64, sample j at range-delay index j (reads outside 0 .. n_samples-1 add
-    nothing), read by modes 0 and 2; pairs: (n_pulses, W + 1, 4) float32, :func:`pair_table`, read by mode 1
-    (entry k at sample position k of ``first``'s count, i.e. first shifted by the window start);
+    nothing), read by modes 0 and 2; pairs: (n_pulses, W + 1, 4) float32, :func:`pair_table`, read by mode 1, or
+    (n_pulses, W + 1, 8), :func:`cubic_table`, read by mode 3 (entry k at sample position k of ``first``'s count,
+    i.e. first shifted by the window start);
     first: (n_pulses,) float64, sample position of zero two-way path; scale: samples per metre of two-way path (fs / c); kc: carrier cycles per metre (f_c / c); tx, rx: (n_pulses, 3) float64 relative to the
     tiles' origin; centres: (n_tiles, 3) float64; tile_start: (n_tiles + 1,) int64 into the sorted pixels;
     d: (4, n_pixels) float32 rows dx, dy, dz, |d|^2 of each pixel from its tile centre;
-    mode: 0 nearest, 1 linear, 2 tabulated kernel of ``taps`` taps with ``table`` (steps + 1, taps).
+    mode: 0 nearest, 1 linear, 2 tabulated kernel of ``taps`` taps with ``table`` (steps + 1, taps), 3 cubic.
     """
     n_pulses = len(first)
-    n_s = np.int32(pairs.shape[1] - 1) if mode == 1 else np.int32(pulses.shape[1])
+    n_s = np.int32(pairs.shape[1] - 1) if mode in (1, 3) else np.int32(pulses.shape[1])
     n_tiles = len(tile_start) - 1
     scale32 = np.float32(scale)
     kc32 = np.float32(kc)
@@ -306,7 +368,7 @@ def backproject_tiles(pulses, pairs, first, scale, kc, tx, rx, monostatic, centr
         acc_im = np.zeros(n, np.float32)
         scratch = np.empty((4, n), np.float32)
         jc = np.empty(n, np.uint32)
-        gq = np.empty(n, np.complex128)                # 16-byte pair entries, moved bit for bit
+        gq = np.empty(2 * n if mode == 3 else n, np.complex128)   # 16 / 32-byte table entries, moved bit for bit
         g = gq.view(np.float32)
         dx, dy, dz, d2 = d[0, s0:s1], d[1, s0:s1], d[2, s0:s1], d[3, s0:s1]
         h2 = 0.0
@@ -319,16 +381,20 @@ def backproject_tiles(pulses, pairs, first, scale, kc, tx, rx, monostatic, centr
                                                                 h4kc)
             # the tile's base sample, clipped so that int32 offsets cannot overflow (far reads add nothing anyway)
             ib = np.int32(min(max(ibase, -(1 << 28)), 1 << 28))
-            fused = mode == 1 and monostatic and geo_t[7]
+            fused = (mode == 1 or mode == 3) and monostatic and geo_t[7]
             if fused:
                 _path_indices_mono(scratch[0], jc, dx, dy, dz, d2, geo_t, frac0, scale32, ib, n_s)
             else:
                 _path_differences(scratch[0], dx, dy, dz, d2, geo_t, geo_r, monostatic)
-            if mode == 1:
+            if mode == 1 or mode == 3:
                 if not fused:
                     _indices(scratch[0], jc, frac0, scale32, ib, n_s)
-                _gather_pairs(pairs[p].reshape(-1).view(np.complex128), jc, gq)
-                _combine_from_dr(acc_re, acc_im, g, scratch[0], frac0, cyc0, scale32, kc32)
+                if mode == 1:
+                    _gather_pairs(pairs[p].reshape(-1).view(np.complex128), jc, gq)
+                    _combine_from_dr(acc_re, acc_im, g, scratch[0], frac0, cyc0, scale32, kc32)
+                else:
+                    _gather_quads(pairs[p].reshape(-1).view(np.complex128), jc, gq)
+                    _combine_cubic(acc_re, acc_im, g, scratch[0], frac0, cyc0, scale32, kc32)
             else:
                 _positions(scratch[0], scratch[1], scratch[2], scratch[3], frac0, cyc0, scale32, kc32)
                 row = pulses[p]
