@@ -28,6 +28,7 @@ Results go to OUT/latest.json and OUT/bench-<UTC time>.json; a previous latest.j
 from __future__ import annotations
 
 import argparse
+import ctypes
 import datetime
 import gc
 import inspect
@@ -57,6 +58,10 @@ def _status_kib(key: str) -> int:
 def measure(fn):
     """(result, wall s, cpu/wall, peak RSS rise in bytes) of fn()."""
     gc.collect()
+    try:   # hand freed heap memory back first: glibc keeps it resident, and a later stage reusing it reads no rise
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
+    except (OSError, AttributeError):
+        pass
     try:
         Path("/proc/self/clear_refs").write_text("5")          # reset the peak RSS (VmHWM) to the current RSS
     except OSError:
