@@ -1,5 +1,5 @@
 # Paper 003 (Xu et al.): azimuth multichannel squint SAR, moving targets. Outputs under results/003*/.
-.PHONY: reproduce-003 accuracy-003
+.PHONY: reproduce-003
 
 reproduce-003: $(STAMP)
 	mkdir -p results/003
@@ -11,6 +11,4 @@ reproduce-003: $(STAMP)
 	$(SARPROC) evaluate results/003/image_modified.h5 -o results/003/report_modified.json --config configs/xu_scene.yaml --overwrite > results/003/report_modified.md
 	$(SARPROC) evaluate results/003/image_conventional.h5 -o results/003/report_conventional.json --config configs/xu_scene.yaml --overwrite > results/003/report_conventional.md
 
-accuracy-003: $(STAMP)
-	mkdir -p results/003-accuracy
-	$(PY) scripts/accuracy_003.py --results results/003-accuracy --config configs/xu_scene.yaml
+# accuracy-003 is a sweep: mk/sweeps.mk.

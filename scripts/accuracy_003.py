@@ -11,6 +11,15 @@ On the single moving target B of configs/xu_scene.yaml (v_r = 10 m/s), one knob 
   its filter bank is exact in the frequency domain).
 
 Writes table.md, table.json and accuracy.png under --results.
+
+    python scripts/accuracy_003.py --from-sweep DIR --results results/003-accuracy
+
+``make accuracy-003`` runs the reconstruct settings (the 5 search and 3 channel rows) as a sweep
+(configs/sweeps/accuracy_003.yaml, on Dask) and then this script with ``--from-sweep``: the search
+results (v_r, evaluations) from the sweep's reconstructed products, their time the sweep's reconstruct
+time (one run as a CLI step, product I/O included); the moving target's image at its static-equivalent
+position (quality), the false-target strips (MFTA) and the backprojection-knob rows, which sarproc's
+backproject command does not make, are computed here from the sweep's products.
 """
 
 from __future__ import annotations
@@ -20,9 +29,12 @@ import json
 import time
 from pathlib import Path
 
+import numpy as np
+
 from reproduce_003 import focus, ghost_strips, scene_mapping, sim
 from sarproc.focus.backprojection import BackprojectParams
 from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct
+from sarproc.product.config import build
 from sarproc.quality.metrics import EvaluateParams, evaluate_product
 
 TARGET = {"name": "T", "azimuth": "800 m", "velocity": ["0 m/s", "10 m/s", "0 m/s"]}
@@ -42,45 +54,40 @@ def worst(report):
             max(abs(a.position_error_cells) for a in t.axes))
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--results", default="results/003-accuracy")
-    ap.add_argument("--config", default="configs/xu_scene.yaml")
-    args = ap.parse_args()
-    res = Path(args.results)
-    res.mkdir(parents=True, exist_ok=True)
+SEARCH = (("fast", 0.5), ("fast", 0.2), ("fast", 0.1), ("fast", 0.05), ("exhaustive", 0.1))
+CHANNELS = (3, 4, 5)
+INTERPOLATION = (("nearest", 8), ("linear", 2), ("linear", 4), ("linear", 8), ("linear", 16))
+
+
+def search_params(search, step):
+    return ReconstructParams(search=search, velocity_step=step, coarse_step=max(step, 2.0))
+
+
+def channel_spacing(radar, n):
+    """Uniform phase centres at this PRF: d = 2 v / (N PRF)."""
+    return 2 * radar.velocity / (n * radar.prf)
+
+
+def channel_row(n, rec, r, dt, t_sim):
+    mt = only_window(rec)
+    irw, pslr, pos = worst(evaluate_product(focus(rec, r, BackprojectParams(oversample=1.25),
+                                                  theory_from_truth=True), EvaluateParams(guard_cells=60)))
+    return {"knob": f"N = {n} channels", "time_s": dt, "simulate_s": t_sim,
+            "evaluations": mt["search_evaluations"], "v_r_error": abs(mt["radial_velocity"] - 10.0),
+            "worst_irw_dev": irw, "worst_pslr_db": pslr, "worst_pos_cells": pos,
+            "mfta_db": ghost_strips(rec, r)["T"][0]}
+
+
+def search_row(search, step, rec, raw, dt):
+    mt = only_window(rec)
+    return {"knob": f"search {search} step {step} m/s", "time_s": dt,
+            "evaluations": mt["search_evaluations"], "v_r_error": abs(mt["radial_velocity"] - 10.0),
+            "mfta_db": ghost_strips(rec, raw)["T"][0]}
+
+
+def interpolation_rows(rec, raw):
     rows = []
-    raw = sim(scene_mapping(args.config, [TARGET]))
-
-    for search, step in (("fast", 0.5), ("fast", 0.2), ("fast", 0.1), ("fast", 0.05), ("exhaustive", 0.1)):
-        t0 = time.perf_counter()
-        rec = reconstruct(raw, ReconstructParams(search=search, velocity_step=step, coarse_step=max(step, 2.0)))
-        dt = time.perf_counter() - t0
-        mt = only_window(rec)
-        rows.append({"knob": f"search {search} step {step} m/s", "time_s": dt,
-                     "evaluations": mt["search_evaluations"], "v_r_error": abs(mt["radial_velocity"] - 10.0),
-                     "mfta_db": ghost_strips(rec, raw)["T"][0]})
-
-    for n in (3, 4, 5):
-        m = scene_mapping(args.config, [TARGET])
-        spacing = 2 * raw.radar.velocity / (n * raw.radar.prf)          # uniform phase centres at this PRF
-        m["effects"]["azimuth_channels"] = {"n_receivers": n, "spacing": f"{spacing} m"}
-        t0 = time.perf_counter()
-        r = sim(m)
-        t_sim = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        rec = reconstruct(r, ReconstructParams())
-        dt = time.perf_counter() - t0
-        mt = only_window(rec)
-        irw, pslr, pos = worst(evaluate_product(focus(rec, r, BackprojectParams(oversample=1.25),
-                                                      theory_from_truth=True), EvaluateParams(guard_cells=60)))
-        rows.append({"knob": f"N = {n} channels", "time_s": dt, "simulate_s": t_sim,
-                     "evaluations": mt["search_evaluations"], "v_r_error": abs(mt["radial_velocity"] - 10.0),
-                     "worst_irw_dev": irw, "worst_pslr_db": pslr, "worst_pos_cells": pos,
-                     "mfta_db": ghost_strips(rec, r)["T"][0]})
-
-    rec = reconstruct(raw, ReconstructParams())
-    for interp, up in (("nearest", 8), ("linear", 2), ("linear", 4), ("linear", 8), ("linear", 16)):
+    for interp, up in INTERPOLATION:
         bp = BackprojectParams(oversample=1.25, upsample=up, interpolation=interp)
         t0 = time.perf_counter()
         img = focus(rec, raw, bp, theory_from_truth=True)
@@ -89,12 +96,110 @@ def main():
         rows.append({"knob": f"backproject {interp} x{up}", "time_s": dt, "worst_irw_dev": irw,
                      "worst_pslr_db": pslr, "worst_pos_cells": pos,
                      "mfta_db": ghost_strips(rec, raw, upsample=up, interpolation=interp)["T"][0]})
+    return rows
 
+
+def from_sweep(directory: Path) -> list:
+    """The script's rows from a sweep of configs/sweeps/accuracy_003.yaml (its products and step times)."""
+    from sarproc.cli.sweep_tasks import plan_sweep
+    from sarproc.product.io import read_product
+    from sarproc.product.units import parse_quantity
+
+    doc = json.loads((directory / "table.json").read_text())
+    if doc["failures"]:
+        raise SystemExit(f"{directory}: the sweep has failed tasks: {doc['failures']}")
+    plan = plan_sweep(doc["sweep"], directory)          # the tasks' raw products
+    raws = {job.key: job.raw for job in plan.sims}
+    times = {r["task"]: r for r in doc["rows"]}
+    if set(times) != {t.task_id for t in plan.tasks}:
+        raise SystemExit(f"{directory}: the sweep's table does not hold the tasks of {doc['sweep']}")
+    by_search, by_channels = {}, {}
+    for task in plan.tasks:
+        p = build(ReconstructParams, task.config.get("reconstruct") or {})
+        ch = task.config["effects"]["azimuth_channels"]
+        n, d = ch["n_receivers"], parse_quantity(ch["spacing"], "length")
+        products = (lambda t=task: (read_product(t.directory / "reconstruct.h5"), read_product(raws[t.sim_key])))
+        if any(k.startswith("reconstruct.") for k in task.setting):
+            by_search[(p.search, p.velocity_step, p.coarse_step, n, d)] = (task, products)
+        else:
+            by_channels[(n, p)] = (task, products)
+        if n == 3 and any(k.startswith("reconstruct.") for k in task.setting) and d != 2.0:
+            raise SystemExit(f"{directory}: {task.task_id}: the search rows run on N = 3, d = 2 m")
+
+    def pick(table, key, what):
+        if key not in table:
+            raise SystemExit(f"{directory}: no task with the script's setting {what} ({key})")
+        task, products = table.pop(key)
+        return times[task.task_id], *products()
+
+    rows, rec3, raw3 = [], None, None
+    default = ReconstructParams()
+    for search, step in SEARCH:
+        p = search_params(search, step)
+        row, rec, raw = pick(by_search, (p.search, p.velocity_step, p.coarse_step, 3, 2.0), f"search {search} {step}")
+        rows.append(search_row(search, step, rec, raw, row["focus_s"]))
+    for n in CHANNELS:
+        row, rec, r = pick(by_channels, (n, default), f"N = {n}")
+        d = float(np.ptp(r.aux["rx_offset"][:, 0])) / (n - 1)
+        if abs(d - channel_spacing(r.radar, n)) > 1e-9:
+            raise SystemExit(f"{directory}: N = {n}: spacing {d} m, the script's is {channel_spacing(r.radar, n)} m")
+        rows.append(channel_row(n, rec, r, row["focus_s"], row["simulate_s"]))
+        if n == 3:
+            rec3, raw3 = rec, r          # the script's default reconstruct for the interpolation rows
+    if by_search or by_channels:
+        raise SystemExit(f"{directory}: tasks that are none of the script's settings: "
+                         f"{[t.task_id for t, _ in [*by_search.values(), *by_channels.values()]]}")
+    return rows + interpolation_rows(rec3, raw3)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--results", default="results/003-accuracy")
+    ap.add_argument("--config", default="configs/xu_scene.yaml")
+    ap.add_argument("--from-sweep", type=Path, default=None,
+                    help="build the table from this sweep's products (configs/sweeps/accuracy_003.yaml)")
+    args = ap.parse_args()
+    res = Path(args.results)
+    res.mkdir(parents=True, exist_ok=True)
+    if args.from_sweep:
+        rows = from_sweep(args.from_sweep)
+        how = (f"Sweep {args.from_sweep}: search and channel rows' time_s and simulate_s are the sweep's step "
+               "times (one run as a CLI step, product I/O included); interpolation rows timed here.")
+    else:
+        rows = run(args.config)
+        how = f"Single moving target B (v_r 10 m/s) of {args.config}."
+    write(res, rows, how)
+
+
+def run(config):
+    rows = []
+    raw = sim(scene_mapping(config, [TARGET]))
+
+    for search, step in SEARCH:
+        t0 = time.perf_counter()
+        rec = reconstruct(raw, search_params(search, step))
+        rows.append(search_row(search, step, rec, raw, time.perf_counter() - t0))
+
+    for n in CHANNELS:
+        m = scene_mapping(config, [TARGET])
+        spacing = channel_spacing(raw.radar, n)
+        m["effects"]["azimuth_channels"] = {"n_receivers": n, "spacing": f"{spacing} m"}
+        t0 = time.perf_counter()
+        r = sim(m)
+        t_sim = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        rec = reconstruct(r, ReconstructParams())
+        rows.append(channel_row(n, rec, r, time.perf_counter() - t0, t_sim))
+
+    return rows + interpolation_rows(reconstruct(raw, ReconstructParams()), raw)
+
+
+def write(res, rows, how):
     (res / "table.json").write_text(json.dumps(rows, indent=1, default=float))
     cols = ["knob", "time_s", "simulate_s", "evaluations", "v_r_error", "worst_irw_dev", "worst_pslr_db",
             "worst_pos_cells", "mfta_db"]
     lines = ["# Paper 003 reconstruct: accuracy against time (scripts/accuracy_003.py)", "",
-             f"Single moving target B (v_r 10 m/s) of {args.config}. time_s: reconstruct (search and channel rows) or "
+             f"{how} time_s: reconstruct (search and channel rows) or "
              "backproject of the chip (interpolation rows); MFTA: strip false-target level, dB (the strip is "
              "backprojected with the row's interpolation knobs).", "",
              "| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
