@@ -58,4 +58,5 @@ check-backprojection: $(STAMP)
 	  $(SARPROC) evaluate results/bp/image_$$s.h5 -o results/bp/report_$$s.json --overwrite --expect configs/bp_expect.yaml || exit 1; \
 	done
 
-# accuracy-backprojection (the reference's own knobs: time vs quality) is a sweep: mk/sweeps.mk.
+# accuracy-backprojection (the reference's own knobs: time vs quality) is a sweep: mk/sweeps.mk, as are
+# accuracy-000, -002, -003 and -004.

@@ -1,5 +1,5 @@
 # Paper 004 (Du 2010): linear-array down-looking 3D SAR. Outputs under results/004*/.
-.PHONY: reproduce-004 accuracy-004
+.PHONY: reproduce-004
 
 reproduce-004: $(STAMP)
 	mkdir -p results/004
@@ -10,6 +10,4 @@ reproduce-004: $(STAMP)
 	$(SARPROC) evaluate results/004/image_channel14.h5 -o results/004/report_channel14.json --overwrite > results/004/report_channel14.md
 	$(PY) scripts/reproduce_004.py --results results/004 --config configs/du2010.yaml
 
-accuracy-004: $(STAMP)
-	mkdir -p results/004-accuracy
-	$(PY) scripts/accuracy_004.py --results results/004-accuracy --config configs/du2010.yaml
+# accuracy-004 is a sweep: mk/sweeps.mk.

@@ -14,6 +14,15 @@ this measures on the full-size configs/du2010.yaml scene:
 The cross-track knobs are also run on a wide-swath scene (+-30 deg, cross-track RCM of 8 range
 cells) where they matter, and the hard cases are reported with their quality loss. Output:
 ``table.md``, ``numbers.json`` and ``accuracy_vs_time.png`` in ``--results``.
+
+    python scripts/accuracy_004.py --from-sweep DIR --wide-sweep DIR2 --results results/004-accuracy
+
+``make accuracy-004`` runs the settings as two sweeps (configs/sweeps/accuracy_004.yaml: the paper
+scene and its seven targets alone, 152 tasks; configs/sweeps/accuracy_004_wide.yaml: the wide-swath
+family, 7 tasks) and then this script with ``--from-sweep``: the same tables from the sweeps' products
+(quality from the single-target tasks' reports, the cube deviation from the paper-scene tasks' cubes
+against the float64 reference computed here on the sweep's raw product; the hard cases are run here).
+Its time column is the sweep's array3d time (one run as a CLI step, product I/O included).
 """
 
 from __future__ import annotations
@@ -120,6 +129,72 @@ def run_family(mapping, settings, base, repeat, isolated=True, off_nadir_theory=
     return rows
 
 
+def _reference(raw, base, pad):
+    return array3d_product(raw, build(Array3DParams, {**base, "precision": "float64", "rcmc_kernel_length": 32,
+                                                       "elevation_zero_padding": pad}))[0]
+
+
+def _worst_json(targets) -> dict:
+    """worst() of evaluate's JSON report targets (the sweep's report.json)."""
+    axes = [a for t in targets for a in t["axes"]]
+    return {"irw_dev": max(abs(a["irw_ratio"] - 1) for a in axes), "pslr": max(a["pslr_db"] for a in axes),
+            "islr": max(a["islr_db"] for a in axes), "pos": max(abs(a["position_error_cells"]) for a in axes),
+            "peak": min(t["peak_amplitude"] for t in targets)}
+
+
+def sweep_family(directory: Path, scene: str, settings, base, singles=()):
+    """run_family's rows from a sweep: ``scene`` is the full scene's name in the sweep, ``singles`` the
+    names of its one-target scenes (empty: quality over the full scene's targets, as isolated=False)."""
+    from sarproc.product.io import read_product
+
+    doc = json.loads((directory / "table.json").read_text())
+    if doc["failures"]:
+        raise SystemExit(f"{directory}: the sweep has failed tasks: {doc['failures']}")
+    tasks = {}                                   # (scene, resolved array3d params) -> task id
+    for row in doc["rows"]:
+        config = load_yaml(directory / "tasks" / row["task"] / "config.yaml")
+        key = (row["scene"], json.dumps(as_dict(build(Array3DParams, config.get("array3d") or {})), sort_keys=True,
+                                        default=str))
+        if key in tasks:
+            raise SystemExit(f"{directory}: tasks {tasks[key][0]} and {row['task']} have the same setting")
+        tasks[key] = (row["task"], row)
+    raws = sorted((directory / "raw").glob(f"{scene}-*.h5"))
+    if len(raws) != 1:
+        raise SystemExit(f"{directory}: expected one raw product of scene {scene}, found {len(raws)}")
+    raw = read_product(raws[0])
+    ref_cache, rows, used = {}, [], set()
+    for label, knobs in settings:
+        params = build(Array3DParams, {**base, **knobs}, source=label)
+        want = json.dumps(as_dict(params), sort_keys=True, default=str)
+
+        def task(name):
+            if (name, want) not in tasks:
+                raise SystemExit(f"{directory}: no task of scene {name} with the setting {label!r}")
+            used.add((name, want))
+            return tasks[(name, want)]
+        task_id, row = task(scene)
+        cube = read_product(directory / "tasks" / task_id / "array3d.h5")
+        pad = params.elevation_zero_padding
+        if pad not in ref_cache:
+            ref_cache[pad] = _reference(raw, base, pad)
+        dev = deviation_db(cube, ref_cache[pad])
+        names = singles or (scene,)
+        reports = [json.loads((directory / "tasks" / task(n)[0] / "report.json").read_text()) for n in names]
+        targets = [t for r in reports for t in r["targets"]]
+        w = _worst_json(targets)
+        per_target = {t["name"]: {"peak": t["peak_amplitude"], **{a["axis"]: {
+            "irw_ratio": a["irw_ratio"], "pslr": a["pslr_db"], "islr": a["islr_db"], "pos": a["position_error_cells"]}
+            for a in t["axes"]}} for t in targets}
+        rows.append({"label": label, "knobs": knobs, "params": as_dict(params), "seconds": row["focus_s"],
+                     "deviation_db": dev, "worst": w, "targets": per_target, "task": task_id})
+        print(f"{label:45s} {row['focus_s']:6.2f} s  dev {dev if dev is None else round(dev, 1)} dB  worst {w}",
+              flush=True)
+    extra = sorted(t for (n, k), (t, _) in tasks.items() if (n, k) not in used and (n == scene or n in singles))
+    if extra:
+        raise SystemExit(f"{directory}: tasks that are none of the script's settings: {extra}")
+    return rows
+
+
 def hard_cases(mapping) -> list[dict]:
     """Quality loss of the hard cases on reduced versions of the paper scene (8 receivers)."""
     base = copy.deepcopy(mapping)
@@ -174,14 +249,28 @@ def main(argv=None):
     ap.add_argument("--results", default="results/004-accuracy")
     ap.add_argument("--config", default="configs/du2010.yaml")
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--from-sweep", type=Path, default=None,
+                    help="the paper-scene tables from this sweep (configs/sweeps/accuracy_004.yaml) instead of runs")
+    ap.add_argument("--wide-sweep", type=Path, default=None,
+                    help="with --from-sweep: the wide-swath sweep (configs/sweeps/accuracy_004_wide.yaml)")
     args = ap.parse_args(argv)
+    if (args.from_sweep is None) != (args.wide_sweep is None):
+        ap.error("--from-sweep and --wide-sweep go together")
     out = Path(args.results)
     out.mkdir(parents=True, exist_ok=True)
     with open(args.config) as fh:
         mapping = yaml.safe_load(fh)
     base = mapping.pop("array3d", {}) or {}
-    paper = run_family(mapping, SETTINGS, base, args.repeat)
-    wide = run_family(WIDE, WIDE_SETTINGS, {}, args.repeat, isolated=False)
+    if args.from_sweep:
+        singles = tuple(f"target{pt['name']}" for pt in mapping["targets"]["points"])
+        paper = sweep_family(args.from_sweep, "du2010", SETTINGS, base, singles)
+        wide = sweep_family(args.wide_sweep, "wide", WIDE_SETTINGS, {})
+        timing = (f"times are the sweeps' array3d times ({args.from_sweep}, {args.wide_sweep}: one run each as a "
+                  "CLI step, product reads and writes included)")
+    else:
+        paper = run_family(mapping, SETTINGS, base, args.repeat)
+        wide = run_family(WIDE, WIDE_SETTINGS, {}, args.repeat, isolated=False)
+        timing = f"times are the best of {args.repeat} in-process runs"
     hard = hard_cases(mapping)
     (out / "numbers.json").write_text(json.dumps({"paper": paper, "wide": wide, "hard": hard}, indent=1, default=str))
 
@@ -197,7 +286,7 @@ def main(argv=None):
         return L + [""]
 
     L = ["# array3d accuracy versus time (paper 004)", "",
-         f"Config `{args.config}`; times are the best of {args.repeat} in-process runs on this machine (a shared 2-core machine: differences under ~30 % are noise). Cube deviation: "
+         f"Config `{args.config}`; {timing} on this machine (a shared 2-core machine: differences under ~30 % are noise). Cube deviation: "
          "max |cube - reference| / max |reference| with the reference = float64, sinc 32, same elevation grid. "
          "The range filter row differs from the reference mainly by its gain normalisation (flat vs matched).", ""]
     L += table(paper, "Paper scene (Tables 1-2, 28 receivers)",

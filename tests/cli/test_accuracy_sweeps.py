@@ -80,3 +80,63 @@ def test_002_sweep_has_the_scripts_settings():
 def _close(got, want):
     return set(got) == set(want) and all(
         abs(got[k] - want[k]) <= 1e-9 * abs(want[k]) if isinstance(want[k], float) else got[k] == want[k] for k in want)
+
+
+def _array3d(config):
+    from sarproc.focus.array3d.linear_array import Array3DParams
+    from sarproc.product.config import as_dict, build
+
+    return repr(sorted(as_dict(build(Array3DParams, config.get("array3d") or {})).items()))
+
+
+def test_004_sweeps_have_the_scripts_settings_and_isolated_targets():
+    pytest.importorskip("matplotlib")
+    script = _script("accuracy_004")
+    from sarproc.product.config import load_yaml
+
+    paper = load_yaml(ROOT / "configs" / "du2010.yaml")
+    base = paper.pop("array3d")
+    plan = plan_sweep(ROOT / "configs" / "sweeps" / "accuracy_004.yaml")
+    want = sorted(_array3d({"array3d": {**base, **knobs}}) for _, knobs in script.SETTINGS)
+    points = paper["targets"]["points"]
+    scenes = {"du2010": points, **{f"target{p['name']}": [p] for p in points}}   # the script's isolated scenes
+    assert sorted({t.scene for t in plan.tasks}) == sorted(scenes)
+    for scene, pts in scenes.items():
+        tasks = [t for t in plan.tasks if t.scene == scene]
+        assert sorted(_array3d(t.config) for t in tasks) == want          # the 19 settings, each once
+        for t in tasks:
+            assert t.config["targets"]["points"] == pts
+            assert {k: v for k, v in t.config.items() if k not in ("targets", "array3d")} == \
+                {k: v for k, v in paper.items() if k != "targets"}
+    wide = plan_sweep(ROOT / "configs" / "sweeps" / "accuracy_004_wide.yaml")
+    assert sorted(_array3d(t.config) for t in wide.tasks) == sorted(
+        _array3d({"array3d": knobs}) for _, knobs in script.WIDE_SETTINGS)   # the script's base there is {}
+    assert all({k: v for k, v in t.config.items() if k != "array3d"} == script.WIDE for t in wide.tasks)
+
+
+def test_003_sweep_has_the_scripts_reconstruct_settings():
+    pytest.importorskip("matplotlib")
+    script = _script("accuracy_003")
+    from sarproc.focus.multichannel.reconstruct import ReconstructParams
+    from sarproc.product.config import build
+    from sarproc.simulation.scene import scene_from_mapping
+
+    plan = plan_sweep(ROOT / "configs" / "sweeps" / "accuracy_003.yaml")
+    scene = script.scene_mapping(ROOT / "configs" / "xu_scene.yaml", [script.TARGET])   # the script's scene
+    radar = scene_from_mapping(dict(scene)).radar
+    got = []
+    for t in plan.tasks:
+        assert not t.evaluate and t.focus == ("reconstruct",)
+        assert t.config["targets"] == scene["targets"]                      # the one moving target T
+        assert {k: v for k, v in t.config.items() if k not in ("effects", "reconstruct")} == \
+            {k: v for k, v in scene.items() if k not in ("effects", "reconstruct")}
+        ch = t.config["effects"]["azimuth_channels"]
+        assert {k: v for k, v in t.config["effects"].items() if k != "azimuth_channels"} == \
+            {k: v for k, v in scene["effects"].items() if k != "azimuth_channels"}
+        got.append((build(ReconstructParams, t.config.get("reconstruct") or {}), ch["n_receivers"],
+                    parse_quantity(ch["spacing"], "length")))
+    want = [(script.search_params(s, step), 3, 2.0) for s, step in script.SEARCH]
+    want += [(ReconstructParams(), n, script.channel_spacing(radar, n)) for n in script.CHANNELS]
+    # one task per script row (search fast 0.1 and N = 3 are the same reconstruct, as in the script)
+    assert sorted((repr(p), n, round(d, 12)) for p, n, d in got) == sorted((repr(p), n, round(d, 12))
+                                                                           for p, n, d in want)
