@@ -273,9 +273,10 @@ def _backproject_compiled(rc, t0, dt, gate, tx_pos, rx_pos, monostatic, points, 
                                  rx_c[s:e], monostatic, centres, tile_start, d, mode, table, taps, acc)
     finally:
         numba.set_num_threads(old)
+    acc /= n_az
     out = np.empty_like(acc)
     out[order] = acc
-    return out / n_az
+    return out
 
 
 @dataclasses.dataclass(frozen=True)

@@ -200,18 +200,23 @@ def range_compress(signal: np.ndarray, radar: RadarMetadata, ctype, workers: int
     else:
         band = np.abs(sfft.fftfreq(n_fft, 1.0 / radar.range_sampling_rate)) <= radar.bandwidth / 2
         filt = (np.where(band, 1.0 / np.where(band, spec_h, 1.0), 0.0) * (np.count_nonzero(band) / n_fft)).astype(ctype)
-    spec = sfft.fft(signal.astype(ctype, copy=False), n=n_fft, axis=-1, workers=workers)
-    spec *= filt
-    return sfft.ifft(spec, axis=-1, workers=workers, overwrite_x=True)[..., :n_rg]
+    # Channel by channel into one output: the zero-padded spectra of all channels at once were twice the input.
+    flat = signal.reshape(-1, signal.shape[-2], n_rg)
+    out = np.empty(flat.shape, dtype=ctype)
+    for c in range(len(flat)):
+        spec = sfft.fft(flat[c].astype(ctype, copy=False), n=n_fft, axis=-1, workers=workers)
+        spec *= filt
+        out[c] = sfft.ifft(spec, axis=-1, workers=workers, overwrite_x=True)[:, :n_rg]
+    return out.reshape(signal.shape[:-1] + (n_rg,))
 
 
 def azimuth_focus(rc: np.ndarray, du: float, ranges: np.ndarray, radar: RadarMetadata, params: Array3DParams,
-                  ctype, workers: int = -1) -> np.ndarray:
+                  ctype, workers: int = -1, overwrite: bool = False) -> np.ndarray:
     """Azimuth RCMC (eq. 14) and compression (eq. 17) of (n_ch, n_az, n_rg) range-compressed data.
 
     ``du`` is the along-track pulse spacing (m), ``ranges`` the slant range r = c tau / 2 of each
     range sample. Returns the per-channel 2D images, same shape, azimuth sample m focused at
-    x = u_m.
+    x = u_m (written into ``rc`` itself when ``overwrite``).
     """
     n_ch, n_az, n_rg = rc.shape
     lam = radar.wavelength
@@ -236,14 +241,19 @@ def azimuth_focus(rc: np.ndarray, du: float, ranges: np.ndarray, radar: RadarMet
         d_r = 2.0 * r * (1.0 / dfac - 1.0)
         phase = 4.0 * np.pi * r / lam * (dfac - 1.0)
     filt = np.exp(1j * phase).astype(ctype)                      # (n_fft, n_rg)
-    spec = sfft.fft(rc, n=n_fft, axis=1, workers=workers)
-    if params.rcmc_kernel != "none":
-        pos = np.arange(n_rg)[None, :] + d_r * fs / C           # read the sample at tau + dR / c
-        # Kaiser beta = taps / 4 for the sinc kernel (16 taps: < 1.3 % error up to 0.42 cycles/sample).
-        spec = resample(spec, pos, params.rcmc_kernel, params.rcmc_kernel_length,
-                        beta=params.rcmc_kernel_length / 4.0)
-    spec *= filt
-    return sfft.ifft(spec, axis=1, workers=workers, overwrite_x=True)[:, :n_az, :]
+    pos = np.arange(n_rg)[None, :] + d_r * fs / C               # read the sample at tau + dR / c
+    # Channel by channel, each focused image written over its range-compressed input when ``overwrite``
+    # (the padded spectra, their resampled copy and the output of all channels at once were 4x the data).
+    out = rc if overwrite else np.empty_like(rc)
+    for c in range(n_ch):
+        spec = sfft.fft(rc[c], n=n_fft, axis=0, workers=workers)
+        if params.rcmc_kernel != "none":
+            # Kaiser beta = taps / 4 for the sinc kernel (16 taps: < 1.3 % error up to 0.42 cycles/sample).
+            spec = resample(spec, pos, params.rcmc_kernel, params.rcmc_kernel_length,
+                            beta=params.rcmc_kernel_length / 4.0)
+        spec *= filt
+        out[c] = sfft.ifft(spec, axis=0, workers=workers, overwrite_x=True)[:n_az, :]
+    return out
 
 
 def elevation_compress(images: np.ndarray, ranges: np.ndarray, geom: ArrayGeometry, theta: np.ndarray,
@@ -381,7 +391,7 @@ def focus_array3d(signal: np.ndarray, range_time: np.ndarray, platform_position:
     done = steps(progress, 2 + len(blocks))
     rc = range_compress(signal, radar, ctype, workers, params.range_filter)
     done()
-    images = azimuth_focus(rc, du, ranges, radar, params, ctype, workers)
+    images = azimuth_focus(rc, du, ranges, radar, params, ctype, workers, overwrite=True)
     done()
     del rc
     # Elevation compression works on the cropped range span plus a guard for the range shifts.
