@@ -6,8 +6,8 @@ $(DIST_STAMP): $(STAMP) pyproject.toml
 	touch $@
 
 .PHONY: accuracy-backprojection sweep-backprojection
-# The backprojection reference's knobs (engine x range upsampling x interpolation, the 15 settings of
-# scripts/accuracy_backprojection.py on its 2 scenes): a 30-task sweep on a local Dask cluster, then a
+# The backprojection reference's knobs (engine x range upsampling x interpolation, the 18 settings of
+# scripts/accuracy_backprojection.py on its 2 scenes): a 36-task sweep on a local Dask cluster, then a
 # script step for what a sweep row cannot hold, the deviation of every image from the finest one (read
 # off the sweep's images). Same table as the script's own run (quality columns equal to 1e-14,
 # deviations identical); its times are the sweep's per-task focus times (one run, product I/O included).
