@@ -139,16 +139,21 @@ def _indices(dr, jc, frac0, scale32, ibase, n_w):
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=True)
+def _weight_and_phasor(dr, frac0, cyc0, scale32, kc32):
+    """A pixel's interpolation weight (fraction of its sample position) and carrier phasor from its path
+    difference dr to the tile centre."""
+    t = frac0 + dr * scale32
+    c = cyc0 + dr * kc32
+    co, si = cis_cycles32_short(c - np.floor(c + np.float32(0.5)))
+    return t - np.floor(t), co, si
+
+
+@numba.njit(fastmath=True, error_model="numpy", cache=True)
 def _combine_from_dr(acc_re, acc_im, g, dr, frac0, cyc0, scale32, kc32):
     """acc += (x_s + w (x_{s+1} - x_s)) exp(j 2 pi cycles) per pixel, w and the cycles recomputed from dr (cheaper
     than storing and reloading them)."""
-    half = np.float32(0.5)
     for i in range(len(acc_re)):
-        t = frac0 + dr[i] * scale32
-        w = t - np.floor(t)
-        c = cyc0 + dr[i] * kc32
-        c = c - np.floor(c + half)
-        co, si = cis_cycles32_short(c)
+        w, co, si = _weight_and_phasor(dr[i], frac0, cyc0, scale32, kc32)
         vr = g[4 * i] + w * g[4 * i + 2]
         vi = g[4 * i + 1] + w * g[4 * i + 3]
         acc_re[i] += vr * co - vi * si
@@ -170,13 +175,8 @@ def _path_indices_mono(dr, jc, dx, dy, dz, d2, geo, frac0, scale32, ibase, n_w):
 @numba.njit(fastmath=True, error_model="numpy", cache=True)
 def _combine_cubic(acc_re, acc_im, g, dr, frac0, cyc0, scale32, kc32):
     """As _combine_from_dr for the cubic table: value c0 + w (c1 + w (c2 + w c3)), g holding (c0 .. c3) per pixel."""
-    half = np.float32(0.5)
     for i in range(len(acc_re)):
-        t = frac0 + dr[i] * scale32
-        w = t - np.floor(t)
-        c = cyc0 + dr[i] * kc32
-        c = c - np.floor(c + half)
-        co, si = cis_cycles32_short(c)
+        w, co, si = _weight_and_phasor(dr[i], frac0, cyc0, scale32, kc32)
         vr = g[8 * i] + w * (g[8 * i + 2] + w * (g[8 * i + 4] + w * g[8 * i + 6]))
         vi = g[8 * i + 1] + w * (g[8 * i + 3] + w * (g[8 * i + 5] + w * g[8 * i + 7]))
         acc_re[i] += vr * co - vi * si
