@@ -21,6 +21,7 @@ another program is imported from its standard fields alone (:func:`_foreign_raw`
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -36,6 +37,7 @@ from sarproc.product.sicd import MODE_TYPE, consistency_summary, pulse_times, re
 
 CPHD_NS = "http://api.nsgreg.nga.mil/schema/cphd/1.1.0"
 CHANNEL = "sarproc-channel-1"
+IMPORT_OVERSAMPLING = 1.25    # sampling rate over band of a pulse imported from another program's CPHD
 
 
 def _replica_spectrum(radar: RadarMetadata, n_fft: int) -> np.ndarray:
@@ -273,7 +275,7 @@ def _params(tree) -> dict:
 
 
 def read_cphd(path) -> Product:
-    """A raw product from a CPHD file (first channel, FX domain)."""
+    """A raw product from a CPHD file (first channel; FX domain, or TOA domain from other programs)."""
     require_sarkit()
     import sarkit.cphd as skcphd
 
@@ -285,9 +287,10 @@ def read_cphd(path) -> Product:
     except (OSError, ValueError, KeyError, RuntimeError) as exc:
         raise InputError(f"{path}: cannot read as CPHD: {exc}") from None
     xh = skcphd.XmlHelper(tree)
-    if xh.load("{*}Global/{*}DomainType") != "FX":
-        raise InputError(f"{path}: Global/DomainType is not FX; only FX-domain CPHD is imported")
+    domain = xh.load("{*}Global/{*}DomainType")
     extra = _params(tree)
+    if domain != "FX" and "sarproc.radar" in extra:
+        raise InputError(f"{path}: Global/DomainType is {domain}, but sarproc writes FX-domain files only")
     if "sarproc.radar" not in extra:
         return _foreign_raw(path, xh, fx, pvps)
     radar = RadarMetadata(**_radar_kwargs(json.loads(extra["sarproc.radar"])))
@@ -322,39 +325,160 @@ def read_cphd(path) -> Product:
 
 
 def _foreign_raw(path, xh, fx, pvps) -> Product:
-    """A CPHD written by another program: its in-band FX samples as Gotcha-style phase history.
+    """A CPHD written by another program: its phase history, from the standard fields alone, as Gotcha-style data.
 
-    FX-domain CPHD is the dechirped phase history compensated to the SRP, exp(-j 2 pi f (tau - tau_srp)):
-    the model of the Gotcha files, so the same conversion (gotcha.py: a unit-impulse "chirp" recorded in a
-    window that follows the SRP) makes a raw product pfa2 and backproject focus. The scene frame is the
-    CPHD's image-area frame (uIAX, uIAY, their normal) about the SRP; the antenna phase centre of each
-    vector is the mean of its transmit and receive positions (exact for stop-and-go monostatic data).
-    Only the samples inside [FX1, FX2] are kept. No targets are known: give the focusers grid extents.
+    FX-domain CPHD is the dechirped phase history compensated to the SRP (CPHD 1.1 signal model, SGN = -1):
+    S_v(f) = A exp(-j 2 pi f (TOA_p - TOA_srp,v)), TOA_x,v = (|TxPos_v - x| + |RcvPos_v - x|) / c: the model of
+    the Gotcha files, so the same conversion (gotcha.py: a unit-impulse "chirp" recorded in a window that
+    follows the reference point) makes a raw product pfa2 and backproject focus. Steps, vector by vector:
+
+    - SGN = +1 files are conjugated (the image is then that of the conjugate reflectivity; recorded in history).
+    - One frequency grid for all vectors: a file with one FX grid and one band (SC0, SCSS, FX1, FX2 equal
+      for every vector) keeps its samples inside [FX1, FX2] as they are. Otherwise (FX1/FX2, SC0 or SCSS
+      per vector, or a TOA-domain file) every vector is evaluated on a common grid over the band all vectors
+      share, [max FX1, min FX2], spaced min(SCSS) (FX) or 1 / (N SCSS) (TOA), finer if the content needs it.
+      FX vectors: the vector's samples, tapered (raised cosine) between its band [FX1, FX2] and the ends of
+      its grid so that their periodic extension has no jump, are taken to TOA (inverse DFT about the vector's
+      TOA window centre (TOA1 + TOA2) / 2) and evaluated at the new frequencies by a chirp-z transform: exact
+      for the trigonometric polynomial the samples define; the taper leaves [FX1, FX2] unchanged.
+      TOA vectors (range-compressed samples at dTOA_n = SC0 + n SCSS, mainlobe phase SGN fx_C dTOA,
+      fx_C = (FX1 + FX2) / 2 of the vector): S(f) = SCSS sum_n x_n exp(-j 2 pi (f - fx_C) dTOA_n), the
+      inverse of x(dTOA) = int S(f) exp(+j 2 pi (f - fx_C) dTOA) df over [FX1, FX2].
+    - A SRP that moves (SRPPos per vector) is replaced by one point O, the SRP of the reference vector
+      (Channel/Parameters/RefVectorIndex): S_v times exp(-j 2 pi f (TOA_srp,v - TOA_O,v)), exact.
+
+    The scene frame is the CPHD's image-area frame (uIAX, uIAY, their normal) about O; the antenna phase
+    centre of a vector is the mean of its transmit and receive positions (exact for stop-and-go monostatic
+    data; BISTATIC collections are refused). No targets are known: give the focusers grid extents.
     """
     from sarproc.product.gotcha import gotcha_product
     from sarproc.product.io import history_entry
 
-    if not (xh.load("{*}Channel/{*}FXFixedCPHD") and xh.load("{*}Channel/{*}SRPFixedCPHD")):
-        raise InputError(f"{path}: only CPHD with fixed FX band and fixed SRP (FXFixedCPHD, SRPFixedCPHD) is imported")
+    domain = xh.load("{*}Global/{*}DomainType")
+    sgn = int(xh.load("{*}Global/{*}SGN"))
+    collect = xh.load("{*}CollectionID/{*}CollectType")
+    if collect != "MONOSTATIC":
+        raise InputError(f"{path}: CollectionID/CollectType is {collect}; only MONOSTATIC collections are imported")
     ux = xh.load("{*}SceneCoordinates/{*}ReferenceSurface/{*}Planar/{*}uIAX")
     uy = xh.load("{*}SceneCoordinates/{*}ReferenceSurface/{*}Planar/{*}uIAY")
     if ux is None or uy is None:
         raise InputError(f"{path}: SceneCoordinates/ReferenceSurface is not Planar; only planar image areas are imported")
+    for name in ("TxPos", "RcvPos", "SRPPos", "SC0", "SCSS", "FX1", "FX2", "TOA1", "TOA2"):
+        v = np.asarray(pvps[name], float)
+        if not np.all(np.isfinite(v)):
+            bad = int(np.flatnonzero(~np.all(np.isfinite(v.reshape(len(v), -1)), axis=1))[0])
+            raise InputError(f"{path}: PVP {name} of vector {bad} is not finite; every vector must be valid")
+    n_vec, n_samp = fx.shape
     rot = np.stack([ux, uy, np.cross(ux, uy)], axis=1)
-    srp = np.asarray(pvps["SRPPos"][0], float)
-    apc = 0.5 * (np.asarray(pvps["TxPos"], float) + np.asarray(pvps["RcvPos"], float))
-    pos = (apc - srp) @ rot
-    f = float(pvps["SC0"][0]) + float(pvps["SCSS"][0]) * np.arange(fx.shape[1])
-    band = (f >= float(pvps["FX1"][0]) - 1e-6) & (f <= float(pvps["FX2"][0]) + 1e-6)
-    if np.count_nonzero(band) < 2:
-        raise InputError(f"{path}: fewer than two FX samples inside [FX1, FX2]")
+    ref = xh.load("{*}Channel/{*}Parameters/{*}RefVectorIndex")
+    ref = int(ref) if ref is not None and 0 <= int(ref) < n_vec else n_vec // 2
+    tx, rcv = np.asarray(pvps["TxPos"], float), np.asarray(pvps["RcvPos"], float)
+    srp = np.asarray(pvps["SRPPos"], float)
+    origin = srp[ref]
+
+    def toa(point):
+        return (np.linalg.norm(tx - point, axis=-1) + np.linalg.norm(rcv - point, axis=-1)) / C
+
+    shift = toa(srp) - toa(origin[None, :])                 # TOA_srp,v - TOA_O,v per vector
+    sc0, scss = np.asarray(pvps["SC0"], float), np.asarray(pvps["SCSS"], float)
+    fx1, fx2 = np.asarray(pvps["FX1"], float), np.asarray(pvps["FX2"], float)
+    toa1, toa2 = np.asarray(pvps["TOA1"], float) + shift, np.asarray(pvps["TOA2"], float) + shift
+    if not np.all(fx2 > fx1):
+        bad = int(np.flatnonzero(fx2 <= fx1)[0])
+        raise InputError(f"{path}: PVP FX2 <= FX1 at vector {bad}")
+    lo, hi = float(fx1.max()), float(fx2.min())
+    if hi <= lo:
+        raise InputError(f"{path}: PVP FX1/FX2: the vectors' bands share no common band (max FX1 {lo:.6g} Hz >= "
+                         f"min FX2 {hi:.6g} Hz); such data cannot be one raw product")
+    reach = 2 * float(max(np.abs(toa1).max(), np.abs(toa2).max()))   # the window about O must hold the content
+    sig = np.asarray(fx)
+    sig = np.conj(sig) if sgn > 0 else sig
+    same_grid = (domain == "FX" and np.all(sc0 == sc0[0]) and np.all(scss == scss[0]) and np.all(fx1 == fx1[0])
+                 and np.all(fx2 == fx2[0]) and reach * scss[0] <= 1.0)
+    if same_grid:
+        f = sc0[0] + scss[0] * np.arange(n_samp)
+        band = (f >= fx1[0] - 1e-6) & (f <= fx2[0] + 1e-6)
+        freq, ph, method = f[band], np.asarray(sig[:, band], complex), "FX samples in [FX1, FX2]"
+    else:
+        step = float(scss.min()) if domain == "FX" else float((1.0 / (n_samp * scss)).min())
+        step = min(step, 1.0 / (1.02 * reach))
+        # on the reference vector's grid where the spacing allows (its own samples stay where they are)
+        anchor = (sc0[ref] if domain == "FX" else (fx1[ref] + fx2[ref]) / 2) if step == (
+            scss[ref] if domain == "FX" else 1.0 / (n_samp * scss[ref])) else (lo + hi) / 2
+        m = np.arange(math.ceil((lo - anchor) / step - 1e-6), math.floor((hi - anchor) / step + 1e-6) + 1)
+        freq = anchor + m * step
+        ph, method = _common_grid(path, domain, sig, sc0, scss, fx1, fx2, np.asarray(pvps["TOA1"], float),
+                                  np.asarray(pvps["TOA2"], float), freq), f"{domain} vectors on a common grid"
+    if len(freq) < 2:
+        raise InputError(f"{path}: fewer than two frequency samples inside the common band [FX1, FX2]")
+    if np.any(shift != 0):
+        ph = ph * _cycles_phasor(-np.outer(shift, freq))
+    apc = 0.5 * (tx + rcv)
+    pos = (apc - origin) @ rot
     pol = [xh.load(f"{{*}}Channel/{{*}}Parameters/{{*}}Polarization/{{*}}{k}") for k in ("TxPol", "RcvPol")]
-    raw = gotcha_product({"phase_history": np.asarray(fx[:, band]), "freq": f[band], "positions": pos,
-                          "r0": np.linalg.norm(pos, axis=1), "files": [str(path)],
+    # zeros on both sides of the band: the pulses are sampled IMPORT_OVERSAMPLING x finer than the band needs
+    # (critically sampled, an interpolating backprojector is 24 dB less exact), the band centred on the zero bin
+    n_band, step = len(freq), float(freq[1] - freq[0])
+    n_pad = sfft.next_fast_len(int(math.ceil(IMPORT_OVERSAMPLING * n_band)))
+    left = n_pad // 2 - n_band // 2
+    padded = np.zeros((n_vec, n_pad), complex)
+    padded[:, left:left + n_band] = ph
+    raw = gotcha_product({"phase_history": padded, "freq": freq[0] + (np.arange(n_pad) - left) * step,
+                          "positions": pos, "r0": np.linalg.norm(pos, axis=1), "files": [str(path)],
                           "polarization": ":".join(pol) if None not in pol and "UNSPECIFIED" not in pol else None})
-    raw.history = [history_entry(f"import-cphd {path}", {"source": "CPHD (standard fields only)",
-                                                          "fx_samples_in_band": int(np.count_nonzero(band))})]
+    # the band is the n_band samples (half a bin more: the range filter's |f| <= B/2 keeps every one of them)
+    raw.radar = dataclasses.replace(raw.radar, bandwidth=(n_band + 0.5) * step)
+    raw.radar.validate()
+    raw.history = [history_entry(f"import-cphd {path}", {
+        "source": "CPHD (standard fields only)", "domain": domain, "sgn": sgn, "conversion": method,
+        "fx_samples_in_band": int(len(freq)), "band_hz": [float(freq[0]), float(freq[-1])],
+        "srp_moves": bool(np.any(shift != 0)), "conjugated": sgn > 0, "range_oversampling": n_pad / n_band})]
     return raw
+
+
+def _taper(f, fx1, fx2):
+    """1 on [fx1, fx2], raised cosine to 0 at the ends of the sample grid f (no taper where there is no guard)."""
+    w = np.ones(len(f))
+    below, above = f < fx1, f > fx2
+    if np.any(below):
+        g = fx1 - f[0]
+        w[below] = 0.5 - 0.5 * np.cos(np.pi * (f[below] - f[0]) / g)
+    if np.any(above):
+        g = f[-1] - fx2
+        w[above] = 0.5 - 0.5 * np.cos(np.pi * (f[-1] - f[above]) / g)
+    return w
+
+
+def _common_grid(path, domain, sig, sc0, scss, fx1, fx2, toa1, toa2, freq):
+    """Every vector's phase history (SGN = -1 form, about its own SRP) at the frequencies ``freq`` (see _foreign_raw)."""
+    import scipy.signal as ss
+
+    n_vec, n = sig.shape
+    out = np.empty((n_vec, len(freq)), complex)
+    step = float(freq[1] - freq[0])
+    k = np.arange(n)
+    for value in np.unique(scss):                             # one chirp-z kernel per sample spacing
+        rows = np.flatnonzero(scss == value)
+        if domain == "FX":
+            dtau = 1.0 / (n * value)
+            tau0 = (toa1[rows] + toa2[rows]) / 2 - (n // 2) * dtau
+            f = sc0[rows, None] + value * k[None, :]
+            w = np.stack([_taper(fi, a, b) for fi, a, b in zip(f, fx1[rows], fx2[rows])])
+            y = sfft.ifft(sig[rows] * w * _cycles_phasor(k[None, :] * value * tau0[:, None]), axis=-1)
+            f_ref, scale = sc0[rows], 1.0
+        else:
+            dtau, tau0 = value, sc0[rows]
+            y = np.asarray(sig[rows], complex)
+            f_ref, scale = (fx1[rows] + fx2[rows]) / 2, value
+        # S(F0 + m dF) = sum_n y_n exp(-j 2 pi (F0 - f_ref + m dF)(tau0 + n dtau))
+        d0 = freq[0] - f_ref
+        y = y * _cycles_phasor(-np.outer(d0, k) * dtau)
+        czt = ss.CZT(n, m=len(freq), w=np.exp(-2j * np.pi * step * dtau))
+        post = _cycles_phasor(-(d0[:, None] + np.arange(len(freq))[None, :] * step) * tau0[:, None])
+        out[rows] = scale * czt(y, axis=-1) * post
+    if not np.all(np.isfinite(out)):
+        raise InputError(f"{path}: signal array holds non-finite samples")
+    return out
 
 
 def _radar_kwargs(d: dict) -> dict:
@@ -378,7 +502,7 @@ def check_cphd(path) -> dict:
 def cphd_header(path) -> dict:
     """Check a CPHD file's metadata without reading its signal; {'vectors', 'samples'} of its first channel.
 
-    Raises InputError naming the file and the XML field when it is no FX-domain CPHD.
+    Raises InputError naming the file and the XML field when it is no FX- or TOA-domain monostatic CPHD.
     """
     require_sarkit()
     import sarkit.cphd as skcphd
@@ -389,8 +513,11 @@ def cphd_header(path) -> dict:
     except (OSError, ValueError, KeyError, RuntimeError) as exc:
         raise InputError(f"{path}: cannot read as CPHD: {exc}") from None
     xh = skcphd.XmlHelper(tree)
-    if xh.load("{*}Global/{*}DomainType") != "FX":
-        raise InputError(f"{path}: Global/DomainType is not FX; only FX-domain CPHD is imported")
+    if xh.load("{*}Global/{*}DomainType") not in ("FX", "TOA"):
+        raise InputError(f"{path}: Global/DomainType must be FX or TOA")
+    if xh.load("{*}CollectionID/{*}CollectType") != "MONOSTATIC":
+        raise InputError(f"{path}: CollectionID/CollectType is {xh.load('{*}CollectionID/{*}CollectType')}; "
+                         "only MONOSTATIC collections are imported")
     try:
         vectors = int(xh.load("{*}Data/{*}Channel/{*}NumVectors"))
         samples = int(xh.load("{*}Data/{*}Channel/{*}NumSamples"))
