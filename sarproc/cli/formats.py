@@ -2,7 +2,7 @@
 
     sarproc export-sicd IMAGE.h5 -o IMAGE.nitf [--config FILE.yaml]   focused 2D image -> SICD 1.4.0
     sarproc export-cphd RAW.h5   -o RAW.cphd   [--config FILE.yaml]   raw phase history -> CPHD 1.1.0
-    sarproc import-cphd RAW.cphd -o RAW.h5                            FX-domain CPHD -> raw product (backproject, pfa2)
+    sarproc import-cphd RAW.cphd -o RAW.h5                            FX/TOA-domain CPHD -> raw product (backproject, pfa2)
 
 The absolute time and the Earth placement come from the `geolocation:` section of --config, else the
 product's reference (the scene's `reference:` section), else documented defaults (docs/formats.md).
@@ -123,10 +123,11 @@ def export_cphd(input_path: Path, output: Path, config_path, overwrite: bool, re
 @output_option
 @overwrite_option
 def import_cphd(input_path: Path, output: Path, overwrite: bool):
-    """Import an FX-domain CPHD file as a raw product (backproject and pfa2 focus it).
+    """Import a CPHD file (FX or TOA domain, monostatic) as a raw product (backproject and pfa2 focus it).
 
     Files from export-cphd come back losslessly; others are read from their standard fields alone
-    (no targets: give the focusers grid extents). See docs/formats.md.
+    (FX band, grid and SRP may vary per vector; no targets: give the focusers grid extents). See
+    docs/formats.md.
     """
     from sarproc.cli.stage import import_cphd_estimate, plan_outputs
     from sarproc.product.cphd import cphd_header, read_cphd, require_sarkit
