@@ -123,7 +123,7 @@ def _fft_length(spacing_guess: float, pixel: float, n_pixels: int) -> tuple[int,
     A ratio 2 pi / (spacing_guess pixel) that is a whole number up to rounding (the sub-images ask for
     os x n pixels exactly) is taken as that number: ceil of 405.00000000001 would make M jump from 405 to
     next_fast_len(406) = 420 on a 1e-10 m change of the antenna positions (the ECF round trip of a CPHD
-    file), a different k grid and a -70 dB different two-step image (tests/product/test_cphd_foreign.py).
+    file), a different k grid and a -70 dB different two-step image (tests/product/test_cphd_import.py).
     """
     ratio = 2 * math.pi / (spacing_guess * pixel)
     whole = round(ratio)
