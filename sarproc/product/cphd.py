@@ -401,7 +401,7 @@ def _foreign_raw(path, xh, fx, pvps) -> Product:
         freq, ph, method = f[band], np.asarray(sig[:, band], complex), "FX samples in [FX1, FX2]"
     else:
         step = float(scss.min()) if domain == "FX" else float((1.0 / (n_samp * scss)).min())
-        step = min(step, 1.0 / (1.02 * reach))
+        step = min(step, 1.0 / (1.02 * max(reach, 1e-300)))
         # on the reference vector's grid where the spacing allows (its own samples stay where they are)
         anchor = (sc0[ref] if domain == "FX" else (fx1[ref] + fx2[ref]) / 2) if step == (
             scss[ref] if domain == "FX" else 1.0 / (n_samp * scss[ref])) else (lo + hi) / 2
@@ -417,7 +417,8 @@ def _foreign_raw(path, xh, fx, pvps) -> Product:
     pos = (apc - origin) @ rot
     pol = [xh.load(f"{{*}}Channel/{{*}}Parameters/{{*}}Polarization/{{*}}{k}") for k in ("TxPol", "RcvPol")]
     # zeros on both sides of the band: the pulses are sampled IMPORT_OVERSAMPLING x finer than the band needs
-    # (critically sampled, an interpolating backprojector is 24 dB less exact), the band centred on the zero bin
+    # (a critically sampled pulse is the worst case for the focusers' range interpolation; measured on the
+    # demo's linear 8 x backprojection: -49.4 -> -50.6 dB against the original), band centred on the zero bin
     n_band, step = len(freq), float(freq[1] - freq[0])
     n_pad = sfft.next_fast_len(int(math.ceil(IMPORT_OVERSAMPLING * n_band)))
     left = n_pad // 2 - n_band // 2
