@@ -157,6 +157,8 @@ def backproject_points(rc, range_time, tx_pos, rx_pos, points, carrier_frequency
     """
     rc = np.asarray(rc)
     n_az, n_rg = rc.shape
+    if n_az == 0:                              # the sum over pulses divided by n_az would be 0 / 0
+        raise ValueError("backproject_points: no pulses (rc has 0 rows)")
     points = np.asarray(points, float).reshape(-1, 3)
     tx_pos, rx_pos = np.asarray(tx_pos, float), np.asarray(rx_pos, float)
     monostatic = np.array_equal(tx_pos, rx_pos)

@@ -57,13 +57,13 @@ def _cubic_reference(rc, range_time, pos, pts, fc, upsample):
     c = 299_792_458.0
     n_up = upsampled_length(rc.shape[1], upsample)
     up = upsample_range(rc, upsample, length=n_up).astype(np.complex128)
-    up = np.concatenate([np.zeros((len(up), 2)), up, np.zeros((len(up), 3))], axis=1)     # zeros outside
+    up = np.concatenate([np.zeros((len(up), 4)), up, np.zeros((len(up), 4))], axis=1)     # zeros outside
     fs = n_up / (rc.shape[1] * (range_time[1] - range_time[0]))
     r = 2 * np.linalg.norm(pts[None, :, :] - pos[:, None, :], axis=-1)
     t = (r / c - range_time[0]) * fs
     s = np.floor(t)
     w = t - s
-    s = np.clip(s.astype(int), -3, n_up + 1) + 2
+    s = np.clip(s.astype(int), -3, n_up + 1) + 4         # s - 1 .. s + 2 stay inside the zero padding
     rows = np.arange(len(pos))[:, None]
     xm, x0, x1, x2 = (up[rows, s + k] for k in (-1, 0, 1, 2))
     val = (-w * (w - 1) * (w - 2) / 6 * xm + (w + 1) * (w - 1) * (w - 2) / 2 * x0
@@ -227,3 +227,44 @@ def test_reference_engine_refuses_windowed_sinc_kernels(squint_raw):
 def test_odd_kernel_length_is_refused_with_its_key(squint_raw):
     with pytest.raises(InputError, match="kernel_length"):
         backproject(squint_raw, BackprojectParams(frame="los", interpolation="knab", kernel_length=7))
+
+
+# --- review: edge cases -------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("where", [0, 5, -1])
+def test_make_tiles_refuses_a_nan_point_anywhere(where):
+    """bounds() is fastmath (NaN-blind min/max): a NaN point after the first one used to pass the finite check."""
+    pts = np.random.default_rng(0).standard_normal((100, 3))
+    pts[where, 1] = np.nan
+    with pytest.raises(ValueError, match="finite"):
+        bk.make_tiles(pts, 0.5)
+
+
+def _synthetic(n_az, n_rg=101, offset=0.0, seed=0):
+    rng = np.random.default_rng(seed)
+    c, fs = 299_792_458.0, 50e6
+    rc = (rng.standard_normal((n_az, n_rg)) + 1j * rng.standard_normal((n_az, n_rg))).astype(np.complex64)
+    rt = 2 * 950.0 / c + np.arange(n_rg) / fs
+    pos = np.stack([np.linspace(-50, 50, n_az), np.full(n_az, -1000.0 + offset), np.zeros(n_az)], 1)
+    g = np.arange(-10, 11) * 0.7
+    pts = np.stack([np.repeat(g, len(g)), np.tile(g, len(g)), np.zeros(len(g) ** 2)], 1)
+    return rc, rt, pos, pts
+
+
+@pytest.mark.parametrize("engine,interp", [("reference", "linear"), ("compiled", "linear"),
+                                           ("compiled", "nearest"), ("compiled", "cubic")])
+def test_no_pulses_is_refused(engine, interp):
+    """Zero pulses: the reference engine returned NaN (0 / 0), the compiled linear one numpy's 'zero-size array'."""
+    rc, rt, pos, pts = _synthetic(0)
+    with pytest.raises(ValueError, match="no pulses"):
+        backproject_points(rc, rt, pos, pos, pts, 1e9, engine=engine, interpolation=interp)
+
+
+@pytest.mark.parametrize("offset", [-45.0, 45.0])
+def test_compiled_cubic_where_the_scene_leaves_the_pulse(offset):
+    """Pixels read past both ends of the pulse (zeros there): the cubic table against the float64 sum."""
+    rc, rt, pos, pts = _synthetic(20, offset=offset)
+    ref = _cubic_reference(rc, rt, pos, pts, 1e9, 4)
+    fast = backproject_points(rc, rt, pos, pos, pts, 1e9, engine="compiled", interpolation="cubic", upsample=4)
+    assert db(fast, ref) < -70

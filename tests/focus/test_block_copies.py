@@ -122,3 +122,36 @@ def test_resample_rows_into_a_buffer():
         resample_rows(x, pos, "knab", 8, out=x)
     with pytest.raises(ValueError):
         resample_rows(x, pos, "knab", 8, out=np.empty((4, 39), np.complex64))
+
+
+# --- review: the compiled copies do no bounds checks, so their shapes are checked up front ------------------------
+
+
+def test_pad_spectrum_refuses_a_shorter_destination():
+    """m < n used to write both halves over each other (silently wrong), docstring said '(or crop)'."""
+    src = np.ones((2, 8), np.complex64)
+    with pytest.raises(ValueError):
+        pad_spectrum(src, np.zeros((2, 6), np.complex64), np.ones(0, np.complex64), -1)
+    with pytest.raises(ValueError):
+        pad_spectrum(src, np.zeros((3, 8), np.complex64), np.ones(0, np.complex64), -1)
+    with pytest.raises(ValueError):
+        pad_spectrum(src, np.zeros((2, 8), np.complex64), np.ones(5, np.complex64), -1)
+
+
+def test_pad_rows_refuses_a_shorter_destination():
+    """n > m used to write past the end of each row (here into the parent's spare columns)."""
+    big = np.zeros((2, 10), np.complex64)
+    with pytest.raises(ValueError):
+        pad_rows(np.ones((2, 8), np.complex64), big[:, :6], -1)
+    assert not big.any()
+    with pytest.raises(ValueError):
+        pad_rows(np.ones((1, 4), np.complex64), np.zeros((2, 6), np.complex64), -1)   # rows read past src
+
+
+def test_copy_and_gather_refuse_mismatched_shapes():
+    with pytest.raises(ValueError):
+        copy_rows(np.ones((2, 4), np.complex64), np.zeros((2, 3), np.complex64), -1)
+    with pytest.raises(ValueError):
+        gather_columns(np.ones((4, 3), np.complex64), np.array([0, 3]), np.zeros((2, 8), np.complex64), 0)
+    with pytest.raises(ValueError):
+        gather_columns(np.ones((4, 3), np.complex64), np.array([0, 2]), np.zeros((2, 8), np.complex64), 5)

@@ -22,6 +22,8 @@ def pad_rows(src, dst, start):
     """dst[i, :n] = alternate(src[i]), dst[i, n:] = 0 (n = src.shape[1] <= dst.shape[1])."""
     n = src.shape[1]
     m = dst.shape[1]
+    if src.shape[0] != dst.shape[0] or n > m:
+        raise ValueError("pad_rows: dst needs src's rows and at least its columns")
     for i in numba.prange(dst.shape[0]):
         for j in range(n):
             v = src[i, j]
@@ -47,6 +49,8 @@ def scale_rows(x, factor, start):
 @numba.njit(parallel=True, cache=True)
 def copy_rows(src, dst, start):
     """dst[i, j] = alternate(src[i, j]) (same shapes)."""
+    if src.shape[0] != dst.shape[0] or src.shape[1] != dst.shape[1]:
+        raise ValueError("copy_rows: src and dst must have the same shape")
     for i in numba.prange(src.shape[0]):
         for j in range(src.shape[1]):
             v = src[i, j]
@@ -57,7 +61,7 @@ def copy_rows(src, dst, start):
 
 @numba.njit(parallel=True, cache=True)
 def pad_spectrum(src, dst, factor, start):
-    """Zero-pad (or crop) FFT-ordered rows: dst[i] holds the first (n+1)//2 and the last n//2 samples of
+    """Zero-pad FFT-ordered rows: dst[i] holds the first (n+1)//2 and the last n//2 samples of
     f(src[i]) (f(v)_j = alternate(v_j) * factor[j], factor of src's length; ``factor`` of length 0: none) at
     the two ends of its longer axis, zeros between. src (rows, n), dst (rows, m), m >= n."""
     n = src.shape[1]
@@ -65,6 +69,8 @@ def pad_spectrum(src, dst, factor, start):
     hi = (n + 1) // 2
     lo = n // 2
     scaled = factor.shape[0] > 0
+    if src.shape[0] != dst.shape[0] or n > m or (scaled and factor.shape[0] != n):
+        raise ValueError("pad_spectrum: dst needs src's rows and at least its columns, factor src's length or none")
     for i in numba.prange(dst.shape[0]):
         for j in range(hi):
             v = src[i, j]
@@ -91,6 +97,11 @@ def pad_spectrum(src, dst, factor, start):
 def gather_columns(src, cols, dst, offset):
     """dst[k, offset + i] = src[i, cols[k]]: selected columns of src written back as rows (transposed)."""
     n = src.shape[0]
+    if len(cols) > dst.shape[0] or offset < 0 or offset + n > dst.shape[1]:
+        raise ValueError("gather_columns: dst[:len(cols), offset:offset + src rows] is out of bounds")
+    for k in range(len(cols)):
+        if cols[k] < 0 or cols[k] >= src.shape[1]:
+            raise ValueError("gather_columns: a column index is outside src")
     for k in numba.prange(len(cols)):
         c = cols[k]
         for i in range(n):
