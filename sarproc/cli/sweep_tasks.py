@@ -236,7 +236,7 @@ def plan_sweep(path, output=None) -> Plan:
 
 
 def _keep_targets(mapping: dict, names, where: str) -> dict:
-    """The scene with only the named point targets (in the order given)."""
+    """The scene with only the named point targets (in the order given; a targets.grid is left out)."""
     points = (mapping.get("targets") or {}).get("points") or []
     by_name = {str(p.get("name")): p for p in points if isinstance(p, dict)}
     missing = [str(n) for n in names if str(n) not in by_name]
@@ -244,6 +244,7 @@ def _keep_targets(mapping: dict, names, where: str) -> dict:
         raise InputError(f"{where}: no target named {missing} in the scene (it has {sorted(by_name)})")
     out = copy.deepcopy(mapping)
     out["targets"]["points"] = [copy.deepcopy(by_name[str(n)]) for n in names]
+    out["targets"].pop("grid", None)                   # its targets are not among the named ones
     return out
 
 

@@ -155,3 +155,17 @@ def test_scene_variants_and_a_sweep_without_evaluate(tmp_path):
         path.write_text(yaml.safe_dump({**sweep, "scenes": {"bad": entry}}))
         with pytest.raises(InputError, match=match):
             plan_sweep(path)
+
+
+def test_scene_variant_targets_drop_the_scene_grid(tmp_path):
+    """targets: [names] keeps only the named targets: a scene's targets.grid used to stay in the variant."""
+    points = [{"name": "A"}, {"name": "B", "azimuth": "8 m", "range": "6 m"}]
+    grid = {"azimuth_count": 2, "range_count": 2, "azimuth_spacing": "5 m", "range_spacing": "5 m"}
+    mapping = merge(BASE_SCENE, {"targets": {"frame": "squint", "points": points, "grid": grid}})
+    (tmp_path / "grid.yaml").write_text(yaml.safe_dump(mapping))
+    path = tmp_path / "sweep.yaml"
+    path.write_text(yaml.safe_dump({"scenes": {"b": {"file": "grid.yaml", "targets": ["B"]}}, "focus": "backproject",
+                                    "cases": [{"backproject.upsample": 4}], "output": "out"}))
+    (task,) = plan_sweep(path).tasks
+    assert task.config["targets"]["points"] == points[1:]
+    assert task.config["targets"].get("grid") is None
