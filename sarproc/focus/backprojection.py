@@ -182,8 +182,8 @@ def backproject_points(rc, range_time, tx_pos, rx_pos, points, carrier_frequency
     origin = points.mean(axis=0) if len(points) else np.zeros(3)
     points_c = points - origin
     points_sq = np.einsum("ij,ij->i", points_c, points_c)
-    block = max(1, int(block_elements // max(len(points), 1)))
-    chunk = block * max(1, 64 // block)           # whole blocks
+    block = max(1, min(64, int(block_elements // max(len(points), 1))))
+    chunk = block * max(1, 64 // block)           # whole blocks, at most 64 pulses upsampled at a time
     chunks = [(c, min(c + chunk, n_az)) for c in range(0, n_az, chunk)]
     spans = [[(s - c0, min(s + block, c1) - c0) for s in range(c0, c1, block)] for c0, c1 in chunks]
     tx_c, rx_c = tx_pos - origin, rx_pos - origin
@@ -213,16 +213,24 @@ MAX_TILE_RADIUS_CYCLES = 256.0
 
 def _tile_size(points: np.ndarray, tile_points: int, max_radius: float = np.inf) -> float:
     """Edge (m) of a square/cubic tile holding about ``tile_points`` points of a regular grid, capped so that a
-    tile's half-diagonal stays within ``max_radius`` (m): sparse points would otherwise make huge tiles."""
+    tile's half-diagonal stays within ``max_radius`` (m): sparse points would otherwise make huge tiles.
+
+    A dimension thinner than the edge the others give (a flat grid with micrometres of height noise, a narrow
+    strip) does not count: counted, it would shrink the tiles to single points."""
     from sarproc.focus.backprojection_kernel import bounds
 
     lo, hi = bounds(np.ascontiguousarray(points, dtype=float))
-    ext = hi - lo
-    ext = ext[ext > 1e-9 * max(float(ext.max()), 1.0)]
+    ext = np.sort(hi - lo)[::-1]
+    ext = ext[ext > 1e-9 * max(float(ext[0]), 1.0)]
     if len(ext) == 0:
         return 1.0
-    cell = (float(np.prod(ext)) / len(points)) ** (1.0 / len(ext))
-    return min(cell * tile_points ** (1.0 / len(ext)), 2 * max_radius / math.sqrt(len(ext)))
+    while True:
+        cell = (float(np.prod(ext)) / len(points)) ** (1.0 / len(ext))
+        edge = cell * tile_points ** (1.0 / len(ext))
+        if len(ext) == 1 or ext[-1] >= edge:
+            break
+        ext = ext[:-1]                         # the thinnest dimension fits inside one tile: drop it
+    return min(edge, 2 * max_radius / math.sqrt(len(ext)))
 
 
 def _backproject_compiled(rc, t0, dt, gate, tx_pos, rx_pos, monostatic, points, carrier_frequency, upsample,

@@ -89,3 +89,18 @@ def test_reference_engine_progress_has_a_total():
                        block_elements=len(pts) * 50, progress=progress_recorder(bars))
     assert_bars_complete(bars, count=1)
     assert bars[0]["total"] == -(-len(pos) // 50)
+
+
+def test_reference_engine_upsamples_at_most_64_pulses_at_a_time_for_few_points():
+    """With 4 points a memory block would hold 32768 pulses; blocks and upsampled chunks stay at 64 pulses."""
+    from helpers import progress_recorder
+
+    raw = simulate(scene_from_mapping(SQUINT_SPOTLIGHT))
+    rc = range_compress(raw.data, raw.radar)
+    pos = raw.aux["platform_position"]
+    pts = np.array(raw.radar.scene_center)[None, :] + np.zeros((4, 3))
+    bars = []
+    backproject_points(rc, raw.coords["range_time"], pos, pos, pts, raw.radar.carrier_frequency,
+                       progress=progress_recorder(bars))
+    assert len(pos) > 64
+    assert bars[0]["total"] == -(-len(pos) // 64)

@@ -270,10 +270,9 @@ def test_compiled_cubic_where_the_scene_leaves_the_pulse(offset):
     assert db(fast, ref) < -70
 
 
-@pytest.mark.xfail(strict=True, reason="review finding, not fixed: _tile_size keeps a micrometre-thin dimension")
 def test_a_micrometre_of_height_jitter_does_not_shrink_tiles_to_single_points():
     """A flat 300 x 300 grid makes 100 tiles; the same grid with 1 um of height noise (a DEM's rounding) made one
-    tile per point (90000), 20x slower, because a dimension counts once its extent exceeds 1e-9 of the largest."""
+    tile per point (90000), 20x slower, when a dimension counted once its extent exceeded 1e-9 of the largest."""
     from sarproc.focus.backprojection import _tile_size
 
     g = np.linspace(-50, 50, 300)
