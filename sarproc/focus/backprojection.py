@@ -43,31 +43,29 @@ def upsample_range(rc: np.ndarray, factor: int, workers: int = -1, pad: int = 0,
     if m == n:
         out[..., :n] = rc
         return out
-    # Pulse by pulse in blocks, so the complex128 spectra never exceed a few tens of MB.
+    # Pulse by pulse in blocks, so the complex128 spectra never exceed a few tens of MB; the transforms run in
+    # the input's precision (complex64 at least), the result is stored as complex64.
     rows = max(1, (32 << 20) // (16 * m))
     flat_in = rc.reshape(-1, n)
     flat_out = out.reshape(-1, out.shape[-1])
-    pos = (n + 1) // 2
+    work = np.result_type(rc.dtype, np.complex64)
     for s in range(0, flat_in.shape[0], rows):
-        spec = sfft.fft(flat_in[s:s + rows], axis=-1, workers=workers)
-        up = np.zeros((spec.shape[0], m), dtype=spec.dtype)
-        up[:, :pos] = spec[:, :pos]
-        up[:, m - (n - pos):] = spec[:, pos:]
-        up *= m / n
-        flat_out[s:s + rows, :m] = sfft.ifft(up, axis=-1, workers=workers, overwrite_x=True)
+        block = flat_in[s:s + rows]
+        flat_out[s:s + rows, :m] = upsample_into(block, np.empty((len(block), m), work), workers)
     return out
 
 
 def upsample_into(rc: np.ndarray, buf: np.ndarray, workers: int = -1) -> np.ndarray:
-    """upsample_range(rc, length=buf.shape[-1]) of a (rows, n) block written into the reused complex64 buffer
-    ``buf`` (rows, m) in place (no zero-filled output, no copy of the inverse transform); returns buf."""
+    """upsample_range(rc, length=buf.shape[-1]) of a (rows, n) block written into the reused buffer ``buf``
+    (rows, m), in its precision and in place (no zero-filled output, no copy of the inverse transform);
+    returns buf."""
     n, m = rc.shape[-1], buf.shape[-1]
     if m == n:
         buf[...] = rc
         return buf
     pos = (n + 1) // 2
     spec = sfft.fft(rc, axis=-1, workers=workers)
-    spec *= np.float32(m / n)
+    spec *= spec.real.dtype.type(m / n)              # the scale in the spectrum's own precision
     buf[:, :pos] = spec[:, :pos]
     buf[:, pos:m - (n - pos)] = 0
     buf[:, m - (n - pos):] = spec[:, pos:]

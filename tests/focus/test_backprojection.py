@@ -77,22 +77,8 @@ def test_hard_case_800_km_squint_60_deg_complex64():
     assert_theory(evaluate_product(image), irw_tol=0.03, db_tol=0.3, pos_cells=0.05)
 
 
-def test_reference_engine_progress_has_a_total():
-    from helpers import assert_bars_complete, progress_recorder
-
-    raw = simulate(scene_from_mapping(SQUINT_SPOTLIGHT))
-    rc = range_compress(raw.data, raw.radar)
-    pos = raw.aux["platform_position"]
-    pts = np.array(raw.radar.scene_center)[None, :] + np.zeros((4, 3))
-    bars = []
-    backproject_points(rc, raw.coords["range_time"], pos, pos, pts, raw.radar.carrier_frequency,
-                       block_elements=len(pts) * 50, progress=progress_recorder(bars))
-    assert_bars_complete(bars, count=1)
-    assert bars[0]["total"] == -(-len(pos) // 50)
-
-
-def test_reference_engine_upsamples_at_most_64_pulses_at_a_time_for_few_points():
-    """With 4 points a memory block would hold 32768 pulses; blocks and upsampled chunks stay at 64 pulses."""
+def _four_point_progress(**kw):
+    """Progress bars of a reference-engine run on 4 points of the squint scene, and its pulse count."""
     from helpers import progress_recorder
 
     raw = simulate(scene_from_mapping(SQUINT_SPOTLIGHT))
@@ -101,6 +87,20 @@ def test_reference_engine_upsamples_at_most_64_pulses_at_a_time_for_few_points()
     pts = np.array(raw.radar.scene_center)[None, :] + np.zeros((4, 3))
     bars = []
     backproject_points(rc, raw.coords["range_time"], pos, pos, pts, raw.radar.carrier_frequency,
-                       progress=progress_recorder(bars))
-    assert len(pos) > 64
-    assert bars[0]["total"] == -(-len(pos) // 64)
+                       progress=progress_recorder(bars), **kw)
+    return bars, len(pos)
+
+
+def test_reference_engine_progress_has_a_total():
+    from helpers import assert_bars_complete
+
+    bars, n_pulses = _four_point_progress(block_elements=4 * 50)
+    assert_bars_complete(bars, count=1)
+    assert bars[0]["total"] == -(-n_pulses // 50)
+
+
+def test_reference_engine_upsamples_at_most_64_pulses_at_a_time_for_few_points():
+    """With 4 points a memory block would hold 32768 pulses; blocks and upsampled chunks stay at 64 pulses."""
+    bars, n_pulses = _four_point_progress()
+    assert n_pulses > 64
+    assert bars[0]["total"] == -(-n_pulses // 64)

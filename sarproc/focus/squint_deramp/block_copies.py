@@ -17,6 +17,22 @@ import numpy as np
 from sarproc.dsp.phasor import cmul
 
 
+@numba.njit(inline="always", cache=True)
+def _alternate(v, j, start):
+    """v negated where j % 2 == start (the (-1)^n modulation)."""
+    return -v if j % 2 == start else v
+
+
+@numba.njit(inline="always", cache=True)
+def _spectrum_entry(src, i, j, factor, start, scaled):
+    """alternate(src[i, j]) times factor[j] when ``scaled``, rounded as numpy's complex multiply."""
+    v = _alternate(src[i, j], j, start)
+    if scaled:
+        re, im = cmul(v, factor[j])
+        v = complex(re, im)
+    return v
+
+
 @numba.njit(parallel=True, cache=True)
 def pad_rows(src, dst, start):
     """dst[i, :n] = alternate(src[i]), dst[i, n:] = 0 (n = src.shape[1] <= dst.shape[1])."""
@@ -26,10 +42,7 @@ def pad_rows(src, dst, start):
         raise ValueError("pad_rows: dst needs src's rows and at least its columns")
     for i in numba.prange(dst.shape[0]):
         for j in range(n):
-            v = src[i, j]
-            if j % 2 == start:
-                v = -v
-            dst[i, j] = v
+            dst[i, j] = _alternate(src[i, j], j, start)
         for j in range(n, m):
             dst[i, j] = 0
 
@@ -53,10 +66,7 @@ def copy_rows(src, dst, start):
         raise ValueError("copy_rows: src and dst must have the same shape")
     for i in numba.prange(src.shape[0]):
         for j in range(src.shape[1]):
-            v = src[i, j]
-            if j % 2 == start:
-                v = -v
-            dst[i, j] = v
+            dst[i, j] = _alternate(src[i, j], j, start)
 
 
 @numba.njit(parallel=True, cache=True)
@@ -73,24 +83,11 @@ def pad_spectrum(src, dst, factor, start):
         raise ValueError("pad_spectrum: dst needs src's rows and at least its columns, factor src's length or none")
     for i in numba.prange(dst.shape[0]):
         for j in range(hi):
-            v = src[i, j]
-            if j % 2 == start:
-                v = -v
-            if scaled:
-                re, im = cmul(v, factor[j])
-                v = complex(re, im)
-            dst[i, j] = v
+            dst[i, j] = _spectrum_entry(src, i, j, factor, start, scaled)
         for j in range(hi, m - lo):
             dst[i, j] = 0
         for jj in range(lo):
-            j = n - lo + jj
-            v = src[i, j]
-            if j % 2 == start:
-                v = -v
-            if scaled:
-                re, im = cmul(v, factor[j])
-                v = complex(re, im)
-            dst[i, m - lo + jj] = v
+            dst[i, m - lo + jj] = _spectrum_entry(src, i, n - lo + jj, factor, start, scaled)
 
 
 @numba.njit(parallel=True, cache=True)
