@@ -20,5 +20,7 @@ reproduce-gotcha: $(STAMP)
 	$(SARPROC) pfa2 results/gotcha/raw.h5 --config configs/gotcha.yaml -o results/gotcha/image_pfa.h5 --overwrite
 	$(SARPROC) backproject results/gotcha/raw.h5 --config configs/gotcha.yaml -o results/gotcha/image_bp.h5 --overwrite
 	$(PY) scripts/reproduce_gotcha.py --dir results/gotcha
+	$(SARPROC) quicklook results/gotcha/image_bp.h5 -o results/gotcha/quicklook_bp.png --overwrite --dynamic-range 45
+	$(SARPROC) quicklook results/gotcha/image_pfa.h5 -o results/gotcha/quicklook_pfa.png --overwrite --dynamic-range 45
 
 # accuracy-002 is a sweep: mk/sweeps.mk.

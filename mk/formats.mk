@@ -13,6 +13,7 @@ formats-demo: demo $(FORMATS_STAMP)
 	$(SARPROC) export-cphd results/demo/raw.h5 -o results/formats/demo.cphd --overwrite --check-report results/formats/demo_cphd.json
 	$(SARPROC) import-cphd results/formats/demo.cphd -o results/formats/demo_from_cphd.h5 --overwrite
 	$(SARPROC) backproject results/formats/demo_from_cphd.h5 --config configs/demo.yaml -o results/formats/demo_image_from_cphd.h5 --overwrite
+	$(SARPROC) quicklook results/formats/demo_image_from_cphd.h5 -o results/formats/demo_image_from_cphd.png --overwrite
 
 # The Gotcha images of make reproduce-gotcha (pfa2 and backprojection) as SICD, checked.
 formats-gotcha: $(FORMATS_STAMP)

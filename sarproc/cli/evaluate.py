@@ -177,7 +177,8 @@ def _draw(plot_dir: Path, product, report, units, params) -> None:
     irw = product.attrs["theoretical_irw"]
     # Figures are drawn to temporary files and renamed, like every other output.
     with atomic_path(plot_dir / "quicklook.png") as tmp:
-        plot_quicklook(tmp, product.data, product.dims, product.coords, truth, names, units, title=product.kind)
+        plot_quicklook(tmp, product.data, product.dims, product.coords, truth, names, units, title=product.kind,
+                       frame=product.attrs.get("frame", {}).get("name", ""))
     for t in report.targets:
         with atomic_path(plot_dir / f"target_{safe_name(t.name)}.png") as tmp:
             plot_target(tmp, product.data, product.dims, product.coords, irw, t, units, params)

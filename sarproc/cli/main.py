@@ -33,6 +33,7 @@ COMMANDS = {
     "array3d": "sarproc.cli.array3d:array3d",
     "backproject": "sarproc.cli.backproject:backproject",
     "evaluate": "sarproc.cli.evaluate:evaluate",
+    "quicklook": "sarproc.cli.quicklook:quicklook",
     "sweep": "sarproc.cli.sweep:sweep",
     "export-sicd": "sarproc.cli.formats:export_sicd",
     "export-cphd": "sarproc.cli.formats:export_cphd",

@@ -543,3 +543,52 @@ def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
         return prod
     return Product(kind=kind, data=data, dims=tuple(dims), coords=coords, radar=radar, targets=targets,
                    attrs=attrs, aux=aux, history=history)
+
+
+def read_magnitude_preview(path, max_side: int = 2048, block_bytes: int = 64 << 20):
+    """Peak-preserving preview of an image product's magnitude, read in blocks.
+
+    Every axis longer than ``max_side`` is reduced by an integer factor, each output pixel
+    being the *maximum* |pixel| of its block, so a point target of one pixel survives any
+    reduction (a mean would dilute it). Returns ``(magnitude float32, dims, coords, factors)``;
+    ``coords`` are the block centres. Memory stays at one block of ``block_bytes`` plus the
+    preview, so a picture of an image larger than memory can be drawn.
+    """
+    header = read_product(path, kinds=("image", "image3d"), load=False)
+    dims = header.dims
+    shape = tuple(len(header.coords[d]) for d in dims)
+    factors = tuple(max(1, -(-n // max_side)) for n in shape)
+    out_shape = tuple(-(-n // f) for n, f in zip(shape, factors))
+    preview = np.zeros(out_shape, dtype=np.float32)
+    row_bytes = 8 * int(np.prod(shape[1:], dtype=np.int64))
+    rows = max(factors[0], (block_bytes // max(row_bytes, 1)) // factors[0] * factors[0])
+    with h5py.File(path, "r") as f:
+        dset = f[DATA_NAME[header.kind]]
+        for start in range(0, shape[0], rows):
+            block = np.abs(dset[start:start + rows]).astype(np.float32)
+            block = np.where(np.isfinite(block), block, 0.0)
+            start_out = start // factors[0]
+            pooled = _max_pool(block, factors)
+            preview[start_out:start_out + pooled.shape[0]] = pooled
+    coords = {d: _block_centres(np.asarray(header.coords[d], dtype=float), f) for d, f in zip(dims, factors)}
+    return preview, dims, coords, factors
+
+
+def _max_pool(block: np.ndarray, factors) -> np.ndarray:
+    # Zero-pad every axis to a whole number of blocks (|x| >= 0, so padding never wins a maximum),
+    # then take the maximum over each block.
+    pad = [(0, -n % f) for n, f in zip(block.shape, factors)]
+    if any(p for _, p in pad):
+        block = np.pad(block, pad)
+    shape = []
+    for n, f in zip(block.shape, factors):
+        shape += [n // f, f]
+    return block.reshape(shape).max(axis=tuple(range(1, 2 * block.ndim, 2)))
+
+
+def _block_centres(values: np.ndarray, factor: int) -> np.ndarray:
+    if factor == 1:
+        return values
+    ends = np.minimum(np.arange(0, len(values), factor) + factor, len(values)) - 1
+    starts = np.arange(0, len(values), factor)
+    return 0.5 * (values[starts] + values[ends])

@@ -36,14 +36,20 @@ def _pairs(ndim: int) -> list[tuple[int, int]]:
     return [(0, 1)] if ndim == 2 else [(1, 2), (0, 2), (0, 1)]
 
 
-def _label(dim: str, units: dict) -> str:
-    u = units.get(dim, "")
-    return f"{dim} ({u})" if u else dim
+def _label(dim: str, units: dict, frame: str = "") -> str:
+    inside = ", ".join(x for x in (units.get(dim, ""), f"{frame} frame" if frame else "") if x)
+    return f"{dim} ({inside})" if inside else dim
 
 
 def plot_quicklook(path, data, dims, coords, truth=None, names=(), units=None, dynamic_range_db=50.0,
-                   title="") -> Path:
-    """dB image (3D: maximum projections) normalised to its peak, truth marked; writes ``path`` (PNG)."""
+                   title="", frame: str = "") -> Path:
+    """dB image (3D: maximum projections) normalised to its peak, truth marked; writes ``path`` (PNG).
+
+    ``data`` may be complex or a magnitude already (e.g. :func:`sarproc.product.io.read_magnitude_preview`);
+    ``frame`` names the image frame in the axis labels.
+    """
+    if not dynamic_range_db > 0:
+        raise ValueError(f"dynamic range must be positive, got {dynamic_range_db} dB")
     units = units or {}
     mag = np.abs(np.asarray(data))
     peak = mag.max() if mag.size and mag.max() > 0 else 1.0
@@ -63,8 +69,8 @@ def plot_quicklook(path, data, dims, coords, truth=None, names=(), units=None, d
             for n, row in zip(names, t):
                 ax.annotate(str(n), (row[h], row[v]), xytext=(5, 5), textcoords="offset points",
                             color="tab:red", fontsize=8)
-        ax.set_xlabel(_label(dims[h], units))
-        ax.set_ylabel(_label(dims[v], units))
+        ax.set_xlabel(_label(dims[h], units, frame))
+        ax.set_ylabel(_label(dims[v], units, frame))
         if other:
             ax.set_title(f"max over {', '.join(dims[o] for o in other)}", fontsize=9)
         fig.colorbar(im, ax=ax, label="dB")

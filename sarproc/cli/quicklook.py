@@ -1,0 +1,52 @@
+"""sarproc quicklook IMAGE.h5 -o PICTURE.png [--dynamic-range DB] [--targets/--no-targets] [--max-pixels N]"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from sarproc.cli.options import input_argument, overwrite_option, summary
+
+
+@click.command()
+@input_argument
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="Output picture (PNG).")
+@overwrite_option
+@click.option("--dynamic-range", "dynamic_range_db", type=click.FloatRange(min=1.0, max=300.0), default=50.0,
+              show_default=True, help="dB below the image peak drawn as black.")
+@click.option("--targets/--no-targets", "mark_targets", default=True, show_default=True,
+              help="Circle and name the truth targets of the targets table (when it has any).")
+@click.option("--max-pixels", type=click.IntRange(min=16, max=16384), default=2048, show_default=True,
+              help="Largest number of pixels drawn along an axis; longer axes are reduced by taking the "
+                   "maximum of each block, so a one-pixel target stays visible.")
+def quicklook(input_path: Path, output: Path, overwrite: bool, dynamic_range_db: float, mark_targets: bool,
+              max_pixels: int):
+    """Picture of any image product, with or without truth targets.
+
+    2D images: magnitude in dB relative to the peak, axes in metres named by the image frame.
+    3D cubes: the three maximum projections. Big images are read block by block and reduced
+    by block maxima (--max-pixels), so memory stays small. The same drawing as evaluate --plot.
+    """
+    import numpy as np
+
+    from sarproc.product.io import atomic_path, check_output_path, read_magnitude_preview, read_product
+    from sarproc.product.model import UNITS
+    from sarproc.quality.plotting import plot_quicklook
+
+    header = read_product(input_path, kinds=("image", "image3d"), load=False)
+    check_output_path(output, [input_path], overwrite=overwrite)
+    magnitude, dims, coords, factors = read_magnitude_preview(input_path, max_side=max_pixels)
+    truth, names = None, ()
+    if mark_targets and len(header.targets):
+        truth = np.stack([header.targets[d].astype(float) for d in dims], axis=1)
+        names = [n.decode() if isinstance(n, bytes) else str(n) for n in header.targets["name"]]
+    frame = header.attrs.get("frame", {}).get("name", "")
+    reduced = "" if all(f == 1 for f in factors) else \
+        ", block max " + " x ".join(str(f) for f in factors)
+    title = f"{input_path.name}: {header.kind}, {dynamic_range_db:g} dB{reduced}"
+    with atomic_path(output, overwrite=overwrite) as tmp:
+        plot_quicklook(tmp, magnitude, dims, coords, truth, names, {d: UNITS.get(d, "") for d in dims},
+                       dynamic_range_db=dynamic_range_db, title=title, frame=frame)
+    summary(f"quicklook: wrote {output} ({' x '.join(str(n) for n in magnitude.shape)} pixels drawn)")

@@ -1,0 +1,93 @@
+"""`sarproc quicklook`: pictures of any image product, truth or not, big images in blocks."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from sarproc.cli.main import cli
+from sarproc.product.io import read_magnitude_preview, write_product
+from sarproc.product.model import Product, make_targets
+from tests.cli.test_evaluate_cli import make_image, radar
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def run(*args):
+    return CliRunner().invoke(cli, ["quicklook", *map(str, args)])
+
+
+def image_without_targets(path, shape=(300, 170), spikes=((123, 45, 3.0), (7, 160, 2.0))):
+    """Low noise with a few one-pixel spikes, and an empty targets table (as real data has)."""
+    rng = np.random.default_rng(1)
+    data = (1e-3 * (rng.standard_normal(shape) + 1j * rng.standard_normal(shape))).astype(np.complex64)
+    for i, j, a in spikes:
+        data[i, j] = a
+    coords = {"azimuth": np.arange(shape[0]) * 0.5 - 40.0, "range": 1000.0 + np.arange(shape[1]) * 0.25}
+    empty = make_targets([], np.zeros((0, 3)), np.zeros(0))
+    write_product(path, Product(kind="image", data=data, dims=("azimuth", "range"), coords=coords, radar=radar(),
+                                targets=empty, attrs={"frame": {"name": "ground"}}))
+    return path, data
+
+
+def test_preview_blocks_equal_whole_image_block_maxima(tmp_path):
+    path, data = image_without_targets(tmp_path / "img.h5")
+    # 300 x 170 to at most 64 per axis: factors 5 and 3; tiny blocks force many reads and a ragged last one.
+    preview, dims, coords, factors = read_magnitude_preview(path, max_side=64, block_bytes=7 * 170 * 8)
+    assert factors == (5, 3) and preview.shape == (60, 57) and dims == ("azimuth", "range")
+    mag = np.abs(data)
+    padded = np.pad(mag, ((0, 0), (0, 1)))            # 170 -> 171 = 57 x 3
+    expected = padded.reshape(60, 5, 57, 3).max(axis=(1, 3))
+    np.testing.assert_array_equal(preview, expected.astype(np.float32))
+    # a one-pixel spike keeps its full level and lands in the block that holds it
+    assert preview[123 // 5, 45 // 3] == pytest.approx(3.0) and preview[7 // 5, 160 // 3] == pytest.approx(2.0)
+    # coordinates are block centres; the ragged last range block holds samples 168 and 169 only
+    assert coords["azimuth"][123 // 5] == pytest.approx(-40.0 + 122 * 0.5)
+    assert coords["range"][-1] == pytest.approx(1000.0 + 168.5 * 0.25)
+
+
+def test_preview_of_small_image_is_the_magnitude(tmp_path):
+    path, data = image_without_targets(tmp_path / "img.h5", shape=(40, 30), spikes=((3, 4, 1.0),))
+    preview, _, coords, factors = read_magnitude_preview(path)
+    assert factors == (1, 1)
+    np.testing.assert_array_equal(preview, np.abs(data))
+    assert coords["range"][0] == 1000.0
+
+
+def test_picture_of_image_without_targets(tmp_path):
+    path, _ = image_without_targets(tmp_path / "img.h5")
+    out = tmp_path / "ql.png"
+    res = run(path, "-o", out, "--dynamic-range", 40)
+    assert res.exit_code == 0, res.output
+    assert out.read_bytes()[:8] == PNG_SIGNATURE and "300 x 170 pixels drawn" in res.output
+    assert not list(tmp_path.glob("*.tmp*")) and not list(tmp_path.glob(".*sarproc-tmp*"))
+    # an existing picture is kept unless --overwrite
+    before = out.read_bytes()
+    res = run(path, "-o", out)
+    assert res.exit_code == 2 and "--overwrite" in res.output and out.read_bytes() == before
+    res = run(path, "-o", out, "--overwrite", "--max-pixels", 32, "--no-targets")
+    assert res.exit_code == 0 and "30 x 29 pixels drawn" in res.output and out.read_bytes() != before
+
+
+@pytest.mark.parametrize("three_d", [False, True])
+def test_picture_with_targets_2d_and_cube(tmp_path, three_d):
+    path = make_image(tmp_path / "img.h5", three_d=three_d)
+    out = tmp_path / "ql.png"
+    res = run(path, "-o", out)
+    assert res.exit_code == 0, res.output
+    assert out.read_bytes()[:8] == PNG_SIGNATURE
+
+
+def test_refuses_raw_products_and_bad_knobs(tmp_path):
+    path, _ = image_without_targets(tmp_path / "img.h5")
+    res = run(path, "-o", tmp_path / "ql.png", "--dynamic-range", 0)
+    assert res.exit_code == 2
+    assert not (tmp_path / "ql.png").exists()
+    raw = tmp_path / "raw.h5"
+    data = np.ones((4, 8), np.complex64)
+    write_product(raw, Product(kind="raw", data=data, dims=("azimuth_time", "range_time"),
+                               coords={"azimuth_time": np.arange(4) / 500.0, "range_time": 6.6e-5 + np.arange(8) / 180e6},
+                               radar=radar(), targets=make_targets([], np.zeros((0, 3)), np.zeros(0))))
+    res = run(raw, "-o", tmp_path / "ql.png")
+    assert res.exit_code == 2 and "raw" in res.output and not (tmp_path / "ql.png").exists()
