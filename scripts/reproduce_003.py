@@ -5,7 +5,7 @@ have written results/003/{raw_mc,raw_conventional,raw_modified}.h5. This script
 
 * focuses both reconstructions with ``backproject`` (image_conventional.h5, image_modified.h5); a
   moving target is judged at its static-equivalent position (the azimuth shift of a moving target in
-  a static-scene image, sarproc.focus.multichannel.geometry), which the images' targets tables hold;
+  a static-scene image, sarproc.product.moving), which the images' targets tables hold;
 * measures per target (Table 2): IRW, PSLR, ISLR on both axes, position error, and the maximum
   false-target amplitude (MFTA) on an azimuth strip of +-1.5 ghost spacings (PRF v / K_a) in the
   squint_lrwc frame (ghosts keep the target's range history), outside +-0.45 ghost spacings of the
@@ -30,7 +30,7 @@ import numpy as np
 
 from sarproc.focus.backprojection import BackprojectParams, backproject, theoretical_irw
 from sarproc.focus.multichannel import channels
-from sarproc.focus.multichannel.geometry import apparent_targets
+from sarproc.product.moving import apparent_targets
 from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct
 from sarproc.product.config import build, load_yaml
 from sarproc.product.frames import make_frame

@@ -2,7 +2,7 @@
 
 Small spaceborne scene (configs/xu_small.yaml): X band, 7.5 km/s, 600 km, 20 deg squint, three
 channels at PRF 1000 Hz (the uniform PRF), Doppler band 2.4 kHz. Moving targets are judged at their
-static-equivalent position (sarproc.focus.multichannel.geometry) and with the static theory IRW of
+static-equivalent position (sarproc.product.moving) and with the static theory IRW of
 their true position; false targets are read on a strip along azimuth in the squint_lrwc frame (a
 ghost keeps the target's range history, so it lies at the same range after walk correction).
 """
@@ -21,7 +21,7 @@ import scipy.fft as sfft
 from helpers import assert_theory
 from sarproc.focus.backprojection import BackprojectParams, backproject, theoretical_irw
 from sarproc.focus.multichannel import channels
-from sarproc.focus.multichannel.geometry import apparent_targets
+from sarproc.product.moving import apparent_targets
 from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct
 from sarproc.product.config import load_yaml
 from sarproc.product.errors import InputError
