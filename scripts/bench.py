@@ -277,6 +277,26 @@ def array3d_stages():
                   "du2010 (paper 004)")]
 
 
+def simulate_stages():
+    """simulate on the exp. 2 scene (paper 000) and the reduced Table 1 scene (paper 002): echo samples/s."""
+    from sarproc.product.config import load_yaml
+    from sarproc.simulation.scene import scene_from_mapping
+    from sarproc.simulation.simulate import plan_simulation, simulate
+
+    stages = []
+    for name in ("an2012_exp2.yaml", "nie2016_small.yaml"):
+        m = load_yaml(ROOT / "configs" / name)
+        scene = scene_from_mapping(m, name)
+        plan = plan_simulation(scene)
+        r = scene.radar
+        samples = plan.shape[-2] * len(plan.rx_offsets) * len(scene.target_amplitude) * \
+            r.pulse_duration * r.range_sampling_rate
+        st = Stage("simulate", lambda scene=scene: simulate(scene).data, plan.shape, 0, name.removesuffix(".yaml"))
+        st.echo_samples = samples
+        stages.append(st)
+    return stages
+
+
 # ---- report -------------------------------------------------------------------------------------------------
 def fmt_table(rows, previous):
     prev = {r["stage"] + "|" + r.get("detail", ""): r for r in (previous or {}).get("stages", [])}
@@ -303,7 +323,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--rounds", type=int, default=3, help="rounds of the heavy stages (best of)")
     ap.add_argument("--bp-rounds", type=int, default=5, help="rounds of the backprojection stages (best of)")
-    ap.add_argument("--stages", default="bp,gotcha,exp2,array3d")
+    ap.add_argument("--stages", default="bp,gotcha,exp2,array3d,simulate")
     ap.add_argument("--fastsar-python", default=str(ROOT / ".venv-bench" / "bin" / "python"))
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
     args = ap.parse_args(argv)
@@ -375,7 +395,7 @@ def main(argv=None):
         print(fmt_table(rows, previous), file=sys.stderr)
 
     heavy = []
-    for key, make in (("exp2", exp2_stages), ("array3d", array3d_stages)):
+    for key, make in (("exp2", exp2_stages), ("array3d", array3d_stages), ("simulate", simulate_stages)):
         if key in want:
             try:
                 heavy += make()
@@ -385,7 +405,13 @@ def main(argv=None):
         for st in heavy:
             st.run()
             print(f"  {st.name}: round {r + 1}/{args.rounds} {st.time:.2f} s", file=sys.stderr)
-    rows += [st.row() for st in heavy]
+    for st in heavy:
+        row = st.row()
+        if hasattr(st, "echo_samples"):
+            row["echo_rate"] = st.echo_samples / st.time
+            notes.append(f"simulate {st.detail}: {st.echo_samples / st.time / 1e6:.0f} M echo samples/s "
+                         f"(pulses x channels x targets x T_p f_s), {st.time / st.fft:.2f} one-FFT units of its output")
+        rows.append(row)
 
     stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y%m%dT%H%M%SZ")
     text = "\n".join([f"# sarproc bench {stamp}", "", fmt_table(rows, previous), ""] + [f"- {n}" for n in notes])

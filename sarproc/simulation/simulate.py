@@ -19,7 +19,6 @@ from typing import Iterator
 import numpy as np
 
 from sarproc.product.metadata import C
-from sarproc.dsp.phasor import unit_phasor
 from sarproc.product.model import Product
 from sarproc.simulation.scene import Scene
 
@@ -134,49 +133,31 @@ def plan_simulation(scene: Scene) -> SimulationPlan:
 
 
 def echo_block(scene: Scene, plan: SimulationPlan, t: np.ndarray) -> np.ndarray:
-    """Echoes of pulses at times ``t`` for every channel: (n_ch, n_t, n_range) complex128."""
+    """Echoes of pulses at times ``t`` for every channel: (n_ch, n_t, n_range) complex128.
+
+    Geometry, gate offsets and the effects' gains are evaluated here per (pulse, target); the
+    samples themselves in the compiled :func:`echo_kernel.accumulate_echoes`.
+    """
+    from sarproc.simulation.echo_kernel import accumulate_echoes, window_chirp
+
     r = scene.radar
-    fs, tp, k = r.range_sampling_rate, r.pulse_duration, r.chirp_rate
-    t0 = plan.coords["range_time"][0]
+    fs = r.range_sampling_rate
+    t0 = float(plan.coords["range_time"][0])
     n_rg = len(plan.coords["range_time"])
-    n_env = int(math.ceil(tp * fs)) + 2          # samples an envelope can touch
-    if n_env > n_rg:
-        # A pulse longer than the window: evaluate every window sample (memory n_t x n_range).
-        width, guard = n_rg, 0
-    else:
-        width, guard = n_env, n_env              # columns on each side take echoes cut by the window
     pos = _positions(scene, t)
     tg = _target_positions(scene, t)
     amplitude = _scatterers(scene)[2]
-    gate = _gate_offsets(scene, t, 2 * r.reference_range / C)
-    out = np.zeros((len(plan.rx_offsets), len(t), n_rg + 2 * guard), dtype=np.complex128)
-    rows = np.arange(len(t))[:, None]
-    k_idx = np.arange(width)[None, :]
+    gate = np.ascontiguousarray(_gate_offsets(scene, t, 2 * r.reference_range / C), dtype=float)
+    chirp = window_chirp(n_rg, fs, r.chirp_rate)
+    out = np.zeros((len(plan.rx_offsets), len(t), n_rg), dtype=np.complex128)
     for ch, rx in enumerate(plan.rx_offsets):
         tau = _delays(pos + plan.tx_offset, pos + rx, tg)                # (n_t, n_tg)
         gains = np.broadcast_to(amplitude[None, :], tau.shape).astype(complex)
         for e in scene.effects:
             gains = e.gains(t, pos, tg, ch, gains)
-        for j in range(tau.shape[1]):
-            g = gains[:, j]
-            live = g != 0
-            if not np.any(live):
-                continue
-            tau_j = tau[live, j]
-            rel = tau_j - gate[live] - t0                                # delay inside the window, s
-            first = np.ceil((rel - tp / 2) * fs).astype(np.int64)
-            # An echo starting more than `guard` samples outside the window has no sample inside it:
-            # clipping keeps its evaluation in the guard columns (idx + guard in [0, n_rg + 2 guard)).
-            first = np.clip(first, -guard, n_rg + guard - width)
-            idx = first[:, None] + k_idx                                 # (n_live, width)
-            dt = idx / fs - rel[:, None]                                  # fast time from echo centre, s
-            inside = np.abs(dt) <= tp / 2
-            # Phase in float64 cycles, reduced to [0, 1) before the (fast) float32 cos/sin.
-            cycles = 0.5 * k * dt**2 - r.carrier_frequency * tau_j[:, None]
-            cycles -= np.floor(cycles)
-            val = np.where(inside, g[live, None] * unit_phasor(cycles), 0)
-            out[ch, rows[live], idx + guard] += val
-    return out[:, :, guard:guard + n_rg]
+        accumulate_echoes(out[ch], np.ascontiguousarray(tau), np.ascontiguousarray(gains, dtype=np.complex128),
+                          gate, t0, fs, r.pulse_duration, r.chirp_rate, r.carrier_frequency, chirp)
+    return out
 
 
 def simulate_blocks(scene: Scene, plan: SimulationPlan | None = None, progress=None,

@@ -1,0 +1,103 @@
+"""Compiled accumulation of point-target echoes into a block of pulses.
+
+A target's echo on window sample n (fast time n/f_s from the window start) is
+
+    g exp(j 2 pi [K/2 (n/f_s - rel)^2 - f_c tau]),   |n/f_s - rel| <= T_p / 2,
+
+with rel its delay inside the window. The square splits into a chirp common to every target
+and pulse, c_n = exp(j pi K n^2 / f_s^2), times a phasor linear in n,
+
+    g exp(j 2 pi [K rel^2 / 2 - f_c tau]) w^n,   w = exp(-j 2 pi K rel / f_s),
+
+so each target costs one complex multiply-add per sample (a geometric recurrence) instead of
+a float64 phase and a cos/sin. Every phase is reduced to cycles in float64 before its cos/sin,
+so the large terms (f_c tau ~ 1e6 cycles, K n^2 / 2 f_s^2 ~ 1e4) lose nothing; the recurrence
+drifts by about one float64 ulp per sample (1e-12 over 4k samples), far below complex64.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+@numba.njit(inline="always")
+def _cis(cycles):
+    """exp(j 2 pi cycles) for any float64 cycles, reduced to [0, 1) first."""
+    frac = cycles - math.floor(cycles)
+    return complex(math.cos(2 * math.pi * frac), math.sin(2 * math.pi * frac))
+
+
+@numba.njit(cache=True, error_model="numpy")
+def window_chirp(n_range, fs, chirp_rate):
+    """c_n = exp(j pi K (n / f_s)^2) for the window's samples, complex128."""
+    out = np.empty(n_range, np.complex128)
+    for n in range(n_range):
+        t = n / fs
+        out[n] = _cis(0.5 * chirp_rate * t * t)
+    return out
+
+
+@numba.njit(inline="always")
+def _support(rel, fs, half_pulse, n_range):
+    """First and last window sample with |n/f_s - rel| <= T_p/2 (the simulator's envelope test,
+    evaluated the same way), clipped to the window; last < first when none is inside."""
+    first = max(0, int(math.ceil((rel - half_pulse) * fs)) - 1)
+    last = min(n_range - 1, int(math.floor((rel + half_pulse) * fs)) + 1)
+    while first <= last and abs(first / fs - rel) > half_pulse:
+        first += 1
+    while last >= first and abs(last / fs - rel) > half_pulse:
+        last -= 1
+    return first, last
+
+
+@numba.njit(parallel=True, cache=True, error_model="numpy")
+def accumulate_echoes(out, delays, gains, gate, t0, fs, pulse_duration, chirp_rate, carrier, chirp):
+    """Add every target's echo to ``out`` (n_t, n_range) complex128, in place.
+
+    delays (n_t, n_tg) two-way delays, s; gains (n_t, n_tg) complex (0 skips the pair); gate
+    (n_t,) receive-window offsets, s; t0 the window's first range time, s; chirp from
+    :func:`window_chirp` for the same window. Pulses run in parallel, targets in order.
+    """
+    n_t, n_tg = delays.shape
+    n_range = out.shape[1]
+    half = 0.5 * pulse_duration
+    for i in numba.prange(n_t):
+        row = out[i]
+        acc = np.zeros(n_range, np.complex128)
+        for j in range(n_tg):
+            g = gains[i, j]
+            if g == 0:
+                continue
+            tau = delays[i, j]
+            rel = tau - gate[i] - t0
+            first, last = _support(rel, fs, half, n_range)
+            if last < first:
+                continue
+            step_cycles = -chirp_rate * rel / fs
+            w = _cis(step_cycles)
+            w4 = _cis(4 * step_cycles)
+            base = 0.5 * chirp_rate * rel * rel - carrier * tau
+            # four interleaved recurrences (samples n, n+1, n+2, n+3) keep the multiplier busy
+            p0 = g * _cis(base + first * step_cycles)
+            p1 = g * _cis(base + (first + 1) * step_cycles)
+            p2 = g * _cis(base + (first + 2) * step_cycles)
+            p3 = g * _cis(base + (first + 3) * step_cycles)
+            n = first
+            while n + 3 <= last:
+                acc[n] += p0
+                acc[n + 1] += p1
+                acc[n + 2] += p2
+                acc[n + 3] += p3
+                p0 *= w4
+                p1 *= w4
+                p2 *= w4
+                p3 *= w4
+                n += 4
+            while n <= last:
+                acc[n] += p0
+                p0 *= w
+                n += 1
+        for n in range(n_range):
+            row[n] += acc[n] * chirp[n]
