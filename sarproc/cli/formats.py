@@ -1,6 +1,6 @@
 """Standard formats through NGA's sarkit (pip install 'sarproc[formats]'):
 
-    sarproc export-sicd IMAGE.h5 -o IMAGE.nitf [--config FILE.yaml]   focused 2D image -> SICD 1.4.0
+    sarproc export-sicd IMAGE.h5 -o IMAGE.nitf [--config FILE.yaml]   focused 2D image -> SICD 1.4.0 (or 1.3.0)
     sarproc export-cphd RAW.h5   -o RAW.cphd   [--config FILE.yaml]   raw phase history -> CPHD 1.1.0
     sarproc import-cphd RAW.cphd -o RAW.h5                            FX/TOA-domain CPHD -> raw product (backproject, pfa2)
 
@@ -50,15 +50,18 @@ check_option = click.option("--check-report", "report_path", type=click.Path(dir
               show_default=True, help="ImageFormAlgo: auto = PFA (Grid RGAZIM and a PFA block) for pfa2 images in "
               "polar-format geometry (method plain), OTHER (Grid PLANE) for every other image; PFA only for pfa2 "
               "images (docs/formats.md).")
-def export_sicd(input_path: Path, output: Path, config_path, overwrite: bool, report_path, image_formation: str):
+@click.option("--sicd-version", type=click.Choice(["1.4.0", "1.3.0"]), default="1.4.0", show_default=True,
+              help="SICD version written: 1.3.0 for readers that do not know 1.4.0 (the content is the same).")
+def export_sicd(input_path: Path, output: Path, config_path, overwrite: bool, report_path, image_formation: str,
+                sicd_version: str):
     """Export a focused 2D image product to SICD (NITF), checked by sarkit's SicdConsistency."""
     import numpy as np
 
     from sarproc.cli.stage import export_sicd_estimate, naming, plan_outputs
     from sarproc.product.geolocation import GeolocationParams, placement
     from sarproc.product.io import atomic_path, read_product
-    from sarproc.product.sicd import (check_sicd, formed_by_pfa, image_from_sicd, image_grid, read_sicd,
-                                      require_sarkit, write_sicd)
+    from sarproc.product.sicd import (check_sicd, formed_by_pfa, image_grid, read_sicd, require_sarkit,
+                                      sicd_pixels, write_sicd)
     from sarproc.product.errors import InputError, ProcessingError
 
     require_sarkit()
@@ -77,15 +80,15 @@ def export_sicd(input_path: Path, output: Path, config_path, overwrite: bool, re
     # written, read back and checked before it is published: a failed check leaves no file
     with atomic_path(output, overwrite) as tmp:
         with naming(input_path):
-            grid = write_sicd(tmp, image, place, image_formation=image_formation)
+            grid = write_sicd(tmp, image, place, image_formation=image_formation, version=sicd_version)
         _, pixels = read_sicd(tmp)
-        if not np.array_equal(image_from_sicd(pixels, grid.flip_cols), image.data):
-            raise ProcessingError(f"{output}: the pixels read back differ from {input_path}")
+        if not np.array_equal(pixels, sicd_pixels(image.data, grid)):
+            raise ProcessingError(f"{output}: the pixels read back differ from those written for {input_path}")
         result = check_sicd(tmp)
         _finish("SICD", output, result, report_path)
-    summary(f"export-sicd: {pixels.shape[0]}x{pixels.shape[1]} SICD (rows = range"
-            f"{', columns = reversed azimuth' if grid.flip_cols else ', columns = azimuth'}) -> {output}; "
-            "pixels read back identical")
+    summary(f"export-sicd: {pixels.shape[0]}x{pixels.shape[1]} SICD {sicd_version} (rows = range"
+            f"{', columns = reversed azimuth' if grid.flip_cols else ', columns = azimuth'}; carrier at the SCP "
+            f"{grid.carrier[0]:.4g}, {grid.carrier[1]:.4g} cycles/m removed) -> {output}; pixels read back identical")
     summary(_check_line("SICD", result))
 
 

@@ -1,4 +1,4 @@
-"""Focused 2D images to SICD (NGA.STND.0024, version 1.4.0) through NGA's sarkit, and back.
+"""Focused 2D images to SICD (NGA.STND.0024, version 1.4.0 or 1.3.0) through NGA's sarkit, and back.
 
 A sarproc image lies on a plane grid of the scene frame (frames.py); SICD describes such a grid as
 Grid/Type PLANE with the row and column unit vectors in ECF (ImageFormAlgo OTHER); a pfa2 image that
@@ -7,17 +7,10 @@ Grid/Type RGAZIM and a PFA block (:func:`pfa_geometry`; :func:`image_formation_a
 geometry). SICD rows run along range (away from the radar) and columns along azimuth, with the grid
 normal (row x col) pointing away from the Earth; for a scene left of the track that means the azimuth
 axis is reversed. So the SICD pixel array is
-``image.T`` with its columns flipped when needed: :func:`sicd_pixels` and :func:`image_from_sicd` do
-and undo exactly this, nothing else (pixels are complex64 -> RE32F_IM32F, bit for bit).
+``image.T`` with its columns flipped when needed and the SCP's carrier removed (below):
+:func:`sicd_pixels` and :func:`image_from_sicd` do and undo exactly this (complex64 -> RE32F_IM32F; the
+carrier phasor costs complex64 rounding, about -140 dB).
 
-Spatial frequency: DeltaKCOAPoly is where the pixels' spectrum is centred along each axis (measured
-on the data: backprojection keeps the carrier phase exp(+j 2 pi (2 f_c / c) R), so its spectrum sits at
-(2 f_c / c) u_los . u_axis folded by the pixel spacing; a basebanded image sits at 0), and KCtr the
-rest of (2 f_c / c) u_los . u_axis at the scene reference point. Both are constants: the line of
-sight turns slowly across the image.
-
-The times and the Earth placement come from :mod:`sarproc.product.geolocation`. sarkit is imported
-only inside the functions (optional extra ``sarproc[formats]``).
 """
 
 from __future__ import annotations
@@ -36,7 +29,7 @@ from sarproc.product.model import Product
 
 log = logging.getLogger(__name__)
 
-SICD_NS = "urn:SICD:1.4.0"
+SICD_VERSIONS = ("1.4.0", "1.3.0")   # 1.3.0 for readers that predate 1.4.0 (sarpy <= 2.1.1 knows up to 1.3.0)
 KAPFAC = 0.88589   # -3 dB width x bandwidth of a uniformly weighted response (SICD's 0.886, sarkit's 0.8859)
 MODE_TYPE = {"spotlight": "SPOTLIGHT", "stripmap": "STRIPMAP", "sliding_spotlight": "DYNAMIC STRIPMAP"}
 
@@ -79,6 +72,12 @@ class SicdGrid:
     scp_scene: np.ndarray
     flip_cols: bool
     shape: tuple[int, int]
+    carrier: tuple[float, float] = (0.0, 0.0)   # (row, col) cycles/m the product's pixels carry at the SCP
+
+    def offsets(self) -> tuple[np.ndarray, np.ndarray]:
+        """SICD image coordinates (x of each row, y of each column), m from the SCP."""
+        return ((np.arange(self.shape[0]) - self.scp_pixel[0]) * self.ss_row,
+                (np.arange(self.shape[1]) - self.scp_pixel[1]) * self.ss_col)
 
 
 def image_grid(product: Product, place: Placement, tol: float = 1e-3, scp_at=None) -> SicdGrid:
@@ -127,24 +126,185 @@ def image_grid(product: Product, place: Placement, tol: float = 1e-3, scp_at=Non
                     shape=(len(rg), len(az)))
 
 
+def _carrier_phasors(grid: SicdGrid) -> tuple[np.ndarray, np.ndarray]:
+    """exp(-j 2 pi c x) along the rows and exp(-j 2 pi c y) along the columns (the carrier folded by the
+    pixel spacing first: at pixel positions it is the same phasor, with float64 phases of at most n/2 cycles)."""
+    out = []
+    for c, ss, x in zip(grid.carrier, (grid.ss_row, grid.ss_col), grid.offsets()):
+        cycles_per_pixel = c * ss - np.round(c * ss)
+        out.append(np.exp(-2j * np.pi * cycles_per_pixel * (x / ss)).astype(np.complex64))
+    return out[0], out[1]
+
+
 def sicd_pixels(image: np.ndarray, grid: SicdGrid) -> np.ndarray:
-    """(n_azimuth, n_range) image -> (NumRows = n_range, NumCols = n_azimuth) SICD array, complex64."""
+    """(n_azimuth, n_range) image -> (NumRows = n_range, NumCols = n_azimuth) SICD array, complex64, with
+    the carrier at the SCP (``grid.carrier``) removed."""
     out = np.asarray(image, np.complex64).T
-    return np.ascontiguousarray(out[:, ::-1] if grid.flip_cols else out)
+    out = np.array(out[:, ::-1] if grid.flip_cols else out, order="C")
+    if any(grid.carrier):
+        ph_row, ph_col = _carrier_phasors(grid)
+        out *= ph_row[:, None]
+        out *= ph_col[None, :]
+    return out
 
 
-def image_from_sicd(pixels: np.ndarray, flip_cols: bool) -> np.ndarray:
-    """Inverse of :func:`sicd_pixels`."""
-    return np.ascontiguousarray((pixels[:, ::-1] if flip_cols else pixels).T)
+def image_from_sicd(pixels: np.ndarray, grid: SicdGrid) -> np.ndarray:
+    """Inverse of :func:`sicd_pixels` (to complex64 rounding when a carrier was removed)."""
+    pixels = np.array(pixels, np.complex64)
+    if any(grid.carrier):
+        ph_row, ph_col = _carrier_phasors(grid)
+        pixels *= ph_row.conj()[:, None]
+        pixels *= ph_col.conj()[None, :]
+    return np.ascontiguousarray((pixels[:, ::-1] if grid.flip_cols else pixels).T)
 
 
 def spectral_centre(pixels: np.ndarray, axis: int, ss: float) -> float:
     """Centre of the data's spectrum along ``axis``, cycles/m in [-1/(2 SS), 1/(2 SS)) (circular mean of power)."""
-    spec = np.abs(np.fft.fft(pixels, axis=axis)) ** 2
-    power = spec.sum(axis=1 - axis)
+    power = (np.abs(np.fft.fft(pixels, axis=axis)) ** 2).sum(axis=1 - axis)
     n = len(power)
-    phase = np.angle(np.sum(power * np.exp(2j * np.pi * np.arange(n) / n)))
-    return float(phase / (2 * np.pi * ss))
+    return float(np.angle(np.sum(power * np.exp(2j * np.pi * np.arange(n) / n))) / (2 * np.pi * ss))
+
+
+def local_support_offsets(tree, pixels: np.ndarray, points, half: int = 16) -> np.ndarray:
+    """(measured - DeltaKCOAPoly) / ImpRespBW along (row, col) at SICD pixels ``points`` ((row, col) each): the
+    spectral centre of the (2 half)^2 pixels about each point against the file's DeltaKCOAPoly there."""
+    import sarkit.sicd as sksicd
+
+    xml = sksicd.XmlHelper(tree)
+    grid = {a: {k: xml.load(f"./{{*}}Grid/{{*}}{a}/{{*}}{k}") for k in ("SS", "DeltaKCOAPoly", "ImpRespBW")}
+            for a in ("Row", "Col")}
+    xy = sksicd.rowcol_to_xrowycol(tree, np.asarray(points, float))
+    out = []
+    for (r, c), (x, y) in zip(np.asarray(points, int), xy):
+        if not (half <= r <= pixels.shape[0] - half and half <= c <= pixels.shape[1] - half):
+            raise ValueError(f"pixel ({r}, {c}) is closer than {half} pixels to the edge of the image")
+        win = pixels[r - half:r + half, c - half:c + half]
+        row = []
+        for axis, g in enumerate(grid.values()):
+            d = spectral_centre(win, axis, g["SS"]) - np.polynomial.polynomial.polyval2d(x, y, g["DeltaKCOAPoly"])
+            row.append(float(fold(d, g["SS"])) / g["ImpRespBW"])
+        out.append(row)
+    return np.array(out)
+
+
+def fold(k, ss: float):
+    """Spatial frequency k (cycles/m) folded by the sample spacing into [-1/(2 SS), 1/(2 SS))."""
+    return k - np.round(np.asarray(k) * ss) / ss
+
+
+@dataclasses.dataclass(frozen=True)
+class SupportModel:
+    """Where the spectral support is centred, in ECF: for a true grid the line of sight at the centre of
+    aperture (``arp_poly``, ``time_coa``, ``f_c``), for polar format one constant ``pfa_centre`` (row, col)."""
+
+    scp_ecf: np.ndarray
+    u_row: np.ndarray
+    u_col: np.ndarray
+    arp_poly: np.ndarray
+    time_coa: np.ndarray
+    f_c: float
+    pfa_centre: tuple[float, float] | None = None
+
+    def _points(self, x, y):
+        x, y = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float))
+        p = self.scp_ecf + x[..., None] * self.u_row + y[..., None] * self.u_col
+        t = np.polynomial.polynomial.polyval2d(x, y, self.time_coa)
+        arp = np.moveaxis(np.polynomial.polynomial.polyval(t, self.arp_poly), 0, -1)
+        return p, arp
+
+    def centre(self, x, y) -> tuple[np.ndarray, np.ndarray]:
+        """Centre of support (row, col), cycles/m, at image coordinates (x, y) m from the SCP."""
+        if self.pfa_centre is not None:
+            shape = np.broadcast(np.asarray(x), np.asarray(y)).shape
+            return np.full(shape, self.pfa_centre[0]), np.full(shape, self.pfa_centre[1])
+        p, arp = self._points(x, y)
+        los = p - arp
+        los /= np.linalg.norm(los, axis=-1, keepdims=True)
+        k = 2.0 * self.f_c / C
+        return k * (los @ self.u_row), k * (los @ self.u_col)
+
+    def phase(self, x, y) -> np.ndarray:
+        """Phase (cycles) whose gradient along (x, y) is :meth:`centre`, 0 at the SCP: (2 f_c / c) times the
+        range from the antenna at the centre of aperture (exact for a fixed centre of aperture, spotlight)."""
+        if self.pfa_centre is not None:
+            return self.pfa_centre[0] * np.asarray(x) + self.pfa_centre[1] * np.asarray(y)
+        p, arp = self._points(x, y)
+        r0 = np.linalg.norm(self.scp_ecf - np.polynomial.polynomial.polyval(self.time_coa[0, 0], self.arp_poly))
+        return 2.0 * self.f_c / C * (np.linalg.norm(p - arp, axis=-1) - r0)
+
+
+def carrier_at_scp(pixels: np.ndarray, grid: SicdGrid, model: SupportModel, tol: float = 0.02,
+                   bandwidth: tuple[float, float] = (np.inf, np.inf), block: int = 256) -> tuple[float, float]:
+    """DFT frequency (row, col), cycles/m, at which the pixels (the SICD array, no carrier removed) carry the
+    SCP's support.
+
+    The geometry's phase (:meth:`SupportModel.phase`) is taken out of every pixel, so that the whole
+    image's spectrum sits at one offset d from the geometry (0 for an image that keeps the carrier, as
+    backprojection and pfa2 do); d is measured as the circular mean of the power spectrum, and taken as 0
+    when within ``tol`` of the bandwidth. The carrier at the SCP is then fold(centre(SCP) + d).
+    Blocks of ``block`` lines keep the working memory at a few lines' worth.
+    """
+    import scipy.fft
+
+    x, y = grid.offsets()
+    n_rows, n_cols = pixels.shape
+    power_row, power_col = np.zeros(n_rows), np.zeros(n_cols)
+    for j0 in range(0, n_cols, block):          # spectrum along the rows (axis 0), column blocks
+        sl = slice(j0, min(j0 + block, n_cols))
+        ph = model.phase(x[:, None], y[None, sl])
+        ph -= np.round(ph)
+        deskewed = pixels[:, sl] * np.exp(-2j * np.pi * ph).astype(np.complex64)
+        power_row += (np.abs(scipy.fft.fft(deskewed, axis=0, workers=-1)) ** 2).sum(axis=1)
+    for i0 in range(0, n_rows, block):          # spectrum along the columns (axis 1), row blocks
+        sl = slice(i0, min(i0 + block, n_rows))
+        ph = model.phase(x[sl, None], y[None, :])
+        ph -= np.round(ph)
+        deskewed = pixels[sl, :] * np.exp(-2j * np.pi * ph).astype(np.complex64)
+        power_col += (np.abs(scipy.fft.fft(deskewed, axis=1, workers=-1)) ** 2).sum(axis=0)
+    k_scp = model.centre(0.0, 0.0)
+    out = []
+    for power, ss, bw, k in zip((power_row, power_col), (grid.ss_row, grid.ss_col), bandwidth, k_scp):
+        n = len(power)
+        d = float(np.angle(np.sum(power * np.exp(2j * np.pi * np.arange(n) / n))) / (2 * np.pi * ss))
+        if abs(d) <= tol * bw:
+            d = 0.0
+        else:
+            log.info("SICD export: the image's spectrum sits %.4g cycles/m off the geometry's carrier", d)
+        out.append(float(fold(float(k) + d, ss)))
+    return out[0], out[1]
+
+
+def delta_kcoa_poly(model: SupportModel, grid: SicdGrid, kctr: tuple[float, float], order: int = 3,
+                    n: int = 12) -> tuple[np.ndarray, np.ndarray, float]:
+    """DeltaKCOAPoly (row, col) of SICD, 2D polynomials in (x, y) m: the centre of support minus KCtr, fitted
+    on n x n points over the image; also the worst misfit, cycles/m."""
+    if model.pfa_centre is not None:
+        return (np.array([[model.pfa_centre[0] - kctr[0]]]), np.array([[model.pfa_centre[1] - kctr[1]]]), 0.0)
+    x, y = grid.offsets()
+    xs, ys = np.meshgrid(np.linspace(x[0], x[-1], n), np.linspace(y[0], y[-1], n), indexing="ij")
+    k_row, k_col = model.centre(xs, ys)
+    sx, sy = max(abs(x[0]), abs(x[-1]), 1e-9), max(abs(y[0]), abs(y[-1]), 1e-9)
+    vander = np.polynomial.polynomial.polyvander2d(xs.ravel() / sx, ys.ravel() / sy, [order, order])
+    scale = (sx ** -np.arange(order + 1))[:, None] * (sy ** -np.arange(order + 1))[None, :]
+    polys, worst = [], 0.0
+    for k, kc in ((k_row, kctr[0]), (k_col, kctr[1])):
+        coef, *_ = np.linalg.lstsq(vander, (k - kc).ravel(), rcond=None)
+        poly = coef.reshape(order + 1, order + 1) * scale
+        worst = max(worst, float(np.abs(np.polynomial.polynomial.polyval2d(xs, ys, poly) - (k - kc)).max()))
+        polys.append(poly)
+    return polys[0], polys[1], worst
+
+
+def delta_k_bounds(poly: np.ndarray, grid: SicdGrid, bw: float, ss: float) -> tuple[float, float]:
+    """DeltaK1, DeltaK2: DeltaKCOAPoly at the image's corners -+ half the bandwidth (as SICD's checkers
+    compute them), or -+ 1/(2 SS) when the support wraps around the folding frequency."""
+    x, y = grid.offsets()
+    xs, ys = np.array([x[0], x[0], x[-1], x[-1]]), np.array([y[0], y[-1], y[0], y[-1]])
+    dk = np.polynomial.polynomial.polyval2d(xs, ys, poly)
+    lo, hi = float(dk.min() - bw / 2), float(dk.max() + bw / 2)
+    if lo < -0.5 / ss or hi > 0.5 / ss:
+        lo, hi = -0.5 / ss, 0.5 / ss
+    return lo, hi
 
 
 def formed_by_pfa(product: Product) -> bool:
@@ -261,8 +421,9 @@ def pfa_geometry(product: Product, grid: SicdGrid, frame, t_rel: np.ndarray, t_c
                        kaz=(float(kaz[0]), float(kaz[1])), fit_residual=(resid_t, resid_k))
 
 
-def sicd_xml(product: Product, place: Placement, *, image_formation: str | None = None):
-    """The SICD XML tree of an image product (lxml ElementTree) and its grid."""
+def sicd_xml(product: Product, place: Placement, *, image_formation: str | None = None, version: str = "1.4.0"):
+    """The SICD XML tree of an image product (lxml ElementTree) and its grid (with the carrier the pixels
+    lose on export: :func:`sicd_pixels`)."""
     import lxml.etree
     import sarkit.sicd as sksicd
 
@@ -270,6 +431,8 @@ def sicd_xml(product: Product, place: Placement, *, image_formation: str | None 
     auto = image_formation is None
     if auto:
         image_formation = image_formation_algo(product)
+    if version not in SICD_VERSIONS:
+        raise InputError(f"SICD export: version {version!r} is not one of {', '.join(SICD_VERSIONS)}")
     if image_formation not in ("OTHER", "PFA"):
         raise InputError(f"SICD export: ImageFormAlgo {image_formation!r} is not one of OTHER, PFA")
     if image_formation == "PFA" and not formed_by_pfa(product):
@@ -298,12 +461,12 @@ def sicd_xml(product: Product, place: Placement, *, image_formation: str | None 
     t_coa = float(-t[0])                              # aperture centre, where the spotlight COA is
     arp_coa = np.polynomial.polynomial.polyval(t_coa, arp_poly)
     u_los = (scp_ecf - arp_coa) / np.linalg.norm(scp_ecf - arp_coa)
-    time_coa = np.array([[t_coa, 0.0], [0.0, 0.0]])
+    time_coa = np.array([[t_coa]])                   # spotlight: one centre of aperture for every pixel
     if r.mode != "spotlight":
         # beam-limited: the centre of aperture moves with the along-track position (speed v along +x)
         vx = place.rotation[:, 0] * r.velocity
-        time_coa[1, 0] = float(grid.u_row @ vx) / r.velocity**2
-        time_coa[0, 1] = float(grid.u_col @ vx) / r.velocity**2
+        time_coa = np.array([[t_coa, float(grid.u_col @ vx) / r.velocity**2],
+                             [float(grid.u_row @ vx) / r.velocity**2, 0.0]])
     irw_az, irw_rg = (float(w) for w in product.attrs["theoretical_irw"])
     pfa = None
     if image_formation == "PFA":
@@ -315,24 +478,26 @@ def sicd_xml(product: Product, place: Placement, *, image_formation: str | None 
                 raise InputError(msg)
             log.warning("%s: written as ImageFormAlgo OTHER", msg)
             image_formation, pfa = "OTHER", None      # the SCP on the formatting point is as good for PLANE
+    # the centre of support (SICD's KCtr + DeltaKCOAPoly) from the geometry: polar format's processed
+    # rectangle (one support for every pixel), else the line of sight at each pixel's centre of aperture
+    irw = {"Row": irw_rg, "Col": irw_az}
+    bw = {name: KAPFAC / irw[name] for name in irw}
+    model = SupportModel(scp_ecf=scp_ecf, u_row=grid.u_row, u_col=grid.u_col, arp_poly=arp_poly, time_coa=time_coa,
+                         f_c=r.carrier_frequency,
+                         pfa_centre=None if pfa is None else (float(np.mean(pfa.krg)), float(np.mean(pfa.kaz))))
+    kctr = tuple(float(k) for k in model.centre(0.0, 0.0))
+    poly_row, poly_col, misfit = delta_kcoa_poly(model, grid, kctr)
+    if misfit > 1e-3 * min(bw.values()):
+        raise InputError(f"SICD export: the centre of support is not a smooth polynomial over the image "
+                         f"(misfit {misfit:.3g} cycles/m)")
+    carrier = carrier_at_scp(sicd_pixels(product.data, grid), grid, model, bandwidth=(bw["Row"], bw["Col"]))
+    grid = dataclasses.replace(grid, carrier=carrier)
     dims = {}
-    pixels = sicd_pixels(product.data, grid)
-    for axis, (name, u, ss, irw) in enumerate((("Row", grid.u_row, grid.ss_row, irw_rg),
-                                               ("Col", grid.u_col, grid.ss_col, irw_az))):
-        # where the pixels' spectrum sits (measured: backprojection keeps the carrier, a polar-format image
-        # may be basebanded) and the spatial frequency it stands for, KCtr + DeltaKCOA: (2 f_c / c) u_los . u
-        # at the SCP, or for PFA the centre of the processed k-space rectangle (Krg, Kaz)
-        dk = spectral_centre(pixels, axis, ss)
-        k_abs = 2.0 * r.carrier_frequency / C * float(u_los @ u)
-        if pfa is not None:
-            k_abs = float(np.mean(pfa.krg if name == "Row" else pfa.kaz))
-        kctr = k_abs - dk
-        bw = KAPFAC / irw
-        lo, hi = dk - bw / 2, dk + bw / 2
-        if lo < -0.5 / ss or hi > 0.5 / ss:           # support wraps around the folding frequency
-            lo, hi = -0.5 / ss, 0.5 / ss
-        dims[name] = {"UVectECF": u, "SS": ss, "ImpRespWid": irw, "Sgn": -1, "ImpRespBW": bw, "KCtr": kctr,
-                      "DeltaK1": lo, "DeltaK2": hi, "DeltaKCOAPoly": np.array([[dk]]),
+    for name, u, ss, k, poly in (("Row", grid.u_row, grid.ss_row, kctr[0], poly_row),
+                                 ("Col", grid.u_col, grid.ss_col, kctr[1], poly_col)):
+        lo, hi = delta_k_bounds(poly, grid, bw[name], ss)
+        dims[name] = {"UVectECF": u, "SS": ss, "ImpRespWid": irw[name], "Sgn": -1, "ImpRespBW": bw[name],
+                      "KCtr": k, "DeltaK1": lo, "DeltaK2": hi, "DeltaKCOAPoly": poly,
                       "WgtType": {"WindowName": "UNIFORM"}}
     n_rows, n_cols = grid.shape
     collect_start = place.datetime64(float(t[0]))
@@ -341,7 +506,8 @@ def sicd_xml(product: Product, place: Placement, *, image_formation: str | None 
     created = np.datetime64("now", "us")
     tx_pol, txrcv_pol = polarization(product)
 
-    root = sksicd.ElementWrapper(lxml.etree.Element(f"{{{SICD_NS}}}SICD"))
+    ns = f"urn:SICD:{version}"
+    root = sksicd.ElementWrapper(lxml.etree.Element(f"{{{ns}}}SICD"))
     root["CollectionInfo"] = {"CollectorName": "sarproc simulator", "CoreName": f"sarproc_{product.kind}",
                               "CollectType": "MONOSTATIC", "RadarMode": {"ModeType": MODE_TYPE.get(r.mode, "SPOTLIGHT")},
                               "Classification": "UNCLASSIFIED"}
@@ -382,26 +548,30 @@ def sicd_xml(product: Product, place: Placement, *, image_formation: str | None 
     tree = root.elem.getroottree()
     scpcoa = sksicd.compute_scp_coa(tree)
     # SCPCOA belongs after ImageFormation (schema order)
-    tree.getroot().find(f"{{{SICD_NS}}}ImageFormation").addnext(scpcoa)
+    tree.getroot().find(f"{{{ns}}}ImageFormation").addnext(scpcoa)
     # image corners: the corner pixels projected (R/Rdot, SICD vol. 3) onto the SCP's height above the ellipsoid
     corners_rc = np.array([(0, 0), (0, n_cols - 1), (n_rows - 1, n_cols - 1), (n_rows - 1, 0)])
     ground, _, ok = sksicd.image_to_constant_hae_surface(tree, sksicd.rowcol_to_xrowycol(tree, corners_rc),
                                                          float(scp_llh[2]))
     if not ok:
         raise InputError("SICD export: the image corners do not project onto the ground")
-    root["GeoData"]["ImageCorners"] = np.degrees(ecf_to_geodetic(ground)[:, :2])
+    corners_llh = ecf_to_geodetic(ground)
+    root["GeoData"]["ImageCorners"] = np.degrees(corners_llh[:, :2])
+    # the imaged area (optional in SICD; sarpy's validity check counts a missing one as invalid)
+    root["RadarCollection"]["Area"] = {"Corner": np.column_stack([np.degrees(corners_llh[:, :2]), corners_llh[:, 2]])}
     return tree, grid
 
 
 
-def write_sicd(path, product: Product, place: Placement, *, image_formation: str | None = None) -> SicdGrid:
-    """Write ``product`` (a 2D image) as a SICD NITF file at ``path`` (atomically)."""
+def write_sicd(path, product: Product, place: Placement, *, image_formation: str | None = None,
+               version: str = "1.4.0") -> SicdGrid:
+    """Write ``product`` (a 2D image) as a SICD NITF file (SICD ``version``) at ``path`` (atomically)."""
     require_sarkit()
     import sarkit.sicd as sksicd
 
     from sarproc.product.io import atomic_path
 
-    tree, grid = sicd_xml(product, place, image_formation=image_formation)
+    tree, grid = sicd_xml(product, place, image_formation=image_formation, version=version)
     security = {"security": {"clas": "U"}}
     meta = sksicd.NitfMetadata(xmltree=tree, file_header_part={"ostaid": "sarproc", "ftitle": "sarproc SICD"} | security,
                                im_subheader_part={"isorce": "sarproc simulation"} | security,
@@ -446,3 +616,46 @@ def check_sicd(path) -> dict:
         con = skver.SicdConsistency.from_file(fh)
         con.check()
     return consistency_summary(con)
+
+
+def sarpy_check(path) -> dict:
+    """Run NGA's older reader's validity check (``sarpy.consistency.sicd_consistency``: schema, NITF headers,
+    SICDType.is_valid) on a SICD file: its verdict and the messages it logged, split by level.
+
+    sarpy (``pip install sarpy``, a test dependency) knows SICD up to 1.3.0: a 1.4.0 file gets two errors
+    for its unknown namespace (write ``--sicd-version 1.3.0`` for it)."""
+    try:
+        import sarpy
+        from sarpy.consistency import sicd_consistency
+    except ImportError:
+        raise InputError("the sarpy check needs NGA's sarpy: pip install sarpy") from None
+    import warnings
+
+    class Collect(logging.Handler):
+        def __init__(self):
+            super().__init__(logging.INFO)
+            self.records = []
+
+        def emit(self, record):
+            self.records.append(record)
+
+    handler = Collect()
+    logger = logging.getLogger("validation")
+    old_level, old_propagate = logger.level, logger.propagate
+    logger.addHandler(handler)
+    logger.setLevel(logging.INFO)
+    logger.propagate = False
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)     # sarpy 2.x deprecates itself for sarkit
+            valid = bool(sicd_consistency.check_file(str(path)))
+    finally:
+        logger.removeHandler(handler)
+        logger.setLevel(old_level)
+        logger.propagate = old_propagate
+
+    def messages(level):
+        return [r.getMessage().strip() for r in handler.records if r.levelno == level and r.getMessage().strip()]
+
+    return {"sarpy": sarpy.__version__, "valid": valid, "errors": messages(logging.ERROR),
+            "warnings": messages(logging.WARNING), "info": messages(logging.INFO)}

@@ -17,7 +17,8 @@ from sarproc.product.cphd import check_cphd, read_cphd, write_cphd  # noqa: E402
 from sarproc.product.errors import InputError  # noqa: E402
 from sarproc.product.geolocation import (GeolocationParams, ecf_to_geodetic, geodetic_to_ecf,  # noqa: E402
                                          placement)
-from sarproc.product.sicd import check_sicd, image_from_sicd, read_sicd, write_sicd  # noqa: E402
+from sarproc.product.sicd import (check_sicd, image_from_sicd, local_support_offsets, read_sicd,  # noqa: E402
+                                  sarpy_check, sicd_pixels, write_sicd)
 from sarproc.simulation.scene import scene_from_mapping  # noqa: E402
 from sarproc.simulation.simulate import simulate  # noqa: E402
 
@@ -150,7 +151,9 @@ def test_sicd_of_the_demo_image_passes_checks_and_reopens(demo, place, tmp_path)
     assert set(result["warnings"]) <= {"check_iprbw_to_ss_osr_row", "check_iprbw_to_ss_osr_col"}
     tree, pixels = read_sicd(path)
     assert pixels.shape == (image.data.shape[1], image.data.shape[0])
-    assert np.array_equal(image_from_sicd(pixels, grid.flip_cols), image.data)
+    # what was written is read back bit for bit; the product is that times the SCP's carrier (complex64 rounding)
+    assert np.array_equal(pixels, sicd_pixels(image.data, grid))
+    assert np.abs(image_from_sicd(pixels, grid) - image.data).max() < 1e-6 * np.abs(image.data).max()
     # geometry: each target's pixel, projected by SICD's own R/Rdot model, lands on the target
     az, rg = image.coords["azimuth"], image.coords["range"]
     for t in image.targets:
@@ -162,6 +165,72 @@ def test_sicd_of_the_demo_image_passes_checks_and_reopens(demo, place, tmp_path)
         xy = sksicd.rowcol_to_xrowycol(tree, np.array([[j, col]]))
         spot, _, ok = sksicd.image_to_constant_hae_surface(tree, xy, hae, delta_hae_max=1e-4)
         assert ok and np.linalg.norm(spot[0] - truth) < 0.02
+
+
+def _target_pixels(image, grid):
+    """SICD (row, col) of each target's truth."""
+    az, rg = image.coords["azimuth"], image.coords["range"]
+    i = np.round((image.targets["azimuth"] - az[0]) / (az[1] - az[0])).astype(int)
+    j = np.round((image.targets["range"] - rg[0]) / (rg[1] - rg[0])).astype(int)
+    return np.column_stack([j, len(az) - 1 - i if grid.flip_cols else i])
+
+
+def test_sicd_spatial_frequency_is_the_geometry_and_describes_the_pixels(demo, place, tmp_path):
+    import numpy.polynomial.polynomial as npp
+    import sarkit.sicd as sksicd
+
+    raw, image, _ = demo
+    path = tmp_path / "image.nitf"
+    grid = write_sicd(path, image, place)
+    tree, pixels = read_sicd(path)
+    xml = sksicd.XmlHelper(tree)
+    # spotlight: one centre of aperture (the aperture centre) for every pixel, a scalar TimeCOAPoly
+    time_coa = xml.load("./{*}Grid/{*}TimeCOAPoly")
+    assert time_coa.shape == (1, 1)
+    assert time_coa[0, 0] == pytest.approx(xml.load("./{*}Timeline/{*}CollectDuration") / 2, abs=2 / image.radar.prf)
+    # KCtr is the centre of support at the SCP: (2 f_c / c) u_los . u_axis at the centre of aperture,
+    # recomputed here from the file's own ARPPoly and SCP; DeltaKCOAPoly is 0 there
+    scp = xml.load("./{*}GeoData/{*}SCP/{*}ECF")
+    los = scp - npp.polyval(time_coa[0, 0], xml.load("./{*}Position/{*}ARPPoly"))
+    los /= np.linalg.norm(los)
+    bw = {}
+    for axis in ("Row", "Col"):
+        u = xml.load(f"./{{*}}Grid/{{*}}{axis}/{{*}}UVectECF")
+        k = 2 * image.radar.carrier_frequency / 299792458.0 * float(los @ u)
+        bw[axis] = xml.load(f"./{{*}}Grid/{{*}}{axis}/{{*}}ImpRespBW")
+        assert xml.load(f"./{{*}}Grid/{{*}}{axis}/{{*}}KCtr") == pytest.approx(k, abs=1e-6 * bw[axis])
+        assert abs(npp.polyval2d(0.0, 0.0, xml.load(f"./{{*}}Grid/{{*}}{axis}/{{*}}DeltaKCOAPoly"))) < 1e-6 * bw[axis]
+    # the pixels' local spectrum about every target is centred where DeltaKCOAPoly says (measured 0.7 %
+    # of the bandwidth at worst); the old constant (the image's power-weighted mean) was 5.6 % off at the
+    # SCP and 38 % at target E, 50 m across the line of sight, where the line of sight has turned
+    points = _target_pixels(image, grid)
+    offsets = local_support_offsets(tree, pixels, points)
+    assert np.abs(offsets).max() < 0.02, offsets
+    poly_col = xml.load("./{*}Grid/{*}Col/{*}DeltaKCOAPoly")
+    xy = sksicd.rowcol_to_xrowycol(tree, points.astype(float))
+    names = [n.decode() if isinstance(n, bytes) else n for n in image.targets["name"]]
+    e, w = xy[names.index("E")], xy[names.index("W")]
+    assert abs(npp.polyval2d(*e, poly_col) - npp.polyval2d(*w, poly_col)) > 0.3 * bw["Col"]
+
+
+def test_sicd_for_older_readers_passes_sarpy(demo, place, tmp_path):
+    pytest.importorskip("sarpy", reason="the older reader's check needs pip install sarpy (test extra)")
+    raw, image, _ = demo
+    for version in ("1.3.0", "1.4.0"):
+        path = tmp_path / f"image_{version}.nitf"
+        grid = write_sicd(path, image, place, version=version)
+        result = check_sicd(path)                      # sarkit checks against the version's own schema
+        assert result["passed"] and result["errors"] == [], result["report"]
+        tree, pixels = read_sicd(path)
+        assert tree.getroot().tag == f"{{urn:SICD:{version}}}SICD"
+        assert np.array_equal(pixels, sicd_pixels(image.data, grid))
+        sarpy = sarpy_check(path)
+        if version == "1.3.0":
+            assert sarpy["valid"] and sarpy["errors"] == [], sarpy
+        else:   # sarpy (2.1.1) knows SICD up to 1.3.0: its only complaints are the namespace it does not know
+            assert all("urn" in e for e in sarpy["errors"]), sarpy["errors"]
+    with pytest.raises(InputError, match="version"):
+        write_sicd(tmp_path / "x.nitf", image, place, version="1.2.1")
 
 
 def test_sicd_refuses_skewed_or_non_image_products(demo, place, scene_mapping):
@@ -188,6 +257,10 @@ def test_format_commands(demo, tmp_path):
                     "--config", str(tmp_path / "geo.yaml"), "--check-report", str(tmp_path / "sicd.json")])
     assert res.exit_code == 0, res.output
     assert "SICD consistency: PASS" in res.output and "pixels read back identical" in res.output
+    res = run(cli, ["export-sicd", str(tmp_path / "image.h5"), "-o", str(tmp_path / "image13.nitf"),
+                    "--config", str(tmp_path / "geo.yaml"), "--sicd-version", "1.3.0"])
+    assert res.exit_code == 0 and "SICD 1.3.0" in res.output and "SICD consistency: PASS" in res.output, res.output
+    assert read_sicd(tmp_path / "image13.nitf")[0].getroot().tag == "{urn:SICD:1.3.0}SICD"
     res = run(cli, ["export-cphd", str(tmp_path / "raw.h5"), "-o", str(tmp_path / "raw.cphd"),
                     "--config", str(tmp_path / "geo.yaml")])
     assert res.exit_code == 0 and "CPHD consistency: PASS (" in res.output, res.output
