@@ -27,6 +27,11 @@ def _direction(m, dims) -> str:
     return " ".join([m.axis] + others) + (f" ({m.angle_deg:.1f} deg)" if others else "")
 
 
+def _theory(value, m) -> str:
+    """' (theory)' after a PSLR / ISLR when the target has its own."""
+    return "" if value is None or m.theory != "target" else f" ({value:.2f})"
+
+
 def markdown_table(report, units: dict) -> str:
     """Metric table (one row per target and principal cut, image-axis cuts as extra columns) and the
     false-target line, as Markdown."""
@@ -48,7 +53,8 @@ def markdown_table(report, units: dict) -> str:
                            f"ISLR {_fmt(m.shortened_islr_db, '.2f')}{theory}")
             lines.append(f"| {t.name} | {m.axis} | {_direction(m, report.dims)} | {_fmt(m.irw, '.4g')} {u} | "
                          f"{_fmt(m.irw_ratio, '.4f')}{' (own)' if m.theory == 'target' else ''} | "
-                         f"{_fmt(m.pslr_db, '.2f')} | {_fmt(m.islr_db, '.2f')} | "
+                         f"{_fmt(m.pslr_db, '.2f')}{_theory(m.pslr_theory_db, m)} | "
+                         f"{_fmt(m.islr_db, '.2f')}{_theory(m.islr_theory_db, m)} | "
                          f"{_fmt(m.position_error, '.3g')} {u} | {_fmt(m.position_error_cells, '.4f')} | {window} | "
                          f"{_fmt(i.irw_ratio, '.4f')} | {_fmt(i.pslr_db, '.2f')} | {_fmt(i.islr_db, '.2f')} |")
     lines.append("\nCuts along each response's principal axes (side-lobe ridges, from the chip's spectral support); "
@@ -57,7 +63,8 @@ def markdown_table(report, units: dict) -> str:
                  "(fit residual above -30 dB) still put that much energy, relative to the main lobe, in the window "
                  "(unverified); 'shortened': the contaminated cut measured again on a window ending half-way to "
                  "that neighbour (PSLR, ISLR over it, and an ideal sinc's ISLR over the same window; unverified); "
-                 "'(own)': the theory is the target's own IRW from the targets table (irw_<axis>), not the image's.")
+                 "'(own)': the theory is the target's own from the targets table (irw_, null_, pslr_, islr_<axis>: "
+                 "its illumination and weighting), not the image's; PSLR and ISLR show it in parentheses.")
     ft = report.false_target
     if ft is None:
         lines.append("\nFalse target: none (no pixel lies outside the target neighbourhoods of "

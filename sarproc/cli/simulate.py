@@ -24,7 +24,7 @@ def simulate(scene_path: Path, output: Path, overwrite: bool, progress, schedule
     from sarproc.product.budget import check_plan
     from sarproc.product.io import ProductWriter, check_output_path, history_entry
     from sarproc.simulation.scene import load_scene
-    from sarproc.simulation.simulate import plan_simulation, simulate_blocks
+    from sarproc.simulation.simulate import illumination_warnings, plan_simulation, simulate_blocks
     from sarproc.cli.dask_map import dask_mapper, scheduler_client
     from sarproc.cli.progress import progress_factory
     from sarproc.cli.stage import naming, simulate_estimate
@@ -38,6 +38,7 @@ def simulate(scene_path: Path, output: Path, overwrite: bool, progress, schedule
     with naming(scene_path):
         check_plan(plan_estimate, [output], max_memory())
         plan = plan_simulation(scene)
+        illumination_warnings(scene, plan)
     history = [history_entry(f"sarproc simulate {scene_path}", scene.resolved())]
     with ProductWriter(output, plan.kind, plan.dims, plan.coords, plan.radar, plan.targets,
                        attrs={"frame": scene.target_frame.spec}, aux=plan.aux, history=history,

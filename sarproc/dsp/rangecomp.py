@@ -9,8 +9,7 @@ import scipy.fft as sfft
 
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import RadarMetadata
-
-WINDOWS = ("none", "hamming")
+from sarproc.product.theory import WINDOWS, window_taper
 FILTERS = ("flat", "matched")
 
 
@@ -24,14 +23,12 @@ def chirp_replica(radar: RadarMetadata) -> tuple[np.ndarray, int]:
 
 
 def spectral_window(name: str, freqs: np.ndarray, bandwidth: float) -> np.ndarray:
-    """Amplitude taper over the band |f| <= B/2 (zero outside)."""
+    """Amplitude taper over the band |f| <= B/2 (zero outside); the windows and their theory are
+    sarproc.product.theory's."""
+    if name not in WINDOWS:
+        raise InputError(f"range window {name!r} is not one of {list(WINDOWS)}")
     x = freqs / bandwidth
-    inside = np.abs(x) <= 0.5
-    if name == "none":
-        return inside.astype(float)
-    if name == "hamming":
-        return np.where(inside, 0.54 + 0.46 * np.cos(2 * np.pi * x), 0.0)
-    raise InputError(f"range window {name!r} is not one of {list(WINDOWS)}")
+    return window_taper(name, np.where(np.abs(x) <= 0.5, x, 1.0))
 
 
 def range_compress(signal: np.ndarray, radar: RadarMetadata, window: str = "none", workers: int = -1,

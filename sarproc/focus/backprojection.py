@@ -20,14 +20,15 @@ import os
 import numpy as np
 import scipy.fft as sfft
 
-from sarproc.product import beam
+from sarproc.product import beam, theory
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import InputError
 from sarproc.product.frames import make_frame, targets_in_frame
 from sarproc.product.metadata import C
 from sarproc.dsp.phasor import unit_phasor
 from sarproc.product.model import Product
-from sarproc.dsp.rangecomp import WINDOWS, range_compress
+from sarproc.dsp.rangecomp import range_compress
+from sarproc.product.theory import WINDOWS
 
 
 def upsample_range(rc: np.ndarray, factor: int, workers: int = -1, pad: int = 0,
@@ -310,8 +311,8 @@ class BackprojectParams:
     kernel_length: int = param(default=8, ge=2, le=32, doc="taps of the knab / sinc / lanczos range kernel")
     engine: str = param(default="compiled", choices=ENGINES,
                         doc="compiled (tiled numba kernel, float32 per-pixel offsets) or reference (float64 numpy)")
-    range_window: str = param(default="none", choices=WINDOWS, doc="range spectral taper")
-    azimuth_window: str = param(default="none", choices=("none", "hamming"), doc="taper over the pulses")
+    range_window: str = param(default="none", choices=WINDOWS, doc="range spectral taper (README: Windows)")
+    azimuth_window: str = param(default="none", choices=WINDOWS, doc="taper over the pulses (README: Windows)")
     max_pixels: int = param(default=16_000_000, ge=1, doc="refuse grids larger than this")
 
 
@@ -350,13 +351,16 @@ def theoretical_irw(product: Product, frame, centre_coords) -> list[float]:
     return widths
 
 
-def _default_grid(params: BackprojectParams, product: Product, frame, irw_guess):
+def _default_grid(params: BackprojectParams, product: Product, frame, irw_guess, finest=None):
+    """Grid axes: spacing the finest theory (``finest``: a target's own, else ``irw_guess``) / oversample,
+    extent the targets' span plus margin_cells of ``irw_guess``."""
+    finest = irw_guess if finest is None else finest
     t = targets_in_frame(product.targets, frame)
     coords = {ax: t[ax] for ax in frame.axes}
     centre_scene = [float(c) for c in frame.from_xyz(np.asarray(product.radar.scene_center))]
     axes = {}
     for i, ax in enumerate(frame.axes):
-        spacing = getattr(params, f"{ax}_spacing") or irw_guess[i] / params.oversample
+        spacing = getattr(params, f"{ax}_spacing") or min(irw_guess[i], finest[i]) / params.oversample
         vals = coords[ax]
         centre = getattr(params, f"{ax}_center")
         if centre is None:
@@ -390,20 +394,25 @@ def backproject(raw: Product, params: BackprojectParams = BackprojectParams(), p
         raise InputError(f"backproject: frame {frame.name!r} is not 2D; use backproject_points for 3D grids")
     centre_scene = [float(c) for c in frame.from_xyz(np.asarray(radar.scene_center))]
     irw0 = theoretical_irw(raw, frame, centre_scene)
-    grid = _default_grid(params, raw, frame, irw0)
+    pos = raw.aux["platform_position"]
+    tx_off = raw.aux.get("tx_offset", np.zeros(3))
+    rx_offs = raw.aux.get("rx_offset", np.zeros((1, 3)))
+    data = raw.data if raw.data.ndim == 3 else raw.data[None]
+    taper = theory.sample_taper(params.azimuth_window, data.shape[1])
+    targets = targets_in_frame(raw.targets, frame)
+    own = [theory.target_theory(radar, pos + tx_off, pos + rx_offs[0], frame, (t["azimuth"], t["range"]),
+                                range_window=params.range_window, taper=taper) for t in targets]
+    theory.fill_target_theory(targets, frame.axes, own)
+    # Default spacing from the finest own theory: a target lit by the pattern's skirts or side lobes has a
+    # finer response than the -3 dB beam's (sampled at the centre theory, its IRW read 10 % short).
+    finest = [min([t[a].irw for t in own] + [irw0[a]]) for a in range(2)]
+    grid = _default_grid(params, raw, frame, irw0, finest)
     n_pix = len(grid["azimuth"]) * len(grid["range"])
     if n_pix > params.max_pixels:
         raise InputError(f"backproject: grid of {n_pix} pixels exceeds max_pixels {params.max_pixels}; "
                          "set azimuth/range extents or spacings")
     az, rg = np.meshgrid(grid["azimuth"], grid["range"], indexing="ij")
     points = frame.to_xyz(az.ravel(), rg.ravel())
-    data = raw.data if raw.data.ndim == 3 else raw.data[None]
-    pos = raw.aux["platform_position"]
-    tx_off = raw.aux.get("tx_offset", np.zeros(3))
-    rx_offs = raw.aux.get("rx_offset", np.zeros((1, 3)))
-    taper = np.ones(data.shape[1])
-    if params.azimuth_window == "hamming":
-        taper = np.hamming(data.shape[1])
     img = np.zeros(len(points), np.complex128)
     for ch in range(data.shape[0]):
         rc = range_compress(data[ch], radar, params.range_window) * taper[:, None].astype(np.float32)
@@ -415,10 +424,11 @@ def backproject(raw: Product, params: BackprojectParams = BackprojectParams(), p
                                   oversampling=params.upsample * radar.range_sampling_rate / radar.bandwidth)
     img /= data.shape[0]
     centre_img = [float(np.mean(grid[ax])) for ax in frame.axes]
-    attrs = {"frame": frame.spec, "theoretical_irw": theoretical_irw(raw, frame, centre_img)}
+    # The image's theory: its targets' typical (unweighted) one, not that of the grid centre, which a target
+    # at the edge of the beam drags off the lit aperture (the centre theory is kept for scenes without targets).
+    attrs = {"frame": frame.spec, "theoretical_irw": theory.unweighted_irw(own, theoretical_irw(raw, frame, centre_img))}
     from sarproc.product.io import history_entry
     out = raw.derive("image", img.reshape(az.shape).astype(np.complex64), ("azimuth", "range"),
-                     {"azimuth": grid["azimuth"], "range": grid["range"]},
-                     targets=targets_in_frame(raw.targets, frame), attrs=attrs)
+                     {"azimuth": grid["azimuth"], "range": grid["range"]}, targets=targets, attrs=attrs)
     out.history.append(history_entry("backproject", as_dict(params)))
     return out

@@ -32,7 +32,7 @@ from sarproc import __version__
 from sarproc.product.errors import InputError
 from sarproc.product.geolocation import Placement, ecf_to_geodetic, utc_datetime
 from sarproc.product.metadata import C, RadarMetadata
-from sarproc.product.model import TARGET_DTYPE, TARGET_IRW_FIELDS, Product
+from sarproc.product.model import TARGET_DTYPE, TARGET_THEORY_FIELDS, Product
 from sarproc.product.sicd import MODE_TYPE, consistency_summary, pulse_times, require_sarkit
 
 CPHD_NS = "http://api.nsgreg.nga.mil/schema/cphd/1.1.0"
@@ -74,7 +74,7 @@ def _targets_from_json(rows: list) -> np.ndarray:
     t = np.zeros(len(rows), TARGET_DTYPE)
     for i, row in enumerate(rows):
         for name in TARGET_DTYPE.names:
-            v = row.get(name, 0.0) if name in TARGET_IRW_FIELDS else row[name]   # irw_*: absent in older files
+            v = row.get(name, 0.0) if name in TARGET_THEORY_FIELDS else row[name]   # theory: absent in older files
             t[i][name] = v.encode() if name == "name" else complex(*v) if name == "amplitude" else v
     return t
 

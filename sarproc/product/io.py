@@ -31,7 +31,8 @@ from sarproc import __version__
 from sarproc.product.errors import InputError, ProcessingError
 from sarproc.product.metadata import FORMAT_VERSION, RadarMetadata
 from sarproc.product.model import (AUX_DIM_DOC, AUX_LAYOUT, DATA_ATTR_UNITS, DATA_NAME, KIND_DIMS, PRODUCT_KINDS,
-                                   TARGET_DTYPE, TARGET_IRW_FIELDS, TARGET_UNITS, UNITS, Product,
+                                   TARGET_DTYPE, TARGET_IRW_FIELDS, TARGET_NULL_FIELDS,
+                                   TARGET_SIDELOBE_FIELDS, TARGET_THEORY_FIELDS, TARGET_UNITS, UNITS, Product,
                                    as_target_table)
 
 LONG_NAMES = {"azimuth_time": "azimuth (slow) time from aperture centre", "range_time": "range (fast) time since transmit",
@@ -489,7 +490,7 @@ def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
             raise InputError(f"{path}: missing dataset 'targets'")
         targets = np.asarray(f["targets"][()])
         missing = [n for n in TARGET_DTYPE.names if n not in (targets.dtype.names or ()) and
-                   n not in TARGET_IRW_FIELDS]       # irw_* are optional (older files): 0, not recorded
+                   n not in TARGET_THEORY_FIELDS]    # theory fields are optional (older files): 0, not recorded
         if missing:
             raise InputError(f"{path}: dataset 'targets' lacks field(s) {missing}")
         targets = as_target_table(targets)
@@ -501,6 +502,16 @@ def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
             if not np.all(np.isfinite(v) & (v >= 0)):
                 raise InputError(f"{path}: dataset 'targets' field {field!r} must be a positive IRW or 0 "
                                  f"(not recorded)")
+        for field in TARGET_NULL_FIELDS:
+            v = targets[field]
+            if not np.all(np.isfinite(v) & (v >= 0)):
+                raise InputError(f"{path}: dataset 'targets' field {field!r} must be a positive null spacing or 0 "
+                                 f"(not recorded)")
+        for field in TARGET_SIDELOBE_FIELDS:     # a PSLR is <= 0 dB; an ISLR may exceed it (side lobes only)
+            v = targets[field]
+            if not np.all(np.isfinite(v) & ((v <= 0) if field.startswith("pslr") else True)):
+                raise InputError(f"{path}: dataset 'targets' field {field!r} must be a finite level in dB"
+                                 f"{' <= 0' if field.startswith('pslr') else ''} (0: not recorded)")
         attrs = {k: _attr_value(v) for k, v in dset.attrs.items() if k not in _INTERNAL_ATTRS}
         for key in DATA_ATTR_UNITS:
             v = attrs.get(key)

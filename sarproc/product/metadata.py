@@ -34,6 +34,8 @@ class RadarMetadata:
       reference_range: slant range from the aperture-centre position to the scene centre, m.
       scene_center: (x, y, z) of the scene centre, m.  mode: stripmap | spotlight | sliding_spotlight.
       azimuth_beamwidth / elevation_beamwidth: one-way -3 dB beamwidths, rad (0: no pattern).
+      antenna_pattern: the pattern's shape, sinc | gaussian | rect (None: not recorded; processors'
+        theory then takes the -3 dB beam as flat, as before the field existed).
       aperture_time: s.  n_channels: receive channels.
       beam_rotation_range: sliding spotlight rotation point's slant range from the aperture centre, m.
       reference_utc: optional absolute time of azimuth time 0, ISO 8601 UTC ('2024-05-01T10:00:00.000000Z').
@@ -65,6 +67,7 @@ class RadarMetadata:
     reference_longitude: float | None = None
     reference_height: float | None = None
     polarization: str | None = None
+    antenna_pattern: str | None = None
 
     @property
     def wavelength(self) -> float:
@@ -106,6 +109,8 @@ class RadarMetadata:
             raise InputError("radar.reference_height: must be finite")
         if self.reference_utc is not None:
             parse_utc(self.reference_utc, "radar.reference_utc")
+        if self.antenna_pattern is not None and self.antenna_pattern not in ("sinc", "gaussian", "rect"):
+            raise InputError(f"radar.antenna_pattern: {self.antenna_pattern!r} is not one of sinc, gaussian, rect")
         if self.polarization is not None and not POLARIZATION_RE.fullmatch(self.polarization):
             raise InputError(f"radar.polarization: {self.polarization!r} is not TX:RCV with TX, RCV one of "
                              f"{', '.join(POLARIZATIONS)} (e.g. 'V:V', 'H:V')")
@@ -157,10 +162,10 @@ RADAR_UNITS = {
     "reference_range": "m", "scene_center": "m", "mode": "", "azimuth_beamwidth": "rad",
     "elevation_beamwidth": "rad", "aperture_time": "s", "n_channels": "1", "beam_rotation_range": "m",
     "reference_utc": "UTC (ISO 8601)", "reference_latitude": "rad", "reference_longitude": "rad",
-    "reference_height": "m", "polarization": "",
+    "reference_height": "m", "polarization": "", "antenna_pattern": "",
 }
 
-_STRING_FIELDS = ("mode", "reference_utc", "polarization")
+_STRING_FIELDS = ("mode", "reference_utc", "polarization", "antenna_pattern")
 
 # single polarisations of SICD/CPHD (NGA.STND.0024 PolarizationType, less the OTHER* free forms)
 POLARIZATIONS = ("V", "H", "X", "Y", "S", "E", "RHC", "LHC")

@@ -20,15 +20,21 @@ PRODUCT_KINDS = ("raw", "raw_multichannel", "raw_array", "preprocessed", "coarse
 # axes (elevation is 0 for 2D frames); velocity is (vx, vy, vz), m/s. irw_<axis> is the target's
 # own theoretical IRW along that image axis (same convention as the image attribute
 # ``theoretical_irw``), recorded by processors whose resolution varies over the scene; 0: not
-# recorded (the image attribute applies). Files written before these fields read as 0.
-TARGET_IRW_FIELDS = ("irw_azimuth", "irw_range", "irw_elevation")
+# recorded (the image attribute applies). null_<axis> is the null spacing 1/B of the target's own support
+# (IRW / null is the weighting's broadening factor, 0.886 unweighted), pslr_<axis> / islr_<axis> its
+# theoretical PSLR / ISLR, dB (sarproc.product.theory). Files written before these fields read as 0.
+TARGET_AXES = ("azimuth", "range", "elevation")
+TARGET_IRW_FIELDS = tuple(f"irw_{a}" for a in TARGET_AXES)
+TARGET_NULL_FIELDS = tuple(f"null_{a}" for a in TARGET_AXES)
+TARGET_SIDELOBE_FIELDS = tuple(f"{m}_{a}" for m in ("pslr", "islr") for a in TARGET_AXES)
+TARGET_THEORY_FIELDS = TARGET_IRW_FIELDS + TARGET_NULL_FIELDS + TARGET_SIDELOBE_FIELDS
 TARGET_DTYPE = np.dtype([
     ("name", "S32"),
     ("x", "f8"), ("y", "f8"), ("z", "f8"),
     ("azimuth", "f8"), ("range", "f8"), ("elevation", "f8"),
     ("amplitude", "c16"),
     ("vx", "f8"), ("vy", "f8"), ("vz", "f8"),
-] + [(f, "f8") for f in TARGET_IRW_FIELDS])
+] + [(f, "f8") for f in TARGET_THEORY_FIELDS])
 
 UNITS = {"azimuth_time": "s", "range_time": "s", "channel": "1", "azimuth": "m", "range": "m",
          "elevation": "rad"}
@@ -55,7 +61,9 @@ AUX_DIM_DOC = {"pulse": "transmit pulse index", "receiver": "receive channel ind
 # Units of the targets table's fields (the table is a compound dataset: one map, no single unit).
 TARGET_UNITS = {"name": "", "x": "m", "y": "m", "z": "m", "azimuth": "m", "range": "m", "elevation": "rad",
                 "amplitude": "1", "vx": "m/s", "vy": "m/s", "vz": "m/s",
-                "irw_azimuth": "m", "irw_range": "m", "irw_elevation": "rad"}
+                "irw_azimuth": "m", "irw_range": "m", "irw_elevation": "rad",
+                "null_azimuth": "m", "null_range": "m", "null_elevation": "rad",
+                **{f: "dB" for f in TARGET_SIDELOBE_FIELDS}}
 
 # Units of the numeric attributes stages put on the data set, stored as its JSON map
 # ``attribute_units`` and type-checked by the reader (a number, or a list of numbers).

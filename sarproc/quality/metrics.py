@@ -60,6 +60,7 @@ import scipy.interpolate
 from sarproc.product.config import param
 from sarproc.product.steps import steps, wrapped
 from sarproc.product.errors import InputError
+from sarproc.product.theory import cut_metrics as _cut_metrics, window_theory
 
 SINC_IRW_FACTOR = 0.886  # -3 dB width of sinc^2 times the bandwidth (0.8859 exactly)
 
@@ -114,6 +115,10 @@ class AxisMetrics:
     shortened_islr_db: Optional[float] = None
     shortened_islr_theory_db: Optional[float] = None
     theory: str = "image"       # whose theoretical IRW: 'image' (the image's per-axis value) or 'target' (its own)
+    # the theoretical PSLR / ISLR the cut is judged against: the target's own (targets table pslr_/islr_<axis>),
+    # else that of the window irw_factor implies (unweighted sinc, or Hamming above 1.1)
+    pslr_theory_db: Optional[float] = None
+    islr_theory_db: Optional[float] = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -189,6 +194,8 @@ class _Axis:
     irw: float       # theoretical IRW, axis units
     null: float      # null spacing 1/B in samples
     theory: str = "image"   # whose IRW: the image's, or the target's own ('target')
+    pslr_theory: Optional[float] = None   # dB
+    islr_theory: Optional[float] = None
 
     def to_index(self, x):
         return (np.asarray(x, dtype=float) - self.start) / self.step
@@ -229,7 +236,9 @@ def _make_axes(shape, dims, coords, theoretical_irw, irw_factor) -> list[_Axis]:
             raise InputError(
                 f"axis {name!r}: spacing {abs(step):.4g} is not finer than the null spacing 1/B = "
                 f"{null * abs(step):.4g} (theoretical IRW {irw[a]:.4g}); the image is undersampled for this theory")
-        axes.append(_Axis(name, float(c[0]), float(step), int(n), float(irw[a]), float(null)))
+        window = window_theory("hamming" if irw_factor > 1.1 else "none")
+        axes.append(_Axis(name, float(c[0]), float(step), int(n), float(irw[a]), float(null),
+                          pslr_theory=window.pslr_db, islr_theory=window.islr_db))
     return axes
 
 
@@ -432,54 +441,13 @@ def _ideal_response(points, position, V, nulls, f_c, hamming: bool):
     return np.prod(shape_fn(c), axis=0) * np.exp(2j * np.pi * (np.asarray(f_c) @ x))
 
 
-def _cut_metrics(p: np.ndarray, step: float, center: int, window: float) -> tuple[float, float, float, float]:
-    """IRW, PSLR, ISLR and null-to-null width from a normalised power cut.
-
-    ``p`` is |f|^2 / peak^2 sampled every ``step`` samples with the peak at index ``center``;
-    ``window`` is the ISLR half-window in samples. Returns (irw, pslr_db, islr_db, mainlobe) with
-    widths in samples.
-    """
-    n = p.size
-    right = p[center:]
-    left = p[center::-1]
-
-    def half_power(side):
-        below = np.flatnonzero(side < 0.5)
-        if below.size == 0:
-            return np.nan, side.size - 1
-        i = below[0]
-        # Linear interpolation of the crossing between samples i-1 (>= 0.5) and i (< 0.5).
-        frac = (side[i - 1] - 0.5) / (side[i - 1] - side[i])
-        return (i - 1 + frac), i
-
-    def first_null(side, start):
-        # First local minimum beyond the -3 dB point: the end of the main lobe.
-        d = np.diff(side[start:])
-        rising = np.flatnonzero(d > 0)
-        return start + rising[0] if rising.size else side.size - 1
-
-    hr, ir = half_power(right)
-    hl, il = half_power(left)
-    irw = (hr + hl) * step
-    nr, nl = first_null(right, ir), first_null(left, il)
-    mainlobe = (nr + nl) * step
-    lo, hi = center - nl, center + nr
-    w = int(math.floor(window / step))
-    a, b = max(0, center - w), min(n - 1, center + w)
-    main = p[lo:hi + 1].sum()
-    side = np.concatenate([p[a:lo], p[hi + 1:b + 1]])
-    pslr = 10 * np.log10(side.max()) if side.size and side.max() > 0 else -np.inf
-    islr = 10 * np.log10(side.sum() / main) if side.size and side.sum() > 0 else -np.inf
-    return float(irw), float(pslr), float(islr), float(mainlobe)
-
-
 # ----------------------------------------------------------------------------------------------
 # Public entry points
 
 
 def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
                    params: EvaluateParams | None = None, metric=None, progress=None,
-                   target_irw=None) -> QualityReport:
+                   target_irw=None, target_null=None, target_sidelobes=None) -> QualityReport:
     """Measure every target of a 2D (azimuth, range) or 3D (elevation, azimuth, range) image.
 
     data: complex image, shape ``tuple(len(coords[d]) for d in dims)``; dims: axis names;
@@ -494,7 +462,10 @@ def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
     theoretical_irw; NaN: use the image's), for images whose resolution varies with position: a
     target's cuts (IRW ratio, position in cells, ISLR/PSLR window in its own nulls) then use it and
     say so (``theory``). Chips are sized for the widest theory; supports and neighbour models keep
-    the image's. Raises InputError.
+    the image's. target_null: optional (n_targets, ndim) null spacings 1/B of each target's own support
+    (NaN: its IRW / irw_factor), so a weighted target's ISLR window is +-islr_nulls of its bandwidth;
+    target_sidelobes: optional (n_targets, ndim, 2) its theoretical PSLR and ISLR, dB (NaN: not
+    recorded). Raises InputError.
     """
     params = params or EvaluateParams()
     data = np.asarray(data)
@@ -520,7 +491,7 @@ def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
     if not np.all(np.isfinite(truth)):
         raise InputError("target positions contain NaN or Inf")
 
-    own_axes = _target_axes(axes, target_irw, truth.shape[0], params.irw_factor)
+    own_axes = _target_axes(axes, target_irw, truth.shape[0], params.irw_factor, target_null, target_sidelobes)
     mag = np.abs(data)
     # chips wide enough for every target's own ISLR window
     half = [max(x[a].nulls_to_samples(params.islr_nulls + params.margin_nulls) for x in [axes] + own_axes)
@@ -579,28 +550,34 @@ def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
     return QualityReport(dims=dims, targets=tuple(reports), false_target=false, params=params)
 
 
-def _target_axes(axes, target_irw, n_targets, irw_factor) -> list[list[_Axis]]:
-    """Each target's axes: the image's, with its own theoretical IRW (and null spacing) where it has one."""
+def _target_axes(axes, target_irw, n_targets, irw_factor, target_null=None, target_sidelobes=None) -> list[list[_Axis]]:
+    """Each target's axes: the image's, with its own theoretical IRW, null spacing and side lobes where it has them."""
     if target_irw is None:
         return [axes] * n_targets
     irw = np.asarray(target_irw, dtype=float)
+    nulls = np.full(irw.shape, np.nan) if target_null is None else np.asarray(target_null, dtype=float)
+    lobes = np.full(irw.shape + (2,), np.nan) if target_sidelobes is None else np.asarray(target_sidelobes, float)
+    if nulls.shape != irw.shape or lobes.shape != irw.shape + (2,):
+        raise InputError(f"target_null / target_sidelobes have shapes {nulls.shape} / {lobes.shape}; expected "
+                         f"{irw.shape} / {irw.shape + (2,)}")
     if irw.shape != (n_targets, len(axes)):
         raise InputError(f"target_irw has shape {irw.shape}; expected ({n_targets}, {len(axes)}): one IRW per "
                          f"target and axis, NaN where the image's applies")
     if np.any(~np.isnan(irw) & ~(np.isfinite(irw) & (irw > 0))):
         raise InputError("target_irw values must be positive and finite, or NaN (the image's theory applies)")
     out = []
-    for row in irw:
+    for row, row_null, row_lobes in zip(irw, nulls, lobes):
         own = []
-        for ax, v in zip(axes, row):
+        for ax, v, own_null, (pslr, islr) in zip(axes, row, row_null, row_lobes):
             if np.isnan(v):
                 own.append(ax)
                 continue
-            null = float(v) / (irw_factor * abs(ax.step))
+            null = float(v) / (irw_factor * abs(ax.step)) if np.isnan(own_null) else float(own_null) / abs(ax.step)
             if null <= 1.0:
                 raise InputError(f"axis {ax.name!r}: spacing {abs(ax.step):.4g} is not finer than a target's null "
                                  f"spacing {null * abs(ax.step):.4g} (its theoretical IRW {v:.4g})")
-            own.append(dataclasses.replace(ax, irw=float(v), null=null, theory="target"))
+            sides = {} if np.isnan(pslr) else {"pslr_theory": float(pslr), "islr_theory": float(islr)}
+            own.append(dataclasses.replace(ax, irw=float(v), null=null, theory="target", **sides))
         out.append(own)
     return out
 
@@ -803,7 +780,8 @@ def _cut(chip: "_Chip", axes, a, v, pos, peak2, truth, params, metric) -> AxisMe
         axis=ax.name, irw=irw * length, irw_theory=ax.irw * factor, irw_ratio=irw * abs(ax.step) / ax.irw,
         pslr_db=pslr, islr_db=islr, mainlobe_width=main * length, position=x, truth=float(truth[a]),
         position_error=err, position_error_cells=err / ax.irw, band_center=chip.centers[a] / ax.step,
-        direction=tuple(float(c) for c in direction), angle_deg=angle, truncated=truncated, theory=ax.theory)
+        direction=tuple(float(c) for c in direction), angle_deg=angle, truncated=truncated, theory=ax.theory,
+        pslr_theory_db=ax.pslr_theory, islr_theory_db=ax.islr_theory)
 
 
 def _false_target(data, mag, axes, truth, peaks, reports, half, params) -> Optional[FalseTarget]:
@@ -878,8 +856,9 @@ def evaluate_product(product, params: EvaluateParams | None = None, source: str 
     """Evaluate an ``image``/``image3d`` :class:`sarproc.product.model.Product` against its targets table.
 
     Truth per target is the targets field named like each dim; theory is the target's own
-    ``irw_<dim>`` field where recorded (not 0; processors whose resolution varies over the scene),
-    else ``product.attrs['theoretical_irw']``. ``source`` (the file name) prefixes error messages.
+    ``irw_<dim>``, ``null_<dim>``, ``pslr_<dim>`` and ``islr_<dim>`` fields where recorded (not 0; every
+    processor records them from the target's own illumination and weighting), else
+    ``product.attrs['theoretical_irw']`` with ``irw_factor``. ``source`` (the file name) prefixes error messages.
     """
     where = f"{source}: " if source else ""
     irw = product.attrs.get("theoretical_irw")
@@ -896,10 +875,20 @@ def evaluate_product(product, params: EvaluateParams | None = None, source: str 
     own = np.stack([product.targets[f"irw_{d}"].astype(float) if f"irw_{d}" in fields else np.zeros(len(truth))
                     for d in product.dims], axis=1)
     own[own == 0] = np.nan          # 0 in the table: not recorded, the image's theory applies
+
+    def field(prefix):              # a theory field per target and axis; 0 (not recorded) or absent: NaN
+        v = np.stack([product.targets[f"{prefix}_{d}"].astype(float) if f"{prefix}_{d}" in fields
+                      else np.zeros(len(truth)) for d in product.dims], axis=1)
+        v[v == 0] = np.nan
+        return v
+
+    lobes = np.stack([field("pslr"), field("islr")], axis=-1)
+    lobes[np.isnan(lobes).any(axis=-1)] = np.nan
     try:
         return evaluate_image(product.data, product.dims, product.coords, irw, truth, names, params,
                               metric=frame_metric(product), progress=progress,
-                              target_irw=own if np.any(~np.isnan(own)) else None)
+                              target_irw=own if np.any(~np.isnan(own)) else None, target_null=field("null"),
+                              target_sidelobes=lobes)
     except InputError as exc:
         raise InputError(f"{where}{exc}") from None
 
@@ -917,9 +906,13 @@ class AxisBounds:
     pslr_db: Optional[tuple[float, ...]] = param("decibel", default=None, doc="allowed PSLR interval [lo, hi], dB")
     islr_db: Optional[tuple[float, ...]] = param("decibel", default=None, doc="allowed ISLR interval [lo, hi], dB")
     position_cells_max: Optional[float] = param(default=None, ge=0, doc="largest |position error|, resolution cells")
+    pslr_vs_theory_db: Optional[tuple[float, ...]] = param("decibel", default=None, doc=(
+        "allowed interval [lo, hi] of PSLR minus the target's own theoretical PSLR, dB"))
+    islr_vs_theory_db: Optional[tuple[float, ...]] = param("decibel", default=None, doc=(
+        "allowed interval [lo, hi] of ISLR minus the target's own theoretical ISLR, dB"))
 
     def validate(self):
-        for key in ("pslr_db", "islr_db"):
+        for key in ("pslr_db", "islr_db", "pslr_vs_theory_db", "islr_vs_theory_db"):
             v = getattr(self, key)
             if v is not None and (len(v) != 2 or v[0] > v[1]):
                 raise InputError(f"{key}: expected an interval [lo, hi] with lo <= hi, got {list(v)}")
@@ -1031,6 +1024,12 @@ def check_report(report: QualityReport, expect: Expectations, source: str = "") 
                 value = getattr(m, key)
                 if lo_hi is not None and not lo_hi[0] <= value <= lo_hi[1]:
                     fail(key, value, f"in [{lo_hi[0]:g}, {lo_hi[1]:g}]")
+            for key, theory in (("pslr", m.pslr_theory_db), ("islr", m.islr_theory_db)):
+                lo_hi = bound[f"{key}_vs_theory_db"]
+                value = getattr(m, f"{key}_db") - (np.nan if theory is None else theory)
+                if lo_hi is not None and not lo_hi[0] <= value <= lo_hi[1]:
+                    told = "none recorded" if theory is None else f"{theory:.2f} dB"
+                    fail(f"{key}_vs_theory_db", value, f"in [{lo_hi[0]:g}, {lo_hi[1]:g}] (theory {told})")
     if expect.false_target_db_max is not None and report.false_target is not None:
         if not report.false_target.level_db <= expect.false_target_db_max:
             failures.append(CheckFailure(None, None, "false_target_db", report.false_target.level_db,

@@ -13,6 +13,7 @@ pulse), so the cost is n_pulses x n_targets x T_p f_s, independent of the window
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 from typing import Iterator
 
@@ -21,6 +22,8 @@ import numpy as np
 from sarproc.product.metadata import C
 from sarproc.product.model import Product
 from sarproc.simulation.scene import Scene
+
+log = logging.getLogger(__name__)
 
 
 @dataclasses.dataclass
@@ -132,6 +135,41 @@ def plan_simulation(scene: Scene) -> SimulationPlan:
                           tx_offset=tx_off, rx_offsets=rx_off, block_pulses=scene.params.simulation.block_pulses)
 
 
+LIT_FRACTION_MIN = 0.95     # a target lit over less of its full -3 dB aperture than this is warned about
+
+
+def illumination_warnings(scene: Scene, plan: SimulationPlan) -> list[str]:
+    """One line per target outside the antenna's main beam or lit over only part of its aperture: the
+    fraction of its full -3 dB aperture the track gives it and the along-track resolution it will have
+    (sarproc.product.theory.illumination_survey); empty when every target is fully lit. Logged as warnings."""
+    from sarproc.product.theory import illumination_survey
+
+    pos = plan.aux["platform_position"] + plan.tx_offset
+    survey = illumination_survey(plan.radar, pos, scene.target_xyz.reshape(-1, 3), LIT_FRACTION_MIN)
+    lines = []
+    for name, s in zip(scene.target_names, survey):
+        if s.lit_fraction >= LIT_FRACTION_MIN:
+            continue
+        if s.lit_fraction == 0 and s.peak_gain_db < -300:
+            what = "outside the beam over the whole aperture (the pattern has no gain there): 0 % of its full aperture"
+        elif s.lit_fraction == 0:
+            what = (f"outside the main beam over the whole aperture (lit by its side lobes only, strongest two-way "
+                    f"gain {s.peak_gain_db:.1f} dB): 0 % of its full -3 dB aperture")
+        else:
+            what = f"only partly illuminated: {100 * s.lit_fraction:.0f} % of its full -3 dB aperture lies on the track"
+        if s.full is None:
+            loss = "; resolution loss not computed (too many such targets)"
+        elif s.now is None:
+            loss = "; it is never lit: no response is expected"
+        else:
+            loss = (f"; expected along-track IRW {s.now.irw:.3g} m instead of {s.full.irw:.3g} m ({s.loss:.2f}x), "
+                    f"PSLR {s.now.pslr_db:.1f} dB instead of {s.full.pslr_db:.1f} dB (antenna weighting, no window)")
+        lines.append(f"{scene.source}: target {name!r} is {what}{loss}")
+    for line in lines:
+        log.warning("%s", line)
+    return lines
+
+
 def echo_block(scene: Scene, plan: SimulationPlan, t: np.ndarray) -> np.ndarray:
     """Echoes of pulses at times ``t`` for every channel: (n_ch, n_t, n_range) complex128.
 
@@ -188,6 +226,7 @@ def simulate(scene: Scene, progress=None) -> Product:
     from sarproc.product.io import history_entry
 
     plan = plan_simulation(scene)
+    illumination_warnings(scene, plan)
     data = np.zeros((len(plan.rx_offsets),) + plan.shape[-2:], dtype=np.complex64)
     for sl, block in simulate_blocks(scene, plan, progress):
         data[:, sl, :] = block

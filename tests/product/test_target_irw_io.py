@@ -48,3 +48,18 @@ def test_bad_target_irw_is_refused(tmp_path, value):
     write_product(tmp_path / "x.h5", p)
     with pytest.raises(InputError, match="irw_range"):
         read_product(tmp_path / "x.h5")
+
+
+def test_target_theory_fields_roundtrip_and_bad_levels_are_refused(tmp_path):
+    p = image_product()
+    p.targets["null_azimuth"] = [0.7, 0.8]
+    p.targets["pslr_range"] = [-42.7, -13.3]
+    p.targets["islr_range"] = [-36.8, 0.5]          # an ISLR above 0 dB is a real (side-lobe-lit) theory
+    write_product(tmp_path / "x.h5", p)
+    q = read_product(tmp_path / "x.h5")
+    for f in ("null_azimuth", "pslr_range", "islr_range"):
+        np.testing.assert_array_equal(q.targets[f], p.targets[f])
+    p.targets["pslr_range"][0] = 1.0                # a side lobe above the peak is no PSLR
+    write_product(tmp_path / "y.h5", p)
+    with pytest.raises(InputError, match="pslr_range"):
+        read_product(tmp_path / "y.h5")

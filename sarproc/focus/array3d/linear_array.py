@@ -47,6 +47,7 @@ from sarproc.dsp.interp import KERNELS, resample
 from sarproc.dsp.phasor import multiply_separable_phase
 from sarproc.product.metadata import C, RadarMetadata
 from sarproc.product.steps import steps, wrapped
+from sarproc.product.theory import fill_target_theory, response_theory, window_theory
 from sarproc.dsp.rangecomp import chirp_replica
 
 
@@ -152,6 +153,23 @@ def elevation_irw(offsets: np.ndarray, wavelength: float) -> float:
     i = below[0]
     w3 = w[i - 1] + (w[i] - w[i - 1]) * (af[i - 1] ** 2 - 0.5) / (af[i - 1] ** 2 - af[i] ** 2)
     return 2.0 * float(w3)
+
+
+def target_theory_3d(offsets, wavelength: float, elevations, channel_irw) -> list:
+    """Each target's own theory (sarproc.product.theory.ResponseTheory per axis: elevation rad, azimuth m,
+    range m): the receivers' array factor seen from its elevation theta (spatial frequencies v_n cos(theta) /
+    lambda per radian, each receiver a cell of the median spacing wide), and the flat azimuth and range
+    supports of ``channel_irw`` (their unweighted IRWs)."""
+    v = np.sort(np.asarray(offsets, float))
+    cell = float(np.median(np.diff(v))) if len(v) > 1 else 0.0
+    flat = window_theory("none")
+    others = [flat.scaled(w / 0.886) for w in channel_irw]
+    out = []
+    for theta in np.asarray(elevations, float):
+        c = math.cos(float(theta)) / wavelength
+        el = response_theory(v * c, np.ones_like(v), ((v[0] - cell / 2) * c, (v[-1] + cell / 2) * c))
+        out.append([el] + others)
+    return out
 
 
 def azimuth_bandwidth(radar: RadarMetadata, du: float) -> float:
@@ -455,9 +473,13 @@ def array3d_product(raw, params: Array3DParams = Array3DParams(), *, channel_ima
     for msg in ambiguities:
         logging.getLogger(__name__).warning("array3d: %s", msg)
     entry = history_entry(command, {**as_dict(params), "derived": {**res.info, "elevation_ambiguities": ambiguities}})
+    targets = targets_in_frame(raw.targets, frame)
+    fill_target_theory(targets, ("elevation", "azimuth", "range"),
+                       target_theory_3d(array_geometry(raw.aux["tx_offset"], raw.aux["rx_offset"]).offsets,
+                                        raw.radar.wavelength, targets["elevation"], res.channel_irw))
     cube = raw.derive("image3d", res.cube, ("elevation", "azimuth", "range"),
                       {"elevation": res.elevation, "azimuth": res.azimuth, "range": res.range},
-                      targets=targets_in_frame(raw.targets, frame),
+                      targets=targets,
                       attrs={"frame": frame.spec, "theoretical_irw": [float(x) for x in res.theoretical_irw],
                              "axis_units": ["rad", "m", "m"],  # the values are complex amplitudes (units "1")
                              "theoretical_irw_note": (

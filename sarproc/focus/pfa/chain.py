@@ -31,6 +31,7 @@ from sarproc.product.errors import InputError
 from sarproc.product.frames import GroundLosFrame, make_frame, targets_in_frame
 from sarproc.product.metadata import aperture_center_position
 from sarproc.product.model import Product
+from sarproc.product.theory import fill_target_theory, window_theory
 
 log = logging.getLogger(__name__)
 
@@ -172,8 +173,7 @@ def pfa2(raw: Product, params: Pfa2Params = Pfa2Params(), progress=None, mapper:
     from sarproc.product.io import history_entry  # product layer; the core stays free of h5py at import
 
     targets = targets_in_frame(raw.targets, frame)
-    if params.method == "two_step":     # each sub-image keeps its own support: the IRW varies over the scene
-        _record_target_irw(targets, ph, e_a, e_r)
+    _record_target_theory(targets, ph, e_a, e_r, kg, params)
     out = raw.derive("image", img, ("azimuth", "range"), {"azimuth": grid.a, "range": grid.r + frame.ground_range},
                      targets=targets, attrs=attrs)
     out.aux = {k: v for k, v in raw.aux.items() if k in ("platform_position", "tx_offset", "rx_offset")}
@@ -196,13 +196,20 @@ def _plain_corrected(ph, rect, grid: Grid, origin, e_a, e_r, interp: Interpolati
     return warp_to_truth(img, ext, grid, warp, geo, kg, interp), kg
 
 
-def _record_target_irw(targets: np.ndarray, ph, e_a, e_r) -> None:
-    """Fill each target's irw_azimuth / irw_range with the IRW of its own inscribed polar support (in place)."""
+def _record_target_theory(targets: np.ndarray, ph, e_a, e_r, kg, params) -> None:
+    """Fill each target's theory (irw_, null_, pslr_, islr_<axis>, in place): a flat azimuth support and the
+    range window over the polar support it is focused with, the image's rectangle (plain) or its own
+    inscribed one (two_step: each sub-image keeps its own support, so the IRW varies over the scene)."""
     band = (float(ph.freqs[0]), float(ph.freqs[-1]))
+    shapes = (window_theory("none"), window_theory(params.range_window))
+    nulls = [x / 0.886 for x in kg.irw()]
+    own = []
     for i in range(len(targets)):
-        point = np.array([targets["x"][i], targets["y"][i], targets["z"][i]], float)
-        targets["irw_azimuth"][i], targets["irw_range"][i] = local_irw(ph.positions, point, e_a, e_r,
-                                                                       ph.carrier_frequency, band)
+        if params.method == "two_step":
+            point = np.array([targets["x"][i], targets["y"][i], targets["z"][i]], float)
+            nulls = local_irw(ph.positions, point, e_a, e_r, ph.carrier_frequency, band, factor=1.0)
+        own.append([shape.scaled(null) for shape, null in zip(shapes, nulls)])
+    fill_target_theory(targets, ("azimuth", "range"), own)
 
 
 def _rect_irw(rect) -> tuple[float, float]:

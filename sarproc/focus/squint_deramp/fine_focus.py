@@ -24,7 +24,8 @@ Chain (all per-row / per-column operations vectorised, blocks bound the memory):
 
 Theoretical IRW (attrs ``theoretical_irw``, [azimuth, range], metres): azimuth 0.886 v / B_d with
 B_d = |K(r_c)| T the processed Doppler bandwidth of a target (T = n_pulses / PRF, K the FM rate at
-the scene centre range), range 0.886 c / (2 B).
+the scene centre range), range 0.886 c / (2 B). Each target's own (targets table, sarproc.product.theory)
+takes K at its own closest-approach range.
 """
 
 from __future__ import annotations
@@ -43,6 +44,7 @@ from sarproc.focus.squint_deramp.block_copies import copy_rows, crop_columns, ga
 from sarproc.product.frames import SquintFrame, SquintLrwcFrame, targets_in_frame
 from sarproc.dsp.interp import KERNELS, resample_rows
 from sarproc.product.metadata import C
+from sarproc.product.theory import fill_target_theory, window_theory
 from sarproc.focus.squint_deramp.nlcs import VARIANTS, compression_phase, group_delay_span, nlcs_coefficients, position_terms
 from sarproc.focus.squint_deramp.preprocess import PRECISIONS, complex_dtype, correction_frequency
 from sarproc.dsp.phasor import multiply_separable_phase, unit_phasor
@@ -348,8 +350,15 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
              "doppler_correction": method, "alpha": alpha if alpha is not None else 0.0,
              "stolt_masked_fraction": info["stolt_masked_fraction"],
              "depth_of_focus_half_width": half_adof}
-    out = coarse.derive("image", img, ("azimuth", "range"), coords, attrs=attrs,
-                        targets=targets_in_frame(coarse.targets, frame))
+    targets = targets_in_frame(coarse.targets, frame)
+    # Each target's own theory: its Doppler bandwidth |K(r_0)| T at its own closest-approach range (K ~ 1/r_0)
+    # over a flat aperture, and the flat range band.
+    r0 = targets_in_frame(coarse.targets, SquintFrame(th, radar.altitude))["range"]
+    flat = window_theory("none")
+    fill_target_theory(targets, ("azimuth", "range"),
+                       [[flat.scaled(v / (abs(K_c) * r_c / max(float(r_t), 1e-9) * T_ap)),
+                         flat.scaled(C / (2 * radar.bandwidth))] for r_t in r0])
+    out = coarse.derive("image", img, ("azimuth", "range"), coords, attrs=attrs, targets=targets)
     entry = as_dict(params)
     entry.update({k_: (float(v_) if isinstance(v_, (float, np.floating)) else v_) for k_, v_ in info.items()})
     entry["resolved_flow"] = int(flow)

@@ -46,7 +46,8 @@ class Antenna(Effect):
     def update_radar(self, radar):
         self.radar = radar.replace(azimuth_beamwidth=self.params.azimuth_beamwidth,
                                    elevation_beamwidth=self.params.elevation_beamwidth,
-                                   beam_rotation_range=self.params.rotation_range or 0.0)
+                                   beam_rotation_range=self.params.rotation_range or 0.0,
+                                   antenna_pattern=self.params.pattern)
         return self.radar
 
     def gains(self, t, platform_pos, target_pos, channel, gains):

@@ -1,0 +1,352 @@
+"""Each target's own theoretical response: IRW, PSLR and ISLR from the k-space support it actually has.
+
+A point target's focused response along an image axis is the Fourier transform of its spatial-frequency
+support along that axis, weighted by everything on it: the two-way antenna pattern over the pulses that see
+it (stripmap and beam-edge targets see only part of the aperture, or only side lobes), and the processor's
+azimuth and range weighting windows. Every processor computes its targets' theory here, so that evaluate
+judges each target against its own illumination with no manual factor.
+
+Conventions (those of :mod:`sarproc.quality.metrics`): the support's bandwidth ``B`` (cycles per axis unit)
+is its extent over the main beam (over every pulse that sees the target when none sees it inside the
+one-way -3 dB beam, or with no pattern); a *null* is ``1/B``; the IRW is the response's -3 dB width, PSLR
+the highest side lobe and ISLR the side-lobe energy over the main lobe's (the main lobe ends at its first
+local minima) within +-``islr_nulls`` nulls. The figures are measured numerically on the response of the
+weights (no tables): an unweighted flat support gives 0.886 / B, -13.26 dB and -10.16 dB; Hamming gives
+1.30 / B, -42.7 dB and -36.8 dB (its 0.08 pedestal's side lobes decay slowly).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+
+import numpy as np
+
+from sarproc.product import beam
+from sarproc.product.errors import InputError
+from sarproc.product.metadata import C
+
+WINDOWS = ("none", "hamming")     # the weighting windows every processor offers (range and azimuth)
+ISLR_NULLS = 10.0                 # the contract's ISLR window, +-nulls
+ANTENNA_PATTERNS = ("sinc", "gaussian", "rect")
+_MAX_SAMPLES = 512                # supports with more samples are binned onto this many: IRW within 3e-4
+
+
+def window_taper(name: str, x) -> np.ndarray:
+    """Amplitude taper of window ``name`` at support positions ``x`` in [-0.5, 0.5] (zero outside).
+
+    hamming: 0.54 + 0.46 cos(2 pi x) (numpy's np.hamming over N samples is this at x = n / (N - 1) - 1/2).
+    """
+    x = np.asarray(x, float)
+    inside = np.abs(x) <= 0.5 + 1e-12
+    if name == "none":
+        return inside.astype(float)
+    if name == "hamming":
+        return np.where(inside, 0.54 + 0.46 * np.cos(2 * np.pi * x), 0.0)
+    raise InputError(f"window {name!r} is not one of {list(WINDOWS)}")
+
+
+def sample_taper(name: str, n: int) -> np.ndarray:
+    """Window ``name`` over ``n`` samples (end samples at x = -1/2 and +1/2)."""
+    if n <= 1:
+        return np.ones(n)
+    return window_taper(name, np.arange(n) / (n - 1) - 0.5)
+
+
+def cut_metrics(p: np.ndarray, step: float, center: int, window: float) -> tuple[float, float, float, float]:
+    """IRW, PSLR and ISLR and null-to-null width from a normalised power cut.
+
+    ``p`` is |f|^2 / peak^2 sampled every ``step`` samples with the peak at index ``center``;
+    ``window`` is the ISLR half-window in samples. Returns (irw, pslr_db, islr_db, mainlobe) with
+    widths in samples.
+    """
+    n = p.size
+    right = p[center:]
+    left = p[center::-1]
+
+    def half_power(side):
+        below = np.flatnonzero(side < 0.5)
+        if below.size == 0:
+            return np.nan, side.size - 1
+        i = below[0]
+        # Linear interpolation of the crossing between samples i-1 (>= 0.5) and i (< 0.5).
+        frac = (side[i - 1] - 0.5) / (side[i - 1] - side[i])
+        return (i - 1 + frac), i
+
+    def first_null(side, start):
+        # First local minimum beyond the -3 dB point: the end of the main lobe.
+        d = np.diff(side[start:])
+        rising = np.flatnonzero(d > 0)
+        return start + rising[0] if rising.size else side.size - 1
+
+    hr, ir = half_power(right)
+    hl, il = half_power(left)
+    irw = (hr + hl) * step
+    nr, nl = first_null(right, ir), first_null(left, il)
+    mainlobe = (nr + nl) * step
+    lo, hi = center - nl, center + nr
+    w = int(math.floor(window / step))
+    a, b = max(0, center - w), min(n - 1, center + w)
+    main = p[lo:hi + 1].sum()
+    side = np.concatenate([p[a:lo], p[hi + 1:b + 1]])
+    pslr = 10 * np.log10(side.max()) if side.size and side.max() > 0 else -np.inf
+    islr = 10 * np.log10(side.sum() / main) if side.size and side.sum() > 0 else -np.inf
+    return float(irw), float(pslr), float(islr), float(mainlobe)
+
+
+@dataclasses.dataclass(frozen=True)
+class ResponseTheory:
+    """The theoretical response along one axis: widths in axis units, side lobes in dB."""
+
+    irw: float          # -3 dB width
+    null: float         # 1/B: null spacing of the support's bandwidth B
+    pslr_db: float
+    islr_db: float
+
+    @property
+    def factor(self) -> float:
+        """IRW x B (0.886 unweighted, 1.30 Hamming)."""
+        return self.irw / self.null
+
+    def scaled(self, s: float) -> "ResponseTheory":
+        """The same response with widths times ``s`` (side lobes unchanged)."""
+        return dataclasses.replace(self, irw=self.irw * s, null=self.null * s)
+
+
+def response_theory(k, w, band=None, islr_nulls: float = ISLR_NULLS, upsample: int = 32,
+                    samples: int = _MAX_SAMPLES) -> ResponseTheory:
+    """Theory of the response sum_i w_i exp(j 2 pi k_i x) of a support sampled at spatial frequencies ``k``
+    (cycles per axis unit) with amplitude weights ``w`` >= 0.
+
+    ``band`` (lo, hi): the frequencies whose extent is the bandwidth B (default: the extent of the samples
+    with w > 0). ``upsample``: response samples per null; ``samples``: supports with more samples are
+    binned onto this many (about 10 ms a response at the defaults). Raises ValueError when no sample has
+    weight or the support has no extent.
+    """
+    k, w = np.asarray(k, float).ravel(), np.asarray(w, float).ravel()
+    keep = w > 0
+    if not keep.any():
+        raise ValueError("response_theory: no support sample has a positive weight")
+    k, w = k[keep], w[keep]
+    lo, hi = (float(k.min()), float(k.max())) if band is None else (float(band[0]), float(band[1]))
+    span = hi - lo
+    if not span > 0:
+        raise ValueError("response_theory: the support has no extent")
+    u = (k - 0.5 * (k.min() + k.max())) / span       # in units of B: the response is then in nulls
+    if u.size > samples:                              # cloud-in-cell onto a uniform grid (second-order accurate)
+        g0, g1 = float(u.min()), float(u.max())
+        pos = (u - g0) / (g1 - g0) * (samples - 1)
+        i0 = np.minimum(np.floor(pos).astype(int), samples - 2)
+        frac = pos - i0
+        wg = np.bincount(i0, w * (1 - frac), samples) + np.bincount(i0 + 1, w * frac, samples)
+        u, w = g0 + (g1 - g0) * np.arange(samples) / (samples - 1), wg
+    reach = islr_nulls + 3
+    m = int(math.ceil(reach * upsample))
+    step = np.diff(u)
+    if u.size > 1 and np.allclose(step, 1.0 / round(1.0 / step[0]), rtol=1e-9, atol=0):
+        # cell spacing 1/n of B: a zero-padded FFT samples the response every 1/upsample null exactly
+        n = round(1.0 / step[0])
+        spec = np.fft.fft(w, max(n * upsample, u.size, 2 * m + 1))
+        p = np.abs(np.concatenate([spec[-m:], spec[:m + 1]])) ** 2
+    else:
+        x = np.arange(-m, m + 1) / upsample
+        phase = 2 * np.pi * np.outer(x, u)
+        p = np.abs(np.cos(phase) @ w + 1j * (np.sin(phase) @ w)) ** 2
+    p /= p[m]                                         # w >= 0: the peak is at x = 0
+    irw, pslr, islr, _ = cut_metrics(p, 1.0 / upsample, m, islr_nulls)
+    return ResponseTheory(irw=irw / span, null=1.0 / span, pslr_db=max(pslr, -300.0), islr_db=max(islr, -300.0))
+
+
+@functools.lru_cache(maxsize=None)
+def window_theory(name: str, islr_nulls: float = ISLR_NULLS) -> ResponseTheory:
+    """Theory of window ``name`` over a continuous flat support of bandwidth 1 (IRW = broadening factor x
+    null): cell-centred samples, so the band is exactly 1."""
+    x = (np.arange(4096) + 0.5) / 4096 - 0.5
+    return response_theory(x, window_taper(name, x), band=(-0.5, 0.5), islr_nulls=islr_nulls, upsample=64,
+                           samples=4096)
+
+
+def two_way_gain(radar, angle_az, angle_el=None) -> np.ndarray:
+    """Two-way amplitude gain of the radar's antenna at azimuth (and elevation) angles off boresight."""
+    pattern = getattr(radar, "antenna_pattern", None) or "rect"    # not recorded: the -3 dB beam, flat
+    g = beam.one_way_amplitude(angle_az, radar.azimuth_beamwidth, pattern)
+    if angle_el is not None and radar.elevation_beamwidth > 0:
+        g = g * beam.one_way_amplitude(angle_el, radar.elevation_beamwidth, pattern)
+    return g ** 2
+
+
+@dataclasses.dataclass(frozen=True)
+class Illumination:
+    """How one target is lit over the aperture."""
+
+    gain: np.ndarray            # (n_pulses,) two-way amplitude gain (1 without a pattern)
+    in_beam: np.ndarray         # (n_pulses,) bool: inside the one-way -3 dB azimuth beam
+    peak_gain_db: float         # strongest two-way power gain over the aperture, dB
+
+    @property
+    def lit_fraction(self) -> float:
+        return float(np.mean(self.in_beam)) if self.in_beam.size else 0.0
+
+
+def illumination(radar, platform_pos, point) -> Illumination:
+    """Antenna gain over the pulses for one target (scene frame point (3,))."""
+    n = len(platform_pos)
+    if radar.azimuth_beamwidth <= 0:
+        return Illumination(np.ones(n), np.ones(n, bool), 0.0)
+    az, el = beam.off_boresight_angles(beam.boresight(radar, platform_pos), platform_pos,
+                                       np.broadcast_to(np.asarray(point, float), (n, 1, 3)))
+    g = two_way_gain(radar, az[:, 0], el[:, 0])
+    peak = float(np.max(np.abs(g))) if n else 0.0
+    return Illumination(g, np.abs(az[:, 0]) <= radar.azimuth_beamwidth / 2,
+                        20 * math.log10(peak) if peak > 0 else -np.inf)
+
+
+def _unit(d):
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+def target_theory(radar, tx_pos, rx_pos, frame, coords, azimuth_window: str = "none",
+                  range_window: str = "none", taper=None) -> list[ResponseTheory]:
+    """Theory along each axis of a 2D frame for the point at frame ``coords``.
+
+    tx_pos, rx_pos: (n_pulses, 3) antenna positions of the pulses processed; ``taper``: (n_pulses,)
+    amplitude weights the processor puts on the pulses (default: ``azimuth_window`` over all of them).
+    Range: the band (2B/c)|u.e| of the line of sight u at the target's illumination centre, weighted by
+    ``range_window``; other axes: k(t) = (u_tx(t) + u_rx(t)).e / lambda over the pulses, weighted by the
+    two-way antenna gain and the taper.
+    """
+    p0 = np.asarray(frame.to_xyz(*coords), float).reshape(3)
+    lit = illumination(radar, tx_pos, p0)
+    weights = np.abs(lit.gain) * (sample_taper(azimuth_window, len(tx_pos)) if taper is None else np.asarray(taper))
+    if not np.any(weights > 0):
+        weights = np.ones(len(tx_pos))             # unlit (e.g. a rect beam that misses it): the aperture's theory
+    u = _unit(p0 - tx_pos) + _unit(p0 - rx_pos)                # (n_pulses, 3): two-way line of sight
+    centre = int(np.clip(np.round(np.average(np.arange(len(u)), weights=weights)), 0, len(u) - 1))
+    out = []
+    eps = 1e-3
+    for i, ax in enumerate(frame.axes):
+        shifted = list(coords)
+        shifted[i] = shifted[i] + eps
+        e = (np.asarray(frame.to_xyz(*shifted), float).reshape(3) - p0) / eps
+        if ax == "range":
+            out.append(window_theory(range_window).scaled(1.0 / ((radar.bandwidth / C) * abs(float(u[centre] @ e)))))
+            continue
+        k = (u @ e) / radar.wavelength
+        main = lit.in_beam & (weights > 0)
+        band = (k[main].min(), k[main].max()) if np.count_nonzero(main) > 1 else None
+        out.append(response_theory(k, weights, band))
+    return out
+
+
+def fill_target_theory(targets: np.ndarray, dims, theories) -> None:
+    """Write each target's theory (one list of ResponseTheory per target, dims order) into its table, in place."""
+    for row, per_axis in zip(range(len(targets)), theories):
+        for d, th in zip(dims, per_axis):
+            targets[f"irw_{d}"][row] = th.irw
+            targets[f"null_{d}"][row] = th.null
+            targets[f"pslr_{d}"][row] = th.pslr_db
+            targets[f"islr_{d}"][row] = th.islr_db
+
+
+def unweighted_irw(theories, fallback) -> list[float]:
+    """Per axis, the median over targets of 0.886 x null (the unweighted IRW of each target's own support):
+    an image-wide theory that a target at the edge of the beam does not drag away from the rest."""
+    if not theories:
+        return [float(x) for x in fallback]
+    return [float(np.median([0.886 * t[a].null for t in theories])) for a in range(len(theories[0]))]
+
+
+# ----------------------------------------------------------------------------------------------
+# Illumination of each target over the aperture (simulate's warnings)
+
+_SURVEY_PULSES = 2000        # pulses sampled across the track for the survey (the k extents need no more)
+_SURVEY_BLOCK = 256          # targets per block (memory: pulses x block x 3 floats)
+
+
+@dataclasses.dataclass(frozen=True)
+class TargetIllumination:
+    """One target's illumination over the aperture, against the scene centre's (full illumination)."""
+
+    lit_fraction: float      # in-beam (one-way -3 dB) along-track k extent / that of full illumination
+    peak_gain_db: float      # strongest two-way power gain over the aperture, dB
+    now: ResponseTheory | None = None    # expected along-track response (antenna weighting, no processing
+    full: ResponseTheory | None = None   # window; metres along track) with this / full illumination
+
+    @property
+    def loss(self) -> float:
+        """IRW with this illumination / IRW with full illumination."""
+        return self.now.irw / self.full.irw
+
+
+def _reference_points(radar, targets: np.ndarray) -> np.ndarray:
+    """Where each target would be fully lit, as the scene centre is: stripmap (a fixed beam, so only the
+    position relative to the track counts) moves it along track to the scene centre's x; a steered beam
+    (spotlight, sliding spotlight) lights the scene centre itself."""
+    centre = np.asarray(radar.scene_center, float)
+    if radar.mode == "stripmap":
+        out = np.array(targets, float)
+        out[:, 0] = centre[0]
+        return out
+    return np.broadcast_to(centre, targets.shape)
+
+
+def _beam_k(radar, pos, targets):
+    """(k along track (pulses, n), in-beam mask, two-way amplitude gain) of targets (n, 3) at positions."""
+    tg = np.broadcast_to(targets, (len(pos),) + targets.shape)
+    u = _unit(tg - pos[:, None, :])
+    k = 2 * u[..., 0] / radar.wavelength
+    az, el = beam.off_boresight_angles(beam.boresight(radar, pos), pos, tg)
+    return k, np.abs(az) <= radar.azimuth_beamwidth / 2, np.abs(two_way_gain(radar, az, el))
+
+
+def _extent(k, mask):
+    with np.errstate(invalid="ignore"):
+        hi = np.where(mask, k, -np.inf).max(axis=0)
+        lo = np.where(mask, k, np.inf).min(axis=0)
+    return np.where(mask.any(axis=0), hi - lo, 0.0)
+
+
+def _full_support(radar, k, k_ref):
+    """The k samples of full illumination: the reference point's own (stripmap), else the target's own
+    pulses under the scene centre's beam."""
+    return k_ref if radar.mode == "stripmap" else k
+
+
+def illumination_survey(radar, platform_pos, targets, min_fraction: float = 0.95,
+                        max_detailed: int = 50) -> list[TargetIllumination]:
+    """Each target's (scene-frame xyz (n, 3)) illumination by the antenna's azimuth beam over the pulses at
+    ``platform_pos``, against full illumination (:func:`_reference_points`). The expected along-track
+    responses (antenna weighting, no processing window) are computed for targets lit over less than
+    ``min_fraction`` of their full -3 dB aperture (at most ``max_detailed`` of them, the worst first; the
+    others keep None). Without an antenna pattern every target is fully lit."""
+    targets = np.atleast_2d(np.asarray(targets, float))
+    pos = np.asarray(platform_pos, float)
+    if radar.azimuth_beamwidth <= 0 or len(targets) == 0 or len(pos) == 0:
+        return [TargetIllumination(1.0, 0.0) for _ in range(len(targets))]
+    refs = _reference_points(radar, targets)
+    sub = pos if len(pos) <= _SURVEY_PULSES else \
+        pos[np.unique(np.linspace(0, len(pos) - 1, _SURVEY_PULSES).round().astype(int))]
+    fraction, peak = np.zeros(len(targets)), np.zeros(len(targets))
+    for s in range(0, len(targets), _SURVEY_BLOCK):
+        sl = slice(s, s + _SURVEY_BLOCK)
+        k, lit, g = _beam_k(radar, sub, targets[sl])
+        kr, lit_r, _ = _beam_k(radar, sub, refs[sl])
+        full = _extent(_full_support(radar, k, kr), lit_r)
+        fraction[sl] = np.where(full > 0, _extent(k, lit) / np.where(full > 0, full, 1), 1.0)
+        peak[sl] = 20 * np.log10(np.maximum(g.max(axis=0), 1e-300))
+    out = [TargetIllumination(float(min(f, 1.0)), float(p)) for f, p in zip(fraction, peak)]
+    for i in np.argsort(fraction, kind="stable")[:max_detailed]:
+        if fraction[i] >= min_fraction:
+            break
+        k, lit, g = (a[:, 0] for a in _beam_k(radar, pos, targets[i:i + 1]))
+        kr, lit_r, gr = (a[:, 0] for a in _beam_k(radar, pos, refs[i:i + 1]))
+        kf = _full_support(radar, k, kr)
+        band = lambda kk, m: (kk[m].min(), kk[m].max()) if np.count_nonzero(m) > 1 else None  # noqa: E731
+        full = response_theory(kf, gr, band(kf, lit_r & (gr > 0)))
+        try:
+            now = response_theory(k, g, band(k, lit & (g > 0)))
+        except ValueError:                            # no gain at all (a rect beam that never sees it)
+            now = None
+        out[i] = dataclasses.replace(out[i], now=now, full=full)
+    return out

@@ -1,0 +1,97 @@
+"""Each target's own theory (sarproc.product.theory): windows, weighted supports, antenna illumination."""
+
+import math
+
+import numpy as np
+import pytest
+
+from sarproc.product import theory
+from sarproc.product.frames import make_frame
+from sarproc.product.metadata import RadarMetadata
+
+from test_metrics import reference_metrics
+
+
+def test_windows_theory_is_the_fourier_integral_of_their_taper():
+    # the unweighted band gives the contract's numbers; every window agrees with an independent dense integral
+    flat = theory.window_theory("none")
+    assert flat.null == 1.0
+    assert flat.irw == pytest.approx(0.8859, abs=2e-4)
+    assert flat.pslr_db == pytest.approx(-13.26, abs=0.01) and flat.islr_db == pytest.approx(-10.16, abs=0.01)
+    for name in theory.WINDOWS:
+        th = theory.window_theory(name)
+        ref = reference_metrics(1.0, lambda f, n=name: theory.window_taper(n, f), k=256)
+        assert th.irw == pytest.approx(ref["irw"], rel=1e-3), name
+        assert th.pslr_db == pytest.approx(ref["pslr_db"], abs=0.05), name
+        assert th.islr_db == pytest.approx(ref["islr_db"], abs=0.05), name
+    assert theory.window_theory("hamming").factor == pytest.approx(1.30, abs=0.005)
+
+
+def test_sample_taper_is_numpys_hamming():
+    np.testing.assert_allclose(theory.sample_taper("hamming", 257), np.hamming(257), atol=1e-12)
+    np.testing.assert_array_equal(theory.sample_taper("none", 5), np.ones(5))
+
+
+def test_binned_support_matches_the_exact_sum():
+    # a long, non-uniform, asymmetric support (a pattern skirt cut by the track end) binned onto 512 cells
+    k = np.sort(np.random.default_rng(1).uniform(-0.3, 0.7, 5000))
+    w = np.sinc(1.3 * k) ** 2
+    binned = theory.response_theory(k, w)
+    exact = theory.response_theory(k, w, samples=len(k))
+    assert binned.irw == pytest.approx(exact.irw, rel=1e-3)
+    assert binned.pslr_db == pytest.approx(exact.pslr_db, abs=0.1)
+    assert binned.islr_db == pytest.approx(exact.islr_db, abs=0.1)
+    assert binned.null == exact.null == pytest.approx(1 / (k.max() - k.min()))
+
+
+def test_bad_support_is_refused():
+    with pytest.raises(ValueError, match="positive weight"):
+        theory.response_theory([0.0, 1.0], [0.0, 0.0])
+    with pytest.raises(ValueError, match="extent"):
+        theory.response_theory([0.5, 0.5], [1.0, 1.0])
+
+
+def _stripmap(pattern, prf=1000.0):
+    radar = RadarMetadata(carrier_frequency=10e9, bandwidth=100e6, pulse_duration=5e-6, chirp_rate=2e13,
+                          range_sampling_rate=120e6, prf=prf, velocity=100.0, altitude=500.0, squint=0.0,
+                          reference_range=2000.0, scene_center=(0.0, math.sqrt(2000.0**2 - 500.0**2), 0.0),
+                          mode="stripmap", azimuth_beamwidth=math.radians(2), antenna_pattern=pattern)
+    t = (np.arange(int(prf)) - int(prf) // 2) / prf
+    pos = np.stack([100.0 * t, 0 * t, np.full_like(t, 500.0)], axis=1)
+    return radar, pos, make_frame("zero_doppler", radar)
+
+
+def test_rect_beam_target_theory_is_the_lit_aperture():
+    # a rect beam lights a flat stretch of aperture: 0.886 / (k extent of the lit pulses), sinc side lobes
+    radar, pos, frame = _stripmap("rect")
+    for az in (0.0, 40.0):
+        centre = frame.from_xyz(np.asarray(radar.scene_center))
+        coords = (az, float(centre[1]))
+        p0 = frame.to_xyz(*coords).reshape(3)
+        lit = theory.illumination(radar, pos, p0).in_beam
+        u = (p0 - pos) / np.linalg.norm(p0 - pos, axis=1)[:, None]
+        e = (frame.to_xyz(az + 1e-3, coords[1]).reshape(3) - p0) / 1e-3
+        k = 2 * (u[lit] @ e) / radar.wavelength
+        th = theory.target_theory(radar, pos, pos, frame, coords)
+        assert th[0].null == pytest.approx(1 / (k.max() - k.min()), rel=1e-9)
+        assert th[0].irw == pytest.approx(0.886 / (k.max() - k.min()), rel=0.005)
+        assert th[0].pslr_db == pytest.approx(-13.26, abs=0.1)
+        assert th[1].irw == pytest.approx(0.8859 * 3e8 / (2 * 100e6), rel=0.01)     # near broadside
+
+
+def test_hamming_azimuth_taper_and_range_window_broaden_by_their_factor():
+    radar, pos, frame = _stripmap(None)              # no pattern recorded: flat over the -3 dB beam
+    radar = radar.replace(azimuth_beamwidth=0.0)    # and here no beam at all: every pulse, flat
+    coords = tuple(frame.from_xyz(np.asarray(radar.scene_center)))
+    plain = theory.target_theory(radar, pos, pos, frame, coords)
+    ham = theory.target_theory(radar, pos, pos, frame, coords, azimuth_window="hamming", range_window="hamming")
+    for a in range(2):
+        assert ham[a].null == pytest.approx(plain[a].null, rel=1e-6)
+        assert ham[a].irw / plain[a].irw == pytest.approx(1.3030 / 0.8859, rel=0.003)
+        assert ham[a].pslr_db == pytest.approx(-42.7, abs=0.2)
+
+
+def test_unweighted_image_theory_is_the_targets_median():
+    th = [[theory.ResponseTheory(irw=1.3 * n, null=n, pslr_db=-42.0, islr_db=-36.0)] for n in (1.0, 1.1, 9.0)]
+    assert theory.unweighted_irw(th, [5.0]) == [pytest.approx(0.886 * 1.1)]
+    assert theory.unweighted_irw([], [5.0]) == [5.0]

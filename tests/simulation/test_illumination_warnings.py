@@ -1,0 +1,66 @@
+"""simulate warns about targets outside the main beam or lit over only part of their aperture (issue 20),
+with the fraction and the expected resolution, and stays silent when every target is fully lit.
+
+Base scene (tests/conftest.py): 10 GHz, v = 100 m/s, R = 2 km; here a 0.5 s stripmap (a 50 m track) with a
+2 deg sinc beam, whose -3 dB footprint (70 m) is longer than the track: the scene centre is lit over all of it.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import re
+
+import numpy as np
+import pytest
+
+from sarproc.product.beam import one_way_amplitude
+from sarproc.simulation.scene import scene_from_mapping
+from sarproc.simulation.simulate import illumination_warnings, plan_simulation
+
+
+def warnings_of(caplog, mapping):
+    caplog.clear()
+    scene = scene_from_mapping(mapping, source="scene.yaml")
+    with caplog.at_level(logging.WARNING, logger="sarproc.simulation.simulate"):
+        lines = illumination_warnings(scene, plan_simulation(scene))
+    assert [r.getMessage() for r in caplog.records] == lines
+    return lines
+
+
+def stripmap(scene_mapping, *points, pattern="sinc"):
+    return scene_mapping(acquisition={"mode": "stripmap", "aperture_time": "0.5 s"},
+                         effects={"antenna": {"pattern": pattern, "azimuth_beamwidth": "2 deg"}},
+                         targets={"frame": "squint", "points": list(points)})
+
+
+def test_silent_when_every_target_is_fully_lit(scene_mapping, caplog):
+    assert warnings_of(caplog, stripmap(scene_mapping, {"name": "A"}, {"name": "B", "azimuth": "5 m"})) == []
+    assert warnings_of(caplog, scene_mapping()) == []                    # spotlight, no pattern
+
+
+def test_partly_lit_and_side_lobe_lit_targets_are_named_with_fraction_and_resolution(scene_mapping, caplog):
+    lines = warnings_of(caplog, stripmap(scene_mapping, {"name": "A"}, {"name": "P", "azimuth": "40 m"},
+                                         {"name": "S", "azimuth": "200 m"}))
+    assert len(lines) == 2, lines
+    partly, side = lines
+    # P: in the -3 dB beam (|x_P - x| <= R tan 1 deg = 34.9 m) from x = 5.1 m to the track end at 25 m,
+    # against the scene centre's whole 50 m track: 40 %
+    assert "'P' is only partly illuminated: 40 %" in partly
+    irw, full = (float(v) for v in re.findall(r"IRW ([\d.]+) m instead of ([\d.]+) m", partly)[0])
+    assert irw > 1.1 * full                          # 40 % of the aperture: a coarser response (1.22x)
+    # S never enters the main beam; its strongest two-way gain is the sinc pattern's at the nearest track end
+    x = np.linspace(-25, 25, 201)
+    angle = np.arctan((200 - x) / 2000)
+    gain = 40 * np.log10(np.abs(one_way_amplitude(angle, math.radians(2), "sinc")).max())
+    assert "'S' is outside the main beam" in side and "0 % of its full -3 dB aperture" in side
+    assert f"strongest two-way gain {gain:.1f} dB" in side
+
+
+def test_a_beam_that_never_sees_a_target_says_so(scene_mapping, caplog):
+    (line,) = warnings_of(caplog, stripmap(scene_mapping, {"name": "A"}, {"name": "F", "azimuth": "200 m"},
+                                           pattern="rect"))
+    assert "'F' is outside the beam over the whole aperture" in line and "never lit" in line
+
+
+
