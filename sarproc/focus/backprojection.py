@@ -400,9 +400,12 @@ def backproject(raw: Product, params: BackprojectParams = BackprojectParams(), p
     data = raw.data if raw.data.ndim == 3 else raw.data[None]
     taper = theory.sample_taper(params.azimuth_window, data.shape[1])
     targets = targets_in_frame(raw.targets, frame)
-    own = [theory.target_theory(radar, pos + tx_off, pos + rx_offs[0], frame, (t["azimuth"], t["range"]),
-                                range_window=params.range_window, taper=taper) for t in targets]
-    theory.fill_target_theory(targets, frame.axes, own)
+    # Moving targets keep the image's theory (0 in the table): their support follows their true track, which
+    # the static-equivalent position a multichannel chain gives them does not describe.
+    static = [i for i, t in enumerate(targets) if not (t["vx"] or t["vy"] or t["vz"])]
+    own = [theory.target_theory(radar, pos + tx_off, pos + rx_offs[0], frame, (targets["azimuth"][i],
+                                targets["range"][i]), range_window=params.range_window, taper=taper) for i in static]
+    theory.fill_target_theory(targets, frame.axes, own, rows=static)
     # Default spacing from the finest own theory: a target lit by the pattern's skirts or side lobes has a
     # finer response than the -3 dB beam's (sampled at the centre theory, its IRW read 10 % short).
     finest = [min([t[a].irw for t in own] + [irw0[a]]) for a in range(2)]

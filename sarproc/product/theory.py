@@ -239,9 +239,10 @@ def target_theory(radar, tx_pos, rx_pos, frame, coords, azimuth_window: str = "n
     return out
 
 
-def fill_target_theory(targets: np.ndarray, dims, theories) -> None:
-    """Write each target's theory (one list of ResponseTheory per target, dims order) into its table, in place."""
-    for row, per_axis in zip(range(len(targets)), theories):
+def fill_target_theory(targets: np.ndarray, dims, theories, rows=None) -> None:
+    """Write each target's theory (one list of ResponseTheory per target, dims order) into its table, in place
+    (``rows``: the table rows they belong to; default every row, in order)."""
+    for row, per_axis in zip(range(len(targets)) if rows is None else rows, theories):
         for d, th in zip(dims, per_axis):
             targets[f"irw_{d}"][row] = th.irw
             targets[f"null_{d}"][row] = th.null
