@@ -77,7 +77,9 @@ class EvaluateParams:
     islr_nulls: float = param(default=10.0, gt=1, doc="ISLR/PSLR window half-width, in nulls (1/B)")
     margin_nulls: float = param(default=6.0, ge=1, doc="chip half-width beyond the ISLR window, nulls")
     irw_factor: float = param(default=SINC_IRW_FACTOR, gt=0, doc=(
-        "IRW_theory * B; 0.886 for unweighted processing (about 1.30 when theory is a Hamming-weighted IRW)"))
+        "IRW_theory * B of the image's theory; 0.886 for unweighted processing (about 1.30 when theory is a "
+        "Hamming-weighted IRW). Targets with their own theory in the targets table (null_<axis>, written by every "
+        "processor) do not use it"))
     principal_axes: bool = param(default=True, doc=(
         "measure along the response's principal axes (side-lobe ridges found from the chip's spectral support); "
         "false: along the image axes only"))
