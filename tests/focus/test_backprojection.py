@@ -104,3 +104,26 @@ def test_reference_engine_upsamples_at_most_64_pulses_at_a_time_for_few_points()
     bars, n_pulses = _four_point_progress()
     assert n_pulses > 64
     assert bars[0]["total"] == -(-n_pulses // 64)
+
+
+def test_hamming_windows_are_written_as_each_targets_own_theory():
+    # every target's table row carries its Hamming theory (IRW 1.303 / B, side lobes of the window); the image
+    # attribute keeps the unweighted 0.886 / B; evaluate then reads the target at its own theory
+    import copy
+
+    from sarproc.product.theory import window_theory
+
+    scene = copy.deepcopy(SQUINT_SPOTLIGHT)
+    scene["targets"]["points"] = scene["targets"]["points"][:1]
+    raw = simulate(scene_from_mapping(scene))
+    image = backproject(raw, BackprojectParams(frame="los", margin_cells=28, engine="reference",
+                                               range_window="hamming", azimuth_window="hamming"))
+    ham, t = window_theory("hamming"), image.targets[0]
+    for a, ax in enumerate(("azimuth", "range")):
+        assert t[f"null_{ax}"] == pytest.approx(image.attrs["theoretical_irw"][a] / 0.886, rel=1e-6)
+        assert t[f"irw_{ax}"] / t[f"null_{ax}"] == pytest.approx(ham.factor, rel=0.003)
+        assert t[f"pslr_{ax}"] == pytest.approx(ham.pslr_db, abs=0.1)
+        assert t[f"islr_{ax}"] == pytest.approx(ham.islr_db, abs=0.1)
+    for m in evaluate_product(image).targets[0].axes:
+        assert m.theory == "target" and abs(m.irw_ratio - 1) < 0.01, m
+        assert abs(m.pslr_db - m.pslr_theory_db) < 0.3 and abs(m.islr_db - m.islr_theory_db) < 0.3, m
