@@ -145,10 +145,11 @@ def response_theory(k, w, band=None, islr_nulls: float = ISLR_NULLS, upsample: i
     m = int(math.ceil(reach * upsample))
     step = np.diff(u)
     if u.size > 1 and np.allclose(step, 1.0 / round(1.0 / step[0]), rtol=1e-9, atol=0):
-        # cell spacing 1/n of B: a zero-padded FFT samples the response every 1/upsample null exactly
+        # cell spacing 1/n of B: a zero-padded FFT samples the response every 1/upsample null exactly; the
+        # response repeats every n nulls (grating lobes of a sparse support: a short array), read modulo
         n = round(1.0 / step[0])
-        spec = np.fft.fft(w, max(n * upsample, u.size, 2 * m + 1))
-        p = np.abs(np.concatenate([spec[-m:], spec[:m + 1]])) ** 2
+        spec = np.fft.fft(w, n * upsample)
+        p = np.abs(spec[np.arange(-m, m + 1) % (n * upsample)]) ** 2
     else:
         x = np.arange(-m, m + 1) / upsample
         phase = 2 * np.pi * np.outer(x, u)
@@ -246,8 +247,9 @@ def fill_target_theory(targets: np.ndarray, dims, theories, rows=None) -> None:
         for d, th in zip(dims, per_axis):
             targets[f"irw_{d}"][row] = th.irw
             targets[f"null_{d}"][row] = th.null
-            targets[f"pslr_{d}"][row] = th.pslr_db
-            targets[f"islr_{d}"][row] = th.islr_db
+            # 0 dB marks "not recorded": a real 0 dB (a grating lobe of a two-receiver array) is kept just below
+            targets[f"pslr_{d}"][row] = min(th.pslr_db, -1e-9)
+            targets[f"islr_{d}"][row] = th.islr_db if th.islr_db != 0 else -1e-9
 
 
 def unweighted_irw(theories, fallback) -> list[float]:

@@ -95,3 +95,19 @@ def test_unweighted_image_theory_is_the_targets_median():
     th = [[theory.ResponseTheory(irw=1.3 * n, null=n, pslr_db=-42.0, islr_db=-36.0)] for n in (1.0, 1.1, 9.0)]
     assert theory.unweighted_irw(th, [5.0]) == [pytest.approx(0.886 * 1.1)]
     assert theory.unweighted_irw([], [5.0]) == [5.0]
+
+
+@pytest.mark.parametrize("n", [2, 3, 8, 32])
+def test_array_elevation_theory_is_the_array_factor_seen_from_the_target(n):
+    # array3d's per-target elevation theory: the receivers' array factor (its own -3 dB width, eq. 26) at
+    # nadir, widened by 1 / cos(theta) off nadir (the array resolves sin(theta)); short arrays keep their
+    # grating lobes (0 dB within +-10 nulls)
+    from sarproc.focus.array3d.linear_array import elevation_irw, target_theory_3d
+
+    v, lam = np.arange(n) * 0.1, 0.03
+    nadir, off = target_theory_3d(v, lam, [0.0, 0.3], [1.0, 2.0])
+    assert nadir[0].irw == pytest.approx(elevation_irw(v, lam), rel=2e-3)
+    assert off[0].irw * math.cos(0.3) == pytest.approx(nadir[0].irw, rel=1e-9)
+    assert nadir[0].null == pytest.approx(lam / (n * 0.1), rel=1e-9)
+    assert (nadir[0].pslr_db == pytest.approx(0.0, abs=1e-6)) == (n < 10)
+    assert nadir[1].irw == pytest.approx(0.8859 / 0.886, rel=1e-3) and nadir[2].irw == pytest.approx(2 * 0.8859 / 0.886, rel=1e-3)
