@@ -557,14 +557,16 @@ def _target_axes(axes, target_irw, n_targets, irw_factor, target_null=None, targ
     if target_irw is None:
         return [axes] * n_targets
     irw = np.asarray(target_irw, dtype=float)
+    if irw.shape != (n_targets, len(axes)):
+        raise InputError(f"target_irw has shape {irw.shape}; expected ({n_targets}, {len(axes)}): one IRW per "
+                         f"target and axis, NaN where the image's applies")
     nulls = np.full(irw.shape, np.nan) if target_null is None else np.asarray(target_null, dtype=float)
     lobes = np.full(irw.shape + (2,), np.nan) if target_sidelobes is None else np.asarray(target_sidelobes, float)
     if nulls.shape != irw.shape or lobes.shape != irw.shape + (2,):
         raise InputError(f"target_null / target_sidelobes have shapes {nulls.shape} / {lobes.shape}; expected "
                          f"{irw.shape} / {irw.shape + (2,)}")
-    if irw.shape != (n_targets, len(axes)):
-        raise InputError(f"target_irw has shape {irw.shape}; expected ({n_targets}, {len(axes)}): one IRW per "
-                         f"target and axis, NaN where the image's applies")
+    if np.any(~np.isnan(nulls) & ~(np.isfinite(nulls) & (nulls > 0))):
+        raise InputError("target_null values must be positive and finite, or NaN (IRW / irw_factor applies)")
     if np.any(~np.isnan(irw) & ~(np.isfinite(irw) & (irw > 0))):
         raise InputError("target_irw values must be positive and finite, or NaN (the image's theory applies)")
     out = []
