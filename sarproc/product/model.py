@@ -46,6 +46,35 @@ KIND_DIMS = {"raw": ("azimuth_time", "range_time"), "preprocessed": ("azimuth_ti
              "raw_array": ("channel", "azimuth_time", "range_time"),
              "image": ("azimuth", "range"), "image3d": ("elevation", "azimuth", "range")}
 
+# The moving-target table of ``reconstruct`` (one row per detected mover), carried by every later stage
+# like any aux array: aux ``moving_targets`` (mover, moving_target_field), float64, columns in this order.
+MOVING_TARGET_COLUMNS = (
+    ("id", "1", "mover number"),
+    ("snr", "dB", "detection SNR: peak over the mean local background in the detection image"),
+    ("radial_velocity", "m/s", "estimated slant-range velocity v_r"),
+    ("radial_velocity_sigma", "m/s", "its 1-sigma uncertainty"),
+    ("along_track_velocity", "m/s", "estimated along-track velocity v_a"),
+    ("along_track_velocity_sigma", "m/s", "its 1-sigma uncertainty"),
+    ("apparent_x", "m", "static-equivalent (apparent) position, scene frame"),
+    ("apparent_y", "m", ""), ("apparent_z", "m", ""),
+    ("x", "m", "relocated position at time 0 (apparent position and estimated velocity), scene frame"),
+    ("y", "m", ""), ("z", "m", ""),
+    ("position_sigma", "m", "1-sigma relocation uncertainty along track implied by the velocity uncertainties"),
+    ("apparent_time", "s", "beam-centre time of the apparent position"),
+    ("range_cell_first", "1", "first walk-corrected range cell of the mover's window"),
+    ("range_cell_last", "1", "last range cell of the window (exclusive)"),
+    ("leakage", "1", "out-of-band energy fraction at the estimate (eq. 5)"),
+    ("truth_index", "1", "row of the matched moving target in the targets table; -1 none or no truth"),
+)
+
+
+def moving_target_table(aux: dict) -> dict[str, np.ndarray]:
+    """Columns of aux ``moving_targets`` by name (empty columns when the product has none)."""
+    arr = np.asarray(aux.get("moving_targets", np.zeros((0, len(MOVING_TARGET_COLUMNS)))), float)
+    arr = arr.reshape(-1, len(MOVING_TARGET_COLUMNS))
+    return {name: arr[:, k] for k, (name, _, _) in enumerate(MOVING_TARGET_COLUMNS)}
+
+
 # Auxiliary arrays: named dims (netCDF readers see no phony dims), CF units, description.
 # ``pulse`` is the transmit-pulse axis (the raw product's azimuth_time), ``receiver`` the receive
 # channels, ``xyz`` the scene-frame components.
@@ -54,6 +83,8 @@ AUX_LAYOUT = {
     "tx_offset": (("xyz",), "m", "transmitter offset from the platform position"),
     "rx_offset": (("receiver", "xyz"), "m", "receiver offsets from the platform position"),
     "range_gate_offset": (("pulse",), "s", "receive-window start offset per pulse"),
+    "moving_targets": (("mover", "moving_target_field"), "see long_name", "moving targets found by reconstruct; "
+                       "columns: " + ", ".join(f"{n} ({u})" for n, u, _ in MOVING_TARGET_COLUMNS)),
 }
 AUX_DIM_DOC = {"pulse": "transmit pulse index", "receiver": "receive channel index",
                "xyz": "scene-frame component: 0 = x (along track), 1 = y, 2 = z (up)"}

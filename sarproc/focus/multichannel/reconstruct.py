@@ -32,10 +32,11 @@ import math
 import numpy as np
 import scipy.fft as sfft
 
-from sarproc.focus.multichannel import channels, deramp, velocity
+from sarproc.focus.multichannel import channels, deramp, detection, velocity
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import C
+from sarproc.product import moving
 from sarproc.product.model import Product
 
 log = logging.getLogger(__name__)
@@ -57,9 +58,15 @@ class ReconstructParams:
         "a range cell is moving when its Doppler centroid exceeds 2 v / lambda of this line-of-sight velocity"))
     detection_level: float = param("decibel", default=-30.0, lt=0, doc="ignore range cells weaker than this "
                                    "relative to the strongest")
-    detection_snr: float = param("decibel", default=6.0, ge=0, doc=(
-        "and stronger than the median range cell (the noise and clutter floor) by this much"))
-    window_margin: int = param(default=16, ge=1, doc="range cells added on each side of a moving-target window")
+    detection_snr: float = param("decibel", default=15.0, ge=0, doc=(
+        "CFAR threshold: a detection-image peak must exceed the mean local background (clutter residual and "
+        "noise, from tile medians) by this much"))
+    window_margin: int = param(default=16, ge=1, doc="range cells on each side of a mover's peak in its window "
+                               "(its own range walk and curvature must fit)")
+    separation_bandwidth: float = param("frequency", default=25.0, gt=0, doc=(
+        "half width of the azimuth mask that separates one mover from the others in its range cells, in the "
+        "dechirped channel spectrum; movers closer than about 2.5 x this / K_a in apparent time are not separated"))
+    max_detections: int = param(default=64, ge=1, doc="at most this many detections are examined (strongest first)")
     radial_velocity: float | None = param("velocity", default=None, doc="use this slant-range velocity (no search)")
     along_track_velocity: float | None = param("velocity", default=None, doc="use this along-track velocity "
                                                "(no autofocus)")
@@ -96,6 +103,9 @@ class MovingTarget:
     at_bound: bool
     search: np.ndarray          # (n, 2) velocity, leakage
     autofocus: np.ndarray       # (n, 2) velocity, sharpness (empty if not run)
+    snr_db: float = float("nan")          # detection SNR (peak over mean local background)
+    apparent_time: float = float("nan")   # s, where it appears (beam-centre time of its static equivalent)
+    apparent_range: float = float("nan")  # m, slant range of its static equivalent at apparent_time
 
 
 @dataclasses.dataclass
@@ -270,9 +280,16 @@ class _Window:
         return velocity.sharpness(sfft.ifft(sfft.fft(z, axis=0, workers=-1), axis=1, workers=-1))
 
 
-def _estimate(win: _Window, params: ReconstructParams, g: _Geometry, centre_range: float) -> MovingTarget:
-    """Slant-range velocity by the leakage search, along-track by autofocus, then a refined search."""
+def _estimate(win: _Window, params: ReconstructParams, g: _Geometry, centre_range: float,
+              static_below: float | None = None) -> tuple[MovingTarget | None, list[str]]:
+    """Slant-range velocity by the leakage search, along-track by autofocus, then a refined search.
+
+    Returns the target and the reasons to doubt it (true statements, for the caller to warn with the
+    window's location). With ``static_below``, a window whose line-of-sight velocity from the first
+    search is below it (m/s) is a static target: None.
+    """
     empty = np.zeros((0, 2))
+    notes: list[str] = []
     can_search = g.n * g.prf > 2 * g.half_band
     if not can_search and params.radial_velocity is None:
         log.warning("reconstruct: N PRF = %.4g Hz leaves no band outside the Doppler band %.4g Hz; "
@@ -284,25 +301,23 @@ def _estimate(win: _Window, params: ReconstructParams, g: _Geometry, centre_rang
                                     exhaustive=params.search == "exhaustive")
 
     result = None
+    beyond = False
     if params.radial_velocity is not None:
         v_r = params.radial_velocity
     elif can_search:
         result = search(v_a, params.velocity_min, params.velocity_max, params.coarse_step)
         v_r, beyond = _resolve_blind_velocity(win, result.estimate, v_a, params, g)
-        if beyond:
-            log.warning("reconstruct: no slant-range velocity in [%g, %g] m/s matches the target's range walk; "
-                        "it lies beyond the search bound (best candidate %.2f m/s)",
-                        params.velocity_min, params.velocity_max, v_r)
-            result = dataclasses.replace(result, at_bound=True)
         if abs(v_r - result.estimate) > params.velocity_step:
             lo, hi = max(params.velocity_min, v_r - params.coarse_step), min(params.velocity_max, v_r + params.coarse_step)
             alias = search(v_a, lo, hi, params.coarse_step / 4)
             trials = np.concatenate([result.trials, alias.trials])
-            result = velocity.SearchResult(alias.estimate, alias.at_bound or result.at_bound,
-                                           trials[np.argsort(trials[:, 0])], result.evaluations + alias.evaluations)
+            result = velocity.SearchResult(alias.estimate, alias.at_bound, trials[np.argsort(trials[:, 0])],
+                                           result.evaluations + alias.evaluations)
             v_r = alias.estimate
     else:
         v_r = 0.0
+    if static_below is not None and abs(channels.line_of_sight_velocity(v_r, v_a, g.squint)) < static_below:
+        return None, notes
     y_dem = sfft.ifft(win.demodulated_spectrum(v_r, v_a), axis=0, workers=-1)
     p = np.sum(np.abs(y_dem) ** 2, axis=1)
     t_c = float(np.sum(g.out_times * p) / np.sum(p)) if np.sum(p) > 0 else 0.0
@@ -325,17 +340,23 @@ def _estimate(win: _Window, params: ReconstructParams, g: _Geometry, centre_rang
             lo, hi = max(params.velocity_min, v_r - span), min(params.velocity_max, v_r + span)
             fine = search(v_a, lo, hi, params.velocity_step)
             trials = np.concatenate([result.trials, fine.trials])
-            result = velocity.SearchResult(fine.estimate, result.at_bound, trials[np.argsort(trials[:, 0])],
+            result = velocity.SearchResult(fine.estimate, False, trials[np.argsort(trials[:, 0])],
                                            result.evaluations + fine.evaluations)
             v_r = fine.estimate
     leak = win.leakage(v_r, v_a) if can_search else float("nan")
-    if result is not None and result.at_bound:
-        log.warning("reconstruct: slant-range velocity estimate %.2f m/s is on the search bound "
-                    "[%g, %g] m/s; the target may move faster", v_r, params.velocity_min, params.velocity_max)
+    on_bound = result is not None and min(abs(v_r - params.velocity_min),
+                                          abs(v_r - params.velocity_max)) < params.velocity_step
+    if beyond:
+        notes.append(f"no slant-range velocity in [{params.velocity_min:g}, {params.velocity_max:g}] m/s removes "
+                     f"its range walk (best {v_r:.2f} m/s): it moves faster than the search bound, or the window "
+                     "holds more than one mover")
+    elif on_bound:
+        notes.append(f"slant-range velocity estimate {v_r:.2f} m/s is on the search bound "
+                     f"[{params.velocity_min:g}, {params.velocity_max:g}] m/s; the target may move faster")
     return MovingTarget(first_cell=0, last_cell=0, slant_range=slant_range, radial_velocity=float(v_r),
                         along_track_velocity=float(v_a), beam_centre_time=t_c, leakage=leak,
-                        at_bound=bool(result.at_bound) if result is not None else False,
-                        search=result.trials if result is not None else empty, autofocus=af)
+                        at_bound=bool(beyond or on_bound),
+                        search=result.trials if result is not None else empty, autofocus=af), notes
 
 
 def blind_velocity_period(g: _Geometry) -> float:
@@ -376,6 +397,129 @@ def clutter_null(spec_fa: np.ndarray, g: _Geometry, band_factor: float = 1.0) ->
     return np.moveaxis(res, 1, 0), int(n - clutter.sum(axis=1).max())
 
 
+def _swath_centre_range(raw: Product) -> float:
+    rt = np.asarray(raw.coords["range_time"], float)
+    return C / 4 * (rt[0] + rt[-1])
+
+
+def _refine_peak(y_win_tf: np.ndarray, ka: np.ndarray, out_f: np.ndarray, index: int, cell: int,
+                 n_out: int) -> tuple[float, float]:
+    """Sub-sample (azimuth index, window cell) of the peak nearest (index, cell) in a window's detection image."""
+    power = detection.detection_image(sfft.fft(y_win_tf, axis=0, workers=-1), out_f, ka)
+    lo, hi = index - 8, index + 9
+    rows = np.arange(lo, hi) % n_out
+    sub = power[rows]
+    k, c = np.unravel_index(int(np.argmax(sub)), sub.shape)
+
+    def vertex(v, i):
+        if 0 < i < len(v) - 1:
+            den = v[i - 1] - 2 * v[i] + v[i + 1]
+            if den < 0:
+                return i + 0.5 * (v[i - 1] - v[i + 1]) / den
+        return float(i)
+
+    return lo + vertex(sub[:, c], k), vertex(sub[k], c)
+
+
+def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spec: np.ndarray, src: np.ndarray,
+                      y: np.ndarray, f_r: np.ndarray, lead: int, info: dict, progress) -> list[MovingTarget]:
+    """Detect movers on ``src`` (detection.py), estimate and refocus each one in ``y`` (f_a, f_r), in place.
+
+    Each detection's channels are separated from the rest of its range cells (detection.extract); its
+    conventional reconstruction in ``y`` is replaced by its modified one (linear: static targets and the
+    other movers are untouched). Detections whose line-of-sight velocity is under ``detection_velocity``
+    are static targets (or the clutter null's residue) and are left as they are.
+    """
+    r = raw.radar
+    n_out, n_cells = y.shape
+    out_f = sfft.fftfreq(n_out, 1.0 / (g.n * g.prf))
+    r_mid = _swath_centre_range(raw)
+    ka = detection.fm_rate(g.velocity, g.squint, r_mid, g.fc, f_r)
+    power = detection.detection_image(src, out_f, ka)
+    bg = detection.background(power)
+    dets, dropped = detection.find_detections(power, bg, g.out_times, params.detection_snr, params.detection_level,
+                                              max(1.0, g.fs / r.bandwidth), params.max_detections)
+    del power, bg
+    if dropped:
+        log.warning("reconstruct: %d further detections above the CFAR threshold were not examined "
+                    "(reconstruct.max_detections = %d)", dropped, params.max_detections)
+    ka0 = float(detection.fm_rate(g.velocity, g.squint, r_mid, g.fc, 0.0))
+    ambiguity = g.prf / ka0                   # apparent-time spacing the channel samples cannot tell apart (s)
+    sep = 1.5 * params.separation_bandwidth / ka0
+    x_tr = sfft.ifft(spec, axis=-1, workers=-1)
+    y_tr = sfft.ifft(sfft.ifft(y, axis=0, workers=-1), axis=1, workers=-1)
+    rt0 = float(raw.coords["range_time"][0])
+    m = params.window_margin
+    movers: list[MovingTarget] = []
+    peaks: list[detection.Detection] = []
+    counts = {"detections": len(dets), "static": 0, "ambiguous": 0, "incoherent": 0}
+    incoherent = 0.5 * (1 - 2 * g.half_band / (g.n * g.prf))
+
+    # An ambiguity k PRF / K_a away keeps the mover's range history while a static point there walks by
+    # lambda k PRF / 2 m/s: over the illumination time it is smeared over this many cells either side.
+    t_ill = 2 * g.half_band / ka0
+    ghost_cells = 2 + math.ceil(C / g.fc * g.prf / 2 * t_ill / 2 * 2 * g.fs / C)
+
+    def apart(d1, d2, cells):
+        dt = (d1.time - d2.time) / ambiguity
+        k = round(dt)
+        return abs(d1.cell - d2.cell) > (cells if k == 0 else max(cells, ghost_cells)) or \
+            abs(dt - k) * ambiguity > sep
+
+    for det in (progress(dets) if progress is not None else dets):
+        same = [k for k, p in enumerate(peaks) if not apart(det, p, m)]
+        if same:
+            k = same[0]
+            counts["ambiguous"] += 1
+            if det.power > 0.25 * peaks[k].power:
+                log.warning("reconstruct: a second response %.1f dB under mover %d (range cell %d, %.3f s from it, "
+                            "a multiple of PRF / K_a = %.3f s) could not be separated from it: two movers, or one "
+                            "mover's ambiguity", 10 * math.log10(peaks[k].power / det.power), k, det.cell,
+                            det.time - peaks[k].time, ambiguity)
+            continue
+        a, b = max(0, det.cell - m), min(n_cells, det.cell + m + 1)
+        f_w = sfft.fftfreq(b - a, 1.0 / g.fs)
+        ka_w = detection.fm_rate(g.velocity, g.squint, r_mid, g.fc, f_w)
+        ext = detection.extract(sfft.fft(x_tr[:, :, a:b], axis=-1, workers=-1), g.times, g.prf, det.time, ka_w,
+                                params.separation_bandwidth)
+        win = _Window(ext, f_w, g, params)
+        centre_range = C / 2 * (rt0 + (det.cell - lead) / g.fs)
+        mt, notes = _estimate(win, params, g, centre_range, static_below=params.detection_velocity)
+        if mt is None:
+            counts["static"] += 1
+            continue
+        if mt.leakage > incoherent:
+            # As much energy out of band as white noise has: no point target (a side lobe, clutter residue).
+            counts["incoherent"] += 1
+            log.info("reconstruct: detection at range cell %d, %.3f s (SNR %.1f dB) is no point target: "
+                     "out-of-band fraction %.2f at its best velocity", det.cell, det.time, det.snr_db, mt.leakage)
+            continue
+        for note in notes:
+            log.warning("reconstruct: mover in range cells %d-%d at %.3f s: %s", a, b - 1, det.time, note)
+        y_mod = win.output(mt.radial_velocity, mt.along_track_velocity, mt.beam_centre_time, mt.slant_range,
+                           focus_along_track=True)
+        y_conv = sfft.ifft(_reconstruct(ext, win.bank(0.0)), axis=0, workers=-1)
+        y_tr[:, a:b] += sfft.ifft(y_mod - y_conv, axis=1, workers=-1)
+        index, cell = _refine_peak(sfft.fft(y_tr[:, a:b], axis=1, workers=-1), ka_w, out_f, det.index,
+                                   det.cell - a, n_out)
+        t_app = g.out_times[0] + index / (g.n * g.prf)
+        wc_range = C / 2 * (rt0 + (a + cell - lead) / g.fs)
+        movers.append(dataclasses.replace(mt, first_cell=a, last_cell=b, snr_db=det.snr_db, apparent_time=t_app,
+                                          apparent_range=wc_range - g.velocity * math.sin(g.squint) * t_app))
+        peaks.append(det)
+    for i in range(len(peaks)):
+        for j in range(i + 1, len(peaks)):
+            if not apart(peaks[i], peaks[j], m):
+                log.warning("reconstruct: movers %d and %d in range cells %d-%d (%d cells and %.1f ms apart in "
+                            "apparent time) could not be separated; their velocity estimates mix both", i, j,
+                            min(peaks[i].cell, peaks[j].cell), max(peaks[i].cell, peaks[j].cell),
+                            abs(peaks[i].cell - peaks[j].cell), 1e3 * abs(peaks[i].time - peaks[j].time))
+    del x_tr
+    y[:] = sfft.fft(sfft.fft(y_tr, axis=1, workers=-1), axis=0, workers=-1)
+    info["detections"] = counts
+    return movers
+
+
 def reconstruct(raw: Product, params: ReconstructParams = ReconstructParams(), progress=None) -> Product:
     """Reconstruct a raw_multichannel product into a single-channel raw product at N PRF (module docstring)."""
     _check_input(raw)
@@ -395,7 +539,7 @@ def reconstruct(raw: Product, params: ReconstructParams = ReconstructParams(), p
             "condition_number": bank.max_condition, "noise_gain_db": 10 * math.log10(bank.noise_gain),
             "uniform_prf": 2 * g.velocity / (n_ch * float(np.mean(np.diff(g.dx)))) if n_ch > 1 else g.prf,
             "method": params.method}
-    residual_power = None
+    residual = None
     if params.clutter_suppression:
         spec_fa = sfft.fft(spec, axis=1, workers=-1)
         res, dof = clutter_null(spec_fa, g, params.clutter_band)
@@ -404,48 +548,119 @@ def reconstruct(raw: Product, params: ReconstructParams = ReconstructParams(), p
         info["clutter_suppression_db"] = 10 * math.log10(after / before) if before > 0 and after > 0 else None
         if dof <= 0:
             log.warning("reconstruct: no redundant channel (N PRF barely covers the Doppler band): no clutter null")
-        residual_power = np.sum(np.abs(sfft.ifft(res, axis=-1, workers=-1)) ** 2, axis=(0, 1))
+        if params.method == "modified" and params.detection == "auto":
+            residual = res
         del spec_fa, res
     y = _reconstruct(spec, bank)                                             # (N n_az, n_fft) in (f_a, f_r)
     movers: list[MovingTarget] = []
     if params.method == "modified" and params.detection == "auto":
-        out_f = sfft.fftfreq(y.shape[0], 1.0 / (g.n * g.prf))
-        power, centroid = _doppler_centroid(sfft.ifft(y, axis=1, workers=-1), out_f)
+        src = y if residual is None else channels.apply_filter_bank(residual, bank)
+        movers = _detect_and_focus(raw, params, g, spec, src, y, f_r, lead, info, progress)
+        del src
+    residual = None
     y = sfft.ifft(y, axis=0, workers=-1)                                     # (t', f_r)
-    if params.method == "modified":
+    if params.method == "modified" and params.detection == "whole":
         y_tr = sfft.ifft(y, axis=1, workers=-1)
-        x_tr = sfft.ifft(spec, axis=-1, workers=-1)
-        if params.detection == "whole":
-            spans = [(0, y_tr.shape[1])]
-        else:
-            if residual_power is not None:
-                power = residual_power
-            live = power[power > 0]
-            floor = float(np.median(live)) if len(live) else 0.0
-            strong = (power > power.max() * 10 ** (params.detection_level / 10)) & \
-                (power > floor * 10 ** (params.detection_snr / 10)) & (power > 0)
-            moving = strong if residual_power is not None else \
-                strong & (np.abs(centroid) > 2 * params.detection_velocity / r.wavelength)
-            spans = _windows(moving, params.window_margin)
-        spans_iter = progress(spans) if progress is not None else spans
-        for a, b in spans_iter:
-            f_w = sfft.fftfreq(b - a, 1.0 / g.fs)
-            win = _Window(sfft.fft(x_tr[:, :, a:b], axis=-1, workers=-1), f_w, g, params)
-            centre_range = C / 2 * (raw.coords["range_time"][0] + ((a + b - 1) / 2 - lead) / g.fs)
-            mt = _estimate(win, params, g, centre_range)
-            mt = dataclasses.replace(mt, first_cell=a, last_cell=b)
-            movers.append(mt)
-            y_w = win.output(mt.radial_velocity, mt.along_track_velocity, mt.beam_centre_time, mt.slant_range,
-                             focus_along_track=True)
-            y_tr[:, a:b] = sfft.ifft(y_w, axis=1, workers=-1)
-        del x_tr
-        y = sfft.fft(y_tr, axis=1, workers=-1)
+        win = _Window(spec, f_r, g, params)
+        centre_range = C / 2 * (raw.coords["range_time"][0] + ((len(f_r) - 1) / 2 - lead) / g.fs)
+        mt, notes = _estimate(win, params, g, centre_range)
+        for note in notes:
+            log.warning("reconstruct: the whole swath as one mover: %s", note)
+        mt = dataclasses.replace(mt, first_cell=0, last_cell=len(f_r))
+        movers.append(mt)
+        y = win.output(mt.radial_velocity, mt.along_track_velocity, mt.beam_centre_time, mt.slant_range,
+                       focus_along_track=True)
         del y_tr
     del spec
     y *= deramp.deramp_phasor(g.out_times, f_r, g.velocity, g.squint, g.fc, sign=+1)
     y *= deramp.compression_phasor(f_r, r.chirp_rate, sign=-1)[None, :]
     out = sfft.ifft(y, axis=1, workers=-1)[:, lead:lead + n_rg].astype(np.complex64)
     return _output_product(raw, params, g, out, info, movers)
+
+
+VELOCITY_FLOOR = (0.02, 0.05)   # m/s: v_r and v_a errors on noise-free scenes (docs/multichannel.md)
+
+
+def _beam_centre_point(platform_xyz, slant_range: float, squint: float) -> np.ndarray:
+    """Static point at beam centre (squint theta) at ``slant_range`` from the phase centre (ground z = 0)."""
+    p = np.asarray(platform_xyz, float)
+    uz = -p[2] / slant_range
+    ux = math.sin(squint)
+    return p + slant_range * np.array([ux, math.sqrt(max(0.0, 1.0 - ux**2 - uz**2)), uz])
+
+
+def _uncertainties(mt: MovingTarget, g: _Geometry) -> tuple[float, float, float]:
+    """1-sigma v_r, v_a (m/s) and along-track relocation (m) from the detection SNR (docs/multichannel.md).
+
+    v_r: the leakage search measures the channel phase 4 pi v_r cos(theta) tau_n / lambda; with per-channel
+    coherent SNR snr / N its phase noise is 1 / sqrt(2 snr / N), a straight-line fit over tau_n gives
+    sigma = lambda / (4 pi cos(theta) sqrt(sum (tau_n - mean)^2)) / sqrt(2 snr / N).
+    v_a: autofocus measures the FM rate; the quadratic phase coefficient over T has variance 90 / (snr T^4),
+    so sigma_K = sqrt(90 / snr) / (pi T^2) and dK/dv_a = 2 K / v.
+    Each is combined with the estimator's floor on noise-free scenes (VELOCITY_FLOOR, measured on
+    configs/xu_scene.yaml and xu_traffic.yaml: the model error of the leakage criterion and autofocus).
+    Relocation: the apparent shift is about R v_los / v, so sigma_x = R sqrt((cos sigma_r)^2 + (sin sigma_a)^2) / v.
+    """
+    snr = 10 ** (mt.snr_db / 10) if np.isfinite(mt.snr_db) else float("inf")
+    floor_r, floor_a = VELOCITY_FLOOR
+    lam = C / g.fc
+    spread = float(np.sqrt(np.sum((g.tau0 - g.tau0.mean()) ** 2)))
+    s_r = lam / (4 * math.pi * math.cos(g.squint) * spread) / math.sqrt(2 * snr / g.n) if spread > 0 else float("inf")
+    ka = 2 * (g.velocity * math.cos(g.squint)) ** 2 / (lam * mt.apparent_range)
+    t_ill = 2 * g.half_band / ka
+    s_k = math.sqrt(90 / snr) / (math.pi * t_ill**2)
+    s_a = s_k * g.velocity / (2 * ka)
+    s_r, s_a = math.hypot(s_r, floor_r), math.hypot(s_a, floor_a)
+    s_x = mt.apparent_range * math.hypot(math.cos(g.squint) * s_r, math.sin(g.squint) * s_a) / g.velocity
+    return s_r, s_a, s_x
+
+
+def _moving_target_rows(raw: Product, g: _Geometry, movers: list[MovingTarget], info: dict) -> np.ndarray:
+    """The aux ``moving_targets`` table (model.MOVING_TARGET_COLUMNS), matched to moving truth targets if any."""
+    from sarproc.product.model import MOVING_TARGET_COLUMNS
+
+    centres = moving.phase_centres(raw)
+    rows = np.zeros((0, len(MOVING_TARGET_COLUMNS)))
+    truth = raw.targets
+    speeds = np.stack([truth["vx"], truth["vy"], truth["vz"]], axis=1) if len(truth) else np.zeros((0, 3))
+    moving_rows = [k for k in range(len(truth)) if np.any(speeds[k] != 0)]
+    truth_apparent = {k: moving.apparent_position(raw.radar, g.times, [truth["x"][k], truth["y"][k], truth["z"][k]],
+                                                  speeds[k], centres)[0] for k in moving_rows}
+    out = []
+    for i, mt in enumerate(movers):
+        if not (mt.first_cell < mt.last_cell) or not np.isfinite(mt.apparent_time):
+            continue
+        p = np.array([np.interp(mt.apparent_time, g.times, centres[:, c]) for c in range(3)])
+        app = _beam_centre_point(p, mt.apparent_range, g.squint)
+        vel = moving.scene_velocity(app, mt.along_track_velocity, mt.radial_velocity, raw.radar.altitude)
+        try:
+            true_xyz = moving.relocate(raw.radar, g.times, app, vel, centres)
+        except InputError as exc:
+            log.warning("reconstruct: mover %d not relocated: %s", i, exc)
+            true_xyz = np.full(3, np.nan)
+        s_r, s_a, s_x = _uncertainties(mt, g)
+        out.append([i, mt.snr_db, mt.radial_velocity, s_r, mt.along_track_velocity, s_a, *app, *true_xyz, s_x,
+                    mt.apparent_time, mt.first_cell, mt.last_cell, mt.leakage, -1])
+    if out:
+        rows = np.array(out, float)
+    # Match each truth mover to the nearest unclaimed detection within 20 m of its apparent position.
+    if moving_rows and len(rows):
+        free = set(range(len(rows)))
+        pairs = sorted((float(np.linalg.norm(rows[i, 6:9] - truth_apparent[k])), i, k)
+                       for i in range(len(rows)) for k in moving_rows)
+        taken = set()
+        for dist, i, k in pairs:
+            if dist <= 20.0 and i in free and k not in taken:
+                rows[i, -1] = k
+                free.discard(i)
+                taken.add(k)
+    if moving_rows:
+        names = [n.decode() if isinstance(n, bytes) else str(n) for n in truth["name"]]
+        found = {int(k) for k in rows[:, -1] if k >= 0} if len(rows) else set()
+        info["truth"] = {"movers": len(moving_rows), "found": len(found),
+                         "missed": [names[k] for k in moving_rows if k not in found],
+                         "false_alarms": int(np.sum(rows[:, -1] < 0)) if len(rows) else 0}
+    return rows
 
 
 def _output_product(raw, params, g, out, info, movers) -> Product:
@@ -467,12 +682,14 @@ def _output_product(raw, params, g, out, info, movers) -> Product:
             "first_cell": int(mt.first_cell), "last_cell": int(mt.last_cell), "slant_range": float(mt.slant_range),
             "radial_velocity": mt.radial_velocity, "along_track_velocity": mt.along_track_velocity,
             "beam_centre_time": float(mt.beam_centre_time), "leakage": float(mt.leakage), "at_bound": bool(mt.at_bound),
-            "search_evaluations": int(len(mt.search))})
+            "search_evaluations": int(len(mt.search)), "snr_db": float(mt.snr_db) if np.isfinite(mt.snr_db) else None,
+            "apparent_time": float(mt.apparent_time) if np.isfinite(mt.apparent_time) else None})
         aux[f"velocity_search_{k}"] = mt.search
         if len(mt.autofocus):
             aux[f"autofocus_{k}"] = mt.autofocus
     if movers:
         aux["estimated_velocity"] = np.array([[m.radial_velocity, m.along_track_velocity] for m in movers])
+    aux["moving_targets"] = _moving_target_rows(raw, g, movers, info)
     radar = raw.radar.replace(prf=g.n * g.prf, n_channels=1)
     attrs = {k: v for k, v in raw.attrs.items()}
     attrs["reconstruct"] = info
