@@ -51,15 +51,15 @@ KIND_DIMS = {"raw": ("azimuth_time", "range_time"), "preprocessed": ("azimuth_ti
 MOVING_TARGET_COLUMNS = (
     ("id", "1", "mover number"),
     ("snr", "dB", "detection SNR: peak over the mean local background in the detection image"),
-    ("radial_velocity", "m/s", "estimated slant-range velocity v_r"),
-    ("radial_velocity_sigma", "m/s", "its 1-sigma uncertainty"),
-    ("along_track_velocity", "m/s", "estimated along-track velocity v_a"),
-    ("along_track_velocity_sigma", "m/s", "its 1-sigma uncertainty"),
+    ("v_r", "m/s", "estimated slant-range velocity (zero-Doppler slant-range direction)"),
+    ("v_r_sigma", "m/s", "its 1-sigma uncertainty"),
+    ("v_a", "m/s", "estimated along-track velocity"),
+    ("v_a_sigma", "m/s", "its 1-sigma uncertainty"),
     ("apparent_x", "m", "static-equivalent (apparent) position, scene frame"),
     ("apparent_y", "m", ""), ("apparent_z", "m", ""),
-    ("x", "m", "relocated position at time 0 (apparent position and estimated velocity), scene frame"),
-    ("y", "m", ""), ("z", "m", ""),
-    ("position_sigma", "m", "1-sigma relocation uncertainty along track implied by the velocity uncertainties"),
+    ("relocated_x", "m", "relocated position at azimuth time 0 (apparent position and estimated velocity)"),
+    ("relocated_y", "m", ""), ("relocated_z", "m", ""),
+    ("relocation_sigma", "m", "1-sigma relocation uncertainty along track implied by the velocity uncertainties"),
     ("apparent_time", "s", "beam-centre time of the apparent position"),
     ("range_cell_first", "1", "first walk-corrected range cell of the mover's window"),
     ("range_cell_last", "1", "last range cell of the window (exclusive)"),
@@ -73,6 +73,13 @@ def moving_target_table(aux: dict) -> dict[str, np.ndarray]:
     arr = np.asarray(aux.get("moving_targets", np.zeros((0, len(MOVING_TARGET_COLUMNS)))), float)
     arr = arr.reshape(-1, len(MOVING_TARGET_COLUMNS))
     return {name: arr[:, k] for k, (name, _, _) in enumerate(MOVING_TARGET_COLUMNS)}
+
+
+def moving_target_rows(aux: dict) -> list[dict]:
+    """The same table as one dict per mover (column name -> float)."""
+    cols = moving_target_table(aux)
+    n = len(cols["id"])
+    return [{name: float(cols[name][i]) for name in cols} for i in range(n)]
 
 
 # Auxiliary arrays: named dims (netCDF readers see no phony dims), CF units, description.

@@ -70,6 +70,10 @@ class ReconstructParams:
     radial_velocity: float | None = param("velocity", default=None, doc="use this slant-range velocity (no search)")
     along_track_velocity: float | None = param("velocity", default=None, doc="use this along-track velocity "
                                                "(no autofocus)")
+    velocity_criterion: str = param(default="leakage", choices=("leakage", "clutter_robust"), doc=(
+        "leakage: out-of-band energy of the modified reconstruction (eq. 5, the paper's); clutter_robust: energy "
+        "the static clutter band and the trial mover's band together cannot explain (eq. 5b; needs N PRF above "
+        "the static and the mover's bands together)"))
     velocity_min: float = param("velocity", default=-20.0, doc="lower bound of the slant-range velocity search")
     velocity_max: float = param("velocity", default=20.0, doc="upper bound of the slant-range velocity search")
     velocity_step: float = param("velocity", default=0.1, gt=0, doc="precision of the search grid")
@@ -236,7 +240,43 @@ class _Window:
         return _reconstruct(self.x * demod[None], self.bank(v_a))
 
     def leakage(self, v_r: float, v_a: float) -> float:
+        if self.params.velocity_criterion == "clutter_robust":
+            return self.unexplained(v_r, v_a)
+        return self.plain_leakage(v_r, v_a)
+
+    def plain_leakage(self, v_r: float, v_a: float) -> float:
         return velocity.out_of_band_fraction(self.demodulated_spectrum(v_r, v_a), self.out_f, self.g.half_band)
+
+    def unexplained(self, v_r: float, v_a: float) -> float:
+        """Eq. (5b): fraction of the channel energy outside the span of the static band and the trial mover's band.
+
+        Per base bin of the channel spectra (trial Doppler offset removed), the static clutter occupies the
+        aliases psi + j PRF with |psi + f_v + j PRF| <= clutter_band B_a / 2, steering exp(j 2 pi (psi + f_v +
+        j PRF) tau0_n); the trial mover those with |psi + j PRF| <= B_a / 2, steering exp(j 2 pi (psi + j PRF)
+        tau_n(v_a)). Static clutter is explained at every trial velocity, so it does not pull the minimum
+        (eq. 5 counts its out-of-band energy, which grows with the trial velocity).
+        """
+        g = self.g
+        v_los = channels.line_of_sight_velocity(v_r, v_a, g.squint)
+        demod = deramp.doppler_shift_phasor(g.times, self.f_r, v_los, g.fc, sign=-1)
+        spec = sfft.fft(self.x * demod[None], axis=1, workers=-1)              # (N, n_az, L)
+        n_az = spec.shape[1]
+        f_v = -2 * v_los * g.fc / C
+        psi = sfft.fftfreq(n_az, 1.0 / g.prf)
+        half_static = self.params.clutter_band * g.half_band
+        j_max = int(math.ceil((half_static + abs(f_v)) / g.prf)) + 1
+        js = np.arange(-j_max, j_max + 1)
+        phi = psi[:, None] + f_v + js[None, :] * g.prf                         # static's own frequencies
+        static = np.exp(2j * np.pi * g.tau0[None, :, None] * phi[:, None, :]) * (np.abs(phi) <= half_static)[:, None, :]
+        fm = psi[:, None] + js[None, :] * g.prf
+        tau = channels.channel_delays(g.dx, g.velocity, v_a)
+        mover = np.exp(2j * np.pi * tau[None, :, None] * fm[:, None, :]) * (np.abs(fm) <= g.half_band)[:, None, :]
+        a = np.concatenate([static, mover], axis=2)                              # (n_az, N, 2 (2 j_max + 1))
+        proj = a @ np.linalg.pinv(a, rcond=1e-6)
+        s_b = np.moveaxis(spec, 0, 1)                                            # (n_az, N, L)
+        res = s_b - (proj.astype(np.complex64) @ s_b)
+        total = float(np.sum(np.abs(s_b) ** 2))
+        return float(np.sum(np.abs(res) ** 2)) / total if total > 0 else 0.0
 
     def output(self, v_r: float, v_a: float, t_c: float, slant_range: float, focus_along_track: bool) -> np.ndarray:
         """Target reconstructed at N PRF in (t', f_r), Doppler offset restored, FM rate matched to a static point."""
@@ -316,8 +356,12 @@ def _estimate(win: _Window, params: ReconstructParams, g: _Geometry, centre_rang
             v_r = alias.estimate
     else:
         v_r = 0.0
-    if static_below is not None and abs(channels.line_of_sight_velocity(v_r, v_a, g.squint)) < static_below:
-        return None, notes
+    if static_below is not None:
+        if abs(channels.line_of_sight_velocity(v_r, v_a, g.squint)) < static_below:
+            return None, notes
+        if params.velocity_criterion == "clutter_robust" and result is not None and \
+                win.leakage(0.0, 0.0) < 4 * win.leakage(v_r, v_a):
+            return None, notes   # explained as well by static clutter alone: no mover
     y_dem = sfft.ifft(win.demodulated_spectrum(v_r, v_a), axis=0, workers=-1)
     p = np.sum(np.abs(y_dem) ** 2, axis=1)
     t_c = float(np.sum(g.out_times * p) / np.sum(p)) if np.sum(p) > 0 else 0.0
@@ -402,23 +446,36 @@ def _swath_centre_range(raw: Product) -> float:
     return C / 4 * (rt[0] + rt[-1])
 
 
-def _refine_peak(y_win_tf: np.ndarray, ka: np.ndarray, out_f: np.ndarray, index: int, cell: int,
+def _refine_peak(y_win_tf: np.ndarray, ka: np.ndarray, out_f: np.ndarray, index: int, spacing: float,
                  n_out: int) -> tuple[float, float]:
-    """Sub-sample (azimuth index, window cell) of the peak nearest (index, cell) in a window's detection image."""
+    """Sub-sample (azimuth index, window cell) of a refocused mover in its window's detection image.
+
+    The detection may be one of the mover's ambiguities (``spacing`` = PRF / K_a in samples apart; the
+    clutter null leaves a mover's energy mostly there): the strongest of them after the modified
+    reconstruction, which puts the energy where the mover appears, is taken.
+    """
     power = detection.detection_image(sfft.fft(y_win_tf, axis=0, workers=-1), out_f, ka)
-    lo, hi = index - 8, index + 9
-    rows = np.arange(lo, hi) % n_out
-    sub = power[rows]
-    k, c = np.unravel_index(int(np.argmax(sub)), sub.shape)
+    best = None
+    k_max = int(n_out // spacing) + 1
+    for k in range(-k_max, k_max + 1):
+        centre = int(round(index + k * spacing))
+        if not 0 <= centre < n_out:
+            continue
+        rows = np.arange(centre - 8, centre + 9) % n_out
+        sub = power[rows]
+        i, c = np.unravel_index(int(np.argmax(sub)), sub.shape)
+        if best is None or sub[i, c] > best[0]:
+            best = (sub[i, c], centre - 8, sub, i, c)
+    _, lo, sub, i, c = best
 
-    def vertex(v, i):
-        if 0 < i < len(v) - 1:
-            den = v[i - 1] - 2 * v[i] + v[i + 1]
+    def vertex(v, j):
+        if 0 < j < len(v) - 1:
+            den = v[j - 1] - 2 * v[j] + v[j + 1]
             if den < 0:
-                return i + 0.5 * (v[i - 1] - v[i + 1]) / den
-        return float(i)
+                return j + 0.5 * (v[j - 1] - v[j + 1]) / den
+        return float(j)
 
-    return lo + vertex(sub[:, c], k), vertex(sub[k], c)
+    return lo + vertex(sub[:, c], i), vertex(sub[i], c)
 
 
 def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spec: np.ndarray, src: np.ndarray,
@@ -471,7 +528,13 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
         if same:
             k = same[0]
             counts["ambiguous"] += 1
-            if det.power > 0.25 * peaks[k].power:
+            # A mover spreads over its range walk |v_los| T and curvature R'' T^2 / 8 in walk-corrected range:
+            # a response inside that is its own; one beyond it and as strong is another target.
+            own = movers[k]
+            v_los_k = channels.line_of_sight_velocity(own.radial_velocity, own.along_track_velocity, g.squint)
+            spread = (abs(v_los_k) * t_ill + g.velocity**2 * math.cos(g.squint) ** 2 / r_mid * t_ill**2 / 8) \
+                * 2 * g.fs / C + 2
+            if det.power > 0.25 * peaks[k].power and abs(det.cell - peaks[k].cell) > spread:
                 log.warning("reconstruct: a second response %.1f dB under mover %d (range cell %d, %.3f s from it, "
                             "a multiple of PRF / K_a = %.3f s) could not be separated from it: two movers, or one "
                             "mover's ambiguity", 10 * math.log10(peaks[k].power / det.power), k, det.cell,
@@ -488,7 +551,8 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
         if mt is None:
             counts["static"] += 1
             continue
-        if mt.leakage > incoherent:
+        if win.plain_leakage(mt.radial_velocity, mt.along_track_velocity) > incoherent and \
+                params.velocity_criterion == "leakage":
             # As much energy out of band as white noise has: no point target (a side lobe, clutter residue).
             counts["incoherent"] += 1
             log.info("reconstruct: detection at range cell %d, %.3f s (SNR %.1f dB) is no point target: "
@@ -501,7 +565,7 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
         y_conv = sfft.ifft(_reconstruct(ext, win.bank(0.0)), axis=0, workers=-1)
         y_tr[:, a:b] += sfft.ifft(y_mod - y_conv, axis=1, workers=-1)
         index, cell = _refine_peak(sfft.fft(y_tr[:, a:b], axis=1, workers=-1), ka_w, out_f, det.index,
-                                   det.cell - a, n_out)
+                                   ambiguity * g.n * g.prf, n_out)
         t_app = g.out_times[0] + index / (g.n * g.prf)
         wc_range = C / 2 * (rt0 + (a + cell - lead) / g.fs)
         movers.append(dataclasses.replace(mt, first_cell=a, last_cell=b, snr_db=det.snr_db, apparent_time=t_app,
