@@ -65,10 +65,15 @@ def fm_rate(velocity: float, squint: float, slant_range: float, carrier_frequenc
     return 2 * (velocity * math.cos(squint)) ** 2 * (carrier_frequency + np.asarray(f_r, float)) / (C * slant_range)
 
 
-def detection_image(y_fa: np.ndarray, out_f: np.ndarray, ka: np.ndarray) -> np.ndarray:
-    """(N n_az, n_fft) reconstructed spectrum in (f_a, f_r) -> power image (t', range cell), float32."""
+def compressed(y_fa: np.ndarray, out_f: np.ndarray, ka: np.ndarray) -> np.ndarray:
+    """(N n_az, n_fft) reconstructed spectrum in (f_a, f_r) -> complex detection image (t', range cell)."""
     comp = unit_phasor(np.mod(-0.5 * out_f[:, None] ** 2 / ka[None, :], 1.0))
-    img = sfft.ifft2(y_fa * comp, workers=-1)
+    return sfft.ifft2(y_fa * comp, workers=-1)
+
+
+def detection_image(y_fa: np.ndarray, out_f: np.ndarray, ka: np.ndarray) -> np.ndarray:
+    """Power of :func:`compressed`, float32."""
+    img = compressed(y_fa, out_f, ka)
     return (img.real ** 2 + img.imag ** 2).astype(np.float32)
 
 

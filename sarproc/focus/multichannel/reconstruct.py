@@ -70,10 +70,6 @@ class ReconstructParams:
     radial_velocity: float | None = param("velocity", default=None, doc="use this slant-range velocity (no search)")
     along_track_velocity: float | None = param("velocity", default=None, doc="use this along-track velocity "
                                                "(no autofocus)")
-    velocity_criterion: str = param(default="leakage", choices=("leakage", "clutter_robust"), doc=(
-        "leakage: out-of-band energy of the modified reconstruction (eq. 5, the paper's); clutter_robust: energy "
-        "the static clutter band and the trial mover's band together cannot explain (eq. 5b; needs N PRF above "
-        "the static and the mover's bands together)"))
     velocity_min: float = param("velocity", default=-20.0, doc="lower bound of the slant-range velocity search")
     velocity_max: float = param("velocity", default=20.0, doc="upper bound of the slant-range velocity search")
     velocity_step: float = param("velocity", default=0.1, gt=0, doc="precision of the search grid")
@@ -240,43 +236,7 @@ class _Window:
         return _reconstruct(self.x * demod[None], self.bank(v_a))
 
     def leakage(self, v_r: float, v_a: float) -> float:
-        if self.params.velocity_criterion == "clutter_robust":
-            return self.unexplained(v_r, v_a)
-        return self.plain_leakage(v_r, v_a)
-
-    def plain_leakage(self, v_r: float, v_a: float) -> float:
         return velocity.out_of_band_fraction(self.demodulated_spectrum(v_r, v_a), self.out_f, self.g.half_band)
-
-    def unexplained(self, v_r: float, v_a: float) -> float:
-        """Eq. (5b): fraction of the channel energy outside the span of the static band and the trial mover's band.
-
-        Per base bin of the channel spectra (trial Doppler offset removed), the static clutter occupies the
-        aliases psi + j PRF with |psi + f_v + j PRF| <= clutter_band B_a / 2, steering exp(j 2 pi (psi + f_v +
-        j PRF) tau0_n); the trial mover those with |psi + j PRF| <= B_a / 2, steering exp(j 2 pi (psi + j PRF)
-        tau_n(v_a)). Static clutter is explained at every trial velocity, so it does not pull the minimum
-        (eq. 5 counts its out-of-band energy, which grows with the trial velocity).
-        """
-        g = self.g
-        v_los = channels.line_of_sight_velocity(v_r, v_a, g.squint)
-        demod = deramp.doppler_shift_phasor(g.times, self.f_r, v_los, g.fc, sign=-1)
-        spec = sfft.fft(self.x * demod[None], axis=1, workers=-1)              # (N, n_az, L)
-        n_az = spec.shape[1]
-        f_v = -2 * v_los * g.fc / C
-        psi = sfft.fftfreq(n_az, 1.0 / g.prf)
-        half_static = self.params.clutter_band * g.half_band
-        j_max = int(math.ceil((half_static + abs(f_v)) / g.prf)) + 1
-        js = np.arange(-j_max, j_max + 1)
-        phi = psi[:, None] + f_v + js[None, :] * g.prf                         # static's own frequencies
-        static = np.exp(2j * np.pi * g.tau0[None, :, None] * phi[:, None, :]) * (np.abs(phi) <= half_static)[:, None, :]
-        fm = psi[:, None] + js[None, :] * g.prf
-        tau = channels.channel_delays(g.dx, g.velocity, v_a)
-        mover = np.exp(2j * np.pi * tau[None, :, None] * fm[:, None, :]) * (np.abs(fm) <= g.half_band)[:, None, :]
-        a = np.concatenate([static, mover], axis=2)                              # (n_az, N, 2 (2 j_max + 1))
-        proj = a @ np.linalg.pinv(a, rcond=1e-6)
-        s_b = np.moveaxis(spec, 0, 1)                                            # (n_az, N, L)
-        res = s_b - (proj.astype(np.complex64) @ s_b)
-        total = float(np.sum(np.abs(s_b) ** 2))
-        return float(np.sum(np.abs(res) ** 2)) / total if total > 0 else 0.0
 
     def output(self, v_r: float, v_a: float, t_c: float, slant_range: float, focus_along_track: bool) -> np.ndarray:
         """Target reconstructed at N PRF in (t', f_r), Doppler offset restored, FM rate matched to a static point."""
@@ -313,20 +273,16 @@ class _Window:
         slope = np.polyfit(tt, centre, 1, w=np.sqrt(w[keep]))[0]
         return float(slope * C / (2 * g.fs))
 
-    def sharpness(self, y_dem: np.ndarray, v_r: float, v_a: float, t_c: float, slant_range: float) -> float:
-        g = self.g
-        acc = velocity.range_acceleration(g.velocity, v_a, v_r, g.squint, slant_range)
-        z = y_dem * deramp.quadratic_phasor(g.out_times, self.f_r, acc, t_c, g.fc)
-        return velocity.sharpness(sfft.ifft(sfft.fft(z, axis=0, workers=-1), axis=1, workers=-1))
-
 
 def _estimate(win: _Window, params: ReconstructParams, g: _Geometry, centre_range: float,
-              static_below: float | None = None) -> tuple[MovingTarget | None, list[str]]:
+              static_below: float | None = None,
+              incoherent_above: float | None = None) -> tuple[MovingTarget | None, list[str]]:
     """Slant-range velocity by the leakage search, along-track by autofocus, then a refined search.
 
     Returns the target and the reasons to doubt it (true statements, for the caller to warn with the
     window's location). With ``static_below``, a window whose line-of-sight velocity from the first
-    search is below it (m/s) is a static target: None.
+    search is below it (m/s) is a static target: (None, []); with ``incoherent_above``, one whose
+    out-of-band fraction (eq. 5) at that velocity exceeds it holds no point target: (None, ["incoherent"]).
     """
     empty = np.zeros((0, 2))
     notes: list[str] = []
@@ -359,20 +315,26 @@ def _estimate(win: _Window, params: ReconstructParams, g: _Geometry, centre_rang
     if static_below is not None:
         if abs(channels.line_of_sight_velocity(v_r, v_a, g.squint)) < static_below:
             return None, notes
-        if params.velocity_criterion == "clutter_robust" and result is not None and \
-                win.leakage(0.0, 0.0) < 4 * win.leakage(v_r, v_a):
-            return None, notes   # explained as well by static clutter alone: no mover
     y_dem = sfft.ifft(win.demodulated_spectrum(v_r, v_a), axis=0, workers=-1)
     p = np.sum(np.abs(y_dem) ** 2, axis=1)
     t_c = float(np.sum(g.out_times * p) / np.sum(p)) if np.sum(p) > 0 else 0.0
     slant_range = centre_range - g.velocity * math.sin(g.squint) * t_c
     af = empty
+    if incoherent_above is not None and win.leakage(v_r, v_a) > incoherent_above:
+        return None, ["incoherent"]
     if params.autofocus and params.along_track_velocity is None:
         v_los = channels.line_of_sight_velocity(v_r, 0.0, g.squint)
+        # Autofocus on the mover's own range cells (its energy above 1 % of its strongest cell), with the
+        # FM rate at the carrier (the range-frequency spread of R'' is 0.3 %): one azimuth FFT per trial.
+        y_cells = sfft.ifft(y_dem, axis=1, workers=-1)
+        cell_power = np.sum(np.abs(y_cells) ** 2, axis=0)
+        y_cells = np.ascontiguousarray(y_cells[:, cell_power >= 0.01 * cell_power.max()])
 
         def crit(u):  # keep the line-of-sight velocity found by the search while v_a varies
             vr_u = (v_los - u * math.sin(g.squint)) / math.cos(g.squint)
-            return win.sharpness(y_dem, vr_u, u, t_c, slant_range)
+            acc = velocity.range_acceleration(g.velocity, u, vr_u, g.squint, slant_range)
+            ph = deramp.quadratic_phasor(g.out_times, np.zeros(1), acc, t_c, g.fc)
+            return velocity.sharpness(sfft.fft(y_cells * ph, axis=0, workers=-1))
 
         v_a, af = velocity.maximise(crit, -params.autofocus_span, params.autofocus_span, 1.0)
         v_a, af2 = velocity.maximise(crit, v_a - 1.0, v_a + 1.0, 0.05)
@@ -479,7 +441,8 @@ def _refine_peak(y_win_tf: np.ndarray, ka: np.ndarray, out_f: np.ndarray, index:
 
 
 def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spec: np.ndarray, src: np.ndarray,
-                      y: np.ndarray, f_r: np.ndarray, lead: int, info: dict, progress) -> list[MovingTarget]:
+                      y: np.ndarray, f_r: np.ndarray, lead: int, info: dict, progress, bank: channels.FilterBank,
+                      residual_mode: bool) -> list[MovingTarget]:
     """Detect movers on ``src`` (detection.py), estimate and refocus each one in ``y`` (f_a, f_r), in place.
 
     Each detection's channels are separated from the rest of its range cells (detection.extract); its
@@ -492,11 +455,13 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
     out_f = sfft.fftfreq(n_out, 1.0 / (g.n * g.prf))
     r_mid = _swath_centre_range(raw)
     ka = detection.fm_rate(g.velocity, g.squint, r_mid, g.fc, f_r)
-    power = detection.detection_image(src, out_f, ka)
+    image = detection.compressed(src, out_f, ka)
+    power = (image.real ** 2 + image.imag ** 2).astype(np.float32)
     bg = detection.background(power)
     dets, dropped = detection.find_detections(power, bg, g.out_times, params.detection_snr, params.detection_level,
                                               max(1.0, g.fs / r.bandwidth), params.max_detections)
-    del power, bg
+    threshold = 10 ** (params.detection_snr / 10)
+    del power
     if dropped:
         log.warning("reconstruct: %d further detections above the CFAR threshold were not examined "
                     "(reconstruct.max_detections = %d)", dropped, params.max_detections)
@@ -509,7 +474,7 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
     m = params.window_margin
     movers: list[MovingTarget] = []
     peaks: list[detection.Detection] = []
-    counts = {"detections": len(dets), "static": 0, "ambiguous": 0, "incoherent": 0}
+    counts = {"detections": len(dets), "static": 0, "ambiguous": 0, "incoherent": 0, "explained": 0}
     incoherent = 0.5 * (1 - 2 * g.half_band / (g.n * g.prf))
 
     # An ambiguity k PRF / K_a away keeps the mover's range history while a static point there walks by
@@ -523,7 +488,16 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
         return abs(d1.cell - d2.cell) > (cells if k == 0 else max(cells, ghost_cells)) or \
             abs(dt - k) * ambiguity > sep
 
+    def remove(ext, a, b, ka_w):
+        """Take one examined detection's whole response (ambiguities, clutter-null artefacts) out of the image."""
+        x_fa = sfft.fft(ext, axis=1, workers=-1)
+        if residual_mode:
+            x_fa = clutter_null(x_fa, g, params.clutter_band)[0]
+        image[:, a:b] -= detection.compressed(channels.apply_filter_bank(x_fa, bank), out_f, ka_w)
+
     for det in (progress(dets) if progress is not None else dets):
+        left = image[det.index, det.cell]
+        explained = abs(left) ** 2 < threshold * bg[det.index, det.cell]
         same = [k for k, p in enumerate(peaks) if not apart(det, p, m)]
         if same:
             k = same[0]
@@ -535,10 +509,17 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
             spread = (abs(v_los_k) * t_ill + g.velocity**2 * math.cos(g.squint) ** 2 / r_mid * t_ill**2 / 8) \
                 * 2 * g.fs / C + 2
             if det.power > 0.25 * peaks[k].power and abs(det.cell - peaks[k].cell) > spread:
-                log.warning("reconstruct: a second response %.1f dB under mover %d (range cell %d, %.3f s from it, "
-                            "a multiple of PRF / K_a = %.3f s) could not be separated from it: two movers, or one "
-                            "mover's ambiguity", 10 * math.log10(peaks[k].power / det.power), k, det.cell,
-                            det.time - peaks[k].time, ambiguity)
+                n_amb = round((det.time - peaks[k].time) / ambiguity)
+                where = "at the same apparent azimuth" if n_amb == 0 else \
+                    f"{n_amb:+d} x PRF / K_a = {n_amb * ambiguity:+.3f} s from it in apparent time (its ambiguity)"
+                log.warning("reconstruct: a response %.1f dB under mover %d, in range cell %d (%d cells from its "
+                            "peak, beyond its own range extent of %.0f cells) %s, could not be separated from it: "
+                            "another mover there shares its window and its velocity estimate",
+                            10 * math.log10(peaks[k].power / det.power), k, det.cell, det.cell - peaks[k].cell,
+                            spread, where)
+            continue
+        if explained:
+            counts["explained"] += 1    # a response of a detection already examined, no target of its own
             continue
         a, b = max(0, det.cell - m), min(n_cells, det.cell + m + 1)
         f_w = sfft.fftfreq(b - a, 1.0 / g.fs)
@@ -547,16 +528,15 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
                                 params.separation_bandwidth)
         win = _Window(ext, f_w, g, params)
         centre_range = C / 2 * (rt0 + (det.cell - lead) / g.fs)
-        mt, notes = _estimate(win, params, g, centre_range, static_below=params.detection_velocity)
+        # As much energy out of band as white noise has: no point target (a side lobe, clutter residue).
+        mt, notes = _estimate(win, params, g, centre_range, static_below=params.detection_velocity,
+                              incoherent_above=incoherent)
+        remove(ext, a, b, ka_w)
         if mt is None:
-            counts["static"] += 1
-            continue
-        if win.plain_leakage(mt.radial_velocity, mt.along_track_velocity) > incoherent and \
-                params.velocity_criterion == "leakage":
-            # As much energy out of band as white noise has: no point target (a side lobe, clutter residue).
-            counts["incoherent"] += 1
-            log.info("reconstruct: detection at range cell %d, %.3f s (SNR %.1f dB) is no point target: "
-                     "out-of-band fraction %.2f at its best velocity", det.cell, det.time, det.snr_db, mt.leakage)
+            kind = "incoherent" if notes == ["incoherent"] else "static"
+            counts[kind] += 1
+            log.info("reconstruct: detection at range cell %d, %.3f s (SNR %.1f dB) is %s", det.cell, det.time,
+                     det.snr_db, "no point target" if kind == "incoherent" else "static")
             continue
         for note in notes:
             log.warning("reconstruct: mover in range cells %d-%d at %.3f s: %s", a, b - 1, det.time, note)
@@ -619,7 +599,8 @@ def reconstruct(raw: Product, params: ReconstructParams = ReconstructParams(), p
     movers: list[MovingTarget] = []
     if params.method == "modified" and params.detection == "auto":
         src = y if residual is None else channels.apply_filter_bank(residual, bank)
-        movers = _detect_and_focus(raw, params, g, spec, src, y, f_r, lead, info, progress)
+        movers = _detect_and_focus(raw, params, g, spec, src, y, f_r, lead, info, progress, bank,
+                                   residual is not None)
         del src
     residual = None
     y = sfft.ifft(y, axis=0, workers=-1)                                     # (t', f_r)
