@@ -156,9 +156,25 @@ def extraction_mask(frequencies: np.ndarray, prf: float, half_width: float) -> n
 
 
 def extract(x_tf: np.ndarray, times: np.ndarray, prf: float, t_app: float, ka: np.ndarray,
-            half_width: float) -> np.ndarray:
-    """Channels (N, n_az, L) in (t, f_r) of one window -> the part focused within half_width / K_a of t_app."""
+            half_width: float, notches=None) -> np.ndarray:
+    """Channels (N, n_az, L) in (t, f_r) of one window -> the part focused within half_width / K_a of t_app.
+
+    With ``notches`` (dechirped frequencies K_a (t_j - t_app) of the other targets in the window, Hz) the
+    complement is kept instead: everything but those targets. A sharp-edged illumination (rect beam) leaves
+    about 2 / (pi^2 half_width T) of a target's energy outside its pass band; what a target leaves
+    outside keeps the conventional reconstruction and its ghosts, so the reconstruction uses the
+    complement (nothing lost where no other target is) and the velocity search the pass band (least clutter).
+    """
     chirp = unit_phasor(np.mod(0.5 * (times - t_app)[:, None] ** 2 * ka[None, :], 1.0))
+    f = sfft.fftfreq(len(times), 1.0 / prf)
+    if notches is None:
+        mask = extraction_mask(f, prf, half_width)
+    else:
+        mask = np.ones_like(f)
+        for c in notches:
+            mask *= 1.0 - extraction_mask(f - c, prf, half_width)
+        if np.all(mask == 1.0):
+            return x_tf.copy()
     z = sfft.fft(x_tf * chirp[None], axis=1, workers=-1)
-    z *= extraction_mask(sfft.fftfreq(len(times), 1.0 / prf), prf, half_width).astype(np.float32)[None, :, None]
+    z *= mask.astype(np.float32)[None, :, None]
     return sfft.ifft(z, axis=1, workers=-1) * np.conj(chirp)[None]

@@ -66,7 +66,8 @@ class ReconstructParams:
     separation_bandwidth: float = param("frequency", default=25.0, gt=0, doc=(
         "half width of the azimuth mask that separates one mover from the others in its range cells, in the "
         "dechirped channel spectrum; movers closer than about 2.5 x this / K_a in apparent time are not separated"))
-    max_detections: int = param(default=64, ge=1, doc="at most this many detections are examined (strongest first)")
+    max_detections: int = param(default=64, ge=1, doc=(
+        "at most this many detections are examined (strongest first; those an examined one explains are free)"))
     radial_velocity: float | None = param("velocity", default=None, doc="use this slant-range velocity (no search)")
     along_track_velocity: float | None = param("velocity", default=None, doc="use this along-track velocity "
                                                "(no autofocus)")
@@ -323,7 +324,7 @@ def _estimate(win: _Window, params: ReconstructParams, g: _Geometry, centre_rang
     if incoherent_above is not None and win.leakage(v_r, v_a) > incoherent_above:
         return None, ["incoherent"]
     if params.autofocus and params.along_track_velocity is None:
-        v_los = channels.line_of_sight_velocity(v_r, 0.0, g.squint)
+        v_los = channels.line_of_sight_velocity(v_r, v_a, g.squint)
         # Autofocus on the mover's own range cells (its energy above 1 % of its strongest cell), with the
         # FM rate at the carrier (the range-frequency spread of R'' is 0.3 %): one azimuth FFT per trial.
         y_cells = sfft.ifft(y_dem, axis=1, workers=-1)
@@ -336,7 +337,7 @@ def _estimate(win: _Window, params: ReconstructParams, g: _Geometry, centre_rang
             ph = deramp.quadratic_phasor(g.out_times, np.zeros(1), acc, t_c, g.fc)
             return velocity.sharpness(sfft.fft(y_cells * ph, axis=0, workers=-1))
 
-        v_a, af = velocity.maximise(crit, -params.autofocus_span, params.autofocus_span, 1.0)
+        v_a, af = velocity.maximise(crit, v_a - params.autofocus_span, v_a + params.autofocus_span, 1.0)
         v_a, af2 = velocity.maximise(crit, v_a - 1.0, v_a + 1.0, 0.05)
         af = np.concatenate([af, af2])
         v_r = (v_los - v_a * math.sin(g.squint)) / math.cos(g.squint)
@@ -459,12 +460,10 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
     power = (image.real ** 2 + image.imag ** 2).astype(np.float32)
     bg = detection.background(power)
     dets, dropped = detection.find_detections(power, bg, g.out_times, params.detection_snr, params.detection_level,
-                                              max(1.0, g.fs / r.bandwidth), params.max_detections)
+                                              max(1.0, g.fs / r.bandwidth), 20 * params.max_detections)
     threshold = 10 ** (params.detection_snr / 10)
     del power
-    if dropped:
-        log.warning("reconstruct: %d further detections above the CFAR threshold were not examined "
-                    "(reconstruct.max_detections = %d)", dropped, params.max_detections)
+    examined = 0
     ka0 = float(detection.fm_rate(g.velocity, g.squint, r_mid, g.fc, 0.0))
     ambiguity = g.prf / ka0                   # apparent-time spacing the channel samples cannot tell apart (s)
     sep = 1.5 * params.separation_bandwidth / ka0
@@ -502,6 +501,7 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
         if same:
             k = same[0]
             counts["ambiguous"] += 1
+            log.debug("reconstruct: detection at cell %d, %.4f s merged with mover %d", det.cell, det.time, k)
             # A mover spreads over its range walk |v_los| T and curvature R'' T^2 / 8 in walk-corrected range:
             # a response inside that is its own; one beyond it and as strong is another target.
             own = movers[k]
@@ -520,18 +520,43 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
             continue
         if explained:
             counts["explained"] += 1    # a response of a detection already examined, no target of its own
+            log.debug("reconstruct: detection at cell %d, %.4f s (SNR %.1f dB) explained by those examined",
+                      det.cell, det.time, det.snr_db)
             continue
+        if examined >= params.max_detections:
+            dropped += 1
+            continue
+        examined += 1
         a, b = max(0, det.cell - m), min(n_cells, det.cell + m + 1)
         f_w = sfft.fftfreq(b - a, 1.0 / g.fs)
         ka_w = detection.fm_rate(g.velocity, g.squint, r_mid, g.fc, f_w)
-        ext = detection.extract(sfft.fft(x_tr[:, :, a:b], axis=-1, workers=-1), g.times, g.prf, det.time, ka_w,
-                                params.separation_bandwidth)
+        x_w = sfft.fft(x_tr[:, :, a:b], axis=-1, workers=-1)
+        ext = detection.extract(x_w, g.times, g.prf, det.time, ka_w, params.separation_bandwidth)
         win = _Window(ext, f_w, g, params)
+        null_db = None
+        if residual_mode:
+            # Energy of this detection's channels that survives the clutter null: static points leave the
+            # null's floor, a mover its channel-phase mismatch (v_r) or band shift (v_los).
+            e_fa = sfft.fft(ext, axis=1, workers=-1)
+            kept = float(np.sum(np.abs(clutter_null(e_fa, g, params.clutter_band)[0]) ** 2))
+            total = float(np.sum(np.abs(e_fa) ** 2))
+            null_db = 10 * math.log10(kept / total) if kept > 0 and total > 0 else -math.inf
+            log.info("reconstruct: detection at cell %d, %.4f s: %.1f dB of its energy survives the clutter null",
+                     det.cell, det.time, null_db)
         centre_range = C / 2 * (rt0 + (det.cell - lead) / g.fs)
         # As much energy out of band as white noise has: no point target (a side lobe, clutter residue).
         mt, notes = _estimate(win, params, g, centre_range, static_below=params.detection_velocity,
                               incoherent_above=incoherent)
-        remove(ext, a, b, ka_w)
+        # The other targets in this window (detected anywhere in its cells, not at this one's position or
+        # ambiguities) keep their own reconstruction; everything else in the window takes this mover's.
+        others = []
+        for d in dets:
+            f_d = ka0 * (d.time - det.time)
+            f_d = (f_d + g.prf / 2) % g.prf - g.prf / 2
+            if d is not det and a - 2 <= d.cell < b + 2 and abs(f_d) > 1.5 * params.separation_bandwidth:
+                others.append(f_d)
+        whole = detection.extract(x_w, g.times, g.prf, det.time, ka_w, params.separation_bandwidth, notches=others)
+        remove(whole, a, b, ka_w)
         if mt is None:
             kind = "incoherent" if notes == ["incoherent"] else "static"
             counts[kind] += 1
@@ -540,9 +565,10 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
             continue
         for note in notes:
             log.warning("reconstruct: mover in range cells %d-%d at %.3f s: %s", a, b - 1, det.time, note)
-        y_mod = win.output(mt.radial_velocity, mt.along_track_velocity, mt.beam_centre_time, mt.slant_range,
-                           focus_along_track=True)
-        y_conv = sfft.ifft(_reconstruct(ext, win.bank(0.0)), axis=0, workers=-1)
+        win_whole = _Window(whole, f_w, g, params)
+        y_mod = win_whole.output(mt.radial_velocity, mt.along_track_velocity, mt.beam_centre_time, mt.slant_range,
+                                 focus_along_track=True)
+        y_conv = sfft.ifft(_reconstruct(whole, win.bank(0.0)), axis=0, workers=-1)
         y_tr[:, a:b] += sfft.ifft(y_mod - y_conv, axis=1, workers=-1)
         index, cell = _refine_peak(sfft.fft(y_tr[:, a:b], axis=1, workers=-1), ka_w, out_f, det.index,
                                    ambiguity * g.n * g.prf, n_out)
@@ -558,6 +584,10 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
                             "apparent time) could not be separated; their velocity estimates mix both", i, j,
                             min(peaks[i].cell, peaks[j].cell), max(peaks[i].cell, peaks[j].cell),
                             abs(peaks[i].cell - peaks[j].cell), 1e3 * abs(peaks[i].time - peaks[j].time))
+    if dropped:
+        log.warning("reconstruct: %d further detections above the CFAR threshold were not examined "
+                    "(reconstruct.max_detections = %d): movers among them are missed", dropped, params.max_detections)
+    counts["not_examined"] = dropped
     del x_tr
     y[:] = sfft.fft(sfft.fft(y_tr, axis=1, workers=-1), axis=0, workers=-1)
     info["detections"] = counts
