@@ -16,10 +16,12 @@ from sarproc.cli.options import common_options, input_argument, summary, want_pr
 def reconstruct(input_path: Path, output: Path, config_path, overwrite: bool, progress):
     """Azimuth multichannel reconstruction (paper 003): raw_multichannel -> one raw channel at N x PRF.
 
-    Squint deramp, Krieger filter bank, and for `method: modified` moving-target detection,
-    slant-range velocity search, along-track autofocus and the modified filter bank. The
-    estimates and search curves are stored in the output (attribute `reconstruct`, aux
-    `velocity_search_<k>`, `estimated_velocity`); `sarproc backproject` focuses the output.
+    Squint deramp, Krieger filter bank, and for `method: modified` moving-target detection (CFAR on
+    the azimuth-compressed, optionally clutter-nulled, reconstruction), separation of each mover,
+    slant-range velocity search, along-track autofocus and the modified filter bank per mover. The
+    movers are the aux table `moving_targets` (velocities with 1-sigma, apparent and relocated
+    positions, matched truth; docs/product.md); estimates and search curves also in attribute
+    `reconstruct` and aux `velocity_search_<k>`; `sarproc backproject` focuses the output.
     """
     from sarproc.cli.progress import progress_factory
     from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct as run
@@ -37,7 +39,11 @@ def reconstruct(input_path: Path, output: Path, config_path, overwrite: bool, pr
     info = out.attrs["reconstruct"]
     movers = "; ".join(f"v_r {m['radial_velocity']:.2f} m/s v_a {m['along_track_velocity']:.2f} m/s"
                        for m in info["moving_targets"])
+    truth = info.get("truth")
+    found = (f"; truth: {truth['found']} of {truth['movers']} movers found"
+             + (f", missed {', '.join(truth['missed'])}" if truth["missed"] else "")
+             + f", {truth['false_alarms']} false alarm(s)") if truth else ""
     summary(f"reconstruct: {info['n_channels']} channels x {raw.data.shape[1]} pulses -> {out.data.shape[0]} pulses "
             f"at {info['prf_out']:.6g} Hz (condition {info['condition_number']:.3g}"
-            + (f"; {len(info['moving_targets'])} moving: {movers}" if movers else "")
+            + (f"; {len(info['moving_targets'])} moving: {movers}" if movers else "") + found
             + f") -> {output} ({time.perf_counter() - start:.2f} s)")

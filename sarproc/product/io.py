@@ -30,10 +30,10 @@ import numpy as np
 from sarproc import __version__
 from sarproc.product.errors import InputError, ProcessingError
 from sarproc.product.metadata import FORMAT_VERSION, RadarMetadata
-from sarproc.product.model import (AUX_DIM_DOC, AUX_LAYOUT, DATA_ATTR_UNITS, DATA_NAME, KIND_DIMS, PRODUCT_KINDS,
-                                   TARGET_DTYPE, TARGET_IRW_FIELDS, TARGET_NULL_FIELDS,
-                                   TARGET_SIDELOBE_FIELDS, TARGET_THEORY_FIELDS, TARGET_UNITS, UNITS, Product,
-                                   as_target_table)
+from sarproc.product.model import (AUX_DIM_DOC, AUX_LAYOUT, DATA_ATTR_UNITS, DATA_NAME, KIND_DIMS,
+                                   MOVING_TARGET_COLUMNS, PRODUCT_KINDS, TARGET_DTYPE, TARGET_IRW_FIELDS,
+                                   TARGET_NULL_FIELDS, TARGET_SIDELOBE_FIELDS, TARGET_THEORY_FIELDS, TARGET_UNITS,
+                                   UNITS, Product, as_target_table)
 
 LONG_NAMES = {"azimuth_time": "azimuth (slow) time from aperture centre", "range_time": "range (fast) time since transmit",
               "channel": "receive channel index", "azimuth": "azimuth position", "range": "range position",
@@ -406,6 +406,9 @@ def _check_aux(path, aux: dict, kind: str, n_pulses: int | None, n_channels: int
         if v.ndim != len(dims) or (dims[-1] == "xyz" and v.shape[-1] != 3):
             want = " x ".join("3" if d == "xyz" else f"n_{d}" for d in dims)
             raise InputError(f"{where} has shape {v.shape}, expected ({want})")
+        if dims[-1] == "moving_target_field" and v.shape[-1] != len(MOVING_TARGET_COLUMNS):
+            raise InputError(f"{where} has {v.shape[-1]} columns, expected {len(MOVING_TARGET_COLUMNS)} "
+                             "(sarproc.product.model.MOVING_TARGET_COLUMNS)")
         if dims[0] == "pulse" and n_pulses is not None and len(v) != n_pulses:
             raise InputError(f"{where} has {len(v)} rows but the product has {n_pulses} pulses (azimuth_time); "
                              "one row per pulse is needed")

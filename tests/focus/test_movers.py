@@ -159,3 +159,13 @@ def test_extraction_separates_two_chirps_in_one_range_cell():
     leak = abs(np.vdot(other, one[0, :, 0])) / (np.linalg.norm(other) * np.linalg.norm(one[0, :, 0]))
     assert err < 0.1                 # this one kept (its hard illumination edges are smoothed by the mask)
     assert leak < 0.01               # the other one gone
+
+
+def test_a_moving_target_table_of_the_wrong_width_is_refused(two_movers, tmp_path):
+    from sarproc.product.errors import InputError
+
+    rec = reconstruct(two_movers, ReconstructParams(method="conventional"))
+    rec.aux["moving_targets"] = np.zeros((1, 5))
+    write_product(tmp_path / "bad.h5", rec)
+    with pytest.raises(InputError, match="moving_targets' has 5 columns"):
+        read_product(tmp_path / "bad.h5")

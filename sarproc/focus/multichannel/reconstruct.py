@@ -7,13 +7,12 @@ Flow, on a ``raw_multichannel`` product (channel, azimuth_time, range_time):
    excess path e_n (deramp.py, channels.py eqs. 1-2);
 2. conventional reconstruction: filter bank of the static-scene channel delays over the band
    |f| < N PRF / 2 (channels.py eq. 3; Tikhonov eq. 4 when ``regularization`` > 0);
-3. (``method: modified``) moving-target windows: range cells above ``detection_level`` of the
-   strongest and ``detection_snr`` over the median cell whose reconstructed signal has a Doppler
-   centroid beyond ``detection_velocity`` (or, with ``clutter_suppression``, whose energy survives
-   the clutter null), grouped and widened by ``window_margin`` cells; for each,
-   the slant-range velocity is searched (velocity.py eq. 5), the along-track velocity found by
-   autofocus, and the window reconstructed with the modified filter bank (the target's Doppler
-   offset and channel delays) and its range acceleration matched to a static point's;
+3. (``method: modified``) moving targets (detection.py): CFAR detections in the azimuth-compressed
+   reconstruction (or clutter-null residual); per detection, its channels are separated by a
+   dechirp mask, the slant-range velocity is searched (velocity.py eq. 5), the along-track velocity
+   found by autofocus, and its conventional reconstruction replaced by the modified one (its Doppler
+   offset and channel delays, range acceleration matched to a static point's), leaving the other
+   targets as they were; the aux table ``moving_targets`` lists them (model.MOVING_TARGET_COLUMNS);
 4. inverse deramp on the N PRF grid, decompression, crop: a ``raw`` product whose phase centre is
    the transmitter, sampled at N PRF, which ``backproject`` focuses.
 
@@ -55,9 +54,9 @@ class ReconstructParams:
     detection: str = param(default="auto", choices=("auto", "whole"), doc=(
         "auto: moving-target windows from the data; whole: the whole swath is one moving target"))
     detection_velocity: float = param("velocity", default=1.0, gt=0, doc=(
-        "a range cell is moving when its Doppler centroid exceeds 2 v / lambda of this line-of-sight velocity"))
-    detection_level: float = param("decibel", default=-30.0, lt=0, doc="ignore range cells weaker than this "
-                                   "relative to the strongest")
+        "a detection is static (not a mover) when its line-of-sight velocity is under this"))
+    detection_level: float = param("decibel", default=-30.0, lt=0, doc="ignore detection-image peaks weaker than "
+                                   "this relative to the strongest")
     detection_snr: float = param("decibel", default=15.0, ge=0, doc=(
         "CFAR threshold: a detection-image peak must exceed the mean local background (clutter residual and "
         "noise, from tile medians) by this much"))
@@ -181,36 +180,6 @@ def _to_deramped(raw: Product, g: _Geometry) -> tuple[np.ndarray, np.ndarray, in
 def _reconstruct(spec_tf: np.ndarray, bank: channels.FilterBank) -> np.ndarray:
     """(N, n_az, m) channels in azimuth time -> (N n_az, m) reconstructed spectrum (azimuth frequency)."""
     return channels.apply_filter_bank(sfft.fft(spec_tf, axis=1, workers=-1), bank)
-
-
-def _doppler_centroid(y_fr: np.ndarray, frequencies: np.ndarray, smooth: int = 5) -> tuple[np.ndarray, np.ndarray]:
-    """Per range cell of a (n_f, n_r) azimuth spectrum: power and Doppler centroid sum f |Y|^2 / sum |Y|^2.
-
-    The centroid is the plain (not circular) mean over the processed band: a static target whose
-    range cell holds only its aperture ends (Doppler +-B_a / 2, by range curvature) averages to 0,
-    where a lag-one estimate would read N PRF / 2. Both sums run over ``smooth`` neighbouring cells.
-    """
-    p = np.abs(y_fr) ** 2
-    kernel = np.ones(smooth)
-    power = np.convolve(p.sum(axis=0), kernel, mode="same")
-    first = np.convolve(frequencies @ p, kernel, mode="same")
-    return power, np.divide(first, power, out=np.zeros_like(first), where=power > 0)
-
-
-def _windows(mask: np.ndarray, margin: int) -> list[tuple[int, int]]:
-    """Contiguous True runs (gaps up to ``margin`` bridged), widened by ``margin`` cells: [first, last)."""
-    idx = np.nonzero(mask)[0]
-    if len(idx) == 0:
-        return []
-    runs, start, prev = [], idx[0], idx[0]
-    for i in idx[1:]:
-        if i - prev > 2 * margin:
-            runs.append((start, prev))
-            start = i
-        prev = i
-    runs.append((start, prev))
-    n = len(mask)
-    return [(max(0, a - margin), min(n, b + margin + 1)) for a, b in runs]
 
 
 class _Window:
@@ -541,7 +510,7 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
             kept = float(np.sum(np.abs(clutter_null(e_fa, g, params.clutter_band)[0]) ** 2))
             total = float(np.sum(np.abs(e_fa) ** 2))
             null_db = 10 * math.log10(kept / total) if kept > 0 and total > 0 else -math.inf
-            log.info("reconstruct: detection at cell %d, %.4f s: %.1f dB of its energy survives the clutter null",
+            log.debug("reconstruct: detection at cell %d, %.4f s: %.1f dB of its energy survives the clutter null",
                      det.cell, det.time, null_db)
         centre_range = C / 2 * (rt0 + (det.cell - lead) / g.fs)
         # As much energy out of band as white noise has: no point target (a side lobe, clutter residue).
