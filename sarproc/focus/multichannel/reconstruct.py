@@ -36,7 +36,7 @@ from sarproc.product.config import as_dict, param
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import C
 from sarproc.product import moving
-from sarproc.product.model import Product
+from sarproc.product.model import MOVING_TARGET_COLUMNS, Product
 
 log = logging.getLogger(__name__)
 
@@ -477,8 +477,10 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
             v_los_k = channels.line_of_sight_velocity(own.radial_velocity, own.along_track_velocity, g.squint)
             spread = (abs(v_los_k) * t_ill + g.velocity**2 * math.cos(g.squint) ** 2 / r_mid * t_ill**2 / 8) \
                 * 2 * g.fs / C + 2
+            n_amb = round((det.time - peaks[k].time) / ambiguity)
+            # an ambiguity k PRF / K_a away walks by lambda k PRF / 2 m/s against the mover: smeared further
+            spread += abs(n_amb) * C / g.fc * g.prf / 2 * t_ill * 2 * g.fs / C
             if det.power > 0.25 * peaks[k].power and abs(det.cell - peaks[k].cell) > spread:
-                n_amb = round((det.time - peaks[k].time) / ambiguity)
                 where = "at the same apparent azimuth" if n_amb == 0 else \
                     f"{n_amb:+d} x PRF / K_a = {n_amb * ambiguity:+.3f} s from it in apparent time (its ambiguity)"
                 log.warning("reconstruct: a response %.1f dB under mover %d, in range cell %d (%d cells from its "
@@ -661,8 +663,6 @@ def _uncertainties(mt: MovingTarget, g: _Geometry) -> tuple[float, float, float]
 
 def _moving_target_rows(raw: Product, g: _Geometry, movers: list[MovingTarget], info: dict) -> np.ndarray:
     """The aux ``moving_targets`` table (model.MOVING_TARGET_COLUMNS), matched to moving truth targets if any."""
-    from sarproc.product.model import MOVING_TARGET_COLUMNS
-
     centres = moving.phase_centres(raw)
     rows = np.zeros((0, len(MOVING_TARGET_COLUMNS)))
     truth = raw.targets
@@ -733,7 +733,10 @@ def _output_product(raw, params, g, out, info, movers) -> Product:
             aux[f"autofocus_{k}"] = mt.autofocus
     if movers:
         aux["estimated_velocity"] = np.array([[m.radial_velocity, m.along_track_velocity] for m in movers])
-    aux["moving_targets"] = _moving_target_rows(raw, g, movers, info)
+    if params.method == "modified":
+        aux["moving_targets"] = _moving_target_rows(raw, g, movers, info)
+    else:   # no detection ran: an empty table, and no claim about the truth movers
+        aux["moving_targets"] = np.zeros((0, len(MOVING_TARGET_COLUMNS)))
     radar = raw.radar.replace(prf=g.n * g.prf, n_channels=1)
     attrs = {k: v for k, v in raw.attrs.items()}
     attrs["reconstruct"] = info
