@@ -733,7 +733,7 @@ def _output_product(raw, params, g, out, info, movers) -> Product:
             aux[f"autofocus_{k}"] = mt.autofocus
     if movers:
         aux["estimated_velocity"] = np.array([[m.radial_velocity, m.along_track_velocity] for m in movers])
-    if params.method == "modified":
+    if params.method == "modified" and params.detection == "auto":
         aux["moving_targets"] = _moving_target_rows(raw, g, movers, info)
     else:   # no detection ran: an empty table, and no claim about the truth movers
         aux["moving_targets"] = np.zeros((0, len(MOVING_TARGET_COLUMNS)))
