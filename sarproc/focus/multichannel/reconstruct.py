@@ -189,6 +189,23 @@ class _Window:
         self.x, self.f_r, self.g, self.params = x_tf, f_r, g, params
         self.out_f = sfft.fftfreq(g.n * len(g.times), 1.0 / (g.n * g.prf))
         self._banks: dict[float, channels.FilterBank] = {}
+        self.cells: np.ndarray | None = None     # the criterion's range cells (None: all of the window)
+
+    def keep_own_cells(self, margin: int = 2) -> None:
+        """Restrict the criterion to the cells holding the target (noise in the others only dilutes eq. 5).
+
+        A cell is the target's when its energy (over all pulses and channels) rises 5 % of the way from the
+        median cell (the window's floor) to the strongest; ``margin`` cells are added either side.
+        """
+        p = np.sum(np.abs(sfft.ifft(self.x, axis=-1, workers=-1)) ** 2, axis=(0, 1))
+        floor, top = float(np.median(p)), float(p.max())
+        own = np.nonzero(p > floor + 0.05 * (top - floor))[0]
+        if len(own) == 0:
+            return
+        keep = np.zeros(len(p), bool)
+        for c in own:
+            keep[max(0, c - margin):c + margin + 1] = True
+        self.cells = np.nonzero(keep)[0]
 
     def bank(self, v_a: float) -> channels.FilterBank:
         key = round(v_a, 9)
@@ -206,7 +223,10 @@ class _Window:
         return _reconstruct(self.x * demod[None], self.bank(v_a))
 
     def leakage(self, v_r: float, v_a: float) -> float:
-        return velocity.out_of_band_fraction(self.demodulated_spectrum(v_r, v_a), self.out_f, self.g.half_band)
+        spec = self.demodulated_spectrum(v_r, v_a)
+        if self.cells is not None:
+            spec = sfft.ifft(spec, axis=1, workers=-1)[:, self.cells]
+        return velocity.out_of_band_fraction(spec, self.out_f, self.g.half_band)
 
     def output(self, v_r: float, v_a: float, t_c: float, slant_range: float, focus_along_track: bool) -> np.ndarray:
         """Target reconstructed at N PRF in (t', f_r), Doppler offset restored, FM rate matched to a static point."""
@@ -504,6 +524,7 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
         x_w = sfft.fft(x_tr[:, :, a:b], axis=-1, workers=-1)
         ext = detection.extract(x_w, g.times, g.prf, det.time, ka_w, params.separation_bandwidth)
         win = _Window(ext, f_w, g, params)
+        win.keep_own_cells()
         null_db = None
         if residual_mode:
             # Energy of this detection's channels that survives the clutter null: static points leave the
