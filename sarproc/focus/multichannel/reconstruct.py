@@ -266,13 +266,14 @@ class _Window:
 
 def _estimate(win: _Window, params: ReconstructParams, g: _Geometry, centre_range: float,
               static_below: float | None = None,
-              incoherent_above: float | None = None) -> tuple[MovingTarget | None, list[str]]:
+              flat_above: float | None = None) -> tuple[MovingTarget | None, list[str]]:
     """Slant-range velocity by the leakage search, along-track by autofocus, then a refined search.
 
     Returns the target and the reasons to doubt it (true statements, for the caller to warn with the
     window's location). With ``static_below``, a window whose line-of-sight velocity from the first
-    search is below it (m/s) is a static target: (None, []); with ``incoherent_above``, one whose
-    out-of-band fraction (eq. 5) at that velocity exceeds it holds no point target: (None, ["incoherent"]).
+    search is below it (m/s) is a static target: (None, []); with ``flat_above``, one whose eq. 5 at the
+    estimate is above that fraction of its median over the first search's grid has no velocity that
+    explains it (noise, or a response that is no point target): (None, ["incoherent"]).
     """
     empty = np.zeros((0, 2))
     notes: list[str] = []
@@ -310,7 +311,8 @@ def _estimate(win: _Window, params: ReconstructParams, g: _Geometry, centre_rang
     t_c = float(np.sum(g.out_times * p) / np.sum(p)) if np.sum(p) > 0 else 0.0
     slant_range = centre_range - g.velocity * math.sin(g.squint) * t_c
     af = empty
-    if incoherent_above is not None and win.leakage(v_r, v_a) > incoherent_above:
+    if flat_above is not None and result is not None and \
+            win.leakage(v_r, v_a) > flat_above * float(np.median(result.trials[:, 1])):
         return None, ["incoherent"]
     if params.autofocus and params.along_track_velocity is None:
         v_los = channels.line_of_sight_velocity(v_r, v_a, g.squint)
@@ -453,6 +455,7 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
     threshold = 10 ** (params.detection_snr / 10)
     del power
     examined = 0
+    flat_snr: list[float] = []
     ka0 = float(detection.fm_rate(g.velocity, g.squint, r_mid, g.fc, 0.0))
     ambiguity = g.prf / ka0                   # apparent-time spacing the channel samples cannot tell apart (s)
     sep = 1.5 * params.separation_bandwidth / ka0
@@ -463,7 +466,6 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
     movers: list[MovingTarget] = []
     peaks: list[detection.Detection] = []
     counts = {"detections": len(dets), "static": 0, "ambiguous": 0, "incoherent": 0, "explained": 0}
-    incoherent = 0.5 * (1 - 2 * g.half_band / (g.n * g.prf))
 
     # An ambiguity k PRF / K_a away keeps the mover's range history while a static point there walks by
     # lambda k PRF / 2 m/s: over the illumination time it is smeared over this many cells either side.
@@ -536,9 +538,9 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
             log.debug("reconstruct: detection at cell %d, %.4f s: %.1f dB of its energy survives the clutter null",
                      det.cell, det.time, null_db)
         centre_range = C / 2 * (rt0 + (det.cell - lead) / g.fs)
-        # As much energy out of band as white noise has: no point target (a side lobe, clutter residue).
+        # A criterion with no dip at any velocity: no point target (noise, a side lobe, clutter residue).
         mt, notes = _estimate(win, params, g, centre_range, static_below=params.detection_velocity,
-                              incoherent_above=incoherent)
+                              flat_above=0.95)
         # The other targets in this window (detected anywhere in its cells, not at this one's position or
         # ambiguities) keep their own reconstruction; everything else in the window takes this mover's.
         others = []
@@ -552,6 +554,8 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
         if mt is None:
             kind = "incoherent" if notes == ["incoherent"] else "static"
             counts[kind] += 1
+            if kind == "incoherent":
+                flat_snr.append(det.snr_db)
             log.info("reconstruct: detection at range cell %d, %.3f s (SNR %.1f dB) is %s", det.cell, det.time,
                      det.snr_db, "no point target" if kind == "incoherent" else "static")
             continue
@@ -576,6 +580,10 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
                             "apparent time) could not be separated; their velocity estimates mix both", i, j,
                             min(peaks[i].cell, peaks[j].cell), max(peaks[i].cell, peaks[j].cell),
                             abs(peaks[i].cell - peaks[j].cell), 1e3 * abs(peaks[i].time - peaks[j].time))
+    if flat_snr:
+        log.warning("reconstruct: %d detection(s) above the CFAR threshold (SNR %.1f-%.1f dB) have no slant-range "
+                    "velocity that explains them (too weak for the velocity search, or no point target: side lobes, "
+                    "clutter residue); they are not in moving_targets", len(flat_snr), min(flat_snr), max(flat_snr))
     if dropped:
         log.warning("reconstruct: %d further detections above the CFAR threshold were not examined "
                     "(reconstruct.max_detections = %d): movers among them are missed", dropped, params.max_detections)
