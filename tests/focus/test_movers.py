@@ -169,3 +169,17 @@ def test_a_moving_target_table_of_the_wrong_width_is_refused(two_movers, tmp_pat
     write_product(tmp_path / "bad.h5", rec)
     with pytest.raises(InputError, match="moving_targets' has 5 columns"):
         read_product(tmp_path / "bad.h5")
+
+
+def test_a_static_target_in_a_movers_range_cells_is_unaffected():
+    """S shares P's walk-corrected range cells 200 m away in azimuth: its image equals S imaged alone."""
+    from sarproc.focus.backprojection import BackprojectParams, backproject
+
+    s_pt = {"name": "S", "azimuth": "200 m", "range": "-68 m"}          # 200 sin(20 deg) = 68 m: P's cells
+    both = reconstruct(simulate(scene_from_mapping(scene([vehicle("P", 0, 0, 4, 12), s_pt]))), ReconstructParams())
+    alone = reconstruct(simulate(scene_from_mapping(scene([s_pt]))), ReconstructParams())
+    assert len(moving_target_table(both.aux)["id"]) == 1 and len(moving_target_table(alone.aux)["id"]) == 0
+    chip = BackprojectParams(azimuth_extent=30.0, range_extent=60.0, azimuth_center=200.0, range_center=600000 - 68.0)
+    a, b = (backproject(p, chip).data for p in (both, alone))
+    level = 20 * np.log10(np.abs(a - b).max() / np.abs(b).max())
+    assert level < -40.0, level                      # P leaves S within -40 dB (measured -67 dB)
