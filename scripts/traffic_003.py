@@ -112,7 +112,8 @@ def markdown(rows, false, statics, two, info):
               f"clutter residual + {info.get('cfar_db', 15):g} dB): {len(false)}"
               + ("".join(f"\n  - false alarm: SNR {f['snr']:.1f} dB, v_r {f['v_r']:.2f}, v_a {f['v_a']:.2f} m/s"
                          for f in false)),
-              f"- every v_r within {V_R_TOLERANCE} m/s: {'yes' if ok_vr and len(found) == len(rows) else 'no'} "
+              f"- every vehicle found: {'yes' if len(found) == len(rows) else 'no, missed ' + ', '.join(e['name'] for e in rows if not e['found'])}",
+              f"- every found vehicle's v_r within {V_R_TOLERANCE} m/s: {'yes' if ok_vr else 'no'} "
               f"(largest error {max((abs(e['dv_r']) for e in found), default=float('nan')):.3f} m/s)",
               f"- every relocation within R |dv_los| / (v cos theta) + {APPARENT_POSITION_M:g} m: "
               f"{'yes' if ok_reloc else 'no'}"]
