@@ -502,11 +502,14 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
             n_amb = round((det.time - peaks[k].time) / ambiguity)
             # an ambiguity k PRF / K_a away walks by lambda k PRF / 2 m/s against the mover: smeared further
             spread += abs(n_amb) * C / g.fc * g.prf / 2 * t_ill * 2 * g.fs / C
-            if det.power > 0.25 * peaks[k].power and abs(det.cell - peaks[k].cell) > spread:
-                where = "at the same apparent azimuth" if n_amb == 0 else \
+            # ... or beyond its own azimuth width (the same range cells, a different apparent azimuth)
+            d_samples = abs((det.time - peaks[k].time) - n_amb * ambiguity) * g.n * g.prf
+            apart_azimuth = d_samples > 2 * max(peaks[k].width, det.width) + 2
+            if det.power > 0.25 * peaks[k].power and (abs(det.cell - peaks[k].cell) > spread or apart_azimuth):
+                where = f"{1e3 * (det.time - peaks[k].time):+.1f} ms from it in apparent time" if n_amb == 0 else \
                     f"{n_amb:+d} x PRF / K_a = {n_amb * ambiguity:+.3f} s from it in apparent time (its ambiguity)"
                 log.warning("reconstruct: a response %.1f dB under mover %d, in range cell %d (%d cells from its "
-                            "peak, beyond its own range extent of %.0f cells) %s, could not be separated from it: "
+                            "peak; its own range extent %.0f cells) %s, could not be separated from it: "
                             "another mover there shares its window and its velocity estimate",
                             10 * math.log10(peaks[k].power / det.power), k, det.cell, det.cell - peaks[k].cell,
                             spread, where)
