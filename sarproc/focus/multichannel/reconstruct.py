@@ -272,8 +272,9 @@ def _estimate(win: _Window, params: ReconstructParams, g: _Geometry, centre_rang
     Returns the target and the reasons to doubt it (true statements, for the caller to warn with the
     window's location). With ``static_below``, a window whose line-of-sight velocity from the first
     search is below it (m/s) is a static target: (None, []); with ``flat_above``, one whose eq. 5 at the
-    estimate is above that fraction of its median over the first search's grid has no velocity that
-    explains it (noise, or a response that is no point target): (None, ["incoherent"]).
+    estimate is above that fraction of its median over the first search's grid, or at white noise's
+    out-of-band fraction, has no velocity that explains it (noise, or a response that is no point
+    target): (None, ["incoherent"]).
     """
     empty = np.zeros((0, 2))
     notes: list[str] = []
@@ -311,9 +312,12 @@ def _estimate(win: _Window, params: ReconstructParams, g: _Geometry, centre_rang
     t_c = float(np.sum(g.out_times * p) / np.sum(p)) if np.sum(p) > 0 else 0.0
     slant_range = centre_range - g.velocity * math.sin(g.squint) * t_c
     af = empty
-    if flat_above is not None and result is not None and \
-            win.leakage(v_r, v_a) > flat_above * float(np.median(result.trials[:, 1])):
-        return None, ["incoherent"]
+    if flat_above is not None and result is not None:
+        # No dip at any velocity, or as much energy out of band as white noise has (1 - B_a / (N PRF)):
+        # nothing band-limited to estimate.
+        at = win.leakage(v_r, v_a)
+        if at > flat_above * float(np.median(result.trials[:, 1])) or at >= 1 - 2 * g.half_band / (g.n * g.prf):
+            return None, ["incoherent"]
     if params.autofocus and params.along_track_velocity is None:
         v_los = channels.line_of_sight_velocity(v_r, v_a, g.squint)
         # Autofocus on the mover's own range cells (its energy above 1 % of its strongest cell), with the
