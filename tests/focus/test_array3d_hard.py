@@ -106,11 +106,14 @@ def test_wide_swath_per_bin_cross_track_rcmc_keeps_quality(wide_ref):
     cube, rep = wide_ref
     # v_n sin(theta) spans 2 x 0.29 m across the array: more than 5 range cells (0.06 m)
     assert 2 * cube.history[-1]["parameters"]["derived"]["cross_track_rcm_max_m"] > 5 * C / (2 * 2.5e9)
+    nadir_theory = rep.target("N").axis("elevation").irw_theory
     for name, th in (("N", 0.0), ("M", 15.0), ("E", 30.0)):
         t = rep.target(name)
         el, az, rg = (t.axis(a) for a in ("elevation", "azimuth", "range"))
-        # elevation theory is given at nadir; off nadir the angular width grows as 1/cos(theta)
-        assert el.irw_ratio == pytest.approx(1 / math.cos(math.radians(th)), rel=0.05), (name, el)
+        # each target's own elevation theory: off nadir the angular width grows as 1/cos(theta)
+        assert el.theory == "target"
+        assert el.irw_theory == pytest.approx(nadir_theory / math.cos(math.radians(th)), rel=0.01), (name, el)
+        assert el.irw_ratio == pytest.approx(1.0, abs=0.05), (name, el)
         assert rg.irw_ratio == pytest.approx(1.0, abs=0.05) and az.irw_ratio == pytest.approx(1.0, abs=0.05)
         for m in (el, az, rg):
             assert abs(m.position_error_cells) < 0.2, (name, m)
