@@ -79,8 +79,8 @@ def plan_outputs(input_path, outputs, overwrite: bool, estimate, inputs=None, co
 PROCESS = {"simulate": (185e6, 0.6), "preprocess": (225e6, 1.1), "coarse-focus": (195e6, 0.8),
            "fine-focus": (230e6, 1.1), "backproject": (240e6, 1.1), "pfa2": (290e6, 1.4),
            "reconstruct": (255e6, 0.9), "array3d": (215e6, 1.0), "evaluate": (135e6, 0.9),
-           "export-sicd": (200e6, 1.5), "export-cphd": (200e6, 1.5), "import-cphd": (200e6, 1.2),
-           "import-gotcha": (110e6, 0.6)}
+           "export-sicd": (85e6, 0.9), "export-cphd": (125e6, 1.7), "import-cphd": (120e6, 0.8),
+           "import-gotcha": (88e6, 0.6)}
 # stage: (the numba modules it runs, seconds and bytes to compile them when numba's cache lacks them)
 KERNELS = {"preprocess": (("sarproc.dsp.phasor",), 0.5, 10e6),
            "fine-focus": (("sarproc.focus.squint_deramp.stolt", "sarproc.focus.squint_deramp.block_copies",
@@ -321,7 +321,7 @@ def simulate_estimate(scene) -> Plan:
 def export_sicd_estimate(stage, header, params) -> Plan:
     """SICD holds complex64 pixels; the image, its reordered copy and the read-back are in memory."""
     n = math.prod(_shape(header))
-    return Plan(stage, complex_bytes(n) + 1e5, 3 * complex_bytes(n), 2.0 + n * 50e-9, f"{n} pixels")
+    return Plan(stage, complex_bytes(n) + 1e5, 3 * complex_bytes(n), n * 50e-9, f"{n} pixels")
 
 
 def export_cphd_estimate(stage, header, params) -> Plan:
@@ -329,17 +329,17 @@ def export_cphd_estimate(stage, header, params) -> Plan:
     n_az, n_rg = _shape(header)[-2:]
     n = n_az * n_rg
     return Plan(stage, complex_bytes(n) + 200.0 * n_az + 1e5, complex_bytes(n) + 3 * complex_bytes(n, itemsize=16),
-                2.0 + n * 80e-9, f"{n_az} vectors x {n_rg} samples")
+                n * 80e-9, f"{n_az} vectors x {n_rg} samples")
 
 
 def import_cphd_estimate(stage, cphd: dict) -> Plan:
     n_v, n_s = cphd["vectors"], cphd["samples"]
     n = n_v * n_s
-    return Plan(stage, stored_bytes(n_v, n_s), complex_bytes(n) + 3 * complex_bytes(n, itemsize=16), 1.0 + n * 80e-9,
+    return Plan(stage, stored_bytes(n_v, n_s), complex_bytes(n) + 3 * complex_bytes(n, itemsize=16), n * 80e-9,
                 f"{n_v} vectors x {n_s} samples")
 
 
 def import_gotcha_estimate(stage, files) -> Plan:
     """Gotcha files store complex64 samples: the product is about their size; read as complex128, twice."""
     size = float(sum(Path(f).stat().st_size for f in files))
-    return Plan(stage, size, 5 * size, 0.5 + size * 10e-9, f"{len(files)} file(s), {size / 1e6:.3g} MB")
+    return Plan(stage, size, 5 * size, size * 10e-9, f"{len(files)} file(s), {size / 1e6:.3g} MB")
