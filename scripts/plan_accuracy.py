@@ -1,11 +1,11 @@
 """How close each stage's up-front plan (sarproc STAGE ... --dry-run) comes to what the run then takes.
 
 For every shipped scene config (configs/*.yaml, sweeps excluded) the chain that the reproduction
-targets run (simulate, then the config's focusing stages, then evaluate; the config variants on
+targets run (simulate, then the config's focusing stages, then evaluate and quicklook; the config variants on
 their base scene's raw product; Gotcha from its files; the SICD/CPHD round trip on the demo) is
 run stage by stage in subprocesses. Each stage is first run with --dry-run (its plan; the script
 checks that nothing was written), then for real, and the plan is set against the measured output
-size, the process's peak RSS (ru_maxrss, interpreter and libraries included, as the plan counts
+size, the process's peak RSS (VmHWM, interpreter and libraries included, as the plan counts
 them) and its wall time (imports included). With --repeat N a stage is run up to N times and the
 best (lowest) wall time kept: time on a shared machine only gets longer with load, never shorter.
 
@@ -67,12 +67,31 @@ def chain(name: str, out: Path) -> list[list]:
         steps.append([stage, source, "--config", cfg, "-o", target])
         source = target
     steps.append(["evaluate", source, "--config", cfg, "-o", out / f"{name}_report.json"])
+    steps.append(["quicklook", source, "-o", out / f"{name}_quicklook.png"])
     return steps
 
 
 def all_chains() -> list[str]:
     names = [p.stem for p in sorted(CONFIGS.glob("*.yaml")) if not p.stem.endswith("_expect") and p.stem != "gotcha"]
     return names + ["gotcha", "formats"]
+
+
+# `python -m sarproc ARGS` that reports its peak RSS at exit: VmHWM of its own memory map. ru_maxrss
+# from wait4 is no good here: with vfork it includes the RSS of the parent at the time of exec (a
+# pytest process of 300 MB made a 117 MB quicklook read 296 MB).
+PEAK_RSS = """
+import atexit, sys
+
+def report():
+    with open("/proc/self/status") as fh:
+        hwm = next(line.split()[1] for line in fh if line.startswith("VmHWM:"))
+    print(f"plan_accuracy: VmHWM {hwm} kB", file=sys.stderr)
+
+atexit.register(report)
+sys.argv[0] = "sarproc"
+from sarproc.cli.main import main
+main()
+"""
 
 
 def _run(args, extra=()):
@@ -97,10 +116,11 @@ def run_stage(args, repeat: int = 1, accept=None, dry_run=_run) -> dict:
     m = PLAN.search(stdout)
     row.update(plan_out=value(m.group(2)), plan_mem=value(m.group(3)), plan_s=value(m.group(4)),
                dry_run_wrote=output.exists())
-    extra = [] if args[0] in ("evaluate", "import-gotcha") or args[0].startswith(("export", "import")) else ["--no-progress"]
+    extra = [] if args[0] in ("evaluate", "import-gotcha", "quicklook") or args[0].startswith(("export", "import")) \
+        else ["--no-progress"]
     for i in range(repeat):
         t0 = time.perf_counter()
-        proc = subprocess.Popen([sys.executable, "-m", "sarproc", *map(str, args), *extra],
+        proc = subprocess.Popen([sys.executable, "-c", PEAK_RSS, *map(str, args), *extra],
                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=ROOT)
         err = proc.stderr.read()
         _, status, usage = os.wait4(proc.pid, 0)     # reaped here for its rusage (peak RSS, CPU time)
@@ -110,7 +130,8 @@ def run_stage(args, repeat: int = 1, accept=None, dry_run=_run) -> dict:
         if proc.returncode != 0:
             row["refused"] = " ".join(err.split())[:200]
             return row
-        rss, cpu = usage.ru_maxrss * 1024.0, usage.ru_utime + usage.ru_stime
+        hwm = re.search(r"plan_accuracy: VmHWM (\d+) kB", err)
+        rss, cpu = float(hwm.group(1)) * 1024, usage.ru_utime + usage.ru_stime
         row["runs"] = i + 1
         row["wall"] = min(wall, row.get("wall", wall))
         row["cpu"] = min(cpu, row.get("cpu", cpu))

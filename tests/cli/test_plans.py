@@ -52,6 +52,7 @@ STAGES = [
     ("simulate", "config:demo", None),
     ("backproject", "demo_raw.h5", "demo"),
     ("evaluate", "demo_image.h5", "demo"),
+    ("quicklook", "demo_image.h5", None),
     ("preprocess", "an2012_exp1_small_raw.h5", "an2012_exp1_small"),
     ("coarse-focus", "pre.h5", "an2012_exp1_small"),
     ("fine-focus", "coarse.h5", "an2012_exp1_small"),
@@ -64,7 +65,7 @@ STAGES = [
 def stage_args(inputs, stage, source, config):
     src = CONFIGS / f"{source[7:]}.yaml" if source.startswith("config:") else inputs / source
     cfg = ["--config", CONFIGS / f"{config}.yaml"] if config else []
-    out = inputs / f"out_{stage}{'.json' if stage == 'evaluate' else '.h5'}"
+    out = inputs / f"out_{stage}{ {'evaluate': '.json', 'quicklook': '.png'}.get(stage, '.h5')}"
     return [stage, src, *cfg, "-o", out]
 
 
@@ -98,5 +99,5 @@ def test_dry_run_checks_like_a_run_and_writes_nothing(inputs):
     assert res.exit_code == 2 and "--max-memory" in res.output and not (inputs / "d2.h5").exists()
     # every product-writing command offers it
     for command in ("simulate", "preprocess", "coarse-focus", "fine-focus", "pfa2", "reconstruct", "array3d",
-                    "backproject", "evaluate", "import-gotcha", "export-sicd", "export-cphd", "import-cphd"):
+                    "backproject", "evaluate", "quicklook", "import-gotcha", "export-sicd", "export-cphd", "import-cphd"):
         assert "--dry-run" in CliRunner().invoke(cli, [command, "--help"]).output, command
