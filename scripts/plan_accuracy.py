@@ -102,28 +102,37 @@ def _run(args, extra=()):
 
 
 def run_stage(args, repeat: int = 1, accept=None, dry_run=_run) -> dict:
-    """The stage's --dry-run plan, then up to ``repeat`` real runs (stopping early once ``accept(row)``).
-    ``dry_run(args, extra)``: how the plan is asked for ((status, stdout, stderr); a subprocess)."""
+    """The stage's --dry-run plan, then the real run, up to ``repeat`` times (stopping once ``accept(row)``):
+    best wall and CPU time, highest peak RSS. The plan is asked for again before each run; when it
+    changes (the first run filled numba's cache, so no compilation is planned any more), the runs
+    before it no longer count. ``dry_run(args, extra)``: how the plan is asked for ((status, stdout,
+    stderr); by default a subprocess)."""
     args = [*args, "--overwrite"]
     output = Path(args[args.index("-o") + 1])
     if output.exists():
         output.unlink()
-    code, stdout, stderr = dry_run(args, ["--dry-run"])
     row = {"stage": args[0], "input": Path(args[1]).name, "output": output.name}
-    if code != 0:
-        row["refused"] = " ".join((stderr or stdout).split())[:200]
-        return row
-    m = PLAN.search(stdout)
-    row.update(plan_out=value(m.group(2)), plan_mem=value(m.group(3)), plan_s=value(m.group(4)),
-               dry_run_wrote=output.exists())
     extra = [] if args[0] in ("evaluate", "import-gotcha", "quicklook") or args[0].startswith(("export", "import")) \
         else ["--no-progress"]
     for i in range(repeat):
+        existed = output.exists()
+        code, stdout, stderr = dry_run(args, ["--dry-run"])
+        if code != 0:
+            row["refused"] = " ".join((stderr or stdout).split())[:200]
+            return row
+        m = PLAN.search(stdout)
+        plan = dict(plan_out=value(m.group(2)), plan_mem=value(m.group(3)), plan_s=value(m.group(4)))
+        if i == 0:
+            row["dry_run_wrote"] = output.exists() and not existed
+        if any(row.get(k) != v for k, v in plan.items()):
+            row.update(plan)
+            for k in ("wall", "cpu", "rss"):
+                row.pop(k, None)
         t0 = time.perf_counter()
         proc = subprocess.Popen([sys.executable, "-c", PEAK_RSS, *map(str, args), *extra],
                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=ROOT)
         err = proc.stderr.read()
-        _, status, usage = os.wait4(proc.pid, 0)     # reaped here for its rusage (peak RSS, CPU time)
+        _, status, usage = os.wait4(proc.pid, 0)     # reaped here for its rusage (CPU time)
         wall = time.perf_counter() - t0
         proc.returncode = os.waitstatus_to_exitcode(status)
         proc.stderr.close()
