@@ -168,11 +168,15 @@ def fine_focus_estimate(stage, header, params) -> Plan:
                          "raise it or shrink the scene")
     work = complex_bytes(M, N, itemsize=8 if params.precision == "float32" else 16)
     flow = params.flow or _fine_focus_flow(header)
-    # spectra, Stolt output, azimuth blocks and kernel tables: about seven working arrays (measured);
-    # flow 2's NLCS compression works on a longer, zero-padded azimuth axis: ~3x flow 1's time (measured;
-    # 1-4x, with the padding the geometry needs)
-    per_sample = params.stolt_length * 25e-9 * (3 if flow == 2 else 1)
-    return Plan(stage, stored_bytes(M, N), complex_bytes(M, n_r) + 7 * work, M * N * per_sample,
+    # spectra, Stolt output and azimuth blocks: about three working arrays at the peak (measured 3.1 on
+    # exp. 2 full); flow 2's NLCS tables and zero-padded azimuth blocks add a constant ~100 MB and ~1 s
+    # (small scenes: 80-170 MB, 1-2 s) and ~0.07 us per working sample (exp. 2 full: 2.2 s of work on an
+    # idle machine, CPU/wall 1.8; docs/performance.md)
+    if flow == 2:
+        memory, seconds = 3 * work + 100e6, 1.0 + M * N * 0.07e-6
+    else:
+        memory, seconds = 3 * work, M * N * params.stolt_length * 10e-9   # exp. 2 in flow 1: 3.4 s of CPU
+    return Plan(stage, stored_bytes(M, N), complex_bytes(M, n_r) + memory, seconds,
                 f"working array {M} x {N}, flow {flow}")
 
 
@@ -274,9 +278,9 @@ def evaluate_estimate(stage, header, params) -> Plan:
     chip = math.prod(lengths)
     cut = max((2 * math.ceil((params.islr_nulls + 2) * ax.null * params.upsample) + 1) * L
               for ax, L in zip(axes, lengths))
-    memory = 30.0 * n + 160.0 * n_tg * chip + 32.0 * cut
+    memory = (15.0 if len(shape) < 3 else 30.0) * n + 160.0 * n_tg * chip + 32.0 * cut
     # neighbours are fitted jointly, so a target's work grows with how many there are
-    seconds = n * 20e-9 + n_tg * (0.17 + 3e-7 * cut) + 2.5e-6 * chip * n_tg * (1 + n_tg / 4)
+    seconds = n * 20e-9 + n_tg * (0.1 + 3e-7 * cut) + 2.5e-6 * chip * n_tg * (1 + n_tg / 4)
     # the JSON report: about 3 kB per target (figures are not counted)
     return Plan(stage, 1e3 + 3.5e3 * n_tg, memory, seconds,
                 f"{n_tg} targets on {n} pixels, chips of {' x '.join(map(str, lengths))}")
