@@ -231,12 +231,13 @@ def backproject_estimate(stage, header, params) -> Plan:
 
 
 def pfa2_estimate(stage, header, params) -> Plan:
-    """The phase history and its polar-to-rectangular resampling (about nine input-sized complex64
-    arrays), the image and its sub-images; cost per input sample and per pixel (measured)."""
+    """The phase history and its polar-to-rectangular resampling (about seven input-sized complex64
+    arrays: 10x on the small configs, 5.9x on the full Table 1 scene, 11.1 GB, docs/pfa.md), the image
+    and its sub-images; cost per input sample and per pixel (measured; full Table 1: 391 s)."""
     n_in = math.prod(_shape(header))
     n = image_grid(header, params)
     n_pix = n[0] * n[1]
-    return Plan(stage, stored_bytes(*n), 9 * complex_bytes(n_in) + 6 * complex_bytes(n_pix),
+    return Plan(stage, stored_bytes(*n), 7 * complex_bytes(n_in) + 6 * complex_bytes(n_pix),
                 1.4e-6 * n_in + 1e-6 * n_pix, f"~{n[0]} x {n[1]} pixels from {n_in} samples")
 
 
@@ -279,8 +280,9 @@ def evaluate_estimate(stage, header, params) -> Plan:
     cut = max((2 * math.ceil((params.islr_nulls + 2) * ax.null * params.upsample) + 1) * L
               for ax, L in zip(axes, lengths))
     memory = (15.0 if len(shape) < 3 else 30.0) * n + 160.0 * n_tg * chip + 32.0 * cut
-    # neighbours are fitted jointly, so a target's work grows with how many there are
-    seconds = n * 20e-9 + n_tg * (0.1 + 3e-7 * cut) + 2.5e-6 * chip * n_tg * (1 + n_tg / 4)
+    # neighbours are fitted jointly, so a target's work grows with how many there are (up to the few
+    # whose chips can overlap it)
+    seconds = n * 20e-9 + n_tg * (0.1 + 3e-7 * cut) + 2.5e-6 * chip * n_tg * (1 + min(n_tg, 8) / 4)
     # the JSON report: about 3 kB per target (figures are not counted)
     return Plan(stage, 1e3 + 3.5e3 * n_tg, memory, seconds,
                 f"{n_tg} targets on {n} pixels, chips of {' x '.join(map(str, lengths))}")
