@@ -181,17 +181,15 @@ def fine_focus_estimate(stage, header, params) -> Plan:
 
 
 def _fine_focus_flow(header) -> int:
-    """fine-focus's automatic flow (eq. 17): 1 when the scene fits its depth of focus (as fine_focus does)."""
-    from sarproc.focus.squint_deramp.fine_focus import depth_of_focus_half_width
+    """fine-focus's automatic flow (eq. 17): 1 when the scene fits its depth of focus."""
+    from sarproc.focus.squint_deramp.fine_focus import scene_and_focus_depth
 
     try:
-        r, at = header.radar, header.attrs
-        box = [float(b) for b in at["scene_box"]]
-        K_c = -2 * r.velocity**2 * math.cos(r.squint) ** 2 / (r.wavelength * 0.5 * (box[2] + box[3]))
-        rho_a = r.velocity / (abs(K_c) * int(at["n_pulses"]) / r.prf)
-        return 1 if max(abs(box[0]), abs(box[1])) <= depth_of_focus_half_width(r, rho_a) else 2
-    except (KeyError, ValueError, ZeroDivisionError):
+        half_adof, scene_half = scene_and_focus_depth(header.radar, [float(b) for b in header.attrs["scene_box"]],
+                                                      int(header.attrs["n_pulses"]))
+    except (KeyError, ValueError, TypeError, ZeroDivisionError):
         return 1          # fine-focus itself reports a bad coarse product
+    return 1 if scene_half <= half_adof else 2
 
 
 def image_grid(header, params) -> tuple[int, int]:
