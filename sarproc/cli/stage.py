@@ -231,12 +231,13 @@ def backproject_estimate(stage, header, params) -> Plan:
 def pfa2_estimate(stage, header, params) -> Plan:
     """The phase history and its polar-to-rectangular resampling, the image and its sub-images: about
     three input-sized and three image-sized complex64 arrays (fitted to nie2016_small, 385 MB, and the
-    full Table 1 scene, 11.1 GB, docs/pfa.md); cost per input sample and per pixel (full Table 1: 391 s)."""
+    full Table 1 scene, 11.1 GB, docs/pfa.md); cost per input sample and per pixel (fitted to the small
+    configs and the two full Table 1 scenes, 391 s and 190 s two-step)."""
     n_in = math.prod(_shape(header))
     n = image_grid(header, params)
     n_pix = n[0] * n[1]
     return Plan(stage, stored_bytes(*n), 3 * complex_bytes(n_in) + 3 * complex_bytes(n_pix),
-                1.4e-6 * n_in + 1e-6 * n_pix, f"~{n[0]} x {n[1]} pixels from {n_in} samples")
+                0.5e-6 * n_in + 1.2e-6 * n_pix, f"~{n[0]} x {n[1]} pixels from {n_in} samples")
 
 
 def reconstruct_estimate(stage, header, params) -> Plan:
