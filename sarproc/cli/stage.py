@@ -175,7 +175,8 @@ def fine_focus_estimate(stage, header, params) -> Plan:
     if flow == 2:
         memory, seconds = 3 * work + 100e6, 1.0 + M * N * 0.07e-6
     else:
-        memory, seconds = 3 * work, M * N * params.stolt_length * 10e-9   # exp. 2 in flow 1: 3.4 s of CPU
+        # flow 1: 0.12-0.37 us per sample of CPU (exp. 2; exp. 1 with and without Doppler correction)
+        memory, seconds = 3 * work, M * N * params.stolt_length * 15e-9
     return Plan(stage, stored_bytes(M, N), complex_bytes(M, n_r) + memory, seconds,
                 f"working array {M} x {N}, flow {flow}")
 
