@@ -330,6 +330,11 @@ def simulate_estimate(scene) -> Plan:
     mem = (complex_bytes(n_ch, block, n_rg + 2 * n_env, itemsize=16) + complex_bytes(block, n_env, itemsize=16) * 6
            + block * n_tg * 8 * 8.0 + max(window_plan, complex_bytes(n_ch, block, n_rg)))
     seconds = n_ch * n_p * n_tg * (n_env * 15e-9 + 2e-6) + n_ch * n_p * n_rg * 10e-9
+    from sarproc.simulation.effects.clutter import Clutter, clutter_cost
+
+    for e in scene.effects:   # clutter scatterers: ~14 ns per phasor (xu_clutter: 4.9e8 phasors, 6.9 s)
+        if isinstance(e, Clutter):
+            seconds += 14e-9 * clutter_cost(n_p, n_ch, e.params.n_scatterers, n_env)
     window = ("acquisition.range_window" if acq.range_window is not None
               else f"the targets' delays + radar.pulse_duration {r.pulse_duration:g} s")
     detail = (f"{n_ch} x {n_p} pulses x {n_rg} samples, {n_tg} targets; samples = {window} "
