@@ -249,6 +249,8 @@ def reconstruct_estimate(stage, header, params) -> Plan:
     n = n_ch * n_az * n_rg
     # the modified method's detection and velocity searches nearly double the filter bank's time (measured)
     per_sample = 0.55e-6 if params.method == "modified" else 0.3e-6
+    if params.clutter_suppression:   # the clutter null's projections and the movers' searches after it
+        per_sample = 2.5e-6          # (xu_clutter: 24 s of CPU for 9.7e6 samples)
     return Plan(stage, stored_bytes(n_ch * n_az, n_rg), 8 * complex_bytes(n), n * per_sample,
                 f"{n_ch} channels x {n_az} pulses x {n_rg} samples -> {n_ch * n_az} pulses")
 
