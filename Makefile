@@ -42,6 +42,12 @@ bench-venv: $(BENCH_VENV)/.installed
 bench: $(STAMP) $(BENCH_VENV)/.installed
 	flock /tmp/heavy.lock nice $(PY) scripts/bench.py --fastsar-python $(BENCH_VENV)/bin/python
 
+# Every stage's plan (sarproc STAGE ... --dry-run) against its measured peak RSS and wall time, for every
+# shipped config (configs/*.yaml, sweeps excluded): the table in docs/plans.md. Heavy: waits for heavy.lock.
+.PHONY: plan-accuracy
+plan-accuracy: $(STAMP)
+	flock /tmp/heavy.lock nice $(PY) scripts/plan_accuracy.py --out results/plan-accuracy --markdown docs/plans.md
+
 clean:
 	rm -rf results build *.egg-info
 

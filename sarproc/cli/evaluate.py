@@ -9,7 +9,7 @@ from pathlib import Path
 
 import click
 
-from sarproc.cli.options import (config_option, info, input_argument, load_config, max_memory, max_memory_option,
+from sarproc.cli.options import (config_option, dry_run_option, input_argument, load_config, max_memory_option,
                                  progress_option, summary, verbosity, want_progress)
 
 
@@ -95,6 +95,7 @@ def _write_text_atomic(path: Path, text: str, overwrite: bool = True) -> None:
 @config_option
 @progress_option
 @max_memory_option
+@dry_run_option
 def evaluate(input_path: Path, output, overwrite, plot_dir, expect_path, config_path, progress):
     """Point-target metrics of an image: IRW, PSLR, ISLR, position error and false-target level.
 
@@ -107,8 +108,7 @@ def evaluate(input_path: Path, output, overwrite, plot_dir, expect_path, config_
     Markdown table; exit status 1 when --expect tolerances fail, 2 on bad input.
     """
     from sarproc.cli.progress import progress_factory
-    from sarproc.cli.stage import evaluate_estimate, naming
-    from sarproc.product.budget import check_plan
+    from sarproc.cli.stage import evaluate_estimate, naming, report_plan
     from sarproc.product.config import load_yaml
     from sarproc.product.errors import InputError
     from sarproc.product.io import check_output_path, read_product
@@ -127,10 +127,7 @@ def evaluate(input_path: Path, output, overwrite, plot_dir, expect_path, config_
             raise InputError(f"{plot_dir}: --plot needs a directory, this is a file")
         # an existing folder must take new files; a missing one must be creatable
         check_output_path(plot_dir / "quicklook.png" if plot_dir.exists() else plot_dir, [input_path], overwrite=True)
-    plan = evaluate_estimate("evaluate", header, params)
-    info(plan.describe())
-    with naming(input_path):
-        check_plan(plan, [output] if output is not None else [], max_memory())
+    report_plan(evaluate_estimate("evaluate", header, params), [output], input_path)
 
     product = read_product(input_path, kinds=("image", "image3d"))
     with naming(input_path, config_path, "evaluate"):

@@ -16,7 +16,8 @@ from pathlib import Path
 
 import click
 
-from sarproc.cli.options import config_option, input_argument, load_config, output_option, overwrite_option, summary
+from sarproc.cli.options import (config_option, dry_run_option, input_argument, load_config, output_option,
+                                 overwrite_option, summary)
 
 
 def _check_line(name: str, result: dict) -> str:
@@ -46,6 +47,7 @@ check_option = click.option("--check-report", "report_path", type=click.Path(dir
 @config_option
 @overwrite_option
 @check_option
+@dry_run_option
 @click.option("--image-formation", type=click.Choice(["auto", "OTHER", "PFA"], case_sensitive=False), default="auto",
               show_default=True, help="ImageFormAlgo: auto = PFA (Grid RGAZIM and a PFA block) for pfa2 images in "
               "polar-format geometry (method plain), OTHER (Grid PLANE) for every other image; PFA only for pfa2 "
@@ -98,6 +100,7 @@ def export_sicd(input_path: Path, output: Path, config_path, overwrite: bool, re
 @config_option
 @overwrite_option
 @check_option
+@dry_run_option
 def export_cphd(input_path: Path, output: Path, config_path, overwrite: bool, report_path):
     """Export a single-channel raw product to CPHD 1.1.0 (FX domain), checked by sarkit's CphdConsistency."""
     from sarproc.cli.stage import export_cphd_estimate, naming, plan_outputs
@@ -125,6 +128,7 @@ def export_cphd(input_path: Path, output: Path, config_path, overwrite: bool, re
 @input_argument
 @output_option
 @overwrite_option
+@dry_run_option
 def import_cphd(input_path: Path, output: Path, overwrite: bool):
     """Import a CPHD file (FX or TOA domain, monostatic) as a raw product (backproject and pfa2 focus it).
 

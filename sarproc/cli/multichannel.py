@@ -25,12 +25,12 @@ def reconstruct(input_path: Path, output: Path, config_path, overwrite: bool, pr
     """
     from sarproc.cli.progress import progress_factory
     from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct as run
-    from sarproc.cli.stage import naming, prepare
+    from sarproc.cli.stage import naming, prepare, reconstruct_estimate
     from sarproc.product.io import write_product
 
     # config, input header, output location, plan (the output holds as many samples as the input)
     params, raw = prepare("reconstruct", input_path, [output], config_path, overwrite, ("raw_multichannel",),
-                          ReconstructParams, "reconstruct")
+                          ReconstructParams, "reconstruct", reconstruct_estimate)
     start = time.perf_counter()
     with naming(input_path, config_path, "reconstruct"):
         out = run(raw, params, progress=progress_factory(want_progress(progress), "reconstruct"))

@@ -34,12 +34,24 @@ def _store_max_memory(ctx, param, value):
 # Stored in the context (expose_value=False), so every stage has it without a new argument.
 max_memory_option = click.option("--max-memory", metavar="SIZE", default=None, expose_value=False,
                                  callback=_store_max_memory,
-                                 help="Refuse to start when the estimated working memory exceeds SIZE (e.g. 8G).")
+                                 help="Refuse to start when the planned peak memory exceeds SIZE (e.g. 8G).")
+
+
+def _store_dry_run(ctx, param, value):
+    if value:
+        ctx.meta["sarproc.dry_run"] = True
+    return value
+
+
+# Stored in the context like --max-memory; stage.report_plan ends the run after the plan.
+dry_run_option = click.option("--dry-run", is_flag=True, expose_value=False, callback=_store_dry_run,
+                              help="Check the inputs and outputs, print the plan (output size, peak memory, run "
+                                   "time) and exit 0 without computing or writing anything.")
 
 
 def common_options(func):
-    """-o, --config, --overwrite, --progress, --max-memory in one decorator."""
-    for opt in (max_memory_option, progress_option, overwrite_option, config_option, output_option):
+    """-o, --config, --overwrite, --progress, --max-memory, --dry-run in one decorator."""
+    for opt in (dry_run_option, max_memory_option, progress_option, overwrite_option, config_option, output_option):
         func = opt(func)
     return func
 
@@ -53,6 +65,11 @@ def verbosity() -> int:
 def max_memory() -> int | None:
     ctx = click.get_current_context(silent=True)
     return None if ctx is None else ctx.meta.get("sarproc.max_memory")
+
+
+def dry_run() -> bool:
+    ctx = click.get_current_context(silent=True)
+    return ctx is not None and bool(ctx.meta.get("sarproc.dry_run"))
 
 
 def want_progress(flag) -> bool:

@@ -11,7 +11,7 @@ from pathlib import Path
 import click
 
 from sarproc.cli.dask_map import scheduler_option
-from sarproc.cli.options import common_options, input_argument, summary, want_progress
+from sarproc.cli.options import common_options, dry_run_option, input_argument, summary, want_progress
 
 
 @click.command()
@@ -22,11 +22,12 @@ def pfa2(input_path: Path, output: Path, config_path, overwrite: bool, progress,
     """Polar format with the varied gate, sub-aperture de-aliasing and two-step PFA (section `pfa2:`)."""
     from sarproc.cli.dask_map import dask_mapper, scheduler_client
     from sarproc.cli.progress import progress_factory
-    from sarproc.cli.stage import naming, prepare
+    from sarproc.cli.stage import naming, pfa2_estimate, prepare
     from sarproc.focus.pfa.chain import Pfa2Params, pfa2 as run
     from sarproc.product.io import write_product
 
-    params, raw = prepare("pfa2", input_path, [output], config_path, overwrite, ("raw",), Pfa2Params, "pfa2")
+    params, raw = prepare("pfa2", input_path, [output], config_path, overwrite, ("raw",), Pfa2Params, "pfa2",
+                          pfa2_estimate)
     start = time.perf_counter()
     with naming(input_path, config_path, "pfa2"), scheduler_client(scheduler) as client:
         # with --scheduler, the two-step sub-images are Dask tasks (same mosaic as the serial run)
@@ -45,6 +46,7 @@ def pfa2(input_path: Path, output: Path, config_path, overwrite: bool, progress,
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
               help="Output raw HDF5 product.")
 @click.option("--overwrite", is_flag=True, help="Replace an existing output file.")
+@dry_run_option
 @click.option("--autofocus/--no-autofocus", default=False,
               help="Apply the files' autofocus solution (af.r_correct, af.ph_correct).")
 def import_gotcha(inputs, output: Path, overwrite: bool, autofocus: bool):

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from sarproc.cli.options import input_argument, overwrite_option, summary
+from sarproc.cli.options import dry_run_option, input_argument, overwrite_option, summary
 
 
 @click.command()
@@ -14,6 +14,7 @@ from sarproc.cli.options import input_argument, overwrite_option, summary
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
               help="Output picture (PNG).")
 @overwrite_option
+@dry_run_option
 @click.option("--dynamic-range", "dynamic_range_db", type=click.FloatRange(min=1.0, max=300.0), default=50.0,
               show_default=True, help="dB below the image peak drawn as black.")
 @click.option("--targets/--no-targets", "mark_targets", default=True, show_default=True,
@@ -31,12 +32,13 @@ def quicklook(input_path: Path, output: Path, overwrite: bool, dynamic_range_db:
     """
     import numpy as np
 
-    from sarproc.product.io import atomic_path, check_output_path, read_magnitude_preview, read_product
+    from sarproc.cli.stage import plan_outputs, quicklook_estimate
+    from sarproc.product.io import atomic_path, read_magnitude_preview, read_product
     from sarproc.product.model import UNITS
     from sarproc.quality.plotting import plot_quicklook
 
     header = read_product(input_path, kinds=("image", "image3d"), load=False)
-    check_output_path(output, [input_path], overwrite=overwrite)
+    plan_outputs(input_path, [output], overwrite, lambda: quicklook_estimate("quicklook", header, max_pixels))
     magnitude, dims, coords, factors = read_magnitude_preview(input_path, max_side=max_pixels)
     truth, names = None, ()
     if mark_targets and len(header.targets):

@@ -8,7 +8,7 @@ from pathlib import Path
 import click
 
 from sarproc.cli.dask_map import scheduler_option
-from sarproc.cli.options import (info, max_memory, max_memory_option, output_option, overwrite_option,
+from sarproc.cli.options import (dry_run_option, max_memory_option, output_option, overwrite_option,
                                  progress_option, summary, want_progress)
 
 
@@ -18,25 +18,24 @@ from sarproc.cli.options import (info, max_memory, max_memory_option, output_opt
 @overwrite_option
 @progress_option
 @max_memory_option
+@dry_run_option
 @scheduler_option
 def simulate(scene_path: Path, output: Path, overwrite: bool, progress, scheduler):
     """Simulate exact-geometry raw echoes of the point targets declared in SCENE_PATH."""
-    from sarproc.product.budget import check_plan
     from sarproc.product.io import ProductWriter, check_output_path, history_entry
     from sarproc.simulation.scene import load_scene
     from sarproc.simulation.simulate import illumination_warnings, plan_simulation, simulate_blocks
     from sarproc.cli.dask_map import dask_mapper, scheduler_client
     from sarproc.cli.progress import progress_factory
-    from sarproc.cli.stage import naming, simulate_estimate
+    from sarproc.cli.stage import naming, report_plan, simulate_estimate
 
     start = time.perf_counter()
     scene = load_scene(scene_path)           # the scene is validated before the output is looked at
     check_output_path(output, [scene_path], overwrite)
     with naming(scene_path):
         plan_estimate = simulate_estimate(scene)
-    info(plan_estimate.describe())
+    report_plan(plan_estimate, [output], scene_path)
     with naming(scene_path):
-        check_plan(plan_estimate, [output], max_memory())
         plan = plan_simulation(scene)
         illumination_warnings(scene, plan)
     history = [history_entry(f"sarproc simulate {scene_path}", scene.resolved())]

@@ -1,22 +1,30 @@
 """The order every processing subcommand follows, and each stage's resource estimate.
 
 1. parameters (``--config`` section), 2. the input's header (every layout check, no data read),
-3. the output location (exists? writable?), 4. the plan (output size, working memory, run time;
+3. the output location (exists? writable?), 4. the plan (output size, peak memory, run time;
 printed with -v, refused when it cannot fit), 5. the data, 6. the work, 7. the atomic write.
 So a bad scene or config is reported before "output exists", and nothing is computed for an
 output that cannot be written. Errors from the core that name no file get the input's name.
 
-Estimates are array sizes times the copies a stage holds, and run times from per-sample costs
-measured on one core of a 2020s laptop; they aim at the right order of magnitude, not at 10 %.
+A plan is for the whole process, as ``/usr/bin/time`` would measure it: peak RSS and wall time. Each
+stage's estimate models its own arrays (sizes times the copies it holds at its peak) and its work
+(FFT and kernel rates); :func:`whole_process` adds what every run costs besides, measured on the
+reference machine (2-core x86-64, 2026-12; ``scripts/plan_accuracy.py``): the interpreter with
+numpy, scipy, h5py, numba and the stage's modules, and, while the compiled kernels are not yet in
+numba's cache, their compilation. ``make plan-accuracy`` sets every plan against the measured run
+(docs/plans.md); the aim is within 2x of both.
 """
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import math
 from pathlib import Path
 
-from sarproc.cli.options import info, load_config, max_memory
+import click
+
+from sarproc.cli.options import dry_run, info, load_config, max_memory
 from sarproc.product.budget import Plan, check_plan, complex_bytes, stored_bytes
 from sarproc.product.errors import InputError
 
@@ -62,10 +70,66 @@ def plan_outputs(input_path, outputs, overwrite: bool, estimate, inputs=None, co
         check_output_path(out, [input_path] if inputs is None else inputs, overwrite)
     with naming(input_path, config_path, section):
         plan = estimate()
-    info(plan.describe())
-    with naming(input_path):
-        check_plan(plan, outputs, max_memory())
+    report_plan(plan, outputs, input_path)
     return plan
+
+
+# stage: (peak RSS bytes, seconds) of a run on a tiny scene with the kernels cached: imports (numpy,
+# scipy, h5py ~75 MB, numba ~90 MB more, 0.5-1 s), reading and writing the products, the kernels loaded.
+PROCESS = {"simulate": (185e6, 0.6), "preprocess": (225e6, 1.1), "coarse-focus": (195e6, 0.8),
+           "fine-focus": (230e6, 1.1), "backproject": (240e6, 1.1), "pfa2": (290e6, 1.4),
+           "reconstruct": (255e6, 0.9), "array3d": (215e6, 1.0), "evaluate": (135e6, 0.9),
+           "export-sicd": (85e6, 0.9), "export-cphd": (125e6, 1.7), "import-cphd": (120e6, 0.8),
+           "import-gotcha": (88e6, 0.6), "quicklook": (105e6, 1.1)}
+# stage: (the numba modules it runs, seconds and bytes to compile them when numba's cache lacks them)
+KERNELS = {"preprocess": (("sarproc.dsp.phasor",), 0.5, 10e6),
+           "fine-focus": (("sarproc.focus.squint_deramp.stolt", "sarproc.focus.squint_deramp.block_copies",
+                           "sarproc.focus.squint_deramp.fine_focus", "sarproc.dsp.interp", "sarproc.dsp.phasor"),
+                          10.0, 70e6),
+           "backproject": (("sarproc.focus.backprojection_kernel", "sarproc.dsp.phasor"), 14.0, 105e6)}
+
+
+def kernels_cached(modules) -> bool:
+    """Whether numba's cache holds the kernels of ``modules``: each module with cached kernels has
+    the index file of at least one (a kernel a stage never calls, e.g. cubic interpolation's table
+    in a linear run, is never compiled, so not every index exists after a run)."""
+    import importlib
+    import os
+
+    from numba.core.registry import CPUDispatcher
+
+    for name in modules:
+        indexes = [obj._cache._cache_file._index_path for obj in vars(importlib.import_module(name)).values()
+                   if isinstance(obj, CPUDispatcher) and hasattr(obj._cache, "_cache_file")]
+        if indexes and not any(os.path.exists(p) for p in indexes):
+            return False
+    return True
+
+
+def whole_process(plan: Plan) -> Plan:
+    """``plan`` (the stage's own arrays and work) plus the process around it (see the module doc)."""
+    memory, seconds = PROCESS.get(plan.stage, (200e6, 1.0))
+    detail = plan.detail
+    modules, compile_s, compile_bytes = KERNELS.get(plan.stage, ((), 0.0, 0.0))
+    if modules and not kernels_cached(modules):
+        seconds += compile_s
+        memory += compile_bytes
+        detail = (detail + "; " if detail else "") + f"compiling its kernels first (~{compile_s:.0f} s, then cached)"
+    return dataclasses.replace(plan, memory_bytes=plan.memory_bytes + memory, seconds=plan.seconds + seconds,
+                               detail=detail)
+
+
+def report_plan(plan: Plan, outputs, input_path) -> None:
+    """Step 4: the plan printed (with -v), refused when it cannot fit; with --dry-run printed on
+    stdout, and the run ends here (exit 0, nothing computed or written)."""
+    plan = whole_process(plan)
+    if not dry_run():
+        info(plan.describe())
+    with naming(input_path):
+        check_plan(plan, [Path(o) for o in outputs if o is not None], max_memory())
+    if dry_run():
+        click.echo(plan.describe())
+        raise click.exceptions.Exit(0)
 
 
 def _shape(header) -> tuple[int, ...]:
@@ -103,15 +167,37 @@ def fine_focus_estimate(stage, header, params) -> Plan:
         raise InputError(f"fine_focus.max_samples: the working array {M} x {N} exceeds {params.max_samples}; "
                          "raise it or shrink the scene")
     work = complex_bytes(M, N, itemsize=8 if params.precision == "float32" else 16)
-    # spectra, Stolt output, azimuth blocks and kernel tables: about ten working arrays (measured)
-    return Plan(stage, stored_bytes(M, N), complex_bytes(M, n_r) + 10 * work, M * N * params.stolt_length * 25e-9,
-                f"working array {M} x {N}")
+    flow = params.flow or _fine_focus_flow(header)
+    # spectra, Stolt output and azimuth blocks: about three working arrays at the peak (measured 3.1 on
+    # exp. 2 full); flow 2's NLCS tables and zero-padded azimuth blocks add a constant ~100 MB and ~1 s
+    # (small scenes: 80-170 MB, 1-2 s) and ~0.07 us per working sample (exp. 2 full: 2.2 s of work on an
+    # idle machine, CPU/wall 1.8; docs/performance.md)
+    if flow == 2:
+        memory, seconds = 3 * work + 100e6, 1.0 + M * N * 0.07e-6
+    else:
+        # flow 1: 0.12-0.37 us per sample of CPU (exp. 2; exp. 1 with and without Doppler correction)
+        memory, seconds = 3 * work, M * N * params.stolt_length * 15e-9
+    return Plan(stage, stored_bytes(M, N), complex_bytes(M, n_r) + memory, seconds,
+                f"working array {M} x {N}, flow {flow}")
 
 
-def backproject_estimate(stage, header, params) -> Plan:
-    n_az, n_rg = _shape(header)[-2:]
-    n_ch = _shape(header)[0] if len(_shape(header)) == 3 else 1
+def _fine_focus_flow(header) -> int:
+    """fine-focus's automatic flow (eq. 17): 1 when the scene fits its depth of focus."""
+    from sarproc.focus.squint_deramp.fine_focus import scene_and_focus_depth
+
+    try:
+        half_adof, scene_half = scene_and_focus_depth(header.radar, [float(b) for b in header.attrs["scene_box"]],
+                                                      int(header.attrs["n_pulses"]))
+    except (KeyError, ValueError, TypeError, ZeroDivisionError):
+        return 1          # fine-focus itself reports a bad coarse product
+    return 1 if scene_half <= half_adof else 2
+
+
+def image_grid(header, params) -> tuple[int, int]:
+    """(azimuth, range) pixels of the image a focuser's extents/spacings give (backproject, pfa2 share
+    the keys): the targets' extent plus margin_cells, spaced IRW / oversample unless set."""
     r = header.radar
+    n_az = _shape(header)[-2]
     t_ap = max(n_az / r.prf, 1e-9)
     irw_rg = r.range_resolution
     irw_az = 0.886 * r.wavelength * r.reference_range / (2 * r.velocity * t_ap * max(math.cos(r.squint) ** 2, 1e-6))
@@ -120,19 +206,53 @@ def backproject_estimate(stage, header, params) -> Plan:
         spacing = getattr(params, f"{ax}_spacing") or irw / params.oversample
         extent = getattr(params, f"{ax}_extent")
         if extent is None:
-            t = header.targets[ax] if len(header.targets) else [0.0]
+            t = header.targets[ax] if len(header.targets) and ax in (header.targets.dtype.names or ()) else [0.0]
             extent = (max(t) - min(t)) + 2 * params.margin_cells * irw
         n.append(max(1, int(extent / spacing) + 1))
+    return n[0], n[1]
+
+
+def backproject_estimate(stage, header, params) -> Plan:
+    n_az, n_rg = _shape(header)[-2:]
+    n_ch = _shape(header)[0] if len(_shape(header)) == 3 else 1
+    n = image_grid(header, params)
     n_pix = n[0] * n[1]
     if n_pix > params.max_pixels:
         raise InputError(f"backproject.max_pixels: the grid of ~{n[0]} x {n[1]} pixels exceeds {params.max_pixels}; "
                          "set backproject azimuth/range extents or spacings, or raise max_pixels")
-    raw = complex_bytes(n_ch, n_az, n_rg)
-    up = complex_bytes(n_az, n_rg * params.upsample)
+    # the raw data and its range-compressed copies (about four input-sized arrays, measured), at most
+    # 64 pulses upsampled at a time, and per pixel its complex128 sum and float64 positions
+    raw = 4 * complex_bytes(n_ch, n_az, n_rg)
+    up = complex_bytes(min(64, n_az), n_rg * params.upsample, itemsize=16)
     per = 4e-9 if params.engine == "compiled" else 25e-9
-    jit = 60e6 if params.engine == "compiled" else 0.0   # numba's compiler, measured once per process
-    return Plan(stage, stored_bytes(*n), raw + 2 * up + complex_bytes(n_pix, itemsize=16) + jit,
+    return Plan(stage, stored_bytes(*n), raw + 2 * up + 64.0 * n_pix,
                 n_ch * n_az * n_pix * per, f"~{n[0]} x {n[1]} pixels from {n_ch * n_az} pulses")
+
+
+def pfa2_estimate(stage, header, params) -> Plan:
+    """The phase history and its polar-to-rectangular resampling, the image and its sub-images: about
+    three input-sized and three image-sized complex64 arrays (fitted to nie2016_small, 385 MB, and the
+    full Table 1 scene, 11.1 GB, docs/pfa.md); cost per input sample and per pixel (fitted to the small
+    configs and the two full Table 1 scenes, 391 s and 190 s two-step)."""
+    n_in = math.prod(_shape(header))
+    n = image_grid(header, params)
+    n_pix = n[0] * n[1]
+    return Plan(stage, stored_bytes(*n), 3 * complex_bytes(n_in) + 3 * complex_bytes(n_pix),
+                0.5e-6 * n_in + 1.2e-6 * n_pix, f"~{n[0]} x {n[1]} pixels from {n_in} samples")
+
+
+def reconstruct_estimate(stage, header, params) -> Plan:
+    """The channels' range spectra (zero-padded) in several complex64 copies at once: the deramped
+    spectra, their azimuth FFT, the reconstructed N-PRF signal in (f_a, f_r) and (t, f_r), and for
+    the modified method its range-time copies; about eight input-sized arrays (measured)."""
+    n_ch, n_az, n_rg = _shape(header)
+    n = n_ch * n_az * n_rg
+    # the modified method's detection and velocity searches nearly double the filter bank's time (measured)
+    per_sample = 0.55e-6 if params.method == "modified" else 0.3e-6
+    if params.clutter_suppression:   # the clutter null's projections and the movers' searches after it
+        per_sample = 2.5e-6          # (xu_clutter: 24 s of CPU for 9.7e6 samples)
+    return Plan(stage, stored_bytes(n_ch * n_az, n_rg), 8 * complex_bytes(n), n * per_sample,
+                f"{n_ch} channels x {n_az} pulses x {n_rg} samples -> {n_ch * n_az} pulses")
 
 
 def array3d_estimate(stage, header, params) -> Plan:
@@ -141,16 +261,44 @@ def array3d_estimate(stage, header, params) -> Plan:
     raw = complex_bytes(n_ch, n_az, n_rg)
     cube = complex_bytes(n_el, n_az, n_rg)
     item = 8 if params.precision == "float32" else 16
-    return Plan(stage, stored_bytes(n_el, n_az, n_rg), raw + 2 * complex_bytes(n_ch, n_az, n_rg, itemsize=item) + 2 * cube,
-                n_ch * n_az * n_rg * 80e-9 + n_el * n_az * n_rg * 20e-9,
+    # the raw data, its range- and azimuth-compressed copies, one uncropped cube; the time is the
+    # elevation DFT (n_el x n_ch per pixel, measured ~4.5 ns per complex multiply-add with its blocks)
+    return Plan(stage, stored_bytes(n_el, n_az, n_rg), raw + 2 * complex_bytes(n_ch, n_az, n_rg, itemsize=item) + cube,
+                n_ch * n_az * n_rg * 30e-9 + n_el * n_ch * n_az * n_rg * 4.5e-9,
                 f"{n_ch} channels -> ~{n_el} elevation bins x {n_az} x {n_rg}")
 
 
 def evaluate_estimate(stage, header, params) -> Plan:
-    n = math.prod(_shape(header))
+    """The image and its magnitude; per target its chips (raw, neighbour-cleaned, their spectra, the
+    support's gradients: held for every target) and the largest 1-D cut, whose interpolation kernel is
+    (cut points) x (chip length) complex samples. Constants fitted to measured runs (docs/plans.md)."""
+    from sarproc.quality.metrics import _make_axes
+
+    shape = _shape(header)
+    n, n_tg = math.prod(shape), len(header.targets)
+    axes = _make_axes(shape, header.dims, header.coords, header.attrs["theoretical_irw"], params.irw_factor)
+    lengths = [2 * ax.nulls_to_samples(params.islr_nulls + params.margin_nulls) + 1 for ax in axes]
+    chip = math.prod(lengths)
+    cut = max((2 * math.ceil((params.islr_nulls + 2) * ax.null * params.upsample) + 1) * L
+              for ax, L in zip(axes, lengths))
+    memory = (15.0 if len(shape) < 3 else 30.0) * n + 160.0 * n_tg * chip + 32.0 * cut
+    # neighbours are fitted jointly, so a target's work grows with how many there are (up to the few
+    # whose chips can overlap it)
+    seconds = n * 20e-9 + n_tg * (0.1 + 3e-7 * cut) + 2.5e-6 * chip * n_tg * (1 + min(n_tg, 8) / 4)
     # the JSON report: about 3 kB per target (figures are not counted)
-    return Plan(stage, 1e3 + 3.5e3 * len(header.targets), 4 * complex_bytes(n), 0.5 + n * 20e-9 + len(header.targets) * 0.3,
-                f"{len(header.targets)} targets on {n} pixels")
+    return Plan(stage, 1e3 + 3.5e3 * n_tg, memory, seconds,
+                f"{n_tg} targets on {n} pixels, chips of {' x '.join(map(str, lengths))}")
+
+
+def quicklook_estimate(stage, header, max_pixels: int) -> Plan:
+    """The picture: every drawn pixel (2D: the image reduced to max_pixels per axis; 3D: its three
+    projections) through matplotlib's rendering, ~75 bytes and 0.3 us each (measured), the image read
+    block by block."""
+    shape = _shape(header)
+    side = [min(n, max_pixels) for n in shape]
+    drawn = math.prod(side) if len(side) < 3 else side[0] * side[1] + side[0] * side[2] + side[1] * side[2]
+    return Plan(stage, 1e5, 75.0 * drawn, 0.3e-6 * drawn + 50e-9 * math.prod(shape),
+                f"{drawn} pixels drawn from {math.prod(shape)}")
 
 
 def simulate_estimate(scene) -> Plan:
@@ -184,6 +332,11 @@ def simulate_estimate(scene) -> Plan:
     mem = (complex_bytes(n_ch, block, n_rg + 2 * n_env, itemsize=16) + complex_bytes(block, n_env, itemsize=16) * 6
            + block * n_tg * 8 * 8.0 + max(window_plan, complex_bytes(n_ch, block, n_rg)))
     seconds = n_ch * n_p * n_tg * (n_env * 15e-9 + 2e-6) + n_ch * n_p * n_rg * 10e-9
+    from sarproc.simulation.effects.clutter import Clutter, clutter_cost
+
+    for e in scene.effects:   # clutter scatterers: ~14 ns per phasor (xu_clutter: 4.9e8 phasors, 6.9 s)
+        if isinstance(e, Clutter):
+            seconds += 14e-9 * clutter_cost(n_p, n_ch, e.params.n_scatterers, n_env)
     window = ("acquisition.range_window" if acq.range_window is not None
               else f"the targets' delays + radar.pulse_duration {r.pulse_duration:g} s")
     detail = (f"{n_ch} x {n_p} pulses x {n_rg} samples, {n_tg} targets; samples = {window} "
@@ -194,7 +347,7 @@ def simulate_estimate(scene) -> Plan:
 def export_sicd_estimate(stage, header, params) -> Plan:
     """SICD holds complex64 pixels; the image, its reordered copy and the read-back are in memory."""
     n = math.prod(_shape(header))
-    return Plan(stage, complex_bytes(n) + 1e5, 3 * complex_bytes(n), 2.0 + n * 50e-9, f"{n} pixels")
+    return Plan(stage, complex_bytes(n) + 1e5, 3 * complex_bytes(n), n * 50e-9, f"{n} pixels")
 
 
 def export_cphd_estimate(stage, header, params) -> Plan:
@@ -202,17 +355,17 @@ def export_cphd_estimate(stage, header, params) -> Plan:
     n_az, n_rg = _shape(header)[-2:]
     n = n_az * n_rg
     return Plan(stage, complex_bytes(n) + 200.0 * n_az + 1e5, complex_bytes(n) + 3 * complex_bytes(n, itemsize=16),
-                2.0 + n * 80e-9, f"{n_az} vectors x {n_rg} samples")
+                n * 80e-9, f"{n_az} vectors x {n_rg} samples")
 
 
 def import_cphd_estimate(stage, cphd: dict) -> Plan:
     n_v, n_s = cphd["vectors"], cphd["samples"]
     n = n_v * n_s
-    return Plan(stage, stored_bytes(n_v, n_s), complex_bytes(n) + 3 * complex_bytes(n, itemsize=16), 1.0 + n * 80e-9,
+    return Plan(stage, stored_bytes(n_v, n_s), complex_bytes(n) + 3 * complex_bytes(n, itemsize=16), n * 80e-9,
                 f"{n_v} vectors x {n_s} samples")
 
 
 def import_gotcha_estimate(stage, files) -> Plan:
     """Gotcha files store complex64 samples: the product is about their size; read as complex128, twice."""
     size = float(sum(Path(f).stat().st_size for f in files))
-    return Plan(stage, size, 5 * size, 0.5 + size * 10e-9, f"{len(files)} file(s), {size / 1e6:.3g} MB")
+    return Plan(stage, size, 5 * size, size * 10e-9, f"{len(files)} file(s), {size / 1e6:.3g} MB")

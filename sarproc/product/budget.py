@@ -54,7 +54,7 @@ def human_time(s: float) -> str:
 
 @dataclasses.dataclass
 class Plan:
-    """A stage's estimate: output bytes (per output file), peak working memory, run time."""
+    """A stage's estimate: output bytes (per output file), the process's peak memory (RSS) and run time."""
 
     stage: str
     output_bytes: float
@@ -63,7 +63,7 @@ class Plan:
     detail: str = ""
 
     def describe(self) -> str:
-        return (f"{self.stage}: plan: output ~{human(self.output_bytes)}, working memory ~{human(self.memory_bytes)}, "
+        return (f"{self.stage}: plan: output ~{human(self.output_bytes)}, peak memory ~{human(self.memory_bytes)}, "
                 f"run time ~{human_time(self.seconds)}" + (f" ({self.detail})" if self.detail else ""))
 
 

@@ -692,7 +692,7 @@ def test_quiet_and_verbose_anywhere(tmp_path, products):
     res = invoke(["simulate", scene, "-o", tmp_path / "a.h5", "-q"])
     assert res.exit_code == 0 and res.output == ""
     res = invoke(["simulate", scene, "-v", "-o", tmp_path / "b.h5"])
-    assert res.exit_code == 0 and "simulate: plan: output ~" in res.output and "working memory" in res.output
+    assert res.exit_code == 0 and "simulate: plan: output ~" in res.output and "peak memory" in res.output
     res = invoke(["backproject", products / "raw.h5", "-o", tmp_path / "i.h5", "--config", products / "bp.yaml", "-vv"])
     assert res.exit_code == 0 and "backproject: plan:" in res.output
     assert "h5py" not in res.output  # h5py's conversion chatter stays out of -vv

@@ -158,6 +158,15 @@ def depth_of_focus_half_width(radar, resolution: float) -> float:
     return 2 * resolution**2 * math.cos(radar.squint) ** 2 / (radar.wavelength * s)
 
 
+def scene_and_focus_depth(radar, box, n_pulses: int) -> tuple[float, float]:
+    """(depth-of-focus half width, scene half width) of eq. (17), m, for the coarse product's scene box
+    and aperture; flow 1 when the scene fits (also the plan's flow, sarproc.cli.stage)."""
+    r_c = 0.5 * (box[2] + box[3])
+    K_c = -2 * radar.velocity**2 * math.cos(radar.squint) ** 2 / (radar.wavelength * r_c)
+    rho_a = radar.velocity / (abs(K_c) * (n_pulses / radar.prf))
+    return depth_of_focus_half_width(radar, rho_a), max(abs(box[0]), abs(box[1]))
+
+
 def _range_filter(radar, f_r: np.ndarray, kind: str) -> np.ndarray:
     band = np.abs(f_r) <= radar.bandwidth / 2
     if kind == "phase":
@@ -228,9 +237,7 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
     # ---- flow choice (eq. 17)
     r_c = 0.5 * (box[2] + box[3])
     K_c = -2 * v**2 * c_th**2 / (lam * r_c)
-    rho_a = v / (abs(K_c) * T_ap)
-    half_adof = depth_of_focus_half_width(radar, rho_a)
-    scene_half = max(abs(box[0]), abs(box[1]))
+    half_adof, scene_half = scene_and_focus_depth(radar, box, n_pulses)
     flow = params.flow or (1 if scene_half <= half_adof else 2)
 
     # ---- 1. range FFT (padded against circular wrap of the chirp), residual Doppler correction
