@@ -26,6 +26,8 @@ import math
 import numba
 import numpy as np
 
+from sarproc.dsp.kernel_cache import CACHE
+
 KERNELS = ("nearest", "linear", "cubic", "sinc", "lanczos", "knab")
 DEFAULT_LENGTH = {"nearest": 1, "linear": 2, "cubic": 4, "sinc": 8, "lanczos": 8, "knab": 8}
 TABULATED = ("sinc", "lanczos", "knab")  # weights from a table, renormalised to unit DC gain
@@ -102,7 +104,7 @@ def tap_table(kernel: str, taps: int, oversampling: float = 1.25, dtype=np.float
 _MODES = {"nearest": 0, "linear": 1, "cubic": 2}   # any other kernel: tabulated (3)
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def _resample_row(row, pos, out, mode, taps, table, steps, zero, lo_pos, hi_pos):
     """One row: out[j] = sum over taps of row[i] w(pos[j] - i); zeros outside the row; pos outside
     [lo_pos, hi_pos] (or NaN) gives ``zero``. Tabulated weights are renormalised to unit sum."""
@@ -164,7 +166,7 @@ def _resample_row(row, pos, out, mode, taps, table, steps, zero, lo_pos, hi_pos)
         out[j] = acc
 
 
-@numba.njit(parallel=True, error_model="numpy", cache=True)
+@numba.njit(parallel=True, error_model="numpy", cache=CACHE)
 def _resample_kernel(data, pos, out, mode, taps, table, steps, zero, lo_pos, hi_pos):
     """Rows in parallel (the per-row work is a separate function: no accumulator is shared across rows)."""
     for r in numba.prange(data.shape[0]):

@@ -5,6 +5,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from sarproc.dsp.kernel_cache import CACHE
+
 _TWO_PI32 = np.float32(2 * np.pi)
 
 
@@ -39,7 +41,7 @@ def cmul(a, b):
 _INV_TWO_PI = 1.0 / (2 * np.pi)
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def cis_cycles32(c):
     """(cos, sin)(2 pi c) for float32 c with |c| <= 1/2: Taylor polynomials after reduction to a quarter cycle
     (|error| < 2e-7; vectorisable, no libm call)."""
@@ -66,7 +68,7 @@ _C0, _C2, _C4, _C6, _C8 = (np.float32(0.9999999536449741), np.float32(-19.739171
                            np.float32(56.242676066224355))
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def cis_cycles32_short(c):
     """(cos, sin)(2 pi c) for float32 c with |c| <= 1/2 from shorter minimax polynomials (9 multiply-adds, no
     half-cycle rounding): |error| < 1e-6, i.e. -120 dB, for hot loops where that is far below float32 geometry."""
@@ -79,7 +81,7 @@ def cis_cycles32_short(c):
     return (-co if far else co), (-s if c < np.float32(0.0) else s)
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def _rotate_row(xr, a0, a1, a2, a3, c0, c1, c2, c3, scale):
     """xr (2m interleaved re, im) *= exp(j 2 pi scale (a0 c0 + a1 c1 + a2 c2 + a3 c3)); vectorisable."""
     for j in range(len(c0)):
@@ -92,7 +94,7 @@ def _rotate_row(xr, a0, a1, a2, a3, c0, c1, c2, c3, scale):
         xr[2 * j + 1] = re * si + im * co
 
 
-@numba.njit(parallel=True, error_model="numpy", cache=True)
+@numba.njit(parallel=True, error_model="numpy", cache=CACHE)
 def _separable_kernel(xf, rows, cols, scale):
     """Rows of xf (n, 2m) float view of complex data; rows (4, n), cols (4, m) float64."""
     for i in numba.prange(xf.shape[0]):
@@ -100,7 +102,7 @@ def _separable_kernel(xf, rows, cols, scale):
                     scale)
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def _rotate_row_field(xr, phase, mask, use_mask, scale):
     for j in range(len(phase)):
         c = phase[j] * scale
@@ -120,7 +122,7 @@ rotate_row_field = _rotate_row_field
 2m interleaved re, im) times where(mask, exp(j 2 pi scale phase), 0) (``use_mask`` False: no mask)."""
 
 
-@numba.njit(parallel=True, error_model="numpy", cache=True)
+@numba.njit(parallel=True, error_model="numpy", cache=CACHE)
 def _field_kernel(xf, phase, mask, use_mask, scale):
     for i in numba.prange(xf.shape[0]):
         _rotate_row_field(xf[i], phase[i], mask[i], use_mask, scale)

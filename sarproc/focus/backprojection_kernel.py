@@ -20,7 +20,7 @@ Same sum as the float64 reference of :mod:`sarproc.focus.backprojection`, arrang
 - Tiles run in parallel (numba prange), each accumulating its pixels over pulses in a small float32 buffer;
   no BLAS, no Python in the hot loop.
 
-Kernels are compiled on first use and cached on disk (``cache=True``).
+Kernels are compiled on first use and cached on disk (``cache=CACHE``).
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ import math
 import numba
 import numpy as np
 
+from sarproc.dsp.kernel_cache import CACHE
 from sarproc.dsp.phasor import cis_cycles32_short
 
 INTERPOLATIONS = ("nearest", "linear", "cubic", "sinc", "lanczos", "knab")
@@ -43,14 +44,14 @@ _TABLE_STEPS = 256          # table entries per sample for the windowed-sinc ker
 EXPANSION_LIMIT_CYCLES = 1e-4
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def _offset(ux, uy, uz, inv_r, r0, dx, dy, dz, d2):
     """|c + d - p| - |c - p| for u = (c - p) / |c - p|, in float32 without cancellation."""
     a = np.float32(2.0) * (ux * dx + uy * dy + uz * dz) * inv_r + d2 * inv_r * inv_r
     return r0 * a / (np.float32(1.0) + np.sqrt(np.float32(1.0) + a))
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def _offset_expanded(ux, uy, uz, half_inv_r, half_inv_r2, dx, dy, dz, d2):
     """The same difference to third order in d: du + (|d|^2 - du^2) / (2r) - du (|d|^2 - du^2) / (2r^2), du = u.d
     (no square root or division; used where the remainder is negligible, see EXPANSION_LIMIT_CYCLES)."""
@@ -58,7 +59,7 @@ def _offset_expanded(ux, uy, uz, half_inv_r, half_inv_r2, dx, dy, dz, d2):
     return du + (d2 - du * du) * (half_inv_r - du * half_inv_r2)
 
 
-@numba.njit(error_model="numpy", cache=True)
+@numba.njit(error_model="numpy", cache=CACHE)
 def _reference(cx, cy, cz, px, py, pz, h4kc):
     """float64 range from antenna p to tile centre c and the float32 leg geometry (unit vector, 1/R, R, 1/(2R),
     1/(2R^2), whether the expansion is accurate enough: kc h^4 / R^3 below the limit)."""
@@ -70,7 +71,7 @@ def _reference(cx, cy, cz, px, py, pz, h4kc):
                np.float32(0.5 * ir), np.float32(0.5 * ir * ir), expand)
 
 
-@numba.njit(error_model="numpy", cache=True)
+@numba.njit(error_model="numpy", cache=CACHE)
 def _pulse_reference(cx, cy, cz, tx, rx, p, monostatic, scale, first, kc, h4kc):
     """Per tile and pulse, float64: integer sample and float32 fraction of the centre's delay, its reduced
     carrier cycles, and the float32 geometry of both legs."""
@@ -88,7 +89,7 @@ def _pulse_reference(cx, cy, cz, tx, rx, p, monostatic, scale, first, kc, h4kc):
     return np.int64(base), np.float32(pos0 - base), cyc0, geo_t, geo_r
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def _add_leg(dr, dx, dy, dz, d2, geo, factor, first_leg):
     """dr (+)= factor x the leg's path difference per pixel; branch-free loops, so they vectorise."""
     ux, uy, uz, inv_r, r0, hir, hir2, expand = geo
@@ -106,7 +107,7 @@ def _add_leg(dr, dx, dy, dz, d2, geo, factor, first_leg):
             dr[i] += _offset(ux, uy, uz, inv_r, r0, dx[i], dy[i], dz[i], d2[i])
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def _path_differences(dr, dx, dy, dz, d2, geo_t, geo_r, monostatic):
     if monostatic:
         _add_leg(dr, dx, dy, dz, d2, geo_t, np.float32(2.0), True)
@@ -115,7 +116,7 @@ def _path_differences(dr, dx, dy, dz, d2, geo_t, geo_r, monostatic):
         _add_leg(dr, dx, dy, dz, d2, geo_r, np.float32(1.0), False)
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def _positions(dr, frac, cos_, sin_, frac0, cyc0, scale32, kc32):
     """Per pixel of a tile, for one pulse: sample position offset (float32, from the tile's integer base
     sample) and carrier phasor."""
@@ -129,7 +130,7 @@ def _positions(dr, frac, cos_, sin_, frac0, cyc0, scale32, kc32):
         sin_[i] = si
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def _indices(dr, jc, frac0, scale32, ibase, n_w):
     """Pair-table entry of each pixel, clipped to the zero entries 0 and n_w (reads outside the window add
     nothing)."""
@@ -138,7 +139,7 @@ def _indices(dr, jc, frac0, scale32, ibase, n_w):
         jc[i] = np.uint32(min(max(ibase + np.int32(np.floor(frac0 + dr[i] * scale32)), lo), n_w))
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def _weight_and_phasor(dr, frac0, cyc0, scale32, kc32):
     """A pixel's interpolation weight (fraction of its sample position) and carrier phasor from its path
     difference dr to the tile centre."""
@@ -148,7 +149,7 @@ def _weight_and_phasor(dr, frac0, cyc0, scale32, kc32):
     return t - np.floor(t), co, si
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def _combine_from_dr(acc_re, acc_im, g, dr, frac0, cyc0, scale32, kc32):
     """acc += (x_s + w (x_{s+1} - x_s)) exp(j 2 pi cycles) per pixel, w and the cycles recomputed from dr (cheaper
     than storing and reloading them)."""
@@ -160,7 +161,7 @@ def _combine_from_dr(acc_re, acc_im, g, dr, frac0, cyc0, scale32, kc32):
         acc_im[i] += vr * si + vi * co
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def _path_indices_mono(dr, jc, dx, dy, dz, d2, geo, frac0, scale32, ibase, n_w):
     """_path_differences and _indices in one pass for the common case: monostatic, expansion accurate."""
     ux, uy, uz, inv_r, r0, hir, hir2, expand = geo
@@ -172,7 +173,7 @@ def _path_indices_mono(dr, jc, dx, dy, dz, d2, geo, frac0, scale32, ibase, n_w):
         jc[i] = np.uint32(min(max(ibase + np.int32(np.floor(frac0 + x * scale32)), lo), n_w))
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def _combine_cubic(acc_re, acc_im, g, dr, frac0, cyc0, scale32, kc32):
     """As _combine_from_dr for the cubic table: value c0 + w (c1 + w (c2 + w c3)), g holding (c0 .. c3) per pixel."""
     for i in range(len(acc_re)):
@@ -183,7 +184,7 @@ def _combine_cubic(acc_re, acc_im, g, dr, frac0, cyc0, scale32, kc32):
         acc_im[i] += vr * si + vi * co
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def _gather_quads(coef, jc, g):
     """g[2i], g[2i + 1] = coef[2 jc[i]], coef[2 jc[i] + 1]: one 32-byte cubic entry per pixel."""
     for i in range(len(jc)):
@@ -192,14 +193,14 @@ def _gather_quads(coef, jc, g):
         g[2 * i + 1] = coef[k + np.uint32(1)]
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def _gather_pairs(pairs, jc, g):
     """g[i] = pairs[jc[i]]: one 16-byte entry (sample, difference to the next) per pixel, the only indirect load."""
     for i in range(len(jc)):
         g[i] = pairs[jc[i]]
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def _accumulate_nearest(acc_re, acc_im, frac, cos_, sin_, row, ibase, n_s):
     zero = np.float32(0.0)
     for i in range(len(acc_re)):
@@ -212,7 +213,7 @@ def _accumulate_nearest(acc_re, acc_im, frac, cos_, sin_, row, ibase, n_s):
         acc_im[i] += vr * sin_[i] + vi * cos_[i]
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def _accumulate_table(acc_re, acc_im, frac, cos_, sin_, row, ibase, n_s, table, taps):
     """Tabulated kernel: pixel i reads samples j - taps/2 + 1 .. j + taps/2 (row: complex64) with the weights
     of its fraction cell, one contiguous row of ``table`` (steps + 1, taps) per cell (sarproc.dsp.interp
@@ -254,7 +255,7 @@ def _accumulate_table(acc_re, acc_im, frac, cos_, sin_, row, ibase, n_s, table, 
         acc_im[i] += vr * sin_[i] + vi * cos_[i]
 
 
-@numba.njit(parallel=True, error_model="numpy", cache=True)
+@numba.njit(parallel=True, error_model="numpy", cache=CACHE)
 def pulse_windows(first, scale, tx, rx, monostatic, centres, radius, n_s, reach):
     """Per pulse, the first and last table sample any pixel's entry starts at (lo, hi: int64, within -reach ..
     n - 2 + reach; an entry at s reads samples s + 1 - reach .. s + reach), from the tiles' centres and radii:
@@ -284,7 +285,7 @@ def pulse_windows(first, scale, tx, rx, monostatic, centres, radius, n_s, reach)
     return lo, hi
 
 
-@numba.njit(parallel=True, error_model="numpy", cache=True)
+@numba.njit(parallel=True, error_model="numpy", cache=CACHE)
 def pair_table(pulses, lo, pairs):
     """pairs[p, k] = (x_s, x_{s+1} - x_s) for the pulse's sample s = lo[p] + k - 1 (4 float32), samples outside the
     pulse taken as zero (so s = -1 and s = n - 1 interpolate towards zero, as the reference does), and always
@@ -307,7 +308,7 @@ def pair_table(pulses, lo, pairs):
                 pairs[p, k, 3] = b.imag - a.imag
 
 
-@numba.njit(parallel=True, error_model="numpy", cache=True)
+@numba.njit(parallel=True, error_model="numpy", cache=CACHE)
 def cubic_table(pulses, lo, coef):
     """coef[p, k] = the cubic Lagrange polynomial through samples s - 1 .. s + 2 (s = lo[p] + k - 1) as
     (c0, c1, c2, c3), value c0 + w c1 + w^2 c2 + w^3 c3 at s + w (4 complex64 = 8 float32), samples outside the
@@ -342,7 +343,7 @@ def cubic_table(pulses, lo, coef):
             coef[p, k, 7] = c3.imag
 
 
-@numba.njit(parallel=True, error_model="numpy", cache=True)
+@numba.njit(parallel=True, error_model="numpy", cache=CACHE)
 def backproject_tiles(pulses, pairs, first, scale, kc, tx, rx, monostatic, centres, tile_start, d, mode, table,
                       taps, acc):
     """Add the pulses' contributions to ``acc`` (complex128, one entry per sorted pixel).
@@ -407,7 +408,7 @@ def backproject_tiles(pulses, pairs, first, scale, kc, tx, rx, monostatic, centr
             acc[s0 + i] += complex(acc_re[i], acc_im[i])
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def bounds(points):
     """(min, max) over points (n, 3) float64 per coordinate, in one vectorised pass (points must be finite: under
     fastmath a NaN is not propagated, so the result does not tell whether one was there)."""
@@ -427,7 +428,7 @@ def bounds(points):
     return lo, hi
 
 
-@numba.njit(parallel=True, error_model="numpy", cache=True)
+@numba.njit(parallel=True, error_model="numpy", cache=CACHE)
 def _tile_layout(points, origin, lo, hi, tile_size, max_tile):
     """Counting sort of the points by spatial cell (lo, hi: the points' bounds relative to ``origin``), tiles of
     at most ``max_tile`` points, each tile's bounding-box centre and the points' float32 offsets from it. The

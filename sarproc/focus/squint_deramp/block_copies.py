@@ -14,16 +14,17 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from sarproc.dsp.kernel_cache import CACHE
 from sarproc.dsp.phasor import cmul
 
 
-@numba.njit(inline="always", cache=True)
+@numba.njit(inline="always", cache=CACHE)
 def _alternate(v, j, start):
     """v negated where j % 2 == start (the (-1)^n modulation)."""
     return -v if j % 2 == start else v
 
 
-@numba.njit(inline="always", cache=True)
+@numba.njit(inline="always", cache=CACHE)
 def _spectrum_entry(src, i, j, factor, start, scaled):
     """alternate(src[i, j]) times factor[j] when ``scaled``, rounded as numpy's complex multiply."""
     v = _alternate(src[i, j], j, start)
@@ -33,7 +34,7 @@ def _spectrum_entry(src, i, j, factor, start, scaled):
     return v
 
 
-@numba.njit(parallel=True, cache=True)
+@numba.njit(parallel=True, cache=CACHE)
 def pad_rows(src, dst, start):
     """dst[i, :n] = alternate(src[i]), dst[i, n:] = 0 (n = src.shape[1] <= dst.shape[1])."""
     n = src.shape[1]
@@ -47,7 +48,7 @@ def pad_rows(src, dst, start):
             dst[i, j] = 0
 
 
-@numba.njit(parallel=True, cache=True)
+@numba.njit(parallel=True, cache=CACHE)
 def scale_rows(x, factor, start):
     """x[i, j] = alternate(x[i, j] * factor[i]) in place."""
     for i in numba.prange(x.shape[0]):
@@ -59,7 +60,7 @@ def scale_rows(x, factor, start):
             x[i, j] = complex(re, im)
 
 
-@numba.njit(parallel=True, cache=True)
+@numba.njit(parallel=True, cache=CACHE)
 def copy_rows(src, dst, start):
     """dst[i, j] = alternate(src[i, j]) (same shapes)."""
     if src.shape[0] != dst.shape[0] or src.shape[1] != dst.shape[1]:
@@ -69,7 +70,7 @@ def copy_rows(src, dst, start):
             dst[i, j] = _alternate(src[i, j], j, start)
 
 
-@numba.njit(parallel=True, cache=True)
+@numba.njit(parallel=True, cache=CACHE)
 def pad_spectrum(src, dst, factor, start):
     """Zero-pad FFT-ordered rows: dst[i] holds the first (n+1)//2 and the last n//2 samples of
     f(src[i]) (f(v)_j = alternate(v_j) * factor[j], factor of src's length; ``factor`` of length 0: none) at
@@ -90,7 +91,7 @@ def pad_spectrum(src, dst, factor, start):
             dst[i, m - lo + jj] = _spectrum_entry(src, i, n - lo + jj, factor, start, scaled)
 
 
-@numba.njit(parallel=True, cache=True)
+@numba.njit(parallel=True, cache=CACHE)
 def gather_columns(src, cols, dst, offset):
     """dst[k, offset + i] = src[i, cols[k]]: selected columns of src written back as rows (transposed)."""
     n = src.shape[0]
@@ -105,7 +106,7 @@ def gather_columns(src, cols, dst, offset):
             dst[k, offset + i] = src[i, c]
 
 
-@numba.njit(parallel=True, cache=True)
+@numba.njit(parallel=True, cache=CACHE)
 def _crop_rows(src, lo, dst, bad):
     n = dst.shape[1]
     for i in numba.prange(dst.shape[0]):

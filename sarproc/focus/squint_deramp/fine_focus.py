@@ -43,6 +43,7 @@ from sarproc.product.errors import InputError, ProcessingError
 from sarproc.focus.squint_deramp.block_copies import copy_rows, crop_columns, gather_columns, pad_rows, pad_spectrum, scale_rows
 from sarproc.product.frames import SquintFrame, SquintLrwcFrame, targets_in_frame
 from sarproc.dsp.interp import KERNELS, resample_rows
+from sarproc.dsp.kernel_cache import CACHE
 from sarproc.product.metadata import C
 from sarproc.product.theory import fill_target_theory, window_theory
 from sarproc.focus.squint_deramp.nlcs import VARIANTS, compression_phase, group_delay_span, nlcs_coefficients, position_terms
@@ -100,7 +101,7 @@ def phasor(phase):
     return unit_phasor(cycles(phase))
 
 
-@numba.njit(parallel=True, cache=True)
+@numba.njit(parallel=True, cache=CACHE)
 def _negate_alternate_2d(x, axis, start):
     n, m = x.shape
     if axis == 0:

@@ -28,6 +28,7 @@ import numba
 import numpy as np
 
 from sarproc.dsp.interp import resample_rows
+from sarproc.dsp.kernel_cache import CACHE
 from sarproc.dsp.phasor import cmul, rotate_row_field
 from sarproc.product.metadata import C
 
@@ -148,7 +149,7 @@ class SpectrumModel:
         return f - self.fc, ok & ok0
 
 
-@numba.njit(parallel=True, error_model="numpy", cache=True)
+@numba.njit(parallel=True, error_model="numpy", cache=CACHE)
 def _rotate_G(xf, x, pre, use_pre, a, q, b, p, mode, s, s2, c, lim, scale):
     """Rows of :meth:`SpectrumModel.rotate`; the float64 sums are written in :meth:`SpectrumModel.G`'s order
     (no fastmath: same values): exact sigma = s + a_i / b_j, g = p_j (s^2 + c root) + q_i; paper
@@ -180,7 +181,7 @@ def _rotate_G(xf, x, pre, use_pre, a, q, b, p, mode, s, s2, c, lim, scale):
         rotate_row_field(xf[i], g, ok, True, scale)
 
 
-@numba.njit(parallel=True, error_model="numpy", cache=True)
+@numba.njit(parallel=True, error_model="numpy", cache=CACHE)
 def _node_positions(s_n, ok_n, seg, w, f0, df, half_band, out):
     """out[i, j]: sample position (f - f0) / df of the source frequency, linear between the exact nodes
     seg[j], seg[j] + 1 (weight w[j]); NaN where a node is invalid or the source is outside the band."""
