@@ -10,7 +10,7 @@ from pathlib import Path
 import click
 
 from sarproc.cli.options import (config_option, dry_run_option, input_argument, load_config, max_memory_option,
-                                 progress_option, summary, verbosity, want_progress)
+                                 progress_option, stdout_taken, summary, verbosity, want_progress)
 
 
 def _fmt(x: float, spec: str) -> str:
@@ -85,8 +85,9 @@ def _write_text_atomic(path: Path, text: str, overwrite: bool = True) -> None:
 
 @click.command()
 @input_argument
-@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="Write the report as JSON (never the input; an existing file needs --overwrite).")
+@click.option("-o", "--output", type=click.Path(dir_okay=False, allow_dash=True, path_type=Path), default=None,
+              help="Write the report as JSON (never the input; an existing file needs --overwrite; '-': standard "
+                   "output, the table then goes to stderr).")
 @click.option("--overwrite", is_flag=True, help="Replace an existing -o report.")
 @click.option("--plot", "plot_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Directory for quicklook.png and target_<name>.png (created if missing).")
@@ -113,6 +114,7 @@ def evaluate(input_path: Path, output, overwrite, plot_dir, expect_path, config_
     from sarproc.product.errors import InputError
     from sarproc.product.io import check_output_path, read_product
     from sarproc.product.model import UNITS
+    from sarproc.product.run import mark_published
     from sarproc.quality.metrics import EvaluateParams, check_report, evaluate_product, expectations_from_mapping
 
     # Every argument is checked before the (possibly long) evaluation: config, tolerances, the
@@ -147,8 +149,9 @@ def evaluate(input_path: Path, output, overwrite, plot_dir, expect_path, config_
         _write_text_atomic(output, json.dumps(doc, indent=2, allow_nan=False) + "\n", overwrite)
     if plot_dir is not None:
         _plots(plot_dir, product, report, units, params)
+        mark_published(plot_dir)
     if verbosity() >= 0:
-        click.echo(markdown_table(report, units))
+        click.echo(markdown_table(report, units), err=stdout_taken())
     if expect is not None:
         for f in failures:
             click.echo(str(f), err=True)

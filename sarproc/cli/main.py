@@ -21,6 +21,7 @@ import click
 
 from sarproc import __version__
 from sarproc.product.errors import InputError, ProcessingError
+from sarproc.product.run import Interrupted
 
 COMMANDS = {
     "simulate": "sarproc.cli.simulate:simulate",
@@ -51,41 +52,19 @@ class ProcessingFailed(click.ClickException):
     exit_code = 1
 
 
-class Interrupted(BaseException):
-    """A termination signal arrived: unwinds like KeyboardInterrupt so every temporary file is removed."""
-
-    def __init__(self, signum: int):
-        super().__init__(signum)
-        self.signum = signum
-
-
-# Signals a batch scheduler or a terminal sends to end a run; each exits 128 + signal number.
-_STOP_SIGNALS = tuple(getattr(signal, n) for n in ("SIGTERM", "SIGINT", "SIGHUP") if hasattr(signal, n))
-
-
-# The signal that ended this run. Kept apart from the exception because a C library (HDF5) can
-# swallow an exception raised inside one of its callbacks and report its own error instead.
-_FIRED: list[int] = []
-
-
 @contextlib.contextmanager
-def _signals_unwind():
-    """Turn SIGTERM/SIGINT/SIGHUP into :class:`Interrupted` (once; later ones are ignored while cleaning up)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    _FIRED.clear()
+def _run_scope():
+    """One command's run (:mod:`sarproc.product.run`): stop signals raise Interrupted, outputs are locked."""
+    from sarproc.product import run
 
-    def handler(signum, frame):
-        if _FIRED:
-            return
-        _FIRED.append(signum)
-        raise Interrupted(signum)
-
-    previous = {s: signal.signal(s, handler) for s in _STOP_SIGNALS}
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = {s: signal.getsignal(s) for s in run.STOP_SIGNALS} if main_thread else {}
+    run.begin()
+    run.install_handlers()
     try:
         yield
     finally:
+        run.end()
         for s, h in previous.items():
             signal.signal(s, h)
 
@@ -116,22 +95,38 @@ class LazyGroup(click.Group):
             if a == "--":
                 rest.extend(args[i:])
                 break
-            (front if a in ("-q", "--quiet", "--verbose") or re.fullmatch(r"-v+", a) else rest).append(a)
+            (front if a in ("--quiet", "--verbose") or re.fullmatch(r"-v+|-q+", a) else rest).append(a)
         return super().parse_args(ctx, front + rest)
 
     def invoke(self, ctx):
-        verbosity = -1 if ctx.params.get("quiet") else int(ctx.params.get("verbose") or 0)
+        quiet = int(ctx.params.get("quiet") or 0)
+        verbosity = -quiet if quiet else int(ctx.params.get("verbose") or 0)
         ctx.meta["sarproc.verbosity"] = verbosity
+        from sarproc.product import run
+
         try:
-            try:
-                with _signals_unwind():
-                    return super().invoke(ctx)
-            except (click.exceptions.Exit, KeyboardInterrupt):
-                raise
-            except BaseException:
-                if _FIRED:   # whatever the signal interrupted failed as a consequence
-                    raise Interrupted(_FIRED[0]) from None
-                raise
+            with _run_scope():
+                try:
+                    try:
+                        result = super().invoke(ctx)
+                    except click.exceptions.Exit as exc:
+                        if exc.exit_code == 0:
+                            run.check()
+                        raise
+                    except KeyboardInterrupt:   # SIGINT outside the run's own handler (a test's runner)
+                        raise Interrupted(signal.SIGINT) from None
+                    except Interrupted:
+                        raise
+                    except BaseException:
+                        if run.fired() is not None and not run.complete():
+                            # whatever the signal interrupted failed as a consequence
+                            raise Interrupted(run.fired()) from None
+                        raise
+                    run.check()   # a signal whose exception a library swallowed: the run still stops
+                    return result
+                except Interrupted as exc:
+                    exc.removed = run.remove_published()   # all outputs or none
+                    raise
         except InputError as exc:
             raise BadInput(str(exc)) from None
         except ProcessingError as exc:
@@ -140,11 +135,10 @@ class LazyGroup(click.Group):
             raise
         except Interrupted as exc:
             name = signal.Signals(exc.signum).name
-            click.echo(f"Error: interrupted by {name}; no output was written", err=True)
+            removed = getattr(exc, "removed", [])
+            more = f" (removed {', '.join(map(str, removed))}, published before it)" if removed else ""
+            click.echo(f"Error: interrupted by {name}; no output was written{more}", err=True)
             ctx.exit(128 + exc.signum)
-        except KeyboardInterrupt:
-            click.echo("Error: interrupted by SIGINT; no output was written", err=True)
-            ctx.exit(128 + signal.SIGINT)
         except MemoryError:
             raise ProcessingFailed("out of memory; reduce the scene or the block size "
                                    "(sarproc -v prints each stage's memory estimate)") from None
@@ -167,19 +161,23 @@ class LazyGroup(click.Group):
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="sarproc")
 @click.option("-v", "--verbose", count=True, help="More log output (repeat for debug).")
-@click.option("-q", "--quiet", is_flag=True, help="Only errors.")
-def cli(verbose: int, quiet: bool):
+@click.option("-q", "--quiet", count=True,
+              help="Only errors and the warnings that an image is wrong (ghosts, aliasing, folds); -qq: only errors.")
+def cli(verbose: int, quiet: int):
     """SAR point-target simulator, focusing processors and quality evaluation.
 
     Every subcommand reads one HDF5 product (or a scene YAML) and writes another.
     Exit status: 0 success, 1 processing failure, 2 bad usage or bad input.
     """
-    level = logging.ERROR if quiet else (logging.WARNING, logging.INFO, logging.DEBUG)[min(verbose, 2)]
+    level = logging.ERROR if quiet >= 2 else (logging.WARNING, logging.INFO, logging.DEBUG)[min(verbose, 2)]
     # Only sarproc's own loggers get more verbose; libraries (h5py logs every type conversion at
     # DEBUG) stay at WARNING, or ERROR with -q.
     logging.basicConfig(level=logging.ERROR if quiet else logging.WARNING,
                         format="sarproc: %(levelname)s: %(message)s", stream=sys.stderr, force=True)
     logging.getLogger("sarproc").setLevel(level)
+    if quiet == 1:   # -q: errors, and the warnings that an image is wrong
+        logging.getLogger().handlers[0].addFilter(
+            lambda r: r.levelno >= logging.ERROR or getattr(r, "image_defect", False))
     logging.captureWarnings(True)
 
 
@@ -190,16 +188,15 @@ def main(args=None):  # pragma: no cover - console entry (exercised by subproces
     def quiet_after_failed_write(unraisable):  # h5py objects of a damaged file complain when freed
         from sarproc.product.io import hdf5_handles_damaged
 
-        if not hdf5_handles_damaged():
+        # a stop signal raised inside an HDF5 callback: recorded by the run, acted on there
+        if not hdf5_handles_damaged() and not isinstance(unraisable.exc_value, Interrupted):
             default_hook(unraisable)
 
     sys.unraisablehook = quiet_after_failed_write
 
-    def early(signum, frame):   # before a stage starts (argument parsing, imports): nothing to clean
-        raise Interrupted(signum)
+    from sarproc.product import run
 
-    for s in _STOP_SIGNALS:
-        signal.signal(s, early)
+    run.install_handlers()   # before a stage starts (argument parsing, imports): nothing to clean
     try:
         cli.main(args=args, prog_name="sarproc")
         code = 0
@@ -208,6 +205,7 @@ def main(args=None):  # pragma: no cover - console entry (exercised by subproces
     except Interrupted as exc:
         print(f"Error: interrupted by {signal.Signals(exc.signum).name}", file=sys.stderr)
         code = 128 + exc.signum
+    run.ignore_signals()     # the run has ended: its status stands, a late signal must not kill the exit
     from sarproc.product.io import hdf5_handles_damaged
 
     if hdf5_handles_damaged():

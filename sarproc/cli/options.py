@@ -9,10 +9,11 @@ import click
 
 from sarproc.product.config import build, load_yaml
 
-output_option = click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
-                             help="Output HDF5 product.")
-config_option = click.option("--config", "config_path", type=click.Path(dir_okay=False, path_type=Path),
-                             default=None, help="YAML file of algorithm parameters (defaults from the product).")
+output_option = click.option("-o", "--output", required=True,
+                             type=click.Path(dir_okay=False, allow_dash=True, path_type=Path),
+                             help="Output HDF5 product ('-': standard output).")
+config_option = click.option("--config", "config_path", type=click.Path(dir_okay=False, allow_dash=True, path_type=Path),
+                             default=None, help="YAML file of algorithm parameters (defaults from the product; '-': standard input).")
 overwrite_option = click.option("--overwrite", is_flag=True, help="Replace an existing output file.")
 progress_option = click.option("--progress/--no-progress", default=None,
                                help="Show progress bars (default: on for a terminal).")
@@ -112,9 +113,16 @@ def load_config(cls, path, section: str | None = None):
 
 
 def summary(msg: str) -> None:
-    """The one success line of a stage (silenced by -q)."""
+    """The one success line of a stage (silenced by -q); on stderr when a product goes to stdout."""
     if verbosity() >= 0:
-        click.echo(msg)
+        click.echo(msg, err=stdout_taken())
+
+
+def stdout_taken() -> bool:
+    """An output of this run is standard output (``-o -``): nothing else may be printed there."""
+    from sarproc.product.run import stdout_taken as taken
+
+    return taken()
 
 
 def info(msg: str) -> None:

@@ -13,7 +13,7 @@ from sarproc.cli.options import (dry_run_option, max_memory_option, output_optio
 
 
 @click.command()
-@click.argument("scene_path", type=click.Path(path_type=Path))
+@click.argument("scene_path", type=click.Path(allow_dash=True, path_type=Path))
 @output_option
 @overwrite_option
 @progress_option
@@ -21,7 +21,7 @@ from sarproc.cli.options import (dry_run_option, max_memory_option, output_optio
 @dry_run_option
 @scheduler_option
 def simulate(scene_path: Path, output: Path, overwrite: bool, progress, scheduler):
-    """Simulate exact-geometry raw echoes of the point targets declared in SCENE_PATH."""
+    """Simulate exact-geometry raw echoes of the point targets declared in SCENE_PATH ('-': standard input)."""
     from sarproc.product.io import ProductWriter, check_output_path, history_entry
     from sarproc.simulation.scene import load_scene
     from sarproc.simulation.simulate import illumination_warnings, plan_simulation, simulate_blocks

@@ -6,16 +6,19 @@ from pathlib import Path
 
 import click
 
-from sarproc.cli.options import summary
+from sarproc.cli.options import summary, verbosity
 
 
 @click.command()
-@click.argument("sweep_path", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("sweep_path", type=click.Path(dir_okay=False, allow_dash=True, path_type=Path))
 @click.option("-o", "--output", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Output directory (default: the sweep file's 'output:').")
-@click.option("--scheduler", default="local", show_default=True,
+@click.option("--scheduler", default=None,
               help="'local' (a new Dask LocalCluster), 'serial' (this process, no Dask) or the address of a "
-                   "running Dask scheduler, e.g. tcp://host:8786.")
+                   "running Dask scheduler, e.g. tcp://host:8786. Default: local, or serial (with a note) when "
+                   "Dask is not installed.")
+@click.option("--table", "table_path", type=click.Path(dir_okay=False, allow_dash=True, path_type=Path), default=None,
+              help="Also write the Markdown table to this file ('-': standard output).")
 @click.option("--workers", type=click.IntRange(min=1), default=None,
               help="Workers of the local cluster (default: the number of cores).")
 @click.option("--threads-per-worker", type=click.IntRange(min=1), default=1, show_default=True,
@@ -23,20 +26,23 @@ from sarproc.cli.options import summary
 @click.option("--processes/--threads", default=True, show_default=True,
               help="Local workers as processes or as threads of this process.")
 @click.option("--list", "list_only", is_flag=True, help="Print the tasks and exit.")
-def sweep(sweep_path: Path, output, scheduler: str, workers, threads_per_worker: int, processes: bool,
+def sweep(sweep_path: Path, output, scheduler, table_path, workers, threads_per_worker: int, processes: bool,
           list_only: bool):
     """Run a grid of scenes x stage knobs (simulate -> focus -> evaluate) and gather one table.
 
     Every step writes its own product under DIR (raw/, tasks/<id>/); a step whose output already
     exists with the same resolved inputs is skipped, so a killed sweep resumes when rerun. Writes
-    DIR/table.md, DIR/table.json and DIR/plot.png. Dask is needed unless --scheduler serial
-    (pip install 'sarproc[distributed]'); see docs/sweeps.md for a SLURM cluster.
+    DIR/table.md, DIR/table.json and DIR/plot.png. Dask is needed for 'local' or an address
+    (pip install 'sarproc[distributed]'); see docs/sweeps.md for a SLURM cluster. SWEEP_PATH '-'
+    reads the sweep from standard input (relative paths then start in the current directory).
     """
     import logging
     import os
 
-    from sarproc.cli.sweep_tasks import local_client, plan_sweep, run_dask, run_serial, write_results
+    from sarproc.cli.sweep_tasks import local_client, markdown_table, plan_sweep, run_dask, run_serial, write_results
+    from sarproc.product import run
     from sarproc.product.errors import InputError, ProcessingError
+    from sarproc.product.io import atomic_path, check_output_path
 
     plan = plan_sweep(sweep_path, output)
     if list_only:
@@ -44,6 +50,21 @@ def sweep(sweep_path: Path, output, scheduler: str, workers, threads_per_worker:
             click.echo(f"{task.task_id}\t{task.directory}")
         summary(f"sweep: {len(plan.tasks)} tasks, {len(plan.sims)} raw products")
         return
+    # Two sweeps into one directory would share steps: the second stops here, naming the first.
+    plan.output.mkdir(parents=True, exist_ok=True)
+    check_output_path(plan.output / "table.md", overwrite=True)
+    if table_path is not None:
+        check_output_path(table_path, [sweep_path], overwrite=True)
+    run.keep_published_on_interrupt()   # finished steps stay: a rerun resumes from them
+    if scheduler is None:
+        try:
+            import dask.distributed  # noqa: F401
+            scheduler = "local"
+        except ImportError:
+            scheduler = "serial"
+            if verbosity() >= 0:
+                click.echo("sweep: Dask is not installed: the tasks run one after the other in this process "
+                           "(pip install 'sarproc[distributed]' to run them in parallel)", err=True)
     if scheduler == "serial":
         outcome = run_serial(plan)
         runner = "serial"
@@ -72,6 +93,9 @@ def sweep(sweep_path: Path, output, scheduler: str, workers, threads_per_worker:
             if cluster is not None:
                 cluster.close()
     paths = write_results(plan, outcome, runner)
+    if table_path is not None:
+        with atomic_path(table_path) as tmp:
+            tmp.write_text(markdown_table(plan, outcome.rows) + "\n", encoding="utf-8")
     skipped = sum(1 for r in outcome.rows if r["skipped"])
     for task, error in outcome.failures:
         click.echo(f"sweep: task {task} failed: {error}", err=True)

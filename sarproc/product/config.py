@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 import typing
 from pathlib import Path
 
@@ -75,15 +76,26 @@ _StrictLoader.yaml_implicit_resolvers = {
     for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()}
 
 
+_STDIN: list[bytes] = []
+
+
+def read_stdin() -> bytes:
+    """Standard input, read once: a scene and a config both named ``-`` are the same text."""
+    if not _STDIN:
+        _STDIN.append(sys.stdin.buffer.read())
+    return _STDIN[0]
+
+
 def load_yaml(path) -> dict:
-    """Read a YAML mapping (UTF-8, no key given twice); errors name the file and the line."""
+    """Read a YAML mapping (UTF-8, no key given twice); errors name the file and the line. ``-``: standard input."""
     path = Path(path)
-    if not path.exists():
-        raise InputError(f"{path}: file not found")
-    if path.is_dir():
-        raise InputError(f"{path}: is a directory; expected a YAML file")
+    if str(path) != "-":
+        if not path.exists():
+            raise InputError(f"{path}: file not found")
+        if path.is_dir():
+            raise InputError(f"{path}: is a directory; expected a YAML file")
     try:
-        text = path.read_bytes().decode("utf-8")
+        text = (read_stdin() if str(path) == "-" else path.read_bytes()).decode("utf-8")
     except UnicodeDecodeError as exc:
         raise InputError(f"{path}: not a UTF-8 text file (byte {exc.start}); expected YAML") from None
     except OSError as exc:

@@ -10,3 +10,8 @@ class InputError(ValueError):
 
 class ProcessingError(RuntimeError):
     """A stage could not produce a valid result from valid-looking input."""
+
+
+# ``extra=`` of a warning that says the output image is wrong (ghosts, aliasing, folds, ambiguities):
+# shown under ``sarproc -q``, silenced only by ``-qq``.
+IMAGE_DEFECT = {"image_defect": True}

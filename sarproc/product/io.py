@@ -9,6 +9,13 @@ that is the input, that exists without ``overwrite``, or whose directory is not 
 refused before any work is done. A failed HDF5 write (full disk, file-size limit, read-only
 file system) becomes a one-line ProcessingError; the damaged HDF5 handle is never closed again
 (the library can crash doing so), see :func:`hdf5_handles_damaged`.
+
+Special outputs are written through, never replaced: ``-`` (standard output), ``/dev/std*``,
+``/dev/fd/N``, and any existing character or block device, FIFO or socket get the finished
+file's bytes streamed into them (the temporary file is then in the temporary directory), also
+with ``overwrite``. A symbolic link to a regular file is followed: the temporary file is made
+next to the link's target and renamed onto it, the link stays. Each regular output is locked
+for the run from its check on (:mod:`sarproc.product.run`).
 """
 
 from __future__ import annotations
@@ -22,12 +29,17 @@ import os
 import re
 import secrets
 import socket
+import stat
+import sys
+import tempfile
 from pathlib import Path
+from typing import NamedTuple
 
 import h5py
 import numpy as np
 
 from sarproc import __version__
+from sarproc.product import run
 from sarproc.product.errors import InputError, ProcessingError
 from sarproc.product.metadata import FORMAT_VERSION, RadarMetadata
 from sarproc.product.model import (AUX_DIM_DOC, AUX_LAYOUT, DATA_ATTR_UNITS, DATA_NAME, KIND_DIMS,
@@ -42,6 +54,19 @@ LONG_NAMES = {"azimuth_time": "azimuth (slow) time from aperture centre", "range
 TMP_SUFFIX = ".sarproc-tmp"
 _HOST = re.sub(r"[^A-Za-z0-9-]", "-", socket.gethostname())[:32] or "host"
 _DAMAGED: list = []   # h5py objects of files whose write failed: kept alive, never closed
+
+
+class Stream(NamedTuple):
+    """An output written through: a descriptor of this process, or a device, FIFO or socket by path."""
+
+    name: str
+    fd: int | None = None
+    path: str | None = None
+    socket: bool = False
+
+
+_STD_FDS = {"stdin": 0, "stdout": 1, "stderr": 2}
+_FD_PATH = re.compile(r"^(?:/dev/(?P<std>stdin|stdout|stderr)|/dev/fd/(?P<fd>\d+)|/proc/self/fd/(?P<fd2>\d+))$")
 
 
 def hdf5_handles_damaged() -> bool:
@@ -110,15 +135,72 @@ def _os_cause(exc: Exception) -> str:
     return f"{os.strerror(code)} ({_errno.errorcode.get(code, code)})"
 
 
+def output_stream(output) -> Stream | None:
+    """Where bytes written to ``output`` must be streamed instead of renamed into place; None for a regular file.
+
+    ``-`` is standard output; ``/dev/stdin|stdout|stderr``, ``/dev/fd/N`` and ``/proc/self/fd/N`` are that
+    descriptor of this process; an existing character or block device, FIFO or socket (also behind a
+    symbolic link) is opened and written through. Such a file is never replaced, removed or truncated.
+    """
+    text = os.fspath(output)
+    if text == "-":
+        return Stream(text, fd=1)
+    m = _FD_PATH.match(text)
+    if m:
+        number = m.group("fd") or m.group("fd2")
+        return Stream(text, fd=int(number) if number else _STD_FDS[m.group("std")])
+    try:
+        mode = os.stat(text).st_mode   # follows links: a link to /dev/null is /dev/null
+    except OSError:
+        return None
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) or stat.S_ISFIFO(mode):
+        return Stream(text, path=text)
+    if stat.S_ISSOCK(mode):
+        return Stream(text, path=text, socket=True)
+    return None
+
+
+def real_output(output) -> Path:
+    """A regular output named by a symbolic link is its target: written next to it and renamed onto it; the link
+    stays (also a dangling one: its target is created)."""
+    out = Path(output)
+    return Path(os.path.realpath(out)) if out.is_symlink() else out
+
+
+def _is_stdout(stream: Stream) -> bool:
+    if stream.fd == 1:
+        return True
+    try:
+        a = os.fstat(1)
+        b = os.fstat(stream.fd) if stream.fd is not None else os.stat(stream.path)
+    except OSError:
+        return False
+    return os.path.samestat(a, b) and not stat.S_ISREG(a.st_mode) and not stat.S_ISDIR(a.st_mode)
+
+
 def check_output_path(output, inputs=(), overwrite: bool = False) -> Path:
-    """Refuse to write over an input, over an existing file without ``overwrite``, or where no file can be made.
+    """Refuse to write over an input, over an existing file without ``overwrite``, or where no file can be made;
+    lock the output for this run (:mod:`sarproc.product.run`).
 
     The directory's writability is proven by creating (and removing) a temporary file there, so a
-    read-only, full-quota or missing location fails now, before any computation.
+    read-only, full-quota or missing location fails now, before any computation. A stream output
+    (:func:`output_stream`) is not refused for existing: it is written through, never replaced.
     """
     out = Path(output)
+    stream = output_stream(out)
+    inputs = [Path(i) for i in inputs if os.fspath(i) != "-"]   # "-" as an input is stdin
+    if stream is not None:
+        for inp in inputs:
+            if stream.path is not None and inp.exists() and os.path.samefile(inp, stream.path):
+                raise InputError(f"{out}: output is the input file; refusing to write over an input")
+        if stream.path is not None and not stream.socket and not os.access(stream.path, os.W_OK):
+            raise InputError(f"{out}: not writable (permission denied)")
+        _probe_directory(out, Path(tempfile.gettempdir()))
+        if _is_stdout(stream):
+            run.take_stdout()
+        run.plan_output(out, lock=False)
+        return out
     for inp in inputs:
-        inp = Path(inp)
         if inp.exists() and out.exists() and os.path.samefile(inp, out):
             raise InputError(f"{out}: output is the input file; refusing to write over an input")
         if inp.resolve() == out.resolve():
@@ -127,20 +209,28 @@ def check_output_path(output, inputs=(), overwrite: bool = False) -> Path:
         raise InputError(f"{out}: output is a directory; give a file name")
     if out.exists() and not overwrite:
         raise InputError(f"{out}: output exists; pass --overwrite to replace it")
-    parent = out.parent
+    dest = real_output(out)
+    parent = dest.parent
     if not parent.exists():
         raise InputError(f"{out}: output directory {parent} does not exist; create it first")
     if not parent.is_dir():
         raise InputError(f"{out}: {parent} is not a directory")
     clean_stale_temporaries(parent)
-    probe = _temporary_name(out)
+    _probe_directory(dest, parent)
+    run.plan_output(dest)
+    return out
+
+
+def _probe_directory(out: Path, directory: Path) -> None:
+    probe = _temporary_name(directory / out.name)
     try:
         fd = os.open(probe, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600)
     except OSError as exc:
-        raise InputError(f"{out}: cannot create files in {parent}: {_os_cause(exc)}; choose a writable location") from None
+        where = "the temporary directory " if directory != out.parent else ""
+        raise InputError(f"{out}: cannot create files in {where}{directory}: {_os_cause(exc)}; "
+                         "choose a writable location") from None
     os.close(fd)
     os.unlink(probe)
-    return out
 
 
 def _publish(tmp: Path, output: Path, overwrite: bool) -> None:
@@ -167,19 +257,65 @@ def _publish(tmp: Path, output: Path, overwrite: bool) -> None:
     os.unlink(tmp)
 
 
+def _stream_into(tmp: Path, stream: Stream) -> None:
+    """Copy the finished temporary file into a stream output, as it is (no truncation, no rename)."""
+    if stream.fd == 1:
+        with contextlib.suppress(Exception):
+            sys.stdout.flush()
+    sock = None
+    if stream.fd is not None:
+        fd, close = stream.fd, False
+    elif stream.socket:
+        sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        sock.connect(stream.path)
+        fd, close = sock.fileno(), False
+    else:   # a FIFO waits here for its reader, as any writer does
+        fd, close = os.open(stream.path, os.O_WRONLY | os.O_CLOEXEC), True
+    try:
+        with open(tmp, "rb") as src:
+            while chunk := src.read(1 << 20):
+                view = memoryview(chunk)
+                while view:
+                    run.check()
+                    view = view[os.write(fd, view):]
+    finally:
+        if close:
+            os.close(fd)
+        if sock is not None:
+            sock.close()
+
+
 @contextlib.contextmanager
 def atomic_path(output: Path, overwrite: bool = True):
-    """Yield a temporary path next to ``output``; publish it as ``output`` on success, remove it on failure."""
+    """Yield a temporary path; on success publish it as ``output``, on failure remove it.
+
+    A regular file (or a link's target) is published by rename from its own directory; a stream output
+    (:func:`output_stream`) gets the finished file's bytes written into it, from a temporary file in the
+    temporary directory.
+    """
     output = Path(output)
-    tmp = _temporary_name(output)
+    stream = output_stream(output)
+    dest = real_output(output) if stream is None else None
+    tmp = _temporary_name(dest if dest is not None else Path(tempfile.gettempdir()) / output.name)
     fd = os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666)  # the umask applies, as for any new file
     os.close(fd)
     try:
         yield tmp
-        _publish(tmp, output, overwrite)
+        if stream is not None:
+            run.check()    # a signal whose exception was swallowed: nothing is streamed
+            _stream_into(tmp, stream)
+            os.unlink(tmp)
+            with run.critical():
+                run.mark_published(output)
+        else:
+            with run.critical():
+                _publish(tmp, dest, overwrite)
+                run.mark_published(dest)
     except OSError as exc:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
+        if exc.errno == _errno.EPIPE:
+            raise ProcessingError(f"{output}: the reader closed the stream before the end; output incomplete") from None
         if _errno_of(exc) in WRITE_ERRNOS:   # full disk, file-size limit, read-only: name the output
             raise ProcessingError(f"{output}: cannot write: {_os_cause(exc)}; nothing was written") from None
         raise
@@ -322,6 +458,7 @@ class ProductWriter:
         return self
 
     def write(self, index, block):
+        run.check()   # a stop signal whose exception HDF5 swallowed ends the run at the next block
         try:
             self.dset[index] = block
         except (OSError, RuntimeError) as exc:

@@ -17,7 +17,7 @@ import numpy as np
 
 from sarproc.product import beam
 from sarproc.product.config import OTHER_SECTIONS, STAGE_SECTIONS, as_dict, build, load_yaml, param
-from sarproc.product.errors import InputError
+from sarproc.product.errors import IMAGE_DEFECT, InputError
 from sarproc.product.frames import frame_coordinates, frame_names, make_frame
 from sarproc.product.metadata import POLARIZATION_RE, POLARIZATIONS, C, RadarMetadata, scene_center_from_geometry
 from sarproc.product.model import make_targets
@@ -421,7 +421,7 @@ def _sanity_warnings(scene: Scene, declared: tuple = ()) -> None:
         log.warning("%s: %s is %.4g Hz, more than the azimuth sampling rate %.4g Hz (%s): azimuth aliasing by %.4g Hz; "
                     "ghosts of each target appear %.4g m away along track (rate / FM rate x v at the reference "
                     "range), and no processing chain undoes this (raise the PRF or narrow the beam / scene)",
-                    scene.source, what, seen, rate, sampling, seen - rate, rate / f_dr * r.velocity)
+                    scene.source, what, seen, rate, sampling, seen - rate, rate / f_dr * r.velocity, extra=IMAGE_DEFECT)
         return
     if dop["span"] <= rate:
         return
@@ -432,7 +432,7 @@ def _sanity_warnings(scene: Scene, declared: tuple = ()) -> None:
         log.info("%s: the declared %s unfolds it", text, " and ".join(undo))
     else:
         log.warning("%s, but no declared stage unfolds it (declare one of: %s); an azimuth FFT of the raw data "
-                    "will alias", text, ", ".join(sorted(UNFOLDING_CHAINS)))
+                    "will alias", text, ", ".join(sorted(UNFOLDING_CHAINS)), extra=IMAGE_DEFECT)
 
 
 def load_scene(path) -> Scene:

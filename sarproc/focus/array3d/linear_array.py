@@ -42,7 +42,7 @@ import numpy as np
 import scipy.fft as sfft
 
 from sarproc.product.config import param
-from sarproc.product.errors import InputError, ProcessingError
+from sarproc.product.errors import IMAGE_DEFECT, InputError, ProcessingError
 from sarproc.dsp.interp import KERNELS, resample
 from sarproc.dsp.phasor import multiply_separable_phase
 from sarproc.product.metadata import C, RadarMetadata
@@ -471,7 +471,7 @@ def array3d_product(raw, params: Array3DParams = Array3DParams(), *, channel_ima
                                         raw.radar.wavelength, np.asarray(raw.aux["rx_offset"])[:, 1],
                                         res.theoretical_irw[0])
     for msg in ambiguities:
-        logging.getLogger(__name__).warning("array3d: %s", msg)
+        logging.getLogger(__name__).warning("array3d: %s", msg, extra=IMAGE_DEFECT)
     entry = history_entry(command, {**as_dict(params), "derived": {**res.info, "elevation_ambiguities": ambiguities}})
     targets = targets_in_frame(raw.targets, frame)
     fill_target_theory(targets, ("elevation", "azimuth", "range"),

@@ -33,7 +33,7 @@ import scipy.fft as sfft
 
 from sarproc.focus.multichannel import channels, deramp, detection, velocity
 from sarproc.product.config import as_dict, param
-from sarproc.product.errors import InputError
+from sarproc.product.errors import IMAGE_DEFECT, InputError
 from sarproc.product.metadata import C
 from sarproc.product import moving
 from sarproc.product.model import MOVING_TARGET_COLUMNS, Product
@@ -609,7 +609,7 @@ def reconstruct(raw: Product, params: ReconstructParams = ReconstructParams(), p
     n_ch, n_az, n_rg = raw.data.shape
     if g.n * g.prf < 2 * g.half_band:
         log.warning("reconstruct: N PRF = %.4g Hz is below the Doppler bandwidth %.4g Hz: the output stays aliased",
-                    g.n * g.prf, 2 * g.half_band)
+                    g.n * g.prf, 2 * g.half_band, extra=IMAGE_DEFECT)
     bank = channels.filter_bank(g.tau0, g.prf, n_az, regularization=params.regularization)
     if bank.max_condition > params.max_condition:
         log.warning("reconstruct: filter bank condition number %.3g exceeds %.3g (noise gain %.1f dB)%s",

@@ -34,7 +34,7 @@ from sarproc.dsp.phasor import unit_phasor
 from sarproc.focus.pfa.phase_history import PhaseHistory, reference_ranges
 from sarproc.focus.pfa.polar import los_components, wavenumbers
 from sarproc.product import beam
-from sarproc.product.errors import InputError
+from sarproc.product.errors import IMAGE_DEFECT, InputError
 
 log = logging.getLogger(__name__)
 
@@ -103,7 +103,7 @@ def dealias(ph: PhaseHistory, radar, e_a, e_r, grid, mode: str = "auto", subaper
     if fold:
         log.warning("pfa2: the deramped scene band (%.3g rad per pulse over %.0f m) exceeds the PRF: "
                     "targets fold into azimuth ghosts%s", need, swept,
-                    "" if report["applied"] else "; enable dealias")
+                    "" if report["applied"] else "; enable dealias", extra=IMAGE_DEFECT)
     report["azimuth_oversampling"] = 2 * math.pi / need if need > 0 else 8.0
     report["folds"] = bool(fold)
     return ph, report

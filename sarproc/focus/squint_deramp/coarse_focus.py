@@ -29,7 +29,7 @@ import numpy as np
 import scipy.fft as sfft
 
 from sarproc.product.config import as_dict, param
-from sarproc.product.errors import InputError
+from sarproc.product.errors import IMAGE_DEFECT, InputError
 from sarproc.product.frames import SquintFrame
 from sarproc.product.metadata import C, RadarMetadata
 from sarproc.focus.squint_deramp.preprocess import METHODS, PRECISIONS, complex_dtype
@@ -335,12 +335,12 @@ def coarse_focus(pre: Product, params: CoarseFocusParams = CoarseFocusParams(), 
         fold_problems, notes = _fold_messages(folds, radar, k, box)
         problems += fold_problems
         for note in notes:
-            log.warning("coarse-focus: %s", note)
+            log.warning("coarse-focus: %s", note, extra=IMAGE_DEFECT)
     if problems:
         msg = "coarse-focus: " + "; ".join(problems)
         if params.on_alias == "error":
             raise InputError(msg + " (set coarse_focus.on_alias: warn to process anyway)")
-        log.warning(msg)
+        log.warning(msg, extra=IMAGE_DEFECT)
     data, t_out = specan(pre.data, t, prf, k, n_out, params.precision, params.block_range, progress)
     attrs = dict(pre.attrs)
     attrs.update({
