@@ -78,3 +78,9 @@ check-theory: $(STAMP)
 
 # accuracy-backprojection (the reference's own knobs: time vs quality) is a sweep: mk/sweeps.mk, as are
 # accuracy-000, -002, -003 and -004.
+
+# Signals at random moments of real `sarproc simulate` runs of a ~100 MB product (issue 18): every
+# delivery ends 128+N with nothing left, or 0 with the complete output. Heavy: waits for heavy.lock.
+.PHONY: signal-soak
+signal-soak: $(STAMP)
+	flock /tmp/heavy.lock nice $(PY) scripts/signal_soak.py --runs 90 --out results/soak

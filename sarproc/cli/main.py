@@ -181,21 +181,23 @@ def cli(verbose: int, quiet: int):
     logging.captureWarnings(True)
 
 
-def main(args=None):  # pragma: no cover - console entry (exercised by subprocess tests)
-    """Console entry: run the group; after a failed HDF5 write end without HDF5's cleanup (it can crash)."""
+def run_cli(args=None) -> int:
+    """Run one command as the console does, without leaving the process; returns its exit status."""
+    from sarproc.product import run
+
     default_hook = sys.unraisablehook
 
-    def quiet_after_failed_write(unraisable):  # h5py objects of a damaged file complain when freed
+    def quiet_unraisable(unraisable):
         from sarproc.product.io import hdf5_handles_damaged
 
-        # a stop signal raised inside an HDF5 callback: recorded by the run, acted on there
+        # h5py objects of a damaged file complain when freed; a stop signal raised inside a callback
+        # (a weakref's, HDF5's) is "ignored" by Python but recorded by the run, which acts on it
         if not hdf5_handles_damaged() and not isinstance(unraisable.exc_value, Interrupted):
             default_hook(unraisable)
 
-    sys.unraisablehook = quiet_after_failed_write
-
-    from sarproc.product import run
-
+    quiet_unraisable.sarproc = True
+    if not getattr(default_hook, "sarproc", False):
+        sys.unraisablehook = quiet_unraisable   # for the whole process: freed HDF5 objects complain at its exit
     run.install_handlers()   # before a stage starts (argument parsing, imports): nothing to clean
     try:
         cli.main(args=args, prog_name="sarproc")
@@ -206,6 +208,12 @@ def main(args=None):  # pragma: no cover - console entry (exercised by subproces
         print(f"Error: interrupted by {signal.Signals(exc.signum).name}", file=sys.stderr)
         code = 128 + exc.signum
     run.ignore_signals()     # the run has ended: its status stands, a late signal must not kill the exit
+    return code
+
+
+def main(args=None):  # pragma: no cover - console entry (exercised by subprocess tests)
+    """Console entry: run the group; after a failed HDF5 write end without HDF5's cleanup (it can crash)."""
+    code = run_cli(args)
     from sarproc.product.io import hdf5_handles_damaged
 
     if hdf5_handles_damaged():

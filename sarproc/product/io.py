@@ -223,6 +223,7 @@ def check_output_path(output, inputs=(), overwrite: bool = False) -> Path:
 
 def _probe_directory(out: Path, directory: Path) -> None:
     probe = _temporary_name(directory / out.name)
+    run.track_temporary(probe)
     try:
         fd = os.open(probe, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600)
     except OSError as exc:
@@ -231,6 +232,7 @@ def _probe_directory(out: Path, directory: Path) -> None:
                          "choose a writable location") from None
     os.close(fd)
     os.unlink(probe)
+    run.track_temporary(probe, made=False)
 
 
 def _publish(tmp: Path, output: Path, overwrite: bool) -> None:
@@ -297,6 +299,7 @@ def atomic_path(output: Path, overwrite: bool = True):
     stream = output_stream(output)
     dest = real_output(output) if stream is None else None
     tmp = _temporary_name(dest if dest is not None else Path(tempfile.gettempdir()) / output.name)
+    run.track_temporary(tmp)   # removed at the run's end wherever a signal lands
     fd = os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666)  # the umask applies, as for any new file
     os.close(fd)
     try:
@@ -305,11 +308,13 @@ def atomic_path(output: Path, overwrite: bool = True):
             run.check()    # a signal whose exception was swallowed: nothing is streamed
             _stream_into(tmp, stream)
             os.unlink(tmp)
+            run.track_temporary(tmp, made=False)
             with run.critical():
                 run.mark_published(output)
         else:
             with run.critical():
                 _publish(tmp, dest, overwrite)
+                run.track_temporary(tmp, made=False)
                 run.mark_published(dest)
     except OSError as exc:
         with contextlib.suppress(OSError):

@@ -55,10 +55,12 @@ class _Run:
         self.locks: dict[str, tuple[int, Path]] = {}
         self.stdout_taken = False
         self.keep_published = False
+        self.temporaries: set[str] = set()   # made and not yet published or removed
 
 
 _RUN: _Run | None = None
 _FIRED_EARLY: list[int] = []    # a signal before the run began (argument parsing, imports)
+_ENDED = [False]                # the run has ended: its exit status is decided, a late signal changes nothing
 _mutex = threading.RLock()      # sweep steps may plan outputs from several threads
 
 
@@ -72,6 +74,8 @@ def _handler(signum, frame):
     run = _RUN
     if run is None:
         _FIRED_EARLY.append(signum)
+        if _ENDED[0]:
+            return
         raise Interrupted(signum)
     if run.fired:              # already stopping (cleaning up): later deliveries change nothing
         return
@@ -83,6 +87,7 @@ def _handler(signum, frame):
 
 def install_handlers() -> None:
     """Stop signals raise :class:`Interrupted` (main thread only: Python runs handlers there)."""
+    _ENDED[0] = False
     if threading.current_thread() is threading.main_thread():
         for s in STOP_SIGNALS:
             signal.signal(s, _handler)
@@ -111,14 +116,12 @@ def check() -> None:
 
 
 @contextlib.contextmanager
-def critical():
-    """Publishing: refuse to start after a signal; a signal inside is acted on at the end (unless complete)."""
+def deferred():
+    """A short step that must not be cut in two (taking a lock): a signal inside is acted on at its end."""
     run = _RUN
     if run is None:
         yield
         return
-    if run.fired:
-        raise Interrupted(run.fired[0])
     run.defer += 1
     try:
         yield
@@ -127,19 +130,35 @@ def critical():
     check()
 
 
+@contextlib.contextmanager
+def critical():
+    """Publishing: refuse to start after a signal; a signal inside is acted on at the end (unless complete)."""
+    run = _RUN
+    if run is not None and run.fired:
+        raise Interrupted(run.fired[0])
+    with deferred():
+        yield
+
+
 # ---- the run -----------------------------------------------------------------------------------------------------
 
 def begin() -> None:
     """Start recording a run (the CLI, around one command)."""
     global _RUN
+    _ENDED[0] = False
     _RUN = _Run()
 
 
 def end() -> None:
-    """Release every lock still held; stop recording."""
+    """Remove the temporary files left, release every lock still held; stop recording."""
     global _RUN
     run, _RUN = _RUN, None
+    _ENDED[0] = True
     if run is not None:
+        # a signal between a temporary file's creation and the code that owns it leaves it: remove it
+        for tmp in list(run.temporaries):
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
         for fd, path in list(run.locks.values()):
             _unlock(fd, path)
 
@@ -178,10 +197,18 @@ def plan_output(path, lock: bool = True) -> None:
     run = _RUN
     if run is None:
         return
-    with _mutex:
+    with deferred(), _mutex:
         run.planned.add(_key(path))
         if lock and _key(path) not in run.locks:
             run.locks[_key(path)] = _lock(Path(path))
+
+
+def track_temporary(path, made: bool = True) -> None:
+    """``path`` is a temporary file of this run (``made=False``: it is gone, renamed or removed)."""
+    run = _RUN
+    if run is not None:
+        with _mutex:
+            (run.temporaries.add if made else run.temporaries.discard)(os.fspath(path))
 
 
 def mark_published(path) -> None:

@@ -832,7 +832,10 @@ def test_two_concurrent_writers_never_replace_each_other(tmp_path):
     codes = sorted(r[0] for r in results)
     assert codes == [0, 2], results
     loser = next(err for rc, err in results if rc == 2)
-    assert "raw.h5" in loser and ("created this file while" in loser or "output exists" in loser)
+    winner = next(p for p, (rc, _) in zip(procs, results) if rc == 0)
+    # seen at the start by the lock (naming the other run), or, had the first already finished, "exists"
+    assert "raw.h5" in loser and (f"another sarproc run is writing this output (pid {winner.pid} " in loser
+                                  or "output exists" in loser), loser
     assert not list(tmp_path.glob(".*.sarproc-tmp"))
 
 
