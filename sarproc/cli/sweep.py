@@ -55,6 +55,8 @@ def sweep(sweep_path: Path, output, scheduler, table_path, workers, threads_per_
     check_output_path(plan.output / "table.md", overwrite=True)
     if table_path is not None:
         check_output_path(table_path, [sweep_path], overwrite=True)
+    table_on_stdout = run.stdout_taken()
+    run.take_stdout(False)   # not yet: the steps' own summaries are captured from stdout for their records
     run.keep_published_on_interrupt()   # finished steps stay: a rerun resumes from them
     if scheduler is None:
         try:
@@ -93,6 +95,7 @@ def sweep(sweep_path: Path, output, scheduler, table_path, workers, threads_per_
             if cluster is not None:
                 cluster.close()
     paths = write_results(plan, outcome, runner)
+    run.take_stdout(table_on_stdout)
     if table_path is not None:
         with atomic_path(table_path) as tmp:
             tmp.write_text(markdown_table(plan, outcome.rows) + "\n", encoding="utf-8")

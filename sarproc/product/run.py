@@ -224,10 +224,10 @@ def mark_published(path) -> None:
         _unlock(*held)
 
 
-def take_stdout() -> None:
-    """A product goes to standard output: every message goes to stderr."""
+def take_stdout(taken: bool = True) -> None:
+    """A product goes to standard output: every message goes to stderr (``False``: not yet)."""
     if _RUN is not None:
-        _RUN.stdout_taken = True
+        _RUN.stdout_taken = taken
 
 
 def stdout_taken() -> bool:
