@@ -310,7 +310,7 @@ def atomic_path(output: Path, overwrite: bool = True):
             os.unlink(tmp)
             run.track_temporary(tmp, made=False)
             with run.critical():
-                run.mark_published(output)
+                run.mark_published(output, stream=True)
         else:
             with run.critical():
                 _publish(tmp, dest, overwrite)

@@ -52,6 +52,7 @@ class _Run:
         self.defer = 0                  # inside a critical section: act on a signal at its end
         self.planned: set[str] = set()
         self.published: list[Path] = []
+        self.removable: list[Path] = []     # published regular files (a stream cannot be taken back)
         self.locks: dict[str, tuple[int, Path]] = {}
         self.stdout_taken = False
         self.keep_published = False
@@ -184,7 +185,7 @@ def remove_published() -> list[Path]:
     if run is None or run.keep_published:
         return []
     removed = []
-    for p in run.published:
+    for p in run.removable:
         with contextlib.suppress(OSError):
             if p.is_file() and not p.is_symlink():
                 p.unlink()
@@ -211,13 +212,15 @@ def track_temporary(path, made: bool = True) -> None:
             (run.temporaries.add if made else run.temporaries.discard)(os.fspath(path))
 
 
-def mark_published(path) -> None:
-    """``path`` is complete on disk (or fully streamed); its lock goes."""
+def mark_published(path, stream: bool = False) -> None:
+    """``path`` is complete on disk (or, ``stream``, fully written through); its lock goes."""
     run = _RUN
     if run is None:
         return
     with _mutex:
         run.published.append(Path(path))
+        if not stream:
+            run.removable.append(Path(path))
         run.planned.add(_key(path))   # an output nobody planned (a sweep's records) counts as planned and done
         held = run.locks.pop(_key(path), None)
     if held is not None:
