@@ -29,15 +29,18 @@ def _check_line(name: str, result: dict) -> str:
 
 def _finish(name: str, output: Path, result: dict, report_path):
     from sarproc.product.errors import ProcessingError
+    from sarproc.product.io import atomic_path
 
-    if report_path is not None:
-        report_path.write_text(json.dumps({k: v for k, v in result.items()}, indent=1) + "\n")
+    if report_path is not None:   # atomic like every output (a device or '-' is written through)
+        with atomic_path(report_path) as tmp:
+            tmp.write_text(json.dumps({k: v for k, v in result.items()}, indent=1) + "\n")
     if not result["passed"]:
         click.echo(result["report"], err=True)
         raise ProcessingError(f"{output}: sarkit's {name} consistency checks failed: {', '.join(result['errors'])}")
 
 
-check_option = click.option("--check-report", "report_path", type=click.Path(dir_okay=False, path_type=Path),
+check_option = click.option("--check-report", "report_path",
+                            type=click.Path(dir_okay=False, allow_dash=True, path_type=Path),
                             default=None, help="Write sarkit's consistency results as JSON.")
 
 
