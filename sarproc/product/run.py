@@ -118,9 +118,12 @@ def check() -> None:
 
 @contextlib.contextmanager
 def deferred():
-    """A short step that must not be cut in two (taking a lock): a signal inside is acted on at its end."""
+    """A short step that must not be cut in two (taking a lock): a signal inside is acted on at its end.
+
+    Only the main thread is ever cut by the handler; other threads (a sweep's Dask workers in this process)
+    run their steps as they are."""
     run = _RUN
-    if run is None:
+    if run is None or threading.current_thread() is not threading.main_thread():
         yield
         return
     run.defer += 1
