@@ -410,3 +410,24 @@ def test_image_warnings_survive_q_and_only_qq_silences_them(tmp_path):
     assert err.count("WARNING") == 1 and "ghosts of each target appear" in err
     res = sarproc("simulate", ghosts, "-o", tmp_path / "b.h5", "-qq")
     assert res.returncode == 0 and res.stdout == b"" and res.stderr == b""
+
+
+def test_signal_between_two_outputs_leaves_neither(made, tmp_path, monkeypatch):
+    """evaluate -o REPORT --plot DIR stopped after the report is published, while drawing: exit 128 + N, the
+    report removed again (outputs all or none), no plot folder."""
+    from click.testing import CliRunner
+
+    import sarproc.cli.evaluate as ev
+    from sarproc.cli.main import cli
+
+    def draw_interrupted(*args, **kw):
+        os.kill(os.getpid(), signal.SIGHUP)
+        time.sleep(1)
+        raise AssertionError("the signal did not stop the run")
+
+    monkeypatch.setattr(ev, "_draw", draw_interrupted)
+    res = CliRunner().invoke(cli, ["evaluate", str(made / "image.h5"), "-o", str(tmp_path / "r.json"),
+                                   "--plot", str(tmp_path / "plots")])
+    assert res.exit_code == 128 + signal.SIGHUP, res.output
+    assert "interrupted by SIGHUP" in res.output and "r.json" in res.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
