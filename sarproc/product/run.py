@@ -60,7 +60,6 @@ class _Run:
 
 
 _RUN: _Run | None = None
-_FIRED_EARLY: list[int] = []    # a signal before the run began (argument parsing, imports)
 _ENDED = [False]                # the run has ended: its exit status is decided, a late signal changes nothing
 _mutex = threading.RLock()      # sweep steps may plan outputs from several threads
 
@@ -73,8 +72,7 @@ def _key(path) -> str:
 
 def _handler(signum, frame):
     run = _RUN
-    if run is None:
-        _FIRED_EARLY.append(signum)
+    if run is None:   # before the run began (argument parsing, imports): nothing to clean; after it: its status stands
         if _ENDED[0]:
             return
         raise Interrupted(signum)
@@ -104,9 +102,7 @@ def ignore_signals() -> None:
 def fired() -> int | None:
     """The stop signal this run received, if any."""
     run = _RUN
-    if run is not None and run.fired:
-        return run.fired[0]
-    return _FIRED_EARLY[0] if _FIRED_EARLY else None
+    return run.fired[0] if run is not None and run.fired else None
 
 
 def check() -> None:
