@@ -2,6 +2,8 @@
 moments of a ~100 MB product's run (start-up, compute, HDF5 writes, publishing, after it).
 
 Each delivery must end 128 + N with no output and nothing left behind, or 0 with the complete output.
+One that lands while Python itself starts (before sarproc's first line runs) kills the process with the
+signal's default action: no output, and a shell reports 128 + N too; counted in its own column.
 Prints a Markdown table (per signal: deliveries, stopped, completed, wrong) and writes the per-run
 records as JSON.
 
@@ -87,6 +89,8 @@ def main() -> None:
                 verdict = "completed" if complete(out, shape) else "wrong"
             elif r["code"] == 128 + sig:
                 verdict = "stopped" if not out.exists() else "wrong"
+            elif r["code"] == -sig:   # the signal's own action, before Python ran sarproc's first line
+                verdict = "killed at start-up" if not out.exists() else "wrong"
             else:
                 verdict = "wrong"
             if leftovers or "Traceback" in r["stderr"]:
@@ -99,14 +103,15 @@ def main() -> None:
     (args.out / "signal_soak.json").write_text(json.dumps({"product_mb": size_mb, "reference_s": ref["seconds"],
                                                            "records": records}, indent=1))
     print(f"Product {size_mb:.0f} MB, unsignalled run {ref['seconds']:.2f} s; delays uniform in [0, 1.1 x that].\n")
-    print("| signal | deliveries | stopped (128+N, no output) | completed (0, full output) | wrong | "
-          "temp file at delivery (MB) |")
-    print("|---|---:|---:|---:|---:|---|")
+    print("| signal | deliveries | stopped (128+N, no output) | killed at interpreter start-up (shell: 128+N, "
+          "no output) | completed (0, full output) | wrong | temp file at delivery (MB) |")
+    print("|---|---:|---:|---:|---:|---:|---|")
     for name in ("SIGTERM", "SIGINT", "SIGHUP"):
         rs = [r for r in records if r["signal"] == name]
         mbs = [r["tmp_mb_at_signal"] for r in rs if r["tmp_mb_at_signal"]]
         span = f"0 - {max(mbs):.0f}" if mbs else "0"
         print(f"| {name} | {len(rs)} | {sum(r['verdict'] == 'stopped' for r in rs)} | "
+              f"{sum(r['verdict'] == 'killed at start-up' for r in rs)} | "
               f"{sum(r['verdict'] == 'completed' for r in rs)} | {sum(r['verdict'] == 'wrong' for r in rs)} | {span} |")
     wrong = [r for r in records if r["verdict"] == "wrong"]
     for r in wrong:

@@ -108,6 +108,7 @@ class LazyGroup(click.Group):
             with _run_scope():
                 try:
                     try:
+                        run.check()   # a signal during argument parsing
                         result = super().invoke(ctx)
                     except click.exceptions.Exit as exc:
                         if exc.exit_code == 0:
@@ -207,6 +208,9 @@ def run_cli(args=None) -> int:
     except Interrupted as exc:
         print(f"Error: interrupted by {signal.Signals(exc.signum).name}", file=sys.stderr)
         code = 128 + exc.signum
+    if run.fired() is not None and code == 0:   # during parsing, and no run began (--help, --version)
+        print(f"Error: interrupted by {signal.Signals(run.fired()).name}", file=sys.stderr)
+        code = 128 + run.fired()
     run.ignore_signals()     # the run has ended: its status stands, a late signal must not kill the exit
     return code
 

@@ -61,6 +61,7 @@ class _Run:
 
 _RUN: _Run | None = None
 _ENDED = [False]                # the run has ended: its exit status is decided, a late signal changes nothing
+_EARLY: list[int] = []          # a signal before the run began: acted on when it begins
 _mutex = threading.RLock()      # sweep steps may plan outputs from several threads
 
 
@@ -72,10 +73,12 @@ def _key(path) -> str:
 
 def _handler(signum, frame):
     run = _RUN
-    if run is None:   # before the run began (argument parsing, imports): nothing to clean; after it: its status stands
-        if _ENDED[0]:
-            return
-        raise Interrupted(signum)
+    if run is None:
+        # Before the run (argument parsing): recorded, acted on when it begins; raising here could cut a
+        # module's import in two, which then fails as an ImportError. After the run: its status stands.
+        if not _ENDED[0] and not _EARLY:
+            _EARLY.append(signum)
+        return
     if run.fired:              # already stopping (cleaning up): later deliveries change nothing
         return
     run.fired.append(signum)
@@ -87,6 +90,7 @@ def _handler(signum, frame):
 def install_handlers() -> None:
     """Stop signals raise :class:`Interrupted` (main thread only: Python runs handlers there)."""
     _ENDED[0] = False
+    _EARLY.clear()
     if threading.current_thread() is threading.main_thread():
         for s in STOP_SIGNALS:
             signal.signal(s, _handler)
@@ -100,9 +104,11 @@ def ignore_signals() -> None:
 
 
 def fired() -> int | None:
-    """The stop signal this run received, if any."""
+    """The stop signal this run received (or, before it began, the process), if any."""
     run = _RUN
-    return run.fired[0] if run is not None and run.fired else None
+    if run is None:
+        return _EARLY[0] if _EARLY else None
+    return run.fired[0] if run.fired else None
 
 
 def check() -> None:
@@ -147,6 +153,8 @@ def begin() -> None:
     global _RUN
     _ENDED[0] = False
     _RUN = _Run()
+    _RUN.fired.extend(_EARLY[:1])   # a signal during argument parsing: the caller's first check() stops the run
+    _EARLY.clear()
 
 
 def end() -> None:
