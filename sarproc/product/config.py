@@ -76,14 +76,16 @@ _StrictLoader.yaml_implicit_resolvers = {
     for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()}
 
 
-_STDIN: list[bytes] = []
+_STDIN: dict[int, bytes] = {}
 
 
 def read_stdin() -> bytes:
-    """Standard input, read once: a scene and a config both named ``-`` are the same text."""
-    if not _STDIN:
-        _STDIN.append(sys.stdin.buffer.read())
-    return _STDIN[0]
+    """Standard input, read once per stream: a scene and a config both named ``-`` are the same text."""
+    stream = sys.stdin.buffer
+    if id(stream) not in _STDIN:
+        _STDIN.clear()
+        _STDIN[id(stream)] = stream.read()
+    return _STDIN[id(stream)]
 
 
 def load_yaml(path) -> dict:

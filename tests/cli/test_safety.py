@@ -201,8 +201,12 @@ def test_dash_reads_yaml_from_stdin_and_writes_products_to_stdout(made, tmp_path
     assert report_body(res.stdout) == report_body((made / "report.json").read_bytes())
     assert b"| target | axis |" in res.stderr and b"evaluate: plan" in res.stderr
     # a bad scene on stdin is named as such
-    res = sarproc("simulate", "-", "-o", tmp_path / "x.h5", input=b"radar: [1, 2\n")
-    assert res.returncode == 2 and b"-: not valid YAML" in res.stderr
+    from click.testing import CliRunner
+
+    from sarproc.cli.main import cli
+
+    res = CliRunner().invoke(cli, ["simulate", "-", "-o", str(tmp_path / "x.h5")], input=b"radar: [1, 2\n")
+    assert res.exit_code == 2 and "-: not valid YAML" in res.output, res.output
 
 
 # ---- 5. concurrent writers are seen at the start -----------------------------------------------------------------
