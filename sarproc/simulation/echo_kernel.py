@@ -22,6 +22,9 @@ import math
 import numba
 import numpy as np
 
+from sarproc.dsp.kernel_cache import CACHE
+
+
 @numba.njit(inline="always")
 def _cis(cycles):
     """exp(j 2 pi cycles) for any float64 cycles, reduced to [0, 1) first."""
@@ -29,7 +32,7 @@ def _cis(cycles):
     return complex(math.cos(2 * math.pi * frac), math.sin(2 * math.pi * frac))
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=CACHE, error_model="numpy")
 def window_chirp(n_range, fs, chirp_rate):
     """c_n = exp(j pi K (n / f_s)^2) for the window's samples, complex128."""
     out = np.empty(n_range, np.complex128)
@@ -52,7 +55,7 @@ def _support(rel, fs, half_pulse, n_range):
     return first, last
 
 
-@numba.njit(parallel=True, cache=True, error_model="numpy")
+@numba.njit(parallel=True, cache=CACHE, error_model="numpy")
 def accumulate_echoes(out, delays, gains, gate, t0, fs, pulse_duration, chirp_rate, carrier, chirp):
     """Add every target's echo to ``out`` (n_t, n_range) complex128, in place.
 

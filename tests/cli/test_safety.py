@@ -371,6 +371,17 @@ def test_read_only_install_as_another_user(shared_tmp):
     assert not list(install.rglob("__pycache__"))   # the install was not written
 
 
+def test_every_cached_kernel_uses_the_fallback():
+    """A kernel decorated cache=True bypasses the read-only fallback and fails there at import."""
+    import re
+
+    import sarproc
+
+    offenders = [str(p) for p in Path(sarproc.__file__).parent.rglob("*.py")
+                 if re.search(r"njit\([^)]*cache=True", p.read_text())]
+    assert offenders == [], "use cache=CACHE from sarproc.dsp.kernel_cache"
+
+
 # ---- 7. sweep without Dask; image warnings under -q --------------------------------------------------------------
 
 HIDE_DASK = """
