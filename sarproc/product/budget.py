@@ -113,14 +113,20 @@ def _why(plan: Plan) -> str:
 
 def check_plan(plan: Plan, outputs=(), max_memory: int | None = None) -> None:
     """Refuse (InputError) a plan whose output or memory cannot fit; a message says the fix."""
+    import tempfile
+
+    from sarproc.product.io import output_stream
+
     for out in outputs:
         out = Path(out)
+        # a stream output (-, a device, a FIFO) is finished in the temporary directory first
+        folder = Path(tempfile.gettempdir()) if output_stream(out) is not None else out.parent
         try:
-            st = os.statvfs(out.parent if str(out.parent) else ".")
+            st = os.statvfs(folder if str(folder) else ".")
             free = st.f_bavail * st.f_frsize
         except OSError:
             free = None
-        for room, where, fix in ((free, f"{out.parent} has only {{}} free", "free space, write elsewhere"),
+        for room, where, fix in ((free, f"{folder} has only {{}} free", "free space, write elsewhere"),
                                  (file_size_limit(), "this process may write files of at most {} (ulimit -f)",
                                   "raise the limit")):
             if room is not None and plan.output_bytes > room:
