@@ -129,7 +129,9 @@ def evaluate(input_path: Path, output, overwrite, plot_dir, expect_path, config_
             raise InputError(f"{plot_dir}: --plot needs a directory, this is a file")
         # an existing folder must take new files; a missing one must be creatable
         check_output_path(plot_dir / "quicklook.png" if plot_dir.exists() else plot_dir, [input_path], overwrite=True)
-    report_plan(evaluate_estimate("evaluate", header, params), [output], input_path)
+    with naming(input_path, config_path, "evaluate"):
+        plan = evaluate_estimate("evaluate", header, params)
+    report_plan(plan, [output], input_path)
 
     product = read_product(input_path, kinds=("image", "image3d"))
     with naming(input_path, config_path, "evaluate"):

@@ -276,7 +276,10 @@ def evaluate_estimate(stage, header, params) -> Plan:
 
     shape = _shape(header)
     n, n_tg = math.prod(shape), len(header.targets)
-    axes = _make_axes(shape, header.dims, header.coords, header.attrs["theoretical_irw"], params.irw_factor)
+    irw = header.attrs.get("theoretical_irw")
+    if irw is None:   # the same refusal evaluate_product makes, before any work
+        raise InputError(f"image attribute 'theoretical_irw' is missing (expected one IRW per axis {header.dims})")
+    axes = _make_axes(shape, header.dims, header.coords, irw, params.irw_factor)
     lengths = [2 * ax.nulls_to_samples(params.islr_nulls + params.margin_nulls) + 1 for ax in axes]
     chip = math.prod(lengths)
     cut = max((2 * math.ceil((params.islr_nulls + 2) * ax.null * params.upsample) + 1) * L
