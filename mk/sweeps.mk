@@ -71,8 +71,8 @@ sweep-004-wide: $(DIST_STAMP)
 # settings and 3 channel counts as an 8-task sweep (reconstruct only, no evaluate: its product is phase
 # history), then accuracy_003.py --from-sweep: v_r error and search evaluations read off the sweep's
 # products, reconstruct times the sweep's; the moving target imaged at its static-equivalent position
-# (quality), the false-target strips (MFTA) and the 5 backprojection-knob rows (which sarproc backproject
-# does not make) computed there from the sweep's products. Same table as the script's own run
+# (quality), the false-target strips (MFTA) and the 5 backprojection-knob rows computed there, in-process,
+# from the sweep's products. Same table as the script's own run
 # (13 rows, quality columns, v_r errors and evaluation counts identical; docs/sweeps.md).
 accuracy-003: $(DIST_STAMP)
 	$(SARPROC) sweep configs/sweeps/accuracy_003.yaml -o results/003-accuracy/sweep

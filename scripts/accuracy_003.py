@@ -18,24 +18,66 @@ Writes table.md, table.json and accuracy.png under --results.
 (configs/sweeps/accuracy_003.yaml, on Dask) and then this script with ``--from-sweep``: the search
 results (v_r, evaluations) from the sweep's reconstructed products, their time the sweep's reconstruct
 time (one run as a CLI step, product I/O included); the moving target's image at its static-equivalent
-position (quality), the false-target strips (MFTA) and the backprojection-knob rows, which sarproc's
-backproject command does not make, are computed here from the sweep's products.
+position (quality), the false-target strips (MFTA) and the backprojection-knob rows are computed here,
+in-process, from the sweep's products (backproject and evaluate follow a moving target to where it
+appears, sarproc.product.moving).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import time
 from pathlib import Path
 
 import numpy as np
 
-from reproduce_003 import focus, ghost_strips, scene_mapping, sim
-from sarproc.focus.backprojection import BackprojectParams
+from sarproc.focus.backprojection import BackprojectParams, backproject
 from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct
-from sarproc.product.config import build
+from sarproc.product.config import build, load_yaml
+from sarproc.product.model import target_names
 from sarproc.quality.metrics import EvaluateParams, evaluate_product
+from sarproc.simulation.scene import scene_from_mapping
+from sarproc.simulation.simulate import simulate
+
+STRIP_GUARD = 0.45    # guard around the target on a strip, in ghost spacings (the sinc side lobes there: < -66 dB)
+
+
+def scene_mapping(path, points=None, **radar):
+    m = load_yaml(path)
+    if points is not None:
+        m["targets"]["points"] = points
+        if any("velocity" in pt for pt in points):
+            m["effects"].setdefault("target_motion", {})
+    m.setdefault("radar", {}).update(radar)
+    return m
+
+
+def sim(m):
+    return simulate(scene_from_mapping(m))
+
+
+def focus(rec, raw, bp: BackprojectParams, theory_from_truth=False):
+    """Image of ``rec``: backproject's default grid follows a moving target to where it appears and records
+    its own theory (that of its true position); ``theory_from_truth`` is kept for the callers (always so)."""
+    return backproject(rec, bp)
+
+
+def ghost_strips(rec, raw, extent_ghosts=1.5, **bp_knobs):
+    """{target: (MFTA dB, strip image)} on azimuth strips (squint_lrwc) of +-extent_ghosts ghost spacings
+    around where each target appears, its own +-STRIP_GUARD spacing left out."""
+    r = rec.radar
+    ka = 2 * (r.velocity * math.cos(r.squint)) ** 2 / (r.wavelength * r.reference_range)
+    extent = 2 * extent_ghosts * raw.radar.prf / ka * r.velocity
+    out = {}
+    for name in target_names(rec.targets):
+        strip = backproject(rec, BackprojectParams(frame="squint_lrwc", azimuth_extent=extent, range_extent=30.0,
+                                                   oversample=1.2, **bp_knobs), grid_targets=[name])
+        guard = STRIP_GUARD * extent / (2 * extent_ghosts) / strip.attrs["theoretical_irw"][0]
+        rep = evaluate_product(strip, EvaluateParams(guard_cells=guard), names=[name])
+        out[name] = (rep.false_target.level_db if rep.false_target else float("-inf"), strip)
+    return out
 
 TARGET = {"name": "T", "azimuth": "800 m", "velocity": ["0 m/s", "10 m/s", "0 m/s"]}
 

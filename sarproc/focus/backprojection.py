@@ -20,13 +20,13 @@ import os
 import numpy as np
 import scipy.fft as sfft
 
-from sarproc.product import beam, theory
+from sarproc.product import beam, moving, theory
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import InputError
 from sarproc.product.frames import make_frame, targets_in_frame
 from sarproc.product.metadata import C
 from sarproc.dsp.phasor import unit_phasor
-from sarproc.product.model import Product
+from sarproc.product.model import Product, target_names
 from sarproc.dsp.rangecomp import range_compress
 from sarproc.product.theory import WINDOWS
 
@@ -293,7 +293,8 @@ class BackprojectParams:
     frame: str = param(default="product", doc="image frame: product (the raw product's target frame), squint, "
                                                "zero_doppler, ground or los")
     azimuth_extent: float | None = param("length", default=None, gt=0, doc="grid size along azimuth; "
-                                         "default: the targets' span plus 2 x margin_cells")
+                                         "default: the targets' span plus 2 x margin_cells (moving targets: where they "
+                                         "appear, sarproc.product.moving)")
     range_extent: float | None = param("length", default=None, gt=0, doc="grid size along range; default as azimuth")
     azimuth_spacing: float | None = param("length", default=None, gt=0, doc="default: theoretical IRW / oversample")
     range_spacing: float | None = param("length", default=None, gt=0, doc="default: theoretical IRW / oversample")
@@ -351,11 +352,22 @@ def theoretical_irw(product: Product, frame, centre_coords) -> list[float]:
     return widths
 
 
-def _default_grid(params: BackprojectParams, product: Product, frame, irw_guess, finest=None):
+def _default_grid(params: BackprojectParams, product: Product, frame, irw_guess, finest=None, grid_targets=None):
     """Grid axes: spacing the finest theory (``finest``: a target's own, else ``irw_guess``) / oversample,
-    extent the targets' span plus margin_cells of ``irw_guess``."""
+    extent the targets' span (moving targets where they appear; ``grid_targets``: these names only) plus
+    margin_cells of ``irw_guess``."""
     finest = irw_guess if finest is None else finest
-    t = targets_in_frame(product.targets, frame)
+    t = product.targets
+    if grid_targets is not None:
+        names = target_names(t)
+        unknown = [n for n in grid_targets if n not in names]
+        if unknown:
+            raise InputError(f"--targets: no target(s) {', '.join(map(repr, unknown))} in the targets table "
+                             f"(targets: {', '.join(names)})")
+        t = t[np.array([n in grid_targets for n in names], bool)]
+    # Moving targets appear at their static-equivalent positions: the grid covers those.
+    t = moving.apparent_targets(t, product.radar, moving.pulse_times(product), frame, moving.phase_centres(product)) \
+        if len(t) and np.any(moving.is_moving(t)) else targets_in_frame(t, frame)
     coords = {ax: t[ax] for ax in frame.axes}
     centre_scene = [float(c) for c in frame.from_xyz(np.asarray(product.radar.scene_center))]
     axes = {}
@@ -374,8 +386,13 @@ def _default_grid(params: BackprojectParams, product: Product, frame, irw_guess,
     return axes
 
 
-def backproject(raw: Product, params: BackprojectParams = BackprojectParams(), progress=None) -> Product:
-    """Focus a raw product (one or several channels, summed coherently) onto a frame grid."""
+def backproject(raw: Product, params: BackprojectParams = BackprojectParams(), progress=None,
+                grid_targets=None) -> Product:
+    """Focus a raw product (one or several channels, summed coherently) onto a frame grid.
+
+    The default grid covers the targets (moving ones where they appear); ``grid_targets``: only these
+    names (every target stays in the image's table).
+    """
     if raw.kind not in ("raw", "raw_multichannel", "raw_array"):
         raise InputError(f"backproject needs a raw product, got {raw.kind!r}")
     if params.interpolation in ("knab", "sinc", "lanczos") and params.kernel_length % 2:
@@ -400,16 +417,16 @@ def backproject(raw: Product, params: BackprojectParams = BackprojectParams(), p
     data = raw.data if raw.data.ndim == 3 else raw.data[None]
     taper = theory.sample_taper(params.azimuth_window, data.shape[1])
     targets = targets_in_frame(raw.targets, frame)
-    # Moving targets keep the image's theory (0 in the table): their support follows their true track, which
-    # the static-equivalent position a multichannel chain gives them does not describe.
-    static = [i for i, t in enumerate(targets) if not (t["vx"] or t["vy"] or t["vz"])]
+    # Every target's own theory at its true position (the table's): a moving target's support follows its
+    # true track (its illumination), not the static-equivalent position where the image focuses it.
+    rows = list(range(len(targets)))
     own = [theory.target_theory(radar, pos + tx_off, pos + rx_offs[0], frame, (targets["azimuth"][i],
-                                targets["range"][i]), range_window=params.range_window, taper=taper) for i in static]
-    theory.fill_target_theory(targets, frame.axes, own, rows=static)
+                                targets["range"][i]), range_window=params.range_window, taper=taper) for i in rows]
+    theory.fill_target_theory(targets, frame.axes, own, rows=rows)
     # Default spacing from the finest own theory: a target lit by the pattern's skirts or side lobes has a
     # finer response than the -3 dB beam's (sampled at the centre theory, its IRW read 10 % short).
     finest = [min([t[a].irw for t in own] + [irw0[a]]) for a in range(2)]
-    grid = _default_grid(params, raw, frame, irw0, finest)
+    grid = _default_grid(params, raw, frame, irw0, finest, grid_targets)
     n_pix = len(grid["azimuth"]) * len(grid["range"])
     if n_pix > params.max_pixels:
         raise InputError(f"backproject: grid of {n_pix} pixels exceeds max_pixels {params.max_pixels}; "
@@ -430,6 +447,8 @@ def backproject(raw: Product, params: BackprojectParams = BackprojectParams(), p
     # The image's theory: its targets' typical (unweighted) one, not that of the grid centre, which a target
     # at the edge of the beam drags off the lit aperture (the centre theory is kept for scenes without targets).
     attrs = {"frame": frame.spec, "theoretical_irw": theory.unweighted_irw(own, theoretical_irw(raw, frame, centre_img))}
+    if "reconstruct" in raw.attrs:   # its velocity estimates per moving-target window (evaluate reads them)
+        attrs["reconstruct"] = raw.attrs["reconstruct"]
     from sarproc.product.io import history_entry
     out = raw.derive("image", img.reshape(az.shape).astype(np.complex64), ("azimuth", "range"),
                      {"azimuth": grid["azimuth"], "range": grid["range"]}, targets=targets, attrs=attrs)

@@ -159,6 +159,7 @@ class QualityReport:
     targets: tuple[TargetReport, ...]
     false_target: Optional[FalseTarget]   # None: no pixel lies outside every target neighbourhood
     params: EvaluateParams
+    movers: tuple = ()          # sarproc.quality.moving.MoverReport per moving truth target measured
 
     def target(self, name: str) -> TargetReport:
         for t in self.targets:
@@ -449,7 +450,7 @@ def _ideal_response(points, position, V, nulls, f_c, hamming: bool):
 
 def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
                    params: EvaluateParams | None = None, metric=None, progress=None,
-                   target_irw=None, target_null=None, target_sidelobes=None) -> QualityReport:
+                   target_irw=None, target_null=None, target_sidelobes=None, other_truth=None) -> QualityReport:
     """Measure every target of a 2D (azimuth, range) or 3D (elevation, azimuth, range) image.
 
     data: complex image, shape ``tuple(len(coords[d]) for d in dims)``; dims: axis names;
@@ -467,7 +468,9 @@ def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
     the image's. target_null: optional (n_targets, ndim) null spacings 1/B of each target's own support
     (NaN: its IRW / irw_factor), so a weighted target's ISLR window is +-islr_nulls of its bandwidth;
     target_sidelobes: optional (n_targets, ndim, 2) its theoretical PSLR and ISLR, dB (NaN: not
-    recorded). Raises InputError.
+    recorded). other_truth: (n, ndim) positions of targets not measured (a subset was asked for):
+    their neighbourhoods are kept out of the false-target search like the measured ones'. Raises
+    InputError.
     """
     params = params or EvaluateParams()
     data = np.asarray(data)
@@ -547,7 +550,9 @@ def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
     reports = [_measure(f["chip"], own, f["peak_index"], f["pos"], f["value"], f["V"], t, name, params, metric,
                         f["removed"], f.get("residual_models", []), names, found)
                for f, name, t, own in wrapped(done, list(zip(found, names, truth, own_axes)))]
-    false = _false_target(data, mag, axes, truth, [f["peak_index"] for f in found], reports, half, params)
+    guarded = truth if other_truth is None or len(other_truth) == 0 else \
+        np.concatenate([truth, np.asarray(other_truth, dtype=float).reshape(-1, len(dims))])
+    false = _false_target(data, mag, axes, guarded, [f["peak_index"] for f in found], reports, half, params)
     done()
     return QualityReport(dims=dims, targets=tuple(reports), false_target=false, params=params)
 
@@ -791,9 +796,9 @@ def _cut(chip: "_Chip", axes, a, v, pos, peak2, truth, params, metric) -> AxisMe
 def _false_target(data, mag, axes, truth, peaks, reports, half, params) -> Optional[FalseTarget]:
     outside = np.ones(data.shape, dtype=bool)
     guard = [ax.cells_to_samples(params.guard_cells) for ax in axes]
-    for t, pk in zip(truth, peaks):
-        for c in (np.rint([ax.to_index(x) for ax, x in zip(axes, t)]).astype(int), pk):
-            outside[window_slices(c, guard, data.shape)] = False
+    centres = [np.rint([ax.to_index(x) for ax, x in zip(axes, t)]).astype(int) for t in truth] + list(peaks)
+    for c in centres:
+        outside[window_slices(c, guard, data.shape)] = False
     if not outside.any():
         return None
     ref = max(reports, key=lambda r: r.peak_amplitude)
@@ -856,14 +861,21 @@ def frame_metric(product):
     return None if m is None or tuple(getattr(frame, "axes", ())) != tuple(product.dims) else m
 
 
-def evaluate_product(product, params: EvaluateParams | None = None, source: str = "", progress=None) -> QualityReport:
+def evaluate_product(product, params: EvaluateParams | None = None, source: str = "", progress=None,
+                     names=None) -> QualityReport:
     """Evaluate an ``image``/``image3d`` :class:`sarproc.product.model.Product` against its targets table.
 
-    Truth per target is the targets field named like each dim; theory is the target's own
+    Truth per target is the targets field named like each dim; a moving target (nonzero velocity)
+    is measured at its static-equivalent position, where a static-scene image focuses it, and
+    reported with its velocity and relocation errors (:mod:`sarproc.quality.moving`); theory is the target's own
     ``irw_<dim>``, ``null_<dim>``, ``pslr_<dim>`` and ``islr_<dim>`` fields where recorded (not 0; every
     processor records them from the target's own illumination and weighting), else
-    ``product.attrs['theoretical_irw']`` with ``irw_factor``. ``source`` (the file name) prefixes error messages.
+    ``product.attrs['theoretical_irw']`` with ``irw_factor``. ``names``: measure only these
+    targets (the others' neighbourhoods stay out of the false-target search). ``source`` (the file name)
+    prefixes error messages.
     """
+    from sarproc.quality.moving import apparent_truth, mover_reports
+
     where = f"{source}: " if source else ""
     irw = product.attrs.get("theoretical_irw")
     if irw is None:
@@ -874,27 +886,36 @@ def evaluate_product(product, params: EvaluateParams | None = None, source: str 
         raise InputError(f"{where}targets table has no field(s) {missing} for the image axes {product.dims}")
     if len(product.targets) == 0:
         raise InputError(f"{where}targets table is empty; nothing to evaluate")
-    names = [n.decode() if isinstance(n, bytes) else str(n) for n in product.targets["name"]]
-    truth = np.stack([product.targets[d].astype(float) for d in product.dims], axis=1)
-    own = np.stack([product.targets[f"irw_{d}"].astype(float) if f"irw_{d}" in fields else np.zeros(len(truth))
-                    for d in product.dims], axis=1)
+    all_names = [n.decode() if isinstance(n, bytes) else str(n) for n in product.targets["name"]]
+    if names is not None:
+        unknown = [n for n in names if n not in all_names]
+        if unknown:
+            raise InputError(f"{where}--targets: no target(s) {', '.join(map(repr, unknown))} in the targets table "
+                             f"(targets: {', '.join(all_names)})")
+    keep = np.array([names is None or n in names for n in all_names])
+    table = apparent_truth(product, source)
+    truth_all = np.stack([table[d].astype(float) for d in product.dims], axis=1)
+    own = np.stack([table[f"irw_{d}"].astype(float) if f"irw_{d}" in fields else np.zeros(len(truth_all))
+                    for d in product.dims], axis=1)[keep]
     own[own == 0] = np.nan          # 0 in the table: not recorded, the image's theory applies
 
     def field(prefix):              # a theory field per target and axis; 0 (not recorded) or absent: NaN
         v = np.stack([product.targets[f"{prefix}_{d}"].astype(float) if f"{prefix}_{d}" in fields
-                      else np.zeros(len(truth)) for d in product.dims], axis=1)
+                      else np.zeros(len(truth_all)) for d in product.dims], axis=1)
         v[v == 0] = np.nan
         return v
 
     lobes = np.stack([field("pslr"), field("islr")], axis=-1)
     lobes[np.isnan(lobes).any(axis=-1)] = np.nan
     try:
-        return evaluate_image(product.data, product.dims, product.coords, irw, truth, names, params,
-                              metric=frame_metric(product), progress=progress,
-                              target_irw=own if np.any(~np.isnan(own)) else None, target_null=field("null"),
-                              target_sidelobes=lobes)
+        report = evaluate_image(product.data, product.dims, product.coords, irw, truth_all[keep],
+                                [n for n, k in zip(all_names, keep) if k], params,
+                                metric=frame_metric(product), progress=progress,
+                                target_irw=own if np.any(~np.isnan(own)) else None, target_null=field("null")[keep],
+                                target_sidelobes=lobes[keep], other_truth=truth_all[~keep])
     except InputError as exc:
         raise InputError(f"{where}{exc}") from None
+    return dataclasses.replace(report, movers=mover_reports(product, table, report, source))
 
 
 # ----------------------------------------------------------------------------------------------
@@ -937,6 +958,12 @@ class Expectations(AxisBounds):
     """
 
     false_target_db_max: Optional[float] = param("decibel", default=None, doc="largest false-target level, dB")
+    v_r_error_max: Optional[float] = param("velocity", default=None, ge=0, doc=(
+        "largest |estimated - true| slant-range velocity of a moving target, m/s (no estimate: fail)"))
+    v_a_error_max: Optional[float] = param("velocity", default=None, ge=0, doc=(
+        "largest |estimated - true| along-track velocity of a moving target, m/s (no estimate: fail)"))
+    relocation_error_max: Optional[float] = param("length", default=None, ge=0, doc=(
+        "largest distance between a moving target's relocated and true position, m (not relocated: fail)"))
     axes: dict = param(default={}, doc="per-axis overrides: {axis: AxisBounds}")
     targets: dict = param(default={}, doc="per-target overrides: {name: TargetBounds}")
 
@@ -977,16 +1004,21 @@ class CheckFailure:
     bound: str              # e.g. "<= 1.05" or "in [-13.76, -12.76]"
 
     def __str__(self):
-        where = "false target" if self.target is None else f"target {self.target} axis {self.axis}"
+        where = "false target" if self.target is None else f"target {self.target} axis {self.axis}" \
+            if self.axis is not None else f"moving target {self.target}"
         if self.metric in ("truncated", "contaminated"):
             return f"FAIL {where}: unverified, {self.bound}"
         return f"FAIL {where}: {self.metric} = {self.value:.4g}, expected {self.bound}"
 
 
-def check_report(report: QualityReport, expect: Expectations, source: str = "") -> list[CheckFailure]:
-    """Every failed tolerance of ``report``; names in ``expect`` that match nothing raise InputError."""
+def check_report(report: QualityReport, expect: Expectations, source: str = "",
+                 all_names=None) -> list[CheckFailure]:
+    """Every failed tolerance of ``report``; names in ``expect`` that match nothing raise InputError.
+
+    ``all_names``: every target of the image when ``report`` measured a subset (their tolerances are
+    then not checked, and not refused)."""
     where = f"{source}: " if source else ""
-    names = [t.name for t in report.targets]
+    names = list(all_names) if all_names is not None else [t.name for t in report.targets]
     for a in expect.axes:
         if a not in report.dims:
             raise InputError(f"{where}axes.{a}: the image has no axis {a!r} (axes: {', '.join(report.dims)})")
@@ -1034,6 +1066,17 @@ def check_report(report: QualityReport, expect: Expectations, source: str = "") 
                 if lo_hi is not None and not lo_hi[0] <= value <= lo_hi[1]:
                     told = "none recorded" if theory is None else f"{theory:.2f} dB"
                     fail(f"{key}_vs_theory_db", value, f"in [{lo_hi[0]:g}, {lo_hi[1]:g}] (theory {told})")
+    for mv in report.movers:
+        for key, value, unit in (("v_r_error", mv.v_r_error, "m/s"), ("v_a_error", mv.v_a_error, "m/s"),
+                                 ("relocation_error", mv.relocation_error, "m")):
+            bound = getattr(expect, f"{key}_max")
+            if bound is None:
+                continue
+            if value is None:
+                failures.append(CheckFailure(mv.name, None, key, math.nan,
+                                             f"|.| <= {bound:g} {unit}; the product holds no estimate for it"))
+            elif not abs(value) <= bound:
+                failures.append(CheckFailure(mv.name, None, key, value, f"|.| <= {bound:g} {unit}"))
     if expect.false_target_db_max is not None and report.false_target is not None:
         if not report.false_target.level_db <= expect.false_target_db_max:
             failures.append(CheckFailure(None, None, "false_target_db", report.false_target.level_db,

@@ -2,14 +2,14 @@
 
 Small spaceborne scene (configs/xu_small.yaml): X band, 7.5 km/s, 600 km, 20 deg squint, three
 channels at PRF 1000 Hz (the uniform PRF), Doppler band 2.4 kHz. Moving targets are judged at their
-static-equivalent position (sarproc.product.moving) and with the static theory IRW of
-their true position; false targets are read on a strip along azimuth in the squint_lrwc frame (a
-ghost keeps the target's range history, so it lies at the same range after walk correction).
+static-equivalent position (sarproc.product.moving: backproject's grid and evaluate follow them there)
+and with the static theory IRW of their true position (recorded by backproject); false targets are
+read on a strip along azimuth in the squint_lrwc frame (a ghost keeps the target's range history, so
+it lies at the same range after walk correction).
 """
 
 from __future__ import annotations
 
-import copy
 import logging
 import math
 from pathlib import Path
@@ -19,13 +19,11 @@ import pytest
 import scipy.fft as sfft
 
 from helpers import assert_theory
-from sarproc.focus.backprojection import BackprojectParams, backproject, theoretical_irw
+from sarproc.focus.backprojection import BackprojectParams, backproject
 from sarproc.focus.multichannel import channels
-from sarproc.product.moving import apparent_targets
 from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct
 from sarproc.product.config import load_yaml
 from sarproc.product.errors import InputError
-from sarproc.product.frames import make_frame
 from sarproc.product.metadata import C
 from sarproc.quality.metrics import EvaluateParams, evaluate_product
 from sarproc.simulation.scene import scene_from_mapping
@@ -58,14 +56,10 @@ def mover(name="B", v_r=0.0, v_a=0.0, **extra):
 
 
 def focused(rec, raw, **bp):
-    """Backprojected image around each target's static-equivalent position, theory from its true position."""
-    frame = make_frame("squint", rec.radar)
-    rec = copy.copy(rec)
-    rec.targets = apparent_targets(rec.targets, rec.radar, raw.coords["azimuth_time"], frame)
-    img = backproject(rec, BackprojectParams(**bp))
-    img.attrs["theoretical_irw"] = theoretical_irw(
-        rec, frame, [float(raw.targets["azimuth"][0]), float(raw.targets["range"][0])])
-    return img
+    """Backprojected image around each target: backproject's default grid follows moving targets to their
+    static-equivalent positions and records their own theory (of their true position); evaluate measures
+    them there."""
+    return backproject(rec, BackprojectParams(**bp))
 
 
 def false_target_db(rec, raw) -> float:
@@ -74,9 +68,6 @@ def false_target_db(rec, raw) -> float:
     ka = 2 * (r.velocity * math.cos(r.squint)) ** 2 / (r.wavelength * r.reference_range)
     n = raw.data.shape[0]
     extent = 2 * (max(n, 2) - 0.5) * raw.radar.prf / ka * r.velocity
-    frame = make_frame("squint_lrwc", rec.radar)
-    rec = copy.copy(rec)
-    rec.targets = apparent_targets(rec.targets, rec.radar, raw.coords["azimuth_time"], frame)
     strip = backproject(rec, BackprojectParams(frame="squint_lrwc", azimuth_extent=extent, range_extent=40.0,
                                                oversample=1.2))
     # Guard 0.45 ghost spacings (245 cells): the target's own sinc side lobes there are about -57 dB.

@@ -49,6 +49,8 @@ def peak_error_cells(rec, times=None):
     moved = copy.copy(rec)
     moved.targets = moving.apparent_targets(rec.targets, rec.radar, moving.pulse_times(rec) if times is None
                                             else times, frame, moving.phase_centres(rec))
+    for v in ("vx", "vy", "vz"):          # judged as static points at S, independently of backproject / evaluate
+        moved.targets[v] = 0.0
     img = backproject(moved, BackprojectParams(oversample=2.0, margin_cells=16))
     report = evaluate_product(img, EvaluateParams(guard_cells=10))
     return {t.name: (t.axis("azimuth").position_error_cells, t.axis("range").position_error_cells)

@@ -1,0 +1,234 @@
+"""Moving truth targets in ``evaluate``: measured where they appear, judged against where they are.
+
+Every processor here assumes a static scene, so a point target with a velocity in the truth table
+(vx, vy, vz) is focused at its static-equivalent position S (:mod:`sarproc.product.moving`):
+``evaluate`` measures it there (from the truth velocity and the image's own geometry: radar
+metadata, track, frame), never at its true position. Per moving target the report adds
+(:class:`MoverReport`):
+
+* the truth: position at azimuth time 0, (v_a, v_r), illumination-centre time t_c, S;
+* the product's estimate, when it holds one, from (first found)
+  1. its ``moving_targets`` table (``product.moving_targets``, ``aux['moving_targets']`` or
+     ``attrs['moving_targets']``; a structured array or a list of mappings), one row per detected
+     mover with columns ``id``, ``v_r``, ``v_a`` (m/s) and, where known, ``truth`` (the matched
+     truth target's name), ``apparent_x/y/z`` and ``relocated_x/y/z`` (scene frame, m; relocated: at
+     azimuth time 0). A row names its truth target, or is matched to the nearest truth S within
+     ``MATCH_CELLS`` resolution cells of its apparent position;
+  2. else ``reconstruct``'s per-window estimates (``attrs['reconstruct']['moving_targets']``, which
+     ``backproject`` carries into the image): matched to a truth target by where it appears, the
+     window's slant range at its beam-centre time and that time (within the window's half length
+     plus ``MATCH_CELLS`` cells, and ``MATCH_CELLS`` azimuth cells), never by velocity;
+* velocity errors (estimate - truth); the relocated position (the table's, else the measured peak
+  taken back to time 0 with the estimated velocity, :func:`sarproc.product.moving.relocate`) and its
+  error against the true position; and the relocation error the velocity error alone implies
+  (first order, R |dv_los| / (v cos(theta)), dv_los = dv_r cos(theta) + dv_a sin(theta)).
+
+Without an estimate (a single-channel image: nothing estimates velocities) the velocity and
+relocation fields are None and ``estimate`` says 'none'.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Optional
+
+import numpy as np
+
+from sarproc.product import moving
+from sarproc.product.errors import InputError
+from sarproc.product.metadata import C
+
+MATCH_CELLS = 10.0   # association gate between a detection and a truth mover, resolution cells
+
+
+@dataclasses.dataclass(frozen=True)
+class MoverReport:
+    """One moving truth target (lengths m, velocities m/s, times s; positions in the scene frame)."""
+
+    name: str
+    true_position: tuple            # x, y, z at azimuth time 0
+    v_a: float                      # truth along-track velocity
+    v_r: float                      # truth slant-range velocity (zero-Doppler direction)
+    centre_time: float              # illumination-centre time t_c
+    apparent_position: tuple        # S, the static equivalent (where it was measured)
+    apparent_coords: dict           # S in the image frame, {axis: value}
+    shift: float                    # |S - true position at t_c|
+    measured_position: tuple        # the measured peak, scene frame
+    estimate: str = "none"          # 'moving_targets' | 'reconstruct' | 'none'
+    v_a_estimated: Optional[float] = None
+    v_r_estimated: Optional[float] = None
+    v_a_error: Optional[float] = None
+    v_r_error: Optional[float] = None
+    relocated_position: Optional[tuple] = None
+    relocation: str = ""            # 'table' | 'measured peak + estimated velocity' | ''
+    relocation_error: Optional[float] = None           # |relocated - true position|
+    relocation_error_xyz: Optional[tuple] = None
+    relocation_error_from_velocity: Optional[float] = None  # first-order implied by the velocity error
+
+
+def truth_frame(product, source: str = ""):
+    from sarproc.product.frames import frame_from_spec
+
+    where = f"{source}: " if source else ""
+    spec = product.attrs.get("frame")
+    if spec is None:
+        raise InputError(f"{where}image attribute 'frame' is missing: its moving targets cannot be placed where "
+                         "they appear")
+    return frame_from_spec(spec)
+
+
+def apparent_truth(product, source: str = "") -> np.ndarray:
+    """The product's targets table with every moving target at its static equivalent (image frame)."""
+    targets = product.targets
+    if len(targets) == 0 or not np.any(moving.is_moving(targets)):
+        return targets
+    where = f"{source}: " if source else ""
+    if "platform_position" not in product.aux:
+        raise InputError(f"{where}aux 'platform_position' is missing: the moving target(s) "
+                         f"{_names(targets[moving.is_moving(targets)])} cannot be placed where they appear")
+    return moving.apparent_targets(targets, product.radar, moving.pulse_times(product), truth_frame(product, source),
+                                   moving.phase_centres(product))
+
+
+def _names(table) -> str:
+    return ", ".join(n.decode() if isinstance(n, bytes) else str(n) for n in table["name"])
+
+
+def _rows(table) -> list[dict]:
+    if table is None:
+        return []
+    if isinstance(table, np.ndarray) and table.dtype.names:
+        return [{k: (v.decode() if isinstance(v, bytes) else v.item() if hasattr(v, "item") else v)
+                 for k, v in zip(table.dtype.names, row)} for row in table]
+    return [dict(r) for r in table]
+
+
+def _xyz(row: dict, prefix: str):
+    keys = [f"{prefix}_{c}" for c in "xyz"]
+    if all(k in row for k in keys):
+        v = np.array([float(row[k]) for k in keys])
+        return v if np.all(np.isfinite(v)) else None
+    return None
+
+
+def moving_target_table(product) -> list[dict]:
+    """Rows of the product's ``moving_targets`` table (module docstring), [] if it has none."""
+    for table in (getattr(product, "moving_targets", None), product.aux.get("moving_targets"),
+                  product.attrs.get("moving_targets")):
+        rows = _rows(table)
+        if rows:
+            return rows
+    return []
+
+
+def _match_table(rows, movers, cell):
+    """{truth name: row}: by the row's truth column, else the nearest S within MATCH_CELLS cells."""
+    out = {}
+    for row in rows:
+        name = row.get("truth")
+        if name:
+            out.setdefault(str(name), row)
+            continue
+        s = _xyz(row, "apparent")
+        if s is None:
+            continue
+        dist = {m["name"]: float(np.linalg.norm(m["S"] - s)) for m in movers if m["name"] not in out}
+        if dist:
+            best = min(dist, key=dist.get)
+            if dist[best] <= MATCH_CELLS * cell:
+                out[best] = row
+    return out
+
+
+def implied_relocation_error(radar, slant_range: float, dv_a: float, dv_r: float) -> float:
+    """First-order relocation error (m, scene) of velocity errors: R |dv_los| / (v cos(theta))."""
+    th = radar.squint
+    return abs(slant_range * (dv_r * math.cos(th) + dv_a * math.sin(th)) / (radar.velocity * math.cos(th)))
+
+
+def _match_windows(windows, movers, radar, cell_range, cell_azimuth):
+    """{truth name: window}: reconstruct's windows matched by slant range at t_c and t_c."""
+    out = {}
+    range_cell = C / (2 * radar.range_sampling_rate)
+    for w in windows:
+        half = 0.5 * (w.get("last_cell", 0) - w.get("first_cell", 0)) * range_cell
+        best, best_cost = None, math.inf
+        for m in movers:
+            if m["name"] in out:
+                continue
+            d_range = abs(m["range"] - float(w["slant_range"]))
+            d_az = abs(m["t_c"] - float(w["beam_centre_time"])) * radar.velocity
+            if d_range <= half + MATCH_CELLS * cell_range and d_az <= MATCH_CELLS * cell_azimuth:
+                cost = d_range / cell_range + d_az / cell_azimuth
+                if cost < best_cost:
+                    best, best_cost = m["name"], cost
+        if best is not None:
+            out[best] = w
+    return out
+
+
+def mover_reports(product, apparent: np.ndarray, report, source: str = "") -> tuple[MoverReport, ...]:
+    """One :class:`MoverReport` per moving truth target measured in ``report`` (module docstring)."""
+    targets = product.targets
+    if len(targets) == 0 or not np.any(moving.is_moving(targets)):
+        return ()
+    radar = product.radar
+    frame = truth_frame(product, source)
+    times = moving.pulse_times(product)
+    positions = moving.phase_centres(product)
+    measured = {t.name: t for t in report.targets}
+    irw = [float(v) for v in product.attrs.get("theoretical_irw", [])]
+    cell_az = irw[list(product.dims).index("azimuth")] if "azimuth" in product.dims and irw else 1.0
+    cell_rg = irw[list(product.dims).index("range")] if "range" in product.dims and irw else 1.0
+    movers = []
+    for k in np.nonzero(moving.is_moving(targets))[0]:
+        name = targets["name"][k].decode() if isinstance(targets["name"][k], bytes) else str(targets["name"][k])
+        if name not in measured:
+            continue
+        xyz = np.array([targets[c][k] for c in "xyz"], float)
+        vel = np.array([targets[f"v{c}"][k] for c in "xyz"], float)
+        s = np.array([apparent[c][k] for c in "xyz"], float)
+        t_c = moving.illumination_centre_time(radar, times, xyz, vel, positions)
+        p_c = np.array([np.interp(t_c, times, positions[:, i]) for i in range(3)])
+        movers.append({"name": name, "xyz": xyz, "vel": vel, "S": s, "t_c": t_c, "k": k,
+                       "range": float(np.linalg.norm(s - p_c))})
+    table = moving_target_table(product)
+    if table:
+        source_name, matched = "moving_targets", _match_table(table, movers, max(cell_az, cell_rg))
+    else:
+        windows = (product.attrs.get("reconstruct") or {}).get("moving_targets") or []
+        source_name = "reconstruct"
+        matched = _match_windows(windows, movers, radar, cell_rg, cell_az)
+    out = []
+    for m in movers:
+        t = measured[m["name"]]
+        coords = {d: float(t.axis(d).position) for d in product.dims}
+        peak = np.asarray(frame.to_xyz(*[coords[d] for d in frame.axes]), float).reshape(3)
+        v_a, v_r = moving.slant_velocity(m["xyz"], m["vel"], radar.altitude)
+        fields = dict(
+            name=m["name"], true_position=tuple(m["xyz"]), v_a=v_a, v_r=v_r, centre_time=m["t_c"],
+            apparent_position=tuple(m["S"]),
+            apparent_coords={d: float(apparent[d][m["k"]]) for d in product.dims},
+            shift=float(np.linalg.norm(m["S"] - (m["xyz"] + m["vel"] * m["t_c"]))),
+            measured_position=tuple(float(c) for c in peak))
+        est = matched.get(m["name"])
+        if est is not None:
+            e_vr = float(est.get("v_r", est.get("radial_velocity", math.nan)))
+            e_va = float(est.get("v_a", est.get("along_track_velocity", math.nan)))
+            relocated = _xyz(est, "relocated") if source_name == "moving_targets" else None
+            how = "table"
+            if relocated is None and math.isfinite(e_vr) and math.isfinite(e_va):
+                e_vel = moving.scene_velocity(peak, e_va, e_vr, radar.altitude)
+                relocated = moving.relocate(radar, times, peak, e_vel, positions)
+                how = "measured peak + estimated velocity"
+            implied = implied_relocation_error(radar, m["range"], e_va - v_a, e_vr - v_r)
+            fields.update(estimate=source_name, v_a_estimated=e_va, v_r_estimated=e_vr, v_a_error=e_va - v_a,
+                          v_r_error=e_vr - v_r, relocation_error_from_velocity=implied)
+            if relocated is not None:
+                err = relocated - m["xyz"]
+                fields.update(relocated_position=tuple(float(c) for c in relocated), relocation=how,
+                              relocation_error=float(np.linalg.norm(err)),
+                              relocation_error_xyz=tuple(float(c) for c in err))
+        out.append(MoverReport(**fields))
+    return tuple(out)
