@@ -127,3 +127,27 @@ def test_single_channel_mover_is_measured_where_it_appears(tmp_path):
     expect.write_text(yaml.safe_dump(EXPECT))
     r = run("evaluate", tmp_path / "image.h5", "--expect", expect)
     assert r.exit_code == 1 and "holds no estimate" in r.output
+
+
+def test_a_moving_targets_table_is_used_first_and_matched_by_name_or_position(chain):
+    """The detector's table (issue 19 item 2) when the product holds one: its velocities and relocated
+    positions are judged against the truth; a row without a truth name is matched by where it appears."""
+    from sarproc.product.io import read_product
+    from sarproc.quality.metrics import evaluate_product
+
+    d, _ = chain
+    image = read_product(d / "image.h5")
+    base = {m.name: m for m in evaluate_product(image).movers}
+    b, c = base["B"], base["C"]
+    image.attrs["moving_targets"] = [
+        {"id": 0, "v_r": 10.05, "v_a": 0.0, "truth": "B",
+         **{f"relocated_{k}": v + 2.0 for k, v in zip("xyz", b.true_position)}},
+        {"id": 1, "v_r": 9.9, "v_a": 10.2, "truth": "",
+         **{f"apparent_{k}": v + 0.5 for k, v in zip("xyz", c.apparent_position)}}]
+    movers = {m.name: m for m in evaluate_product(image).movers}
+    assert movers["B"].estimate == "moving_targets" and movers["B"].relocation == "table"
+    assert movers["B"].v_r_error == pytest.approx(0.05) and movers["B"].relocation_error == pytest.approx(2 * 3**0.5)
+    assert movers["C"].v_r_error == pytest.approx(-0.1) and movers["C"].v_a_error == pytest.approx(0.2)
+    assert movers["C"].relocation == "measured peak + estimated velocity"
+    # -0.1 m/s of v_los from v_r and +0.2 * sin(20 deg) from v_a nearly cancel: a small relocation error
+    assert movers["C"].relocation_error == pytest.approx(movers["C"].relocation_error_from_velocity, abs=1.0)
