@@ -42,8 +42,11 @@ def quicklook(input_path: Path, output: Path, overwrite: bool, dynamic_range_db:
     magnitude, dims, coords, factors = read_magnitude_preview(input_path, max_side=max_pixels)
     truth, names = None, ()
     if mark_targets and len(header.targets):
-        truth = np.stack([header.targets[d].astype(float) for d in dims], axis=1)
-        names = [n.decode() if isinstance(n, bytes) else str(n) for n in header.targets["name"]]
+        from sarproc.quality.moving import apparent_truth
+
+        table = apparent_truth(header, str(input_path))      # moving targets where the image focuses them
+        truth = np.stack([table[d].astype(float) for d in dims], axis=1)
+        names = [n.decode() if isinstance(n, bytes) else str(n) for n in table["name"]]
     frame = header.attrs.get("frame", {}).get("name", "")
     reduced = "" if all(f == 1 for f in factors) else \
         ", block max " + " x ".join(str(f) for f in factors)
