@@ -1,10 +1,13 @@
-"""Paper 003 hard cases on the small scene (configs/xu_small.yaml): each stays finite; its loss is measured.
+"""Tabulate paper 003's hard cases on the small scene (configs/xu_small.yaml): each stays finite; its loss is measured.
 
-Cases: slant-range velocity on the search bound (20 m/s) and just beyond (20.5 m/s); a single channel;
-a 3 deg / 3 % channel imbalance (with the first-order prediction, eq. 6); PRFs away from the uniform
-1 kHz: 0.5 kHz (N PRF below the Doppler band), 1.45 kHz and 1.5 kHz (phase centres coincide: singular),
-with condition number, noise gain and ghosts without and with Tikhonov regularisation.
-Writes hard_cases.md and hard_cases.json under --results (``make reproduce-003`` runs it).
+The processing runs through the command line (``make reproduce-003``: ``sarproc sweep
+configs/sweeps/hard_cases_003.yaml``, reconstruct then backproject, each case imaged where its target
+appears and on an azimuth strip for the false targets); this script only reads the sweep's products
+and reports. Cases: slant-range velocity on the search bound (20 m/s) and just beyond (20.5 m/s); a
+single channel; a 3 deg / 3 % channel imbalance (with the first-order prediction, eq. 6); PRFs away
+from the uniform 1 kHz: 0.5 kHz (N PRF below the Doppler band), 1.45 kHz and 1.5 kHz (phase centres
+coincide: singular), with condition number, noise gain and ghosts without and with Tikhonov
+regularisation. Writes hard_cases.md and hard_cases.json under --results.
 """
 
 from __future__ import annotations
@@ -16,60 +19,51 @@ from pathlib import Path
 
 import numpy as np
 
-from reproduce_003 import focus, ghost_strips, scene_mapping, sim
-from sarproc.focus.backprojection import BackprojectParams
+from reproduce_003 import load_json, mfta_db, pick, raw_of, sweep_rows
 from sarproc.focus.multichannel import channels
-from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct
-from sarproc.quality.metrics import EvaluateParams, evaluate_product
+from sarproc.product.io import read_product
 
-
-def row(label, raw, rec, **extra):
-    info = rec.attrs["reconstruct"]
-    mts = info["moving_targets"]
-    img = focus(rec, raw, BackprojectParams(), theory_from_truth=True)
-    t = evaluate_product(img, EvaluateParams(guard_cells=60)).targets[0]
-    return {"case": label, "finite": bool(np.all(np.isfinite(rec.data))), "condition": info["condition_number"],
-            "noise_gain_db": info["noise_gain_db"], "v_r_est": mts[0]["radial_velocity"] if mts else None,
-            "at_bound": mts[0]["at_bound"] if mts else None, "mfta_db": ghost_strips(rec, raw)["T"][0],
-            "az_irw_ratio": t.axis("azimuth").irw_ratio, "az_pslr": t.axis("azimuth").pslr_db,
-            "peak": t.peak_amplitude, **extra}
+CASES = [("vr20", "v_r 20.0 m/s (search bound 20)"), ("vr20.5", "v_r 20.5 m/s (search bound 20)"),
+         ("single_channel", "single channel (PRF 3 kHz)"), ("imbalance", "imbalance 3 deg / 3 % on channel 3"),
+         ("prf500_mu0", "PRF 500 Hz, mu 0"), ("prf1450_mu0", "PRF 1450 Hz, mu 0"),
+         ("prf1450_mu0.01", "PRF 1450 Hz, mu 0.01"), ("prf1500_mu0", "PRF 1500 Hz, mu 0"),
+         ("prf1500_mu0.001", "PRF 1500 Hz, mu 0.001"), ("prf1500_mu0.01", "PRF 1500 Hz, mu 0.01"),
+         ("prf1500_mu0.1", "PRF 1500 Hz, mu 0.1")]
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--results", default="results/003")
-    ap.add_argument("--config", default="configs/xu_small.yaml")
     args = ap.parse_args()
-    rows = []
-    for v_r in (20.0, 20.5):
-        raw = sim(scene_mapping(args.config, [{"name": "T", "velocity": ["0 m/s", f"{v_r} m/s", "0 m/s"]}]))
-        rows.append(row(f"v_r {v_r} m/s (search bound 20)", raw, reconstruct(raw, ReconstructParams())))
-    m = scene_mapping(args.config, [{"name": "T"}], prf="3000 Hz")
-    m["effects"]["azimuth_channels"] = {"n_receivers": 1, "spacing": "5 m"}
-    raw = sim(m)
-    rows.append(row("single channel (PRF 3 kHz)", raw, reconstruct(raw, ReconstructParams(method="conventional"))))
-    m = scene_mapping(args.config, [{"name": "T"}])
-    m["effects"]["azimuth_channels"].update(phase_imbalance=["0 deg", "0 deg", "3 deg"], amplitude_imbalance=[0, 0, 0.03])
-    raw = sim(m)
-    r = raw.radar
-    tau = channels.channel_delays(raw.aux["rx_offset"][:, 0], r.velocity)
-    half = r.velocity * math.cos(r.squint) * r.azimuth_beamwidth / r.wavelength
-    gain = np.array([1.0, 1.0, 1.03 * np.exp(1j * np.radians(3.0))])
-    rows.append(row("imbalance 3 deg / 3 % on channel 3", raw, reconstruct(raw, ReconstructParams(method="conventional")),
-                    predicted_db=channels.ghost_level_db(tau, r.prf, -1j * np.log(gain), half)))
-    # Phase centres of consecutive pulses coincide at PRF = 1.5 kHz (v / PRF = 5 m = the centre spacing x 2):
-    # singular; below the uniform PRF conditioning degrades slowly but N PRF falls under the Doppler band.
-    for prf, mus in (("500 Hz", (0.0,)), ("1450 Hz", (0.0, 1e-2)), ("1500 Hz", (0.0, 1e-3, 1e-2, 1e-1))):
-        raw = sim(scene_mapping(args.config, [{"name": "T"}], prf=prf))
-        for mu in mus:
-            rows.append(row(f"PRF {prf}, mu {mu:g}", raw,
-                            reconstruct(raw, ReconstructParams(method="conventional", regularization=mu))))
     res = Path(args.results)
-    res.mkdir(parents=True, exist_ok=True)
+    sweep = res / "sweep-hard"
+    rows_in = sweep_rows(sweep)
+    rows = []
+    for scene, label in CASES:
+        image, strip = pick(rows_in, scene=f"{scene}-image"), pick(rows_in, scene=f"{scene}-strip")
+        rec = read_product(image["dir"] / "reconstruct.h5", check_finite=False)
+        info = rec.attrs["reconstruct"]
+        mts = info["moving_targets"]
+        t = load_json(image["dir"] / "report.json")["targets"][0]
+        az = {a["axis"]: a for a in t["axes"]}["azimuth"]
+        row = {"case": label, "finite": bool(np.all(np.isfinite(rec.data))), "condition": info["condition_number"],
+               "noise_gain_db": info["noise_gain_db"], "v_r_est": mts[0]["radial_velocity"] if mts else None,
+               "at_bound": mts[0]["at_bound"] if mts else None,
+               "mfta_db": mfta_db(load_json(strip["dir"] / "report.json")),
+               "az_irw_ratio": az["irw_ratio"], "az_pslr": az["pslr_db"], "peak": t["peak_amplitude"]}
+        if scene == "imbalance":
+            raw = read_product(raw_of(sweep, f"{scene}-image"), load=False)
+            r = raw.radar
+            tau = channels.channel_delays(raw.aux["rx_offset"][:, 0], r.velocity)
+            half = r.velocity * math.cos(r.squint) * r.azimuth_beamwidth / r.wavelength
+            gain = np.array([1.0, 1.0, 1.03 * np.exp(1j * np.radians(3.0))])
+            row["predicted_db"] = channels.ghost_level_db(tau, r.prf, -1j * np.log(gain), half)
+        rows.append(row)
     (res / "hard_cases.json").write_text(json.dumps(rows, indent=1, default=float))
     cols = ["case", "finite", "condition", "noise_gain_db", "v_r_est", "at_bound", "peak", "az_irw_ratio", "az_pslr",
             "mfta_db", "predicted_db"]
-    lines = [f"# Paper 003 hard cases ({args.config}; scripts/hard_cases_003.py)", "",
+    lines = ["# Paper 003 hard cases (configs/xu_small.yaml; configs/sweeps/hard_cases_003.yaml, "
+             "scripts/hard_cases_003.py)", "",
              "| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     for r_ in rows:
         lines.append("| " + " | ".join(f"{r_.get(c):.4g}" if isinstance(r_.get(c), float) else str(r_.get(c, ""))

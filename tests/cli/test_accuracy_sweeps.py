@@ -140,3 +140,38 @@ def test_003_sweep_has_the_scripts_reconstruct_settings():
     # one task per script row (search fast 0.1 and N = 3 are the same reconstruct, as in the script)
     assert sorted((repr(p), n, round(d, 12)) for p, n, d in got) == sorted((repr(p), n, round(d, 12))
                                                                            for p, n, d in want)
+
+
+def test_reproduce_003_sweeps_and_strip_config_hold_the_reproductions_geometry():
+    """make reproduce-003's strips span +-1.5 ghost spacings PRF v / K_a of their own scene (a PRF changed in a
+    scene without its strip would silently measure other ghosts), and every given-velocity scene reconstructs
+    with the velocity of its target."""
+    import math
+
+    from sarproc.focus.backprojection import BackprojectParams
+    from sarproc.focus.multichannel.reconstruct import ReconstructParams
+    from sarproc.product.config import build, load_yaml
+    from sarproc.simulation.scene import scene_from_mapping
+
+    def spacing(config):
+        r = scene_from_mapping(dict(config)).radar
+        ka = 2 * (r.velocity * math.cos(r.squint)) ** 2 / (r.wavelength * r.reference_range)
+        return r.prf / ka * r.velocity
+
+    strips = 0
+    names = ("reproduce_003_cases", "reproduce_003_given", "reproduce_003_speeds", "hard_cases_003")
+    for name in names:
+        for t in plan_sweep(ROOT / "configs" / "sweeps" / f"{name}.yaml").tasks:
+            bp = build(BackprojectParams, t.config.get("backproject") or {})
+            if bp.frame == "squint_lrwc":
+                strips += 1
+                assert bp.azimuth_extent == pytest.approx(3 * spacing(t.config), abs=0.05), t.task_id
+                assert bp.range_extent == 30.0 and bp.oversample == 1.2
+            if t.scene[0] in "ge" and name == "reproduce_003_given":
+                rec = build(ReconstructParams, t.config["reconstruct"])
+                v_r = parse_quantity(t.config["targets"]["points"][0]["velocity"][1], "velocity")
+                assert rec.radial_velocity == pytest.approx(v_r + (float(t.scene[1:]) if t.scene[0] == "e" else 0))
+    assert strips == 6 + 16 + 18 + 11
+    strip = load_yaml(ROOT / "configs" / "xu_strip.yaml")
+    scene = load_yaml(ROOT / "configs" / "xu_scene.yaml")
+    assert build(BackprojectParams, strip["backproject"]).azimuth_extent == pytest.approx(3 * spacing(scene), abs=0.05)
