@@ -8,11 +8,10 @@ metadata, track, frame), never at its true position. Per moving target the repor
 
 * the truth: position at azimuth time 0, (v_a, v_r), illumination-centre time t_c, S;
 * the product's estimate, when it holds one, from (first found)
-  1. its ``moving_targets`` table (``product.moving_targets``, ``aux['moving_targets']`` or
-     ``attrs['moving_targets']``; a structured array or a list of mappings), one row per detected
-     mover with columns ``id``, ``v_r``, ``v_a`` (m/s) and, where known, ``truth`` (the matched
-     truth target's name), ``apparent_x/y/z`` and ``relocated_x/y/z`` (scene frame, m; relocated: at
-     azimuth time 0). A row names its truth target, or is matched to the nearest truth S within
+  1. its ``moving_targets`` table: reconstruct's aux ``moving_targets`` (model.MOVING_TARGET_COLUMNS:
+     ``v_r``, ``v_a``, ``apparent_x/y/z``, ``relocated_x/y/z``, ``truth_index``), else a structured
+     array or list of mappings in ``attrs['moving_targets']`` with the same names (``truth``: the
+     matched truth target's name). A row names its truth target, or is matched to the nearest truth S within
      ``MATCH_CELLS`` resolution cells of its apparent position;
   2. else ``reconstruct``'s per-window estimates (``attrs['reconstruct']['moving_targets']``, which
      ``backproject`` carries into the image): matched to a truth target by where it appears, the
@@ -113,7 +112,20 @@ def _xyz(row: dict, prefix: str):
 
 
 def moving_target_table(product) -> list[dict]:
-    """Rows of the product's ``moving_targets`` table (module docstring), [] if it has none."""
+    """Rows of the product's ``moving_targets`` table (module docstring), [] if it has none.
+
+    reconstruct's table is aux ``moving_targets`` (model.MOVING_TARGET_COLUMNS, float64); its
+    ``truth_index`` (row of the targets table, -1 none) becomes the ``truth`` name here."""
+    from sarproc.product.model import moving_target_rows, target_names
+
+    if "moving_targets" in product.aux and not getattr(product.aux["moving_targets"], "dtype", None) is None \
+            and not product.aux["moving_targets"].dtype.names:
+        names = target_names(product.targets)
+        rows = moving_target_rows(product.aux)
+        for r in rows:
+            k = int(r.get("truth_index", -1))
+            r["truth"] = names[k] if 0 <= k < len(names) else ""
+        return rows
     for table in (getattr(product, "moving_targets", None), product.aux.get("moving_targets"),
                   product.attrs.get("moving_targets")):
         rows = _rows(table)
