@@ -14,6 +14,7 @@ A sweep YAML names the scenes, the focusing chain and the knobs to vary::
       - {backproject.interpolation: linear}
     output: ../../results/sweep-bp               # default for -o (relative to this file)
     evaluate: true                                # false: no evaluate step (a chain whose product is no image)
+    repeats: 3                                    # time the focus chain this many times (default 1)
 
 A scene given as a mapping is a variant of its ``file``: ``targets`` keeps only the named targets (a
 target simulated and focused alone), ``set`` applies dotted keys to this scene only (after the sweep's
@@ -26,6 +27,13 @@ the CLI's own commands, invoked in-process, so a sweep's products are exactly th
 pipeline. Each output gets a ``<file>.done.json`` record with the key of its resolved inputs (sarproc
 version, command, config, the key of its input product) and its run time; an output whose record
 holds the same key is not recomputed. A killed sweep thus resumes where it stopped.
+
+With ``repeats: N`` the focus chain of every task runs N times, interleaved: round-robin over the
+tasks (every task's first run, then every task's second, ...), so a slow spell of a shared machine
+hits all settings alike. The repeats write to ``tasks/<id>/repeat/`` (removed after), are checked to
+give the first run's products bit for bit (``repeats_identical``) and leave their time in
+``tasks/<id>/repeat-<k>.done.json``. The row's ``focus_s`` is the best of the N times, with
+``focus_median_s`` and ``focus_spread_s`` (max - min); quality is the first run's.
 
 Dask is optional: ``run_serial`` needs nothing beyond sarproc; ``run_dask`` needs ``dask.distributed``
 (``pip install 'sarproc[distributed]'``).
@@ -53,7 +61,7 @@ from sarproc import __version__
 from sarproc.product.config import build, load_yaml, param
 from sarproc.product.errors import InputError, ProcessingError
 
-TIME_COLUMNS = ("simulate_s", "focus_s", "evaluate_s")
+TIME_COLUMNS = ("simulate_s", "focus_s", "focus_median_s", "focus_spread_s", "evaluate_s")
 QUALITY_COLUMNS = ("irw_dev", "pslr_db", "islr_db", "position_cells", "false_target_db")
 
 
@@ -66,6 +74,7 @@ class SweepParams:
     cases: tuple[dict, ...] = param(default=(), doc="listed settings (dotted key: value), each crossed with the grid")
     output: str | None = param(default=None, doc="output directory (relative to the sweep file)")
     evaluate: bool = param(default=True, doc="run evaluate on each task's last product (false: quality n/a)")
+    repeats: int = param(default=1, doc="timed runs of each task's focus chain, interleaved over the tasks")
 
     def validate(self):
         from sarproc.cli.main import COMMANDS
@@ -78,6 +87,8 @@ class SweepParams:
         for key, values in self.grid.items():
             if not isinstance(values, list) or not values:
                 raise InputError(f"grid.{key}: expected a non-empty list of values")
+        if isinstance(self.repeats, bool) or not isinstance(self.repeats, int) or self.repeats < 1:
+            raise InputError(f"repeats: expected an integer >= 1, got {self.repeats!r}")
         for i, case in enumerate(self.cases):
             if not case:
                 raise InputError(f"cases[{i}]: an empty case")
@@ -116,6 +127,7 @@ class Task:
     focus: tuple[str, ...]
     sim_key: str
     evaluate: bool = True
+    repeats: int = 1
 
 
 @dataclasses.dataclass(frozen=True)
@@ -227,7 +239,7 @@ def plan_sweep(path, output=None) -> Plan:
                                            config)
                 task_id = _task_id(scene_name, setting)
                 tasks.append(Task(task_id, scene_name, setting, config, out / "tasks" / task_id,
-                                  params.focus, sim_key, params.evaluate))
+                                  params.focus, sim_key, params.evaluate, params.repeats))
     ids = [t.task_id for t in tasks]
     if len(set(ids)) != len(ids):  # knob names that differ only before their last dot, or repeated values
         tasks = [dataclasses.replace(t, task_id=f"{i:03d}-{t.task_id}", directory=out / "tasks" / f"{i:03d}-{t.task_id}")
@@ -372,11 +384,8 @@ def run_task(task: Task, sim: dict) -> dict:
     _write_yaml_if_changed(config_path, task.config)
     source, key = Path(sim["path"]), sim["key"]
     focus_s, skipped = 0.0, [sim["skipped"]]
-    for command in task.focus:
+    for command, key in zip(task.focus, focus_keys(task, sim["key"])):
         out = task.directory / f"{command}.h5"
-        # evaluate's own knobs do not change the image: leave them out of the focusing keys
-        key = digest({"sarproc": __version__, "command": command, "input": key,
-                      "config": _without(task.config, "evaluate")})
         rec = run_step(command, [source, "--config", config_path, "-o", out, "--overwrite", "--no-progress"],
                        out, key)
         focus_s += rec["seconds"]
@@ -394,6 +403,79 @@ def run_task(task: Task, sim: dict) -> dict:
     return {"task": task.task_id, "scene": task.scene, **task.setting,
             "simulate_s": sim["seconds"], "focus_s": focus_s, "evaluate_s": rec["seconds"], **quality,
             "skipped": all(skipped)}
+
+
+def focus_keys(task: Task, sim_key: str) -> list[str]:
+    """The record key of each command of the task's focus chain (each chained on the one before)."""
+    keys, key = [], sim_key
+    for command in task.focus:
+        # evaluate's own knobs do not change the image: leave them out of the focusing keys
+        key = digest({"sarproc": __version__, "command": command, "input": key,
+                      "config": _without(task.config, "evaluate")})
+        keys.append(key)
+    return keys
+
+
+def _same_data(a: Path, b: Path) -> bool:
+    from sarproc.product.io import read_product
+
+    import numpy as np
+
+    pa, pb = read_product(a, check_finite=False), read_product(b, check_finite=False)
+    return pa.data.shape == pb.data.shape and bool(np.array_equal(pa.data, pb.data, equal_nan=True))
+
+
+def run_repeat(task: Task, sim: dict, k: int) -> dict:
+    """Repeat ``k`` (1, 2, ...) of the task's focus chain, timed, into ``tasks/<id>/repeat/``; each product
+    compared with the first run's (bit for bit) and removed. Returns {"seconds", "identical"}; skipped
+    (its record read back) when ``repeat-<k>.done.json`` holds the same key."""
+    from sarproc.product.io import atomic_path
+
+    keys = focus_keys(task, sim["key"])
+    key = digest({"repeat": k, "focus": keys[-1]})
+    record_path = task.directory / f"repeat-{k}.done.json"
+    if record_path.exists():
+        try:
+            record = json.loads(record_path.read_text())
+        except (OSError, json.JSONDecodeError):
+            record = {}
+        if record.get("key") == key:
+            return record
+    config_path = task.directory / "config.yaml"
+    workdir = task.directory / "repeat"
+    workdir.mkdir(parents=True, exist_ok=True)
+    source, seconds, identical, made = Path(sim["path"]), 0.0, True, []
+    try:
+        for command in task.focus:
+            out = workdir / f"{command}.h5"
+            start = time.perf_counter()
+            try:
+                invoke(command, [source, "--config", config_path, "-o", out, "--overwrite", "--no-progress"])
+            except Exception as exc:  # noqa: BLE001 - the step's own error, named with its command
+                raise ProcessingError(f"repeat {k} of sarproc {command} ({task.task_id}): {exc}") from exc
+            seconds += time.perf_counter() - start
+            made.append(out)
+            identical = identical and _same_data(out, task.directory / f"{command}.h5")
+            source = out
+    finally:
+        for path in made:
+            path.unlink(missing_ok=True)
+        with contextlib.suppress(OSError):
+            workdir.rmdir()
+    record = {"key": key, "repeat": k, "seconds": seconds, "identical": identical}
+    with atomic_path(record_path) as tmp:
+        tmp.write_text(json.dumps(record, indent=1) + "\n")
+    return record
+
+
+def with_repeats(row: dict, repeats: list) -> dict:
+    """The row with its focus time summarised over the first run and its repeats (best, median, spread)."""
+    from sarproc.quality.tradeoff import timing_stats
+
+    times = [row["focus_s"]] + [r["seconds"] for r in repeats]
+    stats = timing_stats(times)
+    return {**row, "focus_s": stats["best"], "focus_median_s": stats["median"], "focus_spread_s": stats["spread"],
+            "focus_times": times, "repeats_identical": all(r["identical"] for r in repeats) if repeats else None}
 
 
 def summarise_report(report: dict) -> dict:
@@ -448,7 +530,36 @@ def run_serial(plan: Plan, on_row=None) -> Outcome:
         rows.append(row)
         if on_row:
             on_row(row)
+    rows = _repeat_rounds(plan, rows, failures, sims, _serial_round)
     return Outcome(_order(plan, rows), failures, time.perf_counter() - start)
+
+
+def _serial_round(calls):
+    """Run (name, args of run_repeat) pairs in order; yields (name, result or exception)."""
+    for name, args in calls:
+        try:
+            yield name, run_repeat(*args)
+        except (InputError, ProcessingError) as exc:
+            yield name, exc
+
+
+def _repeat_rounds(plan: Plan, rows: list, failures: list, sims: dict, run_round) -> list:
+    """Rounds 1..repeats-1 of every finished task's focus chain, one round after the other (round-robin
+    over the tasks); the rows with their timing summaries. A task whose repeat fails is a failure."""
+    n = max((t.repeats for t in plan.tasks), default=1)
+    if n <= 1:
+        return [with_repeats(r, []) for r in rows]
+    by_id = {t.task_id: t for t in plan.tasks}
+    done = {r["task"]: [] for r in rows}
+    for k in range(1, n):
+        calls = [(tid, (by_id[tid], sims[by_id[tid].sim_key], k)) for tid in done]
+        for tid, result in run_round(calls):
+            if isinstance(result, Exception):
+                failures.append((tid, str(result)))
+                done.pop(tid, None)
+            else:
+                done[tid].append(result)
+    return [with_repeats(r, done[r["task"]]) for r in rows if r["task"] in done]
 
 
 def local_client(workers: int, threads_per_worker: int = 1, processes: bool = True):
@@ -480,6 +591,15 @@ def run_dask(plan: Plan, client, on_row=None) -> Outcome:
         rows.append(row)
         if on_row:
             on_row(row)
+
+    def dask_round(calls):
+        # the whole round is submitted at once; the next round waits for this one (interleaving)
+        futures = {client.submit(run_repeat, *args, key=f"repeat-{name}-{args[2]}-{run}", pure=False): name
+                   for name, args in calls}
+        for future in as_completed(futures):
+            yield futures[future], (future.exception() if future.status == "error" else future.result())
+
+    rows = _repeat_rounds(plan, rows, failures, sim_futures, dask_round)
     return Outcome(_order(plan, rows), failures, time.perf_counter() - start)
 
 
@@ -514,8 +634,17 @@ def write_results(plan: Plan, outcome: Outcome, runner: str) -> dict[str, Path]:
     paths = {"json": plan.output / "table.json", "md": plan.output / "table.md", "plot": plan.output / "plot.png"}
     with atomic_path(paths["json"]) as tmp:
         tmp.write_text(json.dumps(doc, indent=1) + "\n")
-    head = (f"# Sweep {plan.source.name}\n\nTimes are each step's own wall time (s); quality is the worst over "
-            "targets and axes: |IRW/theory - 1|, PSLR and ISLR (dB), |position error| (cells), "
+    repeats = max((t.repeats for t in plan.tasks), default=1)
+    identical = [r.get("repeats_identical") for r in outcome.rows]
+    timing = (f"focus_s is the best of {repeats} runs of the focus chain, interleaved (round-robin over the "
+              "tasks), focus_median_s their median and focus_spread_s max - min; a setting is faster than "
+              "another only when its worst time is below the other's best. The repeats' products were "
+              + ("identical to the first run's, bit for bit, in every task" if all(identical) else
+                 f"NOT identical to the first run's in {sum(1 for i in identical if i is False)} task(s)")
+              + "; quality is the first run's." if repeats > 1 else
+              "focus_s is one run (repeats: 1), so no spread is known.")
+    head = (f"# Sweep {plan.source.name}\n\nTimes are each step's own wall time (s); {timing} Quality is the "
+            "worst over targets and axes: |IRW/theory - 1|, PSLR and ISLR (dB), |position error| (cells), "
             "false-target level (dB).\n\n")
     with atomic_path(paths["md"]) as tmp:
         tmp.write_text(head + markdown_table(plan, outcome.rows) + "\n")
@@ -526,25 +655,33 @@ def write_results(plan: Plan, outcome: Outcome, runner: str) -> dict[str, Path]:
 
 
 def plot_sweep(path: Path, plan: Plan, rows: list) -> None:
-    """Focus time against worst IRW deviation and worst PSLR, one marker per setting and scene."""
-    import matplotlib
+    """Focus time against worst |IRW / theory - 1| per scene: repeated times as bars, the Pareto front as
+    a line, numbered markers with a table of the settings (sarproc.quality.tradeoff_plot)."""
+    import tempfile
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from sarproc.quality.tradeoff_plot import plot_tradeoff
 
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5), constrained_layout=True)
-    for scene in dict.fromkeys(r["scene"] for r in rows):
-        sel = [r for r in rows if r["scene"] == scene]
-        for ax, column, label in ((axes[0], "irw_dev", "worst |IRW / theory - 1|"),
-                                  (axes[1], "pslr_db", "worst PSLR (dB)")):
-            pts = [(r["focus_s"], r[column], r) for r in sel if r[column] is not None]
-            ax.plot([p[0] for p in pts], [p[1] for p in pts], "o", label=scene)
-            for x, y, r in pts:
-                ax.annotate(", ".join(_cell(r.get(k)) for k in plan.knobs), (x, y), fontsize=6,
-                            xytext=(3, 3), textcoords="offset points")
-            ax.set_xlabel("focus time (s)")
-            ax.set_ylabel(label)
-    axes[0].legend()
-    fig.suptitle(f"sweep {plan.source.name}: accuracy versus time")
-    fig.savefig(path, dpi=110, format="png")
-    plt.close(fig)
+    scenes = list(dict.fromkeys(r["scene"] for r in rows))
+    pngs = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for scene in scenes:
+            sel = [r for r in rows if r["scene"] == scene]
+            labels = [", ".join(f"{k.rsplit('.', 1)[-1]}={_cell(r[k])}" for k in plan.knobs if k in r) or r["task"]
+                      for r in sel]
+            times = [r.get("focus_times") or [r["focus_s"]] for r in sel]
+            png = Path(tmp) / f"{len(pngs)}.png"
+            plot_tradeoff(png, labels, times, [r["irw_dev"] for r in sel], quality_label="worst |IRW / theory - 1|",
+                          title=f"sweep {plan.source.name}, scene {scene}", log_quality=True, floor=1e-4)
+            pngs.append(png)
+        _stack_pngs(path, pngs)
+
+
+def _stack_pngs(path: Path, pngs: list) -> None:
+    """One PNG of the given PNGs one above the other (a panel per scene)."""
+    import matplotlib.image as mpimg
+    import numpy as np
+
+    images = [mpimg.imread(p) for p in pngs]
+    width = max(im.shape[1] for im in images)
+    padded = [np.pad(im, ((0, 0), (0, width - im.shape[1]), (0, 0)), constant_values=1.0) for im in images]
+    mpimg.imsave(path, np.concatenate(padded, axis=0), format="png")

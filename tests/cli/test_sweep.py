@@ -48,7 +48,7 @@ def serial(sweep_file):
 
 def quality(rows):
     """The table without its measured times (and the run-specific skip flag)."""
-    return [{k: v for k, v in r.items() if k not in TIME_COLUMNS + ("skipped",)} for r in rows]
+    return [{k: v for k, v in r.items() if k not in TIME_COLUMNS + ("skipped", "focus_times")} for r in rows]
 
 
 def test_plan_shares_raw_products_and_validates(sweep_file):
@@ -169,3 +169,37 @@ def test_scene_variant_targets_drop_the_scene_grid(tmp_path):
     (task,) = plan_sweep(path).tasks
     assert task.config["targets"]["points"] == points[1:]
     assert task.config["targets"].get("grid") is None
+
+
+def test_repeats_time_the_focus_interleaved_and_check_determinism(tmp_path):
+    """repeats: 3 runs each task's focus chain 3 times, round-robin over the tasks (every task's first
+    run before any second run), records best/median/spread, finds the repeats bit-identical and
+    removes their products; rerun, nothing is recomputed."""
+    mapping = merge(BASE_SCENE, {"targets": {"frame": "squint", "points": [{"name": "A"}]},
+                                 "backproject": {"margin_cells": 8}})
+    (tmp_path / "one.yaml").write_text(yaml.safe_dump(mapping))
+    path = tmp_path / "sweep.yaml"
+    path.write_text(yaml.safe_dump({"scenes": {"one": "one.yaml"}, "focus": "backproject", "output": "out",
+                                    "grid": {"backproject.upsample": [1, 4]}, "repeats": 3}))
+    plan = plan_sweep(path)
+    outcome = run_serial(plan)
+    assert not outcome.failures and len(outcome.rows) == 2
+    for task, row in zip(plan.tasks, outcome.rows):
+        times = row["focus_times"]
+        assert len(times) == 3 and row["repeats_identical"] is True
+        assert row["focus_s"] == min(times) and row["focus_spread_s"] == max(times) - min(times)
+        assert min(times) <= row["focus_median_s"] <= max(times)
+        assert not (task.directory / "repeat").exists()
+    first_runs = [(t.directory / "backproject.h5").stat().st_mtime_ns for t in plan.tasks]
+    rounds = [[(t.directory / f"repeat-{k}.done.json").stat().st_mtime_ns for t in plan.tasks] for k in (1, 2)]
+    assert max(first_runs) <= min(rounds[0]) and max(rounds[0]) <= min(rounds[1])
+    paths = write_results(plan, outcome, "serial")
+    text = paths["md"].read_text()
+    assert "best of 3 runs" in text and "identical to the first run's, bit for bit" in text
+    assert "focus_spread_s" in text and paths["plot"].stat().st_size > 10_000
+    again = run_serial(plan_sweep(path))
+    assert all(r["skipped"] for r in again.rows)
+    assert [r["focus_times"] for r in again.rows] == [r["focus_times"] for r in outcome.rows]
+    path.write_text(yaml.safe_dump({"scenes": {"one": "one.yaml"}, "output": "out", "repeats": 0}))
+    with pytest.raises(InputError, match="repeats: expected an integer >= 1"):
+        plan_sweep(path)

@@ -1,0 +1,88 @@
+"""Accuracy-against-time figures: repeated times as bars, the Pareto front as a line, numbered markers.
+
+Labels of a dozen settings overlap when written next to their markers; each marker carries only its
+number (numbers that would collide are stacked) and a table beside the axes names every number,
+with its times and quality, the front's settings starred. The front and the "faster" rule are
+:mod:`sarproc.quality.tradeoff`'s.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from sarproc.quality.tradeoff import pareto_front, timing_stats
+
+
+def _figure(width: float, height: float):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(width, height), layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _number_offsets(ax, xs, ys, min_px: float = 11.0) -> list[tuple[float, float]]:
+    """Text offsets (points) for the markers' numbers: a number closer than ``min_px`` to one already
+    placed moves up a line until it is clear (markers at the same spot get a column of numbers)."""
+    ax.figure.canvas.draw()
+    disp = ax.transData.transform(list(zip(xs, ys)))
+    placed, offsets = [], []
+    for x, y in disp:
+        dy = 0.0
+        while any(abs(x + 4 - px) < 2.2 * min_px and abs(y + 4 + dy - py) < min_px for px, py in placed):
+            dy += min_px
+        placed.append((x + 4, y + 4 + dy))
+        offsets.append((4.0, 4.0 + dy * 72.0 / ax.figure.dpi))
+    return offsets
+
+
+def plot_tradeoff(path, labels, times, quality, *, quality_label: str, title: str = "",
+                  log_quality: bool = False, floor: float | None = None) -> Path:
+    """One panel: each setting's repeated times (bar from best to worst, dot at the median) against its
+    quality (lower is better), the Pareto front as a line through the front's best times, numbered
+    markers and a numbered table of the settings. Writes ``path`` (PNG)."""
+    n = len(labels)
+    stats = [timing_stats(t) for t in times]
+    ok = [i for i in range(n) if quality[i] is not None]
+    shown = [max(quality[i], floor) if floor is not None else quality[i] for i in range(n) if i in ok]
+    qy = dict(zip(ok, shown))
+    front = pareto_front(times, quality)
+    fig = _figure(11.5, max(4.5, 1.6 + 0.2 * n))
+    grid = fig.add_gridspec(1, 2, width_ratios=(1.15, 1.0))
+    ax = fig.add_subplot(grid[0, 0])
+    for i in ok:
+        s = stats[i]
+        color = "tab:red" if i in front else "tab:blue"
+        ax.plot([s["best"], s["worst"]], [qy[i], qy[i]], "-", color=color, lw=2.5, alpha=0.45)
+        ax.plot([s["median"]], [qy[i]], "o", color=color, ms=5)
+    if front:
+        fx = [stats[i]["best"] for i in front]
+        fy = [qy[i] for i in front]
+        # a step line: the best quality reachable within a time budget
+        ax.step(fx + [max(s["worst"] for s in stats)], fy + [fy[-1]], where="post", color="tab:red", lw=1.2,
+                label="Pareto front (best times)")
+        ax.legend(loc="best", fontsize=8)
+    if log_quality:
+        ax.set_yscale("log")
+    ax.set_xscale("log")
+    ax.set_xlabel("time (s): bar best..worst of the repeats, dot median")
+    ax.set_ylabel(quality_label)
+    if title:
+        ax.set_title(title, fontsize=10)
+    offsets = _number_offsets(ax, [stats[i]["best"] for i in ok], [qy[i] for i in ok]) if ok else []
+    for i, off in zip(ok, offsets):
+        ax.annotate(str(i + 1), (stats[i]["best"], qy[i]), xytext=off, textcoords="offset points", fontsize=8,
+                    color="tab:red" if i in front else "black")
+    table = fig.add_subplot(grid[0, 1])
+    table.axis("off")
+    rows = [[str(i + 1) + (" *" if i in front else ""), labels[i], f"{stats[i]['best']:.3g}",
+             f"{stats[i]['median']:.3g}", f"{stats[i]['spread']:.2g}",
+             "n/a" if quality[i] is None else f"{quality[i]:.3g}"] for i in range(n)]
+    tab = table.table(cellText=rows, colLabels=["#", "setting", "best s", "median s", "spread s", "quality"],
+                      loc="upper center", cellLoc="left", colWidths=[0.07, 0.47, 0.11, 0.12, 0.11, 0.12])
+    tab.auto_set_font_size(False)
+    tab.set_fontsize(7)
+    table.set_title(f"* on the front; {stats[0]['repeats'] if stats else 0} interleaved repeats each", fontsize=8)
+    fig.savefig(path, dpi=110, format="png")
+    return Path(path)

@@ -1,0 +1,63 @@
+"""Accuracy against time: "faster" only beyond the spread of repeated times, the Pareto front, its figure."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from sarproc.quality.tradeoff import dominates, faster, faster_groups, pareto_front, timing_stats
+
+
+def test_timing_stats_best_median_spread():
+    s = timing_stats([2.0, 1.0, 4.0])
+    assert (s["best"], s["median"], s["worst"], s["spread"], s["repeats"]) == (1.0, 2.0, 4.0, 3.0, 3)
+    with pytest.raises(ValueError):
+        timing_stats([])
+    with pytest.raises(ValueError):
+        timing_stats([1.0, math.nan])
+
+
+def test_faster_only_when_the_ranges_do_not_overlap():
+    assert faster([1.0, 1.2], [1.3, 2.0])
+    assert not faster([1.0, 1.4], [1.3, 2.0])        # medians differ, ranges overlap: no call
+    assert not faster([1.3, 2.0], [1.0, 1.2])
+    assert faster_groups([[1.0, 1.1], [1.05, 1.5], [2.0, 2.1]]) == [[2], [2], []]
+
+
+def test_front_keeps_settings_whose_times_overlap():
+    # one run each would put only A on the front (A fastest, equal quality); the repeats overlap,
+    # so neither A nor B is faster beyond the spread and both stay
+    times = [[1.0, 1.3], [1.2, 1.4], [2.0, 2.2], [0.5, 0.6]]
+    quality = [0.5, 0.5, 0.1, 0.9]
+    assert pareto_front(times, quality) == [3, 0, 1, 2]
+    # C (index 2) gets worse than A and is beyond A's spread in time: dominated
+    assert pareto_front(times, [0.5, 0.5, 0.6, 0.9]) == [3, 0, 1]
+    # B strictly better quality with overlapping times dominates A
+    assert pareto_front(times, [0.5, 0.4, 0.6, 0.9]) == [3, 1]
+    assert dominates([1.2, 1.4], 0.4, [1.0, 1.3], 0.5)
+    assert not dominates([1.5, 1.6], 0.4, [1.0, 1.3], 0.5)   # better, but slower beyond the spread
+
+
+def test_front_skips_settings_without_quality():
+    assert pareto_front([[1.0], [2.0], [0.5]], [0.2, 0.1, None]) == [0, 1]
+    assert pareto_front([[1.0], [2.0]], [math.nan, 0.1]) == [1]
+
+
+def test_figure_numbers_do_not_collide(tmp_path):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from sarproc.quality.tradeoff_plot import _number_offsets, plot_tradeoff
+
+    fig = Figure(figsize=(4, 3))
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    ax.set_xlim(0, 10)
+    ax.set_ylim(0, 10)
+    offsets = _number_offsets(ax, [5.0, 5.0, 5.0, 8.0], [5.0, 5.0, 5.01, 1.0])
+    assert len({o for o in offsets[:3]}) == 3            # three markers on one spot: three rows of numbers
+    assert offsets[3] == offsets[0]                      # an isolated marker keeps the plain offset
+    png = plot_tradeoff(tmp_path / "t.png", ["a", "b", "c"], [[1.0, 1.1], [2.0, 2.5], [3.0]], [0.3, 0.1, None],
+                        quality_label="q", log_quality=True, floor=1e-3)
+    assert png.stat().st_size > 10_000 and png.read_bytes()[:4] == b"\x89PNG"
