@@ -1,7 +1,7 @@
 """Accuracy-against-time figures: repeated times as bars, the Pareto front as a line, numbered markers.
 
 Labels of a dozen settings overlap when written next to their markers; each marker carries only its
-number (numbers that would collide are stacked) and a table beside the axes names every number,
+number (markers whose numbers would collide share one label, "2, 9, 12") and a table beside the axes names every number,
 with its times and quality, the front's settings starred. The front and the "faster" rule are
 :mod:`sarproc.quality.tradeoff`'s.
 """
@@ -22,19 +22,21 @@ def _figure(width: float, height: float):
     return fig
 
 
-def _number_offsets(ax, xs, ys, min_px: float = 11.0) -> list[tuple[float, float]]:
-    """Text offsets (points) for the markers' numbers: a number closer than ``min_px`` to one already
-    placed moves up a line until it is clear (markers at the same spot get a column of numbers)."""
+def number_groups(ax, xs, ys, min_px: float = 12.0) -> list[list[int]]:
+    """Markers whose numbers would collide (closer than ``min_px`` vertically and three digits'
+    width horizontally on the drawn axes), grouped: each group gets one label "2, 9, 12" at its first
+    member, so no two labels overlap and none sits on another marker's row."""
     ax.figure.canvas.draw()
-    disp = ax.transData.transform(list(zip(xs, ys)))
-    placed, offsets = [], []
-    for x, y in disp:
-        dy = 0.0
-        while any(abs(x + 4 - px) < 2.2 * min_px and abs(y + 4 + dy - py) < min_px for px, py in placed):
-            dy += min_px
-        placed.append((x + 4, y + 4 + dy))
-        offsets.append((4.0, 4.0 + dy * 72.0 / ax.figure.dpi))
-    return offsets
+    disp = ax.transData.transform(list(zip(xs, ys))) if len(xs) else []
+    groups: list[list[int]] = []
+    for i, (x, y) in enumerate(disp):
+        for g in groups:
+            if any(abs(x - disp[j][0]) < 2.5 * min_px and abs(y - disp[j][1]) < min_px for j in g):
+                g.append(i)
+                break
+        else:
+            groups.append([i])
+    return groups
 
 
 def plot_tradeoff(path, labels, times, quality, *, quality_label: str, title: str = "",
@@ -66,14 +68,16 @@ def plot_tradeoff(path, labels, times, quality, *, quality_label: str, title: st
     if log_quality:
         ax.set_yscale("log")
     ax.set_xscale("log")
+    ax.margins(x=0.1, y=0.12)        # room for the numbers at the edges
     ax.set_xlabel("time (s): bar best..worst of the repeats, dot median")
     ax.set_ylabel(quality_label)
     if title:
         ax.set_title(title, fontsize=10)
-    offsets = _number_offsets(ax, [stats[i]["best"] for i in ok], [qy[i] for i in ok]) if ok else []
-    for i, off in zip(ok, offsets):
-        ax.annotate(str(i + 1), (stats[i]["best"], qy[i]), xytext=off, textcoords="offset points", fontsize=8,
-                    color="tab:red" if i in front else "black")
+    for group in number_groups(ax, [stats[i]["best"] for i in ok], [qy[i] for i in ok]):
+        first = ok[group[0]]
+        ax.annotate(", ".join(str(ok[g] + 1) for g in group), (stats[first]["best"], qy[first]), xytext=(-3, 5),
+                    textcoords="offset points", fontsize=8, ha="right",
+                    color="tab:red" if all(ok[g] in front for g in group) else "black")
     table = fig.add_subplot(grid[0, 1])
     table.axis("off")
     rows = [[str(i + 1) + (" *" if i in front else ""), labels[i], f"{stats[i]['best']:.3g}",

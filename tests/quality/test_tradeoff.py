@@ -48,16 +48,15 @@ def test_figure_numbers_do_not_collide(tmp_path):
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from sarproc.quality.tradeoff_plot import _number_offsets, plot_tradeoff
+    from sarproc.quality.tradeoff_plot import number_groups, plot_tradeoff
 
     fig = Figure(figsize=(4, 3))
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
     ax.set_xlim(0, 10)
     ax.set_ylim(0, 10)
-    offsets = _number_offsets(ax, [5.0, 5.0, 5.0, 8.0], [5.0, 5.0, 5.01, 1.0])
-    assert len({o for o in offsets[:3]}) == 3            # three markers on one spot: three rows of numbers
-    assert offsets[3] == offsets[0]                      # an isolated marker keeps the plain offset
+    # three markers on one spot share a label; one far away keeps its own
+    assert number_groups(ax, [5.0, 8.0, 5.0, 5.05], [5.0, 1.0, 5.0, 5.01]) == [[0, 2, 3], [1]]
     png = plot_tradeoff(tmp_path / "t.png", ["a", "b", "c"], [[1.0, 1.1], [2.0, 2.5], [3.0]], [0.3, 0.1, None],
                         quality_label="q", log_quality=True, floor=1e-3)
     assert png.stat().st_size > 10_000 and png.read_bytes()[:4] == b"\x89PNG"
