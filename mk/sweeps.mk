@@ -10,7 +10,7 @@ $(DIST_STAMP): $(STAMP) pyproject.toml
 # scripts/accuracy_backprojection.py on its 2 scenes): a 36-task sweep on a local Dask cluster, then a
 # script step for what a sweep row cannot hold, the deviation of every image from the finest one (read
 # off the sweep's images). Same table as the script's own run (quality columns equal to 1e-14,
-# deviations identical); its times are the sweep's per-task focus times (one run, product I/O included).
+# deviations identical); its times are the sweep's per-task focus times (best, median and spread of 3 interleaved runs, product I/O included).
 accuracy-backprojection: $(DIST_STAMP)
 	$(SARPROC) sweep configs/sweeps/backprojection.yaml -o results/bp-accuracy/sweep
 	$(PY) scripts/accuracy_backprojection.py --from-sweep results/bp-accuracy/sweep --out results/bp-accuracy
@@ -36,7 +36,7 @@ sweep-000: $(DIST_STAMP)
 # scripts/accuracy_002.py, sub-image sizes at full precision), then the script's table from the sweep's
 # images (a per-target score against each target's own sub-image theory, the false-target level and the
 # Pareto front: no sweep columns). Same numbers as the script's own run (identical); times are the
-# sweep's focus times.
+# sweep's focus times: best, median, spread of 3 interleaved runs (repeats: 3), faster only beyond the spread.
 accuracy-002: $(DIST_STAMP)
 	$(SARPROC) sweep configs/sweeps/accuracy_002.yaml -o results/002-accuracy/sweep
 	cd scripts && ../$(PY) accuracy_002.py --from-sweep ../results/002-accuracy/sweep --out ../results/002-accuracy
