@@ -7,7 +7,7 @@ process: best, median and spread) and the worst target's
 quality (the largest of |IRW / own theory - 1| / 5 %, |PSLR + 13.26| / 0.5 dB, |ISLR + 10.16| / 0.5
 dB and |position| / 0.5 cell: <= 1 is within the issue's tolerance). Writes table.md (with the
 Pareto front named) and tradeoff.png. A setting is faster than another only when its worst time is
-below the other's best; the front is sarproc.quality.tradeoff's under that rule.
+below the other's best; the front is that of (best time, quality) (sarproc.quality.tradeoff).
 
     python scripts/accuracy_002.py --from-sweep DIR --out results/002-accuracy
 
@@ -149,9 +149,9 @@ def write(args, results, how: str):
     beats = faster_groups(times)
     lines = [f"# pfa2 accuracy against time ({how})", "",
              "A setting is faster than another only when its worst time is below the other's best (the "
-             "ranges of their repeated times do not overlap); the Pareto front keeps every setting that no "
-             "other beats in quality without being slower beyond the spread, or beats in time beyond the "
-             "spread without being worse.", "",
+             "ranges of their repeated times do not overlap): the 'faster than #' column. The Pareto front is "
+             "that of (best time, quality); front neighbours not in each other's 'faster' column are not "
+             "resolved by the timings.", "",
              "| # | setting | best (s) | median (s) | spread (s) | worst target / tolerance | false target (dB) "
              "| faster than # | Pareto |",
              "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
