@@ -253,7 +253,7 @@ def write(res, rows, how):
              f"{how} time_s: reconstruct (search and channel rows) or "
              "backproject of the chip (interpolation rows); MFTA: strip false-target level, dB (the strip is "
              "backprojected with the row's interpolation knobs). A row is faster than another only when its "
-             "worst time is below the other's best (sarproc.quality.tradeoff; the figure's front uses that rule).", "",
+             "worst time is below the other's best (sarproc.quality.tradeoff); the figure's front is that of best time against MFTA.", "",
              "| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     for r in rows:
         cells = []

@@ -147,7 +147,7 @@ def main(argv=None):
               f"interleaved runs each, product I/O included; {args.from_sweep})."
               if args.from_sweep else f"Times are {args.repeat} in-process runs on this machine (one setting's back to back).")
     timing += (" A setting is faster than another only when its worst time is below the other's best; the Pareto "
-               "column marks the settings no other beats that way (sarproc.quality.tradeoff).")
+               "column marks the front of best time against IRW deviation (sarproc.quality.tradeoff).")
     head = ["# Backprojection: accuracy versus time (engine x upsampling x interpolation)", "",
             "Knobs: `backproject.engine` (float64 numpy reference or the compiled tiled kernel), "
             "`backproject.upsample` (range FFT upsampling before interpolation) and "
