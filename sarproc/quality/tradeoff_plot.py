@@ -84,9 +84,9 @@ def plot_tradeoff(path, labels, times, quality, *, quality_label: str, title: st
              f"{stats[i]['median']:.3g}", f"{stats[i]['spread']:.2g}",
              "n/a" if quality[i] is None else f"{quality[i]:.3g}"] for i in range(n)]
     tab = table.table(cellText=rows, colLabels=["#", "setting", "best s", "median s", "spread s", "quality"],
-                      loc="upper center", cellLoc="left", colWidths=[0.07, 0.47, 0.11, 0.12, 0.11, 0.12])
+                      loc="upper center", cellLoc="left", colWidths=[0.06, 0.56, 0.095, 0.095, 0.095, 0.095])
     tab.auto_set_font_size(False)
-    tab.set_fontsize(7)
+    tab.set_fontsize(6.5 if max(map(len, labels), default=0) > 36 else 7)
     table.set_title(f"* on the front; {stats[0]['repeats'] if stats else 0} interleaved repeats each", fontsize=8)
     fig.savefig(path, dpi=110, format="png")
     return Path(path)
