@@ -62,6 +62,7 @@ from sarproc.product.config import build, load_yaml, param
 from sarproc.product.errors import InputError, ProcessingError
 
 TIME_COLUMNS = ("simulate_s", "focus_s", "focus_median_s", "focus_spread_s", "evaluate_s")
+TIMING_KEYS = TIME_COLUMNS + ("focus_times",)     # every key of a row that holds a measured time
 QUALITY_COLUMNS = ("irw_dev", "pslr_db", "islr_db", "position_cells", "false_target_db")
 
 

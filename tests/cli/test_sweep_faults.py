@@ -18,7 +18,7 @@ import sys
 import pytest
 import yaml
 
-from sarproc.cli.sweep_tasks import TIME_COLUMNS, plan_sweep, run_serial
+from sarproc.cli.sweep_tasks import TIMING_KEYS, plan_sweep, run_serial
 
 from conftest import BASE_SCENE, merge
 
@@ -54,7 +54,7 @@ def dask_setup(worker):
 
 
 def quality(rows):
-    return [{k: v for k, v in r.items() if k not in TIME_COLUMNS} for r in rows]
+    return [{k: v for k, v in r.items() if k not in TIMING_KEYS} for r in rows]
 
 
 def test_a_killed_worker_s_tasks_rerun_on_the_others(tmp_path):
