@@ -67,7 +67,8 @@ def entropy(mag: np.ndarray) -> float:
 def compare(pfa, bp) -> dict:
     """NCC of the magnitudes and the ten brightest PFA points' offsets from the backprojection's, pixels."""
     A, B = np.abs(pfa.data), np.abs(bp.data)
-    ncc = float(((A - A.mean()) * (B - B.mean())).sum() / np.sqrt(((A - A.mean()) ** 2).sum() * ((B - B.mean()) ** 2).sum()))
+    a, b = A - A.mean(), B - B.mean()
+    ncc = float((a * b).sum() / np.sqrt((a**2).sum() * (b**2).sum()))
     rows = []
     for i, j in brightest(A, 10, 10):
         pa = subpixel_peak(A, i, j)
@@ -96,9 +97,11 @@ def main():
     results = [(label, img, compare(img, bp)) for label, img in images]
     for label, img, c in results:
         lines.append(f"| {label} | {c['same_grid']} | {c['ncc']:.4f} | {max(abs(r[2]) for r in c['rows']):.3f} | "
-                     f"{max(abs(r[3]) for r in c['rows']):.3f} | {c['entropy']:.4f} | {img.attrs.get('subimages', 1)} |")
+                     f"{max(abs(r[3]) for r in c['rows']):.3f} | {c['entropy']:.4f} | "
+                     f"{img.attrs.get('subimages', 1)} |")
     for label, img, c in results:
-        lines += ["", f"{label}:", "", "| pixel (az, rg) | d_az (px) | d_rg (px) | level (dB) |", "| --- | --- | --- | --- |"]
+        lines += ["", f"{label}:", "", "| pixel (az, rg) | d_az (px) | d_rg (px) | level (dB) |",
+                  "| --- | --- | --- | --- |"]
         lines += [f"| ({i}, {j}) | {da:+.3f} | {dr:+.3f} | {lv:.1f} |" for i, j, da, dr, lv in c["rows"]]
     quicklook(bp, args.dir / "image_bp.png", "Gotcha pass 1 HH 0-4 deg: backprojection")
     for (label, img, _), name in zip(results, ("image_pfa.png", "image_pfa_two_step.png")):
