@@ -18,6 +18,7 @@ reproduce-gotcha: $(STAMP)
 	mkdir -p results/gotcha
 	$(SARPROC) import-gotcha $(GOTCHA_DIR) -o results/gotcha/raw.h5 --overwrite
 	$(SARPROC) pfa2 results/gotcha/raw.h5 --config configs/gotcha.yaml -o results/gotcha/image_pfa.h5 --overwrite
+	$(SARPROC) pfa2 results/gotcha/raw.h5 --config configs/gotcha_two_step.yaml -o results/gotcha/image_pfa_two_step.h5 --overwrite
 	$(SARPROC) backproject results/gotcha/raw.h5 --config configs/gotcha.yaml -o results/gotcha/image_bp.h5 --overwrite
 	$(PY) scripts/reproduce_gotcha.py --dir results/gotcha
 	$(SARPROC) quicklook results/gotcha/image_bp.h5 -o results/gotcha/quicklook_bp.png --overwrite --dynamic-range 45

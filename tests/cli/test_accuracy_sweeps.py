@@ -175,3 +175,24 @@ def test_reproduce_003_sweeps_and_strip_config_hold_the_reproductions_geometry()
     strip = load_yaml(ROOT / "configs" / "xu_strip.yaml")
     scene = load_yaml(ROOT / "configs" / "xu_scene.yaml")
     assert build(BackprojectParams, strip["backproject"]).azimuth_extent == pytest.approx(3 * spacing(scene), abs=0.05)
+
+
+def test_motion_002_sweeps_focus_the_same_raw_products_over_the_issues_ranges():
+    """Issue 22: pfa2 and backprojection of the same simulated scenes; motion from 0.1 to 5 m, 0.3 to 5 s, 1 m/s."""
+    pfa = plan_sweep(ROOT / "configs" / "sweeps" / "motion_002.yaml")
+    bp = plan_sweep(ROOT / "configs" / "sweeps" / "motion_002_bp.yaml")
+    assert {s.key for s in pfa.sims} == {s.key for s in bp.sims} and len(pfa.sims) == 15
+    assert {t.scene: t.sim_key for t in pfa.tasks} == {t.scene: t.sim_key for t in bp.tasks}
+    assert len(pfa.tasks) == 3 * len(bp.tasks) and all(t.focus == ("backproject",) for t in bp.tasks)
+    motions = [s.config.get("effects", {}).get("platform_motion", {}) for s in pfa.sims]
+
+    def values(key, unit):
+        return [parse_quantity(m[key], unit) for m in motions if key in m]
+    amplitudes = values("cross_track_amplitude", "length") + values("vertical_amplitude", "length")
+    periods = values("cross_track_period", "time") + values("vertical_period", "time")
+    assert min(amplitudes) == pytest.approx(0.1) and max(amplitudes) == pytest.approx(5)
+    assert min(periods) == pytest.approx(0.3) and max(periods) == pytest.approx(5)
+    assert max(values("along_track_velocity_error", "velocity")) == pytest.approx(1)
+    # the eq. (7) case is the sub-image size of the straight scene's default (accuracy_002.yaml's radius)
+    sizes = {t.setting.get("pfa2.subimage_size") for t in pfa.tasks} - {None}
+    assert sizes == {"97.7300277783166 m"}

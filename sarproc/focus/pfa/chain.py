@@ -24,8 +24,8 @@ from sarproc.focus.pfa.correction import PfaGeometry, distortion_field, extended
 from sarproc.focus.pfa.phase_history import compensate
 from sarproc.focus.pfa.polar import (Grid, Interpolation, data_sampling, los_components, make_kgrid, pfa,
                                      polar_support, wavenumbers)
-from sarproc.focus.pfa.two_step import (SubImageTask, local_irw, mosaic, plan_tiles, run_tasks, tile_rects,
-                                        valid_radius, window_slices)
+from sarproc.focus.pfa.two_step import (SubImageTask, local_irw, mosaic, plan_tiles, pslr_rise_db, run_tasks,
+                                        tile_rects, track_radius, track_residual, valid_radius, window_slices)
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import InputError
 from sarproc.product.frames import GroundLosFrame, make_frame, targets_in_frame
@@ -67,6 +67,10 @@ class Pfa2Params:
     subimage_oversampling: float = param(default=1.5, ge=1.1, le=4, doc=(
         "two_step: sampling of a sub-image's decimated signal over what its window's extent needs"))
     valid_radius_factor: float = param(default=1.3, gt=0, doc="K_a of eq. (7), main-lobe broadening factor")
+    track_phase_budget: float = param(default=0.0126, gt=0, doc=(
+        "two_step: largest phase error (rad) a curved track's planar-wavefront residual may leave at a "
+        "sub-image's corner; the default sub-image is shrunk below eq. (7) to keep it (0.0126 rad: a PSLR "
+        "rises by 0.25 dB at most)"))
     correct_distortion: bool = param(default=False, doc=(
         "plain: read the image back at the planar-wavefront distortion of every pixel (true geometry, "
         "phase 0 at each peak); off, plain PFA's image is the paper's, distortion included"))
@@ -223,7 +227,17 @@ def _two_step(ph, params, grid: Grid, origin, e_a, e_r, radar, az_os, progress, 
     rect_in = polar_support(ua, ur, ph.carrier_frequency, ph.freqs, "inscribed")
     radius = valid_radius(2 * math.pi / (rect_in.ka_hi - rect_in.ka_lo), r_ac, radar.wavelength,
                           params.valid_radius_factor)
-    core = params.subimage_size or radius
+    # a curved track's residual (non-polynomial wiggle of the range) bounds the sub-image as well:
+    # a core's corners, core / sqrt(2) from its centre, must stay within track_radius
+    wiggle = track_residual(ph.positions, origin, e_a, e_r)
+    k_max = float(wavenumbers(ph.carrier_frequency, band[1]))
+    curved = math.sqrt(2) * track_radius(wiggle, r_ac, k_max, params.track_phase_budget)
+    core = params.subimage_size or min(radius, curved)
+    if core > curved:
+        corner = k_max * (core / math.sqrt(2)) ** 2 * wiggle / (2 * r_ac**2)
+        log.warning("pfa2: sub-images of %.3g m exceed the %.3g m that the track's %.3g m wiggle allows: "
+                    "paired echoes of %.3g rad may raise a PSLR by up to %.2f dB", core, curved, wiggle, corner,
+                    pslr_rise_db(corner))
     t0 = time.perf_counter()
     tiles = plan_tiles(grid, (core, core), params.subimage_overlap, ph.positions, origin, e_a, e_r,
                        ph.carrier_frequency, band)
@@ -272,6 +286,7 @@ def _two_step(ph, params, grid: Grid, origin, e_a, e_r, radar, az_os, progress, 
     img = mosaic((grid.n_a, grid.n_r), tiles, results)
     timing["subimages"] = time.perf_counter() - t0
     info = {"subimages": len(tiles), "subimage_core": core, "valid_radius_eq7": radius,
+            "track_residual": wiggle, "track_core_limit": curved if math.isfinite(curved) else -1.0,
             "step1_shape": [g1.n_a, g1.n_r],
             "window_shape_max": [max(s[0].stop - s[0].start for s in slices),
                                  max(s[1].stop - s[1].start for s in slices)]}

@@ -46,6 +46,48 @@ def valid_radius(azimuth_resolution: float, reference_range: float, wavelength: 
     return 2 * azimuth_resolution / ka * math.sqrt(reference_range / wavelength)
 
 
+# A sinc's first side lobe, relative to its peak: a paired echo of relative amplitude e / 2 on it raises the
+# PSLR by at most 20 log10(1 + e / (2 x 0.2172)) dB.
+FIRST_SIDELOBE = 0.2172
+
+
+def track_residual(positions, reference, e_azimuth, e_range) -> float:
+    """Largest part of the range r(t) to ``reference`` that no cubic in the line-of-sight angle follows, m.
+
+    On a straight track r is a smooth function of the polar angle theta = atan(u_a / u_r) (mm from a
+    cubic on the reduced Table 1 scene); a curved track (platform motion) adds wiggles that no
+    low-order polynomial in theta takes up, and these are what the planar wavefront of eq. (5)
+    cannot absorb into its distortion and defocus (see :func:`track_radius`).
+    """
+    ua, ur = los_components(positions, reference, e_azimuth, e_range)
+    if len(ua) < 5:
+        return 0.0
+    theta = np.arctan(ua / ur)
+    x = (theta - theta.mean()) / max(float(np.ptp(theta)), 1e-30)
+    r = reference_ranges(positions, reference)
+    fit = np.polynomial.Polynomial.fit(x, r, 3)
+    return float(np.max(np.abs(r - fit(x))))
+
+
+def track_radius(residual: float, reference_range: float, k_max: float, phase: float) -> float:
+    """Distance from a sub-image centre s within which a curved track's planar-wavefront residual stays under ``phase``.
+
+    For p = s + d the exact path difference is r_s - r_p = u . d - (|d|^2 - (u . d)^2) / (2 r) + O(d^3 / r^2);
+    PFA's k (eqs. 5-6) follows u(t) exactly, but the second term also depends on r(t), whose
+    non-polynomial wiggle dr(t) (:func:`track_residual`) leaves the phase error
+    K |d|^2 dr / (2 r^2) at most: paired echoes around each response. Bounded by ``phase``:
+    |d| <= r sqrt(2 phase / (K_max dr)). Infinite for a track without wiggles.
+    """
+    if residual <= 0:
+        return math.inf
+    return reference_range * math.sqrt(2 * phase / (k_max * residual))
+
+
+def pslr_rise_db(phase: float) -> float:
+    """Largest PSLR rise, dB, that a sinusoidal phase error of amplitude ``phase`` (rad) can cause."""
+    return 20 * math.log10(1 + phase / (2 * FIRST_SIDELOBE))
+
+
 @dataclasses.dataclass(frozen=True)
 class SubImageTask:
     """Everything one sub-image needs, as plain arrays (picklable; no product, no file).
