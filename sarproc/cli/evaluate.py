@@ -65,15 +65,33 @@ def markdown_table(report, units: dict) -> str:
                  "that neighbour (PSLR, ISLR over it, and an ideal sinc's ISLR over the same window; unverified); "
                  "'(own)': the theory is the target's own from the targets table (irw_, null_, pslr_, islr_<axis>: "
                  "its illumination and weighting), not the image's; PSLR and ISLR show it in parentheses.")
-    ft = report.false_target
-    if ft is None:
-        lines.append("\nFalse target: none (no pixel lies outside the target neighbourhoods of "
-                     f"+-{report.params.guard_cells:g} cells)")
-    else:
-        where = ", ".join(f"{d} = {v:.4g} {units.get(d, '')}".rstrip() for d, v in ft.position.items())
-        lines.append(f"\nFalse target: {_fmt(ft.level_db, '.2f')} dB relative to target {ft.reference_target}, "
-                     f"at {where}")
+    lines += false_target_lines(report, units)
     return "\n".join(lines)
+
+
+def false_target_lines(report, units: dict) -> list[str]:
+    """The false-target figures: on the residual image (every target's fitted response subtracted) with the
+    residual's floor, and outside the +-guard_cells windows of the image itself."""
+    def where(ft):
+        return ", ".join(f"{d} = {v:.4g} {units.get(d, '')}".rstrip() for d, v in ft.position.items())
+
+    guard = report.false_target_guard if report.residual is not None else report.false_target
+    out = []
+    if report.residual is not None:
+        ft, fl = report.false_target, report.residual
+        found = "none (no pixel outside the main lobes)" if ft is None else \
+            f"{_fmt(ft.level_db, '.2f')} dB relative to target {ft.reference_target}, at {where(ft)}"
+        out.append(f"\nFalse target: {found} (on the residual: every target's fitted response subtracted, main "
+                   f"lobes of +-{fl.exclusion_cells:g} cells excluded); residual floor in the targets' guard windows "
+                   f"{_fmt(fl.floor_db, '.2f')} dB, residual RMS {_fmt(fl.rms_db, '.2f')} dB")
+    label = "False target (guard window)" if report.residual is not None else "False target"
+    if guard is None:
+        out.append(f"\n{label}: none (no pixel lies outside the target neighbourhoods of "
+                   f"+-{report.params.guard_cells:g} cells)")
+    else:
+        out.append(f"\n{label}: {_fmt(guard.level_db, '.2f')} dB relative to target {guard.reference_target}, "
+                   f"at {where(guard)}")
+    return out
 
 
 def _write_text_atomic(path: Path, text: str, overwrite: bool = True) -> None:
