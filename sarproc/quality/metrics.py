@@ -92,6 +92,9 @@ class EvaluateParams:
         "spectral orders per axis of each target's response model (half-null-shifted sincs; 1 fits a linear "
         "taper and phase over the band, 2 a Hamming window)"))
     fit_nulls: float = param(default=6.0, gt=1, doc="half-width of the box each response model is fitted on, nulls")
+    fit_ridge_nulls: float = param(default=40.0, ge=0, doc=(
+        "each response model is also fitted on strips +-1 null wide along its side-lobe ridges out to this many "
+        "nulls"))
     exclusion_cells: float = param(default=2.0, gt=0, doc=(
         "half-size of the box around each target left out of the residual false-target search (its main lobe), "
         "resolution cells"))
@@ -998,12 +1001,29 @@ def _fit_group(members, points, y, found, nulls, orders, K0, iterations):
     return coef, f_c, K
 
 
+def _ridge_strips(pos, V, nulls, stride, shape, reach_nulls) -> list:
+    """Samples (ndim, M) along each side-lobe ridge out to +-``reach_nulls`` nulls, +-1 null across it:
+    the far side lobes pin the spatial chirp and band edges that the box around the peak leaves loose."""
+    ndim = len(shape)
+    out = []
+    for a in range(ndim):
+        t = np.arange(-reach_nulls * nulls[a], reach_nulls * nulls[a] + 1, stride[a])
+        across = [np.arange(-int(math.ceil(nulls[b])), int(math.ceil(nulls[b])) + 1, stride[b]) if b != a
+                  else np.zeros(1) for b in range(ndim)]
+        offs = np.stack([x.ravel() for x in np.meshgrid(*across, indexing="ij")], axis=0)   # (ndim, M0)
+        line = np.asarray(pos, dtype=float)[:, None] + np.outer(V[a], t)                     # (ndim, T)
+        pts = np.rint(line[:, :, None] + offs[:, None, :]).reshape(ndim, -1).astype(int)
+        inside = np.all((pts >= 0) & (pts < np.asarray(shape)[:, None]), axis=0)
+        out.append(pts[:, inside])
+    return out
+
+
 def fit_response_models(data, found, nulls, params) -> list:
     """Every target's response model, fitted by complex least squares on the samples within
     +-``params.fit_nulls`` nulls of its peak (about two per null).
 
-    Targets whose fit boxes (plus a null) overlap are fitted jointly; then each group is fitted again
-    on the image minus the other groups' models (their side lobes crossing its boxes), twice.
+    Targets whose fit boxes (plus a null) overlap are fitted jointly; then each group is fitted again,
+    twice, on its boxes and ridge strips (``params.fit_ridge_nulls``) minus the other groups' models.
     Returns one model dict per target ({} for a target with no response)."""
     nulls = np.asarray(nulls, dtype=float)
     ndim = data.ndim
@@ -1011,12 +1031,14 @@ def fit_response_models(data, found, nulls, params) -> list:
     r = np.ceil(params.fit_nulls * nulls).astype(int)
     stride = np.maximum(1, np.floor(nulls / 2)).astype(int)
     live = [j for j, f in enumerate(found) if abs(f["value"]) > 0]
-    boxes = {}
+    boxes, strips = {}, {}
     for j in live:
         c = np.rint(found[j]["pos"]).astype(int)
         pts = [np.arange(max(0, ci - ri), min(n, ci + ri + 1), st) for ci, ri, n, st in zip(c, r, data.shape, stride)]
         g = np.meshgrid(*pts, indexing="ij")
         boxes[j] = np.stack([x.ravel() for x in g], axis=0)
+        strips[j] = np.concatenate([boxes[j]] + _ridge_strips(found[j]["pos"], found[j]["V"], nulls, stride,
+                                                              data.shape, params.fit_ridge_nulls), axis=1)
     group = {j: {j} for j in live}
     for j in live:
         for k in live:
@@ -1032,10 +1054,14 @@ def fit_response_models(data, found, nulls, params) -> list:
     models = [{} for _ in found]
     fits = []
     for members in groups:
-        points = np.unique(np.concatenate([boxes[k] for k in members], axis=1), axis=1)
-        fits.append((members, points, data[tuple(points)].astype(complex)))
-    for sweep in range(3 if len(groups) > 1 else 1):
-        for members, points, y in fits:
+        near = np.unique(np.concatenate([boxes[k] for k in members], axis=1), axis=1)
+        far = np.unique(np.concatenate([strips[k] for k in members], axis=1), axis=1)
+        fits.append((members, near, data[tuple(near)].astype(complex), far, data[tuple(far)].astype(complex)))
+    # Sweep 0 on the boxes alone (the chirp converges from zero there); then on boxes and ridge strips, with
+    # the other groups' models subtracted.
+    for sweep in range(3):
+        for members, near, y_near, far, y_far in fits:
+            points, y = (near, y_near) if sweep == 0 else (far, y_far)
             rhs = y
             if sweep > 0:   # the other groups' current models on these samples (their side lobes)
                 others = [j for j in live if j not in members and models[j]]
