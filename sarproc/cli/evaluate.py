@@ -121,8 +121,9 @@ def evaluate(input_path: Path, output, overwrite, plot_dir, expect_path, config_
     as ideal responses and subtracted; a cut reaching the image edge is 'truncated', one left with
     poorly fitted neighbour energy 'contaminated': --expect counts both as unverified (fail).
     Parameters come from the `evaluate:` section of --config (search_cells, guard_cells,
-    upsample, islr_nulls, margin_nulls, irw_factor, principal_axes, remove_neighbours). Prints a
-    Markdown table; exit status 1 when --expect tolerances fail, 2 on bad input.
+    upsample, islr_nulls, margin_nulls, irw_factor, principal_axes, remove_neighbours, exact; the
+    experimental residual false-target search: residual, residual_orders, fit_nulls, fit_ridge_nulls,
+    exclusion_cells). Prints a Markdown table; exit status 1 when --expect tolerances fail, 2 on bad input.
     """
     from sarproc.cli.progress import progress_factory
     from sarproc.cli.stage import evaluate_estimate, naming

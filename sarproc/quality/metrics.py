@@ -89,6 +89,10 @@ class EvaluateParams:
     exact: bool = param(default=False, doc=(
         "reference numerics: SVD least squares and the full orientation density (slower; the fast path is "
         "tested to give the same report)"))
+    neighbour_orders: int = param(default=2, ge=0, le=4, doc=(
+        "where ideal responses fit a crowded group poorly (residual above -30 dB), its members are fitted again as "
+        "response models with this many spectral orders per axis (their weight and phase, a spatial chirp) and "
+        "those are subtracted if they fit better; 0: ideal responses only"))
     residual: bool = param(default=False, doc=(
         "also search false targets on the residual image (every target's fitted response subtracted, side lobes "
         "included; experimental: see docs) and gate --expect false_target_db_max on it"))
@@ -570,9 +574,7 @@ def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
             grid = np.meshgrid(*[np.arange(n) + o for n, o in zip(shape, f["raw"].origin)], indexing="ij")
             points = np.stack([g.ravel() for g in grid], axis=0).astype(float)
             hamming = params.irw_factor > 1.1
-            cleaned = f["raw"].data.ravel() - sum(
-                models[j]["amp"] * _ideal_response(points, models[j]["pos"], models[j]["V"], nulls, models[j]["f_c"],
-                                                   hamming) for j in others)
+            cleaned = f["raw"].data.ravel() - sum(_neighbour_values(points, models[j], hamming) for j in others)
             chip = _Chip(None, f["peak_index"], half, chip=(cleaned.reshape(f["raw"].shape), f["raw"].clipped))
             pos, value = chip.refine_peak(f["pos"])
             V, f_c = _support(chip, nulls, params)
@@ -707,11 +709,33 @@ def _neighbour_models(data, found: list, nulls, half, params) -> dict:
         basis = np.stack([model(q) for q in range(len(members))], axis=1)
         amp = least_squares(basis, y, params.exact)
         # How well ideal responses explain the group: a poor fit leaves the neighbours' side lobes in.
-        misfit = float(np.sum(np.abs(y - basis @ amp) ** 2) / max(np.sum(np.abs(y) ** 2), 1e-300))
+        energy = max(np.sum(np.abs(y) ** 2), 1e-300)
+        misfit = float(np.sum(np.abs(y - basis @ amp) ** 2) / energy)
+        rich = [None] * len(members)
+        if misfit > NEIGHBOUR_MISFIT and params.neighbour_orders > 0:
+            # Ideal responses leave too much: fit the members' own spectral weight, phase and chirp instead
+            # (the residual image's response models), and keep them where they explain the group.
+            start = [{"pos": pos[q], "V": V[q], "f_c": f_c[q], "value": amp[q]} for q in range(len(members))]
+            fitted = fit_response_models(data, start, nulls, dataclasses.replace(   # ridges as far as a chip reaches
+                params, residual_orders=params.neighbour_orders, fit_ridge_nulls=params.islr_nulls + params.margin_nulls))
+            pred = sum(_neighbour_values(points, {"rich": m}, hamming) for m in fitted if m)
+            rich_misfit = float(np.sum(np.abs(y - pred) ** 2) / energy)
+            if rich_misfit <= NEIGHBOUR_MISFIT:   # else the ideal models stay and the cuts say contaminated
+                rich, misfit = fitted, rich_misfit
         for q, k in enumerate(members):
             models[k] = {"pos": pos[q], "f_c": f_c[q], "V": V[q], "amp": amp[q], "group": set(members),
-                         "misfit": misfit, "nulls": nulls}
+                         "misfit": misfit, "nulls": nulls, "rich": rich[q] or None}
     return models
+
+
+def _neighbour_values(points, model, hamming) -> np.ndarray:
+    """A fitted neighbour at ``points`` ((ndim, N) image indices): its response model where one was fitted
+    (``rich``), else its amplitude times the ideal response."""
+    rich = model.get("rich")
+    if rich:
+        return response_basis(points, rich["pos"], rich["V"], rich["nulls"], rich["f_c"], rich["orders"],
+                              rich["K"]) @ rich["coef"]
+    return model["amp"] * _ideal_response(points, model["pos"], model["V"], model["nulls"], model["f_c"], hamming)
 
 
 def _measure(chip: "_Chip", axes, peak_index, pos, value, V, truth, name, params, metric, removed,
@@ -769,9 +793,7 @@ def _contamination(m: AxisMetrics, chip, axes, a, v, pos, peak2, models, truth, 
     hamming = params.irw_factor > 1.1
     nulls = [x.null for x in axes]
     main = peak2 * 0.903 * ax.null          # unweighted main-lobe energy along the cut (0.903 of the total)
-    ratios = [float(np.sum(np.abs(mod["amp"] * _ideal_response(points, mod["pos"], mod["V"], mod["nulls"],
-                                                               mod["f_c"], hamming)) ** 2) / 4.0 / main)
-              for mod in models]
+    ratios = [float(np.sum(np.abs(_neighbour_values(points, mod, hamming)) ** 2) / 4.0 / main) for mod in models]
     ratio = sum(ratios)
     if ratio <= CONTAMINATION:
         return m
