@@ -712,7 +712,8 @@ def _neighbour_models(data, found: list, nulls, half, params) -> dict:
         energy = max(np.sum(np.abs(y) ** 2), 1e-300)
         misfit = float(np.sum(np.abs(y - basis @ amp) ** 2) / energy)
         rich = [None] * len(members)
-        if misfit > NEIGHBOUR_MISFIT and params.neighbour_orders > 0:
+        if misfit > NEIGHBOUR_MISFIT and params.neighbour_orders > 0 and \
+                _refit_size(members, nulls, params) <= REFIT_BUDGET:
             # Ideal responses leave too much: fit the members' own spectral weight, phase and chirp instead
             # (the residual image's response models), and keep them where they explain the group.
             start = [{"pos": pos[q], "V": V[q], "f_c": f_c[q], "value": amp[q]} for q in range(len(members))]
@@ -726,6 +727,23 @@ def _neighbour_models(data, found: list, nulls, half, params) -> dict:
             models[k] = {"pos": pos[q], "f_c": f_c[q], "V": V[q], "amp": amp[q], "group": set(members),
                          "misfit": misfit, "nulls": nulls, "rich": rich[q] or None}
     return models
+
+
+REFIT_BUDGET = 1e9   # rows x columns^2 of a crowded group's response-model fit above which it is not tried
+
+
+def _refit_size(members, nulls, params) -> float:
+    """Rows x columns^2 of the least squares that refits a crowded group as response models (its cost)."""
+    nulls = np.asarray(nulls, dtype=float)
+    ndim = len(nulls)
+    stride = np.maximum(1, np.floor(nulls / 2))
+    box = np.prod(2 * np.ceil(params.fit_nulls * nulls) / stride + 1)
+    reach = params.islr_nulls + params.margin_nulls
+    strips = sum(2 * reach * nulls[a] / stride[a] * np.prod([2 * math.ceil(nulls[b]) / stride[b] + 1
+                                                             for b in range(ndim) if b != a]) for a in range(ndim))
+    columns = len(spectral_orders(ndim, params.neighbour_orders, params.neighbour_orders + (1 if ndim == 2 else 0))) \
+        + ndim + ndim * (ndim + 1) // 2
+    return float(len(members) * (box + strips) * (len(members) * columns) ** 2)
 
 
 def _neighbour_values(points, model, hamming) -> np.ndarray:
