@@ -56,11 +56,11 @@ def test_3d_support_and_least_squares_same_as_reference():
 
 
 def test_crowded_skewed_2d_same_report():
-    coords = [axis_coords(128, 0.4), axis_coords(128, 0.35)]
+    coords = [axis_coords(96, 0.4), axis_coords(96, 0.35)]
     a, r = np.meshgrid(coords[0], coords[1], indexing="ij")
     img = np.zeros(a.shape, dtype=complex)
-    targets = [(0.3, -0.2), (3.1, 2.2), (-2.4, 1.9)]
-    for (ta, tr), amp in zip(targets, (1.0, 0.7, 0.5j)):
+    targets = [(0.3, -0.2), (3.1, 2.2)]
+    for (ta, tr), amp in zip(targets, (1.0, 0.7j)):
         da, dr = a - ta, r - tr   # a skewed support: the range ridge leans on azimuth
         img += amp * np.sinc(0.886 * da) * np.sinc(0.886 / 0.8 * (dr + 0.15 * da)) * np.exp(2j * np.pi * 0.4 * da)
     fast = evaluate_image(img, ("azimuth", "range"), coords, (1.0, 0.8), targets)
