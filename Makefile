@@ -84,3 +84,11 @@ check-theory: $(STAMP)
 .PHONY: signal-soak
 signal-soak: $(STAMP)
 	flock /tmp/heavy.lock nice $(PY) scripts/signal_soak.py --runs 90 --out results/soak
+
+# False-target figures with and without the residual (issue 20): every paper image found under results/
+# (run the reproduce targets first), guard window vs residual, floors and evaluate times.
+.PHONY: residual-floors
+residual-floors: $(STAMP)
+	flock /tmp/heavy.lock nice $(PY) scripts/residual_floors.py $$(ls results/demo/image.h5 results/bp/image_*.h5 \
+		results/000-exp2/*image*.h5 results/002-small/*image*.h5 results/003/image_*.h5 results/004/*.h5 2>/dev/null \
+		| grep -v raw) --out results/residual_floors.md

@@ -67,14 +67,7 @@ def markdown_table(report, units: dict) -> str:
                  "its illumination and weighting), not the image's; PSLR and ISLR show it in parentheses.")
     if report.movers:
         lines.append(movers_table(report.movers))
-    ft = report.false_target
-    if ft is None:
-        lines.append("\nFalse target: none (no pixel lies outside the target neighbourhoods of "
-                     f"+-{report.params.guard_cells:g} cells)")
-    else:
-        where = ", ".join(f"{d} = {v:.4g} {units.get(d, '')}".rstrip() for d, v in ft.position.items())
-        lines.append(f"\nFalse target: {_fmt(ft.level_db, '.2f')} dB relative to target {ft.reference_target}, "
-                     f"at {where}")
+    lines += false_target_lines(report, units)
     return "\n".join(lines)
 
 
@@ -99,6 +92,31 @@ def movers_table(movers) -> str:
         lines.append("\n'none': the product holds no velocity estimate for this target (no moving_targets table row "
                      "and no reconstruct window matched it), so it is not relocated.")
     return "\n".join(lines)
+
+
+def false_target_lines(report, units: dict) -> list[str]:
+    """The false-target figures: on the residual image (every target's fitted response subtracted) with the
+    residual's floor, and outside the +-guard_cells windows of the image itself."""
+    def where(ft):
+        return ", ".join(f"{d} = {v:.4g} {units.get(d, '')}".rstrip() for d, v in ft.position.items())
+
+    guard = report.false_target_guard if report.residual is not None else report.false_target
+    out = []
+    if report.residual is not None:
+        ft, fl = report.false_target, report.residual
+        found = "none (no pixel outside the main lobes)" if ft is None else \
+            f"{_fmt(ft.level_db, '.2f')} dB relative to target {ft.reference_target}, at {where(ft)}"
+        out.append(f"\nFalse target: {found} (on the residual: every target's fitted response subtracted, main "
+                   f"lobes of +-{fl.exclusion_cells:g} cells excluded); residual floor in the targets' guard windows "
+                   f"{_fmt(fl.floor_db, '.2f')} dB, residual RMS {_fmt(fl.rms_db, '.2f')} dB")
+    label = "False target (guard window)" if report.residual is not None else "False target"
+    if guard is None:
+        out.append(f"\n{label}: none (no pixel lies outside the target neighbourhoods of "
+                   f"+-{report.params.guard_cells:g} cells)")
+    else:
+        out.append(f"\n{label}: {_fmt(guard.level_db, '.2f')} dB relative to target {guard.reference_target}, "
+                   f"at {where(guard)}")
+    return out
 
 
 def _write_text_atomic(path: Path, text: str, overwrite: bool = True) -> None:
@@ -134,8 +152,9 @@ def evaluate(input_path: Path, output, overwrite, plot_dir, expect_path, target_
     as ideal responses and subtracted; a cut reaching the image edge is 'truncated', one left with
     poorly fitted neighbour energy 'contaminated': --expect counts both as unverified (fail).
     Parameters come from the `evaluate:` section of --config (search_cells, guard_cells,
-    upsample, islr_nulls, margin_nulls, irw_factor, principal_axes, remove_neighbours). Prints a
-    Markdown table; exit status 1 when --expect tolerances fail, 2 on bad input.
+    upsample, islr_nulls, margin_nulls, irw_factor, principal_axes, remove_neighbours, exact; the
+    experimental residual false-target search: residual, residual_orders, fit_nulls, fit_ridge_nulls,
+    exclusion_cells). Prints a Markdown table; exit status 1 when --expect tolerances fail, 2 on bad input.
     """
     from sarproc.cli.progress import progress_factory
     from sarproc.cli.stage import evaluate_estimate, naming, report_plan

@@ -56,6 +56,7 @@ from typing import Optional
 import numpy as np
 import scipy.fft
 import scipy.interpolate
+import scipy.linalg
 
 from sarproc.product.config import param
 from sarproc.product.steps import steps, wrapped
@@ -85,6 +86,26 @@ class EvaluateParams:
         "false: along the image axes only"))
     remove_neighbours: bool = param(default=True, doc=(
         "fit and subtract the ideal responses of other targets inside a target's chip before measuring it"))
+    exact: bool = param(default=False, doc=(
+        "reference numerics: SVD least squares and the full orientation density (slower; the fast path is "
+        "tested to give the same report)"))
+    neighbour_orders: int = param(default=2, ge=0, le=4, doc=(
+        "where ideal responses fit a crowded group poorly (residual above -30 dB), its members are fitted again as "
+        "response models with this many spectral orders per axis (their weight and phase, a spatial chirp) and "
+        "those are subtracted if they fit better; 0: ideal responses only"))
+    residual: bool = param(default=False, doc=(
+        "also search false targets on the residual image (every target's fitted response subtracted, side lobes "
+        "included; experimental: see docs) and gate --expect false_target_db_max on it"))
+    residual_orders: int = param(default=1, ge=0, le=4, doc=(
+        "spectral orders per axis of each target's response model (half-null-shifted sincs; 1 fits a linear "
+        "taper and phase over the band, 2 a Hamming window)"))
+    fit_nulls: float = param(default=6.0, gt=1, doc="half-width of the box each response model is fitted on, nulls")
+    fit_ridge_nulls: float = param(default=40.0, ge=0, doc=(
+        "each response model is also fitted on strips +-1 null wide along its side-lobe ridges out to this many "
+        "nulls"))
+    exclusion_cells: float = param(default=2.0, gt=0, doc=(
+        "half-size of the box around each target left out of the residual false-target search (its main lobe), "
+        "resolution cells"))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -160,6 +181,10 @@ class QualityReport:
     false_target: Optional[FalseTarget]   # None: no pixel lies outside every target neighbourhood
     params: EvaluateParams
     movers: tuple = ()          # sarproc.quality.moving.MoverReport per moving truth target measured
+    # The residual figures (params.residual): false_target is then the residual's, and false_target_guard
+    # the strongest response outside the +-guard_cells windows of the image itself (the older figure).
+    false_target_guard: Optional[FalseTarget] = None
+    residual: Optional["ResidualFloor"] = None
 
     def target(self, name: str) -> TargetReport:
         for t in self.targets:
@@ -361,7 +386,21 @@ def _orientation_grid(ndim: int):
     return cand, sigma, [np.flatnonzero(row) for row in near]
 
 
-def principal_directions(chip: np.ndarray, centers, nulls, window_nulls: float = 8.0):
+def _orientation_density(cand, u, weight, sigma, exact=False):
+    """Sum over unit vectors u (weights ``weight``) of exp((cos^2 - 1) / 2 sigma^2) at each candidate.
+
+    Terms below exp(-40) of their weight (1e-17) are left out unless ``exact``: the exponential is
+    then taken on the few pairs within about 9 kernel widths (a tenth of them in 3D)."""
+    d2 = (cand @ u.T) ** 2
+    if exact:
+        return np.exp((d2 - 1.0) / (2 * sigma**2)) @ weight
+    near = d2 > 1.0 - 80.0 * sigma**2
+    w = np.zeros_like(d2)
+    w[near] = np.exp((d2[near] - 1.0) / (2 * sigma**2))
+    return w @ weight
+
+
+def principal_directions(chip: np.ndarray, centers, nulls, window_nulls: float = 8.0, exact: bool = False):
     """Side-lobe ridge directions of the response centred in ``chip``, from its spectral support.
 
     ``centers``: band centre per axis (cycles/sample); ``nulls``: null spacing 1/B per axis (samples).
@@ -405,7 +444,7 @@ def principal_directions(chip: np.ndarray, centers, nulls, window_nulls: float =
     u = g / norm[:, None]
     cand, sigma, near = _orientation_grid(ndim)
     sub = slice(None, None, max(1, len(u) // 4000))   # the density only locates the peaks
-    dens = np.concatenate([np.exp(((c @ u[sub].T) ** 2 - 1.0) / (2 * sigma**2)) @ norm[sub]
+    dens = np.concatenate([_orientation_density(c, u[sub], norm[sub], sigma, exact)
                            for c in np.array_split(cand, max(1, len(cand) // 500))])
     peaks = [i for i in np.argsort(dens)[::-1] if dens[i] >= dens[near[i]].max() and dens[i] > 0]
     found = []
@@ -538,9 +577,7 @@ def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
             grid = np.meshgrid(*[np.arange(n) + o for n, o in zip(shape, f["raw"].origin)], indexing="ij")
             points = np.stack([g.ravel() for g in grid], axis=0).astype(float)
             hamming = params.irw_factor > 1.1
-            cleaned = f["raw"].data.ravel() - sum(
-                models[j]["amp"] * _ideal_response(points, models[j]["pos"], models[j]["V"], nulls, models[j]["f_c"],
-                                                   hamming) for j in others)
+            cleaned = f["raw"].data.ravel() - sum(_neighbour_values(points, models[j], hamming) for j in others)
             chip = _Chip(None, f["peak_index"], half, chip=(cleaned.reshape(f["raw"].shape), f["raw"].clipped))
             pos, value = chip.refine_peak(f["pos"])
             V, f_c = _support(chip, nulls, params)
@@ -550,11 +587,19 @@ def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
     reports = [_measure(f["chip"], own, f["peak_index"], f["pos"], f["value"], f["V"], t, name, params, metric,
                         f["removed"], f.get("residual_models", []), names, found)
                for f, name, t, own in wrapped(done, list(zip(found, names, truth, own_axes)))]
+    # targets not measured (a subset was asked for) still guard their neighbourhoods from the search
     guarded = truth if other_truth is None or len(other_truth) == 0 else \
         np.concatenate([truth, np.asarray(other_truth, dtype=float).reshape(-1, len(dims))])
-    false = _false_target(data, mag, axes, guarded, [f["peak_index"] for f in found], reports, half, params)
+    peaks = [f["peak_index"] for f in found]
+    guard = _false_target(data, mag, axes, guarded, peaks, reports, half, params)
+    false, floor = guard, None
+    if params.residual:
+        models = fit_response_models(data, found, nulls, params)
+        false, floor = _residual_false_target(residual_image(data, models), axes, guarded, peaks, reports, half,
+                                              params)
     done()
-    return QualityReport(dims=dims, targets=tuple(reports), false_target=false, params=params)
+    return QualityReport(dims=dims, targets=tuple(reports), false_target=false, params=params,
+                         false_target_guard=guard, residual=floor)
 
 
 def _target_axes(axes, target_irw, n_targets, irw_factor, target_null=None, target_sidelobes=None) -> list[list[_Axis]]:
@@ -593,7 +638,7 @@ def _target_axes(axes, target_irw, n_targets, irw_factor, target_null=None, targ
 
 def _support(chip: "_Chip", nulls, params):
     if params.principal_axes and chip.data.ndim > 1:
-        return principal_directions(chip.data, chip.centers, nulls)
+        return principal_directions(chip.data, chip.centers, nulls, exact=params.exact)
     return np.eye(chip.data.ndim), np.asarray(chip.centers, dtype=float)
 
 
@@ -655,7 +700,7 @@ def _neighbour_models(data, found: list, nulls, half, params) -> dict:
                     d = np.zeros((ndim, ndim))
                     d[a, b] = 0.002
                     cols.append((model(q, v=V[q] + d) - model(q, v=V[q] - d)) / 0.004)
-            sol = np.linalg.lstsq(np.stack(cols, axis=1), y, rcond=None)[0].reshape(len(members), -1)
+            sol = least_squares(np.stack(cols, axis=1), y, params.exact).reshape(len(members), -1)
             largest = 0.0
             for q in range(len(members)):
                 if sol[q, 0] == 0:
@@ -669,13 +714,53 @@ def _neighbour_models(data, found: list, nulls, half, params) -> dict:
             if largest < 1e-3:   # band centres within 1e-5 cycles/sample, positions and skews within 1e-3
                 break
         basis = np.stack([model(q) for q in range(len(members))], axis=1)
-        amp = np.linalg.lstsq(basis, y, rcond=None)[0]
+        amp = least_squares(basis, y, params.exact)
         # How well ideal responses explain the group: a poor fit leaves the neighbours' side lobes in.
-        misfit = float(np.sum(np.abs(y - basis @ amp) ** 2) / max(np.sum(np.abs(y) ** 2), 1e-300))
+        energy = max(np.sum(np.abs(y) ** 2), 1e-300)
+        misfit = float(np.sum(np.abs(y - basis @ amp) ** 2) / energy)
+        rich = [None] * len(members)
+        if misfit > NEIGHBOUR_MISFIT and params.neighbour_orders > 0 and \
+                _refit_size(members, nulls, params) <= REFIT_BUDGET:
+            # Ideal responses leave too much: fit the members' own spectral weight, phase and chirp instead
+            # (the residual image's response models), and keep them where they explain the group.
+            start = [{"pos": pos[q], "V": V[q], "f_c": f_c[q], "value": amp[q]} for q in range(len(members))]
+            fitted = fit_response_models(data, start, nulls, dataclasses.replace(   # ridges as far as a chip reaches
+                params, residual_orders=params.neighbour_orders, fit_ridge_nulls=params.islr_nulls + params.margin_nulls))
+            pred = sum(_neighbour_values(points, {"rich": m}, hamming) for m in fitted if m)
+            rich_misfit = float(np.sum(np.abs(y - pred) ** 2) / energy)
+            if rich_misfit <= NEIGHBOUR_MISFIT:   # else the ideal models stay and the cuts say contaminated
+                rich, misfit = fitted, rich_misfit
         for q, k in enumerate(members):
             models[k] = {"pos": pos[q], "f_c": f_c[q], "V": V[q], "amp": amp[q], "group": set(members),
-                         "misfit": misfit, "nulls": nulls}
+                         "misfit": misfit, "nulls": nulls, "rich": rich[q] or None}
     return models
+
+
+REFIT_BUDGET = 1e9   # rows x columns^2 of a crowded group's response-model fit above which it is not tried
+
+
+def _refit_size(members, nulls, params) -> float:
+    """Rows x columns^2 of the least squares that refits a crowded group as response models (its cost)."""
+    nulls = np.asarray(nulls, dtype=float)
+    ndim = len(nulls)
+    stride = np.maximum(1, np.floor(nulls / 2))
+    box = np.prod(2 * np.ceil(params.fit_nulls * nulls) / stride + 1)
+    reach = params.islr_nulls + params.margin_nulls
+    strips = sum(2 * reach * nulls[a] / stride[a] * np.prod([2 * math.ceil(nulls[b]) / stride[b] + 1
+                                                             for b in range(ndim) if b != a]) for a in range(ndim))
+    columns = len(spectral_orders(ndim, params.neighbour_orders, params.neighbour_orders + (1 if ndim == 2 else 0))) \
+        + ndim + ndim * (ndim + 1) // 2
+    return float(len(members) * (box + strips) * (len(members) * columns) ** 2)
+
+
+def _neighbour_values(points, model, hamming) -> np.ndarray:
+    """A fitted neighbour at ``points`` ((ndim, N) image indices): its response model where one was fitted
+    (``rich``), else its amplitude times the ideal response."""
+    rich = model.get("rich")
+    if rich:
+        return response_basis(points, rich["pos"], rich["V"], rich["nulls"], rich["f_c"], rich["orders"],
+                              rich["K"]) @ rich["coef"]
+    return model["amp"] * _ideal_response(points, model["pos"], model["V"], model["nulls"], model["f_c"], hamming)
 
 
 def _measure(chip: "_Chip", axes, peak_index, pos, value, V, truth, name, params, metric, removed,
@@ -695,6 +780,29 @@ def _measure(chip: "_Chip", axes, peak_index, pos, value, V, truth, name, params
                         image_axes=tuple(image_axes), neighbours_removed=tuple(removed))
 
 
+def least_squares(B, y, exact: bool = False):
+    """Least-squares solution of B x = y (B tall, full column rank).
+
+    Through the normal equations of the column-equilibrated B (unit-norm columns, Cholesky) with two
+    steps of iterative refinement (which restore the accuracy the squared condition number costs): on the
+    tall systems of 3D boxes several times faster than an SVD; ``exact`` (or a Gram matrix that is not numerically positive definite) takes numpy's SVD
+    solver, the reference the fast path is tested against."""
+    if not exact:
+        scale = np.linalg.norm(B, axis=0)
+        scale[scale == 0] = 1.0
+        Bs = B / scale
+        try:
+            factor = scipy.linalg.cho_factor(Bs.conj().T @ Bs)
+        except np.linalg.LinAlgError:
+            factor = None
+        if factor is not None:
+            x = scipy.linalg.cho_solve(factor, Bs.conj().T @ y)
+            for _ in range(2):   # iterative refinement: the normal equations' squared condition number undone
+                x = x + scipy.linalg.cho_solve(factor, Bs.conj().T @ (y - Bs @ x))
+            return x / scale
+    return np.linalg.lstsq(B, y, rcond=None)[0]
+
+
 NEIGHBOUR_MISFIT = 1e-3   # group fit residual (energy ratio) above which subtracted neighbours may leave side lobes
 CONTAMINATION = 0.01     # neighbours' modelled energy in a cut's ISLR window / the main lobe's: flag above
 
@@ -710,9 +818,7 @@ def _contamination(m: AxisMetrics, chip, axes, a, v, pos, peak2, models, truth, 
     hamming = params.irw_factor > 1.1
     nulls = [x.null for x in axes]
     main = peak2 * 0.903 * ax.null          # unweighted main-lobe energy along the cut (0.903 of the total)
-    ratios = [float(np.sum(np.abs(mod["amp"] * _ideal_response(points, mod["pos"], mod["V"], mod["nulls"],
-                                                               mod["f_c"], hamming)) ** 2) / 4.0 / main)
-              for mod in models]
+    ratios = [float(np.sum(np.abs(_neighbour_values(points, mod, hamming)) ** 2) / 4.0 / main) for mod in models]
     ratio = sum(ratios)
     if ratio <= CONTAMINATION:
         return m
@@ -815,6 +921,292 @@ def _false_target(data, mag, axes, truth, peaks, reports, half, params) -> Optio
         level_db=float(20 * np.log10(max(abs(value), pixel) / ref.peak_amplitude)),
         position={ax.name: float(ax.to_coord(p)) for ax, p in zip(axes, pos)},
         pixel_level_db=float(20 * np.log10(pixel / ref.peak_amplitude)), reference_target=ref.name)
+
+
+# ----------------------------------------------------------------------------------------------
+# Residual image: every target's fitted response subtracted, so false targets are searched under the
+# targets' side-lobe floor instead of outside a guard window.
+#
+# Each target's response is modelled as a band-limited function on its own spectral support (the
+# parallelogram / parallelepiped of :func:`principal_directions`, centred on its band centre f_c) whose
+# spectrum is a short Fourier series over the support: sum over orders n of C_n exp(j pi n . u), u the
+# support's dual coordinates in (-1/2, 1/2) per ridge. The response of order n is then a product of
+# half-null-shifted sincs, prod_a sinc(c_a + n_a / 2) (c the ridge coordinates in nulls), so the spectral
+# weight and phase (antenna taper, a quadratic phase left by the processor, a Hamming window) are fitted by
+# linear complex least squares on the samples around each peak, and the model is exact and cheap to
+# evaluate anywhere in the image (its side lobes across the whole image are subtracted with it).
+
+
+@dataclasses.dataclass(frozen=True)
+class ResidualFloor:
+    """The residual image's figures: the image minus every target's fitted response."""
+
+    floor_db: float             # strongest residual pixel in the targets' guard windows, main lobes excluded,
+                                # relative to the strongest target's peak: how deep the subtraction reaches
+    rms_db: float               # residual RMS outside the main lobes, same reference
+    exclusion_cells: float      # main-lobe half-box left out of both searches, resolution cells
+    orders: int                 # spectral-weight orders per target model
+
+
+@functools.lru_cache(maxsize=None)
+def spectral_orders(ndim: int, max_order: int, max_total: int) -> np.ndarray:
+    """Orders n (ndim integers in -max_order..max_order, sum |n_a| <= max_total) of the response basis."""
+    grid = itertools.product(range(-max_order, max_order + 1), repeat=ndim)
+    return np.array([n for n in grid if sum(abs(k) for k in n) <= max_total], dtype=int)
+
+
+def _ridge_frame(position, V, nulls):
+    """(A, p): ridge coordinates in nulls are A @ (x - p) for image indices x."""
+    A = np.linalg.inv(np.asarray(V, dtype=float).T) / np.asarray(nulls, dtype=float)[:, None]
+    return A, np.asarray(position, dtype=float)
+
+
+def _shifted_sincs(c, max_order):
+    """sinc(c + n/2) for n = -max_order..max_order (list), from one sin/cos pair of pi c."""
+    s, co = np.sin(np.pi * c), np.cos(np.pi * c)
+    out = []
+    for n in range(-max_order, max_order + 1):
+        # sin(pi (c + n/2)): n even -> +-sin(pi c), n odd -> +-cos(pi c)
+        num = (s if n % 2 == 0 else co) * (1.0 if (n % 4) in (0, 1) else -1.0)
+        den = np.pi * (c + n / 2.0)
+        small = np.abs(den) < 1e-9
+        out.append(np.where(small, 1.0, num / np.where(small, 1.0, den)))
+    return out
+
+
+def _chirp_pairs(ndim):
+    return [(a, b) for a in range(ndim) for b in range(a, ndim)]
+
+
+def _chirp_phase(x, K):
+    """pi x^T K x for offsets x ((ndim, N) or broadcastable per-axis arrays), K symmetric (cycles/sample^2)."""
+    ndim = len(x)
+    zero = np.zeros(np.broadcast_shapes(*[np.shape(v) for v in x]))
+    return np.pi * sum(((1.0 if a == b else 2.0) * K[a, b] * x[a] * x[b]
+                        for a, b in _chirp_pairs(ndim) if K[a, b] != 0.0), zero)
+
+
+def response_basis(points, position, V, nulls, f_c, orders, K=None) -> np.ndarray:
+    """Basis of a target's response at ``points`` ((ndim, N) image indices): (N, K) complex, column k
+    the response of spectral order ``orders[k]`` (carrier f_c in cycles/sample, spatial chirp K in
+    cycles/sample^2, peak 1 for order 0)."""
+    A, p = _ridge_frame(position, V, nulls)
+    x = np.asarray(points, dtype=float) - p[:, None]
+    c = A @ x
+    m = int(np.abs(orders).max()) if orders.size else 0
+    per_axis = [_shifted_sincs(c[a], m) for a in range(len(p))]
+    phase = 2 * np.pi * (np.asarray(f_c, dtype=float) @ x)
+    if K is not None:
+        phase = phase + _chirp_phase(x, K)
+    carrier = np.exp(1j * phase)
+    cols = [carrier * np.prod([per_axis[a][n + m] for a, n in enumerate(order)], axis=0) for order in orders]
+    return np.stack(cols, axis=1)
+
+
+def _model_on_box(slices, model) -> np.ndarray:
+    """A fitted response model on the image box ``slices`` (complex128, the box's shape).
+
+    Sin and cos of pi c_a are taken once per axis; the shifted sincs are then divisions, and for an
+    unskewed support the order sum is an outer product of per-axis factors."""
+    A, p = _ridge_frame(model["pos"], model["V"], model["nulls"])
+    orders, coef, f_c = model["orders"], model["coef"], np.asarray(model["f_c"], dtype=float)
+    ndim = len(p)
+    m = int(np.abs(orders).max())
+    xs = [np.arange(s.start, s.stop, dtype=float) - pi for s, pi in zip(slices, p)]
+    shape = [len(x) for x in xs]
+
+    def along(b, v):   # 1-D array v along image axis b, broadcastable over the box
+        return v.reshape([-1 if i == b else 1 for i in range(ndim)])
+
+    grid = [along(b, xs[b]) for b in range(ndim)]
+    carrier = np.exp(1j * (2 * np.pi * sum(f_c[b] * grid[b] for b in range(ndim)) + _chirp_phase(grid, model["K"])))
+    factors = []
+    for a in range(ndim):
+        c = functools.reduce(np.add, [A[a, b] * grid[b] for b in range(ndim) if A[a, b] != 0.0])
+        factors.append(_shifted_sincs(c, m))
+    if all(np.count_nonzero(A[a]) == 1 and A[a, a] != 0 for a in range(ndim)):   # separable: outer products
+        tensor = np.zeros((2 * m + 1,) * ndim, dtype=complex)
+        for order, k in zip(orders, coef):
+            tensor[tuple(order + m)] = k
+        out = tensor
+        for a in range(ndim):   # contract each order axis with its axis' shifted sincs
+            f = np.stack([v.reshape(-1) for v in factors[a]], axis=0)       # (2m+1, n_a)
+            out = np.tensordot(out, f, axes=([0], [0]))
+        return out * carrier
+    out = np.zeros(shape, dtype=complex)
+    for order, k in zip(orders, coef):
+        term = k * factors[0][order[0] + m]
+        for a in range(1, ndim):
+            term = term * factors[a][order[a] + m]
+        out += term
+    return out * carrier
+
+
+def _fit_group(members, points, y, found, nulls, orders, K0, iterations):
+    """Complex amplitudes of every member's orders, and real band centres f_c and spatial chirps K by
+    Gauss-Newton (the band centre first estimated as the power centroid, which a taper pulls off the
+    support's middle; the amplitudes by linear least squares at each step).
+    Returns (coef per member, f_c per member, K per member)."""
+    ndim = points.shape[0]
+    pairs = _chirp_pairs(ndim)
+    K = [np.array(k, dtype=float) for k in K0]
+    f_c = [np.array(found[k]["f_c"], dtype=float) for k in members]
+    offs = [points - np.asarray(found[k]["pos"], dtype=float)[:, None] for k in members]
+    base = [response_basis(points, found[k]["pos"], found[k]["V"], nulls, np.zeros(ndim), orders) for k in members]
+    n_o, n_p = len(orders), ndim + len(pairs)
+
+    def bases():
+        return [b * np.exp(1j * (2 * np.pi * (f @ x) + _chirp_phase(x, k)))[:, None]
+                for b, x, f, k in zip(base, offs, f_c, K)]
+
+    coef = least_squares(np.concatenate(bases(), axis=1), y).reshape(len(members), n_o)
+    for _ in range(iterations):
+        cols = []
+        for b, x, c in zip(bases(), offs, coef):
+            model = b @ c
+            cols.append(b)
+            cols.append(np.stack([2j * np.pi * x[a] * model for a in range(ndim)] +
+                                 [1j * np.pi * (1.0 if a == q else 2.0) * x[a] * x[q] * model for a, q in pairs], axis=1))
+        sol = least_squares(np.concatenate(cols, axis=1), y).reshape(len(members), n_o + n_p)
+        largest = 0.0
+        for q in range(len(members)):
+            step = sol[q, n_o:].real
+            f_c[q] = f_c[q] + np.clip(step[:ndim], -0.02, 0.02)
+            for (a, b), d in zip(pairs, step[ndim:]):
+                K[q][a, b] += d
+                K[q][b, a] = K[q][a, b]
+            largest = max(largest, float(np.max(np.abs(step[:ndim]))), float(np.max(np.abs(step[ndim:]))) * 100)
+        coef = least_squares(np.concatenate(bases(), axis=1), y).reshape(len(members), n_o)
+        if largest < 1e-6:
+            break
+    return coef, f_c, K
+
+
+def _ridge_strips(pos, V, nulls, stride, shape, reach_nulls) -> list:
+    """Samples (ndim, M) along each side-lobe ridge out to +-``reach_nulls`` nulls, +-1 null across it:
+    the far side lobes pin the spatial chirp and band edges that the box around the peak leaves loose."""
+    ndim = len(shape)
+    out = []
+    for a in range(ndim):
+        t = np.arange(-reach_nulls * nulls[a], reach_nulls * nulls[a] + 1, stride[a])
+        across = [np.arange(-int(math.ceil(nulls[b])), int(math.ceil(nulls[b])) + 1, stride[b]) if b != a
+                  else np.zeros(1) for b in range(ndim)]
+        offs = np.stack([x.ravel() for x in np.meshgrid(*across, indexing="ij")], axis=0)   # (ndim, M0)
+        line = np.asarray(pos, dtype=float)[:, None] + np.outer(V[a], t)                     # (ndim, T)
+        pts = np.rint(line[:, :, None] + offs[:, None, :]).reshape(ndim, -1).astype(int)
+        inside = np.all((pts >= 0) & (pts < np.asarray(shape)[:, None]), axis=0)
+        out.append(pts[:, inside])
+    return out
+
+
+def fit_response_models(data, found, nulls, params) -> list:
+    """Every target's response model, fitted by complex least squares on the samples within
+    +-``params.fit_nulls`` nulls of its peak (about two per null).
+
+    Targets whose fit boxes (plus a null) overlap are fitted jointly; then each group is fitted again,
+    twice, on its boxes and ridge strips (``params.fit_ridge_nulls``) minus the other groups' models.
+    Returns one model dict per target ({} for a target with no response)."""
+    nulls = np.asarray(nulls, dtype=float)
+    ndim = data.ndim
+    orders = spectral_orders(ndim, params.residual_orders, params.residual_orders + (1 if ndim == 2 else 0))
+    r = np.ceil(params.fit_nulls * nulls).astype(int)
+    stride = np.maximum(1, np.floor(nulls / 2)).astype(int)
+    live = [j for j, f in enumerate(found) if abs(f["value"]) > 0]
+    boxes, strips = {}, {}
+    for j in live:
+        c = np.rint(found[j]["pos"]).astype(int)
+        pts = [np.arange(max(0, ci - ri), min(n, ci + ri + 1), st) for ci, ri, n, st in zip(c, r, data.shape, stride)]
+        g = np.meshgrid(*pts, indexing="ij")
+        boxes[j] = np.stack([x.ravel() for x in g], axis=0)
+        strips[j] = np.concatenate([boxes[j]] + _ridge_strips(found[j]["pos"], found[j]["V"], nulls, stride,
+                                                              data.shape, params.fit_ridge_nulls), axis=1)
+    group = {j: {j} for j in live}
+    for j in live:
+        for k in live:
+            if k > j and np.all(np.abs(found[j]["pos"] - found[k]["pos"]) <= 2 * r + nulls) and group[j] is not group[k]:
+                merged = group[j] | group[k]
+                for q in merged:
+                    group[q] = merged
+    groups = []
+    for j in live:
+        if group[j] not in groups:
+            groups.append(group[j])
+    groups = [sorted(g) for g in groups]
+    models = [{} for _ in found]
+    fits = []
+    for members in groups:
+        near = np.unique(np.concatenate([boxes[k] for k in members], axis=1), axis=1)
+        far = np.unique(np.concatenate([strips[k] for k in members], axis=1), axis=1)
+        fits.append((members, near, data[tuple(near)].astype(complex), far, data[tuple(far)].astype(complex)))
+    # Sweep 0 on the boxes alone (the chirp converges from zero there); then on boxes and ridge strips, with
+    # the other groups' models subtracted.
+    for sweep in range(3):
+        for members, near, y_near, far, y_far in fits:
+            points, y = (near, y_near) if sweep == 0 else (far, y_far)
+            rhs = y
+            if sweep > 0:   # the other groups' current models on these samples (their side lobes)
+                others = [j for j in live if j not in members and models[j]]
+                if others:
+                    rhs = y - sum(response_basis(points, models[j]["pos"], models[j]["V"], nulls, models[j]["f_c"],
+                                                 orders, models[j]["K"]) @ models[j]["coef"] for j in others)
+            K0 = [models[k]["K"] if models[k] else np.zeros((ndim, ndim)) for k in members]
+            start = [dict(found[k], f_c=models[k]["f_c"]) if models[k] else found[k] for k in members]
+            coef, f_c, K = _fit_group(list(range(len(members))), points, rhs, start, nulls, orders, K0,
+                                      10 if sweep == 0 else 3)
+            for q, k in enumerate(members):
+                models[k] = {"pos": np.asarray(found[k]["pos"], dtype=float), "V": np.asarray(found[k]["V"]),
+                             "f_c": f_c[q], "nulls": nulls, "orders": orders, "coef": coef[q], "K": K[q]}
+    return models
+
+
+def residual_image(data, models, block_samples: int = 1 << 18) -> np.ndarray:
+    """``data`` minus every fitted model over the whole image (complex128), in slabs along axis 0."""
+    out = np.array(data, dtype=np.complex128)
+    rows = max(1, block_samples // max(1, math.prod(data.shape[1:])))
+    for start in range(0, data.shape[0], rows):
+        slab = (slice(start, min(data.shape[0], start + rows)),) + tuple(slice(0, n) for n in data.shape[1:])
+        for model in models:
+            if model:
+                out[slab] -= _model_on_box(slab, model)
+    return out
+
+
+def _exclusion_mask(shape, axes, truth, peaks, cells) -> np.ndarray:
+    """True outside the +-``cells`` boxes around every truth and found peak."""
+    outside = np.ones(shape, dtype=bool)
+    half = [ax.cells_to_samples(cells) for ax in axes]
+    # every truth row (unmeasured targets of a --targets subset included) and every found peak
+    centres = [np.rint([ax.to_index(x) for ax, x in zip(axes, t)]).astype(int) for t in truth] + list(peaks)
+    for c in centres:
+        outside[window_slices(c, half, shape)] = False
+    return outside
+
+
+def _residual_false_target(residual, axes, truth, peaks, reports, half, params):
+    """(FalseTarget or None, ResidualFloor): strongest residual response outside the main lobes, and the
+    residual's floor inside the targets' guard windows."""
+    ref = max(reports, key=lambda r: r.peak_amplitude)
+    mag = np.abs(residual)
+    search = _exclusion_mask(residual.shape, axes, truth, peaks, params.exclusion_cells)
+    guard = ~_exclusion_mask(residual.shape, axes, truth, peaks, params.guard_cells) & search
+    db = lambda v: float(20 * np.log10(v / ref.peak_amplitude)) if v > 0 and ref.peak_amplitude > 0 else -np.inf  # noqa: E731
+    floor = ResidualFloor(
+        floor_db=db(float(mag[guard].max())) if guard.any() else -np.inf,
+        rms_db=db(float(np.sqrt(np.mean(mag[search] ** 2)))) if search.any() else -np.inf,
+        exclusion_cells=params.exclusion_cells, orders=len(spectral_orders(
+            residual.ndim, params.residual_orders, params.residual_orders + (1 if residual.ndim == 2 else 0))))
+    if not search.any():
+        return None, floor
+    k = np.unravel_index(np.argmax(np.where(search, mag, -1.0)), mag.shape)
+    pixel = float(mag[k])
+    position = {ax.name: float(ax.to_coord(i)) for ax, i in zip(axes, k)}
+    if pixel == 0.0 or ref.peak_amplitude == 0.0:
+        return FalseTarget(level_db=-np.inf, position=position, pixel_level_db=-np.inf,
+                           reference_target=ref.name), floor
+    pos, value = _Chip(residual, k, half).refine_peak(k)
+    return FalseTarget(level_db=db(max(abs(value), pixel)),
+                       position={ax.name: float(ax.to_coord(p)) for ax, p in zip(axes, pos)},
+                       pixel_level_db=db(pixel), reference_target=ref.name), floor
 
 
 def target_patch(data, dims, coords, theoretical_irw, target: TargetReport, pair=(0, 1),

@@ -191,7 +191,9 @@ def test_contaminated_cut_is_also_measured_on_a_shortened_window():
     defocused = spectrum_psf(bx, np.ones_like, phase=lambda f: 1.0 * (2 * f) ** 2)
     az_b = 0.8 * defocused(a - targets[1][0]) / defocused(np.zeros(1))[0]
     img = np.outer(np.sinc(bx * (a - targets[0][0])) + az_b, np.sinc(by * (r - targets[0][1]))).astype(np.complex64)
-    rep = evaluate_image(img, DIMS, [a, r], (0.886 / bx, 0.886 / by), targets, names=["A", "B"])
+    # ideal neighbour models only (neighbour_orders: 0); the default fits B's phase: see the next test
+    rep = evaluate_image(img, DIMS, [a, r], (0.886 / bx, 0.886 / by), targets, names=["A", "B"],
+                         params=EvaluateParams(neighbour_orders=0))
     m = rep.target("A").axes[0]
     assert m.contaminated_db is not None
     assert m.islr_db > SINC_ISLR + 1                       # the full window still holds B's residual
@@ -205,3 +207,28 @@ def test_contaminated_cut_is_also_measured_on_a_shortened_window():
     fails = check_report(rep, expectations_from_mapping({"pslr_db": [-30, 0], "islr_db": [-30, 0]}))
     assert ("A", "azimuth", "contaminated") in {(f.target, f.axis, f.metric) for f in fails}
     assert any("shortened" in str(f) and "unverified" in str(f) for f in fails if f.target == "A")
+
+
+def test_neighbour_with_spectral_phase_is_fitted_and_both_are_measured_in_place():
+    # The scene above: B, 6 nulls from A along azimuth, carries a quadratic spectral phase (1 rad at the band
+    # edges). By default the crowded group, poorly fitted by ideal responses, is fitted again as response
+    # models with their own spectral weight and phase: A reads an ideal sinc, B its own defocused response
+    # (the Fourier integral of its spectrum, evaluated independently of sarproc), neither contaminated.
+    from tests.quality.test_metrics import spectrum_psf
+
+    bx, by = 0.886 / 1.0, 0.886 / 0.8
+    targets = [(0.1, -0.2), (0.1 + 6 / bx, -0.2)]
+    a, r = axis_coords(200, 0.5), axis_coords(200, 0.5)
+    phase = lambda f: 1.0 * (2 * f) ** 2  # noqa: E731
+    defocused = spectrum_psf(bx, np.ones_like, phase=phase)
+    az_b = 0.8 * defocused(a - targets[1][0]) / defocused(np.zeros(1))[0]
+    img = np.outer(np.sinc(bx * (a - targets[0][0])) + az_b, np.sinc(by * (r - targets[0][1]))).astype(np.complex64)
+    rep = evaluate_image(img, DIMS, [a, r], (0.886 / bx, 0.886 / by), targets, names=["A", "B"])
+    ma, mb = rep.target("A").axes[0], rep.target("B").axes[0]
+    assert ma.contaminated_db is None and mb.contaminated_db is None
+    assert abs(ma.irw_ratio - 1) < 0.005 and abs(ma.pslr_db - SINC_PSLR) < 0.1 and abs(ma.islr_db - SINC_ISLR) < 0.1
+    ref = reference_metrics(bx, np.ones_like, phase)
+    assert mb.irw == pytest.approx(ref["irw"], rel=0.003)
+    assert mb.pslr_db == pytest.approx(ref["pslr_db"], abs=0.1)
+    assert mb.islr_db == pytest.approx(ref["islr_db"], abs=0.1)
+    assert check_report(rep, expectations_from_mapping({"pslr_db": [-30, 0]})) == []

@@ -1,0 +1,55 @@
+"""False-target figures with and without the residual (issue 20 item 1), via the CLI only.
+
+For each image: `sarproc evaluate` with the default (guard window) and with `evaluate.residual: true`;
+tabulates the guard-window figure, the residual false target, the residual floor and both run times.
+Usage: python scripts/residual_floors.py IMAGE.h5 [...] --out results/residual_floors.md
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+
+def evaluate(image: Path, config: Path | None, out: Path) -> tuple[dict, float]:
+    cmd = [sys.executable, "-m", "sarproc", "evaluate", str(image), "-o", str(out), "--overwrite", "--no-progress"]
+    if config is not None:
+        cmd += ["--config", str(config)]
+    t0 = time.perf_counter()
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+    return json.loads(out.read_text()), time.perf_counter() - t0
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("images", nargs="+", type=Path)
+    ap.add_argument("--out", type=Path, default=None)
+    args = ap.parse_args(argv)
+    rows = ["| image | guard-window false target (dB) | residual false target (dB) | residual floor (dB) | "
+            "residual RMS (dB) | evaluate (s) | with residual (s) |", "|---|---:|---:|---:|---:|---:|---:|"]
+    fmt = lambda v: "n/a" if v is None else f"{v:.2f}"  # noqa: E731
+    with tempfile.TemporaryDirectory() as tmp:
+        cfg = Path(tmp) / "residual.yaml"
+        cfg.write_text("evaluate:\n  residual: true\n")
+        for image in args.images:
+            plain, t_plain = evaluate(image, None, Path(tmp) / "plain.json")
+            res, t_res = evaluate(image, cfg, Path(tmp) / "res.json")
+            ft = res["false_target"]
+            rows.append(f"| {image} | {fmt((plain['false_target'] or {}).get('level_db'))} | "
+                        f"{fmt((ft or {}).get('level_db'))} | {fmt(res['residual']['floor_db'])} | "
+                        f"{fmt(res['residual']['rms_db'])} | {t_plain:.1f} | {t_res:.1f} |")
+            print(rows[-1], flush=True)
+    text = "\n".join(rows) + "\n"
+    if args.out is not None:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(text)
+    print(text)
+
+
+if __name__ == "__main__":
+    main()
