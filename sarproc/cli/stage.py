@@ -225,8 +225,24 @@ def backproject_estimate(stage, header, params) -> Plan:
     raw = 4 * complex_bytes(n_ch, n_az, n_rg)
     up = complex_bytes(min(64, n_az), n_rg * params.upsample, itemsize=16)
     per = 4e-9 if params.engine == "compiled" else 25e-9
-    return Plan(stage, stored_bytes(*n), raw + 2 * up + 64.0 * n_pix,
-                n_ch * n_az * n_pix * per, f"~{n[0]} x {n[1]} pixels from {n_ch * n_az} pulses")
+    memory = raw + 2 * up + 64.0 * n_pix
+    detail = f"~{n[0]} x {n[1]} pixels from {n_ch * n_az} pulses"
+    seconds = n_ch * n_az * n_pix * per
+    if params.engine == "ffbp":
+        from sarproc.focus.ffbp import error_bound, levels, predicted_error
+
+        n_lev = levels(n_az, params.ffbp_factor)
+        q = params.ffbp_oversample
+        err = predicted_error(n_az, params.ffbp_factor, q, params.ffbp_interpolation)
+        # all pulses upsampled at once, and two levels' polar images (at most ~q^2 samples per pixel each)
+        memory += complex_bytes(n_az, n_rg * params.upsample) + 2 * complex_bytes(n_pix) * q * q
+        # ~q^2 / 3 polar samples per pixel per level, factor reads each, ~100 ns a read (measured on the bench scene)
+        seconds = n_ch * n_pix * n_lev * q * q / 3 * params.ffbp_factor * 100e-9
+        detail += (f"; ffbp: {n_lev} levels of {params.ffbp_factor}, oversample {q:g}, "
+                   f"{params.ffbp_interpolation}; predicted error against the exact image "
+                   f"{10 * math.log10(max(err, 1e-30)):.1f} dB (at most "
+                   f"{10 * math.log10(max(error_bound(err), 1e-30)):.1f})")
+    return Plan(stage, stored_bytes(*n), memory, seconds, detail)
 
 
 def pfa2_estimate(stage, header, params) -> Plan:

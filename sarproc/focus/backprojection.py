@@ -133,7 +133,7 @@ def _backproject_block(s, e, flat, stride, n_up, scale, t0, gate, tx_c, rx_c, mo
     return val.sum(axis=0, dtype=np.complex128)
 
 
-ENGINES = ("compiled", "reference")
+ENGINES = ("compiled", "reference", "ffbp")
 INTERPOLATIONS = ("linear", "nearest", "cubic", "knab", "sinc", "lanczos")
 
 
@@ -311,7 +311,13 @@ class BackprojectParams:
                                    "lanczos kernel on its samples")
     kernel_length: int = param(default=8, ge=2, le=32, doc="taps of the knab / sinc / lanczos range kernel")
     engine: str = param(default="compiled", choices=ENGINES,
-                        doc="compiled (tiled numba kernel, float32 per-pixel offsets) or reference (float64 numpy)")
+                        doc="compiled (tiled numba kernel, float32 per-pixel offsets), reference (float64 numpy) or "
+                            "ffbp (fast factorised backprojection, O(N^2 log N), error predicted in the plan)")
+    ffbp_factor: int = param(default=4, ge=2, le=64, doc="ffbp: subapertures merged per level")
+    ffbp_oversample: float = param(default=4.0, ge=1.0, le=16.0, doc="ffbp: polar grid sampling over Nyquist "
+                                   "(range by the bandwidth, angle by the subaperture length); the error knob")
+    ffbp_interpolation: str = param(default="cubic", choices=("cubic", "linear"),
+                                    doc="ffbp: reads of the polar subimages (4-sample Lagrange or linear)")
     range_window: str = param(default="none", choices=WINDOWS, doc="range spectral taper (README: Windows)")
     azimuth_window: str = param(default="none", choices=WINDOWS, doc="taper over the pulses (README: Windows)")
     max_pixels: int = param(default=16_000_000, ge=1, doc="refuse grids larger than this")
@@ -398,6 +404,9 @@ def backproject(raw: Product, params: BackprojectParams = BackprojectParams(), p
     if params.interpolation in ("knab", "sinc", "lanczos") and params.kernel_length % 2:
         raise InputError(f"backproject.kernel_length: {params.kernel_length} taps; the {params.interpolation} "
                          "kernel needs an even number")
+    if params.engine == "ffbp" and params.interpolation not in ("linear", "cubic"):
+        raise InputError(f"backproject.interpolation: {params.interpolation!r} with engine: ffbp; it reads the "
+                         "pulses linear or cubic")
     if params.engine == "reference" and params.interpolation not in ("linear", "nearest"):
         raise InputError(f"backproject.interpolation: {params.interpolation!r} needs backproject.engine: compiled "
                          "(the reference engine interpolates linear or nearest)")
@@ -434,8 +443,20 @@ def backproject(raw: Product, params: BackprojectParams = BackprojectParams(), p
     az, rg = np.meshgrid(grid["azimuth"], grid["range"], indexing="ij")
     points = frame.to_xyz(az.ravel(), rg.ravel())
     img = np.zeros(len(points), np.complex128)
+    if params.engine == "ffbp" and any(not np.array_equal(tx_off, rx) for rx in rx_offs):
+        raise InputError("backproject.engine: ffbp needs a monostatic product (transmit and receive phase centres "
+                         "equal); use engine: compiled")
     for ch in range(data.shape[0]):
         rc = range_compress(data[ch], radar, params.range_window) * taper[:, None].astype(np.float32)
+        if params.engine == "ffbp":
+            from sarproc.focus.ffbp import ffbp_points
+
+            img += ffbp_points(rc, raw.coords["range_time"], pos + tx_off, points, radar.carrier_frequency,
+                               radar.bandwidth, upsample=params.upsample, interpolation=params.interpolation,
+                               gate_offset=raw.aux.get("range_gate_offset"), factor=params.ffbp_factor,
+                               oversample=params.ffbp_oversample, ffbp_interpolation=params.ffbp_interpolation,
+                               grid_shape=az.shape)
+            continue
         img += backproject_points(rc, raw.coords["range_time"], pos + tx_off, pos + rx_offs[ch], points,
                                   radar.carrier_frequency, upsample=params.upsample,
                                   interpolation=params.interpolation,

@@ -1,0 +1,117 @@
+"""Compiled kernels of fast factorised backprojection (:mod:`sarproc.focus.ffbp`).
+
+A subimage is a polar image around the in-plane foot (fx, fy) of its subaperture's centre, which is h above the
+image plane: sample (a, k) is the point at range r = r0 + k dr from the centre and in-plane angle
+theta = th_mid + th_lo + a dth, demodulated by the carrier of that range (exp(-j 2 pi kc2 r)), so that it is
+band-limited in both coordinates. Geometry rows (float64): fx, fy, h, r0, dr, th_mid, th_lo, dth; integer rows:
+n_theta, n_range, offset into the level's flat complex64 buffer. A subimage with n_theta = 1 (a single pulse)
+does not depend on the angle.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from sarproc.dsp.phasor import cis_cycles32_short
+
+LINEAR, CUBIC = 1, 3
+
+
+@numba.njit(fastmath=True, error_model="numpy", cache=True)
+def _weights(t, mode):
+    """Interpolation weights of samples -1, 0, 1, 2 at fraction t in [0, 1): linear or cubic Lagrange."""
+    if mode == LINEAR:
+        return 0.0, 1.0 - t, t, 0.0
+    tm, t1, t2 = t + 1.0, t - 1.0, t - 2.0
+    return (-t * t1 * t2 / 6.0, tm * t1 * t2 / 2.0, -tm * t * t2 / 2.0, tm * t * t1 / 6.0)
+
+
+@numba.njit(fastmath=True, error_model="numpy", cache=True)
+def _row_value(buf, base, n, pos, mode):
+    """A row of n samples at buf[base:] read at fractional sample ``pos`` (zero outside the row)."""
+    i0 = math.floor(pos)
+    w = _weights(pos - i0, mode)
+    i = np.int64(i0)
+    re = 0.0
+    im = 0.0
+    for m in range(4):
+        j = i - 1 + m
+        if w[m] != 0.0 and j >= 0 and j < n:
+            v = buf[base + j]
+            re += w[m] * v.real
+            im += w[m] * v.imag
+    return re, im
+
+
+@numba.njit(fastmath=True, error_model="numpy", cache=True)
+def _read(buf, geo, ints, c, x, y, z, r_ref, kc2, mode_r, mode_t):
+    """Subimage c read at the plane point (x, y, z), re-modulated by the carrier of its range from c's centre and
+    demodulated by that of ``r_ref``: its contribution exp(j 2 pi kc2 (r_c - r_ref)) x value."""
+    dx = x - geo[c, 0]
+    dy = y - geo[c, 1]
+    dz = geo[c, 2] - z
+    rc = math.sqrt(dx * dx + dy * dy + dz * dz)
+    pos = (rc - geo[c, 3]) / geo[c, 4]
+    n_t, n_r, off = ints[c, 0], ints[c, 1], ints[c, 2]
+    if n_t == 1:
+        re, im = _row_value(buf, off, n_r, pos, mode_r)
+    else:
+        th = math.atan2(dy, dx) - geo[c, 5]
+        th -= 2.0 * math.pi * math.floor(th / (2.0 * math.pi) + 0.5)
+        ta = (th - geo[c, 6]) / geo[c, 7]
+        a0 = math.floor(ta)
+        wa = _weights(ta - a0, mode_t)
+        a = np.int64(a0)
+        re = 0.0
+        im = 0.0
+        for m in range(4):
+            j = a - 1 + m
+            if wa[m] != 0.0 and j >= 0 and j < n_t:
+                vr, vi = _row_value(buf, off + j * n_r, n_r, pos, mode_r)
+                re += wa[m] * vr
+                im += wa[m] * vi
+    cyc = kc2 * (rc - r_ref)
+    cyc -= math.floor(cyc + 0.5)
+    co, si = cis_cycles32_short(np.float32(cyc))
+    return re * co - im * si, re * si + im * co
+
+
+@numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=True)
+def merge_level(cbuf, cgeo, cints, first_child, pgeo, pints, pbuf, row_parent, row_angle, kc2, mode_r, mode_t):
+    """Each parent polar sample: the sum of its children read at its plane point (one job per parent row)."""
+    for job in numba.prange(len(row_parent)):
+        s = row_parent[job]
+        a = row_angle[job]
+        th = pgeo[s, 5] + pgeo[s, 6] + a * pgeo[s, 7]
+        ct, st = math.cos(th), math.sin(th)
+        n_r, off = pints[s, 1], pints[s, 2] + a * pints[s, 1]
+        h2 = pgeo[s, 2] * pgeo[s, 2]
+        for k in range(n_r):
+            r = pgeo[s, 3] + k * pgeo[s, 4]
+            rho = math.sqrt(max(r * r - h2, 0.0))
+            x = pgeo[s, 0] + rho * ct
+            y = pgeo[s, 1] + rho * st
+            re = 0.0
+            im = 0.0
+            for c in range(first_child[s], first_child[s + 1]):
+                vr, vi = _read(cbuf, cgeo, cints, c, x, y, 0.0, r, kc2, mode_r, mode_t)
+                re += vr
+                im += vi
+            pbuf[off + k] = complex(re, im)
+
+
+@numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=True)
+def final_points(buf, geo, ints, px, py, pz, kc2, mode_r, mode_t, out):
+    """out[i] = sum of the top subimages read at point i (plane coordinates px, py, normal offset pz), with the
+    carrier of its exact range restored (exp(+j 2 pi kc2 r), as exact backprojection applies it)."""
+    for i in numba.prange(len(px)):
+        re = 0.0
+        im = 0.0
+        for c in range(geo.shape[0]):
+            vr, vi = _read(buf, geo, ints, c, px[i], py[i], pz[i], 0.0, kc2, mode_r, mode_t)
+            re += vr
+            im += vi
+        out[i] = complex(re, im)

@@ -1,0 +1,98 @@
+"""Fast factorised backprojection: the exact image within its predicted error, targets at theory, the knob."""
+
+import copy
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sarproc.focus.backprojection import BackprojectParams, backproject
+from sarproc.focus.ffbp import error_bound, ffbp_points, interpolation_error, predicted_error
+from sarproc.product.config import load_yaml
+from sarproc.product.errors import InputError
+from sarproc.quality.metrics import evaluate_product
+from sarproc.simulation.scene import scene_from_mapping
+from sarproc.simulation.simulate import simulate
+
+from helpers import assert_theory
+
+CONFIGS = Path(__file__).resolve().parents[2] / "configs"
+STRIPMAP = load_yaml(CONFIGS / "bp_stripmap.yaml")
+SQUINT30 = load_yaml(CONFIGS / "bp_squint30.yaml")
+# Broadside spotlight on a wobbling track (tests/simulation/test_effects.py): 0.5 m cross-track, 0.2 m vertical.
+MOTION = {**copy.deepcopy(SQUINT30), "geometry": {"reference_range": "6 km", "squint": "0 deg"},
+          "effects": {"platform_motion": {
+              "cross_track_amplitude": "0.5 m", "cross_track_period": "0.2 s", "cross_track_phase": "30 deg",
+              "vertical_amplitude": "0.2 m", "vertical_period": "0.3 s", "along_track_velocity_error": "0.5 m/s"}}}
+
+
+def nmse(image, exact):
+    return float(np.sum(np.abs(image - exact) ** 2) / np.sum(np.abs(exact) ** 2))
+
+
+@pytest.fixture(scope="module", params=[(STRIPMAP, "zero_doppler"), (SQUINT30, "los"), (MOTION, "los")],
+                ids=["broadside-stripmap", "squint30-spotlight", "curved-track"])
+def case(request):
+    scene, frame = request.param
+    raw = simulate(scene_from_mapping(scene))
+    params = BackprojectParams(frame=frame, margin_cells=28)
+    return raw, params, backproject(raw, params).data
+
+
+def test_ffbp_error_against_the_exact_image_is_the_predicted_one(case):
+    raw, params, exact = case
+    for q in (2.0, 3.0, 4.0):
+        image = backproject(raw, dataclasses.replace(params, engine="ffbp", ffbp_oversample=q)).data
+        measured = nmse(image, exact)
+        predicted = predicted_error(raw.data.shape[0], params.ffbp_factor, q, "cubic")
+        # below the bound (the model + 4 dB) and no more than 6 dB under the model: the prediction means something
+        assert predicted / 4 < measured < error_bound(predicted), (q, 10 * np.log10(measured),
+                                                                   10 * np.log10(predicted))
+
+
+def test_ffbp_targets_reach_theory(case):
+    raw, params, _ = case
+    image = backproject(raw, dataclasses.replace(params, engine="ffbp", ffbp_oversample=4.0))
+    report = evaluate_product(image)
+    assert_theory(report, irw_tol=0.03, db_tol=0.3, pos_cells=0.05, n_targets=3)
+
+
+def test_ffbp_oversample_trades_error_for_work():
+    raw = simulate(scene_from_mapping(SQUINT30))
+    params = BackprojectParams(frame="los", azimuth_extent=60.0, range_extent=60.0)
+    exact = backproject(raw, params).data
+    from sarproc.dsp.rangecomp import range_compress
+    from sarproc.product.frames import make_frame
+
+    frame = make_frame("los", raw.radar)
+    img = backproject(raw, params)
+    az, rg = np.meshgrid(img.coords["azimuth"], img.coords["range"], indexing="ij")
+    pts = frame.to_xyz(az.ravel(), rg.ravel())
+    rc = range_compress(raw.data, raw.radar)
+    errors, work = [], []
+    for q in (1.5, 2.0, 3.0, 4.0):
+        info = {}
+        out = ffbp_points(rc, raw.coords["range_time"], raw.aux["platform_position"], pts,
+                          raw.radar.carrier_frequency, raw.radar.bandwidth, oversample=q, grid_shape=az.shape,
+                          info=info)
+        errors.append(nmse(out.reshape(az.shape), exact))
+        work.append(sum(info["samples"]))
+    assert all(a > 4 * b for a, b in zip(errors, errors[1:])), errors     # each step: > 6 dB better
+    assert all(a < b for a, b in zip(work, work[1:])), work
+    assert errors[-1] < 10 ** -4                                          # -40 dB at 4x oversampling
+
+
+def test_interpolation_error_falls_with_oversampling_and_order():
+    cubic = [interpolation_error(q, "cubic") for q in (1.5, 2, 3, 4)]
+    linear = [interpolation_error(q, "linear") for q in (1.5, 2, 3, 4)]
+    assert all(a > b for a, b in zip(cubic, cubic[1:])) and all(c < li for c, li in zip(cubic, linear))
+    # Lagrange cubic error ~ f^4: twice the oversampling, ~ 2^8 less power (24 dB)
+    assert 10 * np.log10(cubic[1] / cubic[3]) == pytest.approx(24, abs=2)
+
+
+def test_ffbp_refuses_a_bistatic_product():
+    raw = simulate(scene_from_mapping(SQUINT30))
+    bistatic = dataclasses.replace(raw, aux={**raw.aux, "rx_offset": np.array([[0.0, 1.0, 0.0]])})
+    with pytest.raises(InputError, match="engine: ffbp needs a monostatic"):
+        backproject(bistatic, BackprojectParams(frame="los", engine="ffbp", azimuth_extent=10.0, range_extent=10.0))
