@@ -96,3 +96,27 @@ def test_ffbp_refuses_a_bistatic_product():
     bistatic = dataclasses.replace(raw, aux={**raw.aux, "rx_offset": np.array([[0.0, 1.0, 0.0]])})
     with pytest.raises(InputError, match="engine: ffbp needs a monostatic"):
         backproject(bistatic, BackprojectParams(frame="los", engine="ffbp", azimuth_extent=10.0, range_extent=10.0))
+
+
+def test_plan_prints_the_predicted_error_and_the_cli_runs_ffbp(tmp_path):
+    import subprocess
+    import sys
+
+    import yaml
+
+    from sarproc.product.io import read_product
+
+    scene = {**copy.deepcopy(SQUINT30), "backproject": {"frame": "los", "azimuth_extent": "20 m",
+                                                        "range_extent": "20 m", "engine": "ffbp",
+                                                        "ffbp_oversample": 3}}
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(scene))
+    cmd = [sys.executable, "-m", "sarproc"]
+    subprocess.run(cmd + ["simulate", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "r.h5"), "--no-progress"],
+                   check=True, capture_output=True)
+    out = subprocess.run(cmd + ["-v", "backproject", str(tmp_path / "r.h5"), "--config", str(tmp_path / "s.yaml"),
+                                "-o", str(tmp_path / "i.h5"), "--no-progress"], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    predicted = 10 * np.log10(predicted_error(212, 4, 3.0, "cubic"))
+    assert f"ffbp: 4 levels of 4, oversample 3, cubic; predicted error against the exact image {predicted:.1f} dB" \
+        in out.stderr
+    assert read_product(tmp_path / "i.h5").history[-1]["parameters"]["engine"] == "ffbp"
