@@ -23,26 +23,28 @@ LINEAR, CUBIC = 1, 3
 @numba.njit(fastmath=True, error_model="numpy", cache=True)
 def _weights(t, mode):
     """Interpolation weights of samples -1, 0, 1, 2 at fraction t in [0, 1): linear or cubic Lagrange."""
+    one, two, six = type(t)(1.0), type(t)(2.0), type(t)(6.0)
     if mode == LINEAR:
-        return 0.0, 1.0 - t, t, 0.0
-    tm, t1, t2 = t + 1.0, t - 1.0, t - 2.0
-    return (-t * t1 * t2 / 6.0, tm * t1 * t2 / 2.0, -tm * t * t2 / 2.0, tm * t * t1 / 6.0)
+        return t * 0, one - t, t, t * 0
+    tm, t1, t2 = t + one, t - one, t - two
+    return (-t * t1 * t2 / six, tm * t1 * t2 / two, -tm * t * t2 / two, tm * t * t1 / six)
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=True)
-def _row_value(buf, base, n, pos, mode):
-    """A row of n samples at buf[base:] read at fractional sample ``pos`` (zero outside the row)."""
-    i0 = math.floor(pos)
-    w = _weights(pos - i0, mode)
-    i = np.int64(i0)
+def _row_value(buf, base, n, i, w0, w1, w2, w3):
+    """Samples i - 1 .. i + 2 of a row of n at buf[base:] weighted (zero outside the row; no checks inside it)."""
+    if i >= 1 and i + 2 < n:
+        v = w0 * buf[base + i - 1] + w1 * buf[base + i] + w2 * buf[base + i + 1] + w3 * buf[base + i + 2]
+        return v.real, v.imag
     re = 0.0
     im = 0.0
     for m in range(4):
         j = i - 1 + m
-        if w[m] != 0.0 and j >= 0 and j < n:
+        if j >= 0 and j < n:
+            wm = w0 if m == 0 else (w1 if m == 1 else (w2 if m == 2 else w3))
             v = buf[base + j]
-            re += w[m] * v.real
-            im += w[m] * v.imag
+            re += wm * v.real
+            im += wm * v.imag
     return re, im
 
 
@@ -56,8 +58,11 @@ def _read(buf, geo, ints, c, x, y, z, r_ref, kc2, mode_r, mode_t):
     rc = math.sqrt(dx * dx + dy * dy + dz * dz)
     pos = (rc - geo[c, 3]) / geo[c, 4]
     n_t, n_r, off = ints[c, 0], ints[c, 1], ints[c, 2]
+    p0 = math.floor(pos)
+    i = np.int64(p0)
+    w0, w1, w2, w3 = _weights(np.float32(pos - p0), mode_r)
     if n_t == 1:
-        re, im = _row_value(buf, off, n_r, pos, mode_r)
+        re, im = _row_value(buf, off, n_r, i, w0, w1, w2, w3)
     else:
         th = math.atan2(dy, dx) - geo[c, 5]
         th -= 2.0 * math.pi * math.floor(th / (2.0 * math.pi) + 0.5)
@@ -70,7 +75,7 @@ def _read(buf, geo, ints, c, x, y, z, r_ref, kc2, mode_r, mode_t):
         for m in range(4):
             j = a - 1 + m
             if wa[m] != 0.0 and j >= 0 and j < n_t:
-                vr, vi = _row_value(buf, off + j * n_r, n_r, pos, mode_r)
+                vr, vi = _row_value(buf, off + j * n_r, n_r, i, w0, w1, w2, w3)
                 re += wa[m] * vr
                 im += wa[m] * vi
     cyc = kc2 * (rc - r_ref)
