@@ -17,7 +17,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-SETTINGS = [(4, 2.0, "cubic"), (4, 3.0, "cubic"), (4, 4.0, "cubic"), (4, 6.0, "cubic")]
+SETTINGS = [(4, 3.0, "cubic"), (4, 4.0, "cubic"), (4, 5.0, "cubic")]
 
 
 def best_of(fn, repeats):
