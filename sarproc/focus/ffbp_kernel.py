@@ -15,12 +15,13 @@ import math
 import numba
 import numpy as np
 
+from sarproc.dsp.kernel_cache import CACHE
 from sarproc.dsp.phasor import cis_cycles32_short
 
 LINEAR, CUBIC = 1, 3
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def _weights(t, mode):
     """Interpolation weights of samples -1, 0, 1, 2 at fraction t in [0, 1): linear or cubic Lagrange."""
     one, two, six = type(t)(1.0), type(t)(2.0), type(t)(6.0)
@@ -30,7 +31,7 @@ def _weights(t, mode):
     return (-t * t1 * t2 / six, tm * t1 * t2 / two, -tm * t * t2 / two, tm * t * t1 / six)
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def _row_value(buf, base, n, i, w0, w1, w2, w3):
     """Samples i - 1 .. i + 2 of a row of n at buf[base:] weighted (zero outside the row; no checks inside it)."""
     if i >= 1 and i + 2 < n:
@@ -48,7 +49,7 @@ def _row_value(buf, base, n, i, w0, w1, w2, w3):
     return re, im
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def _relative_angle(dx, dy, cm, sm):
     """Angle of (dx, dy) from the direction (cm, sm), in (-pi, pi]: a series for |tan| <= 1/4 (error < 1e-10 rad;
     polar grids span a few degrees), atan2 beyond."""
@@ -62,7 +63,7 @@ def _relative_angle(dx, dy, cm, sm):
     return math.atan2(crs, dot)
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=True)
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def _read(buf, geo, ints, c, x, y, z, r_ref, kc2, mode_r, mode_t):
     """Subimage c read at the plane point (x, y, z), re-modulated by the carrier of its range from c's centre and
     demodulated by that of ``r_ref``: its contribution exp(j 2 pi kc2 (r_c - r_ref)) x value."""
@@ -97,7 +98,7 @@ def _read(buf, geo, ints, c, x, y, z, r_ref, kc2, mode_r, mode_t):
     return re * co - im * si, re * si + im * co
 
 
-@numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=True)
+@numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
 def merge_level(cbuf, cgeo, cints, first_child, pgeo, pints, pbuf, row_parent, row_angle, kc2, mode_r, mode_t):
     """Each parent polar sample: the sum of its children read at its plane point (one job per parent row)."""
     for job in numba.prange(len(row_parent)):
@@ -121,7 +122,7 @@ def merge_level(cbuf, cgeo, cints, first_child, pgeo, pints, pbuf, row_parent, r
             pbuf[off + k] = complex(re, im)
 
 
-@numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=True)
+@numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
 def final_points(buf, geo, ints, px, py, pz, kc2, mode_r, mode_t, out):
     """out[i] = sum of the top subimages read at point i (plane coordinates px, py, normal offset pz), with the
     carrier of its exact range restored (exp(+j 2 pi kc2 r), as exact backprojection applies it)."""
