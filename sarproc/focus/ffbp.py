@@ -202,12 +202,13 @@ def ffbp_points(rc, range_time, pos, points, carrier_frequency, bandwidth, *, up
         e = spans[lev]
         centre = (csum[e[1:]] - csum[e[:-1]]) / np.diff(e)[:, None]
         half = np.array([np.linalg.norm(ant[a:b] - c, axis=1).max() for a, b, c in zip(e[:-1], e[1:], centre)])
-        g = np.zeros((len(centre), 10))
+        g = np.zeros((len(centre), 12))
         g[:, 0], g[:, 1], g[:, 2] = centre @ e1, centre @ e2, centre @ nrm
         g[:, 4] = dr
         g[:, 5] = np.arctan2(centre_xy[1] - g[:, 1], centre_xy[0] - g[:, 0])
         g[:, 7] = C / (f_max * 4.0 * np.maximum(half, 1e-9) * oversample)
         g[:, 8], g[:, 9] = np.cos(g[:, 5]), np.sin(g[:, 5])
+        g[:, 10], g[:, 11] = 1.0 / dr, 1.0 / g[:, 7]
         geos.append(g)
         ints_.append(np.zeros((len(centre), 3), np.int64))
     # Extents top-down: the top grid covers the image, each child the sector its parent's grid spans; three
@@ -236,11 +237,12 @@ def ffbp_points(rc, range_time, pos, points, carrier_frequency, bandwidth, *, up
         n_up = upsampled_length(n_rg, upsample)
         fs_up = n_up / (n_rg * dt)
         cbuf = upsample_into(np.asarray(rc, np.complex64), np.empty((n_az, n_up), np.complex64)).ravel()
-        cgeo = np.zeros((n_az, 10))
+        cgeo = np.zeros((n_az, 12))
         cgeo[:, 0], cgeo[:, 1], cgeo[:, 2] = ant_xy[:, 0], ant_xy[:, 1], ant_h
         cgeo[:, 3] = C * (range_time[0] + gate) / 2.0
         cgeo[:, 4] = C / (2.0 * fs_up)
         cgeo[:, 7] = 1.0
+        cgeo[:, 10], cgeo[:, 11] = 1.0 / cgeo[:, 4], 1.0
         cints = np.stack([np.ones(n_az, np.int64), np.full(n_az, n_up), np.arange(n_az) * n_up], axis=1)
         mode_c = _MODES[interpolation]
         for lev in range(1, n_levels + 1):

@@ -3,7 +3,7 @@
 A subimage is a polar image around the in-plane foot (fx, fy) of its subaperture's centre, which is h above the
 image plane: sample (a, k) is the point at range r = r0 + k dr from the centre and in-plane angle
 theta = th_mid + th_lo + a dth, demodulated by the carrier of that range (exp(-j 2 pi kc2 r)), so that it is
-band-limited in both coordinates. Geometry rows (float64): fx, fy, h, r0, dr, th_mid, th_lo, dth, cos th_mid, sin th_mid; integer rows:
+band-limited in both coordinates. Geometry rows (float64): fx, fy, h, r0, dr, th_mid, th_lo, dth, cos th_mid, sin th_mid, 1 / dr, 1 / dth; integer rows:
 n_theta, n_range, offset into the level's flat complex64 buffer. A subimage with n_theta = 1 (a single pulse)
 does not depend on the angle.
 """
@@ -71,7 +71,7 @@ def _read(buf, geo, ints, c, x, y, z, r_ref, kc2, mode_r, mode_t):
     dy = y - geo[c, 1]
     dz = geo[c, 2] - z
     rc = math.sqrt(dx * dx + dy * dy + dz * dz)
-    pos = (rc - geo[c, 3]) / geo[c, 4]
+    pos = (rc - geo[c, 3]) * geo[c, 10]
     n_t, n_r, off = ints[c, 0], ints[c, 1], ints[c, 2]
     p0 = math.floor(pos)
     i = np.int64(p0)
@@ -80,7 +80,7 @@ def _read(buf, geo, ints, c, x, y, z, r_ref, kc2, mode_r, mode_t):
         re, im = _row_value(buf, off, n_r, i, w0, w1, w2, w3)
     else:
         th = _relative_angle(dx, dy, geo[c, 8], geo[c, 9])
-        ta = (th - geo[c, 6]) / geo[c, 7]
+        ta = (th - geo[c, 6]) * geo[c, 11]
         a0 = math.floor(ta)
         wa = _weights(ta - a0, mode_t)
         a = np.int64(a0)
