@@ -180,6 +180,9 @@ def ffbp_points(rc, range_time, pos, points, carrier_frequency, bandwidth, *, up
     rel = points - origin
     xy = np.stack([rel @ e1, rel @ e2], axis=-1)
     pz = rel @ nrm
+    if np.abs(pz).max() > 1e-3 * C / carrier_frequency:
+        raise ValueError(f"ffbp needs the points on a plane: they leave their best plane by up to "
+                         f"{np.abs(pz).max():.3g} m (more than a thousandth of a wavelength)")
     ant = pos - origin
     ant_xy = np.stack([ant @ e1, ant @ e2], axis=-1)
     ant_h = ant @ nrm

@@ -120,3 +120,11 @@ def test_plan_prints_the_predicted_error_and_the_cli_runs_ffbp(tmp_path):
     assert f"ffbp: 4 levels of 4, oversample 3, cubic; predicted error against the exact image {predicted:.1f} dB" \
         in out.stderr
     assert read_product(tmp_path / "i.h5").history[-1]["parameters"]["engine"] == "ffbp"
+
+
+def test_ffbp_refuses_points_off_a_plane():
+    pts = np.array([[0.0, 0, 0], [10, 0, 0], [0, 10, 0], [10, 10, 1.0]])
+    rc = np.zeros((4, 16), np.complex64)
+    pos = np.array([[0.0, -1000, 500]] * 4) + np.arange(4)[:, None] * [1.0, 0, 0]
+    with pytest.raises(ValueError, match="ffbp needs the points on a plane"):
+        ffbp_points(rc, np.arange(16) * 1e-8, pos, pts, 10e9, 100e6)
