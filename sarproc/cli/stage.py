@@ -76,13 +76,14 @@ def plan_outputs(input_path, outputs, overwrite: bool, estimate, inputs=None, co
 
 # stage: (peak RSS bytes, seconds) of a run on a tiny scene with the kernels cached: imports (numpy,
 # scipy, h5py ~75 MB, numba ~90 MB more, 0.5-1 s), reading and writing the products, the kernels loaded.
-PROCESS = {"simulate": (185e6, 0.6), "preprocess": (225e6, 1.1), "coarse-focus": (195e6, 0.8),
+PROCESS = {"simulate": (185e6, 0.9), "preprocess": (225e6, 1.1), "coarse-focus": (195e6, 0.8),
            "fine-focus": (230e6, 1.1), "backproject": (240e6, 1.1), "pfa2": (290e6, 1.4),
            "reconstruct": (255e6, 0.9), "array3d": (215e6, 1.0), "evaluate": (135e6, 0.9),
            "export-sicd": (85e6, 0.9), "export-cphd": (125e6, 1.7), "import-cphd": (120e6, 0.8),
            "import-gotcha": (88e6, 0.6), "quicklook": (105e6, 1.1)}
 # stage: (the numba modules it runs, seconds and bytes to compile them when numba's cache lacks them)
-KERNELS = {"preprocess": (("sarproc.dsp.phasor",), 0.5, 10e6),
+KERNELS = {"simulate": (("sarproc.simulation.echo_kernel",), 12.0, 60e6),
+           "preprocess": (("sarproc.dsp.phasor",), 0.5, 10e6),
            "fine-focus": (("sarproc.focus.squint_deramp.stolt", "sarproc.focus.squint_deramp.block_copies",
                            "sarproc.focus.squint_deramp.fine_focus", "sarproc.dsp.interp", "sarproc.dsp.phasor"),
                           10.0, 70e6),
@@ -303,7 +304,9 @@ def evaluate_estimate(stage, header, params) -> Plan:
     memory = (15.0 if len(shape) < 3 else 30.0) * n + 160.0 * n_tg * chip + 32.0 * cut
     # neighbours are fitted jointly, so a target's work grows with how many there are (up to the few
     # whose chips can overlap it)
-    seconds = n * 20e-9 + n_tg * (0.1 + 3e-7 * cut) + 2.5e-6 * chip * n_tg * (1 + min(n_tg, 8) / 4)
+    # (constants halved after the residual-model merge, measured on an idle 2-core machine: demo 1.0 s,
+    # bp_squint30 1.2 s, the du2010 cube 14.8 s of wall time with the process, against 2.3 / 1.5 / 30 s planned)
+    seconds = n * 10e-9 + n_tg * (0.05 + 1.5e-7 * cut) + 1.25e-6 * chip * n_tg * (1 + min(n_tg, 8) / 4)
     # the JSON report: about 3 kB per target (figures are not counted)
     return Plan(stage, 1e3 + 3.5e3 * n_tg, memory, seconds,
                 f"{n_tg} targets on {n} pixels, chips of {' x '.join(map(str, lengths))}")
@@ -350,12 +353,15 @@ def simulate_estimate(scene) -> Plan:
     window_plan = 0.0 if acq.range_window is not None else n_p * n_tg * 8.0 * (n_ch + 7)
     mem = (complex_bytes(n_ch, block, n_rg + 2 * n_env, itemsize=16) + complex_bytes(block, n_env, itemsize=16) * 6
            + block * n_tg * 8 * 8.0 + max(window_plan, complex_bytes(n_ch, block, n_rg)))
-    seconds = n_ch * n_p * n_tg * (n_env * 15e-9 + 2e-6) + n_ch * n_p * n_rg * 10e-9
+    # compiled echo accumulation: ~1.5 ns per echo sample (one complex multiply-add, 2 threads, shared
+    # machine), ~0.1 us per (pulse, target) pair, ~10 ns per stored sample (zeroing, chirp, cast, write);
+    # measured: nie2016 (1.1e10 echo samples) 17 s of CPU, xu_clutter 2.0 s, demo 0.9-1.2 s with the process
+    seconds = n_ch * n_p * n_tg * (n_env * 1.5e-9 + 0.1e-6) + n_ch * n_p * n_rg * 10e-9
     from sarproc.simulation.effects.clutter import Clutter, clutter_cost
 
-    for e in scene.effects:   # clutter scatterers: ~14 ns per phasor (xu_clutter: 4.9e8 phasors, 6.9 s)
+    for e in scene.effects:   # clutter scatterers: the same ~1.5 ns per echo sample (xu_clutter: 4.9e8, 2.0 s)
         if isinstance(e, Clutter):
-            seconds += 14e-9 * clutter_cost(n_p, n_ch, e.params.n_scatterers, n_env)
+            seconds += 1.5e-9 * clutter_cost(n_p, n_ch, e.params.n_scatterers, n_env)
     window = ("acquisition.range_window" if acq.range_window is not None
               else f"the targets' delays + radar.pulse_duration {r.pulse_duration:g} s")
     detail = (f"{n_ch} x {n_p} pulses x {n_rg} samples, {n_tg} targets; samples = {window} "
