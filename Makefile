@@ -54,27 +54,28 @@ clean:
 # Paper-specific targets live in mk/*.mk, one file per paper.
 -include mk/*.mk
 
+# simulate -> backproject -> evaluate --expect for each scene: $(call bp_check,DIR,SCENES,EXPECT) with EXPECT
+# a file name in which % stands for the scene (configs/bp_<scene>.yaml holds scene and processing).
+define bp_check
+	mkdir -p $(1)
+	for s in $(2); do \
+	  $(SARPROC) simulate configs/bp_$$s.yaml -o $(1)/raw_$$s.h5 --overwrite && \
+	  $(SARPROC) backproject $(1)/raw_$$s.h5 --config configs/bp_$$s.yaml -o $(1)/image_$$s.h5 --overwrite && \
+	  $(SARPROC) evaluate $(1)/image_$$s.h5 -o $(1)/report_$$s.json --overwrite --expect $(subst %,$${s},$(3)) \
+	    || exit 1; \
+	done
+endef
+
 # The backprojection reference against theory on the two test scenes (issue 2), via the CLI.
 .PHONY: check-backprojection
 check-backprojection: $(STAMP)
-	mkdir -p results/bp
-	for s in stripmap squint30; do \
-	  $(SARPROC) simulate configs/bp_$$s.yaml -o results/bp/raw_$$s.h5 --overwrite && \
-	  $(SARPROC) backproject results/bp/raw_$$s.h5 --config configs/bp_$$s.yaml -o results/bp/image_$$s.h5 --overwrite && \
-	  $(SARPROC) evaluate results/bp/image_$$s.h5 -o results/bp/report_$$s.json --overwrite --expect configs/bp_expect.yaml || exit 1; \
-	done
+	$(call bp_check,results/bp,stripmap squint30,configs/bp_expect.yaml)
 
 # Each target's own theory (issue 20): a stripmap beam-edge scene (fully lit, partly lit, side-lobe-lit targets;
 # simulate warns about the last two) and a Hamming-windowed spotlight, each judged against its own theory.
 .PHONY: check-theory
 check-theory: $(STAMP)
-	mkdir -p results/theory
-	for s in beam_edge hamming; do \
-	  $(SARPROC) simulate configs/bp_$$s.yaml -o results/theory/raw_$$s.h5 --overwrite && \
-	  $(SARPROC) backproject results/theory/raw_$$s.h5 --config configs/bp_$$s.yaml -o results/theory/image_$$s.h5 --overwrite && \
-	  $(SARPROC) evaluate results/theory/image_$$s.h5 -o results/theory/report_$$s.json --overwrite --expect configs/bp_$${s}_expect.yaml \
-	    || exit 1; \
-	done
+	$(call bp_check,results/theory,beam_edge hamming,configs/bp_%_expect.yaml)
 
 # accuracy-backprojection (the reference's own knobs: time vs quality) is a sweep: mk/sweeps.mk, as are
 # accuracy-000, -002, -003 and -004.
