@@ -701,7 +701,7 @@ def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
                    attrs=attrs, aux=aux, history=history)
 
 
-def read_magnitude_preview(path, max_side: int = 2048, block_bytes: int = 64 << 20):
+def read_magnitude_preview(path, max_side: int = 2048, block_bytes: int = 64 << 20, header: Product | None = None):
     """Peak-preserving preview of an image product's magnitude, read in blocks.
 
     Every axis longer than ``max_side`` is reduced by an integer factor, each output pixel
@@ -710,7 +710,8 @@ def read_magnitude_preview(path, max_side: int = 2048, block_bytes: int = 64 << 
     ``coords`` are the block centres. Memory stays at one block of ``block_bytes`` plus the
     preview, so a picture of an image larger than memory can be drawn.
     """
-    header = read_product(path, kinds=("image", "image3d"), load=False)
+    if header is None:   # a caller that has read the header already passes it
+        header = read_product(path, kinds=("image", "image3d"), load=False)
     dims = header.dims
     shape = tuple(len(header.coords[d]) for d in dims)
     factors = tuple(max(1, -(-n // max_side)) for n in shape)

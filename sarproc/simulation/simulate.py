@@ -170,7 +170,7 @@ def illumination_warnings(scene: Scene, plan: SimulationPlan) -> list[str]:
     return lines
 
 
-def echo_block(scene: Scene, plan: SimulationPlan, t: np.ndarray) -> np.ndarray:
+def echo_block(scene: Scene, plan: SimulationPlan, t: np.ndarray, chirp: np.ndarray | None = None) -> np.ndarray:
     """Echoes of pulses at times ``t`` for every channel: (n_ch, n_t, n_range) complex128.
 
     Geometry, gate offsets and the effects' gains are evaluated here per (pulse, target); the
@@ -186,7 +186,8 @@ def echo_block(scene: Scene, plan: SimulationPlan, t: np.ndarray) -> np.ndarray:
     tg = _target_positions(scene, t)
     amplitude = _scatterers(scene)[2]
     gate = np.ascontiguousarray(_gate_offsets(scene, t, 2 * r.reference_range / C), dtype=float)
-    chirp = window_chirp(n_rg, fs, r.chirp_rate)
+    if chirp is None:   # the window's chirp is the same for every block: simulate_blocks passes it once
+        chirp = window_chirp(n_rg, fs, r.chirp_rate)
     out = np.zeros((len(plan.rx_offsets), len(t), n_rg), dtype=np.complex128)
     for ch, rx in enumerate(plan.rx_offsets):
         tau = _delays(pos + plan.tx_offset, pos + rx, tg)                # (n_t, n_tg)
@@ -214,7 +215,10 @@ def simulate_blocks(scene: Scene, plan: SimulationPlan | None = None, progress=N
     power = float(np.max(np.abs(scene.target_amplitude)) ** 2) if len(scene.target_amplitude) else 0.0
     step = plan.block_pulses
     slices = [slice(s, min(s + step, len(t_all))) for s in range(0, len(t_all), step)]
-    echoes = (mapper or map)(functools.partial(echo_block, scene, plan), (t_all[sl] for sl in slices))
+    from sarproc.simulation.echo_kernel import window_chirp
+
+    chirp = window_chirp(len(plan.coords["range_time"]), scene.radar.range_sampling_rate, scene.radar.chirp_rate)
+    echoes = (mapper or map)(functools.partial(echo_block, scene, plan, chirp=chirp), (t_all[sl] for sl in slices))
     for sl, block in zip(progress(slices) if progress is not None else slices, echoes):
         for e in scene.effects:
             block = e.finalize(block, rng, power)
