@@ -110,8 +110,12 @@ def main(argv=None):
     ap.add_argument("--config", type=Path, default=Path("configs/nie2016_small.yaml"))
     ap.add_argument("--out", type=Path, default=Path("results/002-accuracy"))
     ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--from-sweep", type=Path, default=None,
-                    help="build the table from this sweep's images instead of running the settings")
+    ap.add_argument(
+        "--from-sweep",
+        type=Path,
+        default=None,
+        help="build the table from this sweep's images instead of running the settings",
+    )
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     if args.from_sweep:
@@ -130,7 +134,7 @@ def main(argv=None):
         kws.append(kw)
     times = [[] for _ in kws]
     images = [None] * len(kws)
-    for _ in range(args.repeat):            # round-robin: a slow spell of the machine hits every setting
+    for _ in range(args.repeat):  # round-robin: a slow spell of the machine hits every setting
         for i, kw in enumerate(kws):
             t0 = time.perf_counter()
             images[i] = pfa2(raw, Pfa2Params(**kw))
@@ -147,26 +151,52 @@ def write(args, results, how: str):
     front = pareto_front(times, quality)
     stats = [timing_stats(t) for t in times]
     beats = faster_groups(times)
-    lines = [f"# pfa2 accuracy against time ({how})", "",
-             "A setting is faster than another only when its worst time is below the other's best (the "
-             "ranges of their repeated times do not overlap): the 'faster than #' column. The Pareto front is "
-             "that of (best time, quality); front neighbours not in each other's 'faster' column are not "
-             "resolved by the timings.", "",
-             "| # | setting | best (s) | median (s) | spread (s) | worst target / tolerance | false target (dB) "
-             "| faster than # | Pareto |",
-             "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    lines = [
+        f"# pfa2 accuracy against time ({how})",
+        "",
+        "A setting is faster than another only when its worst time is below the other's best (the "
+        "ranges of their repeated times do not overlap): the 'faster than #' column. The Pareto front is "
+        "that of (best time, quality); front neighbours not in each other's 'faster' column are not "
+        "resolved by the timings.",
+        "",
+        "| # | setting | best (s) | median (s) | spread (s) | worst target / tolerance | false target (dB) "
+        "| faster than # | Pareto |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
     for i, ((label, _, w, f), st) in enumerate(zip(results, stats)):
-        lines.append(f"| {i + 1} | {label} | {st['best']:.2f} | {st['median']:.2f} | {st['spread']:.2f} | {w:.2f} "
-                     f"| {f:.1f} | {', '.join(str(j + 1) for j in beats[i]) or '-'} | {'yes' if i in front else ''} |")
+        lines.append(
+            f"| {i + 1} | {label} | {st['best']:.2f} | {st['median']:.2f} | {st['spread']:.2f} | {w:.2f} "
+            f"| {f:.1f} | {', '.join(str(j + 1) for j in beats[i]) or '-'} | {'yes' if i in front else ''} |"
+        )
     lines += ["", "Pareto front (by best time): " + ", ".join(results[i][0] for i in front), ""]
     (args.out / "table.md").write_text("\n".join(lines))
-    (args.out / "table.json").write_text(json.dumps(
-        [{"setting": label, "times_s": t, **{f"{k}_s": st[k] for k in ("best", "median", "spread")},
-          "worst_over_tolerance": w, "false_target_db": f, "pareto": i in front}
-         for i, ((label, t, w, f), st) in enumerate(zip(results, stats))], indent=1) + "\n")
-    plot_tradeoff(args.out / "tradeoff.png", [r[0] for r in results], times, quality,
-                  quality_label="worst target / tolerance (<= 1 within tolerance)",
-                  title="pfa2 knobs, reduced Table 1 scene", log_quality=True, floor=1e-3)
+    (args.out / "table.json").write_text(
+        json.dumps(
+            [
+                {
+                    "setting": label,
+                    "times_s": t,
+                    **{f"{k}_s": st[k] for k in ("best", "median", "spread")},
+                    "worst_over_tolerance": w,
+                    "false_target_db": f,
+                    "pareto": i in front,
+                }
+                for i, ((label, t, w, f), st) in enumerate(zip(results, stats))
+            ],
+            indent=1,
+        )
+        + "\n"
+    )
+    plot_tradeoff(
+        args.out / "tradeoff.png",
+        [r[0] for r in results],
+        times,
+        quality,
+        quality_label="worst target / tolerance (<= 1 within tolerance)",
+        title="pfa2 knobs, reduced Table 1 scene",
+        log_quality=True,
+        floor=1e-3,
+    )
     print("\n".join(lines))
 
 

@@ -41,7 +41,7 @@ from sarproc.quality.metrics import EvaluateParams, evaluate_product
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
 
-STRIP_GUARD = 0.45    # guard around the target on a strip, in ghost spacings (the sinc side lobes there: < -66 dB)
+STRIP_GUARD = 0.45  # guard around the target on a strip, in ghost spacings (the sinc side lobes there: < -66 dB)
 
 
 def scene_mapping(path, points=None, **radar):
@@ -72,12 +72,18 @@ def ghost_strips(rec, raw, extent_ghosts=1.5, **bp_knobs):
     extent = 2 * extent_ghosts * raw.radar.prf / ka * r.velocity
     out = {}
     for name in target_names(rec.targets):
-        strip = backproject(rec, BackprojectParams(frame="squint_lrwc", azimuth_extent=extent, range_extent=30.0,
-                                                   oversample=1.2, **bp_knobs), grid_targets=[name])
+        strip = backproject(
+            rec,
+            BackprojectParams(
+                frame="squint_lrwc", azimuth_extent=extent, range_extent=30.0, oversample=1.2, **bp_knobs
+            ),
+            grid_targets=[name],
+        )
         guard = STRIP_GUARD * extent / (2 * extent_ghosts) / strip.attrs["theoretical_irw"][0]
         rep = evaluate_product(strip, EvaluateParams(guard_cells=guard), names=[name])
         out[name] = (rep.false_target.level_db if rep.false_target else float("-inf"), strip)
     return out
+
 
 TARGET = {"name": "T", "azimuth": "800 m", "velocity": ["0 m/s", "10 m/s", "0 m/s"]}
 
@@ -92,8 +98,11 @@ def only_window(rec):
 
 def worst(report):
     t = report.targets[0]
-    return (max(abs(a.irw_ratio - 1) for a in t.axes), max(a.pslr_db for a in t.axes),
-            max(abs(a.position_error_cells) for a in t.axes))
+    return (
+        max(abs(a.irw_ratio - 1) for a in t.axes),
+        max(a.pslr_db for a in t.axes),
+        max(abs(a.position_error_cells) for a in t.axes),
+    )
 
 
 SEARCH = (("fast", 0.5), ("fast", 0.2), ("fast", 0.1), ("fast", 0.05), ("exhaustive", 0.1))
@@ -112,19 +121,33 @@ def channel_spacing(radar, n):
 
 def channel_row(n, rec, r, dt, t_sim):
     mt = only_window(rec)
-    irw, pslr, pos = worst(evaluate_product(focus(rec, r, BackprojectParams(oversample=1.25),
-                                                  theory_from_truth=True), EvaluateParams(guard_cells=60)))
-    return {"knob": f"N = {n} channels", "time_s": dt, "simulate_s": t_sim,
-            "evaluations": mt["search_evaluations"], "v_r_error": abs(mt["radial_velocity"] - 10.0),
-            "worst_irw_dev": irw, "worst_pslr_db": pslr, "worst_pos_cells": pos,
-            "mfta_db": ghost_strips(rec, r)["T"][0]}
+    irw, pslr, pos = worst(
+        evaluate_product(
+            focus(rec, r, BackprojectParams(oversample=1.25), theory_from_truth=True), EvaluateParams(guard_cells=60)
+        )
+    )
+    return {
+        "knob": f"N = {n} channels",
+        "time_s": dt,
+        "simulate_s": t_sim,
+        "evaluations": mt["search_evaluations"],
+        "v_r_error": abs(mt["radial_velocity"] - 10.0),
+        "worst_irw_dev": irw,
+        "worst_pslr_db": pslr,
+        "worst_pos_cells": pos,
+        "mfta_db": ghost_strips(rec, r)["T"][0],
+    }
 
 
 def search_row(search, step, rec, raw, dt):
     mt = only_window(rec)
-    return {"knob": f"search {search} step {step} m/s", "time_s": dt,
-            "evaluations": mt["search_evaluations"], "v_r_error": abs(mt["radial_velocity"] - 10.0),
-            "mfta_db": ghost_strips(rec, raw)["T"][0]}
+    return {
+        "knob": f"search {search} step {step} m/s",
+        "time_s": dt,
+        "evaluations": mt["search_evaluations"],
+        "v_r_error": abs(mt["radial_velocity"] - 10.0),
+        "mfta_db": ghost_strips(rec, raw)["T"][0],
+    }
 
 
 def interpolation_rows(rec, raw):
@@ -135,9 +158,16 @@ def interpolation_rows(rec, raw):
         img = focus(rec, raw, bp, theory_from_truth=True)
         dt = time.perf_counter() - t0
         irw, pslr, pos = worst(evaluate_product(img, EvaluateParams(guard_cells=60)))
-        rows.append({"knob": f"backproject {interp} x{up}", "time_s": dt, "worst_irw_dev": irw,
-                     "worst_pslr_db": pslr, "worst_pos_cells": pos,
-                     "mfta_db": ghost_strips(rec, raw, upsample=up, interpolation=interp)["T"][0]})
+        rows.append(
+            {
+                "knob": f"backproject {interp} x{up}",
+                "time_s": dt,
+                "worst_irw_dev": irw,
+                "worst_pslr_db": pslr,
+                "worst_pos_cells": pos,
+                "mfta_db": ghost_strips(rec, raw, upsample=up, interpolation=interp)["T"][0],
+            }
+        )
     return rows
 
 
@@ -150,7 +180,7 @@ def from_sweep(directory: Path) -> list:
     doc = json.loads((directory / "table.json").read_text())
     if doc["failures"]:
         raise SystemExit(f"{directory}: the sweep has failed tasks: {doc['failures']}")
-    plan = plan_sweep(doc["sweep"], directory)          # the tasks' raw products
+    plan = plan_sweep(doc["sweep"], directory)  # the tasks' raw products
     raws = {job.key: job.raw for job in plan.sims}
     times = {r["task"]: r for r in doc["rows"]}
     if set(times) != {t.task_id for t in plan.tasks}:
@@ -160,7 +190,7 @@ def from_sweep(directory: Path) -> list:
         p = build(ReconstructParams, task.config.get("reconstruct") or {})
         ch = task.config["effects"]["azimuth_channels"]
         n, d = ch["n_receivers"], parse_quantity(ch["spacing"], "length")
-        products = (lambda t=task: (read_product(t.directory / "reconstruct.h5"), read_product(raws[t.sim_key])))
+        products = lambda t=task: (read_product(t.directory / "reconstruct.h5"), read_product(raws[t.sim_key]))
         if any(k.startswith("reconstruct.") for k in task.setting):
             by_search[(p.search, p.velocity_step, p.coarse_step, n, d)] = (task, products)
         else:
@@ -189,10 +219,12 @@ def from_sweep(directory: Path) -> list:
         rows.append(channel_row(n, rec, r, row["focus_s"], row["simulate_s"]))
         rows[-1]["times_s"] = row.get("focus_times") or [row["focus_s"]]
         if n == 3:
-            rec3, raw3 = rec, r          # the script's default reconstruct for the interpolation rows
+            rec3, raw3 = rec, r  # the script's default reconstruct for the interpolation rows
     if by_search or by_channels:
-        raise SystemExit(f"{directory}: tasks that are none of the script's settings: "
-                         f"{[t.task_id for t, _ in [*by_search.values(), *by_channels.values()]]}")
+        raise SystemExit(
+            f"{directory}: tasks that are none of the script's settings: "
+            f"{[t.task_id for t, _ in [*by_search.values(), *by_channels.values()]]}"
+        )
     return rows + interpolation_rows(rec3, raw3)
 
 
@@ -200,16 +232,22 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--results", default="results/003-accuracy")
     ap.add_argument("--config", default="configs/xu_scene.yaml")
-    ap.add_argument("--from-sweep", type=Path, default=None,
-                    help="build the table from this sweep's products (configs/sweeps/accuracy_003.yaml)")
+    ap.add_argument(
+        "--from-sweep",
+        type=Path,
+        default=None,
+        help="build the table from this sweep's products (configs/sweeps/accuracy_003.yaml)",
+    )
     args = ap.parse_args()
     res = Path(args.results)
     res.mkdir(parents=True, exist_ok=True)
     if args.from_sweep:
         rows = from_sweep(args.from_sweep)
-        how = (f"Sweep {args.from_sweep}: search and channel rows' time_s and simulate_s are the sweep's step "
-               "times (best of the sweep's interleaved repeats as a CLI step, product I/O included; time_spread_s "
-               "max - min of them); interpolation rows timed here, one run.")
+        how = (
+            f"Sweep {args.from_sweep}: search and channel rows' time_s and simulate_s are the sweep's step "
+            "times (best of the sweep's interleaved repeats as a CLI step, product I/O included; time_spread_s "
+            "max - min of them); interpolation rows timed here, one run."
+        )
     else:
         rows = run(args.config)
         how = f"Single moving target B (v_r 10 m/s) of {args.config}."
@@ -247,14 +285,29 @@ def write(res, rows, how):
         r.setdefault("times_s", [r["time_s"]])
         r["time_spread_s"] = timing_stats(r["times_s"])["spread"]
     (res / "table.json").write_text(json.dumps(rows, indent=1, default=float))
-    cols = ["knob", "time_s", "time_spread_s", "simulate_s", "evaluations", "v_r_error", "worst_irw_dev", "worst_pslr_db",
-            "worst_pos_cells", "mfta_db"]
-    lines = ["# Paper 003 reconstruct: accuracy against time (scripts/accuracy_003.py)", "",
-             f"{how} time_s: reconstruct (search and channel rows) or "
-             "backproject of the chip (interpolation rows); MFTA: strip false-target level, dB (the strip is "
-             "backprojected with the row's interpolation knobs). A row is faster than another only when its "
-             "worst time is below the other's best (sarproc.quality.tradeoff); the figure's front is that of best time against MFTA.", "",
-             "| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    cols = [
+        "knob",
+        "time_s",
+        "time_spread_s",
+        "simulate_s",
+        "evaluations",
+        "v_r_error",
+        "worst_irw_dev",
+        "worst_pslr_db",
+        "worst_pos_cells",
+        "mfta_db",
+    ]
+    lines = [
+        "# Paper 003 reconstruct: accuracy against time (scripts/accuracy_003.py)",
+        "",
+        f"{how} time_s: reconstruct (search and channel rows) or "
+        "backproject of the chip (interpolation rows); MFTA: strip false-target level, dB (the strip is "
+        "backprojected with the row's interpolation knobs). A row is faster than another only when its "
+        "worst time is below the other's best (sarproc.quality.tradeoff); the figure's front is that of best time against MFTA.",
+        "",
+        "| " + " | ".join(cols) + " |",
+        "|" + "---|" * len(cols),
+    ]
     for r in rows:
         cells = []
         for c in cols:
@@ -263,9 +316,14 @@ def write(res, rows, how):
         lines.append("| " + " | ".join(cells) + " |")
     (res / "table.md").write_text("\n".join(lines) + "\n")
 
-    plot_tradeoff(res / "accuracy.png", [r["knob"] for r in rows], [r["times_s"] for r in rows],
-                  [r["mfta_db"] for r in rows], quality_label="false-target level (MFTA), dB",
-                  title="paper 003: reconstruct / backproject knobs")
+    plot_tradeoff(
+        res / "accuracy.png",
+        [r["knob"] for r in rows],
+        [r["times_s"] for r in rows],
+        [r["mfta_db"] for r in rows],
+        quality_label="false-target level (MFTA), dB",
+        title="paper 003: reconstruct / backproject knobs",
+    )
 
 
 if __name__ == "__main__":

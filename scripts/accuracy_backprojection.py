@@ -37,25 +37,34 @@ from sarproc.simulation.simulate import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = ("bp_stripmap.yaml", "bp_squint30.yaml")
-SETTINGS = ([("reference", u, "nearest") for u in (1, 4, 16)]
-            + [("reference", u, "linear") for u in (1, 2, 4, 8, 16, 32)]
-            + [("compiled", u, "linear") for u in (4, 8, 16)]
-            + [("compiled", u, "cubic") for u in (2, 4, 8)]
-            + [("compiled", u, "knab") for u in (1, 2, 4)])
+SETTINGS = (
+    [("reference", u, "nearest") for u in (1, 4, 16)]
+    + [("reference", u, "linear") for u in (1, 2, 4, 8, 16, 32)]
+    + [("compiled", u, "linear") for u in (4, 8, 16)]
+    + [("compiled", u, "cubic") for u in (2, 4, 8)]
+    + [("compiled", u, "knab") for u in (1, 2, 4)]
+)
 REFERENCE = ("reference", 32, "linear")
-TOL = {"irw": 0.03, "pslr": 0.3, "islr": 0.3, "pos": 0.05}   # issue 2's tolerances for the reference
+TOL = {"irw": 0.03, "pslr": 0.3, "islr": 0.3, "pos": 0.05}  # issue 2's tolerances for the reference
 
 
 def worst(report):
     axes = [a for t in report.targets for a in t.axes]
-    return {"irw_dev": max(abs(a.irw_ratio - 1) for a in axes),
-            "pslr": max(a.pslr_db for a in axes), "islr": max(a.islr_db for a in axes),
-            "pos": max(abs(a.position_error_cells) for a in axes)}
+    return {
+        "irw_dev": max(abs(a.irw_ratio - 1) for a in axes),
+        "pslr": max(a.pslr_db for a in axes),
+        "islr": max(a.islr_db for a in axes),
+        "pos": max(abs(a.position_error_cells) for a in axes),
+    }
 
 
 def within(q):
-    return (q["irw_dev"] < TOL["irw"] and abs(q["pslr"] + 13.26) < TOL["pslr"]
-            and abs(q["islr"] + 10.16) < TOL["islr"] and q["pos"] < TOL["pos"])
+    return (
+        q["irw_dev"] < TOL["irw"]
+        and abs(q["pslr"] + 13.26) < TOL["pslr"]
+        and abs(q["islr"] + 10.16) < TOL["islr"]
+        and q["pos"] < TOL["pos"]
+    )
 
 
 def run_scene(name, repeat):
@@ -64,8 +73,12 @@ def run_scene(name, repeat):
     raw = simulate(scene_from_mapping(mapping, name))
     rows, images = [], {}
     for engine, upsample, interp in [REFERENCE] + [s for s in SETTINGS if s != REFERENCE]:
-        params = build(BackprojectParams, {**stage, "engine": engine, "upsample": upsample, "interpolation": interp},
-                       name, "backproject")
+        params = build(
+            BackprojectParams,
+            {**stage, "engine": engine, "upsample": upsample, "interpolation": interp},
+            name,
+            "backproject",
+        )
         times = []
         for _ in range(repeat):
             t0 = time.perf_counter()
@@ -76,8 +89,18 @@ def run_scene(name, repeat):
         ref = images[REFERENCE]
         dev = np.abs(img.data - ref).max() / np.abs(ref).max()
         q = worst(evaluate_product(img))
-        rows.append({"engine": engine, "upsample": upsample, "interpolation": interp, "time_s": best, "times_s": times,
-                     "deviation_db": float(20 * np.log10(max(dev, 1e-30))), **q, "within": within(q)})
+        rows.append(
+            {
+                "engine": engine,
+                "upsample": upsample,
+                "interpolation": interp,
+                "time_s": best,
+                "times_s": times,
+                "deviation_db": float(20 * np.log10(max(dev, 1e-30))),
+                **q,
+                "within": within(q),
+            }
+        )
     rows.sort(key=lambda r: (r["engine"] != "reference", r["interpolation"], r["upsample"]))
     shape = next(iter(images.values())).shape
     return {"scene": name, "raw_shape": list(raw.data.shape), "image_shape": list(shape), "rows": rows}
@@ -85,23 +108,29 @@ def run_scene(name, repeat):
 
 def table(result):
     ref_t = next(r["time_s"] for r in result["rows"] if (r["engine"], r["upsample"], r["interpolation"]) == REFERENCE)
-    lines = [f"## {result['scene']}", "",
-             f"Raw {result['raw_shape'][0]} x {result['raw_shape'][1]}, image {result['image_shape'][0]} x "
-             f"{result['image_shape'][1]}; deviation from the {REFERENCE[0]} engine, upsample {REFERENCE[1]} "
-             f"{REFERENCE[2]}.", "",
-             "| engine | interpolation | upsample | best (s) | median (s) | spread (s) | best / finest | deviation (dB) "
-             "| worst IRW dev | worst PSLR (dB) | worst ISLR (dB) | worst position (cells) | within issue-2 tolerance "
-             "| Pareto (time vs IRW dev) |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|"]
+    lines = [
+        f"## {result['scene']}",
+        "",
+        f"Raw {result['raw_shape'][0]} x {result['raw_shape'][1]}, image {result['image_shape'][0]} x "
+        f"{result['image_shape'][1]}; deviation from the {REFERENCE[0]} engine, upsample {REFERENCE[1]} "
+        f"{REFERENCE[2]}.",
+        "",
+        "| engine | interpolation | upsample | best (s) | median (s) | spread (s) | best / finest | deviation (dB) "
+        "| worst IRW dev | worst PSLR (dB) | worst ISLR (dB) | worst position (cells) | within issue-2 tolerance "
+        "| Pareto (time vs IRW dev) |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|",
+    ]
     front = pareto_front([r["times_s"] for r in result["rows"]], [r["irw_dev"] for r in result["rows"]])
     for i, r in enumerate(result["rows"]):
         st = timing_stats(r["times_s"])
         is_ref = (r["engine"], r["upsample"], r["interpolation"]) == REFERENCE
         dev = "reference" if is_ref else f"{r['deviation_db']:.1f}"
-        lines.append(f"| {r['engine']} | {r['interpolation']} | {r['upsample']} | {st['best']:.2f} | {st['median']:.2f} "
-                     f"| {st['spread']:.2f} | {r['time_s'] / ref_t:.2f} | "
-                     f"{dev} | {r['irw_dev']:.3f} | {r['pslr']:.2f} | {r['islr']:.2f} | "
-                     f"{r['pos']:.3f} | {'yes' if r['within'] else 'NO'} | {'yes' if i in front else ''} |")
+        lines.append(
+            f"| {r['engine']} | {r['interpolation']} | {r['upsample']} | {st['best']:.2f} | {st['median']:.2f} "
+            f"| {st['spread']:.2f} | {r['time_s'] / ref_t:.2f} | "
+            f"{dev} | {r['irw_dev']:.3f} | {r['pslr']:.2f} | {r['islr']:.2f} | "
+            f"{r['pos']:.3f} | {'yes' if r['within'] else 'NO'} | {'yes' if i in front else ''} |"
+        )
     return "\n".join(lines)
 
 
@@ -118,9 +147,19 @@ def from_sweep(directory: Path) -> list:
         for r in [r for r in doc["rows"] if r["scene"] == scene_key]:
             setting = (r["backproject.engine"], int(r["backproject.upsample"]), r["backproject.interpolation"])
             images[setting] = read_product(directory / "tasks" / r["task"] / "backproject.h5")
-            rows.append({"engine": setting[0], "upsample": setting[1], "interpolation": setting[2],
-                         "time_s": r["focus_s"], "times_s": r.get("focus_times") or [r["focus_s"]], "irw_dev": r["irw_dev"], "pslr": r["pslr_db"], "islr": r["islr_db"],
-                         "pos": r["position_cells"]})
+            rows.append(
+                {
+                    "engine": setting[0],
+                    "upsample": setting[1],
+                    "interpolation": setting[2],
+                    "time_s": r["focus_s"],
+                    "times_s": r.get("focus_times") or [r["focus_s"]],
+                    "irw_dev": r["irw_dev"],
+                    "pslr": r["pslr_db"],
+                    "islr": r["islr_db"],
+                    "pos": r["position_cells"],
+                }
+            )
         if REFERENCE not in images:
             raise SystemExit(f"{directory}: no task of {scene_key} with the finest setting {REFERENCE}")
         ref = images[REFERENCE].data
@@ -131,7 +170,14 @@ def from_sweep(directory: Path) -> list:
             row["within"] = within(row)
         rows.sort(key=lambda r: (r["engine"] != "reference", r["interpolation"], r["upsample"]))
         raw = read_product(next((directory / "raw").glob(f"{scene_key}-*.h5")), load=False)
-        results.append({"scene": scene, "raw_shape": [len(raw.coords[d]) for d in raw.dims], "image_shape": list(ref.shape), "rows": rows})
+        results.append(
+            {
+                "scene": scene,
+                "raw_shape": [len(raw.coords[d]) for d in raw.dims],
+                "image_shape": list(ref.shape),
+                "rows": rows,
+            }
+        )
     return results
 
 
@@ -139,20 +185,33 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "bp-accuracy")
     ap.add_argument("--repeat", type=int, default=2)
-    ap.add_argument("--from-sweep", type=Path, default=None,
-                    help="build the table from this sweep's products instead of running the settings")
+    ap.add_argument(
+        "--from-sweep",
+        type=Path,
+        default=None,
+        help="build the table from this sweep's products instead of running the settings",
+    )
     args = ap.parse_args(argv)
     results = from_sweep(args.from_sweep) if args.from_sweep else [run_scene(s, args.repeat) for s in SCENES]
-    timing = (f"Times are the sweep's focus times ({min(len(r['times_s']) for s in results for r in s['rows'])} "
-              f"interleaved runs each, product I/O included; {args.from_sweep})."
-              if args.from_sweep else f"Times are {args.repeat} in-process runs on this machine (one setting's back to back).")
-    timing += (" A setting is faster than another only when its worst time is below the other's best; the Pareto "
-               "column marks the front of best time against IRW deviation (sarproc.quality.tradeoff).")
-    head = ["# Backprojection: accuracy versus time (engine x upsampling x interpolation)", "",
-            "Knobs: `backproject.engine` (float64 numpy reference or the compiled tiled kernel), "
-            "`backproject.upsample` (range FFT upsampling before interpolation) and "
-            "`backproject.interpolation` (cubic: four-sample Lagrange on the upsampled pulse; knab: 8 taps on the upsampled samples; both compiled engine only). Tolerances of issue 2: IRW 3 %, PSLR -13.26 +- 0.3 dB, "
-            f"ISLR -10.16 +- 0.3 dB, position 0.05 cell. {timing}", ""]
+    timing = (
+        f"Times are the sweep's focus times ({min(len(r['times_s']) for s in results for r in s['rows'])} "
+        f"interleaved runs each, product I/O included; {args.from_sweep})."
+        if args.from_sweep
+        else f"Times are {args.repeat} in-process runs on this machine (one setting's back to back)."
+    )
+    timing += (
+        " A setting is faster than another only when its worst time is below the other's best; the Pareto "
+        "column marks the front of best time against IRW deviation (sarproc.quality.tradeoff)."
+    )
+    head = [
+        "# Backprojection: accuracy versus time (engine x upsampling x interpolation)",
+        "",
+        "Knobs: `backproject.engine` (float64 numpy reference or the compiled tiled kernel), "
+        "`backproject.upsample` (range FFT upsampling before interpolation) and "
+        "`backproject.interpolation` (cubic: four-sample Lagrange on the upsampled pulse; knab: 8 taps on the upsampled samples; both compiled engine only). Tolerances of issue 2: IRW 3 %, PSLR -13.26 +- 0.3 dB, "
+        f"ISLR -10.16 +- 0.3 dB, position 0.05 cell. {timing}",
+        "",
+    ]
     text = "\n".join(head + ["\n\n".join(table(r) for r in results)]) + "\n"
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "table.md").write_text(text)

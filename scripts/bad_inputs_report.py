@@ -26,8 +26,10 @@ def load_suite():
 
 
 # An expected string that is a YAML key path, an HDF5 item, an attribute or an option
-KEYLIKE = re.compile(r"[a-z_]\.[a-z_]|'[^']+'|--[a-z]|aux/|radar|targets|signal|image|azimuth_time|range_time|"
-                     r"theoretical_irw|n_channels|frame|reference|acquisition|effects|geometry|platform|backproject|line \d")
+KEYLIKE = re.compile(
+    r"[a-z_]\.[a-z_]|'[^']+'|--[a-z]|aux/|radar|targets|signal|image|azimuth_time|range_time|"
+    r"theoretical_irw|n_channels|frame|reference|acquisition|effects|geometry|platform|backproject|line \d"
+)
 
 
 def names_key(must) -> bool:
@@ -52,16 +54,20 @@ def main() -> int:
         ("  by family", ", ".join(f"{k} {v}" for k, v in sorted(families.items()))),
         ("expected exit code", sum(r["code"] == r["want_code"] for r in results)),
         ("exit 2", sum(r["code"] == 2 for r in results)),
-        ("exit 2 with every expected string in the message",
-         sum(r["code"] == 2 and not r["missing"] for r in results)),
-        ("exit 2 whose message names one of the files on the command line", sum(r["code"] == 2 and r["file_named"]
-                                                                              for r in results)),
-        ("  those that do not (usage errors)",
-         ", ".join(r["name"] for r in results if not r["file_named"])),
-        ("exit 2 naming the key / HDF5 item / option as well (checked string)",
-         sum(r["code"] == 2 and not r["missing"] and names_key(r["must"]) for r in results)),
-        ("  cases with no key to name (file-level: missing, directory, binary, syntax, output place)",
-         ", ".join(r["name"] for r in results if not names_key(r["must"]))),
+        ("exit 2 with every expected string in the message", sum(r["code"] == 2 and not r["missing"] for r in results)),
+        (
+            "exit 2 whose message names one of the files on the command line",
+            sum(r["code"] == 2 and r["file_named"] for r in results),
+        ),
+        ("  those that do not (usage errors)", ", ".join(r["name"] for r in results if not r["file_named"])),
+        (
+            "exit 2 naming the key / HDF5 item / option as well (checked string)",
+            sum(r["code"] == 2 and not r["missing"] and names_key(r["must"]) for r in results),
+        ),
+        (
+            "  cases with no key to name (file-level: missing, directory, binary, syntax, output place)",
+            ", ".join(r["name"] for r in results if not names_key(r["must"])),
+        ),
         ("one-line message", sum(r["one_line"] for r in results)),
         ("tracebacks", sum(r["traceback"] for r in results)),
         ("silent accepts (exit 0)", sum(r["silent_accept"] for r in results)),
@@ -73,11 +79,21 @@ def main() -> int:
     print("| count | value |\n|---|---|")
     for k, v in rows:
         print(f"| {k} | {v} |")
-    bad = [r for r in results if r["code"] != r["want_code"] or r["missing"] or r["traceback"] or r["leftovers"]
-           or r["inputs_modified"] or not r["one_line"]]
+    bad = [
+        r
+        for r in results
+        if r["code"] != r["want_code"]
+        or r["missing"]
+        or r["traceback"]
+        or r["leftovers"]
+        or r["inputs_modified"]
+        or not r["one_line"]
+    ]
     for r in bad:
-        print(f"\nFALLS SHORT {r['name']}: exit {r['code']} (want {r['want_code']}), missing {r['missing']}, "
-              f"leftovers {r['leftovers']}, modified {r['inputs_modified']}\n{r['output']}")
+        print(
+            f"\nFALLS SHORT {r['name']}: exit {r['code']} (want {r['want_code']}), missing {r['missing']}, "
+            f"leftovers {r['leftovers']}, modified {r['inputs_modified']}\n{r['output']}"
+        )
     return 1 if bad else 0
 
 

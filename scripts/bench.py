@@ -58,12 +58,12 @@ def _status_kib(key: str) -> int:
 def measure(fn):
     """(result, wall s, cpu/wall, peak RSS rise in bytes) of fn()."""
     gc.collect()
-    try:   # hand freed heap memory back first: glibc keeps it resident, and a later stage reusing it reads no rise
+    try:  # hand freed heap memory back first: glibc keeps it resident, and a later stage reusing it reads no rise
         ctypes.CDLL("libc.so.6").malloc_trim(0)
     except (OSError, AttributeError):
         pass
     try:
-        Path("/proc/self/clear_refs").write_text("5")          # reset the peak RSS (VmHWM) to the current RSS
+        Path("/proc/self/clear_refs").write_text("5")  # reset the peak RSS (VmHWM) to the current RSS
     except OSError:
         pass
     rss0 = _status_kib("VmRSS")
@@ -105,9 +105,16 @@ class Stage:
         self.out = out
 
     def row(self):
-        return {"stage": self.name, "detail": self.detail, "time_s": self.time, "fft_s": self.fft,
-                "fft_equivalents": self.time / self.fft, "peak_rss_over_in_out": self.rss, "cpu_per_wall": self.cpu,
-                **self.extra}
+        return {
+            "stage": self.name,
+            "detail": self.detail,
+            "time_s": self.time,
+            "fft_s": self.fft,
+            "fft_equivalents": self.time / self.fft,
+            "peak_rss_over_in_out": self.rss,
+            "cpu_per_wall": self.cpu,
+            **self.extra,
+        }
 
 
 # ---- backprojection cases -----------------------------------------------------------------------------------
@@ -121,8 +128,9 @@ def agreement_db(img, ref, fit=False):
 def plane_grid(centre, e1, e2, n, spacing):
     """FastSAR's grid: x_i = (i - n/2) spacing along e1, y_j likewise along e2, about ``centre``; (n*n, 3)."""
     a = (np.arange(n) - n / 2) * spacing
-    return (np.asarray(centre)[None, None, :] + a[:, None, None] * np.asarray(e1)
-            + a[None, :, None] * np.asarray(e2)).reshape(-1, 3)
+    return (
+        np.asarray(centre)[None, None, :] + a[:, None, None] * np.asarray(e1) + a[None, :, None] * np.asarray(e2)
+    ).reshape(-1, 3)
 
 
 def history_from_pulses(rc, range_time, gate, pos, centre, fc, fs):
@@ -148,8 +156,13 @@ def bench_scene_case():
 
     pts = [{"name": f"T{i}", "azimuth": f"{(i % 5 - 2) * 20} m", "range": f"{(i // 5 - 2) * 20} m"} for i in range(25)]
     mapping = {
-        "radar": {"carrier_frequency": "10 GHz", "bandwidth": "150 MHz", "pulse_duration": "5 us",
-                  "range_sampling_rate": "180 MHz", "prf": "600 Hz"},
+        "radar": {
+            "carrier_frequency": "10 GHz",
+            "bandwidth": "150 MHz",
+            "pulse_duration": "5 us",
+            "range_sampling_rate": "180 MHz",
+            "prf": "600 Hz",
+        },
         "platform": {"velocity": "150 m/s", "altitude": "3 km"},
         "geometry": {"reference_range": "10 km", "squint": "20 deg"},
         "acquisition": {"mode": "spotlight", "aperture_time": "1.0 s"},
@@ -161,12 +174,24 @@ def bench_scene_case():
     centre = np.asarray(raw.radar.scene_center, float)
     vel = pos[-1] - pos[0]
     e1 = vel / np.linalg.norm(vel)
-    e2 = np.cross([0.0, 0.0, 1.0], e1)                         # horizontal, across track
+    e2 = np.cross([0.0, 0.0, 1.0], e1)  # horizontal, across track
     gate = raw.aux.get("range_gate_offset", np.zeros(len(pos)))
-    return {"name": "bench scene", "rc": rc, "range_time": raw.coords["range_time"], "gate": gate, "pos": pos,
-            "fc": raw.radar.carrier_frequency, "fs": raw.radar.range_sampling_rate,
-            "bandwidth": raw.radar.bandwidth, "centre": centre, "e1": e1, "e2": e2, "n": 512, "spacing": 0.3,
-            "history": None}
+    return {
+        "name": "bench scene",
+        "rc": rc,
+        "range_time": raw.coords["range_time"],
+        "gate": gate,
+        "pos": pos,
+        "fc": raw.radar.carrier_frequency,
+        "fs": raw.radar.range_sampling_rate,
+        "bandwidth": raw.radar.bandwidth,
+        "centre": centre,
+        "e1": e1,
+        "e2": e2,
+        "n": 512,
+        "spacing": 0.3,
+        "history": None,
+    }
 
 
 def gotcha_case():
@@ -181,13 +206,28 @@ def gotcha_case():
     freq = np.asarray(g["freq"], float)
     if freq[1] < freq[0]:
         S, freq = S[:, ::-1], freq[::-1]
-    history = (np.ascontiguousarray(S, np.complex64), np.asarray(g["r0"], float), float(freq[0]),
-               float(freq[1] - freq[0]))
-    return {"name": "Gotcha", "rc": raw.data, "range_time": raw.coords["range_time"],
-            "gate": raw.aux["range_gate_offset"], "pos": raw.aux["platform_position"],
-            "fc": raw.radar.carrier_frequency, "fs": raw.radar.range_sampling_rate,
-            "bandwidth": raw.radar.bandwidth, "centre": np.zeros(3), "e1": np.array([1.0, 0, 0]),
-            "e2": np.array([0, 1.0, 0]), "n": 512, "spacing": 0.15, "history": history}
+    history = (
+        np.ascontiguousarray(S, np.complex64),
+        np.asarray(g["r0"], float),
+        float(freq[0]),
+        float(freq[1] - freq[0]),
+    )
+    return {
+        "name": "Gotcha",
+        "rc": raw.data,
+        "range_time": raw.coords["range_time"],
+        "gate": raw.aux["range_gate_offset"],
+        "pos": raw.aux["platform_position"],
+        "fc": raw.radar.carrier_frequency,
+        "fs": raw.radar.range_sampling_rate,
+        "bandwidth": raw.radar.bandwidth,
+        "centre": np.zeros(3),
+        "e1": np.array([1.0, 0, 0]),
+        "e2": np.array([0, 1.0, 0]),
+        "n": 512,
+        "spacing": 0.15,
+        "history": history,
+    }
 
 
 def bp_stages(case):
@@ -198,18 +238,24 @@ def bp_stages(case):
     args = (case["rc"], case["range_time"], pos, pos, pts, case["fc"])
     kw = {"gate_offset": case["gate"]}
     over = case["fs"] / case["bandwidth"]
-    engines = [("reference", {"engine": "reference"}),
-               ("compiled linear x8", {"engine": "compiled"}),
-               ("compiled cubic x8", {"engine": "compiled", "interpolation": "cubic"}),
-               ("compiled knab8 x2", {"engine": "compiled", "interpolation": "knab", "upsample": 2,
-                                      "oversampling": 2 * over})]
-    if "engine" not in inspect.signature(backproject_points).parameters:     # an older sarproc (--stages before)
+    engines = [
+        ("reference", {"engine": "reference"}),
+        ("compiled linear x8", {"engine": "compiled"}),
+        ("compiled cubic x8", {"engine": "compiled", "interpolation": "cubic"}),
+        ("compiled knab8 x2", {"engine": "compiled", "interpolation": "knab", "upsample": 2, "oversampling": 2 * over}),
+    ]
+    if "engine" not in inspect.signature(backproject_points).parameters:  # an older sarproc (--stages before)
         engines = [("reference", {})]
     stages = []
     for label, opts in engines:
-        fn = (lambda o=opts: backproject_points(*args, **kw, **o).reshape(n, n).astype(np.complex64))
-        st = Stage(f"backproject {label}", fn, case["rc"].shape, case["rc"].nbytes + pts.nbytes,
-                   f"{case['name']}: {len(pos)} pulses x {case['rc'].shape[1]} -> {n} x {n}")
+        fn = lambda o=opts: backproject_points(*args, **kw, **o).reshape(n, n).astype(np.complex64)
+        st = Stage(
+            f"backproject {label}",
+            fn,
+            case["rc"].shape,
+            case["rc"].nbytes + pts.nbytes,
+            f"{case['name']}: {len(pos)} pulses x {case['rc'].shape[1]} -> {n} x {n}",
+        )
         st.pixel_pulses = n * n * len(pos)
         stages.append(st)
     truth = backproject_points(*args, **kw, **engines[0][1], upsample=32).reshape(n, n)
@@ -219,19 +265,36 @@ def bp_stages(case):
 def fastsar_run(case, python, workdir, calls=2):
     """One FastSAR call set in the bench venv: {interp: (time, image)} or None with a reason."""
     if case["history"] is None:
-        S, ref, fmin, df = history_from_pulses(case["rc"], case["range_time"], case["gate"], case["pos"],
-                                               case["centre"], case["fc"], case["fs"])
+        S, ref, fmin, df = history_from_pulses(
+            case["rc"], case["range_time"], case["gate"], case["pos"], case["centre"], case["fc"], case["fs"]
+        )
         ant = case["pos"] - case["centre"]
     else:
         S, ref, fmin, df = case["history"]
         ant = case["pos"] - case["centre"]
     path = Path(workdir) / "case.npz"
     if not path.exists():
-        np.savez(path, S=S, ant=ant, ref=ref, fmin=fmin, df=df, nx=case["n"], ny=case["n"],
-                 spx=case["spacing"], spy=case["spacing"], e1=case["e1"], e2=case["e2"], center=np.zeros(3))
+        np.savez(
+            path,
+            S=S,
+            ant=ant,
+            ref=ref,
+            fmin=fmin,
+            df=df,
+            nx=case["n"],
+            ny=case["n"],
+            spx=case["spacing"],
+            spy=case["spacing"],
+            e1=case["e1"],
+            e2=case["e2"],
+            center=np.zeros(3),
+        )
     out = Path(workdir) / "images.npz"
-    res = subprocess.run([python, str(ROOT / "scripts" / "bench_fastsar.py"), str(path), str(out),
-                          "--calls", str(calls)], capture_output=True, text=True)
+    res = subprocess.run(
+        [python, str(ROOT / "scripts" / "bench_fastsar.py"), str(path), str(out), "--calls", str(calls)],
+        capture_output=True,
+        text=True,
+    )
     if res.returncode != 0:
         return None, res.stderr.strip().splitlines()[-1] if res.stderr.strip() else f"exit {res.returncode}"
     info = json.loads(res.stdout.strip().splitlines()[-1])
@@ -258,9 +321,11 @@ def exp2_stages():
     pre = preprocess(raw, pp)
     coarse = coarse_focus(pre, cp)
     detail = "exp. 2 full size"
-    return [Stage("preprocess", lambda: preprocess(raw, pp).data, raw.data.shape, raw.data.nbytes, detail),
-            Stage("coarse-focus", lambda: coarse_focus(pre, cp).data, pre.data.shape, pre.data.nbytes, detail),
-            Stage("fine-focus", lambda: fine_focus(coarse, fp).data, coarse.data.shape, coarse.data.nbytes, detail)]
+    return [
+        Stage("preprocess", lambda: preprocess(raw, pp).data, raw.data.shape, raw.data.nbytes, detail),
+        Stage("coarse-focus", lambda: coarse_focus(pre, cp).data, pre.data.shape, pre.data.nbytes, detail),
+        Stage("fine-focus", lambda: fine_focus(coarse, fp).data, coarse.data.shape, coarse.data.nbytes, detail),
+    ]
 
 
 def array3d_stages():
@@ -273,8 +338,15 @@ def array3d_stages():
     section = m.pop("array3d", {}) or {}
     params = build(Array3DParams, section, "du2010.yaml", "array3d")
     raw = simulate(scene_from_mapping(m, "du2010.yaml"))
-    return [Stage("array3d", lambda: array3d_product(raw, params)[0].data, raw.data.shape, raw.data.nbytes,
-                  "du2010 (paper 004)")]
+    return [
+        Stage(
+            "array3d",
+            lambda: array3d_product(raw, params)[0].data,
+            raw.data.shape,
+            raw.data.nbytes,
+            "du2010 (paper 004)",
+        )
+    ]
 
 
 def simulate_stages():
@@ -289,8 +361,13 @@ def simulate_stages():
         scene = scene_from_mapping(m, name)
         plan = plan_simulation(scene)
         r = scene.radar
-        samples = plan.shape[-2] * len(plan.rx_offsets) * len(scene.target_amplitude) * \
-            r.pulse_duration * r.range_sampling_rate
+        samples = (
+            plan.shape[-2]
+            * len(plan.rx_offsets)
+            * len(scene.target_amplitude)
+            * r.pulse_duration
+            * r.range_sampling_rate
+        )
         st = Stage("simulate", lambda scene=scene: simulate(scene).data, plan.shape, 0, name.removesuffix(".yaml"))
         st.echo_samples = samples
         stages.append(st)
@@ -300,8 +377,11 @@ def simulate_stages():
 # ---- report -------------------------------------------------------------------------------------------------
 def fmt_table(rows, previous):
     prev = {r["stage"] + "|" + r.get("detail", ""): r for r in (previous or {}).get("stages", [])}
-    lines = ["| stage | data | time (s) | FFT equivalents | peak RSS / (in+out) | CPU/wall | rate | agreement (dB) "
-             "| previous time (s) |", "|---|---|---:|---:|---:|---:|---|---|---:|"]
+    lines = [
+        "| stage | data | time (s) | FFT equivalents | peak RSS / (in+out) | CPU/wall | rate | agreement (dB) "
+        "| previous time (s) |",
+        "|---|---|---:|---:|---:|---:|---|---|---:|",
+    ]
     for r in rows:
         p = prev.get(r["stage"] + "|" + r.get("detail", ""))
         rate = f"{r['rate'] / 1e6:.0f} M px-pulse/s" if "rate" in r else ""
@@ -312,10 +392,13 @@ def fmt_table(rows, previous):
         rss = f"{r['peak_rss_over_in_out']:.2f}" if r.get("peak_rss_over_in_out") is not None else "-"
         cpu = f"{r['cpu_per_wall']:.2f}" if r.get("cpu_per_wall") is not None else "-"
         fe = f"{r['fft_equivalents']:.1f}" if np.isfinite(r.get("fft_equivalents", np.nan)) else "-"
-        lines.append(f"| {r['stage']} | {r.get('detail', '')} | {r['time_s']:.3f} | {fe} | {rss} | {cpu} | {rate} | "
-                     f"{agr} | {p['time_s']:.3f} |" if p else
-                     f"| {r['stage']} | {r.get('detail', '')} | {r['time_s']:.3f} | {fe} | {rss} | {cpu} | {rate} | "
-                     f"{agr} | |")
+        lines.append(
+            f"| {r['stage']} | {r.get('detail', '')} | {r['time_s']:.3f} | {fe} | {rss} | {cpu} | {rate} | "
+            f"{agr} | {p['time_s']:.3f} |"
+            if p
+            else f"| {r['stage']} | {r.get('detail', '')} | {r['time_s']:.3f} | {fe} | {rss} | {cpu} | {rate} | "
+            f"{agr} | |"
+        )
     return "\n".join(lines)
 
 
@@ -339,7 +422,7 @@ def main(argv=None):
     if "gotcha" in want:
         try:
             g = gotcha_case()
-        except ImportError:                                   # an older sarproc without the Gotcha importer
+        except ImportError:  # an older sarproc without the Gotcha importer
             g = None
         if g is None:
             notes.append("Gotcha: ../shared/data/gotcha not found, skipped")
@@ -369,29 +452,57 @@ def main(argv=None):
         ref = stages[0].out
         for st in stages:
             row = st.row()
-            row.update(rate=st.pixel_pulses / st.time, agreement_db=agreement_db(st.out, ref) if st is not stages[0]
-                       else None, truth_db=agreement_db(st.out, truth))
+            row.update(
+                rate=st.pixel_pulses / st.time,
+                agreement_db=agreement_db(st.out, ref) if st is not stages[0] else None,
+                truth_db=agreement_db(st.out, truth),
+            )
             rows.append(row)
         for k, (t, img, info) in fast.items():
             if img is None:
                 continue
-            rows.append({"stage": f"FastSAR {version} exact {k} x8", "detail": stages[0].detail, "time_s": t,
-                         "fft_s": stages[0].fft, "fft_equivalents": t / stages[0].fft, "peak_rss_over_in_out": None,
-                         "cpu_per_wall": None, "rate": stages[0].pixel_pulses / t,
-                         "agreement_db": agreement_db(img, ref, fit=True), "truth_db": agreement_db(img, truth, fit=True),
-                         "fastsar_tile": info["tile"], "fastsar_predicted_error_db": info["predicted_error_db"]})
+            rows.append(
+                {
+                    "stage": f"FastSAR {version} exact {k} x8",
+                    "detail": stages[0].detail,
+                    "time_s": t,
+                    "fft_s": stages[0].fft,
+                    "fft_equivalents": t / stages[0].fft,
+                    "peak_rss_over_in_out": None,
+                    "cpu_per_wall": None,
+                    "rate": stages[0].pixel_pulses / t,
+                    "agreement_db": agreement_db(img, ref, fit=True),
+                    "truth_db": agreement_db(img, truth, fit=True),
+                    "fastsar_tile": info["tile"],
+                    "fastsar_predicted_error_db": info["predicted_error_db"],
+                }
+            )
         if len(stages) < 2:
             continue
         for kind in ("linear", "cubic"):
-            peer = next((r for r in rows if r["stage"].startswith("FastSAR") and kind in r["stage"]
-                         and r["detail"] == stages[0].detail), None)
-            comp = next((r for r in rows if r["stage"] == f"backproject compiled {kind} x8"
-                         and r["detail"] == stages[0].detail), None)
+            peer = next(
+                (
+                    r
+                    for r in rows
+                    if r["stage"].startswith("FastSAR") and kind in r["stage"] and r["detail"] == stages[0].detail
+                ),
+                None,
+            )
+            comp = next(
+                (
+                    r
+                    for r in rows
+                    if r["stage"] == f"backproject compiled {kind} x8" and r["detail"] == stages[0].detail
+                ),
+                None,
+            )
             if peer is not None and comp is not None:
-                notes.append(f"{case['name']}: compiled {kind} x8 at {comp['rate'] / peer['rate']:.2f} x FastSAR's "
-                             f"exact {kind} rate, {comp['agreement_db']:.1f} dB from the float64 reference and "
-                             f"{comp['truth_db']:.1f} dB from the x32 one (FastSAR {peer['agreement_db']:.1f} / "
-                             f"{peer['truth_db']:.1f} dB)")
+                notes.append(
+                    f"{case['name']}: compiled {kind} x8 at {comp['rate'] / peer['rate']:.2f} x FastSAR's "
+                    f"exact {kind} rate, {comp['agreement_db']:.1f} dB from the float64 reference and "
+                    f"{comp['truth_db']:.1f} dB from the x32 one (FastSAR {peer['agreement_db']:.1f} / "
+                    f"{peer['truth_db']:.1f} dB)"
+                )
         print(fmt_table(rows, previous), file=sys.stderr)
 
     heavy = []
@@ -399,7 +510,7 @@ def main(argv=None):
         if key in want:
             try:
                 heavy += make()
-            except Exception as exc:                  # e.g. an older sarproc that rejects a newer config key
+            except Exception as exc:  # e.g. an older sarproc that rejects a newer config key
                 notes.append(f"{key}: not run ({type(exc).__name__}: {exc})")
     for r in range(args.rounds):
         for st in heavy:
@@ -409,16 +520,24 @@ def main(argv=None):
         row = st.row()
         if hasattr(st, "echo_samples"):
             row["echo_rate"] = st.echo_samples / st.time
-            notes.append(f"simulate {st.detail}: {st.echo_samples / st.time / 1e6:.0f} M echo samples/s "
-                         f"(pulses x channels x targets x T_p f_s), {st.time / st.fft:.2f} one-FFT units of its output")
+            notes.append(
+                f"simulate {st.detail}: {st.echo_samples / st.time / 1e6:.0f} M echo samples/s "
+                f"(pulses x channels x targets x T_p f_s), {st.time / st.fft:.2f} one-FFT units of its output"
+            )
         rows.append(row)
 
     stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y%m%dT%H%M%SZ")
     text = "\n".join([f"# sarproc bench {stamp}", "", fmt_table(rows, previous), ""] + [f"- {n}" for n in notes])
     print(text)
     args.out.mkdir(parents=True, exist_ok=True)
-    doc = {"utc": stamp, "rounds": args.rounds, "bp_rounds": args.bp_rounds, "stages": rows, "notes": notes,
-           "peak_rss_process_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
+    doc = {
+        "utc": stamp,
+        "rounds": args.rounds,
+        "bp_rounds": args.bp_rounds,
+        "stages": rows,
+        "notes": notes,
+        "peak_rss_process_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+    }
     blob = json.dumps(doc, indent=1, default=lambda o: None if not np.isfinite(o) else float(o))
     (args.out / f"bench-{stamp}.json").write_text(blob)
     (args.out / "latest.json").write_text(blob)

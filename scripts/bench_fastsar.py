@@ -22,18 +22,37 @@ def main():
     ap.add_argument("out")
     ap.add_argument("--calls", type=int, default=2)
     ap.add_argument("--upsample", type=int, default=8)
-    ap.add_argument("--factorised", type=float, nargs="*", default=[],
-                    help="also FastSAR's factorised ImageFormer at these target_db values (key imageformer<db>)")
+    ap.add_argument(
+        "--factorised",
+        type=float,
+        nargs="*",
+        default=[],
+        help="also FastSAR's factorised ImageFormer at these target_db values (key imageformer<db>)",
+    )
     a = ap.parse_args()
     import fastsar
 
     c = np.load(a.case)
     result, images = {"version": fastsar.__version__}, {}
     for interp in ("linear", "cubic"):
-        former = fastsar.ExactFormer(c["ant"], float(c["fmin"]), float(c["df"]), c["S"].shape[1], int(c["nx"]),
-                                     int(c["ny"]), float(c["spx"]), float(c["spy"]), c["e1"], c["e2"],
-                                     backend="cpu", window=False, interp=interp, upsample=a.upsample, ref=c["ref"],
-                                     center=c["center"])
+        former = fastsar.ExactFormer(
+            c["ant"],
+            float(c["fmin"]),
+            float(c["df"]),
+            c["S"].shape[1],
+            int(c["nx"]),
+            int(c["ny"]),
+            float(c["spx"]),
+            float(c["spy"]),
+            c["e1"],
+            c["e2"],
+            backend="cpu",
+            window=False,
+            interp=interp,
+            upsample=a.upsample,
+            ref=c["ref"],
+            center=c["center"],
+        )
         best = np.inf
         for _ in range(a.calls):
             t = time.perf_counter()
@@ -42,9 +61,22 @@ def main():
         result[interp] = {"time_s": best, "tile": list(former.tile), "predicted_error_db": former.predicted_error_db}
         images[interp] = np.asarray(img)
     for db in a.factorised:
-        former = fastsar.ImageFormer(c["ant"], float(c["fmin"]), float(c["df"]), c["S"].shape[1], int(c["nx"]),
-                                     int(c["ny"]), float(c["spx"]), float(c["spy"]), c["e1"], c["e2"], backend="cpu",
-                                     window=False, target_db=db, ref=c["ref"])
+        former = fastsar.ImageFormer(
+            c["ant"],
+            float(c["fmin"]),
+            float(c["df"]),
+            c["S"].shape[1],
+            int(c["nx"]),
+            int(c["ny"]),
+            float(c["spx"]),
+            float(c["spy"]),
+            c["e1"],
+            c["e2"],
+            backend="cpu",
+            window=False,
+            target_db=db,
+            ref=c["ref"],
+        )
         best = np.inf
         for _ in range(a.calls):
             t = time.perf_counter()

@@ -70,13 +70,21 @@ def cluster_estimate(result: dict, workers=(1, 2, 4, 8, 16, 32, 64, 169)) -> dic
     cost = result["subimage_s_mean"] * (n_full * math.log(n_full)) / (n_small * math.log(n_small))
     n_sub = math.ceil((TABLE1["target_span_m"] + 2 * 24 * TABLE1["resolution_m"]) / TABLE1["valid_radius_m"]) ** 2
     step1_small = info["step1_shape"][0] * info["step1_shape"][1]
-    extent_ratio = (TABLE1["target_span_m"] + 1.5 * TABLE1["valid_radius_m"]) / (SMALL["target_span_m"] + 1.5 * core_small)
+    extent_ratio = (TABLE1["target_span_m"] + 1.5 * TABLE1["valid_radius_m"]) / (
+        SMALL["target_span_m"] + 1.5 * core_small
+    )
     step1_full = step1_small * (extent_ratio * SMALL["resolution_m"] / TABLE1["resolution_m"]) ** 2
     serial_s = result["serial_other_s"] * (step1_full * math.log(step1_full)) / (step1_small * math.log(step1_small))
     transfer_s = n_sub * n_full * 8 / 1e9
-    return {"subimages": n_sub, "window_samples": n_full, "subimage_s": cost, "step1_pixels": step1_full,
-            "driver_s": serial_s, "transfer_s": transfer_s,
-            "wall_s": {n: serial_s + transfer_s + math.ceil(n_sub / n) * cost for n in workers}}
+    return {
+        "subimages": n_sub,
+        "window_samples": n_full,
+        "subimage_s": cost,
+        "step1_pixels": step1_full,
+        "driver_s": serial_s,
+        "transfer_s": transfer_s,
+        "wall_s": {n: serial_s + transfer_s + math.ceil(n_sub / n) * cost for n in workers},
+    }
 
 
 def main(argv=None):
@@ -94,29 +102,55 @@ def main(argv=None):
     mapping = load_yaml(args.scene)
     params = build(Pfa2Params, mapping.get("pfa2"), str(args.scene), "pfa2")
     raw = simulate(scene_from_mapping(mapping, str(args.scene)))
-    _, t_cold, _, _ = timed_serial(raw, params)        # first run: imports and kernel compilation
+    _, t_cold, _, _ = timed_serial(raw, params)  # first run: imports and kernel compilation
     serial, t_serial, costs, sizes = timed_serial(raw, params)
     rows = [{"run": "serial (builtin map)", "workers": 0, "wall_s": t_serial, "cold_s": t_cold, "max_diff_db": None}]
     peak = np.abs(serial.data).max()
     for workers in (1, 2):
-        with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0") as cl, \
-                Client(cl) as client:
-            client.wait_for_workers(workers)           # workers up before the clock starts
+        with (
+            LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0") as cl,
+            Client(cl) as client,
+        ):
+            client.wait_for_workers(workers)  # workers up before the clock starts
             t0 = time.perf_counter()
             pfa2(raw, params, mapper=dask_mapper(client, "pfa2-subimage-cold"))
-            cold = time.perf_counter() - t0             # the workers import and compile their kernels
+            cold = time.perf_counter() - t0  # the workers import and compile their kernels
             t0 = time.perf_counter()
             image = pfa2(raw, params, mapper=dask_mapper(client, "pfa2-subimage"))
             wall = time.perf_counter() - t0
         diff = np.abs(image.data - serial.data).max() / peak
-        rows.append({"run": "Dask LocalCluster", "workers": workers, "wall_s": wall, "cold_s": cold,
-                     "max_diff_db": 20 * math.log10(max(float(diff), 1e-300))})
-    result = {"scene": str(args.scene), "raw_shape": list(raw.data.shape), "image_shape": list(serial.data.shape),
-              "n_subimages": len(costs), "subimage_s_mean": float(np.mean(costs)), "subimage_s_max": float(np.max(costs)),
-              "subimage_s_total": float(np.sum(costs)), "task_bytes_mean": float(np.mean(sizes)), "rows": rows,
-              "pfa2_info": {k: serial.attrs[k] for k in ("subimages", "subimage_core", "valid_radius_eq7",
-                                                         "step1_shape", "window_shape_max", "stage_seconds")
-                            if k in serial.attrs}}
+        rows.append(
+            {
+                "run": "Dask LocalCluster",
+                "workers": workers,
+                "wall_s": wall,
+                "cold_s": cold,
+                "max_diff_db": 20 * math.log10(max(float(diff), 1e-300)),
+            }
+        )
+    result = {
+        "scene": str(args.scene),
+        "raw_shape": list(raw.data.shape),
+        "image_shape": list(serial.data.shape),
+        "n_subimages": len(costs),
+        "subimage_s_mean": float(np.mean(costs)),
+        "subimage_s_max": float(np.max(costs)),
+        "subimage_s_total": float(np.sum(costs)),
+        "task_bytes_mean": float(np.mean(sizes)),
+        "rows": rows,
+        "pfa2_info": {
+            k: serial.attrs[k]
+            for k in (
+                "subimages",
+                "subimage_core",
+                "valid_radius_eq7",
+                "step1_shape",
+                "window_shape_max",
+                "stage_seconds",
+            )
+            if k in serial.attrs
+        },
+    }
     result["serial_other_s"] = t_serial - result["subimage_s_total"]
     result["table1_estimate"] = cluster_estimate(result)
     args.out.mkdir(parents=True, exist_ok=True)

@@ -23,12 +23,19 @@ from reproduce_003 import load_json, mfta_db, pick, raw_of, sweep_rows
 from sarproc.focus.multichannel import channels
 from sarproc.product.io import read_product
 
-CASES = [("vr20", "v_r 20.0 m/s (search bound 20)"), ("vr20.5", "v_r 20.5 m/s (search bound 20)"),
-         ("single_channel", "single channel (PRF 3 kHz)"), ("imbalance", "imbalance 3 deg / 3 % on channel 3"),
-         ("prf500_mu0", "PRF 500 Hz, mu 0"), ("prf1450_mu0", "PRF 1450 Hz, mu 0"),
-         ("prf1450_mu0.01", "PRF 1450 Hz, mu 0.01"), ("prf1500_mu0", "PRF 1500 Hz, mu 0"),
-         ("prf1500_mu0.001", "PRF 1500 Hz, mu 0.001"), ("prf1500_mu0.01", "PRF 1500 Hz, mu 0.01"),
-         ("prf1500_mu0.1", "PRF 1500 Hz, mu 0.1")]
+CASES = [
+    ("vr20", "v_r 20.0 m/s (search bound 20)"),
+    ("vr20.5", "v_r 20.5 m/s (search bound 20)"),
+    ("single_channel", "single channel (PRF 3 kHz)"),
+    ("imbalance", "imbalance 3 deg / 3 % on channel 3"),
+    ("prf500_mu0", "PRF 500 Hz, mu 0"),
+    ("prf1450_mu0", "PRF 1450 Hz, mu 0"),
+    ("prf1450_mu0.01", "PRF 1450 Hz, mu 0.01"),
+    ("prf1500_mu0", "PRF 1500 Hz, mu 0"),
+    ("prf1500_mu0.001", "PRF 1500 Hz, mu 0.001"),
+    ("prf1500_mu0.01", "PRF 1500 Hz, mu 0.01"),
+    ("prf1500_mu0.1", "PRF 1500 Hz, mu 0.1"),
+]
 
 
 def main():
@@ -46,11 +53,18 @@ def main():
         mts = info["moving_targets"]
         t = load_json(image["dir"] / "report.json")["targets"][0]
         az = {a["axis"]: a for a in t["axes"]}["azimuth"]
-        row = {"case": label, "finite": bool(np.all(np.isfinite(rec.data))), "condition": info["condition_number"],
-               "noise_gain_db": info["noise_gain_db"], "v_r_est": mts[0]["radial_velocity"] if mts else None,
-               "at_bound": mts[0]["at_bound"] if mts else None,
-               "mfta_db": mfta_db(load_json(strip["dir"] / "report.json")),
-               "az_irw_ratio": az["irw_ratio"], "az_pslr": az["pslr_db"], "peak": t["peak_amplitude"]}
+        row = {
+            "case": label,
+            "finite": bool(np.all(np.isfinite(rec.data))),
+            "condition": info["condition_number"],
+            "noise_gain_db": info["noise_gain_db"],
+            "v_r_est": mts[0]["radial_velocity"] if mts else None,
+            "at_bound": mts[0]["at_bound"] if mts else None,
+            "mfta_db": mfta_db(load_json(strip["dir"] / "report.json")),
+            "az_irw_ratio": az["irw_ratio"],
+            "az_pslr": az["pslr_db"],
+            "peak": t["peak_amplitude"],
+        }
         if scene == "imbalance":
             raw = read_product(raw_of(sweep, f"{scene}-image"), load=False)
             r = raw.radar
@@ -60,14 +74,31 @@ def main():
             row["predicted_db"] = channels.ghost_level_db(tau, r.prf, -1j * np.log(gain), half)
         rows.append(row)
     (res / "hard_cases.json").write_text(json.dumps(rows, indent=1, default=float))
-    cols = ["case", "finite", "condition", "noise_gain_db", "v_r_est", "at_bound", "peak", "az_irw_ratio", "az_pslr",
-            "mfta_db", "predicted_db"]
-    lines = ["# Paper 003 hard cases (configs/xu_small.yaml; configs/sweeps/hard_cases_003.yaml, "
-             "scripts/hard_cases_003.py)", "",
-             "| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    cols = [
+        "case",
+        "finite",
+        "condition",
+        "noise_gain_db",
+        "v_r_est",
+        "at_bound",
+        "peak",
+        "az_irw_ratio",
+        "az_pslr",
+        "mfta_db",
+        "predicted_db",
+    ]
+    lines = [
+        "# Paper 003 hard cases (configs/xu_small.yaml; configs/sweeps/hard_cases_003.yaml, scripts/hard_cases_003.py)",
+        "",
+        "| " + " | ".join(cols) + " |",
+        "|" + "---|" * len(cols),
+    ]
     for r_ in rows:
-        lines.append("| " + " | ".join(f"{r_.get(c):.4g}" if isinstance(r_.get(c), float) else str(r_.get(c, ""))
-                                       for c in cols) + " |")
+        lines.append(
+            "| "
+            + " | ".join(f"{r_.get(c):.4g}" if isinstance(r_.get(c), float) else str(r_.get(c, "")) for c in cols)
+            + " |"
+        )
     (res / "hard_cases.md").write_text("\n".join(lines) + "\n")
 
 

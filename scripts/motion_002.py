@@ -31,14 +31,27 @@ EQ7 = "97.7300277783166 m"
 def worst(targets, names=None) -> dict:
     """Worst values over the targets (named ones only, if given) and their axes of an evaluate report."""
     axes = [a for t in targets if names is None or t["name"] in names for a in t["axes"]]
-    inside = sum(all(abs(a["irw_ratio"] - 1) <= 0.05 and abs(a["pslr_db"] - PSLR) <= 0.5
-                     and abs(a["islr_db"] - ISLR) <= 0.5 and abs(a["position_error_cells"]) < 0.5 for a in t["axes"])
-                 for t in targets if names is None or t["name"] in names)
-    return {"pslr_db": max(a["pslr_db"] for a in axes), "islr_db": max(a["islr_db"] for a in axes),
-            "irw_dev": max(abs(a["irw_ratio"] - 1) for a in axes),
-            "position_cells": max(abs(a["position_error_cells"]) for a in axes), "in_tolerance": inside,
-            "centre_azimuth_pslr_db": next((a["pslr_db"] for t in targets if t["name"] == "T02_02"
-                                            for a in t["axes"] if a["axis"] == "azimuth"), None)}
+    inside = sum(
+        all(
+            abs(a["irw_ratio"] - 1) <= 0.05
+            and abs(a["pslr_db"] - PSLR) <= 0.5
+            and abs(a["islr_db"] - ISLR) <= 0.5
+            and abs(a["position_error_cells"]) < 0.5
+            for a in t["axes"]
+        )
+        for t in targets
+        if names is None or t["name"] in names
+    )
+    return {
+        "pslr_db": max(a["pslr_db"] for a in axes),
+        "islr_db": max(a["islr_db"] for a in axes),
+        "irw_dev": max(abs(a["irw_ratio"] - 1) for a in axes),
+        "position_cells": max(abs(a["position_error_cells"]) for a in axes),
+        "in_tolerance": inside,
+        "centre_azimuth_pslr_db": next(
+            (a["pslr_db"] for t in targets if t["name"] == "T02_02" for a in t["axes"] if a["axis"] == "azimuth"), None
+        ),
+    }
 
 
 def rows_of(directory: Path) -> dict:
@@ -70,12 +83,17 @@ def main(argv=None):
         rep = report(args.pfa_sweep, row)
         entry = scenes.setdefault(row["scene"], {})
         names = ["T02_02"] if case(row) == "plain" else None
-        entry[case(row)] = {**worst(rep["targets"], names), "focus_s": row["focus_s"],
-                            "false_target_db": (rep.get("false_target") or {}).get("level_db")}
+        entry[case(row)] = {
+            **worst(rep["targets"], names),
+            "focus_s": row["focus_s"],
+            "false_target_db": (rep.get("false_target") or {}).get("level_db"),
+        }
         if case(row) == "two_step":
             image = read_product(args.pfa_sweep / "tasks" / row["task"] / "pfa2.h5", load=False)
-            entry["attrs"] = {k: image.attrs[k] for k in ("track_residual", "track_core_limit", "valid_radius_eq7",
-                                                          "subimages", "subimage_core")}
+            entry["attrs"] = {
+                k: image.attrs[k]
+                for k in ("track_residual", "track_core_limit", "valid_radius_eq7", "subimages", "subimage_core")
+            }
             raw = read_product(next((args.pfa_sweep / "raw").glob(f"{row['scene']}-*.h5")))
             pos = antenna_positions(raw)
             frame = image_frame(raw)
@@ -84,23 +102,30 @@ def main(argv=None):
             entry["swing_m"] = [float(pos[:, i].max() - pos[:, i].min()) for i in (1, 2)]
     for row in rows_of(args.bp_sweep):
         rep = report(args.bp_sweep, row)
-        scenes[row["scene"]]["bp"] = {**worst(rep["targets"]), "focus_s": row["focus_s"],
-                                      "false_target_db": (rep.get("false_target") or {}).get("level_db")}
+        scenes[row["scene"]]["bp"] = {
+            **worst(rep["targets"]),
+            "focus_s": row["focus_s"],
+            "false_target_db": (rep.get("false_target") or {}).get("level_db"),
+        }
     base = scenes["straight"]["two_step_eq7"]["pslr_db"]
-    lines = ["# pfa2 on a curved track: reduced Table 1 scene with platform_motion (issue 22)", "",
-             "dr: the track's range wiggle no cubic in the line-of-sight angle follows; core: sub-image side "
-             "(eq. (7): 97.7 m, 16 sub-images; bound: sqrt(2) r sqrt(2 x 0.0126 / (K_max dr))); predicted: the "
-             "PSLR rise the residual K (core / sqrt 2)^2 dr / (2 r^2) can cause at eq. (7)'s cores; measured: "
-             "worst PSLR of two-step with eq. (7)'s cores minus the straight track's "
-             f"({base:.2f} dB). Worst over the 25 targets and both axes (plain: centre target T02_02); "
-             "in tol.: targets with IRW +-5 % of own theory, PSLR/ISLR +-0.5 dB, position < 0.5 cell.", "",
-             "| motion | dr (m) | bound core (m) | predicted / measured rise (dB) | two-step, eq. (7) cores: PSLR / "
-             "centre az. PSLR / ISLR / in tol. | two-step (bounded): sub-images, PSLR / centre az. PSLR / ISLR / "
-             "IRW dev"
-             " / pos (cells) / false target (dB)"
-             " / in tol. / time (s) | plain, centre: PSLR / ISLR / IRW dev | backprojection: PSLR / ISLR / false "
-             "target (dB) |",
-             "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    lines = [
+        "# pfa2 on a curved track: reduced Table 1 scene with platform_motion (issue 22)",
+        "",
+        "dr: the track's range wiggle no cubic in the line-of-sight angle follows; core: sub-image side "
+        "(eq. (7): 97.7 m, 16 sub-images; bound: sqrt(2) r sqrt(2 x 0.0126 / (K_max dr))); predicted: the "
+        "PSLR rise the residual K (core / sqrt 2)^2 dr / (2 r^2) can cause at eq. (7)'s cores; measured: "
+        "worst PSLR of two-step with eq. (7)'s cores minus the straight track's "
+        f"({base:.2f} dB). Worst over the 25 targets and both axes (plain: centre target T02_02); "
+        "in tol.: targets with IRW +-5 % of own theory, PSLR/ISLR +-0.5 dB, position < 0.5 cell.",
+        "",
+        "| motion | dr (m) | bound core (m) | predicted / measured rise (dB) | two-step, eq. (7) cores: PSLR / "
+        "centre az. PSLR / ISLR / in tol. | two-step (bounded): sub-images, PSLR / centre az. PSLR / ISLR / "
+        "IRW dev"
+        " / pos (cells) / false target (dB)"
+        " / in tol. / time (s) | plain, centre: PSLR / ISLR / IRW dev | backprojection: PSLR / ISLR / false "
+        "target (dB) |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
     table = []
     for name, e in scenes.items():
         a = e["attrs"]
@@ -117,11 +142,20 @@ def main(argv=None):
             f"{t2['irw_dev']:.3f} / "
             f"{t2['position_cells']:.3f} / {t2['false_target_db']:.1f} / {t2['in_tolerance']} / {t2['focus_s']:.1f} | "
             f"{p['pslr_db']:.2f} / {p['islr_db']:.2f} / {p['irw_dev']:.3f} | "
-            f"{b['pslr_db']:.2f} / {b['islr_db']:.2f} / {b['false_target_db']:.1f} |")
-        table.append({"motion": name, "track_residual_m": a["track_residual"], "bound_core_m": bound,
-                      "predicted_rise_db": predicted, "measured_rise_db": measured, **{c: e[c] for c in
-                      ("two_step_eq7", "two_step", "plain", "bp")}, "subimages": a["subimages"],
-                      "swing_m": e["swing_m"]})
+            f"{b['pslr_db']:.2f} / {b['islr_db']:.2f} / {b['false_target_db']:.1f} |"
+        )
+        table.append(
+            {
+                "motion": name,
+                "track_residual_m": a["track_residual"],
+                "bound_core_m": bound,
+                "predicted_rise_db": predicted,
+                "measured_rise_db": measured,
+                **{c: e[c] for c in ("two_step_eq7", "two_step", "plain", "bp")},
+                "subimages": a["subimages"],
+                "swing_m": e["swing_m"],
+            }
+        )
     lines.append("")
     (args.out / "table.md").write_text("\n".join(lines))
     (args.out / "table.json").write_text(json.dumps(table, indent=1, default=float) + "\n")

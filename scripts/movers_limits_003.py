@@ -30,7 +30,7 @@ from sarproc.product.io import read_product
 from sarproc.product.model import moving_target_rows
 
 BASE = Path(__file__).resolve().parents[1] / "configs" / "xu_scene.yaml"
-CELL = 12.5   # m, range cell of the 12 MHz sampling
+CELL = 12.5  # m, range cell of the 12 MHz sampling
 
 
 def scene(points, noise_snr=None):
@@ -45,18 +45,32 @@ def scene(points, noise_snr=None):
 
 
 def vehicle(name, azimuth, rng, v_a, v_r, amplitude=1.0):
-    return {"name": name, "azimuth": f"{azimuth} m", "range": f"{rng} m", "amplitude": amplitude,
-            "velocity": [f"{v_a} m/s", f"{v_r} m/s", "0 m/s"]}
+    return {
+        "name": name,
+        "azimuth": f"{azimuth} m",
+        "range": f"{rng} m",
+        "amplitude": amplitude,
+        "velocity": [f"{v_a} m/s", f"{v_r} m/s", "0 m/s"],
+    }
 
 
 def run(mapping, work: Path, tag: str):
     cfg = work / f"{tag}.yaml"
     cfg.write_text(yaml.safe_dump(mapping))
     cli = [sys.executable, "-m", "sarproc"]
-    subprocess.run(cli + ["simulate", str(cfg), "-o", str(work / f"{tag}_mc.h5"), "--overwrite", "--no-progress"],
-                   check=True, capture_output=True, text=True)
-    p = subprocess.run(cli + ["reconstruct", str(work / f"{tag}_mc.h5"), "-o", str(work / f"{tag}.h5"), "--overwrite",
-                              "--no-progress"], check=True, capture_output=True, text=True)
+    subprocess.run(
+        cli + ["simulate", str(cfg), "-o", str(work / f"{tag}_mc.h5"), "--overwrite", "--no-progress"],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
+    p = subprocess.run(
+        cli
+        + ["reconstruct", str(work / f"{tag}_mc.h5"), "-o", str(work / f"{tag}.h5"), "--overwrite", "--no-progress"],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
     rec = read_product(work / f"{tag}.h5", load=False)
     warnings = [ln.split("WARNING: ", 1)[1] for ln in p.stderr.splitlines() if "WARNING" in ln]
     names = [n.decode() for n in rec.targets["name"]]
@@ -74,8 +88,10 @@ def describe(rec, found, names):
         if r is None:
             out.append(f"{n}: missed")
         else:
-            out.append(f"{n}: SNR {r['snr']:.1f} dB, v_r err {r['v_r'] - rec.targets['vy'][tt[n]]:+.3f} "
-                       f"(sigma {r['v_r_sigma']:.3f})")
+            out.append(
+                f"{n}: SNR {r['snr']:.1f} dB, v_r err {r['v_r'] - rec.targets['vy'][tt[n]]:+.3f} "
+                f"(sigma {r['v_r_sigma']:.3f})"
+            )
     return "; ".join(out)
 
 
@@ -85,35 +101,56 @@ def main():
     args = ap.parse_args()
     res = Path(args.results)
     res.mkdir(parents=True, exist_ok=True)
-    lines = ["# Paper 003: mover detection against SNR and spacing (scripts/movers_limits_003.py)\n",
-             "Two movers per run, default reconstruct knobs (CFAR 15 dB over the local background, separation "
-             "mask +-25 Hz, window +-16 cells); 10 MHz chirp of 15 us, 12.5 m range cells (15 m resolution).\n"]
+    lines = [
+        "# Paper 003: mover detection against SNR and spacing (scripts/movers_limits_003.py)\n",
+        "Two movers per run, default reconstruct knobs (CFAR 15 dB over the local background, separation "
+        "mask +-25 Hz, window +-16 cells); 10 MHz chirp of 15 us, 12.5 m range cells (15 m resolution).\n",
+    ]
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
-        lines += ["## SNR (M1 v_r 10, M2 v_r -6 m/s, 80 m apart in walk-corrected range)\n",
-                  "| raw SNR (dB) | found | false alarms | per mover | warnings |", "|---:|---:|---:|---|---|"]
+        lines += [
+            "## SNR (M1 v_r 10, M2 v_r -6 m/s, 80 m apart in walk-corrected range)\n",
+            "| raw SNR (dB) | found | false alarms | per mover | warnings |",
+            "|---:|---:|---:|---|---|",
+        ]
         for snr in (-10, -20, -25, -30, -35):
-            rec, found, false, warns = run(scene([vehicle("M1", 800, 0, 0, 10), vehicle("M2", 600, 148, 0, -6)], snr),
-                                           work, f"snr{-snr}")
-            lines.append(f"| {snr} | {len(found)} / 2 | {len(false)} | {describe(rec, found, ['M1', 'M2'])} | "
-                         f"{'; '.join(warns) or '-'} |")
+            rec, found, false, warns = run(
+                scene([vehicle("M1", 800, 0, 0, 10), vehicle("M2", 600, 148, 0, -6)], snr), work, f"snr{-snr}"
+            )
+            lines.append(
+                f"| {snr} | {len(found)} / 2 | {len(false)} | {describe(rec, found, ['M1', 'M2'])} | "
+                f"{'; '.join(warns) or '-'} |"
+            )
             print(lines[-1], flush=True)
-        lines += ["", "## Range spacing (same velocity v_r 10 m/s: same apparent azimuth)\n",
-                  "| spacing (cells) | found | false alarms | per mover | warnings |", "|---:|---:|---:|---|---|"]
+        lines += [
+            "",
+            "## Range spacing (same velocity v_r 10 m/s: same apparent azimuth)\n",
+            "| spacing (cells) | found | false alarms | per mover | warnings |",
+            "|---:|---:|---:|---|---|",
+        ]
         for cells in (1, 3, 5, 10, 20, 34):
-            rec, found, false, warns = run(scene([vehicle("P", 0, 0, 0, 10), vehicle("R", 0, cells * CELL, 0, 10)]),
-                                           work, f"rg{cells}")
-            lines.append(f"| {cells} | {len(found)} / 2 | {len(false)} | {describe(rec, found, ['P', 'R'])} | "
-                         f"{'; '.join(warns) or '-'} |")
+            rec, found, false, warns = run(
+                scene([vehicle("P", 0, 0, 0, 10), vehicle("R", 0, cells * CELL, 0, 10)]), work, f"rg{cells}"
+            )
+            lines.append(
+                f"| {cells} | {len(found)} / 2 | {len(false)} | {describe(rec, found, ['P', 'R'])} | "
+                f"{'; '.join(warns) or '-'} |"
+            )
             print(lines[-1], flush=True)
-        lines += ["", "## Doppler spacing (one range cell; v_r 10 and 10 + dv m/s)\n",
-                  "| dv (m/s) | apparent azimuth apart (m) | found | false alarms | per mover | warnings |",
-                  "|---:|---:|---:|---:|---|---|"]
+        lines += [
+            "",
+            "## Doppler spacing (one range cell; v_r 10 and 10 + dv m/s)\n",
+            "| dv (m/s) | apparent azimuth apart (m) | found | false alarms | per mover | warnings |",
+            "|---:|---:|---:|---:|---|---|",
+        ]
         for dv in (0.25, 0.5, 1.0, 1.5, 2.0, 4.0):
-            rec, found, false, warns = run(scene([vehicle("P", 0, 0, 0, 10), vehicle("Q", 0, 0, 0, 10 + dv)]),
-                                           work, f"dv{dv}")
-            lines.append(f"| {dv} | {75 * dv:.0f} | {len(found)} / 2 | {len(false)} | {describe(rec, found, ['P', 'Q'])} | "
-                         f"{'; '.join(warns) or '-'} |")
+            rec, found, false, warns = run(
+                scene([vehicle("P", 0, 0, 0, 10), vehicle("Q", 0, 0, 0, 10 + dv)]), work, f"dv{dv}"
+            )
+            lines.append(
+                f"| {dv} | {75 * dv:.0f} | {len(found)} / 2 | {len(false)} | {describe(rec, found, ['P', 'Q'])} | "
+                f"{'; '.join(warns) or '-'} |"
+            )
             print(lines[-1], flush=True)
     (res / "limits.md").write_text("\n".join(lines) + "\n")
 

@@ -27,16 +27,28 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIGS = ROOT / "configs"
-PLAN = re.compile(r"(\S+): plan: output ~([\d.]+ \w+), (?:working|peak) memory ~([\d.]+ \w+), "
-                  r"run time ~([\d.e+-]+ \w+)")
+PLAN = re.compile(
+    r"(\S+): plan: output ~([\d.]+ \w+), (?:working|peak) memory ~([\d.]+ \w+), "
+    r"run time ~([\d.e+-]+ \w+)"
+)
 UNIT = {"B": 1, "kB": 1e3, "MB": 1e6, "GB": 1e9, "TB": 1e12, "s": 1, "min": 60, "h": 3600}
-FOCUS = {"an2012": ("preprocess", "coarse-focus", "fine-focus"), "bp": ("backproject",), "demo": ("backproject",),
-         "du2010": ("array3d",), "nie2016": ("pfa2",), "xu": ("reconstruct", "backproject")}
+FOCUS = {
+    "an2012": ("preprocess", "coarse-focus", "fine-focus"),
+    "bp": ("backproject",),
+    "demo": ("backproject",),
+    "du2010": ("array3d",),
+    "nie2016": ("pfa2",),
+    "xu": ("reconstruct", "backproject"),
+}
 # the chains of the tests' scale: every stage at least once, each config seconds to run
 SMALL = ("demo", "an2012_exp1_small", "nie2016_sliding_small", "xu_small", "du2010_wide_swath")
 # config variants (stage sections only), run on their base scene's raw product
-VARIANTS = {"an2012_exp1_linear": "an2012_exp1", "an2012_exp1_none": "an2012_exp1",
-            "an2012_exp2_flow1": "an2012_exp2", "xu_conventional": "xu_scene"}
+VARIANTS = {
+    "an2012_exp1_linear": "an2012_exp1",
+    "an2012_exp1_none": "an2012_exp1",
+    "an2012_exp2_flow1": "an2012_exp2",
+    "xu_conventional": "xu_scene",
+}
 
 
 def value(text: str) -> float:
@@ -49,14 +61,18 @@ def chain(name: str, out: Path) -> list[list]:
     if name == "gotcha":
         gotcha = Path(os.environ.get("GOTCHA_DIR", ROOT.parent / "shared" / "data" / "gotcha"))
         cfg = CONFIGS / "gotcha.yaml"
-        return [["import-gotcha", gotcha, "-o", out / "gotcha_raw.h5"],
-                ["pfa2", out / "gotcha_raw.h5", "--config", cfg, "-o", out / "gotcha_pfa.h5"],
-                ["backproject", out / "gotcha_raw.h5", "--config", cfg, "-o", out / "gotcha_bp.h5"]]
+        return [
+            ["import-gotcha", gotcha, "-o", out / "gotcha_raw.h5"],
+            ["pfa2", out / "gotcha_raw.h5", "--config", cfg, "-o", out / "gotcha_pfa.h5"],
+            ["backproject", out / "gotcha_raw.h5", "--config", cfg, "-o", out / "gotcha_bp.h5"],
+        ]
     if name == "formats":
-        return [*chain("demo", out)[:2],
-                ["export-sicd", out / "demo_backproject.h5", "-o", out / "demo.nitf"],
-                ["export-cphd", out / "demo_raw.h5", "-o", out / "demo.cphd"],
-                ["import-cphd", out / "demo.cphd", "-o", out / "demo_from_cphd.h5"]]
+        return [
+            *chain("demo", out)[:2],
+            ["export-sicd", out / "demo_backproject.h5", "-o", out / "demo.nitf"],
+            ["export-cphd", out / "demo_raw.h5", "-o", out / "demo.cphd"],
+            ["import-cphd", out / "demo.cphd", "-o", out / "demo_from_cphd.h5"],
+        ]
     base = VARIANTS.get(name, name)
     cfg = CONFIGS / f"{name}.yaml"
     stages = FOCUS[base.split("_")[0]]
@@ -96,8 +112,9 @@ main()
 
 def _run(args, extra=()):
     """(exit status, stdout, stderr) of one sarproc subprocess."""
-    proc = subprocess.run([sys.executable, "-m", "sarproc", *map(str, args), *extra], capture_output=True,
-                          text=True, cwd=ROOT)
+    proc = subprocess.run(
+        [sys.executable, "-m", "sarproc", *map(str, args), *extra], capture_output=True, text=True, cwd=ROOT
+    )
     return proc.returncode, proc.stdout, proc.stderr
 
 
@@ -112,8 +129,11 @@ def run_stage(args, repeat: int = 1, accept=None, dry_run=_run) -> dict:
     if output.exists():
         output.unlink()
     row = {"stage": args[0], "input": Path(args[1]).name, "output": output.name}
-    extra = [] if args[0] in ("evaluate", "import-gotcha", "quicklook") or args[0].startswith(("export", "import")) \
+    extra = (
+        []
+        if args[0] in ("evaluate", "import-gotcha", "quicklook") or args[0].startswith(("export", "import"))
         else ["--no-progress"]
+    )
     for i in range(repeat):
         existed = output.exists()
         code, stdout, stderr = dry_run(args, ["--dry-run"])
@@ -129,10 +149,15 @@ def run_stage(args, repeat: int = 1, accept=None, dry_run=_run) -> dict:
             for k in ("wall", "cpu", "rss"):
                 row.pop(k, None)
         t0 = time.perf_counter()
-        proc = subprocess.Popen([sys.executable, "-c", PEAK_RSS, *map(str, args), *extra],
-                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+        proc = subprocess.Popen(
+            [sys.executable, "-c", PEAK_RSS, *map(str, args), *extra],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+            cwd=ROOT,
+        )
         err = proc.stderr.read()
-        _, status, usage = os.wait4(proc.pid, 0)     # reaped here for its rusage (CPU time)
+        _, status, usage = os.wait4(proc.pid, 0)  # reaped here for its rusage (CPU time)
         wall = time.perf_counter() - t0
         proc.returncode = os.waitstatus_to_exitcode(status)
         proc.stderr.close()
@@ -158,8 +183,11 @@ def within(row: dict, factor: float = 2.0) -> bool:
     if "rss" not in row:
         return False
     measured_s = min(row["wall"], row["cpu"])
-    return (1 / factor <= row["plan_mem"] / row["rss"] <= factor
-            and 1 / factor <= row["plan_s"] / measured_s and row["plan_s"] / row["wall"] <= factor)
+    return (
+        1 / factor <= row["plan_mem"] / row["rss"] <= factor
+        and 1 / factor <= row["plan_s"] / measured_s
+        and row["plan_s"] / row["wall"] <= factor
+    )
 
 
 def measure(names, out: Path, repeat: int = 1, log=print) -> list[dict]:
@@ -177,14 +205,18 @@ def measure(names, out: Path, repeat: int = 1, log=print) -> list[dict]:
 def line(r: dict) -> str:
     if "rss" not in r:
         return f"| {r['config']} | {r['stage']} | refused: {r.get('refused', '')} | | | | | |"
-    return (f"| {r['config']} | {r['stage']} | {r['plan_out'] / 1e6:.3g} / {r['out'] / 1e6:.3g} MB | "
-            f"{r['plan_mem'] / 1e6:.3g} / {r['rss'] / 1e6:.3g} MB | {r['plan_mem'] / r['rss']:.2f} | "
-            f"{r['plan_s']:.3g} / {r['wall']:.3g} s (CPU {r['cpu']:.3g} s) | {r['plan_s'] / r['wall']:.2f} | "
-            f"{'yes' if within(r) else 'NO'} |")
+    return (
+        f"| {r['config']} | {r['stage']} | {r['plan_out'] / 1e6:.3g} / {r['out'] / 1e6:.3g} MB | "
+        f"{r['plan_mem'] / 1e6:.3g} / {r['rss'] / 1e6:.3g} MB | {r['plan_mem'] / r['rss']:.2f} | "
+        f"{r['plan_s']:.3g} / {r['wall']:.3g} s (CPU {r['cpu']:.3g} s) | {r['plan_s'] / r['wall']:.2f} | "
+        f"{'yes' if within(r) else 'NO'} |"
+    )
 
 
-HEAD = ("| config | stage | output plan / actual | peak memory plan / RSS | ratio | time plan / wall (best) | ratio "
-        "| within 2x |\n|---|---|---|---|---|---|---|---|")
+HEAD = (
+    "| config | stage | output plan / actual | peak memory plan / RSS | ratio | time plan / wall (best) | ratio "
+    "| within 2x |\n|---|---|---|---|---|---|---|---|"
+)
 
 
 def main() -> None:
@@ -202,17 +234,22 @@ def main() -> None:
     wrote = [r for r in rows if r.get("dry_run_wrote")]
     bad = [r for r in rows if "rss" in r and not within(r)]
     refused = [r for r in rows if "rss" not in r]
-    summary = (f"{len(rows) - len(refused)} stages measured, {len(bad)} outside 2x, {len(refused)} refused; "
-               f"--dry-run wrote an output: {len(wrote)}")
+    summary = (
+        f"{len(rows) - len(refused)} stages measured, {len(bad)} outside 2x, {len(refused)} refused; "
+        f"--dry-run wrote an output: {len(wrote)}"
+    )
     print(summary)
     if a.markdown:
         when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-        table = (f"{START}\n<!-- scripts/plan_accuracy.py --repeat {a.repeat} {' '.join(names)}: {when}, "
-                 f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at the end -->\n\n{HEAD}\n"
-                 + "\n".join(line(r) for r in rows) + f"\n\n{summary}\n{END}")
+        table = (
+            f"{START}\n<!-- scripts/plan_accuracy.py --repeat {a.repeat} {' '.join(names)}: {when}, "
+            f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at the end -->\n\n{HEAD}\n"
+            + "\n".join(line(r) for r in rows)
+            + f"\n\n{summary}\n{END}"
+        )
         text = a.markdown.read_text() if a.markdown.exists() else ""
-        if START in text and END in text:   # the table replaces the previous one; the prose stays
-            text = text[:text.index(START)] + table + text[text.index(END) + len(END):]
+        if START in text and END in text:  # the table replaces the previous one; the prose stays
+            text = text[: text.index(START)] + table + text[text.index(END) + len(END) :]
         else:
             text = table + "\n"
         a.markdown.write_text(text)

@@ -44,30 +44,47 @@ def table(raw, image):
         p = np.array([t["x"], t["y"], t["z"]])
         th = local_irw(pos, p, frame.u_azimuth, frame.u_range, r.carrier_frequency, (-r.bandwidth / 2, r.bandwidth / 2))
         dist = float(np.hypot(t["azimuth"], t["range"] - frame.ground_range))
-        rows.append(dict(name=t_rep.name, dist=dist, peak=t_rep.peak_amplitude,
-                         irw=[a.irw / x for a, x in zip(t_rep.axes, th)],
-                         pslr=[a.pslr_db for a in t_rep.axes], islr=[a.islr_db for a in t_rep.axes],
-                         pos=[a.position_error_cells for a in t_rep.axes]))
+        rows.append(
+            dict(
+                name=t_rep.name,
+                dist=dist,
+                peak=t_rep.peak_amplitude,
+                irw=[a.irw / x for a, x in zip(t_rep.axes, th)],
+                pslr=[a.pslr_db for a in t_rep.axes],
+                islr=[a.islr_db for a in t_rep.axes],
+                pos=[a.position_error_cells for a in t_rep.axes],
+            )
+        )
     return rows, rep.false_target
 
 
 def within(row) -> bool:
-    return (all(abs(x - 1) <= 0.05 for x in row["irw"]) and all(abs(x + 13.26) <= 0.5 for x in row["pslr"])
-            and all(abs(x + 10.16) <= 0.5 for x in row["islr"]) and all(abs(x) < 0.5 for x in row["pos"]))
+    return (
+        all(abs(x - 1) <= 0.05 for x in row["irw"])
+        and all(abs(x + 13.26) <= 0.5 for x in row["pslr"])
+        and all(abs(x + 10.16) <= 0.5 for x in row["islr"])
+        and all(abs(x) < 0.5 for x in row["pos"])
+    )
 
 
 def badness(row) -> float:
     """One number per target: the worst of |IRW/theory - 1| / 5 %, |PSLR + 13.26| / 0.5 dB, |ISLR + 10.16| / 0.5 dB."""
-    return max(max(abs(x - 1) / 0.05 for x in row["irw"]), max(abs(x + 13.26) / 0.5 for x in row["pslr"]),
-               max(abs(x + 10.16) / 0.5 for x in row["islr"]))
+    return max(
+        max(abs(x - 1) / 0.05 for x in row["irw"]),
+        max(abs(x + 13.26) / 0.5 for x in row["pslr"]),
+        max(abs(x + 10.16) / 0.5 for x in row["islr"]),
+    )
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--config", type=Path, default=Path("configs/nie2016.yaml"))
     ap.add_argument("--out", type=Path, default=Path("results/002"))
-    ap.add_argument("--corrected-plain", action="store_true",
-                    help="also plain PFA with correct_distortion (defocus without the geometric distortion)")
+    ap.add_argument(
+        "--corrected-plain",
+        action="store_true",
+        help="also plain PFA with correct_distortion (defocus without the geometric distortion)",
+    )
     ap.add_argument("--corner", default=None, help="target shown in fig_M (default: the first, a corner)")
     args = ap.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
@@ -87,15 +104,20 @@ def main():
     if args.corrected_plain:
         runs.append(("plain_corrected", "image_pfa_corrected.h5", {"correct_distortion": True}))
     for method, name, extra in runs:
-        params = build(Pfa2Params, {**cfg, **extra, "method": method.replace("_corrected", "")},
-                       source=str(args.config), section="pfa2")
+        params = build(
+            Pfa2Params,
+            {**cfg, **extra, "method": method.replace("_corrected", "")},
+            source=str(args.config),
+            section="pfa2",
+        )
         img = pfa2(raw, params)
         write_product(args.out / name, img, overwrite=True)
         results[method] = table(raw, img)
         attrs[method] = dict(img.attrs)
         tr = evaluate_product(img).target(corner)
-        patches[method] = target_patch(img.data, img.dims, img.coords, img.attrs["theoretical_irw"], tr,
-                                       half_width_nulls=6, upsample=8)
+        patches[method] = target_patch(
+            img.data, img.dims, img.coords, img.attrs["theoretical_irw"], tr, half_width_nulls=6, upsample=8
+        )
         del img
     peak_gb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
     plain_rows, plain_false = results["plain"]
@@ -113,10 +135,16 @@ def main():
         rows_c = results["plain_corrected"][0]
         dc = np.array([r["dist"] for r in rows_c])
         oc = np.argsort(dc)
-        plt.semilogy(dc[oc], np.maximum(np.array([badness(r) for r in rows_c])[oc], 1e-3), "^-", ms=4,
-                     label="plain PFA, distortion corrected")
-    plt.semilogy([r["dist"] for r in two_rows], [max(badness(r), 1e-3) for r in two_rows], "s", ms=3,
-                 label="two-step PFA")
+        plt.semilogy(
+            dc[oc],
+            np.maximum(np.array([badness(r) for r in rows_c])[oc], 1e-3),
+            "^-",
+            ms=4,
+            label="plain PFA, distortion corrected",
+        )
+    plt.semilogy(
+        [r["dist"] for r in two_rows], [max(badness(r), 1e-3) for r in two_rows], "s", ms=3, label="two-step PFA"
+    )
     plt.axhline(1, color="k", lw=0.8)
     plt.axvline(radius, color="r", ls="--", label=f"eq. (7) radius {radius:.0f} m")
     plt.xlabel("distance from scene centre (m)")
@@ -126,8 +154,11 @@ def main():
     plt.savefig(args.out / "quality_vs_distance.png", dpi=110)
     plt.close()
     broken = sorted(r["dist"] for r in plain_rows if badness(r) > 1)
-    broken_c = sorted(r["dist"] for r in results["plain_corrected"][0] if badness(r) > 1) \
-        if "plain_corrected" in results else []
+    broken_c = (
+        sorted(r["dist"] for r in results["plain_corrected"][0] if badness(r) > 1)
+        if "plain_corrected" in results
+        else []
+    )
     # raw data the varied gate saves: the same scene planned with a fixed gate
     from sarproc.simulation.scene import scene_from_mapping
     from sarproc.simulation.simulate import plan_simulation
@@ -149,37 +180,51 @@ def main():
     plt.close()
 
     def fmt(rows):
-        out = ["| target | dist (m) | IRW az/rg (x own theory) | PSLR az/rg (dB) | ISLR az/rg (dB) | pos az/rg (cells) | ok |",
-               "| --- | --- | --- | --- | --- | --- | --- |"]
+        out = [
+            "| target | dist (m) | IRW az/rg (x own theory) | PSLR az/rg (dB) | ISLR az/rg (dB) | pos az/rg (cells) | ok |",
+            "| --- | --- | --- | --- | --- | --- | --- |",
+        ]
         for r in rows:
-            out.append(f"| {r['name']} | {r['dist']:.0f} | {r['irw'][0]:.3f} / {r['irw'][1]:.3f} | "
-                       f"{r['pslr'][0]:.2f} / {r['pslr'][1]:.2f} | {r['islr'][0]:.2f} / {r['islr'][1]:.2f} | "
-                       f"{r['pos'][0]:+.3f} / {r['pos'][1]:+.3f} | {'yes' if within(r) else 'NO'} |")
+            out.append(
+                f"| {r['name']} | {r['dist']:.0f} | {r['irw'][0]:.3f} / {r['irw'][1]:.3f} | "
+                f"{r['pslr'][0]:.2f} / {r['pslr'][1]:.2f} | {r['islr'][0]:.2f} / {r['islr'][1]:.2f} | "
+                f"{r['pos'][0]:+.3f} / {r['pos'][1]:+.3f} | {'yes' if within(r) else 'NO'} |"
+            )
         return out
 
     st_p, st_t = attrs["plain"]["stage_seconds"], attrs["two_step"]["stage_seconds"]
-    lines = [f"# Paper 002 reproduction: {args.config}", "",
-             f"- raw: {n_az} pulses x {n_rg} samples; simulate {t_sim:.1f} s; one 2-D FFT of that size "
-             f"{fft_unit:.2f} s (the unit below)",
-             f"- eq. (7) valid radius {radius:.1f} m; two-step: {attrs['two_step']['subimages']} sub-images of "
-             f"{attrs['two_step']['subimage_core']:.1f} m",
-             f"- plain PFA: {sum(within(r) for r in plain_rows)}/{len(plain_rows)} targets in tolerance; first target "
-             f"out of tolerance at {broken[0] if broken else float('nan'):.0f} m from the centre; false target "
-             f"{plain_false.level_db:.1f} dB"
-             + (f"; with correct_distortion, first defocused (badness > 1) at {broken_c[0]:.0f} m" if broken_c else ""),
-             f"- varied gate: {n_rg} samples per pulse instead of {n_fixed} with a fixed gate "
-             f"({100 * (1 - n_rg / n_fixed):.1f} % less raw data, {n_az * (n_fixed - n_rg) * 8 / 2**30:.2f} GB)",
-             f"- two-step PFA: {sum(within(r) for r in two_rows)}/{len(two_rows)} targets in tolerance "
-             f"(IRW +-5 % of own theory, PSLR -13.26 +-0.5, ISLR -10.16 +-0.5, position < 0.5 cell); "
-             f"false target {two_false.level_db:.1f} dB",
-             f"- time: plain {t_plain:.2f} s ({t_plain / fft_unit:.1f} FFT units), two-step {t_two:.2f} s "
-             f"({t_two / fft_unit:.1f} FFT units); ratio {t_two / t_plain:.2f} (paper's estimate: 3, i.e. two extra "
-             "PFA passes)",
-             f"- stages plain: {', '.join(f'{k} {v:.2f} s' for k, v in st_p.items())}",
-             f"- stages two-step: {', '.join(f'{k} {v:.2f} s' for k, v in st_t.items())}",
-             f"- peak memory (max RSS of this process): {peak_gb:.2f} GB", "",
-             "## Two-step PFA", ""] + fmt(two_rows) + ["", "## Plain PFA", ""] + fmt(plain_rows) + [
-             "", "![curve](quality_vs_distance.png) ![M](fig_M.png)", ""]
+    lines = (
+        [
+            f"# Paper 002 reproduction: {args.config}",
+            "",
+            f"- raw: {n_az} pulses x {n_rg} samples; simulate {t_sim:.1f} s; one 2-D FFT of that size "
+            f"{fft_unit:.2f} s (the unit below)",
+            f"- eq. (7) valid radius {radius:.1f} m; two-step: {attrs['two_step']['subimages']} sub-images of "
+            f"{attrs['two_step']['subimage_core']:.1f} m",
+            f"- plain PFA: {sum(within(r) for r in plain_rows)}/{len(plain_rows)} targets in tolerance; first target "
+            f"out of tolerance at {broken[0] if broken else float('nan'):.0f} m from the centre; false target "
+            f"{plain_false.level_db:.1f} dB"
+            + (f"; with correct_distortion, first defocused (badness > 1) at {broken_c[0]:.0f} m" if broken_c else ""),
+            f"- varied gate: {n_rg} samples per pulse instead of {n_fixed} with a fixed gate "
+            f"({100 * (1 - n_rg / n_fixed):.1f} % less raw data, {n_az * (n_fixed - n_rg) * 8 / 2**30:.2f} GB)",
+            f"- two-step PFA: {sum(within(r) for r in two_rows)}/{len(two_rows)} targets in tolerance "
+            f"(IRW +-5 % of own theory, PSLR -13.26 +-0.5, ISLR -10.16 +-0.5, position < 0.5 cell); "
+            f"false target {two_false.level_db:.1f} dB",
+            f"- time: plain {t_plain:.2f} s ({t_plain / fft_unit:.1f} FFT units), two-step {t_two:.2f} s "
+            f"({t_two / fft_unit:.1f} FFT units); ratio {t_two / t_plain:.2f} (paper's estimate: 3, i.e. two extra "
+            "PFA passes)",
+            f"- stages plain: {', '.join(f'{k} {v:.2f} s' for k, v in st_p.items())}",
+            f"- stages two-step: {', '.join(f'{k} {v:.2f} s' for k, v in st_t.items())}",
+            f"- peak memory (max RSS of this process): {peak_gb:.2f} GB",
+            "",
+            "## Two-step PFA",
+            "",
+        ]
+        + fmt(two_rows)
+        + ["", "## Plain PFA", ""]
+        + fmt(plain_rows)
+        + ["", "![curve](quality_vs_distance.png) ![M](fig_M.png)", ""]
+    )
     (args.out / "summary.md").write_text("\n".join(lines))
     print("\n".join(lines[:12]))
 

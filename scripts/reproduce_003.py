@@ -63,11 +63,22 @@ def metrics_rows(report: dict, mfta: dict, label: str) -> list[dict]:
     for t in report["targets"]:
         ax = {a["axis"]: a for a in t["axes"]}
         az, rg = ax["azimuth"], ax["range"]
-        rows.append({"case": label, "target": t["name"], "peak": t["peak_amplitude"],
-                     "az_irw_ratio": az["irw_ratio"], "rg_irw_ratio": rg["irw_ratio"],
-                     "az_pslr": az["pslr_db"], "rg_pslr": rg["pslr_db"], "az_islr": az["islr_db"],
-                     "rg_islr": rg["islr_db"], "az_err_cells": az["position_error_cells"],
-                     "rg_err_cells": rg["position_error_cells"], "mfta_db": mfta.get(t["name"], float("nan"))})
+        rows.append(
+            {
+                "case": label,
+                "target": t["name"],
+                "peak": t["peak_amplitude"],
+                "az_irw_ratio": az["irw_ratio"],
+                "rg_irw_ratio": rg["irw_ratio"],
+                "az_pslr": az["pslr_db"],
+                "rg_pslr": rg["pslr_db"],
+                "az_islr": az["islr_db"],
+                "rg_islr": rg["islr_db"],
+                "az_err_cells": az["position_error_cells"],
+                "rg_err_cells": rg["position_error_cells"],
+                "mfta_db": mfta.get(t["name"], float("nan")),
+            }
+        )
     return rows
 
 
@@ -85,8 +96,16 @@ def predicted_ghost_db(raw, error_phase) -> float:
     return channels.ghost_level_db(channels.channel_delays(dx, r.velocity), r.prf, error_phase, half_band)
 
 
-STAGE_SECTIONS = ("reconstruct", "backproject", "evaluate", "preprocess", "coarse_focus", "fine_focus", "pfa2",
-                  "array3d")
+STAGE_SECTIONS = (
+    "reconstruct",
+    "backproject",
+    "evaluate",
+    "preprocess",
+    "coarse_focus",
+    "fine_focus",
+    "pfa2",
+    "array3d",
+)
 
 
 def raw_of(sweep_dir: Path, scene: str) -> Path:
@@ -95,6 +114,7 @@ def raw_of(sweep_dir: Path, scene: str) -> Path:
     from sarproc.product.config import load_yaml
 
     task = [r for r in sweep_rows(sweep_dir) if r["scene"] == scene][0]
+
     def scene_part(path):
         return {k: v for k, v in load_yaml(path).items() if k not in STAGE_SECTIONS}
 
@@ -108,10 +128,14 @@ def raw_of(sweep_dir: Path, scene: str) -> Path:
 def doppler_spectrum(rec):
     """Reconstructed channel's Doppler power spectrum with the squint history removed (paper Fig. 10)."""
     r = rec.radar
-    deramped = rec.data * np.exp(-2j * np.pi * 2 * r.velocity * math.sin(r.squint) / r.wavelength
-                                 * rec.coords["azimuth_time"])[:, None]
-    return (np.fft.fftshift(np.fft.fftfreq(len(deramped), 1 / r.prf)),
-            np.fft.fftshift(np.sum(np.abs(np.fft.fft(deramped, axis=0)) ** 2, axis=1)))
+    deramped = (
+        rec.data
+        * np.exp(-2j * np.pi * 2 * r.velocity * math.sin(r.squint) / r.wavelength * rec.coords["azimuth_time"])[:, None]
+    )
+    return (
+        np.fft.fftshift(np.fft.fftfreq(len(deramped), 1 / r.prf)),
+        np.fft.fftshift(np.sum(np.abs(np.fft.fft(deramped, axis=0)) ** 2, axis=1)),
+    )
 
 
 def main():
@@ -131,11 +155,15 @@ def main():
         images[method] = read_product(res / f"image_{method}.h5")
         movers[method] = report.get("movers", [])
     info = read_product(res / "raw_modified.h5", load=False).attrs["reconstruct"]
-    summary["scene_estimates"] = [(m["first_cell"], m["radial_velocity"], m["along_track_velocity"],
-                                   m["search_evaluations"]) for m in info["moving_targets"]]
+    summary["scene_estimates"] = [
+        (m["first_cell"], m["radial_velocity"], m["along_track_velocity"], m["search_evaluations"])
+        for m in info["moving_targets"]
+    ]
     summary["scene_condition"] = info["condition_number"]
-    summary["scene_truth"] = {n.decode(): (float(vy), float(vx)) for n, vx, vy in
-                              zip(raw.targets["name"], raw.targets["vx"], raw.targets["vy"])}
+    summary["scene_truth"] = {
+        n.decode(): (float(vy), float(vx))
+        for n, vx, vy in zip(raw.targets["name"], raw.targets["vx"], raw.targets["vy"])
+    }
     summary["scene_movers"] = movers["modified"]
     expect = load_json(res / "report_modified.json").get("expect")
     summary["scene_expect"] = expect
@@ -148,8 +176,9 @@ def main():
             img = pick(cases, scene=f"{scene}-{method}-image")
             strip = pick(cases, scene=f"{scene}-{method}-strip")
             strip_report = load_json(strip["dir"] / "report.json")
-            row = metrics_rows(load_json(img["dir"] / "report.json"), {"T": mfta_db(strip_report)},
-                               f"{label} {method}")[0]
+            row = metrics_rows(
+                load_json(img["dir"] / "report.json"), {"T": mfta_db(strip_report)}, f"{label} {method}"
+            )[0]
             row["v_r_est"], row["v_a_est"] = estimate(img["dir"] / "reconstruct.h5")
             single_rows.append(row)
             strips[(label, method)] = read_product(strip["dir"] / "backproject.h5")
@@ -162,7 +191,8 @@ def main():
     summary["static_vs_single_channel"] = {
         "relative_difference": float(np.linalg.norm(a - c) / np.linalg.norm(c)),
         "peak_ratio_db": float(20 * np.log10(np.abs(a).max() / np.abs(c).max())),
-        "modified_vs_conventional": float(np.linalg.norm(m - a) / np.linalg.norm(a))}
+        "modified_vs_conventional": float(np.linalg.norm(m - a) / np.linalg.norm(a)),
+    }
     single_rows += metrics_rows(load_json(ref_row["dir"] / "report.json"), {}, "static A single channel N PRF")
 
     # ---- false-target level against the velocity error (paper: about -40 dB at 0.1 m/s)
@@ -173,9 +203,15 @@ def main():
     err_rows = []
     for err in ERRORS:
         level = mfta_db(load_json(pick(given, scene=f"e{err:g}")["dir"] / "report.json"))
-        phase = 4 * np.pi * err * math.cos(th) * tau / lam        # residual channel phase (paper eq. 8 term 2)
-        err_rows.append({"error": err, "mfta_db": level, "max_phase_deg": float(np.degrees(np.abs(phase).max())),
-                         "predicted_db": predicted_ghost_db(rb, phase) if err > 0 else float("-inf")})
+        phase = 4 * np.pi * err * math.cos(th) * tau / lam  # residual channel phase (paper eq. 8 term 2)
+        err_rows.append(
+            {
+                "error": err,
+                "mfta_db": level,
+                "max_phase_deg": float(np.degrees(np.abs(phase).max())),
+                "predicted_db": predicted_ghost_db(rb, phase) if err > 0 else float("-inf"),
+            }
+        )
 
     # ---- false-target level against the slant-range velocity (paper Fig. 12)
     speeds = sweep_rows(res / "sweep-speeds")
@@ -194,15 +230,23 @@ def main():
     # ---- clutter null with the redundant channel
     clutter = sweep_rows(res / "sweep-clutter")
     summary["clutter"] = {}
-    for scene, label in (("clutter_only", "clutter only"), ("target_only", "target only"),
-                         ("clutter_and_target", "clutter + target")):
+    for scene, label in (
+        ("clutter_only", "clutter only"),
+        ("target_only", "target only"),
+        ("clutter_and_target", "clutter + target"),
+    ):
         r = pick(clutter, scene=scene)
         info = read_product(r["dir"] / "reconstruct.h5", load=False).attrs["reconstruct"]
-        summary["clutter"][label] = {"residual_db": info["clutter_suppression_db"],
-                                     "redundant": info["clutter_redundant_channels"], "simulate_s": r["simulate_s"]}
+        summary["clutter"][label] = {
+            "residual_db": info["clutter_suppression_db"],
+            "redundant": info["clutter_redundant_channels"],
+            "simulate_s": r["simulate_s"],
+        }
 
-    summary["timings_s"] = {name: round(sum((r["focus_s"] or 0) + (r["evaluate_s"] or 0) for r in sweep_rows(res / name)), 2)
-                            for name in ("sweep-cases", "sweep-given", "sweep-speeds", "sweep-clutter")}
+    summary["timings_s"] = {
+        name: round(sum((r["focus_s"] or 0) + (r["evaluate_s"] or 0) for r in sweep_rows(res / name)), 2)
+        for name in ("sweep-cases", "sweep-given", "sweep-speeds", "sweep-clutter")
+    }
     summary.update(rows=rows, single_rows=single_rows, error_curve=err_rows, velocity_curve=vel_rows)
     (res / "summary.json").write_text(json.dumps(summary, indent=1, default=float))
     figures(res, images, strips, spectra, err_rows, vel_rows)
@@ -211,6 +255,7 @@ def main():
 
 def figures(res, images, strips, spectra, err_rows, vel_rows):
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -219,8 +264,15 @@ def figures(res, images, strips, spectra, err_rows, vel_rows):
         img = images[method]
         mag = 20 * np.log10(np.abs(img.data) / np.abs(img.data).max() + 1e-12)
         az, rg = img.coords["azimuth"], img.coords["range"]
-        ax.imshow(mag.T, origin="lower", aspect="auto", vmin=-40, vmax=0, cmap="gray",
-                  extent=[az[0], az[-1], rg[0] - 600e3, rg[-1] - 600e3])
+        ax.imshow(
+            mag.T,
+            origin="lower",
+            aspect="auto",
+            vmin=-40,
+            vmax=0,
+            cmap="gray",
+            extent=[az[0], az[-1], rg[0] - 600e3, rg[-1] - 600e3],
+        )
         ax.set_title(f"scene A, B, C: {method} reconstruction")
         ax.set_xlabel("azimuth x_n, m")
         ax.set_ylabel("range r_0 - 600 km, m")
@@ -233,8 +285,13 @@ def figures(res, images, strips, spectra, err_rows, vel_rows):
         for method, style in (("conventional", "r-"), ("modified", "k-")):
             s = strips[(label, method)]
             prof = np.abs(s.data).max(axis=1)
-            ax.plot(s.coords["azimuth"] - s.coords["azimuth"][len(prof) // 2],
-                    20 * np.log10(prof / prof.max() + 1e-12), style, lw=0.7, label=method)
+            ax.plot(
+                s.coords["azimuth"] - s.coords["azimuth"][len(prof) // 2],
+                20 * np.log10(prof / prof.max() + 1e-12),
+                style,
+                lw=0.7,
+                label=method,
+            )
         ax.set_ylim(-70, 3)
         ax.set_title(label + ": azimuth strip through the target (ghosts at multiples of PRF / K_a)")
         ax.set_ylabel("dB")
@@ -284,46 +341,93 @@ def md_table(rows, cols, fmt):
     return head + "".join("| " + " | ".join(cell(r, c) for c in cols) + " |\n" for r in rows)
 
 
-METRIC_COLS = ["case", "target", "az_irw_ratio", "rg_irw_ratio", "az_pslr", "rg_pslr", "az_islr", "rg_islr",
-               "az_err_cells", "rg_err_cells", "mfta_db"]
+METRIC_COLS = [
+    "case",
+    "target",
+    "az_irw_ratio",
+    "rg_irw_ratio",
+    "az_pslr",
+    "rg_pslr",
+    "az_islr",
+    "rg_islr",
+    "az_err_cells",
+    "rg_err_cells",
+    "mfta_db",
+]
 METRIC_FMT = {c: "{:.3f}" for c in ("az_irw_ratio", "rg_irw_ratio", "az_err_cells", "rg_err_cells")}
 METRIC_FMT.update({c: "{:.2f}" for c in ("az_pslr", "rg_pslr", "az_islr", "rg_islr", "mfta_db")})
-MOVER_COLS = ["name", "v_r", "v_a", "v_r_estimated", "v_a_estimated", "v_r_error", "v_a_error", "shift",
-              "relocation_error", "relocation_error_from_velocity"]
+MOVER_COLS = [
+    "name",
+    "v_r",
+    "v_a",
+    "v_r_estimated",
+    "v_a_estimated",
+    "v_r_error",
+    "v_a_error",
+    "shift",
+    "relocation_error",
+    "relocation_error_from_velocity",
+]
 
 
 def write_summary(res, s):
     fmt = {c: "{:.3f}" for c in MOVER_COLS[1:]}
     fmt.update(shift="{:.1f}", relocation_error="{:.2f}", relocation_error_from_velocity="{:.2f}")
     expect = s.get("scene_expect") or {}
-    lines = ["# Paper 003 (Xu et al.): multichannel squint SAR, moving targets — reproduction", "",
-             "Produced by `make reproduce-003`: every step through the command line (mk/003.mk: simulate, reconstruct, "
-             "backproject, evaluate, and the sweeps configs/sweeps/reproduce_003_*.yaml); scripts/reproduce_003.py "
-             "only tabulates. Moving targets are evaluated at their static-equivalent position "
-             "(sarproc/product/moving.py); MFTA: strongest response on an azimuth strip of +-1.5 ghost spacings "
-             "outside +-0.45 spacing of the target.",
-             "", "## Velocity estimates (scene A, B, C; modified reconstruction)", "",
-             "| window first cell | v_r estimated (m/s) | v_a estimated (m/s) | leakage evaluations |", "|---|---|---|---|"]
+    lines = [
+        "# Paper 003 (Xu et al.): multichannel squint SAR, moving targets — reproduction",
+        "",
+        "Produced by `make reproduce-003`: every step through the command line (mk/003.mk: simulate, reconstruct, "
+        "backproject, evaluate, and the sweeps configs/sweeps/reproduce_003_*.yaml); scripts/reproduce_003.py "
+        "only tabulates. Moving targets are evaluated at their static-equivalent position "
+        "(sarproc/product/moving.py); MFTA: strongest response on an azimuth strip of +-1.5 ghost spacings "
+        "outside +-0.45 spacing of the target.",
+        "",
+        "## Velocity estimates (scene A, B, C; modified reconstruction)",
+        "",
+        "| window first cell | v_r estimated (m/s) | v_a estimated (m/s) | leakage evaluations |",
+        "|---|---|---|---|",
+    ]
     for cell, vr, va, n in s["scene_estimates"]:
         lines.append(f"| {cell} | {vr:.3f} | {va:.3f} | {n} |")
-    lines += ["", f"Truth (v_r, v_a): {s['scene_truth']}", "",
-              "## Moving targets of the scene through the CLI (`sarproc evaluate`, modified reconstruction)", "",
-              md_table(s["scene_movers"], MOVER_COLS, fmt),
-              f"`evaluate --expect {expect.get('file')}`: " + ("passed" if expect.get("passed") else
-                                                               f"FAILED {expect.get('failures')}"), "",
-              "## Table 2: point targets (scene and single-target cases)", "",
-              md_table(s["rows"] + s["single_rows"], METRIC_COLS, METRIC_FMT),
-              "## Static target against a single-channel simulation at N PRF", "",
-              json.dumps(s["static_vs_single_channel"]), "",
-              "## False-target level against the slant-range velocity error (paper: about -40 dB at 0.1 m/s)", "",
-              md_table(s["error_curve"], ["error", "max_phase_deg", "mfta_db", "predicted_db"],
-                       {"max_phase_deg": "{:.2f}", "mfta_db": "{:.2f}", "predicted_db": "{:.2f}"}),
-              "## False-target level against the slant-range velocity (paper Fig. 12)", "",
-              md_table(s["velocity_curve"], ["v_r", "v_r_est", "v_a_est", "conventional_db", "modified_db", "given_db"],
-                       {k: "{:.2f}" for k in ("v_r_est", "v_a_est", "conventional_db", "modified_db", "given_db")}),
-              "## Clutter null with the redundant channel (energy after / before, dB)", "",
-              json.dumps(s["clutter"]), "",
-              "Sweep step times, focus + evaluate summed (s): " + json.dumps(s["timings_s"]), ""]
+    lines += [
+        "",
+        f"Truth (v_r, v_a): {s['scene_truth']}",
+        "",
+        "## Moving targets of the scene through the CLI (`sarproc evaluate`, modified reconstruction)",
+        "",
+        md_table(s["scene_movers"], MOVER_COLS, fmt),
+        f"`evaluate --expect {expect.get('file')}`: "
+        + ("passed" if expect.get("passed") else f"FAILED {expect.get('failures')}"),
+        "",
+        "## Table 2: point targets (scene and single-target cases)",
+        "",
+        md_table(s["rows"] + s["single_rows"], METRIC_COLS, METRIC_FMT),
+        "## Static target against a single-channel simulation at N PRF",
+        "",
+        json.dumps(s["static_vs_single_channel"]),
+        "",
+        "## False-target level against the slant-range velocity error (paper: about -40 dB at 0.1 m/s)",
+        "",
+        md_table(
+            s["error_curve"],
+            ["error", "max_phase_deg", "mfta_db", "predicted_db"],
+            {"max_phase_deg": "{:.2f}", "mfta_db": "{:.2f}", "predicted_db": "{:.2f}"},
+        ),
+        "## False-target level against the slant-range velocity (paper Fig. 12)",
+        "",
+        md_table(
+            s["velocity_curve"],
+            ["v_r", "v_r_est", "v_a_est", "conventional_db", "modified_db", "given_db"],
+            {k: "{:.2f}" for k in ("v_r_est", "v_a_est", "conventional_db", "modified_db", "given_db")},
+        ),
+        "## Clutter null with the redundant channel (energy after / before, dB)",
+        "",
+        json.dumps(s["clutter"]),
+        "",
+        "Sweep step times, focus + evaluate summed (s): " + json.dumps(s["timings_s"]),
+        "",
+    ]
     (res / "summary.md").write_text("\n".join(lines))
 
 

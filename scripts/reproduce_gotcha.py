@@ -24,13 +24,14 @@ from sarproc.product.io import read_product  # noqa: E402
 
 def subpixel_peak(mag: np.ndarray, i: int, j: int) -> tuple[float, float]:
     """Parabolic vertex through the pixel (i, j) and its neighbours, along each axis."""
+
     def vertex(m, c, p):
         den = m - 2 * c + p
         return 0.0 if den == 0 else 0.5 * (m - p) / den
+
     i = min(max(i, 1), mag.shape[0] - 2)
     j = min(max(j, 1), mag.shape[1] - 2)
-    return (i + vertex(mag[i - 1, j], mag[i, j], mag[i + 1, j]),
-            j + vertex(mag[i, j - 1], mag[i, j], mag[i, j + 1]))
+    return (i + vertex(mag[i - 1, j], mag[i, j], mag[i + 1, j]), j + vertex(mag[i, j - 1], mag[i, j], mag[i, j + 1]))
 
 
 def brightest(mag: np.ndarray, n: int, separation: int) -> list[tuple[int, int]]:
@@ -46,8 +47,15 @@ def quicklook(img, path: Path, title: str):
     db = 20 * np.log10(np.abs(img.data) / np.abs(img.data).max() + 1e-12)
     a, r = img.coords["azimuth"], img.coords["range"]
     plt.figure(figsize=(6, 5.4))
-    plt.imshow(db.T, origin="lower", cmap="gray", vmin=-45, vmax=0, aspect="equal",
-               extent=[a[0], a[-1], r[0] - r[len(r) // 2], r[-1] - r[len(r) // 2]])
+    plt.imshow(
+        db.T,
+        origin="lower",
+        cmap="gray",
+        vmin=-45,
+        vmax=0,
+        aspect="equal",
+        extent=[a[0], a[-1], r[0] - r[len(r) // 2], r[-1] - r[len(r) // 2]],
+    )
     plt.xlabel("azimuth x' (m)")
     plt.ylabel("ground range y' from the centre (m)")
     plt.title(title)
@@ -72,12 +80,16 @@ def compare(pfa, bp) -> dict:
     rows = []
     for i, j in brightest(A, 10, 10):
         pa = subpixel_peak(A, i, j)
-        w = B[i - 3:i + 4, j - 3:j + 4]
+        w = B[i - 3 : i + 4, j - 3 : j + 4]
         k = np.unravel_index(np.argmax(w), w.shape)
         pb = subpixel_peak(B, i - 3 + k[0], j - 3 + k[1])
         rows.append((i, j, pa[0] - pb[0], pa[1] - pb[1], 20 * np.log10(A[i, j] / A.max())))
-    return {"ncc": ncc, "rows": rows, "entropy": entropy(A),
-            "same_grid": all(np.allclose(pfa.coords[d], bp.coords[d]) for d in ("azimuth", "range"))}
+    return {
+        "ncc": ncc,
+        "rows": rows,
+        "entropy": entropy(A),
+        "same_grid": all(np.allclose(pfa.coords[d], bp.coords[d]) for d in ("azimuth", "range")),
+    }
 
 
 def main():
@@ -88,20 +100,31 @@ def main():
     images = [("plain (distortion corrected)", "image_pfa.h5"), ("two-step", "image_pfa_two_step.h5")]
     images = [(label, read_product(args.dir / name)) for label, name in images if (args.dir / name).exists()]
     shape = bp.data.shape
-    lines = ["# Gotcha: pfa2 against backprojection", "",
-             f"{shape[0]} x {shape[1]} pixels of {bp.coords['azimuth'][1] - bp.coords['azimuth'][0]:.3f} m x "
-             f"{bp.coords['range'][1] - bp.coords['range'][0]:.3f} m; backprojection's entropy "
-             f"{entropy(np.abs(bp.data)):.4f} nats. Peaks: the ten brightest PFA points, offset PFA - BP (pixels).", "",
-             "| pfa2 | same grid | NCC of magnitudes | max d_az (px) | max d_rg (px) | entropy (nats) | sub-images |",
-             "| --- | --- | --- | --- | --- | --- | --- |"]
+    lines = [
+        "# Gotcha: pfa2 against backprojection",
+        "",
+        f"{shape[0]} x {shape[1]} pixels of {bp.coords['azimuth'][1] - bp.coords['azimuth'][0]:.3f} m x "
+        f"{bp.coords['range'][1] - bp.coords['range'][0]:.3f} m; backprojection's entropy "
+        f"{entropy(np.abs(bp.data)):.4f} nats. Peaks: the ten brightest PFA points, offset PFA - BP (pixels).",
+        "",
+        "| pfa2 | same grid | NCC of magnitudes | max d_az (px) | max d_rg (px) | entropy (nats) | sub-images |",
+        "| --- | --- | --- | --- | --- | --- | --- |",
+    ]
     results = [(label, img, compare(img, bp)) for label, img in images]
     for label, img, c in results:
-        lines.append(f"| {label} | {c['same_grid']} | {c['ncc']:.4f} | {max(abs(r[2]) for r in c['rows']):.3f} | "
-                     f"{max(abs(r[3]) for r in c['rows']):.3f} | {c['entropy']:.4f} | "
-                     f"{img.attrs.get('subimages', 1)} |")
+        lines.append(
+            f"| {label} | {c['same_grid']} | {c['ncc']:.4f} | {max(abs(r[2]) for r in c['rows']):.3f} | "
+            f"{max(abs(r[3]) for r in c['rows']):.3f} | {c['entropy']:.4f} | "
+            f"{img.attrs.get('subimages', 1)} |"
+        )
     for label, img, c in results:
-        lines += ["", f"{label}:", "", "| pixel (az, rg) | d_az (px) | d_rg (px) | level (dB) |",
-                  "| --- | --- | --- | --- |"]
+        lines += [
+            "",
+            f"{label}:",
+            "",
+            "| pixel (az, rg) | d_az (px) | d_rg (px) | level (dB) |",
+            "| --- | --- | --- | --- |",
+        ]
         lines += [f"| ({i}, {j}) | {da:+.3f} | {dr:+.3f} | {lv:.1f} |" for i, j, da, dr, lv in c["rows"]]
     quicklook(bp, args.dir / "image_bp.png", "Gotcha pass 1 HH 0-4 deg: backprojection")
     for (label, img, _), name in zip(results, ("image_pfa.png", "image_pfa_two_step.png")):

@@ -30,8 +30,11 @@ def main(argv=None):
     ap.add_argument("images", nargs="+", type=Path)
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args(argv)
-    rows = ["| image | guard-window false target (dB) | residual false target (dB) | residual floor (dB) | "
-            "residual RMS (dB) | evaluate (s) | with residual (s) |", "|---|---:|---:|---:|---:|---:|---:|"]
+    rows = [
+        "| image | guard-window false target (dB) | residual false target (dB) | residual floor (dB) | "
+        "residual RMS (dB) | evaluate (s) | with residual (s) |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
     fmt = lambda v: "n/a" if v is None else f"{v:.2f}"  # noqa: E731
     with tempfile.TemporaryDirectory() as tmp:
         cfg = Path(tmp) / "residual.yaml"
@@ -40,9 +43,11 @@ def main(argv=None):
             plain, t_plain = evaluate(image, None, Path(tmp) / "plain.json")
             res, t_res = evaluate(image, cfg, Path(tmp) / "res.json")
             ft = res["false_target"]
-            rows.append(f"| {image} | {fmt((plain['false_target'] or {}).get('level_db'))} | "
-                        f"{fmt((ft or {}).get('level_db'))} | {fmt(res['residual']['floor_db'])} | "
-                        f"{fmt(res['residual']['rms_db'])} | {t_plain:.1f} | {t_res:.1f} |")
+            rows.append(
+                f"| {image} | {fmt((plain['false_target'] or {}).get('level_db'))} | "
+                f"{fmt((ft or {}).get('level_db'))} | {fmt(res['residual']['floor_db'])} | "
+                f"{fmt(res['residual']['rms_db'])} | {t_plain:.1f} | {t_res:.1f} |"
+            )
             print(rows[-1], flush=True)
     text = "\n".join(rows) + "\n"
     if args.out is not None:

@@ -48,35 +48,64 @@ def main(argv=None) -> int:
         for version in VERSIONS:
             stem = args.out / f"{name}_{version}"
             nitf = Path(f"{stem}.nitf")
-            cmd = [sys.executable, "-m", "sarproc", "export-sicd", image, "-o", str(nitf), "--overwrite",
-                   "--sicd-version", version, "--check-report", f"{stem}_sarkit.json"]
+            cmd = [
+                sys.executable,
+                "-m",
+                "sarproc",
+                "export-sicd",
+                image,
+                "-o",
+                str(nitf),
+                "--overwrite",
+                "--sicd-version",
+                version,
+                "--check-report",
+                f"{stem}_sarkit.json",
+            ]
             if args.config:
                 cmd += ["--config", args.config]
             subprocess.run(cmd, check=True)
-            check = subprocess.run([str(bindir / "sicdcheck"), "-v", "--no-color", str(nitf)], capture_output=True,
-                                   text=True)
+            check = subprocess.run(
+                [str(bindir / "sicdcheck"), "-v", "--no-color", str(nitf)], capture_output=True, text=True
+            )
             Path(f"{stem}_sicdcheck.txt").write_text(check.stdout + check.stderr)
             sarkit = json.loads(Path(f"{stem}_sarkit.json").read_text())
             try:
                 sarpy = sarpy_check(nitf)
-            except Exception as exc:     # sarpy not installed: say so in the table
+            except Exception as exc:  # sarpy not installed: say so in the table
                 sarpy = {"sarpy": None, "valid": None, "errors": [str(exc)], "warnings": []}
             Path(f"{stem}_sarpy.json").write_text(json.dumps(sarpy, indent=1) + "\n")
             tree, pixels = read_sicd(nitf)
             offsets = np.abs(local_support_offsets(tree, pixels, bright_points(pixels)))
-            rows.append({"image": name, "version": version, "sicdcheck_rc": check.returncode,
-                         "sarkit_passed": sarkit["n_passed"], "sarkit_errors": sarkit["errors"],
-                         "sarkit_warnings": sarkit["warnings"], "sarpy": sarpy["sarpy"], "sarpy_valid": sarpy["valid"],
-                         "sarpy_errors": sarpy["errors"], "sarpy_warnings": sarpy["warnings"],
-                         "worst_offset_row": float(offsets[:, 0].max()), "worst_offset_col": float(offsets[:, 1].max())})
+            rows.append(
+                {
+                    "image": name,
+                    "version": version,
+                    "sicdcheck_rc": check.returncode,
+                    "sarkit_passed": sarkit["n_passed"],
+                    "sarkit_errors": sarkit["errors"],
+                    "sarkit_warnings": sarkit["warnings"],
+                    "sarpy": sarpy["sarpy"],
+                    "sarpy_valid": sarpy["valid"],
+                    "sarpy_errors": sarpy["errors"],
+                    "sarpy_warnings": sarpy["warnings"],
+                    "worst_offset_row": float(offsets[:, 0].max()),
+                    "worst_offset_col": float(offsets[:, 1].max()),
+                }
+            )
     (args.out / "sicd_readers.json").write_text(json.dumps(rows, indent=1) + "\n")
-    lines = ["| image | SICD | sicdcheck passed / errors / warnings | sarpy valid / errors / warnings | "
-             "worst abs(measured - DeltaKCOA) / BW, row, col |", "|---|---|---|---|---|"]
+    lines = [
+        "| image | SICD | sicdcheck passed / errors / warnings | sarpy valid / errors / warnings | "
+        "worst abs(measured - DeltaKCOA) / BW, row, col |",
+        "|---|---|---|---|---|",
+    ]
     for r in rows:
-        lines.append(f"| {r['image']} | {r['version']} | {r['sarkit_passed']} / {len(r['sarkit_errors'])} / "
-                     f"{len(r['sarkit_warnings'])} ({', '.join(r['sarkit_warnings'])}) | {r['sarpy_valid']} / "
-                     f"{len(r['sarpy_errors'])} / {len(r['sarpy_warnings'])} | "
-                     f"{r['worst_offset_row']:.4f}, {r['worst_offset_col']:.4f} |")
+        lines.append(
+            f"| {r['image']} | {r['version']} | {r['sarkit_passed']} / {len(r['sarkit_errors'])} / "
+            f"{len(r['sarkit_warnings'])} ({', '.join(r['sarkit_warnings'])}) | {r['sarpy_valid']} / "
+            f"{len(r['sarpy_errors'])} / {len(r['sarpy_warnings'])} | "
+            f"{r['worst_offset_row']:.4f}, {r['worst_offset_col']:.4f} |"
+        )
     errors = sorted({e.splitlines()[0] for r in rows for e in r["sarpy_errors"]})
     lines += ["", f"sarpy {rows[0]['sarpy']}; its error messages: " + ("; ".join(errors) if errors else "none"), ""]
     (args.out / "sicd_readers.md").write_text("\n".join(lines))

@@ -26,21 +26,29 @@ import h5py
 import yaml
 
 SCENE = {
-    "radar": {"carrier_frequency": "10 GHz", "bandwidth": "100 MHz", "pulse_duration": "1 us",
-              "range_sampling_rate": "120 MHz", "prf": "1000 Hz"},
+    "radar": {
+        "carrier_frequency": "10 GHz",
+        "bandwidth": "100 MHz",
+        "pulse_duration": "1 us",
+        "range_sampling_rate": "120 MHz",
+        "prf": "1000 Hz",
+    },
     "platform": {"velocity": "100 m/s", "altitude": "0 m"},
     "geometry": {"reference_range": "2 km", "squint": "0 deg"},
-    "acquisition": {"mode": "spotlight", "aperture_time": "12 s",
-                    "range_window": {"start": "1.6 km", "end": "2.6 km"}},
+    "acquisition": {"mode": "spotlight", "aperture_time": "12 s", "range_window": {"start": "1.6 km", "end": "2.6 km"}},
     "targets": {"frame": "squint", "points": [{"name": "A"}, {"name": "B", "range": "30 m", "azimuth": "10 m"}]},
     "simulation": {"block_pulses": 256},
-    "backproject": {},   # declares a chain that unfolds the spectrum (no folding warning)
+    "backproject": {},  # declares a chain that unfolds the spectrum (no folding warning)
 }
 
 
 def run_once(scene: Path, out: Path, sig=None, delay=0.0) -> dict:
-    proc = subprocess.Popen([sys.executable, "-m", "sarproc", "simulate", str(scene), "-o", str(out), "--overwrite",
-                             "--no-progress", "-q"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "sarproc", "simulate", str(scene), "-o", str(out), "--overwrite", "--no-progress", "-q"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     start = time.monotonic()
     tmp_mb = None
     if sig is not None:
@@ -72,7 +80,7 @@ def main() -> None:
         work = Path(work)
         scene = work / "scene.yaml"
         scene.write_text(yaml.safe_dump(SCENE))
-        run_once(scene, work / "ref.h5")    # the first run is cold (kernels loaded, files cached): timed again
+        run_once(scene, work / "ref.h5")  # the first run is cold (kernels loaded, files cached): timed again
         ref = run_once(scene, work / "ref.h5")
         assert ref["code"] == 0, ref
         with h5py.File(work / "ref.h5") as f:
@@ -90,30 +98,45 @@ def main() -> None:
                 verdict = "completed" if complete(out, shape) else "wrong"
             elif r["code"] == 128 + sig:
                 verdict = "stopped" if not out.exists() else "wrong"
-            elif r["code"] == -sig:   # the signal's own action, before Python ran sarproc's first line
+            elif r["code"] == -sig:  # the signal's own action, before Python ran sarproc's first line
                 verdict = "killed at start-up" if not out.exists() else "wrong"
             else:
                 verdict = "wrong"
             if leftovers or "Traceback" in r["stderr"]:
                 verdict = "wrong"
-            records.append({"run": i, "signal": sig.name, "delay_s": delay, "tmp_mb_at_signal": r["tmp_mb"],
-                            "code": r["code"], "output": out.exists(), "leftovers": leftovers, "verdict": verdict,
-                            "stderr": r["stderr"]})
+            records.append(
+                {
+                    "run": i,
+                    "signal": sig.name,
+                    "delay_s": delay,
+                    "tmp_mb_at_signal": r["tmp_mb"],
+                    "code": r["code"],
+                    "output": out.exists(),
+                    "leftovers": leftovers,
+                    "verdict": verdict,
+                    "stderr": r["stderr"],
+                }
+            )
             if out.exists():
                 out.unlink()
-    (args.out / "signal_soak.json").write_text(json.dumps({"product_mb": size_mb, "reference_s": ref["seconds"],
-                                                           "records": records}, indent=1))
+    (args.out / "signal_soak.json").write_text(
+        json.dumps({"product_mb": size_mb, "reference_s": ref["seconds"], "records": records}, indent=1)
+    )
     print(f"Product {size_mb:.0f} MB, unsignalled run {ref['seconds']:.2f} s; delays uniform in [0, 1.1 x that].\n")
-    print("| signal | deliveries | stopped (128+N, no output) | killed at interpreter start-up (shell: 128+N, "
-          "no output) | completed (0, full output) | wrong | temp file at delivery (MB) |")
+    print(
+        "| signal | deliveries | stopped (128+N, no output) | killed at interpreter start-up (shell: 128+N, "
+        "no output) | completed (0, full output) | wrong | temp file at delivery (MB) |"
+    )
     print("|---|---:|---:|---:|---:|---:|---|")
     for name in ("SIGTERM", "SIGINT", "SIGHUP"):
         rs = [r for r in records if r["signal"] == name]
         mbs = [r["tmp_mb_at_signal"] for r in rs if r["tmp_mb_at_signal"]]
         span = f"0 - {max(mbs):.0f}" if mbs else "0"
-        print(f"| {name} | {len(rs)} | {sum(r['verdict'] == 'stopped' for r in rs)} | "
-              f"{sum(r['verdict'] == 'killed at start-up' for r in rs)} | "
-              f"{sum(r['verdict'] == 'completed' for r in rs)} | {sum(r['verdict'] == 'wrong' for r in rs)} | {span} |")
+        print(
+            f"| {name} | {len(rs)} | {sum(r['verdict'] == 'stopped' for r in rs)} | "
+            f"{sum(r['verdict'] == 'killed at start-up' for r in rs)} | "
+            f"{sum(r['verdict'] == 'completed' for r in rs)} | {sum(r['verdict'] == 'wrong' for r in rs)} | {span} |"
+        )
     wrong = [r for r in records if r["verdict"] == "wrong"]
     for r in wrong:
         print(f"\nwrong: {r}")

@@ -30,7 +30,7 @@ from sarproc.product.io import read_product
 from sarproc.product.model import moving_target_rows
 
 APPARENT_POSITION_M = 2.0
-V_R_TOLERANCE = 0.1          # m/s, the issue's (and the paper's) slant-range velocity precision
+V_R_TOLERANCE = 0.1  # m/s, the issue's (and the paper's) slant-range velocity precision
 
 
 def names(product):
@@ -61,15 +61,28 @@ def mover_table(product, report):
     for k in range(len(tt)):
         if not (tt["vx"][k] or tt["vy"][k] or tt["vz"][k]):
             continue
-        e = {"name": nm[k], "v_r": float(tt["vy"][k]), "v_a": float(tt["vx"][k]),
-             "amp_db": 20 * math.log10(abs(tt["amplitude"][k]))}
+        e = {
+            "name": nm[k],
+            "v_r": float(tt["vy"][k]),
+            "v_a": float(tt["vx"][k]),
+            "amp_db": 20 * math.log10(abs(tt["amplitude"][k])),
+        }
         r = by_truth.get(k)
         if r is not None:
             slant = float(np.hypot(r["apparent_y"], r["apparent_z"] - product.radar.altitude))
             err = float(np.hypot(r["relocated_x"] - tt["x"][k], r["relocated_y"] - tt["y"][k]))
-            e.update(found=True, snr=r["snr"], v_r_est=r["v_r"], v_r_sigma=r["v_r_sigma"], v_a_est=r["v_a"],
-                     v_a_sigma=r["v_a_sigma"], dv_r=r["v_r"] - e["v_r"], dv_a=r["v_a"] - e["v_a"],
-                     relocation_error=err, cells=f"{int(r['range_cell_first'])}-{int(r['range_cell_last']) - 1}")
+            e.update(
+                found=True,
+                snr=r["snr"],
+                v_r_est=r["v_r"],
+                v_r_sigma=r["v_r_sigma"],
+                v_a_est=r["v_a"],
+                v_a_sigma=r["v_a_sigma"],
+                dv_r=r["v_r"] - e["v_r"],
+                dv_a=r["v_a"] - e["v_a"],
+                relocation_error=err,
+                cells=f"{int(r['range_cell_first'])}-{int(r['range_cell_last']) - 1}",
+            )
             e["relocation_bound"] = implied_relocation(product, e["dv_r"], e["dv_a"], slant) + APPARENT_POSITION_M
         else:
             e["found"] = False
@@ -88,50 +101,74 @@ def fmt(v, spec):
 
 
 def markdown(rows, false, statics, two, info):
-    lines = ["# Paper 003 traffic scene (configs/xu_traffic.yaml): moving-target detection\n",
-             f"Detections examined: {json.dumps(info.get('detections', {}))}; truth: {json.dumps(info.get('truth', {}))}\n",
-             "| vehicle | amp (dB) | v_r true | v_a true | found | SNR (dB) | v_r est +- 1 sigma | v_r error | "
-             "v_a est +- 1 sigma | v_a error | relocation error (m) | bound (m) | az IRW/theory | az PSLR | az ISLR | "
-             "range cells |",
-             "|---|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+    lines = [
+        "# Paper 003 traffic scene (configs/xu_traffic.yaml): moving-target detection\n",
+        f"Detections examined: {json.dumps(info.get('detections', {}))}; truth: {json.dumps(info.get('truth', {}))}\n",
+        "| vehicle | amp (dB) | v_r true | v_a true | found | SNR (dB) | v_r est +- 1 sigma | v_r error | "
+        "v_a est +- 1 sigma | v_a error | relocation error (m) | bound (m) | az IRW/theory | az PSLR | az ISLR | "
+        "range cells |",
+        "|---|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|",
+    ]
     for e in rows:
         if e["found"]:
-            lines.append(f"| {e['name']} | {e['amp_db']:.1f} | {e['v_r']:.2f} | {e['v_a']:.2f} | yes | {e['snr']:.1f} | "
-                         f"{e['v_r_est']:.3f} +- {e['v_r_sigma']:.3f} | {e['dv_r']:+.3f} | "
-                         f"{e['v_a_est']:.3f} +- {e['v_a_sigma']:.3f} | {e['dv_a']:+.3f} | "
-                         f"{e['relocation_error']:.2f} | {e['relocation_bound']:.2f} | "
-                         f"{fmt(e.get('az_irw_ratio'), '.3f')} | {fmt(e.get('az_pslr'), '.2f')} | "
-                         f"{fmt(e.get('az_islr'), '.2f')} | {e['cells']} |")
+            lines.append(
+                f"| {e['name']} | {e['amp_db']:.1f} | {e['v_r']:.2f} | {e['v_a']:.2f} | yes | {e['snr']:.1f} | "
+                f"{e['v_r_est']:.3f} +- {e['v_r_sigma']:.3f} | {e['dv_r']:+.3f} | "
+                f"{e['v_a_est']:.3f} +- {e['v_a_sigma']:.3f} | {e['dv_a']:+.3f} | "
+                f"{e['relocation_error']:.2f} | {e['relocation_bound']:.2f} | "
+                f"{fmt(e.get('az_irw_ratio'), '.3f')} | {fmt(e.get('az_pslr'), '.2f')} | "
+                f"{fmt(e.get('az_islr'), '.2f')} | {e['cells']} |"
+            )
         else:
-            lines.append(f"| {e['name']} | {e['amp_db']:.1f} | {e['v_r']:.2f} | {e['v_a']:.2f} | **missed** |" + " |" * 11)
+            lines.append(
+                f"| {e['name']} | {e['amp_db']:.1f} | {e['v_r']:.2f} | {e['v_a']:.2f} | **missed** |" + " |" * 11
+            )
     found = [e for e in rows if e["found"]]
     ok_vr = all(abs(e["dv_r"]) <= V_R_TOLERANCE for e in found)
     ok_reloc = all(e["relocation_error"] <= e["relocation_bound"] for e in found)
-    lines += ["",
-              f"- found {len(found)} of {len(rows)} vehicles; false alarms above the CFAR threshold (the measured "
-              f"clutter residual + {info.get('cfar_db', 15):g} dB): {len(false)}"
-              + ("".join(f"\n  - false alarm: SNR {f['snr']:.1f} dB, v_r {f['v_r']:.2f}, v_a {f['v_a']:.2f} m/s"
-                         for f in false)),
-              f"- every vehicle found: {'yes' if len(found) == len(rows) else 'no, missed ' + ', '.join(e['name'] for e in rows if not e['found'])}",
-              f"- every found vehicle's v_r within {V_R_TOLERANCE} m/s: {'yes' if ok_vr else 'no'} "
-              f"(largest error {max((abs(e['dv_r']) for e in found), default=float('nan')):.3f} m/s)",
-              f"- every relocation within R |dv_los| / (v cos theta) + {APPARENT_POSITION_M:g} m: "
-              f"{'yes' if ok_reloc else 'no'}"]
+    lines += [
+        "",
+        f"- found {len(found)} of {len(rows)} vehicles; false alarms above the CFAR threshold (the measured "
+        f"clutter residual + {info.get('cfar_db', 15):g} dB): {len(false)}"
+        + (
+            "".join(
+                f"\n  - false alarm: SNR {f['snr']:.1f} dB, v_r {f['v_r']:.2f}, v_a {f['v_a']:.2f} m/s" for f in false
+            )
+        ),
+        f"- every vehicle found: {'yes' if len(found) == len(rows) else 'no, missed ' + ', '.join(e['name'] for e in rows if not e['found'])}",
+        f"- every found vehicle's v_r within {V_R_TOLERANCE} m/s: {'yes' if ok_vr else 'no'} "
+        f"(largest error {max((abs(e['dv_r']) for e in found), default=float('nan')):.3f} m/s)",
+        f"- every relocation within R |dv_los| / (v cos theta) + {APPARENT_POSITION_M:g} m: "
+        f"{'yes' if ok_reloc else 'no'}",
+    ]
     if statics:
-        lines += ["", "Static targets, modified against conventional reconstruction (evaluate):", "",
-                  "| target | peak ratio (dB) | az IRW/theory mod / conv | az PSLR mod / conv | rg PSLR mod / conv |",
-                  "|---|---:|---:|---:|---:|"]
+        lines += [
+            "",
+            "Static targets, modified against conventional reconstruction (evaluate):",
+            "",
+            "| target | peak ratio (dB) | az IRW/theory mod / conv | az PSLR mod / conv | rg PSLR mod / conv |",
+            "|---|---:|---:|---:|---:|",
+        ]
         for s in statics:
-            lines.append(f"| {s['name']} | {s['peak_db']:+.3f} | {s['az_irw'][0]:.3f} / {s['az_irw'][1]:.3f} | "
-                         f"{s['az_pslr'][0]:.2f} / {s['az_pslr'][1]:.2f} | {s['rg_pslr'][0]:.2f} / {s['rg_pslr'][1]:.2f} |")
+            lines.append(
+                f"| {s['name']} | {s['peak_db']:+.3f} | {s['az_irw'][0]:.3f} / {s['az_irw'][1]:.3f} | "
+                f"{s['az_pslr'][0]:.2f} / {s['az_pslr'][1]:.2f} | {s['rg_pslr'][0]:.2f} / {s['rg_pslr'][1]:.2f} |"
+            )
     if two:
         rows2, false2, info2 = two
-        lines += ["", "Two movers 80 m apart in walk-corrected range (configs/xu_two_movers.yaml):", "",
-                  "| mover | v_r true | v_r est | v_r error | v_a est | relocation error (m) |", "|---|---:|---:|---:|---:|---:|"]
+        lines += [
+            "",
+            "Two movers 80 m apart in walk-corrected range (configs/xu_two_movers.yaml):",
+            "",
+            "| mover | v_r true | v_r est | v_r error | v_a est | relocation error (m) |",
+            "|---|---:|---:|---:|---:|---:|",
+        ]
         for e in rows2:
             if e["found"]:
-                lines.append(f"| {e['name']} | {e['v_r']:.2f} | {e['v_r_est']:.3f} | {e['dv_r']:+.3f} | "
-                             f"{e['v_a_est']:.3f} | {e['relocation_error']:.2f} |")
+                lines.append(
+                    f"| {e['name']} | {e['v_r']:.2f} | {e['v_r_est']:.3f} | {e['dv_r']:+.3f} | "
+                    f"{e['v_a_est']:.3f} | {e['relocation_error']:.2f} |"
+                )
             else:
                 lines.append(f"| {e['name']} | {e['v_r']:.2f} | missed | | | |")
         lines.append(f"\nfalse alarms: {len(false2)}; detections: {json.dumps(info2.get('detections', {}))}")
@@ -150,15 +187,21 @@ def static_rows(product, report, report_conv):
         pb = [t["peak_amplitude"] for t in report_conv["targets"] if t["name"] == nm[k]]
         if not (a and b and pa and pb):
             continue
-        out.append({"name": nm[k], "peak_db": 20 * math.log10(pa[0] / pb[0]),
-                    "az_irw": (a["azimuth"]["irw_ratio"], b["azimuth"]["irw_ratio"]),
-                    "az_pslr": (a["azimuth"]["pslr_db"], b["azimuth"]["pslr_db"]),
-                    "rg_pslr": (a["range"]["pslr_db"], b["range"]["pslr_db"])})
+        out.append(
+            {
+                "name": nm[k],
+                "peak_db": 20 * math.log10(pa[0] / pb[0]),
+                "az_irw": (a["azimuth"]["irw_ratio"], b["azimuth"]["irw_ratio"]),
+                "az_pslr": (a["azimuth"]["pslr_db"], b["azimuth"]["pslr_db"]),
+                "rg_pslr": (a["range"]["pslr_db"], b["range"]["pslr_db"]),
+            }
+        )
     return out
 
 
 def figure(product, path):
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -171,8 +214,12 @@ def figure(product, path):
     for r in rows:
         ax.plot(r["apparent_x"] / 1e3, r["apparent_y"] / 1e3, "r^", ms=7)
         ax.plot(r["relocated_x"] / 1e3, r["relocated_y"] / 1e3, "b+", ms=12)
-        ax.annotate("", (r["relocated_x"] / 1e3, r["relocated_y"] / 1e3), (r["apparent_x"] / 1e3, r["apparent_y"] / 1e3),
-                    arrowprops={"arrowstyle": "->", "color": "0.6"})
+        ax.annotate(
+            "",
+            (r["relocated_x"] / 1e3, r["relocated_y"] / 1e3),
+            (r["apparent_x"] / 1e3, r["apparent_y"] / 1e3),
+            arrowprops={"arrowstyle": "->", "color": "0.6"},
+        )
     ax.plot([], [], "r^", label="apparent (where it focuses)")
     ax.plot([], [], "b+", label="relocated (apparent + estimated velocity)")
     ax.set_xlabel("x, along track (km)")
@@ -199,8 +246,14 @@ def main():
     rows, false = mover_table(rec, report)
     statics = static_rows(rec, report, load_json(res / "report_conventional.json")) if report else []
     info = dict(rec.attrs["reconstruct"])
-    info["cfar_db"] = next((h["parameters"].get("detection_snr", 15) for h in rec.history
-                            if str(h.get("command", "")).startswith("reconstruct")), 15)
+    info["cfar_db"] = next(
+        (
+            h["parameters"].get("detection_snr", 15)
+            for h in rec.history
+            if str(h.get("command", "")).startswith("reconstruct")
+        ),
+        15,
+    )
     two = None
     if (res / "two_movers" / "raw.h5").exists():
         rec2 = read_product(res / "two_movers" / "raw.h5", load=False)

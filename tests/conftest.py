@@ -7,8 +7,13 @@ import copy
 import pytest
 
 BASE_SCENE = {
-    "radar": {"carrier_frequency": "10 GHz", "bandwidth": "100 MHz", "pulse_duration": "1 us",
-              "range_sampling_rate": "120 MHz", "prf": "400 Hz"},
+    "radar": {
+        "carrier_frequency": "10 GHz",
+        "bandwidth": "100 MHz",
+        "pulse_duration": "1 us",
+        "range_sampling_rate": "120 MHz",
+        "prf": "400 Hz",
+    },
     "platform": {"velocity": "100 m/s", "altitude": "0 m"},
     "geometry": {"reference_range": "2 km", "squint": "0 deg"},
     "acquisition": {"mode": "spotlight", "aperture_time": "0.5 s"},
@@ -32,6 +37,8 @@ def merge(base: dict, changes: dict) -> dict:
 @pytest.fixture
 def scene_mapping():
     """Factory: scene_mapping(**section_changes) -> a small valid scene mapping."""
+
     def make(**changes):
         return merge(BASE_SCENE, changes)
+
     return make

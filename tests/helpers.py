@@ -20,6 +20,7 @@ def assert_theory(report, irw_tol=0.03, db_tol=0.3, pos_cells=0.05, n_targets=No
 
 def progress_recorder(bars: list):
     """A stage ``progress`` callable that records each bar as {'total', 'done'} in ``bars``."""
+
     def progress(iterable, total=None):
         if total is None and hasattr(iterable, "__len__"):
             total = len(iterable)
@@ -28,6 +29,7 @@ def progress_recorder(bars: list):
         for item in iterable:
             yield item
             bar["done"] += 1
+
     return progress
 
 

@@ -13,10 +13,19 @@ from sarproc.cli.options import common_options, input_argument, load_config, sum
 @click.command()
 @input_argument
 @common_options
-@click.option("--channel-image", type=int, default=None, metavar="N",
-              help="Also write receiver N's 2D image (1-based) before elevation compression (paper Fig. 5).")
-@click.option("--channel-output", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="Output of --channel-image (an `image` product, dims azimuth, range).")
+@click.option(
+    "--channel-image",
+    type=int,
+    default=None,
+    metavar="N",
+    help="Also write receiver N's 2D image (1-based) before elevation compression (paper Fig. 5).",
+)
+@click.option(
+    "--channel-output",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="Output of --channel-image (an `image` product, dims azimuth, range).",
+)
 def array3d(input_path: Path, output: Path, config_path, overwrite: bool, progress, channel_image, channel_output):
     """Linear-array down-looking 3D SAR (paper 004): range, azimuth and elevation-angle compression.
 
@@ -33,17 +42,32 @@ def array3d(input_path: Path, output: Path, config_path, overwrite: bool, progre
         raise InputError("--channel-image and --channel-output go together")
     if channel_output is not None and Path(channel_output).resolve() == Path(output).resolve():
         raise InputError(f"{channel_output}: --channel-output is the same file as --output")
-    params, raw = prepare("array3d", input_path, [output, channel_output], config_path, overwrite, ("raw_array",),
-                          Array3DParams, "array3d", array3d_estimate)
+    params, raw = prepare(
+        "array3d",
+        input_path,
+        [output, channel_output],
+        config_path,
+        overwrite,
+        ("raw_array",),
+        Array3DParams,
+        "array3d",
+        array3d_estimate,
+    )
     start = time.perf_counter()
     with naming(input_path, config_path, "array3d"):
-        cube, chan = array3d_product(raw, params, channel_image=channel_image,
-                                     progress=progress_factory(want_progress(progress), "array3d"),
-                                     command=f"sarproc array3d {input_path}")
+        cube, chan = array3d_product(
+            raw,
+            params,
+            channel_image=channel_image,
+            progress=progress_factory(want_progress(progress), "array3d"),
+            command=f"sarproc array3d {input_path}",
+        )
     write_product(output, cube, inputs=[input_path], overwrite=overwrite)
     if chan is not None:
         write_product(channel_output, chan, inputs=[input_path], overwrite=overwrite)
     shape = "x".join(map(str, cube.data.shape))
-    summary(f"array3d: {shape} (elevation x azimuth x range) cube -> {output}"
-            + (f", channel {channel_image} image -> {channel_output}" if chan is not None else "")
-            + f" ({time.perf_counter() - start:.2f} s)")
+    summary(
+        f"array3d: {shape} (elevation x azimuth x range) cube -> {output}"
+        + (f", channel {channel_image} image -> {channel_output}" if chan is not None else "")
+        + f" ({time.perf_counter() - start:.2f} s)"
+    )

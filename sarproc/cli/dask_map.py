@@ -18,10 +18,13 @@ import uuid
 import click
 
 scheduler_option = click.option(
-    "--scheduler", default=None, metavar="ADDRESS",
+    "--scheduler",
+    default=None,
+    metavar="ADDRESS",
     help="Run the independent tasks on Dask: 'local' (a new LocalCluster, one worker per core) or the "
-         "address of a running scheduler (tcp://host:8786). Default: in this process. "
-         "Needs pip install 'sarproc[distributed]'.")
+    "address of a running scheduler (tcp://host:8786). Default: in this process. "
+    "Needs pip install 'sarproc[distributed]'.",
+)
 
 
 def dask_mapper(client, key_prefix: str = "task", window: int | None = None):
@@ -64,8 +67,12 @@ def scheduler_client(scheduler: str | None):
 
     logging.getLogger("distributed").setLevel(max(logging.getLogger().level, logging.WARNING))
     if scheduler == "local":
-        with LocalCluster(n_workers=os.cpu_count() or 1, threads_per_worker=1, processes=True,
-                          dashboard_address=":0") as cluster, Client(cluster) as client:
+        with (
+            LocalCluster(
+                n_workers=os.cpu_count() or 1, threads_per_worker=1, processes=True, dashboard_address=":0"
+            ) as cluster,
+            Client(cluster) as client,
+        ):
             yield client
         return
     try:

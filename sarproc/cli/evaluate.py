@@ -9,8 +9,18 @@ from pathlib import Path
 
 import click
 
-from sarproc.cli.options import (config_option, dry_run_option, input_argument, load_config, max_memory_option,
-                                 progress_option, stdout_taken, summary, verbosity, want_progress)
+from sarproc.cli.options import (
+    config_option,
+    dry_run_option,
+    input_argument,
+    load_config,
+    max_memory_option,
+    progress_option,
+    stdout_taken,
+    summary,
+    verbosity,
+    want_progress,
+)
 
 
 def _fmt(x: float, spec: str) -> str:
@@ -35,9 +45,11 @@ def _theory(value, m) -> str:
 def markdown_table(report, units: dict) -> str:
     """Metric table (one row per target and principal cut, image-axis cuts as extra columns) and the
     false-target line, as Markdown."""
-    lines = ["| target | axis | cut direction | IRW | IRW/theory | PSLR (dB) | ISLR (dB) | position error | "
-             "error (cells) | window | axis cut: IRW/theory | axis cut: PSLR | axis cut: ISLR |",
-             "|---|---|---|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|"]
+    lines = [
+        "| target | axis | cut direction | IRW | IRW/theory | PSLR (dB) | ISLR (dB) | position error | "
+        "error (cells) | window | axis cut: IRW/theory | axis cut: PSLR | axis cut: ISLR |",
+        "|---|---|---|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|",
+    ]
     for t in report.targets:
         image_axes = t.image_axes or t.axes
         for m, i in zip(t.axes, image_axes):
@@ -49,22 +61,28 @@ def markdown_table(report, units: dict) -> str:
                 window += f", contaminated ({m.contaminated_db:.1f} dB)"
             if m.shortened_nulls is not None:
                 theory = "" if m.shortened_islr_theory_db is None else f" (sinc {m.shortened_islr_theory_db:.2f})"
-                window += (f", shortened to +-{m.shortened_nulls:g} nulls: PSLR {_fmt(m.shortened_pslr_db, '.2f')}, "
-                           f"ISLR {_fmt(m.shortened_islr_db, '.2f')}{theory}")
-            lines.append(f"| {t.name} | {m.axis} | {_direction(m, report.dims)} | {_fmt(m.irw, '.4g')} {u} | "
-                         f"{_fmt(m.irw_ratio, '.4f')}{' (own)' if m.theory == 'target' else ''} | "
-                         f"{_fmt(m.pslr_db, '.2f')}{_theory(m.pslr_theory_db, m)} | "
-                         f"{_fmt(m.islr_db, '.2f')}{_theory(m.islr_theory_db, m)} | "
-                         f"{_fmt(m.position_error, '.3g')} {u} | {_fmt(m.position_error_cells, '.4f')} | {window} | "
-                         f"{_fmt(i.irw_ratio, '.4f')} | {_fmt(i.pslr_db, '.2f')} | {_fmt(i.islr_db, '.2f')} |")
-    lines.append("\nCuts along each response's principal axes (side-lobe ridges, from the chip's spectral support); "
-                 "'truncated': the ISLR window reaches the image edge (unverified); 'minus X': the fitted ideal "
-                 "response of target X was subtracted first; 'contaminated': neighbours that ideal responses do not fit "
-                 "(fit residual above -30 dB) still put that much energy, relative to the main lobe, in the window "
-                 "(unverified); 'shortened': the contaminated cut measured again on a window ending half-way to "
-                 "that neighbour (PSLR, ISLR over it, and an ideal sinc's ISLR over the same window; unverified); "
-                 "'(own)': the theory is the target's own from the targets table (irw_, null_, pslr_, islr_<axis>: "
-                 "its illumination and weighting), not the image's; PSLR and ISLR show it in parentheses.")
+                window += (
+                    f", shortened to +-{m.shortened_nulls:g} nulls: PSLR {_fmt(m.shortened_pslr_db, '.2f')}, "
+                    f"ISLR {_fmt(m.shortened_islr_db, '.2f')}{theory}"
+                )
+            lines.append(
+                f"| {t.name} | {m.axis} | {_direction(m, report.dims)} | {_fmt(m.irw, '.4g')} {u} | "
+                f"{_fmt(m.irw_ratio, '.4f')}{' (own)' if m.theory == 'target' else ''} | "
+                f"{_fmt(m.pslr_db, '.2f')}{_theory(m.pslr_theory_db, m)} | "
+                f"{_fmt(m.islr_db, '.2f')}{_theory(m.islr_theory_db, m)} | "
+                f"{_fmt(m.position_error, '.3g')} {u} | {_fmt(m.position_error_cells, '.4f')} | {window} | "
+                f"{_fmt(i.irw_ratio, '.4f')} | {_fmt(i.pslr_db, '.2f')} | {_fmt(i.islr_db, '.2f')} |"
+            )
+    lines.append(
+        "\nCuts along each response's principal axes (side-lobe ridges, from the chip's spectral support); "
+        "'truncated': the ISLR window reaches the image edge (unverified); 'minus X': the fitted ideal "
+        "response of target X was subtracted first; 'contaminated': neighbours that ideal responses do not fit "
+        "(fit residual above -30 dB) still put that much energy, relative to the main lobe, in the window "
+        "(unverified); 'shortened': the contaminated cut measured again on a window ending half-way to "
+        "that neighbour (PSLR, ISLR over it, and an ideal sinc's ISLR over the same window; unverified); "
+        "'(own)': the theory is the target's own from the targets table (irw_, null_, pslr_, islr_<axis>: "
+        "its illumination and weighting), not the image's; PSLR and ISLR show it in parentheses."
+    )
     if report.movers:
         lines.append(movers_table(report.movers))
     lines += false_target_lines(report, units)
@@ -73,30 +91,38 @@ def markdown_table(report, units: dict) -> str:
 
 def movers_table(movers) -> str:
     """Moving truth targets: where they were measured, velocity errors, relocation, as Markdown."""
+
     def f(x, spec=".3f"):
         return "n/a" if x is None else _fmt(x, spec)
 
-    lines = ["\nMoving targets: measured at their static-equivalent position (where a static-scene image focuses "
-             "them, from the truth velocity and the geometry); relocated = the measured peak taken back to azimuth "
-             "time 0 with the estimated velocity (or the moving_targets table's relocated position).\n",
-             "| target | v_r true (m/s) | v_a true (m/s) | measured at (azimuth, range) | shift from truth (m) | "
-             "estimate | v_r est. | v_a est. | v_r error | v_a error | relocation error (m) | "
-             "implied by velocity error (m) |",
-             "|---|---:|---:|---|---:|---|---:|---:|---:|---:|---:|---:|"]
+    lines = [
+        "\nMoving targets: measured at their static-equivalent position (where a static-scene image focuses "
+        "them, from the truth velocity and the geometry); relocated = the measured peak taken back to azimuth "
+        "time 0 with the estimated velocity (or the moving_targets table's relocated position).\n",
+        "| target | v_r true (m/s) | v_a true (m/s) | measured at (azimuth, range) | shift from truth (m) | "
+        "estimate | v_r est. | v_a est. | v_r error | v_a error | relocation error (m) | "
+        "implied by velocity error (m) |",
+        "|---|---:|---:|---|---:|---|---:|---:|---:|---:|---:|---:|",
+    ]
     for m in movers:
         at = ", ".join(f"{v:.2f}" for v in m.apparent_coords.values())
-        lines.append(f"| {m.name} | {m.v_r:.3f} | {m.v_a:.3f} | {at} | {m.shift:.1f} | {m.estimate} | "
-                     f"{f(m.v_r_estimated)} | {f(m.v_a_estimated)} | {f(m.v_r_error)} | {f(m.v_a_error)} | "
-                     f"{f(m.relocation_error, '.2f')} | {f(m.relocation_error_from_velocity, '.2f')} |")
+        lines.append(
+            f"| {m.name} | {m.v_r:.3f} | {m.v_a:.3f} | {at} | {m.shift:.1f} | {m.estimate} | "
+            f"{f(m.v_r_estimated)} | {f(m.v_a_estimated)} | {f(m.v_r_error)} | {f(m.v_a_error)} | "
+            f"{f(m.relocation_error, '.2f')} | {f(m.relocation_error_from_velocity, '.2f')} |"
+        )
     if any(m.estimate == "none" for m in movers):
-        lines.append("\n'none': the product holds no velocity estimate for this target (no moving_targets table row "
-                     "and no reconstruct window matched it), so it is not relocated.")
+        lines.append(
+            "\n'none': the product holds no velocity estimate for this target (no moving_targets table row "
+            "and no reconstruct window matched it), so it is not relocated."
+        )
     return "\n".join(lines)
 
 
 def false_target_lines(report, units: dict) -> list[str]:
     """The false-target figures: on the residual image (every target's fitted response subtracted) with the
     residual's floor, and outside the +-guard_cells windows of the image itself."""
+
     def where(ft):
         return ", ".join(f"{d} = {v:.4g} {units.get(d, '')}".rstrip() for d, v in ft.position.items())
 
@@ -104,18 +130,27 @@ def false_target_lines(report, units: dict) -> list[str]:
     out = []
     if report.residual is not None:
         ft, fl = report.false_target, report.residual
-        found = "none (no pixel outside the main lobes)" if ft is None else \
-            f"{_fmt(ft.level_db, '.2f')} dB relative to target {ft.reference_target}, at {where(ft)}"
-        out.append(f"\nFalse target: {found} (on the residual: every target's fitted response subtracted, main "
-                   f"lobes of +-{fl.exclusion_cells:g} cells excluded); residual floor in the targets' guard windows "
-                   f"{_fmt(fl.floor_db, '.2f')} dB, residual RMS {_fmt(fl.rms_db, '.2f')} dB")
+        found = (
+            "none (no pixel outside the main lobes)"
+            if ft is None
+            else f"{_fmt(ft.level_db, '.2f')} dB relative to target {ft.reference_target}, at {where(ft)}"
+        )
+        out.append(
+            f"\nFalse target: {found} (on the residual: every target's fitted response subtracted, main "
+            f"lobes of +-{fl.exclusion_cells:g} cells excluded); residual floor in the targets' guard windows "
+            f"{_fmt(fl.floor_db, '.2f')} dB, residual RMS {_fmt(fl.rms_db, '.2f')} dB"
+        )
     label = "False target (guard window)" if report.residual is not None else "False target"
     if guard is None:
-        out.append(f"\n{label}: none (no pixel lies outside the target neighbourhoods of "
-                   f"+-{report.params.guard_cells:g} cells)")
+        out.append(
+            f"\n{label}: none (no pixel lies outside the target neighbourhoods of "
+            f"+-{report.params.guard_cells:g} cells)"
+        )
     else:
-        out.append(f"\n{label}: {_fmt(guard.level_db, '.2f')} dB relative to target {guard.reference_target}, "
-                   f"at {where(guard)}")
+        out.append(
+            f"\n{label}: {_fmt(guard.level_db, '.2f')} dB relative to target {guard.reference_target}, "
+            f"at {where(guard)}"
+        )
     return out
 
 
@@ -128,16 +163,36 @@ def _write_text_atomic(path: Path, text: str, overwrite: bool = True) -> None:
 
 @click.command()
 @input_argument
-@click.option("-o", "--output", type=click.Path(dir_okay=False, allow_dash=True, path_type=Path), default=None,
-              help="Write the report as JSON (never the input; an existing file needs --overwrite; '-': standard "
-                   "output, the table then goes to stderr).")
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(dir_okay=False, allow_dash=True, path_type=Path),
+    default=None,
+    help="Write the report as JSON (never the input; an existing file needs --overwrite; '-': standard "
+    "output, the table then goes to stderr).",
+)
 @click.option("--overwrite", is_flag=True, help="Replace an existing -o report.")
-@click.option("--plot", "plot_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="Directory for quicklook.png and target_<name>.png (created if missing).")
-@click.option("--expect", "expect_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="YAML tolerances; exit 1 if any check fails.")
-@click.option("--targets", "target_names", default=None, metavar="NAMES",
-              help="Measure only these targets (comma-separated names); the others stay out of the false-target search.")
+@click.option(
+    "--plot",
+    "plot_dir",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=None,
+    help="Directory for quicklook.png and target_<name>.png (created if missing).",
+)
+@click.option(
+    "--expect",
+    "expect_path",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="YAML tolerances; exit 1 if any check fails.",
+)
+@click.option(
+    "--targets",
+    "target_names",
+    default=None,
+    metavar="NAMES",
+    help="Measure only these targets (comma-separated names); the others stay out of the false-target search.",
+)
 @config_option
 @progress_option
 @max_memory_option
@@ -188,8 +243,13 @@ def evaluate(input_path: Path, output, overwrite, plot_dir, expect_path, target_
 
     product = read_product(input_path, kinds=("image", "image3d"))
     with naming(input_path, config_path, "evaluate"):
-        report = evaluate_product(product, params, source=str(input_path),
-                                  progress=progress_factory(want_progress(progress), "evaluate"), names=names)
+        report = evaluate_product(
+            product,
+            params,
+            source=str(input_path),
+            progress=progress_factory(want_progress(progress), "evaluate"),
+            names=names,
+        )
     all_names = [n.decode() if isinstance(n, bytes) else str(n) for n in product.targets["name"]]
     failures = check_report(report, expect, source=str(expect_path), all_names=all_names) if expect else []
     units = {d: UNITS.get(d, "") for d in product.dims}
@@ -198,15 +258,25 @@ def evaluate(input_path: Path, output, overwrite, plot_dir, expect_path, target_
     if output is not None:
         doc = {"input": str(input_path), "units": units, **report.to_dict()}
         if expect is not None:
-            doc["expect"] = {"file": str(expect_path), "passed": not failures,
-                             "failures": [{"target": f.target, "axis": f.axis, "metric": f.metric,
-                                           "value": f.value if math.isfinite(f.value) else None, "bound": f.bound}
-                                          for f in failures]}
+            doc["expect"] = {
+                "file": str(expect_path),
+                "passed": not failures,
+                "failures": [
+                    {
+                        "target": f.target,
+                        "axis": f.axis,
+                        "metric": f.metric,
+                        "value": f.value if math.isfinite(f.value) else None,
+                        "bound": f.bound,
+                    }
+                    for f in failures
+                ],
+            }
         _write_text_atomic(output, json.dumps(doc, indent=2, allow_nan=False) + "\n", overwrite)
     if plot_dir is not None:
         from sarproc.quality.moving import apparent_truth
 
-        product.targets = apparent_truth(product, str(input_path))   # drawn where they were measured
+        product.targets = apparent_truth(product, str(input_path))  # drawn where they were measured
         _plots(plot_dir, product, report, units, params)
         mark_published(plot_dir)
     if verbosity() >= 0:
@@ -243,8 +313,17 @@ def _draw(plot_dir: Path, product, report, units, params) -> None:
     irw = product.attrs["theoretical_irw"]
     # Figures are drawn to temporary files and renamed, like every other output.
     with atomic_path(plot_dir / "quicklook.png") as tmp:
-        plot_quicklook(tmp, product.data, product.dims, product.coords, truth, names, units, title=product.kind,
-                       frame=product.attrs.get("frame", {}).get("name", ""))
+        plot_quicklook(
+            tmp,
+            product.data,
+            product.dims,
+            product.coords,
+            truth,
+            names,
+            units,
+            title=product.kind,
+            frame=product.attrs.get("frame", {}).get("name", ""),
+        )
     for t in report.targets:
         with atomic_path(plot_dir / f"target_{safe_name(t.name)}.png") as tmp:
             plot_target(tmp, product.data, product.dims, product.coords, irw, t, units, params)

@@ -16,22 +16,31 @@ from pathlib import Path
 
 import click
 
-from sarproc.cli.options import (config_option, dry_run_option, input_argument, load_config, output_option,
-                                 overwrite_option, summary)
+from sarproc.cli.options import (
+    config_option,
+    dry_run_option,
+    input_argument,
+    load_config,
+    output_option,
+    overwrite_option,
+    summary,
+)
 
 
 def _check_line(name: str, result: dict) -> str:
     warn = f", warnings: {', '.join(result['warnings'])}" if result["warnings"] else ""
-    return (f"{name} consistency: {'PASS' if result['passed'] else 'FAIL'} ({result['n_passed']} passed, "
-            f"{len(result['errors'])} errors, {len(result['warnings'])} warnings, {result['n_skipped']} not "
-            f"applicable{warn})")
+    return (
+        f"{name} consistency: {'PASS' if result['passed'] else 'FAIL'} ({result['n_passed']} passed, "
+        f"{len(result['errors'])} errors, {len(result['warnings'])} warnings, {result['n_skipped']} not "
+        f"applicable{warn})"
+    )
 
 
 def _finish(name: str, output: Path, result: dict, report_path):
     from sarproc.product.errors import ProcessingError
     from sarproc.product.io import atomic_path
 
-    if report_path is not None:   # atomic like every output (a device or '-' is written through)
+    if report_path is not None:  # atomic like every output (a device or '-' is written through)
         with atomic_path(report_path) as tmp:
             tmp.write_text(json.dumps({k: v for k, v in result.items()}, indent=1) + "\n")
     if not result["passed"]:
@@ -39,9 +48,13 @@ def _finish(name: str, output: Path, result: dict, report_path):
         raise ProcessingError(f"{output}: sarkit's {name} consistency checks failed: {', '.join(result['errors'])}")
 
 
-check_option = click.option("--check-report", "report_path",
-                            type=click.Path(dir_okay=False, allow_dash=True, path_type=Path),
-                            default=None, help="Write sarkit's consistency results as JSON.")
+check_option = click.option(
+    "--check-report",
+    "report_path",
+    type=click.Path(dir_okay=False, allow_dash=True, path_type=Path),
+    default=None,
+    help="Write sarkit's consistency results as JSON.",
+)
 
 
 @click.command("export-sicd")
@@ -51,22 +64,40 @@ check_option = click.option("--check-report", "report_path",
 @overwrite_option
 @check_option
 @dry_run_option
-@click.option("--image-formation", type=click.Choice(["auto", "OTHER", "PFA"], case_sensitive=False), default="auto",
-              show_default=True, help="ImageFormAlgo: auto = PFA (Grid RGAZIM and a PFA block) for pfa2 images in "
-              "polar-format geometry (method plain), OTHER (Grid PLANE) for every other image; PFA only for pfa2 "
-              "images (docs/formats.md).")
-@click.option("--sicd-version", type=click.Choice(["1.4.0", "1.3.0"]), default="1.4.0", show_default=True,
-              help="SICD version written: 1.3.0 for readers that do not know 1.4.0 (the content is the same).")
-def export_sicd(input_path: Path, output: Path, config_path, overwrite: bool, report_path, image_formation: str,
-                sicd_version: str):
+@click.option(
+    "--image-formation",
+    type=click.Choice(["auto", "OTHER", "PFA"], case_sensitive=False),
+    default="auto",
+    show_default=True,
+    help="ImageFormAlgo: auto = PFA (Grid RGAZIM and a PFA block) for pfa2 images in "
+    "polar-format geometry (method plain), OTHER (Grid PLANE) for every other image; PFA only for pfa2 "
+    "images (docs/formats.md).",
+)
+@click.option(
+    "--sicd-version",
+    type=click.Choice(["1.4.0", "1.3.0"]),
+    default="1.4.0",
+    show_default=True,
+    help="SICD version written: 1.3.0 for readers that do not know 1.4.0 (the content is the same).",
+)
+def export_sicd(
+    input_path: Path, output: Path, config_path, overwrite: bool, report_path, image_formation: str, sicd_version: str
+):
     """Export a focused 2D image product to SICD (NITF), checked by sarkit's SicdConsistency."""
     import numpy as np
 
     from sarproc.cli.stage import export_sicd_estimate, naming, plan_outputs
     from sarproc.product.geolocation import GeolocationParams, placement
     from sarproc.product.io import atomic_path, read_product
-    from sarproc.product.sicd import (check_sicd, formed_by_pfa, image_grid, read_sicd, require_sarkit,
-                                      sicd_pixels, write_sicd)
+    from sarproc.product.sicd import (
+        check_sicd,
+        formed_by_pfa,
+        image_grid,
+        read_sicd,
+        require_sarkit,
+        sicd_pixels,
+        write_sicd,
+    )
     from sarproc.product.errors import InputError, ProcessingError
 
     require_sarkit()
@@ -75,11 +106,13 @@ def export_sicd(input_path: Path, output: Path, config_path, overwrite: bool, re
     header = read_product(input_path, kinds=("image",), load=False)
     with naming(input_path, config_path, "geolocation"):
         place = placement(header.radar, params)
-        image_grid(header, place)                # a plane, orthogonal, uniform grid (no pixels read)
+        image_grid(header, place)  # a plane, orthogonal, uniform grid (no pixels read)
     image_formation = None if image_formation.lower() == "auto" else image_formation.upper()
     if image_formation == "PFA" and not formed_by_pfa(header):
-        raise InputError(f"{input_path}: --image-formation PFA needs an image made by pfa2 (its history and "
-                         "attribute 'support_rectangle')")
+        raise InputError(
+            f"{input_path}: --image-formation PFA needs an image made by pfa2 (its history and "
+            "attribute 'support_rectangle')"
+        )
     plan_outputs(input_path, [output], overwrite, lambda: export_sicd_estimate("export-sicd", header, params))
     image = read_product(input_path, kinds=("image",))
     # written, read back and checked before it is published: a failed check leaves no file
@@ -91,9 +124,11 @@ def export_sicd(input_path: Path, output: Path, config_path, overwrite: bool, re
             raise ProcessingError(f"{output}: the pixels read back differ from those written for {input_path}")
         result = check_sicd(tmp)
         _finish("SICD", output, result, report_path)
-    summary(f"export-sicd: {pixels.shape[0]}x{pixels.shape[1]} SICD {sicd_version} (rows = range"
-            f"{', columns = reversed azimuth' if grid.flip_cols else ', columns = azimuth'}; carrier at the SCP "
-            f"{grid.carrier[0]:.4g}, {grid.carrier[1]:.4g} cycles/m removed) -> {output}; pixels read back identical")
+    summary(
+        f"export-sicd: {pixels.shape[0]}x{pixels.shape[1]} SICD {sicd_version} (rows = range"
+        f"{', columns = reversed azimuth' if grid.flip_cols else ', columns = azimuth'}; carrier at the SCP "
+        f"{grid.carrier[0]:.4g}, {grid.carrier[1]:.4g} cycles/m removed) -> {output}; pixels read back identical"
+    )
     summary(_check_line("SICD", result))
 
 
@@ -118,7 +153,7 @@ def export_cphd(input_path: Path, output: Path, config_path, overwrite: bool, re
         place = placement(header.radar, params)
     plan_outputs(input_path, [output], overwrite, lambda: export_cphd_estimate("export-cphd", header, params))
     raw = read_product(input_path, kinds=("raw",))
-    with atomic_path(output, overwrite) as tmp:        # published only once the checks pass
+    with atomic_path(output, overwrite) as tmp:  # published only once the checks pass
         with naming(input_path):
             sizes = write_cphd(tmp, raw, place)
         result = check_cphd(tmp)
@@ -144,7 +179,7 @@ def import_cphd(input_path: Path, output: Path, overwrite: bool):
     from sarproc.product.io import history_entry, write_product
 
     require_sarkit()
-    header = cphd_header(input_path)            # the XML is checked before the output is looked at
+    header = cphd_header(input_path)  # the XML is checked before the output is looked at
     plan_outputs(input_path, [output], overwrite, lambda: import_cphd_estimate("import-cphd", header))
     raw = read_cphd(input_path)
     raw.history.append(history_entry(f"sarproc import-cphd {input_path}", {}))

@@ -108,13 +108,13 @@ class LazyGroup(click.Group):
             with _run_scope():
                 try:
                     try:
-                        run.check()   # a signal during argument parsing
+                        run.check()  # a signal during argument parsing
                         result = super().invoke(ctx)
                     except click.exceptions.Exit as exc:
                         if exc.exit_code == 0:
                             run.check()
                         raise
-                    except KeyboardInterrupt:   # SIGINT outside the run's own handler (a test's runner)
+                    except KeyboardInterrupt:  # SIGINT outside the run's own handler (a test's runner)
                         raise Interrupted(signal.SIGINT) from None
                     except Interrupted:
                         raise
@@ -123,10 +123,10 @@ class LazyGroup(click.Group):
                             # whatever the signal interrupted failed as a consequence
                             raise Interrupted(run.fired()) from None
                         raise
-                    run.check()   # a signal whose exception a library swallowed: the run still stops
+                    run.check()  # a signal whose exception a library swallowed: the run still stops
                     return result
                 except Interrupted as exc:
-                    exc.removed = run.remove_published()   # all outputs or none
+                    exc.removed = run.remove_published()  # all outputs or none
                     raise
         except InputError as exc:
             raise BadInput(str(exc)) from None
@@ -141,8 +141,9 @@ class LazyGroup(click.Group):
             click.echo(f"Error: interrupted by {name}; no output was written{more}", err=True)
             ctx.exit(128 + exc.signum)
         except MemoryError:
-            raise ProcessingFailed("out of memory; reduce the scene or the block size "
-                                   "(sarproc -v prints each stage's memory estimate)") from None
+            raise ProcessingFailed(
+                "out of memory; reduce the scene or the block size (sarproc -v prints each stage's memory estimate)"
+            ) from None
         except OSError as exc:
             if verbosity >= 2:
                 traceback.print_exc()
@@ -162,8 +163,12 @@ class LazyGroup(click.Group):
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="sarproc")
 @click.option("-v", "--verbose", count=True, help="More log output (repeat for debug).")
-@click.option("-q", "--quiet", count=True,
-              help="Only errors and the warnings that an image is wrong (ghosts, aliasing, folds); -qq: only errors.")
+@click.option(
+    "-q",
+    "--quiet",
+    count=True,
+    help="Only errors and the warnings that an image is wrong (ghosts, aliasing, folds); -qq: only errors.",
+)
 def cli(verbose: int, quiet: int):
     """SAR point-target simulator, focusing processors and quality evaluation.
 
@@ -173,12 +178,17 @@ def cli(verbose: int, quiet: int):
     level = logging.ERROR if quiet >= 2 else (logging.WARNING, logging.INFO, logging.DEBUG)[min(verbose, 2)]
     # Only sarproc's own loggers get more verbose; libraries (h5py logs every type conversion at
     # DEBUG) stay at WARNING, or ERROR with -q.
-    logging.basicConfig(level=logging.ERROR if quiet else logging.WARNING,
-                        format="sarproc: %(levelname)s: %(message)s", stream=sys.stderr, force=True)
+    logging.basicConfig(
+        level=logging.ERROR if quiet else logging.WARNING,
+        format="sarproc: %(levelname)s: %(message)s",
+        stream=sys.stderr,
+        force=True,
+    )
     logging.getLogger("sarproc").setLevel(level)
-    if quiet == 1:   # -q: errors, and the warnings that an image is wrong
+    if quiet == 1:  # -q: errors, and the warnings that an image is wrong
         logging.getLogger().handlers[0].addFilter(
-            lambda r: r.levelno >= logging.ERROR or getattr(r, "image_defect", False))
+            lambda r: r.levelno >= logging.ERROR or getattr(r, "image_defect", False)
+        )
     logging.captureWarnings(True)
 
 
@@ -198,8 +208,8 @@ def run_cli(args=None) -> int:
 
     quiet_unraisable.sarproc = True
     if not getattr(default_hook, "sarproc", False):
-        sys.unraisablehook = quiet_unraisable   # for the whole process: freed HDF5 objects complain at its exit
-    run.install_handlers()   # before a stage starts (argument parsing, imports): nothing to clean
+        sys.unraisablehook = quiet_unraisable  # for the whole process: freed HDF5 objects complain at its exit
+    run.install_handlers()  # before a stage starts (argument parsing, imports): nothing to clean
     try:
         cli.main(args=args, prog_name="sarproc")
         code = 0
@@ -208,10 +218,10 @@ def run_cli(args=None) -> int:
     except Interrupted as exc:
         print(f"Error: interrupted by {signal.Signals(exc.signum).name}", file=sys.stderr)
         code = 128 + exc.signum
-    if run.fired() is not None and code == 0:   # during parsing, and no run began (--help, --version)
+    if run.fired() is not None and code == 0:  # during parsing, and no run began (--help, --version)
         print(f"Error: interrupted by {signal.Signals(run.fired()).name}", file=sys.stderr)
         code = 128 + run.fired()
-    run.ignore_signals()     # the run has ended: its status stands, a late signal must not kill the exit
+    run.ignore_signals()  # the run has ended: its status stands, a late signal must not kill the exit
     return code
 
 

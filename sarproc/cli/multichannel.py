@@ -29,21 +29,40 @@ def reconstruct(input_path: Path, output: Path, config_path, overwrite: bool, pr
     from sarproc.product.io import write_product
 
     # config, input header, output location, plan (the output holds as many samples as the input)
-    params, raw = prepare("reconstruct", input_path, [output], config_path, overwrite, ("raw_multichannel",),
-                          ReconstructParams, "reconstruct", reconstruct_estimate)
+    params, raw = prepare(
+        "reconstruct",
+        input_path,
+        [output],
+        config_path,
+        overwrite,
+        ("raw_multichannel",),
+        ReconstructParams,
+        "reconstruct",
+        reconstruct_estimate,
+    )
     start = time.perf_counter()
     with naming(input_path, config_path, "reconstruct"):
         out = run(raw, params, progress=progress_factory(want_progress(progress), "reconstruct"))
     out.history[-1]["command"] = f"sarproc reconstruct {input_path}"
     write_product(output, out, inputs=[input_path], overwrite=overwrite)
     info = out.attrs["reconstruct"]
-    movers = "; ".join(f"v_r {m['radial_velocity']:.2f} m/s v_a {m['along_track_velocity']:.2f} m/s"
-                       for m in info["moving_targets"])
+    movers = "; ".join(
+        f"v_r {m['radial_velocity']:.2f} m/s v_a {m['along_track_velocity']:.2f} m/s" for m in info["moving_targets"]
+    )
     truth = info.get("truth")
-    found = (f"; truth: {truth['found']} of {truth['movers']} movers found"
-             + (f", missed {', '.join(truth['missed'])}" if truth["missed"] else "")
-             + f", {truth['false_alarms']} false alarm(s)") if truth else ""
-    summary(f"reconstruct: {info['n_channels']} channels x {raw.data.shape[1]} pulses -> {out.data.shape[0]} pulses "
-            f"at {info['prf_out']:.6g} Hz (condition {info['condition_number']:.3g}"
-            + (f"; {len(info['moving_targets'])} moving: {movers}" if movers else "") + found
-            + f") -> {output} ({time.perf_counter() - start:.2f} s)")
+    found = (
+        (
+            f"; truth: {truth['found']} of {truth['movers']} movers found"
+            + (f", missed {', '.join(truth['missed'])}" if truth["missed"] else "")
+            + f", {truth['false_alarms']} false alarm(s)"
+        )
+        if truth
+        else ""
+    )
+    summary(
+        f"reconstruct: {info['n_channels']} channels x {raw.data.shape[1]} pulses -> {out.data.shape[0]} pulses "
+        f"at {info['prf_out']:.6g} Hz (condition {info['condition_number']:.3g}"
+        + (f"; {len(info['moving_targets'])} moving: {movers}" if movers else "")
+        + found
+        + f") -> {output} ({time.perf_counter() - start:.2f} s)"
+    )

@@ -9,14 +9,24 @@ import click
 
 from sarproc.product.config import build, load_yaml
 
-output_option = click.option("-o", "--output", required=True,
-                             type=click.Path(dir_okay=False, allow_dash=True, path_type=Path),
-                             help="Output HDF5 product ('-': standard output).")
-config_option = click.option("--config", "config_path", type=click.Path(dir_okay=False, allow_dash=True, path_type=Path),
-                             default=None, help="YAML file of algorithm parameters (defaults from the product; '-': standard input).")
+output_option = click.option(
+    "-o",
+    "--output",
+    required=True,
+    type=click.Path(dir_okay=False, allow_dash=True, path_type=Path),
+    help="Output HDF5 product ('-': standard output).",
+)
+config_option = click.option(
+    "--config",
+    "config_path",
+    type=click.Path(dir_okay=False, allow_dash=True, path_type=Path),
+    default=None,
+    help="YAML file of algorithm parameters (defaults from the product; '-': standard input).",
+)
 overwrite_option = click.option("--overwrite", is_flag=True, help="Replace an existing output file.")
-progress_option = click.option("--progress/--no-progress", default=None,
-                               help="Show progress bars (default: on for a terminal).")
+progress_option = click.option(
+    "--progress/--no-progress", default=None, help="Show progress bars (default: on for a terminal)."
+)
 input_argument = click.argument("input_path", type=click.Path(path_type=Path))
 
 
@@ -33,9 +43,14 @@ def _store_max_memory(ctx, param, value):
 
 
 # Stored in the context (expose_value=False), so every stage has it without a new argument.
-max_memory_option = click.option("--max-memory", metavar="SIZE", default=None, expose_value=False,
-                                 callback=_store_max_memory,
-                                 help="Refuse to start when the planned peak memory exceeds SIZE (e.g. 8G).")
+max_memory_option = click.option(
+    "--max-memory",
+    metavar="SIZE",
+    default=None,
+    expose_value=False,
+    callback=_store_max_memory,
+    help="Refuse to start when the planned peak memory exceeds SIZE (e.g. 8G).",
+)
 
 
 def _store_dry_run(ctx, param, value):
@@ -45,9 +60,14 @@ def _store_dry_run(ctx, param, value):
 
 
 # Stored in the context like --max-memory; stage.report_plan ends the run after the plan.
-dry_run_option = click.option("--dry-run", is_flag=True, expose_value=False, callback=_store_dry_run,
-                              help="Check the inputs and outputs, print the plan (output size, peak memory, run "
-                                   "time) and exit 0 without computing or writing anything.")
+dry_run_option = click.option(
+    "--dry-run",
+    is_flag=True,
+    expose_value=False,
+    callback=_store_dry_run,
+    help="Check the inputs and outputs, print the plan (output size, peak memory, run "
+    "time) and exit 0 without computing or writing anything.",
+)
 
 
 def common_options(func):
@@ -92,8 +112,10 @@ def check_sections(data: dict, path) -> None:
     known = commands + tuple(f.name for f in dataclasses.fields(SceneParams))
     unknown = [k for k in data if k not in known]
     if unknown:
-        raise InputError(f"{path}: unknown section(s) {', '.join(map(repr, unknown))}{did_you_mean(unknown, known)}; "
-                         f"a config file holds command sections ({', '.join(commands)}) and scene sections")
+        raise InputError(
+            f"{path}: unknown section(s) {', '.join(map(repr, unknown))}{did_you_mean(unknown, known)}; "
+            f"a config file holds command sections ({', '.join(commands)}) and scene sections"
+        )
 
 
 def load_config(cls, path, section: str | None = None):

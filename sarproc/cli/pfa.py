@@ -26,8 +26,9 @@ def pfa2(input_path: Path, output: Path, config_path, overwrite: bool, progress,
     from sarproc.focus.pfa.chain import Pfa2Params, pfa2 as run
     from sarproc.product.io import write_product
 
-    params, raw = prepare("pfa2", input_path, [output], config_path, overwrite, ("raw",), Pfa2Params, "pfa2",
-                          pfa2_estimate)
+    params, raw = prepare(
+        "pfa2", input_path, [output], config_path, overwrite, ("raw",), Pfa2Params, "pfa2", pfa2_estimate
+    )
     start = time.perf_counter()
     with naming(input_path, config_path, "pfa2"), scheduler_client(scheduler) as client:
         # with --scheduler, the two-step sub-images are Dask tasks (same mosaic as the serial run)
@@ -37,25 +38,31 @@ def pfa2(input_path: Path, output: Path, config_path, overwrite: bool, progress,
     write_product(output, image, inputs=[input_path], overwrite=overwrite)
     n_az, n_rg = image.data.shape
     extra = f", {image.attrs['subimages']} sub-images" if "subimages" in image.attrs else ""
-    summary(f"pfa2: {params.method}{extra}, {n_az}x{n_rg} image in frame ground_los -> {output} "
-            f"({time.perf_counter() - start:.2f} s)")
+    summary(
+        f"pfa2: {params.method}{extra}, {n_az}x{n_rg} image in frame ground_los -> {output} "
+        f"({time.perf_counter() - start:.2f} s)"
+    )
 
 
 @click.command("import-gotcha")
 @click.argument("inputs", nargs=-1, required=True, type=click.Path(path_type=Path))
-@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
-              help="Output raw HDF5 product.")
+@click.option(
+    "-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path), help="Output raw HDF5 product."
+)
 @click.option("--overwrite", is_flag=True, help="Replace an existing output file.")
 @dry_run_option
-@click.option("--autofocus/--no-autofocus", default=False,
-              help="Apply the files' autofocus solution (af.r_correct, af.ph_correct).")
+@click.option(
+    "--autofocus/--no-autofocus",
+    default=False,
+    help="Apply the files' autofocus solution (af.r_correct, af.ph_correct).",
+)
 def import_gotcha(inputs, output: Path, overwrite: bool, autofocus: bool):
     """Convert AFRL Gotcha phase-history .mat files (one pass, consecutive azimuths) into a raw product."""
     from sarproc.cli.stage import import_gotcha_estimate, plan_outputs
     from sarproc.product.gotcha import gotcha_files, gotcha_product, read_gotcha
     from sarproc.product.io import write_product
 
-    files = gotcha_files(inputs)                # every file checked before the output is looked at
+    files = gotcha_files(inputs)  # every file checked before the output is looked at
     plan_outputs(files[0], [output], overwrite, lambda: import_gotcha_estimate("import-gotcha", files), inputs=files)
     raw = gotcha_product(read_gotcha(files, autofocus=autofocus))
     raw.history[-1]["command"] = "sarproc import-gotcha " + " ".join(map(str, inputs))

@@ -11,19 +11,37 @@ from sarproc.cli.options import dry_run_option, input_argument, overwrite_option
 
 @click.command()
 @input_argument
-@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
-              help="Output picture (PNG).")
+@click.option(
+    "-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path), help="Output picture (PNG)."
+)
 @overwrite_option
 @dry_run_option
-@click.option("--dynamic-range", "dynamic_range_db", type=click.FloatRange(min=1.0, max=300.0), default=50.0,
-              show_default=True, help="dB below the image peak drawn as black.")
-@click.option("--targets/--no-targets", "mark_targets", default=True, show_default=True,
-              help="Circle and name the truth targets of the targets table (when it has any).")
-@click.option("--max-pixels", type=click.IntRange(min=16, max=16384), default=2048, show_default=True,
-              help="Largest number of pixels drawn along an axis; longer axes are reduced by taking the "
-                   "maximum of each block, so a one-pixel target stays visible.")
-def quicklook(input_path: Path, output: Path, overwrite: bool, dynamic_range_db: float, mark_targets: bool,
-              max_pixels: int):
+@click.option(
+    "--dynamic-range",
+    "dynamic_range_db",
+    type=click.FloatRange(min=1.0, max=300.0),
+    default=50.0,
+    show_default=True,
+    help="dB below the image peak drawn as black.",
+)
+@click.option(
+    "--targets/--no-targets",
+    "mark_targets",
+    default=True,
+    show_default=True,
+    help="Circle and name the truth targets of the targets table (when it has any).",
+)
+@click.option(
+    "--max-pixels",
+    type=click.IntRange(min=16, max=16384),
+    default=2048,
+    show_default=True,
+    help="Largest number of pixels drawn along an axis; longer axes are reduced by taking the "
+    "maximum of each block, so a one-pixel target stays visible.",
+)
+def quicklook(
+    input_path: Path, output: Path, overwrite: bool, dynamic_range_db: float, mark_targets: bool, max_pixels: int
+):
     """Picture of any image product, with or without truth targets.
 
     2D images: magnitude in dB relative to the peak, axes in metres named by the image frame.
@@ -44,14 +62,23 @@ def quicklook(input_path: Path, output: Path, overwrite: bool, dynamic_range_db:
     if mark_targets and len(header.targets):
         from sarproc.quality.moving import apparent_truth
 
-        table = apparent_truth(header, str(input_path))      # moving targets where the image focuses them
+        table = apparent_truth(header, str(input_path))  # moving targets where the image focuses them
         truth = np.stack([table[d].astype(float) for d in dims], axis=1)
         names = [n.decode() if isinstance(n, bytes) else str(n) for n in table["name"]]
     frame = header.attrs.get("frame", {}).get("name", "")
-    reduced = "" if all(f == 1 for f in factors) else \
-        ", block max " + " x ".join(str(f) for f in factors)
+    reduced = "" if all(f == 1 for f in factors) else ", block max " + " x ".join(str(f) for f in factors)
     title = f"{input_path.name}: {header.kind}, {dynamic_range_db:g} dB{reduced}"
     with atomic_path(output, overwrite=overwrite) as tmp:
-        plot_quicklook(tmp, magnitude, dims, coords, truth, names, {d: UNITS.get(d, "") for d in dims},
-                       dynamic_range_db=dynamic_range_db, title=title, frame=frame)
+        plot_quicklook(
+            tmp,
+            magnitude,
+            dims,
+            coords,
+            truth,
+            names,
+            {d: UNITS.get(d, "") for d in dims},
+            dynamic_range_db=dynamic_range_db,
+            title=title,
+            frame=frame,
+        )
     summary(f"quicklook: wrote {output} ({' x '.join(str(n) for n in magnitude.shape)} pixels drawn)")

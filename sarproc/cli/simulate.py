@@ -8,8 +8,15 @@ from pathlib import Path
 import click
 
 from sarproc.cli.dask_map import scheduler_option
-from sarproc.cli.options import (dry_run_option, max_memory_option, output_option, overwrite_option,
-                                 progress_option, summary, want_progress)
+from sarproc.cli.options import (
+    dry_run_option,
+    max_memory_option,
+    output_option,
+    overwrite_option,
+    progress_option,
+    summary,
+    want_progress,
+)
 
 
 @click.command()
@@ -30,7 +37,7 @@ def simulate(scene_path: Path, output: Path, overwrite: bool, progress, schedule
     from sarproc.cli.stage import naming, report_plan, simulate_estimate
 
     start = time.perf_counter()
-    scene = load_scene(scene_path)           # the scene is validated before the output is looked at
+    scene = load_scene(scene_path)  # the scene is validated before the output is looked at
     check_output_path(output, [scene_path], overwrite)
     with naming(scene_path):
         plan_estimate = simulate_estimate(scene)
@@ -39,13 +46,29 @@ def simulate(scene_path: Path, output: Path, overwrite: bool, progress, schedule
         plan = plan_simulation(scene)
         illumination_warnings(scene, plan)
     history = [history_entry(f"sarproc simulate {scene_path}", scene.resolved())]
-    with ProductWriter(output, plan.kind, plan.dims, plan.coords, plan.radar, plan.targets,
-                       attrs={"frame": scene.target_frame.spec}, aux=plan.aux, history=history,
-                       inputs=[scene_path], overwrite=overwrite) as writer, scheduler_client(scheduler) as client:
+    with (
+        ProductWriter(
+            output,
+            plan.kind,
+            plan.dims,
+            plan.coords,
+            plan.radar,
+            plan.targets,
+            attrs={"frame": scene.target_frame.spec},
+            aux=plan.aux,
+            history=history,
+            inputs=[scene_path],
+            overwrite=overwrite,
+        ) as writer,
+        scheduler_client(scheduler) as client,
+    ):
         mapper = dask_mapper(client, "simulate-block") if client is not None else None
         for sl, block in simulate_blocks(scene, plan, progress_factory(want_progress(progress), "simulate"), mapper):
-            writer.write((slice(None), sl, slice(None)) if plan.kind != "raw" else (sl, slice(None)),
-                         block if plan.kind != "raw" else block[0])
+            writer.write(
+                (slice(None), sl, slice(None)) if plan.kind != "raw" else (sl, slice(None)),
+                block if plan.kind != "raw" else block[0],
+            )
     shape = "x".join(map(str, plan.shape))
-    summary(f"simulate: {len(plan.targets)} targets, {plan.kind} {shape} -> {output} "
-            f"({time.perf_counter() - start:.2f} s)")
+    summary(
+        f"simulate: {len(plan.targets)} targets, {plan.kind} {shape} -> {output} ({time.perf_counter() - start:.2f} s)"
+    )

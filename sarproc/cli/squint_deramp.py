@@ -1,8 +1,8 @@
 """Paper 000 chain: sarproc preprocess | coarse-focus | fine-focus (An et al. 2012).
 
-    sarproc preprocess   RAW.h5    -o PRE.h5    [--config FILE.yaml]   # section preprocess:
-    sarproc coarse-focus PRE.h5    -o COARSE.h5 [--config FILE.yaml]   # section coarse_focus:
-    sarproc fine-focus   COARSE.h5 -o IMAGE.h5  [--config FILE.yaml]   # section fine_focus:
+sarproc preprocess   RAW.h5    -o PRE.h5    [--config FILE.yaml]   # section preprocess:
+sarproc coarse-focus PRE.h5    -o COARSE.h5 [--config FILE.yaml]   # section coarse_focus:
+sarproc fine-focus   COARSE.h5 -o IMAGE.h5  [--config FILE.yaml]   # section fine_focus:
 """
 
 from __future__ import annotations
@@ -15,16 +15,25 @@ import click
 from sarproc.cli.options import common_options, input_argument, load_config, summary, want_progress
 
 
-def _run(stage: str, input_path: Path, output: Path, config_path, overwrite: bool, kinds, params_cls, func,
-         progress: bool | None, estimate):
+def _run(
+    stage: str,
+    input_path: Path,
+    output: Path,
+    config_path,
+    overwrite: bool,
+    kinds,
+    params_cls,
+    func,
+    progress: bool | None,
+    estimate,
+):
     """The shared body of the three commands: prepare (config, input, output, plan), run, write."""
     from sarproc.cli.progress import progress_factory
     from sarproc.cli.stage import naming, prepare
     from sarproc.product.io import write_product
 
     command = stage.replace("_", "-")
-    params, product = prepare(command, input_path, [output], config_path, overwrite, kinds, params_cls, stage,
-                              estimate)
+    params, product = prepare(command, input_path, [output], config_path, overwrite, kinds, params_cls, stage, estimate)
     start = time.perf_counter()
     with naming(input_path, config_path, stage):
         out = func(product, params, progress=progress_factory(want_progress(progress), command))
@@ -41,10 +50,22 @@ def preprocess(input_path: Path, output: Path, config_path, overwrite: bool, pro
     from sarproc.cli.stage import preprocess_estimate
     from sarproc.focus.squint_deramp.preprocess import PreprocessParams, preprocess as run
 
-    out, dt = _run("preprocess", input_path, output, config_path, overwrite, ("raw",), PreprocessParams, run,
-                   progress, preprocess_estimate)
-    summary(f"preprocess: {out.attrs['doppler_correction']} correction, {out.data.shape[0]}x{out.data.shape[1]} "
-            f"-> {output} ({dt:.2f} s)")
+    out, dt = _run(
+        "preprocess",
+        input_path,
+        output,
+        config_path,
+        overwrite,
+        ("raw",),
+        PreprocessParams,
+        run,
+        progress,
+        preprocess_estimate,
+    )
+    summary(
+        f"preprocess: {out.attrs['doppler_correction']} correction, {out.data.shape[0]}x{out.data.shape[1]} "
+        f"-> {output} ({dt:.2f} s)"
+    )
 
 
 @click.command()
@@ -55,12 +76,24 @@ def coarse_focus(input_path: Path, output: Path, config_path, overwrite: bool, p
     from sarproc.cli.stage import coarse_focus_estimate
     from sarproc.focus.squint_deramp.coarse_focus import CoarseFocusParams, coarse_focus as run
 
-    out, dt = _run("coarse_focus", input_path, output, config_path, overwrite, ("preprocessed",),
-                   CoarseFocusParams, run, progress, coarse_focus_estimate)
+    out, dt = _run(
+        "coarse_focus",
+        input_path,
+        output,
+        config_path,
+        overwrite,
+        ("preprocessed",),
+        CoarseFocusParams,
+        run,
+        progress,
+        coarse_focus_estimate,
+    )
     a = out.attrs
-    summary(f"coarse-focus: F_a'' = {a['azimuth_sampling_rate']:.1f} Hz, deramped spread "
-            f"{a['deramp_spread']:.1f} Hz (PRF {out.radar.prf:.1f} Hz), {out.data.shape[0]}x{out.data.shape[1]} "
-            f"-> {output} ({dt:.2f} s)")
+    summary(
+        f"coarse-focus: F_a'' = {a['azimuth_sampling_rate']:.1f} Hz, deramped spread "
+        f"{a['deramp_spread']:.1f} Hz (PRF {out.radar.prf:.1f} Hz), {out.data.shape[0]}x{out.data.shape[1]} "
+        f"-> {output} ({dt:.2f} s)"
+    )
 
 
 @click.command()
@@ -71,7 +104,19 @@ def fine_focus(input_path: Path, output: Path, config_path, overwrite: bool, pro
     from sarproc.cli.stage import fine_focus_estimate
     from sarproc.focus.squint_deramp.fine_focus import FineFocusParams, fine_focus as run
 
-    out, dt = _run("fine_focus", input_path, output, config_path, overwrite, ("coarse",), FineFocusParams, run,
-                   progress, fine_focus_estimate)
-    summary(f"fine-focus: flow {out.attrs['flow']}, {out.data.shape[0]}x{out.data.shape[1]} image in frame "
-            f"{out.attrs['frame']['name']} -> {output} ({dt:.2f} s)")
+    out, dt = _run(
+        "fine_focus",
+        input_path,
+        output,
+        config_path,
+        overwrite,
+        ("coarse",),
+        FineFocusParams,
+        run,
+        progress,
+        fine_focus_estimate,
+    )
+    summary(
+        f"fine-focus: flow {out.attrs['flow']}, {out.data.shape[0]}x{out.data.shape[1]} image in frame "
+        f"{out.attrs['frame']['name']} -> {output} ({dt:.2f} s)"
+    )

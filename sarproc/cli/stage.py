@@ -45,21 +45,29 @@ def naming(input_path, config_path=None, section: str | None = None):
         raise InputError(f"{input_path}: {msg}") from None
 
 
-def prepare(stage: str, input_path: Path, outputs, config_path, overwrite: bool, kinds, params_cls,
-            section: str, estimate=None):
+def prepare(
+    stage: str, input_path: Path, outputs, config_path, overwrite: bool, kinds, params_cls, section: str, estimate=None
+):
     """Steps 1-5 above; returns (params, product) ready for the work."""
     from sarproc.product.io import read_product
 
     params = load_config(params_cls, config_path, section=section)
     header = read_product(input_path, kinds=kinds, load=False)
-    plan_outputs(input_path, outputs, overwrite, lambda: (estimate or generic_estimate)(stage, header, params),
-                  config_path=config_path, section=section)
+    plan_outputs(
+        input_path,
+        outputs,
+        overwrite,
+        lambda: (estimate or generic_estimate)(stage, header, params),
+        config_path=config_path,
+        section=section,
+    )
     product = read_product(input_path, kinds=kinds)
     return params, product
 
 
-def plan_outputs(input_path, outputs, overwrite: bool, estimate, inputs=None, config_path=None,
-                 section: str | None = None):
+def plan_outputs(
+    input_path, outputs, overwrite: bool, estimate, inputs=None, config_path=None, section: str | None = None
+):
     """Steps 3-4 above for a checked input: every output writable, then ``estimate()``'s plan printed
     with -v and refused when it cannot fit. ``inputs``: the files the outputs must not replace
     (default ``[input_path]``). Returns the plan."""
@@ -76,18 +84,39 @@ def plan_outputs(input_path, outputs, overwrite: bool, estimate, inputs=None, co
 
 # stage: (peak RSS bytes, seconds) of a run on a tiny scene with the kernels cached: imports (numpy,
 # scipy, h5py ~75 MB, numba ~90 MB more, 0.5-1 s), reading and writing the products, the kernels loaded.
-PROCESS = {"simulate": (185e6, 0.9), "preprocess": (225e6, 1.1), "coarse-focus": (195e6, 0.8),
-           "fine-focus": (230e6, 1.1), "backproject": (240e6, 1.1), "pfa2": (290e6, 1.4),
-           "reconstruct": (255e6, 0.9), "array3d": (215e6, 1.0), "evaluate": (135e6, 0.9),
-           "export-sicd": (85e6, 0.9), "export-cphd": (125e6, 1.7), "import-cphd": (120e6, 0.8),
-           "import-gotcha": (88e6, 0.6), "quicklook": (105e6, 1.1)}
+PROCESS = {
+    "simulate": (185e6, 0.9),
+    "preprocess": (225e6, 1.1),
+    "coarse-focus": (195e6, 0.8),
+    "fine-focus": (230e6, 1.1),
+    "backproject": (240e6, 1.1),
+    "pfa2": (290e6, 1.4),
+    "reconstruct": (255e6, 0.9),
+    "array3d": (215e6, 1.0),
+    "evaluate": (135e6, 0.9),
+    "export-sicd": (85e6, 0.9),
+    "export-cphd": (125e6, 1.7),
+    "import-cphd": (120e6, 0.8),
+    "import-gotcha": (88e6, 0.6),
+    "quicklook": (105e6, 1.1),
+}
 # stage: (the numba modules it runs, seconds and bytes to compile them when numba's cache lacks them)
-KERNELS = {"simulate": (("sarproc.simulation.echo_kernel",), 12.0, 60e6),
-           "preprocess": (("sarproc.dsp.phasor",), 0.5, 10e6),
-           "fine-focus": (("sarproc.focus.squint_deramp.stolt", "sarproc.focus.squint_deramp.block_copies",
-                           "sarproc.focus.squint_deramp.fine_focus", "sarproc.dsp.interp", "sarproc.dsp.phasor"),
-                          10.0, 70e6),
-           "backproject": (("sarproc.focus.backprojection_kernel", "sarproc.dsp.phasor"), 14.0, 105e6)}
+KERNELS = {
+    "simulate": (("sarproc.simulation.echo_kernel",), 12.0, 60e6),
+    "preprocess": (("sarproc.dsp.phasor",), 0.5, 10e6),
+    "fine-focus": (
+        (
+            "sarproc.focus.squint_deramp.stolt",
+            "sarproc.focus.squint_deramp.block_copies",
+            "sarproc.focus.squint_deramp.fine_focus",
+            "sarproc.dsp.interp",
+            "sarproc.dsp.phasor",
+        ),
+        10.0,
+        70e6,
+    ),
+    "backproject": (("sarproc.focus.backprojection_kernel", "sarproc.dsp.phasor"), 14.0, 105e6),
+}
 
 
 def kernels_cached(modules) -> bool:
@@ -100,8 +129,11 @@ def kernels_cached(modules) -> bool:
     from numba.core.registry import CPUDispatcher
 
     for name in modules:
-        indexes = [obj._cache._cache_file._index_path for obj in vars(importlib.import_module(name)).values()
-                   if isinstance(obj, CPUDispatcher) and hasattr(obj._cache, "_cache_file")]
+        indexes = [
+            obj._cache._cache_file._index_path
+            for obj in vars(importlib.import_module(name)).values()
+            if isinstance(obj, CPUDispatcher) and hasattr(obj._cache, "_cache_file")
+        ]
         if indexes and not any(os.path.exists(p) for p in indexes):
             return False
     return True
@@ -116,8 +148,9 @@ def whole_process(plan: Plan) -> Plan:
         seconds += compile_s
         memory += compile_bytes
         detail = (detail + "; " if detail else "") + f"compiling its kernels first (~{compile_s:.0f} s, then cached)"
-    return dataclasses.replace(plan, memory_bytes=plan.memory_bytes + memory, seconds=plan.seconds + seconds,
-                               detail=detail)
+    return dataclasses.replace(
+        plan, memory_bytes=plan.memory_bytes + memory, seconds=plan.seconds + seconds, detail=detail
+    )
 
 
 def report_plan(plan: Plan, outputs, input_path) -> None:
@@ -153,11 +186,16 @@ def preprocess_estimate(stage, header, params) -> Plan:
 
 def coarse_focus_estimate(stage, header, params) -> Plan:
     n_az, n_rg = _shape(header)
-    n_out = params.azimuth_samples or 2 * n_az   # the default M is the PRF-limited length, at most about 2x
+    n_out = params.azimuth_samples or 2 * n_az  # the default M is the PRF-limited length, at most about 2x
     out = complex_bytes(n_out, n_rg)
     block = complex_bytes(n_out, min(params.block_range, n_rg), itemsize=16) * 3
-    return Plan(stage, stored_bytes(n_out, n_rg), complex_bytes(n_az, n_rg) + out + block, n_out * n_rg * 60e-9,
-                f"{n_az} pulses -> ~{n_out} azimuth samples x {n_rg}")
+    return Plan(
+        stage,
+        stored_bytes(n_out, n_rg),
+        complex_bytes(n_az, n_rg) + out + block,
+        n_out * n_rg * 60e-9,
+        f"{n_az} pulses -> ~{n_out} azimuth samples x {n_rg}",
+    )
 
 
 def fine_focus_estimate(stage, header, params) -> Plan:
@@ -165,8 +203,10 @@ def fine_focus_estimate(stage, header, params) -> Plan:
     r = header.radar
     N = n_r + int(math.ceil(r.pulse_duration * r.range_sampling_rate))
     if M * N > params.max_samples:
-        raise InputError(f"fine_focus.max_samples: the working array {M} x {N} exceeds {params.max_samples}; "
-                         "raise it or shrink the scene")
+        raise InputError(
+            f"fine_focus.max_samples: the working array {M} x {N} exceeds {params.max_samples}; "
+            "raise it or shrink the scene"
+        )
     work = complex_bytes(M, N, itemsize=8 if params.precision == "float32" else 16)
     flow = params.flow or _fine_focus_flow(header)
     # spectra, Stolt output and azimuth blocks: about three working arrays at the peak (measured 3.1 on
@@ -178,8 +218,9 @@ def fine_focus_estimate(stage, header, params) -> Plan:
     else:
         # flow 1: 0.12-0.37 us per sample of CPU (exp. 2; exp. 1 with and without Doppler correction)
         memory, seconds = 3 * work, M * N * params.stolt_length * 15e-9
-    return Plan(stage, stored_bytes(M, N), complex_bytes(M, n_r) + memory, seconds,
-                f"working array {M} x {N}, flow {flow}")
+    return Plan(
+        stage, stored_bytes(M, N), complex_bytes(M, n_r) + memory, seconds, f"working array {M} x {N}, flow {flow}"
+    )
 
 
 def _fine_focus_flow(header) -> int:
@@ -187,10 +228,11 @@ def _fine_focus_flow(header) -> int:
     from sarproc.focus.squint_deramp.fine_focus import scene_and_focus_depth
 
     try:
-        half_adof, scene_half = scene_and_focus_depth(header.radar, [float(b) for b in header.attrs["scene_box"]],
-                                                      int(header.attrs["n_pulses"]))
+        half_adof, scene_half = scene_and_focus_depth(
+            header.radar, [float(b) for b in header.attrs["scene_box"]], int(header.attrs["n_pulses"])
+        )
     except (KeyError, ValueError, TypeError, ZeroDivisionError):
-        return 1          # fine-focus itself reports a bad coarse product
+        return 1  # fine-focus itself reports a bad coarse product
     return 1 if scene_half <= half_adof else 2
 
 
@@ -219,8 +261,10 @@ def backproject_estimate(stage, header, params) -> Plan:
     n = image_grid(header, params)
     n_pix = n[0] * n[1]
     if n_pix > params.max_pixels:
-        raise InputError(f"backproject.max_pixels: the grid of ~{n[0]} x {n[1]} pixels exceeds {params.max_pixels}; "
-                         "set backproject azimuth/range extents or spacings, or raise max_pixels")
+        raise InputError(
+            f"backproject.max_pixels: the grid of ~{n[0]} x {n[1]} pixels exceeds {params.max_pixels}; "
+            "set backproject azimuth/range extents or spacings, or raise max_pixels"
+        )
     # the raw data and its range-compressed copies (about four input-sized arrays, measured), at most
     # 64 pulses upsampled at a time, and per pixel its complex128 sum and float64 positions
     raw = 4 * complex_bytes(n_ch, n_az, n_rg)
@@ -239,10 +283,12 @@ def backproject_estimate(stage, header, params) -> Plan:
         memory += complex_bytes(n_az, n_rg * params.upsample) + 2 * complex_bytes(n_pix) * q * q
         # ~q^2 / 3 polar samples per pixel per level, factor reads each, ~100 ns a read (measured on the bench scene)
         seconds = n_ch * n_pix * n_lev * q * q / 3 * params.ffbp_factor * 100e-9
-        detail += (f"; ffbp: {n_lev} levels of {params.ffbp_factor}, oversample {q:g}, "
-                   f"{params.ffbp_interpolation}; predicted error against the exact image "
-                   f"{10 * math.log10(max(err, 1e-30)):.1f} dB (at most "
-                   f"{10 * math.log10(max(error_bound(err), 1e-30)):.1f})")
+        detail += (
+            f"; ffbp: {n_lev} levels of {params.ffbp_factor}, oversample {q:g}, "
+            f"{params.ffbp_interpolation}; predicted error against the exact image "
+            f"{10 * math.log10(max(err, 1e-30)):.1f} dB (at most "
+            f"{10 * math.log10(max(error_bound(err), 1e-30)):.1f})"
+        )
     return Plan(stage, stored_bytes(*n), memory, seconds, detail)
 
 
@@ -254,8 +300,13 @@ def pfa2_estimate(stage, header, params) -> Plan:
     n_in = math.prod(_shape(header))
     n = image_grid(header, params)
     n_pix = n[0] * n[1]
-    return Plan(stage, stored_bytes(*n), 3 * complex_bytes(n_in) + 3 * complex_bytes(n_pix),
-                0.5e-6 * n_in + 1.2e-6 * n_pix, f"~{n[0]} x {n[1]} pixels from {n_in} samples")
+    return Plan(
+        stage,
+        stored_bytes(*n),
+        3 * complex_bytes(n_in) + 3 * complex_bytes(n_pix),
+        0.5e-6 * n_in + 1.2e-6 * n_pix,
+        f"~{n[0]} x {n[1]} pixels from {n_in} samples",
+    )
 
 
 def reconstruct_estimate(stage, header, params) -> Plan:
@@ -266,10 +317,15 @@ def reconstruct_estimate(stage, header, params) -> Plan:
     n = n_ch * n_az * n_rg
     # the modified method's detection and velocity searches nearly double the filter bank's time (measured)
     per_sample = 0.55e-6 if params.method == "modified" else 0.3e-6
-    if params.clutter_suppression:   # the clutter null's projections and the movers' searches after it
-        per_sample = 2.5e-6          # (xu_clutter: 24 s of CPU for 9.7e6 samples)
-    return Plan(stage, stored_bytes(n_ch * n_az, n_rg), 8 * complex_bytes(n), n * per_sample,
-                f"{n_ch} channels x {n_az} pulses x {n_rg} samples -> {n_ch * n_az} pulses")
+    if params.clutter_suppression:  # the clutter null's projections and the movers' searches after it
+        per_sample = 2.5e-6  # (xu_clutter: 24 s of CPU for 9.7e6 samples)
+    return Plan(
+        stage,
+        stored_bytes(n_ch * n_az, n_rg),
+        8 * complex_bytes(n),
+        n * per_sample,
+        f"{n_ch} channels x {n_az} pulses x {n_rg} samples -> {n_ch * n_az} pulses",
+    )
 
 
 def array3d_estimate(stage, header, params) -> Plan:
@@ -280,9 +336,13 @@ def array3d_estimate(stage, header, params) -> Plan:
     item = 8 if params.precision == "float32" else 16
     # the raw data, its range- and azimuth-compressed copies, one uncropped cube; the time is the
     # elevation DFT (n_el x n_ch per pixel, measured ~4.5 ns per complex multiply-add with its blocks)
-    return Plan(stage, stored_bytes(n_el, n_az, n_rg), raw + 2 * complex_bytes(n_ch, n_az, n_rg, itemsize=item) + cube,
-                n_ch * n_az * n_rg * 30e-9 + n_el * n_ch * n_az * n_rg * 4.5e-9,
-                f"{n_ch} channels -> ~{n_el} elevation bins x {n_az} x {n_rg}")
+    return Plan(
+        stage,
+        stored_bytes(n_el, n_az, n_rg),
+        raw + 2 * complex_bytes(n_ch, n_az, n_rg, itemsize=item) + cube,
+        n_ch * n_az * n_rg * 30e-9 + n_el * n_ch * n_az * n_rg * 4.5e-9,
+        f"{n_ch} channels -> ~{n_el} elevation bins x {n_az} x {n_rg}",
+    )
 
 
 def evaluate_estimate(stage, header, params) -> Plan:
@@ -294,13 +354,14 @@ def evaluate_estimate(stage, header, params) -> Plan:
     shape = _shape(header)
     n, n_tg = math.prod(shape), len(header.targets)
     irw = header.attrs.get("theoretical_irw")
-    if irw is None:   # the same refusal evaluate_product makes, before any work
+    if irw is None:  # the same refusal evaluate_product makes, before any work
         raise InputError(f"image attribute 'theoretical_irw' is missing (expected one IRW per axis {header.dims})")
     axes = _make_axes(shape, header.dims, header.coords, irw, params.irw_factor)
     lengths = [2 * ax.nulls_to_samples(params.islr_nulls + params.margin_nulls) + 1 for ax in axes]
     chip = math.prod(lengths)
-    cut = max((2 * math.ceil((params.islr_nulls + 2) * ax.null * params.upsample) + 1) * L
-              for ax, L in zip(axes, lengths))
+    cut = max(
+        (2 * math.ceil((params.islr_nulls + 2) * ax.null * params.upsample) + 1) * L for ax, L in zip(axes, lengths)
+    )
     memory = (15.0 if len(shape) < 3 else 30.0) * n + 160.0 * n_tg * chip + 32.0 * cut
     # neighbours are fitted jointly, so a target's work grows with how many there are (up to the few
     # whose chips can overlap it)
@@ -308,8 +369,13 @@ def evaluate_estimate(stage, header, params) -> Plan:
     # bp_squint30 1.2 s, the du2010 cube 14.8 s of wall time with the process, against 2.3 / 1.5 / 30 s planned)
     seconds = n * 10e-9 + n_tg * (0.05 + 1.5e-7 * cut) + 1.25e-6 * chip * n_tg * (1 + min(n_tg, 8) / 4)
     # the JSON report: about 3 kB per target (figures are not counted)
-    return Plan(stage, 1e3 + 3.5e3 * n_tg, memory, seconds,
-                f"{n_tg} targets on {n} pixels, chips of {' x '.join(map(str, lengths))}")
+    return Plan(
+        stage,
+        1e3 + 3.5e3 * n_tg,
+        memory,
+        seconds,
+        f"{n_tg} targets on {n} pixels, chips of {' x '.join(map(str, lengths))}",
+    )
 
 
 def quicklook_estimate(stage, header, max_pixels: int) -> Plan:
@@ -319,8 +385,13 @@ def quicklook_estimate(stage, header, max_pixels: int) -> Plan:
     shape = _shape(header)
     side = [min(n, max_pixels) for n in shape]
     drawn = math.prod(side) if len(side) < 3 else side[0] * side[1] + side[0] * side[2] + side[1] * side[2]
-    return Plan(stage, 1e5, 75.0 * drawn, 0.3e-6 * drawn + 50e-9 * math.prod(shape),
-                f"{drawn} pixels drawn from {math.prod(shape)}")
+    return Plan(
+        stage,
+        1e5,
+        75.0 * drawn,
+        0.3e-6 * drawn + 50e-9 * math.prod(shape),
+        f"{drawn} pixels drawn from {math.prod(shape)}",
+    )
 
 
 def simulate_estimate(scene) -> Plan:
@@ -333,7 +404,7 @@ def simulate_estimate(scene) -> Plan:
     acq = scene.params.acquisition
     fs = r.range_sampling_rate
     n_ch = max(1, int(r.n_channels))
-    for e in scene.effects:   # receive channels of array effects
+    for e in scene.effects:  # receive channels of array effects
         tx, rx = e.channels(np.zeros(3), np.zeros((1, 3)))
         n_ch = max(n_ch, len(np.asarray(rx).reshape(-1, 3)))
     if acq.range_window is not None:
@@ -351,21 +422,30 @@ def simulate_estimate(scene) -> Plan:
     out = stored_bytes(*((n_ch,) if n_ch > 1 else ()), n_p, n_rg)
     # The automatic window takes delays of every pulse, channel and target at once (plan_simulation).
     window_plan = 0.0 if acq.range_window is not None else n_p * n_tg * 8.0 * (n_ch + 7)
-    mem = (complex_bytes(n_ch, block, n_rg + 2 * n_env, itemsize=16) + complex_bytes(block, n_env, itemsize=16) * 6
-           + block * n_tg * 8 * 8.0 + max(window_plan, complex_bytes(n_ch, block, n_rg)))
+    mem = (
+        complex_bytes(n_ch, block, n_rg + 2 * n_env, itemsize=16)
+        + complex_bytes(block, n_env, itemsize=16) * 6
+        + block * n_tg * 8 * 8.0
+        + max(window_plan, complex_bytes(n_ch, block, n_rg))
+    )
     # compiled echo accumulation: ~1.5 ns per echo sample (one complex multiply-add, 2 threads, shared
     # machine), ~0.1 us per (pulse, target) pair, ~10 ns per stored sample (zeroing, chirp, cast, write);
     # measured: nie2016 (1.1e10 echo samples) 17 s of CPU, xu_clutter 2.0 s, demo 0.9-1.2 s with the process
     seconds = n_ch * n_p * n_tg * (n_env * 1.5e-9 + 0.1e-6) + n_ch * n_p * n_rg * 10e-9
     from sarproc.simulation.effects.clutter import Clutter, clutter_cost
 
-    for e in scene.effects:   # clutter scatterers: the same ~1.5 ns per echo sample (xu_clutter: 4.9e8, 2.0 s)
+    for e in scene.effects:  # clutter scatterers: the same ~1.5 ns per echo sample (xu_clutter: 4.9e8, 2.0 s)
         if isinstance(e, Clutter):
             seconds += 1.5e-9 * clutter_cost(n_p, n_ch, e.params.n_scatterers, n_env)
-    window = ("acquisition.range_window" if acq.range_window is not None
-              else f"the targets' delays + radar.pulse_duration {r.pulse_duration:g} s")
-    detail = (f"{n_ch} x {n_p} pulses x {n_rg} samples, {n_tg} targets; samples = {window} "
-              f"x radar.range_sampling_rate {fs:g} Hz")
+    window = (
+        "acquisition.range_window"
+        if acq.range_window is not None
+        else f"the targets' delays + radar.pulse_duration {r.pulse_duration:g} s"
+    )
+    detail = (
+        f"{n_ch} x {n_p} pulses x {n_rg} samples, {n_tg} targets; samples = {window} "
+        f"x radar.range_sampling_rate {fs:g} Hz"
+    )
     return Plan("simulate", out, mem, seconds, detail)
 
 
@@ -379,15 +459,25 @@ def export_cphd_estimate(stage, header, params) -> Plan:
     """CPHD holds the FX-domain signal (complex64) and 200 bytes of per-vector parameters per pulse."""
     n_az, n_rg = _shape(header)[-2:]
     n = n_az * n_rg
-    return Plan(stage, complex_bytes(n) + 200.0 * n_az + 1e5, complex_bytes(n) + 3 * complex_bytes(n, itemsize=16),
-                n * 80e-9, f"{n_az} vectors x {n_rg} samples")
+    return Plan(
+        stage,
+        complex_bytes(n) + 200.0 * n_az + 1e5,
+        complex_bytes(n) + 3 * complex_bytes(n, itemsize=16),
+        n * 80e-9,
+        f"{n_az} vectors x {n_rg} samples",
+    )
 
 
 def import_cphd_estimate(stage, cphd: dict) -> Plan:
     n_v, n_s = cphd["vectors"], cphd["samples"]
     n = n_v * n_s
-    return Plan(stage, stored_bytes(n_v, n_s), complex_bytes(n) + 3 * complex_bytes(n, itemsize=16), n * 80e-9,
-                f"{n_v} vectors x {n_s} samples")
+    return Plan(
+        stage,
+        stored_bytes(n_v, n_s),
+        complex_bytes(n) + 3 * complex_bytes(n, itemsize=16),
+        n * 80e-9,
+        f"{n_v} vectors x {n_s} samples",
+    )
 
 
 def import_gotcha_estimate(stage, files) -> Plan:

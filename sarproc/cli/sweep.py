@@ -11,23 +11,50 @@ from sarproc.cli.options import summary, verbosity
 
 @click.command()
 @click.argument("sweep_path", type=click.Path(dir_okay=False, allow_dash=True, path_type=Path))
-@click.option("-o", "--output", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="Output directory (default: the sweep file's 'output:').")
-@click.option("--scheduler", default=None,
-              help="'local' (a new Dask LocalCluster), 'serial' (this process, no Dask) or the address of a "
-                   "running Dask scheduler, e.g. tcp://host:8786. Default: local, or serial (with a note) when "
-                   "Dask is not installed.")
-@click.option("--table", "table_path", type=click.Path(dir_okay=False, allow_dash=True, path_type=Path), default=None,
-              help="Also write the Markdown table to this file ('-': standard output).")
-@click.option("--workers", type=click.IntRange(min=1), default=None,
-              help="Workers of the local cluster (default: the number of cores).")
-@click.option("--threads-per-worker", type=click.IntRange(min=1), default=1, show_default=True,
-              help="Threads of each local worker (the stages use all cores of their worker already).")
-@click.option("--processes/--threads", default=True, show_default=True,
-              help="Local workers as processes or as threads of this process.")
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=None,
+    help="Output directory (default: the sweep file's 'output:').",
+)
+@click.option(
+    "--scheduler",
+    default=None,
+    help="'local' (a new Dask LocalCluster), 'serial' (this process, no Dask) or the address of a "
+    "running Dask scheduler, e.g. tcp://host:8786. Default: local, or serial (with a note) when "
+    "Dask is not installed.",
+)
+@click.option(
+    "--table",
+    "table_path",
+    type=click.Path(dir_okay=False, allow_dash=True, path_type=Path),
+    default=None,
+    help="Also write the Markdown table to this file ('-': standard output).",
+)
+@click.option(
+    "--workers",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Workers of the local cluster (default: the number of cores).",
+)
+@click.option(
+    "--threads-per-worker",
+    type=click.IntRange(min=1),
+    default=1,
+    show_default=True,
+    help="Threads of each local worker (the stages use all cores of their worker already).",
+)
+@click.option(
+    "--processes/--threads",
+    default=True,
+    show_default=True,
+    help="Local workers as processes or as threads of this process.",
+)
 @click.option("--list", "list_only", is_flag=True, help="Print the tasks and exit.")
-def sweep(sweep_path: Path, output, scheduler, table_path, workers, threads_per_worker: int, processes: bool,
-          list_only: bool):
+def sweep(
+    sweep_path: Path, output, scheduler, table_path, workers, threads_per_worker: int, processes: bool, list_only: bool
+):
     """Run a grid of scenes x stage knobs (simulate -> focus -> evaluate) and gather one table.
 
     Every step writes its own product under DIR (raw/, tasks/<id>/); a step whose output already
@@ -56,17 +83,21 @@ def sweep(sweep_path: Path, output, scheduler, table_path, workers, threads_per_
     if table_path is not None:
         check_output_path(table_path, [sweep_path], overwrite=True)
     table_on_stdout = run.stdout_taken()
-    run.take_stdout(False)   # not yet: the steps' own summaries are captured from stdout for their records
-    run.keep_published_on_interrupt()   # finished steps stay: a rerun resumes from them
+    run.take_stdout(False)  # not yet: the steps' own summaries are captured from stdout for their records
+    run.keep_published_on_interrupt()  # finished steps stay: a rerun resumes from them
     if scheduler is None:
         try:
             import dask.distributed  # noqa: F401
+
             scheduler = "local"
         except ImportError:
             scheduler = "serial"
             if verbosity() >= 0:
-                click.echo("sweep: Dask is not installed: the tasks run one after the other in this process "
-                           "(pip install 'sarproc[distributed]' to run them in parallel)", err=True)
+                click.echo(
+                    "sweep: Dask is not installed: the tasks run one after the other in this process "
+                    "(pip install 'sarproc[distributed]' to run them in parallel)",
+                    err=True,
+                )
     if scheduler == "serial":
         outcome = run_serial(plan)
         runner = "serial"
@@ -74,8 +105,9 @@ def sweep(sweep_path: Path, output, scheduler, table_path, workers, threads_per_
         try:
             from dask.distributed import Client
         except ImportError:
-            raise InputError("--scheduler: Dask is not installed; pip install 'sarproc[distributed]' "
-                             "or use --scheduler serial") from None
+            raise InputError(
+                "--scheduler: Dask is not installed; pip install 'sarproc[distributed]' or use --scheduler serial"
+            ) from None
         # distributed logs its cluster's life at INFO; show it only when sarproc itself is verbose
         logging.getLogger("distributed").setLevel(max(logging.getLogger().level, logging.WARNING))
         if scheduler == "local":
@@ -83,7 +115,7 @@ def sweep(sweep_path: Path, output, scheduler, table_path, workers, threads_per_
             runner = f"local Dask cluster, {len(client.scheduler_info()['workers'])} workers"
         else:
             try:
-                client = Client(scheduler)   # waits distributed.comm.timeouts.connect (dask config)
+                client = Client(scheduler)  # waits distributed.comm.timeouts.connect (dask config)
             except (OSError, ValueError) as exc:
                 raise InputError(f"--scheduler: cannot reach Dask scheduler {scheduler}: {exc}") from None
             runner = f"Dask scheduler {scheduler}, {len(client.scheduler_info()['workers'])} workers"
@@ -102,7 +134,9 @@ def sweep(sweep_path: Path, output, scheduler, table_path, workers, threads_per_
     skipped = sum(1 for r in outcome.rows if r["skipped"])
     for task, error in outcome.failures:
         click.echo(f"sweep: task {task} failed: {error}", err=True)
-    summary(f"sweep: {len(outcome.rows)}/{len(plan.tasks)} tasks ({skipped} already done) on {runner} "
-            f"in {outcome.seconds:.1f} s -> {paths['md']}")
+    summary(
+        f"sweep: {len(outcome.rows)}/{len(plan.tasks)} tasks ({skipped} already done) on {runner} "
+        f"in {outcome.seconds:.1f} s -> {paths['md']}"
+    )
     if outcome.failures:
         raise ProcessingError(f"sweep: {len(outcome.failures)} task(s) failed; rerun to retry them")

@@ -62,7 +62,7 @@ from sarproc.product.config import build, load_yaml, param
 from sarproc.product.errors import InputError, ProcessingError
 
 TIME_COLUMNS = ("simulate_s", "focus_s", "focus_median_s", "focus_spread_s", "evaluate_s")
-TIMING_KEYS = TIME_COLUMNS + ("focus_times",)     # every key of a row that holds a measured time
+TIMING_KEYS = TIME_COLUMNS + ("focus_times",)  # every key of a row that holds a measured time
 QUALITY_COLUMNS = ("irw_dev", "pslr_db", "islr_db", "position_cells", "false_target_db")
 
 
@@ -97,8 +97,10 @@ class SweepParams:
             if isinstance(entry, dict):
                 unknown = set(entry) - {"file", "targets", "set"}
                 if unknown or not isinstance(entry.get("file"), str):
-                    raise InputError(f"scenes.{name}: expected a scene YAML path or a mapping with 'file' "
-                                     f"(and optional 'targets', 'set'), got keys {sorted(entry)}")
+                    raise InputError(
+                        f"scenes.{name}: expected a scene YAML path or a mapping with 'file' "
+                        f"(and optional 'targets', 'set'), got keys {sorted(entry)}"
+                    )
                 targets = entry.get("targets")
                 if targets is not None and (not isinstance(targets, list) or not targets):
                     raise InputError(f"scenes.{name}.targets: expected a non-empty list of target names")
@@ -122,8 +124,8 @@ class SimJob:
 class Task:
     task_id: str
     scene: str
-    setting: dict        # dotted key -> value (grid point and case)
-    config: dict         # the scene mapping with every knob applied
+    setting: dict  # dotted key -> value (grid point and case)
+    config: dict  # the scene mapping with every knob applied
     directory: Path
     focus: tuple[str, ...]
     sim_key: str
@@ -188,7 +190,7 @@ def check_stage_sections(config: dict, commands, where: str) -> None:
 
     for command in commands:
         if command not in STAGE_PARAMS:
-            continue          # checked when it runs
+            continue  # checked when it runs
         section, target = STAGE_PARAMS[command]
         module, name = target.split(":")
         build(getattr(importlib.import_module(module), name), config.get(section) or {}, where, section)
@@ -204,8 +206,11 @@ def plan_sweep(path, output=None) -> Plan:
         raw["focus"] = [raw["focus"]]
     params = build(SweepParams, raw, source=str(path))
     base_dir = path.parent
-    out = Path(output) if output is not None else (
-        Path(os.path.normpath(base_dir / params.output)) if params.output else None)
+    out = (
+        Path(output)
+        if output is not None
+        else (Path(os.path.normpath(base_dir / params.output)) if params.output else None)
+    )
     if out is None:
         raise InputError(f"{path}: no output directory: pass -o DIR or set 'output:' in the sweep file")
     grid_keys = list(params.grid)
@@ -236,15 +241,27 @@ def plan_sweep(path, output=None) -> Plan:
                 sim_key = digest({"sarproc": __version__, "command": "simulate", "scene": scene.resolved()})
                 if sim_key not in sims:
                     stem = f"{_slug(scene_name)}-{sim_key[:10]}"
-                    sims[sim_key] = SimJob(sim_key, out / "raw" / f"{stem}.yaml", out / "raw" / f"{stem}.h5",
-                                           config)
+                    sims[sim_key] = SimJob(sim_key, out / "raw" / f"{stem}.yaml", out / "raw" / f"{stem}.h5", config)
                 task_id = _task_id(scene_name, setting)
-                tasks.append(Task(task_id, scene_name, setting, config, out / "tasks" / task_id,
-                                  params.focus, sim_key, params.evaluate, params.repeats))
+                tasks.append(
+                    Task(
+                        task_id,
+                        scene_name,
+                        setting,
+                        config,
+                        out / "tasks" / task_id,
+                        params.focus,
+                        sim_key,
+                        params.evaluate,
+                        params.repeats,
+                    )
+                )
     ids = [t.task_id for t in tasks]
     if len(set(ids)) != len(ids):  # knob names that differ only before their last dot, or repeated values
-        tasks = [dataclasses.replace(t, task_id=f"{i:03d}-{t.task_id}", directory=out / "tasks" / f"{i:03d}-{t.task_id}")
-                 for i, t in enumerate(tasks)]
+        tasks = [
+            dataclasses.replace(t, task_id=f"{i:03d}-{t.task_id}", directory=out / "tasks" / f"{i:03d}-{t.task_id}")
+            for i, t in enumerate(tasks)
+        ]
     return Plan(path, out, knobs, tuple(sims.values()), tuple(tasks))
 
 
@@ -257,7 +274,7 @@ def _keep_targets(mapping: dict, names, where: str) -> dict:
         raise InputError(f"{where}: no target named {missing} in the scene (it has {sorted(by_name)})")
     out = copy.deepcopy(mapping)
     out["targets"]["points"] = [copy.deepcopy(by_name[str(n)]) for n in names]
-    out["targets"].pop("grid", None)                   # its targets are not among the named ones
+    out["targets"].pop("grid", None)  # its targets are not among the named ones
     return out
 
 
@@ -265,7 +282,7 @@ def _keep_targets(mapping: dict, names, where: str) -> dict:
 
 _local = threading.local()
 _install_lock = threading.Lock()
-_installed = [0, None]   # active captures, the stream replaced
+_installed = [0, None]  # active captures, the stream replaced
 
 
 class _ThreadRoutedStdout(io.TextIOBase):
@@ -348,8 +365,12 @@ def run_step(command: str, args, output: Path, key: str) -> dict:
         printed = invoke(command, args)
     except Exception as exc:  # noqa: BLE001 - the step's own error, named with its command
         raise ProcessingError(f"sarproc {command} {' '.join(map(str, args))}: {exc}") from exc
-    record = {"key": key, "command": f"sarproc {command}", "seconds": time.perf_counter() - start,
-              "summary": printed.strip().splitlines()[-1] if printed.strip() else ""}
+    record = {
+        "key": key,
+        "command": f"sarproc {command}",
+        "seconds": time.perf_counter() - start,
+        "summary": printed.strip().splitlines()[-1] if printed.strip() else "",
+    }
     with atomic_path(record_path) as tmp:
         tmp.write_text(json.dumps(record, indent=1) + "\n")
     return {**record, "skipped": False}
@@ -387,23 +408,36 @@ def run_task(task: Task, sim: dict) -> dict:
     focus_s, skipped = 0.0, [sim["skipped"]]
     for command, key in zip(task.focus, focus_keys(task, sim["key"])):
         out = task.directory / f"{command}.h5"
-        rec = run_step(command, [source, "--config", config_path, "-o", out, "--overwrite", "--no-progress"],
-                       out, key)
+        rec = run_step(command, [source, "--config", config_path, "-o", out, "--overwrite", "--no-progress"], out, key)
         focus_s += rec["seconds"]
         skipped.append(rec["skipped"])
         source = out
     if not task.evaluate:
-        return {"task": task.task_id, "scene": task.scene, **task.setting,
-                "simulate_s": sim["seconds"], "focus_s": focus_s, "evaluate_s": None,
-                **{c: None for c in QUALITY_COLUMNS}, "skipped": all(skipped)}
+        return {
+            "task": task.task_id,
+            "scene": task.scene,
+            **task.setting,
+            "simulate_s": sim["seconds"],
+            "focus_s": focus_s,
+            "evaluate_s": None,
+            **{c: None for c in QUALITY_COLUMNS},
+            "skipped": all(skipped),
+        }
     report = task.directory / "report.json"
     key = digest({"sarproc": __version__, "command": "evaluate", "input": key, "config": task.config.get("evaluate")})
     rec = run_step("evaluate", [source, "--config", config_path, "-o", report, "--overwrite"], report, key)
     skipped.append(rec["skipped"])
     quality = summarise_report(json.loads(report.read_text()))
-    return {"task": task.task_id, "scene": task.scene, **task.setting,
-            "simulate_s": sim["seconds"], "focus_s": focus_s, "evaluate_s": rec["seconds"], **quality,
-            "skipped": all(skipped)}
+    return {
+        "task": task.task_id,
+        "scene": task.scene,
+        **task.setting,
+        "simulate_s": sim["seconds"],
+        "focus_s": focus_s,
+        "evaluate_s": rec["seconds"],
+        **quality,
+        "skipped": all(skipped),
+    }
 
 
 def focus_keys(task: Task, sim_key: str) -> list[str]:
@@ -411,8 +445,9 @@ def focus_keys(task: Task, sim_key: str) -> list[str]:
     keys, key = [], sim_key
     for command in task.focus:
         # evaluate's own knobs do not change the image: leave them out of the focusing keys
-        key = digest({"sarproc": __version__, "command": command, "input": key,
-                      "config": _without(task.config, "evaluate")})
+        key = digest(
+            {"sarproc": __version__, "command": command, "input": key, "config": _without(task.config, "evaluate")}
+        )
         keys.append(key)
     return keys
 
@@ -475,8 +510,14 @@ def with_repeats(row: dict, repeats: list) -> dict:
 
     times = [row["focus_s"]] + [r["seconds"] for r in repeats]
     stats = timing_stats(times)
-    return {**row, "focus_s": stats["best"], "focus_median_s": stats["median"], "focus_spread_s": stats["spread"],
-            "focus_times": times, "repeats_identical": all(r["identical"] for r in repeats) if repeats else None}
+    return {
+        **row,
+        "focus_s": stats["best"],
+        "focus_median_s": stats["median"],
+        "focus_spread_s": stats["spread"],
+        "focus_times": times,
+        "repeats_identical": all(r["identical"] for r in repeats) if repeats else None,
+    }
 
 
 def summarise_report(report: dict) -> dict:
@@ -488,20 +529,24 @@ def summarise_report(report: dict) -> dict:
         return max(vals) if vals else None
 
     ft = report.get("false_target")
-    return {"irw_dev": worst(abs(a["irw_ratio"] - 1) for a in axes if a.get("irw_ratio") is not None),
-            "pslr_db": worst(a.get("pslr_db") for a in axes),
-            "islr_db": worst(a.get("islr_db") for a in axes),
-            "position_cells": worst(abs(a["position_error_cells"]) for a in axes
-                                    if a.get("position_error_cells") is not None),
-            "false_target_db": ft.get("level_db") if ft else None}
+    return {
+        "irw_dev": worst(abs(a["irw_ratio"] - 1) for a in axes if a.get("irw_ratio") is not None),
+        "pslr_db": worst(a.get("pslr_db") for a in axes),
+        "islr_db": worst(a.get("islr_db") for a in axes),
+        "position_cells": worst(
+            abs(a["position_error_cells"]) for a in axes if a.get("position_error_cells") is not None
+        ),
+        "false_target_db": ft.get("level_db") if ft else None,
+    }
 
 
 # --- runners ---------------------------------------------------------------------------------------
 
+
 @dataclasses.dataclass
 class Outcome:
     rows: list
-    failures: list       # (task id or raw path, message)
+    failures: list  # (task id or raw path, message)
     seconds: float
 
 
@@ -567,8 +612,9 @@ def local_client(workers: int, threads_per_worker: int = 1, processes: bool = Tr
     """A distributed Client on a new LocalCluster (its HTTP server on a free port: several may run at once)."""
     from dask.distributed import Client, LocalCluster
 
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=threads_per_worker, processes=processes,
-                           dashboard_address=":0")
+    cluster = LocalCluster(
+        n_workers=workers, threads_per_worker=threads_per_worker, processes=processes, dashboard_address=":0"
+    )
     return Client(cluster)
 
 
@@ -577,11 +623,15 @@ def run_dask(plan: Plan, client, on_row=None) -> Outcome:
     from dask.distributed import as_completed
 
     start = time.perf_counter()
-    run = uuid.uuid4().hex[:12]        # keys unique to this run: a long-lived scheduler may see the sweep again
-    sim_futures = {job.key: client.submit(run_simulation, job, key=f"simulate-{job.key[:16]}-{run}", pure=False)
-                   for job in plan.sims}
-    task_futures = {client.submit(run_task, task, sim_futures[task.sim_key], key=f"task-{task.task_id}-{run}",
-                                  pure=False): task for task in plan.tasks}
+    run = uuid.uuid4().hex[:12]  # keys unique to this run: a long-lived scheduler may see the sweep again
+    sim_futures = {
+        job.key: client.submit(run_simulation, job, key=f"simulate-{job.key[:16]}-{run}", pure=False)
+        for job in plan.sims
+    }
+    task_futures = {
+        client.submit(run_task, task, sim_futures[task.sim_key], key=f"task-{task.task_id}-{run}", pure=False): task
+        for task in plan.tasks
+    }
     rows, failures = [], []
     for future in as_completed(task_futures):
         task = task_futures[future]
@@ -595,8 +645,10 @@ def run_dask(plan: Plan, client, on_row=None) -> Outcome:
 
     def dask_round(calls):
         # the whole round is submitted at once; the next round waits for this one (interleaving)
-        futures = {client.submit(run_repeat, *args, key=f"repeat-{name}-{args[2]}-{run}", pure=False): name
-                   for name, args in calls}
+        futures = {
+            client.submit(run_repeat, *args, key=f"repeat-{name}-{args[2]}-{run}", pure=False): name
+            for name, args in calls
+        }
         for future in as_completed(futures):
             yield futures[future], (future.exception() if future.status == "error" else future.result())
 
@@ -605,6 +657,7 @@ def run_dask(plan: Plan, client, on_row=None) -> Outcome:
 
 
 # --- table and plot --------------------------------------------------------------------------------
+
 
 def _cell(v) -> str:
     if v is None:
@@ -617,9 +670,10 @@ def _cell(v) -> str:
 def markdown_table(plan: Plan, rows: list) -> str:
     columns = ["scene", *plan.knobs, *TIME_COLUMNS, *QUALITY_COLUMNS]
     lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
-    for row in rows:   # a knob a task does not set keeps its default: blank
-        lines.append("| " + " | ".join(_cell(row.get(c)) if c in row or c not in plan.knobs else ""
-                                       for c in columns) + " |")
+    for row in rows:  # a knob a task does not set keeps its default: blank
+        lines.append(
+            "| " + " | ".join(_cell(row.get(c)) if c in row or c not in plan.knobs else "" for c in columns) + " |"
+        )
     return "\n".join(lines)
 
 
@@ -628,25 +682,38 @@ def write_results(plan: Plan, outcome: Outcome, runner: str) -> dict[str, Path]:
     from sarproc.product.io import atomic_path
 
     plan.output.mkdir(parents=True, exist_ok=True)
-    doc = {"sweep": str(plan.source), "sarproc": __version__, "runner": runner,
-           "wall_s": outcome.seconds, "knobs": list(plan.knobs),
-           "rows": [{k: v for k, v in r.items() if k != "skipped"} for r in outcome.rows],
-           "failures": [{"task": t, "error": e} for t, e in outcome.failures]}
+    doc = {
+        "sweep": str(plan.source),
+        "sarproc": __version__,
+        "runner": runner,
+        "wall_s": outcome.seconds,
+        "knobs": list(plan.knobs),
+        "rows": [{k: v for k, v in r.items() if k != "skipped"} for r in outcome.rows],
+        "failures": [{"task": t, "error": e} for t, e in outcome.failures],
+    }
     paths = {"json": plan.output / "table.json", "md": plan.output / "table.md", "plot": plan.output / "plot.png"}
     with atomic_path(paths["json"]) as tmp:
         tmp.write_text(json.dumps(doc, indent=1) + "\n")
     repeats = max((t.repeats for t in plan.tasks), default=1)
     identical = [r.get("repeats_identical") for r in outcome.rows]
-    timing = (f"focus_s is the best of {repeats} runs of the focus chain, interleaved (round-robin over the "
-              "tasks), focus_median_s their median and focus_spread_s max - min; a setting is faster than "
-              "another only when its worst time is below the other's best. The repeats' products were "
-              + ("identical to the first run's, bit for bit, in every task" if all(identical) else
-                 f"NOT identical to the first run's in {sum(1 for i in identical if i is False)} task(s)")
-              + "; quality is the first run's." if repeats > 1 else
-              "focus_s is one run (repeats: 1), so no spread is known.")
-    head = (f"# Sweep {plan.source.name}\n\nTimes are each step's own wall time (s); {timing} Quality is the "
-            "worst over targets and axes: |IRW/theory - 1|, PSLR and ISLR (dB), |position error| (cells), "
-            "false-target level (dB).\n\n")
+    timing = (
+        f"focus_s is the best of {repeats} runs of the focus chain, interleaved (round-robin over the "
+        "tasks), focus_median_s their median and focus_spread_s max - min; a setting is faster than "
+        "another only when its worst time is below the other's best. The repeats' products were "
+        + (
+            "identical to the first run's, bit for bit, in every task"
+            if all(identical)
+            else f"NOT identical to the first run's in {sum(1 for i in identical if i is False)} task(s)"
+        )
+        + "; quality is the first run's."
+        if repeats > 1
+        else "focus_s is one run (repeats: 1), so no spread is known."
+    )
+    head = (
+        f"# Sweep {plan.source.name}\n\nTimes are each step's own wall time (s); {timing} Quality is the "
+        "worst over targets and axes: |IRW/theory - 1|, PSLR and ISLR (dB), |position error| (cells), "
+        "false-target level (dB).\n\n"
+    )
     with atomic_path(paths["md"]) as tmp:
         tmp.write_text(head + markdown_table(plan, outcome.rows) + "\n")
     if outcome.rows:
@@ -667,12 +734,22 @@ def plot_sweep(path: Path, plan: Plan, rows: list) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for scene in scenes:
             sel = [r for r in rows if r["scene"] == scene]
-            labels = [", ".join(f"{k.rsplit('.', 1)[-1]}={_cell(r[k])}" for k in plan.knobs if k in r) or r["task"]
-                      for r in sel]
+            labels = [
+                ", ".join(f"{k.rsplit('.', 1)[-1]}={_cell(r[k])}" for k in plan.knobs if k in r) or r["task"]
+                for r in sel
+            ]
             times = [r.get("focus_times") or [r["focus_s"]] for r in sel]
             png = Path(tmp) / f"{len(pngs)}.png"
-            plot_tradeoff(png, labels, times, [r["irw_dev"] for r in sel], quality_label="worst |IRW / theory - 1|",
-                          title=f"sweep {plan.source.name}, scene {scene}", log_quality=True, floor=1e-4)
+            plot_tradeoff(
+                png,
+                labels,
+                times,
+                [r["irw_dev"] for r in sel],
+                quality_label="worst |IRW / theory - 1|",
+                title=f"sweep {plan.source.name}, scene {scene}",
+                log_quality=True,
+                floor=1e-4,
+            )
             pngs.append(png)
         _stack_pngs(path, pngs)
 

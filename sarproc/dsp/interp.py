@@ -45,8 +45,9 @@ def kernel_length(kernel: str, length: int | None = None) -> int:
     return n
 
 
-def kernel_weights(d: np.ndarray, kernel: str, length: int, *, oversampling: float = 1.25,
-                   beta: float = 6.0) -> np.ndarray:
+def kernel_weights(
+    d: np.ndarray, kernel: str, length: int, *, oversampling: float = 1.25, beta: float = 6.0
+) -> np.ndarray:
     """Unnormalised kernel value at distance ``d`` (samples) from the interpolation point."""
     d = np.asarray(d, dtype=float)
     if kernel == "nearest":
@@ -56,8 +57,11 @@ def kernel_weights(d: np.ndarray, kernel: str, length: int, *, oversampling: flo
     if kernel == "cubic":
         a = -0.5
         x = np.abs(d)
-        return np.where(x <= 1, (a + 2) * x**3 - (a + 3) * x**2 + 1,
-                        np.where(x < 2, a * x**3 - 5 * a * x**2 + 8 * a * x - 4 * a, 0.0))
+        return np.where(
+            x <= 1,
+            (a + 2) * x**3 - (a + 3) * x**2 + 1,
+            np.where(x < 2, a * x**3 - 5 * a * x**2 + 8 * a * x - 4 * a, 0.0),
+        )
     half = length / 2.0
     arg = np.clip(1.0 - (d / half) ** 2, 0.0, None)
     if kernel == "sinc":
@@ -93,15 +97,16 @@ def _tap_table(kernel, taps, oversampling, beta, dtype, steps=_TABLE_STEPS):
     return table
 
 
-def tap_table(kernel: str, taps: int, oversampling: float = 1.25, dtype=np.float64, beta: float = 6.0,
-              steps: int = _TABLE_STEPS) -> np.ndarray:
+def tap_table(
+    kernel: str, taps: int, oversampling: float = 1.25, dtype=np.float64, beta: float = 6.0, steps: int = _TABLE_STEPS
+) -> np.ndarray:
     """(steps + 1, taps), read-only, cached: row c holds the weights of taps m = 0 .. taps-1 (sample
     floor(p) + 1 - taps/2 + m) for the fraction p - floor(p) = c / steps, i.e. the kernel at distance
     c / steps + taps/2 - 1 - m; interpolate linearly between rows c and c + 1."""
     return _tap_table(kernel, int(taps), float(oversampling), float(beta), np.dtype(dtype), int(steps))
 
 
-_MODES = {"nearest": 0, "linear": 1, "cubic": 2}   # any other kernel: tabulated (3)
+_MODES = {"nearest": 0, "linear": 1, "cubic": 2}  # any other kernel: tabulated (3)
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
@@ -132,7 +137,7 @@ def _resample_row(row, pos, out, mode, taps, table, steps, zero, lo_pos, hi_pos)
             for off in range(-1, 3):
                 i = b + off
                 if i >= 0 and i < n_in:
-                    x = abs(table.dtype.type(p - i))                     # Keys' cubic convolution, a = -0.5
+                    x = abs(table.dtype.type(p - i))  # Keys' cubic convolution, a = -0.5
                     if x <= 1:
                         w = (1.5 * x - 2.5) * x * x + 1
                     elif x < 2:
@@ -173,8 +178,17 @@ def _resample_kernel(data, pos, out, mode, taps, table, steps, zero, lo_pos, hi_
         _resample_row(data[r], pos[r], out[r], mode, taps, table, steps, zero, lo_pos, hi_pos)
 
 
-def resample_rows(data: np.ndarray, positions: np.ndarray, kernel: str = "knab", length: int | None = None, *,
-                  oversampling: float = 1.25, beta: float = 6.0, out_dtype=None, out=None) -> np.ndarray:
+def resample_rows(
+    data: np.ndarray,
+    positions: np.ndarray,
+    kernel: str = "knab",
+    length: int | None = None,
+    *,
+    oversampling: float = 1.25,
+    beta: float = 6.0,
+    out_dtype=None,
+    out=None,
+) -> np.ndarray:
     """Interpolate each row of ``data`` at fractional sample ``positions``.
 
     data: (n_rows, n_in) real or complex, samples at 0 .. n_in-1 along the last axis.
@@ -202,13 +216,15 @@ def resample_rows(data: np.ndarray, positions: np.ndarray, kernel: str = "knab",
     if not np.issubdtype(data.dtype, np.inexact):
         data = data.astype(np.float64)
     if n_rows and pos.shape[1]:
-        _resample_kernel(data, pos, out, mode, taps, table, _TABLE_STEPS, out.dtype.type(0), -pad / 2,
-                         n_in - 1 + pad / 2)
+        _resample_kernel(
+            data, pos, out, mode, taps, table, _TABLE_STEPS, out.dtype.type(0), -pad / 2, n_in - 1 + pad / 2
+        )
     return out
 
 
-def resample(data: np.ndarray, positions: np.ndarray, kernel: str = "knab", length: int | None = None,
-             **kwargs) -> np.ndarray:
+def resample(
+    data: np.ndarray, positions: np.ndarray, kernel: str = "knab", length: int | None = None, **kwargs
+) -> np.ndarray:
     """:func:`resample_rows` for ``data`` (..., n_in) with ``positions`` broadcasting to (..., n_out)."""
     data = np.asarray(data)
     pos = np.asarray(positions, dtype=float)

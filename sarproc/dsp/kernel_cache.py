@@ -25,7 +25,7 @@ from numba.core import caching
 log = logging.getLogger(__name__)
 
 
-def _probe():   # a function of this package: numba's locators are asked about its source file
+def _probe():  # a function of this package: numba's locators are asked about its source file
     pass
 
 
@@ -33,7 +33,7 @@ def default_locator_works() -> bool:
     """Whether one of numba's own cache locators can store kernels of this package's source files."""
     try:
         return any(cls.from_function(_probe, __file__) is not None for cls in caching.CacheImpl._locator_classes)
-    except Exception:   # noqa: BLE001 - numba's private API changed: assume it works, as numba does
+    except Exception:  # noqa: BLE001 - numba's private API changed: assume it works, as numba does
         return True
 
 
@@ -58,12 +58,17 @@ def _configure() -> bool:
     fallback = private_temp_cache()
     if fallback is not None:
         numba.config.CACHE_DIR = str(fallback)
-        log.info("compiled kernels are cached in %s (the install and the home directory are not writable; "
-                 "set NUMBA_CACHE_DIR to choose)", fallback)
+        log.info(
+            "compiled kernels are cached in %s (the install and the home directory are not writable; "
+            "set NUMBA_CACHE_DIR to choose)",
+            fallback,
+        )
         return True
-    log.info("compiled kernels are not cached (no writable cache directory: the install, the home directory "
-             "and %s are not writable); each run compiles them again; set NUMBA_CACHE_DIR",
-             tempfile.gettempdir())
+    log.info(
+        "compiled kernels are not cached (no writable cache directory: the install, the home directory "
+        "and %s are not writable); each run compiles them again; set NUMBA_CACHE_DIR",
+        tempfile.gettempdir(),
+    )
     return False
 
 

@@ -45,27 +45,70 @@ _INV_TWO_PI = 1.0 / (2 * np.pi)
 def cis_cycles32(c):
     """(cos, sin)(2 pi c) for float32 c with |c| <= 1/2: Taylor polynomials after reduction to a quarter cycle
     (|error| < 2e-7; vectorisable, no libm call)."""
-    k = np.floor(c * np.float32(2.0) + np.float32(0.5))                  # nearest half cycle: -1, 0 or 1
-    r = c - k * np.float32(0.5)                                           # |r| <= 1/4
-    sgn = np.float32(1.0) - np.float32(2.0) * k * k                       # (-1)^k
+    k = np.floor(c * np.float32(2.0) + np.float32(0.5))  # nearest half cycle: -1, 0 or 1
+    r = c - k * np.float32(0.5)  # |r| <= 1/4
+    sgn = np.float32(1.0) - np.float32(2.0) * k * k  # (-1)^k
     z = r * np.float32(2 * np.pi)
     z2 = z * z
-    s = z * (np.float32(1.0) - z2 * np.float32(1 / 6) * (np.float32(1.0) - z2 * np.float32(1 / 20) * (
-        np.float32(1.0) - z2 * np.float32(1 / 42) * (np.float32(1.0) - z2 * np.float32(1 / 72) * (
-            np.float32(1.0) - z2 * np.float32(1 / 110) * (np.float32(1.0) - z2 * np.float32(1 / 156)))))))
-    co = np.float32(1.0) - z2 * np.float32(0.5) * (np.float32(1.0) - z2 * np.float32(1 / 12) * (
-        np.float32(1.0) - z2 * np.float32(1 / 30) * (np.float32(1.0) - z2 * np.float32(1 / 56) * (
-            np.float32(1.0) - z2 * np.float32(1 / 90) * (np.float32(1.0) - z2 * np.float32(1 / 132) * (
-                np.float32(1.0) - z2 * np.float32(1 / 182)))))))
+    s = z * (
+        np.float32(1.0)
+        - z2
+        * np.float32(1 / 6)
+        * (
+            np.float32(1.0)
+            - z2
+            * np.float32(1 / 20)
+            * (
+                np.float32(1.0)
+                - z2
+                * np.float32(1 / 42)
+                * (
+                    np.float32(1.0)
+                    - z2
+                    * np.float32(1 / 72)
+                    * (np.float32(1.0) - z2 * np.float32(1 / 110) * (np.float32(1.0) - z2 * np.float32(1 / 156)))
+                )
+            )
+        )
+    )
+    co = np.float32(1.0) - z2 * np.float32(0.5) * (
+        np.float32(1.0)
+        - z2
+        * np.float32(1 / 12)
+        * (
+            np.float32(1.0)
+            - z2
+            * np.float32(1 / 30)
+            * (
+                np.float32(1.0)
+                - z2
+                * np.float32(1 / 56)
+                * (
+                    np.float32(1.0)
+                    - z2
+                    * np.float32(1 / 90)
+                    * (np.float32(1.0) - z2 * np.float32(1 / 132) * (np.float32(1.0) - z2 * np.float32(1 / 182)))
+                )
+            )
+        )
+    )
     return co * sgn, s * sgn
 
 
 # Least-squares minimax fits on a quarter cycle x in [0, 1/4]: sin(2 pi x) = x S(x^2), cos(2 pi x) = C(x^2).
-_S1, _S3, _S5, _S7 = (np.float32(6.283164041287987), np.float32(-41.33714204522236), np.float32(81.3407593445843),
-                      np.float32(-70.99335072437377))
-_C0, _C2, _C4, _C6, _C8 = (np.float32(0.9999999536449741), np.float32(-19.739171470711653),
-                           np.float32(64.9345926398633), np.float32(-85.24037245345428),
-                           np.float32(56.242676066224355))
+_S1, _S3, _S5, _S7 = (
+    np.float32(6.283164041287987),
+    np.float32(-41.33714204522236),
+    np.float32(81.3407593445843),
+    np.float32(-70.99335072437377),
+)
+_C0, _C2, _C4, _C6, _C8 = (
+    np.float32(0.9999999536449741),
+    np.float32(-19.739171470711653),
+    np.float32(64.9345926398633),
+    np.float32(-85.24037245345428),
+    np.float32(56.242676066224355),
+)
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
@@ -74,7 +117,7 @@ def cis_cycles32_short(c):
     half-cycle rounding): |error| < 1e-6, i.e. -120 dB, for hot loops where that is far below float32 geometry."""
     a = np.abs(c)
     far = a > np.float32(0.25)
-    x = np.float32(0.5) - a if far else a                # cos(2 pi (1/2 - x)) = -cos(2 pi x), sin unchanged
+    x = np.float32(0.5) - a if far else a  # cos(2 pi (1/2 - x)) = -cos(2 pi x), sin unchanged
     x2 = x * x
     s = x * (_S1 + x2 * (_S3 + x2 * (_S5 + x2 * _S7)))
     co = _C0 + x2 * (_C2 + x2 * (_C4 + x2 * (_C6 + x2 * _C8)))
@@ -98,8 +141,7 @@ def _rotate_row(xr, a0, a1, a2, a3, c0, c1, c2, c3, scale):
 def _separable_kernel(xf, rows, cols, scale):
     """Rows of xf (n, 2m) float view of complex data; rows (4, n), cols (4, m) float64."""
     for i in numba.prange(xf.shape[0]):
-        _rotate_row(xf[i], rows[0, i], rows[1, i], rows[2, i], rows[3, i], cols[0], cols[1], cols[2], cols[3],
-                    scale)
+        _rotate_row(xf[i], rows[0, i], rows[1, i], rows[2, i], rows[3, i], cols[0], cols[1], cols[2], cols[3], scale)
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
@@ -138,25 +180,30 @@ def multiply_separable_phase(x: np.ndarray, rows, cols, *, cycles: bool = False)
     cols = np.ascontiguousarray(np.atleast_2d(np.asarray(cols, float)))
     if rows.shape != (len(cols), x.shape[0]) or cols.shape[1] != x.shape[1] or len(rows) > 4:
         raise ValueError(f"rows {rows.shape} / cols {cols.shape} do not match x {x.shape} (at most 4 terms)")
-    if len(rows) < 4:                                  # the kernel takes exactly four terms
+    if len(rows) < 4:  # the kernel takes exactly four terms
         rows = np.concatenate([rows, np.zeros((4 - len(rows), rows.shape[1]))])
         cols = np.concatenate([cols, np.zeros((4 - len(cols), cols.shape[1]))])
     flat = x if x.flags.c_contiguous else np.ascontiguousarray(x)
-    _separable_kernel(flat.view(flat.real.dtype).reshape(x.shape[0], -1), rows, cols,
-                      1.0 if cycles else _INV_TWO_PI)
+    _separable_kernel(flat.view(flat.real.dtype).reshape(x.shape[0], -1), rows, cols, 1.0 if cycles else _INV_TWO_PI)
     if flat is not x:
         x[...] = flat
     return x
 
 
-def multiply_phase(x: np.ndarray, phase: np.ndarray, mask: np.ndarray | None = None, *, scale: float = 1.0,
-                   cycles: bool = False) -> np.ndarray:
+def multiply_phase(
+    x: np.ndarray, phase: np.ndarray, mask: np.ndarray | None = None, *, scale: float = 1.0, cycles: bool = False
+) -> np.ndarray:
     """x *= where(mask, exp(j scale phase), 0) in place (x, phase, mask: same 2D shape; phase float64)."""
     phase = np.broadcast_to(np.asarray(phase, float), x.shape)
     m = np.broadcast_to(mask if mask is not None else np.ones((1, 1), bool), x.shape)
     flat = x if x.flags.c_contiguous else np.ascontiguousarray(x)
-    _field_kernel(flat.view(flat.real.dtype).reshape(x.shape[0], -1), phase, m, mask is not None,
-                  scale * (1.0 if cycles else _INV_TWO_PI))
+    _field_kernel(
+        flat.view(flat.real.dtype).reshape(x.shape[0], -1),
+        phase,
+        m,
+        mask is not None,
+        scale * (1.0 if cycles else _INV_TWO_PI),
+    )
     if flat is not x:
         x[...] = flat
     return x

@@ -10,6 +10,7 @@ import scipy.fft as sfft
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import RadarMetadata
 from sarproc.product.theory import WINDOWS, window_taper
+
 FILTERS = ("flat", "matched")
 
 
@@ -31,8 +32,9 @@ def spectral_window(name: str, freqs: np.ndarray, bandwidth: float) -> np.ndarra
     return window_taper(name, np.where(np.abs(x) <= 0.5, x, 1.0))
 
 
-def range_compress(signal: np.ndarray, radar: RadarMetadata, window: str = "none", workers: int = -1,
-                   filter: str = "flat") -> np.ndarray:
+def range_compress(
+    signal: np.ndarray, radar: RadarMetadata, window: str = "none", workers: int = -1, filter: str = "flat"
+) -> np.ndarray:
     """Range-compress the last axis of ``signal``; a target's peak lands at its delay's sample.
 
     ``filter='matched'`` is the classic matched filter conj(H(f)): its output spectrum is
@@ -49,7 +51,7 @@ def range_compress(signal: np.ndarray, radar: RadarMetadata, window: str = "none
     n_fft = sfft.next_fast_len(n_rg + len(h), real=False)
     h_circ = np.zeros(n_fft, complex)
     h_circ[: half + 1] = h[half:]
-    h_circ[n_fft - half:] = h[:half]
+    h_circ[n_fft - half :] = h[:half]
     spec_h = sfft.fft(h_circ)
     f = sfft.fftfreq(n_fft, 1.0 / radar.range_sampling_rate)
     if filter == "matched":

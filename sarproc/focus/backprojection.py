@@ -31,8 +31,9 @@ from sarproc.dsp.rangecomp import range_compress
 from sarproc.product.theory import WINDOWS
 
 
-def upsample_range(rc: np.ndarray, factor: int, workers: int = -1, pad: int = 0,
-                   length: int | None = None) -> np.ndarray:
+def upsample_range(
+    rc: np.ndarray, factor: int, workers: int = -1, pad: int = 0, length: int | None = None
+) -> np.ndarray:
     """FFT zero-padding upsampling along the last axis of a baseband signal (band centred at 0).
 
     Returns complex64 (..., m + pad), m = n * factor or ``length`` (any m >= n: sample spacing n / m of the
@@ -51,8 +52,8 @@ def upsample_range(rc: np.ndarray, factor: int, workers: int = -1, pad: int = 0,
     flat_out = out.reshape(-1, out.shape[-1])
     work = np.result_type(rc.dtype, np.complex64)
     for s in range(0, flat_in.shape[0], rows):
-        block = flat_in[s:s + rows]
-        flat_out[s:s + rows, :m] = upsample_into(block, np.empty((len(block), m), work), workers)
+        block = flat_in[s : s + rows]
+        flat_out[s : s + rows, :m] = upsample_into(block, np.empty((len(block), m), work), workers)
     return out
 
 
@@ -66,10 +67,10 @@ def upsample_into(rc: np.ndarray, buf: np.ndarray, workers: int = -1) -> np.ndar
         return buf
     pos = (n + 1) // 2
     spec = sfft.fft(rc, axis=-1, workers=workers)
-    spec *= spec.real.dtype.type(m / n)              # the scale in the spectrum's own precision
+    spec *= spec.real.dtype.type(m / n)  # the scale in the spectrum's own precision
     buf[:, :pos] = spec[:, :pos]
-    buf[:, pos:m - (n - pos)] = 0
-    buf[:, m - (n - pos):] = spec[:, pos:]
+    buf[:, pos : m - (n - pos)] = 0
+    buf[:, m - (n - pos) :] = spec[:, pos:]
     out = sfft.ifft(buf, axis=-1, workers=workers, overwrite_x=True)
     if out is not buf and not np.shares_memory(out, buf):
         buf[...] = out
@@ -98,8 +99,23 @@ def _ranges(platform: np.ndarray, points_c: np.ndarray, points_sq: np.ndarray) -
     return np.sqrt(r2, out=r2)
 
 
-def _backproject_block(s, e, flat, stride, n_up, scale, t0, gate, tx_c, rx_c, monostatic, points_c, points_sq,
-                       carrier_frequency, interpolation):
+def _backproject_block(
+    s,
+    e,
+    flat,
+    stride,
+    n_up,
+    scale,
+    t0,
+    gate,
+    tx_c,
+    rx_c,
+    monostatic,
+    points_c,
+    points_sq,
+    carrier_frequency,
+    interpolation,
+):
     r = _ranges(tx_c[s:e], points_c, points_sq)
     if monostatic:
         r *= 2.0
@@ -111,7 +127,7 @@ def _backproject_block(s, e, flat, stride, n_up, scale, t0, gate, tx_c, rx_c, mo
     rows = (np.arange(s, e) * stride)[:, None]
     if interpolation == "nearest":
         idx = np.rint(pos).astype(np.int64)
-        idx[(idx < 0) | (idx >= n_up)] = n_up                      # the zero sample
+        idx[(idx < 0) | (idx >= n_up)] = n_up  # the zero sample
         val = flat[idx + rows]
     else:
         i0 = np.floor(pos)
@@ -137,11 +153,25 @@ ENGINES = ("compiled", "reference", "ffbp")
 INTERPOLATIONS = ("linear", "nearest", "cubic", "knab", "sinc", "lanczos")
 
 
-def backproject_points(rc, range_time, tx_pos, rx_pos, points, carrier_frequency, *, upsample: int = 8,
-                       interpolation: str = "linear", gate_offset=None, block_elements: int = 131_072,
-                       progress=None, workers: int | None = None, engine: str = "reference",
-                       kernel_length: int = 8, oversampling: float | None = None,
-                       tile_points: int = 1024) -> np.ndarray:
+def backproject_points(
+    rc,
+    range_time,
+    tx_pos,
+    rx_pos,
+    points,
+    carrier_frequency,
+    *,
+    upsample: int = 8,
+    interpolation: str = "linear",
+    gate_offset=None,
+    block_elements: int = 131_072,
+    progress=None,
+    workers: int | None = None,
+    engine: str = "reference",
+    kernel_length: int = 8,
+    oversampling: float | None = None,
+    tile_points: int = 1024,
+) -> np.ndarray:
     """Backproject range-compressed pulses onto arbitrary points.
 
     rc: (n_az, n_range) complex range-compressed data; range_time: (n_range,) s, uniform;
@@ -156,7 +186,7 @@ def backproject_points(rc, range_time, tx_pos, rx_pos, points, carrier_frequency
     """
     rc = np.asarray(rc)
     n_az, n_rg = rc.shape
-    if n_az == 0:                              # the sum over pulses divided by n_az would be 0 / 0
+    if n_az == 0:  # the sum over pulses divided by n_az would be 0 / 0
         raise ValueError("backproject_points: no pulses (rc has 0 rows)")
     points = np.asarray(points, float).reshape(-1, 3)
     tx_pos, rx_pos = np.asarray(tx_pos, float), np.asarray(rx_pos, float)
@@ -166,9 +196,24 @@ def backproject_points(rc, range_time, tx_pos, rx_pos, points, carrier_frequency
     if interpolation not in INTERPOLATIONS:
         raise ValueError(f"unknown interpolation {interpolation!r}; known: {INTERPOLATIONS}")
     if engine == "compiled":
-        return _backproject_compiled(rc, range_time[0], dt, gate, tx_pos, rx_pos, monostatic, points,
-                                     carrier_frequency, upsample, interpolation, kernel_length,
-                                     oversampling or 1.25 * upsample, tile_points, progress, workers)
+        return _backproject_compiled(
+            rc,
+            range_time[0],
+            dt,
+            gate,
+            tx_pos,
+            rx_pos,
+            monostatic,
+            points,
+            carrier_frequency,
+            upsample,
+            interpolation,
+            kernel_length,
+            oversampling or 1.25 * upsample,
+            tile_points,
+            progress,
+            workers,
+        )
     if engine != "reference":
         raise ValueError(f"unknown backprojection engine {engine!r}; known: {ENGINES}")
     if interpolation not in ("linear", "nearest"):
@@ -182,7 +227,7 @@ def backproject_points(rc, range_time, tx_pos, rx_pos, points, carrier_frequency
     points_c = points - origin
     points_sq = np.einsum("ij,ij->i", points_c, points_c)
     block = max(1, min(64, int(block_elements // max(len(points), 1))))
-    chunk = block * max(1, 64 // block)           # whole blocks, at most 64 pulses upsampled at a time
+    chunk = block * max(1, 64 // block)  # whole blocks, at most 64 pulses upsampled at a time
     chunks = [(c, min(c + chunk, n_az)) for c in range(0, n_az, chunk)]
     spans = [[(s - c0, min(s + block, c1) - c0) for s in range(c0, c1, block)] for c0, c1 in chunks]
     tx_c, rx_c = tx_pos - origin, rx_pos - origin
@@ -191,8 +236,21 @@ def backproject_points(rc, range_time, tx_pos, rx_pos, points, carrier_frequency
     def parts(pool):
         for (c0, c1), local in zip(chunks, spans):
             flat = upsample_range(rc[c0:c1], upsample, pad=1, length=n_up).ravel()
-            args = (flat, n_up + 1, n_up, n_up / (n_rg * dt), range_time[0], gate[c0:c1], tx_c[c0:c1], rx_c[c0:c1],
-                    monostatic, points_c, points_sq, carrier_frequency, interpolation)
+            args = (
+                flat,
+                n_up + 1,
+                n_up,
+                n_up / (n_rg * dt),
+                range_time[0],
+                gate[c0:c1],
+                tx_c[c0:c1],
+                rx_c[c0:c1],
+                monostatic,
+                points_c,
+                points_sq,
+                carrier_frequency,
+                interpolation,
+            )
             yield from pool.map(lambda span, a=args: _backproject_block(*span, *a), local)
 
     acc = np.zeros(len(points), np.complex128)
@@ -228,12 +286,28 @@ def _tile_size(points: np.ndarray, tile_points: int, max_radius: float = np.inf)
         edge = cell * tile_points ** (1.0 / len(ext))
         if len(ext) == 1 or ext[-1] >= edge:
             break
-        ext = ext[:-1]                         # the thinnest dimension fits inside one tile: drop it
+        ext = ext[:-1]  # the thinnest dimension fits inside one tile: drop it
     return min(edge, 2 * max_radius / math.sqrt(len(ext)))
 
 
-def _backproject_compiled(rc, t0, dt, gate, tx_pos, rx_pos, monostatic, points, carrier_frequency, upsample,
-                          interpolation, kernel_length, oversampling, tile_points, progress, workers):
+def _backproject_compiled(
+    rc,
+    t0,
+    dt,
+    gate,
+    tx_pos,
+    rx_pos,
+    monostatic,
+    points,
+    carrier_frequency,
+    upsample,
+    interpolation,
+    kernel_length,
+    oversampling,
+    tile_points,
+    progress,
+    workers,
+):
     import numba
 
     from sarproc.dsp.interp import kernel_length as taps_of, tap_table
@@ -256,14 +330,15 @@ def _backproject_compiled(rc, t0, dt, gate, tx_pos, rx_pos, monostatic, points, 
     tx_c = np.ascontiguousarray(tx_pos - origin)
     rx_c = np.ascontiguousarray(rx_pos - origin)
     acc = np.zeros(len(points), np.complex128)
-    chunk = max(1, min(n_az, 64))              # pulses upsampled and backprojected at a time (bounded memory)
+    chunk = max(1, min(n_az, 64))  # pulses upsampled and backprojected at a time (bounded memory)
     spans = [(s, min(s + chunk, n_az)) for s in range(0, n_az, chunk)]
-    if mode in (1, 3):                         # each pulse's window of samples the pixels can reach
+    if mode in (1, 3):  # each pulse's window of samples the pixels can reach
         radius = np.sqrt(np.maximum.reduceat(d[3], tile_start[:-1])).astype(float)
-        lo, hi = bk.pulse_windows(first, fs_up / C, tx_c, rx_c, monostatic, centres, radius, n_up,
-                                  1 if mode == 1 else 2)
+        lo, hi = bk.pulse_windows(
+            first, fs_up / C, tx_c, rx_c, monostatic, centres, radius, n_up, 1 if mode == 1 else 2
+        )
         n_w = int((hi - lo).max()) + 3
-        first = first - lo + 1                 # positions counted in table entries
+        first = first - lo + 1  # positions counted in table entries
         pairs = np.empty((chunk, n_w + 1, 4 if mode == 1 else 8), np.float32)
     else:
         pairs = np.zeros((1, 1, 4), np.float32)
@@ -272,14 +347,29 @@ def _backproject_compiled(rc, t0, dt, gate, tx_pos, rx_pos, monostatic, points, 
         numba.set_num_threads(max(1, min(int(workers), numba.config.NUMBA_NUM_THREADS)))
     try:
         buf = np.empty((chunk, n_up), np.complex64)
-        for s, e in (progress(spans) if progress is not None else spans):
-            pulses = upsample_into(np.asarray(rc[s:e], np.complex64), buf[:e - s])
+        for s, e in progress(spans) if progress is not None else spans:
+            pulses = upsample_into(np.asarray(rc[s:e], np.complex64), buf[: e - s])
             if mode == 1:
-                bk.pair_table(pulses, lo[s:e], pairs[:e - s])
+                bk.pair_table(pulses, lo[s:e], pairs[: e - s])
             elif mode == 3:
-                bk.cubic_table(pulses, lo[s:e], pairs[:e - s])
-            bk.backproject_tiles(pulses, pairs[:e - s], first[s:e], fs_up / C, carrier_frequency / C, tx_c[s:e],
-                                 rx_c[s:e], monostatic, centres, tile_start, d, mode, table, taps, acc)
+                bk.cubic_table(pulses, lo[s:e], pairs[: e - s])
+            bk.backproject_tiles(
+                pulses,
+                pairs[: e - s],
+                first[s:e],
+                fs_up / C,
+                carrier_frequency / C,
+                tx_c[s:e],
+                rx_c[s:e],
+                monostatic,
+                centres,
+                tile_start,
+                d,
+                mode,
+                table,
+                taps,
+                acc,
+            )
     finally:
         numba.set_num_threads(old)
     acc /= n_az
@@ -290,34 +380,62 @@ def _backproject_compiled(rc, t0, dt, gate, tx_pos, rx_pos, monostatic, points, 
 
 @dataclasses.dataclass(frozen=True)
 class BackprojectParams:
-    frame: str = param(default="product", doc="image frame: product (the raw product's target frame), squint, "
-                                               "zero_doppler, ground or los")
-    azimuth_extent: float | None = param("length", default=None, gt=0, doc="grid size along azimuth; "
-                                         "default: the targets' span plus 2 x margin_cells (moving targets: where they "
-                                         "appear, sarproc.product.moving)")
+    frame: str = param(
+        default="product",
+        doc="image frame: product (the raw product's target frame), squint, zero_doppler, ground or los",
+    )
+    azimuth_extent: float | None = param(
+        "length",
+        default=None,
+        gt=0,
+        doc="grid size along azimuth; "
+        "default: the targets' span plus 2 x margin_cells (moving targets: where they "
+        "appear, sarproc.product.moving)",
+    )
     range_extent: float | None = param("length", default=None, gt=0, doc="grid size along range; default as azimuth")
     azimuth_spacing: float | None = param("length", default=None, gt=0, doc="default: theoretical IRW / oversample")
     range_spacing: float | None = param("length", default=None, gt=0, doc="default: theoretical IRW / oversample")
-    azimuth_center: float | None = param("length", default=None, doc="grid centre (frame coordinate); "
-                                         "default: middle of the targets, else the scene centre")
+    azimuth_center: float | None = param(
+        "length",
+        default=None,
+        doc="grid centre (frame coordinate); default: middle of the targets, else the scene centre",
+    )
     range_center: float | None = param("length", default=None, doc="grid centre along range (frame coordinate)")
     oversample: float = param(default=2.0, ge=1.0, doc="pixels per theoretical IRW for default spacings")
     margin_cells: float = param(default=24.0, ge=0, doc="resolution cells around the targets for default extents")
-    upsample: int = param(default=8, ge=1, le=64, doc="range FFT upsampling before interpolation (the length is "
-                                                        "rounded up to a fast FFT length)")
-    interpolation: str = param(default="linear", choices=INTERPOLATIONS,
-                               doc="range interpolation: linear / nearest on the upsampled pulse, or (compiled "
-                                   "engine) cubic (four-sample Lagrange) on it or a kernel_length-tap knab / sinc / "
-                                   "lanczos kernel on its samples")
+    upsample: int = param(
+        default=8,
+        ge=1,
+        le=64,
+        doc="range FFT upsampling before interpolation (the length is rounded up to a fast FFT length)",
+    )
+    interpolation: str = param(
+        default="linear",
+        choices=INTERPOLATIONS,
+        doc="range interpolation: linear / nearest on the upsampled pulse, or (compiled "
+        "engine) cubic (four-sample Lagrange) on it or a kernel_length-tap knab / sinc / "
+        "lanczos kernel on its samples",
+    )
     kernel_length: int = param(default=8, ge=2, le=32, doc="taps of the knab / sinc / lanczos range kernel")
-    engine: str = param(default="compiled", choices=ENGINES,
-                        doc="compiled (tiled numba kernel, float32 per-pixel offsets), reference (float64 numpy) or "
-                            "ffbp (fast factorised backprojection, O(N^2 log N), error predicted in the plan)")
+    engine: str = param(
+        default="compiled",
+        choices=ENGINES,
+        doc="compiled (tiled numba kernel, float32 per-pixel offsets), reference (float64 numpy) or "
+        "ffbp (fast factorised backprojection, O(N^2 log N), error predicted in the plan)",
+    )
     ffbp_factor: int = param(default=4, ge=2, le=64, doc="ffbp: subapertures merged per level")
-    ffbp_oversample: float = param(default=4.0, ge=1.0, le=16.0, doc="ffbp: polar grid sampling over Nyquist "
-                                   "(range by the bandwidth, angle by the subaperture length); the error knob")
-    ffbp_interpolation: str = param(default="cubic", choices=("cubic", "linear"),
-                                    doc="ffbp: reads of the polar subimages (4-sample Lagrange or linear)")
+    ffbp_oversample: float = param(
+        default=4.0,
+        ge=1.0,
+        le=16.0,
+        doc="ffbp: polar grid sampling over Nyquist "
+        "(range by the bandwidth, angle by the subaperture length); the error knob",
+    )
+    ffbp_interpolation: str = param(
+        default="cubic",
+        choices=("cubic", "linear"),
+        doc="ffbp: reads of the polar subimages (4-sample Lagrange or linear)",
+    )
     range_window: str = param(default="none", choices=WINDOWS, doc="range spectral taper (README: Windows)")
     azimuth_window: str = param(default="none", choices=WINDOWS, doc="taper over the pulses (README: Windows)")
     max_pixels: int = param(default=16_000_000, ge=1, doc="refuse grids larger than this")
@@ -349,7 +467,7 @@ def theoretical_irw(product: Product, frame, centre_coords) -> list[float]:
     for i, ax in enumerate(frame.axes):
         shifted = list(centre_coords)
         shifted[i] = shifted[i] + eps
-        e = (frame.to_xyz(*shifted) - p0) / eps   # derivative of position along the axis
+        e = (frame.to_xyz(*shifted) - p0) / eps  # derivative of position along the axis
         if ax == "range":
             widths.append(0.886 / ((2 * r.bandwidth / C) * abs(float(u_mid @ e))))
         else:
@@ -368,12 +486,17 @@ def _default_grid(params: BackprojectParams, product: Product, frame, irw_guess,
         names = target_names(t)
         unknown = [n for n in grid_targets if n not in names]
         if unknown:
-            raise InputError(f"--targets: no target(s) {', '.join(map(repr, unknown))} in the targets table "
-                             f"(targets: {', '.join(names)})")
+            raise InputError(
+                f"--targets: no target(s) {', '.join(map(repr, unknown))} in the targets table "
+                f"(targets: {', '.join(names)})"
+            )
         t = t[np.array([n in grid_targets for n in names], bool)]
     # Moving targets appear at their static-equivalent positions: the grid covers those.
-    t = moving.apparent_targets(t, product.radar, moving.pulse_times(product), frame, moving.phase_centres(product)) \
-        if len(t) and np.any(moving.is_moving(t)) else targets_in_frame(t, frame)
+    t = (
+        moving.apparent_targets(t, product.radar, moving.pulse_times(product), frame, moving.phase_centres(product))
+        if len(t) and np.any(moving.is_moving(t))
+        else targets_in_frame(t, frame)
+    )
     coords = {ax: t[ax] for ax in frame.axes}
     centre_scene = [float(c) for c in frame.from_xyz(np.asarray(product.radar.scene_center))]
     axes = {}
@@ -392,8 +515,9 @@ def _default_grid(params: BackprojectParams, product: Product, frame, irw_guess,
     return axes
 
 
-def backproject(raw: Product, params: BackprojectParams = BackprojectParams(), progress=None,
-                grid_targets=None) -> Product:
+def backproject(
+    raw: Product, params: BackprojectParams = BackprojectParams(), progress=None, grid_targets=None
+) -> Product:
     """Focus a raw product (one or several channels, summed coherently) onto a frame grid.
 
     The default grid covers the targets (moving ones where they appear); ``grid_targets``: only these
@@ -402,14 +526,20 @@ def backproject(raw: Product, params: BackprojectParams = BackprojectParams(), p
     if raw.kind not in ("raw", "raw_multichannel", "raw_array"):
         raise InputError(f"backproject needs a raw product, got {raw.kind!r}")
     if params.interpolation in ("knab", "sinc", "lanczos") and params.kernel_length % 2:
-        raise InputError(f"backproject.kernel_length: {params.kernel_length} taps; the {params.interpolation} "
-                         "kernel needs an even number")
+        raise InputError(
+            f"backproject.kernel_length: {params.kernel_length} taps; the {params.interpolation} "
+            "kernel needs an even number"
+        )
     if params.engine == "ffbp" and params.interpolation not in ("linear", "cubic"):
-        raise InputError(f"backproject.interpolation: {params.interpolation!r} with engine: ffbp; it reads the "
-                         "pulses linear or cubic")
+        raise InputError(
+            f"backproject.interpolation: {params.interpolation!r} with engine: ffbp; it reads the "
+            "pulses linear or cubic"
+        )
     if params.engine == "reference" and params.interpolation not in ("linear", "nearest"):
-        raise InputError(f"backproject.interpolation: {params.interpolation!r} needs backproject.engine: compiled "
-                         "(the reference engine interpolates linear or nearest)")
+        raise InputError(
+            f"backproject.interpolation: {params.interpolation!r} needs backproject.engine: compiled "
+            "(the reference engine interpolates linear or nearest)"
+        )
     radar = raw.radar
     if params.frame == "product":
         spec = raw.attrs.get("frame") or {"name": "squint"}
@@ -429,8 +559,18 @@ def backproject(raw: Product, params: BackprojectParams = BackprojectParams(), p
     # Every target's own theory at its true position (the table's): a moving target's support follows its
     # true track (its illumination), not the static-equivalent position where the image focuses it.
     rows = list(range(len(targets)))
-    own = [theory.target_theory(radar, pos + tx_off, pos + rx_offs[0], frame, (targets["azimuth"][i],
-                                targets["range"][i]), range_window=params.range_window, taper=taper) for i in rows]
+    own = [
+        theory.target_theory(
+            radar,
+            pos + tx_off,
+            pos + rx_offs[0],
+            frame,
+            (targets["azimuth"][i], targets["range"][i]),
+            range_window=params.range_window,
+            taper=taper,
+        )
+        for i in rows
+    ]
     theory.fill_target_theory(targets, frame.axes, own, rows=rows)
     # Default spacing from the finest own theory: a target lit by the pattern's skirts or side lobes has a
     # finer response than the -3 dB beam's (sampled at the centre theory, its IRW read 10 % short).
@@ -438,40 +578,73 @@ def backproject(raw: Product, params: BackprojectParams = BackprojectParams(), p
     grid = _default_grid(params, raw, frame, irw0, finest, grid_targets)
     n_pix = len(grid["azimuth"]) * len(grid["range"])
     if n_pix > params.max_pixels:
-        raise InputError(f"backproject: grid of {n_pix} pixels exceeds max_pixels {params.max_pixels}; "
-                         "set azimuth/range extents or spacings")
+        raise InputError(
+            f"backproject: grid of {n_pix} pixels exceeds max_pixels {params.max_pixels}; "
+            "set azimuth/range extents or spacings"
+        )
     az, rg = np.meshgrid(grid["azimuth"], grid["range"], indexing="ij")
     points = frame.to_xyz(az.ravel(), rg.ravel())
     img = np.zeros(len(points), np.complex128)
     if params.engine == "ffbp" and any(not np.array_equal(tx_off, rx) for rx in rx_offs):
-        raise InputError("backproject.engine: ffbp needs a monostatic product (transmit and receive phase centres "
-                         "equal); use engine: compiled")
+        raise InputError(
+            "backproject.engine: ffbp needs a monostatic product (transmit and receive phase centres "
+            "equal); use engine: compiled"
+        )
     for ch in range(data.shape[0]):
         rc = range_compress(data[ch], radar, params.range_window) * taper[:, None].astype(np.float32)
         if params.engine == "ffbp":
             from sarproc.focus.ffbp import ffbp_points
 
-            img += ffbp_points(rc, raw.coords["range_time"], pos + tx_off, points, radar.carrier_frequency,
-                               radar.bandwidth, upsample=params.upsample, interpolation=params.interpolation,
-                               gate_offset=raw.aux.get("range_gate_offset"), factor=params.ffbp_factor,
-                               oversample=params.ffbp_oversample, ffbp_interpolation=params.ffbp_interpolation,
-                               grid_shape=az.shape)
+            img += ffbp_points(
+                rc,
+                raw.coords["range_time"],
+                pos + tx_off,
+                points,
+                radar.carrier_frequency,
+                radar.bandwidth,
+                upsample=params.upsample,
+                interpolation=params.interpolation,
+                gate_offset=raw.aux.get("range_gate_offset"),
+                factor=params.ffbp_factor,
+                oversample=params.ffbp_oversample,
+                ffbp_interpolation=params.ffbp_interpolation,
+                grid_shape=az.shape,
+            )
             continue
-        img += backproject_points(rc, raw.coords["range_time"], pos + tx_off, pos + rx_offs[ch], points,
-                                  radar.carrier_frequency, upsample=params.upsample,
-                                  interpolation=params.interpolation,
-                                  gate_offset=raw.aux.get("range_gate_offset"), progress=progress,
-                                  engine=params.engine, kernel_length=params.kernel_length,
-                                  oversampling=params.upsample * radar.range_sampling_rate / radar.bandwidth)
+        img += backproject_points(
+            rc,
+            raw.coords["range_time"],
+            pos + tx_off,
+            pos + rx_offs[ch],
+            points,
+            radar.carrier_frequency,
+            upsample=params.upsample,
+            interpolation=params.interpolation,
+            gate_offset=raw.aux.get("range_gate_offset"),
+            progress=progress,
+            engine=params.engine,
+            kernel_length=params.kernel_length,
+            oversampling=params.upsample * radar.range_sampling_rate / radar.bandwidth,
+        )
     img /= data.shape[0]
     centre_img = [float(np.mean(grid[ax])) for ax in frame.axes]
     # The image's theory: its targets' typical (unweighted) one, not that of the grid centre, which a target
     # at the edge of the beam drags off the lit aperture (the centre theory is kept for scenes without targets).
-    attrs = {"frame": frame.spec, "theoretical_irw": theory.unweighted_irw(own, theoretical_irw(raw, frame, centre_img))}
-    if "reconstruct" in raw.attrs:   # its velocity estimates per moving-target window (evaluate reads them)
+    attrs = {
+        "frame": frame.spec,
+        "theoretical_irw": theory.unweighted_irw(own, theoretical_irw(raw, frame, centre_img)),
+    }
+    if "reconstruct" in raw.attrs:  # its velocity estimates per moving-target window (evaluate reads them)
         attrs["reconstruct"] = raw.attrs["reconstruct"]
     from sarproc.product.io import history_entry
-    out = raw.derive("image", img.reshape(az.shape).astype(np.complex64), ("azimuth", "range"),
-                     {"azimuth": grid["azimuth"], "range": grid["range"]}, targets=targets, attrs=attrs)
+
+    out = raw.derive(
+        "image",
+        img.reshape(az.shape).astype(np.complex64),
+        ("azimuth", "range"),
+        {"azimuth": grid["azimuth"], "range": grid["range"]},
+        targets=targets,
+        attrs=attrs,
+    )
     out.history.append(history_entry("backproject", as_dict(params)))
     return out

@@ -34,7 +34,7 @@ from sarproc.dsp.kernel_cache import CACHE
 from sarproc.dsp.phasor import cis_cycles32_short
 
 INTERPOLATIONS = ("nearest", "linear", "cubic", "sinc", "lanczos", "knab")
-_TABLE_STEPS = 256          # table entries per sample for the windowed-sinc kernels (linear in between)
+_TABLE_STEPS = 256  # table entries per sample for the windowed-sinc kernels (linear in between)
 
 
 # The pixel-to-centre path difference of a leg is expanded to third order in the pixel offset d when the
@@ -67,8 +67,16 @@ def _reference(cx, cy, cz, px, py, pz, h4kc):
     r = math.sqrt(ax * ax + ay * ay + az * az)
     ir = 1.0 / r
     expand = h4kc * ir * ir * ir < EXPANSION_LIMIT_CYCLES
-    return r, (np.float32(ax * ir), np.float32(ay * ir), np.float32(az * ir), np.float32(ir), np.float32(r),
-               np.float32(0.5 * ir), np.float32(0.5 * ir * ir), expand)
+    return r, (
+        np.float32(ax * ir),
+        np.float32(ay * ir),
+        np.float32(az * ir),
+        np.float32(ir),
+        np.float32(r),
+        np.float32(0.5 * ir),
+        np.float32(0.5 * ir * ir),
+        expand,
+    )
 
 
 @numba.njit(error_model="numpy", cache=CACHE)
@@ -268,16 +276,18 @@ def pulse_windows(first, scale, tx, rx, monostatic, centres, radius, n_s, reach)
         a = np.inf
         b = -np.inf
         for t in range(centres.shape[0]):
-            rt = math.sqrt((centres[t, 0] - tx[p, 0]) ** 2 + (centres[t, 1] - tx[p, 1]) ** 2
-                           + (centres[t, 2] - tx[p, 2]) ** 2)
+            rt = math.sqrt(
+                (centres[t, 0] - tx[p, 0]) ** 2 + (centres[t, 1] - tx[p, 1]) ** 2 + (centres[t, 2] - tx[p, 2]) ** 2
+            )
             if monostatic:
                 r = 2.0 * rt
             else:
-                r = rt + math.sqrt((centres[t, 0] - rx[p, 0]) ** 2 + (centres[t, 1] - rx[p, 1]) ** 2
-                                   + (centres[t, 2] - rx[p, 2]) ** 2)
+                r = rt + math.sqrt(
+                    (centres[t, 0] - rx[p, 0]) ** 2 + (centres[t, 1] - rx[p, 1]) ** 2 + (centres[t, 2] - rx[p, 2]) ** 2
+                )
             a = min(a, (r - 2.0 * radius[t]) * scale + first[p])
             b = max(b, (r + 2.0 * radius[t]) * scale + first[p])
-        s0 = max(math.floor(a) - 2, -float(reach))         # entries this far out still touch sample 0
+        s0 = max(math.floor(a) - 2, -float(reach))  # entries this far out still touch sample 0
         s1 = min(math.floor(b) + 3, n_s - 2.0 + reach)
         if s1 >= s0:
             lo[p] = np.int64(s0)
@@ -344,8 +354,9 @@ def cubic_table(pulses, lo, coef):
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=CACHE)
-def backproject_tiles(pulses, pairs, first, scale, kc, tx, rx, monostatic, centres, tile_start, d, mode, table,
-                      taps, acc):
+def backproject_tiles(
+    pulses, pairs, first, scale, kc, tx, rx, monostatic, centres, tile_start, d, mode, table, taps, acc
+):
     """Add the pulses' contributions to ``acc`` (complex128, one entry per sorted pixel).
 
     pulses: (n_pulses, n_samples) complex64, sample j at range-delay index j (reads outside 0 .. n_samples-1 add
@@ -369,7 +380,7 @@ def backproject_tiles(pulses, pairs, first, scale, kc, tx, rx, monostatic, centr
         acc_im = np.zeros(n, np.float32)
         scratch = np.empty((4, n), np.float32)
         jc = np.empty(n, np.uint32)
-        gq = np.empty(2 * n if mode == 3 else n, np.complex128)   # 16 / 32-byte table entries, moved bit for bit
+        gq = np.empty(2 * n if mode == 3 else n, np.complex128)  # 16 / 32-byte table entries, moved bit for bit
         g = gq.view(np.float32)
         dx, dy, dz, d2 = d[0, s0:s1], d[1, s0:s1], d[2, s0:s1], d[3, s0:s1]
         h2 = 0.0
@@ -378,8 +389,9 @@ def backproject_tiles(pulses, pairs, first, scale, kc, tx, rx, monostatic, centr
         h4kc = h2 * h2 * kc
         cx, cy, cz = centres[t, 0], centres[t, 1], centres[t, 2]
         for p in range(n_pulses):
-            ibase, frac0, cyc0, geo_t, geo_r = _pulse_reference(cx, cy, cz, tx, rx, p, monostatic, scale, first, kc,
-                                                                h4kc)
+            ibase, frac0, cyc0, geo_t, geo_r = _pulse_reference(
+                cx, cy, cz, tx, rx, p, monostatic, scale, first, kc, h4kc
+            )
             # the tile's base sample, clipped so that int32 offsets cannot overflow (far reads add nothing anyway)
             ib = np.int32(min(max(ibase, -(1 << 28)), 1 << 28))
             fused = (mode == 1 or mode == 3) and monostatic and geo_t[7]
@@ -400,8 +412,9 @@ def backproject_tiles(pulses, pairs, first, scale, kc, tx, rx, monostatic, centr
                 _positions(scratch[0], scratch[1], scratch[2], scratch[3], frac0, cyc0, scale32, kc32)
                 row = pulses[p]
                 if mode == 0:
-                    _accumulate_nearest(acc_re, acc_im, scratch[1], scratch[2], scratch[3], row.view(np.float32), ib,
-                                        n_s)
+                    _accumulate_nearest(
+                        acc_re, acc_im, scratch[1], scratch[2], scratch[3], row.view(np.float32), ib, n_s
+                    )
                 else:
                     _accumulate_table(acc_re, acc_im, scratch[1], scratch[2], scratch[3], row, ib, n_s, table, taps)
         for i in range(n):
@@ -452,7 +465,7 @@ def _tile_layout(points, origin, lo, hi, tile_size, max_tile):
         count[k + 1] += count[k]
     order = np.empty(n, np.int64)
     fill = count[:-1].copy()
-    for i in range(n):                      # stable: points keep their order inside a cell
+    for i in range(n):  # stable: points keep their order inside a cell
         order[fill[key[i]]] = i
         fill[key[i]] += 1
     n_tiles = 0
@@ -498,12 +511,18 @@ def make_tiles(points: np.ndarray, tile_size: float, max_tile: int = 1024):
     points = np.ascontiguousarray(np.asarray(points, float).reshape(-1, 3))
     n = len(points)
     if n == 0:
-        return (np.zeros(0, np.int64), np.zeros(1, np.int64), np.zeros((0, 3)), np.zeros(3),
-                np.zeros((4, 0), np.float32))
-    if not np.isfinite(points).all():      # not from bounds(): its fastmath min/max skip a NaN after the first point
+        return (
+            np.zeros(0, np.int64),
+            np.zeros(1, np.int64),
+            np.zeros((0, 3)),
+            np.zeros(3),
+            np.zeros((4, 0), np.float32),
+        )
+    if not np.isfinite(points).all():  # not from bounds(): its fastmath min/max skip a NaN after the first point
         raise ValueError("points must be finite")
     lo, hi = bounds(points)
     origin = 0.5 * (lo + hi)
-    order, tile_start, centres, d = _tile_layout(points, origin, lo - origin, hi - origin, float(tile_size),
-                                                int(max_tile))
+    order, tile_start, centres, d = _tile_layout(
+        points, origin, lo - origin, hi - origin, float(tile_size), int(max_tile)
+    )
     return order, tile_start, centres, origin, d

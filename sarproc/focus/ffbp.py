@@ -34,8 +34,14 @@ def _weights(t, interpolation):
     if interpolation == "linear":
         return np.stack([np.zeros_like(t), 1 - t, t, np.zeros_like(t)])
     if interpolation == "cubic":
-        return np.stack([-t * (t - 1) * (t - 2) / 6, (t + 1) * (t - 1) * (t - 2) / 2, -(t + 1) * t * (t - 2) / 2,
-                         (t + 1) * t * (t - 1) / 6])
+        return np.stack(
+            [
+                -t * (t - 1) * (t - 2) / 6,
+                (t + 1) * (t - 1) * (t - 2) / 2,
+                -(t + 1) * t * (t - 2) / 2,
+                (t + 1) * t * (t - 1) / 6,
+            ]
+        )
     raise ValueError(f"unknown ffbp interpolation {interpolation!r}; known: {INTERPOLATIONS}")
 
 
@@ -46,8 +52,8 @@ def read_error(f, interpolation: str) -> tuple[float, complex]:
     add partly coherently: both are mostly a loss of gain towards the band edge)."""
     t = (np.arange(128) + 0.5) / 128
     f = np.asarray(f, float)
-    taps = np.exp(2j * np.pi * np.outer(np.arange(-1, 3), f))          # (4, n_f)
-    truth = np.exp(2j * np.pi * np.outer(t, f))                        # (n_t, n_f)
+    taps = np.exp(2j * np.pi * np.outer(np.arange(-1, 3), f))  # (4, n_f)
+    truth = np.exp(2j * np.pi * np.outer(t, f))  # (n_t, n_f)
     err = np.einsum("mt,mf->tf", _weights(t, interpolation), taps) - truth
     return float(np.mean(np.abs(err) ** 2)), complex(np.mean(err * truth.conj()))
 
@@ -88,7 +94,7 @@ def predicted_error(n_pulses: int, factor: int, oversample: float, interpolation
 # The model's error relative to the measured one: within -1 .. +3.3 dB on tests/focus/test_ffbp.py's scenes
 # (broadside stripmap, 30 deg squinted spotlight, a wobbling track) at oversample 2 .. 4, up to 3.7 dB optimistic
 # on the bench scene's 1024^2 grid (scripts/bench_ffbp.py); the bound adds 4 dB.
-BOUND_MARGIN = 10 ** 0.4
+BOUND_MARGIN = 10**0.4
 
 
 def error_bound(predicted: float) -> float:
@@ -117,14 +123,14 @@ def _boundary(xy, grid_shape):
 
     try:
         return xy[ConvexHull(xy).vertices]
-    except Exception:                   # degenerate (collinear) points: all of them bound themselves
+    except Exception:  # degenerate (collinear) points: all of them bound themselves
         return xy
 
 
 def _extents(foot, h, boundary, theta_mid):
     """Per subimage (rows of foot, h, theta_mid), the min/max range and relative angle over boundary (n_sub, m, 2)."""
     d = boundary - foot[:, None, :]
-    r = np.sqrt(np.einsum("smk,smk->sm", d, d) + (h ** 2)[:, None])
+    r = np.sqrt(np.einsum("smk,smk->sm", d, d) + (h**2)[:, None])
     th = np.arctan2(d[..., 1], d[..., 0]) - theta_mid[:, None]
     th -= 2 * np.pi * np.floor(th / (2 * np.pi) + 0.5)
     return r.min(axis=1), r.max(axis=1), th.min(axis=1), th.max(axis=1)
@@ -138,17 +144,47 @@ def _sector_boundary(geo, ints, n_edge=24):
     t0 = th_mid + th_lo
     t1 = t0 + (n_t - 1) * dth
     u = np.linspace(0.0, 1.0, n_edge)
-    rr = np.concatenate([np.outer(r0, np.ones(n_edge)), np.outer(r1, np.ones(n_edge)),
-                         r0[:, None] + np.outer(r1 - r0, u), r0[:, None] + np.outer(r1 - r0, u)], axis=1)
-    tt = np.concatenate([t0[:, None] + np.outer(t1 - t0, u), t0[:, None] + np.outer(t1 - t0, u),
-                         np.outer(t0, np.ones(n_edge)), np.outer(t1, np.ones(n_edge))], axis=1)
-    rho = np.sqrt(np.maximum(rr ** 2 - (h ** 2)[:, None], 0.0))
+    rr = np.concatenate(
+        [
+            np.outer(r0, np.ones(n_edge)),
+            np.outer(r1, np.ones(n_edge)),
+            r0[:, None] + np.outer(r1 - r0, u),
+            r0[:, None] + np.outer(r1 - r0, u),
+        ],
+        axis=1,
+    )
+    tt = np.concatenate(
+        [
+            t0[:, None] + np.outer(t1 - t0, u),
+            t0[:, None] + np.outer(t1 - t0, u),
+            np.outer(t0, np.ones(n_edge)),
+            np.outer(t1, np.ones(n_edge)),
+        ],
+        axis=1,
+    )
+    rho = np.sqrt(np.maximum(rr**2 - (h**2)[:, None], 0.0))
     return np.stack([fx[:, None] + rho * np.cos(tt), fy[:, None] + rho * np.sin(tt)], axis=-1)
 
 
-def ffbp_points(rc, range_time, pos, points, carrier_frequency, bandwidth, *, upsample=8, interpolation="linear",
-                gate_offset=None, factor=4, oversample=2.0, ffbp_interpolation="cubic", grid_shape=None,
-                workers=None, info=None, range_oversample=None):
+def ffbp_points(
+    rc,
+    range_time,
+    pos,
+    points,
+    carrier_frequency,
+    bandwidth,
+    *,
+    upsample=8,
+    interpolation="linear",
+    gate_offset=None,
+    factor=4,
+    oversample=2.0,
+    ffbp_interpolation="cubic",
+    grid_shape=None,
+    workers=None,
+    info=None,
+    range_oversample=None,
+):
     """Backproject range-compressed pulses (monostatic, antenna at ``pos`` (n_az, 3)) onto points on a plane by
     fast factorised backprojection; same result as backproject_points(..., engine='compiled') within
     :func:`predicted_error`. rc, range_time, gate_offset, upsample and interpolation ('linear' / 'cubic' on the
@@ -182,8 +218,10 @@ def ffbp_points(rc, range_time, pos, points, carrier_frequency, bandwidth, *, up
     xy = np.stack([rel @ e1, rel @ e2], axis=-1)
     pz = rel @ nrm
     if np.abs(pz).max() > 1e-3 * C / carrier_frequency:
-        raise ValueError(f"ffbp needs the points on a plane: they leave their best plane by up to "
-                         f"{np.abs(pz).max():.3g} m (more than a thousandth of a wavelength)")
+        raise ValueError(
+            f"ffbp needs the points on a plane: they leave their best plane by up to "
+            f"{np.abs(pz).max():.3g} m (more than a thousandth of a wavelength)"
+        )
     ant = pos - origin
     ant_xy = np.stack([ant @ e1, ant @ e2], axis=-1)
     ant_h = ant @ nrm
@@ -231,8 +269,12 @@ def ffbp_points(rc, range_time, pos, points, carrier_frequency, bandwidth, *, up
         it[:, 0] = np.ceil((t_hi - t_lo) / g[:, 7]).astype(np.int64) + 7
         it[:, 2] = np.concatenate([[0], np.cumsum(it[:, 0] * it[:, 1])[:-1]])
     if info is not None and n_levels:
-        info.update(levels=n_levels, samples=[int((it[:, 0] * it[:, 1]).sum()) for it in ints_],
-                    angles_top=int(ints_[-1][0, 0]), ranges_top=int(ints_[-1][0, 1]))
+        info.update(
+            levels=n_levels,
+            samples=[int((it[:, 0] * it[:, 1]).sum()) for it in ints_],
+            angles_top=int(ints_[-1][0, 0]),
+            ranges_top=int(ints_[-1][0, 1]),
+        )
 
     old = numba.get_num_threads()
     if workers:
@@ -255,8 +297,20 @@ def ffbp_points(rc, range_time, pos, points, carrier_frequency, bandwidth, *, up
             row_parent = np.repeat(np.arange(len(g)), it[:, 0])
             row_angle = np.arange(len(row_parent)) - np.repeat(np.cumsum(it[:, 0]) - it[:, 0], it[:, 0])
             first_child = np.searchsorted(spans[lev - 1], spans[lev], side="left")
-            fk.merge_level(cbuf, cgeo, cints, first_child, g, it, pbuf, row_parent, row_angle, kc2, mode_c,
-                           mode_t if lev > 1 else mode_c)
+            fk.merge_level(
+                cbuf,
+                cgeo,
+                cints,
+                first_child,
+                g,
+                it,
+                pbuf,
+                row_parent,
+                row_angle,
+                kc2,
+                mode_c,
+                mode_t if lev > 1 else mode_c,
+            )
             cbuf, cgeo, cints, mode_c = pbuf, g, it, _MODES[ffbp_interpolation]
         out = np.empty(len(points), np.complex128)
         fk.final_points(cbuf, cgeo, cints, xy[:, 0].copy(), xy[:, 1].copy(), pz.copy(), kc2, mode_c, mode_t, out)

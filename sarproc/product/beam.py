@@ -62,6 +62,9 @@ def illuminated(radar: RadarMetadata, platform_pos: np.ndarray, point: np.ndarra
     """Pulses (bool (n_t,)) whose -3 dB azimuth beam contains ``point``; all if no pattern."""
     if radar.azimuth_beamwidth <= 0:
         return np.ones(len(platform_pos), bool)
-    az, _ = off_boresight_angles(boresight(radar, platform_pos), platform_pos,
-                                 np.broadcast_to(np.asarray(point, float), (len(platform_pos), 1, 3)))
+    az, _ = off_boresight_angles(
+        boresight(radar, platform_pos),
+        platform_pos,
+        np.broadcast_to(np.asarray(point, float), (len(platform_pos), 1, 3)),
+    )
     return np.abs(az[:, 0]) <= radar.azimuth_beamwidth / 2

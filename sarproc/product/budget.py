@@ -63,8 +63,10 @@ class Plan:
     detail: str = ""
 
     def describe(self) -> str:
-        return (f"{self.stage}: plan: output ~{human(self.output_bytes)}, peak memory ~{human(self.memory_bytes)}, "
-                f"run time ~{human_time(self.seconds)}" + (f" ({self.detail})" if self.detail else ""))
+        return (
+            f"{self.stage}: plan: output ~{human(self.output_bytes)}, peak memory ~{human(self.memory_bytes)}, "
+            f"run time ~{human_time(self.seconds)}" + (f" ({self.detail})" if self.detail else "")
+        )
 
 
 def available_memory() -> int | None:
@@ -126,17 +128,24 @@ def check_plan(plan: Plan, outputs=(), max_memory: int | None = None) -> None:
             free = st.f_bavail * st.f_frsize
         except OSError:
             free = None
-        for room, where, fix in ((free, f"{folder} has only {{}} free", "free space, write elsewhere"),
-                                 (file_size_limit(), "this process may write files of at most {} (ulimit -f)",
-                                  "raise the limit")):
+        for room, where, fix in (
+            (free, f"{folder} has only {{}} free", "free space, write elsewhere"),
+            (file_size_limit(), "this process may write files of at most {} (ulimit -f)", "raise the limit"),
+        ):
             if room is not None and plan.output_bytes > room:
-                raise InputError(f"{out}: the output needs ~{human(plan.output_bytes)}{_why(plan)} but "
-                                 f"{where.format(human(room))}; {fix} or shrink the scene")
-    for room, where, fix in ((max_memory, "above --max-memory {}", "raise --max-memory"),
-                             (available_memory(), "but only {} is available", "run on a larger machine")):
+                raise InputError(
+                    f"{out}: the output needs ~{human(plan.output_bytes)}{_why(plan)} but "
+                    f"{where.format(human(room))}; {fix} or shrink the scene"
+                )
+    for room, where, fix in (
+        (max_memory, "above --max-memory {}", "raise --max-memory"),
+        (available_memory(), "but only {} is available", "run on a larger machine"),
+    ):
         if room is not None and plan.memory_bytes > room:
-            raise InputError(f"{plan.stage}: needs ~{human(plan.memory_bytes)} of working memory{_why(plan)}, "
-                             f"{where.format(human(room))}; {fix} or shrink the scene or its blocks")
+            raise InputError(
+                f"{plan.stage}: needs ~{human(plan.memory_bytes)} of working memory{_why(plan)}, "
+                f"{where.format(human(room))}; {fix} or shrink the scene or its blocks"
+            )
 
 
 def complex_bytes(*shape: float, itemsize: int = 8) -> float:

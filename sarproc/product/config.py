@@ -25,8 +25,16 @@ MISSING = dataclasses.MISSING
 # Top-level sections one YAML file may hold besides a scene's: each processing stage reads its
 # own (STAGE_SECTIONS), other commands theirs (OTHER_SECTIONS). Any other key is refused, so a
 # misspelt section cannot be ignored silently. A new stage adds its section here.
-STAGE_SECTIONS = ("backproject", "preprocess", "coarse_focus", "fine_focus", "pfa2", "reconstruct", "array3d",
-                  "evaluate")
+STAGE_SECTIONS = (
+    "backproject",
+    "preprocess",
+    "coarse_focus",
+    "fine_focus",
+    "pfa2",
+    "reconstruct",
+    "array3d",
+    "evaluate",
+)
 OTHER_SECTIONS = ("geolocation", "sweep")
 
 
@@ -63,8 +71,8 @@ def _construct_mapping(loader, node, deep=False):
             raise InputError(f"line {key_node.start_mark.line + 1}: a mapping key must be a plain name") from None
         if key in seen:
             raise yaml.constructor.ConstructorError(
-                None, None, f"key {key!r} is given twice (first on line {seen[key] + 1}); keep one",
-                key_node.start_mark)
+                None, None, f"key {key!r} is given twice (first on line {seen[key] + 1}); keep one", key_node.start_mark
+            )
         seen[key] = key_node.start_mark.line
     return loader.construct_mapping(node, deep=deep)
 
@@ -73,7 +81,8 @@ _StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _c
 # Dates stay strings ('2024-05-01T10:00:00Z'): parameters that are times parse them with their zone.
 _StrictLoader.yaml_implicit_resolvers = {
     first: [(tag, rx) for tag, rx in resolvers if tag != "tag:yaml.org,2002:timestamp"]
-    for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+    for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
+}
 
 
 _STDIN: dict[int, bytes] = {}
@@ -185,15 +194,26 @@ def _convert(value, tp, meta, where):
     return value
 
 
-SI_SYMBOL = {"frequency": "Hz", "length": "m", "time": "s", "angle": "rad", "velocity": "m/s",
-             "chirp_rate": "Hz/s", "decibel": "dB"}
+SI_SYMBOL = {
+    "frequency": "Hz",
+    "length": "m",
+    "time": "s",
+    "angle": "rad",
+    "velocity": "m/s",
+    "chirp_rate": "Hz/s",
+    "decibel": "dB",
+}
 
 
 def _check_bounds(x, meta, where, raw):
     if isinstance(x, float) and math.isnan(x):
         raise InputError(f"{where}: NaN is not allowed")
-    tests = (("gt", lambda a, b: a > b, ">"), ("ge", lambda a, b: a >= b, ">="),
-             ("lt", lambda a, b: a < b, "<"), ("le", lambda a, b: a <= b, "<="))
+    tests = (
+        ("gt", lambda a, b: a > b, ">"),
+        ("ge", lambda a, b: a >= b, ">="),
+        ("lt", lambda a, b: a < b, "<"),
+        ("le", lambda a, b: a <= b, "<="),
+    )
     for key, ok, sym in tests:
         bound = meta.get(key)
         if bound is not None and not ok(x, bound):
@@ -219,7 +239,9 @@ def _build(cls, mapping: dict, where: str):
         if name in mapping:
             kwargs[name] = _convert(mapping[name], hints[name], f.metadata, key)
         elif f.default is MISSING and f.default_factory is MISSING:
-            raise InputError(f"{key}: required key is missing" + (f" ({f.metadata['doc']})" if f.metadata.get("doc") else ""))
+            raise InputError(
+                f"{key}: required key is missing" + (f" ({f.metadata['doc']})" if f.metadata.get("doc") else "")
+            )
     try:
         obj = cls(**kwargs)
         check = getattr(obj, "validate", None)
@@ -228,7 +250,7 @@ def _build(cls, mapping: dict, where: str):
     except InputError as exc:
         msg = str(exc)
         head = msg.split(":", 1)[0]
-        if where and head in fields:        # "frame: ..." from validate() -> "targets.frame: ..."
+        if where and head in fields:  # "frame: ..." from validate() -> "targets.frame: ..."
             msg = f"{where}.{msg}"
         elif where and not msg.startswith(where):
             msg = f"{where}: {msg}"
@@ -255,8 +277,9 @@ def build(cls, mapping: dict | None, source: str = "", section: str = ""):
     mapping = {} if mapping is None else mapping
     if not isinstance(mapping, dict):
         prefix = f"{source}: " if source else ""
-        raise InputError(f"{prefix}{section or 'parameters'}: expected a mapping of keys, "
-                         f"got {type(mapping).__name__} {mapping!r}")
+        raise InputError(
+            f"{prefix}{section or 'parameters'}: expected a mapping of keys, got {type(mapping).__name__} {mapping!r}"
+        )
     try:
         return _build(cls, mapping, section)
     except InputError as exc:
@@ -266,6 +289,7 @@ def build(cls, mapping: dict | None, source: str = "", section: str = ""):
 
 def as_dict(obj) -> dict:
     """Resolved parameters as plain Python values (SI floats), for history and YAML dumps."""
+
     def conv(v):
         if dataclasses.is_dataclass(v):
             return {f.name: conv(getattr(v, f.name)) for f in dataclasses.fields(v)}
@@ -276,6 +300,7 @@ def as_dict(obj) -> dict:
         if hasattr(v, "item") and callable(v.item):
             return v.item()
         return v
+
     return conv(obj)
 
 
@@ -285,8 +310,11 @@ def describe(cls, indent: int = 0) -> str:
     hints = typing.get_type_hints(cls)
     for f in dataclasses.fields(cls):
         meta = f.metadata
-        default = "required" if f.default is MISSING and f.default_factory is MISSING else (
-            f"default {f.default!r}" if f.default is not MISSING else "default from factory")
+        default = (
+            "required"
+            if f.default is MISSING and f.default_factory is MISSING
+            else (f"default {f.default!r}" if f.default is not MISSING else "default from factory")
+        )
         unit = f" [{meta.get('unit')}]" if meta.get("unit") else ""
         choices = f" one of {list(meta['choices'])}" if meta.get("choices") else ""
         lines.append(f"{' ' * indent}{f.name}{unit}: {meta.get('doc', '')}{choices} ({default})")

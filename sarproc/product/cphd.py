@@ -37,7 +37,7 @@ from sarproc.product.sicd import MODE_TYPE, consistency_summary, pulse_times, re
 
 CPHD_NS = "http://api.nsgreg.nga.mil/schema/cphd/1.1.0"
 CHANNEL = "sarproc-channel-1"
-IMPORT_OVERSAMPLING = 1.25    # sampling rate over band of a pulse imported from another program's CPHD
+IMPORT_OVERSAMPLING = 1.25  # sampling rate over band of a pulse imported from another program's CPHD
 
 
 def _replica_spectrum(radar: RadarMetadata, n_fft: int) -> np.ndarray:
@@ -49,7 +49,7 @@ def _replica_spectrum(radar: RadarMetadata, n_fft: int) -> np.ndarray:
     h = np.where(np.abs(tau) <= tp / 2, np.exp(1j * np.pi * radar.chirp_rate * tau**2), 0)
     circ = np.zeros(n_fft, complex)
     circ[: half + 1] = h[half:]
-    circ[n_fft - half:] = h[:half]
+    circ[n_fft - half :] = h[:half]
     return sfft.fft(circ)
 
 
@@ -64,8 +64,13 @@ def _targets_to_json(targets: np.ndarray) -> list:
         row = {}
         for name in TARGET_DTYPE.names:
             v = t[name]
-            row[name] = (v.decode() if isinstance(v, bytes) else [float(v.real), float(v.imag)]
-                         if np.iscomplexobj(v) else float(v))
+            row[name] = (
+                v.decode()
+                if isinstance(v, bytes)
+                else [float(v.real), float(v.imag)]
+                if np.iscomplexobj(v)
+                else float(v)
+            )
         out.append(row)
     return out
 
@@ -74,7 +79,7 @@ def _targets_from_json(rows: list) -> np.ndarray:
     t = np.zeros(len(rows), TARGET_DTYPE)
     for i, row in enumerate(rows):
         for name in TARGET_DTYPE.names:
-            v = row.get(name, 0.0) if name in TARGET_THEORY_FIELDS else row[name]   # theory: absent in older files
+            v = row.get(name, 0.0) if name in TARGET_THEORY_FIELDS else row[name]  # theory: absent in older files
             t[i][name] = v.encode() if name == "name" else complex(*v) if name == "amplitude" else v
     return t
 
@@ -113,9 +118,25 @@ def _pvp_layout(names_sizes):
     return xml, np.dtype(fields), offset * 8
 
 
-PVP_FIELDS = [("TxTime", 1), ("TxPos", 3), ("TxVel", 3), ("RcvTime", 1), ("RcvPos", 3), ("RcvVel", 3),
-              ("SRPPos", 3), ("aFDOP", 1), ("aFRR1", 1), ("aFRR2", 1), ("FX1", 1), ("FX2", 1), ("TOA1", 1),
-              ("TOA2", 1), ("TDTropoSRP", 1), ("SC0", 1), ("SCSS", 1)]
+PVP_FIELDS = [
+    ("TxTime", 1),
+    ("TxPos", 3),
+    ("TxVel", 3),
+    ("RcvTime", 1),
+    ("RcvPos", 3),
+    ("RcvVel", 3),
+    ("SRPPos", 3),
+    ("aFDOP", 1),
+    ("aFRR1", 1),
+    ("aFRR2", 1),
+    ("FX1", 1),
+    ("FX2", 1),
+    ("TOA1", 1),
+    ("TOA2", 1),
+    ("TDTropoSRP", 1),
+    ("SC0", 1),
+    ("SCSS", 1),
+]
 
 
 def cphd_parts(raw: Product, place: Placement, sarproc_metadata: bool = True):
@@ -150,7 +171,7 @@ def cphd_parts(raw: Product, place: Placement, sarproc_metadata: bool = True):
 
     pvp_xml, pvp_dtype, pvp_bytes = _pvp_layout(PVP_FIELDS)
     pvps = np.zeros(n_pulses, pvp_dtype)
-    tx_time = t - t[0]                                  # CPHD times run from the collection start
+    tx_time = t - t[0]  # CPHD times run from the collection start
     pvps["TxTime"], pvps["TxPos"], pvps["TxVel"] = tx_time, pos, vel
     pvps["RcvTime"], pvps["RcvPos"], pvps["RcvVel"] = tx_time + tau_srp, pos, vel
     pvps["SRPPos"] = srp
@@ -164,55 +185,118 @@ def cphd_parts(raw: Product, place: Placement, sarproc_metadata: bool = True):
     ia = _image_area(raw, place)
     lat, lon, h = place.lat_lon_height
     iarp_llh = np.array([math.degrees(lat), math.degrees(lon), h])
-    cod_time = float(-t[0])                             # aperture centre
+    cod_time = float(-t[0])  # aperture centre
     root = skcphd.ElementWrapper(lxml.etree.Element(f"{{{CPHD_NS}}}CPHD"))
-    root["CollectionID"] = {"CollectorName": "sarproc simulator", "CoreName": "sarproc_raw",
-                            "CollectType": "MONOSTATIC", "RadarMode": {"ModeType": MODE_TYPE.get(r.mode, "SPOTLIGHT")},
-                            "Classification": "UNCLASSIFIED", "ReleaseInfo": "UNRESTRICTED"}
-    root["Global"] = {"DomainType": "FX", "SGN": -1,
-                      "Timeline": {"CollectionStart": utc_datetime(place.datetime64(float(t[0]))),
-                                   "TxTime1": float(tx_time[0]), "TxTime2": float(tx_time[-1])},
-                      "FxBand": {"FxMin": f1, "FxMax": f2},
-                      "TOASwath": {"TOAMin": float(toa1.min()), "TOAMax": float(toa2.max())}}
+    root["CollectionID"] = {
+        "CollectorName": "sarproc simulator",
+        "CoreName": "sarproc_raw",
+        "CollectType": "MONOSTATIC",
+        "RadarMode": {"ModeType": MODE_TYPE.get(r.mode, "SPOTLIGHT")},
+        "Classification": "UNCLASSIFIED",
+        "ReleaseInfo": "UNRESTRICTED",
+    }
+    root["Global"] = {
+        "DomainType": "FX",
+        "SGN": -1,
+        "Timeline": {
+            "CollectionStart": utc_datetime(place.datetime64(float(t[0]))),
+            "TxTime1": float(tx_time[0]),
+            "TxTime2": float(tx_time[-1]),
+        },
+        "FxBand": {"FxMin": f1, "FxMax": f2},
+        "TOASwath": {"TOAMin": float(toa1.min()), "TOAMax": float(toa2.max())},
+    }
     root["SceneCoordinates"] = {
-        "EarthModel": "WGS_84", "IARP": {"ECF": place.origin_ecf, "LLH": iarp_llh},
+        "EarthModel": "WGS_84",
+        "IARP": {"ECF": place.origin_ecf, "LLH": iarp_llh},
         "ReferenceSurface": {"Planar": {"uIAX": place.rotation[:, 0], "uIAY": place.rotation[:, 1]}},
         "ImageArea": {"X1Y1": ia[0], "X2Y2": ia[1]},
         "ImageAreaCornerPoints": _corner_points(place, ia),
-        "ImageGrid": _image_grid(ia, C / (2 * r.bandwidth) / 1.5)}
-    root["Data"] = {"SignalArrayFormat": "CF8", "NumBytesPVP": pvp_bytes, "NumCPHDChannels": 1,
-                    "Channel": [{"Identifier": CHANNEL, "NumVectors": n_pulses, "NumSamples": n_fft,
-                                 "SignalArrayByteOffset": 0, "PVPArrayByteOffset": 0}],
-                    "NumSupportArrays": 0}
+        "ImageGrid": _image_grid(ia, C / (2 * r.bandwidth) / 1.5),
+    }
+    root["Data"] = {
+        "SignalArrayFormat": "CF8",
+        "NumBytesPVP": pvp_bytes,
+        "NumCPHDChannels": 1,
+        "Channel": [
+            {
+                "Identifier": CHANNEL,
+                "NumVectors": n_pulses,
+                "NumSamples": n_fft,
+                "SignalArrayByteOffset": 0,
+                "PVPArrayByteOffset": 0,
+            }
+        ],
+        "NumSupportArrays": 0,
+    }
     # radar.polarization ('H:V'), else CPHD's UNSPECIFIED
     tx_pol, rcv_pol = r.polarization.split(":") if r.polarization else ("UNSPECIFIED", "UNSPECIFIED")
-    root["Channel"] = {"RefChId": CHANNEL, "FXFixedCPHD": True, "TOAFixedCPHD": toa_fixed, "SRPFixedCPHD": True,
-                       "Parameters": [{"Identifier": CHANNEL, "RefVectorIndex": n_pulses // 2, "FXFixed": True,
-                                       "TOAFixed": toa_fixed, "SRPFixed": True,
-                                       "Polarization": {"TxPol": tx_pol, "RcvPol": rcv_pol},
-                                       "FxC": r.carrier_frequency, "FxBW": r.bandwidth,
-                                       "TOASaved": float(toa2.max() - toa1.min()),
-                                       "DwellTimes": {"CODId": "cod", "DwellId": "dwell"},
-                                       "TxRcv": {"TxWFId": ["tx"], "RcvId": ["rcv"]}}]}
+    root["Channel"] = {
+        "RefChId": CHANNEL,
+        "FXFixedCPHD": True,
+        "TOAFixedCPHD": toa_fixed,
+        "SRPFixedCPHD": True,
+        "Parameters": [
+            {
+                "Identifier": CHANNEL,
+                "RefVectorIndex": n_pulses // 2,
+                "FXFixed": True,
+                "TOAFixed": toa_fixed,
+                "SRPFixed": True,
+                "Polarization": {"TxPol": tx_pol, "RcvPol": rcv_pol},
+                "FxC": r.carrier_frequency,
+                "FxBW": r.bandwidth,
+                "TOASaved": float(toa2.max() - toa1.min()),
+                "DwellTimes": {"CODId": "cod", "DwellId": "dwell"},
+                "TxRcv": {"TxWFId": ["tx"], "RcvId": ["rcv"]},
+            }
+        ],
+    }
     root["PVP"] = pvp_xml
-    root["Dwell"] = {"NumCODTimes": 1, "CODTime": [{"Identifier": "cod", "CODTimePoly": np.array([[cod_time]])}],
-                     "NumDwellTimes": 1,
-                     "DwellTime": [{"Identifier": "dwell", "DwellTimePoly": np.array([[float(tx_time[-1])]])}]}
-    root["TxRcv"] = {"NumTxWFs": 1, "TxWFParameters": [{"Identifier": "tx", "PulseLength": r.pulse_duration,
-                                                        "RFBandwidth": r.bandwidth, "FreqCenter": r.carrier_frequency,
-                                                        "LFMRate": r.chirp_rate, "Polarization": tx_pol}],
-                     "NumRcvs": 1, "RcvParameters": [{"Identifier": "rcv", "WindowLength": n_range / fs,
-                                                      "SampleRate": fs, "IFFilterBW": fs,
-                                                      "FreqCenter": r.carrier_frequency, "Polarization": rcv_pol}]}
-    sarproc_meta = {"sarproc.radar": r.to_json(),
-                    "sarproc.targets": json.dumps(_targets_to_json(raw.targets)),
-                    "sarproc.frame": json.dumps(raw.attrs.get("frame")),
-                    "sarproc.azimuth_time0": repr(float(t[0])),
-                    "sarproc.range_time0": repr(float(rt[0])),
-                    "sarproc.placement": json.dumps({"anchor": place.anchor.tolist(), "heading": place.heading}),
-                    "sarproc.history": json.dumps(raw.history)}
-    root["ProductInfo"] = {"CreationInfo": [{"Application": f"sarproc {__version__}",
-                                             "DateTime": utc_datetime(np.datetime64("now", "us"))}]}
+    root["Dwell"] = {
+        "NumCODTimes": 1,
+        "CODTime": [{"Identifier": "cod", "CODTimePoly": np.array([[cod_time]])}],
+        "NumDwellTimes": 1,
+        "DwellTime": [{"Identifier": "dwell", "DwellTimePoly": np.array([[float(tx_time[-1])]])}],
+    }
+    root["TxRcv"] = {
+        "NumTxWFs": 1,
+        "TxWFParameters": [
+            {
+                "Identifier": "tx",
+                "PulseLength": r.pulse_duration,
+                "RFBandwidth": r.bandwidth,
+                "FreqCenter": r.carrier_frequency,
+                "LFMRate": r.chirp_rate,
+                "Polarization": tx_pol,
+            }
+        ],
+        "NumRcvs": 1,
+        "RcvParameters": [
+            {
+                "Identifier": "rcv",
+                "WindowLength": n_range / fs,
+                "SampleRate": fs,
+                "IFFilterBW": fs,
+                "FreqCenter": r.carrier_frequency,
+                "Polarization": rcv_pol,
+            }
+        ],
+    }
+    sarproc_meta = {
+        "sarproc.radar": r.to_json(),
+        "sarproc.targets": json.dumps(_targets_to_json(raw.targets)),
+        "sarproc.frame": json.dumps(raw.attrs.get("frame")),
+        "sarproc.azimuth_time0": repr(float(t[0])),
+        "sarproc.range_time0": repr(float(rt[0])),
+        "sarproc.placement": json.dumps({"anchor": place.anchor.tolist(), "heading": place.heading}),
+        "sarproc.history": json.dumps(raw.history),
+    }
+    root["ProductInfo"] = {
+        "CreationInfo": [
+            {"Application": f"sarproc {__version__}", "DateTime": utc_datetime(np.datetime64("now", "us"))}
+        ]
+    }
     if sarproc_metadata:
         root["ProductInfo"]["Parameter"] = [(k, v) for k, v in sarproc_meta.items()]
     tree = root.elem.getroottree()
@@ -238,10 +322,11 @@ def _image_grid(ia, spacing: float) -> dict:
     # cell k spans ((k - 0.5) d, (k + 0.5) d): the first and last cells hold the area's edges
     first_line, end_line = round(x1 / spacing + 0.5), round(x2 / spacing + 0.5)
     first_sample, end_sample = round(y1 / spacing + 0.5), round(y2 / spacing + 0.5)
-    return {"IARPLocation": np.array([0.0, 0.0]),
-            "IAXExtent": {"LineSpacing": spacing, "FirstLine": first_line, "NumLines": end_line - first_line},
-            "IAYExtent": {"SampleSpacing": spacing, "FirstSample": first_sample,
-                          "NumSamples": end_sample - first_sample}}
+    return {
+        "IARPLocation": np.array([0.0, 0.0]),
+        "IAXExtent": {"LineSpacing": spacing, "FirstLine": first_line, "NumLines": end_line - first_line},
+        "IAYExtent": {"SampleSpacing": spacing, "FirstSample": first_sample, "NumSamples": end_sample - first_sample},
+    }
 
 
 def _corner_points(place: Placement, ia):
@@ -253,7 +338,6 @@ def _corner_points(place: Placement, ia):
     return np.array(pts)
 
 
-
 def write_cphd(path, raw: Product, place: Placement, sarproc_metadata: bool = True) -> dict:
     """Write a raw product as a CPHD file (atomically); returns sizes for the summary."""
     require_sarkit()
@@ -262,8 +346,12 @@ def write_cphd(path, raw: Product, place: Placement, sarproc_metadata: bool = Tr
     from sarproc.product.io import atomic_path
 
     tree, signal, pvps = cphd_parts(raw, place, sarproc_metadata)
-    meta = skcphd.Metadata(xmltree=tree, file_header_part=skcphd.FileHeaderPart(
-        additional_kvps={"CLASSIFICATION": "UNCLASSIFIED", "RELEASE_INFO": "UNRESTRICTED"}))
+    meta = skcphd.Metadata(
+        xmltree=tree,
+        file_header_part=skcphd.FileHeaderPart(
+            additional_kvps={"CLASSIFICATION": "UNCLASSIFIED", "RELEASE_INFO": "UNRESTRICTED"}
+        ),
+    )
     with atomic_path(path) as tmp, open(tmp, "wb") as fh, skcphd.Writer(fh, meta) as writer:
         writer.write_signal(CHANNEL, signal)
         writer.write_pvp(CHANNEL, pvps)
@@ -299,9 +387,14 @@ def read_cphd(path) -> Product:
     ux = xh.load("{*}SceneCoordinates/{*}ReferenceSurface/{*}Planar/{*}uIAX")
     uy = xh.load("{*}SceneCoordinates/{*}ReferenceSurface/{*}Planar/{*}uIAY")
     llh = xh.load("{*}SceneCoordinates/{*}IARP/{*}LLH")
-    place = Placement(utc="", lat_lon_height=(math.radians(llh[0]), math.radians(llh[1]), llh[2]),
-                      heading=place_info["heading"], anchor=np.asarray(place_info["anchor"], float),
-                      origin_ecf=np.asarray(iarp, float), rotation=np.stack([ux, uy, np.cross(ux, uy)], axis=1))
+    place = Placement(
+        utc="",
+        lat_lon_height=(math.radians(llh[0]), math.radians(llh[1]), llh[2]),
+        heading=place_info["heading"],
+        anchor=np.asarray(place_info["anchor"], float),
+        origin_ecf=np.asarray(iarp, float),
+        rotation=np.stack([ux, uy, np.cross(ux, uy)], axis=1),
+    )
     pos_ecf = np.asarray(pvps["TxPos"], float)
     srp = np.asarray(pvps["SRPPos"], float)
     tau_srp = 2 * np.linalg.norm(pos_ecf - srp, axis=1) / C
@@ -320,8 +413,17 @@ def read_cphd(path) -> Product:
     frame = json.loads(extra.get("sarproc.frame", "null"))
     targets = _targets_from_json(json.loads(extra.get("sarproc.targets", "[]")))
     history = json.loads(extra.get("sarproc.history", "[]"))
-    return Product(kind="raw", data=data, dims=("azimuth_time", "range_time"), coords=coords, radar=radar,
-                   targets=targets, attrs={"frame": frame} if frame else {}, aux=aux, history=history)
+    return Product(
+        kind="raw",
+        data=data,
+        dims=("azimuth_time", "range_time"),
+        coords=coords,
+        radar=radar,
+        targets=targets,
+        attrs={"frame": frame} if frame else {},
+        aux=aux,
+        history=history,
+    )
 
 
 def _foreign_raw(path, xh, fx, pvps) -> Product:
@@ -362,7 +464,9 @@ def _foreign_raw(path, xh, fx, pvps) -> Product:
     ux = xh.load("{*}SceneCoordinates/{*}ReferenceSurface/{*}Planar/{*}uIAX")
     uy = xh.load("{*}SceneCoordinates/{*}ReferenceSurface/{*}Planar/{*}uIAY")
     if ux is None or uy is None:
-        raise InputError(f"{path}: SceneCoordinates/ReferenceSurface is not Planar; only planar image areas are imported")
+        raise InputError(
+            f"{path}: SceneCoordinates/ReferenceSurface is not Planar; only planar image areas are imported"
+        )
     for name in ("TxPos", "RcvPos", "SRPPos", "SC0", "SCSS", "FX1", "FX2", "TOA1", "TOA2"):
         v = np.asarray(pvps[name], float)
         if not np.all(np.isfinite(v)):
@@ -379,7 +483,7 @@ def _foreign_raw(path, xh, fx, pvps) -> Product:
     def toa(point):
         return (np.linalg.norm(tx - point, axis=-1) + np.linalg.norm(rcv - point, axis=-1)) / C
 
-    shift = toa(srp) - toa(origin[None, :])                 # TOA_srp,v - TOA_O,v per vector
+    shift = toa(srp) - toa(origin[None, :])  # TOA_srp,v - TOA_O,v per vector
     sc0, scss = np.asarray(pvps["SC0"], float), np.asarray(pvps["SCSS"], float)
     fx1, fx2 = np.asarray(pvps["FX1"], float), np.asarray(pvps["FX2"], float)
     toa1, toa2 = np.asarray(pvps["TOA1"], float) + shift, np.asarray(pvps["TOA2"], float) + shift
@@ -388,13 +492,21 @@ def _foreign_raw(path, xh, fx, pvps) -> Product:
         raise InputError(f"{path}: PVP FX2 <= FX1 at vector {bad}")
     lo, hi = float(fx1.max()), float(fx2.min())
     if hi <= lo:
-        raise InputError(f"{path}: PVP FX1/FX2: the vectors' bands share no common band (max FX1 {lo:.6g} Hz >= "
-                         f"min FX2 {hi:.6g} Hz); such data cannot be one raw product")
-    reach = 2 * float(max(np.abs(toa1).max(), np.abs(toa2).max()))   # the window about O must hold the content
+        raise InputError(
+            f"{path}: PVP FX1/FX2: the vectors' bands share no common band (max FX1 {lo:.6g} Hz >= "
+            f"min FX2 {hi:.6g} Hz); such data cannot be one raw product"
+        )
+    reach = 2 * float(max(np.abs(toa1).max(), np.abs(toa2).max()))  # the window about O must hold the content
     sig = np.asarray(fx)
     sig = np.conj(sig) if sgn > 0 else sig
-    same_grid = (domain == "FX" and np.all(sc0 == sc0[0]) and np.all(scss == scss[0]) and np.all(fx1 == fx1[0])
-                 and np.all(fx2 == fx2[0]) and reach * scss[0] <= 1.0)
+    same_grid = (
+        domain == "FX"
+        and np.all(sc0 == sc0[0])
+        and np.all(scss == scss[0])
+        and np.all(fx1 == fx1[0])
+        and np.all(fx2 == fx2[0])
+        and reach * scss[0] <= 1.0
+    )
     if same_grid:
         f = sc0[0] + scss[0] * np.arange(n_samp)
         band = (f >= fx1[0] - 1e-6) & (f <= fx2[0] + 1e-6)
@@ -403,12 +515,28 @@ def _foreign_raw(path, xh, fx, pvps) -> Product:
         step = float(scss.min()) if domain == "FX" else float((1.0 / (n_samp * scss)).min())
         step = min(step, 1.0 / (1.02 * max(reach, 1e-300)))
         # on the reference vector's grid where the spacing allows (its own samples stay where they are)
-        anchor = (sc0[ref] if domain == "FX" else (fx1[ref] + fx2[ref]) / 2) if step == (
-            scss[ref] if domain == "FX" else 1.0 / (n_samp * scss[ref])) else (lo + hi) / 2
+        anchor = (
+            (sc0[ref] if domain == "FX" else (fx1[ref] + fx2[ref]) / 2)
+            if step == (scss[ref] if domain == "FX" else 1.0 / (n_samp * scss[ref]))
+            else (lo + hi) / 2
+        )
         m = np.arange(math.ceil((lo - anchor) / step - 1e-6), math.floor((hi - anchor) / step + 1e-6) + 1)
         freq = anchor + m * step
-        ph, method = _common_grid(path, domain, sig, sc0, scss, fx1, fx2, np.asarray(pvps["TOA1"], float),
-                                  np.asarray(pvps["TOA2"], float), freq), f"{domain} vectors on a common grid"
+        ph, method = (
+            _common_grid(
+                path,
+                domain,
+                sig,
+                sc0,
+                scss,
+                fx1,
+                fx2,
+                np.asarray(pvps["TOA1"], float),
+                np.asarray(pvps["TOA2"], float),
+                freq,
+            ),
+            f"{domain} vectors on a common grid",
+        )
     if len(freq) < 2:
         raise InputError(f"{path}: fewer than two frequency samples inside the common band [FX1, FX2]")
     if np.any(shift != 0):
@@ -423,17 +551,36 @@ def _foreign_raw(path, xh, fx, pvps) -> Product:
     n_pad = sfft.next_fast_len(int(math.ceil(IMPORT_OVERSAMPLING * n_band)))
     left = n_pad // 2 - n_band // 2
     padded = np.zeros((n_vec, n_pad), complex)
-    padded[:, left:left + n_band] = ph
-    raw = gotcha_product({"phase_history": padded, "freq": freq[0] + (np.arange(n_pad) - left) * step,
-                          "positions": pos, "r0": np.linalg.norm(pos, axis=1), "files": [str(path)],
-                          "polarization": ":".join(pol) if None not in pol and "UNSPECIFIED" not in pol else None})
+    padded[:, left : left + n_band] = ph
+    raw = gotcha_product(
+        {
+            "phase_history": padded,
+            "freq": freq[0] + (np.arange(n_pad) - left) * step,
+            "positions": pos,
+            "r0": np.linalg.norm(pos, axis=1),
+            "files": [str(path)],
+            "polarization": ":".join(pol) if None not in pol and "UNSPECIFIED" not in pol else None,
+        }
+    )
     # the band is the n_band samples (half a bin more: the range filter's |f| <= B/2 keeps every one of them)
     raw.radar = dataclasses.replace(raw.radar, bandwidth=(n_band + 0.5) * step)
     raw.radar.validate()
-    raw.history = [history_entry(f"import-cphd {path}", {
-        "source": "CPHD (standard fields only)", "domain": domain, "sgn": sgn, "conversion": method,
-        "fx_samples_in_band": int(len(freq)), "band_hz": [float(freq[0]), float(freq[-1])],
-        "srp_moves": bool(np.any(shift != 0)), "conjugated": sgn > 0, "range_oversampling": n_pad / n_band})]
+    raw.history = [
+        history_entry(
+            f"import-cphd {path}",
+            {
+                "source": "CPHD (standard fields only)",
+                "domain": domain,
+                "sgn": sgn,
+                "conversion": method,
+                "fx_samples_in_band": int(len(freq)),
+                "band_hz": [float(freq[0]), float(freq[-1])],
+                "srp_moves": bool(np.any(shift != 0)),
+                "conjugated": sgn > 0,
+                "range_oversampling": n_pad / n_band,
+            },
+        )
+    ]
     return raw
 
 
@@ -458,7 +605,7 @@ def _common_grid(path, domain, sig, sc0, scss, fx1, fx2, toa1, toa2, freq):
     out = np.empty((n_vec, len(freq)), complex)
     step = float(freq[1] - freq[0])
     k = np.arange(n)
-    for value in np.unique(scss):                             # one chirp-z kernel per sample spacing
+    for value in np.unique(scss):  # one chirp-z kernel per sample spacing
         rows = np.flatnonzero(scss == value)
         if domain == "FX":
             dtau = 1.0 / (n * value)
@@ -499,7 +646,6 @@ def check_cphd(path) -> dict:
     return consistency_summary(con)
 
 
-
 def cphd_header(path) -> dict:
     """Check a CPHD file's metadata without reading its signal; {'vectors', 'samples'} of its first channel.
 
@@ -517,8 +663,10 @@ def cphd_header(path) -> dict:
     if xh.load("{*}Global/{*}DomainType") not in ("FX", "TOA"):
         raise InputError(f"{path}: Global/DomainType must be FX or TOA")
     if xh.load("{*}CollectionID/{*}CollectType") != "MONOSTATIC":
-        raise InputError(f"{path}: CollectionID/CollectType is {xh.load('{*}CollectionID/{*}CollectType')}; "
-                         "only MONOSTATIC collections are imported")
+        raise InputError(
+            f"{path}: CollectionID/CollectType is {xh.load('{*}CollectionID/{*}CollectType')}; "
+            "only MONOSTATIC collections are imported"
+        )
     try:
         vectors = int(xh.load("{*}Data/{*}Channel/{*}NumVectors"))
         samples = int(xh.load("{*}Data/{*}Channel/{*}NumSamples"))

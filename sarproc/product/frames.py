@@ -39,6 +39,7 @@ def register_frame(name: str):
         cls.name = name
         _FRAMES[name] = cls
         return cls
+
     return deco
 
 
@@ -167,8 +168,7 @@ class _PlaneFrame(Frame):
 
     def to_xyz(self, azimuth, range_):
         azimuth, range_ = np.broadcast_arrays(np.asarray(azimuth, float), np.asarray(range_, float))
-        return (self.origin + azimuth[..., None] * self.u_azimuth
-                + (range_ - self.range0)[..., None] * self.u_range)
+        return self.origin + azimuth[..., None] * self.u_azimuth + (range_ - self.range0)[..., None] * self.u_range
 
     def from_xyz(self, xyz):
         d = np.asarray(xyz, float) - self.origin
@@ -177,7 +177,6 @@ class _PlaneFrame(Frame):
 
 @register_frame("los")
 class LosFrame(_PlaneFrame):
-
     def __init__(self, origin, aperture_center, velocity_dir=(1.0, 0.0, 0.0)):
         self.origin = np.asarray(origin, float).reshape(3)
         self.aperture_center = np.asarray(aperture_center, float).reshape(3)
@@ -235,8 +234,9 @@ class ElevationFrame(Frame):
         return {"altitude": self.altitude}
 
     def to_xyz(self, elevation, azimuth, range_):
-        el, az, r = np.broadcast_arrays(np.asarray(elevation, float), np.asarray(azimuth, float),
-                                        np.asarray(range_, float))
+        el, az, r = np.broadcast_arrays(
+            np.asarray(elevation, float), np.asarray(azimuth, float), np.asarray(range_, float)
+        )
         return np.stack([az, r * np.sin(el), self.altitude - r * np.cos(el)], axis=-1)
 
     def from_xyz(self, xyz):
@@ -267,11 +267,13 @@ def make_frame(name: str, radar: RadarMetadata, **params) -> Frame:
     if name == "ground":
         return GroundFrame()
     if name == "los":
-        return LosFrame(params.get("origin", radar.scene_center),
-                        params.get("aperture_center", aperture_center_position(radar)))
+        return LosFrame(
+            params.get("origin", radar.scene_center), params.get("aperture_center", aperture_center_position(radar))
+        )
     if name == "ground_los":
-        return GroundLosFrame(params.get("origin", radar.scene_center),
-                              params.get("aperture_center", aperture_center_position(radar)))
+        return GroundLosFrame(
+            params.get("origin", radar.scene_center), params.get("aperture_center", aperture_center_position(radar))
+        )
     if name == "elevation":
         return ElevationFrame(params.get("altitude", radar.altitude))
     if name in _FRAMES:

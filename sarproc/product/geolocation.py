@@ -26,8 +26,8 @@ from sarproc.product.metadata import RadarMetadata, parse_utc
 
 log = logging.getLogger(__name__)
 
-DEFAULT_UTC = "2000-01-01T12:00:00.000000Z"       # J2000 epoch: obviously not a real collection
-DEFAULT_LAT_LON_HEIGHT = (0.0, 0.0, 0.0)           # rad, rad, m: "null island"
+DEFAULT_UTC = "2000-01-01T12:00:00.000000Z"  # J2000 epoch: obviously not a real collection
+DEFAULT_LAT_LON_HEIGHT = (0.0, 0.0, 0.0)  # rad, rad, m: "null island"
 
 # WGS84 ellipsoid (NGA.STND.0036)
 _A = 6378137.0
@@ -37,23 +37,44 @@ _E2 = _F * (2.0 - _F)
 
 @dataclasses.dataclass(frozen=True)
 class GeolocationParams:
-    time: str | None = param(default=None, doc="UTC of azimuth time 0, ISO 8601 with a zone "
-                                               "(default: the product's reference, else 2000-01-01T12:00:00Z)")
-    latitude: float | None = param("angle", default=None, ge=-math.pi / 2, le=math.pi / 2,
-                                   doc="WGS84 latitude of the scene centre (default: the product's, else 0)")
-    longitude: float | None = param("angle", default=None, ge=-math.pi, le=math.pi,
-                                    doc="WGS84 longitude of the scene centre (default: the product's, else 0)")
+    time: str | None = param(
+        default=None,
+        doc="UTC of azimuth time 0, ISO 8601 with a zone (default: the product's reference, else 2000-01-01T12:00:00Z)",
+    )
+    latitude: float | None = param(
+        "angle",
+        default=None,
+        ge=-math.pi / 2,
+        le=math.pi / 2,
+        doc="WGS84 latitude of the scene centre (default: the product's, else 0)",
+    )
+    longitude: float | None = param(
+        "angle",
+        default=None,
+        ge=-math.pi,
+        le=math.pi,
+        doc="WGS84 longitude of the scene centre (default: the product's, else 0)",
+    )
     height: float | None = param("length", default=None, doc="height above the ellipsoid (default: product's, else 0)")
-    heading: float = param("angle", default=0.0, ge=-2 * math.pi, le=2 * math.pi,
-                           doc="direction of the flight track (+x), clockwise from north")
+    heading: float = param(
+        "angle",
+        default=0.0,
+        ge=-2 * math.pi,
+        le=2 * math.pi,
+        doc="direction of the flight track (+x), clockwise from north",
+    )
 
 
 def geodetic_to_ecf(lat: float, lon: float, height: float) -> np.ndarray:
     """WGS84 geodetic (rad, rad, m) -> ECF (m)."""
     n = _A / math.sqrt(1.0 - _E2 * math.sin(lat) ** 2)
-    return np.array([(n + height) * math.cos(lat) * math.cos(lon),
-                     (n + height) * math.cos(lat) * math.sin(lon),
-                     (n * (1.0 - _E2) + height) * math.sin(lat)])
+    return np.array(
+        [
+            (n + height) * math.cos(lat) * math.cos(lon),
+            (n + height) * math.cos(lat) * math.sin(lon),
+            (n * (1.0 - _E2) + height) * math.sin(lat),
+        ]
+    )
 
 
 def ecf_to_geodetic(xyz) -> np.ndarray:
@@ -76,12 +97,12 @@ def ecf_to_geodetic(xyz) -> np.ndarray:
 class Placement:
     """Rigid map scene frame -> ECF, and azimuth time -> UTC."""
 
-    utc: str                      # UTC of azimuth time 0, 'YYYY-MM-DDTHH:MM:SS.ffffffZ'
-    lat_lon_height: tuple         # of the scene centre: rad, rad, m
-    heading: float                # rad
-    anchor: np.ndarray            # scene-frame point placed at the reference (the scene centre), m
-    origin_ecf: np.ndarray        # its ECF position, m
-    rotation: np.ndarray          # (3, 3): columns are the scene frame's x, y, z axes in ECF
+    utc: str  # UTC of azimuth time 0, 'YYYY-MM-DDTHH:MM:SS.ffffffZ'
+    lat_lon_height: tuple  # of the scene centre: rad, rad, m
+    heading: float  # rad
+    anchor: np.ndarray  # scene-frame point placed at the reference (the scene centre), m
+    origin_ecf: np.ndarray  # its ECF position, m
+    rotation: np.ndarray  # (3, 3): columns are the scene frame's x, y, z axes in ECF
 
     def to_ecf(self, xyz) -> np.ndarray:
         return self.origin_ecf + (np.asarray(xyz, float) - self.anchor) @ self.rotation.T
@@ -121,14 +142,21 @@ def placement(radar: RadarMetadata, params: GeolocationParams = GeolocationParam
         defaulted.append("scene centre at latitude 0, longitude 0, height 0")
     lat, lon, height = geo[0], geo[1], geo[2] if geo[2] is not None else 0.0
     if defaulted:
-        log.warning("no absolute reference in the product or the config (geolocation:, or the scene's reference:); "
-                    "using %s", " and ".join(defaulted))
+        log.warning(
+            "no absolute reference in the product or the config (geolocation:, or the scene's reference:); using %s",
+            " and ".join(defaulted),
+        )
     east, north, up = enu_axes(lat, lon)
     ex = math.cos(params.heading) * north + math.sin(params.heading) * east
     ey = np.cross(up, ex)
-    return Placement(utc=utc, lat_lon_height=(lat, lon, height), heading=params.heading,
-                     anchor=np.asarray(radar.scene_center, float), origin_ecf=geodetic_to_ecf(lat, lon, height),
-                     rotation=np.stack([ex, ey, up], axis=1))
+    return Placement(
+        utc=utc,
+        lat_lon_height=(lat, lon, height),
+        heading=params.heading,
+        anchor=np.asarray(radar.scene_center, float),
+        origin_ecf=geodetic_to_ecf(lat, lon, height),
+        rotation=np.stack([ex, ey, up], axis=1),
+    )
 
 
 def utc_string(t: np.datetime64) -> str:

@@ -60,7 +60,7 @@ def read_gotcha(files, autofocus: bool = False) -> dict:
             freq = f_here
         elif f_here.shape != freq.shape or np.max(np.abs(f_here - freq)) > 1e-3 * abs(freq[1] - freq[0]):
             raise InputError(f"{path}: data.freq differs from the first file's; files must share one frequency plan")
-        ph = np.asarray(d.fp).T.astype(np.complex128)              # (pulses, freq)
+        ph = np.asarray(d.fp).T.astype(np.complex128)  # (pulses, freq)
         r = np.asarray(d.r0, float).ravel()
         if autofocus and hasattr(d, "af"):
             # af.r_correct refines r0 and af.ph_correct is a per-pulse phase (Gotcha's autofocus solution)
@@ -72,11 +72,16 @@ def read_gotcha(files, autofocus: bool = False) -> dict:
     if freq is None:
         raise InputError("import-gotcha: no input files")
     df = np.diff(freq)
-    if np.max(np.abs(df - df.mean())) > 2e-3 * abs(df.mean()):   # stored as float32: steps jitter by ~1e-3
+    if np.max(np.abs(df - df.mean())) > 2e-3 * abs(df.mean()):  # stored as float32: steps jitter by ~1e-3
         raise InputError(f"{files[0]}: data.freq is not uniformly spaced")
     freq = np.polyval(np.polyfit(np.arange(len(freq)), freq, 1), np.arange(len(freq)))
-    return {"phase_history": np.concatenate(fp), "freq": freq, "positions": np.concatenate(pos),
-            "r0": np.concatenate(r0), "files": [str(f) for f in files]}
+    return {
+        "phase_history": np.concatenate(fp),
+        "freq": freq,
+        "positions": np.concatenate(pos),
+        "r0": np.concatenate(r0),
+        "files": [str(f) for f in files],
+    }
 
 
 def polarization_from_names(files) -> str | None:
@@ -99,13 +104,13 @@ def gotcha_product(g: dict) -> Product:
     fs = n * abs(df)
     if df < 0:  # descending frequencies: flip to ascending
         s, freq = s[:, ::-1], freq[::-1]
-    fc = float(freq[n // 2])                       # the zero bin of a pulse's DFT (module docstring)
+    fc = float(freq[n // 2])  # the zero bin of a pulse's DFT (module docstring)
     fr = freq - fc
     mid = n_az // 2
     r_ref = float(r0[mid])
     k = np.arange(n)
-    kernel = np.exp(2j * math.pi * np.outer(fr, k - n / 2) / fs) / n                  # (freq, samples)
-    carrier = np.exp(-2j * math.pi * ((2 * fc * r0 / C) % 1.0))                        # exp(-j 4 pi f_c r_0 / c)
+    kernel = np.exp(2j * math.pi * np.outer(fr, k - n / 2) / fs) / n  # (freq, samples)
+    carrier = np.exp(-2j * math.pi * ((2 * fc * r0 / C) % 1.0))  # exp(-j 4 pi f_c r_0 / c)
     signal = ((s @ kernel) * carrier[:, None]).astype(np.complex64)
     gate = 2 * (r0 - r_ref) / C
     range_time = 2 * r_ref / C + (k - n / 2) / fs
@@ -115,20 +120,41 @@ def gotcha_product(g: dict) -> Product:
     vel_dir = pos[min(mid + 1, n_az - 1)] - pos[max(mid - 1, 0)]
     los = -p_mid / np.linalg.norm(p_mid)
     squint = float(math.asin(np.clip(los @ vel_dir / max(np.linalg.norm(vel_dir), 1e-12), -1, 1)))
-    radar = RadarMetadata(carrier_frequency=fc, bandwidth=fs, pulse_duration=1.0 / fs, chirp_rate=fs * fs,
-                          range_sampling_rate=fs, prf=NOMINAL_PRF, velocity=velocity,
-                          altitude=float(p_mid[2]), squint=squint, reference_range=r_ref,
-                          scene_center=(0.0, 0.0, 0.0), mode="spotlight", aperture_time=n_az / NOMINAL_PRF,
-                          polarization=g.get("polarization") or polarization_from_names(g["files"]))
+    radar = RadarMetadata(
+        carrier_frequency=fc,
+        bandwidth=fs,
+        pulse_duration=1.0 / fs,
+        chirp_rate=fs * fs,
+        range_sampling_rate=fs,
+        prf=NOMINAL_PRF,
+        velocity=velocity,
+        altitude=float(p_mid[2]),
+        squint=squint,
+        reference_range=r_ref,
+        scene_center=(0.0, 0.0, 0.0),
+        mode="spotlight",
+        aperture_time=n_az / NOMINAL_PRF,
+        polarization=g.get("polarization") or polarization_from_names(g["files"]),
+    )
     radar.validate()
     frame = GroundLosFrame((0.0, 0.0, 0.0), p_mid)
     times = (np.arange(n_az) - (n_az - 1) / 2) / NOMINAL_PRF
-    return Product(kind="raw", data=signal, dims=("azimuth_time", "range_time"),
-                   coords={"azimuth_time": times, "range_time": range_time}, radar=radar,
-                   targets=make_targets([], np.zeros((0, 3)), np.zeros(0)), attrs={"frame": frame.spec},
-                   aux={"platform_position": pos, "range_gate_offset": gate, "tx_offset": np.zeros(3),
-                        "rx_offset": np.zeros((1, 3))},
-                   history=[history_entry("import-gotcha", {"files": g["files"], "nominal_prf": NOMINAL_PRF})])
+    return Product(
+        kind="raw",
+        data=signal,
+        dims=("azimuth_time", "range_time"),
+        coords={"azimuth_time": times, "range_time": range_time},
+        radar=radar,
+        targets=make_targets([], np.zeros((0, 3)), np.zeros(0)),
+        attrs={"frame": frame.spec},
+        aux={
+            "platform_position": pos,
+            "range_gate_offset": gate,
+            "tx_offset": np.zeros(3),
+            "rx_offset": np.zeros((1, 3)),
+        },
+        history=[history_entry("import-gotcha", {"files": g["files"], "nominal_prf": NOMINAL_PRF})],
+    )
 
 
 def gotcha_files(inputs) -> list[Path]:

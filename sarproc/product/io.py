@@ -42,18 +42,37 @@ from sarproc import __version__
 from sarproc.product import run
 from sarproc.product.errors import InputError, ProcessingError
 from sarproc.product.metadata import FORMAT_VERSION, RadarMetadata
-from sarproc.product.model import (AUX_DIM_DOC, AUX_LAYOUT, DATA_ATTR_UNITS, DATA_NAME, KIND_DIMS,
-                                   MOVING_TARGET_COLUMNS, PRODUCT_KINDS, TARGET_DTYPE, TARGET_IRW_FIELDS,
-                                   TARGET_NULL_FIELDS, TARGET_SIDELOBE_FIELDS, TARGET_THEORY_FIELDS, TARGET_UNITS,
-                                   UNITS, Product, as_target_table)
+from sarproc.product.model import (
+    AUX_DIM_DOC,
+    AUX_LAYOUT,
+    DATA_ATTR_UNITS,
+    DATA_NAME,
+    KIND_DIMS,
+    MOVING_TARGET_COLUMNS,
+    PRODUCT_KINDS,
+    TARGET_DTYPE,
+    TARGET_IRW_FIELDS,
+    TARGET_NULL_FIELDS,
+    TARGET_SIDELOBE_FIELDS,
+    TARGET_THEORY_FIELDS,
+    TARGET_UNITS,
+    UNITS,
+    Product,
+    as_target_table,
+)
 
-LONG_NAMES = {"azimuth_time": "azimuth (slow) time from aperture centre", "range_time": "range (fast) time since transmit",
-              "channel": "receive channel index", "azimuth": "azimuth position", "range": "range position",
-              "elevation": "elevation angle"}
+LONG_NAMES = {
+    "azimuth_time": "azimuth (slow) time from aperture centre",
+    "range_time": "range (fast) time since transmit",
+    "channel": "receive channel index",
+    "azimuth": "azimuth position",
+    "range": "range position",
+    "elevation": "elevation angle",
+}
 
 TMP_SUFFIX = ".sarproc-tmp"
 _HOST = re.sub(r"[^A-Za-z0-9-]", "-", socket.gethostname())[:32] or "host"
-_DAMAGED: list = []   # h5py objects of files whose write failed: kept alive, never closed
+_DAMAGED: list = []  # h5py objects of files whose write failed: kept alive, never closed
 
 
 class Stream(NamedTuple):
@@ -76,9 +95,12 @@ def hdf5_handles_damaged() -> bool:
 
 def history_entry(command: str, params: dict | None = None) -> dict:
     """One provenance record: command, version, UTC time and the resolved parameters."""
-    return {"command": command, "sarproc_version": __version__,
-            "utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-            "parameters": params or {}}
+    return {
+        "command": command,
+        "sarproc_version": __version__,
+        "utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "parameters": params or {},
+    }
 
 
 def _pid_alive(pid: int) -> bool:
@@ -150,7 +172,7 @@ def output_stream(output) -> Stream | None:
         number = m.group("fd") or m.group("fd2")
         return Stream(text, fd=int(number) if number else _STD_FDS[m.group("std")])
     try:
-        mode = os.stat(text).st_mode   # follows links: a link to /dev/null is /dev/null
+        mode = os.stat(text).st_mode  # follows links: a link to /dev/null is /dev/null
     except OSError:
         return None
     if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) or stat.S_ISFIFO(mode):
@@ -188,7 +210,7 @@ def check_output_path(output, inputs=(), overwrite: bool = False) -> Path:
     """
     out = Path(output)
     stream = output_stream(out)
-    inputs = [Path(i) for i in inputs if os.fspath(i) != "-"]   # "-" as an input is stdin
+    inputs = [Path(i) for i in inputs if os.fspath(i) != "-"]  # "-" as an input is stdin
     if stream is not None:
         for inp in inputs:
             if stream.path is not None and inp.exists() and os.path.samefile(inp, stream.path):
@@ -228,8 +250,9 @@ def _probe_directory(out: Path, directory: Path) -> None:
         fd = os.open(probe, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600)
     except OSError as exc:
         where = "the temporary directory " if directory != out.parent else ""
-        raise InputError(f"{out}: cannot create files in {where}{directory}: {_os_cause(exc)}; "
-                         "choose a writable location") from None
+        raise InputError(
+            f"{out}: cannot create files in {where}{directory}: {_os_cause(exc)}; choose a writable location"
+        ) from None
     os.close(fd)
     os.unlink(probe)
     run.track_temporary(probe, made=False)
@@ -243,8 +266,10 @@ def _publish(tmp: Path, output: Path, overwrite: bool) -> None:
     try:
         os.link(tmp, output)
     except FileExistsError:
-        raise InputError(f"{output}: another process created this file while this run was writing; "
-                         "not replaced (pass --overwrite to replace it)") from None
+        raise InputError(
+            f"{output}: another process created this file while this run was writing; "
+            "not replaced (pass --overwrite to replace it)"
+        ) from None
     except OSError as exc:
         if exc.errno not in (_errno.EPERM, _errno.ENOTSUP, _errno.EOPNOTSUPP, _errno.EXDEV, _errno.EMLINK):
             raise
@@ -252,8 +277,10 @@ def _publish(tmp: Path, output: Path, overwrite: bool) -> None:
         try:
             os.close(os.open(output, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
         except FileExistsError:
-            raise InputError(f"{output}: another process created this file while this run was writing; "
-                             "not replaced (pass --overwrite to replace it)") from None
+            raise InputError(
+                f"{output}: another process created this file while this run was writing; "
+                "not replaced (pass --overwrite to replace it)"
+            ) from None
         os.replace(tmp, output)
         return
     os.unlink(tmp)
@@ -271,7 +298,7 @@ def _stream_into(tmp: Path, stream: Stream) -> None:
         sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
         sock.connect(stream.path)
         fd, close = sock.fileno(), False
-    else:   # a FIFO waits here for its reader, as any writer does
+    else:  # a FIFO waits here for its reader, as any writer does
         fd, close = os.open(stream.path, os.O_WRONLY | os.O_CLOEXEC), True
     try:
         with open(tmp, "rb") as src:
@@ -279,7 +306,7 @@ def _stream_into(tmp: Path, stream: Stream) -> None:
                 view = memoryview(chunk)
                 while view:
                     run.check()
-                    view = view[os.write(fd, view):]
+                    view = view[os.write(fd, view) :]
     finally:
         if close:
             os.close(fd)
@@ -299,13 +326,13 @@ def atomic_path(output: Path, overwrite: bool = True):
     stream = output_stream(output)
     dest = real_output(output) if stream is None else None
     tmp = _temporary_name(dest if dest is not None else Path(tempfile.gettempdir()) / output.name)
-    run.track_temporary(tmp)   # removed at the run's end wherever a signal lands
+    run.track_temporary(tmp)  # removed at the run's end wherever a signal lands
     fd = os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666)  # the umask applies, as for any new file
     os.close(fd)
     try:
         yield tmp
         if stream is not None:
-            run.check()    # a signal whose exception was swallowed: nothing is streamed
+            run.check()  # a signal whose exception was swallowed: nothing is streamed
             _stream_into(tmp, stream)
             os.unlink(tmp)
             run.track_temporary(tmp, made=False)
@@ -321,7 +348,7 @@ def atomic_path(output: Path, overwrite: bool = True):
             os.unlink(tmp)
         if exc.errno == _errno.EPIPE:
             raise ProcessingError(f"{output}: the reader closed the stream before the end; output incomplete") from None
-        if _errno_of(exc) in WRITE_ERRNOS:   # full disk, file-size limit, read-only: name the output
+        if _errno_of(exc) in WRITE_ERRNOS:  # full disk, file-size limit, read-only: name the output
             raise ProcessingError(f"{output}: cannot write: {_os_cause(exc)}; nothing was written") from None
         raise
     except BaseException:
@@ -415,8 +442,22 @@ class ProductWriter:
     naming the output and the cause; the temporary file is removed either way.
     """
 
-    def __init__(self, output, kind, dims, coords, radar, targets, *, attrs=None, aux=None,
-                 history=(), dtype=np.complex64, inputs=(), overwrite=False):
+    def __init__(
+        self,
+        output,
+        kind,
+        dims,
+        coords,
+        radar,
+        targets,
+        *,
+        attrs=None,
+        aux=None,
+        history=(),
+        dtype=np.complex64,
+        inputs=(),
+        overwrite=False,
+    ):
         if kind not in PRODUCT_KINDS:
             raise ValueError(f"unknown product kind {kind!r}")
         self.output = check_output_path(output, inputs, overwrite)
@@ -440,11 +481,13 @@ class ProductWriter:
         try:
             self.file = h5py.File(tmp, "w")
             _write_header(self.file, self.kind, radar, targets, history)
-            self.dset = self.file.create_dataset(DATA_NAME[self.kind], shape=self.shape, dtype=dtype,
-                                                 chunks=_chunks(self.shape))
+            self.dset = self.file.create_dataset(
+                DATA_NAME[self.kind], shape=self.shape, dtype=dtype, chunks=_chunks(self.shape)
+            )
             self.dset.attrs["units"] = "1"  # complex amplitude, arbitrary (uncalibrated) scale
-            self.dset.attrs["long_name"] = ("complex baseband echo samples" if DATA_NAME[self.kind] == "signal"
-                                            else "complex image")
+            self.dset.attrs["long_name"] = (
+                "complex baseband echo samples" if DATA_NAME[self.kind] == "signal" else "complex image"
+            )
             _write_attrs(self.dset, attrs)
             known = {k: DATA_ATTR_UNITS[k] for k in attrs if k in DATA_ATTR_UNITS}
             if known:
@@ -463,7 +506,7 @@ class ProductWriter:
         return self
 
     def write(self, index, block):
-        run.check()   # a stop signal whose exception HDF5 swallowed ends the run at the next block
+        run.check()  # a stop signal whose exception HDF5 swallowed ends the run at the next block
         try:
             self.dset[index] = block
         except (OSError, RuntimeError) as exc:
@@ -493,10 +536,20 @@ class ProductWriter:
 
 def write_product(output, product: Product, *, inputs=(), overwrite=False) -> Path:
     """Write ``product`` to ``output`` atomically."""
-    with ProductWriter(output, product.kind, product.dims, product.coords, product.radar, product.targets,
-                       attrs=product.attrs, aux=product.aux, history=product.history,
-                       dtype=np.complex64 if np.iscomplexobj(product.data) else product.data.dtype,
-                       inputs=inputs, overwrite=overwrite) as w:
+    with ProductWriter(
+        output,
+        product.kind,
+        product.dims,
+        product.coords,
+        product.radar,
+        product.targets,
+        attrs=product.attrs,
+        aux=product.aux,
+        history=product.history,
+        dtype=np.complex64 if np.iscomplexobj(product.data) else product.data.dtype,
+        inputs=inputs,
+        overwrite=overwrite,
+    ) as w:
         w.write(Ellipsis, product.data)
     return Path(output)
 
@@ -549,11 +602,15 @@ def _check_aux(path, aux: dict, kind: str, n_pulses: int | None, n_channels: int
             want = " x ".join("3" if d == "xyz" else f"n_{d}" for d in dims)
             raise InputError(f"{where} has shape {v.shape}, expected ({want})")
         if dims[-1] == "moving_target_field" and v.shape[-1] != len(MOVING_TARGET_COLUMNS):
-            raise InputError(f"{where} has {v.shape[-1]} columns, expected {len(MOVING_TARGET_COLUMNS)} "
-                             "(sarproc.product.model.MOVING_TARGET_COLUMNS)")
+            raise InputError(
+                f"{where} has {v.shape[-1]} columns, expected {len(MOVING_TARGET_COLUMNS)} "
+                "(sarproc.product.model.MOVING_TARGET_COLUMNS)"
+            )
         if dims[0] == "pulse" and n_pulses is not None and len(v) != n_pulses:
-            raise InputError(f"{where} has {len(v)} rows but the product has {n_pulses} pulses (azimuth_time); "
-                             "one row per pulse is needed")
+            raise InputError(
+                f"{where} has {len(v)} rows but the product has {n_pulses} pulses (azimuth_time); "
+                "one row per pulse is needed"
+            )
         if dims[0] == "receiver" and n_channels is not None and len(v) != n_channels:
             raise InputError(f"{where} has {len(v)} receivers but the signal has {n_channels} channels")
 
@@ -602,11 +659,15 @@ def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
             raise InputError(f"{path}: missing dataset {name!r}")
         dset = f[name]
         if dset.dtype.kind != "c":
-            raise InputError(f"{path}: dataset {name!r} is {dset.dtype} but must be complex (I/Q, complex64); "
-                             "real-valued samples cannot be focused; convert them to complex baseband")
+            raise InputError(
+                f"{path}: dataset {name!r} is {dset.dtype} but must be complex (I/Q, complex64); "
+                "real-valued samples cannot be focused; convert them to complex baseband"
+            )
         if dset.ndim != len(KIND_DIMS[kind]):
-            raise InputError(f"{path}: dataset {name!r} has {dset.ndim} dims {dset.shape}; a {kind!r} product needs "
-                             f"{len(KIND_DIMS[kind])} dims {KIND_DIMS[kind]}")
+            raise InputError(
+                f"{path}: dataset {name!r} has {dset.ndim} dims {dset.shape}; a {kind!r} product needs "
+                f"{len(KIND_DIMS[kind])} dims {KIND_DIMS[kind]}"
+            )
         dims, coords = [], {}
         for i, dim in enumerate(dset.dims):
             if len(dim) == 0:
@@ -617,8 +678,10 @@ def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
             if np.ndim(values) != 1 or np.asarray(values).dtype.kind not in "fiu":
                 raise InputError(f"{path}: dimension scale {dname!r} must be a 1-D numeric array")
             if len(values) != dset.shape[i]:
-                raise InputError(f"{path}: dataset {name!r} has {dset.shape[i]} samples along {dname!r} but the "
-                                 f"dimension scale {dname!r} holds {len(values)} values; they must agree")
+                raise InputError(
+                    f"{path}: dataset {name!r} has {dset.shape[i]} samples along {dname!r} but the "
+                    f"dimension scale {dname!r} holds {len(values)} values; they must agree"
+                )
             if not np.all(np.isfinite(values)):
                 raise InputError(f"{path}: dimension scale {dname!r} contains NaN or Inf")
             if dname != "channel" and len(values) > 1 and not np.all(np.diff(values) > 0):
@@ -626,16 +689,20 @@ def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
             dims.append(dname)
             coords[dname] = values
         if tuple(dims) != KIND_DIMS[kind]:
-            raise InputError(f"{path}: dataset {name!r} has dims {tuple(dims)}; a {kind!r} product needs "
-                             f"{KIND_DIMS[kind]}")
+            raise InputError(
+                f"{path}: dataset {name!r} has dims {tuple(dims)}; a {kind!r} product needs {KIND_DIMS[kind]}"
+            )
         if "channel" in dims and len(coords["channel"]) != radar.n_channels:
-            raise InputError(f"{path}: dataset {name!r} has {len(coords['channel'])} channels but radar attribute "
-                             f"'n_channels' is {radar.n_channels}")
+            raise InputError(
+                f"{path}: dataset {name!r} has {len(coords['channel'])} channels but radar attribute "
+                f"'n_channels' is {radar.n_channels}"
+            )
         if "targets" not in f:
             raise InputError(f"{path}: missing dataset 'targets'")
         targets = np.asarray(f["targets"][()])
-        missing = [n for n in TARGET_DTYPE.names if n not in (targets.dtype.names or ()) and
-                   n not in TARGET_THEORY_FIELDS]    # theory fields are optional (older files): 0, not recorded
+        missing = [
+            n for n in TARGET_DTYPE.names if n not in (targets.dtype.names or ()) and n not in TARGET_THEORY_FIELDS
+        ]  # theory fields are optional (older files): 0, not recorded
         if missing:
             raise InputError(f"{path}: dataset 'targets' lacks field(s) {missing}")
         targets = as_target_table(targets)
@@ -645,43 +712,55 @@ def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
         for field in TARGET_IRW_FIELDS:
             v = targets[field]
             if not np.all(np.isfinite(v) & (v >= 0)):
-                raise InputError(f"{path}: dataset 'targets' field {field!r} must be a positive IRW or 0 "
-                                 f"(not recorded)")
+                raise InputError(
+                    f"{path}: dataset 'targets' field {field!r} must be a positive IRW or 0 (not recorded)"
+                )
         for field in TARGET_NULL_FIELDS:
             v = targets[field]
             if not np.all(np.isfinite(v) & (v >= 0)):
-                raise InputError(f"{path}: dataset 'targets' field {field!r} must be a positive null spacing or 0 "
-                                 f"(not recorded)")
-        for field in TARGET_SIDELOBE_FIELDS:     # a PSLR is <= 0 dB; an ISLR may exceed it (side lobes only)
+                raise InputError(
+                    f"{path}: dataset 'targets' field {field!r} must be a positive null spacing or 0 (not recorded)"
+                )
+        for field in TARGET_SIDELOBE_FIELDS:  # a PSLR is <= 0 dB; an ISLR may exceed it (side lobes only)
             v = targets[field]
             if not np.all(np.isfinite(v) & ((v <= 0) if field.startswith("pslr") else True)):
-                raise InputError(f"{path}: dataset 'targets' field {field!r} must be a finite level in dB"
-                                 f"{' <= 0' if field.startswith('pslr') else ''} (0: not recorded)")
+                raise InputError(
+                    f"{path}: dataset 'targets' field {field!r} must be a finite level in dB"
+                    f"{' <= 0' if field.startswith('pslr') else ''} (0: not recorded)"
+                )
         attrs = {k: _attr_value(v) for k, v in dset.attrs.items() if k not in _INTERNAL_ATTRS}
         for key in DATA_ATTR_UNITS:
             v = attrs.get(key)
             values = v if isinstance(v, list) else [v]
-            if v is not None and not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
-                                         for x in values):
-                raise InputError(f"{path}: dataset {name!r} attribute {key!r} must be a finite number or list of "
-                                 f"numbers ({DATA_ATTR_UNITS[key]}), got {v!r}")
+            if v is not None and not all(
+                isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in values
+            ):
+                raise InputError(
+                    f"{path}: dataset {name!r} attribute {key!r} must be a finite number or list of "
+                    f"numbers ({DATA_ATTR_UNITS[key]}), got {v!r}"
+                )
         if kind in ("image", "image3d"):
             frame = attrs.get("frame")
             if not (isinstance(frame, dict) and isinstance(frame.get("name"), str)):
                 raise InputError(f"{path}: dataset {name!r} attribute 'frame' must be a JSON object with a 'name'")
             irw = attrs.get("theoretical_irw")
-            if irw is not None and not (isinstance(irw, list) and len(irw) == len(dims)
-                                        and all(isinstance(x, (int, float)) and math.isfinite(x) and x > 0
-                                                for x in irw)):
-                raise InputError(f"{path}: dataset {name!r} attribute 'theoretical_irw' must list {len(dims)} "
-                                 f"positive widths (one per axis {tuple(dims)}), got {irw!r}")
+            if irw is not None and not (
+                isinstance(irw, list)
+                and len(irw) == len(dims)
+                and all(isinstance(x, (int, float)) and math.isfinite(x) and x > 0 for x in irw)
+            ):
+                raise InputError(
+                    f"{path}: dataset {name!r} attribute 'theoretical_irw' must list {len(dims)} "
+                    f"positive widths (one per axis {tuple(dims)}), got {irw!r}"
+                )
         aux = {}
         if "aux" in f:
             for k, v in f["aux"].items():
                 if isinstance(v, h5py.Dataset) and not _is_scale(v):
                     aux[k] = v[()]
-        n_pulses = len(coords["azimuth_time"]) if kind in ("raw", "raw_multichannel", "raw_array",
-                                                            "preprocessed") else None
+        n_pulses = (
+            len(coords["azimuth_time"]) if kind in ("raw", "raw_multichannel", "raw_array", "preprocessed") else None
+        )
         _check_aux(path, aux, kind, n_pulses, len(coords["channel"]) if "channel" in coords else radar.n_channels)
         if load:
             data = dset[()]
@@ -694,11 +773,29 @@ def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
     if not load:
         coords_l = {d: c for d, c in coords.items()}
         prod = Product.__new__(Product)
-        prod.__dict__.update(kind=kind, data=data, dims=tuple(dims), coords=coords_l, radar=radar,
-                             targets=targets, attrs=attrs, aux=aux, history=history)
+        prod.__dict__.update(
+            kind=kind,
+            data=data,
+            dims=tuple(dims),
+            coords=coords_l,
+            radar=radar,
+            targets=targets,
+            attrs=attrs,
+            aux=aux,
+            history=history,
+        )
         return prod
-    return Product(kind=kind, data=data, dims=tuple(dims), coords=coords, radar=radar, targets=targets,
-                   attrs=attrs, aux=aux, history=history)
+    return Product(
+        kind=kind,
+        data=data,
+        dims=tuple(dims),
+        coords=coords,
+        radar=radar,
+        targets=targets,
+        attrs=attrs,
+        aux=aux,
+        history=history,
+    )
 
 
 def read_magnitude_preview(path, max_side: int = 2048, block_bytes: int = 64 << 20, header: Product | None = None):
@@ -710,7 +807,7 @@ def read_magnitude_preview(path, max_side: int = 2048, block_bytes: int = 64 << 
     ``coords`` are the block centres. Memory stays at one block of ``block_bytes`` plus the
     preview, so a picture of an image larger than memory can be drawn.
     """
-    if header is None:   # a caller that has read the header already passes it
+    if header is None:  # a caller that has read the header already passes it
         header = read_product(path, kinds=("image", "image3d"), load=False)
     dims = header.dims
     shape = tuple(len(header.coords[d]) for d in dims)
@@ -722,11 +819,11 @@ def read_magnitude_preview(path, max_side: int = 2048, block_bytes: int = 64 << 
     with h5py.File(path, "r") as f:
         dset = f[DATA_NAME[header.kind]]
         for start in range(0, shape[0], rows):
-            block = np.abs(dset[start:start + rows]).astype(np.float32)
+            block = np.abs(dset[start : start + rows]).astype(np.float32)
             block = np.where(np.isfinite(block), block, 0.0)
             start_out = start // factors[0]
             pooled = _max_pool(block, factors)
-            preview[start_out:start_out + pooled.shape[0]] = pooled
+            preview[start_out : start_out + pooled.shape[0]] = pooled
     coords = {d: _block_centres(np.asarray(header.coords[d], dtype=float), f) for d, f in zip(dims, factors)}
     return preview, dims, coords, factors
 

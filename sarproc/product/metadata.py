@@ -79,8 +79,15 @@ class RadarMetadata:
         return 0.886 * C / (2.0 * self.bandwidth)
 
     def validate(self) -> None:
-        positive = ("carrier_frequency", "bandwidth", "pulse_duration", "range_sampling_rate", "prf",
-                    "velocity", "reference_range")
+        positive = (
+            "carrier_frequency",
+            "bandwidth",
+            "pulse_duration",
+            "range_sampling_rate",
+            "prf",
+            "velocity",
+            "reference_range",
+        )
         for name in positive:
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
@@ -112,8 +119,10 @@ class RadarMetadata:
         if self.antenna_pattern is not None and self.antenna_pattern not in ("sinc", "gaussian", "rect"):
             raise InputError(f"radar.antenna_pattern: {self.antenna_pattern!r} is not one of sinc, gaussian, rect")
         if self.polarization is not None and not POLARIZATION_RE.fullmatch(self.polarization):
-            raise InputError(f"radar.polarization: {self.polarization!r} is not TX:RCV with TX, RCV one of "
-                             f"{', '.join(POLARIZATIONS)} (e.g. 'V:V', 'H:V')")
+            raise InputError(
+                f"radar.polarization: {self.polarization!r} is not TX:RCV with TX, RCV one of "
+                f"{', '.join(POLARIZATIONS)} (e.g. 'V:V', 'H:V')"
+            )
 
     def to_attrs(self) -> dict:
         """HDF5 attributes: every set field (None ones are left out) and a JSON ``units`` map."""
@@ -143,7 +152,7 @@ class RadarMetadata:
         except InputError as exc:
             msg = str(exc)
             if msg.startswith("radar."):  # name the file and the attribute: "<file>: radar: attribute 'prf': ..."
-                key, _, rest = msg[len("radar."):].partition(":")
+                key, _, rest = msg[len("radar.") :].partition(":")
                 raise InputError(f"{where}: attribute {key!r}:{rest}") from None
             raise InputError(f"{where}: {msg}") from None
         return meta
@@ -157,12 +166,29 @@ class RadarMetadata:
 
 # Units of the radar attributes (CF/UDUNITS spellings), stored as the group's JSON ``units`` map.
 RADAR_UNITS = {
-    "carrier_frequency": "Hz", "bandwidth": "Hz", "pulse_duration": "s", "chirp_rate": "Hz/s",
-    "range_sampling_rate": "Hz", "prf": "Hz", "velocity": "m/s", "altitude": "m", "squint": "rad",
-    "reference_range": "m", "scene_center": "m", "mode": "", "azimuth_beamwidth": "rad",
-    "elevation_beamwidth": "rad", "aperture_time": "s", "n_channels": "1", "beam_rotation_range": "m",
-    "reference_utc": "UTC (ISO 8601)", "reference_latitude": "rad", "reference_longitude": "rad",
-    "reference_height": "m", "polarization": "", "antenna_pattern": "",
+    "carrier_frequency": "Hz",
+    "bandwidth": "Hz",
+    "pulse_duration": "s",
+    "chirp_rate": "Hz/s",
+    "range_sampling_rate": "Hz",
+    "prf": "Hz",
+    "velocity": "m/s",
+    "altitude": "m",
+    "squint": "rad",
+    "reference_range": "m",
+    "scene_center": "m",
+    "mode": "",
+    "azimuth_beamwidth": "rad",
+    "elevation_beamwidth": "rad",
+    "aperture_time": "s",
+    "n_channels": "1",
+    "beam_rotation_range": "m",
+    "reference_utc": "UTC (ISO 8601)",
+    "reference_latitude": "rad",
+    "reference_longitude": "rad",
+    "reference_height": "m",
+    "polarization": "",
+    "antenna_pattern": "",
 }
 
 _STRING_FIELDS = ("mode", "reference_utc", "polarization", "antenna_pattern")
@@ -186,8 +212,10 @@ def _attr_as(name: str, v, where: str):
         return v
     unit = RADAR_UNITS.get(name, "")
     if arr.dtype.kind not in "fiu":
-        raise InputError(f"{where}: attribute {name!r} must be a number{' in ' + unit if unit not in ('', '1') else ''}"
-                         f", got {arr.dtype.name} {v!r}; store it as a float in SI")
+        raise InputError(
+            f"{where}: attribute {name!r} must be a number{' in ' + unit if unit not in ('', '1') else ''}"
+            f", got {arr.dtype.name} {v!r}; store it as a float in SI"
+        )
     if name == "scene_center":
         if arr.size != 3:
             raise InputError(f"{where}: attribute 'scene_center' must hold 3 numbers (x, y, z) m, got {arr.size}")
@@ -215,7 +243,9 @@ def parse_utc(text: str, where: str = "reference time") -> str:
     try:
         t = dt.datetime.fromisoformat(s[:-1] + "+00:00" if s.endswith(("Z", "z")) else s)
     except ValueError:
-        raise InputError(f"{where}: cannot read {text!r} as an ISO 8601 time; write e.g. '2024-05-01T10:00:00Z'") from None
+        raise InputError(
+            f"{where}: cannot read {text!r} as an ISO 8601 time; write e.g. '2024-05-01T10:00:00Z'"
+        ) from None
     if t.tzinfo is None:
         raise InputError(f"{where}: {text!r} has no time zone; append 'Z' for UTC")
     return t.astimezone(dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%fZ")

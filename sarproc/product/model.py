@@ -28,23 +28,35 @@ TARGET_IRW_FIELDS = tuple(f"irw_{a}" for a in TARGET_AXES)
 TARGET_NULL_FIELDS = tuple(f"null_{a}" for a in TARGET_AXES)
 TARGET_SIDELOBE_FIELDS = tuple(f"{m}_{a}" for m in ("pslr", "islr") for a in TARGET_AXES)
 TARGET_THEORY_FIELDS = TARGET_IRW_FIELDS + TARGET_NULL_FIELDS + TARGET_SIDELOBE_FIELDS
-TARGET_DTYPE = np.dtype([
-    ("name", "S32"),
-    ("x", "f8"), ("y", "f8"), ("z", "f8"),
-    ("azimuth", "f8"), ("range", "f8"), ("elevation", "f8"),
-    ("amplitude", "c16"),
-    ("vx", "f8"), ("vy", "f8"), ("vz", "f8"),
-] + [(f, "f8") for f in TARGET_THEORY_FIELDS])
+TARGET_DTYPE = np.dtype(
+    [
+        ("name", "S32"),
+        ("x", "f8"),
+        ("y", "f8"),
+        ("z", "f8"),
+        ("azimuth", "f8"),
+        ("range", "f8"),
+        ("elevation", "f8"),
+        ("amplitude", "c16"),
+        ("vx", "f8"),
+        ("vy", "f8"),
+        ("vz", "f8"),
+    ]
+    + [(f, "f8") for f in TARGET_THEORY_FIELDS]
+)
 
-UNITS = {"azimuth_time": "s", "range_time": "s", "channel": "1", "azimuth": "m", "range": "m",
-         "elevation": "rad"}
+UNITS = {"azimuth_time": "s", "range_time": "s", "channel": "1", "azimuth": "m", "range": "m", "elevation": "rad"}
 
 # Dims of the data set of each kind (the reader refuses others).
-KIND_DIMS = {"raw": ("azimuth_time", "range_time"), "preprocessed": ("azimuth_time", "range_time"),
-             "coarse": ("azimuth_time", "range_time"),
-             "raw_multichannel": ("channel", "azimuth_time", "range_time"),
-             "raw_array": ("channel", "azimuth_time", "range_time"),
-             "image": ("azimuth", "range"), "image3d": ("elevation", "azimuth", "range")}
+KIND_DIMS = {
+    "raw": ("azimuth_time", "range_time"),
+    "preprocessed": ("azimuth_time", "range_time"),
+    "coarse": ("azimuth_time", "range_time"),
+    "raw_multichannel": ("channel", "azimuth_time", "range_time"),
+    "raw_array": ("channel", "azimuth_time", "range_time"),
+    "image": ("azimuth", "range"),
+    "image3d": ("elevation", "azimuth", "range"),
+}
 
 # The moving-target table of ``reconstruct`` (one row per detected mover), carried by every later stage
 # like any aux array: aux ``moving_targets`` (mover, moving_target_field), float64, columns in this order.
@@ -56,9 +68,11 @@ MOVING_TARGET_COLUMNS = (
     ("v_a", "m/s", "estimated along-track velocity"),
     ("v_a_sigma", "m/s", "its 1-sigma uncertainty"),
     ("apparent_x", "m", "static-equivalent (apparent) position, scene frame"),
-    ("apparent_y", "m", ""), ("apparent_z", "m", ""),
+    ("apparent_y", "m", ""),
+    ("apparent_z", "m", ""),
     ("relocated_x", "m", "relocated position at azimuth time 0 (apparent position and estimated velocity)"),
-    ("relocated_y", "m", ""), ("relocated_z", "m", ""),
+    ("relocated_y", "m", ""),
+    ("relocated_z", "m", ""),
     ("relocation_sigma", "m", "1-sigma relocation uncertainty along track implied by the velocity uncertainties"),
     ("apparent_time", "s", "beam-centre time of the apparent position"),
     ("range_cell_first", "1", "first walk-corrected range cell of the mover's window"),
@@ -90,30 +104,65 @@ AUX_LAYOUT = {
     "tx_offset": (("xyz",), "m", "transmitter offset from the platform position"),
     "rx_offset": (("receiver", "xyz"), "m", "receiver offsets from the platform position"),
     "range_gate_offset": (("pulse",), "s", "receive-window start offset per pulse"),
-    "moving_targets": (("mover", "moving_target_field"), "see long_name", "moving targets found by reconstruct; "
-                       "columns: " + ", ".join(f"{n} ({u})" for n, u, _ in MOVING_TARGET_COLUMNS)),
+    "moving_targets": (
+        ("mover", "moving_target_field"),
+        "see long_name",
+        "moving targets found by reconstruct; columns: " + ", ".join(f"{n} ({u})" for n, u, _ in MOVING_TARGET_COLUMNS),
+    ),
 }
-AUX_DIM_DOC = {"pulse": "transmit pulse index", "receiver": "receive channel index",
-               "xyz": "scene-frame component: 0 = x (along track), 1 = y, 2 = z (up)"}
+AUX_DIM_DOC = {
+    "pulse": "transmit pulse index",
+    "receiver": "receive channel index",
+    "xyz": "scene-frame component: 0 = x (along track), 1 = y, 2 = z (up)",
+}
 
 # Units of the targets table's fields (the table is a compound dataset: one map, no single unit).
-TARGET_UNITS = {"name": "", "x": "m", "y": "m", "z": "m", "azimuth": "m", "range": "m", "elevation": "rad",
-                "amplitude": "1", "vx": "m/s", "vy": "m/s", "vz": "m/s",
-                "irw_azimuth": "m", "irw_range": "m", "irw_elevation": "rad",
-                "null_azimuth": "m", "null_range": "m", "null_elevation": "rad",
-                **{f: "dB" for f in TARGET_SIDELOBE_FIELDS}}
+TARGET_UNITS = {
+    "name": "",
+    "x": "m",
+    "y": "m",
+    "z": "m",
+    "azimuth": "m",
+    "range": "m",
+    "elevation": "rad",
+    "amplitude": "1",
+    "vx": "m/s",
+    "vy": "m/s",
+    "vz": "m/s",
+    "irw_azimuth": "m",
+    "irw_range": "m",
+    "irw_elevation": "rad",
+    "null_azimuth": "m",
+    "null_range": "m",
+    "null_elevation": "rad",
+    **{f: "dB" for f in TARGET_SIDELOBE_FIELDS},
+}
 
 # Units of the numeric attributes stages put on the data set, stored as its JSON map
 # ``attribute_units`` and type-checked by the reader (a number, or a list of numbers).
 DATA_ATTR_UNITS = {
-    "azimuth_sampling_rate": "Hz", "deramp_rate": "Hz/s", "coarse_reference_range": "m",
-    "aperture_start": "s", "aperture_end": "s", "n_pulses": "1", "total_doppler_bandwidth": "Hz",
-    "deramp_spread": "Hz", "deramp_extent": "Hz", "scene_box": "m",
+    "azimuth_sampling_rate": "Hz",
+    "deramp_rate": "Hz/s",
+    "coarse_reference_range": "m",
+    "aperture_start": "s",
+    "aperture_end": "s",
+    "n_pulses": "1",
+    "total_doppler_bandwidth": "Hz",
+    "deramp_spread": "Hz",
+    "deramp_extent": "Hz",
+    "scene_box": "m",
     "theoretical_irw": "axis units (m; rad for elevation)",
 }
 
-DATA_NAME = {"raw": "signal", "raw_multichannel": "signal", "raw_array": "signal",
-             "preprocessed": "signal", "coarse": "signal", "image": "image", "image3d": "image"}
+DATA_NAME = {
+    "raw": "signal",
+    "raw_multichannel": "signal",
+    "raw_array": "signal",
+    "preprocessed": "signal",
+    "coarse": "signal",
+    "image": "image",
+    "image3d": "image",
+}
 
 
 @dataclasses.dataclass
@@ -148,8 +197,9 @@ class Product:
 
     def derive(self, kind: str, data, dims, coords, **changes) -> "Product":
         """New product from this one (targets, radar, aux and history carried forward)."""
-        base = dict(radar=self.radar, targets=self.targets.copy(), attrs={}, aux=dict(self.aux),
-                    history=list(self.history))
+        base = dict(
+            radar=self.radar, targets=self.targets.copy(), attrs={}, aux=dict(self.aux), history=list(self.history)
+        )
         base.update(changes)
         return Product(kind=kind, data=data, dims=tuple(dims), coords=dict(coords), **base)
 

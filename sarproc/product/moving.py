@@ -61,8 +61,10 @@ def pulse_times(product) -> np.ndarray:
         return np.asarray(product.coords["azimuth_time"], float)
     pos = product.aux.get("platform_position")
     if pos is None:
-        raise InputError("product has neither an azimuth_time axis nor aux platform_position: "
-                         "the pulse times of its moving targets are unknown")
+        raise InputError(
+            "product has neither an azimuth_time axis nor aux platform_position: "
+            "the pulse times of its moving targets are unknown"
+        )
     return np.asarray(pos, float)[:, 0] / product.radar.velocity
 
 
@@ -122,8 +124,10 @@ def static_equivalent(xyz_at_tc, velocity, platform_position, platform_speed: fl
     uz = u[2]
     across2 = 1.0 - ux**2 - uz**2
     if across2 < 0:
-        raise InputError(f"moving target: range rate {-ux * platform_speed:.1f} m/s exceeds what a static point "
-                         f"can have at this elevation; no static-equivalent position")
+        raise InputError(
+            f"moving target: range rate {-ux * platform_speed:.1f} m/s exceeds what a static point "
+            f"can have at this elevation; no static-equivalent position"
+        )
     uy = math.copysign(math.sqrt(across2), u[1] if u[1] != 0 else 1.0)
     return p + r * np.array([ux, uy, uz])
 
@@ -150,8 +154,15 @@ def apparent_position(radar: RadarMetadata, times, xyz, velocity, positions=None
     return static_equivalent(xyz + velocity * t_c, velocity, p, radar.velocity), t_c
 
 
-def relocate(radar: RadarMetadata, times, apparent_xyz, velocity, positions=None,
-             tolerance: float = 1e-4, max_iterations: int = 50) -> np.ndarray:
+def relocate(
+    radar: RadarMetadata,
+    times,
+    apparent_xyz,
+    velocity,
+    positions=None,
+    tolerance: float = 1e-4,
+    max_iterations: int = 50,
+) -> np.ndarray:
     """Position at azimuth time 0 of a point moving at ``velocity`` that appears at ``apparent_xyz``.
 
     Solves apparent_position(T_0) = S by fixed-point steps T_0 <- T_0 + (S - S(T_0)) (the map is a
@@ -167,8 +178,10 @@ def relocate(radar: RadarMetadata, times, apparent_xyz, velocity, positions=None
         t0 = t0 + err
         if float(np.linalg.norm(err)) < tolerance:
             return t0
-    raise InputError(f"relocate: no position at time 0 appears at {s.tolist()} with velocity {velocity.tolist()} "
-                     f"(residual {float(np.linalg.norm(err)):.3g} m after {max_iterations} steps)")
+    raise InputError(
+        f"relocate: no position at time 0 appears at {s.tolist()} with velocity {velocity.tolist()} "
+        f"(residual {float(np.linalg.norm(err)):.3g} m after {max_iterations} steps)"
+    )
 
 
 def apparent_targets(targets: np.ndarray, radar: RadarMetadata, times, frame, positions=None) -> np.ndarray:
@@ -204,8 +217,9 @@ def scene_velocity(xyz, v_a: float, v_r: float, altitude: float) -> np.ndarray:
     return np.array([v_a, v_r * rho / xyz[1], 0.0])
 
 
-def first_order_shift(radar: RadarMetadata, slant_range: float, v_a: float, v_r: float,
-                      squint: float | None = None) -> tuple[float, float]:
+def first_order_shift(
+    radar: RadarMetadata, slant_range: float, v_a: float, v_r: float, squint: float | None = None
+) -> tuple[float, float]:
     """(d azimuth, d range) in the squint frame, m, of S from the target at t_c (module docstring).
 
     Slant plane, beam-centre squint ``squint`` (default the radar's); a check and a rule of thumb,

@@ -48,21 +48,21 @@ class Interrupted(BaseException):
 
 class _Run:
     def __init__(self):
-        self.fired: list[int] = []      # the stop signal received (kept apart from the exception it raised)
-        self.defer = 0                  # inside a critical section: act on a signal at its end
+        self.fired: list[int] = []  # the stop signal received (kept apart from the exception it raised)
+        self.defer = 0  # inside a critical section: act on a signal at its end
         self.planned: set[str] = set()
         self.published: list[Path] = []
-        self.removable: list[Path] = []     # published regular files (a stream cannot be taken back)
+        self.removable: list[Path] = []  # published regular files (a stream cannot be taken back)
         self.locks: dict[str, tuple[int, Path]] = {}
         self.stdout_taken = False
         self.keep_published = False
-        self.temporaries: set[str] = set()   # made and not yet published or removed
+        self.temporaries: set[str] = set()  # made and not yet published or removed
 
 
 _RUN: _Run | None = None
-_ENDED = [False]                # the run has ended: its exit status is decided, a late signal changes nothing
-_EARLY: list[int] = []          # a signal before the run began: acted on when it begins
-_mutex = threading.RLock()      # sweep steps may plan outputs from several threads
+_ENDED = [False]  # the run has ended: its exit status is decided, a late signal changes nothing
+_EARLY: list[int] = []  # a signal before the run began: acted on when it begins
+_mutex = threading.RLock()  # sweep steps may plan outputs from several threads
 
 
 def _key(path) -> str:
@@ -70,6 +70,7 @@ def _key(path) -> str:
 
 
 # ---- signals -----------------------------------------------------------------------------------------------------
+
 
 def _handler(signum, frame):
     run = _RUN
@@ -79,7 +80,7 @@ def _handler(signum, frame):
         if not _ENDED[0] and not _EARLY:
             _EARLY.append(signum)
         return
-    if run.fired:              # already stopping (cleaning up): later deliveries change nothing
+    if run.fired:  # already stopping (cleaning up): later deliveries change nothing
         return
     run.fired.append(signum)
     if run.defer or complete():
@@ -148,12 +149,13 @@ def critical():
 
 # ---- the run -----------------------------------------------------------------------------------------------------
 
+
 def begin() -> None:
     """Start recording a run (the CLI, around one command)."""
     global _RUN
     _ENDED[0] = False
     _RUN = _Run()
-    _RUN.fired.extend(_EARLY[:1])   # a signal during argument parsing: the caller's first check() stops the run
+    _RUN.fired.extend(_EARLY[:1])  # a signal during argument parsing: the caller's first check() stops the run
     _EARLY.clear()
 
 
@@ -228,7 +230,7 @@ def mark_published(path, stream: bool = False) -> None:
         run.published.append(Path(path))
         if not stream:
             run.removable.append(Path(path))
-        run.planned.add(_key(path))   # an output nobody planned (a sweep's records) counts as planned and done
+        run.planned.add(_key(path))  # an output nobody planned (a sweep's records) counts as planned and done
         held = run.locks.pop(_key(path), None)
     if held is not None:
         _unlock(*held)
@@ -245,6 +247,7 @@ def stdout_taken() -> bool:
 
 
 # ---- locks -------------------------------------------------------------------------------------------------------
+
 
 def lock_path(output: Path) -> Path:
     return output.parent / f".{output.name}{LOCK_SUFFIX}"
@@ -270,7 +273,7 @@ def _lock(output: Path) -> tuple[int, Path]:
     while True:
         try:
             fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o666)
-        except PermissionError:   # another user's lock file: locking needs only a readable descriptor
+        except PermissionError:  # another user's lock file: locking needs only a readable descriptor
             fd = os.open(path, os.O_RDONLY | os.O_CLOEXEC)
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -280,8 +283,10 @@ def _lock(output: Path) -> tuple[int, Path]:
                 raise
             who = _holder(fd)
             os.close(fd)
-            raise InputError(f"{output}: another sarproc run is writing this output ({who}); "
-                             "wait for it to end or choose another output") from None
+            raise InputError(
+                f"{output}: another sarproc run is writing this output ({who}); "
+                "wait for it to end or choose another output"
+            ) from None
         # The previous holder removes the file before it lets go: locked a removed file? Start again.
         try:
             same = os.path.samestat(os.fstat(fd), os.stat(path))
@@ -298,6 +303,6 @@ def _lock(output: Path) -> tuple[int, Path]:
 
 def _unlock(fd: int, path: Path) -> None:
     with contextlib.suppress(OSError):
-        os.unlink(path)     # while still held: a run that opened it meanwhile sees it removed and retries
+        os.unlink(path)  # while still held: a run that opened it meanwhile sees it removed and retries
     with contextlib.suppress(OSError):
         os.close(fd)

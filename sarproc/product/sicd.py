@@ -29,8 +29,8 @@ from sarproc.product.model import Product
 
 log = logging.getLogger(__name__)
 
-SICD_VERSIONS = ("1.4.0", "1.3.0")   # 1.3.0 for readers that predate 1.4.0 (sarpy <= 2.1.1 knows up to 1.3.0)
-KAPFAC = 0.88589   # -3 dB width x bandwidth of a uniformly weighted response (SICD's 0.886, sarkit's 0.8859)
+SICD_VERSIONS = ("1.4.0", "1.3.0")  # 1.3.0 for readers that predate 1.4.0 (sarpy <= 2.1.1 knows up to 1.3.0)
+KAPFAC = 0.88589  # -3 dB width x bandwidth of a uniformly weighted response (SICD's 0.886, sarkit's 0.8859)
 MODE_TYPE = {"spotlight": "SPOTLIGHT", "stripmap": "STRIPMAP", "sliding_spotlight": "DYNAMIC STRIPMAP"}
 
 
@@ -55,7 +55,7 @@ def fit_position_poly(t: np.ndarray, ecf: np.ndarray, max_order: int = 5) -> tup
     order = int(min(max_order, len(t) - 1))
     scale = max(float(np.abs(t).max()), 1e-9)
     coefs = np.polynomial.polynomial.polyfit(t / scale, ecf, order)
-    coefs = coefs / scale ** np.arange(order + 1)[:, None]      # back to powers of seconds
+    coefs = coefs / scale ** np.arange(order + 1)[:, None]  # back to powers of seconds
     resid = float(np.abs(np.polynomial.polynomial.polyval(t, coefs).T - ecf).max())
     return coefs, resid
 
@@ -72,12 +72,14 @@ class SicdGrid:
     scp_scene: np.ndarray
     flip_cols: bool
     shape: tuple[int, int]
-    carrier: tuple[float, float] = (0.0, 0.0)   # (row, col) cycles/m the product's pixels carry at the SCP
+    carrier: tuple[float, float] = (0.0, 0.0)  # (row, col) cycles/m the product's pixels carry at the SCP
 
     def offsets(self) -> tuple[np.ndarray, np.ndarray]:
         """SICD image coordinates (x of each row, y of each column), m from the SCP."""
-        return ((np.arange(self.shape[0]) - self.scp_pixel[0]) * self.ss_row,
-                (np.arange(self.shape[1]) - self.scp_pixel[1]) * self.ss_col)
+        return (
+            (np.arange(self.shape[0]) - self.scp_pixel[0]) * self.ss_row,
+            (np.arange(self.shape[1]) - self.scp_pixel[1]) * self.ss_col,
+        )
 
 
 def image_grid(product: Product, place: Placement, tol: float = 1e-3, scp_at=None) -> SicdGrid:
@@ -87,8 +89,9 @@ def image_grid(product: Product, place: Placement, tol: float = 1e-3, scp_at=Non
     when the point is not on a pixel of the image).
     """
     if product.kind != "image" or product.dims != ("azimuth", "range"):
-        raise InputError(f"SICD export needs a 2D image product with dims (azimuth, range), got {product.kind} "
-                         f"{product.dims}")
+        raise InputError(
+            f"SICD export needs a 2D image product with dims (azimuth, range), got {product.kind} {product.dims}"
+        )
     frame = frame_from_spec(product.attrs["frame"])
     az, rg = (np.asarray(product.coords[d], float) for d in ("azimuth", "range"))
     for name, ax in (("azimuth", az), ("range", rg)):
@@ -100,9 +103,11 @@ def image_grid(product: Product, place: Placement, tol: float = 1e-3, scp_at=Non
         fa, fr = (float(np.asarray(c).reshape(-1)[0]) for c in frame.from_xyz(np.asarray(scp_at, float).reshape(1, 3)))
         fi, fj = (fa - az[0]) / (az[1] - az[0]), (fr - rg[0]) / (rg[1] - rg[0])
         i0, j0 = int(round(fi)), int(round(fj))
-        if (abs(fi - i0) > 1e-6 or abs(fj - j0) > 1e-6 or not 0 <= i0 < len(az) or not 0 <= j0 < len(rg)):
-            raise InputError(f"SICD export: the reference point {np.round(np.asarray(scp_at, float), 3).tolist()} m "
-                             f"is not on a pixel of the image (pixel {fi:.3f}, {fj:.3f})")
+        if abs(fi - i0) > 1e-6 or abs(fj - j0) > 1e-6 or not 0 <= i0 < len(az) or not 0 <= j0 < len(rg):
+            raise InputError(
+                f"SICD export: the reference point {np.round(np.asarray(scp_at, float), 3).tolist()} m "
+                f"is not on a pixel of the image (pixel {fi:.3f}, {fj:.3f})"
+            )
     p0 = frame.to_xyz(az[i0], rg[j0])
     d_col = frame.to_xyz(az[i0 + 1 if i0 + 1 < len(az) else i0 - 1], rg[j0]) - p0
     d_row = frame.to_xyz(az[i0], rg[j0 + 1 if j0 + 1 < len(rg) else j0 - 1]) - p0
@@ -112,18 +117,32 @@ def image_grid(product: Product, place: Placement, tol: float = 1e-3, scp_at=Non
     for i, j in ((0, 0), (0, len(rg) - 1), (len(az) - 1, 0), (len(az) - 1, len(rg) - 1)):
         err = np.linalg.norm(frame.to_xyz(az[i], rg[j]) - (p0 + (i - i0) * d_col + (j - j0) * d_row))
         if err > tol:
-            raise InputError(f"SICD export: frame {frame.name!r} is not a plane grid ({err:.3g} m off at a corner); "
-                             "focus onto a planar frame (los, ground, ground_los)")
-    u_row, u_col = place.vector_to_ecf(d_row / np.linalg.norm(d_row)), place.vector_to_ecf(d_col / np.linalg.norm(d_col))
+            raise InputError(
+                f"SICD export: frame {frame.name!r} is not a plane grid ({err:.3g} m off at a corner); "
+                "focus onto a planar frame (los, ground, ground_los)"
+            )
+    u_row, u_col = (
+        place.vector_to_ecf(d_row / np.linalg.norm(d_row)),
+        place.vector_to_ecf(d_col / np.linalg.norm(d_col)),
+    )
     if abs(float(u_row @ u_col)) > 1e-6:
-        raise InputError(f"SICD export: frame {frame.name!r} has skewed axes (cos = {float(u_row @ u_col):.3g}); "
-                         "SICD PLANE grids need orthogonal rows and columns: focus onto los, ground or ground_los")
+        raise InputError(
+            f"SICD export: frame {frame.name!r} has skewed axes (cos = {float(u_row @ u_col):.3g}); "
+            "SICD PLANE grids need orthogonal rows and columns: focus onto los, ground or ground_los"
+        )
     up = place.rotation[:, 2]
-    flip = float(np.cross(u_row, u_col) @ up) < 0     # SICD: row x col points away from the Earth
+    flip = float(np.cross(u_row, u_col) @ up) < 0  # SICD: row x col points away from the Earth
     col = len(az) - 1 - i0 if flip else i0
-    return SicdGrid(u_row=u_row, u_col=-u_col if flip else u_col, ss_row=float(np.linalg.norm(d_row)),
-                    ss_col=float(np.linalg.norm(d_col)), scp_pixel=(j0, col), scp_scene=p0, flip_cols=flip,
-                    shape=(len(rg), len(az)))
+    return SicdGrid(
+        u_row=u_row,
+        u_col=-u_col if flip else u_col,
+        ss_row=float(np.linalg.norm(d_row)),
+        ss_col=float(np.linalg.norm(d_col)),
+        scp_pixel=(j0, col),
+        scp_scene=p0,
+        flip_cols=flip,
+        shape=(len(rg), len(az)),
+    )
 
 
 def _carrier_phasors(grid: SicdGrid) -> tuple[np.ndarray, np.ndarray]:
@@ -171,14 +190,16 @@ def local_support_offsets(tree, pixels: np.ndarray, points, half: int = 16) -> n
     import sarkit.sicd as sksicd
 
     xml = sksicd.XmlHelper(tree)
-    grid = {a: {k: xml.load(f"./{{*}}Grid/{{*}}{a}/{{*}}{k}") for k in ("SS", "DeltaKCOAPoly", "ImpRespBW")}
-            for a in ("Row", "Col")}
+    grid = {
+        a: {k: xml.load(f"./{{*}}Grid/{{*}}{a}/{{*}}{k}") for k in ("SS", "DeltaKCOAPoly", "ImpRespBW")}
+        for a in ("Row", "Col")
+    }
     xy = sksicd.rowcol_to_xrowycol(tree, np.asarray(points, float))
     out = []
     for (r, c), (x, y) in zip(np.asarray(points, int), xy):
         if not (half <= r <= pixels.shape[0] - half and half <= c <= pixels.shape[1] - half):
             raise ValueError(f"pixel ({r}, {c}) is closer than {half} pixels to the edge of the image")
-        win = pixels[r - half:r + half, c - half:c + half]
+        win = pixels[r - half : r + half, c - half : c + half]
         row = []
         for axis, g in enumerate(grid.values()):
             d = spectral_centre(win, axis, g["SS"]) - np.polynomial.polynomial.polyval2d(x, y, g["DeltaKCOAPoly"])
@@ -233,8 +254,14 @@ class SupportModel:
         return 2.0 * self.f_c / C * (np.linalg.norm(p - arp, axis=-1) - r0)
 
 
-def carrier_at_scp(pixels: np.ndarray, grid: SicdGrid, model: SupportModel, tol: float = 0.1,
-                   bandwidth: tuple[float, float] = (np.inf, np.inf), block: int = 256) -> tuple[float, float]:
+def carrier_at_scp(
+    pixels: np.ndarray,
+    grid: SicdGrid,
+    model: SupportModel,
+    tol: float = 0.1,
+    bandwidth: tuple[float, float] = (np.inf, np.inf),
+    block: int = 256,
+) -> tuple[float, float]:
     """DFT frequency (row, col), cycles/m, at which the pixels (the SICD array, no carrier removed) carry the
     SCP's support.
 
@@ -251,13 +278,13 @@ def carrier_at_scp(pixels: np.ndarray, grid: SicdGrid, model: SupportModel, tol:
     x, y = grid.offsets()
     n_rows, n_cols = pixels.shape
     power_row, power_col = np.zeros(n_rows), np.zeros(n_cols)
-    for j0 in range(0, n_cols, block):          # spectrum along the rows (axis 0), column blocks
+    for j0 in range(0, n_cols, block):  # spectrum along the rows (axis 0), column blocks
         sl = slice(j0, min(j0 + block, n_cols))
         ph = model.phase(x[:, None], y[None, sl])
         ph -= np.round(ph)
         deskewed = pixels[:, sl] * np.exp(-2j * np.pi * ph).astype(np.complex64)
         power_row += (np.abs(scipy.fft.fft(deskewed, axis=0, workers=-1)) ** 2).sum(axis=1)
-    for i0 in range(0, n_rows, block):          # spectrum along the columns (axis 1), row blocks
+    for i0 in range(0, n_rows, block):  # spectrum along the columns (axis 1), row blocks
         sl = slice(i0, min(i0 + block, n_rows))
         ph = model.phase(x[sl, None], y[None, :])
         ph -= np.round(ph)
@@ -271,14 +298,19 @@ def carrier_at_scp(pixels: np.ndarray, grid: SicdGrid, model: SupportModel, tol:
         if abs(d) <= tol * bw:
             d = 0.0
         else:
-            log.info("SICD export: the image's spectrum sits %.4g cycles/m (%.0f %% of the bandwidth) off the "
-                     "geometry's carrier: taken as the carrier it was formed about", d, 100 * d / bw)
+            log.info(
+                "SICD export: the image's spectrum sits %.4g cycles/m (%.0f %% of the bandwidth) off the "
+                "geometry's carrier: taken as the carrier it was formed about",
+                d,
+                100 * d / bw,
+            )
         out.append(float(fold(float(k) + d, ss)))
     return out[0], out[1]
 
 
-def delta_kcoa_poly(model: SupportModel, grid: SicdGrid, kctr: tuple[float, float], order: int = 3,
-                    n: int = 12) -> tuple[np.ndarray, np.ndarray, float]:
+def delta_kcoa_poly(
+    model: SupportModel, grid: SicdGrid, kctr: tuple[float, float], order: int = 3, n: int = 12
+) -> tuple[np.ndarray, np.ndarray, float]:
     """DeltaKCOAPoly (row, col) of SICD, 2D polynomials in (x, y) m: the centre of support minus KCtr, fitted
     on n x n points over the image; also the worst misfit, cycles/m."""
     if model.pfa_centre is not None:
@@ -313,7 +345,7 @@ def delta_k_bounds(poly: np.ndarray, grid: SicdGrid, bw: float, ss: float) -> tu
 def formed_by_pfa(product: Product) -> bool:
     """True for images of ``pfa2`` (its last history step, with the k-space rectangle it recorded)."""
     words = str(product.history[-1].get("command", "")).split() if product.history else []
-    if words[:1] == ["sarproc"]:           # the CLI records its command line: "sarproc pfa2 raw.h5 ..."
+    if words[:1] == ["sarproc"]:  # the CLI records its command line: "sarproc pfa2 raw.h5 ..."
         words = words[1:]
     return words[:1] == ["pfa2"] and "support_rectangle" in product.attrs
 
@@ -370,7 +402,7 @@ class PfaGeometry:
     spatial_freq_sf_poly: np.ndarray
     krg: tuple[float, float]
     kaz: tuple[float, float]
-    fit_residual: tuple[float, float]    # worst misfit of PolarAngPoly (rad) and SpatialFreqSFPoly
+    fit_residual: tuple[float, float]  # worst misfit of PolarAngPoly (rad) and SpatialFreqSFPoly
 
 
 def _polyfit_scaled(x: np.ndarray, y: np.ndarray, order: int) -> np.ndarray:
@@ -382,18 +414,18 @@ def _polyfit_scaled(x: np.ndarray, y: np.ndarray, order: int) -> np.ndarray:
 def pfa_geometry(product: Product, grid: SicdGrid, frame, t_rel: np.ndarray, t_coa: float) -> PfaGeometry:
     """PFA parameters of a pfa2 image (scene-frame vectors; the caller maps them to ECF)."""
     pos = np.asarray(product.aux["platform_position"], float)
-    e_row = frame.to_xyz(0.0, 1.0) - frame.to_xyz(0.0, 0.0)          # along range (rows)
-    e_az = frame.to_xyz(1.0, 0.0) - frame.to_xyz(0.0, 0.0)           # along azimuth
+    e_row = frame.to_xyz(0.0, 1.0) - frame.to_xyz(0.0, 0.0)  # along range (rows)
+    e_az = frame.to_xyz(1.0, 0.0) - frame.to_xyz(0.0, 0.0)  # along azimuth
     e_row, e_az = e_row / np.linalg.norm(e_row), e_az / np.linalg.norm(e_az)
     e_col = -e_az if grid.flip_cols else e_az
-    normal = np.cross(e_row, e_col)                                  # away from the Earth (image_grid)
+    normal = np.cross(e_row, e_col)  # away from the Earth (image_grid)
     los = grid.scp_scene[None, :] - pos
     los /= np.linalg.norm(los, axis=1, keepdims=True)
     c_rg, c_az = los @ e_row, los @ e_col
     theta = np.arctan2(c_az, c_rg)
     ksf = np.hypot(c_rg, c_az)
     order_t = int(min(5, len(t_rel) - 1))
-    ang_poly = _polyfit_scaled(t_rel - t_coa, theta, order_t)       # about t_coa, shifted below
+    ang_poly = _polyfit_scaled(t_rel - t_coa, theta, order_t)  # about t_coa, shifted below
     # reference time: where the projected line of sight lies along the rows (theta = 0), nearest the COA
     t_ref = 0.0
     for _ in range(50):
@@ -406,7 +438,7 @@ def pfa_geometry(product: Product, grid: SicdGrid, frame, t_rel: np.ndarray, t_c
     # the same polynomial in powers of (time from collect start)
     shifted = np.polynomial.polynomial.Polynomial(ang_poly)(np.polynomial.polynomial.Polynomial([-t_coa, 1.0]))
     ang_poly_abs = np.asarray(shifted.coef, float)
-    ang_poly_abs[0] -= float(np.polynomial.polynomial.polyval(t_ref + t_coa, ang_poly_abs))   # exactly 0 at t_ref
+    ang_poly_abs[0] -= float(np.polynomial.polynomial.polyval(t_ref + t_coa, ang_poly_abs))  # exactly 0 at t_ref
     order_k = int(min(4, len(theta) - 1))
     ksf_poly = _polyfit_scaled(theta, ksf, order_k) if np.ptp(theta) > 0 else np.array([float(ksf.mean())])
     resid_t = float(np.abs(np.polynomial.polynomial.polyval(t_rel, ang_poly_abs) - theta).max())
@@ -417,11 +449,18 @@ def pfa_geometry(product: Product, grid: SicdGrid, frame, t_rel: np.ndarray, t_c
     ka = np.array([ka0 - dka / 2, ka0 + (n_ka - 0.5) * dka])
     kr = np.array([kr0 - dkr / 2, kr0 + (n_kr - 0.5) * dkr])
     two_pi = 2 * np.pi
-    krg = np.sort(-kr / two_pi)                                      # e_row is pfa2's e_r
+    krg = np.sort(-kr / two_pi)  # e_row is pfa2's e_r
     kaz = np.sort(-ka * float(e_col @ e_az) / two_pi)
-    return PfaGeometry(fpn=normal, ipn=normal, polar_ang_ref_time=float(t_ref + t_coa), polar_ang_poly=ang_poly_abs,
-                       spatial_freq_sf_poly=ksf_poly, krg=(float(krg[0]), float(krg[1])),
-                       kaz=(float(kaz[0]), float(kaz[1])), fit_residual=(resid_t, resid_k))
+    return PfaGeometry(
+        fpn=normal,
+        ipn=normal,
+        polar_ang_ref_time=float(t_ref + t_coa),
+        polar_ang_poly=ang_poly_abs,
+        spatial_freq_sf_poly=ksf_poly,
+        krg=(float(krg[0]), float(krg[1])),
+        kaz=(float(kaz[0]), float(kaz[1])),
+        fit_residual=(resid_t, resid_k),
+    )
 
 
 def sicd_xml(product: Product, place: Placement, *, image_formation: str | None = None, version: str = "1.4.0"):
@@ -451,112 +490,200 @@ def sicd_xml(product: Product, place: Placement, *, image_formation: str | None 
             log.warning("%s: written as ImageFormAlgo OTHER (PFA needs the SCP there)", exc)
             image_formation = "OTHER"
     if image_formation == "PFA" and not polar_format_geometry(product):
-        log.warning("SICD export: ImageFormAlgo PFA for a pfa2 image on the true ground grid (two-step or "
-                    "distortion-corrected): SICD's PFA projection then misplaces pixels by the wavefront curvature")
+        log.warning(
+            "SICD export: ImageFormAlgo PFA for a pfa2 image on the true ground grid (two-step or "
+            "distortion-corrected): SICD's PFA projection then misplaces pixels by the wavefront curvature"
+        )
     t = pulse_times(product)
-    t_rel = t - t[0]                                   # SICD times run from CollectStart
+    t_rel = t - t[0]  # SICD times run from CollectStart
     arp_ecf = place.to_ecf(product.aux["platform_position"])
     arp_poly, resid = fit_position_poly(t_rel, arp_ecf)
     if resid > 0.01:
         raise InputError(f"SICD export: the platform track is not a smooth polynomial (residual {resid:.3g} m)")
     scp_ecf = place.to_ecf(grid.scp_scene)
     scp_llh = ecf_to_geodetic(scp_ecf)
-    t_coa = float(-t[0])                              # aperture centre, where the spotlight COA is
+    t_coa = float(-t[0])  # aperture centre, where the spotlight COA is
     arp_coa = np.polynomial.polynomial.polyval(t_coa, arp_poly)
     u_los = (scp_ecf - arp_coa) / np.linalg.norm(scp_ecf - arp_coa)
-    time_coa = np.array([[t_coa]])                   # spotlight: one centre of aperture for every pixel
+    time_coa = np.array([[t_coa]])  # spotlight: one centre of aperture for every pixel
     if r.mode != "spotlight":
         # beam-limited: the centre of aperture moves with the along-track position (speed v along +x), from
         # the aperture centre at the scene origin; the SCP is the image's centre pixel, scp_scene[0] along track
         vx = place.rotation[:, 0] * r.velocity
-        time_coa = np.array([[t_coa + float(grid.scp_scene[0]) / r.velocity, float(grid.u_col @ vx) / r.velocity**2],
-                             [float(grid.u_row @ vx) / r.velocity**2, 0.0]])
+        time_coa = np.array(
+            [
+                [t_coa + float(grid.scp_scene[0]) / r.velocity, float(grid.u_col @ vx) / r.velocity**2],
+                [float(grid.u_row @ vx) / r.velocity**2, 0.0],
+            ]
+        )
     irw_az, irw_rg = (float(w) for w in product.attrs["theoretical_irw"])
     pfa = None
     if image_formation == "PFA":
         pfa = pfa_geometry(product, grid, frame_from_spec(product.attrs["frame"]), t_rel, t_coa)
         if pfa.fit_residual[0] > 1e-6 or pfa.fit_residual[1] > 1e-6:
-            msg = (f"SICD export: the polar angle / scale factor are not smooth polynomials of the track (residuals "
-                   f"{pfa.fit_residual[0]:.3g} rad, {pfa.fit_residual[1]:.3g})")
+            msg = (
+                f"SICD export: the polar angle / scale factor are not smooth polynomials of the track (residuals "
+                f"{pfa.fit_residual[0]:.3g} rad, {pfa.fit_residual[1]:.3g})"
+            )
             if not auto:
                 raise InputError(msg)
             log.warning("%s: written as ImageFormAlgo OTHER", msg)
-            image_formation, pfa = "OTHER", None      # the SCP on the formatting point is as good for PLANE
+            image_formation, pfa = "OTHER", None  # the SCP on the formatting point is as good for PLANE
     # the centre of support (SICD's KCtr + DeltaKCOAPoly) from the geometry: polar format's processed
     # rectangle (one support for every pixel), else the line of sight at each pixel's centre of aperture
     irw = {"Row": irw_rg, "Col": irw_az}
     bw = {name: KAPFAC / irw[name] for name in irw}
-    model = SupportModel(scp_ecf=scp_ecf, u_row=grid.u_row, u_col=grid.u_col, arp_poly=arp_poly, time_coa=time_coa,
-                         f_c=r.carrier_frequency,
-                         pfa_centre=None if pfa is None else (float(np.mean(pfa.krg)), float(np.mean(pfa.kaz))))
+    model = SupportModel(
+        scp_ecf=scp_ecf,
+        u_row=grid.u_row,
+        u_col=grid.u_col,
+        arp_poly=arp_poly,
+        time_coa=time_coa,
+        f_c=r.carrier_frequency,
+        pfa_centre=None if pfa is None else (float(np.mean(pfa.krg)), float(np.mean(pfa.kaz))),
+    )
     kctr = tuple(float(k) for k in model.centre(0.0, 0.0))
     poly_row, poly_col, misfit = delta_kcoa_poly(model, grid, kctr)
     if misfit > 1e-3 * min(bw.values()):
-        raise InputError(f"SICD export: the centre of support is not a smooth polynomial over the image "
-                         f"(misfit {misfit:.3g} cycles/m)")
+        raise InputError(
+            f"SICD export: the centre of support is not a smooth polynomial over the image "
+            f"(misfit {misfit:.3g} cycles/m)"
+        )
     carrier = carrier_at_scp(sicd_pixels(product.data, grid), grid, model, bandwidth=(bw["Row"], bw["Col"]))
     grid = dataclasses.replace(grid, carrier=carrier)
     dims = {}
-    for name, u, ss, k, poly in (("Row", grid.u_row, grid.ss_row, kctr[0], poly_row),
-                                 ("Col", grid.u_col, grid.ss_col, kctr[1], poly_col)):
+    for name, u, ss, k, poly in (
+        ("Row", grid.u_row, grid.ss_row, kctr[0], poly_row),
+        ("Col", grid.u_col, grid.ss_col, kctr[1], poly_col),
+    ):
         lo, hi = delta_k_bounds(poly, grid, bw[name], ss)
-        dims[name] = {"UVectECF": u, "SS": ss, "ImpRespWid": irw[name], "Sgn": -1, "ImpRespBW": bw[name],
-                      "KCtr": k, "DeltaK1": lo, "DeltaK2": hi, "DeltaKCOAPoly": poly,
-                      "WgtType": {"WindowName": "UNIFORM"}}
+        dims[name] = {
+            "UVectECF": u,
+            "SS": ss,
+            "ImpRespWid": irw[name],
+            "Sgn": -1,
+            "ImpRespBW": bw[name],
+            "KCtr": k,
+            "DeltaK1": lo,
+            "DeltaK2": hi,
+            "DeltaKCOAPoly": poly,
+            "WgtType": {"WindowName": "UNIFORM"},
+        }
     n_rows, n_cols = grid.shape
     collect_start = place.datetime64(float(t[0]))
-    duration = len(t) / r.prf                         # the last pulse's interval included (IPPEnd = n - 1)
+    duration = len(t) / r.prf  # the last pulse's interval included (IPPEnd = n - 1)
     f_lo, f_hi = r.carrier_frequency - r.bandwidth / 2, r.carrier_frequency + r.bandwidth / 2
     created = np.datetime64("now", "us")
     tx_pol, txrcv_pol = polarization(product)
 
     ns = f"urn:SICD:{version}"
     root = sksicd.ElementWrapper(lxml.etree.Element(f"{{{ns}}}SICD"))
-    root["CollectionInfo"] = {"CollectorName": "sarproc simulator", "CoreName": f"sarproc_{product.kind}",
-                              "CollectType": "MONOSTATIC", "RadarMode": {"ModeType": MODE_TYPE.get(r.mode, "SPOTLIGHT")},
-                              "Classification": "UNCLASSIFIED"}
-    root["ImageCreation"] = {"Application": f"sarproc {__version__}", "DateTime": utc_datetime(created),
-                             "Profile": "sarproc export-sicd"}
-    root["ImageData"] = {"PixelType": "RE32F_IM32F", "NumRows": n_rows, "NumCols": n_cols, "FirstRow": 0,
-                         "FirstCol": 0, "FullImage": {"NumRows": n_rows, "NumCols": n_cols},
-                         "SCPPixel": np.array(grid.scp_pixel)}
-    root["GeoData"] = {"EarthModel": "WGS_84",
-                       "SCP": {"ECF": scp_ecf, "LLH": np.array([*np.degrees(scp_llh[:2]), scp_llh[2]])},
-                       "ImageCorners": np.zeros((4, 2))}   # projected below, once the geometry is complete
-    root["Grid"] = {"ImagePlane": "SLANT" if abs(float(np.cross(grid.u_row, grid.u_col) @ place.rotation[:, 2])) < 0.999
-                    else "GROUND", "Type": "RGAZIM" if pfa is not None else "PLANE", "TimeCOAPoly": time_coa,
-                    "Row": dims["Row"], "Col": dims["Col"]}
-    root["Timeline"] = {"CollectStart": utc_datetime(collect_start), "CollectDuration": duration,
-                        "IPP": {"@size": 1, "Set": [{"TStart": 0.0, "TEnd": duration, "IPPStart": 0,
-                                         "IPPEnd": len(t) - 1, "IPPPoly": np.array([0.0, r.prf]),
-                                         "@index": 1}]}}
+    root["CollectionInfo"] = {
+        "CollectorName": "sarproc simulator",
+        "CoreName": f"sarproc_{product.kind}",
+        "CollectType": "MONOSTATIC",
+        "RadarMode": {"ModeType": MODE_TYPE.get(r.mode, "SPOTLIGHT")},
+        "Classification": "UNCLASSIFIED",
+    }
+    root["ImageCreation"] = {
+        "Application": f"sarproc {__version__}",
+        "DateTime": utc_datetime(created),
+        "Profile": "sarproc export-sicd",
+    }
+    root["ImageData"] = {
+        "PixelType": "RE32F_IM32F",
+        "NumRows": n_rows,
+        "NumCols": n_cols,
+        "FirstRow": 0,
+        "FirstCol": 0,
+        "FullImage": {"NumRows": n_rows, "NumCols": n_cols},
+        "SCPPixel": np.array(grid.scp_pixel),
+    }
+    root["GeoData"] = {
+        "EarthModel": "WGS_84",
+        "SCP": {"ECF": scp_ecf, "LLH": np.array([*np.degrees(scp_llh[:2]), scp_llh[2]])},
+        "ImageCorners": np.zeros((4, 2)),
+    }  # projected below, once the geometry is complete
+    root["Grid"] = {
+        "ImagePlane": "SLANT"
+        if abs(float(np.cross(grid.u_row, grid.u_col) @ place.rotation[:, 2])) < 0.999
+        else "GROUND",
+        "Type": "RGAZIM" if pfa is not None else "PLANE",
+        "TimeCOAPoly": time_coa,
+        "Row": dims["Row"],
+        "Col": dims["Col"],
+    }
+    root["Timeline"] = {
+        "CollectStart": utc_datetime(collect_start),
+        "CollectDuration": duration,
+        "IPP": {
+            "@size": 1,
+            "Set": [
+                {
+                    "TStart": 0.0,
+                    "TEnd": duration,
+                    "IPPStart": 0,
+                    "IPPEnd": len(t) - 1,
+                    "IPPPoly": np.array([0.0, r.prf]),
+                    "@index": 1,
+                }
+            ],
+        },
+    }
     root["Position"] = {"ARPPoly": arp_poly}
     root["RadarCollection"] = {
         "TxFrequency": {"Min": f_lo, "Max": f_hi},
-        "Waveform": {"@size": 1, "WFParameters": [{"TxPulseLength": r.pulse_duration, "TxRFBandwidth": r.bandwidth,
-                                       "TxFreqStart": f_lo, "TxFMRate": r.chirp_rate, "RcvDemodType": "CHIRP",
-                                       "ADCSampleRate": r.range_sampling_rate, "RcvFMRate": 0.0, "@index": 1}]},
+        "Waveform": {
+            "@size": 1,
+            "WFParameters": [
+                {
+                    "TxPulseLength": r.pulse_duration,
+                    "TxRFBandwidth": r.bandwidth,
+                    "TxFreqStart": f_lo,
+                    "TxFMRate": r.chirp_rate,
+                    "RcvDemodType": "CHIRP",
+                    "ADCSampleRate": r.range_sampling_rate,
+                    "RcvFMRate": 0.0,
+                    "@index": 1,
+                }
+            ],
+        },
         "TxPolarization": tx_pol,
         "RcvChannels": {"@size": 1, "ChanParameters": [{"TxRcvPolarization": txrcv_pol, "@index": 1}]},
     }
-    root["ImageFormation"] = {"RcvChanProc": {"NumChanProc": 1, "ChanIndex": [1]}, "TxRcvPolarizationProc": txrcv_pol,
-                              "TStartProc": 0.0, "TEndProc": duration,
-                              "TxFrequencyProc": {"MinProc": f_lo, "MaxProc": f_hi},
-                              "ImageFormAlgo": image_formation, "STBeamComp": "NO", "ImageBeamComp": "NO",
-                              "AzAutofocus": "NO", "RgAutofocus": "NO"}
-    if pfa is not None:      # schema order: the PFA block comes last (SCPCOA is put before it below)
-        root["PFA"] = {"FPN": place.vector_to_ecf(pfa.fpn), "IPN": place.vector_to_ecf(pfa.ipn),
-                       "PolarAngRefTime": pfa.polar_ang_ref_time, "PolarAngPoly": pfa.polar_ang_poly,
-                       "SpatialFreqSFPoly": pfa.spatial_freq_sf_poly, "Krg1": pfa.krg[0], "Krg2": pfa.krg[1],
-                       "Kaz1": pfa.kaz[0], "Kaz2": pfa.kaz[1]}
+    root["ImageFormation"] = {
+        "RcvChanProc": {"NumChanProc": 1, "ChanIndex": [1]},
+        "TxRcvPolarizationProc": txrcv_pol,
+        "TStartProc": 0.0,
+        "TEndProc": duration,
+        "TxFrequencyProc": {"MinProc": f_lo, "MaxProc": f_hi},
+        "ImageFormAlgo": image_formation,
+        "STBeamComp": "NO",
+        "ImageBeamComp": "NO",
+        "AzAutofocus": "NO",
+        "RgAutofocus": "NO",
+    }
+    if pfa is not None:  # schema order: the PFA block comes last (SCPCOA is put before it below)
+        root["PFA"] = {
+            "FPN": place.vector_to_ecf(pfa.fpn),
+            "IPN": place.vector_to_ecf(pfa.ipn),
+            "PolarAngRefTime": pfa.polar_ang_ref_time,
+            "PolarAngPoly": pfa.polar_ang_poly,
+            "SpatialFreqSFPoly": pfa.spatial_freq_sf_poly,
+            "Krg1": pfa.krg[0],
+            "Krg2": pfa.krg[1],
+            "Kaz1": pfa.kaz[0],
+            "Kaz2": pfa.kaz[1],
+        }
     tree = root.elem.getroottree()
     scpcoa = sksicd.compute_scp_coa(tree)
     # SCPCOA belongs after ImageFormation (schema order)
     tree.getroot().find(f"{{{ns}}}ImageFormation").addnext(scpcoa)
     # image corners: the corner pixels projected (R/Rdot, SICD vol. 3) onto the SCP's height above the ellipsoid
     corners_rc = np.array([(0, 0), (0, n_cols - 1), (n_rows - 1, n_cols - 1), (n_rows - 1, 0)])
-    ground, _, ok = sksicd.image_to_constant_hae_surface(tree, sksicd.rowcol_to_xrowycol(tree, corners_rc),
-                                                         float(scp_llh[2]))
+    ground, _, ok = sksicd.image_to_constant_hae_surface(
+        tree, sksicd.rowcol_to_xrowycol(tree, corners_rc), float(scp_llh[2])
+    )
     if not ok:
         raise InputError("SICD export: the image corners do not project onto the ground")
     corners_llh = ecf_to_geodetic(ground)
@@ -566,9 +693,9 @@ def sicd_xml(product: Product, place: Placement, *, image_formation: str | None 
     return tree, grid
 
 
-
-def write_sicd(path, product: Product, place: Placement, *, image_formation: str | None = None,
-               version: str = "1.4.0") -> SicdGrid:
+def write_sicd(
+    path, product: Product, place: Placement, *, image_formation: str | None = None, version: str = "1.4.0"
+) -> SicdGrid:
     """Write ``product`` (a 2D image) as a SICD NITF file (SICD ``version``) at ``path`` (atomically)."""
     require_sarkit()
     import sarkit.sicd as sksicd
@@ -577,9 +704,12 @@ def write_sicd(path, product: Product, place: Placement, *, image_formation: str
 
     tree, grid = sicd_xml(product, place, image_formation=image_formation, version=version)
     security = {"security": {"clas": "U"}}
-    meta = sksicd.NitfMetadata(xmltree=tree, file_header_part={"ostaid": "sarproc", "ftitle": "sarproc SICD"} | security,
-                               im_subheader_part={"isorce": "sarproc simulation"} | security,
-                               de_subheader_part=security)
+    meta = sksicd.NitfMetadata(
+        xmltree=tree,
+        file_header_part={"ostaid": "sarproc", "ftitle": "sarproc SICD"} | security,
+        im_subheader_part={"isorce": "sarproc simulation"} | security,
+        de_subheader_part=security,
+    )
     with atomic_path(path) as tmp, open(tmp, "wb") as fh, sksicd.NitfWriter(fh, meta) as writer:
         writer.write_image(sicd_pixels(product.data, grid))
     return grid
@@ -606,9 +736,15 @@ def consistency_summary(con) -> dict:
     for name, result in con.failures().items():
         severities = {d["severity"] for d in result["details"] if not d["passed"]}
         (errors if "Error" in severities else warnings).append(name)
-    return {"passed": not errors, "checks": len(con.all()), "n_passed": len(con.passes()),
-            "n_skipped": len(con.skips()), "errors": sorted(errors), "warnings": sorted(warnings),
-            "report": text.getvalue()}
+    return {
+        "passed": not errors,
+        "checks": len(con.all()),
+        "n_passed": len(con.passes()),
+        "n_skipped": len(con.skips()),
+        "errors": sorted(errors),
+        "warnings": sorted(warnings),
+        "report": text.getvalue(),
+    }
 
 
 def check_sicd(path) -> dict:
@@ -651,7 +787,7 @@ def sarpy_check(path) -> dict:
     logger.propagate = False
     try:
         with warnings.catch_warnings():
-            warnings.simplefilter("ignore", DeprecationWarning)     # sarpy 2.x deprecates itself for sarkit
+            warnings.simplefilter("ignore", DeprecationWarning)  # sarpy 2.x deprecates itself for sarkit
             valid = bool(sicd_consistency.check_file(str(path)))
     finally:
         logger.removeHandler(handler)
@@ -661,5 +797,10 @@ def sarpy_check(path) -> dict:
     def messages(level):
         return [r.getMessage().strip() for r in handler.records if r.levelno == level and r.getMessage().strip()]
 
-    return {"sarpy": sarpy.__version__, "valid": valid, "errors": messages(logging.ERROR),
-            "warnings": messages(logging.WARNING), "info": messages(logging.INFO)}
+    return {
+        "sarpy": sarpy.__version__,
+        "valid": valid,
+        "errors": messages(logging.ERROR),
+        "warnings": messages(logging.WARNING),
+        "info": messages(logging.INFO),
+    }

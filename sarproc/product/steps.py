@@ -17,7 +17,7 @@ def steps(progress, total: int):
     if progress is None or total <= 0:
         return lambda n=1: None
     it = iter(progress(range(total), total=total))
-    next(it, None)           # open the bar; each further next() marks one unit done
+    next(it, None)  # open the bar; each further next() marks one unit done
 
     def done(n: int = 1) -> None:
         for _ in range(n):

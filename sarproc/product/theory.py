@@ -27,10 +27,10 @@ from sarproc.product import beam
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import C
 
-WINDOWS = ("none", "hamming")     # the weighting windows every processor offers (range and azimuth)
-ISLR_NULLS = 10.0                 # the contract's ISLR window, +-nulls
+WINDOWS = ("none", "hamming")  # the weighting windows every processor offers (range and azimuth)
+ISLR_NULLS = 10.0  # the contract's ISLR window, +-nulls
 ANTENNA_PATTERNS = ("sinc", "gaussian", "rect")
-_MAX_SAMPLES = 512                # supports with more samples are binned onto this many: IRW within 3e-4
+_MAX_SAMPLES = 512  # supports with more samples are binned onto this many: IRW within 3e-4
 
 
 def window_taper(name: str, x) -> np.ndarray:
@@ -88,8 +88,8 @@ def cut_metrics(p: np.ndarray, step: float, center: int, window: float) -> tuple
     lo, hi = center - nl, center + nr
     w = int(math.floor(window / step))
     a, b = max(0, center - w), min(n - 1, center + w)
-    main = p[lo:hi + 1].sum()
-    side = np.concatenate([p[a:lo], p[hi + 1:b + 1]])
+    main = p[lo : hi + 1].sum()
+    side = np.concatenate([p[a:lo], p[hi + 1 : b + 1]])
     pslr = 10 * np.log10(side.max()) if side.size and side.max() > 0 else -np.inf
     islr = 10 * np.log10(side.sum() / main) if side.size and side.sum() > 0 else -np.inf
     return float(irw), float(pslr), float(islr), float(mainlobe)
@@ -99,8 +99,8 @@ def cut_metrics(p: np.ndarray, step: float, center: int, window: float) -> tuple
 class ResponseTheory:
     """The theoretical response along one axis: widths in axis units, side lobes in dB."""
 
-    irw: float          # -3 dB width
-    null: float         # 1/B: null spacing of the support's bandwidth B
+    irw: float  # -3 dB width
+    null: float  # 1/B: null spacing of the support's bandwidth B
     pslr_db: float
     islr_db: float
 
@@ -114,8 +114,9 @@ class ResponseTheory:
         return dataclasses.replace(self, irw=self.irw * s, null=self.null * s)
 
 
-def response_theory(k, w, band=None, islr_nulls: float = ISLR_NULLS, upsample: int = 32,
-                    samples: int = _MAX_SAMPLES) -> ResponseTheory:
+def response_theory(
+    k, w, band=None, islr_nulls: float = ISLR_NULLS, upsample: int = 32, samples: int = _MAX_SAMPLES
+) -> ResponseTheory:
     """Theory of the response sum_i w_i exp(j 2 pi k_i x) of a support sampled at spatial frequencies ``k``
     (cycles per axis unit) with amplitude weights ``w`` >= 0.
 
@@ -133,8 +134,8 @@ def response_theory(k, w, band=None, islr_nulls: float = ISLR_NULLS, upsample: i
     span = hi - lo
     if not span > 0:
         raise ValueError("response_theory: the support has no extent")
-    u = (k - 0.5 * (k.min() + k.max())) / span       # in units of B: the response is then in nulls
-    if u.size > samples:                              # cloud-in-cell onto a uniform grid (second-order accurate)
+    u = (k - 0.5 * (k.min() + k.max())) / span  # in units of B: the response is then in nulls
+    if u.size > samples:  # cloud-in-cell onto a uniform grid (second-order accurate)
         g0, g1 = float(u.min()), float(u.max())
         pos = (u - g0) / (g1 - g0) * (samples - 1)
         i0 = np.minimum(np.floor(pos).astype(int), samples - 2)
@@ -154,7 +155,7 @@ def response_theory(k, w, band=None, islr_nulls: float = ISLR_NULLS, upsample: i
         x = np.arange(-m, m + 1) / upsample
         phase = 2 * np.pi * np.outer(x, u)
         p = np.abs(np.cos(phase) @ w + 1j * (np.sin(phase) @ w)) ** 2
-    p /= p[m]                                         # w >= 0: the peak is at x = 0
+    p /= p[m]  # w >= 0: the peak is at x = 0
     irw, pslr, islr, _ = cut_metrics(p, 1.0 / upsample, m, islr_nulls)
     return ResponseTheory(irw=irw / span, null=1.0 / span, pslr_db=max(pslr, -300.0), islr_db=max(islr, -300.0))
 
@@ -164,26 +165,25 @@ def window_theory(name: str, islr_nulls: float = ISLR_NULLS) -> ResponseTheory:
     """Theory of window ``name`` over a continuous flat support of bandwidth 1 (IRW = broadening factor x
     null): cell-centred samples, so the band is exactly 1."""
     x = (np.arange(4096) + 0.5) / 4096 - 0.5
-    return response_theory(x, window_taper(name, x), band=(-0.5, 0.5), islr_nulls=islr_nulls, upsample=64,
-                           samples=4096)
+    return response_theory(x, window_taper(name, x), band=(-0.5, 0.5), islr_nulls=islr_nulls, upsample=64, samples=4096)
 
 
 def two_way_gain(radar, angle_az, angle_el=None) -> np.ndarray:
     """Two-way amplitude gain of the radar's antenna at azimuth (and elevation) angles off boresight."""
-    pattern = getattr(radar, "antenna_pattern", None) or "rect"    # not recorded: the -3 dB beam, flat
+    pattern = getattr(radar, "antenna_pattern", None) or "rect"  # not recorded: the -3 dB beam, flat
     g = beam.one_way_amplitude(angle_az, radar.azimuth_beamwidth, pattern)
     if angle_el is not None and radar.elevation_beamwidth > 0:
         g = g * beam.one_way_amplitude(angle_el, radar.elevation_beamwidth, pattern)
-    return g ** 2
+    return g**2
 
 
 @dataclasses.dataclass(frozen=True)
 class Illumination:
     """How one target is lit over the aperture."""
 
-    gain: np.ndarray            # (n_pulses,) two-way amplitude gain (1 without a pattern)
-    in_beam: np.ndarray         # (n_pulses,) bool: inside the one-way -3 dB azimuth beam
-    peak_gain_db: float         # strongest two-way power gain over the aperture, dB
+    gain: np.ndarray  # (n_pulses,) two-way amplitude gain (1 without a pattern)
+    in_beam: np.ndarray  # (n_pulses,) bool: inside the one-way -3 dB azimuth beam
+    peak_gain_db: float  # strongest two-way power gain over the aperture, dB
 
     @property
     def lit_fraction(self) -> float:
@@ -195,20 +195,23 @@ def illumination(radar, platform_pos, point) -> Illumination:
     n = len(platform_pos)
     if radar.azimuth_beamwidth <= 0:
         return Illumination(np.ones(n), np.ones(n, bool), 0.0)
-    az, el = beam.off_boresight_angles(beam.boresight(radar, platform_pos), platform_pos,
-                                       np.broadcast_to(np.asarray(point, float), (n, 1, 3)))
+    az, el = beam.off_boresight_angles(
+        beam.boresight(radar, platform_pos), platform_pos, np.broadcast_to(np.asarray(point, float), (n, 1, 3))
+    )
     g = two_way_gain(radar, az[:, 0], el[:, 0])
     peak = float(np.max(np.abs(g))) if n else 0.0
-    return Illumination(g, np.abs(az[:, 0]) <= radar.azimuth_beamwidth / 2,
-                        20 * math.log10(peak) if peak > 0 else -np.inf)
+    return Illumination(
+        g, np.abs(az[:, 0]) <= radar.azimuth_beamwidth / 2, 20 * math.log10(peak) if peak > 0 else -np.inf
+    )
 
 
 def _unit(d):
     return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
-def target_theory(radar, tx_pos, rx_pos, frame, coords, azimuth_window: str = "none",
-                  range_window: str = "none", taper=None) -> list[ResponseTheory]:
+def target_theory(
+    radar, tx_pos, rx_pos, frame, coords, azimuth_window: str = "none", range_window: str = "none", taper=None
+) -> list[ResponseTheory]:
     """Theory along each axis of a 2D frame for the point at frame ``coords``.
 
     tx_pos, rx_pos: (n_pulses, 3) antenna positions of the pulses processed; ``taper``: (n_pulses,)
@@ -221,8 +224,8 @@ def target_theory(radar, tx_pos, rx_pos, frame, coords, azimuth_window: str = "n
     lit = illumination(radar, tx_pos, p0)
     weights = np.abs(lit.gain) * (sample_taper(azimuth_window, len(tx_pos)) if taper is None else np.asarray(taper))
     if not np.any(weights > 0):
-        weights = np.ones(len(tx_pos))             # unlit (e.g. a rect beam that misses it): the aperture's theory
-    u = _unit(p0 - tx_pos) + _unit(p0 - rx_pos)                # (n_pulses, 3): two-way line of sight
+        weights = np.ones(len(tx_pos))  # unlit (e.g. a rect beam that misses it): the aperture's theory
+    u = _unit(p0 - tx_pos) + _unit(p0 - rx_pos)  # (n_pulses, 3): two-way line of sight
     centre = int(np.clip(np.round(np.average(np.arange(len(u)), weights=weights)), 0, len(u) - 1))
     out = []
     eps = 1e-3
@@ -263,18 +266,18 @@ def unweighted_irw(theories, fallback) -> list[float]:
 # ----------------------------------------------------------------------------------------------
 # Illumination of each target over the aperture (simulate's warnings)
 
-_SURVEY_PULSES = 2000        # pulses sampled across the track for the survey (the k extents need no more)
-_SURVEY_BLOCK = 256          # targets per block (memory: pulses x block x 3 floats)
+_SURVEY_PULSES = 2000  # pulses sampled across the track for the survey (the k extents need no more)
+_SURVEY_BLOCK = 256  # targets per block (memory: pulses x block x 3 floats)
 
 
 @dataclasses.dataclass(frozen=True)
 class TargetIllumination:
     """One target's illumination over the aperture, against the scene centre's (full illumination)."""
 
-    lit_fraction: float      # in-beam (one-way -3 dB) along-track k extent / that of full illumination
-    peak_gain_db: float      # strongest two-way power gain over the aperture, dB
-    now: ResponseTheory | None = None    # expected along-track response (antenna weighting, no processing
-    full: ResponseTheory | None = None   # window; metres along track) with this / full illumination
+    lit_fraction: float  # in-beam (one-way -3 dB) along-track k extent / that of full illumination
+    peak_gain_db: float  # strongest two-way power gain over the aperture, dB
+    now: ResponseTheory | None = None  # expected along-track response (antenna weighting, no processing
+    full: ResponseTheory | None = None  # window; metres along track) with this / full illumination
 
     @property
     def loss(self) -> float:
@@ -316,8 +319,9 @@ def _full_support(radar, k, k_ref):
     return k_ref if radar.mode == "stripmap" else k
 
 
-def illumination_survey(radar, platform_pos, targets, min_fraction: float = 0.95,
-                        max_detailed: int = 50) -> list[TargetIllumination]:
+def illumination_survey(
+    radar, platform_pos, targets, min_fraction: float = 0.95, max_detailed: int = 50
+) -> list[TargetIllumination]:
     """Each target's (scene-frame xyz (n, 3)) illumination by the antenna's azimuth beam over the pulses at
     ``platform_pos``, against full illumination (:func:`_reference_points`). The expected along-track
     responses (antenna weighting, no processing window) are computed for targets lit over less than
@@ -328,8 +332,11 @@ def illumination_survey(radar, platform_pos, targets, min_fraction: float = 0.95
     if radar.azimuth_beamwidth <= 0 or len(targets) == 0 or len(pos) == 0:
         return [TargetIllumination(1.0, 0.0) for _ in range(len(targets))]
     refs = _reference_points(radar, targets)
-    sub = pos if len(pos) <= _SURVEY_PULSES else \
-        pos[np.unique(np.linspace(0, len(pos) - 1, _SURVEY_PULSES).round().astype(int))]
+    sub = (
+        pos
+        if len(pos) <= _SURVEY_PULSES
+        else pos[np.unique(np.linspace(0, len(pos) - 1, _SURVEY_PULSES).round().astype(int))]
+    )
     fraction, peak = np.zeros(len(targets)), np.zeros(len(targets))
     for s in range(0, len(targets), _SURVEY_BLOCK):
         sl = slice(s, s + _SURVEY_BLOCK)
@@ -342,14 +349,14 @@ def illumination_survey(radar, platform_pos, targets, min_fraction: float = 0.95
     for i in np.argsort(fraction, kind="stable")[:max_detailed]:
         if fraction[i] >= min_fraction:
             break
-        k, lit, g = (a[:, 0] for a in _beam_k(radar, pos, targets[i:i + 1]))
-        kr, lit_r, gr = (a[:, 0] for a in _beam_k(radar, pos, refs[i:i + 1]))
+        k, lit, g = (a[:, 0] for a in _beam_k(radar, pos, targets[i : i + 1]))
+        kr, lit_r, gr = (a[:, 0] for a in _beam_k(radar, pos, refs[i : i + 1]))
         kf = _full_support(radar, k, kr)
         band = lambda kk, m: (kk[m].min(), kk[m].max()) if np.count_nonzero(m) > 1 else None  # noqa: E731
         full = response_theory(kf, gr, band(kf, lit_r & (gr > 0)))
         try:
             now = response_theory(k, g, band(k, lit & (g > 0)))
-        except ValueError:                            # no gain at all (a rect beam that never sees it)
+        except ValueError:  # no gain at all (a rect beam that never sees it)
             now = None
         out[i] = dataclasses.replace(out[i], now=now, full=full)
     return out

@@ -71,41 +71,87 @@ class EvaluateParams:
     """Parameters of the ``evaluate:`` section (all dimensionless)."""
 
     search_cells: float = param(default=3.0, gt=0, doc="peak search half-window around each truth, resolution cells")
-    guard_cells: float = param(default=20.0, gt=0, doc=(
-        "half-size of the box around each target excluded from the false-target search, resolution cells; "
-        "20 keeps the along-axis sinc side lobes of a target (about -37 dB there) out of the false-target level"))
+    guard_cells: float = param(
+        default=20.0,
+        gt=0,
+        doc=(
+            "half-size of the box around each target excluded from the false-target search, resolution cells; "
+            "20 keeps the along-axis sinc side lobes of a target (about -37 dB there) out of the false-target level"
+        ),
+    )
     upsample: int = param(default=64, ge=16, le=4096, doc="samples per image sample in the 1-D cuts (>= 16)")
     islr_nulls: float = param(default=10.0, gt=1, doc="ISLR/PSLR window half-width, in nulls (1/B)")
     margin_nulls: float = param(default=6.0, ge=1, doc="chip half-width beyond the ISLR window, nulls")
-    irw_factor: float = param(default=SINC_IRW_FACTOR, gt=0, doc=(
-        "IRW_theory * B of the image's theory; 0.886 for unweighted processing (about 1.30 when theory is a "
-        "Hamming-weighted IRW). Targets with their own theory in the targets table (null_<axis>, written by every "
-        "processor) do not use it"))
-    principal_axes: bool = param(default=True, doc=(
-        "measure along the response's principal axes (side-lobe ridges found from the chip's spectral support); "
-        "false: along the image axes only"))
-    remove_neighbours: bool = param(default=True, doc=(
-        "fit and subtract the ideal responses of other targets inside a target's chip before measuring it"))
-    exact: bool = param(default=False, doc=(
-        "reference numerics: SVD least squares and the full orientation density (slower; the fast path is "
-        "tested to give the same report)"))
-    neighbour_orders: int = param(default=2, ge=0, le=4, doc=(
-        "where ideal responses fit a crowded group poorly (residual above -30 dB), its members are fitted again as "
-        "response models with this many spectral orders per axis (their weight and phase, a spatial chirp) and "
-        "those are subtracted if they fit better; 0: ideal responses only"))
-    residual: bool = param(default=False, doc=(
-        "also search false targets on the residual image (every target's fitted response subtracted, side lobes "
-        "included; experimental: see docs) and gate --expect false_target_db_max on it"))
-    residual_orders: int = param(default=1, ge=0, le=4, doc=(
-        "spectral orders per axis of each target's response model (half-null-shifted sincs; 1 fits a linear "
-        "taper and phase over the band, 2 a Hamming window)"))
+    irw_factor: float = param(
+        default=SINC_IRW_FACTOR,
+        gt=0,
+        doc=(
+            "IRW_theory * B of the image's theory; 0.886 for unweighted processing (about 1.30 when theory is a "
+            "Hamming-weighted IRW). Targets with their own theory in the targets table (null_<axis>, written by every "
+            "processor) do not use it"
+        ),
+    )
+    principal_axes: bool = param(
+        default=True,
+        doc=(
+            "measure along the response's principal axes (side-lobe ridges found from the chip's spectral support); "
+            "false: along the image axes only"
+        ),
+    )
+    remove_neighbours: bool = param(
+        default=True,
+        doc=("fit and subtract the ideal responses of other targets inside a target's chip before measuring it"),
+    )
+    exact: bool = param(
+        default=False,
+        doc=(
+            "reference numerics: SVD least squares and the full orientation density (slower; the fast path is "
+            "tested to give the same report)"
+        ),
+    )
+    neighbour_orders: int = param(
+        default=2,
+        ge=0,
+        le=4,
+        doc=(
+            "where ideal responses fit a crowded group poorly (residual above -30 dB), its members are fitted again as "
+            "response models with this many spectral orders per axis (their weight and phase, a spatial chirp) and "
+            "those are subtracted if they fit better; 0: ideal responses only"
+        ),
+    )
+    residual: bool = param(
+        default=False,
+        doc=(
+            "also search false targets on the residual image (every target's fitted response subtracted, side lobes "
+            "included; experimental: see docs) and gate --expect false_target_db_max on it"
+        ),
+    )
+    residual_orders: int = param(
+        default=1,
+        ge=0,
+        le=4,
+        doc=(
+            "spectral orders per axis of each target's response model (half-null-shifted sincs; 1 fits a linear "
+            "taper and phase over the band, 2 a Hamming window)"
+        ),
+    )
     fit_nulls: float = param(default=6.0, gt=1, doc="half-width of the box each response model is fitted on, nulls")
-    fit_ridge_nulls: float = param(default=40.0, ge=0, doc=(
-        "each response model is also fitted on strips +-1 null wide along its side-lobe ridges out to this many "
-        "nulls"))
-    exclusion_cells: float = param(default=2.0, gt=0, doc=(
-        "half-size of the box around each target left out of the residual false-target search (its main lobe), "
-        "resolution cells"))
+    fit_ridge_nulls: float = param(
+        default=40.0,
+        ge=0,
+        doc=(
+            "each response model is also fitted on strips +-1 null wide along its side-lobe ridges out to this many "
+            "nulls"
+        ),
+    )
+    exclusion_cells: float = param(
+        default=2.0,
+        gt=0,
+        doc=(
+            "half-size of the box around each target left out of the residual false-target search (its main lobe), "
+            "resolution cells"
+        ),
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -114,22 +160,22 @@ class AxisMetrics:
     else in the axis' units)."""
 
     axis: str
-    irw: float                  # -3 dB width of the main lobe
+    irw: float  # -3 dB width of the main lobe
     irw_theory: float
-    irw_ratio: float            # irw / irw_theory
-    pslr_db: float              # highest side lobe within the ISLR window / peak; -inf if none
-    islr_db: float              # side-lobe energy in the window / main-lobe energy
-    mainlobe_width: float       # distance between the first nulls (local minima)
-    position: float             # refined peak position
+    irw_ratio: float  # irw / irw_theory
+    pslr_db: float  # highest side lobe within the ISLR window / peak; -inf if none
+    islr_db: float  # side-lobe energy in the window / main-lobe energy
+    mainlobe_width: float  # distance between the first nulls (local minima)
+    position: float  # refined peak position
     truth: float
-    position_error: float       # position - truth
+    position_error: float  # position - truth
     position_error_cells: float  # position_error / irw_theory
-    band_center: float          # spectral centre of the chip, cycles per axis unit
-    direction: tuple = ()       # cut direction in axis units per unit along its own axis (dims order)
-    angle_deg: float = 0.0      # angle between the cut and its image axis (metric if given, else in nulls)
-    truncated: bool = False     # the ISLR window (+2 nulls) of this cut leaves the image: unverified
+    band_center: float  # spectral centre of the chip, cycles per axis unit
+    direction: tuple = ()  # cut direction in axis units per unit along its own axis (dims order)
+    angle_deg: float = 0.0  # angle between the cut and its image axis (metric if given, else in nulls)
+    truncated: bool = False  # the ISLR window (+2 nulls) of this cut leaves the image: unverified
     contaminated_db: Optional[float] = None  # neighbours poorly fitted by ideal responses put this much energy
-                                              # (dB of the main lobe's) in the ISLR window: unverified
+    # (dB of the main lobe's) in the ISLR window: unverified
     # A contaminated cut measured again on a window shortened to +-shortened_nulls (integer nulls, half-way
     # to the nearest such neighbour on the cut line, so it stops before its main lobe): PSLR over the side
     # lobes inside, ISLR over that window, and an unweighted sinc's ISLR over it. Never a pass (unverified).
@@ -137,7 +183,7 @@ class AxisMetrics:
     shortened_pslr_db: Optional[float] = None
     shortened_islr_db: Optional[float] = None
     shortened_islr_theory_db: Optional[float] = None
-    theory: str = "image"       # whose theoretical IRW: 'image' (the image's per-axis value) or 'target' (its own)
+    theory: str = "image"  # whose theoretical IRW: 'image' (the image's per-axis value) or 'target' (its own)
     # the theoretical PSLR / ISLR the cut is judged against: the target's own (targets table pslr_/islr_<axis>),
     # else that of the window irw_factor implies (unweighted sinc, or Hamming above 1.1)
     pslr_theory_db: Optional[float] = None
@@ -147,13 +193,13 @@ class AxisMetrics:
 @dataclasses.dataclass(frozen=True)
 class TargetReport:
     name: str
-    peak_amplitude: float       # |interpolated peak|, image units
-    peak_phase: float           # arg of the interpolated peak, rad
+    peak_amplitude: float  # |interpolated peak|, image units
+    peak_phase: float  # arg of the interpolated peak, rad
     peak_index: tuple[int, ...]  # strongest pixel in the search window
-    chip_clipped: bool          # the chip left the image and was zero-padded
-    axes: tuple[AxisMetrics, ...]   # principal-axis cuts, one per image axis (what --expect checks)
-    image_axes: tuple[AxisMetrics, ...] = ()   # cuts along the image axes, for comparison
-    neighbours_removed: tuple[str, ...] = ()   # targets whose fitted ideal responses were subtracted
+    chip_clipped: bool  # the chip left the image and was zero-padded
+    axes: tuple[AxisMetrics, ...]  # principal-axis cuts, one per image axis (what --expect checks)
+    image_axes: tuple[AxisMetrics, ...] = ()  # cuts along the image axes, for comparison
+    neighbours_removed: tuple[str, ...] = ()  # targets whose fitted ideal responses were subtracted
 
     @property
     def truncated(self) -> bool:
@@ -168,19 +214,19 @@ class TargetReport:
 
 @dataclasses.dataclass(frozen=True)
 class FalseTarget:
-    level_db: float             # refined peak of the response / strongest true target peak
-    position: dict              # {dim: axis-unit position of the refined peak}
-    pixel_level_db: float       # same with the raw pixel magnitude
-    reference_target: str       # name of the strongest true target
+    level_db: float  # refined peak of the response / strongest true target peak
+    position: dict  # {dim: axis-unit position of the refined peak}
+    pixel_level_db: float  # same with the raw pixel magnitude
+    reference_target: str  # name of the strongest true target
 
 
 @dataclasses.dataclass(frozen=True)
 class QualityReport:
     dims: tuple[str, ...]
     targets: tuple[TargetReport, ...]
-    false_target: Optional[FalseTarget]   # None: no pixel lies outside every target neighbourhood
+    false_target: Optional[FalseTarget]  # None: no pixel lies outside every target neighbourhood
     params: EvaluateParams
-    movers: tuple = ()          # sarproc.quality.moving.MoverReport per moving truth target measured
+    movers: tuple = ()  # sarproc.quality.moving.MoverReport per moving truth target measured
     # The residual figures (params.residual): false_target is then the residual's, and false_target_guard
     # the strongest response outside the +-guard_cells windows of the image itself (the older figure).
     false_target_guard: Optional[FalseTarget] = None
@@ -216,13 +262,13 @@ def _jsonable(v):
 @dataclasses.dataclass(frozen=True)
 class _Axis:
     name: str
-    start: float     # coordinate of sample 0
-    step: float      # signed spacing, axis units
+    start: float  # coordinate of sample 0
+    step: float  # signed spacing, axis units
     size: int
-    irw: float       # theoretical IRW, axis units
-    null: float      # null spacing 1/B in samples
-    theory: str = "image"   # whose IRW: the image's, or the target's own ('target')
-    pslr_theory: Optional[float] = None   # dB
+    irw: float  # theoretical IRW, axis units
+    null: float  # null spacing 1/B in samples
+    theory: str = "image"  # whose IRW: the image's, or the target's own ('target')
+    pslr_theory: Optional[float] = None  # dB
     islr_theory: Optional[float] = None
 
     def to_index(self, x):
@@ -263,10 +309,21 @@ def _make_axes(shape, dims, coords, theoretical_irw, irw_factor) -> list[_Axis]:
         if null <= 1.0:
             raise InputError(
                 f"axis {name!r}: spacing {abs(step):.4g} is not finer than the null spacing 1/B = "
-                f"{null * abs(step):.4g} (theoretical IRW {irw[a]:.4g}); the image is undersampled for this theory")
+                f"{null * abs(step):.4g} (theoretical IRW {irw[a]:.4g}); the image is undersampled for this theory"
+            )
         window = window_theory("hamming" if irw_factor > 1.1 else "none")
-        axes.append(_Axis(name, float(c[0]), float(step), int(n), float(irw[a]), float(null),
-                          pslr_theory=window.pslr_db, islr_theory=window.islr_db))
+        axes.append(
+            _Axis(
+                name,
+                float(c[0]),
+                float(step),
+                int(n),
+                float(irw[a]),
+                float(null),
+                pslr_theory=window.pslr_db,
+                islr_theory=window.islr_db,
+            )
+        )
     return axes
 
 
@@ -315,8 +372,8 @@ class _Chip:
         spec = scipy.fft.fftn(self.data, workers=-1)
         power = np.abs(spec) ** 2
         self.spec = spec
-        self.freqs = []       # unwrapped frequency of each bin, cycles per sample
-        self.centers = []     # band centre, cycles per sample
+        self.freqs = []  # unwrapped frequency of each bin, cycles per sample
+        self.centers = []  # band centre, cycles per sample
         for a, n in enumerate(self.shape):
             marginal = power.sum(axis=tuple(b for b in range(power.ndim) if b != a))
             m = np.arange(n)
@@ -431,8 +488,9 @@ def principal_directions(chip: np.ndarray, centers, nulls, window_nulls: float =
     total = power.sum()
     if not total > 0:
         return eye, np.asarray(centers, dtype=float)
-    f_c = np.array([np.sum(power.sum(axis=tuple(b for b in range(ndim) if b != a)) * freqs[a]) / total
-                    for a in range(ndim)])
+    f_c = np.array(
+        [np.sum(power.sum(axis=tuple(b for b in range(ndim) if b != a)) * freqs[a]) / total for a in range(ndim)]
+    )
     if ndim == 1:
         return eye, f_c
     # d|S| / d(frequency in cycles per null): each axis' band is about one unit wide.
@@ -443,9 +501,13 @@ def principal_directions(chip: np.ndarray, centers, nulls, window_nulls: float =
     g, norm = g[keep], norm[keep]
     u = g / norm[:, None]
     cand, sigma, near = _orientation_grid(ndim)
-    sub = slice(None, None, max(1, len(u) // 4000))   # the density only locates the peaks
-    dens = np.concatenate([_orientation_density(c, u[sub], norm[sub], sigma, exact)
-                           for c in np.array_split(cand, max(1, len(cand) // 500))])
+    sub = slice(None, None, max(1, len(u) // 4000))  # the density only locates the peaks
+    dens = np.concatenate(
+        [
+            _orientation_density(c, u[sub], norm[sub], sigma, exact)
+            for c in np.array_split(cand, max(1, len(cand) // 500))
+        ]
+    )
     peaks = [i for i in np.argsort(dens)[::-1] if dens[i] >= dens[near[i]].max() and dens[i] > 0]
     found = []
     for i in peaks:
@@ -464,9 +526,10 @@ def principal_directions(chip: np.ndarray, centers, nulls, window_nulls: float =
     if len(found) < ndim or abs(np.linalg.det(np.array(found))) < 0.2:
         return eye, f_c
     found = np.array(found)
-    best = max(itertools.permutations(range(ndim)),
-               key=lambda perm: np.prod([abs(found[perm[a], a]) for a in range(ndim)]))
-    V = np.array([found[best[a]] * nulls for a in range(ndim)])   # nulls -> samples
+    best = max(
+        itertools.permutations(range(ndim)), key=lambda perm: np.prod([abs(found[perm[a], a]) for a in range(ndim)])
+    )
+    V = np.array([found[best[a]] * nulls for a in range(ndim)])  # nulls -> samples
     return V / np.diag(V)[:, None], f_c
 
 
@@ -487,9 +550,21 @@ def _ideal_response(points, position, V, nulls, f_c, hamming: bool):
 # Public entry points
 
 
-def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
-                   params: EvaluateParams | None = None, metric=None, progress=None,
-                   target_irw=None, target_null=None, target_sidelobes=None, other_truth=None) -> QualityReport:
+def evaluate_image(
+    data,
+    dims,
+    coords,
+    theoretical_irw,
+    truth,
+    names=None,
+    params: EvaluateParams | None = None,
+    metric=None,
+    progress=None,
+    target_irw=None,
+    target_null=None,
+    target_sidelobes=None,
+    other_truth=None,
+) -> QualityReport:
     """Measure every target of a 2D (azimuth, range) or 3D (elevation, azimuth, range) image.
 
     data: complex image, shape ``tuple(len(coords[d]) for d in dims)``; dims: axis names;
@@ -521,8 +596,11 @@ def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
     axes = _make_axes(data.shape, dims, coords, theoretical_irw, params.irw_factor)
     if metric is not None:
         metric = np.atleast_2d(np.asarray(metric, dtype=float))
-        if metric.shape[0] != len(dims) or not np.all(np.isfinite(metric)) or \
-                abs(np.linalg.det(metric @ metric.T)) < 1e-12:
+        if (
+            metric.shape[0] != len(dims)
+            or not np.all(np.isfinite(metric))
+            or abs(np.linalg.det(metric @ metric.T)) < 1e-12
+        ):
             raise InputError(f"metric must hold one finite, independent row per axis {dims}, got shape {metric.shape}")
     truth = np.atleast_2d(np.asarray(truth, dtype=float))
     if truth.shape[1] != len(dims):
@@ -538,8 +616,10 @@ def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
     own_axes = _target_axes(axes, target_irw, truth.shape[0], params.irw_factor, target_null, target_sidelobes)
     mag = np.abs(data)
     # chips wide enough for every target's own ISLR window
-    half = [max(x[a].nulls_to_samples(params.islr_nulls + params.margin_nulls) for x in [axes] + own_axes)
-            for a in range(len(axes))]
+    half = [
+        max(x[a].nulls_to_samples(params.islr_nulls + params.margin_nulls) for x in [axes] + own_axes)
+        for a in range(len(axes))
+    ]
     nulls = [ax.null for ax in axes]
     # One bar over the whole evaluation: each target's pass 1, pass 2 (when neighbours are removed) and
     # measurement, then the false-target search.
@@ -552,7 +632,9 @@ def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
         for ax, i, x in zip(axes, idx, t):
             if not (-0.5 <= i <= ax.size - 0.5):
                 lo, hi = sorted((ax.start, float(ax.to_coord(ax.size - 1))))
-                raise InputError(f"target {name!r}: {ax.name} = {x:.6g} lies outside the image extent [{lo:.6g}, {hi:.6g}]")
+                raise InputError(
+                    f"target {name!r}: {ax.name} = {x:.6g} lies outside the image extent [{lo:.6g}, {hi:.6g}]"
+                )
         center = np.rint(idx).astype(int)
         win = window_slices(center, [ax.cells_to_samples(params.search_cells) for ax in axes], data.shape)
         local = mag[win]
@@ -561,8 +643,18 @@ def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
         chip = _Chip(data, peak_index, half)
         pos, value = chip.refine_peak(peak_index)
         V, f_c = _support(chip, nulls, params)
-        found.append({"peak_index": peak_index, "raw": chip, "chip": chip, "pos": pos, "value": value, "V": V,
-                      "f_c": f_c, "removed": ()})
+        found.append(
+            {
+                "peak_index": peak_index,
+                "raw": chip,
+                "chip": chip,
+                "pos": pos,
+                "value": value,
+                "V": V,
+                "f_c": f_c,
+                "removed": (),
+            }
+        )
     # Pass 2: the ideal responses of every group of targets whose chips overlap are fitted jointly to
     # the image; each target is then measured on its chip minus the other members' fitted responses.
     if params.remove_neighbours:
@@ -570,8 +662,11 @@ def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
         for i, f in wrapped(done, list(enumerate(found))):
             shape = np.array(f["raw"].shape)
             lo, hi = f["raw"].origin - np.asarray(nulls), f["raw"].origin + shape - 1 + np.asarray(nulls)
-            others = [j for j, m in models.items() if j != i and i in m["group"] and
-                      np.all(m["pos"] >= lo) and np.all(m["pos"] <= hi)]
+            others = [
+                j
+                for j, m in models.items()
+                if j != i and i in m["group"] and np.all(m["pos"] >= lo) and np.all(m["pos"] <= hi)
+            ]
             if not others or not abs(f["value"]) > 0:
                 continue
             grid = np.meshgrid(*[np.arange(n) + o for n, o in zip(shape, f["raw"].origin)], indexing="ij")
@@ -581,25 +676,51 @@ def evaluate_image(data, dims, coords, theoretical_irw, truth, names=None,
             chip = _Chip(None, f["peak_index"], half, chip=(cleaned.reshape(f["raw"].shape), f["raw"].clipped))
             pos, value = chip.refine_peak(f["pos"])
             V, f_c = _support(chip, nulls, params)
-            found[i] = {**f, "chip": chip, "pos": pos, "value": value, "V": V, "f_c": f_c,
-                        "removed": tuple(names[j] for j in others),
-                        "residual_models": [models[j] for j in others if models[j]["misfit"] > NEIGHBOUR_MISFIT]}
-    reports = [_measure(f["chip"], own, f["peak_index"], f["pos"], f["value"], f["V"], t, name, params, metric,
-                        f["removed"], f.get("residual_models", []), names, found)
-               for f, name, t, own in wrapped(done, list(zip(found, names, truth, own_axes)))]
+            found[i] = {
+                **f,
+                "chip": chip,
+                "pos": pos,
+                "value": value,
+                "V": V,
+                "f_c": f_c,
+                "removed": tuple(names[j] for j in others),
+                "residual_models": [models[j] for j in others if models[j]["misfit"] > NEIGHBOUR_MISFIT],
+            }
+    reports = [
+        _measure(
+            f["chip"],
+            own,
+            f["peak_index"],
+            f["pos"],
+            f["value"],
+            f["V"],
+            t,
+            name,
+            params,
+            metric,
+            f["removed"],
+            f.get("residual_models", []),
+            names,
+            found,
+        )
+        for f, name, t, own in wrapped(done, list(zip(found, names, truth, own_axes)))
+    ]
     # targets not measured (a subset was asked for) still guard their neighbourhoods from the search
-    guarded = truth if other_truth is None or len(other_truth) == 0 else \
-        np.concatenate([truth, np.asarray(other_truth, dtype=float).reshape(-1, len(dims))])
+    guarded = (
+        truth
+        if other_truth is None or len(other_truth) == 0
+        else np.concatenate([truth, np.asarray(other_truth, dtype=float).reshape(-1, len(dims))])
+    )
     peaks = [f["peak_index"] for f in found]
     guard = _false_target(data, mag, axes, guarded, peaks, reports, half, params)
     false, floor = guard, None
     if params.residual:
         models = fit_response_models(data, found, nulls, params)
-        false, floor = _residual_false_target(residual_image(data, models), axes, guarded, peaks, reports, half,
-                                              params)
+        false, floor = _residual_false_target(residual_image(data, models), axes, guarded, peaks, reports, half, params)
     done()
-    return QualityReport(dims=dims, targets=tuple(reports), false_target=false, params=params,
-                         false_target_guard=guard, residual=floor)
+    return QualityReport(
+        dims=dims, targets=tuple(reports), false_target=false, params=params, false_target_guard=guard, residual=floor
+    )
 
 
 def _target_axes(axes, target_irw, n_targets, irw_factor, target_null=None, target_sidelobes=None) -> list[list[_Axis]]:
@@ -608,13 +729,17 @@ def _target_axes(axes, target_irw, n_targets, irw_factor, target_null=None, targ
         return [axes] * n_targets
     irw = np.asarray(target_irw, dtype=float)
     if irw.shape != (n_targets, len(axes)):
-        raise InputError(f"target_irw has shape {irw.shape}; expected ({n_targets}, {len(axes)}): one IRW per "
-                         f"target and axis, NaN where the image's applies")
+        raise InputError(
+            f"target_irw has shape {irw.shape}; expected ({n_targets}, {len(axes)}): one IRW per "
+            f"target and axis, NaN where the image's applies"
+        )
     nulls = np.full(irw.shape, np.nan) if target_null is None else np.asarray(target_null, dtype=float)
     lobes = np.full(irw.shape + (2,), np.nan) if target_sidelobes is None else np.asarray(target_sidelobes, float)
     if nulls.shape != irw.shape or lobes.shape != irw.shape + (2,):
-        raise InputError(f"target_null / target_sidelobes have shapes {nulls.shape} / {lobes.shape}; expected "
-                         f"{irw.shape} / {irw.shape + (2,)}")
+        raise InputError(
+            f"target_null / target_sidelobes have shapes {nulls.shape} / {lobes.shape}; expected "
+            f"{irw.shape} / {irw.shape + (2,)}"
+        )
     if np.any(~np.isnan(nulls) & ~(np.isfinite(nulls) & (nulls > 0))):
         raise InputError("target_null values must be positive and finite, or NaN (IRW / irw_factor applies)")
     if np.any(~np.isnan(irw) & ~(np.isfinite(irw) & (irw > 0))):
@@ -628,8 +753,10 @@ def _target_axes(axes, target_irw, n_targets, irw_factor, target_null=None, targ
                 continue
             null = float(v) / (irw_factor * abs(ax.step)) if np.isnan(own_null) else float(own_null) / abs(ax.step)
             if null <= 1.0:
-                raise InputError(f"axis {ax.name!r}: spacing {abs(ax.step):.4g} is not finer than a target's null "
-                                 f"spacing {null * abs(ax.step):.4g} (its theoretical IRW {v:.4g})")
+                raise InputError(
+                    f"axis {ax.name!r}: spacing {abs(ax.step):.4g} is not finer than a target's null "
+                    f"spacing {null * abs(ax.step):.4g} (its theoretical IRW {v:.4g})"
+                )
             sides = {} if np.isnan(pslr) else {"pslr_theory": float(pslr), "islr_theory": float(islr)}
             own.append(dataclasses.replace(ax, irw=float(v), null=null, theory="target", **sides))
         out.append(own)
@@ -662,7 +789,7 @@ def _neighbour_models(data, found: list, nulls, half, params) -> dict:
                     group[q] = merged
     hamming = params.irw_factor > 1.1
     ndim = data.ndim
-    skew = [(a, b) for a in range(ndim) for b in range(ndim) if a != b]   # free entries of V
+    skew = [(a, b) for a in range(ndim) for b in range(ndim) if a != b]  # free entries of V
     stride = np.maximum(1, np.floor(nulls / 2)).astype(int)
     r = np.ceil(3 * nulls).astype(int)
     models, done = {}, set()
@@ -674,8 +801,9 @@ def _neighbour_models(data, found: list, nulls, half, params) -> dict:
         boxes = []
         for k in members:
             c = np.rint(found[k]["pos"]).astype(int)
-            axes_pts = [np.arange(max(0, ci - ri), min(n, ci + ri + 1), st)
-                        for ci, ri, n, st in zip(c, r, data.shape, stride)]
+            axes_pts = [
+                np.arange(max(0, ci - ri), min(n, ci + ri + 1), st) for ci, ri, n, st in zip(c, r, data.shape, stride)
+            ]
             g = np.meshgrid(*axes_pts, indexing="ij")
             boxes.append(np.stack([x.ravel() for x in g], axis=0))
         points = np.unique(np.concatenate(boxes, axis=1), axis=1)
@@ -685,8 +813,9 @@ def _neighbour_models(data, found: list, nulls, half, params) -> dict:
         f_c = [np.array(found[k]["f_c"], dtype=float) for k in members]
         V = [np.array(found[k]["V"], dtype=float) for k in members]
         model = lambda q, p=None, v=None: _ideal_response(  # noqa: E731
-            points, pos[q] if p is None else p, V[q] if v is None else v, nulls, f_c[q], hamming)
-        for _ in range(8):   # converges linearly (about halving) on skewed supports; stop when settled
+            points, pos[q] if p is None else p, V[q] if v is None else v, nulls, f_c[q], hamming
+        )
+        for _ in range(8):  # converges linearly (about halving) on skewed supports; stop when settled
             cols = []
             for q in range(len(members)):
                 m = model(q)
@@ -708,10 +837,10 @@ def _neighbour_models(data, found: list, nulls, half, params) -> dict:
                 step = (sol[q, 1:] / sol[q, 0]).real
                 largest = max(largest, float(np.abs(step[:ndim]).max() * 100), float(np.abs(step[ndim:]).max()))
                 f_c[q] = f_c[q] + np.clip(step[:ndim], -0.02, 0.02)
-                pos[q] = pos[q] + np.clip(step[ndim:2 * ndim], -0.3, 0.3)
-                for (a, b), dv in zip(skew, np.clip(step[2 * ndim:], -0.05, 0.05)):
+                pos[q] = pos[q] + np.clip(step[ndim : 2 * ndim], -0.3, 0.3)
+                for (a, b), dv in zip(skew, np.clip(step[2 * ndim :], -0.05, 0.05)):
                     V[q][a, b] += dv
-            if largest < 1e-3:   # band centres within 1e-5 cycles/sample, positions and skews within 1e-3
+            if largest < 1e-3:  # band centres within 1e-5 cycles/sample, positions and skews within 1e-3
                 break
         basis = np.stack([model(q) for q in range(len(members))], axis=1)
         amp = least_squares(basis, y, params.exact)
@@ -719,24 +848,43 @@ def _neighbour_models(data, found: list, nulls, half, params) -> dict:
         energy = max(np.sum(np.abs(y) ** 2), 1e-300)
         misfit = float(np.sum(np.abs(y - basis @ amp) ** 2) / energy)
         rich = [None] * len(members)
-        if misfit > NEIGHBOUR_MISFIT and params.neighbour_orders > 0 and \
-                _refit_size(members, nulls, params) <= REFIT_BUDGET:
+        if (
+            misfit > NEIGHBOUR_MISFIT
+            and params.neighbour_orders > 0
+            and _refit_size(members, nulls, params) <= REFIT_BUDGET
+        ):
             # Ideal responses leave too much: fit the members' own spectral weight, phase and chirp instead
             # (the residual image's response models), and keep them where they explain the group.
             start = [{"pos": pos[q], "V": V[q], "f_c": f_c[q], "value": amp[q]} for q in range(len(members))]
-            fitted = fit_response_models(data, start, nulls, dataclasses.replace(   # ridges as far as a chip reaches
-                params, residual_orders=params.neighbour_orders, fit_ridge_nulls=params.islr_nulls + params.margin_nulls))
+            fitted = fit_response_models(
+                data,
+                start,
+                nulls,
+                dataclasses.replace(  # ridges as far as a chip reaches
+                    params,
+                    residual_orders=params.neighbour_orders,
+                    fit_ridge_nulls=params.islr_nulls + params.margin_nulls,
+                ),
+            )
             pred = sum(_neighbour_values(points, {"rich": m}, hamming) for m in fitted if m)
             rich_misfit = float(np.sum(np.abs(y - pred) ** 2) / energy)
-            if rich_misfit <= NEIGHBOUR_MISFIT:   # else the ideal models stay and the cuts say contaminated
+            if rich_misfit <= NEIGHBOUR_MISFIT:  # else the ideal models stay and the cuts say contaminated
                 rich, misfit = fitted, rich_misfit
         for q, k in enumerate(members):
-            models[k] = {"pos": pos[q], "f_c": f_c[q], "V": V[q], "amp": amp[q], "group": set(members),
-                         "misfit": misfit, "nulls": nulls, "rich": rich[q] or None}
+            models[k] = {
+                "pos": pos[q],
+                "f_c": f_c[q],
+                "V": V[q],
+                "amp": amp[q],
+                "group": set(members),
+                "misfit": misfit,
+                "nulls": nulls,
+                "rich": rich[q] or None,
+            }
     return models
 
 
-REFIT_BUDGET = 1e9   # rows x columns^2 of a crowded group's response-model fit above which it is not tried
+REFIT_BUDGET = 1e9  # rows x columns^2 of a crowded group's response-model fit above which it is not tried
 
 
 def _refit_size(members, nulls, params) -> float:
@@ -746,10 +894,19 @@ def _refit_size(members, nulls, params) -> float:
     stride = np.maximum(1, np.floor(nulls / 2))
     box = np.prod(2 * np.ceil(params.fit_nulls * nulls) / stride + 1)
     reach = params.islr_nulls + params.margin_nulls
-    strips = sum(2 * reach * nulls[a] / stride[a] * np.prod([2 * math.ceil(nulls[b]) / stride[b] + 1
-                                                             for b in range(ndim) if b != a]) for a in range(ndim))
-    columns = len(spectral_orders(ndim, params.neighbour_orders, params.neighbour_orders + (1 if ndim == 2 else 0))) \
-        + ndim + ndim * (ndim + 1) // 2
+    strips = sum(
+        2
+        * reach
+        * nulls[a]
+        / stride[a]
+        * np.prod([2 * math.ceil(nulls[b]) / stride[b] + 1 for b in range(ndim) if b != a])
+        for a in range(ndim)
+    )
+    columns = (
+        len(spectral_orders(ndim, params.neighbour_orders, params.neighbour_orders + (1 if ndim == 2 else 0)))
+        + ndim
+        + ndim * (ndim + 1) // 2
+    )
     return float(len(members) * (box + strips) * (len(members) * columns) ** 2)
 
 
@@ -758,26 +915,53 @@ def _neighbour_values(points, model, hamming) -> np.ndarray:
     (``rich``), else its amplitude times the ideal response."""
     rich = model.get("rich")
     if rich:
-        return response_basis(points, rich["pos"], rich["V"], rich["nulls"], rich["f_c"], rich["orders"],
-                              rich["K"]) @ rich["coef"]
+        return (
+            response_basis(points, rich["pos"], rich["V"], rich["nulls"], rich["f_c"], rich["orders"], rich["K"])
+            @ rich["coef"]
+        )
     return model["amp"] * _ideal_response(points, model["pos"], model["V"], model["nulls"], model["f_c"], hamming)
 
 
-def _measure(chip: "_Chip", axes, peak_index, pos, value, V, truth, name, params, metric, removed,
-             residual_models=(), names=(), found=()) -> TargetReport:
+def _measure(
+    chip: "_Chip",
+    axes,
+    peak_index,
+    pos,
+    value,
+    V,
+    truth,
+    name,
+    params,
+    metric,
+    removed,
+    residual_models=(),
+    names=(),
+    found=(),
+) -> TargetReport:
     peak2 = abs(value) ** 2
     if peak2 == 0:
         pos = np.full(len(axes), np.nan)
     eye = np.eye(len(axes))
     image_axes = [_cut(chip, axes, a, eye[a], pos, peak2, truth, params, metric) for a in range(len(axes))]
-    principal = [image_axes[a] if np.array_equal(V[a], eye[a]) else
-                 _cut(chip, axes, a, V[a], pos, peak2, truth, params, metric) for a in range(len(axes))]
+    principal = [
+        image_axes[a] if np.array_equal(V[a], eye[a]) else _cut(chip, axes, a, V[a], pos, peak2, truth, params, metric)
+        for a in range(len(axes))
+    ]
     if residual_models and peak2 > 0:
-        principal = [_contamination(m, chip, axes, a, V[a], pos, peak2, residual_models, truth, params, metric)
-                     for a, m in enumerate(principal)]
-    return TargetReport(name=name, peak_amplitude=abs(value), peak_phase=float(np.angle(value)),
-                        peak_index=tuple(peak_index), chip_clipped=chip.clipped, axes=tuple(principal),
-                        image_axes=tuple(image_axes), neighbours_removed=tuple(removed))
+        principal = [
+            _contamination(m, chip, axes, a, V[a], pos, peak2, residual_models, truth, params, metric)
+            for a, m in enumerate(principal)
+        ]
+    return TargetReport(
+        name=name,
+        peak_amplitude=abs(value),
+        peak_phase=float(np.angle(value)),
+        peak_index=tuple(peak_index),
+        chip_clipped=chip.clipped,
+        axes=tuple(principal),
+        image_axes=tuple(image_axes),
+        neighbours_removed=tuple(removed),
+    )
 
 
 def least_squares(B, y, exact: bool = False):
@@ -797,14 +981,14 @@ def least_squares(B, y, exact: bool = False):
             factor = None
         if factor is not None:
             x = scipy.linalg.cho_solve(factor, Bs.conj().T @ y)
-            for _ in range(2):   # iterative refinement: the normal equations' squared condition number undone
+            for _ in range(2):  # iterative refinement: the normal equations' squared condition number undone
                 x = x + scipy.linalg.cho_solve(factor, Bs.conj().T @ (y - Bs @ x))
             return x / scale
     return np.linalg.lstsq(B, y, rcond=None)[0]
 
 
-NEIGHBOUR_MISFIT = 1e-3   # group fit residual (energy ratio) above which subtracted neighbours may leave side lobes
-CONTAMINATION = 0.01     # neighbours' modelled energy in a cut's ISLR window / the main lobe's: flag above
+NEIGHBOUR_MISFIT = 1e-3  # group fit residual (energy ratio) above which subtracted neighbours may leave side lobes
+CONTAMINATION = 0.01  # neighbours' modelled energy in a cut's ISLR window / the main lobe's: flag above
 
 
 def _contamination(m: AxisMetrics, chip, axes, a, v, pos, peak2, models, truth, params, metric) -> AxisMetrics:
@@ -817,7 +1001,7 @@ def _contamination(m: AxisMetrics, chip, axes, a, v, pos, peak2, models, truth, 
     points = pos[:, None] + np.outer(v, t)
     hamming = params.irw_factor > 1.1
     nulls = [x.null for x in axes]
-    main = peak2 * 0.903 * ax.null          # unweighted main-lobe energy along the cut (0.903 of the total)
+    main = peak2 * 0.903 * ax.null  # unweighted main-lobe energy along the cut (0.903 of the total)
     ratios = [float(np.sum(np.abs(_neighbour_values(points, mod, hamming)) ** 2) / 4.0 / main) for mod in models]
     ratio = sum(ratios)
     if ratio <= CONTAMINATION:
@@ -834,12 +1018,16 @@ def _contamination(m: AxisMetrics, chip, axes, a, v, pos, peak2, models, truth, 
         if r > CONTAMINATION / 10 and np.all(np.abs(d - t_n * v) <= 2 * np.asarray(nulls)):
             reach.append(abs(t_n) / ax.null)
     half = min(params.islr_nulls, math.floor(min(reach) / 2)) if reach else params.islr_nulls
-    if half < 2 or half >= params.islr_nulls:   # no side lobe left to measure, or nothing to shorten
+    if half < 2 or half >= params.islr_nulls:  # no side lobe left to measure, or nothing to shorten
         return m
     short = _cut(chip, axes, a, v, pos, peak2, truth, dataclasses.replace(params, islr_nulls=float(half)), metric)
-    return dataclasses.replace(m, shortened_nulls=float(half), shortened_pslr_db=short.pslr_db,
-                               shortened_islr_db=short.islr_db,
-                               shortened_islr_theory_db=None if hamming else sinc_islr_db(half))
+    return dataclasses.replace(
+        m,
+        shortened_nulls=float(half),
+        shortened_pslr_db=short.pslr_db,
+        shortened_islr_db=short.islr_db,
+        shortened_islr_theory_db=None if hamming else sinc_islr_db(half),
+    )
 
 
 def sinc_islr_db(window_nulls: int) -> float:
@@ -862,7 +1050,7 @@ def _cut(chip: "_Chip", axes, a, v, pos, peak2, truth, params, metric) -> AxisMe
     m = int(math.ceil(reach * params.upsample))
     offsets = np.arange(-m, m + 1) / params.upsample
     if peak2 > 0:
-        if np.count_nonzero(v) == 1:   # along an image axis: separable evaluation
+        if np.count_nonzero(v) == 1:  # along an image axis: separable evaluation
             grids = [np.array([p]) for p in pos]
             grids[a] = pos[a] + offsets
             vals = chip.values(grids).reshape(-1)
@@ -870,16 +1058,19 @@ def _cut(chip: "_Chip", axes, a, v, pos, peak2, truth, params, metric) -> AxisMe
             ex = min(params.upsample, 16)
             te = np.arange(-int(math.ceil(reach * ex)) - 2, int(math.ceil(reach * ex)) + 3) / ex
             ve = chip.values_along(pos, v, te)
-            vals = ve[np.searchsorted(te, offsets)] if ex == params.upsample else \
-                scipy.interpolate.CubicSpline(te, ve)(offsets)
+            vals = (
+                ve[np.searchsorted(te, offsets)]
+                if ex == params.upsample
+                else scipy.interpolate.CubicSpline(te, ve)(offsets)
+            )
         p = np.abs(vals) ** 2 / peak2
         irw, pslr, islr, main = _cut_metrics(p, 1.0 / params.upsample, m, window)
     else:  # no response at all around the truth: every metric is undefined (fails any --expect check)
         irw = pslr = islr = main = np.nan
     steps = np.array([x.step for x in axes])
-    direction = v * steps / ax.step                     # axis units per unit along axis a
+    direction = v * steps / ax.step  # axis units per unit along axis a
     if metric is not None:
-        factor = float(np.linalg.norm(direction @ metric))   # length along the cut per unit of axis a
+        factor = float(np.linalg.norm(direction @ metric))  # length along the cut per unit of axis a
         e, d = metric[a], direction @ metric
     else:
         factor = 1.0
@@ -888,15 +1079,29 @@ def _cut(chip: "_Chip", axes, a, v, pos, peak2, truth, params, metric) -> AxisMe
     ends = np.array([pos + (window + ax.null) * v, pos - (window + ax.null) * v])
     sizes = np.array([x.size - 1 for x in axes])
     truncated = bool(np.all(np.isfinite(ends)) and (np.any(ends < 0) or np.any(ends > sizes)))
-    length = abs(ax.step) * factor      # axis-a extent of one sample -> length along the cut
+    length = abs(ax.step) * factor  # axis-a extent of one sample -> length along the cut
     x = float(ax.to_coord(pos[a]))
     err = x - float(truth[a])
     return AxisMetrics(
-        axis=ax.name, irw=irw * length, irw_theory=ax.irw * factor, irw_ratio=irw * abs(ax.step) / ax.irw,
-        pslr_db=pslr, islr_db=islr, mainlobe_width=main * length, position=x, truth=float(truth[a]),
-        position_error=err, position_error_cells=err / ax.irw, band_center=chip.centers[a] / ax.step,
-        direction=tuple(float(c) for c in direction), angle_deg=angle, truncated=truncated, theory=ax.theory,
-        pslr_theory_db=ax.pslr_theory, islr_theory_db=ax.islr_theory)
+        axis=ax.name,
+        irw=irw * length,
+        irw_theory=ax.irw * factor,
+        irw_ratio=irw * abs(ax.step) / ax.irw,
+        pslr_db=pslr,
+        islr_db=islr,
+        mainlobe_width=main * length,
+        position=x,
+        truth=float(truth[a]),
+        position_error=err,
+        position_error_cells=err / ax.irw,
+        band_center=chip.centers[a] / ax.step,
+        direction=tuple(float(c) for c in direction),
+        angle_deg=angle,
+        truncated=truncated,
+        theory=ax.theory,
+        pslr_theory_db=ax.pslr_theory,
+        islr_theory_db=ax.islr_theory,
+    )
 
 
 def _false_target(data, mag, axes, truth, peaks, reports, half, params) -> Optional[FalseTarget]:
@@ -912,15 +1117,21 @@ def _false_target(data, mag, axes, truth, peaks, reports, half, params) -> Optio
     k = np.unravel_index(np.argmax(masked), masked.shape)
     pixel = float(mag[k])
     if pixel == 0.0 or ref.peak_amplitude == 0.0:
-        return FalseTarget(level_db=-np.inf, position={ax.name: float(ax.to_coord(i)) for ax, i in zip(axes, k)},
-                           pixel_level_db=-np.inf, reference_target=ref.name)
+        return FalseTarget(
+            level_db=-np.inf,
+            position={ax.name: float(ax.to_coord(i)) for ax, i in zip(axes, k)},
+            pixel_level_db=-np.inf,
+            reference_target=ref.name,
+        )
     # Refine like a target so the level is free of the pixel-grid scalloping loss.
     chip = _Chip(data, k, half)
     pos, value = chip.refine_peak(k)
     return FalseTarget(
         level_db=float(20 * np.log10(max(abs(value), pixel) / ref.peak_amplitude)),
         position={ax.name: float(ax.to_coord(p)) for ax, p in zip(axes, pos)},
-        pixel_level_db=float(20 * np.log10(pixel / ref.peak_amplitude)), reference_target=ref.name)
+        pixel_level_db=float(20 * np.log10(pixel / ref.peak_amplitude)),
+        reference_target=ref.name,
+    )
 
 
 # ----------------------------------------------------------------------------------------------
@@ -941,11 +1152,11 @@ def _false_target(data, mag, axes, truth, peaks, reports, half, params) -> Optio
 class ResidualFloor:
     """The residual image's figures: the image minus every target's fitted response."""
 
-    floor_db: float             # strongest residual pixel in the targets' guard windows, main lobes excluded,
-                                # relative to the strongest target's peak: how deep the subtraction reaches
-    rms_db: float               # residual RMS outside the main lobes, same reference
-    exclusion_cells: float      # main-lobe half-box left out of both searches, resolution cells
-    orders: int                 # spectral-weight orders per target model
+    floor_db: float  # strongest residual pixel in the targets' guard windows, main lobes excluded,
+    # relative to the strongest target's peak: how deep the subtraction reaches
+    rms_db: float  # residual RMS outside the main lobes, same reference
+    exclusion_cells: float  # main-lobe half-box left out of both searches, resolution cells
+    orders: int  # spectral-weight orders per target model
 
 
 @functools.lru_cache(maxsize=None)
@@ -982,8 +1193,9 @@ def _chirp_phase(x, K):
     """pi x^T K x for offsets x ((ndim, N) or broadcastable per-axis arrays), K symmetric (cycles/sample^2)."""
     ndim = len(x)
     zero = np.zeros(np.broadcast_shapes(*[np.shape(v) for v in x]))
-    return np.pi * sum(((1.0 if a == b else 2.0) * K[a, b] * x[a] * x[b]
-                        for a, b in _chirp_pairs(ndim) if K[a, b] != 0.0), zero)
+    return np.pi * sum(
+        ((1.0 if a == b else 2.0) * K[a, b] * x[a] * x[b] for a, b in _chirp_pairs(ndim) if K[a, b] != 0.0), zero
+    )
 
 
 def response_basis(points, position, V, nulls, f_c, orders, K=None) -> np.ndarray:
@@ -1015,7 +1227,7 @@ def _model_on_box(slices, model) -> np.ndarray:
     xs = [np.arange(s.start, s.stop, dtype=float) - pi for s, pi in zip(slices, p)]
     shape = [len(x) for x in xs]
 
-    def along(b, v):   # 1-D array v along image axis b, broadcastable over the box
+    def along(b, v):  # 1-D array v along image axis b, broadcastable over the box
         return v.reshape([-1 if i == b else 1 for i in range(ndim)])
 
     grid = [along(b, xs[b]) for b in range(ndim)]
@@ -1024,13 +1236,13 @@ def _model_on_box(slices, model) -> np.ndarray:
     for a in range(ndim):
         c = functools.reduce(np.add, [A[a, b] * grid[b] for b in range(ndim) if A[a, b] != 0.0])
         factors.append(_shifted_sincs(c, m))
-    if all(np.count_nonzero(A[a]) == 1 and A[a, a] != 0 for a in range(ndim)):   # separable: outer products
+    if all(np.count_nonzero(A[a]) == 1 and A[a, a] != 0 for a in range(ndim)):  # separable: outer products
         tensor = np.zeros((2 * m + 1,) * ndim, dtype=complex)
         for order, k in zip(orders, coef):
             tensor[tuple(order + m)] = k
         out = tensor
-        for a in range(ndim):   # contract each order axis with its axis' shifted sincs
-            f = np.stack([v.reshape(-1) for v in factors[a]], axis=0)       # (2m+1, n_a)
+        for a in range(ndim):  # contract each order axis with its axis' shifted sincs
+            f = np.stack([v.reshape(-1) for v in factors[a]], axis=0)  # (2m+1, n_a)
             out = np.tensordot(out, f, axes=([0], [0]))
         return out * carrier
     out = np.zeros(shape, dtype=complex)
@@ -1056,8 +1268,10 @@ def _fit_group(members, points, y, found, nulls, orders, K0, iterations):
     n_o, n_p = len(orders), ndim + len(pairs)
 
     def bases():
-        return [b * np.exp(1j * (2 * np.pi * (f @ x) + _chirp_phase(x, k)))[:, None]
-                for b, x, f, k in zip(base, offs, f_c, K)]
+        return [
+            b * np.exp(1j * (2 * np.pi * (f @ x) + _chirp_phase(x, k)))[:, None]
+            for b, x, f, k in zip(base, offs, f_c, K)
+        ]
 
     coef = least_squares(np.concatenate(bases(), axis=1), y).reshape(len(members), n_o)
     for _ in range(iterations):
@@ -1065,8 +1279,13 @@ def _fit_group(members, points, y, found, nulls, orders, K0, iterations):
         for b, x, c in zip(bases(), offs, coef):
             model = b @ c
             cols.append(b)
-            cols.append(np.stack([2j * np.pi * x[a] * model for a in range(ndim)] +
-                                 [1j * np.pi * (1.0 if a == q else 2.0) * x[a] * x[q] * model for a, q in pairs], axis=1))
+            cols.append(
+                np.stack(
+                    [2j * np.pi * x[a] * model for a in range(ndim)]
+                    + [1j * np.pi * (1.0 if a == q else 2.0) * x[a] * x[q] * model for a, q in pairs],
+                    axis=1,
+                )
+            )
         sol = least_squares(np.concatenate(cols, axis=1), y).reshape(len(members), n_o + n_p)
         largest = 0.0
         for q in range(len(members)):
@@ -1089,10 +1308,12 @@ def _ridge_strips(pos, V, nulls, stride, shape, reach_nulls) -> list:
     out = []
     for a in range(ndim):
         t = np.arange(-reach_nulls * nulls[a], reach_nulls * nulls[a] + 1, stride[a])
-        across = [np.arange(-int(math.ceil(nulls[b])), int(math.ceil(nulls[b])) + 1, stride[b]) if b != a
-                  else np.zeros(1) for b in range(ndim)]
-        offs = np.stack([x.ravel() for x in np.meshgrid(*across, indexing="ij")], axis=0)   # (ndim, M0)
-        line = np.asarray(pos, dtype=float)[:, None] + np.outer(V[a], t)                     # (ndim, T)
+        across = [
+            np.arange(-int(math.ceil(nulls[b])), int(math.ceil(nulls[b])) + 1, stride[b]) if b != a else np.zeros(1)
+            for b in range(ndim)
+        ]
+        offs = np.stack([x.ravel() for x in np.meshgrid(*across, indexing="ij")], axis=0)  # (ndim, M0)
+        line = np.asarray(pos, dtype=float)[:, None] + np.outer(V[a], t)  # (ndim, T)
         pts = np.rint(line[:, :, None] + offs[:, None, :]).reshape(ndim, -1).astype(int)
         inside = np.all((pts >= 0) & (pts < np.asarray(shape)[:, None]), axis=0)
         out.append(pts[:, inside])
@@ -1118,12 +1339,19 @@ def fit_response_models(data, found, nulls, params) -> list:
         pts = [np.arange(max(0, ci - ri), min(n, ci + ri + 1), st) for ci, ri, n, st in zip(c, r, data.shape, stride)]
         g = np.meshgrid(*pts, indexing="ij")
         boxes[j] = np.stack([x.ravel() for x in g], axis=0)
-        strips[j] = np.concatenate([boxes[j]] + _ridge_strips(found[j]["pos"], found[j]["V"], nulls, stride,
-                                                              data.shape, params.fit_ridge_nulls), axis=1)
+        strips[j] = np.concatenate(
+            [boxes[j]]
+            + _ridge_strips(found[j]["pos"], found[j]["V"], nulls, stride, data.shape, params.fit_ridge_nulls),
+            axis=1,
+        )
     group = {j: {j} for j in live}
     for j in live:
         for k in live:
-            if k > j and np.all(np.abs(found[j]["pos"] - found[k]["pos"]) <= 2 * r + nulls) and group[j] is not group[k]:
+            if (
+                k > j
+                and np.all(np.abs(found[j]["pos"] - found[k]["pos"]) <= 2 * r + nulls)
+                and group[j] is not group[k]
+            ):
                 merged = group[j] | group[k]
                 for q in merged:
                     group[q] = merged
@@ -1144,18 +1372,31 @@ def fit_response_models(data, found, nulls, params) -> list:
         for members, near, y_near, far, y_far in fits:
             points, y = (near, y_near) if sweep == 0 else (far, y_far)
             rhs = y
-            if sweep > 0:   # the other groups' current models on these samples (their side lobes)
+            if sweep > 0:  # the other groups' current models on these samples (their side lobes)
                 others = [j for j in live if j not in members and models[j]]
                 if others:
-                    rhs = y - sum(response_basis(points, models[j]["pos"], models[j]["V"], nulls, models[j]["f_c"],
-                                                 orders, models[j]["K"]) @ models[j]["coef"] for j in others)
+                    rhs = y - sum(
+                        response_basis(
+                            points, models[j]["pos"], models[j]["V"], nulls, models[j]["f_c"], orders, models[j]["K"]
+                        )
+                        @ models[j]["coef"]
+                        for j in others
+                    )
             K0 = [models[k]["K"] if models[k] else np.zeros((ndim, ndim)) for k in members]
             start = [dict(found[k], f_c=models[k]["f_c"]) if models[k] else found[k] for k in members]
-            coef, f_c, K = _fit_group(list(range(len(members))), points, rhs, start, nulls, orders, K0,
-                                      10 if sweep == 0 else 3)
+            coef, f_c, K = _fit_group(
+                list(range(len(members))), points, rhs, start, nulls, orders, K0, 10 if sweep == 0 else 3
+            )
             for q, k in enumerate(members):
-                models[k] = {"pos": np.asarray(found[k]["pos"], dtype=float), "V": np.asarray(found[k]["V"]),
-                             "f_c": f_c[q], "nulls": nulls, "orders": orders, "coef": coef[q], "K": K[q]}
+                models[k] = {
+                    "pos": np.asarray(found[k]["pos"], dtype=float),
+                    "V": np.asarray(found[k]["V"]),
+                    "f_c": f_c[q],
+                    "nulls": nulls,
+                    "orders": orders,
+                    "coef": coef[q],
+                    "K": K[q],
+                }
     return models
 
 
@@ -1193,25 +1434,42 @@ def _residual_false_target(residual, axes, truth, peaks, reports, half, params):
     floor = ResidualFloor(
         floor_db=db(float(mag[guard].max())) if guard.any() else -np.inf,
         rms_db=db(float(np.sqrt(np.mean(mag[search] ** 2)))) if search.any() else -np.inf,
-        exclusion_cells=params.exclusion_cells, orders=len(spectral_orders(
-            residual.ndim, params.residual_orders, params.residual_orders + (1 if residual.ndim == 2 else 0))))
+        exclusion_cells=params.exclusion_cells,
+        orders=len(
+            spectral_orders(
+                residual.ndim, params.residual_orders, params.residual_orders + (1 if residual.ndim == 2 else 0)
+            )
+        ),
+    )
     if not search.any():
         return None, floor
     k = np.unravel_index(np.argmax(np.where(search, mag, -1.0)), mag.shape)
     pixel = float(mag[k])
     position = {ax.name: float(ax.to_coord(i)) for ax, i in zip(axes, k)}
     if pixel == 0.0 or ref.peak_amplitude == 0.0:
-        return FalseTarget(level_db=-np.inf, position=position, pixel_level_db=-np.inf,
-                           reference_target=ref.name), floor
+        return FalseTarget(
+            level_db=-np.inf, position=position, pixel_level_db=-np.inf, reference_target=ref.name
+        ), floor
     pos, value = _Chip(residual, k, half).refine_peak(k)
-    return FalseTarget(level_db=db(max(abs(value), pixel)),
-                       position={ax.name: float(ax.to_coord(p)) for ax, p in zip(axes, pos)},
-                       pixel_level_db=db(pixel), reference_target=ref.name), floor
+    return FalseTarget(
+        level_db=db(max(abs(value), pixel)),
+        position={ax.name: float(ax.to_coord(p)) for ax, p in zip(axes, pos)},
+        pixel_level_db=db(pixel),
+        reference_target=ref.name,
+    ), floor
 
 
-def target_patch(data, dims, coords, theoretical_irw, target: TargetReport, pair=(0, 1),
-                 half_width_nulls: float = 4.0, upsample: int = 8,
-                 params: EvaluateParams | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def target_patch(
+    data,
+    dims,
+    coords,
+    theoretical_irw,
+    target: TargetReport,
+    pair=(0, 1),
+    half_width_nulls: float = 4.0,
+    upsample: int = 8,
+    params: EvaluateParams | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Upsampled 2-D slice through a target's refined peak, for contour plots.
 
     ``pair`` picks two axes (indices into dims); other axes are fixed at the peak. Returns
@@ -1232,8 +1490,11 @@ def target_patch(data, dims, coords, theoretical_irw, target: TargetReport, pair
         grids[a] = pos[a] + off
         offsets.append(off * axes[a].step)
     vals = chip.values(grids)
-    vals = vals.reshape(len(offsets[0]), len(offsets[1])) if pair[0] < pair[1] else \
-        vals.reshape(len(offsets[1]), len(offsets[0])).T
+    vals = (
+        vals.reshape(len(offsets[0]), len(offsets[1]))
+        if pair[0] < pair[1]
+        else vals.reshape(len(offsets[1]), len(offsets[0])).T
+    )
     peak = chip.values([np.array([p]) for p in pos]).reshape(())
     return offsets[0], offsets[1], vals / peak
 
@@ -1253,8 +1514,9 @@ def frame_metric(product):
     return None if m is None or tuple(getattr(frame, "axes", ())) != tuple(product.dims) else m
 
 
-def evaluate_product(product, params: EvaluateParams | None = None, source: str = "", progress=None,
-                     names=None) -> QualityReport:
+def evaluate_product(
+    product, params: EvaluateParams | None = None, source: str = "", progress=None, names=None
+) -> QualityReport:
     """Evaluate an ``image``/``image3d`` :class:`sarproc.product.model.Product` against its targets table.
 
     Truth per target is the targets field named like each dim; a moving target (nonzero velocity)
@@ -1271,7 +1533,9 @@ def evaluate_product(product, params: EvaluateParams | None = None, source: str 
     where = f"{source}: " if source else ""
     irw = product.attrs.get("theoretical_irw")
     if irw is None:
-        raise InputError(f"{where}image attribute 'theoretical_irw' is missing (expected one IRW per axis {product.dims})")
+        raise InputError(
+            f"{where}image attribute 'theoretical_irw' is missing (expected one IRW per axis {product.dims})"
+        )
     fields = product.targets.dtype.names or ()
     missing = [d for d in product.dims if d not in fields]
     if missing:
@@ -1282,29 +1546,50 @@ def evaluate_product(product, params: EvaluateParams | None = None, source: str 
     if names is not None:
         unknown = [n for n in names if n not in all_names]
         if unknown:
-            raise InputError(f"{where}--targets: no target(s) {', '.join(map(repr, unknown))} in the targets table "
-                             f"(targets: {', '.join(all_names)})")
+            raise InputError(
+                f"{where}--targets: no target(s) {', '.join(map(repr, unknown))} in the targets table "
+                f"(targets: {', '.join(all_names)})"
+            )
     keep = np.array([names is None or n in names for n in all_names])
     table = apparent_truth(product, source)
     truth_all = np.stack([table[d].astype(float) for d in product.dims], axis=1)
-    own = np.stack([table[f"irw_{d}"].astype(float) if f"irw_{d}" in fields else np.zeros(len(truth_all))
-                    for d in product.dims], axis=1)[keep]
-    own[own == 0] = np.nan          # 0 in the table: not recorded, the image's theory applies
+    own = np.stack(
+        [table[f"irw_{d}"].astype(float) if f"irw_{d}" in fields else np.zeros(len(truth_all)) for d in product.dims],
+        axis=1,
+    )[keep]
+    own[own == 0] = np.nan  # 0 in the table: not recorded, the image's theory applies
 
-    def field(prefix):              # a theory field per target and axis; 0 (not recorded) or absent: NaN
-        v = np.stack([product.targets[f"{prefix}_{d}"].astype(float) if f"{prefix}_{d}" in fields
-                      else np.zeros(len(truth_all)) for d in product.dims], axis=1)
+    def field(prefix):  # a theory field per target and axis; 0 (not recorded) or absent: NaN
+        v = np.stack(
+            [
+                product.targets[f"{prefix}_{d}"].astype(float)
+                if f"{prefix}_{d}" in fields
+                else np.zeros(len(truth_all))
+                for d in product.dims
+            ],
+            axis=1,
+        )
         v[v == 0] = np.nan
         return v
 
     lobes = np.stack([field("pslr"), field("islr")], axis=-1)
     lobes[np.isnan(lobes).any(axis=-1)] = np.nan
     try:
-        report = evaluate_image(product.data, product.dims, product.coords, irw, truth_all[keep],
-                                [n for n, k in zip(all_names, keep) if k], params,
-                                metric=frame_metric(product), progress=progress,
-                                target_irw=own if np.any(~np.isnan(own)) else None, target_null=field("null")[keep],
-                                target_sidelobes=lobes[keep], other_truth=truth_all[~keep])
+        report = evaluate_image(
+            product.data,
+            product.dims,
+            product.coords,
+            irw,
+            truth_all[keep],
+            [n for n, k in zip(all_names, keep) if k],
+            params,
+            metric=frame_metric(product),
+            progress=progress,
+            target_irw=own if np.any(~np.isnan(own)) else None,
+            target_null=field("null")[keep],
+            target_sidelobes=lobes[keep],
+            other_truth=truth_all[~keep],
+        )
     except InputError as exc:
         raise InputError(f"{where}{exc}") from None
     return dataclasses.replace(report, movers=mover_reports(product, table, report, source))
@@ -1323,10 +1608,12 @@ class AxisBounds:
     pslr_db: Optional[tuple[float, ...]] = param("decibel", default=None, doc="allowed PSLR interval [lo, hi], dB")
     islr_db: Optional[tuple[float, ...]] = param("decibel", default=None, doc="allowed ISLR interval [lo, hi], dB")
     position_cells_max: Optional[float] = param(default=None, ge=0, doc="largest |position error|, resolution cells")
-    pslr_vs_theory_db: Optional[tuple[float, ...]] = param("decibel", default=None, doc=(
-        "allowed interval [lo, hi] of PSLR minus the target's own theoretical PSLR, dB"))
-    islr_vs_theory_db: Optional[tuple[float, ...]] = param("decibel", default=None, doc=(
-        "allowed interval [lo, hi] of ISLR minus the target's own theoretical ISLR, dB"))
+    pslr_vs_theory_db: Optional[tuple[float, ...]] = param(
+        "decibel", default=None, doc=("allowed interval [lo, hi] of PSLR minus the target's own theoretical PSLR, dB")
+    )
+    islr_vs_theory_db: Optional[tuple[float, ...]] = param(
+        "decibel", default=None, doc=("allowed interval [lo, hi] of ISLR minus the target's own theoretical ISLR, dB")
+    )
 
     def validate(self):
         for key in ("pslr_db", "islr_db", "pslr_vs_theory_db", "islr_vs_theory_db"):
@@ -1350,12 +1637,24 @@ class Expectations(AxisBounds):
     """
 
     false_target_db_max: Optional[float] = param("decibel", default=None, doc="largest false-target level, dB")
-    v_r_error_max: Optional[float] = param("velocity", default=None, ge=0, doc=(
-        "largest |estimated - true| slant-range velocity of a moving target, m/s (no estimate: fail)"))
-    v_a_error_max: Optional[float] = param("velocity", default=None, ge=0, doc=(
-        "largest |estimated - true| along-track velocity of a moving target, m/s (no estimate: fail)"))
-    relocation_error_max: Optional[float] = param("length", default=None, ge=0, doc=(
-        "largest distance between a moving target's relocated and true position, m (not relocated: fail)"))
+    v_r_error_max: Optional[float] = param(
+        "velocity",
+        default=None,
+        ge=0,
+        doc=("largest |estimated - true| slant-range velocity of a moving target, m/s (no estimate: fail)"),
+    )
+    v_a_error_max: Optional[float] = param(
+        "velocity",
+        default=None,
+        ge=0,
+        doc=("largest |estimated - true| along-track velocity of a moving target, m/s (no estimate: fail)"),
+    )
+    relocation_error_max: Optional[float] = param(
+        "length",
+        default=None,
+        ge=0,
+        doc=("largest distance between a moving target's relocated and true position, m (not relocated: fail)"),
+    )
     axes: dict = param(default={}, doc="per-axis overrides: {axis: AxisBounds}")
     targets: dict = param(default={}, doc="per-target overrides: {name: TargetBounds}")
 
@@ -1370,7 +1669,9 @@ def expectations_from_mapping(mapping: dict | None, source: str = "") -> Expecta
     allowed = [f.name for f in dataclasses.fields(Expectations)]
     unknown = sorted(set(mapping or {}) - set(allowed))
     if unknown:  # checked here too so the message needs no section prefix
-        raise InputError(f"{source}: unknown key(s) {', '.join(map(repr, unknown))}; allowed: {', '.join(sorted(allowed))}")
+        raise InputError(
+            f"{source}: unknown key(s) {', '.join(map(repr, unknown))}; allowed: {', '.join(sorted(allowed))}"
+        )
     top = build(Expectations, mapping, source=source)
 
     def sub(cls, value, key):
@@ -1389,22 +1690,26 @@ def expectations_from_mapping(mapping: dict | None, source: str = "") -> Expecta
 
 @dataclasses.dataclass(frozen=True)
 class CheckFailure:
-    target: Optional[str]   # None for the image-wide false-target check
+    target: Optional[str]  # None for the image-wide false-target check
     axis: Optional[str]
     metric: str
     value: float
-    bound: str              # e.g. "<= 1.05" or "in [-13.76, -12.76]"
+    bound: str  # e.g. "<= 1.05" or "in [-13.76, -12.76]"
 
     def __str__(self):
-        where = "false target" if self.target is None else f"target {self.target} axis {self.axis}" \
-            if self.axis is not None else f"moving target {self.target}"
+        where = (
+            "false target"
+            if self.target is None
+            else f"target {self.target} axis {self.axis}"
+            if self.axis is not None
+            else f"moving target {self.target}"
+        )
         if self.metric in ("truncated", "contaminated"):
             return f"FAIL {where}: unverified, {self.bound}"
         return f"FAIL {where}: {self.metric} = {self.value:.4g}, expected {self.bound}"
 
 
-def check_report(report: QualityReport, expect: Expectations, source: str = "",
-                 all_names=None) -> list[CheckFailure]:
+def check_report(report: QualityReport, expect: Expectations, source: str = "", all_names=None) -> list[CheckFailure]:
     """Every failed tolerance of ``report``; names in ``expect`` that match nothing raise InputError.
 
     ``all_names``: every target of the image when ``report`` measured a subset (their tolerances are
@@ -1426,21 +1731,33 @@ def check_report(report: QualityReport, expect: Expectations, source: str = "",
         tb = expect.targets.get(t.name)
         for m in t.axes:
             layers = [expect, expect.axes.get(m.axis), tb, tb.axes.get(m.axis) if tb else None]
-            bound = {k: next((getattr(b, k) for b in reversed(layers) if b is not None and getattr(b, k) is not None),
-                             None) for k in METRIC_KEYS}
+            bound = {
+                k: next((getattr(b, k) for b in reversed(layers) if b is not None and getattr(b, k) is not None), None)
+                for k in METRIC_KEYS
+            }
             fail = lambda metric, value, text: failures.append(CheckFailure(t.name, m.axis, metric, value, text))
-            if bound["position_cells_max"] is not None and not abs(m.position_error_cells) <= bound["position_cells_max"]:
+            if (
+                bound["position_cells_max"] is not None
+                and not abs(m.position_error_cells) <= bound["position_cells_max"]
+            ):
                 fail("position_error_cells", m.position_error_cells, f"|.| <= {bound['position_cells_max']:g}")
             if m.truncated and any(bound[k] is not None for k in METRIC_KEYS if k != "position_cells_max"):
                 # a cut measured on a window that leaves the image is never counted as a pass
                 fail("truncated", math.nan, "the cut's ISLR window reaches the image edge (truncated)")
                 continue
-            if m.contaminated_db is not None and any(bound[k] is not None for k in METRIC_KEYS
-                                                     if k != "position_cells_max"):
+            if m.contaminated_db is not None and any(
+                bound[k] is not None for k in METRIC_KEYS if k != "position_cells_max"
+            ):
                 # a shortened window is not the contract's: its figures are reported, never gated
-                short = "" if m.shortened_nulls is None else f"; measured on +-{m.shortened_nulls:g} nulls only (shortened)"
-                fail("contaminated", m.contaminated_db, f"neighbours that ideal responses do not fit put "
-                     f"{m.contaminated_db:.1f} dB of the main-lobe energy in the ISLR window (contaminated){short}")
+                short = (
+                    "" if m.shortened_nulls is None else f"; measured on +-{m.shortened_nulls:g} nulls only (shortened)"
+                )
+                fail(
+                    "contaminated",
+                    m.contaminated_db,
+                    f"neighbours that ideal responses do not fit put "
+                    f"{m.contaminated_db:.1f} dB of the main-lobe energy in the ISLR window (contaminated){short}",
+                )
                 continue
             # NaN compares False everywhere, so each test is written to fail on NaN.
             if bound["irw_ratio_max"] is not None and not m.irw_ratio <= bound["irw_ratio_max"]:
@@ -1459,18 +1776,27 @@ def check_report(report: QualityReport, expect: Expectations, source: str = "",
                     told = "none recorded" if theory is None else f"{theory:.2f} dB"
                     fail(f"{key}_vs_theory_db", value, f"in [{lo_hi[0]:g}, {lo_hi[1]:g}] (theory {told})")
     for mv in report.movers:
-        for key, value, unit in (("v_r_error", mv.v_r_error, "m/s"), ("v_a_error", mv.v_a_error, "m/s"),
-                                 ("relocation_error", mv.relocation_error, "m")):
+        for key, value, unit in (
+            ("v_r_error", mv.v_r_error, "m/s"),
+            ("v_a_error", mv.v_a_error, "m/s"),
+            ("relocation_error", mv.relocation_error, "m"),
+        ):
             bound = getattr(expect, f"{key}_max")
             if bound is None:
                 continue
             if value is None:
-                failures.append(CheckFailure(mv.name, None, key, math.nan,
-                                             f"|.| <= {bound:g} {unit}; the product holds no estimate for it"))
+                failures.append(
+                    CheckFailure(
+                        mv.name, None, key, math.nan, f"|.| <= {bound:g} {unit}; the product holds no estimate for it"
+                    )
+                )
             elif not abs(value) <= bound:
                 failures.append(CheckFailure(mv.name, None, key, value, f"|.| <= {bound:g} {unit}"))
     if expect.false_target_db_max is not None and report.false_target is not None:
         if not report.false_target.level_db <= expect.false_target_db_max:
-            failures.append(CheckFailure(None, None, "false_target_db", report.false_target.level_db,
-                                         f"<= {expect.false_target_db_max:g}"))
+            failures.append(
+                CheckFailure(
+                    None, None, "false_target_db", report.false_target.level_db, f"<= {expect.false_target_db_max:g}"
+                )
+            )
     return failures

@@ -38,7 +38,7 @@ from sarproc.product import moving
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import C
 
-MATCH_CELLS = 10.0   # association gate between a detection and a truth mover, resolution cells
+MATCH_CELLS = 10.0  # association gate between a detection and a truth mover, resolution cells
 
 
 @dataclasses.dataclass(frozen=True)
@@ -46,22 +46,22 @@ class MoverReport:
     """One moving truth target (lengths m, velocities m/s, times s; positions in the scene frame)."""
 
     name: str
-    true_position: tuple            # x, y, z at azimuth time 0
-    v_a: float                      # truth along-track velocity
-    v_r: float                      # truth slant-range velocity (zero-Doppler direction)
-    centre_time: float              # illumination-centre time t_c
-    apparent_position: tuple        # S, the static equivalent (where it was measured)
-    apparent_coords: dict           # S in the image frame, {axis: value}
-    shift: float                    # |S - true position at t_c|
-    measured_position: tuple        # the measured peak, scene frame
-    estimate: str = "none"          # 'moving_targets' | 'reconstruct' | 'none'
+    true_position: tuple  # x, y, z at azimuth time 0
+    v_a: float  # truth along-track velocity
+    v_r: float  # truth slant-range velocity (zero-Doppler direction)
+    centre_time: float  # illumination-centre time t_c
+    apparent_position: tuple  # S, the static equivalent (where it was measured)
+    apparent_coords: dict  # S in the image frame, {axis: value}
+    shift: float  # |S - true position at t_c|
+    measured_position: tuple  # the measured peak, scene frame
+    estimate: str = "none"  # 'moving_targets' | 'reconstruct' | 'none'
     v_a_estimated: Optional[float] = None
     v_r_estimated: Optional[float] = None
     v_a_error: Optional[float] = None
     v_r_error: Optional[float] = None
     relocated_position: Optional[tuple] = None
-    relocation: str = ""            # 'table' | 'measured peak + estimated velocity' | ''
-    relocation_error: Optional[float] = None           # |relocated - true position|
+    relocation: str = ""  # 'table' | 'measured peak + estimated velocity' | ''
+    relocation_error: Optional[float] = None  # |relocated - true position|
     relocation_error_xyz: Optional[tuple] = None
     relocation_error_from_velocity: Optional[float] = None  # first-order implied by the velocity error
 
@@ -72,8 +72,9 @@ def truth_frame(product, source: str = ""):
     where = f"{source}: " if source else ""
     spec = product.attrs.get("frame")
     if spec is None:
-        raise InputError(f"{where}image attribute 'frame' is missing: its moving targets cannot be placed where "
-                         "they appear")
+        raise InputError(
+            f"{where}image attribute 'frame' is missing: its moving targets cannot be placed where they appear"
+        )
     return frame_from_spec(spec)
 
 
@@ -84,10 +85,13 @@ def apparent_truth(product, source: str = "") -> np.ndarray:
         return targets
     where = f"{source}: " if source else ""
     if "platform_position" not in product.aux:
-        raise InputError(f"{where}aux 'platform_position' is missing: the moving target(s) "
-                         f"{_names(targets[moving.is_moving(targets)])} cannot be placed where they appear")
-    return moving.apparent_targets(targets, product.radar, moving.pulse_times(product), truth_frame(product, source),
-                                   moving.phase_centres(product))
+        raise InputError(
+            f"{where}aux 'platform_position' is missing: the moving target(s) "
+            f"{_names(targets[moving.is_moving(targets)])} cannot be placed where they appear"
+        )
+    return moving.apparent_targets(
+        targets, product.radar, moving.pulse_times(product), truth_frame(product, source), moving.phase_centres(product)
+    )
 
 
 def _names(table) -> str:
@@ -98,8 +102,13 @@ def _rows(table) -> list[dict]:
     if table is None:
         return []
     if isinstance(table, np.ndarray) and table.dtype.names:
-        return [{k: (v.decode() if isinstance(v, bytes) else v.item() if hasattr(v, "item") else v)
-                 for k, v in zip(table.dtype.names, row)} for row in table]
+        return [
+            {
+                k: (v.decode() if isinstance(v, bytes) else v.item() if hasattr(v, "item") else v)
+                for k, v in zip(table.dtype.names, row)
+            }
+            for row in table
+        ]
     return [dict(r) for r in table]
 
 
@@ -118,16 +127,22 @@ def moving_target_table(product) -> list[dict]:
     ``truth_index`` (row of the targets table, -1 none) becomes the ``truth`` name here."""
     from sarproc.product.model import moving_target_rows, target_names
 
-    if "moving_targets" in product.aux and not getattr(product.aux["moving_targets"], "dtype", None) is None \
-            and not product.aux["moving_targets"].dtype.names:
+    if (
+        "moving_targets" in product.aux
+        and not getattr(product.aux["moving_targets"], "dtype", None) is None
+        and not product.aux["moving_targets"].dtype.names
+    ):
         names = target_names(product.targets)
         rows = moving_target_rows(product.aux)
         for r in rows:
             k = int(r.get("truth_index", -1))
             r["truth"] = names[k] if 0 <= k < len(names) else ""
         return rows
-    for table in (getattr(product, "moving_targets", None), product.aux.get("moving_targets"),
-                  product.attrs.get("moving_targets")):
+    for table in (
+        getattr(product, "moving_targets", None),
+        product.aux.get("moving_targets"),
+        product.attrs.get("moving_targets"),
+    ):
         rows = _rows(table)
         if rows:
             return rows
@@ -203,8 +218,9 @@ def mover_reports(product, apparent: np.ndarray, report, source: str = "") -> tu
         s = np.array([apparent[c][k] for c in "xyz"], float)
         t_c = moving.illumination_centre_time(radar, times, xyz, vel, positions)
         p_c = np.array([np.interp(t_c, times, positions[:, i]) for i in range(3)])
-        movers.append({"name": name, "xyz": xyz, "vel": vel, "S": s, "t_c": t_c, "k": k,
-                       "range": float(np.linalg.norm(s - p_c))})
+        movers.append(
+            {"name": name, "xyz": xyz, "vel": vel, "S": s, "t_c": t_c, "k": k, "range": float(np.linalg.norm(s - p_c))}
+        )
     table = moving_target_table(product)
     if table:
         source_name, matched = "moving_targets", _match_table(table, movers, max(cell_az, cell_rg))
@@ -219,11 +235,16 @@ def mover_reports(product, apparent: np.ndarray, report, source: str = "") -> tu
         peak = np.asarray(frame.to_xyz(*[coords[d] for d in frame.axes]), float).reshape(3)
         v_a, v_r = moving.slant_velocity(m["xyz"], m["vel"], radar.altitude)
         fields = dict(
-            name=m["name"], true_position=tuple(m["xyz"]), v_a=v_a, v_r=v_r, centre_time=m["t_c"],
+            name=m["name"],
+            true_position=tuple(m["xyz"]),
+            v_a=v_a,
+            v_r=v_r,
+            centre_time=m["t_c"],
             apparent_position=tuple(m["S"]),
             apparent_coords={d: float(apparent[d][m["k"]]) for d in product.dims},
             shift=float(np.linalg.norm(m["S"] - (m["xyz"] + m["vel"] * m["t_c"]))),
-            measured_position=tuple(float(c) for c in peak))
+            measured_position=tuple(float(c) for c in peak),
+        )
         est = matched.get(m["name"])
         if est is not None:
             e_vr = float(est.get("v_r", est.get("radial_velocity", math.nan)))
@@ -235,12 +256,21 @@ def mover_reports(product, apparent: np.ndarray, report, source: str = "") -> tu
                 relocated = moving.relocate(radar, times, peak, e_vel, positions)
                 how = "measured peak + estimated velocity"
             implied = implied_relocation_error(radar, m["range"], e_va - v_a, e_vr - v_r)
-            fields.update(estimate=source_name, v_a_estimated=e_va, v_r_estimated=e_vr, v_a_error=e_va - v_a,
-                          v_r_error=e_vr - v_r, relocation_error_from_velocity=implied)
+            fields.update(
+                estimate=source_name,
+                v_a_estimated=e_va,
+                v_r_estimated=e_vr,
+                v_a_error=e_va - v_a,
+                v_r_error=e_vr - v_r,
+                relocation_error_from_velocity=implied,
+            )
             if relocated is not None:
                 err = relocated - m["xyz"]
-                fields.update(relocated_position=tuple(float(c) for c in relocated), relocation=how,
-                              relocation_error=float(np.linalg.norm(err)),
-                              relocation_error_xyz=tuple(float(c) for c in err))
+                fields.update(
+                    relocated_position=tuple(float(c) for c in relocated),
+                    relocation=how,
+                    relocation_error=float(np.linalg.norm(err)),
+                    relocation_error_xyz=tuple(float(c) for c in err),
+                )
         out.append(MoverReport(**fields))
     return tuple(out)

@@ -41,8 +41,9 @@ def _label(dim: str, units: dict, frame: str = "") -> str:
     return f"{dim} ({inside})" if inside else dim
 
 
-def plot_quicklook(path, data, dims, coords, truth=None, names=(), units=None, dynamic_range_db=50.0,
-                   title="", frame: str = "") -> Path:
+def plot_quicklook(
+    path, data, dims, coords, truth=None, names=(), units=None, dynamic_range_db=50.0, title="", frame: str = ""
+) -> Path:
     """dB image (3D: maximum projections) normalised to its peak, truth marked; writes ``path`` (PNG).
 
     ``data`` may be complex or a magnitude already (e.g. :func:`sarproc.product.io.read_magnitude_preview`);
@@ -61,14 +62,23 @@ def plot_quicklook(path, data, dims, coords, truth=None, names=(), units=None, d
         db = 20 * np.log10(np.maximum(proj / peak, 10 ** (-dynamic_range_db / 20)))
         cv, ch = np.asarray(coords[dims[v]]), np.asarray(coords[dims[h]])
         extent = (ch[0], ch[-1], cv[0], cv[-1])
-        im = ax.imshow(db, origin="lower", aspect="auto", extent=extent, cmap="gray",
-                       vmin=-dynamic_range_db, vmax=0, interpolation="nearest")
+        im = ax.imshow(
+            db,
+            origin="lower",
+            aspect="auto",
+            extent=extent,
+            cmap="gray",
+            vmin=-dynamic_range_db,
+            vmax=0,
+            interpolation="nearest",
+        )
         if truth is not None and len(truth):
             t = np.asarray(truth, dtype=float)
             ax.scatter(t[:, h], t[:, v], s=80, facecolors="none", edgecolors="tab:red", linewidths=1.0)
             for n, row in zip(names, t):
-                ax.annotate(str(n), (row[h], row[v]), xytext=(5, 5), textcoords="offset points",
-                            color="tab:red", fontsize=8)
+                ax.annotate(
+                    str(n), (row[h], row[v]), xytext=(5, 5), textcoords="offset points", color="tab:red", fontsize=8
+                )
         ax.set_xlabel(_label(dims[h], units, frame))
         ax.set_ylabel(_label(dims[v], units, frame))
         if other:
@@ -80,8 +90,18 @@ def plot_quicklook(path, data, dims, coords, truth=None, names=(), units=None, d
     return Path(path)
 
 
-def plot_target(path, data, dims, coords, theoretical_irw, target, units=None, params=None,
-                half_width_nulls: float = 4.0, upsample: int = 8) -> Path:
+def plot_target(
+    path,
+    data,
+    dims,
+    coords,
+    theoretical_irw,
+    target,
+    units=None,
+    params=None,
+    half_width_nulls: float = 4.0,
+    upsample: int = 8,
+) -> Path:
     """Contours (dB) of the upsampled response around one target's peak, one panel per axis pair.
 
     ``target`` is a :class:`sarproc.quality.metrics.TargetReport`; offsets are drawn relative to the
@@ -93,17 +113,30 @@ def plot_target(path, data, dims, coords, theoretical_irw, target, units=None, p
     pairs = _pairs(np.ndim(data))
     fig, axs = _figure(len(pairs), width=4.6)
     for ax, (v, h) in zip(axs, pairs):
-        off_v, off_h, vals = target_patch(data, dims, coords, theoretical_irw, target, pair=(v, h),
-                                          half_width_nulls=half_width_nulls, upsample=upsample, params=params)
+        off_v, off_h, vals = target_patch(
+            data,
+            dims,
+            coords,
+            theoretical_irw,
+            target,
+            pair=(v, h),
+            half_width_nulls=half_width_nulls,
+            upsample=upsample,
+            params=params,
+        )
         db = 20 * np.log10(np.maximum(np.abs(vals), 1e-6))
         cs = ax.contourf(off_h, off_v, db, levels=np.arange(-40, 0.1, 2.5), cmap="viridis", extend="min")
-        ax.contour(off_h, off_v, db, levels=list(CONTOUR_LEVELS_DB), colors="k", linewidths=0.5,
-                   linestyles="solid")
+        ax.contour(off_h, off_v, db, levels=list(CONTOUR_LEVELS_DB), colors="k", linewidths=0.5, linestyles="solid")
         ax.contour(off_h, off_v, db, levels=[-3], colors="w", linewidths=1.2, linestyles="solid")
         ax.set_xlabel(f"{_label(dims[h], units)} from peak")
         ax.set_ylabel(f"{_label(dims[v], units)} from peak")
-        ax.set_title("\n".join(f"{d}: IRW {target.axis(d).irw:.3g} {units.get(d, '')}, "
-                               f"PSLR {target.axis(d).pslr_db:.2f} dB" for d in (dims[h], dims[v])), fontsize=8)
+        ax.set_title(
+            "\n".join(
+                f"{d}: IRW {target.axis(d).irw:.3g} {units.get(d, '')}, PSLR {target.axis(d).pslr_db:.2f} dB"
+                for d in (dims[h], dims[v])
+            ),
+            fontsize=8,
+        )
         fig.colorbar(cs, ax=ax, label="dB")
     fig.suptitle(f"target {target.name}", fontsize=10)
     fig.savefig(path, dpi=110, format="png")

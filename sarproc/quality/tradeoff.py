@@ -30,8 +30,13 @@ def timing_stats(times) -> dict:
     if not values or not all(math.isfinite(t) and t >= 0 for t in values):
         raise ValueError(f"timing_stats: need finite non-negative times, got {values!r}")
     best, worst = min(values), max(values)
-    return {"best": best, "median": statistics.median(values), "worst": worst, "spread": worst - best,
-            "repeats": len(values)}
+    return {
+        "best": best,
+        "median": statistics.median(values),
+        "worst": worst,
+        "spread": worst - best,
+        "repeats": len(values),
+    }
 
 
 def faster(a_times, b_times) -> bool:
@@ -52,8 +57,7 @@ def pareto_front(times, quality) -> list[int]:
     better). A setting with no quality (None or NaN) is on no front and dominates nothing.
     """
     ok = [i for i, q in enumerate(quality) if q is not None and math.isfinite(q)]
-    front = [i for i in ok if not any(dominates(times[j], quality[j], times[i], quality[i])
-                                      for j in ok if j != i)]
+    front = [i for i in ok if not any(dominates(times[j], quality[j], times[i], quality[i]) for j in ok if j != i)]
     return sorted(front, key=lambda i: (min(times[i]), quality[i]))
 
 

@@ -39,8 +39,17 @@ def number_groups(ax, xs, ys, min_px: float = 12.0) -> list[list[int]]:
     return groups
 
 
-def plot_tradeoff(path, labels, times, quality, *, quality_label: str, title: str = "",
-                  log_quality: bool = False, floor: float | None = None) -> Path:
+def plot_tradeoff(
+    path,
+    labels,
+    times,
+    quality,
+    *,
+    quality_label: str,
+    title: str = "",
+    log_quality: bool = False,
+    floor: float | None = None,
+) -> Path:
     """One panel: each setting's repeated times (bar from best to worst, dot at the median) against its
     quality (lower is better), the Pareto front as a line through the front's best times, numbered
     markers and a numbered table of the settings. Writes ``path`` (PNG)."""
@@ -62,29 +71,54 @@ def plot_tradeoff(path, labels, times, quality, *, quality_label: str, title: st
         fx = [stats[i]["best"] for i in front]
         fy = [qy[i] for i in front]
         # a step line: the best quality reachable within a time budget
-        ax.step(fx + [max(s["worst"] for s in stats)], fy + [fy[-1]], where="post", color="tab:red", lw=1.2,
-                label="Pareto front (best times)")
+        ax.step(
+            fx + [max(s["worst"] for s in stats)],
+            fy + [fy[-1]],
+            where="post",
+            color="tab:red",
+            lw=1.2,
+            label="Pareto front (best times)",
+        )
         ax.legend(loc="best", fontsize=8)
     if log_quality:
         ax.set_yscale("log")
     ax.set_xscale("log")
-    ax.margins(x=0.1, y=0.12)        # room for the numbers at the edges
+    ax.margins(x=0.1, y=0.12)  # room for the numbers at the edges
     ax.set_xlabel("time (s): bar best..worst of the repeats, dot median")
     ax.set_ylabel(quality_label)
     if title:
         ax.set_title(title, fontsize=10)
     for group in number_groups(ax, [stats[i]["best"] for i in ok], [qy[i] for i in ok]):
         first = ok[group[0]]
-        ax.annotate(", ".join(str(ok[g] + 1) for g in group), (stats[first]["best"], qy[first]), xytext=(-3, 5),
-                    textcoords="offset points", fontsize=8, ha="right",
-                    color="tab:red" if all(ok[g] in front for g in group) else "black")
+        ax.annotate(
+            ", ".join(str(ok[g] + 1) for g in group),
+            (stats[first]["best"], qy[first]),
+            xytext=(-3, 5),
+            textcoords="offset points",
+            fontsize=8,
+            ha="right",
+            color="tab:red" if all(ok[g] in front for g in group) else "black",
+        )
     table = fig.add_subplot(grid[0, 1])
     table.axis("off")
-    rows = [[str(i + 1) + (" *" if i in front else ""), labels[i], f"{stats[i]['best']:.3g}",
-             f"{stats[i]['median']:.3g}", f"{stats[i]['spread']:.2g}",
-             "n/a" if quality[i] is None else f"{quality[i]:.3g}"] for i in range(n)]
-    tab = table.table(cellText=rows, colLabels=["#", "setting", "best s", "median s", "spread s", "quality"],
-                      loc="upper center", cellLoc="left", colWidths=[0.06, 0.56, 0.095, 0.095, 0.095, 0.095])
+    rows = [
+        [
+            str(i + 1) + (" *" if i in front else ""),
+            labels[i],
+            f"{stats[i]['best']:.3g}",
+            f"{stats[i]['median']:.3g}",
+            f"{stats[i]['spread']:.2g}",
+            "n/a" if quality[i] is None else f"{quality[i]:.3g}",
+        ]
+        for i in range(n)
+    ]
+    tab = table.table(
+        cellText=rows,
+        colLabels=["#", "setting", "best s", "median s", "spread s", "quality"],
+        loc="upper center",
+        cellLoc="left",
+        colWidths=[0.06, 0.56, 0.095, 0.095, 0.095, 0.095],
+    )
     tab.auto_set_font_size(False)
     tab.set_fontsize(6.5 if max(map(len, labels), default=0) > 36 else 7)
     table.set_title(f"* on the front; {stats[0]['repeats'] if stats else 0} interleaved repeats each", fontsize=8)

@@ -25,7 +25,6 @@ from sarproc.product.model import make_targets
 log = logging.getLogger(__name__)
 
 
-
 @dataclasses.dataclass(frozen=True)
 class RadarParams:
     carrier_frequency: float = param("frequency", gt=0, doc="carrier frequency f_c")
@@ -34,17 +33,25 @@ class RadarParams:
     range_sampling_rate: float = param("frequency", gt=0, doc="complex range sampling rate f_s (>= B)")
     prf: float = param("frequency", gt=0, doc="pulse repetition frequency")
     chirp: str = param(default="up", choices=("up", "down"), doc="chirp direction")
-    polarization: str | None = param(default=None, doc=(
-        "optional transmit:receive polarisation ('V:V', 'H:H', 'H:V', ...; SICD spelling), recorded in the "
-        "products and written by export-sicd; absent: UNKNOWN"))
+    polarization: str | None = param(
+        default=None,
+        doc=(
+            "optional transmit:receive polarisation ('V:V', 'H:H', 'H:V', ...; SICD spelling), recorded in the "
+            "products and written by export-sicd; absent: UNKNOWN"
+        ),
+    )
 
     def validate(self):
         if self.polarization is not None and not POLARIZATION_RE.fullmatch(str(self.polarization)):
-            raise InputError(f"polarization: {self.polarization!r} is not TX:RCV with TX, RCV one of "
-                             f"{', '.join(POLARIZATIONS)} (e.g. 'V:V', 'H:V')")
+            raise InputError(
+                f"polarization: {self.polarization!r} is not TX:RCV with TX, RCV one of "
+                f"{', '.join(POLARIZATIONS)} (e.g. 'V:V', 'H:V')"
+            )
         if self.range_sampling_rate < self.bandwidth:
-            raise InputError(f"range_sampling_rate: {self.range_sampling_rate:g} Hz is below the bandwidth "
-                             f"{self.bandwidth:g} Hz; complex sampling needs f_s >= B")
+            raise InputError(
+                f"range_sampling_rate: {self.range_sampling_rate:g} Hz is below the bandwidth "
+                f"{self.bandwidth:g} Hz; complex sampling needs f_s >= B"
+            )
         if self.bandwidth >= self.carrier_frequency:
             raise InputError("bandwidth: must be smaller than carrier_frequency")
 
@@ -58,8 +65,13 @@ class PlatformParams:
 @dataclasses.dataclass(frozen=True)
 class GeometryParams:
     reference_range: float = param("length", gt=0, doc="slant range from the aperture centre to the scene centre")
-    squint: float = param("angle", default=0.0, gt=-math.radians(89), lt=math.radians(89),
-                          doc="squint of the line of sight to the scene centre at the aperture centre (+ forward)")
+    squint: float = param(
+        "angle",
+        default=0.0,
+        gt=-math.radians(89),
+        lt=math.radians(89),
+        doc="squint of the line of sight to the scene centre at the aperture centre (+ forward)",
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -74,11 +86,15 @@ class RangeWindow:
 
 @dataclasses.dataclass(frozen=True)
 class AcquisitionParams:
-    mode: str = param(default="spotlight", choices=("stripmap", "spotlight", "sliding_spotlight"),
-                      doc="beam steering; stripmap and sliding_spotlight need effects.antenna")
+    mode: str = param(
+        default="spotlight",
+        choices=("stripmap", "spotlight", "sliding_spotlight"),
+        doc="beam steering; stripmap and sliding_spotlight need effects.antenna",
+    )
     aperture_time: float | None = param("time", default=None, gt=0, doc="synthetic aperture duration")
-    azimuth_resolution: float | None = param("length", default=None, gt=0,
-                                             doc="sets aperture_time = 0.886 lambda R / (2 rho v cos^2 squint)")
+    azimuth_resolution: float | None = param(
+        "length", default=None, gt=0, doc="sets aperture_time = 0.886 lambda R / (2 rho v cos^2 squint)"
+    )
     n_pulses: int | None = param(default=None, ge=1, doc="number of pulses")
     range_window: RangeWindow | None = param(default=None, doc="receive window; default covers every echo")
     range_margin: float = param("length", default=0.0, ge=0, doc="extra slant range on both sides of the auto window")
@@ -86,8 +102,10 @@ class AcquisitionParams:
     def validate(self):
         given = [k for k in ("aperture_time", "azimuth_resolution", "n_pulses") if getattr(self, k) is not None]
         if len(given) != 1:
-            raise InputError("give exactly one of aperture_time, azimuth_resolution, n_pulses"
-                             + (f" (got {', '.join(given)})" if given else ""))
+            raise InputError(
+                "give exactly one of aperture_time, azimuth_resolution, n_pulses"
+                + (f" (got {', '.join(given)})" if given else "")
+            )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -98,7 +116,9 @@ class TargetPoint:
     elevation: float = param("angle", default=0.0, doc="elevation coordinate (3D frames only)")
     amplitude: float = param(default=1.0, ge=0, doc="echo amplitude")
     phase: float = param("angle", default=0.0, doc="echo phase")
-    velocity: tuple[float, ...] = param("velocity", default=(0.0, 0.0, 0.0), doc="(vx, vy, vz); needs effects.target_motion")
+    velocity: tuple[float, ...] = param(
+        "velocity", default=(0.0, 0.0, 0.0), doc="(vx, vy, vz); needs effects.target_motion"
+    )
 
     def validate(self):
         if len(self.velocity) != 3:
@@ -118,8 +138,11 @@ class TargetGrid:
 @dataclasses.dataclass(frozen=True)
 class TargetsParams:
     frame: str = param(default="squint", doc="frame of the target coordinates (squint, zero_doppler, ground, los, ...)")
-    origin: str = param(default="scene_center", choices=("scene_center", "absolute"),
-                        doc="coordinates are offsets from the scene centre, or absolute frame coordinates")
+    origin: str = param(
+        default="scene_center",
+        choices=("scene_center", "absolute"),
+        doc="coordinates are offsets from the scene centre, or absolute frame coordinates",
+    )
     points: tuple[TargetPoint, ...] = param(default=(), doc="point targets")
     grid: TargetGrid | None = param(default=None, doc="a regular grid of targets centred on the origin")
 
@@ -135,14 +158,21 @@ class TargetsParams:
 class ReferenceParams:
     """Optional absolute placement of the local scene (for standard formats such as SICD/CPHD)."""
 
-    time: str | None = param(default=None, doc="UTC of azimuth time 0 (the aperture centre), ISO 8601 with a zone, "
-                                               "e.g. '2024-05-01T10:00:00Z'")
-    latitude: float | None = param("angle", default=None, ge=-math.pi / 2, le=math.pi / 2,
-                                   doc="WGS84 geodetic latitude of the scene centre")
-    longitude: float | None = param("angle", default=None, ge=-math.pi, le=math.pi,
-                                    doc="WGS84 geodetic longitude of the scene centre")
-    height: float | None = param("length", default=None, doc="height of the scene centre above the WGS84 ellipsoid "
-                                                             "(default 0 m when latitude and longitude are given)")
+    time: str | None = param(
+        default=None,
+        doc="UTC of azimuth time 0 (the aperture centre), ISO 8601 with a zone, e.g. '2024-05-01T10:00:00Z'",
+    )
+    latitude: float | None = param(
+        "angle", default=None, ge=-math.pi / 2, le=math.pi / 2, doc="WGS84 geodetic latitude of the scene centre"
+    )
+    longitude: float | None = param(
+        "angle", default=None, ge=-math.pi, le=math.pi, doc="WGS84 geodetic longitude of the scene centre"
+    )
+    height: float | None = param(
+        "length",
+        default=None,
+        doc="height of the scene centre above the WGS84 ellipsoid (default 0 m when latitude and longitude are given)",
+    )
 
     def validate(self):
         if (self.latitude is None) != (self.longitude is None):
@@ -197,9 +227,13 @@ class Scene:
         return (np.arange(n) - (n - 1) / 2.0) / self.radar.prf
 
     def targets_table(self) -> np.ndarray:
-        return make_targets(self.target_names, self.target_xyz.reshape(-1, 3), self.target_amplitude,
-                            self.target_velocity.reshape(-1, 3),
-                            frame_coordinates(self.target_frame, self.target_xyz))
+        return make_targets(
+            self.target_names,
+            self.target_xyz.reshape(-1, 3),
+            self.target_amplitude,
+            self.target_velocity.reshape(-1, 3),
+            frame_coordinates(self.target_frame, self.target_xyz),
+        )
 
     def resolved(self) -> dict:
         return as_dict(self.params)
@@ -224,10 +258,14 @@ def _targets(p: SceneParams, radar: RadarMetadata, source: str):
         g = t.grid
         for i in range(g.azimuth_count):
             for j in range(g.range_count):
-                points.append(TargetPoint(name=f"{g.prefix}{i:02d}_{j:02d}",
-                                          azimuth=(i - (g.azimuth_count - 1) / 2) * g.azimuth_spacing,
-                                          range=(j - (g.range_count - 1) / 2) * g.range_spacing,
-                                          amplitude=g.amplitude))
+                points.append(
+                    TargetPoint(
+                        name=f"{g.prefix}{i:02d}_{j:02d}",
+                        azimuth=(i - (g.azimuth_count - 1) / 2) * g.azimuth_spacing,
+                        range=(j - (g.range_count - 1) / 2) * g.range_spacing,
+                        amplitude=g.amplitude,
+                    )
+                )
     names = [pt.name for pt in points]
     if len(set(names)) != len(names):
         raise InputError(f"{source}: targets: target names must be unique")
@@ -255,8 +293,11 @@ def _reference(ref: ReferenceParams) -> dict:
     if ref.time is not None:
         out["reference_utc"] = parse_utc(ref.time, "reference.time")
     if ref.latitude is not None:
-        out.update(reference_latitude=ref.latitude, reference_longitude=ref.longitude,
-                   reference_height=ref.height if ref.height is not None else 0.0)
+        out.update(
+            reference_latitude=ref.latitude,
+            reference_longitude=ref.longitude,
+            reference_height=ref.height if ref.height is not None else 0.0,
+        )
     return out
 
 
@@ -276,11 +317,20 @@ def scene_from_mapping(mapping: dict, source: str = "<mapping>") -> Scene:
     except InputError as exc:
         raise InputError(f"{source}: {exc}") from None
     radar = RadarMetadata(
-        carrier_frequency=r.carrier_frequency, bandwidth=r.bandwidth, pulse_duration=r.pulse_duration,
+        carrier_frequency=r.carrier_frequency,
+        bandwidth=r.bandwidth,
+        pulse_duration=r.pulse_duration,
         chirp_rate=(1 if r.chirp == "up" else -1) * r.bandwidth / r.pulse_duration,
-        range_sampling_rate=r.range_sampling_rate, prf=r.prf, velocity=pl.velocity, altitude=pl.altitude,
-        squint=g.squint, reference_range=g.reference_range, scene_center=centre, mode=p.acquisition.mode,
-        aperture_time=_aperture_time(p, wavelength), polarization=r.polarization,
+        range_sampling_rate=r.range_sampling_rate,
+        prf=r.prf,
+        velocity=pl.velocity,
+        altitude=pl.altitude,
+        squint=g.squint,
+        reference_range=g.reference_range,
+        scene_center=centre,
+        mode=p.acquisition.mode,
+        aperture_time=_aperture_time(p, wavelength),
+        polarization=r.polarization,
         **_reference(p.reference),
     )
     frame, xyz, vel, amp, names = _targets(p, radar, source)
@@ -292,8 +342,17 @@ def scene_from_mapping(mapping: dict, source: str = "<mapping>") -> Scene:
         raise InputError(f"{source}: acquisition.mode: {p.acquisition.mode} needs effects.antenna (a beam to steer)")
     for e in effects:
         radar = e.update_radar(radar)
-    scene = Scene(params=p, radar=radar, effects=effects, target_xyz=xyz, target_velocity=vel,
-                  target_amplitude=amp, target_names=names, target_frame=frame, source=source)
+    scene = Scene(
+        params=p,
+        radar=radar,
+        effects=effects,
+        target_xyz=xyz,
+        target_velocity=vel,
+        target_amplitude=amp,
+        target_names=names,
+        target_frame=frame,
+        source=source,
+    )
     _sanity_warnings(scene, declared)
     return scene
 
@@ -301,8 +360,11 @@ def scene_from_mapping(mapping: dict, source: str = "<mapping>") -> Scene:
 # Chains that take out a spotlight scene's total Doppler span before any FFT over azimuth: deramp /
 # SPECAN (An 2012), motion compensation to the scene centre then polar format (Nie 2016), and the
 # time-domain reference. They need only the instantaneous spread across the scene within the PRF.
-UNFOLDING_CHAINS = {"coarse_focus": "deramp chain (coarse-focus)", "pfa2": "pfa2 (motion compensation "
-                    "to the scene centre)", "backproject": "backproject (time domain)"}
+UNFOLDING_CHAINS = {
+    "coarse_focus": "deramp chain (coarse-focus)",
+    "pfa2": "pfa2 (motion compensation to the scene centre)",
+    "backproject": "backproject (time domain)",
+}
 
 
 # The folding check's cost is bounded whatever the scene's size: at most this many pulses (evenly
@@ -335,18 +397,25 @@ def _folding_targets(scene: Scene, t_ends: np.ndarray, cap: int) -> np.ndarray:
         return np.arange(n)
     r = scene.radar
     x, rho = xyz[:, 0], np.hypot(xyz[:, 1], xyz[:, 2] - r.altitude)
-    keep = [np.argmin(c) for c in (x, xyz[:, 1], xyz[:, 2], rho)] + [np.argmax(c) for c in (x, xyz[:, 1], xyz[:, 2], rho)]
+    keep = [np.argmin(c) for c in (x, xyz[:, 1], xyz[:, 2], rho)] + [
+        np.argmax(c) for c in (x, xyz[:, 1], xyz[:, 2], rho)
+    ]
     try:
         from scipy.spatial import ConvexHull, QhullError
 
         hull = ConvexHull(np.stack([x, rho], axis=1)).vertices
-    except (ImportError, QhullError, ValueError):   # all targets on one line: the extremes above are its ends
+    except (ImportError, QhullError, ValueError):  # all targets on one line: the extremes above are its ends
         hull = np.zeros(0, int)
     if len(hull) > cap // 2:
         hull = hull[_folding_pulses(len(hull), cap // 2)]
-    ends = 2 * r.velocity / r.wavelength * (x[None, :] - r.velocity * t_ends[:, None]) / np.hypot(
-        x[None, :] - r.velocity * t_ends[:, None], rho[None, :])
-    widest = np.argsort(ends[0] - ends[1])[-(cap // 8):]
+    ends = (
+        2
+        * r.velocity
+        / r.wavelength
+        * (x[None, :] - r.velocity * t_ends[:, None])
+        / np.hypot(x[None, :] - r.velocity * t_ends[:, None], rho[None, :])
+    )
+    widest = np.argsort(ends[0] - ends[1])[-(cap // 8) :]
     chosen = np.unique(np.concatenate([np.asarray(keep, int), hull, widest]))
     rest = max(cap - len(chosen), 0)
     return np.unique(np.concatenate([chosen, _folding_pulses(n, rest) if rest else np.zeros(0, int)]))
@@ -374,9 +443,9 @@ def doppler_folding(scene: Scene, max_pulses: int | None = None, max_targets: in
     bore = beam.boresight(r, pos) if r.azimuth_beamwidth > 0 else None
     columns = []
     for k0 in range(0, len(targets), FOLDING_BLOCK):
-        tg = np.broadcast_to(targets[k0:k0 + FOLDING_BLOCK], (len(t),) + targets[k0:k0 + FOLDING_BLOCK].shape)
+        tg = np.broadcast_to(targets[k0 : k0 + FOLDING_BLOCK], (len(t),) + targets[k0 : k0 + FOLDING_BLOCK].shape)
         d = tg - pos[:, None, :]
-        fd = 2 * r.velocity * d[..., 0] / np.linalg.norm(d, axis=-1) / r.wavelength      # (pulses, block)
+        fd = 2 * r.velocity * d[..., 0] / np.linalg.norm(d, axis=-1) / r.wavelength  # (pulses, block)
         if bore is not None:
             az, _ = beam.off_boresight_angles(bore, pos, tg)
             fd = np.where(np.abs(az) <= r.azimuth_beamwidth / 2, fd, np.nan)
@@ -390,8 +459,13 @@ def doppler_folding(scene: Scene, max_pulses: int | None = None, max_targets: in
         own = np.nanmax(fd[:, lit_k], axis=0) - np.nanmin(fd[:, lit_k], axis=0)
         spread = np.nanmax(fd[lit_t], axis=1) - np.nanmin(fd[lit_t], axis=1)
     channels = r.n_channels if any(e.key == "azimuth_channels" for e in scene.effects) else 1
-    return {"own": float(own.max()), "spread": float(spread.max()), "span": float(np.nanmax(fd) - np.nanmin(fd)),
-            "rate": float(r.prf * channels), "channels": int(channels)}
+    return {
+        "own": float(own.max()),
+        "spread": float(spread.max()),
+        "span": float(np.nanmax(fd) - np.nanmin(fd)),
+        "rate": float(r.prf * channels),
+        "channels": int(channels),
+    }
 
 
 def _sanity_warnings(scene: Scene, declared: tuple = ()) -> None:
@@ -418,21 +492,36 @@ def _sanity_warnings(scene: Scene, declared: tuple = ()) -> None:
         seen, what = dop["spread"], "the targets' instantaneous Doppler spread"
     if seen > rate:
         f_dr = 2 * (r.velocity * math.cos(r.squint)) ** 2 / (r.wavelength * r.reference_range)
-        log.warning("%s: %s is %.4g Hz, more than the azimuth sampling rate %.4g Hz (%s): azimuth aliasing by %.4g Hz; "
-                    "ghosts of each target appear %.4g m away along track (rate / FM rate x v at the reference "
-                    "range), and no processing chain undoes this (raise the PRF or narrow the beam / scene)",
-                    scene.source, what, seen, rate, sampling, seen - rate, rate / f_dr * r.velocity, extra=IMAGE_DEFECT)
+        log.warning(
+            "%s: %s is %.4g Hz, more than the azimuth sampling rate %.4g Hz (%s): azimuth aliasing by %.4g Hz; "
+            "ghosts of each target appear %.4g m away along track (rate / FM rate x v at the reference "
+            "range), and no processing chain undoes this (raise the PRF or narrow the beam / scene)",
+            scene.source,
+            what,
+            seen,
+            rate,
+            sampling,
+            seen - rate,
+            rate / f_dr * r.velocity,
+            extra=IMAGE_DEFECT,
+        )
         return
     if dop["span"] <= rate:
         return
     undo = [UNFOLDING_CHAINS[s] for s in declared if s in UNFOLDING_CHAINS]
-    text = (f"{scene.source}: the scene's azimuth spectrum spans {dop['span']:.4g} Hz over the {sampling} and folds "
-            f"by {dop['span'] - rate:.4g} Hz; {what} is at most {seen:.4g} Hz, within the sampling rate")
+    text = (
+        f"{scene.source}: the scene's azimuth spectrum spans {dop['span']:.4g} Hz over the {sampling} and folds "
+        f"by {dop['span'] - rate:.4g} Hz; {what} is at most {seen:.4g} Hz, within the sampling rate"
+    )
     if undo:
         log.info("%s: the declared %s unfolds it", text, " and ".join(undo))
     else:
-        log.warning("%s, but no declared stage unfolds it (declare one of: %s); an azimuth FFT of the raw data "
-                    "will alias", text, ", ".join(sorted(UNFOLDING_CHAINS)), extra=IMAGE_DEFECT)
+        log.warning(
+            "%s, but no declared stage unfolds it (declare one of: %s); an azimuth FFT of the raw data will alias",
+            text,
+            ", ".join(sorted(UNFOLDING_CHAINS)),
+            extra=IMAGE_DEFECT,
+        )
 
 
 def load_scene(path) -> Scene:

@@ -45,7 +45,6 @@ class SimulationPlan:
         return tuple(len(self.coords[d]) for d in self.dims)
 
 
-
 def _positions(scene: Scene, t: np.ndarray) -> np.ndarray:
     r = scene.radar
     pos = np.stack([r.velocity * t, np.zeros_like(t), np.full_like(t, r.altitude)], axis=-1)
@@ -131,11 +130,20 @@ def plan_simulation(scene: Scene) -> SimulationPlan:
         aux["range_gate_offset"] = gate
     for e in scene.effects:
         aux.update(e.aux())
-    return SimulationPlan(kind=kind, dims=dims, coords=coords, radar=radar, targets=scene.targets_table(), aux=aux,
-                          tx_offset=tx_off, rx_offsets=rx_off, block_pulses=scene.params.simulation.block_pulses)
+    return SimulationPlan(
+        kind=kind,
+        dims=dims,
+        coords=coords,
+        radar=radar,
+        targets=scene.targets_table(),
+        aux=aux,
+        tx_offset=tx_off,
+        rx_offsets=rx_off,
+        block_pulses=scene.params.simulation.block_pulses,
+    )
 
 
-LIT_FRACTION_MIN = 0.95     # a target lit over less of its full -3 dB aperture than this is warned about
+LIT_FRACTION_MIN = 0.95  # a target lit over less of its full -3 dB aperture than this is warned about
 
 
 def illumination_warnings(scene: Scene, plan: SimulationPlan) -> list[str]:
@@ -153,8 +161,10 @@ def illumination_warnings(scene: Scene, plan: SimulationPlan) -> list[str]:
         if s.lit_fraction == 0 and s.peak_gain_db < -300:
             what = "outside the beam over the whole aperture (the pattern has no gain there): 0 % of its full aperture"
         elif s.lit_fraction == 0:
-            what = (f"outside the main beam over the whole aperture (lit by its side lobes only, strongest two-way "
-                    f"gain {s.peak_gain_db:.1f} dB): 0 % of its full -3 dB aperture")
+            what = (
+                f"outside the main beam over the whole aperture (lit by its side lobes only, strongest two-way "
+                f"gain {s.peak_gain_db:.1f} dB): 0 % of its full -3 dB aperture"
+            )
         else:
             what = f"only partly illuminated: {100 * s.lit_fraction:.0f} % of its full -3 dB aperture lies on the track"
         if s.full is None:
@@ -162,8 +172,10 @@ def illumination_warnings(scene: Scene, plan: SimulationPlan) -> list[str]:
         elif s.now is None:
             loss = "; it is never lit: no response is expected"
         else:
-            loss = (f"; expected along-track IRW {s.now.irw:.3g} m instead of {s.full.irw:.3g} m ({s.loss:.2f}x), "
-                    f"PSLR {s.now.pslr_db:.1f} dB instead of {s.full.pslr_db:.1f} dB (antenna weighting, no window)")
+            loss = (
+                f"; expected along-track IRW {s.now.irw:.3g} m instead of {s.full.irw:.3g} m ({s.loss:.2f}x), "
+                f"PSLR {s.now.pslr_db:.1f} dB instead of {s.full.pslr_db:.1f} dB (antenna weighting, no window)"
+            )
         lines.append(f"{scene.source}: target {name!r} is {what}{loss}")
     for line in lines:
         log.warning("%s", line)
@@ -186,21 +198,32 @@ def echo_block(scene: Scene, plan: SimulationPlan, t: np.ndarray, chirp: np.ndar
     tg = _target_positions(scene, t)
     amplitude = _scatterers(scene)[2]
     gate = np.ascontiguousarray(_gate_offsets(scene, t, 2 * r.reference_range / C), dtype=float)
-    if chirp is None:   # the window's chirp is the same for every block: simulate_blocks passes it once
+    if chirp is None:  # the window's chirp is the same for every block: simulate_blocks passes it once
         chirp = window_chirp(n_rg, fs, r.chirp_rate)
     out = np.zeros((len(plan.rx_offsets), len(t), n_rg), dtype=np.complex128)
     for ch, rx in enumerate(plan.rx_offsets):
-        tau = _delays(pos + plan.tx_offset, pos + rx, tg)                # (n_t, n_tg)
+        tau = _delays(pos + plan.tx_offset, pos + rx, tg)  # (n_t, n_tg)
         gains = np.broadcast_to(amplitude[None, :], tau.shape).astype(complex)
         for e in scene.effects:
             gains = e.gains(t, pos, tg, ch, gains)
-        accumulate_echoes(out[ch], np.ascontiguousarray(tau), np.ascontiguousarray(gains, dtype=np.complex128),
-                          gate, t0, fs, r.pulse_duration, r.chirp_rate, r.carrier_frequency, chirp)
+        accumulate_echoes(
+            out[ch],
+            np.ascontiguousarray(tau),
+            np.ascontiguousarray(gains, dtype=np.complex128),
+            gate,
+            t0,
+            fs,
+            r.pulse_duration,
+            r.chirp_rate,
+            r.carrier_frequency,
+            chirp,
+        )
     return out
 
 
-def simulate_blocks(scene: Scene, plan: SimulationPlan | None = None, progress=None,
-                    mapper=None) -> Iterator[tuple[slice, np.ndarray]]:
+def simulate_blocks(
+    scene: Scene, plan: SimulationPlan | None = None, progress=None, mapper=None
+) -> Iterator[tuple[slice, np.ndarray]]:
     """Yield (pulse slice, (n_ch, n_t, n_range) complex64 block) over the whole acquisition.
 
     ``mapper`` (any map-like yielding in input order, e.g. one over Dask workers) computes the blocks'
@@ -236,6 +259,14 @@ def simulate(scene: Scene, progress=None) -> Product:
         data[:, sl, :] = block
     if plan.kind == "raw":
         data = data[0]
-    return Product(kind=plan.kind, data=data, dims=plan.dims, coords=plan.coords, radar=plan.radar,
-                   targets=plan.targets, attrs={"frame": scene.target_frame.spec}, aux=plan.aux,
-                   history=[history_entry("simulate", scene.resolved())])
+    return Product(
+        kind=plan.kind,
+        data=data,
+        dims=plan.dims,
+        coords=plan.coords,
+        radar=plan.radar,
+        targets=plan.targets,
+        attrs={"frame": scene.target_frame.spec},
+        aux=plan.aux,
+        history=[history_entry("simulate", scene.resolved())],
+    )

@@ -69,8 +69,11 @@ def package_modules():
 
 def test_every_module_belongs_to_a_layer():
     """No module outside the layers except the package root's __init__ and __main__."""
-    stray = [module_name(p) for p in package_modules()
-             if layer_of(module_name(p)) is None and module_name(p) not in ("sarproc", "sarproc.__main__")]
+    stray = [
+        module_name(p)
+        for p in package_modules()
+        if layer_of(module_name(p)) is None and module_name(p) not in ("sarproc", "sarproc.__main__")
+    ]
     assert stray == []
 
 
@@ -79,27 +82,33 @@ def test_imports_run_downward(path):
     assert violations(path.read_text(), module_name(path), path.name == "__init__.py") == []
 
 
-@pytest.mark.parametrize("layer, bad_import", [
-    ("product", "from sarproc.dsp.interp import resample"),
-    ("product", "import sarproc.cli.main"),
-    ("dsp", "from sarproc.quality import metrics"),
-    ("quality", "from ..dsp.phasor import unit_phasor"),
-    ("focus", "from sarproc.simulation.simulate import simulate"),
-    ("simulation", "from sarproc.focus.backprojection import backproject"),
-    ("focus", "    from sarproc.cli.options import summary"),
-])
+@pytest.mark.parametrize(
+    "layer, bad_import",
+    [
+        ("product", "from sarproc.dsp.interp import resample"),
+        ("product", "import sarproc.cli.main"),
+        ("dsp", "from sarproc.quality import metrics"),
+        ("quality", "from ..dsp.phasor import unit_phasor"),
+        ("focus", "from sarproc.simulation.simulate import simulate"),
+        ("simulation", "from sarproc.focus.backprojection import backproject"),
+        ("focus", "    from sarproc.cli.options import summary"),
+    ],
+)
 def test_checker_catches_an_upward_or_sideways_import(layer, bad_import):
     """The rule bites: a deliberate upward or sibling import is reported (also when indented in a function)."""
     source = f"def f():\n{bad_import if bad_import.startswith(' ') else '    ' + bad_import}\n"
     assert violations(source, f"sarproc.{layer}.example") != []
 
 
-@pytest.mark.parametrize("layer, good_import", [
-    ("cli", "from sarproc.focus.backprojection import backproject"),
-    ("focus", "from sarproc.quality.metrics import evaluate_product"),
-    ("focus", "from .stolt import stolt_resample"),
-    ("simulation", "from sarproc.dsp.phasor import unit_phasor"),
-    ("product", "from sarproc import __version__"),
-])
+@pytest.mark.parametrize(
+    "layer, good_import",
+    [
+        ("cli", "from sarproc.focus.backprojection import backproject"),
+        ("focus", "from sarproc.quality.metrics import evaluate_product"),
+        ("focus", "from .stolt import stolt_resample"),
+        ("simulation", "from sarproc.dsp.phasor import unit_phasor"),
+        ("product", "from sarproc import __version__"),
+    ],
+)
 def test_checker_allows_downward_imports(layer, good_import):
     assert violations(good_import + "\n", f"sarproc.{layer}.squint_deramp.example") == []

@@ -37,10 +37,9 @@ def main(path: str) -> None:
         if not timer:
             durations[r["key"]] = min(seconds, durations.get(r["key"], seconds))
         if timer:
-            timer.join()          # a signal sent after the run ended must change nothing
-            time.sleep(0.005)     # let it be delivered (ignored) before the next run installs its handlers
-        print(json.dumps({"code": code, "signal": r.get("signal"), "delay": delay, "seconds": seconds}),
-              flush=True)
+            timer.join()  # a signal sent after the run ended must change nothing
+            time.sleep(0.005)  # let it be delivered (ignored) before the next run installs its handlers
+        print(json.dumps({"code": code, "signal": r.get("signal"), "delay": delay, "seconds": seconds}), flush=True)
 
 
 if __name__ == "__main__":

@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def _script(name):
-    sys.path.insert(0, str(ROOT / "scripts"))          # accuracy_002 imports reproduce_002 from its folder
+    sys.path.insert(0, str(ROOT / "scripts"))  # accuracy_002 imports reproduce_002 from its folder
     try:
         spec = importlib.util.spec_from_file_location(name, ROOT / "scripts" / f"{name}.py")
         module = importlib.util.module_from_spec(spec)
@@ -29,8 +29,11 @@ def test_backprojection_sweep_has_the_scripts_settings():
     script = _script("accuracy_backprojection")
     plan = plan_sweep(ROOT / "configs" / "sweeps" / "backprojection.yaml")
     for scene in ("stripmap", "squint30"):
-        got = sorted((t.setting["backproject.engine"], t.setting["backproject.upsample"],
-                      t.setting["backproject.interpolation"]) for t in plan.tasks if t.scene == scene)
+        got = sorted(
+            (t.setting["backproject.engine"], t.setting["backproject.upsample"], t.setting["backproject.interpolation"])
+            for t in plan.tasks
+            if t.scene == scene
+        )
         assert got == sorted(set(script.SETTINGS) | {script.REFERENCE})
 
 
@@ -39,14 +42,14 @@ def test_000_sweep_has_the_scripts_settings_in_its_frame():
     plan = plan_sweep(ROOT / "configs" / "sweeps" / "accuracy_000.yaml")
     for scene in ("exp2_small", "airborne_small"):
         tasks = [t for t in plan.tasks if t.scene == scene]
-        assert all(t.config["fine_focus"]["output_frame"] == "lrwc" for t in tasks)   # the script's frame
+        assert all(t.config["fine_focus"]["output_frame"] == "lrwc" for t in tasks)  # the script's frame
         got = []
         for t in tasks:
             over = {}
             for key, value in t.setting.items():
                 section, name = key.split(".")
                 over.setdefault(section, {})[name] = value
-            got.append(over if over != {"fine_focus": {"stolt_kernel": "knab"}} else {})   # the baseline
+            got.append(over if over != {"fine_focus": {"stolt_kernel": "knab"}} else {})  # the baseline
         assert sorted(map(repr, got)) == sorted(repr(o) for _, o in script.SETTINGS)
 
 
@@ -60,9 +63,11 @@ def test_002_sweep_has_the_scripts_settings():
     from sarproc.simulation.simulate import simulate
 
     mapping = load_yaml(ROOT / "configs" / "nie2016_small.yaml")
-    image = pfa2(simulate(scene_from_mapping(mapping, "nie2016_small.yaml")),
-                 build(Pfa2Params, mapping.get("pfa2"), "nie2016_small.yaml", "pfa2"))
-    radius = image.attrs["valid_radius_eq7"]          # the script's sub-image sizes are fractions of it
+    image = pfa2(
+        simulate(scene_from_mapping(mapping, "nie2016_small.yaml")),
+        build(Pfa2Params, mapping.get("pfa2"), "nie2016_small.yaml", "pfa2"),
+    )
+    radius = image.attrs["valid_radius_eq7"]  # the script's sub-image sizes are fractions of it
     wanted = []
     for _, change in script.SETTINGS:
         want = dict(change) if change else {"method": "two_step"}
@@ -79,7 +84,8 @@ def test_002_sweep_has_the_scripts_settings():
 
 def _close(got, want):
     return set(got) == set(want) and all(
-        abs(got[k] - want[k]) <= 1e-9 * abs(want[k]) if isinstance(want[k], float) else got[k] == want[k] for k in want)
+        abs(got[k] - want[k]) <= 1e-9 * abs(want[k]) if isinstance(want[k], float) else got[k] == want[k] for k in want
+    )
 
 
 def _array3d(config):
@@ -99,18 +105,20 @@ def test_004_sweeps_have_the_scripts_settings_and_isolated_targets():
     plan = plan_sweep(ROOT / "configs" / "sweeps" / "accuracy_004.yaml")
     want = sorted(_array3d({"array3d": {**base, **knobs}}) for _, knobs in script.SETTINGS)
     points = paper["targets"]["points"]
-    scenes = {"du2010": points, **{f"target{p['name']}": [p] for p in points}}   # the script's isolated scenes
+    scenes = {"du2010": points, **{f"target{p['name']}": [p] for p in points}}  # the script's isolated scenes
     assert sorted({t.scene for t in plan.tasks}) == sorted(scenes)
     for scene, pts in scenes.items():
         tasks = [t for t in plan.tasks if t.scene == scene]
-        assert sorted(_array3d(t.config) for t in tasks) == want          # the 19 settings, each once
+        assert sorted(_array3d(t.config) for t in tasks) == want  # the 19 settings, each once
         for t in tasks:
             assert t.config["targets"]["points"] == pts
-            assert {k: v for k, v in t.config.items() if k not in ("targets", "array3d")} == \
-                {k: v for k, v in paper.items() if k != "targets"}
+            assert {k: v for k, v in t.config.items() if k not in ("targets", "array3d")} == {
+                k: v for k, v in paper.items() if k != "targets"
+            }
     wide = plan_sweep(ROOT / "configs" / "sweeps" / "accuracy_004_wide.yaml")
     assert sorted(_array3d(t.config) for t in wide.tasks) == sorted(
-        _array3d({"array3d": knobs}) for _, knobs in script.WIDE_SETTINGS)   # the script's base there is {}
+        _array3d({"array3d": knobs}) for _, knobs in script.WIDE_SETTINGS
+    )  # the script's base there is {}
     assert all({k: v for k, v in t.config.items() if k != "array3d"} == script.WIDE for t in wide.tasks)
 
 
@@ -122,24 +130,32 @@ def test_003_sweep_has_the_scripts_reconstruct_settings():
     from sarproc.simulation.scene import scene_from_mapping
 
     plan = plan_sweep(ROOT / "configs" / "sweeps" / "accuracy_003.yaml")
-    scene = script.scene_mapping(ROOT / "configs" / "xu_scene.yaml", [script.TARGET])   # the script's scene
+    scene = script.scene_mapping(ROOT / "configs" / "xu_scene.yaml", [script.TARGET])  # the script's scene
     radar = scene_from_mapping(dict(scene)).radar
     got = []
     for t in plan.tasks:
         assert not t.evaluate and t.focus == ("reconstruct",)
-        assert t.config["targets"] == scene["targets"]                      # the one moving target T
-        assert {k: v for k, v in t.config.items() if k not in ("effects", "reconstruct")} == \
-            {k: v for k, v in scene.items() if k not in ("effects", "reconstruct")}
+        assert t.config["targets"] == scene["targets"]  # the one moving target T
+        assert {k: v for k, v in t.config.items() if k not in ("effects", "reconstruct")} == {
+            k: v for k, v in scene.items() if k not in ("effects", "reconstruct")
+        }
         ch = t.config["effects"]["azimuth_channels"]
-        assert {k: v for k, v in t.config["effects"].items() if k != "azimuth_channels"} == \
-            {k: v for k, v in scene["effects"].items() if k != "azimuth_channels"}
-        got.append((build(ReconstructParams, t.config.get("reconstruct") or {}), ch["n_receivers"],
-                    parse_quantity(ch["spacing"], "length")))
+        assert {k: v for k, v in t.config["effects"].items() if k != "azimuth_channels"} == {
+            k: v for k, v in scene["effects"].items() if k != "azimuth_channels"
+        }
+        got.append(
+            (
+                build(ReconstructParams, t.config.get("reconstruct") or {}),
+                ch["n_receivers"],
+                parse_quantity(ch["spacing"], "length"),
+            )
+        )
     want = [(script.search_params(s, step), 3, 2.0) for s, step in script.SEARCH]
     want += [(ReconstructParams(), n, script.channel_spacing(radar, n)) for n in script.CHANNELS]
     # one task per script row (search fast 0.1 and N = 3 are the same reconstruct, as in the script)
-    assert sorted((repr(p), n, round(d, 12)) for p, n, d in got) == sorted((repr(p), n, round(d, 12))
-                                                                           for p, n, d in want)
+    assert sorted((repr(p), n, round(d, 12)) for p, n, d in got) == sorted(
+        (repr(p), n, round(d, 12)) for p, n, d in want
+    )
 
 
 def test_reproduce_003_sweeps_and_strip_config_hold_the_reproductions_geometry():
@@ -188,6 +204,7 @@ def test_motion_002_sweeps_focus_the_same_raw_products_over_the_issues_ranges():
 
     def values(key, unit):
         return [parse_quantity(m[key], unit) for m in motions if key in m]
+
     amplitudes = values("cross_track_amplitude", "length") + values("vertical_amplitude", "length")
     periods = values("cross_track_period", "time") + values("vertical_period", "time")
     assert min(amplitudes) == pytest.approx(0.1) and max(amplitudes) == pytest.approx(5)

@@ -28,20 +28,36 @@ from sarproc.cli.main import cli
 
 from conftest import BASE_SCENE, merge
 
-SCENE = merge(BASE_SCENE, {"geometry": {"squint": "10 deg"}, "acquisition": {"aperture_time": "0.2 s"},
-                           "targets": {"points": [{"name": "A"}, {"name": "B", "range": "10 m", "azimuth": "4 m"}]}})
+SCENE = merge(
+    BASE_SCENE,
+    {
+        "geometry": {"squint": "10 deg"},
+        "acquisition": {"aperture_time": "0.2 s"},
+        "targets": {"points": [{"name": "A"}, {"name": "B", "range": "10 m", "azimuth": "4 m"}]},
+    },
+)
 BP = {"azimuth_extent": "20 m", "range_extent": "24 m"}
 
 ARRAY_SCENE = {
-    "radar": {"carrier_frequency": "37.5 GHz", "bandwidth": "375 MHz", "pulse_duration": "0.2 us",
-              "range_sampling_rate": "450 MHz", "prf": "400 Hz"},
+    "radar": {
+        "carrier_frequency": "37.5 GHz",
+        "bandwidth": "375 MHz",
+        "pulse_duration": "0.2 us",
+        "range_sampling_rate": "450 MHz",
+        "prf": "400 Hz",
+    },
     "platform": {"velocity": "50 m/s", "altitude": "500 m"},
     "geometry": {"reference_range": "500 m"},
     "acquisition": {"mode": "stripmap", "n_pulses": 33, "range_margin": "3 m"},
-    "targets": {"frame": "elevation", "origin": "absolute",
-                "points": [{"name": "A", "azimuth": "0 m", "range": "490 m", "elevation": "0 deg"}]},
-    "effects": {"antenna": {"pattern": "rect", "azimuth_beamwidth": "0.57 deg", "elevation_beamwidth": "6 deg"},
-                "cross_track_array": {"n_receivers": 4, "spacing": "0.0764 m"}},
+    "targets": {
+        "frame": "elevation",
+        "origin": "absolute",
+        "points": [{"name": "A", "azimuth": "0 m", "range": "490 m", "elevation": "0 deg"}],
+    },
+    "effects": {
+        "antenna": {"pattern": "rect", "azimuth_beamwidth": "0.57 deg", "elevation_beamwidth": "6 deg"},
+        "cross_track_array": {"n_receivers": 4, "spacing": "0.0764 m"},
+    },
 }
 
 
@@ -76,12 +92,20 @@ def build_products(d: Path) -> Path:
     """raw.h5, image.h5, pre.h5, raw_array.h5 (and their scene/config files) in ``d``."""
     dump(d / "scene.yaml", SCENE)
     dump(d / "bp.yaml", {"backproject": BP})
-    steps = [("simulate", d / "scene.yaml", "-o", d / "raw.h5"),
-             ("backproject", d / "raw.h5", "--config", d / "bp.yaml", "-o", d / "image.h5"),
-             ("preprocess", d / "raw.h5", "-o", d / "pre.h5"),
-             ("coarse-focus", d / "pre.h5", "--config", dump(d / "coarse.yaml", {"coarse_focus": {"scene_margin": "10 m"}}),
-              "-o", d / "coarse.h5"),
-             ("simulate", dump(d / "array.yaml", ARRAY_SCENE), "-o", d / "raw_array.h5")]
+    steps = [
+        ("simulate", d / "scene.yaml", "-o", d / "raw.h5"),
+        ("backproject", d / "raw.h5", "--config", d / "bp.yaml", "-o", d / "image.h5"),
+        ("preprocess", d / "raw.h5", "-o", d / "pre.h5"),
+        (
+            "coarse-focus",
+            d / "pre.h5",
+            "--config",
+            dump(d / "coarse.yaml", {"coarse_focus": {"scene_margin": "10 m"}}),
+            "-o",
+            d / "coarse.h5",
+        ),
+        ("simulate", dump(d / "array.yaml", ARRAY_SCENE), "-o", d / "raw_array.h5"),
+    ]
     for args in steps:
         res = invoke(args)
         assert res.exit_code == 0, (args, res.output)
@@ -99,11 +123,13 @@ def case(name):
         assert name not in CASES, name
         CASES[name] = fn
         return fn
+
     return deco
 
 
 def scene_case(name, mapping, *must, text=None, code=2):
     """simulate on a scene file holding ``mapping`` (or raw ``text``); the message names the file."""
+
     def build(tmp, products):
         path = tmp / "scene.yaml"
         if text is not None:
@@ -111,6 +137,7 @@ def scene_case(name, mapping, *must, text=None, code=2):
         else:
             dump(path, mapping)
         return ["simulate", path, "-o", tmp / "raw.h5"], code, ["scene.yaml", *must]
+
     case(name)(build)
 
 
@@ -122,16 +149,26 @@ scene_case("scene-top-level-scalar", None, "expected a mapping", text="hello\n")
 scene_case("scene-syntax", None, "not valid YAML", "line 2", text="radar: {prf: 400 Hz\n")
 scene_case("scene-tab-indent", None, "not valid YAML", "line 2", text="radar:\n\tprf: 400 Hz\n")
 scene_case("scene-empty", None, "radar", text="")
-scene_case("scene-duplicate-section", None, "'radar' is given twice",
-           text=yaml.safe_dump(SCENE) + "radar: {prf: 500 Hz}\n")
-scene_case("scene-duplicate-key", None, "'prf' is given twice",
-           text=yaml.safe_dump(SCENE).replace("prf: 400 Hz", "prf: 400 Hz\n  prf: 500 Hz"))
+scene_case(
+    "scene-duplicate-section", None, "'radar' is given twice", text=yaml.safe_dump(SCENE) + "radar: {prf: 500 Hz}\n"
+)
+scene_case(
+    "scene-duplicate-key",
+    None,
+    "'prf' is given twice",
+    text=yaml.safe_dump(SCENE).replace("prf: 400 Hz", "prf: 400 Hz\n  prf: 500 Hz"),
+)
 scene_case("scene-numeric-key", with_change(SCENE, "radar", 1, "x"), "radar", "key 1 is not a name")
-scene_case("scene-bool-key", None, "radar: key True is not a name",
-           text=yaml.safe_dump(SCENE).replace("radar:", "radar:\n  yes: 1", 1))
+scene_case(
+    "scene-bool-key",
+    None,
+    "radar: key True is not a name",
+    text=yaml.safe_dump(SCENE).replace("radar:", "radar:\n  yes: 1", 1),
+)
 scene_case("scene-unknown-key", with_change(SCENE, "radar", "foo", 1), "radar", "unknown key(s) 'foo'")
-scene_case("scene-misspelt-key", with_change(SCENE, "radar", "bandwith", "1 MHz"), "'bandwith'",
-           "did you mean 'bandwidth'")
+scene_case(
+    "scene-misspelt-key", with_change(SCENE, "radar", "bandwith", "1 MHz"), "'bandwith'", "did you mean 'bandwidth'"
+)
 scene_case("scene-misspelt-section", {**SCENE, "radr": {}}, "unknown key(s) 'radr'", "did you mean 'radar'")
 scene_case("scene-section-scalar", {**SCENE, "radar": 5}, "radar", "expected a mapping")
 scene_case("scene-section-list", {**SCENE, "platform": [1, 2]}, "platform", "expected a mapping")
@@ -139,12 +176,27 @@ scene_case("scene-missing-radar", {k: v for k, v in SCENE.items() if k != "radar
 scene_case("scene-missing-geometry", {k: v for k, v in SCENE.items() if k != "geometry"}, "geometry", "required")
 
 # --- every quantity with bad values
-QUANTITIES = [("radar", "carrier_frequency", "10 m"), ("radar", "bandwidth", "5 s"),
-              ("radar", "pulse_duration", "3 Hz"), ("radar", "range_sampling_rate", "1 m/s"),
-              ("radar", "prf", "2 m"), ("platform", "velocity", "3 Hz"), ("platform", "altitude", "1 s"),
-              ("geometry", "reference_range", "1 GHz"), ("geometry", "squint", "1 m")]
-BAD_VALUES = {"wrong-unit": None, "negative": "-1", "not-a-number": "abc", "boolean": True, "list": [1, 2],
-              "mapping": {"a": 1}, "infinite": "1e999", "nan": ".nan"}
+QUANTITIES = [
+    ("radar", "carrier_frequency", "10 m"),
+    ("radar", "bandwidth", "5 s"),
+    ("radar", "pulse_duration", "3 Hz"),
+    ("radar", "range_sampling_rate", "1 m/s"),
+    ("radar", "prf", "2 m"),
+    ("platform", "velocity", "3 Hz"),
+    ("platform", "altitude", "1 s"),
+    ("geometry", "reference_range", "1 GHz"),
+    ("geometry", "squint", "1 m"),
+]
+BAD_VALUES = {
+    "wrong-unit": None,
+    "negative": "-1",
+    "not-a-number": "abc",
+    "boolean": True,
+    "list": [1, 2],
+    "mapping": {"a": 1},
+    "infinite": "1e999",
+    "nan": ".nan",
+}
 for section, key, wrong_unit in QUANTITIES:
     unit = SCENE[section][key].split()[-1]
     for label, value in BAD_VALUES.items():
@@ -161,67 +213,136 @@ for section, key, wrong_unit in QUANTITIES:
         scene_case(f"scene-{key}-{label}", with_change(SCENE, section, key, value), f"{section}.{key}")
 
 # --- cross-field and semantic checks of scenes
-scene_case("scene-fs-below-bandwidth", with_change(SCENE, "radar", "range_sampling_rate", "50 MHz"),
-           "radar.range_sampling_rate", "below the bandwidth")
-scene_case("scene-bandwidth-above-carrier", merge(SCENE, {"radar": {"bandwidth": "12 GHz", "range_sampling_rate": "15 GHz"}}),
-           "radar.bandwidth", "smaller than carrier_frequency")
+scene_case(
+    "scene-fs-below-bandwidth",
+    with_change(SCENE, "radar", "range_sampling_rate", "50 MHz"),
+    "radar.range_sampling_rate",
+    "below the bandwidth",
+)
+scene_case(
+    "scene-bandwidth-above-carrier",
+    merge(SCENE, {"radar": {"bandwidth": "12 GHz", "range_sampling_rate": "15 GHz"}}),
+    "radar.bandwidth",
+    "smaller than carrier_frequency",
+)
 scene_case("scene-chirp-direction", with_change(SCENE, "radar", "chirp", "sideways"), "radar.chirp")
-scene_case("scene-two-aperture-keys", with_change(SCENE, "acquisition", "n_pulses", 100), "acquisition",
-           "exactly one of")
+scene_case(
+    "scene-two-aperture-keys", with_change(SCENE, "acquisition", "n_pulses", 100), "acquisition", "exactly one of"
+)
 scene_case("scene-no-aperture-key", {**SCENE, "acquisition": {"mode": "spotlight"}}, "acquisition", "exactly one of")
 scene_case("scene-mode-unknown", with_change(SCENE, "acquisition", "mode", "circular"), "acquisition.mode")
-scene_case("scene-stripmap-without-antenna", with_change(SCENE, "acquisition", "mode", "stripmap"),
-           "acquisition.mode", "effects.antenna")
+scene_case(
+    "scene-stripmap-without-antenna",
+    with_change(SCENE, "acquisition", "mode", "stripmap"),
+    "acquisition.mode",
+    "effects.antenna",
+)
 scene_case("scene-n-pulses-zero", {**SCENE, "acquisition": {"n_pulses": 0}}, "acquisition.n_pulses")
 scene_case("scene-n-pulses-float", {**SCENE, "acquisition": {"n_pulses": 10.5}}, "acquisition.n_pulses")
-scene_case("scene-window-reversed", with_change(SCENE, "acquisition", "range_window",
-                                                {"start": "2.1 km", "end": "1.9 km"}), "acquisition.range_window")
-scene_case("scene-window-missing-end", with_change(SCENE, "acquisition", "range_window", {"start": "2 km"}),
-           "acquisition.range_window.end")
+scene_case(
+    "scene-window-reversed",
+    with_change(SCENE, "acquisition", "range_window", {"start": "2.1 km", "end": "1.9 km"}),
+    "acquisition.range_window",
+)
+scene_case(
+    "scene-window-missing-end",
+    with_change(SCENE, "acquisition", "range_window", {"start": "2 km"}),
+    "acquisition.range_window.end",
+)
 scene_case("scene-too-many-pulses", {**SCENE, "acquisition": {"n_pulses": 300000}}, "acquisition", "pulses")
-scene_case("scene-range-below-altitude", with_change(SCENE, "platform", "altitude", "3 km"),
-           "geometry.reference_range", "platform.altitude")
+scene_case(
+    "scene-range-below-altitude",
+    with_change(SCENE, "platform", "altitude", "3 km"),
+    "geometry.reference_range",
+    "platform.altitude",
+)
 scene_case("scene-unknown-frame", with_change(SCENE, "targets", "frame", "polar"), "targets.frame")
-scene_case("scene-target-names-repeat", with_change(SCENE, "targets", "points", [{"name": "A"}, {"name": "A"}]),
-           "targets", "unique")
-scene_case("scene-target-without-name", with_change(SCENE, "targets", "points", [{"range": "1 m"}]),
-           "targets.points[0].name")
-scene_case("scene-target-bad-range", with_change(SCENE, "targets", "points", [{"name": "A", "range": "1 Hz"}]),
-           "targets.points[0].range")
-scene_case("scene-target-phase-bare", with_change(SCENE, "targets", "points", [{"name": "A", "phase": 1.5}]),
-           "targets.points[0].phase", "needs a unit")
-scene_case("scene-target-negative-amplitude",
-           with_change(SCENE, "targets", "points", [{"name": "A", "amplitude": -1}]), "targets.points[0].amplitude")
-scene_case("scene-target-velocity-2d",
-           with_change(SCENE, "targets", "points", [{"name": "A", "velocity": ["1 m/s", "0 m/s"]}]),
-           "targets.points[0]", "velocity")
-scene_case("scene-velocity-without-motion-effect",
-           with_change(SCENE, "targets", "points", [{"name": "A", "velocity": ["1 m/s", "0 m/s", "0 m/s"]}]),
-           "targets", "target_motion")
+scene_case(
+    "scene-target-names-repeat",
+    with_change(SCENE, "targets", "points", [{"name": "A"}, {"name": "A"}]),
+    "targets",
+    "unique",
+)
+scene_case(
+    "scene-target-without-name", with_change(SCENE, "targets", "points", [{"range": "1 m"}]), "targets.points[0].name"
+)
+scene_case(
+    "scene-target-bad-range",
+    with_change(SCENE, "targets", "points", [{"name": "A", "range": "1 Hz"}]),
+    "targets.points[0].range",
+)
+scene_case(
+    "scene-target-phase-bare",
+    with_change(SCENE, "targets", "points", [{"name": "A", "phase": 1.5}]),
+    "targets.points[0].phase",
+    "needs a unit",
+)
+scene_case(
+    "scene-target-negative-amplitude",
+    with_change(SCENE, "targets", "points", [{"name": "A", "amplitude": -1}]),
+    "targets.points[0].amplitude",
+)
+scene_case(
+    "scene-target-velocity-2d",
+    with_change(SCENE, "targets", "points", [{"name": "A", "velocity": ["1 m/s", "0 m/s"]}]),
+    "targets.points[0]",
+    "velocity",
+)
+scene_case(
+    "scene-velocity-without-motion-effect",
+    with_change(SCENE, "targets", "points", [{"name": "A", "velocity": ["1 m/s", "0 m/s", "0 m/s"]}]),
+    "targets",
+    "target_motion",
+)
 scene_case("scene-points-not-list", with_change(SCENE, "targets", "points", "A"), "targets.points")
-scene_case("scene-grid-zero", with_change(SCENE, "targets", "grid", {"azimuth_count": 0, "range_count": 1,
-                                                                    "azimuth_spacing": "1 m", "range_spacing": "1 m"}),
-           "targets.grid.azimuth_count")
+scene_case(
+    "scene-grid-zero",
+    with_change(
+        SCENE,
+        "targets",
+        "grid",
+        {"azimuth_count": 0, "range_count": 1, "azimuth_spacing": "1 m", "range_spacing": "1 m"},
+    ),
+    "targets.grid.azimuth_count",
+)
 scene_case("scene-unknown-effect", {**SCENE, "effects": {"rain": {}}}, "effects", "rain")
 scene_case("scene-effect-bad-param", {**SCENE, "effects": {"noise": {"snr": "loud"}}}, "effects", "noise")
 scene_case("scene-block-pulses-zero", {**SCENE, "simulation": {"block_pulses": 0}}, "simulation.block_pulses")
 scene_case("scene-seed-negative", {**SCENE, "simulation": {"seed": -1}}, "simulation.seed")
-scene_case("scene-reference-time-no-zone", {**SCENE, "reference": {"time": "2024-05-01T10:00:00"}},
-           "reference", "time zone")
+scene_case(
+    "scene-reference-time-no-zone", {**SCENE, "reference": {"time": "2024-05-01T10:00:00"}}, "reference", "time zone"
+)
 scene_case("scene-reference-time-garbage", {**SCENE, "reference": {"time": "yesterday"}}, "reference", "ISO 8601")
-scene_case("scene-reference-latitude-only", {**SCENE, "reference": {"latitude": "45 deg"}}, "reference",
-           "latitude/longitude")
-scene_case("scene-reference-latitude-range", {**SCENE, "reference": {"latitude": "95 deg", "longitude": "0 deg"}},
-           "reference.latitude")
-scene_case("scene-reference-longitude-bare", {**SCENE, "reference": {"latitude": "45 deg", "longitude": 10}},
-           "reference.longitude", "needs a unit")
+scene_case(
+    "scene-reference-latitude-only", {**SCENE, "reference": {"latitude": "45 deg"}}, "reference", "latitude/longitude"
+)
+scene_case(
+    "scene-reference-latitude-range",
+    {**SCENE, "reference": {"latitude": "95 deg", "longitude": "0 deg"}},
+    "reference.latitude",
+)
+scene_case(
+    "scene-reference-longitude-bare",
+    {**SCENE, "reference": {"latitude": "45 deg", "longitude": 10}},
+    "reference.longitude",
+    "needs a unit",
+)
 scene_case("scene-reference-height-alone", {**SCENE, "reference": {"height": "10 m"}}, "reference", "height")
 # sizes refused by the plan before any work (the message names the output and what does not fit)
-scene_case("scene-output-too-large", {**SCENE, "acquisition": {"n_pulses": 199000, "range_window":
-                                                               {"start": "2 km", "end": "78 km"}}}, "raw.h5", "needs",
-           "acquisition.range_window")
-scene_case("scene-pulse-two-seconds", with_change(SCENE, "radar", "pulse_duration", "2 s"), "raw.h5", "needs",
-           "radar.pulse_duration 2 s")
+scene_case(
+    "scene-output-too-large",
+    {**SCENE, "acquisition": {"n_pulses": 199000, "range_window": {"start": "2 km", "end": "78 km"}}},
+    "raw.h5",
+    "needs",
+    "acquisition.range_window",
+)
+scene_case(
+    "scene-pulse-two-seconds",
+    with_change(SCENE, "radar", "pulse_duration", "2 s"),
+    "raw.h5",
+    "needs",
+    "radar.pulse_duration 2 s",
+)
 
 
 # --- stage configs (--config): file problems, sections, keys
@@ -235,6 +356,7 @@ def config_case(name, text_or_mapping, *must, stage="backproject", product="raw.
         else:
             dump(cfg, text_or_mapping)
         return [stage, src, "--config", cfg, "-o", tmp / "out.h5", *extra], 2, ["cfg.yaml", *must]
+
     case(name)(build)
 
 
@@ -250,40 +372,92 @@ config_case("config-numeric-keys", "backproject:\n  1: a\n  foo: b\n", "backproj
 config_case("config-unknown-key", {"backproject": {"upsampel": 4}}, "backproject", "'upsampel'", "did you mean")
 config_case("config-top-level-list", "- backproject\n", "expected a mapping")
 config_case("config-syntax", "backproject: [\n", "not valid YAML", "line 2")
-for key, value in [("upsample", 0), ("upsample", 100), ("upsample", "eight"), ("upsample", 2.5),
-                   ("interpolation", "cubicx"), ("engine", "gpu"), ("azimuth_extent", "-5 m"),
-                   ("azimuth_extent", "5 Hz"), ("range_spacing", "0 m"), ("oversample", 0.5),
-                   ("max_pixels", "lots"), ("margin_cells", -1), ("kernel_length", 1), ("range_window", "kaiser9"),
-                   ("azimuth_window", True), ("azimuth_center", "1 s")]:
+for key, value in [
+    ("upsample", 0),
+    ("upsample", 100),
+    ("upsample", "eight"),
+    ("upsample", 2.5),
+    ("interpolation", "cubicx"),
+    ("engine", "gpu"),
+    ("azimuth_extent", "-5 m"),
+    ("azimuth_extent", "5 Hz"),
+    ("range_spacing", "0 m"),
+    ("oversample", 0.5),
+    ("max_pixels", "lots"),
+    ("margin_cells", -1),
+    ("kernel_length", 1),
+    ("range_window", "kaiser9"),
+    ("azimuth_window", True),
+    ("azimuth_center", "1 s"),
+]:
     config_case(f"config-backproject-{key}-{value}", {"backproject": {key: value}}, f"backproject.{key}")
-config_case("config-backproject-grid-too-large", {"backproject": {"azimuth_extent": "10 km", "range_extent": "10 km"}},
-            "backproject.max_pixels")
+config_case(
+    "config-backproject-grid-too-large",
+    {"backproject": {"azimuth_extent": "10 km", "range_extent": "10 km"}},
+    "backproject.max_pixels",
+)
 config_case("config-backproject-frame-unknown", {"backproject": {"frame": "polar"}}, "frame")
 config_case("config-preprocess-method", {"preprocess": {"method": "bogus"}}, "preprocess.method", stage="preprocess")
-config_case("config-preprocess-block", {"preprocess": {"block_pulses": 0}}, "preprocess.block_pulses",
-            stage="preprocess")
+config_case(
+    "config-preprocess-block", {"preprocess": {"block_pulses": 0}}, "preprocess.block_pulses", stage="preprocess"
+)
 config_case("config-preprocess-misspelt", {"preproces": {}}, "did you mean 'preprocess'", stage="preprocess")
-config_case("config-coarse-on-alias", {"coarse_focus": {"on_alias": "maybe"}}, "coarse_focus.on_alias",
-            stage="coarse-focus", product="pre.h5")
-config_case("config-coarse-samples", {"coarse_focus": {"azimuth_samples": 1}}, "coarse_focus.azimuth_samples",
-            stage="coarse-focus", product="pre.h5")
-config_case("config-coarse-precision", {"coarse_focus": {"precision": "float16"}}, "coarse_focus.precision",
-            stage="coarse-focus", product="pre.h5")
-config_case("config-array3d-precision", {"array3d": {"precision": "float16"}}, "array3d.precision", stage="array3d",
-            product="raw_array.h5")
-config_case("config-array3d-span", {"array3d": {"elevation_span": "5 m"}}, "array3d.elevation_span",
-            stage="array3d", product="raw_array.h5")
-config_case("config-evaluate-upsample", {"evaluate": {"upsample": 0}}, "evaluate.upsample", stage="evaluate",
-            product="image.h5", extra=())
-config_case("config-evaluate-unknown", {"evaluate": {"guard": 3}}, "evaluate", "'guard'", stage="evaluate",
-            product="image.h5")
+config_case(
+    "config-coarse-on-alias",
+    {"coarse_focus": {"on_alias": "maybe"}},
+    "coarse_focus.on_alias",
+    stage="coarse-focus",
+    product="pre.h5",
+)
+config_case(
+    "config-coarse-samples",
+    {"coarse_focus": {"azimuth_samples": 1}},
+    "coarse_focus.azimuth_samples",
+    stage="coarse-focus",
+    product="pre.h5",
+)
+config_case(
+    "config-coarse-precision",
+    {"coarse_focus": {"precision": "float16"}},
+    "coarse_focus.precision",
+    stage="coarse-focus",
+    product="pre.h5",
+)
+config_case(
+    "config-array3d-precision",
+    {"array3d": {"precision": "float16"}},
+    "array3d.precision",
+    stage="array3d",
+    product="raw_array.h5",
+)
+config_case(
+    "config-array3d-span",
+    {"array3d": {"elevation_span": "5 m"}},
+    "array3d.elevation_span",
+    stage="array3d",
+    product="raw_array.h5",
+)
+config_case(
+    "config-evaluate-upsample",
+    {"evaluate": {"upsample": 0}},
+    "evaluate.upsample",
+    stage="evaluate",
+    product="image.h5",
+    extra=(),
+)
+config_case(
+    "config-evaluate-unknown", {"evaluate": {"guard": 3}}, "evaluate", "'guard'", stage="evaluate", product="image.h5"
+)
 
 
 @case("config-missing-file")
 def _(tmp, products):
     shutil.copy(products / "raw.h5", tmp / "raw.h5")
-    return ["backproject", tmp / "raw.h5", "--config", tmp / "nope.yaml", "-o", tmp / "o.h5"], 2, ["nope.yaml",
-                                                                                                  "not found"]
+    return (
+        ["backproject", tmp / "raw.h5", "--config", tmp / "nope.yaml", "-o", tmp / "o.h5"],
+        2,
+        ["nope.yaml", "not found"],
+    )
 
 
 @case("config-is-directory")
@@ -302,6 +476,7 @@ def _(tmp, products):
 # --- HDF5 inputs: file problems and every part of the layout
 def product_case(name, edit, *must, stage="backproject", product="raw.h5"):
     """Copy ``product``, apply ``edit(h5py.File)`` (or ``edit(path)`` for byte-level damage), run ``stage``."""
+
     def build(tmp, products):
         src = tmp / product
         shutil.copy(products / product, src)
@@ -312,6 +487,7 @@ def product_case(name, edit, *must, stage="backproject", product="raw.h5"):
                 edit(f)
         args = [stage, src] + (["-o", tmp / "out.h5"] if stage != "evaluate" else ["-o", tmp / "out.json"])
         return args, 2, [product, *must]
+
     case(name)(build)
 
 
@@ -323,17 +499,20 @@ def bytes_level(fn):
 def set_attr(obj, key, value):
     def edit(f):
         f[obj].attrs[key] = value
+
     return edit
 
 
 def del_attr(obj, key):
     def edit(f):
         del f[obj].attrs[key]
+
     return edit
 
 
 def replace_dataset(name, make):
     """Replace dataset ``name`` by ``make(old_array)``, re-attaching the old dimension scales when shapes allow."""
+
     def edit(f):
         old = f[name][()]
         scales = [d[0] if len(d) else None for d in f[name].dims] if name in ("signal", "image") else []
@@ -346,6 +525,7 @@ def replace_dataset(name, make):
         for i, sc in enumerate(scales[: new.ndim]):
             if sc is not None:
                 new.dims[i].attach_scale(sc)
+
     return edit
 
 
@@ -359,77 +539,183 @@ product_case("h5-format-2", set_attr("/", "sarproc_format", "2"), "sarproc_forma
 product_case("h5-no-format", del_attr("/", "sarproc_format"), "'sarproc_format'")
 product_case("h5-history-not-list", set_attr("/", "history", '{"a": 1}'), "'history'")
 product_case("h5-no-radar", lambda f: f.__delitem__("radar"), "radar")
-for attr in ("carrier_frequency", "bandwidth", "pulse_duration", "chirp_rate", "range_sampling_rate", "prf",
-             "velocity", "altitude", "squint", "reference_range", "scene_center"):
+for attr in (
+    "carrier_frequency",
+    "bandwidth",
+    "pulse_duration",
+    "chirp_rate",
+    "range_sampling_rate",
+    "prf",
+    "velocity",
+    "altitude",
+    "squint",
+    "reference_range",
+    "scene_center",
+):
     product_case(f"h5-radar-missing-{attr}", del_attr("radar", attr), "radar", f"'{attr}'")
-for attr, value, why in [("bandwidth", "150 MHz", "must be a number"), ("prf", -500.0, "positive"),
-                         ("carrier_frequency", np.nan, "finite"), ("velocity", np.inf, "finite"),
-                         ("scene_center", np.array([1.0, 2.0]), "3 numbers"), ("mode", "circular", "mode"),
-                         ("mode", 3, "must be a string"), ("n_channels", 1.5, "integer"),
-                         ("n_channels", 0, "n_channels"), ("squint", 2.0, "squint"), ("altitude", -5.0, "altitude"),
-                         ("range_sampling_rate", 1e6, "below the bandwidth"), ("prf", np.array([1.0, 2.0]), "single"),
-                         ("reference_utc", "noon", "ISO 8601"), ("reference_latitude", 2.0, "reference_")]:
-    product_case(f"h5-radar-{attr}-{why.split()[0]}-{np.asarray(value).dtype.kind}", set_attr("radar", attr, value),
-                 "radar", f"'{attr}'" if not attr.startswith("reference_") else "reference_", why)
+for attr, value, why in [
+    ("bandwidth", "150 MHz", "must be a number"),
+    ("prf", -500.0, "positive"),
+    ("carrier_frequency", np.nan, "finite"),
+    ("velocity", np.inf, "finite"),
+    ("scene_center", np.array([1.0, 2.0]), "3 numbers"),
+    ("mode", "circular", "mode"),
+    ("mode", 3, "must be a string"),
+    ("n_channels", 1.5, "integer"),
+    ("n_channels", 0, "n_channels"),
+    ("squint", 2.0, "squint"),
+    ("altitude", -5.0, "altitude"),
+    ("range_sampling_rate", 1e6, "below the bandwidth"),
+    ("prf", np.array([1.0, 2.0]), "single"),
+    ("reference_utc", "noon", "ISO 8601"),
+    ("reference_latitude", 2.0, "reference_"),
+]:
+    product_case(
+        f"h5-radar-{attr}-{why.split()[0]}-{np.asarray(value).dtype.kind}",
+        set_attr("radar", attr, value),
+        "radar",
+        f"'{attr}'" if not attr.startswith("reference_") else "reference_",
+        why,
+    )
 product_case("h5-no-signal", lambda f: f.__delitem__("signal"), "'signal'")
 product_case("h5-signal-int16", replace_dataset("signal", lambda a: a.real.astype(np.int16)), "'signal'", "complex")
-product_case("h5-signal-float64", replace_dataset("signal", lambda a: a.real.astype(np.float64)), "'signal'",
-             "complex")
-product_case("h5-signal-rows-vs-azimuth-time", replace_dataset("signal", lambda a: a[:-7]), "'signal'",
-             "azimuth_time")
-product_case("h5-signal-no-scales", lambda f: [f["signal"].dims[i].detach_scale(f[d])
-                                                for i, d in enumerate(("azimuth_time", "range_time"))],
-             "'signal'", "dimension scale")
+product_case("h5-signal-float64", replace_dataset("signal", lambda a: a.real.astype(np.float64)), "'signal'", "complex")
+product_case("h5-signal-rows-vs-azimuth-time", replace_dataset("signal", lambda a: a[:-7]), "'signal'", "azimuth_time")
+product_case(
+    "h5-signal-no-scales",
+    lambda f: [f["signal"].dims[i].detach_scale(f[d]) for i, d in enumerate(("azimuth_time", "range_time"))],
+    "'signal'",
+    "dimension scale",
+)
 product_case("h5-signal-3d-for-raw", replace_dataset("signal", lambda a: a[None]), "'signal'", "dims")
 product_case("h5-signal-nan", lambda f: f["signal"].__setitem__((1, 2), np.nan), "'signal'", "NaN")
-product_case("h5-azimuth-time-decreasing", lambda f: f["azimuth_time"].__setitem__(slice(None),
-                                                                                   f["azimuth_time"][()][::-1]),
-             "azimuth_time", "increase")
+product_case(
+    "h5-azimuth-time-decreasing",
+    lambda f: f["azimuth_time"].__setitem__(slice(None), f["azimuth_time"][()][::-1]),
+    "azimuth_time",
+    "increase",
+)
 product_case("h5-range-time-nan", lambda f: f["range_time"].__setitem__(3, np.nan), "range_time", "NaN")
-product_case("h5-aux-platform-rows", replace_dataset("aux/platform_position", lambda a: a[:-5]),
-             "aux/platform_position", "rows")
-product_case("h5-aux-platform-2-columns", replace_dataset("aux/platform_position", lambda a: a[:, :2]),
-             "aux/platform_position", "shape")
-product_case("h5-aux-platform-nan", lambda f: f["aux/platform_position"].__setitem__((0, 0), np.nan),
-             "aux/platform_position", "NaN")
-product_case("h5-aux-platform-text", replace_dataset("aux/platform_position", lambda a: np.array([b"x"] * len(a))),
-             "aux/platform_position", "numeric")
+product_case(
+    "h5-aux-platform-rows", replace_dataset("aux/platform_position", lambda a: a[:-5]), "aux/platform_position", "rows"
+)
+product_case(
+    "h5-aux-platform-2-columns",
+    replace_dataset("aux/platform_position", lambda a: a[:, :2]),
+    "aux/platform_position",
+    "shape",
+)
+product_case(
+    "h5-aux-platform-nan",
+    lambda f: f["aux/platform_position"].__setitem__((0, 0), np.nan),
+    "aux/platform_position",
+    "NaN",
+)
+product_case(
+    "h5-aux-platform-text",
+    replace_dataset("aux/platform_position", lambda a: np.array([b"x"] * len(a))),
+    "aux/platform_position",
+    "numeric",
+)
 product_case("h5-aux-tx-offset-2", replace_dataset("aux/tx_offset", lambda a: a[:2]), "aux/tx_offset")
-product_case("h5-aux-rx-offset-receivers", replace_dataset("aux/rx_offset", lambda a: np.zeros((2, 3))),
-             "aux/rx_offset")
-product_case("h5-aux-gate-length", lambda f: f["aux"].create_dataset("range_gate_offset", data=np.zeros(5)),
-             "aux/range_gate_offset", "rows")
+product_case(
+    "h5-aux-rx-offset-receivers", replace_dataset("aux/rx_offset", lambda a: np.zeros((2, 3))), "aux/rx_offset"
+)
+product_case(
+    "h5-aux-gate-length",
+    lambda f: f["aux"].create_dataset("range_gate_offset", data=np.zeros(5)),
+    "aux/range_gate_offset",
+    "rows",
+)
 product_case("h5-no-targets", lambda f: f.__delitem__("targets"), "'targets'")
-product_case("h5-targets-missing-field", replace_dataset("targets", lambda a: a[["name", "x", "y", "z"]].copy()),
-             "'targets'", "field")
-product_case("h5-targets-nan", lambda f: f["targets"].__setitem__(0, tuple(
-    np.nan if n == "x" else v for n, v in zip(f["targets"].dtype.names, f["targets"][0]))), "'targets'", "NaN")
-product_case("h5-preprocess-on-image", lambda f: None, "product type is 'image'", stage="preprocess",
-             product="image.h5")
+product_case(
+    "h5-targets-missing-field",
+    replace_dataset("targets", lambda a: a[["name", "x", "y", "z"]].copy()),
+    "'targets'",
+    "field",
+)
+product_case(
+    "h5-targets-nan",
+    lambda f: f["targets"].__setitem__(
+        0, tuple(np.nan if n == "x" else v for n, v in zip(f["targets"].dtype.names, f["targets"][0]))
+    ),
+    "'targets'",
+    "NaN",
+)
+product_case(
+    "h5-preprocess-on-image", lambda f: None, "product type is 'image'", stage="preprocess", product="image.h5"
+)
 product_case("h5-array3d-on-raw", lambda f: None, "product type is 'raw'", stage="array3d")
 product_case("h5-evaluate-on-raw", lambda f: None, "product type is 'raw'", stage="evaluate")
-product_case("h5-image-real", replace_dataset("image", lambda a: np.abs(a)), "'image'", "complex",
-             stage="evaluate", product="image.h5")
+product_case(
+    "h5-image-real",
+    replace_dataset("image", lambda a: np.abs(a)),
+    "'image'",
+    "complex",
+    stage="evaluate",
+    product="image.h5",
+)
 product_case("h5-image-no-frame", del_attr("image", "frame"), "'frame'", stage="evaluate", product="image.h5")
-product_case("h5-image-frame-garbage", set_attr("image", "frame", "polar"), "'frame'", stage="evaluate",
-             product="image.h5")
-product_case("h5-image-irw-length", set_attr("image", "theoretical_irw", np.array([1.0])), "theoretical_irw",
-             stage="evaluate", product="image.h5")
-product_case("h5-image-irw-negative", set_attr("image", "theoretical_irw", np.array([1.0, -1.0])),
-             "theoretical_irw", stage="evaluate", product="image.h5")
-product_case("h5-coarse-lacks-sampling-rate", del_attr("signal", "azimuth_sampling_rate"), "'azimuth_sampling_rate'",
-             stage="fine-focus", product="coarse.h5")
-product_case("h5-coarse-sampling-rate-text", set_attr("signal", "azimuth_sampling_rate", "fast"), "'azimuth_sampling_rate'",
-             stage="fine-focus", product="coarse.h5")
+product_case(
+    "h5-image-frame-garbage", set_attr("image", "frame", "polar"), "'frame'", stage="evaluate", product="image.h5"
+)
+product_case(
+    "h5-image-irw-length",
+    set_attr("image", "theoretical_irw", np.array([1.0])),
+    "theoretical_irw",
+    stage="evaluate",
+    product="image.h5",
+)
+product_case(
+    "h5-image-irw-negative",
+    set_attr("image", "theoretical_irw", np.array([1.0, -1.0])),
+    "theoretical_irw",
+    stage="evaluate",
+    product="image.h5",
+)
+product_case(
+    "h5-coarse-lacks-sampling-rate",
+    del_attr("signal", "azimuth_sampling_rate"),
+    "'azimuth_sampling_rate'",
+    stage="fine-focus",
+    product="coarse.h5",
+)
+product_case(
+    "h5-coarse-sampling-rate-text",
+    set_attr("signal", "azimuth_sampling_rate", "fast"),
+    "'azimuth_sampling_rate'",
+    stage="fine-focus",
+    product="coarse.h5",
+)
 config_case("config-fine-flow", {"fine_focus": {"flow": 3}}, "fine_focus.flow", stage="fine-focus", product="coarse.h5")
-config_case("config-fine-kernel", {"fine_focus": {"stolt_kernel": "magic"}}, "fine_focus.stolt_kernel",
-            stage="fine-focus", product="coarse.h5")
-config_case("config-fine-max-samples", {"fine_focus": {"max_samples": 1000}}, "fine_focus.max_samples",
-            stage="fine-focus", product="coarse.h5")
-product_case("h5-array-channels-vs-radar", set_attr("radar", "n_channels", 7), "n_channels", stage="array3d",
-             product="raw_array.h5")
-product_case("h5-array-rx-offsets", replace_dataset("aux/rx_offset", lambda a: a[:2]), "aux/rx_offset",
-             stage="array3d", product="raw_array.h5")
+config_case(
+    "config-fine-kernel",
+    {"fine_focus": {"stolt_kernel": "magic"}},
+    "fine_focus.stolt_kernel",
+    stage="fine-focus",
+    product="coarse.h5",
+)
+config_case(
+    "config-fine-max-samples",
+    {"fine_focus": {"max_samples": 1000}},
+    "fine_focus.max_samples",
+    stage="fine-focus",
+    product="coarse.h5",
+)
+product_case(
+    "h5-array-channels-vs-radar",
+    set_attr("radar", "n_channels", 7),
+    "n_channels",
+    stage="array3d",
+    product="raw_array.h5",
+)
+product_case(
+    "h5-array-rx-offsets",
+    replace_dataset("aux/rx_offset", lambda a: a[:2]),
+    "aux/rx_offset",
+    stage="array3d",
+    product="raw_array.h5",
+)
 
 
 @case("h5-missing-file")
@@ -478,6 +764,7 @@ def output_case(name, stage, make_output, *must, extra=(), setup=None):
         if setup is not None:
             setup(tmp)
         return [stage, src, "-o", out, *extra], 2, list(must)
+
     case(name)(build)
 
 
@@ -485,28 +772,43 @@ def existing(name):
     def make(tmp):
         (tmp / name).write_text("keep me")
         return tmp / name
+
     return make
 
 
 for stage in ("simulate", "backproject", "preprocess", "evaluate"):
     name = "out.json" if stage == "evaluate" else "out.h5"
     output_case(f"out-exists-{stage}", stage, existing(name), name, "exists", "--overwrite")
-    output_case(f"out-is-directory-{stage}", stage, lambda tmp, n=name: (tmp / n).mkdir() or tmp / n, name,
-                "directory")
-    output_case(f"out-dir-missing-{stage}", stage, lambda tmp, n=name: tmp / "nowhere" / n, "nowhere",
-                "does not exist")
-    output_case(f"out-parent-is-file-{stage}", stage,
-                lambda tmp, n=name: (tmp / "afile").write_text("x") and tmp / "afile" / n, "afile", "not a directory")
-output_case("out-is-input-backproject", "backproject", lambda tmp: tmp / "raw.h5", "raw.h5", "input",
-            extra=("--overwrite",))
-output_case("out-is-input-simulate", "simulate", lambda tmp: tmp / "scene.yaml", "scene.yaml", "input",
-            extra=("--overwrite",))
-output_case("out-is-input-evaluate", "evaluate", lambda tmp: tmp / "image.h5", "image.h5", "input",
-            extra=("--overwrite",))
-output_case("out-read-only-fs", "backproject", lambda tmp: Path("/proc/sarproc_out.h5"), "sarproc_out.h5",
-            "cannot create files")
-output_case("evaluate-plot-is-file", "evaluate", lambda tmp: tmp / "r.json", "plots", "is a file",
-            extra=("--plot", "PLOTS"), setup=lambda tmp: (tmp / "plots").write_text("x"))
+    output_case(f"out-is-directory-{stage}", stage, lambda tmp, n=name: (tmp / n).mkdir() or tmp / n, name, "directory")
+    output_case(f"out-dir-missing-{stage}", stage, lambda tmp, n=name: tmp / "nowhere" / n, "nowhere", "does not exist")
+    output_case(
+        f"out-parent-is-file-{stage}",
+        stage,
+        lambda tmp, n=name: (tmp / "afile").write_text("x") and tmp / "afile" / n,
+        "afile",
+        "not a directory",
+    )
+output_case(
+    "out-is-input-backproject", "backproject", lambda tmp: tmp / "raw.h5", "raw.h5", "input", extra=("--overwrite",)
+)
+output_case(
+    "out-is-input-simulate", "simulate", lambda tmp: tmp / "scene.yaml", "scene.yaml", "input", extra=("--overwrite",)
+)
+output_case(
+    "out-is-input-evaluate", "evaluate", lambda tmp: tmp / "image.h5", "image.h5", "input", extra=("--overwrite",)
+)
+output_case(
+    "out-read-only-fs", "backproject", lambda tmp: Path("/proc/sarproc_out.h5"), "sarproc_out.h5", "cannot create files"
+)
+output_case(
+    "evaluate-plot-is-file",
+    "evaluate",
+    lambda tmp: tmp / "r.json",
+    "plots",
+    "is a file",
+    extra=("--plot", "PLOTS"),
+    setup=lambda tmp: (tmp / "plots").write_text("x"),
+)
 
 
 @case("array3d-channel-output-alone")
@@ -518,23 +820,40 @@ def _(tmp, products):
 @case("array3d-channel-output-same")
 def _(tmp, products):
     shutil.copy(products / "raw_array.h5", tmp / "raw_array.h5")
-    return ["array3d", tmp / "raw_array.h5", "-o", tmp / "c.h5", "--channel-image", "1", "--channel-output",
-            tmp / "c.h5"], 2, ["c.h5", "same file"]
+    return (
+        ["array3d", tmp / "raw_array.h5", "-o", tmp / "c.h5", "--channel-image", "1", "--channel-output", tmp / "c.h5"],
+        2,
+        ["c.h5", "same file"],
+    )
 
 
 @case("array3d-channel-image-range")
 def _(tmp, products):
     shutil.copy(products / "raw_array.h5", tmp / "raw_array.h5")
-    return ["array3d", tmp / "raw_array.h5", "-o", tmp / "c.h5", "--channel-image", "9", "--channel-output",
-            tmp / "i.h5"], 2, ["raw_array.h5", "--channel-image 9"]
+    return (
+        ["array3d", tmp / "raw_array.h5", "-o", tmp / "c.h5", "--channel-image", "9", "--channel-output", tmp / "i.h5"],
+        2,
+        ["raw_array.h5", "--channel-image 9"],
+    )
 
 
 # --- formats, imports and the generic-estimate stages: the same order (config, input, output, plan)
-for key, value in [("latitude", "100 deg"), ("longitude", 4), ("time", "yesterday"), ("heading", "10 m"),
-                   ("latitud", "10 deg")]:
+for key, value in [
+    ("latitude", "100 deg"),
+    ("longitude", 4),
+    ("time", "yesterday"),
+    ("heading", "10 m"),
+    ("latitud", "10 deg"),
+]:
     for stage, product in (("export-sicd", "image.h5"), ("export-cphd", "raw.h5")):
-        config_case(f"config-{stage}-geolocation-{key}", {"geolocation": {key: value}}, "geolocation",
-                    f"'{key}'" if key == "latitud" else f"geolocation.{key}", stage=stage, product=product)
+        config_case(
+            f"config-{stage}-geolocation-{key}",
+            {"geolocation": {key: value}},
+            "geolocation",
+            f"'{key}'" if key == "latitud" else f"geolocation.{key}",
+            stage=stage,
+            product=product,
+        )
 
 
 @case("config-export-sicd-before-output-exists")
@@ -542,21 +861,32 @@ def _(tmp, products):
     shutil.copy(products / "image.h5", tmp / "image.h5")
     (tmp / "out.nitf").write_text("keep me")
     cfg = dump(tmp / "cfg.yaml", {"geolocation": {"latitude": "100 deg"}})
-    return ["export-sicd", tmp / "image.h5", "--config", cfg, "-o", tmp / "out.nitf"], 2, ["cfg.yaml", "geolocation.latitude"]
+    return (
+        ["export-sicd", tmp / "image.h5", "--config", cfg, "-o", tmp / "out.nitf"],
+        2,
+        ["cfg.yaml", "geolocation.latitude"],
+    )
 
 
 config_case("config-pfa2-unknown-key", {"pfa2": {"methd": "two_step"}}, "pfa2", "'methd'", stage="pfa2")
 config_case("config-pfa2-bad-value", {"pfa2": {"method": "three_step"}}, "pfa2.method", stage="pfa2")
-config_case("config-reconstruct-unknown-key", {"reconstruct": {"methd": "modified"}}, "reconstruct", "'methd'",
-            stage="reconstruct")
+config_case(
+    "config-reconstruct-unknown-key",
+    {"reconstruct": {"methd": "modified"}},
+    "reconstruct",
+    "'methd'",
+    stage="reconstruct",
+)
 
 
 def format_case(name, stage, make_input, *must, out="out.h5"):
     """``stage`` on the input ``make_input(tmp, products)`` builds; the output already exists (validation first)."""
+
     def build(tmp, products):
         src = make_input(tmp, products)
         (tmp / out).write_text("keep me")
         return [stage, src, "-o", tmp / out], 2, list(must)
+
     case(name)(build)
 
 
@@ -568,6 +898,7 @@ def written(name, data: bytes):
     def make(tmp, products):
         (tmp / name).write_bytes(data)
         return tmp / name
+
     return make
 
 
@@ -577,6 +908,7 @@ def mat_file(name, variables):
 
         scipy.io.savemat(tmp / name, variables)
         return tmp / name
+
     return make
 
 
@@ -584,20 +916,46 @@ format_case("export-sicd-of-raw", "export-sicd", copied("raw.h5"), "raw.h5", "'i
 format_case("export-sicd-skewed-frame", "export-sicd", copied("image.h5"), "image.h5", "skewed axes")
 format_case("export-cphd-of-image", "export-cphd", copied("image.h5"), "image.h5", "'raw'")
 format_case("export-cphd-of-raw-array", "export-cphd", copied("raw_array.h5"), "raw_array.h5", "'raw'")
-format_case("import-cphd-text", "import-cphd", written("x.cphd", b"CPHD/1.1.0\nnot really\n"), "x.cphd",
-            "cannot read as CPHD")
+format_case(
+    "import-cphd-text", "import-cphd", written("x.cphd", b"CPHD/1.1.0\nnot really\n"), "x.cphd", "cannot read as CPHD"
+)
 format_case("import-cphd-hdf5", "import-cphd", copied("raw.h5"), "raw.h5", "cannot read as CPHD")
-format_case("import-cphd-directory", "import-cphd", lambda tmp, products: (tmp / "d.cphd").mkdir() or tmp / "d.cphd",
-            "d.cphd", "cannot read as CPHD")
-format_case("import-gotcha-not-mat", "import-gotcha", written("g.mat", b"not a mat file" * 20), "g.mat",
-            "not a MATLAB .mat file")
-format_case("import-gotcha-no-data-variable", "import-gotcha", mat_file("g.mat", {"x": np.arange(3)}), "g.mat",
-            "no variable 'data'")
+format_case(
+    "import-cphd-directory",
+    "import-cphd",
+    lambda tmp, products: (tmp / "d.cphd").mkdir() or tmp / "d.cphd",
+    "d.cphd",
+    "cannot read as CPHD",
+)
+format_case(
+    "import-gotcha-not-mat",
+    "import-gotcha",
+    written("g.mat", b"not a mat file" * 20),
+    "g.mat",
+    "not a MATLAB .mat file",
+)
+format_case(
+    "import-gotcha-no-data-variable",
+    "import-gotcha",
+    mat_file("g.mat", {"x": np.arange(3)}),
+    "g.mat",
+    "no variable 'data'",
+)
 format_case("import-gotcha-missing", "import-gotcha", lambda tmp, products: tmp / "none.mat", "none.mat", "not found")
-format_case("import-gotcha-empty-folder", "import-gotcha", lambda tmp, products: (tmp / "g").mkdir() or tmp / "g",
-            "g", "no .mat files")
-format_case("import-gotcha-directory-named-mat", "import-gotcha",
-            lambda tmp, products: (tmp / "h.mat").mkdir() or (tmp / "h.mat"), "h.mat", "no .mat files")
+format_case(
+    "import-gotcha-empty-folder",
+    "import-gotcha",
+    lambda tmp, products: (tmp / "g").mkdir() or tmp / "g",
+    "g",
+    "no .mat files",
+)
+format_case(
+    "import-gotcha-directory-named-mat",
+    "import-gotcha",
+    lambda tmp, products: (tmp / "h.mat").mkdir() or (tmp / "h.mat"),
+    "h.mat",
+    "no .mat files",
+)
 
 
 # --- usage and budgets
@@ -618,8 +976,15 @@ def _(tmp, products):
     return ["simulate", tmp / "scene.yaml", "-o", tmp / "o.h5", "--max-memory", "lots"], 2, ["--max-memory", "lots"]
 
 
-for stage, product in (("simulate", None), ("backproject", "raw.h5"), ("preprocess", "raw.h5"),
-                       ("coarse-focus", "pre.h5"), ("array3d", "raw_array.h5"), ("evaluate", "image.h5")):
+for stage, product in (
+    ("simulate", None),
+    ("backproject", "raw.h5"),
+    ("preprocess", "raw.h5"),
+    ("coarse-focus", "pre.h5"),
+    ("array3d", "raw_array.h5"),
+    ("evaluate", "image.h5"),
+):
+
     @case(f"budget-max-memory-{stage}")
     def _(tmp, products, stage=stage, product=product):
         if product is None:
@@ -655,7 +1020,11 @@ def run_case(name, tmp: Path, products: Path) -> dict:
     out = res.output
     crashed = res.exception is not None and not isinstance(res.exception, SystemExit)
     return {
-        "name": name, "args": args, "code": res.exit_code, "want_code": code, "output": out,
+        "name": name,
+        "args": args,
+        "code": res.exit_code,
+        "want_code": code,
+        "output": out,
         "must": must,
         "missing": [m for m in must if m not in out],
         "file_named": any(Path(a).name in out for a in args if isinstance(a, Path)),
@@ -663,7 +1032,7 @@ def run_case(name, tmp: Path, products: Path) -> dict:
         "silent_accept": res.exit_code == 0,
         "leftovers": sorted(set(after) - set(before)),
         "inputs_modified": sorted(k for k in before if k in after and before[k] != after[k])
-                           + sorted(set(before) - set(after)),
+        + sorted(set(before) - set(after)),
         "one_line": len([ln for ln in out.strip().splitlines() if ln.startswith("Error:")]) == 1,
     }
 
@@ -730,11 +1099,19 @@ def test_processing_failure_is_one_line_exit_1(tmp_path, products, monkeypatch):
 # ------------------------------------------------------------------------------------------------
 # Faults in real processes: signals, file-size limit, concurrent writers, stale temporaries
 
-SLOW = {**SCENE, "acquisition": {"mode": "spotlight", "aperture_time": "8 s",
-                                 "range_window": {"start": "1.99 km", "end": "2.03 km"}},
-        "targets": {"frame": "squint", "grid": {"azimuth_count": 8, "range_count": 8, "azimuth_spacing": "2 m",
-                                                "range_spacing": "2 m"}},
-        "simulation": {"block_pulses": 32}}
+SLOW = {
+    **SCENE,
+    "acquisition": {
+        "mode": "spotlight",
+        "aperture_time": "8 s",
+        "range_window": {"start": "1.99 km", "end": "2.03 km"},
+    },
+    "targets": {
+        "frame": "squint",
+        "grid": {"azimuth_count": 8, "range_count": 8, "azimuth_spacing": "2 m", "range_spacing": "2 m"},
+    },
+    "simulation": {"block_pulses": 32},
+}
 
 
 def sarproc(*args, limit_kb=None):
@@ -744,8 +1121,14 @@ def sarproc(*args, limit_kb=None):
 
         def pre():
             resource.setrlimit(resource.RLIMIT_FSIZE, (limit_kb * 1024, limit_kb * 1024))
-    return subprocess.Popen([sys.executable, "-m", "sarproc", *map(str, args)], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, preexec_fn=pre)
+
+    return subprocess.Popen(
+        [sys.executable, "-m", "sarproc", *map(str, args)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=pre,
+    )
 
 
 def wait_for_temporary(folder: Path, proc, timeout=60.0):
@@ -820,8 +1203,8 @@ def test_evaluate_figures_on_a_full_disk(tmp_path, products):
     out, err = proc.communicate(timeout=120)
     assert proc.returncode == 1, err
     assert "plots/quicklook.png: cannot write: File too large (EFBIG)" in err and "Traceback" not in err
-    assert out == ""   # no table printed before the failure
-    assert set(snapshot(tmp_path)) - set(before) == {"r.json"}   # the complete report only; no plots/, no temporaries
+    assert out == ""  # no table printed before the failure
+    assert set(snapshot(tmp_path)) - set(before) == {"r.json"}  # the complete report only; no plots/, no temporaries
 
 
 def test_two_concurrent_writers_never_replace_each_other(tmp_path):
@@ -834,23 +1217,33 @@ def test_two_concurrent_writers_never_replace_each_other(tmp_path):
     loser = next(err for rc, err in results if rc == 2)
     winner = next(p for p, (rc, _) in zip(procs, results) if rc == 0)
     # seen at the start by the lock (naming the other run), or, had the first already finished, "exists"
-    assert "raw.h5" in loser and (f"another sarproc run is writing this output (pid {winner.pid} " in loser
-                                  or "output exists" in loser), loser
+    assert "raw.h5" in loser and (
+        f"another sarproc run is writing this output (pid {winner.pid} " in loser or "output exists" in loser
+    ), loser
     assert not list(tmp_path.glob(".*.sarproc-tmp"))
 
 
 def test_formats_and_imports_print_their_plan(tmp_path, products):
     """export-sicd, export-cphd, import-cphd (and import-gotcha on the shared data) plan with -v."""
     d = tmp_path
-    res = invoke(["backproject", products / "raw.h5", "--config",
-                  dump(d / "los.yaml", {"backproject": {**BP, "frame": "los"}}), "-o", d / "los.h5", "-q"])
+    res = invoke(
+        [
+            "backproject",
+            products / "raw.h5",
+            "--config",
+            dump(d / "los.yaml", {"backproject": {**BP, "frame": "los"}}),
+            "-o",
+            d / "los.h5",
+            "-q",
+        ]
+    )
     assert res.exit_code == 0, res.output
     res = invoke(["-v", "export-sicd", d / "los.h5", "-o", d / "i.nitf"])
     assert res.exit_code == 0 and "export-sicd: plan: output ~" in res.output, res.output
     # export-cphd's plan comes before the (slant-plane scene's) consistency verdict
     res = invoke(["-v", "export-cphd", products / "raw.h5", "-o", d / "r.cphd"])
     assert "export-cphd: plan: output ~" in res.output, res.output
-    if (d / "r.cphd").exists():                # written, then checked by sarkit
+    if (d / "r.cphd").exists():  # written, then checked by sarkit
         res = invoke(["-v", "import-cphd", d / "r.cphd", "-o", d / "r.h5"])
         assert res.exit_code == 0 and "import-cphd: plan: output ~" in res.output, res.output
     gotcha = Path(__file__).resolve().parents[3] / "shared" / "data" / "gotcha"

@@ -13,8 +13,13 @@ from click.testing import CliRunner
 from sarproc.cli.main import COMMANDS, cli
 
 SCENE = {
-    "radar": {"carrier_frequency": "10 GHz", "bandwidth": "100 MHz", "pulse_duration": "1 us",
-              "range_sampling_rate": "120 MHz", "prf": "400 Hz"},
+    "radar": {
+        "carrier_frequency": "10 GHz",
+        "bandwidth": "100 MHz",
+        "pulse_duration": "1 us",
+        "range_sampling_rate": "120 MHz",
+        "prf": "400 Hz",
+    },
     "platform": {"velocity": "100 m/s", "altitude": "0 m"},
     "geometry": {"reference_range": "2 km", "squint": "10 deg"},
     "acquisition": {"mode": "spotlight", "aperture_time": "0.3 s"},
@@ -67,14 +72,36 @@ def test_simulate_backproject_chain(tmp_path, raw_file):
 
 def test_real_subprocess_runs(tmp_path):
     scene = write_scene(tmp_path / "scene.yaml")
-    out = subprocess.run([sys.executable, "-m", "sarproc", "simulate", str(scene), "-o", str(tmp_path / "r.h5")],
-                         capture_output=True, text=True, timeout=120)
+    out = subprocess.run(
+        [sys.executable, "-m", "sarproc", "simulate", str(scene), "-o", str(tmp_path / "r.h5")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert out.returncode == 0, out.stderr
-    out = subprocess.run([sys.executable, "-m", "sarproc", "backproject", str(tmp_path / "r.h5"), "--config",
-                          str(scene), "-o", str(tmp_path / "i.h5")], capture_output=True, text=True, timeout=120)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "sarproc",
+            "backproject",
+            str(tmp_path / "r.h5"),
+            "--config",
+            str(scene),
+            "-o",
+            str(tmp_path / "i.h5"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert out.returncode == 0, out.stderr
-    bad = subprocess.run([sys.executable, "-m", "sarproc", "backproject", str(tmp_path / "nope.h5"), "-o",
-                          str(tmp_path / "x.h5")], capture_output=True, text=True, timeout=60)
+    bad = subprocess.run(
+        [sys.executable, "-m", "sarproc", "backproject", str(tmp_path / "nope.h5"), "-o", str(tmp_path / "x.h5")],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert bad.returncode == 2 and "nope.h5: file not found" in bad.stderr
 
 
@@ -93,13 +120,16 @@ def test_bad_inputs_exit_2_with_named_cause(tmp_path, raw_file):
         assert message in res.output, (args, res.output)
 
 
-@pytest.mark.parametrize("change,message", [
-    ({"radar": {**SCENE["radar"], "bandwidth": "10 m"}}, "radar.bandwidth: unit 'm' is not a frequency unit"),
-    ({"radar": {**SCENE["radar"], "range_sampling_rate": "50 MHz"}}, "is below the bandwidth"),
-    ({"radar": {**SCENE["radar"], "bandwidth": "-1 MHz"}}, "radar.bandwidth: '-1 MHz' is out of range"),
-    ({"platform": {"velocity": "100 m/s", "hight": "1 m"}}, "platform: unknown key(s) 'hight'"),
-    ({"geometry": {"squint": "10 deg"}}, "geometry.reference_range: required key is missing"),
-])
+@pytest.mark.parametrize(
+    "change,message",
+    [
+        ({"radar": {**SCENE["radar"], "bandwidth": "10 m"}}, "radar.bandwidth: unit 'm' is not a frequency unit"),
+        ({"radar": {**SCENE["radar"], "range_sampling_rate": "50 MHz"}}, "is below the bandwidth"),
+        ({"radar": {**SCENE["radar"], "bandwidth": "-1 MHz"}}, "radar.bandwidth: '-1 MHz' is out of range"),
+        ({"platform": {"velocity": "100 m/s", "hight": "1 m"}}, "platform: unknown key(s) 'hight'"),
+        ({"geometry": {"squint": "10 deg"}}, "geometry.reference_range: required key is missing"),
+    ],
+)
 def test_bad_scene_yaml_exit_2(tmp_path, change, message):
     scene = write_scene(tmp_path / "bad.yaml", {**SCENE, **change})
     res = run("simulate", scene, "-o", tmp_path / "o.h5")

@@ -17,23 +17,35 @@ from sarproc.product.io import write_product
 from sarproc.product.metadata import RadarMetadata
 from sarproc.product.model import Product, make_targets
 
-RES = (1.0, 0.8)                 # theoretical IRW (azimuth, range), m
-STEP = (0.6, 0.5)                # pixel spacing, m
-TARGETS = {"A": (-15.3, -12.2), "B": (16.4, 14.15)}   # > 30 cells apart
+RES = (1.0, 0.8)  # theoretical IRW (azimuth, range), m
+STEP = (0.6, 0.5)  # pixel spacing, m
+TARGETS = {"A": (-15.3, -12.2), "B": (16.4, 14.15)}  # > 30 cells apart
 
 
 def radar():
-    return RadarMetadata(carrier_frequency=10e9, bandwidth=150e6, pulse_duration=2e-6, chirp_rate=7.5e13,
-                         range_sampling_rate=180e6, prf=500.0, velocity=150.0, altitude=0.0, squint=0.0,
-                         reference_range=10e3, scene_center=(0.0, 10e3, 0.0))
+    return RadarMetadata(
+        carrier_frequency=10e9,
+        bandwidth=150e6,
+        pulse_duration=2e-6,
+        chirp_rate=7.5e13,
+        range_sampling_rate=180e6,
+        prf=500.0,
+        velocity=150.0,
+        altitude=0.0,
+        squint=0.0,
+        reference_range=10e3,
+        scene_center=(0.0, 10e3, 0.0),
+    )
 
 
 def sinc_image(coords, res, truth, doppler):
     """Separable unweighted responses (band-limited, sampled directly) with a Doppler offset."""
     out = 0
     for t in truth:
-        factors = [np.sinc(0.886 / r * (c - x0)) * np.exp(2j * np.pi * f * (c - x0))
-                   for c, r, x0, f in zip(coords, res, t, doppler)]
+        factors = [
+            np.sinc(0.886 / r * (c - x0)) * np.exp(2j * np.pi * f * (c - x0))
+            for c, r, x0, f in zip(coords, res, t, doppler)
+        ]
         grid = factors[0]
         for f in factors[1:]:
             grid = np.multiply.outer(grid, f)
@@ -51,10 +63,10 @@ def make_image(path, *, irw=True, three_d=False, ghost_db=None):
     else:
         dims, res, steps, shape = ("azimuth", "range"), RES, STEP, (128, 128)
     coords = {d: (np.arange(n) - n // 2) * s for d, n, s in zip(dims, shape, steps)}
-    doppler = tuple(0.3 / s for s in steps)          # band centres 0.3 cycles/sample
+    doppler = tuple(0.3 / s for s in steps)  # band centres 0.3 cycles/sample
     data = sinc_image([coords[d] for d in dims], res, truth, doppler)
     if ghost_db is not None:
-        ghost = truth[0][:-2] + (-20.0, 20.0)     # outside both targets' +-20-cell boxes
+        ghost = truth[0][:-2] + (-20.0, 20.0)  # outside both targets' +-20-cell boxes
         data = data + 10 ** (ghost_db / 20) * sinc_image([coords[d] for d in dims], res, [ghost], doppler)
     frame = [np.zeros(len(names))] * 3
     for i, d in enumerate(dims):
@@ -63,8 +75,15 @@ def make_image(path, *, irw=True, three_d=False, ghost_db=None):
     attrs = {"frame": {"name": "ground"}}
     if irw:
         attrs["theoretical_irw"] = list(res)
-    prod = Product(kind="image3d" if three_d else "image", data=data, dims=dims, coords=coords, radar=radar(),
-                   targets=targets, attrs=attrs)
+    prod = Product(
+        kind="image3d" if three_d else "image",
+        data=data,
+        dims=dims,
+        coords=coords,
+        radar=radar(),
+        targets=targets,
+        attrs=attrs,
+    )
     write_product(path, prod)
     return path
 
@@ -145,7 +164,7 @@ def test_expect_pass_and_fail(image2d, tmp_path):
     res = run(image2d, "--expect", fail, "-o", report)
     assert res.exit_code == 1, res.output
     fails = [ln for ln in res.output.splitlines() if ln.startswith("FAIL")]
-    assert len(fails) == 5                      # 4 IRW checks + B's range ISLR
+    assert len(fails) == 5  # 4 IRW checks + B's range ISLR
     assert any("target B axis range: islr_db" in ln and "in [-9, -8]" in ln for ln in fails)
     assert any("target A axis azimuth: irw_ratio" in ln and "<= 0.99" in ln for ln in fails)
     doc = json.loads(report.read_text())
@@ -163,12 +182,15 @@ def test_false_target_gate(tmp_path):
     assert level == pytest.approx(-24.0, abs=0.1)
 
 
-@pytest.mark.parametrize("content, match", [
-    ("pslr: [-14, -13]\n", "unknown key(s) 'pslr'"),
-    ("targets: {Z: {pslr_db: [-14, -13]}}\n", "targets.Z: the image has no target 'Z'"),
-    ("axes: {range: {irw_ratio_max: 3 m}}\n", "axes.range.irw_ratio_max"),
-    ("pslr_db: [-12, -14]\n", "lo <= hi"),
-])
+@pytest.mark.parametrize(
+    "content, match",
+    [
+        ("pslr: [-14, -13]\n", "unknown key(s) 'pslr'"),
+        ("targets: {Z: {pslr_db: [-14, -13]}}\n", "targets.Z: the image has no target 'Z'"),
+        ("axes: {range: {irw_ratio_max: 3 m}}\n", "axes.range.irw_ratio_max"),
+        ("pslr_db: [-12, -14]\n", "lo <= hi"),
+    ],
+)
 def test_bad_expect_file(image2d, tmp_path, content, match):
     exp = tmp_path / "e.yaml"
     exp.write_text(content)
@@ -187,8 +209,17 @@ def test_bad_inputs_exit_2(tmp_path, image2d):
 
     raw = tmp_path / "raw.h5"
     coords = {"azimuth_time": np.arange(8) * 1e-3, "range_time": np.arange(16) * 1e-8}
-    write_product(raw, Product(kind="raw", data=np.zeros((8, 16), np.complex64), dims=("azimuth_time", "range_time"),
-                               coords=coords, radar=radar(), targets=make_targets(["A"], [[0, 1e4, 0]], [1.0])))
+    write_product(
+        raw,
+        Product(
+            kind="raw",
+            data=np.zeros((8, 16), np.complex64),
+            dims=("azimuth_time", "range_time"),
+            coords=coords,
+            radar=radar(),
+            targets=make_targets(["A"], [[0, 1e4, 0]], [1.0]),
+        ),
+    )
     res = run(raw)
     assert res.exit_code == 2 and "raw.h5" in res.output and "'raw'" in res.output
 
@@ -210,8 +241,9 @@ def test_bad_inputs_exit_2(tmp_path, image2d):
 
 
 def test_subprocess_and_help(image2d):
-    res = subprocess.run([sys.executable, "-m", "sarproc", "evaluate", str(image2d)], capture_output=True, text=True,
-                         timeout=120)
+    res = subprocess.run(
+        [sys.executable, "-m", "sarproc", "evaluate", str(image2d)], capture_output=True, text=True, timeout=120
+    )
     assert res.returncode == 0, res.stderr
     assert res.stdout.startswith("| target | axis |")
     assert CliRunner().invoke(cli, ["evaluate", "--help"]).exit_code == 0

@@ -21,8 +21,16 @@ from click.testing import CliRunner
 from sarproc.cli.main import cli
 
 CONFIG = Path(__file__).resolve().parents[2] / "configs" / "xu_small.yaml"
-EXPECT = {"irw_ratio_min": 0.95, "irw_ratio_max": 1.05, "pslr_db": [-13.76, -12.76], "islr_db": [-10.66, -9.66],
-          "position_cells_max": 0.1, "false_target_db_max": -30, "v_r_error_max": 0.1, "v_a_error_max": 0.2}
+EXPECT = {
+    "irw_ratio_min": 0.95,
+    "irw_ratio_max": 1.05,
+    "pslr_db": [-13.76, -12.76],
+    "islr_db": [-10.66, -9.66],
+    "position_cells_max": 0.1,
+    "false_target_db_max": -30,
+    "v_r_error_max": 0.1,
+    "v_a_error_max": 0.2,
+}
 
 
 def run(*args):
@@ -47,13 +55,19 @@ def scene_file(tmp_path, points, single_channel=False) -> Path:
 def chain(tmp_path_factory):
     """simulate -> reconstruct -> backproject of A, B, C."""
     d = tmp_path_factory.mktemp("movers")
-    cfg = scene_file(d, [{"name": "A"},
-                         {"name": "B", "azimuth": "300 m", "range": "170 m", "velocity": ["0 m/s", "10 m/s", "0 m/s"]},
-                         {"name": "C", "azimuth": "500 m", "range": "-450 m",
-                          "velocity": ["10 m/s", "10 m/s", "0 m/s"]}])
-    for args in (["simulate", cfg, "-o", d / "raw_mc.h5"],
-                 ["reconstruct", d / "raw_mc.h5", "-o", d / "raw.h5", "--config", cfg],
-                 ["backproject", d / "raw.h5", "-o", d / "image.h5", "--config", cfg]):
+    cfg = scene_file(
+        d,
+        [
+            {"name": "A"},
+            {"name": "B", "azimuth": "300 m", "range": "170 m", "velocity": ["0 m/s", "10 m/s", "0 m/s"]},
+            {"name": "C", "azimuth": "500 m", "range": "-450 m", "velocity": ["10 m/s", "10 m/s", "0 m/s"]},
+        ],
+    )
+    for args in (
+        ["simulate", cfg, "-o", d / "raw_mc.h5"],
+        ["reconstruct", d / "raw_mc.h5", "-o", d / "raw.h5", "--config", cfg],
+        ["backproject", d / "raw.h5", "-o", d / "image.h5", "--config", cfg],
+    ):
         r = run(*args, "--no-progress")
         assert r.exit_code == 0, r.output
     return d, cfg
@@ -65,8 +79,8 @@ def test_default_grid_covers_where_movers_appear_not_where_they_are(chain):
         az, rg = f["azimuth"][()], f["range"][()]
         names = [n.decode() for n in f["targets"]["name"]]
         true_az = f["targets"]["azimuth"][names.index("B")]
-    assert not az[0] <= true_az <= az[-1]          # B's true position (300 m) holds no response, and is off the grid
-    assert az[0] < -540 and az[-1] > 0             # B appears near -551 m, C near -661 m, A at 0
+    assert not az[0] <= true_az <= az[-1]  # B's true position (300 m) holds no response, and is off the grid
+    assert az[0] < -540 and az[-1] > 0  # B appears near -551 m, C near -661 m, A at 0
     assert az[0] < -650
 
 
@@ -83,8 +97,8 @@ def test_evaluate_measures_movers_where_they_appear_with_velocity_and_relocation
     for name, v_a in (("B", 0.0), ("C", 10.0)):
         m = movers[name]
         assert m["v_r"] == pytest.approx(10.0) and m["v_a"] == pytest.approx(v_a)
-        assert m["estimate"] == "moving_targets" and m["relocation"] == "table"     # reconstruct's aux table
-        assert m["shift"] > 800                                 # measured hundreds of metres from the truth
+        assert m["estimate"] == "moving_targets" and m["relocation"] == "table"  # reconstruct's aux table
+        assert m["shift"] > 800  # measured hundreds of metres from the truth
         assert abs(m["v_r_error"]) < 0.1
         # relocation: the table's relocated position lies where the velocity error says (first order),
         # within two metres (its apparent position is reconstruct's, not the measured peak)
@@ -111,8 +125,10 @@ def test_evaluate_targets_subset(chain, tmp_path):
 def test_single_channel_mover_is_measured_where_it_appears(tmp_path):
     """The issue's case: one channel, a target moving 5 m/s across track (PSLR +7.4 dB at its true position)."""
     cfg = scene_file(tmp_path, [{"name": "T", "velocity": ["0 m/s", "5 m/s", "0 m/s"]}], single_channel=True)
-    for args in (["simulate", cfg, "-o", tmp_path / "raw.h5"],
-                 ["backproject", tmp_path / "raw.h5", "-o", tmp_path / "image.h5"]):
+    for args in (
+        ["simulate", cfg, "-o", tmp_path / "raw.h5"],
+        ["backproject", tmp_path / "raw.h5", "-o", tmp_path / "image.h5"],
+    ):
         r = run(*args, "--no-progress")
         assert r.exit_code == 0, r.output
     expect = tmp_path / "expect.yaml"
@@ -137,15 +153,26 @@ def test_a_moving_targets_table_is_used_first_and_matched_by_name_or_position(ch
 
     d, _ = chain
     image = read_product(d / "image.h5")
-    assert len(image.aux["moving_targets"]) == 2          # reconstruct's own table, carried by backproject
-    image.aux.pop("moving_targets")                       # the mapping form below stands in for it
+    assert len(image.aux["moving_targets"]) == 2  # reconstruct's own table, carried by backproject
+    image.aux.pop("moving_targets")  # the mapping form below stands in for it
     base = {m.name: m for m in evaluate_product(image).movers}
     b, c = base["B"], base["C"]
     image.attrs["moving_targets"] = [
-        {"id": 0, "v_r": 10.05, "v_a": 0.0, "truth": "B",
-         **{f"relocated_{k}": v + 2.0 for k, v in zip("xyz", b.true_position)}},
-        {"id": 1, "v_r": 9.9, "v_a": 10.2, "truth": "",
-         **{f"apparent_{k}": v + 0.5 for k, v in zip("xyz", c.apparent_position)}}]
+        {
+            "id": 0,
+            "v_r": 10.05,
+            "v_a": 0.0,
+            "truth": "B",
+            **{f"relocated_{k}": v + 2.0 for k, v in zip("xyz", b.true_position)},
+        },
+        {
+            "id": 1,
+            "v_r": 9.9,
+            "v_a": 10.2,
+            "truth": "",
+            **{f"apparent_{k}": v + 0.5 for k, v in zip("xyz", c.apparent_position)},
+        },
+    ]
     movers = {m.name: m for m in evaluate_product(image).movers}
     assert movers["B"].estimate == "moving_targets" and movers["B"].relocation == "table"
     assert movers["B"].v_r_error == pytest.approx(0.05) and movers["B"].relocation_error == pytest.approx(2 * 3**0.5)

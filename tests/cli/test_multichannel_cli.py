@@ -22,8 +22,22 @@ def test_reconstruct_cli_writes_a_raw_product_at_n_prf(tmp_path):
     r = runner.invoke(cli, ["simulate", str(CONFIG), "-o", str(raw), "--no-progress"])
     assert r.exit_code == 0, r.output
     # A real subprocess run, as a user would.
-    p = subprocess.run([sys.executable, "-m", "sarproc", "reconstruct", str(raw), "-o", str(out), "--config",
-                        str(CONFIG), "--no-progress"], capture_output=True, text=True)
+    p = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "sarproc",
+            "reconstruct",
+            str(raw),
+            "-o",
+            str(out),
+            "--config",
+            str(CONFIG),
+            "--no-progress",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert p.returncode == 0, p.stderr
     assert "3000 Hz" in p.stdout
     with h5py.File(out) as f:

@@ -66,10 +66,23 @@ def test_gotcha_pfa_and_backprojection_agree(tmp_path):
     from sarproc.focus.pfa.chain import image_frame
 
     # 24 m x 24 m around the brightest scatterer (a calibration-like point 22 m, 15 m from the centre)
-    grid = {"azimuth_extent": 24.0, "range_extent": 24.0, "azimuth_spacing": 0.1, "range_spacing": 0.1,
-            "azimuth_center": 22.0, "range_center": image_frame(raw).ground_range + 15.0}
+    grid = {
+        "azimuth_extent": 24.0,
+        "range_extent": 24.0,
+        "azimuth_spacing": 0.1,
+        "range_spacing": 0.1,
+        "azimuth_center": 22.0,
+        "range_center": image_frame(raw).ground_range + 15.0,
+    }
     cfg = tmp_path / "g.yaml"
-    cfg.write_text(yaml.safe_dump({"pfa2": {"method": "plain", "correct_distortion": True, **grid}, "backproject": {"frame": "product", **grid}}))
+    cfg.write_text(
+        yaml.safe_dump(
+            {
+                "pfa2": {"method": "plain", "correct_distortion": True, **grid},
+                "backproject": {"frame": "product", **grid},
+            }
+        )
+    )
     assert run("pfa2", tmp_path / "raw.h5", "-o", tmp_path / "pfa.h5", "--config", cfg).exit_code == 0
     assert run("backproject", tmp_path / "raw.h5", "-o", tmp_path / "bp.h5", "--config", cfg).exit_code == 0
     a, b = read_product(tmp_path / "pfa.h5"), read_product(tmp_path / "bp.h5")
@@ -78,4 +91,4 @@ def test_gotcha_pfa_and_backprojection_agree(tmp_path):
     ncc = ((A - A.mean()) * (B - B.mean())).sum() / np.sqrt(((A - A.mean()) ** 2).sum() * ((B - B.mean()) ** 2).sum())
     assert ncc > 0.95
     ia, ib = np.unravel_index(np.argmax(A), A.shape), np.unravel_index(np.argmax(B), B.shape)
-    assert max(abs(i - j) for i, j in zip(ia, ib)) <= 1          # the brightest point on the same pixel
+    assert max(abs(i - j) for i, j in zip(ia, ib)) <= 1  # the brightest point on the same pixel

@@ -42,8 +42,9 @@ def inputs(tmp_path_factory):
     cfg = CONFIGS / "an2012_exp1_small.yaml"
     sarproc("preprocess", d / "an2012_exp1_small_raw.h5", "--config", cfg, "-o", d / "pre.h5", "--no-progress")
     sarproc("coarse-focus", d / "pre.h5", "--config", cfg, "-o", d / "coarse.h5", "--no-progress")
-    sarproc("backproject", d / "demo_raw.h5", "--config", CONFIGS / "demo.yaml", "-o", d / "demo_image.h5",
-            "--no-progress")
+    sarproc(
+        "backproject", d / "demo_raw.h5", "--config", CONFIGS / "demo.yaml", "-o", d / "demo_image.h5", "--no-progress"
+    )
     return d
 
 
@@ -65,7 +66,7 @@ STAGES = [
 def stage_args(inputs, stage, source, config):
     src = CONFIGS / f"{source[7:]}.yaml" if source.startswith("config:") else inputs / source
     cfg = ["--config", CONFIGS / f"{config}.yaml"] if config else []
-    out = inputs / f"out_{stage}{ {'evaluate': '.json', 'quicklook': '.png'}.get(stage, '.h5')}"
+    out = inputs / f"out_{stage}{ {'evaluate': '.json', 'quicklook': '.png'}.get(stage, '.h5') }"
     return [stage, src, *cfg, "-o", out]
 
 
@@ -77,8 +78,9 @@ def in_process(args, extra):
 
 @pytest.mark.parametrize("stage,source,config", STAGES, ids=[s[0] for s in STAGES])
 def test_plan_within_2x_of_the_measured_run(inputs, stage, source, config):
-    row = plan_accuracy.run_stage(stage_args(inputs, stage, source, config), repeat=3, accept=plan_accuracy.within,
-                                  dry_run=in_process)
+    row = plan_accuracy.run_stage(
+        stage_args(inputs, stage, source, config), repeat=3, accept=plan_accuracy.within, dry_run=in_process
+    )
     assert "refused" not in row, row
     assert not row["dry_run_wrote"], "--dry-run wrote its output"
     assert plan_accuracy.within(row), plan_accuracy.line({"config": config, **row})
@@ -94,10 +96,26 @@ def test_dry_run_checks_like_a_run_and_writes_nothing(inputs):
     res = CliRunner().invoke(cli, ["backproject", str(inputs / "demo_raw.h5"), "-o", str(out), "--dry-run"])
     assert res.exit_code == 2 and "exists" in res.output and out.read_bytes() == b"x"
     # a plan that cannot fit is refused as in a real run
-    res = CliRunner().invoke(cli, ["backproject", str(inputs / "demo_raw.h5"), "-o", str(inputs / "d2.h5"),
-                                   "--dry-run", "--max-memory", "1M"])
+    res = CliRunner().invoke(
+        cli,
+        ["backproject", str(inputs / "demo_raw.h5"), "-o", str(inputs / "d2.h5"), "--dry-run", "--max-memory", "1M"],
+    )
     assert res.exit_code == 2 and "--max-memory" in res.output and not (inputs / "d2.h5").exists()
     # every product-writing command offers it
-    for command in ("simulate", "preprocess", "coarse-focus", "fine-focus", "pfa2", "reconstruct", "array3d",
-                    "backproject", "evaluate", "quicklook", "import-gotcha", "export-sicd", "export-cphd", "import-cphd"):
+    for command in (
+        "simulate",
+        "preprocess",
+        "coarse-focus",
+        "fine-focus",
+        "pfa2",
+        "reconstruct",
+        "array3d",
+        "backproject",
+        "evaluate",
+        "quicklook",
+        "import-gotcha",
+        "export-sicd",
+        "export-cphd",
+        "import-cphd",
+    ):
         assert "--dry-run" in CliRunner().invoke(cli, [command, "--help"]).output, command

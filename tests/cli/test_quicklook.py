@@ -26,8 +26,18 @@ def image_without_targets(path, shape=(300, 170), spikes=((123, 45, 3.0), (7, 16
         data[i, j] = a
     coords = {"azimuth": np.arange(shape[0]) * 0.5 - 40.0, "range": 1000.0 + np.arange(shape[1]) * 0.25}
     empty = make_targets([], np.zeros((0, 3)), np.zeros(0))
-    write_product(path, Product(kind="image", data=data, dims=("azimuth", "range"), coords=coords, radar=radar(),
-                                targets=empty, attrs={"frame": {"name": "ground"}}))
+    write_product(
+        path,
+        Product(
+            kind="image",
+            data=data,
+            dims=("azimuth", "range"),
+            coords=coords,
+            radar=radar(),
+            targets=empty,
+            attrs={"frame": {"name": "ground"}},
+        ),
+    )
     return path, data
 
 
@@ -37,7 +47,7 @@ def test_preview_blocks_equal_whole_image_block_maxima(tmp_path):
     preview, dims, coords, factors = read_magnitude_preview(path, max_side=64, block_bytes=7 * 170 * 8)
     assert factors == (5, 3) and preview.shape == (60, 57) and dims == ("azimuth", "range")
     mag = np.abs(data)
-    padded = np.pad(mag, ((0, 0), (0, 1)))            # 170 -> 171 = 57 x 3
+    padded = np.pad(mag, ((0, 0), (0, 1)))  # 170 -> 171 = 57 x 3
     expected = padded.reshape(60, 5, 57, 3).max(axis=(1, 3))
     np.testing.assert_array_equal(preview, expected.astype(np.float32))
     # a one-pixel spike keeps its full level and lands in the block that holds it
@@ -86,8 +96,16 @@ def test_refuses_raw_products_and_bad_knobs(tmp_path):
     assert not (tmp_path / "ql.png").exists()
     raw = tmp_path / "raw.h5"
     data = np.ones((4, 8), np.complex64)
-    write_product(raw, Product(kind="raw", data=data, dims=("azimuth_time", "range_time"),
-                               coords={"azimuth_time": np.arange(4) / 500.0, "range_time": 6.6e-5 + np.arange(8) / 180e6},
-                               radar=radar(), targets=make_targets([], np.zeros((0, 3)), np.zeros(0))))
+    write_product(
+        raw,
+        Product(
+            kind="raw",
+            data=data,
+            dims=("azimuth_time", "range_time"),
+            coords={"azimuth_time": np.arange(4) / 500.0, "range_time": 6.6e-5 + np.arange(8) / 180e6},
+            radar=radar(),
+            targets=make_targets([], np.zeros((0, 3)), np.zeros(0)),
+        ),
+    )
     res = run(raw, "-o", tmp_path / "ql.png")
     assert res.exit_code == 2 and "raw" in res.output and not (tmp_path / "ql.png").exists()

@@ -24,18 +24,34 @@ import yaml
 
 from conftest import BASE_SCENE, merge
 
-SCENE = merge(BASE_SCENE, {"acquisition": {"aperture_time": "0.2 s"},
-                           "targets": {"points": [{"name": "A"}, {"name": "B", "range": "10 m", "azimuth": "4 m"}]}})
+SCENE = merge(
+    BASE_SCENE,
+    {
+        "acquisition": {"aperture_time": "0.2 s"},
+        "targets": {"points": [{"name": "A"}, {"name": "B", "range": "10 m", "azimuth": "4 m"}]},
+    },
+)
 BP = {"backproject": {"azimuth_extent": "20 m", "range_extent": "24 m"}}
 # about 2 s of simulation (64 targets, 3200 pulses): long enough for a second run to start meanwhile
-SLOW = merge(SCENE, {"acquisition": {"mode": "spotlight", "aperture_time": "8 s",
-                                     "range_window": {"start": "1.99 km", "end": "2.03 km"}},
-                     "targets": {"frame": "squint", "points": None,
-                                 "grid": {"azimuth_count": 8, "range_count": 8, "azimuth_spacing": "2 m",
-                                          "range_spacing": "2 m"}},
-                     "simulation": {"block_pulses": 32}})
-ROOT = pytest.mark.skipif(not hasattr(os, "geteuid") or os.geteuid() != 0,
-                          reason="needs root (mknod / running as another user)")
+SLOW = merge(
+    SCENE,
+    {
+        "acquisition": {
+            "mode": "spotlight",
+            "aperture_time": "8 s",
+            "range_window": {"start": "1.99 km", "end": "2.03 km"},
+        },
+        "targets": {
+            "frame": "squint",
+            "points": None,
+            "grid": {"azimuth_count": 8, "range_count": 8, "azimuth_spacing": "2 m", "range_spacing": "2 m"},
+        },
+        "simulation": {"block_pulses": 32},
+    },
+)
+ROOT = pytest.mark.skipif(
+    not hasattr(os, "geteuid") or os.geteuid() != 0, reason="needs root (mknod / running as another user)"
+)
 HERE = Path(__file__).parent
 
 
@@ -56,8 +72,12 @@ def leftovers(folder: Path) -> list[str]:
 def same_product(a, b) -> bool:
     with h5py.File(a) as fa, h5py.File(b) as fb:
         name = "signal" if "signal" in fa else "image"
-        return (fa.attrs["product"] == fb.attrs["product"] and fa[name].shape == fb[name].shape
-                and np.array_equal(fa[name][()], fb[name][()]) and np.array_equal(fa["targets"][()], fb["targets"][()]))
+        return (
+            fa.attrs["product"] == fb.attrs["product"]
+            and fa[name].shape == fb[name].shape
+            and np.array_equal(fa[name][()], fb[name][()])
+            and np.array_equal(fa["targets"][()], fb["targets"][()])
+        )
 
 
 @pytest.fixture(scope="module")
@@ -66,9 +86,11 @@ def made(tmp_path_factory):
     d = tmp_path_factory.mktemp("safety")
     dump(d / "scene.yaml", SCENE)
     dump(d / "bp.yaml", BP)
-    for args in (("simulate", d / "scene.yaml", "-o", d / "raw.h5"),
-                 ("backproject", d / "raw.h5", "--config", d / "bp.yaml", "-o", d / "image.h5"),
-                 ("evaluate", d / "image.h5", "-o", d / "report.json")):
+    for args in (
+        ("simulate", d / "scene.yaml", "-o", d / "raw.h5"),
+        ("backproject", d / "raw.h5", "--config", d / "bp.yaml", "-o", d / "image.h5"),
+        ("evaluate", d / "image.h5", "-o", d / "report.json"),
+    ):
         res = invoke(*args, "-q")
         assert res.exit_code == 0, res.output
     return d
@@ -91,13 +113,16 @@ def report_body(text: bytes) -> dict:
 
 # ---- 1. special files: written through, never replaced ----------------------------------------------------------
 
+
 @ROOT
 def test_device_node_is_written_through_not_replaced(made, tmp_path):
     dev = tmp_path / "null"
-    os.mknod(dev, stat.S_IFCHR | 0o666, os.makedev(1, 3))     # the twin of /dev/null
-    for args in (("evaluate", made / "image.h5", "-o", dev, "--overwrite"),
-                 ("simulate", made / "scene.yaml", "-o", dev, "--overwrite"),
-                 ("simulate", made / "scene.yaml", "-o", dev)):   # a device is not "an existing output"
+    os.mknod(dev, stat.S_IFCHR | 0o666, os.makedev(1, 3))  # the twin of /dev/null
+    for args in (
+        ("evaluate", made / "image.h5", "-o", dev, "--overwrite"),
+        ("simulate", made / "scene.yaml", "-o", dev, "--overwrite"),
+        ("simulate", made / "scene.yaml", "-o", dev),
+    ):  # a device is not "an existing output"
         res = sarproc(*args, "-q")
         assert res.returncode == 0, res.stderr
         st = os.lstat(dev)
@@ -178,10 +203,11 @@ def test_symlinked_output_replaces_its_target_and_the_link_stays(made, tmp_path)
     dangling.symlink_to(tmp_path / "new.json")
     assert invoke("evaluate", made / "image.h5", "-o", dangling, "-q").exit_code == 0
     assert dangling.is_symlink() and (tmp_path / "new.json").is_file()
-    assert invoke("evaluate", made / "image.h5", "-o", link, "-q").exit_code == 2   # exists: --overwrite needed
+    assert invoke("evaluate", made / "image.h5", "-o", link, "-q").exit_code == 2  # exists: --overwrite needed
 
 
 # ---- 2. '-' is stdout / stdin ------------------------------------------------------------------------------------
+
 
 def test_dash_reads_yaml_from_stdin_and_writes_products_to_stdout(made, tmp_path):
     # scene from stdin, product to stdout: the same product as from and to files
@@ -211,16 +237,20 @@ def test_dash_reads_yaml_from_stdin_and_writes_products_to_stdout(made, tmp_path
 
 # ---- 5. concurrent writers are seen at the start -----------------------------------------------------------------
 
+
 def test_second_writer_stops_at_once_naming_the_first(tmp_path):
     slow = dump(tmp_path / "slow.yaml", SLOW)
     out = tmp_path / "raw.h5"
-    first = subprocess.Popen([sys.executable, "-m", "sarproc", "simulate", str(slow), "-o", str(out), "--no-progress"],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    first = subprocess.Popen(
+        [sys.executable, "-m", "sarproc", "simulate", str(slow), "-o", str(out), "--no-progress"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
     try:
         end = time.monotonic() + 60
         while not list(tmp_path.glob(".*.sarproc-tmp")) and time.monotonic() < end and first.poll() is None:
             time.sleep(0.02)
-        first.send_signal(signal.SIGSTOP)    # frozen mid-write, holding its lock, however slow the second is
+        first.send_signal(signal.SIGSTOP)  # frozen mid-write, holding its lock, however slow the second is
         assert first.poll() is None, "the first run ended before it could be paused: make it slower"
         start = time.monotonic()
         second = sarproc("simulate", slow, "-o", out, "--overwrite")
@@ -229,7 +259,7 @@ def test_second_writer_stops_at_once_naming_the_first(tmp_path):
         assert second.returncode == 2, err
         assert f"another sarproc run is writing this output (pid {first.pid} " in err
         assert "sarproc simulate" in err and str(slow) in err and "Traceback" not in err
-        assert took < 10   # start-up and the checks, no compute
+        assert took < 10  # start-up and the checks, no compute
         # SIGKILL leaves no stale lock: the next run writes
         first.kill()
         first.wait()
@@ -248,13 +278,23 @@ def made_scene(tmp_path: Path) -> Path:
 
 # ---- 4. every signal stops the run -------------------------------------------------------------------------------
 
+
 def test_every_signal_stops_the_run_or_lands_after_publishing(made, tmp_path):
     """36 deliveries (SIGTERM, SIGINT, SIGHUP) at random moments of simulate and backproject runs: each
     ends 128 + N with nothing left, or 0 with the complete output."""
     scene = dump(tmp_path / "scene.yaml", merge(SCENE, {"simulation": {"block_pulses": 8}}))
-    commands = {"simulate": lambda out: ["simulate", str(scene), "-o", str(out), "-q"],
-                "backproject": lambda out: ["backproject", str(made / "raw.h5"), "--config", str(made / "bp.yaml"),
-                                            "-o", str(out), "-q"]}
+    commands = {
+        "simulate": lambda out: ["simulate", str(scene), "-o", str(out), "-q"],
+        "backproject": lambda out: [
+            "backproject",
+            str(made / "raw.h5"),
+            "--config",
+            str(made / "bp.yaml"),
+            "-o",
+            str(out),
+            "-q",
+        ],
+    }
     refs = {"simulate": made / "raw.h5", "backproject": made / "image.h5"}
     # two unsignalled runs of each first: kernels loaded, run time measured
     runs = [{"key": c, "args": commands[c](tmp_path / f"warm_{c}_{k}.h5")} for k in range(2) for c in commands]
@@ -265,11 +305,21 @@ def test_every_signal_stops_the_run_or_lands_after_publishing(made, tmp_path):
         c = list(commands)[i % 2]
         plan.append((c, tmp_path / f"out_{i}.h5", sigs[i % 3]))
         # up to 1.15 x the run time: some land after the run, and must change nothing
-        runs.append({"key": c, "args": commands[c](tmp_path / f"out_{i}.h5"), "signal": int(sigs[i % 3]),
-                     "fraction": rng.uniform(0, 1.15)})
+        runs.append(
+            {
+                "key": c,
+                "args": commands[c](tmp_path / f"out_{i}.h5"),
+                "signal": int(sigs[i % 3]),
+                "fraction": rng.uniform(0, 1.15),
+            }
+        )
     (tmp_path / "runs.json").write_text(json.dumps(runs))
-    res = subprocess.run([sys.executable, str(HERE / "signal_driver.py"), str(tmp_path / "runs.json")],
-                         capture_output=True, text=True, timeout=300)
+    res = subprocess.run(
+        [sys.executable, str(HERE / "signal_driver.py"), str(tmp_path / "runs.json")],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     results = [json.loads(x) for x in res.stdout.splitlines()]
     assert len(results) == len(runs), res.stderr[-3000:]
     assert all(r["code"] == 0 for r in results[:4]), res.stderr[-3000:]
@@ -286,7 +336,7 @@ def test_every_signal_stops_the_run_or_lands_after_publishing(made, tmp_path):
             outcome["stopped"] += 1
     assert "Traceback" not in res.stderr
     assert leftovers(tmp_path) == []
-    assert outcome["stopped"] >= 18, outcome   # most land inside the run
+    assert outcome["stopped"] >= 18, outcome  # most land inside the run
 
 
 def test_signal_whose_exception_is_swallowed_still_stops_the_run(made, tmp_path, monkeypatch):
@@ -305,9 +355,9 @@ def test_signal_whose_exception_is_swallowed_still_stops_the_run(made, tmp_path,
         if len(calls) == 2:
             try:
                 os.kill(os.getpid(), signal.SIGTERM)
-                time.sleep(0.05)             # the handler runs here and raises ...
+                time.sleep(0.05)  # the handler runs here and raises ...
             except run.Interrupted:
-                pass                         # ... and the "library" swallows it
+                pass  # ... and the "library" swallows it
         return real_write(self, index, block)
 
     monkeypatch.setattr(io.ProductWriter, "write", write_swallowing)
@@ -319,6 +369,7 @@ def test_signal_whose_exception_is_swallowed_still_stops_the_run(made, tmp_path,
 
 
 # ---- 3. read-only install, unwritable HOME -----------------------------------------------------------------------
+
 
 @pytest.fixture
 def shared_tmp():
@@ -349,9 +400,19 @@ def test_read_only_install_as_another_user(shared_tmp):
     scene = dump(work / "scene.yaml", SCENE)
     os.chmod(scene, 0o644)
     # nobody, reading everything (the interpreter may live under /root) but writing nowhere it does not own
-    user = ["setpriv", "--reuid=nobody", "--regid=nogroup", "--clear-groups", "--inh-caps=+dac_read_search",
-            "--ambient-caps=+dac_read_search", "env", "-i", "HOME=/nonexistent", "PATH=/usr/bin:/bin",
-            f"PYTHONPATH={install}"]
+    user = [
+        "setpriv",
+        "--reuid=nobody",
+        "--regid=nogroup",
+        "--clear-groups",
+        "--inh-caps=+dac_read_search",
+        "--ambient-caps=+dac_read_search",
+        "env",
+        "-i",
+        "HOME=/nonexistent",
+        "PATH=/usr/bin:/bin",
+        f"PYTHONPATH={install}",
+    ]
     # a writable temporary directory: kernels cached there; one whose cache folder is someone else's: uncached
     import pwd
 
@@ -363,20 +424,41 @@ def test_read_only_install_as_another_user(shared_tmp):
     # the issue's failure came from every command; preprocess compiles few kernels (simulate's take longer)
     assert invoke("simulate", scene, "-o", work / "raw.h5", "-q").exit_code == 0
     os.chmod(work / "raw.h5", 0o644)
-    res = subprocess.run([*user, f"TMPDIR={work / 'tmp'}", sys.executable, "-m", "sarproc", "-v", "preprocess",
-                          str(work / "raw.h5"), "-o", str(work / "pre.h5")], capture_output=True, text=True, timeout=300)
+    res = subprocess.run(
+        [
+            *user,
+            f"TMPDIR={work / 'tmp'}",
+            sys.executable,
+            "-m",
+            "sarproc",
+            "-v",
+            "preprocess",
+            str(work / "raw.h5"),
+            "-o",
+            str(work / "pre.h5"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert res.returncode == 0, res.stderr[-2000:]
     assert res.stderr.count("compiled kernels are cached in") == 1, res.stderr[-2000:]
     # every compiled kernel is decorated (and failed) at import; compiling them all takes minutes
-    load = ("import logging; logging.basicConfig(level=logging.INFO); import sarproc.focus.backprojection_kernel, "
-            "sarproc.focus.squint_deramp.fine_focus, sarproc.simulation.echo_kernel")
-    for tmpdir, said in ((work / "tmp", "compiled kernels are cached in"), (work / "tmp2", "compiled kernels are not cached")):
-        res = subprocess.run([*user, f"TMPDIR={tmpdir}", sys.executable, "-c", load], capture_output=True, text=True,
-                             timeout=300)
+    load = (
+        "import logging; logging.basicConfig(level=logging.INFO); import sarproc.focus.backprojection_kernel, "
+        "sarproc.focus.squint_deramp.fine_focus, sarproc.simulation.echo_kernel"
+    )
+    for tmpdir, said in (
+        (work / "tmp", "compiled kernels are cached in"),
+        (work / "tmp2", "compiled kernels are not cached"),
+    ):
+        res = subprocess.run(
+            [*user, f"TMPDIR={tmpdir}", sys.executable, "-c", load], capture_output=True, text=True, timeout=300
+        )
         assert res.returncode == 0, res.stderr[-2000:]
         assert res.stderr.count(said) == 1, res.stderr[-2000:]
-    assert list((work / "tmp").glob("sarproc-numba-cache-*/*"))   # the kernels were cached there
-    assert not list(install.rglob("__pycache__"))   # the install was not written
+    assert list((work / "tmp").glob("sarproc-numba-cache-*/*"))  # the kernels were cached there
+    assert not list(install.rglob("__pycache__"))  # the install was not written
 
 
 def test_every_cached_kernel_uses_the_fallback():
@@ -385,8 +467,11 @@ def test_every_cached_kernel_uses_the_fallback():
 
     import sarproc
 
-    offenders = [str(p) for p in Path(sarproc.__file__).parent.rglob("*.py")
-                 if re.search(r"njit\([^)]*cache=True", p.read_text())]
+    offenders = [
+        str(p)
+        for p in Path(sarproc.__file__).parent.rglob("*.py")
+        if re.search(r"njit\([^)]*cache=True", p.read_text())
+    ]
     assert offenders == [], "use cache=CACHE from sarproc.dsp.kernel_cache"
 
 
@@ -407,26 +492,49 @@ main()
 
 def test_sweep_runs_serially_without_dask(tmp_path):
     dump(tmp_path / "one.yaml", merge(SCENE, {"backproject": BP["backproject"]}))
-    sweep = dump(tmp_path / "sweep.yaml", {"scenes": {"one": "one.yaml"}, "focus": "backproject",
-                                           "grid": {"backproject.upsample": [1, 2]}, "output": "out"})
-    res = subprocess.run([sys.executable, "-c", HIDE_DASK, "sweep", str(sweep), "--table", "-"],
-                         capture_output=True, text=True, timeout=300)
+    sweep = dump(
+        tmp_path / "sweep.yaml",
+        {
+            "scenes": {"one": "one.yaml"},
+            "focus": "backproject",
+            "grid": {"backproject.upsample": [1, 2]},
+            "output": "out",
+        },
+    )
+    res = subprocess.run(
+        [sys.executable, "-c", HIDE_DASK, "sweep", str(sweep), "--table", "-"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert res.returncode == 0, res.stderr[-2000:]
     assert res.stderr.count("Dask is not installed") == 1 and "one after the other" in res.stderr
-    assert "on serial" in res.stderr       # the summary goes to stderr: stdout holds the table
+    assert "on serial" in res.stderr  # the summary goes to stderr: stdout holds the table
     assert res.stdout.startswith("| scene | backproject.upsample |") and len(res.stdout.splitlines()) == 4
     assert json.loads((tmp_path / "out" / "table.json").read_text())["runner"] == "serial"
     # an explicit scheduler still needs Dask, and says so
-    res = subprocess.run([sys.executable, "-c", HIDE_DASK, "sweep", str(sweep), "--scheduler", "local"],
-                         capture_output=True, text=True, timeout=120)
+    res = subprocess.run(
+        [sys.executable, "-c", HIDE_DASK, "sweep", str(sweep), "--scheduler", "local"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert res.returncode == 2 and "Dask is not installed" in res.stderr
 
 
 def test_image_warnings_survive_q_and_only_qq_silences_them(tmp_path):
     # two targets 60 m apart are 200 Hz apart in Doppler, more than a 150 Hz PRF: ghosts (tests/simulation)
-    ghosts = dump(tmp_path / "ghosts.yaml", merge(SCENE, {"radar": {"prf": "150 Hz"}, "coarse_focus": {},
-                                                            "targets": {"points": [{"name": "A"},
-                                                                                   {"name": "B", "azimuth": "60 m"}]}}))
+    ghosts = dump(
+        tmp_path / "ghosts.yaml",
+        merge(
+            SCENE,
+            {
+                "radar": {"prf": "150 Hz"},
+                "coarse_focus": {},
+                "targets": {"points": [{"name": "A"}, {"name": "B", "azimuth": "60 m"}]},
+            },
+        ),
+    )
     res = sarproc("simulate", ghosts, "-o", tmp_path / "a.h5", "-q")
     err = res.stderr.decode()
     assert res.returncode == 0 and res.stdout == b""
@@ -449,8 +557,9 @@ def test_signal_between_two_outputs_leaves_neither(made, tmp_path, monkeypatch):
         raise AssertionError("the signal did not stop the run")
 
     monkeypatch.setattr(ev, "_draw", draw_interrupted)
-    res = CliRunner().invoke(cli, ["evaluate", str(made / "image.h5"), "-o", str(tmp_path / "r.json"),
-                                   "--plot", str(tmp_path / "plots")])
+    res = CliRunner().invoke(
+        cli, ["evaluate", str(made / "image.h5"), "-o", str(tmp_path / "r.json"), "--plot", str(tmp_path / "plots")]
+    )
     assert res.exit_code == 128 + signal.SIGHUP, res.output
     assert "interrupted by SIGHUP" in res.output and "r.json" in res.output
     assert sorted(p.name for p in tmp_path.iterdir()) == []

@@ -12,8 +12,7 @@ import time
 import pytest
 import yaml
 
-from sarproc.cli.sweep_tasks import (QUALITY_COLUMNS, TIMING_KEYS, plan_sweep, run_dask, run_serial,
-                                     write_results)
+from sarproc.cli.sweep_tasks import QUALITY_COLUMNS, TIMING_KEYS, plan_sweep, run_dask, run_serial, write_results
 from sarproc.product.errors import InputError
 
 from conftest import BASE_SCENE, merge
@@ -26,13 +25,17 @@ def sweep_file(tmp_path_factory):
     """Two tiny one-target scenes x 3 upsampling x 2 interpolations = 12 tasks, 2 raw products."""
     tmp_path = tmp_path_factory.mktemp("sweep")
     for name, point in (("one", {"name": "A"}), ("two", {"name": "B", "azimuth": "8 m", "range": "6 m"})):
-        mapping = merge(BASE_SCENE, {"targets": {"frame": "squint", "points": [point]},
-                                     "backproject": {"margin_cells": 8}})
+        mapping = merge(
+            BASE_SCENE, {"targets": {"frame": "squint", "points": [point]}, "backproject": {"margin_cells": 8}}
+        )
         (tmp_path / f"{name}.yaml").write_text(yaml.safe_dump(mapping))
-    sweep = {"scenes": {"one": "one.yaml", "two": "two.yaml"}, "focus": "backproject",
-             "grid": {"backproject.upsample": [1, 4, 16]},
-             "cases": [{"backproject.interpolation": "nearest"}, {"backproject.interpolation": "linear"}],
-             "output": "out"}
+    sweep = {
+        "scenes": {"one": "one.yaml", "two": "two.yaml"},
+        "focus": "backproject",
+        "grid": {"backproject.upsample": [1, 4, 16]},
+        "cases": [{"backproject.interpolation": "nearest"}, {"backproject.interpolation": "linear"}],
+        "output": "out",
+    }
     path = tmp_path / "sweep.yaml"
     path.write_text(yaml.safe_dump(sweep))
     return path
@@ -64,16 +67,18 @@ def test_plan_shares_raw_products_and_validates(sweep_file):
     with pytest.raises(InputError, match="radar.prf"):
         plan_sweep(bad)
     # a stage knob out of range is refused at planning, before any task runs
-    bad.write_text(yaml.safe_dump({"scenes": {"one": "one.yaml"}, "grid": {"backproject.upsample": [4, 0]},
-                                   "output": "x"}))
+    bad.write_text(
+        yaml.safe_dump({"scenes": {"one": "one.yaml"}, "grid": {"backproject.upsample": [4, 0]}, "output": "x"})
+    )
     with pytest.raises(InputError, match=r"'backproject.upsample': 0}: backproject.upsample: 0 is out of range"):
         plan_sweep(bad)
 
 
 def test_local_cluster_gives_the_serial_table(sweep_file, serial, tmp_path):
     plan = plan_sweep(sweep_file, tmp_path / "dask")
-    with distributed.Client(distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
-                                                     dashboard_address=":0")) as client:
+    with distributed.Client(
+        distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=":0")
+    ) as client:
         assert len(client.scheduler_info()["workers"]) == 2
         on_dask = run_dask(plan, client)
     assert not on_dask.failures
@@ -90,8 +95,11 @@ def test_local_cluster_gives_the_serial_table(sweep_file, serial, tmp_path):
 
 def test_killed_sweep_resumes_and_skips_finished_tasks(sweep_file, serial, tmp_path):
     out = tmp_path / "killed"
-    proc = subprocess.Popen([sys.executable, "-m", "sarproc", "sweep", str(sweep_file), "-o", str(out),
-                             "--scheduler", "serial"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "sarproc", "sweep", str(sweep_file), "-o", str(out), "--scheduler", "serial"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     deadline = time.monotonic() + 60
     while len(list(out.glob("tasks/*/report.json.done.json"))) < 3 and time.monotonic() < deadline:
         if proc.poll() is not None:
@@ -121,8 +129,9 @@ def test_sweep_cli_serial_and_list(sweep_file, tmp_path):
     import dask
 
     with dask.config.set({"distributed.comm.timeouts.connect": "1s"}):
-        res = CliRunner().invoke(cli, ["sweep", str(sweep_file), "--scheduler", "tcp://127.0.0.1:1", "-o",
-                                       str(tmp_path / "x")])
+        res = CliRunner().invoke(
+            cli, ["sweep", str(sweep_file), "--scheduler", "tcp://127.0.0.1:1", "-o", str(tmp_path / "x")]
+        )
     assert res.exit_code == 2 and "cannot reach Dask scheduler" in res.output
 
 
@@ -132,26 +141,36 @@ def test_scene_variants_and_a_sweep_without_evaluate(tmp_path):
     points = [{"name": "A"}, {"name": "B", "azimuth": "8 m", "range": "6 m"}]
     mapping = merge(BASE_SCENE, {"targets": {"frame": "squint", "points": points}, "backproject": {"margin_cells": 8}})
     (tmp_path / "two.yaml").write_text(yaml.safe_dump(mapping))
-    sweep = {"scenes": {"both": "two.yaml",
-                        "b": {"file": "two.yaml", "targets": ["B"], "set": {"backproject.margin_cells": 4}}},
-             "focus": "backproject", "cases": [{"backproject.upsample": 4}], "output": "out", "evaluate": False}
+    sweep = {
+        "scenes": {
+            "both": "two.yaml",
+            "b": {"file": "two.yaml", "targets": ["B"], "set": {"backproject.margin_cells": 4}},
+        },
+        "focus": "backproject",
+        "cases": [{"backproject.upsample": 4}],
+        "output": "out",
+        "evaluate": False,
+    }
     path = tmp_path / "sweep.yaml"
     path.write_text(yaml.safe_dump(sweep))
     plan = plan_sweep(path)
     both, b = sorted(plan.tasks, key=lambda t: t.scene != "both")
     assert both.config["targets"]["points"] == points and both.config["backproject"]["margin_cells"] == 8
     assert b.config["targets"]["points"] == points[1:] and b.config["backproject"]["margin_cells"] == 4
-    assert {k: v for k, v in b.config.items() if k not in ("targets", "backproject")} == \
-        {k: v for k, v in both.config.items() if k not in ("targets", "backproject")}
+    assert {k: v for k, v in b.config.items() if k not in ("targets", "backproject")} == {
+        k: v for k, v in both.config.items() if k not in ("targets", "backproject")
+    }
     assert len(plan.sims) == 2 and not b.evaluate
     outcome = run_serial(plan)
     assert not outcome.failures and len(outcome.rows) == 2
     for task, row in zip(plan.tasks, outcome.rows):
         assert (task.directory / "backproject.h5").exists() and not (task.directory / "report.json").exists()
         assert row["evaluate_s"] is None and all(row[c] is None for c in QUALITY_COLUMNS)
-    for entry, match in (({"file": "two.yaml", "targets": ["Z"]}, r"no target named \['Z'\]"),
-                         ({"file": "two.yaml", "target": ["A"]}, "expected a scene YAML path or a mapping"),
-                         ({"file": "two.yaml", "targets": []}, "non-empty list of target names")):
+    for entry, match in (
+        ({"file": "two.yaml", "targets": ["Z"]}, r"no target named \['Z'\]"),
+        ({"file": "two.yaml", "target": ["A"]}, "expected a scene YAML path or a mapping"),
+        ({"file": "two.yaml", "targets": []}, "non-empty list of target names"),
+    ):
         path.write_text(yaml.safe_dump({**sweep, "scenes": {"bad": entry}}))
         with pytest.raises(InputError, match=match):
             plan_sweep(path)
@@ -164,8 +183,16 @@ def test_scene_variant_targets_drop_the_scene_grid(tmp_path):
     mapping = merge(BASE_SCENE, {"targets": {"frame": "squint", "points": points, "grid": grid}})
     (tmp_path / "grid.yaml").write_text(yaml.safe_dump(mapping))
     path = tmp_path / "sweep.yaml"
-    path.write_text(yaml.safe_dump({"scenes": {"b": {"file": "grid.yaml", "targets": ["B"]}}, "focus": "backproject",
-                                    "cases": [{"backproject.upsample": 4}], "output": "out"}))
+    path.write_text(
+        yaml.safe_dump(
+            {
+                "scenes": {"b": {"file": "grid.yaml", "targets": ["B"]}},
+                "focus": "backproject",
+                "cases": [{"backproject.upsample": 4}],
+                "output": "out",
+            }
+        )
+    )
     (task,) = plan_sweep(path).tasks
     assert task.config["targets"]["points"] == points[1:]
     assert task.config["targets"].get("grid") is None
@@ -175,12 +202,22 @@ def test_repeats_time_the_focus_interleaved_and_check_determinism(tmp_path):
     """repeats: 3 runs each task's focus chain 3 times, round-robin over the tasks (every task's first
     run before any second run), records best/median/spread, finds the repeats bit-identical and
     removes their products; rerun, nothing is recomputed."""
-    mapping = merge(BASE_SCENE, {"targets": {"frame": "squint", "points": [{"name": "A"}]},
-                                 "backproject": {"margin_cells": 8}})
+    mapping = merge(
+        BASE_SCENE, {"targets": {"frame": "squint", "points": [{"name": "A"}]}, "backproject": {"margin_cells": 8}}
+    )
     (tmp_path / "one.yaml").write_text(yaml.safe_dump(mapping))
     path = tmp_path / "sweep.yaml"
-    path.write_text(yaml.safe_dump({"scenes": {"one": "one.yaml"}, "focus": "backproject", "output": "out",
-                                    "grid": {"backproject.upsample": [1, 4]}, "repeats": 3}))
+    path.write_text(
+        yaml.safe_dump(
+            {
+                "scenes": {"one": "one.yaml"},
+                "focus": "backproject",
+                "output": "out",
+                "grid": {"backproject.upsample": [1, 4]},
+                "repeats": 3,
+            }
+        )
+    )
     plan = plan_sweep(path)
     outcome = run_serial(plan)
     assert not outcome.failures and len(outcome.rows) == 2

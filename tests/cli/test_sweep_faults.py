@@ -24,7 +24,7 @@ from conftest import BASE_SCENE, merge
 
 pytest.importorskip("dask.distributed", reason="sweeps on Dask need sarproc[distributed]")
 
-KILLER = '''
+KILLER = """
 import os, signal
 import sarproc.cli.sweep_tasks as sweep_tasks
 
@@ -50,7 +50,7 @@ if not hasattr(sweep_tasks, "killer_installed"):   # Dask may load a preload mor
 
 def dask_setup(worker):
     pass
-'''
+"""
 
 
 def quality(rows):
@@ -58,20 +58,40 @@ def quality(rows):
 
 
 def test_a_killed_worker_s_tasks_rerun_on_the_others(tmp_path):
-    mapping = merge(BASE_SCENE, {"targets": {"frame": "squint", "points": [{"name": "A"}]},
-                                 "backproject": {"margin_cells": 8}})
+    mapping = merge(
+        BASE_SCENE, {"targets": {"frame": "squint", "points": [{"name": "A"}]}, "backproject": {"margin_cells": 8}}
+    )
     (tmp_path / "one.yaml").write_text(yaml.safe_dump(mapping))
     sweep = tmp_path / "sweep.yaml"
-    sweep.write_text(yaml.safe_dump({"scenes": {"one": "one.yaml"}, "focus": "backproject",
-                                     "grid": {"backproject.upsample": [1, 4]}}))
+    sweep.write_text(
+        yaml.safe_dump(
+            {"scenes": {"one": "one.yaml"}, "focus": "backproject", "grid": {"backproject.upsample": [1, 4]}}
+        )
+    )
     marker = tmp_path / "killed"
     preload = tmp_path / "kill_first_evaluate.py"
     preload.write_text(KILLER.format(marker=str(marker)))
     env = {**os.environ, "DASK_DISTRIBUTED__WORKER__PRELOAD": json.dumps([str(preload)])}
     out = tmp_path / "dask"
-    proc = subprocess.run([sys.executable, "-m", "sarproc", "sweep", str(sweep), "-o", str(out),
-                           "--scheduler", "local", "--workers", "2"], env=env, capture_output=True, text=True,
-                          timeout=240)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "sarproc",
+            "sweep",
+            str(sweep),
+            "-o",
+            str(out),
+            "--scheduler",
+            "local",
+            "--workers",
+            "2",
+        ],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=240,
+    )
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert marker.exists(), "no worker was killed: the preload did not run"
     pid, killed_input = marker.read_text().split(" ", 1)
@@ -88,5 +108,6 @@ def test_a_killed_worker_s_tasks_rerun_on_the_others(tmp_path):
     # equal to the serial table up to rounding: Dask's worker processes run BLAS/FFT single-threaded,
     # which changes the last bit of a sum (islr_db differed by 1e-15 relative); not a missing or stale row
     expected = quality([{k: v for k, v in r.items() if k != "skipped"} for r in serial.rows])
-    assert quality(doc["rows"]) == [{k: pytest.approx(v, rel=1e-12) if isinstance(v, float) else v
-                                     for k, v in row.items()} for row in expected]
+    assert quality(doc["rows"]) == [
+        {k: pytest.approx(v, rel=1e-12) if isinstance(v, float) else v for k, v in row.items()} for row in expected
+    ]

@@ -31,8 +31,13 @@ def direct(row, positions, kernel, taps, oversampling):
 
 
 @settings(max_examples=40, deadline=None)
-@given(kernel=st.sampled_from(KERNELS), taps=st.sampled_from([4, 8, 16]), seed=st.integers(0, 2**31 - 1),
-       n_in=st.integers(3, 40), oversampling=st.floats(1.1, 3.0))
+@given(
+    kernel=st.sampled_from(KERNELS),
+    taps=st.sampled_from([4, 8, 16]),
+    seed=st.integers(0, 2**31 - 1),
+    n_in=st.integers(3, 40),
+    oversampling=st.floats(1.1, 3.0),
+)
 def test_vectorised_rows_match_the_direct_sum(kernel, taps, seed, n_in, oversampling):
     rng = np.random.default_rng(seed)
     taps = kernel_length(kernel, taps if kernel in TABULATED else None)

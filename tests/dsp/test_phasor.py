@@ -3,8 +3,7 @@
 import numpy as np
 import pytest
 
-from sarproc.dsp.phasor import (cis_cycles32, cis_cycles32_short, multiply_phase, multiply_separable_phase,
-                               unit_phasor)
+from sarproc.dsp.phasor import cis_cycles32, cis_cycles32_short, multiply_phase, multiply_separable_phase, unit_phasor
 
 
 def test_quarter_cycle_polynomial_is_float32_exact():
@@ -19,14 +18,14 @@ def test_short_polynomial_is_within_a_micro_radian_over_the_whole_cycle():
     co, si = np.array([cis_cycles32_short(x) for x in c]).T
     err = np.abs(co + 1j * si - np.exp(2j * np.pi * c.astype(float)))
     assert err.max() < 1e-6
-    assert err.max() > 1e-8                    # it is the shorter fit, not the exact one (the test can tell)
+    assert err.max() > 1e-8  # it is the shorter fit, not the exact one (the test can tell)
 
 
 @pytest.mark.parametrize("dtype", [np.complex64, np.complex128])
 def test_separable_phase_field_matches_numpy(dtype):
     rng = np.random.default_rng(0)
     x = (rng.standard_normal((37, 53)) + 1j * rng.standard_normal((37, 53))).astype(dtype)
-    rows = rng.uniform(-1e3, 1e3, (3, 37))                   # phases up to ~1e6 rad: float64 matters
+    rows = rng.uniform(-1e3, 1e3, (3, 37))  # phases up to ~1e6 rad: float64 matters
     cols = rng.uniform(-1e3, 1e3, (3, 53))
     want = x * np.exp(1j * np.einsum("ki,kj->ij", rows, cols))
     got = multiply_separable_phase(x.copy(), rows, cols)
@@ -41,8 +40,11 @@ def test_phase_field_with_mask_and_scale():
     mask = rng.random((20, 30)) > 0.3
     want = np.where(mask, x * np.exp(1j * 2.5 * phase), 0)
     np.testing.assert_allclose(multiply_phase(x.copy(), phase, mask, scale=2.5), want, atol=2e-6 * np.abs(x).max())
-    np.testing.assert_allclose(multiply_phase(x.copy(), phase / (2 * np.pi), cycles=True), x * unit_phasor(
-        np.mod(phase / (2 * np.pi), 1.0)), atol=3e-6 * np.abs(x).max())
+    np.testing.assert_allclose(
+        multiply_phase(x.copy(), phase / (2 * np.pi), cycles=True),
+        x * unit_phasor(np.mod(phase / (2 * np.pi), 1.0)),
+        atol=3e-6 * np.abs(x).max(),
+    )
 
 
 def test_shape_mismatch_is_refused():

@@ -38,15 +38,25 @@ LAM = C / 37.5e9
 D = 0.0764
 
 REDUCED = {
-    "radar": {"carrier_frequency": "37.5 GHz", "bandwidth": "375 MHz", "pulse_duration": "0.2 us",
-              "range_sampling_rate": "450 MHz", "prf": "400 Hz"},
+    "radar": {
+        "carrier_frequency": "37.5 GHz",
+        "bandwidth": "375 MHz",
+        "pulse_duration": "0.2 us",
+        "range_sampling_rate": "450 MHz",
+        "prf": "400 Hz",
+    },
     "platform": {"velocity": "50 m/s", "altitude": "500 m"},
     "geometry": {"reference_range": "500 m"},
     "acquisition": {"mode": "stripmap", "n_pulses": 65, "range_margin": "3 m"},
-    "targets": {"frame": "elevation", "origin": "absolute",
-                "points": [{"name": "A", "azimuth": "0 m", "range": "490 m", "elevation": "0 deg"}]},
-    "effects": {"antenna": {"pattern": "rect", "azimuth_beamwidth": "0.57 deg", "elevation_beamwidth": "6 deg"},
-                "cross_track_array": {"n_receivers": 8, "spacing": "0.0764 m"}},
+    "targets": {
+        "frame": "elevation",
+        "origin": "absolute",
+        "points": [{"name": "A", "azimuth": "0 m", "range": "490 m", "elevation": "0 deg"}],
+    },
+    "effects": {
+        "antenna": {"pattern": "rect", "azimuth_beamwidth": "0.57 deg", "elevation_beamwidth": "6 deg"},
+        "cross_track_array": {"n_receivers": 8, "spacing": "0.0764 m"},
+    },
 }
 
 
@@ -76,9 +86,10 @@ def test_receiver_layouts():
     v = receiver_offsets(p)
     assert v[0] == pytest.approx(-13.5 * D) and v[-1] == pytest.approx(13.5 * D)
     assert np.allclose(np.diff(v), D)
-    q = build(CrossTrackArrayParams, {"n_receivers": 28, "spacing": "0.0764 m", "layout": "paper",
-                                      "array_length": "2 m"})
-    w = receiver_offsets(q)                     # v_n = -L/2 + (n-1) d, Du 2010
+    q = build(
+        CrossTrackArrayParams, {"n_receivers": 28, "spacing": "0.0764 m", "layout": "paper", "array_length": "2 m"}
+    )
+    w = receiver_offsets(q)  # v_n = -L/2 + (n-1) d, Du 2010
     assert w[0] == pytest.approx(-1.0) and w[13] == pytest.approx(-1 + 13 * D) and w[-1] == pytest.approx(1.0628)
     with pytest.raises(InputError, match="array_length"):
         build(CrossTrackArrayParams, {"n_receivers": 4, "spacing": "1 m", "layout": "paper"})
@@ -99,22 +110,24 @@ def test_raw_array_product_has_exact_bistatic_delays(single):
     t = np.array([raw.targets["x"][0], raw.targets["y"][0], raw.targets["z"][0]])
     tau = (np.linalg.norm(t - p) + np.linalg.norm(t - p - rx[0])) / C
     k = int(np.argmax(np.abs(rc[m])))
-    y = np.abs(rc[m, k - 1:k + 2])
-    frac = 0.5 * (y[0] - y[2]) / (y[0] - 2 * y[1] + y[2])           # parabolic peak
+    y = np.abs(rc[m, k - 1 : k + 2])
+    frac = 0.5 * (y[0] - y[2]) / (y[0] - 2 * y[1] + y[2])  # parabolic peak
     fs = raw.radar.range_sampling_rate
     assert (raw.coords["range_time"][0] + (k + frac) / fs) == pytest.approx(tau, abs=0.1 / fs)
 
 
 def test_element_pattern_weights_channels():
-    m = reduced(targets={"points": [{"name": "A", "azimuth": "0 m", "range": "490 m", "elevation": "2 deg"}]},
-                effects={"cross_track_array": {"element_pattern": "gaussian", "element_beamwidth": "2 deg"}})
+    m = reduced(
+        targets={"points": [{"name": "A", "azimuth": "0 m", "range": "490 m", "elevation": "2 deg"}]},
+        effects={"cross_track_array": {"element_pattern": "gaussian", "element_beamwidth": "2 deg"}},
+    )
     raw = simulate(scene_from_mapping(m))
     peak = np.abs(raw.data).max(axis=(1, 2))
     t = raw.targets[0]
-    angle = np.arctan2(t["y"] - raw.aux["rx_offset"][:, 1], 500.0 - t["z"])       # seen from each receiver
-    expected = np.exp(-2 * math.log(2) * (angle / math.radians(2)) ** 2)           # one-way, on receive only
+    angle = np.arctan2(t["y"] - raw.aux["rx_offset"][:, 1], 500.0 - t["z"])  # seen from each receiver
+    expected = np.exp(-2 * math.log(2) * (angle / math.radians(2)) ** 2)  # one-way, on receive only
     np.testing.assert_allclose(peak, expected, rtol=2e-3)
-    assert peak[-1] > peak[0]                                                       # +y receivers see it closer to boresight
+    assert peak[-1] > peak[0]  # +y receivers see it closer to boresight
 
 
 # ---------------------------------------------------------------------------------------------
@@ -139,11 +152,12 @@ def test_sinc_kernel_interpolates_band_limited_signal():
 
     def err(f, kind, taps=8):
         # Kaiser beta = taps / 4, as array3d configures the shared sinc kernel.
-        return np.max(np.abs(resample(np.exp(2j * np.pi * f * n), pos, kind, taps, beta=taps / 4)
-                             - np.exp(2j * np.pi * f * pos)))
+        return np.max(
+            np.abs(resample(np.exp(2j * np.pi * f * n), pos, kind, taps, beta=taps / 4) - np.exp(2j * np.pi * f * pos))
+        )
 
     # 0.3 cycles/sample: a band edge at 1.67x oversampling
-    for f in (0.05, 0.1, 0.2, 0.3, 0.42):   # range sampling at 1.2 B puts the band edge at 0.42 cycles/sample
+    for f in (0.05, 0.1, 0.2, 0.3, 0.42):  # range sampling at 1.2 B puts the band edge at 0.42 cycles/sample
         assert err(f, "sinc", 16) < 0.015, f
     assert err(0.3, "sinc", 16) < err(0.3, "sinc", 8) < err(0.3, "cubic") < err(0.3, "linear")
     assert kernel_weights(np.array([0.0]), "sinc", 8)[0] == pytest.approx(1.0)
@@ -164,7 +178,7 @@ def test_single_target_focuses_to_theory(single):
     el = cube.coords["elevation"]
     assert np.allclose(np.diff(el), el[1] - el[0]) and abs(el[len(el) // 2]) < 1e-12
     irw = cube.attrs["theoretical_irw"]
-    assert irw[0] == pytest.approx(0.886 * LAM / (8 * D), rel=0.01)           # eq. (26), array factor
+    assert irw[0] == pytest.approx(0.886 * LAM / (8 * D), rel=0.01)  # eq. (26), array factor
     assert irw[1] == pytest.approx(0.886 * LAM / (4 * math.sin(math.radians(0.285))), rel=1e-6)
     assert irw[2] == pytest.approx(0.886 * C / (2 * 375e6), rel=1e-9)
     rep = evaluate_product(cube)
@@ -185,9 +199,16 @@ def test_cube_agrees_with_exact_3d_backprojection(single):
     pos = raw.aux["platform_position"]
     acc = np.zeros(len(pts), complex)
     for ch in range(raw.data.shape[0]):
-        rc = range_compress(raw.data[ch], raw.radar, filter="matched")   # eq. (9), as array3d's default
-        acc += backproject_points(rc, raw.coords["range_time"], pos + raw.aux["tx_offset"],
-                                  pos + raw.aux["rx_offset"][ch], pts, raw.radar.carrier_frequency, upsample=16)
+        rc = range_compress(raw.data[ch], raw.radar, filter="matched")  # eq. (9), as array3d's default
+        acc += backproject_points(
+            rc,
+            raw.coords["range_time"],
+            pos + raw.aux["tx_offset"],
+            pos + raw.aux["rx_offset"][ch],
+            pts,
+            raw.radar.carrier_frequency,
+            upsample=16,
+        )
     bp = acc.reshape(len(el), -1, len(rg))
     sub = cube.data[:, a_sl, :]
     coords = {"elevation": el, "azimuth": az[a_sl], "range": rg}
@@ -206,19 +227,29 @@ def test_cube_agrees_with_exact_3d_backprojection(single):
 
 def test_overlap_before_and_resolution_after_elevation_compression():
     """Fig. 5 vs Fig. 7 in small: 3 targets in one (azimuth, range) cell, split only in elevation."""
-    pts = [{"name": "C", "azimuth": "0 m", "range": "490 m", "elevation": "0 deg"},
-           {"name": "U", "azimuth": "0 m", "range": "490 m", "elevation": "2 deg"},
-           {"name": "L", "azimuth": "0 m", "range": "490 m", "elevation": "-2 deg"},
-           {"name": "R", "azimuth": "0 m", "range": "494 m", "elevation": "0 deg"}]
+    pts = [
+        {"name": "C", "azimuth": "0 m", "range": "490 m", "elevation": "0 deg"},
+        {"name": "U", "azimuth": "0 m", "range": "490 m", "elevation": "2 deg"},
+        {"name": "L", "azimuth": "0 m", "range": "490 m", "elevation": "-2 deg"},
+        {"name": "R", "azimuth": "0 m", "range": "494 m", "elevation": "0 deg"},
+    ]
     m = reduced(targets={"points": pts}, effects={"cross_track_array": {"n_receivers": 16}})
     raw = simulate(scene_from_mapping(m))
     params = Array3DParams()
-    res = focus_array3d(raw.data, raw.coords["range_time"], raw.aux["platform_position"], raw.aux["tx_offset"],
-                        raw.aux["rx_offset"], raw.radar, params, keep_channel_images=True)
+    res = focus_array3d(
+        raw.data,
+        raw.coords["range_time"],
+        raw.aux["platform_position"],
+        raw.aux["tx_offset"],
+        raw.aux["rx_offset"],
+        raw.radar,
+        params,
+        keep_channel_images=True,
+    )
     ia = int(np.argmin(np.abs(res.azimuth)))
     i_c, i_r = (int(np.argmin(np.abs(res.range - r))) for r in (490.0, 494.0))
-    e_c = np.abs(res.channel_images[:, ia, i_c - 1:i_c + 2]).max(axis=1) ** 2
-    e_r = np.abs(res.channel_images[:, ia, i_r - 1:i_r + 2]).max(axis=1) ** 2
+    e_c = np.abs(res.channel_images[:, ia, i_c - 1 : i_c + 2]).max(axis=1) ** 2
+    e_r = np.abs(res.channel_images[:, ia, i_r - 1 : i_r + 2]).max(axis=1) ** 2
     ratio = e_c / e_r
     # Coherent sum per channel: |1 + 2 cos(2 pi v_n sin(2 deg) / lambda)|^2; about 3 on average.
     v = raw.aux["rx_offset"][:, 1]
@@ -232,15 +263,19 @@ def test_overlap_before_and_resolution_after_elevation_compression():
         lo, hi = max(k - 2, 0), k + 3
         j = lo + int(np.argmax(np.abs(cube[lo:hi])))
         assert abs(res.elevation[j] - math.radians(th)) <= 0.5 * res.theoretical_irw[0] + 0.5 * (
-            res.elevation[1] - res.elevation[0]), name
+            res.elevation[1] - res.elevation[0]
+        ), name
         assert np.abs(cube[j]) > 0.8 * np.abs(res.cube[:, ia, i_r]).max()
 
 
-@pytest.mark.parametrize("knobs", [
-    {"rcmc_kernel": "cubic", "precision": "float64"},
-    {"cross_track_rcmc_elevation": "reference", "cross_track_rcmc_range": "reference"},
-    {"azimuth_model": "hyperbolic", "elevation_zero_padding": 2, "range_filter": "flat"},
-])
+@pytest.mark.parametrize(
+    "knobs",
+    [
+        {"rcmc_kernel": "cubic", "precision": "float64"},
+        {"cross_track_rcmc_elevation": "reference", "cross_track_rcmc_range": "reference"},
+        {"azimuth_model": "hyperbolic", "elevation_zero_padding": 2, "range_filter": "flat"},
+    ],
+)
 def test_knobs_keep_nadir_target_quality(single, knobs):
     raw, ref = single
     cube, _ = array3d_product(raw, build(Array3DParams, knobs))
@@ -279,7 +314,7 @@ def test_du2010_config_matches_tables_1_and_2():
     assert arr["n_receivers"] == 28 and arr["spacing"] == "0.0764 m"
     el, az, rg = ElevationFrame(500.0).from_xyz(scene.target_xyz)
     np.testing.assert_allclose(np.degrees(el), [0, 0, 0, 0, 0, 2, -2], atol=1e-9)
-    np.testing.assert_allclose(az + 10, [10, 10, 10, 15, 5, 10, 10])     # paper's azimuth origin at x = -10 m
+    np.testing.assert_allclose(az + 10, [10, 10, 10, 15, 5, 10, 10])  # paper's azimuth origin at x = -10 m
     np.testing.assert_allclose(rg, [485, 495, 490, 490, 490, 490, 490])
     # The chosen velocity samples the beam's Doppler band: PRF > 3 x v 4 sin(beta/2) / lambda.
     assert r.prf > 3 * r.velocity * 4 * math.sin(r.azimuth_beamwidth / 2) / r.wavelength
@@ -299,8 +334,21 @@ def test_cli_writes_cube_and_channel_image(raw_file, tmp_path):
     cfg = tmp_path / "c.yaml"
     cfg.write_text("array3d:\n  rcmc_kernel: lanczos\n  precision: float64\n")
     out, ch = tmp_path / "cube.h5", tmp_path / "ch.h5"
-    res = CliRunner().invoke(cli, ["array3d", str(raw_file), "-o", str(out), "--config", str(cfg),
-                                   "--channel-image", "4", "--channel-output", str(ch)])
+    res = CliRunner().invoke(
+        cli,
+        [
+            "array3d",
+            str(raw_file),
+            "-o",
+            str(out),
+            "--config",
+            str(cfg),
+            "--channel-image",
+            "4",
+            "--channel-output",
+            str(ch),
+        ],
+    )
     assert res.exit_code == 0, res.output
     assert "array3d:" in res.output
     cube = read_product(out, kinds=("image3d",))
@@ -316,8 +364,19 @@ def test_cli_writes_cube_and_channel_image(raw_file, tmp_path):
     cfg.write_text("array3d:\n  rcmc_kernel: spline\n")
     res = CliRunner().invoke(cli, ["array3d", str(raw_file), "-o", str(tmp_path / "x.h5"), "--config", str(cfg)])
     assert res.exit_code == 2 and "array3d.rcmc_kernel" in res.output
-    res = CliRunner().invoke(cli, ["array3d", str(raw_file), "-o", str(tmp_path / "x.h5"),
-                                   "--channel-image", "9", "--channel-output", str(tmp_path / "y.h5")])
+    res = CliRunner().invoke(
+        cli,
+        [
+            "array3d",
+            str(raw_file),
+            "-o",
+            str(tmp_path / "x.h5"),
+            "--channel-image",
+            "9",
+            "--channel-output",
+            str(tmp_path / "y.h5"),
+        ],
+    )
     assert res.exit_code == 2 and "1..8" in res.output
     res = CliRunner().invoke(cli, ["array3d", str(out), "-o", str(tmp_path / "x.h5")])
     assert res.exit_code == 2 and "raw_array" in res.output
@@ -348,7 +407,8 @@ def test_progress_one_bar_over_the_whole_chain(single, rcmc):
 
     raw, _ = single
     bars = []
-    array3d_product(raw, Array3DParams(cross_track_rcmc_elevation=rcmc, block_elements=20_000),
-                    progress=progress_recorder(bars))
+    array3d_product(
+        raw, Array3DParams(cross_track_rcmc_elevation=rcmc, block_elements=20_000), progress=progress_recorder(bars)
+    )
     assert_bars_complete(bars, count=1)
-    assert bars[0]["total"] > 3                      # range compression, azimuth focusing, elevation blocks
+    assert bars[0]["total"] > 3  # range compression, azimuth focusing, elevation blocks

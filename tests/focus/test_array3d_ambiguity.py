@@ -19,9 +19,15 @@ from tests.focus.test_array3d import D, LAM, reduced
 
 
 def run(beam_deg, *elevations_deg, caplog):
-    m = reduced(targets={"points": [{"name": f"T{i}", "azimuth": "0 m", "range": f"{490 + 5 * i} m",
-                                     "elevation": f"{e} deg"} for i, e in enumerate(elevations_deg)]},
-                effects={"antenna": {"elevation_beamwidth": f"{beam_deg} deg"}})
+    m = reduced(
+        targets={
+            "points": [
+                {"name": f"T{i}", "azimuth": "0 m", "range": f"{490 + 5 * i} m", "elevation": f"{e} deg"}
+                for i, e in enumerate(elevations_deg)
+            ]
+        },
+        effects={"antenna": {"elevation_beamwidth": f"{beam_deg} deg"}},
+    )
     raw = simulate(scene_from_mapping(m))
     caplog.clear()
     with caplog.at_level(logging.WARNING, logger="sarproc.focus.array3d.linear_array"):
@@ -55,6 +61,6 @@ def test_target_just_inside_is_not_flagged_just_outside_is_named(caplog):
     text = named[0]
     at = float(text.split("elevation ")[1].split(" deg")[0])
     true = float(text.split("alias of one at ")[1].split(" deg")[0])
-    assert at == pytest.approx(math.degrees(alias_of(math.radians(3.45), LAM, D)), abs=0.2)   # -2.55 deg
-    assert true == pytest.approx(3.45, abs=0.2)         # the true elevation it names
+    assert at == pytest.approx(math.degrees(alias_of(math.radians(3.45), LAM, D)), abs=0.2)  # -2.55 deg
+    assert true == pytest.approx(3.45, abs=0.2)  # the true elevation it names
     assert "range 494.9" in text or "range 495" in text  # the folded target's range; the real one is not named

@@ -49,8 +49,10 @@ def test_two_receivers_degenerate_but_finite():
     """Two receivers: the elevation response is |cos(pi d (w - w0) / lambda)|, no side lobes,
     main lobe as wide as the unambiguous sector: documented degenerate output, still focused
     in azimuth and range."""
-    m = reduced(targets={"points": [{"name": "A", "azimuth": "0 m", "range": "490 m", "elevation": "1 deg"}]},
-                effects={"cross_track_array": {"n_receivers": 2}})
+    m = reduced(
+        targets={"points": [{"name": "A", "azimuth": "0 m", "range": "490 m", "elevation": "1 deg"}]},
+        effects={"cross_track_array": {"n_receivers": 2}},
+    )
     raw = simulate(scene_from_mapping(m))
     cube, _ = array3d_product(raw)
     finite(cube)
@@ -70,9 +72,10 @@ def test_target_at_grating_lobe_angle_folds_predictably():
     The processor cannot tell (the paper's 6 deg elevation beam must suppress such targets);
     the folded response stays focused and finite."""
     th = math.asin(LAM / D + math.sin(math.radians(0.5)))
-    m = reduced(targets={"points": [{"name": "G", "azimuth": "0 m", "range": "490 m",
-                                     "elevation": f"{math.degrees(th)} deg"}]},
-                effects={"antenna": {"elevation_beamwidth": "0 deg"}})
+    m = reduced(
+        targets={"points": [{"name": "G", "azimuth": "0 m", "range": "490 m", "elevation": f"{math.degrees(th)} deg"}]},
+        effects={"antenna": {"elevation_beamwidth": "0 deg"}},
+    )
     raw = simulate(scene_from_mapping(m))
     cube, _ = array3d_product(raw)
     finite(cube)
@@ -80,7 +83,7 @@ def test_target_at_grating_lobe_angle_folds_predictably():
     k = np.unravel_index(np.argmax(mag), mag.shape)
     step = cube.coords["elevation"][1] - cube.coords["elevation"][0]
     assert cube.coords["elevation"][k[0]] == pytest.approx(math.radians(0.5), abs=step)
-    cube.targets["elevation"][0] = math.radians(0.5)          # evaluate the folded image of G
+    cube.targets["elevation"][0] = math.radians(0.5)  # evaluate the folded image of G
     rep = evaluate_product(cube).target("G")
     for ax in rep.axes:
         assert abs(ax.position_error_cells) < 0.5 and abs(ax.irw_ratio - 1) < 0.1, ax
@@ -136,26 +139,36 @@ def test_wide_swath_without_eq21_loses_range_focus_off_nadir(wide_raw, wide_ref)
 
 
 def test_targets_at_the_data_edges_are_finite_with_reported_loss():
-    pts = [{"name": "X", "azimuth": "3 m", "range": "490 m", "elevation": "0 deg"},        # sees 3.4 of 4.9 m
-           {"name": "S", "azimuth": "-1 m", "range": "490 m", "elevation": "2.8 deg"}]     # sector edge 3.0 deg
+    pts = [
+        {"name": "X", "azimuth": "3 m", "range": "490 m", "elevation": "0 deg"},  # sees 3.4 of 4.9 m
+        {"name": "S", "azimuth": "-1 m", "range": "490 m", "elevation": "2.8 deg"},
+    ]  # sector edge 3.0 deg
     raw = simulate(scene_from_mapping(reduced(targets={"points": pts})))
     cube, _ = array3d_product(raw)
     finite(cube)
     rep = evaluate_product(cube)
     x = rep.target("X").axis("azimuth")
-    assert 1.2 < x.irw_ratio < 1.7 and abs(x.position_error_cells) < 0.5     # 70 % aperture: about 1.4x wider
+    assert 1.2 < x.irw_ratio < 1.7 and abs(x.position_error_cells) < 0.5  # 70 % aperture: about 1.4x wider
     s = rep.target("S").axis("elevation")
     assert abs(s.position_error_cells) < 0.5 and np.isfinite(s.irw_ratio)
 
 
 def test_empty_and_zero_amplitude_scenes():
-    raw = simulate(scene_from_mapping(reduced(targets={"points": [
-        {"name": "Z", "azimuth": "0 m", "range": "490 m", "amplitude": 0.0}]})))
+    raw = simulate(
+        scene_from_mapping(
+            reduced(targets={"points": [{"name": "Z", "azimuth": "0 m", "range": "490 m", "amplitude": 0.0}]})
+        )
+    )
     cube, _ = array3d_product(raw)
     assert np.all(cube.data == 0)
-    raw = simulate(scene_from_mapping(merge(reduced(effects={"noise": {"snr": "10 dB"}}),
-                                            {"targets": {"points": [{"name": "Z", "azimuth": "0 m", "range": "490 m",
-                                                                     "amplitude": 0.0}]}})))
+    raw = simulate(
+        scene_from_mapping(
+            merge(
+                reduced(effects={"noise": {"snr": "10 dB"}}),
+                {"targets": {"points": [{"name": "Z", "azimuth": "0 m", "range": "490 m", "amplitude": 0.0}]}},
+            )
+        )
+    )
     cube, _ = array3d_product(raw)
     finite(cube)
     assert np.abs(cube.data).max() > 0

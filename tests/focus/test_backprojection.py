@@ -19,8 +19,11 @@ STRIPMAP = load_yaml(CONFIGS / "bp_stripmap.yaml")
 SQUINT_SPOTLIGHT = load_yaml(CONFIGS / "bp_squint30.yaml")
 
 
-@pytest.mark.parametrize("scene,frame", [(STRIPMAP, "zero_doppler"), (SQUINT_SPOTLIGHT, "los")],
-                         ids=["broadside-stripmap", "squint30-spotlight"])
+@pytest.mark.parametrize(
+    "scene,frame",
+    [(STRIPMAP, "zero_doppler"), (SQUINT_SPOTLIGHT, "los")],
+    ids=["broadside-stripmap", "squint30-spotlight"],
+)
 def test_backprojection_reaches_theory(scene, frame):
     raw = simulate(scene_from_mapping(scene))
     image = backproject(raw, BackprojectParams(frame=frame, margin_cells=28))
@@ -62,13 +65,24 @@ def test_upsampling_is_an_accuracy_knob():
 def test_hard_case_800_km_squint_60_deg_complex64():
     """Spaceborne range, extreme squint, complex64 raw storage: float64 geometry keeps BP exact."""
     scene = {
-        "radar": {"carrier_frequency": "10 GHz", "bandwidth": "50 MHz", "pulse_duration": "2 us",
-                  "range_sampling_rate": "60 MHz", "prf": "300 Hz"},
+        "radar": {
+            "carrier_frequency": "10 GHz",
+            "bandwidth": "50 MHz",
+            "pulse_duration": "2 us",
+            "range_sampling_rate": "60 MHz",
+            "prf": "300 Hz",
+        },
         "platform": {"velocity": "7 km/s", "altitude": "0 m"},
         "geometry": {"reference_range": "800 km", "squint": "60 deg"},
         "acquisition": {"mode": "spotlight", "azimuth_resolution": "3 m"},
-        "targets": {"frame": "los", "points": [{"name": "O"}, {"name": "P", "azimuth": "60 m", "range": "-70 m"},
-                                               {"name": "Q", "azimuth": "-70 m", "range": "80 m", "amplitude": 0.5}]},
+        "targets": {
+            "frame": "los",
+            "points": [
+                {"name": "O"},
+                {"name": "P", "azimuth": "60 m", "range": "-70 m"},
+                {"name": "Q", "azimuth": "-70 m", "range": "80 m", "amplitude": 0.5},
+            ],
+        },
     }
     raw = simulate(scene_from_mapping(scene))
     assert raw.data.dtype == np.complex64
@@ -86,8 +100,9 @@ def _four_point_progress(**kw):
     pos = raw.aux["platform_position"]
     pts = np.array(raw.radar.scene_center)[None, :] + np.zeros((4, 3))
     bars = []
-    backproject_points(rc, raw.coords["range_time"], pos, pos, pts, raw.radar.carrier_frequency,
-                       progress=progress_recorder(bars), **kw)
+    backproject_points(
+        rc, raw.coords["range_time"], pos, pos, pts, raw.radar.carrier_frequency, progress=progress_recorder(bars), **kw
+    )
     return bars, len(pos)
 
 
@@ -116,8 +131,12 @@ def test_hamming_windows_are_written_as_each_targets_own_theory():
     scene = copy.deepcopy(SQUINT_SPOTLIGHT)
     scene["targets"]["points"] = scene["targets"]["points"][:1]
     raw = simulate(scene_from_mapping(scene))
-    image = backproject(raw, BackprojectParams(frame="los", margin_cells=28, engine="reference",
-                                               range_window="hamming", azimuth_window="hamming"))
+    image = backproject(
+        raw,
+        BackprojectParams(
+            frame="los", margin_cells=28, engine="reference", range_window="hamming", azimuth_window="hamming"
+        ),
+    )
     ham, t = window_theory("hamming"), image.targets[0]
     for a, ax in enumerate(("azimuth", "range")):
         assert t[f"null_{ax}"] == pytest.approx(image.attrs["theoretical_irw"][a] / 0.886, rel=1e-6)

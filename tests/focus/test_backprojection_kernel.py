@@ -39,7 +39,7 @@ def test_compiled_image_matches_float64_reference(squint_raw):
 def test_compiled_bistatic_and_nearest_match_reference(squint_raw):
     rc = range_compress(squint_raw.data, squint_raw.radar)
     pos = squint_raw.aux["platform_position"]
-    rx = pos + np.array([0.0, 40.0, -15.0])                    # a receiver 43 m away: a real second leg
+    rx = pos + np.array([0.0, 40.0, -15.0])  # a receiver 43 m away: a real second leg
     centre = np.asarray(squint_raw.radar.scene_center)
     g = np.arange(-24, 24) * 0.4
     pts = centre + np.stack([np.repeat(g, len(g)), np.tile(g, len(g)), np.zeros(len(g) ** 2)], 1)
@@ -57,17 +57,21 @@ def _cubic_reference(rc, range_time, pos, pts, fc, upsample):
     c = 299_792_458.0
     n_up = upsampled_length(rc.shape[1], upsample)
     up = upsample_range(rc, upsample, length=n_up).astype(np.complex128)
-    up = np.concatenate([np.zeros((len(up), 4)), up, np.zeros((len(up), 4))], axis=1)     # zeros outside
+    up = np.concatenate([np.zeros((len(up), 4)), up, np.zeros((len(up), 4))], axis=1)  # zeros outside
     fs = n_up / (rc.shape[1] * (range_time[1] - range_time[0]))
     r = 2 * np.linalg.norm(pts[None, :, :] - pos[:, None, :], axis=-1)
     t = (r / c - range_time[0]) * fs
     s = np.floor(t)
     w = t - s
-    s = np.clip(s.astype(int), -3, n_up + 1) + 4         # s - 1 .. s + 2 stay inside the zero padding
+    s = np.clip(s.astype(int), -3, n_up + 1) + 4  # s - 1 .. s + 2 stay inside the zero padding
     rows = np.arange(len(pos))[:, None]
     xm, x0, x1, x2 = (up[rows, s + k] for k in (-1, 0, 1, 2))
-    val = (-w * (w - 1) * (w - 2) / 6 * xm + (w + 1) * (w - 1) * (w - 2) / 2 * x0
-           - (w + 1) * w * (w - 2) / 2 * x1 + (w + 1) * w * (w - 1) / 6 * x2)
+    val = (
+        -w * (w - 1) * (w - 2) / 6 * xm
+        + (w + 1) * (w - 1) * (w - 2) / 2 * x0
+        - (w + 1) * w * (w - 2) / 2 * x1
+        + (w + 1) * w * (w - 1) / 6 * x2
+    )
     return (val * np.exp(2j * np.pi * fc * r / c)).mean(axis=0)
 
 
@@ -80,12 +84,14 @@ def test_compiled_cubic_matches_a_float64_cubic_sum(squint_raw):
     pts = centre + np.stack([np.repeat(g, len(g)), np.tile(g, len(g)), np.zeros(len(g) ** 2)], 1)
     rt = squint_raw.coords["range_time"]
     ref = _cubic_reference(rc, rt, pos, pts, squint_raw.radar.carrier_frequency, 4)
-    fast = backproject_points(rc, rt, pos, pos, pts, squint_raw.radar.carrier_frequency, engine="compiled",
-                              interpolation="cubic", upsample=4)
-    lin = backproject_points(rc, rt, pos, pos, pts, squint_raw.radar.carrier_frequency, engine="compiled",
-                             interpolation="linear", upsample=4)
+    fast = backproject_points(
+        rc, rt, pos, pos, pts, squint_raw.radar.carrier_frequency, engine="compiled", interpolation="cubic", upsample=4
+    )
+    lin = backproject_points(
+        rc, rt, pos, pos, pts, squint_raw.radar.carrier_frequency, engine="compiled", interpolation="linear", upsample=4
+    )
     assert db(fast, ref) < -70
-    assert db(lin, ref) > -60                    # the comparison can tell cubic from linear
+    assert db(lin, ref) > -60  # the comparison can tell cubic from linear
 
 
 def test_cubic_on_x8_is_closer_to_truth_than_linear_x8(squint_raw):
@@ -97,8 +103,9 @@ def test_cubic_on_x8_is_closer_to_truth_than_linear_x8(squint_raw):
 
 @pytest.mark.parametrize("kernel,upsample", [("knab", 2), ("linear", 8), ("cubic", 4)])
 def test_compiled_kernels_reach_theory(squint_raw, kernel, upsample):
-    image = backproject(squint_raw, BackprojectParams(frame="los", margin_cells=28, interpolation=kernel,
-                                                      upsample=upsample))
+    image = backproject(
+        squint_raw, BackprojectParams(frame="los", margin_cells=28, interpolation=kernel, upsample=upsample)
+    )
     assert_theory(evaluate_product(image), irw_tol=0.03, db_tol=0.3, pos_cells=0.05, n_targets=3)
 
 
@@ -121,8 +128,7 @@ def test_float32_offset_from_tile_centre_is_micrometre_exact(r0):
     for d in rng.uniform(-30, 30, (200, 3)):
         exact = np.linalg.norm(centre + d - antenna) - r
         d32 = d.astype(np.float32)
-        got = bk._offset(u[0], u[1], u[2], np.float32(1 / r), np.float32(r), d32[0], d32[1], d32[2],
-                         np.float32(d @ d))
+        got = bk._offset(u[0], u[1], u[2], np.float32(1 / r), np.float32(r), d32[0], d32[1], d32[2], np.float32(d @ d))
         assert abs(got - exact) < 1e-5
 
 
@@ -139,16 +145,17 @@ def test_third_order_offset_is_within_its_remainder_bound(r0):
         h = np.linalg.norm(d)
         exact = np.linalg.norm(centre + d - antenna) - r
         d32 = d.astype(np.float32)
-        got = bk._offset_expanded(u[0], u[1], u[2], np.float32(0.5 / r), np.float32(0.5 / r**2), d32[0], d32[1],
-                                  d32[2], np.float32(d @ d))
+        got = bk._offset_expanded(
+            u[0], u[1], u[2], np.float32(0.5 / r), np.float32(0.5 / r**2), d32[0], d32[1], d32[2], np.float32(d @ d)
+        )
         assert abs(got - exact) < h**4 / (8 * r**3) + 3e-6
 
 
 def test_expansion_is_chosen_only_where_its_phase_error_is_negligible():
-    kc = 10e9 / 299_792_458.0                 # X band, cycles per metre
-    h = 7.0                                   # a 1024-pixel tile of 0.3 m pixels
-    near = bk._reference(0.0, 0.0, 0.0, 0.0, -300.0, 400.0, h**4 * kc)[1][7]         # 500 m
-    far = bk._reference(0.0, 0.0, 0.0, 0.0, -6_000.0, 8_000.0, h**4 * kc)[1][7]      # 10 km
+    kc = 10e9 / 299_792_458.0  # X band, cycles per metre
+    h = 7.0  # a 1024-pixel tile of 0.3 m pixels
+    near = bk._reference(0.0, 0.0, 0.0, 0.0, -300.0, 400.0, h**4 * kc)[1][7]  # 500 m
+    far = bk._reference(0.0, 0.0, 0.0, 0.0, -6_000.0, 8_000.0, h**4 * kc)[1][7]  # 10 km
     assert not near and far
     # the remainder bound h^4 / (8 r^3) in carrier cycles, the two-way path counting it twice
     assert 2 * kc * h**4 / (8 * 10_000.0**3) < bk.EXPANSION_LIMIT_CYCLES < 2 * kc * h**4 / (8 * 500.0**3)
@@ -165,9 +172,9 @@ def test_near_field_exact_root_and_pixels_outside_the_pulse_match_reference(squi
     r_mid = np.linalg.norm(centre - pos[len(pos) // 2])
     f = 1 - 200.0 / r_mid
     near = pos + f * (centre - pos)
-    rt = rt - 2 * f * r_mid / c                               # the centre's echo keeps its delay at mid-aperture
+    rt = rt - 2 * f * r_mid / c  # the centre's echo keeps its delay at mid-aperture
     k = int(np.argmin(np.abs(rt - 2 * 200.0 / c)))
-    rc, rt = rc[:, k - 4:k + 16], rt[k - 4:k + 16]            # a 20-sample window: the grid's near part is outside
+    rc, rt = rc[:, k - 4 : k + 16], rt[k - 4 : k + 16]  # a 20-sample window: the grid's near part is outside
     los = (centre - near[len(pos) // 2]) / 200.0
     across = np.cross(los, [0.0, 0.0, 1.0])
     across /= np.linalg.norm(across)
@@ -252,8 +259,9 @@ def _synthetic(n_az, n_rg=101, offset=0.0, seed=0):
     return rc, rt, pos, pts
 
 
-@pytest.mark.parametrize("engine,interp", [("reference", "linear"), ("compiled", "linear"),
-                                           ("compiled", "nearest"), ("compiled", "cubic")])
+@pytest.mark.parametrize(
+    "engine,interp", [("reference", "linear"), ("compiled", "linear"), ("compiled", "nearest"), ("compiled", "cubic")]
+)
 def test_no_pulses_is_refused(engine, interp):
     """Zero pulses: the reference engine returned NaN (0 / 0), the compiled linear one numpy's 'zero-size array'."""
     rc, rt, pos, pts = _synthetic(0)

@@ -5,8 +5,14 @@ import pytest
 
 from sarproc.dsp.interp import resample_rows
 from sarproc.dsp.phasor import multiply_phase
-from sarproc.focus.squint_deramp.block_copies import (copy_rows, crop_columns, gather_columns, pad_rows, pad_spectrum,
-                                                      scale_rows)
+from sarproc.focus.squint_deramp.block_copies import (
+    copy_rows,
+    crop_columns,
+    gather_columns,
+    pad_rows,
+    pad_spectrum,
+    scale_rows,
+)
 from sarproc.focus.squint_deramp.stolt import SpectrumModel
 
 
@@ -34,15 +40,15 @@ def test_pad_copy_and_scale_rows(dtype, start):
     want = np.zeros((9, 20), dtype)
     want[:, :13] = _alt(x, start)
     assert np.array_equal(dst, want)
-    pad_rows(np.asfortranarray(x), dst, start)                     # any layout of the input
+    pad_rows(np.asfortranarray(x), dst, start)  # any layout of the input
     assert np.array_equal(dst, want)
 
     f = _cx(rng, 9, dtype)
     y = x.copy()
     scale_rows(y, f, start)
     if dtype is np.complex64:
-        assert np.array_equal(y, _alt(x * f[:, None], start))        # numpy's rounding of the product
-    else:                                                            # numpy fuses the complex128 product
+        assert np.array_equal(y, _alt(x * f[:, None], start))  # numpy's rounding of the product
+    else:  # numpy fuses the complex128 product
         np.testing.assert_allclose(y, _alt(x * f[:, None], start), rtol=1e-15)
 
     out = np.empty_like(x)
@@ -59,9 +65,9 @@ def test_pad_spectrum_keeps_both_halves(n, m, scaled):
     for start in (-1, 1):
         y = _alt(x, start) * (ref if scaled else 1)
         want = np.zeros((5, m), np.complex64)
-        want[:, :(n + 1) // 2] = y[:, :(n + 1) // 2]
+        want[:, : (n + 1) // 2] = y[:, : (n + 1) // 2]
         if n // 2:
-            want[:, m - n // 2:] = y[:, n - n // 2:]
+            want[:, m - n // 2 :] = y[:, n - n // 2 :]
         dst = np.full((5, m), 3j, np.complex64)
         pad_spectrum(x, dst, ref, start)
         assert np.array_equal(dst, want)
@@ -82,7 +88,7 @@ def test_gather_columns_and_crop():
     assert np.array_equal(c, img.astype(np.complex128)[:, 2:9].astype(np.complex64))
     img[3, 8] = np.nan
     assert not crop_columns(img, 2, 9)[1]
-    assert crop_columns(img, 2, 8)[1]                                # the NaN lies outside the kept columns
+    assert crop_columns(img, 2, 8)[1]  # the NaN lies outside the kept columns
     img[0, 2] = complex(0, np.inf)
     assert not crop_columns(img, 2, 8)[1]
     assert crop_columns(img, 0, 0)[0].shape == (6, 0)
@@ -94,7 +100,7 @@ def test_rotate_equals_multiply_phase_of_G(model, dtype):
     m = SpectrumModel(10e9, 7000.0, np.radians(30), model)
     rng = np.random.default_rng(1)
     f = 10e9 + np.linspace(-90e6, 90e6, 257)
-    f_a = np.linspace(-1.05, 1.05, 33) * m.f_aM                     # rows past the square-root limit included
+    f_a = np.linspace(-1.05, 1.05, 33) * m.f_aM  # rows past the square-root limit included
     x = _cx(rng, (len(f_a), len(f)), dtype)
     pre = _cx(rng, len(f), dtype)
     g, ok = m.G(f[None, :], f_a[:, None])
@@ -103,7 +109,7 @@ def test_rotate_equals_multiply_phase_of_G(model, dtype):
     got = m.rotate(x.copy(), f, f_a, 3e5, pre=pre)
     if dtype is np.complex64:
         assert np.array_equal(got, want)
-    else:                                                            # numpy fuses the complex128 product
+    else:  # numpy fuses the complex128 product
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-14 * np.abs(want).max())
     assert np.array_equal(m.rotate(x.copy(), f, f_a, 3e5), multiply_phase(x.copy(), g, ok, scale=3e5))
     with pytest.raises(ValueError):
@@ -145,7 +151,7 @@ def test_pad_rows_refuses_a_shorter_destination():
         pad_rows(np.ones((2, 8), np.complex64), big[:, :6], -1)
     assert not big.any()
     with pytest.raises(ValueError):
-        pad_rows(np.ones((1, 4), np.complex64), np.zeros((2, 6), np.complex64), -1)   # rows read past src
+        pad_rows(np.ones((1, 4), np.complex64), np.zeros((2, 6), np.complex64), -1)  # rows read past src
 
 
 def test_copy_and_gather_refuse_mismatched_shapes():

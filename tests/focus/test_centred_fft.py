@@ -17,5 +17,5 @@ def test_centred_transforms_match_the_shifted_ones(shape, axis):
     keep = x.copy()
     np.testing.assert_allclose(cfft(x, axis), want, atol=1e-5)
     np.testing.assert_allclose(cifft(x, axis), want_i, atol=1e-6)
-    assert np.array_equal(x, keep)                                  # not overwritten unless asked
+    assert np.array_equal(x, keep)  # not overwritten unless asked
     np.testing.assert_allclose(cfft(x.copy(), axis, overwrite=True), want, atol=1e-5)

@@ -33,7 +33,8 @@ STAGES = ("preprocess", "coarse_focus", "fine_focus")
 def preprocessed(*xs):
     cfg = load_yaml(CONFIGS / "an2012_airborne_small.yaml")
     cfg["targets"]["points"] = [{"name": "C", "azimuth": "0 m", "range": "0 m"}] + [
-        {"name": f"X{i}", "azimuth": f"{x} m", "range": "0 m", "amplitude": 0.5} for i, x in enumerate(xs)]
+        {"name": f"X{i}", "azimuth": f"{x} m", "range": "0 m", "amplitude": 0.5} for i, x in enumerate(xs)
+    ]
     raw = simulate(scene_from_mapping({k: v for k, v in cfg.items() if k not in STAGES}))
     return cfg, preprocess(raw, build(PreprocessParams, cfg["preprocess"]))
 
@@ -62,6 +63,6 @@ def test_folded_target_is_refused_with_cause_and_alias_position(x):
     assert folds and all(f["n"] == np.sign(x) for f in folds)
     v, k, prf = pre.radar.velocity, coarse.attrs["deramp_rate"], pre.radar.prf
     best = max(folds, key=lambda f: f["level_db"])
-    assert best["t_true"] * v == pytest.approx(x, abs=0.2 * abs(x))          # where the scatterer really is
+    assert best["t_true"] * v == pytest.approx(x, abs=0.2 * abs(x))  # where the scatterer really is
     assert best["t_app"] * v == pytest.approx(best["t_true"] * v - np.sign(x) * prf / k * v, abs=1.0)
     assert f"x_n ~ {best['t_app'] * v:.0f} m (a ghost)" in msg or len(folds) > 1

@@ -21,18 +21,31 @@ CONFIGS = Path(__file__).resolve().parents[2] / "configs"
 STRIPMAP = load_yaml(CONFIGS / "bp_stripmap.yaml")
 SQUINT30 = load_yaml(CONFIGS / "bp_squint30.yaml")
 # Broadside spotlight on a wobbling track (tests/simulation/test_effects.py): 0.5 m cross-track, 0.2 m vertical.
-MOTION = {**copy.deepcopy(SQUINT30), "geometry": {"reference_range": "6 km", "squint": "0 deg"},
-          "effects": {"platform_motion": {
-              "cross_track_amplitude": "0.5 m", "cross_track_period": "0.2 s", "cross_track_phase": "30 deg",
-              "vertical_amplitude": "0.2 m", "vertical_period": "0.3 s", "along_track_velocity_error": "0.5 m/s"}}}
+MOTION = {
+    **copy.deepcopy(SQUINT30),
+    "geometry": {"reference_range": "6 km", "squint": "0 deg"},
+    "effects": {
+        "platform_motion": {
+            "cross_track_amplitude": "0.5 m",
+            "cross_track_period": "0.2 s",
+            "cross_track_phase": "30 deg",
+            "vertical_amplitude": "0.2 m",
+            "vertical_period": "0.3 s",
+            "along_track_velocity_error": "0.5 m/s",
+        }
+    },
+}
 
 
 def nmse(image, exact):
     return float(np.sum(np.abs(image - exact) ** 2) / np.sum(np.abs(exact) ** 2))
 
 
-@pytest.fixture(scope="module", params=[(STRIPMAP, "zero_doppler"), (SQUINT30, "los"), (MOTION, "los")],
-                ids=["broadside-stripmap", "squint30-spotlight", "curved-track"])
+@pytest.fixture(
+    scope="module",
+    params=[(STRIPMAP, "zero_doppler"), (SQUINT30, "los"), (MOTION, "los")],
+    ids=["broadside-stripmap", "squint30-spotlight", "curved-track"],
+)
 def case(request):
     scene, frame = request.param
     raw = simulate(scene_from_mapping(scene))
@@ -47,8 +60,7 @@ def test_ffbp_error_against_the_exact_image_is_the_predicted_one(case):
         measured = nmse(image, exact)
         predicted = predicted_error(raw.data.shape[0], params.ffbp_factor, q, "cubic")
         # below the bound (the model + 4 dB) and no more than 6 dB under the model: the prediction means something
-        assert predicted / 4 < measured < error_bound(predicted), (q, 10 * np.log10(measured),
-                                                                   10 * np.log10(predicted))
+        assert predicted / 4 < measured < error_bound(predicted), (q, 10 * np.log10(measured), 10 * np.log10(predicted))
 
 
 def test_ffbp_targets_reach_theory(case):
@@ -73,14 +85,22 @@ def test_ffbp_oversample_trades_error_for_work():
     errors, work = [], []
     for q in (1.5, 2.0, 3.0, 4.0):
         info = {}
-        out = ffbp_points(rc, raw.coords["range_time"], raw.aux["platform_position"], pts,
-                          raw.radar.carrier_frequency, raw.radar.bandwidth, oversample=q, grid_shape=az.shape,
-                          info=info)
+        out = ffbp_points(
+            rc,
+            raw.coords["range_time"],
+            raw.aux["platform_position"],
+            pts,
+            raw.radar.carrier_frequency,
+            raw.radar.bandwidth,
+            oversample=q,
+            grid_shape=az.shape,
+            info=info,
+        )
         errors.append(nmse(out.reshape(az.shape), exact))
         work.append(sum(info["samples"]))
-    assert all(a > 4 * b for a, b in zip(errors, errors[1:])), errors     # each step: > 6 dB better
+    assert all(a > 4 * b for a, b in zip(errors, errors[1:])), errors  # each step: > 6 dB better
     assert all(a < b for a, b in zip(work, work[1:])), work
-    assert errors[-1] < 10 ** -4                                          # -40 dB at 4x oversampling
+    assert errors[-1] < 10**-4  # -40 dB at 4x oversampling
 
 
 def test_interpolation_error_falls_with_oversampling_and_order():
@@ -106,19 +126,44 @@ def test_plan_prints_the_predicted_error_and_the_cli_runs_ffbp(tmp_path):
 
     from sarproc.product.io import read_product
 
-    scene = {**copy.deepcopy(SQUINT30), "backproject": {"frame": "los", "azimuth_extent": "20 m",
-                                                        "range_extent": "20 m", "engine": "ffbp",
-                                                        "ffbp_oversample": 3}}
+    scene = {
+        **copy.deepcopy(SQUINT30),
+        "backproject": {
+            "frame": "los",
+            "azimuth_extent": "20 m",
+            "range_extent": "20 m",
+            "engine": "ffbp",
+            "ffbp_oversample": 3,
+        },
+    }
     (tmp_path / "s.yaml").write_text(yaml.safe_dump(scene))
     cmd = [sys.executable, "-m", "sarproc"]
-    subprocess.run(cmd + ["simulate", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "r.h5"), "--no-progress"],
-                   check=True, capture_output=True)
-    out = subprocess.run(cmd + ["-v", "backproject", str(tmp_path / "r.h5"), "--config", str(tmp_path / "s.yaml"),
-                                "-o", str(tmp_path / "i.h5"), "--no-progress"], capture_output=True, text=True)
+    subprocess.run(
+        cmd + ["simulate", str(tmp_path / "s.yaml"), "-o", str(tmp_path / "r.h5"), "--no-progress"],
+        check=True,
+        capture_output=True,
+    )
+    out = subprocess.run(
+        cmd
+        + [
+            "-v",
+            "backproject",
+            str(tmp_path / "r.h5"),
+            "--config",
+            str(tmp_path / "s.yaml"),
+            "-o",
+            str(tmp_path / "i.h5"),
+            "--no-progress",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert out.returncode == 0, out.stderr
     predicted = 10 * np.log10(predicted_error(212, 4, 3.0, "cubic"))
-    assert f"ffbp: 4 levels of 4, oversample 3, cubic; predicted error against the exact image {predicted:.1f} dB" \
+    assert (
+        f"ffbp: 4 levels of 4, oversample 3, cubic; predicted error against the exact image {predicted:.1f} dB"
         in out.stderr
+    )
     assert read_product(tmp_path / "i.h5").history[-1]["parameters"]["engine"] == "ffbp"
 
 

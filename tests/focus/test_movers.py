@@ -38,8 +38,13 @@ def scene(points, n_receivers=3, spacing="2 m", clutter=None):
 
 
 def vehicle(name, azimuth, rng, v_a, v_r, amplitude=1.0):
-    return {"name": name, "azimuth": f"{azimuth} m", "range": f"{rng} m", "amplitude": amplitude,
-            "velocity": [f"{v_a} m/s", f"{v_r} m/s", "0 m/s"]}
+    return {
+        "name": name,
+        "azimuth": f"{azimuth} m",
+        "range": f"{rng} m",
+        "amplitude": amplitude,
+        "velocity": [f"{v_a} m/s", f"{v_r} m/s", "0 m/s"],
+    }
 
 
 def found(rec):
@@ -47,8 +52,9 @@ def found(rec):
     t = moving_target_table(rec.aux)
     names = [n.decode() for n in rec.targets["name"]]
     rows = [{k: float(v[i]) for k, v in t.items()} for i in range(len(t["id"]))]
-    return {names[int(r["truth_index"])]: r for r in rows if r["truth_index"] >= 0}, \
-        [r for r in rows if r["truth_index"] < 0]
+    return {names[int(r["truth_index"])]: r for r in rows if r["truth_index"] >= 0}, [
+        r for r in rows if r["truth_index"] < 0
+    ]
 
 
 def check(rec, truth_names, v_tol=0.1):
@@ -103,22 +109,38 @@ def test_movers_at_one_apparent_position_are_reported_not_separated(caplog):
 
 def test_movers_in_clutter_are_found_after_the_clutter_null():
     """Four receivers, 150 clutter scatterers (rms 1 each, as bright as the movers) in their range cells."""
-    raw = simulate(scene_from_mapping(scene(
-        [vehicle("V1", -100, 20, 8, -12, 0.7), vehicle("V2", 120, -10, -6, 15), {"name": "S", "azimuth": "50 m",
-                                                                                  "range": "60 m"}],
-        n_receivers=4, spacing="1.5 m",
-        clutter={"n_scatterers": 150, "azimuth_extent": "600 m", "range_extent": "250 m", "seed": 4})))
+    raw = simulate(
+        scene_from_mapping(
+            scene(
+                [
+                    vehicle("V1", -100, 20, 8, -12, 0.7),
+                    vehicle("V2", 120, -10, -6, 15),
+                    {"name": "S", "azimuth": "50 m", "range": "60 m"},
+                ],
+                n_receivers=4,
+                spacing="1.5 m",
+                clutter={"n_scatterers": 150, "azimuth_extent": "600 m", "range_extent": "250 m", "seed": 4},
+            )
+        )
+    )
     rec = reconstruct(raw, ReconstructParams(clutter_suppression=True))
     check(rec, ["V1", "V2"])
 
 
 def test_mover_free_scene_with_clutter_gives_no_false_alarm():
-    raw = simulate(scene_from_mapping(scene(
-        [{"name": "S1"}, {"name": "S2", "azimuth": "100 m", "range": "-40 m"}], n_receivers=4, spacing="1.5 m",
-        clutter={"n_scatterers": 150, "azimuth_extent": "600 m", "range_extent": "250 m", "seed": 4})))
+    raw = simulate(
+        scene_from_mapping(
+            scene(
+                [{"name": "S1"}, {"name": "S2", "azimuth": "100 m", "range": "-40 m"}],
+                n_receivers=4,
+                spacing="1.5 m",
+                clutter={"n_scatterers": 150, "azimuth_extent": "600 m", "range_extent": "250 m", "seed": 4},
+            )
+        )
+    )
     rec = reconstruct(raw, ReconstructParams(clutter_suppression=True))
     assert rec.aux["moving_targets"].shape == (0, len(MOVING_TARGET_COLUMNS))
-    assert "truth" not in rec.attrs["reconstruct"]          # no moving truth target to find
+    assert "truth" not in rec.attrs["reconstruct"]  # no moving truth target to find
 
 
 def test_moving_target_table_is_written_read_and_carried(two_movers, tmp_path):
@@ -135,8 +157,8 @@ def test_detection_keeps_a_weak_peak_beside_a_strong_one_and_drops_side_lobes():
     t = np.arange(n) / 1000.0
     power = np.full((n, 40), 1e-6, np.float32)
     x = np.arange(n) - 1000.0
-    power[:, 20] += (1e4 * np.sinc(x / 2.0) ** 2).astype(np.float32)   # strong point, sinc side lobes
-    power[1300, 24] += 50.0                                               # weak target 4 cells away in range
+    power[:, 20] += (1e4 * np.sinc(x / 2.0) ** 2).astype(np.float32)  # strong point, sinc side lobes
+    power[1300, 24] += 50.0  # weak target 4 cells away in range
     found, dropped = detection.find_detections(power, detection.background(power), t, 15.0, -40.0, 1.2, 10)
     cells = sorted((d.index, d.cell) for d in found)
     assert cells == [(1000, 20), (1300, 24)]
@@ -147,7 +169,7 @@ def test_extraction_separates_two_chirps_in_one_range_cell():
     prf, ka, n = 2500.0, 5300.0, 3000
     t = (np.arange(n) - n / 2) / prf
     x = np.zeros((1, n, 1), np.complex64)
-    for t0, a in ((-0.1, 1.0), (0.05, 0.5)):                       # two targets 150 ms apart in apparent time
+    for t0, a in ((-0.1, 1.0), (0.05, 0.5)):  # two targets 150 ms apart in apparent time
         inside = np.abs(t - t0) < 0.3
         x[0, :, 0] += (a * inside * np.exp(-1j * np.pi * ka * (t - t0) ** 2)).astype(np.complex64)
     one = detection.extract(x, t, prf, 0.05, np.array([ka]), 25.0)
@@ -157,8 +179,8 @@ def test_extraction_separates_two_chirps_in_one_range_cell():
     other = inside_other * np.exp(-1j * np.pi * ka * (t + 0.1) ** 2)
     err = np.linalg.norm(one[0, :, 0] - ref) / np.linalg.norm(ref)
     leak = abs(np.vdot(other, one[0, :, 0])) / (np.linalg.norm(other) * np.linalg.norm(one[0, :, 0]))
-    assert err < 0.1                 # this one kept (its hard illumination edges are smoothed by the mask)
-    assert leak < 0.01               # the other one gone
+    assert err < 0.1  # this one kept (its hard illumination edges are smoothed by the mask)
+    assert leak < 0.01  # the other one gone
 
 
 def test_a_moving_target_table_of_the_wrong_width_is_refused(two_movers, tmp_path):
@@ -175,11 +197,11 @@ def test_a_static_target_in_a_movers_range_cells_is_unaffected():
     """S shares P's walk-corrected range cells 200 m away in azimuth: its image equals S imaged alone."""
     from sarproc.focus.backprojection import BackprojectParams, backproject
 
-    s_pt = {"name": "S", "azimuth": "200 m", "range": "-68 m"}          # 200 sin(20 deg) = 68 m: P's cells
+    s_pt = {"name": "S", "azimuth": "200 m", "range": "-68 m"}  # 200 sin(20 deg) = 68 m: P's cells
     both = reconstruct(simulate(scene_from_mapping(scene([vehicle("P", 0, 0, 4, 12), s_pt]))), ReconstructParams())
     alone = reconstruct(simulate(scene_from_mapping(scene([s_pt]))), ReconstructParams())
     assert len(moving_target_table(both.aux)["id"]) == 1 and len(moving_target_table(alone.aux)["id"]) == 0
     chip = BackprojectParams(azimuth_extent=30.0, range_extent=60.0, azimuth_center=200.0, range_center=600000 - 68.0)
     a, b = (backproject(p, chip).data for p in (both, alone))
     level = 20 * np.log10(np.abs(a - b).max() / np.abs(b).max())
-    assert level < -40.0, level                      # P leaves S within -40 dB (measured -67 dB)
+    assert level < -40.0, level  # P leaves S within -40 dB (measured -67 dB)

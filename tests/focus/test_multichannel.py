@@ -68,8 +68,9 @@ def false_target_db(rec, raw) -> float:
     ka = 2 * (r.velocity * math.cos(r.squint)) ** 2 / (r.wavelength * r.reference_range)
     n = raw.data.shape[0]
     extent = 2 * (max(n, 2) - 0.5) * raw.radar.prf / ka * r.velocity
-    strip = backproject(rec, BackprojectParams(frame="squint_lrwc", azimuth_extent=extent, range_extent=40.0,
-                                               oversample=1.2))
+    strip = backproject(
+        rec, BackprojectParams(frame="squint_lrwc", azimuth_extent=extent, range_extent=40.0, oversample=1.2)
+    )
     # Guard 0.45 ghost spacings (245 cells): the target's own sinc side lobes there are about -57 dB.
     guard = 0.45 * raw.radar.prf / ka * r.velocity / strip.attrs["theoretical_irw"][0]
     report = evaluate_product(strip, EvaluateParams(guard_cells=guard))
@@ -151,12 +152,12 @@ def test_static_target_conventional_modified_and_single_channel_agree(static_cas
         rec = reconstruct(raw, ReconstructParams(method=method))
         assert rec.kind == "raw" and rec.data.shape[0] == 3 * raw.data.shape[1]
         assert rec.radar.prf == pytest.approx(3000.0)
-        assert rec.attrs["reconstruct"]["moving_targets"] == []      # nothing moves: no window is re-processed
+        assert rec.attrs["reconstruct"]["moving_targets"] == []  # nothing moves: no window is re-processed
         images[method] = backproject(rec, BackprojectParams())
         assert_theory(evaluate_product(images[method]), irw_tol=0.01, db_tol=0.25, pos_cells=0.02, n_targets=1)
     a, b, c = images["conventional"].data, images["modified"].data, ref.data
-    assert np.linalg.norm(a - b) / np.linalg.norm(a) < 1e-5         # modified == conventional up to rounding
-    assert np.linalg.norm(a - c) / np.linalg.norm(c) < 0.02       # the N PRF single-channel simulation
+    assert np.linalg.norm(a - b) / np.linalg.norm(a) < 1e-5  # modified == conventional up to rounding
+    assert np.linalg.norm(a - c) / np.linalg.norm(c) < 0.02  # the N PRF single-channel simulation
     assert abs(20 * np.log10(np.abs(a).max() / np.abs(c).max())) < 0.05
 
 
@@ -166,7 +167,7 @@ def test_static_target_conventional_modified_and_single_channel_agree(static_cas
 def test_moving_target_conventional_ghosts_and_modified_suppression(moving_case):
     raw, rec = moving_case
     conv, mod = rec["conventional"], rec["modified"]
-    assert false_target_db(conv, raw) > -10.0                    # the channel imbalance folds energy into ghosts
+    assert false_target_db(conv, raw) > -10.0  # the channel imbalance folds energy into ghosts
     assert false_target_db(mod, raw) < -50.0
     (mt,) = mod.attrs["reconstruct"]["moving_targets"]
     assert mt["radial_velocity"] == pytest.approx(10.0, abs=0.1)
@@ -197,7 +198,7 @@ def test_moving_target_with_along_track_velocity_is_estimated_and_focused():
     assert_theory(evaluate_product(focused(rec, raw)), irw_tol=0.02, db_tol=0.3, pos_cells=0.1)
     conv = reconstruct(raw, ReconstructParams(method="conventional"))
     report = evaluate_product(focused(conv, raw))
-    assert report.targets[0].axis("azimuth").irw_ratio > 1.2       # v_a defocuses the conventional result
+    assert report.targets[0].axis("azimuth").irw_ratio > 1.2  # v_a defocuses the conventional result
 
 
 def test_noise_gives_no_false_window_and_keeps_the_estimate():
@@ -216,10 +217,10 @@ def test_blind_velocities_are_told_apart_by_range_walk():
     rec = reconstruct(raw, ReconstructParams(autofocus=False, along_track_velocity=0.0))
     (mt,) = rec.attrs["reconstruct"]["moving_targets"]
     assert mt["radial_velocity"] == pytest.approx(-12.0, abs=0.1)
-    alias = -12.0 + C / 9.6e9 * 1000.0 / (2 * math.cos(math.radians(20)))   # lambda PRF / (2 cos(theta)) = 16.6 m/s
+    alias = -12.0 + C / 9.6e9 * 1000.0 / (2 * math.cos(math.radians(20)))  # lambda PRF / (2 cos(theta)) = 16.6 m/s
     at_alias = reconstruct(raw, ReconstructParams(autofocus=False, along_track_velocity=0.0, radial_velocity=alias))
     (ma,) = at_alias.attrs["reconstruct"]["moving_targets"]
-    assert ma["leakage"] == pytest.approx(mt["leakage"], rel=0.2)   # the leakage criterion alone cannot choose
+    assert ma["leakage"] == pytest.approx(mt["leakage"], rel=0.2)  # the leakage criterion alone cannot choose
 
 
 # ---------------------------------------------------------------------------------------------- hard cases
@@ -235,7 +236,7 @@ def test_velocity_on_and_beyond_the_search_bound_stays_finite(v_r, caplog):
     assert -20.0 <= mt["radial_velocity"] <= 20.0
     if v_r == 20.0:
         assert mt["radial_velocity"] == pytest.approx(20.0, abs=0.1)
-    else:   # beyond the bound: only an alias (20.5 - 16.6 m/s) is inside; its range walk gives it away
+    else:  # beyond the bound: only an alias (20.5 - 16.6 m/s) is inside; its range walk gives it away
         assert mt["at_bound"]
     assert mt["at_bound"] == ("search bound" in caplog.text)
 
@@ -253,7 +254,9 @@ def test_single_channel_is_passed_through(caplog):
 def test_channel_imbalance_gives_bounded_reported_ghosts():
     """3 deg / 3 % errors on one channel: the filter bank cannot see them; ghosts rise but stay small."""
     m = scene()
-    m["effects"]["azimuth_channels"].update(phase_imbalance=["0 deg", "0 deg", "3 deg"], amplitude_imbalance=[0, 0, 0.03])
+    m["effects"]["azimuth_channels"].update(
+        phase_imbalance=["0 deg", "0 deg", "3 deg"], amplitude_imbalance=[0, 0, 0.03]
+    )
     raw = simulate(scene_from_mapping(m))
     rec = reconstruct(raw, ReconstructParams(method="conventional"))
     assert np.all(np.isfinite(rec.data))
@@ -261,13 +264,13 @@ def test_channel_imbalance_gives_bounded_reported_ghosts():
     gain = np.array([1.0, 1.0, 1.03 * np.exp(1j * np.radians(3.0))])
     tau = channels.channel_delays(raw.aux["rx_offset"][:, 0], r.velocity)
     half_band = r.velocity * math.cos(r.squint) * r.azimuth_beamwidth / r.wavelength
-    predicted = channels.ghost_level_db(tau, r.prf, -1j * np.log(gain), half_band)   # eq. (6): about -36 dB
+    predicted = channels.ghost_level_db(tau, r.prf, -1j * np.log(gain), half_band)  # eq. (6): about -36 dB
     assert -40.0 < predicted < -30.0
     assert false_target_db(rec, raw) == pytest.approx(predicted, abs=1.5)
 
 
 def test_ill_conditioned_prf_reports_condition_and_regularises(caplog):
-    m = scene(radar={"prf": "1500 Hz"})                                # phase centres clump: 1.5 x the uniform PRF
+    m = scene(radar={"prf": "1500 Hz"})  # phase centres clump: 1.5 x the uniform PRF
     raw = simulate(scene_from_mapping(m))
     with caplog.at_level(logging.WARNING):
         plain = reconstruct(raw, ReconstructParams(method="conventional"))
@@ -288,7 +291,7 @@ def test_clutter_is_nulled_with_a_redundant_channel():
     rec = reconstruct(raw, ReconstructParams(method="conventional", clutter_suppression=True))
     info = rec.attrs["reconstruct"]
     assert info["clutter_redundant_channels"] == 1
-    assert info["clutter_suppression_db"] < -23.0                  # measured -26.0 dB; the rect beam's tails limit it
+    assert info["clutter_suppression_db"] < -23.0  # measured -26.0 dB; the rect beam's tails limit it
 
 
 def test_wrong_products_are_refused():
@@ -297,8 +300,13 @@ def test_wrong_products_are_refused():
         reconstruct(raw, ReconstructParams())
     with pytest.raises(InputError, match="velocity_max"):
         from sarproc.product.config import build
-        build(ReconstructParams, {"velocity_min": "5 m/s", "velocity_max": "-5 m/s"}, source="t.yaml",
-              section="reconstruct")
+
+        build(
+            ReconstructParams,
+            {"velocity_min": "5 m/s", "velocity_max": "-5 m/s"},
+            source="t.yaml",
+            section="reconstruct",
+        )
 
 
 def test_multichannel_and_clutter_effects_declare_their_geometry_and_cost():
@@ -307,9 +315,13 @@ def test_multichannel_and_clutter_effects_declare_their_geometry_and_cost():
     np.testing.assert_allclose(raw.aux["rx_offset"], [[-5, 0, 0], [0, 0, 0], [5, 0, 0]])
     np.testing.assert_allclose(raw.aux["tx_offset"], [0, 0, 0])
     m = scene()
-    m["effects"]["clutter"] = {"n_scatterers": 1000, "azimuth_extent": "100 m", "range_extent": "100 m",
-                               "max_evaluations": 1e6}
-    with pytest.raises(InputError, match="max_evaluations"):   # 600 pulses x 3 ch x 1000 x 146 samples
+    m["effects"]["clutter"] = {
+        "n_scatterers": 1000,
+        "azimuth_extent": "100 m",
+        "range_extent": "100 m",
+        "max_evaluations": 1e6,
+    }
+    with pytest.raises(InputError, match="max_evaluations"):  # 600 pulses x 3 ch x 1000 x 146 samples
         scene_from_mapping(m)
     with pytest.raises(InputError, match="phase_imbalance"):
         m = scene()
@@ -321,7 +333,7 @@ def test_ground_moving_target_seen_from_500_km_altitude():
     """With altitude the estimate is the slant-range component v_y y / sqrt(y^2 + H^2) of a ground velocity v_y."""
     raw = simulate(scene_from_mapping(scene([mover(v_r=10.0, v_a=5.0)], platform={"altitude": "500 km"})))
     t = raw.targets[0]
-    slant = 10.0 * t["y"] / math.hypot(t["y"], 500e3)                  # 4.62 m/s
+    slant = 10.0 * t["y"] / math.hypot(t["y"], 500e3)  # 4.62 m/s
     rec = reconstruct(raw, ReconstructParams())
     (mt,) = rec.attrs["reconstruct"]["moving_targets"]
     assert mt["radial_velocity"] == pytest.approx(slant, abs=0.1)

@@ -26,9 +26,17 @@ from conftest import merge
 
 CONFIGS = Path(__file__).resolve().parents[2] / "configs"
 SMALL = load_yaml(CONFIGS / "nie2016_small.yaml")
-THREE = {"targets": {"frame": "ground_los", "grid": None,
-                     "points": [{"name": "C"}, {"name": "P", "azimuth": "30 m", "range": "-25 m"},
-                                {"name": "Q", "azimuth": "-20 m", "range": "35 m"}]}}
+THREE = {
+    "targets": {
+        "frame": "ground_los",
+        "grid": None,
+        "points": [
+            {"name": "C"},
+            {"name": "P", "azimuth": "30 m", "range": "-25 m"},
+            {"name": "Q", "azimuth": "-20 m", "range": "35 m"},
+        ],
+    }
+}
 
 
 @pytest.fixture(scope="module")
@@ -45,8 +53,14 @@ def _local_theory(raw, target):
     frame = image_frame(raw)
     r = raw.radar
     point = np.array([target["x"], target["y"], target["z"]])
-    return local_irw(antenna_positions(raw), point, frame.u_azimuth, frame.u_range, r.carrier_frequency,
-                     (-r.bandwidth / 2, r.bandwidth / 2))
+    return local_irw(
+        antenna_positions(raw),
+        point,
+        frame.u_azimuth,
+        frame.u_range,
+        r.carrier_frequency,
+        (-r.bandwidth / 2, r.bandwidth / 2),
+    )
 
 
 def test_plain_pfa_focuses_the_centre_and_defocuses_the_edge(raw_small):
@@ -61,18 +75,25 @@ def test_plain_pfa_focuses_the_centre_and_defocuses_the_edge(raw_small):
     frame = image_frame(raw_small)
     t = raw_small.targets[target_names(raw_small.targets).index("T00_00")]
     r = raw_small.radar
-    d = pfa_distortion(antenna_positions(raw_small), frame.origin, np.array([t["x"], t["y"], t["z"]]),
-                       frame.u_azimuth, frame.u_range, r.carrier_frequency, (-r.bandwidth / 2, r.bandwidth / 2))
+    d = pfa_distortion(
+        antenna_positions(raw_small),
+        frame.origin,
+        np.array([t["x"], t["y"], t["z"]]),
+        frame.u_azimuth,
+        frame.u_range,
+        r.carrier_frequency,
+        (-r.bandwidth / 2, r.bandwidth / 2),
+    )
     a, g = image.coords["azimuth"], image.coords["range"] - frame.ground_range
     i, j = np.argmin(abs(a - d.azimuth)), np.argmin(abs(g - d.range))
-    local = np.abs(image.data[max(i - 20, 0):i + 21, max(j - 20, 0):j + 21]).max()
+    local = np.abs(image.data[max(i - 20, 0) : i + 21, max(j - 20, 0) : j + 21]).max()
     assert local < 0.6 * centre.peak_amplitude
 
 
 def test_two_step_focuses_every_target_seams_included(raw_small, two_step_image):
     image = two_step_image
     assert image.attrs["subimages"] == 16 and np.all(np.isfinite(image.data))
-    report = evaluate_product(image)        # with each target's own theory, recorded by pfa2 in the product
+    report = evaluate_product(image)  # with each target's own theory, recorded by pfa2 in the product
     assert len(report.targets) == 25
     for rep, tg in zip(report.targets, image.targets):
         theory = _local_theory(raw_small, tg)
@@ -99,15 +120,27 @@ def test_two_step_agrees_with_backprojection(raw_small, two_step_image):
         k = target_names(image.targets).index(name)
         t = image.targets[k]
         i, j = np.argmin(abs(a_all - t["azimuth"])), np.argmin(abs(g_all - t["range"]))
-        a, g = a_all[i - 36:i + 37], g_all[j - 36:j + 37]
+        a, g = a_all[i - 36 : i + 37], g_all[j - 36 : j + 37]
         A, G = np.meshgrid(a, g, indexing="ij")
-        chip = backproject_points(rc, raw_small.coords["range_time"], pos, pos, frame.to_xyz(A.ravel(), G.ravel()),
-                                  raw_small.radar.carrier_frequency,
-                                  gate_offset=raw_small.aux["range_gate_offset"]).reshape(A.shape)
+        chip = backproject_points(
+            rc,
+            raw_small.coords["range_time"],
+            pos,
+            pos,
+            frame.to_xyz(A.ravel(), G.ravel()),
+            raw_small.radar.carrier_frequency,
+            gate_offset=raw_small.aux["range_gate_offset"],
+        ).reshape(A.shape)
         truth = [[t["azimuth"], t["range"]]]
         bp = evaluate_image(chip, ("azimuth", "range"), {"azimuth": a, "range": g}, irw, truth, [name]).targets[0]
-        pf = evaluate_image(image.data[i - 36:i + 37, j - 36:j + 37], ("azimuth", "range"),
-                            {"azimuth": a, "range": g}, irw, truth, [name]).targets[0]
+        pf = evaluate_image(
+            image.data[i - 36 : i + 37, j - 36 : j + 37],
+            ("azimuth", "range"),
+            {"azimuth": a, "range": g},
+            irw,
+            truth,
+            [name],
+        ).targets[0]
         # each against its own theory: PFA keeps the inscribed rectangle, backprojection the whole polar sector
         bp_theory = theoretical_irw(raw_small, frame, [t["azimuth"], t["range"]])
         for ax_bp, ax_pf, th_bp, th_pf in zip(bp.axes, pf.axes, bp_theory, _local_theory(raw_small, t)):
@@ -121,7 +154,7 @@ def test_varied_gate_and_fixed_gate_focus_to_the_same_image():
     fixed = merge(gated, {"effects": None})
     raw_g, raw_f = simulate(scene_from_mapping(gated)), simulate(scene_from_mapping(fixed))
     assert "range_gate_offset" in raw_g.aux and "range_gate_offset" not in raw_f.aux
-    assert raw_g.data.shape[1] < raw_f.data.shape[1]           # the varied gate records fewer samples
+    assert raw_g.data.shape[1] < raw_f.data.shape[1]  # the varied gate records fewer samples
     grid = dict(method="plain", azimuth_extent=90.0, range_extent=90.0, azimuth_spacing=0.25, range_spacing=0.22)
     img_g = pfa2(raw_g, Pfa2Params(**grid)).data
     img_f = pfa2(raw_f, Pfa2Params(**grid)).data
@@ -129,12 +162,23 @@ def test_varied_gate_and_fixed_gate_focus_to_the_same_image():
     assert diff < -50, diff
 
 
-SLIDING = merge(SMALL, {
-    "radar": {"prf": "320 Hz"}, "acquisition": {"mode": "sliding_spotlight"},
-    "effects": {"antenna": {"azimuth_beamwidth": "4 deg", "pattern": "rect", "rotation_range": "6 km"}},
-    "targets": {"frame": "ground_los", "grid": None,
-                "points": [{"name": "L", "azimuth": "-100 m"}, {"name": "C"},
-                           {"name": "R", "azimuth": "100 m", "range": "20 m"}]}})
+SLIDING = merge(
+    SMALL,
+    {
+        "radar": {"prf": "320 Hz"},
+        "acquisition": {"mode": "sliding_spotlight"},
+        "effects": {"antenna": {"azimuth_beamwidth": "4 deg", "pattern": "rect", "rotation_range": "6 km"}},
+        "targets": {
+            "frame": "ground_los",
+            "grid": None,
+            "points": [
+                {"name": "L", "azimuth": "-100 m"},
+                {"name": "C"},
+                {"name": "R", "azimuth": "100 m", "range": "20 m"},
+            ],
+        },
+    },
+)
 
 
 def test_subaperture_dealiasing_removes_the_fold(caplog):
@@ -150,20 +194,29 @@ def test_subaperture_dealiasing_removes_the_fold(caplog):
     r_off, r_on = evaluate_product(off), evaluate_product(on)
     for name in ("L", "R"):
         t_on, t_off = r_on.target(name), r_off.target(name)
-        assert t_on.peak_amplitude > 1.5 * t_off.peak_amplitude          # the folded energy is back
+        assert t_on.peak_amplitude > 1.5 * t_off.peak_amplitude  # the folded energy is back
         rng = t_on.axis("range")
         assert abs(rng.position_error_cells) < 0.1 and rng.pslr_db == pytest.approx(-13.26, abs=0.5)
         assert abs(t_on.axis("azimuth").position_error_cells) < 0.2
     assert r_on.false_target.level_db < -30
 
 
-@pytest.mark.parametrize("change", [
-    {"targets": {"frame": "ground_los", "grid": None,
-                 "points": [{"name": "C"}, {"name": "E", "azimuth": "54.6 m", "range": "54.6 m"}]}},
-    {"effects": {"range_gate": {"pulses_per_step": 1}}},
-    {"effects": {"range_gate": {"pulses_per_step": 62}}},
-    {"geometry": {"squint": "45 deg"}},
-], ids=["target-at-valid-radius", "gate-step-every-pulse", "gate-step-every-62", "squint-45"])
+@pytest.mark.parametrize(
+    "change",
+    [
+        {
+            "targets": {
+                "frame": "ground_los",
+                "grid": None,
+                "points": [{"name": "C"}, {"name": "E", "azimuth": "54.6 m", "range": "54.6 m"}],
+            }
+        },
+        {"effects": {"range_gate": {"pulses_per_step": 1}}},
+        {"effects": {"range_gate": {"pulses_per_step": 62}}},
+        {"geometry": {"squint": "45 deg"}},
+    ],
+    ids=["target-at-valid-radius", "gate-step-every-pulse", "gate-step-every-62", "squint-45"],
+)
 def test_hard_cases_stay_finite_and_focused(change):
     scene = merge(merge(SMALL, THREE), change)
     image = pfa2(simulate(scene_from_mapping(scene)), Pfa2Params(method="two_step"))
@@ -199,7 +252,7 @@ def test_subimage_tasks_are_pure_and_picklable():
 
     def mapper(func, tasks):
         tasks = list(tasks)
-        seen.extend(pickle.loads(pickle.dumps(t)) for t in tasks)      # every task survives pickling
+        seen.extend(pickle.loads(pickle.dumps(t)) for t in tasks)  # every task survives pickling
         with ThreadPoolExecutor(2) as pool:
             return list(pool.map(func, tasks))
 

@@ -15,8 +15,15 @@ from scipy.interpolate import CubicSpline
 
 from sarproc.focus.pfa.chain import Pfa2Params, antenna_positions, image_frame, pfa2
 from sarproc.focus.pfa.phase_history import compensate, reference_ranges
-from sarproc.focus.pfa.polar import (Interpolation, data_sampling, los_components, make_kgrid, polar_support,
-                                     polar_to_rect, wavenumbers)
+from sarproc.focus.pfa.polar import (
+    Interpolation,
+    data_sampling,
+    los_components,
+    make_kgrid,
+    polar_support,
+    polar_to_rect,
+    wavenumbers,
+)
 from sarproc.focus.pfa.two_step import local_irw, track_radius, track_residual
 from sarproc.product.config import load_yaml
 from sarproc.product.frames import make_frame
@@ -29,16 +36,24 @@ from conftest import merge
 
 SMALL = load_yaml(Path(__file__).resolve().parents[2] / "configs" / "nie2016_small.yaml")
 # the issue's motion: cross-track 0.4 m / 0.7 s, vertical 0.2 m / 1.1 s, along-track velocity error 0.3 m/s
-ISSUE_MOTION = {"effects": {"platform_motion": {
-    "cross_track_amplitude": "0.4 m", "cross_track_period": "0.7 s", "vertical_amplitude": "0.2 m",
-    "vertical_period": "1.1 s", "along_track_velocity_error": "0.3 m/s"}}}
+ISSUE_MOTION = {
+    "effects": {
+        "platform_motion": {
+            "cross_track_amplitude": "0.4 m",
+            "cross_track_period": "0.7 s",
+            "vertical_amplitude": "0.2 m",
+            "vertical_period": "1.1 s",
+            "along_track_velocity_error": "0.3 m/s",
+        }
+    }
+}
 CROSS_TRACK = {"effects": {"platform_motion": {"cross_track_amplitude": "0.4 m", "cross_track_period": "0.7 s"}}}
 CENTRE_ONLY = {"targets": {"frame": "ground_los", "grid": None, "points": [{"name": "C"}]}}
 
 
 def test_scene_centre_at_theory_under_cross_track_motion():
     raw = simulate(scene_from_mapping(merge(merge(SMALL, CENTRE_ONLY), CROSS_TRACK)))
-    assert np.ptp(antenna_positions(raw)[:, 1]) > 0.7          # the track really moves cross-track
+    assert np.ptp(antenna_positions(raw)[:, 1]) > 0.7  # the track really moves cross-track
     for method in ("plain", "two_step"):
         image = pfa2(raw, Pfa2Params(method=method))
         for ax in evaluate_product(image).target("C").axes:
@@ -50,8 +65,9 @@ def test_scene_centre_at_theory_under_cross_track_motion():
 
 def test_polar_samples_sit_at_the_true_k_of_a_curved_track():
     """LOSPI output at each (k_a, k_r) is the exact phase K (r_O - r_p) of the pulse and frequency that map there."""
-    point = {"targets": {"frame": "ground_los", "grid": None, "points": [{"name": "P", "azimuth": "43 m",
-                                                                          "range": "43 m"}]}}
+    point = {
+        "targets": {"frame": "ground_los", "grid": None, "points": [{"name": "P", "azimuth": "43 m", "range": "43 m"}]}
+    }
     raw = simulate(scene_from_mapping(merge(merge(SMALL, point), CROSS_TRACK)))
     frame = image_frame(raw)
     o, e_a, e_r = np.asarray(frame.origin), frame.u_azimuth, frame.u_range
@@ -64,8 +80,14 @@ def test_polar_samples_sit_at_the_true_k_of_a_curved_track():
     spec = polar_to_rect(ph, ua, ur, kg, Interpolation(azimuth_oversampling=2.0))[5:-5, 5:-5]
     ka, kr = np.meshgrid(kg.ka[5:-5], kg.kr[5:-5])
     # each k back to its pulse (fractional, along the recorded track) and wavenumber
-    t = np.interp(ka / kr, *((ua / ur, np.arange(len(ua))) if ua[1] / ur[1] > ua[0] / ur[0]
-                             else ((ua / ur)[::-1], np.arange(len(ua))[::-1])))
+    t = np.interp(
+        ka / kr,
+        *(
+            (ua / ur, np.arange(len(ua)))
+            if ua[1] / ur[1] > ua[0] / ur[0]
+            else ((ua / ur)[::-1], np.arange(len(ua))[::-1])
+        ),
+    )
     antenna = CubicSpline(np.arange(len(pos)), pos, axis=0)(t)
     los = antenna - o
     k = kr / (los / np.linalg.norm(los, axis=-1, keepdims=True) @ e_r)
@@ -80,8 +102,12 @@ def test_polar_samples_sit_at_the_true_k_of_a_curved_track():
 def _track(changes):
     """Recorded antenna positions (no echoes simulated) and the image frame of the scene."""
     scene = scene_from_mapping(merge(SMALL, changes))
-    frame = make_frame("ground_los", scene.radar, origin=scene.radar.scene_center,
-                       aperture_center=aperture_center_position(scene.radar))
+    frame = make_frame(
+        "ground_los",
+        scene.radar,
+        origin=scene.radar.scene_center,
+        aperture_center=aperture_center_position(scene.radar),
+    )
     return plan_simulation(scene).aux["platform_position"], frame
 
 
@@ -90,9 +116,9 @@ def test_track_radius_predicts_the_planar_wavefront_residual():
     straight, frame = _track({})
     curved, _ = _track(CROSS_TRACK)
     o, e_a, e_r = np.asarray(frame.origin), frame.u_azimuth, frame.u_range
-    assert track_residual(straight, o, e_a, e_r) < 0.01              # straight: r(theta) is smooth
+    assert track_residual(straight, o, e_a, e_r) < 0.01  # straight: r(theta) is smooth
     wiggle = track_residual(curved, o, e_a, e_r)
-    assert 0.25 < wiggle < 0.4                                        # ~ 0.4 m x the LOS's cross-track share
+    assert 0.25 < wiggle < 0.4  # ~ 0.4 m x the LOS's cross-track share
     band = np.array([-150e6, 150e6])
     k = wavenumbers(2e9, np.linspace(*band, 15))
     r0 = float(np.linalg.norm(curved[len(curved) // 2] - o))
@@ -127,8 +153,14 @@ def test_two_step_with_the_issues_motion_focuses_every_target():
     pos = antenna_positions(raw)
     r = raw.radar
     for rep, tg in zip(report.targets, image.targets):
-        theory = local_irw(pos, np.array([tg["x"], tg["y"], tg["z"]]), frame.u_azimuth, frame.u_range,
-                           r.carrier_frequency, (-r.bandwidth / 2, r.bandwidth / 2))
+        theory = local_irw(
+            pos,
+            np.array([tg["x"], tg["y"], tg["z"]]),
+            frame.u_azimuth,
+            frame.u_range,
+            r.carrier_frequency,
+            (-r.bandwidth / 2, r.bandwidth / 2),
+        )
         for ax, th in zip(rep.axes, theory):
             where = f"{rep.name}/{ax.axis}"
             assert abs(ax.irw / th - 1) < 0.05, where

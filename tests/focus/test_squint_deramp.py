@@ -73,7 +73,7 @@ def test_interpolation_kernels_reach_their_accuracy():
     n = 512
     spec = np.zeros(n, complex)
     spec[: n // 4] = rng.normal(size=n // 4) + 1j * rng.normal(size=n // 4)
-    spec = np.roll(spec, -n // 8)                      # band |f| < fs/8: 4x oversampled
+    spec = np.roll(spec, -n // 8)  # band |f| < fs/8: 4x oversampled
     x = np.fft.ifft(spec)
     pos = np.linspace(20, n - 20, 777)
     f = np.fft.fftfreq(n)
@@ -243,7 +243,7 @@ def test_exp2_small_flow2_focuses_all_flow1_degrades(exp2_small):
     centre = rep1.target("C").axis("azimuth")
     edge = rep1.target("E").axis("azimuth")
     assert abs(centre.pslr_db + 13.26) < 0.3
-    assert edge.pslr_db > centre.pslr_db + 1.5 and edge.islr_db > -9.0   # defocused away from the centre
+    assert edge.pslr_db > centre.pslr_db + 1.5 and edge.islr_db > -9.0  # defocused away from the centre
     # the special cases of the paper lose accuracy at the edges
     for variant in ("classic", "separated"):
         _, _, imv = run_chain(cfg, raw, ff={"output_frame": "lrwc", "nlcs_variant": variant})
@@ -257,8 +257,13 @@ def test_float64_intermediates_agree_with_the_complex64_default():
     peak (measured -136 dB)."""
     cfg = load_cfg("an2012_exp2_small.yaml")
     raw, _, img32 = run_chain(cfg, ff={"output_frame": "lrwc"})
-    _, _, img64 = run_chain(cfg, raw, pre={"precision": "float64"}, co={"precision": "float64"},
-                            ff={"precision": "float64", "output_frame": "lrwc"})
+    _, _, img64 = run_chain(
+        cfg,
+        raw,
+        pre={"precision": "float64"},
+        co={"precision": "float64"},
+        ff={"precision": "float64", "output_frame": "lrwc"},
+    )
     assert img32.data.dtype == np.complex64
     assert img32.history[-1]["parameters"]["precision"] == "float32"
     peak = np.abs(img64.data).max()
@@ -306,8 +311,13 @@ def _bp_on_image_grid(raw, img, half=40):
         A, R = np.meshgrid(az[ia], rg[ja], indexing="ij")
         pts = frame.to_xyz(A.ravel(), R.ravel())
         bp = backproject_points(rc, raw.coords["range_time"], pos, pos, pts, raw.radar.carrier_frequency)
-        chips[t["name"].decode()] = (bp.reshape(A.shape), img.data[ia, ja], az[ia], rg[ja],
-                                     (float(t["azimuth"]), float(t["range"])))
+        chips[t["name"].decode()] = (
+            bp.reshape(A.shape),
+            img.data[ia, ja],
+            az[ia],
+            rg[ja],
+            (float(t["azimuth"]), float(t["range"])),
+        )
     return chips
 
 
@@ -326,9 +336,11 @@ def _compare_with_bp(raw, img, pos_cells=0.1, irw_rel=0.03, db=0.5):
             assert abs(a.pslr_db - b.pslr_db) < db and abs(a.islr_db - b.islr_db) < db, (name, ax, a, b)
 
 
-BP_POINTS = [{"name": "C", "azimuth": "0 m", "range": "0 m"},
-             {"name": "P", "azimuth": "180 m", "range": "-300 m"},
-             {"name": "Q", "azimuth": "-150 m", "range": "250 m"}]
+BP_POINTS = [
+    {"name": "C", "azimuth": "0 m", "range": "0 m"},
+    {"name": "P", "azimuth": "180 m", "range": "-300 m"},
+    {"name": "Q", "azimuth": "-150 m", "range": "250 m"},
+]
 
 
 @pytest.mark.parametrize("squint", [0, 30, 45, 60])
@@ -358,9 +370,11 @@ def test_fast_chain_flow2_agrees_with_backprojection(squint):
 
 def _small(**over):
     cfg = load_cfg("an2012_exp1_small.yaml")
-    cfg["targets"]["points"] = [{"name": "C", "azimuth": "0 m", "range": "0 m"},
-                                {"name": "E", "azimuth": "200 m", "range": "500 m"},
-                                {"name": "W", "azimuth": "-200 m", "range": "-500 m"}]
+    cfg["targets"]["points"] = [
+        {"name": "C", "azimuth": "0 m", "range": "0 m"},
+        {"name": "E", "azimuth": "200 m", "range": "500 m"},
+        {"name": "W", "azimuth": "-200 m", "range": "-500 m"},
+    ]
     cfg["coarse_focus"] = {"scene_margin": "60 m"}
     cfg["fine_focus"] = {}
     for sec, val in over.items():
@@ -370,8 +384,12 @@ def _small(**over):
 
 def test_hard_800km_complex64():
     cfg = _small(geometry={"reference_range": "800 km"}, acquisition={"aperture_time": "0.25 s"})
-    raw, _, img = run_chain(cfg, ff={"output_frame": "lrwc", "precision": "float32"},
-                            pre={"precision": "float32"}, co={"precision": "float32"})
+    raw, _, img = run_chain(
+        cfg,
+        ff={"output_frame": "lrwc", "precision": "float32"},
+        pre={"precision": "float32"},
+        co={"precision": "float32"},
+    )
     assert raw.data.dtype == np.complex64 and np.all(np.isfinite(img.data))
     assert_within_tolerance(evaluate_product(img))
 
@@ -421,7 +439,7 @@ def test_hard_stolt_square_root_limit_is_masked():
     cfg = load_cfg("an2012_hard_sqrt_limit.yaml")
     raw, c, img = run_chain(cfg)
     limit = 2 * 10e9 * 100 * (1 - math.sin(math.radians(60))) / 299792458.0
-    assert c.attrs["azimuth_sampling_rate"] / 2 > limit          # the band edge f_a = F_a''/2 is beyond it
+    assert c.attrs["azimuth_sampling_rate"] / 2 > limit  # the band edge f_a = F_a''/2 is beyond it
     assert img.attrs["stolt_masked_fraction"] > 0.02
     assert np.all(np.isfinite(img.data))
     # the same data on a grid inside the limit: masking cost nothing (the signal band is inside)
@@ -453,6 +471,7 @@ def test_cli_chain_and_errors(tmp_path):
         assert r.exit_code == 0, r.output
     assert "flow 1" in r.output
     from sarproc.product.io import read_product
+
     img = read_product(tmp_path / "img.h5")
     assert img.kind == "image" and img.attrs["frame"]["name"] == "squint" and len(img.attrs["theoretical_irw"]) == 2
     assert [h["command"].split()[1] for h in img.history[-3:]] == ["preprocess", "coarse-focus", "fine-focus"]
@@ -478,8 +497,11 @@ def test_flow1_progress_covers_the_resampling():
     cfg["targets"]["points"] = [p for p in cfg["targets"]["points"] if p["name"] in ("C", "NE")]
     _, c, _ = run_chain(cfg, ff={"flow": 1})
     bars = []
-    img = fine_focus(c, build(FineFocusParams, {**(cfg["fine_focus"] or {}), "flow": 1, "flow1_geometry": "resample"}),
-                     progress=progress_recorder(bars))
+    img = fine_focus(
+        c,
+        build(FineFocusParams, {**(cfg["fine_focus"] or {}), "flow": 1, "flow1_geometry": "resample"}),
+        progress=progress_recorder(bars),
+    )
     assert img.attrs["flow"] == 1
     # range-frequency blocks, azimuth compression, the geometric resampling: each with its total
     assert_bars_complete(bars, count=3)

@@ -24,8 +24,10 @@ from tests.focus.test_squint_deramp import ROOT
 def reports():
     cfg = load_yaml(ROOT / "configs" / "bp_squint30.yaml")
     raw = simulate(scene_from_mapping({k: v for k, v in cfg.items() if k != "backproject"}))
-    return {fr: evaluate_product(backproject(raw, build(BackprojectParams, {**cfg["backproject"], "frame": fr})))
-            for fr in ("squint", "los")}
+    return {
+        fr: evaluate_product(backproject(raw, build(BackprojectParams, {**cfg["backproject"], "frame": fr})))
+        for fr in ("squint", "los")
+    }
 
 
 def test_squint_and_los_frames_agree_at_theory(reports):
@@ -33,11 +35,11 @@ def test_squint_and_los_frames_agree_at_theory(reports):
     for t in sq.targets:
         for ax in ("azimuth", "range"):
             a, b = t.axis(ax), los.target(t.name).axis(ax)
-            assert a.irw == pytest.approx(b.irw, rel=0.01), (t.name, ax)          # metres along the cut
+            assert a.irw == pytest.approx(b.irw, rel=0.01), (t.name, ax)  # metres along the cut
             assert a.irw_ratio == pytest.approx(b.irw_ratio, rel=0.01), (t.name, ax)
             assert abs(a.pslr_db - b.pslr_db) < 0.1 and abs(a.islr_db - b.islr_db) < 0.1, (t.name, ax)
             assert abs(a.irw_ratio - 1) < 0.03 and abs(a.pslr_db + 13.26) < 0.3 and abs(a.islr_db + 10.16) < 0.3
             assert not a.truncated
         az = t.axis("azimuth")
-        assert az.angle_deg == pytest.approx(30.0, abs=1.0)     # the ridge leans by the squint
-        assert t.image_axes[0].pslr_db < -20                     # what an image-axis cut would have reported
+        assert az.angle_deg == pytest.approx(30.0, abs=1.0)  # the ridge leans by the squint
+        assert t.image_axes[0].pslr_db < -20  # what an image-axis cut would have reported

@@ -12,8 +12,18 @@ from sarproc.product.budget import Plan, check_plan, parse_size, stored_bytes
 from sarproc.product.errors import InputError
 
 
-@pytest.mark.parametrize("text,n", [("4G", 4_000_000_000), ("500 MB", 500_000_000), ("2GiB", 2 * 1024**3),
-                                    ("1.5k", 1500), ("12345", 12345), ("1 KiB", 1024), ("3T", 3e12)])
+@pytest.mark.parametrize(
+    "text,n",
+    [
+        ("4G", 4_000_000_000),
+        ("500 MB", 500_000_000),
+        ("2GiB", 2 * 1024**3),
+        ("1.5k", 1500),
+        ("12345", 12345),
+        ("1 KiB", 1024),
+        ("3T", 3e12),
+    ],
+)
 def test_parse_size(text, n):
     assert parse_size(text) == n
 
@@ -33,8 +43,11 @@ def test_plan_that_fits_passes(tmp_path):
 
 
 def test_max_memory_refusal_names_the_option_and_the_fix(tmp_path):
-    with pytest.raises(InputError, match=r"stage: needs ~2 MB of working memory \(n x m\), above --max-memory 1 MB; "
-                                         "raise --max-memory"):
+    with pytest.raises(
+        InputError,
+        match=r"stage: needs ~2 MB of working memory \(n x m\), above --max-memory 1 MB; "
+        "raise --max-memory",
+    ):
         check_plan(plan(mem=2e6), [tmp_path / "o.h5"], max_memory=10**6)
 
 
@@ -47,6 +60,7 @@ def test_available_memory_refusal(tmp_path, monkeypatch):
 def test_free_space_refusal_names_the_output(tmp_path, monkeypatch):
     class St:
         f_bavail, f_frsize = 10, 4096
+
     monkeypatch.setattr(budget.os, "statvfs", lambda p: St)
     with pytest.raises(InputError, match=r"o.h5: the output needs ~1 MB \(n x m\) but .* has only 41 kB free"):
         check_plan(plan(out=1e6), [tmp_path / "o.h5"])

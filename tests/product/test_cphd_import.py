@@ -30,8 +30,13 @@ from sarproc.simulation.scene import scene_from_mapping  # noqa: E402
 from sarproc.simulation.simulate import simulate  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
-GEO = {"time": "2024-05-01T10:00:00Z", "latitude": "45 deg", "longitude": "7 deg", "height": "300 m",
-       "heading": "45 deg"}
+GEO = {
+    "time": "2024-05-01T10:00:00Z",
+    "latitude": "45 deg",
+    "longitude": "7 deg",
+    "height": "300 m",
+    "heading": "45 deg",
+}
 C = 299792458.0
 
 
@@ -44,6 +49,7 @@ def rel_db(a, b):
 
 
 # ---------------------------------------------------------------- pfa2 of an imported CPHD (sarproc's own file)
+
 
 def test_pfa2_focuses_an_imported_cphd_like_the_original(tmp_path):
     """simulate -> export CPHD -> import -> pfa2 equals simulate -> pfa2 (the reduced Table 1 scene).
@@ -62,8 +68,11 @@ def test_pfa2_focuses_an_imported_cphd_like_the_original(tmp_path):
     for method in ("plain", "two_step"):
         params = build(Pfa2Params, {**mapping["pfa2"], "method": method}, "t", "pfa2")
         a, b = pfa2(raw, params), pfa2(back, params)
-        assert a.data.shape == b.data.shape and a.attrs["subimages" if method == "two_step" else "method"] == \
-            b.attrs["subimages" if method == "two_step" else "method"]
+        assert (
+            a.data.shape == b.data.shape
+            and a.attrs["subimages" if method == "two_step" else "method"]
+            == b.attrs["subimages" if method == "two_step" else "method"]
+        )
         assert rel_db(a.data, b.data) < -100, method
 
 
@@ -76,10 +85,11 @@ def test_fft_length_does_not_jump_on_rounding():
         m_lo, _ = _fft_length(exact * (1 + 1e-15), pixel, n)
         m_hi, _ = _fft_length(exact * (1 - 1e-15), pixel, n)
         assert m_lo == m_hi
-    assert _fft_length(2 * math.pi / (405.5 * pixel), pixel, 10)[0] >= 406     # a real fraction still rounds up
+    assert _fft_length(2 * math.pi / (405.5 * pixel), pixel, 10)[0] >= 406  # a real fraction still rounds up
 
 
 # ---------------------------------------------------------------- files of other programs
+
 
 @pytest.fixture(scope="module")
 def demo():
@@ -119,7 +129,7 @@ def foreign_file(path, raw, place, *, band_wobble=0.0, offset_bins=None, srp_mot
     srp = srp0 + srp_motion * (np.sin(arc)[:, None] * ux + 0.5 * (1 - np.cos(arc))[:, None] * uy)
     tau = 2 * np.linalg.norm(pos - srp, axis=1) / C
     delta = np.zeros(n_vec) if offset_bins is None else np.asarray(offset_bins, float)
-    fb = (np.arange(n_fft) - n_fft // 2)[None, :] * df + delta[:, None] * df     # (vectors, bins)
+    fb = (np.arange(n_fft) - n_fft // 2)[None, :] * df + delta[:, None] * df  # (vectors, bins)
     # X(fb) of each pulse and H(fb) of the chirp at these frequencies: modulate, then FFT (exact DTFT samples)
     n = np.arange(n_range)
     x = sfft.fft(raw.data * np.exp(-2j * np.pi * delta[:, None] * df * n[None, :] / fs), n=n_fft, axis=-1)
@@ -127,7 +137,7 @@ def foreign_file(path, raw, place, *, band_wobble=0.0, offset_bins=None, srp_mot
     k = np.arange(-half, half + 1)
     circ = np.zeros((n_vec, n_fft), complex)
     hk = h[None, :] * np.exp(-2j * np.pi * delta[:, None] * df * k[None, :] / fs)
-    circ[:, : half + 1], circ[:, n_fft - half:] = hk[:, half:], hk[:, :half]
+    circ[:, : half + 1], circ[:, n_fft - half :] = hk[:, half:], hk[:, :half]
     hf = sfft.fft(circ, axis=-1)
     x, hf = np.fft.fftshift(x, axes=-1), np.fft.fftshift(hf, axes=-1)
     f = r.carrier_frequency + fb
@@ -152,7 +162,7 @@ def foreign_file(path, raw, place, *, band_wobble=0.0, offset_bins=None, srp_mot
         dtoa = centre[:, None] + (np.arange(n_fft) - n_fft // 2)[None, :] / fs
         inband = (f >= fx1[:, None] - 1e-6) & (f <= fx2[:, None] + 1e-6)
         sig = np.empty_like(s)
-        for v in range(n_vec):                      # plain matmul: independent of the importer's chirp-z
+        for v in range(n_vec):  # plain matmul: independent of the importer's chirp-z
             e = np.exp(2j * np.pi * np.outer(dtoa[v], f[v, inband[v]] - fxc[v]))
             sig[v] = df * (e @ s[v, inband[v]])
         s = sig
@@ -189,8 +199,16 @@ def _patches(raw, place):
 def _focus(p, points, upsample=8):
     rc = range_compress(p.data, p.radar)
     pos = p.aux["platform_position"]
-    return backproject_points(rc, p.coords["range_time"], pos, pos, points, p.radar.carrier_frequency,
-                              gate_offset=p.aux.get("range_gate_offset"), upsample=upsample)
+    return backproject_points(
+        rc,
+        p.coords["range_time"],
+        pos,
+        pos,
+        points,
+        p.radar.carrier_frequency,
+        gate_offset=p.aux.get("range_gate_offset"),
+        upsample=upsample,
+    )
 
 
 def test_standard_only_import_matches_the_original_up_to_the_comparators_interpolation(demo, reference, tmp_path):
@@ -229,12 +247,15 @@ def test_fixed_fx_file_from_the_helper_matches_the_exporter(demo, tmp_path):
     assert rel_db(sig, mine) < -100
 
 
-@pytest.mark.parametrize("case, kwargs, within", [
-    # per-vector FX1/FX2 (up to 2 % of B inwards) and sub-bin SC0 (+-0.45 SCSS), SRP moving 3 m
-    ("fx-varying", {"band_wobble": 0.02, "srp_motion": 3.0, "offsets": 0.45}, -60),
-    ("toa", {"domain": "TOA"}, -100),
-    ("toa-moving-srp", {"domain": "TOA", "srp_motion": 3.0}, -100),
-])
+@pytest.mark.parametrize(
+    "case, kwargs, within",
+    [
+        # per-vector FX1/FX2 (up to 2 % of B inwards) and sub-bin SC0 (+-0.45 SCSS), SRP moving 3 m
+        ("fx-varying", {"band_wobble": 0.02, "srp_motion": 3.0, "offsets": 0.45}, -60),
+        ("toa", {"domain": "TOA"}, -100),
+        ("toa-moving-srp", {"domain": "TOA", "srp_motion": 3.0}, -100),
+    ],
+)
 def test_foreign_files_focus_like_the_standard_fx_file(demo, reference, tmp_path, case, kwargs, within):
     """Backprojection at the targets of the imported file against that of the fixed-band, fixed-SRP file.
 
@@ -247,7 +268,7 @@ def test_foreign_files_focus_like_the_standard_fx_file(demo, reference, tmp_path
     n_vec = raw.data.shape[0]
     off = None if offsets is None else offsets * np.sin(np.linspace(0, 7, n_vec))
     if off is not None:
-        off[n_vec // 2] = 0.0                         # the reference vector keeps the grid of the fixed file
+        off[n_vec // 2] = 0.0  # the reference vector keeps the grid of the fixed file
     path = foreign_file(tmp_path / f"{case}.cphd", raw, place, offset_bins=off, **kwargs)
     other = read_cphd(path)
     original, fixed, local = reference
@@ -264,7 +285,7 @@ def test_foreign_files_focus_like_the_standard_fx_file(demo, reference, tmp_path
     level = rel_db(fixed, got)
     print(f"{case}: against the fixed-FX import {level:.1f} dB, against the original {rel_db(original, got):.1f} dB")
     assert level < within
-    assert rel_db(original, got) < -30      # fx-varying: a narrower band; else the comparator's -50 dB (test above)
+    assert rel_db(original, got) < -30  # fx-varying: a narrower band; else the comparator's -50 dB (test above)
 
 
 def _narrow(path, lo, hi):
@@ -288,8 +309,10 @@ def test_foreign_files_pass_sarkits_checker(demo, tmp_path):
 
     raw, place = demo
     off = 0.3 * np.sin(np.linspace(0, 7, raw.data.shape[0]))
-    for name, kw in (("v.cphd", {"band_wobble": 0.02, "srp_motion": 3.0, "offset_bins": off}),
-                     ("t.cphd", {"domain": "TOA"})):
+    for name, kw in (
+        ("v.cphd", {"band_wobble": 0.02, "srp_motion": 3.0, "offset_bins": off}),
+        ("t.cphd", {"domain": "TOA"}),
+    ):
         result = check_cphd(foreign_file(tmp_path / name, raw, place, **kw))
         assert result["errors"] == [], (name, result["report"])
 
@@ -306,7 +329,7 @@ def test_refusals_name_the_file_and_field(demo, tmp_path):
         sig, pv = reader.read_channel("sarproc-channel-1")
     pv = pv.copy()
     top, width = pv["FX2"].max(), pv["FX2"].max() - pv["FX1"].min()
-    pv["FX1"][: len(pv) // 2], pv["FX2"][: len(pv) // 2] = top - 0.1 * width, top   # half the vectors above the rest
+    pv["FX1"][: len(pv) // 2], pv["FX2"][: len(pv) // 2] = top - 0.1 * width, top  # half the vectors above the rest
     with open(path, "wb") as fh, skcphd.Writer(fh, skcphd.Metadata(xmltree=tree)) as writer:
         writer.write_signal("sarproc-channel-1", sig)
         writer.write_pvp("sarproc-channel-1", pv)
@@ -344,8 +367,20 @@ def test_pfa2_focuses_a_standard_only_import(tmp_path):
     grid = {"azimuth_extent": "60 m", "range_extent": "60 m", "azimuth_spacing": "0.25 m", "range_spacing": "0.25 m"}
     for method in ("plain", "two_step"):
         b = pfa2(other, build(Pfa2Params, {**grid, "method": method}, "t", "pfa2"))
-        a = pfa2(raw, build(Pfa2Params, {**grid, "method": method, "azimuth_center": "0 m",
-                                         "range_center": f"{image_frame(raw).ground_range} m"}, "t", "pfa2"))
+        a = pfa2(
+            raw,
+            build(
+                Pfa2Params,
+                {
+                    **grid,
+                    "method": method,
+                    "azimuth_center": "0 m",
+                    "range_center": f"{image_frame(raw).ground_range} m",
+                },
+                "t",
+                "pfa2",
+            ),
+        )
         assert a.data.shape == b.data.shape == (240, 240)
         assert np.argmax(np.abs(a.data)) == np.argmax(np.abs(b.data))
         scale = np.vdot(b.data, a.data) / np.vdot(b.data, b.data)

@@ -15,17 +15,33 @@ from sarproc.focus.backprojection import BackprojectParams, backproject  # noqa:
 from sarproc.product.config import build, load_yaml  # noqa: E402
 from sarproc.product.cphd import check_cphd, read_cphd, write_cphd  # noqa: E402
 from sarproc.product.errors import InputError  # noqa: E402
-from sarproc.product.geolocation import (GeolocationParams, ecf_to_geodetic, geodetic_to_ecf,  # noqa: E402
-                                         placement)
-from sarproc.product.sicd import (check_sicd, image_from_sicd, local_support_offsets, read_sicd,  # noqa: E402
-                                  sarpy_check, sicd_pixels, write_sicd)
+from sarproc.product.geolocation import (
+    GeolocationParams,
+    ecf_to_geodetic,
+    geodetic_to_ecf,  # noqa: E402
+    placement,
+)
+from sarproc.product.sicd import (
+    check_sicd,
+    image_from_sicd,
+    local_support_offsets,
+    read_sicd,  # noqa: E402
+    sarpy_check,
+    sicd_pixels,
+    write_sicd,
+)
 from sarproc.simulation.scene import scene_from_mapping  # noqa: E402
 from sarproc.simulation.simulate import simulate  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 # somewhere real: 45 deg N, 7 deg E, 300 m, flying north-east
-GEO = {"time": "2024-05-01T10:00:00Z", "latitude": "45 deg", "longitude": "7 deg", "height": "300 m",
-       "heading": "45 deg"}
+GEO = {
+    "time": "2024-05-01T10:00:00Z",
+    "latitude": "45 deg",
+    "longitude": "7 deg",
+    "height": "300 m",
+    "heading": "45 deg",
+}
 
 
 def db(x):
@@ -47,19 +63,24 @@ def place(demo):
 
 
 def test_geodetic_round_trip_and_placement_is_rigid(demo, place):
-    for lat, lon, h in ((0.0, 0.0, 0.0), (math.radians(45), math.radians(7), 300.0),
-                        (math.radians(-89.9), math.radians(-179), 8000.0)):
+    for lat, lon, h in (
+        (0.0, 0.0, 0.0),
+        (math.radians(45), math.radians(7), 300.0),
+        (math.radians(-89.9), math.radians(-179), 8000.0),
+    ):
         back = ecf_to_geodetic(geodetic_to_ecf(lat, lon, h))
         assert np.allclose(back, (lat, lon, h), atol=1e-9)
     assert np.allclose(ecf_to_geodetic(place.origin_ecf), place.lat_lon_height, atol=1e-9)
     pos = demo[0].aux["platform_position"]
     ecf = place.to_ecf(pos)
     # distances and the scene frame survive the map (round trip to a nanometre)
-    assert np.allclose(np.linalg.norm(np.diff(ecf, axis=0), axis=1), np.linalg.norm(np.diff(pos, axis=0), axis=1),
-                       rtol=1e-12)
+    assert np.allclose(
+        np.linalg.norm(np.diff(ecf, axis=0), axis=1), np.linalg.norm(np.diff(pos, axis=0), axis=1), rtol=1e-12
+    )
     assert np.abs(place.from_ecf(ecf) - pos).max() < 1e-6
     # +x flies at the heading: 45 deg from north towards east
     from sarproc.product.geolocation import enu_axes
+
     east, north, up = enu_axes(*place.lat_lon_height[:2])
     x = place.rotation[:, 0]
     assert math.degrees(math.atan2(x @ east, x @ north)) == pytest.approx(45.0, abs=1e-9)
@@ -100,12 +121,19 @@ def test_cphd_of_another_program_is_imported_from_its_standard_fields(demo, plac
     def focus(p, points):
         rc = range_compress(p.data, p.radar)
         pos = p.aux["platform_position"]
-        return backproject_points(rc, p.coords["range_time"], pos, pos, points, p.radar.carrier_frequency,
-                                  gate_offset=p.aux.get("range_gate_offset"))
+        return backproject_points(
+            rc,
+            p.coords["range_time"],
+            pos,
+            pos,
+            points,
+            p.radar.carrier_frequency,
+            gate_offset=p.aux.get("range_gate_offset"),
+        )
 
     a = focus(raw, pts)
     b = focus(other, place.from_ecf(place.to_ecf(pts)) - np.asarray(raw.radar.scene_center))
-    assert db(np.abs(a - b).max() / np.abs(a).max()) < -40   # measured -50.6 dB
+    assert db(np.abs(a - b).max() / np.abs(a).max()) < -40  # measured -50.6 dB
 
 
 def test_cphd_signal_is_the_compensated_phase_history(scene_mapping, tmp_path):
@@ -116,10 +144,17 @@ def test_cphd_signal_is_the_compensated_phase_history(scene_mapping, tmp_path):
     from sarproc.product.metadata import C
 
     points = [{"name": "SRP", "azimuth": "0 m", "range": "0 m", "phase": "40 deg"}]
-    raw = simulate(scene_from_mapping(scene_mapping(targets={"frame": "squint", "origin": "scene_center",
-                                                             "points": points}), "t"))
-    raw_far = simulate(scene_from_mapping(scene_mapping(targets={"frame": "squint", "origin": "scene_center",
-                                                                 "points": [{**points[0], "range": "3 m"}]}), "t"))
+    raw = simulate(
+        scene_from_mapping(scene_mapping(targets={"frame": "squint", "origin": "scene_center", "points": points}), "t")
+    )
+    raw_far = simulate(
+        scene_from_mapping(
+            scene_mapping(
+                targets={"frame": "squint", "origin": "scene_center", "points": [{**points[0], "range": "3 m"}]}
+            ),
+            "t",
+        )
+    )
     place = placement(raw.radar, build(GeolocationParams, GEO, "test", "geolocation"))
     phases = []
     for product, name in ((raw, "a.cphd"), (raw_far, "b.cphd")):
@@ -134,7 +169,7 @@ def test_cphd_signal_is_the_compensated_phase_history(scene_mapping, tmp_path):
     # vector holds the target's own phase, up to the ripple of a sampled finite chirp (TBP 100)
     assert np.abs(flat.mean(axis=1) - math.radians(40)).max() < 0.01
     assert np.abs(flat - math.radians(40)).max() < 0.15
-    slope = np.polyfit(f[band], (phases[1] - phases[0]).mean(axis=0), 1)[0]   # rad / Hz
+    slope = np.polyfit(f[band], (phases[1] - phases[0]).mean(axis=0), 1)[0]  # rad / Hz
     assert slope == pytest.approx(-2 * np.pi * 2 * 3.0 / C, rel=0.02)
     assert np.all(pvps["RcvTime"] > pvps["TxTime"])
 
@@ -238,7 +273,7 @@ def test_sicd_for_older_readers_passes_sarpy(demo, place, tmp_path):
     for version in ("1.3.0", "1.4.0"):
         path = tmp_path / f"image_{version}.nitf"
         grid = write_sicd(path, image, place, version=version)
-        result = check_sicd(path)                      # sarkit checks against the version's own schema
+        result = check_sicd(path)  # sarkit checks against the version's own schema
         assert result["passed"] and result["errors"] == [], result["report"]
         tree, pixels = read_sicd(path)
         assert tree.getroot().tag == f"{{urn:SICD:{version}}}SICD"
@@ -246,7 +281,7 @@ def test_sicd_for_older_readers_passes_sarpy(demo, place, tmp_path):
         sarpy = sarpy_check(path)
         if version == "1.3.0":
             assert sarpy["valid"] and sarpy["errors"] == [], sarpy
-        else:   # sarpy (2.1.1) knows SICD up to 1.3.0: its only complaints are the namespace it does not know
+        else:  # sarpy (2.1.1) knows SICD up to 1.3.0: its only complaints are the namespace it does not know
             assert len(sarpy["errors"]) == 2, sarpy["errors"]
             assert all("namespace" in e or "urn" in e for e in sarpy["errors"]), sarpy["errors"]
     with pytest.raises(InputError, match="version"):
@@ -273,16 +308,47 @@ def test_format_commands(demo, tmp_path):
     write_product(tmp_path / "image.h5", image)
     (tmp_path / "geo.yaml").write_text(yaml.safe_dump({"geolocation": GEO}))
     run = CliRunner().invoke
-    res = run(cli, ["export-sicd", str(tmp_path / "image.h5"), "-o", str(tmp_path / "image.nitf"),
-                    "--config", str(tmp_path / "geo.yaml"), "--check-report", str(tmp_path / "sicd.json")])
+    res = run(
+        cli,
+        [
+            "export-sicd",
+            str(tmp_path / "image.h5"),
+            "-o",
+            str(tmp_path / "image.nitf"),
+            "--config",
+            str(tmp_path / "geo.yaml"),
+            "--check-report",
+            str(tmp_path / "sicd.json"),
+        ],
+    )
     assert res.exit_code == 0, res.output
     assert "SICD consistency: PASS" in res.output and "pixels read back identical" in res.output
-    res = run(cli, ["export-sicd", str(tmp_path / "image.h5"), "-o", str(tmp_path / "image13.nitf"),
-                    "--config", str(tmp_path / "geo.yaml"), "--sicd-version", "1.3.0"])
+    res = run(
+        cli,
+        [
+            "export-sicd",
+            str(tmp_path / "image.h5"),
+            "-o",
+            str(tmp_path / "image13.nitf"),
+            "--config",
+            str(tmp_path / "geo.yaml"),
+            "--sicd-version",
+            "1.3.0",
+        ],
+    )
     assert res.exit_code == 0 and "SICD 1.3.0" in res.output and "SICD consistency: PASS" in res.output, res.output
     assert read_sicd(tmp_path / "image13.nitf")[0].getroot().tag == "{urn:SICD:1.3.0}SICD"
-    res = run(cli, ["export-cphd", str(tmp_path / "raw.h5"), "-o", str(tmp_path / "raw.cphd"),
-                    "--config", str(tmp_path / "geo.yaml")])
+    res = run(
+        cli,
+        [
+            "export-cphd",
+            str(tmp_path / "raw.h5"),
+            "-o",
+            str(tmp_path / "raw.cphd"),
+            "--config",
+            str(tmp_path / "geo.yaml"),
+        ],
+    )
     assert res.exit_code == 0 and "CPHD consistency: PASS (" in res.output, res.output
     res = run(cli, ["import-cphd", str(tmp_path / "raw.cphd"), "-o", str(tmp_path / "back.h5")])
     assert res.exit_code == 0, res.output
@@ -291,6 +357,15 @@ def test_format_commands(demo, tmp_path):
     res = run(cli, ["export-sicd", str(tmp_path / "raw.h5"), "-o", str(tmp_path / "x.nitf")])
     assert res.exit_code == 2 and "image" in res.output
     (tmp_path / "bad.yaml").write_text(yaml.safe_dump({"geolocation": {"latitude": "95 deg", "longitude": 0}}))
-    res = run(cli, ["export-cphd", str(tmp_path / "raw.h5"), "-o", str(tmp_path / "y.cphd"),
-                    "--config", str(tmp_path / "bad.yaml")])
+    res = run(
+        cli,
+        [
+            "export-cphd",
+            str(tmp_path / "raw.h5"),
+            "-o",
+            str(tmp_path / "y.cphd"),
+            "--config",
+            str(tmp_path / "bad.yaml"),
+        ],
+    )
     assert res.exit_code == 2 and "geolocation.latitude" in res.output

@@ -16,7 +16,9 @@ def _phase_history(n_freq, n_pulses=32, ascending=True):
     640 MHz in n_freq samples (n_freq = 256: 60 m unambiguous range, the targets lie within +-30 m)."""
     th = np.radians(np.linspace(0.0, 2.0, n_pulses))
     el, rng = np.radians(45.0), 10e3
-    pos = np.stack([rng * np.cos(el) * np.cos(th), rng * np.cos(el) * np.sin(th), np.full(n_pulses, rng * np.sin(el))], 1)
+    pos = np.stack(
+        [rng * np.cos(el) * np.cos(th), rng * np.cos(el) * np.sin(th), np.full(n_pulses, rng * np.sin(el))], 1
+    )
     r0 = np.linalg.norm(pos, axis=1)
     freq = 9.3e9 + 640e6 / n_freq * np.arange(n_freq)
     s = np.zeros((n_pulses, n_freq), complex)
@@ -49,8 +51,16 @@ def test_backprojection_is_the_exact_matched_filter():
     a = np.linspace(-2.0, 2.0, 11)
     pts = np.concatenate([np.stack(np.meshgrid(t[0] + a, t[1] + a, [0.0]), -1).reshape(-1, 3) for t in TARGETS])
     pos = g["positions"]
-    img = backproject_points(raw.data, raw.coords["range_time"], pos, pos, pts, raw.radar.carrier_frequency,
-                             gate_offset=raw.aux["range_gate_offset"], upsample=32)
+    img = backproject_points(
+        raw.data,
+        raw.coords["range_time"],
+        pos,
+        pos,
+        pts,
+        raw.radar.carrier_frequency,
+        gate_offset=raw.aux["range_gate_offset"],
+        upsample=32,
+    )
     exact = np.zeros(len(pts), complex)
     for p in range(len(pos)):
         dr = np.linalg.norm(pos[p] - pts, axis=1) - g["r0"][p]

@@ -12,10 +12,23 @@ from sarproc.product.model import Product, make_targets
 
 
 def radar(**kw):
-    base = dict(carrier_frequency=9.65e9, bandwidth=1.5e8, pulse_duration=1.3e-6, chirp_rate=-1.5e8 / 1.3e-6,
-                range_sampling_rate=1.8e8, prf=1234.5678, velocity=7012.25, altitude=0.0,
-                squint=0.5235987755982988, reference_range=300e3, scene_center=(1.5e5, 259807.62113533, 0.0),
-                mode="spotlight", azimuth_beamwidth=0.0123, aperture_time=0.2852, n_channels=1)
+    base = dict(
+        carrier_frequency=9.65e9,
+        bandwidth=1.5e8,
+        pulse_duration=1.3e-6,
+        chirp_rate=-1.5e8 / 1.3e-6,
+        range_sampling_rate=1.8e8,
+        prf=1234.5678,
+        velocity=7012.25,
+        altitude=0.0,
+        squint=0.5235987755982988,
+        reference_range=300e3,
+        scene_center=(1.5e5, 259807.62113533, 0.0),
+        mode="spotlight",
+        azimuth_beamwidth=0.0123,
+        aperture_time=0.2852,
+        n_channels=1,
+    )
     base.update(kw)
     return RadarMetadata(**base)
 
@@ -23,10 +36,19 @@ def radar(**kw):
 def image_product(n_az=8, n_rg=6):
     data = (np.arange(n_az * n_rg).reshape(n_az, n_rg) * (1 + 2j)).astype(np.complex64)
     coords = {"azimuth": np.linspace(-1, 1, n_az), "range": 300e3 + np.arange(n_rg) * 0.5}
-    targets = make_targets(["A", "B"], [[0, 1, 2], [3, 4, 5]], [1, 0.5j], frame_coords=([0, 1], [300e3, 300e3 + 1], [0, 0]))
-    return Product("image", data, ("azimuth", "range"), coords, radar(), targets,
-                   attrs={"frame": {"name": "squint", "squint": 0.5, "altitude": 0.0}, "theoretical_irw": [0.9, 0.8]},
-                   history=[{"command": "test", "parameters": {"a": 1}}])
+    targets = make_targets(
+        ["A", "B"], [[0, 1, 2], [3, 4, 5]], [1, 0.5j], frame_coords=([0, 1], [300e3, 300e3 + 1], [0, 0])
+    )
+    return Product(
+        "image",
+        data,
+        ("azimuth", "range"),
+        coords,
+        radar(),
+        targets,
+        attrs={"frame": {"name": "squint", "squint": 0.5, "altitude": 0.0}, "theoretical_irw": [0.9, 0.8]},
+        history=[{"command": "test", "parameters": {"a": 1}}],
+    )
 
 
 def test_radar_metadata_roundtrips_exactly(tmp_path):

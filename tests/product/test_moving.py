@@ -47,18 +47,21 @@ def peak_error_cells(rec, times=None):
     """Backproject ``rec`` around its targets' apparent positions; position errors (cells) of the peaks there."""
     frame = make_frame("squint", rec.radar)
     moved = copy.copy(rec)
-    moved.targets = moving.apparent_targets(rec.targets, rec.radar, moving.pulse_times(rec) if times is None
-                                            else times, frame, moving.phase_centres(rec))
-    for v in ("vx", "vy", "vz"):          # judged as static points at S, independently of backproject / evaluate
+    moved.targets = moving.apparent_targets(
+        rec.targets, rec.radar, moving.pulse_times(rec) if times is None else times, frame, moving.phase_centres(rec)
+    )
+    for v in ("vx", "vy", "vz"):  # judged as static points at S, independently of backproject / evaluate
         moved.targets[v] = 0.0
     img = backproject(moved, BackprojectParams(oversample=2.0, margin_cells=16))
     report = evaluate_product(img, EvaluateParams(guard_cells=10))
-    return {t.name: (t.axis("azimuth").position_error_cells, t.axis("range").position_error_cells)
-            for t in report.targets}, moved.targets
+    return {
+        t.name: (t.axis("azimuth").position_error_cells, t.axis("range").position_error_cells) for t in report.targets
+    }, moved.targets
 
 
-@pytest.mark.parametrize("squint, v_a, v_r", [("0 deg", 0.0, 5.0), ("20 deg", 0.0, -8.0), ("20 deg", 3.0, 6.0),
-                                              ("-10 deg", -4.0, 0.0)])
+@pytest.mark.parametrize(
+    "squint, v_a, v_r", [("0 deg", 0.0, 5.0), ("20 deg", 0.0, -8.0), ("20 deg", 3.0, 6.0), ("-10 deg", -4.0, 0.0)]
+)
 def test_single_channel_mover_focuses_at_its_apparent_position(squint, v_a, v_r):
     raw = single_channel([mover(v_a, v_r)], squint=squint)
     errors, moved = peak_error_cells(raw)
@@ -69,11 +72,13 @@ def test_single_channel_mover_focuses_at_its_apparent_position(squint, v_a, v_r)
     assert shift > 20 * 1.5, "the test needs a shift of many cells to mean something"
     assert abs(az) < 0.1 and abs(rg) < 0.1, (az, rg, shift)
     # the first-order rule of thumb agrees with the exact model to a few per cent of the shift
-    s, t_c = moving.apparent_position(raw.radar, moving.pulse_times(raw), [truth["x"], truth["y"], truth["z"]],
-                                      [v_a, v_r, 0.0])
+    s, t_c = moving.apparent_position(
+        raw.radar, moving.pulse_times(raw), [truth["x"], truth["y"], truth["z"]], [v_a, v_r, 0.0]
+    )
     at_tc = frame.from_xyz(np.array([truth["x"], truth["y"], truth["z"]]) + t_c * np.array([v_a, v_r, 0.0]))
-    d_az, d_rg = moving.first_order_shift(raw.radar, raw.radar.reference_range, v_a, v_r,
-                                          squint=math.radians(float(squint.split()[0])))
+    d_az, d_rg = moving.first_order_shift(
+        raw.radar, raw.radar.reference_range, v_a, v_r, squint=math.radians(float(squint.split()[0]))
+    )
     got = np.array(frame.from_xyz(s)) - np.array(at_tc)
     assert got == pytest.approx([d_az, d_rg], abs=0.02 * np.hypot(d_az, d_rg) + 0.5)
 
@@ -88,7 +93,7 @@ def test_multichannel_movers_focus_at_their_apparent_positions():
     raw = simulate(scene_from_mapping(m))
     rec = reconstruct(raw, ReconstructParams(radial_velocity=7.0, along_track_velocity=6.0))
     errors, moved = peak_error_cells(rec)
-    assert abs(moved["azimuth"][0]) > 500          # about -R v_los / (v cos^2): 720 m
+    assert abs(moved["azimuth"][0]) > 500  # about -R v_los / (v cos^2): 720 m
     assert abs(errors["C"][0]) < 0.1 and abs(errors["C"][1]) < 0.1, errors
 
 
@@ -110,8 +115,10 @@ def test_illumination_centre_follows_the_data_window():
     radar = scene_from_mapping(load_yaml(CONFIG)).radar
     times = (np.arange(601) - 300) / 1000.0
     y = radar.scene_center[1]
-    centres = [moving.illumination_centre_time(radar, times, [radar.scene_center[0] + x, y, 0.0], [0, 0, 0])
-               for x in (0.0, 0.4, 0.8)]
+    centres = [
+        moving.illumination_centre_time(radar, times, [radar.scene_center[0] + x, y, 0.0], [0, 0, 0])
+        for x in (0.0, 0.4, 0.8)
+    ]
     # interior: beam crossing at x / v, interpolated between pulses (not stepping by 1 / PRF)
     assert np.diff(centres) == pytest.approx([0.4 / radar.velocity] * 2, rel=0.02)
     # an edge target: illuminated from some pulse to the last one -> centre between them, not its crossing

@@ -17,14 +17,19 @@ from sarproc.product.metadata import RADAR_UNITS, RadarMetadata, parse_utc
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
 
-REFERENCE = {"time": "2024-05-01T12:30:00.25+02:00", "latitude": "48.137 deg", "longitude": "-11.575 deg",
-             "height": "520 m"}
+REFERENCE = {
+    "time": "2024-05-01T12:30:00.25+02:00",
+    "latitude": "48.137 deg",
+    "longitude": "-11.575 deg",
+    "height": "520 m",
+}
 
 
 @pytest.fixture
 def raw(scene_mapping):
-    scene = scene_from_mapping(scene_mapping(acquisition={"mode": "spotlight", "aperture_time": "0.1 s"},
-                                             reference=REFERENCE))
+    scene = scene_from_mapping(
+        scene_mapping(acquisition={"mode": "spotlight", "aperture_time": "0.1 s"}, reference=REFERENCE)
+    )
     return simulate(scene)
 
 
@@ -37,10 +42,13 @@ def test_reference_reaches_the_radar_metadata_in_si(raw):
 
 
 def test_metadata_roundtrip_is_lossless_with_and_without_reference(raw, tmp_path):
-    for radar in (raw.radar, raw.radar.replace(reference_utc=None, reference_latitude=None,
-                                               reference_longitude=None, reference_height=None)):
-        write_product(tmp_path / "p.h5", raw.derive(raw.kind, raw.data, raw.dims, raw.coords, radar=radar),
-                      overwrite=True)
+    for radar in (
+        raw.radar,
+        raw.radar.replace(reference_utc=None, reference_latitude=None, reference_longitude=None, reference_height=None),
+    ):
+        write_product(
+            tmp_path / "p.h5", raw.derive(raw.kind, raw.data, raw.dims, raw.coords, radar=radar), overwrite=True
+        )
         assert read_product(tmp_path / "p.h5").radar == radar
 
 
@@ -50,7 +58,7 @@ def test_every_dataset_and_radar_attribute_has_a_unit(raw, tmp_path):
         seen = []
         f.visititems(lambda name, obj: seen.append((name, obj)) if isinstance(obj, h5py.Dataset) else None)
         for name, d in seen:
-            if d.dtype.names:            # the compound targets table: one unit per field
+            if d.dtype.names:  # the compound targets table: one unit per field
                 units = json.loads(d.attrs["field_units"])
                 assert set(units) == set(d.dtype.names), name
             else:
@@ -84,11 +92,14 @@ def test_aux_scales_are_not_read_back_as_aux_arrays(raw, tmp_path):
         np.testing.assert_array_equal(back.aux[k], raw.aux[k])
 
 
-@pytest.mark.parametrize("text,canonical", [
-    ("2024-05-01T10:00:00Z", "2024-05-01T10:00:00.000000Z"),
-    ("2024-05-01T12:00:00+02:00", "2024-05-01T10:00:00.000000Z"),
-    ("2024-12-31T23:59:59.999999-01:00", "2025-01-01T00:59:59.999999Z"),
-])
+@pytest.mark.parametrize(
+    "text,canonical",
+    [
+        ("2024-05-01T10:00:00Z", "2024-05-01T10:00:00.000000Z"),
+        ("2024-05-01T12:00:00+02:00", "2024-05-01T10:00:00.000000Z"),
+        ("2024-12-31T23:59:59.999999-01:00", "2025-01-01T00:59:59.999999Z"),
+    ],
+)
 def test_utc_canonical_form(text, canonical):
     assert parse_utc(text) == canonical
 

@@ -24,8 +24,13 @@ from sarproc.simulation.scene import scene_from_mapping  # noqa: E402
 from sarproc.simulation.simulate import simulate  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
-GEO = {"time": "2024-05-01T10:00:00Z", "latitude": "45 deg", "longitude": "7 deg", "height": "300 m",
-       "heading": "45 deg"}
+GEO = {
+    "time": "2024-05-01T10:00:00Z",
+    "latitude": "45 deg",
+    "longitude": "7 deg",
+    "height": "300 m",
+    "heading": "45 deg",
+}
 OSR_WARNINGS = {"check_iprbw_to_ss_osr_row", "check_iprbw_to_ss_osr_col"}
 
 
@@ -63,14 +68,14 @@ def _peak_pixels(image, window=150):
         i0 = int(round((t["azimuth"] - az[0]) / (az[1] - az[0])))
         j0 = int(round((t["range"] - rg[0]) / (rg[1] - rg[0])))
         a, b = max(i0 - window, 1), max(j0 - window, 1)
-        sub = mag[a:min(i0 + window, mag.shape[0] - 1), b:min(j0 + window, mag.shape[1] - 1)]
+        sub = mag[a : min(i0 + window, mag.shape[0] - 1), b : min(j0 + window, mag.shape[1] - 1)]
         i, j = np.unravel_index(np.argmax(sub), sub.shape)
         i, j = i + a, j + b
 
         def vertex(lo, mid, hi):
             return 0.5 * (lo - hi) / (lo - 2 * mid + hi)
 
-        out.append((i + vertex(*mag[i - 1:i + 2, j]), j + vertex(*mag[i, j - 1:j + 2]), mag[i, j] / mag.max()))
+        out.append((i + vertex(*mag[i - 1 : i + 2, j]), j + vertex(*mag[i, j - 1 : j + 2]), mag[i, j] / mag.max()))
     return np.array(out)
 
 
@@ -119,7 +124,7 @@ def test_pfa2_image_exports_as_other_plane_and_geolocates(pfa_image, tmp_path):
 def test_plain_pfa2_image_exports_a_consistent_pfa_block(plain_image, tmp_path):
     image, place = plain_image
     path = tmp_path / "plain.nitf"
-    grid = write_sicd(path, image, place)          # auto: polar-format geometry -> PFA
+    grid = write_sicd(path, image, place)  # auto: polar-format geometry -> PFA
     result = check_sicd(path)
     assert result["passed"] and result["errors"] == [], result["report"]
     # the PFA checks ran (grid type, IPN, polar angle, IPR bandwidth, processed band)
@@ -134,7 +139,7 @@ def test_plain_pfa2_image_exports_a_consistent_pfa_block(plain_image, tmp_path):
     u_row, u_col = _load(tree, "./{*}Grid/{*}Row/{*}UVectECF"), _load(tree, "./{*}Grid/{*}Col/{*}UVectECF")
     ipn, fpn = _load(tree, "./{*}PFA/{*}IPN"), _load(tree, "./{*}PFA/{*}FPN")
     normal = np.cross(u_row, u_col)
-    assert abs(ipn @ normal - 1) < 1e-9 and abs(fpn @ normal - 1) < 1e-9      # pfa2 formats in the image plane
+    assert abs(ipn @ normal - 1) < 1e-9 and abs(fpn @ normal - 1) < 1e-9  # pfa2 formats in the image plane
     # polar angle and scale factor against the track, recomputed here from the file's ARPPoly and SCP
     ref = _load(tree, "./{*}PFA/{*}PolarAngRefTime")
     ang = _load(tree, "./{*}PFA/{*}PolarAngPoly")
@@ -166,14 +171,16 @@ def test_plain_pfa2_image_exports_a_consistent_pfa_block(plain_image, tmp_path):
     # what PFA is for: the peaks sit where the planar-wavefront model put them (metres off their truth at
     # this 1.5 km range); SICD's PFA projection of the peaks lands on the truth, the PLANE grid's would not
     peaks = _peak_pixels(image)
-    clear = peaks[:, 2] > 0.3                       # a corner target pushed off its focus is left out
+    clear = peaks[:, 2] > 0.3  # a corner target pushed off its focus is left out
     assert clear.sum() >= 20
     az, rg = image.coords["azimuth"], image.coords["range"]
-    shift = np.hypot((peaks[:, 0] - (image.targets["azimuth"] - az[0]) / (az[1] - az[0])) * (az[1] - az[0]),
-                     (peaks[:, 1] - (image.targets["range"] - rg[0]) / (rg[1] - rg[0])) * (rg[1] - rg[0]))
+    shift = np.hypot(
+        (peaks[:, 0] - (image.targets["azimuth"] - az[0]) / (az[1] - az[0])) * (az[1] - az[0]),
+        (peaks[:, 1] - (image.targets["range"] - rg[0]) / (rg[1] - rg[0])) * (rg[1] - rg[0]),
+    )
     assert shift[clear].max() > 5.0
     errors = _target_projection_errors(tree, grid, image, place, pixels=peaks[:, :2])
-    assert errors[clear].max() < 0.1                # < half a pixel (0.24 m)
+    assert errors[clear].max() < 0.1  # < half a pixel (0.24 m)
     # one common k-space centre: KCtr is the rectangle's centre (what SICD readers expect of PFA),
     # DeltaKCOAPoly 0, and so the pixels' local spectrum about every peak is centred at the DFT's zero
     # (measured 0.8 % of the bandwidth at worst)
@@ -248,12 +255,17 @@ def test_polarization_round_trips_to_sicd(pol, tx, txrcv, tmp_path):
 
 
 def test_bad_polarization_exits_2_naming_file_and_key(tmp_path):
-    text = (ROOT / "configs" / "demo.yaml").read_text().replace("  prf: 500 Hz\n", "  prf: 500 Hz\n  polarization: VV\n")
+    text = (
+        (ROOT / "configs" / "demo.yaml").read_text().replace("  prf: 500 Hz\n", "  prf: 500 Hz\n  polarization: VV\n")
+    )
     assert "polarization: VV" in text
     scene = tmp_path / "bad.yaml"
     scene.write_text(text)
-    proc = subprocess.run([sys.executable, "-m", "sarproc", "simulate", str(scene), "-o", str(tmp_path / "r.h5")],
-                          capture_output=True, text=True)
+    proc = subprocess.run(
+        [sys.executable, "-m", "sarproc", "simulate", str(scene), "-o", str(tmp_path / "r.h5")],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 2
     assert str(scene) in proc.stderr and "radar.polarization" in proc.stderr
 
@@ -263,7 +275,7 @@ def test_gotcha_polarization_from_the_afrl_file_names():
 
     assert polarization_from_names(["d/data_3dsar_pass1_az001_HH.mat", "data_3dsar_pass1_az002_HH.mat"]) == "H:H"
     assert polarization_from_names(["x_hv.mat"]) == "H:V"
-    assert polarization_from_names(["x_HH.mat", "x_VV.mat"]) is None      # mixed: not one polarisation
+    assert polarization_from_names(["x_HH.mat", "x_VV.mat"]) is None  # mixed: not one polarisation
     assert polarization_from_names(["x.mat"]) is None
 
 
@@ -276,7 +288,7 @@ def test_polarization_round_trips_through_cphd(pol, tmp_path):
         mapping["radar"]["polarization"] = pol
     raw = simulate(scene_from_mapping(mapping, "demo.yaml"))
     place = placement(raw.radar, build(GeolocationParams, GEO, "test", "geolocation"))
-    for own in (True, False):            # lossless (sarproc.* parameters) and standard fields only
+    for own in (True, False):  # lossless (sarproc.* parameters) and standard fields only
         path = tmp_path / f"raw_{own}.cphd"
         write_cphd(path, raw, place, sarproc_metadata=own)
         result = check_cphd(path)
@@ -287,4 +299,6 @@ def test_polarization_round_trips_through_cphd(pol, tmp_path):
     with open(tmp_path / "raw_False.cphd", "rb") as fh, skcphd.Reader(fh) as reader:
         tree = reader.metadata.xmltree
     want = pol.split(":") if pol else ["UNSPECIFIED", "UNSPECIFIED"]
-    assert [tree.findtext(f"./{{*}}Channel/{{*}}Parameters/{{*}}Polarization/{{*}}{k}") for k in ("TxPol", "RcvPol")] == want
+    assert [
+        tree.findtext(f"./{{*}}Channel/{{*}}Parameters/{{*}}Polarization/{{*}}{k}") for k in ("TxPol", "RcvPol")
+    ] == want

@@ -9,11 +9,20 @@ from sarproc.product.errors import InputError
 from sarproc.product.units import parse_quantity
 
 
-@pytest.mark.parametrize("text,kind,si", [
-    ("10 GHz", "frequency", 10e9), ("300 km", "length", 3e5), ("30 deg", "angle", math.radians(30)),
-    ("0.5 rad", "angle", 0.5), ("10 us", "time", 1e-5), ("7 km/s", "velocity", 7000.0),
-    ("1.5e3 Hz", "frequency", 1500.0), ("20 dB", "decibel", 20.0), ("-3 m", "length", -3.0),
-])
+@pytest.mark.parametrize(
+    "text,kind,si",
+    [
+        ("10 GHz", "frequency", 10e9),
+        ("300 km", "length", 3e5),
+        ("30 deg", "angle", math.radians(30)),
+        ("0.5 rad", "angle", 0.5),
+        ("10 us", "time", 1e-5),
+        ("7 km/s", "velocity", 7000.0),
+        ("1.5e3 Hz", "frequency", 1500.0),
+        ("20 dB", "decibel", 20.0),
+        ("-3 m", "length", -3.0),
+    ],
+)
 def test_quantities_convert_to_si(text, kind, si):
     assert parse_quantity(text, kind, "k") == pytest.approx(si, rel=1e-15)
 
@@ -35,7 +44,9 @@ def test_unreadable_values_are_refused(bad):
         parse_quantity(bad, "frequency", "k")
 
 
-@given(st.floats(min_value=-1e6, max_value=1e6, allow_nan=False), st.sampled_from([("km", 1e3), ("m", 1.0), ("mm", 1e-3)]))
+@given(
+    st.floats(min_value=-1e6, max_value=1e6, allow_nan=False), st.sampled_from([("km", 1e3), ("m", 1.0), ("mm", 1e-3)])
+)
 def test_length_prefixes_scale_exactly(x, unit):
     sym, factor = unit
     assert parse_quantity(f"{x!r} {sym}", "length", "k") == pytest.approx(x * factor, rel=1e-12, abs=1e-300)
@@ -60,14 +71,20 @@ def test_build_converts_nested_models():
     assert as_dict(obj) == {"frequency": 1e9, "name": "x", "inner": {"width": 2000.0}, "items": [{"width": 1.0}]}
 
 
-@pytest.mark.parametrize("mapping,message", [
-    ({"frequency": "1 GHz", "colour": 1}, r"f.yaml: unknown key\(s\) 'colour'"),
-    ({}, "f.yaml: frequency: required key is missing"),
-    ({"frequency": "-1 GHz"}, r"f.yaml: frequency: '-1 GHz' is out of range: must be > 0 Hz$"),
-    ({"frequency": "1 GHz", "name": "z"}, "f.yaml: name: 'z' is not one of"),
-    ({"frequency": "1 GHz", "inner": {"width": "0 m"}}, "f.yaml: inner.width: '0 m' is out of range: must be > 0 m$"),
-    ({"frequency": "1 GHz", "items": [{"width": "1 m"}, {"wide": 1}]}, r"f.yaml: items\[1\]: unknown key"),
-])
+@pytest.mark.parametrize(
+    "mapping,message",
+    [
+        ({"frequency": "1 GHz", "colour": 1}, r"f.yaml: unknown key\(s\) 'colour'"),
+        ({}, "f.yaml: frequency: required key is missing"),
+        ({"frequency": "-1 GHz"}, r"f.yaml: frequency: '-1 GHz' is out of range: must be > 0 Hz$"),
+        ({"frequency": "1 GHz", "name": "z"}, "f.yaml: name: 'z' is not one of"),
+        (
+            {"frequency": "1 GHz", "inner": {"width": "0 m"}},
+            "f.yaml: inner.width: '0 m' is out of range: must be > 0 m$",
+        ),
+        ({"frequency": "1 GHz", "items": [{"width": "1 m"}, {"wide": 1}]}, r"f.yaml: items\[1\]: unknown key"),
+    ],
+)
 def test_build_errors_name_file_and_key(mapping, message):
     with pytest.raises(InputError, match=message):
         build(Outer, mapping, source="f.yaml")

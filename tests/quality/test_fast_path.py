@@ -49,8 +49,11 @@ def test_3d_support_and_least_squares_same_as_reference():
     np.testing.assert_array_equal(fc_fast, fc_exact)
     # a tall system like the neighbour fit's: shifted responses and their derivatives
     x = np.linspace(-20, 20, 4000)
-    B = np.stack([np.sinc(x - s) * np.exp(2j * np.pi * 0.3 * x) for s in np.linspace(-3, 3, 13)] +
-                 [x * np.sinc(x - s) for s in (-1.0, 0.0, 1.0)], axis=1)
+    B = np.stack(
+        [np.sinc(x - s) * np.exp(2j * np.pi * 0.3 * x) for s in np.linspace(-3, 3, 13)]
+        + [x * np.sinc(x - s) for s in (-1.0, 0.0, 1.0)],
+        axis=1,
+    )
     y = B @ (np.arange(16) + 1j) + 1e-3 * np.cos(7 * x)
     np.testing.assert_allclose(least_squares(B, y), least_squares(B, y, exact=True), rtol=1e-9)
 
@@ -61,7 +64,7 @@ def test_crowded_skewed_2d_same_report():
     img = np.zeros(a.shape, dtype=complex)
     targets = [(0.3, -0.2), (3.1, 2.2)]
     for (ta, tr), amp in zip(targets, (1.0, 0.7j)):
-        da, dr = a - ta, r - tr   # a skewed support: the range ridge leans on azimuth
+        da, dr = a - ta, r - tr  # a skewed support: the range ridge leans on azimuth
         img += amp * np.sinc(0.886 * da) * np.sinc(0.886 / 0.8 * (dr + 0.15 * da)) * np.exp(2j * np.pi * 0.4 * da)
     fast = evaluate_image(img, ("azimuth", "range"), coords, (1.0, 0.8), targets)
     exact = evaluate_image(img, ("azimuth", "range"), coords, (1.0, 0.8), targets, params=EvaluateParams(exact=True))

@@ -17,11 +17,18 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sarproc.product.errors import InputError
-from sarproc.quality.metrics import (EvaluateParams, check_report, evaluate_image, expectations_from_mapping,
-                             extract_chip, target_patch, window_slices)
+from sarproc.quality.metrics import (
+    EvaluateParams,
+    check_report,
+    evaluate_image,
+    expectations_from_mapping,
+    extract_chip,
+    target_patch,
+    window_slices,
+)
 
-SINC_PSLR = -13.26   # dB
-SINC_ISLR = -10.16   # dB, side-lobe window +-10/B
+SINC_PSLR = -13.26  # dB
+SINC_ISLR = -10.16  # dB, side-lobe window +-10/B
 
 
 def axis_coords(n, step, offset=0.0):
@@ -50,17 +57,19 @@ def hamming_psf(bandwidth):
     def h(x):
         u = bandwidth * x
         return 0.54 * np.sinc(u) + 0.23 * (np.sinc(u - 1) + np.sinc(u + 1))
+
     return h
 
 
 def spectrum_psf(bandwidth, weight, phase=None, n=4001):
     """PSF as a dense midpoint sum over the band of weight(f) exp(j phase(f)) exp(j 2 pi f x)."""
-    f = (np.arange(n) + 0.5) / n - 0.5          # normalised frequency f / B in (-1/2, 1/2)
+    f = (np.arange(n) + 0.5) / n - 0.5  # normalised frequency f / B in (-1/2, 1/2)
     spec = weight(f) * (np.exp(1j * phase(f)) if phase is not None else 1.0)
 
     def h(x):
         x = np.asarray(x, dtype=float)
         return (np.exp(2j * np.pi * np.multiply.outer(x * bandwidth, f)) @ spec) / n
+
     return h
 
 
@@ -74,7 +83,7 @@ def reference_metrics(bandwidth, weight, phase=None, window_nulls=10.0, n=4001, 
     spec = weight(f) * (np.exp(1j * phase(f)) if phase is not None else 1.0)
     full = np.zeros(n * k, dtype=complex)
     full[:n] = spec
-    h = np.fft.fftshift(np.fft.ifft(full))            # x = (m - n k / 2) / (k B)
+    h = np.fft.fftshift(np.fft.ifft(full))  # x = (m - n k / 2) / (k B)
     x = (np.arange(n * k) - n * k // 2) / (k * bandwidth)
     keep = np.abs(x) <= (window_nulls + 2) / bandwidth
     x, p = x[keep], np.abs(h[keep]) ** 2
@@ -84,12 +93,15 @@ def reference_metrics(bandwidth, weight, phase=None, window_nulls=10.0, n=4001, 
     i = int(np.argmax(r < 0.5))
     dx = x[1] - x[0]
     half = (i - 1 + (r[i - 1] - 0.5) / (r[i - 1] - r[i])) * dx
-    j = i + int(np.argmax(np.diff(r[i:]) > 0))   # first local minimum = first null
+    j = i + int(np.argmax(np.diff(r[i:]) > 0))  # first local minimum = first null
     inside = np.abs(x - x[c]) <= window_nulls / bandwidth
     main = np.abs(x - x[c]) <= j * dx
     side = inside & ~main
-    return {"irw": 2 * half, "pslr_db": 10 * np.log10(p[side].max()),
-            "islr_db": 10 * np.log10(p[side].sum() / p[main].sum())}
+    return {
+        "irw": 2 * half,
+        "pslr_db": 10 * np.log10(p[side].max()),
+        "islr_db": 10 * np.log10(p[side].sum() / p[main].sum()),
+    }
 
 
 # Resolutions (theoretical IRW) and spacings ~0.5-0.8 of them.
@@ -120,8 +132,9 @@ def test_sinc_2d(case):
         # Band centres at 0.42 and 0.35 cycles/sample: both bands wrap across the Nyquist bin.
         doppler = (0.0, 0.0) if case == "off_grid" else (0.42 / STEP2[0], -0.35 / STEP2[1])
     phases = [0.3, -2.0]
-    img = separable_image(coords, [sinc_psf(b, f) for b, f in zip(BW2, doppler)], targets,
-                          np.exp(1j * np.array(phases))).astype(np.complex64)
+    img = separable_image(
+        coords, [sinc_psf(b, f) for b, f in zip(BW2, doppler)], targets, np.exp(1j * np.array(phases))
+    ).astype(np.complex64)
     rep = evaluate_image(img, ("azimuth", "range"), coords, RES2, targets, names=["A", "B"])
     assert_sinc_metrics(rep, targets, ("azimuth", "range"))
     for t, ph in zip(rep.targets, phases):
@@ -133,7 +146,7 @@ def test_sinc_2d(case):
 
 
 def test_sinc_3d_with_doppler():
-    res = (0.02, 1.0, 0.8)                      # elevation in rad, azimuth and range in m
+    res = (0.02, 1.0, 0.8)  # elevation in rad, azimuth and range in m
     steps = (0.012, 0.6, 0.5)
     bw = tuple(0.886 / r for r in res)
     coords = [axis_coords(96, steps[0]), axis_coords(128, steps[1]), axis_coords(128, steps[2])]
@@ -154,8 +167,8 @@ def test_hamming_matches_fourier_integral():
     rep = evaluate_image(img, ("azimuth", "range"), coords, RES2, truth)
     for m, b in zip(rep.targets[0].axes, BW2):
         ref = reference_metrics(b, lambda f: 0.54 + 0.46 * np.cos(2 * np.pi * f))
-        assert ref["irw"] * b == pytest.approx(1.30, abs=0.01)      # textbook Hamming IRW 1.30/B
-        assert ref["pslr_db"] == pytest.approx(-42.7, abs=0.2)        # textbook Hamming PSLR
+        assert ref["irw"] * b == pytest.approx(1.30, abs=0.01)  # textbook Hamming IRW 1.30/B
+        assert ref["pslr_db"] == pytest.approx(-42.7, abs=0.2)  # textbook Hamming PSLR
         assert m.irw == pytest.approx(ref["irw"], rel=0.005)
         assert m.pslr_db == pytest.approx(ref["pslr_db"], abs=0.1)
         assert m.islr_db == pytest.approx(ref["islr_db"], abs=0.1)
@@ -178,20 +191,19 @@ def test_defocus_broadens_irw():
     img = separable_image(coords, [psf_az, sinc_psf(BW2[1])], [(0.0, 0.0)])
     m_az, m_rg = evaluate_image(img, ("azimuth", "range"), coords, RES2, [(0.0, 0.0)]).targets[0].axes
     ref = reference_metrics(BW2[0], np.ones_like, qpe)
-    assert m_az.irw_ratio > 1.04                        # measurably broadened (sinc: 1.000)
+    assert m_az.irw_ratio > 1.04  # measurably broadened (sinc: 1.000)
     assert m_az.irw == pytest.approx(ref["irw"], rel=0.005)
     assert m_az.pslr_db == pytest.approx(ref["pslr_db"], abs=0.1)
-    assert m_az.pslr_db > SINC_PSLR + 2                 # side lobes rise as the nulls fill
-    assert abs(m_rg.irw_ratio - 1) < 0.005              # the focused axis is untouched
+    assert m_az.pslr_db > SINC_PSLR + 2  # side lobes rise as the nulls fill
+    assert abs(m_rg.irw_ratio - 1) < 0.005  # the focused axis is untouched
 
 
 def test_false_target_level_and_place():
     coords = [axis_coords(300, STEP2[0]), axis_coords(300, STEP2[1])]
     targets = [(-40.0, -30.0), (35.3, 40.1)]
-    ghost = (40.17, -45.33)              # off-grid, far (> 20 cells) from both targets
+    ghost = (40.17, -45.33)  # off-grid, far (> 20 cells) from both targets
     level = -27.0
-    img = separable_image(coords, [sinc_psf(b, 0.3) for b in BW2], targets + [ghost],
-                          [1.0, 0.5, 10 ** (level / 20)])
+    img = separable_image(coords, [sinc_psf(b, 0.3) for b in BW2], targets + [ghost], [1.0, 0.5, 10 ** (level / 20)])
     rep = evaluate_image(img, ("azimuth", "range"), coords, RES2, targets, names=["A", "B"])
     ft = rep.false_target
     assert ft.reference_target == "A"
@@ -200,20 +212,23 @@ def test_false_target_level_and_place():
     for a, dim in enumerate(("azimuth", "range")):
         assert abs(ft.position[dim] - ghost[a]) < 0.05 * RES2[a]
     # Without a ghost the level is set by the targets' along-axis side lobes beyond 20 cells.
-    clean = evaluate_image(img - separable_image(coords, [sinc_psf(b, 0.3) for b in BW2], [ghost],
-                                                 [10 ** (level / 20)]),
-                           ("azimuth", "range"), coords, RES2, targets)
+    clean = evaluate_image(
+        img - separable_image(coords, [sinc_psf(b, 0.3) for b in BW2], [ghost], [10 ** (level / 20)]),
+        ("azimuth", "range"),
+        coords,
+        RES2,
+        targets,
+    )
     assert clean.false_target.level_db < -33
 
 
 def test_no_false_target_region_is_reported_as_none():
     coords = [axis_coords(48, STEP2[0]), axis_coords(48, STEP2[1])]
     img = separable_image(coords, [sinc_psf(b) for b in BW2], [(0.0, 0.0)])
-    rep = evaluate_image(img, ("azimuth", "range"), coords, RES2, [(0.0, 0.0)],
-                         params=EvaluateParams(guard_cells=40))
+    rep = evaluate_image(img, ("azimuth", "range"), coords, RES2, [(0.0, 0.0)], params=EvaluateParams(guard_cells=40))
     assert rep.false_target is None
-    assert rep.targets[0].chip_clipped            # the 48-sample image is smaller than the chip
-    for m in rep.targets[0].axes:                 # zero padding beyond +-12 nulls barely matters
+    assert rep.targets[0].chip_clipped  # the 48-sample image is smaller than the chip
+    for m in rep.targets[0].axes:  # zero padding beyond +-12 nulls barely matters
         assert abs(m.irw_ratio - 1) < 0.005 and abs(m.pslr_db - SINC_PSLR) < 0.1
     d = rep.to_dict()
     assert d["false_target"] is None
@@ -246,19 +261,23 @@ def test_patch_is_normalised_and_centred():
     assert np.abs(vals).max() == pytest.approx(1.0, abs=1e-6)
     # Values match the analytic PSF (band-limited interpolation is exact up to chip truncation).
     peak = np.array([rep.targets[0].axes[a].position for a in range(2)])
-    analytic = np.outer(sinc_psf(BW2[0], 0.5)(peak[0] + u0 - truth[0][0]),
-                        sinc_psf(BW2[1], 0.5)(peak[1] + u1 - truth[0][1]))
+    analytic = np.outer(
+        sinc_psf(BW2[0], 0.5)(peak[0] + u0 - truth[0][0]), sinc_psf(BW2[1], 0.5)(peak[1] + u1 - truth[0][1])
+    )
     analytic /= analytic[i, j] / vals[i, j]
     assert np.max(np.abs(vals - analytic)) < 0.01
 
 
-@pytest.mark.parametrize("bad, match", [
-    ("outside", "outside the image extent"),
-    ("nan", "NaN"),
-    ("nonuniform", "not uniformly spaced"),
-    ("undersampled", "undersampled"),
-    ("irw_len", "theoretical_irw has 1"),
-])
+@pytest.mark.parametrize(
+    "bad, match",
+    [
+        ("outside", "outside the image extent"),
+        ("nan", "NaN"),
+        ("nonuniform", "not uniformly spaced"),
+        ("undersampled", "undersampled"),
+        ("irw_len", "theoretical_irw has 1"),
+    ],
+)
 def test_bad_input_is_refused(bad, match):
     coords = [axis_coords(64, STEP2[0]), axis_coords(64, STEP2[1])]
     img = separable_image(coords, [sinc_psf(b) for b in BW2], [(0.0, 0.0)])
@@ -300,16 +319,33 @@ def test_expectations_checks_and_overrides():
     targets = [(0.0, 0.0), (30.0, -25.0)]
     img = separable_image(coords, [sinc_psf(b) for b in BW2], targets)
     rep = evaluate_image(img, ("azimuth", "range"), coords, RES2, targets, names=["A", "B"])
-    ok = expectations_from_mapping({"irw_ratio_max": 1.05, "pslr_db": [-13.76, -12.76], "islr_db": [-10.66, -9.66],
-                                    "position_cells_max": 0.5, "false_target_db_max": -30}, "e.yaml")
+    ok = expectations_from_mapping(
+        {
+            "irw_ratio_max": 1.05,
+            "pslr_db": [-13.76, -12.76],
+            "islr_db": [-10.66, -9.66],
+            "position_cells_max": 0.5,
+            "false_target_db_max": -30,
+        },
+        "e.yaml",
+    )
     assert check_report(rep, ok) == []
-    tight = expectations_from_mapping({"pslr_db": [-13.76, -12.76], "axes": {"range": {"irw_ratio_max": 0.99}},
-                                       "targets": {"B": {"pslr_db": [-20, -14],
-                                                         "axes": {"azimuth": {"islr_db": ["-12 dB", "-11 dB"]}}}}},
-                                      "e.yaml")
+    tight = expectations_from_mapping(
+        {
+            "pslr_db": [-13.76, -12.76],
+            "axes": {"range": {"irw_ratio_max": 0.99}},
+            "targets": {"B": {"pslr_db": [-20, -14], "axes": {"azimuth": {"islr_db": ["-12 dB", "-11 dB"]}}}},
+        },
+        "e.yaml",
+    )
     fails = {(f.target, f.axis, f.metric) for f in check_report(rep, tight)}
-    assert fails == {("A", "range", "irw_ratio"), ("B", "range", "irw_ratio"), ("B", "azimuth", "pslr_db"),
-                     ("B", "range", "pslr_db"), ("B", "azimuth", "islr_db")}
+    assert fails == {
+        ("A", "range", "irw_ratio"),
+        ("B", "range", "irw_ratio"),
+        ("B", "azimuth", "pslr_db"),
+        ("B", "range", "pslr_db"),
+        ("B", "azimuth", "islr_db"),
+    }
     with pytest.raises(InputError, match=r"e.yaml: targets.C: the image has no target 'C'"):
         check_report(rep, expectations_from_mapping({"targets": {"C": {}}}, "e.yaml"), "e.yaml")
     with pytest.raises(InputError, match=r"e.yaml: unknown key\(s\) 'pslr'"):
@@ -320,8 +356,9 @@ def test_expectations_checks_and_overrides():
 
 def test_missing_response_gives_undefined_metrics_that_fail_checks():
     coords = [axis_coords(128, STEP2[0]), axis_coords(128, STEP2[1])]
-    rep = evaluate_image(np.zeros((128, 128), np.complex64), ("azimuth", "range"), coords, RES2, [(0.0, 0.0)],
-                         names=["A"])
+    rep = evaluate_image(
+        np.zeros((128, 128), np.complex64), ("azimuth", "range"), coords, RES2, [(0.0, 0.0)], names=["A"]
+    )
     m = rep.targets[0].axes[0]
     assert np.isnan(m.irw) and np.isnan(m.position_error)
     assert json.loads(json.dumps(rep.to_dict(), allow_nan=False))["targets"][0]["axes"][0]["irw"] is None
@@ -338,4 +375,4 @@ def test_progress_one_bar_over_every_target():
     bars = []
     evaluate_image(img, ("azimuth", "range"), coords, RES2, targets, progress=progress_recorder(bars))
     assert_bars_complete(bars, count=1)
-    assert bars[0]["total"] == 3 * len(targets) + 1      # pass 1, neighbour pass, measurement; false targets
+    assert bars[0]["total"] == 3 * len(targets) + 1  # pass 1, neighbour pass, measurement; false targets

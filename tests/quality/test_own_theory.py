@@ -52,10 +52,22 @@ def test_bad_support_is_refused():
 
 
 def _stripmap(pattern, prf=1000.0):
-    radar = RadarMetadata(carrier_frequency=10e9, bandwidth=100e6, pulse_duration=5e-6, chirp_rate=2e13,
-                          range_sampling_rate=120e6, prf=prf, velocity=100.0, altitude=500.0, squint=0.0,
-                          reference_range=2000.0, scene_center=(0.0, math.sqrt(2000.0**2 - 500.0**2), 0.0),
-                          mode="stripmap", azimuth_beamwidth=math.radians(2), antenna_pattern=pattern)
+    radar = RadarMetadata(
+        carrier_frequency=10e9,
+        bandwidth=100e6,
+        pulse_duration=5e-6,
+        chirp_rate=2e13,
+        range_sampling_rate=120e6,
+        prf=prf,
+        velocity=100.0,
+        altitude=500.0,
+        squint=0.0,
+        reference_range=2000.0,
+        scene_center=(0.0, math.sqrt(2000.0**2 - 500.0**2), 0.0),
+        mode="stripmap",
+        azimuth_beamwidth=math.radians(2),
+        antenna_pattern=pattern,
+    )
     t = (np.arange(int(prf)) - int(prf) // 2) / prf
     pos = np.stack([100.0 * t, 0 * t, np.full_like(t, 500.0)], axis=1)
     return radar, pos, make_frame("zero_doppler", radar)
@@ -76,12 +88,12 @@ def test_rect_beam_target_theory_is_the_lit_aperture():
         assert th[0].null == pytest.approx(1 / (k.max() - k.min()), rel=1e-9)
         assert th[0].irw == pytest.approx(0.886 / (k.max() - k.min()), rel=0.005)
         assert th[0].pslr_db == pytest.approx(-13.26, abs=0.1)
-        assert th[1].irw == pytest.approx(0.8859 * 3e8 / (2 * 100e6), rel=0.01)     # near broadside
+        assert th[1].irw == pytest.approx(0.8859 * 3e8 / (2 * 100e6), rel=0.01)  # near broadside
 
 
 def test_hamming_azimuth_taper_and_range_window_broaden_by_their_factor():
-    radar, pos, frame = _stripmap(None)              # no pattern recorded: flat over the -3 dB beam
-    radar = radar.replace(azimuth_beamwidth=0.0)    # and here no beam at all: every pulse, flat
+    radar, pos, frame = _stripmap(None)  # no pattern recorded: flat over the -3 dB beam
+    radar = radar.replace(azimuth_beamwidth=0.0)  # and here no beam at all: every pulse, flat
     coords = tuple(frame.from_xyz(np.asarray(radar.scene_center)))
     plain = theory.target_theory(radar, pos, pos, frame, coords)
     ham = theory.target_theory(radar, pos, pos, frame, coords, azimuth_window="hamming", range_window="hamming")
@@ -110,4 +122,6 @@ def test_array_elevation_theory_is_the_array_factor_seen_from_the_target(n):
     assert off[0].irw * math.cos(0.3) == pytest.approx(nadir[0].irw, rel=1e-9)
     assert nadir[0].null == pytest.approx(lam / (n * 0.1), rel=1e-9)
     assert (nadir[0].pslr_db == pytest.approx(0.0, abs=1e-6)) == (n < 10)
-    assert nadir[1].irw == pytest.approx(0.8859 / 0.886, rel=1e-3) and nadir[2].irw == pytest.approx(2 * 0.8859 / 0.886, rel=1e-3)
+    assert nadir[1].irw == pytest.approx(0.8859 / 0.886, rel=1e-3) and nadir[2].irw == pytest.approx(
+        2 * 0.8859 / 0.886, rel=1e-3
+    )

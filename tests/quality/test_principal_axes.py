@@ -53,13 +53,12 @@ def rotated_image(phi_deg, bu, bv, targets, n=(200, 200), step=(0.45, 0.45), wei
     cp, sp = math.cos(phi), math.sin(phi)
     x, y = axis_coords(n[0], step[0]), axis_coords(n[1], step[1])
     X, Y = np.meshgrid(x, y, indexing="ij")
-    shape = np.sinc if weight == "none" else \
-        (lambda q: 0.54 * np.sinc(q) + 0.23 * (np.sinc(q - 1) + np.sinc(q + 1)))
+    shape = np.sinc if weight == "none" else (lambda q: 0.54 * np.sinc(q) + 0.23 * (np.sinc(q - 1) + np.sinc(q + 1)))
     img = np.zeros(X.shape, complex)
     for x0, y0 in targets:
         U, W = (X - x0) * cp + (Y - y0) * sp, -(X - x0) * sp + (Y - y0) * cp
         img += shape(bu * U) * shape(bv * W) * np.exp(2j * np.pi * 0.25 * U / step[0])
-    theory = (0.886 * cp / bu, 0.886 * cp / bv)   # each ridge's extent along its own axis
+    theory = (0.886 * cp / bu, 0.886 * cp / bv)  # each ridge's extent along its own axis
     return img.astype(np.complex64), [x, y], theory
 
 
@@ -92,7 +91,7 @@ def test_rotated_support(phi):
         assert_theory(t.axes[1], 0.886 / bv)
         for m in t.axes:
             assert m.angle_deg == pytest.approx(phi, abs=0.3)
-    if phi >= 30:   # axis cuts misread the response by far more than the tolerance
+    if phi >= 30:  # axis cuts misread the response by far more than the tolerance
         assert t.image_axes[0].pslr_db < SINC_PSLR - 2
 
 
@@ -113,7 +112,7 @@ def test_hamming_rotated_matches_fourier_integral():
 def test_two_sincs_ten_nulls_apart(shear, along):
     bx, by = 0.886 / 1.0, 0.886 / 0.8
     c = math.sqrt(1 - shear**2)
-    if along == "range":   # 10 nulls along the range ridge: X fixed, Y = 10 / by
+    if along == "range":  # 10 nulls along the range ridge: X fixed, Y = 10 / by
         d_r = 10 / (by * c)
         targets = [(0.1, -0.2), (0.1 - shear * d_r, -0.2 + d_r)]
     else:
@@ -125,21 +124,29 @@ def test_two_sincs_ten_nulls_apart(shear, along):
         assert_theory(t.axes[0], 0.886 / bx)
         assert_theory(t.axes[1], 0.886 / by)
     # without the neighbour model the cut along the pair reads the other target's main lobe
-    raw = evaluate_image(img, DIMS, coords, theory, targets, names=["A", "B"], metric=metric,
-                         params=EvaluateParams(remove_neighbours=False))
+    raw = evaluate_image(
+        img,
+        DIMS,
+        coords,
+        theory,
+        targets,
+        names=["A", "B"],
+        metric=metric,
+        params=EvaluateParams(remove_neighbours=False),
+    )
     a = 0 if along == "azimuth" else 1
     assert raw.target("A").axes[a].pslr_db > SINC_PSLR + 1
 
 
 def test_cut_reaching_the_edge_is_truncated_and_unverified():
     bx, by = 0.886 / 1.0, 0.886 / 0.8
-    coords_r_edge = axis_coords(200, 0.5)[-1] - 3.0          # 3 m (about 3 nulls) from the range edge
+    coords_r_edge = axis_coords(200, 0.5)[-1] - 3.0  # 3 m (about 3 nulls) from the range edge
     targets = [(0.0, 0.0), (10.0, coords_r_edge)]
     img, coords, metric, theory = skewed_image(0.3, bx, by, targets)
     rep = evaluate_image(img, DIMS, coords, theory, targets, names=["A", "B"], metric=metric)
     assert not rep.target("A").truncated
     assert rep.target("B").axes[1].truncated and not rep.target("B").axes[0].truncated
-    exp = expectations_from_mapping({"pslr_db": [-20, 0]})   # B's figures would pass this bound
+    exp = expectations_from_mapping({"pslr_db": [-20, 0]})  # B's figures would pass this bound
     fails = check_report(rep, exp)
     assert [(f.target, f.axis, f.metric) for f in fails] == [("B", "range", "truncated")]
     assert "unverified" in str(fails[0])
@@ -152,16 +159,22 @@ def test_poorly_modelled_neighbour_is_flagged_contaminated():
     targets = [(0.1, -0.2), (0.1 + 10 / bx, -0.2)]
     img, coords, metric, theory = skewed_image(0.0, bx, by, targets)
     a = axis_coords(200, 0.5)
-    chirp = np.exp(1j * 0.9 / (2 / bx) ** 2 * np.add.outer(
-        np.minimum((a - targets[0][0]) ** 2, (a - targets[1][0]) ** 2), np.zeros(200)))
+    chirp = np.exp(
+        1j
+        * 0.9
+        / (2 / bx) ** 2
+        * np.add.outer(np.minimum((a - targets[0][0]) ** 2, (a - targets[1][0]) ** 2), np.zeros(200))
+    )
     img = (img * chirp).astype(np.complex64)
     rep = evaluate_image(img, DIMS, coords, theory, targets, names=["A", "B"], metric=metric)
     for t in rep.targets:
         assert t.axes[0].contaminated_db is not None and t.axes[0].contaminated_db > -20
-        assert t.axes[1].contaminated_db is None          # nothing of the neighbour along range
+        assert t.axes[1].contaminated_db is None  # nothing of the neighbour along range
     fails = check_report(rep, expectations_from_mapping({"pslr_db": [-30, 0]}))
-    assert {(f.target, f.axis, f.metric) for f in fails} == {("A", "azimuth", "contaminated"),
-                                                             ("B", "azimuth", "contaminated")}
+    assert {(f.target, f.axis, f.metric) for f in fails} == {
+        ("A", "azimuth", "contaminated"),
+        ("B", "azimuth", "contaminated"),
+    }
     assert all("unverified" in str(f) for f in fails)
 
 
@@ -169,10 +182,10 @@ def test_sinc_islr_over_shortened_windows():
     # independent of sarproc: a dense midpoint sum of sinc^2 over the main lobe and the side lobes
     from sarproc.quality.metrics import sinc_islr_db
 
-    x = (np.arange(2_000_000) + 0.5) / 100_000              # 0 .. 20 nulls, 1e5 points per null
+    x = (np.arange(2_000_000) + 0.5) / 100_000  # 0 .. 20 nulls, 1e5 points per null
     p = np.sinc(x) ** 2
     for w in (2, 3, 6, 10):
-        ref = 10 * np.log10(p[100_000:w * 100_000].sum() / p[:100_000].sum())
+        ref = 10 * np.log10(p[100_000 : w * 100_000].sum() / p[:100_000].sum())
         assert sinc_islr_db(w) == pytest.approx(ref, abs=1e-3)
     assert sinc_islr_db(10) == pytest.approx(SINC_ISLR, abs=0.01)
 
@@ -192,17 +205,24 @@ def test_contaminated_cut_is_also_measured_on_a_shortened_window():
     az_b = 0.8 * defocused(a - targets[1][0]) / defocused(np.zeros(1))[0]
     img = np.outer(np.sinc(bx * (a - targets[0][0])) + az_b, np.sinc(by * (r - targets[0][1]))).astype(np.complex64)
     # ideal neighbour models only (neighbour_orders: 0); the default fits B's phase: see the next test
-    rep = evaluate_image(img, DIMS, [a, r], (0.886 / bx, 0.886 / by), targets, names=["A", "B"],
-                         params=EvaluateParams(neighbour_orders=0))
+    rep = evaluate_image(
+        img,
+        DIMS,
+        [a, r],
+        (0.886 / bx, 0.886 / by),
+        targets,
+        names=["A", "B"],
+        params=EvaluateParams(neighbour_orders=0),
+    )
     m = rep.target("A").axes[0]
     assert m.contaminated_db is not None
-    assert m.islr_db > SINC_ISLR + 1                       # the full window still holds B's residual
+    assert m.islr_db > SINC_ISLR + 1  # the full window still holds B's residual
     assert m.shortened_nulls == 3
     assert m.shortened_islr_theory_db == pytest.approx(sinc_islr_db(3))
     assert abs(m.shortened_pslr_db - SINC_PSLR) < 0.2, m
     assert abs(m.shortened_islr_db - sinc_islr_db(3)) < 0.3, m
     assert abs(m.irw_ratio - 1) < 0.01 and abs(m.position_error_cells) < 0.02
-    assert rep.target("A").axes[1].shortened_nulls is None      # range: nothing of B, nothing shortened
+    assert rep.target("A").axes[1].shortened_nulls is None  # range: nothing of B, nothing shortened
     # --expect: a shortened window is not the contract's; the cut stays unverified
     fails = check_report(rep, expectations_from_mapping({"pslr_db": [-30, 0], "islr_db": [-30, 0]}))
     assert ("A", "azimuth", "contaminated") in {(f.target, f.axis, f.metric) for f in fails}

@@ -11,19 +11,19 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sarproc.quality.metrics import (EvaluateParams, check_report, evaluate_image, expectations_from_mapping)
+from sarproc.quality.metrics import EvaluateParams, check_report, evaluate_image, expectations_from_mapping
 
-RES = (1.0, 0.8)        # theoretical IRW per axis (azimuth, range)
+RES = (1.0, 0.8)  # theoretical IRW per axis (azimuth, range)
 STEP = (0.4, 0.35)
 N = (300, 320)
-DOPPLER = (0.2 / STEP[0], -0.35 / STEP[1])   # band centres, cycles per unit
-SKEW = 0.12             # the range ridge leans on azimuth (a squinted image's skew)
-CHIRP = 0.004           # spatial chirp along azimuth, cycles per unit^2 (backprojection's exp(j 2 pi x^2 / lambda R))
+DOPPLER = (0.2 / STEP[0], -0.35 / STEP[1])  # band centres, cycles per unit
+SKEW = 0.12  # the range ridge leans on azimuth (a squinted image's skew)
+CHIRP = 0.004  # spatial chirp along azimuth, cycles per unit^2 (backprojection's exp(j 2 pi x^2 / lambda R))
 TRUTH = [(-22.0, -14.0), (9.3, 11.7), (25.1, -20.4)]
 AMPS = [1.0, 0.7 * np.exp(1j), 0.5j]
-GHOST = (-30.3, 22.6)   # off-grid, > 20 cells from every target, off their ridges
-TILT = 0.1              # azimuth spectrum: amplitude tilt over the band (10 % at its edges)
-PHASE = 0.0             # and a quadratic phase, rad at its edges
+GHOST = (-30.3, 22.6)  # off-grid, > 20 cells from every target, off their ridges
+TILT = 0.1  # azimuth spectrum: amplitude tilt over the band (10 % at its edges)
+PHASE = 0.0  # and a quadratic phase, rad at its edges
 PARAMS = EvaluateParams(residual=True)
 
 
@@ -72,7 +72,7 @@ def test_clean_scene_floor_is_below_minus_50_db():
     rep = evaluate_image(img, ("azimuth", "range"), coords, RES, TRUTH, params=PARAMS)
     assert rep.residual.floor_db <= -50.0
     assert rep.false_target.level_db <= -50.0
-    assert rep.false_target_guard.level_db > -40.0           # what the guard window alone reports
+    assert rep.false_target_guard.level_db > -40.0  # what the guard window alone reports
     off = evaluate_image(img, ("azimuth", "range"), coords, RES, TRUTH, params=EvaluateParams(residual=False))
     assert off.residual is None and off.false_target == rep.false_target_guard
-    assert off.targets == rep.targets                        # the residual changes no target's figures
+    assert off.targets == rep.targets  # the residual changes no target's figures

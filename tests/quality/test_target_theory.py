@@ -8,8 +8,8 @@ from sarproc.quality.metrics import evaluate_image
 
 from test_metrics import SINC_ISLR, SINC_PSLR, axis_coords, separable_image, sinc_psf
 
-IMAGE_RES = (1.0, 0.8)           # what the image attribute says
-WIDE_RES = (1.15, 0.7)           # target B's true resolution: 15 % coarser in azimuth, 12.5 % finer in range
+IMAGE_RES = (1.0, 0.8)  # what the image attribute says
+WIDE_RES = (1.15, 0.7)  # target B's true resolution: 15 % coarser in azimuth, 12.5 % finer in range
 STEP = (0.45, 0.3)
 TRUTH = [(0.0, 0.0), (40 * STEP[0], -50 * STEP[1])]
 
@@ -25,7 +25,7 @@ def test_target_theory_overrides_the_image_theory():
     img, coords = _image()
     dims = ("azimuth", "range")
     plain = evaluate_image(img, dims, coords, IMAGE_RES, TRUTH, names=["A", "B"])
-    own = np.array([[np.nan, np.nan], WIDE_RES])          # A: not recorded, the image's theory applies
+    own = np.array([[np.nan, np.nan], WIDE_RES])  # A: not recorded, the image's theory applies
     rep = evaluate_image(img, dims, coords, IMAGE_RES, TRUTH, names=["A", "B"], target_irw=own)
     for a, ax in enumerate(dims):
         # with the image's theory alone, B's width is off by its true/claimed ratio
@@ -36,16 +36,19 @@ def test_target_theory_overrides_the_image_theory():
         assert b_ax.theory == "target" and b_ax.irw_theory == pytest.approx(WIDE_RES[a])
         for m in (a_ax, b_ax):
             assert abs(m.irw_ratio - 1) < 0.005, m
-            assert abs(m.pslr_db - SINC_PSLR) < 0.1 and abs(m.islr_db - SINC_ISLR) < 0.1, m   # own +-10 nulls
+            assert abs(m.pslr_db - SINC_PSLR) < 0.1 and abs(m.islr_db - SINC_ISLR) < 0.1, m  # own +-10 nulls
             assert abs(m.position_error_cells) < 0.02, m
         assert b_ax.position_error_cells == pytest.approx(b_ax.position_error / WIDE_RES[a])
 
 
-@pytest.mark.parametrize("own, match", [
-    (np.ones((1, 2)), "shape"),
-    (np.array([[1.0, 0.8], [-1.0, 0.8]]), "positive"),
-    (np.array([[1.0, 0.8], [1.0, 0.2]]), "not finer"),       # a 0.2 IRW is undersampled at 0.3 spacing
-])
+@pytest.mark.parametrize(
+    "own, match",
+    [
+        (np.ones((1, 2)), "shape"),
+        (np.array([[1.0, 0.8], [-1.0, 0.8]]), "positive"),
+        (np.array([[1.0, 0.8], [1.0, 0.2]]), "not finer"),  # a 0.2 IRW is undersampled at 0.3 spacing
+    ],
+)
 def test_bad_target_theory_is_refused(own, match):
     img, coords = _image()
     with pytest.raises(InputError, match=match):
@@ -68,11 +71,16 @@ def test_weighted_target_is_judged_against_its_own_window_theory():
     nulls = np.array([[r / 0.886 for r in IMAGE_RES]])
     lobes = np.broadcast_to([ham.pslr_db, ham.islr_db], (1, 2, 2))
     dims = ("azimuth", "range")
-    rep = evaluate_image(img, dims, coords, IMAGE_RES, truth, target_irw=own, target_null=nulls,
-                         target_sidelobes=lobes)
+    rep = evaluate_image(img, dims, coords, IMAGE_RES, truth, target_irw=own, target_null=nulls, target_sidelobes=lobes)
     plain = evaluate_image(img, dims, coords, IMAGE_RES, truth)
-    expect = expectations_from_mapping({"irw_ratio_max": 1.01, "irw_ratio_min": 0.99,
-                                        "pslr_vs_theory_db": [-0.2, 0.2], "islr_vs_theory_db": [-0.2, 0.2]})
+    expect = expectations_from_mapping(
+        {
+            "irw_ratio_max": 1.01,
+            "irw_ratio_min": 0.99,
+            "pslr_vs_theory_db": [-0.2, 0.2],
+            "islr_vs_theory_db": [-0.2, 0.2],
+        }
+    )
     assert check_report(rep, expect) == []
     for t in rep.targets:
         for m in t.axes:

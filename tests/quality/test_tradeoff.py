@@ -20,18 +20,18 @@ def test_timing_stats_best_median_spread():
 
 def test_faster_only_when_the_ranges_do_not_overlap():
     assert faster([1.0, 1.2], [1.3, 2.0])
-    assert not faster([1.0, 1.4], [1.3, 2.0])        # medians differ, ranges overlap: no call
+    assert not faster([1.0, 1.4], [1.3, 2.0])  # medians differ, ranges overlap: no call
     assert not faster([1.3, 2.0], [1.0, 1.2])
     assert faster_groups([[1.0, 1.1], [1.05, 1.5], [2.0, 2.1]]) == [[2], [2], []]
 
 
 def test_front_is_pareto_on_best_times():
     times = [[1.0, 1.3], [1.2, 1.4], [2.0, 2.2], [0.5, 0.6]]
-    assert pareto_front(times, [0.5, 0.5, 0.1, 0.9]) == [3, 0, 2]          # B: A is as good and faster at best
-    assert pareto_front(times, [0.5, 0.4, 0.6, 0.9]) == [3, 0, 1]          # C: slower and worse than A
+    assert pareto_front(times, [0.5, 0.5, 0.1, 0.9]) == [3, 0, 2]  # B: A is as good and faster at best
+    assert pareto_front(times, [0.5, 0.4, 0.6, 0.9]) == [3, 0, 1]  # C: slower and worse than A
     assert dominates([1.0, 1.3], 0.5, [1.2, 1.4], 0.5)
-    assert not dominates([1.0, 1.3], 0.5, [1.0, 1.3], 0.5)                  # equal: neither
-    assert not dominates([1.5, 1.6], 0.4, [1.0, 1.3], 0.5)                  # better, but slower
+    assert not dominates([1.0, 1.3], 0.5, [1.0, 1.3], 0.5)  # equal: neither
+    assert not dominates([1.5, 1.6], 0.4, [1.0, 1.3], 0.5)  # better, but slower
 
 
 def test_wide_spreads_do_not_collapse_the_front():
@@ -62,6 +62,13 @@ def test_figure_numbers_do_not_collide(tmp_path):
     ax.set_ylim(0, 10)
     # three markers on one spot share a label; one far away keeps its own
     assert number_groups(ax, [5.0, 8.0, 5.0, 5.05], [5.0, 1.0, 5.0, 5.01]) == [[0, 2, 3], [1]]
-    png = plot_tradeoff(tmp_path / "t.png", ["a", "b", "c"], [[1.0, 1.1], [2.0, 2.5], [3.0]], [0.3, 0.1, None],
-                        quality_label="q", log_quality=True, floor=1e-3)
+    png = plot_tradeoff(
+        tmp_path / "t.png",
+        ["a", "b", "c"],
+        [[1.0, 1.1], [2.0, 2.5], [3.0]],
+        [0.3, 0.1, None],
+        quality_label="q",
+        log_quality=True,
+        floor=1e-3,
+    )
     assert png.stat().st_size > 10_000 and png.read_bytes()[:4] == b"\x89PNG"

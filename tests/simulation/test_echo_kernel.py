@@ -39,24 +39,41 @@ def reference_block(scene, plan, t):
 
 SCENES = {
     "squinted, moving target, down chirp": dict(
-        platform={"altitude": "1 km"}, geometry={"squint": "20 deg"}, radar={"chirp": "down"},
-        targets={"frame": "squint", "points": [
-            {"name": "A"}, {"name": "B", "azimuth": "5 m", "range": "30 m", "amplitude": 0.7, "phase": "40 deg"},
-            {"name": "M", "azimuth": "-8 m", "range": "-20 m", "velocity": ["3 m/s", "-2 m/s", "0 m/s"]}]},
-        effects={"target_motion": {}}),
+        platform={"altitude": "1 km"},
+        geometry={"squint": "20 deg"},
+        radar={"chirp": "down"},
+        targets={
+            "frame": "squint",
+            "points": [
+                {"name": "A"},
+                {"name": "B", "azimuth": "5 m", "range": "30 m", "amplitude": 0.7, "phase": "40 deg"},
+                {"name": "M", "azimuth": "-8 m", "range": "-20 m", "velocity": ["3 m/s", "-2 m/s", "0 m/s"]},
+            ],
+        },
+        effects={"target_motion": {}},
+    ),
     "antenna, varied gate, platform motion, 3 channels": dict(
         acquisition={"mode": "stripmap", "aperture_time": "0.5 s"},
         targets={"frame": "squint", "points": [{"name": "A"}, {"name": "B", "azimuth": "12 m", "range": "9 m"}]},
-        effects={"antenna": {"pattern": "sinc", "azimuth_beamwidth": "2 deg"},
-                 "range_gate": {"pulses_per_step": 5},
-                 "platform_motion": {"cross_track_amplitude": "0.3 m", "cross_track_period": "0.2 s",
-                                     "vertical_amplitude": "0.1 m", "vertical_period": "0.3 s"},
-                 "azimuth_channels": {"n_receivers": 3, "spacing": "1 m"}}),
-    "clutter": dict(effects={"clutter": {"n_scatterers": 40, "azimuth_extent": "40 m", "range_extent": "40 m",
-                                         "seed": 2}}),
+        effects={
+            "antenna": {"pattern": "sinc", "azimuth_beamwidth": "2 deg"},
+            "range_gate": {"pulses_per_step": 5},
+            "platform_motion": {
+                "cross_track_amplitude": "0.3 m",
+                "cross_track_period": "0.2 s",
+                "vertical_amplitude": "0.1 m",
+                "vertical_period": "0.3 s",
+            },
+            "azimuth_channels": {"n_receivers": 3, "spacing": "1 m"},
+        },
+    ),
+    "clutter": dict(
+        effects={"clutter": {"n_scatterers": 40, "azimuth_extent": "40 m", "range_extent": "40 m", "seed": 2}}
+    ),
     "pulse longer than the window": dict(
         targets={"frame": "squint", "points": [{"name": "A"}, {"name": "B", "range": "40 m"}]},
-        acquisition={"range_window": {"start": "1990 m", "end": "2010 m"}}),
+        acquisition={"range_window": {"start": "1990 m", "end": "2010 m"}},
+    ),
 }
 
 
@@ -65,7 +82,7 @@ def test_compiled_echoes_equal_float64_equation(scene_mapping, changes):
     scene = scene_from_mapping(scene_mapping(**changes))
     plan = sim.plan_simulation(scene)
     t = plan.coords["azimuth_time"]
-    got = np.concatenate([b for _, b in sim.simulate_blocks(scene, plan)], axis=1)   # complex64, as stored
+    got = np.concatenate([b for _, b in sim.simulate_blocks(scene, plan)], axis=1)  # complex64, as stored
     want = reference_block(scene, plan, t)
     assert got.shape == want.shape and np.count_nonzero(want) > 0
     # the same samples are lit, and each value is the float64 echo to complex64 rounding

@@ -23,14 +23,15 @@ def messages(caplog, mapping, level=logging.INFO):
 
 
 def test_silent_when_nothing_folds(scene_mapping, caplog):
-    scene, msgs = messages(caplog, scene_mapping())          # 167 Hz history, PRF 400 Hz
+    scene, msgs = messages(caplog, scene_mapping())  # 167 Hz history, PRF 400 Hz
     assert msgs == []
     dop = doppler_folding(scene)
     assert dop["own"] == pytest.approx(2 * 100**2 / (0.0299792458 * 2000) * 0.5, rel=0.01)
 
 
-@pytest.mark.parametrize("declared, level", [({}, "WARNING"), ({"coarse_focus": {}}, "INFO"),
-                                             ({"backproject": {}}, "INFO")])
+@pytest.mark.parametrize(
+    "declared, level", [({}, "WARNING"), ({"coarse_focus": {}}, "INFO"), ({"backproject": {}}, "INFO")]
+)
 def test_spotlight_fold_and_whether_the_chain_unfolds_it(scene_mapping, caplog, declared, level):
     # PRF 120 Hz < 167 Hz history of the single target: the spectrum folds by about 47 Hz, but the
     # targets' instantaneous spread (0 Hz for one target) fits, so deramp / backprojection undo it.
@@ -46,8 +47,9 @@ def test_spotlight_fold_and_whether_the_chain_unfolds_it(scene_mapping, caplog, 
 
 def test_spotlight_targets_folding_onto_each_other(scene_mapping, caplog):
     # Two targets 60 m apart are 200 Hz apart in Doppler at every time: more than a 150 Hz PRF.
-    m = scene_mapping(radar={"prf": "150 Hz"}, coarse_focus={},
-                      targets={"points": [{"name": "A"}, {"name": "B", "azimuth": "60 m"}]})
+    m = scene_mapping(
+        radar={"prf": "150 Hz"}, coarse_focus={}, targets={"points": [{"name": "A"}, {"name": "B", "azimuth": "60 m"}]}
+    )
     _, msgs = messages(caplog, m)
     assert [lvl for lvl, _ in msgs] == ["WARNING"]
     assert "instantaneous Doppler spread is 200" in msgs[0][1] and "aliasing by 5" in msgs[0][1]
@@ -57,21 +59,28 @@ def test_spotlight_targets_folding_onto_each_other(scene_mapping, caplog):
 
 def test_stripmap_beam_wider_than_the_sampling_rate(scene_mapping, caplog):
     # Beam Doppler band 2 v beta / lambda = 2 x 100 x 0.0349 / 0.03 = 233 Hz.
-    base = dict(acquisition={"mode": "stripmap", "aperture_time": "0.5 s"},
-                effects={"antenna": {"azimuth_beamwidth": "2 deg"}})
+    base = dict(
+        acquisition={"mode": "stripmap", "aperture_time": "0.5 s"}, effects={"antenna": {"azimuth_beamwidth": "2 deg"}}
+    )
     _, msgs = messages(caplog, scene_mapping(radar={"prf": "200 Hz"}, **base))
     assert [lvl for lvl, _ in msgs] == ["WARNING"] and "the beam's Doppler band is 232" in msgs[0][1]
     _, msgs = messages(caplog, scene_mapping(radar={"prf": "300 Hz"}, **base))
     assert msgs == []
 
 
-@pytest.mark.parametrize("changes", [
-    {},                                                                              # spotlight, no beam
-    {"geometry": {"squint": "20 deg"}},
-    {"platform": {"altitude": "1 km"}, "geometry": {"reference_range": "2.5 km"}},
-    {"effects": {"antenna": {"azimuth_beamwidth": "3 deg"}}},                          # spotlight with a beam
-    {"acquisition": {"mode": "stripmap", "aperture_time": "4 s"}, "effects": {"antenna": {"azimuth_beamwidth": "3 deg"}}},
-])
+@pytest.mark.parametrize(
+    "changes",
+    [
+        {},  # spotlight, no beam
+        {"geometry": {"squint": "20 deg"}},
+        {"platform": {"altitude": "1 km"}, "geometry": {"reference_range": "2.5 km"}},
+        {"effects": {"antenna": {"azimuth_beamwidth": "3 deg"}}},  # spotlight with a beam
+        {
+            "acquisition": {"mode": "stripmap", "aperture_time": "4 s"},
+            "effects": {"antenna": {"azimuth_beamwidth": "3 deg"}},
+        },
+    ],
+)
 def test_bounded_check_agrees_with_every_pulse_and_target(scene_mapping, changes):
     # 41 x 31 targets over 2 s (800 pulses) evaluated fully, then on 64 pulses x 200 targets.
     m = scene_mapping(**{"acquisition": {"aperture_time": "2 s"}, **changes})
@@ -88,7 +97,9 @@ def test_loading_many_targets_does_not_allocate_pulses_times_targets(scene_mappi
     import tracemalloc
 
     m = scene_mapping(acquisition={"aperture_time": "10 s"})
-    m["targets"] = {"grid": {"azimuth_count": 200, "range_count": 100, "azimuth_spacing": "1 m", "range_spacing": "1 m"}}
+    m["targets"] = {
+        "grid": {"azimuth_count": 200, "range_count": 100, "azimuth_spacing": "1 m", "range_spacing": "1 m"}
+    }
     tracemalloc.start()
     try:
         scene = scene_from_mapping(m, source="scene.yaml")

@@ -29,26 +29,30 @@ def warnings_of(caplog, mapping):
 
 
 def stripmap(scene_mapping, *points, pattern="sinc"):
-    return scene_mapping(acquisition={"mode": "stripmap", "aperture_time": "0.5 s"},
-                         effects={"antenna": {"pattern": pattern, "azimuth_beamwidth": "2 deg"}},
-                         targets={"frame": "squint", "points": list(points)})
+    return scene_mapping(
+        acquisition={"mode": "stripmap", "aperture_time": "0.5 s"},
+        effects={"antenna": {"pattern": pattern, "azimuth_beamwidth": "2 deg"}},
+        targets={"frame": "squint", "points": list(points)},
+    )
 
 
 def test_silent_when_every_target_is_fully_lit(scene_mapping, caplog):
     assert warnings_of(caplog, stripmap(scene_mapping, {"name": "A"}, {"name": "B", "azimuth": "5 m"})) == []
-    assert warnings_of(caplog, scene_mapping()) == []                    # spotlight, no pattern
+    assert warnings_of(caplog, scene_mapping()) == []  # spotlight, no pattern
 
 
 def test_partly_lit_and_side_lobe_lit_targets_are_named_with_fraction_and_resolution(scene_mapping, caplog):
-    lines = warnings_of(caplog, stripmap(scene_mapping, {"name": "A"}, {"name": "P", "azimuth": "40 m"},
-                                         {"name": "S", "azimuth": "200 m"}))
+    lines = warnings_of(
+        caplog,
+        stripmap(scene_mapping, {"name": "A"}, {"name": "P", "azimuth": "40 m"}, {"name": "S", "azimuth": "200 m"}),
+    )
     assert len(lines) == 2, lines
     partly, side = lines
     # P: in the -3 dB beam (|x_P - x| <= R tan 1 deg = 34.9 m) from x = 5.1 m to the track end at 25 m,
     # against the scene centre's whole 50 m track: 40 %
     assert "'P' is only partly illuminated: 40 %" in partly
     irw, full = (float(v) for v in re.findall(r"IRW ([\d.]+) m instead of ([\d.]+) m", partly)[0])
-    assert irw > 1.1 * full                          # 40 % of the aperture: a coarser response (1.22x)
+    assert irw > 1.1 * full  # 40 % of the aperture: a coarser response (1.22x)
     # S never enters the main beam; its strongest two-way gain is the sinc pattern's at the nearest track end
     x = np.linspace(-25, 25, 201)
     angle = np.arctan((200 - x) / 2000)
@@ -58,9 +62,7 @@ def test_partly_lit_and_side_lobe_lit_targets_are_named_with_fraction_and_resolu
 
 
 def test_a_beam_that_never_sees_a_target_says_so(scene_mapping, caplog):
-    (line,) = warnings_of(caplog, stripmap(scene_mapping, {"name": "A"}, {"name": "F", "azimuth": "200 m"},
-                                           pattern="rect"))
+    (line,) = warnings_of(
+        caplog, stripmap(scene_mapping, {"name": "A"}, {"name": "F", "azimuth": "200 m"}, pattern="rect")
+    )
     assert "'F' is outside the beam over the whole aperture" in line and "never lit" in line
-
-
-

@@ -40,11 +40,11 @@ def alias_bands(beamwidth: float, wavelength: float, spacing: float, resolution:
     stays within the sector (to half a resolution cell) or no pattern is recorded (beamwidth 0)."""
     psi = unambiguous_half_sector(wavelength, spacing)
     if beamwidth <= 0 or beamwidth / 2 <= psi + resolution / 2 or psi >= math.pi / 2:
-        return []   # no pattern recorded (nothing to compare), or the beam stays within the sector
+        return []  # no pattern recorded (nothing to compare), or the beam stays within the sector
     edge = beamwidth / 2
     bands = []
     period = wavelength / spacing
-    for sign in (1.0, -1.0):   # the first fold: w - sign lambda/d (a sliver maps monotonically)
+    for sign in (1.0, -1.0):  # the first fold: w - sign lambda/d (a sliver maps monotonically)
         a = math.asin(max(-1.0, min(1.0, sign * (math.sin(psi) - period))))
         b = math.asin(max(-1.0, min(1.0, sign * (math.sin(edge) - period))))
         bands.append((sign * psi, sign * edge, min(a, b), max(a, b)))
@@ -56,9 +56,17 @@ def _array_factor(offsets: np.ndarray, wavelength: float, dw: float) -> float:
     return float(np.abs(np.mean(np.exp(2j * np.pi * np.asarray(offsets) * dw / wavelength))))
 
 
-def elevation_ambiguities(cube: np.ndarray, elevation: np.ndarray, azimuth: np.ndarray, ranges: np.ndarray,
-                          beamwidth: float, wavelength: float, offsets: np.ndarray, resolution: float,
-                          level_db: float = -25.0) -> list[str]:
+def elevation_ambiguities(
+    cube: np.ndarray,
+    elevation: np.ndarray,
+    azimuth: np.ndarray,
+    ranges: np.ndarray,
+    beamwidth: float,
+    wavelength: float,
+    offsets: np.ndarray,
+    resolution: float,
+    level_db: float = -25.0,
+) -> list[str]:
     """Warnings (empty when nothing is ambiguous): the beam against the sector, and every response of
     ``cube`` (elevation, azimuth, range) above ``level_db`` of the strongest that lies in an alias
     band, with its level and the true elevation it would have if it is a fold. A response no stronger
@@ -71,11 +79,13 @@ def elevation_ambiguities(cube: np.ndarray, elevation: np.ndarray, azimuth: np.n
         return []
     psi = unambiguous_half_sector(wavelength, spacing)
     beam = f"the elevation beam +-{math.degrees(beamwidth / 2):.3g} deg"
-    msgs = [f"{beam} reaches beyond the unambiguous sector +-{math.degrees(psi):.3g} deg = +-asin(lambda/2d) "
-            f"(d = {spacing:.4g} m): scatterers at {', '.join(f'{math.degrees(lo):+.3g}..{math.degrees(hi):+.3g}' for lo, hi, _, _ in bands)} "
-            f"deg fold, fully focused and at full strength, onto "
-            f"{', '.join(f'{math.degrees(a):+.3g}..{math.degrees(b):+.3g}' for _, _, a, b in bands)} deg "
-            "(narrow the beam or the receiver spacing)"]
+    msgs = [
+        f"{beam} reaches beyond the unambiguous sector +-{math.degrees(psi):.3g} deg = +-asin(lambda/2d) "
+        f"(d = {spacing:.4g} m): scatterers at {', '.join(f'{math.degrees(lo):+.3g}..{math.degrees(hi):+.3g}' for lo, hi, _, _ in bands)} "
+        f"deg fold, fully focused and at full strength, onto "
+        f"{', '.join(f'{math.degrees(a):+.3g}..{math.degrees(b):+.3g}' for _, _, a, b in bands)} deg "
+        "(narrow the beam or the receiver spacing)"
+    ]
     mag = np.abs(cube)
     peak = float(mag.max()) if mag.size else 0.0
     if not peak > 0:
@@ -93,7 +103,7 @@ def elevation_ambiguities(cube: np.ndarray, elevation: np.ndarray, azimuth: np.n
         th = float(elevation[sel[k[0]]])
         # strongest response per elevation near this (azimuth, range): cross-track range migration
         # moves a response's side lobes by a bin or two in range across elevation
-        near = mag[:, max(0, k[1] - 1):k[1] + 2, max(0, k[2] - 2):k[2] + 3]
+        near = mag[:, max(0, k[1] - 1) : k[1] + 2, max(0, k[2] - 2) : k[2] + 3]
         line = near.reshape(len(elevation), -1).max(axis=1)
         top = int(np.argmax(line))
         if elevation[top] != th:
@@ -103,8 +113,10 @@ def elevation_ambiguities(cube: np.ndarray, elevation: np.ndarray, azimuth: np.n
                 continue
         w_true = math.sin(th) + math.copysign(wavelength / spacing, lo)
         true = math.degrees(math.asin(max(-1.0, min(1.0, w_true))))
-        msgs.append(f"the response at elevation {math.degrees(th):+.3g} deg, azimuth {float(azimuth[k[1]]):.4g} m, "
-                    f"range {float(ranges[k[2]]):.5g} m ({level:.1f} dB of the strongest) lies where the beam "
-                    f"beyond the sector folds: it is a scatterer there or the grating-lobe alias of one at "
-                    f"{true:+.3g} deg, which the data cannot tell apart")
+        msgs.append(
+            f"the response at elevation {math.degrees(th):+.3g} deg, azimuth {float(azimuth[k[1]]):.4g} m, "
+            f"range {float(ranges[k[2]]):.5g} m ({level:.1f} dB of the strongest) lies where the beam "
+            f"beyond the sector folds: it is a scatterer there or the grating-lobe alias of one at "
+            f"{true:+.3g} deg, which the data cannot tell apart"
+        )
     return msgs

@@ -51,48 +51,87 @@ from sarproc.product.theory import fill_target_theory, response_theory, window_t
 from sarproc.dsp.rangecomp import chirp_replica
 
 
-
 @dataclasses.dataclass(frozen=True)
 class Array3DParams:
     """Parameters of ``sarproc array3d`` (section ``array3d:``)."""
 
-    range_filter: str = param(default="matched", choices=("matched", "flat"), doc=(
-        "range compression: matched = eq. (9) (conjugate chirp spectrum); flat = divide by the chirp "
-        "spectrum inside |f| <= B/2 (an exact rect spectrum, as sarproc.dsp.rangecomp's default)"))
-    rcmc_kernel: str = param(default="sinc", choices=KERNELS + ("none",), doc=(
-        "azimuth RCMC interpolation kernel, eq. (14) (paper: sinc); none skips azimuth RCMC"))
-    rcmc_kernel_length: int = param(default=16, ge=2, le=64, doc=(
-        "taps of the sinc/lanczos kernels (cubic uses 4, linear 2, nearest 1)"))
-    azimuth_model: str = param(default="fresnel", choices=("fresnel", "hyperbolic"), doc=(
-        "azimuth RCM and matched filter: fresnel = eqs. (14), (17); hyperbolic = exact range-Doppler form"))
-    cross_track_rcmc_range: str = param(default="off", choices=("off", "reference"), doc=(
-        "eq. (20), the v_n^2/(2 r0) range shift; paper: negligible for H >> L, so off"))
-    cross_track_rcmc_elevation: str = param(default="per_bin", choices=("per_bin", "reference", "off"), doc=(
-        "eq. (21), the v_n sin(theta0) range shift; per_bin: with each elevation bin's theta (exact); "
-        "reference: once with reference_elevation; off: skipped"))
-    reference_range: float | None = param("length", default=None, gt=0, doc=(
-        "r0 of eq. (20); default: the middle of the output range axis"))
-    reference_elevation: float = param("angle", default=0.0, gt=-math.pi / 2, lt=math.pi / 2, doc=(
-        "theta0 of eq. (21) for cross_track_rcmc_elevation: reference"))
-    elevation_zero_padding: float = param(default=4.0, ge=1.0, le=64.0, doc=(
-        "elevation grid step lambda / (pad N d), as a zero-padded FFT of length pad N (eq. 26)"))
-    elevation_span: float | None = param("angle", default=None, gt=0, lt=math.pi / 2, doc=(
-        "half-width of the output elevation sector; default: the unambiguous sector asin(lambda / 2d)"))
+    range_filter: str = param(
+        default="matched",
+        choices=("matched", "flat"),
+        doc=(
+            "range compression: matched = eq. (9) (conjugate chirp spectrum); flat = divide by the chirp "
+            "spectrum inside |f| <= B/2 (an exact rect spectrum, as sarproc.dsp.rangecomp's default)"
+        ),
+    )
+    rcmc_kernel: str = param(
+        default="sinc",
+        choices=KERNELS + ("none",),
+        doc=("azimuth RCMC interpolation kernel, eq. (14) (paper: sinc); none skips azimuth RCMC"),
+    )
+    rcmc_kernel_length: int = param(
+        default=16, ge=2, le=64, doc=("taps of the sinc/lanczos kernels (cubic uses 4, linear 2, nearest 1)")
+    )
+    azimuth_model: str = param(
+        default="fresnel",
+        choices=("fresnel", "hyperbolic"),
+        doc=("azimuth RCM and matched filter: fresnel = eqs. (14), (17); hyperbolic = exact range-Doppler form"),
+    )
+    cross_track_rcmc_range: str = param(
+        default="off",
+        choices=("off", "reference"),
+        doc=("eq. (20), the v_n^2/(2 r0) range shift; paper: negligible for H >> L, so off"),
+    )
+    cross_track_rcmc_elevation: str = param(
+        default="per_bin",
+        choices=("per_bin", "reference", "off"),
+        doc=(
+            "eq. (21), the v_n sin(theta0) range shift; per_bin: with each elevation bin's theta (exact); "
+            "reference: once with reference_elevation; off: skipped"
+        ),
+    )
+    reference_range: float | None = param(
+        "length", default=None, gt=0, doc=("r0 of eq. (20); default: the middle of the output range axis")
+    )
+    reference_elevation: float = param(
+        "angle",
+        default=0.0,
+        gt=-math.pi / 2,
+        lt=math.pi / 2,
+        doc=("theta0 of eq. (21) for cross_track_rcmc_elevation: reference"),
+    )
+    elevation_zero_padding: float = param(
+        default=4.0,
+        ge=1.0,
+        le=64.0,
+        doc=("elevation grid step lambda / (pad N d), as a zero-padded FFT of length pad N (eq. 26)"),
+    )
+    elevation_span: float | None = param(
+        "angle",
+        default=None,
+        gt=0,
+        lt=math.pi / 2,
+        doc=("half-width of the output elevation sector; default: the unambiguous sector asin(lambda / 2d)"),
+    )
     deramp: bool = param(default=True, doc="apply the deramp of eq. (23)")
-    crop_range: bool = param(default=True, doc=(
-        "keep only range samples where a whole pulse fits in the receive window"))
-    precision: str = param(default="float32", choices=("float32", "float64"), doc=(
-        "intermediate precision of the signal arrays (phases and geometry are always float64)"))
-    block_elements: int = param(default=8_000_000, ge=10_000, doc=(
-        "complex elements per block of the elevation transform (bounds peak memory)"))
+    crop_range: bool = param(
+        default=True, doc=("keep only range samples where a whole pulse fits in the receive window")
+    )
+    precision: str = param(
+        default="float32",
+        choices=("float32", "float64"),
+        doc=("intermediate precision of the signal arrays (phases and geometry are always float64)"),
+    )
+    block_elements: int = param(
+        default=8_000_000, ge=10_000, doc=("complex elements per block of the elevation transform (bounds peak memory)")
+    )
 
 
 @dataclasses.dataclass
 class ArrayGeometry:
     """Receiver offsets across track, m (relative to the transmitter), and derived sampling."""
 
-    offsets: np.ndarray      # (n_ch,) v_n, m
-    spacing: float           # d, m (median spacing of the sorted offsets)
+    offsets: np.ndarray  # (n_ch,) v_n, m
+    spacing: float  # d, m (median spacing of the sorted offsets)
     uniform: bool
 
 
@@ -100,14 +139,14 @@ class ArrayGeometry:
 class Array3DResult:
     """Output of :func:`focus_array3d` (all coordinates SI)."""
 
-    cube: np.ndarray                 # (n_el, n_az, n_rg) complex64
-    elevation: np.ndarray            # (n_el,) rad, uniform
-    azimuth: np.ndarray              # (n_az,) m (platform x of each pulse)
-    range: np.ndarray                # (n_rg,) m, slant range r = c tau / 2
-    theoretical_irw: list            # [elevation rad, azimuth m, range m] at nadir
+    cube: np.ndarray  # (n_el, n_az, n_rg) complex64
+    elevation: np.ndarray  # (n_el,) rad, uniform
+    azimuth: np.ndarray  # (n_az,) m (platform x of each pulse)
+    range: np.ndarray  # (n_rg,) m, slant range r = c tau / 2
+    theoretical_irw: list  # [elevation rad, azimuth m, range m] at nadir
     channel_images: np.ndarray | None  # (n_ch, n_az, n_rg) complex64 before elevation compression
-    channel_irw: list                # [azimuth m, range m]
-    info: dict                       # numbers worth recording in the history
+    channel_irw: list  # [azimuth m, range m]
+    info: dict  # numbers worth recording in the history
 
 
 # ----------------------------------------------------------------------------------------------
@@ -119,16 +158,19 @@ def array_geometry(tx_offset, rx_offset) -> ArrayGeometry:
     tx = np.asarray(tx_offset, float).reshape(3)
     rx = np.asarray(rx_offset, float).reshape(-1, 3)
     if np.any(np.abs(tx) > 1e-9):
-        raise InputError(f"aux rx/tx offsets: array3d needs the transmitter on the platform track "
-                         f"(tx_offset = 0), got {tx.tolist()} m")
+        raise InputError(
+            f"aux rx/tx offsets: array3d needs the transmitter on the platform track "
+            f"(tx_offset = 0), got {tx.tolist()} m"
+        )
     if np.any(np.abs(rx[:, [0, 2]]) > 1e-9):
-        raise InputError("aux rx_offset: array3d needs a cross-track (y) array; some receivers have "
-                         "x or z offsets")
+        raise InputError("aux rx_offset: array3d needs a cross-track (y) array; some receivers have x or z offsets")
     v = rx[:, 1].copy()
     if len(v) < 2:
-        raise InputError(f"array3d needs at least 2 receivers for elevation compression, got {len(v)} "
-                         "(with one receiver there is no elevation resolution: use sarproc backproject "
-                         "or array3d --channel-image on a 2-receiver product)")
+        raise InputError(
+            f"array3d needs at least 2 receivers for elevation compression, got {len(v)} "
+            "(with one receiver there is no elevation resolution: use sarproc backproject "
+            "or array3d --channel-image on a 2-receiver product)"
+        )
     s = np.diff(np.sort(v))
     if np.any(s <= 0):
         raise InputError("aux rx_offset: two receivers share a cross-track position")
@@ -199,8 +241,9 @@ def elevation_grid(geom: ArrayGeometry, wavelength: float, params: Array3DParams
 # Processing steps
 
 
-def range_compress(signal: np.ndarray, radar: RadarMetadata, ctype, workers: int = -1,
-                   kind: str = "matched") -> np.ndarray:
+def range_compress(
+    signal: np.ndarray, radar: RadarMetadata, ctype, workers: int = -1, kind: str = "matched"
+) -> np.ndarray:
     """Range compression of the centred chirp along the last axis, eq. (9); a unit echo peaks at ~1.
 
     ``matched``: conj(H(f)), the paper's matched filter; ``flat``: rect(f/B) / H(f). Works in
@@ -211,7 +254,7 @@ def range_compress(signal: np.ndarray, radar: RadarMetadata, ctype, workers: int
     n_fft = sfft.next_fast_len(n_rg + len(h))
     h_circ = np.zeros(n_fft, complex)
     h_circ[: half + 1] = h[half:]
-    h_circ[n_fft - half:] = h[:half]
+    h_circ[n_fft - half :] = h[:half]
     spec_h = sfft.fft(h_circ)
     if kind == "matched":
         filt = (np.conj(spec_h) / np.count_nonzero(h)).astype(ctype)
@@ -228,8 +271,16 @@ def range_compress(signal: np.ndarray, radar: RadarMetadata, ctype, workers: int
     return out.reshape(signal.shape[:-1] + (n_rg,))
 
 
-def azimuth_focus(rc: np.ndarray, du: float, ranges: np.ndarray, radar: RadarMetadata, params: Array3DParams,
-                  ctype, workers: int = -1, overwrite: bool = False) -> np.ndarray:
+def azimuth_focus(
+    rc: np.ndarray,
+    du: float,
+    ranges: np.ndarray,
+    radar: RadarMetadata,
+    params: Array3DParams,
+    ctype,
+    workers: int = -1,
+    overwrite: bool = False,
+) -> np.ndarray:
     """Azimuth RCMC (eq. 14) and compression (eq. 17) of (n_ch, n_az, n_rg) range-compressed data.
 
     ``du`` is the along-track pulse spacing (m), ``ranges`` the slant range r = c tau / 2 of each
@@ -245,21 +296,22 @@ def azimuth_focus(rc: np.ndarray, du: float, ranges: np.ndarray, radar: RadarMet
     else:
         pad = n_az
     n_fft = sfft.next_fast_len(n_az + min(pad, n_az))
-    fu = sfft.fftfreq(n_fft, du)[:, None]                       # spatial frequency, cycles/m
+    fu = sfft.fftfreq(n_fft, du)[:, None]  # spatial frequency, cycles/m
     r = ranges[None, :]
     if params.azimuth_model == "fresnel":
-        d_r = lam**2 * r * fu**2 / 4.0                          # eq. (14), two-way path excess, m
-        phase = -np.pi * fu**2 * lam * r / 2.0                  # eq. (17): -pi f_u^2 / K_a, K_a = 2/(lambda r)
+        d_r = lam**2 * r * fu**2 / 4.0  # eq. (14), two-way path excess, m
+        phase = -np.pi * fu**2 * lam * r / 2.0  # eq. (17): -pi f_u^2 / K_a, K_a = 2/(lambda r)
     else:
         arg = 1.0 - (lam * fu / 2.0) ** 2
         if np.any(arg <= 0):
-            raise ProcessingError("azimuth frequencies beyond 2/lambda: the PRF/velocity sampling is too fine "
-                                  "for the hyperbolic model")
+            raise ProcessingError(
+                "azimuth frequencies beyond 2/lambda: the PRF/velocity sampling is too fine for the hyperbolic model"
+            )
         dfac = np.sqrt(arg)
         d_r = 2.0 * r * (1.0 / dfac - 1.0)
         phase = 4.0 * np.pi * r / lam * (dfac - 1.0)
-    filt = np.exp(1j * phase).astype(ctype)                      # (n_fft, n_rg)
-    pos = np.arange(n_rg)[None, :] + d_r * fs / C               # read the sample at tau + dR / c
+    filt = np.exp(1j * phase).astype(ctype)  # (n_fft, n_rg)
+    pos = np.arange(n_rg)[None, :] + d_r * fs / C  # read the sample at tau + dR / c
     # Channel by channel, each focused image written over its range-compressed input when ``overwrite``
     # (the padded spectra, their resampled copy and the output of all channels at once were 4x the data).
     out = rc if overwrite else np.empty_like(rc)
@@ -267,16 +319,25 @@ def azimuth_focus(rc: np.ndarray, du: float, ranges: np.ndarray, radar: RadarMet
         spec = sfft.fft(rc[c], n=n_fft, axis=0, workers=workers)
         if params.rcmc_kernel != "none":
             # Kaiser beta = taps / 4 for the sinc kernel (16 taps: < 1.3 % error up to 0.42 cycles/sample).
-            spec = resample(spec, pos, params.rcmc_kernel, params.rcmc_kernel_length,
-                            beta=params.rcmc_kernel_length / 4.0)
+            spec = resample(
+                spec, pos, params.rcmc_kernel, params.rcmc_kernel_length, beta=params.rcmc_kernel_length / 4.0
+            )
         spec *= filt
         out[c] = sfft.ifft(spec, axis=0, workers=workers, overwrite_x=True)[:n_az, :]
     return out
 
 
-def elevation_compress(images: np.ndarray, ranges: np.ndarray, geom: ArrayGeometry, theta: np.ndarray,
-                       radar: RadarMetadata, params: Array3DParams, ctype, workers: int = -1,
-                       progress=None) -> np.ndarray:
+def elevation_compress(
+    images: np.ndarray,
+    ranges: np.ndarray,
+    geom: ArrayGeometry,
+    theta: np.ndarray,
+    radar: RadarMetadata,
+    params: Array3DParams,
+    ctype,
+    workers: int = -1,
+    progress=None,
+) -> np.ndarray:
     """Cross-track RCMC (eqs. 20, 21), deramp (eq. 23) and transform over channels (eqs. 24-26).
 
     images: (n_ch, n_az, n_rg) per-channel 2D images; ranges: (n_rg,) m; theta: output
@@ -287,45 +348,48 @@ def elevation_compress(images: np.ndarray, ranges: np.ndarray, geom: ArrayGeomet
     v = geom.offsets
     w = np.sin(theta)
     x = images
-    if params.deramp:                                            # eq. (23): exp(j pi K_e v_n^2), K_e = 1/(lambda r)
+    if params.deramp:  # eq. (23): exp(j pi K_e v_n^2), K_e = 1/(lambda r)
         x = x * np.exp(1j * np.pi * v[:, None, None] ** 2 / (lam * ranges[None, None, :])).astype(ctype)
     r_ref = params.reference_range or float(ranges[len(ranges) // 2])
     n_fft, blocks, step = _elevation_blocks(images.shape, ranges, geom, theta, radar, params)
-    f = sfft.fftfreq(n_fft, 1.0 / fs)                            # baseband range frequency, Hz
+    f = sfft.fftfreq(n_fft, 1.0 / fs)  # baseband range frequency, Hz
     # Range-frequency factors per channel, fac = outer(fac_per_hz, f) (n_ch, n_f): eq. (20) and eq. (21) at a
     # reference theta, both linear in f.
     fac_per_hz = np.zeros(n_ch)
     if params.cross_track_rcmc_range == "reference":
-        fac_per_hz += np.pi * v**2 / (C * r_ref)                 # eq. (20)
+        fac_per_hz += np.pi * v**2 / (C * r_ref)  # eq. (20)
     if params.cross_track_rcmc_elevation == "reference":
-        fac_per_hz += -2 * np.pi * v * math.sin(params.reference_elevation) / C   # eq. (21)
+        fac_per_hz += -2 * np.pi * v * math.sin(params.reference_elevation) / C  # eq. (21)
     fac = np.outer(fac_per_hz, f)
-    spec = sfft.fft(x, n=n_fft, axis=-1, workers=workers)        # (n_ch, n_az, n_f)
+    spec = sfft.fft(x, n=n_fft, axis=-1, workers=workers)  # (n_ch, n_az, n_f)
     scale = 1.0 / n_ch
     out = np.empty((len(theta), n_az, n_rg), dtype=ctype)
     if params.cross_track_rcmc_elevation == "per_bin":
         # One product per range frequency: eq. (21) at theta_k and the DFT of eq. (26) together.
-        spec = np.ascontiguousarray(spec.transpose(2, 0, 1))     # (n_f, n_ch, n_az)
+        spec = np.ascontiguousarray(spec.transpose(2, 0, 1))  # (n_f, n_ch, n_az)
         y = np.empty((n_fft, len(theta), n_az), dtype=ctype)
-        for s in (progress(blocks) if progress is not None else blocks):
+        for s in progress(blocks) if progress is not None else blocks:
             e = min(s + step, n_fft)
             # phase -2 pi (f_c + f) w_k v_n / c + f fac_per_hz[n], generated straight into the kernel (fused)
             kern = np.full((e - s, len(theta) * n_ch), scale, dtype=ctype)
-            multiply_separable_phase(kern, [fc + f[s:e], f[s:e]], [(-2 * np.pi / C) * np.outer(w, v).ravel(),
-                                                                   np.tile(fac_per_hz, len(theta))])
+            multiply_separable_phase(
+                kern,
+                [fc + f[s:e], f[s:e]],
+                [(-2 * np.pi / C) * np.outer(w, v).ravel(), np.tile(fac_per_hz, len(theta))],
+            )
             np.matmul(kern.reshape(e - s, len(theta), n_ch), spec[s:e], out=y[s:e])
         del spec
-        y = sfft.ifft(y, axis=0, workers=workers, overwrite_x=True)[:n_rg]    # (n_rg, n_el, n_az)
+        y = sfft.ifft(y, axis=0, workers=workers, overwrite_x=True)[:n_rg]  # (n_rg, n_el, n_az)
         out[...] = y.transpose(1, 2, 0)
         return out
     if np.any(fac != 0):
         spec *= np.exp(1j * fac)[:, None, :].astype(ctype)
     x = sfft.ifft(spec, axis=-1, workers=workers, overwrite_x=True)[..., :n_rg]
-    kern = (np.exp(-2j * np.pi * np.outer(w, v) / lam) * scale).astype(ctype)   # eq. (26) DFT, (n_el, n_ch)
+    kern = (np.exp(-2j * np.pi * np.outer(w, v) / lam) * scale).astype(ctype)  # eq. (26) DFT, (n_el, n_ch)
     flat = x.reshape(n_ch, -1)
     out2 = out.reshape(len(theta), -1)
-    for s in (progress(blocks) if progress is not None else blocks):
-        out2[:, s:s + step] = kern @ flat[:, s:s + step]
+    for s in progress(blocks) if progress is not None else blocks:
+        out2[:, s : s + step] = kern @ flat[:, s : s + step]
     return out
 
 
@@ -354,8 +418,10 @@ def _along_track(platform_position: np.ndarray, radar: RadarMetadata) -> tuple[n
     if pos.ndim != 2 or pos.shape[1] != 3 or len(pos) < 2:
         raise InputError(f"aux platform_position: expected (n_az >= 2, 3), got {pos.shape}")
     if np.any(np.abs(pos[:, 1]) > 1e-6) or np.any(np.abs(pos[:, 2] - radar.altitude) > 1e-6):
-        raise InputError("aux platform_position: array3d needs a straight track along x at y = 0, z = altitude "
-                         "(motion errors are not modelled)")
+        raise InputError(
+            "aux platform_position: array3d needs a straight track along x at y = 0, z = altitude "
+            "(motion errors are not modelled)"
+        )
     u = pos[:, 0]
     du = (u[-1] - u[0]) / (len(u) - 1)
     if du <= 0 or np.max(np.abs(np.diff(u) - du)) > 1e-6 * abs(du):
@@ -363,10 +429,19 @@ def _along_track(platform_position: np.ndarray, radar: RadarMetadata) -> tuple[n
     return u, float(du)
 
 
-def focus_array3d(signal: np.ndarray, range_time: np.ndarray, platform_position: np.ndarray,
-                  tx_offset: np.ndarray, rx_offset: np.ndarray, radar: RadarMetadata,
-                  params: Array3DParams = Array3DParams(), *, keep_channel_images: bool = False,
-                  progress=None, workers: int = -1) -> Array3DResult:
+def focus_array3d(
+    signal: np.ndarray,
+    range_time: np.ndarray,
+    platform_position: np.ndarray,
+    tx_offset: np.ndarray,
+    rx_offset: np.ndarray,
+    radar: RadarMetadata,
+    params: Array3DParams = Array3DParams(),
+    *,
+    keep_channel_images: bool = False,
+    progress=None,
+    workers: int = -1,
+) -> Array3DResult:
     """The whole chain of Fig. 3 on a (n_ch, n_az, n_rg) ``raw_array`` signal.
 
     range_time: (n_rg,) s since transmit, uniform at f_s; platform_position: (n_az, 3) m;
@@ -395,11 +470,15 @@ def focus_array3d(signal: np.ndarray, range_time: np.ndarray, platform_position:
 
     theta = elevation_grid(geom, lam, params)
     if params.crop_range:
-        keep = np.nonzero((range_time >= range_time[0] + radar.pulse_duration / 2)
-                          & (range_time <= range_time[-1] - radar.pulse_duration / 2))[0]
+        keep = np.nonzero(
+            (range_time >= range_time[0] + radar.pulse_duration / 2)
+            & (range_time <= range_time[-1] - radar.pulse_duration / 2)
+        )[0]
         if len(keep) < 2:
-            raise ProcessingError("the receive window is shorter than the pulse: no fully compressed range "
-                                  "sample (set array3d.crop_range: false to keep partial ones)")
+            raise ProcessingError(
+                "the receive window is shorter than the pulse: no fully compressed range "
+                "sample (set array3d.crop_range: false to keep partial ones)"
+            )
         sl = slice(int(keep[0]), int(keep[-1]) + 1)
     else:
         sl = slice(None)
@@ -413,31 +492,61 @@ def focus_array3d(signal: np.ndarray, range_time: np.ndarray, platform_position:
     done()
     del rc
     # Elevation compression works on the cropped range span plus a guard for the range shifts.
-    cube = elevation_compress(images[:, :, sl], ranges[sl], geom, theta, radar, params, ctype, workers,
-                              None if progress is None else (lambda it, total=None: wrapped(done, it)))
+    cube = elevation_compress(
+        images[:, :, sl],
+        ranges[sl],
+        geom,
+        theta,
+        radar,
+        params,
+        ctype,
+        workers,
+        None if progress is None else (lambda it, total=None: wrapped(done, it)),
+    )
     b_az = azimuth_bandwidth(radar, du)
     irw_az = 0.886 / b_az
     irw_rg = 0.886 * C / (2 * radar.bandwidth)
     irw_el = elevation_irw(geom.offsets, lam)
-    info = {"n_channels": n_ch, "receiver_spacing_m": geom.spacing, "uniform_array": geom.uniform,
-            "elevation_bins": int(len(theta)), "elevation_step_rad": float(theta[1] - theta[0]),
-            "unambiguous_half_sector_rad": math.asin(min(1.0, lam / (2 * geom.spacing))),
-            "azimuth_bandwidth_cycles_per_m": b_az, "along_track_spacing_m": du,
-            "cross_track_rcm_max_m": float(np.max(np.abs(geom.offsets)) * np.max(np.abs(np.sin(theta)))
-                                           + np.max(geom.offsets**2) / (2 * float(ranges[sl].mean()))),
-            "range_crop_samples": [int(sl.start or 0), int(sl.stop or n_rg)]}
+    info = {
+        "n_channels": n_ch,
+        "receiver_spacing_m": geom.spacing,
+        "uniform_array": geom.uniform,
+        "elevation_bins": int(len(theta)),
+        "elevation_step_rad": float(theta[1] - theta[0]),
+        "unambiguous_half_sector_rad": math.asin(min(1.0, lam / (2 * geom.spacing))),
+        "azimuth_bandwidth_cycles_per_m": b_az,
+        "along_track_spacing_m": du,
+        "cross_track_rcm_max_m": float(
+            np.max(np.abs(geom.offsets)) * np.max(np.abs(np.sin(theta)))
+            + np.max(geom.offsets**2) / (2 * float(ranges[sl].mean()))
+        ),
+        "range_crop_samples": [int(sl.start or 0), int(sl.stop or n_rg)],
+    }
     chans = images[:, :, sl].astype(np.complex64) if keep_channel_images else None
-    return Array3DResult(cube=cube.astype(np.complex64, copy=False), elevation=theta, azimuth=u.copy(),
-                         range=ranges[sl].copy(), theoretical_irw=[irw_el, irw_az, irw_rg],
-                         channel_images=chans, channel_irw=[irw_az, irw_rg], info=info)
+    return Array3DResult(
+        cube=cube.astype(np.complex64, copy=False),
+        elevation=theta,
+        azimuth=u.copy(),
+        range=ranges[sl].copy(),
+        theoretical_irw=[irw_el, irw_az, irw_rg],
+        channel_images=chans,
+        channel_irw=[irw_az, irw_rg],
+        info=info,
+    )
 
 
 # ----------------------------------------------------------------------------------------------
 # Product level (in memory; the CLI only reads and writes)
 
 
-def array3d_product(raw, params: Array3DParams = Array3DParams(), *, channel_image: int | None = None,
-                    progress=None, command: str = "array3d"):
+def array3d_product(
+    raw,
+    params: Array3DParams = Array3DParams(),
+    *,
+    channel_image: int | None = None,
+    progress=None,
+    command: str = "array3d",
+):
     """Focus a ``raw_array`` :class:`~sarproc.product.model.Product` into an ``image3d`` product.
 
     ``channel_image`` (1-based receiver number, as the paper's "14th receiver") also returns the
@@ -463,41 +572,86 @@ def array3d_product(raw, params: Array3DParams = Array3DParams(), *, channel_ima
     n_ch = raw.data.shape[0]
     if channel_image is not None and not 1 <= channel_image <= n_ch:
         raise InputError(f"--channel-image {channel_image}: receivers are numbered 1..{n_ch}")
-    res = focus_array3d(raw.data, raw.coords["range_time"], raw.aux["platform_position"], raw.aux["tx_offset"],
-                        raw.aux["rx_offset"], raw.radar, params, keep_channel_images=channel_image is not None,
-                        progress=progress)
+    res = focus_array3d(
+        raw.data,
+        raw.coords["range_time"],
+        raw.aux["platform_position"],
+        raw.aux["tx_offset"],
+        raw.aux["rx_offset"],
+        raw.radar,
+        params,
+        keep_channel_images=channel_image is not None,
+        progress=progress,
+    )
     frame = ElevationFrame(raw.radar.altitude)
-    ambiguities = elevation_ambiguities(res.cube, res.elevation, res.azimuth, res.range, raw.radar.elevation_beamwidth,
-                                        raw.radar.wavelength, np.asarray(raw.aux["rx_offset"])[:, 1],
-                                        res.theoretical_irw[0])
+    ambiguities = elevation_ambiguities(
+        res.cube,
+        res.elevation,
+        res.azimuth,
+        res.range,
+        raw.radar.elevation_beamwidth,
+        raw.radar.wavelength,
+        np.asarray(raw.aux["rx_offset"])[:, 1],
+        res.theoretical_irw[0],
+    )
     for msg in ambiguities:
         logging.getLogger(__name__).warning("array3d: %s", msg, extra=IMAGE_DEFECT)
     entry = history_entry(command, {**as_dict(params), "derived": {**res.info, "elevation_ambiguities": ambiguities}})
     targets = targets_in_frame(raw.targets, frame)
-    fill_target_theory(targets, ("elevation", "azimuth", "range"),
-                       target_theory_3d(array_geometry(raw.aux["tx_offset"], raw.aux["rx_offset"]).offsets,
-                                        raw.radar.wavelength, targets["elevation"], res.channel_irw))
-    cube = raw.derive("image3d", res.cube, ("elevation", "azimuth", "range"),
-                      {"elevation": res.elevation, "azimuth": res.azimuth, "range": res.range},
-                      targets=targets,
-                      attrs={"frame": frame.spec, "theoretical_irw": [float(x) for x in res.theoretical_irw],
-                             "axis_units": ["rad", "m", "m"],  # the values are complex amplitudes (units "1")
-                             "theoretical_irw_note": (
-                                 "unweighted -3 dB widths at nadir: elevation = array-factor width of the receiver "
-                                 "offsets (0.886 lambda / (N d) for many receivers), azimuth = 0.886 / (4 sin(beta_az/2) "
-                                 "/ lambda) (rect beam; PRF/v without a beam), range = 0.886 c / (2 B)")},
-                      history=list(raw.history) + [entry])
+    fill_target_theory(
+        targets,
+        ("elevation", "azimuth", "range"),
+        target_theory_3d(
+            array_geometry(raw.aux["tx_offset"], raw.aux["rx_offset"]).offsets,
+            raw.radar.wavelength,
+            targets["elevation"],
+            res.channel_irw,
+        ),
+    )
+    cube = raw.derive(
+        "image3d",
+        res.cube,
+        ("elevation", "azimuth", "range"),
+        {"elevation": res.elevation, "azimuth": res.azimuth, "range": res.range},
+        targets=targets,
+        attrs={
+            "frame": frame.spec,
+            "theoretical_irw": [float(x) for x in res.theoretical_irw],
+            "axis_units": ["rad", "m", "m"],  # the values are complex amplitudes (units "1")
+            "theoretical_irw_note": (
+                "unweighted -3 dB widths at nadir: elevation = array-factor width of the receiver "
+                "offsets (0.886 lambda / (N d) for many receivers), azimuth = 0.886 / (4 sin(beta_az/2) "
+                "/ lambda) (rect beam; PRF/v without a beam), range = 0.886 c / (2 B)"
+            ),
+        },
+        history=list(raw.history) + [entry],
+    )
     chan = None
     if channel_image is not None:
-        f2 = SquintFrame(0.0, raw.radar.altitude)   # zero-Doppler: (x, slant range from the track)
-        chan = raw.derive("image", res.channel_images[channel_image - 1], ("azimuth", "range"),
-                          {"azimuth": res.azimuth, "range": res.range},
-                          targets=targets_in_frame(raw.targets, f2),
-                          attrs={"frame": f2.spec, "theoretical_irw": [float(x) for x in res.channel_irw],
-                                 "axis_units": ["m", "m"], "channel": int(channel_image),
-                                 "rx_offset": [float(x) for x in np.asarray(raw.aux["rx_offset"])[channel_image - 1]]},
-                          history=list(raw.history) + [history_entry(
-                              command + f" --channel-image {channel_image}",
-                              {**as_dict(params), "channel_image": channel_image,
-                               "stage": "range compression, azimuth RCMC and compression (before elevation compression)"})])
+        f2 = SquintFrame(0.0, raw.radar.altitude)  # zero-Doppler: (x, slant range from the track)
+        chan = raw.derive(
+            "image",
+            res.channel_images[channel_image - 1],
+            ("azimuth", "range"),
+            {"azimuth": res.azimuth, "range": res.range},
+            targets=targets_in_frame(raw.targets, f2),
+            attrs={
+                "frame": f2.spec,
+                "theoretical_irw": [float(x) for x in res.channel_irw],
+                "axis_units": ["m", "m"],
+                "channel": int(channel_image),
+                "rx_offset": [float(x) for x in np.asarray(raw.aux["rx_offset"])[channel_image - 1]],
+            },
+            history=list(raw.history)
+            + [
+                history_entry(
+                    command + f" --channel-image {channel_image}",
+                    {
+                        **as_dict(params),
+                        "channel_image": channel_image,
+                        "stage": "range compression, azimuth RCMC and compression (before elevation compression)",
+                    },
+                )
+            ],
+        )
     return cube, chan

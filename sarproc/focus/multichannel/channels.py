@@ -98,14 +98,14 @@ def filter_bank(tau, prf: float, n_az: int, band_center: float = 0.0, regulariza
     """Filters P(f) = H(f)^-1 (eq. 3) or the Tikhonov solution (eq. 4) for ``n_az`` azimuth bins."""
     tau = np.asarray(tau, float)
     n = len(tau)
-    fo = band_frequencies(n_az, prf, n, band_center)                        # (n_az, N)
-    h = np.exp(2j * np.pi * tau[None, :, None] * fo[:, None, :])            # (n_az, N_ch, N_band), eq. (3)
+    fo = band_frequencies(n_az, prf, n, band_center)  # (n_az, N)
+    h = np.exp(2j * np.pi * tau[None, :, None] * fo[:, None, :])  # (n_az, N_ch, N_band), eq. (3)
     s = np.linalg.svd(h, compute_uv=False)
     cond = s[:, 0] / np.maximum(s[:, -1], 1e-300)
     if regularization > 0:
         hh = np.conj(np.swapaxes(h, 1, 2))
         mu = regularization * s[:, :1, None] ** 2
-        p = np.linalg.solve(hh @ h + mu * np.eye(n)[None], hh)               # eq. (4)
+        p = np.linalg.solve(hh @ h + mu * np.eye(n)[None], hh)  # eq. (4)
     else:
         p = np.linalg.inv(h)
     out_index = np.rint(fo * n_az / prf).astype(np.int64) % (n * n_az)
@@ -120,8 +120,8 @@ def apply_filter_bank(spectra: np.ndarray, bank: FilterBank) -> np.ndarray:
     """
     n, n_az = spectra.shape[:2]
     rest = spectra.shape[2:]
-    s = np.moveaxis(spectra, 0, 1).reshape(n_az, n, -1)                     # (n_az, N, m)
-    z = bank.matrix.astype(np.complex64) @ s                                  # (n_az, N_band, m)
+    s = np.moveaxis(spectra, 0, 1).reshape(n_az, n, -1)  # (n_az, N, m)
+    z = bank.matrix.astype(np.complex64) @ s  # (n_az, N_band, m)
     out = np.empty((n * n_az,) + (s.shape[-1],), np.complex64)
     out[bank.out_index.reshape(-1)] = z.reshape(n_az * n, -1)
     out *= np.float32(n)

@@ -64,4 +64,6 @@ def compression_phasor(range_frequency, chirp_rate: float, sign: int = +1) -> np
 def quadratic_phasor(times, range_frequency, acceleration, t_center, carrier_frequency) -> np.ndarray:
     """(n_t, n_f) exp(+j 2 pi (f_c + f_r) a (t - t_c)^2 / c): removes a range history 0.5 a (t - t_c)^2 (two-way)."""
     dt2 = (np.asarray(times, float) - t_center) ** 2
-    return _phasor(dt2[:, None] * (acceleration * (carrier_frequency + np.asarray(range_frequency, float)) / C)[None, :])
+    return _phasor(
+        dt2[:, None] * (acceleration * (carrier_frequency + np.asarray(range_frequency, float)) / C)[None, :]
+    )

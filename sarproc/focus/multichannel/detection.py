@@ -42,18 +42,18 @@ from scipy import ndimage
 from sarproc.dsp.phasor import unit_phasor
 from sarproc.product.metadata import C
 
-TILE = (256, 32)            # CFAR background tiles: azimuth samples x range cells
-SIDELOBE_MARGIN = 4.0       # 6 dB over a stronger detection's sinc envelope
+TILE = (256, 32)  # CFAR background tiles: azimuth samples x range cells
+SIDELOBE_MARGIN = 4.0  # 6 dB over a stronger detection's sinc envelope
 
 
 @dataclasses.dataclass(frozen=True)
 class Detection:
-    cell: int                # walk-corrected range cell (index in the zero-padded range axis)
-    index: int               # azimuth sample of the peak in the detection image (output grid)
-    time: float              # apparent time t_app, s
-    power: float             # peak power in the detection image
-    background: float        # mean background power there (CFAR)
-    width: float             # -3 dB azimuth width of the peak, samples
+    cell: int  # walk-corrected range cell (index in the zero-padded range axis)
+    index: int  # azimuth sample of the peak in the detection image (output grid)
+    time: float  # apparent time t_app, s
+    power: float  # peak power in the detection image
+    background: float  # mean background power there (CFAR)
+    width: float  # -3 dB azimuth width of the peak, samples
 
     @property
     def snr_db(self) -> float:
@@ -74,7 +74,7 @@ def compressed(y_fa: np.ndarray, out_f: np.ndarray, ka: np.ndarray) -> np.ndarra
 def detection_image(y_fa: np.ndarray, out_f: np.ndarray, ka: np.ndarray) -> np.ndarray:
     """Power of :func:`compressed`, float32."""
     img = compressed(y_fa, out_f, ka)
-    return (img.real ** 2 + img.imag ** 2).astype(np.float32)
+    return (img.real**2 + img.imag**2).astype(np.float32)
 
 
 def background(power: np.ndarray, tile=TILE) -> np.ndarray:
@@ -106,8 +106,15 @@ def _width(profile: np.ndarray, k: int) -> float:
     return float(max(1, lo + hi + 1))
 
 
-def find_detections(power: np.ndarray, bg: np.ndarray, times: np.ndarray, cfar_db: float, level_db: float,
-                    range_width: float, max_detections: int) -> tuple[list[Detection], int]:
+def find_detections(
+    power: np.ndarray,
+    bg: np.ndarray,
+    times: np.ndarray,
+    cfar_db: float,
+    level_db: float,
+    range_width: float,
+    max_detections: int,
+) -> tuple[list[Detection], int]:
     """CFAR peaks of a (t', range) power image, side lobes of stronger peaks removed (module docstring).
 
     Returns the detections, strongest first, and the number of candidates beyond ``max_detections``.
@@ -140,8 +147,16 @@ def find_detections(power: np.ndarray, bg: np.ndarray, times: np.ndarray, cfar_d
         if len(found) >= max_detections:
             dropped += 1
             continue
-        found.append(Detection(cell=int(r_i), index=int(t_i), time=float(times[t_i]), power=p,
-                               background=float(bg[t_i, r_i]), width=_width(power[:, r_i], int(t_i))))
+        found.append(
+            Detection(
+                cell=int(r_i),
+                index=int(t_i),
+                time=float(times[t_i]),
+                power=p,
+                background=float(bg[t_i, r_i]),
+                width=_width(power[:, r_i], int(t_i)),
+            )
+        )
     return found, dropped
 
 
@@ -155,8 +170,9 @@ def extraction_mask(frequencies: np.ndarray, prf: float, half_width: float) -> n
     return m
 
 
-def extract(x_tf: np.ndarray, times: np.ndarray, prf: float, t_app: float, ka: np.ndarray,
-            half_width: float, notches=None) -> np.ndarray:
+def extract(
+    x_tf: np.ndarray, times: np.ndarray, prf: float, t_app: float, ka: np.ndarray, half_width: float, notches=None
+) -> np.ndarray:
     """Channels (N, n_az, L) in (t, f_r) of one window -> the part focused within half_width / K_a of t_app.
 
     With ``notches`` (dechirped frequencies K_a (t_j - t_app) of the other targets in the window, Hz) the

@@ -43,33 +43,71 @@ log = logging.getLogger(__name__)
 
 @dataclasses.dataclass(frozen=True)
 class ReconstructParams:
-    method: str = param(default="modified", choices=("conventional", "modified"), doc=(
-        "conventional: static-scene filter bank everywhere; modified: also detect moving targets, estimate their "
-        "velocities and reconstruct them with the modified filter bank"))
-    doppler_bandwidth: float | None = param("frequency", default=None, gt=0, doc=(
-        "target Doppler band B_a for the leakage criterion and the clutter null; default 2 v cos(squint) beta / "
-        "lambda from the azimuth beamwidth"))
+    method: str = param(
+        default="modified",
+        choices=("conventional", "modified"),
+        doc=(
+            "conventional: static-scene filter bank everywhere; modified: also detect moving targets, estimate their "
+            "velocities and reconstruct them with the modified filter bank"
+        ),
+    )
+    doppler_bandwidth: float | None = param(
+        "frequency",
+        default=None,
+        gt=0,
+        doc=(
+            "target Doppler band B_a for the leakage criterion and the clutter null; default 2 v cos(squint) beta / "
+            "lambda from the azimuth beamwidth"
+        ),
+    )
     regularization: float = param(default=0.0, ge=0, doc="Tikhonov mu (relative to the largest singular value^2)")
     max_condition: float = param(default=100.0, gt=1, doc="warn when the filter bank's condition number exceeds this")
-    detection: str = param(default="auto", choices=("auto", "whole"), doc=(
-        "auto: moving-target windows from the data; whole: the whole swath is one moving target"))
-    detection_velocity: float = param("velocity", default=1.0, gt=0, doc=(
-        "a detection is static (not a mover) when its line-of-sight velocity is under this"))
-    detection_level: float = param("decibel", default=-30.0, lt=0, doc="ignore detection-image peaks weaker than "
-                                   "this relative to the strongest")
-    detection_snr: float = param("decibel", default=15.0, ge=0, doc=(
-        "CFAR threshold: a detection-image peak must exceed the mean local background (clutter residual and "
-        "noise, from tile medians) by this much"))
-    window_margin: int = param(default=16, ge=1, doc="range cells on each side of a mover's peak in its window "
-                               "(its own range walk and curvature must fit)")
-    separation_bandwidth: float = param("frequency", default=25.0, gt=0, doc=(
-        "half width of the azimuth mask that separates one mover from the others in its range cells, in the "
-        "dechirped channel spectrum; movers closer than about 2.5 x this / K_a in apparent time are not separated"))
-    max_detections: int = param(default=64, ge=1, doc=(
-        "at most this many detections are examined (strongest first; those an examined one explains are free)"))
+    detection: str = param(
+        default="auto",
+        choices=("auto", "whole"),
+        doc=("auto: moving-target windows from the data; whole: the whole swath is one moving target"),
+    )
+    detection_velocity: float = param(
+        "velocity",
+        default=1.0,
+        gt=0,
+        doc=("a detection is static (not a mover) when its line-of-sight velocity is under this"),
+    )
+    detection_level: float = param(
+        "decibel", default=-30.0, lt=0, doc="ignore detection-image peaks weaker than this relative to the strongest"
+    )
+    detection_snr: float = param(
+        "decibel",
+        default=15.0,
+        ge=0,
+        doc=(
+            "CFAR threshold: a detection-image peak must exceed the mean local background (clutter residual and "
+            "noise, from tile medians) by this much"
+        ),
+    )
+    window_margin: int = param(
+        default=16,
+        ge=1,
+        doc="range cells on each side of a mover's peak in its window (its own range walk and curvature must fit)",
+    )
+    separation_bandwidth: float = param(
+        "frequency",
+        default=25.0,
+        gt=0,
+        doc=(
+            "half width of the azimuth mask that separates one mover from the others in its range cells, in the "
+            "dechirped channel spectrum; movers closer than about 2.5 x this / K_a in apparent time are not separated"
+        ),
+    )
+    max_detections: int = param(
+        default=64,
+        ge=1,
+        doc=("at most this many detections are examined (strongest first; those an examined one explains are free)"),
+    )
     radial_velocity: float | None = param("velocity", default=None, doc="use this slant-range velocity (no search)")
-    along_track_velocity: float | None = param("velocity", default=None, doc="use this along-track velocity "
-                                               "(no autofocus)")
+    along_track_velocity: float | None = param(
+        "velocity", default=None, doc="use this along-track velocity (no autofocus)"
+    )
     velocity_min: float = param("velocity", default=-20.0, doc="lower bound of the slant-range velocity search")
     velocity_max: float = param("velocity", default=20.0, doc="upper bound of the slant-range velocity search")
     velocity_step: float = param("velocity", default=0.1, gt=0, doc="precision of the search grid")
@@ -77,10 +115,15 @@ class ReconstructParams:
     search: str = param(default="fast", choices=("fast", "exhaustive"), doc="coarse-to-fine or a full grid")
     autofocus: bool = param(default=True, doc="estimate the along-track velocity by azimuth autofocus")
     autofocus_span: float = param("velocity", default=30.0, gt=0, doc="along-track search over +-span")
-    clutter_suppression: bool = param(default=False, doc="null static clutter with redundant channels; report it "
-                                      "and detect moving targets on the residual")
-    clutter_band: float = param(default=1.2, gt=0, doc=(
-        "width of the nulled static band over the Doppler bandwidth (above 1: the spectral tails of the beam)"))
+    clutter_suppression: bool = param(
+        default=False,
+        doc="null static clutter with redundant channels; report it and detect moving targets on the residual",
+    )
+    clutter_band: float = param(
+        default=1.2,
+        gt=0,
+        doc=("width of the nulled static band over the Doppler bandwidth (above 1: the spectral tails of the beam)"),
+    )
 
     def validate(self):
         if self.velocity_max <= self.velocity_min:
@@ -95,16 +138,16 @@ class MovingTarget:
 
     first_cell: int
     last_cell: int
-    slant_range: float          # m, window centre at its beam-centre time
-    radial_velocity: float      # m/s (estimated or given)
+    slant_range: float  # m, window centre at its beam-centre time
+    radial_velocity: float  # m/s (estimated or given)
     along_track_velocity: float  # m/s
-    beam_centre_time: float     # s
-    leakage: float              # eq. (5) at the estimate
+    beam_centre_time: float  # s
+    leakage: float  # eq. (5) at the estimate
     at_bound: bool
-    search: np.ndarray          # (n, 2) velocity, leakage
-    autofocus: np.ndarray       # (n, 2) velocity, sharpness (empty if not run)
-    snr_db: float = float("nan")          # detection SNR (peak over mean local background)
-    apparent_time: float = float("nan")   # s, where it appears (beam-centre time of its static equivalent)
+    search: np.ndarray  # (n, 2) velocity, leakage
+    autofocus: np.ndarray  # (n, 2) velocity, sharpness (empty if not run)
+    snr_db: float = float("nan")  # detection SNR (peak over mean local background)
+    apparent_time: float = float("nan")  # s, where it appears (beam-centre time of its static equivalent)
     apparent_range: float = float("nan")  # m, slant range of its static equivalent at apparent_time
 
 
@@ -152,9 +195,19 @@ def _geometry(raw: Product, params: ReconstructParams) -> _Geometry:
             raise InputError("reconstruct.doppler_bandwidth: required (the product has no azimuth beamwidth)")
         band = 2 * r.velocity * math.cos(r.squint) * r.azimuth_beamwidth / r.wavelength
     out_times = t[0] + np.arange(n * len(t)) / (n * r.prf)
-    return _Geometry(prf=r.prf, times=t, out_times=out_times, dx=dx, tau0=channels.channel_delays(dx, r.velocity),
-                     n=n, velocity=r.velocity, squint=r.squint, fc=r.carrier_frequency, half_band=band / 2,
-                     fs=r.range_sampling_rate)
+    return _Geometry(
+        prf=r.prf,
+        times=t,
+        out_times=out_times,
+        dx=dx,
+        tau0=channels.channel_delays(dx, r.velocity),
+        n=n,
+        velocity=r.velocity,
+        squint=r.squint,
+        fc=r.carrier_frequency,
+        half_band=band / 2,
+        fs=r.range_sampling_rate,
+    )
 
 
 def _to_deramped(raw: Product, g: _Geometry) -> tuple[np.ndarray, np.ndarray, int]:
@@ -166,7 +219,7 @@ def _to_deramped(raw: Product, g: _Geometry) -> tuple[np.ndarray, np.ndarray, in
     n_fft = sfft.next_fast_len(n_rg + 2 * lead)
     f_r = sfft.fftfreq(n_fft, 1.0 / g.fs)
     buf = np.zeros((n_ch, n_az, n_fft), np.complex64)
-    buf[:, :, lead:lead + n_rg] = raw.data
+    buf[:, :, lead : lead + n_rg] = raw.data
     spec = sfft.fft(buf, axis=-1, workers=-1)
     del buf
     comp = deramp.compression_phasor(f_r, r.chirp_rate)
@@ -189,7 +242,7 @@ class _Window:
         self.x, self.f_r, self.g, self.params = x_tf, f_r, g, params
         self.out_f = sfft.fftfreq(g.n * len(g.times), 1.0 / (g.n * g.prf))
         self._banks: dict[float, channels.FilterBank] = {}
-        self.cells: np.ndarray | None = None     # the criterion's range cells (None: all of the window)
+        self.cells: np.ndarray | None = None  # the criterion's range cells (None: all of the window)
 
     def keep_own_cells(self, margin: int = 2) -> None:
         """Restrict the criterion to the cells holding the target (noise in the others only dilutes eq. 5).
@@ -204,15 +257,16 @@ class _Window:
             return
         keep = np.zeros(len(p), bool)
         for c in own:
-            keep[max(0, c - margin):c + margin + 1] = True
+            keep[max(0, c - margin) : c + margin + 1] = True
         self.cells = np.nonzero(keep)[0]
 
     def bank(self, v_a: float) -> channels.FilterBank:
         key = round(v_a, 9)
         if key not in self._banks:
             tau = channels.channel_delays(self.g.dx, self.g.velocity, v_a)
-            self._banks[key] = channels.filter_bank(tau, self.g.prf, len(self.g.times),
-                                                    regularization=self.params.regularization)
+            self._banks[key] = channels.filter_bank(
+                tau, self.g.prf, len(self.g.times), regularization=self.params.regularization
+            )
         return self._banks[key]
 
     def demodulated_spectrum(self, v_r: float, v_a: float) -> np.ndarray:
@@ -264,9 +318,14 @@ class _Window:
         return float(slope * C / (2 * g.fs))
 
 
-def _estimate(win: _Window, params: ReconstructParams, g: _Geometry, centre_range: float,
-              static_below: float | None = None,
-              flat_above: float | None = None) -> tuple[MovingTarget | None, list[str]]:
+def _estimate(
+    win: _Window,
+    params: ReconstructParams,
+    g: _Geometry,
+    centre_range: float,
+    static_below: float | None = None,
+    flat_above: float | None = None,
+) -> tuple[MovingTarget | None, list[str]]:
     """Slant-range velocity by the leakage search, along-track by autofocus, then a refined search.
 
     Returns the target and the reasons to doubt it (true statements, for the caller to warn with the
@@ -280,13 +339,23 @@ def _estimate(win: _Window, params: ReconstructParams, g: _Geometry, centre_rang
     notes: list[str] = []
     can_search = g.n * g.prf > 2 * g.half_band
     if not can_search and params.radial_velocity is None:
-        log.warning("reconstruct: N PRF = %.4g Hz leaves no band outside the Doppler band %.4g Hz; "
-                    "slant-range velocity not estimated (0 used)", g.n * g.prf, 2 * g.half_band)
+        log.warning(
+            "reconstruct: N PRF = %.4g Hz leaves no band outside the Doppler band %.4g Hz; "
+            "slant-range velocity not estimated (0 used)",
+            g.n * g.prf,
+            2 * g.half_band,
+        )
     v_a = params.along_track_velocity if params.along_track_velocity is not None else 0.0
 
     def search(v_a_now, lo, hi, coarse):
-        return velocity.fast_search(lambda u: win.leakage(u, v_a_now), lo, hi, params.velocity_step, coarse,
-                                    exhaustive=params.search == "exhaustive")
+        return velocity.fast_search(
+            lambda u: win.leakage(u, v_a_now),
+            lo,
+            hi,
+            params.velocity_step,
+            coarse,
+            exhaustive=params.search == "exhaustive",
+        )
 
     result = None
     beyond = False
@@ -296,11 +365,15 @@ def _estimate(win: _Window, params: ReconstructParams, g: _Geometry, centre_rang
         result = search(v_a, params.velocity_min, params.velocity_max, params.coarse_step)
         v_r, beyond = _resolve_blind_velocity(win, result.estimate, v_a, params, g)
         if abs(v_r - result.estimate) > params.velocity_step:
-            lo, hi = max(params.velocity_min, v_r - params.coarse_step), min(params.velocity_max, v_r + params.coarse_step)
+            lo, hi = (
+                max(params.velocity_min, v_r - params.coarse_step),
+                min(params.velocity_max, v_r + params.coarse_step),
+            )
             alias = search(v_a, lo, hi, params.coarse_step / 4)
             trials = np.concatenate([result.trials, alias.trials])
-            result = velocity.SearchResult(alias.estimate, alias.at_bound, trials[np.argsort(trials[:, 0])],
-                                           result.evaluations + alias.evaluations)
+            result = velocity.SearchResult(
+                alias.estimate, alias.at_bound, trials[np.argsort(trials[:, 0])], result.evaluations + alias.evaluations
+            )
             v_r = alias.estimate
     else:
         v_r = 0.0
@@ -342,23 +415,38 @@ def _estimate(win: _Window, params: ReconstructParams, g: _Geometry, centre_rang
             lo, hi = max(params.velocity_min, v_r - span), min(params.velocity_max, v_r + span)
             fine = search(v_a, lo, hi, params.velocity_step)
             trials = np.concatenate([result.trials, fine.trials])
-            result = velocity.SearchResult(fine.estimate, False, trials[np.argsort(trials[:, 0])],
-                                           result.evaluations + fine.evaluations)
+            result = velocity.SearchResult(
+                fine.estimate, False, trials[np.argsort(trials[:, 0])], result.evaluations + fine.evaluations
+            )
             v_r = fine.estimate
     leak = win.leakage(v_r, v_a) if can_search else float("nan")
-    on_bound = result is not None and min(abs(v_r - params.velocity_min),
-                                          abs(v_r - params.velocity_max)) < params.velocity_step
+    on_bound = (
+        result is not None
+        and min(abs(v_r - params.velocity_min), abs(v_r - params.velocity_max)) < params.velocity_step
+    )
     if beyond:
-        notes.append(f"no slant-range velocity in [{params.velocity_min:g}, {params.velocity_max:g}] m/s removes "
-                     f"its range walk (best {v_r:.2f} m/s): it moves faster than the search bound, or the window "
-                     "holds more than one mover")
+        notes.append(
+            f"no slant-range velocity in [{params.velocity_min:g}, {params.velocity_max:g}] m/s removes "
+            f"its range walk (best {v_r:.2f} m/s): it moves faster than the search bound, or the window "
+            "holds more than one mover"
+        )
     elif on_bound:
-        notes.append(f"slant-range velocity estimate {v_r:.2f} m/s is on the search bound "
-                     f"[{params.velocity_min:g}, {params.velocity_max:g}] m/s; the target may move faster")
-    return MovingTarget(first_cell=0, last_cell=0, slant_range=slant_range, radial_velocity=float(v_r),
-                        along_track_velocity=float(v_a), beam_centre_time=t_c, leakage=leak,
-                        at_bound=bool(beyond or on_bound),
-                        search=result.trials if result is not None else empty, autofocus=af), notes
+        notes.append(
+            f"slant-range velocity estimate {v_r:.2f} m/s is on the search bound "
+            f"[{params.velocity_min:g}, {params.velocity_max:g}] m/s; the target may move faster"
+        )
+    return MovingTarget(
+        first_cell=0,
+        last_cell=0,
+        slant_range=slant_range,
+        radial_velocity=float(v_r),
+        along_track_velocity=float(v_a),
+        beam_centre_time=t_c,
+        leakage=leak,
+        at_bound=bool(beyond or on_bound),
+        search=result.trials if result is not None else empty,
+        autofocus=af,
+    ), notes
 
 
 def blind_velocity_period(g: _Geometry) -> float:
@@ -366,8 +454,9 @@ def blind_velocity_period(g: _Geometry) -> float:
     return C / g.fc * g.prf / (2 * math.cos(g.squint))
 
 
-def _resolve_blind_velocity(win: _Window, estimate: float, v_a: float, params: ReconstructParams,
-                            g: _Geometry) -> tuple[float, bool]:
+def _resolve_blind_velocity(
+    win: _Window, estimate: float, v_a: float, params: ReconstructParams, g: _Geometry
+) -> tuple[float, bool]:
     """Among the leakage minimum and its blind-velocity aliases inside the bounds, the one without range walk.
 
     Returns (velocity, beyond): ``beyond`` when even the best candidate keeps a residual walk of more than
@@ -390,8 +479,8 @@ def clutter_null(spec_fa: np.ndarray, g: _Geometry, band_factor: float = 1.0) ->
     """
     n, n_az = spec_fa.shape[:2]
     fo = channels.band_frequencies(n_az, g.prf, n)
-    h = np.exp(2j * np.pi * g.tau0[None, :, None] * fo[:, None, :])         # (n_az, N, N), eq. (3)
-    clutter = np.abs(fo) <= g.half_band * band_factor                        # aliases the static band covers
+    h = np.exp(2j * np.pi * g.tau0[None, :, None] * fo[:, None, :])  # (n_az, N, N), eq. (3)
+    clutter = np.abs(fo) <= g.half_band * band_factor  # aliases the static band covers
     a = h * clutter[:, None, :]
     proj = np.eye(n)[None] - a @ np.linalg.pinv(a, rcond=1e-10)
     s = np.moveaxis(spec_fa, 0, 1).reshape(n_az, n, -1)
@@ -404,8 +493,9 @@ def _swath_centre_range(raw: Product) -> float:
     return C / 4 * (rt[0] + rt[-1])
 
 
-def _refine_peak(y_win_tf: np.ndarray, ka: np.ndarray, out_f: np.ndarray, index: int, spacing: float,
-                 n_out: int) -> tuple[float, float]:
+def _refine_peak(
+    y_win_tf: np.ndarray, ka: np.ndarray, out_f: np.ndarray, index: int, spacing: float, n_out: int
+) -> tuple[float, float]:
     """Sub-sample (azimuth index, window cell) of a refocused mover in its window's detection image.
 
     The detection may be one of the mover's ambiguities (``spacing`` = PRF / K_a in samples apart; the
@@ -436,9 +526,20 @@ def _refine_peak(y_win_tf: np.ndarray, ka: np.ndarray, out_f: np.ndarray, index:
     return lo + vertex(sub[:, c], i), vertex(sub[i], c)
 
 
-def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spec: np.ndarray, src: np.ndarray,
-                      y: np.ndarray, f_r: np.ndarray, lead: int, info: dict, progress, bank: channels.FilterBank,
-                      residual_mode: bool) -> list[MovingTarget]:
+def _detect_and_focus(
+    raw: Product,
+    params: ReconstructParams,
+    g: _Geometry,
+    spec: np.ndarray,
+    src: np.ndarray,
+    y: np.ndarray,
+    f_r: np.ndarray,
+    lead: int,
+    info: dict,
+    progress,
+    bank: channels.FilterBank,
+    residual_mode: bool,
+) -> list[MovingTarget]:
     """Detect movers on ``src`` (detection.py), estimate and refocus each one in ``y`` (f_a, f_r), in place.
 
     Each detection's channels are separated from the rest of its range cells (detection.extract); its
@@ -452,16 +553,23 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
     r_mid = _swath_centre_range(raw)
     ka = detection.fm_rate(g.velocity, g.squint, r_mid, g.fc, f_r)
     image = detection.compressed(src, out_f, ka)
-    power = (image.real ** 2 + image.imag ** 2).astype(np.float32)
+    power = (image.real**2 + image.imag**2).astype(np.float32)
     bg = detection.background(power)
-    dets, dropped = detection.find_detections(power, bg, g.out_times, params.detection_snr, params.detection_level,
-                                              max(1.0, g.fs / r.bandwidth), 20 * params.max_detections)
+    dets, dropped = detection.find_detections(
+        power,
+        bg,
+        g.out_times,
+        params.detection_snr,
+        params.detection_level,
+        max(1.0, g.fs / r.bandwidth),
+        20 * params.max_detections,
+    )
     threshold = 10 ** (params.detection_snr / 10)
     del power
     examined = 0
     flat_snr: list[float] = []
     ka0 = float(detection.fm_rate(g.velocity, g.squint, r_mid, g.fc, 0.0))
-    ambiguity = g.prf / ka0                   # apparent-time spacing the channel samples cannot tell apart (s)
+    ambiguity = g.prf / ka0  # apparent-time spacing the channel samples cannot tell apart (s)
     sep = 1.5 * params.separation_bandwidth / ka0
     x_tr = sfft.ifft(spec, axis=-1, workers=-1)
     y_tr = sfft.ifft(sfft.ifft(y, axis=0, workers=-1), axis=1, workers=-1)
@@ -479,8 +587,7 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
     def apart(d1, d2, cells):
         dt = (d1.time - d2.time) / ambiguity
         k = round(dt)
-        return abs(d1.cell - d2.cell) > (cells if k == 0 else max(cells, ghost_cells)) or \
-            abs(dt - k) * ambiguity > sep
+        return abs(d1.cell - d2.cell) > (cells if k == 0 else max(cells, ghost_cells)) or abs(dt - k) * ambiguity > sep
 
     def remove(ext, a, b, ka_w):
         """Take one examined detection's whole response (ambiguities, clutter-null artefacts) out of the image."""
@@ -489,7 +596,7 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
             x_fa = clutter_null(x_fa, g, params.clutter_band)[0]
         image[:, a:b] -= detection.compressed(channels.apply_filter_bank(x_fa, bank), out_f, ka_w)
 
-    for det in (progress(dets) if progress is not None else dets):
+    for det in progress(dets) if progress is not None else dets:
         left = image[det.index, det.cell]
         explained = abs(left) ** 2 < threshold * bg[det.index, det.cell]
         same = [k for k, p in enumerate(peaks) if not apart(det, p, m)]
@@ -501,8 +608,9 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
             # a response inside that is its own; one beyond it and as strong is another target.
             own = movers[k]
             v_los_k = channels.line_of_sight_velocity(own.radial_velocity, own.along_track_velocity, g.squint)
-            spread = (abs(v_los_k) * t_ill + g.velocity**2 * math.cos(g.squint) ** 2 / r_mid * t_ill**2 / 8) \
-                * 2 * g.fs / C + 2
+            spread = (
+                abs(v_los_k) * t_ill + g.velocity**2 * math.cos(g.squint) ** 2 / r_mid * t_ill**2 / 8
+            ) * 2 * g.fs / C + 2
             n_amb = round((det.time - peaks[k].time) / ambiguity)
             # an ambiguity k PRF / K_a away walks by lambda k PRF / 2 m/s against the mover: smeared further
             spread += abs(n_amb) * C / g.fc * g.prf / 2 * t_ill * 2 * g.fs / C
@@ -510,18 +618,31 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
             d_samples = abs((det.time - peaks[k].time) - n_amb * ambiguity) * g.n * g.prf
             apart_azimuth = d_samples > 2 * max(peaks[k].width, det.width) + 2
             if det.power > 0.25 * peaks[k].power and (abs(det.cell - peaks[k].cell) > spread or apart_azimuth):
-                where = f"{1e3 * (det.time - peaks[k].time):+.1f} ms from it in apparent time" if n_amb == 0 else \
-                    f"{n_amb:+d} x PRF / K_a = {n_amb * ambiguity:+.3f} s from it in apparent time (its ambiguity)"
-                log.warning("reconstruct: a response %.1f dB under mover %d, in range cell %d (%d cells from its "
-                            "peak; its own range extent %.0f cells) %s, could not be separated from it: "
-                            "another mover there shares its window and its velocity estimate",
-                            10 * math.log10(peaks[k].power / det.power), k, det.cell, det.cell - peaks[k].cell,
-                            spread, where)
+                where = (
+                    f"{1e3 * (det.time - peaks[k].time):+.1f} ms from it in apparent time"
+                    if n_amb == 0
+                    else f"{n_amb:+d} x PRF / K_a = {n_amb * ambiguity:+.3f} s from it in apparent time (its ambiguity)"
+                )
+                log.warning(
+                    "reconstruct: a response %.1f dB under mover %d, in range cell %d (%d cells from its "
+                    "peak; its own range extent %.0f cells) %s, could not be separated from it: "
+                    "another mover there shares its window and its velocity estimate",
+                    10 * math.log10(peaks[k].power / det.power),
+                    k,
+                    det.cell,
+                    det.cell - peaks[k].cell,
+                    spread,
+                    where,
+                )
             continue
         if explained:
-            counts["explained"] += 1    # a response of a detection already examined, no target of its own
-            log.debug("reconstruct: detection at cell %d, %.4f s (SNR %.1f dB) explained by those examined",
-                      det.cell, det.time, det.snr_db)
+            counts["explained"] += 1  # a response of a detection already examined, no target of its own
+            log.debug(
+                "reconstruct: detection at cell %d, %.4f s (SNR %.1f dB) explained by those examined",
+                det.cell,
+                det.time,
+                det.snr_db,
+            )
             continue
         if examined >= params.max_detections:
             dropped += 1
@@ -542,12 +663,15 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
             kept = float(np.sum(np.abs(clutter_null(e_fa, g, params.clutter_band)[0]) ** 2))
             total = float(np.sum(np.abs(e_fa) ** 2))
             null_db = 10 * math.log10(kept / total) if kept > 0 and total > 0 else -math.inf
-            log.debug("reconstruct: detection at cell %d, %.4f s: %.1f dB of its energy survives the clutter null",
-                     det.cell, det.time, null_db)
+            log.debug(
+                "reconstruct: detection at cell %d, %.4f s: %.1f dB of its energy survives the clutter null",
+                det.cell,
+                det.time,
+                null_db,
+            )
         centre_range = C / 2 * (rt0 + (det.cell - lead) / g.fs)
         # A criterion with no dip at any velocity: no point target (noise, a side lobe, clutter residue).
-        mt, notes = _estimate(win, params, g, centre_range, static_below=params.detection_velocity,
-                              flat_above=0.95)
+        mt, notes = _estimate(win, params, g, centre_range, static_below=params.detection_velocity, flat_above=0.95)
         # The other targets in this window (detected anywhere in its cells, not at this one's position or
         # ambiguities) keep their own reconstruction; everything else in the window takes this mover's.
         others = []
@@ -563,37 +687,67 @@ def _detect_and_focus(raw: Product, params: ReconstructParams, g: _Geometry, spe
             counts[kind] += 1
             if kind == "incoherent":
                 flat_snr.append(det.snr_db)
-            log.info("reconstruct: detection at range cell %d, %.3f s (SNR %.1f dB) is %s", det.cell, det.time,
-                     det.snr_db, "no point target" if kind == "incoherent" else "static")
+            log.info(
+                "reconstruct: detection at range cell %d, %.3f s (SNR %.1f dB) is %s",
+                det.cell,
+                det.time,
+                det.snr_db,
+                "no point target" if kind == "incoherent" else "static",
+            )
             continue
         for note in notes:
             log.warning("reconstruct: mover in range cells %d-%d at %.3f s: %s", a, b - 1, det.time, note)
         win_whole = _Window(whole, f_w, g, params)
-        y_mod = win_whole.output(mt.radial_velocity, mt.along_track_velocity, mt.beam_centre_time, mt.slant_range,
-                                 focus_along_track=True)
+        y_mod = win_whole.output(
+            mt.radial_velocity, mt.along_track_velocity, mt.beam_centre_time, mt.slant_range, focus_along_track=True
+        )
         y_conv = sfft.ifft(_reconstruct(whole, win.bank(0.0)), axis=0, workers=-1)
         y_tr[:, a:b] += sfft.ifft(y_mod - y_conv, axis=1, workers=-1)
-        index, cell = _refine_peak(sfft.fft(y_tr[:, a:b], axis=1, workers=-1), ka_w, out_f, det.index,
-                                   ambiguity * g.n * g.prf, n_out)
+        index, cell = _refine_peak(
+            sfft.fft(y_tr[:, a:b], axis=1, workers=-1), ka_w, out_f, det.index, ambiguity * g.n * g.prf, n_out
+        )
         t_app = g.out_times[0] + index / (g.n * g.prf)
         wc_range = C / 2 * (rt0 + (a + cell - lead) / g.fs)
-        movers.append(dataclasses.replace(mt, first_cell=a, last_cell=b, snr_db=det.snr_db, apparent_time=t_app,
-                                          apparent_range=wc_range - g.velocity * math.sin(g.squint) * t_app))
+        movers.append(
+            dataclasses.replace(
+                mt,
+                first_cell=a,
+                last_cell=b,
+                snr_db=det.snr_db,
+                apparent_time=t_app,
+                apparent_range=wc_range - g.velocity * math.sin(g.squint) * t_app,
+            )
+        )
         peaks.append(det)
     for i in range(len(peaks)):
         for j in range(i + 1, len(peaks)):
             if not apart(peaks[i], peaks[j], m):
-                log.warning("reconstruct: movers %d and %d in range cells %d-%d (%d cells and %.1f ms apart in "
-                            "apparent time) could not be separated; their velocity estimates mix both", i, j,
-                            min(peaks[i].cell, peaks[j].cell), max(peaks[i].cell, peaks[j].cell),
-                            abs(peaks[i].cell - peaks[j].cell), 1e3 * abs(peaks[i].time - peaks[j].time))
+                log.warning(
+                    "reconstruct: movers %d and %d in range cells %d-%d (%d cells and %.1f ms apart in "
+                    "apparent time) could not be separated; their velocity estimates mix both",
+                    i,
+                    j,
+                    min(peaks[i].cell, peaks[j].cell),
+                    max(peaks[i].cell, peaks[j].cell),
+                    abs(peaks[i].cell - peaks[j].cell),
+                    1e3 * abs(peaks[i].time - peaks[j].time),
+                )
     if flat_snr:
-        log.warning("reconstruct: %d detection(s) above the CFAR threshold (SNR %.1f-%.1f dB) have no slant-range "
-                    "velocity that explains them (too weak for the velocity search, or no point target: side lobes, "
-                    "clutter residue); they are not in moving_targets", len(flat_snr), min(flat_snr), max(flat_snr))
+        log.warning(
+            "reconstruct: %d detection(s) above the CFAR threshold (SNR %.1f-%.1f dB) have no slant-range "
+            "velocity that explains them (too weak for the velocity search, or no point target: side lobes, "
+            "clutter residue); they are not in moving_targets",
+            len(flat_snr),
+            min(flat_snr),
+            max(flat_snr),
+        )
     if dropped:
-        log.warning("reconstruct: %d further detections above the CFAR threshold were not examined "
-                    "(reconstruct.max_detections = %d): movers among them are missed", dropped, params.max_detections)
+        log.warning(
+            "reconstruct: %d further detections above the CFAR threshold were not examined "
+            "(reconstruct.max_detections = %d): movers among them are missed",
+            dropped,
+            params.max_detections,
+        )
     counts["not_examined"] = dropped
     del x_tr
     y[:] = sfft.fft(sfft.fft(y_tr, axis=1, workers=-1), axis=0, workers=-1)
@@ -608,18 +762,32 @@ def reconstruct(raw: Product, params: ReconstructParams = ReconstructParams(), p
     r = raw.radar
     n_ch, n_az, n_rg = raw.data.shape
     if g.n * g.prf < 2 * g.half_band:
-        log.warning("reconstruct: N PRF = %.4g Hz is below the Doppler bandwidth %.4g Hz: the output stays aliased",
-                    g.n * g.prf, 2 * g.half_band, extra=IMAGE_DEFECT)
+        log.warning(
+            "reconstruct: N PRF = %.4g Hz is below the Doppler bandwidth %.4g Hz: the output stays aliased",
+            g.n * g.prf,
+            2 * g.half_band,
+            extra=IMAGE_DEFECT,
+        )
     bank = channels.filter_bank(g.tau0, g.prf, n_az, regularization=params.regularization)
     if bank.max_condition > params.max_condition:
-        log.warning("reconstruct: filter bank condition number %.3g exceeds %.3g (noise gain %.1f dB)%s",
-                    bank.max_condition, params.max_condition, 10 * math.log10(bank.noise_gain),
-                    "" if params.regularization > 0 else "; set reconstruct.regularization")
-    spec, f_r, lead = _to_deramped(raw, g)                                   # (N, n_az, n_fft) in (t, f_r)
-    info = {"n_channels": int(n_ch), "prf_in": float(g.prf), "prf_out": g.n * g.prf, "doppler_bandwidth": 2 * g.half_band,
-            "condition_number": bank.max_condition, "noise_gain_db": 10 * math.log10(bank.noise_gain),
-            "uniform_prf": 2 * g.velocity / (n_ch * float(np.mean(np.diff(g.dx)))) if n_ch > 1 else g.prf,
-            "method": params.method}
+        log.warning(
+            "reconstruct: filter bank condition number %.3g exceeds %.3g (noise gain %.1f dB)%s",
+            bank.max_condition,
+            params.max_condition,
+            10 * math.log10(bank.noise_gain),
+            "" if params.regularization > 0 else "; set reconstruct.regularization",
+        )
+    spec, f_r, lead = _to_deramped(raw, g)  # (N, n_az, n_fft) in (t, f_r)
+    info = {
+        "n_channels": int(n_ch),
+        "prf_in": float(g.prf),
+        "prf_out": g.n * g.prf,
+        "doppler_bandwidth": 2 * g.half_band,
+        "condition_number": bank.max_condition,
+        "noise_gain_db": 10 * math.log10(bank.noise_gain),
+        "uniform_prf": 2 * g.velocity / (n_ch * float(np.mean(np.diff(g.dx)))) if n_ch > 1 else g.prf,
+        "method": params.method,
+    }
     residual = None
     if params.clutter_suppression:
         spec_fa = sfft.fft(spec, axis=1, workers=-1)
@@ -632,15 +800,14 @@ def reconstruct(raw: Product, params: ReconstructParams = ReconstructParams(), p
         if params.method == "modified" and params.detection == "auto":
             residual = res
         del spec_fa, res
-    y = _reconstruct(spec, bank)                                             # (N n_az, n_fft) in (f_a, f_r)
+    y = _reconstruct(spec, bank)  # (N n_az, n_fft) in (f_a, f_r)
     movers: list[MovingTarget] = []
     if params.method == "modified" and params.detection == "auto":
         src = y if residual is None else channels.apply_filter_bank(residual, bank)
-        movers = _detect_and_focus(raw, params, g, spec, src, y, f_r, lead, info, progress, bank,
-                                   residual is not None)
+        movers = _detect_and_focus(raw, params, g, spec, src, y, f_r, lead, info, progress, bank, residual is not None)
         del src
     residual = None
-    y = sfft.ifft(y, axis=0, workers=-1)                                     # (t', f_r)
+    y = sfft.ifft(y, axis=0, workers=-1)  # (t', f_r)
     if params.method == "modified" and params.detection == "whole":
         y_tr = sfft.ifft(y, axis=1, workers=-1)
         win = _Window(spec, f_r, g, params)
@@ -650,17 +817,18 @@ def reconstruct(raw: Product, params: ReconstructParams = ReconstructParams(), p
             log.warning("reconstruct: the whole swath as one mover: %s", note)
         mt = dataclasses.replace(mt, first_cell=0, last_cell=len(f_r))
         movers.append(mt)
-        y = win.output(mt.radial_velocity, mt.along_track_velocity, mt.beam_centre_time, mt.slant_range,
-                       focus_along_track=True)
+        y = win.output(
+            mt.radial_velocity, mt.along_track_velocity, mt.beam_centre_time, mt.slant_range, focus_along_track=True
+        )
         del y_tr
     del spec
     y *= deramp.deramp_phasor(g.out_times, f_r, g.velocity, g.squint, g.fc, sign=+1)
     y *= deramp.compression_phasor(f_r, r.chirp_rate, sign=-1)[None, :]
-    out = sfft.ifft(y, axis=1, workers=-1)[:, lead:lead + n_rg].astype(np.complex64)
+    out = sfft.ifft(y, axis=1, workers=-1)[:, lead : lead + n_rg].astype(np.complex64)
     return _output_product(raw, params, g, out, info, movers)
 
 
-VELOCITY_FLOOR = (0.02, 0.05)   # m/s: v_r and v_a errors on noise-free scenes (docs/multichannel.md)
+VELOCITY_FLOOR = (0.02, 0.05)  # m/s: v_r and v_a errors on noise-free scenes (docs/multichannel.md)
 
 
 def _beam_centre_point(platform_xyz, slant_range: float, squint: float) -> np.ndarray:
@@ -704,8 +872,12 @@ def _moving_target_rows(raw: Product, g: _Geometry, movers: list[MovingTarget], 
     truth = raw.targets
     speeds = np.stack([truth["vx"], truth["vy"], truth["vz"]], axis=1) if len(truth) else np.zeros((0, 3))
     moving_rows = [k for k in range(len(truth)) if np.any(speeds[k] != 0)]
-    truth_apparent = {k: moving.apparent_position(raw.radar, g.times, [truth["x"][k], truth["y"][k], truth["z"][k]],
-                                                  speeds[k], centres)[0] for k in moving_rows}
+    truth_apparent = {
+        k: moving.apparent_position(
+            raw.radar, g.times, [truth["x"][k], truth["y"][k], truth["z"][k]], speeds[k], centres
+        )[0]
+        for k in moving_rows
+    }
     out = []
     for i, mt in enumerate(movers):
         if not (mt.first_cell < mt.last_cell) or not np.isfinite(mt.apparent_time):
@@ -719,15 +891,34 @@ def _moving_target_rows(raw: Product, g: _Geometry, movers: list[MovingTarget], 
             log.warning("reconstruct: mover %d not relocated: %s", i, exc)
             true_xyz = np.full(3, np.nan)
         s_r, s_a, s_x = _uncertainties(mt, g)
-        out.append([i, mt.snr_db, mt.radial_velocity, s_r, mt.along_track_velocity, s_a, *app, *true_xyz, s_x,
-                    mt.apparent_time, mt.first_cell, mt.last_cell, mt.leakage, -1])
+        out.append(
+            [
+                i,
+                mt.snr_db,
+                mt.radial_velocity,
+                s_r,
+                mt.along_track_velocity,
+                s_a,
+                *app,
+                *true_xyz,
+                s_x,
+                mt.apparent_time,
+                mt.first_cell,
+                mt.last_cell,
+                mt.leakage,
+                -1,
+            ]
+        )
     if out:
         rows = np.array(out, float)
     # Match each truth mover to the nearest unclaimed detection within 20 m of its apparent position.
     if moving_rows and len(rows):
         free = set(range(len(rows)))
-        pairs = sorted((float(np.linalg.norm(rows[i, 6:9] - truth_apparent[k])), i, k)
-                       for i in range(len(rows)) for k in moving_rows)
+        pairs = sorted(
+            (float(np.linalg.norm(rows[i, 6:9] - truth_apparent[k])), i, k)
+            for i in range(len(rows))
+            for k in moving_rows
+        )
         taken = set()
         for dist, i, k in pairs:
             if dist <= 20.0 and i in free and k not in taken:
@@ -737,9 +928,12 @@ def _moving_target_rows(raw: Product, g: _Geometry, movers: list[MovingTarget], 
     if moving_rows:
         names = [n.decode() if isinstance(n, bytes) else str(n) for n in truth["name"]]
         found = {int(k) for k in rows[:, -1] if k >= 0} if len(rows) else set()
-        info["truth"] = {"movers": len(moving_rows), "found": len(found),
-                         "missed": [names[k] for k in moving_rows if k not in found],
-                         "false_alarms": int(np.sum(rows[:, -1] < 0)) if len(rows) else 0}
+        info["truth"] = {
+            "movers": len(moving_rows),
+            "found": len(found),
+            "missed": [names[k] for k in moving_rows if k not in found],
+            "false_alarms": int(np.sum(rows[:, -1] < 0)) if len(rows) else 0,
+        }
     return rows
 
 
@@ -758,12 +952,21 @@ def _output_product(raw, params, g, out, info, movers) -> Product:
     aux.update(platform_position=out_pos, tx_offset=tx, rx_offset=tx.reshape(1, 3))
     info["moving_targets"] = []
     for k, mt in enumerate(movers):
-        info["moving_targets"].append({
-            "first_cell": int(mt.first_cell), "last_cell": int(mt.last_cell), "slant_range": float(mt.slant_range),
-            "radial_velocity": mt.radial_velocity, "along_track_velocity": mt.along_track_velocity,
-            "beam_centre_time": float(mt.beam_centre_time), "leakage": float(mt.leakage), "at_bound": bool(mt.at_bound),
-            "search_evaluations": int(len(mt.search)), "snr_db": float(mt.snr_db) if np.isfinite(mt.snr_db) else None,
-            "apparent_time": float(mt.apparent_time) if np.isfinite(mt.apparent_time) else None})
+        info["moving_targets"].append(
+            {
+                "first_cell": int(mt.first_cell),
+                "last_cell": int(mt.last_cell),
+                "slant_range": float(mt.slant_range),
+                "radial_velocity": mt.radial_velocity,
+                "along_track_velocity": mt.along_track_velocity,
+                "beam_centre_time": float(mt.beam_centre_time),
+                "leakage": float(mt.leakage),
+                "at_bound": bool(mt.at_bound),
+                "search_evaluations": int(len(mt.search)),
+                "snr_db": float(mt.snr_db) if np.isfinite(mt.snr_db) else None,
+                "apparent_time": float(mt.apparent_time) if np.isfinite(mt.apparent_time) else None,
+            }
+        )
         aux[f"velocity_search_{k}"] = mt.search
         if len(mt.autofocus):
             aux[f"autofocus_{k}"] = mt.autofocus
@@ -771,13 +974,19 @@ def _output_product(raw, params, g, out, info, movers) -> Product:
         aux["estimated_velocity"] = np.array([[m.radial_velocity, m.along_track_velocity] for m in movers])
     if params.method == "modified" and params.detection == "auto":
         aux["moving_targets"] = _moving_target_rows(raw, g, movers, info)
-    else:   # no detection ran: an empty table, and no claim about the truth movers
+    else:  # no detection ran: an empty table, and no claim about the truth movers
         aux["moving_targets"] = np.zeros((0, len(MOVING_TARGET_COLUMNS)))
     radar = raw.radar.replace(prf=g.n * g.prf, n_channels=1)
     attrs = {k: v for k, v in raw.attrs.items()}
     attrs["reconstruct"] = info
-    prod = raw.derive("raw", out, ("azimuth_time", "range_time"),
-                      {"azimuth_time": g.out_times, "range_time": raw.coords["range_time"]},
-                      radar=radar, attrs=attrs, aux=aux)
+    prod = raw.derive(
+        "raw",
+        out,
+        ("azimuth_time", "range_time"),
+        {"azimuth_time": g.out_times, "range_time": raw.coords["range_time"]},
+        radar=radar,
+        attrs=attrs,
+        aux=aux,
+    )
     prod.history.append(history_entry("reconstruct", as_dict(params)))
     return prod

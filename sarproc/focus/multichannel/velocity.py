@@ -36,7 +36,7 @@ import numpy as np
 class SearchResult:
     estimate: float
     at_bound: bool
-    trials: np.ndarray         # (n, 2): trial velocity m/s, criterion value; sorted by velocity
+    trials: np.ndarray  # (n, 2): trial velocity m/s, criterion value; sorted by velocity
     evaluations: int
 
 
@@ -48,8 +48,14 @@ def _parabola_vertex(x: np.ndarray, y: np.ndarray) -> float | None:
     return float(-a[1] / (2 * a[0]))
 
 
-def fast_search(criterion: Callable[[float], float], lo: float, hi: float, step: float,
-                coarse_step: float = 2.0, exhaustive: bool = False) -> SearchResult:
+def fast_search(
+    criterion: Callable[[float], float],
+    lo: float,
+    hi: float,
+    step: float,
+    coarse_step: float = 2.0,
+    exhaustive: bool = False,
+) -> SearchResult:
     """Minimise ``criterion`` over [lo, hi] to ``step`` precision (coarse-to-fine, then a parabola)."""
     seen: dict[float, float] = {}
 
@@ -113,14 +119,15 @@ def maximise(criterion: Callable[[float], float], lo: float, hi: float, step: fl
     k = int(np.argmax(y))
     est = float(x[k])
     if 0 < k < len(x) - 1:
-        vertex = _parabola_vertex(x[k - 1:k + 2], -y[k - 1:k + 2])
+        vertex = _parabola_vertex(x[k - 1 : k + 2], -y[k - 1 : k + 2])
         if vertex is not None:
             est = float(np.clip(vertex, x[k - 1], x[k + 1]))
     return est, np.stack([x, y], axis=1)
 
 
-def range_acceleration(velocity: float, along_track_velocity: float, radial_velocity: float, squint: float,
-                       slant_range: float) -> float:
+def range_acceleration(
+    velocity: float, along_track_velocity: float, radial_velocity: float, squint: float, slant_range: float
+) -> float:
     """R'' = (|V_rel|^2 - R'^2) / R at squint theta; V_rel = (v - v_a, -v_r), R' = -(v - v_a) sin + v_r cos."""
     vx = velocity - along_track_velocity
     rdot = -vx * math.sin(squint) + radial_velocity * math.cos(squint)

@@ -22,10 +22,29 @@ from sarproc.dsp.rangecomp import WINDOWS
 from sarproc.focus.pfa import dealias as dealias_mod
 from sarproc.focus.pfa.correction import PfaGeometry, distortion_field, extended_grid, warp_to_truth
 from sarproc.focus.pfa.phase_history import compensate
-from sarproc.focus.pfa.polar import (Grid, Interpolation, data_sampling, los_components, make_kgrid, pfa,
-                                     polar_support, wavenumbers)
-from sarproc.focus.pfa.two_step import (SubImageTask, local_irw, mosaic, plan_tiles, pslr_rise_db, run_tasks,
-                                        tile_rects, track_radius, track_residual, valid_radius, window_slices)
+from sarproc.focus.pfa.polar import (
+    Grid,
+    Interpolation,
+    data_sampling,
+    los_components,
+    make_kgrid,
+    pfa,
+    polar_support,
+    wavenumbers,
+)
+from sarproc.focus.pfa.two_step import (
+    SubImageTask,
+    local_irw,
+    mosaic,
+    plan_tiles,
+    pslr_rise_db,
+    run_tasks,
+    tile_rects,
+    track_radius,
+    track_residual,
+    valid_radius,
+    window_slices,
+)
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import InputError
 from sarproc.product.frames import GroundLosFrame, make_frame, targets_in_frame
@@ -43,44 +62,78 @@ class Pfa2Params:
     """``pfa2:`` section."""
 
     method: str = param(default="two_step", choices=METHODS, doc="plain PFA, or two-step beam-segmentation PFA")
-    azimuth_extent: float | None = param("length", default=None, gt=0, doc="image size along azimuth (x'); "
-                                         "default: the targets' span plus 2 x margin_cells")
+    azimuth_extent: float | None = param(
+        "length",
+        default=None,
+        gt=0,
+        doc="image size along azimuth (x'); default: the targets' span plus 2 x margin_cells",
+    )
     range_extent: float | None = param("length", default=None, gt=0, doc="image size along ground range (y')")
-    azimuth_center: float | None = param("length", default=None, doc="image centre, frame azimuth; "
-                                         "default: middle of the targets, else the scene centre")
+    azimuth_center: float | None = param(
+        "length", default=None, doc="image centre, frame azimuth; default: middle of the targets, else the scene centre"
+    )
     range_center: float | None = param("length", default=None, doc="image centre, frame range")
     azimuth_spacing: float | None = param("length", default=None, gt=0, doc="default: theoretical IRW / oversample")
     range_spacing: float | None = param("length", default=None, gt=0, doc="default: theoretical IRW / oversample")
     oversample: float = param(default=2.0, ge=1.05, doc="pixels per theoretical IRW for default spacings")
     margin_cells: float = param(default=24.0, ge=0, doc="resolution cells around the targets for default extents")
     range_window: str = param(default="none", choices=WINDOWS, doc="range spectral taper")
-    range_oversampling: float = param(default=2.0, ge=1.2, le=8, doc=(
-        "range FFT length over the recorded window: how finely the band is sampled for the range interpolation"))
+    range_oversampling: float = param(
+        default=2.0,
+        ge=1.2,
+        le=8,
+        doc=("range FFT length over the recorded window: how finely the band is sampled for the range interpolation"),
+    )
     range_kernel: str = param(default="knab", choices=KERNELS, doc="range (line-of-sight) interpolation kernel")
     range_kernel_length: int = param(default=8, ge=1, le=64, doc="taps of the range kernel (windowed sincs)")
     azimuth_kernel: str = param(default="knab", choices=KERNELS, doc="azimuth interpolation kernel")
     azimuth_kernel_length: int = param(default=8, ge=1, le=64, doc="taps of the azimuth kernel")
-    subimage_size: float | None = param("length", default=None, gt=0, doc=(
-        "two_step: side of a sub-image's core; default the valid radius of eq. (7)"))
-    subimage_overlap: float = param(default=0.25, ge=0, le=4, doc=(
-        "two_step: extra window around each core, as a fraction of the core (the paper: 512 of 2048 = 0.25)"))
-    subimage_oversampling: float = param(default=1.5, ge=1.1, le=4, doc=(
-        "two_step: sampling of a sub-image's decimated signal over what its window's extent needs"))
+    subimage_size: float | None = param(
+        "length", default=None, gt=0, doc=("two_step: side of a sub-image's core; default the valid radius of eq. (7)")
+    )
+    subimage_overlap: float = param(
+        default=0.25,
+        ge=0,
+        le=4,
+        doc=("two_step: extra window around each core, as a fraction of the core (the paper: 512 of 2048 = 0.25)"),
+    )
+    subimage_oversampling: float = param(
+        default=1.5,
+        ge=1.1,
+        le=4,
+        doc=("two_step: sampling of a sub-image's decimated signal over what its window's extent needs"),
+    )
     valid_radius_factor: float = param(default=1.3, gt=0, doc="K_a of eq. (7), main-lobe broadening factor")
-    track_phase_budget: float = param(default=0.0126, gt=0, doc=(
-        "two_step: largest phase error (rad) a curved track's planar-wavefront residual may leave at a "
-        "sub-image's corner; the default sub-image is shrunk below eq. (7) to keep it (0.0126 rad: a PSLR "
-        "rises by 0.25 dB at most)"))
-    correct_distortion: bool = param(default=False, doc=(
-        "plain: read the image back at the planar-wavefront distortion of every pixel (true geometry, "
-        "phase 0 at each peak); off, plain PFA's image is the paper's, distortion included"))
-    dealias: str = param(default="auto", choices=dealias_mod.MODES, doc=(
-        "sliding-spotlight sub-aperture de-aliasing (Fig. 2): auto (when the deramped scene band exceeds the PRF), "
-        "on, off"))
-    subaperture_pulses: int | None = param(default=None, ge=8, doc="de-aliasing sub-aperture length; default "
-                                           "from the beam's footprint and slide")
-    upsample: int | None = param(default=None, ge=1, le=64, doc="de-aliasing upsampling factor; default: enough "
-                                 "for the whole deramped band")
+    track_phase_budget: float = param(
+        default=0.0126,
+        gt=0,
+        doc=(
+            "two_step: largest phase error (rad) a curved track's planar-wavefront residual may leave at a "
+            "sub-image's corner; the default sub-image is shrunk below eq. (7) to keep it (0.0126 rad: a PSLR "
+            "rises by 0.25 dB at most)"
+        ),
+    )
+    correct_distortion: bool = param(
+        default=False,
+        doc=(
+            "plain: read the image back at the planar-wavefront distortion of every pixel (true geometry, "
+            "phase 0 at each peak); off, plain PFA's image is the paper's, distortion included"
+        ),
+    )
+    dealias: str = param(
+        default="auto",
+        choices=dealias_mod.MODES,
+        doc=(
+            "sliding-spotlight sub-aperture de-aliasing (Fig. 2): auto (when the deramped scene band exceeds the PRF), "
+            "on, off"
+        ),
+    )
+    subaperture_pulses: int | None = param(
+        default=None, ge=8, doc="de-aliasing sub-aperture length; default from the beam's footprint and slide"
+    )
+    upsample: int | None = param(
+        default=None, ge=1, le=64, doc="de-aliasing upsampling factor; default: enough for the whole deramped band"
+    )
     block_pulses: int = param(default=256, ge=1, doc="pulses per range-compression block (memory bound)")
 
 
@@ -98,8 +151,9 @@ def image_frame(raw: Product) -> GroundLosFrame:
     spec = raw.attrs.get("frame")
     if isinstance(spec, dict) and spec.get("name") == "ground_los":
         return make_frame("ground_los", raw.radar, **{k: v for k, v in spec.items() if k != "name"})
-    return make_frame("ground_los", raw.radar, origin=raw.radar.scene_center,
-                      aperture_center=aperture_center_position(raw.radar))
+    return make_frame(
+        "ground_los", raw.radar, origin=raw.radar.scene_center, aperture_center=aperture_center_position(raw.radar)
+    )
 
 
 def output_grid(params: Pfa2Params, raw: Product, frame: GroundLosFrame, irw) -> Grid:
@@ -125,8 +179,13 @@ def output_grid(params: Pfa2Params, raw: Product, frame: GroundLosFrame, irw) ->
 
 
 def _interp(params: Pfa2Params, azimuth_oversampling: float) -> Interpolation:
-    return Interpolation(params.range_kernel, params.range_kernel_length, params.azimuth_kernel,
-                         params.azimuth_kernel_length, azimuth_oversampling)
+    return Interpolation(
+        params.range_kernel,
+        params.range_kernel_length,
+        params.azimuth_kernel,
+        params.azimuth_kernel_length,
+        azimuth_oversampling,
+    )
 
 
 def pfa2(raw: Product, params: Pfa2Params = Pfa2Params(), progress=None, mapper: Callable | None = None) -> Product:
@@ -141,17 +200,27 @@ def pfa2(raw: Product, params: Pfa2Params = Pfa2Params(), progress=None, mapper:
     e_a, e_r = frame.u_azimuth, frame.u_range
     pos = antenna_positions(raw)
     t0 = time.perf_counter()
-    ph = compensate(raw.data, raw.coords["range_time"], pos, radar, origin, raw.aux.get("range_gate_offset"),
-                    raw.coords["azimuth_time"], range_window=params.range_window,
-                    range_oversampling=params.range_oversampling, block_pulses=params.block_pulses)
+    ph = compensate(
+        raw.data,
+        raw.coords["range_time"],
+        pos,
+        radar,
+        origin,
+        raw.aux.get("range_gate_offset"),
+        raw.coords["azimuth_time"],
+        range_window=params.range_window,
+        range_oversampling=params.range_oversampling,
+        block_pulses=params.block_pulses,
+    )
     timing["range_compression_moco"] = time.perf_counter() - t0
     ua, ur = los_components(ph.positions, origin, e_a, e_r)
     rect = polar_support(ua, ur, ph.carrier_frequency, ph.freqs, "inscribed")
     irw = _rect_irw(rect)
     grid = output_grid(params, raw, frame, irw)
     t0 = time.perf_counter()
-    ph, alias = dealias_mod.dealias(ph, radar, e_a, e_r, grid, params.dealias, params.subaperture_pulses,
-                                    params.upsample)
+    ph, alias = dealias_mod.dealias(
+        ph, radar, e_a, e_r, grid, params.dealias, params.subaperture_pulses, params.upsample
+    )
     timing["dealias"] = time.perf_counter() - t0
     az_os = max(1.05, alias["azimuth_oversampling"])
     attrs = {"method": params.method, "dealias": alias}
@@ -166,20 +235,32 @@ def pfa2(raw: Product, params: Pfa2Params = Pfa2Params(), progress=None, mapper:
         img, kg, info = _two_step(ph, params, grid, origin, e_a, e_r, radar, az_os, progress, mapper, timing)
         attrs.update(info)
     timing["total"] = time.perf_counter() - t_all
-    attrs.update({
-        "frame": frame.spec,
-        "theoretical_irw": list(kg.irw()),
-        "valid_radius": valid_radius(2 * math.pi / kg.spans[0], float(np.linalg.norm(pos[len(pos) // 2] - origin)),
-                                     radar.wavelength, params.valid_radius_factor),
-        "support_rectangle": [kg.ka0, kg.dka, kg.n_ka, kg.kr0, kg.dkr, kg.n_kr],
-        "stage_seconds": timing,
-    })
+    attrs.update(
+        {
+            "frame": frame.spec,
+            "theoretical_irw": list(kg.irw()),
+            "valid_radius": valid_radius(
+                2 * math.pi / kg.spans[0],
+                float(np.linalg.norm(pos[len(pos) // 2] - origin)),
+                radar.wavelength,
+                params.valid_radius_factor,
+            ),
+            "support_rectangle": [kg.ka0, kg.dka, kg.n_ka, kg.kr0, kg.dkr, kg.n_kr],
+            "stage_seconds": timing,
+        }
+    )
     from sarproc.product.io import history_entry  # product layer; the core stays free of h5py at import
 
     targets = targets_in_frame(raw.targets, frame)
     _record_target_theory(targets, ph, e_a, e_r, kg, params)
-    out = raw.derive("image", img, ("azimuth", "range"), {"azimuth": grid.a, "range": grid.r + frame.ground_range},
-                     targets=targets, attrs=attrs)
+    out = raw.derive(
+        "image",
+        img,
+        ("azimuth", "range"),
+        {"azimuth": grid.a, "range": grid.r + frame.ground_range},
+        targets=targets,
+        attrs=attrs,
+    )
     out.aux = {k: v for k, v in raw.aux.items() if k in ("platform_position", "tx_offset", "rx_offset")}
     out.history.append(history_entry("pfa2", as_dict(params)))
     return out
@@ -189,8 +270,14 @@ def _plain_corrected(ph, rect, grid: Grid, origin, e_a, e_r, interp: Interpolati
     """Plain PFA on a grid grown by the distortion, read back at each pixel's distorted position."""
     ua, ur = los_components(ph.positions, origin, e_a, e_r)
     k_max = float(wavenumbers(ph.carrier_frequency, ph.freqs[-1]))
-    geo = PfaGeometry(ph.positions, np.asarray(origin, float), np.asarray(e_a), np.asarray(e_r),
-                      ph.carrier_frequency, (float(ph.freqs[0]), float(ph.freqs[-1])))
+    geo = PfaGeometry(
+        ph.positions,
+        np.asarray(origin, float),
+        np.asarray(e_a),
+        np.asarray(e_r),
+        ph.carrier_frequency,
+        (float(ph.freqs[0]), float(ph.freqs[-1])),
+    )
     dka, dkr = data_sampling(ua, ur, k_max, ph.freq_step)
     kg0, _ = make_kgrid(rect, dka, dkr, grid.da, grid.dr, grid.n_a, grid.n_r)
     warp = distortion_field(geo, kg0, grid)
@@ -225,8 +312,9 @@ def _two_step(ph, params, grid: Grid, origin, e_a, e_r, radar, az_os, progress, 
     ua, ur = los_components(ph.positions, origin, e_a, e_r)
     r_ac = float(np.linalg.norm(ph.positions[len(ph.positions) // 2] - origin))
     rect_in = polar_support(ua, ur, ph.carrier_frequency, ph.freqs, "inscribed")
-    radius = valid_radius(2 * math.pi / (rect_in.ka_hi - rect_in.ka_lo), r_ac, radar.wavelength,
-                          params.valid_radius_factor)
+    radius = valid_radius(
+        2 * math.pi / (rect_in.ka_hi - rect_in.ka_lo), r_ac, radar.wavelength, params.valid_radius_factor
+    )
     # a curved track's residual (non-polynomial wiggle of the range) bounds the sub-image as well:
     # a core's corners, core / sqrt(2) from its centre, must stay within track_radius
     wiggle = track_residual(ph.positions, origin, e_a, e_r)
@@ -235,12 +323,19 @@ def _two_step(ph, params, grid: Grid, origin, e_a, e_r, radar, az_os, progress, 
     core = params.subimage_size or min(radius, curved)
     if core > curved:
         corner = k_max * (core / math.sqrt(2)) ** 2 * wiggle / (2 * r_ac**2)
-        log.warning("pfa2: sub-images of %.3g m exceed the %.3g m that the track's %.3g m wiggle allows: "
-                    "paired echoes of %.3g rad may raise a PSLR by up to %.2f dB", core, curved, wiggle, corner,
-                    pslr_rise_db(corner))
+        log.warning(
+            "pfa2: sub-images of %.3g m exceed the %.3g m that the track's %.3g m wiggle allows: "
+            "paired echoes of %.3g rad may raise a PSLR by up to %.2f dB",
+            core,
+            curved,
+            wiggle,
+            corner,
+            pslr_rise_db(corner),
+        )
     t0 = time.perf_counter()
-    tiles = plan_tiles(grid, (core, core), params.subimage_overlap, ph.positions, origin, e_a, e_r,
-                       ph.carrier_frequency, band)
+    tiles = plan_tiles(
+        grid, (core, core), params.subimage_overlap, ph.positions, origin, e_a, e_r, ph.carrier_frequency, band
+    )
     rects = tile_rects(tiles, ph.positions, origin, e_a, e_r, ph.carrier_frequency, band)
     # step 1: circumscribed support, pixels fine enough for all of it, covering every window
     rect1 = polar_support(ua, ur, ph.carrier_frequency, ph.freqs, "circumscribed")
@@ -250,8 +345,14 @@ def _two_step(ph, params, grid: Grid, origin, e_a, e_r, radar, az_os, progress, 
     a_hi = max(t.window[1] for t in tiles)
     r_lo = min(t.window[2] for t in tiles)
     r_hi = max(t.window[3] for t in tiles)
-    g1 = Grid(a_lo - 4 * da1, da1, int(math.ceil((a_hi - a_lo) / da1)) + 9,
-              r_lo - 4 * dr1, dr1, int(math.ceil((r_hi - r_lo) / dr1)) + 9)
+    g1 = Grid(
+        a_lo - 4 * da1,
+        da1,
+        int(math.ceil((a_hi - a_lo) / da1)) + 9,
+        r_lo - 4 * dr1,
+        dr1,
+        int(math.ceil((r_hi - r_lo) / dr1)) + 9,
+    )
     timing["plan"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     img1, kg1 = pfa(ph, e_a, e_r, g1, rect=rect1, interp=_interp(params, az_os))
@@ -263,21 +364,43 @@ def _two_step(ph, params, grid: Grid, origin, e_a, e_r, radar, az_os, progress, 
     wr = max((s[1].stop - s[1].start) * dr1 for s in slices)
     n_ca = max(t.rows.stop - t.rows.start for t in tiles)
     n_cr = max(t.cols.stop - t.cols.start for t in tiles)
-    kgrids = [make_kgrid(r, 2 * math.pi / (os_ * wa), 2 * math.pi / (os_ * wr), grid.da, grid.dr, n_ca, n_cr)[0]
-              for r in rects]
+    kgrids = [
+        make_kgrid(r, 2 * math.pi / (os_ * wa), 2 * math.pi / (os_ * wr), grid.da, grid.dr, n_ca, n_cr)[0]
+        for r in rects
+    ]
 
     def tasks():
         for t, (sa, sr), kg2 in zip(tiles, slices, kgrids):
             wg = Grid(g1.a0 + sa.start * da1, da1, sa.stop - sa.start, g1.r0 + sr.start * dr1, dr1, sr.stop - sr.start)
-            core_grid = Grid(grid.a0 + t.rows.start * grid.da, grid.da, t.rows.stop - t.rows.start,
-                             grid.r0 + t.cols.start * grid.dr, grid.dr, t.cols.stop - t.cols.start)
+            core_grid = Grid(
+                grid.a0 + t.rows.start * grid.da,
+                grid.da,
+                t.rows.stop - t.rows.start,
+                grid.r0 + t.cols.start * grid.dr,
+                grid.dr,
+                t.cols.stop - t.cols.start,
+            )
             centre = origin + t.center_offset[0] * e_a + t.center_offset[1] * e_r
-            yield SubImageTask(window=np.ascontiguousarray(img1[sa, sr]), window_grid=wg, forward=kg1,
-                               forward_rect=rect1, window_center=t.window_center, center=centre,
-                               center_offset=t.center_offset, core=core_grid, kgrid=kg2, positions=ph.positions,
-                               reference=origin, e_azimuth=e_a, e_range=e_r, carrier_frequency=ph.carrier_frequency,
-                               band=band, content_extent=(wa, wr), oversampling=os_,
-                               interp=_interp(params, os_))
+            yield SubImageTask(
+                window=np.ascontiguousarray(img1[sa, sr]),
+                window_grid=wg,
+                forward=kg1,
+                forward_rect=rect1,
+                window_center=t.window_center,
+                center=centre,
+                center_offset=t.center_offset,
+                core=core_grid,
+                kgrid=kg2,
+                positions=ph.positions,
+                reference=origin,
+                e_azimuth=e_a,
+                e_range=e_r,
+                carrier_frequency=ph.carrier_frequency,
+                band=band,
+                content_extent=(wa, wr),
+                oversampling=os_,
+                interp=_interp(params, os_),
+            )
 
     t0 = time.perf_counter()
     results = run_tasks(tasks(), mapper)
@@ -285,10 +408,14 @@ def _two_step(ph, params, grid: Grid, origin, e_a, e_r, radar, az_os, progress, 
         results = progress(results)
     img = mosaic((grid.n_a, grid.n_r), tiles, results)
     timing["subimages"] = time.perf_counter() - t0
-    info = {"subimages": len(tiles), "subimage_core": core, "valid_radius_eq7": radius,
-            "track_residual": wiggle, "track_core_limit": curved if math.isfinite(curved) else -1.0,
-            "step1_shape": [g1.n_a, g1.n_r],
-            "window_shape_max": [max(s[0].stop - s[0].start for s in slices),
-                                 max(s[1].stop - s[1].start for s in slices)]}
+    info = {
+        "subimages": len(tiles),
+        "subimage_core": core,
+        "valid_radius_eq7": radius,
+        "track_residual": wiggle,
+        "track_core_limit": curved if math.isfinite(curved) else -1.0,
+        "step1_shape": [g1.n_a, g1.n_r],
+        "window_shape_max": [max(s[0].stop - s[0].start for s in slices), max(s[1].stop - s[1].start for s in slices)],
+    }
     centre_tile = min(range(len(tiles)), key=lambda i: math.hypot(*tiles[i].center_offset))
     return img, kgrids[centre_tile], info

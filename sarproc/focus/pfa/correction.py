@@ -32,9 +32,9 @@ class Distortion:
     spread_range: float
 
 
-
-def pfa_distortion(positions, reference, point, e_azimuth, e_range, carrier_frequency, freqs,
-                   rect: Rect | None = None, n: int = 11) -> Distortion:
+def pfa_distortion(
+    positions, reference, point, e_azimuth, e_range, carrier_frequency, freqs, rect: Rect | None = None, n: int = 11
+) -> Distortion:
     """Least-squares cubic fit of the exact phase K (r_O - r_p) over (k_a, k_r) (eqs. 4-5).
 
     The samples are an n x n lattice over ``rect`` (default: the inscribed polar support), each
@@ -60,13 +60,18 @@ def pfa_distortion(positions, reference, point, e_azimuth, e_range, carrier_freq
     phase = k * (np.linalg.norm(d, axis=1) - np.linalg.norm(p - np.asarray(point, float), axis=1))
     ca, cr = (rect.ka_lo + rect.ka_hi) / 2, (rect.kr_lo + rect.kr_hi) / 2
     x, y = ka - ca, kr - cr
-    design = np.stack([np.ones_like(x), x, y, 0.5 * x * x, x * y, 0.5 * y * y,
-                       x**3 / 6, x * x * y / 2, x * y * y / 2, y**3 / 6], axis=1)
+    design = np.stack(
+        [np.ones_like(x), x, y, 0.5 * x * x, x * y, 0.5 * y * y, x**3 / 6, x * x * y / 2, x * y * y / 2, y**3 / 6],
+        axis=1,
+    )
     coef, *_ = np.linalg.lstsq(design, phase, rcond=None)
     wa, wr = rect.ka_hi - rect.ka_lo, rect.kr_hi - rect.kr_lo
-    return Distortion(azimuth=float(coef[1]), range=float(coef[2]),
-                      spread_azimuth=float(abs(coef[3]) * wa + abs(coef[4]) * wr),
-                      spread_range=float(abs(coef[4]) * wa + abs(coef[5]) * wr))
+    return Distortion(
+        azimuth=float(coef[1]),
+        range=float(coef[2]),
+        spread_azimuth=float(abs(coef[3]) * wa + abs(coef[4]) * wr),
+        spread_range=float(abs(coef[4]) * wa + abs(coef[5]) * wr),
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -98,8 +103,9 @@ def distortion_field(geo: PfaGeometry, kg: KGrid, core: Grid, n: int = 9):
     for i, a in enumerate(la):
         for j, r in enumerate(lr):
             point = geo.center + a * geo.e_azimuth + r * geo.e_range
-            d = pfa_distortion(geo.positions, geo.center, point, geo.e_azimuth, geo.e_range, geo.carrier_frequency,
-                               geo.band, rect)
+            d = pfa_distortion(
+                geo.positions, geo.center, point, geo.e_azimuth, geo.e_range, geo.carrier_frequency, geo.band, rect
+            )
             da[i, j], dr[i, j] = d.azimuth - a, d.range - r
     return RectBivariateSpline(la, lr, da), RectBivariateSpline(la, lr, dr)
 
@@ -109,28 +115,35 @@ def extended_grid(core: Grid, warp) -> Grid:
     fa, fr = warp
     m_a = 8 + int(math.ceil(np.max(np.abs(fa(core.a, core.r))) / core.da))
     m_r = 8 + int(math.ceil(np.max(np.abs(fr(core.a, core.r))) / core.dr))
-    return Grid(core.a0 - m_a * core.da, core.da, core.n_a + 2 * m_a, core.r0 - m_r * core.dr, core.dr,
-                core.n_r + 2 * m_r)
+    return Grid(
+        core.a0 - m_a * core.da, core.da, core.n_a + 2 * m_a, core.r0 - m_r * core.dr, core.dr, core.n_r + 2 * m_r
+    )
 
 
-def warp_to_truth(img: np.ndarray, grid: Grid, core: Grid, warp, geo: PfaGeometry, kg: KGrid,
-                  interp: Interpolation) -> np.ndarray:
+def warp_to_truth(
+    img: np.ndarray, grid: Grid, core: Grid, warp, geo: PfaGeometry, kg: KGrid, interp: Interpolation
+) -> np.ndarray:
     """Read the PFA image ``img`` (on ``grid``) at D(p) for every pixel p of ``core``: (n_a, n_r) complex64."""
     fa, fr = warp
     kc_a, kc_r = kg.ka0 + (kg.n_ka - 1) / 2 * kg.dka, kg.kr0 + (kg.n_kr - 1) / 2 * kg.dkr
-    base = img * _carrier(grid.a, grid.r, kc_a, kc_r, +1)                 # to baseband: the rectangle's centre
+    base = img * _carrier(grid.a, grid.r, kc_a, kc_r, +1)  # to baseband: the rectangle's centre
     os_a = 2 * math.pi / (kg.n_ka * kg.dka * core.da)
     os_r = 2 * math.pi / (kg.n_kr * kg.dkr * core.dr)
     # pass 1 (range): row a_i of the image holds the points p = (a, r) with D_a(p) = a_i; read D_r(p)
     A, R = np.meshgrid(grid.a, core.r, indexing="ij")
     a_true = A - fa(A, R, grid=False)
     a_true = A - fa(a_true, R, grid=False)
-    pos_r = (R + fr(a_true, R, grid=False) - grid.r0) / core.dr                  # (n_a_ext, n_r)
+    pos_r = (R + fr(a_true, R, grid=False) - grid.r0) / core.dr  # (n_a_ext, n_r)
     tmp = resample_rows(base, pos_r, interp.range_kernel, interp.range_length, oversampling=os_r)
     # pass 2 (azimuth): the true pixel (a, r) sits in row D_a(a, r) of pass 1's output
-    pos_a = (core.a[:, None] + fa(core.a, core.r) - grid.a0) / core.da           # (n_a, n_r)
-    out = resample_rows(np.ascontiguousarray(tmp.T), np.ascontiguousarray(pos_a.T), interp.azimuth_kernel,
-                        interp.azimuth_length, oversampling=os_a).T
+    pos_a = (core.a[:, None] + fa(core.a, core.r) - grid.a0) / core.da  # (n_a, n_r)
+    out = resample_rows(
+        np.ascontiguousarray(tmp.T),
+        np.ascontiguousarray(pos_a.T),
+        interp.azimuth_kernel,
+        interp.azimuth_length,
+        oversampling=os_a,
+    ).T
     out = out * _carrier(core.a, core.r, kc_a, kc_r, -1)
     out *= residual_phase(geo, core.a, core.r, kc_a, kc_r)
     return np.ascontiguousarray(out, dtype=np.complex64)
@@ -157,12 +170,12 @@ def residual_phase(geo: PfaGeometry, a_rel, r_rel, kc_a: float, kc_r: float) -> 
     k_c = kc_r / float(u @ e_r)
     out = np.empty((len(a_rel), len(r_rel)), np.complex64)
     r_s = float(np.linalg.norm(p_c - geo.center))
-    for s in range(0, len(a_rel), 256):                                   # rows in blocks: bounded memory
-        a = np.asarray(a_rel[s:s + 256])
+    for s in range(0, len(a_rel), 256):  # rows in blocks: bounded memory
+        a = np.asarray(a_rel[s : s + 256])
         pts = geo.center + a[:, None, None] * e_a + np.asarray(r_rel)[None, :, None] * e_r
         r_p = np.linalg.norm(pts - p_c, axis=-1)
         eps = k_c * (r_s - r_p) - (kc_a * a[:, None] + kc_r * np.asarray(r_rel)[None, :])
-        out[s:s + 256] = np.exp(-1j * np.mod(eps, 2 * math.pi))
+        out[s : s + 256] = np.exp(-1j * np.mod(eps, 2 * math.pi))
     return out
 
 

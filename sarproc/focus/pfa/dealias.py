@@ -70,40 +70,62 @@ def content_extent(radar, ph: PhaseHistory, e_a, grid) -> tuple[float, float, fl
     q = footprint_centres(radar, ph.positions)
     qa = (q - ph.reference) @ np.asarray(e_a)
     rng = float(np.median(reference_ranges(ph.positions, ph.reference)))
-    width = 2 * rng * math.tan(radar.azimuth_beamwidth / 2)     # -3 dB footprint (the pattern's skirts fold too)
+    width = 2 * rng * math.tan(radar.azimuth_beamwidth / 2)  # -3 dB footprint (the pattern's skirts fold too)
     slide = float(np.max(np.abs(np.diff(qa)))) if len(qa) > 1 else 0.0
     return float(np.ptp(qa)) + width, width, slide
 
 
-def dealias(ph: PhaseHistory, radar, e_a, e_r, grid, mode: str = "auto", subaperture_pulses: int | None = None,
-            upsample: int | None = None, guard: float = 1.25):
+def dealias(
+    ph: PhaseHistory,
+    radar,
+    e_a,
+    e_r,
+    grid,
+    mode: str = "auto",
+    subaperture_pulses: int | None = None,
+    upsample: int | None = None,
+    guard: float = 1.25,
+):
     """Apply (or not) the sub-aperture de-aliasing; returns (phase history, report dict)."""
     if mode not in MODES:
         raise InputError(f"dealias: {mode!r} is not one of {list(MODES)}")
     grid_r = grid.n_r * grid.dr
     swept, width, slide = content_extent(radar, ph, e_a, grid)
     need = phase_steps(ph, e_a, e_r, max(swept, grid.n_a * grid.da), grid_r)
-    report = {"content_extent": swept, "footprint": width, "phase_step_spread": need, "applied": False,
-              "upsample": 1, "subaperture_pulses": 0}
+    report = {
+        "content_extent": swept,
+        "footprint": width,
+        "phase_step_spread": need,
+        "applied": False,
+        "upsample": 1,
+        "subaperture_pulses": 0,
+    }
     fold = need >= 2 * math.pi
     if mode == "on" or (mode == "auto" and fold and radar.mode == "sliding_spotlight"):
         inst = phase_steps(ph, e_a, e_r, width, grid_r)
         per_m = phase_steps(ph, e_a, e_r, 1.0, 0.0)
-        room = (2 * math.pi / guard - inst) / max(per_m, 1e-30)        # metres of slide a sub-aperture may take
+        room = (2 * math.pi / guard - inst) / max(per_m, 1e-30)  # metres of slide a sub-aperture may take
         n_sub = subaperture_pulses or (int(room / slide) if slide > 0 else len(ph.times))
         n_sub = int(min(max(n_sub, 0), len(ph.times)))
         if n_sub < 8:
-            raise InputError(f"dealias: the footprint's own band ({inst:.3g} rad/pulse) leaves no room for a "
-                             f"sub-aperture at this PRF; raise the PRF above the instantaneous Doppler band")
+            raise InputError(
+                f"dealias: the footprint's own band ({inst:.3g} rad/pulse) leaves no room for a "
+                f"sub-aperture at this PRF; raise the PRF above the instantaneous Doppler band"
+            )
         u = upsample or max(1, int(math.ceil(need * guard / (2 * math.pi))))
         ph = upsample_subapertures(ph, radar, n_sub, u)
         report.update(applied=True, upsample=u, subaperture_pulses=n_sub)
         need /= u
         fold = need >= 2 * math.pi
     if fold:
-        log.warning("pfa2: the deramped scene band (%.3g rad per pulse over %.0f m) exceeds the PRF: "
-                    "targets fold into azimuth ghosts%s", need, swept,
-                    "" if report["applied"] else "; enable dealias", extra=IMAGE_DEFECT)
+        log.warning(
+            "pfa2: the deramped scene band (%.3g rad per pulse over %.0f m) exceeds the PRF: "
+            "targets fold into azimuth ghosts%s",
+            need,
+            swept,
+            "" if report["applied"] else "; enable dealias",
+            extra=IMAGE_DEFECT,
+        )
     report["azimuth_oversampling"] = 2 * math.pi / need if need > 0 else 8.0
     report["folds"] = bool(fold)
     return ph, report
@@ -138,7 +160,7 @@ def upsample_subapertures(ph: PhaseHistory, radar, n_sub: int, factor: int) -> P
         up = np.zeros((length * factor, n_f), spec.dtype)
         half = (length + 1) // 2
         up[:half] = spec[:half]
-        up[length * factor - (length - half):] = spec[half:]
+        up[length * factor - (length - half) :] = spec[half:]
         sig = sfft.ifft(up, axis=0)
         sig *= factor
         t_up = s + np.arange(length * factor) / factor
@@ -147,9 +169,13 @@ def upsample_subapertures(ph: PhaseHistory, radar, n_sub: int, factor: int) -> P
         out[rows] = (sig[pick] * _ramp(pos_up, ph.reference, q, k)).astype(np.complex64)
     t_new = np.interp(np.arange(n_out) / factor, idx, ph.times)
     pos_new = spline(np.arange(n_out) / factor)
-    return ph.replace(data=out, positions=pos_new, times=t_new,
-                      delay_center=np.interp(np.arange(n_out) / factor, idx, ph.delay_center),
-                      delay_span=np.interp(np.arange(n_out) / factor, idx, ph.delay_span))
+    return ph.replace(
+        data=out,
+        positions=pos_new,
+        times=t_new,
+        delay_center=np.interp(np.arange(n_out) / factor, idx, ph.delay_center),
+        delay_span=np.interp(np.arange(n_out) / factor, idx, ph.delay_span),
+    )
 
 
 def _ramp(positions, reference, point, k) -> np.ndarray:

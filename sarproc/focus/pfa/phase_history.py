@@ -66,9 +66,20 @@ def reference_ranges(positions: np.ndarray, point) -> np.ndarray:
     return np.linalg.norm(np.asarray(positions, float) - np.asarray(point, float).reshape(1, 3), axis=1)
 
 
-def compensate(signal: np.ndarray, range_time: np.ndarray, positions: np.ndarray, radar: RadarMetadata,
-               reference, gate_offset=None, times=None, *, range_window: str = "none",
-               range_oversampling: float = 2.0, block_pulses: int = 256, workers: int = -1) -> PhaseHistory:
+def compensate(
+    signal: np.ndarray,
+    range_time: np.ndarray,
+    positions: np.ndarray,
+    radar: RadarMetadata,
+    reference,
+    gate_offset=None,
+    times=None,
+    *,
+    range_window: str = "none",
+    range_oversampling: float = 2.0,
+    block_pulses: int = 256,
+    workers: int = -1,
+) -> PhaseHistory:
     """Range-compress raw pulses and compensate them to ``reference`` (eqs. 3-4).
 
     signal: (n_pulses, n_range) complex raw echoes; range_time: (n_range,) s, uniform;
@@ -88,8 +99,8 @@ def compensate(signal: np.ndarray, range_time: np.ndarray, positions: np.ndarray
     gate = np.zeros(n_az) if gate_offset is None else np.asarray(gate_offset, float)
     r0 = reference_ranges(positions, reference)
     tau0 = float(range_time[0])
-    shift = 2 * r0 / C - gate - tau0                 # delay of the reference inside each pulse's window, s
-    scale = np.float32(len(keep) / n_fft)            # unit echo -> unit spectrum
+    shift = 2 * r0 / C - gate - tau0  # delay of the reference inside each pulse's window, s
+    scale = np.float32(len(keep) / n_fft)  # unit echo -> unit spectrum
     out = np.empty((n_az, len(keep)), np.complex64)
     for s in range(0, n_az, block_pulses):
         e = min(s + block_pulses, n_az)
@@ -105,6 +116,13 @@ def compensate(signal: np.ndarray, range_time: np.ndarray, positions: np.ndarray
     # recorded delays relative to the reference: [-shift, window - shift]
     centre = window / 2 - shift
     t = np.zeros(n_az) if times is None else np.asarray(times, float)
-    return PhaseHistory(data=out, freqs=freqs, carrier_frequency=fc, positions=np.asarray(positions, float),
-                        reference=np.asarray(reference, float).reshape(3), times=t,
-                        delay_center=centre, delay_span=np.full(n_az, window))
+    return PhaseHistory(
+        data=out,
+        freqs=freqs,
+        carrier_frequency=fc,
+        positions=np.asarray(positions, float),
+        reference=np.asarray(reference, float).reshape(3),
+        times=t,
+        delay_center=centre,
+        delay_span=np.full(n_az, window),
+    )

@@ -78,8 +78,12 @@ class Rect:
     kr_hi: float
 
     def intersect(self, other: "Rect") -> "Rect":
-        return Rect(max(self.ka_lo, other.ka_lo), min(self.ka_hi, other.ka_hi),
-                    max(self.kr_lo, other.kr_lo), min(self.kr_hi, other.kr_hi))
+        return Rect(
+            max(self.ka_lo, other.ka_lo),
+            min(self.ka_hi, other.ka_hi),
+            max(self.kr_lo, other.kr_lo),
+            min(self.kr_hi, other.kr_hi),
+        )
 
     @property
     def valid(self) -> bool:
@@ -103,7 +107,7 @@ def polar_support(ua, ur, carrier_frequency, freqs, kind: str = "inscribed") -> 
     if kind not in SUPPORTS:
         raise InputError(f"support {kind!r} is not one of {list(SUPPORTS)}")
     k = wavenumbers(carrier_frequency, [freqs[0], freqs[-1]])
-    kr_pulse = np.stack([k[0] * ur, k[1] * ur])            # (2, n_pulses)
+    kr_pulse = np.stack([k[0] * ur, k[1] * ur])  # (2, n_pulses)
     lo, hi = kr_pulse.min(axis=0), kr_pulse.max(axis=0)
     if kind == "circumscribed":
         ka = np.outer(k, ua)
@@ -141,16 +145,19 @@ def make_kgrid(rect: Rect, dka_max: float, dkr_max: float, da: float, dr: float,
     n_ka = int(math.floor((rect.ka_hi - rect.ka_lo) / dka)) + 1
     n_kr = int(math.floor((rect.kr_hi - rect.kr_lo) / dkr)) + 1
     if n_ka > m_a or n_kr > m_r:
-        raise InputError(f"polar format: pixel spacing ({da:.4g} m, {dr:.4g} m) is coarser than the support "
-                         f"allows ({2 * math.pi / (rect.ka_hi - rect.ka_lo):.4g} m, "
-                         f"{2 * math.pi / (rect.kr_hi - rect.kr_lo):.4g} m)")
+        raise InputError(
+            f"polar format: pixel spacing ({da:.4g} m, {dr:.4g} m) is coarser than the support "
+            f"allows ({2 * math.pi / (rect.ka_hi - rect.ka_lo):.4g} m, "
+            f"{2 * math.pi / (rect.kr_hi - rect.kr_lo):.4g} m)"
+        )
     ka0 = (rect.ka_lo + rect.ka_hi) / 2 - (n_ka - 1) / 2 * dka
     kr0 = (rect.kr_lo + rect.kr_hi) / 2 - (n_kr - 1) / 2 * dkr
     return KGrid(ka0, dka, n_ka, kr0, dkr, n_kr), (m_a, m_r)
 
 
-def grid_dft(x: np.ndarray, u0: float, du: float, v0: float, dv: float, n_out: int, sign: int,
-             workers: int = -1) -> np.ndarray:
+def grid_dft(
+    x: np.ndarray, u0: float, du: float, v0: float, dv: float, n_out: int, sign: int, workers: int = -1
+) -> np.ndarray:
     """y_m = sum_p x_p exp(sign j (u0 + p du)(v0 + m dv)), m < n_out, along the last axis, by FFT.
 
     (u: the input's coordinate, v: the output's; one is a wavenumber, the other a position.)
@@ -162,13 +169,14 @@ def grid_dft(x: np.ndarray, u0: float, du: float, v0: float, dv: float, n_out: i
         rows = max(1, (1 << 24) // int(round(2 * math.pi / (du * dv))))
         out = np.empty((x.shape[0], n_out), np.complex64 if x.dtype == np.complex64 else np.complex128)
         for s in range(0, x.shape[0], rows):
-            out[s:s + rows] = grid_dft(x[s:s + rows], u0, du, v0, dv, n_out, sign, workers)
+            out[s : s + rows] = grid_dft(x[s : s + rows], u0, du, v0, dv, n_out, sign, workers)
         return out
     n_in = x.shape[-1]
     m = int(round(2 * math.pi / (du * dv)))
     if abs(m * du * dv - 2 * math.pi) > 1e-6 or m < max(n_in, n_out):
-        raise ValueError(f"grid_dft: 2 pi / (du dv) = {2 * math.pi / (du * dv):.6g} must be an integer >= "
-                         f"{max(n_in, n_out)}")
+        raise ValueError(
+            f"grid_dft: 2 pi / (du dv) = {2 * math.pi / (du * dv):.6g} must be an integer >= {max(n_in, n_out)}"
+        )
     dtype = np.complex64 if x.dtype == np.complex64 else np.complex128
     pre = np.exp(sign * 1j * ((du * v0 * np.arange(n_in)) % (2 * math.pi))).astype(dtype)
     z = x * pre
@@ -190,8 +198,10 @@ def _pulse_positions(ratio: np.ndarray, wanted: np.ndarray) -> np.ndarray:
         return np.interp(wanted, ratio, idx, left=np.nan, right=np.nan)
     if np.all(step < 0):
         return np.interp(wanted, ratio[::-1], idx[::-1], left=np.nan, right=np.nan)
-    raise InputError("polar format: the line-of-sight angle is not monotonic over the pulses "
-                     "(the track turns back); split the aperture")
+    raise InputError(
+        "polar format: the line-of-sight angle is not monotonic over the pulses "
+        "(the track turns back); split the aperture"
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -218,7 +228,7 @@ def polar_to_rect(ph, ua, ur, kg: KGrid, interp: Interpolation, block: int = 256
     n_az = ph.data.shape[0]
     fc, f0, dfr = ph.carrier_frequency, float(ph.freqs[0]), ph.freq_step
     kr = kg.kr
-    rng_t = np.empty((kg.n_kr, n_az), np.complex64)      # range pass written transposed: one copy less
+    rng_t = np.empty((kg.n_kr, n_az), np.complex64)  # range pass written transposed: one copy less
     for s in range(0, n_az, block):
         e = min(s + block, n_az)
         tc = ph.delay_center[s:e, None]
@@ -226,35 +236,37 @@ def polar_to_rect(ph, ua, ur, kg: KGrid, interp: Interpolation, block: int = 256
         # centre the time support before interpolating the spectrum, restore it afterwards
         cyc = ph.freqs[None, :] * tc
         rows = ph.data[s:e] * _phasor(cyc)
-        f_new = kr[None, :] * (C / (4 * math.pi)) / ur[s:e, None] - fc       # range pass along the LOS
-        out = resample_rows(rows, (f_new - f0) / dfr, interp.range_kernel, interp.range_length,
-                            oversampling=over)
+        f_new = kr[None, :] * (C / (4 * math.pi)) / ur[s:e, None] - fc  # range pass along the LOS
+        out = resample_rows(rows, (f_new - f0) / dfr, interp.range_kernel, interp.range_length, oversampling=over)
         out *= _phasor(-f_new * tc)
         rng_t[:, s:e] = out.T
     out = np.empty((kg.n_kr, kg.n_ka), np.complex64)
-    rows = max(1, (1 << 22) // max(kg.n_ka, 1))                             # ~4 M outputs per block
+    rows = max(1, (1 << 22) // max(kg.n_ka, 1))  # ~4 M outputs per block
     ratio = ua / ur
     for s in range(0, kg.n_kr, rows):
         e = min(s + rows, kg.n_kr)
-        pos = _pulse_positions(ratio, kg.ka[None, :] / kr[s:e, None])       # azimuth pass at constant k_r
-        out[s:e] = resample_rows(rng_t[s:e], pos, interp.azimuth_kernel, interp.azimuth_length,
-                                 oversampling=interp.azimuth_oversampling)
+        pos = _pulse_positions(ratio, kg.ka[None, :] / kr[s:e, None])  # azimuth pass at constant k_r
+        out[s:e] = resample_rows(
+            rng_t[s:e], pos, interp.azimuth_kernel, interp.azimuth_length, oversampling=interp.azimuth_oversampling
+        )
     return out
 
 
-def rect_to_polar(spec: np.ndarray, kg: KGrid, ua, ur, carrier_frequency, freqs, interp: Interpolation,
-                  oversampling: float = 1.25) -> np.ndarray:
+def rect_to_polar(
+    spec: np.ndarray, kg: KGrid, ua, ur, carrier_frequency, freqs, interp: Interpolation, oversampling: float = 1.25
+) -> np.ndarray:
     """Inverse LOSPI: values of a (n_kr, n_ka) rectangle at the polar samples (n_pulses, n_freq).
 
     Polar samples outside the rectangle are zero.
     """
     kr = kg.kr
-    pos = ((kr[:, None] * (ua / ur)[None, :]) - kg.ka0) / kg.dka          # (n_kr, n_pulses)
+    pos = ((kr[:, None] * (ua / ur)[None, :]) - kg.ka0) / kg.dka  # (n_kr, n_pulses)
     az = resample_rows(spec, pos, interp.azimuth_kernel, interp.azimuth_length, oversampling=oversampling)
     k = wavenumbers(carrier_frequency, freqs)
-    pos_r = (k[None, :] * ur[:, None] - kg.kr0) / kg.dkr                  # (n_pulses, n_freq)
-    return resample_rows(np.ascontiguousarray(az.T), pos_r, interp.range_kernel, interp.range_length,
-                         oversampling=oversampling)
+    pos_r = (k[None, :] * ur[:, None] - kg.kr0) / kg.dkr  # (n_pulses, n_freq)
+    return resample_rows(
+        np.ascontiguousarray(az.T), pos_r, interp.range_kernel, interp.range_length, oversampling=oversampling
+    )
 
 
 def _phasor(cycles: np.ndarray) -> np.ndarray:
@@ -299,13 +311,22 @@ def image_to_rect(img: np.ndarray, grid: Grid, kg: KGrid, forward: KGrid, worker
     y = grid_dft(np.ascontiguousarray(img.T), grid.a0, grid.da, kg.ka0, kg.dka, kg.n_ka, +1, workers)
     spec = grid_dft(np.ascontiguousarray(y.T), grid.r0, grid.dr, kg.kr0, kg.dkr, kg.n_kr, +1, workers)
     spec = np.ascontiguousarray(spec.T)
-    spec *= np.float32(forward.n_ka * forward.n_kr * forward.dka * grid.da * forward.dkr * grid.dr
-                       / (4 * math.pi**2))
+    spec *= np.float32(forward.n_ka * forward.n_kr * forward.dka * grid.da * forward.dkr * grid.dr / (4 * math.pi**2))
     return spec
 
 
-def pfa(ph, e_azimuth, e_range, grid: Grid, *, support: str = "inscribed", rect: Rect | None = None,
-        kgrid: KGrid | None = None, interp: Interpolation = Interpolation(), workers: int = -1):
+def pfa(
+    ph,
+    e_azimuth,
+    e_range,
+    grid: Grid,
+    *,
+    support: str = "inscribed",
+    rect: Rect | None = None,
+    kgrid: KGrid | None = None,
+    interp: Interpolation = Interpolation(),
+    workers: int = -1,
+):
     """Polar format image of ``ph`` on ``grid`` (offsets from ``ph.reference`` along e_a, e_r).
 
     Returns (image (n_a, n_r) complex64, KGrid). ``rect`` overrides the support rectangle and

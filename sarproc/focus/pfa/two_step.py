@@ -36,8 +36,19 @@ import scipy.fft as sfft
 from sarproc.dsp.phasor import unit_phasor
 from sarproc.focus.pfa.correction import PfaGeometry, distortion_field, extended_grid, pfa_distortion, warp_to_truth
 from sarproc.focus.pfa.phase_history import PhaseHistory, reference_ranges
-from sarproc.focus.pfa.polar import (Grid, Interpolation, KGrid, Rect, image_to_rect, los_components, make_kgrid,
-                                     pfa, polar_support, rect_to_polar, wavenumbers)
+from sarproc.focus.pfa.polar import (
+    Grid,
+    Interpolation,
+    KGrid,
+    Rect,
+    image_to_rect,
+    los_components,
+    make_kgrid,
+    pfa,
+    polar_support,
+    rect_to_polar,
+    wavenumbers,
+)
 from sarproc.product.metadata import C
 
 
@@ -121,20 +132,27 @@ def subimage_phase_history(task: SubImageTask) -> PhaseHistory:
     """Steps 1-3: window -> low-pass spectrum -> decimated polar raster -> carrier + eq. (8) MoCo."""
     g = task.window_grid
     xa, xr = task.window_center
-    rel = Grid(g.a0 - xa, g.da, g.n_a, g.r0 - xr, g.dr, g.n_r)      # window relative to its centre x_s'
+    rel = Grid(g.a0 - xa, g.da, g.n_a, g.r0 - xr, g.dr, g.n_r)  # window relative to its centre x_s'
     os_ = task.oversampling
     wa, wr = task.content_extent
-    kg, _ = make_kgrid(task.forward_rect, 2 * math.pi / (os_ * g.n_a * g.da), 2 * math.pi / (os_ * g.n_r * g.dr),
-                       g.da, g.dr, g.n_a, g.n_r)
-    low = image_to_rect(task.window, rel, kg, task.forward)            # L(k) = S(k) exp(-j k . x_s')
+    kg, _ = make_kgrid(
+        task.forward_rect,
+        2 * math.pi / (os_ * g.n_a * g.da),
+        2 * math.pi / (os_ * g.n_r * g.dr),
+        g.da,
+        g.dr,
+        g.n_a,
+        g.n_r,
+    )
+    low = image_to_rect(task.window, rel, kg, task.forward)  # L(k) = S(k) exp(-j k . x_s')
     # decimated polar raster: the window's content needs spacings 2 pi / (os x extent)
     ua, ur = los_components(task.positions, task.reference, task.e_azimuth, task.e_range)
     k_max = float(wavenumbers(task.carrier_frequency, task.band[1]))
     # phase step between pulses over the content: K (du_a a + du_r r) must stay below 2 pi / os
     per_pulse = k_max * float(np.max(np.abs(np.diff(ua)) * wa + np.abs(np.diff(ur)) * wr))
     decim = max(1, int(2 * math.pi / (os_ * per_pulse)))
-    keep = np.arange((len(ua) - 1) % decim // 2, len(ua), decim)   # uniform, centred on the aperture
-    depth = float(np.max(np.abs(ua))) * wa + float(np.max(np.abs(ur))) * wr   # slant extent of the content
+    keep = np.arange((len(ua) - 1) % decim // 2, len(ua), decim)  # uniform, centred on the aperture
+    depth = float(np.max(np.abs(ua))) * wa + float(np.max(np.abs(ur))) * wr  # slant extent of the content
     df = C / (2 * os_ * depth)
     n_f = int(math.floor((task.band[1] - task.band[0]) / df)) + 1
     freqs = (task.band[0] + task.band[1]) / 2 + (np.arange(n_f) - (n_f - 1) / 2) * df
@@ -146,9 +164,16 @@ def subimage_phase_history(task: SubImageTask) -> PhaseHistory:
     cyc -= np.floor(cyc)
     sig *= unit_phasor(cyc)
     span = 2 * depth / C
-    return PhaseHistory(data=sig, freqs=freqs, carrier_frequency=task.carrier_frequency, positions=pos,
-                        reference=np.asarray(task.center, float), times=keep.astype(float),
-                        delay_center=np.zeros(len(keep)), delay_span=np.full(len(keep), span))
+    return PhaseHistory(
+        data=sig,
+        freqs=freqs,
+        carrier_frequency=task.carrier_frequency,
+        positions=pos,
+        reference=np.asarray(task.center, float),
+        times=keep.astype(float),
+        delay_center=np.zeros(len(keep)),
+        delay_span=np.full(len(keep), span),
+    )
 
 
 def focus_subimage(task: SubImageTask) -> np.ndarray:
@@ -162,9 +187,15 @@ def focus_subimage(task: SubImageTask) -> np.ndarray:
     ph = subimage_phase_history(task)
     sa, sr = task.center_offset
     c = task.core
-    core = Grid(c.a0 - sa, c.da, c.n_a, c.r0 - sr, c.dr, c.n_r)           # relative to s
-    geo = PfaGeometry(task.positions, np.asarray(task.center, float), np.asarray(task.e_azimuth),
-                      np.asarray(task.e_range), task.carrier_frequency, task.band)
+    core = Grid(c.a0 - sa, c.da, c.n_a, c.r0 - sr, c.dr, c.n_r)  # relative to s
+    geo = PfaGeometry(
+        task.positions,
+        np.asarray(task.center, float),
+        np.asarray(task.e_azimuth),
+        np.asarray(task.e_range),
+        task.carrier_frequency,
+        task.band,
+    )
     warp = distortion_field(geo, task.kgrid, core)
     grid = extended_grid(core, warp)
     interp = dataclasses.replace(task.interp, azimuth_oversampling=task.oversampling)
@@ -179,12 +210,21 @@ class Tile:
     rows: slice
     cols: slice
     center_offset: tuple[float, float]
-    window: tuple[float, float, float, float]       # a_min, a_max, r_min, r_max, m from O
+    window: tuple[float, float, float, float]  # a_min, a_max, r_min, r_max, m from O
     window_center: tuple[float, float]
 
 
-def plan_tiles(out: Grid, core_size: tuple[float, float], overlap: float, positions, reference, e_azimuth,
-               e_range, carrier_frequency, band) -> list[Tile]:
+def plan_tiles(
+    out: Grid,
+    core_size: tuple[float, float],
+    overlap: float,
+    positions,
+    reference,
+    e_azimuth,
+    e_range,
+    carrier_frequency,
+    band,
+) -> list[Tile]:
     """Cut the output grid into tiles of at most ``core_size`` (m) and size their step-1 windows.
 
     A window holds the distorted step-1 responses of the tile's corners and centre, grown by half
@@ -203,24 +243,39 @@ def plan_tiles(out: Grid, core_size: tuple[float, float], overlap: float, positi
             r_lo, r_hi = out.r0 + ja * out.dr, out.r0 + (jb - 1) * out.dr
             ca, cr = (a_lo + a_hi) / 2, (r_lo + r_hi) / 2
             pts = [(ca, cr), (a_lo, r_lo), (a_lo, r_hi), (a_hi, r_lo), (a_hi, r_hi)]
-            dist = [pfa_distortion(positions, ref, ref + a * np.asarray(e_azimuth) + r * np.asarray(e_range),
-                                   e_azimuth, e_range, carrier_frequency, band) for a, r in pts]
+            dist = [
+                pfa_distortion(
+                    positions,
+                    ref,
+                    ref + a * np.asarray(e_azimuth) + r * np.asarray(e_range),
+                    e_azimuth,
+                    e_range,
+                    carrier_frequency,
+                    band,
+                )
+                for a, r in pts
+            ]
             ga = overlap * (a_hi - a_lo) / 2
             gr = overlap * (r_hi - r_lo) / 2
-            win = (min(d.azimuth - d.spread_azimuth / 2 for d in dist) - ga,
-                   max(d.azimuth + d.spread_azimuth / 2 for d in dist) + ga,
-                   min(d.range - d.spread_range / 2 for d in dist) - gr,
-                   max(d.range + d.spread_range / 2 for d in dist) + gr)
-            tiles.append(Tile(slice(int(ia), int(ib)), slice(int(ja), int(jb)), (ca, cr), win,
-                              (dist[0].azimuth, dist[0].range)))
+            win = (
+                min(d.azimuth - d.spread_azimuth / 2 for d in dist) - ga,
+                max(d.azimuth + d.spread_azimuth / 2 for d in dist) + ga,
+                min(d.range - d.spread_range / 2 for d in dist) - gr,
+                max(d.range + d.spread_range / 2 for d in dist) + gr,
+            )
+            tiles.append(
+                Tile(slice(int(ia), int(ib)), slice(int(ja), int(jb)), (ca, cr), win, (dist[0].azimuth, dist[0].range))
+            )
     return tiles
 
 
 def window_slices(grid: Grid, window) -> tuple[slice, slice]:
     """Pixel slices of ``grid`` covering ``window`` (a_min, a_max, r_min, r_max), FFT-friendly lengths."""
     out = []
-    for lo, hi, start, step, n in ((window[0], window[1], grid.a0, grid.da, grid.n_a),
-                                   (window[2], window[3], grid.r0, grid.dr, grid.n_r)):
+    for lo, hi, start, step, n in (
+        (window[0], window[1], grid.a0, grid.da, grid.n_a),
+        (window[2], window[3], grid.r0, grid.dr, grid.n_r),
+    ):
         i0 = int(math.floor((lo - start) / step))
         length = sfft.next_fast_len(int(math.ceil((hi - lo) / step)) + 2)
         i0 = min(max(0, i0 - (length - int(math.ceil((hi - lo) / step)) - 2) // 2), max(0, n - length))
@@ -228,8 +283,7 @@ def window_slices(grid: Grid, window) -> tuple[slice, slice]:
     return out[0], out[1]
 
 
-def tile_rects(tiles: Iterable[Tile], positions, reference, e_azimuth, e_range, carrier_frequency,
-               band) -> list[Rect]:
+def tile_rects(tiles: Iterable[Tile], positions, reference, e_azimuth, e_range, carrier_frequency, band) -> list[Rect]:
     """Each tile centre's inscribed polar support (its own resolution and carrier).
 
     After the distortion warp a response at p is resolved by this support mapped through the

@@ -42,21 +42,34 @@ log = logging.getLogger(__name__)
 class CoarseFocusParams:
     """``coarse_focus:`` section."""
 
-    reference_range: float | None = param("length", default=None, gt=0,
-                                          doc="r_ref of eq. (10); default: the radar reference range")
-    azimuth_samples: int | None = param(default=None, ge=2, doc="DFT length M (>= pulses); default: "
-                                        "smallest fast length with F_a'' >= bandwidth_margin x total bandwidth")
+    reference_range: float | None = param(
+        "length", default=None, gt=0, doc="r_ref of eq. (10); default: the radar reference range"
+    )
+    azimuth_samples: int | None = param(
+        default=None,
+        ge=2,
+        doc="DFT length M (>= pulses); default: smallest fast length with F_a'' >= bandwidth_margin x total bandwidth",
+    )
     bandwidth_margin: float = param(default=1.2, ge=1.0, doc="F_a'' / total Doppler bandwidth for the default M")
-    scene_azimuth_extent: float | None = param("length", default=None, gt=0,
-                                               doc="scene width along x_n used by the alias checks; "
-                                                   "default: the targets' span plus 2 scene_margin")
-    scene_range_extent: float | None = param("length", default=None, gt=0,
-                                             doc="scene depth along r_0; default: targets' span plus 2 scene_margin")
+    scene_azimuth_extent: float | None = param(
+        "length",
+        default=None,
+        gt=0,
+        doc="scene width along x_n used by the alias checks; default: the targets' span plus 2 scene_margin",
+    )
+    scene_range_extent: float | None = param(
+        "length", default=None, gt=0, doc="scene depth along r_0; default: targets' span plus 2 scene_margin"
+    )
     scene_margin: float = param("length", default=100.0, ge=0, doc="margin around the targets for default extents")
-    fold_check: bool = param(default=True, doc=(
-        "measure where the data's deramped energy lies and detect energy that folded (nonlinear correction only)"))
-    on_alias: str = param(default="error", choices=("error", "warn"),
-                          doc="deramped spectrum wider than the PRF: refuse (error) or go on and record it (warn)")
+    fold_check: bool = param(
+        default=True,
+        doc=("measure where the data's deramped energy lies and detect energy that folded (nonlinear correction only)"),
+    )
+    on_alias: str = param(
+        default="error",
+        choices=("error", "warn"),
+        doc="deramped spectrum wider than the PRF: refuse (error) or go on and record it (warn)",
+    )
     precision: str = param(default="float32", choices=PRECISIONS, doc="intermediate complex precision")
     block_range: int = param(default=1024, ge=1, doc="range samples per FFT block (memory bound)")
 
@@ -104,9 +117,8 @@ def doppler_budget(radar: RadarMetadata, t_first: float, t_last: float, box, k: 
     t = np.linspace(t_first, t_last, 129)
     f = radar.carrier_frequency + np.array([-0.5, 0.0, 0.5])[:, None, None] * radar.bandwidth
     u = v * t[None, :, None] - X[None, None, :]
-    rdot = v * u / np.sqrt(u**2 + Y[None, None, :] ** 2)                          # (1, n_t, n_pts)
-    beta = {"nonlinear": -2 * f * v * s / C, "linear": -2 * radar.carrier_frequency * v * s / C + 0 * f,
-            "none": 0 * f}
+    rdot = v * u / np.sqrt(u**2 + Y[None, None, :] ** 2)  # (1, n_t, n_pts)
+    beta = {"nonlinear": -2 * f * v * s / C, "linear": -2 * radar.carrier_frequency * v * s / C + 0 * f, "none": 0 * f}
     if method not in beta:
         raise InputError(f"unknown Doppler correction {method!r}; known: {list(METHODS)}")
     f_nl = -2 * f * rdot / C + beta["nonlinear"]
@@ -118,13 +130,25 @@ def doppler_budget(radar: RadarMetadata, t_first: float, t_last: float, box, k: 
         c0 = 2 * radar.carrier_frequency * v * s / C
         prf = radar.prf
         der = der - (c0 - (np.mod(c0 + prf / 2, prf) - prf / 2))
-    return {"total_bandwidth": float(f_nl.max() - f_nl.min()), "doppler_min": float(f_nl.min()),
-            "doppler_max": float(f_nl.max()), "deramp_spread": float(der.max() - der.min()),
-            "deramp_extent": float(max(2 * np.abs(der_nl).max(), der.max() - der.min()))}
+    return {
+        "total_bandwidth": float(f_nl.max() - f_nl.min()),
+        "doppler_min": float(f_nl.min()),
+        "doppler_max": float(f_nl.max()),
+        "deramp_spread": float(der.max() - der.min()),
+        "deramp_extent": float(max(2 * np.abs(der_nl).max(), der.max() - der.min())),
+    }
 
 
-def specan(signal: np.ndarray, azimuth_time: np.ndarray, prf: float, k: float, n_out: int,
-           precision: str = "float64", block_range: int = 1024, progress=None) -> tuple[np.ndarray, np.ndarray]:
+def specan(
+    signal: np.ndarray,
+    azimuth_time: np.ndarray,
+    prf: float,
+    k: float,
+    n_out: int,
+    precision: str = "float64",
+    block_range: int = 1024,
+    progress=None,
+) -> tuple[np.ndarray, np.ndarray]:
     """Discrete eq. (11): returns (y (n_out, n_rg) complex64, t' (n_out,) s)."""
     n_az, n_rg = signal.shape
     if n_out < n_az:
@@ -142,7 +166,7 @@ def specan(signal: np.ndarray, azimuth_time: np.ndarray, prf: float, k: float, n
     post = np.exp(1j * (np.pi * k * t_out**2 - 2 * np.pi * (m - half) * prf * t0 / n_out)).astype(cdt)
     out = np.empty((n_out, n_rg), np.complex64)
     starts = range(0, n_rg, block_range)
-    for s in (progress(starts) if progress is not None else starts):
+    for s in progress(starts) if progress is not None else starts:
         e = min(s + block_range, n_rg)
         blk = signal[:, s:e].astype(cdt) * pre[:, None]
         spec = sfft.fft(blk, n=n_out, axis=0, workers=-1)
@@ -164,8 +188,16 @@ def deramp_interval(radar: RadarMetadata, t_first: float, t_last: float, box, k:
     return float(der.min()), float(der.max())
 
 
-def deramped_folds(signal: np.ndarray, azimuth_time: np.ndarray, radar: RadarMetadata, k: float, n_out: int,
-                   box_interval: tuple[float, float], level_db: float = -30.0, max_columns: int = 96) -> list[dict]:
+def deramped_folds(
+    signal: np.ndarray,
+    azimuth_time: np.ndarray,
+    radar: RadarMetadata,
+    k: float,
+    n_out: int,
+    box_interval: tuple[float, float],
+    level_db: float = -30.0,
+    max_columns: int = 96,
+) -> list[dict]:
     """Where the data's deramped energy lies, and which of it folded (data-driven, issue 9).
 
     The deramped azimuth spectrum of two range sub-bands (lower and upper third of the chirp band) is
@@ -202,8 +234,8 @@ def deramped_folds(signal: np.ndarray, azimuth_time: np.ndarray, radar: RadarMet
     if not total.max() > 0:
         return []
     half = n_out // 2
-    freq = (np.arange(n_out) - half) * prf / n_out        # deramped frequency of each coarse bin
-    cell = n_out / n_az                                  # bins per coarse resolution cell (1/T)
+    freq = (np.arange(n_out) - half) * prf / n_out  # deramped frequency of each coarse bin
+    cell = n_out / n_az  # bins per coarse resolution cell (1/T)
     aperture = n_az / prf
     resolvable = prf * (centre[1] - centre[0]) / fc * aperture >= 4.0
     w = max(1, int(round(3 * cell)))
@@ -211,13 +243,13 @@ def deramped_folds(signal: np.ndarray, azimuth_time: np.ndarray, radar: RadarMet
     local_max = np.lib.stride_tricks.sliding_window_view(padded, 2 * w + 1).max(axis=1) == total
     peaks = np.flatnonzero(local_max & (total >= total.max() * 10 ** (level_db / 10)))
     accepted = []
-    for i in peaks[np.argsort(total[peaks])[::-1]]:   # side lobes of a much stronger nearby peak are not responses
+    for i in peaks[np.argsort(total[peaks])[::-1]]:  # side lobes of a much stronger nearby peak are not responses
         near = [j for j in accepted if abs((i - j + half) % n_out - half) < 12 * cell and total[j] > 10 * total[i]]
         if not near:
             accepted.append(int(i))
 
-    reach = max(int(round(20 * cell)), int(round(0.1 * n_out)))     # +-PRF/10 around a peak, >= 20 cells
-    slope = (centre[1] - centre[0]) / fc                 # sub-band shift per Hz of true deramped frequency
+    reach = max(int(round(20 * cell)), int(round(0.1 * n_out)))  # +-PRF/10 around a peak, >= 20 cells
+    slope = (centre[1] - centre[0]) / fc  # sub-band shift per Hz of true deramped frequency
 
     def true_frequency(i, r):  # power-centroid shift between the sub-bands within +-r bins of peak i, as Hz
         window = np.arange(-r, r + 1)
@@ -248,12 +280,15 @@ def deramped_folds(signal: np.ndarray, azimuth_time: np.ndarray, radar: RadarMet
             # A response far outside the window is smeared (its FM rate differs from the reference):
             # look again over twice the width when the narrow window finds no fold, unless another
             # comparable response lies in the wider window (its energy would bias the centroids).
-            crowded = any(reach < abs((i - j + half) % n_out - half) <= 2 * reach and total[j] >= total[i] / 2
-                          for j in accepted if j != i)
+            crowded = any(
+                reach < abs((i - j + half) % n_out - half) <= 2 * reach and total[j] >= total[i] / 2
+                for j in accepted
+                if j != i
+            )
             for r in (reach,) if crowded else (reach, 2 * reach):
                 f_est = true_frequency(i, r)
                 n = int(round((f_est - f_app) / prf))
-                if n != 0 and abs(f_est - f_app - n * prf) > prf / 4:   # not a clean fold: no claim
+                if n != 0 and abs(f_est - f_app - n * prf) > prf / 4:  # not a clean fold: no claim
                     n = 0
                 if n:
                     break
@@ -263,10 +298,18 @@ def deramped_folds(signal: np.ndarray, azimuth_time: np.ndarray, radar: RadarMet
                 n = 0
         f_true = f_app + (n or 0) * prf
         if any(o["n"] == n and abs(o["f_app"] - f_app) <= reach * prf / n_out for o in out):
-            continue   # another peak of the same (smeared) response
-        out.append({"f_app": f_app, "t_app": f_app / k, "n": n, "f_true": f_true, "t_true": f_true / k,
-                    "level_db": float(10 * np.log10(total[i] / total.max())),
-                    "inside_box": bool(box_interval[0] - 2 / aperture <= f_app <= box_interval[1] + 2 / aperture)})
+            continue  # another peak of the same (smeared) response
+        out.append(
+            {
+                "f_app": f_app,
+                "t_app": f_app / k,
+                "n": n,
+                "f_true": f_true,
+                "t_true": f_true / k,
+                "level_db": float(10 * np.log10(total[i] / total.max())),
+                "inside_box": bool(box_interval[0] - 2 / aperture <= f_app <= box_interval[1] + 2 / aperture),
+            }
+        )
     return out
 
 
@@ -283,14 +326,16 @@ def _fold_messages(found: list[dict], radar: RadarMetadata, k: float, box) -> tu
                 f"deramped window +-{prf / 2:.1f} Hz; cause: a scatterer at x_n ~ {v * f['t_true']:.0f} m, outside "
                 f"{where}; fine focus would process it with a Doppler {f['n']:+d} PRF off, so it is not imaged at "
                 f"x_n ~ {v * f['t_true']:.0f} m but lands near x_n ~ {v * f['t_app']:.0f} m (a ghost) or smeared. "
-                "Raise the PRF or remove the scatterer from the data (a larger box does not help: the window is the PRF)")
-        elif f["n"] is None and not f["inside_box"] and f["level_db"] >= -20.0:   # not a box-edge target's smear
+                "Raise the PRF or remove the scatterer from the data (a larger box does not help: the window is the PRF)"
+            )
+        elif f["n"] is None and not f["inside_box"] and f["level_db"] >= -20.0:  # not a box-edge target's smear
             notes.append(
                 f"deramped energy at t' = {f['t_app']:.4g} s ({f['level_db']:.1f} dB) lies outside {where}; the range "
                 f"band is too narrow for this aperture to tell whether it folded: it is a scatterer at x_n ~ "
                 f"{v * f['t_app']:.0f} m or the fold of one at x_n ~ {v * (f['t_app'] + prf / k):.0f} m or "
                 f"{v * (f['t_app'] - prf / k):.0f} m (a ghost); declare coarse_focus.scene_azimuth_extent to cover "
-                "the scene so the alias check sees it")
+                "the scene so the alias check sees it"
+            )
     return problems, notes
 
 
@@ -321,14 +366,20 @@ def coarse_focus(pre: Product, params: CoarseFocusParams = CoarseFocusParams(), 
     f_out = n_out * k / prf
     problems = []
     if budget["deramp_extent"] > prf:
-        fix = "raise the PRF or shrink the scene" + ("" if method == "nonlinear" else " or use the nonlinear correction")
-        problems.append(f"the deramped Doppler spread {budget['deramp_spread']:.1f} Hz (extent about zero "
-                        f"{budget['deramp_extent']:.1f} Hz) exceeds the PRF {prf:.1f} Hz "
-                        f"(Doppler correction {method!r}, scene x_n in [{box[0]:.0f}, {box[1]:.0f}] m, "
-                        f"r_0 in [{box[2]:.0f}, {box[3]:.0f}] m): the scene folds after deramping; {fix}")
+        fix = "raise the PRF or shrink the scene" + (
+            "" if method == "nonlinear" else " or use the nonlinear correction"
+        )
+        problems.append(
+            f"the deramped Doppler spread {budget['deramp_spread']:.1f} Hz (extent about zero "
+            f"{budget['deramp_extent']:.1f} Hz) exceeds the PRF {prf:.1f} Hz "
+            f"(Doppler correction {method!r}, scene x_n in [{box[0]:.0f}, {box[1]:.0f}] m, "
+            f"r_0 in [{box[2]:.0f}, {box[3]:.0f}] m): the scene folds after deramping; {fix}"
+        )
     if budget["total_bandwidth"] > f_out:
-        problems.append(f"F_a'' = {f_out:.1f} Hz is below the total Doppler bandwidth {budget['total_bandwidth']:.1f} "
-                        "Hz; raise coarse_focus.azimuth_samples")
+        problems.append(
+            f"F_a'' = {f_out:.1f} Hz is below the total Doppler bandwidth {budget['total_bandwidth']:.1f} "
+            "Hz; raise coarse_focus.azimuth_samples"
+        )
     folds = []
     if params.fold_check and method == "nonlinear":
         folds = deramped_folds(pre.data, t, radar, k, n_out, deramp_interval(radar, t[0], t[-1], box, k))
@@ -343,23 +394,40 @@ def coarse_focus(pre: Product, params: CoarseFocusParams = CoarseFocusParams(), 
         log.warning(msg, extra=IMAGE_DEFECT)
     data, t_out = specan(pre.data, t, prf, k, n_out, params.precision, params.block_range, progress)
     attrs = dict(pre.attrs)
-    attrs.update({
-        "azimuth_sampling_rate": float(f_out),          # F_a'' (Hz)
-        "deramp_rate": float(k),                        # k = -f_dr,ref (Hz/s)
-        "coarse_reference_range": float(r_ref),
-        "aperture_start": float(t[0]), "aperture_end": float(t[-1]), "n_pulses": int(len(t)),
-        "total_doppler_bandwidth": budget["total_bandwidth"], "deramp_spread": budget["deramp_spread"],
-        "deramp_extent": budget["deramp_extent"],
-        "scene_box": [float(b) for b in box],
-        "aliased": bool(problems),
-        "folds": [{k_: v_ for k_, v_ in f.items()} for f in folds if f["n"]],
-    })
-    out = pre.derive("coarse", data, ("azimuth_time", "range_time"),
-                     {"azimuth_time": t_out, "range_time": pre.coords["range_time"]}, attrs=attrs)
+    attrs.update(
+        {
+            "azimuth_sampling_rate": float(f_out),  # F_a'' (Hz)
+            "deramp_rate": float(k),  # k = -f_dr,ref (Hz/s)
+            "coarse_reference_range": float(r_ref),
+            "aperture_start": float(t[0]),
+            "aperture_end": float(t[-1]),
+            "n_pulses": int(len(t)),
+            "total_doppler_bandwidth": budget["total_bandwidth"],
+            "deramp_spread": budget["deramp_spread"],
+            "deramp_extent": budget["deramp_extent"],
+            "scene_box": [float(b) for b in box],
+            "aliased": bool(problems),
+            "folds": [{k_: v_ for k_, v_ in f.items()} for f in folds if f["n"]],
+        }
+    )
+    out = pre.derive(
+        "coarse",
+        data,
+        ("azimuth_time", "range_time"),
+        {"azimuth_time": t_out, "range_time": pre.coords["range_time"]},
+        attrs=attrs,
+    )
     entry = as_dict(params)
-    entry.update({"resolved_reference_range": float(r_ref), "resolved_azimuth_samples": int(n_out),
-                  "azimuth_sampling_rate": float(f_out), "deramp_rate": float(k),
-                  "deramp_spread": budget["deramp_spread"], "deramp_extent": budget["deramp_extent"],
-                  "total_doppler_bandwidth": budget["total_bandwidth"]})
+    entry.update(
+        {
+            "resolved_reference_range": float(r_ref),
+            "resolved_azimuth_samples": int(n_out),
+            "azimuth_sampling_rate": float(f_out),
+            "deramp_rate": float(k),
+            "deramp_spread": budget["deramp_spread"],
+            "deramp_extent": budget["deramp_extent"],
+            "total_doppler_bandwidth": budget["total_bandwidth"],
+        }
+    )
     out.history.append(history_entry("coarse_focus", entry))
     return out

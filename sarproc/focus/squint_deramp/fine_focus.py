@@ -40,13 +40,26 @@ import scipy.fft as sfft
 
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import InputError, ProcessingError
-from sarproc.focus.squint_deramp.block_copies import copy_rows, crop_columns, gather_columns, pad_rows, pad_spectrum, scale_rows
+from sarproc.focus.squint_deramp.block_copies import (
+    copy_rows,
+    crop_columns,
+    gather_columns,
+    pad_rows,
+    pad_spectrum,
+    scale_rows,
+)
 from sarproc.product.frames import SquintFrame, SquintLrwcFrame, targets_in_frame
 from sarproc.dsp.interp import KERNELS, resample_rows
 from sarproc.dsp.kernel_cache import CACHE
 from sarproc.product.metadata import C
 from sarproc.product.theory import fill_target_theory, window_theory
-from sarproc.focus.squint_deramp.nlcs import VARIANTS, compression_phase, group_delay_span, nlcs_coefficients, position_terms
+from sarproc.focus.squint_deramp.nlcs import (
+    VARIANTS,
+    compression_phase,
+    group_delay_span,
+    nlcs_coefficients,
+    position_terms,
+)
 from sarproc.focus.squint_deramp.preprocess import PRECISIONS, complex_dtype, correction_frequency
 from sarproc.dsp.phasor import multiply_separable_phase, unit_phasor
 from sarproc.product.model import Product
@@ -60,30 +73,53 @@ log = logging.getLogger(__name__)
 class FineFocusParams:
     """``fine_focus:`` section."""
 
-    flow: int | None = param(default=None, choices=(1, 2),
-                             doc="1 = direct azimuth compression, 2 = modified NLCS; null = automatic from eq. (17)")
-    nlcs_variant: str = param(default="modified", choices=VARIANTS,
-                              doc="modified (paper), separated (two-dimension-separated), classic (NLCS)")
-    alpha: float = param(default=0.4, gt=0, lt=10, doc="NLCS output scaling: targets land at t_n / (2 alpha); "
-                         "below 1/2 the scaled spectrum (2 alpha B_d + |2 alpha - 1| x scene spread) needs no extra room")
-    stolt_model: str = param(default="exact", choices=MODELS,
-                             doc="exact 2D spectrum, or paper = eqs. (14)-(15) (odd terms >= 5 dropped)")
+    flow: int | None = param(
+        default=None,
+        choices=(1, 2),
+        doc="1 = direct azimuth compression, 2 = modified NLCS; null = automatic from eq. (17)",
+    )
+    nlcs_variant: str = param(
+        default="modified",
+        choices=VARIANTS,
+        doc="modified (paper), separated (two-dimension-separated), classic (NLCS)",
+    )
+    alpha: float = param(
+        default=0.4,
+        gt=0,
+        lt=10,
+        doc="NLCS output scaling: targets land at t_n / (2 alpha); "
+        "below 1/2 the scaled spectrum (2 alpha B_d + |2 alpha - 1| x scene spread) needs no extra room",
+    )
+    stolt_model: str = param(
+        default="exact", choices=MODELS, doc="exact 2D spectrum, or paper = eqs. (14)-(15) (odd terms >= 5 dropped)"
+    )
     stolt_kernel: str = param(default="knab", choices=KERNELS, doc="Stolt interpolation kernel")
     stolt_length: int = param(default=8, ge=1, le=64, doc="taps of the sinc/knab Stolt kernel")
-    stolt_oversampling: float | None = param(default=None, gt=1, doc="Knab design oversampling; "
-                                             "default: range window / scene depth, clipped to [1.2, 4]")
+    stolt_oversampling: float | None = param(
+        default=None, gt=1, doc="Knab design oversampling; default: range window / scene depth, clipped to [1.2, 4]"
+    )
     range_filter: str = param(default="flat", choices=("flat", "phase"), doc="range matched filter")
-    reference_range: float | None = param("length", default=None, gt=0,
-                                          doc="range of the bulk compression and centre of the output range "
-                                              "window; default: the middle of the coarse step's scene box")
-    flow1_geometry: str = param(default="resample", choices=("resample", "none"),
-                                doc="flow 1: resample azimuth to undo the x_n^2 sin(theta)/r shift of edge targets")
+    reference_range: float | None = param(
+        "length",
+        default=None,
+        gt=0,
+        doc="range of the bulk compression and centre of the output range "
+        "window; default: the middle of the coarse step's scene box",
+    )
+    flow1_geometry: str = param(
+        default="resample",
+        choices=("resample", "none"),
+        doc="flow 1: resample azimuth to undo the x_n^2 sin(theta)/r shift of edge targets",
+    )
     output_frame: str = param(default="squint", choices=("squint", "lrwc"), doc="image frame (see module doc)")
     crop_margin: float = param("length", default=150.0, ge=0, doc="image kept around the coarse step's scene box")
     window_margin: float = param(default=1.15, ge=1.0, doc="flow 2: time/frequency window over the needed span")
-    precision: str = param(default="float32", choices=PRECISIONS,
-                           doc="intermediate complex precision of data and FFTs (phases are float64, reduced to "
-                               "cycles and turned into complex64 phasors, < 1e-6 rad)")
+    precision: str = param(
+        default="float32",
+        choices=PRECISIONS,
+        doc="intermediate complex precision of data and FFTs (phases are float64, reduced to "
+        "cycles and turned into complex64 phasors, < 1e-6 rad)",
+    )
     block_rows: int = param(default=128, ge=1, doc="azimuth-frequency rows per Stolt block")
     block_range: int = param(default=256, ge=1, doc="range bins per azimuth block")
     max_samples: int = param(default=600_000_000, ge=1, doc="refuse working arrays larger than this")
@@ -176,10 +212,10 @@ def _range_filter(radar, f_r: np.ndarray, kind: str) -> np.ndarray:
     n = len(f_r)
     if len(h) > n:
         raise InputError(f"fine-focus: the chirp ({len(h)} samples) is longer than the range FFT ({n})")
-    circ = np.zeros(n, complex)                                           # replica centred on tau = 0
+    circ = np.zeros(n, complex)  # replica centred on tau = 0
     circ[: half + 1] = h[half:]
-    circ[n - half:] = h[:half]
-    H = sfft.fftshift(sfft.fft(circ))                                     # on the centred f_r grid
+    circ[n - half :] = h[:half]
+    H = sfft.fftshift(sfft.fft(circ))  # on the centred f_r grid
     return np.where(band, 1.0 / np.where(band, H, 1), 0) * np.count_nonzero(h)
 
 
@@ -247,9 +283,9 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
     if M * N > params.max_samples:
         raise InputError(f"fine-focus: working array {M} x {N} exceeds fine_focus.max_samples {params.max_samples}")
     f_r = centred(N, fs / N)
-    S = np.empty((M, N), cdt)                                  # zero padded in one parallel copy, transformed in place
+    S = np.empty((M, N), cdt)  # zero padded in one parallel copy, transformed in place
     if N % 2 == 0:
-        pad_rows(coarse.data, S, 1)                               # fftshift of the spectrum as (-1)^n in time
+        pad_rows(coarse.data, S, 1)  # fftshift of the spectrum as (-1)^n in time
         S = sfft.fft(S, axis=1, workers=-1, overwrite_x=True)
     else:
         pad_rows(coarse.data, S, -1)
@@ -264,30 +300,47 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
     tau_ref = 2 * r_ref / C
     r = r_ref + centred(N, C / (2 * fs))
     depth = max(box[3] - box[2], 1.0) + abs(s_th) * (box[1] - box[0])
-    over = params.stolt_oversampling or float(np.clip((N / fs) / (2 * (depth + 4 * C / (2 * radar.bandwidth)) / C),
-                                                      1.2, 4.0))
+    over = params.stolt_oversampling or float(
+        np.clip((N / fs) / (2 * (depth + 4 * C / (2 * radar.bandwidth)) / C), 1.2, 4.0)
+    )
     half_win = (N / 2) * C / (2 * fs)
-    if max(abs(box[2] + min(0, box[0] * s_th, box[1] * s_th) - r_ref),
-           abs(box[3] + max(0, box[0] * s_th, box[1] * s_th) - r_ref)) > half_win:
-        raise InputError(f"fine-focus: the scene (r_0 in [{box[2]:.0f}, {box[3]:.0f}] m) does not fit the "
-                         f"{2 * half_win:.0f} m range window centred on r_ref = {r_ref:.0f} m")
+    if (
+        max(
+            abs(box[2] + min(0, box[0] * s_th, box[1] * s_th) - r_ref),
+            abs(box[3] + max(0, box[0] * s_th, box[1] * s_th) - r_ref),
+        )
+        > half_win
+    ):
+        raise InputError(
+            f"fine-focus: the scene (r_0 in [{box[2]:.0f}, {box[3]:.0f}] m) does not fit the "
+            f"{2 * half_win:.0f} m range window centred on r_ref = {r_ref:.0f} m"
+        )
     hr = _range_filter(radar, f_r, params.range_filter) * np.exp(-2j * np.pi * f_r * tau[0])
     hr = hr.astype(cdt)
     f_abs = radar.carrier_frequency + f_r
     masked = 0
-    stolt_buf = np.empty((min(params.block_rows, M), N), cdt)          # the resampled block, reused
+    stolt_buf = np.empty((min(params.block_rows, M), N), cdt)  # the resampled block, reused
     blocks = range(0, M, params.block_rows)
-    for s in (progress(blocks) if progress is not None else blocks):
+    for s in progress(blocks) if progress is not None else blocks:
         e = min(s + params.block_rows, M)
-        blk = S[s:e]                                                      # in place: rewritten below
-        model.rotate(blk, f_abs, f_a[s:e], r_ref, pre=hr)                # fused: hr exp(j r_ref G), no field stored
-        blk, m_ = stolt_resample(blk, f_r, f_a[s:e], model, params.stolt_kernel, params.stolt_length,
-                                 oversampling=over, band=radar.bandwidth, out=stolt_buf[:e - s])
+        blk = S[s:e]  # in place: rewritten below
+        model.rotate(blk, f_abs, f_a[s:e], r_ref, pre=hr)  # fused: hr exp(j r_ref G), no field stored
+        blk, m_ = stolt_resample(
+            blk,
+            f_r,
+            f_a[s:e],
+            model,
+            params.stolt_kernel,
+            params.stolt_length,
+            oversampling=over,
+            band=radar.bandwidth,
+            out=stolt_buf[: e - s],
+        )
         masked += m_
         gc, okc = model.Gc(f_a[s:e])
         fac = np.where(okc, np.exp(-1j * np.mod(r_ref * gc, 2 * np.pi)), 0).astype(cdt)
-        if N % 2 == 0:                                # the centred range IFFT with its (-1)^n modulations fused
-            scale_rows(blk, fac, 1)                   # into the row factor and the write-back
+        if N % 2 == 0:  # the centred range IFFT with its (-1)^n modulations fused
+            scale_rows(blk, fac, 1)  # into the row factor and the write-back
             blk = sfft.ifft(blk, axis=1, workers=-1, overwrite_x=True)
             copy_rows(blk, S[s:e], (N // 2 + 1) % 2)
         else:
@@ -298,11 +351,16 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
 
     # ---- 3. azimuth compression
     gc, okc = model.Gc(f_a)
-    ref = np.exp(1j * np.pi * f_a**2 / k)                                  # removes eq. (12)'s reference
+    ref = np.exp(1j * np.pi * f_a**2 / k)  # removes eq. (12)'s reference
     x_lo, x_hi = box[0] - params.crop_margin, box[1] + params.crop_margin
-    info = {"flow": flow, "depth_of_focus_half_width": half_adof, "scene_half_width": scene_half,
-            "stolt_oversampling": over, "stolt_masked_fraction": masked / float(M * N)}
-    azimuth_blocks = range(0, N, params.block_range)   # a second progress bar: azimuth compression
+    info = {
+        "flow": flow,
+        "depth_of_focus_half_width": half_adof,
+        "scene_half_width": scene_half,
+        "stolt_oversampling": over,
+        "stolt_masked_fraction": masked / float(M * N),
+    }
+    azimuth_blocks = range(0, N, params.block_range)  # a second progress bar: azimuth compression
     if progress is not None:
         azimuth_blocks = progress(azimuth_blocks)
     if flow == 1:
@@ -318,18 +376,24 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
             # x_n sin(theta) g2 f_a^2 is linear around the target's Doppler centre -K t_n (spotlight)
             idx = np.flatnonzero(keep)
             xs = x[idx]
-            resample_blocks = range(0, N, params.block_range)   # a third bar: the geometric resampling
-            for s in (progress(resample_blocks) if progress is not None else resample_blocks):
+            resample_blocks = range(0, N, params.block_range)  # a third bar: the geometric resampling
+            for s in progress(resample_blocks) if progress is not None else resample_blocks:
                 e = min(s + params.block_range, N)
                 src = xs[:, None] + xs[:, None] ** 2 * s_th / r[None, s:e]
                 pos = (src - x[0]) / (x[1] - x[0])
-                RD[idx, s:e] = resample_rows(RD[:, s:e].T, pos.T, "knab", 16,
-                                             oversampling=max(1.1, Fa / max(float(at.get("total_doppler_bandwidth", Fa / 1.2)), 1.0))).T
+                RD[idx, s:e] = resample_rows(
+                    RD[:, s:e].T,
+                    pos.T,
+                    "knab",
+                    16,
+                    oversampling=max(1.1, Fa / max(float(at.get("total_doppler_bandwidth", Fa / 1.2)), 1.0)),
+                ).T
         img, x = RD[keep], x[keep]
         alpha = None
     else:
-        img, x, extra = _flow2(RD, t_c, f_a, r, k, model, radar, params, box, (t_first, t_last), cdt, (x_lo, x_hi),
-                               azimuth_blocks)
+        img, x, extra = _flow2(
+            RD, t_c, f_a, r, k, model, radar, params, box, (t_first, t_last), cdt, (x_lo, x_hi), azimuth_blocks
+        )
         info.update(extra)
         alpha = extra["alpha"]
     del RD
@@ -337,8 +401,11 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
     # ---- 4. geometric correction in range (squint frame) and crop
     if params.output_frame == "squint":
         spec = cfft(img, 1, overwrite=True)
-        multiply_separable_phase(spec, [2 * x * s_th / C, np.mod(4 * np.pi * radar.carrier_frequency * x * s_th / C,
-                                                                 2 * np.pi)], [2 * np.pi * f_r, np.ones_like(f_r)])
+        multiply_separable_phase(
+            spec,
+            [2 * x * s_th / C, np.mod(4 * np.pi * radar.carrier_frequency * x * s_th / C, 2 * np.pi)],
+            [2 * np.pi * f_r, np.ones_like(f_r)],
+        )
         img = cifft(spec, 1, overwrite=True)
         frame = SquintFrame(th, radar.altitude)
         rlo, rhi = box[2] - params.crop_margin, box[3] + params.crop_margin
@@ -347,25 +414,35 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
         rlo = box[2] + min(box[0] * s_th, box[1] * s_th) - params.crop_margin
         rhi = box[3] + max(box[0] * s_th, box[1] * s_th) + params.crop_margin
     keep_r = (r >= rlo) & (r <= rhi)
-    cols = np.flatnonzero(keep_r)                                      # r ascending: one run of columns
+    cols = np.flatnonzero(keep_r)  # r ascending: one run of columns
     img, finite = crop_columns(img, int(cols[0]) if cols.size else 0, int(cols[-1]) + 1 if cols.size else 0)
     # checked on what is handed out (squint frame: the range FFTs above carry any NaN into every row kept)
     if not finite:
         raise ProcessingError("fine-focus: the image has NaN/Inf values (numerical breakdown)")
     coords = {"azimuth": x, "range": r[keep_r]}
     irw = [0.886 * v / (abs(K_c) * T_ap), 0.886 * C / (2 * radar.bandwidth)]
-    attrs = {"frame": frame.spec, "theoretical_irw": irw, "flow": int(flow),
-             "doppler_correction": method, "alpha": alpha if alpha is not None else 0.0,
-             "stolt_masked_fraction": info["stolt_masked_fraction"],
-             "depth_of_focus_half_width": half_adof}
+    attrs = {
+        "frame": frame.spec,
+        "theoretical_irw": irw,
+        "flow": int(flow),
+        "doppler_correction": method,
+        "alpha": alpha if alpha is not None else 0.0,
+        "stolt_masked_fraction": info["stolt_masked_fraction"],
+        "depth_of_focus_half_width": half_adof,
+    }
     targets = targets_in_frame(coarse.targets, frame)
     # Each target's own theory: its Doppler bandwidth |K(r_0)| T at its own closest-approach range (K ~ 1/r_0)
     # over a flat aperture, and the flat range band.
     r0 = targets_in_frame(coarse.targets, SquintFrame(th, radar.altitude))["range"]
     flat = window_theory("none")
-    fill_target_theory(targets, ("azimuth", "range"),
-                       [[flat.scaled(v / (abs(K_c) * r_c / max(float(r_t), 1e-9) * T_ap)),
-                         flat.scaled(C / (2 * radar.bandwidth))] for r_t in r0])
+    fill_target_theory(
+        targets,
+        ("azimuth", "range"),
+        [
+            [flat.scaled(v / (abs(K_c) * r_c / max(float(r_t), 1e-9) * T_ap)), flat.scaled(C / (2 * radar.bandwidth))]
+            for r_t in r0
+        ],
+    )
     out = coarse.derive("image", img, ("azimuth", "range"), coords, attrs=attrs, targets=targets)
     entry = as_dict(params)
     entry.update({k_: (float(v_) if isinstance(v_, (float, np.floating)) else v_) for k_, v_ in info.items()})
@@ -414,14 +491,20 @@ def _flow2(RD, t_c, f_a, r, k, model, radar, params, box, aperture, cdt, xlim, b
         cj = {kk: (vv[j] if np.ndim(vv) else vv) for kk, vv in co.items() if kk != "alpha"}
         disp = max(disp, group_delay_span(-Fa / 2, Fa / 2, cj))
     F_need = 2 * max(spans) * params.window_margin
-    t_img = pos["a1"].max() * np.abs(tn).max() + np.abs(pos["c2"]).max() * tn.max() ** 2 + np.abs(pos["c3"]).max() * np.abs(tn).max() ** 3
+    t_img = (
+        pos["a1"].max() * np.abs(tn).max()
+        + np.abs(pos["c2"]).max() * tn.max() ** 2
+        + np.abs(pos["c3"]).max() * np.abs(tn).max() ** 3
+    )
     T_need = 2 * max(abs(t_first), abs(t_last), t_img) + 2 * disp
     T_need = max(T_need * params.window_margin, M * dtc)
     L1 = sfft.next_fast_len(int(math.ceil(T_need / dtc)))
     N2 = sfft.next_fast_len(max(L1, int(math.ceil(L1 * F_need / Fa))))
     if N2 * min(N, params.block_range) > params.max_samples or N2 > 4_000_000:
-        raise InputError(f"fine-focus: flow 2 needs {N2} azimuth samples (alpha = {alpha}, dispersion {disp:.3g} s); "
-                         "alpha too close to 1/2 or the scene too wide; change fine_focus.alpha or max_samples")
+        raise InputError(
+            f"fine-focus: flow 2 needs {N2} azimuth samples (alpha = {alpha}, dispersion {disp:.3g} s); "
+            "alpha too close to 1/2 or the scene too wide; change fine_focus.alpha or max_samples"
+        )
     df = Fa / L1
     F2 = N2 * df
     # FFT order throughout (index 0 = zero time / frequency): no shifts inside the block loop
@@ -449,9 +532,9 @@ def _flow2(RD, t_c, f_a, r, k, model, radar, params, box, aperture, cdt, xlim, b
         nb = e - s
         # the block is processed transposed, (range bins, azimuth): every FFT runs along contiguous memory
         blk = RD[:, s:e].T
-        if M % 2 == 0:                                                 # compact t' (reference in)
+        if M % 2 == 0:  # compact t' (reference in)
             comp = sfft.ifft(blk, axis=1, workers=-1)
-            alt = 1                                                    # the ifftshift, as (-1)^n after
+            alt = 1  # the ifftshift, as (-1)^n after
         else:
             comp = sfft.ifft(sfft.ifftshift(blk, axes=1), axis=1, workers=-1)
             alt = -1
@@ -463,19 +546,26 @@ def _flow2(RD, t_c, f_a, r, k, model, radar, params, box, aperture, cdt, xlim, b
         X = x_buf[:nb]
         pad_spectrum(X1, X, ref, -1)
         # eq. (24) pi (Y3 f^3 + Y4 f^4), plus eq. (22) r hopc(f) (exact) for the modified variant
-        multiply_separable_phase(X, [co["Y3"][s:e], co["Y4"][s:e], r[s:e]][:len(rows24)], rows24)
+        multiply_separable_phase(X, [co["Y3"][s:e], co["Y4"][s:e], r[s:e]][: len(rows24)], rows24)
         xt = sfft.ifft(X, axis=1, workers=-1, overwrite_x=True)
-        multiply_separable_phase(xt, [co["q2"][s:e], co["q3"][s:e], co["q4"][s:e]], rows27)     # eq. (27)
+        multiply_separable_phase(xt, [co["q2"][s:e], co["q3"][s:e], co["q4"][s:e]], rows27)  # eq. (27)
         X = sfft.fft(xt, axis=1, workers=-1, overwrite_x=True)
-        vals, weights = _theta0_terms(f2, K, co, s, e)                             # eq. (33), exact
+        vals, weights = _theta0_terms(f2, K, co, s, e)  # eq. (33), exact
         multiply_separable_phase(X, weights, -vals)
         img = sfft.ifft(X, axis=1, workers=-1, overwrite_x=True)
-        gather_columns(img, keep, out, s)                              # out[:, s:e] = img[:, keep].T
-    info = {"alpha": float(alpha), "nlcs_azimuth_samples": int(N2), "nlcs_time_window": float(N2 / F2),
-            "nlcs_sampling_rate": float(F2), "nlcs_dispersion": float(disp),
-            "nlcs_c3_max": float(np.abs(pos["c3"]).max()), "nlcs_c2_max": float(np.abs(pos["c2"]).max()),
-            "nlcs_position_error_max_m": float(2 * alpha * v * (np.abs(pos["c2"]).max() * tn.max() ** 2
-                                                              + np.abs(pos["c3"]).max() * np.abs(tn).max() ** 3))}
+        gather_columns(img, keep, out, s)  # out[:, s:e] = img[:, keep].T
+    info = {
+        "alpha": float(alpha),
+        "nlcs_azimuth_samples": int(N2),
+        "nlcs_time_window": float(N2 / F2),
+        "nlcs_sampling_rate": float(F2),
+        "nlcs_dispersion": float(disp),
+        "nlcs_c3_max": float(np.abs(pos["c3"]).max()),
+        "nlcs_c2_max": float(np.abs(pos["c2"]).max()),
+        "nlcs_position_error_max_m": float(
+            2 * alpha * v * (np.abs(pos["c2"]).max() * tn.max() ** 2 + np.abs(pos["c3"]).max() * np.abs(tn).max() ** 3)
+        ),
+    }
     return out, x_img[keep], info
 
 

@@ -65,8 +65,14 @@ def nlcs_coefficients(K, eps, p, alpha: float, variant: str = "modified") -> dic
     beta = -1.5 * (q3 + K**3 * Y3) / D**3
     # third-order conditions (coefficients of t_n F^2 and t_n^2 F of the group delay, times D^3):
     #   c1 + a11 q4 + a12 Y4 = 0,   c2 + a21 q4 + a22 Y4 = 0
-    c1 = (eps * q2 * beta * D**3 - 3 * q3 * beta * K * D**2 + 1.5 * eps * q3 * D
-          - 3 * K**2 * Y3 * q2**2 * beta * D**2 + 4.5 * K**2 * Y3 * q3 * (2 * K - q2) - 1.5 * K**3 * p * D)
+    c1 = (
+        eps * q2 * beta * D**3
+        - 3 * q3 * beta * K * D**2
+        + 1.5 * eps * q3 * D
+        - 3 * K**2 * Y3 * q2**2 * beta * D**2
+        + 4.5 * K**2 * Y3 * q3 * (2 * K - q2)
+        - 1.5 * K**3 * p * D
+    )
     a11, a12 = -6 * K, 6 * K**4 * q2
     c2 = 3 * eps * q3 * K * D + 4.5 * K**2 * Y3 * q3 * (K**2 - 2 * K * q2) + 3 * K**3 * p * q2 * D
     a21, a22 = -6 * K**2, -6 * K**4 * q2**2
@@ -83,8 +89,13 @@ def position_terms(K, eps, p, co: dict) -> dict:
     D = K + q2
     a1 = K / D
     c2 = (eps * K * q2 / D - 1.5 * q3 * K**2 / D**2 - 1.5 * K**3 * Y3 * q2**2 / D**2) / D
-    c3 = (1.5 * eps * q3 * K**2 * D - 2 * q4 * K**3 - 4.5 * K**4 * Y3 * q3 * q2
-          - 1.5 * K**3 * p * q2**2 * D + 2 * K**4 * Y4 * q2**3) / D**4
+    c3 = (
+        1.5 * eps * q3 * K**2 * D
+        - 2 * q4 * K**3
+        - 4.5 * K**4 * Y3 * q3 * q2
+        - 1.5 * K**3 * p * q2**2 * D
+        + 2 * K**4 * Y4 * q2**3
+    ) / D**4
     return {"a1": a1, "c2": c2, "c3": c3}
 
 

@@ -38,10 +38,12 @@ PRECISIONS = ("float32", "float64")
 class PreprocessParams:
     """``preprocess:`` section."""
 
-    method: str = param(default="nonlinear", choices=METHODS,
-                        doc="nonlinear (eq. 7), linear (method 1) or none (original two-step)")
-    precision: str = param(default="float32", choices=PRECISIONS,
-                           doc="intermediate complex precision (phases are always float64)")
+    method: str = param(
+        default="nonlinear", choices=METHODS, doc="nonlinear (eq. 7), linear (method 1) or none (original two-step)"
+    )
+    precision: str = param(
+        default="float32", choices=PRECISIONS, doc="intermediate complex precision (phases are always float64)"
+    )
     block_pulses: int = param(default=512, ge=1, doc="pulses per FFT block (memory bound)")
 
 
@@ -61,9 +63,15 @@ def correction_frequency(radar: RadarMetadata, f_r: np.ndarray, method: str) -> 
     raise InputError(f"preprocess.method: {method!r} is not one of {list(METHODS)}")
 
 
-def doppler_correction(signal: np.ndarray, azimuth_time: np.ndarray, radar: RadarMetadata,
-                       method: str = "nonlinear", precision: str = "float64", block_pulses: int = 512,
-                       progress=None) -> np.ndarray:
+def doppler_correction(
+    signal: np.ndarray,
+    azimuth_time: np.ndarray,
+    radar: RadarMetadata,
+    method: str = "nonlinear",
+    precision: str = "float64",
+    block_pulses: int = 512,
+    progress=None,
+) -> np.ndarray:
     """Apply the Doppler-centroid correction to ``signal`` (n_az, n_rg); returns a new complex64 array."""
     if signal.ndim != 2 or signal.shape[0] != len(azimuth_time):
         raise InputError(f"preprocess: signal shape {signal.shape} does not match {len(azimuth_time)} pulses")
@@ -84,7 +92,7 @@ def doppler_correction(signal: np.ndarray, azimuth_time: np.ndarray, radar: Rada
     f_r = sfft.fftfreq(n_fft, 1.0 / radar.range_sampling_rate)
     beta = correction_frequency(radar, f_r, method)
     starts = range(0, len(t), block_pulses)
-    for s in (progress(starts) if progress is not None else starts):
+    for s in progress(starts) if progress is not None else starts:
         e = min(s + block_pulses, len(t))
         spec = sfft.fft(signal[s:e].astype(cdt), n=n_fft, axis=1, workers=-1)
         # float64 cycles beta t (they reach 2e5), summed and turned into phasors inside one compiled loop
@@ -101,8 +109,9 @@ def preprocess(raw: Product, params: PreprocessParams = PreprocessParams(), prog
         raise InputError(f"preprocess needs a single-channel 'raw' product, got {raw.kind!r}")
     if tuple(raw.dims) != ("azimuth_time", "range_time"):
         raise InputError(f"preprocess: raw dims {raw.dims} must be ('azimuth_time', 'range_time')")
-    data = doppler_correction(raw.data, raw.coords["azimuth_time"], raw.radar, params.method, params.precision,
-                              params.block_pulses, progress)
+    data = doppler_correction(
+        raw.data, raw.coords["azimuth_time"], raw.radar, params.method, params.precision, params.block_pulses, progress
+    )
     attrs = dict(raw.attrs)
     attrs["doppler_correction"] = params.method
     out = raw.derive("preprocessed", data, raw.dims, raw.coords, attrs=attrs)

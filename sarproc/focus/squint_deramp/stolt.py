@@ -38,8 +38,9 @@ MODELS = ("exact", "paper")
 class SpectrumModel:
     """G(f, f_a) and its Stolt inverse for one geometry (v, theta, f_c)."""
 
-    def __init__(self, carrier_frequency: float, velocity: float, squint: float, model: str = "exact",
-                 guard: float = 1e-3):
+    def __init__(
+        self, carrier_frequency: float, velocity: float, squint: float, model: str = "exact", guard: float = 1e-3
+    ):
         if model not in MODELS:
             raise ValueError(f"unknown spectrum model {model!r}; known: {MODELS}")
         self.fc, self.v, self.theta, self.model = float(carrier_frequency), float(velocity), float(squint), model
@@ -69,8 +70,7 @@ class SpectrumModel:
             g = 4 * np.pi * f / C * (self.s**2 + self.c * root) + 2 * np.pi * f_a * self.s / self.v
         else:
             q = np.clip(1 - (f_a / self.f_aM) ** 2, 1e-12, None)
-            g = 4 * np.pi * f / C * root - 2 * np.pi * self.s * f_a**3 / (
-                self.lam * self.c * self.f_aM**3 * q**1.5)
+            g = 4 * np.pi * f / C * root - 2 * np.pi * self.s * f_a**3 / (self.lam * self.c * self.f_aM**3 * q**1.5)
         return g, ok
 
     def rotate(self, x, f, f_a, scale, pre=None):
@@ -98,8 +98,22 @@ class SpectrumModel:
             mode = 1
         use_pre = pre is not None
         pre = np.asarray(pre, x.dtype) if use_pre else np.ones(1, x.dtype)
-        _rotate_G(x.view(x.real.dtype).reshape(x.shape[0], -1), x, pre, use_pre, a, q, b, p, mode, self.s,
-                  self.s**2, self.c, lim, float(scale) * (1.0 / (2 * np.pi)))
+        _rotate_G(
+            x.view(x.real.dtype).reshape(x.shape[0], -1),
+            x,
+            pre,
+            use_pre,
+            a,
+            q,
+            b,
+            p,
+            mode,
+            self.s,
+            self.s**2,
+            self.c,
+            lim,
+            float(scale) * (1.0 / (2 * np.pi)),
+        )
         return x
 
     def Gc(self, f_a):
@@ -132,11 +146,13 @@ class SpectrumModel:
             return f - self.fc, ok & ok0
         # exact: solve f h(f) = f_r' + f_c h(f_c), h(f) = s^2 + c sqrt(1 - (s + b/f)^2), b = c f_a / 2v
         b = C * f_a / (2 * self.v)
+
         def h(ff):
             sig = self.s + b / ff
             arg = 1 - sig**2
             ok = arg > 0
             return self.s**2 + self.c * np.sqrt(np.where(ok, arg, 1.0)), sig, ok
+
         h0, _, ok0 = h(np.full_like(f_rp, self.fc))
         target = f_rp + self.fc * h0
         f = self.fc + f_rp
@@ -176,7 +192,7 @@ def _rotate_G(xf, x, pre, use_pre, a, q, b, p, mode, s, s2, c, lim, scale):
             ok[j] = good
         if use_pre:
             for j in range(m):
-                re, im = cmul(x[i, j], pre[j])                           # rounded as numpy's x * pre
+                re, im = cmul(x[i, j], pre[j])  # rounded as numpy's x * pre
                 x[i, j] = complex(re, im)
         rotate_row_field(xf[i], g, ok, True, scale)
 
@@ -195,9 +211,17 @@ def _node_positions(s_n, ok_n, seg, w, f0, df, half_band, out):
                 out[i, j] = np.nan
 
 
-def stolt_resample(spec: np.ndarray, f_r: np.ndarray, f_a: np.ndarray, model: SpectrumModel,
-                   kernel: str = "knab", length: int | None = 8, oversampling: float = 1.5,
-                   band: float | None = None, out: np.ndarray | None = None):
+def stolt_resample(
+    spec: np.ndarray,
+    f_r: np.ndarray,
+    f_a: np.ndarray,
+    model: SpectrumModel,
+    kernel: str = "knab",
+    length: int | None = 8,
+    oversampling: float = 1.5,
+    band: float | None = None,
+    out: np.ndarray | None = None,
+):
     """Resample rows of ``spec`` (n_fa, n_fr, range frequency ascending and uniform) onto f_r'.
 
     spec[i, j] is the spectrum at (f_a[i], f_r[j]); the output has the same f_r grid, now read as
@@ -218,8 +242,9 @@ def stolt_resample(spec: np.ndarray, f_r: np.ndarray, f_a: np.ndarray, model: Sp
         w = (j - nodes[seg]) / (nodes[seg + 1] - nodes[seg])
         pos = np.empty((len(f_a), n))
         half_band = np.inf if band is None else band / 2 + 1e-9 * band
-        _node_positions(np.ascontiguousarray(s_n), np.ascontiguousarray(ok_n), seg, w, float(f_r[0]), float(df),
-                        half_band, pos)                                 # one parallel pass, no temporaries
+        _node_positions(
+            np.ascontiguousarray(s_n), np.ascontiguousarray(ok_n), seg, w, float(f_r[0]), float(df), half_band, pos
+        )  # one parallel pass, no temporaries
     else:
         src, ok = model.source_frequency(f_r[None, :], f_a[:, None])
         if band is not None:

@@ -23,11 +23,13 @@ from sarproc.simulation.effects.base import Effect, register_effect
 @dataclasses.dataclass(frozen=True)
 class AntennaParams:
     azimuth_beamwidth: float = param("angle", gt=0, lt=math.pi, doc="one-way -3 dB azimuth beamwidth")
-    elevation_beamwidth: float = param("angle", default=0.0, ge=0, lt=math.pi,
-                                       doc="one-way -3 dB elevation beamwidth (0: no elevation pattern)")
+    elevation_beamwidth: float = param(
+        "angle", default=0.0, ge=0, lt=math.pi, doc="one-way -3 dB elevation beamwidth (0: no elevation pattern)"
+    )
     pattern: str = param(default="sinc", choices=("sinc", "gaussian", "rect"), doc="pattern shape")
-    rotation_range: float | None = param("length", default=None, gt=0,
-                                         doc="sliding spotlight: slant range of the beam rotation point")
+    rotation_range: float | None = param(
+        "length", default=None, gt=0, doc="sliding spotlight: slant range of the beam rotation point"
+    )
 
 
 @register_effect("antenna")
@@ -44,10 +46,12 @@ class Antenna(Effect):
             raise InputError("effects.antenna.rotation_range: only used with acquisition.mode sliding_spotlight")
 
     def update_radar(self, radar):
-        self.radar = radar.replace(azimuth_beamwidth=self.params.azimuth_beamwidth,
-                                   elevation_beamwidth=self.params.elevation_beamwidth,
-                                   beam_rotation_range=self.params.rotation_range or 0.0,
-                                   antenna_pattern=self.params.pattern)
+        self.radar = radar.replace(
+            azimuth_beamwidth=self.params.azimuth_beamwidth,
+            elevation_beamwidth=self.params.elevation_beamwidth,
+            beam_rotation_range=self.params.rotation_range or 0.0,
+            antenna_pattern=self.params.pattern,
+        )
         return self.radar
 
     def gains(self, t, platform_pos, target_pos, channel, gains):

@@ -28,10 +28,12 @@ from sarproc.simulation.effects.base import ReceiverArray, register_effect
 class AzimuthChannelsParams:
     n_receivers: int = param(ge=1, le=64, doc="number of along-track receive channels N")
     spacing: float = param("length", gt=0, doc="along-track receiver spacing d")
-    phase_imbalance: tuple[float, ...] = param("angle", default=(), doc=(
-        "per-channel phase error (N angles; empty: none)"))
-    amplitude_imbalance: tuple[float, ...] = param(default=(), doc=(
-        "per-channel relative amplitude error (N values, 0.02 = +2 %; empty: none)"))
+    phase_imbalance: tuple[float, ...] = param(
+        "angle", default=(), doc=("per-channel phase error (N angles; empty: none)")
+    )
+    amplitude_imbalance: tuple[float, ...] = param(
+        default=(), doc=("per-channel relative amplitude error (N values, 0.02 = +2 %; empty: none)")
+    )
 
     def validate(self):
         for key in ("phase_imbalance", "amplitude_imbalance"):

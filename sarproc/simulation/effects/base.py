@@ -18,16 +18,18 @@ EFFECTS: dict[str, type] = {}
 
 def register_effect(key: str):
     """Class decorator: make an effect available under ``effects.<key>`` in scene YAML."""
+
     def deco(cls):
         cls.key = key
         EFFECTS[key] = cls
         return cls
+
     return deco
 
 
 class Effect:
     key = "base"
-    order = 50           # application order: geometry (10s), gains (50s), noise last (90s)
+    order = 50  # application order: geometry (10s), gains (50s), noise last (90s)
     product_kind = None  # e.g. "raw_array": the raw product type this effect implies
 
     class Params:  # replaced by a frozen dataclass in each effect

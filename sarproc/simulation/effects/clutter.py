@@ -67,8 +67,10 @@ class Clutter(Effect):
         samples = int(math.ceil(radar.pulse_duration * radar.range_sampling_rate)) + 2
         cost = clutter_cost(n_pulses, radar.n_channels, self.params.n_scatterers, samples)
         if cost > self.params.max_evaluations:
-            raise InputError(f"effects.clutter: {cost:.3g} phasor evaluations exceed max_evaluations "
-                             f"{self.params.max_evaluations:.3g}; use fewer scatterers or pulses")
+            raise InputError(
+                f"effects.clutter: {cost:.3g} phasor evaluations exceed max_evaluations "
+                f"{self.params.max_evaluations:.3g}; use fewer scatterers or pulses"
+            )
         log.info("clutter: %d scatterers, about %.3g phasor evaluations", self.params.n_scatterers, cost)
         self.cost = cost
         return radar

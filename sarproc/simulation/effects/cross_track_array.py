@@ -31,13 +31,20 @@ from sarproc.simulation.effects.base import ReceiverArray, register_effect
 class CrossTrackArrayParams:
     n_receivers: int = param(ge=1, le=4096, doc="number of receive elements N")
     spacing: float = param("length", gt=0, doc="element spacing d")
-    layout: str = param(default="symmetric", choices=("symmetric", "paper"), doc=(
-        "symmetric: centred on the transmitter; paper: v_n = -L/2 + (n-1) d with array_length L"))
+    layout: str = param(
+        default="symmetric",
+        choices=("symmetric", "paper"),
+        doc=("symmetric: centred on the transmitter; paper: v_n = -L/2 + (n-1) d with array_length L"),
+    )
     array_length: float | None = param("length", default=None, gt=0, doc="L for layout: paper")
-    element_pattern: str = param(default="none", choices=("none", "sinc", "gaussian", "rect"), doc=(
-        "receive element pattern across track (one-way)"))
-    element_beamwidth: float = param("angle", default=0.0, ge=0, lt=math.pi, doc=(
-        "one-way -3 dB beamwidth of the element pattern"))
+    element_pattern: str = param(
+        default="none",
+        choices=("none", "sinc", "gaussian", "rect"),
+        doc=("receive element pattern across track (one-way)"),
+    )
+    element_beamwidth: float = param(
+        "angle", default=0.0, ge=0, lt=math.pi, doc=("one-way -3 dB beamwidth of the element pattern")
+    )
 
     def validate(self):
         if self.layout == "paper" and self.array_length is None:
@@ -72,6 +79,6 @@ class CrossTrackArray(ReceiverArray):
         if self.params.element_pattern == "none":
             return gains
         rx = platform_pos + np.array([0.0, self.v[channel], 0.0])
-        d = target_pos - rx[:, None, :]                                    # (n_t, n_tg, 3)
-        angle = np.arctan2(d[..., 1], -d[..., 2])                          # across-track angle off nadir
+        d = target_pos - rx[:, None, :]  # (n_t, n_tg, 3)
+        angle = np.arctan2(d[..., 1], -d[..., 2])  # across-track angle off nadir
         return gains * one_way_amplitude(angle, self.params.element_beamwidth, self.params.element_pattern)

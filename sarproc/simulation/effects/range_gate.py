@@ -37,8 +37,9 @@ from sarproc.simulation.effects.base import Effect, register_effect
 
 @dataclasses.dataclass(frozen=True)
 class RangeGateParams:
-    range_step: float | None = param("length", default=None, gt=0, doc=(
-        "slant range p_r of one gate step; default one range sample c / (2 f_s)"))
+    range_step: float | None = param(
+        "length", default=None, gt=0, doc=("slant range p_r of one gate step; default one range sample c / (2 f_s)")
+    )
     pulses_per_step: int = param(default=1, ge=1, doc="K: the gate moves at most once every K pulses")
 
 
