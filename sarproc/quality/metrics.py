@@ -723,7 +723,7 @@ def evaluate_image(
     guard = _false_target(data, mag, axes, guarded, peaks, reports, half, params)
     false, floor = guard, None
     if params.residual:
-        models = fit_response_models(data, found, nulls, params)
+        models = fit_response_models(data, found, nulls, params, support_shape=True)
         false, floor = _residual_false_target(residual_image(data, models), axes, guarded, peaks, reports, half, params)
     done()
     return QualityReport(

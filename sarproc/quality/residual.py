@@ -76,20 +76,56 @@ def _chirp_phase(x, K):
     )
 
 
-def response_basis(points, position, V, nulls, f_c, orders, K=None) -> np.ndarray:
+KEYSTONE_STRIPS = 32  # most range strips of a keystoned support (far lobe phase error pi c kappa / strips)
+KEYSTONE_REACH = 100.0  # nulls out to which the strips keep that error under 0.15 rad
+
+
+def _strip_factors(c, m, kappa):
+    """Per strip, per axis, the 2m+1 order factors of a support whose widths along the axes before the
+    last grow linearly with the last axis' band coordinate u (width 1 + kappa_a u: a keystone, the
+    azimuth band of a wide-band radar scaling with range frequency). The support is cut into
+    KEYSTONE_STRIPS strips along u, each a rectangle with its own widths, so each strip's response is
+    exact; with kappa None (or 0) this is the single rectangle, prod_a sinc(c_a + n/2). The strip count
+    grows with kappa (:data:`KEYSTONE_REACH`)."""
+    if kappa is None or not np.any(kappa):
+        return [[_shifted_sincs(ca, m) for ca in c]]
+    ndim = len(c)
+    n_strips = min(KEYSTONE_STRIPS, math.ceil(math.pi * KEYSTONE_REACH * float(np.max(np.abs(kappa))) / 0.15))
+    width = 1.0 / n_strips
+    out = []
+    for s in range(n_strips):
+        u = (s + 0.5) * width - 0.5
+        per_axis = []
+        for a in range(ndim - 1):
+            w = 1.0 + kappa[a] * u
+            per_axis.append([w * np.sinc(w * (c[a] + n / 2.0)) for n in range(-m, m + 1)])
+        last = []
+        for n in range(-m, m + 1):
+            shifted = c[-1] + n / 2.0
+            last.append(width * np.sinc(width * shifted) * np.exp(2j * np.pi * u * shifted))
+        per_axis.append(last)
+        out.append(per_axis)
+    return out
+
+
+def response_basis(points, position, V, nulls, f_c, orders, K=None, kappa=None) -> np.ndarray:
     """Basis of a target's response at ``points`` ((ndim, N) image indices): (N, K) complex, column k
     the response of spectral order ``orders[k]`` (carrier f_c in cycles/sample, spatial chirp K in
-    cycles/sample^2, peak 1 for order 0)."""
+    cycles/sample^2, keystone kappa (ndim - 1 relative width slopes, :func:`_strip_factors`), peak 1 for
+    order 0)."""
     A, p = _ridge_frame(position, V, nulls)
     x = np.asarray(points, dtype=float) - p[:, None]
     c = A @ x
     m = int(np.abs(orders).max()) if orders.size else 0
-    per_axis = [_shifted_sincs(c[a], m) for a in range(len(p))]
+    strips = _strip_factors(list(c), m, kappa)
     phase = 2 * np.pi * (np.asarray(f_c, dtype=float) @ x)
     if K is not None:
         phase = phase + _chirp_phase(x, K)
     carrier = np.exp(1j * phase)
-    cols = [carrier * np.prod([per_axis[a][n + m] for a, n in enumerate(order)], axis=0) for order in orders]
+    cols = [
+        carrier * sum(np.prod([per_axis[a][n + m] for a, n in enumerate(order)], axis=0) for per_axis in strips)
+        for order in orders
+    ]
     return np.stack(cols, axis=1)
 
 
@@ -110,75 +146,106 @@ def _model_on_box(slices, model) -> np.ndarray:
 
     grid = [along(b, xs[b]) for b in range(ndim)]
     carrier = np.exp(1j * (2 * np.pi * sum(f_c[b] * grid[b] for b in range(ndim)) + _chirp_phase(grid, model["K"])))
-    factors = []
-    for a in range(ndim):
-        c = functools.reduce(np.add, [A[a, b] * grid[b] for b in range(ndim) if A[a, b] != 0.0])
-        factors.append(_shifted_sincs(c, m))
+    c = [functools.reduce(np.add, [A[a, b] * grid[b] for b in range(ndim) if A[a, b] != 0.0]) for a in range(ndim)]
+    strips = _strip_factors(c, m, model.get("kappa"))
     if all(np.count_nonzero(A[a]) == 1 and A[a, a] != 0 for a in range(ndim)):  # separable: outer products
         tensor = np.zeros((2 * m + 1,) * ndim, dtype=complex)
         for order, k in zip(orders, coef):
             tensor[tuple(order + m)] = k
-        out = tensor
-        for a in range(ndim):  # contract each order axis with its axis' shifted sincs
-            f = np.stack([v.reshape(-1) for v in factors[a]], axis=0)  # (2m+1, n_a)
-            out = np.tensordot(out, f, axes=([0], [0]))
-        return out * carrier
+        total = 0
+        for factors in strips:
+            out = tensor
+            for a in range(ndim):  # contract each order axis with its axis' shifted sincs
+                f = np.stack([v.reshape(-1) for v in factors[a]], axis=0)  # (2m+1, n_a)
+                out = np.tensordot(out, f, axes=([0], [0]))
+            total = total + out
+        return total * carrier
     out = np.zeros(shape, dtype=complex)
-    for order, k in zip(orders, coef):
-        term = k * factors[0][order[0] + m]
-        for a in range(1, ndim):
-            term = term * factors[a][order[a] + m]
-        out += term
+    for factors in strips:
+        for order, k in zip(orders, coef):
+            term = k * factors[0][order[0] + m]
+            for a in range(1, ndim):
+                term = term * factors[a][order[a] + m]
+            out += term
     return out * carrier
 
 
-def _fit_group(members, points, y, found, nulls, orders, K0, iterations):
+def _fit_group(members, points, y, found, nulls, orders, K0, iterations, shape0=None):
     """Complex amplitudes of every member's orders, and real band centres f_c and spatial chirps K by
     Gauss-Newton (the band centre first estimated as the power centroid, which a taper pulls off the
     support's middle; the amplitudes by linear least squares at each step).
-    Returns (coef per member, f_c per member, K per member)."""
+
+    With ``shape0`` (per member: (scale, kappa) starting values) the support's shape is fitted too: its
+    widths (null spacing ``nulls * (1 + scale)`` per axis) and keystone kappa (:func:`_strip_factors`).
+    They matter far out: a support edge 0.5 % off puts the side lobes 40 nulls away a fifth of a null out
+    of step. Returns (coef, f_c, K, (scale, kappa) or None) per member."""
     from sarproc.quality.metrics import least_squares  # metrics imports this module
 
     ndim = points.shape[0]
     pairs = _chirp_pairs(ndim)
     K = [np.array(k, dtype=float) for k in K0]
     f_c = [np.array(found[k]["f_c"], dtype=float) for k in members]
+    shape = None if shape0 is None else [(np.array(a, dtype=float), np.array(b, dtype=float)) for a, b in shape0]
     offs = [points - np.asarray(found[k]["pos"], dtype=float)[:, None] for k in members]
-    base = [response_basis(points, found[k]["pos"], found[k]["V"], nulls, np.zeros(ndim), orders) for k in members]
-    n_o, n_p = len(orders), ndim + len(pairs)
+    n_shape = 0 if shape is None else 2 * ndim - 1
+    n_o, n_p = len(orders), ndim + len(pairs) + n_shape
+    eps = 1e-4  # width and keystone step of the finite-difference derivatives
+
+    def raw(q, sh):  # member q's basis without carrier and chirp
+        k = members[q]
+        if sh is None:
+            return response_basis(points, found[k]["pos"], found[k]["V"], nulls, np.zeros(ndim), orders)
+        return response_basis(
+            points, found[k]["pos"], found[k]["V"], nulls * (1 + sh[0]), np.zeros(ndim), orders, kappa=sh[1]
+        )
+
+    fixed = [raw(q, None) for q in range(len(members))] if shape is None else None
+
+    def carriers():
+        return [np.exp(1j * (2 * np.pi * (f @ x) + _chirp_phase(x, k)))[:, None] for x, f, k in zip(offs, f_c, K)]
 
     def bases():
-        return [
-            b * np.exp(1j * (2 * np.pi * (f @ x) + _chirp_phase(x, k)))[:, None]
-            for b, x, f, k in zip(base, offs, f_c, K)
-        ]
+        return [(fixed[q] if shape is None else raw(q, shape[q])) * c for q, c in enumerate(carriers())]
 
     coef = least_squares(np.concatenate(bases(), axis=1), y).reshape(len(members), n_o)
     for _ in range(iterations):
         cols = []
-        for b, x, c in zip(bases(), offs, coef):
+        for q, (b, x, c, car) in enumerate(zip(bases(), offs, coef, carriers())):
             model = b @ c
             cols.append(b)
-            cols.append(
-                np.stack(
-                    [2j * np.pi * x[a] * model for a in range(ndim)]
-                    + [1j * np.pi * (1.0 if a == q else 2.0) * x[a] * x[q] * model for a, q in pairs],
-                    axis=1,
-                )
-            )
+            derivs = [2j * np.pi * x[a] * model for a in range(ndim)]
+            derivs += [1j * np.pi * (1.0 if a == a2 else 2.0) * x[a] * x[a2] * model for a, a2 in pairs]
+            if shape is not None:
+                for i in range(n_shape):
+                    sc, kp = shape[q][0].copy(), shape[q][1].copy()
+                    if i < ndim:
+                        sc[i] += eps
+                    else:
+                        kp[i - ndim] += eps
+                    derivs.append(((raw(q, (sc, kp)) * car) @ c - model) / eps)
+            cols.append(np.stack(derivs, axis=1))
         sol = least_squares(np.concatenate(cols, axis=1), y).reshape(len(members), n_o + n_p)
         largest = 0.0
         for q in range(len(members)):
             step = sol[q, n_o:].real
             f_c[q] = f_c[q] + np.clip(step[:ndim], -0.02, 0.02)
-            for (a, b), d in zip(pairs, step[ndim:]):
+            for (a, b), d in zip(pairs, step[ndim : ndim + len(pairs)]):
                 K[q][a, b] += d
                 K[q][b, a] = K[q][a, b]
-            largest = max(largest, float(np.max(np.abs(step[:ndim]))), float(np.max(np.abs(step[ndim:]))) * 100)
+            largest = max(
+                largest, float(np.max(np.abs(step[:ndim]))), float(np.max(np.abs(step[ndim : ndim + len(pairs)]))) * 100
+            )
+            if shape is not None:
+                d_shape = np.clip(step[ndim + len(pairs) :], -0.01, 0.01)
+                shape[q] = (
+                    np.clip(shape[q][0] + d_shape[:ndim], -0.1, 0.1),
+                    np.clip(shape[q][1] + d_shape[ndim:], -0.2, 0.2),
+                )
+                largest = max(largest, float(np.max(np.abs(d_shape))) * 0.01)
         coef = least_squares(np.concatenate(bases(), axis=1), y).reshape(len(members), n_o)
         if largest < 1e-6:
             break
-    return coef, f_c, K
+    return coef, f_c, K, (shape if shape is not None else [None] * len(members))
 
 
 def _ridge_strips(pos, V, nulls, stride, shape, reach_nulls) -> list:
@@ -200,9 +267,10 @@ def _ridge_strips(pos, V, nulls, stride, shape, reach_nulls) -> list:
     return out
 
 
-def fit_response_models(data, found, nulls, params) -> list:
+def fit_response_models(data, found, nulls, params, support_shape: bool = False) -> list:
     """Every target's response model, fitted by complex least squares on the samples within
-    +-``params.fit_nulls`` nulls of its peak (about two per null).
+    +-``params.fit_nulls`` nulls of its peak (about two per null); with ``support_shape`` its support's
+    widths and keystone too (:func:`_fit_group`), as the residual image needs far out.
 
     Targets whose fit boxes (plus a null) overlap are fitted jointly; then each group is fitted again,
     twice, on its boxes and ridge strips (``params.fit_ridge_nulls``) minus the other groups' models.
@@ -257,26 +325,43 @@ def fit_response_models(data, found, nulls, params) -> list:
                 if others:
                     rhs = y - sum(
                         response_basis(
-                            points, models[j]["pos"], models[j]["V"], nulls, models[j]["f_c"], orders, models[j]["K"]
+                            points,
+                            models[j]["pos"],
+                            models[j]["V"],
+                            models[j]["nulls"],
+                            models[j]["f_c"],
+                            orders,
+                            models[j]["K"],
+                            kappa=models[j].get("kappa"),
                         )
                         @ models[j]["coef"]
                         for j in others
                     )
             K0 = [models[k]["K"] if models[k] else np.zeros((ndim, ndim)) for k in members]
             start = [dict(found[k], f_c=models[k]["f_c"]) if models[k] else found[k] for k in members]
-            coef, f_c, K = _fit_group(
-                list(range(len(members))), points, rhs, start, nulls, orders, K0, 10 if sweep == 0 else 3
+            shape0 = None
+            if support_shape:
+                shape0 = [
+                    (models[k]["nulls"] / nulls - 1, models[k]["kappa"])
+                    if models[k]
+                    else (np.zeros(ndim), np.zeros(ndim - 1))
+                    for k in members
+                ]
+            coef, f_c, K, shape = _fit_group(
+                list(range(len(members))), points, rhs, start, nulls, orders, K0, 10 if sweep == 0 else 3, shape0
             )
             for q, k in enumerate(members):
                 models[k] = {
                     "pos": np.asarray(found[k]["pos"], dtype=float),
                     "V": np.asarray(found[k]["V"]),
                     "f_c": f_c[q],
-                    "nulls": nulls,
+                    "nulls": nulls if shape[q] is None else nulls * (1 + shape[q][0]),
                     "orders": orders,
                     "coef": coef[q],
                     "K": K[q],
                 }
+                if shape[q] is not None:
+                    models[k]["kappa"] = shape[q][1]
     return models
 
 
