@@ -92,18 +92,32 @@ def _strip_factors(c, m, kappa):
     ndim = len(c)
     n_strips = min(KEYSTONE_STRIPS, math.ceil(math.pi * KEYSTONE_REACH * float(np.max(np.abs(kappa))) / 0.15))
     width = 1.0 / n_strips
+    u0 = 0.5 * width - 0.5
+    # Each strip's factors from the previous one's by complex rotations (strips are equally spaced in u),
+    # so the trigonometry is done once per axis and order, not once per strip.
+    shifted = [[np.asarray(ca, dtype=float) + n / 2.0 for n in range(-m, m + 1)] for ca in c]
+    rot, step, denom = [], [], []
+    for a in range(ndim - 1):
+        w0 = 1.0 + kappa[a] * u0
+        rot.append([np.exp(1j * np.pi * w0 * x) for x in shifted[a]])  # exp(j pi w_s x), strip 0
+        step.append([np.exp(1j * np.pi * kappa[a] * width * x) for x in shifted[a]])
+        denom.append([np.where(np.abs(x) < 1e-9, np.nan, np.pi * x) for x in shifted[a]])
+    last_sinc = [width * np.sinc(width * x) for x in shifted[-1]]
+    last_rot = [np.exp(2j * np.pi * u0 * x) for x in shifted[-1]]
+    last_step = [np.exp(2j * np.pi * width * x) for x in shifted[-1]]
     out = []
     for s in range(n_strips):
-        u = (s + 0.5) * width - 0.5
+        u = u0 + s * width
         per_axis = []
         for a in range(ndim - 1):
             w = 1.0 + kappa[a] * u
-            per_axis.append([w * np.sinc(w * (c[a] + n / 2.0)) for n in range(-m, m + 1)])
-        last = []
-        for n in range(-m, m + 1):
-            shifted = c[-1] + n / 2.0
-            last.append(width * np.sinc(width * shifted) * np.exp(2j * np.pi * u * shifted))
-        per_axis.append(last)
+            # w sinc(w x) = sin(pi w x) / (pi x), and w at x = 0
+            per_axis.append(
+                [np.where(np.isnan(d), w, r.imag / np.where(np.isnan(d), 1.0, d)) for r, d in zip(rot[a], denom[a])]
+            )
+            rot[a] = [r * st for r, st in zip(rot[a], step[a])]
+        per_axis.append([sc * r for sc, r in zip(last_sinc, last_rot)])
+        last_rot = [r * st for r, st in zip(last_rot, last_step)]
         out.append(per_axis)
     return out
 
