@@ -2,13 +2,16 @@
 
 For each image: `sarproc evaluate` with the default (guard window) and with `evaluate.residual: true`;
 tabulates the guard-window figure, the residual false target, the residual floor and both run times.
-Usage: python scripts/residual_floors.py IMAGE.h5 [...] --out results/residual_floors.md
+With --before DIR (a checkout of an older sarproc) the residual is also evaluated with that tree's code,
+so the table holds the floor before and after a change.
+Usage: python scripts/residual_floors.py IMAGE.h5 [...] [--before DIR] --out results/residual_floors.md
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -16,12 +19,13 @@ import time
 from pathlib import Path
 
 
-def evaluate(image: Path, config: Path | None, out: Path) -> tuple[dict, float]:
+def evaluate(image: Path, config: Path | None, out: Path, tree: Path | None = None) -> tuple[dict, float]:
     cmd = [sys.executable, "-m", "sarproc", "evaluate", str(image), "-o", str(out), "--overwrite", "--no-progress"]
     if config is not None:
         cmd += ["--config", str(config)]
+    env = None if tree is None else dict(os.environ, PYTHONPATH=str(tree))
     t0 = time.perf_counter()
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, env=env)
     return json.loads(out.read_text()), time.perf_counter() - t0
 
 
@@ -29,11 +33,15 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("images", nargs="+", type=Path)
     ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--before", type=Path, default=None, help="older sarproc checkout for the 'before' columns")
     args = ap.parse_args(argv)
+    before_head = (
+        " residual floor before (dB) | residual false target before (dB) | before (s) |" if args.before else ""
+    )
     rows = [
         "| image | guard-window false target (dB) | residual false target (dB) | residual floor (dB) | "
-        "residual RMS (dB) | evaluate (s) | with residual (s) |",
-        "|---|---:|---:|---:|---:|---:|---:|",
+        "residual RMS (dB) | evaluate (s) | with residual (s) |" + before_head,
+        "|---|---:|---:|---:|---:|---:|---:|" + ("---:|---:|---:|" if args.before else ""),
     ]
     fmt = lambda v: "n/a" if v is None else f"{v:.2f}"  # noqa: E731
     with tempfile.TemporaryDirectory() as tmp:
@@ -43,10 +51,17 @@ def main(argv=None):
             plain, t_plain = evaluate(image, None, Path(tmp) / "plain.json")
             res, t_res = evaluate(image, cfg, Path(tmp) / "res.json")
             ft = res["false_target"]
+            extra = ""
+            if args.before:
+                old, t_old = evaluate(image, cfg, Path(tmp) / "old.json", args.before)
+                extra = (
+                    f" {fmt(old['residual']['floor_db'])} | {fmt((old['false_target'] or {}).get('level_db'))} |"
+                    f" {t_old:.1f} |"
+                )
             rows.append(
                 f"| {image} | {fmt((plain['false_target'] or {}).get('level_db'))} | "
                 f"{fmt((ft or {}).get('level_db'))} | {fmt(res['residual']['floor_db'])} | "
-                f"{fmt(res['residual']['rms_db'])} | {t_plain:.1f} | {t_res:.1f} |"
+                f"{fmt(res['residual']['rms_db'])} | {t_plain:.1f} | {t_res:.1f} |" + extra
             )
             print(rows[-1], flush=True)
     text = "\n".join(rows) + "\n"

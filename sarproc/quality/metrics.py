@@ -62,6 +62,14 @@ from sarproc.product.config import param
 from sarproc.product.steps import steps, wrapped
 from sarproc.product.errors import InputError
 from sarproc.product.theory import cut_metrics as _cut_metrics, window_theory
+from sarproc.quality.residual import (
+    ResidualFloor,
+    _residual_false_target,
+    fit_response_models,
+    residual_image,
+    response_basis,
+    spectral_orders,
+)
 
 SINC_IRW_FACTOR = 0.886  # -3 dB width of sinc^2 times the bandwidth (0.8859 exactly)
 
@@ -230,7 +238,7 @@ class QualityReport:
     # The residual figures (params.residual): false_target is then the residual's, and false_target_guard
     # the strongest response outside the +-guard_cells windows of the image itself (the older figure).
     false_target_guard: Optional[FalseTarget] = None
-    residual: Optional["ResidualFloor"] = None
+    residual: Optional[ResidualFloor] = None
 
     def target(self, name: str) -> TargetReport:
         for t in self.targets:
@@ -715,7 +723,7 @@ def evaluate_image(
     guard = _false_target(data, mag, axes, guarded, peaks, reports, half, params)
     false, floor = guard, None
     if params.residual:
-        models = fit_response_models(data, found, nulls, params)
+        models = fit_response_models(data, found, nulls, params, support_shape=True)
         false, floor = _residual_false_target(residual_image(data, models), axes, guarded, peaks, reports, half, params)
     done()
     return QualityReport(
@@ -1132,331 +1140,6 @@ def _false_target(data, mag, axes, truth, peaks, reports, half, params) -> Optio
         pixel_level_db=float(20 * np.log10(pixel / ref.peak_amplitude)),
         reference_target=ref.name,
     )
-
-
-# ----------------------------------------------------------------------------------------------
-# Residual image: every target's fitted response subtracted, so false targets are searched under the
-# targets' side-lobe floor instead of outside a guard window.
-#
-# Each target's response is modelled as a band-limited function on its own spectral support (the
-# parallelogram / parallelepiped of :func:`principal_directions`, centred on its band centre f_c) whose
-# spectrum is a short Fourier series over the support: sum over orders n of C_n exp(j pi n . u), u the
-# support's dual coordinates in (-1/2, 1/2) per ridge. The response of order n is then a product of
-# half-null-shifted sincs, prod_a sinc(c_a + n_a / 2) (c the ridge coordinates in nulls), so the spectral
-# weight and phase (antenna taper, a quadratic phase left by the processor, a Hamming window) are fitted by
-# linear complex least squares on the samples around each peak, and the model is exact and cheap to
-# evaluate anywhere in the image (its side lobes across the whole image are subtracted with it).
-
-
-@dataclasses.dataclass(frozen=True)
-class ResidualFloor:
-    """The residual image's figures: the image minus every target's fitted response."""
-
-    floor_db: float  # strongest residual pixel in the targets' guard windows, main lobes excluded,
-    # relative to the strongest target's peak: how deep the subtraction reaches
-    rms_db: float  # residual RMS outside the main lobes, same reference
-    exclusion_cells: float  # main-lobe half-box left out of both searches, resolution cells
-    orders: int  # spectral-weight orders per target model
-
-
-@functools.lru_cache(maxsize=None)
-def spectral_orders(ndim: int, max_order: int, max_total: int) -> np.ndarray:
-    """Orders n (ndim integers in -max_order..max_order, sum |n_a| <= max_total) of the response basis."""
-    grid = itertools.product(range(-max_order, max_order + 1), repeat=ndim)
-    return np.array([n for n in grid if sum(abs(k) for k in n) <= max_total], dtype=int)
-
-
-def _ridge_frame(position, V, nulls):
-    """(A, p): ridge coordinates in nulls are A @ (x - p) for image indices x."""
-    A = np.linalg.inv(np.asarray(V, dtype=float).T) / np.asarray(nulls, dtype=float)[:, None]
-    return A, np.asarray(position, dtype=float)
-
-
-def _shifted_sincs(c, max_order):
-    """sinc(c + n/2) for n = -max_order..max_order (list), from one sin/cos pair of pi c."""
-    s, co = np.sin(np.pi * c), np.cos(np.pi * c)
-    out = []
-    for n in range(-max_order, max_order + 1):
-        # sin(pi (c + n/2)): n even -> +-sin(pi c), n odd -> +-cos(pi c)
-        num = (s if n % 2 == 0 else co) * (1.0 if (n % 4) in (0, 1) else -1.0)
-        den = np.pi * (c + n / 2.0)
-        small = np.abs(den) < 1e-9
-        out.append(np.where(small, 1.0, num / np.where(small, 1.0, den)))
-    return out
-
-
-def _chirp_pairs(ndim):
-    return [(a, b) for a in range(ndim) for b in range(a, ndim)]
-
-
-def _chirp_phase(x, K):
-    """pi x^T K x for offsets x ((ndim, N) or broadcastable per-axis arrays), K symmetric (cycles/sample^2)."""
-    ndim = len(x)
-    zero = np.zeros(np.broadcast_shapes(*[np.shape(v) for v in x]))
-    return np.pi * sum(
-        ((1.0 if a == b else 2.0) * K[a, b] * x[a] * x[b] for a, b in _chirp_pairs(ndim) if K[a, b] != 0.0), zero
-    )
-
-
-def response_basis(points, position, V, nulls, f_c, orders, K=None) -> np.ndarray:
-    """Basis of a target's response at ``points`` ((ndim, N) image indices): (N, K) complex, column k
-    the response of spectral order ``orders[k]`` (carrier f_c in cycles/sample, spatial chirp K in
-    cycles/sample^2, peak 1 for order 0)."""
-    A, p = _ridge_frame(position, V, nulls)
-    x = np.asarray(points, dtype=float) - p[:, None]
-    c = A @ x
-    m = int(np.abs(orders).max()) if orders.size else 0
-    per_axis = [_shifted_sincs(c[a], m) for a in range(len(p))]
-    phase = 2 * np.pi * (np.asarray(f_c, dtype=float) @ x)
-    if K is not None:
-        phase = phase + _chirp_phase(x, K)
-    carrier = np.exp(1j * phase)
-    cols = [carrier * np.prod([per_axis[a][n + m] for a, n in enumerate(order)], axis=0) for order in orders]
-    return np.stack(cols, axis=1)
-
-
-def _model_on_box(slices, model) -> np.ndarray:
-    """A fitted response model on the image box ``slices`` (complex128, the box's shape).
-
-    Sin and cos of pi c_a are taken once per axis; the shifted sincs are then divisions, and for an
-    unskewed support the order sum is an outer product of per-axis factors."""
-    A, p = _ridge_frame(model["pos"], model["V"], model["nulls"])
-    orders, coef, f_c = model["orders"], model["coef"], np.asarray(model["f_c"], dtype=float)
-    ndim = len(p)
-    m = int(np.abs(orders).max())
-    xs = [np.arange(s.start, s.stop, dtype=float) - pi for s, pi in zip(slices, p)]
-    shape = [len(x) for x in xs]
-
-    def along(b, v):  # 1-D array v along image axis b, broadcastable over the box
-        return v.reshape([-1 if i == b else 1 for i in range(ndim)])
-
-    grid = [along(b, xs[b]) for b in range(ndim)]
-    carrier = np.exp(1j * (2 * np.pi * sum(f_c[b] * grid[b] for b in range(ndim)) + _chirp_phase(grid, model["K"])))
-    factors = []
-    for a in range(ndim):
-        c = functools.reduce(np.add, [A[a, b] * grid[b] for b in range(ndim) if A[a, b] != 0.0])
-        factors.append(_shifted_sincs(c, m))
-    if all(np.count_nonzero(A[a]) == 1 and A[a, a] != 0 for a in range(ndim)):  # separable: outer products
-        tensor = np.zeros((2 * m + 1,) * ndim, dtype=complex)
-        for order, k in zip(orders, coef):
-            tensor[tuple(order + m)] = k
-        out = tensor
-        for a in range(ndim):  # contract each order axis with its axis' shifted sincs
-            f = np.stack([v.reshape(-1) for v in factors[a]], axis=0)  # (2m+1, n_a)
-            out = np.tensordot(out, f, axes=([0], [0]))
-        return out * carrier
-    out = np.zeros(shape, dtype=complex)
-    for order, k in zip(orders, coef):
-        term = k * factors[0][order[0] + m]
-        for a in range(1, ndim):
-            term = term * factors[a][order[a] + m]
-        out += term
-    return out * carrier
-
-
-def _fit_group(members, points, y, found, nulls, orders, K0, iterations):
-    """Complex amplitudes of every member's orders, and real band centres f_c and spatial chirps K by
-    Gauss-Newton (the band centre first estimated as the power centroid, which a taper pulls off the
-    support's middle; the amplitudes by linear least squares at each step).
-    Returns (coef per member, f_c per member, K per member)."""
-    ndim = points.shape[0]
-    pairs = _chirp_pairs(ndim)
-    K = [np.array(k, dtype=float) for k in K0]
-    f_c = [np.array(found[k]["f_c"], dtype=float) for k in members]
-    offs = [points - np.asarray(found[k]["pos"], dtype=float)[:, None] for k in members]
-    base = [response_basis(points, found[k]["pos"], found[k]["V"], nulls, np.zeros(ndim), orders) for k in members]
-    n_o, n_p = len(orders), ndim + len(pairs)
-
-    def bases():
-        return [
-            b * np.exp(1j * (2 * np.pi * (f @ x) + _chirp_phase(x, k)))[:, None]
-            for b, x, f, k in zip(base, offs, f_c, K)
-        ]
-
-    coef = least_squares(np.concatenate(bases(), axis=1), y).reshape(len(members), n_o)
-    for _ in range(iterations):
-        cols = []
-        for b, x, c in zip(bases(), offs, coef):
-            model = b @ c
-            cols.append(b)
-            cols.append(
-                np.stack(
-                    [2j * np.pi * x[a] * model for a in range(ndim)]
-                    + [1j * np.pi * (1.0 if a == q else 2.0) * x[a] * x[q] * model for a, q in pairs],
-                    axis=1,
-                )
-            )
-        sol = least_squares(np.concatenate(cols, axis=1), y).reshape(len(members), n_o + n_p)
-        largest = 0.0
-        for q in range(len(members)):
-            step = sol[q, n_o:].real
-            f_c[q] = f_c[q] + np.clip(step[:ndim], -0.02, 0.02)
-            for (a, b), d in zip(pairs, step[ndim:]):
-                K[q][a, b] += d
-                K[q][b, a] = K[q][a, b]
-            largest = max(largest, float(np.max(np.abs(step[:ndim]))), float(np.max(np.abs(step[ndim:]))) * 100)
-        coef = least_squares(np.concatenate(bases(), axis=1), y).reshape(len(members), n_o)
-        if largest < 1e-6:
-            break
-    return coef, f_c, K
-
-
-def _ridge_strips(pos, V, nulls, stride, shape, reach_nulls) -> list:
-    """Samples (ndim, M) along each side-lobe ridge out to +-``reach_nulls`` nulls, +-1 null across it:
-    the far side lobes pin the spatial chirp and band edges that the box around the peak leaves loose."""
-    ndim = len(shape)
-    out = []
-    for a in range(ndim):
-        t = np.arange(-reach_nulls * nulls[a], reach_nulls * nulls[a] + 1, stride[a])
-        across = [
-            np.arange(-int(math.ceil(nulls[b])), int(math.ceil(nulls[b])) + 1, stride[b]) if b != a else np.zeros(1)
-            for b in range(ndim)
-        ]
-        offs = np.stack([x.ravel() for x in np.meshgrid(*across, indexing="ij")], axis=0)  # (ndim, M0)
-        line = np.asarray(pos, dtype=float)[:, None] + np.outer(V[a], t)  # (ndim, T)
-        pts = np.rint(line[:, :, None] + offs[:, None, :]).reshape(ndim, -1).astype(int)
-        inside = np.all((pts >= 0) & (pts < np.asarray(shape)[:, None]), axis=0)
-        out.append(pts[:, inside])
-    return out
-
-
-def fit_response_models(data, found, nulls, params) -> list:
-    """Every target's response model, fitted by complex least squares on the samples within
-    +-``params.fit_nulls`` nulls of its peak (about two per null).
-
-    Targets whose fit boxes (plus a null) overlap are fitted jointly; then each group is fitted again,
-    twice, on its boxes and ridge strips (``params.fit_ridge_nulls``) minus the other groups' models.
-    Returns one model dict per target ({} for a target with no response)."""
-    nulls = np.asarray(nulls, dtype=float)
-    ndim = data.ndim
-    orders = spectral_orders(ndim, params.residual_orders, params.residual_orders + (1 if ndim == 2 else 0))
-    r = np.ceil(params.fit_nulls * nulls).astype(int)
-    stride = np.maximum(1, np.floor(nulls / 2)).astype(int)
-    live = [j for j, f in enumerate(found) if abs(f["value"]) > 0]
-    boxes, strips = {}, {}
-    for j in live:
-        c = np.rint(found[j]["pos"]).astype(int)
-        pts = [np.arange(max(0, ci - ri), min(n, ci + ri + 1), st) for ci, ri, n, st in zip(c, r, data.shape, stride)]
-        g = np.meshgrid(*pts, indexing="ij")
-        boxes[j] = np.stack([x.ravel() for x in g], axis=0)
-        strips[j] = np.concatenate(
-            [boxes[j]]
-            + _ridge_strips(found[j]["pos"], found[j]["V"], nulls, stride, data.shape, params.fit_ridge_nulls),
-            axis=1,
-        )
-    group = {j: {j} for j in live}
-    for j in live:
-        for k in live:
-            if (
-                k > j
-                and np.all(np.abs(found[j]["pos"] - found[k]["pos"]) <= 2 * r + nulls)
-                and group[j] is not group[k]
-            ):
-                merged = group[j] | group[k]
-                for q in merged:
-                    group[q] = merged
-    groups = []
-    for j in live:
-        if group[j] not in groups:
-            groups.append(group[j])
-    groups = [sorted(g) for g in groups]
-    models = [{} for _ in found]
-    fits = []
-    for members in groups:
-        near = np.unique(np.concatenate([boxes[k] for k in members], axis=1), axis=1)
-        far = np.unique(np.concatenate([strips[k] for k in members], axis=1), axis=1)
-        fits.append((members, near, data[tuple(near)].astype(complex), far, data[tuple(far)].astype(complex)))
-    # Sweep 0 on the boxes alone (the chirp converges from zero there); then on boxes and ridge strips, with
-    # the other groups' models subtracted.
-    for sweep in range(3):
-        for members, near, y_near, far, y_far in fits:
-            points, y = (near, y_near) if sweep == 0 else (far, y_far)
-            rhs = y
-            if sweep > 0:  # the other groups' current models on these samples (their side lobes)
-                others = [j for j in live if j not in members and models[j]]
-                if others:
-                    rhs = y - sum(
-                        response_basis(
-                            points, models[j]["pos"], models[j]["V"], nulls, models[j]["f_c"], orders, models[j]["K"]
-                        )
-                        @ models[j]["coef"]
-                        for j in others
-                    )
-            K0 = [models[k]["K"] if models[k] else np.zeros((ndim, ndim)) for k in members]
-            start = [dict(found[k], f_c=models[k]["f_c"]) if models[k] else found[k] for k in members]
-            coef, f_c, K = _fit_group(
-                list(range(len(members))), points, rhs, start, nulls, orders, K0, 10 if sweep == 0 else 3
-            )
-            for q, k in enumerate(members):
-                models[k] = {
-                    "pos": np.asarray(found[k]["pos"], dtype=float),
-                    "V": np.asarray(found[k]["V"]),
-                    "f_c": f_c[q],
-                    "nulls": nulls,
-                    "orders": orders,
-                    "coef": coef[q],
-                    "K": K[q],
-                }
-    return models
-
-
-def residual_image(data, models, block_samples: int = 1 << 18) -> np.ndarray:
-    """``data`` minus every fitted model over the whole image (complex128), in slabs along axis 0."""
-    out = np.array(data, dtype=np.complex128)
-    rows = max(1, block_samples // max(1, math.prod(data.shape[1:])))
-    for start in range(0, data.shape[0], rows):
-        slab = (slice(start, min(data.shape[0], start + rows)),) + tuple(slice(0, n) for n in data.shape[1:])
-        for model in models:
-            if model:
-                out[slab] -= _model_on_box(slab, model)
-    return out
-
-
-def _exclusion_mask(shape, axes, truth, peaks, cells) -> np.ndarray:
-    """True outside the +-``cells`` boxes around every truth and found peak."""
-    outside = np.ones(shape, dtype=bool)
-    half = [ax.cells_to_samples(cells) for ax in axes]
-    # every truth row (unmeasured targets of a --targets subset included) and every found peak
-    centres = [np.rint([ax.to_index(x) for ax, x in zip(axes, t)]).astype(int) for t in truth] + list(peaks)
-    for c in centres:
-        outside[window_slices(c, half, shape)] = False
-    return outside
-
-
-def _residual_false_target(residual, axes, truth, peaks, reports, half, params):
-    """(FalseTarget or None, ResidualFloor): strongest residual response outside the main lobes, and the
-    residual's floor inside the targets' guard windows."""
-    ref = max(reports, key=lambda r: r.peak_amplitude)
-    mag = np.abs(residual)
-    search = _exclusion_mask(residual.shape, axes, truth, peaks, params.exclusion_cells)
-    guard = ~_exclusion_mask(residual.shape, axes, truth, peaks, params.guard_cells) & search
-    db = lambda v: float(20 * np.log10(v / ref.peak_amplitude)) if v > 0 and ref.peak_amplitude > 0 else -np.inf  # noqa: E731
-    floor = ResidualFloor(
-        floor_db=db(float(mag[guard].max())) if guard.any() else -np.inf,
-        rms_db=db(float(np.sqrt(np.mean(mag[search] ** 2)))) if search.any() else -np.inf,
-        exclusion_cells=params.exclusion_cells,
-        orders=len(
-            spectral_orders(
-                residual.ndim, params.residual_orders, params.residual_orders + (1 if residual.ndim == 2 else 0)
-            )
-        ),
-    )
-    if not search.any():
-        return None, floor
-    k = np.unravel_index(np.argmax(np.where(search, mag, -1.0)), mag.shape)
-    pixel = float(mag[k])
-    position = {ax.name: float(ax.to_coord(i)) for ax, i in zip(axes, k)}
-    if pixel == 0.0 or ref.peak_amplitude == 0.0:
-        return FalseTarget(
-            level_db=-np.inf, position=position, pixel_level_db=-np.inf, reference_target=ref.name
-        ), floor
-    pos, value = _Chip(residual, k, half).refine_peak(k)
-    return FalseTarget(
-        level_db=db(max(abs(value), pixel)),
-        position={ax.name: float(ax.to_coord(p)) for ax, p in zip(axes, pos)},
-        pixel_level_db=db(pixel),
-        reference_target=ref.name,
-    ), floor
 
 
 def target_patch(

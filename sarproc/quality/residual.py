@@ -1,0 +1,442 @@
+"""False targets under the side-lobe floor: the residual image, every target's fitted response subtracted.
+
+Moved out of :mod:`sarproc.quality.metrics` unchanged (issue 20); metrics imports this module, so the few
+names taken from metrics are imported where they are used.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import itertools
+import math
+
+import numpy as np
+
+# Residual image: every target's fitted response subtracted, so false targets are searched under the
+# targets' side-lobe floor instead of outside a guard window.
+#
+# Each target's response is modelled as a band-limited function on its own spectral support (the
+# parallelogram / parallelepiped of :func:`principal_directions`, centred on its band centre f_c) whose
+# spectrum is a short Fourier series over the support: sum over orders n of C_n exp(j pi n . u), u the
+# support's dual coordinates in (-1/2, 1/2) per ridge. The response of order n is then a product of
+# half-null-shifted sincs, prod_a sinc(c_a + n_a / 2) (c the ridge coordinates in nulls), so the spectral
+# weight and phase (antenna taper, a quadratic phase left by the processor, a Hamming window) are fitted by
+# linear complex least squares on the samples around each peak, and the model is exact and cheap to
+# evaluate anywhere in the image (its side lobes across the whole image are subtracted with it).
+
+
+@dataclasses.dataclass(frozen=True)
+class ResidualFloor:
+    """The residual image's figures: the image minus every target's fitted response."""
+
+    floor_db: float  # strongest residual pixel in the targets' guard windows, main lobes excluded,
+    # relative to the strongest target's peak: how deep the subtraction reaches
+    rms_db: float  # residual RMS outside the main lobes, same reference
+    exclusion_cells: float  # main-lobe half-box left out of both searches, resolution cells
+    orders: int  # spectral-weight orders per target model
+
+
+@functools.lru_cache(maxsize=None)
+def spectral_orders(ndim: int, max_order: int, max_total: int) -> np.ndarray:
+    """Orders n (ndim integers in -max_order..max_order, sum |n_a| <= max_total) of the response basis."""
+    grid = itertools.product(range(-max_order, max_order + 1), repeat=ndim)
+    return np.array([n for n in grid if sum(abs(k) for k in n) <= max_total], dtype=int)
+
+
+def _ridge_frame(position, V, nulls):
+    """(A, p): ridge coordinates in nulls are A @ (x - p) for image indices x."""
+    A = np.linalg.inv(np.asarray(V, dtype=float).T) / np.asarray(nulls, dtype=float)[:, None]
+    return A, np.asarray(position, dtype=float)
+
+
+def _shifted_sincs(c, max_order):
+    """sinc(c + n/2) for n = -max_order..max_order (list), from one sin/cos pair of pi c."""
+    s, co = np.sin(np.pi * c), np.cos(np.pi * c)
+    out = []
+    for n in range(-max_order, max_order + 1):
+        # sin(pi (c + n/2)): n even -> +-sin(pi c), n odd -> +-cos(pi c)
+        num = (s if n % 2 == 0 else co) * (1.0 if (n % 4) in (0, 1) else -1.0)
+        den = np.pi * (c + n / 2.0)
+        small = np.abs(den) < 1e-9
+        out.append(np.where(small, 1.0, num / np.where(small, 1.0, den)))
+    return out
+
+
+def _chirp_pairs(ndim):
+    return [(a, b) for a in range(ndim) for b in range(a, ndim)]
+
+
+def _chirp_phase(x, K):
+    """pi x^T K x for offsets x ((ndim, N) or broadcastable per-axis arrays), K symmetric (cycles/sample^2)."""
+    ndim = len(x)
+    zero = np.zeros(np.broadcast_shapes(*[np.shape(v) for v in x]))
+    return np.pi * sum(
+        ((1.0 if a == b else 2.0) * K[a, b] * x[a] * x[b] for a, b in _chirp_pairs(ndim) if K[a, b] != 0.0), zero
+    )
+
+
+KEYSTONE_STRIPS = 32  # most range strips of a keystoned support (far lobe phase error pi c kappa / strips)
+KEYSTONE_REACH = 100.0  # nulls out to which the strips keep that error under 0.15 rad
+
+
+def _strip_factors(c, m, kappa):
+    """Per strip, per axis, the 2m+1 order factors of a support whose widths along the axes before the
+    last grow linearly with the last axis' band coordinate u (width 1 + kappa_a u: a keystone, the
+    azimuth band of a wide-band radar scaling with range frequency). The support is cut into
+    KEYSTONE_STRIPS strips along u, each a rectangle with its own widths, so each strip's response is
+    exact; with kappa None (or 0) this is the single rectangle, prod_a sinc(c_a + n/2). The strip count
+    grows with kappa (:data:`KEYSTONE_REACH`)."""
+    if kappa is None or not np.any(kappa):
+        return [[_shifted_sincs(ca, m) for ca in c]]
+    ndim = len(c)
+    n_strips = min(KEYSTONE_STRIPS, math.ceil(math.pi * KEYSTONE_REACH * float(np.max(np.abs(kappa))) / 0.15))
+    width = 1.0 / n_strips
+    u0 = 0.5 * width - 0.5
+    # Each strip's factors from the previous one's by complex rotations (strips are equally spaced in u),
+    # so the trigonometry is done once per axis and order, not once per strip.
+    shifted = [[np.asarray(ca, dtype=float) + n / 2.0 for n in range(-m, m + 1)] for ca in c]
+    rot, step, denom = [], [], []
+    for a in range(ndim - 1):
+        w0 = 1.0 + kappa[a] * u0
+        rot.append([np.exp(1j * np.pi * w0 * x) for x in shifted[a]])  # exp(j pi w_s x), strip 0
+        step.append([np.exp(1j * np.pi * kappa[a] * width * x) for x in shifted[a]])
+        denom.append([np.where(np.abs(x) < 1e-9, np.nan, np.pi * x) for x in shifted[a]])
+    last_sinc = [width * np.sinc(width * x) for x in shifted[-1]]
+    last_rot = [np.exp(2j * np.pi * u0 * x) for x in shifted[-1]]
+    last_step = [np.exp(2j * np.pi * width * x) for x in shifted[-1]]
+    out = []
+    for s in range(n_strips):
+        u = u0 + s * width
+        per_axis = []
+        for a in range(ndim - 1):
+            w = 1.0 + kappa[a] * u
+            # w sinc(w x) = sin(pi w x) / (pi x), and w at x = 0
+            per_axis.append(
+                [np.where(np.isnan(d), w, r.imag / np.where(np.isnan(d), 1.0, d)) for r, d in zip(rot[a], denom[a])]
+            )
+            rot[a] = [r * st for r, st in zip(rot[a], step[a])]
+        per_axis.append([sc * r for sc, r in zip(last_sinc, last_rot)])
+        last_rot = [r * st for r, st in zip(last_rot, last_step)]
+        out.append(per_axis)
+    return out
+
+
+def response_basis(points, position, V, nulls, f_c, orders, K=None, kappa=None) -> np.ndarray:
+    """Basis of a target's response at ``points`` ((ndim, N) image indices): (N, K) complex, column k
+    the response of spectral order ``orders[k]`` (carrier f_c in cycles/sample, spatial chirp K in
+    cycles/sample^2, keystone kappa (ndim - 1 relative width slopes, :func:`_strip_factors`), peak 1 for
+    order 0)."""
+    A, p = _ridge_frame(position, V, nulls)
+    x = np.asarray(points, dtype=float) - p[:, None]
+    c = A @ x
+    m = int(np.abs(orders).max()) if orders.size else 0
+    strips = _strip_factors(list(c), m, kappa)
+    phase = 2 * np.pi * (np.asarray(f_c, dtype=float) @ x)
+    if K is not None:
+        phase = phase + _chirp_phase(x, K)
+    carrier = np.exp(1j * phase)
+    cols = [
+        carrier * sum(np.prod([per_axis[a][n + m] for a, n in enumerate(order)], axis=0) for per_axis in strips)
+        for order in orders
+    ]
+    return np.stack(cols, axis=1)
+
+
+def _model_on_box(slices, model) -> np.ndarray:
+    """A fitted response model on the image box ``slices`` (complex128, the box's shape).
+
+    Sin and cos of pi c_a are taken once per axis; the shifted sincs are then divisions, and for an
+    unskewed support the order sum is an outer product of per-axis factors."""
+    A, p = _ridge_frame(model["pos"], model["V"], model["nulls"])
+    orders, coef, f_c = model["orders"], model["coef"], np.asarray(model["f_c"], dtype=float)
+    ndim = len(p)
+    m = int(np.abs(orders).max())
+    xs = [np.arange(s.start, s.stop, dtype=float) - pi for s, pi in zip(slices, p)]
+    shape = [len(x) for x in xs]
+
+    def along(b, v):  # 1-D array v along image axis b, broadcastable over the box
+        return v.reshape([-1 if i == b else 1 for i in range(ndim)])
+
+    grid = [along(b, xs[b]) for b in range(ndim)]
+    carrier = np.exp(1j * (2 * np.pi * sum(f_c[b] * grid[b] for b in range(ndim)) + _chirp_phase(grid, model["K"])))
+    c = [functools.reduce(np.add, [A[a, b] * grid[b] for b in range(ndim) if A[a, b] != 0.0]) for a in range(ndim)]
+    strips = _strip_factors(c, m, model.get("kappa"))
+    if all(np.count_nonzero(A[a]) == 1 and A[a, a] != 0 for a in range(ndim)):  # separable: outer products
+        tensor = np.zeros((2 * m + 1,) * ndim, dtype=complex)
+        for order, k in zip(orders, coef):
+            tensor[tuple(order + m)] = k
+        total = 0
+        for factors in strips:
+            out = tensor
+            for a in range(ndim):  # contract each order axis with its axis' shifted sincs
+                f = np.stack([v.reshape(-1) for v in factors[a]], axis=0)  # (2m+1, n_a)
+                out = np.tensordot(out, f, axes=([0], [0]))
+            total = total + out
+        return total * carrier
+    out = np.zeros(shape, dtype=complex)
+    for factors in strips:
+        for order, k in zip(orders, coef):
+            term = k * factors[0][order[0] + m]
+            for a in range(1, ndim):
+                term = term * factors[a][order[a] + m]
+            out += term
+    return out * carrier
+
+
+def _fit_group(members, points, y, found, nulls, orders, K0, iterations, shape0=None):
+    """Complex amplitudes of every member's orders, and real band centres f_c and spatial chirps K by
+    Gauss-Newton (the band centre first estimated as the power centroid, which a taper pulls off the
+    support's middle; the amplitudes by linear least squares at each step).
+
+    With ``shape0`` (per member: (scale, kappa) starting values) the support's shape is fitted too: its
+    widths (null spacing ``nulls * (1 + scale)`` per axis) and keystone kappa (:func:`_strip_factors`).
+    They matter far out: a support edge 0.5 % off puts the side lobes 40 nulls away a fifth of a null out
+    of step. Returns (coef, f_c, K, (scale, kappa) or None) per member."""
+    from sarproc.quality.metrics import least_squares  # metrics imports this module
+
+    ndim = points.shape[0]
+    pairs = _chirp_pairs(ndim)
+    K = [np.array(k, dtype=float) for k in K0]
+    f_c = [np.array(found[k]["f_c"], dtype=float) for k in members]
+    shape = None if shape0 is None else [(np.array(a, dtype=float), np.array(b, dtype=float)) for a, b in shape0]
+    offs = [points - np.asarray(found[k]["pos"], dtype=float)[:, None] for k in members]
+    n_shape = 0 if shape is None else 2 * ndim - 1
+    n_o, n_p = len(orders), ndim + len(pairs) + n_shape
+    eps = 1e-4  # width and keystone step of the finite-difference derivatives
+
+    def raw(q, sh):  # member q's basis without carrier and chirp
+        k = members[q]
+        if sh is None:
+            return response_basis(points, found[k]["pos"], found[k]["V"], nulls, np.zeros(ndim), orders)
+        return response_basis(
+            points, found[k]["pos"], found[k]["V"], nulls * (1 + sh[0]), np.zeros(ndim), orders, kappa=sh[1]
+        )
+
+    fixed = [raw(q, None) for q in range(len(members))] if shape is None else None
+
+    def carriers():
+        return [np.exp(1j * (2 * np.pi * (f @ x) + _chirp_phase(x, k)))[:, None] for x, f, k in zip(offs, f_c, K)]
+
+    def bases():
+        return [(fixed[q] if shape is None else raw(q, shape[q])) * c for q, c in enumerate(carriers())]
+
+    coef = least_squares(np.concatenate(bases(), axis=1), y).reshape(len(members), n_o)
+    for _ in range(iterations):
+        cols = []
+        for q, (b, x, c, car) in enumerate(zip(bases(), offs, coef, carriers())):
+            model = b @ c
+            cols.append(b)
+            derivs = [2j * np.pi * x[a] * model for a in range(ndim)]
+            derivs += [1j * np.pi * (1.0 if a == a2 else 2.0) * x[a] * x[a2] * model for a, a2 in pairs]
+            if shape is not None:
+                for i in range(n_shape):
+                    sc, kp = shape[q][0].copy(), shape[q][1].copy()
+                    if i < ndim:
+                        sc[i] += eps
+                    else:
+                        kp[i - ndim] += eps
+                    derivs.append(((raw(q, (sc, kp)) * car) @ c - model) / eps)
+            cols.append(np.stack(derivs, axis=1))
+        sol = least_squares(np.concatenate(cols, axis=1), y).reshape(len(members), n_o + n_p)
+        largest = 0.0
+        for q in range(len(members)):
+            step = sol[q, n_o:].real
+            f_c[q] = f_c[q] + np.clip(step[:ndim], -0.02, 0.02)
+            for (a, b), d in zip(pairs, step[ndim : ndim + len(pairs)]):
+                K[q][a, b] += d
+                K[q][b, a] = K[q][a, b]
+            largest = max(
+                largest, float(np.max(np.abs(step[:ndim]))), float(np.max(np.abs(step[ndim : ndim + len(pairs)]))) * 100
+            )
+            if shape is not None:
+                d_shape = np.clip(step[ndim + len(pairs) :], -0.01, 0.01)
+                shape[q] = (
+                    np.clip(shape[q][0] + d_shape[:ndim], -0.1, 0.1),
+                    np.clip(shape[q][1] + d_shape[ndim:], -0.2, 0.2),
+                )
+                largest = max(largest, float(np.max(np.abs(d_shape))) * 0.01)
+        coef = least_squares(np.concatenate(bases(), axis=1), y).reshape(len(members), n_o)
+        if largest < 1e-6:
+            break
+    return coef, f_c, K, (shape if shape is not None else [None] * len(members))
+
+
+def _ridge_strips(pos, V, nulls, stride, shape, reach_nulls) -> list:
+    """Samples (ndim, M) along each side-lobe ridge out to +-``reach_nulls`` nulls, +-1 null across it:
+    the far side lobes pin the spatial chirp and band edges that the box around the peak leaves loose."""
+    ndim = len(shape)
+    out = []
+    for a in range(ndim):
+        t = np.arange(-reach_nulls * nulls[a], reach_nulls * nulls[a] + 1, stride[a])
+        across = [
+            np.arange(-int(math.ceil(nulls[b])), int(math.ceil(nulls[b])) + 1, stride[b]) if b != a else np.zeros(1)
+            for b in range(ndim)
+        ]
+        offs = np.stack([x.ravel() for x in np.meshgrid(*across, indexing="ij")], axis=0)  # (ndim, M0)
+        line = np.asarray(pos, dtype=float)[:, None] + np.outer(V[a], t)  # (ndim, T)
+        pts = np.rint(line[:, :, None] + offs[:, None, :]).reshape(ndim, -1).astype(int)
+        inside = np.all((pts >= 0) & (pts < np.asarray(shape)[:, None]), axis=0)
+        out.append(pts[:, inside])
+    return out
+
+
+def fit_response_models(data, found, nulls, params, support_shape: bool = False) -> list:
+    """Every target's response model, fitted by complex least squares on the samples within
+    +-``params.fit_nulls`` nulls of its peak (about two per null); with ``support_shape`` its support's
+    widths and keystone too (:func:`_fit_group`), as the residual image needs far out.
+
+    Targets whose fit boxes (plus a null) overlap are fitted jointly; then each group is fitted again,
+    twice, on its boxes and ridge strips (``params.fit_ridge_nulls``) minus the other groups' models.
+    Returns one model dict per target ({} for a target with no response)."""
+    nulls = np.asarray(nulls, dtype=float)
+    ndim = data.ndim
+    orders = spectral_orders(ndim, params.residual_orders, params.residual_orders + (1 if ndim == 2 else 0))
+    r = np.ceil(params.fit_nulls * nulls).astype(int)
+    stride = np.maximum(1, np.floor(nulls / 2)).astype(int)
+    live = [j for j, f in enumerate(found) if abs(f["value"]) > 0]
+    boxes, strips = {}, {}
+    for j in live:
+        c = np.rint(found[j]["pos"]).astype(int)
+        pts = [np.arange(max(0, ci - ri), min(n, ci + ri + 1), st) for ci, ri, n, st in zip(c, r, data.shape, stride)]
+        g = np.meshgrid(*pts, indexing="ij")
+        boxes[j] = np.stack([x.ravel() for x in g], axis=0)
+        strips[j] = np.concatenate(
+            [boxes[j]]
+            + _ridge_strips(found[j]["pos"], found[j]["V"], nulls, stride, data.shape, params.fit_ridge_nulls),
+            axis=1,
+        )
+    group = {j: {j} for j in live}
+    for j in live:
+        for k in live:
+            if (
+                k > j
+                and np.all(np.abs(found[j]["pos"] - found[k]["pos"]) <= 2 * r + nulls)
+                and group[j] is not group[k]
+            ):
+                merged = group[j] | group[k]
+                for q in merged:
+                    group[q] = merged
+    groups = []
+    for j in live:
+        if group[j] not in groups:
+            groups.append(group[j])
+    groups = [sorted(g) for g in groups]
+    models = [{} for _ in found]
+    fits = []
+    for members in groups:
+        near = np.unique(np.concatenate([boxes[k] for k in members], axis=1), axis=1)
+        far = np.unique(np.concatenate([strips[k] for k in members], axis=1), axis=1)
+        fits.append((members, near, data[tuple(near)].astype(complex), far, data[tuple(far)].astype(complex)))
+    # Sweep 0 on the boxes alone (the chirp converges from zero there); then on boxes and ridge strips, with
+    # the other groups' models subtracted.
+    for sweep in range(3):
+        for members, near, y_near, far, y_far in fits:
+            points, y = (near, y_near) if sweep == 0 else (far, y_far)
+            rhs = y
+            if sweep > 0:  # the other groups' current models on these samples (their side lobes)
+                others = [j for j in live if j not in members and models[j]]
+                if others:
+                    rhs = y - sum(
+                        response_basis(
+                            points,
+                            models[j]["pos"],
+                            models[j]["V"],
+                            models[j]["nulls"],
+                            models[j]["f_c"],
+                            orders,
+                            models[j]["K"],
+                            kappa=models[j].get("kappa"),
+                        )
+                        @ models[j]["coef"]
+                        for j in others
+                    )
+            K0 = [models[k]["K"] if models[k] else np.zeros((ndim, ndim)) for k in members]
+            start = [dict(found[k], f_c=models[k]["f_c"]) if models[k] else found[k] for k in members]
+            shape0 = None
+            if support_shape:
+                shape0 = [
+                    (models[k]["nulls"] / nulls - 1, models[k]["kappa"])
+                    if models[k]
+                    else (np.zeros(ndim), np.zeros(ndim - 1))
+                    for k in members
+                ]
+            coef, f_c, K, shape = _fit_group(
+                list(range(len(members))), points, rhs, start, nulls, orders, K0, 10 if sweep == 0 else 3, shape0
+            )
+            for q, k in enumerate(members):
+                models[k] = {
+                    "pos": np.asarray(found[k]["pos"], dtype=float),
+                    "V": np.asarray(found[k]["V"]),
+                    "f_c": f_c[q],
+                    "nulls": nulls if shape[q] is None else nulls * (1 + shape[q][0]),
+                    "orders": orders,
+                    "coef": coef[q],
+                    "K": K[q],
+                }
+                if shape[q] is not None:
+                    models[k]["kappa"] = shape[q][1]
+    return models
+
+
+def residual_image(data, models, block_samples: int = 1 << 18) -> np.ndarray:
+    """``data`` minus every fitted model over the whole image (complex128), in slabs along axis 0."""
+    out = np.array(data, dtype=np.complex128)
+    rows = max(1, block_samples // max(1, math.prod(data.shape[1:])))
+    for start in range(0, data.shape[0], rows):
+        slab = (slice(start, min(data.shape[0], start + rows)),) + tuple(slice(0, n) for n in data.shape[1:])
+        for model in models:
+            if model:
+                out[slab] -= _model_on_box(slab, model)
+    return out
+
+
+def _exclusion_mask(shape, axes, truth, peaks, cells) -> np.ndarray:
+    """True outside the +-``cells`` boxes around every truth and found peak."""
+    from sarproc.quality.metrics import window_slices  # metrics imports this module
+
+    outside = np.ones(shape, dtype=bool)
+    half = [ax.cells_to_samples(cells) for ax in axes]
+    # every truth row (unmeasured targets of a --targets subset included) and every found peak
+    centres = [np.rint([ax.to_index(x) for ax, x in zip(axes, t)]).astype(int) for t in truth] + list(peaks)
+    for c in centres:
+        outside[window_slices(c, half, shape)] = False
+    return outside
+
+
+def _residual_false_target(residual, axes, truth, peaks, reports, half, params):
+    """(FalseTarget or None, ResidualFloor): strongest residual response outside the main lobes, and the
+    residual's floor inside the targets' guard windows."""
+    from sarproc.quality.metrics import FalseTarget, _Chip  # metrics imports this module
+
+    ref = max(reports, key=lambda r: r.peak_amplitude)
+    mag = np.abs(residual)
+    search = _exclusion_mask(residual.shape, axes, truth, peaks, params.exclusion_cells)
+    guard = ~_exclusion_mask(residual.shape, axes, truth, peaks, params.guard_cells) & search
+    db = lambda v: float(20 * np.log10(v / ref.peak_amplitude)) if v > 0 and ref.peak_amplitude > 0 else -np.inf  # noqa: E731
+    floor = ResidualFloor(
+        floor_db=db(float(mag[guard].max())) if guard.any() else -np.inf,
+        rms_db=db(float(np.sqrt(np.mean(mag[search] ** 2)))) if search.any() else -np.inf,
+        exclusion_cells=params.exclusion_cells,
+        orders=len(
+            spectral_orders(
+                residual.ndim, params.residual_orders, params.residual_orders + (1 if residual.ndim == 2 else 0)
+            )
+        ),
+    )
+    if not search.any():
+        return None, floor
+    k = np.unravel_index(np.argmax(np.where(search, mag, -1.0)), mag.shape)
+    pixel = float(mag[k])
+    position = {ax.name: float(ax.to_coord(i)) for ax, i in zip(axes, k)}
+    if pixel == 0.0 or ref.peak_amplitude == 0.0:
+        return FalseTarget(
+            level_db=-np.inf, position=position, pixel_level_db=-np.inf, reference_target=ref.name
+        ), floor
+    pos, value = _Chip(residual, k, half).refine_peak(k)
+    return FalseTarget(
+        level_db=db(max(abs(value), pixel)),
+        position={ax.name: float(ax.to_coord(p)) for ax, p in zip(axes, pos)},
+        pixel_level_db=db(pixel),
+        reference_target=ref.name,
+    ), floor
