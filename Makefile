@@ -86,6 +86,14 @@ check-theory: $(STAMP)
 signal-soak: $(STAMP)
 	flock /tmp/heavy.lock nice $(PY) scripts/signal_soak.py --runs 90 --out results/soak
 
+# An image bigger than --max-memory (8192^2 complex64, 512 MiB, within 384M), written block by block by
+# `sarproc backproject`, once in this process and once on a local Dask cluster: wall time, peak memory
+# per process and per worker, the two images compared (results/tiled/table.md). Heavy: waits for heavy.lock.
+.PHONY: backproject-tiled
+backproject-tiled: $(TEST_STAMP)  # the Dask run needs dask.distributed (test extra)
+	flock /tmp/heavy.lock nice $(PY) scripts/tiled_backproject.py --scene configs/demo.yaml --pixels 8192 \
+		--max-memory 384M --out results/tiled
+
 # False-target figures with and without the residual (issue 20): every paper image found under results/
 # (run the reproduce targets first), guard window vs residual, floors and evaluate times; BEFORE=DIR (an
 # older checkout) adds that code's residual floor beside this one's.

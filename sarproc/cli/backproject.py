@@ -7,6 +7,7 @@ from pathlib import Path
 
 import click
 
+from sarproc.cli.dask_map import scheduler_option
 from sarproc.cli.options import common_options, input_argument, load_config, summary, want_progress
 
 
@@ -21,16 +22,28 @@ from sarproc.cli.options import common_options, input_argument, load_config, sum
     "where they appear); every target stays in the image's table.",
 )
 @common_options
-def backproject(input_path: Path, target_names, output: Path, config_path, overwrite: bool, progress):
+@scheduler_option
+def backproject(input_path: Path, target_names, output: Path, config_path, overwrite: bool, progress, scheduler):
     """Exact time-domain backprojection of a raw product onto a frame grid (section `backproject:`).
 
     The default grid covers the targets table, moving targets at their static-equivalent positions
-    (where a static-scene image focuses them).
+    (where a static-scene image focuses them). The image is computed and written in blocks of rows
+    (`block_pixels`, smaller under --max-memory), so it need not fit in memory; with --scheduler the
+    blocks are computed on Dask workers, the image identical to the local one.
     """
-    from sarproc.focus.backprojection import BackprojectParams, backproject as run
-    from sarproc.product.io import write_product
+    import dataclasses
+
+    import numpy as np
+
+    from sarproc.cli.dask_map import dask_mapper, scheduler_client, worker_threads, workers_peak_memory
+    from sarproc.cli.options import info, max_memory
+    from sarproc.product.budget import human
     from sarproc.cli.progress import progress_factory
-    from sarproc.cli.stage import backproject_estimate, naming, prepare
+    from sarproc.cli.stage import backproject_block_pixels, backproject_estimate, naming, prepare
+    from sarproc.focus import backprojection as bp
+    from sarproc.product.errors import InputError
+    from sarproc.product.frames import frame_names
+    from sarproc.product.io import ProductWriter
 
     params, raw = prepare(
         "backproject",
@@ -39,29 +52,59 @@ def backproject(input_path: Path, target_names, output: Path, config_path, overw
         config_path,
         overwrite,
         ("raw", "raw_multichannel", "raw_array"),
-        BackprojectParams,
+        bp.BackprojectParams,
         "backproject",
         backproject_estimate,
     )
-    from sarproc.product.frames import frame_names
-    from sarproc.product.errors import InputError
-
     if params.frame != "product" and params.frame not in frame_names():
         raise InputError(
             f"{config_path}: backproject.frame: {params.frame!r} is not 'product' or one of {frame_names()}"
         )
+    params = dataclasses.replace(params, block_pixels=backproject_block_pixels(raw, params, max_memory()))
     start = time.perf_counter()
+    names = None if target_names is None else [n.strip() for n in target_names.split(",") if n.strip()]
     with naming(input_path, config_path, "backproject"):
-        image = run(
-            raw,
-            params,
-            progress=progress_factory(want_progress(progress), "backproject"),
-            grid_targets=None if target_names is None else [n.strip() for n in target_names.split(",") if n.strip()],
-        )
-    image.history[-1]["command"] = f"sarproc backproject {input_path}"
-    write_product(output, image, inputs=[input_path], overwrite=overwrite)
-    n_az, n_rg = image.data.shape
+        plan = bp.plan_backprojection(raw, params, grid_targets=names)
+        pulses = bp.pulse_set(raw, params)
+    raw.data = None  # the pulses hold what the blocks need: free the echoes before the image is summed
+    header = bp.image_product(raw, plan, params, np.broadcast_to(np.complex64(0), plan.shape))
+    header.history[-1]["command"] = f"sarproc backproject {input_path}"
+    blocks = bp.row_blocks(plan.shape, params.block_pixels)
+    with (
+        naming(input_path, config_path, "backproject"),
+        scheduler_client(scheduler) as client,
+        ProductWriter(
+            output,
+            header.kind,
+            header.dims,
+            header.coords,
+            header.radar,
+            header.targets,
+            attrs=header.attrs,
+            aux=header.aux,
+            history=header.history,
+            inputs=[input_path],
+            overwrite=overwrite,
+        ) as writer,
+    ):
+        mapper, source, threads = None, pulses, None
+        if client is not None:  # the pulses travel to every worker once; each block is a task
+            mapper = dask_mapper(client, "backproject-block")
+            source = client.scatter(pulses, broadcast=True)
+            threads = worker_threads(client)
+        for rows, block in bp.backproject_blocks(
+            source, plan, params, blocks, mapper, progress_factory(want_progress(progress), "backproject"), threads
+        ):
+            writer.write((rows, slice(None)), block)
+        if client is not None:
+            peaks = workers_peak_memory(client)
+            info(
+                f"backproject: {len(blocks)} blocks on {len(peaks)} Dask workers, peak memory per worker "
+                + ", ".join(human(v) for v in sorted(peaks.values()))
+            )
+    n_az, n_rg = plan.shape
+    parts = f" in {len(blocks)} blocks" if len(blocks) > 1 else ""
     summary(
-        f"backproject: {n_az}x{n_rg} image in frame {image.attrs['frame']['name']} -> {output} "
+        f"backproject: {n_az}x{n_rg} image{parts} in frame {plan.frame.spec['name']} -> {output} "
         f"({time.perf_counter() - start:.2f} s)"
     )

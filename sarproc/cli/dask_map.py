@@ -51,6 +51,26 @@ def dask_mapper(client, key_prefix: str = "task", window: int | None = None):
     return mapper
 
 
+def worker_threads(client) -> int:
+    """Threads of the smallest worker: a task's compiled kernels use that many, not every core of its host
+    (a LocalCluster has one single-threaded worker per core)."""
+    workers = client.scheduler_info()["workers"].values()
+    return max(1, min((w.get("nthreads", 1) for w in workers), default=1))
+
+
+def _peak_rss_bytes() -> int:
+    import resource
+    import sys
+
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return int(peak if sys.platform == "darwin" else peak * 1024)  # bytes on macOS, KiB on Linux
+
+
+def workers_peak_memory(client) -> dict[str, int]:
+    """Peak resident memory (bytes) of each Dask worker process so far, by worker address."""
+    return dict(client.run(_peak_rss_bytes))
+
+
 @contextlib.contextmanager
 def scheduler_client(scheduler: str | None):
     """A Dask client for ``--scheduler`` ('local' starts a LocalCluster), or None without one."""

@@ -167,7 +167,8 @@ def report_plan(plan: Plan, outputs, input_path) -> None:
 
 
 def _shape(header) -> tuple[int, ...]:
-    return tuple(int(n) for n in header.attrs["shape"])
+    """The data's shape, from a header read with load=False or from a loaded product."""
+    return tuple(int(n) for n in header.attrs.get("shape", header.data.shape))
 
 
 def generic_estimate(stage: str, header, params) -> Plan:
@@ -255,6 +256,29 @@ def image_grid(header, params) -> tuple[int, int]:
     return n[0], n[1]
 
 
+# per pixel of an output block: its complex128 sum, float64 positions, grid coordinates and tile order (measured)
+BACKPROJECT_BYTES_PER_PIXEL = 64.0
+
+
+def _backproject_fixed_bytes(n_ch: int, n_az: int, n_rg: int, params) -> float:
+    raw = 4 * complex_bytes(n_ch, n_az, n_rg)
+    up = complex_bytes(min(64, n_az), n_rg * params.upsample, itemsize=16)
+    return raw + 2 * up
+
+
+def backproject_block_pixels(header, params, memory_limit: int | None) -> int:
+    """Pixels per output block: ``params.block_pixels``, fewer (whole rows, at least one) when the blocks
+    would not fit ``memory_limit`` (bytes) beside the pulses and the process itself."""
+    block = int(params.block_pixels)
+    if memory_limit is None:
+        return block
+    n_az, n_rg = _shape(header)[-2:]
+    n_ch = _shape(header)[0] if len(_shape(header)) == 3 else 1
+    room = memory_limit - PROCESS["backproject"][0] - _backproject_fixed_bytes(n_ch, n_az, n_rg, params)
+    row = image_grid(header, params)[1]
+    return max(row, min(block, int(room / BACKPROJECT_BYTES_PER_PIXEL) // row * row))
+
+
 def backproject_estimate(stage, header, params) -> Plan:
     n_az, n_rg = _shape(header)[-2:]
     n_ch = _shape(header)[0] if len(_shape(header)) == 3 else 1
@@ -266,12 +290,14 @@ def backproject_estimate(stage, header, params) -> Plan:
             "set backproject azimuth/range extents or spacings, or raise max_pixels"
         )
     # the raw data and its range-compressed copies (about four input-sized arrays, measured), at most
-    # 64 pulses upsampled at a time, and per pixel its complex128 sum and float64 positions
-    raw = 4 * complex_bytes(n_ch, n_az, n_rg)
-    up = complex_bytes(min(64, n_az), n_rg * params.upsample, itemsize=16)
+    # 64 pulses upsampled at a time, and per pixel of one output block its complex128 sum and float64
+    # positions: the image itself is written block by block, never held whole
+    block = backproject_block_pixels(header, params, max_memory())
+    memory = _backproject_fixed_bytes(n_ch, n_az, n_rg, params) + BACKPROJECT_BYTES_PER_PIXEL * min(n_pix, block)
     per = 4e-9 if params.engine == "compiled" else 25e-9
-    memory = raw + 2 * up + 64.0 * n_pix
     detail = f"~{n[0]} x {n[1]} pixels from {n_ch * n_az} pulses"
+    if n_pix > block:
+        detail += f", in {-(-n[0] // max(1, block // n[1]))} blocks of {max(1, block // n[1])} rows"
     seconds = n_ch * n_az * n_pix * per
     if params.engine == "ffbp":
         from sarproc.focus.ffbp import error_bound, levels, predicted_error

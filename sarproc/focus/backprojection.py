@@ -439,6 +439,12 @@ class BackprojectParams:
     range_window: str = param(default="none", choices=WINDOWS, doc="range spectral taper (README: Windows)")
     azimuth_window: str = param(default="none", choices=WINDOWS, doc="taper over the pulses (README: Windows)")
     max_pixels: int = param(default=16_000_000, ge=1, doc="refuse grids larger than this")
+    block_pixels: int = param(
+        default=4_194_304,
+        ge=1,
+        doc="pixels summed per output block (whole rows); the command line writes block by block and "
+        "spreads blocks over --scheduler workers, and shrinks blocks to fit --max-memory",
+    )
 
 
 def _unit_los(tx, points):
@@ -515,16 +521,37 @@ def _default_grid(params: BackprojectParams, product: Product, frame, irw_guess,
     return axes
 
 
-def backproject(
-    raw: Product, params: BackprojectParams = BackprojectParams(), progress=None, grid_targets=None
-) -> Product:
-    """Focus a raw product (one or several channels, summed coherently) onto a frame grid.
+@dataclasses.dataclass(frozen=True)
+class PulseSet:
+    """What every output block needs from a raw product: its range-compressed, tapered pulses per channel
+    (complex64) and their geometry; picklable, so a Dask cluster receives it once (scattered)."""
 
-    The default grid covers the targets (moving ones where they appear); ``grid_targets``: only these
-    names (every target stays in the image's table).
-    """
-    if raw.kind not in ("raw", "raw_multichannel", "raw_array"):
-        raise InputError(f"backproject needs a raw product, got {raw.kind!r}")
+    channels: tuple  # (n_az, n_rg) complex64 per receive channel
+    range_time: np.ndarray
+    tx: np.ndarray  # (n_az, 3) transmit phase centre, m
+    rx: tuple  # (n_az, 3) receive phase centre per channel, m
+    gate_offset: np.ndarray | None
+    carrier_frequency: float
+    bandwidth: float
+    range_sampling_rate: float
+
+
+@dataclasses.dataclass(frozen=True)
+class BackprojectionPlan:
+    """The output grid and everything written beside the image, decided before any pixel is summed."""
+
+    frame: object
+    azimuth: np.ndarray
+    range: np.ndarray
+    targets: object
+    attrs: dict
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return len(self.azimuth), len(self.range)
+
+
+def _check_params(params: BackprojectParams) -> None:
     if params.interpolation in ("knab", "sinc", "lanczos") and params.kernel_length % 2:
         raise InputError(
             f"backproject.kernel_length: {params.kernel_length} taps; the {params.interpolation} "
@@ -540,6 +567,14 @@ def backproject(
             f"backproject.interpolation: {params.interpolation!r} needs backproject.engine: compiled "
             "(the reference engine interpolates linear or nearest)"
         )
+
+
+def plan_backprojection(raw: Product, params: BackprojectParams, grid_targets=None) -> BackprojectionPlan:
+    """The frame, the grid (covering the targets, moving ones where they appear; ``grid_targets``: only
+    these names), every target's own theory and the image attributes: all but the pixel sums."""
+    if raw.kind not in ("raw", "raw_multichannel", "raw_array"):
+        raise InputError(f"backproject needs a raw product, got {raw.kind!r}")
+    _check_params(params)
     radar = raw.radar
     if params.frame == "product":
         spec = raw.attrs.get("frame") or {"name": "squint"}
@@ -553,8 +588,8 @@ def backproject(
     pos = raw.aux["platform_position"]
     tx_off = raw.aux.get("tx_offset", np.zeros(3))
     rx_offs = raw.aux.get("rx_offset", np.zeros((1, 3)))
-    data = raw.data if raw.data.ndim == 3 else raw.data[None]
-    taper = theory.sample_taper(params.azimuth_window, data.shape[1])
+    n_pulses = raw.data.shape[-2]
+    taper = theory.sample_taper(params.azimuth_window, n_pulses)
     targets = targets_in_frame(raw.targets, frame)
     # Every target's own theory at its true position (the table's): a moving target's support follows its
     # true track (its illumination), not the static-equivalent position where the image focuses it.
@@ -582,51 +617,11 @@ def backproject(
             f"backproject: grid of {n_pix} pixels exceeds max_pixels {params.max_pixels}; "
             "set azimuth/range extents or spacings"
         )
-    az, rg = np.meshgrid(grid["azimuth"], grid["range"], indexing="ij")
-    points = frame.to_xyz(az.ravel(), rg.ravel())
-    img = np.zeros(len(points), np.complex128)
     if params.engine == "ffbp" and any(not np.array_equal(tx_off, rx) for rx in rx_offs):
         raise InputError(
             "backproject.engine: ffbp needs a monostatic product (transmit and receive phase centres "
             "equal); use engine: compiled"
         )
-    for ch in range(data.shape[0]):
-        rc = range_compress(data[ch], radar, params.range_window) * taper[:, None].astype(np.float32)
-        if params.engine == "ffbp":
-            from sarproc.focus.ffbp import ffbp_points
-
-            img += ffbp_points(
-                rc,
-                raw.coords["range_time"],
-                pos + tx_off,
-                points,
-                radar.carrier_frequency,
-                radar.bandwidth,
-                upsample=params.upsample,
-                interpolation=params.interpolation,
-                gate_offset=raw.aux.get("range_gate_offset"),
-                factor=params.ffbp_factor,
-                oversample=params.ffbp_oversample,
-                ffbp_interpolation=params.ffbp_interpolation,
-                grid_shape=az.shape,
-            )
-            continue
-        img += backproject_points(
-            rc,
-            raw.coords["range_time"],
-            pos + tx_off,
-            pos + rx_offs[ch],
-            points,
-            radar.carrier_frequency,
-            upsample=params.upsample,
-            interpolation=params.interpolation,
-            gate_offset=raw.aux.get("range_gate_offset"),
-            progress=progress,
-            engine=params.engine,
-            kernel_length=params.kernel_length,
-            oversampling=params.upsample * radar.range_sampling_rate / radar.bandwidth,
-        )
-    img /= data.shape[0]
     centre_img = [float(np.mean(grid[ax])) for ax in frame.axes]
     # The image's theory: its targets' typical (unweighted) one, not that of the grid centre, which a target
     # at the edge of the beam drags off the lit aperture (the centre theory is kept for scenes without targets).
@@ -636,15 +631,146 @@ def backproject(
     }
     if "reconstruct" in raw.attrs:  # its velocity estimates per moving-target window (evaluate reads them)
         attrs["reconstruct"] = raw.attrs["reconstruct"]
+    return BackprojectionPlan(frame, grid["azimuth"], grid["range"], targets, attrs)
+
+
+def pulse_set(raw: Product, params: BackprojectParams) -> PulseSet:
+    """Range-compress and taper every channel of ``raw`` once, for all output blocks."""
+    radar = raw.radar
+    pos = raw.aux["platform_position"]
+    tx_off = raw.aux.get("tx_offset", np.zeros(3))
+    rx_offs = raw.aux.get("rx_offset", np.zeros((1, 3)))
+    data = raw.data if raw.data.ndim == 3 else raw.data[None]
+    taper = theory.sample_taper(params.azimuth_window, data.shape[1])[:, None].astype(np.float32)
+    gate = raw.aux.get("range_gate_offset")
+    return PulseSet(
+        channels=tuple(range_compress(data[ch], radar, params.range_window) * taper for ch in range(data.shape[0])),
+        range_time=raw.coords["range_time"],
+        tx=pos + tx_off,
+        rx=tuple(pos + rx_offs[ch] for ch in range(data.shape[0])),
+        gate_offset=None if gate is None else np.asarray(gate, float),
+        carrier_frequency=float(radar.carrier_frequency),
+        bandwidth=float(radar.bandwidth),
+        range_sampling_rate=float(radar.range_sampling_rate),
+    )
+
+
+def backproject_rows(
+    pulses: PulseSet, plan: BackprojectionPlan, params: BackprojectParams, rows: slice, progress=None, workers=None
+) -> np.ndarray:
+    """The image rows ``rows`` (azimuth indices of the plan's grid): (n_rows, n_range) complex64, every
+    channel summed coherently. Pure: the same rows give the same block wherever they are computed."""
+    az, rg = np.meshgrid(plan.azimuth[rows], plan.range, indexing="ij")
+    points = plan.frame.to_xyz(az.ravel(), rg.ravel())
+    img = np.zeros(len(points), np.complex128)
+    for ch, rc in enumerate(pulses.channels):
+        if params.engine == "ffbp":
+            from sarproc.focus.ffbp import ffbp_points
+
+            img += ffbp_points(
+                rc,
+                pulses.range_time,
+                pulses.tx,
+                points,
+                pulses.carrier_frequency,
+                pulses.bandwidth,
+                upsample=params.upsample,
+                interpolation=params.interpolation,
+                gate_offset=pulses.gate_offset,
+                factor=params.ffbp_factor,
+                oversample=params.ffbp_oversample,
+                ffbp_interpolation=params.ffbp_interpolation,
+                grid_shape=az.shape,
+                workers=workers,
+            )
+            continue
+        img += backproject_points(
+            rc,
+            pulses.range_time,
+            pulses.tx,
+            pulses.rx[ch],
+            points,
+            pulses.carrier_frequency,
+            upsample=params.upsample,
+            interpolation=params.interpolation,
+            gate_offset=pulses.gate_offset,
+            progress=progress,
+            engine=params.engine,
+            kernel_length=params.kernel_length,
+            oversampling=params.upsample * pulses.range_sampling_rate / pulses.bandwidth,
+            workers=workers,
+        )
+    img /= len(pulses.channels)
+    return img.reshape(az.shape).astype(np.complex64)
+
+
+def row_blocks(shape: tuple[int, int], block_pixels: int) -> list[slice]:
+    """Whole rows of an (n_az, n_rg) grid in blocks of at most ``block_pixels`` (at least one row each);
+    the decomposition depends on the grid and ``block_pixels`` only, so a local and a distributed run sum
+    the same pixels together (the compiled kernel's float32 offsets are relative to its tiles)."""
+    n_az, n_rg = shape
+    step = max(1, min(n_az, int(block_pixels) // max(1, n_rg)))
+    return [slice(s, min(s + step, n_az)) for s in range(0, n_az, step)]
+
+
+def backproject_blocks(
+    pulses: PulseSet,
+    plan: BackprojectionPlan,
+    params: BackprojectParams,
+    blocks,
+    mapper=None,
+    progress=None,
+    workers=None,
+):
+    """Yield (rows, block) over ``blocks`` in order. ``mapper`` (a map-like yielding in input order, e.g. one
+    over Dask workers; the builtin map by default) computes them; ``pulses`` may be a Dask future of a
+    PulseSet, resolved on the workers."""
+    if mapper is None:
+        one = len(blocks) == 1  # a single block reports the pulses' progress, several the blocks'
+        for rows in blocks if one or progress is None else progress(blocks):
+            yield rows, backproject_rows(pulses, plan, params, rows, progress if one else None, workers)
+        return
+    results = mapper(_block_task, ((pulses, plan, params, rows, workers) for rows in blocks))
+    for rows, block in zip(blocks, progress(results, total=len(blocks)) if progress is not None else results):
+        yield rows, block
+
+
+def _block_task(item) -> np.ndarray:
+    pulses, plan, params, rows, workers = item
+    return backproject_rows(pulses, plan, params, rows, workers=workers)
+
+
+def backproject(
+    raw: Product, params: BackprojectParams = BackprojectParams(), progress=None, grid_targets=None
+) -> Product:
+    """Focus a raw product (one or several channels, summed coherently) onto a frame grid, in memory.
+
+    The default grid covers the targets (moving ones where they appear); ``grid_targets``: only these
+    names (every target stays in the image's table). The command line streams the same blocks to disk
+    (:func:`backproject_blocks`) so an image need not fit in memory.
+    """
+    plan = plan_backprojection(raw, params, grid_targets)
+    pulses = pulse_set(raw, params)
+    img = np.empty(plan.shape, np.complex64)
+    for rows, block in backproject_blocks(
+        pulses, plan, params, row_blocks(plan.shape, params.block_pixels), progress=progress
+    ):
+        img[rows] = block
+    return image_product(raw, plan, params, img)
+
+
+def image_product(raw: Product, plan: BackprojectionPlan, params: BackprojectParams, img) -> Product:
+    """The image product of ``plan`` around ``img`` (the full image, or any placeholder of its shape when the
+    data are streamed to disk block by block)."""
     from sarproc.product.io import history_entry
 
     out = raw.derive(
         "image",
-        img.reshape(az.shape).astype(np.complex64),
+        img,
         ("azimuth", "range"),
-        {"azimuth": grid["azimuth"], "range": grid["range"]},
-        targets=targets,
-        attrs=attrs,
+        {"azimuth": plan.azimuth, "range": plan.range},
+        targets=plan.targets,
+        attrs=plan.attrs,
     )
     out.history.append(history_entry("backproject", as_dict(params)))
     return out

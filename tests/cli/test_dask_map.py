@@ -86,3 +86,24 @@ def test_pfa2_subimages_on_workers_give_the_serial_mosaic(cluster, tmp_path, sce
     assert res.exit_code == 0, res.output
     a, b = read_product(tmp_path / "serial.h5").data, read_product(tmp_path / "dask.h5").data
     assert 20 * np.log10(float(np.abs(a - b).max() / np.abs(a).max()) + 1e-300) < -100  # (in fact bit-identical)
+
+
+def test_backproject_blocks_on_workers_write_the_local_image(cluster, tmp_path, scene_mapping):
+    from click.testing import CliRunner
+
+    from sarproc.cli.main import cli
+    from sarproc.product.io import read_product
+
+    scene = scene_mapping(backproject={"block_pixels": 2000})  # several blocks of whole rows
+    (tmp_path / "scene.yaml").write_text(yaml.safe_dump(scene))
+    run = CliRunner().invoke
+    assert run(cli, ["simulate", str(tmp_path / "scene.yaml"), "-o", str(tmp_path / "raw.h5")]).exit_code == 0
+    common = [str(tmp_path / "raw.h5"), "--config", str(tmp_path / "scene.yaml")]
+    res = run(cli, ["backproject", *common, "-o", str(tmp_path / "local.h5")])
+    assert res.exit_code == 0 and " blocks " in res.output, res.output
+    res = run(cli, ["backproject", *common, "-o", str(tmp_path / "dask.h5"), "--scheduler", cluster.scheduler_address])
+    assert res.exit_code == 0, res.output
+    a, b = read_product(tmp_path / "local.h5"), read_product(tmp_path / "dask.h5")
+    assert a.data.shape[0] > 1 and np.array_equal(a.data, b.data)
+    assert np.array_equal(a.targets, b.targets) and a.attrs.keys() == b.attrs.keys()
+    assert np.array_equal(a.attrs["theoretical_irw"], b.attrs["theoretical_irw"])
