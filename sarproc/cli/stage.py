@@ -256,8 +256,10 @@ def image_grid(header, params) -> tuple[int, int]:
     return n[0], n[1]
 
 
-# per pixel of an output block: its complex128 sum, float64 positions, grid coordinates and tile order (measured)
-BACKPROJECT_BYTES_PER_PIXEL = 64.0
+# per pixel of an output block: its grid coordinates and float64 position, the kernel's tile order and offsets,
+# two complex128 sums and the complex64 block (tracemalloc peak of backproject_rows: 127-136 B on 1024-2048 wide
+# demo grids; 64 B, the old figure, let an 8192^2 run with --max-memory 384M peak at 466 MiB)
+BACKPROJECT_BYTES_PER_PIXEL = 140.0
 
 
 def _backproject_fixed_bytes(n_ch: int, n_az: int, n_rg: int, params) -> float:
