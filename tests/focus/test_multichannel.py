@@ -267,6 +267,10 @@ def test_channel_imbalance_gives_bounded_reported_ghosts():
     predicted = channels.ghost_level_db(tau, r.prf, -1j * np.log(gain), half_band)  # eq. (6): about -36 dB
     assert -40.0 < predicted < -30.0
     assert false_target_db(rec, raw) == pytest.approx(predicted, abs=1.5)
+    # the product's own prediction: delays from the transmitter (a common delay shift moves every ghost piece
+    # of band offset k by the same phase, so the level is the same)
+    assert channels.product_ghost_level_db(raw, -1j * np.log(gain)) == pytest.approx(predicted, abs=1e-9)
+    assert channels.product_ghost_level_db(raw, np.zeros(3)) < -200  # no error: no ghost (round-off only)
 
 
 def test_ill_conditioned_prf_reports_condition_and_regularises(caplog):
