@@ -34,9 +34,9 @@ def main(argv=None):
 
 def _chain(cfg, raw=None, **over):
     from sarproc.focus.squint_deramp.coarse_focus import CoarseFocusParams, coarse_focus
-    from sarproc.product.config import build
     from sarproc.focus.squint_deramp.fine_focus import FineFocusParams, fine_focus
     from sarproc.focus.squint_deramp.preprocess import PreprocessParams, preprocess
+    from sarproc.product.config import build
     from sarproc.simulation.scene import scene_from_mapping
     from sarproc.simulation.simulate import simulate
 
