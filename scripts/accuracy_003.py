@@ -28,11 +28,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import time
 from pathlib import Path
 
 from sarproc.focus.backprojection import BackprojectParams, backproject
+from sarproc.focus.multichannel.channels import ghost_spacing
 from sarproc.focus.multichannel.reconstruct import ReconstructParams
 from sarproc.product.config import build
 from sarproc.product.model import target_names
@@ -45,9 +45,7 @@ STRIP_GUARD = 0.45  # guard around the target on a strip, in ghost spacings (the
 def ghost_strips(rec, raw, extent_ghosts=1.5, **bp_knobs):
     """{target: (MFTA dB, strip image)} on azimuth strips (squint_lrwc) of +-extent_ghosts ghost spacings
     around where each target appears, its own +-STRIP_GUARD spacing left out."""
-    r = rec.radar
-    ka = 2 * (r.velocity * math.cos(r.squint)) ** 2 / (r.wavelength * r.reference_range)
-    extent = 2 * extent_ghosts * raw.radar.prf / ka * r.velocity
+    extent = 2 * extent_ghosts * ghost_spacing(rec.radar, raw.radar.prf)
     out = {}
     for name in target_names(rec.targets):
         strip = backproject(

@@ -127,17 +127,15 @@ def test_reproduce_003_sweeps_and_strip_config_hold_the_reproductions_geometry()
     """make reproduce-003's strips span +-1.5 ghost spacings PRF v / K_a of their own scene (a PRF changed in a
     scene without its strip would silently measure other ghosts), and every given-velocity scene reconstructs
     with the velocity of its target."""
-    import math
 
     from sarproc.focus.backprojection import BackprojectParams
+    from sarproc.focus.multichannel.channels import ghost_spacing
     from sarproc.focus.multichannel.reconstruct import ReconstructParams
     from sarproc.product.config import build, load_yaml
     from sarproc.simulation.scene import scene_from_mapping
 
     def spacing(config):
-        r = scene_from_mapping(dict(config)).radar
-        ka = 2 * (r.velocity * math.cos(r.squint)) ** 2 / (r.wavelength * r.reference_range)
-        return r.prf / ka * r.velocity
+        return ghost_spacing(scene_from_mapping(dict(config)).radar)
 
     strips = 0
     names = ("reproduce_003_cases", "reproduce_003_given", "reproduce_003_speeds", "hard_cases_003")

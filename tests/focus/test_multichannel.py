@@ -64,15 +64,14 @@ def focused(rec, raw, **bp):
 
 def false_target_db(rec, raw) -> float:
     """Strongest response outside +-0.45 ghost spacing of the target on a strip covering +-(N - 0.5) PRF ghosts."""
-    r = rec.radar
-    ka = 2 * (r.velocity * math.cos(r.squint)) ** 2 / (r.wavelength * r.reference_range)
+    spacing = channels.ghost_spacing(rec.radar, raw.radar.prf)
     n = raw.data.shape[0]
-    extent = 2 * (max(n, 2) - 0.5) * raw.radar.prf / ka * r.velocity
+    extent = 2 * (max(n, 2) - 0.5) * spacing
     strip = backproject(
         rec, BackprojectParams(frame="squint_lrwc", azimuth_extent=extent, range_extent=40.0, oversample=1.2)
     )
     # Guard 0.45 ghost spacings (245 cells): the target's own sinc side lobes there are about -57 dB.
-    guard = 0.45 * raw.radar.prf / ka * r.velocity / strip.attrs["theoretical_irw"][0]
+    guard = 0.45 * spacing / strip.attrs["theoretical_irw"][0]
     report = evaluate_product(strip, EvaluateParams(guard_cells=guard))
     return report.false_target.level_db
 

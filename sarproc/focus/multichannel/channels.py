@@ -165,3 +165,11 @@ def product_ghost_level_db(raw, error_phase) -> float:
     offsets = np.asarray(raw.aux["rx_offset"], float)[:, 0] - tx[0]  # receivers along track from the transmitter
     half_band = r.velocity * math.cos(r.squint) * r.azimuth_beamwidth / r.wavelength
     return ghost_level_db(channel_delays(offsets, r.velocity), r.prf, error_phase, half_band)
+
+
+def ghost_spacing(radar, prf: float | None = None) -> float:
+    """Azimuth distance between a target and its first channel ghost, m: PRF v / K_a with the azimuth FM rate
+    K_a = 2 (v cos theta)^2 / (lambda R_ref) at the reference range. ``prf``: the channels' PRF (default the
+    radar's; a reconstructed product's radar carries N times it)."""
+    ka = 2 * (radar.velocity * math.cos(radar.squint)) ** 2 / (radar.wavelength * radar.reference_range)
+    return (radar.prf if prf is None else prf) / ka * radar.velocity
