@@ -91,6 +91,8 @@ def run_stage(
             row["refused"] = " ".join((stderr or stdout).split())[:200]
             return row
         m = PLAN.search(stdout)
+        if m is None:
+            raise RuntimeError(f"{args[0]} --dry-run printed no plan line: {stdout[-300:]!r}")
         plan = dict(plan_out=value(m.group(2)), plan_mem=value(m.group(3)), plan_s=value(m.group(4)))
         if i == 0:
             row["dry_run_wrote"] = output.exists() and not existed
@@ -106,6 +108,7 @@ def run_stage(
             text=True,
             cwd=cwd,
         )
+        assert proc.stderr is not None  # stderr=PIPE
         err = proc.stderr.read()
         _, status, usage = os.wait4(proc.pid, 0)  # reaped here for its rusage (CPU time)
         wall = time.perf_counter() - t0
@@ -115,6 +118,8 @@ def run_stage(
             row["refused"] = " ".join(err.split())[:200]
             return row
         hwm = re.search(r"plan_accuracy: VmHWM (\d+) kB", err)
+        if hwm is None:
+            raise RuntimeError(f"{args[0]}: the run did not report its peak RSS: {err[-300:]!r}")
         rss, cpu = float(hwm.group(1)) * 1024, usage.ru_utime + usage.ru_stime
         row["runs"] = i + 1
         row["wall"] = min(wall, row.get("wall", wall))

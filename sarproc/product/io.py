@@ -34,7 +34,7 @@ import stat
 import sys
 import tempfile
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import h5py
 import numpy as np
@@ -723,7 +723,7 @@ def _read_targets(f: h5py.File, path: Path) -> np.ndarray:
         raise InputError(f"{path}: missing dataset 'targets'")
     targets = np.asarray(f["targets"][()])
     missing = [
-        n for n in TARGET_DTYPE.names if n not in (targets.dtype.names or ()) and n not in TARGET_THEORY_FIELDS
+        n for n in TARGET_DTYPE.names or () if n not in (targets.dtype.names or ()) and n not in TARGET_THEORY_FIELDS
     ]  # theory fields are optional (older files): 0, not recorded
     if missing:
         raise InputError(f"{path}: dataset 'targets' lacks field(s) {missing}")
@@ -824,7 +824,7 @@ def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
         else:
             data = np.empty((0,) * dset.ndim, dtype=dset.dtype)
             attrs["shape"] = dset.shape
-    fields = dict(
+    fields: dict[str, Any] = dict(
         kind=header.kind,
         data=data,
         dims=tuple(dims),

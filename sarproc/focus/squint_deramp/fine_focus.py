@@ -33,6 +33,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+from collections.abc import Callable, Iterable
 
 import numba
 import numpy as np
@@ -51,7 +52,7 @@ from sarproc.focus.squint_deramp.block_copies import (
 from sarproc.product.frames import SquintFrame, SquintLrwcFrame, targets_in_frame
 from sarproc.dsp.interp import KERNELS, resample_rows
 from sarproc.dsp.kernel_cache import CACHE
-from sarproc.product.metadata import C
+from sarproc.product.metadata import C, RadarMetadata
 from sarproc.product.theory import fill_target_theory, window_theory
 from sarproc.focus.squint_deramp.nlcs import (
     VARIANTS,
@@ -67,6 +68,8 @@ from sarproc.dsp.rangecomp import chirp_replica
 from sarproc.focus.squint_deramp.stolt import MODELS, SpectrumModel, stolt_resample
 
 log = logging.getLogger(__name__)
+
+Progress = Callable[[Iterable[int]], Iterable[int]]  # wraps a block range in a progress bar
 
 
 @dataclasses.dataclass(frozen=True)
@@ -314,7 +317,7 @@ def coarse_grid(coarse: Product) -> CoarseGrid:
     )
 
 
-def choose_flow(radar, grid: CoarseGrid, params: FineFocusParams) -> FlowChoice:
+def choose_flow(radar: RadarMetadata, grid: CoarseGrid, params: FineFocusParams) -> FlowChoice:
     """Eq. (17)'s choice of flow for this scene box and aperture (``params.flow`` overrides it)."""
     v, c_th = radar.velocity, math.cos(radar.squint)
     K_c = -2 * v**2 * c_th**2 / (radar.wavelength * grid.scene_centre_range)
@@ -322,13 +325,15 @@ def choose_flow(radar, grid: CoarseGrid, params: FineFocusParams) -> FlowChoice:
     return FlowChoice(params.flow or (1 if scene_half <= half_adof else 2), half_adof, scene_half, K_c)
 
 
-def range_padded_length(radar, n_range: int) -> int:
+def range_padded_length(radar: RadarMetadata, n_range: int) -> int:
     """Range FFT length: the samples plus a chirp, against circular wrap of the chirp."""
     n_chirp = int(math.ceil(radar.pulse_duration * radar.range_sampling_rate))
     return sfft.next_fast_len(n_range + n_chirp)
 
 
-def two_dimensional_spectrum(data: np.ndarray, grid: CoarseGrid, radar, N: int, cdt) -> np.ndarray:
+def two_dimensional_spectrum(
+    data: np.ndarray, grid: CoarseGrid, radar: RadarMetadata, N: int, cdt: type[np.complexfloating]
+) -> np.ndarray:
     """Step 1: range FFT (zero padded to ``N``), eq. (7)'s missing part for the baseline corrections, then
     the centred azimuth DFT: the (f_a, f_r) spectrum, both axes centred."""
     M = len(grid.azimuth_time)
@@ -347,7 +352,7 @@ def two_dimensional_spectrum(data: np.ndarray, grid: CoarseGrid, radar, N: int, 
     return cfft(S, 0, overwrite=True)
 
 
-def _check_range_window(box, s_th: float, r_ref: float, half_window: float) -> None:
+def _check_range_window(box: tuple[float, float, float, float], s_th: float, r_ref: float, half_window: float) -> None:
     """The scene's slant ranges (squint-shifted over its azimuth extent) must fit the range window."""
     if (
         max(
@@ -363,7 +368,14 @@ def _check_range_window(box, s_th: float, r_ref: float, half_window: float) -> N
 
 
 def stolt_to_range_doppler(
-    S: np.ndarray, grid: CoarseGrid, radar, model: SpectrumModel, r_ref: float, params: FineFocusParams, cdt, progress
+    S: np.ndarray,
+    grid: CoarseGrid,
+    radar: RadarMetadata,
+    model: SpectrumModel,
+    r_ref: float,
+    params: FineFocusParams,
+    cdt: type[np.complexfloating],
+    progress: Progress | None,
 ) -> RangeDoppler:
     """Step 2, in place on ``S`` (f_a, f_r): range compression, bulk reference-function multiply at
     ``r_ref``, the modified Stolt mapping (eq. 15) and the range IFFT, block by block of azimuth rows."""
@@ -413,7 +425,14 @@ def stolt_to_range_doppler(
 
 
 def flow1_compress(
-    rd: RangeDoppler, grid: CoarseGrid, radar, model: SpectrumModel, params: FineFocusParams, cdt, blocks, progress
+    rd: RangeDoppler,
+    grid: CoarseGrid,
+    radar: RadarMetadata,
+    model: SpectrumModel,
+    params: FineFocusParams,
+    cdt: type[np.complexfloating],
+    blocks: Iterable[int],
+    progress: Progress | None,
 ) -> AzimuthFocused:
     """Step 3, flow 1, in place on ``rd.data``: eq. (12)'s reference removed and exp(+j r G_c(f_a)) at every
     range bin (direct compression, inside the depth of focus of eq. 17), then the optional azimuth
@@ -435,7 +454,16 @@ def flow1_compress(
     return AzimuthFocused(RD[keep], x[keep], None, {})
 
 
-def _flow1_resample(RD, x, keep, r, radar, grid: CoarseGrid, params: FineFocusParams, progress) -> None:
+def _flow1_resample(
+    RD: np.ndarray,
+    x: np.ndarray,
+    keep: np.ndarray,
+    r: np.ndarray,
+    radar: RadarMetadata,
+    grid: CoarseGrid,
+    params: FineFocusParams,
+    progress: Progress | None,
+) -> None:
     """Flow 1 puts a target at x_n + x_n^2 sin(theta) / r: the residual quadratic phase x_n sin(theta) g2 f_a^2
     is linear around the target's Doppler centre -K t_n (spotlight); resample the kept rows back, in place."""
     s_th = math.sin(radar.squint)
@@ -457,10 +485,17 @@ def _flow1_resample(RD, x, keep, r, radar, grid: CoarseGrid, params: FineFocusPa
         ).T
 
 
-def to_output_frame(focused: AzimuthFocused, rd: RangeDoppler, grid: CoarseGrid, radar, params: FineFocusParams):
+def to_output_frame(
+    focused: AzimuthFocused,
+    range_frequency: np.ndarray,
+    slant_range: np.ndarray,
+    grid: CoarseGrid,
+    radar: RadarMetadata,
+    params: FineFocusParams,
+) -> tuple[np.ndarray, SquintFrame | SquintLrwcFrame, np.ndarray]:
     """Step 4: the range geometry (squint frame: every azimuth line shifted by -x_n sin(theta), the range phase
     factor of sec. 4.2; lrwc: left as is) and the crop to the scene box. Returns (image, frame, ranges)."""
-    img, x, f_r, r = focused.data, focused.x, rd.range_frequency, rd.slant_range
+    img, x, f_r, r = focused.data, focused.x, range_frequency, slant_range
     th, box = radar.squint, grid.scene_box
     s_th = math.sin(th)
     if params.output_frame == "squint":
@@ -486,7 +521,9 @@ def to_output_frame(focused: AzimuthFocused, rd: RangeDoppler, grid: CoarseGrid,
     return img, frame, r[keep_r]
 
 
-def target_theory(coarse: Product, frame, choice: FlowChoice, grid: CoarseGrid) -> np.ndarray:
+def target_theory(
+    coarse: Product, frame: SquintFrame | SquintLrwcFrame, choice: FlowChoice, grid: CoarseGrid
+) -> np.ndarray:
     """The targets table in the image frame with each target's own theory: its Doppler bandwidth |K(r_0)| T at
     its own closest-approach range (K ~ 1/r_0) over a flat aperture, and the flat range band."""
     radar = coarse.radar
@@ -547,8 +584,9 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
             azimuth_blocks,
         )
         focused = AzimuthFocused(img, x, extra["alpha"], extra)
-    rd.data = None  # the range-Doppler array is no longer needed (flow 1's image is a copy of its rows)
-    img, frame, ranges = to_output_frame(focused, rd, grid, radar, params)
+    f_r, r, over, masked = rd.range_frequency, rd.slant_range, rd.stolt_oversampling, rd.stolt_masked_fraction
+    del rd  # the range-Doppler array is no longer needed (flow 1's image is a copy of its rows)
+    img, frame, ranges = to_output_frame(focused, f_r, r, grid, radar, params)
 
     attrs = {
         "frame": frame.spec,
@@ -559,7 +597,7 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
         "flow": int(choice.flow),
         "doppler_correction": grid.doppler_correction,
         "alpha": focused.alpha if focused.alpha is not None else 0.0,
-        "stolt_masked_fraction": rd.stolt_masked_fraction,
+        "stolt_masked_fraction": masked,
         "depth_of_focus_half_width": choice.depth_of_focus_half_width,
     }
     targets = target_theory(coarse, frame, choice, grid)
@@ -570,8 +608,8 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
         "flow": choice.flow,
         "depth_of_focus_half_width": choice.depth_of_focus_half_width,
         "scene_half_width": choice.scene_half_width,
-        "stolt_oversampling": rd.stolt_oversampling,
-        "stolt_masked_fraction": rd.stolt_masked_fraction,
+        "stolt_oversampling": over,
+        "stolt_masked_fraction": masked,
         **focused.info,
     }
     entry = as_dict(params)
