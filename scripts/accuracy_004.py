@@ -34,16 +34,16 @@ import yaml
 from sarproc.focus.array3d.linear_array import Array3DParams, array3d_product
 from sarproc.product.config import as_dict, build, load_yaml
 from sarproc.product.errors import InputError
+from sarproc.quality.image_measures import deviation_db
 from sarproc.quality.metrics import evaluate_product
 from sarproc.quality.summary import worst_quality_json
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
 
 
-def deviation_db(cube, ref):
-    if cube.data.shape != ref.data.shape:
-        return None
-    return float(20 * np.log10(np.abs(cube.data - ref.data).max() / np.abs(ref.data).max() + 1e-30))
+def cube_deviation_db(cube, ref) -> float | None:
+    """The cube's deviation from the reference cube (None: another grid)."""
+    return deviation_db(cube.data, ref.data) if cube.data.shape == ref.data.shape else None
 
 
 def _reference(raw, base, pad):
@@ -89,7 +89,7 @@ def sweep_family(directory: Path, scene: str, base: dict, singles=()) -> list[di
         pad = params.elevation_zero_padding
         if pad not in ref_cache:
             ref_cache[pad] = _reference(raw, base, pad)
-        dev = deviation_db(cube, ref_cache[pad])
+        dev = cube_deviation_db(cube, ref_cache[pad])
         reports = []
         for name in singles or (scene,):
             if (name, key[1]) not in tasks:

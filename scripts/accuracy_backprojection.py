@@ -18,9 +18,9 @@ import argparse
 import json
 from pathlib import Path
 
-import numpy as np
 
 from sarproc.product.io import read_product
+from sarproc.quality.image_measures import deviation_db
 from sarproc.quality.tradeoff import pareto_front, timing_stats
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -95,8 +95,7 @@ def from_sweep(directory: Path) -> list:
         ref = images[REFERENCE].data
         for row in rows:
             img = images[(row["engine"], row["upsample"], row["interpolation"])].data
-            dev = np.abs(img - ref).max() / np.abs(ref).max()
-            row["deviation_db"] = float(20 * np.log10(max(dev, 1e-30)))
+            row["deviation_db"] = deviation_db(img, ref)
             row["within"] = within(row)
         rows.sort(key=lambda r: (r["engine"] != "reference", r["interpolation"], r["upsample"]))
         raw = read_product(next((directory / "raw").glob(f"{scene_key}-*.h5")), load=False)

@@ -53,3 +53,11 @@ def magnitude_ncc(a: np.ndarray, b: np.ndarray) -> float:
     a = a - a.mean()
     b = b - b.mean()
     return float((a * b).sum() / np.sqrt((a**2).sum() * (b**2).sum()))
+
+
+def deviation_db(image: np.ndarray, reference: np.ndarray) -> float:
+    """Largest deviation of ``image`` from ``reference`` relative to the reference's peak, dB:
+    20 log10(max |image - reference| / max |reference|), floored at -600 dB (identical images)."""
+    if image.shape != reference.shape:
+        raise ValueError(f"deviation_db: image {image.shape} and reference {reference.shape} differ in shape")
+    return float(20 * np.log10(max(np.abs(image - reference).max() / np.abs(reference).max(), 1e-30)))

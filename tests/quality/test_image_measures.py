@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from sarproc.quality.image_measures import bright_points, entropy, magnitude_ncc, subpixel_peak
+from sarproc.quality.image_measures import bright_points, deviation_db, entropy, magnitude_ncc, subpixel_peak
 
 
 def _blobs(shape: tuple[int, int], centres: list[tuple[float, float]], amplitudes: list[float]) -> np.ndarray:
@@ -57,3 +57,14 @@ def test_magnitude_ncc_ignores_gain_and_offset():
     assert magnitude_ncc(a, 3.0 * a + 1.0) == pytest.approx(1.0)
     assert magnitude_ncc(a, -a) == pytest.approx(-1.0)
     assert abs(magnitude_ncc(a, rng.random((32, 32)))) < 0.1
+
+
+def test_deviation_db_is_the_peak_normalised_largest_difference():
+    ref = np.zeros((8, 8), complex)
+    ref[2, 3] = 10.0
+    img = ref.copy()
+    img[5, 5] = 0.1j  # -40 dB of the reference's peak
+    assert deviation_db(img, ref) == pytest.approx(-40.0)
+    assert deviation_db(ref, ref) == pytest.approx(-600.0)  # identical: the floor
+    with pytest.raises(ValueError, match="shape"):
+        deviation_db(img[:4], ref)
