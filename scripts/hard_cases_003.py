@@ -25,19 +25,19 @@ from sarproc.product.io import read_product
 from sarproc.quality.summary import worst_quality_json
 from sarproc.simulation.effects.azimuth_channels import AzimuthChannelsParams
 
-CASES = [
-    ("vr20", "v_r 20.0 m/s (search bound 20)"),
-    ("vr20.5", "v_r 20.5 m/s (search bound 20)"),
-    ("single_channel", "single channel (PRF 3 kHz)"),
-    ("imbalance", "imbalance 3 deg / 3 % on channel 3"),
-    ("prf500_mu0", "PRF 500 Hz, mu 0"),
-    ("prf1450_mu0", "PRF 1450 Hz, mu 0"),
-    ("prf1450_mu0.01", "PRF 1450 Hz, mu 0.01"),
-    ("prf1500_mu0", "PRF 1500 Hz, mu 0"),
-    ("prf1500_mu0.001", "PRF 1500 Hz, mu 0.001"),
-    ("prf1500_mu0.01", "PRF 1500 Hz, mu 0.01"),
-    ("prf1500_mu0.1", "PRF 1500 Hz, mu 0.1"),
-]
+LABELS = {  # the sweep's cases (configs/sweeps/hard_cases_003.yaml, <case>-image / <case>-strip) in words
+    "vr20": "v_r 20.0 m/s (search bound 20)",
+    "vr20.5": "v_r 20.5 m/s (search bound 20)",
+    "single_channel": "single channel (PRF 3 kHz)",
+    "imbalance": "imbalance 3 deg / 3 % on channel 3",
+    "prf500_mu0": "PRF 500 Hz, mu 0",
+    "prf1450_mu0": "PRF 1450 Hz, mu 0",
+    "prf1450_mu0.01": "PRF 1450 Hz, mu 0.01",
+    "prf1500_mu0": "PRF 1500 Hz, mu 0",
+    "prf1500_mu0.001": "PRF 1500 Hz, mu 0.001",
+    "prf1500_mu0.01": "PRF 1500 Hz, mu 0.01",
+    "prf1500_mu0.1": "PRF 1500 Hz, mu 0.1",
+}
 
 
 def main():
@@ -48,7 +48,9 @@ def main():
     sweep = res / "sweep-hard"
     rows_in = sweep_rows(sweep)
     rows = []
-    for scene, label in CASES:
+    cases = [r["scene"].removesuffix("-image") for r in rows_in if r["scene"].endswith("-image")]
+    for scene in cases:
+        label = LABELS.get(scene, scene)
         image, strip = pick_row(rows_in, scene=f"{scene}-image"), pick_row(rows_in, scene=f"{scene}-strip")
         rec = read_product(image["dir"] / "reconstruct.h5", check_finite=False)
         info = rec.attrs["reconstruct"]
@@ -68,9 +70,10 @@ def main():
             "az_pslr": az["pslr_db"],
             "peak": t["peak_amplitude"],
         }
-        if scene == "imbalance":
+        channels = load_yaml(image["dir"] / "config.yaml")["effects"].get("azimuth_channels") or {}
+        if channels.get("phase_imbalance") or channels.get("amplitude_imbalance"):  # its ghosts to first order (eq. 6)
+            ch = build(AzimuthChannelsParams, channels)
             raw = read_product(raw_product_of(sweep, f"{scene}-image"), load=False)
-            ch = build(AzimuthChannelsParams, load_yaml(image["dir"] / "config.yaml")["effects"]["azimuth_channels"])
             gain = (1 + np.asarray(ch.amplitude_imbalance)) * np.exp(1j * np.asarray(ch.phase_imbalance))
             row["predicted_db"] = product_ghost_level_db(raw, -1j * np.log(gain))
         rows.append(row)
