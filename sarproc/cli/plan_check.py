@@ -15,8 +15,9 @@ import re
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 PLAN = re.compile(
     r"(\S+): plan: output ~([\d.]+ \w+), (?:working|peak) memory ~([\d.]+ \w+), "
@@ -51,7 +52,7 @@ main()
 def _run(args: list, extra=(), cwd: Path | None = None) -> tuple[int, str, str]:
     """(exit status, stdout, stderr) of one sarproc subprocess."""
     proc = subprocess.run(
-        [sys.executable, "-m", "sarproc", *map(str, args), *extra], capture_output=True, text=True, cwd=cwd
+        [sys.executable, "-m", "sarproc", *map(str, args), *extra], check=False, capture_output=True, text=True, cwd=cwd
     )
     return proc.returncode, proc.stdout, proc.stderr
 
@@ -93,7 +94,7 @@ def run_stage(
         m = PLAN.search(stdout)
         if m is None:
             raise RuntimeError(f"{args[0]} --dry-run printed no plan line: {stdout[-300:]!r}")
-        plan = dict(plan_out=value(m.group(2)), plan_mem=value(m.group(3)), plan_s=value(m.group(4)))
+        plan = {"plan_out": value(m.group(2)), "plan_mem": value(m.group(3)), "plan_s": value(m.group(4))}
         if i == 0:
             row["dry_run_wrote"] = output.exists() and not existed
         if any(row.get(k) != v for k, v in plan.items()):

@@ -17,7 +17,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Iterable, Mapping
-from typing import Any, Optional
+from typing import Any
 
 from sarproc.quality.metrics import AxisMetrics, FalseTarget, QualityReport, TargetReport
 
@@ -29,24 +29,24 @@ SINC_ISLR_DB = -10.16  # over +-10 nulls (the contract's ISLR window)
 class WorstQuality:
     """Worst figures over targets and axes (None: nothing measured)."""
 
-    irw_dev: Optional[float]  # largest |IRW / theory - 1|
-    pslr_db: Optional[float]  # highest PSLR, dB
-    islr_db: Optional[float]  # highest ISLR, dB
-    position_cells: Optional[float]  # largest |position error|, resolution cells
-    false_target_db: Optional[float]  # the image's false-target level, dB (None: not searched or none found)
-    weakest_peak: Optional[float]  # smallest |peak|, image units
+    irw_dev: float | None  # largest |IRW / theory - 1|
+    pslr_db: float | None  # highest PSLR, dB
+    islr_db: float | None  # highest ISLR, dB
+    position_cells: float | None  # largest |position error|, resolution cells
+    false_target_db: float | None  # the image's false-target level, dB (None: not searched or none found)
+    weakest_peak: float | None  # smallest |peak|, image units
 
-    def as_dict(self) -> dict[str, Optional[float]]:
+    def as_dict(self) -> dict[str, float | None]:
         return dataclasses.asdict(self)
 
 
-def _worst(values: Iterable[Optional[float]], pick: Any = max) -> Optional[float]:
+def _worst(values: Iterable[float | None], pick: Any = max) -> float | None:
     finite = [float(v) for v in values if v is not None and math.isfinite(v)]
     return pick(finite) if finite else None
 
 
-def _summarise(axes: list[Mapping[str, Any]], peaks: list[Optional[float]], false_db: Optional[float]) -> WorstQuality:
-    def deviation(key: str, centre: float = 0.0) -> list[Optional[float]]:
+def _summarise(axes: list[Mapping[str, Any]], peaks: list[float | None], false_db: float | None) -> WorstQuality:
+    def deviation(key: str, centre: float = 0.0) -> list[float | None]:
         return [None if a.get(key) is None else abs(a[key] - centre) for a in axes]
 
     return WorstQuality(
@@ -68,7 +68,7 @@ def _axis_fields(a: AxisMetrics) -> dict[str, float]:
     }
 
 
-def worst_of_targets(targets: Iterable[TargetReport], false_target: Optional[FalseTarget] = None) -> WorstQuality:
+def worst_of_targets(targets: Iterable[TargetReport], false_target: FalseTarget | None = None) -> WorstQuality:
     """Worst quality over ``targets`` (their principal-axis cuts); ``false_target``: the image's, if any."""
     targets = list(targets)
     return _summarise(
@@ -101,7 +101,7 @@ class Tolerance:
     irw_dev: float = 0.05  # |IRW / theory - 1|
     pslr_db: float = 0.5  # |PSLR - theory|, dB
     islr_db: float = 0.5  # |ISLR - theory|, dB
-    position_cells: Optional[float] = 0.5  # |position error|, resolution cells
+    position_cells: float | None = 0.5  # |position error|, resolution cells
 
     def __post_init__(self) -> None:
         given = [self.irw_dev, self.pslr_db, self.islr_db, self.position_cells]
