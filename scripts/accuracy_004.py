@@ -1,28 +1,23 @@
 """Accuracy versus time for array3d (paper 004): one row per knob setting.
 
-For each setting of the processing knobs (azimuth RCMC kernel and length, cross-track RCMC
-factors of eqs. (20)/(21), elevation zero-padding, float precision, azimuth model, range filter)
-this measures on the full-size configs/du2010.yaml scene:
-
-* the run time of ``array3d`` on the seven-target raw data (best of ``--repeat`` runs);
-* the deviation of its cube from a float64 reference cube of the same knob family (max |c - c_ref|
-  over the peak, dB), where the grids agree;
-* the worst point-target quality over the seven targets, each simulated and focused alone (the
-  paper's targets sit inside each other's ISLR windows; see scripts/reproduce_004.py):
-  largest |IRW/theory - 1|, highest PSLR, highest ISLR, largest |position error| (cells).
-
-The cross-track knobs are also run on a wide-swath scene (+-30 deg, cross-track RCM of 8 range
-cells) where they matter, and the hard cases are reported with their quality loss. Output:
-``table.md``, ``numbers.json`` and ``accuracy_vs_time.png`` in ``--results``.
-
     python scripts/accuracy_004.py --from-sweep DIR --wide-sweep DIR2 --results results/004-accuracy
 
-``make accuracy-004`` runs the settings as two sweeps (configs/sweeps/accuracy_004.yaml: the paper
-scene and its seven targets alone, 152 tasks; configs/sweeps/accuracy_004_wide.yaml: the wide-swath
-family, 7 tasks) and then this script with ``--from-sweep``: the same tables from the sweeps' products
-(quality from the single-target tasks' reports, the cube deviation from the paper-scene tasks' cubes
-against the float64 reference computed here on the sweep's raw product; the hard cases are run here).
-Its time column is the sweep's array3d time (one run as a CLI step, product I/O included).
+``make accuracy-004`` runs the settings as two sweeps (the one list of settings: configs/sweeps/
+accuracy_004.yaml, the paper scene configs/du2010.yaml and its seven targets alone, 152 tasks;
+configs/sweeps/accuracy_004_wide.yaml, the wide-swath family, 7 tasks) and then this script. Per setting:
+
+* the sweep's array3d time on the seven-target raw data (best and spread of its interleaved repeats as a
+  CLI step, product I/O included);
+* the deviation of its cube from a float64 reference cube of the same knob family (max |c - c_ref| over
+  the peak, dB), where the grids agree: the reference is focused here on the sweep's raw product;
+* the worst point-target quality over the seven targets, each simulated and focused alone (the
+  paper's targets sit inside each other's ISLR windows; see scripts/reproduce_004.py), from the
+  single-target tasks' reports (sarproc.quality.summary): largest |IRW/theory - 1|, highest PSLR,
+  highest ISLR, largest |position error| (cells).
+
+The cross-track knobs are also run on a wide-swath scene (+-30 deg, cross-track RCM of 8 range cells)
+where they matter, and the hard cases are run here and reported with their quality loss. Output:
+``table.md``, ``numbers.json`` and ``accuracy_vs_time.png`` in ``--results``.
 """
 
 from __future__ import annotations
@@ -31,133 +26,24 @@ import argparse
 import copy
 import json
 import math
-import time
 from pathlib import Path
 
 import numpy as np
 import yaml
 
-from sarproc.product.config import load_yaml
 from sarproc.focus.array3d.linear_array import Array3DParams, array3d_product
-from sarproc.product.config import as_dict, build
+from sarproc.product.config import as_dict, build, load_yaml
 from sarproc.product.errors import InputError
+from sarproc.quality.image_measures import deviation_db
 from sarproc.quality.metrics import evaluate_product
+from sarproc.quality.summary import worst_quality_json
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
 
-SETTINGS = [
-    ("default (sinc 16, per_bin, pad 4, float32)", {}),
-    ("rcmc none", {"rcmc_kernel": "none"}),
-    ("rcmc nearest", {"rcmc_kernel": "nearest"}),
-    ("rcmc linear", {"rcmc_kernel": "linear"}),
-    ("rcmc cubic", {"rcmc_kernel": "cubic"}),
-    ("rcmc lanczos 8", {"rcmc_kernel": "lanczos", "rcmc_kernel_length": 8}),
-    ("rcmc sinc 8", {"rcmc_kernel_length": 8}),
-    ("rcmc sinc 32", {"rcmc_kernel_length": 32}),
-    ("eq20 on + eq21 per_bin", {"cross_track_rcmc_range": "reference"}),
-    ("eq21 reference (0 deg)", {"cross_track_rcmc_elevation": "reference"}),
-    (
-        "eq20 + eq21 reference (0 deg)",
-        {"cross_track_rcmc_range": "reference", "cross_track_rcmc_elevation": "reference"},
-    ),
-    ("no cross-track RCMC", {"cross_track_rcmc_elevation": "off"}),
-    ("no deramp (eq. 23 off)", {"deramp": False}),
-    ("elevation pad 1", {"elevation_zero_padding": 1}),
-    ("elevation pad 2", {"elevation_zero_padding": 2}),
-    ("elevation pad 8", {"elevation_zero_padding": 8}),
-    ("float64", {"precision": "float64"}),
-    ("azimuth hyperbolic", {"azimuth_model": "hyperbolic"}),
-    ("range filter flat", {"range_filter": "flat"}),
-]
 
-WIDE = load_yaml(Path(__file__).resolve().parents[1] / "configs" / "du2010_wide_swath.yaml")
-WIDE_SETTINGS = [s for s in SETTINGS if s[0].startswith(("default", "eq2", "no cross", "float64"))] + [
-    ("eq21 reference (30 deg)", {"cross_track_rcmc_elevation": "reference", "reference_elevation": "30 deg"})
-]
-
-
-def worst(reports) -> dict:
-    axes = [m for r in reports for m in r.axes]
-    return {
-        "irw_dev": max(abs(m.irw_ratio - 1) for m in axes),
-        "pslr": max(m.pslr_db for m in axes),
-        "islr": max(m.islr_db for m in axes),
-        "pos": max(abs(m.position_error_cells) for m in axes),
-        "peak": min(r.peak_amplitude for r in reports),
-    }
-
-
-def timed(raw, params, repeat):
-    best, cube = math.inf, None
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        cube, _ = array3d_product(raw, params)
-        best = min(best, time.perf_counter() - t0)
-    return best, cube
-
-
-def deviation_db(cube, ref):
-    if cube.data.shape != ref.data.shape:
-        return None
-    return float(20 * np.log10(np.abs(cube.data - ref.data).max() / np.abs(ref.data).max() + 1e-30))
-
-
-def run_family(mapping, settings, base, repeat, isolated=True, off_nadir_theory=False):
-    raw = simulate(scene_from_mapping(mapping))
-    singles = []
-    if isolated:
-        for pt in mapping["targets"]["points"]:
-            m = copy.deepcopy(mapping)
-            m["targets"]["points"] = [pt]
-            singles.append((pt["name"], simulate(scene_from_mapping(m))))
-    ref_cache = {}
-    rows = []
-    array3d_product(raw, build(Array3DParams, base))  # warm-up (FFT plans, imports) before timing
-    for label, knobs in settings:
-        params = build(Array3DParams, {**base, **knobs}, source=label)
-        t, cube = timed(raw, params, repeat)
-        ref_key = params.elevation_zero_padding
-        if ref_key not in ref_cache:
-            ref_params = build(
-                Array3DParams,
-                {**base, "precision": "float64", "rcmc_kernel_length": 32, "elevation_zero_padding": ref_key},
-            )
-            ref_cache[ref_key] = array3d_product(raw, ref_params)[0]
-        dev = deviation_db(cube, ref_cache[ref_key])
-        if isolated:
-            reps = [evaluate_product(array3d_product(r, params)[0]).target(n) for n, r in singles]
-        else:
-            rep = evaluate_product(cube)
-            reps = list(rep.targets)
-        w = worst(reps)
-        per_target = {
-            r.name: {
-                "peak": r.peak_amplitude,
-                **{
-                    m.axis: {
-                        "irw_ratio": m.irw_ratio,
-                        "pslr": m.pslr_db,
-                        "islr": m.islr_db,
-                        "pos": m.position_error_cells,
-                    }
-                    for m in r.axes
-                },
-            }
-            for r in reps
-        }
-        rows.append(
-            {
-                "label": label,
-                "knobs": knobs,
-                "params": as_dict(params),
-                "seconds": t,
-                "deviation_db": dev,
-                "worst": w,
-                "targets": per_target,
-            }
-        )
-        print(f"{label:45s} {t:6.2f} s  dev {dev if dev is None else round(dev, 1)} dB  worst {w}", flush=True)
-    return rows
+def cube_deviation_db(cube, ref) -> float | None:
+    """The cube's deviation from the reference cube (None: another grid)."""
+    return deviation_db(cube.data, ref.data) if cube.data.shape == ref.data.shape else None
 
 
 def _reference(raw, base, pad):
@@ -167,61 +53,51 @@ def _reference(raw, base, pad):
     )[0]
 
 
-def _worst_json(targets) -> dict:
-    """worst() of evaluate's JSON report targets (the sweep's report.json)."""
-    axes = [a for t in targets for a in t["axes"]]
-    return {
-        "irw_dev": max(abs(a["irw_ratio"] - 1) for a in axes),
-        "pslr": max(a["pslr_db"] for a in axes),
-        "islr": max(a["islr_db"] for a in axes),
-        "pos": max(abs(a["position_error_cells"]) for a in axes),
-        "peak": min(t["peak_amplitude"] for t in targets),
-    }
+def _resolved(config: dict) -> str:
+    """A task's array3d parameters, resolved (defaults filled in), as a comparable key."""
+    return json.dumps(as_dict(build(Array3DParams, config.get("array3d") or {})), sort_keys=True, default=str)
 
 
-def sweep_family(directory: Path, scene: str, settings, base, singles=()):
-    """run_family's rows from a sweep: ``scene`` is the full scene's name in the sweep, ``singles`` the
-    names of its one-target scenes (empty: quality over the full scene's targets, as isolated=False)."""
+def sweep_family(directory: Path, scene: str, base: dict, singles=()) -> list[dict]:
+    """One row per task of ``scene`` in the sweep (its order): time, cube deviation and the worst quality over
+    the targets of ``singles`` (the names of its one-target scenes with the same setting; empty: over the
+    scene's own targets)."""
     from sarproc.product.io import read_product
 
     doc = json.loads((directory / "table.json").read_text())
     if doc["failures"]:
         raise SystemExit(f"{directory}: the sweep has failed tasks: {doc['failures']}")
-    tasks = {}  # (scene, resolved array3d params) -> task id
+    tasks, order = {}, []  # (scene, resolved array3d params) -> (task id, row); the scene's keys in order
     for row in doc["rows"]:
-        config = load_yaml(directory / "tasks" / row["task"] / "config.yaml")
-        key = (
-            row["scene"],
-            json.dumps(as_dict(build(Array3DParams, config.get("array3d") or {})), sort_keys=True, default=str),
-        )
+        key = (row["scene"], _resolved(load_yaml(directory / "tasks" / row["task"] / "config.yaml")))
         if key in tasks:
             raise SystemExit(f"{directory}: tasks {tasks[key][0]} and {row['task']} have the same setting")
         tasks[key] = (row["task"], row)
+        if row["scene"] == scene:
+            order.append(key)
     raws = sorted((directory / "raw").glob(f"{scene}-*.h5"))
     if len(raws) != 1:
         raise SystemExit(f"{directory}: expected one raw product of scene {scene}, found {len(raws)}")
     raw = read_product(raws[0])
     ref_cache, rows, used = {}, [], set()
-    for label, knobs in settings:
-        params = build(Array3DParams, {**base, **knobs}, source=label)
-        want = json.dumps(as_dict(params), sort_keys=True, default=str)
-
-        def task(name):
-            if (name, want) not in tasks:
-                raise SystemExit(f"{directory}: no task of scene {name} with the setting {label!r}")
-            used.add((name, want))
-            return tasks[(name, want)]
-
-        task_id, row = task(scene)
+    for key in order:
+        task_id, row = tasks[key]
+        knobs = {k.split(".", 1)[1]: v for k, v in row.items() if k.startswith("array3d.")}
+        label = ", ".join(f"{k} {v}" for k, v in knobs.items())
+        params = build(Array3DParams, load_yaml(directory / "tasks" / task_id / "config.yaml").get("array3d") or {})
         cube = read_product(directory / "tasks" / task_id / "array3d.h5")
         pad = params.elevation_zero_padding
         if pad not in ref_cache:
             ref_cache[pad] = _reference(raw, base, pad)
-        dev = deviation_db(cube, ref_cache[pad])
-        names = singles or (scene,)
-        reports = [json.loads((directory / "tasks" / task(n)[0] / "report.json").read_text()) for n in names]
+        dev = cube_deviation_db(cube, ref_cache[pad])
+        reports = []
+        for name in singles or (scene,):
+            if (name, key[1]) not in tasks:
+                raise SystemExit(f"{directory}: no task of scene {name} with the setting of {task_id}")
+            used.add((name, key[1]))
+            reports.append(json.loads((directory / "tasks" / tasks[(name, key[1])][0] / "report.json").read_text()))
         targets = [t for r in reports for t in r["targets"]]
-        w = _worst_json(targets)
+        w = worst_quality_json({"targets": targets})
         per_target = {
             t["name"]: {
                 "peak": t["peak_amplitude"],
@@ -245,18 +121,15 @@ def sweep_family(directory: Path, scene: str, settings, base, singles=()):
                 "seconds": row["focus_s"],
                 "times": row.get("focus_times") or [row["focus_s"]],
                 "deviation_db": dev,
-                "worst": w,
+                "worst": w.as_dict(),
                 "targets": per_target,
                 "task": task_id,
             }
         )
-        print(
-            f"{label:45s} {row['focus_s']:6.2f} s  dev {dev if dev is None else round(dev, 1)} dB  worst {w}",
-            flush=True,
-        )
-    extra = sorted(t for (n, k), (t, _) in tasks.items() if (n, k) not in used and (n == scene or n in singles))
+        print(f"{label:45s} {row['focus_s']:6.2f} s  dev {dev if dev is None else round(dev, 1)} dB  worst {w}")
+    extra = sorted(t for (n, k), (t, _) in tasks.items() if (n, k) not in used and n in singles)
     if extra:
-        raise SystemExit(f"{directory}: tasks that are none of the script's settings: {extra}")
+        raise SystemExit(f"{directory}: single-target tasks with no setting of scene {scene}: {extra}")
     return rows
 
 
@@ -324,41 +197,26 @@ def hard_cases(mapping) -> list[dict]:
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--results", default="results/004-accuracy")
-    ap.add_argument("--config", default="configs/du2010.yaml")
-    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--config", default="configs/du2010.yaml", help="the paper scene of the sweep")
     ap.add_argument(
-        "--from-sweep",
-        type=Path,
-        default=None,
-        help="the paper-scene tables from this sweep (configs/sweeps/accuracy_004.yaml) instead of runs",
+        "--wide-config", default="configs/du2010_wide_swath.yaml", help="the wide-swath scene of the wide sweep"
     )
-    ap.add_argument(
-        "--wide-sweep",
-        type=Path,
-        default=None,
-        help="with --from-sweep: the wide-swath sweep (configs/sweeps/accuracy_004_wide.yaml)",
-    )
+    ap.add_argument("--from-sweep", type=Path, required=True, help="the sweep of configs/sweeps/accuracy_004.yaml")
+    ap.add_argument("--wide-sweep", type=Path, required=True, help="the sweep of configs/sweeps/accuracy_004_wide.yaml")
     args = ap.parse_args(argv)
-    if (args.from_sweep is None) != (args.wide_sweep is None):
-        ap.error("--from-sweep and --wide-sweep go together")
     out = Path(args.results)
     out.mkdir(parents=True, exist_ok=True)
     with open(args.config) as fh:
         mapping = yaml.safe_load(fh)
     base = mapping.pop("array3d", {}) or {}
-    if args.from_sweep:
-        singles = tuple(f"target{pt['name']}" for pt in mapping["targets"]["points"])
-        paper = sweep_family(args.from_sweep, "du2010", SETTINGS, base, singles)
-        wide = sweep_family(args.wide_sweep, "wide", WIDE_SETTINGS, {})
-        timing = (
-            f"times are the sweeps' array3d times ({args.from_sweep}, {args.wide_sweep}: best and spread "
-            "(max - min) of the sweeps' interleaved repeats as a CLI step, product reads and writes included; "
-            "a setting is faster than another only when its worst time is below the other's best)"
-        )
-    else:
-        paper = run_family(mapping, SETTINGS, base, args.repeat)
-        wide = run_family(WIDE, WIDE_SETTINGS, {}, args.repeat, isolated=False)
-        timing = f"times are the best of {args.repeat} in-process runs"
+    singles = tuple(f"target{pt['name']}" for pt in mapping["targets"]["points"])
+    paper = sweep_family(args.from_sweep, "du2010", base, singles)
+    wide = sweep_family(args.wide_sweep, "wide", load_yaml(args.wide_config).get("array3d") or {})
+    timing = (
+        f"times are the sweeps' array3d times ({args.from_sweep}, {args.wide_sweep}: best and spread "
+        "(max - min) of the sweeps' interleaved repeats as a CLI step, product reads and writes included; "
+        "a setting is faster than another only when its worst time is below the other's best)"
+    )
     hard = hard_cases(mapping)
     (out / "numbers.json").write_text(json.dumps({"paper": paper, "wide": wide, "hard": hard}, indent=1, default=str))
 
@@ -376,8 +234,8 @@ def main(argv=None):
             dev = "n/a (other grid)" if r["deviation_db"] is None else f"{r['deviation_db']:.1f}"
             spread = max(r.get("times") or [r["seconds"]]) - min(r.get("times") or [r["seconds"]])
             L.append(
-                f"| {r['label']} | {r['seconds']:.2f} | {spread:.2f} | {dev} | {w['irw_dev']:.3f} | {w['pslr']:.2f} | "
-                f"{w['islr']:.2f} | {w['pos']:.3f} |"
+                f"| {r['label']} | {r['seconds']:.2f} | {spread:.2f} | {dev} | {w['irw_dev']:.3f} | {w['pslr_db']:.2f} | "
+                f"{w['islr_db']:.2f} | {w['position_cells']:.3f} |"
             )
         return L + [""]
 

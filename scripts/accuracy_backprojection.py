@@ -1,61 +1,32 @@
 #!/usr/bin/env python
 """Accuracy versus time for backprojection: engine x range upsampling x interpolation.
 
-    python scripts/accuracy_backprojection.py [--out results/bp-accuracy] [--repeat 2]
     python scripts/accuracy_backprojection.py --from-sweep DIR [--out results/bp-accuracy]
 
 ``make accuracy-backprojection`` runs the settings as a sweep (configs/sweeps/backprojection.yaml, on
-Dask) and then this script with ``--from-sweep``: the same table from the sweep's products (its time
-columns are the sweep's focus times, best, median and spread of its interleaved repeats, product I/O
-included), the deviation from the finest image
-read off the sweep's images (what a sweep row cannot hold).
-
-On the two reference scenes of ``make check-backprojection`` (configs/bp_stripmap.yaml,
-configs/bp_squint30.yaml) each setting of ``backproject.engine``, ``backproject.upsample`` and
-``backproject.interpolation`` is timed (best of ``--repeat`` in-process runs, same raw data, same grid)
-and its image compared with the finest setting (float64 reference engine, upsample 32, linear):
-max |image - finest| / max |finest| in dB, and the worst
-point-target quality over targets and axes (|IRW/theory - 1|, PSLR, ISLR, |position error| in cells).
-Writes ``table.md`` and ``table.json``.
+Dask: the one list of settings) and then this script: the table of the sweep's rows (its time columns are
+the sweep's focus times, best, median and spread of its interleaved repeats, product I/O included; the
+worst point-target quality over targets and axes, |IRW/theory - 1|, PSLR, ISLR, |position error| in cells,
+is the sweep's), with what a sweep row cannot hold read off the sweep's images: the deviation of every
+image from the finest setting (float64 reference engine, upsample 32, linear), max |image - finest| /
+max |finest| in dB. Writes ``table.md`` and ``table.json``.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import time
 from pathlib import Path
 
-import numpy as np
 
-from sarproc.focus.backprojection import BackprojectParams, backproject
-from sarproc.product.config import build, load_yaml
-from sarproc.quality.metrics import evaluate_product
+from sarproc.product.io import read_product
+from sarproc.quality.image_measures import deviation_db
 from sarproc.quality.tradeoff import pareto_front, timing_stats
-from sarproc.simulation.scene import scene_from_mapping
-from sarproc.simulation.simulate import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
-SCENES = ("bp_stripmap.yaml", "bp_squint30.yaml")
-SETTINGS = (
-    [("reference", u, "nearest") for u in (1, 4, 16)]
-    + [("reference", u, "linear") for u in (1, 2, 4, 8, 16, 32)]
-    + [("compiled", u, "linear") for u in (4, 8, 16)]
-    + [("compiled", u, "cubic") for u in (2, 4, 8)]
-    + [("compiled", u, "knab") for u in (1, 2, 4)]
-)
+SCENES = {"stripmap": "bp_stripmap.yaml", "squint30": "bp_squint30.yaml"}  # the sweep's scene names
 REFERENCE = ("reference", 32, "linear")
 TOL = {"irw": 0.03, "pslr": 0.3, "islr": 0.3, "pos": 0.05}  # issue 2's tolerances for the reference
-
-
-def worst(report):
-    axes = [a for t in report.targets for a in t.axes]
-    return {
-        "irw_dev": max(abs(a.irw_ratio - 1) for a in axes),
-        "pslr": max(a.pslr_db for a in axes),
-        "islr": max(a.islr_db for a in axes),
-        "pos": max(abs(a.position_error_cells) for a in axes),
-    }
 
 
 def within(q):
@@ -65,45 +36,6 @@ def within(q):
         and abs(q["islr"] + 10.16) < TOL["islr"]
         and q["pos"] < TOL["pos"]
     )
-
-
-def run_scene(name, repeat):
-    mapping = load_yaml(ROOT / "configs" / name)
-    stage = mapping.pop("backproject", {}) or {}
-    raw = simulate(scene_from_mapping(mapping, name))
-    rows, images = [], {}
-    for engine, upsample, interp in [REFERENCE] + [s for s in SETTINGS if s != REFERENCE]:
-        params = build(
-            BackprojectParams,
-            {**stage, "engine": engine, "upsample": upsample, "interpolation": interp},
-            name,
-            "backproject",
-        )
-        times = []
-        for _ in range(repeat):
-            t0 = time.perf_counter()
-            img = backproject(raw, params)
-            times.append(time.perf_counter() - t0)
-        best = min(times)
-        images[(engine, upsample, interp)] = img.data
-        ref = images[REFERENCE]
-        dev = np.abs(img.data - ref).max() / np.abs(ref).max()
-        q = worst(evaluate_product(img))
-        rows.append(
-            {
-                "engine": engine,
-                "upsample": upsample,
-                "interpolation": interp,
-                "time_s": best,
-                "times_s": times,
-                "deviation_db": float(20 * np.log10(max(dev, 1e-30))),
-                **q,
-                "within": within(q),
-            }
-        )
-    rows.sort(key=lambda r: (r["engine"] != "reference", r["interpolation"], r["upsample"]))
-    shape = next(iter(images.values())).shape
-    return {"scene": name, "raw_shape": list(raw.data.shape), "image_shape": list(shape), "rows": rows}
 
 
 def table(result):
@@ -135,14 +67,12 @@ def table(result):
 
 
 def from_sweep(directory: Path) -> list:
-    """The per-scene results of :func:`run_scene` rebuilt from a sweep of configs/sweeps/backprojection.yaml."""
-    from sarproc.product.io import read_product
-
+    """Per scene: its rows (the sweep's times and quality, the deviation from the finest image) and shapes."""
     doc = json.loads((directory / "table.json").read_text())
     if doc["failures"]:
         raise SystemExit(f"{directory}: the sweep has failed tasks: {doc['failures']}")
     results = []
-    for scene_key, scene in (("stripmap", SCENES[0]), ("squint30", SCENES[1])):
+    for scene_key, scene in SCENES.items():
         rows, images = [], {}
         for r in [r for r in doc["rows"] if r["scene"] == scene_key]:
             setting = (r["backproject.engine"], int(r["backproject.upsample"]), r["backproject.interpolation"])
@@ -165,8 +95,7 @@ def from_sweep(directory: Path) -> list:
         ref = images[REFERENCE].data
         for row in rows:
             img = images[(row["engine"], row["upsample"], row["interpolation"])].data
-            dev = np.abs(img - ref).max() / np.abs(ref).max()
-            row["deviation_db"] = float(20 * np.log10(max(dev, 1e-30)))
+            row["deviation_db"] = deviation_db(img, ref)
             row["within"] = within(row)
         rows.sort(key=lambda r: (r["engine"] != "reference", r["interpolation"], r["upsample"]))
         raw = read_product(next((directory / "raw").glob(f"{scene_key}-*.h5")), load=False)
@@ -184,20 +113,12 @@ def from_sweep(directory: Path) -> list:
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "bp-accuracy")
-    ap.add_argument("--repeat", type=int, default=2)
-    ap.add_argument(
-        "--from-sweep",
-        type=Path,
-        default=None,
-        help="build the table from this sweep's products instead of running the settings",
-    )
+    ap.add_argument("--from-sweep", type=Path, required=True, help="the sweep of configs/sweeps/backprojection.yaml")
     args = ap.parse_args(argv)
-    results = from_sweep(args.from_sweep) if args.from_sweep else [run_scene(s, args.repeat) for s in SCENES]
+    results = from_sweep(args.from_sweep)
     timing = (
         f"Times are the sweep's focus times ({min(len(r['times_s']) for s in results for r in s['rows'])} "
         f"interleaved runs each, product I/O included; {args.from_sweep})."
-        if args.from_sweep
-        else f"Times are {args.repeat} in-process runs on this machine (one setting's back to back)."
     )
     timing += (
         " A setting is faster than another only when its worst time is below the other's best; the Pareto "

@@ -43,6 +43,8 @@ from pathlib import Path
 import numpy as np
 import scipy.fft as sfft
 
+from sarproc.product.budget import fft_seconds
+
 ROOT = Path(__file__).resolve().parents[1]
 C = 299_792_458.0
 
@@ -77,13 +79,6 @@ def measure(fn):
     return out, wall, cpu / wall, rise
 
 
-def fft_yardstick(shape) -> float:
-    x = np.ones(shape, np.complex64)
-    t0 = time.perf_counter()
-    sfft.fft2(x, workers=-1)
-    return time.perf_counter() - t0
-
-
 class Stage:
     """One timed stage: best time over rounds, its FFT yardstick, peak RSS ratio, CPU/wall of the best run."""
 
@@ -95,7 +90,7 @@ class Stage:
         self.extra = {}
 
     def run(self):
-        self.fft = min(self.fft, fft_yardstick(self.in_shape))
+        self.fft = min(self.fft, fft_seconds(self.in_shape, repeats=1))
         out, wall, cpu, rise = measure(self.fn)
         out_bytes = sum(np.asarray(o).nbytes for o in (out if isinstance(out, tuple) else (out,)))
         ratio = (self.in_bytes + rise) / (self.in_bytes + out_bytes)

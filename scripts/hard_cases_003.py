@@ -14,28 +14,30 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 from pathlib import Path
 
 import numpy as np
 
-from reproduce_003 import load_json, mfta_db, pick, raw_of, sweep_rows
-from sarproc.focus.multichannel import channels
+from sarproc.cli.sweep_output import pick_row, raw_product_of, sweep_rows
+from sarproc.focus.multichannel.channels import product_ghost_level_db
+from sarproc.product.config import build, load_yaml
 from sarproc.product.io import read_product
+from sarproc.quality.summary import worst_quality_json
+from sarproc.simulation.effects.azimuth_channels import AzimuthChannelsParams
 
-CASES = [
-    ("vr20", "v_r 20.0 m/s (search bound 20)"),
-    ("vr20.5", "v_r 20.5 m/s (search bound 20)"),
-    ("single_channel", "single channel (PRF 3 kHz)"),
-    ("imbalance", "imbalance 3 deg / 3 % on channel 3"),
-    ("prf500_mu0", "PRF 500 Hz, mu 0"),
-    ("prf1450_mu0", "PRF 1450 Hz, mu 0"),
-    ("prf1450_mu0.01", "PRF 1450 Hz, mu 0.01"),
-    ("prf1500_mu0", "PRF 1500 Hz, mu 0"),
-    ("prf1500_mu0.001", "PRF 1500 Hz, mu 0.001"),
-    ("prf1500_mu0.01", "PRF 1500 Hz, mu 0.01"),
-    ("prf1500_mu0.1", "PRF 1500 Hz, mu 0.1"),
-]
+LABELS = {  # the sweep's cases (configs/sweeps/hard_cases_003.yaml, <case>-image / <case>-strip) in words
+    "vr20": "v_r 20.0 m/s (search bound 20)",
+    "vr20.5": "v_r 20.5 m/s (search bound 20)",
+    "single_channel": "single channel (PRF 3 kHz)",
+    "imbalance": "imbalance 3 deg / 3 % on channel 3",
+    "prf500_mu0": "PRF 500 Hz, mu 0",
+    "prf1450_mu0": "PRF 1450 Hz, mu 0",
+    "prf1450_mu0.01": "PRF 1450 Hz, mu 0.01",
+    "prf1500_mu0": "PRF 1500 Hz, mu 0",
+    "prf1500_mu0.001": "PRF 1500 Hz, mu 0.001",
+    "prf1500_mu0.01": "PRF 1500 Hz, mu 0.01",
+    "prf1500_mu0.1": "PRF 1500 Hz, mu 0.1",
+}
 
 
 def main():
@@ -46,12 +48,15 @@ def main():
     sweep = res / "sweep-hard"
     rows_in = sweep_rows(sweep)
     rows = []
-    for scene, label in CASES:
-        image, strip = pick(rows_in, scene=f"{scene}-image"), pick(rows_in, scene=f"{scene}-strip")
+    cases = [r["scene"].removesuffix("-image") for r in rows_in if r["scene"].endswith("-image")]
+    for scene in cases:
+        label = LABELS.get(scene, scene)
+        image, strip = pick_row(rows_in, scene=f"{scene}-image"), pick_row(rows_in, scene=f"{scene}-strip")
         rec = read_product(image["dir"] / "reconstruct.h5", check_finite=False)
         info = rec.attrs["reconstruct"]
         mts = info["moving_targets"]
-        t = load_json(image["dir"] / "report.json")["targets"][0]
+        t = json.loads((image["dir"] / "report.json").read_text())["targets"][0]
+        mfta = worst_quality_json(json.loads((strip["dir"] / "report.json").read_text())).false_target_db
         az = {a["axis"]: a for a in t["axes"]}["azimuth"]
         row = {
             "case": label,
@@ -60,18 +65,17 @@ def main():
             "noise_gain_db": info["noise_gain_db"],
             "v_r_est": mts[0]["radial_velocity"] if mts else None,
             "at_bound": mts[0]["at_bound"] if mts else None,
-            "mfta_db": mfta_db(load_json(strip["dir"] / "report.json")),
+            "mfta_db": float("-inf") if mfta is None else mfta,
             "az_irw_ratio": az["irw_ratio"],
             "az_pslr": az["pslr_db"],
             "peak": t["peak_amplitude"],
         }
-        if scene == "imbalance":
-            raw = read_product(raw_of(sweep, f"{scene}-image"), load=False)
-            r = raw.radar
-            tau = channels.channel_delays(raw.aux["rx_offset"][:, 0], r.velocity)
-            half = r.velocity * math.cos(r.squint) * r.azimuth_beamwidth / r.wavelength
-            gain = np.array([1.0, 1.0, 1.03 * np.exp(1j * np.radians(3.0))])
-            row["predicted_db"] = channels.ghost_level_db(tau, r.prf, -1j * np.log(gain), half)
+        channels = load_yaml(image["dir"] / "config.yaml")["effects"].get("azimuth_channels") or {}
+        if channels.get("phase_imbalance") or channels.get("amplitude_imbalance"):  # its ghosts to first order (eq. 6)
+            ch = build(AzimuthChannelsParams, channels)
+            raw = read_product(raw_product_of(sweep, f"{scene}-image"), load=False)
+            gain = (1 + np.asarray(ch.amplitude_imbalance)) * np.exp(1j * np.asarray(ch.phase_imbalance))
+            row["predicted_db"] = product_ghost_level_db(raw, -1j * np.log(gain))
         rows.append(row)
     (res / "hard_cases.json").write_text(json.dumps(rows, indent=1, default=float))
     cols = [

@@ -19,18 +19,22 @@ import json
 import math
 from pathlib import Path
 
+from sarproc.cli.sweep_output import sweep_rows
 from sarproc.focus.pfa.chain import antenna_positions, image_frame
 from sarproc.focus.pfa.polar import wavenumbers
 from sarproc.focus.pfa.two_step import pslr_rise_db
 from sarproc.product.io import read_product
+from sarproc.quality.summary import worst_quality_json
 
 PSLR, ISLR = -13.26, -10.16
 EQ7 = "97.7300277783166 m"
 
 
 def worst(targets, names=None) -> dict:
-    """Worst values over the targets (named ones only, if given) and their axes of an evaluate report."""
-    axes = [a for t in targets if names is None or t["name"] in names for a in t["axes"]]
+    """Worst values over the targets (named ones only, if given) and their axes of an evaluate report, and how
+    many targets are within the issue's tolerance."""
+    chosen = [t for t in targets if names is None or t["name"] in names]
+    w = worst_quality_json({"targets": chosen})
     inside = sum(
         all(
             abs(a["irw_ratio"] - 1) <= 0.05
@@ -39,14 +43,13 @@ def worst(targets, names=None) -> dict:
             and abs(a["position_error_cells"]) < 0.5
             for a in t["axes"]
         )
-        for t in targets
-        if names is None or t["name"] in names
+        for t in chosen
     )
     return {
-        "pslr_db": max(a["pslr_db"] for a in axes),
-        "islr_db": max(a["islr_db"] for a in axes),
-        "irw_dev": max(abs(a["irw_ratio"] - 1) for a in axes),
-        "position_cells": max(abs(a["position_error_cells"]) for a in axes),
+        "pslr_db": w.pslr_db,
+        "islr_db": w.islr_db,
+        "irw_dev": w.irw_dev,
+        "position_cells": w.position_cells,
         "in_tolerance": inside,
         "centre_azimuth_pslr_db": next(
             (a["pslr_db"] for t in targets if t["name"] == "T02_02" for a in t["axes"] if a["axis"] == "azimuth"), None
@@ -54,15 +57,8 @@ def worst(targets, names=None) -> dict:
     }
 
 
-def rows_of(directory: Path) -> dict:
-    doc = json.loads((directory / "table.json").read_text())
-    if doc["failures"]:
-        raise SystemExit(f"{directory}: the sweep has failed tasks: {doc['failures']}")
-    return doc["rows"]
-
-
-def report(directory: Path, row) -> dict:
-    return json.loads((directory / "tasks" / row["task"] / "report.json").read_text())
+def report(row) -> dict:
+    return json.loads((row["dir"] / "report.json").read_text())
 
 
 def case(row) -> str:
@@ -79,8 +75,8 @@ def main(argv=None):
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     scenes: dict = {}
-    for row in rows_of(args.pfa_sweep):
-        rep = report(args.pfa_sweep, row)
+    for row in sweep_rows(args.pfa_sweep):
+        rep = report(row)
         entry = scenes.setdefault(row["scene"], {})
         names = ["T02_02"] if case(row) == "plain" else None
         entry[case(row)] = {
@@ -100,8 +96,8 @@ def main(argv=None):
             entry["r_ac"] = float(((pos[len(pos) // 2] - frame.origin) ** 2).sum() ** 0.5)
             entry["k_max"] = float(wavenumbers(raw.radar.carrier_frequency, raw.radar.bandwidth / 2))
             entry["swing_m"] = [float(pos[:, i].max() - pos[:, i].min()) for i in (1, 2)]
-    for row in rows_of(args.bp_sweep):
-        rep = report(args.bp_sweep, row)
+    for row in sweep_rows(args.bp_sweep):
+        rep = report(row)
         scenes[row["scene"]]["bp"] = {
             **worst(rep["targets"]),
             "focus_s": row["focus_s"],

@@ -19,19 +19,12 @@ from __future__ import annotations
 import argparse
 import datetime
 import os
-import re
-import subprocess
-import sys
-import time
 from pathlib import Path
+
+from sarproc.cli.plan_check import run_stage, within
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIGS = ROOT / "configs"
-PLAN = re.compile(
-    r"(\S+): plan: output ~([\d.]+ \w+), (?:working|peak) memory ~([\d.]+ \w+), "
-    r"run time ~([\d.e+-]+ \w+)"
-)
-UNIT = {"B": 1, "kB": 1e3, "MB": 1e6, "GB": 1e9, "TB": 1e12, "s": 1, "min": 60, "h": 3600}
 FOCUS = {
     "an2012": ("preprocess", "coarse-focus", "fine-focus"),
     "bp": ("backproject",),
@@ -49,11 +42,6 @@ VARIANTS = {
     "an2012_exp2_flow1": "an2012_exp2",
     "xu_conventional": "xu_scene",
 }
-
-
-def value(text: str) -> float:
-    number, unit = text.split()
-    return float(number) * UNIT[unit]
 
 
 def chain(name: str, out: Path) -> list[list]:
@@ -92,109 +80,11 @@ def all_chains() -> list[str]:
     return names + ["gotcha", "formats"]
 
 
-# `python -m sarproc ARGS` that reports its peak RSS at exit: VmHWM of its own memory map. ru_maxrss
-# from wait4 is no good here: with vfork it includes the RSS of the parent at the time of exec (a
-# pytest process of 300 MB made a 117 MB quicklook read 296 MB).
-PEAK_RSS = """
-import atexit, sys
-
-def report():
-    with open("/proc/self/status") as fh:
-        hwm = next(line.split()[1] for line in fh if line.startswith("VmHWM:"))
-    print(f"plan_accuracy: VmHWM {hwm} kB", file=sys.stderr)
-
-atexit.register(report)
-sys.argv[0] = "sarproc"
-from sarproc.cli.main import main
-main()
-"""
-
-
-def _run(args, extra=()):
-    """(exit status, stdout, stderr) of one sarproc subprocess."""
-    proc = subprocess.run(
-        [sys.executable, "-m", "sarproc", *map(str, args), *extra], capture_output=True, text=True, cwd=ROOT
-    )
-    return proc.returncode, proc.stdout, proc.stderr
-
-
-def run_stage(args, repeat: int = 1, accept=None, dry_run=_run) -> dict:
-    """The stage's --dry-run plan, then the real run, up to ``repeat`` times (stopping once ``accept(row)``):
-    best wall and CPU time, highest peak RSS. The plan is asked for again before each run; when it
-    changes (the first run filled numba's cache, so no compilation is planned any more), the runs
-    before it no longer count. ``dry_run(args, extra)``: how the plan is asked for ((status, stdout,
-    stderr); by default a subprocess)."""
-    args = [*args, "--overwrite"]
-    output = Path(args[args.index("-o") + 1])
-    if output.exists():
-        output.unlink()
-    row = {"stage": args[0], "input": Path(args[1]).name, "output": output.name}
-    extra = (
-        []
-        if args[0] in ("evaluate", "import-gotcha", "quicklook") or args[0].startswith(("export", "import"))
-        else ["--no-progress"]
-    )
-    for i in range(repeat):
-        existed = output.exists()
-        code, stdout, stderr = dry_run(args, ["--dry-run"])
-        if code != 0:
-            row["refused"] = " ".join((stderr or stdout).split())[:200]
-            return row
-        m = PLAN.search(stdout)
-        plan = dict(plan_out=value(m.group(2)), plan_mem=value(m.group(3)), plan_s=value(m.group(4)))
-        if i == 0:
-            row["dry_run_wrote"] = output.exists() and not existed
-        if any(row.get(k) != v for k, v in plan.items()):
-            row.update(plan)
-            for k in ("wall", "cpu", "rss"):
-                row.pop(k, None)
-        t0 = time.perf_counter()
-        proc = subprocess.Popen(
-            [sys.executable, "-c", PEAK_RSS, *map(str, args), *extra],
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.PIPE,
-            text=True,
-            cwd=ROOT,
-        )
-        err = proc.stderr.read()
-        _, status, usage = os.wait4(proc.pid, 0)  # reaped here for its rusage (CPU time)
-        wall = time.perf_counter() - t0
-        proc.returncode = os.waitstatus_to_exitcode(status)
-        proc.stderr.close()
-        if proc.returncode != 0:
-            row["refused"] = " ".join(err.split())[:200]
-            return row
-        hwm = re.search(r"plan_accuracy: VmHWM (\d+) kB", err)
-        rss, cpu = float(hwm.group(1)) * 1024, usage.ru_utime + usage.ru_stime
-        row["runs"] = i + 1
-        row["wall"] = min(wall, row.get("wall", wall))
-        row["cpu"] = min(cpu, row.get("cpu", cpu))
-        row["rss"] = max(rss, row.get("rss", 0.0))
-        row["out"] = float(output.stat().st_size)
-        if accept is not None and accept(row):
-            break
-    return row
-
-
-def within(row: dict, factor: float = 2.0) -> bool:
-    """Plan within ``factor`` of the measured peak RSS and time. The time measured is the best wall
-    time, or the CPU time when lower (load on a shared machine stretches the wall clock of a
-    single-threaded run, not its CPU time)."""
-    if "rss" not in row:
-        return False
-    measured_s = min(row["wall"], row["cpu"])
-    return (
-        1 / factor <= row["plan_mem"] / row["rss"] <= factor
-        and 1 / factor <= row["plan_s"] / measured_s
-        and row["plan_s"] / row["wall"] <= factor
-    )
-
-
 def measure(names, out: Path, repeat: int = 1, log=print) -> list[dict]:
     rows = []
     for name in names:
         for args in chain(name, out):
-            row = {"config": name, **run_stage(args, repeat, accept=within)}
+            row = {"config": name, **run_stage(args, repeat, accept=within, cwd=ROOT)}
             rows.append(row)
             log(line(row))
             if "refused" in row:

@@ -26,7 +26,11 @@ from pathlib import Path
 
 import numpy as np
 
+from sarproc.cli.sweep_output import pick_row as pick
+from sarproc.cli.sweep_output import raw_product_of as raw_of
+from sarproc.cli.sweep_output import sweep_rows
 from sarproc.focus.multichannel import channels
+from sarproc.focus.multichannel.channels import product_ghost_level_db as predicted_ghost_db
 from sarproc.product.io import read_product
 
 CASES = {"fig9": "Fig. 9 v_a 10 m/s", "fig10": "Fig. 10 v_r 10 m/s", "static": "static A"}
@@ -36,21 +40,6 @@ ERRORS = (0.0, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0)
 
 def load_json(path: Path) -> dict:
     return json.loads(Path(path).read_text())
-
-
-def sweep_rows(directory: Path) -> list[dict]:
-    """Rows of a sweep's table.json, each with its task directory."""
-    doc = load_json(directory / "table.json")
-    if doc["failures"]:
-        raise SystemExit(f"{directory}: failed tasks {doc['failures']}")
-    return [{**r, "dir": directory / "tasks" / r["task"]} for r in doc["rows"]]
-
-
-def pick(rows, **match) -> dict:
-    found = [r for r in rows if all(r.get(k) == v for k, v in match.items())]
-    if len(found) != 1:
-        raise SystemExit(f"expected one sweep row with {match}, found {len(found)}")
-    return found[0]
 
 
 def mfta_db(report: dict) -> float:
@@ -86,43 +75,6 @@ def estimate(reconstructed: Path) -> tuple[float, float]:
     """(v_r, v_a) of the one moving-target window of a reconstructed product (nan if none)."""
     mts = read_product(reconstructed, load=False).attrs["reconstruct"]["moving_targets"]
     return (mts[0]["radial_velocity"], mts[0]["along_track_velocity"]) if mts else (float("nan"), float("nan"))
-
-
-def predicted_ghost_db(raw, error_phase) -> float:
-    """First-order ghost level of a channel phase error (channels.ghost_level_db, eq. 6) for this product."""
-    r = raw.radar
-    dx = raw.aux["rx_offset"][:, 0] - raw.aux["tx_offset"][0]
-    half_band = r.velocity * math.cos(r.squint) * r.azimuth_beamwidth / r.wavelength
-    return channels.ghost_level_db(channels.channel_delays(dx, r.velocity), r.prf, error_phase, half_band)
-
-
-STAGE_SECTIONS = (
-    "reconstruct",
-    "backproject",
-    "evaluate",
-    "preprocess",
-    "coarse_focus",
-    "fine_focus",
-    "pfa2",
-    "array3d",
-)
-
-
-def raw_of(sweep_dir: Path, scene: str) -> Path:
-    """The raw product a sweep simulated for ``scene`` (shared between scenes with the same simulation, and
-    named after the first of them): the one whose scene YAML has the task's simulation sections."""
-    from sarproc.product.config import load_yaml
-
-    task = [r for r in sweep_rows(sweep_dir) if r["scene"] == scene][0]
-
-    def scene_part(path):
-        return {k: v for k, v in load_yaml(path).items() if k not in STAGE_SECTIONS}
-
-    want = scene_part(task["dir"] / "config.yaml")
-    for path in sorted((sweep_dir / "raw").glob("*.yaml")):
-        if scene_part(path) == want:
-            return path.with_suffix(".h5")
-    raise SystemExit(f"{sweep_dir}: no raw product for scene {scene!r}")
 
 
 def doppler_spectrum(rec):

@@ -17,30 +17,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from scipy.ndimage import maximum_filter  # noqa: E402
-
 from sarproc.product.io import read_product  # noqa: E402
-
-
-def subpixel_peak(mag: np.ndarray, i: int, j: int) -> tuple[float, float]:
-    """Parabolic vertex through the pixel (i, j) and its neighbours, along each axis."""
-
-    def vertex(m, c, p):
-        den = m - 2 * c + p
-        return 0.0 if den == 0 else 0.5 * (m - p) / den
-
-    i = min(max(i, 1), mag.shape[0] - 2)
-    j = min(max(j, 1), mag.shape[1] - 2)
-    return (i + vertex(mag[i - 1, j], mag[i, j], mag[i + 1, j]), j + vertex(mag[i, j - 1], mag[i, j], mag[i, j + 1]))
-
-
-def brightest(mag: np.ndarray, n: int, separation: int) -> list[tuple[int, int]]:
-    peaks = (mag == maximum_filter(mag, size=2 * separation + 1)) & (mag > 0)
-    idx = np.argwhere(peaks)
-    idx = idx[np.argsort(mag[peaks])[::-1]]
-    edge = separation
-    keep = [tuple(p) for p in idx if edge <= p[0] < mag.shape[0] - edge and edge <= p[1] < mag.shape[1] - edge]
-    return keep[:n]
+from sarproc.quality.image_measures import bright_points, entropy, magnitude_ncc, subpixel_peak  # noqa: E402
 
 
 def quicklook(img, path: Path, title: str):
@@ -65,27 +43,18 @@ def quicklook(img, path: Path, title: str):
     plt.close()
 
 
-def entropy(mag: np.ndarray) -> float:
-    """Image entropy -sum p ln p of the normalised intensity p = |I|^2 / sum |I|^2 (lower: sharper), nats."""
-    p = mag.astype(float) ** 2
-    p = p[p > 0] / p.sum()
-    return float(-(p * np.log(p)).sum())
-
-
 def compare(pfa, bp) -> dict:
     """NCC of the magnitudes and the ten brightest PFA points' offsets from the backprojection's, pixels."""
     A, B = np.abs(pfa.data), np.abs(bp.data)
-    a, b = A - A.mean(), B - B.mean()
-    ncc = float((a * b).sum() / np.sqrt((a**2).sum() * (b**2).sum()))
     rows = []
-    for i, j in brightest(A, 10, 10):
+    for i, j in bright_points(A, n=10, separation=10, edge=10):
         pa = subpixel_peak(A, i, j)
         w = B[i - 3 : i + 4, j - 3 : j + 4]
         k = np.unravel_index(np.argmax(w), w.shape)
         pb = subpixel_peak(B, i - 3 + k[0], j - 3 + k[1])
         rows.append((i, j, pa[0] - pb[0], pa[1] - pb[1], 20 * np.log10(A[i, j] / A.max())))
     return {
-        "ncc": ncc,
+        "ncc": magnitude_ncc(A, B),
         "rows": rows,
         "entropy": entropy(A),
         "same_grid": all(np.allclose(pfa.coords[d], bp.coords[d]) for d in ("azimuth", "range")),

@@ -17,21 +17,11 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from scipy.ndimage import maximum_filter
 
 from sarproc.product.sicd import local_support_offsets, read_sicd, sarpy_check
+from sarproc.quality.image_measures import bright_points
 
 VERSIONS = ("1.4.0", "1.3.0")
-
-
-def bright_points(pixels: np.ndarray, n: int = 10, separation: int = 20, edge: int = 16) -> np.ndarray:
-    """The n brightest local maxima (row, col) at least ``separation`` pixels apart, away from the edges, and
-    within 20 dB of the brightest (a point target's far sidelobes are not points)."""
-    mag = np.abs(pixels)
-    peaks = (mag == maximum_filter(mag, size=2 * separation + 1)) & (mag > 0.1 * mag.max())
-    peaks[:edge], peaks[-edge:], peaks[:, :edge], peaks[:, -edge:] = False, False, False, False
-    idx = np.argwhere(peaks)
-    return idx[np.argsort(mag[peaks])[::-1][:n]]
 
 
 def main(argv=None) -> int:
@@ -76,7 +66,11 @@ def main(argv=None) -> int:
                 sarpy = {"sarpy": None, "valid": None, "errors": [str(exc)], "warnings": []}
             Path(f"{stem}_sarpy.json").write_text(json.dumps(sarpy, indent=1) + "\n")
             tree, pixels = read_sicd(nitf)
-            offsets = np.abs(local_support_offsets(tree, pixels, bright_points(pixels)))
+            offsets = np.abs(
+                local_support_offsets(
+                    tree, pixels, bright_points(np.abs(pixels), n=10, separation=20, edge=16, floor=0.1)
+                )
+            )
             rows.append(
                 {
                     "image": name,

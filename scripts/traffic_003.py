@@ -28,6 +28,7 @@ import numpy as np
 
 from sarproc.product.io import read_product
 from sarproc.product.model import moving_target_rows
+from sarproc.quality.moving import implied_relocation_error
 
 APPARENT_POSITION_M = 2.0
 V_R_TOLERANCE = 0.1  # m/s, the (and the paper's) slant-range velocity precision
@@ -35,12 +36,6 @@ V_R_TOLERANCE = 0.1  # m/s, the issue's (and the paper's) slant-range velocity p
 
 def names(product):
     return [n.decode() if isinstance(n, bytes) else str(n) for n in product.targets["name"]]
-
-
-def implied_relocation(product, dv_r, dv_a, slant_range):
-    r = product.radar
-    th = r.squint
-    return abs(slant_range * (dv_r * math.cos(th) + dv_a * math.sin(th)) / (r.velocity * math.cos(th)))
 
 
 def axis_metrics(report, name):
@@ -83,7 +78,8 @@ def mover_table(product, report):
                 relocation_error=err,
                 cells=f"{int(r['range_cell_first'])}-{int(r['range_cell_last']) - 1}",
             )
-            e["relocation_bound"] = implied_relocation(product, e["dv_r"], e["dv_a"], slant) + APPARENT_POSITION_M
+            implied = implied_relocation_error(product.radar, slant, e["dv_a"], e["dv_r"])
+            e["relocation_bound"] = implied + APPARENT_POSITION_M
         else:
             e["found"] = False
         m = axis_metrics(report, nm[k])

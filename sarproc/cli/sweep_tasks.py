@@ -48,7 +48,6 @@ import hashlib
 import io
 import itertools
 import json
-import math
 import os
 import re
 import sys
@@ -522,22 +521,10 @@ def with_repeats(row: dict, repeats: list) -> dict:
 
 def summarise_report(report: dict) -> dict:
     """Worst quality over targets and axes of an evaluate report (None where nothing was measured)."""
-    axes = [a for t in report.get("targets", []) for a in t.get("axes", [])]
+    from sarproc.quality.summary import worst_quality_json
 
-    def worst(values):
-        vals = [v for v in values if v is not None and math.isfinite(v)]
-        return max(vals) if vals else None
-
-    ft = report.get("false_target")
-    return {
-        "irw_dev": worst(abs(a["irw_ratio"] - 1) for a in axes if a.get("irw_ratio") is not None),
-        "pslr_db": worst(a.get("pslr_db") for a in axes),
-        "islr_db": worst(a.get("islr_db") for a in axes),
-        "position_cells": worst(
-            abs(a["position_error_cells"]) for a in axes if a.get("position_error_cells") is not None
-        ),
-        "false_target_db": ft.get("level_db") if ft else None,
-    }
+    worst = worst_quality_json(report).as_dict()
+    return {c: worst[c] for c in QUALITY_COLUMNS}
 
 
 # --- runners ---------------------------------------------------------------------------------------

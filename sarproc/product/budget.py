@@ -161,3 +161,24 @@ def stored_bytes(*shape: int, itemsize: int = 8) -> float:
     chunk = _chunks(shape)
     n_chunks = math.prod(math.ceil(n / c) for n, c in zip(shape, chunk))
     return float(n_chunks * math.prod(chunk) * itemsize)
+
+
+def fft_seconds(shape: tuple[int, ...], repeats: int = 2) -> float:
+    """Best wall time (s) of one complex64 2-D FFT (scipy.fft.fft2 over the last two axes, all cores) of an
+    array of ``shape``, after a warm-up on its first rows: the time unit benchmarks and reproductions quote
+    stage times in ("FFT units"), so that they compare across machines."""
+    import time
+
+    import numpy as np
+    import scipy.fft as sfft
+
+    if repeats < 1:
+        raise ValueError(f"fft_seconds: repeats must be >= 1, got {repeats}")
+    x = np.ones(shape, np.complex64)
+    sfft.fft2(x[:64], workers=-1)  # plans and thread pool
+    best = math.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        sfft.fft2(x, workers=-1)
+        best = min(best, time.perf_counter() - t0)
+    return best

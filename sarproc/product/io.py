@@ -21,6 +21,7 @@ for the run from its check on (:mod:`sarproc.product.run`).
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import datetime as _dt
 import errno as _errno
 import json
@@ -33,7 +34,7 @@ import stat
 import sys
 import tempfile
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import h5py
 import numpy as np
@@ -615,14 +616,17 @@ def _check_aux(path, aux: dict, kind: str, n_pulses: int | None, n_channels: int
             raise InputError(f"{where} has {len(v)} receivers but the signal has {n_channels} channels")
 
 
-def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
-    """Read a product; ``kinds`` restricts the accepted product types (the error names them).
+@dataclasses.dataclass(frozen=True)
+class _Header:
+    """A product file's root attributes and radar group."""
 
-    With ``load=False`` only metadata is read: ``data`` is an empty array of the right dtype
-    and ``attrs['shape']`` holds the stored shape (cheap inspection of big files). Every check
-    of the layout (dims, scales, dtypes, attribute types, aux shapes) runs in both modes.
-    """
-    path = Path(path)
+    kind: str  # product type (PRODUCT_KINDS)
+    history: list  # processing history entries
+    radar: RadarMetadata
+
+
+def _open_hdf5(path: Path) -> h5py.File:
+    """The file opened for reading; a missing, unreadable or non-HDF5 path is refused by name."""
     if not path.exists():
         raise InputError(f"{path}: file not found")
     if path.is_dir():
@@ -632,170 +636,210 @@ def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
     if not h5py.is_hdf5(path):
         raise InputError(f"{path}: not an HDF5 file")
     try:
-        f = h5py.File(path, "r")
+        return h5py.File(path, "r")
     except OSError as exc:
         raise InputError(f"{path}: cannot open as HDF5: {exc}") from None
-    with f:
-        kind = _attr_value(f.attrs.get("product"))
-        if kind is None:
-            raise InputError(f"{path}: missing root attribute 'product' (not a sarproc product)")
-        if not isinstance(kind, str) or kind not in PRODUCT_KINDS:
-            raise InputError(f"{path}: root attribute 'product' is {kind!r}, not one of {list(PRODUCT_KINDS)}")
-        if kinds is not None and kind not in kinds:
-            raise InputError(f"{path}: product type is {kind!r}; this stage needs {' or '.join(map(repr, kinds))}")
-        fmt = _attr_value(f.attrs.get("sarproc_format"))
-        if fmt is None:
-            raise InputError(f"{path}: missing root attribute 'sarproc_format'")
-        if str(fmt) != FORMAT_VERSION:
-            raise InputError(f"{path}: sarproc_format {fmt!r} is not supported (expected {FORMAT_VERSION!r})")
-        history = _attr_value(f.attrs.get("history", "[]"))
-        if not isinstance(history, list):
-            raise InputError(f"{path}: root attribute 'history' is not a JSON list")
-        if "radar" not in f or not isinstance(f["radar"], h5py.Group):
-            raise InputError(f"{path}: missing group 'radar'")
-        radar = RadarMetadata.from_attrs(f["radar"].attrs, where=f"{path}: radar")
-        name = DATA_NAME[kind]
-        if name not in f or not isinstance(f[name], h5py.Dataset):
-            raise InputError(f"{path}: missing dataset {name!r}")
-        dset = f[name]
-        if dset.dtype.kind != "c":
-            raise InputError(
-                f"{path}: dataset {name!r} is {dset.dtype} but must be complex (I/Q, complex64); "
-                "real-valued samples cannot be focused; convert them to complex baseband"
-            )
-        if dset.ndim != len(KIND_DIMS[kind]):
-            raise InputError(
-                f"{path}: dataset {name!r} has {dset.ndim} dims {dset.shape}; a {kind!r} product needs "
-                f"{len(KIND_DIMS[kind])} dims {KIND_DIMS[kind]}"
-            )
-        dims, coords = [], {}
-        for i, dim in enumerate(dset.dims):
-            if len(dim) == 0:
-                raise InputError(f"{path}: dataset {name!r} axis {i} has no dimension scale attached")
-            scale = dim[0]
-            dname = scale.name.lstrip("/")
-            values = scale[()]
-            if np.ndim(values) != 1 or np.asarray(values).dtype.kind not in "fiu":
-                raise InputError(f"{path}: dimension scale {dname!r} must be a 1-D numeric array")
-            if len(values) != dset.shape[i]:
-                raise InputError(
-                    f"{path}: dataset {name!r} has {dset.shape[i]} samples along {dname!r} but the "
-                    f"dimension scale {dname!r} holds {len(values)} values; they must agree"
-                )
-            if not np.all(np.isfinite(values)):
-                raise InputError(f"{path}: dimension scale {dname!r} contains NaN or Inf")
-            if dname != "channel" and len(values) > 1 and not np.all(np.diff(values) > 0):
-                raise InputError(f"{path}: dimension scale {dname!r} must increase strictly")
-            dims.append(dname)
-            coords[dname] = values
-        if tuple(dims) != KIND_DIMS[kind]:
-            raise InputError(
-                f"{path}: dataset {name!r} has dims {tuple(dims)}; a {kind!r} product needs {KIND_DIMS[kind]}"
-            )
-        if "channel" in dims and len(coords["channel"]) != radar.n_channels:
-            raise InputError(
-                f"{path}: dataset {name!r} has {len(coords['channel'])} channels but radar attribute "
-                f"'n_channels' is {radar.n_channels}"
-            )
-        if "targets" not in f:
-            raise InputError(f"{path}: missing dataset 'targets'")
-        targets = np.asarray(f["targets"][()])
-        missing = [
-            n for n in TARGET_DTYPE.names if n not in (targets.dtype.names or ()) and n not in TARGET_THEORY_FIELDS
-        ]  # theory fields are optional (older files): 0, not recorded
-        if missing:
-            raise InputError(f"{path}: dataset 'targets' lacks field(s) {missing}")
-        targets = as_target_table(targets)
-        for field in ("x", "y", "z", "azimuth", "range", "elevation"):
-            if not np.all(np.isfinite(targets[field])):
-                raise InputError(f"{path}: dataset 'targets' field {field!r} contains NaN or Inf")
-        for field in TARGET_IRW_FIELDS:
-            v = targets[field]
-            if not np.all(np.isfinite(v) & (v >= 0)):
-                raise InputError(
-                    f"{path}: dataset 'targets' field {field!r} must be a positive IRW or 0 (not recorded)"
-                )
-        for field in TARGET_NULL_FIELDS:
-            v = targets[field]
-            if not np.all(np.isfinite(v) & (v >= 0)):
-                raise InputError(
-                    f"{path}: dataset 'targets' field {field!r} must be a positive null spacing or 0 (not recorded)"
-                )
-        for field in TARGET_SIDELOBE_FIELDS:  # a PSLR is <= 0 dB; an ISLR may exceed it (side lobes only)
-            v = targets[field]
-            if not np.all(np.isfinite(v) & ((v <= 0) if field.startswith("pslr") else True)):
-                raise InputError(
-                    f"{path}: dataset 'targets' field {field!r} must be a finite level in dB"
-                    f"{' <= 0' if field.startswith('pslr') else ''} (0: not recorded)"
-                )
-        attrs = {k: _attr_value(v) for k, v in dset.attrs.items() if k not in _INTERNAL_ATTRS}
-        for key in DATA_ATTR_UNITS:
-            v = attrs.get(key)
-            values = v if isinstance(v, list) else [v]
-            if v is not None and not all(
-                isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in values
-            ):
-                raise InputError(
-                    f"{path}: dataset {name!r} attribute {key!r} must be a finite number or list of "
-                    f"numbers ({DATA_ATTR_UNITS[key]}), got {v!r}"
-                )
-        if kind in ("image", "image3d"):
-            frame = attrs.get("frame")
-            if not (isinstance(frame, dict) and isinstance(frame.get("name"), str)):
-                raise InputError(f"{path}: dataset {name!r} attribute 'frame' must be a JSON object with a 'name'")
-            irw = attrs.get("theoretical_irw")
-            if irw is not None and not (
-                isinstance(irw, list)
-                and len(irw) == len(dims)
-                and all(isinstance(x, (int, float)) and math.isfinite(x) and x > 0 for x in irw)
-            ):
-                raise InputError(
-                    f"{path}: dataset {name!r} attribute 'theoretical_irw' must list {len(dims)} "
-                    f"positive widths (one per axis {tuple(dims)}), got {irw!r}"
-                )
-        aux = {}
-        if "aux" in f:
-            for k, v in f["aux"].items():
-                if isinstance(v, h5py.Dataset) and not _is_scale(v):
-                    aux[k] = v[()]
-        n_pulses = (
-            len(coords["azimuth_time"]) if kind in ("raw", "raw_multichannel", "raw_array", "preprocessed") else None
+
+
+def _read_header(f: h5py.File, path: Path, kinds) -> _Header:
+    """Product type (one of ``kinds`` if given), format version, history and radar metadata."""
+    kind = _attr_value(f.attrs.get("product"))
+    if kind is None:
+        raise InputError(f"{path}: missing root attribute 'product' (not a sarproc product)")
+    if not isinstance(kind, str) or kind not in PRODUCT_KINDS:
+        raise InputError(f"{path}: root attribute 'product' is {kind!r}, not one of {list(PRODUCT_KINDS)}")
+    if kinds is not None and kind not in kinds:
+        raise InputError(f"{path}: product type is {kind!r}; this stage needs {' or '.join(map(repr, kinds))}")
+    fmt = _attr_value(f.attrs.get("sarproc_format"))
+    if fmt is None:
+        raise InputError(f"{path}: missing root attribute 'sarproc_format'")
+    if str(fmt) != FORMAT_VERSION:
+        raise InputError(f"{path}: sarproc_format {fmt!r} is not supported (expected {FORMAT_VERSION!r})")
+    history = _attr_value(f.attrs.get("history", "[]"))
+    if not isinstance(history, list):
+        raise InputError(f"{path}: root attribute 'history' is not a JSON list")
+    if "radar" not in f or not isinstance(f["radar"], h5py.Group):
+        raise InputError(f"{path}: missing group 'radar'")
+    return _Header(kind, history, RadarMetadata.from_attrs(f["radar"].attrs, where=f"{path}: radar"))
+
+
+def _signal_dataset(f: h5py.File, path: Path, kind: str) -> h5py.Dataset:
+    """The product's complex signal dataset, with the number of dims its type needs."""
+    name = DATA_NAME[kind]
+    if name not in f or not isinstance(f[name], h5py.Dataset):
+        raise InputError(f"{path}: missing dataset {name!r}")
+    dset = f[name]
+    if dset.dtype.kind != "c":
+        raise InputError(
+            f"{path}: dataset {name!r} is {dset.dtype} but must be complex (I/Q, complex64); "
+            "real-valued samples cannot be focused; convert them to complex baseband"
         )
-        _check_aux(path, aux, kind, n_pulses, len(coords["channel"]) if "channel" in coords else radar.n_channels)
+    if dset.ndim != len(KIND_DIMS[kind]):
+        raise InputError(
+            f"{path}: dataset {name!r} has {dset.ndim} dims {dset.shape}; a {kind!r} product needs "
+            f"{len(KIND_DIMS[kind])} dims {KIND_DIMS[kind]}"
+        )
+    return dset
+
+
+def _read_axes(dset: h5py.Dataset, path: Path, kind: str, radar: RadarMetadata) -> tuple[list, dict]:
+    """(dims, coords) from the dataset's dimension scales: 1-D, finite, strictly increasing (channels
+    excepted), one value per sample, in the order the product type needs."""
+    name = DATA_NAME[kind]
+    dims, coords = [], {}
+    for i, dim in enumerate(dset.dims):
+        if len(dim) == 0:
+            raise InputError(f"{path}: dataset {name!r} axis {i} has no dimension scale attached")
+        scale = dim[0]
+        dname = scale.name.lstrip("/")
+        values = scale[()]
+        if np.ndim(values) != 1 or np.asarray(values).dtype.kind not in "fiu":
+            raise InputError(f"{path}: dimension scale {dname!r} must be a 1-D numeric array")
+        if len(values) != dset.shape[i]:
+            raise InputError(
+                f"{path}: dataset {name!r} has {dset.shape[i]} samples along {dname!r} but the "
+                f"dimension scale {dname!r} holds {len(values)} values; they must agree"
+            )
+        if not np.all(np.isfinite(values)):
+            raise InputError(f"{path}: dimension scale {dname!r} contains NaN or Inf")
+        if dname != "channel" and len(values) > 1 and not np.all(np.diff(values) > 0):
+            raise InputError(f"{path}: dimension scale {dname!r} must increase strictly")
+        dims.append(dname)
+        coords[dname] = values
+    if tuple(dims) != KIND_DIMS[kind]:
+        raise InputError(f"{path}: dataset {name!r} has dims {tuple(dims)}; a {kind!r} product needs {KIND_DIMS[kind]}")
+    if "channel" in dims and len(coords["channel"]) != radar.n_channels:
+        raise InputError(
+            f"{path}: dataset {name!r} has {len(coords['channel'])} channels but radar attribute "
+            f"'n_channels' is {radar.n_channels}"
+        )
+    return dims, coords
+
+
+def _read_targets(f: h5py.File, path: Path) -> np.ndarray:
+    """The targets table, completed to TARGET_DTYPE (theory fields of older files: 0, not recorded), with
+    finite positions and valid theory fields."""
+    if "targets" not in f:
+        raise InputError(f"{path}: missing dataset 'targets'")
+    targets = np.asarray(f["targets"][()])
+    missing = [
+        n for n in TARGET_DTYPE.names or () if n not in (targets.dtype.names or ()) and n not in TARGET_THEORY_FIELDS
+    ]  # theory fields are optional (older files): 0, not recorded
+    if missing:
+        raise InputError(f"{path}: dataset 'targets' lacks field(s) {missing}")
+    targets = as_target_table(targets)
+    for field in ("x", "y", "z", "azimuth", "range", "elevation"):
+        if not np.all(np.isfinite(targets[field])):
+            raise InputError(f"{path}: dataset 'targets' field {field!r} contains NaN or Inf")
+    for field in TARGET_IRW_FIELDS:
+        v = targets[field]
+        if not np.all(np.isfinite(v) & (v >= 0)):
+            raise InputError(f"{path}: dataset 'targets' field {field!r} must be a positive IRW or 0 (not recorded)")
+    for field in TARGET_NULL_FIELDS:
+        v = targets[field]
+        if not np.all(np.isfinite(v) & (v >= 0)):
+            raise InputError(
+                f"{path}: dataset 'targets' field {field!r} must be a positive null spacing or 0 (not recorded)"
+            )
+    for field in TARGET_SIDELOBE_FIELDS:  # a PSLR is <= 0 dB; an ISLR may exceed it (side lobes only)
+        v = targets[field]
+        if not np.all(np.isfinite(v) & ((v <= 0) if field.startswith("pslr") else True)):
+            raise InputError(
+                f"{path}: dataset 'targets' field {field!r} must be a finite level in dB"
+                f"{' <= 0' if field.startswith('pslr') else ''} (0: not recorded)"
+            )
+    return targets
+
+
+def _read_data_attrs(dset: h5py.Dataset, path: Path, kind: str, dims: list) -> dict:
+    """The signal dataset's own attributes, with numeric ones finite and an image's frame and theoretical
+    IRW well formed."""
+    name = DATA_NAME[kind]
+    attrs = {k: _attr_value(v) for k, v in dset.attrs.items() if k not in _INTERNAL_ATTRS}
+    for key in DATA_ATTR_UNITS:
+        v = attrs.get(key)
+        values = v if isinstance(v, list) else [v]
+        if v is not None and not all(
+            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in values
+        ):
+            raise InputError(
+                f"{path}: dataset {name!r} attribute {key!r} must be a finite number or list of "
+                f"numbers ({DATA_ATTR_UNITS[key]}), got {v!r}"
+            )
+    if kind in ("image", "image3d"):
+        frame = attrs.get("frame")
+        if not (isinstance(frame, dict) and isinstance(frame.get("name"), str)):
+            raise InputError(f"{path}: dataset {name!r} attribute 'frame' must be a JSON object with a 'name'")
+        irw = attrs.get("theoretical_irw")
+        if irw is not None and not (
+            isinstance(irw, list)
+            and len(irw) == len(dims)
+            and all(isinstance(x, (int, float)) and math.isfinite(x) and x > 0 for x in irw)
+        ):
+            raise InputError(
+                f"{path}: dataset {name!r} attribute 'theoretical_irw' must list {len(dims)} "
+                f"positive widths (one per axis {tuple(dims)}), got {irw!r}"
+            )
+    return attrs
+
+
+def _read_aux(f: h5py.File, path: Path, kind: str, coords: dict, radar: RadarMetadata) -> dict:
+    """The aux group's per-pulse / per-receiver arrays (scales left out), their shapes checked."""
+    aux = {}
+    if "aux" in f:
+        for k, v in f["aux"].items():
+            if isinstance(v, h5py.Dataset) and not _is_scale(v):
+                aux[k] = v[()]
+    n_pulses = len(coords["azimuth_time"]) if kind in ("raw", "raw_multichannel", "raw_array", "preprocessed") else None
+    _check_aux(path, aux, kind, n_pulses, len(coords["channel"]) if "channel" in coords else radar.n_channels)
+    return aux
+
+
+def _read_signal(dset: h5py.Dataset, path: Path, check_finite: bool) -> np.ndarray:
+    """The signal samples, refused if any is NaN or Inf (``check_finite``)."""
+    data = dset[()]
+    if check_finite and not np.all(np.isfinite(data)):
+        bad = int(np.count_nonzero(~np.isfinite(data)))
+        raise InputError(f"{path}: dataset {dset.name.lstrip('/')!r} contains {bad} NaN or Inf value(s)")
+    return data
+
+
+def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
+    """Read a product; ``kinds`` restricts the accepted product types (the error names them).
+
+    With ``load=False`` only metadata is read: ``data`` is an empty array of the right dtype
+    and ``attrs['shape']`` holds the stored shape (cheap inspection of big files). Every check
+    of the layout (dims, scales, dtypes, attribute types, aux shapes) runs in both modes.
+    """
+    path = Path(path)
+    with _open_hdf5(path) as f:
+        header = _read_header(f, path, kinds)
+        dset = _signal_dataset(f, path, header.kind)
+        dims, coords = _read_axes(dset, path, header.kind, header.radar)
+        targets = _read_targets(f, path)
+        attrs = _read_data_attrs(dset, path, header.kind, dims)
+        aux = _read_aux(f, path, header.kind, coords, header.radar)
         if load:
-            data = dset[()]
-            if check_finite and not np.all(np.isfinite(data)):
-                bad = int(np.count_nonzero(~np.isfinite(data)))
-                raise InputError(f"{path}: dataset {name!r} contains {bad} NaN or Inf value(s)")
+            data = _read_signal(dset, path, check_finite)
         else:
             data = np.empty((0,) * dset.ndim, dtype=dset.dtype)
             attrs["shape"] = dset.shape
-    if not load:
-        coords_l = {d: c for d, c in coords.items()}
-        prod = Product.__new__(Product)
-        prod.__dict__.update(
-            kind=kind,
-            data=data,
-            dims=tuple(dims),
-            coords=coords_l,
-            radar=radar,
-            targets=targets,
-            attrs=attrs,
-            aux=aux,
-            history=history,
-        )
-        return prod
-    return Product(
-        kind=kind,
+    fields: dict[str, Any] = dict(
+        kind=header.kind,
         data=data,
         dims=tuple(dims),
         coords=coords,
-        radar=radar,
+        radar=header.radar,
         targets=targets,
         attrs=attrs,
         aux=aux,
-        history=history,
+        history=header.history,
     )
+    if not load:  # no shape checks against the empty data array
+        prod = Product.__new__(Product)
+        prod.__dict__.update(fields)
+        return prod
+    return Product(**fields)
 
 
 def read_magnitude_preview(path, max_side: int = 2048, block_bytes: int = 64 << 20, header: Product | None = None):

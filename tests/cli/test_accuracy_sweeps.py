@@ -1,9 +1,12 @@
-"""The sweeps behind `make accuracy-*` run exactly the settings of the scripts whose tables they replace."""
+"""The sweeps behind `make accuracy-*` and `make reproduce-003` hold the settings their tables are read with.
+
+The sweep YAMLs are the one source of the settings: the scripts that tabulate a sweep read its tasks, so
+these tests check what each table needs of its sweep (same settings on every scene, the scripts' frame and
+targets, sub-image sizes and channel spacings derived exactly from the scene).
+"""
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from pathlib import Path
 
 import pytest
@@ -14,78 +17,54 @@ from sarproc.product.units import parse_quantity
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def _script(name):
-    sys.path.insert(0, str(ROOT / "scripts"))  # accuracy_002 imports reproduce_002 from its folder
-    try:
-        spec = importlib.util.spec_from_file_location(name, ROOT / "scripts" / f"{name}.py")
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-    finally:
-        sys.path.remove(str(ROOT / "scripts"))
-    return module
+def _settings_by_scene(plan) -> dict:
+    out: dict = {}
+    for t in plan.tasks:
+        out.setdefault(t.scene, []).append(repr(sorted(t.setting.items())))
+    return out
 
 
-def test_backprojection_sweep_has_the_scripts_settings():
-    script = _script("accuracy_backprojection")
+def test_backprojection_sweep_has_the_same_settings_on_both_scenes_with_the_finest():
     plan = plan_sweep(ROOT / "configs" / "sweeps" / "backprojection.yaml")
-    for scene in ("stripmap", "squint30"):
-        got = sorted(
-            (t.setting["backproject.engine"], t.setting["backproject.upsample"], t.setting["backproject.interpolation"])
-            for t in plan.tasks
-            if t.scene == scene
-        )
-        assert got == sorted(set(script.SETTINGS) | {script.REFERENCE})
+    by_scene = _settings_by_scene(plan)
+    assert sorted(by_scene) == ["squint30", "stripmap"]  # accuracy_backprojection.py's SCENES
+    assert sorted(by_scene["stripmap"]) == sorted(by_scene["squint30"])
+    assert len(set(by_scene["stripmap"])) == len(by_scene["stripmap"]) == 18
+    finest = {"backproject.engine": "reference", "backproject.upsample": 32, "backproject.interpolation": "linear"}
+    assert all(sum(t.setting == finest for t in plan.tasks if t.scene == s) == 1 for s in by_scene)
 
 
-def test_000_sweep_has_the_scripts_settings_in_its_frame():
-    script = _script("accuracy_000")
+def test_000_sweep_measures_in_the_lrwc_frame_with_the_same_settings_on_both_scenes():
     plan = plan_sweep(ROOT / "configs" / "sweeps" / "accuracy_000.yaml")
-    for scene in ("exp2_small", "airborne_small"):
-        tasks = [t for t in plan.tasks if t.scene == scene]
-        assert all(t.config["fine_focus"]["output_frame"] == "lrwc" for t in tasks)  # the script's frame
-        got = []
-        for t in tasks:
-            over = {}
-            for key, value in t.setting.items():
-                section, name = key.split(".")
-                over.setdefault(section, {})[name] = value
-            got.append(over if over != {"fine_focus": {"stolt_kernel": "knab"}} else {})  # the baseline
-        assert sorted(map(repr, got)) == sorted(repr(o) for _, o in script.SETTINGS)
+    assert all(t.config["fine_focus"]["output_frame"] == "lrwc" for t in plan.tasks)  # separable responses
+    by_scene = _settings_by_scene(plan)
+    assert sorted(by_scene) == ["airborne_small", "exp2_small"]
+    assert sorted(by_scene["exp2_small"]) == sorted(by_scene["airborne_small"])
+    assert len(set(by_scene["exp2_small"])) == len(by_scene["exp2_small"]) == 16
 
 
-def test_002_sweep_has_the_scripts_settings():
-    pytest.importorskip("matplotlib")
-    script = _script("accuracy_002")
-    plan = plan_sweep(ROOT / "configs" / "sweeps" / "accuracy_002.yaml")
+def test_002_sweep_subimage_sizes_are_fractions_of_the_scenes_valid_radius():
     from sarproc.focus.pfa.chain import Pfa2Params, pfa2
     from sarproc.product.config import build, load_yaml
     from sarproc.simulation.scene import scene_from_mapping
     from sarproc.simulation.simulate import simulate
 
+    plan = plan_sweep(ROOT / "configs" / "sweeps" / "accuracy_002.yaml")
     mapping = load_yaml(ROOT / "configs" / "nie2016_small.yaml")
     image = pfa2(
         simulate(scene_from_mapping(mapping, "nie2016_small.yaml")),
         build(Pfa2Params, mapping.get("pfa2"), "nie2016_small.yaml", "pfa2"),
     )
-    radius = image.attrs["valid_radius_eq7"]  # the script's sub-image sizes are fractions of it
-    wanted = []
-    for _, change in script.SETTINGS:
-        want = dict(change) if change else {"method": "two_step"}
-        if "subimage_size" in want:
-            want["subimage_size"] *= radius
-        wanted.append(want)
-    for task in plan.tasks:
-        got = {k.split(".", 1)[1]: v for k, v in task.setting.items()}
-        if isinstance(got.get("subimage_size"), str):
-            got["subimage_size"] = parse_quantity(got["subimage_size"], "length")
-        assert sum(script._same(got, w) or _close(got, w) for w in wanted) == 1, got
-    assert len(plan.tasks) == len(wanted)
-
-
-def _close(got, want):
-    return set(got) == set(want) and all(
-        abs(got[k] - want[k]) <= 1e-9 * abs(want[k]) if isinstance(want[k], float) else got[k] == want[k] for k in want
+    radius = image.attrs["valid_radius_eq7"]
+    sizes = sorted(
+        parse_quantity(t.setting["pfa2.subimage_size"], "length") / radius
+        for t in plan.tasks
+        if "pfa2.subimage_size" in t.setting
     )
+    assert sizes == pytest.approx([0.5, 1.5], rel=1e-12)  # full precision: accuracy_002.py labels them so
+    settings = [repr(sorted(t.setting.items())) for t in plan.tasks]
+    assert len(set(settings)) == len(settings) == 12
+    assert sum(t.setting == {"pfa2.method": "plain"} for t in plan.tasks) == 1
 
 
 def _array3d(config):
@@ -95,84 +74,68 @@ def _array3d(config):
     return repr(sorted(as_dict(build(Array3DParams, config.get("array3d") or {})).items()))
 
 
-def test_004_sweeps_have_the_scripts_settings_and_isolated_targets():
-    pytest.importorskip("matplotlib")
-    script = _script("accuracy_004")
+def test_004_sweeps_have_the_same_settings_on_the_scene_and_each_isolated_target():
     from sarproc.product.config import load_yaml
 
     paper = load_yaml(ROOT / "configs" / "du2010.yaml")
-    base = paper.pop("array3d")
+    paper.pop("array3d")
     plan = plan_sweep(ROOT / "configs" / "sweeps" / "accuracy_004.yaml")
-    want = sorted(_array3d({"array3d": {**base, **knobs}}) for _, knobs in script.SETTINGS)
     points = paper["targets"]["points"]
-    scenes = {"du2010": points, **{f"target{p['name']}": [p] for p in points}}  # the script's isolated scenes
+    scenes = {"du2010": points, **{f"target{p['name']}": [p] for p in points}}  # accuracy_004.py's singles
     assert sorted({t.scene for t in plan.tasks}) == sorted(scenes)
+    want = sorted(_array3d(t.config) for t in plan.tasks if t.scene == "du2010")
+    assert len(set(want)) == len(want) == 19  # distinct once resolved: accuracy_004.py matches tasks by them
     for scene, pts in scenes.items():
         tasks = [t for t in plan.tasks if t.scene == scene]
-        assert sorted(_array3d(t.config) for t in tasks) == want  # the 19 settings, each once
+        assert sorted(_array3d(t.config) for t in tasks) == want
         for t in tasks:
             assert t.config["targets"]["points"] == pts
             assert {k: v for k, v in t.config.items() if k not in ("targets", "array3d")} == {
                 k: v for k, v in paper.items() if k != "targets"
             }
     wide = plan_sweep(ROOT / "configs" / "sweeps" / "accuracy_004_wide.yaml")
-    assert sorted(_array3d(t.config) for t in wide.tasks) == sorted(
-        _array3d({"array3d": knobs}) for _, knobs in script.WIDE_SETTINGS
-    )  # the script's base there is {}
-    assert all({k: v for k, v in t.config.items() if k != "array3d"} == script.WIDE for t in wide.tasks)
+    scene = load_yaml(ROOT / "configs" / "du2010_wide_swath.yaml")
+    assert "array3d" not in scene  # accuracy_004.py's reference cube there starts from array3d's defaults
+    assert all({k: v for k, v in t.config.items() if k != "array3d"} == scene for t in wide.tasks)
+    assert len({_array3d(t.config) for t in wide.tasks}) == len(wide.tasks) == 7
 
 
-def test_003_sweep_has_the_scripts_reconstruct_settings():
-    pytest.importorskip("matplotlib")
-    script = _script("accuracy_003")
+def test_003_sweep_searches_on_three_channels_and_spaces_channels_uniformly():
     from sarproc.focus.multichannel.reconstruct import ReconstructParams
     from sarproc.product.config import build
     from sarproc.simulation.scene import scene_from_mapping
 
     plan = plan_sweep(ROOT / "configs" / "sweeps" / "accuracy_003.yaml")
-    scene = script.scene_mapping(ROOT / "configs" / "xu_scene.yaml", [script.TARGET])  # the script's scene
-    radar = scene_from_mapping(dict(scene)).radar
-    got = []
+    channels = set()
     for t in plan.tasks:
         assert not t.evaluate and t.focus == ("reconstruct",)
-        assert t.config["targets"] == scene["targets"]  # the one moving target T
-        assert {k: v for k, v in t.config.items() if k not in ("effects", "reconstruct")} == {
-            k: v for k, v in scene.items() if k not in ("effects", "reconstruct")
-        }
+        assert [p["name"] for p in t.config["targets"]["points"]] == ["T"]  # the one moving target
+        assert parse_quantity(t.config["targets"]["points"][0]["velocity"][1], "velocity") == 10.0
         ch = t.config["effects"]["azimuth_channels"]
-        assert {k: v for k, v in t.config["effects"].items() if k != "azimuth_channels"} == {
-            k: v for k, v in scene["effects"].items() if k != "azimuth_channels"
-        }
-        got.append(
-            (
-                build(ReconstructParams, t.config.get("reconstruct") or {}),
-                ch["n_receivers"],
-                parse_quantity(ch["spacing"], "length"),
-            )
-        )
-    want = [(script.search_params(s, step), 3, 2.0) for s, step in script.SEARCH]
-    want += [(ReconstructParams(), n, script.channel_spacing(radar, n)) for n in script.CHANNELS]
-    # one task per script row (search fast 0.1 and N = 3 are the same reconstruct, as in the script)
-    assert sorted((repr(p), n, round(d, 12)) for p, n, d in got) == sorted(
-        (repr(p), n, round(d, 12)) for p, n, d in want
-    )
+        n, d = ch["n_receivers"], parse_quantity(ch["spacing"], "length")
+        if any(k.startswith("reconstruct.") for k in t.setting):  # a search row: on N = 3, d = 2 m
+            p = build(ReconstructParams, t.config["reconstruct"])
+            assert (n, d) == (3, 2.0) and p.coarse_step == max(p.velocity_step, 2.0)
+        else:  # a channel row: uniform phase centres at this PRF, d = 2 v / (N PRF)
+            radar = scene_from_mapping(dict(t.config)).radar
+            assert d == pytest.approx(2 * radar.velocity / (n * radar.prf), rel=1e-12)
+            channels.add(n)
+    assert channels == {3, 4, 5}  # accuracy_003.py's interpolation rows use the N = 3 task
 
 
 def test_reproduce_003_sweeps_and_strip_config_hold_the_reproductions_geometry():
     """make reproduce-003's strips span +-1.5 ghost spacings PRF v / K_a of their own scene (a PRF changed in a
     scene without its strip would silently measure other ghosts), and every given-velocity scene reconstructs
     with the velocity of its target."""
-    import math
 
     from sarproc.focus.backprojection import BackprojectParams
+    from sarproc.focus.multichannel.channels import ghost_spacing
     from sarproc.focus.multichannel.reconstruct import ReconstructParams
     from sarproc.product.config import build, load_yaml
     from sarproc.simulation.scene import scene_from_mapping
 
     def spacing(config):
-        r = scene_from_mapping(dict(config)).radar
-        ka = 2 * (r.velocity * math.cos(r.squint)) ** 2 / (r.wavelength * r.reference_range)
-        return r.prf / ka * r.velocity
+        return ghost_spacing(scene_from_mapping(dict(config)).radar)
 
     strips = 0
     names = ("reproduce_003_cases", "reproduce_003_given", "reproduce_003_speeds", "hard_cases_003")

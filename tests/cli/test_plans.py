@@ -5,25 +5,22 @@ process first). The run is a subprocess measured like /usr/bin/time: peak RSS (r
 time, which is what a plan promises. Time on a shared 2-core machine is noisy and only ever
 stretched by load, so a stage outside 2x is rerun (best of 3 kept), and the lower bound is also
 checked against the run's CPU time (a loaded machine stretches the wall clock of a mostly
-single-threaded run, not its CPU time): see ``within`` in scripts/plan_accuracy.py, which makes
-the same table for every shipped config (``make plan-accuracy``, docs/plans.md).
+single-threaded run, not its CPU time): see ``within`` in sarproc/cli/plan_check.py;
+scripts/plan_accuracy.py makes the same table for every shipped config (``make plan-accuracy``, docs/plans.md).
 """
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
 
 from sarproc.cli.main import cli
+from sarproc.cli.plan_check import run_stage, within
 
 ROOT = Path(__file__).resolve().parents[2]
 CONFIGS = ROOT / "configs"
-_spec = importlib.util.spec_from_file_location("plan_accuracy", ROOT / "scripts" / "plan_accuracy.py")
-plan_accuracy = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(plan_accuracy)
 
 
 def sarproc(*args):
@@ -78,12 +75,10 @@ def in_process(args, extra):
 
 @pytest.mark.parametrize("stage,source,config", STAGES, ids=[s[0] for s in STAGES])
 def test_plan_within_2x_of_the_measured_run(inputs, stage, source, config):
-    row = plan_accuracy.run_stage(
-        stage_args(inputs, stage, source, config), repeat=3, accept=plan_accuracy.within, dry_run=in_process
-    )
+    row = run_stage(stage_args(inputs, stage, source, config), repeat=3, accept=within, dry_run=in_process, cwd=ROOT)
     assert "refused" not in row, row
     assert not row["dry_run_wrote"], "--dry-run wrote its output"
-    assert plan_accuracy.within(row), plan_accuracy.line({"config": config, **row})
+    assert within(row), {"config": config, **row}
 
 
 def test_dry_run_checks_like_a_run_and_writes_nothing(inputs):

@@ -12,6 +12,7 @@ import time
 import pytest
 import yaml
 
+from sarproc.cli.sweep_output import pick_row, raw_product_of, sweep_rows
 from sarproc.cli.sweep_tasks import QUALITY_COLUMNS, TIMING_KEYS, plan_sweep, run_dask, run_serial, write_results
 from sarproc.product.errors import InputError
 
@@ -91,6 +92,27 @@ def test_local_cluster_gives_the_serial_table(sweep_file, serial, tmp_path):
     doc = json.loads(paths["json"].read_text())
     assert len(doc["rows"]) == 12 and paths["plot"].stat().st_size > 0
     assert all(c in paths["md"].read_text() for c in QUALITY_COLUMNS)
+
+
+def test_sweep_output_is_read_back_by_scene_and_setting(sweep_file, serial, tmp_path):
+    """What scripts tabulate a sweep with: its rows with their folders, one row by its setting, a scene's raw."""
+    plan = plan_sweep(sweep_file, sweep_file.parent / "serial")
+    write_results(plan, serial, "serial")
+    rows = sweep_rows(plan.output)
+    assert [r["task"] for r in rows] == [t.task_id for t in plan.tasks]
+    row = pick_row(rows, scene="two", **{"backproject.upsample": 4, "backproject.interpolation": "linear"})
+    assert (row["dir"] / "backproject.h5").exists() and (row["dir"] / "report.json").exists()
+    raws = {job.key: job.raw for job in plan.sims}
+    assert {t.scene: raw_product_of(plan.output, t.scene) for t in plan.tasks} == {
+        t.scene: raws[t.sim_key] for t in plan.tasks
+    }
+    with pytest.raises(InputError, match="expected one sweep row"):
+        pick_row(rows, scene="two")
+    with pytest.raises(InputError, match="no task of scene 'three'"):
+        raw_product_of(plan.output, "three")
+    (tmp_path / "table.json").write_text(json.dumps({"rows": [], "failures": [{"task": "x", "error": "boom"}]}))
+    with pytest.raises(InputError, match="failed tasks"):
+        sweep_rows(tmp_path)
 
 
 def test_killed_sweep_resumes_and_skips_finished_tasks(sweep_file, serial, tmp_path):

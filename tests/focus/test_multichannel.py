@@ -64,15 +64,14 @@ def focused(rec, raw, **bp):
 
 def false_target_db(rec, raw) -> float:
     """Strongest response outside +-0.45 ghost spacing of the target on a strip covering +-(N - 0.5) PRF ghosts."""
-    r = rec.radar
-    ka = 2 * (r.velocity * math.cos(r.squint)) ** 2 / (r.wavelength * r.reference_range)
+    spacing = channels.ghost_spacing(rec.radar, raw.radar.prf)
     n = raw.data.shape[0]
-    extent = 2 * (max(n, 2) - 0.5) * raw.radar.prf / ka * r.velocity
+    extent = 2 * (max(n, 2) - 0.5) * spacing
     strip = backproject(
         rec, BackprojectParams(frame="squint_lrwc", azimuth_extent=extent, range_extent=40.0, oversample=1.2)
     )
     # Guard 0.45 ghost spacings (245 cells): the target's own sinc side lobes there are about -57 dB.
-    guard = 0.45 * raw.radar.prf / ka * r.velocity / strip.attrs["theoretical_irw"][0]
+    guard = 0.45 * spacing / strip.attrs["theoretical_irw"][0]
     report = evaluate_product(strip, EvaluateParams(guard_cells=guard))
     return report.false_target.level_db
 
@@ -267,6 +266,10 @@ def test_channel_imbalance_gives_bounded_reported_ghosts():
     predicted = channels.ghost_level_db(tau, r.prf, -1j * np.log(gain), half_band)  # eq. (6): about -36 dB
     assert -40.0 < predicted < -30.0
     assert false_target_db(rec, raw) == pytest.approx(predicted, abs=1.5)
+    # the product's own prediction: delays from the transmitter (a common delay shift moves every ghost piece
+    # of band offset k by the same phase, so the level is the same)
+    assert channels.product_ghost_level_db(raw, -1j * np.log(gain)) == pytest.approx(predicted, abs=1e-9)
+    assert channels.product_ghost_level_db(raw, np.zeros(3)) < -200  # no error: no ghost (round-off only)
 
 
 def test_ill_conditioned_prf_reports_condition_and_regularises(caplog):

@@ -90,3 +90,11 @@ def test_stored_bytes_bounds_the_written_data_set(tmp_path, shape):
         allocated = d.id.get_storage_size()
     assert stored_bytes(*shape) == allocated
     assert os.path.getsize(tmp_path / "d.h5") >= allocated
+
+
+def test_fft_seconds_is_a_positive_time_and_refuses_no_repeats():
+    t = budget.fft_seconds((64, 128))
+    assert 0 < t < 5 and np.isfinite(t)
+    assert budget.fft_seconds((3, 64, 128), repeats=1) > 0  # a stack: one 2-D FFT per leading index
+    with pytest.raises(ValueError, match="repeats"):
+        budget.fft_seconds((8, 8), repeats=0)

@@ -155,3 +155,21 @@ def ghost_level_db(tau, prf: float, error_phase, half_band: float, n_az: int = 2
             s = sum(np.sum(e[:, j + sign * k, j] * occ[:, j]) for j in range(n) if 0 <= j + sign * k < n)
             best = max(best, abs(s) / occ.sum())
     return float(20 * np.log10(best)) if best > 0 else float("-inf")
+
+
+def product_ghost_level_db(raw, error_phase) -> float:
+    """:func:`ghost_level_db` (eq. 6) of a channel error ``error_phase`` (rad per channel; complex: with a gain
+    error) for a multichannel raw product: its channels' delays, PRF and the Doppler half-band of its beam."""
+    r = raw.radar
+    tx = np.asarray(raw.aux.get("tx_offset", np.zeros(3)), float).reshape(3)
+    offsets = np.asarray(raw.aux["rx_offset"], float)[:, 0] - tx[0]  # receivers along track from the transmitter
+    half_band = r.velocity * math.cos(r.squint) * r.azimuth_beamwidth / r.wavelength
+    return ghost_level_db(channel_delays(offsets, r.velocity), r.prf, error_phase, half_band)
+
+
+def ghost_spacing(radar, prf: float | None = None) -> float:
+    """Azimuth distance between a target and its first channel ghost, m: PRF v / K_a with the azimuth FM rate
+    K_a = 2 (v cos theta)^2 / (lambda R_ref) at the reference range. ``prf``: the channels' PRF (default the
+    radar's; a reconstructed product's radar carries N times it)."""
+    ka = 2 * (radar.velocity * math.cos(radar.squint)) ** 2 / (radar.wavelength * radar.reference_range)
+    return (radar.prf if prf is None else prf) / ka * radar.velocity

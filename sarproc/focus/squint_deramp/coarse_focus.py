@@ -188,6 +188,144 @@ def deramp_interval(radar: RadarMetadata, t_first: float, t_last: float, box, k:
     return float(der.min()), float(der.max())
 
 
+@dataclasses.dataclass(frozen=True)
+class DerampedResponse:
+    """One response peak of the deramped spectrum (fields in the order coarse-focus records them)."""
+
+    f_app: float  # deramped frequency where it lands, Hz
+    t_app: float  # coarse time where it lands, s (f_app / k)
+    n: int | None  # folds (true = apparent + n PRF); None: not resolvable with this band and aperture
+    f_true: float  # Hz
+    t_true: float  # s
+    level_db: float  # relative to the strongest response
+    inside_box: bool  # f_app within the scene box's deramped interval (+-2 coarse cells)
+
+
+@dataclasses.dataclass(frozen=True)
+class SubbandSpectra:
+    """Deramped azimuth power of the lower and upper thirds of the range band, per coarse bin."""
+
+    lower: np.ndarray  # (n_out,) power, DFT bins centred on n_out // 2
+    upper: np.ndarray  # (n_out,)
+    centres: tuple[float, float]  # mean range frequency of each sub-band, Hz
+    prf: float  # Hz
+    carrier_frequency: float  # Hz
+    n_pulses: int
+
+    @property
+    def n_out(self) -> int:
+        return len(self.lower)
+
+    @property
+    def frequencies(self) -> np.ndarray:
+        """Deramped frequency of each coarse bin, Hz."""
+        return (np.arange(self.n_out) - self.n_out // 2) * self.prf / self.n_out
+
+    @property
+    def cell(self) -> float:
+        """Bins per coarse resolution cell (1 / aperture time)."""
+        return self.n_out / self.n_pulses
+
+    @property
+    def slope(self) -> float:
+        """Shift of a response between the sub-bands per Hz of its true deramped frequency."""
+        return (self.centres[1] - self.centres[0]) / self.carrier_frequency
+
+    @property
+    def resolvable(self) -> bool:
+        """A PRF of frequency moves a peak by >= 4 coarse cells between the sub-bands: folds can be counted."""
+        return (
+            self.prf * (self.centres[1] - self.centres[0]) / self.carrier_frequency * (self.n_pulses / self.prf) >= 4.0
+        )
+
+
+def subband_spectra(
+    signal: np.ndarray, azimuth_time: np.ndarray, radar: RadarMetadata, k: float, n_out: int, max_columns: int
+) -> SubbandSpectra | None:
+    """:func:`specan` power of two range sub-bands (-0.45..-0.15 and 0.15..0.45 of the band), each on up to
+    ``max_columns`` range frequencies; None when the band has no column in a sub-band."""
+    n_az, n_rg = signal.shape
+    bw = radar.bandwidth
+    fr = sfft.fftfreq(n_rg, 1.0 / radar.range_sampling_rate)
+    spec = sfft.fft(np.asarray(signal), axis=1, workers=-1)
+    power, centre = [], []
+    for lo, hi in ((-0.45, -0.15), (0.15, 0.45)):
+        cols = np.flatnonzero((fr > lo * bw) & (fr < hi * bw))
+        if cols.size == 0:
+            return None
+        cols = cols[np.linspace(0, cols.size - 1, min(cols.size, max_columns)).round().astype(int)]
+        y, _ = specan(spec[:, cols], azimuth_time, radar.prf, k, n_out, "float32")
+        power.append((np.abs(y) ** 2).sum(axis=1))
+        centre.append(float(fr[cols].mean()))
+    return SubbandSpectra(power[0], power[1], (centre[0], centre[1]), radar.prf, radar.carrier_frequency, n_az)
+
+
+def response_peaks(total: np.ndarray, cell: float, level_db: float) -> list[int]:
+    """Local maxima of the power (over +-3 coarse cells, circular) above ``level_db`` of the strongest, strongest
+    first, without the side lobes of a 10x stronger peak within 12 cells."""
+    n_out, half = len(total), len(total) // 2
+    w = max(1, int(round(3 * cell)))
+    padded = np.concatenate([total[-w:], total, total[:w]])
+    local_max = np.lib.stride_tricks.sliding_window_view(padded, 2 * w + 1).max(axis=1) == total
+    peaks = np.flatnonzero(local_max & (total >= total.max() * 10 ** (level_db / 10)))
+    accepted: list[int] = []
+    for i in peaks[np.argsort(total[peaks])[::-1]]:  # side lobes of a much stronger nearby peak are not responses
+        near = [j for j in accepted if abs((i - j + half) % n_out - half) < 12 * cell and total[j] > 10 * total[i]]
+        if not near:
+            accepted.append(int(i))
+    return accepted
+
+
+def centroid_frequency(sp: SubbandSpectra, i: int, r: int) -> float:
+    """True deramped frequency of peak ``i`` (Hz) from the shift of the sub-bands' power centroids within +-r
+    bins of it."""
+    window = np.arange(-r, r + 1)
+    idx = (i + window) % sp.n_out
+    f_win = sp.frequencies[i] + window * sp.prf / sp.n_out
+    c_lo, c_hi = (np.sum(p[idx] * f_win) / np.sum(p[idx]) for p in (sp.lower, sp.upper))
+    return (c_hi - c_lo) / sp.slope
+
+
+def subband_peak_frequency(sp: SubbandSpectra, i: int) -> float:
+    """The same from the shift of the sub-bands' own peaks near peak ``i`` (parabolic refinement), Hz."""
+    n_out, prf = sp.n_out, sp.prf
+    r = int(math.ceil(4 * prf * abs(sp.slope) * n_out / prf + 3 * sp.cell))
+    window = np.arange(-r, r + 1)
+    pos = []
+    for p in (sp.lower, sp.upper):
+        v = p[(i + window) % n_out]
+        j = int(np.argmax(v))
+        frac = 0.0
+        if 0 < j < len(v) - 1:
+            d = v[j - 1] - 2 * v[j] + v[j + 1]
+            frac = 0.5 * (v[j - 1] - v[j + 1]) / d if d < 0 else 0.0
+        pos.append((window[j] + frac) * prf / n_out)
+    return (pos[1] - pos[0]) / sp.slope
+
+
+def fold_count(sp: SubbandSpectra, total: np.ndarray, i: int, accepted: list[int], reach: int) -> int:
+    """Folds of peak ``i`` (0: none claimed). The centroid window is +-``reach`` bins, twice that for a smeared
+    response (far outside the window its FM rate differs from the reference) unless another comparable
+    response lies in the wider window (its energy would bias the centroids); a fold is claimed only when it is
+    clean and the sub-bands' own peaks say the same (no false alarm from neighbours' smeared energy)."""
+    n_out, half, prf = sp.n_out, sp.n_out // 2, sp.prf
+    f_app = float(sp.frequencies[i])
+    crowded = any(
+        reach < abs((i - j + half) % n_out - half) <= 2 * reach and total[j] >= total[i] / 2 for j in accepted if j != i
+    )
+    n = 0
+    for r in (reach,) if crowded else (reach, 2 * reach):
+        f_est = centroid_frequency(sp, i, r)
+        n = int(round((f_est - f_app) / prf))
+        if n != 0 and abs(f_est - f_app - n * prf) > prf / 4:  # not a clean fold: no claim
+            n = 0
+        if n:
+            break
+    if n and int(round((subband_peak_frequency(sp, i) - f_app) / prf)) != n:
+        n = 0
+    return n
+
+
 def deramped_folds(
     signal: np.ndarray,
     azimuth_time: np.ndarray,
@@ -197,143 +335,75 @@ def deramped_folds(
     box_interval: tuple[float, float],
     level_db: float = -30.0,
     max_columns: int = 96,
-) -> list[dict]:
+) -> list[DerampedResponse]:
     """Where the data's deramped energy lies, and which of it folded (data-driven, issue 9).
 
     The deramped azimuth spectrum of two range sub-bands (lower and upper third of the chirp band) is
-    formed with :func:`specan` on up to ``max_columns`` range frequencies each. After the nonlinear
-    correction a response's deramped frequency scales with the carrier plus range frequency, so a
-    response whose true deramped frequency is f = f_app + n PRF (folded n times) moves by f x (band
-    separation) / f_c between the two sub-bands: the shift of the sub-bands' power centroids within
-    +-PRF/10 of a peak (+-PRF/5 for smeared responses with no comparable neighbour there) measures f,
-    hence n, and a fold is claimed only when the shift of the sub-bands' own peaks gives the same n.
-    That is decidable when a PRF of frequency moves a peak
-    by at least 4 coarse resolution cells between the sub-bands (PRF x band separation / f_c x
-    aperture time >= 4); otherwise only the energy outside the box is reported (``n`` None).
+    formed with :func:`specan` on up to ``max_columns`` range frequencies each (:func:`subband_spectra`).
+    After the nonlinear correction a response's deramped frequency scales with the carrier plus range
+    frequency, so a response whose true deramped frequency is f = f_app + n PRF (folded n times) moves by
+    f x (band separation) / f_c between the two sub-bands: the shift of the sub-bands' power centroids
+    within +-PRF/10 of a peak (+-PRF/5 for smeared responses with no comparable neighbour there) measures
+    f, hence n, and a fold is claimed only when the shift of the sub-bands' own peaks gives the same n
+    (:func:`fold_count`). That is decidable when a PRF of frequency moves a peak by at least 4 coarse
+    resolution cells between the sub-bands (PRF x band separation / f_c x aperture time >= 4); otherwise
+    only the energy outside the box is reported (``n`` None).
 
-    Returns one dict per response peak above ``level_db`` (relative to the strongest): ``f_app`` and
-    ``t_app`` (deramped frequency Hz and coarse time s where it lands), ``n`` (folds, None when not
-    resolvable), ``f_true`` and ``t_true``, ``level_db``, ``inside_box`` (f_app within ``box_interval``).
+    Returns one :class:`DerampedResponse` per response peak above ``level_db`` (relative to the strongest),
+    strongest first, at most 32.
     """
-    n_az, n_rg = signal.shape
-    prf, fc, bw = radar.prf, radar.carrier_frequency, radar.bandwidth
-    fr = sfft.fftfreq(n_rg, 1.0 / radar.range_sampling_rate)
-    spec = sfft.fft(np.asarray(signal), axis=1, workers=-1)
-    power, centre = [], []
-    for lo, hi in ((-0.45, -0.15), (0.15, 0.45)):
-        cols = np.flatnonzero((fr > lo * bw) & (fr < hi * bw))
-        if cols.size == 0:
-            return []
-        cols = cols[np.linspace(0, cols.size - 1, min(cols.size, max_columns)).round().astype(int)]
-        y, _ = specan(spec[:, cols], azimuth_time, prf, k, n_out, "float32")
-        power.append((np.abs(y) ** 2).sum(axis=1))
-        centre.append(float(fr[cols].mean()))
-    del spec
-    p_lo, p_hi = power
-    total = p_lo + p_hi
+    sp = subband_spectra(signal, azimuth_time, radar, k, n_out, max_columns)
+    if sp is None:
+        return []
+    total = sp.lower + sp.upper
     if not total.max() > 0:
         return []
-    half = n_out // 2
-    freq = (np.arange(n_out) - half) * prf / n_out  # deramped frequency of each coarse bin
-    cell = n_out / n_az  # bins per coarse resolution cell (1/T)
-    aperture = n_az / prf
-    resolvable = prf * (centre[1] - centre[0]) / fc * aperture >= 4.0
-    w = max(1, int(round(3 * cell)))
-    padded = np.concatenate([total[-w:], total, total[:w]])
-    local_max = np.lib.stride_tricks.sliding_window_view(padded, 2 * w + 1).max(axis=1) == total
-    peaks = np.flatnonzero(local_max & (total >= total.max() * 10 ** (level_db / 10)))
-    accepted = []
-    for i in peaks[np.argsort(total[peaks])[::-1]]:  # side lobes of a much stronger nearby peak are not responses
-        near = [j for j in accepted if abs((i - j + half) % n_out - half) < 12 * cell and total[j] > 10 * total[i]]
-        if not near:
-            accepted.append(int(i))
-
-    reach = max(int(round(20 * cell)), int(round(0.1 * n_out)))  # +-PRF/10 around a peak, >= 20 cells
-    slope = (centre[1] - centre[0]) / fc  # sub-band shift per Hz of true deramped frequency
-
-    def true_frequency(i, r):  # power-centroid shift between the sub-bands within +-r bins of peak i, as Hz
-        window = np.arange(-r, r + 1)
-        idx = (i + window) % n_out
-        f_win = freq[i] + window * prf / n_out
-        c_lo, c_hi = (np.sum(p[idx] * f_win) / np.sum(p[idx]) for p in (p_lo, p_hi))
-        return (c_hi - c_lo) / slope
-
-    def peak_frequency(i):  # the same from the sub-bands' own peaks near peak i (parabolic refinement)
-        r = int(math.ceil(4 * prf * abs(slope) * n_out / prf + 3 * cell))
-        window = np.arange(-r, r + 1)
-        pos = []
-        for p in (p_lo, p_hi):
-            v = p[(i + window) % n_out]
-            j = int(np.argmax(v))
-            frac = 0.0
-            if 0 < j < len(v) - 1:
-                d = v[j - 1] - 2 * v[j] + v[j + 1]
-                frac = 0.5 * (v[j - 1] - v[j + 1]) / d if d < 0 else 0.0
-            pos.append((window[j] + frac) * prf / n_out)
-        return (pos[1] - pos[0]) / slope
-
-    out = []
+    accepted = response_peaks(total, sp.cell, level_db)
+    reach = max(int(round(20 * sp.cell)), int(round(0.1 * n_out)))  # +-PRF/10 around a peak, >= 20 cells
+    aperture = sp.n_pulses / sp.prf
+    freq = sp.frequencies
+    out: list[DerampedResponse] = []
     for i in accepted[:32]:
         f_app = float(freq[i])
-        n = None
-        if resolvable:
-            # A response far outside the window is smeared (its FM rate differs from the reference):
-            # look again over twice the width when the narrow window finds no fold, unless another
-            # comparable response lies in the wider window (its energy would bias the centroids).
-            crowded = any(
-                reach < abs((i - j + half) % n_out - half) <= 2 * reach and total[j] >= total[i] / 2
-                for j in accepted
-                if j != i
-            )
-            for r in (reach,) if crowded else (reach, 2 * reach):
-                f_est = true_frequency(i, r)
-                n = int(round((f_est - f_app) / prf))
-                if n != 0 and abs(f_est - f_app - n * prf) > prf / 4:  # not a clean fold: no claim
-                    n = 0
-                if n:
-                    break
-            # A fold is claimed only when the sub-bands' own peaks say the same (no false alarm from
-            # the smeared energy of neighbouring responses inside the centroid window).
-            if n and int(round((peak_frequency(i) - f_app) / prf)) != n:
-                n = 0
-        f_true = f_app + (n or 0) * prf
-        if any(o["n"] == n and abs(o["f_app"] - f_app) <= reach * prf / n_out for o in out):
+        n = fold_count(sp, total, i, accepted, reach) if sp.resolvable else None
+        f_true = f_app + (n or 0) * sp.prf
+        if any(o.n == n and abs(o.f_app - f_app) <= reach * sp.prf / n_out for o in out):
             continue  # another peak of the same (smeared) response
         out.append(
-            {
-                "f_app": f_app,
-                "t_app": f_app / k,
-                "n": n,
-                "f_true": f_true,
-                "t_true": f_true / k,
-                "level_db": float(10 * np.log10(total[i] / total.max())),
-                "inside_box": bool(box_interval[0] - 2 / aperture <= f_app <= box_interval[1] + 2 / aperture),
-            }
+            DerampedResponse(
+                f_app=f_app,
+                t_app=f_app / k,
+                n=n,
+                f_true=f_true,
+                t_true=f_true / k,
+                level_db=float(10 * np.log10(total[i] / total.max())),
+                inside_box=bool(box_interval[0] - 2 / aperture <= f_app <= box_interval[1] + 2 / aperture),
+            )
         )
     return out
 
 
-def _fold_messages(found: list[dict], radar: RadarMetadata, k: float, box) -> tuple[list[str], list[str]]:
+def _fold_messages(found: list[DerampedResponse], radar: RadarMetadata, k: float, box) -> tuple[list[str], list[str]]:
     """(problems, notes) worded from :func:`deramped_folds`; x_n is read as v t' (flow 1's axis)."""
     v, prf = radar.velocity, radar.prf
     where = f"the scene box x_n in [{box[0]:.0f}, {box[1]:.0f}] m"
     problems, notes = [], []
     for f in found:
-        if f["n"]:
+        if f.n:
             problems.append(
-                f"deramped energy at t' = {f['t_app']:.4g} s ({f['level_db']:.1f} dB below the strongest response) is "
-                f"a fold: its range-band slope puts it {f['n']:+d} PRF away at {f['f_true']:.1f} Hz, outside the "
-                f"deramped window +-{prf / 2:.1f} Hz; cause: a scatterer at x_n ~ {v * f['t_true']:.0f} m, outside "
-                f"{where}; fine focus would process it with a Doppler {f['n']:+d} PRF off, so it is not imaged at "
-                f"x_n ~ {v * f['t_true']:.0f} m but lands near x_n ~ {v * f['t_app']:.0f} m (a ghost) or smeared. "
+                f"deramped energy at t' = {f.t_app:.4g} s ({f.level_db:.1f} dB below the strongest response) is "
+                f"a fold: its range-band slope puts it {f.n:+d} PRF away at {f.f_true:.1f} Hz, outside the "
+                f"deramped window +-{prf / 2:.1f} Hz; cause: a scatterer at x_n ~ {v * f.t_true:.0f} m, outside "
+                f"{where}; fine focus would process it with a Doppler {f.n:+d} PRF off, so it is not imaged at "
+                f"x_n ~ {v * f.t_true:.0f} m but lands near x_n ~ {v * f.t_app:.0f} m (a ghost) or smeared. "
                 "Raise the PRF or remove the scatterer from the data (a larger box does not help: the window is the PRF)"
             )
-        elif f["n"] is None and not f["inside_box"] and f["level_db"] >= -20.0:  # not a box-edge target's smear
+        elif f.n is None and not f.inside_box and f.level_db >= -20.0:  # not a box-edge target's smear
             notes.append(
-                f"deramped energy at t' = {f['t_app']:.4g} s ({f['level_db']:.1f} dB) lies outside {where}; the range "
+                f"deramped energy at t' = {f.t_app:.4g} s ({f.level_db:.1f} dB) lies outside {where}; the range "
                 f"band is too narrow for this aperture to tell whether it folded: it is a scatterer at x_n ~ "
-                f"{v * f['t_app']:.0f} m or the fold of one at x_n ~ {v * (f['t_app'] + prf / k):.0f} m or "
-                f"{v * (f['t_app'] - prf / k):.0f} m (a ghost); declare coarse_focus.scene_azimuth_extent to cover "
+                f"{v * f.t_app:.0f} m or the fold of one at x_n ~ {v * (f.t_app + prf / k):.0f} m or "
+                f"{v * (f.t_app - prf / k):.0f} m (a ghost); declare coarse_focus.scene_azimuth_extent to cover "
                 "the scene so the alias check sees it"
             )
     return problems, notes
@@ -407,7 +477,7 @@ def coarse_focus(pre: Product, params: CoarseFocusParams = CoarseFocusParams(), 
             "deramp_extent": budget["deramp_extent"],
             "scene_box": [float(b) for b in box],
             "aliased": bool(problems),
-            "folds": [{k_: v_ for k_, v_ in f.items()} for f in folds if f["n"]],
+            "folds": [dataclasses.asdict(f) for f in folds if f.n],
         }
     )
     out = pre.derive(

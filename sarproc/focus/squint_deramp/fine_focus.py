@@ -33,6 +33,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+from collections.abc import Callable, Iterable
 
 import numba
 import numpy as np
@@ -51,7 +52,7 @@ from sarproc.focus.squint_deramp.block_copies import (
 from sarproc.product.frames import SquintFrame, SquintLrwcFrame, targets_in_frame
 from sarproc.dsp.interp import KERNELS, resample_rows
 from sarproc.dsp.kernel_cache import CACHE
-from sarproc.product.metadata import C
+from sarproc.product.metadata import C, RadarMetadata
 from sarproc.product.theory import fill_target_theory, window_theory
 from sarproc.focus.squint_deramp.nlcs import (
     VARIANTS,
@@ -67,6 +68,8 @@ from sarproc.dsp.rangecomp import chirp_replica
 from sarproc.focus.squint_deramp.stolt import MODELS, SpectrumModel, stolt_resample
 
 log = logging.getLogger(__name__)
+
+Progress = Callable[[Iterable[int]], Iterable[int]]  # wraps a block range in a progress bar
 
 
 @dataclasses.dataclass(frozen=True)
@@ -238,84 +241,156 @@ def _residual_doppler(S, t_c, f_r, k, beta, prf):
     return S
 
 
-def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), progress=None) -> Product:
-    """``coarse`` product -> focused ``image`` product in the squint frame (see module doc)."""
-    from sarproc.product.io import history_entry
+@dataclasses.dataclass(frozen=True)
+class CoarseGrid:
+    """What fine focusing reads off a coarse product: its grids, deramp rate, scene box and aperture."""
 
+    deramp_rate: float  # k, Hz/s (eq. 12's reference)
+    doppler_correction: str  # preprocess method: nonlinear, linear or none
+    azimuth_time: np.ndarray  # t', s, centred on 0
+    range_time: np.ndarray  # tau, s
+    scene_box: tuple[float, float, float, float]  # (x_min, x_max, r_min, r_max), m
+    aperture: tuple[float, float]  # first and last pulse time, s
+    n_pulses: int
+    total_doppler_bandwidth: float  # Hz, of the scene (flow 1's resampling kernel design); default F_a'' / 1.2
+
+    @property
+    def scene_centre_range(self) -> float:
+        return 0.5 * (self.scene_box[2] + self.scene_box[3])
+
+
+@dataclasses.dataclass(frozen=True)
+class FlowChoice:
+    """Eq. (17): flow 1 when the scene fits the depth of focus, else flow 2 (or as configured)."""
+
+    flow: int
+    depth_of_focus_half_width: float  # m
+    scene_half_width: float  # m
+    doppler_rate: float  # K at the scene centre range, Hz/s
+
+
+@dataclasses.dataclass
+class RangeDoppler:
+    """The range-Doppler data of eq. (16) after Stolt: envelope at r_LRWC, azimuth phase -r_0 G_c(f_a)."""
+
+    data: np.ndarray  # (n_azimuth_frequencies, N) complex, (f_a, r)
+    azimuth_frequency: np.ndarray  # f_a, Hz, centred
+    range_frequency: np.ndarray  # f_r, Hz, centred
+    slant_range: np.ndarray  # r, m, centred on r_ref
+    stolt_oversampling: float
+    stolt_masked_fraction: float
+
+
+@dataclasses.dataclass
+class AzimuthFocused:
+    """The image after azimuth compression, before the range geometry: rows at azimuth ``x``."""
+
+    data: np.ndarray  # (n_x, N) complex
+    x: np.ndarray  # azimuth, m
+    alpha: float | None  # NLCS scaling (flow 2), None for flow 1
+    info: dict  # flow 2's recorded NLCS figures (history), empty for flow 1
+
+
+def coarse_grid(coarse: Product) -> CoarseGrid:
+    """The coarse product's grids and attributes fine focusing needs; a product not made by coarse-focus is
+    refused."""
     if coarse.kind != "coarse":
         raise InputError(f"fine-focus needs a 'coarse' product, got {coarse.kind!r}")
-    radar = coarse.radar
     at = coarse.attrs
     for key in ("deramp_rate", "azimuth_sampling_rate", "aperture_start", "aperture_end", "n_pulses", "scene_box"):
         if key not in at:
             raise InputError(f"fine-focus: coarse product lacks attribute {key!r} (not made by coarse-focus?)")
-    k = float(at["deramp_rate"])
-    method = at.get("doppler_correction", "none")
-    v, th = radar.velocity, radar.squint
-    s_th, c_th = math.sin(th), math.cos(th)
-    lam = radar.wavelength
-    fs = radar.range_sampling_rate
-    cdt = complex_dtype(params.precision)
     t_c = np.asarray(coarse.coords["azimuth_time"], float)
-    tau = np.asarray(coarse.coords["range_time"], float)
-    M, n_r = len(t_c), len(tau)
     dtc = t_c[1] - t_c[0]
-    Fa = 1.0 / dtc
-    if abs(t_c[M // 2]) > 1e-9 * max(1.0, abs(dtc)) * 1e6:
+    if abs(t_c[len(t_c) // 2]) > 1e-9 * max(1.0, abs(dtc)) * 1e6:
         raise InputError("fine-focus: the coarse azimuth grid is not centred on t' = 0")
     box = [float(b) for b in at["scene_box"]]
-    r_ref = params.reference_range or 0.5 * (box[2] + box[3])
-    t_first, t_last = float(at["aperture_start"]), float(at["aperture_end"])
-    n_pulses = int(at["n_pulses"])
-    T_ap = n_pulses / radar.prf
-    model = SpectrumModel(radar.carrier_frequency, v, th, params.stolt_model)
-    g2, g3 = model.taylor()
+    return CoarseGrid(
+        deramp_rate=float(at["deramp_rate"]),
+        doppler_correction=at.get("doppler_correction", "none"),
+        azimuth_time=t_c,
+        range_time=np.asarray(coarse.coords["range_time"], float),
+        scene_box=(box[0], box[1], box[2], box[3]),
+        aperture=(float(at["aperture_start"]), float(at["aperture_end"])),
+        n_pulses=int(at["n_pulses"]),
+        total_doppler_bandwidth=float(at.get("total_doppler_bandwidth", (1.0 / dtc) / 1.2)),
+    )
 
-    # ---- flow choice (eq. 17)
-    r_c = 0.5 * (box[2] + box[3])
-    K_c = -2 * v**2 * c_th**2 / (lam * r_c)
-    half_adof, scene_half = scene_and_focus_depth(radar, box, n_pulses)
-    flow = params.flow or (1 if scene_half <= half_adof else 2)
 
-    # ---- 1. range FFT (padded against circular wrap of the chirp), residual Doppler correction
-    n_chirp = int(math.ceil(radar.pulse_duration * fs))
-    N = sfft.next_fast_len(n_r + n_chirp)
-    if M * N > params.max_samples:
-        raise InputError(f"fine-focus: working array {M} x {N} exceeds fine_focus.max_samples {params.max_samples}")
-    f_r = centred(N, fs / N)
+def choose_flow(radar: RadarMetadata, grid: CoarseGrid, params: FineFocusParams) -> FlowChoice:
+    """Eq. (17)'s choice of flow for this scene box and aperture (``params.flow`` overrides it)."""
+    v, c_th = radar.velocity, math.cos(radar.squint)
+    K_c = -2 * v**2 * c_th**2 / (radar.wavelength * grid.scene_centre_range)
+    half_adof, scene_half = scene_and_focus_depth(radar, grid.scene_box, grid.n_pulses)
+    return FlowChoice(params.flow or (1 if scene_half <= half_adof else 2), half_adof, scene_half, K_c)
+
+
+def range_padded_length(radar: RadarMetadata, n_range: int) -> int:
+    """Range FFT length: the samples plus a chirp, against circular wrap of the chirp."""
+    n_chirp = int(math.ceil(radar.pulse_duration * radar.range_sampling_rate))
+    return sfft.next_fast_len(n_range + n_chirp)
+
+
+def two_dimensional_spectrum(
+    data: np.ndarray, grid: CoarseGrid, radar: RadarMetadata, N: int, cdt: type[np.complexfloating]
+) -> np.ndarray:
+    """Step 1: range FFT (zero padded to ``N``), eq. (7)'s missing part for the baseline corrections, then
+    the centred azimuth DFT: the (f_a, f_r) spectrum, both axes centred."""
+    M = len(grid.azimuth_time)
+    f_r = centred(N, radar.range_sampling_rate / N)
     S = np.empty((M, N), cdt)  # zero padded in one parallel copy, transformed in place
     if N % 2 == 0:
-        pad_rows(coarse.data, S, 1)  # fftshift of the spectrum as (-1)^n in time
+        pad_rows(data, S, 1)  # fftshift of the spectrum as (-1)^n in time
         S = sfft.fft(S, axis=1, workers=-1, overwrite_x=True)
     else:
-        pad_rows(coarse.data, S, -1)
+        pad_rows(data, S, -1)
         S = sfft.fftshift(sfft.fft(S, axis=1, workers=-1, overwrite_x=True), axes=1)
+    method = grid.doppler_correction
     if method != "nonlinear":
         beta = correction_frequency(radar, f_r, "nonlinear") - correction_frequency(radar, f_r, method)
-        S = _residual_doppler(S, t_c, f_r, k, beta, radar.prf)
-    S = cfft(S, 0, overwrite=True)
-    f_a = centred(M, Fa / M)
+        S = _residual_doppler(S, grid.azimuth_time, f_r, grid.deramp_rate, beta, radar.prf)
+    return cfft(S, 0, overwrite=True)
 
-    # ---- 2. range compression, bulk RFM, Stolt, range IFFT -> range-Doppler (f_a, r)
-    tau_ref = 2 * r_ref / C
-    r = r_ref + centred(N, C / (2 * fs))
-    depth = max(box[3] - box[2], 1.0) + abs(s_th) * (box[1] - box[0])
-    over = params.stolt_oversampling or float(
-        np.clip((N / fs) / (2 * (depth + 4 * C / (2 * radar.bandwidth)) / C), 1.2, 4.0)
-    )
-    half_win = (N / 2) * C / (2 * fs)
+
+def _check_range_window(box: tuple[float, float, float, float], s_th: float, r_ref: float, half_window: float) -> None:
+    """The scene's slant ranges (squint-shifted over its azimuth extent) must fit the range window."""
     if (
         max(
             abs(box[2] + min(0, box[0] * s_th, box[1] * s_th) - r_ref),
             abs(box[3] + max(0, box[0] * s_th, box[1] * s_th) - r_ref),
         )
-        > half_win
+        > half_window
     ):
         raise InputError(
             f"fine-focus: the scene (r_0 in [{box[2]:.0f}, {box[3]:.0f}] m) does not fit the "
-            f"{2 * half_win:.0f} m range window centred on r_ref = {r_ref:.0f} m"
+            f"{2 * half_window:.0f} m range window centred on r_ref = {r_ref:.0f} m"
         )
-    hr = _range_filter(radar, f_r, params.range_filter) * np.exp(-2j * np.pi * f_r * tau[0])
+
+
+def stolt_to_range_doppler(
+    S: np.ndarray,
+    grid: CoarseGrid,
+    radar: RadarMetadata,
+    model: SpectrumModel,
+    r_ref: float,
+    params: FineFocusParams,
+    cdt: type[np.complexfloating],
+    progress: Progress | None,
+) -> RangeDoppler:
+    """Step 2, in place on ``S`` (f_a, f_r): range compression, bulk reference-function multiply at
+    ``r_ref``, the modified Stolt mapping (eq. 15) and the range IFFT, block by block of azimuth rows."""
+    M, N = S.shape
+    fs = radar.range_sampling_rate
+    f_r = centred(N, fs / N)
+    f_a = centred(M, (1.0 / (grid.azimuth_time[1] - grid.azimuth_time[0])) / M)
+    box = grid.scene_box
+    r = r_ref + centred(N, C / (2 * fs))
+    depth = max(box[3] - box[2], 1.0) + abs(math.sin(radar.squint)) * (box[1] - box[0])
+    over = params.stolt_oversampling or float(
+        np.clip((N / fs) / (2 * (depth + 4 * C / (2 * radar.bandwidth)) / C), 1.2, 4.0)
+    )
+    _check_range_window(box, math.sin(radar.squint), r_ref, (N / 2) * C / (2 * fs))
+    hr = _range_filter(radar, f_r, params.range_filter) * np.exp(-2j * np.pi * f_r * grid.range_time[0])
     hr = hr.astype(cdt)
     f_abs = radar.carrier_frequency + f_r
     masked = 0
@@ -346,59 +421,83 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
         else:
             blk *= fac[:, None]
             S[s:e] = cifft(blk, 1, overwrite=True)
-    RD = S  # (f_a, r): envelope at r_LRWC, azimuth phase -r_0 G_c(f_a) - 2 pi f_a t_n, reference still in
-    del S
+    return RangeDoppler(S, f_a, f_r, r, over, masked / float(M * N))
 
-    # ---- 3. azimuth compression
+
+def flow1_compress(
+    rd: RangeDoppler,
+    grid: CoarseGrid,
+    radar: RadarMetadata,
+    model: SpectrumModel,
+    params: FineFocusParams,
+    cdt: type[np.complexfloating],
+    blocks: Iterable[int],
+    progress: Progress | None,
+) -> AzimuthFocused:
+    """Step 3, flow 1, in place on ``rd.data``: eq. (12)'s reference removed and exp(+j r G_c(f_a)) at every
+    range bin (direct compression, inside the depth of focus of eq. 17), then the optional azimuth
+    resampling that undoes the x_n^2 sin(theta) / r shift of edge targets; rows cropped to the scene box."""
+    RD, f_a, r = rd.data, rd.azimuth_frequency, rd.slant_range
+    N = RD.shape[1]
+    t_c = grid.azimuth_time
     gc, okc = model.Gc(f_a)
-    ref = np.exp(1j * np.pi * f_a**2 / k)  # removes eq. (12)'s reference
-    x_lo, x_hi = box[0] - params.crop_margin, box[1] + params.crop_margin
-    info = {
-        "flow": flow,
-        "depth_of_focus_half_width": half_adof,
-        "scene_half_width": scene_half,
-        "stolt_oversampling": over,
-        "stolt_masked_fraction": masked / float(M * N),
-    }
-    azimuth_blocks = range(0, N, params.block_range)  # a second progress bar: azimuth compression
-    if progress is not None:
-        azimuth_blocks = progress(azimuth_blocks)
-    if flow == 1:
-        for s in azimuth_blocks:
-            e = min(s + params.block_range, N)
-            blk = RD[:, s:e] * np.where(okc, ref, 0)[:, None].astype(cdt)
-            multiply_separable_phase(blk, np.where(okc, gc, 0)[None, :], r[None, s:e])
-            RD[:, s:e] = cifft(blk, 0, overwrite=True)
-        x = v * t_c
-        keep = (x >= x_lo) & (x <= x_hi)
-        if params.flow1_geometry == "resample":
-            # flow 1 puts a target at x_n + x_n^2 sin(theta) / r: the residual quadratic phase
-            # x_n sin(theta) g2 f_a^2 is linear around the target's Doppler centre -K t_n (spotlight)
-            idx = np.flatnonzero(keep)
-            xs = x[idx]
-            resample_blocks = range(0, N, params.block_range)  # a third bar: the geometric resampling
-            for s in progress(resample_blocks) if progress is not None else resample_blocks:
-                e = min(s + params.block_range, N)
-                src = xs[:, None] + xs[:, None] ** 2 * s_th / r[None, s:e]
-                pos = (src - x[0]) / (x[1] - x[0])
-                RD[idx, s:e] = resample_rows(
-                    RD[:, s:e].T,
-                    pos.T,
-                    "knab",
-                    16,
-                    oversampling=max(1.1, Fa / max(float(at.get("total_doppler_bandwidth", Fa / 1.2)), 1.0)),
-                ).T
-        img, x = RD[keep], x[keep]
-        alpha = None
-    else:
-        img, x, extra = _flow2(
-            RD, t_c, f_a, r, k, model, radar, params, box, (t_first, t_last), cdt, (x_lo, x_hi), azimuth_blocks
-        )
-        info.update(extra)
-        alpha = extra["alpha"]
-    del RD
+    ref = np.exp(1j * np.pi * f_a**2 / grid.deramp_rate)  # removes eq. (12)'s reference
+    for s in blocks:
+        e = min(s + params.block_range, N)
+        blk = RD[:, s:e] * np.where(okc, ref, 0)[:, None].astype(cdt)
+        multiply_separable_phase(blk, np.where(okc, gc, 0)[None, :], r[None, s:e])
+        RD[:, s:e] = cifft(blk, 0, overwrite=True)
+    x = radar.velocity * t_c
+    keep = (x >= grid.scene_box[0] - params.crop_margin) & (x <= grid.scene_box[1] + params.crop_margin)
+    if params.flow1_geometry == "resample":
+        _flow1_resample(RD, x, keep, r, radar, grid, params, progress)
+    return AzimuthFocused(RD[keep], x[keep], None, {})
 
-    # ---- 4. geometric correction in range (squint frame) and crop
+
+def _flow1_resample(
+    RD: np.ndarray,
+    x: np.ndarray,
+    keep: np.ndarray,
+    r: np.ndarray,
+    radar: RadarMetadata,
+    grid: CoarseGrid,
+    params: FineFocusParams,
+    progress: Progress | None,
+) -> None:
+    """Flow 1 puts a target at x_n + x_n^2 sin(theta) / r: the residual quadratic phase x_n sin(theta) g2 f_a^2
+    is linear around the target's Doppler centre -K t_n (spotlight); resample the kept rows back, in place."""
+    s_th = math.sin(radar.squint)
+    Fa = 1.0 / (grid.azimuth_time[1] - grid.azimuth_time[0])
+    N = RD.shape[1]
+    idx = np.flatnonzero(keep)
+    xs = x[idx]
+    resample_blocks = range(0, N, params.block_range)  # a third bar: the geometric resampling
+    for s in progress(resample_blocks) if progress is not None else resample_blocks:
+        e = min(s + params.block_range, N)
+        src = xs[:, None] + xs[:, None] ** 2 * s_th / r[None, s:e]
+        pos = (src - x[0]) / (x[1] - x[0])
+        RD[idx, s:e] = resample_rows(
+            RD[:, s:e].T,
+            pos.T,
+            "knab",
+            16,
+            oversampling=max(1.1, Fa / max(grid.total_doppler_bandwidth, 1.0)),
+        ).T
+
+
+def to_output_frame(
+    focused: AzimuthFocused,
+    range_frequency: np.ndarray,
+    slant_range: np.ndarray,
+    grid: CoarseGrid,
+    radar: RadarMetadata,
+    params: FineFocusParams,
+) -> tuple[np.ndarray, SquintFrame | SquintLrwcFrame, np.ndarray]:
+    """Step 4: the range geometry (squint frame: every azimuth line shifted by -x_n sin(theta), the range phase
+    factor of sec. 4.2; lrwc: left as is) and the crop to the scene box. Returns (image, frame, ranges)."""
+    img, x, f_r, r = focused.data, focused.x, range_frequency, slant_range
+    th, box = radar.squint, grid.scene_box
+    s_th = math.sin(th)
     if params.output_frame == "squint":
         spec = cfft(img, 1, overwrite=True)
         multiply_separable_phase(
@@ -419,21 +518,19 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
     # checked on what is handed out (squint frame: the range FFTs above carry any NaN into every row kept)
     if not finite:
         raise ProcessingError("fine-focus: the image has NaN/Inf values (numerical breakdown)")
-    coords = {"azimuth": x, "range": r[keep_r]}
-    irw = [0.886 * v / (abs(K_c) * T_ap), 0.886 * C / (2 * radar.bandwidth)]
-    attrs = {
-        "frame": frame.spec,
-        "theoretical_irw": irw,
-        "flow": int(flow),
-        "doppler_correction": method,
-        "alpha": alpha if alpha is not None else 0.0,
-        "stolt_masked_fraction": info["stolt_masked_fraction"],
-        "depth_of_focus_half_width": half_adof,
-    }
+    return img, frame, r[keep_r]
+
+
+def target_theory(
+    coarse: Product, frame: SquintFrame | SquintLrwcFrame, choice: FlowChoice, grid: CoarseGrid
+) -> np.ndarray:
+    """The targets table in the image frame with each target's own theory: its Doppler bandwidth |K(r_0)| T at
+    its own closest-approach range (K ~ 1/r_0) over a flat aperture, and the flat range band."""
+    radar = coarse.radar
+    v, T_ap = radar.velocity, grid.n_pulses / radar.prf
+    K_c, r_c = choice.doppler_rate, grid.scene_centre_range
     targets = targets_in_frame(coarse.targets, frame)
-    # Each target's own theory: its Doppler bandwidth |K(r_0)| T at its own closest-approach range (K ~ 1/r_0)
-    # over a flat aperture, and the flat range band.
-    r0 = targets_in_frame(coarse.targets, SquintFrame(th, radar.altitude))["range"]
+    r0 = targets_in_frame(coarse.targets, SquintFrame(radar.squint, radar.altitude))["range"]
     flat = window_theory("none")
     fill_target_theory(
         targets,
@@ -443,10 +540,81 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
             for r_t in r0
         ],
     )
-    out = coarse.derive("image", img, ("azimuth", "range"), coords, attrs=attrs, targets=targets)
+    return targets
+
+
+def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), progress=None) -> Product:
+    """``coarse`` product -> focused ``image`` product in the squint frame (see module doc)."""
+    from sarproc.product.io import history_entry
+
+    grid = coarse_grid(coarse)
+    radar = coarse.radar
+    cdt = complex_dtype(params.precision)
+    r_ref = params.reference_range or grid.scene_centre_range
+    model = SpectrumModel(radar.carrier_frequency, radar.velocity, radar.squint, params.stolt_model)
+    choice = choose_flow(radar, grid, params)
+
+    M, N = len(grid.azimuth_time), range_padded_length(radar, len(grid.range_time))
+    if M * N > params.max_samples:
+        raise InputError(f"fine-focus: working array {M} x {N} exceeds fine_focus.max_samples {params.max_samples}")
+    S = two_dimensional_spectrum(coarse.data, grid, radar, N, cdt)
+    rd = stolt_to_range_doppler(S, grid, radar, model, r_ref, params, cdt, progress)
+    del S
+
+    azimuth_blocks = range(0, N, params.block_range)  # a second progress bar: azimuth compression
+    if progress is not None:
+        azimuth_blocks = progress(azimuth_blocks)
+    if choice.flow == 1:
+        focused = flow1_compress(rd, grid, radar, model, params, cdt, azimuth_blocks, progress)
+    else:
+        box = grid.scene_box
+        img, x, extra = _flow2(
+            rd.data,
+            grid.azimuth_time,
+            rd.azimuth_frequency,
+            rd.slant_range,
+            grid.deramp_rate,
+            model,
+            radar,
+            params,
+            box,
+            grid.aperture,
+            cdt,
+            (box[0] - params.crop_margin, box[1] + params.crop_margin),
+            azimuth_blocks,
+        )
+        focused = AzimuthFocused(img, x, extra["alpha"], extra)
+    f_r, r, over, masked = rd.range_frequency, rd.slant_range, rd.stolt_oversampling, rd.stolt_masked_fraction
+    del rd  # the range-Doppler array is no longer needed (flow 1's image is a copy of its rows)
+    img, frame, ranges = to_output_frame(focused, f_r, r, grid, radar, params)
+
+    attrs = {
+        "frame": frame.spec,
+        "theoretical_irw": [
+            0.886 * radar.velocity / (abs(choice.doppler_rate) * (grid.n_pulses / radar.prf)),
+            0.886 * C / (2 * radar.bandwidth),
+        ],
+        "flow": int(choice.flow),
+        "doppler_correction": grid.doppler_correction,
+        "alpha": focused.alpha if focused.alpha is not None else 0.0,
+        "stolt_masked_fraction": masked,
+        "depth_of_focus_half_width": choice.depth_of_focus_half_width,
+    }
+    targets = target_theory(coarse, frame, choice, grid)
+    out = coarse.derive(
+        "image", img, ("azimuth", "range"), {"azimuth": focused.x, "range": ranges}, attrs=attrs, targets=targets
+    )
+    info = {
+        "flow": choice.flow,
+        "depth_of_focus_half_width": choice.depth_of_focus_half_width,
+        "scene_half_width": choice.scene_half_width,
+        "stolt_oversampling": over,
+        "stolt_masked_fraction": masked,
+        **focused.info,
+    }
     entry = as_dict(params)
     entry.update({k_: (float(v_) if isinstance(v_, (float, np.floating)) else v_) for k_, v_ in info.items()})
-    entry["resolved_flow"] = int(flow)
+    entry["resolved_flow"] = int(choice.flow)
     entry["resolved_reference_range"] = r_ref
     out.history.append(history_entry("fine_focus", entry))
     return out
