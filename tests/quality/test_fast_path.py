@@ -62,7 +62,9 @@ def test_crowded_skewed_2d_same_report():
     coords = [axis_coords(96, 0.4), axis_coords(96, 0.35)]
     a, r = np.meshgrid(coords[0], coords[1], indexing="ij")
     img = np.zeros(a.shape, dtype=complex)
-    targets = [(0.3, -0.2), (3.1, 2.2)]
+    # 10.5 and 9.4 samples apart: each truth finds its own peak (the weaker one is outside the stronger one's
+    # +-3 cell search window), and each chip holds the other's main lobe
+    targets = [(0.3, -0.2), (4.5, 3.1)]
     for (ta, tr), amp in zip(targets, (1.0, 0.7j)):
         da, dr = a - ta, r - tr  # a skewed support: the range ridge leans on azimuth
         img += amp * np.sinc(0.886 * da) * np.sinc(0.886 / 0.8 * (dr + 0.15 * da)) * np.exp(2j * np.pi * 0.4 * da)
@@ -70,3 +72,17 @@ def test_crowded_skewed_2d_same_report():
     exact = evaluate_image(img, ("azimuth", "range"), coords, (1.0, 0.8), targets, params=EvaluateParams(exact=True))
     assert any(t.neighbours_removed for t in fast.targets)
     _assert_same(fast, exact)
+
+
+def test_two_truths_on_one_peak_are_one_response():
+    """A weaker truth whose search window holds a stronger target's peak finds that peak: the two are one
+    response, not neighbours, so neither is subtracted from the other (that removed half the target)."""
+    coords = [axis_coords(96, 0.4), axis_coords(96, 0.35)]
+    a, r = np.meshgrid(coords[0], coords[1], indexing="ij")
+    img = np.sinc(0.886 * (a - 0.3)) * np.sinc(0.886 / 0.8 * (r + 0.2)) + 0.2 * np.sinc(0.886 * (a - 2.1)) * np.sinc(
+        0.886 / 0.8 * (r - 1.2)
+    )
+    rep = evaluate_image(img, ("azimuth", "range"), coords, (1.0, 0.8), [(0.3, -0.2), (2.1, 1.2)])
+    assert rep.targets[0].peak_index == rep.targets[1].peak_index
+    assert not any(t.neighbours_removed for t in rep.targets)
+    assert abs(rep.targets[0].peak_amplitude - 1.0) < 0.01
