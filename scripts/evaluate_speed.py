@@ -97,6 +97,7 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "evaluate-speed")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--cases", nargs="*", default=list(CASES), help="subset of the cases")
+    ap.add_argument("--reuse", action="store_true", help="keep the raw and intermediate products already in --out")
     args = ap.parse_args()
     out = args.out.resolve()
     out.mkdir(parents=True, exist_ok=True)
@@ -107,7 +108,8 @@ def main() -> None:
             scene, stages, _ = CASES[name]
             tag = name.split()[0] + "_" + scene.removesuffix(".yaml")
             src = out / f"{tag}_raw.h5"
-            run(ROOT, ["simulate", CFG / scene, "-o", src, "--overwrite", "--no-progress"], log)
+            if not (args.reuse and src.exists()):
+                run(ROOT, ["simulate", CFG / scene, "-o", src, "--overwrite", "--no-progress"], log)
             chain = []
             for i, (cmd, cfg) in enumerate(stages):
                 dst = out / f"{tag}_{i}_{cmd}.h5"
@@ -115,7 +117,8 @@ def main() -> None:
                 chain.append([cmd, src, "-o", dst, "--overwrite", "--no-progress", "--config", CFG / (cfg or scene)])
                 src = dst
             for c in chain[:-1]:  # the inputs of the timed stage
-                run(ROOT, c, log)
+                if not (args.reuse and Path(c[3]).exists()):
+                    run(ROOT, c, log)
             products[name] = (chain, src)
         for name in args.cases:
             chain, image = products[name]

@@ -114,8 +114,8 @@ class EvaluateParams:
     exact: bool = param(
         default=False,
         doc=(
-            "reference numerics: SVD least squares and the full orientation density (slower; the fast path is "
-            "tested to give the same report)"
+            "reference numerics: SVD least squares, the full orientation density, cuts as direct Fourier sums and "
+            "numpy neighbour responses (slower; the fast path is tested to give the same report)"
         ),
     )
     neighbour_orders: int = param(
