@@ -11,7 +11,7 @@ import math
 import numba
 import numpy as np
 
-from sarproc.dsp.kernel_cache import CACHE
+from sarproc.product.kernel_cache import CACHE
 
 
 @numba.njit(error_model="numpy", parallel=True, cache=CACHE)
