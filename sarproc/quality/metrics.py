@@ -70,6 +70,7 @@ from sarproc.quality.residual import (
     response_basis,
     spectral_orders,
 )
+from sarproc.quality.linesum import exponential_sums
 
 SINC_IRW_FACTOR = 0.886  # -3 dB width of sinc^2 times the bandwidth (0.8859 exactly)
 
@@ -113,8 +114,8 @@ class EvaluateParams:
     exact: bool = param(
         default=False,
         doc=(
-            "reference numerics: SVD least squares and the full orientation density (slower; the fast path is "
-            "tested to give the same report)"
+            "reference numerics: SVD least squares, the full orientation density, cuts as direct Fourier sums and "
+            "numpy neighbour responses (slower; the fast path is tested to give the same report)"
         ),
     )
     neighbour_orders: int = param(
@@ -418,6 +419,28 @@ class _Chip:
             out = np.einsum("...kt,tk->...t", out, kern(a))
         return out / self.data.size
 
+    def values_on_line(self, start, direction, first: float, step: float, count: int) -> np.ndarray:
+        """:meth:`values_along` at the uniform offsets ``first + j * step`` (j < count), as one type-1
+        non-uniform FFT over the chip's bins (:func:`sarproc.quality.kernels.exponential_sums`): about
+        chip size x 16 operations instead of chip size x count, equal to rounding (1e-13 of the peak)."""
+        x0 = np.asarray(start, dtype=float) - self.origin
+        v = np.asarray(direction, dtype=float)
+        phase = functools.reduce(np.add.outer, [f * x for f, x in zip(self.freqs, x0)])
+        freq = functools.reduce(np.add.outer, [f * d for f, d in zip(self.freqs, v)])
+        coef = self.spec * np.exp(2j * np.pi * phase)
+        return exponential_sums(coef, freq, first, step, count) / self.data.size
+
+    def values_on_axis(self, start, axis: int, first: float, step: float, count: int) -> np.ndarray:
+        """Values at ``start`` moved along image axis ``axis`` by ``first + j * step`` (j < count): the other
+        axes contracted at ``start``, then one non-uniform FFT over that axis' bins (no count x bins
+        exponentials)."""
+        x0 = np.asarray(start, dtype=float) - self.origin
+        out = self.spec
+        for b in range(self.spec.ndim - 1, -1, -1):
+            if b != axis:
+                out = np.tensordot(out, np.exp(2j * np.pi * x0[b] * self.freqs[b]), axes=([b], [0]))
+        return exponential_sums(out, self.freqs[axis], x0[axis] + first, step, count) / self.data.size
+
     def refine_peak(self, start, tol=1e-4) -> tuple[np.ndarray, complex]:
         """Local maximum of |f| near ``start`` (image indices) by zooming 9-point grids."""
         pos = np.asarray(start, dtype=float)
@@ -455,7 +478,13 @@ def _orientation_density(cand, u, weight, sigma, exact=False):
     """Sum over unit vectors u (weights ``weight``) of exp((cos^2 - 1) / 2 sigma^2) at each candidate.
 
     Terms below exp(-40) of their weight (1e-17) are left out unless ``exact``: the exponential is
-    then taken on the few pairs within about 9 kernel widths (a tenth of them in 3D)."""
+    then taken on the few pairs within about 9 kernel widths (a tenth of them in 3D; compiled there)."""
+    if not exact and cand.shape[1] == 3:
+        from sarproc.quality import kernels  # numba: worth its loading time on 3D cubes only
+
+        return kernels.orientation_density(
+            np.ascontiguousarray(cand, dtype=float), np.ascontiguousarray(u, dtype=float), weight, float(sigma)
+        )
     d2 = (cand @ u.T) ** 2
     if exact:
         return np.exp((d2 - 1.0) / (2 * sigma**2)) @ weight
@@ -541,13 +570,24 @@ def principal_directions(chip: np.ndarray, centers, nulls, window_nulls: float =
     return V / np.diag(V)[:, None], f_c
 
 
-def _ideal_response(points, position, V, nulls, f_c, hamming: bool):
+def _ideal_response(points, position, V, nulls, f_c, hamming: bool, exact: bool = False) -> np.ndarray:
     """Ideal response at ``points`` ((ndim, N) image indices) of a target at ``position``, peak 1.
 
     The support is the parallelogram (parallelepiped) whose ridges are the rows of V (see
     :func:`principal_directions`) with null spacing ``nulls[a]`` along ridge a (measured along axis
     a); the spectrum is flat (or Hamming) over it and centred on ``f_c`` (cycles/sample).
     """
+    if not exact and len(V) == 3:
+        from sarproc.quality import kernels  # numba: worth its loading time on 3D cubes only
+
+        ridge = np.linalg.inv(np.asarray(V, dtype=float).T) / np.asarray(nulls, dtype=float)[:, None]
+        return kernels.ideal_response(
+            np.ascontiguousarray(points, dtype=float),
+            np.asarray(position, dtype=float),
+            ridge,
+            np.asarray(f_c, dtype=float),
+            hamming,
+        )
     x = points - np.asarray(position, dtype=float)[:, None]
     c = np.linalg.solve(V.T, x) / np.asarray(nulls, dtype=float)[:, None]  # ridge coordinates, nulls
     shape_fn = (lambda q: 0.54 * np.sinc(q) + 0.23 * (np.sinc(q - 1) + np.sinc(q + 1))) if hamming else np.sinc
@@ -593,9 +633,54 @@ def evaluate_image(
     recorded). other_truth: (n, ndim) positions of targets not measured (a subset was asked for):
     their neighbourhoods are kept out of the false-target search like the measured ones'. Raises
     InputError.
+
+    Steps: :func:`_find_peak` per target (pass 1: peak and support on the image's chip),
+    :func:`_subtract_neighbours` (pass 2: the groups' fitted responses off each chip, peak and support again),
+    :func:`_measure` per target (the cuts), then :func:`_false_targets`.
     """
     params = params or EvaluateParams()
     data = np.asarray(data)
+    axes, metric, truth, names = _checked_inputs(data, dims, coords, theoretical_irw, truth, names, metric, params)
+    own_axes = _target_axes(axes, target_irw, truth.shape[0], params.irw_factor, target_null, target_sidelobes)
+    mag = np.abs(data)
+    # chips wide enough for every target's own ISLR window
+    half = [
+        max(x[a].nulls_to_samples(params.islr_nulls + params.margin_nulls) for x in [axes] + own_axes)
+        for a in range(len(axes))
+    ]
+    nulls = [ax.null for ax in axes]
+    # One bar over the whole evaluation: each target's pass 1, pass 2 (when neighbours are removed) and
+    # measurement, then the false-target search.
+    done = steps(progress, len(names) * (3 if params.remove_neighbours else 2) + 1)
+    peaks = [
+        _find_peak(data, mag, axes, name, t, half, nulls, params) for name, t in wrapped(done, list(zip(names, truth)))
+    ]
+    if params.remove_neighbours:
+        peaks = _subtract_neighbours(data, peaks, names, nulls, half, params, done)
+    reports = [
+        _measure(peak, own, t, name, params, metric)
+        for peak, name, t, own in wrapped(done, list(zip(peaks, names, truth, own_axes)))
+    ]
+    # targets not measured (a subset was asked for) still guard their neighbourhoods from the search
+    guarded = (
+        truth
+        if other_truth is None or len(other_truth) == 0
+        else np.concatenate([truth, np.asarray(other_truth, dtype=float).reshape(-1, len(axes))])
+    )
+    false, guard, floor = _false_targets(data, mag, axes, guarded, peaks, reports, half, nulls, params)
+    done()
+    return QualityReport(
+        dims=tuple(ax.name for ax in axes),
+        targets=tuple(reports),
+        false_target=false,
+        params=params,
+        false_target_guard=guard,
+        residual=floor,
+    )
+
+
+def _checked_inputs(data, dims, coords, theoretical_irw, truth, names, metric, params) -> tuple:
+    """(axes, metric, truth, names) of evaluate_image's arguments, checked; raises InputError."""
     if data.ndim not in (1, 2, 3):
         raise InputError(f"image must have 1 to 3 axes, got shape {data.shape}")
     if not np.all(np.isfinite(data)):
@@ -620,115 +705,102 @@ def evaluate_image(
         raise InputError(f"{len(names)} names for {truth.shape[0]} targets")
     if not np.all(np.isfinite(truth)):
         raise InputError("target positions contain NaN or Inf")
+    return axes, metric, truth, names
 
-    own_axes = _target_axes(axes, target_irw, truth.shape[0], params.irw_factor, target_null, target_sidelobes)
-    mag = np.abs(data)
-    # chips wide enough for every target's own ISLR window
-    half = [
-        max(x[a].nulls_to_samples(params.islr_nulls + params.margin_nulls) for x in [axes] + own_axes)
-        for a in range(len(axes))
-    ]
-    nulls = [ax.null for ax in axes]
-    # One bar over the whole evaluation: each target's pass 1, pass 2 (when neighbours are removed) and
-    # measurement, then the false-target search.
-    n_tg = len(names)
-    done = steps(progress, n_tg * (3 if params.remove_neighbours else 2) + 1)
-    # Pass 1: every target's peak and support (the neighbour models of pass 2).
-    found = []
-    for name, t in wrapped(done, list(zip(names, truth))):
-        idx = np.array([ax.to_index(x) for ax, x in zip(axes, t)])
-        for ax, i, x in zip(axes, idx, t):
-            if not (-0.5 <= i <= ax.size - 0.5):
-                lo, hi = sorted((ax.start, float(ax.to_coord(ax.size - 1))))
-                raise InputError(
-                    f"target {name!r}: {ax.name} = {x:.6g} lies outside the image extent [{lo:.6g}, {hi:.6g}]"
-                )
-        center = np.rint(idx).astype(int)
-        win = window_slices(center, [ax.cells_to_samples(params.search_cells) for ax in axes], data.shape)
-        local = mag[win]
-        k = np.unravel_index(np.argmax(local), local.shape)
-        peak_index = tuple(int(s.start + i) for s, i in zip(win, k))
-        chip = _Chip(data, peak_index, half)
-        pos, value = chip.refine_peak(peak_index)
+
+@dataclasses.dataclass(frozen=True)
+class _Peak:
+    """A target's response as found in the image: its strongest pixel, the chip around it, the chip it is
+    measured on (``raw`` minus the neighbours' fitted responses), and the refined peak and support there."""
+
+    index: tuple[int, ...]  # strongest pixel in the search window
+    raw: _Chip  # the image's chip
+    chip: _Chip  # the chip measured: raw, or raw minus the neighbours' fitted responses
+    position: np.ndarray  # refined peak, image indices
+    value: complex  # interpolated peak value
+    ridges: np.ndarray  # side-lobe ridge directions (rows; principal_directions' V)
+    band_centre: np.ndarray  # power centroid of the band, cycles/sample
+    removed: tuple[str, ...] = ()  # neighbours subtracted from the chip
+    contaminating: tuple = ()  # the subtracted neighbours (_NeighbourModel) that ideal responses fitted poorly
+
+    def fit_start(self) -> dict:
+        """The start of a response-model fit: the per-target dict of :func:`fit_response_models`."""
+        return {
+            "peak_index": self.index,
+            "pos": self.position,
+            "value": self.value,
+            "V": self.ridges,
+            "f_c": self.band_centre,
+        }
+
+
+def _find_peak(data, mag, axes, name: str, truth, half, nulls, params) -> _Peak:
+    """Pass 1: the strongest pixel within +-search_cells of the truth, the chip around it, its refined peak
+    and support."""
+    idx = np.array([ax.to_index(x) for ax, x in zip(axes, truth)])
+    for ax, i, x in zip(axes, idx, truth):
+        if not (-0.5 <= i <= ax.size - 0.5):
+            lo, hi = sorted((ax.start, float(ax.to_coord(ax.size - 1))))
+            raise InputError(f"target {name!r}: {ax.name} = {x:.6g} lies outside the image extent [{lo:.6g}, {hi:.6g}]")
+    center = np.rint(idx).astype(int)
+    win = window_slices(center, [ax.cells_to_samples(params.search_cells) for ax in axes], data.shape)
+    local = mag[win]
+    k = np.unravel_index(np.argmax(local), local.shape)
+    peak_index = tuple(int(s.start + i) for s, i in zip(win, k))
+    chip = _Chip(data, peak_index, half)
+    pos, value = chip.refine_peak(peak_index)
+    V, f_c = _support(chip, nulls, params)
+    return _Peak(peak_index, chip, chip, pos, value, V, f_c)
+
+
+def _subtract_neighbours(data, peaks: list, names, nulls, half, params, done) -> list:
+    """Pass 2: the ideal responses of every group of targets whose chips overlap are fitted jointly to the
+    image; each target's chip loses the other members' fitted responses, and its peak and support are found
+    again on it. ``done``: the progress steps (one per target)."""
+    models = _neighbour_models(data, peaks, nulls, half, params)
+    hamming = params.irw_factor > 1.1
+    out = list(peaks)
+    for i, peak in wrapped(done, list(enumerate(peaks))):
+        raw = peak.raw
+        shape = np.array(raw.shape)
+        lo, hi = raw.origin - np.asarray(nulls), raw.origin + shape - 1 + np.asarray(nulls)
+        others = [
+            j
+            for j, m in models.items()
+            if j != i and i in m.group and np.all(m.position >= lo) and np.all(m.position <= hi)
+        ]
+        if not others or not abs(peak.value) > 0:
+            continue
+        grid = np.meshgrid(*[np.arange(n) + o for n, o in zip(shape, raw.origin)], indexing="ij")
+        points = np.stack([g.ravel() for g in grid], axis=0).astype(float)
+        cleaned = raw.data.ravel() - sum(models[j].values(points, hamming, params.exact) for j in others)
+        chip = _Chip(None, peak.index, half, chip=(cleaned.reshape(raw.shape), raw.clipped))
+        pos, value = chip.refine_peak(peak.position)
         V, f_c = _support(chip, nulls, params)
-        found.append(
-            {
-                "peak_index": peak_index,
-                "raw": chip,
-                "chip": chip,
-                "pos": pos,
-                "value": value,
-                "V": V,
-                "f_c": f_c,
-                "removed": (),
-            }
+        out[i] = dataclasses.replace(
+            peak,
+            chip=chip,
+            position=pos,
+            value=value,
+            ridges=V,
+            band_centre=f_c,
+            removed=tuple(names[j] for j in others),
+            contaminating=tuple(models[j] for j in others if models[j].misfit > NEIGHBOUR_MISFIT),
         )
-    # Pass 2: the ideal responses of every group of targets whose chips overlap are fitted jointly to
-    # the image; each target is then measured on its chip minus the other members' fitted responses.
-    if params.remove_neighbours:
-        models = _neighbour_models(data, found, nulls, half, params)
-        for i, f in wrapped(done, list(enumerate(found))):
-            shape = np.array(f["raw"].shape)
-            lo, hi = f["raw"].origin - np.asarray(nulls), f["raw"].origin + shape - 1 + np.asarray(nulls)
-            others = [
-                j
-                for j, m in models.items()
-                if j != i and i in m["group"] and np.all(m["pos"] >= lo) and np.all(m["pos"] <= hi)
-            ]
-            if not others or not abs(f["value"]) > 0:
-                continue
-            grid = np.meshgrid(*[np.arange(n) + o for n, o in zip(shape, f["raw"].origin)], indexing="ij")
-            points = np.stack([g.ravel() for g in grid], axis=0).astype(float)
-            hamming = params.irw_factor > 1.1
-            cleaned = f["raw"].data.ravel() - sum(_neighbour_values(points, models[j], hamming) for j in others)
-            chip = _Chip(None, f["peak_index"], half, chip=(cleaned.reshape(f["raw"].shape), f["raw"].clipped))
-            pos, value = chip.refine_peak(f["pos"])
-            V, f_c = _support(chip, nulls, params)
-            found[i] = {
-                **f,
-                "chip": chip,
-                "pos": pos,
-                "value": value,
-                "V": V,
-                "f_c": f_c,
-                "removed": tuple(names[j] for j in others),
-                "residual_models": [models[j] for j in others if models[j]["misfit"] > NEIGHBOUR_MISFIT],
-            }
-    reports = [
-        _measure(
-            f["chip"],
-            own,
-            f["peak_index"],
-            f["pos"],
-            f["value"],
-            f["V"],
-            t,
-            name,
-            params,
-            metric,
-            f["removed"],
-            f.get("residual_models", []),
-            names,
-            found,
-        )
-        for f, name, t, own in wrapped(done, list(zip(found, names, truth, own_axes)))
-    ]
-    # targets not measured (a subset was asked for) still guard their neighbourhoods from the search
-    guarded = (
-        truth
-        if other_truth is None or len(other_truth) == 0
-        else np.concatenate([truth, np.asarray(other_truth, dtype=float).reshape(-1, len(dims))])
-    )
-    peaks = [f["peak_index"] for f in found]
-    guard = _false_target(data, mag, axes, guarded, peaks, reports, half, params)
-    false, floor = guard, None
-    if params.residual:
-        models = fit_response_models(data, found, nulls, params, support_shape=True)
-        false, floor = _residual_false_target(residual_image(data, models), axes, guarded, peaks, reports, half, params)
-    done()
-    return QualityReport(
-        dims=dims, targets=tuple(reports), false_target=false, params=params, false_target_guard=guard, residual=floor
-    )
+    return out
+
+
+def _false_targets(data, mag, axes, guarded, peaks: list, reports, half, nulls, params) -> tuple:
+    """(false target, guard-window false target, residual floor): the strongest response outside every
+    target's +-guard_cells window, and with ``params.residual`` the strongest on the residual image (then the
+    reported one) with the residual's floor."""
+    indices = [p.index for p in peaks]
+    guard = _false_target(data, mag, axes, guarded, indices, reports, half, params)
+    if not params.residual:
+        return guard, guard, None
+    models = fit_response_models(data, [p.fit_start() for p in peaks], nulls, params, support_shape=True)
+    false, floor = _residual_false_target(residual_image(data, models), axes, guarded, indices, reports, half, params)
+    return false, guard, floor
 
 
 def _target_axes(axes, target_irw, n_targets, irw_factor, target_null=None, target_sidelobes=None) -> list[list[_Axis]]:
@@ -777,119 +849,173 @@ def _support(chip: "_Chip", nulls, params):
     return np.eye(chip.data.ndim), np.asarray(chip.centers, dtype=float)
 
 
-def _neighbour_models(data, found: list, nulls, half, params) -> dict:
+@dataclasses.dataclass(frozen=True)
+class _NeighbourModel:
+    """A target's response fitted jointly with the rest of its group, subtracted from the other members' chips."""
+
+    position: np.ndarray  # image indices
+    band_centre: np.ndarray  # cycles/sample
+    ridges: np.ndarray  # side-lobe ridge directions (rows)
+    amplitude: complex  # of the ideal response (peak 1)
+    group: frozenset  # indices of the targets fitted together
+    misfit: float  # the group fit's residual energy / the fitted samples' energy
+    nulls: np.ndarray  # null spacing 1/B per axis, samples
+    rich: Optional[dict] = None  # the response model (fit_response_models) where it fitted better
+
+    def values(self, points, hamming: bool, exact: bool = False) -> np.ndarray:
+        """The fitted neighbour at ``points`` ((ndim, N) image indices)."""
+        if self.rich:
+            return _rich_values(points, self.rich)
+        return self.amplitude * _ideal_response(
+            points, self.position, self.ridges, self.nulls, self.band_centre, hamming, exact
+        )
+
+
+def _rich_values(points, rich: dict) -> np.ndarray:
+    """A response model of :func:`fit_response_models` at ``points`` ((ndim, N) image indices)."""
+    return (
+        response_basis(points, rich["pos"], rich["V"], rich["nulls"], rich["f_c"], rich["orders"], rich["K"])
+        @ rich["coef"]
+    )
+
+
+def _neighbour_models(data, peaks: list, nulls, half, params) -> dict:
     """Ideal responses fitted jointly to every group of targets whose chips overlap.
 
     Each member gets a complex amplitude, and its position, band centre and ridge directions (first
-    estimated on its own chip, where the others' side lobes bias them) are refined by three joint
-    Gauss-Newton steps on the samples within 3 nulls of every member's peak (about two per null).
-    Returns {target index: {"pos", "f_c", "V", "amp", "group"}} for members of groups of two or more.
+    estimated on its own chip, where the others' side lobes bias them) are refined by joint Gauss-Newton
+    steps on the samples within 3 nulls of every member's peak (about two per null); groups that ideal
+    responses fit poorly are refitted as response models (:func:`_refit_rich`).
+    Returns {target index: _NeighbourModel} for members of groups of two or more.
     """
     nulls = np.asarray(nulls, dtype=float)
-    reach = np.asarray(half, dtype=float) + nulls
-    live = [j for j, f in enumerate(found) if abs(f["value"]) > 0]
+    models = {}
+    for members in _overlapping_groups(peaks, np.asarray(half, dtype=float) + nulls, nulls):
+        points, y = _group_samples(data, [peaks[k].position for k in members], nulls)
+        fit = _fit_ideal_group(points, y, [peaks[k] for k in members], nulls, params)
+        rich = _refit_rich(data, points, y, fit, members, nulls, params)
+        for q, k in enumerate(members):
+            models[k] = dataclasses.replace(fit[q], group=frozenset(members))
+            if rich is not None:
+                models[k] = dataclasses.replace(models[k], rich=rich[0][q], misfit=rich[1])
+    return models
+
+
+def _overlapping_groups(peaks: list, reach, nulls) -> list:
+    """Index lists (ascending) of the groups of two or more targets linked by peaks within ``reach`` (samples
+    per axis). Two truths that found the same peak (within half a null: a weaker target inside a stronger
+    one's search window) are one response: fitting it twice is singular, and subtracting the copy would
+    remove the target itself, so only the first is kept."""
+    live = []
+    for j, p in enumerate(peaks):
+        if abs(p.value) > 0 and not any(np.all(np.abs(p.position - peaks[k].position) < 0.5 * nulls) for k in live):
+            live.append(j)
     group = {j: {j} for j in live}
     for j in live:
         for k in live:
-            if k > j and np.all(np.abs(found[j]["pos"] - found[k]["pos"]) <= reach) and group[j] is not group[k]:
+            if k > j and np.all(np.abs(peaks[j].position - peaks[k].position) <= reach) and group[j] is not group[k]:
                 merged = group[j] | group[k]
                 for q in merged:
                     group[q] = merged
-    hamming = params.irw_factor > 1.1
-    ndim = data.ndim
-    skew = [(a, b) for a in range(ndim) for b in range(ndim) if a != b]  # free entries of V
-    stride = np.maximum(1, np.floor(nulls / 2)).astype(int)
-    r = np.ceil(3 * nulls).astype(int)
-    models, done = {}, set()
+    out = []
     for j in live:
         members = sorted(group[j])
-        if len(members) < 2 or members[0] in done:
-            continue
-        done.add(members[0])
-        boxes = []
-        for k in members:
-            c = np.rint(found[k]["pos"]).astype(int)
-            axes_pts = [
-                np.arange(max(0, ci - ri), min(n, ci + ri + 1), st) for ci, ri, n, st in zip(c, r, data.shape, stride)
-            ]
-            g = np.meshgrid(*axes_pts, indexing="ij")
-            boxes.append(np.stack([x.ravel() for x in g], axis=0))
-        points = np.unique(np.concatenate(boxes, axis=1), axis=1)
-        y = data[tuple(points)].astype(complex)
-        points = points.astype(float)
-        pos = [np.array(found[k]["pos"], dtype=float) for k in members]
-        f_c = [np.array(found[k]["f_c"], dtype=float) for k in members]
-        V = [np.array(found[k]["V"], dtype=float) for k in members]
-        model = lambda q, p=None, v=None: _ideal_response(  # noqa: E731
-            points, pos[q] if p is None else p, V[q] if v is None else v, nulls, f_c[q], hamming
+        if len(members) >= 2 and members[0] == j:
+            out.append(members)
+    return out
+
+
+def _group_samples(data, positions: list, nulls) -> tuple:
+    """(points (ndim, N) float image indices, complex samples) within 3 nulls of every position, about two
+    per null."""
+    stride = np.maximum(1, np.floor(nulls / 2)).astype(int)
+    r = np.ceil(3 * nulls).astype(int)
+    boxes = []
+    for p in positions:
+        c = np.rint(p).astype(int)
+        axes_pts = [
+            np.arange(max(0, ci - ri), min(n, ci + ri + 1), st) for ci, ri, n, st in zip(c, r, data.shape, stride)
+        ]
+        g = np.meshgrid(*axes_pts, indexing="ij")
+        boxes.append(np.stack([x.ravel() for x in g], axis=0))
+    points = np.unique(np.concatenate(boxes, axis=1), axis=1)
+    y = data[tuple(points)].astype(complex)
+    return points.astype(float), y
+
+
+def _fit_ideal_group(points, y, starts: list, nulls, params) -> list:
+    """Every member's ideal response fitted jointly to the samples ``y`` at ``points``: position, band centre
+    and ridge skews by Gauss-Newton (at most 8 steps; linear convergence, about halving, on skewed supports),
+    then the complex amplitudes by least squares. Returns one _NeighbourModel per member (group unset)."""
+    hamming = params.irw_factor > 1.1
+    ndim = points.shape[0]
+    skew = [(a, b) for a in range(ndim) for b in range(ndim) if a != b]  # free entries of V
+    pos = [np.array(p.position, dtype=float) for p in starts]
+    f_c = [np.array(p.band_centre, dtype=float) for p in starts]
+    V = [np.array(p.ridges, dtype=float) for p in starts]
+
+    def model(q: int, p=None, v=None) -> np.ndarray:
+        return _ideal_response(
+            points, pos[q] if p is None else p, V[q] if v is None else v, nulls, f_c[q], hamming, params.exact
         )
-        for _ in range(8):  # converges linearly (about halving) on skewed supports; stop when settled
-            cols = []
-            for q in range(len(members)):
-                m = model(q)
-                offs = points - pos[q][:, None]
-                cols += [m] + [2j * np.pi * offs[a] * m for a in range(ndim)]
-                for a in range(ndim):
-                    d = np.zeros(ndim)
-                    d[a] = 0.05
-                    cols.append((model(q, p=pos[q] + d) - model(q, p=pos[q] - d)) / 0.1)
-                for a, b in skew:
-                    d = np.zeros((ndim, ndim))
-                    d[a, b] = 0.002
-                    cols.append((model(q, v=V[q] + d) - model(q, v=V[q] - d)) / 0.004)
-            sol = least_squares(np.stack(cols, axis=1), y, params.exact).reshape(len(members), -1)
-            largest = 0.0
-            for q in range(len(members)):
-                if sol[q, 0] == 0:
-                    continue
-                step = (sol[q, 1:] / sol[q, 0]).real
-                largest = max(largest, float(np.abs(step[:ndim]).max() * 100), float(np.abs(step[ndim:]).max()))
-                f_c[q] = f_c[q] + np.clip(step[:ndim], -0.02, 0.02)
-                pos[q] = pos[q] + np.clip(step[ndim : 2 * ndim], -0.3, 0.3)
-                for (a, b), dv in zip(skew, np.clip(step[2 * ndim :], -0.05, 0.05)):
-                    V[q][a, b] += dv
-            if largest < 1e-3:  # band centres within 1e-5 cycles/sample, positions and skews within 1e-3
-                break
-        basis = np.stack([model(q) for q in range(len(members))], axis=1)
-        amp = least_squares(basis, y, params.exact)
-        # How well ideal responses explain the group: a poor fit leaves the neighbours' side lobes in.
-        energy = max(np.sum(np.abs(y) ** 2), 1e-300)
-        misfit = float(np.sum(np.abs(y - basis @ amp) ** 2) / energy)
-        rich = [None] * len(members)
-        if (
-            misfit > NEIGHBOUR_MISFIT
-            and params.neighbour_orders > 0
-            and _refit_size(members, nulls, params) <= REFIT_BUDGET
-        ):
-            # Ideal responses leave too much: fit the members' own spectral weight, phase and chirp instead
-            # (the residual image's response models), and keep them where they explain the group.
-            start = [{"pos": pos[q], "V": V[q], "f_c": f_c[q], "value": amp[q]} for q in range(len(members))]
-            fitted = fit_response_models(
-                data,
-                start,
-                nulls,
-                dataclasses.replace(  # ridges as far as a chip reaches
-                    params,
-                    residual_orders=params.neighbour_orders,
-                    fit_ridge_nulls=params.islr_nulls + params.margin_nulls,
-                ),
-            )
-            pred = sum(_neighbour_values(points, {"rich": m}, hamming) for m in fitted if m)
-            rich_misfit = float(np.sum(np.abs(y - pred) ** 2) / energy)
-            if rich_misfit <= NEIGHBOUR_MISFIT:  # else the ideal models stay and the cuts say contaminated
-                rich, misfit = fitted, rich_misfit
-        for q, k in enumerate(members):
-            models[k] = {
-                "pos": pos[q],
-                "f_c": f_c[q],
-                "V": V[q],
-                "amp": amp[q],
-                "group": set(members),
-                "misfit": misfit,
-                "nulls": nulls,
-                "rich": rich[q] or None,
-            }
-    return models
+
+    for _ in range(8):
+        cols = []
+        for q in range(len(starts)):
+            m = model(q)
+            offs = points - pos[q][:, None]
+            cols += [m] + [2j * np.pi * offs[a] * m for a in range(ndim)]
+            for a in range(ndim):
+                d = np.zeros(ndim)
+                d[a] = 0.05
+                cols.append((model(q, p=pos[q] + d) - model(q, p=pos[q] - d)) / 0.1)
+            for a, b in skew:
+                d = np.zeros((ndim, ndim))
+                d[a, b] = 0.002
+                cols.append((model(q, v=V[q] + d) - model(q, v=V[q] - d)) / 0.004)
+        sol = least_squares(np.stack(cols, axis=1), y, params.exact).reshape(len(starts), -1)
+        largest = 0.0
+        for q in range(len(starts)):
+            if sol[q, 0] == 0:
+                continue
+            step = (sol[q, 1:] / sol[q, 0]).real
+            largest = max(largest, float(np.abs(step[:ndim]).max() * 100), float(np.abs(step[ndim:]).max()))
+            f_c[q] = f_c[q] + np.clip(step[:ndim], -0.02, 0.02)
+            pos[q] = pos[q] + np.clip(step[ndim : 2 * ndim], -0.3, 0.3)
+            for (a, b), dv in zip(skew, np.clip(step[2 * ndim :], -0.05, 0.05)):
+                V[q][a, b] += dv
+        if largest < 1e-3:  # band centres within 1e-5 cycles/sample, positions and skews within 1e-3
+            break
+    basis = np.stack([model(q) for q in range(len(starts))], axis=1)
+    amp = least_squares(basis, y, params.exact)
+    # How well ideal responses explain the group: a poor fit leaves the neighbours' side lobes in.
+    misfit = float(np.sum(np.abs(y - basis @ amp) ** 2) / max(np.sum(np.abs(y) ** 2), 1e-300))
+    return [_NeighbourModel(pos[q], f_c[q], V[q], amp[q], frozenset(), misfit, nulls) for q in range(len(starts))]
+
+
+def _refit_rich(data, points, y, fit: list, members: list, nulls, params) -> Optional[tuple]:
+    """Where ideal responses leave more than NEIGHBOUR_MISFIT of a group's energy, the members' own spectral
+    weight, phase and chirp fitted instead (the residual image's response models, ridges as far as a chip
+    reaches). Returns (one model dict or None per member, their misfit) where they explain the group within
+    NEIGHBOUR_MISFIT, else None (the ideal models stay and the cuts say contaminated)."""
+    if not (
+        fit[0].misfit > NEIGHBOUR_MISFIT
+        and params.neighbour_orders > 0
+        and _refit_size(members, nulls, params) <= REFIT_BUDGET
+    ):
+        return None
+    start = [{"pos": m.position, "V": m.ridges, "f_c": m.band_centre, "value": m.amplitude} for m in fit]
+    fitted = fit_response_models(
+        data,
+        start,
+        nulls,
+        dataclasses.replace(
+            params, residual_orders=params.neighbour_orders, fit_ridge_nulls=params.islr_nulls + params.margin_nulls
+        ),
+    )
+    pred = sum(_rich_values(points, m) for m in fitted if m)
+    misfit = float(np.sum(np.abs(y - pred) ** 2) / max(np.sum(np.abs(y) ** 2), 1e-300))
+    return ([m or None for m in fitted], misfit) if misfit <= NEIGHBOUR_MISFIT else None
 
 
 REFIT_BUDGET = 1e9  # rows x columns^2 of a crowded group's response-model fit above which it is not tried
@@ -918,35 +1044,11 @@ def _refit_size(members, nulls, params) -> float:
     return float(len(members) * (box + strips) * (len(members) * columns) ** 2)
 
 
-def _neighbour_values(points, model, hamming) -> np.ndarray:
-    """A fitted neighbour at ``points`` ((ndim, N) image indices): its response model where one was fitted
-    (``rich``), else its amplitude times the ideal response."""
-    rich = model.get("rich")
-    if rich:
-        return (
-            response_basis(points, rich["pos"], rich["V"], rich["nulls"], rich["f_c"], rich["orders"], rich["K"])
-            @ rich["coef"]
-        )
-    return model["amp"] * _ideal_response(points, model["pos"], model["V"], model["nulls"], model["f_c"], hamming)
-
-
-def _measure(
-    chip: "_Chip",
-    axes,
-    peak_index,
-    pos,
-    value,
-    V,
-    truth,
-    name,
-    params,
-    metric,
-    removed,
-    residual_models=(),
-    names=(),
-    found=(),
-) -> TargetReport:
-    peak2 = abs(value) ** 2
+def _measure(peak: _Peak, axes, truth, name: str, params, metric) -> TargetReport:
+    """A target's report: its cuts along the image axes and along its principal axes (ridges), the latter
+    checked for contamination by poorly fitted neighbours."""
+    chip, pos, V = peak.chip, peak.position, peak.ridges
+    peak2 = abs(peak.value) ** 2
     if peak2 == 0:
         pos = np.full(len(axes), np.nan)
     eye = np.eye(len(axes))
@@ -955,20 +1057,20 @@ def _measure(
         image_axes[a] if np.array_equal(V[a], eye[a]) else _cut(chip, axes, a, V[a], pos, peak2, truth, params, metric)
         for a in range(len(axes))
     ]
-    if residual_models and peak2 > 0:
+    if peak.contaminating and peak2 > 0:
         principal = [
-            _contamination(m, chip, axes, a, V[a], pos, peak2, residual_models, truth, params, metric)
+            _contamination(m, chip, axes, a, V[a], pos, peak2, peak.contaminating, truth, params, metric)
             for a, m in enumerate(principal)
         ]
     return TargetReport(
         name=name,
-        peak_amplitude=abs(value),
-        peak_phase=float(np.angle(value)),
-        peak_index=tuple(peak_index),
+        peak_amplitude=abs(peak.value),
+        peak_phase=float(np.angle(peak.value)),
+        peak_index=tuple(peak.index),
         chip_clipped=chip.clipped,
         axes=tuple(principal),
         image_axes=tuple(image_axes),
-        neighbours_removed=tuple(removed),
+        neighbours_removed=tuple(peak.removed),
     )
 
 
@@ -987,6 +1089,10 @@ def least_squares(B, y, exact: bool = False):
             factor = scipy.linalg.cho_factor(Bs.conj().T @ Bs)
         except np.linalg.LinAlgError:
             factor = None
+        if factor is not None:
+            pivots = np.abs(np.diag(factor[0]))
+            if not pivots.min() > 1e-7 * pivots.max():  # Gram condition beyond ~1e14 (e.g. equal columns)
+                factor = None
         if factor is not None:
             x = scipy.linalg.cho_solve(factor, Bs.conj().T @ y)
             for _ in range(2):  # iterative refinement: the normal equations' squared condition number undone
@@ -1010,7 +1116,7 @@ def _contamination(m: AxisMetrics, chip, axes, a, v, pos, peak2, models, truth, 
     hamming = params.irw_factor > 1.1
     nulls = [x.null for x in axes]
     main = peak2 * 0.903 * ax.null  # unweighted main-lobe energy along the cut (0.903 of the total)
-    ratios = [float(np.sum(np.abs(_neighbour_values(points, mod, hamming)) ** 2) / 4.0 / main) for mod in models]
+    ratios = [float(np.sum(np.abs(mod.values(points, hamming, params.exact)) ** 2) / 4.0 / main) for mod in models]
     ratio = sum(ratios)
     if ratio <= CONTAMINATION:
         return m
@@ -1021,7 +1127,7 @@ def _contamination(m: AxisMetrics, chip, axes, a, v, pos, peak2, models, truth, 
     v = np.asarray(v, dtype=float)
     reach = []
     for mod, r in zip(models, ratios):
-        d = np.asarray(mod["pos"], dtype=float) - pos
+        d = np.asarray(mod.position, dtype=float) - pos
         t_n = float(d @ v / (v @ v))
         if r > CONTAMINATION / 10 and np.all(np.abs(d - t_n * v) <= 2 * np.asarray(nulls)):
             reach.append(abs(t_n) / ax.null)
@@ -1058,14 +1164,21 @@ def _cut(chip: "_Chip", axes, a, v, pos, peak2, truth, params, metric) -> AxisMe
     m = int(math.ceil(reach * params.upsample))
     offsets = np.arange(-m, m + 1) / params.upsample
     if peak2 > 0:
-        if np.count_nonzero(v) == 1:  # along an image axis: separable evaluation
+        if np.count_nonzero(v) == 1 and not params.exact:  # along an image axis: separable evaluation
+            vals = chip.values_on_axis(pos, a, offsets[0], 1.0 / params.upsample, offsets.size)
+        elif np.count_nonzero(v) == 1:
             grids = [np.array([p]) for p in pos]
             grids[a] = pos[a] + offsets
             vals = chip.values(grids).reshape(-1)
         else:  # exact on a 16x grid along the line, then a cubic spline (error ~1e-5 of the peak)
             ex = min(params.upsample, 16)
-            te = np.arange(-int(math.ceil(reach * ex)) - 2, int(math.ceil(reach * ex)) + 3) / ex
-            ve = chip.values_along(pos, v, te)
+            lo = -int(math.ceil(reach * ex)) - 2
+            te = np.arange(lo, -lo + 1) / ex
+            ve = (
+                chip.values_along(pos, v, te)
+                if params.exact
+                else chip.values_on_line(pos, v, lo / ex, 1.0 / ex, te.size)
+            )
             vals = (
                 ve[np.searchsorted(te, offsets)]
                 if ex == params.upsample

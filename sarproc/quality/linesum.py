@@ -1,0 +1,70 @@
+"""Sums of complex exponentials at uniformly spaced points: a chip's values along a line.
+
+A chip's trigonometric interpolant on the line ``x0 + t v`` is a sum of complex exponentials in t with
+non-uniform frequencies ``w_k = f_k . v`` (one per chip bin); at uniformly spaced offsets that is a
+type-1 non-uniform FFT: each term is spread onto a twice-oversampled uniform grid with an "exponential
+of semicircle" kernel (Barnett, Magland, af Klinteberg 2019, the finufft kernel), one FFT, and the
+kernel's Fourier transform divided out. With 16 kernel points the error is about 1e-14 of the terms'
+sum (1e-13 of a response's peak), against a direct sum costing terms x points operations.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+import scipy.fft
+
+_SPREAD = 16  # kernel points per term
+_BETA = 2.30 * _SPREAD  # kernel shape (finufft's choice for an oversampling of 2)
+_BLOCK = 1 << 15  # terms spread at once (bounds the (terms, 17) temporaries)
+
+
+def _spread(coef: np.ndarray, x: np.ndarray, grid_size: int) -> np.ndarray:
+    """sum_k coef[k] phi((l - u_k) / (spread / 2)) on the periodic grid l, u_k = x_k grid_size / 2 pi
+    (phi = 0 beyond its support)."""
+    half = _SPREAD / 2.0
+    taps = np.arange(_SPREAD + 1)
+    re = np.zeros(grid_size)
+    im = np.zeros(grid_size)
+    for start in range(0, coef.size, _BLOCK):
+        c, u = coef[start : start + _BLOCK], np.mod(x[start : start + _BLOCK] * grid_size / (2 * np.pi), grid_size)
+        first = np.ceil(u - half)
+        z2 = np.minimum(((first[:, None] + taps - u[:, None]) / half) ** 2, 1.0)
+        w = np.exp(_BETA * (np.sqrt(1.0 - z2) - 1.0)) * (z2 < 1.0)
+        idx = ((first.astype(np.int64)[:, None] + taps) % grid_size).ravel()
+        re += np.bincount(idx, weights=(c.real[:, None] * w).ravel(), minlength=grid_size)
+        im += np.bincount(idx, weights=(c.imag[:, None] * w).ravel(), minlength=grid_size)
+    return re + 1j * im
+
+
+@functools.lru_cache(maxsize=64)
+def _kernel_transform(count: int, centre: int, grid_size: int) -> np.ndarray:
+    """Fourier transform of the spreading kernel at the integer frequencies m = -centre .. count - centre - 1
+    (Gauss-Legendre quadrature, 40 nodes: 3e-14, as with 400; the transform is even, so taken once per |m|;
+    cached: the cuts of one image ask for a few sizes)."""
+    z, w = np.polynomial.legendre.leggauss(40)
+    alpha = math.pi * _SPREAD / grid_size  # kernel half-width, rad
+    phi = np.exp(_BETA * (np.sqrt(1.0 - z**2) - 1.0))
+    m = np.arange(count) - centre
+    half = alpha * (np.cos(np.outer(np.arange(max(centre, count - centre) + 1), alpha * z)) @ (w * phi))
+    out = half[np.abs(m)]
+    out.flags.writeable = False
+    return out
+
+
+def exponential_sums(coef: np.ndarray, freq: np.ndarray, first: float, step: float, count: int) -> np.ndarray:
+    """sum_k coef[k] exp(2 pi i freq[k] (first + j step)) for j = 0..count-1 (complex128)."""
+    coef = np.asarray(coef, dtype=np.complex128).ravel()
+    freq = np.asarray(freq, dtype=float).ravel()
+    centre = count // 2  # output index m = j - centre runs over [-centre, count - centre)
+    grid_size = max(2 * count, 2 * _SPREAD + 2)
+    grid_size += grid_size % 2
+    x = np.mod(2 * np.pi * freq * step + np.pi, 2 * np.pi) - np.pi  # rad per output step, in [-pi, pi)
+    c = coef * np.exp(2j * np.pi * freq * (first + centre * step))
+    b = _spread(c, x, grid_size)
+    m = np.arange(count) - centre
+    # sum_l b_l exp(i m l h), h = 2 pi / grid_size, is (1/h) psi_hat(m) sum_k c_k exp(i m x_k)
+    spectrum = scipy.fft.ifft(b, workers=-1)[m % grid_size] * grid_size
+    return spectrum * (2 * np.pi / grid_size) / _kernel_transform(count, centre, grid_size)

@@ -1,0 +1,186 @@
+#!/usr/bin/env python3
+"""Evaluate time against the time of the stage that made the image, before and after (issue 20 item 5).
+
+Makes the products of the make targets' small configs through the command line (demo, paper 000's small
+scene, paper 002's small scene through pfa2, paper 003's scene A-B-C, paper 004's cube, the two
+backprojection scenes), then times, interleaved in one run, the focusing stage and ``sarproc evaluate``
+of this tree and of a reference tree (``--reference``: a checkout of the code before), best of
+``--repeats``; and compares the two reports number by number (largest relative difference).
+Writes ``OUT/evaluate_speed.md`` and ``.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+CFG = ROOT / "configs"
+
+# name: (simulate config, [(stage command, config)], evaluate arguments beyond the image)
+CASES = {
+    "demo": ("demo.yaml", [("backproject", "demo.yaml")], []),
+    "000 small (fine-focus)": (
+        "an2012_exp1_small.yaml",
+        [("preprocess", "an2012_exp1_small.yaml"), ("coarse-focus", None), ("fine-focus", None)],
+        [],
+    ),
+    "002 small (pfa2)": ("nie2016_small.yaml", [("pfa2", "nie2016_small.yaml")], []),
+    "003 xu_scene (reconstruct, backproject)": (
+        "xu_scene.yaml",
+        [("reconstruct", "xu_scene.yaml"), ("backproject", "xu_scene.yaml")],
+        ["--config", str(CFG / "xu_scene.yaml")],
+    ),
+    "004 du2010 cube (array3d)": ("du2010.yaml", [("array3d", "du2010.yaml")], []),
+    "bp stripmap": ("bp_stripmap.yaml", [("backproject", "bp_stripmap.yaml")], []),
+    "bp squint30": ("bp_squint30.yaml", [("backproject", "bp_squint30.yaml")], []),
+}
+
+
+def run(tree: Path, args: list, log) -> float:
+    """One ``sarproc`` command with ``tree`` first on PYTHONPATH; wall seconds. Raises on failure."""
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    start = time.perf_counter()
+    proc = subprocess.run(
+        [sys.executable, "-m", "sarproc", *map(str, args)],
+        env=env,
+        capture_output=True,
+        text=True,
+        cwd=tree,
+        check=False,
+    )
+    wall = time.perf_counter() - start
+    log.write(f"$ PYTHONPATH={tree} sarproc {' '.join(map(str, args))}  # {wall:.2f} s\n{proc.stderr}")
+    if proc.returncode != 0:
+        raise SystemExit(f"sarproc {' '.join(map(str, args))} failed ({proc.returncode}):\n{proc.stderr}")
+    return wall
+
+
+def floats(d, prefix: str = ""):
+    """(path, value) of every leaf of a JSON report."""
+    if isinstance(d, dict):
+        for k, v in d.items():
+            yield from floats(v, f"{prefix}/{k}")
+    elif isinstance(d, list):
+        for i, v in enumerate(d):
+            yield from floats(v, f"{prefix}[{i}]")
+    else:
+        yield prefix, d
+
+
+def largest_difference(a: dict, b: dict) -> tuple[float, str]:
+    """Largest relative difference between two reports' numbers (inf where a key or a non-number differs)."""
+    fa, fb = dict(floats(a)), dict(floats(b))
+    if fa.keys() != fb.keys():
+        return math.inf, "keys differ"
+    worst, where = 0.0, ""
+    for k, x in fa.items():
+        y = fb[k]
+        if isinstance(x, float) and isinstance(y, float):
+            d = abs(x - y) / max(abs(x), abs(y), 1e-12)
+        else:
+            d = 0.0 if x == y else math.inf
+        if d > worst:
+            worst, where = d, k
+    return worst, where
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--reference", type=Path, required=True, help="checkout of the code before")
+    ap.add_argument("--out", type=Path, default=ROOT / "results" / "evaluate-speed")
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--cases", nargs="*", default=list(CASES), help="subset of the cases")
+    ap.add_argument("--reuse", action="store_true", help="keep the raw and intermediate products already in --out")
+    args = ap.parse_args()
+    out = args.out.resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    rows = []
+    with open(out / "log.txt", "w") as log:
+        products = {}
+        for name in args.cases:
+            scene, stages, _ = CASES[name]
+            tag = name.split()[0] + "_" + scene.removesuffix(".yaml")
+            src = out / f"{tag}_raw.h5"
+            if not (args.reuse and src.exists()):
+                run(ROOT, ["simulate", CFG / scene, "-o", src, "--overwrite", "--no-progress"], log)
+            chain = []
+            for i, (cmd, cfg) in enumerate(stages):
+                dst = out / f"{tag}_{i}_{cmd}.h5"
+                # every stage reads its section of the scene's config unless given its own
+                chain.append([cmd, src, "-o", dst, "--overwrite", "--no-progress", "--config", CFG / (cfg or scene)])
+                src = dst
+            for c in chain[:-1]:  # the inputs of the timed stage
+                if not (args.reuse and Path(c[3]).exists()):
+                    run(ROOT, c, log)
+            products[name] = (chain, src)
+        for name in args.cases:
+            chain, image = products[name]
+            extra = CASES[name][2]
+            stage, before, after = [], [], []
+            for _ in range(args.repeats):  # interleaved: stage, evaluate before, evaluate after
+                stage.append(run(ROOT, chain[-1], log))
+                for times, tree, tag in ((before, args.reference.resolve(), "before"), (after, ROOT, "after")):
+                    times.append(
+                        run(
+                            tree,
+                            [
+                                "evaluate",
+                                image,
+                                "-o",
+                                out / f"{image.stem}_{tag}.json",
+                                "--overwrite",
+                                "--no-progress",
+                                *extra,
+                            ],
+                            log,
+                        )
+                    )
+            rep = [json.loads((out / f"{image.stem}_{t}.json").read_text()) for t in ("before", "after")]
+            diff, where = largest_difference(*rep)
+            rows.append(
+                {
+                    "case": name,
+                    "stage": chain[-1][0],
+                    "stage_s": min(stage),
+                    "evaluate_before_s": min(before),
+                    "evaluate_after_s": min(after),
+                    "spread_after_s": max(after) - min(after),
+                    "largest_relative_difference": diff,
+                    "where": where,
+                }
+            )
+            print(rows[-1], flush=True)
+    lines = [
+        (
+            f"Evaluate against the stage that made the image (best of {args.repeats} interleaved runs, wall seconds "
+            f"of the subprocess, I/O and start-up included; {os.cpu_count()} cores, shared). Reference: "
+            f"{args.reference}."
+        ),
+        "",
+        (
+            "| product | stage | stage (s) | evaluate before (s) | evaluate after (s) | after / stage | speed-up | "
+            "largest relative difference of the reports |"
+        ),
+        "|---|---|---:|---:|---:|---:|---:|---|",
+    ]
+    for r in rows:
+        lines.append(
+            f"| {r['case']} | {r['stage']} | {r['stage_s']:.2f} | {r['evaluate_before_s']:.2f} | "
+            f"{r['evaluate_after_s']:.2f} | {r['evaluate_after_s'] / r['stage_s']:.2f} | "
+            f"{r['evaluate_before_s'] / r['evaluate_after_s']:.1f} | {r['largest_relative_difference']:.1e} "
+            f"({r['where'] or '-'}) |"
+        )
+    (out / "evaluate_speed.md").write_text("\n".join(lines) + "\n")
+    (out / "evaluate_speed.json").write_text(json.dumps(rows, indent=1))
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
