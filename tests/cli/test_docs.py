@@ -20,6 +20,7 @@ from click.testing import CliRunner
 from sarproc.cli.main import COMMANDS, cli
 from sarproc.cli.options import SectionCommand, check_sections
 from sarproc.cli.schema import (
+    FREE_SECTIONS,
     SCENE_MODEL,
     SECTION_MODELS,
     SWEEP_MODEL,
@@ -109,6 +110,9 @@ def test_every_config_command_lists_its_section():
         cmd = cli.get_command(None, name)  # type: ignore[arg-type]
         if any(p.name == "config_path" for p in cmd.params):
             assert name in listed, f"{name} takes --config but its --help lists no keys"
+    from sarproc.product.config import OTHER_SECTIONS, STAGE_SECTIONS
+
+    assert set(STAGE_SECTIONS + OTHER_SECTIONS) - set(FREE_SECTIONS) == set(SECTION_MODELS)
     documented = {s for sections in listed.values() for s in sections}
     assert set(SECTION_MODELS) <= documented, set(SECTION_MODELS) - documented
     assert {"scene", "sweep", "expect"} <= documented
