@@ -39,7 +39,8 @@ FREE_SECTIONS = ("sweep",)
 TOPICS = ("config", "scene", "expect", "sweep")
 
 
-def _model(target: str) -> type:
+def model_of(target: str) -> type:
+    """The parameter model named "module:Class" (imports its module)."""
     import importlib
 
     module, name = target.split(":")
@@ -73,24 +74,24 @@ def build_schemas() -> dict:
     from sarproc.product.schema import model_schema
     from sarproc.quality.metrics import AxisBounds, Expectations, TargetBounds
 
-    scene_cls = _model(SCENE_MODEL)
+    scene_cls = model_of(SCENE_MODEL)
     scene = model_schema(scene_cls, {(scene_cls, "effects"): _effects_schema()})
     axis = model_schema(AxisBounds)
     target = model_schema(TargetBounds, {(TargetBounds, "axes"): _per_name(axis, "per-axis overrides: {axis: bounds}")})
     expect = model_schema(
-        _model(EXPECT_MODEL),
+        model_of(EXPECT_MODEL),
         {
             (Expectations, "axes"): _per_name(axis, "per-axis overrides: {axis: bounds}"),
             (Expectations, "targets"): _per_name(target, "per-target overrides: {name: bounds, axes: {...}}"),
         },
     )
-    sweep = model_schema(_model(SWEEP_MODEL))
+    sweep = model_schema(model_of(SWEEP_MODEL))
     focus = sweep["properties"]["focus"]  # one command may be written without the list
     sweep["properties"]["focus"] = {
         "anyOf": [{"type": "string"}, {k: v for k, v in focus.items() if k in ("type", "items")}],
         **{k: v for k, v in focus.items() if k not in ("type", "items")},
     }
-    sections = {name: model_schema(_model(target)) for name, target in SECTION_MODELS.items()}
+    sections = {name: model_schema(model_of(target)) for name, target in SECTION_MODELS.items()}
     return {"scene": scene, "sections": sections, "expect": expect, "sweep": sweep}
 
 

@@ -10,22 +10,21 @@ import json
 import re
 import subprocess
 import sys
-import typing
 from pathlib import Path
 
 import jsonschema
 import pytest
 from click.testing import CliRunner
+from helpers import declared_keys, scene_keys
 
 from sarproc.cli.main import COMMANDS, cli
 from sarproc.cli.options import SectionCommand, check_sections
 from sarproc.cli.schema import (
     FREE_SECTIONS,
-    SCENE_MODEL,
     SECTION_MODELS,
     SWEEP_MODEL,
-    _model,
     build_schemas,
+    model_of,
     section_rows,
     stored_schemas,
     topic_schema,
@@ -34,35 +33,6 @@ from sarproc.product.config import build, load_yaml
 from sarproc.product.errors import InputError
 
 ROOT = Path(__file__).resolve().parents[2]
-
-
-def declared_keys(cls: type, prefix: str = "") -> list[str]:
-    """Every key a model declares, nested ones dotted (``range_window.start``), list items with ``[]``,
-    read from the dataclasses themselves (not through sarproc.product.schema)."""
-    hints = typing.get_type_hints(cls)
-    keys = []
-    for f in dataclasses.fields(cls):
-        key = prefix + f.name
-        keys.append(key)
-        tp = hints[f.name]
-        origin, args = typing.get_origin(tp), typing.get_args(tp)
-        if dataclasses.is_dataclass(tp):
-            keys += declared_keys(tp, key + ".")
-        for arg in args:
-            if dataclasses.is_dataclass(arg):
-                keys += declared_keys(arg, key + ("[]." if origin in (list, tuple) else "."))
-    return keys
-
-
-def scene_keys() -> list[str]:
-    """Every key of a scene file, each effect's own keys included (``effects.antenna.pattern``)."""
-    from sarproc.simulation.effects import EFFECTS
-
-    keys = declared_keys(_model(SCENE_MODEL))
-    for name, effect in EFFECTS.items():
-        keys.append(f"effects.{name}")
-        keys += declared_keys(effect.Params, f"effects.{name}.")
-    return keys
 
 
 def command_help(name: str) -> str:
@@ -84,7 +54,7 @@ def keys_of(section: str) -> list[str]:
     if section == "scene":
         return scene_keys()
     if section == "sweep":
-        return declared_keys(_model(SWEEP_MODEL))
+        return declared_keys(model_of(SWEEP_MODEL))
     if section == "expect":
         from sarproc.quality.metrics import AxisBounds, Expectations, TargetBounds
 
@@ -94,16 +64,16 @@ def keys_of(section: str) -> list[str]:
             + declared_keys(TargetBounds, "targets.NAME.")
             + declared_keys(AxisBounds, "targets.NAME.axes.NAME.")
         )
-    return declared_keys(_model(SECTION_MODELS[section]))
+    return declared_keys(model_of(SECTION_MODELS[section]))
 
 
-def test_stored_schema_is_the_declarations():
+def test_stored_schema_is_the_declarations() -> None:
     assert stored_schemas() == json.loads(json.dumps(build_schemas())), (
         "sarproc/cli/config_schema.json differs from the parameter declarations: run `make schema`"
     )
 
 
-def test_every_config_command_lists_its_section():
+def test_every_config_command_lists_its_section() -> None:
     """A command taking --config reads one section; its --help must list that section's keys."""
     listed = section_commands()
     for name in COMMANDS:
@@ -119,7 +89,7 @@ def test_every_config_command_lists_its_section():
 
 
 @pytest.mark.parametrize("name", sorted(section_commands()))
-def test_help_lists_every_declared_key(name):
+def test_help_lists_every_declared_key(name: str) -> None:
     text = command_help(name)
     rows = dict(row for s in section_commands()[name] for row in section_rows(s))
     for section in section_commands()[name]:
@@ -140,7 +110,7 @@ def test_help_lists_every_declared_key(name):
         assert "(default 0 m)" in rows["platform.altitude"] and ">= 0 m" in rows["platform.altitude"]
 
 
-def test_help_imports_no_stage():
+def test_help_imports_no_stage() -> None:
     """--help reads the stored schema: no numba, no stage module (start-up stays fast)."""
     code = (
         "import sys; from sarproc.cli.main import run_cli; run_cli(['backproject', '--help']); "
@@ -167,17 +137,17 @@ def _loader_accepts(mapping: dict, topic: str) -> None:
         expectations_from_mapping(mapping, "f")
         return
     if topic == "sweep":
-        build(_model(SWEEP_MODEL), mapping, "f")
+        build(model_of(SWEEP_MODEL), mapping, "f")
         return
     check_sections(mapping, "f")
     for section, target in SECTION_MODELS.items():
         if section in mapping:
-            build(_model(target), mapping[section], "f", section)
+            build(model_of(target), mapping[section], "f", section)
     if any(f.name in mapping for f in dataclasses.fields(SceneParams)):
         scene_from_mapping(mapping, "f")
 
 
-def test_every_config_validates():
+def test_every_config_validates() -> None:
     assert len(CONFIGS) > 40
     validators = {t: jsonschema.Draft202012Validator(topic_schema(t)) for t in ("config", "expect", "sweep")}
     for v in validators.values():
@@ -187,7 +157,7 @@ def test_every_config_validates():
         assert not errors, (path, errors[:3])
 
 
-def _set(mapping: dict, dotted: str, value) -> dict:
+def _set(mapping: dict, dotted: str, value: object) -> dict:
     out = copy.deepcopy(mapping)
     node = out
     parts = dotted.split(".")
@@ -218,7 +188,7 @@ WRONG = [
 
 
 @pytest.mark.parametrize("key,value", WRONG, ids=[f"{k}={v}" for k, v in WRONG])
-def test_wrong_key_or_type_fails_schema_and_loader(key, value):
+def test_wrong_key_or_type_fails_schema_and_loader(key: str, value: object) -> None:
     demo = load_yaml(ROOT / "configs" / "demo.yaml")
     _loader_accepts(demo, "config")
     bad = _set(demo, key, value)
@@ -228,7 +198,7 @@ def test_wrong_key_or_type_fails_schema_and_loader(key, value):
         assert list(jsonschema.Draft202012Validator(topic_schema(topic)).iter_errors(bad)), (topic, key, value)
 
 
-def test_wrong_expect_and_sweep_fail():
+def test_wrong_expect_and_sweep_fail() -> None:
     expect = load_yaml(ROOT / "configs" / "demo_expect.yaml")
     for bad in (_set(expect, "irw_ratio_maxx", 1.1), _set(expect, "axes", {"range": {"pslr": 1}})):
         assert list(jsonschema.Draft202012Validator(topic_schema("expect")).iter_errors(bad))
@@ -239,7 +209,7 @@ def test_wrong_expect_and_sweep_fail():
     assert list(jsonschema.Draft202012Validator(topic_schema("sweep")).iter_errors(bad))
 
 
-def test_scene_schema_needs_the_whole_scene():
+def test_scene_schema_needs_the_whole_scene() -> None:
     demo = load_yaml(ROOT / "configs" / "demo.yaml")
     partial = {k: v for k, v in demo.items() if k != "radar"}
     for topic in ("config", "scene"):
@@ -248,7 +218,7 @@ def test_scene_schema_needs_the_whole_scene():
     assert not list(jsonschema.Draft202012Validator(topic_schema("config")).iter_errors(stage_only))
 
 
-def test_schema_command():
+def test_schema_command() -> None:
     runner = CliRunner()
     out = runner.invoke(cli, ["schema", "coarse-focus"])
     assert out.exit_code == 0, out.output

@@ -6,8 +6,9 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+from helpers import scene_keys
+
 from sarproc.cli.main import cli
-from tests.cli.test_docs import scene_keys
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -16,13 +17,13 @@ def _readme() -> str:
     return (ROOT / "README.md").read_text(encoding="utf-8")
 
 
-def test_readme_lists_every_subcommand():
+def test_readme_lists_every_subcommand() -> None:
     text = _readme()
     for name in cli.list_commands(None):  # type: ignore[arg-type]
         assert re.search(rf"(?m)^sarproc {re.escape(name)}\s", text), f"README's command list lacks {name}"
 
 
-def test_readme_lists_every_scene_key():
+def test_readme_lists_every_scene_key() -> None:
     """The Scenes table has a row per section (and per nested model: `targets.points[]`,
     `effects.antenna` ...) naming each of its keys in backquotes."""
     rows = {}
