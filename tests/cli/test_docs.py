@@ -228,3 +228,55 @@ def test_schema_command() -> None:
     assert set(SECTION_MODELS) <= set(default["properties"]) and "radar" in default["properties"]
     bad = runner.invoke(cli, ["schema", "backprojekt"])
     assert bad.exit_code == 2 and "'backprojekt' is not one of" in bad.output
+
+
+def _properties(schema: dict, where: str = ""):
+    """(dotted key, property schema) of every key at any depth of an object schema."""
+    for name, sub in schema.get("properties", {}).items():
+        yield f"{where}{name}", sub
+        for branch in [sub, *sub.get("anyOf", []), sub.get("items", {}), sub.get("additionalProperties") or {}]:
+            if isinstance(branch, dict) and "properties" in branch:
+                yield from _properties(branch, f"{where}{name}.")
+
+
+def test_every_schema_is_valid_and_its_defaults_validate() -> None:
+    """Each topic is a valid draft 2020-12 schema, and every default it shows ('0 deg', '1 GHz', ...)
+    is a value its own key accepts, which the loader reads back as the declared SI default."""
+    from sarproc.product.units import parse_quantity
+
+    topics = ("config", "scene", "expect", "sweep", *SECTION_MODELS)
+    checked = 0
+    for topic in topics:
+        schema = topic_schema(topic)
+        jsonschema.Draft202012Validator.check_schema(schema)
+        for key, sub in _properties(schema):
+            if "default" not in sub:
+                continue
+            own = {k: v for k, v in sub.items() if k != "default"}
+            errors = list(jsonschema.Draft202012Validator(own).iter_errors(sub["default"]))
+            assert not errors, (topic, key, sub["default"], errors[0].message)
+            if isinstance(sub["default"], str) and sub.get("x-kind"):
+                parse_quantity(sub["default"], sub["x-kind"], key)  # reads back
+            checked += 1
+    assert checked > 150
+
+
+def test_readable_defaults_read_back_exactly() -> None:
+    from sarproc.product.schema import quantity_text
+    from sarproc.product.units import parse_quantity
+
+    for kind, values in {
+        "frequency": (1.5e9, 120e6, 400.0, 0.0),
+        "length": (5e3, 0.1, 2.5e-3, 0.0),
+        "time": (1e-6, 2.5e-9, 60.0),
+        "angle": (0.5235987755982988, -1.5707963267948966, 0.0),
+        "velocity": (7e3, -3.5),
+        "decibel": (-30.0,),
+    }.items():
+        for v in values:
+            text = quantity_text(v, kind)
+            assert isinstance(text, str) and parse_quantity(text, kind) == pytest.approx(v, rel=1e-9, abs=1e-15), (
+                kind,
+                v,
+                text,
+            )
