@@ -126,7 +126,7 @@ def topic_schema(topic: str, schemas: dict | None = None) -> dict:
         if topic == "scene":
             out["required"] = scene["required"]
         else:  # stage-only files are fine; a scene section asks for the whole scene
-            out["dependentRequired"] = {name: scene["required"] for name in scene["properties"]}
+            out["dependentRequired"] = dict.fromkeys(scene["properties"], scene["required"])
         return out
     if topic in ("expect", "sweep"):
         title = "sarproc evaluate --expect file" if topic == "expect" else "sarproc sweep file"

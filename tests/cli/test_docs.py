@@ -15,8 +15,8 @@ from pathlib import Path
 import jsonschema
 import pytest
 from click.testing import CliRunner
-from helpers import declared_keys, scene_keys
 
+from helpers import declared_keys, scene_keys
 from sarproc.cli.main import COMMANDS, cli
 from sarproc.cli.options import SectionCommand, check_sections
 from sarproc.cli.schema import (

@@ -7,7 +7,6 @@ import re
 from pathlib import Path
 
 from helpers import scene_keys
-
 from sarproc.cli.main import cli
 
 ROOT = Path(__file__).resolve().parents[2]
