@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import dataclasses
+import typing
+
 import pytest
 
 
@@ -38,3 +41,33 @@ def assert_bars_complete(bars: list, count=None):
     assert bars and (count is None or len(bars) == count), bars
     for bar in bars:
         assert bar["total"] is not None and bar["total"] > 0 and bar["done"] == bar["total"], bars
+
+
+def declared_keys(cls: type, prefix: str = "") -> list[str]:
+    """Every key a model declares, nested ones dotted (``range_window.start``), list items with ``[]``,
+    read from the dataclasses themselves (not through sarproc.product.schema)."""
+    hints = typing.get_type_hints(cls)
+    keys = []
+    for f in dataclasses.fields(cls):
+        key = prefix + f.name
+        keys.append(key)
+        tp = hints[f.name]
+        origin, args = typing.get_origin(tp), typing.get_args(tp)
+        if dataclasses.is_dataclass(tp):
+            keys += declared_keys(tp, key + ".")
+        for arg in args:
+            if dataclasses.is_dataclass(arg):
+                keys += declared_keys(arg, key + ("[]." if origin in (list, tuple) else "."))
+    return keys
+
+
+def scene_keys() -> list[str]:
+    """Every key of a scene file, each effect's own keys included (``effects.antenna.pattern``)."""
+    from sarproc.cli.schema import SCENE_MODEL, model_of
+    from sarproc.simulation.effects import EFFECTS
+
+    keys = declared_keys(model_of(SCENE_MODEL))
+    for name, effect in EFFECTS.items():
+        keys.append(f"effects.{name}")
+        keys += declared_keys(effect.Params, f"effects.{name}.")
+    return keys

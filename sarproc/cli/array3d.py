@@ -7,10 +7,10 @@ from pathlib import Path
 
 import click
 
-from sarproc.cli.options import common_options, input_argument, load_config, summary, want_progress
+from sarproc.cli.options import SectionCommand, common_options, input_argument, load_config, summary, want_progress
 
 
-@click.command()
+@click.command(cls=SectionCommand, section="array3d")
 @input_argument
 @common_options
 @click.option(

@@ -8,10 +8,10 @@ from pathlib import Path
 import click
 
 from sarproc.cli.dask_map import scheduler_option
-from sarproc.cli.options import common_options, input_argument, load_config, summary, want_progress
+from sarproc.cli.options import SectionCommand, common_options, input_argument, load_config, summary, want_progress
 
 
-@click.command()
+@click.command(cls=SectionCommand, section="backproject")
 @input_argument
 @click.option(
     "--targets",

@@ -10,6 +10,7 @@ from pathlib import Path
 import click
 
 from sarproc.cli.options import (
+    SectionCommand,
     config_option,
     dry_run_option,
     input_argument,
@@ -161,7 +162,7 @@ def _write_text_atomic(path: Path, text: str, overwrite: bool = True) -> None:
         tmp.write_text(text, encoding="utf-8")
 
 
-@click.command()
+@click.command(cls=SectionCommand, section=("evaluate", "expect"))
 @input_argument
 @click.option(
     "-o",

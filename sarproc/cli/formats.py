@@ -17,6 +17,7 @@ from pathlib import Path
 import click
 
 from sarproc.cli.options import (
+    SectionCommand,
     config_option,
     dry_run_option,
     input_argument,
@@ -57,7 +58,7 @@ check_option = click.option(
 )
 
 
-@click.command("export-sicd")
+@click.command("export-sicd", cls=SectionCommand, section="geolocation")
 @input_argument
 @output_option
 @config_option
@@ -132,7 +133,7 @@ def export_sicd(
     summary(_check_line("SICD", result))
 
 
-@click.command("export-cphd")
+@click.command("export-cphd", cls=SectionCommand, section="geolocation")
 @input_argument
 @output_option
 @config_option

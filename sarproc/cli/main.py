@@ -39,6 +39,7 @@ COMMANDS = {
     "export-sicd": "sarproc.cli.formats:export_sicd",
     "export-cphd": "sarproc.cli.formats:export_cphd",
     "import-cphd": "sarproc.cli.formats:import_cphd",
+    "schema": "sarproc.cli.schema:schema",
 }
 
 

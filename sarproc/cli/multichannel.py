@@ -7,10 +7,10 @@ from pathlib import Path
 
 import click
 
-from sarproc.cli.options import common_options, input_argument, summary, want_progress
+from sarproc.cli.options import SectionCommand, common_options, input_argument, summary, want_progress
 
 
-@click.command()
+@click.command(cls=SectionCommand, section="reconstruct")
 @input_argument
 @common_options
 def reconstruct(input_path: Path, output: Path, config_path, overwrite: bool, progress):

@@ -30,6 +30,25 @@ progress_option = click.option(
 input_argument = click.argument("input_path", type=click.Path(path_type=Path))
 
 
+class SectionCommand(click.Command):
+    """A command whose ``--help`` ends with the keys of its YAML section (``section``: a --config
+    section, or ``scene`` for a scene file), with units, bounds and defaults, generated from the
+    parameter declarations through the stored schema (sarproc.cli.schema: no stage is imported)."""
+
+    def __init__(self, *args, section: str | tuple[str, ...], **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self.sections = (section,) if isinstance(section, str) else tuple(section)
+
+    def format_epilog(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        from sarproc.cli.schema import section_rows
+
+        titles = {"scene": "Scene file keys", "sweep": "Sweep file keys", "expect": "Keys of the --expect file"}
+        for section in self.sections:
+            with formatter.section(titles.get(section, f"Keys of the `{section}:` section of --config")):
+                formatter.write_dl(section_rows(section))
+        super().format_epilog(ctx, formatter)
+
+
 def _store_max_memory(ctx, param, value):
     if value is not None:
         from sarproc.product.budget import parse_size

@@ -11,10 +11,10 @@ from pathlib import Path
 import click
 
 from sarproc.cli.dask_map import scheduler_option
-from sarproc.cli.options import common_options, dry_run_option, input_argument, summary, want_progress
+from sarproc.cli.options import SectionCommand, common_options, dry_run_option, input_argument, summary, want_progress
 
 
-@click.command()
+@click.command(cls=SectionCommand, section="pfa2")
 @input_argument
 @common_options
 @scheduler_option

@@ -9,6 +9,7 @@ import click
 
 from sarproc.cli.dask_map import scheduler_option
 from sarproc.cli.options import (
+    SectionCommand,
     dry_run_option,
     max_memory_option,
     output_option,
@@ -19,7 +20,7 @@ from sarproc.cli.options import (
 )
 
 
-@click.command()
+@click.command(cls=SectionCommand, section="scene")
 @click.argument("scene_path", type=click.Path(allow_dash=True, path_type=Path))
 @output_option
 @overwrite_option

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import click
 
-from sarproc.cli.options import common_options, input_argument, load_config, summary, want_progress
+from sarproc.cli.options import SectionCommand, common_options, input_argument, load_config, summary, want_progress
 
 
 def _run(
@@ -42,7 +42,7 @@ def _run(
     return out, time.perf_counter() - start
 
 
-@click.command()
+@click.command(cls=SectionCommand, section="preprocess")
 @input_argument
 @common_options
 def preprocess(input_path: Path, output: Path, config_path, overwrite: bool, progress):
@@ -68,7 +68,7 @@ def preprocess(input_path: Path, output: Path, config_path, overwrite: bool, pro
     )
 
 
-@click.command()
+@click.command(cls=SectionCommand, section="coarse_focus")
 @input_argument
 @common_options
 def coarse_focus(input_path: Path, output: Path, config_path, overwrite: bool, progress):
@@ -96,7 +96,7 @@ def coarse_focus(input_path: Path, output: Path, config_path, overwrite: bool, p
     )
 
 
-@click.command()
+@click.command(cls=SectionCommand, section="fine_focus")
 @input_argument
 @common_options
 def fine_focus(input_path: Path, output: Path, config_path, overwrite: bool, progress):

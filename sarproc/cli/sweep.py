@@ -6,10 +6,10 @@ from pathlib import Path
 
 import click
 
-from sarproc.cli.options import summary, verbosity
+from sarproc.cli.options import SectionCommand, summary, verbosity
 
 
-@click.command()
+@click.command(cls=SectionCommand, section="sweep")
 @click.argument("sweep_path", type=click.Path(dir_okay=False, allow_dash=True, path_type=Path))
 @click.option(
     "-o",

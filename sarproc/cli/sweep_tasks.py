@@ -57,7 +57,8 @@ import uuid
 from pathlib import Path
 
 from sarproc import __version__
-from sarproc.product.config import build, load_yaml, param
+from sarproc.cli.schema import SECTION_MODELS
+from sarproc.product.config import STAGE_SECTIONS, build, load_yaml, param
 from sarproc.product.errors import InputError, ProcessingError
 
 TIME_COLUMNS = ("simulate_s", "focus_s", "focus_median_s", "focus_spread_s", "evaluate_s")
@@ -172,14 +173,9 @@ def _task_id(scene: str, setting: dict) -> str:
 
 # command -> (its --config section, its parameter model): checked for every task before anything runs
 STAGE_PARAMS = {
-    "backproject": ("backproject", "sarproc.focus.backprojection:BackprojectParams"),
-    "preprocess": ("preprocess", "sarproc.focus.squint_deramp.preprocess:PreprocessParams"),
-    "coarse-focus": ("coarse_focus", "sarproc.focus.squint_deramp.coarse_focus:CoarseFocusParams"),
-    "fine-focus": ("fine_focus", "sarproc.focus.squint_deramp.fine_focus:FineFocusParams"),
-    "pfa2": ("pfa2", "sarproc.focus.pfa.chain:Pfa2Params"),
-    "array3d": ("array3d", "sarproc.focus.array3d.linear_array:Array3DParams"),
-    "reconstruct": ("reconstruct", "sarproc.focus.multichannel.reconstruct:ReconstructParams"),
-    "evaluate": ("evaluate", "sarproc.quality.metrics:EvaluateParams"),
+    section.replace("_", "-"): (section, target)
+    for section, target in SECTION_MODELS.items()
+    if section in STAGE_SECTIONS
 }
 
 

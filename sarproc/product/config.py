@@ -302,24 +302,3 @@ def as_dict(obj) -> dict:
         return v
 
     return conv(obj)
-
-
-def describe(cls, indent: int = 0) -> str:
-    """Printable documentation of a model's keys, units and defaults."""
-    lines = []
-    hints = typing.get_type_hints(cls)
-    for f in dataclasses.fields(cls):
-        meta = f.metadata
-        default = (
-            "required"
-            if f.default is MISSING and f.default_factory is MISSING
-            else (f"default {f.default!r}" if f.default is not MISSING else "default from factory")
-        )
-        unit = f" [{meta.get('unit')}]" if meta.get("unit") else ""
-        choices = f" one of {list(meta['choices'])}" if meta.get("choices") else ""
-        lines.append(f"{' ' * indent}{f.name}{unit}: {meta.get('doc', '')}{choices} ({default})")
-        tp = hints[f.name]
-        inner = [a for a in typing.get_args(tp) if _is_model(a)] or ([tp] if _is_model(tp) else [])
-        for sub in inner:
-            lines.append(describe(sub, indent + 2))
-    return "\n".join(lines)

@@ -1,4 +1,4 @@
-"""HDF5 product I/O: the one place that reads and writes files (see ARCHITECTURE.md).
+"""HDF5 product I/O: the one place that reads and writes files (the layout: docs/product.md).
 
 Writes are atomic: everything goes to a temporary file ``.<name>.<host>.<pid>.<random>.sarproc-tmp``
 in the target directory (matched by ``.gitignore``); it is published only when complete and

@@ -90,3 +90,8 @@ def example(kind: str) -> str:
         "decibel": "20 dB",
         "dimensionless": "1.5",
     }[kind]
+
+
+def unit_symbols(kind: str) -> tuple[str, ...]:
+    """Every unit symbol a quantity of ``kind`` may carry ('' for a bare number), e.g. for a schema."""
+    return tuple(_TABLES[kind])

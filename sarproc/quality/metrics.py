@@ -1,4 +1,4 @@
-"""Point-target quality metrics of focused 2D/3D SAR images (ARCHITECTURE.md, "Metric definitions").
+"""Point-target quality metrics of focused 2D/3D SAR images (docs/product.md, "Metrics").
 
 Per target and per image axis: IRW (-3 dB width, absolute and relative to theory), PSLR,
 ISLR, position error (axis units and resolution cells) and the peak; per image: the
