@@ -70,3 +70,32 @@ def test_each_commands_module_imports_no_heavy_library():
     )
     loaded = _loaded_after(code)
     assert not loaded & set(HEAVY), sorted(loaded & set(HEAVY))
+
+
+KERNEL_RUN = """
+import json, sys
+import numpy as np
+from sarproc.focus.squint_deramp.block_copies import pad_rows
+src = (np.arange(12, dtype=np.float32) + 1j).astype(np.complex64).reshape(3, 4)
+dst = np.full((3, 6), 7, np.complex64)
+pad_rows(src, dst, 1)
+try:
+    pad_rows(src, np.empty((2, 6), np.complex64), 1)
+    raised = False
+except ValueError:
+    raised = True
+want = np.zeros((3, 6), np.complex64)
+want[:, :4] = src * np.where(np.arange(4) % 2 == 1, -1, 1)
+print(json.dumps({"equal": bool(np.array_equal(dst, want)), "raised": raised,
+                  "refreshed": "numba.np.arraymath" in sys.modules}))
+"""
+
+
+def test_cached_kernels_load_without_numbas_context_refresh(tmp_path):
+    # first process: compiles pad_rows into a fresh cache; second: loads it from there, without the refresh
+    # (numba.np.arraymath and the other lowering modules stay unimported) and computes the same
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+    compiled = json.loads(_python(KERNEL_RUN, env).strip().splitlines()[-1])
+    loaded = json.loads(_python(KERNEL_RUN, env).strip().splitlines()[-1])
+    assert compiled == {"equal": True, "raised": True, "refreshed": True}
+    assert loaded == {"equal": True, "raised": True, "refreshed": False}

@@ -20,7 +20,7 @@ import numba
 import numpy as np
 
 from sarproc.dsp.interp import resample_rows
-from sarproc.dsp.kernel_cache import CACHE
+from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
 from sarproc.dsp.phasor import unit_phasor
 from sarproc.focus.pfa.polar import Grid, Interpolation, KGrid, Rect, los_components, polar_support
 
@@ -278,3 +278,6 @@ def _carrier(a, r, ka, kr, sign) -> np.ndarray:
     pa = np.exp(sign * 1j * np.mod(np.asarray(a) * ka, 2 * math.pi)).astype(np.complex64)
     pr = np.exp(sign * 1j * np.mod(np.asarray(r) * kr, 2 * math.pi)).astype(np.complex64)
     return pa[:, None] * pr[None, :]
+
+
+lean_cache_loads(globals())  # cached kernels load without numba's context refresh (kernel_cache)
