@@ -1,11 +1,9 @@
-"""sarproc: SAR point-target simulation, focusing and quality evaluation."""
+"""sarproc: SAR point-target simulation, focusing and quality evaluation.
 
-import os
-
-# The compiled kernels (numba's OpenMP layer, GNU libgomp here) alternate with scipy.fft's own worker threads.
-# libgomp's default wait policy keeps its workers spinning after every parallel region, on cores the next FFT
-# needs: full exp. 2 fine-focus took 2.19-2.24 s with it and 1.62 s with passive waits (docs/performance.md),
-# backprojection the same either way. Only a default, read when libgomp starts: a value set by the user wins.
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+Importing the package changes nothing in the process. The ``sarproc`` command sets the compiled kernels'
+thread wait policy (``OMP_WAIT_POLICY=PASSIVE`` unless set, :func:`sarproc.cli.main.main`); a Python user
+who alternates the compiled kernels with ``scipy.fft`` sets it in the environment before the first kernel
+runs (docs/performance.md, "thread wait policy").
+"""
 
 __version__ = "0.1.0"

@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Stage benchmark, interleaved in one run: time, one-2D-FFT equivalents, peak RSS, CPU/wall, FastSAR side by side.
 
-    python scripts/bench.py [--rounds 3] [--bp-rounds 5] [--stages bp,gotcha,exp2,array3d]
-                            [--fastsar-python .venv-bench/bin/python] [--out results/bench]
+    python scripts/bench.py [--rounds 3] [--bp-rounds 5] [--stages bp,gotcha,exp2,array3d,simulate,process]
+                            [--fastsar-python .venv-bench/bin/python] [--out results/bench] [--baseline DIR]
 
 Every round runs, for each stage, one complex64 2D FFT of an array shaped like the stage's input (scipy.fft,
 all cores) and then the stage itself, so a stage and its FFT yardstick see the same machine load; each is
@@ -22,6 +22,11 @@ engine (linear and cubic on the x8 pulse; Knab, 8 taps, on the x2 pulse) and Fas
 x8; run by scripts/bench_fastsar.py in the bench-only venv, its own call time) on the same pulses and grid.
 Agreement: 20 log10(|a - ref| / |ref|) over the image against the float64 reference engine (FastSAR after
 a least-squares complex scale: its normalisation differs), and against a x32 float64 reference ("truth").
+Per-process overhead ("process" rows, a table of their own): every stage as one `sarproc STAGE` process on a
+small product (demo scene, reduced scenes of papers 000, 002, 003, 004): the process's wall time, the same
+command's second run inside one process (its compute: reading, work, writing) and the difference, the overhead
+(interpreter, imports, loading compiled kernels). --baseline DIR (an older checkout, e.g.
+`git archive COMMIT | tar -x -C DIR`) runs the same commands from it too, interleaved round by round.
 Results go to OUT/latest.json and OUT/bench-<UTC time>.json; a previous latest.json is shown beside.
 """
 
@@ -33,12 +38,17 @@ import datetime
 import gc
 import inspect
 import json
+import os
 import resource
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
+
+# The wait policy the sarproc command sets for the compiled kernels' threads (sarproc.cli.main.THREAD_DEFAULTS):
+# this script calls the library, so it sets the policy itself, before numba starts.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 import numpy as np
 import scipy.fft as sfft
@@ -369,6 +379,136 @@ def simulate_stages():
     return stages
 
 
+# ---- per-process overhead -----------------------------------------------------------------------------------
+# Each stage as users run it: one `sarproc STAGE` process on a small product (inputs made first, by this tree).
+# "process": the wall time of that process; "compute": the same command's second run inside one process (imports
+# done, kernels loaded: the stage's own reading, work and writing); overhead = process - compute. The stage's
+# printed time "(x s)" is shown beside where it prints one. With --baseline (a checkout of an older commit, e.g.
+# `git archive <commit> | tar -x -C DIR`) the same commands run from it too, interleaved round by round.
+PROCESS_SETUP = (
+    ("simulate", "configs/demo.yaml", "-o", "{d}/demo_raw.h5"),
+    ("backproject", "{d}/demo_raw.h5", "--config", "configs/demo.yaml", "-o", "{d}/demo_img.h5"),
+    ("export-cphd", "{d}/demo_raw.h5", "-o", "{d}/demo.cphd"),
+    ("simulate", "configs/an2012_exp1_small.yaml", "-o", "{d}/sq_raw.h5"),
+    ("preprocess", "{d}/sq_raw.h5", "--config", "configs/an2012_exp1_small.yaml", "-o", "{d}/sq_pre.h5"),
+    ("coarse-focus", "{d}/sq_pre.h5", "--config", "configs/an2012_exp1_small.yaml", "-o", "{d}/sq_coarse.h5"),
+    ("simulate", "configs/nie2016_small.yaml", "-o", "{d}/nie_raw.h5"),
+    ("simulate", "configs/xu_small.yaml", "-o", "{d}/xu_raw.h5"),
+    ("simulate", "configs/du2010.yaml", "-o", "{d}/du_raw.h5"),
+)
+PROCESS_CASES = (
+    ("simulate", "demo", ("simulate", "configs/demo.yaml", "-o", "{d}/out_raw.h5")),
+    ("backproject", "demo", ("backproject", "{d}/demo_raw.h5", "--config", "configs/demo.yaml", "-o", "{d}/out.h5")),
+    ("evaluate", "demo image", ("evaluate", "{d}/demo_img.h5", "-o", "{d}/out.json")),
+    ("quicklook", "demo image", ("quicklook", "{d}/demo_img.h5", "-o", "{d}/out.png")),
+    ("export-sicd", "demo image", ("export-sicd", "{d}/demo_img.h5", "-o", "{d}/out.nitf")),
+    ("export-cphd", "demo raw", ("export-cphd", "{d}/demo_raw.h5", "-o", "{d}/out.cphd")),
+    ("import-cphd", "demo raw", ("import-cphd", "{d}/demo.cphd", "-o", "{d}/out_cphd.h5")),
+    (
+        "preprocess",
+        "an2012_exp1_small",
+        ("preprocess", "{d}/sq_raw.h5", "--config", "configs/an2012_exp1_small.yaml", "-o", "{d}/out.h5"),
+    ),
+    (
+        "coarse-focus",
+        "an2012_exp1_small",
+        ("coarse-focus", "{d}/sq_pre.h5", "--config", "configs/an2012_exp1_small.yaml", "-o", "{d}/out.h5"),
+    ),
+    (
+        "fine-focus",
+        "an2012_exp1_small",
+        ("fine-focus", "{d}/sq_coarse.h5", "--config", "configs/an2012_exp1_small.yaml", "-o", "{d}/out.h5"),
+    ),
+    ("pfa2", "nie2016_small", ("pfa2", "{d}/nie_raw.h5", "--config", "configs/nie2016_small.yaml", "-o", "{d}/out.h5")),
+    (
+        "reconstruct",
+        "xu_small",
+        ("reconstruct", "{d}/xu_raw.h5", "--config", "configs/xu_small.yaml", "-o", "{d}/out.h5"),
+    ),
+    ("array3d", "du2010", ("array3d", "{d}/du_raw.h5", "--config", "configs/du2010.yaml", "-o", "{d}/out.h5")),
+)
+# Runs a command twice in one process; prints the second run's wall time (the stage's compute) last.
+WARM_RUN = """
+import os, sys, time
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+from sarproc.cli.main import run_cli
+assert run_cli(sys.argv[1:]) == 0
+t = time.perf_counter()
+assert run_cli(sys.argv[1:]) == 0
+print(f"WARM {time.perf_counter() - t:.6f}")
+"""
+
+
+def _sarproc(tree: Path, argv, warm: bool = False) -> tuple[float, float | None]:
+    """(wall s of one `sarproc` process run from ``tree``, the stage's printed time or, warm, the second run's)."""
+    import re
+
+    env = {**os.environ, "PYTHONPATH": str(tree)}
+    cmd = [sys.executable, "-c", WARM_RUN, "-q", *argv] if warm else [sys.executable, "-m", "sarproc", *argv]
+    t0 = time.perf_counter()
+    done = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True, check=False)
+    wall = time.perf_counter() - t0
+    if done.returncode != 0:
+        raise RuntimeError(f"{' '.join(argv)} ({tree}): exit {done.returncode}: {done.stderr.strip()[-300:]}")
+    text = done.stdout + done.stderr
+    found = re.findall(r"WARM ([0-9.]+)", text) if warm else re.findall(r"\(([0-9.]+) s\)\s*$", text, re.MULTILINE)
+    return wall, float(found[-1]) if found else None
+
+
+def process_rows(trees: dict[str, Path], rounds: int, workdir: Path) -> list[dict]:
+    """Per stage and tree: process wall, in-process compute and overhead (best of ``rounds``, interleaved)."""
+    data = {}
+    for label, tree in trees.items():
+        d = workdir / label
+        d.mkdir(parents=True, exist_ok=True)
+        data[label] = d
+        for argv in PROCESS_SETUP:
+            _sarproc(tree, [a.format(d=d) for a in argv] + ["--overwrite", "-q"])
+        for _, _, argv in PROCESS_CASES:  # once untimed: every kernel in this tree's numba cache
+            _sarproc(tree, [a.format(d=d) for a in argv] + ["--overwrite", "-q"])
+    best = {}
+    for r in range(rounds):
+        for stage, detail, argv in PROCESS_CASES:
+            for label, tree in trees.items():
+                args = [a.format(d=data[label]) for a in argv] + ["--overwrite"]
+                wall, printed = _sarproc(tree, args)
+                _, warm = _sarproc(tree, args, warm=True)
+                b = best.setdefault((stage, label), [np.inf, np.inf, None])
+                b[0], b[1] = min(b[0], wall), min(b[1], warm)
+                if printed is not None:
+                    b[2] = printed if b[2] is None else min(b[2], printed)
+        print(f"  process overhead: round {r + 1}/{rounds} done", file=sys.stderr)
+    rows = []
+    for stage, detail, _ in PROCESS_CASES:
+        for label in trees:
+            wall, warm, printed = best[(stage, label)]
+            rows.append(
+                {
+                    "stage": f"process {stage}",
+                    "detail": f"{detail}, {label}",
+                    "time_s": wall,
+                    "compute_s": warm,
+                    "printed_s": printed,
+                    "overhead_s": wall - warm,
+                }
+            )
+    return rows
+
+
+def fmt_process_table(rows) -> str:
+    lines = [
+        "| stage | data, tree | process (s) | compute (s) | printed (s) | overhead (s) |",
+        "|---|---|---:|---:|---:|---:|",
+    ]
+    for r in rows:
+        printed = "-" if r["printed_s"] is None else f"{r['printed_s']:.2f}"
+        lines.append(
+            f"| {r['stage'].removeprefix('process ')} | {r['detail']} | {r['time_s']:.2f} | {r['compute_s']:.2f} | "
+            f"{printed} | {r['overhead_s']:.2f} |"
+        )
+    return "\n".join(lines)
+
+
 # ---- report -------------------------------------------------------------------------------------------------
 def fmt_table(rows, previous):
     prev = {r["stage"] + "|" + r.get("detail", ""): r for r in (previous or {}).get("stages", [])}
@@ -401,7 +541,13 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--rounds", type=int, default=3, help="rounds of the heavy stages (best of)")
     ap.add_argument("--bp-rounds", type=int, default=5, help="rounds of the backprojection stages (best of)")
-    ap.add_argument("--stages", default="bp,gotcha,exp2,array3d,simulate")
+    ap.add_argument("--stages", default="bp,gotcha,exp2,array3d,simulate,process")
+    ap.add_argument(
+        "--baseline",
+        type=Path,
+        default=None,
+        help="an older checkout (git archive COMMIT | tar -x -C DIR): its per-process rows interleaved with this tree's",
+    )
     ap.add_argument("--fastsar-python", default=str(ROOT / ".venv-bench" / "bin" / "python"))
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
     args = ap.parse_args(argv)
@@ -521,8 +667,17 @@ def main(argv=None):
             )
         rows.append(row)
 
+    process = []
+    if "process" in want:
+        trees = {"this tree": ROOT}
+        if args.baseline is not None:
+            trees = {"baseline": args.baseline.resolve(), **trees}
+        with tempfile.TemporaryDirectory() as tmp:
+            process = process_rows(trees, args.rounds, Path(tmp))
+
     stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y%m%dT%H%M%SZ")
-    text = "\n".join([f"# sarproc bench {stamp}", "", fmt_table(rows, previous), ""] + [f"- {n}" for n in notes])
+    tables = [fmt_table(rows, previous), ""] + ([fmt_process_table(process), ""] if process else [])
+    text = "\n".join([f"# sarproc bench {stamp}", ""] + tables + [f"- {n}" for n in notes])
     print(text)
     args.out.mkdir(parents=True, exist_ok=True)
     doc = {
@@ -530,6 +685,7 @@ def main(argv=None):
         "rounds": args.rounds,
         "bp_rounds": args.bp_rounds,
         "stages": rows,
+        "process": process,
         "notes": notes,
         "peak_rss_process_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
     }

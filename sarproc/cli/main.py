@@ -226,12 +226,28 @@ def run_cli(args=None) -> int:
     return code
 
 
+# The compiled kernels (numba's OpenMP layer, GNU libgomp here) alternate with scipy.fft's own worker threads.
+# libgomp's default wait policy keeps its workers spinning after every parallel region, on cores the next FFT
+# needs: full exp. 2 fine-focus took 2.19-2.24 s with it and 1.62 s with passive waits (docs/performance.md),
+# backprojection the same either way. Read once, when libgomp starts: set by the command before any stage
+# imports numba; a value the user set wins. Dask workers the command starts inherit it.
+THREAD_DEFAULTS = {"OMP_WAIT_POLICY": "PASSIVE"}
+
+
+def set_thread_defaults(environ: dict | None = None) -> None:
+    """Put :data:`THREAD_DEFAULTS` into ``environ`` (default ``os.environ``) where the user set nothing."""
+    environ = os.environ if environ is None else environ
+    for key, value in THREAD_DEFAULTS.items():
+        environ.setdefault(key, value)
+
+
 def main(args=None):  # pragma: no cover - console entry (exercised by subprocess tests)
     """Console entry: run the group; after a failed HDF5 write end without HDF5's cleanup (it can crash)."""
+    set_thread_defaults()
     code = run_cli(args)
-    from sarproc.product.io import hdf5_handles_damaged
+    io = sys.modules.get("sarproc.product.io")  # not imported: no HDF5 file was opened (--help stays light)
 
-    if hdf5_handles_damaged():
+    if io is not None and io.hdf5_handles_damaged():
         sys.stdout.flush()
         sys.stderr.flush()
         os._exit(code)

@@ -26,7 +26,7 @@ import math
 import numba
 import numpy as np
 
-from sarproc.dsp.kernel_cache import CACHE
+from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
 
 KERNELS = ("nearest", "linear", "cubic", "sinc", "lanczos", "knab")
 DEFAULT_LENGTH = {"nearest": 1, "linear": 2, "cubic": 4, "sinc": 8, "lanczos": 8, "knab": 8}
@@ -232,3 +232,6 @@ def resample(
     rows = np.broadcast_to(data, lead + data.shape[-1:]).reshape(-1, data.shape[-1])
     pos = np.broadcast_to(pos, lead + pos.shape[-1:]).reshape(-1, pos.shape[-1])
     return resample_rows(rows, pos, kernel, length, **kwargs).reshape(lead + pos.shape[-1:])
+
+
+lean_cache_loads(globals())  # cached kernels load without numba's context refresh (kernel_cache)

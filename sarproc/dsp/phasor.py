@@ -5,7 +5,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from sarproc.dsp.kernel_cache import CACHE
+from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
 
 _TWO_PI32 = np.float32(2 * np.pi)
 
@@ -207,3 +207,6 @@ def multiply_phase(
     if flat is not x:
         x[...] = flat
     return x
+
+
+lean_cache_loads(globals())  # cached kernels load without numba's context refresh (kernel_cache)

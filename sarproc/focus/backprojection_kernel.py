@@ -30,7 +30,7 @@ import math
 import numba
 import numpy as np
 
-from sarproc.dsp.kernel_cache import CACHE
+from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
 from sarproc.dsp.phasor import cis_cycles32_short
 
 INTERPOLATIONS = ("nearest", "linear", "cubic", "sinc", "lanczos", "knab")
@@ -526,3 +526,6 @@ def make_tiles(points: np.ndarray, tile_size: float, max_tile: int = 1024):
         points, origin, lo - origin, hi - origin, float(tile_size), int(max_tile)
     )
     return order, tile_start, centres, origin, d
+
+
+lean_cache_loads(globals())  # cached kernels load without numba's context refresh (kernel_cache)

@@ -15,7 +15,7 @@ import math
 import numba
 import numpy as np
 
-from sarproc.dsp.kernel_cache import CACHE
+from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
 from sarproc.dsp.phasor import cis_cycles32_short
 
 LINEAR, CUBIC = 1, 3
@@ -148,3 +148,6 @@ def final_points(buf, geo, ints, px, py, pz, kc2, mode_r, mode_t, out):
             re += vr
             im += vi
         out[i] = complex(re, im)
+
+
+lean_cache_loads(globals())  # cached kernels load without numba's context refresh (kernel_cache)

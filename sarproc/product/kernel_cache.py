@@ -10,6 +10,8 @@ documents.
 
 Every module with compiled kernels decorates them with ``cache=CACHE`` from here (lives in product, the
 lowest layer, so that every layer may import it; sarproc.dsp.kernel_cache re-exports it).
+Each such module ends with ``lean_cache_loads(globals())``: its kernels then load from the cache without
+numba's full start-up (see :func:`lean_cache_loads`).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import logging
 import os
 import stat
 import tempfile
+import types
 from pathlib import Path
 
 import numba
@@ -75,3 +78,41 @@ def _configure() -> bool:
 
 # Decided once per process, before the first kernel is decorated.
 CACHE: bool = _configure()
+
+
+def _load_overload_lean(self: object, sig: object, target_context: object) -> object:
+    """numba's ``Cache.load_overload`` without ``target_context.refresh()``; only the runtime (NRT) it links."""
+    from numba.core.runtime import rtsys
+
+    rtsys.initialize(target_context)
+    with self._guard_against_spurious_io_errors():
+        return self._load_overload(sig, target_context)
+
+
+def lean_cache_loads(namespace: dict) -> int:
+    """Let the compiled kernels in ``namespace`` (a module's globals) load from numba's cache without the
+    context refresh numba does first; returns how many.
+
+    Before loading a cached kernel numba refreshes its compilation context: it imports its lowering
+    libraries (numba.np.arraymath, npyimpl, linalg ... and scipy.linalg) and installs their registries,
+    0.3 s on the reference machine, more than all of a small stage's kernels take to load (measured:
+    docs/performance.md, "Per-process overhead"). A cached kernel needs none of it, only numba's runtime
+    (NRT), which is initialised here; a kernel that is not in the cache compiles as before, and numba's
+    compiler refreshes the context itself. Applied per kernel, so other numba users in the process are
+    untouched; numba versions without these internals keep their own loading.
+    """
+    from numba.core.caching import Cache
+    from numba.core.registry import CPUDispatcher
+
+    count = 0
+    for obj in list(namespace.values()):
+        cache = getattr(obj, "_cache", None)
+        if (
+            isinstance(obj, CPUDispatcher)
+            and isinstance(cache, Cache)
+            and hasattr(cache, "_load_overload")
+            and hasattr(cache, "_guard_against_spurious_io_errors")
+        ):
+            cache.load_overload = types.MethodType(_load_overload_lean, cache)
+            count += 1
+    return count

@@ -11,7 +11,7 @@ import math
 import numba
 import numpy as np
 
-from sarproc.product.kernel_cache import CACHE
+from sarproc.product.kernel_cache import CACHE, lean_cache_loads
 
 
 @numba.njit(error_model="numpy", parallel=True, cache=CACHE)
@@ -79,3 +79,6 @@ def ideal_response(
     for k in numba.prange(n):
         out[k] = _ideal_at(points, k, position, ridge, f_c, hamming)
     return out
+
+
+lean_cache_loads(globals())  # cached kernels load without numba's context refresh (kernel_cache)

@@ -22,7 +22,7 @@ import math
 import numba
 import numpy as np
 
-from sarproc.dsp.kernel_cache import CACHE
+from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
 
 
 @numba.njit(inline="always")
@@ -104,3 +104,6 @@ def accumulate_echoes(out, delays, gains, gate, t0, fs, pulse_duration, chirp_ra
                 n += 1
         for n in range(n_range):
             row[n] += acc[n] * chirp[n]
+
+
+lean_cache_loads(globals())  # cached kernels load without numba's context refresh (kernel_cache)

@@ -14,12 +14,18 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import TYPE_CHECKING
 
+import numba
 import numpy as np
-from scipy.interpolate import RectBivariateSpline
 
 from sarproc.dsp.interp import resample_rows
+from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
+from sarproc.dsp.phasor import unit_phasor
 from sarproc.focus.pfa.polar import Grid, Interpolation, KGrid, Rect, los_components, polar_support
+
+if TYPE_CHECKING:
+    from scipy.interpolate import RectBivariateSpline
 
 
 @dataclasses.dataclass(frozen=True)
@@ -42,6 +48,14 @@ def pfa_distortion(
     coefficients at the rectangle's centre are where PFA puts the point; the quadratic ones,
     times the rectangle's extent, the spread of its defocus.
     """
+    return pfa_distortions(positions, reference, [point], e_azimuth, e_range, carrier_frequency, freqs, rect, n)[0]
+
+
+def pfa_distortions(
+    positions, reference, points, e_azimuth, e_range, carrier_frequency, freqs, rect: Rect | None = None, n: int = 11
+) -> list[Distortion]:
+    """:func:`pfa_distortion` of each of ``points`` (m, 3): the lattice, its pulses and the fit's design
+    are the same for every point, so they are computed once and the fits solved together."""
     pos = np.asarray(positions, float)
     ua, ur = los_components(pos, reference, e_azimuth, e_range)
     if rect is None:
@@ -57,21 +71,27 @@ def pfa_distortion(
     d = p - np.asarray(reference, float)
     u = d / np.linalg.norm(d, axis=1, keepdims=True)
     k = kr / (u @ np.asarray(e_range, float))
-    phase = k * (np.linalg.norm(d, axis=1) - np.linalg.norm(p - np.asarray(point, float), axis=1))
+    pts = np.asarray(points, float).reshape(-1, 3)
+    r_p = np.linalg.norm(p[:, None, :] - pts[None, :, :], axis=2)  # (lattice, points)
+    phase = k[:, None] * (np.linalg.norm(d, axis=1)[:, None] - r_p)
     ca, cr = (rect.ka_lo + rect.ka_hi) / 2, (rect.kr_lo + rect.kr_hi) / 2
     x, y = ka - ca, kr - cr
     design = np.stack(
         [np.ones_like(x), x, y, 0.5 * x * x, x * y, 0.5 * y * y, x**3 / 6, x * x * y / 2, x * y * y / 2, y**3 / 6],
         axis=1,
     )
-    coef, *_ = np.linalg.lstsq(design, phase, rcond=None)
+    # least squares through the pseudo-inverse: LAPACK's gelsd takes ~0.1 s for 81 right-hand sides, this 0.1 ms
+    coef = np.linalg.pinv(design) @ phase  # (10, points)
     wa, wr = rect.ka_hi - rect.ka_lo, rect.kr_hi - rect.kr_lo
-    return Distortion(
-        azimuth=float(coef[1]),
-        range=float(coef[2]),
-        spread_azimuth=float(abs(coef[3]) * wa + abs(coef[4]) * wr),
-        spread_range=float(abs(coef[4]) * wa + abs(coef[5]) * wr),
-    )
+    return [
+        Distortion(
+            azimuth=float(c[1]),
+            range=float(c[2]),
+            spread_azimuth=float(abs(c[3]) * wa + abs(c[4]) * wr),
+            spread_range=float(abs(c[4]) * wa + abs(c[5]) * wr),
+        )
+        for c in coef.T
+    ]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -97,16 +117,15 @@ def distortion_field(geo: PfaGeometry, kg: KGrid, core: Grid, n: int = 9):
     """
     la = np.linspace(core.a[0], core.a[-1], n)
     lr = np.linspace(core.r[0], core.r[-1], n)
-    rect = kgrid_rect(kg)
-    da = np.empty((n, n))
-    dr = np.empty((n, n))
-    for i, a in enumerate(la):
-        for j, r in enumerate(lr):
-            point = geo.center + a * geo.e_azimuth + r * geo.e_range
-            d = pfa_distortion(
-                geo.positions, geo.center, point, geo.e_azimuth, geo.e_range, geo.carrier_frequency, geo.band, rect
-            )
-            da[i, j], dr[i, j] = d.azimuth - a, d.range - r
+    a, r = np.meshgrid(la, lr, indexing="ij")
+    points = geo.center + a.ravel()[:, None] * geo.e_azimuth + r.ravel()[:, None] * geo.e_range
+    fits = pfa_distortions(
+        geo.positions, geo.center, points, geo.e_azimuth, geo.e_range, geo.carrier_frequency, geo.band, kgrid_rect(kg)
+    )
+    da = np.array([d.azimuth for d in fits]).reshape(n, n) - a
+    dr = np.array([d.range for d in fits]).reshape(n, n) - r
+    from scipy.interpolate import RectBivariateSpline  # ~0.3 s to import: only where a distortion is corrected
+
     return RectBivariateSpline(la, lr, da), RectBivariateSpline(la, lr, dr)
 
 
@@ -120,6 +139,80 @@ def extended_grid(core: Grid, warp) -> Grid:
     )
 
 
+class ColumnSpline:
+    """A bicubic :class:`RectBivariateSpline` f(x, y) read at any x on fixed columns y_j: (n, n_cols) -> values.
+
+    FITPACK evaluates scattered points one by one (most of a sub-image's time); on fixed columns f is a
+    cubic spline in x whose coefficients are computed once per column, and the compiled
+    :func:`_column_spline_kernel` reads it at every x with FITPACK's own recursion (fpbspl), rows in
+    parallel. Points outside the knots are clamped to them, as FITPACK does.
+    """
+
+    def __init__(self, spline: RectBivariateSpline, y: np.ndarray) -> None:
+        tx, ty, c = spline.tck
+        kx, ky = spline.degrees
+        if kx != 3:
+            raise ValueError(f"ColumnSpline: a cubic spline in x is needed, not degree {kx}")
+        self.tx = np.asarray(tx, float)
+        n_cx, n_cy = len(tx) - kx - 1, len(ty) - ky - 1
+        ty = np.asarray(ty, float)
+        y = np.clip(np.asarray(y, float), ty[ky], ty[n_cy])  # clamped, as FITPACK does
+        from scipy.interpolate import BSpline
+
+        weights_y = BSpline.design_matrix(y, ty, ky).toarray()  # (n_cols, n_coef_y)
+        # column j's coefficients in x: sum_l weights_y[j, l] coef[:, l]; stored (n_cols, n_coef_x)
+        self.columns = np.ascontiguousarray(weights_y @ np.asarray(c, float).reshape(n_cx, n_cy).T)
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        x = np.ascontiguousarray(x, dtype=float)
+        out = np.empty(x.shape)
+        _column_spline_kernel(self.tx, self.columns, x, out)
+        return out
+
+
+@numba.njit(parallel=True, fastmath=False, cache=CACHE)
+def _column_spline_kernel(t, columns, x, out):
+    """out[r, j] = the cubic spline on knots t with coefficients columns[j] at x[r, j] (clamped to the knots);
+    the weights by FITPACK's fpbspl recursion written out for degree 3, rows in parallel."""
+    n = len(t)
+    lo_x, hi_x = t[3], t[n - 4]
+    for r in numba.prange(x.shape[0]):
+        for j in range(x.shape[1]):
+            xv = min(max(x[r, j], lo_x), hi_x)
+            lo, hi = 3, n - 5  # the interval l with t[l] <= x < t[l + 1] (the last one includes its end)
+            while lo < hi:
+                mid = (lo + hi + 1) // 2
+                if t[mid] <= xv:
+                    lo = mid
+                else:
+                    hi = mid - 1
+            l = lo
+            # degree 1
+            f = 1.0 / (t[l + 1] - t[l])
+            h0 = f * (t[l + 1] - xv)
+            h1 = f * (xv - t[l])
+            # degree 2
+            f = h0 / (t[l + 1] - t[l - 1])
+            g0 = f * (t[l + 1] - xv)
+            g1 = f * (xv - t[l - 1])
+            f = h1 / (t[l + 2] - t[l])
+            g1 += f * (t[l + 2] - xv)
+            g2 = f * (xv - t[l])
+            # degree 3
+            f = g0 / (t[l + 1] - t[l - 2])
+            w0 = f * (t[l + 1] - xv)
+            w1 = f * (xv - t[l - 2])
+            f = g1 / (t[l + 2] - t[l - 1])
+            w1 += f * (t[l + 2] - xv)
+            w2 = f * (xv - t[l - 1])
+            f = g2 / (t[l + 3] - t[l])
+            w2 += f * (t[l + 3] - xv)
+            w3 = f * (xv - t[l])
+            c = columns[j]
+            i = l - 3
+            out[r, j] = w0 * c[i] + w1 * c[i + 1] + w2 * c[i + 2] + w3 * c[i + 3]
+
+
 def warp_to_truth(
     img: np.ndarray, grid: Grid, core: Grid, warp, geo: PfaGeometry, kg: KGrid, interp: Interpolation
 ) -> np.ndarray:
@@ -130,10 +223,11 @@ def warp_to_truth(
     os_a = 2 * math.pi / (kg.n_ka * kg.dka * core.da)
     os_r = 2 * math.pi / (kg.n_kr * kg.dkr * core.dr)
     # pass 1 (range): row a_i of the image holds the points p = (a, r) with D_a(p) = a_i; read D_r(p)
-    A, R = np.meshgrid(grid.a, core.r, indexing="ij")
-    a_true = A - fa(A, R, grid=False)
-    a_true = A - fa(a_true, R, grid=False)
-    pos_r = (R + fr(a_true, R, grid=False) - grid.r0) / core.dr  # (n_a_ext, n_r)
+    ga, gr = ColumnSpline(fa, core.r), ColumnSpline(fr, core.r)  # every point of pass 1 lies on a column r_j
+    A = np.broadcast_to(grid.a[:, None], (grid.n_a, core.n_r))
+    a_true = A - ga(A)
+    a_true = A - ga(a_true)
+    pos_r = (core.r[None, :] + gr(a_true) - grid.r0) / core.dr  # (n_a_ext, n_r)
     tmp = resample_rows(base, pos_r, interp.range_kernel, interp.range_length, oversampling=os_r)
     # pass 2 (azimuth): the true pixel (a, r) sits in row D_a(a, r) of pass 1's output
     pos_a = (core.a[:, None] + fa(core.a, core.r) - grid.a0) / core.da  # (n_a, n_r)
@@ -175,7 +269,7 @@ def residual_phase(geo: PfaGeometry, a_rel, r_rel, kc_a: float, kc_r: float) -> 
         pts = geo.center + a[:, None, None] * e_a + np.asarray(r_rel)[None, :, None] * e_r
         r_p = np.linalg.norm(pts - p_c, axis=-1)
         eps = k_c * (r_s - r_p) - (kc_a * a[:, None] + kc_r * np.asarray(r_rel)[None, :])
-        out[s : s + 256] = np.exp(-1j * np.mod(eps, 2 * math.pi))
+        out[s : s + 256] = unit_phasor(np.mod(-eps / (2 * math.pi), 1.0))
     return out
 
 
@@ -184,3 +278,6 @@ def _carrier(a, r, ka, kr, sign) -> np.ndarray:
     pa = np.exp(sign * 1j * np.mod(np.asarray(a) * ka, 2 * math.pi)).astype(np.complex64)
     pr = np.exp(sign * 1j * np.mod(np.asarray(r) * kr, 2 * math.pi)).astype(np.complex64)
     return pa[:, None] * pr[None, :]
+
+
+lean_cache_loads(globals())  # cached kernels load without numba's context refresh (kernel_cache)

@@ -28,7 +28,6 @@ import math
 
 import numpy as np
 import scipy.fft as sfft
-from scipy.interpolate import CubicSpline
 
 from sarproc.dsp.phasor import unit_phasor
 from sarproc.focus.pfa.phase_history import PhaseHistory, reference_ranges
@@ -138,6 +137,8 @@ def upsample_subapertures(ph: PhaseHistory, radar, n_sub: int, factor: int) -> P
         return ph
     k = wavenumbers(ph.carrier_frequency, ph.freqs)
     idx = np.arange(n, dtype=float)
+    from scipy.interpolate import CubicSpline  # ~0.3 s to import: only when de-aliasing runs
+
     spline = CubicSpline(idx, ph.positions, axis=0)
     hop = max(1, n_sub // 2)
     starts = list(range(0, max(1, n - n_sub + 1), hop))

@@ -32,6 +32,7 @@ import numpy as np
 import scipy.fft as sfft
 
 from sarproc.dsp.interp import resample_rows
+from sarproc.dsp.phasor import unit_phasor
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import C
 
@@ -232,13 +233,14 @@ def polar_to_rect(ph, ua, ur, kg: KGrid, interp: Interpolation, block: int = 256
     for s in range(0, n_az, block):
         e = min(s + block, n_az)
         tc = ph.delay_center[s:e, None]
+        centred = not np.any(tc)  # the two-step's sub-images: support already at zero delay, no phasors
         over = max(1.05, float(np.min(1.0 / (dfr * ph.delay_span[s:e]))))
         # centre the time support before interpolating the spectrum, restore it afterwards
-        cyc = ph.freqs[None, :] * tc
-        rows = ph.data[s:e] * _phasor(cyc)
+        rows = ph.data[s:e] if centred else ph.data[s:e] * _phasor(ph.freqs[None, :] * tc)
         f_new = kr[None, :] * (C / (4 * math.pi)) / ur[s:e, None] - fc  # range pass along the LOS
         out = resample_rows(rows, (f_new - f0) / dfr, interp.range_kernel, interp.range_length, oversampling=over)
-        out *= _phasor(-f_new * tc)
+        if not centred:
+            out *= _phasor(-f_new * tc)
         rng_t[:, s:e] = out.T
     out = np.empty((kg.n_kr, kg.n_ka), np.complex64)
     rows = max(1, (1 << 22) // max(kg.n_ka, 1))  # ~4 M outputs per block
@@ -270,8 +272,10 @@ def rect_to_polar(
 
 
 def _phasor(cycles: np.ndarray) -> np.ndarray:
+    """exp(j 2 pi cycles) complex64: reduced in float64, then float32 cos/sin (numpy's complex128 exp was
+    a seventh of a sub-image's time)."""
     c = np.asarray(cycles, float)
-    return np.exp(2j * math.pi * (c - np.floor(c))).astype(np.complex64)
+    return unit_phasor(c - np.floor(c))
 
 
 @dataclasses.dataclass(frozen=True)

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from sarproc.dsp.kernel_cache import CACHE
+from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
 from sarproc.dsp.phasor import cmul
 
 
@@ -126,3 +126,6 @@ def crop_columns(src: np.ndarray, lo: int, hi: int, dtype=np.complex64):
     if dst.size:
         _crop_rows(src, lo, dst, bad)
     return dst, not bad.any()
+
+
+lean_cache_loads(globals())  # cached kernels load without numba's context refresh (kernel_cache)

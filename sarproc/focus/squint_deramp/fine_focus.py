@@ -51,7 +51,7 @@ from sarproc.focus.squint_deramp.block_copies import (
 )
 from sarproc.product.frames import SquintFrame, SquintLrwcFrame, targets_in_frame
 from sarproc.dsp.interp import KERNELS, resample_rows
-from sarproc.dsp.kernel_cache import CACHE
+from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
 from sarproc.product.metadata import C, RadarMetadata
 from sarproc.product.theory import fill_target_theory, window_theory
 from sarproc.focus.squint_deramp.nlcs import (
@@ -757,3 +757,6 @@ def _theta0_terms(f, K, co, s, e):
             if jb != ja:
                 weights[a] *= (idx - jb) / (ja - jb)
     return np.array(vals), weights
+
+
+lean_cache_loads(globals())  # cached kernels load without numba's context refresh (kernel_cache)

@@ -28,7 +28,7 @@ import numba
 import numpy as np
 
 from sarproc.dsp.interp import resample_rows
-from sarproc.dsp.kernel_cache import CACHE
+from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
 from sarproc.dsp.phasor import cmul, rotate_row_field
 from sarproc.product.metadata import C
 
@@ -255,3 +255,6 @@ def stolt_resample(
     lim_ok = model.mapped_frequency(np.zeros(1), f_a)[1]
     masked = int(np.count_nonzero(~lim_ok)) * spec.shape[1]
     return out, masked
+
+
+lean_cache_loads(globals())  # cached kernels load without numba's context refresh (kernel_cache)

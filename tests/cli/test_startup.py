@@ -1,0 +1,101 @@
+"""Start-up cost and import side effects: what `import sarproc` and `sarproc --help` load and change.
+
+Module-set checks, not timings: a stage's process pays for every library it imports (numba and scipy.fft
+are ~0.2-0.5 s each here; docs/performance.md, "Per-process overhead"), so the command group and its help
+import none of them, and importing the package leaves the process's environment as it was.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+from sarproc.cli.main import COMMANDS, set_thread_defaults
+
+# Libraries that only a stage's own work needs; loading them for `--help` would cost a second or more.
+HEAVY = ("numba", "llvmlite", "scipy", "h5py", "dask", "distributed", "matplotlib", "xarray", "sarkit", "PIL")
+
+
+def _python(code: str, env: dict | None = None) -> str:
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env or dict(os.environ)
+    )
+    return done.stdout
+
+
+def _loaded_after(code: str) -> set[str]:
+    out = _python(code + "\nimport json, sys\nprint(json.dumps(sorted(sys.modules)))")
+    return {m.split(".")[0] for m in json.loads(out.strip().splitlines()[-1])}
+
+
+def test_import_sarproc_leaves_the_environment_unchanged():
+    env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+    out = _python(
+        "import os, json\nbefore = dict(os.environ)\nimport sarproc, sarproc.cli.main\n"
+        "print(json.dumps(dict(os.environ) == before))",
+        env,
+    )
+    assert json.loads(out) is True
+
+
+def test_the_command_sets_the_wait_policy_unless_the_user_did():
+    env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+    code = (
+        "import os, sys\nfrom sarproc.cli.main import main\nsys.argv = ['sarproc', '--version']\n"
+        "try:\n    main()\nexcept SystemExit:\n    pass\nprint(os.environ.get('OMP_WAIT_POLICY'))"
+    )
+    assert _python(code, env).split()[-1] == "PASSIVE"
+    assert _python(code, {**env, "OMP_WAIT_POLICY": "ACTIVE"}).split()[-1] == "ACTIVE"
+    mine = {"OMP_WAIT_POLICY": "ACTIVE"}
+    set_thread_defaults(mine)
+    assert mine == {"OMP_WAIT_POLICY": "ACTIVE"}
+
+
+def test_the_command_group_and_its_help_import_no_heavy_library():
+    loaded = _loaded_after("import sarproc.cli.main")
+    assert not loaded & set(HEAVY), sorted(loaded & set(HEAVY))
+    loaded = _loaded_after(
+        "from sarproc.cli.main import main\nimport sys\nsys.argv = ['sarproc', '--help']\n"
+        "try:\n    main()\nexcept SystemExit:\n    pass"
+    )
+    assert not loaded & set(HEAVY), sorted(loaded & set(HEAVY))
+
+
+def test_each_commands_module_imports_no_heavy_library():
+    # what `sarproc STAGE --help` loads: the command's module; the stage's work is imported when it runs
+    code = "import importlib\n" + "".join(
+        f"importlib.import_module({target.split(':')[0]!r})\n" for target in COMMANDS.values()
+    )
+    loaded = _loaded_after(code)
+    assert not loaded & set(HEAVY), sorted(loaded & set(HEAVY))
+
+
+KERNEL_RUN = """
+import json, sys
+import numpy as np
+from sarproc.focus.squint_deramp.block_copies import pad_rows
+src = (np.arange(12, dtype=np.float32) + 1j).astype(np.complex64).reshape(3, 4)
+dst = np.full((3, 6), 7, np.complex64)
+pad_rows(src, dst, 1)
+try:
+    pad_rows(src, np.empty((2, 6), np.complex64), 1)
+    raised = False
+except ValueError:
+    raised = True
+want = np.zeros((3, 6), np.complex64)
+want[:, :4] = src * np.where(np.arange(4) % 2 == 1, -1, 1)
+print(json.dumps({"equal": bool(np.array_equal(dst, want)), "raised": raised,
+                  "refreshed": "numba.np.arraymath" in sys.modules}))
+"""
+
+
+def test_cached_kernels_load_without_numbas_context_refresh(tmp_path):
+    # first process: compiles pad_rows into a fresh cache; second: loads it from there, without the refresh
+    # (numba.np.arraymath and the other lowering modules stay unimported) and computes the same
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+    compiled = json.loads(_python(KERNEL_RUN, env).strip().splitlines()[-1])
+    loaded = json.loads(_python(KERNEL_RUN, env).strip().splitlines()[-1])
+    assert compiled == {"equal": True, "raised": True, "refreshed": True}
+    assert loaded == {"equal": True, "raised": True, "refreshed": False}
