@@ -93,7 +93,7 @@ def predicted_error(n_pulses: int, factor: int, oversample: float, interpolation
 
 # The model's error relative to the measured one: within -1 .. +3.3 dB on tests/focus/test_ffbp.py's scenes
 # (broadside stripmap, 30 deg squinted spotlight, a wobbling track) at oversample 2 .. 4, up to 3.7 dB optimistic
-# on the bench scene's 1024^2 grid (scripts/bench_ffbp.py); the bound adds 4 dB.
+# on the bench scene's 1024^2 grid (scripts/bench.py ffbp); the bound adds 4 dB.
 BOUND_MARGIN = 10**0.4
 
 
