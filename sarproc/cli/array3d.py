@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from sarproc.cli.options import common_options, input_argument, load_config, summary, want_progress
+from sarproc.cli.options import common_options, input_argument, summary, want_progress
 
 
 @click.command()
@@ -32,11 +32,11 @@ def array3d(input_path: Path, output: Path, config_path, overwrite: bool, progre
     Reads a raw_array product, writes an image3d cube with dims (elevation, azimuth, range),
     elevation in rad. Parameters: section `array3d:` of --config.
     """
+    from sarproc.cli.progress import progress_factory
+    from sarproc.cli.stage import array3d_estimate, naming, prepare
     from sarproc.focus.array3d.linear_array import Array3DParams, array3d_product
     from sarproc.product.errors import InputError
     from sarproc.product.io import write_product
-    from sarproc.cli.progress import progress_factory
-    from sarproc.cli.stage import array3d_estimate, naming, prepare
 
     if (channel_image is None) != (channel_output is None):
         raise InputError("--channel-image and --channel-output go together")

@@ -36,7 +36,7 @@ def dask_mapper(client, key_prefix: str = "task", window: int | None = None):
         # keys unique to this call: two runs on one long-lived scheduler must never share results
         prefix = f"{key_prefix}-{uuid.uuid4().hex[:12]}"
         counter = itertools.count()
-        pending = collections.deque()
+        pending: collections.deque = collections.deque()
         items = iter(items)
         for item in itertools.islice(items, window):
             pending.append(client.submit(func, item, key=f"{prefix}-{next(counter)}", pure=False))

@@ -23,7 +23,7 @@ from sarproc.cli.options import (
 )
 
 
-def _fmt(x: float, spec: str) -> str:
+def _fmt(x: float | None, spec: str) -> str:
     if x is None or not math.isfinite(x):
         return "n/a"
     if spec.endswith("f"):

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import click
 
-from sarproc.cli.options import common_options, input_argument, load_config, summary, want_progress
+from sarproc.cli.options import common_options, input_argument, summary, want_progress
 
 
 def _run(

@@ -203,7 +203,7 @@ def fine_focus_estimate(stage, header, params) -> Plan:
     M, n_r = _shape(header)
     r = header.radar
     N = n_r + int(math.ceil(r.pulse_duration * r.range_sampling_rate))
-    if M * N > params.max_samples:
+    if params.max_samples < M * N:
         raise InputError(
             f"fine_focus.max_samples: the working array {M} x {N} exceeds {params.max_samples}; "
             "raise it or shrink the scene"

@@ -282,7 +282,7 @@ def _keep_targets(mapping: dict, names, where: str) -> dict:
 
 _local = threading.local()
 _install_lock = threading.Lock()
-_installed = [0, None]  # active captures, the stream replaced
+_installed: list = [0, None]  # active captures, the stream replaced
 
 
 class _ThreadRoutedStdout(io.TextIOBase):
@@ -296,7 +296,7 @@ class _ThreadRoutedStdout(io.TextIOBase):
         self._fallback = fallback
 
     @property
-    def encoding(self):
+    def encoding(self) -> str:  # type: ignore[override]  # the wrapped stream's, read-only
         return getattr(self._fallback, "encoding", "utf-8")
 
     def writable(self):
@@ -363,7 +363,7 @@ def run_step(command: str, args, output: Path, key: str) -> dict:
     start = time.perf_counter()
     try:
         printed = invoke(command, args)
-    except Exception as exc:  # noqa: BLE001 - the step's own error, named with its command
+    except Exception as exc:  # the step's own error, named with its command
         raise ProcessingError(f"sarproc {command} {' '.join(map(str, args))}: {exc}") from exc
     record = {
         "key": key,
@@ -420,7 +420,7 @@ def run_task(task: Task, sim: dict) -> dict:
             "simulate_s": sim["seconds"],
             "focus_s": focus_s,
             "evaluate_s": None,
-            **{c: None for c in QUALITY_COLUMNS},
+            **dict.fromkeys(QUALITY_COLUMNS),
             "skipped": all(skipped),
         }
     report = task.directory / "report.json"
@@ -453,9 +453,9 @@ def focus_keys(task: Task, sim_key: str) -> list[str]:
 
 
 def _same_data(a: Path, b: Path) -> bool:
-    from sarproc.product.io import read_product
-
     import numpy as np
+
+    from sarproc.product.io import read_product
 
     pa, pb = read_product(a, check_finite=False), read_product(b, check_finite=False)
     return pa.data.shape == pb.data.shape and bool(np.array_equal(pa.data, pb.data, equal_nan=True))
@@ -487,7 +487,7 @@ def run_repeat(task: Task, sim: dict, k: int) -> dict:
             start = time.perf_counter()
             try:
                 invoke(command, [source, "--config", config_path, "-o", out, "--overwrite", "--no-progress"])
-            except Exception as exc:  # noqa: BLE001 - the step's own error, named with its command
+            except Exception as exc:  # the step's own error, named with its command
                 raise ProcessingError(f"repeat {k} of sarproc {command} ({task.task_id}): {exc}") from exc
             seconds += time.perf_counter() - start
             made.append(out)
@@ -596,7 +596,7 @@ def _repeat_rounds(plan: Plan, rows: list, failures: list, sims: dict, run_round
     if n <= 1:
         return [with_repeats(r, []) for r in rows]
     by_id = {t.task_id: t for t in plan.tasks}
-    done = {r["task"]: [] for r in rows}
+    done: dict[str, list] = {r["task"]: [] for r in rows}
     for k in range(1, n):
         calls = [(tid, (by_id[tid], sims[by_id[tid].sim_key], k)) for tid in done]
         for tid, result in run_round(calls):
@@ -730,7 +730,7 @@ def plot_sweep(path: Path, plan: Plan, rows: list) -> None:
     from sarproc.quality.tradeoff_plot import plot_tradeoff
 
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
-    pngs = []
+    pngs: list[Path] = []
     with tempfile.TemporaryDirectory() as tmp:
         for scene in scenes:
             sel = [r for r in rows if r["scene"] == scene]

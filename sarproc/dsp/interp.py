@@ -209,10 +209,7 @@ def resample_rows(
         raise ValueError(f"resample_rows: out must be a C-contiguous {pos.shape} array apart from data")
     wdt = out.real.dtype if np.issubdtype(out.dtype, np.inexact) else np.dtype(np.float64)
     mode = _MODES.get(kernel, 3)
-    if mode == 3:
-        table = _tap_table(kernel, taps, float(oversampling), float(beta), wdt)
-    else:
-        table = np.zeros((2, 1), wdt)
+    table = _tap_table(kernel, taps, float(oversampling), float(beta), wdt) if mode == 3 else np.zeros((2, 1), wdt)
     if not np.issubdtype(data.dtype, np.inexact):
         data = data.astype(np.float64)
     if n_rows and pos.shape[1]:

@@ -20,14 +20,14 @@ import os
 import numpy as np
 import scipy.fft as sfft
 
+from sarproc.dsp.phasor import unit_phasor
+from sarproc.dsp.rangecomp import range_compress
 from sarproc.product import beam, moving, theory
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import InputError
 from sarproc.product.frames import make_frame, targets_in_frame
 from sarproc.product.metadata import C
-from sarproc.dsp.phasor import unit_phasor
 from sarproc.product.model import Product, target_names
-from sarproc.dsp.rangecomp import range_compress
 from sarproc.product.theory import WINDOWS
 
 
@@ -41,7 +41,7 @@ def upsample_range(
     """
     n = rc.shape[-1]
     m = n * factor if length is None else int(length)
-    out = np.zeros(rc.shape[:-1] + (m + pad,), np.complex64)
+    out: np.ndarray = np.zeros(rc.shape[:-1] + (m + pad,), np.complex64)
     if m == n:
         out[..., :n] = rc
         return out

@@ -363,7 +363,8 @@ def backproject_tiles(
     nothing), read by modes 0 and 2; pairs: (n_pulses, W + 1, 4) float32, :func:`pair_table`, read by mode 1, or
     (n_pulses, W + 1, 8), :func:`cubic_table`, read by mode 3 (entry k at sample position k of ``first``'s count,
     i.e. first shifted by the window start);
-    first: (n_pulses,) float64, sample position of zero two-way path; scale: samples per metre of two-way path (fs / c); kc: carrier cycles per metre (f_c / c); tx, rx: (n_pulses, 3) float64 relative to the
+    first: (n_pulses,) float64, sample position of zero two-way path; scale: samples per metre of two-way path
+    (fs / c); kc: carrier cycles per metre (f_c / c); tx, rx: (n_pulses, 3) float64 relative to the
     tiles' origin; centres: (n_tiles, 3) float64; tile_start: (n_tiles + 1,) int64 into the sorted pixels;
     d: (4, n_pixels) float32 rows dx, dy, dz, |d|^2 of each pixel from its tile centre;
     mode: 0 nearest, 1 linear, 2 tabulated kernel of ``taps`` taps with ``table`` (steps + 1, taps), 3 cubic.

@@ -20,8 +20,6 @@ so the sum is an upper estimate. See :func:`predicted_error`.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from sarproc.product.metadata import C

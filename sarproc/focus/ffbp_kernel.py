@@ -3,7 +3,8 @@
 A subimage is a polar image around the in-plane foot (fx, fy) of its subaperture's centre, which is h above the
 image plane: sample (a, k) is the point at range r = r0 + k dr from the centre and in-plane angle
 theta = th_mid + th_lo + a dth, demodulated by the carrier of that range (exp(-j 2 pi kc2 r)), so that it is
-band-limited in both coordinates. Geometry rows (float64): fx, fy, h, r0, dr, th_mid, th_lo, dth, cos th_mid, sin th_mid, 1 / dr, 1 / dth; integer rows:
+band-limited in both coordinates. Geometry rows (float64): fx, fy, h, r0, dr, th_mid, th_lo, dth, cos th_mid,
+sin th_mid, 1 / dr, 1 / dth; integer rows:
 n_theta, n_range, offset into the level's flat complex64 buffer. A subimage with n_theta = 1 (a single pulse)
 does not depend on the angle.
 """

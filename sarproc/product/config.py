@@ -21,6 +21,7 @@ from sarproc.product.errors import InputError
 from sarproc.product.units import parse_quantity
 
 MISSING = dataclasses.MISSING
+T = typing.TypeVar("T")
 
 # Top-level sections one YAML file may hold besides a scene's: each processing stage reads its
 # own (STAGE_SECTIONS), other commands theirs (OTHER_SECTIONS). Any other key is refused, so a
@@ -48,11 +49,11 @@ def param(
     le: float | None = None,
     choices: tuple | None = None,
     doc: str = "",
-):
+) -> typing.Any:
     """Declare a parameter: ``unit`` is a quantity kind of :mod:`sarproc.product.units` (or None)."""
     meta = {"unit": unit, "gt": gt, "ge": ge, "lt": lt, "le": le, "choices": choices, "doc": doc}
     if isinstance(default, (list, dict)):
-        return dataclasses.field(default_factory=lambda d=default: type(d)(d), metadata=meta)
+        return dataclasses.field(default_factory=lambda d=default: type(d)(d), metadata=meta)  # type: ignore[misc]
     return dataclasses.field(default=default, metadata=meta)
 
 
@@ -62,7 +63,7 @@ class _StrictLoader(yaml.SafeLoader):
 
 def _construct_mapping(loader, node, deep=False):
     loader.flatten_mapping(node)
-    seen = {}
+    seen: dict = {}
     for key_node, _ in node.value:
         key = loader.construct_object(key_node, deep=True)
         try:
@@ -114,7 +115,7 @@ def load_yaml(path) -> dict:
     if "\x00" in text:
         raise InputError(f"{path}: contains NUL bytes (a binary file?); expected YAML")
     try:
-        data = yaml.load(text, Loader=_StrictLoader)  # noqa: S506 - a SafeLoader subclass
+        data = yaml.load(text, Loader=_StrictLoader)  # a SafeLoader subclass
     except yaml.YAMLError as exc:
         raise InputError(f"{path}: not valid YAML: {' '.join(str(exc).split())}") from None
     except InputError as exc:
@@ -269,7 +270,7 @@ def did_you_mean(unknown, known) -> str:
     return ""
 
 
-def build(cls, mapping: dict | None, source: str = "", section: str = ""):
+def build(cls: type[T], mapping: object, source: str = "", section: str = "") -> T:
     """Build parameter model ``cls`` from ``mapping``; errors read ``source: section.key: why``.
 
     A model may define ``validate(self)`` raising :class:`InputError` for cross-field checks.

@@ -159,6 +159,11 @@ class _PlaneFrame(Frame):
     """
 
     axes = ("azimuth", "range")
+    origin: np.ndarray
+    aperture_center: np.ndarray
+    u_azimuth: np.ndarray
+    u_range: np.ndarray
+    range0: float
 
     def params(self):
         return {"origin": self.origin.tolist(), "aperture_center": self.aperture_center.tolist()}
@@ -286,7 +291,8 @@ def frame_coordinates(frame: Frame, xyz) -> tuple[np.ndarray, np.ndarray, np.nda
     xyz = np.asarray(xyz, float).reshape(-1, 3)
     values = dict(zip(frame.axes, frame.from_xyz(xyz))) if len(xyz) else {}
     zero = np.zeros(len(xyz))
-    return tuple(np.asarray(values.get(ax, zero), float) for ax in ("azimuth", "range", "elevation"))
+    az, rg, el = (np.asarray(values.get(ax, zero), float) for ax in ("azimuth", "range", "elevation"))
+    return az, rg, el
 
 
 def targets_in_frame(targets: np.ndarray, frame: Frame) -> np.ndarray:

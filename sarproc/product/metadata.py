@@ -136,7 +136,7 @@ class RadarMetadata:
         return out
 
     @classmethod
-    def from_attrs(cls, attrs, where: str = "radar") -> "RadarMetadata":
+    def from_attrs(cls, attrs, where: str = "radar") -> RadarMetadata:
         """Read back :meth:`to_attrs`; a missing or mistyped attribute is named with ``where``."""
         kwargs = {}
         for f in dataclasses.fields(cls):
@@ -157,7 +157,7 @@ class RadarMetadata:
             raise InputError(f"{where}: {msg}") from None
         return meta
 
-    def replace(self, **changes) -> "RadarMetadata":
+    def replace(self, **changes) -> RadarMetadata:
         return dataclasses.replace(self, **changes)
 
     def to_json(self) -> str:
@@ -219,10 +219,10 @@ def _attr_as(name: str, v, where: str):
     if name == "scene_center":
         if arr.size != 3:
             raise InputError(f"{where}: attribute 'scene_center' must hold 3 numbers (x, y, z) m, got {arr.size}")
-        out = tuple(float(a) for a in arr.astype(float).reshape(3))
-        if not all(math.isfinite(a) for a in out):
-            raise InputError(f"{where}: attribute 'scene_center' must be finite, got {out}")
-        return out
+        xyz = tuple(float(a) for a in arr.astype(float).reshape(3))
+        if not all(math.isfinite(a) for a in xyz):
+            raise InputError(f"{where}: attribute 'scene_center' must be finite, got {xyz}")
+        return xyz
     if arr.size != 1:
         raise InputError(f"{where}: attribute {name!r} must be a single number, got shape {arr.shape}")
     if name == "n_channels":
@@ -248,7 +248,7 @@ def parse_utc(text: str, where: str = "reference time") -> str:
         ) from None
     if t.tzinfo is None:
         raise InputError(f"{where}: {text!r} has no time zone; append 'Z' for UTC")
-    return t.astimezone(dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
+    return t.astimezone(dt.UTC).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
 
 
 def aperture_center_position(radar: RadarMetadata) -> np.ndarray:

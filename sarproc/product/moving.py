@@ -23,7 +23,8 @@ v_los = u_T . V = v_r cos(theta) + v_a sin(theta) turns the look direction by -v
 so S lies on the circle of radius R about P(t_c):
 
     scene:        dx = -R v_los / v,                  dy = +R v_los tan(theta) / v
-    squint frame: d azimuth (x_n) = -R v_los / (v cos^2(theta)),   d range (r_0) = +R v_los sin(theta) / (v cos^2(theta))
+    squint frame: d azimuth (x_n) = -R v_los / (v cos^2(theta)),
+                  d range (r_0)   = +R v_los sin(theta) / (v cos^2(theta))
 
 plus the target's own motion V t_c between azimuth time 0 and t_c (``first_order_shift``). At
 broadside the shift is purely along track (-R v_r / v: the "train off the track"); under squint

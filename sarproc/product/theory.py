@@ -109,7 +109,7 @@ class ResponseTheory:
         """IRW x B (0.886 unweighted, 1.30 Hamming)."""
         return self.irw / self.null
 
-    def scaled(self, s: float) -> "ResponseTheory":
+    def scaled(self, s: float) -> ResponseTheory:
         """The same response with widths times ``s`` (side lobes unchanged)."""
         return dataclasses.replace(self, irw=self.irw * s, null=self.null * s)
 
@@ -160,7 +160,7 @@ def response_theory(
     return ResponseTheory(irw=irw / span, null=1.0 / span, pslr_db=max(pslr, -300.0), islr_db=max(islr, -300.0))
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def window_theory(name: str, islr_nulls: float = ISLR_NULLS) -> ResponseTheory:
     """Theory of window ``name`` over a continuous flat support of bandwidth 1 (IRW = broadening factor x
     null): cell-centred samples, so the band is exactly 1."""
@@ -282,6 +282,8 @@ class TargetIllumination:
     @property
     def loss(self) -> float:
         """IRW with this illumination / IRW with full illumination."""
+        if self.now is None or self.full is None:
+            raise ValueError("illumination without response theories has no IRW loss")
         return self.now.irw / self.full.irw
 
 

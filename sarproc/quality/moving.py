@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Optional
+from typing import Any
 
 import numpy as np
 
@@ -55,15 +55,15 @@ class MoverReport:
     shift: float  # |S - true position at t_c|
     measured_position: tuple  # the measured peak, scene frame
     estimate: str = "none"  # 'moving_targets' | 'reconstruct' | 'none'
-    v_a_estimated: Optional[float] = None
-    v_r_estimated: Optional[float] = None
-    v_a_error: Optional[float] = None
-    v_r_error: Optional[float] = None
-    relocated_position: Optional[tuple] = None
+    v_a_estimated: float | None = None
+    v_r_estimated: float | None = None
+    v_a_error: float | None = None
+    v_r_error: float | None = None
+    relocated_position: tuple | None = None
     relocation: str = ""  # 'table' | 'measured peak + estimated velocity' | ''
-    relocation_error: Optional[float] = None  # |relocated - true position|
-    relocation_error_xyz: Optional[tuple] = None
-    relocation_error_from_velocity: Optional[float] = None  # first-order implied by the velocity error
+    relocation_error: float | None = None  # |relocated - true position|
+    relocation_error_xyz: tuple | None = None
+    relocation_error_from_velocity: float | None = None  # first-order implied by the velocity error
 
 
 def truth_frame(product, source: str = ""):
@@ -129,7 +129,7 @@ def moving_target_table(product) -> list[dict]:
 
     if (
         "moving_targets" in product.aux
-        and not getattr(product.aux["moving_targets"], "dtype", None) is None
+        and getattr(product.aux["moving_targets"], "dtype", None) is not None
         and not product.aux["moving_targets"].dtype.names
     ):
         names = target_names(product.targets)
@@ -151,7 +151,7 @@ def moving_target_table(product) -> list[dict]:
 
 def _match_table(rows, movers, cell):
     """{truth name: row}: by the row's truth column, else the nearest S within MATCH_CELLS cells."""
-    out = {}
+    out: dict[str, dict] = {}
     for row in rows:
         name = row.get("truth")
         if name:
@@ -162,7 +162,7 @@ def _match_table(rows, movers, cell):
             continue
         dist = {m["name"]: float(np.linalg.norm(m["S"] - s)) for m in movers if m["name"] not in out}
         if dist:
-            best = min(dist, key=dist.get)
+            best = min(dist, key=dist.__getitem__)
             if dist[best] <= MATCH_CELLS * cell:
                 out[best] = row
     return out
@@ -208,7 +208,7 @@ def mover_reports(product, apparent: np.ndarray, report, source: str = "") -> tu
     irw = [float(v) for v in product.attrs.get("theoretical_irw", [])]
     cell_az = irw[list(product.dims).index("azimuth")] if "azimuth" in product.dims and irw else 1.0
     cell_rg = irw[list(product.dims).index("range")] if "range" in product.dims and irw else 1.0
-    movers = []
+    movers: list[dict[str, Any]] = []
     for k in np.nonzero(moving.is_moving(targets))[0]:
         name = targets["name"][k].decode() if isinstance(targets["name"][k], bytes) else str(targets["name"][k])
         if name not in measured:
@@ -234,7 +234,7 @@ def mover_reports(product, apparent: np.ndarray, report, source: str = "") -> tu
         coords = {d: float(t.axis(d).position) for d in product.dims}
         peak = np.asarray(frame.to_xyz(*[coords[d] for d in frame.axes]), float).reshape(3)
         v_a, v_r = moving.slant_velocity(m["xyz"], m["vel"], radar.altitude)
-        fields = dict(
+        fields: dict[str, Any] = dict(
             name=m["name"],
             true_position=tuple(m["xyz"]),
             v_a=v_a,

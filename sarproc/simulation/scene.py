@@ -18,7 +18,7 @@ import numpy as np
 from sarproc.product import beam
 from sarproc.product.config import OTHER_SECTIONS, STAGE_SECTIONS, as_dict, build, load_yaml, param
 from sarproc.product.errors import IMAGE_DEFECT, InputError
-from sarproc.product.frames import frame_coordinates, frame_names, make_frame
+from sarproc.product.frames import Frame, frame_coordinates, frame_names, make_frame
 from sarproc.product.metadata import POLARIZATION_RE, POLARIZATIONS, C, RadarMetadata, scene_center_from_geometry
 from sarproc.product.model import make_targets
 
@@ -214,7 +214,7 @@ class Scene:
     target_velocity: np.ndarray  # (n_targets, 3) m/s
     target_amplitude: np.ndarray  # (n_targets,) complex
     target_names: list[str]
-    target_frame: object
+    target_frame: Frame
     source: str = "<mapping>"
 
     @property
@@ -245,6 +245,7 @@ def _aperture_time(p: SceneParams, wavelength: float) -> float:
         return a.aperture_time
     if a.n_pulses is not None:
         return a.n_pulses / p.radar.prf
+    assert a.azimuth_resolution is not None  # AcquisitionParams.validate: exactly one of the three is given
     cos2 = math.cos(p.geometry.squint) ** 2
     return 0.886 * wavelength * p.geometry.reference_range / (2 * a.azimuth_resolution * p.platform.velocity * cos2)
 
@@ -289,7 +290,7 @@ def _reference(ref: ReferenceParams) -> dict:
     """RadarMetadata fields of the optional absolute reference (canonical UTC string, rad, m)."""
     from sarproc.product.metadata import parse_utc
 
-    out = {}
+    out: dict[str, object] = {}
     if ref.time is not None:
         out["reference_utc"] = parse_utc(ref.time, "reference.time")
     if ref.latitude is not None:

@@ -15,11 +15,11 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
-from typing import Iterator
+from collections.abc import Iterator
 
 import numpy as np
 
-from sarproc.product.metadata import C
+from sarproc.product.metadata import C, RadarMetadata
 from sarproc.product.model import Product
 from sarproc.simulation.scene import Scene
 
@@ -33,7 +33,7 @@ class SimulationPlan:
     kind: str
     dims: tuple[str, ...]
     coords: dict[str, np.ndarray]
-    radar: object
+    radar: RadarMetadata
     targets: np.ndarray
     aux: dict[str, np.ndarray]
     tx_offset: np.ndarray

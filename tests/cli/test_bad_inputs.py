@@ -10,7 +10,6 @@ list and prints the counts quoted in the issue's closing note.
 from __future__ import annotations
 
 import hashlib
-import os
 import shutil
 import signal
 import subprocess
@@ -23,10 +22,9 @@ import numpy as np
 import pytest
 import yaml
 from click.testing import CliRunner
+from conftest import BASE_SCENE, merge
 
 from sarproc.cli.main import cli
-
-from conftest import BASE_SCENE, merge
 
 SCENE = merge(
     BASE_SCENE,

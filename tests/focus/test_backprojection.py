@@ -5,14 +5,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sarproc.product.config import load_yaml
-from sarproc.focus.backprojection import BackprojectParams, backproject, backproject_points
-from sarproc.quality.metrics import evaluate_product
+from helpers import assert_theory
 from sarproc.dsp.rangecomp import range_compress
+from sarproc.focus.backprojection import BackprojectParams, backproject, backproject_points
+from sarproc.product.config import load_yaml
+from sarproc.quality.metrics import evaluate_product
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
-
-from helpers import assert_theory
 
 CONFIGS = Path(__file__).resolve().parents[2] / "configs"
 STRIPMAP = load_yaml(CONFIGS / "bp_stripmap.yaml")

@@ -41,14 +41,14 @@ import math
 import numpy as np
 import scipy.fft as sfft
 
-from sarproc.product.config import param
-from sarproc.product.errors import IMAGE_DEFECT, InputError, ProcessingError
 from sarproc.dsp.interp import KERNELS, resample
 from sarproc.dsp.phasor import multiply_separable_phase
+from sarproc.dsp.rangecomp import chirp_replica
+from sarproc.product.config import param
+from sarproc.product.errors import IMAGE_DEFECT, InputError, ProcessingError
 from sarproc.product.metadata import C, RadarMetadata
 from sarproc.product.steps import steps, wrapped
 from sarproc.product.theory import fill_target_theory, response_theory, window_theory
-from sarproc.dsp.rangecomp import chirp_replica
 
 
 @dataclasses.dataclass(frozen=True)
@@ -628,6 +628,7 @@ def array3d_product(
     )
     chan = None
     if channel_image is not None:
+        assert res.channel_images is not None  # kept because channel_image is set
         f2 = SquintFrame(0.0, raw.radar.altitude)  # zero-Doppler: (x, slant range from the track)
         chan = raw.derive(
             "image",

@@ -136,9 +136,12 @@ def find_detections(
             dt = min(dt, power.shape[0] - dt)
             dr = abs(int(r_i) - d.cell)
             # on the azimuth cut (same range cells) or the range cut (same azimuth) of a stronger one
-            if dr <= 2 and p < d.power * SIDELOBE_MARGIN / (math.pi * max(dt / d.width, 0.5)) ** 2:
-                sidelobe = True
-            elif dt <= max(2, d.width) and p < d.power * SIDELOBE_MARGIN / (math.pi * max(dr / range_width, 0.5)) ** 2:
+            if (
+                dr <= 2
+                and p < d.power * SIDELOBE_MARGIN / (math.pi * max(dt / d.width, 0.5)) ** 2
+                or dt <= max(2, d.width)
+                and p < d.power * SIDELOBE_MARGIN / (math.pi * max(dr / range_width, 0.5)) ** 2
+            ):
                 sidelobe = True
             if sidelobe:
                 break

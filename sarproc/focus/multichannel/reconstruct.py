@@ -32,10 +32,10 @@ import numpy as np
 import scipy.fft as sfft
 
 from sarproc.focus.multichannel import channels, deramp, detection, velocity
+from sarproc.product import moving
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import IMAGE_DEFECT, InputError
 from sarproc.product.metadata import C
-from sarproc.product import moving
 from sarproc.product.model import MOVING_TARGET_COLUMNS, Product
 
 log = logging.getLogger(__name__)
@@ -377,9 +377,8 @@ def _estimate(
             v_r = alias.estimate
     else:
         v_r = 0.0
-    if static_below is not None:
-        if abs(channels.line_of_sight_velocity(v_r, v_a, g.squint)) < static_below:
-            return None, notes
+    if static_below is not None and abs(channels.line_of_sight_velocity(v_r, v_a, g.squint)) < static_below:
+        return None, notes
     y_dem = sfft.ifft(win.demodulated_spectrum(v_r, v_a), axis=0, workers=-1)
     p = np.sum(np.abs(y_dem) ** 2, axis=1)
     t_c = float(np.sum(g.out_times * p) / np.sum(p)) if np.sum(p) > 0 else 0.0
@@ -414,6 +413,7 @@ def _estimate(
             span = 5 * params.velocity_step
             lo, hi = max(params.velocity_min, v_r - span), min(params.velocity_max, v_r + span)
             fine = search(v_a, lo, hi, params.velocity_step)
+            assert result is not None  # searched above: can_search and no radial velocity given
             trials = np.concatenate([result.trials, fine.trials])
             result = velocity.SearchResult(
                 fine.estimate, False, trials[np.argsort(trials[:, 0])], result.evaluations + fine.evaluations
@@ -514,6 +514,8 @@ def _refine_peak(
         i, c = np.unravel_index(int(np.argmax(sub)), sub.shape)
         if best is None or sub[i, c] > best[0]:
             best = (sub[i, c], centre - 8, sub, i, c)
+    if best is None:
+        raise ValueError(f"no alias of index {index} falls inside the {n_out} output cells")
     _, lo, sub, i, c = best
 
     def vertex(v, j):
@@ -815,6 +817,7 @@ def reconstruct(raw: Product, params: ReconstructParams = ReconstructParams(), p
         mt, notes = _estimate(win, params, g, centre_range)
         for note in notes:
             log.warning("reconstruct: the whole swath as one mover: %s", note)
+        assert mt is not None  # only a static_below threshold (not given here) drops a mover
         mt = dataclasses.replace(mt, first_cell=0, last_cell=len(f_r))
         movers.append(mt)
         y = win.output(
@@ -977,7 +980,7 @@ def _output_product(raw, params, g, out, info, movers) -> Product:
     else:  # no detection ran: an empty table, and no claim about the truth movers
         aux["moving_targets"] = np.zeros((0, len(MOVING_TARGET_COLUMNS)))
     radar = raw.radar.replace(prf=g.n * g.prf, n_channels=1)
-    attrs = {k: v for k, v in raw.attrs.items()}
+    attrs = dict(raw.attrs.items())
     attrs["reconstruct"] = info
     prod = raw.derive(
         "raw",

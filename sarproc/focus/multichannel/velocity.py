@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -77,7 +77,8 @@ def fast_search(
             steps.append(max(step, steps[-1] / 4 if steps[-1] / 4 > step * 2 else step))
     a, b = lo, hi
     best = lo
-    for s_prev, s in zip([None] + steps[:-1], steps):
+    previous: list[float | None] = [None, *steps[:-1]]
+    for s_prev, s in zip(previous, steps):
         if s_prev is not None:
             a, b = max(lo, best - s_prev), min(hi, best + s_prev)
         pts = grid(a, b, s)

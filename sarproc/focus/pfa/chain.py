@@ -13,7 +13,7 @@ import dataclasses
 import logging
 import math
 import time
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -150,10 +150,13 @@ def antenna_positions(raw: Product) -> np.ndarray:
 def image_frame(raw: Product) -> GroundLosFrame:
     spec = raw.attrs.get("frame")
     if isinstance(spec, dict) and spec.get("name") == "ground_los":
-        return make_frame("ground_los", raw.radar, **{k: v for k, v in spec.items() if k != "name"})
-    return make_frame(
-        "ground_los", raw.radar, origin=raw.radar.scene_center, aperture_center=aperture_center_position(raw.radar)
-    )
+        frame = make_frame("ground_los", raw.radar, **{k: v for k, v in spec.items() if k != "name"})
+    else:
+        frame = make_frame(
+            "ground_los", raw.radar, origin=raw.radar.scene_center, aperture_center=aperture_center_position(raw.radar)
+        )
+    assert isinstance(frame, GroundLosFrame)
+    return frame
 
 
 def output_grid(params: Pfa2Params, raw: Product, frame: GroundLosFrame, irw) -> Grid:

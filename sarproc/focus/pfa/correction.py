@@ -46,8 +46,8 @@ def pfa_distortion(
     ua, ur = los_components(pos, reference, e_azimuth, e_range)
     if rect is None:
         rect = polar_support(ua, ur, carrier_frequency, np.asarray(freqs), "inscribed")
-    ka, kr = np.meshgrid(np.linspace(rect.ka_lo, rect.ka_hi, n), np.linspace(rect.kr_lo, rect.kr_hi, n))
-    ka, kr = ka.ravel(), kr.ravel()
+    ka_grid, kr_grid = np.meshgrid(np.linspace(rect.ka_lo, rect.ka_hi, n), np.linspace(rect.kr_lo, rect.kr_hi, n))
+    ka, kr = ka_grid.ravel(), kr_grid.ravel()
     ratio = ua / ur
     order = np.argsort(ratio)
     t = np.interp(ka / kr, ratio[order], np.arange(len(pos), dtype=float)[order])

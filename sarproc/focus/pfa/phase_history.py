@@ -57,7 +57,7 @@ class PhaseHistory:
     def freq_step(self) -> float:
         return float(self.freqs[1] - self.freqs[0]) if len(self.freqs) > 1 else 1.0
 
-    def replace(self, **changes) -> "PhaseHistory":
+    def replace(self, **changes) -> PhaseHistory:
         return dataclasses.replace(self, **changes)
 
 

@@ -29,6 +29,7 @@ import dataclasses
 import math
 
 import numpy as np
+import numpy.typing as npt
 import scipy.fft as sfft
 
 from sarproc.dsp.interp import resample_rows
@@ -77,7 +78,7 @@ class Rect:
     kr_lo: float
     kr_hi: float
 
-    def intersect(self, other: "Rect") -> "Rect":
+    def intersect(self, other: Rect) -> Rect:
         return Rect(
             max(self.ka_lo, other.ka_lo),
             min(self.ka_hi, other.ka_hi),
@@ -97,7 +98,7 @@ def los_components(positions: np.ndarray, reference, e_azimuth, e_range) -> tupl
     return u @ np.asarray(e_azimuth, float), u @ np.asarray(e_range, float)
 
 
-def wavenumbers(carrier_frequency: float, freqs: np.ndarray) -> np.ndarray:
+def wavenumbers(carrier_frequency: float, freqs: npt.ArrayLike) -> np.ndarray:
     """K = 4 pi (f_c + f_r) / c, rad/m."""
     return 4 * math.pi * (carrier_frequency + np.asarray(freqs, float)) / C
 

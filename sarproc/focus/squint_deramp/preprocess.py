@@ -24,10 +24,10 @@ import math
 import numpy as np
 import scipy.fft as sfft
 
+from sarproc.dsp.phasor import multiply_separable_phase
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import C, RadarMetadata
-from sarproc.dsp.phasor import multiply_separable_phase
 from sarproc.product.model import Product
 
 METHODS = ("nonlinear", "linear", "none")

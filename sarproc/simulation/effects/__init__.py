@@ -25,6 +25,6 @@ def build_effects(mapping: dict, scene_params, radar, source: str) -> list[Effec
         if key not in EFFECTS:
             raise InputError(f"{source}: effects: unknown effect {key!r}; known: {sorted(EFFECTS)}")
         cls = EFFECTS[key]
-        params = build(cls.Params, cfg if cfg is not None else {}, source=source, section=f"effects.{key}")
+        params: object = build(cls.Params, cfg if cfg is not None else {}, source=source, section=f"effects.{key}")
         effects.append(cls(params, scene_params, radar))
     return sorted(effects, key=lambda e: e.order)

@@ -11,15 +11,18 @@ gains complex (n_t, n_tg); gate offsets (n_t,) s; signal blocks (n_ch, n_t, n_ra
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import TypeVar
+
 import numpy as np
 
-EFFECTS: dict[str, type] = {}
+EFFECTS: dict[str, type[Effect]] = {}
 
 
-def register_effect(key: str):
+def register_effect(key: str) -> Callable[[type[E]], type[E]]:
     """Class decorator: make an effect available under ``effects.<key>`` in scene YAML."""
 
-    def deco(cls):
+    def deco(cls: type[E]) -> type[E]:
         cls.key = key
         EFFECTS[key] = cls
         return cls
@@ -27,13 +30,18 @@ def register_effect(key: str):
     return deco
 
 
+E = TypeVar("E", bound="Effect")
+
+
+class _NoParams:
+    pass
+
+
 class Effect:
     key = "base"
     order = 50  # application order: geometry (10s), gains (50s), noise last (90s)
-    product_kind = None  # e.g. "raw_array": the raw product type this effect implies
-
-    class Params:  # replaced by a frozen dataclass in each effect
-        pass
+    product_kind: str | None = None  # e.g. "raw_array": the raw product type this effect implies
+    Params: type = _NoParams  # replaced by a frozen dataclass in each effect
 
     def __init__(self, params, scene_params, radar):
         self.params = params

@@ -59,6 +59,7 @@ def receiver_offsets(params: CrossTrackArrayParams) -> np.ndarray:
     """Cross-track offsets v_n, m (n = 1..N)."""
     n = np.arange(params.n_receivers, dtype=float)
     if params.layout == "paper":
+        assert params.array_length is not None  # validate() requires it with layout: paper
         return -params.array_length / 2 + n * params.spacing
     return (n - (params.n_receivers - 1) / 2.0) * params.spacing
 

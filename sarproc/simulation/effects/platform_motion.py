@@ -46,10 +46,12 @@ def displacement(params: PlatformMotionParams, t: np.ndarray) -> np.ndarray:
     d = np.zeros(t.shape + (3,))
     d[:, 0] = params.along_track_velocity_error * t
     if params.cross_track_amplitude > 0:
+        assert params.cross_track_period is not None  # validate() requires it
         d[:, 1] = params.cross_track_amplitude * np.sin(
             2 * math.pi * t / params.cross_track_period + params.cross_track_phase
         )
     if params.vertical_amplitude > 0:
+        assert params.vertical_period is not None  # validate() requires it
         d[:, 2] = params.vertical_amplitude * np.sin(2 * math.pi * t / params.vertical_period + params.vertical_phase)
     return d
 
