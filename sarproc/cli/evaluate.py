@@ -6,6 +6,7 @@ import contextlib
 import json
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
@@ -21,6 +22,9 @@ from sarproc.cli.options import (
     verbosity,
     want_progress,
 )
+
+if TYPE_CHECKING:
+    from sarproc.product.model import Product
 
 
 def _fmt(x: float | None, spec: str) -> str:
@@ -197,7 +201,7 @@ def _write_text_atomic(path: Path, text: str, overwrite: bool = True) -> None:
 @progress_option
 @max_memory_option
 @dry_run_option
-def evaluate(input_path: Path, output, overwrite, plot_dir, expect_path, target_names, config_path, progress):
+def evaluate(input_path: Path, output, overwrite: bool, plot_dir, expect_path, target_names, config_path, progress):
     """Point-target metrics of an image: IRW, PSLR, ISLR, position error and false-target level.
 
     Cuts run along each response's principal axes (its side-lobe ridges, found from the chip's
@@ -290,7 +294,7 @@ def evaluate(input_path: Path, output, overwrite, plot_dir, expect_path, target_
         summary(f"evaluate: all checks passed against {expect_path}")
 
 
-def _plots(plot_dir: Path, product, report, units, params) -> None:
+def _plots(plot_dir: Path, product: Product, report, units, params) -> None:
     created = not plot_dir.exists()
     plot_dir.mkdir(parents=True, exist_ok=True)
     try:
@@ -302,7 +306,7 @@ def _plots(plot_dir: Path, product, report, units, params) -> None:
         raise
 
 
-def _draw(plot_dir: Path, product, report, units, params) -> None:
+def _draw(plot_dir: Path, product: Product, report, units, params) -> None:
     import numpy as np
 
     from sarproc.product.io import atomic_path

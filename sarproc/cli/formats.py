@@ -140,7 +140,7 @@ def export_sicd(
 @overwrite_option
 @check_option
 @dry_run_option
-def export_cphd(input_path: Path, output: Path, config_path, overwrite: bool, report_path):
+def export_cphd(input_path: Path, output: Path, config_path, overwrite: bool, report_path) -> None:
     """Export a single-channel raw product to CPHD 1.1.0 (FX domain), checked by sarkit's CphdConsistency."""
     from sarproc.cli.stage import export_cphd_estimate, naming, plan_outputs
     from sarproc.product.cphd import check_cphd, require_sarkit, write_cphd
@@ -168,7 +168,7 @@ def export_cphd(input_path: Path, output: Path, config_path, overwrite: bool, re
 @output_option
 @overwrite_option
 @dry_run_option
-def import_cphd(input_path: Path, output: Path, overwrite: bool):
+def import_cphd(input_path: Path, output: Path, overwrite: bool) -> None:
     """Import a CPHD file (FX or TOA domain, monostatic) as a raw product (backproject and pfa2 focus it).
 
     Files from export-cphd come back losslessly; others are read from their standard fields alone

@@ -41,7 +41,7 @@ from sarproc.cli.options import dry_run_option, input_argument, overwrite_option
 )
 def quicklook(
     input_path: Path, output: Path, overwrite: bool, dynamic_range_db: float, mark_targets: bool, max_pixels: int
-):
+) -> None:
     """Picture of any image product, with or without truth targets.
 
     2D images: magnitude in dB relative to the peak, axes in metres named by the image frame.

@@ -53,7 +53,14 @@ from sarproc.cli.options import summary, verbosity
 )
 @click.option("--list", "list_only", is_flag=True, help="Print the tasks and exit.")
 def sweep(
-    sweep_path: Path, output, scheduler, table_path, workers, threads_per_worker: int, processes: bool, list_only: bool
+    sweep_path: Path,
+    output,
+    scheduler,
+    table_path,
+    workers: int,
+    threads_per_worker: int,
+    processes: bool,
+    list_only: bool,
 ):
     """Run a grid of scenes x stage knobs (simulate -> focus -> evaluate) and gather one table.
 

@@ -292,21 +292,21 @@ class _ThreadRoutedStdout(io.TextIOBase):
     (contextlib.redirect_stdout) would mix their outputs and restore the wrong stream.
     """
 
-    def __init__(self, fallback):
+    def __init__(self, fallback) -> None:
         self._fallback = fallback
 
     @property
     def encoding(self) -> str:  # type: ignore[override]  # the wrapped stream's, read-only
         return getattr(self._fallback, "encoding", "utf-8")
 
-    def writable(self):
+    def writable(self) -> bool:
         return True
 
     def write(self, text):
         buf = getattr(_local, "buffer", None)
         return (buf if buf is not None else self._fallback).write(text)
 
-    def flush(self):
+    def flush(self) -> None:
         buf = getattr(_local, "buffer", None)
         if buf is None:
             self._fallback.flush()

@@ -22,11 +22,15 @@ from __future__ import annotations
 
 import functools
 import math
+from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
 
 from sarproc.dsp.kernel_cache import CACHE
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
 
 KERNELS = ("nearest", "linear", "cubic", "sinc", "lanczos", "knab")
 DEFAULT_LENGTH = {"nearest": 1, "linear": 2, "cubic": 4, "sinc": 8, "lanczos": 8, "knab": 8}
@@ -88,7 +92,7 @@ def _weight_table(kernel, taps, oversampling, beta, steps=_TABLE_STEPS):
 
 
 @functools.lru_cache(maxsize=32)
-def _tap_table(kernel, taps, oversampling, beta, dtype, steps=_TABLE_STEPS):
+def _tap_table(kernel, taps, oversampling, beta, dtype: npt.DTypeLike, steps=_TABLE_STEPS):
     flat = _weight_table(kernel, taps, oversampling, beta, steps)
     c = np.arange(steps + 1)[:, None]
     m = np.arange(taps)[None, :]
@@ -110,7 +114,7 @@ _MODES = {"nearest": 0, "linear": 1, "cubic": 2}  # any other kernel: tabulated 
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _resample_row(row, pos, out, mode, taps, table, steps, zero, lo_pos, hi_pos):
+def _resample_row(row, pos, out, mode, taps, table, steps, zero, lo_pos, hi_pos) -> None:
     """One row: out[j] = sum over taps of row[i] w(pos[j] - i); zeros outside the row; pos outside
     [lo_pos, hi_pos] (or NaN) gives ``zero``. Tabulated weights are renormalised to unit sum."""
     n_in = len(row)
@@ -172,7 +176,7 @@ def _resample_row(row, pos, out, mode, taps, table, steps, zero, lo_pos, hi_pos)
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=CACHE)
-def _resample_kernel(data, pos, out, mode, taps, table, steps, zero, lo_pos, hi_pos):
+def _resample_kernel(data, pos, out, mode, taps, table, steps, zero, lo_pos, hi_pos) -> None:
     """Rows in parallel (the per-row work is a separate function: no accumulator is shared across rows)."""
     for r in numba.prange(data.shape[0]):
         _resample_row(data[r], pos[r], out[r], mode, taps, table, steps, zero, lo_pos, hi_pos)
@@ -186,7 +190,7 @@ def resample_rows(
     *,
     oversampling: float = 1.25,
     beta: float = 6.0,
-    out_dtype=None,
+    out_dtype: npt.DTypeLike | None = None,
     out=None,
 ) -> np.ndarray:
     """Interpolate each row of ``data`` at fractional sample ``positions``.

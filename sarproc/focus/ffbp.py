@@ -100,7 +100,7 @@ def error_bound(predicted: float) -> float:
     return BOUND_MARGIN * predicted
 
 
-def _plane(points):
+def _plane(points: np.ndarray):
     """Origin, in-plane axes e1, e2 and normal of the points' best-fitting plane."""
     sample = points[:: max(1, len(points) // 4096)]
     origin = points.mean(axis=0)
@@ -165,11 +165,11 @@ def _sector_boundary(geo, ints, n_edge=24):
 
 
 def ffbp_points(
-    rc,
-    range_time,
-    pos,
-    points,
-    carrier_frequency,
+    rc: np.ndarray,
+    range_time: np.ndarray,
+    pos: np.ndarray,
+    points: np.ndarray,
+    carrier_frequency: float,
     bandwidth,
     *,
     upsample=8,
@@ -179,7 +179,7 @@ def ffbp_points(
     oversample=2.0,
     ffbp_interpolation="cubic",
     grid_shape=None,
-    workers=None,
+    workers: int | None = None,
     info=None,
     range_oversample=None,
 ):

@@ -114,7 +114,7 @@ def _read(buf, geo, ints, c, x, y, z, r_ref, kc2, mode_r, mode_t):
 
 
 @numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
-def merge_level(cbuf, cgeo, cints, first_child, pgeo, pints, pbuf, row_parent, row_angle, kc2, mode_r, mode_t):
+def merge_level(cbuf, cgeo, cints, first_child, pgeo, pints, pbuf, row_parent, row_angle, kc2, mode_r, mode_t) -> None:
     """Each parent polar sample: the sum of its children read at its plane point (one job per parent row)."""
     for job in numba.prange(len(row_parent)):
         s = row_parent[job]
@@ -138,7 +138,7 @@ def merge_level(cbuf, cgeo, cints, first_child, pgeo, pints, pbuf, row_parent, r
 
 
 @numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
-def final_points(buf, geo, ints, px, py, pz, kc2, mode_r, mode_t, out):
+def final_points(buf, geo, ints, px, py, pz, kc2, mode_r, mode_t, out) -> None:
     """out[i] = sum of the top subimages read at point i (plane coordinates px, py, normal offset pz), with the
     carrier of its exact range restored (exp(+j 2 pi kc2 r), as exact backprojection applies it)."""
     for i in numba.prange(len(px)):

@@ -14,11 +14,15 @@ import math
 import sys
 import typing
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import yaml
 
 from sarproc.product.errors import InputError
 from sarproc.product.units import parse_quantity
+
+if TYPE_CHECKING:
+    from sarproc.product.model import Product
 
 MISSING = dataclasses.MISSING
 T = typing.TypeVar("T")
@@ -206,7 +210,7 @@ SI_SYMBOL = {
 }
 
 
-def _check_bounds(x, meta, where, raw):
+def _check_bounds(x, meta, where, raw: Product):
     if isinstance(x, float) and math.isnan(x):
         raise InputError(f"{where}: NaN is not allowed")
     tests = (

@@ -54,7 +54,7 @@ class Frame(abc.ABC):
         """Scene positions (..., 3) of points given by their frame coordinates."""
 
     @abc.abstractmethod
-    def from_xyz(self, xyz) -> tuple[np.ndarray, ...]:
+    def from_xyz(self, xyz: np.ndarray) -> tuple[np.ndarray, ...]:
         """Frame coordinates, one array per axis, of scene positions (..., 3)."""
 
     def params(self) -> dict:
@@ -77,7 +77,7 @@ class Frame(abc.ABC):
 class SquintFrame(Frame):
     axes = ("azimuth", "range")
 
-    def __init__(self, squint: float, altitude: float = 0.0):
+    def __init__(self, squint: float, altitude: float = 0.0) -> None:
         self.squint = float(squint)
         self.altitude = float(altitude)
 
@@ -97,7 +97,7 @@ class SquintFrame(Frame):
             raise InputError("squint frame: a range is shorter than the altitude allows")
         return np.stack([azimuth + range_ * s, np.sqrt(across2), np.zeros_like(azimuth)], axis=-1)
 
-    def from_xyz(self, xyz):
+    def from_xyz(self, xyz: np.ndarray):
         xyz = np.asarray(xyz, float)
         rho = np.hypot(xyz[..., 1], self.altitude - xyz[..., 2])
         r0 = rho / math.cos(self.squint)
@@ -115,7 +115,7 @@ class SquintLrwcFrame(Frame):
 
     axes = ("azimuth", "range")
 
-    def __init__(self, squint: float, altitude: float = 0.0):
+    def __init__(self, squint: float, altitude: float = 0.0) -> None:
         self.base = SquintFrame(squint, altitude)
         self.squint, self.altitude = float(squint), float(altitude)
 
@@ -131,7 +131,7 @@ class SquintLrwcFrame(Frame):
         az = np.asarray(azimuth, float)
         return self.base.to_xyz(az, np.asarray(range_, float) - az * math.sin(self.squint))
 
-    def from_xyz(self, xyz):
+    def from_xyz(self, xyz: np.ndarray):
         xn, r0 = self.base.from_xyz(xyz)
         return xn, r0 + xn * math.sin(self.squint)
 
@@ -147,7 +147,7 @@ class GroundFrame(Frame):
         azimuth, range_ = np.broadcast_arrays(np.asarray(azimuth, float), np.asarray(range_, float))
         return np.stack([azimuth, range_, np.zeros_like(azimuth)], axis=-1)
 
-    def from_xyz(self, xyz):
+    def from_xyz(self, xyz: np.ndarray):
         xyz = np.asarray(xyz, float)
         return xyz[..., 0].copy(), xyz[..., 1].copy()
 
@@ -175,14 +175,14 @@ class _PlaneFrame(Frame):
         azimuth, range_ = np.broadcast_arrays(np.asarray(azimuth, float), np.asarray(range_, float))
         return self.origin + azimuth[..., None] * self.u_azimuth + (range_ - self.range0)[..., None] * self.u_range
 
-    def from_xyz(self, xyz):
+    def from_xyz(self, xyz: np.ndarray):
         d = np.asarray(xyz, float) - self.origin
         return d @ self.u_azimuth, self.range0 + d @ self.u_range
 
 
 @register_frame("los")
 class LosFrame(_PlaneFrame):
-    def __init__(self, origin, aperture_center, velocity_dir=(1.0, 0.0, 0.0)):
+    def __init__(self, origin, aperture_center, velocity_dir=(1.0, 0.0, 0.0)) -> None:
         self.origin = np.asarray(origin, float).reshape(3)
         self.aperture_center = np.asarray(aperture_center, float).reshape(3)
         los = self.origin - self.aperture_center
@@ -203,7 +203,7 @@ class GroundLosFrame(_PlaneFrame):
     ground distance from the aperture centre's nadir to the origin. Points map onto z = origin z.
     """
 
-    def __init__(self, origin, aperture_center):
+    def __init__(self, origin, aperture_center) -> None:
         self.origin = np.asarray(origin, float).reshape(3)
         self.aperture_center = np.asarray(aperture_center, float).reshape(3)
         d = self.origin[:2] - self.aperture_center[:2]
@@ -232,7 +232,7 @@ class ElevationFrame(Frame):
 
     axes = ("elevation", "azimuth", "range")
 
-    def __init__(self, altitude: float):
+    def __init__(self, altitude: float) -> None:
         self.altitude = float(altitude)
 
     def params(self):
@@ -244,7 +244,7 @@ class ElevationFrame(Frame):
         )
         return np.stack([az, r * np.sin(el), self.altitude - r * np.cos(el)], axis=-1)
 
-    def from_xyz(self, xyz):
+    def from_xyz(self, xyz: np.ndarray):
         xyz = np.asarray(xyz, float)
         down = self.altitude - xyz[..., 2]
         return np.arctan2(xyz[..., 1], down), xyz[..., 0].copy(), np.hypot(xyz[..., 1], down)
@@ -286,7 +286,7 @@ def make_frame(name: str, radar: RadarMetadata, **params) -> Frame:
     raise InputError(f"unknown image frame {name!r}; known: {sorted(_FRAMES) + ['zero_doppler']}")
 
 
-def frame_coordinates(frame: Frame, xyz) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def frame_coordinates(frame: Frame, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(azimuth, range, elevation) of points ``xyz`` (n, 3) in ``frame``; zeros for axes it lacks."""
     xyz = np.asarray(xyz, float).reshape(-1, 3)
     values = dict(zip(frame.axes, frame.from_xyz(xyz))) if len(xyz) else {}

@@ -197,7 +197,7 @@ class Product:
     def data_name(self) -> str:
         return DATA_NAME[self.kind]
 
-    def derive(self, kind: str, data, dims, coords, **changes) -> Product:
+    def derive(self, kind: str, data: np.ndarray, dims, coords, **changes) -> Product:
         """New product from this one (targets, radar, aux and history carried forward)."""
         base: dict[str, Any] = dict(
             radar=self.radar, targets=self.targets.copy(), attrs={}, aux=dict(self.aux), history=list(self.history)
@@ -206,7 +206,7 @@ class Product:
         return Product(kind=kind, data=data, dims=tuple(dims), coords=dict(coords), **base)
 
 
-def make_targets(names, xyz, amplitude, velocity=None, frame_coords=None) -> np.ndarray:
+def make_targets(names, xyz: np.ndarray, amplitude, velocity=None, frame_coords=None) -> np.ndarray:
     """Build a TARGET_DTYPE table; ``frame_coords`` is (azimuth, range, elevation) arrays."""
     xyz = np.atleast_2d(np.asarray(xyz, dtype=float))
     n = xyz.shape[0]

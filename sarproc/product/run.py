@@ -30,6 +30,7 @@ import sys
 import threading
 import time
 from pathlib import Path
+from types import FrameType
 
 from sarproc.product.errors import InputError
 
@@ -41,13 +42,13 @@ LOCK_SUFFIX = ".sarproc-lock"
 class Interrupted(BaseException):
     """A stop signal arrived: unwinds like KeyboardInterrupt so every temporary file is removed."""
 
-    def __init__(self, signum: int):
+    def __init__(self, signum: int) -> None:
         super().__init__(signum)
         self.signum = signum
 
 
 class _Run:
-    def __init__(self):
+    def __init__(self) -> None:
         self.fired: list[int] = []  # the stop signal received (kept apart from the exception it raised)
         self.defer = 0  # inside a critical section: act on a signal at its end
         self.planned: set[str] = set()
@@ -72,7 +73,7 @@ def _key(path) -> str:
 # ---- signals -----------------------------------------------------------------------------------------------------
 
 
-def _handler(signum, frame):
+def _handler(signum: int, frame: FrameType | None) -> None:
     run = _RUN
     if run is None:
         # Before the run (argument parsing): recorded, acted on when it begins; raising here could cut a

@@ -20,12 +20,17 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from sarproc.product import beam
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import C
+
+if TYPE_CHECKING:
+    from sarproc.product.frames import Frame
+    from sarproc.product.metadata import RadarMetadata
 
 WINDOWS = ("none", "hamming")  # the weighting windows every processor offers (range and azimuth)
 ISLR_NULLS = 10.0  # the contract's ISLR window, +-nulls
@@ -168,7 +173,7 @@ def window_theory(name: str, islr_nulls: float = ISLR_NULLS) -> ResponseTheory:
     return response_theory(x, window_taper(name, x), band=(-0.5, 0.5), islr_nulls=islr_nulls, upsample=64, samples=4096)
 
 
-def two_way_gain(radar, angle_az, angle_el=None) -> np.ndarray:
+def two_way_gain(radar: RadarMetadata, angle_az, angle_el=None) -> np.ndarray:
     """Two-way amplitude gain of the radar's antenna at azimuth (and elevation) angles off boresight."""
     pattern = getattr(radar, "antenna_pattern", None) or "rect"  # not recorded: the -3 dB beam, flat
     g = beam.one_way_amplitude(angle_az, radar.azimuth_beamwidth, pattern)
@@ -190,7 +195,7 @@ class Illumination:
         return float(np.mean(self.in_beam)) if self.in_beam.size else 0.0
 
 
-def illumination(radar, platform_pos, point) -> Illumination:
+def illumination(radar: RadarMetadata, platform_pos: np.ndarray, point) -> Illumination:
     """Antenna gain over the pulses for one target (scene frame point (3,))."""
     n = len(platform_pos)
     if radar.azimuth_beamwidth <= 0:
@@ -210,7 +215,14 @@ def _unit(d):
 
 
 def target_theory(
-    radar, tx_pos, rx_pos, frame, coords, azimuth_window: str = "none", range_window: str = "none", taper=None
+    radar: RadarMetadata,
+    tx_pos: np.ndarray,
+    rx_pos: np.ndarray,
+    frame: Frame,
+    coords,
+    azimuth_window: str = "none",
+    range_window: str = "none",
+    taper=None,
 ) -> list[ResponseTheory]:
     """Theory along each axis of a 2D frame for the point at frame ``coords``.
 
@@ -287,7 +299,7 @@ class TargetIllumination:
         return self.now.irw / self.full.irw
 
 
-def _reference_points(radar, targets: np.ndarray) -> np.ndarray:
+def _reference_points(radar: RadarMetadata, targets: np.ndarray) -> np.ndarray:
     """Where each target would be fully lit, as the scene centre is: stripmap (a fixed beam, so only the
     position relative to the track counts) moves it along track to the scene centre's x; a steered beam
     (spotlight, sliding spotlight) lights the scene centre itself."""
@@ -299,7 +311,7 @@ def _reference_points(radar, targets: np.ndarray) -> np.ndarray:
     return np.broadcast_to(centre, targets.shape)
 
 
-def _beam_k(radar, pos, targets):
+def _beam_k(radar: RadarMetadata, pos: np.ndarray, targets):
     """(k along track (pulses, n), in-beam mask, two-way amplitude gain) of targets (n, 3) at positions."""
     tg = np.broadcast_to(targets, (len(pos),) + targets.shape)
     u = _unit(tg - pos[:, None, :])
@@ -315,14 +327,14 @@ def _extent(k, mask):
     return np.where(mask.any(axis=0), hi - lo, 0.0)
 
 
-def _full_support(radar, k, k_ref):
+def _full_support(radar: RadarMetadata, k, k_ref):
     """The k samples of full illumination: the reference point's own (stripmap), else the target's own
     pulses under the scene centre's beam."""
     return k_ref if radar.mode == "stripmap" else k
 
 
 def illumination_survey(
-    radar, platform_pos, targets, min_fraction: float = 0.95, max_detailed: int = 50
+    radar: RadarMetadata, platform_pos: np.ndarray, targets, min_fraction: float = 0.95, max_detailed: int = 50
 ) -> list[TargetIllumination]:
     """Each target's (scene-frame xyz (n, 3)) illumination by the antenna's azimuth beam over the pulses at
     ``platform_pos``, against full illumination (:func:`_reference_points`). The expected along-track

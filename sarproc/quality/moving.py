@@ -30,13 +30,17 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from sarproc.product import moving
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import C
+
+if TYPE_CHECKING:
+    from sarproc.product.metadata import RadarMetadata
+    from sarproc.product.model import Product
 
 MATCH_CELLS = 10.0  # association gate between a detection and a truth mover, resolution cells
 
@@ -66,7 +70,7 @@ class MoverReport:
     relocation_error_from_velocity: float | None = None  # first-order implied by the velocity error
 
 
-def truth_frame(product, source: str = ""):
+def truth_frame(product: Product, source: str = ""):
     from sarproc.product.frames import frame_from_spec
 
     where = f"{source}: " if source else ""
@@ -78,7 +82,7 @@ def truth_frame(product, source: str = ""):
     return frame_from_spec(spec)
 
 
-def apparent_truth(product, source: str = "") -> np.ndarray:
+def apparent_truth(product: Product, source: str = "") -> np.ndarray:
     """The product's targets table with every moving target at its static equivalent (image frame)."""
     targets = product.targets
     if len(targets) == 0 or not np.any(moving.is_moving(targets)):
@@ -94,11 +98,11 @@ def apparent_truth(product, source: str = "") -> np.ndarray:
     )
 
 
-def _names(table) -> str:
+def _names(table: np.ndarray) -> str:
     return ", ".join(n.decode() if isinstance(n, bytes) else str(n) for n in table["name"])
 
 
-def _rows(table) -> list[dict]:
+def _rows(table: Any) -> list[dict]:
     if table is None:
         return []
     if isinstance(table, np.ndarray) and table.dtype.names:
@@ -120,7 +124,7 @@ def _xyz(row: dict, prefix: str):
     return None
 
 
-def moving_target_table(product) -> list[dict]:
+def moving_target_table(product: Product) -> list[dict]:
     """Rows of the product's ``moving_targets`` table (module docstring), [] if it has none.
 
     reconstruct's table is aux ``moving_targets`` (model.MOVING_TARGET_COLUMNS, float64); its
@@ -168,13 +172,13 @@ def _match_table(rows, movers, cell):
     return out
 
 
-def implied_relocation_error(radar, slant_range: float, dv_a: float, dv_r: float) -> float:
+def implied_relocation_error(radar: RadarMetadata, slant_range: float, dv_a: float, dv_r: float) -> float:
     """First-order relocation error (m, scene) of velocity errors: R |dv_los| / (v cos(theta))."""
     th = radar.squint
     return abs(slant_range * (dv_r * math.cos(th) + dv_a * math.sin(th)) / (radar.velocity * math.cos(th)))
 
 
-def _match_windows(windows, movers, radar, cell_range, cell_azimuth):
+def _match_windows(windows, movers, radar: RadarMetadata, cell_range, cell_azimuth):
     """{truth name: window}: reconstruct's windows matched by slant range at t_c and t_c."""
     out = {}
     range_cell = C / (2 * radar.range_sampling_rate)
@@ -195,7 +199,7 @@ def _match_windows(windows, movers, radar, cell_range, cell_azimuth):
     return out
 
 
-def mover_reports(product, apparent: np.ndarray, report, source: str = "") -> tuple[MoverReport, ...]:
+def mover_reports(product: Product, apparent: np.ndarray, report, source: str = "") -> tuple[MoverReport, ...]:
     """One :class:`MoverReport` per moving truth target measured in ``report`` (module docstring)."""
     targets = product.targets
     if len(targets) == 0 or not np.any(moving.is_moving(targets)):

@@ -42,7 +42,16 @@ def _label(dim: str, units: dict, frame: str = "") -> str:
 
 
 def plot_quicklook(
-    path, data, dims, coords, truth=None, names=(), units=None, dynamic_range_db=50.0, title="", frame: str = ""
+    path,
+    data: np.ndarray,
+    dims,
+    coords,
+    truth: np.ndarray | None = None,
+    names=(),
+    units=None,
+    dynamic_range_db=50.0,
+    title="",
+    frame: str = "",
 ) -> Path:
     """dB image (3D: maximum projections) normalised to its peak, truth marked; writes ``path`` (PNG).
 
@@ -92,7 +101,7 @@ def plot_quicklook(
 
 def plot_target(
     path,
-    data,
+    data: np.ndarray,
     dims,
     coords,
     theoretical_irw,

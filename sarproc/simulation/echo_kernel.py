@@ -56,7 +56,7 @@ def _support(rel, fs, half_pulse, n_range):
 
 
 @numba.njit(parallel=True, cache=CACHE, error_model="numpy")
-def accumulate_echoes(out, delays, gains, gate, t0, fs, pulse_duration, chirp_rate, carrier, chirp):
+def accumulate_echoes(out, delays, gains, gate, t0, fs, pulse_duration, chirp_rate, carrier, chirp) -> None:
     """Add every target's echo to ``out`` (n_t, n_range) complex128, in place.
 
     delays (n_t, n_tg) two-way delays, s; gains (n_t, n_tg) complex (0 skips the pair); gate

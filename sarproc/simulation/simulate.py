@@ -16,12 +16,16 @@ import dataclasses
 import logging
 import math
 from collections.abc import Iterator
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from sarproc.product.metadata import C, RadarMetadata
 from sarproc.product.model import Product
 from sarproc.simulation.scene import Scene
+
+if TYPE_CHECKING:
+    from sarproc.product.steps import ProgressFactory
 
 log = logging.getLogger(__name__)
 
@@ -222,7 +226,7 @@ def echo_block(scene: Scene, plan: SimulationPlan, t: np.ndarray, chirp: np.ndar
 
 
 def simulate_blocks(
-    scene: Scene, plan: SimulationPlan | None = None, progress=None, mapper=None
+    scene: Scene, plan: SimulationPlan | None = None, progress: ProgressFactory | None = None, mapper=None
 ) -> Iterator[tuple[slice, np.ndarray]]:
     """Yield (pulse slice, (n_ch, n_t, n_range) complex64 block) over the whole acquisition.
 
@@ -248,7 +252,7 @@ def simulate_blocks(
         yield sl, block.astype(np.complex64)
 
 
-def simulate(scene: Scene, progress=None) -> Product:
+def simulate(scene: Scene, progress: ProgressFactory | None = None) -> Product:
     """Simulate the whole scene in memory and return the raw product."""
     from sarproc.product.io import history_entry
 

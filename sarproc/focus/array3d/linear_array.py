@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.fft as sfft
@@ -49,6 +50,12 @@ from sarproc.product.errors import IMAGE_DEFECT, InputError, ProcessingError
 from sarproc.product.metadata import C, RadarMetadata
 from sarproc.product.steps import steps, wrapped
 from sarproc.product.theory import fill_target_theory, response_theory, window_theory
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    from sarproc.product.model import Product
+    from sarproc.product.steps import ProgressFactory
 
 
 @dataclasses.dataclass(frozen=True)
@@ -153,7 +160,7 @@ class Array3DResult:
 # Geometry checks and theory
 
 
-def array_geometry(tx_offset, rx_offset) -> ArrayGeometry:
+def array_geometry(tx_offset: np.ndarray, rx_offset) -> ArrayGeometry:
     """Cross-track receiver offsets v_n relative to the transmitter; refuse other layouts."""
     tx = np.asarray(tx_offset, float).reshape(3)
     rx = np.asarray(rx_offset, float).reshape(-1, 3)
@@ -242,7 +249,7 @@ def elevation_grid(geom: ArrayGeometry, wavelength: float, params: Array3DParams
 
 
 def range_compress(
-    signal: np.ndarray, radar: RadarMetadata, ctype, workers: int = -1, kind: str = "matched"
+    signal: np.ndarray, radar: RadarMetadata, ctype: npt.DTypeLike, workers: int = -1, kind: str = "matched"
 ) -> np.ndarray:
     """Range compression of the centred chirp along the last axis, eq. (9); a unit echo peaks at ~1.
 
@@ -277,7 +284,7 @@ def azimuth_focus(
     ranges: np.ndarray,
     radar: RadarMetadata,
     params: Array3DParams,
-    ctype,
+    ctype: npt.DTypeLike,
     workers: int = -1,
     overwrite: bool = False,
 ) -> np.ndarray:
@@ -334,9 +341,9 @@ def elevation_compress(
     theta: np.ndarray,
     radar: RadarMetadata,
     params: Array3DParams,
-    ctype,
+    ctype: npt.DTypeLike,
     workers: int = -1,
-    progress=None,
+    progress: ProgressFactory | None = None,
 ) -> np.ndarray:
     """Cross-track RCMC (eqs. 20, 21), deramp (eq. 23) and transform over channels (eqs. 24-26).
 
@@ -439,7 +446,7 @@ def focus_array3d(
     params: Array3DParams = Array3DParams(),
     *,
     keep_channel_images: bool = False,
-    progress=None,
+    progress: ProgressFactory | None = None,
     workers: int = -1,
 ) -> Array3DResult:
     """The whole chain of Fig. 3 on a (n_ch, n_az, n_rg) ``raw_array`` signal.
@@ -540,11 +547,11 @@ def focus_array3d(
 
 
 def array3d_product(
-    raw,
+    raw: Product,
     params: Array3DParams = Array3DParams(),
     *,
     channel_image: int | None = None,
-    progress=None,
+    progress: ProgressFactory | None = None,
     command: str = "array3d",
 ):
     """Focus a ``raw_array`` :class:`~sarproc.product.model.Product` into an ``image3d`` product.

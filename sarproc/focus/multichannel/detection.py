@@ -36,6 +36,7 @@ import dataclasses
 import math
 
 import numpy as np
+import numpy.typing as npt
 import scipy.fft as sfft
 from scipy import ndimage
 
@@ -60,7 +61,9 @@ class Detection:
         return 10 * math.log10(self.power / self.background) if self.background > 0 else float("inf")
 
 
-def fm_rate(velocity: float, squint: float, slant_range: float, carrier_frequency: float, f_r) -> np.ndarray:
+def fm_rate(
+    velocity: float, squint: float, slant_range: float, carrier_frequency: float, f_r: npt.ArrayLike
+) -> np.ndarray:
     """Eq. (7): static azimuth FM rate K_a(f_r), Hz/s (positive; the deramped phase is -pi K_a t^2)."""
     return 2 * (velocity * math.cos(squint)) ** 2 * (carrier_frequency + np.asarray(f_r, float)) / (C * slant_range)
 

@@ -27,6 +27,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.fft as sfft
@@ -37,6 +38,9 @@ from sarproc.product.config import as_dict, param
 from sarproc.product.errors import IMAGE_DEFECT, InputError
 from sarproc.product.metadata import C
 from sarproc.product.model import MOVING_TARGET_COLUMNS, Product
+
+if TYPE_CHECKING:
+    from sarproc.product.steps import ProgressFactory
 
 log = logging.getLogger(__name__)
 
@@ -238,7 +242,7 @@ def _reconstruct(spec_tf: np.ndarray, bank: channels.FilterBank) -> np.ndarray:
 class _Window:
     """One moving-target window: channel data in (t, f_r) over its L range cells, and its reconstruction."""
 
-    def __init__(self, x_tf: np.ndarray, f_r: np.ndarray, g: _Geometry, params: ReconstructParams):
+    def __init__(self, x_tf: np.ndarray, f_r: np.ndarray, g: _Geometry, params: ReconstructParams) -> None:
         self.x, self.f_r, self.g, self.params = x_tf, f_r, g, params
         self.out_f = sfft.fftfreq(g.n * len(g.times), 1.0 / (g.n * g.prf))
         self._banks: dict[float, channels.FilterBank] = {}
@@ -538,7 +542,7 @@ def _detect_and_focus(
     f_r: np.ndarray,
     lead: int,
     info: dict,
-    progress,
+    progress: ProgressFactory | None,
     bank: channels.FilterBank,
     residual_mode: bool,
 ) -> list[MovingTarget]:
@@ -591,7 +595,7 @@ def _detect_and_focus(
         k = round(dt)
         return abs(d1.cell - d2.cell) > (cells if k == 0 else max(cells, ghost_cells)) or abs(dt - k) * ambiguity > sep
 
-    def remove(ext, a, b, ka_w):
+    def remove(ext, a, b, ka_w) -> None:
         """Take one examined detection's whole response (ambiguities, clutter-null artefacts) out of the image."""
         x_fa = sfft.fft(ext, axis=1, workers=-1)
         if residual_mode:
@@ -757,7 +761,9 @@ def _detect_and_focus(
     return movers
 
 
-def reconstruct(raw: Product, params: ReconstructParams = ReconstructParams(), progress=None) -> Product:
+def reconstruct(
+    raw: Product, params: ReconstructParams = ReconstructParams(), progress: ProgressFactory | None = None
+) -> Product:
     """Reconstruct a raw_multichannel product into a single-channel raw product at N PRF (module docstring)."""
     _check_input(raw)
     g = _geometry(raw, params)
@@ -940,7 +946,7 @@ def _moving_target_rows(raw: Product, g: _Geometry, movers: list[MovingTarget], 
     return rows
 
 
-def _output_product(raw, params, g, out, info, movers) -> Product:
+def _output_product(raw: Product, params, g, out, info, movers) -> Product:
     from sarproc.product.io import history_entry
 
     pos = raw.aux["platform_position"]

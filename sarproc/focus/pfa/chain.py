@@ -14,6 +14,7 @@ import logging
 import math
 import time
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -51,6 +52,10 @@ from sarproc.product.frames import GroundLosFrame, make_frame, targets_in_frame
 from sarproc.product.metadata import aperture_center_position
 from sarproc.product.model import Product
 from sarproc.product.theory import fill_target_theory, window_theory
+
+if TYPE_CHECKING:
+    from sarproc.product.metadata import RadarMetadata
+    from sarproc.product.steps import ProgressFactory
 
 log = logging.getLogger(__name__)
 
@@ -191,7 +196,12 @@ def _interp(params: Pfa2Params, azimuth_oversampling: float) -> Interpolation:
     )
 
 
-def pfa2(raw: Product, params: Pfa2Params = Pfa2Params(), progress=None, mapper: Callable | None = None) -> Product:
+def pfa2(
+    raw: Product,
+    params: Pfa2Params = Pfa2Params(),
+    progress: ProgressFactory | None = None,
+    mapper: Callable | None = None,
+) -> Product:
     """Focus a raw product with the paper 002 chain; returns an ``image`` product (ground_los frame)."""
     if raw.kind != "raw":
         raise InputError(f"pfa2 needs a single-channel raw product, got {raw.kind!r}")
@@ -269,7 +279,7 @@ def pfa2(raw: Product, params: Pfa2Params = Pfa2Params(), progress=None, mapper:
     return out
 
 
-def _plain_corrected(ph, rect, grid: Grid, origin, e_a, e_r, interp: Interpolation):
+def _plain_corrected(ph, rect, grid: Grid, origin, e_a: np.ndarray, e_r: np.ndarray, interp: Interpolation):
     """Plain PFA on a grid grown by the distortion, read back at each pixel's distorted position."""
     ua, ur = los_components(ph.positions, origin, e_a, e_r)
     k_max = float(wavenumbers(ph.carrier_frequency, ph.freqs[-1]))
@@ -290,7 +300,7 @@ def _plain_corrected(ph, rect, grid: Grid, origin, e_a, e_r, interp: Interpolati
     return warp_to_truth(img, ext, grid, warp, geo, kg, interp), kg
 
 
-def _record_target_theory(targets: np.ndarray, ph, e_a, e_r, kg, params) -> None:
+def _record_target_theory(targets: np.ndarray, ph, e_a: np.ndarray, e_r: np.ndarray, kg, params) -> None:
     """Fill each target's theory (irw_, null_, pslr_, islr_<axis>, in place): a flat azimuth support and the
     range window over the polar support it is focused with, the image's rectangle (plain) or its own
     inscribed one (two_step: each sub-image keeps its own support, so the IRW varies over the scene)."""
@@ -310,7 +320,19 @@ def _rect_irw(rect) -> tuple[float, float]:
     return 0.886 * 2 * math.pi / (rect.ka_hi - rect.ka_lo), 0.886 * 2 * math.pi / (rect.kr_hi - rect.kr_lo)
 
 
-def _two_step(ph, params, grid: Grid, origin, e_a, e_r, radar, az_os, progress, mapper, timing):
+def _two_step(
+    ph,
+    params,
+    grid: Grid,
+    origin,
+    e_a: np.ndarray,
+    e_r: np.ndarray,
+    radar: RadarMetadata,
+    az_os,
+    progress: ProgressFactory | None,
+    mapper,
+    timing,
+):
     band = (float(ph.freqs[0]), float(ph.freqs[-1]))
     ua, ur = los_components(ph.positions, origin, e_a, e_r)
     r_ac = float(np.linalg.norm(ph.positions[len(ph.positions) // 2] - origin))

@@ -16,6 +16,7 @@ import dataclasses
 import math
 
 import numpy as np
+import numpy.typing as npt
 from scipy.interpolate import RectBivariateSpline
 
 from sarproc.dsp.interp import resample_rows
@@ -33,7 +34,15 @@ class Distortion:
 
 
 def pfa_distortion(
-    positions, reference, point, e_azimuth, e_range, carrier_frequency, freqs, rect: Rect | None = None, n: int = 11
+    positions: np.ndarray,
+    reference,
+    point,
+    e_azimuth: np.ndarray,
+    e_range: np.ndarray,
+    carrier_frequency: float,
+    freqs: npt.ArrayLike,
+    rect: Rect | None = None,
+    n: int = 11,
 ) -> Distortion:
     """Least-squares cubic fit of the exact phase K (r_O - r_p) over (k_a, k_r) (eqs. 4-5).
 

@@ -73,7 +73,7 @@ def compensate(
     radar: RadarMetadata,
     reference,
     gate_offset=None,
-    times=None,
+    times: np.ndarray | None = None,
     *,
     range_window: str = "none",
     range_oversampling: float = 2.0,

@@ -91,7 +91,9 @@ class Rect:
         return self.ka_hi > self.ka_lo and self.kr_hi > self.kr_lo
 
 
-def los_components(positions: np.ndarray, reference, e_azimuth, e_range) -> tuple[np.ndarray, np.ndarray]:
+def los_components(
+    positions: np.ndarray, reference, e_azimuth: np.ndarray, e_range: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """u(t) . e_a and u(t) . e_r (n_pulses,) for the unit vectors from ``reference`` to the antenna."""
     d = np.asarray(positions, float) - np.asarray(reference, float).reshape(1, 3)
     u = d / np.linalg.norm(d, axis=1, keepdims=True)
@@ -103,7 +105,9 @@ def wavenumbers(carrier_frequency: float, freqs: npt.ArrayLike) -> np.ndarray:
     return 4 * math.pi * (carrier_frequency + np.asarray(freqs, float)) / C
 
 
-def polar_support(ua, ur, carrier_frequency, freqs, kind: str = "inscribed") -> Rect:
+def polar_support(
+    ua: np.ndarray, ur: np.ndarray, carrier_frequency: float, freqs: np.ndarray, kind: str = "inscribed"
+) -> Rect:
     """Rectangle inscribed in (or circumscribing) the polar support of the pulses."""
     if kind not in SUPPORTS:
         raise InputError(f"support {kind!r} is not one of {list(SUPPORTS)}")
@@ -216,7 +220,7 @@ class Interpolation:
     azimuth_oversampling: float = 1.25
 
 
-def data_sampling(ua, ur, k_max, freq_step) -> tuple[float, float]:
+def data_sampling(ua: np.ndarray, ur: np.ndarray, k_max, freq_step) -> tuple[float, float]:
     """Largest k spacings that keep the data's own sampling density (rad/m)."""
     dkr = 4 * math.pi * freq_step / C * float(np.min(np.abs(ur)))
     ratio = ua / ur
@@ -224,7 +228,7 @@ def data_sampling(ua, ur, k_max, freq_step) -> tuple[float, float]:
     return dka, dkr
 
 
-def polar_to_rect(ph, ua, ur, kg: KGrid, interp: Interpolation, block: int = 256) -> np.ndarray:
+def polar_to_rect(ph, ua: np.ndarray, ur: np.ndarray, kg: KGrid, interp: Interpolation, block: int = 256) -> np.ndarray:
     """LOSPI: resample S(t, f_r) onto the (k_r, k_a) grid; returns (n_kr, n_ka) complex64."""
     n_az = ph.data.shape[0]
     fc, f0, dfr = ph.carrier_frequency, float(ph.freqs[0]), ph.freq_step
@@ -254,7 +258,14 @@ def polar_to_rect(ph, ua, ur, kg: KGrid, interp: Interpolation, block: int = 256
 
 
 def rect_to_polar(
-    spec: np.ndarray, kg: KGrid, ua, ur, carrier_frequency, freqs, interp: Interpolation, oversampling: float = 1.25
+    spec: np.ndarray,
+    kg: KGrid,
+    ua: np.ndarray,
+    ur: np.ndarray,
+    carrier_frequency: float,
+    freqs: np.ndarray,
+    interp: Interpolation,
+    oversampling: float = 1.25,
 ) -> np.ndarray:
     """Inverse LOSPI: values of a (n_kr, n_ka) rectangle at the polar samples (n_pulses, n_freq).
 
@@ -318,8 +329,8 @@ def image_to_rect(img: np.ndarray, grid: Grid, kg: KGrid, forward: KGrid, worker
 
 def pfa(
     ph,
-    e_azimuth,
-    e_range,
+    e_azimuth: np.ndarray,
+    e_range: np.ndarray,
     grid: Grid,
     *,
     support: str = "inscribed",

@@ -62,7 +62,7 @@ def valid_radius(azimuth_resolution: float, reference_range: float, wavelength: 
 FIRST_SIDELOBE = 0.2172
 
 
-def track_residual(positions, reference, e_azimuth, e_range) -> float:
+def track_residual(positions: np.ndarray, reference, e_azimuth: np.ndarray, e_range: np.ndarray) -> float:
     """Largest part of the range r(t) to ``reference`` that no cubic in the line-of-sight angle follows, m.
 
     On a straight track r is a smooth function of the polar angle theta = atan(u_a / u_r) (mm from a
@@ -218,11 +218,11 @@ def plan_tiles(
     out: Grid,
     core_size: tuple[float, float],
     overlap: float,
-    positions,
+    positions: np.ndarray,
     reference,
-    e_azimuth,
-    e_range,
-    carrier_frequency,
+    e_azimuth: np.ndarray,
+    e_range: np.ndarray,
+    carrier_frequency: float,
     band,
 ) -> list[Tile]:
     """Cut the output grid into tiles of at most ``core_size`` (m) and size their step-1 windows.
@@ -283,7 +283,15 @@ def window_slices(grid: Grid, window) -> tuple[slice, slice]:
     return out[0], out[1]
 
 
-def tile_rects(tiles: Iterable[Tile], positions, reference, e_azimuth, e_range, carrier_frequency, band) -> list[Rect]:
+def tile_rects(
+    tiles: Iterable[Tile],
+    positions: np.ndarray,
+    reference,
+    e_azimuth: np.ndarray,
+    e_range: np.ndarray,
+    carrier_frequency: float,
+    band,
+) -> list[Rect]:
     """Each tile centre's inscribed polar support (its own resolution and carrier).
 
     After the distortion warp a response at p is resolved by this support mapped through the
@@ -301,7 +309,15 @@ def tile_rects(tiles: Iterable[Tile], positions, reference, e_azimuth, e_range, 
     return rects
 
 
-def local_irw(positions, point, e_azimuth, e_range, carrier_frequency, band, factor: float = 0.886):
+def local_irw(
+    positions: np.ndarray,
+    point,
+    e_azimuth: np.ndarray,
+    e_range: np.ndarray,
+    carrier_frequency: float,
+    band,
+    factor: float = 0.886,
+):
     """Theoretical (azimuth, range) IRW, m, of a point's own inscribed polar support (varies over a wide scene)."""
     ua, ur = los_components(positions, point, e_azimuth, e_range)
     r = polar_support(ua, ur, carrier_frequency, np.asarray(band), "inscribed")

@@ -49,7 +49,7 @@ def pad_rows(src, dst, start):
 
 
 @numba.njit(parallel=True, cache=CACHE)
-def scale_rows(x, factor, start):
+def scale_rows(x, factor, start) -> None:
     """x[i, j] = alternate(x[i, j] * factor[i]) in place."""
     for i in numba.prange(x.shape[0]):
         f = factor[i]
@@ -107,7 +107,7 @@ def gather_columns(src, cols, dst, offset):
 
 
 @numba.njit(parallel=True, cache=CACHE)
-def _crop_rows(src, lo, dst, bad):
+def _crop_rows(src, lo, dst, bad) -> None:
     n = dst.shape[1]
     for i in numba.prange(dst.shape[0]):
         b = False

@@ -12,9 +12,13 @@ gains complex (n_t, n_tg); gate offsets (n_t,) s; signal blocks (n_ch, n_t, n_ra
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from sarproc.product.metadata import RadarMetadata
+    from sarproc.simulation.scene import SceneParams
 
 EFFECTS: dict[str, type[Effect]] = {}
 
@@ -43,12 +47,12 @@ class Effect:
     product_kind: str | None = None  # e.g. "raw_array": the raw product type this effect implies
     Params: type = _NoParams  # replaced by a frozen dataclass in each effect
 
-    def __init__(self, params, scene_params, radar):
+    def __init__(self, params, scene_params: SceneParams, radar: RadarMetadata) -> None:
         self.params = params
         self.scene_params = scene_params
         self.radar = radar
 
-    def update_radar(self, radar):
+    def update_radar(self, radar: RadarMetadata):
         """Record what the effect adds to the radar metadata (e.g. beamwidths, channels)."""
         return radar
 
@@ -65,7 +69,7 @@ class Effect:
     def gate_offsets(self, t: np.ndarray, offsets: np.ndarray, reference_delay: float) -> np.ndarray:
         return offsets
 
-    def gains(self, t, platform_pos, target_pos, channel: int, gains):
+    def gains(self, t, platform_pos: np.ndarray, target_pos: np.ndarray, channel: int, gains):
         return gains
 
     def scatterers(self):
@@ -87,8 +91,8 @@ class ReceiverArray(Effect):
 
     receiver_offsets: np.ndarray
 
-    def update_radar(self, radar):
+    def update_radar(self, radar: RadarMetadata):
         return radar.replace(n_channels=len(self.receiver_offsets))
 
-    def channels(self, tx_offset, rx_offsets):
+    def channels(self, tx_offset: np.ndarray, rx_offsets: np.ndarray):
         return np.zeros(3), self.receiver_offsets

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -25,6 +26,10 @@ from sarproc.product.config import param
 from sarproc.product.errors import InputError
 from sarproc.simulation.effects.antenna import one_way_amplitude
 from sarproc.simulation.effects.base import ReceiverArray, register_effect
+
+if TYPE_CHECKING:
+    from sarproc.product.metadata import RadarMetadata
+    from sarproc.simulation.scene import SceneParams
 
 
 @dataclasses.dataclass(frozen=True)
@@ -70,13 +75,13 @@ class CrossTrackArray(ReceiverArray):
     Params = CrossTrackArrayParams
     product_kind = "raw_array"
 
-    def __init__(self, params, scene_params, radar):
+    def __init__(self, params, scene_params: SceneParams, radar: RadarMetadata) -> None:
         super().__init__(params, scene_params, radar)
         self.v = receiver_offsets(params)
         self.receiver_offsets = np.zeros((len(self.v), 3))
         self.receiver_offsets[:, 1] = self.v
 
-    def gains(self, t, platform_pos, target_pos, channel, gains):
+    def gains(self, t, platform_pos: np.ndarray, target_pos: np.ndarray, channel, gains):
         if self.params.element_pattern == "none":
             return gains
         rx = platform_pos + np.array([0.0, self.v[channel], 0.0])

@@ -61,5 +61,5 @@ class PlatformMotion(Effect):
     order = 15
     Params = PlatformMotionParams
 
-    def platform_positions(self, t, positions):
+    def platform_positions(self, t, positions: np.ndarray):
         return positions + displacement(self.params, t)
