@@ -30,6 +30,8 @@ import numpy as np
 from sarproc.dsp.kernel_cache import CACHE
 
 if TYPE_CHECKING:
+    from typing import Any
+
     import numpy.typing as npt
 
 KERNELS = ("nearest", "linear", "cubic", "sinc", "lanczos", "knab")
@@ -191,7 +193,7 @@ def resample_rows(
     oversampling: float = 1.25,
     beta: float = 6.0,
     out_dtype: npt.DTypeLike | None = None,
-    out=None,
+    out: np.ndarray | None = None,
 ) -> np.ndarray:
     """Interpolate each row of ``data`` at fractional sample ``positions``.
 
@@ -224,7 +226,7 @@ def resample_rows(
 
 
 def resample(
-    data: np.ndarray, positions: np.ndarray, kernel: str = "knab", length: int | None = None, **kwargs
+    data: np.ndarray, positions: np.ndarray, kernel: str = "knab", length: int | None = None, **kwargs: Any
 ) -> np.ndarray:
     """:func:`resample_rows` for ``data`` (..., n_in) with ``positions`` broadcasting to (..., n_out)."""
     data = np.asarray(data)

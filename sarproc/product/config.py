@@ -22,6 +22,9 @@ from sarproc.product.errors import InputError
 from sarproc.product.units import parse_quantity
 
 if TYPE_CHECKING:
+    from collections.abc import Collection, Iterable
+    from typing import Any
+
     from sarproc.product.model import Product
 
 MISSING = dataclasses.MISSING
@@ -45,7 +48,7 @@ OTHER_SECTIONS = ("geolocation", "sweep")
 
 def param(
     unit: str | None = None,
-    default=MISSING,
+    default: Any = MISSING,
     *,
     gt: float | None = None,
     ge: float | None = None,
@@ -102,7 +105,7 @@ def read_stdin() -> bytes:
     return _STDIN[id(stream)]
 
 
-def load_yaml(path) -> dict:
+def load_yaml(path: str | Path) -> dict:
     """Read a YAML mapping (UTF-8, no key given twice); errors name the file and the line. ``-``: standard input."""
     path = Path(path)
     if str(path) != "-":
@@ -263,7 +266,7 @@ def _build(cls, mapping: dict, where: str):
     return obj
 
 
-def did_you_mean(unknown, known) -> str:
+def did_you_mean(unknown: Iterable[str], known: Collection[str]) -> str:
     """' (did you mean 'x'?)' for the first unknown name close to a known one, else ''."""
     import difflib
 
@@ -292,7 +295,7 @@ def build(cls: type[T], mapping: object, source: str = "", section: str = "") ->
         raise InputError(prefix + str(exc)) from None
 
 
-def as_dict(obj) -> dict:
+def as_dict(obj: object) -> dict:
     """Resolved parameters as plain Python values (SI floats), for history and YAML dumps."""
 
     def conv(v):

@@ -12,10 +12,15 @@ import dataclasses
 import json
 import math
 import re
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from sarproc.product.errors import InputError
+
+if TYPE_CHECKING:
+    from collections.abc import Mapping
+    from typing import Any
 
 C = 299_792_458.0  # speed of light, m/s
 
@@ -136,7 +141,7 @@ class RadarMetadata:
         return out
 
     @classmethod
-    def from_attrs(cls, attrs, where: str = "radar") -> RadarMetadata:
+    def from_attrs(cls, attrs: Mapping[str, Any], where: str = "radar") -> RadarMetadata:
         """Read back :meth:`to_attrs`; a missing or mistyped attribute is named with ``where``."""
         kwargs = {}
         for f in dataclasses.fields(cls):
@@ -157,7 +162,7 @@ class RadarMetadata:
             raise InputError(f"{where}: {msg}") from None
         return meta
 
-    def replace(self, **changes) -> RadarMetadata:
+    def replace(self, **changes: Any) -> RadarMetadata:
         return dataclasses.replace(self, **changes)
 
     def to_json(self) -> str:

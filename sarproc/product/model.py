@@ -8,11 +8,16 @@ per-pulse datasets and the processing history.
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from sarproc.product.metadata import RadarMetadata
+
+if TYPE_CHECKING:
+    from collections.abc import Mapping, Sequence
+
+    import numpy.typing as npt
 
 PRODUCT_KINDS = ("raw", "raw_multichannel", "raw_array", "preprocessed", "coarse", "image", "image3d")
 
@@ -197,7 +202,9 @@ class Product:
     def data_name(self) -> str:
         return DATA_NAME[self.kind]
 
-    def derive(self, kind: str, data: np.ndarray, dims, coords, **changes) -> Product:
+    def derive(
+        self, kind: str, data: np.ndarray, dims: Sequence[str], coords: Mapping[str, np.ndarray], **changes: Any
+    ) -> Product:
         """New product from this one (targets, radar, aux and history carried forward)."""
         base: dict[str, Any] = dict(
             radar=self.radar, targets=self.targets.copy(), attrs={}, aux=dict(self.aux), history=list(self.history)
@@ -206,7 +213,13 @@ class Product:
         return Product(kind=kind, data=data, dims=tuple(dims), coords=dict(coords), **base)
 
 
-def make_targets(names, xyz: np.ndarray, amplitude, velocity=None, frame_coords=None) -> np.ndarray:
+def make_targets(
+    names: Sequence[str],
+    xyz: np.ndarray,
+    amplitude: npt.ArrayLike,
+    velocity: npt.ArrayLike | None = None,
+    frame_coords: Sequence[np.ndarray] | None = None,
+) -> np.ndarray:
     """Build a TARGET_DTYPE table; ``frame_coords`` is (azimuth, range, elevation) arrays."""
     xyz = np.atleast_2d(np.asarray(xyz, dtype=float))
     n = xyz.shape[0]

@@ -91,7 +91,11 @@ def _crossing(t, angle, level, i, j) -> float:
 
 
 def illumination_centre_time(
-    radar: RadarMetadata, times: np.ndarray, xyz: np.ndarray, velocity, positions: np.ndarray | None = None
+    radar: RadarMetadata,
+    times: np.ndarray,
+    xyz: np.ndarray,
+    velocity: npt.ArrayLike,
+    positions: np.ndarray | None = None,
 ) -> float:
     """Centre time (s) of the pulses whose -3 dB azimuth beam holds the moving point (module docstring).
 
@@ -119,7 +123,9 @@ def illumination_centre_time(
     return float((start + end) / 2)
 
 
-def static_equivalent(xyz_at_tc, velocity, platform_position, platform_speed: float) -> np.ndarray:
+def static_equivalent(
+    xyz_at_tc: np.ndarray, velocity: np.ndarray, platform_position: np.ndarray, platform_speed: float
+) -> np.ndarray:
     """The static point S with the moving point's range and range rate from ``platform_position``.
 
     ``xyz_at_tc``: the target's position at that time; the platform flies along +x at ``platform_speed``.
@@ -172,8 +178,8 @@ def apparent_position(
 def relocate(
     radar: RadarMetadata,
     times: np.ndarray,
-    apparent_xyz,
-    velocity,
+    apparent_xyz: npt.ArrayLike,
+    velocity: npt.ArrayLike,
     positions: np.ndarray | None = None,
     tolerance: float = 1e-4,
     max_iterations: int = 50,
@@ -217,7 +223,7 @@ def is_moving(targets: np.ndarray) -> np.ndarray:
     return (targets["vx"] != 0) | (targets["vy"] != 0) | (targets["vz"] != 0)
 
 
-def slant_velocity(xyz: np.ndarray, velocity, altitude: float) -> tuple[float, float]:
+def slant_velocity(xyz: np.ndarray, velocity: npt.ArrayLike, altitude: float) -> tuple[float, float]:
     """(v_a, v_r) of a scene velocity: along track, and along the zero-Doppler slant range from (x, 0, H)."""
     xyz, velocity = np.asarray(xyz, float).reshape(3), np.asarray(velocity, float).reshape(3)
     e = np.array([0.0, xyz[1], xyz[2] - altitude])

@@ -29,6 +29,10 @@ from sarproc.product.errors import InputError
 from sarproc.product.metadata import C
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    import numpy.typing as npt
+
     from sarproc.product.frames import Frame
     from sarproc.product.metadata import RadarMetadata
 
@@ -38,7 +42,7 @@ ANTENNA_PATTERNS = ("sinc", "gaussian", "rect")
 _MAX_SAMPLES = 512  # supports with more samples are binned onto this many: IRW within 3e-4
 
 
-def window_taper(name: str, x) -> np.ndarray:
+def window_taper(name: str, x: np.ndarray) -> np.ndarray:
     """Amplitude taper of window ``name`` at support positions ``x`` in [-0.5, 0.5] (zero outside).
 
     hamming: 0.54 + 0.46 cos(2 pi x) (numpy's np.hamming over N samples is this at x = n / (N - 1) - 1/2).
@@ -120,7 +124,12 @@ class ResponseTheory:
 
 
 def response_theory(
-    k, w, band=None, islr_nulls: float = ISLR_NULLS, upsample: int = 32, samples: int = _MAX_SAMPLES
+    k: np.ndarray,
+    w: np.ndarray,
+    band: tuple[float, float] | None = None,
+    islr_nulls: float = ISLR_NULLS,
+    upsample: int = 32,
+    samples: int = _MAX_SAMPLES,
 ) -> ResponseTheory:
     """Theory of the response sum_i w_i exp(j 2 pi k_i x) of a support sampled at spatial frequencies ``k``
     (cycles per axis unit) with amplitude weights ``w`` >= 0.
@@ -173,7 +182,7 @@ def window_theory(name: str, islr_nulls: float = ISLR_NULLS) -> ResponseTheory:
     return response_theory(x, window_taper(name, x), band=(-0.5, 0.5), islr_nulls=islr_nulls, upsample=64, samples=4096)
 
 
-def two_way_gain(radar: RadarMetadata, angle_az, angle_el=None) -> np.ndarray:
+def two_way_gain(radar: RadarMetadata, angle_az: np.ndarray, angle_el: np.ndarray | None = None) -> np.ndarray:
     """Two-way amplitude gain of the radar's antenna at azimuth (and elevation) angles off boresight."""
     pattern = getattr(radar, "antenna_pattern", None) or "rect"  # not recorded: the -3 dB beam, flat
     g = beam.one_way_amplitude(angle_az, radar.azimuth_beamwidth, pattern)
@@ -195,7 +204,7 @@ class Illumination:
         return float(np.mean(self.in_beam)) if self.in_beam.size else 0.0
 
 
-def illumination(radar: RadarMetadata, platform_pos: np.ndarray, point) -> Illumination:
+def illumination(radar: RadarMetadata, platform_pos: np.ndarray, point: npt.ArrayLike) -> Illumination:
     """Antenna gain over the pulses for one target (scene frame point (3,))."""
     n = len(platform_pos)
     if radar.azimuth_beamwidth <= 0:
@@ -219,10 +228,10 @@ def target_theory(
     tx_pos: np.ndarray,
     rx_pos: np.ndarray,
     frame: Frame,
-    coords,
+    coords: Sequence[float],
     azimuth_window: str = "none",
     range_window: str = "none",
-    taper=None,
+    taper: np.ndarray | None = None,
 ) -> list[ResponseTheory]:
     """Theory along each axis of a 2D frame for the point at frame ``coords``.
 
@@ -255,7 +264,12 @@ def target_theory(
     return out
 
 
-def fill_target_theory(targets: np.ndarray, dims, theories, rows=None) -> None:
+def fill_target_theory(
+    targets: np.ndarray,
+    dims: Sequence[str],
+    theories: Sequence[Sequence[ResponseTheory]],
+    rows: Sequence[int] | None = None,
+) -> None:
     """Write each target's theory (one list of ResponseTheory per target, dims order) into its table, in place
     (``rows``: the table rows they belong to; default every row, in order)."""
     for row, per_axis in zip(range(len(targets)) if rows is None else rows, theories):
@@ -267,7 +281,7 @@ def fill_target_theory(targets: np.ndarray, dims, theories, rows=None) -> None:
             targets[f"islr_{d}"][row] = th.islr_db if th.islr_db != 0 else -1e-9
 
 
-def unweighted_irw(theories, fallback) -> list[float]:
+def unweighted_irw(theories: Sequence[Sequence[ResponseTheory]], fallback: Sequence[float]) -> list[float]:
     """Per axis, the median over targets of 0.886 x null (the unweighted IRW of each target's own support):
     an image-wide theory that a target at the edge of the beam does not drag away from the rest."""
     if not theories:
@@ -334,7 +348,11 @@ def _full_support(radar: RadarMetadata, k, k_ref):
 
 
 def illumination_survey(
-    radar: RadarMetadata, platform_pos: np.ndarray, targets, min_fraction: float = 0.95, max_detailed: int = 50
+    radar: RadarMetadata,
+    platform_pos: np.ndarray,
+    targets: np.ndarray,
+    min_fraction: float = 0.95,
+    max_detailed: int = 50,
 ) -> list[TargetIllumination]:
     """Each target's (scene-frame xyz (n, 3)) illumination by the antenna's azimuth beam over the pulses at
     ``platform_pos``, against full illumination (:func:`_reference_points`). The expected along-track

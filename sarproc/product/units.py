@@ -45,7 +45,7 @@ _TABLES = {k: _units_of(k) for k in KINDS}
 _NUM = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*?)\s*$")
 
 
-def parse_quantity(value, kind: str, where: str = "value") -> float:
+def parse_quantity(value: object, kind: str, where: str = "value") -> float:
     """Return ``value`` as an SI float of ``kind``; ``where`` names the key for the error."""
     if kind not in _TABLES:
         raise ValueError(f"unknown quantity kind {kind!r}")

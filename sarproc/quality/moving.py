@@ -39,8 +39,10 @@ from sarproc.product.errors import InputError
 from sarproc.product.metadata import C
 
 if TYPE_CHECKING:
+    from sarproc.product.frames import Frame
     from sarproc.product.metadata import RadarMetadata
     from sarproc.product.model import Product
+    from sarproc.quality.metrics import QualityReport
 
 MATCH_CELLS = 10.0  # association gate between a detection and a truth mover, resolution cells
 
@@ -70,7 +72,7 @@ class MoverReport:
     relocation_error_from_velocity: float | None = None  # first-order implied by the velocity error
 
 
-def truth_frame(product: Product, source: str = ""):
+def truth_frame(product: Product, source: str = "") -> Frame:
     from sarproc.product.frames import frame_from_spec
 
     where = f"{source}: " if source else ""
@@ -199,7 +201,9 @@ def _match_windows(windows, movers, radar: RadarMetadata, cell_range, cell_azimu
     return out
 
 
-def mover_reports(product: Product, apparent: np.ndarray, report, source: str = "") -> tuple[MoverReport, ...]:
+def mover_reports(
+    product: Product, apparent: np.ndarray, report: QualityReport, source: str = ""
+) -> tuple[MoverReport, ...]:
     """One :class:`MoverReport` per moving truth target measured in ``report`` (module docstring)."""
     targets = product.targets
     if len(targets) == 0 or not np.any(moving.is_moving(targets)):

@@ -10,8 +10,12 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from collections.abc import Mapping, Sequence
 
 CONTOUR_LEVELS_DB = (-40, -30, -20, -13.26, -10, -6, -3)
 
@@ -36,21 +40,21 @@ def _pairs(ndim: int) -> list[tuple[int, int]]:
     return [(0, 1)] if ndim == 2 else [(1, 2), (0, 2), (0, 1)]
 
 
-def _label(dim: str, units: dict, frame: str = "") -> str:
+def _label(dim: str, units: Mapping[str, str], frame: str = "") -> str:
     inside = ", ".join(x for x in (units.get(dim, ""), f"{frame} frame" if frame else "") if x)
     return f"{dim} ({inside})" if inside else dim
 
 
 def plot_quicklook(
-    path,
+    path: str | Path,
     data: np.ndarray,
-    dims,
-    coords,
+    dims: Sequence[str],
+    coords: Mapping[str, np.ndarray],
     truth: np.ndarray | None = None,
-    names=(),
-    units=None,
-    dynamic_range_db=50.0,
-    title="",
+    names: Sequence[str] = (),
+    units: Mapping[str, str] | None = None,
+    dynamic_range_db: float = 50.0,
+    title: str = "",
     frame: str = "",
 ) -> Path:
     """dB image (3D: maximum projections) normalised to its peak, truth marked; writes ``path`` (PNG).
@@ -100,13 +104,13 @@ def plot_quicklook(
 
 
 def plot_target(
-    path,
+    path: str | Path,
     data: np.ndarray,
-    dims,
-    coords,
-    theoretical_irw,
+    dims: Sequence[str],
+    coords: Mapping[str, np.ndarray],
+    theoretical_irw: Sequence[float],
     target,
-    units=None,
+    units: Mapping[str, str] | None = None,
     params=None,
     half_width_nulls: float = 4.0,
     upsample: int = 8,
