@@ -26,7 +26,9 @@ from sarproc.cli.options import common_options, input_argument, summary, want_pr
     default=None,
     help="Output of --channel-image (an `image` product, dims azimuth, range).",
 )
-def array3d(input_path: Path, output: Path, config_path, overwrite: bool, progress, channel_image, channel_output):
+def array3d(
+    input_path: Path, output: Path, config_path, overwrite: bool, progress, channel_image, channel_output
+) -> None:
     """Linear-array down-looking 3D SAR (paper 004): range, azimuth and elevation-angle compression.
 
     Reads a raw_array product, writes an image3d cube with dims (elevation, azimuth, range),

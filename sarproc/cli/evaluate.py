@@ -201,7 +201,9 @@ def _write_text_atomic(path: Path, text: str, overwrite: bool = True) -> None:
 @progress_option
 @max_memory_option
 @dry_run_option
-def evaluate(input_path: Path, output, overwrite: bool, plot_dir, expect_path, target_names, config_path, progress):
+def evaluate(
+    input_path: Path, output, overwrite: bool, plot_dir, expect_path, target_names, config_path, progress
+) -> None:
     """Point-target metrics of an image: IRW, PSLR, ISLR, position error and false-target level.
 
     Cuts run along each response's principal axes (its side-lobe ridges, found from the chip's

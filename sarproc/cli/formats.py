@@ -37,7 +37,7 @@ def _check_line(name: str, result: dict) -> str:
     )
 
 
-def _finish(name: str, output: Path, result: dict, report_path):
+def _finish(name: str, output: Path, result: dict, report_path) -> None:
     from sarproc.product.errors import ProcessingError
     from sarproc.product.io import atomic_path
 
@@ -83,7 +83,7 @@ check_option = click.option(
 )
 def export_sicd(
     input_path: Path, output: Path, config_path, overwrite: bool, report_path, image_formation: str, sicd_version: str
-):
+) -> None:
     """Export a focused 2D image product to SICD (NITF), checked by sarkit's SicdConsistency."""
     import numpy as np
 

@@ -61,7 +61,7 @@ def sweep(
     threads_per_worker: int,
     processes: bool,
     list_only: bool,
-):
+) -> None:
     """Run a grid of scenes x stage knobs (simulate -> focus -> evaluate) and gather one table.
 
     Every step writes its own product under DIR (raw/, tasks/<id>/); a step whose output already

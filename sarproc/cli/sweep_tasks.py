@@ -77,7 +77,7 @@ class SweepParams:
     evaluate: bool = param(default=True, doc="run evaluate on each task's last product (false: quality n/a)")
     repeats: int = param(default=1, doc="timed runs of each task's focus chain, interleaved over the tasks")
 
-    def validate(self):
+    def validate(self) -> None:
         from sarproc.cli.main import COMMANDS
 
         if not self.scenes:

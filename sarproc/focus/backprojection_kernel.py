@@ -423,7 +423,7 @@ def backproject_tiles(
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def bounds(points):
+def bounds(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(min, max) over points (n, 3) float64 per coordinate, in one vectorised pass (points must be finite: under
     fastmath a NaN is not propagated, so the result does not tell whether one was there)."""
     lo = np.full(3, np.inf)
@@ -502,7 +502,9 @@ def _tile_layout(points, origin, lo, hi, tile_size, max_tile):
     return order, tile_start, centres, d
 
 
-def make_tiles(points: np.ndarray, tile_size: float, max_tile: int = 1024):
+def make_tiles(
+    points: np.ndarray, tile_size: float, max_tile: int = 1024
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Group points into spatial tiles of about ``tile_size`` metres (at most ``max_tile`` points each).
 
     Returns (order, tile_start, centres, origin, d): points[order] are grouped by tile, tile t holding

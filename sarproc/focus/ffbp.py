@@ -43,7 +43,7 @@ def _weights(t, interpolation):
     raise ValueError(f"unknown ffbp interpolation {interpolation!r}; known: {INTERPOLATIONS}")
 
 
-def read_error(f, interpolation: str) -> tuple[float, complex]:
+def read_error(f: np.ndarray, interpolation: str) -> tuple[float, complex]:
     """Reading tones at frequencies ``f`` (cycles per sample, equally weighted) by the 4-sample ``interpolation`` at
     uniformly random fractions t: the mean-square error p = E|e|^2 and the mean m = E[e conj(g)] of the error
     e = read - g relative to the true tone g = exp(j 2 pi f t) (m makes the range and angle errors of one 2D read

@@ -135,7 +135,7 @@ def load_yaml(path: str | Path) -> dict:
     return data
 
 
-def _check_keys(data, path, where):
+def _check_keys(data, path, where) -> None:
     """Every mapping key must be a string (``1:`` or ``true:`` is a typo, not a parameter)."""
     if isinstance(data, dict):
         for k, v in data.items():
@@ -213,7 +213,7 @@ SI_SYMBOL = {
 }
 
 
-def _check_bounds(x, meta, where, raw: Product):
+def _check_bounds(x, meta, where, raw: Product) -> None:
     if isinstance(x, float) and math.isnan(x):
         raise InputError(f"{where}: NaN is not allowed")
     tests = (

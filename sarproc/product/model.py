@@ -191,7 +191,7 @@ class Product:
     aux: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
     history: list[dict] = dataclasses.field(default_factory=list)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if self.kind not in PRODUCT_KINDS:
             raise ValueError(f"unknown product kind {self.kind!r}")
         shape = tuple(len(self.coords[d]) for d in self.dims)

@@ -33,7 +33,7 @@ def _cis(cycles):
 
 
 @numba.njit(cache=CACHE, error_model="numpy")
-def window_chirp(n_range, fs, chirp_rate):
+def window_chirp(n_range: int, fs: float, chirp_rate: float) -> np.ndarray:
     """c_n = exp(j pi K (n / f_s)^2) for the window's samples, complex128."""
     out = np.empty(n_range, np.complex128)
     for n in range(n_range):

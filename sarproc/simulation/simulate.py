@@ -25,6 +25,8 @@ from sarproc.product.model import Product
 from sarproc.simulation.scene import Scene
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from sarproc.product.steps import ProgressFactory
 
 log = logging.getLogger(__name__)
@@ -226,7 +228,10 @@ def echo_block(scene: Scene, plan: SimulationPlan, t: np.ndarray, chirp: np.ndar
 
 
 def simulate_blocks(
-    scene: Scene, plan: SimulationPlan | None = None, progress: ProgressFactory | None = None, mapper=None
+    scene: Scene,
+    plan: SimulationPlan | None = None,
+    progress: ProgressFactory | None = None,
+    mapper: Callable | None = None,
 ) -> Iterator[tuple[slice, np.ndarray]]:
     """Yield (pulse slice, (n_ch, n_t, n_range) complex64 block) over the whole acquisition.
 

@@ -52,6 +52,8 @@ from sarproc.product.steps import steps, wrapped
 from sarproc.product.theory import fill_target_theory, response_theory, window_theory
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     import numpy.typing as npt
 
     from sarproc.product.model import Product
@@ -160,7 +162,7 @@ class Array3DResult:
 # Geometry checks and theory
 
 
-def array_geometry(tx_offset: np.ndarray, rx_offset) -> ArrayGeometry:
+def array_geometry(tx_offset: np.ndarray, rx_offset: np.ndarray) -> ArrayGeometry:
     """Cross-track receiver offsets v_n relative to the transmitter; refuse other layouts."""
     tx = np.asarray(tx_offset, float).reshape(3)
     rx = np.asarray(rx_offset, float).reshape(-1, 3)
@@ -204,7 +206,9 @@ def elevation_irw(offsets: np.ndarray, wavelength: float) -> float:
     return 2.0 * float(w3)
 
 
-def target_theory_3d(offsets, wavelength: float, elevations, channel_irw) -> list:
+def target_theory_3d(
+    offsets: np.ndarray, wavelength: float, elevations: np.ndarray, channel_irw: Sequence[float]
+) -> list:
     """Each target's own theory (sarproc.product.theory.ResponseTheory per axis: elevation rad, azimuth m,
     range m): the receivers' array factor seen from its elevation theta (spatial frequencies v_n cos(theta) /
     lambda per radian, each receiver a cell of the median spacing wide), and the flat azimuth and range
@@ -553,7 +557,7 @@ def array3d_product(
     channel_image: int | None = None,
     progress: ProgressFactory | None = None,
     command: str = "array3d",
-):
+) -> tuple[Product, Product | None]:
     """Focus a ``raw_array`` :class:`~sarproc.product.model.Product` into an ``image3d`` product.
 
     ``channel_image`` (1-based receiver number, as the paper's "14th receiver") also returns the

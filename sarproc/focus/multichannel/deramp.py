@@ -39,7 +39,12 @@ def squint_doppler(range_frequency: np.ndarray, velocity: float, squint: float, 
 
 
 def deramp_phasor(
-    times: np.ndarray, range_frequency: np.ndarray, velocity, squint, carrier_frequency: float, sign: int = -1
+    times: np.ndarray,
+    range_frequency: np.ndarray,
+    velocity: float,
+    squint: float,
+    carrier_frequency: float,
+    sign: int = -1,
 ) -> np.ndarray:
     """(n_t, n_f) complex64 exp(sign j 2 pi f_dc(f_r) t): sign -1 deramps, +1 restores."""
     fdc = squint_doppler(range_frequency, velocity, squint, carrier_frequency)
@@ -47,14 +52,14 @@ def deramp_phasor(
 
 
 def doppler_shift_phasor(
-    times: np.ndarray, range_frequency: np.ndarray, los_velocity, carrier_frequency: float, sign: int = -1
+    times: np.ndarray, range_frequency: np.ndarray, los_velocity: float, carrier_frequency: float, sign: int = -1
 ) -> np.ndarray:
     """(n_t, n_f) exp(sign j 2 pi f_v(f_r) t), f_v = -2 v_los (f_c + f_r) / c: a moving target's Doppler offset."""
     fv = -2.0 * los_velocity * (carrier_frequency + np.asarray(range_frequency, float)) / C
     return _phasor(sign * np.asarray(times, float)[:, None] * fv[None, :])
 
 
-def path_phasor(range_frequency: np.ndarray, path, carrier_frequency: float) -> np.ndarray:
+def path_phasor(range_frequency: np.ndarray, path: np.ndarray | float, carrier_frequency: float) -> np.ndarray:
     """(n_f,) exp(+j 2 pi (f_c + f_r) path / c): removes an extra one-way-equivalent path ``path`` (m)."""
     return _phasor((carrier_frequency + np.asarray(range_frequency, float)) * path / C)
 
@@ -66,7 +71,7 @@ def compression_phasor(range_frequency: np.ndarray, chirp_rate: float, sign: int
 
 
 def quadratic_phasor(
-    times: np.ndarray, range_frequency: np.ndarray, acceleration, t_center, carrier_frequency: float
+    times: np.ndarray, range_frequency: np.ndarray, acceleration: float, t_center: float, carrier_frequency: float
 ) -> np.ndarray:
     """(n_t, n_f) exp(+j 2 pi (f_c + f_r) a (t - t_c)^2 / c): removes a range history 0.5 a (t - t_c)^2 (two-way)."""
     dt2 = (np.asarray(times, float) - t_center) ** 2

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -42,6 +43,9 @@ from scipy import ndimage
 
 from sarproc.dsp.phasor import unit_phasor
 from sarproc.product.metadata import C
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
 
 TILE = (256, 32)  # CFAR background tiles: azimuth samples x range cells
 SIDELOBE_MARGIN = 4.0  # 6 dB over a stronger detection's sinc envelope
@@ -80,7 +84,7 @@ def detection_image(y_fa: np.ndarray, out_f: np.ndarray, ka: np.ndarray) -> np.n
     return (img.real**2 + img.imag**2).astype(np.float32)
 
 
-def background(power: np.ndarray, tile=TILE) -> np.ndarray:
+def background(power: np.ndarray, tile: tuple[int, int] = TILE) -> np.ndarray:
     """Mean background per tile from its median (median / ln 2, exponential statistics), same shape as power."""
     n_t, n_r = power.shape
     ta, tr = min(tile[0], n_t), min(tile[1], n_r)
@@ -177,7 +181,13 @@ def extraction_mask(frequencies: np.ndarray, prf: float, half_width: float) -> n
 
 
 def extract(
-    x_tf: np.ndarray, times: np.ndarray, prf: float, t_app: float, ka: np.ndarray, half_width: float, notches=None
+    x_tf: np.ndarray,
+    times: np.ndarray,
+    prf: float,
+    t_app: float,
+    ka: np.ndarray,
+    half_width: float,
+    notches: Sequence[float] | None = None,
 ) -> np.ndarray:
     """Channels (N, n_az, L) in (t, f_r) of one window -> the part focused within half_width / K_a of t_app.
 

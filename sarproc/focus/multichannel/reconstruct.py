@@ -129,7 +129,7 @@ class ReconstructParams:
         doc=("width of the nulled static band over the Doppler bandwidth (above 1: the spectral tails of the beam)"),
     )
 
-    def validate(self):
+    def validate(self) -> None:
         if self.velocity_max <= self.velocity_min:
             raise InputError("velocity_max: must be greater than velocity_min")
         if self.coarse_step < self.velocity_step:
@@ -296,7 +296,7 @@ class _Window:
             y *= self.acceleration_fix(v_r, v_a, t_c, slant_range)
         return y
 
-    def acceleration_fix(self, v_r, v_a, t_c, slant_range):
+    def acceleration_fix(self, v_r: float, v_a: float, t_c: float, slant_range: float) -> np.ndarray:
         g = self.g
         # R''_moving - R''_static with the same R': ((v - v_a)^2 + v_r^2 - v^2) / R (velocity.py).
         d_acc = ((g.velocity - v_a) ** 2 + v_r**2 - g.velocity**2) / slant_range

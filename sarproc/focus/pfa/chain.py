@@ -54,6 +54,9 @@ from sarproc.product.model import Product
 from sarproc.product.theory import fill_target_theory, window_theory
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+    from typing import Any
+
     from sarproc.product.metadata import RadarMetadata
     from sarproc.product.steps import ProgressFactory
 
@@ -164,7 +167,7 @@ def image_frame(raw: Product) -> GroundLosFrame:
     return frame
 
 
-def output_grid(params: Pfa2Params, raw: Product, frame: GroundLosFrame, irw) -> Grid:
+def output_grid(params: Pfa2Params, raw: Product, frame: GroundLosFrame, irw: Sequence[float]) -> Grid:
     """Image grid (offsets from the frame origin along e_a, e_r)."""
     t = targets_in_frame(raw.targets, frame)
     coords = {"azimuth": t["azimuth"], "range": t["range"] - frame.ground_range}
@@ -236,7 +239,7 @@ def pfa2(
     )
     timing["dealias"] = time.perf_counter() - t0
     az_os = max(1.05, alias["azimuth_oversampling"])
-    attrs = {"method": params.method, "dealias": alias}
+    attrs: dict[str, Any] = {"method": params.method, "dealias": alias}
     t0 = time.perf_counter()
     if params.method == "plain" and params.correct_distortion:
         img, kg = _plain_corrected(ph, rect, grid, origin, e_a, e_r, _interp(params, az_os))
@@ -306,7 +309,7 @@ def _record_target_theory(targets: np.ndarray, ph, e_a: np.ndarray, e_r: np.ndar
     inscribed one (two_step: each sub-image keeps its own support, so the IRW varies over the scene)."""
     band = (float(ph.freqs[0]), float(ph.freqs[-1]))
     shapes = (window_theory("none"), window_theory(params.range_window))
-    nulls = [x / 0.886 for x in kg.irw()]
+    nulls: Sequence[float] = [x / 0.886 for x in kg.irw()]
     own = []
     for i in range(len(targets)):
         if params.method == "two_step":

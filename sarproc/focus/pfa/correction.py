@@ -35,8 +35,8 @@ class Distortion:
 
 def pfa_distortion(
     positions: np.ndarray,
-    reference,
-    point,
+    reference: npt.ArrayLike,
+    point: npt.ArrayLike,
     e_azimuth: np.ndarray,
     e_range: np.ndarray,
     carrier_frequency: float,
@@ -99,7 +99,9 @@ def kgrid_rect(kg: KGrid) -> Rect:
     return Rect(kg.ka0, kg.ka0 + (kg.n_ka - 1) * kg.dka, kg.kr0, kg.kr0 + (kg.n_kr - 1) * kg.dkr)
 
 
-def distortion_field(geo: PfaGeometry, kg: KGrid, core: Grid, n: int = 9):
+def distortion_field(
+    geo: PfaGeometry, kg: KGrid, core: Grid, n: int = 9
+) -> tuple[RectBivariateSpline, RectBivariateSpline]:
     """Displacement D(p) - p over ``core`` (offsets from s), m: two bicubic splines (azimuth, range).
 
     Sampled by :func:`pfa_distortion` on an n x n lattice over the core and the k grid's rectangle.
@@ -119,7 +121,7 @@ def distortion_field(geo: PfaGeometry, kg: KGrid, core: Grid, n: int = 9):
     return RectBivariateSpline(la, lr, da), RectBivariateSpline(la, lr, dr)
 
 
-def extended_grid(core: Grid, warp) -> Grid:
+def extended_grid(core: Grid, warp: tuple[RectBivariateSpline, RectBivariateSpline]) -> Grid:
     """``core`` grown by the largest displacement plus 8 pixels of kernel support on every side."""
     fa, fr = warp
     m_a = 8 + int(math.ceil(np.max(np.abs(fa(core.a, core.r))) / core.da))
@@ -130,7 +132,13 @@ def extended_grid(core: Grid, warp) -> Grid:
 
 
 def warp_to_truth(
-    img: np.ndarray, grid: Grid, core: Grid, warp, geo: PfaGeometry, kg: KGrid, interp: Interpolation
+    img: np.ndarray,
+    grid: Grid,
+    core: Grid,
+    warp: tuple[RectBivariateSpline, RectBivariateSpline],
+    geo: PfaGeometry,
+    kg: KGrid,
+    interp: Interpolation,
 ) -> np.ndarray:
     """Read the PFA image ``img`` (on ``grid``) at D(p) for every pixel p of ``core``: (n_a, n_r) complex64."""
     fa, fr = warp
@@ -158,7 +166,7 @@ def warp_to_truth(
     return np.ascontiguousarray(out, dtype=np.complex64)
 
 
-def residual_phase(geo: PfaGeometry, a_rel, r_rel, kc_a: float, kc_r: float) -> np.ndarray:
+def residual_phase(geo: PfaGeometry, a_rel: np.ndarray, r_rel: np.ndarray, kc_a: float, kc_r: float) -> np.ndarray:
     """exp{-j [Phi_p(k_c) - k_c . (p - s)]} (n_a, n_r) complex64 over pixels p (offsets from s).
 
     A response's phase is the data's phase at the rectangle's centre k_c, K_c (r_s - r_p) at the

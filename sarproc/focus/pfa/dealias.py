@@ -38,6 +38,7 @@ from sarproc.product import beam
 from sarproc.product.errors import IMAGE_DEFECT, InputError
 
 if TYPE_CHECKING:
+    from sarproc.focus.pfa.polar import Grid
     from sarproc.product.metadata import RadarMetadata
 
 log = logging.getLogger(__name__)
@@ -63,7 +64,7 @@ def phase_steps(ph: PhaseHistory, e_a: np.ndarray, e_r: np.ndarray, extent_a: fl
     return k_max * float(np.max(np.abs(np.diff(ua)) * extent_a + np.abs(np.diff(ur)) * extent_r))
 
 
-def content_extent(radar: RadarMetadata, ph: PhaseHistory, e_a: np.ndarray, grid) -> tuple[float, float, float]:
+def content_extent(radar: RadarMetadata, ph: PhaseHistory, e_a: np.ndarray, grid: Grid) -> tuple[float, float, float]:
     """(swept azimuth extent, footprint width, slide per pulse), m, of what the beam lights.
 
     Without a sliding beam the content is taken as the image grid.
@@ -84,12 +85,12 @@ def dealias(
     radar: RadarMetadata,
     e_a: np.ndarray,
     e_r: np.ndarray,
-    grid,
+    grid: Grid,
     mode: str = "auto",
     subaperture_pulses: int | None = None,
     upsample: int | None = None,
     guard: float = 1.25,
-):
+) -> tuple[PhaseHistory, dict]:
     """Apply (or not) the sub-aperture de-aliasing; returns (phase history, report dict)."""
     if mode not in MODES:
         raise InputError(f"dealias: {mode!r} is not one of {list(MODES)}")

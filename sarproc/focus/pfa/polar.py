@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -35,6 +36,9 @@ import scipy.fft as sfft
 from sarproc.dsp.interp import resample_rows
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import C
+
+if TYPE_CHECKING:
+    from sarproc.focus.pfa.phase_history import PhaseHistory
 
 SUPPORTS = ("inscribed", "circumscribed")
 
@@ -92,7 +96,7 @@ class Rect:
 
 
 def los_components(
-    positions: np.ndarray, reference, e_azimuth: np.ndarray, e_range: np.ndarray
+    positions: np.ndarray, reference: npt.ArrayLike, e_azimuth: np.ndarray, e_range: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """u(t) . e_a and u(t) . e_r (n_pulses,) for the unit vectors from ``reference`` to the antenna."""
     d = np.asarray(positions, float) - np.asarray(reference, float).reshape(1, 3)
@@ -141,7 +145,9 @@ def _fft_length(spacing_guess: float, pixel: float, n_pixels: int) -> tuple[int,
     return m, 2 * math.pi / (m * pixel)
 
 
-def make_kgrid(rect: Rect, dka_max: float, dkr_max: float, da: float, dr: float, n_a: int, n_r: int):
+def make_kgrid(
+    rect: Rect, dka_max: float, dkr_max: float, da: float, dr: float, n_a: int, n_r: int
+) -> tuple[KGrid, tuple[int, int]]:
     """The (k_a, k_r) grid over ``rect`` whose FFT lands exactly on pixels (da, dr); plus the FFT lengths."""
     if not rect.valid:
         raise InputError("polar format: the pulses' polar supports do not overlap (no common rectangle)")
@@ -220,7 +226,7 @@ class Interpolation:
     azimuth_oversampling: float = 1.25
 
 
-def data_sampling(ua: np.ndarray, ur: np.ndarray, k_max, freq_step) -> tuple[float, float]:
+def data_sampling(ua: np.ndarray, ur: np.ndarray, k_max: float, freq_step: float) -> tuple[float, float]:
     """Largest k spacings that keep the data's own sampling density (rad/m)."""
     dkr = 4 * math.pi * freq_step / C * float(np.min(np.abs(ur)))
     ratio = ua / ur
@@ -228,7 +234,9 @@ def data_sampling(ua: np.ndarray, ur: np.ndarray, k_max, freq_step) -> tuple[flo
     return dka, dkr
 
 
-def polar_to_rect(ph, ua: np.ndarray, ur: np.ndarray, kg: KGrid, interp: Interpolation, block: int = 256) -> np.ndarray:
+def polar_to_rect(
+    ph: PhaseHistory, ua: np.ndarray, ur: np.ndarray, kg: KGrid, interp: Interpolation, block: int = 256
+) -> np.ndarray:
     """LOSPI: resample S(t, f_r) onto the (k_r, k_a) grid; returns (n_kr, n_ka) complex64."""
     n_az = ph.data.shape[0]
     fc, f0, dfr = ph.carrier_frequency, float(ph.freqs[0]), ph.freq_step
@@ -328,7 +336,7 @@ def image_to_rect(img: np.ndarray, grid: Grid, kg: KGrid, forward: KGrid, worker
 
 
 def pfa(
-    ph,
+    ph: PhaseHistory,
     e_azimuth: np.ndarray,
     e_range: np.ndarray,
     grid: Grid,
@@ -338,7 +346,7 @@ def pfa(
     kgrid: KGrid | None = None,
     interp: Interpolation = Interpolation(),
     workers: int = -1,
-):
+) -> tuple[np.ndarray, KGrid]:
     """Polar format image of ``ph`` on ``grid`` (offsets from ``ph.reference`` along e_a, e_r).
 
     Returns (image (n_a, n_r) complex64, KGrid). ``rect`` overrides the support rectangle and

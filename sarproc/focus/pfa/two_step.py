@@ -29,6 +29,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Iterable
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.fft as sfft
@@ -51,6 +52,9 @@ from sarproc.focus.pfa.polar import (
 )
 from sarproc.product.metadata import C
 
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
 
 def valid_radius(azimuth_resolution: float, reference_range: float, wavelength: float, ka: float = 1.3) -> float:
     """eq. (7), Nie 2016: r_0 <= (2 rho_a / K_a) sqrt(R_ac / lambda), m."""
@@ -62,7 +66,9 @@ def valid_radius(azimuth_resolution: float, reference_range: float, wavelength: 
 FIRST_SIDELOBE = 0.2172
 
 
-def track_residual(positions: np.ndarray, reference, e_azimuth: np.ndarray, e_range: np.ndarray) -> float:
+def track_residual(
+    positions: np.ndarray, reference: npt.ArrayLike, e_azimuth: np.ndarray, e_range: np.ndarray
+) -> float:
     """Largest part of the range r(t) to ``reference`` that no cubic in the line-of-sight angle follows, m.
 
     On a straight track r is a smooth function of the polar angle theta = atan(u_a / u_r) (mm from a
@@ -219,11 +225,11 @@ def plan_tiles(
     core_size: tuple[float, float],
     overlap: float,
     positions: np.ndarray,
-    reference,
+    reference: npt.ArrayLike,
     e_azimuth: np.ndarray,
     e_range: np.ndarray,
     carrier_frequency: float,
-    band,
+    band: tuple[float, float],
 ) -> list[Tile]:
     """Cut the output grid into tiles of at most ``core_size`` (m) and size their step-1 windows.
 
@@ -269,7 +275,7 @@ def plan_tiles(
     return tiles
 
 
-def window_slices(grid: Grid, window) -> tuple[slice, slice]:
+def window_slices(grid: Grid, window: tuple[float, float, float, float]) -> tuple[slice, slice]:
     """Pixel slices of ``grid`` covering ``window`` (a_min, a_max, r_min, r_max), FFT-friendly lengths."""
     out = []
     for lo, hi, start, step, n in (
@@ -286,11 +292,11 @@ def window_slices(grid: Grid, window) -> tuple[slice, slice]:
 def tile_rects(
     tiles: Iterable[Tile],
     positions: np.ndarray,
-    reference,
+    reference: npt.ArrayLike,
     e_azimuth: np.ndarray,
     e_range: np.ndarray,
     carrier_frequency: float,
-    band,
+    band: tuple[float, float],
 ) -> list[Rect]:
     """Each tile centre's inscribed polar support (its own resolution and carrier).
 
@@ -311,20 +317,20 @@ def tile_rects(
 
 def local_irw(
     positions: np.ndarray,
-    point,
+    point: npt.ArrayLike,
     e_azimuth: np.ndarray,
     e_range: np.ndarray,
     carrier_frequency: float,
-    band,
+    band: tuple[float, float],
     factor: float = 0.886,
-):
+) -> tuple[float, float]:
     """Theoretical (azimuth, range) IRW, m, of a point's own inscribed polar support (varies over a wide scene)."""
     ua, ur = los_components(positions, point, e_azimuth, e_range)
     r = polar_support(ua, ur, carrier_frequency, np.asarray(band), "inscribed")
     return factor * 2 * math.pi / (r.ka_hi - r.ka_lo), factor * 2 * math.pi / (r.kr_hi - r.kr_lo)
 
 
-def mosaic(shape, tiles: list[Tile], results: Iterable[np.ndarray]) -> np.ndarray:
+def mosaic(shape: tuple[int, int], tiles: list[Tile], results: Iterable[np.ndarray]) -> np.ndarray:
     """Place each tile's core into the output image."""
     img = np.zeros(shape, np.complex64)
     for t, sub in zip(tiles, results):

@@ -51,7 +51,7 @@ class PreprocessParams:
     block_pulses: int = param(default=512, ge=1, doc="pulses per FFT block (memory bound)")
 
 
-def complex_dtype(precision: str):
+def complex_dtype(precision: str) -> type[np.complexfloating]:
     return np.complex64 if precision == "float32" else np.complex128
 
 

@@ -51,7 +51,7 @@ class CrossTrackArrayParams:
         "angle", default=0.0, ge=0, lt=math.pi, doc=("one-way -3 dB beamwidth of the element pattern")
     )
 
-    def validate(self):
+    def validate(self) -> None:
         if self.layout == "paper" and self.array_length is None:
             raise InputError("array_length: required for layout: paper")
         if self.layout == "symmetric" and self.array_length is not None:
@@ -75,13 +75,15 @@ class CrossTrackArray(ReceiverArray):
     Params = CrossTrackArrayParams
     product_kind = "raw_array"
 
-    def __init__(self, params, scene_params: SceneParams, radar: RadarMetadata) -> None:
+    def __init__(self, params: CrossTrackArrayParams, scene_params: SceneParams, radar: RadarMetadata) -> None:
         super().__init__(params, scene_params, radar)
         self.v = receiver_offsets(params)
         self.receiver_offsets = np.zeros((len(self.v), 3))
         self.receiver_offsets[:, 1] = self.v
 
-    def gains(self, t, platform_pos: np.ndarray, target_pos: np.ndarray, channel, gains):
+    def gains(
+        self, t: np.ndarray, platform_pos: np.ndarray, target_pos: np.ndarray, channel: int, gains: np.ndarray
+    ) -> np.ndarray:
         if self.params.element_pattern == "none":
             return gains
         rx = platform_pos + np.array([0.0, self.v[channel], 0.0])

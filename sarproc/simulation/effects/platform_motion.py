@@ -34,7 +34,7 @@ class PlatformMotionParams:
     vertical_phase: float = param("angle", default=0.0, doc="phi_z at t = 0")
     along_track_velocity_error: float = param("velocity", default=0.0, doc="dv added to the nominal speed along +x")
 
-    def validate(self):
+    def validate(self) -> None:
         for axis in ("cross_track", "vertical"):
             if getattr(self, f"{axis}_amplitude") > 0 and getattr(self, f"{axis}_period") is None:
                 raise InputError(f"{axis}_period: required with a non-zero {axis}_amplitude")
@@ -61,5 +61,5 @@ class PlatformMotion(Effect):
     order = 15
     Params = PlatformMotionParams
 
-    def platform_positions(self, t, positions: np.ndarray):
+    def platform_positions(self, t: np.ndarray, positions: np.ndarray) -> np.ndarray:
         return positions + displacement(self.params, t)

@@ -60,7 +60,7 @@ class RangeGate(Effect):
     order = 30
     Params = RangeGateParams
 
-    def __init__(self, params, scene_params: SceneParams, radar: RadarMetadata) -> None:
+    def __init__(self, params: RangeGateParams, scene_params: SceneParams, radar: RadarMetadata) -> None:
         super().__init__(params, scene_params, radar)
         self.range_step = params.range_step or C / (2 * radar.range_sampling_rate)
         self.rate = linear_range_rate(radar)
@@ -74,7 +74,7 @@ class RangeGate(Effect):
         t_m = (middle - (n - 1) / 2.0) / prf
         return np.rint(self.rate * t_m / self.range_step).astype(np.int64)  # eq. (2): n(t) p_r ~ r_0(t) - R_c
 
-    def gate_offsets(self, t, offsets, reference_delay):
+    def gate_offsets(self, t: np.ndarray, offsets: np.ndarray, reference_delay: float) -> np.ndarray:
         n = self.gate_steps(t)
         if self.params.range_step is None:  # one sample per step: offsets exactly n / f_s
             return offsets + n / self.radar.range_sampling_rate
