@@ -27,7 +27,13 @@ from sarproc.cli.options import common_options, input_argument, summary, want_pr
     help="Output of --channel-image (an `image` product, dims azimuth, range).",
 )
 def array3d(
-    input_path: Path, output: Path, config_path, overwrite: bool, progress, channel_image, channel_output
+    input_path: Path,
+    output: Path,
+    config_path: Path | None,
+    overwrite: bool,
+    progress: bool | None,
+    channel_image: int | None,
+    channel_output: Path | None,
 ) -> None:
     """Linear-array down-looking 3D SAR (paper 004): range, azimuth and elevation-angle compression.
 

@@ -14,8 +14,14 @@ import contextlib
 import itertools
 import os
 import uuid
+from typing import TYPE_CHECKING
 
 import click
+
+if TYPE_CHECKING:
+    from collections.abc import Callable, Iterable, Iterator
+
+    from dask.distributed import Client
 
 scheduler_option = click.option(
     "--scheduler",
@@ -27,7 +33,9 @@ scheduler_option = click.option(
 )
 
 
-def dask_mapper(client, key_prefix: str = "task", window: int | None = None):
+def dask_mapper(
+    client: Client, key_prefix: str = "task", window: int | None = None
+) -> Callable[[Callable, Iterable], Iterator]:
     """map-like callable running ``func`` on ``client``'s workers; results in input order."""
     if window is None:
         window = 2 * max(1, sum(w.get("nthreads", 1) for w in client.scheduler_info()["workers"].values()))
@@ -72,7 +80,7 @@ def workers_peak_memory(client) -> dict[str, int]:
 
 
 @contextlib.contextmanager
-def scheduler_client(scheduler: str | None):
+def scheduler_client(scheduler: str | None) -> Iterator[Client | None]:
     """A Dask client for ``--scheduler`` ('local' starts a LocalCluster), or None without one."""
     if scheduler is None:
         yield None

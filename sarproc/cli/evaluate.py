@@ -24,7 +24,11 @@ from sarproc.cli.options import (
 )
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from sarproc.product.model import Product
+    from sarproc.quality.metrics import QualityReport
+    from sarproc.quality.moving import MoverReport
 
 
 def _fmt(x: float | None, spec: str) -> str:
@@ -46,7 +50,7 @@ def _theory(value, m) -> str:
     return "" if value is None or m.theory != "target" else f" ({value:.2f})"
 
 
-def markdown_table(report, units: dict) -> str:
+def markdown_table(report: QualityReport, units: dict) -> str:
     """Metric table (one row per target and principal cut, image-axis cuts as extra columns) and the
     false-target line, as Markdown."""
     lines = [
@@ -93,7 +97,7 @@ def markdown_table(report, units: dict) -> str:
     return "\n".join(lines)
 
 
-def movers_table(movers) -> str:
+def movers_table(movers: Sequence[MoverReport]) -> str:
     """Moving truth targets: where they were measured, velocity errors, relocation, as Markdown."""
 
     def f(x, spec=".3f"):
@@ -123,7 +127,7 @@ def movers_table(movers) -> str:
     return "\n".join(lines)
 
 
-def false_target_lines(report, units: dict) -> list[str]:
+def false_target_lines(report: QualityReport, units: dict) -> list[str]:
     """The false-target figures: on the residual image (every target's fitted response subtracted) with the
     residual's floor, and outside the +-guard_cells windows of the image itself."""
 
@@ -202,7 +206,14 @@ def _write_text_atomic(path: Path, text: str, overwrite: bool = True) -> None:
 @max_memory_option
 @dry_run_option
 def evaluate(
-    input_path: Path, output, overwrite: bool, plot_dir, expect_path, target_names, config_path, progress
+    input_path: Path,
+    output: Path,
+    overwrite: bool,
+    plot_dir: Path | None,
+    expect_path: Path | None,
+    target_names: str | None,
+    config_path: Path | None,
+    progress: bool | None,
 ) -> None:
     """Point-target metrics of an image: IRW, PSLR, ISLR, position error and false-target level.
 

@@ -82,7 +82,13 @@ check_option = click.option(
     help="SICD version written: 1.3.0 for readers that do not know 1.4.0 (the content is the same).",
 )
 def export_sicd(
-    input_path: Path, output: Path, config_path, overwrite: bool, report_path, image_formation: str, sicd_version: str
+    input_path: Path,
+    output: Path,
+    config_path: Path | None,
+    overwrite: bool,
+    report_path: Path | None,
+    image_formation: str,
+    sicd_version: str,
 ) -> None:
     """Export a focused 2D image product to SICD (NITF), checked by sarkit's SicdConsistency."""
     import numpy as np
@@ -140,7 +146,9 @@ def export_sicd(
 @overwrite_option
 @check_option
 @dry_run_option
-def export_cphd(input_path: Path, output: Path, config_path, overwrite: bool, report_path) -> None:
+def export_cphd(
+    input_path: Path, output: Path, config_path: Path | None, overwrite: bool, report_path: Path | None
+) -> None:
     """Export a single-channel raw product to CPHD 1.1.0 (FX domain), checked by sarkit's CphdConsistency."""
     from sarproc.cli.stage import export_cphd_estimate, naming, plan_outputs
     from sarproc.product.cphd import check_cphd, require_sarkit, write_cphd

@@ -13,7 +13,9 @@ from sarproc.cli.options import common_options, input_argument, summary, want_pr
 @click.command()
 @input_argument
 @common_options
-def reconstruct(input_path: Path, output: Path, config_path, overwrite: bool, progress) -> None:
+def reconstruct(
+    input_path: Path, output: Path, config_path: Path | None, overwrite: bool, progress: bool | None
+) -> None:
     """Azimuth multichannel reconstruction (paper 003): raw_multichannel -> one raw channel at N x PRF.
 
     Squint deramp, Krieger filter bank, and for `method: modified` moving-target detection (CFAR on

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any, TypeVar
 
 import click
 
@@ -70,7 +72,11 @@ dry_run_option = click.option(
 )
 
 
-def common_options(func):
+F = TypeVar("F", bound=Callable[..., Any])
+T = TypeVar("T")
+
+
+def common_options(func: F) -> F:
     """-o, --config, --overwrite, --progress, --max-memory, --dry-run in one decorator."""
     for opt in (dry_run_option, max_memory_option, progress_option, overwrite_option, config_option, output_option):
         func = opt(func)
@@ -93,13 +99,13 @@ def dry_run() -> bool:
     return ctx is not None and bool(ctx.meta.get("sarproc.dry_run"))
 
 
-def want_progress(flag) -> bool:
+def want_progress(flag: bool | None) -> bool:
     if verbosity() < 0:
         return False
     return sys.stderr.isatty() if flag is None else bool(flag)
 
 
-def check_sections(data: dict, path) -> None:
+def check_sections(data: dict, path: str | Path) -> None:
     """Refuse a top-level key that is no stage's, no other command's and no scene's section (a typo
     would otherwise be ignored and the defaults used)."""
     import dataclasses
@@ -118,7 +124,7 @@ def check_sections(data: dict, path) -> None:
         )
 
 
-def load_config(cls, path, section: str | None = None):
+def load_config(cls: type[T], path: str | Path | None, section: str | None = None) -> T:
     """Build parameter model ``cls`` from a YAML file (or defaults when ``path`` is None).
 
     With ``section``, only that top-level key of the file is used, so one YAML file can hold

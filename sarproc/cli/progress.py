@@ -2,8 +2,13 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
 
-def progress_factory(enabled: bool, desc: str):
+if TYPE_CHECKING:
+    from sarproc.product.steps import ProgressFactory
+
+
+def progress_factory(enabled: bool, desc: str) -> ProgressFactory | None:
     """A callable wrapping an iterable in a tqdm bar (total from ``len`` or ``total=``), or None when off."""
     if not enabled:
         return None

@@ -27,7 +27,7 @@ from sarproc.cli.options import (
 @max_memory_option
 @dry_run_option
 @scheduler_option
-def simulate(scene_path: Path, output: Path, overwrite: bool, progress, scheduler) -> None:
+def simulate(scene_path: Path, output: Path, overwrite: bool, progress: bool | None, scheduler: str | None) -> None:
     """Simulate exact-geometry raw echoes of the point targets declared in SCENE_PATH ('-': standard input)."""
     from sarproc.cli.dask_map import dask_mapper, scheduler_client
     from sarproc.cli.progress import progress_factory

@@ -45,7 +45,9 @@ def _run(
 @click.command()
 @input_argument
 @common_options
-def preprocess(input_path: Path, output: Path, config_path, overwrite: bool, progress) -> None:
+def preprocess(
+    input_path: Path, output: Path, config_path: Path | None, overwrite: bool, progress: bool | None
+) -> None:
     """Doppler-centroid correction of a raw product (paper 000 eq. 7; section `preprocess:`)."""
     from sarproc.cli.stage import preprocess_estimate
     from sarproc.focus.squint_deramp.preprocess import PreprocessParams, preprocess as run
@@ -71,7 +73,9 @@ def preprocess(input_path: Path, output: Path, config_path, overwrite: bool, pro
 @click.command()
 @input_argument
 @common_options
-def coarse_focus(input_path: Path, output: Path, config_path, overwrite: bool, progress) -> None:
+def coarse_focus(
+    input_path: Path, output: Path, config_path: Path | None, overwrite: bool, progress: bool | None
+) -> None:
     """Azimuth deramp / SPECAN coarse focusing (paper 000 eqs. 9-11; section `coarse_focus:`)."""
     from sarproc.cli.stage import coarse_focus_estimate
     from sarproc.focus.squint_deramp.coarse_focus import CoarseFocusParams, coarse_focus as run
@@ -99,7 +103,9 @@ def coarse_focus(input_path: Path, output: Path, config_path, overwrite: bool, p
 @click.command()
 @input_argument
 @common_options
-def fine_focus(input_path: Path, output: Path, config_path, overwrite: bool, progress) -> None:
+def fine_focus(
+    input_path: Path, output: Path, config_path: Path | None, overwrite: bool, progress: bool | None
+) -> None:
     """Stolt range focusing and azimuth compression, flow 1 or NLCS flow 2 (section `fine_focus:`)."""
     from sarproc.cli.stage import fine_focus_estimate
     from sarproc.focus.squint_deramp.fine_focus import FineFocusParams, fine_focus as run

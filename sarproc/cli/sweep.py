@@ -54,9 +54,9 @@ from sarproc.cli.options import summary, verbosity
 @click.option("--list", "list_only", is_flag=True, help="Print the tasks and exit.")
 def sweep(
     sweep_path: Path,
-    output,
-    scheduler,
-    table_path,
+    output: Path | None,
+    scheduler: str | None,
+    table_path: Path | None,
     workers: int,
     threads_per_worker: int,
     processes: bool,

@@ -56,10 +56,17 @@ import threading
 import time
 import uuid
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from sarproc import __version__
 from sarproc.product.config import build, load_yaml, param
 from sarproc.product.errors import InputError, ProcessingError
+
+if TYPE_CHECKING:
+    from collections.abc import Callable, Iterable, Iterator, Sequence
+    from typing import TextIO
+
+    from dask.distributed import Client
 
 TIME_COLUMNS = ("simulate_s", "focus_s", "focus_median_s", "focus_spread_s", "evaluate_s")
 TIMING_KEYS = TIME_COLUMNS + ("focus_times",)  # every key of a row that holds a measured time
@@ -142,13 +149,13 @@ class Plan:
     tasks: tuple[Task, ...]
 
 
-def digest(obj) -> str:
+def digest(obj: object) -> str:
     """sha256 of a JSON-serialisable object (sorted keys, so dict order does not matter)."""
     text = json.dumps(obj, sort_keys=True, default=str, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def set_dotted(mapping: dict, key: str, value, where: str) -> None:
+def set_dotted(mapping: dict, key: str, value: object, where: str) -> None:
     """mapping['a']['b'] = value for key 'a.b' (intermediate mappings created)."""
     parts = key.split(".")
     node = mapping
@@ -184,7 +191,7 @@ STAGE_PARAMS = {
 }
 
 
-def check_stage_sections(config: dict, commands, where: str) -> None:
+def check_stage_sections(config: dict, commands: Iterable[str], where: str) -> None:
     """Build each stage's parameters from ``config`` (bad knobs fail here, naming the task and key)."""
     import importlib
 
@@ -196,7 +203,7 @@ def check_stage_sections(config: dict, commands, where: str) -> None:
         build(getattr(importlib.import_module(module), name), config.get(section) or {}, where, section)
 
 
-def plan_sweep(path, output=None) -> Plan:
+def plan_sweep(path: str | Path, output: str | Path | None = None) -> Plan:
     """Expand a sweep YAML into simulation jobs and tasks; every scene is validated first."""
     from sarproc.simulation.scene import scene_from_mapping
 
@@ -292,7 +299,7 @@ class _ThreadRoutedStdout(io.TextIOBase):
     (contextlib.redirect_stdout) would mix their outputs and restore the wrong stream.
     """
 
-    def __init__(self, fallback) -> None:
+    def __init__(self, fallback: TextIO) -> None:
         self._fallback = fallback
 
     @property
@@ -302,7 +309,7 @@ class _ThreadRoutedStdout(io.TextIOBase):
     def writable(self) -> bool:
         return True
 
-    def write(self, text):
+    def write(self, text: str) -> int:
         buf = getattr(_local, "buffer", None)
         return (buf if buf is not None else self._fallback).write(text)
 
@@ -313,7 +320,7 @@ class _ThreadRoutedStdout(io.TextIOBase):
 
 
 @contextlib.contextmanager
-def captured_stdout():
+def captured_stdout() -> Iterator[io.StringIO]:
     """Collect what this thread prints (click.echo) into a StringIO."""
     with _install_lock:
         if _installed[0] == 0:
@@ -331,7 +338,7 @@ def captured_stdout():
                 sys.stdout = _installed[1]
 
 
-def invoke(command: str, args) -> str:
+def invoke(command: str, args: Sequence[str | Path]) -> str:
     """Run ``sarproc COMMAND ARGS`` in this process; returns what it printed."""
     from sarproc.cli.main import cli
 
@@ -347,7 +354,7 @@ def _record_path(output: Path) -> Path:
     return output.with_name(output.name + ".done.json")
 
 
-def run_step(command: str, args, output: Path, key: str) -> dict:
+def run_step(command: str, args: Sequence[str | Path], output: Path, key: str) -> dict:
     """Run one stage unless ``output`` exists with a record of the same key; returns the record."""
     from sarproc.product.io import atomic_path
 
@@ -555,7 +562,7 @@ def _order(plan: Plan, rows: list) -> list:
     return sorted(rows, key=lambda r: index[r["task"]])
 
 
-def run_serial(plan: Plan, on_row=None) -> Outcome:
+def run_serial(plan: Plan, on_row: Callable[[dict], object] | None = None) -> Outcome:
     """Every task in this process, one after the other (no Dask needed)."""
     start = time.perf_counter()
     sims, rows, failures = {}, [], []
@@ -608,7 +615,7 @@ def _repeat_rounds(plan: Plan, rows: list, failures: list, sims: dict, run_round
     return [with_repeats(r, done[r["task"]]) for r in rows if r["task"] in done]
 
 
-def local_client(workers: int, threads_per_worker: int = 1, processes: bool = True):
+def local_client(workers: int, threads_per_worker: int = 1, processes: bool = True) -> Client:
     """A distributed Client on a new LocalCluster (its HTTP server on a free port: several may run at once)."""
     from dask.distributed import Client, LocalCluster
 
@@ -618,7 +625,7 @@ def local_client(workers: int, threads_per_worker: int = 1, processes: bool = Tr
     return Client(cluster)
 
 
-def run_dask(plan: Plan, client, on_row=None) -> Outcome:
+def run_dask(plan: Plan, client: Client, on_row: Callable[[dict], object] | None = None) -> Outcome:
     """Submit the simulations and the tasks (each depending on its raw product) to a Dask client."""
     from dask.distributed import as_completed
 
