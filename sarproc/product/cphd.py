@@ -32,7 +32,7 @@ from sarproc import __version__
 from sarproc.product.errors import InputError
 from sarproc.product.geolocation import Placement, ecf_to_geodetic, utc_datetime
 from sarproc.product.metadata import C, RadarMetadata
-from sarproc.product.model import TARGET_DTYPE, TARGET_THEORY_FIELDS, Product
+from sarproc.product.model import TARGET_DTYPE, TARGET_NAMES, TARGET_THEORY_FIELDS, Product
 from sarproc.product.sicd import MODE_TYPE, consistency_summary, pulse_times, require_sarkit
 
 CPHD_NS = "http://api.nsgreg.nga.mil/schema/cphd/1.1.0"
@@ -62,7 +62,7 @@ def _targets_to_json(targets: np.ndarray) -> list:
     out = []
     for t in targets:
         row = {}
-        for name in TARGET_DTYPE.names:
+        for name in TARGET_NAMES:
             v = t[name]
             row[name] = (
                 v.decode()
@@ -78,7 +78,7 @@ def _targets_to_json(targets: np.ndarray) -> list:
 def _targets_from_json(rows: list) -> np.ndarray:
     t = np.zeros(len(rows), TARGET_DTYPE)
     for i, row in enumerate(rows):
-        for name in TARGET_DTYPE.names:
+        for name in TARGET_NAMES:
             v = row.get(name, 0.0) if name in TARGET_THEORY_FIELDS else row[name]  # theory: absent in older files
             t[i][name] = v.encode() if name == "name" else complex(*v) if name == "amplitude" else v
     return t
@@ -298,7 +298,8 @@ def cphd_parts(raw: Product, place: Placement, sarproc_metadata: bool = True):
         ]
     }
     if sarproc_metadata:
-        root["ProductInfo"]["Parameter"] = [(k, v) for k, v in sarproc_meta.items()]
+        root["ProductInfo"]["Parameter"] = list(sarproc_meta.items())
+    assert root.elem is not None
     tree = root.elem.getroottree()
     # ReferenceGeometry from the PVPs, as sarkit's checker recomputes it (CPHD vol. 1, 6.5)
     refgeom = skcphd.compute_reference_geometry(tree, pvps)
@@ -598,7 +599,8 @@ def _taper(f, fx1, fx2):
 
 
 def _common_grid(path, domain, sig, sc0, scss, fx1, fx2, toa1, toa2, freq):
-    """Every vector's phase history (SGN = -1 form, about its own SRP) at the frequencies ``freq`` (see _foreign_raw)."""
+    """Every vector's phase history (SGN = -1 form, about its own SRP) at the frequencies ``freq``
+    (see _foreign_raw)."""
     import scipy.signal as ss
 
     n_vec, n = sig.shape

@@ -132,7 +132,8 @@ def placement(radar: RadarMetadata, params: GeolocationParams = GeolocationParam
     defaulted = []
     utc = params.time or radar.reference_utc
     if utc is None:
-        utc, _ = DEFAULT_UTC, defaulted.append(f"time {DEFAULT_UTC}")
+        utc = DEFAULT_UTC
+        defaulted.append(f"time {DEFAULT_UTC}")
     utc = parse_utc(utc, "geolocation.time")
     geo = (params.latitude, params.longitude, params.height)
     if geo[0] is None:
@@ -141,6 +142,7 @@ def placement(radar: RadarMetadata, params: GeolocationParams = GeolocationParam
         geo = DEFAULT_LAT_LON_HEIGHT
         defaulted.append("scene centre at latitude 0, longitude 0, height 0")
     lat, lon, height = geo[0], geo[1], geo[2] if geo[2] is not None else 0.0
+    assert lat is not None and lon is not None  # given together (GeolocationParams, RadarMetadata checks)
     if defaulted:
         log.warning(
             "no absolute reference in the product or the config (geolocation:, or the scene's reference:); using %s",
