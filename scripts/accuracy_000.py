@@ -59,9 +59,9 @@ SETTINGS = [
 
 def run_scene(scene: Path, repeat: int):
     from sarproc.focus.squint_deramp.coarse_focus import CoarseFocusParams, coarse_focus
-    from sarproc.product.config import build
     from sarproc.focus.squint_deramp.fine_focus import FineFocusParams, fine_focus
     from sarproc.focus.squint_deramp.preprocess import PreprocessParams, preprocess
+    from sarproc.product.config import build
     from sarproc.quality.metrics import evaluate_product
     from sarproc.simulation.scene import scene_from_mapping
     from sarproc.simulation.simulate import simulate
@@ -186,9 +186,9 @@ def main(argv=None):
 
 def _chain(cfg, raw=None, **over):
     from sarproc.focus.squint_deramp.coarse_focus import CoarseFocusParams, coarse_focus
-    from sarproc.product.config import build
     from sarproc.focus.squint_deramp.fine_focus import FineFocusParams, fine_focus
     from sarproc.focus.squint_deramp.preprocess import PreprocessParams, preprocess
+    from sarproc.product.config import build
     from sarproc.simulation.scene import scene_from_mapping
     from sarproc.simulation.simulate import simulate
 

@@ -24,14 +24,14 @@ import json
 import time
 from pathlib import Path
 
+import reproduce_002  # (same folder: the per-target table against own theory)
+
 from sarproc.focus.pfa.chain import Pfa2Params, pfa2
 from sarproc.product.config import load_yaml
 from sarproc.quality.tradeoff import faster_groups, pareto_front, timing_stats
 from sarproc.quality.tradeoff_plot import plot_tradeoff
 from sarproc.simulation.scene import load_scene
 from sarproc.simulation.simulate import simulate
-
-import reproduce_002  # (same folder: the per-target table against own theory)
 
 SETTINGS = [
     ("plain (baseline PFA)", {"method": "plain"}),
@@ -125,7 +125,7 @@ def main(argv=None):
     base = {k: v for k, v in (load_yaml(args.config).get("pfa2", {}) or {}).items() if k != "method"}
     radius = None
     results, kws = [], []
-    for label, change in SETTINGS:
+    for _label, change in SETTINGS:
         kw = {**base, **change}
         if "subimage_size" in change:
             if radius is None:

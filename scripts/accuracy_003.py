@@ -190,7 +190,10 @@ def from_sweep(directory: Path) -> list:
         p = build(ReconstructParams, task.config.get("reconstruct") or {})
         ch = task.config["effects"]["azimuth_channels"]
         n, d = ch["n_receivers"], parse_quantity(ch["spacing"], "length")
-        products = lambda t=task: (read_product(t.directory / "reconstruct.h5"), read_product(raws[t.sim_key]))
+
+        def products(t=task):
+            return read_product(t.directory / "reconstruct.h5"), read_product(raws[t.sim_key])
+
         if any(k.startswith("reconstruct.") for k in task.setting):
             by_search[(p.search, p.velocity_step, p.coarse_step, n, d)] = (task, products)
         else:

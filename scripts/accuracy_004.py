@@ -37,9 +37,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from sarproc.product.config import load_yaml
 from sarproc.focus.array3d.linear_array import Array3DParams, array3d_product
-from sarproc.product.config import as_dict, build
+from sarproc.product.config import as_dict, build, load_yaml
 from sarproc.product.errors import InputError
 from sarproc.quality.metrics import evaluate_product
 from sarproc.simulation.scene import scene_from_mapping
@@ -206,7 +205,7 @@ def sweep_family(directory: Path, scene: str, settings, base, singles=()):
         params = build(Array3DParams, {**base, **knobs}, source=label)
         want = json.dumps(as_dict(params), sort_keys=True, default=str)
 
-        def task(name):
+        def task(name, want=want, label=label):  # bound now: called only in this iteration
             if (name, want) not in tasks:
                 raise SystemExit(f"{directory}: no task of scene {name} with the setting {label!r}")
             used.add((name, want))

@@ -7,8 +7,8 @@ outside pytest and prints one table, plus the cases that fall short.
 from __future__ import annotations
 
 import collections
-import re
 import importlib.util
+import re
 import sys
 import tempfile
 import time

@@ -28,6 +28,7 @@ Results go to OUT/latest.json and OUT/bench-<UTC time>.json; a previous latest.j
 from __future__ import annotations
 
 import argparse
+import contextlib
 import ctypes
 import datetime
 import gc
@@ -58,14 +59,11 @@ def _status_kib(key: str) -> int:
 def measure(fn):
     """(result, wall s, cpu/wall, peak RSS rise in bytes) of fn()."""
     gc.collect()
-    try:  # hand freed heap memory back first: glibc keeps it resident, and a later stage reusing it reads no rise
+    # hand freed heap memory back first: glibc keeps it resident, and a later stage reusing it reads no rise
+    with contextlib.suppress(OSError, AttributeError):
         ctypes.CDLL("libc.so.6").malloc_trim(0)
-    except (OSError, AttributeError):
-        pass
-    try:
+    with contextlib.suppress(OSError):
         Path("/proc/self/clear_refs").write_text("5")  # reset the peak RSS (VmHWM) to the current RSS
-    except OSError:
-        pass
     rss0 = _status_kib("VmRSS")
     ru0 = resource.getrusage(resource.RUSAGE_SELF)
     t0 = time.perf_counter()
@@ -248,7 +246,10 @@ def bp_stages(case):
         engines = [("reference", {})]
     stages = []
     for label, opts in engines:
-        fn = lambda o=opts: backproject_points(*args, **kw, **o).reshape(n, n).astype(np.complex64)
+
+        def fn(o=opts):
+            return backproject_points(*args, **kw, **o).reshape(n, n).astype(np.complex64)
+
         st = Stage(
             f"backproject {label}",
             fn,
@@ -526,7 +527,7 @@ def main(argv=None):
             )
         rows.append(row)
 
-    stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y%m%dT%H%M%SZ")
+    stamp = datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%SZ")
     text = "\n".join([f"# sarproc bench {stamp}", "", fmt_table(rows, previous), ""] + [f"- {n}" for n in notes])
     print(text)
     args.out.mkdir(parents=True, exist_ok=True)

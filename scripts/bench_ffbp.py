@@ -11,6 +11,7 @@ import json
 import math
 import sys
 import time
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -102,6 +103,7 @@ def fastsar_rows(case, n, spacing, exact, power, python, calls):
 
 def main():
     from bench import bench_scene_case, plane_grid
+
     from sarproc.focus.backprojection import backproject_points
     from sarproc.focus.ffbp import ffbp_points, predicted_error
 
@@ -122,8 +124,16 @@ def main():
         pts = plane_grid(case["centre"], case["e1"], case["e2"], n, spacing)
         common = dict(gate_offset=case["gate"])
         exact, t_exact = best_of(
-            lambda: backproject_points(
-                case["rc"], case["range_time"], case["pos"], case["pos"], pts, case["fc"], engine="compiled", **common
+            partial(
+                backproject_points,
+                case["rc"],
+                case["range_time"],
+                case["pos"],
+                case["pos"],
+                pts,
+                case["fc"],
+                engine="compiled",
+                **common,
             ),
             a.repeats,
         )
@@ -132,7 +142,8 @@ def main():
         print(f"{n}x{n} ({spacing:.3f} m, {len(case['pos'])} pulses): exact {t_exact:.3f} s", flush=True)
         for k, q, interp in SETTINGS:
             img, t = best_of(
-                lambda: ffbp_points(
+                partial(
+                    ffbp_points,
                     case["rc"],
                     case["range_time"],
                     case["pos"],

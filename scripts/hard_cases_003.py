@@ -18,8 +18,8 @@ import math
 from pathlib import Path
 
 import numpy as np
-
 from reproduce_003 import load_json, mfta_db, pick, raw_of, sweep_rows
+
 from sarproc.focus.multichannel import channels
 from sarproc.product.io import read_product
 

@@ -9,11 +9,12 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from test_effects import SQUINT50, MOTION, with_effects
+from test_effects import MOTION, SQUINT50, with_effects
+
+from sarproc.focus.backprojection import BackprojectParams, backproject
+from sarproc.quality.metrics import evaluate_product
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
-from sarproc.focus.backprojection import backproject, BackprojectParams
-from sarproc.quality.metrics import evaluate_product
 
 bp = BackprojectParams(frame="los", margin_cells=28)
 

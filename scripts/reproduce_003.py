@@ -113,7 +113,7 @@ def raw_of(sweep_dir: Path, scene: str) -> Path:
     named after the first of them): the one whose scene YAML has the task's simulation sections."""
     from sarproc.product.config import load_yaml
 
-    task = [r for r in sweep_rows(sweep_dir) if r["scene"] == scene][0]
+    task = next(r for r in sweep_rows(sweep_dir) if r["scene"] == scene)
 
     def scene_part(path):
         return {k: v for k, v in load_yaml(path).items() if k not in STAGE_SECTIONS}
@@ -337,7 +337,10 @@ def figures(res, images, strips, spectra, err_rows, vel_rows):
 
 def md_table(rows, cols, fmt):
     head = "| " + " | ".join(cols) + " |\n|" + "---|" * len(cols) + "\n"
-    cell = lambda r, c: "n/a" if r.get(c) is None else fmt.get(c, "{}").format(r[c])
+
+    def cell(r, c):
+        return "n/a" if r.get(c) is None else fmt.get(c, "{}").format(r[c])
+
     return head + "".join("| " + " | ".join(cell(r, c) for c in cols) + " |\n" for r in rows)
 
 
@@ -354,8 +357,8 @@ METRIC_COLS = [
     "rg_err_cells",
     "mfta_db",
 ]
-METRIC_FMT = {c: "{:.3f}" for c in ("az_irw_ratio", "rg_irw_ratio", "az_err_cells", "rg_err_cells")}
-METRIC_FMT.update({c: "{:.2f}" for c in ("az_pslr", "rg_pslr", "az_islr", "rg_islr", "mfta_db")})
+METRIC_FMT = dict.fromkeys(("az_irw_ratio", "rg_irw_ratio", "az_err_cells", "rg_err_cells"), "{:.3f}")
+METRIC_FMT.update(dict.fromkeys(("az_pslr", "rg_pslr", "az_islr", "rg_islr", "mfta_db"), "{:.2f}"))
 MOVER_COLS = [
     "name",
     "v_r",
@@ -371,7 +374,7 @@ MOVER_COLS = [
 
 
 def write_summary(res, s):
-    fmt = {c: "{:.3f}" for c in MOVER_COLS[1:]}
+    fmt = dict.fromkeys(MOVER_COLS[1:], "{:.3f}")
     fmt.update(shift="{:.1f}", relocation_error="{:.2f}", relocation_error_from_velocity="{:.2f}")
     expect = s.get("scene_expect") or {}
     lines = [
@@ -419,7 +422,7 @@ def write_summary(res, s):
         md_table(
             s["velocity_curve"],
             ["v_r", "v_r_est", "v_a_est", "conventional_db", "modified_db", "given_db"],
-            {k: "{:.2f}" for k in ("v_r_est", "v_a_est", "conventional_db", "modified_db", "given_db")},
+            dict.fromkeys(("v_r_est", "v_a_est", "conventional_db", "modified_db", "given_db"), "{:.2f}"),
         ),
         "## Clutter null with the redundant channel (energy after / before, dB)",
         "",

@@ -15,11 +15,11 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from scipy.ndimage import maximum_filter  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from scipy.ndimage import maximum_filter
 
-from sarproc.product.io import read_product  # noqa: E402
+from sarproc.product.io import read_product
 
 
 def subpixel_peak(mag: np.ndarray, i: int, j: int) -> tuple[float, float]:
@@ -117,7 +117,7 @@ def main():
             f"{max(abs(r[3]) for r in c['rows']):.3f} | {c['entropy']:.4f} | "
             f"{img.attrs.get('subimages', 1)} |"
         )
-    for label, img, c in results:
+    for label, _img, c in results:
         lines += [
             "",
             f"{label}:",

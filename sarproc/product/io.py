@@ -50,8 +50,8 @@ from sarproc.product.model import (
     KIND_DIMS,
     MOVING_TARGET_COLUMNS,
     PRODUCT_KINDS,
-    TARGET_DTYPE,
     TARGET_IRW_FIELDS,
+    TARGET_NAMES,
     TARGET_NULL_FIELDS,
     TARGET_SIDELOBE_FIELDS,
     TARGET_THEORY_FIELDS,
@@ -84,6 +84,12 @@ class Stream(NamedTuple):
     socket: bool = False
 
 
+def _stream_path(stream: Stream) -> str:
+    """The path of a stream given by path (every Stream has a descriptor or a path)."""
+    assert stream.path is not None
+    return stream.path
+
+
 _STD_FDS = {"stdin": 0, "stdout": 1, "stderr": 2}
 _FD_PATH = re.compile(r"^(?:/dev/(?P<std>stdin|stdout|stderr)|/dev/fd/(?P<fd>\d+)|/proc/self/fd/(?P<fd2>\d+))$")
 
@@ -98,7 +104,7 @@ def history_entry(command: str, params: dict | None = None) -> dict:
     return {
         "command": command,
         "sarproc_version": __version__,
-        "utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         "parameters": params or {},
     }
 
@@ -115,7 +121,7 @@ def _pid_alive(pid: int) -> bool:
 
 def clean_stale_temporaries(directory) -> list[Path]:
     """Remove temporaries of dead sarproc runs on this host in ``directory``; returns what went."""
-    removed = []
+    removed: list[Path] = []
     directory = Path(directory)
     try:
         entries = list(directory.glob(f".*{TMP_SUFFIX}"))
@@ -194,7 +200,7 @@ def _is_stdout(stream: Stream) -> bool:
         return True
     try:
         a = os.fstat(1)
-        b = os.fstat(stream.fd) if stream.fd is not None else os.stat(stream.path)
+        b = os.fstat(stream.fd) if stream.fd is not None else os.stat(_stream_path(stream))
     except OSError:
         return False
     return os.path.samestat(a, b) and not stat.S_ISREG(a.st_mode) and not stat.S_ISDIR(a.st_mode)
@@ -296,10 +302,10 @@ def _stream_into(tmp: Path, stream: Stream) -> None:
         fd, close = stream.fd, False
     elif stream.socket:
         sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-        sock.connect(stream.path)
+        sock.connect(_stream_path(stream))
         fd, close = sock.fileno(), False
     else:  # a FIFO waits here for its reader, as any writer does
-        fd, close = os.open(stream.path, os.O_WRONLY | os.O_CLOEXEC), True
+        fd, close = os.open(_stream_path(stream), os.O_WRONLY | os.O_CLOEXEC), True
     try:
         with open(tmp, "rb") as src:
             while chunk := src.read(1 << 20):
@@ -339,6 +345,7 @@ def atomic_path(output: Path, overwrite: bool = True):
             with run.critical():
                 run.mark_published(output, stream=True)
         else:
+            assert dest is not None  # not a stream: a regular destination
             with run.critical():
                 _publish(tmp, dest, overwrite)
                 run.track_temporary(tmp, made=False)
@@ -522,6 +529,7 @@ class ProductWriter:
 
     def __exit__(self, exc_type, exc, tb):
         if exc_type is None:
+            assert self.file is not None  # open from __enter__ until closed here
             try:
                 self.file.close()
                 self.file = None
@@ -701,7 +709,7 @@ def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
             raise InputError(f"{path}: missing dataset 'targets'")
         targets = np.asarray(f["targets"][()])
         missing = [
-            n for n in TARGET_DTYPE.names if n not in (targets.dtype.names or ()) and n not in TARGET_THEORY_FIELDS
+            n for n in TARGET_NAMES if n not in (targets.dtype.names or ()) and n not in TARGET_THEORY_FIELDS
         ]  # theory fields are optional (older files): 0, not recorded
         if missing:
             raise InputError(f"{path}: dataset 'targets' lacks field(s) {missing}")
@@ -730,14 +738,14 @@ def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
                 )
         attrs = {k: _attr_value(v) for k, v in dset.attrs.items() if k not in _INTERNAL_ATTRS}
         for key in DATA_ATTR_UNITS:
-            v = attrs.get(key)
-            values = v if isinstance(v, list) else [v]
-            if v is not None and not all(
+            value = attrs.get(key)
+            values = value if isinstance(value, list) else [value]
+            if value is not None and not all(
                 isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in values
             ):
                 raise InputError(
                     f"{path}: dataset {name!r} attribute {key!r} must be a finite number or list of "
-                    f"numbers ({DATA_ATTR_UNITS[key]}), got {v!r}"
+                    f"numbers ({DATA_ATTR_UNITS[key]}), got {value!r}"
                 )
         if kind in ("image", "image3d"):
             frame = attrs.get("frame")
@@ -771,7 +779,7 @@ def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
             data = np.empty((0,) * dset.ndim, dtype=dset.dtype)
             attrs["shape"] = dset.shape
     if not load:
-        coords_l = {d: c for d, c in coords.items()}
+        coords_l = dict(coords.items())
         prod = Product.__new__(Product)
         prod.__dict__.update(
             kind=kind,

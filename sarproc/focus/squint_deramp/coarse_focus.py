@@ -24,15 +24,16 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+from typing import Any
 
 import numpy as np
 import scipy.fft as sfft
 
+from sarproc.focus.squint_deramp.preprocess import METHODS, PRECISIONS, complex_dtype
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import IMAGE_DEFECT, InputError
 from sarproc.product.frames import SquintFrame
 from sarproc.product.metadata import C, RadarMetadata
-from sarproc.focus.squint_deramp.preprocess import METHODS, PRECISIONS, complex_dtype
 from sarproc.product.model import Product
 
 log = logging.getLogger(__name__)
@@ -242,7 +243,7 @@ def deramped_folds(
     padded = np.concatenate([total[-w:], total, total[:w]])
     local_max = np.lib.stride_tricks.sliding_window_view(padded, 2 * w + 1).max(axis=1) == total
     peaks = np.flatnonzero(local_max & (total >= total.max() * 10 ** (level_db / 10)))
-    accepted = []
+    accepted: list[int] = []
     for i in peaks[np.argsort(total[peaks])[::-1]]:  # side lobes of a much stronger nearby peak are not responses
         near = [j for j in accepted if abs((i - j + half) % n_out - half) < 12 * cell and total[j] > 10 * total[i]]
         if not near:
@@ -272,7 +273,7 @@ def deramped_folds(
             pos.append((window[j] + frac) * prf / n_out)
         return (pos[1] - pos[0]) / slope
 
-    out = []
+    out: list[dict[str, Any]] = []
     for i in accepted[:32]:
         f_app = float(freq[i])
         n = None
@@ -326,7 +327,8 @@ def _fold_messages(found: list[dict], radar: RadarMetadata, k: float, box) -> tu
                 f"deramped window +-{prf / 2:.1f} Hz; cause: a scatterer at x_n ~ {v * f['t_true']:.0f} m, outside "
                 f"{where}; fine focus would process it with a Doppler {f['n']:+d} PRF off, so it is not imaged at "
                 f"x_n ~ {v * f['t_true']:.0f} m but lands near x_n ~ {v * f['t_app']:.0f} m (a ghost) or smeared. "
-                "Raise the PRF or remove the scatterer from the data (a larger box does not help: the window is the PRF)"
+                "Raise the PRF or remove the scatterer from the data "
+                "(a larger box does not help: the window is the PRF)"
             )
         elif f["n"] is None and not f["inside_box"] and f["level_db"] >= -20.0:  # not a box-edge target's smear
             notes.append(
@@ -407,7 +409,7 @@ def coarse_focus(pre: Product, params: CoarseFocusParams = CoarseFocusParams(), 
             "deramp_extent": budget["deramp_extent"],
             "scene_box": [float(b) for b in box],
             "aliased": bool(problems),
-            "folds": [{k_: v_ for k_, v_ in f.items()} for f in folds if f["n"]],
+            "folds": [dict(f.items()) for f in folds if f["n"]],
         }
     )
     out = pre.derive(
