@@ -69,7 +69,7 @@ def _run_scope():
             signal.signal(s, h)
 
 
-def _one_line(text: str) -> str:
+def _one_line(text: object) -> str:
     return " ".join(str(text).split())
 
 
@@ -90,7 +90,8 @@ class LazyGroup(click.Group):
 
     def parse_args(self, ctx, args):
         # -q / -v / -vv may come anywhere (also after the subcommand): move them in front of it.
-        front, rest = [], []
+        front: list[str] = []
+        rest: list[str] = []
         for i, a in enumerate(args):
             if a == "--":
                 rest.extend(args[i:])
@@ -119,14 +120,14 @@ class LazyGroup(click.Group):
                     except Interrupted:
                         raise
                     except BaseException:
-                        if run.fired() is not None and not run.complete():
+                        if (fired := run.fired()) is not None and not run.complete():
                             # whatever the signal interrupted failed as a consequence
-                            raise Interrupted(run.fired()) from None
+                            raise Interrupted(fired) from None
                         raise
                     run.check()  # a signal whose exception a library swallowed: the run still stops
                     return result
-                except Interrupted as exc:
-                    exc.removed = run.remove_published()  # all outputs or none
+                except Interrupted:
+                    run.remove_published()  # all outputs or none
                     raise
         except InputError as exc:
             raise BadInput(str(exc)) from None
@@ -206,21 +207,22 @@ def run_cli(args=None) -> int:
         if not hdf5_handles_damaged() and not isinstance(unraisable.exc_value, Interrupted):
             default_hook(unraisable)
 
-    quiet_unraisable.sarproc = True
+    quiet_unraisable.sarproc = True  # type: ignore[attr-defined]
     if not getattr(default_hook, "sarproc", False):
         sys.unraisablehook = quiet_unraisable  # for the whole process: freed HDF5 objects complain at its exit
     run.install_handlers()  # before a stage starts (argument parsing, imports): nothing to clean
+    code = 0
     try:
-        cli.main(args=args, prog_name="sarproc")
-        code = 0
+        cli.main(args=args, prog_name="sarproc")  # standalone mode: always ends in SystemExit
     except SystemExit as exc:
         code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
     except Interrupted as exc:
         print(f"Error: interrupted by {signal.Signals(exc.signum).name}", file=sys.stderr)
         code = 128 + exc.signum
-    if run.fired() is not None and code == 0:  # during parsing, and no run began (--help, --version)
-        print(f"Error: interrupted by {signal.Signals(run.fired()).name}", file=sys.stderr)
-        code = 128 + run.fired()
+    fired = run.fired()
+    if fired is not None and code == 0:  # during parsing, and no run began (--help, --version)
+        print(f"Error: interrupted by {signal.Signals(fired).name}", file=sys.stderr)
+        code = 128 + fired
     run.ignore_signals()  # the run has ended: its status stands, a late signal must not kill the exit
     return code
 

@@ -33,7 +33,7 @@ def default_locator_works() -> bool:
     """Whether one of numba's own cache locators can store kernels of this package's source files."""
     try:
         return any(cls.from_function(_probe, __file__) is not None for cls in caching.CacheImpl._locator_classes)
-    except Exception:  # noqa: BLE001 - numba's private API changed: assume it works, as numba does
+    except Exception:  # numba's private API changed: assume it works, as numba does
         return True
 
 
