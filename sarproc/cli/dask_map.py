@@ -40,7 +40,7 @@ def dask_mapper(
     if window is None:
         window = 2 * max(1, sum(w.get("nthreads", 1) for w in client.scheduler_info()["workers"].values()))
 
-    def mapper(func, items):
+    def mapper(func: Callable, items: Iterable) -> Iterator:
         # keys unique to this call: two runs on one long-lived scheduler must never share results
         prefix = f"{key_prefix}-{uuid.uuid4().hex[:12]}"
         counter = itertools.count()

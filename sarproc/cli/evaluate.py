@@ -24,10 +24,10 @@ from sarproc.cli.options import (
 )
 
 if TYPE_CHECKING:
-    from collections.abc import Sequence
+    from collections.abc import Mapping, Sequence
 
     from sarproc.product.model import Product
-    from sarproc.quality.metrics import QualityReport
+    from sarproc.quality.metrics import AxisMetrics, EvaluateParams, FalseTarget, QualityReport
     from sarproc.quality.moving import MoverReport
 
 
@@ -39,13 +39,13 @@ def _fmt(x: float | None, spec: str) -> str:
     return format(x, spec)
 
 
-def _direction(m, dims) -> str:
+def _direction(m: AxisMetrics, dims: Sequence[str]) -> str:
     """The cut as 'axis' or 'axis -0.50 range' (axis-unit components per unit along its own axis)."""
     others = [f"{c:+.3f} {d}" for c, d in zip(m.direction, dims) if d != m.axis and abs(c) >= 5e-4]
     return " ".join([m.axis] + others) + (f" ({m.angle_deg:.1f} deg)" if others else "")
 
 
-def _theory(value, m) -> str:
+def _theory(value: float | None, m: AxisMetrics) -> str:
     """' (theory)' after a PSLR / ISLR when the target has its own."""
     return "" if value is None or m.theory != "target" else f" ({value:.2f})"
 
@@ -100,7 +100,7 @@ def markdown_table(report: QualityReport, units: dict) -> str:
 def movers_table(movers: Sequence[MoverReport]) -> str:
     """Moving truth targets: where they were measured, velocity errors, relocation, as Markdown."""
 
-    def f(x, spec=".3f"):
+    def f(x: float | None, spec: str = ".3f") -> str:
         return "n/a" if x is None else _fmt(x, spec)
 
     lines = [
@@ -131,7 +131,7 @@ def false_target_lines(report: QualityReport, units: dict) -> list[str]:
     """The false-target figures: on the residual image (every target's fitted response subtracted) with the
     residual's floor, and outside the +-guard_cells windows of the image itself."""
 
-    def where(ft):
+    def where(ft: FalseTarget) -> str:
         return ", ".join(f"{d} = {v:.4g} {units.get(d, '')}".rstrip() for d, v in ft.position.items())
 
     guard = report.false_target_guard if report.residual is not None else report.false_target
@@ -307,7 +307,9 @@ def evaluate(
         summary(f"evaluate: all checks passed against {expect_path}")
 
 
-def _plots(plot_dir: Path, product: Product, report, units, params) -> None:
+def _plots(
+    plot_dir: Path, product: Product, report: QualityReport, units: Mapping[str, str], params: EvaluateParams
+) -> None:
     created = not plot_dir.exists()
     plot_dir.mkdir(parents=True, exist_ok=True)
     try:
@@ -319,7 +321,9 @@ def _plots(plot_dir: Path, product: Product, report, units, params) -> None:
         raise
 
 
-def _draw(plot_dir: Path, product: Product, report, units, params) -> None:
+def _draw(
+    plot_dir: Path, product: Product, report: QualityReport, units: Mapping[str, str], params: EvaluateParams
+) -> None:
     import numpy as np
 
     from sarproc.product.io import atomic_path

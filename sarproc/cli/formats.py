@@ -37,7 +37,7 @@ def _check_line(name: str, result: dict) -> str:
     )
 
 
-def _finish(name: str, output: Path, result: dict, report_path) -> None:
+def _finish(name: str, output: Path, result: dict, report_path: Path | None) -> None:
     from sarproc.product.errors import ProcessingError
     from sarproc.product.io import atomic_path
 

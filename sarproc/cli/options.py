@@ -32,7 +32,7 @@ progress_option = click.option(
 input_argument = click.argument("input_path", type=click.Path(path_type=Path))
 
 
-def _store_max_memory(ctx, param, value):
+def _store_max_memory(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
     if value is not None:
         from sarproc.product.budget import parse_size
         from sarproc.product.errors import InputError
@@ -55,7 +55,7 @@ max_memory_option = click.option(
 )
 
 
-def _store_dry_run(ctx, param, value):
+def _store_dry_run(ctx: click.Context, param: click.Parameter, value: bool) -> bool:
     if value:
         ctx.meta["sarproc.dry_run"] = True
     return value

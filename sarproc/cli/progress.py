@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+from collections.abc import Sized
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    from collections.abc import Iterable
+
     from sarproc.product.steps import ProgressFactory
 
 
@@ -14,8 +17,8 @@ def progress_factory(enabled: bool, desc: str) -> ProgressFactory | None:
         return None
     from tqdm import tqdm
 
-    def bar(it, total=None):
-        if total is None and hasattr(it, "__len__"):
+    def bar(it: Iterable, total: int | None = None) -> Iterable:
+        if total is None and isinstance(it, Sized):
             total = len(it)
         return tqdm(it, desc=desc, unit="block", total=total, leave=False)
 

@@ -9,24 +9,31 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
 from sarproc.cli.options import common_options, input_argument, summary, want_progress
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from sarproc.product.budget import Plan
+    from sarproc.product.model import Product
 
 
 def _run(
     stage: str,
     input_path: Path,
     output: Path,
-    config_path,
+    config_path: Path | None,
     overwrite: bool,
-    kinds,
-    params_cls,
-    func,
+    kinds: tuple[str, ...],
+    params_cls: type,
+    func: Callable[..., Product],
     progress: bool | None,
-    estimate,
-):
+    estimate: Callable[..., Plan],
+) -> tuple[Product, float]:
     """The shared body of the three commands: prepare (config, input, output, plan), run, write."""
     from sarproc.cli.progress import progress_factory
     from sarproc.cli.stage import naming, prepare

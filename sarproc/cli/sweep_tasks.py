@@ -272,7 +272,7 @@ def plan_sweep(path: str | Path, output: str | Path | None = None) -> Plan:
     return Plan(path, out, knobs, tuple(sims.values()), tuple(tasks))
 
 
-def _keep_targets(mapping: dict, names, where: str) -> dict:
+def _keep_targets(mapping: dict, names: Sequence[str], where: str) -> dict:
     """The scene with only the named point targets (in the order given; a targets.grid is left out)."""
     points = (mapping.get("targets") or {}).get("points") or []
     by_name = {str(p.get("name")): p for p in points if isinstance(p, dict)}
@@ -531,7 +531,7 @@ def summarise_report(report: dict) -> dict:
     """Worst quality over targets and axes of an evaluate report (None where nothing was measured)."""
     axes = [a for t in report.get("targets", []) for a in t.get("axes", [])]
 
-    def worst(values):
+    def worst(values: Iterable[float | None]) -> float | None:
         vals = [v for v in values if v is not None and math.isfinite(v)]
         return max(vals) if vals else None
 
@@ -587,7 +587,7 @@ def run_serial(plan: Plan, on_row: Callable[[dict], object] | None = None) -> Ou
     return Outcome(_order(plan, rows), failures, time.perf_counter() - start)
 
 
-def _serial_round(calls):
+def _serial_round(calls: Iterable[tuple[str, tuple]]) -> Iterator[tuple[str, object]]:
     """Run (name, args of run_repeat) pairs in order; yields (name, result or exception)."""
     for name, args in calls:
         try:
@@ -596,7 +596,9 @@ def _serial_round(calls):
             yield name, exc
 
 
-def _repeat_rounds(plan: Plan, rows: list, failures: list, sims: dict, run_round) -> list:
+def _repeat_rounds(
+    plan: Plan, rows: list, failures: list, sims: dict, run_round: Callable[[list], Iterable[tuple[str, object]]]
+) -> list:
     """Rounds 1..repeats-1 of every finished task's focus chain, one round after the other (round-robin
     over the tasks); the rows with their timing summaries. A task whose repeat fails is a failure."""
     n = max((t.repeats for t in plan.tasks), default=1)
@@ -650,7 +652,7 @@ def run_dask(plan: Plan, client: Client, on_row: Callable[[dict], object] | None
         if on_row:
             on_row(row)
 
-    def dask_round(calls):
+    def dask_round(calls: Iterable[tuple[str, tuple]]) -> Iterator[tuple[str, object]]:
         # the whole round is submitted at once; the next round waits for this one (interleaving)
         futures = {
             client.submit(run_repeat, *args, key=f"repeat-{name}-{args[2]}-{run}", pure=False): name
@@ -666,7 +668,7 @@ def run_dask(plan: Plan, client: Client, on_row: Callable[[dict], object] | None
 # --- table and plot --------------------------------------------------------------------------------
 
 
-def _cell(v) -> str:
+def _cell(v: object) -> str:
     if v is None:
         return "n/a"
     if isinstance(v, float):

@@ -86,7 +86,7 @@ _TABLE_STEPS = 2048
 
 
 @functools.lru_cache(maxsize=32)
-def _weight_table(kernel, taps, oversampling, beta, steps=_TABLE_STEPS):
+def _weight_table(kernel: str, taps: int, oversampling: float, beta: float, steps: int = _TABLE_STEPS) -> np.ndarray:
     d = np.linspace(-taps / 2, taps / 2, taps * steps + 1)
     table = np.r_[kernel_weights(d, kernel, taps, oversampling=oversampling, beta=beta), 0.0]
     table.flags.writeable = False
@@ -94,7 +94,9 @@ def _weight_table(kernel, taps, oversampling, beta, steps=_TABLE_STEPS):
 
 
 @functools.lru_cache(maxsize=32)
-def _tap_table(kernel, taps, oversampling, beta, dtype: npt.DTypeLike, steps=_TABLE_STEPS):
+def _tap_table(
+    kernel: str, taps: int, oversampling: float, beta: float, dtype: npt.DTypeLike, steps: int = _TABLE_STEPS
+) -> np.ndarray:
     flat = _weight_table(kernel, taps, oversampling, beta, steps)
     c = np.arange(steps + 1)[:, None]
     m = np.arange(taps)[None, :]

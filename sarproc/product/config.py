@@ -22,10 +22,9 @@ from sarproc.product.errors import InputError
 from sarproc.product.units import parse_quantity
 
 if TYPE_CHECKING:
-    from collections.abc import Collection, Iterable
+    from collections.abc import Collection, Iterable, Mapping
     from typing import Any
 
-    from sarproc.product.model import Product
 
 MISSING = dataclasses.MISSING
 T = typing.TypeVar("T")
@@ -68,7 +67,7 @@ class _StrictLoader(yaml.SafeLoader):
     """SafeLoader that refuses a key given twice in one mapping (plain YAML keeps the last)."""
 
 
-def _construct_mapping(loader, node, deep=False):
+def _construct_mapping(loader: yaml.SafeLoader, node: yaml.MappingNode, deep: bool = False) -> dict:
     loader.flatten_mapping(node)
     seen: dict = {}
     for key_node, _ in node.value:
@@ -135,7 +134,7 @@ def load_yaml(path: str | Path) -> dict:
     return data
 
 
-def _check_keys(data, path, where) -> None:
+def _check_keys(data: object, path: str | Path, where: str) -> None:
     """Every mapping key must be a string (``1:`` or ``true:`` is a typo, not a parameter)."""
     if isinstance(data, dict):
         for k, v in data.items():
@@ -148,11 +147,11 @@ def _check_keys(data, path, where) -> None:
             _check_keys(v, path, f"{where}[{i}]")
 
 
-def _is_model(tp) -> bool:
+def _is_model(tp: object) -> bool:
     return isinstance(tp, type) and dataclasses.is_dataclass(tp)
 
 
-def _convert(value, tp, meta, where):
+def _convert(value: object, tp: Any, meta: Mapping[str, Any], where: str) -> Any:
     origin = typing.get_origin(tp)
     args = typing.get_args(tp)
     if origin is typing.Union or (origin is not None and str(origin) == "<class 'types.UnionType'>"):
@@ -213,7 +212,7 @@ SI_SYMBOL = {
 }
 
 
-def _check_bounds(x, meta, where, raw: Product) -> None:
+def _check_bounds(x: float, meta: Mapping[str, Any], where: str, raw: object) -> None:
     if isinstance(x, float) and math.isnan(x):
         raise InputError(f"{where}: NaN is not allowed")
     tests = (
@@ -225,14 +224,14 @@ def _check_bounds(x, meta, where, raw: Product) -> None:
     for key, ok, sym in tests:
         bound = meta.get(key)
         if bound is not None and not ok(x, bound):
-            si = SI_SYMBOL.get(meta.get("unit"), "")
+            si = SI_SYMBOL.get(meta.get("unit") or "", "")
             raise InputError(f"{where}: {raw!r} is out of range: must be {sym} {bound:g}{' ' + si if si else ''}")
     choices = meta.get("choices")
     if choices and x not in choices:
         raise InputError(f"{where}: {raw!r} is not one of {list(choices)}")
 
 
-def _build(cls, mapping: dict, where: str):
+def _build(cls: Any, mapping: dict, where: str) -> Any:
     hints = typing.get_type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
     unknown = sorted((k for k in mapping if k not in fields), key=str)
@@ -298,7 +297,7 @@ def build(cls: type[T], mapping: object, source: str = "", section: str = "") ->
 def as_dict(obj: object) -> dict:
     """Resolved parameters as plain Python values (SI floats), for history and YAML dumps."""
 
-    def conv(v):
+    def conv(v: object) -> Any:
         if dataclasses.is_dataclass(v):
             return {f.name: conv(getattr(v, f.name)) for f in dataclasses.fields(v)}
         if isinstance(v, (list, tuple)):
@@ -312,7 +311,7 @@ def as_dict(obj: object) -> dict:
     return conv(obj)
 
 
-def describe(cls, indent: int = 0) -> str:
+def describe(cls: type, indent: int = 0) -> str:
     """Printable documentation of a model's keys, units and defaults."""
     lines = []
     hints = typing.get_type_hints(cls)

@@ -41,8 +41,8 @@ if TYPE_CHECKING:
 _FRAMES: dict[str, type] = {}
 
 
-def register_frame(name: str) -> Callable[[type], type]:
-    def deco(cls):
+def register_frame(name: str) -> Callable[[type[Frame]], type[Frame]]:
+    def deco(cls: type[Frame]) -> type[Frame]:
         cls.name = name
         _FRAMES[name] = cls
         return cls
@@ -57,7 +57,7 @@ class Frame(abc.ABC):
     axes: tuple[str, ...] = ("azimuth", "range")
 
     @abc.abstractmethod
-    def to_xyz(self, *coords) -> np.ndarray:
+    def to_xyz(self, *coords: Any) -> np.ndarray:  # subclasses name their axes (azimuth, range_, ...)
         """Scene positions (..., 3) of points given by their frame coordinates."""
 
     @abc.abstractmethod

@@ -203,7 +203,7 @@ POLARIZATIONS = ("V", "H", "X", "Y", "S", "E", "RHC", "LHC")
 POLARIZATION_RE = re.compile(r"(V|H|X|Y|S|E|RHC|LHC):(V|H|X|Y|S|E|RHC|LHC)")
 
 
-def _attr_as(name: str, v, where: str):
+def _attr_as(name: str, v: object, where: str) -> Any:
     """One radar attribute converted to its field's type; a wrong type names the attribute."""
     if isinstance(v, bytes):
         try:

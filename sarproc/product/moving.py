@@ -83,7 +83,7 @@ def phase_centres(product: Product) -> np.ndarray:
     return pos + (tx + rx.mean(axis=0)) / 2
 
 
-def _crossing(t, angle, level, i, j) -> float:
+def _crossing(t: np.ndarray, angle: np.ndarray, level: float, i: int, j: int) -> float:
     """Time between pulses i and j where ``angle`` crosses ``level`` (linear between them)."""
     if angle[j] == angle[i]:
         return float(t[i])

@@ -70,7 +70,7 @@ _EARLY: list[int] = []  # a signal before the run began: acted on when it begins
 _mutex = threading.RLock()  # sweep steps may plan outputs from several threads
 
 
-def _key(path) -> str:
+def _key(path: str | os.PathLike) -> str:
     return os.path.abspath(os.fspath(path))
 
 

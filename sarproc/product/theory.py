@@ -74,7 +74,7 @@ def cut_metrics(p: np.ndarray, step: float, center: int, window: float) -> tuple
     right = p[center:]
     left = p[center::-1]
 
-    def half_power(side):
+    def half_power(side: np.ndarray) -> tuple[float, int]:
         below = np.flatnonzero(side < 0.5)
         if below.size == 0:
             return np.nan, side.size - 1
@@ -83,7 +83,7 @@ def cut_metrics(p: np.ndarray, step: float, center: int, window: float) -> tuple
         frac = (side[i - 1] - 0.5) / (side[i - 1] - side[i])
         return (i - 1 + frac), i
 
-    def first_null(side, start):
+    def first_null(side: np.ndarray, start: int) -> int:
         # First local minimum beyond the -3 dB point: the end of the main lobe.
         d = np.diff(side[start:])
         rising = np.flatnonzero(d > 0)
@@ -219,7 +219,7 @@ def illumination(radar: RadarMetadata, platform_pos: np.ndarray, point: npt.Arra
     )
 
 
-def _unit(d):
+def _unit(d: np.ndarray) -> np.ndarray:
     return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
@@ -325,7 +325,7 @@ def _reference_points(radar: RadarMetadata, targets: np.ndarray) -> np.ndarray:
     return np.broadcast_to(centre, targets.shape)
 
 
-def _beam_k(radar: RadarMetadata, pos: np.ndarray, targets):
+def _beam_k(radar: RadarMetadata, pos: np.ndarray, targets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(k along track (pulses, n), in-beam mask, two-way amplitude gain) of targets (n, 3) at positions."""
     tg = np.broadcast_to(targets, (len(pos),) + targets.shape)
     u = _unit(tg - pos[:, None, :])
@@ -334,14 +334,14 @@ def _beam_k(radar: RadarMetadata, pos: np.ndarray, targets):
     return k, np.abs(az) <= radar.azimuth_beamwidth / 2, np.abs(two_way_gain(radar, az, el))
 
 
-def _extent(k, mask):
+def _extent(k: np.ndarray, mask: np.ndarray) -> np.ndarray:
     with np.errstate(invalid="ignore"):
         hi = np.where(mask, k, -np.inf).max(axis=0)
         lo = np.where(mask, k, np.inf).min(axis=0)
     return np.where(mask.any(axis=0), hi - lo, 0.0)
 
 
-def _full_support(radar: RadarMetadata, k, k_ref):
+def _full_support(radar: RadarMetadata, k: np.ndarray, k_ref: np.ndarray) -> np.ndarray:
     """The k samples of full illumination: the reference point's own (stripmap), else the target's own
     pulses under the scene centre's beam."""
     return k_ref if radar.mode == "stripmap" else k
@@ -374,8 +374,8 @@ def illumination_survey(
         sl = slice(s, s + _SURVEY_BLOCK)
         k, lit, g = _beam_k(radar, sub, targets[sl])
         kr, lit_r, _ = _beam_k(radar, sub, refs[sl])
-        full = _extent(_full_support(radar, k, kr), lit_r)
-        fraction[sl] = np.where(full > 0, _extent(k, lit) / np.where(full > 0, full, 1), 1.0)
+        span = _extent(_full_support(radar, k, kr), lit_r)
+        fraction[sl] = np.where(span > 0, _extent(k, lit) / np.where(span > 0, span, 1), 1.0)
         peak[sl] = 20 * np.log10(np.maximum(g.max(axis=0), 1e-300))
     out = [TargetIllumination(float(min(f, 1.0)), float(p)) for f, p in zip(fraction, peak)]
     for i in np.argsort(fraction, kind="stable")[:max_detailed]:

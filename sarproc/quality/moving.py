@@ -39,6 +39,8 @@ from sarproc.product.errors import InputError
 from sarproc.product.metadata import C
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from sarproc.product.frames import Frame
     from sarproc.product.metadata import RadarMetadata
     from sarproc.product.model import Product
@@ -118,7 +120,7 @@ def _rows(table: Any) -> list[dict]:
     return [dict(r) for r in table]
 
 
-def _xyz(row: dict, prefix: str):
+def _xyz(row: dict, prefix: str) -> np.ndarray | None:
     keys = [f"{prefix}_{c}" for c in "xyz"]
     if all(k in row for k in keys):
         v = np.array([float(row[k]) for k in keys])
@@ -155,7 +157,7 @@ def moving_target_table(product: Product) -> list[dict]:
     return []
 
 
-def _match_table(rows, movers, cell):
+def _match_table(rows: Sequence[dict], movers: Sequence[dict], cell: float) -> dict[str, dict]:
     """{truth name: row}: by the row's truth column, else the nearest S within MATCH_CELLS cells."""
     out: dict[str, dict] = {}
     for row in rows:
@@ -180,7 +182,9 @@ def implied_relocation_error(radar: RadarMetadata, slant_range: float, dv_a: flo
     return abs(slant_range * (dv_r * math.cos(th) + dv_a * math.sin(th)) / (radar.velocity * math.cos(th)))
 
 
-def _match_windows(windows, movers, radar: RadarMetadata, cell_range, cell_azimuth):
+def _match_windows(
+    windows: Sequence[dict], movers: Sequence[dict], radar: RadarMetadata, cell_range: float, cell_azimuth: float
+) -> dict[str, dict]:
     """{truth name: window}: reconstruct's windows matched by slant range at t_c and t_c."""
     out = {}
     range_cell = C / (2 * radar.range_sampling_rate)

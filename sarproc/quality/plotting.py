@@ -17,6 +17,11 @@ import numpy as np
 if TYPE_CHECKING:
     from collections.abc import Mapping, Sequence
 
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+    from sarproc.quality.metrics import EvaluateParams, TargetReport
+
 CONTOUR_LEVELS_DB = (-40, -30, -20, -13.26, -10, -6, -3)
 
 
@@ -25,7 +30,7 @@ def safe_name(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]", "_", name) or "_"
 
 
-def _figure(n_panels: int, width=5.0, height=4.2):
+def _figure(n_panels: int, width: float = 5.0, height: float = 4.2) -> tuple[Figure, list[Axes]]:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -109,9 +114,9 @@ def plot_target(
     dims: Sequence[str],
     coords: Mapping[str, np.ndarray],
     theoretical_irw: Sequence[float],
-    target,
+    target: TargetReport,
     units: Mapping[str, str] | None = None,
-    params=None,
+    params: EvaluateParams | None = None,
     half_width_nulls: float = 4.0,
     upsample: int = 8,
 ) -> Path:

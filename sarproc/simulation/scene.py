@@ -250,7 +250,9 @@ def _aperture_time(p: SceneParams, wavelength: float) -> float:
     return 0.886 * wavelength * p.geometry.reference_range / (2 * a.azimuth_resolution * p.platform.velocity * cos2)
 
 
-def _targets(p: SceneParams, radar: RadarMetadata, source: str):
+def _targets(
+    p: SceneParams, radar: RadarMetadata, source: str
+) -> tuple[Frame, np.ndarray, np.ndarray, np.ndarray, list[str]]:
     t = p.targets
     frame = make_frame(t.frame, radar)
     axes = frame.axes

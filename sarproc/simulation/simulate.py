@@ -88,7 +88,7 @@ def _gate_offsets(scene: Scene, t: np.ndarray, reference_delay: float) -> np.nda
     return off
 
 
-def _delays(tx, rx, targets) -> np.ndarray:
+def _delays(tx: np.ndarray, rx: np.ndarray, targets: np.ndarray) -> np.ndarray:
     """Two-way delay (n_t, n_tg), s: tx, rx (n_t, 3); targets (n_t, n_tg, 3)."""
     r_tx = np.linalg.norm(targets - tx[:, None, :], axis=-1)
     r_rx = np.linalg.norm(targets - rx[:, None, :], axis=-1)

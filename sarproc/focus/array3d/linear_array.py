@@ -404,7 +404,14 @@ def elevation_compress(
     return out
 
 
-def _elevation_blocks(shape, ranges, geom: ArrayGeometry, theta, radar: RadarMetadata, params: Array3DParams):
+def _elevation_blocks(
+    shape: tuple[int, ...],
+    ranges: np.ndarray,
+    geom: ArrayGeometry,
+    theta: np.ndarray,
+    radar: RadarMetadata,
+    params: Array3DParams,
+) -> tuple[int, range, int]:
     """(n_fft, block starts, block length) of :func:`elevation_compress` on (n_ch, n_az, n_rg) images.
 
     The range FFT is padded by the largest cross-track range shift (eqs. 20, 21); the blocks run

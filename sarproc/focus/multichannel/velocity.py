@@ -65,7 +65,7 @@ def fast_search(
             seen[key] = float(criterion(key))
         return seen[key]
 
-    def grid(a, b, s):
+    def grid(a: float, b: float, s: float) -> list[float]:
         n = int(math.floor((b - a) / s + 1e-9))
         return [a + k * s for k in range(n + 1)] + ([b] if (b - a) / s - n > 1e-6 else [])
 

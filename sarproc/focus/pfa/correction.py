@@ -196,7 +196,7 @@ def residual_phase(geo: PfaGeometry, a_rel: np.ndarray, r_rel: np.ndarray, kc_a:
     return out
 
 
-def _carrier(a, r, ka, kr, sign) -> np.ndarray:
+def _carrier(a: np.ndarray, r: np.ndarray, ka: float, kr: float, sign: int) -> np.ndarray:
     """exp{sign j (k_a a + k_r r)} on the grid a x r, complex64 (float64 phases)."""
     pa = np.exp(sign * 1j * np.mod(np.asarray(a) * ka, 2 * math.pi)).astype(np.complex64)
     pr = np.exp(sign * 1j * np.mod(np.asarray(r) * kr, 2 * math.pi)).astype(np.complex64)

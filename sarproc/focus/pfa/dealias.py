@@ -38,6 +38,8 @@ from sarproc.product import beam
 from sarproc.product.errors import IMAGE_DEFECT, InputError
 
 if TYPE_CHECKING:
+    import numpy.typing as npt
+
     from sarproc.focus.pfa.polar import Grid
     from sarproc.product.metadata import RadarMetadata
 
@@ -183,7 +185,7 @@ def upsample_subapertures(ph: PhaseHistory, radar: RadarMetadata, n_sub: int, fa
     )
 
 
-def _ramp(positions: np.ndarray, reference, point, k) -> np.ndarray:
+def _ramp(positions: np.ndarray, reference: npt.ArrayLike, point: npt.ArrayLike, k: np.ndarray) -> np.ndarray:
     """exp{j K [r_0(t) - r_q(t)]} (n, n_f) complex64: the deramp to ``point`` relative to ``reference``."""
     d = reference_ranges(positions, reference) - reference_ranges(positions, point)
     cyc = np.outer(d, k / (2 * math.pi))

@@ -101,7 +101,7 @@ def position_terms(K: np.ndarray | float, eps: np.ndarray | float, p: np.ndarray
     return {"a1": a1, "c2": c2, "c3": c3}
 
 
-def _legendre(f, K, co):
+def _legendre(f: np.ndarray, K: np.ndarray | float, co: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """t(f), F(f), Theta_0(f), dF/df at t_n = 0 for Phi_1 = -(pi/K) f^2 + pi Y3 f^3 + pi Y4 f^4."""
     q2, q3, q4, Y3, Y4 = (co[k] for k in ("q2", "q3", "q4", "Y3", "Y4"))
     f2 = f * f

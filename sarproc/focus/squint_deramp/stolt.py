@@ -51,7 +51,7 @@ class SpectrumModel:
         self.guard = guard
 
     # -- phase per metre of range -------------------------------------------------------------
-    def _root(self, f, f_a: np.ndarray):
+    def _root(self, f: np.ndarray, f_a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(value, valid) of the square root of G (exact: sqrt(1 - sigma^2); paper: sqrt(f^2 - a^2))."""
         if self.model == "exact":
             sigma = self.s + C * f_a / (2 * self.v * f)
@@ -150,7 +150,7 @@ class SpectrumModel:
         # exact: solve f h(f) = f_r' + f_c h(f_c), h(f) = s^2 + c sqrt(1 - (s + b/f)^2), b = c f_a / 2v
         b = C * f_a / (2 * self.v)
 
-        def h(ff):
+        def h(ff: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             sig = self.s + b / ff
             arg = 1 - sig**2
             ok = arg > 0
