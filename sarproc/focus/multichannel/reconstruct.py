@@ -351,7 +351,7 @@ def _estimate(
         )
     v_a = params.along_track_velocity if params.along_track_velocity is not None else 0.0
 
-    def search(v_a_now, lo, hi, coarse):
+    def search(v_a_now: float, lo: float, hi: float, coarse: float) -> velocity.SearchResult:
         return velocity.fast_search(
             lambda u: win.leakage(u, v_a_now),
             lo,
@@ -402,7 +402,7 @@ def _estimate(
         cell_power = np.sum(np.abs(y_cells) ** 2, axis=0)
         y_cells = np.ascontiguousarray(y_cells[:, cell_power >= 0.01 * cell_power.max()])
 
-        def crit(u):  # keep the line-of-sight velocity found by the search while v_a varies
+        def crit(u: float) -> float:  # keep the line-of-sight velocity found by the search while v_a varies
             vr_u = (v_los - u * math.sin(g.squint)) / math.cos(g.squint)
             acc = velocity.range_acceleration(g.velocity, u, vr_u, g.squint, slant_range)
             ph = deramp.quadratic_phasor(g.out_times, np.zeros(1), acc, t_c, g.fc)
@@ -522,7 +522,7 @@ def _refine_peak(
         raise ValueError(f"no alias of index {index} falls inside the {n_out} output cells")
     _, lo, sub, i, c = best
 
-    def vertex(v, j):
+    def vertex(v: np.ndarray, j: int | np.integer) -> float:
         if 0 < j < len(v) - 1:
             den = v[j - 1] - 2 * v[j] + v[j + 1]
             if den < 0:
@@ -590,12 +590,12 @@ def _detect_and_focus(
     t_ill = 2 * g.half_band / ka0
     ghost_cells = 2 + math.ceil(C / g.fc * g.prf / 2 * t_ill / 2 * 2 * g.fs / C)
 
-    def apart(d1, d2, cells):
+    def apart(d1: detection.Detection, d2: detection.Detection, cells: int) -> bool:
         dt = (d1.time - d2.time) / ambiguity
         k = round(dt)
         return abs(d1.cell - d2.cell) > (cells if k == 0 else max(cells, ghost_cells)) or abs(dt - k) * ambiguity > sep
 
-    def remove(ext, a, b, ka_w) -> None:
+    def remove(ext: np.ndarray, a: int, b: int, ka_w: np.ndarray) -> None:
         """Take one examined detection's whole response (ambiguities, clutter-null artefacts) out of the image."""
         x_fa = sfft.fft(ext, axis=1, workers=-1)
         if residual_mode:
@@ -840,7 +840,7 @@ def reconstruct(
 VELOCITY_FLOOR = (0.02, 0.05)  # m/s: v_r and v_a errors on noise-free scenes (docs/multichannel.md)
 
 
-def _beam_centre_point(platform_xyz, slant_range: float, squint: float) -> np.ndarray:
+def _beam_centre_point(platform_xyz: np.ndarray, slant_range: float, squint: float) -> np.ndarray:
     """Static point at beam centre (squint theta) at ``slant_range`` from the phase centre (ground z = 0)."""
     p = np.asarray(platform_xyz, float)
     uz = -p[2] / slant_range
@@ -946,7 +946,9 @@ def _moving_target_rows(raw: Product, g: _Geometry, movers: list[MovingTarget], 
     return rows
 
 
-def _output_product(raw: Product, params, g, out, info, movers) -> Product:
+def _output_product(
+    raw: Product, params: ReconstructParams, g: _Geometry, out: np.ndarray, info: dict, movers: list[MovingTarget]
+) -> Product:
     from sarproc.product.io import history_entry
 
     pos = raw.aux["platform_position"]

@@ -54,9 +54,11 @@ from sarproc.product.model import Product
 from sarproc.product.theory import fill_target_theory, window_theory
 
 if TYPE_CHECKING:
-    from collections.abc import Sequence
+    from collections.abc import Iterator, Sequence
     from typing import Any
 
+    from sarproc.focus.pfa.phase_history import PhaseHistory
+    from sarproc.focus.pfa.polar import KGrid, Rect
     from sarproc.product.metadata import RadarMetadata
     from sarproc.product.steps import ProgressFactory
 
@@ -282,7 +284,15 @@ def pfa2(
     return out
 
 
-def _plain_corrected(ph, rect, grid: Grid, origin, e_a: np.ndarray, e_r: np.ndarray, interp: Interpolation):
+def _plain_corrected(
+    ph: PhaseHistory,
+    rect: Rect,
+    grid: Grid,
+    origin: np.ndarray,
+    e_a: np.ndarray,
+    e_r: np.ndarray,
+    interp: Interpolation,
+) -> tuple[np.ndarray, KGrid]:
     """Plain PFA on a grid grown by the distortion, read back at each pixel's distorted position."""
     ua, ur = los_components(ph.positions, origin, e_a, e_r)
     k_max = float(wavenumbers(ph.carrier_frequency, ph.freqs[-1]))
@@ -303,7 +313,9 @@ def _plain_corrected(ph, rect, grid: Grid, origin, e_a: np.ndarray, e_r: np.ndar
     return warp_to_truth(img, ext, grid, warp, geo, kg, interp), kg
 
 
-def _record_target_theory(targets: np.ndarray, ph, e_a: np.ndarray, e_r: np.ndarray, kg, params) -> None:
+def _record_target_theory(
+    targets: np.ndarray, ph: PhaseHistory, e_a: np.ndarray, e_r: np.ndarray, kg: KGrid, params: Pfa2Params
+) -> None:
     """Fill each target's theory (irw_, null_, pslr_, islr_<axis>, in place): a flat azimuth support and the
     range window over the polar support it is focused with, the image's rectangle (plain) or its own
     inscribed one (two_step: each sub-image keeps its own support, so the IRW varies over the scene)."""
@@ -319,23 +331,23 @@ def _record_target_theory(targets: np.ndarray, ph, e_a: np.ndarray, e_r: np.ndar
     fill_target_theory(targets, ("azimuth", "range"), own)
 
 
-def _rect_irw(rect) -> tuple[float, float]:
+def _rect_irw(rect: Rect) -> tuple[float, float]:
     return 0.886 * 2 * math.pi / (rect.ka_hi - rect.ka_lo), 0.886 * 2 * math.pi / (rect.kr_hi - rect.kr_lo)
 
 
 def _two_step(
-    ph,
-    params,
+    ph: PhaseHistory,
+    params: Pfa2Params,
     grid: Grid,
-    origin,
+    origin: np.ndarray,
     e_a: np.ndarray,
     e_r: np.ndarray,
     radar: RadarMetadata,
-    az_os,
+    az_os: float,
     progress: ProgressFactory | None,
-    mapper,
-    timing,
-):
+    mapper: Callable | None,
+    timing: dict[str, float],
+) -> tuple[np.ndarray, KGrid, dict]:
     band = (float(ph.freqs[0]), float(ph.freqs[-1]))
     ua, ur = los_components(ph.positions, origin, e_a, e_r)
     r_ac = float(np.linalg.norm(ph.positions[len(ph.positions) // 2] - origin))
@@ -397,7 +409,7 @@ def _two_step(
         for r in rects
     ]
 
-    def tasks():
+    def tasks() -> Iterator[SubImageTask]:
         for t, (sa, sr), kg2 in zip(tiles, slices, kgrids):
             wg = Grid(g1.a0 + sa.start * da1, da1, sa.stop - sa.start, g1.r0 + sr.start * dr1, dr1, sr.stop - sr.start)
             core_grid = Grid(
