@@ -72,6 +72,7 @@ def array3d(
         )
     write_product(output, cube, inputs=[input_path], overwrite=overwrite)
     if chan is not None:
+        assert channel_output is not None  # --channel-image comes with --channel-output
         write_product(channel_output, chan, inputs=[input_path], overwrite=overwrite)
     shape = "x".join(map(str, cube.data.shape))
     summary(

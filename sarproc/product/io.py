@@ -32,6 +32,7 @@ import socket
 import stat
 import sys
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 from typing import NamedTuple
 
@@ -119,7 +120,7 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
-def clean_stale_temporaries(directory) -> list[Path]:
+def clean_stale_temporaries(directory: str | Path) -> list[Path]:
     """Remove temporaries of dead sarproc runs on this host in ``directory``; returns what went."""
     removed: list[Path] = []
     directory = Path(directory)
@@ -163,7 +164,7 @@ def _os_cause(exc: Exception) -> str:
     return f"{os.strerror(code)} ({_errno.errorcode.get(code, code)})"
 
 
-def output_stream(output) -> Stream | None:
+def output_stream(output: str | Path) -> Stream | None:
     """Where bytes written to ``output`` must be streamed instead of renamed into place; None for a regular file.
 
     ``-`` is standard output; ``/dev/stdin|stdout|stderr``, ``/dev/fd/N`` and ``/proc/self/fd/N`` are that
@@ -188,7 +189,7 @@ def output_stream(output) -> Stream | None:
     return None
 
 
-def real_output(output) -> Path:
+def real_output(output: str | Path) -> Path:
     """A regular output named by a symbolic link is its target: written next to it and renamed onto it; the link
     stays (also a dangling one: its target is created)."""
     out = Path(output)
@@ -206,7 +207,7 @@ def _is_stdout(stream: Stream) -> bool:
     return os.path.samestat(a, b) and not stat.S_ISREG(a.st_mode) and not stat.S_ISDIR(a.st_mode)
 
 
-def check_output_path(output, inputs=(), overwrite: bool = False) -> Path:
+def check_output_path(output: str | Path, inputs: Sequence[str | Path] = (), overwrite: bool = False) -> Path:
     """Refuse to write over an input, over an existing file without ``overwrite``, or where no file can be made;
     lock the output for this run (:mod:`sarproc.product.run`).
 
@@ -216,9 +217,9 @@ def check_output_path(output, inputs=(), overwrite: bool = False) -> Path:
     """
     out = Path(output)
     stream = output_stream(out)
-    inputs = [Path(i) for i in inputs if os.fspath(i) != "-"]  # "-" as an input is stdin
+    input_paths = [Path(i) for i in inputs if os.fspath(i) != "-"]  # "-" as an input is stdin
     if stream is not None:
-        for inp in inputs:
+        for inp in input_paths:
             if stream.path is not None and inp.exists() and os.path.samefile(inp, stream.path):
                 raise InputError(f"{out}: output is the input file; refusing to write over an input")
         if stream.path is not None and not stream.socket and not os.access(stream.path, os.W_OK):
@@ -228,7 +229,7 @@ def check_output_path(output, inputs=(), overwrite: bool = False) -> Path:
             run.take_stdout()
         run.plan_output(out, lock=False)
         return out
-    for inp in inputs:
+    for inp in input_paths:
         if inp.exists() and out.exists() and os.path.samefile(inp, out):
             raise InputError(f"{out}: output is the input file; refusing to write over an input")
         if inp.resolve() == out.resolve():
@@ -451,19 +452,19 @@ class ProductWriter:
 
     def __init__(
         self,
-        output,
-        kind,
-        dims,
-        coords,
-        radar,
-        targets,
+        output: str | Path,
+        kind: str,
+        dims: tuple[str, ...],
+        coords: dict[str, np.ndarray],
+        radar: RadarMetadata,
+        targets: np.ndarray,
         *,
-        attrs=None,
-        aux=None,
-        history=(),
-        dtype=np.complex64,
-        inputs=(),
-        overwrite=False,
+        attrs: dict | None = None,
+        aux: dict | None = None,
+        history: Sequence[dict] = (),
+        dtype: np.dtype | type = np.complex64,
+        inputs: Sequence[str | Path] = (),
+        overwrite: bool = False,
     ):
         if kind not in PRODUCT_KINDS:
             raise ValueError(f"unknown product kind {kind!r}")
@@ -472,7 +473,7 @@ class ProductWriter:
         self.kind, self.dims, self.coords = kind, tuple(dims), coords
         self.shape = tuple(len(coords[d]) for d in self.dims)
         self._args = (radar, targets, list(history), attrs or {}, aux or {}, dtype)
-        self.file = None
+        self.file: h5py.File | None = None
 
     def _failed(self, exc: Exception):
         # HDF5 cannot be trusted with this file any more: keep its objects alive, never close them.
@@ -512,7 +513,7 @@ class ProductWriter:
             raise
         return self
 
-    def write(self, index, block):
+    def write(self, index: tuple[slice, ...], block: np.ndarray) -> None:
         run.check()  # a stop signal whose exception HDF5 swallowed ends the run at the next block
         try:
             self.dset[index] = block
@@ -542,7 +543,9 @@ class ProductWriter:
         return self._ctx.__exit__(exc_type, exc, tb)
 
 
-def write_product(output, product: Product, *, inputs=(), overwrite=False) -> Path:
+def write_product(
+    output: str | Path, product: Product, *, inputs: Sequence[str | Path] = (), overwrite: bool = False
+) -> Path:
     """Write ``product`` to ``output`` atomically."""
     with ProductWriter(
         output,
@@ -580,7 +583,9 @@ def _attr_value(v):
     return v
 
 
-def read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
+def read_product(
+    path: str | Path, kinds: tuple[str, ...] | None = None, *, load: bool = True, check_finite: bool = True
+) -> Product:
     """Read a product; see :func:`_read_product`. Low-level HDF5 errors become InputError."""
     try:
         return _read_product(path, kinds, load=load, check_finite=check_finite)
@@ -806,7 +811,9 @@ def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
     )
 
 
-def read_magnitude_preview(path, max_side: int = 2048, block_bytes: int = 64 << 20, header: Product | None = None):
+def read_magnitude_preview(
+    path: str | Path, max_side: int = 2048, block_bytes: int = 64 << 20, header: Product | None = None
+) -> tuple[np.ndarray, tuple[str, ...], dict[str, np.ndarray], tuple[int, ...]]:
     """Peak-preserving preview of an image product's magnitude, read in blocks.
 
     Every axis longer than ``max_side`` is reduced by an integer factor, each output pixel
