@@ -89,7 +89,9 @@ def _cycles_phasor(cycles: np.ndarray) -> np.ndarray:
     return np.exp(2j * np.pi * (cycles - np.floor(cycles)))
 
 
-def to_cphd_signal(signal, radar, t_start, tau_srp, n_fft):
+def to_cphd_signal(
+    signal: np.ndarray, radar: RadarMetadata, t_start: np.ndarray, tau_srp: np.ndarray, n_fft: int
+) -> np.ndarray:
     """(n_pulses, n_range) raw -> (n_pulses, n_fft) FX-domain CPHD signal (frequency ascending), complex64."""
     fb = (np.arange(n_fft) - n_fft // 2) * (radar.range_sampling_rate / n_fft)
     h = np.fft.fftshift(_replica_spectrum(radar, n_fft))
@@ -98,7 +100,9 @@ def to_cphd_signal(signal, radar, t_start, tau_srp, n_fft):
     return (x / h * _cycles_phasor(cycles)).astype(np.complex64)
 
 
-def from_cphd_signal(fx, radar, t_start, tau_srp, n_range):
+def from_cphd_signal(
+    fx: np.ndarray, radar: RadarMetadata, t_start: np.ndarray, tau_srp: np.ndarray, n_range: int
+) -> np.ndarray:
     """Inverse of :func:`to_cphd_signal`: (n_pulses, n_fft) -> (n_pulses, n_range) raw, complex64."""
     n_fft = fx.shape[-1]
     fb = (np.arange(n_fft) - n_fft // 2) * (radar.range_sampling_rate / n_fft)

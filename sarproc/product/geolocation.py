@@ -77,7 +77,7 @@ def geodetic_to_ecf(lat: float, lon: float, height: float) -> np.ndarray:
     )
 
 
-def ecf_to_geodetic(xyz) -> np.ndarray:
+def ecf_to_geodetic(xyz: np.ndarray) -> np.ndarray:
     """ECF (..., 3) m -> (..., 3) latitude (rad), longitude (rad), height (m); Bowring's iteration to 1e-12."""
     xyz = np.asarray(xyz, float)
     x, y, z = xyz[..., 0], xyz[..., 1], xyz[..., 2]
@@ -104,13 +104,13 @@ class Placement:
     origin_ecf: np.ndarray  # its ECF position, m
     rotation: np.ndarray  # (3, 3): columns are the scene frame's x, y, z axes in ECF
 
-    def to_ecf(self, xyz) -> np.ndarray:
+    def to_ecf(self, xyz: np.ndarray) -> np.ndarray:
         return self.origin_ecf + (np.asarray(xyz, float) - self.anchor) @ self.rotation.T
 
     def vector_to_ecf(self, v) -> np.ndarray:
         return np.asarray(v, float) @ self.rotation.T
 
-    def from_ecf(self, ecf) -> np.ndarray:
+    def from_ecf(self, ecf: np.ndarray) -> np.ndarray:
         return self.anchor + (np.asarray(ecf, float) - self.origin_ecf) @ self.rotation
 
     def datetime64(self, seconds: float = 0.0) -> np.datetime64:

@@ -34,7 +34,7 @@ KAPFAC = 0.88589  # -3 dB width x bandwidth of a uniformly weighted response (SI
 MODE_TYPE = {"spotlight": "SPOTLIGHT", "stripmap": "STRIPMAP", "sliding_spotlight": "DYNAMIC STRIPMAP"}
 
 
-def require_sarkit():
+def require_sarkit() -> None:
     try:
         import sarkit
         import sarkit.verification  # noqa: F401
@@ -82,7 +82,7 @@ class SicdGrid:
         )
 
 
-def image_grid(product: Product, place: Placement, tol: float = 1e-3, scp_at=None) -> SicdGrid:
+def image_grid(product: Product, place: Placement, tol: float = 1e-3, scp_at: np.ndarray | None = None) -> SicdGrid:
     """Check the image is a plane, orthogonal, uniformly sampled grid and describe it in ECF.
 
     The SCP is the centre pixel, or with ``scp_at`` (a scene point) the pixel on that point (refused
@@ -233,7 +233,7 @@ class SupportModel:
         arp = np.moveaxis(np.polynomial.polynomial.polyval(t, self.arp_poly), 0, -1)
         return p, arp
 
-    def centre(self, x, y) -> tuple[np.ndarray, np.ndarray]:
+    def centre(self, x: np.ndarray | float, y: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
         """Centre of support (row, col), cycles/m, at image coordinates (x, y) m from the SCP."""
         if self.pfa_centre is not None:
             shape = np.broadcast(np.asarray(x), np.asarray(y)).shape
@@ -244,7 +244,7 @@ class SupportModel:
         k = 2.0 * self.f_c / C
         return k * (los @ self.u_row), k * (los @ self.u_col)
 
-    def phase(self, x, y) -> np.ndarray:
+    def phase(self, x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray:
         """Phase (cycles) whose gradient along (x, y) is :meth:`centre`, 0 at the SCP: (2 f_c / c) times the
         range from the antenna at the centre of aperture (exact for a fixed centre of aperture, spotlight)."""
         if self.pfa_centre is not None:
@@ -463,7 +463,9 @@ def pfa_geometry(product: Product, grid: SicdGrid, frame, t_rel: np.ndarray, t_c
     )
 
 
-def sicd_xml(product: Product, place: Placement, *, image_formation: str | None = None, version: str = "1.4.0"):
+def sicd_xml(
+    product: Product, place: Placement, *, image_formation: str | None = None, version: str = "1.4.0"
+) -> tuple[object, SicdGrid]:
     """The SICD XML tree of an image product (lxml ElementTree) and its grid (with the carrier the pixels
     lose on export: :func:`sicd_pixels`)."""
     import lxml.etree
