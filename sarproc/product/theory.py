@@ -341,6 +341,11 @@ def _extent(k: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return np.where(mask.any(axis=0), hi - lo, 0.0)
 
 
+def _band(k: np.ndarray, mask: np.ndarray) -> tuple[float, float] | None:
+    """(lowest, highest) k of the masked samples, or None with fewer than two."""
+    return (float(k[mask].min()), float(k[mask].max())) if np.count_nonzero(mask) > 1 else None
+
+
 def _full_support(radar: RadarMetadata, k: np.ndarray, k_ref: np.ndarray) -> np.ndarray:
     """The k samples of full illumination: the reference point's own (stripmap), else the target's own
     pulses under the scene centre's beam."""
@@ -384,10 +389,9 @@ def illumination_survey(
         k, lit, g = (a[:, 0] for a in _beam_k(radar, pos, targets[i : i + 1]))
         kr, lit_r, gr = (a[:, 0] for a in _beam_k(radar, pos, refs[i : i + 1]))
         kf = _full_support(radar, k, kr)
-        band = lambda kk, m: (kk[m].min(), kk[m].max()) if np.count_nonzero(m) > 1 else None  # noqa: E731
-        full = response_theory(kf, gr, band(kf, lit_r & (gr > 0)))
+        full = response_theory(kf, gr, _band(kf, lit_r & (gr > 0)))
         try:
-            now = response_theory(k, g, band(k, lit & (g > 0)))
+            now = response_theory(k, g, _band(k, lit & (g > 0)))
         except ValueError:  # no gain at all (a rect beam that never sees it)
             now = None
         out[i] = dataclasses.replace(out[i], now=now, full=full)

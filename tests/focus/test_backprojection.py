@@ -57,7 +57,10 @@ def test_upsampling_is_an_accuracy_knob():
     raw = simulate(scene_from_mapping(SQUINT_SPOTLIGHT))
     coarse = evaluate_product(backproject(raw, BackprojectParams(frame="los", upsample=1, interpolation="nearest")))
     fine = evaluate_product(backproject(raw, BackprojectParams(frame="los", upsample=8)))
-    worst = lambda rep: max(abs(a.pslr_db + 13.26) for t in rep.targets for a in t.axes)  # noqa: E731
+
+    def worst(rep):
+        return max(abs(a.pslr_db + 13.26) for t in rep.targets for a in t.axes)
+
     assert worst(fine) < 0.3 < worst(coarse)
 
 
