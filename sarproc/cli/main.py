@@ -126,8 +126,8 @@ class LazyGroup(click.Group):
                         raise
                     run.check()  # a signal whose exception a library swallowed: the run still stops
                     return result
-                except Interrupted:
-                    run.remove_published()  # all outputs or none
+                except Interrupted as exc:
+                    exc.removed = run.remove_published()  # all outputs or none
                     raise
         except InputError as exc:
             raise BadInput(str(exc)) from None

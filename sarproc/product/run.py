@@ -49,6 +49,7 @@ class Interrupted(BaseException):
     def __init__(self, signum: int) -> None:
         super().__init__(signum)
         self.signum = signum
+        self.removed: list[Path] = []  # outputs published before the signal and removed again (the message)
 
 
 class _Run:
