@@ -8,7 +8,7 @@ from pathlib import Path
 import click
 
 from sarproc.cli.dask_map import scheduler_option
-from sarproc.cli.options import common_options, input_argument, load_config, summary, want_progress
+from sarproc.cli.options import common_options, input_argument, summary, want_progress
 
 
 @click.command()
@@ -37,10 +37,10 @@ def backproject(input_path: Path, target_names, output: Path, config_path, overw
 
     from sarproc.cli.dask_map import dask_mapper, scheduler_client, worker_threads, workers_peak_memory
     from sarproc.cli.options import info, max_memory
-    from sarproc.product.budget import human
     from sarproc.cli.progress import progress_factory
     from sarproc.cli.stage import backproject_block_pixels, backproject_estimate, naming, prepare
     from sarproc.focus import backprojection as bp
+    from sarproc.product.budget import human
     from sarproc.product.errors import InputError
     from sarproc.product.frames import frame_names
     from sarproc.product.io import ProductWriter

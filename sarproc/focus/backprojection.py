@@ -25,7 +25,7 @@ from sarproc.dsp.rangecomp import range_compress
 from sarproc.product import beam, moving, theory
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import InputError
-from sarproc.product.frames import make_frame, targets_in_frame
+from sarproc.product.frames import Frame, make_frame, targets_in_frame
 from sarproc.product.metadata import C
 from sarproc.product.model import Product, target_names
 from sarproc.product.theory import WINDOWS
@@ -540,7 +540,7 @@ class PulseSet:
 class BackprojectionPlan:
     """The output grid and everything written beside the image, decided before any pixel is summed."""
 
-    frame: object
+    frame: Frame
     azimuth: np.ndarray
     range: np.ndarray
     targets: object
