@@ -23,7 +23,15 @@ from sarproc.cli.options import common_options, input_argument, summary, want_pr
 )
 @common_options
 @scheduler_option
-def backproject(input_path: Path, target_names, output: Path, config_path, overwrite: bool, progress, scheduler):
+def backproject(
+    input_path: Path,
+    target_names: str | None,
+    output: Path,
+    config_path: Path | None,
+    overwrite: bool,
+    progress: bool | None,
+    scheduler: str | None,
+) -> None:
     """Exact time-domain backprojection of a raw product onto a frame grid (section `backproject:`).
 
     The default grid covers the targets table, moving targets at their static-equivalent positions
@@ -66,7 +74,7 @@ def backproject(input_path: Path, target_names, output: Path, config_path, overw
     with naming(input_path, config_path, "backproject"):
         plan = bp.plan_backprojection(raw, params, grid_targets=names)
         pulses = bp.pulse_set(raw, params)
-    raw.data = None  # the pulses hold what the blocks need: free the echoes before the image is summed
+    raw.data = None  # type: ignore[assignment]  # the pulses hold what the blocks need: free the echoes
     header = bp.image_product(raw, plan, params, np.broadcast_to(np.complex64(0), plan.shape))
     header.history[-1]["command"] = f"sarproc backproject {input_path}"
     blocks = bp.row_blocks(plan.shape, params.block_pixels)

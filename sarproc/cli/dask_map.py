@@ -59,7 +59,7 @@ def dask_mapper(
     return mapper
 
 
-def worker_threads(client) -> int:
+def worker_threads(client: Client) -> int:
     """Threads of the smallest worker: a task's compiled kernels use that many, not every core of its host
     (a LocalCluster has one single-threaded worker per core)."""
     workers = client.scheduler_info()["workers"].values()
@@ -74,7 +74,7 @@ def _peak_rss_bytes() -> int:
     return int(peak if sys.platform == "darwin" else peak * 1024)  # bytes on macOS, KiB on Linux
 
 
-def workers_peak_memory(client) -> dict[str, int]:
+def workers_peak_memory(client: Client) -> dict[str, int]:
     """Peak resident memory (bytes) of each Dask worker process so far, by worker address."""
     return dict(client.run(_peak_rss_bytes))
 
