@@ -6,7 +6,7 @@ SARPROC := $(VENV)/bin/sarproc
 STAMP := $(VENV)/.installed
 TEST_STAMP := $(VENV)/.installed-test
 
-.PHONY: demo test venv clean bench bench-venv
+.PHONY: demo test lint venv clean bench bench-venv
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -26,7 +26,14 @@ demo: $(STAMP)
 	$(SARPROC) backproject results/demo/raw.h5 --config configs/demo.yaml -o results/demo/image.h5 --overwrite
 	$(SARPROC) evaluate results/demo/image.h5 -o results/demo/report.json --overwrite --plot results/demo --expect configs/demo_expect.yaml
 
-test: $(TEST_STAMP)
+# Static checks (issue 21), a few seconds warm: lint and format with ruff, types with mypy (settings in pyproject.toml;
+# mypy caches under .mypy_cache). `make test` runs them before pytest.
+lint: $(TEST_STAMP)
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
+	$(VENV)/bin/mypy
+
+test: lint
 	$(PY) -m pytest -q
 
 # Stage timings interleaved in one run, beside FastSAR (installed only in the bench venv .venv-bench,

@@ -18,7 +18,6 @@ import argparse
 import json
 from pathlib import Path
 
-
 from sarproc.product.io import read_product
 from sarproc.quality.image_measures import deviation_db
 from sarproc.quality.tradeoff import pareto_front, timing_stats

@@ -34,6 +34,7 @@ Results go to OUT/latest.json and OUT/bench-<UTC time>.json; a previous latest.j
 from __future__ import annotations
 
 import argparse
+import contextlib
 import ctypes
 import datetime
 import gc
@@ -72,14 +73,11 @@ def _status_kib(key: str) -> int:
 def measure(fn):
     """(result, wall s, cpu/wall, peak RSS rise in bytes) of fn()."""
     gc.collect()
-    try:  # hand freed heap memory back first: glibc keeps it resident, and a later stage reusing it reads no rise
+    # hand freed heap memory back first: glibc keeps it resident, and a later stage reusing it reads no rise
+    with contextlib.suppress(OSError, AttributeError):
         ctypes.CDLL("libc.so.6").malloc_trim(0)
-    except (OSError, AttributeError):
-        pass
-    try:
+    with contextlib.suppress(OSError):
         Path("/proc/self/clear_refs").write_text("5")  # reset the peak RSS (VmHWM) to the current RSS
-    except OSError:
-        pass
     rss0 = _status_kib("VmRSS")
     ru0 = resource.getrusage(resource.RUSAGE_SELF)
     t0 = time.perf_counter()
@@ -255,7 +253,10 @@ def bp_stages(case):
         engines = [("reference", {})]
     stages = []
     for label, opts in engines:
-        fn = lambda o=opts: backproject_points(*args, **kw, **o).reshape(n, n).astype(np.complex64)
+
+        def fn(o=opts):
+            return backproject_points(*args, **kw, **o).reshape(n, n).astype(np.complex64)
+
         st = Stage(
             f"backproject {label}",
             fn,
@@ -470,7 +471,7 @@ def process_rows(trees: dict[str, Path], rounds: int, workdir: Path) -> list[dic
             _sarproc(tree, [a.format(d=d) for a in argv] + ["--overwrite", "-q"])
     best = {}
     for r in range(rounds):
-        for stage, detail, argv in PROCESS_CASES:
+        for stage, _detail, argv in PROCESS_CASES:
             for label, tree in trees.items():
                 args = [a.format(d=data[label]) for a in argv] + ["--overwrite"]
                 wall, printed = _sarproc(tree, args)
@@ -677,7 +678,7 @@ def main(argv=None):
         with tempfile.TemporaryDirectory() as tmp:
             process = process_rows(trees, args.rounds, Path(tmp))
 
-    stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y%m%dT%H%M%SZ")
+    stamp = datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%SZ")
     tables = [fmt_table(rows, previous), ""] + ([fmt_process_table(process), ""] if process else [])
     text = "\n".join([f"# sarproc bench {stamp}", ""] + tables + [f"- {n}" for n in notes])
     print(text)
@@ -802,7 +803,7 @@ def ffbp_main(argv=None):
         pts = plane_grid(case["centre"], case["e1"], case["e2"], n, spacing)
         common = dict(gate_offset=case["gate"])
         exact, t_exact = best_of_calls(
-            lambda: backproject_points(
+            lambda pts=pts, common=common: backproject_points(
                 case["rc"], case["range_time"], case["pos"], case["pos"], pts, case["fc"], engine="compiled", **common
             ),
             a.repeats,
@@ -812,7 +813,7 @@ def ffbp_main(argv=None):
         print(f"{n}x{n} ({spacing:.3f} m, {len(case['pos'])} pulses): exact {t_exact:.3f} s", flush=True)
         for k, q, interp in FFBP_SETTINGS:
             img, t = best_of_calls(
-                lambda: ffbp_points(
+                lambda pts=pts, k=k, q=q, interp=interp, n=n, common=common: ffbp_points(
                     case["rc"],
                     case["range_time"],
                     case["pos"],

@@ -23,7 +23,6 @@ from pathlib import Path
 import numpy as np
 
 from sarproc.cli.dask_map import dask_mapper
-from sarproc.focus.pfa import two_step
 from sarproc.focus.pfa.chain import Pfa2Params, pfa2
 from sarproc.product.config import build, load_yaml
 from sarproc.simulation.scene import scene_from_mapping

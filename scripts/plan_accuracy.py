@@ -130,7 +130,7 @@ def main() -> None:
     )
     print(summary)
     if a.markdown:
-        when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+        when = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
         table = (
             f"{START}\n<!-- scripts/plan_accuracy.py --repeat {a.repeat} {' '.join(names)}: {when}, "
             f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at the end -->\n\n{HEAD}\n"

@@ -141,7 +141,7 @@ def within(rep, names=None):
     """(all within the issue's tolerances, worst deviations) using the lrwc report."""
     worst = {"irw": 0.0, "pslr": 0.0, "islr": 0.0}
     ok = True
-    for name, a, r, _ in metrics_table(rep, names):
+    for _name, a, r, _ in metrics_table(rep, names):
         for m in (a, r):
             worst["irw"] = max(worst["irw"], abs(m["irw_ratio"] - 1))
             worst["pslr"] = max(worst["pslr"], abs(m["pslr_db"] + 13.26))

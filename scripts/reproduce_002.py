@@ -20,17 +20,17 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from sarproc.focus.pfa.chain import Pfa2Params, image_frame, pfa2  # noqa: E402
-from sarproc.product.budget import fft_seconds  # noqa: E402
-from sarproc.product.config import build, load_yaml  # noqa: E402
-from sarproc.product.io import write_product  # noqa: E402
-from sarproc.quality.metrics import evaluate_product, target_patch  # noqa: E402
-from sarproc.quality.summary import Tolerance, tolerance_score  # noqa: E402
-from sarproc.simulation.scene import load_scene  # noqa: E402
-from sarproc.simulation.simulate import simulate  # noqa: E402
+from sarproc.focus.pfa.chain import Pfa2Params, image_frame, pfa2
+from sarproc.product.budget import fft_seconds
+from sarproc.product.config import build, load_yaml
+from sarproc.product.io import write_product
+from sarproc.quality.metrics import evaluate_product, target_patch
+from sarproc.quality.summary import Tolerance, tolerance_score
+from sarproc.simulation.scene import load_scene
+from sarproc.simulation.simulate import simulate
 
 
 def table(raw, image):

@@ -26,9 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sarproc.cli.sweep_output import pick_row as pick
-from sarproc.cli.sweep_output import raw_product_of as raw_of
-from sarproc.cli.sweep_output import sweep_rows
+from sarproc.cli.sweep_output import pick_row as pick, raw_product_of as raw_of, sweep_rows
 from sarproc.focus.multichannel import channels
 from sarproc.focus.multichannel.channels import product_ghost_level_db as predicted_ghost_db
 from sarproc.product.io import read_product
@@ -289,7 +287,10 @@ def figures(res, images, strips, spectra, err_rows, vel_rows):
 
 def md_table(rows, cols, fmt):
     head = "| " + " | ".join(cols) + " |\n|" + "---|" * len(cols) + "\n"
-    cell = lambda r, c: "n/a" if r.get(c) is None else fmt.get(c, "{}").format(r[c])
+
+    def cell(r, c):
+        return "n/a" if r.get(c) is None else fmt.get(c, "{}").format(r[c])
+
     return head + "".join("| " + " | ".join(cell(r, c) for c in cols) + " |\n" for r in rows)
 
 
@@ -306,8 +307,8 @@ METRIC_COLS = [
     "rg_err_cells",
     "mfta_db",
 ]
-METRIC_FMT = {c: "{:.3f}" for c in ("az_irw_ratio", "rg_irw_ratio", "az_err_cells", "rg_err_cells")}
-METRIC_FMT.update({c: "{:.2f}" for c in ("az_pslr", "rg_pslr", "az_islr", "rg_islr", "mfta_db")})
+METRIC_FMT = dict.fromkeys(("az_irw_ratio", "rg_irw_ratio", "az_err_cells", "rg_err_cells"), "{:.3f}")
+METRIC_FMT.update(dict.fromkeys(("az_pslr", "rg_pslr", "az_islr", "rg_islr", "mfta_db"), "{:.2f}"))
 MOVER_COLS = [
     "name",
     "v_r",
@@ -323,7 +324,7 @@ MOVER_COLS = [
 
 
 def write_summary(res, s):
-    fmt = {c: "{:.3f}" for c in MOVER_COLS[1:]}
+    fmt = dict.fromkeys(MOVER_COLS[1:], "{:.3f}")
     fmt.update(shift="{:.1f}", relocation_error="{:.2f}", relocation_error_from_velocity="{:.2f}")
     expect = s.get("scene_expect") or {}
     lines = [
@@ -371,7 +372,7 @@ def write_summary(res, s):
         md_table(
             s["velocity_curve"],
             ["v_r", "v_r_est", "v_a_est", "conventional_db", "modified_db", "given_db"],
-            {k: "{:.2f}" for k in ("v_r_est", "v_a_est", "conventional_db", "modified_db", "given_db")},
+            dict.fromkeys(("v_r_est", "v_a_est", "conventional_db", "modified_db", "given_db"), "{:.2f}"),
         ),
         "## Clutter null with the redundant channel (energy after / before, dB)",
         "",

@@ -30,13 +30,13 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from sarproc.dsp.rangecomp import range_compress
 from sarproc.focus.array3d.linear_array import Array3DParams, array3d_product, focus_array3d
 from sarproc.focus.backprojection import backproject_points
 from sarproc.product.config import build
 from sarproc.product.frames import ElevationFrame
 from sarproc.product.io import read_product
 from sarproc.quality.metrics import evaluate_image, evaluate_product
-from sarproc.dsp.rangecomp import range_compress
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
 

@@ -15,10 +15,11 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from sarproc.product.io import read_product  # noqa: E402
-from sarproc.quality.image_measures import bright_points, entropy, magnitude_ncc, subpixel_peak  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+
+from sarproc.product.io import read_product
+from sarproc.quality.image_measures import bright_points, entropy, magnitude_ncc, subpixel_peak
 
 
 def quicklook(img, path: Path, title: str):
@@ -86,7 +87,7 @@ def main():
             f"{max(abs(r[3]) for r in c['rows']):.3f} | {c['entropy']:.4f} | "
             f"{img.attrs.get('subimages', 1)} |"
         )
-    for label, img, c in results:
+    for label, _img, c in results:
         lines += [
             "",
             f"{label}:",

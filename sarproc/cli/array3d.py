@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from sarproc.cli.options import SectionCommand, common_options, input_argument, load_config, summary, want_progress
+from sarproc.cli.options import SectionCommand, common_options, input_argument, summary, want_progress
 
 
 @click.command(cls=SectionCommand, section="array3d")
@@ -26,17 +26,25 @@ from sarproc.cli.options import SectionCommand, common_options, input_argument, 
     default=None,
     help="Output of --channel-image (an `image` product, dims azimuth, range).",
 )
-def array3d(input_path: Path, output: Path, config_path, overwrite: bool, progress, channel_image, channel_output):
+def array3d(
+    input_path: Path,
+    output: Path,
+    config_path: Path | None,
+    overwrite: bool,
+    progress: bool | None,
+    channel_image: int | None,
+    channel_output: Path | None,
+) -> None:
     """Linear-array down-looking 3D SAR (paper 004): range, azimuth and elevation-angle compression.
 
     Reads a raw_array product, writes an image3d cube with dims (elevation, azimuth, range),
     elevation in rad. Parameters: section `array3d:` of --config.
     """
+    from sarproc.cli.progress import progress_factory
+    from sarproc.cli.stage import array3d_estimate, naming, prepare
     from sarproc.focus.array3d.linear_array import Array3DParams, array3d_product
     from sarproc.product.errors import InputError
     from sarproc.product.io import write_product
-    from sarproc.cli.progress import progress_factory
-    from sarproc.cli.stage import array3d_estimate, naming, prepare
 
     if (channel_image is None) != (channel_output is None):
         raise InputError("--channel-image and --channel-output go together")
@@ -64,6 +72,7 @@ def array3d(input_path: Path, output: Path, config_path, overwrite: bool, progre
         )
     write_product(output, cube, inputs=[input_path], overwrite=overwrite)
     if chan is not None:
+        assert channel_output is not None  # --channel-image comes with --channel-output
         write_product(channel_output, chan, inputs=[input_path], overwrite=overwrite)
     shape = "x".join(map(str, cube.data.shape))
     summary(

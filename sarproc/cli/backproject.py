@@ -8,7 +8,7 @@ from pathlib import Path
 import click
 
 from sarproc.cli.dask_map import scheduler_option
-from sarproc.cli.options import SectionCommand, common_options, input_argument, load_config, summary, want_progress
+from sarproc.cli.options import SectionCommand, common_options, input_argument, summary, want_progress
 
 
 @click.command(cls=SectionCommand, section="backproject")
@@ -23,7 +23,15 @@ from sarproc.cli.options import SectionCommand, common_options, input_argument, 
 )
 @common_options
 @scheduler_option
-def backproject(input_path: Path, target_names, output: Path, config_path, overwrite: bool, progress, scheduler):
+def backproject(
+    input_path: Path,
+    target_names: str | None,
+    output: Path,
+    config_path: Path | None,
+    overwrite: bool,
+    progress: bool | None,
+    scheduler: str | None,
+) -> None:
     """Exact time-domain backprojection of a raw product onto a frame grid (section `backproject:`).
 
     The default grid covers the targets table, moving targets at their static-equivalent positions
@@ -37,10 +45,10 @@ def backproject(input_path: Path, target_names, output: Path, config_path, overw
 
     from sarproc.cli.dask_map import dask_mapper, scheduler_client, worker_threads, workers_peak_memory
     from sarproc.cli.options import info, max_memory
-    from sarproc.product.budget import human
     from sarproc.cli.progress import progress_factory
     from sarproc.cli.stage import backproject_block_pixels, backproject_estimate, naming, prepare
     from sarproc.focus import backprojection as bp
+    from sarproc.product.budget import human
     from sarproc.product.errors import InputError
     from sarproc.product.frames import frame_names
     from sarproc.product.io import ProductWriter
@@ -66,7 +74,7 @@ def backproject(input_path: Path, target_names, output: Path, config_path, overw
     with naming(input_path, config_path, "backproject"):
         plan = bp.plan_backprojection(raw, params, grid_targets=names)
         pulses = bp.pulse_set(raw, params)
-    raw.data = None  # the pulses hold what the blocks need: free the echoes before the image is summed
+    raw.data = None  # type: ignore[assignment]  # the pulses hold what the blocks need: free the echoes
     header = bp.image_product(raw, plan, params, np.broadcast_to(np.complex64(0), plan.shape))
     header.history[-1]["command"] = f"sarproc backproject {input_path}"
     blocks = bp.row_blocks(plan.shape, params.block_pixels)

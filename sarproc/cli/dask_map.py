@@ -14,8 +14,14 @@ import contextlib
 import itertools
 import os
 import uuid
+from typing import TYPE_CHECKING
 
 import click
+
+if TYPE_CHECKING:
+    from collections.abc import Callable, Iterable, Iterator
+
+    from dask.distributed import Client
 
 scheduler_option = click.option(
     "--scheduler",
@@ -27,16 +33,18 @@ scheduler_option = click.option(
 )
 
 
-def dask_mapper(client, key_prefix: str = "task", window: int | None = None):
+def dask_mapper(
+    client: Client, key_prefix: str = "task", window: int | None = None
+) -> Callable[[Callable, Iterable], Iterator]:
     """map-like callable running ``func`` on ``client``'s workers; results in input order."""
     if window is None:
         window = 2 * max(1, sum(w.get("nthreads", 1) for w in client.scheduler_info()["workers"].values()))
 
-    def mapper(func, items):
+    def mapper(func: Callable, items: Iterable) -> Iterator:
         # keys unique to this call: two runs on one long-lived scheduler must never share results
         prefix = f"{key_prefix}-{uuid.uuid4().hex[:12]}"
         counter = itertools.count()
-        pending = collections.deque()
+        pending: collections.deque = collections.deque()
         items = iter(items)
         for item in itertools.islice(items, window):
             pending.append(client.submit(func, item, key=f"{prefix}-{next(counter)}", pure=False))
@@ -51,7 +59,7 @@ def dask_mapper(client, key_prefix: str = "task", window: int | None = None):
     return mapper
 
 
-def worker_threads(client) -> int:
+def worker_threads(client: Client) -> int:
     """Threads of the smallest worker: a task's compiled kernels use that many, not every core of its host
     (a LocalCluster has one single-threaded worker per core)."""
     workers = client.scheduler_info()["workers"].values()
@@ -66,13 +74,13 @@ def _peak_rss_bytes() -> int:
     return int(peak if sys.platform == "darwin" else peak * 1024)  # bytes on macOS, KiB on Linux
 
 
-def workers_peak_memory(client) -> dict[str, int]:
+def workers_peak_memory(client: Client) -> dict[str, int]:
     """Peak resident memory (bytes) of each Dask worker process so far, by worker address."""
     return dict(client.run(_peak_rss_bytes))
 
 
 @contextlib.contextmanager
-def scheduler_client(scheduler: str | None):
+def scheduler_client(scheduler: str | None) -> Iterator[Client | None]:
     """A Dask client for ``--scheduler`` ('local' starts a LocalCluster), or None without one."""
     if scheduler is None:
         yield None

@@ -6,6 +6,7 @@ import contextlib
 import json
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
@@ -23,8 +24,15 @@ from sarproc.cli.options import (
     want_progress,
 )
 
+if TYPE_CHECKING:
+    from collections.abc import Mapping, Sequence
 
-def _fmt(x: float, spec: str) -> str:
+    from sarproc.product.model import Product
+    from sarproc.quality.metrics import AxisMetrics, EvaluateParams, FalseTarget, QualityReport
+    from sarproc.quality.moving import MoverReport
+
+
+def _fmt(x: float | None, spec: str) -> str:
     if x is None or not math.isfinite(x):
         return "n/a"
     if spec.endswith("f"):
@@ -32,18 +40,18 @@ def _fmt(x: float, spec: str) -> str:
     return format(x, spec)
 
 
-def _direction(m, dims) -> str:
+def _direction(m: AxisMetrics, dims: Sequence[str]) -> str:
     """The cut as 'axis' or 'axis -0.50 range' (axis-unit components per unit along its own axis)."""
     others = [f"{c:+.3f} {d}" for c, d in zip(m.direction, dims) if d != m.axis and abs(c) >= 5e-4]
     return " ".join([m.axis] + others) + (f" ({m.angle_deg:.1f} deg)" if others else "")
 
 
-def _theory(value, m) -> str:
+def _theory(value: float | None, m: AxisMetrics) -> str:
     """' (theory)' after a PSLR / ISLR when the target has its own."""
     return "" if value is None or m.theory != "target" else f" ({value:.2f})"
 
 
-def markdown_table(report, units: dict) -> str:
+def markdown_table(report: QualityReport, units: dict) -> str:
     """Metric table (one row per target and principal cut, image-axis cuts as extra columns) and the
     false-target line, as Markdown."""
     lines = [
@@ -90,10 +98,10 @@ def markdown_table(report, units: dict) -> str:
     return "\n".join(lines)
 
 
-def movers_table(movers) -> str:
+def movers_table(movers: Sequence[MoverReport]) -> str:
     """Moving truth targets: where they were measured, velocity errors, relocation, as Markdown."""
 
-    def f(x, spec=".3f"):
+    def f(x: float | None, spec: str = ".3f") -> str:
         return "n/a" if x is None else _fmt(x, spec)
 
     lines = [
@@ -120,11 +128,11 @@ def movers_table(movers) -> str:
     return "\n".join(lines)
 
 
-def false_target_lines(report, units: dict) -> list[str]:
+def false_target_lines(report: QualityReport, units: dict) -> list[str]:
     """The false-target figures: on the residual image (every target's fitted response subtracted) with the
     residual's floor, and outside the +-guard_cells windows of the image itself."""
 
-    def where(ft):
+    def where(ft: FalseTarget) -> str:
         return ", ".join(f"{d} = {v:.4g} {units.get(d, '')}".rstrip() for d, v in ft.position.items())
 
     guard = report.false_target_guard if report.residual is not None else report.false_target
@@ -198,7 +206,16 @@ def _write_text_atomic(path: Path, text: str, overwrite: bool = True) -> None:
 @progress_option
 @max_memory_option
 @dry_run_option
-def evaluate(input_path: Path, output, overwrite, plot_dir, expect_path, target_names, config_path, progress):
+def evaluate(
+    input_path: Path,
+    output: Path,
+    overwrite: bool,
+    plot_dir: Path | None,
+    expect_path: Path | None,
+    target_names: str | None,
+    config_path: Path | None,
+    progress: bool | None,
+) -> None:
     """Point-target metrics of an image: IRW, PSLR, ISLR, position error and false-target level.
 
     Cuts run along each response's principal axes (its side-lobe ridges, found from the chip's
@@ -291,7 +308,9 @@ def evaluate(input_path: Path, output, overwrite, plot_dir, expect_path, target_
         summary(f"evaluate: all checks passed against {expect_path}")
 
 
-def _plots(plot_dir: Path, product, report, units, params) -> None:
+def _plots(
+    plot_dir: Path, product: Product, report: QualityReport, units: Mapping[str, str], params: EvaluateParams
+) -> None:
     created = not plot_dir.exists()
     plot_dir.mkdir(parents=True, exist_ok=True)
     try:
@@ -303,7 +322,9 @@ def _plots(plot_dir: Path, product, report, units, params) -> None:
         raise
 
 
-def _draw(plot_dir: Path, product, report, units, params) -> None:
+def _draw(
+    plot_dir: Path, product: Product, report: QualityReport, units: Mapping[str, str], params: EvaluateParams
+) -> None:
     import numpy as np
 
     from sarproc.product.io import atomic_path

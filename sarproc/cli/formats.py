@@ -2,7 +2,8 @@
 
     sarproc export-sicd IMAGE.h5 -o IMAGE.nitf [--config FILE.yaml]   focused 2D image -> SICD 1.4.0 (or 1.3.0)
     sarproc export-cphd RAW.h5   -o RAW.cphd   [--config FILE.yaml]   raw phase history -> CPHD 1.1.0
-    sarproc import-cphd RAW.cphd -o RAW.h5                            FX/TOA-domain CPHD -> raw product (backproject, pfa2)
+    sarproc import-cphd RAW.cphd -o RAW.h5                            FX/TOA-domain CPHD -> raw product
+                                                                      (backproject, pfa2)
 
 The absolute time and the Earth placement come from the `geolocation:` section of --config, else the
 product's reference (the scene's `reference:` section), else documented defaults (docs/formats.md).
@@ -37,13 +38,13 @@ def _check_line(name: str, result: dict) -> str:
     )
 
 
-def _finish(name: str, output: Path, result: dict, report_path):
+def _finish(name: str, output: Path, result: dict, report_path: Path | None) -> None:
     from sarproc.product.errors import ProcessingError
     from sarproc.product.io import atomic_path
 
     if report_path is not None:  # atomic like every output (a device or '-' is written through)
         with atomic_path(report_path) as tmp:
-            tmp.write_text(json.dumps({k: v for k, v in result.items()}, indent=1) + "\n")
+            tmp.write_text(json.dumps(dict(result.items()), indent=1) + "\n")
     if not result["passed"]:
         click.echo(result["report"], err=True)
         raise ProcessingError(f"{output}: sarkit's {name} consistency checks failed: {', '.join(result['errors'])}")
@@ -82,12 +83,19 @@ check_option = click.option(
     help="SICD version written: 1.3.0 for readers that do not know 1.4.0 (the content is the same).",
 )
 def export_sicd(
-    input_path: Path, output: Path, config_path, overwrite: bool, report_path, image_formation: str, sicd_version: str
-):
+    input_path: Path,
+    output: Path,
+    config_path: Path | None,
+    overwrite: bool,
+    report_path: Path | None,
+    image_formation: str,
+    sicd_version: str,
+) -> None:
     """Export a focused 2D image product to SICD (NITF), checked by sarkit's SicdConsistency."""
     import numpy as np
 
     from sarproc.cli.stage import export_sicd_estimate, naming, plan_outputs
+    from sarproc.product.errors import InputError, ProcessingError
     from sarproc.product.geolocation import GeolocationParams, placement
     from sarproc.product.io import atomic_path, read_product
     from sarproc.product.sicd import (
@@ -99,7 +107,6 @@ def export_sicd(
         sicd_pixels,
         write_sicd,
     )
-    from sarproc.product.errors import InputError, ProcessingError
 
     require_sarkit()
     # config, input header (and its placement), output location, plan; then the data
@@ -108,8 +115,8 @@ def export_sicd(
     with naming(input_path, config_path, "geolocation"):
         place = placement(header.radar, params)
         image_grid(header, place)  # a plane, orthogonal, uniform grid (no pixels read)
-    image_formation = None if image_formation.lower() == "auto" else image_formation.upper()
-    if image_formation == "PFA" and not formed_by_pfa(header):
+    formation = None if image_formation.lower() == "auto" else image_formation.upper()
+    if formation == "PFA" and not formed_by_pfa(header):
         raise InputError(
             f"{input_path}: --image-formation PFA needs an image made by pfa2 (its history and "
             "attribute 'support_rectangle')"
@@ -119,7 +126,7 @@ def export_sicd(
     # written, read back and checked before it is published: a failed check leaves no file
     with atomic_path(output, overwrite) as tmp:
         with naming(input_path):
-            grid = write_sicd(tmp, image, place, image_formation=image_formation, version=sicd_version)
+            grid = write_sicd(tmp, image, place, image_formation=formation, version=sicd_version)
         _, pixels = read_sicd(tmp)
         if not np.array_equal(pixels, sicd_pixels(image.data, grid)):
             raise ProcessingError(f"{output}: the pixels read back differ from those written for {input_path}")
@@ -140,7 +147,9 @@ def export_sicd(
 @overwrite_option
 @check_option
 @dry_run_option
-def export_cphd(input_path: Path, output: Path, config_path, overwrite: bool, report_path):
+def export_cphd(
+    input_path: Path, output: Path, config_path: Path | None, overwrite: bool, report_path: Path | None
+) -> None:
     """Export a single-channel raw product to CPHD 1.1.0 (FX domain), checked by sarkit's CphdConsistency."""
     from sarproc.cli.stage import export_cphd_estimate, naming, plan_outputs
     from sarproc.product.cphd import check_cphd, require_sarkit, write_cphd
@@ -168,7 +177,7 @@ def export_cphd(input_path: Path, output: Path, config_path, overwrite: bool, re
 @output_option
 @overwrite_option
 @dry_run_option
-def import_cphd(input_path: Path, output: Path, overwrite: bool):
+def import_cphd(input_path: Path, output: Path, overwrite: bool) -> None:
     """Import a CPHD file (FX or TOA domain, monostatic) as a raw product (backproject and pfa2 focus it).
 
     Files from export-cphd come back losslessly; others are read from their standard fields alone

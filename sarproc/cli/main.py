@@ -16,6 +16,7 @@ import signal
 import sys
 import threading
 import traceback
+from collections.abc import MutableMapping
 
 import click
 
@@ -70,7 +71,7 @@ def _run_scope():
             signal.signal(s, h)
 
 
-def _one_line(text: str) -> str:
+def _one_line(text: object) -> str:
     return " ".join(str(text).split())
 
 
@@ -91,7 +92,8 @@ class LazyGroup(click.Group):
 
     def parse_args(self, ctx, args):
         # -q / -v / -vv may come anywhere (also after the subcommand): move them in front of it.
-        front, rest = [], []
+        front: list[str] = []
+        rest: list[str] = []
         for i, a in enumerate(args):
             if a == "--":
                 rest.extend(args[i:])
@@ -120,9 +122,9 @@ class LazyGroup(click.Group):
                     except Interrupted:
                         raise
                     except BaseException:
-                        if run.fired() is not None and not run.complete():
+                        if (fired := run.fired()) is not None and not run.complete():
                             # whatever the signal interrupted failed as a consequence
-                            raise Interrupted(run.fired()) from None
+                            raise Interrupted(fired) from None
                         raise
                     run.check()  # a signal whose exception a library swallowed: the run still stops
                     return result
@@ -207,21 +209,22 @@ def run_cli(args=None) -> int:
         if not hdf5_handles_damaged() and not isinstance(unraisable.exc_value, Interrupted):
             default_hook(unraisable)
 
-    quiet_unraisable.sarproc = True
+    quiet_unraisable.sarproc = True  # type: ignore[attr-defined]
     if not getattr(default_hook, "sarproc", False):
         sys.unraisablehook = quiet_unraisable  # for the whole process: freed HDF5 objects complain at its exit
     run.install_handlers()  # before a stage starts (argument parsing, imports): nothing to clean
+    code = 0
     try:
-        cli.main(args=args, prog_name="sarproc")
-        code = 0
+        cli.main(args=args, prog_name="sarproc")  # standalone mode: always ends in SystemExit
     except SystemExit as exc:
         code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
     except Interrupted as exc:
         print(f"Error: interrupted by {signal.Signals(exc.signum).name}", file=sys.stderr)
         code = 128 + exc.signum
-    if run.fired() is not None and code == 0:  # during parsing, and no run began (--help, --version)
-        print(f"Error: interrupted by {signal.Signals(run.fired()).name}", file=sys.stderr)
-        code = 128 + run.fired()
+    fired = run.fired()
+    if fired is not None and code == 0:  # during parsing, and no run began (--help, --version)
+        print(f"Error: interrupted by {signal.Signals(fired).name}", file=sys.stderr)
+        code = 128 + fired
     run.ignore_signals()  # the run has ended: its status stands, a late signal must not kill the exit
     return code
 
@@ -234,11 +237,11 @@ def run_cli(args=None) -> int:
 THREAD_DEFAULTS = {"OMP_WAIT_POLICY": "PASSIVE"}
 
 
-def set_thread_defaults(environ: dict | None = None) -> None:
+def set_thread_defaults(environ: MutableMapping[str, str] | None = None) -> None:
     """Put :data:`THREAD_DEFAULTS` into ``environ`` (default ``os.environ``) where the user set nothing."""
-    environ = os.environ if environ is None else environ
+    target = os.environ if environ is None else environ
     for key, value in THREAD_DEFAULTS.items():
-        environ.setdefault(key, value)
+        target.setdefault(key, value)
 
 
 def main(args=None):  # pragma: no cover - console entry (exercised by subprocess tests)

@@ -13,7 +13,9 @@ from sarproc.cli.options import SectionCommand, common_options, input_argument, 
 @click.command(cls=SectionCommand, section="reconstruct")
 @input_argument
 @common_options
-def reconstruct(input_path: Path, output: Path, config_path, overwrite: bool, progress):
+def reconstruct(
+    input_path: Path, output: Path, config_path: Path | None, overwrite: bool, progress: bool | None
+) -> None:
     """Azimuth multichannel reconstruction (paper 003): raw_multichannel -> one raw channel at N x PRF.
 
     Squint deramp, Krieger filter bank, and for `method: modified` moving-target detection (CFAR on
@@ -24,8 +26,8 @@ def reconstruct(input_path: Path, output: Path, config_path, overwrite: bool, pr
     `reconstruct` and aux `velocity_search_<k>`; `sarproc backproject` focuses the output.
     """
     from sarproc.cli.progress import progress_factory
-    from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct as run
     from sarproc.cli.stage import naming, prepare, reconstruct_estimate
+    from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct as run
     from sarproc.product.io import write_product
 
     # config, input header, output location, plan (the output holds as many samples as the input)

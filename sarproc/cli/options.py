@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any, TypeVar
 
 import click
 
@@ -35,7 +37,7 @@ class SectionCommand(click.Command):
     section, or ``scene`` for a scene file), with units, bounds and defaults, generated from the
     parameter declarations through the stored schema (sarproc.cli.schema: no stage is imported)."""
 
-    def __init__(self, *args, section: str | tuple[str, ...], **kwargs) -> None:
+    def __init__(self, *args: Any, section: str | tuple[str, ...], **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self.sections = (section,) if isinstance(section, str) else tuple(section)
 
@@ -49,7 +51,7 @@ class SectionCommand(click.Command):
         super().format_epilog(ctx, formatter)
 
 
-def _store_max_memory(ctx, param, value):
+def _store_max_memory(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
     if value is not None:
         from sarproc.product.budget import parse_size
         from sarproc.product.errors import InputError
@@ -72,7 +74,7 @@ max_memory_option = click.option(
 )
 
 
-def _store_dry_run(ctx, param, value):
+def _store_dry_run(ctx: click.Context, param: click.Parameter, value: bool) -> bool:
     if value:
         ctx.meta["sarproc.dry_run"] = True
     return value
@@ -89,7 +91,11 @@ dry_run_option = click.option(
 )
 
 
-def common_options(func):
+F = TypeVar("F", bound=Callable[..., Any])
+T = TypeVar("T")
+
+
+def common_options(func: F) -> F:
     """-o, --config, --overwrite, --progress, --max-memory, --dry-run in one decorator."""
     for opt in (dry_run_option, max_memory_option, progress_option, overwrite_option, config_option, output_option):
         func = opt(func)
@@ -112,13 +118,13 @@ def dry_run() -> bool:
     return ctx is not None and bool(ctx.meta.get("sarproc.dry_run"))
 
 
-def want_progress(flag) -> bool:
+def want_progress(flag: bool | None) -> bool:
     if verbosity() < 0:
         return False
     return sys.stderr.isatty() if flag is None else bool(flag)
 
 
-def check_sections(data: dict, path) -> None:
+def check_sections(data: dict, path: str | Path) -> None:
     """Refuse a top-level key that is no stage's, no other command's and no scene's section (a typo
     would otherwise be ignored and the defaults used)."""
     import dataclasses
@@ -137,7 +143,7 @@ def check_sections(data: dict, path) -> None:
         )
 
 
-def load_config(cls, path, section: str | None = None):
+def load_config(cls: type[T], path: str | Path | None, section: str | None = None) -> T:
     """Build parameter model ``cls`` from a YAML file (or defaults when ``path`` is None).
 
     With ``section``, only that top-level key of the file is used, so one YAML file can hold

@@ -18,7 +18,14 @@ from sarproc.cli.options import SectionCommand, common_options, dry_run_option, 
 @input_argument
 @common_options
 @scheduler_option
-def pfa2(input_path: Path, output: Path, config_path, overwrite: bool, progress, scheduler):
+def pfa2(
+    input_path: Path,
+    output: Path,
+    config_path: Path | None,
+    overwrite: bool,
+    progress: bool | None,
+    scheduler: str | None,
+) -> None:
     """Polar format with the varied gate, sub-aperture de-aliasing and two-step PFA (section `pfa2:`)."""
     from sarproc.cli.dask_map import dask_mapper, scheduler_client
     from sarproc.cli.progress import progress_factory
@@ -56,7 +63,7 @@ def pfa2(input_path: Path, output: Path, config_path, overwrite: bool, progress,
     default=False,
     help="Apply the files' autofocus solution (af.r_correct, af.ph_correct).",
 )
-def import_gotcha(inputs, output: Path, overwrite: bool, autofocus: bool):
+def import_gotcha(inputs: tuple[Path, ...], output: Path, overwrite: bool, autofocus: bool) -> None:
     """Convert AFRL Gotcha phase-history .mat files (one pass, consecutive azimuths) into a raw product."""
     from sarproc.cli.stage import import_gotcha_estimate, plan_outputs
     from sarproc.product.gotcha import gotcha_files, gotcha_product, read_gotcha

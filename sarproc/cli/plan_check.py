@@ -49,7 +49,7 @@ main()
 """
 
 
-def _run(args: list, extra=(), cwd: Path | None = None) -> tuple[int, str, str]:
+def _run(args: list, extra: tuple | list = (), cwd: Path | None = None) -> tuple[int, str, str]:
     """(exit status, stdout, stderr) of one sarproc subprocess."""
     proc = subprocess.run(
         [sys.executable, "-m", "sarproc", *map(str, args), *extra], check=False, capture_output=True, text=True, cwd=cwd

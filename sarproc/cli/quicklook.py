@@ -41,7 +41,7 @@ from sarproc.cli.options import dry_run_option, input_argument, overwrite_option
 )
 def quicklook(
     input_path: Path, output: Path, overwrite: bool, dynamic_range_db: float, mark_targets: bool, max_pixels: int
-):
+) -> None:
     """Picture of any image product, with or without truth targets.
 
     2D images: magnitude in dB relative to the peak, axes in metres named by the image frame.
@@ -58,7 +58,7 @@ def quicklook(
     header = read_product(input_path, kinds=("image", "image3d"), load=False)
     plan_outputs(input_path, [output], overwrite, lambda: quicklook_estimate("quicklook", header, max_pixels))
     magnitude, dims, coords, factors = read_magnitude_preview(input_path, max_side=max_pixels, header=header)
-    truth, names = None, ()
+    truth, names = None, []
     if mark_targets and len(header.targets):
         from sarproc.quality.moving import apparent_truth
 

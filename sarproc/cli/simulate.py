@@ -28,14 +28,14 @@ from sarproc.cli.options import (
 @max_memory_option
 @dry_run_option
 @scheduler_option
-def simulate(scene_path: Path, output: Path, overwrite: bool, progress, scheduler):
+def simulate(scene_path: Path, output: Path, overwrite: bool, progress: bool | None, scheduler: str | None) -> None:
     """Simulate exact-geometry raw echoes of the point targets declared in SCENE_PATH ('-': standard input)."""
-    from sarproc.product.io import ProductWriter, check_output_path, history_entry
-    from sarproc.simulation.scene import load_scene
-    from sarproc.simulation.simulate import illumination_warnings, plan_simulation, simulate_blocks
     from sarproc.cli.dask_map import dask_mapper, scheduler_client
     from sarproc.cli.progress import progress_factory
     from sarproc.cli.stage import naming, report_plan, simulate_estimate
+    from sarproc.product.io import ProductWriter, check_output_path, history_entry
+    from sarproc.simulation.scene import load_scene
+    from sarproc.simulation.simulate import illumination_warnings, plan_simulation, simulate_blocks
 
     start = time.perf_counter()
     scene = load_scene(scene_path)  # the scene is validated before the output is looked at

@@ -9,24 +9,31 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
-from sarproc.cli.options import SectionCommand, common_options, input_argument, load_config, summary, want_progress
+from sarproc.cli.options import SectionCommand, common_options, input_argument, summary, want_progress
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from sarproc.product.budget import Plan
+    from sarproc.product.model import Product
 
 
 def _run(
     stage: str,
     input_path: Path,
     output: Path,
-    config_path,
+    config_path: Path | None,
     overwrite: bool,
-    kinds,
-    params_cls,
-    func,
+    kinds: tuple[str, ...],
+    params_cls: type,
+    func: Callable[..., Product],
     progress: bool | None,
-    estimate,
-):
+    estimate: Callable[..., Plan],
+) -> tuple[Product, float]:
     """The shared body of the three commands: prepare (config, input, output, plan), run, write."""
     from sarproc.cli.progress import progress_factory
     from sarproc.cli.stage import naming, prepare
@@ -45,7 +52,9 @@ def _run(
 @click.command(cls=SectionCommand, section="preprocess")
 @input_argument
 @common_options
-def preprocess(input_path: Path, output: Path, config_path, overwrite: bool, progress):
+def preprocess(
+    input_path: Path, output: Path, config_path: Path | None, overwrite: bool, progress: bool | None
+) -> None:
     """Doppler-centroid correction of a raw product (paper 000 eq. 7; section `preprocess:`)."""
     from sarproc.cli.stage import preprocess_estimate
     from sarproc.focus.squint_deramp.preprocess import PreprocessParams, preprocess as run
@@ -71,7 +80,9 @@ def preprocess(input_path: Path, output: Path, config_path, overwrite: bool, pro
 @click.command(cls=SectionCommand, section="coarse_focus")
 @input_argument
 @common_options
-def coarse_focus(input_path: Path, output: Path, config_path, overwrite: bool, progress):
+def coarse_focus(
+    input_path: Path, output: Path, config_path: Path | None, overwrite: bool, progress: bool | None
+) -> None:
     """Azimuth deramp / SPECAN coarse focusing (paper 000 eqs. 9-11; section `coarse_focus:`)."""
     from sarproc.cli.stage import coarse_focus_estimate
     from sarproc.focus.squint_deramp.coarse_focus import CoarseFocusParams, coarse_focus as run
@@ -99,7 +110,9 @@ def coarse_focus(input_path: Path, output: Path, config_path, overwrite: bool, p
 @click.command(cls=SectionCommand, section="fine_focus")
 @input_argument
 @common_options
-def fine_focus(input_path: Path, output: Path, config_path, overwrite: bool, progress):
+def fine_focus(
+    input_path: Path, output: Path, config_path: Path | None, overwrite: bool, progress: bool | None
+) -> None:
     """Stolt range focusing and azimuth compression, flow 1 or NLCS flow 2 (section `fine_focus:`)."""
     from sarproc.cli.stage import fine_focus_estimate
     from sarproc.focus.squint_deramp.fine_focus import FineFocusParams, fine_focus as run

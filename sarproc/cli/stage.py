@@ -21,6 +21,7 @@ import contextlib
 import dataclasses
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
@@ -28,11 +29,20 @@ from sarproc.cli.options import dry_run, info, load_config, max_memory
 from sarproc.product.budget import Plan, check_plan, complex_bytes, stored_bytes
 from sarproc.product.errors import InputError
 
+if TYPE_CHECKING:
+    from collections.abc import Callable, Iterable, Iterator, Sequence
+    from typing import Any
+
+    from sarproc.product.model import Product
+    from sarproc.simulation.scene import Scene
+
 C = 299_792_458.0
 
 
 @contextlib.contextmanager
-def naming(input_path, config_path=None, section: str | None = None):
+def naming(
+    input_path: str | Path | None, config_path: str | Path | None = None, section: str | None = None
+) -> Iterator[None]:
     """Give a core InputError the file it is about: the config for ``section.key`` messages, else the input."""
     try:
         yield
@@ -46,12 +56,20 @@ def naming(input_path, config_path=None, section: str | None = None):
 
 
 def prepare(
-    stage: str, input_path: Path, outputs, config_path, overwrite: bool, kinds, params_cls, section: str, estimate=None
-):
+    stage: str,
+    input_path: Path,
+    outputs: Sequence[Path | None],
+    config_path: Path | None,
+    overwrite: bool,
+    kinds: tuple[str, ...],
+    params_cls: type,
+    section: str,
+    estimate: Callable[..., Plan] | None = None,
+) -> tuple[Any, Product]:
     """Steps 1-5 above; returns (params, product) ready for the work."""
     from sarproc.product.io import read_product
 
-    params = load_config(params_cls, config_path, section=section)
+    params: Any = load_config(params_cls, config_path, section=section)
     header = read_product(input_path, kinds=kinds, load=False)
     plan_outputs(
         input_path,
@@ -66,19 +84,25 @@ def prepare(
 
 
 def plan_outputs(
-    input_path, outputs, overwrite: bool, estimate, inputs=None, config_path=None, section: str | None = None
-):
+    input_path: str | Path,
+    outputs: Sequence[Path | None],
+    overwrite: bool,
+    estimate: Callable[[], Plan],
+    inputs: Sequence[Path] | None = None,
+    config_path: Path | None = None,
+    section: str | None = None,
+) -> Plan:
     """Steps 3-4 above for a checked input: every output writable, then ``estimate()``'s plan printed
     with -v and refused when it cannot fit. ``inputs``: the files the outputs must not replace
     (default ``[input_path]``). Returns the plan."""
     from sarproc.product.io import check_output_path
 
-    outputs = [Path(o) for o in outputs if o is not None]
-    for out in outputs:
+    paths = [Path(o) for o in outputs if o is not None]
+    for out in paths:
         check_output_path(out, [input_path] if inputs is None else inputs, overwrite)
     with naming(input_path, config_path, section):
         plan = estimate()
-    report_plan(plan, outputs, input_path)
+    report_plan(plan, paths, input_path)
     return plan
 
 
@@ -119,7 +143,7 @@ KERNELS = {
 }
 
 
-def kernels_cached(modules) -> bool:
+def kernels_cached(modules: Iterable[str]) -> bool:
     """Whether numba's cache holds the kernels of ``modules``: each module with cached kernels has
     the index file of at least one (a kernel a stage never calls, e.g. cubic interpolation's table
     in a linear run, is never compiled, so not every index exists after a run)."""
@@ -153,7 +177,7 @@ def whole_process(plan: Plan) -> Plan:
     )
 
 
-def report_plan(plan: Plan, outputs, input_path) -> None:
+def report_plan(plan: Plan, outputs: Sequence[Path], input_path: str | Path | None) -> None:
     """Step 4: the plan printed (with -v), refused when it cannot fit; with --dry-run printed on
     stdout, and the run ends here (exit 0, nothing computed or written)."""
     plan = whole_process(plan)
@@ -166,26 +190,26 @@ def report_plan(plan: Plan, outputs, input_path) -> None:
         raise click.exceptions.Exit(0)
 
 
-def _shape(header) -> tuple[int, ...]:
+def _shape(header: Product) -> tuple[int, ...]:
     """The data's shape, from a header read with load=False or from a loaded product."""
     return tuple(int(n) for n in header.attrs.get("shape", header.data.shape))
 
 
-def generic_estimate(stage: str, header, params) -> Plan:
+def generic_estimate(stage: str, header: Product, params: Any) -> Plan:
     """Output as large as the input, four input-sized arrays in memory, FFT-like cost."""
     n = math.prod(_shape(header))
     b = complex_bytes(n)
     return Plan(stage, b, 4 * b, n * 60e-9 * max(1.0, math.log2(max(n, 2)) / 10))
 
 
-def preprocess_estimate(stage, header, params) -> Plan:
+def preprocess_estimate(stage: str, header: Product, params: Any) -> Plan:
     n_az, n_rg = _shape(header)
     b = complex_bytes(n_az, n_rg)
     block = complex_bytes(min(params.block_pulses, n_az), n_rg, itemsize=16) * 4
     return Plan(stage, stored_bytes(n_az, n_rg), 2 * b + block, n_az * n_rg * 40e-9, f"{n_az} x {n_rg} samples")
 
 
-def coarse_focus_estimate(stage, header, params) -> Plan:
+def coarse_focus_estimate(stage: str, header: Product, params: Any) -> Plan:
     n_az, n_rg = _shape(header)
     n_out = params.azimuth_samples or 2 * n_az  # the default M is the PRF-limited length, at most about 2x
     out = complex_bytes(n_out, n_rg)
@@ -199,11 +223,11 @@ def coarse_focus_estimate(stage, header, params) -> Plan:
     )
 
 
-def fine_focus_estimate(stage, header, params) -> Plan:
+def fine_focus_estimate(stage: str, header: Product, params: Any) -> Plan:
     M, n_r = _shape(header)
     r = header.radar
     N = n_r + int(math.ceil(r.pulse_duration * r.range_sampling_rate))
-    if M * N > params.max_samples:
+    if params.max_samples < M * N:
         raise InputError(
             f"fine_focus.max_samples: the working array {M} x {N} exceeds {params.max_samples}; "
             "raise it or shrink the scene"
@@ -224,7 +248,7 @@ def fine_focus_estimate(stage, header, params) -> Plan:
     )
 
 
-def _fine_focus_flow(header) -> int:
+def _fine_focus_flow(header: Product) -> int:
     """fine-focus's automatic flow (eq. 17): 1 when the scene fits its depth of focus."""
     from sarproc.focus.squint_deramp.fine_focus import scene_and_focus_depth
 
@@ -237,7 +261,7 @@ def _fine_focus_flow(header) -> int:
     return 1 if scene_half <= half_adof else 2
 
 
-def image_grid(header, params) -> tuple[int, int]:
+def image_grid(header: Product, params: Any) -> tuple[int, int]:
     """(azimuth, range) pixels of the image a focuser's extents/spacings give (backproject, pfa2 share
     the keys): the targets' extent plus margin_cells, spaced IRW / oversample unless set."""
     r = header.radar
@@ -262,13 +286,13 @@ def image_grid(header, params) -> tuple[int, int]:
 BACKPROJECT_BYTES_PER_PIXEL = 140.0
 
 
-def _backproject_fixed_bytes(n_ch: int, n_az: int, n_rg: int, params) -> float:
+def _backproject_fixed_bytes(n_ch: int, n_az: int, n_rg: int, params: Any) -> float:
     raw = 4 * complex_bytes(n_ch, n_az, n_rg)
     up = complex_bytes(min(64, n_az), n_rg * params.upsample, itemsize=16)
     return raw + 2 * up
 
 
-def backproject_block_pixels(header, params, memory_limit: int | None) -> int:
+def backproject_block_pixels(header: Product, params: Any, memory_limit: int | None) -> int:
     """Pixels per output block: ``params.block_pixels``, fewer (whole rows, at least one) when the blocks
     would not fit ``memory_limit`` (bytes) beside the pulses and the process itself."""
     block = int(params.block_pixels)
@@ -281,7 +305,7 @@ def backproject_block_pixels(header, params, memory_limit: int | None) -> int:
     return max(row, min(block, int(room / BACKPROJECT_BYTES_PER_PIXEL) // row * row))
 
 
-def backproject_estimate(stage, header, params) -> Plan:
+def backproject_estimate(stage: str, header: Product, params: Any) -> Plan:
     n_az, n_rg = _shape(header)[-2:]
     n_ch = _shape(header)[0] if len(_shape(header)) == 3 else 1
     n = image_grid(header, params)
@@ -320,7 +344,7 @@ def backproject_estimate(stage, header, params) -> Plan:
     return Plan(stage, stored_bytes(*n), memory, seconds, detail)
 
 
-def pfa2_estimate(stage, header, params) -> Plan:
+def pfa2_estimate(stage: str, header: Product, params: Any) -> Plan:
     """The phase history and its polar-to-rectangular resampling, the image and its sub-images: about
     three input-sized and three image-sized complex64 arrays (fitted to nie2016_small, 385 MB, and the
     full Table 1 scene, 11.1 GB, docs/pfa.md); cost per input sample and per pixel (fitted to the small
@@ -337,7 +361,7 @@ def pfa2_estimate(stage, header, params) -> Plan:
     )
 
 
-def reconstruct_estimate(stage, header, params) -> Plan:
+def reconstruct_estimate(stage: str, header: Product, params: Any) -> Plan:
     """The channels' range spectra (zero-padded) in several complex64 copies at once: the deramped
     spectra, their azimuth FFT, the reconstructed N-PRF signal in (f_a, f_r) and (t, f_r), and for
     the modified method its range-time copies; about eight input-sized arrays (measured)."""
@@ -356,7 +380,7 @@ def reconstruct_estimate(stage, header, params) -> Plan:
     )
 
 
-def array3d_estimate(stage, header, params) -> Plan:
+def array3d_estimate(stage: str, header: Product, params: Any) -> Plan:
     n_ch, n_az, n_rg = _shape(header)
     n_el = int(params.elevation_zero_padding * n_ch)
     raw = complex_bytes(n_ch, n_az, n_rg)
@@ -373,7 +397,7 @@ def array3d_estimate(stage, header, params) -> Plan:
     )
 
 
-def evaluate_estimate(stage, header, params) -> Plan:
+def evaluate_estimate(stage: str, header: Product, params: Any) -> Plan:
     """The image and its magnitude; per target its chips (raw, neighbour-cleaned, their spectra, the
     support's gradients: held for every target) and the largest 1-D cut, whose interpolation kernel is
     (cut points) x (chip length) complex samples. Constants fitted to measured runs (docs/plans.md)."""
@@ -406,7 +430,7 @@ def evaluate_estimate(stage, header, params) -> Plan:
     )
 
 
-def quicklook_estimate(stage, header, max_pixels: int) -> Plan:
+def quicklook_estimate(stage: str, header: Product, max_pixels: int) -> Plan:
     """The picture: every drawn pixel (2D: the image reduced to max_pixels per axis; 3D: its three
     projections) through matplotlib's rendering, ~75 bytes and 0.3 us each (measured), the image read
     block by block."""
@@ -422,7 +446,7 @@ def quicklook_estimate(stage, header, max_pixels: int) -> Plan:
     )
 
 
-def simulate_estimate(scene) -> Plan:
+def simulate_estimate(scene: Scene) -> Plan:
     """Raw product size, memory and time of ``scene`` before planning it (cheap: three pulses)."""
     import numpy as np
 
@@ -477,13 +501,13 @@ def simulate_estimate(scene) -> Plan:
     return Plan("simulate", out, mem, seconds, detail)
 
 
-def export_sicd_estimate(stage, header, params) -> Plan:
+def export_sicd_estimate(stage: str, header: Product, params: Any) -> Plan:
     """SICD holds complex64 pixels; the image, its reordered copy and the read-back are in memory."""
     n = math.prod(_shape(header))
     return Plan(stage, complex_bytes(n) + 1e5, 3 * complex_bytes(n), n * 50e-9, f"{n} pixels")
 
 
-def export_cphd_estimate(stage, header, params) -> Plan:
+def export_cphd_estimate(stage: str, header: Product, params: Any) -> Plan:
     """CPHD holds the FX-domain signal (complex64) and 200 bytes of per-vector parameters per pulse."""
     n_az, n_rg = _shape(header)[-2:]
     n = n_az * n_rg
@@ -496,7 +520,7 @@ def export_cphd_estimate(stage, header, params) -> Plan:
     )
 
 
-def import_cphd_estimate(stage, cphd: dict) -> Plan:
+def import_cphd_estimate(stage: str, cphd: dict) -> Plan:
     n_v, n_s = cphd["vectors"], cphd["samples"]
     n = n_v * n_s
     return Plan(
@@ -508,7 +532,7 @@ def import_cphd_estimate(stage, cphd: dict) -> Plan:
     )
 
 
-def import_gotcha_estimate(stage, files) -> Plan:
+def import_gotcha_estimate(stage: str, files: Sequence[Path]) -> Plan:
     """Gotcha files store complex64 samples: the product is about their size; read as complex128, twice."""
     size = float(sum(Path(f).stat().st_size for f in files))
     return Plan(stage, size, 5 * size, size * 10e-9, f"{len(files)} file(s), {size / 1e6:.3g} MB")

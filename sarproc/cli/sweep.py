@@ -53,8 +53,15 @@ from sarproc.cli.options import SectionCommand, summary, verbosity
 )
 @click.option("--list", "list_only", is_flag=True, help="Print the tasks and exit.")
 def sweep(
-    sweep_path: Path, output, scheduler, table_path, workers, threads_per_worker: int, processes: bool, list_only: bool
-):
+    sweep_path: Path,
+    output: Path | None,
+    scheduler: str | None,
+    table_path: Path | None,
+    workers: int,
+    threads_per_worker: int,
+    processes: bool,
+    list_only: bool,
+) -> None:
     """Run a grid of scenes x stage knobs (simulate -> focus -> evaluate) and gather one table.
 
     Every step writes its own product under DIR (raw/, tasks/<id>/); a step whose output already

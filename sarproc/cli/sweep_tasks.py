@@ -55,11 +55,18 @@ import threading
 import time
 import uuid
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from sarproc import __version__
 from sarproc.cli.schema import SECTION_MODELS
 from sarproc.product.config import STAGE_SECTIONS, build, load_yaml, param
 from sarproc.product.errors import InputError, ProcessingError
+
+if TYPE_CHECKING:
+    from collections.abc import Callable, Iterable, Iterator, Sequence
+    from typing import TextIO
+
+    from dask.distributed import Client
 
 TIME_COLUMNS = ("simulate_s", "focus_s", "focus_median_s", "focus_spread_s", "evaluate_s")
 TIMING_KEYS = TIME_COLUMNS + ("focus_times",)  # every key of a row that holds a measured time
@@ -77,7 +84,7 @@ class SweepParams:
     evaluate: bool = param(default=True, doc="run evaluate on each task's last product (false: quality n/a)")
     repeats: int = param(default=1, doc="timed runs of each task's focus chain, interleaved over the tasks")
 
-    def validate(self):
+    def validate(self) -> None:
         from sarproc.cli.main import COMMANDS
 
         if not self.scenes:
@@ -142,13 +149,13 @@ class Plan:
     tasks: tuple[Task, ...]
 
 
-def digest(obj) -> str:
+def digest(obj: object) -> str:
     """sha256 of a JSON-serialisable object (sorted keys, so dict order does not matter)."""
     text = json.dumps(obj, sort_keys=True, default=str, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def set_dotted(mapping: dict, key: str, value, where: str) -> None:
+def set_dotted(mapping: dict, key: str, value: object, where: str) -> None:
     """mapping['a']['b'] = value for key 'a.b' (intermediate mappings created)."""
     parts = key.split(".")
     node = mapping
@@ -179,7 +186,7 @@ STAGE_PARAMS = {
 }
 
 
-def check_stage_sections(config: dict, commands, where: str) -> None:
+def check_stage_sections(config: dict, commands: Iterable[str], where: str) -> None:
     """Build each stage's parameters from ``config`` (bad knobs fail here, naming the task and key)."""
     import importlib
 
@@ -191,7 +198,7 @@ def check_stage_sections(config: dict, commands, where: str) -> None:
         build(getattr(importlib.import_module(module), name), config.get(section) or {}, where, section)
 
 
-def plan_sweep(path, output=None) -> Plan:
+def plan_sweep(path: str | Path, output: str | Path | None = None) -> Plan:
     """Expand a sweep YAML into simulation jobs and tasks; every scene is validated first."""
     from sarproc.simulation.scene import scene_from_mapping
 
@@ -260,7 +267,7 @@ def plan_sweep(path, output=None) -> Plan:
     return Plan(path, out, knobs, tuple(sims.values()), tuple(tasks))
 
 
-def _keep_targets(mapping: dict, names, where: str) -> dict:
+def _keep_targets(mapping: dict, names: Sequence[str], where: str) -> dict:
     """The scene with only the named point targets (in the order given; a targets.grid is left out)."""
     points = (mapping.get("targets") or {}).get("points") or []
     by_name = {str(p.get("name")): p for p in points if isinstance(p, dict)}
@@ -277,7 +284,7 @@ def _keep_targets(mapping: dict, names, where: str) -> dict:
 
 _local = threading.local()
 _install_lock = threading.Lock()
-_installed = [0, None]  # active captures, the stream replaced
+_installed: list = [0, None]  # active captures, the stream replaced
 
 
 class _ThreadRoutedStdout(io.TextIOBase):
@@ -287,28 +294,28 @@ class _ThreadRoutedStdout(io.TextIOBase):
     (contextlib.redirect_stdout) would mix their outputs and restore the wrong stream.
     """
 
-    def __init__(self, fallback):
+    def __init__(self, fallback: TextIO) -> None:
         self._fallback = fallback
 
     @property
-    def encoding(self):
+    def encoding(self) -> str:  # type: ignore[override]  # the wrapped stream's, read-only
         return getattr(self._fallback, "encoding", "utf-8")
 
-    def writable(self):
+    def writable(self) -> bool:
         return True
 
-    def write(self, text):
+    def write(self, text: str) -> int:
         buf = getattr(_local, "buffer", None)
         return (buf if buf is not None else self._fallback).write(text)
 
-    def flush(self):
+    def flush(self) -> None:
         buf = getattr(_local, "buffer", None)
         if buf is None:
             self._fallback.flush()
 
 
 @contextlib.contextmanager
-def captured_stdout():
+def captured_stdout() -> Iterator[io.StringIO]:
     """Collect what this thread prints (click.echo) into a StringIO."""
     with _install_lock:
         if _installed[0] == 0:
@@ -326,7 +333,7 @@ def captured_stdout():
                 sys.stdout = _installed[1]
 
 
-def invoke(command: str, args) -> str:
+def invoke(command: str, args: Sequence[str | Path]) -> str:
     """Run ``sarproc COMMAND ARGS`` in this process; returns what it printed."""
     from sarproc.cli.main import cli
 
@@ -342,7 +349,7 @@ def _record_path(output: Path) -> Path:
     return output.with_name(output.name + ".done.json")
 
 
-def run_step(command: str, args, output: Path, key: str) -> dict:
+def run_step(command: str, args: Sequence[str | Path], output: Path, key: str) -> dict:
     """Run one stage unless ``output`` exists with a record of the same key; returns the record."""
     from sarproc.product.io import atomic_path
 
@@ -358,7 +365,7 @@ def run_step(command: str, args, output: Path, key: str) -> dict:
     start = time.perf_counter()
     try:
         printed = invoke(command, args)
-    except Exception as exc:  # noqa: BLE001 - the step's own error, named with its command
+    except Exception as exc:  # the step's own error, named with its command
         raise ProcessingError(f"sarproc {command} {' '.join(map(str, args))}: {exc}") from exc
     record = {
         "key": key,
@@ -415,7 +422,7 @@ def run_task(task: Task, sim: dict) -> dict:
             "simulate_s": sim["seconds"],
             "focus_s": focus_s,
             "evaluate_s": None,
-            **{c: None for c in QUALITY_COLUMNS},
+            **dict.fromkeys(QUALITY_COLUMNS),
             "skipped": all(skipped),
         }
     report = task.directory / "report.json"
@@ -448,9 +455,9 @@ def focus_keys(task: Task, sim_key: str) -> list[str]:
 
 
 def _same_data(a: Path, b: Path) -> bool:
-    from sarproc.product.io import read_product
-
     import numpy as np
+
+    from sarproc.product.io import read_product
 
     pa, pb = read_product(a, check_finite=False), read_product(b, check_finite=False)
     return pa.data.shape == pb.data.shape and bool(np.array_equal(pa.data, pb.data, equal_nan=True))
@@ -482,7 +489,7 @@ def run_repeat(task: Task, sim: dict, k: int) -> dict:
             start = time.perf_counter()
             try:
                 invoke(command, [source, "--config", config_path, "-o", out, "--overwrite", "--no-progress"])
-            except Exception as exc:  # noqa: BLE001 - the step's own error, named with its command
+            except Exception as exc:  # the step's own error, named with its command
                 raise ProcessingError(f"repeat {k} of sarproc {command} ({task.task_id}): {exc}") from exc
             seconds += time.perf_counter() - start
             made.append(out)
@@ -538,7 +545,7 @@ def _order(plan: Plan, rows: list) -> list:
     return sorted(rows, key=lambda r: index[r["task"]])
 
 
-def run_serial(plan: Plan, on_row=None) -> Outcome:
+def run_serial(plan: Plan, on_row: Callable[[dict], object] | None = None) -> Outcome:
     """Every task in this process, one after the other (no Dask needed)."""
     start = time.perf_counter()
     sims, rows, failures = {}, [], []
@@ -563,7 +570,7 @@ def run_serial(plan: Plan, on_row=None) -> Outcome:
     return Outcome(_order(plan, rows), failures, time.perf_counter() - start)
 
 
-def _serial_round(calls):
+def _serial_round(calls: Iterable[tuple[str, tuple]]) -> Iterator[tuple[str, object]]:
     """Run (name, args of run_repeat) pairs in order; yields (name, result or exception)."""
     for name, args in calls:
         try:
@@ -572,14 +579,16 @@ def _serial_round(calls):
             yield name, exc
 
 
-def _repeat_rounds(plan: Plan, rows: list, failures: list, sims: dict, run_round) -> list:
+def _repeat_rounds(
+    plan: Plan, rows: list, failures: list, sims: dict, run_round: Callable[[list], Iterable[tuple[str, object]]]
+) -> list:
     """Rounds 1..repeats-1 of every finished task's focus chain, one round after the other (round-robin
     over the tasks); the rows with their timing summaries. A task whose repeat fails is a failure."""
     n = max((t.repeats for t in plan.tasks), default=1)
     if n <= 1:
         return [with_repeats(r, []) for r in rows]
     by_id = {t.task_id: t for t in plan.tasks}
-    done = {r["task"]: [] for r in rows}
+    done: dict[str, list] = {r["task"]: [] for r in rows}
     for k in range(1, n):
         calls = [(tid, (by_id[tid], sims[by_id[tid].sim_key], k)) for tid in done]
         for tid, result in run_round(calls):
@@ -591,7 +600,7 @@ def _repeat_rounds(plan: Plan, rows: list, failures: list, sims: dict, run_round
     return [with_repeats(r, done[r["task"]]) for r in rows if r["task"] in done]
 
 
-def local_client(workers: int, threads_per_worker: int = 1, processes: bool = True):
+def local_client(workers: int, threads_per_worker: int = 1, processes: bool = True) -> Client:
     """A distributed Client on a new LocalCluster (its HTTP server on a free port: several may run at once)."""
     from dask.distributed import Client, LocalCluster
 
@@ -601,7 +610,7 @@ def local_client(workers: int, threads_per_worker: int = 1, processes: bool = Tr
     return Client(cluster)
 
 
-def run_dask(plan: Plan, client, on_row=None) -> Outcome:
+def run_dask(plan: Plan, client: Client, on_row: Callable[[dict], object] | None = None) -> Outcome:
     """Submit the simulations and the tasks (each depending on its raw product) to a Dask client."""
     from dask.distributed import as_completed
 
@@ -626,7 +635,7 @@ def run_dask(plan: Plan, client, on_row=None) -> Outcome:
         if on_row:
             on_row(row)
 
-    def dask_round(calls):
+    def dask_round(calls: Iterable[tuple[str, tuple]]) -> Iterator[tuple[str, object]]:
         # the whole round is submitted at once; the next round waits for this one (interleaving)
         futures = {
             client.submit(run_repeat, *args, key=f"repeat-{name}-{args[2]}-{run}", pure=False): name
@@ -642,7 +651,7 @@ def run_dask(plan: Plan, client, on_row=None) -> Outcome:
 # --- table and plot --------------------------------------------------------------------------------
 
 
-def _cell(v) -> str:
+def _cell(v: object) -> str:
     if v is None:
         return "n/a"
     if isinstance(v, float):
@@ -713,7 +722,7 @@ def plot_sweep(path: Path, plan: Plan, rows: list) -> None:
     from sarproc.quality.tradeoff_plot import plot_tradeoff
 
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
-    pngs = []
+    pngs: list[Path] = []
     with tempfile.TemporaryDirectory() as tmp:
         for scene in scenes:
             sel = [r for r in rows if r["scene"] == scene]

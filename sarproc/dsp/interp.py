@@ -22,11 +22,17 @@ from __future__ import annotations
 
 import functools
 import math
+from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
 
 from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
+
+if TYPE_CHECKING:
+    from typing import Any
+
+    import numpy.typing as npt
 
 KERNELS = ("nearest", "linear", "cubic", "sinc", "lanczos", "knab")
 DEFAULT_LENGTH = {"nearest": 1, "linear": 2, "cubic": 4, "sinc": 8, "lanczos": 8, "knab": 8}
@@ -80,7 +86,7 @@ _TABLE_STEPS = 2048
 
 
 @functools.lru_cache(maxsize=32)
-def _weight_table(kernel, taps, oversampling, beta, steps=_TABLE_STEPS):
+def _weight_table(kernel: str, taps: int, oversampling: float, beta: float, steps: int = _TABLE_STEPS) -> np.ndarray:
     d = np.linspace(-taps / 2, taps / 2, taps * steps + 1)
     table = np.r_[kernel_weights(d, kernel, taps, oversampling=oversampling, beta=beta), 0.0]
     table.flags.writeable = False
@@ -88,7 +94,9 @@ def _weight_table(kernel, taps, oversampling, beta, steps=_TABLE_STEPS):
 
 
 @functools.lru_cache(maxsize=32)
-def _tap_table(kernel, taps, oversampling, beta, dtype, steps=_TABLE_STEPS):
+def _tap_table(
+    kernel: str, taps: int, oversampling: float, beta: float, dtype: npt.DTypeLike, steps: int = _TABLE_STEPS
+) -> np.ndarray:
     flat = _weight_table(kernel, taps, oversampling, beta, steps)
     c = np.arange(steps + 1)[:, None]
     m = np.arange(taps)[None, :]
@@ -110,7 +118,7 @@ _MODES = {"nearest": 0, "linear": 1, "cubic": 2}  # any other kernel: tabulated 
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _resample_row(row, pos, out, mode, taps, table, steps, zero, lo_pos, hi_pos):
+def _resample_row(row, pos, out, mode, taps, table, steps, zero, lo_pos, hi_pos) -> None:
     """One row: out[j] = sum over taps of row[i] w(pos[j] - i); zeros outside the row; pos outside
     [lo_pos, hi_pos] (or NaN) gives ``zero``. Tabulated weights are renormalised to unit sum."""
     n_in = len(row)
@@ -172,7 +180,7 @@ def _resample_row(row, pos, out, mode, taps, table, steps, zero, lo_pos, hi_pos)
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=CACHE)
-def _resample_kernel(data, pos, out, mode, taps, table, steps, zero, lo_pos, hi_pos):
+def _resample_kernel(data, pos, out, mode, taps, table, steps, zero, lo_pos, hi_pos) -> None:
     """Rows in parallel (the per-row work is a separate function: no accumulator is shared across rows)."""
     for r in numba.prange(data.shape[0]):
         _resample_row(data[r], pos[r], out[r], mode, taps, table, steps, zero, lo_pos, hi_pos)
@@ -186,8 +194,8 @@ def resample_rows(
     *,
     oversampling: float = 1.25,
     beta: float = 6.0,
-    out_dtype=None,
-    out=None,
+    out_dtype: npt.DTypeLike | None = None,
+    out: np.ndarray | None = None,
 ) -> np.ndarray:
     """Interpolate each row of ``data`` at fractional sample ``positions``.
 
@@ -209,10 +217,7 @@ def resample_rows(
         raise ValueError(f"resample_rows: out must be a C-contiguous {pos.shape} array apart from data")
     wdt = out.real.dtype if np.issubdtype(out.dtype, np.inexact) else np.dtype(np.float64)
     mode = _MODES.get(kernel, 3)
-    if mode == 3:
-        table = _tap_table(kernel, taps, float(oversampling), float(beta), wdt)
-    else:
-        table = np.zeros((2, 1), wdt)
+    table = _tap_table(kernel, taps, float(oversampling), float(beta), wdt) if mode == 3 else np.zeros((2, 1), wdt)
     if not np.issubdtype(data.dtype, np.inexact):
         data = data.astype(np.float64)
     if n_rows and pos.shape[1]:
@@ -223,7 +228,7 @@ def resample_rows(
 
 
 def resample(
-    data: np.ndarray, positions: np.ndarray, kernel: str = "knab", length: int | None = None, **kwargs
+    data: np.ndarray, positions: np.ndarray, kernel: str = "knab", length: int | None = None, **kwargs: Any
 ) -> np.ndarray:
     """:func:`resample_rows` for ``data`` (..., n_in) with ``positions`` broadcasting to (..., n_out)."""
     data = np.asarray(data)

@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numba
 import numpy as np
 
 from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
 
 _TWO_PI32 = np.float32(2 * np.pi)
 
@@ -26,7 +31,7 @@ def unit_phasor(cycles: np.ndarray) -> np.ndarray:
 
 
 @numba.njit(inline="always")
-def cmul(a, b):
+def cmul(a: complex, b: complex) -> tuple[float, float]:
     """(re, im) of a * b (float64) rounded as numpy's SIMD complex64 loop rounds them, for compiled kernels that
     must reproduce a numpy product: re = fma(a_r, b_r, -a_i b_i), im = fma(a_r, b_i, a_i b_r) with the second
     product rounded to the inputs' precision; the fused one is exact in float64 for float32 inputs, so storing
@@ -42,7 +47,7 @@ _INV_TWO_PI = 1.0 / (2 * np.pi)
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def cis_cycles32(c):
+def cis_cycles32(c: np.float32) -> tuple[np.float32, np.float32]:
     """(cos, sin)(2 pi c) for float32 c with |c| <= 1/2: Taylor polynomials after reduction to a quarter cycle
     (|error| < 2e-7; vectorisable, no libm call)."""
     k = np.floor(c * np.float32(2.0) + np.float32(0.5))  # nearest half cycle: -1, 0 or 1
@@ -112,7 +117,7 @@ _C0, _C2, _C4, _C6, _C8 = (
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def cis_cycles32_short(c):
+def cis_cycles32_short(c: np.float32) -> tuple[np.float32, np.float32]:
     """(cos, sin)(2 pi c) for float32 c with |c| <= 1/2 from shorter minimax polynomials (9 multiply-adds, no
     half-cycle rounding): |error| < 1e-6, i.e. -120 dB, for hot loops where that is far below float32 geometry."""
     a = np.abs(c)
@@ -125,7 +130,7 @@ def cis_cycles32_short(c):
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _rotate_row(xr, a0, a1, a2, a3, c0, c1, c2, c3, scale):
+def _rotate_row(xr, a0, a1, a2, a3, c0, c1, c2, c3, scale) -> None:
     """xr (2m interleaved re, im) *= exp(j 2 pi scale (a0 c0 + a1 c1 + a2 c2 + a3 c3)); vectorisable."""
     for j in range(len(c0)):
         c = (a0 * c0[j] + a1 * c1[j] + a2 * c2[j] + a3 * c3[j]) * scale
@@ -138,14 +143,14 @@ def _rotate_row(xr, a0, a1, a2, a3, c0, c1, c2, c3, scale):
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=CACHE)
-def _separable_kernel(xf, rows, cols, scale):
+def _separable_kernel(xf, rows, cols, scale) -> None:
     """Rows of xf (n, 2m) float view of complex data; rows (4, n), cols (4, m) float64."""
     for i in numba.prange(xf.shape[0]):
         _rotate_row(xf[i], rows[0, i], rows[1, i], rows[2, i], rows[3, i], cols[0], cols[1], cols[2], cols[3], scale)
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _rotate_row_field(xr, phase, mask, use_mask, scale):
+def _rotate_row_field(xr, phase, mask, use_mask, scale) -> None:
     for j in range(len(phase)):
         c = phase[j] * scale
         c -= np.floor(c + 0.5)
@@ -165,19 +170,20 @@ rotate_row_field = _rotate_row_field
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=CACHE)
-def _field_kernel(xf, phase, mask, use_mask, scale):
+def _field_kernel(xf, phase, mask, use_mask, scale) -> None:
     for i in numba.prange(xf.shape[0]):
         _rotate_row_field(xf[i], phase[i], mask[i], use_mask, scale)
 
 
-def multiply_separable_phase(x: np.ndarray, rows, cols, *, cycles: bool = False) -> np.ndarray:
+def multiply_separable_phase(
+    x: np.ndarray, rows: npt.ArrayLike, cols: npt.ArrayLike, *, cycles: bool = False
+) -> np.ndarray:
     """x[i, j] *= exp(j sum_k rows[k][i] cols[k][j]) in place (x: 2D complex); returns x.
 
     The phase field is never stored: each element's phase is summed in float64, reduced to cycles and
     turned into a float32 phasor inside one parallel loop. ``cycles``: the sum is in cycles, not radians.
     """
-    rows = np.ascontiguousarray(np.atleast_2d(np.asarray(rows, float)))
-    cols = np.ascontiguousarray(np.atleast_2d(np.asarray(cols, float)))
+    rows, cols = (np.ascontiguousarray(np.atleast_2d(np.asarray(v, float))) for v in (rows, cols))
     if rows.shape != (len(cols), x.shape[0]) or cols.shape[1] != x.shape[1] or len(rows) > 4:
         raise ValueError(f"rows {rows.shape} / cols {cols.shape} do not match x {x.shape} (at most 4 terms)")
     if len(rows) < 4:  # the kernel takes exactly four terms

@@ -16,19 +16,26 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.fft as sfft
 
+from sarproc.dsp.phasor import unit_phasor
+from sarproc.dsp.rangecomp import range_compress
 from sarproc.product import beam, moving, theory
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import InputError
-from sarproc.product.frames import make_frame, targets_in_frame
+from sarproc.product.frames import Frame, make_frame, targets_in_frame
 from sarproc.product.metadata import C
-from sarproc.dsp.phasor import unit_phasor
 from sarproc.product.model import Product, target_names
-from sarproc.dsp.rangecomp import range_compress
 from sarproc.product.theory import WINDOWS
+
+if TYPE_CHECKING:
+    from collections.abc import Callable, Iterable, Iterator, Sequence
+    from concurrent.futures import Executor
+
+    from sarproc.product.steps import ProgressFactory
 
 
 def upsample_range(
@@ -41,7 +48,7 @@ def upsample_range(
     """
     n = rc.shape[-1]
     m = n * factor if length is None else int(length)
-    out = np.zeros(rc.shape[:-1] + (m + pad,), np.complex64)
+    out: np.ndarray = np.zeros(rc.shape[:-1] + (m + pad,), np.complex64)
     if m == n:
         out[..., :n] = rc
         return out
@@ -100,22 +107,22 @@ def _ranges(platform: np.ndarray, points_c: np.ndarray, points_sq: np.ndarray) -
 
 
 def _backproject_block(
-    s,
-    e,
-    flat,
-    stride,
-    n_up,
-    scale,
-    t0,
-    gate,
-    tx_c,
-    rx_c,
-    monostatic,
-    points_c,
-    points_sq,
-    carrier_frequency,
-    interpolation,
-):
+    s: int,
+    e: int,
+    flat: np.ndarray,
+    stride: int,
+    n_up: int,
+    scale: float,
+    t0: float,
+    gate: np.ndarray,
+    tx_c: np.ndarray,
+    rx_c: np.ndarray,
+    monostatic: bool,
+    points_c: np.ndarray,
+    points_sq: np.ndarray,
+    carrier_frequency: float,
+    interpolation: str,
+) -> np.ndarray:
     r = _ranges(tx_c[s:e], points_c, points_sq)
     if monostatic:
         r *= 2.0
@@ -154,18 +161,18 @@ INTERPOLATIONS = ("linear", "nearest", "cubic", "knab", "sinc", "lanczos")
 
 
 def backproject_points(
-    rc,
-    range_time,
-    tx_pos,
-    rx_pos,
-    points,
-    carrier_frequency,
+    rc: np.ndarray,
+    range_time: np.ndarray,
+    tx_pos: np.ndarray,
+    rx_pos: np.ndarray,
+    points: np.ndarray,
+    carrier_frequency: float,
     *,
     upsample: int = 8,
     interpolation: str = "linear",
-    gate_offset=None,
+    gate_offset: np.ndarray | None = None,
     block_elements: int = 131_072,
-    progress=None,
+    progress: ProgressFactory | None = None,
     workers: int | None = None,
     engine: str = "reference",
     kernel_length: int = 8,
@@ -233,7 +240,7 @@ def backproject_points(
     tx_c, rx_c = tx_pos - origin, rx_pos - origin
     n_workers = workers or os.cpu_count() or 1
 
-    def parts(pool):
+    def parts(pool: Executor) -> Iterator[np.ndarray]:
         for (c0, c1), local in zip(chunks, spans):
             flat = upsample_range(rc[c0:c1], upsample, pad=1, length=n_up).ravel()
             args = (
@@ -255,7 +262,7 @@ def backproject_points(
 
     acc = np.zeros(len(points), np.complex128)
     with ThreadPoolExecutor(max_workers=n_workers) as pool:
-        results = parts(pool)
+        results: Iterable[np.ndarray] = parts(pool)
         if progress is not None:
             results = progress(results, total=sum(len(x) for x in spans))
         for part in results:
@@ -291,23 +298,23 @@ def _tile_size(points: np.ndarray, tile_points: int, max_radius: float = np.inf)
 
 
 def _backproject_compiled(
-    rc,
-    t0,
-    dt,
-    gate,
-    tx_pos,
-    rx_pos,
-    monostatic,
-    points,
-    carrier_frequency,
-    upsample,
-    interpolation,
-    kernel_length,
-    oversampling,
-    tile_points,
-    progress,
-    workers,
-):
+    rc: np.ndarray,
+    t0: float,
+    dt: float,
+    gate: np.ndarray,
+    tx_pos: np.ndarray,
+    rx_pos: np.ndarray,
+    monostatic: bool,
+    points: np.ndarray,
+    carrier_frequency: float,
+    upsample: int,
+    interpolation: str,
+    kernel_length: int,
+    oversampling: float,
+    tile_points: int,
+    progress: ProgressFactory | None,
+    workers: int | None,
+) -> np.ndarray:
     import numba
 
     from sarproc.dsp.interp import kernel_length as taps_of, tap_table
@@ -447,12 +454,12 @@ class BackprojectParams:
     )
 
 
-def _unit_los(tx, points):
+def _unit_los(tx: np.ndarray, points: np.ndarray) -> np.ndarray:
     d = points[None, :, :] - tx[:, None, :]
     return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
-def theoretical_irw(product: Product, frame, centre_coords) -> list[float]:
+def theoretical_irw(product: Product, frame: Frame, centre_coords: Sequence[float]) -> list[float]:
     """Theoretical -3 dB widths along each frame axis at ``centre_coords``, axis units.
 
     Range axis: 0.886 / ((2B/c) |u . e_range|) with u the line of sight at the aperture
@@ -482,7 +489,14 @@ def theoretical_irw(product: Product, frame, centre_coords) -> list[float]:
     return widths
 
 
-def _default_grid(params: BackprojectParams, product: Product, frame, irw_guess, finest=None, grid_targets=None):
+def _default_grid(
+    params: BackprojectParams,
+    product: Product,
+    frame: Frame,
+    irw_guess: Sequence[float],
+    finest: Sequence[float] | None = None,
+    grid_targets: Sequence[str] | None = None,
+) -> dict[str, np.ndarray]:
     """Grid axes: spacing the finest theory (``finest``: a target's own, else ``irw_guess``) / oversample,
     extent the targets' span (moving targets where they appear; ``grid_targets``: these names only) plus
     margin_cells of ``irw_guess``."""
@@ -540,7 +554,7 @@ class PulseSet:
 class BackprojectionPlan:
     """The output grid and everything written beside the image, decided before any pixel is summed."""
 
-    frame: object
+    frame: Frame
     azimuth: np.ndarray
     range: np.ndarray
     targets: object
@@ -569,7 +583,9 @@ def _check_params(params: BackprojectParams) -> None:
         )
 
 
-def plan_backprojection(raw: Product, params: BackprojectParams, grid_targets=None) -> BackprojectionPlan:
+def plan_backprojection(
+    raw: Product, params: BackprojectParams, grid_targets: Sequence[str] | None = None
+) -> BackprojectionPlan:
     """The frame, the grid (covering the targets, moving ones where they appear; ``grid_targets``: only
     these names), every target's own theory and the image attributes: all but the pixel sums."""
     if raw.kind not in ("raw", "raw_multichannel", "raw_array"):
@@ -656,7 +672,12 @@ def pulse_set(raw: Product, params: BackprojectParams) -> PulseSet:
 
 
 def backproject_rows(
-    pulses: PulseSet, plan: BackprojectionPlan, params: BackprojectParams, rows: slice, progress=None, workers=None
+    pulses: PulseSet,
+    plan: BackprojectionPlan,
+    params: BackprojectParams,
+    rows: slice,
+    progress: ProgressFactory | None = None,
+    workers: int | None = None,
 ) -> np.ndarray:
     """The image rows ``rows`` (azimuth indices of the plan's grid): (n_rows, n_range) complex64, every
     channel summed coherently. Pure: the same rows give the same block wherever they are computed."""
@@ -717,11 +738,11 @@ def backproject_blocks(
     pulses: PulseSet,
     plan: BackprojectionPlan,
     params: BackprojectParams,
-    blocks,
-    mapper=None,
-    progress=None,
-    workers=None,
-):
+    blocks: Sequence[slice],
+    mapper: Callable | None = None,
+    progress: ProgressFactory | None = None,
+    workers: int | None = None,
+) -> Iterator[tuple[slice, np.ndarray]]:
     """Yield (rows, block) over ``blocks`` in order. ``mapper`` (a map-like yielding in input order, e.g. one
     over Dask workers; the builtin map by default) computes them; ``pulses`` may be a Dask future of a
     PulseSet, resolved on the workers."""
@@ -735,13 +756,16 @@ def backproject_blocks(
         yield rows, block
 
 
-def _block_task(item) -> np.ndarray:
+def _block_task(item: tuple) -> np.ndarray:
     pulses, plan, params, rows, workers = item
     return backproject_rows(pulses, plan, params, rows, workers=workers)
 
 
 def backproject(
-    raw: Product, params: BackprojectParams = BackprojectParams(), progress=None, grid_targets=None
+    raw: Product,
+    params: BackprojectParams = BackprojectParams(),
+    progress: ProgressFactory | None = None,
+    grid_targets: Sequence[str] | None = None,
 ) -> Product:
     """Focus a raw product (one or several channels, summed coherently) onto a frame grid, in memory.
 
@@ -759,7 +783,7 @@ def backproject(
     return image_product(raw, plan, params, img)
 
 
-def image_product(raw: Product, plan: BackprojectionPlan, params: BackprojectParams, img) -> Product:
+def image_product(raw: Product, plan: BackprojectionPlan, params: BackprojectParams, img: np.ndarray) -> Product:
     """The image product of ``plan`` around ``img`` (the full image, or any placeholder of its shape when the
     data are streamed to disk block by block)."""
     from sarproc.product.io import history_entry

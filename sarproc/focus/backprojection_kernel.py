@@ -98,7 +98,7 @@ def _pulse_reference(cx, cy, cz, tx, rx, p, monostatic, scale, first, kc, h4kc):
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _add_leg(dr, dx, dy, dz, d2, geo, factor, first_leg):
+def _add_leg(dr, dx, dy, dz, d2, geo, factor, first_leg) -> None:
     """dr (+)= factor x the leg's path difference per pixel; branch-free loops, so they vectorise."""
     ux, uy, uz, inv_r, r0, hir, hir2, expand = geo
     if expand and first_leg:
@@ -116,7 +116,7 @@ def _add_leg(dr, dx, dy, dz, d2, geo, factor, first_leg):
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _path_differences(dr, dx, dy, dz, d2, geo_t, geo_r, monostatic):
+def _path_differences(dr, dx, dy, dz, d2, geo_t, geo_r, monostatic) -> None:
     if monostatic:
         _add_leg(dr, dx, dy, dz, d2, geo_t, np.float32(2.0), True)
     else:
@@ -125,7 +125,7 @@ def _path_differences(dr, dx, dy, dz, d2, geo_t, geo_r, monostatic):
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _positions(dr, frac, cos_, sin_, frac0, cyc0, scale32, kc32):
+def _positions(dr, frac, cos_, sin_, frac0, cyc0, scale32, kc32) -> None:
     """Per pixel of a tile, for one pulse: sample position offset (float32, from the tile's integer base
     sample) and carrier phasor."""
     half = np.float32(0.5)
@@ -139,7 +139,7 @@ def _positions(dr, frac, cos_, sin_, frac0, cyc0, scale32, kc32):
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _indices(dr, jc, frac0, scale32, ibase, n_w):
+def _indices(dr, jc, frac0, scale32, ibase, n_w) -> None:
     """Pair-table entry of each pixel, clipped to the zero entries 0 and n_w (reads outside the window add
     nothing)."""
     lo = np.int32(0)
@@ -158,7 +158,7 @@ def _weight_and_phasor(dr, frac0, cyc0, scale32, kc32):
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _combine_from_dr(acc_re, acc_im, g, dr, frac0, cyc0, scale32, kc32):
+def _combine_from_dr(acc_re, acc_im, g, dr, frac0, cyc0, scale32, kc32) -> None:
     """acc += (x_s + w (x_{s+1} - x_s)) exp(j 2 pi cycles) per pixel, w and the cycles recomputed from dr (cheaper
     than storing and reloading them)."""
     for i in range(len(acc_re)):
@@ -170,7 +170,7 @@ def _combine_from_dr(acc_re, acc_im, g, dr, frac0, cyc0, scale32, kc32):
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _path_indices_mono(dr, jc, dx, dy, dz, d2, geo, frac0, scale32, ibase, n_w):
+def _path_indices_mono(dr, jc, dx, dy, dz, d2, geo, frac0, scale32, ibase, n_w) -> None:
     """_path_differences and _indices in one pass for the common case: monostatic, expansion accurate."""
     ux, uy, uz, inv_r, r0, hir, hir2, expand = geo
     lo = np.int32(0)
@@ -182,7 +182,7 @@ def _path_indices_mono(dr, jc, dx, dy, dz, d2, geo, frac0, scale32, ibase, n_w):
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _combine_cubic(acc_re, acc_im, g, dr, frac0, cyc0, scale32, kc32):
+def _combine_cubic(acc_re, acc_im, g, dr, frac0, cyc0, scale32, kc32) -> None:
     """As _combine_from_dr for the cubic table: value c0 + w (c1 + w (c2 + w c3)), g holding (c0 .. c3) per pixel."""
     for i in range(len(acc_re)):
         w, co, si = _weight_and_phasor(dr[i], frac0, cyc0, scale32, kc32)
@@ -193,7 +193,7 @@ def _combine_cubic(acc_re, acc_im, g, dr, frac0, cyc0, scale32, kc32):
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _gather_quads(coef, jc, g):
+def _gather_quads(coef, jc, g) -> None:
     """g[2i], g[2i + 1] = coef[2 jc[i]], coef[2 jc[i] + 1]: one 32-byte cubic entry per pixel."""
     for i in range(len(jc)):
         k = np.uint32(2) * jc[i]
@@ -202,14 +202,14 @@ def _gather_quads(coef, jc, g):
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _gather_pairs(pairs, jc, g):
+def _gather_pairs(pairs, jc, g) -> None:
     """g[i] = pairs[jc[i]]: one 16-byte entry (sample, difference to the next) per pixel, the only indirect load."""
     for i in range(len(jc)):
         g[i] = pairs[jc[i]]
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _accumulate_nearest(acc_re, acc_im, frac, cos_, sin_, row, ibase, n_s):
+def _accumulate_nearest(acc_re, acc_im, frac, cos_, sin_, row, ibase, n_s) -> None:
     zero = np.float32(0.0)
     for i in range(len(acc_re)):
         j = ibase + np.int32(np.floor(frac[i] + np.float32(0.5)))
@@ -222,7 +222,7 @@ def _accumulate_nearest(acc_re, acc_im, frac, cos_, sin_, row, ibase, n_s):
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _accumulate_table(acc_re, acc_im, frac, cos_, sin_, row, ibase, n_s, table, taps):
+def _accumulate_table(acc_re, acc_im, frac, cos_, sin_, row, ibase, n_s, table, taps) -> None:
     """Tabulated kernel: pixel i reads samples j - taps/2 + 1 .. j + taps/2 (row: complex64) with the weights
     of its fraction cell, one contiguous row of ``table`` (steps + 1, taps) per cell (sarproc.dsp.interp
     .tap_table), linearly interpolated between cells; the tap loop is a short contiguous dot product."""
@@ -296,7 +296,7 @@ def pulse_windows(first, scale, tx, rx, monostatic, centres, radius, n_s, reach)
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=CACHE)
-def pair_table(pulses, lo, pairs):
+def pair_table(pulses, lo, pairs) -> None:
     """pairs[p, k] = (x_s, x_{s+1} - x_s) for the pulse's sample s = lo[p] + k - 1 (4 float32), samples outside the
     pulse taken as zero (so s = -1 and s = n - 1 interpolate towards zero, as the reference does), and always
     zero at k = 0 and k = W, where clipped positions land (pairs: (n, W + 1, 4))."""
@@ -319,7 +319,7 @@ def pair_table(pulses, lo, pairs):
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=CACHE)
-def cubic_table(pulses, lo, coef):
+def cubic_table(pulses, lo, coef) -> None:
     """coef[p, k] = the cubic Lagrange polynomial through samples s - 1 .. s + 2 (s = lo[p] + k - 1) as
     (c0, c1, c2, c3), value c0 + w c1 + w^2 c2 + w^3 c3 at s + w (4 complex64 = 8 float32), samples outside the
     pulse taken as zero; zero at k = 0 and k = W (coef: (n, W + 1, 8))."""
@@ -356,14 +356,15 @@ def cubic_table(pulses, lo, coef):
 @numba.njit(parallel=True, error_model="numpy", cache=CACHE)
 def backproject_tiles(
     pulses, pairs, first, scale, kc, tx, rx, monostatic, centres, tile_start, d, mode, table, taps, acc
-):
+) -> None:
     """Add the pulses' contributions to ``acc`` (complex128, one entry per sorted pixel).
 
     pulses: (n_pulses, n_samples) complex64, sample j at range-delay index j (reads outside 0 .. n_samples-1 add
     nothing), read by modes 0 and 2; pairs: (n_pulses, W + 1, 4) float32, :func:`pair_table`, read by mode 1, or
     (n_pulses, W + 1, 8), :func:`cubic_table`, read by mode 3 (entry k at sample position k of ``first``'s count,
     i.e. first shifted by the window start);
-    first: (n_pulses,) float64, sample position of zero two-way path; scale: samples per metre of two-way path (fs / c); kc: carrier cycles per metre (f_c / c); tx, rx: (n_pulses, 3) float64 relative to the
+    first: (n_pulses,) float64, sample position of zero two-way path; scale: samples per metre of two-way path
+    (fs / c); kc: carrier cycles per metre (f_c / c); tx, rx: (n_pulses, 3) float64 relative to the
     tiles' origin; centres: (n_tiles, 3) float64; tile_start: (n_tiles + 1,) int64 into the sorted pixels;
     d: (4, n_pixels) float32 rows dx, dy, dz, |d|^2 of each pixel from its tile centre;
     mode: 0 nearest, 1 linear, 2 tabulated kernel of ``taps`` taps with ``table`` (steps + 1, taps), 3 cubic.
@@ -422,7 +423,7 @@ def backproject_tiles(
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def bounds(points):
+def bounds(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(min, max) over points (n, 3) float64 per coordinate, in one vectorised pass (points must be finite: under
     fastmath a NaN is not propagated, so the result does not tell whether one was there)."""
     lo = np.full(3, np.inf)
@@ -501,7 +502,9 @@ def _tile_layout(points, origin, lo, hi, tile_size, max_tile):
     return order, tile_start, centres, d
 
 
-def make_tiles(points: np.ndarray, tile_size: float, max_tile: int = 1024):
+def make_tiles(
+    points: np.ndarray, tile_size: float, max_tile: int = 1024
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Group points into spatial tiles of about ``tile_size`` metres (at most ``max_tile`` points each).
 
     Returns (order, tile_start, centres, origin, d): points[order] are grouped by tile, tile t holding

@@ -20,8 +20,6 @@ so the sum is an upper estimate. See :func:`predicted_error`.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from sarproc.product.metadata import C
@@ -30,7 +28,7 @@ INTERPOLATIONS = ("cubic", "linear")
 _MODES = {"linear": 1, "cubic": 3}
 
 
-def _weights(t, interpolation):
+def _weights(t: np.ndarray, interpolation: str) -> np.ndarray:
     if interpolation == "linear":
         return np.stack([np.zeros_like(t), 1 - t, t, np.zeros_like(t)])
     if interpolation == "cubic":
@@ -45,7 +43,7 @@ def _weights(t, interpolation):
     raise ValueError(f"unknown ffbp interpolation {interpolation!r}; known: {INTERPOLATIONS}")
 
 
-def read_error(f, interpolation: str) -> tuple[float, complex]:
+def read_error(f: np.ndarray, interpolation: str) -> tuple[float, complex]:
     """Reading tones at frequencies ``f`` (cycles per sample, equally weighted) by the 4-sample ``interpolation`` at
     uniformly random fractions t: the mean-square error p = E|e|^2 and the mean m = E[e conj(g)] of the error
     e = read - g relative to the true tone g = exp(j 2 pi f t) (m makes the range and angle errors of one 2D read
@@ -102,7 +100,7 @@ def error_bound(predicted: float) -> float:
     return BOUND_MARGIN * predicted
 
 
-def _plane(points):
+def _plane(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Origin, in-plane axes e1, e2 and normal of the points' best-fitting plane."""
     sample = points[:: max(1, len(points) // 4096)]
     origin = points.mean(axis=0)
@@ -112,7 +110,7 @@ def _plane(points):
     return origin, vt[0], vt[1], vt[2]
 
 
-def _boundary(xy, grid_shape):
+def _boundary(xy: np.ndarray, grid_shape: tuple[int, int] | None) -> np.ndarray:
     """Points on the image's boundary in plane coordinates: the grid's edges, else the convex hull."""
     if grid_shape is not None:
         g = xy.reshape(*grid_shape, 2)
@@ -127,7 +125,9 @@ def _boundary(xy, grid_shape):
         return xy
 
 
-def _extents(foot, h, boundary, theta_mid):
+def _extents(
+    foot: np.ndarray, h: np.ndarray, boundary: np.ndarray, theta_mid: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Per subimage (rows of foot, h, theta_mid), the min/max range and relative angle over boundary (n_sub, m, 2)."""
     d = boundary - foot[:, None, :]
     r = np.sqrt(np.einsum("smk,smk->sm", d, d) + (h**2)[:, None])
@@ -136,7 +136,7 @@ def _extents(foot, h, boundary, theta_mid):
     return r.min(axis=1), r.max(axis=1), th.min(axis=1), th.max(axis=1)
 
 
-def _sector_boundary(geo, ints, n_edge=24):
+def _sector_boundary(geo: np.ndarray, ints: np.ndarray, n_edge: int = 24) -> np.ndarray:
     """Plane points on the boundary of each polar grid's sector (n_sub, 4 n_edge, 2)."""
     fx, fy, h, r0, dr, th_mid, th_lo, dth = geo.T[:8]
     n_t, n_r = ints[:, 0], ints[:, 1]
@@ -167,24 +167,24 @@ def _sector_boundary(geo, ints, n_edge=24):
 
 
 def ffbp_points(
-    rc,
-    range_time,
-    pos,
-    points,
-    carrier_frequency,
-    bandwidth,
+    rc: np.ndarray,
+    range_time: np.ndarray,
+    pos: np.ndarray,
+    points: np.ndarray,
+    carrier_frequency: float,
+    bandwidth: float,
     *,
-    upsample=8,
-    interpolation="linear",
-    gate_offset=None,
-    factor=4,
-    oversample=2.0,
-    ffbp_interpolation="cubic",
-    grid_shape=None,
-    workers=None,
-    info=None,
-    range_oversample=None,
-):
+    upsample: int = 8,
+    interpolation: str = "linear",
+    gate_offset: np.ndarray | None = None,
+    factor: int = 4,
+    oversample: float = 2.0,
+    ffbp_interpolation: str = "cubic",
+    grid_shape: tuple[int, int] | None = None,
+    workers: int | None = None,
+    info: dict | None = None,
+    range_oversample: float | None = None,
+) -> np.ndarray:
     """Backproject range-compressed pulses (monostatic, antenna at ``pos`` (n_az, 3)) onto points on a plane by
     fast factorised backprojection; same result as backproject_points(..., engine='compiled') within
     :func:`predicted_error`. rc, range_time, gate_offset, upsample and interpolation ('linear' / 'cubic' on the

@@ -3,7 +3,8 @@
 A subimage is a polar image around the in-plane foot (fx, fy) of its subaperture's centre, which is h above the
 image plane: sample (a, k) is the point at range r = r0 + k dr from the centre and in-plane angle
 theta = th_mid + th_lo + a dth, demodulated by the carrier of that range (exp(-j 2 pi kc2 r)), so that it is
-band-limited in both coordinates. Geometry rows (float64): fx, fy, h, r0, dr, th_mid, th_lo, dth, cos th_mid, sin th_mid, 1 / dr, 1 / dth; integer rows:
+band-limited in both coordinates. Geometry rows (float64): fx, fy, h, r0, dr, th_mid, th_lo, dth, cos th_mid,
+sin th_mid, 1 / dr, 1 / dth; integer rows:
 n_theta, n_range, offset into the level's flat complex64 buffer. A subimage with n_theta = 1 (a single pulse)
 does not depend on the angle.
 """
@@ -113,7 +114,7 @@ def _read(buf, geo, ints, c, x, y, z, r_ref, kc2, mode_r, mode_t):
 
 
 @numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
-def merge_level(cbuf, cgeo, cints, first_child, pgeo, pints, pbuf, row_parent, row_angle, kc2, mode_r, mode_t):
+def merge_level(cbuf, cgeo, cints, first_child, pgeo, pints, pbuf, row_parent, row_angle, kc2, mode_r, mode_t) -> None:
     """Each parent polar sample: the sum of its children read at its plane point (one job per parent row)."""
     for job in numba.prange(len(row_parent)):
         s = row_parent[job]
@@ -137,7 +138,7 @@ def merge_level(cbuf, cgeo, cints, first_child, pgeo, pints, pbuf, row_parent, r
 
 
 @numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
-def final_points(buf, geo, ints, px, py, pz, kc2, mode_r, mode_t, out):
+def final_points(buf, geo, ints, px, py, pz, kc2, mode_r, mode_t, out) -> None:
     """out[i] = sum of the top subimages read at point i (plane coordinates px, py, normal offset pz), with the
     carrier of its exact range restored (exp(+j 2 pi kc2 r), as exact backprojection applies it)."""
     for i in numba.prange(len(px)):

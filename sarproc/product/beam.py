@@ -34,7 +34,9 @@ def boresight(radar: RadarMetadata, platform_pos: np.ndarray) -> np.ndarray:
     return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
-def off_boresight_angles(bore: np.ndarray, platform_pos: np.ndarray, target_pos: np.ndarray):
+def off_boresight_angles(
+    bore: np.ndarray, platform_pos: np.ndarray, target_pos: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Azimuth and elevation angles (rad), each (n_t, n_tg), of targets (n_t, n_tg, 3)."""
     x = np.array([1.0, 0.0, 0.0])
     e_az = x - (bore @ x)[:, None] * bore

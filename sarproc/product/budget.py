@@ -14,8 +14,12 @@ import math
 import os
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from sarproc.product.errors import InputError
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
 
 _SIZE = re.compile(r"^\s*(\d+(?:\.\d*)?|\.\d+)\s*([kKMGT]?)(i?)(B?)\s*$")
 _FACTOR = {"": 1, "k": 1e3, "K": 1e3, "M": 1e6, "G": 1e9, "T": 1e12}
@@ -113,7 +117,7 @@ def _why(plan: Plan) -> str:
     return f" ({plan.detail})" if plan.detail else ""
 
 
-def check_plan(plan: Plan, outputs=(), max_memory: int | None = None) -> None:
+def check_plan(plan: Plan, outputs: Sequence[str | os.PathLike] = (), max_memory: int | None = None) -> None:
     """Refuse (InputError) a plan whose output or memory cannot fit; a message says the fix."""
     import tempfile
 

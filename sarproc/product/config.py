@@ -14,13 +14,20 @@ import math
 import sys
 import typing
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import yaml
 
 from sarproc.product.errors import InputError
 from sarproc.product.units import parse_quantity
 
+if TYPE_CHECKING:
+    from collections.abc import Collection, Iterable, Mapping
+    from typing import Any
+
+
 MISSING = dataclasses.MISSING
+T = typing.TypeVar("T")
 
 # Top-level sections one YAML file may hold besides a scene's: each processing stage reads its
 # own (STAGE_SECTIONS), other commands theirs (OTHER_SECTIONS). Any other key is refused, so a
@@ -40,7 +47,7 @@ OTHER_SECTIONS = ("geolocation", "sweep")
 
 def param(
     unit: str | None = None,
-    default=MISSING,
+    default: Any = MISSING,
     *,
     gt: float | None = None,
     ge: float | None = None,
@@ -48,11 +55,11 @@ def param(
     le: float | None = None,
     choices: tuple | None = None,
     doc: str = "",
-):
+) -> typing.Any:
     """Declare a parameter: ``unit`` is a quantity kind of :mod:`sarproc.product.units` (or None)."""
     meta = {"unit": unit, "gt": gt, "ge": ge, "lt": lt, "le": le, "choices": choices, "doc": doc}
     if isinstance(default, (list, dict)):
-        return dataclasses.field(default_factory=lambda d=default: type(d)(d), metadata=meta)
+        return dataclasses.field(default_factory=lambda d=default: type(d)(d), metadata=meta)  # type: ignore[misc]
     return dataclasses.field(default=default, metadata=meta)
 
 
@@ -60,9 +67,9 @@ class _StrictLoader(yaml.SafeLoader):
     """SafeLoader that refuses a key given twice in one mapping (plain YAML keeps the last)."""
 
 
-def _construct_mapping(loader, node, deep=False):
+def _construct_mapping(loader: yaml.SafeLoader, node: yaml.MappingNode, deep: bool = False) -> dict:
     loader.flatten_mapping(node)
-    seen = {}
+    seen: dict = {}
     for key_node, _ in node.value:
         key = loader.construct_object(key_node, deep=True)
         try:
@@ -97,7 +104,7 @@ def read_stdin() -> bytes:
     return _STDIN[id(stream)]
 
 
-def load_yaml(path) -> dict:
+def load_yaml(path: str | Path) -> dict:
     """Read a YAML mapping (UTF-8, no key given twice); errors name the file and the line. ``-``: standard input."""
     path = Path(path)
     if str(path) != "-":
@@ -114,7 +121,7 @@ def load_yaml(path) -> dict:
     if "\x00" in text:
         raise InputError(f"{path}: contains NUL bytes (a binary file?); expected YAML")
     try:
-        data = yaml.load(text, Loader=_StrictLoader)  # noqa: S506 - a SafeLoader subclass
+        data = yaml.load(text, Loader=_StrictLoader)  # a SafeLoader subclass
     except yaml.YAMLError as exc:
         raise InputError(f"{path}: not valid YAML: {' '.join(str(exc).split())}") from None
     except InputError as exc:
@@ -127,7 +134,7 @@ def load_yaml(path) -> dict:
     return data
 
 
-def _check_keys(data, path, where):
+def _check_keys(data: object, path: str | Path, where: str) -> None:
     """Every mapping key must be a string (``1:`` or ``true:`` is a typo, not a parameter)."""
     if isinstance(data, dict):
         for k, v in data.items():
@@ -140,11 +147,11 @@ def _check_keys(data, path, where):
             _check_keys(v, path, f"{where}[{i}]")
 
 
-def _is_model(tp) -> bool:
+def _is_model(tp: object) -> bool:
     return isinstance(tp, type) and dataclasses.is_dataclass(tp)
 
 
-def _convert(value, tp, meta, where):
+def _convert(value: object, tp: Any, meta: Mapping[str, Any], where: str) -> Any:
     origin = typing.get_origin(tp)
     args = typing.get_args(tp)
     if origin is typing.Union or (origin is not None and str(origin) == "<class 'types.UnionType'>"):
@@ -205,7 +212,7 @@ SI_SYMBOL = {
 }
 
 
-def _check_bounds(x, meta, where, raw):
+def _check_bounds(x: float, meta: Mapping[str, Any], where: str, raw: object) -> None:
     if isinstance(x, float) and math.isnan(x):
         raise InputError(f"{where}: NaN is not allowed")
     tests = (
@@ -217,14 +224,14 @@ def _check_bounds(x, meta, where, raw):
     for key, ok, sym in tests:
         bound = meta.get(key)
         if bound is not None and not ok(x, bound):
-            si = SI_SYMBOL.get(meta.get("unit"), "")
+            si = SI_SYMBOL.get(meta.get("unit") or "", "")
             raise InputError(f"{where}: {raw!r} is out of range: must be {sym} {bound:g}{' ' + si if si else ''}")
     choices = meta.get("choices")
     if choices and x not in choices:
         raise InputError(f"{where}: {raw!r} is not one of {list(choices)}")
 
 
-def _build(cls, mapping: dict, where: str):
+def _build(cls: Any, mapping: dict, where: str) -> Any:
     hints = typing.get_type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
     unknown = sorted((k for k in mapping if k not in fields), key=str)
@@ -258,7 +265,7 @@ def _build(cls, mapping: dict, where: str):
     return obj
 
 
-def did_you_mean(unknown, known) -> str:
+def did_you_mean(unknown: Iterable[str], known: Collection[str]) -> str:
     """' (did you mean 'x'?)' for the first unknown name close to a known one, else ''."""
     import difflib
 
@@ -269,7 +276,7 @@ def did_you_mean(unknown, known) -> str:
     return ""
 
 
-def build(cls, mapping: dict | None, source: str = "", section: str = ""):
+def build(cls: type[T], mapping: object, source: str = "", section: str = "") -> T:
     """Build parameter model ``cls`` from ``mapping``; errors read ``source: section.key: why``.
 
     A model may define ``validate(self)`` raising :class:`InputError` for cross-field checks.
@@ -287,10 +294,10 @@ def build(cls, mapping: dict | None, source: str = "", section: str = ""):
         raise InputError(prefix + str(exc)) from None
 
 
-def as_dict(obj) -> dict:
+def as_dict(obj: object) -> dict:
     """Resolved parameters as plain Python values (SI floats), for history and YAML dumps."""
 
-    def conv(v):
+    def conv(v: object) -> Any:
         if dataclasses.is_dataclass(v):
             return {f.name: conv(getattr(v, f.name)) for f in dataclasses.fields(v)}
         if isinstance(v, (list, tuple)):

@@ -32,7 +32,7 @@ from sarproc import __version__
 from sarproc.product.errors import InputError
 from sarproc.product.geolocation import Placement, ecf_to_geodetic, utc_datetime
 from sarproc.product.metadata import C, RadarMetadata
-from sarproc.product.model import TARGET_DTYPE, TARGET_THEORY_FIELDS, Product
+from sarproc.product.model import TARGET_DTYPE, TARGET_NAMES, TARGET_THEORY_FIELDS, Product
 from sarproc.product.sicd import MODE_TYPE, consistency_summary, pulse_times, require_sarkit
 
 CPHD_NS = "http://api.nsgreg.nga.mil/schema/cphd/1.1.0"
@@ -62,7 +62,7 @@ def _targets_to_json(targets: np.ndarray) -> list:
     out = []
     for t in targets:
         row = {}
-        for name in TARGET_DTYPE.names:
+        for name in TARGET_NAMES:
             v = t[name]
             row[name] = (
                 v.decode()
@@ -78,7 +78,7 @@ def _targets_to_json(targets: np.ndarray) -> list:
 def _targets_from_json(rows: list) -> np.ndarray:
     t = np.zeros(len(rows), TARGET_DTYPE)
     for i, row in enumerate(rows):
-        for name in TARGET_DTYPE.names:
+        for name in TARGET_NAMES:
             v = row.get(name, 0.0) if name in TARGET_THEORY_FIELDS else row[name]  # theory: absent in older files
             t[i][name] = v.encode() if name == "name" else complex(*v) if name == "amplitude" else v
     return t
@@ -89,7 +89,9 @@ def _cycles_phasor(cycles: np.ndarray) -> np.ndarray:
     return np.exp(2j * np.pi * (cycles - np.floor(cycles)))
 
 
-def to_cphd_signal(signal, radar, t_start, tau_srp, n_fft):
+def to_cphd_signal(
+    signal: np.ndarray, radar: RadarMetadata, t_start: np.ndarray, tau_srp: np.ndarray, n_fft: int
+) -> np.ndarray:
     """(n_pulses, n_range) raw -> (n_pulses, n_fft) FX-domain CPHD signal (frequency ascending), complex64."""
     fb = (np.arange(n_fft) - n_fft // 2) * (radar.range_sampling_rate / n_fft)
     h = np.fft.fftshift(_replica_spectrum(radar, n_fft))
@@ -98,7 +100,9 @@ def to_cphd_signal(signal, radar, t_start, tau_srp, n_fft):
     return (x / h * _cycles_phasor(cycles)).astype(np.complex64)
 
 
-def from_cphd_signal(fx, radar, t_start, tau_srp, n_range):
+def from_cphd_signal(
+    fx: np.ndarray, radar: RadarMetadata, t_start: np.ndarray, tau_srp: np.ndarray, n_range: int
+) -> np.ndarray:
     """Inverse of :func:`to_cphd_signal`: (n_pulses, n_fft) -> (n_pulses, n_range) raw, complex64."""
     n_fft = fx.shape[-1]
     fb = (np.arange(n_fft) - n_fft // 2) * (radar.range_sampling_rate / n_fft)
@@ -298,7 +302,8 @@ def cphd_parts(raw: Product, place: Placement, sarproc_metadata: bool = True):
         ]
     }
     if sarproc_metadata:
-        root["ProductInfo"]["Parameter"] = [(k, v) for k, v in sarproc_meta.items()]
+        root["ProductInfo"]["Parameter"] = list(sarproc_meta.items())
+    assert root.elem is not None
     tree = root.elem.getroottree()
     # ReferenceGeometry from the PVPs, as sarkit's checker recomputes it (CPHD vol. 1, 6.5)
     refgeom = skcphd.compute_reference_geometry(tree, pvps)
@@ -598,7 +603,8 @@ def _taper(f, fx1, fx2):
 
 
 def _common_grid(path, domain, sig, sc0, scss, fx1, fx2, toa1, toa2, freq):
-    """Every vector's phase history (SGN = -1 form, about its own SRP) at the frequencies ``freq`` (see _foreign_raw)."""
+    """Every vector's phase history (SGN = -1 form, about its own SRP) at the frequencies ``freq``
+    (see _foreign_raw)."""
     import scipy.signal as ss
 
     n_vec, n = sig.shape

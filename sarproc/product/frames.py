@@ -25,17 +25,24 @@ from __future__ import annotations
 import abc
 import json
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import RadarMetadata, aperture_center_position
 
+if TYPE_CHECKING:
+    from collections.abc import Callable, Mapping
+    from typing import Any
+
+    import numpy.typing as npt
+
 _FRAMES: dict[str, type] = {}
 
 
-def register_frame(name: str):
-    def deco(cls):
+def register_frame(name: str) -> Callable[[type[Frame]], type[Frame]]:
+    def deco(cls: type[Frame]) -> type[Frame]:
         cls.name = name
         _FRAMES[name] = cls
         return cls
@@ -50,17 +57,17 @@ class Frame(abc.ABC):
     axes: tuple[str, ...] = ("azimuth", "range")
 
     @abc.abstractmethod
-    def to_xyz(self, *coords) -> np.ndarray:
+    def to_xyz(self, *coords: Any) -> np.ndarray:  # subclasses name their axes (azimuth, range_, ...)
         """Scene positions (..., 3) of points given by their frame coordinates."""
 
     @abc.abstractmethod
-    def from_xyz(self, xyz) -> tuple[np.ndarray, ...]:
+    def from_xyz(self, xyz: np.ndarray) -> tuple[np.ndarray, ...]:
         """Frame coordinates, one array per axis, of scene positions (..., 3)."""
 
     def params(self) -> dict:
         return {}
 
-    def metric(self):
+    def metric(self) -> np.ndarray | None:
         """Local basis of the image plane: row a is the displacement (m) per unit of axis a, or None
         when the axes are not lengths. Quality metrics use it to give widths along oblique cuts."""
         return None
@@ -77,19 +84,19 @@ class Frame(abc.ABC):
 class SquintFrame(Frame):
     axes = ("azimuth", "range")
 
-    def __init__(self, squint: float, altitude: float = 0.0):
+    def __init__(self, squint: float, altitude: float = 0.0) -> None:
         self.squint = float(squint)
         self.altitude = float(altitude)
 
-    def params(self):
+    def params(self) -> dict:
         return {"squint": self.squint, "altitude": self.altitude}
 
-    def metric(self):
+    def metric(self) -> np.ndarray:
         # slant plane: x_n along track, r_0 along the squinted ray (skewed axes)
         s, c = math.sin(self.squint), math.cos(self.squint)
         return np.array([[1.0, 0.0], [s, c]])
 
-    def to_xyz(self, azimuth, range_):
+    def to_xyz(self, azimuth: npt.ArrayLike, range_: npt.ArrayLike) -> np.ndarray:
         azimuth, range_ = np.broadcast_arrays(np.asarray(azimuth, float), np.asarray(range_, float))
         s, c = math.sin(self.squint), math.cos(self.squint)
         across2 = (range_ * c) ** 2 - self.altitude**2
@@ -97,7 +104,7 @@ class SquintFrame(Frame):
             raise InputError("squint frame: a range is shorter than the altitude allows")
         return np.stack([azimuth + range_ * s, np.sqrt(across2), np.zeros_like(azimuth)], axis=-1)
 
-    def from_xyz(self, xyz):
+    def from_xyz(self, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         xyz = np.asarray(xyz, float)
         rho = np.hypot(xyz[..., 1], self.altitude - xyz[..., 2])
         r0 = rho / math.cos(self.squint)
@@ -115,23 +122,23 @@ class SquintLrwcFrame(Frame):
 
     axes = ("azimuth", "range")
 
-    def __init__(self, squint: float, altitude: float = 0.0):
+    def __init__(self, squint: float, altitude: float = 0.0) -> None:
         self.base = SquintFrame(squint, altitude)
         self.squint, self.altitude = float(squint), float(altitude)
 
-    def params(self):
+    def params(self) -> dict:
         return {"squint": self.squint, "altitude": self.altitude}
 
-    def metric(self):
+    def metric(self) -> np.ndarray:
         # x_n at fixed r_0 + x_n sin(theta) moves across the line of sight: (c^2, -s c)
         s, c = math.sin(self.squint), math.cos(self.squint)
         return np.array([[c * c, -s * c], [s, c]])
 
-    def to_xyz(self, azimuth, range_):
+    def to_xyz(self, azimuth: npt.ArrayLike, range_: npt.ArrayLike) -> np.ndarray:
         az = np.asarray(azimuth, float)
         return self.base.to_xyz(az, np.asarray(range_, float) - az * math.sin(self.squint))
 
-    def from_xyz(self, xyz):
+    def from_xyz(self, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         xn, r0 = self.base.from_xyz(xyz)
         return xn, r0 + xn * math.sin(self.squint)
 
@@ -140,14 +147,14 @@ class SquintLrwcFrame(Frame):
 class GroundFrame(Frame):
     axes = ("azimuth", "range")
 
-    def metric(self):
+    def metric(self) -> np.ndarray:
         return np.eye(2)
 
-    def to_xyz(self, azimuth, range_):
+    def to_xyz(self, azimuth: npt.ArrayLike, range_: npt.ArrayLike) -> np.ndarray:
         azimuth, range_ = np.broadcast_arrays(np.asarray(azimuth, float), np.asarray(range_, float))
         return np.stack([azimuth, range_, np.zeros_like(azimuth)], axis=-1)
 
-    def from_xyz(self, xyz):
+    def from_xyz(self, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         xyz = np.asarray(xyz, float)
         return xyz[..., 0].copy(), xyz[..., 1].copy()
 
@@ -159,25 +166,32 @@ class _PlaneFrame(Frame):
     """
 
     axes = ("azimuth", "range")
+    origin: np.ndarray
+    aperture_center: np.ndarray
+    u_azimuth: np.ndarray
+    u_range: np.ndarray
+    range0: float
 
-    def params(self):
+    def params(self) -> dict:
         return {"origin": self.origin.tolist(), "aperture_center": self.aperture_center.tolist()}
 
-    def metric(self):
+    def metric(self) -> np.ndarray:
         return np.eye(2)
 
-    def to_xyz(self, azimuth, range_):
+    def to_xyz(self, azimuth: npt.ArrayLike, range_: npt.ArrayLike) -> np.ndarray:
         azimuth, range_ = np.broadcast_arrays(np.asarray(azimuth, float), np.asarray(range_, float))
         return self.origin + azimuth[..., None] * self.u_azimuth + (range_ - self.range0)[..., None] * self.u_range
 
-    def from_xyz(self, xyz):
+    def from_xyz(self, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         d = np.asarray(xyz, float) - self.origin
         return d @ self.u_azimuth, self.range0 + d @ self.u_range
 
 
 @register_frame("los")
 class LosFrame(_PlaneFrame):
-    def __init__(self, origin, aperture_center, velocity_dir=(1.0, 0.0, 0.0)):
+    def __init__(
+        self, origin: npt.ArrayLike, aperture_center: npt.ArrayLike, velocity_dir: npt.ArrayLike = (1.0, 0.0, 0.0)
+    ) -> None:
         self.origin = np.asarray(origin, float).reshape(3)
         self.aperture_center = np.asarray(aperture_center, float).reshape(3)
         los = self.origin - self.aperture_center
@@ -198,7 +212,7 @@ class GroundLosFrame(_PlaneFrame):
     ground distance from the aperture centre's nadir to the origin. Points map onto z = origin z.
     """
 
-    def __init__(self, origin, aperture_center):
+    def __init__(self, origin: npt.ArrayLike, aperture_center: npt.ArrayLike) -> None:
         self.origin = np.asarray(origin, float).reshape(3)
         self.aperture_center = np.asarray(aperture_center, float).reshape(3)
         d = self.origin[:2] - self.aperture_center[:2]
@@ -227,36 +241,34 @@ class ElevationFrame(Frame):
 
     axes = ("elevation", "azimuth", "range")
 
-    def __init__(self, altitude: float):
+    def __init__(self, altitude: float) -> None:
         self.altitude = float(altitude)
 
-    def params(self):
+    def params(self) -> dict:
         return {"altitude": self.altitude}
 
-    def to_xyz(self, elevation, azimuth, range_):
+    def to_xyz(self, elevation: npt.ArrayLike, azimuth: npt.ArrayLike, range_: npt.ArrayLike) -> np.ndarray:
         el, az, r = np.broadcast_arrays(
             np.asarray(elevation, float), np.asarray(azimuth, float), np.asarray(range_, float)
         )
         return np.stack([az, r * np.sin(el), self.altitude - r * np.cos(el)], axis=-1)
 
-    def from_xyz(self, xyz):
+    def from_xyz(self, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         xyz = np.asarray(xyz, float)
         down = self.altitude - xyz[..., 2]
         return np.arctan2(xyz[..., 1], down), xyz[..., 0].copy(), np.hypot(xyz[..., 1], down)
 
 
-def frame_from_spec(spec) -> Frame:
+def frame_from_spec(spec: str | bytes | Mapping[str, Any]) -> Frame:
     """Rebuild a frame from its JSON spec (a dict or a JSON string)."""
-    if isinstance(spec, (bytes, str)):
-        spec = json.loads(spec)
-    spec = dict(spec)
-    name = spec.pop("name", None)
+    fields = dict(json.loads(spec) if isinstance(spec, (bytes, str)) else spec)
+    name = fields.pop("name", None)
     if name not in _FRAMES:
         raise InputError(f"unknown image frame {name!r}; known: {sorted(_FRAMES)}")
-    return _FRAMES[name](**spec)
+    return _FRAMES[name](**fields)
 
 
-def make_frame(name: str, radar: RadarMetadata, **params) -> Frame:
+def make_frame(name: str, radar: RadarMetadata, **params: Any) -> Frame:
     """A frame with parameters taken from the radar geometry unless given."""
     if name == "squint":
         return SquintFrame(params.get("squint", radar.squint), params.get("altitude", radar.altitude))
@@ -281,12 +293,13 @@ def make_frame(name: str, radar: RadarMetadata, **params) -> Frame:
     raise InputError(f"unknown image frame {name!r}; known: {sorted(_FRAMES) + ['zero_doppler']}")
 
 
-def frame_coordinates(frame: Frame, xyz) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def frame_coordinates(frame: Frame, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(azimuth, range, elevation) of points ``xyz`` (n, 3) in ``frame``; zeros for axes it lacks."""
     xyz = np.asarray(xyz, float).reshape(-1, 3)
     values = dict(zip(frame.axes, frame.from_xyz(xyz))) if len(xyz) else {}
     zero = np.zeros(len(xyz))
-    return tuple(np.asarray(values.get(ax, zero), float) for ax in ("azimuth", "range", "elevation"))
+    az, rg, el = (np.asarray(values.get(ax, zero), float) for ax in ("azimuth", "range", "elevation"))
+    return az, rg, el
 
 
 def targets_in_frame(targets: np.ndarray, frame: Frame) -> np.ndarray:

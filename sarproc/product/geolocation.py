@@ -77,7 +77,7 @@ def geodetic_to_ecf(lat: float, lon: float, height: float) -> np.ndarray:
     )
 
 
-def ecf_to_geodetic(xyz) -> np.ndarray:
+def ecf_to_geodetic(xyz: np.ndarray) -> np.ndarray:
     """ECF (..., 3) m -> (..., 3) latitude (rad), longitude (rad), height (m); Bowring's iteration to 1e-12."""
     xyz = np.asarray(xyz, float)
     x, y, z = xyz[..., 0], xyz[..., 1], xyz[..., 2]
@@ -104,13 +104,13 @@ class Placement:
     origin_ecf: np.ndarray  # its ECF position, m
     rotation: np.ndarray  # (3, 3): columns are the scene frame's x, y, z axes in ECF
 
-    def to_ecf(self, xyz) -> np.ndarray:
+    def to_ecf(self, xyz: np.ndarray) -> np.ndarray:
         return self.origin_ecf + (np.asarray(xyz, float) - self.anchor) @ self.rotation.T
 
     def vector_to_ecf(self, v) -> np.ndarray:
         return np.asarray(v, float) @ self.rotation.T
 
-    def from_ecf(self, ecf) -> np.ndarray:
+    def from_ecf(self, ecf: np.ndarray) -> np.ndarray:
         return self.anchor + (np.asarray(ecf, float) - self.origin_ecf) @ self.rotation
 
     def datetime64(self, seconds: float = 0.0) -> np.datetime64:
@@ -132,7 +132,8 @@ def placement(radar: RadarMetadata, params: GeolocationParams = GeolocationParam
     defaulted = []
     utc = params.time or radar.reference_utc
     if utc is None:
-        utc, _ = DEFAULT_UTC, defaulted.append(f"time {DEFAULT_UTC}")
+        utc = DEFAULT_UTC
+        defaulted.append(f"time {DEFAULT_UTC}")
     utc = parse_utc(utc, "geolocation.time")
     geo = (params.latitude, params.longitude, params.height)
     if geo[0] is None:
@@ -141,6 +142,7 @@ def placement(radar: RadarMetadata, params: GeolocationParams = GeolocationParam
         geo = DEFAULT_LAT_LON_HEIGHT
         defaulted.append("scene centre at latitude 0, longitude 0, height 0")
     lat, lon, height = geo[0], geo[1], geo[2] if geo[2] is not None else 0.0
+    assert lat is not None and lon is not None  # given together (GeolocationParams, RadarMetadata checks)
     if defaulted:
         log.warning(
             "no absolute reference in the product or the config (geolocation:, or the scene's reference:); using %s",

@@ -39,7 +39,7 @@ from sarproc.product.model import Product, make_targets
 NOMINAL_PRF = 100.0  # Hz; the files carry no pulse times
 
 
-def read_gotcha(files, autofocus: bool = False) -> dict:
+def read_gotcha(files: list[Path], autofocus: bool = False) -> dict:
     """Concatenate Gotcha .mat files (consecutive azimuths of one pass) into plain arrays."""
     import scipy.io
 
@@ -84,7 +84,7 @@ def read_gotcha(files, autofocus: bool = False) -> dict:
     }
 
 
-def polarization_from_names(files) -> str | None:
+def polarization_from_names(files: list[Path]) -> str | None:
     """'H:V' when every file name ends in _HV.mat (the AFRL naming), else None (not recorded)."""
     pols = set()
     for f in files:
@@ -157,7 +157,7 @@ def gotcha_product(g: dict) -> Product:
     )
 
 
-def gotcha_files(inputs) -> list[Path]:
+def gotcha_files(inputs: tuple[Path, ...] | list[Path]) -> list[Path]:
     """The .mat files named by ``inputs`` (files, or folders searched for *.mat), checked without reading data.
 
     Each must exist and hold a MATLAB variable 'data'; raises InputError naming the file.

@@ -33,6 +33,7 @@ import socket
 import stat
 import sys
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -85,6 +86,12 @@ class Stream(NamedTuple):
     socket: bool = False
 
 
+def _stream_path(stream: Stream) -> str:
+    """The path of a stream given by path (every Stream has a descriptor or a path)."""
+    assert stream.path is not None
+    return stream.path
+
+
 _STD_FDS = {"stdin": 0, "stdout": 1, "stderr": 2}
 _FD_PATH = re.compile(r"^(?:/dev/(?P<std>stdin|stdout|stderr)|/dev/fd/(?P<fd>\d+)|/proc/self/fd/(?P<fd2>\d+))$")
 
@@ -99,7 +106,7 @@ def history_entry(command: str, params: dict | None = None) -> dict:
     return {
         "command": command,
         "sarproc_version": __version__,
-        "utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         "parameters": params or {},
     }
 
@@ -114,9 +121,9 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
-def clean_stale_temporaries(directory) -> list[Path]:
+def clean_stale_temporaries(directory: str | Path) -> list[Path]:
     """Remove temporaries of dead sarproc runs on this host in ``directory``; returns what went."""
-    removed = []
+    removed: list[Path] = []
     directory = Path(directory)
     try:
         entries = list(directory.glob(f".*{TMP_SUFFIX}"))
@@ -158,7 +165,7 @@ def _os_cause(exc: Exception) -> str:
     return f"{os.strerror(code)} ({_errno.errorcode.get(code, code)})"
 
 
-def output_stream(output) -> Stream | None:
+def output_stream(output: str | Path) -> Stream | None:
     """Where bytes written to ``output`` must be streamed instead of renamed into place; None for a regular file.
 
     ``-`` is standard output; ``/dev/stdin|stdout|stderr``, ``/dev/fd/N`` and ``/proc/self/fd/N`` are that
@@ -183,7 +190,7 @@ def output_stream(output) -> Stream | None:
     return None
 
 
-def real_output(output) -> Path:
+def real_output(output: str | Path) -> Path:
     """A regular output named by a symbolic link is its target: written next to it and renamed onto it; the link
     stays (also a dangling one: its target is created)."""
     out = Path(output)
@@ -195,13 +202,13 @@ def _is_stdout(stream: Stream) -> bool:
         return True
     try:
         a = os.fstat(1)
-        b = os.fstat(stream.fd) if stream.fd is not None else os.stat(stream.path)
+        b = os.fstat(stream.fd) if stream.fd is not None else os.stat(_stream_path(stream))
     except OSError:
         return False
     return os.path.samestat(a, b) and not stat.S_ISREG(a.st_mode) and not stat.S_ISDIR(a.st_mode)
 
 
-def check_output_path(output, inputs=(), overwrite: bool = False) -> Path:
+def check_output_path(output: str | Path, inputs: Sequence[str | Path] = (), overwrite: bool = False) -> Path:
     """Refuse to write over an input, over an existing file without ``overwrite``, or where no file can be made;
     lock the output for this run (:mod:`sarproc.product.run`).
 
@@ -211,9 +218,9 @@ def check_output_path(output, inputs=(), overwrite: bool = False) -> Path:
     """
     out = Path(output)
     stream = output_stream(out)
-    inputs = [Path(i) for i in inputs if os.fspath(i) != "-"]  # "-" as an input is stdin
+    input_paths = [Path(i) for i in inputs if os.fspath(i) != "-"]  # "-" as an input is stdin
     if stream is not None:
-        for inp in inputs:
+        for inp in input_paths:
             if stream.path is not None and inp.exists() and os.path.samefile(inp, stream.path):
                 raise InputError(f"{out}: output is the input file; refusing to write over an input")
         if stream.path is not None and not stream.socket and not os.access(stream.path, os.W_OK):
@@ -223,7 +230,7 @@ def check_output_path(output, inputs=(), overwrite: bool = False) -> Path:
             run.take_stdout()
         run.plan_output(out, lock=False)
         return out
-    for inp in inputs:
+    for inp in input_paths:
         if inp.exists() and out.exists() and os.path.samefile(inp, out):
             raise InputError(f"{out}: output is the input file; refusing to write over an input")
         if inp.resolve() == out.resolve():
@@ -297,10 +304,10 @@ def _stream_into(tmp: Path, stream: Stream) -> None:
         fd, close = stream.fd, False
     elif stream.socket:
         sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-        sock.connect(stream.path)
+        sock.connect(_stream_path(stream))
         fd, close = sock.fileno(), False
     else:  # a FIFO waits here for its reader, as any writer does
-        fd, close = os.open(stream.path, os.O_WRONLY | os.O_CLOEXEC), True
+        fd, close = os.open(_stream_path(stream), os.O_WRONLY | os.O_CLOEXEC), True
     try:
         with open(tmp, "rb") as src:
             while chunk := src.read(1 << 20):
@@ -340,6 +347,7 @@ def atomic_path(output: Path, overwrite: bool = True):
             with run.critical():
                 run.mark_published(output, stream=True)
         else:
+            assert dest is not None  # not a stream: a regular destination
             with run.critical():
                 _publish(tmp, dest, overwrite)
                 run.track_temporary(tmp, made=False)
@@ -445,19 +453,19 @@ class ProductWriter:
 
     def __init__(
         self,
-        output,
-        kind,
-        dims,
-        coords,
-        radar,
-        targets,
+        output: str | Path,
+        kind: str,
+        dims: tuple[str, ...],
+        coords: dict[str, np.ndarray],
+        radar: RadarMetadata,
+        targets: np.ndarray,
         *,
-        attrs=None,
-        aux=None,
-        history=(),
-        dtype=np.complex64,
-        inputs=(),
-        overwrite=False,
+        attrs: dict | None = None,
+        aux: dict | None = None,
+        history: Sequence[dict] = (),
+        dtype: np.dtype | type = np.complex64,
+        inputs: Sequence[str | Path] = (),
+        overwrite: bool = False,
     ):
         if kind not in PRODUCT_KINDS:
             raise ValueError(f"unknown product kind {kind!r}")
@@ -466,7 +474,7 @@ class ProductWriter:
         self.kind, self.dims, self.coords = kind, tuple(dims), coords
         self.shape = tuple(len(coords[d]) for d in self.dims)
         self._args = (radar, targets, list(history), attrs or {}, aux or {}, dtype)
-        self.file = None
+        self.file: h5py.File | None = None
 
     def _failed(self, exc: Exception):
         # HDF5 cannot be trusted with this file any more: keep its objects alive, never close them.
@@ -506,7 +514,7 @@ class ProductWriter:
             raise
         return self
 
-    def write(self, index, block):
+    def write(self, index: tuple[slice, ...], block: np.ndarray) -> None:
         run.check()  # a stop signal whose exception HDF5 swallowed ends the run at the next block
         try:
             self.dset[index] = block
@@ -523,6 +531,7 @@ class ProductWriter:
 
     def __exit__(self, exc_type, exc, tb):
         if exc_type is None:
+            assert self.file is not None  # open from __enter__ until closed here
             try:
                 self.file.close()
                 self.file = None
@@ -535,7 +544,9 @@ class ProductWriter:
         return self._ctx.__exit__(exc_type, exc, tb)
 
 
-def write_product(output, product: Product, *, inputs=(), overwrite=False) -> Path:
+def write_product(
+    output: str | Path, product: Product, *, inputs: Sequence[str | Path] = (), overwrite: bool = False
+) -> Path:
     """Write ``product`` to ``output`` atomically."""
     with ProductWriter(
         output,
@@ -573,7 +584,9 @@ def _attr_value(v):
     return v
 
 
-def read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
+def read_product(
+    path: str | Path, kinds: tuple[str, ...] | None = None, *, load: bool = True, check_finite: bool = True
+) -> Product:
     """Read a product; see :func:`_read_product`. Low-level HDF5 errors become InputError."""
     try:
         return _read_product(path, kinds, load=load, check_finite=check_finite)
@@ -842,7 +855,9 @@ def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
     return Product(**fields)
 
 
-def read_magnitude_preview(path, max_side: int = 2048, block_bytes: int = 64 << 20, header: Product | None = None):
+def read_magnitude_preview(
+    path: str | Path, max_side: int = 2048, block_bytes: int = 64 << 20, header: Product | None = None
+) -> tuple[np.ndarray, tuple[str, ...], dict[str, np.ndarray], tuple[int, ...]]:
     """Peak-preserving preview of an image product's magnitude, read in blocks.
 
     Every axis longer than ``max_side`` is reduced by an integer factor, each output pixel

@@ -22,6 +22,7 @@ import stat
 import tempfile
 import types
 from pathlib import Path
+from typing import Any
 
 import numba
 from numba.core import caching
@@ -29,7 +30,7 @@ from numba.core import caching
 log = logging.getLogger(__name__)
 
 
-def _probe():  # a function of this package: numba's locators are asked about its source file
+def _probe() -> None:  # a function of this package: numba's locators are asked about its source file
     pass
 
 
@@ -37,7 +38,7 @@ def default_locator_works() -> bool:
     """Whether one of numba's own cache locators can store kernels of this package's source files."""
     try:
         return any(cls.from_function(_probe, __file__) is not None for cls in caching.CacheImpl._locator_classes)
-    except Exception:  # noqa: BLE001 - numba's private API changed: assume it works, as numba does
+    except Exception:
         return True
 
 
@@ -80,7 +81,7 @@ def _configure() -> bool:
 CACHE: bool = _configure()
 
 
-def _load_overload_lean(self: object, sig: object, target_context: object) -> object:
+def _load_overload_lean(self: Any, sig: object, target_context: object) -> object:
     """numba's ``Cache.load_overload`` without ``target_context.refresh()``; only the runtime (NRT) it links."""
     from numba.core.runtime import rtsys
 

@@ -12,10 +12,15 @@ import dataclasses
 import json
 import math
 import re
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from sarproc.product.errors import InputError
+
+if TYPE_CHECKING:
+    from collections.abc import Mapping
+    from typing import Any
 
 C = 299_792_458.0  # speed of light, m/s
 
@@ -136,7 +141,7 @@ class RadarMetadata:
         return out
 
     @classmethod
-    def from_attrs(cls, attrs, where: str = "radar") -> "RadarMetadata":
+    def from_attrs(cls, attrs: Mapping[str, Any], where: str = "radar") -> RadarMetadata:
         """Read back :meth:`to_attrs`; a missing or mistyped attribute is named with ``where``."""
         kwargs = {}
         for f in dataclasses.fields(cls):
@@ -157,7 +162,7 @@ class RadarMetadata:
             raise InputError(f"{where}: {msg}") from None
         return meta
 
-    def replace(self, **changes) -> "RadarMetadata":
+    def replace(self, **changes: Any) -> RadarMetadata:
         return dataclasses.replace(self, **changes)
 
     def to_json(self) -> str:
@@ -198,7 +203,7 @@ POLARIZATIONS = ("V", "H", "X", "Y", "S", "E", "RHC", "LHC")
 POLARIZATION_RE = re.compile(r"(V|H|X|Y|S|E|RHC|LHC):(V|H|X|Y|S|E|RHC|LHC)")
 
 
-def _attr_as(name: str, v, where: str):
+def _attr_as(name: str, v: object, where: str) -> Any:
     """One radar attribute converted to its field's type; a wrong type names the attribute."""
     if isinstance(v, bytes):
         try:
@@ -219,10 +224,10 @@ def _attr_as(name: str, v, where: str):
     if name == "scene_center":
         if arr.size != 3:
             raise InputError(f"{where}: attribute 'scene_center' must hold 3 numbers (x, y, z) m, got {arr.size}")
-        out = tuple(float(a) for a in arr.astype(float).reshape(3))
-        if not all(math.isfinite(a) for a in out):
-            raise InputError(f"{where}: attribute 'scene_center' must be finite, got {out}")
-        return out
+        xyz = tuple(float(a) for a in arr.astype(float).reshape(3))
+        if not all(math.isfinite(a) for a in xyz):
+            raise InputError(f"{where}: attribute 'scene_center' must be finite, got {xyz}")
+        return xyz
     if arr.size != 1:
         raise InputError(f"{where}: attribute {name!r} must be a single number, got shape {arr.shape}")
     if name == "n_channels":
@@ -248,7 +253,7 @@ def parse_utc(text: str, where: str = "reference time") -> str:
         ) from None
     if t.tzinfo is None:
         raise InputError(f"{where}: {text!r} has no time zone; append 'Z' for UTC")
-    return t.astimezone(dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
+    return t.astimezone(dt.UTC).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
 
 
 def aperture_center_position(radar: RadarMetadata) -> np.ndarray:

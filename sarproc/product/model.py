@@ -8,10 +8,16 @@ per-pulse datasets and the processing history.
 from __future__ import annotations
 
 import dataclasses
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from sarproc.product.metadata import RadarMetadata
+
+if TYPE_CHECKING:
+    from collections.abc import Mapping, Sequence
+
+    import numpy.typing as npt
 
 PRODUCT_KINDS = ("raw", "raw_multichannel", "raw_array", "preprocessed", "coarse", "image", "image3d")
 
@@ -44,6 +50,7 @@ TARGET_DTYPE = np.dtype(
     ]
     + [(f, "f8") for f in TARGET_THEORY_FIELDS]
 )
+TARGET_NAMES: tuple[str, ...] = TARGET_DTYPE.names or ()  # the field names, typed as never None
 
 UNITS = {"azimuth_time": "s", "range_time": "s", "channel": "1", "azimuth": "m", "range": "m", "elevation": "rad"}
 
@@ -135,7 +142,7 @@ TARGET_UNITS = {
     "null_azimuth": "m",
     "null_range": "m",
     "null_elevation": "rad",
-    **{f: "dB" for f in TARGET_SIDELOBE_FIELDS},
+    **dict.fromkeys(TARGET_SIDELOBE_FIELDS, "dB"),
 }
 
 # Units of the numeric attributes stages put on the data set, stored as its JSON map
@@ -184,7 +191,7 @@ class Product:
     aux: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
     history: list[dict] = dataclasses.field(default_factory=list)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if self.kind not in PRODUCT_KINDS:
             raise ValueError(f"unknown product kind {self.kind!r}")
         shape = tuple(len(self.coords[d]) for d in self.dims)
@@ -195,16 +202,24 @@ class Product:
     def data_name(self) -> str:
         return DATA_NAME[self.kind]
 
-    def derive(self, kind: str, data, dims, coords, **changes) -> "Product":
+    def derive(
+        self, kind: str, data: np.ndarray, dims: Sequence[str], coords: Mapping[str, np.ndarray], **changes: Any
+    ) -> Product:
         """New product from this one (targets, radar, aux and history carried forward)."""
-        base = dict(
+        base: dict[str, Any] = dict(
             radar=self.radar, targets=self.targets.copy(), attrs={}, aux=dict(self.aux), history=list(self.history)
         )
         base.update(changes)
         return Product(kind=kind, data=data, dims=tuple(dims), coords=dict(coords), **base)
 
 
-def make_targets(names, xyz, amplitude, velocity=None, frame_coords=None) -> np.ndarray:
+def make_targets(
+    names: Sequence[str],
+    xyz: np.ndarray,
+    amplitude: npt.ArrayLike,
+    velocity: npt.ArrayLike | None = None,
+    frame_coords: Sequence[np.ndarray] | None = None,
+) -> np.ndarray:
     """Build a TARGET_DTYPE table; ``frame_coords`` is (azimuth, range, elevation) arrays."""
     xyz = np.atleast_2d(np.asarray(xyz, dtype=float))
     n = xyz.shape[0]
@@ -224,11 +239,11 @@ def make_targets(names, xyz, amplitude, velocity=None, frame_coords=None) -> np.
 def as_target_table(table: np.ndarray) -> np.ndarray:
     """``table`` as TARGET_DTYPE, field by field; irw_* fields it lacks (older files) become 0 (not recorded)."""
     table = np.asarray(table)
-    missing = [f for f in TARGET_DTYPE.names if f not in (table.dtype.names or ()) and f not in TARGET_IRW_FIELDS]
+    missing = [f for f in TARGET_NAMES if f not in (table.dtype.names or ()) and f not in TARGET_IRW_FIELDS]
     if missing:
         raise ValueError(f"targets table lacks field(s) {missing}")
     out = np.zeros(table.shape, dtype=TARGET_DTYPE)
-    for f in TARGET_DTYPE.names:
+    for f in TARGET_NAMES:
         if f in (table.dtype.names or ()):
             out[f] = table[f]
     return out

@@ -23,7 +23,8 @@ v_los = u_T . V = v_r cos(theta) + v_a sin(theta) turns the look direction by -v
 so S lies on the circle of radius R about P(t_c):
 
     scene:        dx = -R v_los / v,                  dy = +R v_los tan(theta) / v
-    squint frame: d azimuth (x_n) = -R v_los / (v cos^2(theta)),   d range (r_0) = +R v_los sin(theta) / (v cos^2(theta))
+    squint frame: d azimuth (x_n) = -R v_los / (v cos^2(theta)),
+                  d range (r_0)   = +R v_los sin(theta) / (v cos^2(theta))
 
 plus the target's own motion V t_c between azimuth time 0 and t_c (``first_order_shift``). At
 broadside the shift is purely along track (-R v_r / v: the "train off the track"); under squint
@@ -40,22 +41,28 @@ point (x, 0, H), v_r = vy y / sqrt(y^2 + (H - z)^2).
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
 from sarproc.product import beam
 from sarproc.product.errors import InputError
 from sarproc.product.frames import targets_in_frame
 from sarproc.product.metadata import RadarMetadata
 
+if TYPE_CHECKING:
+    from sarproc.product.frames import Frame
+    from sarproc.product.model import Product
 
-def nominal_track(radar: RadarMetadata, times) -> np.ndarray:
+
+def nominal_track(radar: RadarMetadata, times: np.ndarray) -> np.ndarray:
     """(n, 3) platform positions of the radar metadata's track: (v t, 0, H)."""
     t = np.asarray(times, float)
     return np.stack([radar.velocity * t, np.zeros_like(t), np.full_like(t, radar.altitude)], axis=-1)
 
 
-def pulse_times(product) -> np.ndarray:
+def pulse_times(product: Product) -> np.ndarray:
     """Pulse times (s) of a product: its azimuth_time axis, else its track's x / v (images keep the track)."""
     if "azimuth_time" in product.coords:
         return np.asarray(product.coords["azimuth_time"], float)
@@ -68,7 +75,7 @@ def pulse_times(product) -> np.ndarray:
     return np.asarray(pos, float)[:, 0] / product.radar.velocity
 
 
-def phase_centres(product) -> np.ndarray:
+def phase_centres(product: Product) -> np.ndarray:
     """(n, 3) mean two-way phase centre per pulse: platform + (tx offset + mean rx offset) / 2."""
     pos = np.asarray(product.aux["platform_position"], float)
     tx = np.asarray(product.aux.get("tx_offset", np.zeros(3)), float).reshape(3)
@@ -76,14 +83,20 @@ def phase_centres(product) -> np.ndarray:
     return pos + (tx + rx.mean(axis=0)) / 2
 
 
-def _crossing(t, angle, level, i, j) -> float:
+def _crossing(t: np.ndarray, angle: np.ndarray, level: float, i: int, j: int) -> float:
     """Time between pulses i and j where ``angle`` crosses ``level`` (linear between them)."""
     if angle[j] == angle[i]:
         return float(t[i])
     return float(t[i] + (level - angle[i]) * (t[j] - t[i]) / (angle[j] - angle[i]))
 
 
-def illumination_centre_time(radar: RadarMetadata, times, xyz, velocity, positions=None) -> float:
+def illumination_centre_time(
+    radar: RadarMetadata,
+    times: np.ndarray,
+    xyz: np.ndarray,
+    velocity: npt.ArrayLike,
+    positions: np.ndarray | None = None,
+) -> float:
     """Centre time (s) of the pulses whose -3 dB azimuth beam holds the moving point (module docstring).
 
     The beam edges are interpolated between pulses (so the result is continuous in the position);
@@ -110,7 +123,9 @@ def illumination_centre_time(radar: RadarMetadata, times, xyz, velocity, positio
     return float((start + end) / 2)
 
 
-def static_equivalent(xyz_at_tc, velocity, platform_position, platform_speed: float) -> np.ndarray:
+def static_equivalent(
+    xyz_at_tc: np.ndarray, velocity: np.ndarray, platform_position: np.ndarray, platform_speed: float
+) -> np.ndarray:
     """The static point S with the moving point's range and range rate from ``platform_position``.
 
     ``xyz_at_tc``: the target's position at that time; the platform flies along +x at ``platform_speed``.
@@ -132,7 +147,7 @@ def static_equivalent(xyz_at_tc, velocity, platform_position, platform_speed: fl
     return p + r * np.array([ux, uy, uz])
 
 
-def _track_at(radar, times, positions, t_c):
+def _track_at(radar: RadarMetadata, times: np.ndarray, positions: np.ndarray | None, t_c: float) -> np.ndarray:
     if positions is None:
         return nominal_track(radar, np.array([t_c]))[0]
     pos = np.asarray(positions, float)
@@ -140,7 +155,13 @@ def _track_at(radar, times, positions, t_c):
     return np.array([np.interp(t_c, t, pos[:, k]) for k in range(3)])
 
 
-def apparent_position(radar: RadarMetadata, times, xyz, velocity, positions=None) -> tuple[np.ndarray, float]:
+def apparent_position(
+    radar: RadarMetadata,
+    times: np.ndarray,
+    xyz: npt.ArrayLike,
+    velocity: npt.ArrayLike,
+    positions: np.ndarray | None = None,
+) -> tuple[np.ndarray, float]:
     """(S, t_c): where a point at ``xyz`` (time 0) moving at ``velocity`` appears, and its centre time.
 
     ``positions``: (n, 3) phase centres at ``times`` (default: the nominal track). A static point
@@ -156,10 +177,10 @@ def apparent_position(radar: RadarMetadata, times, xyz, velocity, positions=None
 
 def relocate(
     radar: RadarMetadata,
-    times,
-    apparent_xyz,
-    velocity,
-    positions=None,
+    times: np.ndarray,
+    apparent_xyz: npt.ArrayLike,
+    velocity: npt.ArrayLike,
+    positions: np.ndarray | None = None,
     tolerance: float = 1e-4,
     max_iterations: int = 50,
 ) -> np.ndarray:
@@ -184,7 +205,9 @@ def relocate(
     )
 
 
-def apparent_targets(targets: np.ndarray, radar: RadarMetadata, times, frame, positions=None) -> np.ndarray:
+def apparent_targets(
+    targets: np.ndarray, radar: RadarMetadata, times: np.ndarray, frame: Frame, positions: np.ndarray | None = None
+) -> np.ndarray:
     """Copy of a targets table with every moving target at its static equivalent S (x, y, z and ``frame``)."""
     out = np.array(targets, copy=True)
     for k in range(len(out)):
@@ -200,7 +223,7 @@ def is_moving(targets: np.ndarray) -> np.ndarray:
     return (targets["vx"] != 0) | (targets["vy"] != 0) | (targets["vz"] != 0)
 
 
-def slant_velocity(xyz, velocity, altitude: float) -> tuple[float, float]:
+def slant_velocity(xyz: np.ndarray, velocity: npt.ArrayLike, altitude: float) -> tuple[float, float]:
     """(v_a, v_r) of a scene velocity: along track, and along the zero-Doppler slant range from (x, 0, H)."""
     xyz, velocity = np.asarray(xyz, float).reshape(3), np.asarray(velocity, float).reshape(3)
     e = np.array([0.0, xyz[1], xyz[2] - altitude])
@@ -208,7 +231,7 @@ def slant_velocity(xyz, velocity, altitude: float) -> tuple[float, float]:
     return float(velocity[0]), float(velocity @ e)
 
 
-def scene_velocity(xyz, v_a: float, v_r: float, altitude: float) -> np.ndarray:
+def scene_velocity(xyz: np.ndarray, v_a: float, v_r: float, altitude: float) -> np.ndarray:
     """Scene velocity (vx, vy, 0) of a target on a horizontal surface with along-track v_a and slant-range v_r."""
     xyz = np.asarray(xyz, float).reshape(3)
     rho = math.hypot(xyz[1], xyz[2] - altitude)

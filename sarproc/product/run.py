@@ -30,8 +30,13 @@ import sys
 import threading
 import time
 from pathlib import Path
+from types import FrameType
+from typing import TYPE_CHECKING
 
 from sarproc.product.errors import InputError
+
+if TYPE_CHECKING:
+    from collections.abc import Iterator
 
 # Signals a batch scheduler or a terminal sends to end a run; each exits 128 + signal number.
 STOP_SIGNALS = tuple(getattr(signal, n) for n in ("SIGTERM", "SIGINT", "SIGHUP") if hasattr(signal, n))
@@ -41,13 +46,14 @@ LOCK_SUFFIX = ".sarproc-lock"
 class Interrupted(BaseException):
     """A stop signal arrived: unwinds like KeyboardInterrupt so every temporary file is removed."""
 
-    def __init__(self, signum: int):
+    def __init__(self, signum: int) -> None:
         super().__init__(signum)
         self.signum = signum
+        self.removed: list[Path] = []  # outputs published before the signal and removed again (the message)
 
 
 class _Run:
-    def __init__(self):
+    def __init__(self) -> None:
         self.fired: list[int] = []  # the stop signal received (kept apart from the exception it raised)
         self.defer = 0  # inside a critical section: act on a signal at its end
         self.planned: set[str] = set()
@@ -65,14 +71,14 @@ _EARLY: list[int] = []  # a signal before the run began: acted on when it begins
 _mutex = threading.RLock()  # sweep steps may plan outputs from several threads
 
 
-def _key(path) -> str:
+def _key(path: str | os.PathLike) -> str:
     return os.path.abspath(os.fspath(path))
 
 
 # ---- signals -----------------------------------------------------------------------------------------------------
 
 
-def _handler(signum, frame):
+def _handler(signum: int, frame: FrameType | None) -> None:
     run = _RUN
     if run is None:
         # Before the run (argument parsing): recorded, acted on when it begins; raising here could cut a
@@ -120,7 +126,7 @@ def check() -> None:
 
 
 @contextlib.contextmanager
-def deferred():
+def deferred() -> Iterator[None]:
     """A short step that must not be cut in two (taking a lock): a signal inside is acted on at its end.
 
     Only the main thread is ever cut by the handler; other threads (a sweep's Dask workers in this process)
@@ -138,7 +144,7 @@ def deferred():
 
 
 @contextlib.contextmanager
-def critical():
+def critical() -> Iterator[None]:
     """Publishing: refuse to start after a signal; a signal inside is acted on at the end (unless complete)."""
     run = _RUN
     if run is not None and run.fired:
@@ -202,7 +208,7 @@ def remove_published() -> list[Path]:
     return removed
 
 
-def plan_output(path, lock: bool = True) -> None:
+def plan_output(path: str | os.PathLike, lock: bool = True) -> None:
     """Record ``path`` as an output of this run; lock it (a regular file's real path) unless told not to."""
     run = _RUN
     if run is None:
@@ -213,7 +219,7 @@ def plan_output(path, lock: bool = True) -> None:
             run.locks[_key(path)] = _lock(Path(path))
 
 
-def track_temporary(path, made: bool = True) -> None:
+def track_temporary(path: str | os.PathLike, made: bool = True) -> None:
     """``path`` is a temporary file of this run (``made=False``: it is gone, renamed or removed)."""
     run = _RUN
     if run is not None:
@@ -221,7 +227,7 @@ def track_temporary(path, made: bool = True) -> None:
             (run.temporaries.add if made else run.temporaries.discard)(os.fspath(path))
 
 
-def mark_published(path, stream: bool = False) -> None:
+def mark_published(path: str | os.PathLike, stream: bool = False) -> None:
     """``path`` is complete on disk (or, ``stream``, fully written through); its lock goes."""
     run = _RUN
     if run is None:

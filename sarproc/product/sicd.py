@@ -22,7 +22,7 @@ import numpy as np
 
 from sarproc import __version__
 from sarproc.product.errors import InputError
-from sarproc.product.frames import frame_from_spec
+from sarproc.product.frames import GroundLosFrame, frame_from_spec
 from sarproc.product.geolocation import Placement, ecf_to_geodetic, utc_datetime
 from sarproc.product.metadata import C
 from sarproc.product.model import Product
@@ -34,9 +34,9 @@ KAPFAC = 0.88589  # -3 dB width x bandwidth of a uniformly weighted response (SI
 MODE_TYPE = {"spotlight": "SPOTLIGHT", "stripmap": "STRIPMAP", "sliding_spotlight": "DYNAMIC STRIPMAP"}
 
 
-def require_sarkit():
+def require_sarkit() -> None:
     try:
-        import sarkit  # noqa: F401
+        import sarkit
         import sarkit.verification  # noqa: F401
     except ImportError:
         raise InputError("SICD/CPHD need NGA's sarkit (Python >= 3.11): pip install 'sarproc[formats]'") from None
@@ -82,7 +82,7 @@ class SicdGrid:
         )
 
 
-def image_grid(product: Product, place: Placement, tol: float = 1e-3, scp_at=None) -> SicdGrid:
+def image_grid(product: Product, place: Placement, tol: float = 1e-3, scp_at: np.ndarray | None = None) -> SicdGrid:
     """Check the image is a plane, orthogonal, uniformly sampled grid and describe it in ECF.
 
     The SCP is the centre pixel, or with ``scp_at`` (a scene point) the pixel on that point (refused
@@ -233,7 +233,7 @@ class SupportModel:
         arp = np.moveaxis(np.polynomial.polynomial.polyval(t, self.arp_poly), 0, -1)
         return p, arp
 
-    def centre(self, x, y) -> tuple[np.ndarray, np.ndarray]:
+    def centre(self, x: np.ndarray | float, y: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
         """Centre of support (row, col), cycles/m, at image coordinates (x, y) m from the SCP."""
         if self.pfa_centre is not None:
             shape = np.broadcast(np.asarray(x), np.asarray(y)).shape
@@ -244,7 +244,7 @@ class SupportModel:
         k = 2.0 * self.f_c / C
         return k * (los @ self.u_row), k * (los @ self.u_col)
 
-    def phase(self, x, y) -> np.ndarray:
+    def phase(self, x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray:
         """Phase (cycles) whose gradient along (x, y) is :meth:`centre`, 0 at the SCP: (2 f_c / c) times the
         range from the antenna at the centre of aperture (exact for a fixed centre of aperture, spotlight)."""
         if self.pfa_centre is not None:
@@ -463,7 +463,9 @@ def pfa_geometry(product: Product, grid: SicdGrid, frame, t_rel: np.ndarray, t_c
     )
 
 
-def sicd_xml(product: Product, place: Placement, *, image_formation: str | None = None, version: str = "1.4.0"):
+def sicd_xml(
+    product: Product, place: Placement, *, image_formation: str | None = None, version: str = "1.4.0"
+) -> tuple[object, SicdGrid]:
     """The SICD XML tree of an image product (lxml ElementTree) and its grid (with the carrier the pixels
     lose on export: :func:`sicd_pixels`)."""
     import lxml.etree
@@ -482,8 +484,10 @@ def sicd_xml(product: Product, place: Placement, *, image_formation: str | None 
     grid = image_grid(product, place)
     if image_formation == "PFA":
         # the SCP is the point the phase history was formatted about (pfa2's frame origin)
+        frame = frame_from_spec(product.attrs["frame"])
+        assert isinstance(frame, GroundLosFrame)  # formed_by_pfa: pfa2 images are in its ground_los frame
         try:
-            grid = image_grid(product, place, scp_at=frame_from_spec(product.attrs["frame"]).origin)
+            grid = image_grid(product, place, scp_at=frame.origin)
         except InputError as exc:
             if not auto:
                 raise
@@ -503,8 +507,6 @@ def sicd_xml(product: Product, place: Placement, *, image_formation: str | None 
     scp_ecf = place.to_ecf(grid.scp_scene)
     scp_llh = ecf_to_geodetic(scp_ecf)
     t_coa = float(-t[0])  # aperture centre, where the spotlight COA is
-    arp_coa = np.polynomial.polynomial.polyval(t_coa, arp_poly)
-    u_los = (scp_ecf - arp_coa) / np.linalg.norm(scp_ecf - arp_coa)
     time_coa = np.array([[t_coa]])  # spotlight: one centre of aperture for every pixel
     if r.mode != "spotlight":
         # beam-limited: the centre of aperture moves with the along-track position (speed v along +x), from
@@ -542,7 +544,8 @@ def sicd_xml(product: Product, place: Placement, *, image_formation: str | None 
         f_c=r.carrier_frequency,
         pfa_centre=None if pfa is None else (float(np.mean(pfa.krg)), float(np.mean(pfa.kaz))),
     )
-    kctr = tuple(float(k) for k in model.centre(0.0, 0.0))
+    k_row, k_col = model.centre(0.0, 0.0)
+    kctr = (float(k_row), float(k_col))
     poly_row, poly_col, misfit = delta_kcoa_poly(model, grid, kctr)
     if misfit > 1e-3 * min(bw.values()):
         raise InputError(
@@ -675,6 +678,7 @@ def sicd_xml(product: Product, place: Placement, *, image_formation: str | None 
             "Kaz1": pfa.kaz[0],
             "Kaz2": pfa.kaz[1],
         }
+    assert root.elem is not None
     tree = root.elem.getroottree()
     scpcoa = sksicd.compute_scp_coa(tree)
     # SCPCOA belongs after ImageFormation (schema order)
@@ -703,12 +707,15 @@ def write_sicd(
     from sarproc.product.io import atomic_path
 
     tree, grid = sicd_xml(product, place, image_formation=image_formation, version=version)
-    security = {"security": {"clas": "U"}}
     meta = sksicd.NitfMetadata(
         xmltree=tree,
-        file_header_part={"ostaid": "sarproc", "ftitle": "sarproc SICD"} | security,
-        im_subheader_part={"isorce": "sarproc simulation"} | security,
-        de_subheader_part=security,
+        file_header_part=sksicd.NitfFileHeaderPart(
+            ostaid="sarproc", ftitle="sarproc SICD", security=sksicd.NitfSecurityFields(clas="U")
+        ),
+        im_subheader_part=sksicd.NitfImSubheaderPart(
+            isorce="sarproc simulation", security=sksicd.NitfSecurityFields(clas="U")
+        ),
+        de_subheader_part=sksicd.NitfDeSubheaderPart(security=sksicd.NitfSecurityFields(clas="U")),
     )
     with atomic_path(path) as tmp, open(tmp, "wb") as fh, sksicd.NitfWriter(fh, meta) as writer:
         writer.write_image(sicd_pixels(product.data, grid))
@@ -732,7 +739,8 @@ def consistency_summary(con) -> dict:
     text = io.StringIO()
     with contextlib.redirect_stdout(text):
         con.print_result(fail_detail=True, color=False, include_passed_asserts=False)
-    errors, warnings = [], []
+    errors: list[str] = []
+    warnings: list[str] = []
     for name, result in con.failures().items():
         severities = {d["severity"] for d in result["details"] if not d["passed"]}
         (errors if "Error" in severities else warnings).append(name)

@@ -8,8 +8,16 @@ finished unit, so one bar covers the whole stage with its total.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable, Iterator
+from typing import Any, TypeVar
 
-def steps(progress, total: int):
+T = TypeVar("T")
+
+# what stages accept as ``progress``: wraps an iterable (``total=`` optional), e.g. the CLI's tqdm factory
+ProgressFactory = Callable[..., Iterable[Any]]
+
+
+def steps(progress: ProgressFactory | None, total: int) -> Callable[..., None]:
     """A function ``done(n=1)`` advancing ``progress`` over ``total`` units; a no-op when ``progress`` is None.
 
     The bar opens at once (0 of ``total``) and closes when the ``total``-th unit is done.
@@ -26,7 +34,7 @@ def steps(progress, total: int):
     return done
 
 
-def wrapped(done, iterable):
+def wrapped(done: Callable[[], object], iterable: Iterable[T]) -> Iterator[T]:
     """Yield from ``iterable``, calling ``done()`` after each item's work (the consumer's loop body)."""
     for item in iterable:
         yield item

@@ -20,6 +20,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -27,13 +28,21 @@ from sarproc.product import beam
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import C
 
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    import numpy.typing as npt
+
+    from sarproc.product.frames import Frame
+    from sarproc.product.metadata import RadarMetadata
+
 WINDOWS = ("none", "hamming")  # the weighting windows every processor offers (range and azimuth)
 ISLR_NULLS = 10.0  # the contract's ISLR window, +-nulls
 ANTENNA_PATTERNS = ("sinc", "gaussian", "rect")
 _MAX_SAMPLES = 512  # supports with more samples are binned onto this many: IRW within 3e-4
 
 
-def window_taper(name: str, x) -> np.ndarray:
+def window_taper(name: str, x: np.ndarray) -> np.ndarray:
     """Amplitude taper of window ``name`` at support positions ``x`` in [-0.5, 0.5] (zero outside).
 
     hamming: 0.54 + 0.46 cos(2 pi x) (numpy's np.hamming over N samples is this at x = n / (N - 1) - 1/2).
@@ -65,7 +74,7 @@ def cut_metrics(p: np.ndarray, step: float, center: int, window: float) -> tuple
     right = p[center:]
     left = p[center::-1]
 
-    def half_power(side):
+    def half_power(side: np.ndarray) -> tuple[float, int]:
         below = np.flatnonzero(side < 0.5)
         if below.size == 0:
             return np.nan, side.size - 1
@@ -74,7 +83,7 @@ def cut_metrics(p: np.ndarray, step: float, center: int, window: float) -> tuple
         frac = (side[i - 1] - 0.5) / (side[i - 1] - side[i])
         return (i - 1 + frac), i
 
-    def first_null(side, start):
+    def first_null(side: np.ndarray, start: int) -> int:
         # First local minimum beyond the -3 dB point: the end of the main lobe.
         d = np.diff(side[start:])
         rising = np.flatnonzero(d > 0)
@@ -109,13 +118,18 @@ class ResponseTheory:
         """IRW x B (0.886 unweighted, 1.30 Hamming)."""
         return self.irw / self.null
 
-    def scaled(self, s: float) -> "ResponseTheory":
+    def scaled(self, s: float) -> ResponseTheory:
         """The same response with widths times ``s`` (side lobes unchanged)."""
         return dataclasses.replace(self, irw=self.irw * s, null=self.null * s)
 
 
 def response_theory(
-    k, w, band=None, islr_nulls: float = ISLR_NULLS, upsample: int = 32, samples: int = _MAX_SAMPLES
+    k: np.ndarray,
+    w: np.ndarray,
+    band: tuple[float, float] | None = None,
+    islr_nulls: float = ISLR_NULLS,
+    upsample: int = 32,
+    samples: int = _MAX_SAMPLES,
 ) -> ResponseTheory:
     """Theory of the response sum_i w_i exp(j 2 pi k_i x) of a support sampled at spatial frequencies ``k``
     (cycles per axis unit) with amplitude weights ``w`` >= 0.
@@ -160,7 +174,7 @@ def response_theory(
     return ResponseTheory(irw=irw / span, null=1.0 / span, pslr_db=max(pslr, -300.0), islr_db=max(islr, -300.0))
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def window_theory(name: str, islr_nulls: float = ISLR_NULLS) -> ResponseTheory:
     """Theory of window ``name`` over a continuous flat support of bandwidth 1 (IRW = broadening factor x
     null): cell-centred samples, so the band is exactly 1."""
@@ -168,7 +182,7 @@ def window_theory(name: str, islr_nulls: float = ISLR_NULLS) -> ResponseTheory:
     return response_theory(x, window_taper(name, x), band=(-0.5, 0.5), islr_nulls=islr_nulls, upsample=64, samples=4096)
 
 
-def two_way_gain(radar, angle_az, angle_el=None) -> np.ndarray:
+def two_way_gain(radar: RadarMetadata, angle_az: np.ndarray, angle_el: np.ndarray | None = None) -> np.ndarray:
     """Two-way amplitude gain of the radar's antenna at azimuth (and elevation) angles off boresight."""
     pattern = getattr(radar, "antenna_pattern", None) or "rect"  # not recorded: the -3 dB beam, flat
     g = beam.one_way_amplitude(angle_az, radar.azimuth_beamwidth, pattern)
@@ -190,7 +204,7 @@ class Illumination:
         return float(np.mean(self.in_beam)) if self.in_beam.size else 0.0
 
 
-def illumination(radar, platform_pos, point) -> Illumination:
+def illumination(radar: RadarMetadata, platform_pos: np.ndarray, point: npt.ArrayLike) -> Illumination:
     """Antenna gain over the pulses for one target (scene frame point (3,))."""
     n = len(platform_pos)
     if radar.azimuth_beamwidth <= 0:
@@ -205,12 +219,19 @@ def illumination(radar, platform_pos, point) -> Illumination:
     )
 
 
-def _unit(d):
+def _unit(d: np.ndarray) -> np.ndarray:
     return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
 def target_theory(
-    radar, tx_pos, rx_pos, frame, coords, azimuth_window: str = "none", range_window: str = "none", taper=None
+    radar: RadarMetadata,
+    tx_pos: np.ndarray,
+    rx_pos: np.ndarray,
+    frame: Frame,
+    coords: Sequence[float],
+    azimuth_window: str = "none",
+    range_window: str = "none",
+    taper: np.ndarray | None = None,
 ) -> list[ResponseTheory]:
     """Theory along each axis of a 2D frame for the point at frame ``coords``.
 
@@ -243,7 +264,12 @@ def target_theory(
     return out
 
 
-def fill_target_theory(targets: np.ndarray, dims, theories, rows=None) -> None:
+def fill_target_theory(
+    targets: np.ndarray,
+    dims: Sequence[str],
+    theories: Sequence[Sequence[ResponseTheory]],
+    rows: Sequence[int] | None = None,
+) -> None:
     """Write each target's theory (one list of ResponseTheory per target, dims order) into its table, in place
     (``rows``: the table rows they belong to; default every row, in order)."""
     for row, per_axis in zip(range(len(targets)) if rows is None else rows, theories):
@@ -255,7 +281,7 @@ def fill_target_theory(targets: np.ndarray, dims, theories, rows=None) -> None:
             targets[f"islr_{d}"][row] = th.islr_db if th.islr_db != 0 else -1e-9
 
 
-def unweighted_irw(theories, fallback) -> list[float]:
+def unweighted_irw(theories: Sequence[Sequence[ResponseTheory]], fallback: Sequence[float]) -> list[float]:
     """Per axis, the median over targets of 0.886 x null (the unweighted IRW of each target's own support):
     an image-wide theory that a target at the edge of the beam does not drag away from the rest."""
     if not theories:
@@ -282,10 +308,12 @@ class TargetIllumination:
     @property
     def loss(self) -> float:
         """IRW with this illumination / IRW with full illumination."""
+        if self.now is None or self.full is None:
+            raise ValueError("illumination without response theories has no IRW loss")
         return self.now.irw / self.full.irw
 
 
-def _reference_points(radar, targets: np.ndarray) -> np.ndarray:
+def _reference_points(radar: RadarMetadata, targets: np.ndarray) -> np.ndarray:
     """Where each target would be fully lit, as the scene centre is: stripmap (a fixed beam, so only the
     position relative to the track counts) moves it along track to the scene centre's x; a steered beam
     (spotlight, sliding spotlight) lights the scene centre itself."""
@@ -297,7 +325,7 @@ def _reference_points(radar, targets: np.ndarray) -> np.ndarray:
     return np.broadcast_to(centre, targets.shape)
 
 
-def _beam_k(radar, pos, targets):
+def _beam_k(radar: RadarMetadata, pos: np.ndarray, targets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(k along track (pulses, n), in-beam mask, two-way amplitude gain) of targets (n, 3) at positions."""
     tg = np.broadcast_to(targets, (len(pos),) + targets.shape)
     u = _unit(tg - pos[:, None, :])
@@ -306,21 +334,30 @@ def _beam_k(radar, pos, targets):
     return k, np.abs(az) <= radar.azimuth_beamwidth / 2, np.abs(two_way_gain(radar, az, el))
 
 
-def _extent(k, mask):
+def _extent(k: np.ndarray, mask: np.ndarray) -> np.ndarray:
     with np.errstate(invalid="ignore"):
         hi = np.where(mask, k, -np.inf).max(axis=0)
         lo = np.where(mask, k, np.inf).min(axis=0)
     return np.where(mask.any(axis=0), hi - lo, 0.0)
 
 
-def _full_support(radar, k, k_ref):
+def _band(k: np.ndarray, mask: np.ndarray) -> tuple[float, float] | None:
+    """(lowest, highest) k of the masked samples, or None with fewer than two."""
+    return (float(k[mask].min()), float(k[mask].max())) if np.count_nonzero(mask) > 1 else None
+
+
+def _full_support(radar: RadarMetadata, k: np.ndarray, k_ref: np.ndarray) -> np.ndarray:
     """The k samples of full illumination: the reference point's own (stripmap), else the target's own
     pulses under the scene centre's beam."""
     return k_ref if radar.mode == "stripmap" else k
 
 
 def illumination_survey(
-    radar, platform_pos, targets, min_fraction: float = 0.95, max_detailed: int = 50
+    radar: RadarMetadata,
+    platform_pos: np.ndarray,
+    targets: np.ndarray,
+    min_fraction: float = 0.95,
+    max_detailed: int = 50,
 ) -> list[TargetIllumination]:
     """Each target's (scene-frame xyz (n, 3)) illumination by the antenna's azimuth beam over the pulses at
     ``platform_pos``, against full illumination (:func:`_reference_points`). The expected along-track
@@ -342,8 +379,8 @@ def illumination_survey(
         sl = slice(s, s + _SURVEY_BLOCK)
         k, lit, g = _beam_k(radar, sub, targets[sl])
         kr, lit_r, _ = _beam_k(radar, sub, refs[sl])
-        full = _extent(_full_support(radar, k, kr), lit_r)
-        fraction[sl] = np.where(full > 0, _extent(k, lit) / np.where(full > 0, full, 1), 1.0)
+        span = _extent(_full_support(radar, k, kr), lit_r)
+        fraction[sl] = np.where(span > 0, _extent(k, lit) / np.where(span > 0, span, 1), 1.0)
         peak[sl] = 20 * np.log10(np.maximum(g.max(axis=0), 1e-300))
     out = [TargetIllumination(float(min(f, 1.0)), float(p)) for f, p in zip(fraction, peak)]
     for i in np.argsort(fraction, kind="stable")[:max_detailed]:
@@ -352,10 +389,9 @@ def illumination_survey(
         k, lit, g = (a[:, 0] for a in _beam_k(radar, pos, targets[i : i + 1]))
         kr, lit_r, gr = (a[:, 0] for a in _beam_k(radar, pos, refs[i : i + 1]))
         kf = _full_support(radar, k, kr)
-        band = lambda kk, m: (kk[m].min(), kk[m].max()) if np.count_nonzero(m) > 1 else None  # noqa: E731
-        full = response_theory(kf, gr, band(kf, lit_r & (gr > 0)))
+        full = response_theory(kf, gr, _band(kf, lit_r & (gr > 0)))
         try:
-            now = response_theory(k, g, band(k, lit & (g > 0)))
+            now = response_theory(k, g, _band(k, lit & (g > 0)))
         except ValueError:  # no gain at all (a rect beam that never sees it)
             now = None
         out[i] = dataclasses.replace(out[i], now=now, full=full)

@@ -45,7 +45,7 @@ _TABLES = {k: _units_of(k) for k in KINDS}
 _NUM = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*?)\s*$")
 
 
-def parse_quantity(value, kind: str, where: str = "value") -> float:
+def parse_quantity(value: object, kind: str, where: str = "value") -> float:
     """Return ``value`` as an SI float of ``kind``; ``where`` names the key for the error."""
     if kind not in _TABLES:
         raise ValueError(f"unknown quantity kind {kind!r}")
@@ -67,7 +67,8 @@ def parse_quantity(value, kind: str, where: str = "value") -> float:
             other = [k for k in KINDS if unit in _TABLES[k]]
             hint = f" ({unit!r} is a {other[0]})" if other else ""
             raise InputError(
-                f"{where}: unit {unit!r} is not a {kind} unit{hint}; expected one of {sorted(u for u in table if u)[:8]}"
+                f"{where}: unit {unit!r} is not a {kind} unit{hint}; "
+                f"expected one of {sorted(u for u in table if u)[:8]}"
             )
         if kind == "angle" and unit == "" and number != 0:
             raise InputError(f"{where}: an angle needs a unit ('deg' or 'rad')")

@@ -51,7 +51,6 @@ import dataclasses
 import functools
 import itertools
 import math
-from typing import Optional
 
 import numpy as np
 import scipy.fft
@@ -59,9 +58,10 @@ import scipy.interpolate
 import scipy.linalg
 
 from sarproc.product.config import param
-from sarproc.product.steps import steps, wrapped
 from sarproc.product.errors import InputError
+from sarproc.product.steps import steps, wrapped
 from sarproc.product.theory import cut_metrics as _cut_metrics, window_theory
+from sarproc.quality.linesum import exponential_sums
 from sarproc.quality.residual import (
     ResidualFloor,
     _residual_false_target,
@@ -70,7 +70,6 @@ from sarproc.quality.residual import (
     response_basis,
     spectral_orders,
 )
-from sarproc.quality.linesum import exponential_sums
 
 SINC_IRW_FACTOR = 0.886  # -3 dB width of sinc^2 times the bandwidth (0.8859 exactly)
 
@@ -183,20 +182,20 @@ class AxisMetrics:
     direction: tuple = ()  # cut direction in axis units per unit along its own axis (dims order)
     angle_deg: float = 0.0  # angle between the cut and its image axis (metric if given, else in nulls)
     truncated: bool = False  # the ISLR window (+2 nulls) of this cut leaves the image: unverified
-    contaminated_db: Optional[float] = None  # neighbours poorly fitted by ideal responses put this much energy
+    contaminated_db: float | None = None  # neighbours poorly fitted by ideal responses put this much energy
     # (dB of the main lobe's) in the ISLR window: unverified
     # A contaminated cut measured again on a window shortened to +-shortened_nulls (integer nulls, half-way
     # to the nearest such neighbour on the cut line, so it stops before its main lobe): PSLR over the side
     # lobes inside, ISLR over that window, and an unweighted sinc's ISLR over it. Never a pass (unverified).
-    shortened_nulls: Optional[float] = None
-    shortened_pslr_db: Optional[float] = None
-    shortened_islr_db: Optional[float] = None
-    shortened_islr_theory_db: Optional[float] = None
+    shortened_nulls: float | None = None
+    shortened_pslr_db: float | None = None
+    shortened_islr_db: float | None = None
+    shortened_islr_theory_db: float | None = None
     theory: str = "image"  # whose theoretical IRW: 'image' (the image's per-axis value) or 'target' (its own)
     # the theoretical PSLR / ISLR the cut is judged against: the target's own (targets table pslr_/islr_<axis>),
     # else that of the window irw_factor implies (unweighted sinc, or Hamming above 1.1)
-    pslr_theory_db: Optional[float] = None
-    islr_theory_db: Optional[float] = None
+    pslr_theory_db: float | None = None
+    islr_theory_db: float | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -233,13 +232,13 @@ class FalseTarget:
 class QualityReport:
     dims: tuple[str, ...]
     targets: tuple[TargetReport, ...]
-    false_target: Optional[FalseTarget]  # None: no pixel lies outside every target neighbourhood
+    false_target: FalseTarget | None  # None: no pixel lies outside every target neighbourhood
     params: EvaluateParams
     movers: tuple = ()  # sarproc.quality.moving.MoverReport per moving truth target measured
     # The residual figures (params.residual): false_target is then the residual's, and false_target_guard
     # the strongest response outside the +-guard_cells windows of the image itself (the older figure).
-    false_target_guard: Optional[FalseTarget] = None
-    residual: Optional[ResidualFloor] = None
+    false_target_guard: FalseTarget | None = None
+    residual: ResidualFloor | None = None
 
     def target(self, name: str) -> TargetReport:
         for t in self.targets:
@@ -277,8 +276,8 @@ class _Axis:
     irw: float  # theoretical IRW, axis units
     null: float  # null spacing 1/B in samples
     theory: str = "image"  # whose IRW: the image's, or the target's own ('target')
-    pslr_theory: Optional[float] = None  # dB
-    islr_theory: Optional[float] = None
+    pslr_theory: float | None = None  # dB
+    islr_theory: float | None = None
 
     def to_index(self, x):
         return (np.asarray(x, dtype=float) - self.start) / self.step
@@ -457,7 +456,7 @@ class _Chip:
             half /= 4.0
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _orientation_grid(ndim: int):
     """Candidate line orientations (unit vectors, one per +-pair), their spacing-matched kernel
     width (rad) and, per candidate, the indices of its neighbours within two kernel widths."""
@@ -546,7 +545,7 @@ def principal_directions(chip: np.ndarray, centers, nulls, window_nulls: float =
         ]
     )
     peaks = [i for i in np.argsort(dens)[::-1] if dens[i] >= dens[near[i]].max() and dens[i] > 0]
-    found = []
+    found: list[np.ndarray] = []
     for i in peaks:
         if all(abs(cand[i] @ f) < math.cos(math.radians(20.0)) for f in found):
             f = cand[i]
@@ -562,11 +561,12 @@ def principal_directions(chip: np.ndarray, centers, nulls, window_nulls: float =
             break
     if len(found) < ndim or abs(np.linalg.det(np.array(found))) < 0.2:
         return eye, f_c
-    found = np.array(found)
+    directions = np.array(found)
     best = max(
-        itertools.permutations(range(ndim)), key=lambda perm: np.prod([abs(found[perm[a], a]) for a in range(ndim)])
+        itertools.permutations(range(ndim)),
+        key=lambda perm: np.prod([abs(directions[perm[a], a]) for a in range(ndim)]),
     )
-    V = np.array([found[best[a]] * nulls for a in range(ndim)])  # nulls -> samples
+    V = np.array([directions[best[a]] * nulls for a in range(ndim)])  # nulls -> samples
     return V / np.diag(V)[:, None], f_c
 
 
@@ -843,7 +843,7 @@ def _target_axes(axes, target_irw, n_targets, irw_factor, target_null=None, targ
     return out
 
 
-def _support(chip: "_Chip", nulls, params):
+def _support(chip: _Chip, nulls, params):
     if params.principal_axes and chip.data.ndim > 1:
         return principal_directions(chip.data, chip.centers, nulls, exact=params.exact)
     return np.eye(chip.data.ndim), np.asarray(chip.centers, dtype=float)
@@ -860,7 +860,7 @@ class _NeighbourModel:
     group: frozenset  # indices of the targets fitted together
     misfit: float  # the group fit's residual energy / the fitted samples' energy
     nulls: np.ndarray  # null spacing 1/B per axis, samples
-    rich: Optional[dict] = None  # the response model (fit_response_models) where it fitted better
+    rich: dict | None = None  # the response model (fit_response_models) where it fitted better
 
     def values(self, points, hamming: bool, exact: bool = False) -> np.ndarray:
         """The fitted neighbour at ``points`` ((ndim, N) image indices)."""
@@ -906,7 +906,7 @@ def _overlapping_groups(peaks: list, reach, nulls) -> list:
     per axis). Two truths that found the same peak (within half a null: a weaker target inside a stronger
     one's search window) are one response: fitting it twice is singular, and subtracting the copy would
     remove the target itself, so only the first is kept."""
-    live = []
+    live: list[int] = []
     for j, p in enumerate(peaks):
         if abs(p.value) > 0 and not any(np.all(np.abs(p.position - peaks[k].position) < 0.5 * nulls) for k in live):
             live.append(j)
@@ -993,7 +993,7 @@ def _fit_ideal_group(points, y, starts: list, nulls, params) -> list:
     return [_NeighbourModel(pos[q], f_c[q], V[q], amp[q], frozenset(), misfit, nulls) for q in range(len(starts))]
 
 
-def _refit_rich(data, points, y, fit: list, members: list, nulls, params) -> Optional[tuple]:
+def _refit_rich(data, points, y, fit: list, members: list, nulls, params) -> tuple | None:
     """Where ideal responses leave more than NEIGHBOUR_MISFIT of a group's energy, the members' own spectral
     weight, phase and chirp fitted instead (the residual image's response models, ridges as far as a chip
     reaches). Returns (one model dict or None per member, their misfit) where they explain the group within
@@ -1079,8 +1079,8 @@ def least_squares(B, y, exact: bool = False):
 
     Through the normal equations of the column-equilibrated B (unit-norm columns, Cholesky) with two
     steps of iterative refinement (which restore the accuracy the squared condition number costs): on the
-    tall systems of 3D boxes several times faster than an SVD; ``exact`` (or a Gram matrix that is not numerically positive definite) takes numpy's SVD
-    solver, the reference the fast path is tested against."""
+    tall systems of 3D boxes several times faster than an SVD; ``exact`` (or a Gram matrix that is not
+    numerically positive definite) takes numpy's SVD solver, the reference the fast path is tested against."""
     if not exact:
         scale = np.linalg.norm(B, axis=0)
         scale[scale == 0] = 1.0
@@ -1156,7 +1156,7 @@ def sinc_islr_db(window_nulls: int) -> float:
     return 10 * math.log10((si(2 * math.pi * window_nulls) - si(2 * math.pi)) / si(2 * math.pi))
 
 
-def _cut(chip: "_Chip", axes, a, v, pos, peak2, truth, params, metric) -> AxisMetrics:
+def _cut(chip: _Chip, axes, a, v, pos, peak2, truth, params, metric) -> AxisMetrics:
     """Metrics of the cut through ``pos`` along ``v`` (image samples per sample of axis a, v[a] = 1)."""
     ax = axes[a]
     window = params.islr_nulls * ax.null  # samples of axis a
@@ -1225,7 +1225,7 @@ def _cut(chip: "_Chip", axes, a, v, pos, peak2, truth, params, metric) -> AxisMe
     )
 
 
-def _false_target(data, mag, axes, truth, peaks, reports, half, params) -> Optional[FalseTarget]:
+def _false_target(data, mag, axes, truth, peaks, reports, half, params) -> FalseTarget | None:
     outside = np.ones(data.shape, dtype=bool)
     guard = [ax.cells_to_samples(params.guard_cells) for ax in axes]
     centres = [np.rint([ax.to_index(x) for ax, x in zip(axes, t)]).astype(int) for t in truth] + list(peaks)
@@ -1399,15 +1399,15 @@ def evaluate_product(
 class AxisBounds:
     """Tolerances on one axis' metrics; None (the default) skips that check."""
 
-    irw_ratio_max: Optional[float] = param(default=None, gt=0, doc="largest allowed IRW / theory")
-    irw_ratio_min: Optional[float] = param(default=None, gt=0, doc="smallest allowed IRW / theory")
-    pslr_db: Optional[tuple[float, ...]] = param("decibel", default=None, doc="allowed PSLR interval [lo, hi], dB")
-    islr_db: Optional[tuple[float, ...]] = param("decibel", default=None, doc="allowed ISLR interval [lo, hi], dB")
-    position_cells_max: Optional[float] = param(default=None, ge=0, doc="largest |position error|, resolution cells")
-    pslr_vs_theory_db: Optional[tuple[float, ...]] = param(
+    irw_ratio_max: float | None = param(default=None, gt=0, doc="largest allowed IRW / theory")
+    irw_ratio_min: float | None = param(default=None, gt=0, doc="smallest allowed IRW / theory")
+    pslr_db: tuple[float, ...] | None = param("decibel", default=None, doc="allowed PSLR interval [lo, hi], dB")
+    islr_db: tuple[float, ...] | None = param("decibel", default=None, doc="allowed ISLR interval [lo, hi], dB")
+    position_cells_max: float | None = param(default=None, ge=0, doc="largest |position error|, resolution cells")
+    pslr_vs_theory_db: tuple[float, ...] | None = param(
         "decibel", default=None, doc=("allowed interval [lo, hi] of PSLR minus the target's own theoretical PSLR, dB")
     )
-    islr_vs_theory_db: Optional[tuple[float, ...]] = param(
+    islr_vs_theory_db: tuple[float, ...] | None = param(
         "decibel", default=None, doc=("allowed interval [lo, hi] of ISLR minus the target's own theoretical ISLR, dB")
     )
 
@@ -1432,20 +1432,20 @@ class Expectations(AxisBounds):
     Precedence, most specific first: targets.<T>.axes.<a>, targets.<T>, axes.<a>, top level.
     """
 
-    false_target_db_max: Optional[float] = param("decibel", default=None, doc="largest false-target level, dB")
-    v_r_error_max: Optional[float] = param(
+    false_target_db_max: float | None = param("decibel", default=None, doc="largest false-target level, dB")
+    v_r_error_max: float | None = param(
         "velocity",
         default=None,
         ge=0,
         doc=("largest |estimated - true| slant-range velocity of a moving target, m/s (no estimate: fail)"),
     )
-    v_a_error_max: Optional[float] = param(
+    v_a_error_max: float | None = param(
         "velocity",
         default=None,
         ge=0,
         doc=("largest |estimated - true| along-track velocity of a moving target, m/s (no estimate: fail)"),
     )
-    relocation_error_max: Optional[float] = param(
+    relocation_error_max: float | None = param(
         "length",
         default=None,
         ge=0,
@@ -1486,8 +1486,8 @@ def expectations_from_mapping(mapping: dict | None, source: str = "") -> Expecta
 
 @dataclasses.dataclass(frozen=True)
 class CheckFailure:
-    target: Optional[str]  # None for the image-wide false-target check
-    axis: Optional[str]
+    target: str | None  # None for the image-wide false-target check
+    axis: str | None
     metric: str
     value: float
     bound: str  # e.g. "<= 1.05" or "in [-13.76, -12.76]"
@@ -1531,7 +1531,10 @@ def check_report(report: QualityReport, expect: Expectations, source: str = "", 
                 k: next((getattr(b, k) for b in reversed(layers) if b is not None and getattr(b, k) is not None), None)
                 for k in METRIC_KEYS
             }
-            fail = lambda metric, value, text: failures.append(CheckFailure(t.name, m.axis, metric, value, text))
+
+            def fail(metric: str, value: float, text: str, t: TargetReport = t, m: AxisMetrics = m) -> None:
+                failures.append(CheckFailure(t.name, m.axis, metric, value, text))
+
             if (
                 bound["position_cells_max"] is not None
                 and not abs(m.position_error_cells) <= bound["position_cells_max"]
@@ -1588,11 +1591,14 @@ def check_report(report: QualityReport, expect: Expectations, source: str = "", 
                 )
             elif not abs(value) <= bound:
                 failures.append(CheckFailure(mv.name, None, key, value, f"|.| <= {bound:g} {unit}"))
-    if expect.false_target_db_max is not None and report.false_target is not None:
-        if not report.false_target.level_db <= expect.false_target_db_max:
-            failures.append(
-                CheckFailure(
-                    None, None, "false_target_db", report.false_target.level_db, f"<= {expect.false_target_db_max:g}"
-                )
+    if (
+        expect.false_target_db_max is not None
+        and report.false_target is not None
+        and not report.false_target.level_db <= expect.false_target_db_max
+    ):
+        failures.append(
+            CheckFailure(
+                None, None, "false_target_db", report.false_target.level_db, f"<= {expect.false_target_db_max:g}"
             )
+        )
     return failures

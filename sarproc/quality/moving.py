@@ -30,13 +30,21 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Optional
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from sarproc.product import moving
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import C
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from sarproc.product.frames import Frame
+    from sarproc.product.metadata import RadarMetadata
+    from sarproc.product.model import Product
+    from sarproc.quality.metrics import QualityReport
 
 MATCH_CELLS = 10.0  # association gate between a detection and a truth mover, resolution cells
 
@@ -55,18 +63,18 @@ class MoverReport:
     shift: float  # |S - true position at t_c|
     measured_position: tuple  # the measured peak, scene frame
     estimate: str = "none"  # 'moving_targets' | 'reconstruct' | 'none'
-    v_a_estimated: Optional[float] = None
-    v_r_estimated: Optional[float] = None
-    v_a_error: Optional[float] = None
-    v_r_error: Optional[float] = None
-    relocated_position: Optional[tuple] = None
+    v_a_estimated: float | None = None
+    v_r_estimated: float | None = None
+    v_a_error: float | None = None
+    v_r_error: float | None = None
+    relocated_position: tuple | None = None
     relocation: str = ""  # 'table' | 'measured peak + estimated velocity' | ''
-    relocation_error: Optional[float] = None  # |relocated - true position|
-    relocation_error_xyz: Optional[tuple] = None
-    relocation_error_from_velocity: Optional[float] = None  # first-order implied by the velocity error
+    relocation_error: float | None = None  # |relocated - true position|
+    relocation_error_xyz: tuple | None = None
+    relocation_error_from_velocity: float | None = None  # first-order implied by the velocity error
 
 
-def truth_frame(product, source: str = ""):
+def truth_frame(product: Product, source: str = "") -> Frame:
     from sarproc.product.frames import frame_from_spec
 
     where = f"{source}: " if source else ""
@@ -78,7 +86,7 @@ def truth_frame(product, source: str = ""):
     return frame_from_spec(spec)
 
 
-def apparent_truth(product, source: str = "") -> np.ndarray:
+def apparent_truth(product: Product, source: str = "") -> np.ndarray:
     """The product's targets table with every moving target at its static equivalent (image frame)."""
     targets = product.targets
     if len(targets) == 0 or not np.any(moving.is_moving(targets)):
@@ -94,11 +102,11 @@ def apparent_truth(product, source: str = "") -> np.ndarray:
     )
 
 
-def _names(table) -> str:
+def _names(table: np.ndarray) -> str:
     return ", ".join(n.decode() if isinstance(n, bytes) else str(n) for n in table["name"])
 
 
-def _rows(table) -> list[dict]:
+def _rows(table: Any) -> list[dict]:
     if table is None:
         return []
     if isinstance(table, np.ndarray) and table.dtype.names:
@@ -112,7 +120,7 @@ def _rows(table) -> list[dict]:
     return [dict(r) for r in table]
 
 
-def _xyz(row: dict, prefix: str):
+def _xyz(row: dict, prefix: str) -> np.ndarray | None:
     keys = [f"{prefix}_{c}" for c in "xyz"]
     if all(k in row for k in keys):
         v = np.array([float(row[k]) for k in keys])
@@ -120,7 +128,7 @@ def _xyz(row: dict, prefix: str):
     return None
 
 
-def moving_target_table(product) -> list[dict]:
+def moving_target_table(product: Product) -> list[dict]:
     """Rows of the product's ``moving_targets`` table (module docstring), [] if it has none.
 
     reconstruct's table is aux ``moving_targets`` (model.MOVING_TARGET_COLUMNS, float64); its
@@ -129,7 +137,7 @@ def moving_target_table(product) -> list[dict]:
 
     if (
         "moving_targets" in product.aux
-        and not getattr(product.aux["moving_targets"], "dtype", None) is None
+        and getattr(product.aux["moving_targets"], "dtype", None) is not None
         and not product.aux["moving_targets"].dtype.names
     ):
         names = target_names(product.targets)
@@ -149,9 +157,9 @@ def moving_target_table(product) -> list[dict]:
     return []
 
 
-def _match_table(rows, movers, cell):
+def _match_table(rows: Sequence[dict], movers: Sequence[dict], cell: float) -> dict[str, dict]:
     """{truth name: row}: by the row's truth column, else the nearest S within MATCH_CELLS cells."""
-    out = {}
+    out: dict[str, dict] = {}
     for row in rows:
         name = row.get("truth")
         if name:
@@ -162,19 +170,21 @@ def _match_table(rows, movers, cell):
             continue
         dist = {m["name"]: float(np.linalg.norm(m["S"] - s)) for m in movers if m["name"] not in out}
         if dist:
-            best = min(dist, key=dist.get)
+            best = min(dist, key=dist.__getitem__)
             if dist[best] <= MATCH_CELLS * cell:
                 out[best] = row
     return out
 
 
-def implied_relocation_error(radar, slant_range: float, dv_a: float, dv_r: float) -> float:
+def implied_relocation_error(radar: RadarMetadata, slant_range: float, dv_a: float, dv_r: float) -> float:
     """First-order relocation error (m, scene) of velocity errors: R |dv_los| / (v cos(theta))."""
     th = radar.squint
     return abs(slant_range * (dv_r * math.cos(th) + dv_a * math.sin(th)) / (radar.velocity * math.cos(th)))
 
 
-def _match_windows(windows, movers, radar, cell_range, cell_azimuth):
+def _match_windows(
+    windows: Sequence[dict], movers: Sequence[dict], radar: RadarMetadata, cell_range: float, cell_azimuth: float
+) -> dict[str, dict]:
     """{truth name: window}: reconstruct's windows matched by slant range at t_c and t_c."""
     out = {}
     range_cell = C / (2 * radar.range_sampling_rate)
@@ -195,7 +205,9 @@ def _match_windows(windows, movers, radar, cell_range, cell_azimuth):
     return out
 
 
-def mover_reports(product, apparent: np.ndarray, report, source: str = "") -> tuple[MoverReport, ...]:
+def mover_reports(
+    product: Product, apparent: np.ndarray, report: QualityReport, source: str = ""
+) -> tuple[MoverReport, ...]:
     """One :class:`MoverReport` per moving truth target measured in ``report`` (module docstring)."""
     targets = product.targets
     if len(targets) == 0 or not np.any(moving.is_moving(targets)):
@@ -208,7 +220,7 @@ def mover_reports(product, apparent: np.ndarray, report, source: str = "") -> tu
     irw = [float(v) for v in product.attrs.get("theoretical_irw", [])]
     cell_az = irw[list(product.dims).index("azimuth")] if "azimuth" in product.dims and irw else 1.0
     cell_rg = irw[list(product.dims).index("range")] if "range" in product.dims and irw else 1.0
-    movers = []
+    movers: list[dict[str, Any]] = []
     for k in np.nonzero(moving.is_moving(targets))[0]:
         name = targets["name"][k].decode() if isinstance(targets["name"][k], bytes) else str(targets["name"][k])
         if name not in measured:
@@ -234,7 +246,7 @@ def mover_reports(product, apparent: np.ndarray, report, source: str = "") -> tu
         coords = {d: float(t.axis(d).position) for d in product.dims}
         peak = np.asarray(frame.to_xyz(*[coords[d] for d in frame.axes]), float).reshape(3)
         v_a, v_r = moving.slant_velocity(m["xyz"], m["vel"], radar.altitude)
-        fields = dict(
+        fields: dict[str, Any] = dict(
             name=m["name"],
             true_position=tuple(m["xyz"]),
             v_a=v_a,

@@ -10,8 +10,17 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from collections.abc import Mapping, Sequence
+
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+    from sarproc.quality.metrics import EvaluateParams, TargetReport
 
 CONTOUR_LEVELS_DB = (-40, -30, -20, -13.26, -10, -6, -3)
 
@@ -21,7 +30,7 @@ def safe_name(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]", "_", name) or "_"
 
 
-def _figure(n_panels: int, width=5.0, height=4.2):
+def _figure(n_panels: int, width: float = 5.0, height: float = 4.2) -> tuple[Figure, list[Axes]]:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -36,13 +45,22 @@ def _pairs(ndim: int) -> list[tuple[int, int]]:
     return [(0, 1)] if ndim == 2 else [(1, 2), (0, 2), (0, 1)]
 
 
-def _label(dim: str, units: dict, frame: str = "") -> str:
+def _label(dim: str, units: Mapping[str, str], frame: str = "") -> str:
     inside = ", ".join(x for x in (units.get(dim, ""), f"{frame} frame" if frame else "") if x)
     return f"{dim} ({inside})" if inside else dim
 
 
 def plot_quicklook(
-    path, data, dims, coords, truth=None, names=(), units=None, dynamic_range_db=50.0, title="", frame: str = ""
+    path: str | Path,
+    data: np.ndarray,
+    dims: Sequence[str],
+    coords: Mapping[str, np.ndarray],
+    truth: np.ndarray | None = None,
+    names: Sequence[str] = (),
+    units: Mapping[str, str] | None = None,
+    dynamic_range_db: float = 50.0,
+    title: str = "",
+    frame: str = "",
 ) -> Path:
     """dB image (3D: maximum projections) normalised to its peak, truth marked; writes ``path`` (PNG).
 
@@ -91,14 +109,14 @@ def plot_quicklook(
 
 
 def plot_target(
-    path,
-    data,
-    dims,
-    coords,
-    theoretical_irw,
-    target,
-    units=None,
-    params=None,
+    path: str | Path,
+    data: np.ndarray,
+    dims: Sequence[str],
+    coords: Mapping[str, np.ndarray],
+    theoretical_irw: Sequence[float],
+    target: TargetReport,
+    units: Mapping[str, str] | None = None,
+    params: EvaluateParams | None = None,
     half_width_nulls: float = 4.0,
     upsample: int = 8,
 ) -> Path:

@@ -37,7 +37,7 @@ class ResidualFloor:
     orders: int  # spectral-weight orders per target model
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def spectral_orders(ndim: int, max_order: int, max_total: int) -> np.ndarray:
     """Orders n (ndim integers in -max_order..max_order, sum |n_a| <= max_total) of the response basis."""
     grid = itertools.product(range(-max_order, max_order + 1), repeat=ndim)
@@ -166,7 +166,7 @@ def _model_on_box(slices, model) -> np.ndarray:
         tensor = np.zeros((2 * m + 1,) * ndim, dtype=complex)
         for order, k in zip(orders, coef):
             tensor[tuple(order + m)] = k
-        total = 0
+        total: np.ndarray | int = 0
         for factors in strips:
             out = tensor
             for a in range(ndim):  # contract each order axis with its axis' shifted sincs
@@ -219,7 +219,7 @@ def _fit_group(members, points, y, found, nulls, orders, K0, iterations, shape0=
         return [np.exp(1j * (2 * np.pi * (f @ x) + _chirp_phase(x, k)))[:, None] for x, f, k in zip(offs, f_c, K)]
 
     def bases():
-        return [(fixed[q] if shape is None else raw(q, shape[q])) * c for q, c in enumerate(carriers())]
+        return [(fixed[q] if shape is None else raw(q, shape[q])) * c for q, c in enumerate(carriers())]  # type: ignore[index]  # not None in this branch
 
     coef = least_squares(np.concatenate(bases(), axis=1), y).reshape(len(members), n_o)
     for _ in range(iterations):
@@ -317,12 +317,12 @@ def fit_response_models(data, found, nulls, params, support_shape: bool = False)
                 merged = group[j] | group[k]
                 for q in merged:
                     group[q] = merged
-    groups = []
+    distinct: list[set[int]] = []
     for j in live:
-        if group[j] not in groups:
-            groups.append(group[j])
-    groups = [sorted(g) for g in groups]
-    models = [{} for _ in found]
+        if group[j] not in distinct:
+            distinct.append(group[j])
+    groups = [sorted(g) for g in distinct]
+    models: list[dict] = [{} for _ in found]
     fits = []
     for members in groups:
         near = np.unique(np.concatenate([boxes[k] for k in members], axis=1), axis=1)

@@ -22,9 +22,13 @@ from __future__ import annotations
 
 import math
 import statistics
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
 
 
-def timing_stats(times) -> dict:
+def timing_stats(times: Sequence[float]) -> dict:
     """best, median, worst and spread (max - min) of a setting's repeated times (s)."""
     values = [float(t) for t in times]
     if not values or not all(math.isfinite(t) and t >= 0 for t in values):
@@ -39,18 +43,18 @@ def timing_stats(times) -> dict:
     }
 
 
-def faster(a_times, b_times) -> bool:
+def faster(a_times: Sequence[float], b_times: Sequence[float]) -> bool:
     """True when A is faster than B beyond the spread: every repeat of A beat every repeat of B."""
     return max(a_times) < min(b_times)
 
 
-def dominates(b_times, b_quality: float, a_times, a_quality: float) -> bool:
+def dominates(b_times: Sequence[float], b_quality: float, a_times: Sequence[float], a_quality: float) -> bool:
     """B dominates A: best time and quality both no worse, one of them better."""
     b_best, a_best = min(b_times), min(a_times)
     return b_quality <= a_quality and b_best <= a_best and (b_quality < a_quality or b_best < a_best)
 
 
-def pareto_front(times, quality) -> list[int]:
+def pareto_front(times: Sequence[Sequence[float]], quality: Sequence[float]) -> list[int]:
     """Indices of the settings no other dominates, sorted by best time (then quality).
 
     ``times[i]`` is the list of repeated times of setting i, ``quality[i]`` its quality (lower is
@@ -61,6 +65,6 @@ def pareto_front(times, quality) -> list[int]:
     return sorted(front, key=lambda i: (min(times[i]), quality[i]))
 
 
-def faster_groups(times) -> list[list[int]]:
+def faster_groups(times: Sequence[Sequence[float]]) -> list[list[int]]:
     """For each setting, the indices of the settings it is faster than beyond the spread."""
     return [[j for j in range(len(times)) if j != i and faster(times[i], times[j])] for i in range(len(times))]

@@ -9,11 +9,19 @@ with its times and quality, the front's settings starred. The front and the "fas
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from sarproc.quality.tradeoff import pareto_front, timing_stats
 
+if TYPE_CHECKING:
+    from collections.abc import Sequence
 
-def _figure(width: float, height: float):
+    import numpy as np
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+
+def _figure(width: float, height: float) -> Figure:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -22,12 +30,12 @@ def _figure(width: float, height: float):
     return fig
 
 
-def number_groups(ax, xs, ys, min_px: float = 12.0) -> list[list[int]]:
+def number_groups(ax: Axes, xs: Sequence[float], ys: Sequence[float], min_px: float = 12.0) -> list[list[int]]:
     """Markers whose numbers would collide (closer than ``min_px`` vertically and three digits'
     width horizontally on the drawn axes), grouped: each group gets one label "2, 9, 12" at its first
     member, so no two labels overlap and none sits on another marker's row."""
     ax.figure.canvas.draw()
-    disp = ax.transData.transform(list(zip(xs, ys))) if len(xs) else []
+    disp: np.ndarray | list = ax.transData.transform(list(zip(xs, ys))) if len(xs) else []
     groups: list[list[int]] = []
     for i, (x, y) in enumerate(disp):
         for g in groups:
@@ -40,10 +48,10 @@ def number_groups(ax, xs, ys, min_px: float = 12.0) -> list[list[int]]:
 
 
 def plot_tradeoff(
-    path,
-    labels,
-    times,
-    quality,
+    path: str | Path,
+    labels: Sequence[str],
+    times: Sequence[Sequence[float]],
+    quality: Sequence[float],
     *,
     quality_label: str,
     title: str = "",

@@ -33,7 +33,7 @@ def _cis(cycles):
 
 
 @numba.njit(cache=CACHE, error_model="numpy")
-def window_chirp(n_range, fs, chirp_rate):
+def window_chirp(n_range: int, fs: float, chirp_rate: float) -> np.ndarray:
     """c_n = exp(j pi K (n / f_s)^2) for the window's samples, complex128."""
     out = np.empty(n_range, np.complex128)
     for n in range(n_range):
@@ -56,7 +56,7 @@ def _support(rel, fs, half_pulse, n_range):
 
 
 @numba.njit(parallel=True, cache=CACHE, error_model="numpy")
-def accumulate_echoes(out, delays, gains, gate, t0, fs, pulse_duration, chirp_rate, carrier, chirp):
+def accumulate_echoes(out, delays, gains, gate, t0, fs, pulse_duration, chirp_rate, carrier, chirp) -> None:
     """Add every target's echo to ``out`` (n_t, n_range) complex128, in place.
 
     delays (n_t, n_tg) two-way delays, s; gains (n_t, n_tg) complex (0 skips the pair); gate

@@ -18,7 +18,7 @@ import numpy as np
 from sarproc.product import beam
 from sarproc.product.config import OTHER_SECTIONS, STAGE_SECTIONS, as_dict, build, load_yaml, param
 from sarproc.product.errors import IMAGE_DEFECT, InputError
-from sarproc.product.frames import frame_coordinates, frame_names, make_frame
+from sarproc.product.frames import Frame, frame_coordinates, frame_names, make_frame
 from sarproc.product.metadata import POLARIZATION_RE, POLARIZATIONS, C, RadarMetadata, scene_center_from_geometry
 from sarproc.product.model import make_targets
 
@@ -41,7 +41,7 @@ class RadarParams:
         ),
     )
 
-    def validate(self):
+    def validate(self) -> None:
         if self.polarization is not None and not POLARIZATION_RE.fullmatch(str(self.polarization)):
             raise InputError(
                 f"polarization: {self.polarization!r} is not TX:RCV with TX, RCV one of "
@@ -79,7 +79,7 @@ class RangeWindow:
     start: float = param("length", gt=0, doc="slant range of the first sample (two-way path / 2)")
     end: float = param("length", gt=0, doc="slant range of the last sample")
 
-    def validate(self):
+    def validate(self) -> None:
         if self.end <= self.start:
             raise InputError("end: must be greater than start")
 
@@ -99,7 +99,7 @@ class AcquisitionParams:
     range_window: RangeWindow | None = param(default=None, doc="receive window; default covers every echo")
     range_margin: float = param("length", default=0.0, ge=0, doc="extra slant range on both sides of the auto window")
 
-    def validate(self):
+    def validate(self) -> None:
         given = [k for k in ("aperture_time", "azimuth_resolution", "n_pulses") if getattr(self, k) is not None]
         if len(given) != 1:
             raise InputError(
@@ -120,7 +120,7 @@ class TargetPoint:
         "velocity", default=(0.0, 0.0, 0.0), doc="(vx, vy, vz); needs effects.target_motion"
     )
 
-    def validate(self):
+    def validate(self) -> None:
         if len(self.velocity) != 3:
             raise InputError(f"velocity: expected three components (vx, vy, vz), got {len(self.velocity)}")
 
@@ -146,7 +146,7 @@ class TargetsParams:
     points: tuple[TargetPoint, ...] = param(default=(), doc="point targets")
     grid: TargetGrid | None = param(default=None, doc="a regular grid of targets centred on the origin")
 
-    def validate(self):
+    def validate(self) -> None:
         if self.frame not in frame_names():
             raise InputError(f"frame: {self.frame!r} is not one of {frame_names()}")
         names = [p.name for p in self.points]
@@ -174,7 +174,7 @@ class ReferenceParams:
         doc="height of the scene centre above the WGS84 ellipsoid (default 0 m when latitude and longitude are given)",
     )
 
-    def validate(self):
+    def validate(self) -> None:
         if (self.latitude is None) != (self.longitude is None):
             raise InputError("latitude/longitude: give both or neither")
         if self.height is not None and self.latitude is None:
@@ -214,7 +214,7 @@ class Scene:
     target_velocity: np.ndarray  # (n_targets, 3) m/s
     target_amplitude: np.ndarray  # (n_targets,) complex
     target_names: list[str]
-    target_frame: object
+    target_frame: Frame
     source: str = "<mapping>"
 
     @property
@@ -245,11 +245,14 @@ def _aperture_time(p: SceneParams, wavelength: float) -> float:
         return a.aperture_time
     if a.n_pulses is not None:
         return a.n_pulses / p.radar.prf
+    assert a.azimuth_resolution is not None  # AcquisitionParams.validate: exactly one of the three is given
     cos2 = math.cos(p.geometry.squint) ** 2
     return 0.886 * wavelength * p.geometry.reference_range / (2 * a.azimuth_resolution * p.platform.velocity * cos2)
 
 
-def _targets(p: SceneParams, radar: RadarMetadata, source: str):
+def _targets(
+    p: SceneParams, radar: RadarMetadata, source: str
+) -> tuple[Frame, np.ndarray, np.ndarray, np.ndarray, list[str]]:
     t = p.targets
     frame = make_frame(t.frame, radar)
     axes = frame.axes
@@ -289,7 +292,7 @@ def _reference(ref: ReferenceParams) -> dict:
     """RadarMetadata fields of the optional absolute reference (canonical UTC string, rad, m)."""
     from sarproc.product.metadata import parse_utc
 
-    out = {}
+    out: dict[str, object] = {}
     if ref.time is not None:
         out["reference_utc"] = parse_utc(ref.time, "reference.time")
     if ref.latitude is not None:
@@ -524,7 +527,7 @@ def _sanity_warnings(scene: Scene, declared: tuple = ()) -> None:
         )
 
 
-def load_scene(path) -> Scene:
+def load_scene(path: str | Path) -> Scene:
     """Load and validate a scene YAML file."""
     path = Path(path)
     return scene_from_mapping(load_yaml(path), source=str(path))

@@ -15,13 +15,19 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
-from typing import Iterator
+from collections.abc import Iterator
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sarproc.product.metadata import C
+from sarproc.product.metadata import C, RadarMetadata
 from sarproc.product.model import Product
 from sarproc.simulation.scene import Scene
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from sarproc.product.steps import ProgressFactory
 
 log = logging.getLogger(__name__)
 
@@ -33,7 +39,7 @@ class SimulationPlan:
     kind: str
     dims: tuple[str, ...]
     coords: dict[str, np.ndarray]
-    radar: object
+    radar: RadarMetadata
     targets: np.ndarray
     aux: dict[str, np.ndarray]
     tx_offset: np.ndarray
@@ -82,7 +88,7 @@ def _gate_offsets(scene: Scene, t: np.ndarray, reference_delay: float) -> np.nda
     return off
 
 
-def _delays(tx, rx, targets) -> np.ndarray:
+def _delays(tx: np.ndarray, rx: np.ndarray, targets: np.ndarray) -> np.ndarray:
     """Two-way delay (n_t, n_tg), s: tx, rx (n_t, 3); targets (n_t, n_tg, 3)."""
     r_tx = np.linalg.norm(targets - tx[:, None, :], axis=-1)
     r_rx = np.linalg.norm(targets - rx[:, None, :], axis=-1)
@@ -222,7 +228,10 @@ def echo_block(scene: Scene, plan: SimulationPlan, t: np.ndarray, chirp: np.ndar
 
 
 def simulate_blocks(
-    scene: Scene, plan: SimulationPlan | None = None, progress=None, mapper=None
+    scene: Scene,
+    plan: SimulationPlan | None = None,
+    progress: ProgressFactory | None = None,
+    mapper: Callable | None = None,
 ) -> Iterator[tuple[slice, np.ndarray]]:
     """Yield (pulse slice, (n_ch, n_t, n_range) complex64 block) over the whole acquisition.
 
@@ -248,7 +257,7 @@ def simulate_blocks(
         yield sl, block.astype(np.complex64)
 
 
-def simulate(scene: Scene, progress=None) -> Product:
+def simulate(scene: Scene, progress: ProgressFactory | None = None) -> Product:
     """Simulate the whole scene in memory and return the raw product."""
     from sarproc.product.io import history_entry
 

@@ -10,7 +10,6 @@ list outside pytest and prints the counts quoted in the issue's closing note.
 from __future__ import annotations
 
 import hashlib
-import os
 import re
 import shutil
 import signal
@@ -24,10 +23,9 @@ import numpy as np
 import pytest
 import yaml
 from click.testing import CliRunner
+from conftest import BASE_SCENE, merge
 
 from sarproc.cli.main import cli
-
-from conftest import BASE_SCENE, merge
 
 SCENE = merge(
     BASE_SCENE,
@@ -1264,8 +1262,8 @@ def test_export_failing_its_consistency_check_publishes_nothing(tmp_path, produc
     assert not list(tmp_path.glob(".*.sarproc-tmp"))
 
 
-# The report (PYTHONPATH=tests python tests/cli/test_bad_inputs.py). An expected string that is a YAML key path, an HDF5 item,
-# an attribute or an option:
+# The report (PYTHONPATH=tests python tests/cli/test_bad_inputs.py). An expected string that is a YAML key
+# path, an HDF5 item, an attribute or an option:
 KEYLIKE = re.compile(
     r"[a-z_]\.[a-z_]|'[^']+'|--[a-z]|aux/|radar|targets|signal|image|azimuth_time|range_time|"
     r"theoretical_irw|n_channels|frame|reference|acquisition|effects|geometry|platform|backproject|line \d"

@@ -13,7 +13,6 @@ import json
 from pathlib import Path
 
 import h5py
-import numpy as np
 import pytest
 import yaml
 from click.testing import CliRunner
@@ -76,7 +75,7 @@ def chain(tmp_path_factory):
 def test_default_grid_covers_where_movers_appear_not_where_they_are(chain):
     d, _ = chain
     with h5py.File(d / "image.h5") as f:
-        az, rg = f["azimuth"][()], f["range"][()]
+        az = f["azimuth"][()]
         names = [n.decode() for n in f["targets"]["name"]]
         true_az = f["targets"]["azimuth"][names.index("B")]
     assert not az[0] <= true_az <= az[-1]  # B's true position (300 m) holds no response, and is off the grid

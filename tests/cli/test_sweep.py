@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
 import signal
 import subprocess
 import sys
@@ -11,12 +10,11 @@ import time
 
 import pytest
 import yaml
+from conftest import BASE_SCENE, merge
 
 from sarproc.cli.sweep_output import pick_row, raw_product_of, sweep_rows
 from sarproc.cli.sweep_tasks import QUALITY_COLUMNS, TIMING_KEYS, plan_sweep, run_dask, run_serial, write_results
 from sarproc.product.errors import InputError
-
-from conftest import BASE_SCENE, merge
 
 distributed = pytest.importorskip("dask.distributed", reason="sweeps on Dask need sarproc[distributed]")
 

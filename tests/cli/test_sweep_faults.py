@@ -17,10 +17,9 @@ import sys
 
 import pytest
 import yaml
+from conftest import BASE_SCENE, merge
 
 from sarproc.cli.sweep_tasks import TIMING_KEYS, plan_sweep, run_serial
-
-from conftest import BASE_SCENE, merge
 
 pytest.importorskip("dask.distributed", reason="sweeps on Dask need sarproc[distributed]")
 

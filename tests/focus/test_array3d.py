@@ -14,25 +14,23 @@ import numpy as np
 import pytest
 import yaml
 from click.testing import CliRunner
-from hypothesis import given, settings
-from hypothesis import strategies as st
+from conftest import merge
+from hypothesis import given, settings, strategies as st
 
-from sarproc.focus.array3d.linear_array import Array3DParams, array3d_product, elevation_irw, focus_array3d
-from sarproc.dsp.interp import kernel_weights, resample
-from sarproc.focus.backprojection import backproject_points
 from sarproc.cli.main import cli
+from sarproc.dsp.interp import kernel_weights, resample
+from sarproc.dsp.rangecomp import range_compress
+from sarproc.focus.array3d.linear_array import Array3DParams, array3d_product, elevation_irw, focus_array3d
+from sarproc.focus.backprojection import backproject_points
 from sarproc.product.config import build
-from sarproc.simulation.effects.cross_track_array import CrossTrackArrayParams, receiver_offsets
 from sarproc.product.errors import InputError
 from sarproc.product.frames import ElevationFrame
 from sarproc.product.io import read_product, write_product
 from sarproc.product.metadata import C
 from sarproc.quality.metrics import evaluate_image, evaluate_product
-from sarproc.dsp.rangecomp import range_compress
+from sarproc.simulation.effects.cross_track_array import CrossTrackArrayParams, receiver_offsets
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
-
-from conftest import merge
 
 LAM = C / 37.5e9
 D = 0.0764

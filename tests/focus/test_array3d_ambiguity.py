@@ -15,7 +15,7 @@ from sarproc.focus.array3d.ambiguity import alias_of, unambiguous_half_sector
 from sarproc.focus.array3d.linear_array import array3d_product
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
-from tests.focus.test_array3d import D, LAM, reduced
+from tests.focus.test_array3d import LAM, D, reduced
 
 
 def run(beam_deg, *elevations_deg, caplog):

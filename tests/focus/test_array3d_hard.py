@@ -10,20 +10,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from conftest import merge
+from test_array3d import LAM, D, reduced
 
-from sarproc.focus.array3d.linear_array import Array3DParams, array3d_product
 from sarproc.cli.main import cli
-from sarproc.product.config import build
+from sarproc.focus.array3d.linear_array import Array3DParams, array3d_product
+from sarproc.product.config import build, load_yaml
 from sarproc.product.errors import InputError
 from sarproc.product.io import write_product
 from sarproc.product.metadata import C
 from sarproc.quality.metrics import evaluate_product
-from sarproc.product.config import load_yaml
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
-
-from conftest import merge
-from test_array3d import D, LAM, reduced
 
 # Wide cross-track swath (+-30 deg, cross-track RCM over 8 range cells): see the config's comments.
 WIDE = load_yaml(Path(__file__).resolve().parents[2] / "configs" / "du2010_wide_swath.yaml")

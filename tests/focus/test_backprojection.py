@@ -5,14 +5,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sarproc.product.config import load_yaml
-from sarproc.focus.backprojection import BackprojectParams, backproject, backproject_points
-from sarproc.quality.metrics import evaluate_product
+from helpers import assert_theory
 from sarproc.dsp.rangecomp import range_compress
+from sarproc.focus.backprojection import BackprojectParams, backproject, backproject_points
+from sarproc.product.config import load_yaml
+from sarproc.quality.metrics import evaluate_product
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
-
-from helpers import assert_theory
 
 CONFIGS = Path(__file__).resolve().parents[2] / "configs"
 STRIPMAP = load_yaml(CONFIGS / "bp_stripmap.yaml")
@@ -58,7 +57,10 @@ def test_upsampling_is_an_accuracy_knob():
     raw = simulate(scene_from_mapping(SQUINT_SPOTLIGHT))
     coarse = evaluate_product(backproject(raw, BackprojectParams(frame="los", upsample=1, interpolation="nearest")))
     fine = evaluate_product(backproject(raw, BackprojectParams(frame="los", upsample=8)))
-    worst = lambda rep: max(abs(a.pslr_db + 13.26) for t in rep.targets for a in t.axes)  # noqa: E731
+
+    def worst(rep):
+        return max(abs(a.pslr_db + 13.26) for t in rep.targets for a in t.axes)
+
     assert worst(fine) < 0.3 < worst(coarse)
 
 

@@ -5,6 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from helpers import assert_theory
 from sarproc.dsp.rangecomp import range_compress
 from sarproc.focus import backprojection_kernel as bk
 from sarproc.focus.backprojection import BackprojectParams, backproject, backproject_points
@@ -13,8 +14,6 @@ from sarproc.product.errors import InputError
 from sarproc.quality.metrics import evaluate_product
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
-
-from helpers import assert_theory
 
 CONFIGS = Path(__file__).resolve().parents[2] / "configs"
 

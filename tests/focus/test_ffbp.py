@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from helpers import assert_theory
 from sarproc.focus.backprojection import BackprojectParams, backproject
 from sarproc.focus.ffbp import error_bound, ffbp_points, interpolation_error, predicted_error
 from sarproc.product.config import load_yaml
@@ -14,8 +15,6 @@ from sarproc.product.errors import InputError
 from sarproc.quality.metrics import evaluate_product
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
-
-from helpers import assert_theory
 
 CONFIGS = Path(__file__).resolve().parents[2] / "configs"
 STRIPMAP = load_yaml(CONFIGS / "bp_stripmap.yaml")

@@ -177,7 +177,8 @@ def test_moving_target_conventional_ghosts_and_modified_suppression(moving_case)
 
 @pytest.mark.parametrize("error", [0.2, 0.5, 1.0])
 def test_false_target_level_against_velocity_error_follows_first_order_theory(moving_case, error):
-    """A slant-range velocity error e leaves channel phases 4 pi e cos(theta) tau_n / lambda: eq. (6) predicts the ghost."""
+    """A slant-range velocity error e leaves channel phases 4 pi e cos(theta) tau_n / lambda:
+    eq. (6) predicts the ghost."""
     raw, _ = moving_case
     r = raw.radar
     rec = reconstruct(raw, ReconstructParams(radial_velocity=10.0 + error, along_track_velocity=0.0))

@@ -10,19 +10,18 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import merge
 
+from sarproc.dsp.rangecomp import range_compress
 from sarproc.focus.backprojection import backproject_points, theoretical_irw
 from sarproc.focus.pfa.chain import Pfa2Params, antenna_positions, image_frame, pfa2
 from sarproc.focus.pfa.correction import pfa_distortion
 from sarproc.focus.pfa.two_step import local_irw
-from sarproc.dsp.rangecomp import range_compress
 from sarproc.product.config import load_yaml
 from sarproc.product.model import target_names
 from sarproc.quality.metrics import evaluate_image, evaluate_product
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
-
-from conftest import merge
 
 CONFIGS = Path(__file__).resolve().parents[2] / "configs"
 SMALL = load_yaml(CONFIGS / "nie2016_small.yaml")

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import merge
 from scipy.interpolate import CubicSpline
 
 from sarproc.focus.pfa.chain import Pfa2Params, antenna_positions, image_frame, pfa2
@@ -31,8 +32,6 @@ from sarproc.product.metadata import aperture_center_position
 from sarproc.quality.metrics import evaluate_product
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import plan_simulation, simulate
-
-from conftest import merge
 
 SMALL = load_yaml(Path(__file__).resolve().parents[2] / "configs" / "nie2016_small.yaml")
 # the motion: cross-track 0.4 m / 0.7 s, vertical 0.2 m / 1.1 s, along-track velocity error 0.3 m/s

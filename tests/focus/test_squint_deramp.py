@@ -19,17 +19,17 @@ import yaml
 from click.testing import CliRunner
 
 from sarproc.cli.main import cli
-from sarproc.focus.squint_deramp.coarse_focus import CoarseFocusParams, coarse_focus, specan
-from sarproc.product.config import build
-from sarproc.product.errors import InputError
-from sarproc.focus.squint_deramp.fine_focus import FineFocusParams, fine_focus
 from sarproc.dsp.interp import resample_rows
+from sarproc.focus.squint_deramp.coarse_focus import CoarseFocusParams, coarse_focus, specan
+from sarproc.focus.squint_deramp.fine_focus import FineFocusParams, fine_focus
 from sarproc.focus.squint_deramp.nlcs import _legendre, nlcs_coefficients, position_terms
 from sarproc.focus.squint_deramp.preprocess import PreprocessParams, preprocess
+from sarproc.focus.squint_deramp.stolt import SpectrumModel
+from sarproc.product.config import build
+from sarproc.product.errors import InputError
 from sarproc.quality.metrics import evaluate_product
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
-from sarproc.focus.squint_deramp.stolt import SpectrumModel
 
 ROOT = Path(__file__).resolve().parents[2]
 STAGES = ("preprocess", "coarse_focus", "fine_focus")
@@ -295,9 +295,9 @@ def test_squint_frame_shear(exp1_small):
 
 def _bp_on_image_grid(raw, img, half=40):
     """Exact backprojection of ``raw`` onto chips of ``img``'s own grid (same frame, same pixels)."""
+    from sarproc.dsp.rangecomp import range_compress
     from sarproc.focus.backprojection import backproject_points
     from sarproc.product.frames import frame_from_spec
-    from sarproc.dsp.rangecomp import range_compress
 
     frame = frame_from_spec(img.attrs["frame"])
     rc = range_compress(raw.data, raw.radar)

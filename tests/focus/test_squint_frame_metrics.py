@@ -8,8 +8,6 @@ image-axis azimuth cut reads the narrower, cleaner lobe the issue describes.
 
 from __future__ import annotations
 
-import math
-
 import pytest
 
 from sarproc.focus.backprojection import BackprojectParams, backproject

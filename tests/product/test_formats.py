@@ -15,17 +15,17 @@ from sarproc.focus.backprojection import BackprojectParams, backproject  # noqa:
 from sarproc.product.config import build, load_yaml  # noqa: E402
 from sarproc.product.cphd import check_cphd, read_cphd, write_cphd  # noqa: E402
 from sarproc.product.errors import InputError  # noqa: E402
-from sarproc.product.geolocation import (
+from sarproc.product.geolocation import (  # noqa: E402
     GeolocationParams,
     ecf_to_geodetic,
-    geodetic_to_ecf,  # noqa: E402
+    geodetic_to_ecf,
     placement,
 )
-from sarproc.product.sicd import (
+from sarproc.product.sicd import (  # noqa: E402
     check_sicd,
     image_from_sicd,
     local_support_offsets,
-    read_sicd,  # noqa: E402
+    read_sicd,
     sarpy_check,
     sicd_pixels,
     write_sicd,

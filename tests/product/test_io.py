@@ -98,10 +98,12 @@ def test_failed_write_leaves_no_file_and_input_untouched(tmp_path):
     before = _digest(inp)
     out = tmp_path / "out.h5"
     p = image_product()
-    with pytest.raises(RuntimeError):
-        with ProductWriter(out, "image", p.dims, p.coords, p.radar, p.targets, inputs=[inp]) as w:
-            w.write((slice(0, 2), slice(None)), p.data[:2])
-            raise RuntimeError("interrupted")
+    with (
+        pytest.raises(RuntimeError),
+        ProductWriter(out, "image", p.dims, p.coords, p.radar, p.targets, inputs=[inp]) as w,
+    ):
+        w.write((slice(0, 2), slice(None)), p.data[:2])
+        raise RuntimeError("interrupted")
     assert not out.exists()
     assert [x.name for x in tmp_path.iterdir()] == ["in.h5"]  # no temporary left behind
     assert _digest(inp) == before

@@ -3,12 +3,11 @@
 import h5py
 import numpy as np
 import pytest
+from test_io import image_product
 
 from sarproc.product.errors import InputError
 from sarproc.product.io import read_product, write_product
 from sarproc.product.model import TARGET_DTYPE, TARGET_IRW_FIELDS
-
-from test_io import image_product
 
 
 def test_target_irw_roundtrips_and_defaults_to_not_recorded(tmp_path):

@@ -7,10 +7,9 @@ import dataclasses
 import math
 
 import numpy as np
+from test_metrics import axis_coords, separable_image, sinc_psf
 
 from sarproc.quality.metrics import EvaluateParams, evaluate_image, least_squares, principal_directions
-
-from test_metrics import axis_coords, separable_image, sinc_psf
 
 
 def _floats(d, prefix=""):

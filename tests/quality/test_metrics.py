@@ -13,8 +13,7 @@ import time
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
+from hypothesis import given, settings, strategies as st
 
 from sarproc.product.errors import InputError
 from sarproc.quality.metrics import (
@@ -185,7 +184,10 @@ def test_reference_metrics_of_sinc_are_the_contract_values():
 
 def test_defocus_broadens_irw():
     # Quadratic phase error of pi/2 at the band edges along azimuth only.
-    qpe = lambda f: (np.pi / 2) * (2 * f) ** 2
+
+    def qpe(f):
+        return (np.pi / 2) * (2 * f) ** 2
+
     psf_az = spectrum_psf(BW2[0], lambda f: np.ones_like(f), qpe)
     coords = [axis_coords(160, STEP2[0]), axis_coords(160, STEP2[1])]
     img = separable_image(coords, [psf_az, sinc_psf(BW2[1])], [(0.0, 0.0)])
@@ -311,7 +313,7 @@ def test_chip_extraction_matches_padded_indexing(shape, data):
     inside = all(c - h >= 0 and c + h < n for c, h, n in zip(center, half, shape))
     assert clipped == (not inside)
     for s, n in zip(window_slices(center, half, shape), shape):
-        assert 0 <= s.start and s.stop <= n
+        assert s.start >= 0 and s.stop <= n
 
 
 def test_expectations_checks_and_overrides():

@@ -4,12 +4,11 @@ import math
 
 import numpy as np
 import pytest
+from test_metrics import reference_metrics
 
 from sarproc.product import theory
 from sarproc.product.frames import make_frame
 from sarproc.product.metadata import RadarMetadata
-
-from test_metrics import reference_metrics
 
 
 def test_windows_theory_is_the_fourier_integral_of_their_taper():

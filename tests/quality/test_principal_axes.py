@@ -239,7 +239,10 @@ def test_neighbour_with_spectral_phase_is_fitted_and_both_are_measured_in_place(
     bx, by = 0.886 / 1.0, 0.886 / 0.8
     targets = [(0.1, -0.2), (0.1 + 6 / bx, -0.2)]
     a, r = axis_coords(200, 0.5), axis_coords(200, 0.5)
-    phase = lambda f: 1.0 * (2 * f) ** 2  # noqa: E731
+
+    def phase(f):
+        return 1.0 * (2 * f) ** 2
+
     defocused = spectrum_psf(bx, np.ones_like, phase=phase)
     az_b = 0.8 * defocused(a - targets[1][0]) / defocused(np.zeros(1))[0]
     img = np.outer(np.sinc(bx * (a - targets[0][0])) + az_b, np.sinc(by * (r - targets[0][1]))).astype(np.complex64)

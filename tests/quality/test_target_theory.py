@@ -2,11 +2,10 @@
 
 import numpy as np
 import pytest
+from test_metrics import SINC_ISLR, SINC_PSLR, axis_coords, separable_image, sinc_psf
 
 from sarproc.product.errors import InputError
 from sarproc.quality.metrics import evaluate_image
-
-from test_metrics import SINC_ISLR, SINC_PSLR, axis_coords, separable_image, sinc_psf
 
 IMAGE_RES = (1.0, 0.8)  # what the image attribute says
 WIDE_RES = (1.15, 0.7)  # target B's true resolution: 15 % coarser in azimuth, 12.5 % finer in range
@@ -58,9 +57,10 @@ def test_bad_target_theory_is_refused(own, match):
 def test_weighted_target_is_judged_against_its_own_window_theory():
     # Hamming-weighted responses in an image whose attribute keeps the unweighted theory (0.886 / B): with the
     # targets' own theory (IRW 1.30 / B, null 1 / B, Hamming side lobes) no irw_factor is needed
+    from test_metrics import hamming_psf
+
     from sarproc.product.theory import window_theory
     from sarproc.quality.metrics import check_report, expectations_from_mapping
-    from test_metrics import hamming_psf
 
     # one target: the neighbour model subtracts unweighted responses unless irw_factor says Hamming
     coords = [axis_coords(256, STEP[0]), axis_coords(300, STEP[1])]

@@ -8,14 +8,13 @@ import math
 import numpy as np
 import pytest
 
+from helpers import assert_theory
 from sarproc.focus.backprojection import BackprojectParams, backproject
-from sarproc.simulation.effects.range_gate import linear_range_rate
 from sarproc.product.metadata import C
 from sarproc.quality.metrics import evaluate_product
+from sarproc.simulation.effects.range_gate import linear_range_rate
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
-
-from helpers import assert_theory
 
 # 50-deg squinted spotlight: the scene centre walks v sin(theta) T_a ~ 148 m (~1 us two-way)
 # through an ungated window, more than the 1 us pulse plus the ~40 m of target spread.

@@ -12,7 +12,6 @@ import math
 import re
 
 import numpy as np
-import pytest
 
 from sarproc.product.beam import one_way_amplitude
 from sarproc.simulation.scene import scene_from_mapping

@@ -79,9 +79,10 @@ def elevation_ambiguities(
         return []
     psi = unambiguous_half_sector(wavelength, spacing)
     beam = f"the elevation beam +-{math.degrees(beamwidth / 2):.3g} deg"
+    lit = ", ".join(f"{math.degrees(lo):+.3g}..{math.degrees(hi):+.3g}" for lo, hi, _, _ in bands)
     msgs = [
         f"{beam} reaches beyond the unambiguous sector +-{math.degrees(psi):.3g} deg = +-asin(lambda/2d) "
-        f"(d = {spacing:.4g} m): scatterers at {', '.join(f'{math.degrees(lo):+.3g}..{math.degrees(hi):+.3g}' for lo, hi, _, _ in bands)} "
+        f"(d = {spacing:.4g} m): scatterers at {lit} "
         f"deg fold, fully focused and at full strength, onto "
         f"{', '.join(f'{math.degrees(a):+.3g}..{math.degrees(b):+.3g}' for _, _, a, b in bands)} deg "
         "(narrow the beam or the receiver spacing)"
@@ -91,7 +92,7 @@ def elevation_ambiguities(
     if not peak > 0:
         return msgs
     step = float(abs(elevation[1] - elevation[0])) if len(elevation) > 1 else resolution
-    for lo, hi, a, b in bands:
+    for lo, _hi, a, b in bands:
         sel = np.flatnonzero((elevation >= a - step) & (elevation <= b + step))
         if sel.size == 0:
             continue

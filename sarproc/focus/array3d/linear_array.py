@@ -37,18 +37,27 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.fft as sfft
 
-from sarproc.product.config import param
-from sarproc.product.errors import IMAGE_DEFECT, InputError, ProcessingError
 from sarproc.dsp.interp import KERNELS, resample
 from sarproc.dsp.phasor import multiply_separable_phase
+from sarproc.dsp.rangecomp import chirp_replica
+from sarproc.product.config import param
+from sarproc.product.errors import IMAGE_DEFECT, InputError, ProcessingError
 from sarproc.product.metadata import C, RadarMetadata
 from sarproc.product.steps import steps, wrapped
 from sarproc.product.theory import fill_target_theory, response_theory, window_theory
-from sarproc.dsp.rangecomp import chirp_replica
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    import numpy.typing as npt
+
+    from sarproc.product.model import Product
+    from sarproc.product.steps import ProgressFactory
 
 
 @dataclasses.dataclass(frozen=True)
@@ -153,7 +162,7 @@ class Array3DResult:
 # Geometry checks and theory
 
 
-def array_geometry(tx_offset, rx_offset) -> ArrayGeometry:
+def array_geometry(tx_offset: np.ndarray, rx_offset: np.ndarray) -> ArrayGeometry:
     """Cross-track receiver offsets v_n relative to the transmitter; refuse other layouts."""
     tx = np.asarray(tx_offset, float).reshape(3)
     rx = np.asarray(rx_offset, float).reshape(-1, 3)
@@ -197,7 +206,9 @@ def elevation_irw(offsets: np.ndarray, wavelength: float) -> float:
     return 2.0 * float(w3)
 
 
-def target_theory_3d(offsets, wavelength: float, elevations, channel_irw) -> list:
+def target_theory_3d(
+    offsets: np.ndarray, wavelength: float, elevations: np.ndarray, channel_irw: Sequence[float]
+) -> list:
     """Each target's own theory (sarproc.product.theory.ResponseTheory per axis: elevation rad, azimuth m,
     range m): the receivers' array factor seen from its elevation theta (spatial frequencies v_n cos(theta) /
     lambda per radian, each receiver a cell of the median spacing wide), and the flat azimuth and range
@@ -242,7 +253,7 @@ def elevation_grid(geom: ArrayGeometry, wavelength: float, params: Array3DParams
 
 
 def range_compress(
-    signal: np.ndarray, radar: RadarMetadata, ctype, workers: int = -1, kind: str = "matched"
+    signal: np.ndarray, radar: RadarMetadata, ctype: npt.DTypeLike, workers: int = -1, kind: str = "matched"
 ) -> np.ndarray:
     """Range compression of the centred chirp along the last axis, eq. (9); a unit echo peaks at ~1.
 
@@ -277,7 +288,7 @@ def azimuth_focus(
     ranges: np.ndarray,
     radar: RadarMetadata,
     params: Array3DParams,
-    ctype,
+    ctype: npt.DTypeLike,
     workers: int = -1,
     overwrite: bool = False,
 ) -> np.ndarray:
@@ -334,9 +345,9 @@ def elevation_compress(
     theta: np.ndarray,
     radar: RadarMetadata,
     params: Array3DParams,
-    ctype,
+    ctype: npt.DTypeLike,
     workers: int = -1,
-    progress=None,
+    progress: ProgressFactory | None = None,
 ) -> np.ndarray:
     """Cross-track RCMC (eqs. 20, 21), deramp (eq. 23) and transform over channels (eqs. 24-26).
 
@@ -393,7 +404,14 @@ def elevation_compress(
     return out
 
 
-def _elevation_blocks(shape, ranges, geom: ArrayGeometry, theta, radar: RadarMetadata, params: Array3DParams):
+def _elevation_blocks(
+    shape: tuple[int, ...],
+    ranges: np.ndarray,
+    geom: ArrayGeometry,
+    theta: np.ndarray,
+    radar: RadarMetadata,
+    params: Array3DParams,
+) -> tuple[int, range, int]:
     """(n_fft, block starts, block length) of :func:`elevation_compress` on (n_ch, n_az, n_rg) images.
 
     The range FFT is padded by the largest cross-track range shift (eqs. 20, 21); the blocks run
@@ -439,7 +457,7 @@ def focus_array3d(
     params: Array3DParams = Array3DParams(),
     *,
     keep_channel_images: bool = False,
-    progress=None,
+    progress: ProgressFactory | None = None,
     workers: int = -1,
 ) -> Array3DResult:
     """The whole chain of Fig. 3 on a (n_ch, n_az, n_rg) ``raw_array`` signal.
@@ -540,13 +558,13 @@ def focus_array3d(
 
 
 def array3d_product(
-    raw,
+    raw: Product,
     params: Array3DParams = Array3DParams(),
     *,
     channel_image: int | None = None,
-    progress=None,
+    progress: ProgressFactory | None = None,
     command: str = "array3d",
-):
+) -> tuple[Product, Product | None]:
     """Focus a ``raw_array`` :class:`~sarproc.product.model.Product` into an ``image3d`` product.
 
     ``channel_image`` (1-based receiver number, as the paper's "14th receiver") also returns the
@@ -628,6 +646,7 @@ def array3d_product(
     )
     chan = None
     if channel_image is not None:
+        assert res.channel_images is not None  # kept because channel_image is set
         f2 = SquintFrame(0.0, raw.radar.altitude)  # zero-Doppler: (x, slant range from the track)
         chan = raw.derive(
             "image",

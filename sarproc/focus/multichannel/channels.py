@@ -42,11 +42,20 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+if TYPE_CHECKING:
+    import numpy.typing as npt
 
-def channel_delays(along_track_offsets, velocity: float, along_track_velocity: float = 0.0) -> np.ndarray:
+    from sarproc.product.metadata import RadarMetadata
+    from sarproc.product.model import Product
+
+
+def channel_delays(
+    along_track_offsets: npt.ArrayLike, velocity: float, along_track_velocity: float = 0.0
+) -> np.ndarray:
     """tau_n = dx_n / (2 (v - v_a)), s (eq. 1)."""
     rel = velocity - along_track_velocity
     if not rel > 0:
@@ -54,7 +63,7 @@ def channel_delays(along_track_offsets, velocity: float, along_track_velocity: f
     return np.asarray(along_track_offsets, float) / (2.0 * rel)
 
 
-def bistatic_excess(along_track_offsets, squint: float, slant_range: float) -> np.ndarray:
+def bistatic_excess(along_track_offsets: npt.ArrayLike, squint: float, slant_range: float) -> np.ndarray:
     """e_n = dx_n^2 cos^2(theta) / (4 R), m: bistatic path minus twice the phase-centre path (eq. 2)."""
     dx = np.asarray(along_track_offsets, float)
     return dx**2 * math.cos(squint) ** 2 / (4.0 * slant_range)
@@ -94,7 +103,9 @@ def band_frequencies(n_az: int, prf: float, n_bands: int, band_center: float = 0
     return f[:, None] + (j0[:, None] + np.arange(n_bands)[None, :]) * prf
 
 
-def filter_bank(tau, prf: float, n_az: int, band_center: float = 0.0, regularization: float = 0.0) -> FilterBank:
+def filter_bank(
+    tau: np.ndarray, prf: float, n_az: int, band_center: float = 0.0, regularization: float = 0.0
+) -> FilterBank:
     """Filters P(f) = H(f)^-1 (eq. 3) or the Tikhonov solution (eq. 4) for ``n_az`` azimuth bins."""
     tau = np.asarray(tau, float)
     n = len(tau)
@@ -128,7 +139,7 @@ def apply_filter_bank(spectra: np.ndarray, bank: FilterBank) -> np.ndarray:
     return out.reshape((n * n_az,) + rest)
 
 
-def ghost_level_db(tau, prf: float, error_phase, half_band: float, n_az: int = 256) -> float:
+def ghost_level_db(tau: np.ndarray, prf: float, error_phase: np.ndarray, half_band: float, n_az: int = 256) -> float:
     """First-order false-target level (dB) left by a channel phase error phi_n (eq. 6, docs/multichannel.md).
 
     A complex phi_n also carries an amplitude error: the channel gain is exp(j phi_n).
@@ -157,7 +168,7 @@ def ghost_level_db(tau, prf: float, error_phase, half_band: float, n_az: int = 2
     return float(20 * np.log10(best)) if best > 0 else float("-inf")
 
 
-def product_ghost_level_db(raw, error_phase) -> float:
+def product_ghost_level_db(raw: Product, error_phase: np.ndarray) -> float:
     """:func:`ghost_level_db` (eq. 6) of a channel error ``error_phase`` (rad per channel; complex: with a gain
     error) for a multichannel raw product: its channels' delays, PRF and the Doppler half-band of its beam."""
     r = raw.radar
@@ -167,7 +178,7 @@ def product_ghost_level_db(raw, error_phase) -> float:
     return ghost_level_db(channel_delays(offsets, r.velocity), r.prf, error_phase, half_band)
 
 
-def ghost_spacing(radar, prf: float | None = None) -> float:
+def ghost_spacing(radar: RadarMetadata, prf: float | None = None) -> float:
     """Azimuth distance between a target and its first channel ghost, m: PRF v / K_a with the azimuth FM rate
     K_a = 2 (v cos theta)^2 / (lambda R_ref) at the reference range. ``prf``: the channels' PRF (default the
     radar's; a reconstructed product's radar carries N times it)."""

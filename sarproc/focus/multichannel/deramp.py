@@ -33,35 +33,46 @@ def _phasor(cycles: np.ndarray) -> np.ndarray:
     return unit_phasor(cycles - np.floor(cycles))
 
 
-def squint_doppler(range_frequency, velocity: float, squint: float, carrier_frequency: float) -> np.ndarray:
+def squint_doppler(range_frequency: np.ndarray, velocity: float, squint: float, carrier_frequency: float) -> np.ndarray:
     """f_dc(f_r) = 2 v sin(theta) (f_c + f_r) / c, Hz."""
     return 2.0 * velocity * math.sin(squint) * (carrier_frequency + np.asarray(range_frequency, float)) / C
 
 
-def deramp_phasor(times, range_frequency, velocity, squint, carrier_frequency, sign: int = -1) -> np.ndarray:
+def deramp_phasor(
+    times: np.ndarray,
+    range_frequency: np.ndarray,
+    velocity: float,
+    squint: float,
+    carrier_frequency: float,
+    sign: int = -1,
+) -> np.ndarray:
     """(n_t, n_f) complex64 exp(sign j 2 pi f_dc(f_r) t): sign -1 deramps, +1 restores."""
     fdc = squint_doppler(range_frequency, velocity, squint, carrier_frequency)
     return _phasor(sign * np.asarray(times, float)[:, None] * fdc[None, :])
 
 
-def doppler_shift_phasor(times, range_frequency, los_velocity, carrier_frequency, sign: int = -1) -> np.ndarray:
+def doppler_shift_phasor(
+    times: np.ndarray, range_frequency: np.ndarray, los_velocity: float, carrier_frequency: float, sign: int = -1
+) -> np.ndarray:
     """(n_t, n_f) exp(sign j 2 pi f_v(f_r) t), f_v = -2 v_los (f_c + f_r) / c: a moving target's Doppler offset."""
     fv = -2.0 * los_velocity * (carrier_frequency + np.asarray(range_frequency, float)) / C
     return _phasor(sign * np.asarray(times, float)[:, None] * fv[None, :])
 
 
-def path_phasor(range_frequency, path, carrier_frequency) -> np.ndarray:
+def path_phasor(range_frequency: np.ndarray, path: np.ndarray | float, carrier_frequency: float) -> np.ndarray:
     """(n_f,) exp(+j 2 pi (f_c + f_r) path / c): removes an extra one-way-equivalent path ``path`` (m)."""
     return _phasor((carrier_frequency + np.asarray(range_frequency, float)) * path / C)
 
 
-def compression_phasor(range_frequency, chirp_rate: float, sign: int = +1) -> np.ndarray:
+def compression_phasor(range_frequency: np.ndarray, chirp_rate: float, sign: int = +1) -> np.ndarray:
     """exp(sign j pi f_r^2 / K): +1 compresses a chirp exp(j pi K tau^2), -1 re-expands it."""
     f = np.asarray(range_frequency, float)
     return _phasor(sign * 0.5 * f**2 / chirp_rate)
 
 
-def quadratic_phasor(times, range_frequency, acceleration, t_center, carrier_frequency) -> np.ndarray:
+def quadratic_phasor(
+    times: np.ndarray, range_frequency: np.ndarray, acceleration: float, t_center: float, carrier_frequency: float
+) -> np.ndarray:
     """(n_t, n_f) exp(+j 2 pi (f_c + f_r) a (t - t_c)^2 / c): removes a range history 0.5 a (t - t_c)^2 (two-way)."""
     dt2 = (np.asarray(times, float) - t_center) ** 2
     return _phasor(

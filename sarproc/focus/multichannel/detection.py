@@ -34,13 +34,18 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 import scipy.fft as sfft
 from scipy import ndimage
 
 from sarproc.dsp.phasor import unit_phasor
 from sarproc.product.metadata import C
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
 
 TILE = (256, 32)  # CFAR background tiles: azimuth samples x range cells
 SIDELOBE_MARGIN = 4.0  # 6 dB over a stronger detection's sinc envelope
@@ -60,7 +65,9 @@ class Detection:
         return 10 * math.log10(self.power / self.background) if self.background > 0 else float("inf")
 
 
-def fm_rate(velocity: float, squint: float, slant_range: float, carrier_frequency: float, f_r) -> np.ndarray:
+def fm_rate(
+    velocity: float, squint: float, slant_range: float, carrier_frequency: float, f_r: npt.ArrayLike
+) -> np.ndarray:
     """Eq. (7): static azimuth FM rate K_a(f_r), Hz/s (positive; the deramped phase is -pi K_a t^2)."""
     return 2 * (velocity * math.cos(squint)) ** 2 * (carrier_frequency + np.asarray(f_r, float)) / (C * slant_range)
 
@@ -77,7 +84,7 @@ def detection_image(y_fa: np.ndarray, out_f: np.ndarray, ka: np.ndarray) -> np.n
     return (img.real**2 + img.imag**2).astype(np.float32)
 
 
-def background(power: np.ndarray, tile=TILE) -> np.ndarray:
+def background(power: np.ndarray, tile: tuple[int, int] = TILE) -> np.ndarray:
     """Mean background per tile from its median (median / ln 2, exponential statistics), same shape as power."""
     n_t, n_r = power.shape
     ta, tr = min(tile[0], n_t), min(tile[1], n_r)
@@ -136,9 +143,12 @@ def find_detections(
             dt = min(dt, power.shape[0] - dt)
             dr = abs(int(r_i) - d.cell)
             # on the azimuth cut (same range cells) or the range cut (same azimuth) of a stronger one
-            if dr <= 2 and p < d.power * SIDELOBE_MARGIN / (math.pi * max(dt / d.width, 0.5)) ** 2:
-                sidelobe = True
-            elif dt <= max(2, d.width) and p < d.power * SIDELOBE_MARGIN / (math.pi * max(dr / range_width, 0.5)) ** 2:
+            if (
+                dr <= 2
+                and p < d.power * SIDELOBE_MARGIN / (math.pi * max(dt / d.width, 0.5)) ** 2
+                or dt <= max(2, d.width)
+                and p < d.power * SIDELOBE_MARGIN / (math.pi * max(dr / range_width, 0.5)) ** 2
+            ):
                 sidelobe = True
             if sidelobe:
                 break
@@ -171,7 +181,13 @@ def extraction_mask(frequencies: np.ndarray, prf: float, half_width: float) -> n
 
 
 def extract(
-    x_tf: np.ndarray, times: np.ndarray, prf: float, t_app: float, ka: np.ndarray, half_width: float, notches=None
+    x_tf: np.ndarray,
+    times: np.ndarray,
+    prf: float,
+    t_app: float,
+    ka: np.ndarray,
+    half_width: float,
+    notches: Sequence[float] | None = None,
 ) -> np.ndarray:
     """Channels (N, n_az, L) in (t, f_r) of one window -> the part focused within half_width / K_a of t_app.
 

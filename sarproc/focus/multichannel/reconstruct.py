@@ -27,16 +27,20 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.fft as sfft
 
 from sarproc.focus.multichannel import channels, deramp, detection, velocity
+from sarproc.product import moving
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import IMAGE_DEFECT, InputError
 from sarproc.product.metadata import C
-from sarproc.product import moving
 from sarproc.product.model import MOVING_TARGET_COLUMNS, Product
+
+if TYPE_CHECKING:
+    from sarproc.product.steps import ProgressFactory
 
 log = logging.getLogger(__name__)
 
@@ -125,7 +129,7 @@ class ReconstructParams:
         doc=("width of the nulled static band over the Doppler bandwidth (above 1: the spectral tails of the beam)"),
     )
 
-    def validate(self):
+    def validate(self) -> None:
         if self.velocity_max <= self.velocity_min:
             raise InputError("velocity_max: must be greater than velocity_min")
         if self.coarse_step < self.velocity_step:
@@ -238,7 +242,7 @@ def _reconstruct(spec_tf: np.ndarray, bank: channels.FilterBank) -> np.ndarray:
 class _Window:
     """One moving-target window: channel data in (t, f_r) over its L range cells, and its reconstruction."""
 
-    def __init__(self, x_tf: np.ndarray, f_r: np.ndarray, g: _Geometry, params: ReconstructParams):
+    def __init__(self, x_tf: np.ndarray, f_r: np.ndarray, g: _Geometry, params: ReconstructParams) -> None:
         self.x, self.f_r, self.g, self.params = x_tf, f_r, g, params
         self.out_f = sfft.fftfreq(g.n * len(g.times), 1.0 / (g.n * g.prf))
         self._banks: dict[float, channels.FilterBank] = {}
@@ -292,7 +296,7 @@ class _Window:
             y *= self.acceleration_fix(v_r, v_a, t_c, slant_range)
         return y
 
-    def acceleration_fix(self, v_r, v_a, t_c, slant_range):
+    def acceleration_fix(self, v_r: float, v_a: float, t_c: float, slant_range: float) -> np.ndarray:
         g = self.g
         # R''_moving - R''_static with the same R': ((v - v_a)^2 + v_r^2 - v^2) / R (velocity.py).
         d_acc = ((g.velocity - v_a) ** 2 + v_r**2 - g.velocity**2) / slant_range
@@ -347,7 +351,7 @@ def _estimate(
         )
     v_a = params.along_track_velocity if params.along_track_velocity is not None else 0.0
 
-    def search(v_a_now, lo, hi, coarse):
+    def search(v_a_now: float, lo: float, hi: float, coarse: float) -> velocity.SearchResult:
         return velocity.fast_search(
             lambda u: win.leakage(u, v_a_now),
             lo,
@@ -377,9 +381,8 @@ def _estimate(
             v_r = alias.estimate
     else:
         v_r = 0.0
-    if static_below is not None:
-        if abs(channels.line_of_sight_velocity(v_r, v_a, g.squint)) < static_below:
-            return None, notes
+    if static_below is not None and abs(channels.line_of_sight_velocity(v_r, v_a, g.squint)) < static_below:
+        return None, notes
     y_dem = sfft.ifft(win.demodulated_spectrum(v_r, v_a), axis=0, workers=-1)
     p = np.sum(np.abs(y_dem) ** 2, axis=1)
     t_c = float(np.sum(g.out_times * p) / np.sum(p)) if np.sum(p) > 0 else 0.0
@@ -399,7 +402,7 @@ def _estimate(
         cell_power = np.sum(np.abs(y_cells) ** 2, axis=0)
         y_cells = np.ascontiguousarray(y_cells[:, cell_power >= 0.01 * cell_power.max()])
 
-        def crit(u):  # keep the line-of-sight velocity found by the search while v_a varies
+        def crit(u: float) -> float:  # keep the line-of-sight velocity found by the search while v_a varies
             vr_u = (v_los - u * math.sin(g.squint)) / math.cos(g.squint)
             acc = velocity.range_acceleration(g.velocity, u, vr_u, g.squint, slant_range)
             ph = deramp.quadratic_phasor(g.out_times, np.zeros(1), acc, t_c, g.fc)
@@ -414,6 +417,7 @@ def _estimate(
             span = 5 * params.velocity_step
             lo, hi = max(params.velocity_min, v_r - span), min(params.velocity_max, v_r + span)
             fine = search(v_a, lo, hi, params.velocity_step)
+            assert result is not None  # searched above: can_search and no radial velocity given
             trials = np.concatenate([result.trials, fine.trials])
             result = velocity.SearchResult(
                 fine.estimate, False, trials[np.argsort(trials[:, 0])], result.evaluations + fine.evaluations
@@ -514,9 +518,11 @@ def _refine_peak(
         i, c = np.unravel_index(int(np.argmax(sub)), sub.shape)
         if best is None or sub[i, c] > best[0]:
             best = (sub[i, c], centre - 8, sub, i, c)
+    if best is None:
+        raise ValueError(f"no alias of index {index} falls inside the {n_out} output cells")
     _, lo, sub, i, c = best
 
-    def vertex(v, j):
+    def vertex(v: np.ndarray, j: int | np.integer) -> float:
         if 0 < j < len(v) - 1:
             den = v[j - 1] - 2 * v[j] + v[j + 1]
             if den < 0:
@@ -536,7 +542,7 @@ def _detect_and_focus(
     f_r: np.ndarray,
     lead: int,
     info: dict,
-    progress,
+    progress: ProgressFactory | None,
     bank: channels.FilterBank,
     residual_mode: bool,
 ) -> list[MovingTarget]:
@@ -584,12 +590,12 @@ def _detect_and_focus(
     t_ill = 2 * g.half_band / ka0
     ghost_cells = 2 + math.ceil(C / g.fc * g.prf / 2 * t_ill / 2 * 2 * g.fs / C)
 
-    def apart(d1, d2, cells):
+    def apart(d1: detection.Detection, d2: detection.Detection, cells: int) -> bool:
         dt = (d1.time - d2.time) / ambiguity
         k = round(dt)
         return abs(d1.cell - d2.cell) > (cells if k == 0 else max(cells, ghost_cells)) or abs(dt - k) * ambiguity > sep
 
-    def remove(ext, a, b, ka_w):
+    def remove(ext: np.ndarray, a: int, b: int, ka_w: np.ndarray) -> None:
         """Take one examined detection's whole response (ambiguities, clutter-null artefacts) out of the image."""
         x_fa = sfft.fft(ext, axis=1, workers=-1)
         if residual_mode:
@@ -755,7 +761,9 @@ def _detect_and_focus(
     return movers
 
 
-def reconstruct(raw: Product, params: ReconstructParams = ReconstructParams(), progress=None) -> Product:
+def reconstruct(
+    raw: Product, params: ReconstructParams = ReconstructParams(), progress: ProgressFactory | None = None
+) -> Product:
     """Reconstruct a raw_multichannel product into a single-channel raw product at N PRF (module docstring)."""
     _check_input(raw)
     g = _geometry(raw, params)
@@ -815,6 +823,7 @@ def reconstruct(raw: Product, params: ReconstructParams = ReconstructParams(), p
         mt, notes = _estimate(win, params, g, centre_range)
         for note in notes:
             log.warning("reconstruct: the whole swath as one mover: %s", note)
+        assert mt is not None  # only a static_below threshold (not given here) drops a mover
         mt = dataclasses.replace(mt, first_cell=0, last_cell=len(f_r))
         movers.append(mt)
         y = win.output(
@@ -831,7 +840,7 @@ def reconstruct(raw: Product, params: ReconstructParams = ReconstructParams(), p
 VELOCITY_FLOOR = (0.02, 0.05)  # m/s: v_r and v_a errors on noise-free scenes (docs/multichannel.md)
 
 
-def _beam_centre_point(platform_xyz, slant_range: float, squint: float) -> np.ndarray:
+def _beam_centre_point(platform_xyz: np.ndarray, slant_range: float, squint: float) -> np.ndarray:
     """Static point at beam centre (squint theta) at ``slant_range`` from the phase centre (ground z = 0)."""
     p = np.asarray(platform_xyz, float)
     uz = -p[2] / slant_range
@@ -937,7 +946,9 @@ def _moving_target_rows(raw: Product, g: _Geometry, movers: list[MovingTarget], 
     return rows
 
 
-def _output_product(raw, params, g, out, info, movers) -> Product:
+def _output_product(
+    raw: Product, params: ReconstructParams, g: _Geometry, out: np.ndarray, info: dict, movers: list[MovingTarget]
+) -> Product:
     from sarproc.product.io import history_entry
 
     pos = raw.aux["platform_position"]
@@ -977,7 +988,7 @@ def _output_product(raw, params, g, out, info, movers) -> Product:
     else:  # no detection ran: an empty table, and no claim about the truth movers
         aux["moving_targets"] = np.zeros((0, len(MOVING_TARGET_COLUMNS)))
     radar = raw.radar.replace(prf=g.n * g.prf, n_channels=1)
-    attrs = {k: v for k, v in raw.attrs.items()}
+    attrs = dict(raw.attrs.items())
     attrs["reconstruct"] = info
     prod = raw.derive(
         "raw",

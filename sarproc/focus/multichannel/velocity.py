@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -65,7 +65,7 @@ def fast_search(
             seen[key] = float(criterion(key))
         return seen[key]
 
-    def grid(a, b, s):
+    def grid(a: float, b: float, s: float) -> list[float]:
         n = int(math.floor((b - a) / s + 1e-9))
         return [a + k * s for k in range(n + 1)] + ([b] if (b - a) / s - n > 1e-6 else [])
 
@@ -77,7 +77,8 @@ def fast_search(
             steps.append(max(step, steps[-1] / 4 if steps[-1] / 4 > step * 2 else step))
     a, b = lo, hi
     best = lo
-    for s_prev, s in zip([None] + steps[:-1], steps):
+    previous: list[float | None] = [None, *steps[:-1]]
+    for s_prev, s in zip(previous, steps):
         if s_prev is not None:
             a, b = max(lo, best - s_prev), min(hi, best + s_prev)
         pts = grid(a, b, s)

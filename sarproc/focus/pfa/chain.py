@@ -13,7 +13,8 @@ import dataclasses
 import logging
 import math
 import time
-from typing import Callable
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -51,6 +52,15 @@ from sarproc.product.frames import GroundLosFrame, make_frame, targets_in_frame
 from sarproc.product.metadata import aperture_center_position
 from sarproc.product.model import Product
 from sarproc.product.theory import fill_target_theory, window_theory
+
+if TYPE_CHECKING:
+    from collections.abc import Iterator, Sequence
+    from typing import Any
+
+    from sarproc.focus.pfa.phase_history import PhaseHistory
+    from sarproc.focus.pfa.polar import KGrid, Rect
+    from sarproc.product.metadata import RadarMetadata
+    from sarproc.product.steps import ProgressFactory
 
 log = logging.getLogger(__name__)
 
@@ -150,13 +160,16 @@ def antenna_positions(raw: Product) -> np.ndarray:
 def image_frame(raw: Product) -> GroundLosFrame:
     spec = raw.attrs.get("frame")
     if isinstance(spec, dict) and spec.get("name") == "ground_los":
-        return make_frame("ground_los", raw.radar, **{k: v for k, v in spec.items() if k != "name"})
-    return make_frame(
-        "ground_los", raw.radar, origin=raw.radar.scene_center, aperture_center=aperture_center_position(raw.radar)
-    )
+        frame = make_frame("ground_los", raw.radar, **{k: v for k, v in spec.items() if k != "name"})
+    else:
+        frame = make_frame(
+            "ground_los", raw.radar, origin=raw.radar.scene_center, aperture_center=aperture_center_position(raw.radar)
+        )
+    assert isinstance(frame, GroundLosFrame)
+    return frame
 
 
-def output_grid(params: Pfa2Params, raw: Product, frame: GroundLosFrame, irw) -> Grid:
+def output_grid(params: Pfa2Params, raw: Product, frame: GroundLosFrame, irw: Sequence[float]) -> Grid:
     """Image grid (offsets from the frame origin along e_a, e_r)."""
     t = targets_in_frame(raw.targets, frame)
     coords = {"azimuth": t["azimuth"], "range": t["range"] - frame.ground_range}
@@ -188,7 +201,12 @@ def _interp(params: Pfa2Params, azimuth_oversampling: float) -> Interpolation:
     )
 
 
-def pfa2(raw: Product, params: Pfa2Params = Pfa2Params(), progress=None, mapper: Callable | None = None) -> Product:
+def pfa2(
+    raw: Product,
+    params: Pfa2Params = Pfa2Params(),
+    progress: ProgressFactory | None = None,
+    mapper: Callable | None = None,
+) -> Product:
     """Focus a raw product with the paper 002 chain; returns an ``image`` product (ground_los frame)."""
     if raw.kind != "raw":
         raise InputError(f"pfa2 needs a single-channel raw product, got {raw.kind!r}")
@@ -223,7 +241,7 @@ def pfa2(raw: Product, params: Pfa2Params = Pfa2Params(), progress=None, mapper:
     )
     timing["dealias"] = time.perf_counter() - t0
     az_os = max(1.05, alias["azimuth_oversampling"])
-    attrs = {"method": params.method, "dealias": alias}
+    attrs: dict[str, Any] = {"method": params.method, "dealias": alias}
     t0 = time.perf_counter()
     if params.method == "plain" and params.correct_distortion:
         img, kg = _plain_corrected(ph, rect, grid, origin, e_a, e_r, _interp(params, az_os))
@@ -266,7 +284,15 @@ def pfa2(raw: Product, params: Pfa2Params = Pfa2Params(), progress=None, mapper:
     return out
 
 
-def _plain_corrected(ph, rect, grid: Grid, origin, e_a, e_r, interp: Interpolation):
+def _plain_corrected(
+    ph: PhaseHistory,
+    rect: Rect,
+    grid: Grid,
+    origin: np.ndarray,
+    e_a: np.ndarray,
+    e_r: np.ndarray,
+    interp: Interpolation,
+) -> tuple[np.ndarray, KGrid]:
     """Plain PFA on a grid grown by the distortion, read back at each pixel's distorted position."""
     ua, ur = los_components(ph.positions, origin, e_a, e_r)
     k_max = float(wavenumbers(ph.carrier_frequency, ph.freqs[-1]))
@@ -287,13 +313,15 @@ def _plain_corrected(ph, rect, grid: Grid, origin, e_a, e_r, interp: Interpolati
     return warp_to_truth(img, ext, grid, warp, geo, kg, interp), kg
 
 
-def _record_target_theory(targets: np.ndarray, ph, e_a, e_r, kg, params) -> None:
+def _record_target_theory(
+    targets: np.ndarray, ph: PhaseHistory, e_a: np.ndarray, e_r: np.ndarray, kg: KGrid, params: Pfa2Params
+) -> None:
     """Fill each target's theory (irw_, null_, pslr_, islr_<axis>, in place): a flat azimuth support and the
     range window over the polar support it is focused with, the image's rectangle (plain) or its own
     inscribed one (two_step: each sub-image keeps its own support, so the IRW varies over the scene)."""
     band = (float(ph.freqs[0]), float(ph.freqs[-1]))
     shapes = (window_theory("none"), window_theory(params.range_window))
-    nulls = [x / 0.886 for x in kg.irw()]
+    nulls: Sequence[float] = [x / 0.886 for x in kg.irw()]
     own = []
     for i in range(len(targets)):
         if params.method == "two_step":
@@ -303,11 +331,23 @@ def _record_target_theory(targets: np.ndarray, ph, e_a, e_r, kg, params) -> None
     fill_target_theory(targets, ("azimuth", "range"), own)
 
 
-def _rect_irw(rect) -> tuple[float, float]:
+def _rect_irw(rect: Rect) -> tuple[float, float]:
     return 0.886 * 2 * math.pi / (rect.ka_hi - rect.ka_lo), 0.886 * 2 * math.pi / (rect.kr_hi - rect.kr_lo)
 
 
-def _two_step(ph, params, grid: Grid, origin, e_a, e_r, radar, az_os, progress, mapper, timing):
+def _two_step(
+    ph: PhaseHistory,
+    params: Pfa2Params,
+    grid: Grid,
+    origin: np.ndarray,
+    e_a: np.ndarray,
+    e_r: np.ndarray,
+    radar: RadarMetadata,
+    az_os: float,
+    progress: ProgressFactory | None,
+    mapper: Callable | None,
+    timing: dict[str, float],
+) -> tuple[np.ndarray, KGrid, dict]:
     band = (float(ph.freqs[0]), float(ph.freqs[-1]))
     ua, ur = los_components(ph.positions, origin, e_a, e_r)
     r_ac = float(np.linalg.norm(ph.positions[len(ph.positions) // 2] - origin))
@@ -369,7 +409,7 @@ def _two_step(ph, params, grid: Grid, origin, e_a, e_r, radar, az_os, progress, 
         for r in rects
     ]
 
-    def tasks():
+    def tasks() -> Iterator[SubImageTask]:
         for t, (sa, sr), kg2 in zip(tiles, slices, kgrids):
             wg = Grid(g1.a0 + sa.start * da1, da1, sa.stop - sa.start, g1.r0 + sr.start * dr1, dr1, sr.stop - sr.start)
             core_grid = Grid(

@@ -25,6 +25,9 @@ from sarproc.dsp.phasor import unit_phasor
 from sarproc.focus.pfa.polar import Grid, Interpolation, KGrid, Rect, los_components, polar_support
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    import numpy.typing as npt
     from scipy.interpolate import RectBivariateSpline
 
 
@@ -39,7 +42,15 @@ class Distortion:
 
 
 def pfa_distortion(
-    positions, reference, point, e_azimuth, e_range, carrier_frequency, freqs, rect: Rect | None = None, n: int = 11
+    positions: np.ndarray,
+    reference: npt.ArrayLike,
+    point: npt.ArrayLike,
+    e_azimuth: np.ndarray,
+    e_range: np.ndarray,
+    carrier_frequency: float,
+    freqs: npt.ArrayLike,
+    rect: Rect | None = None,
+    n: int = 11,
 ) -> Distortion:
     """Least-squares cubic fit of the exact phase K (r_O - r_p) over (k_a, k_r) (eqs. 4-5).
 
@@ -52,7 +63,15 @@ def pfa_distortion(
 
 
 def pfa_distortions(
-    positions, reference, points, e_azimuth, e_range, carrier_frequency, freqs, rect: Rect | None = None, n: int = 11
+    positions: npt.ArrayLike,
+    reference: npt.ArrayLike,
+    points: Sequence[npt.ArrayLike] | np.ndarray,
+    e_azimuth: np.ndarray,
+    e_range: np.ndarray,
+    carrier_frequency: float,
+    freqs: npt.ArrayLike,
+    rect: Rect | None = None,
+    n: int = 11,
 ) -> list[Distortion]:
     """:func:`pfa_distortion` of each of ``points`` (m, 3): the lattice, its pulses and the fit's design
     are the same for every point, so they are computed once and the fits solved together."""
@@ -60,8 +79,8 @@ def pfa_distortions(
     ua, ur = los_components(pos, reference, e_azimuth, e_range)
     if rect is None:
         rect = polar_support(ua, ur, carrier_frequency, np.asarray(freqs), "inscribed")
-    ka, kr = np.meshgrid(np.linspace(rect.ka_lo, rect.ka_hi, n), np.linspace(rect.kr_lo, rect.kr_hi, n))
-    ka, kr = ka.ravel(), kr.ravel()
+    ka_grid, kr_grid = np.meshgrid(np.linspace(rect.ka_lo, rect.ka_hi, n), np.linspace(rect.kr_lo, rect.kr_hi, n))
+    ka, kr = ka_grid.ravel(), kr_grid.ravel()
     ratio = ua / ur
     order = np.argsort(ratio)
     t = np.interp(ka / kr, ratio[order], np.arange(len(pos), dtype=float)[order])
@@ -110,7 +129,9 @@ def kgrid_rect(kg: KGrid) -> Rect:
     return Rect(kg.ka0, kg.ka0 + (kg.n_ka - 1) * kg.dka, kg.kr0, kg.kr0 + (kg.n_kr - 1) * kg.dkr)
 
 
-def distortion_field(geo: PfaGeometry, kg: KGrid, core: Grid, n: int = 9):
+def distortion_field(
+    geo: PfaGeometry, kg: KGrid, core: Grid, n: int = 9
+) -> tuple[RectBivariateSpline, RectBivariateSpline]:
     """Displacement D(p) - p over ``core`` (offsets from s), m: two bicubic splines (azimuth, range).
 
     Sampled by :func:`pfa_distortion` on an n x n lattice over the core and the k grid's rectangle.
@@ -129,7 +150,7 @@ def distortion_field(geo: PfaGeometry, kg: KGrid, core: Grid, n: int = 9):
     return RectBivariateSpline(la, lr, da), RectBivariateSpline(la, lr, dr)
 
 
-def extended_grid(core: Grid, warp) -> Grid:
+def extended_grid(core: Grid, warp: tuple[RectBivariateSpline, RectBivariateSpline]) -> Grid:
     """``core`` grown by the largest displacement plus 8 pixels of kernel support on every side."""
     fa, fr = warp
     m_a = 8 + int(math.ceil(np.max(np.abs(fa(core.a, core.r))) / core.da))
@@ -171,7 +192,7 @@ class ColumnSpline:
 
 
 @numba.njit(parallel=True, fastmath=False, cache=CACHE)
-def _column_spline_kernel(t, columns, x, out):
+def _column_spline_kernel(t: np.ndarray, columns: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:
     """out[r, j] = the cubic spline on knots t with coefficients columns[j] at x[r, j] (clamped to the knots);
     the weights by FITPACK's fpbspl recursion written out for degree 3, rows in parallel."""
     n = len(t)
@@ -186,35 +207,41 @@ def _column_spline_kernel(t, columns, x, out):
                     lo = mid
                 else:
                     hi = mid - 1
-            l = lo
+            span = lo
             # degree 1
-            f = 1.0 / (t[l + 1] - t[l])
-            h0 = f * (t[l + 1] - xv)
-            h1 = f * (xv - t[l])
+            f = 1.0 / (t[span + 1] - t[span])
+            h0 = f * (t[span + 1] - xv)
+            h1 = f * (xv - t[span])
             # degree 2
-            f = h0 / (t[l + 1] - t[l - 1])
-            g0 = f * (t[l + 1] - xv)
-            g1 = f * (xv - t[l - 1])
-            f = h1 / (t[l + 2] - t[l])
-            g1 += f * (t[l + 2] - xv)
-            g2 = f * (xv - t[l])
+            f = h0 / (t[span + 1] - t[span - 1])
+            g0 = f * (t[span + 1] - xv)
+            g1 = f * (xv - t[span - 1])
+            f = h1 / (t[span + 2] - t[span])
+            g1 += f * (t[span + 2] - xv)
+            g2 = f * (xv - t[span])
             # degree 3
-            f = g0 / (t[l + 1] - t[l - 2])
-            w0 = f * (t[l + 1] - xv)
-            w1 = f * (xv - t[l - 2])
-            f = g1 / (t[l + 2] - t[l - 1])
-            w1 += f * (t[l + 2] - xv)
-            w2 = f * (xv - t[l - 1])
-            f = g2 / (t[l + 3] - t[l])
-            w2 += f * (t[l + 3] - xv)
-            w3 = f * (xv - t[l])
+            f = g0 / (t[span + 1] - t[span - 2])
+            w0 = f * (t[span + 1] - xv)
+            w1 = f * (xv - t[span - 2])
+            f = g1 / (t[span + 2] - t[span - 1])
+            w1 += f * (t[span + 2] - xv)
+            w2 = f * (xv - t[span - 1])
+            f = g2 / (t[span + 3] - t[span])
+            w2 += f * (t[span + 3] - xv)
+            w3 = f * (xv - t[span])
             c = columns[j]
-            i = l - 3
+            i = span - 3
             out[r, j] = w0 * c[i] + w1 * c[i + 1] + w2 * c[i + 2] + w3 * c[i + 3]
 
 
 def warp_to_truth(
-    img: np.ndarray, grid: Grid, core: Grid, warp, geo: PfaGeometry, kg: KGrid, interp: Interpolation
+    img: np.ndarray,
+    grid: Grid,
+    core: Grid,
+    warp: tuple[RectBivariateSpline, RectBivariateSpline],
+    geo: PfaGeometry,
+    kg: KGrid,
+    interp: Interpolation,
 ) -> np.ndarray:
     """Read the PFA image ``img`` (on ``grid``) at D(p) for every pixel p of ``core``: (n_a, n_r) complex64."""
     fa, fr = warp
@@ -243,7 +270,7 @@ def warp_to_truth(
     return np.ascontiguousarray(out, dtype=np.complex64)
 
 
-def residual_phase(geo: PfaGeometry, a_rel, r_rel, kc_a: float, kc_r: float) -> np.ndarray:
+def residual_phase(geo: PfaGeometry, a_rel: np.ndarray, r_rel: np.ndarray, kc_a: float, kc_r: float) -> np.ndarray:
     """exp{-j [Phi_p(k_c) - k_c . (p - s)]} (n_a, n_r) complex64 over pixels p (offsets from s).
 
     A response's phase is the data's phase at the rectangle's centre k_c, K_c (r_s - r_p) at the
@@ -273,7 +300,7 @@ def residual_phase(geo: PfaGeometry, a_rel, r_rel, kc_a: float, kc_r: float) -> 
     return out
 
 
-def _carrier(a, r, ka, kr, sign) -> np.ndarray:
+def _carrier(a: np.ndarray, r: np.ndarray, ka: float, kr: float, sign: int) -> np.ndarray:
     """exp{sign j (k_a a + k_r r)} on the grid a x r, complex64 (float64 phases)."""
     pa = np.exp(sign * 1j * np.mod(np.asarray(a) * ka, 2 * math.pi)).astype(np.complex64)
     pr = np.exp(sign * 1j * np.mod(np.asarray(r) * kr, 2 * math.pi)).astype(np.complex64)

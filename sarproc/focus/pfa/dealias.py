@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import logging
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.fft as sfft
@@ -35,12 +36,18 @@ from sarproc.focus.pfa.polar import los_components, wavenumbers
 from sarproc.product import beam
 from sarproc.product.errors import IMAGE_DEFECT, InputError
 
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    from sarproc.focus.pfa.polar import Grid
+    from sarproc.product.metadata import RadarMetadata
+
 log = logging.getLogger(__name__)
 
 MODES = ("auto", "on", "off")
 
 
-def footprint_centres(radar, positions: np.ndarray) -> np.ndarray:
+def footprint_centres(radar: RadarMetadata, positions: np.ndarray) -> np.ndarray:
     """Ground (z = 0) point of the boresight per pulse (n, 3); the scene centre without a beam."""
     if radar.azimuth_beamwidth <= 0 or radar.mode not in ("sliding_spotlight", "stripmap"):
         return np.broadcast_to(np.asarray(radar.scene_center, float), positions.shape).copy()
@@ -49,7 +56,7 @@ def footprint_centres(radar, positions: np.ndarray) -> np.ndarray:
     return positions + lam[:, None] * b
 
 
-def phase_steps(ph: PhaseHistory, e_a, e_r, extent_a: float, extent_r: float) -> float:
+def phase_steps(ph: PhaseHistory, e_a: np.ndarray, e_r: np.ndarray, extent_a: float, extent_r: float) -> float:
     """Largest per-pulse phase-step spread over a content of extent (W_a, W_r), rad."""
     ua, ur = los_components(ph.positions, ph.reference, e_a, e_r)
     if len(ua) < 2:
@@ -58,7 +65,7 @@ def phase_steps(ph: PhaseHistory, e_a, e_r, extent_a: float, extent_r: float) ->
     return k_max * float(np.max(np.abs(np.diff(ua)) * extent_a + np.abs(np.diff(ur)) * extent_r))
 
 
-def content_extent(radar, ph: PhaseHistory, e_a, grid) -> tuple[float, float, float]:
+def content_extent(radar: RadarMetadata, ph: PhaseHistory, e_a: np.ndarray, grid: Grid) -> tuple[float, float, float]:
     """(swept azimuth extent, footprint width, slide per pulse), m, of what the beam lights.
 
     Without a sliding beam the content is taken as the image grid.
@@ -76,15 +83,15 @@ def content_extent(radar, ph: PhaseHistory, e_a, grid) -> tuple[float, float, fl
 
 def dealias(
     ph: PhaseHistory,
-    radar,
-    e_a,
-    e_r,
-    grid,
+    radar: RadarMetadata,
+    e_a: np.ndarray,
+    e_r: np.ndarray,
+    grid: Grid,
     mode: str = "auto",
     subaperture_pulses: int | None = None,
     upsample: int | None = None,
     guard: float = 1.25,
-):
+) -> tuple[PhaseHistory, dict]:
     """Apply (or not) the sub-aperture de-aliasing; returns (phase history, report dict)."""
     if mode not in MODES:
         raise InputError(f"dealias: {mode!r} is not one of {list(MODES)}")
@@ -130,7 +137,7 @@ def dealias(
     return ph, report
 
 
-def upsample_subapertures(ph: PhaseHistory, radar, n_sub: int, factor: int) -> PhaseHistory:
+def upsample_subapertures(ph: PhaseHistory, radar: RadarMetadata, n_sub: int, factor: int) -> PhaseHistory:
     """Fig. 2: deramp sub-apertures to their footprint centres, zero-pad their spectra, stitch."""
     n, n_f = ph.data.shape
     if factor == 1:
@@ -179,7 +186,7 @@ def upsample_subapertures(ph: PhaseHistory, radar, n_sub: int, factor: int) -> P
     )
 
 
-def _ramp(positions, reference, point, k) -> np.ndarray:
+def _ramp(positions: np.ndarray, reference: npt.ArrayLike, point: npt.ArrayLike, k: np.ndarray) -> np.ndarray:
     """exp{j K [r_0(t) - r_q(t)]} (n, n_f) complex64: the deramp to ``point`` relative to ``reference``."""
     d = reference_ranges(positions, reference) - reference_ranges(positions, point)
     cyc = np.outer(d, k / (2 * math.pi))

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.fft as sfft
@@ -32,6 +33,11 @@ import scipy.fft as sfft
 from sarproc.dsp.phasor import unit_phasor
 from sarproc.dsp.rangecomp import range_compress
 from sarproc.product.metadata import C, RadarMetadata
+
+if TYPE_CHECKING:
+    from typing import Any
+
+    import numpy.typing as npt
 
 
 @dataclasses.dataclass(frozen=True)
@@ -57,11 +63,11 @@ class PhaseHistory:
     def freq_step(self) -> float:
         return float(self.freqs[1] - self.freqs[0]) if len(self.freqs) > 1 else 1.0
 
-    def replace(self, **changes) -> "PhaseHistory":
+    def replace(self, **changes: Any) -> PhaseHistory:
         return dataclasses.replace(self, **changes)
 
 
-def reference_ranges(positions: np.ndarray, point) -> np.ndarray:
+def reference_ranges(positions: np.ndarray, point: npt.ArrayLike) -> np.ndarray:
     """|P(t) - point| (n_pulses,), m, float64."""
     return np.linalg.norm(np.asarray(positions, float) - np.asarray(point, float).reshape(1, 3), axis=1)
 
@@ -71,9 +77,9 @@ def compensate(
     range_time: np.ndarray,
     positions: np.ndarray,
     radar: RadarMetadata,
-    reference,
-    gate_offset=None,
-    times=None,
+    reference: npt.ArrayLike,
+    gate_offset: np.ndarray | None = None,
+    times: np.ndarray | None = None,
     *,
     range_window: str = "none",
     range_oversampling: float = 2.0,

@@ -27,14 +27,19 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 import scipy.fft as sfft
 
 from sarproc.dsp.interp import resample_rows
 from sarproc.dsp.phasor import unit_phasor
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import C
+
+if TYPE_CHECKING:
+    from sarproc.focus.pfa.phase_history import PhaseHistory
 
 SUPPORTS = ("inscribed", "circumscribed")
 
@@ -78,7 +83,7 @@ class Rect:
     kr_lo: float
     kr_hi: float
 
-    def intersect(self, other: "Rect") -> "Rect":
+    def intersect(self, other: Rect) -> Rect:
         return Rect(
             max(self.ka_lo, other.ka_lo),
             min(self.ka_hi, other.ka_hi),
@@ -91,19 +96,23 @@ class Rect:
         return self.ka_hi > self.ka_lo and self.kr_hi > self.kr_lo
 
 
-def los_components(positions: np.ndarray, reference, e_azimuth, e_range) -> tuple[np.ndarray, np.ndarray]:
+def los_components(
+    positions: np.ndarray, reference: npt.ArrayLike, e_azimuth: np.ndarray, e_range: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """u(t) . e_a and u(t) . e_r (n_pulses,) for the unit vectors from ``reference`` to the antenna."""
     d = np.asarray(positions, float) - np.asarray(reference, float).reshape(1, 3)
     u = d / np.linalg.norm(d, axis=1, keepdims=True)
     return u @ np.asarray(e_azimuth, float), u @ np.asarray(e_range, float)
 
 
-def wavenumbers(carrier_frequency: float, freqs: np.ndarray) -> np.ndarray:
+def wavenumbers(carrier_frequency: float, freqs: npt.ArrayLike) -> np.ndarray:
     """K = 4 pi (f_c + f_r) / c, rad/m."""
     return 4 * math.pi * (carrier_frequency + np.asarray(freqs, float)) / C
 
 
-def polar_support(ua, ur, carrier_frequency, freqs, kind: str = "inscribed") -> Rect:
+def polar_support(
+    ua: np.ndarray, ur: np.ndarray, carrier_frequency: float, freqs: np.ndarray, kind: str = "inscribed"
+) -> Rect:
     """Rectangle inscribed in (or circumscribing) the polar support of the pulses."""
     if kind not in SUPPORTS:
         raise InputError(f"support {kind!r} is not one of {list(SUPPORTS)}")
@@ -137,7 +146,9 @@ def _fft_length(spacing_guess: float, pixel: float, n_pixels: int) -> tuple[int,
     return m, 2 * math.pi / (m * pixel)
 
 
-def make_kgrid(rect: Rect, dka_max: float, dkr_max: float, da: float, dr: float, n_a: int, n_r: int):
+def make_kgrid(
+    rect: Rect, dka_max: float, dkr_max: float, da: float, dr: float, n_a: int, n_r: int
+) -> tuple[KGrid, tuple[int, int]]:
     """The (k_a, k_r) grid over ``rect`` whose FFT lands exactly on pixels (da, dr); plus the FFT lengths."""
     if not rect.valid:
         raise InputError("polar format: the pulses' polar supports do not overlap (no common rectangle)")
@@ -216,7 +227,7 @@ class Interpolation:
     azimuth_oversampling: float = 1.25
 
 
-def data_sampling(ua, ur, k_max, freq_step) -> tuple[float, float]:
+def data_sampling(ua: np.ndarray, ur: np.ndarray, k_max: float, freq_step: float) -> tuple[float, float]:
     """Largest k spacings that keep the data's own sampling density (rad/m)."""
     dkr = 4 * math.pi * freq_step / C * float(np.min(np.abs(ur)))
     ratio = ua / ur
@@ -224,7 +235,9 @@ def data_sampling(ua, ur, k_max, freq_step) -> tuple[float, float]:
     return dka, dkr
 
 
-def polar_to_rect(ph, ua, ur, kg: KGrid, interp: Interpolation, block: int = 256) -> np.ndarray:
+def polar_to_rect(
+    ph: PhaseHistory, ua: np.ndarray, ur: np.ndarray, kg: KGrid, interp: Interpolation, block: int = 256
+) -> np.ndarray:
     """LOSPI: resample S(t, f_r) onto the (k_r, k_a) grid; returns (n_kr, n_ka) complex64."""
     n_az = ph.data.shape[0]
     fc, f0, dfr = ph.carrier_frequency, float(ph.freqs[0]), ph.freq_step
@@ -255,7 +268,14 @@ def polar_to_rect(ph, ua, ur, kg: KGrid, interp: Interpolation, block: int = 256
 
 
 def rect_to_polar(
-    spec: np.ndarray, kg: KGrid, ua, ur, carrier_frequency, freqs, interp: Interpolation, oversampling: float = 1.25
+    spec: np.ndarray,
+    kg: KGrid,
+    ua: np.ndarray,
+    ur: np.ndarray,
+    carrier_frequency: float,
+    freqs: np.ndarray,
+    interp: Interpolation,
+    oversampling: float = 1.25,
 ) -> np.ndarray:
     """Inverse LOSPI: values of a (n_kr, n_ka) rectangle at the polar samples (n_pulses, n_freq).
 
@@ -320,9 +340,9 @@ def image_to_rect(img: np.ndarray, grid: Grid, kg: KGrid, forward: KGrid, worker
 
 
 def pfa(
-    ph,
-    e_azimuth,
-    e_range,
+    ph: PhaseHistory,
+    e_azimuth: np.ndarray,
+    e_range: np.ndarray,
     grid: Grid,
     *,
     support: str = "inscribed",
@@ -330,7 +350,7 @@ def pfa(
     kgrid: KGrid | None = None,
     interp: Interpolation = Interpolation(),
     workers: int = -1,
-):
+) -> tuple[np.ndarray, KGrid]:
     """Polar format image of ``ph`` on ``grid`` (offsets from ``ph.reference`` along e_a, e_r).
 
     Returns (image (n_a, n_r) complex64, KGrid). ``rect`` overrides the support rectangle and

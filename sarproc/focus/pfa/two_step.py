@@ -28,7 +28,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Callable, Iterable
+from collections.abc import Callable, Iterable
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.fft as sfft
@@ -51,6 +52,9 @@ from sarproc.focus.pfa.polar import (
 )
 from sarproc.product.metadata import C
 
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
 
 def valid_radius(azimuth_resolution: float, reference_range: float, wavelength: float, ka: float = 1.3) -> float:
     """eq. (7), Nie 2016: r_0 <= (2 rho_a / K_a) sqrt(R_ac / lambda), m."""
@@ -62,7 +66,9 @@ def valid_radius(azimuth_resolution: float, reference_range: float, wavelength: 
 FIRST_SIDELOBE = 0.2172
 
 
-def track_residual(positions, reference, e_azimuth, e_range) -> float:
+def track_residual(
+    positions: np.ndarray, reference: npt.ArrayLike, e_azimuth: np.ndarray, e_range: np.ndarray
+) -> float:
     """Largest part of the range r(t) to ``reference`` that no cubic in the line-of-sight angle follows, m.
 
     On a straight track r is a smooth function of the polar angle theta = atan(u_a / u_r) (mm from a
@@ -218,12 +224,12 @@ def plan_tiles(
     out: Grid,
     core_size: tuple[float, float],
     overlap: float,
-    positions,
-    reference,
-    e_azimuth,
-    e_range,
-    carrier_frequency,
-    band,
+    positions: np.ndarray,
+    reference: npt.ArrayLike,
+    e_azimuth: np.ndarray,
+    e_range: np.ndarray,
+    carrier_frequency: float,
+    band: tuple[float, float],
 ) -> list[Tile]:
     """Cut the output grid into tiles of at most ``core_size`` (m) and size their step-1 windows.
 
@@ -269,7 +275,7 @@ def plan_tiles(
     return tiles
 
 
-def window_slices(grid: Grid, window) -> tuple[slice, slice]:
+def window_slices(grid: Grid, window: tuple[float, float, float, float]) -> tuple[slice, slice]:
     """Pixel slices of ``grid`` covering ``window`` (a_min, a_max, r_min, r_max), FFT-friendly lengths."""
     out = []
     for lo, hi, start, step, n in (
@@ -283,7 +289,15 @@ def window_slices(grid: Grid, window) -> tuple[slice, slice]:
     return out[0], out[1]
 
 
-def tile_rects(tiles: Iterable[Tile], positions, reference, e_azimuth, e_range, carrier_frequency, band) -> list[Rect]:
+def tile_rects(
+    tiles: Iterable[Tile],
+    positions: np.ndarray,
+    reference: npt.ArrayLike,
+    e_azimuth: np.ndarray,
+    e_range: np.ndarray,
+    carrier_frequency: float,
+    band: tuple[float, float],
+) -> list[Rect]:
     """Each tile centre's inscribed polar support (its own resolution and carrier).
 
     After the distortion warp a response at p is resolved by this support mapped through the
@@ -301,14 +315,22 @@ def tile_rects(tiles: Iterable[Tile], positions, reference, e_azimuth, e_range, 
     return rects
 
 
-def local_irw(positions, point, e_azimuth, e_range, carrier_frequency, band, factor: float = 0.886):
+def local_irw(
+    positions: np.ndarray,
+    point: npt.ArrayLike,
+    e_azimuth: np.ndarray,
+    e_range: np.ndarray,
+    carrier_frequency: float,
+    band: tuple[float, float],
+    factor: float = 0.886,
+) -> tuple[float, float]:
     """Theoretical (azimuth, range) IRW, m, of a point's own inscribed polar support (varies over a wide scene)."""
     ua, ur = los_components(positions, point, e_azimuth, e_range)
     r = polar_support(ua, ur, carrier_frequency, np.asarray(band), "inscribed")
     return factor * 2 * math.pi / (r.ka_hi - r.ka_lo), factor * 2 * math.pi / (r.kr_hi - r.kr_lo)
 
 
-def mosaic(shape, tiles: list[Tile], results: Iterable[np.ndarray]) -> np.ndarray:
+def mosaic(shape: tuple[int, int], tiles: list[Tile], results: Iterable[np.ndarray]) -> np.ndarray:
     """Place each tile's core into the output image."""
     img = np.zeros(shape, np.complex64)
     for t, sub in zip(tiles, results):

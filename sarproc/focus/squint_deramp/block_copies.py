@@ -11,11 +11,16 @@ fftshift of an even-length axis into a sign flip, see ``fine_focus._centred``); 
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numba
 import numpy as np
 
 from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
 from sarproc.dsp.phasor import cmul
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
 
 
 @numba.njit(inline="always", cache=CACHE)
@@ -35,7 +40,7 @@ def _spectrum_entry(src, i, j, factor, start, scaled):
 
 
 @numba.njit(parallel=True, cache=CACHE)
-def pad_rows(src, dst, start):
+def pad_rows(src, dst, start) -> None:
     """dst[i, :n] = alternate(src[i]), dst[i, n:] = 0 (n = src.shape[1] <= dst.shape[1])."""
     n = src.shape[1]
     m = dst.shape[1]
@@ -49,7 +54,7 @@ def pad_rows(src, dst, start):
 
 
 @numba.njit(parallel=True, cache=CACHE)
-def scale_rows(x, factor, start):
+def scale_rows(x, factor, start) -> None:
     """x[i, j] = alternate(x[i, j] * factor[i]) in place."""
     for i in numba.prange(x.shape[0]):
         f = factor[i]
@@ -61,7 +66,7 @@ def scale_rows(x, factor, start):
 
 
 @numba.njit(parallel=True, cache=CACHE)
-def copy_rows(src, dst, start):
+def copy_rows(src, dst, start) -> None:
     """dst[i, j] = alternate(src[i, j]) (same shapes)."""
     if src.shape[0] != dst.shape[0] or src.shape[1] != dst.shape[1]:
         raise ValueError("copy_rows: src and dst must have the same shape")
@@ -71,7 +76,7 @@ def copy_rows(src, dst, start):
 
 
 @numba.njit(parallel=True, cache=CACHE)
-def pad_spectrum(src, dst, factor, start):
+def pad_spectrum(src, dst, factor, start) -> None:
     """Zero-pad FFT-ordered rows: dst[i] holds the first (n+1)//2 and the last n//2 samples of
     f(src[i]) (f(v)_j = alternate(v_j) * factor[j], factor of src's length; ``factor`` of length 0: none) at
     the two ends of its longer axis, zeros between. src (rows, n), dst (rows, m), m >= n."""
@@ -92,7 +97,7 @@ def pad_spectrum(src, dst, factor, start):
 
 
 @numba.njit(parallel=True, cache=CACHE)
-def gather_columns(src, cols, dst, offset):
+def gather_columns(src, cols, dst, offset) -> None:
     """dst[k, offset + i] = src[i, cols[k]]: selected columns of src written back as rows (transposed)."""
     n = src.shape[0]
     if len(cols) > dst.shape[0] or offset < 0 or offset + n > dst.shape[1]:
@@ -107,7 +112,7 @@ def gather_columns(src, cols, dst, offset):
 
 
 @numba.njit(parallel=True, cache=CACHE)
-def _crop_rows(src, lo, dst, bad):
+def _crop_rows(src, lo, dst, bad) -> None:
     n = dst.shape[1]
     for i in numba.prange(dst.shape[0]):
         b = False
@@ -119,7 +124,7 @@ def _crop_rows(src, lo, dst, bad):
         bad[i] = b
 
 
-def crop_columns(src: np.ndarray, lo: int, hi: int, dtype=np.complex64):
+def crop_columns(src: np.ndarray, lo: int, hi: int, dtype: npt.DTypeLike = np.complex64) -> tuple[np.ndarray, bool]:
     """(src[:, lo:hi] as a new C-contiguous ``dtype`` array, whether every value is finite), one parallel pass."""
     dst = np.empty((src.shape[0], hi - lo), dtype)
     bad = np.zeros(src.shape[0], np.bool_)

@@ -28,11 +28,11 @@ import math
 import numpy as np
 import scipy.fft as sfft
 
+from sarproc.focus.squint_deramp.preprocess import METHODS, PRECISIONS, complex_dtype
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import IMAGE_DEFECT, InputError
 from sarproc.product.frames import SquintFrame
 from sarproc.product.metadata import C, RadarMetadata
-from sarproc.focus.squint_deramp.preprocess import METHODS, PRECISIONS, complex_dtype
 from sarproc.product.model import Product
 
 log = logging.getLogger(__name__)
@@ -396,7 +396,8 @@ def _fold_messages(found: list[DerampedResponse], radar: RadarMetadata, k: float
                 f"deramped window +-{prf / 2:.1f} Hz; cause: a scatterer at x_n ~ {v * f.t_true:.0f} m, outside "
                 f"{where}; fine focus would process it with a Doppler {f.n:+d} PRF off, so it is not imaged at "
                 f"x_n ~ {v * f.t_true:.0f} m but lands near x_n ~ {v * f.t_app:.0f} m (a ghost) or smeared. "
-                "Raise the PRF or remove the scatterer from the data (a larger box does not help: the window is the PRF)"
+                "Raise the PRF or remove the scatterer from the data "
+                "(a larger box does not help: the window is the PRF)"
             )
         elif f.n is None and not f.inside_box and f.level_db >= -20.0:  # not a box-edge target's smear
             notes.append(

@@ -16,7 +16,8 @@ Chain (all per-row / per-column operations vectorised, blocks bound the memory):
      of focus of eq. 17), or
    - flow 2: data are zero-padded in the compact coarse domain so that the full aperture fits in
      the time window, then eq. (22) (higher-order compensation), eq. (24) (quartic filter),
-     eq. (27) (nonlinear chirp scaling, coefficients :mod:`sarproc.focus.squint_deramp.nlcs`), eq. (33) (azimuth filter).
+     eq. (27) (nonlinear chirp scaling, coefficients :mod:`sarproc.focus.squint_deramp.nlcs`),
+     eq. (33) (azimuth filter).
 4. Geometric correction: azimuth axis x_n = 2 alpha v t (flow 2) or v t (flow 1); range: every
    azimuth line is shifted by -x_n sin(theta) (the range phase factor of sec. 4.2), giving the
    squint frame (x_n, r_0). With ``output_frame: lrwc`` the range shift is skipped and the image is
@@ -39,8 +40,10 @@ import numba
 import numpy as np
 import scipy.fft as sfft
 
-from sarproc.product.config import as_dict, param
-from sarproc.product.errors import InputError, ProcessingError
+from sarproc.dsp.interp import KERNELS, resample_rows
+from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
+from sarproc.dsp.phasor import multiply_separable_phase, unit_phasor
+from sarproc.dsp.rangecomp import chirp_replica
 from sarproc.focus.squint_deramp.block_copies import (
     copy_rows,
     crop_columns,
@@ -49,11 +52,6 @@ from sarproc.focus.squint_deramp.block_copies import (
     pad_spectrum,
     scale_rows,
 )
-from sarproc.product.frames import SquintFrame, SquintLrwcFrame, targets_in_frame
-from sarproc.dsp.interp import KERNELS, resample_rows
-from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
-from sarproc.product.metadata import C, RadarMetadata
-from sarproc.product.theory import fill_target_theory, window_theory
 from sarproc.focus.squint_deramp.nlcs import (
     VARIANTS,
     compression_phase,
@@ -62,10 +60,13 @@ from sarproc.focus.squint_deramp.nlcs import (
     position_terms,
 )
 from sarproc.focus.squint_deramp.preprocess import PRECISIONS, complex_dtype, correction_frequency
-from sarproc.dsp.phasor import multiply_separable_phase, unit_phasor
-from sarproc.product.model import Product
-from sarproc.dsp.rangecomp import chirp_replica
 from sarproc.focus.squint_deramp.stolt import MODELS, SpectrumModel, stolt_resample
+from sarproc.product.config import as_dict, param
+from sarproc.product.errors import InputError, ProcessingError
+from sarproc.product.frames import SquintFrame, SquintLrwcFrame, targets_in_frame
+from sarproc.product.metadata import C, RadarMetadata
+from sarproc.product.model import Product
+from sarproc.product.theory import fill_target_theory, window_theory
 
 log = logging.getLogger(__name__)
 
@@ -555,7 +556,7 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
     choice = choose_flow(radar, grid, params)
 
     M, N = len(grid.azimuth_time), range_padded_length(radar, len(grid.range_time))
-    if M * N > params.max_samples:
+    if params.max_samples < M * N:
         raise InputError(f"fine-focus: working array {M} x {N} exceeds fine_focus.max_samples {params.max_samples}")
     S = two_dimensional_spectrum(coarse.data, grid, radar, N, cdt)
     rd = stolt_to_range_doppler(S, grid, radar, model, r_ref, params, cdt, progress)
@@ -690,7 +691,6 @@ def _flow2(RD, t_c, f_a, r, k, model, radar, params, box, aperture, cdt, xlim, b
     rows24 = [np.pi * f2**3, np.pi * f2**4] + ([hopc] if variant == "modified" else [])
     rows27 = [np.pi * t2**2, np.pi * t2**3, np.pi * t2**4]
     no_factor = np.ones(0, pdt)
-    twopi = 2 * np.pi
 
     nb_max = min(params.block_range, N)
     pad_buf = np.empty((nb_max, L1), cdt)

@@ -39,7 +39,9 @@ import numpy as np
 VARIANTS = ("modified", "classic", "separated")
 
 
-def nlcs_coefficients(K, eps, p, alpha: float, variant: str = "modified") -> dict:
+def nlcs_coefficients(
+    K: np.ndarray | float, eps: np.ndarray | float, p: np.ndarray | float, alpha: float, variant: str = "modified"
+) -> dict:
     """q2, q3, q4, Y3, Y4 (arrays like K) for scaling exp(j pi (q2 t^2 + q3 t^3 + q4 t^4)).
 
     K: FM rate at each range bin (Hz/s, negative), eps = v sin(theta) / r (1/s), p: cubic
@@ -82,7 +84,7 @@ def nlcs_coefficients(K, eps, p, alpha: float, variant: str = "modified") -> dic
     return {"q2": q2, "q3": q3, "q4": q4, "Y3": Y3, "Y4": Y4, "alpha": alpha}
 
 
-def position_terms(K, eps, p, co: dict) -> dict:
+def position_terms(K: np.ndarray | float, eps: np.ndarray | float, p: np.ndarray | float, co: dict) -> dict:
     """Image position t_img = a1 t_n + c2 t_n^2 + c3 t_n^3 (stationary phase, group delay at F = 0)."""
     K = np.asarray(K, float)
     q2, q3, q4, Y3, Y4 = (np.asarray(co[k], float) for k in ("q2", "q3", "q4", "Y3", "Y4"))
@@ -99,7 +101,7 @@ def position_terms(K, eps, p, co: dict) -> dict:
     return {"a1": a1, "c2": c2, "c3": c3}
 
 
-def _legendre(f, K, co):
+def _legendre(f: np.ndarray, K: np.ndarray | float, co: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """t(f), F(f), Theta_0(f), dF/df at t_n = 0 for Phi_1 = -(pi/K) f^2 + pi Y3 f^3 + pi Y4 f^4."""
     q2, q3, q4, Y3, Y4 = (co[k] for k in ("q2", "q3", "q4", "Y3", "Y4"))
     f2 = f * f
@@ -116,7 +118,7 @@ def _legendre(f, K, co):
     return t, F, theta, dF
 
 
-def compression_phase(F, K, co: dict, iterations: int = 6) -> np.ndarray:
+def compression_phase(F: np.ndarray, K: np.ndarray | float, co: dict, iterations: int = 6) -> np.ndarray:
     """Theta_0(F): phase of a t_n = 0 target after filter + scaling, exact (Newton on F(f) = F).
 
     F: (n_f, 1) or (n_f, n_r) Hz; K and the coefficients (n_r,) or scalars. H_AC = exp(-j Theta_0).

@@ -20,15 +20,19 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.fft as sfft
 
+from sarproc.dsp.phasor import multiply_separable_phase
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import C, RadarMetadata
-from sarproc.dsp.phasor import multiply_separable_phase
 from sarproc.product.model import Product
+
+if TYPE_CHECKING:
+    from sarproc.product.steps import ProgressFactory
 
 METHODS = ("nonlinear", "linear", "none")
 PRECISIONS = ("float32", "float64")
@@ -47,7 +51,7 @@ class PreprocessParams:
     block_pulses: int = param(default=512, ge=1, doc="pulses per FFT block (memory bound)")
 
 
-def complex_dtype(precision: str):
+def complex_dtype(precision: str) -> type[np.complexfloating]:
     return np.complex64 if precision == "float32" else np.complex128
 
 
@@ -70,7 +74,7 @@ def doppler_correction(
     method: str = "nonlinear",
     precision: str = "float64",
     block_pulses: int = 512,
-    progress=None,
+    progress: ProgressFactory | None = None,
 ) -> np.ndarray:
     """Apply the Doppler-centroid correction to ``signal`` (n_az, n_rg); returns a new complex64 array."""
     if signal.ndim != 2 or signal.shape[0] != len(azimuth_time):
@@ -101,7 +105,9 @@ def doppler_correction(
     return out
 
 
-def preprocess(raw: Product, params: PreprocessParams = PreprocessParams(), progress=None) -> Product:
+def preprocess(
+    raw: Product, params: PreprocessParams = PreprocessParams(), progress: ProgressFactory | None = None
+) -> Product:
     """Raw product -> ``preprocessed`` product (same axes), with the correction recorded in attrs."""
     from sarproc.product.io import history_entry
 

@@ -26,6 +26,7 @@ import math
 
 import numba
 import numpy as np
+import numpy.typing as npt
 
 from sarproc.dsp.interp import resample_rows
 from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
@@ -40,7 +41,7 @@ class SpectrumModel:
 
     def __init__(
         self, carrier_frequency: float, velocity: float, squint: float, model: str = "exact", guard: float = 1e-3
-    ):
+    ) -> None:
         if model not in MODELS:
             raise ValueError(f"unknown spectrum model {model!r}; known: {MODELS}")
         self.fc, self.v, self.theta, self.model = float(carrier_frequency), float(velocity), float(squint), model
@@ -50,7 +51,7 @@ class SpectrumModel:
         self.guard = guard
 
     # -- phase per metre of range -------------------------------------------------------------
-    def _root(self, f, f_a):
+    def _root(self, f: np.ndarray, f_a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(value, valid) of the square root of G (exact: sqrt(1 - sigma^2); paper: sqrt(f^2 - a^2))."""
         if self.model == "exact":
             sigma = self.s + C * f_a / (2 * self.v * f)
@@ -62,7 +63,7 @@ class SpectrumModel:
         ok = arg > lim
         return np.sqrt(np.where(ok, arg, 1.0)), ok
 
-    def G(self, f, f_a):
+    def G(self, f: npt.ArrayLike, f_a: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """Phase per metre of range, rad/m, and the validity mask (f, f_a broadcastable, Hz)."""
         f, f_a = np.asarray(f, float), np.asarray(f_a, float)
         root, ok = self._root(f, f_a)
@@ -73,7 +74,9 @@ class SpectrumModel:
             g = 4 * np.pi * f / C * root - 2 * np.pi * self.s * f_a**3 / (self.lam * self.c * self.f_aM**3 * q**1.5)
         return g, ok
 
-    def rotate(self, x, f, f_a, scale, pre=None):
+    def rotate(
+        self, x: np.ndarray, f: np.ndarray, f_a: np.ndarray, scale: float, pre: np.ndarray | None = None
+    ) -> np.ndarray:
         """x[i, j] *= pre[j] where(ok, exp(j scale G(f[j], f_a[i])), 0) in place (x: (len(f_a), len(f)) complex,
         C-contiguous); returns x. One parallel pass: G is evaluated per element in float64 by the same
         operations as :meth:`G` (its f_a-only and f-only parts in numpy), the phasor by
@@ -116,25 +119,25 @@ class SpectrumModel:
         )
         return x
 
-    def Gc(self, f_a):
+    def Gc(self, f_a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Azimuth phase per metre at the carrier, G(f_c, f_a) - G(f_c, 0), and validity."""
         g, ok = self.G(self.fc, f_a)
         return g - 4 * np.pi * self.fc / C, ok
 
-    def taylor(self):
+    def taylor(self) -> tuple[float, float]:
         """(g2, g3): f_a^2 and f_a^3 coefficients of G_c (eq. 19: psi_m = -r_0 g_m)."""
         g2 = -2 * np.pi / (self.lam * self.f_aM**2)
         g3 = -2 * np.pi * self.s / (self.lam * self.c * self.f_aM**3)
         return g2, g3
 
     # -- Stolt mapping ------------------------------------------------------------------------
-    def mapped_frequency(self, f_r, f_a):
+    def mapped_frequency(self, f_r: np.ndarray, f_a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """f_r'(f_r, f_a) of the modified Stolt mapping, Hz."""
         g, ok = self.G(self.fc + np.asarray(f_r, float), f_a)
         g0, ok0 = self.G(self.fc, f_a)
         return C / (4 * np.pi) * (g - g0), ok & ok0
 
-    def source_frequency(self, f_rp, f_a, iterations: int = 4):
+    def source_frequency(self, f_rp: np.ndarray, f_a: np.ndarray, iterations: int = 4) -> tuple[np.ndarray, np.ndarray]:
         """Inverse mapping: the f_r that lands on f_r' (Hz), and validity."""
         f_rp, f_a = np.broadcast_arrays(np.asarray(f_rp, float), np.asarray(f_a, float))
         if self.model == "paper":
@@ -147,7 +150,7 @@ class SpectrumModel:
         # exact: solve f h(f) = f_r' + f_c h(f_c), h(f) = s^2 + c sqrt(1 - (s + b/f)^2), b = c f_a / 2v
         b = C * f_a / (2 * self.v)
 
-        def h(ff):
+        def h(ff: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             sig = self.s + b / ff
             arg = 1 - sig**2
             ok = arg > 0
@@ -166,7 +169,7 @@ class SpectrumModel:
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=CACHE)
-def _rotate_G(xf, x, pre, use_pre, a, q, b, p, mode, s, s2, c, lim, scale):
+def _rotate_G(xf, x, pre, use_pre, a, q, b, p, mode, s, s2, c, lim, scale) -> None:
     """Rows of :meth:`SpectrumModel.rotate`; the float64 sums are written in :meth:`SpectrumModel.G`'s order
     (no fastmath: same values): exact sigma = s + a_i / b_j, g = p_j (s^2 + c root) + q_i; paper
     t = a_i / b_j, g = p_j root + q_i (q_i carries the minus sign)."""
@@ -198,7 +201,7 @@ def _rotate_G(xf, x, pre, use_pre, a, q, b, p, mode, s, s2, c, lim, scale):
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=CACHE)
-def _node_positions(s_n, ok_n, seg, w, f0, df, half_band, out):
+def _node_positions(s_n, ok_n, seg, w, f0, df, half_band, out) -> None:
     """out[i, j]: sample position (f - f0) / df of the source frequency, linear between the exact nodes
     seg[j], seg[j] + 1 (weight w[j]); NaN where a node is invalid or the source is outside the band."""
     for i in numba.prange(out.shape[0]):
@@ -221,7 +224,7 @@ def stolt_resample(
     oversampling: float = 1.5,
     band: float | None = None,
     out: np.ndarray | None = None,
-):
+) -> tuple[np.ndarray, int]:
     """Resample rows of ``spec`` (n_fa, n_fr, range frequency ascending and uniform) onto f_r'.
 
     spec[i, j] is the spectrum at (f_a[i], f_r[j]); the output has the same f_r grid, now read as

@@ -13,11 +13,18 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import TYPE_CHECKING
 
 from sarproc.product.beam import boresight, off_boresight_angles, one_way_amplitude
 from sarproc.product.config import param
 from sarproc.product.errors import InputError
 from sarproc.simulation.effects.base import Effect, register_effect
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from sarproc.product.metadata import RadarMetadata
+    from sarproc.simulation.scene import SceneParams
 
 
 @dataclasses.dataclass(frozen=True)
@@ -37,7 +44,7 @@ class Antenna(Effect):
     order = 50
     Params = AntennaParams
 
-    def __init__(self, params, scene_params, radar):
+    def __init__(self, params: AntennaParams, scene_params: SceneParams, radar: RadarMetadata) -> None:
         super().__init__(params, scene_params, radar)
         mode = radar.mode
         if mode == "sliding_spotlight" and params.rotation_range is None:
@@ -45,7 +52,7 @@ class Antenna(Effect):
         if mode != "sliding_spotlight" and params.rotation_range is not None:
             raise InputError("effects.antenna.rotation_range: only used with acquisition.mode sliding_spotlight")
 
-    def update_radar(self, radar):
+    def update_radar(self, radar: RadarMetadata) -> RadarMetadata:
         self.radar = radar.replace(
             azimuth_beamwidth=self.params.azimuth_beamwidth,
             elevation_beamwidth=self.params.elevation_beamwidth,
@@ -54,7 +61,9 @@ class Antenna(Effect):
         )
         return self.radar
 
-    def gains(self, t, platform_pos, target_pos, channel, gains):
+    def gains(
+        self, t: np.ndarray, platform_pos: np.ndarray, target_pos: np.ndarray, channel: int, gains: np.ndarray
+    ) -> np.ndarray:
         az, el = off_boresight_angles(boresight(self.radar, platform_pos), platform_pos, target_pos)
         g = one_way_amplitude(az, self.params.azimuth_beamwidth, self.params.pattern)
         if self.params.elevation_beamwidth > 0:

@@ -16,12 +16,17 @@ The raw product becomes ``raw_multichannel`` (channel, azimuth_time, range_time)
 from __future__ import annotations
 
 import dataclasses
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from sarproc.product.config import param
 from sarproc.product.errors import InputError
 from sarproc.simulation.effects.base import ReceiverArray, register_effect
+
+if TYPE_CHECKING:
+    from sarproc.product.metadata import RadarMetadata
+    from sarproc.simulation.scene import SceneParams
 
 
 @dataclasses.dataclass(frozen=True)
@@ -35,7 +40,7 @@ class AzimuthChannelsParams:
         default=(), doc=("per-channel relative amplitude error (N values, 0.02 = +2 %; empty: none)")
     )
 
-    def validate(self):
+    def validate(self) -> None:
         for key in ("phase_imbalance", "amplitude_imbalance"):
             v = getattr(self, key)
             if v and len(v) != self.n_receivers:
@@ -55,7 +60,7 @@ class AzimuthChannels(ReceiverArray):
     Params = AzimuthChannelsParams
     product_kind = "raw_multichannel"
 
-    def __init__(self, params, scene_params, radar):
+    def __init__(self, params: AzimuthChannelsParams, scene_params: SceneParams, radar: RadarMetadata) -> None:
         super().__init__(params, scene_params, radar)
         self.dx = along_track_offsets(params.n_receivers, params.spacing)
         self.receiver_offsets = np.zeros((len(self.dx), 3))
@@ -65,6 +70,8 @@ class AzimuthChannels(ReceiverArray):
         amp = np.asarray(params.amplitude_imbalance or np.zeros(n), float)
         self.channel_gain = (1.0 + amp) * np.exp(1j * phase)
 
-    def gains(self, t, platform_pos, target_pos, channel, gains):
+    def gains(
+        self, t: np.ndarray, platform_pos: np.ndarray, target_pos: np.ndarray, channel: int, gains: np.ndarray
+    ) -> np.ndarray:
         g = self.channel_gain[channel]
         return gains if g == 1 else gains * g

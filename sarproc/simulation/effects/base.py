@@ -11,15 +11,24 @@ gains complex (n_t, n_tg); gate offsets (n_t,) s; signal blocks (n_ch, n_t, n_ra
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import TYPE_CHECKING, TypeVar
+
 import numpy as np
 
-EFFECTS: dict[str, type] = {}
+if TYPE_CHECKING:
+    from typing import Any
+
+    from sarproc.product.metadata import RadarMetadata
+    from sarproc.simulation.scene import SceneParams
+
+EFFECTS: dict[str, type[Effect]] = {}
 
 
-def register_effect(key: str):
+def register_effect(key: str) -> Callable[[type[E]], type[E]]:
     """Class decorator: make an effect available under ``effects.<key>`` in scene YAML."""
 
-    def deco(cls):
+    def deco(cls: type[E]) -> type[E]:
         cls.key = key
         EFFECTS[key] = cls
         return cls
@@ -27,24 +36,29 @@ def register_effect(key: str):
     return deco
 
 
+E = TypeVar("E", bound="Effect")
+
+
+class _NoParams:
+    pass
+
+
 class Effect:
     key = "base"
     order = 50  # application order: geometry (10s), gains (50s), noise last (90s)
-    product_kind = None  # e.g. "raw_array": the raw product type this effect implies
+    product_kind: str | None = None  # e.g. "raw_array": the raw product type this effect implies
+    Params: type = _NoParams  # replaced by a frozen dataclass in each effect
 
-    class Params:  # replaced by a frozen dataclass in each effect
-        pass
-
-    def __init__(self, params, scene_params, radar):
+    def __init__(self, params: Any, scene_params: SceneParams, radar: RadarMetadata) -> None:
         self.params = params
         self.scene_params = scene_params
         self.radar = radar
 
-    def update_radar(self, radar):
+    def update_radar(self, radar: RadarMetadata) -> RadarMetadata:
         """Record what the effect adds to the radar metadata (e.g. beamwidths, channels)."""
         return radar
 
-    def channels(self, tx_offset: np.ndarray, rx_offsets: np.ndarray):
+    def channels(self, tx_offset: np.ndarray, rx_offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Transmit offset (3,) and receive offsets (n_ch, 3) relative to the platform position."""
         return tx_offset, rx_offsets
 
@@ -57,10 +71,12 @@ class Effect:
     def gate_offsets(self, t: np.ndarray, offsets: np.ndarray, reference_delay: float) -> np.ndarray:
         return offsets
 
-    def gains(self, t, platform_pos, target_pos, channel: int, gains):
+    def gains(
+        self, t: np.ndarray, platform_pos: np.ndarray, target_pos: np.ndarray, channel: int, gains: np.ndarray
+    ) -> np.ndarray:
         return gains
 
-    def scatterers(self):
+    def scatterers(self) -> tuple[np.ndarray, np.ndarray] | None:
         """Extra static point scatterers (clutter): None, or (xyz (n, 3) m, complex amplitudes (n,))."""
         return None
 
@@ -79,8 +95,8 @@ class ReceiverArray(Effect):
 
     receiver_offsets: np.ndarray
 
-    def update_radar(self, radar):
+    def update_radar(self, radar: RadarMetadata) -> RadarMetadata:
         return radar.replace(n_channels=len(self.receiver_offsets))
 
-    def channels(self, tx_offset, rx_offsets):
+    def channels(self, tx_offset: np.ndarray, rx_offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return np.zeros(3), self.receiver_offsets

@@ -17,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -24,6 +25,10 @@ from sarproc.product.config import param
 from sarproc.product.errors import InputError
 from sarproc.product.frames import make_frame
 from sarproc.simulation.effects.base import Effect, register_effect
+
+if TYPE_CHECKING:
+    from sarproc.product.metadata import RadarMetadata
+    from sarproc.simulation.scene import SceneParams
 
 log = logging.getLogger(__name__)
 
@@ -48,7 +53,7 @@ class Clutter(Effect):
     order = 60
     Params = ClutterParams
 
-    def __init__(self, params, scene_params, radar):
+    def __init__(self, params: ClutterParams, scene_params: SceneParams, radar: RadarMetadata) -> None:
         super().__init__(params, scene_params, radar)
         rng = np.random.default_rng(params.seed)
         frame = make_frame(scene_params.targets.frame, radar)
@@ -62,7 +67,7 @@ class Clutter(Effect):
             raise InputError(f"effects.clutter: {exc}") from None
         self.amp = params.amplitude * (rng.standard_normal(n) + 1j * rng.standard_normal(n)) / math.sqrt(2)
 
-    def update_radar(self, radar):
+    def update_radar(self, radar: RadarMetadata) -> RadarMetadata:
         n_pulses = int(round(radar.aperture_time * radar.prf)) or 1
         samples = int(math.ceil(radar.pulse_duration * radar.range_sampling_rate)) + 2
         cost = clutter_cost(n_pulses, radar.n_channels, self.params.n_scatterers, samples)
@@ -75,8 +80,8 @@ class Clutter(Effect):
         self.cost = cost
         return radar
 
-    def scatterers(self):
+    def scatterers(self) -> tuple[np.ndarray, np.ndarray]:
         return self.xyz, self.amp
 
-    def aux(self):
+    def aux(self) -> dict:
         return {"clutter_position": self.xyz, "clutter_amplitude": self.amp}

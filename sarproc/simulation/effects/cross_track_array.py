@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -25,6 +26,10 @@ from sarproc.product.config import param
 from sarproc.product.errors import InputError
 from sarproc.simulation.effects.antenna import one_way_amplitude
 from sarproc.simulation.effects.base import ReceiverArray, register_effect
+
+if TYPE_CHECKING:
+    from sarproc.product.metadata import RadarMetadata
+    from sarproc.simulation.scene import SceneParams
 
 
 @dataclasses.dataclass(frozen=True)
@@ -46,7 +51,7 @@ class CrossTrackArrayParams:
         "angle", default=0.0, ge=0, lt=math.pi, doc=("one-way -3 dB beamwidth of the element pattern")
     )
 
-    def validate(self):
+    def validate(self) -> None:
         if self.layout == "paper" and self.array_length is None:
             raise InputError("array_length: required for layout: paper")
         if self.layout == "symmetric" and self.array_length is not None:
@@ -59,6 +64,7 @@ def receiver_offsets(params: CrossTrackArrayParams) -> np.ndarray:
     """Cross-track offsets v_n, m (n = 1..N)."""
     n = np.arange(params.n_receivers, dtype=float)
     if params.layout == "paper":
+        assert params.array_length is not None  # validate() requires it with layout: paper
         return -params.array_length / 2 + n * params.spacing
     return (n - (params.n_receivers - 1) / 2.0) * params.spacing
 
@@ -69,13 +75,15 @@ class CrossTrackArray(ReceiverArray):
     Params = CrossTrackArrayParams
     product_kind = "raw_array"
 
-    def __init__(self, params, scene_params, radar):
+    def __init__(self, params: CrossTrackArrayParams, scene_params: SceneParams, radar: RadarMetadata) -> None:
         super().__init__(params, scene_params, radar)
         self.v = receiver_offsets(params)
         self.receiver_offsets = np.zeros((len(self.v), 3))
         self.receiver_offsets[:, 1] = self.v
 
-    def gains(self, t, platform_pos, target_pos, channel, gains):
+    def gains(
+        self, t: np.ndarray, platform_pos: np.ndarray, target_pos: np.ndarray, channel: int, gains: np.ndarray
+    ) -> np.ndarray:
         if self.params.element_pattern == "none":
             return gains
         rx = platform_pos + np.array([0.0, self.v[channel], 0.0])

@@ -24,7 +24,7 @@ class Noise(Effect):
     order = 90
     Params = NoiseParams
 
-    def finalize(self, block, rng, signal_power):
+    def finalize(self, block: np.ndarray, rng: np.random.Generator, signal_power: float) -> np.ndarray:
         sigma2 = signal_power / 10.0 ** (self.params.snr / 10.0)
         if sigma2 <= 0:  # a zero-amplitude scene: noise relative to unit amplitude
             sigma2 = 1.0 / 10.0 ** (self.params.snr / 10.0)

@@ -34,7 +34,7 @@ class PlatformMotionParams:
     vertical_phase: float = param("angle", default=0.0, doc="phi_z at t = 0")
     along_track_velocity_error: float = param("velocity", default=0.0, doc="dv added to the nominal speed along +x")
 
-    def validate(self):
+    def validate(self) -> None:
         for axis in ("cross_track", "vertical"):
             if getattr(self, f"{axis}_amplitude") > 0 and getattr(self, f"{axis}_period") is None:
                 raise InputError(f"{axis}_period: required with a non-zero {axis}_amplitude")
@@ -46,10 +46,12 @@ def displacement(params: PlatformMotionParams, t: np.ndarray) -> np.ndarray:
     d = np.zeros(t.shape + (3,))
     d[:, 0] = params.along_track_velocity_error * t
     if params.cross_track_amplitude > 0:
+        assert params.cross_track_period is not None  # validate() requires it
         d[:, 1] = params.cross_track_amplitude * np.sin(
             2 * math.pi * t / params.cross_track_period + params.cross_track_phase
         )
     if params.vertical_amplitude > 0:
+        assert params.vertical_period is not None  # validate() requires it
         d[:, 2] = params.vertical_amplitude * np.sin(2 * math.pi * t / params.vertical_period + params.vertical_phase)
     return d
 
@@ -59,5 +61,5 @@ class PlatformMotion(Effect):
     order = 15
     Params = PlatformMotionParams
 
-    def platform_positions(self, t, positions):
+    def platform_positions(self, t: np.ndarray, positions: np.ndarray) -> np.ndarray:
         return positions + displacement(self.params, t)

@@ -27,12 +27,17 @@ platform_motion effect does not change it. The simulator stores the schedule in 
 from __future__ import annotations
 
 import dataclasses
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from sarproc.product.config import param
 from sarproc.product.metadata import C
 from sarproc.simulation.effects.base import Effect, register_effect
+
+if TYPE_CHECKING:
+    from sarproc.product.metadata import RadarMetadata
+    from sarproc.simulation.scene import SceneParams
 
 
 @dataclasses.dataclass(frozen=True)
@@ -43,7 +48,7 @@ class RangeGateParams:
     pulses_per_step: int = param(default=1, ge=1, doc="K: the gate moves at most once every K pulses")
 
 
-def linear_range_rate(radar) -> float:
+def linear_range_rate(radar: RadarMetadata) -> float:
     """d|P(t) - C|/dt at t = 0 for the nominal straight track (m/s); -v sin(theta) by geometry."""
     p0 = np.array([0.0, 0.0, radar.altitude])
     d = p0 - np.asarray(radar.scene_center, float)
@@ -55,7 +60,7 @@ class RangeGate(Effect):
     order = 30
     Params = RangeGateParams
 
-    def __init__(self, params, scene_params, radar):
+    def __init__(self, params: RangeGateParams, scene_params: SceneParams, radar: RadarMetadata) -> None:
         super().__init__(params, scene_params, radar)
         self.range_step = params.range_step or C / (2 * radar.range_sampling_rate)
         self.rate = linear_range_rate(radar)
@@ -69,7 +74,7 @@ class RangeGate(Effect):
         t_m = (middle - (n - 1) / 2.0) / prf
         return np.rint(self.rate * t_m / self.range_step).astype(np.int64)  # eq. (2): n(t) p_r ~ r_0(t) - R_c
 
-    def gate_offsets(self, t, offsets, reference_delay):
+    def gate_offsets(self, t: np.ndarray, offsets: np.ndarray, reference_delay: float) -> np.ndarray:
         n = self.gate_steps(t)
         if self.params.range_step is None:  # one sample per step: offsets exactly n / f_s
             return offsets + n / self.radar.range_sampling_rate

@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import dataclasses
+from typing import TYPE_CHECKING
 
 from sarproc.simulation.effects.base import Effect, register_effect
+
+if TYPE_CHECKING:
+    import numpy as np
 
 
 @dataclasses.dataclass(frozen=True)
@@ -17,5 +21,5 @@ class TargetMotion(Effect):
     order = 20
     Params = TargetMotionParams
 
-    def target_positions(self, t, target_pos, velocity):
+    def target_positions(self, t: np.ndarray, target_pos: np.ndarray, velocity: np.ndarray) -> np.ndarray:
         return target_pos + t[:, None, None] * velocity[None, :, :]
