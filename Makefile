@@ -116,9 +116,11 @@ residual-floors: $(STAMP)
 		results/000-exp2/*image*.h5 results/002-small/*image*.h5 results/003/image_*.h5 results/004/*.h5 2>/dev/null \
 		| grep -v raw) $(if $(BEFORE),--before $(BEFORE)) --out results/residual_floors.md
 
-# Ghosts at -40/-45/-50 dB left out of the truth table, found on the residual of real processed images: the
-# demo by backprojection and the small paper-002 scene by plain polar format.
+# Ghosts at -40/-45/-50 dB left out of the truth table, found on the residual of real processed images:
+# bp_squint30 and the demo by backprojection, the small paper-002 scene by plain polar format.
 residual-ghosts: $(STAMP)
+	flock /tmp/heavy.lock nice $(PY) scripts/residual_ghosts.py --scene configs/bp_squint30.yaml --ghost 12,20 \
+		--out results/residual_ghosts_squint30.md
 	flock /tmp/heavy.lock nice $(PY) scripts/residual_ghosts.py --scene configs/demo.yaml --ghost 30,35 \
 		--out results/residual_ghosts_demo.md
 	flock /tmp/heavy.lock nice $(PY) scripts/residual_ghosts.py --scene configs/nie2016_small.yaml --ghost 40,40 \
