@@ -587,7 +587,7 @@ class WriteBehind:
         self._raise_error()
         self._queue.put((index, block))
 
-    def __enter__(self) -> "WriteBehind":
+    def __enter__(self) -> WriteBehind:
         self._thread.start()
         return self
 

@@ -210,7 +210,7 @@ def echo_block(
     gate = np.ascontiguousarray(_gate_offsets(scene, t, 2 * r.reference_range / C), dtype=float)
     if chirp is None:  # the window's chirp is the same for every block: simulate_blocks passes it once
         chirp = window_chirp(n_rg, fs, r.chirp_rate)
-    out = np.zeros((len(plan.rx_offsets), len(t), n_rg), dtype=dtype)
+    out: np.ndarray = np.zeros((len(plan.rx_offsets), len(t), n_rg), dtype=dtype)
     for ch, rx in enumerate(plan.rx_offsets):
         tau = _delays(pos + plan.tx_offset, pos + rx, tg)  # (n_t, n_tg)
         gains = np.broadcast_to(amplitude[None, :], tau.shape).astype(complex)

@@ -169,24 +169,24 @@ def test_write_behind_stores_every_block_in_order(tmp_path):
 def test_write_behind_raises_the_writers_error_and_publishes_nothing(tmp_path):
     p = image_product()
     out = tmp_path / "out.h5"
-    with pytest.raises(ValueError):
-        with (
-            ProductWriter(out, "image", p.dims, p.coords, p.radar, p.targets, attrs=p.attrs) as w,
-            WriteBehind(w) as behind,
-        ):
-            for _ in range(20):  # the failed write is reported by a later call or on leaving
-                behind.write((slice(0, 2), slice(None)), "not an array")
+    with (
+        pytest.raises(ValueError),
+        ProductWriter(out, "image", p.dims, p.coords, p.radar, p.targets, attrs=p.attrs) as w,
+        WriteBehind(w) as behind,
+    ):
+        for _ in range(20):  # the failed write is reported by a later call or on leaving
+            behind.write((slice(0, 2), slice(None)), "not an array")
     assert not out.exists() and list(tmp_path.iterdir()) == []
 
 
 def test_write_behind_drops_queued_blocks_when_the_caller_fails(tmp_path):
     p = image_product()
     out = tmp_path / "out.h5"
-    with pytest.raises(RuntimeError, match="caller"):
-        with (
-            ProductWriter(out, "image", p.dims, p.coords, p.radar, p.targets, attrs=p.attrs) as w,
-            WriteBehind(w) as behind,
-        ):
-            behind.write((slice(0, 2), slice(None)), p.data[:2])
-            raise RuntimeError("caller")
+    with (
+        pytest.raises(RuntimeError, match="caller"),
+        ProductWriter(out, "image", p.dims, p.coords, p.radar, p.targets, attrs=p.attrs) as w,
+        WriteBehind(w) as behind,
+    ):
+        behind.write((slice(0, 2), slice(None)), p.data[:2])
+        raise RuntimeError("caller")
     assert not out.exists() and list(tmp_path.iterdir()) == []
