@@ -33,7 +33,7 @@ def simulate(scene_path: Path, output: Path, overwrite: bool, progress: bool | N
     from sarproc.cli.dask_map import dask_mapper, scheduler_client
     from sarproc.cli.progress import progress_factory
     from sarproc.cli.stage import naming, report_plan, simulate_estimate
-    from sarproc.product.io import ProductWriter, check_output_path, history_entry
+    from sarproc.product.io import ProductWriter, WriteBehind, check_output_path, history_entry
     from sarproc.simulation.scene import load_scene
     from sarproc.simulation.simulate import illumination_warnings, plan_simulation, simulate_blocks
 
@@ -62,10 +62,11 @@ def simulate(scene_path: Path, output: Path, overwrite: bool, progress: bool | N
             overwrite=overwrite,
         ) as writer,
         scheduler_client(scheduler) as client,
+        WriteBehind(writer) as behind,  # block k is stored while block k + 1 is computed
     ):
         mapper = dask_mapper(client, "simulate-block") if client is not None else None
         for sl, block in simulate_blocks(scene, plan, progress_factory(want_progress(progress), "simulate"), mapper):
-            writer.write(
+            behind.write(
                 (slice(None), sl, slice(None)) if plan.kind != "raw" else (sl, slice(None)),
                 block if plan.kind != "raw" else block[0],
             )

@@ -544,6 +544,63 @@ class ProductWriter:
         return self._ctx.__exit__(exc_type, exc, tb)
 
 
+class WriteBehind:
+    """Store a :class:`ProductWriter`'s blocks on a second thread while the caller computes the next ones.
+
+    ``write`` queues a block (at most ``depth`` wait, so memory stays bounded) and returns; the blocks
+    are written in the order given. The first error of the writing thread (a full disk, a stop signal seen
+    by ``run.check``) is raised by the next ``write`` or on leaving; an error in the caller drops the
+    queued blocks and waits for the block being written, so the writer is closed by one thread only.
+    The overlap needs the caller's compute to release the GIL (numpy, nogil numba kernels).
+    """
+
+    _DONE = object()
+
+    def __init__(self, writer: ProductWriter, depth: int = 1) -> None:
+        import queue
+        import threading
+
+        self.writer = writer
+        self._queue: queue.Queue = queue.Queue(maxsize=depth)
+        self._error: BaseException | None = None
+        self._abort = threading.Event()
+        self._thread = threading.Thread(target=self._drain, name="sarproc-write-behind", daemon=True)
+
+    def _drain(self) -> None:
+        while True:
+            item = self._queue.get()
+            if item is self._DONE:
+                return
+            if self._error is not None or self._abort.is_set():
+                continue  # keep taking blocks so the caller never waits on a dead writer
+            try:
+                self.writer.write(*item)
+            except BaseException as exc:  # handed to the caller's thread
+                self._error = exc
+
+    def _raise_error(self) -> None:
+        if self._error is not None:
+            raise self._error
+
+    def write(self, index: Any, block: np.ndarray) -> None:
+        """Queue ``block`` for ``writer.write(index, block)``; the caller must not change it afterwards."""
+        self._raise_error()
+        self._queue.put((index, block))
+
+    def __enter__(self) -> WriteBehind:
+        self._thread.start()
+        return self
+
+    def __exit__(self, exc_type: type | None, exc: BaseException | None, tb: Any) -> None:
+        if exc_type is not None:
+            self._abort.set()
+        with run.deferred():  # a stop signal now is acted on once the thread has let go of the file
+            self._queue.put(self._DONE)
+            self._thread.join()
+        if exc_type is None:
+            self._raise_error()
+
+
 def write_product(
     output: str | Path, product: Product, *, inputs: Sequence[str | Path] = (), overwrite: bool = False
 ) -> Path:

@@ -55,9 +55,13 @@ def _support(rel, fs, half_pulse, n_range):
     return first, last
 
 
-@numba.njit(parallel=True, cache=CACHE, error_model="numpy")
+@numba.njit(parallel=True, nogil=True, cache=CACHE, error_model="numpy")
 def accumulate_echoes(out, delays, gains, gate, t0, fs, pulse_duration, chirp_rate, carrier, chirp) -> None:
-    """Add every target's echo to ``out`` (n_t, n_range) complex128, in place.
+    """Add every target's echo to ``out`` (n_t, n_range) complex128 or complex64, in place.
+
+    Targets are summed in complex128 either way; a complex64 ``out`` receives each sample rounded once,
+    the value a complex128 ``out`` would give after a cast. nogil: a writer thread stores the previous
+    block meanwhile.
 
     delays (n_t, n_tg) two-way delays, s; gains (n_t, n_tg) complex (0 skips the pair); gate
     (n_t,) receive-window offsets, s; t0 the window's first range time, s; chirp from

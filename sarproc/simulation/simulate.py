@@ -22,6 +22,7 @@ import numpy as np
 
 from sarproc.product.metadata import C, RadarMetadata
 from sarproc.product.model import Product
+from sarproc.simulation.effects.base import Effect
 from sarproc.simulation.scene import Scene
 
 if TYPE_CHECKING:
@@ -188,11 +189,14 @@ def illumination_warnings(scene: Scene, plan: SimulationPlan) -> list[str]:
     return lines
 
 
-def echo_block(scene: Scene, plan: SimulationPlan, t: np.ndarray, chirp: np.ndarray | None = None) -> np.ndarray:
-    """Echoes of pulses at times ``t`` for every channel: (n_ch, n_t, n_range) complex128.
+def echo_block(
+    scene: Scene, plan: SimulationPlan, t: np.ndarray, chirp: np.ndarray | None = None, dtype: type = np.complex128
+) -> np.ndarray:
+    """Echoes of pulses at times ``t`` for every channel: (n_ch, n_t, n_range) of ``dtype``.
 
     Geometry, gate offsets and the effects' gains are evaluated here per (pulse, target); the
-    samples themselves in the compiled :func:`echo_kernel.accumulate_echoes`.
+    samples themselves in the compiled :func:`echo_kernel.accumulate_echoes`, which sums in complex128
+    and rounds each sample once into a complex64 block (bit for bit the cast of the complex128 one).
     """
     from sarproc.simulation.echo_kernel import accumulate_echoes, window_chirp
 
@@ -206,7 +210,7 @@ def echo_block(scene: Scene, plan: SimulationPlan, t: np.ndarray, chirp: np.ndar
     gate = np.ascontiguousarray(_gate_offsets(scene, t, 2 * r.reference_range / C), dtype=float)
     if chirp is None:  # the window's chirp is the same for every block: simulate_blocks passes it once
         chirp = window_chirp(n_rg, fs, r.chirp_rate)
-    out = np.zeros((len(plan.rx_offsets), len(t), n_rg), dtype=np.complex128)
+    out: np.ndarray = np.zeros((len(plan.rx_offsets), len(t), n_rg), dtype=dtype)
     for ch, rx in enumerate(plan.rx_offsets):
         tau = _delays(pos + plan.tx_offset, pos + rx, tg)  # (n_t, n_tg)
         gains = np.broadcast_to(amplitude[None, :], tau.shape).astype(complex)
@@ -250,11 +254,16 @@ def simulate_blocks(
     from sarproc.simulation.echo_kernel import window_chirp
 
     chirp = window_chirp(len(plan.coords["range_time"]), scene.radar.range_sampling_rate, scene.radar.chirp_rate)
-    echoes = (mapper or map)(functools.partial(echo_block, scene, plan, chirp=chirp), (t_all[sl] for sl in slices))
+    # A finalize step (noise) adds to the complex128 echoes before the one rounding; without one the
+    # kernel rounds into complex64 itself, in parallel, instead of a serial cast here.
+    finalizing = [e for e in scene.effects if type(e).finalize is not Effect.finalize]
+    dtype = np.complex128 if finalizing else np.complex64
+    block_echoes = functools.partial(echo_block, scene, plan, chirp=chirp, dtype=dtype)
+    echoes = (mapper or map)(block_echoes, (t_all[sl] for sl in slices))
     for sl, block in zip(progress(slices) if progress is not None else slices, echoes):
-        for e in scene.effects:
+        for e in finalizing:
             block = e.finalize(block, rng, power)
-        yield sl, block.astype(np.complex64)
+        yield sl, block.astype(np.complex64, copy=False)
 
 
 def simulate(scene: Scene, progress: ProgressFactory | None = None) -> Product:

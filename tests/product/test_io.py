@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from sarproc.product.errors import InputError
-from sarproc.product.io import ProductWriter, read_product, write_product
+from sarproc.product.io import ProductWriter, WriteBehind, read_product, write_product
 from sarproc.product.metadata import RadarMetadata
 from sarproc.product.model import Product, make_targets
 
@@ -149,3 +149,44 @@ def test_missing_dataset_is_named(tmp_path):
         del f["targets"]
     with pytest.raises(InputError, match="x.h5: missing dataset 'targets'"):
         read_product(tmp_path / "x.h5")
+
+
+def test_write_behind_stores_every_block_in_order(tmp_path):
+    p = image_product(n_az=40)
+    out = tmp_path / "out.h5"
+    with (
+        ProductWriter(out, "image", p.dims, p.coords, p.radar, p.targets, attrs=p.attrs) as w,
+        WriteBehind(w) as behind,
+    ):
+        for s in range(0, 40, 3):  # overlapping blocks: a later one must land after an earlier one
+            behind.write((slice(s, s + 5), slice(None)), p.data[s : s + 5] + (s + 1))
+    want = p.data.copy()
+    for s in range(0, 40, 3):
+        want[s : s + 5] = p.data[s : s + 5] + (s + 1)
+    np.testing.assert_array_equal(read_product(out).data, want)
+
+
+def test_write_behind_raises_the_writers_error_and_publishes_nothing(tmp_path):
+    p = image_product()
+    out = tmp_path / "out.h5"
+    with (
+        pytest.raises(ValueError),
+        ProductWriter(out, "image", p.dims, p.coords, p.radar, p.targets, attrs=p.attrs) as w,
+        WriteBehind(w) as behind,
+    ):
+        for _ in range(20):  # the failed write is reported by a later call or on leaving
+            behind.write((slice(0, 2), slice(None)), "not an array")
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_write_behind_drops_queued_blocks_when_the_caller_fails(tmp_path):
+    p = image_product()
+    out = tmp_path / "out.h5"
+    with (
+        pytest.raises(RuntimeError, match="caller"),
+        ProductWriter(out, "image", p.dims, p.coords, p.radar, p.targets, attrs=p.attrs) as w,
+        WriteBehind(w) as behind,
+    ):
+        behind.write((slice(0, 2), slice(None)), p.data[:2])
+        raise RuntimeError("caller")
+    assert not out.exists() and list(tmp_path.iterdir()) == []

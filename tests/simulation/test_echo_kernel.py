@@ -91,3 +91,29 @@ def test_compiled_echoes_equal_float64_equation(scene_mapping, changes):
     err = np.abs(got - want)
     assert err.max() <= 3e-7 * scale, err.max() / scale
     assert err.max() <= 2 * np.abs(want.astype(np.complex64) - want).max() + 1e-7 * scale
+
+
+@pytest.mark.parametrize("changes", [SCENES["clutter"], SCENES["antenna, varied gate, platform motion, 3 channels"]])
+def test_complex64_block_is_the_rounded_complex128_block(scene_mapping, changes):
+    # the kernel rounds each complex128 sum once into a complex64 block: bit for bit the old cast
+    scene = scene_from_mapping(scene_mapping(**changes))
+    plan = sim.plan_simulation(scene)
+    t = plan.coords["azimuth_time"][:50]
+    wide = sim.echo_block(scene, plan, t, dtype=np.complex128)
+    narrow = sim.echo_block(scene, plan, t, dtype=np.complex64)
+    assert narrow.dtype == np.complex64 and np.count_nonzero(narrow) > 0
+    assert narrow.tobytes() == wide.astype(np.complex64).tobytes()
+
+
+def test_noise_is_added_before_the_rounding_in_block_order(scene_mapping):
+    # with a finalize step the blocks stay complex128 until noise is added, drawn block after block
+    m = scene_mapping(effects={"noise": {"snr": "10 dB"}}, simulation={"seed": 5, "block_pulses": 7})
+    scene = scene_from_mapping(m)
+    plan = sim.plan_simulation(scene)
+    (noise,) = scene.effects
+    got = np.concatenate([b for _, b in sim.simulate_blocks(scene, plan)], axis=1)
+    rng = np.random.default_rng(5)
+    power = float(np.max(np.abs(scene.target_amplitude)) ** 2)
+    t = plan.coords["azimuth_time"]
+    want = [noise.finalize(sim.echo_block(scene, plan, t[s : s + 7]), rng, power) for s in range(0, len(t), 7)]
+    assert got.tobytes() == np.concatenate(want, axis=1).astype(np.complex64).tobytes()
