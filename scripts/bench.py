@@ -190,7 +190,7 @@ def bench_scene_case():
 
 
 def gotcha_case():
-    from sarproc.product.gotcha import gotcha_product, read_gotcha
+    from sarproc.formats.gotcha import gotcha_product, read_gotcha
 
     files = sorted((ROOT.parent / "shared" / "data" / "gotcha").glob("data_3dsar_pass1_az00*_HH.mat"))
     if not files:

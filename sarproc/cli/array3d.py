@@ -36,7 +36,8 @@ def array3d(input_path: Path, output: Path, config_path, overwrite: bool, progre
     from sarproc.product.errors import InputError
     from sarproc.product.io import write_product
     from sarproc.cli.progress import progress_factory
-    from sarproc.cli.stage import array3d_estimate, naming, prepare
+    from sarproc.cli.stage import naming, prepare
+    from sarproc.focus.budget import array3d_estimate
 
     if (channel_image is None) != (channel_output is None):
         raise InputError("--channel-image and --channel-output go together")

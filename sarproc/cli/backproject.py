@@ -39,8 +39,9 @@ def backproject(input_path: Path, target_names, output: Path, config_path, overw
     from sarproc.cli.options import info, max_memory
     from sarproc.product.budget import human
     from sarproc.cli.progress import progress_factory
-    from sarproc.cli.stage import backproject_block_pixels, backproject_estimate, naming, prepare
+    from sarproc.cli.stage import naming, prepare
     from sarproc.focus import backprojection as bp
+    from sarproc.focus.budget import backproject_block_pixels, backproject_estimate
     from sarproc.product.errors import InputError
     from sarproc.product.frames import frame_names
     from sarproc.product.io import ProductWriter
@@ -54,7 +55,7 @@ def backproject(input_path: Path, target_names, output: Path, config_path, overw
         ("raw", "raw_multichannel", "raw_array"),
         bp.BackprojectParams,
         "backproject",
-        backproject_estimate,
+        lambda stage, header, params: backproject_estimate(stage, header, params, max_memory()),
     )
     if params.frame != "product" and params.frame not in frame_names():
         raise InputError(

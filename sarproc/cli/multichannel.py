@@ -25,7 +25,8 @@ def reconstruct(input_path: Path, output: Path, config_path, overwrite: bool, pr
     """
     from sarproc.cli.progress import progress_factory
     from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct as run
-    from sarproc.cli.stage import naming, prepare, reconstruct_estimate
+    from sarproc.cli.stage import naming, prepare
+    from sarproc.focus.budget import reconstruct_estimate
     from sarproc.product.io import write_product
 
     # config, input header, output location, plan (the output holds as many samples as the input)

@@ -34,7 +34,8 @@ def simulate(scene_path: Path, output: Path, overwrite: bool, progress, schedule
     from sarproc.simulation.simulate import illumination_warnings, plan_simulation, simulate_blocks
     from sarproc.cli.dask_map import dask_mapper, scheduler_client
     from sarproc.cli.progress import progress_factory
-    from sarproc.cli.stage import naming, report_plan, simulate_estimate
+    from sarproc.cli.stage import naming, report_plan
+    from sarproc.simulation.budget import simulate_estimate
 
     start = time.perf_counter()
     scene = load_scene(scene_path)  # the scene is validated before the output is looked at

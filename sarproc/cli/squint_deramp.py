@@ -47,7 +47,7 @@ def _run(
 @common_options
 def preprocess(input_path: Path, output: Path, config_path, overwrite: bool, progress):
     """Doppler-centroid correction of a raw product (paper 000 eq. 7; section `preprocess:`)."""
-    from sarproc.cli.stage import preprocess_estimate
+    from sarproc.focus.budget import preprocess_estimate
     from sarproc.focus.squint_deramp.preprocess import PreprocessParams, preprocess as run
 
     out, dt = _run(
@@ -73,7 +73,7 @@ def preprocess(input_path: Path, output: Path, config_path, overwrite: bool, pro
 @common_options
 def coarse_focus(input_path: Path, output: Path, config_path, overwrite: bool, progress):
     """Azimuth deramp / SPECAN coarse focusing (paper 000 eqs. 9-11; section `coarse_focus:`)."""
-    from sarproc.cli.stage import coarse_focus_estimate
+    from sarproc.focus.budget import coarse_focus_estimate
     from sarproc.focus.squint_deramp.coarse_focus import CoarseFocusParams, coarse_focus as run
 
     out, dt = _run(
@@ -101,7 +101,7 @@ def coarse_focus(input_path: Path, output: Path, config_path, overwrite: bool, p
 @common_options
 def fine_focus(input_path: Path, output: Path, config_path, overwrite: bool, progress):
     """Stolt range focusing and azimuth compression, flow 1 or NLCS flow 2 (section `fine_focus:`)."""
-    from sarproc.cli.stage import fine_focus_estimate
+    from sarproc.focus.budget import fine_focus_estimate
     from sarproc.focus.squint_deramp.fine_focus import FineFocusParams, fine_focus as run
 
     out, dt = _run(

@@ -25,7 +25,7 @@ import numpy as np
 
 from sarproc.product import beam
 from sarproc.product.errors import InputError
-from sarproc.product.metadata import C
+from sarproc.product.metadata import SINC_IRW_FACTOR, C
 
 WINDOWS = ("none", "hamming")  # the weighting windows every processor offers (range and azimuth)
 ISLR_NULLS = 10.0  # the contract's ISLR window, +-nulls
@@ -260,7 +260,7 @@ def unweighted_irw(theories, fallback) -> list[float]:
     an image-wide theory that a target at the edge of the beam does not drag away from the rest."""
     if not theories:
         return [float(x) for x in fallback]
-    return [float(np.median([0.886 * t[a].null for t in theories])) for a in range(len(theories[0]))]
+    return [float(np.median([SINC_IRW_FACTOR * t[a].null for t in theories])) for a in range(len(theories[0]))]
 
 
 # ----------------------------------------------------------------------------------------------

@@ -61,6 +61,7 @@ import scipy.linalg
 from sarproc.product.config import param
 from sarproc.product.steps import steps, wrapped
 from sarproc.product.errors import InputError
+from sarproc.product.metadata import SINC_IRW_FACTOR
 from sarproc.product.theory import cut_metrics as _cut_metrics, window_theory
 from sarproc.quality.residual import (
     ResidualFloor,
@@ -71,8 +72,6 @@ from sarproc.quality.residual import (
     spectral_orders,
 )
 from sarproc.quality.linesum import exponential_sums
-
-SINC_IRW_FACTOR = 0.886  # -3 dB width of sinc^2 times the bandwidth (0.8859 exactly)
 
 
 @dataclasses.dataclass(frozen=True)

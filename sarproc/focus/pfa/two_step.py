@@ -49,7 +49,7 @@ from sarproc.focus.pfa.polar import (
     rect_to_polar,
     wavenumbers,
 )
-from sarproc.product.metadata import C
+from sarproc.product.metadata import SINC_IRW_FACTOR, C
 
 
 def valid_radius(azimuth_resolution: float, reference_range: float, wavelength: float, ka: float = 1.3) -> float:
@@ -301,7 +301,7 @@ def tile_rects(tiles: Iterable[Tile], positions, reference, e_azimuth, e_range, 
     return rects
 
 
-def local_irw(positions, point, e_azimuth, e_range, carrier_frequency, band, factor: float = 0.886):
+def local_irw(positions, point, e_azimuth, e_range, carrier_frequency, band, factor: float = SINC_IRW_FACTOR):
     """Theoretical (azimuth, range) IRW, m, of a point's own inscribed polar support (varies over a wide scene)."""
     ua, ur = los_components(positions, point, e_azimuth, e_range)
     r = polar_support(ua, ur, carrier_frequency, np.asarray(band), "inscribed")

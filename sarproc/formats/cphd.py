@@ -30,32 +30,15 @@ import scipy.fft as sfft
 
 from sarproc import __version__
 from sarproc.product.errors import InputError
-from sarproc.product.geolocation import Placement, ecf_to_geodetic, utc_datetime
+from sarproc.dsp.rangecomp import replica_fft_size, replica_spectrum
+from sarproc.formats.geolocation import Placement, ecf_to_geodetic, utc_datetime
 from sarproc.product.metadata import C, RadarMetadata
 from sarproc.product.model import TARGET_DTYPE, TARGET_THEORY_FIELDS, Product
-from sarproc.product.sicd import MODE_TYPE, consistency_summary, pulse_times, require_sarkit
+from sarproc.formats.sicd import MODE_TYPE, consistency_summary, pulse_times, require_sarkit
 
 CPHD_NS = "http://api.nsgreg.nga.mil/schema/cphd/1.1.0"
 CHANNEL = "sarproc-channel-1"
 IMPORT_OVERSAMPLING = 1.25  # sampling rate over band of a pulse imported from another program's CPHD
-
-
-def _replica_spectrum(radar: RadarMetadata, n_fft: int) -> np.ndarray:
-    # the same centred replica as dsp.rangecomp.chirp_replica (product may not import dsp): samples at
-    # k / f_s for |k| <= floor(T_p f_s / 2), circularly centred on sample 0
-    fs, tp = radar.range_sampling_rate, radar.pulse_duration
-    half = int(math.floor(tp * fs / 2))
-    tau = np.arange(-half, half + 1) / fs
-    h = np.where(np.abs(tau) <= tp / 2, np.exp(1j * np.pi * radar.chirp_rate * tau**2), 0)
-    circ = np.zeros(n_fft, complex)
-    circ[: half + 1] = h[half:]
-    circ[n_fft - half :] = h[:half]
-    return sfft.fft(circ)
-
-
-def fft_size(radar: RadarMetadata, n_range: int) -> int:
-    half = int(math.floor(radar.pulse_duration * radar.range_sampling_rate / 2))
-    return sfft.next_fast_len(n_range + 2 * half + 1, real=False)
 
 
 def _targets_to_json(targets: np.ndarray) -> list:
@@ -92,7 +75,7 @@ def _cycles_phasor(cycles: np.ndarray) -> np.ndarray:
 def to_cphd_signal(signal, radar, t_start, tau_srp, n_fft):
     """(n_pulses, n_range) raw -> (n_pulses, n_fft) FX-domain CPHD signal (frequency ascending), complex64."""
     fb = (np.arange(n_fft) - n_fft // 2) * (radar.range_sampling_rate / n_fft)
-    h = np.fft.fftshift(_replica_spectrum(radar, n_fft))
+    h = np.fft.fftshift(replica_spectrum(radar, n_fft))
     x = np.fft.fftshift(sfft.fft(signal, n=n_fft, axis=-1, workers=-1), axes=-1)
     cycles = -fb[None, :] * t_start[:, None] + (radar.carrier_frequency + fb)[None, :] * tau_srp[:, None]
     return (x / h * _cycles_phasor(cycles)).astype(np.complex64)
@@ -102,7 +85,7 @@ def from_cphd_signal(fx, radar, t_start, tau_srp, n_range):
     """Inverse of :func:`to_cphd_signal`: (n_pulses, n_fft) -> (n_pulses, n_range) raw, complex64."""
     n_fft = fx.shape[-1]
     fb = (np.arange(n_fft) - n_fft // 2) * (radar.range_sampling_rate / n_fft)
-    h = np.fft.fftshift(_replica_spectrum(radar, n_fft))
+    h = np.fft.fftshift(replica_spectrum(radar, n_fft))
     cycles = fb[None, :] * t_start[:, None] - (radar.carrier_frequency + fb)[None, :] * tau_srp[:, None]
     x = np.asarray(fx, complex) * h * _cycles_phasor(cycles)
     return sfft.ifft(np.fft.ifftshift(x, axes=-1), axis=-1, workers=-1)[:, :n_range].astype(np.complex64)
@@ -163,7 +146,7 @@ def cphd_parts(raw: Product, place: Placement, sarproc_metadata: bool = True):
     vel = np.gradient(pos, t, axis=0) if n_pulses > 1 else place.vector_to_ecf([r.velocity, 0, 0])[None]
     srp = place.to_ecf(np.asarray(r.scene_center, float))
     tau_srp = 2 * np.linalg.norm(pos - srp, axis=1) / C
-    n_fft = fft_size(r, n_range)
+    n_fft = replica_fft_size(r, n_range)
     signal = to_cphd_signal(raw.data, r, t_start, tau_srp, n_fft)
     fb0 = -(n_fft // 2) * fs / n_fft
     f1, f2 = r.carrier_frequency - r.bandwidth / 2, r.carrier_frequency + r.bandwidth / 2
@@ -453,7 +436,7 @@ def _foreign_raw(path, xh, fx, pvps) -> Product:
     centre of a vector is the mean of its transmit and receive positions (exact for stop-and-go monostatic
     data; BISTATIC collections are refused). No targets are known: give the focusers grid extents.
     """
-    from sarproc.product.gotcha import gotcha_product
+    from sarproc.formats.gotcha import gotcha_product
     from sarproc.product.io import history_entry
 
     domain = xh.load("{*}Global/{*}DomainType")

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from sarproc.focus.backprojection import backproject_points
-from sarproc.product.gotcha import gotcha_product
+from sarproc.formats.gotcha import gotcha_product
 from sarproc.product.metadata import C
 
 TARGETS = ((0.0, 0.0, 0.0), (30.0, -25.0, 0.0), (-12.0, 20.0, 0.0))
