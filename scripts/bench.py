@@ -197,13 +197,13 @@ def gotcha_case():
         return None
     g = read_gotcha(files)
     raw = gotcha_product(g)
-    S = g["phase_history"]
-    freq = np.asarray(g["freq"], float)
+    S = g.phase_history
+    freq = np.asarray(g.freq, float)
     if freq[1] < freq[0]:
         S, freq = S[:, ::-1], freq[::-1]
     history = (
         np.ascontiguousarray(S, np.complex64),
-        np.asarray(g["r0"], float),
+        np.asarray(g.r0, float),
         float(freq[0]),
         float(freq[1] - freq[0]),
     )

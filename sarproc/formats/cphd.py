@@ -579,7 +579,7 @@ def _foreign_raw(path, xh, fx: np.ndarray, pvps) -> Product:
     centre of a vector is the mean of its transmit and receive positions (exact for stop-and-go monostatic
     data; BISTATIC collections are refused). No targets are known: give the focusers grid extents.
     """
-    from sarproc.formats.gotcha import gotcha_product
+    from sarproc.formats.gotcha import GotchaPass, gotcha_product
     from sarproc.product.io import history_entry
 
     v = _foreign_vectors(path, xh, pvps, fx.shape[0])
@@ -587,14 +587,7 @@ def _foreign_raw(path, xh, fx: np.ndarray, pvps) -> Product:
     padded = _oversampled(ph)
     pos = (0.5 * (v.tx + v.rcv) - v.origin) @ v.rotation  # antenna phase centres in the scene frame
     raw = gotcha_product(
-        {
-            "phase_history": padded.samples,
-            "freq": padded.freq,
-            "positions": pos,
-            "r0": np.linalg.norm(pos, axis=1),
-            "files": [str(path)],
-            "polarization": v.polarization,
-        }
+        GotchaPass(padded.samples, padded.freq, pos, np.linalg.norm(pos, axis=1), [str(path)], v.polarization)
     )
     # the band is the n_band samples (half a bin more: the range filter's |f| <= B/2 keeps every one of them)
     n_band, step = len(ph.freq), float(ph.freq[1] - ph.freq[0])
