@@ -1098,16 +1098,19 @@ def test_processing_failure_is_one_line_exit_1(tmp_path, products, monkeypatch):
 # ------------------------------------------------------------------------------------------------
 # Faults in real processes: signals, file-size limit, concurrent writers, stale temporaries
 
+# Long enough that a signal 0.2 s after its temporary file appears lands while blocks are still being written:
+# 1.5 s of compiled echoes and writes on an idle 2-core machine (8 s and 8 x 8 targets finished in 0.4 s once
+# the kernels loaded lean and wrote complex64 behind the compute).
 SLOW = {
     **SCENE,
     "acquisition": {
         "mode": "spotlight",
-        "aperture_time": "8 s",
-        "range_window": {"start": "1.99 km", "end": "2.03 km"},
+        "aperture_time": "48 s",
+        "range_window": {"start": "1.9 km", "end": "2.1 km"},
     },
     "targets": {
         "frame": "squint",
-        "grid": {"azimuth_count": 8, "range_count": 8, "azimuth_spacing": "2 m", "range_spacing": "2 m"},
+        "grid": {"azimuth_count": 16, "range_count": 16, "azimuth_spacing": "2 m", "range_spacing": "2 m"},
     },
     "simulation": {"block_pulses": 32},
 }
