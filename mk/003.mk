@@ -29,6 +29,13 @@ reproduce-003: $(STAMP)
 	$(SARPROC) sweep configs/sweeps/hard_cases_003.yaml -o $(R003)/sweep-hard $(SWEEP003)
 	$(PY) scripts/reproduce_003.py --results $(R003)
 	$(PY) scripts/hard_cases_003.py --results $(R003)
+	$(DROP003)
+
+# Each sweep task's reconstructed raw product (~77 MB, read only by the scripts above) is deleted once
+# tabulated, keeping results/003 under 1 GB; KEEP_INTERMEDIATES=1 keeps them (a rerun then resumes
+# without reconstructing again).
+KEEP_INTERMEDIATES ?=
+DROP003 = $(if $(KEEP_INTERMEDIATES),,rm -f $(R003)/sweep-*/tasks/*/reconstruct.h5 $(R003)/sweep-*/tasks/*/reconstruct.h5.done.json)
 
 # accuracy-003 is a sweep: mk/sweeps.mk.
 
