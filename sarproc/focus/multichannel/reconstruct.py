@@ -574,6 +574,21 @@ def _detect_and_focus(
     )
     threshold = 10 ** (params.detection_snr / 10)
     probes = _probe_truth(raw, params, g, lead, y if residual_mode else None, out_f, ka, power, bg)
+    static_peaks: list[detection.Detection] = []
+    if residual_mode:
+        # What the conventional image holds above the CFAR threshold (static points, clutter, the movers):
+        # a mover's reconstruction must leave the static ones as they are (see ``spared`` below).
+        conv = detection.detection_image(y, out_f, ka)
+        static_peaks = detection.find_detections(
+            conv,
+            detection.background(conv),
+            g.out_times,
+            params.detection_snr,
+            params.detection_level,
+            max(1.0, g.fs / r.bandwidth),
+            20 * params.max_detections,
+        )[0]
+        del conv
     del power
     examined = 0
     flat_snr: list[float] = []
@@ -694,6 +709,19 @@ def _detect_and_focus(
                 others.append(f_d)
         whole = detection.extract(x_w, g.times, g.prf, det.time, ka_w, params.separation_bandwidth, notches=others)
         remove(whole, a, b, ka_w)
+        # The reconstruction also spares the static targets the null hid from the detections (bright points in
+        # the conventional image, in this window's cells, not at this detection's apparent time modulo PRF / K_a).
+        spared = [
+            f_d
+            for d in static_peaks
+            if a - 2 <= d.cell < b + 2
+            and abs(f_d := (ka0 * (d.time - det.time) + g.prf / 2) % g.prf - g.prf / 2)
+            > 1.5 * params.separation_bandwidth
+        ]
+        if spared:
+            whole = detection.extract(
+                x_w, g.times, g.prf, det.time, ka_w, params.separation_bandwidth, notches=others + spared
+            )
         if mt is None:
             kind = "incoherent" if notes == ["incoherent"] else "static"
             counts[kind] += 1
