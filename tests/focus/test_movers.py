@@ -294,5 +294,5 @@ def test_a_mover_below_the_clutter_nulls_mdv_is_reported_missed_with_its_reason(
     truth = rec.attrs["reconstruct"]["truth"]
     assert truth["missed"] == ["SLOW"] and truth["found"] == 2
     (reason,) = truth["missed_reasons"]
-    assert reason.startswith("SLOW: line-of-sight speed 0.06") and "below the minimum detectable velocity" in reason
+    assert reason.startswith("SLOW: the clutter null keeps") and "speed 0.06 m/s, below this null's minimum" in reason
     assert [w for w in warnings if w.startswith("reconstruct: truth mover")] == [f"reconstruct: truth mover {reason}"]
