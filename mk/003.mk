@@ -31,11 +31,11 @@ reproduce-003: $(STAMP)
 	$(PY) scripts/hard_cases_003.py --results $(R003)
 	$(DROP003)
 
-# Each sweep task's reconstructed raw product (~77 MB, read only by the scripts above) is deleted once
-# tabulated, keeping results/003 under 1 GB; KEEP_INTERMEDIATES=1 keeps them (a rerun then resumes
-# without reconstructing again).
+# Each sweep task's reconstructed raw product (~77 MB x 72 tasks) and each sweep's simulated raw products
+# (~70 MB x 32), read only by the scripts above, are deleted once tabulated (results/003 was 5.7 GB with
+# them); KEEP_INTERMEDIATES=1 keeps them (a rerun then resumes without simulating and reconstructing again).
 KEEP_INTERMEDIATES ?=
-DROP003 = $(if $(KEEP_INTERMEDIATES),,rm -f $(R003)/sweep-*/tasks/*/reconstruct.h5 $(R003)/sweep-*/tasks/*/reconstruct.h5.done.json)
+DROP003 = $(if $(KEEP_INTERMEDIATES),,rm -f $(R003)/sweep-*/tasks/*/reconstruct.h5 $(R003)/sweep-*/tasks/*/reconstruct.h5.done.json $(R003)/sweep-*/raw/*.h5 $(R003)/sweep-*/raw/*.h5.done.json)
 
 # accuracy-003 is a sweep: mk/sweeps.mk.
 
