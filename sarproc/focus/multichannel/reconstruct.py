@@ -573,22 +573,24 @@ def _detect_and_focus(
         20 * params.max_detections,
     )
     threshold = 10 ** (params.detection_snr / 10)
-    probes = _probe_truth(raw, params, g, lead, y if residual_mode else None, out_f, ka, power, bg)
     static_peaks: list[detection.Detection] = []
+    conv = bg_conv = None
     if residual_mode:
         # What the conventional image holds above the CFAR threshold (static points, clutter, the movers):
         # a mover's reconstruction must leave the static ones as they are (see ``spared`` below).
         conv = detection.detection_image(y, out_f, ka)
+        bg_conv = detection.background(conv)
         static_peaks = detection.find_detections(
             conv,
-            detection.background(conv),
+            bg_conv,
             g.out_times,
             params.detection_snr,
             params.detection_level,
             max(1.0, g.fs / r.bandwidth),
             20 * params.max_detections,
         )[0]
-        del conv
+    probes = _probe_truth(raw, params, g, lead, power, bg, conv, bg_conv)
+    del conv, bg_conv
     del power
     examined = 0
     flat_snr: list[float] = []
@@ -827,16 +829,15 @@ def _probe_truth(
     params: ReconstructParams,
     g: _Geometry,
     lead: int,
-    y_conventional: np.ndarray | None,
-    out_f: np.ndarray,
-    ka: np.ndarray,
     power: np.ndarray,
     bg: np.ndarray,
+    conv: np.ndarray | None,
+    bg_conv: np.ndarray | None,
 ) -> dict:
     """Per moving truth target: its SNR in the detection image(s) where it appears, and the clutter null's MDV.
 
-    ``power``, ``bg``: the detection image searched and its background; ``y_conventional`` the conventional
-    reconstruction when ``power`` is the clutter-null residual (None: ``power`` is conventional). Returns
+    ``power``, ``bg``: the detection image searched and its background; ``conv``, ``bg_conv`` the conventional
+    detection image and its background when ``power`` is the clutter-null residual (None: it is conventional). Returns
     {row: {...}}: cell, index, snr_db (strongest of the target's ambiguities k PRF / K_a apart in the
     searched image), and with the null conventional_snr_db, null_depth_db (background after over before),
     null_gain_db (detection.clutter_null_peak_gain of its true v_los) and mdv (detection.minimum_detectable_velocity).
@@ -851,12 +852,6 @@ def _probe_truth(
     n_out, n_cells = power.shape
     r_mid = _swath_centre_range(raw)
     spacing = g.prf / float(detection.fm_rate(g.velocity, g.squint, r_mid, g.fc, 0.0)) * g.n * g.prf
-    conv = bg_conv = None
-    if y_conventional is not None:
-        img = detection.compressed(y_conventional, out_f, ka)
-        conv = (img.real**2 + img.imag**2).astype(np.float32)
-        del img
-        bg_conv = detection.background(conv)
 
     def snr_near(pw, bgr, index, cell, shifts) -> tuple[float, int, int]:
         """Strongest peak over its background within +-PROBE_SAMPLES samples and +-3 cells of each shifted position.
