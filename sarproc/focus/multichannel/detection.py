@@ -274,7 +274,7 @@ def minimum_detectable_velocity(
     half_band: float,
     band_factor: float,
     wavelength: float,
-    required_gain_db,
+    required_gain_db: float | np.ndarray,
     v_max: float = 50.0,
 ) -> float:
     """Smallest |v_los| (m/s) at which one of a mover's responses through the clutter null passes the CFAR.

@@ -27,6 +27,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+from collections.abc import Iterable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -853,7 +854,9 @@ def _probe_truth(
     r_mid = _swath_centre_range(raw)
     spacing = g.prf / float(detection.fm_rate(g.velocity, g.squint, r_mid, g.fc, 0.0)) * g.n * g.prf
 
-    def snr_near(pw, bgr, index, cell, shifts) -> tuple[float, int, int]:
+    def snr_near(
+        pw: np.ndarray, bgr: np.ndarray, index: float, cell: float, shifts: Iterable[int]
+    ) -> tuple[float, int, int]:
         """Strongest peak over its background within +-PROBE_SAMPLES samples and +-3 cells of each shifted position.
 
         The prediction lands within about 10 samples (7 m) of the focused peak: its illumination centre and the
@@ -879,10 +882,11 @@ def _probe_truth(
         row = {"cell": cell, "index": index}
         row["snr_db"], i_res, c_res = snr_near(power, bg, index, cell, range(-g.n + 1, g.n))
         row["peak_index"], row["peak_cell"] = i_res, c_res
-        xyz = [truth["x"][k], truth["y"][k], truth["z"][k]]
-        v_a, v_r = moving.slant_velocity(xyz, [truth["vx"][k], truth["vy"][k], truth["vz"][k]], raw.radar.altitude)
+        xyz = np.array([truth["x"][k], truth["y"][k], truth["z"][k]], float)
+        vel = np.array([truth["vx"][k], truth["vy"][k], truth["vz"][k]], float)
+        v_a, v_r = moving.slant_velocity(xyz, vel, raw.radar.altitude)
         row["v_los"] = channels.line_of_sight_velocity(v_r, v_a, g.squint)
-        if conv is not None:
+        if conv is not None and bg_conv is not None:
             row["conventional_snr_db"], i, c = snr_near(conv, bg_conv, index, cell, [0])
             # the background where its residual peaks (one of its ambiguities) over that where it appears
             row["null_depth_db"] = 10 * math.log10(float(bg[i_res, c_res]) / float(bg_conv[i, c]))
@@ -910,7 +914,7 @@ def _probe_truth(
     return out
 
 
-def _miss_reason(name: str, probe: dict | None, rejected: list[dict], spacing: float, params) -> str:
+def _miss_reason(name: str, probe: dict | None, rejected: list[dict], spacing: float, params: ReconstructParams) -> str:
     """Why truth mover ``name`` is not in moving_targets, from what the detection image held where it appears."""
     if probe is None:
         return f"{name}: not found"
