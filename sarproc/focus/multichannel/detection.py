@@ -42,6 +42,7 @@ import scipy.fft as sfft
 from scipy import ndimage
 
 from sarproc.dsp.phasor import unit_phasor
+from sarproc.focus.multichannel import channels
 from sarproc.product.metadata import C
 
 if TYPE_CHECKING:
@@ -210,3 +211,96 @@ def extract(
     z = sfft.fft(x_tf * chirp[None], axis=1, workers=-1)
     z *= mask.astype(np.float32)[None, :, None]
     return sfft.ifft(z, axis=1, workers=-1) * np.conj(chirp)[None]
+
+
+def clutter_null_peak_gains(
+    tau: np.ndarray,
+    prf: float,
+    half_band: float,
+    band_factor: float,
+    wavelength: float,
+    v_los: float,
+    n_az: int = 512,
+) -> np.ndarray:
+    """Peak power a mover keeps through the clutter null at each of its responses k PRF / K_a apart.
+
+    Returns (2 N - 1,) fractions of its conventional peak for k = -(N - 1) ... N - 1 (index k + N - 1).
+    Channel n of a mover is the static channel model (channels.py eq. 3, delays ``tau``) with its band
+    shifted by its Doppler offset f_v = -2 v_los / lambda: at alias frequency f its channel vector is
+    exp(j 2 pi (f - f_v) tau_n), filled where |f - f_v| <= half_band. The null (reconstruct.clutter_null)
+    projects each base bin onto the complement of the static steering vectors of the aliases inside
+    ``band_factor`` x half_band; the static filter bank P = H^-1 then spreads what is left over the
+    output bands. As in eq. (6) (channels.ghost_level_db), the part moved by k bands forms a response
+    k PRF / K_a away whose peak is |sum_a sum_j E[a, j + k, j] o_aj| / sum o_aj with E = P (I - proj) M,
+    over the conventional peak (E = P M, k = 0). A slow mover's residual is the channel phase
+    2 pi f_v tau_n by which it differs from the clutter, so it falls as v_los^2.
+    """
+    tau = np.asarray(tau, float)
+    n = len(tau)
+    fo = channels.band_frequencies(n_az, prf, n)  # (n_az, N)
+    h = np.exp(2j * np.pi * tau[None, :, None] * fo[:, None, :])
+    a = h * (np.abs(fo) <= half_band * band_factor)[:, None, :]
+    proj = np.eye(n)[None] - a @ np.linalg.pinv(a, rcond=1e-10)
+    f_v = -2.0 * v_los / wavelength
+    m = np.exp(2j * np.pi * tau[None, :, None] * (fo - f_v)[:, None, :])
+    occ = (np.abs(fo - f_v) <= half_band).astype(float)
+    p = np.linalg.inv(h)
+
+    def peak(e: np.ndarray, k: int) -> float:
+        return abs(sum(np.sum(e[:, j + k, j] * occ[:, j]) for j in range(n) if 0 <= j + k < n))
+
+    ref = peak(p @ m, 0)
+    e = p @ (proj @ m)
+    gains = np.array([peak(e, k) ** 2 for k in range(-n + 1, n)])
+    return gains / ref**2 if ref > 0 else np.zeros_like(gains)
+
+
+def clutter_null_peak_gain(
+    tau: np.ndarray,
+    prf: float,
+    half_band: float,
+    band_factor: float,
+    wavelength: float,
+    v_los: float,
+    n_az: int = 512,
+) -> float:
+    """The strongest of :func:`clutter_null_peak_gains`: what the null keeps of a mover's peak (fraction)."""
+    return float(np.max(clutter_null_peak_gains(tau, prf, half_band, band_factor, wavelength, v_los, n_az)))
+
+
+def minimum_detectable_velocity(
+    tau: np.ndarray,
+    prf: float,
+    half_band: float,
+    band_factor: float,
+    wavelength: float,
+    required_gain_db: float | np.ndarray,
+    v_max: float = 50.0,
+) -> float:
+    """Smallest |v_los| (m/s) at which one of a mover's responses through the clutter null passes the CFAR.
+
+    A mover with conventional detection SNR snr_db (peak over the local background) passes the CFAR
+    threshold cfar_db after the null at its response k when snr_db + gain_k - depth_k >= cfar_db, depth_k
+    (dB, negative) being how much lower the background is there after the null than where the mover
+    appears before it: ``required_gain_db`` = cfar_db - snr_db + depth_k, one value for all k or one per k
+    (2 N - 1 values, k = -(N - 1) ... N - 1, as :func:`clutter_null_peak_gains`). The gains rise as
+    v_los^2 from 0 at v_los = 0: the first crossing is bracketed on a 0.05 m/s grid and bisected to
+    1 mm/s. inf if it is never reached below ``v_max``.
+    """
+    need = 10 ** (np.asarray(required_gain_db, float) / 10)
+
+    def passes(v: float) -> bool:
+        return bool(np.any(clutter_null_peak_gains(tau, prf, half_band, band_factor, wavelength, v, 256) >= need))
+
+    lo = 0.0
+    for hi in np.arange(0.05, v_max + 1e-9, 0.05):
+        if passes(float(hi)):
+            break
+        lo = float(hi)
+    else:
+        return math.inf
+    hi = float(hi)
+    while hi - lo > 1e-3:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if passes(mid) else (mid, hi)
+    return hi

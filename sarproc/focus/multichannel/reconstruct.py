@@ -27,6 +27,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+from collections.abc import Iterable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -334,7 +335,7 @@ def _estimate(
 
     Returns the target and the reasons to doubt it (true statements, for the caller to warn with the
     window's location). With ``static_below``, a window whose line-of-sight velocity from the first
-    search is below it (m/s) is a static target: (None, []); with ``flat_above``, one whose eq. 5 at the
+    search is below it (m/s) is a static target: (None, ["static <v_los>"]); with ``flat_above``, one whose eq. 5 at the
     estimate is above that fraction of its median over the first search's grid, or at white noise's
     out-of-band fraction, has no velocity that explains it (noise, or a response that is no point
     target): (None, ["incoherent"]).
@@ -381,8 +382,10 @@ def _estimate(
             v_r = alias.estimate
     else:
         v_r = 0.0
-    if static_below is not None and abs(channels.line_of_sight_velocity(v_r, v_a, g.squint)) < static_below:
-        return None, notes
+    if static_below is not None:
+        v_los_first = channels.line_of_sight_velocity(v_r, v_a, g.squint)
+        if abs(v_los_first) < static_below:
+            return None, [f"static {v_los_first:.6g}"]
     y_dem = sfft.ifft(win.demodulated_spectrum(v_r, v_a), axis=0, workers=-1)
     p = np.sum(np.abs(y_dem) ** 2, axis=1)
     t_c = float(np.sum(g.out_times * p) / np.sum(p)) if np.sum(p) > 0 else 0.0
@@ -571,6 +574,24 @@ def _detect_and_focus(
         20 * params.max_detections,
     )
     threshold = 10 ** (params.detection_snr / 10)
+    static_peaks: list[detection.Detection] = []
+    conv = bg_conv = None
+    if residual_mode:
+        # What the conventional image holds above the CFAR threshold (static points, clutter, the movers):
+        # a mover's reconstruction must leave the static ones as they are (see ``spared`` below).
+        conv = detection.detection_image(y, out_f, ka)
+        bg_conv = detection.background(conv)
+        static_peaks = detection.find_detections(
+            conv,
+            bg_conv,
+            g.out_times,
+            params.detection_snr,
+            params.detection_level,
+            max(1.0, g.fs / r.bandwidth),
+            20 * params.max_detections,
+        )[0]
+    probes = _probe_truth(raw, params, g, lead, power, bg, conv, bg_conv)
+    del conv, bg_conv
     del power
     examined = 0
     flat_snr: list[float] = []
@@ -584,6 +605,7 @@ def _detect_and_focus(
     movers: list[MovingTarget] = []
     peaks: list[detection.Detection] = []
     counts = {"detections": len(dets), "static": 0, "ambiguous": 0, "incoherent": 0, "explained": 0}
+    rejected: list[dict] = []  # detections examined and found no mover (for the truth movers' miss reasons)
 
     # An ambiguity k PRF / K_a away keeps the mover's range history while a static point there walks by
     # lambda k PRF / 2 m/s: over the illumination time it is smeared over this many cells either side.
@@ -609,6 +631,7 @@ def _detect_and_focus(
         if same:
             k = same[0]
             counts["ambiguous"] += 1
+            rejected.append({"cell": det.cell, "index": det.index, "snr_db": det.snr_db, "kind": "merged", "mover": k})
             log.debug("reconstruct: detection at cell %d, %.4f s merged with mover %d", det.cell, det.time, k)
             # A mover spreads over its range walk |v_los| T and curvature R'' T^2 / 8 in walk-corrected range:
             # a response inside that is its own; one beyond it and as strong is another target.
@@ -643,6 +666,7 @@ def _detect_and_focus(
             continue
         if explained:
             counts["explained"] += 1  # a response of a detection already examined, no target of its own
+            rejected.append({"cell": det.cell, "index": det.index, "snr_db": det.snr_db, "kind": "explained"})
             log.debug(
                 "reconstruct: detection at cell %d, %.4f s (SNR %.1f dB) explained by those examined",
                 det.cell,
@@ -688,11 +712,33 @@ def _detect_and_focus(
                 others.append(f_d)
         whole = detection.extract(x_w, g.times, g.prf, det.time, ka_w, params.separation_bandwidth, notches=others)
         remove(whole, a, b, ka_w)
+        # The reconstruction also spares the static targets the null hid from the detections (bright points in
+        # the conventional image, in this window's cells, not at this detection's apparent time modulo PRF / K_a).
+        spared = [
+            f_d
+            for d in static_peaks
+            if a - 2 <= d.cell < b + 2
+            and abs(f_d := (ka0 * (d.time - det.time) + g.prf / 2) % g.prf - g.prf / 2)
+            > 1.5 * params.separation_bandwidth
+        ]
+        if spared:
+            whole = detection.extract(
+                x_w, g.times, g.prf, det.time, ka_w, params.separation_bandwidth, notches=others + spared
+            )
         if mt is None:
             kind = "incoherent" if notes == ["incoherent"] else "static"
             counts[kind] += 1
             if kind == "incoherent":
                 flat_snr.append(det.snr_db)
+            rejected.append(
+                {
+                    "cell": det.cell,
+                    "index": det.index,
+                    "snr_db": det.snr_db,
+                    "kind": kind,
+                    "v_los": float(notes[0].split()[1]) if kind == "static" else None,
+                }
+            )
             log.info(
                 "reconstruct: detection at range cell %d, %.3f s (SNR %.1f dB) is %s",
                 det.cell,
@@ -758,7 +804,180 @@ def _detect_and_focus(
     del x_tr
     y[:] = sfft.fft(sfft.fft(y_tr, axis=1, workers=-1), axis=0, workers=-1)
     info["detections"] = counts
+    info["_probes"] = (probes, rejected, ambiguity * g.n * g.prf)
     return movers
+
+
+def _truth_cell_index(raw: Product, g: _Geometry, lead: int, k: int, centres: np.ndarray) -> tuple[float, float]:
+    """(walk-corrected range cell, output azimuth sample) where truth target k appears in the detection image.
+
+    The inverse of the detection's apparent position (_moving_target_rows): its static equivalent S is at
+    beam centre at t_app, at slant range R_app, and sits in walk-corrected range R_app + v sin(theta) t_app.
+    """
+    t = raw.targets
+    xyz = np.array([t["x"][k], t["y"][k], t["z"][k]], float)
+    vel = np.array([t["vx"][k], t["vy"][k], t["vz"][k]], float)
+    s, _ = moving.apparent_position(raw.radar, g.times, xyz, vel, centres)
+    t_app = moving.illumination_centre_time(raw.radar, g.times, s, np.zeros(3), centres)
+    p = np.array([np.interp(t_app, g.times, centres[:, c]) for c in range(3)])
+    wc_range = float(np.linalg.norm(s - p)) + g.velocity * math.sin(g.squint) * t_app
+    rt0 = float(raw.coords["range_time"][0])
+    return (2 * wc_range / C - rt0) * g.fs + lead, (t_app - g.out_times[0]) * g.n * g.prf
+
+
+def _probe_truth(
+    raw: Product,
+    params: ReconstructParams,
+    g: _Geometry,
+    lead: int,
+    power: np.ndarray,
+    bg: np.ndarray,
+    conv: np.ndarray | None,
+    bg_conv: np.ndarray | None,
+) -> dict:
+    """Per moving truth target: its SNR in the detection image(s) where it appears, and the clutter null's MDV.
+
+    ``power``, ``bg``: the detection image searched and its background; ``conv``, ``bg_conv`` the conventional
+    detection image and its background when ``power`` is the clutter-null residual (None: it is conventional). Returns
+    {row: {...}}: cell, index, snr_db (strongest of the target's ambiguities k PRF / K_a apart in the
+    searched image), and with the null conventional_snr_db, null_depth_db (background after over before),
+    null_gain_db (detection.clutter_null_peak_gain of its true v_los) and mdv (detection.minimum_detectable_velocity).
+    """
+    truth = raw.targets
+    if not len(truth):
+        return {}
+    moving_rows = np.nonzero(moving.is_moving(truth))[0]
+    if not len(moving_rows):
+        return {}
+    centres = moving.phase_centres(raw)
+    n_out, n_cells = power.shape
+    r_mid = _swath_centre_range(raw)
+    spacing = g.prf / float(detection.fm_rate(g.velocity, g.squint, r_mid, g.fc, 0.0)) * g.n * g.prf
+
+    def snr_near(
+        pw: np.ndarray, bgr: np.ndarray, index: float, cell: float, shifts: Iterable[int]
+    ) -> tuple[float, int, int]:
+        """Strongest peak over its background within +-PROBE_SAMPLES samples and +-3 cells of each shifted position.
+
+        The prediction lands within about 10 samples (7 m) of the focused peak: its illumination centre and the
+        compressed image's time origin differ slightly; the window allows for that.
+        """
+        best, where = 0.0, (round(index) % n_out, min(max(round(cell), 0), n_cells - 1))
+        c0, c1 = max(0, round(cell) - 3), min(n_cells, round(cell) + 4)
+        for k in shifts:
+            i = round(index + k * spacing)
+            if not 0 <= i < n_out or c0 >= c1:
+                continue
+            rows = np.arange(i - PROBE_SAMPLES, i + PROBE_SAMPLES + 1) % n_out
+            sub = pw[rows, c0:c1] / np.maximum(bgr[rows, c0:c1], 1e-30)
+            j, c = np.unravel_index(int(np.argmax(sub)), sub.shape)
+            if float(sub[j, c]) > best:
+                best, where = float(sub[j, c]), (int(rows[j]), c0 + int(c))
+        return (10 * math.log10(best) if best > 0 else -math.inf), where[0], where[1]
+
+    lam = C / g.fc
+    out = {}
+    for k in moving_rows:
+        cell, index = _truth_cell_index(raw, g, lead, int(k), centres)
+        row = {"cell": cell, "index": index}
+        row["snr_db"], i_res, c_res = snr_near(power, bg, index, cell, range(-g.n + 1, g.n))
+        row["peak_index"], row["peak_cell"] = i_res, c_res
+        xyz = np.array([truth["x"][k], truth["y"][k], truth["z"][k]], float)
+        vel = np.array([truth["vx"][k], truth["vy"][k], truth["vz"][k]], float)
+        v_a, v_r = moving.slant_velocity(xyz, vel, raw.radar.altitude)
+        row["v_los"] = channels.line_of_sight_velocity(v_r, v_a, g.squint)
+        if conv is not None and bg_conv is not None:
+            row["conventional_snr_db"], i, c = snr_near(conv, bg_conv, index, cell, [0])
+            # the background where its residual peaks (one of its ambiguities) over that where it appears
+            row["null_depth_db"] = 10 * math.log10(float(bg[i_res, c_res]) / float(bg_conv[i, c]))
+            gains = detection.clutter_null_peak_gains(
+                g.tau0, g.prf, g.half_band, params.clutter_band, lam, row["v_los"]
+            )
+            gain = float(gains.max())
+            row["null_gain_db"] = 10 * math.log10(gain) if gain > 0 else -math.inf
+            # Response k lies k PRF / K_a away (which way depends on the sign convention: the responses are
+            # nearly symmetric in k, so each |k| takes the lower background of the two places).
+            depth = []
+            for shift in range(-g.n + 1, g.n):
+                levels = []
+                for sign in (1, -1):
+                    j = round(index + sign * shift * spacing)
+                    if 0 <= j < n_out:
+                        levels.append(float(bg[j, c]))
+                depth.append(10 * math.log10(min(levels) / float(bg_conv[i, c])) if levels else math.inf)
+            need = params.detection_snr - row["conventional_snr_db"] + np.array(depth)
+            need = np.minimum(need, need[::-1])  # either sign of k
+            row["mdv"] = detection.minimum_detectable_velocity(
+                g.tau0, g.prf, g.half_band, params.clutter_band, lam, need
+            )
+        out[int(k)] = row
+    return out
+
+
+def _miss_reason(name: str, probe: dict | None, rejected: list[dict], spacing: float, params: ReconstructParams) -> str:
+    """Why truth mover ``name`` is not in moving_targets, from what the detection image held where it appears."""
+    if probe is None:
+        return f"{name}: not found"
+
+    def off(index: float) -> float:  # samples from the mover's strongest peak, modulo its ambiguity spacing
+        k = (index - probe["peak_index"]) / spacing
+        return abs(k - round(k)) * spacing
+
+    near = [d for d in rejected if abs(d["cell"] - probe["peak_cell"]) <= 4 and off(d["index"]) <= 8]
+    if near:
+        d = max(near, key=lambda d: d["snr_db"])
+        if d["kind"] == "merged":
+            return (
+                f"{name}: detected (SNR {d['snr_db']:.1f} dB) but merged with mover {d['mover']} as its own response "
+                "(same range cells, at its apparent time or one of its ambiguities k PRF / K_a)"
+            )
+        if d["kind"] == "explained":
+            return (
+                f"{name}: detected (SNR {d['snr_db']:.1f} dB) but taken for a response of a mover already examined "
+                "(it fell under the CFAR threshold once that mover's responses were removed)"
+            )
+        if d["kind"] == "static":
+            why = (
+                f"its true line-of-sight velocity {probe['v_los']:.2f} m/s is itself under detection_velocity "
+                f"{params.detection_velocity:g} m/s"
+                if abs(probe["v_los"]) < params.detection_velocity
+                else f"the true one is {probe['v_los']:.2f} m/s: the search runs on its window's channels before the "
+                "null, where the static clutter in those cells outweighs it"
+            )
+            return (
+                f"{name}: detected (SNR {d['snr_db']:.1f} dB) but taken for static: its velocity search gave a "
+                f"line-of-sight velocity of {d['v_los']:.2f} m/s, under detection_velocity "
+                f"{params.detection_velocity:g} m/s; {why}"
+            )
+        return (
+            f"{name}: detected (SNR {d['snr_db']:.1f} dB) but no slant-range velocity explains its response "
+            "(too weak for the velocity search)"
+        )
+    cfar = params.detection_snr
+    if "mdv" in probe and probe["snr_db"] < cfar:
+        v, mdv = abs(probe["v_los"]), probe["mdv"]
+        # the gain model is good to about 1.5 dB (docs/multichannel.md), 20 % in v_los (gain ~ v_los^2)
+        where = (
+            f"below this null's minimum detectable velocity {mdv:.2f} m/s"
+            if v < mdv
+            else f"within the model's 20 % of this null's minimum detectable velocity {mdv:.2f} m/s"
+            if v < 1.2 * mdv
+            else f"above this null's minimum detectable velocity {mdv:.2f} m/s"
+        )
+        return (
+            f"{name}: the clutter null keeps {probe['null_gain_db']:.1f} dB of its peak (line-of-sight speed "
+            f"{v:.2f} m/s, {where} for its conventional SNR {probe['conventional_snr_db']:.1f} dB): its residual peaks "
+            f"{probe['snr_db']:.1f} dB over the background, under the CFAR threshold {cfar:g} dB"
+        )
+    if probe["snr_db"] < cfar:
+        return (
+            f"{name}: its peak is {probe['snr_db']:.1f} dB over the background where it appears, under the "
+            f"CFAR threshold {cfar:g} dB"
+        )
+    return (
+        f"{name}: its peak is {probe['snr_db']:.1f} dB over the background where it appears, but no detection "
+        "was made there (a side lobe of a stronger detection, or beyond max_detections)"
+    )
 
 
 def reconstruct(
@@ -837,6 +1056,7 @@ def reconstruct(
     return _output_product(raw, params, g, out, info, movers)
 
 
+PROBE_SAMPLES = 16  # azimuth samples either side of a truth mover's predicted peak searched for it (_probe_truth)
 VELOCITY_FLOOR = (0.02, 0.05)  # m/s: v_r and v_a errors on noise-free scenes (docs/multichannel.md)
 
 
@@ -874,7 +1094,9 @@ def _uncertainties(mt: MovingTarget, g: _Geometry) -> tuple[float, float, float]
     return s_r, s_a, s_x
 
 
-def _moving_target_rows(raw: Product, g: _Geometry, movers: list[MovingTarget], info: dict) -> np.ndarray:
+def _moving_target_rows(
+    raw: Product, g: _Geometry, movers: list[MovingTarget], info: dict, params: ReconstructParams
+) -> np.ndarray:
     """The aux ``moving_targets`` table (model.MOVING_TARGET_COLUMNS), matched to moving truth targets if any."""
     centres = moving.phase_centres(raw)
     rows = np.zeros((0, len(MOVING_TARGET_COLUMNS)))
@@ -937,10 +1159,16 @@ def _moving_target_rows(raw: Product, g: _Geometry, movers: list[MovingTarget], 
     if moving_rows:
         names = [n.decode() if isinstance(n, bytes) else str(n) for n in truth["name"]]
         found = {int(k) for k in rows[:, -1] if k >= 0} if len(rows) else set()
+        probes, rejected, spacing = info.pop("_probes", ({}, [], 1.0))
+        missed = [k for k in moving_rows if k not in found]
+        reasons = [_miss_reason(names[k], probes.get(int(k)), rejected, spacing, params) for k in missed]
+        for reason in reasons:
+            log.warning("reconstruct: truth mover %s", reason)
         info["truth"] = {
             "movers": len(moving_rows),
             "found": len(found),
-            "missed": [names[k] for k in moving_rows if k not in found],
+            "missed": [names[k] for k in missed],
+            "missed_reasons": reasons,
             "false_alarms": int(np.sum(rows[:, -1] < 0)) if len(rows) else 0,
         }
     return rows
@@ -984,7 +1212,7 @@ def _output_product(
     if movers:
         aux["estimated_velocity"] = np.array([[m.radial_velocity, m.along_track_velocity] for m in movers])
     if params.method == "modified" and params.detection == "auto":
-        aux["moving_targets"] = _moving_target_rows(raw, g, movers, info)
+        aux["moving_targets"] = _moving_target_rows(raw, g, movers, info, params)
     else:  # no detection ran: an empty table, and no claim about the truth movers
         aux["moving_targets"] = np.zeros((0, len(MOVING_TARGET_COLUMNS)))
     radar = raw.radar.replace(prf=g.n * g.prf, n_channels=1)
