@@ -200,20 +200,20 @@ def bench_scene_case():
 
 
 def gotcha_case():
-    from sarproc.product.gotcha import gotcha_product, read_gotcha
+    from sarproc.formats.gotcha import gotcha_product, read_gotcha
 
     files = sorted((ROOT.parent / "shared" / "data" / "gotcha").glob("data_3dsar_pass1_az00*_HH.mat"))
     if not files:
         return None
     g = read_gotcha(files)
     raw = gotcha_product(g)
-    S = g["phase_history"]
-    freq = np.asarray(g["freq"], float)
+    S = g.phase_history
+    freq = np.asarray(g.freq, float)
     if freq[1] < freq[0]:
         S, freq = S[:, ::-1], freq[::-1]
     history = (
         np.ascontiguousarray(S, np.complex64),
-        np.asarray(g["r0"], float),
+        np.asarray(g.r0, float),
         float(freq[0]),
         float(freq[1] - freq[0]),
     )

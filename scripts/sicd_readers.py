@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sarproc.product.sicd import local_support_offsets, read_sicd, sarpy_check
+from sarproc.formats.sicd import local_support_offsets, read_sicd, sarpy_check
 from sarproc.quality.image_measures import bright_points
 
 VERSIONS = ("1.4.0", "1.3.0")

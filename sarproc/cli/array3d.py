@@ -41,8 +41,9 @@ def array3d(
     elevation in rad. Parameters: section `array3d:` of --config.
     """
     from sarproc.cli.progress import progress_factory
-    from sarproc.cli.stage import array3d_estimate, naming, prepare
+    from sarproc.cli.stage import naming, prepare
     from sarproc.focus.array3d.linear_array import Array3DParams, array3d_product
+    from sarproc.focus.budget import array3d_estimate
     from sarproc.product.errors import InputError
     from sarproc.product.io import write_product
 

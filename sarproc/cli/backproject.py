@@ -46,8 +46,9 @@ def backproject(
     from sarproc.cli.dask_map import dask_mapper, scheduler_client, worker_threads, workers_peak_memory
     from sarproc.cli.options import info, max_memory
     from sarproc.cli.progress import progress_factory
-    from sarproc.cli.stage import backproject_block_pixels, backproject_estimate, naming, prepare
+    from sarproc.cli.stage import naming, prepare
     from sarproc.focus import backprojection as bp
+    from sarproc.focus.budget import backproject_block_pixels, backproject_estimate
     from sarproc.product.budget import human
     from sarproc.product.errors import InputError
     from sarproc.product.frames import frame_names
@@ -62,7 +63,7 @@ def backproject(
         ("raw", "raw_multichannel", "raw_array"),
         bp.BackprojectParams,
         "backproject",
-        backproject_estimate,
+        lambda stage, header, params: backproject_estimate(stage, header, params, max_memory()),
     )
     if params.frame != "product" and params.frame not in frame_names():
         raise InputError(

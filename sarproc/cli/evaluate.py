@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 import click
 
+from sarproc.cli.markdown import markdown_table
 from sarproc.cli.options import (
     SectionCommand,
     config_option,
@@ -51,14 +52,27 @@ def _theory(value: float | None, m: AxisMetrics) -> str:
     return "" if value is None or m.theory != "target" else f" ({value:.2f})"
 
 
-def markdown_table(report: QualityReport, units: dict) -> str:
+METRIC_COLUMNS = (
+    "target",
+    "axis",
+    "cut direction",
+    "IRW",
+    "IRW/theory",
+    "PSLR (dB)",
+    "ISLR (dB)",
+    "position error",
+    "error (cells)",
+    "window",
+    "axis cut: IRW/theory",
+    "axis cut: PSLR",
+    "axis cut: ISLR",
+)
+
+
+def metrics_table(report: QualityReport, units: dict) -> str:
     """Metric table (one row per target and principal cut, image-axis cuts as extra columns) and the
     false-target line, as Markdown."""
-    lines = [
-        "| target | axis | cut direction | IRW | IRW/theory | PSLR (dB) | ISLR (dB) | position error | "
-        "error (cells) | window | axis cut: IRW/theory | axis cut: PSLR | axis cut: ISLR |",
-        "|---|---|---|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|",
-    ]
+    rows = []
     for t in report.targets:
         image_axes = t.image_axes or t.axes
         for m, i in zip(t.axes, image_axes):
@@ -74,14 +88,24 @@ def markdown_table(report: QualityReport, units: dict) -> str:
                     f", shortened to +-{m.shortened_nulls:g} nulls: PSLR {_fmt(m.shortened_pslr_db, '.2f')}, "
                     f"ISLR {_fmt(m.shortened_islr_db, '.2f')}{theory}"
                 )
-            lines.append(
-                f"| {t.name} | {m.axis} | {_direction(m, report.dims)} | {_fmt(m.irw, '.4g')} {u} | "
-                f"{_fmt(m.irw_ratio, '.4f')}{' (own)' if m.theory == 'target' else ''} | "
-                f"{_fmt(m.pslr_db, '.2f')}{_theory(m.pslr_theory_db, m)} | "
-                f"{_fmt(m.islr_db, '.2f')}{_theory(m.islr_theory_db, m)} | "
-                f"{_fmt(m.position_error, '.3g')} {u} | {_fmt(m.position_error_cells, '.4f')} | {window} | "
-                f"{_fmt(i.irw_ratio, '.4f')} | {_fmt(i.pslr_db, '.2f')} | {_fmt(i.islr_db, '.2f')} |"
+            rows.append(
+                (
+                    t.name,
+                    m.axis,
+                    _direction(m, report.dims),
+                    f"{_fmt(m.irw, '.4g')} {u}",
+                    f"{_fmt(m.irw_ratio, '.4f')}{' (own)' if m.theory == 'target' else ''}",
+                    f"{_fmt(m.pslr_db, '.2f')}{_theory(m.pslr_theory_db, m)}",
+                    f"{_fmt(m.islr_db, '.2f')}{_theory(m.islr_theory_db, m)}",
+                    f"{_fmt(m.position_error, '.3g')} {u}",
+                    _fmt(m.position_error_cells, ".4f"),
+                    window,
+                    _fmt(i.irw_ratio, ".4f"),
+                    _fmt(i.pslr_db, ".2f"),
+                    _fmt(i.islr_db, ".2f"),
+                )
             )
+    lines = [markdown_table(METRIC_COLUMNS, rows, "lllrrrrrrlrrr")]
     lines.append(
         "\nCuts along each response's principal axes (side-lobe ridges, from the chip's spectral support); "
         "'truncated': the ISLR window reaches the image edge (unverified); 'minus X': the fitted ideal "
@@ -98,6 +122,22 @@ def markdown_table(report: QualityReport, units: dict) -> str:
     return "\n".join(lines)
 
 
+MOVER_COLUMNS = (
+    "target",
+    "v_r true (m/s)",
+    "v_a true (m/s)",
+    "measured at (azimuth, range)",
+    "shift from truth (m)",
+    "estimate",
+    "v_r est.",
+    "v_a est.",
+    "v_r error",
+    "v_a error",
+    "relocation error (m)",
+    "implied by velocity error (m)",
+)
+
+
 def movers_table(movers: Sequence[MoverReport]) -> str:
     """Moving truth targets: where they were measured, velocity errors, relocation, as Markdown."""
 
@@ -108,18 +148,25 @@ def movers_table(movers: Sequence[MoverReport]) -> str:
         "\nMoving targets: measured at their static-equivalent position (where a static-scene image focuses "
         "them, from the truth velocity and the geometry); relocated = the measured peak taken back to azimuth "
         "time 0 with the estimated velocity (or the moving_targets table's relocated position).\n",
-        "| target | v_r true (m/s) | v_a true (m/s) | measured at (azimuth, range) | shift from truth (m) | "
-        "estimate | v_r est. | v_a est. | v_r error | v_a error | relocation error (m) | "
-        "implied by velocity error (m) |",
-        "|---|---:|---:|---|---:|---|---:|---:|---:|---:|---:|---:|",
     ]
-    for m in movers:
-        at = ", ".join(f"{v:.2f}" for v in m.apparent_coords.values())
-        lines.append(
-            f"| {m.name} | {m.v_r:.3f} | {m.v_a:.3f} | {at} | {m.shift:.1f} | {m.estimate} | "
-            f"{f(m.v_r_estimated)} | {f(m.v_a_estimated)} | {f(m.v_r_error)} | {f(m.v_a_error)} | "
-            f"{f(m.relocation_error, '.2f')} | {f(m.relocation_error_from_velocity, '.2f')} |"
+    rows = [
+        (
+            m.name,
+            f"{m.v_r:.3f}",
+            f"{m.v_a:.3f}",
+            ", ".join(f"{v:.2f}" for v in m.apparent_coords.values()),
+            f"{m.shift:.1f}",
+            str(m.estimate),
+            f(m.v_r_estimated),
+            f(m.v_a_estimated),
+            f(m.v_r_error),
+            f(m.v_a_error),
+            f(m.relocation_error, ".2f"),
+            f(m.relocation_error_from_velocity, ".2f"),
         )
+        for m in movers
+    ]
+    lines.append(markdown_table(MOVER_COLUMNS, rows, "lrrlrlrrrrrr"))
     if any(m.estimate == "none" for m in movers):
         lines.append(
             "\n'none': the product holds no velocity estimate for this target (no moving_targets table row "
@@ -230,12 +277,13 @@ def evaluate(
     exclusion_cells). Prints a Markdown table; exit status 1 when --expect tolerances fail, 2 on bad input.
     """
     from sarproc.cli.progress import progress_factory
-    from sarproc.cli.stage import evaluate_estimate, naming, report_plan
+    from sarproc.cli.stage import naming, report_plan
     from sarproc.product.config import load_yaml
     from sarproc.product.errors import InputError
     from sarproc.product.io import check_output_path, read_product
     from sarproc.product.model import UNITS
     from sarproc.product.run import mark_published
+    from sarproc.quality.budget import evaluate_estimate
     from sarproc.quality.metrics import EvaluateParams, check_report, evaluate_product, expectations_from_mapping
 
     # Every argument is checked before the (possibly long) evaluation: config, tolerances, the
@@ -298,7 +346,7 @@ def evaluate(
         _plots(plot_dir, product, report, units, params)
         mark_published(plot_dir)
     if verbosity() >= 0:
-        click.echo(markdown_table(report, units), err=stdout_taken())
+        click.echo(metrics_table(report, units), err=stdout_taken())
     if expect is not None:
         for f in failures:
             click.echo(str(f), err=True)

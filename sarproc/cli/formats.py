@@ -94,11 +94,10 @@ def export_sicd(
     """Export a focused 2D image product to SICD (NITF), checked by sarkit's SicdConsistency."""
     import numpy as np
 
-    from sarproc.cli.stage import export_sicd_estimate, naming, plan_outputs
-    from sarproc.product.errors import InputError, ProcessingError
-    from sarproc.product.geolocation import GeolocationParams, placement
-    from sarproc.product.io import atomic_path, read_product
-    from sarproc.product.sicd import (
+    from sarproc.cli.stage import naming, plan_outputs
+    from sarproc.formats.budget import export_sicd_estimate
+    from sarproc.formats.geolocation import GeolocationParams, placement
+    from sarproc.formats.sicd import (
         check_sicd,
         formed_by_pfa,
         image_grid,
@@ -107,6 +106,8 @@ def export_sicd(
         sicd_pixels,
         write_sicd,
     )
+    from sarproc.product.errors import InputError, ProcessingError
+    from sarproc.product.io import atomic_path, read_product
 
     require_sarkit()
     # config, input header (and its placement), output location, plan; then the data
@@ -151,9 +152,10 @@ def export_cphd(
     input_path: Path, output: Path, config_path: Path | None, overwrite: bool, report_path: Path | None
 ) -> None:
     """Export a single-channel raw product to CPHD 1.1.0 (FX domain), checked by sarkit's CphdConsistency."""
-    from sarproc.cli.stage import export_cphd_estimate, naming, plan_outputs
-    from sarproc.product.cphd import check_cphd, require_sarkit, write_cphd
-    from sarproc.product.geolocation import GeolocationParams, placement
+    from sarproc.cli.stage import naming, plan_outputs
+    from sarproc.formats.budget import export_cphd_estimate
+    from sarproc.formats.cphd import check_cphd, require_sarkit, write_cphd
+    from sarproc.formats.geolocation import GeolocationParams, placement
     from sarproc.product.io import atomic_path, read_product
 
     require_sarkit()
@@ -184,8 +186,9 @@ def import_cphd(input_path: Path, output: Path, overwrite: bool) -> None:
     (FX band, grid and SRP may vary per vector; no targets: give the focusers grid extents). See
     docs/formats.md.
     """
-    from sarproc.cli.stage import import_cphd_estimate, plan_outputs
-    from sarproc.product.cphd import cphd_header, read_cphd, require_sarkit
+    from sarproc.cli.stage import plan_outputs
+    from sarproc.formats.budget import import_cphd_estimate
+    from sarproc.formats.cphd import cphd_header, read_cphd, require_sarkit
     from sarproc.product.io import history_entry, write_product
 
     require_sarkit()

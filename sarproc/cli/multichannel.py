@@ -26,7 +26,8 @@ def reconstruct(
     `reconstruct` and aux `velocity_search_<k>`; `sarproc backproject` focuses the output.
     """
     from sarproc.cli.progress import progress_factory
-    from sarproc.cli.stage import naming, prepare, reconstruct_estimate
+    from sarproc.cli.stage import naming, prepare
+    from sarproc.focus.budget import reconstruct_estimate
     from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct as run
     from sarproc.product.io import write_product
 

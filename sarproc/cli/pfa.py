@@ -29,7 +29,8 @@ def pfa2(
     """Polar format with the varied gate, sub-aperture de-aliasing and two-step PFA (section `pfa2:`)."""
     from sarproc.cli.dask_map import dask_mapper, scheduler_client
     from sarproc.cli.progress import progress_factory
-    from sarproc.cli.stage import naming, pfa2_estimate, prepare
+    from sarproc.cli.stage import naming, prepare
+    from sarproc.focus.budget import pfa2_estimate
     from sarproc.focus.pfa.chain import Pfa2Params, pfa2 as run
     from sarproc.product.io import write_product
 
@@ -65,8 +66,9 @@ def pfa2(
 )
 def import_gotcha(inputs: tuple[Path, ...], output: Path, overwrite: bool, autofocus: bool) -> None:
     """Convert AFRL Gotcha phase-history .mat files (one pass, consecutive azimuths) into a raw product."""
-    from sarproc.cli.stage import import_gotcha_estimate, plan_outputs
-    from sarproc.product.gotcha import gotcha_files, gotcha_product, read_gotcha
+    from sarproc.cli.stage import plan_outputs
+    from sarproc.formats.budget import import_gotcha_estimate
+    from sarproc.formats.gotcha import gotcha_files, gotcha_product, read_gotcha
     from sarproc.product.io import write_product
 
     files = gotcha_files(inputs)  # every file checked before the output is looked at

@@ -50,9 +50,10 @@ def quicklook(
     """
     import numpy as np
 
-    from sarproc.cli.stage import plan_outputs, quicklook_estimate
+    from sarproc.cli.stage import plan_outputs
     from sarproc.product.io import atomic_path, read_magnitude_preview, read_product
     from sarproc.product.model import UNITS
+    from sarproc.quality.budget import quicklook_estimate
     from sarproc.quality.plotting import plot_quicklook
 
     header = read_product(input_path, kinds=("image", "image3d"), load=False)

@@ -29,7 +29,7 @@ SECTION_MODELS = {
     "reconstruct": "sarproc.focus.multichannel.reconstruct:ReconstructParams",
     "array3d": "sarproc.focus.array3d.linear_array:Array3DParams",
     "evaluate": "sarproc.quality.metrics:EvaluateParams",
-    "geolocation": "sarproc.product.geolocation:GeolocationParams",
+    "geolocation": "sarproc.formats.geolocation:GeolocationParams",
 }
 SCENE_MODEL = "sarproc.simulation.scene:SceneParams"
 EXPECT_MODEL = "sarproc.quality.metrics:Expectations"

@@ -32,8 +32,9 @@ def simulate(scene_path: Path, output: Path, overwrite: bool, progress: bool | N
     """Simulate exact-geometry raw echoes of the point targets declared in SCENE_PATH ('-': standard input)."""
     from sarproc.cli.dask_map import dask_mapper, scheduler_client
     from sarproc.cli.progress import progress_factory
-    from sarproc.cli.stage import naming, report_plan, simulate_estimate
+    from sarproc.cli.stage import naming, report_plan
     from sarproc.product.io import ProductWriter, WriteBehind, check_output_path, history_entry
+    from sarproc.simulation.budget import simulate_estimate
     from sarproc.simulation.scene import load_scene
     from sarproc.simulation.simulate import illumination_warnings, plan_simulation, simulate_blocks
 

@@ -56,7 +56,7 @@ def preprocess(
     input_path: Path, output: Path, config_path: Path | None, overwrite: bool, progress: bool | None
 ) -> None:
     """Doppler-centroid correction of a raw product (paper 000 eq. 7; section `preprocess:`)."""
-    from sarproc.cli.stage import preprocess_estimate
+    from sarproc.focus.budget import preprocess_estimate
     from sarproc.focus.squint_deramp.preprocess import PreprocessParams, preprocess as run
 
     out, dt = _run(
@@ -84,7 +84,7 @@ def coarse_focus(
     input_path: Path, output: Path, config_path: Path | None, overwrite: bool, progress: bool | None
 ) -> None:
     """Azimuth deramp / SPECAN coarse focusing (paper 000 eqs. 9-11; section `coarse_focus:`)."""
-    from sarproc.cli.stage import coarse_focus_estimate
+    from sarproc.focus.budget import coarse_focus_estimate
     from sarproc.focus.squint_deramp.coarse_focus import CoarseFocusParams, coarse_focus as run
 
     out, dt = _run(
@@ -114,7 +114,7 @@ def fine_focus(
     input_path: Path, output: Path, config_path: Path | None, overwrite: bool, progress: bool | None
 ) -> None:
     """Stolt range focusing and azimuth compression, flow 1 or NLCS flow 2 (section `fine_focus:`)."""
-    from sarproc.cli.stage import fine_focus_estimate
+    from sarproc.focus.budget import fine_focus_estimate
     from sarproc.focus.squint_deramp.fine_focus import FineFocusParams, fine_focus as run
 
     out, dt = _run(

@@ -73,7 +73,7 @@ def sweep(
     import logging
     import os
 
-    from sarproc.cli.sweep_tasks import local_client, markdown_table, plan_sweep, run_dask, run_serial, write_results
+    from sarproc.cli.sweep_tasks import local_client, plan_sweep, run_dask, run_serial, sweep_table, write_results
     from sarproc.product import run
     from sarproc.product.errors import InputError, ProcessingError
     from sarproc.product.io import atomic_path, check_output_path
@@ -137,7 +137,7 @@ def sweep(
     run.take_stdout(table_on_stdout)
     if table_path is not None:
         with atomic_path(table_path) as tmp:
-            tmp.write_text(markdown_table(plan, outcome.rows) + "\n", encoding="utf-8")
+            tmp.write_text(sweep_table(plan, outcome.rows) + "\n", encoding="utf-8")
     skipped = sum(1 for r in outcome.rows if r["skipped"])
     for task, error in outcome.failures:
         click.echo(f"sweep: task {task} failed: {error}", err=True)

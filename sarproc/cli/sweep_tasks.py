@@ -659,14 +659,14 @@ def _cell(v: object) -> str:
     return str(v)
 
 
-def markdown_table(plan: Plan, rows: list) -> str:
+def sweep_table(plan: Plan, rows: list) -> str:
+    """The sweep's rows as Markdown: scene, knobs, times, worst quality."""
+    from sarproc.cli.markdown import markdown_table
+
     columns = ["scene", *plan.knobs, *TIME_COLUMNS, *QUALITY_COLUMNS]
-    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
-    for row in rows:  # a knob a task does not set keeps its default: blank
-        lines.append(
-            "| " + " | ".join(_cell(row.get(c)) if c in row or c not in plan.knobs else "" for c in columns) + " |"
-        )
-    return "\n".join(lines)
+    # a knob a task does not set keeps its default: blank
+    cells = [[_cell(row.get(c)) if c in row or c not in plan.knobs else "" for c in columns] for row in rows]
+    return markdown_table(columns, cells)
 
 
 def write_results(plan: Plan, outcome: Outcome, runner: str) -> dict[str, Path]:
@@ -707,7 +707,7 @@ def write_results(plan: Plan, outcome: Outcome, runner: str) -> dict[str, Path]:
         "false-target level (dB).\n\n"
     )
     with atomic_path(paths["md"]) as tmp:
-        tmp.write_text(head + markdown_table(plan, outcome.rows) + "\n")
+        tmp.write_text(head + sweep_table(plan, outcome.rows) + "\n")
     if outcome.rows:
         with atomic_path(paths["plot"]) as tmp:
             plot_sweep(tmp, plan, outcome.rows)

@@ -23,6 +23,21 @@ def chirp_replica(radar: RadarMetadata) -> tuple[np.ndarray, int]:
     return h, half
 
 
+def replica_fft_size(radar: RadarMetadata, n_range: int) -> int:
+    """FFT length of range compression: n_range + the replica, so the circular convolution does not wrap."""
+    h, _ = chirp_replica(radar)
+    return sfft.next_fast_len(n_range + len(h), real=False)
+
+
+def replica_spectrum(radar: RadarMetadata, n_fft: int) -> np.ndarray:
+    """FFT (n_fft bins, unshifted) of the chirp replica circularly centred on sample 0 (tau = 0), complex128."""
+    h, half = chirp_replica(radar)
+    circ = np.zeros(n_fft, complex)
+    circ[: half + 1] = h[half:]
+    circ[n_fft - half :] = h[:half]
+    return sfft.fft(circ)
+
+
 def spectral_window(name: str, freqs: np.ndarray, bandwidth: float) -> np.ndarray:
     """Amplitude taper over the band |f| <= B/2 (zero outside); the windows and their theory are
     sarproc.product.theory's."""
@@ -47,12 +62,9 @@ def range_compress(
     if filter not in FILTERS:
         raise InputError(f"range filter {filter!r} is not one of {list(FILTERS)}")
     n_rg = signal.shape[-1]
-    h, half = chirp_replica(radar)
-    n_fft = sfft.next_fast_len(n_rg + len(h), real=False)
-    h_circ = np.zeros(n_fft, complex)
-    h_circ[: half + 1] = h[half:]
-    h_circ[n_fft - half :] = h[:half]
-    spec_h = sfft.fft(h_circ)
+    h, _ = chirp_replica(radar)
+    n_fft = replica_fft_size(radar, n_rg)
+    spec_h = replica_spectrum(radar, n_fft)
     f = sfft.fftfreq(n_fft, 1.0 / radar.range_sampling_rate)
     if filter == "matched":
         filt = np.conj(spec_h) / np.count_nonzero(h)

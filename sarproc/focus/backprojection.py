@@ -26,8 +26,8 @@ from sarproc.dsp.rangecomp import range_compress
 from sarproc.product import beam, moving, theory
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import InputError
-from sarproc.product.frames import Frame, make_frame, targets_in_frame
-from sarproc.product.metadata import C
+from sarproc.product.frames import Frame, image_axis, make_frame, targets_in_frame
+from sarproc.product.metadata import SINC_IRW_FACTOR, C
 from sarproc.product.model import Product, target_names
 from sarproc.product.theory import WINDOWS
 
@@ -482,10 +482,10 @@ def theoretical_irw(product: Product, frame: Frame, centre_coords: Sequence[floa
         shifted[i] = shifted[i] + eps
         e = (frame.to_xyz(*shifted) - p0) / eps  # derivative of position along the axis
         if ax == "range":
-            widths.append(0.886 / ((2 * r.bandwidth / C) * abs(float(u_mid @ e))))
+            widths.append(SINC_IRW_FACTOR / ((2 * r.bandwidth / C) * abs(float(u_mid @ e))))
         else:
             proj = u @ e
-            widths.append(0.886 / ((2 / r.wavelength) * float(proj.max() - proj.min())))
+            widths.append(SINC_IRW_FACTOR / ((2 / r.wavelength) * float(proj.max() - proj.min())))
     return widths
 
 
@@ -521,16 +521,17 @@ def _default_grid(
     centre_scene = [float(c) for c in frame.from_xyz(np.asarray(product.radar.scene_center))]
     axes = {}
     for i, ax in enumerate(frame.axes):
-        spacing = getattr(params, f"{ax}_spacing") or min(irw_guess[i], finest[i]) / params.oversample
-        vals = coords[ax]
-        centre = getattr(params, f"{ax}_center")
-        if centre is None:
-            centre = float((vals.min() + vals.max()) / 2) if len(vals) else centre_scene[i]
-        extent = getattr(params, f"{ax}_extent")
-        if extent is None:
-            span = float(vals.max() - vals.min()) if len(vals) else 0.0
-            extent = span + 2 * params.margin_cells * irw_guess[i]
-        n = max(2, int(math.ceil(extent / spacing)))
+        centre, spacing, n = image_axis(
+            coords[ax],
+            irw_guess[i],
+            params.oversample,
+            params.margin_cells,
+            getattr(params, f"{ax}_spacing"),
+            getattr(params, f"{ax}_center"),
+            getattr(params, f"{ax}_extent"),
+            default_centre=centre_scene[i],
+            finest=finest[i],
+        )
         axes[ax] = centre + (np.arange(n) - n // 2) * spacing
     return axes
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from sarproc.product.errors import InputError
-from sarproc.product.metadata import RadarMetadata
+from sarproc.product.metadata import SINC_IRW_FACTOR, RadarMetadata
 
 
 def boresight(radar: RadarMetadata, platform_pos: np.ndarray) -> np.ndarray:
@@ -52,7 +52,7 @@ def off_boresight_angles(
 def one_way_amplitude(angle: np.ndarray, beamwidth: float, pattern: str) -> np.ndarray:
     """One-way amplitude pattern with -3 dB (power) beamwidth ``beamwidth``."""
     if pattern == "sinc":
-        return np.sinc(0.886 * np.sin(angle) / beamwidth)
+        return np.sinc(SINC_IRW_FACTOR * np.sin(angle) / beamwidth)
     if pattern == "gaussian":
         return np.exp(-2.0 * np.log(2.0) * (angle / beamwidth) ** 2)
     if pattern == "rect":

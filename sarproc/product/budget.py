@@ -5,6 +5,16 @@ reads the data. :func:`check_plan` refuses (InputError, exit 2) a plan that cann
 output larger than the free space of its directory or the process's file-size limit, or working
 memory above ``--max-memory`` or the memory available now. Estimates are deliberately simple
 (array sizes times the copies a stage holds), so they are upper bounds within a small factor.
+
+Each stage's estimate lives beside its family (``sarproc.focus.budget``, ``sarproc.quality.budget``,
+``sarproc.simulation.budget``, ``sarproc.formats.budget``); the command line only calls them. A plan is for
+the whole process, as ``/usr/bin/time`` would measure it: peak RSS and wall time. Each stage's estimate
+models its own arrays (sizes times the copies it holds at its peak) and its work (FFT and kernel rates);
+:func:`whole_process` adds what every run costs besides, measured on the reference machine (2-core
+x86-64, 2026-12; ``scripts/plan_accuracy.py``): the interpreter with numpy, scipy, h5py, numba and the
+stage's modules, and, while the compiled kernels are not yet in numba's cache, their compilation.
+``make plan-accuracy`` sets every plan against the measured run (docs/plans.md); the aim is within 2x of
+both.
 """
 
 from __future__ import annotations
@@ -19,7 +29,10 @@ from typing import TYPE_CHECKING
 from sarproc.product.errors import InputError
 
 if TYPE_CHECKING:
-    from collections.abc import Sequence
+    from collections.abc import Iterable, Sequence
+    from typing import Any
+
+    from sarproc.product.model import Product
 
 _SIZE = re.compile(r"^\s*(\d+(?:\.\d*)?|\.\d+)\s*([kKMGT]?)(i?)(B?)\s*$")
 _FACTOR = {"": 1, "k": 1e3, "K": 1e3, "M": 1e6, "G": 1e9, "T": 1e12}
@@ -186,3 +199,87 @@ def fft_seconds(shape: tuple[int, ...], repeats: int = 2) -> float:
         sfft.fft2(x, workers=-1)
         best = min(best, time.perf_counter() - t0)
     return best
+
+
+# stage: (peak RSS bytes, seconds) of a run on a tiny scene with the kernels cached: imports (numpy,
+# scipy, h5py ~75 MB, numba ~90 MB more, 0.5-1 s), reading and writing the products, the kernels loaded.
+PROCESS = {
+    "simulate": (185e6, 0.9),
+    "preprocess": (225e6, 1.1),
+    "coarse-focus": (195e6, 0.8),
+    "fine-focus": (230e6, 1.1),
+    "backproject": (240e6, 1.1),
+    "pfa2": (290e6, 1.4),
+    "reconstruct": (255e6, 0.9),
+    "array3d": (215e6, 1.0),
+    "evaluate": (135e6, 0.9),
+    "export-sicd": (85e6, 0.9),
+    "export-cphd": (125e6, 1.7),
+    "import-cphd": (120e6, 0.8),
+    "import-gotcha": (88e6, 0.6),
+    "quicklook": (105e6, 1.1),
+}
+
+# stage: (the numba modules it runs, seconds and bytes to compile them when numba's cache lacks them)
+KERNELS = {
+    "simulate": (("sarproc.simulation.echo_kernel",), 12.0, 60e6),
+    "preprocess": (("sarproc.dsp.phasor",), 0.5, 10e6),
+    "fine-focus": (
+        (
+            "sarproc.focus.squint_deramp.stolt",
+            "sarproc.focus.squint_deramp.block_copies",
+            "sarproc.focus.squint_deramp.fine_focus",
+            "sarproc.dsp.interp",
+            "sarproc.dsp.phasor",
+        ),
+        10.0,
+        70e6,
+    ),
+    "backproject": (("sarproc.focus.backprojection_kernel", "sarproc.dsp.phasor"), 14.0, 105e6),
+}
+
+
+def kernels_cached(modules: Iterable[str]) -> bool:
+    """Whether numba's cache holds the kernels of ``modules``: each module with cached kernels has
+    the index file of at least one (a kernel a stage never calls, e.g. cubic interpolation's table
+    in a linear run, is never compiled, so not every index exists after a run)."""
+    import importlib
+    import os
+
+    from numba.core.registry import CPUDispatcher
+
+    for name in modules:
+        indexes = [
+            obj._cache._cache_file._index_path
+            for obj in vars(importlib.import_module(name)).values()
+            if isinstance(obj, CPUDispatcher) and hasattr(obj._cache, "_cache_file")
+        ]
+        if indexes and not any(os.path.exists(p) for p in indexes):
+            return False
+    return True
+
+
+def whole_process(plan: Plan) -> Plan:
+    """``plan`` (the stage's own arrays and work) plus the process around it (see the module doc)."""
+    memory, seconds = PROCESS.get(plan.stage, (200e6, 1.0))
+    detail = plan.detail
+    modules, compile_s, compile_bytes = KERNELS.get(plan.stage, ((), 0.0, 0.0))
+    if modules and not kernels_cached(modules):
+        seconds += compile_s
+        memory += compile_bytes
+        detail = (detail + "; " if detail else "") + f"compiling its kernels first (~{compile_s:.0f} s, then cached)"
+    return dataclasses.replace(
+        plan, memory_bytes=plan.memory_bytes + memory, seconds=plan.seconds + seconds, detail=detail
+    )
+
+
+def header_shape(header: Product) -> tuple[int, ...]:
+    """The data's shape, from a header read with load=False or from a loaded product."""
+    return tuple(int(n) for n in header.attrs.get("shape", header.data.shape))
+
+
+def generic_estimate(stage: str, header: Product, params: Any) -> Plan:
+    """Output as large as the input, four input-sized arrays in memory, FFT-like cost."""
+    n = math.prod(header_shape(header))
+    b = complex_bytes(n)
+    return Plan(stage, b, 4 * b, n * 60e-9 * max(1.0, math.log2(max(n, 2)) / 10))

@@ -311,5 +311,32 @@ def targets_in_frame(targets: np.ndarray, frame: Frame) -> np.ndarray:
     return out
 
 
+def image_axis(
+    values: np.ndarray,
+    irw: float,
+    oversample: float,
+    margin_cells: float,
+    spacing: float | None = None,
+    centre: float | None = None,
+    extent: float | None = None,
+    default_centre: float = 0.0,
+    finest: float | None = None,
+) -> tuple[float, float, int]:
+    """(centre, spacing, pixels) of one axis of a focuser's image grid, the rule backproject and pfa2 share.
+
+    ``values``: the targets' coordinates on the axis; ``irw``: the image's theoretical IRW there. Unset
+    keys default to: spacing min(irw, ``finest``) / oversample (``finest``: the finest target's own IRW),
+    centre the middle of the targets (``default_centre`` without targets), extent the targets' span plus
+    margin_cells IRWs each side. At least two pixels; pixel i lies at centre + (i - pixels // 2) spacing.
+    """
+    spacing = spacing or min(irw, irw if finest is None else finest) / oversample
+    if centre is None:
+        centre = float((values.min() + values.max()) / 2) if len(values) else default_centre
+    if extent is None:
+        span = float(values.max() - values.min()) if len(values) else 0.0
+        extent = span + 2 * margin_cells * irw
+    return centre, spacing, max(2, int(math.ceil(extent / spacing)))
+
+
 def frame_names() -> list[str]:
     return sorted(_FRAMES) + ["zero_doppler"]

@@ -23,6 +23,7 @@ if TYPE_CHECKING:
     from typing import Any
 
 C = 299_792_458.0  # speed of light, m/s
+SINC_IRW_FACTOR = 0.886  # -3 dB width of sinc^2 times the bandwidth (0.8859 exactly): unweighted IRW x B
 
 _FORMAT_VERSION = "1"
 
@@ -81,7 +82,7 @@ class RadarMetadata:
     @property
     def range_resolution(self) -> float:
         """Theoretical slant-range IRW of unweighted processing, m (0.886 c / 2B)."""
-        return 0.886 * C / (2.0 * self.bandwidth)
+        return SINC_IRW_FACTOR * C / (2.0 * self.bandwidth)
 
     def validate(self) -> None:
         positive = (

@@ -26,7 +26,7 @@ import numpy as np
 
 from sarproc.product import beam
 from sarproc.product.errors import InputError
-from sarproc.product.metadata import C
+from sarproc.product.metadata import SINC_IRW_FACTOR, C
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -286,7 +286,7 @@ def unweighted_irw(theories: Sequence[Sequence[ResponseTheory]], fallback: Seque
     an image-wide theory that a target at the edge of the beam does not drag away from the rest."""
     if not theories:
         return [float(x) for x in fallback]
-    return [float(np.median([0.886 * t[a].null for t in theories])) for a in range(len(theories[0]))]
+    return [float(np.median([SINC_IRW_FACTOR * t[a].null for t in theories])) for a in range(len(theories[0]))]
 
 
 # ----------------------------------------------------------------------------------------------

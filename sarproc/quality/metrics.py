@@ -59,6 +59,7 @@ import scipy.linalg
 
 from sarproc.product.config import param
 from sarproc.product.errors import InputError
+from sarproc.product.metadata import SINC_IRW_FACTOR
 from sarproc.product.steps import steps, wrapped
 from sarproc.product.theory import cut_metrics as _cut_metrics, window_theory
 from sarproc.quality.linesum import exponential_sums
@@ -70,8 +71,6 @@ from sarproc.quality.residual import (
     response_basis,
     spectral_orders,
 )
-
-SINC_IRW_FACTOR = 0.886  # -3 dB width of sinc^2 times the bandwidth (0.8859 exactly)
 
 
 @dataclasses.dataclass(frozen=True)

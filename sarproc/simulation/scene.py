@@ -19,7 +19,14 @@ from sarproc.product import beam
 from sarproc.product.config import OTHER_SECTIONS, STAGE_SECTIONS, as_dict, build, load_yaml, param
 from sarproc.product.errors import IMAGE_DEFECT, InputError
 from sarproc.product.frames import Frame, frame_coordinates, frame_names, make_frame
-from sarproc.product.metadata import POLARIZATION_RE, POLARIZATIONS, C, RadarMetadata, scene_center_from_geometry
+from sarproc.product.metadata import (
+    POLARIZATION_RE,
+    POLARIZATIONS,
+    SINC_IRW_FACTOR,
+    C,
+    RadarMetadata,
+    scene_center_from_geometry,
+)
 from sarproc.product.model import make_targets
 
 log = logging.getLogger(__name__)
@@ -247,7 +254,12 @@ def _aperture_time(p: SceneParams, wavelength: float) -> float:
         return a.n_pulses / p.radar.prf
     assert a.azimuth_resolution is not None  # AcquisitionParams.validate: exactly one of the three is given
     cos2 = math.cos(p.geometry.squint) ** 2
-    return 0.886 * wavelength * p.geometry.reference_range / (2 * a.azimuth_resolution * p.platform.velocity * cos2)
+    return (
+        SINC_IRW_FACTOR
+        * wavelength
+        * p.geometry.reference_range
+        / (2 * a.azimuth_resolution * p.platform.velocity * cos2)
+    )
 
 
 def _targets(

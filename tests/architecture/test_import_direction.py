@@ -1,4 +1,4 @@
-"""Imports run one way: cli -> focus / simulation -> quality / dsp -> product.
+"""Imports run one way: cli -> formats / focus / simulation -> quality / dsp -> product.
 
 Every module of the package is parsed (no import side effects) and each of its imports,
 including those inside functions, is checked against the layer ranks below. A layer may
@@ -15,7 +15,8 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[2] / "sarproc"
 
 # Rank of each top-level sub-package; equal ranks are siblings and may not import each other.
-LAYER_RANK = {"product": 0, "dsp": 1, "quality": 1, "focus": 2, "simulation": 2, "cli": 3}
+# formats (CPHD, SICD, Gotcha, geolocation) sits above product and dsp: only cli imports it.
+LAYER_RANK = {"product": 0, "dsp": 1, "quality": 1, "focus": 2, "simulation": 2, "formats": 2, "cli": 3}
 
 
 def module_name(path: Path, root: Path = PACKAGE) -> str:
@@ -92,6 +93,10 @@ def test_imports_run_downward(path):
         ("focus", "from sarproc.simulation.simulate import simulate"),
         ("simulation", "from sarproc.focus.backprojection import backproject"),
         ("focus", "    from sarproc.cli.options import summary"),
+        ("product", "from sarproc.formats.cphd import read_cphd"),
+        ("dsp", "from sarproc.formats.geolocation import placement"),
+        ("focus", "from sarproc.formats.gotcha import gotcha_product"),
+        ("formats", "from sarproc.cli.stage import plan_outputs"),
     ],
 )
 def test_checker_catches_an_upward_or_sideways_import(layer, bad_import):
@@ -108,6 +113,9 @@ def test_checker_catches_an_upward_or_sideways_import(layer, bad_import):
         ("focus", "from .stolt import stolt_resample"),
         ("simulation", "from sarproc.dsp.phasor import unit_phasor"),
         ("product", "from sarproc import __version__"),
+        ("formats", "from sarproc.dsp.rangecomp import chirp_replica"),
+        ("formats", "from sarproc.product.io import atomic_path"),
+        ("cli", "from sarproc.formats.cphd import read_cphd"),
     ],
 )
 def test_checker_allows_downward_imports(layer, good_import):

@@ -1180,7 +1180,7 @@ def test_file_size_limit(tmp_path):
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 2 and "raw.h5" in err and "ulimit -f" in err
     # above the estimate (the samples), below the real file (aux arrays, scales, metadata): the write fails
-    from sarproc.cli.stage import simulate_estimate
+    from sarproc.simulation.budget import simulate_estimate
     from sarproc.simulation.scene import load_scene
 
     limit_kb = int(simulate_estimate(load_scene(scene)).output_bytes / 1024) + 8

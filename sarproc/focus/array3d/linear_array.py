@@ -44,10 +44,10 @@ import scipy.fft as sfft
 
 from sarproc.dsp.interp import KERNELS, resample
 from sarproc.dsp.phasor import multiply_separable_phase
-from sarproc.dsp.rangecomp import chirp_replica
+from sarproc.dsp.rangecomp import chirp_replica, replica_fft_size, replica_spectrum
 from sarproc.product.config import param
 from sarproc.product.errors import IMAGE_DEFECT, InputError, ProcessingError
-from sarproc.product.metadata import C, RadarMetadata
+from sarproc.product.metadata import SINC_IRW_FACTOR, C, RadarMetadata
 from sarproc.product.steps import steps, wrapped
 from sarproc.product.theory import fill_target_theory, response_theory, window_theory
 
@@ -216,7 +216,7 @@ def target_theory_3d(
     v = np.sort(np.asarray(offsets, float))
     cell = float(np.median(np.diff(v))) if len(v) > 1 else 0.0
     flat = window_theory("none")
-    others = [flat.scaled(w / 0.886) for w in channel_irw]
+    others = [flat.scaled(w / SINC_IRW_FACTOR) for w in channel_irw]
     out = []
     for theta in np.asarray(elevations, float):
         c = math.cos(float(theta)) / wavelength
@@ -261,12 +261,9 @@ def range_compress(
     ``ctype`` precision (the shared :func:`sarproc.dsp.rangecomp.range_compress` always returns complex64).
     """
     n_rg = signal.shape[-1]
-    h, half = chirp_replica(radar)
-    n_fft = sfft.next_fast_len(n_rg + len(h))
-    h_circ = np.zeros(n_fft, complex)
-    h_circ[: half + 1] = h[half:]
-    h_circ[n_fft - half :] = h[:half]
-    spec_h = sfft.fft(h_circ)
+    h, _ = chirp_replica(radar)
+    n_fft = replica_fft_size(radar, n_rg)
+    spec_h = replica_spectrum(radar, n_fft)
     if kind == "matched":
         filt = (np.conj(spec_h) / np.count_nonzero(h)).astype(ctype)
     else:
@@ -522,8 +519,8 @@ def focus_array3d(
         None if progress is None else (lambda it, total=None: wrapped(done, it)),
     )
     b_az = azimuth_bandwidth(radar, du)
-    irw_az = 0.886 / b_az
-    irw_rg = 0.886 * C / (2 * radar.bandwidth)
+    irw_az = SINC_IRW_FACTOR / b_az
+    irw_rg = SINC_IRW_FACTOR * C / (2 * radar.bandwidth)
     irw_el = elevation_irw(geom.offsets, lam)
     info = {
         "n_channels": n_ch,

@@ -48,8 +48,8 @@ from sarproc.focus.pfa.two_step import (
 )
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import InputError
-from sarproc.product.frames import GroundLosFrame, make_frame, targets_in_frame
-from sarproc.product.metadata import aperture_center_position
+from sarproc.product.frames import GroundLosFrame, image_axis, make_frame, targets_in_frame
+from sarproc.product.metadata import SINC_IRW_FACTOR, aperture_center_position
 from sarproc.product.model import Product
 from sarproc.product.theory import fill_target_theory, window_theory
 
@@ -175,18 +175,18 @@ def output_grid(params: Pfa2Params, raw: Product, frame: GroundLosFrame, irw: Se
     coords = {"azimuth": t["azimuth"], "range": t["range"] - frame.ground_range}
     axes = []
     for i, ax in enumerate(("azimuth", "range")):
-        spacing = getattr(params, f"{ax}_spacing") or irw[i] / params.oversample
-        vals = coords[ax]
         centre = getattr(params, f"{ax}_center")
         if centre is not None and ax == "range":
             centre -= frame.ground_range
-        if centre is None:
-            centre = float((vals.min() + vals.max()) / 2) if len(vals) else 0.0
-        extent = getattr(params, f"{ax}_extent")
-        if extent is None:
-            span = float(vals.max() - vals.min()) if len(vals) else 0.0
-            extent = span + 2 * params.margin_cells * irw[i]
-        n = max(2, int(math.ceil(extent / spacing)))
+        centre, spacing, n = image_axis(
+            coords[ax],
+            irw[i],
+            params.oversample,
+            params.margin_cells,
+            getattr(params, f"{ax}_spacing"),
+            centre,
+            getattr(params, f"{ax}_extent"),
+        )
         axes.append((centre - (n // 2) * spacing, spacing, n))
     return Grid(*axes[0], *axes[1])
 
@@ -321,7 +321,7 @@ def _record_target_theory(
     inscribed one (two_step: each sub-image keeps its own support, so the IRW varies over the scene)."""
     band = (float(ph.freqs[0]), float(ph.freqs[-1]))
     shapes = (window_theory("none"), window_theory(params.range_window))
-    nulls: Sequence[float] = [x / 0.886 for x in kg.irw()]
+    nulls: Sequence[float] = [x / SINC_IRW_FACTOR for x in kg.irw()]
     own = []
     for i in range(len(targets)):
         if params.method == "two_step":
@@ -332,7 +332,9 @@ def _record_target_theory(
 
 
 def _rect_irw(rect: Rect) -> tuple[float, float]:
-    return 0.886 * 2 * math.pi / (rect.ka_hi - rect.ka_lo), 0.886 * 2 * math.pi / (rect.kr_hi - rect.kr_lo)
+    return SINC_IRW_FACTOR * 2 * math.pi / (rect.ka_hi - rect.ka_lo), SINC_IRW_FACTOR * 2 * math.pi / (
+        rect.kr_hi - rect.kr_lo
+    )
 
 
 def _two_step(

@@ -36,7 +36,7 @@ import scipy.fft as sfft
 from sarproc.dsp.interp import resample_rows
 from sarproc.dsp.phasor import unit_phasor
 from sarproc.product.errors import InputError
-from sarproc.product.metadata import C
+from sarproc.product.metadata import SINC_IRW_FACTOR, C
 
 if TYPE_CHECKING:
     from sarproc.focus.pfa.phase_history import PhaseHistory
@@ -68,7 +68,7 @@ class KGrid:
         """Processed support (k_a, k_r) widths, rad/m: sample count times spacing."""
         return self.n_ka * self.dka, self.n_kr * self.dkr
 
-    def irw(self, factor: float = 0.886) -> tuple[float, float]:
+    def irw(self, factor: float = SINC_IRW_FACTOR) -> tuple[float, float]:
         """Theoretical -3 dB widths (azimuth, range), m, of the uniform rectangle."""
         sa, sr = self.spans
         return factor * 2 * math.pi / sa, factor * 2 * math.pi / sr
@@ -137,7 +137,7 @@ def _fft_length(spacing_guess: float, pixel: float, n_pixels: int) -> tuple[int,
     A ratio 2 pi / (spacing_guess pixel) that is a whole number up to rounding (the sub-images ask for
     os x n pixels exactly) is taken as that number: ceil of 405.00000000001 would make M jump from 405 to
     next_fast_len(406) = 420 on a 1e-10 m change of the antenna positions (the ECF round trip of a CPHD
-    file), a different k grid and a -70 dB different two-step image (tests/product/test_cphd_import.py).
+    file), a different k grid and a -70 dB different two-step image (tests/formats/test_cphd_import.py).
     """
     ratio = 2 * math.pi / (spacing_guess * pixel)
     whole = round(ratio)

@@ -50,7 +50,7 @@ from sarproc.focus.pfa.polar import (
     rect_to_polar,
     wavenumbers,
 )
-from sarproc.product.metadata import C
+from sarproc.product.metadata import SINC_IRW_FACTOR, C
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -322,7 +322,7 @@ def local_irw(
     e_range: np.ndarray,
     carrier_frequency: float,
     band: tuple[float, float],
-    factor: float = 0.886,
+    factor: float = SINC_IRW_FACTOR,
 ) -> tuple[float, float]:
     """Theoretical (azimuth, range) IRW, m, of a point's own inscribed polar support (varies over a wide scene)."""
     ua, ur = los_components(positions, point, e_azimuth, e_range)

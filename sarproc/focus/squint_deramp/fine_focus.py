@@ -43,7 +43,7 @@ import scipy.fft as sfft
 from sarproc.dsp.interp import KERNELS, resample_rows
 from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
 from sarproc.dsp.phasor import multiply_separable_phase, unit_phasor
-from sarproc.dsp.rangecomp import chirp_replica
+from sarproc.dsp.rangecomp import chirp_replica, replica_spectrum
 from sarproc.focus.squint_deramp.block_copies import (
     copy_rows,
     crop_columns,
@@ -64,7 +64,7 @@ from sarproc.focus.squint_deramp.stolt import MODELS, SpectrumModel, stolt_resam
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import InputError, ProcessingError
 from sarproc.product.frames import SquintFrame, SquintLrwcFrame, targets_in_frame
-from sarproc.product.metadata import C, RadarMetadata
+from sarproc.product.metadata import SINC_IRW_FACTOR, C, RadarMetadata
 from sarproc.product.model import Product
 from sarproc.product.theory import fill_target_theory, window_theory
 
@@ -212,14 +212,11 @@ def _range_filter(radar, f_r: np.ndarray, kind: str) -> np.ndarray:
     band = np.abs(f_r) <= radar.bandwidth / 2
     if kind == "phase":
         return np.where(band, np.exp(1j * np.pi * f_r**2 / radar.chirp_rate), 0)
-    h, half = chirp_replica(radar)
+    h, _ = chirp_replica(radar)
     n = len(f_r)
     if len(h) > n:
         raise InputError(f"fine-focus: the chirp ({len(h)} samples) is longer than the range FFT ({n})")
-    circ = np.zeros(n, complex)  # replica centred on tau = 0
-    circ[: half + 1] = h[half:]
-    circ[n - half :] = h[:half]
-    H = sfft.fftshift(sfft.fft(circ))  # on the centred f_r grid
+    H = sfft.fftshift(replica_spectrum(radar, n))  # on the centred f_r grid
     return np.where(band, 1.0 / np.where(band, H, 1), 0) * np.count_nonzero(h)
 
 
@@ -592,8 +589,8 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
     attrs = {
         "frame": frame.spec,
         "theoretical_irw": [
-            0.886 * radar.velocity / (abs(choice.doppler_rate) * (grid.n_pulses / radar.prf)),
-            0.886 * C / (2 * radar.bandwidth),
+            SINC_IRW_FACTOR * radar.velocity / (abs(choice.doppler_rate) * (grid.n_pulses / radar.prf)),
+            SINC_IRW_FACTOR * C / (2 * radar.bandwidth),
         ],
         "flow": int(choice.flow),
         "doppler_correction": grid.doppler_correction,

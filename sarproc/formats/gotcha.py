@@ -25,8 +25,10 @@ read from the AFRL file names (``..._HH.mat``: radar.polarization "H:H") when ev
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -39,7 +41,19 @@ from sarproc.product.model import Product, make_targets
 NOMINAL_PRF = 100.0  # Hz; the files carry no pulse times
 
 
-def read_gotcha(files: list[Path], autofocus: bool = False) -> dict:
+@dataclasses.dataclass
+class GotchaPass:
+    """A dechirped phase history compensated to the scene centre (the model of the module docstring)."""
+
+    phase_history: np.ndarray  # (pulses, frequencies) complex
+    freq: np.ndarray  # (frequencies,) Hz, uniformly spaced, ascending or descending
+    positions: np.ndarray  # (pulses, 3) antenna phase centres in the scene frame, m
+    r0: np.ndarray  # (pulses,) distance from each antenna position to the scene centre, m
+    files: list[str]  # where it came from (history)
+    polarization: str | None = None  # "H:V" etc.; None: from the file names when they say
+
+
+def read_gotcha(files: list[Path], autofocus: bool = False) -> GotchaPass:
     """Concatenate Gotcha .mat files (consecutive azimuths of one pass) into plain arrays."""
     import scipy.io
 
@@ -75,16 +89,16 @@ def read_gotcha(files: list[Path], autofocus: bool = False) -> dict:
     if np.max(np.abs(df - df.mean())) > 2e-3 * abs(df.mean()):  # stored as float32: steps jitter by ~1e-3
         raise InputError(f"{files[0]}: data.freq is not uniformly spaced")
     freq = np.polyval(np.polyfit(np.arange(len(freq)), freq, 1), np.arange(len(freq)))
-    return {
-        "phase_history": np.concatenate(fp),
-        "freq": freq,
-        "positions": np.concatenate(pos),
-        "r0": np.concatenate(r0),
-        "files": [str(f) for f in files],
-    }
+    return GotchaPass(
+        phase_history=np.concatenate(fp),
+        freq=freq,
+        positions=np.concatenate(pos),
+        r0=np.concatenate(r0),
+        files=[str(f) for f in files],
+    )
 
 
-def polarization_from_names(files: list[Path]) -> str | None:
+def polarization_from_names(files: Sequence[str | Path]) -> str | None:
     """'H:V' when every file name ends in _HV.mat (the AFRL naming), else None (not recorded)."""
     pols = set()
     for f in files:
@@ -93,12 +107,12 @@ def polarization_from_names(files: list[Path]) -> str | None:
     return pols.pop() if len(pols) == 1 and None not in pols else None
 
 
-def gotcha_product(g: dict) -> Product:
+def gotcha_product(g: GotchaPass) -> Product:
     """The raw product (see the module docstring) of :func:`read_gotcha`'s arrays."""
     from sarproc.product.io import history_entry
 
-    s = g["phase_history"]
-    freq, pos, r0 = g["freq"], g["positions"], g["r0"]
+    s = g.phase_history
+    freq, pos, r0 = g.freq, g.positions, g.r0
     n_az, n = s.shape
     df = float(freq[1] - freq[0])
     fs = n * abs(df)
@@ -134,7 +148,7 @@ def gotcha_product(g: dict) -> Product:
         scene_center=(0.0, 0.0, 0.0),
         mode="spotlight",
         aperture_time=n_az / NOMINAL_PRF,
-        polarization=g.get("polarization") or polarization_from_names(g["files"]),
+        polarization=g.polarization or polarization_from_names(g.files),
     )
     radar.validate()
     frame = GroundLosFrame((0.0, 0.0, 0.0), p_mid)
@@ -153,7 +167,7 @@ def gotcha_product(g: dict) -> Product:
             "tx_offset": np.zeros(3),
             "rx_offset": np.zeros((1, 3)),
         },
-        history=[history_entry("import-gotcha", {"files": g["files"], "nominal_prf": NOMINAL_PRF})],
+        history=[history_entry("import-gotcha", {"files": g.files, "nominal_prf": NOMINAL_PRF})],
     )
 
 

@@ -12,16 +12,14 @@ import yaml
 sarkit = pytest.importorskip("sarkit", reason="CPHD/SICD need NGA's sarkit: pip install 'sarproc[formats]'")
 
 from sarproc.focus.backprojection import BackprojectParams, backproject  # noqa: E402
-from sarproc.product.config import build, load_yaml  # noqa: E402
-from sarproc.product.cphd import check_cphd, read_cphd, write_cphd  # noqa: E402
-from sarproc.product.errors import InputError  # noqa: E402
-from sarproc.product.geolocation import (  # noqa: E402
+from sarproc.formats.cphd import check_cphd, read_cphd, write_cphd  # noqa: E402
+from sarproc.formats.geolocation import (  # noqa: E402
     GeolocationParams,
     ecf_to_geodetic,
     geodetic_to_ecf,
     placement,
 )
-from sarproc.product.sicd import (  # noqa: E402
+from sarproc.formats.sicd import (  # noqa: E402
     check_sicd,
     image_from_sicd,
     local_support_offsets,
@@ -30,6 +28,8 @@ from sarproc.product.sicd import (  # noqa: E402
     sicd_pixels,
     write_sicd,
 )
+from sarproc.product.config import build, load_yaml  # noqa: E402
+from sarproc.product.errors import InputError  # noqa: E402
 from sarproc.simulation.scene import scene_from_mapping  # noqa: E402
 from sarproc.simulation.simulate import simulate  # noqa: E402
 
@@ -79,7 +79,7 @@ def test_geodetic_round_trip_and_placement_is_rigid(demo, place):
     )
     assert np.abs(place.from_ecf(ecf) - pos).max() < 1e-6
     # +x flies at the heading: 45 deg from north towards east
-    from sarproc.product.geolocation import enu_axes
+    from sarproc.formats.geolocation import enu_axes
 
     east, north, up = enu_axes(*place.lat_lon_height[:2])
     x = place.rotation[:, 0]
@@ -105,7 +105,7 @@ def test_cphd_of_another_program_is_imported_from_its_standard_fields(demo, plac
     """Without sarproc's parameters the file is read as SRP-compensated phase history (gotcha.py's model):
     the scene centre becomes the origin, and the response on a 3 x 3 cell patch around every target
     matches the original's to -40 dB (measured -50 dB: the comparator's linear interpolation on two
-    different sample grids, -75 dB at 32 x upsampling; tests/product/test_cphd_import.py)."""
+    different sample grids, -75 dB at 32 x upsampling; tests/formats/test_cphd_import.py)."""
     from sarproc.dsp.rangecomp import range_compress
     from sarproc.focus.backprojection import backproject_points
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from sarproc.focus.backprojection import backproject_points
-from sarproc.product.gotcha import gotcha_product
+from sarproc.formats.gotcha import GotchaPass, gotcha_product
 from sarproc.product.metadata import C
 
 TARGETS = ((0.0, 0.0, 0.0), (30.0, -25.0, 0.0), (-12.0, 20.0, 0.0))
@@ -27,7 +27,7 @@ def _phase_history(n_freq, n_pulses=32, ascending=True):
         s += np.exp(-4j * np.pi * freq[None, :] * dr[:, None] / C)
     if not ascending:
         s, freq = s[:, ::-1], freq[::-1]
-    return {"phase_history": s, "freq": freq, "positions": pos, "r0": r0, "files": []}
+    return GotchaPass(s, freq, pos, r0, [])
 
 
 @pytest.mark.parametrize("n_freq", [256, 255])
@@ -35,10 +35,10 @@ def _phase_history(n_freq, n_pulses=32, ascending=True):
 def test_pulse_dft_holds_the_phase_history(n_freq, ascending):
     g = _phase_history(n_freq, 4, ascending)
     raw = gotcha_product(g)
-    f = np.sort(g["freq"])
+    f = np.sort(g.freq)
     assert raw.radar.carrier_frequency == pytest.approx(f[n_freq // 2], rel=1e-12)
     spec = np.fft.fft(raw.data.astype(complex), axis=1)
-    s = g["phase_history"] if ascending else g["phase_history"][:, ::-1]
+    s = g.phase_history if ascending else g.phase_history[:, ::-1]
     bins = np.round((f - raw.radar.carrier_frequency) / (f[1] - f[0])).astype(int) % n_freq
     # each frequency sample on its own bin, nothing leaking: |X(bin_k)| = |S(f_k)| (complex64 rounding)
     np.testing.assert_allclose(np.abs(spec[:, bins]), np.abs(s), atol=2e-6 * np.abs(s).max())
@@ -50,7 +50,7 @@ def test_backprojection_is_the_exact_matched_filter():
     raw = gotcha_product(g)
     a = np.linspace(-2.0, 2.0, 11)
     pts = np.concatenate([np.stack(np.meshgrid(t[0] + a, t[1] + a, [0.0]), -1).reshape(-1, 3) for t in TARGETS])
-    pos = g["positions"]
+    pos = g.positions
     img = backproject_points(
         raw.data,
         raw.coords["range_time"],
@@ -63,7 +63,7 @@ def test_backprojection_is_the_exact_matched_filter():
     )
     exact = np.zeros(len(pts), complex)
     for p in range(len(pos)):
-        dr = np.linalg.norm(pos[p] - pts, axis=1) - g["r0"][p]
-        exact += np.exp(4j * np.pi * np.outer(dr, g["freq"]) / C) @ g["phase_history"][p]
-    exact /= len(pos) * len(g["freq"])
+        dr = np.linalg.norm(pos[p] - pts, axis=1) - g.r0[p]
+        exact += np.exp(4j * np.pi * np.outer(dr, g.freq) / C) @ g.phase_history[p]
+    exact /= len(pos) * len(g.freq)
     assert 20 * np.log10(np.linalg.norm(img - exact) / np.linalg.norm(exact)) < -60

@@ -15,11 +15,11 @@ import numpy.polynomial.polynomial as npp  # noqa: E402
 
 from sarproc.focus.backprojection import BackprojectParams, backproject  # noqa: E402
 from sarproc.focus.pfa.chain import Pfa2Params, pfa2  # noqa: E402
+from sarproc.formats.geolocation import GeolocationParams, ecf_to_geodetic, placement  # noqa: E402
+from sarproc.formats.sicd import check_sicd, local_support_offsets, read_sicd, sarpy_check, write_sicd  # noqa: E402
 from sarproc.product.config import build, load_yaml  # noqa: E402
 from sarproc.product.errors import InputError  # noqa: E402
-from sarproc.product.geolocation import GeolocationParams, ecf_to_geodetic, placement  # noqa: E402
 from sarproc.product.io import read_product, write_product  # noqa: E402
-from sarproc.product.sicd import check_sicd, local_support_offsets, read_sicd, sarpy_check, write_sicd  # noqa: E402
 from sarproc.simulation.scene import scene_from_mapping  # noqa: E402
 from sarproc.simulation.simulate import simulate  # noqa: E402
 
@@ -271,7 +271,7 @@ def test_bad_polarization_exits_2_naming_file_and_key(tmp_path):
 
 
 def test_gotcha_polarization_from_the_afrl_file_names():
-    from sarproc.product.gotcha import polarization_from_names
+    from sarproc.formats.gotcha import polarization_from_names
 
     assert polarization_from_names(["d/data_3dsar_pass1_az001_HH.mat", "data_3dsar_pass1_az002_HH.mat"]) == "H:H"
     assert polarization_from_names(["x_hv.mat"]) == "H:V"
@@ -281,7 +281,7 @@ def test_gotcha_polarization_from_the_afrl_file_names():
 
 @pytest.mark.parametrize("pol", ["H:V", None])
 def test_polarization_round_trips_through_cphd(pol, tmp_path):
-    from sarproc.product.cphd import check_cphd, read_cphd, write_cphd
+    from sarproc.formats.cphd import check_cphd, read_cphd, write_cphd
 
     mapping = load_yaml(ROOT / "configs" / "demo.yaml")
     if pol is not None:

@@ -22,10 +22,10 @@ import sarkit.cphd as skcphd  # noqa: E402
 from sarproc.dsp.rangecomp import chirp_replica, range_compress  # noqa: E402
 from sarproc.focus.backprojection import backproject_points  # noqa: E402
 from sarproc.focus.pfa.chain import Pfa2Params, pfa2  # noqa: E402
+from sarproc.formats.cphd import cphd_parts, read_cphd, write_cphd  # noqa: E402
+from sarproc.formats.geolocation import GeolocationParams, placement  # noqa: E402
 from sarproc.product.config import build, load_yaml  # noqa: E402
-from sarproc.product.cphd import cphd_parts, read_cphd, write_cphd  # noqa: E402
 from sarproc.product.errors import InputError  # noqa: E402
-from sarproc.product.geolocation import GeolocationParams, placement  # noqa: E402
 from sarproc.simulation.scene import scene_from_mapping  # noqa: E402
 from sarproc.simulation.simulate import simulate  # noqa: E402
 
@@ -106,7 +106,7 @@ def foreign_file(path, raw, place, *, band_wobble=0.0, offset_bins=None, srp_mot
     offset_bins: per-vector fractional shift of each vector's FX grid (SC0 = SC0_0 + offset SCSS), the
       samples computed at the shifted frequencies from the raw pulse (exact DTFT, FFT of a modulated pulse);
     srp_motion: the SRP moves by up to this many metres (an arc in the image plane), SRPPos per vector;
-    domain: "TOA" writes range-compressed samples (see sarproc.product.cphd._foreign_raw for the model).
+    domain: "TOA" writes range-compressed samples (see sarproc.formats.cphd._foreign_raw for the model).
     """
     import scipy.fft as sfft
 
@@ -305,7 +305,7 @@ def _narrow(path, lo, hi):
 
 def test_foreign_files_pass_sarkits_checker(demo, tmp_path):
     """The helper writes files sarkit's CphdConsistency accepts (so they are CPHD, not sarproc's idea of it)."""
-    from sarproc.product.cphd import check_cphd
+    from sarproc.formats.cphd import check_cphd
 
     raw, place = demo
     off = 0.3 * np.sin(np.linspace(0, 7, raw.data.shape[0]))

@@ -21,9 +21,9 @@ import logging
 import numpy as np
 
 from sarproc import __version__
+from sarproc.formats.geolocation import Placement, ecf_to_geodetic, utc_datetime
 from sarproc.product.errors import InputError
 from sarproc.product.frames import GroundLosFrame, frame_from_spec
-from sarproc.product.geolocation import Placement, ecf_to_geodetic, utc_datetime
 from sarproc.product.metadata import C
 from sarproc.product.model import Product
 

@@ -1,0 +1,226 @@
+"""Resource plans of the focusers (preprocess, coarse-focus, fine-focus, backproject, pfa2, reconstruct,
+array3d): output size, peak memory and run time from the input's header and the parameters, before any
+data is read (sarproc.product.budget has the Plan and the process around it)."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from sarproc.product.budget import PROCESS, Plan, complex_bytes, header_shape, stored_bytes
+from sarproc.product.errors import InputError
+from sarproc.product.frames import image_axis
+from sarproc.product.metadata import SINC_IRW_FACTOR
+
+if TYPE_CHECKING:
+    from typing import Any
+
+    from sarproc.product.model import Product
+
+
+def preprocess_estimate(stage: str, header: Product, params: Any) -> Plan:
+    n_az, n_rg = header_shape(header)
+    b = complex_bytes(n_az, n_rg)
+    block = complex_bytes(min(params.block_pulses, n_az), n_rg, itemsize=16) * 4
+    return Plan(stage, stored_bytes(n_az, n_rg), 2 * b + block, n_az * n_rg * 40e-9, f"{n_az} x {n_rg} samples")
+
+
+def coarse_focus_estimate(stage: str, header: Product, params: Any) -> Plan:
+    n_az, n_rg = header_shape(header)
+    n_out = params.azimuth_samples or 2 * n_az  # the default M is the PRF-limited length, at most about 2x
+    out = complex_bytes(n_out, n_rg)
+    block = complex_bytes(n_out, min(params.block_range, n_rg), itemsize=16) * 3
+    return Plan(
+        stage,
+        stored_bytes(n_out, n_rg),
+        complex_bytes(n_az, n_rg) + out + block,
+        n_out * n_rg * 60e-9,
+        f"{n_az} pulses -> ~{n_out} azimuth samples x {n_rg}",
+    )
+
+
+def fine_focus_estimate(stage: str, header: Product, params: Any) -> Plan:
+    M, n_r = header_shape(header)
+    r = header.radar
+    N = n_r + int(math.ceil(r.pulse_duration * r.range_sampling_rate))
+    if params.max_samples < M * N:
+        raise InputError(
+            f"fine_focus.max_samples: the working array {M} x {N} exceeds {params.max_samples}; "
+            "raise it or shrink the scene"
+        )
+    work = complex_bytes(M, N, itemsize=8 if params.precision == "float32" else 16)
+    flow = params.flow or _fine_focus_flow(header)
+    # spectra, Stolt output and azimuth blocks: about three working arrays at the peak (measured 3.1 on
+    # exp. 2 full); flow 2's NLCS tables and zero-padded azimuth blocks add a constant ~100 MB and ~1 s
+    # (small scenes: 80-170 MB, 1-2 s) and ~0.07 us per working sample (exp. 2 full: 2.2 s of work on an
+    # idle machine, CPU/wall 1.8; docs/performance.md)
+    if flow == 2:
+        memory, seconds = 3 * work + 100e6, 1.0 + M * N * 0.07e-6
+    else:
+        # flow 1: 0.12-0.37 us per sample of CPU (exp. 2; exp. 1 with and without Doppler correction)
+        memory, seconds = 3 * work, M * N * params.stolt_length * 15e-9
+    return Plan(
+        stage, stored_bytes(M, N), complex_bytes(M, n_r) + memory, seconds, f"working array {M} x {N}, flow {flow}"
+    )
+
+
+def _fine_focus_flow(header: Product) -> int:
+    """fine-focus's automatic flow (eq. 17): 1 when the scene fits its depth of focus."""
+    from sarproc.focus.squint_deramp.fine_focus import scene_and_focus_depth
+
+    try:
+        half_adof, scene_half = scene_and_focus_depth(
+            header.radar, [float(b) for b in header.attrs["scene_box"]], int(header.attrs["n_pulses"])
+        )
+    except (KeyError, ValueError, TypeError, ZeroDivisionError):
+        return 1  # fine-focus itself reports a bad coarse product
+    return 1 if scene_half <= half_adof else 2
+
+
+def image_pixels(header: Product, params: Any) -> tuple[int, int]:
+    """(azimuth, range) pixels of the image a focuser's extents/spacings give (backproject, pfa2 share
+    the keys and the rule, sarproc.product.frames.image_axis): about the image's theoretical IRW."""
+    r = header.radar
+    n_az = header_shape(header)[-2]
+    t_ap = max(n_az / r.prf, 1e-9)
+    irw_rg = r.range_resolution
+    irw_az = (
+        SINC_IRW_FACTOR
+        * r.wavelength
+        * r.reference_range
+        / (2 * r.velocity * t_ap * max(math.cos(r.squint) ** 2, 1e-6))
+    )
+    n = []
+    for ax, irw in (("azimuth", irw_az), ("range", irw_rg)):
+        t = header.targets[ax] if len(header.targets) and ax in (header.targets.dtype.names or ()) else [0.0]
+        _, _, pixels = image_axis(
+            np.asarray(t, float),
+            irw,
+            params.oversample,
+            params.margin_cells,
+            getattr(params, f"{ax}_spacing"),
+            0.0,  # the centre does not change the count
+            getattr(params, f"{ax}_extent"),
+        )
+        n.append(pixels)
+    return n[0], n[1]
+
+
+# per pixel of an output block: its grid coordinates and float64 position, the kernel's tile order and offsets,
+# two complex128 sums and the complex64 block (tracemalloc peak of backproject_rows: 127-136 B on 1024-2048 wide
+# demo grids; 64 B, the old figure, let an 8192^2 run with --max-memory 384M peak at 466 MiB)
+BACKPROJECT_BYTES_PER_PIXEL = 140.0
+
+
+def _backproject_fixed_bytes(n_ch: int, n_az: int, n_rg: int, params: Any) -> float:
+    raw = 4 * complex_bytes(n_ch, n_az, n_rg)
+    up = complex_bytes(min(64, n_az), n_rg * params.upsample, itemsize=16)
+    return raw + 2 * up
+
+
+def backproject_block_pixels(header: Product, params: Any, memory_limit: int | None) -> int:
+    """Pixels per output block: ``params.block_pixels``, fewer (whole rows, at least one) when the blocks
+    would not fit ``memory_limit`` (bytes) beside the pulses and the process itself."""
+    block = int(params.block_pixels)
+    if memory_limit is None:
+        return block
+    n_az, n_rg = header_shape(header)[-2:]
+    n_ch = header_shape(header)[0] if len(header_shape(header)) == 3 else 1
+    room = memory_limit - PROCESS["backproject"][0] - _backproject_fixed_bytes(n_ch, n_az, n_rg, params)
+    row = image_pixels(header, params)[1]
+    return max(row, min(block, int(room / BACKPROJECT_BYTES_PER_PIXEL) // row * row))
+
+
+def backproject_estimate(stage: str, header: Product, params: Any, memory_limit: int | None = None) -> Plan:
+    """``memory_limit``: --max-memory (bytes), which sets the output blocks (:func:`backproject_block_pixels`)."""
+    n_az, n_rg = header_shape(header)[-2:]
+    n_ch = header_shape(header)[0] if len(header_shape(header)) == 3 else 1
+    n = image_pixels(header, params)
+    n_pix = n[0] * n[1]
+    if n_pix > params.max_pixels:
+        raise InputError(
+            f"backproject.max_pixels: the grid of ~{n[0]} x {n[1]} pixels exceeds {params.max_pixels}; "
+            "set backproject azimuth/range extents or spacings, or raise max_pixels"
+        )
+    # the raw data and its range-compressed copies (about four input-sized arrays, measured), at most
+    # 64 pulses upsampled at a time, and per pixel of one output block its complex128 sum and float64
+    # positions: the image itself is written block by block, never held whole
+    block = backproject_block_pixels(header, params, memory_limit)
+    memory = _backproject_fixed_bytes(n_ch, n_az, n_rg, params) + BACKPROJECT_BYTES_PER_PIXEL * min(n_pix, block)
+    per = 4e-9 if params.engine == "compiled" else 25e-9
+    detail = f"~{n[0]} x {n[1]} pixels from {n_ch * n_az} pulses"
+    if n_pix > block:
+        detail += f", in {-(-n[0] // max(1, block // n[1]))} blocks of {max(1, block // n[1])} rows"
+    seconds = n_ch * n_az * n_pix * per
+    if params.engine == "ffbp":
+        from sarproc.focus.ffbp import error_bound, levels, predicted_error
+
+        n_lev = levels(n_az, params.ffbp_factor)
+        q = params.ffbp_oversample
+        err = predicted_error(n_az, params.ffbp_factor, q, params.ffbp_interpolation)
+        # all pulses upsampled at once, and two levels' polar images (at most ~q^2 samples per pixel each)
+        memory += complex_bytes(n_az, n_rg * params.upsample) + 2 * complex_bytes(n_pix) * q * q
+        # ~q^2 / 3 polar samples per pixel per level, factor reads each, ~100 ns a read (measured on the bench scene)
+        seconds = n_ch * n_pix * n_lev * q * q / 3 * params.ffbp_factor * 100e-9
+        detail += (
+            f"; ffbp: {n_lev} levels of {params.ffbp_factor}, oversample {q:g}, "
+            f"{params.ffbp_interpolation}; predicted error against the exact image "
+            f"{10 * math.log10(max(err, 1e-30)):.1f} dB (at most "
+            f"{10 * math.log10(max(error_bound(err), 1e-30)):.1f})"
+        )
+    return Plan(stage, stored_bytes(*n), memory, seconds, detail)
+
+
+def pfa2_estimate(stage: str, header: Product, params: Any) -> Plan:
+    """The phase history and its polar-to-rectangular resampling, the image and its sub-images: about
+    three input-sized and three image-sized complex64 arrays (fitted to nie2016_small, 385 MB, and the
+    full Table 1 scene, 11.1 GB, docs/pfa.md); cost per input sample and per pixel (fitted to the small
+    configs and the two full Table 1 scenes, 391 s and 190 s two-step)."""
+    n_in = math.prod(header_shape(header))
+    n = image_pixels(header, params)
+    n_pix = n[0] * n[1]
+    return Plan(
+        stage,
+        stored_bytes(*n),
+        3 * complex_bytes(n_in) + 3 * complex_bytes(n_pix),
+        0.5e-6 * n_in + 1.2e-6 * n_pix,
+        f"~{n[0]} x {n[1]} pixels from {n_in} samples",
+    )
+
+
+def reconstruct_estimate(stage: str, header: Product, params: Any) -> Plan:
+    """The channels' range spectra (zero-padded) in several complex64 copies at once: the deramped
+    spectra, their azimuth FFT, the reconstructed N-PRF signal in (f_a, f_r) and (t, f_r), and for
+    the modified method its range-time copies; about eight input-sized arrays (measured)."""
+    n_ch, n_az, n_rg = header_shape(header)
+    n = n_ch * n_az * n_rg
+    # the modified method's detection and velocity searches nearly double the filter bank's time (measured)
+    per_sample = 0.55e-6 if params.method == "modified" else 0.3e-6
+    if params.clutter_suppression:  # the clutter null's projections and the movers' searches after it
+        per_sample = 2.5e-6  # (xu_clutter: 24 s of CPU for 9.7e6 samples)
+    return Plan(
+        stage,
+        stored_bytes(n_ch * n_az, n_rg),
+        8 * complex_bytes(n),
+        n * per_sample,
+        f"{n_ch} channels x {n_az} pulses x {n_rg} samples -> {n_ch * n_az} pulses",
+    )
+
+
+def array3d_estimate(stage: str, header: Product, params: Any) -> Plan:
+    n_ch, n_az, n_rg = header_shape(header)
+    n_el = int(params.elevation_zero_padding * n_ch)
+    raw = complex_bytes(n_ch, n_az, n_rg)
+    cube = complex_bytes(n_el, n_az, n_rg)
+    item = 8 if params.precision == "float32" else 16
+    # the raw data, its range- and azimuth-compressed copies, one uncropped cube; the time is the
+    # elevation DFT (n_el x n_ch per pixel, measured ~4.5 ns per complex multiply-add with its blocks)
+    return Plan(
+        stage,
+        stored_bytes(n_el, n_az, n_rg),
+        raw + 2 * complex_bytes(n_ch, n_az, n_rg, itemsize=item) + cube,
+        n_ch * n_az * n_rg * 30e-9 + n_el * n_ch * n_az * n_rg * 4.5e-9,
+        f"{n_ch} channels -> ~{n_el} elevation bins x {n_az} x {n_rg}",
+    )
