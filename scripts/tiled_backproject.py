@@ -22,18 +22,21 @@ import h5py
 import numpy as np
 import yaml
 
+from sarproc.cli.plan_check import PEAK_RSS
+
 
 def run(args: list[str]) -> tuple[float, int, str]:
-    """Run a command; (wall seconds, peak RSS bytes of it and its waited-for children, stderr)."""
+    """Run ``python -m sarproc ARGS``; (wall seconds, its peak RSS in bytes, stderr). The peak is the command's
+    own VmHWM (sarproc.cli.plan_check.PEAK_RSS), not wait4's, which can carry this process's RSS."""
     start = time.perf_counter()
-    proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    err = proc.stderr.read()
-    _, status, usage = os.wait4(proc.pid, 0)
+    proc = subprocess.run([sys.executable, "-c", PEAK_RSS, *args], capture_output=True, text=True, check=False)
     wall = time.perf_counter() - start
-    proc.returncode = os.waitstatus_to_exitcode(status)
     if proc.returncode:
-        sys.exit(f"{' '.join(args)} failed ({proc.returncode}):\n{err}")
-    return wall, usage.ru_maxrss * 1024, err
+        sys.exit(f"sarproc {' '.join(args)} failed ({proc.returncode}):\n{proc.stderr}")
+    hwm = re.search(r"plan_accuracy: VmHWM (\d+) kB", proc.stderr)
+    if hwm is None:
+        sys.exit(f"sarproc {' '.join(args)} did not report its peak RSS:\n{proc.stderr[-300:]}")
+    return wall, int(hwm.group(1)) * 1024, proc.stderr
 
 
 def max_difference(a: Path, b: Path, rows: int = 256) -> tuple[tuple[int, ...], float, float]:
@@ -56,10 +59,9 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=Path("results/tiled"))
     a = ap.parse_args()
     a.out.mkdir(parents=True, exist_ok=True)
-    sarproc = [sys.executable, "-m", "sarproc"]
     raw = a.out / "raw.h5"
     if not raw.exists():
-        run([*sarproc, "simulate", a.scene, "-o", str(raw)])
+        run(["simulate", a.scene, "-o", str(raw)])
     frame = (yaml.safe_load(Path(a.scene).read_text()).get("backproject") or {}).get("frame", "product")
     extent = f"{(a.pixels - 0.5) * a.spacing} m"
     config = a.out / "backproject.yaml"
@@ -80,7 +82,7 @@ def main() -> None:
     rows = []
     for name, extra in (("local", []), ("dask", ["--scheduler", "local"])):
         image = a.out / f"image_{name}.h5"
-        cmd = [*sarproc, "-v", "backproject", str(raw), "-o", str(image), "--config", str(config)]
+        cmd = ["-v", "backproject", str(raw), "-o", str(image), "--config", str(config)]
         wall, rss, err = run([*cmd, "--max-memory", a.max_memory, "--overwrite", *extra])
         blocks = re.search(r"in (\d+) blocks", err)
         workers = re.search(r"peak memory per worker (.*)", err)
