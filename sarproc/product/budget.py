@@ -202,17 +202,20 @@ def fft_seconds(shape: tuple[int, ...], repeats: int = 2) -> float:
 
 
 # stage: (peak RSS bytes, seconds) of a run on a tiny scene with the kernels cached: imports (numpy,
-# scipy, h5py ~75 MB, numba ~90 MB more, 0.5-1 s), reading and writing the products, the kernels loaded.
+# scipy, h5py ~75 MB, numba ~90 MB more, 0.3-0.6 s), reading and writing the products, the kernels loaded.
+# Seconds refitted after the lean kernel loads (issue 23): process wall minus in-process compute on the
+# configs of tests/cli/test_plans.py, set so that the plan is ~1.35x an idle run: a faster idle machine
+# stays within 2x of it, and so does a loaded one, whose CPU time (the lower bound) grows with the load.
 PROCESS = {
-    "simulate": (185e6, 0.9),
-    "preprocess": (225e6, 1.1),
+    "simulate": (185e6, 0.7),
+    "preprocess": (225e6, 0.9),
     "coarse-focus": (195e6, 0.8),
     "fine-focus": (230e6, 1.1),
-    "backproject": (240e6, 1.1),
-    "pfa2": (290e6, 1.4),
-    "reconstruct": (255e6, 0.9),
-    "array3d": (215e6, 1.0),
-    "evaluate": (135e6, 0.9),
+    "backproject": (240e6, 0.6),
+    "pfa2": (290e6, 1.05),
+    "reconstruct": (255e6, 0.55),
+    "array3d": (215e6, 0.55),
+    "evaluate": (135e6, 0.7),
     "export-sicd": (85e6, 0.9),
     "export-cphd": (125e6, 1.7),
     "import-cphd": (120e6, 0.8),

@@ -78,7 +78,10 @@ def test_plan_within_2x_of_the_measured_run(inputs, stage, source, config):
     row = run_stage(stage_args(inputs, stage, source, config), repeat=3, accept=within, dry_run=in_process, cwd=ROOT)
     assert "refused" not in row, row
     assert not row["dry_run_wrote"], "--dry-run wrote its output"
-    assert within(row), {"config": config, **row}
+    assert within(row), (  # the whole row, so that a failure on CI says which bound and by how much
+        f"{config}: plan/rss {row['plan_mem'] / row['rss']:.2f}, plan/wall {row['plan_s'] / row['wall']:.2f}, "
+        f"plan/min(wall, cpu) {row['plan_s'] / min(row['wall'], row['cpu']):.2f}; {row}"
+    )
 
 
 def test_dry_run_checks_like_a_run_and_writes_nothing(inputs):
