@@ -48,6 +48,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 # The wait policy the sarproc command sets for the compiled kernels' threads (sarproc.cli.main.THREAD_DEFAULTS):
 # this script calls the library, so it sets the policy itself, before numba starts.
@@ -91,6 +92,9 @@ def measure(fn):
 
 class Stage:
     """One timed stage: best time over rounds, its FFT yardstick, peak RSS ratio, CPU/wall of the best run."""
+
+    pixel_pulses: int  # set on backprojection stages only
+    echo_samples: float  # set on simulate stages only (main tests hasattr)
 
     def __init__(self, name, fn, in_shape, in_bytes, detail=""):
         self.name, self.fn, self.in_shape, self.in_bytes, self.detail = name, fn, tuple(in_shape), in_bytes, detail
@@ -240,10 +244,10 @@ def bp_stages(case):
 
     n, pos = case["n"], case["pos"]
     pts = plane_grid(case["centre"], case["e1"], case["e2"], n, case["spacing"])
-    args = (case["rc"], case["range_time"], pos, pos, pts, case["fc"])
-    kw = {"gate_offset": case["gate"]}
+    args: tuple[Any, ...] = (case["rc"], case["range_time"], pos, pos, pts, case["fc"])
+    kw: dict[str, Any] = {"gate_offset": case["gate"]}
     over = case["fs"] / case["bandwidth"]
-    engines = [
+    engines: list[tuple[str, dict[str, Any]]] = [
         ("reference", {"engine": "reference"}),
         ("compiled linear x8", {"engine": "compiled"}),
         ("compiled cubic x8", {"engine": "compiled", "interpolation": "cubic"}),
@@ -254,8 +258,9 @@ def bp_stages(case):
     stages = []
     for label, opts in engines:
 
-        def fn(o=opts):
-            return backproject_points(*args, **kw, **o).reshape(n, n).astype(np.complex64)
+        def fn(o: dict[str, Any] = opts) -> np.ndarray:
+            # mypy cannot tell that kw and o hold only keyword-only knobs, none of args' six positionals
+            return backproject_points(*args, **kw, **o).reshape(n, n).astype(np.complex64)  # type: ignore[misc]
 
         st = Stage(
             f"backproject {label}",
@@ -266,7 +271,7 @@ def bp_stages(case):
         )
         st.pixel_pulses = n * n * len(pos)
         stages.append(st)
-    truth = backproject_points(*args, **kw, **engines[0][1], upsample=32).reshape(n, n)
+    truth = backproject_points(*args, **kw, **engines[0][1], upsample=32).reshape(n, n)  # type: ignore[misc]
     return stages, truth
 
 
@@ -469,7 +474,7 @@ def process_rows(trees: dict[str, Path], rounds: int, workdir: Path) -> list[dic
             _sarproc(tree, [a.format(d=d) for a in argv] + ["--overwrite", "-q"])
         for _, _, argv in PROCESS_CASES:  # once untimed: every kernel in this tree's numba cache
             _sarproc(tree, [a.format(d=d) for a in argv] + ["--overwrite", "-q"])
-    best = {}
+    best: dict[tuple[str, str], list[Any]] = {}  # (stage, tree): best wall, best warm, best printed time
     for r in range(rounds):
         for stage, _detail, argv in PROCESS_CASES:
             for label, tree in trees.items():
@@ -577,7 +582,10 @@ def main(argv=None):
         notes.append(f"FastSAR: {args.fastsar_python} missing (make bench-venv), skipped")
     for case in cases:
         stages, truth = bp_stages(case)
-        fast = {"linear": [np.inf, None, None], "cubic": [np.inf, None, None]}
+        fast: dict[str, list[Any]] = {
+            "linear": [np.inf, None, None],
+            "cubic": [np.inf, None, None],
+        }  # time, image, info
         version = None
         with tempfile.TemporaryDirectory() as tmp:
             for r in range(args.bp_rounds):
@@ -720,7 +728,7 @@ def fastsar_rows(case, n, spacing, exact, power, python, calls):
     S, ref, fmin, df = history_from_pulses(
         case["rc"], case["range_time"], case["gate"], case["pos"], case["centre"], case["fc"], case["fs"]
     )
-    rows = []
+    rows: list[dict] = []
     with tempfile.TemporaryDirectory() as tmp:
         path, out = Path(tmp) / "case.npz", Path(tmp) / "images.npz"
         np.savez(

@@ -56,6 +56,7 @@ def run(args, log):
     proc = subprocess.Popen(
         SARPROC + [str(a) for a in args], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
     )
+    assert proc.stdout is not None  # stdout=PIPE
     out = proc.stdout.read()
     _, status, usage = os.wait4(proc.pid, 0)
     proc.returncode = os.waitstatus_to_exitcode(status)
@@ -462,7 +463,7 @@ def exp2(out: Path, log):
     scene = ROOT / "configs" / "an2012_exp2.yaml"
     base = yaml.safe_load(scene.read_text())
     raw = out / "raw.h5"
-    timing = []
+    timing: list[tuple[str, float, float, tuple[float, tuple[int, ...]] | None]] = []  # (step, s, MB, FFT yardstick)
     w, m = run(["simulate", scene, "-o", raw, "--overwrite"], log)
     timing.append(("simulate", w, m, None))
     cfg = write_cfg(out / "cfg_flow2.yaml", base, fine_focus={"output_frame": "squint", "flow": 2})

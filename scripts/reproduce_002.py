@@ -16,6 +16,7 @@ import argparse
 import resource
 import time
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -87,7 +88,7 @@ def main():
     # one image at a time: evaluate, keep the numbers and the corner's patch, drop the pixels (memory)
     corner = args.corner or raw.targets["name"][0].decode()
     results, attrs, patches = {}, {}, {}
-    runs = [("plain", "image_pfa.h5", {}), ("two_step", "image_pfa2.h5", {})]
+    runs: list[tuple[str, str, dict[str, Any]]] = [("plain", "image_pfa.h5", {}), ("two_step", "image_pfa2.h5", {})]
     if args.corrected_plain:
         runs.append(("plain_corrected", "image_pfa_corrected.h5", {"correct_distortion": True}))
     for method, name, extra in runs:

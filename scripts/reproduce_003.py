@@ -23,6 +23,7 @@ import argparse
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -30,6 +31,7 @@ from sarproc.cli.sweep_output import pick_row as pick, raw_product_of as raw_of,
 from sarproc.focus.multichannel import channels
 from sarproc.focus.multichannel.channels import product_ghost_level_db as predicted_ghost_db
 from sarproc.product.io import read_product
+from sarproc.product.model import Product
 
 CASES = {"fig9": "Fig. 9 v_a 10 m/s", "fig10": "Fig. 10 v_r 10 m/s", "static": "static A"}
 SPEEDS = (0, 2.5, 5, 7.5, 10, 12.5, 15, 17.5, 20)
@@ -93,15 +95,17 @@ def main():
     ap.add_argument("--results", default="results/003")
     args = ap.parse_args()
     res = Path(args.results)
-    summary = {}
+    summary: dict[str, Any] = {}
 
     # ---- scene A, B, C (paper Fig. 11, Table 2)
     raw = read_product(res / "raw_mc.h5", load=False)
-    rows, images, movers = [], {}, {}
+    rows: list[dict] = []
+    images: dict[str, Product] = {}
+    movers: dict[str, list] = {}
     for method in ("conventional", "modified"):
         report = load_json(res / f"report_{method}.json")
-        strips = {t: mfta_db(load_json(res / f"strip_{method}_{t}.json")) for t in ("A", "B", "C")}
-        rows += metrics_rows(report, strips, f"scene {method}")
+        levels = {t: mfta_db(load_json(res / f"strip_{method}_{t}.json")) for t in ("A", "B", "C")}
+        rows += metrics_rows(report, levels, f"scene {method}")
         images[method] = read_product(res / f"image_{method}.h5")
         movers[method] = report.get("movers", [])
     info = read_product(res / "raw_modified.h5", load=False).attrs["reconstruct"]
@@ -120,7 +124,10 @@ def main():
 
     # ---- single targets (Figs. 9, 10), the static check
     cases = sweep_rows(res / "sweep-cases")
-    single_rows, strips, spectra, case_images = [], {}, {}, {}
+    single_rows: list[dict] = []
+    strips: dict[tuple[str, str], Product] = {}  # (case, method): its azimuth strip
+    spectra: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = {}
+    case_images: dict[tuple[str, str], Path] = {}
     for scene, label in CASES.items():
         for method in ("conventional", "modified"):
             img = pick(cases, scene=f"{scene}-{method}-image")
@@ -150,7 +157,7 @@ def main():
     rb = read_product(raw_of(res / "sweep-given", "e0"), load=False)
     lam, th = rb.radar.wavelength, rb.radar.squint
     tau = channels.channel_delays(rb.aux["rx_offset"][:, 0], rb.radar.velocity)
-    err_rows = []
+    err_rows: list[dict[str, float]] = []
     for err in ERRORS:
         level = mfta_db(load_json(pick(given, scene=f"e{err:g}")["dir"] / "report.json"))
         phase = 4 * np.pi * err * math.cos(th) * tau / lam  # residual channel phase (paper eq. 8 term 2)
@@ -165,7 +172,7 @@ def main():
 
     # ---- false-target level against the slant-range velocity (paper Fig. 12)
     speeds = sweep_rows(res / "sweep-speeds")
-    vel_rows = []
+    vel_rows: list[dict[str, Any]] = []
     for v_r in SPEEDS:
         row = {"v_r": v_r}
         for method in ("conventional", "modified"):

@@ -26,6 +26,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import yaml
@@ -59,6 +60,7 @@ def timed_child(cmd: list[str]) -> tuple[float, float]:
     _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - t0
     proc.returncode = os.waitstatus_to_exitcode(status)
+    assert proc.stderr is not None  # stderr=PIPE
     if proc.returncode != 0:
         raise SystemExit(f"{' '.join(cmd)} failed: {proc.stderr.read().decode()}")
     proc.stderr.close()
@@ -110,7 +112,8 @@ def overlap_numbers(raw, params, ch14) -> dict:
     iaz = {x: int(np.argmin(np.abs(res.azimuth - x))) for x in (-5.0, 0.0, 5.0)}
     irg = {r: int(np.argmin(np.abs(res.range - r))) for r in (485.0, 490.0, 495.0)}
 
-    def e(x, r):
+    def e(x: float, r: float) -> np.ndarray:
+        assert res.channel_images is not None  # the reconstruction kept its channel images
         return np.abs(res.channel_images[:, iaz[x], irg[r] - 1 : irg[r] + 2]).max(axis=1) ** 2
 
     per_ch = e(0.0, 490.0) / np.mean([e(0.0, 485.0), e(0.0, 495.0), e(5.0, 490.0), e(-5.0, 490.0)], axis=0)
@@ -157,7 +160,7 @@ def backprojection_check(raw, cube) -> dict:
     irw = cube.attrs["theoretical_irw"]
     r1 = evaluate_image(sub, cube.dims, coords, irw, truth, names)
     r2 = evaluate_image(bp, cube.dims, coords, irw, truth, names)
-    out = {"bp_seconds": bp_time, "points": len(pts), "targets": {}}
+    out: dict[str, Any] = {"bp_seconds": bp_time, "points": len(pts), "targets": {}}
     for n in names:
         a, b = r1.target(n), r2.target(n)
         out["targets"][n] = {
@@ -196,12 +199,12 @@ def figures(outdir: Path, cube, ch14, raw, overlap):
         vmin=-40,
         vmax=0,
         cmap="viridis",
-        extent=[
+        extent=(
             ch14.coords["range"][0],
             ch14.coords["range"][-1],
             ch14.coords["azimuth"][0],
             ch14.coords["azimuth"][-1],
-        ],
+        ),
     )
     ax.set(
         xlabel="range (m)",
@@ -238,7 +241,7 @@ def figures(outdir: Path, cube, ch14, raw, overlap):
         [
             (
                 mag[:, :, ir],
-                [az[0], az[-1], np.degrees(el[0]), np.degrees(el[-1])],
+                (az[0], az[-1], np.degrees(el[0]), np.degrees(el[-1])),
                 "azimuth (m)",
                 "elevation (deg)",
                 "(b) range = 490 m",
@@ -246,7 +249,7 @@ def figures(outdir: Path, cube, ch14, raw, overlap):
             ),
             (
                 mag[:, ia, :],
-                [rg[0], rg[-1], np.degrees(el[0]), np.degrees(el[-1])],
+                (rg[0], rg[-1], np.degrees(el[0]), np.degrees(el[-1])),
                 "range (m)",
                 "elevation (deg)",
                 "(c) azimuth = 0 m (paper 10 m)",
@@ -254,7 +257,7 @@ def figures(outdir: Path, cube, ch14, raw, overlap):
             ),
             (
                 mag[ie, :, :],
-                [rg[0], rg[-1], az[0], az[-1]],
+                (rg[0], rg[-1], az[0], az[-1]),
                 "range (m)",
                 "azimuth (m)",
                 "(d) elevation = 0 deg",

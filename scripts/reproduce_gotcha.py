@@ -33,7 +33,7 @@ def quicklook(img, path: Path, title: str):
         vmin=-45,
         vmax=0,
         aspect="equal",
-        extent=[a[0], a[-1], r[0] - r[len(r) // 2], r[-1] - r[len(r) // 2]],
+        extent=(a[0], a[-1], r[0] - r[len(r) // 2], r[-1] - r[len(r) // 2]),
     )
     plt.xlabel("azimuth x' (m)")
     plt.ylabel("ground range y' from the centre (m)")
@@ -67,8 +67,8 @@ def main():
     ap.add_argument("--dir", type=Path, default=Path("results/gotcha"))
     args = ap.parse_args()
     bp = read_product(args.dir / "image_bp.h5")
-    images = [("plain (distortion corrected)", "image_pfa.h5"), ("two-step", "image_pfa_two_step.h5")]
-    images = [(label, read_product(args.dir / name)) for label, name in images if (args.dir / name).exists()]
+    files = [("plain (distortion corrected)", "image_pfa.h5"), ("two-step", "image_pfa_two_step.h5")]
+    images = [(label, read_product(args.dir / name)) for label, name in files if (args.dir / name).exists()]
     shape = bp.data.shape
     lines = [
         "# Gotcha: pfa2 against backprojection",

@@ -26,6 +26,7 @@ import argparse
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -189,7 +190,7 @@ def static_chip_rows(res):
         pair = [load_json(res / "static" / f"chip_{m}_{name}.json") for m in ("modified", "conventional")]
         if not all(pair):
             continue
-        row = {"name": name}
+        row: dict[str, Any] = {"name": name}
         targets = [next(t for t in r["targets"] if t["name"] == name) for r in pair]
         row["peak_db"] = 20 * math.log10(targets[0]["peak_amplitude"] / targets[1]["peak_amplitude"])
         for axis in ("azimuth", "range"):
