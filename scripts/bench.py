@@ -37,6 +37,7 @@ import argparse
 import contextlib
 import ctypes
 import datetime
+import functools
 import gc
 import inspect
 import json
@@ -47,8 +48,11 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
+
+from numpy.typing import ArrayLike
 
 # The wait policy the sarproc command sets for the compiled kernels' threads (sarproc.cli.main.THREAD_DEFAULTS):
 # this script calls the library, so it sets the policy itself, before numba starts.
@@ -71,7 +75,7 @@ def _status_kib(key: str) -> int:
     return 0
 
 
-def measure(fn):
+def measure(fn: Callable[[], Any]) -> tuple[Any, float, float, int]:
     """(result, wall s, cpu/wall, peak RSS rise in bytes) of fn()."""
     gc.collect()
     # hand freed heap memory back first: glibc keeps it resident, and a later stage reusing it reads no rise
@@ -96,14 +100,17 @@ class Stage:
     pixel_pulses: int  # set on backprojection stages only
     echo_samples: float  # set on simulate stages only (main tests hasattr)
 
-    def __init__(self, name, fn, in_shape, in_bytes, detail=""):
+    def __init__(
+        self, name: str, fn: Callable[[], Any], in_shape: Sequence[int], in_bytes: int, detail: str = ""
+    ) -> None:
         self.name, self.fn, self.in_shape, self.in_bytes, self.detail = name, fn, tuple(in_shape), in_bytes, detail
         self.time = self.fft = np.inf
-        self.cpu = self.rss = None
-        self.out = None
-        self.extra = {}
+        self.cpu: float | None = None
+        self.rss: float | None = None
+        self.out: Any = None
+        self.extra: dict = {}
 
-    def run(self):
+    def run(self) -> None:
         self.fft = min(self.fft, fft_seconds(self.in_shape, repeats=1))
         out, wall, cpu, rise = measure(self.fn)
         out_bytes = sum(np.asarray(o).nbytes for o in (out if isinstance(out, tuple) else (out,)))
@@ -113,7 +120,7 @@ class Stage:
             self.time, self.cpu = wall, cpu
         self.out = out
 
-    def row(self):
+    def row(self) -> dict:
         return {
             "stage": self.name,
             "detail": self.detail,
@@ -127,14 +134,14 @@ class Stage:
 
 
 # ---- backprojection cases -----------------------------------------------------------------------------------
-def agreement_db(img, ref, fit=False):
+def agreement_db(img: ArrayLike, ref: ArrayLike, fit: bool = False) -> float:
     img, ref = np.asarray(img, complex).ravel(), np.asarray(ref, complex).ravel()
     if fit:
         img = img * (np.vdot(img, ref) / np.vdot(img, img))
     return float(20 * np.log10(np.linalg.norm(img - ref) / np.linalg.norm(ref)))
 
 
-def plane_grid(centre, e1, e2, n, spacing):
+def plane_grid(centre: ArrayLike, e1: ArrayLike, e2: ArrayLike, n: int, spacing: float) -> np.ndarray:
     """FastSAR's grid: x_i = (i - n/2) spacing along e1, y_j likewise along e2, about ``centre``; (n*n, 3)."""
     a = (np.arange(n) - n / 2) * spacing
     return (
@@ -142,7 +149,9 @@ def plane_grid(centre, e1, e2, n, spacing):
     ).reshape(-1, 3)
 
 
-def history_from_pulses(rc, range_time, gate, pos, centre, fc, fs):
+def history_from_pulses(
+    rc: np.ndarray, range_time: np.ndarray, gate: np.ndarray, pos: np.ndarray, centre: np.ndarray, fc: float, fs: float
+) -> tuple[np.ndarray, np.ndarray, float, float]:
     """Range-compressed pulses -> FastSAR's phase history S(f) = exp(-j 4 pi f (R - ref) / c), ascending f.
 
     The DFT of pulse p, whose sample n lies at delay t_p + n / f_s (t_p = range_time[0] + gate_p), holds the
@@ -158,7 +167,7 @@ def history_from_pulses(rc, range_time, gate, pos, centre, fc, fs):
     return S, ref, fc + sfft.fftshift(f_b)[0], fs / n
 
 
-def bench_scene_case():
+def bench_scene_case() -> dict[str, Any]:
     from sarproc.dsp.rangecomp import range_compress
     from sarproc.simulation.scene import scene_from_mapping
     from sarproc.simulation.simulate import simulate
@@ -203,7 +212,7 @@ def bench_scene_case():
     }
 
 
-def gotcha_case():
+def gotcha_case() -> dict[str, Any] | None:
     from sarproc.formats.gotcha import gotcha_product, read_gotcha
 
     files = sorted((ROOT.parent / "shared" / "data" / "gotcha").glob("data_3dsar_pass1_az00*_HH.mat"))
@@ -239,7 +248,7 @@ def gotcha_case():
     }
 
 
-def bp_stages(case):
+def bp_stages(case: dict[str, Any]) -> tuple[list[Stage], np.ndarray]:
     from sarproc.focus.backprojection import backproject_points
 
     n, pos = case["n"], case["pos"]
@@ -275,7 +284,9 @@ def bp_stages(case):
     return stages, truth
 
 
-def fastsar_run(case, python, workdir, calls=2):
+def fastsar_run(
+    case: dict[str, Any], python: str, workdir: str | Path, calls: int = 2
+) -> tuple[dict | None, str | None]:
     """One FastSAR call set in the bench venv: {interp: (time, image)} or None with a reason."""
     if case["history"] is None:
         S, ref, fmin, df = history_from_pulses(
@@ -316,7 +327,7 @@ def fastsar_run(case, python, workdir, calls=2):
 
 
 # ---- paper 000 (exp. 2, full size) and paper 004 stages ----------------------------------------------------
-def exp2_stages():
+def exp2_stages() -> list[Stage]:
     from sarproc.focus.squint_deramp.coarse_focus import CoarseFocusParams, coarse_focus
     from sarproc.focus.squint_deramp.fine_focus import FineFocusParams, fine_focus
     from sarproc.focus.squint_deramp.preprocess import PreprocessParams, preprocess
@@ -341,7 +352,7 @@ def exp2_stages():
     ]
 
 
-def array3d_stages():
+def array3d_stages() -> list[Stage]:
     from sarproc.focus.array3d.linear_array import Array3DParams, array3d_product
     from sarproc.product.config import build, load_yaml
     from sarproc.simulation.scene import scene_from_mapping
@@ -362,10 +373,10 @@ def array3d_stages():
     ]
 
 
-def simulate_stages():
+def simulate_stages() -> list[Stage]:
     """simulate on the exp. 2 scene (paper 000) and the reduced Table 1 scene (paper 002): echo samples/s."""
     from sarproc.product.config import load_yaml
-    from sarproc.simulation.scene import scene_from_mapping
+    from sarproc.simulation.scene import Scene, scene_from_mapping
     from sarproc.simulation.simulate import plan_simulation, simulate
 
     stages = []
@@ -381,7 +392,11 @@ def simulate_stages():
             * r.pulse_duration
             * r.range_sampling_rate
         )
-        st = Stage("simulate", lambda scene=scene: simulate(scene).data, plan.shape, 0, name.removesuffix(".yaml"))
+
+        def echoes(scene: Scene = scene) -> np.ndarray:
+            return simulate(scene).data
+
+        st = Stage("simulate", echoes, plan.shape, 0, name.removesuffix(".yaml"))
         st.echo_samples = samples
         stages.append(st)
     return stages
@@ -447,7 +462,7 @@ print(f"WARM {time.perf_counter() - t:.6f}")
 """
 
 
-def _sarproc(tree: Path, argv, warm: bool = False) -> tuple[float, float | None]:
+def _sarproc(tree: Path, argv: Sequence[str], warm: bool = False) -> tuple[float, float | None]:
     """(wall s of one `sarproc` process run from ``tree``, the stage's printed time or, warm, the second run's)."""
     import re
 
@@ -503,7 +518,7 @@ def process_rows(trees: dict[str, Path], rounds: int, workdir: Path) -> list[dic
     return rows
 
 
-def fmt_process_table(rows) -> str:
+def fmt_process_table(rows: list[dict]) -> str:
     lines = [
         "| stage | data, tree | process (s) | compute (s) | printed (s) | overhead (s) |",
         "|---|---|---:|---:|---:|---:|",
@@ -518,7 +533,7 @@ def fmt_process_table(rows) -> str:
 
 
 # ---- report -------------------------------------------------------------------------------------------------
-def fmt_table(rows, previous):
+def fmt_table(rows: list[dict], previous: dict | None) -> str:
     prev = {r["stage"] + "|" + r.get("detail", ""): r for r in (previous or {}).get("stages", [])}
     lines = [
         "| stage | data | time (s) | FFT equivalents | peak RSS / (in+out) | CPU/wall | rate | agreement (dB) "
@@ -545,7 +560,7 @@ def fmt_table(rows, previous):
     return "\n".join(lines)
 
 
-def main(argv=None):
+def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--rounds", type=int, default=3, help="rounds of the heavy stages (best of)")
     ap.add_argument("--bp-rounds", type=int, default=5, help="rounds of the backprojection stages (best of)")
@@ -710,7 +725,7 @@ def main(argv=None):
 FFBP_SETTINGS = [(4, 3.0, "cubic"), (4, 4.0, "cubic"), (4, 5.0, "cubic")]
 
 
-def best_of_calls(fn, repeats):
+def best_of_calls(fn: Callable[[], Any], repeats: int) -> tuple[Any, float]:
     out, best = None, math.inf
     for _ in range(repeats):
         t = time.perf_counter()
@@ -719,7 +734,9 @@ def best_of_calls(fn, repeats):
     return out, best
 
 
-def fastsar_rows(case, n, spacing, exact, power, python, calls):
+def fastsar_rows(
+    case: dict[str, Any], n: int, spacing: float, exact: np.ndarray, power: float, python: str, calls: int
+) -> list[dict]:
     """FastSAR's formers on the same pulses and grid (scripts/bench_fastsar.py in its venv), each image's error
     against sarproc's exact one after a least-squares complex scale (FastSAR's own normalisation)."""
     import subprocess
@@ -788,7 +805,7 @@ def fastsar_rows(case, n, spacing, exact, power, python, calls):
     return rows
 
 
-def ffbp_main(argv=None):
+def ffbp_main(argv: list[str] | None = None) -> None:
     """`bench.py ffbp`: fast factorised backprojection against the exact engine (and FastSAR) on the bench
     scene, grid by grid: best of --repeats warm calls, each image's error against the exact one."""
     from sarproc.focus.backprojection import backproject_points
@@ -811,8 +828,16 @@ def ffbp_main(argv=None):
         pts = plane_grid(case["centre"], case["e1"], case["e2"], n, spacing)
         common = dict(gate_offset=case["gate"])
         exact, t_exact = best_of_calls(
-            lambda pts=pts, common=common: backproject_points(
-                case["rc"], case["range_time"], case["pos"], case["pos"], pts, case["fc"], engine="compiled", **common
+            functools.partial(
+                backproject_points,
+                case["rc"],
+                case["range_time"],
+                case["pos"],
+                case["pos"],
+                pts,
+                case["fc"],
+                engine="compiled",
+                **common,
             ),
             a.repeats,
         )
@@ -821,7 +846,8 @@ def ffbp_main(argv=None):
         print(f"{n}x{n} ({spacing:.3f} m, {len(case['pos'])} pulses): exact {t_exact:.3f} s", flush=True)
         for k, q, interp in FFBP_SETTINGS:
             img, t = best_of_calls(
-                lambda pts=pts, k=k, q=q, interp=interp, n=n, common=common: ffbp_points(
+                functools.partial(
+                    ffbp_points,
                     case["rc"],
                     case["range_time"],
                     case["pos"],
