@@ -28,7 +28,7 @@ REFERENCE = ("reference", 32, "linear")
 TOL = {"irw": 0.03, "pslr": 0.3, "islr": 0.3, "pos": 0.05}  # issue 2's tolerances for the reference
 
 
-def within(q: dict) -> bool:
+def within(q):
     return (
         q["irw_dev"] < TOL["irw"]
         and abs(q["pslr"] + 13.26) < TOL["pslr"]
@@ -37,7 +37,7 @@ def within(q: dict) -> bool:
     )
 
 
-def table(result: dict) -> str:
+def table(result):
     ref_t = next(r["time_s"] for r in result["rows"] if (r["engine"], r["upsample"], r["interpolation"]) == REFERENCE)
     lines = [
         f"## {result['scene']}",
@@ -109,7 +109,7 @@ def from_sweep(directory: Path) -> list:
     return results
 
 
-def main(argv: list[str] | None = None) -> None:
+def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "bp-accuracy")
     ap.add_argument("--from-sweep", type=Path, required=True, help="the sweep of configs/sweeps/backprojection.yaml")

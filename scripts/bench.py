@@ -37,7 +37,6 @@ import argparse
 import contextlib
 import ctypes
 import datetime
-import functools
 import gc
 import inspect
 import json
@@ -101,7 +100,7 @@ class Stage:
     echo_samples: float  # set on simulate stages only (main tests hasattr)
 
     def __init__(
-        self, name: str, fn: Callable[[], Any], in_shape: Sequence[int], in_bytes: int, detail: str = ""
+        self, name: str, fn: Callable[..., Any], in_shape: Sequence[int], in_bytes: int, detail: str = ""
     ) -> None:
         self.name, self.fn, self.in_shape, self.in_bytes, self.detail = name, fn, tuple(in_shape), in_bytes, detail
         self.time = self.fft = np.inf
@@ -376,7 +375,7 @@ def array3d_stages() -> list[Stage]:
 def simulate_stages() -> list[Stage]:
     """simulate on the exp. 2 scene (paper 000) and the reduced Table 1 scene (paper 002): echo samples/s."""
     from sarproc.product.config import load_yaml
-    from sarproc.simulation.scene import Scene, scene_from_mapping
+    from sarproc.simulation.scene import scene_from_mapping
     from sarproc.simulation.simulate import plan_simulation, simulate
 
     stages = []
@@ -393,10 +392,7 @@ def simulate_stages() -> list[Stage]:
             * r.range_sampling_rate
         )
 
-        def echoes(scene: Scene = scene) -> np.ndarray:
-            return simulate(scene).data
-
-        st = Stage("simulate", echoes, plan.shape, 0, name.removesuffix(".yaml"))
+        st = Stage("simulate", lambda scene=scene: simulate(scene).data, plan.shape, 0, name.removesuffix(".yaml"))
         st.echo_samples = samples
         stages.append(st)
     return stages
@@ -725,7 +721,7 @@ def main(argv: list[str] | None = None) -> None:
 FFBP_SETTINGS = [(4, 3.0, "cubic"), (4, 4.0, "cubic"), (4, 5.0, "cubic")]
 
 
-def best_of_calls(fn: Callable[[], Any], repeats: int) -> tuple[Any, float]:
+def best_of_calls(fn: Callable[..., Any], repeats: int) -> tuple[Any, float]:
     out, best = None, math.inf
     for _ in range(repeats):
         t = time.perf_counter()
@@ -828,16 +824,8 @@ def ffbp_main(argv: list[str] | None = None) -> None:
         pts = plane_grid(case["centre"], case["e1"], case["e2"], n, spacing)
         common = dict(gate_offset=case["gate"])
         exact, t_exact = best_of_calls(
-            functools.partial(
-                backproject_points,
-                case["rc"],
-                case["range_time"],
-                case["pos"],
-                case["pos"],
-                pts,
-                case["fc"],
-                engine="compiled",
-                **common,
+            lambda pts=pts, common=common: backproject_points(
+                case["rc"], case["range_time"], case["pos"], case["pos"], pts, case["fc"], engine="compiled", **common
             ),
             a.repeats,
         )
@@ -846,8 +834,7 @@ def ffbp_main(argv: list[str] | None = None) -> None:
         print(f"{n}x{n} ({spacing:.3f} m, {len(case['pos'])} pulses): exact {t_exact:.3f} s", flush=True)
         for k, q, interp in FFBP_SETTINGS:
             img, t = best_of_calls(
-                functools.partial(
-                    ffbp_points,
+                lambda pts=pts, k=k, q=q, interp=interp, n=n, common=common: ffbp_points(
                     case["rc"],
                     case["range_time"],
                     case["pos"],

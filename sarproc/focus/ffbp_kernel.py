@@ -12,7 +12,6 @@ does not depend on the angle.
 from __future__ import annotations
 
 import math
-from typing import TypeVar
 
 import numba
 import numpy as np
@@ -22,12 +21,9 @@ from sarproc.dsp.phasor import cis_cycles32_short
 
 LINEAR, CUBIC = 1, 3
 
-# the interpolation fraction: float32 along range, float64 along angle (numba compiles one of each)
-_F = TypeVar("_F", float, np.float32)
-
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _weights(t: _F, mode: int) -> tuple[_F, _F, _F, _F]:
+def _weights(t, mode):
     """Interpolation weights of samples -1, 0, 1, 2 at fraction t in [0, 1): linear or cubic Lagrange."""
     one, two, six = type(t)(1.0), type(t)(2.0), type(t)(6.0)
     if mode == LINEAR:
@@ -37,9 +33,7 @@ def _weights(t: _F, mode: int) -> tuple[_F, _F, _F, _F]:
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _row_value(
-    buf: np.ndarray, base: int, n: int, i: int, w0: np.float32, w1: np.float32, w2: np.float32, w3: np.float32
-) -> tuple[float, float]:
+def _row_value(buf, base, n, i, w0, w1, w2, w3):
     """Samples i - 1 .. i + 2 of a row of n at buf[base:] weighted (zero outside the row; no checks inside it)."""
     if i >= 1 and i + 2 < n:
         v = w0 * buf[base + i - 1] + w1 * buf[base + i] + w2 * buf[base + i + 1] + w3 * buf[base + i + 2]
@@ -57,7 +51,7 @@ def _row_value(
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _relative_angle(dx: float, dy: float, cm: float, sm: float) -> float:
+def _relative_angle(dx, dy, cm, sm):
     """Angle of (dx, dy) from the direction (cm, sm), in (-pi, pi]: a series for |tan| <= 1/4 (error < 1e-10 rad;
     polar grids span a few degrees), atan2 beyond."""
     dot = dx * cm + dy * sm
@@ -85,19 +79,7 @@ def _relative_angle(dx: float, dy: float, cm: float, sm: float) -> float:
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _read(
-    buf: np.ndarray,
-    geo: np.ndarray,
-    ints: np.ndarray,
-    c: int,
-    x: float,
-    y: float,
-    z: float,
-    r_ref: float,
-    kc2: float,
-    mode_r: int,
-    mode_t: int,
-) -> tuple[float, float]:
+def _read(buf, geo, ints, c, x, y, z, r_ref, kc2, mode_r, mode_t):
     """Subimage c read at the plane point (x, y, z), re-modulated by the carrier of its range from c's centre and
     demodulated by that of ``r_ref``: its contribution exp(j 2 pi kc2 (r_c - r_ref)) x value."""
     dx = x - geo[c, 0]
@@ -132,20 +114,7 @@ def _read(
 
 
 @numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
-def merge_level(
-    cbuf: np.ndarray,
-    cgeo: np.ndarray,
-    cints: np.ndarray,
-    first_child: np.ndarray,
-    pgeo: np.ndarray,
-    pints: np.ndarray,
-    pbuf: np.ndarray,
-    row_parent: np.ndarray,
-    row_angle: np.ndarray,
-    kc2: float,
-    mode_r: int,
-    mode_t: int,
-) -> None:
+def merge_level(cbuf, cgeo, cints, first_child, pgeo, pints, pbuf, row_parent, row_angle, kc2, mode_r, mode_t) -> None:
     """Each parent polar sample: the sum of its children read at its plane point (one job per parent row)."""
     for job in numba.prange(len(row_parent)):
         s = row_parent[job]
@@ -169,18 +138,7 @@ def merge_level(
 
 
 @numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
-def final_points(
-    buf: np.ndarray,
-    geo: np.ndarray,
-    ints: np.ndarray,
-    px: np.ndarray,
-    py: np.ndarray,
-    pz: np.ndarray,
-    kc2: float,
-    mode_r: int,
-    mode_t: int,
-    out: np.ndarray,
-) -> None:
+def final_points(buf, geo, ints, px, py, pz, kc2, mode_r, mode_t, out) -> None:
     """out[i] = sum of the top subimages read at point i (plane coordinates px, py, normal offset pz), with the
     carrier of its exact range restored (exp(+j 2 pi kc2 r), as exact backprojection applies it)."""
     for i in numba.prange(len(px)):
