@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -77,7 +78,7 @@ def estimate(reconstructed: Path) -> tuple[float, float]:
     return (mts[0]["radial_velocity"], mts[0]["along_track_velocity"]) if mts else (float("nan"), float("nan"))
 
 
-def doppler_spectrum(rec):
+def doppler_spectrum(rec: Product) -> tuple[np.ndarray, np.ndarray]:
     """Reconstructed channel's Doppler power spectrum with the squint history removed (paper Fig. 10)."""
     r = rec.radar
     deramped = (
@@ -90,7 +91,7 @@ def doppler_spectrum(rec):
     )
 
 
-def main():
+def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--results", default="results/003")
     args = ap.parse_args()
@@ -210,7 +211,14 @@ def main():
     write_summary(res, summary)
 
 
-def figures(res, images, strips, spectra, err_rows, vel_rows):
+def figures(
+    res: Path,
+    images: dict[str, Product],
+    strips: dict[tuple[str, str], Product],
+    spectra: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]],
+    err_rows: list[dict[str, float]],
+    vel_rows: list[dict[str, Any]],
+) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -292,10 +300,10 @@ def figures(res, images, strips, spectra, err_rows, vel_rows):
     plt.close(fig)
 
 
-def md_table(rows, cols, fmt):
+def md_table(rows: Sequence[dict], cols: Sequence[str], fmt: dict[str, str]) -> str:
     head = "| " + " | ".join(cols) + " |\n|" + "---|" * len(cols) + "\n"
 
-    def cell(r, c):
+    def cell(r: dict, c: str) -> str:
         return "n/a" if r.get(c) is None else fmt.get(c, "{}").format(r[c])
 
     return head + "".join("| " + " | ".join(cell(r, c) for c in cols) + " |\n" for r in rows)
@@ -330,7 +338,7 @@ MOVER_COLS = [
 ]
 
 
-def write_summary(res, s):
+def write_summary(res: Path, s: dict[str, Any]) -> None:
     fmt = dict.fromkeys(MOVER_COLS[1:], "{:.3f}")
     fmt.update(shift="{:.1f}", relocation_error="{:.2f}", relocation_error_from_velocity="{:.2f}")
     expect = s.get("scene_expect") or {}

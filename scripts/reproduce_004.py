@@ -37,7 +37,8 @@ from sarproc.focus.backprojection import backproject_points
 from sarproc.product.config import build
 from sarproc.product.frames import ElevationFrame
 from sarproc.product.io import read_product
-from sarproc.quality.metrics import evaluate_image, evaluate_product
+from sarproc.product.model import Product
+from sarproc.quality.metrics import TargetReport, evaluate_image, evaluate_product
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
 
@@ -67,7 +68,7 @@ def timed_child(cmd: list[str]) -> tuple[float, float]:
     return wall, usage.ru_maxrss / 1024.0
 
 
-def metrics_row(rep_target) -> dict:
+def metrics_row(rep_target: TargetReport) -> dict:
     out = {}
     for m in rep_target.axes:
         scale = math.degrees(1) if m.axis == "elevation" else 1.0
@@ -93,7 +94,7 @@ def isolated_table(mapping: dict, params: Array3DParams) -> dict:
     return rows
 
 
-def overlap_numbers(raw, params, ch14) -> dict:
+def overlap_numbers(raw: Product, params: Array3DParams, ch14: Product) -> dict:
     res = focus_array3d(
         raw.data,
         raw.coords["range_time"],
@@ -130,7 +131,7 @@ def overlap_numbers(raw, params, ch14) -> dict:
     }
 
 
-def backprojection_check(raw, cube) -> dict:
+def backprojection_check(raw: Product, cube: Product) -> dict:
     el, az, rg = (cube.coords[d] for d in cube.dims)
     a_sl = slice(int(np.argmin(np.abs(az + 3.0))), int(np.argmin(np.abs(az - 3.0))) + 1)
     r_sl = slice(int(np.argmin(np.abs(rg - 487.0))), int(np.argmin(np.abs(rg - 493.0))) + 1)
@@ -177,15 +178,15 @@ def backprojection_check(raw, cube) -> dict:
     return out
 
 
-def figures(outdir: Path, cube, ch14, raw, overlap):
+def figures(outdir: Path, cube: Product, ch14: Product, raw: Product, overlap: dict) -> None:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    def db(x):
+    def db(x: np.ndarray) -> np.ndarray:
         a = np.abs(x)
         return 20 * np.log10(np.maximum(a / a.max(), 1e-6))
 
-    def save(fig, name):
+    def save(fig: Figure, name: str) -> None:
         FigureCanvasAgg(fig)
         fig.savefig(outdir / name, dpi=110)
 
@@ -274,7 +275,7 @@ def figures(outdir: Path, cube, ch14, raw, overlap):
     save(fig, "fig7_cube.png")
 
 
-def main(argv=None):
+def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--results", default="results/004")
     ap.add_argument("--config", default="configs/du2010.yaml")
