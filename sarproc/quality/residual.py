@@ -444,7 +444,7 @@ def _residual_false_target(
     truth: np.ndarray,
     peaks: Sequence[np.ndarray],
     reports: Sequence[TargetReport],
-    half: np.ndarray,
+    half: Sequence[int],
     params: EvaluateParams,
 ) -> tuple[FalseTarget | None, ResidualFloor]:
     """(FalseTarget or None, ResidualFloor): strongest residual response outside the main lobes, and the
