@@ -14,16 +14,22 @@ from __future__ import annotations
 
 import argparse
 import copy
+from collections.abc import Callable, Collection
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import yaml
 
+if TYPE_CHECKING:
+    from sarproc.product.model import Product
+
 ROOT = Path(__file__).resolve().parents[1]
 STAGES = ("preprocess", "coarse_focus", "fine_focus")
+_Case = tuple["Product", str, tuple[str, ...] | None]  # a hard case: image, note, targets scored (None: all)
 
 
-def main(argv=None):
+def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "000-accuracy")
     a = ap.parse_args(argv)
@@ -32,7 +38,7 @@ def main(argv=None):
     print(f"accuracy_000: {a.out / 'hardcases.md'}")
 
 
-def _chain(cfg, raw=None, **over):
+def _chain(cfg: dict, raw: Product | None = None, **over: dict) -> tuple[Product, Product, Product]:
     from sarproc.focus.squint_deramp.coarse_focus import CoarseFocusParams, coarse_focus
     from sarproc.focus.squint_deramp.fine_focus import FineFocusParams, fine_focus
     from sarproc.focus.squint_deramp.preprocess import PreprocessParams, preprocess
@@ -51,7 +57,9 @@ def _chain(cfg, raw=None, **over):
     return raw, c, fine_focus(c, build(FineFocusParams, cfg["fine_focus"]))
 
 
-def _worst(img, names=None):
+def _worst(
+    img: Product, names: Collection[str] | None = None
+) -> tuple[float | None, float | None, float | None, float | None]:
     from sarproc.quality.metrics import evaluate_product
     from sarproc.quality.summary import worst_of_targets
 
@@ -60,7 +68,7 @@ def _worst(img, names=None):
     return w.irw_dev, w.pslr_db, w.islr_db, w.position_cells
 
 
-def hard_cases(out: Path):
+def hard_cases(out: Path) -> None:
     import math
 
     from sarproc.product.errors import InputError
@@ -73,7 +81,7 @@ def hard_cases(out: Path):
     ]
     rows = []
 
-    def record(case, fn):
+    def record(case: str, fn: Callable[[], _Case]) -> None:
         try:
             img, note, names = fn()
             finite = bool(np.all(np.isfinite(img.data)))
@@ -83,7 +91,7 @@ def hard_cases(out: Path):
             rows.append(f"| {case} | refused (exit 2) | - | - | - | - | - | {str(exc)[:160]} |")
         print(rows[-1], flush=True)
 
-    def squint60():
+    def squint60() -> _Case:
         cfg = copy.deepcopy(small)
         cfg["geometry"]["squint"] = "60 deg"
         cfg["targets"]["points"] = pts3
@@ -95,7 +103,7 @@ def hard_cases(out: Path):
             None,
         )
 
-    def far800():
+    def far800() -> _Case:
         cfg = copy.deepcopy(small)
         cfg["geometry"]["reference_range"] = "800 km"
         cfg["acquisition"]["aperture_time"] = "0.25 s"
@@ -105,7 +113,7 @@ def hard_cases(out: Path):
         raw, _, img = _chain(cfg, preprocess=f32, coarse_focus=f32, fine_focus={**f32, "output_frame": "lrwc"})
         return img, f"raw stored {raw.data.dtype}, all intermediates complex64", None
 
-    def sqrt_limit():
+    def sqrt_limit() -> _Case:
         cfg = yaml.safe_load((ROOT / "configs" / "an2012_hard_sqrt_limit.yaml").read_text())
         raw, c, img = _chain(cfg)
         lim = 2 * 10e9 * 100 * (1 - math.sin(math.radians(60))) / 299792458.0
@@ -122,8 +130,8 @@ def hard_cases(out: Path):
     exp2s = yaml.safe_load((ROOT / "configs" / "an2012_exp2_small.yaml").read_text())
     raw2 = None
 
-    def alpha(val):
-        def f():
+    def alpha(val: float) -> Callable[[], _Case]:
+        def f() -> _Case:
             nonlocal raw2
             raw2, _, img = _chain(exp2s, raw2, fine_focus={"alpha": val, "output_frame": "lrwc"})
             h = img.history[-1]["parameters"]
@@ -131,7 +139,7 @@ def hard_cases(out: Path):
 
         return f
 
-    def window_edge():
+    def window_edge() -> _Case:
         cfg = copy.deepcopy(small)
         cfg["targets"]["points"] = pts3
         cfg["coarse_focus"] = {"scene_margin": "60 m"}
@@ -139,8 +147,8 @@ def hard_cases(out: Path):
         raw, _, img = _chain(cfg, fine_focus={"output_frame": "lrwc"})
         return img, "window ends 150 m past E's latest echo start: E's chirps cut; metrics of E only", ("E",)
 
-    def prf(factor):
-        def f():
+    def prf(factor: float) -> Callable[[], _Case]:
+        def f() -> _Case:
             cfg = copy.deepcopy(small)
             cfg["targets"]["points"] = pts3
             cfg["coarse_focus"] = {"scene_margin": "60 m"}

@@ -27,12 +27,13 @@ from sarproc.quality.tradeoff import faster_groups, pareto_front, timing_stats
 from sarproc.quality.tradeoff_plot import plot_tradeoff
 
 
-def label(setting: dict, radius: float) -> str:
+def label(setting: dict, radius: float | None) -> str:
     """A sweep task's pfa2 setting in words; sub-image sizes as fractions of eq. (7)'s valid radius."""
     words = []
     for key, value in setting.items():
         name = key.split(".", 1)[1]
         if name == "subimage_size":
+            assert radius is not None, "a sub-image size setting without the images' valid_radius_eq7"
             value = f"{parse_quantity(value, 'length') / radius:.2g} x eq. (7) radius"
         words.append(f"{name} {value}")
     return ", ".join(words)
@@ -74,7 +75,7 @@ def main(argv: list[str] | None = None) -> None:
     write(args, results, f"{args.from_sweep}, {timing}")
 
 
-def write(args, results, how: str):
+def write(args: argparse.Namespace, results: list[tuple[str, list[float], float, float]], how: str) -> None:
     times = [r[1] for r in results]
     quality = [r[2] for r in results]
     front = pareto_front(times, quality)

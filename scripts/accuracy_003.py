@@ -30,19 +30,22 @@ import argparse
 import json
 import time
 from pathlib import Path
+from typing import Any
 
 from sarproc.focus.backprojection import BackprojectParams, backproject
 from sarproc.focus.multichannel.channels import ghost_spacing
 from sarproc.focus.multichannel.reconstruct import ReconstructParams
 from sarproc.product.config import build
-from sarproc.product.model import target_names
-from sarproc.quality.metrics import EvaluateParams, evaluate_product
+from sarproc.product.model import Product, target_names
+from sarproc.quality.metrics import EvaluateParams, QualityReport, evaluate_product
 from sarproc.quality.summary import worst_of_targets
 
 STRIP_GUARD = 0.45  # guard around the target on a strip, in ghost spacings (the sinc side lobes there: < -66 dB)
 
 
-def ghost_strips(rec, raw, extent_ghosts=1.5, **bp_knobs):
+def ghost_strips(
+    rec: Product, raw: Product, extent_ghosts: float = 1.5, **bp_knobs: Any
+) -> dict[str, tuple[float, Product]]:
     """{target: (MFTA dB, strip image)} on azimuth strips (squint_lrwc) of +-extent_ghosts ghost spacings
     around where each target appears, its own +-STRIP_GUARD spacing left out."""
     extent = 2 * extent_ghosts * ghost_spacing(rec.radar, raw.radar.prf)
@@ -61,7 +64,7 @@ def ghost_strips(rec, raw, extent_ghosts=1.5, **bp_knobs):
     return out
 
 
-def only_window(rec):
+def only_window(rec: Product) -> dict:
     """The one moving-target window of a single-target scene (a second one would be a detection error)."""
     windows = rec.attrs["reconstruct"]["moving_targets"]
     if len(windows) != 1:
@@ -69,7 +72,7 @@ def only_window(rec):
     return windows[0]
 
 
-def worst(report) -> tuple[float, float, float]:
+def worst(report: QualityReport) -> tuple[float | None, float | None, float | None]:
     """Worst |IRW / theory - 1|, PSLR and |position error| of the one target's image."""
     w = worst_of_targets(report.targets)
     return w.irw_dev, w.pslr_db, w.position_cells
@@ -78,13 +81,13 @@ def worst(report) -> tuple[float, float, float]:
 INTERPOLATION = (("nearest", 8), ("linear", 2), ("linear", 4), ("linear", 8), ("linear", 16))
 
 
-def image(rec, bp: BackprojectParams):
+def image(rec: Product, bp: BackprojectParams) -> Product:
     """Image of ``rec``: backproject's default grid follows a moving target to where it appears and records
     its own theory (that of its true position)."""
     return backproject(rec, bp)
 
 
-def channel_row(n, rec, r, dt, t_sim, v_r):
+def channel_row(n: int, rec: Product, r: Product, dt: float, t_sim: float, v_r: float) -> dict:
     mt = only_window(rec)
     irw, pslr, pos = worst(
         evaluate_product(image(rec, BackprojectParams(oversample=1.25)), EvaluateParams(guard_cells=60))
@@ -102,7 +105,7 @@ def channel_row(n, rec, r, dt, t_sim, v_r):
     }
 
 
-def search_row(p: ReconstructParams, rec, raw, dt, v_r):
+def search_row(p: ReconstructParams, rec: Product, raw: Product, dt: float, v_r: float) -> dict:
     mt = only_window(rec)
     return {
         "knob": f"search {p.search} step {p.velocity_step} m/s",
@@ -113,7 +116,7 @@ def search_row(p: ReconstructParams, rec, raw, dt, v_r):
     }
 
 
-def interpolation_rows(rec, raw):
+def interpolation_rows(rec: Product, raw: Product) -> list[dict]:
     rows = []
     for interp, up in INTERPOLATION:
         bp = BackprojectParams(oversample=1.25, upsample=up, interpolation=interp)
@@ -150,7 +153,10 @@ def from_sweep(directory: Path) -> list:
     times = {r["task"]: r for r in doc["rows"]}
     if set(times) != {t.task_id for t in plan.tasks}:
         raise SystemExit(f"{directory}: the sweep's table does not hold the tasks of {doc['sweep']}")
-    search_rows, channel_rows, rec3, raw3 = [], [], None, None
+    search_rows: list[dict] = []
+    channel_rows: list[dict] = []
+    rec3: Product | None = None
+    raw3: Product | None = None
     for task in plan.tasks:
         row = times[task.task_id]
         rec, raw = read_product(task.directory / "reconstruct.h5"), read_product(raws[task.sim_key])
@@ -165,12 +171,12 @@ def from_sweep(directory: Path) -> list:
             channel_rows[-1]["times_s"] = row.get("focus_times") or [row["focus_s"]]
             if n == 3:
                 rec3, raw3 = rec, raw  # the default reconstruct for the interpolation rows
-    if rec3 is None:
+    if rec3 is None or raw3 is None:
         raise SystemExit(f"{directory}: no channel task with N = 3 for the interpolation rows")
     return search_rows + channel_rows + interpolation_rows(rec3, raw3)
 
 
-def main():
+def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--results", default="results/003-accuracy")
     ap.add_argument("--from-sweep", type=Path, required=True, help="the sweep of configs/sweeps/accuracy_003.yaml")
@@ -186,7 +192,7 @@ def main():
     write(res, rows, how)
 
 
-def write(res, rows, how):
+def write(res: Path, rows: list[dict], how: str) -> None:
     from sarproc.quality.tradeoff import timing_stats
     from sarproc.quality.tradeoff_plot import plot_tradeoff
 

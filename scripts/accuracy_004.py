@@ -26,7 +26,9 @@ import argparse
 import copy
 import json
 import math
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import yaml
@@ -34,6 +36,7 @@ import yaml
 from sarproc.focus.array3d.linear_array import Array3DParams, array3d_product
 from sarproc.product.config import as_dict, build, load_yaml
 from sarproc.product.errors import InputError
+from sarproc.product.model import Product
 from sarproc.quality.image_measures import deviation_db
 from sarproc.quality.metrics import evaluate_product
 from sarproc.quality.summary import worst_quality_json
@@ -41,12 +44,12 @@ from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
 
 
-def cube_deviation_db(cube, ref) -> float | None:
+def cube_deviation_db(cube: Product, ref: Product) -> float | None:
     """The cube's deviation from the reference cube (None: another grid)."""
     return deviation_db(cube.data, ref.data) if cube.data.shape == ref.data.shape else None
 
 
-def _reference(raw, base, pad):
+def _reference(raw: Product, base: dict, pad: float) -> Product:
     return array3d_product(
         raw,
         build(Array3DParams, {**base, "precision": "float64", "rcmc_kernel_length": 32, "elevation_zero_padding": pad}),
@@ -58,7 +61,7 @@ def _resolved(config: dict) -> str:
     return json.dumps(as_dict(build(Array3DParams, config.get("array3d") or {})), sort_keys=True, default=str)
 
 
-def sweep_family(directory: Path, scene: str, base: dict, singles=()) -> list[dict]:
+def sweep_family(directory: Path, scene: str, base: dict, singles: Sequence[str] = ()) -> list[dict]:
     """One row per task of ``scene`` in the sweep (its order): time, cube deviation and the worst quality over
     the targets of ``singles`` (the names of its one-target scenes with the same setting; empty: over the
     scene's own targets)."""
@@ -67,7 +70,8 @@ def sweep_family(directory: Path, scene: str, base: dict, singles=()) -> list[di
     doc = json.loads((directory / "table.json").read_text())
     if doc["failures"]:
         raise SystemExit(f"{directory}: the sweep has failed tasks: {doc['failures']}")
-    tasks, order = {}, []  # (scene, resolved array3d params) -> (task id, row); the scene's keys in order
+    tasks: dict[tuple[str, Any], tuple[str, dict]] = {}
+    order: list[tuple[str, Any]] = []  # (scene, resolved array3d params) -> (task id, row); the scene's keys in order
     for row in doc["rows"]:
         key = (row["scene"], _resolved(load_yaml(directory / "tasks" / row["task"] / "config.yaml")))
         if key in tasks:
@@ -133,14 +137,16 @@ def sweep_family(directory: Path, scene: str, base: dict, singles=()) -> list[di
     return rows
 
 
-def hard_cases(mapping) -> list[dict]:
+def hard_cases(mapping: dict) -> list[dict]:
     """Quality loss of the hard cases on reduced versions of the paper scene (8 receivers)."""
     base = copy.deepcopy(mapping)
     base["effects"]["cross_track_array"]["n_receivers"] = 8
     base["acquisition"]["n_pulses"] = 65
-    out = []
+    out: list[dict] = []
 
-    def case(name, pts, changes=None, fix=None):
+    def case(
+        name: str, pts: list[dict], changes: dict | None = None, fix: Callable[[Product], None] | None = None
+    ) -> None:
         m = copy.deepcopy(base)
         m["targets"]["points"] = pts
         for k, v in (changes or {}).items():
@@ -157,7 +163,7 @@ def hard_cases(mapping) -> list[dict]:
         try:
             rep = evaluate_product(cube)
             t = rep.targets[0]
-            q = {
+            q: dict[str, dict[str, float]] | str = {
                 m.axis: {"irw_ratio": m.irw_ratio, "pslr": m.pslr_db, "islr": m.islr_db, "pos": m.position_error_cells}
                 for m in t.axes
             }
@@ -180,7 +186,7 @@ def hard_cases(mapping) -> list[dict]:
     lam = 299792458.0 / 37.5e9
     th = math.degrees(math.asin(lam / 0.0764 + math.sin(math.radians(0.5))))
 
-    def fold(cube):
+    def fold(cube: Product) -> None:
         cube.targets["elevation"][0] = math.radians(0.5)
 
     case(
@@ -194,7 +200,7 @@ def hard_cases(mapping) -> list[dict]:
     return out
 
 
-def main(argv=None):
+def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--results", default="results/004-accuracy")
     ap.add_argument("--config", default="configs/du2010.yaml", help="the paper scene of the sweep")
@@ -220,7 +226,7 @@ def main(argv=None):
     hard = hard_cases(mapping)
     (out / "numbers.json").write_text(json.dumps({"paper": paper, "wide": wide, "hard": hard}, indent=1, default=str))
 
-    def table(rows, title, note):
+    def table(rows: list[dict], title: str, note: str) -> list[str]:
         L = [
             f"## {title}",
             "",

@@ -47,7 +47,11 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
+
+from numpy.typing import ArrayLike
 
 # The wait policy the sarproc command sets for the compiled kernels' threads (sarproc.cli.main.THREAD_DEFAULTS):
 # this script calls the library, so it sets the policy itself, before numba starts.
@@ -70,7 +74,7 @@ def _status_kib(key: str) -> int:
     return 0
 
 
-def measure(fn):
+def measure(fn: Callable[[], Any]) -> tuple[Any, float, float, int]:
     """(result, wall s, cpu/wall, peak RSS rise in bytes) of fn()."""
     gc.collect()
     # hand freed heap memory back first: glibc keeps it resident, and a later stage reusing it reads no rise
@@ -92,14 +96,20 @@ def measure(fn):
 class Stage:
     """One timed stage: best time over rounds, its FFT yardstick, peak RSS ratio, CPU/wall of the best run."""
 
-    def __init__(self, name, fn, in_shape, in_bytes, detail=""):
+    pixel_pulses: int  # set on backprojection stages only
+    echo_samples: float  # set on simulate stages only (main tests hasattr)
+
+    def __init__(
+        self, name: str, fn: Callable[..., Any], in_shape: Sequence[int], in_bytes: int, detail: str = ""
+    ) -> None:
         self.name, self.fn, self.in_shape, self.in_bytes, self.detail = name, fn, tuple(in_shape), in_bytes, detail
         self.time = self.fft = np.inf
-        self.cpu = self.rss = None
-        self.out = None
-        self.extra = {}
+        self.cpu: float | None = None
+        self.rss: float | None = None
+        self.out: Any = None
+        self.extra: dict = {}
 
-    def run(self):
+    def run(self) -> None:
         self.fft = min(self.fft, fft_seconds(self.in_shape, repeats=1))
         out, wall, cpu, rise = measure(self.fn)
         out_bytes = sum(np.asarray(o).nbytes for o in (out if isinstance(out, tuple) else (out,)))
@@ -109,7 +119,7 @@ class Stage:
             self.time, self.cpu = wall, cpu
         self.out = out
 
-    def row(self):
+    def row(self) -> dict:
         return {
             "stage": self.name,
             "detail": self.detail,
@@ -123,14 +133,14 @@ class Stage:
 
 
 # ---- backprojection cases -----------------------------------------------------------------------------------
-def agreement_db(img, ref, fit=False):
+def agreement_db(img: ArrayLike, ref: ArrayLike, fit: bool = False) -> float:
     img, ref = np.asarray(img, complex).ravel(), np.asarray(ref, complex).ravel()
     if fit:
         img = img * (np.vdot(img, ref) / np.vdot(img, img))
     return float(20 * np.log10(np.linalg.norm(img - ref) / np.linalg.norm(ref)))
 
 
-def plane_grid(centre, e1, e2, n, spacing):
+def plane_grid(centre: ArrayLike, e1: ArrayLike, e2: ArrayLike, n: int, spacing: float) -> np.ndarray:
     """FastSAR's grid: x_i = (i - n/2) spacing along e1, y_j likewise along e2, about ``centre``; (n*n, 3)."""
     a = (np.arange(n) - n / 2) * spacing
     return (
@@ -138,7 +148,9 @@ def plane_grid(centre, e1, e2, n, spacing):
     ).reshape(-1, 3)
 
 
-def history_from_pulses(rc, range_time, gate, pos, centre, fc, fs):
+def history_from_pulses(
+    rc: np.ndarray, range_time: np.ndarray, gate: np.ndarray, pos: np.ndarray, centre: np.ndarray, fc: float, fs: float
+) -> tuple[np.ndarray, np.ndarray, float, float]:
     """Range-compressed pulses -> FastSAR's phase history S(f) = exp(-j 4 pi f (R - ref) / c), ascending f.
 
     The DFT of pulse p, whose sample n lies at delay t_p + n / f_s (t_p = range_time[0] + gate_p), holds the
@@ -154,7 +166,7 @@ def history_from_pulses(rc, range_time, gate, pos, centre, fc, fs):
     return S, ref, fc + sfft.fftshift(f_b)[0], fs / n
 
 
-def bench_scene_case():
+def bench_scene_case() -> dict[str, Any]:
     from sarproc.dsp.rangecomp import range_compress
     from sarproc.simulation.scene import scene_from_mapping
     from sarproc.simulation.simulate import simulate
@@ -199,7 +211,7 @@ def bench_scene_case():
     }
 
 
-def gotcha_case():
+def gotcha_case() -> dict[str, Any] | None:
     from sarproc.formats.gotcha import gotcha_product, read_gotcha
 
     files = sorted((ROOT.parent / "shared" / "data" / "gotcha").glob("data_3dsar_pass1_az00*_HH.mat"))
@@ -235,15 +247,15 @@ def gotcha_case():
     }
 
 
-def bp_stages(case):
+def bp_stages(case: dict[str, Any]) -> tuple[list[Stage], np.ndarray]:
     from sarproc.focus.backprojection import backproject_points
 
     n, pos = case["n"], case["pos"]
     pts = plane_grid(case["centre"], case["e1"], case["e2"], n, case["spacing"])
-    args = (case["rc"], case["range_time"], pos, pos, pts, case["fc"])
-    kw = {"gate_offset": case["gate"]}
+    args: tuple[Any, ...] = (case["rc"], case["range_time"], pos, pos, pts, case["fc"])
+    kw: dict[str, Any] = {"gate_offset": case["gate"]}
     over = case["fs"] / case["bandwidth"]
-    engines = [
+    engines: list[tuple[str, dict[str, Any]]] = [
         ("reference", {"engine": "reference"}),
         ("compiled linear x8", {"engine": "compiled"}),
         ("compiled cubic x8", {"engine": "compiled", "interpolation": "cubic"}),
@@ -254,8 +266,9 @@ def bp_stages(case):
     stages = []
     for label, opts in engines:
 
-        def fn(o=opts):
-            return backproject_points(*args, **kw, **o).reshape(n, n).astype(np.complex64)
+        def fn(o: dict[str, Any] = opts) -> np.ndarray:
+            # mypy cannot tell that kw and o hold only keyword-only knobs, none of args' six positionals
+            return backproject_points(*args, **kw, **o).reshape(n, n).astype(np.complex64)  # type: ignore[misc]
 
         st = Stage(
             f"backproject {label}",
@@ -266,11 +279,13 @@ def bp_stages(case):
         )
         st.pixel_pulses = n * n * len(pos)
         stages.append(st)
-    truth = backproject_points(*args, **kw, **engines[0][1], upsample=32).reshape(n, n)
+    truth = backproject_points(*args, **kw, **engines[0][1], upsample=32).reshape(n, n)  # type: ignore[misc]
     return stages, truth
 
 
-def fastsar_run(case, python, workdir, calls=2):
+def fastsar_run(
+    case: dict[str, Any], python: str, workdir: str | Path, calls: int = 2
+) -> tuple[dict | None, str | None]:
     """One FastSAR call set in the bench venv: {interp: (time, image)} or None with a reason."""
     if case["history"] is None:
         S, ref, fmin, df = history_from_pulses(
@@ -311,7 +326,7 @@ def fastsar_run(case, python, workdir, calls=2):
 
 
 # ---- paper 000 (exp. 2, full size) and paper 004 stages ----------------------------------------------------
-def exp2_stages():
+def exp2_stages() -> list[Stage]:
     from sarproc.focus.squint_deramp.coarse_focus import CoarseFocusParams, coarse_focus
     from sarproc.focus.squint_deramp.fine_focus import FineFocusParams, fine_focus
     from sarproc.focus.squint_deramp.preprocess import PreprocessParams, preprocess
@@ -336,7 +351,7 @@ def exp2_stages():
     ]
 
 
-def array3d_stages():
+def array3d_stages() -> list[Stage]:
     from sarproc.focus.array3d.linear_array import Array3DParams, array3d_product
     from sarproc.product.config import build, load_yaml
     from sarproc.simulation.scene import scene_from_mapping
@@ -357,7 +372,7 @@ def array3d_stages():
     ]
 
 
-def simulate_stages():
+def simulate_stages() -> list[Stage]:
     """simulate on the exp. 2 scene (paper 000) and the reduced Table 1 scene (paper 002): echo samples/s."""
     from sarproc.product.config import load_yaml
     from sarproc.simulation.scene import scene_from_mapping
@@ -376,6 +391,7 @@ def simulate_stages():
             * r.pulse_duration
             * r.range_sampling_rate
         )
+
         st = Stage("simulate", lambda scene=scene: simulate(scene).data, plan.shape, 0, name.removesuffix(".yaml"))
         st.echo_samples = samples
         stages.append(st)
@@ -442,7 +458,7 @@ print(f"WARM {time.perf_counter() - t:.6f}")
 """
 
 
-def _sarproc(tree: Path, argv, warm: bool = False) -> tuple[float, float | None]:
+def _sarproc(tree: Path, argv: Sequence[str], warm: bool = False) -> tuple[float, float | None]:
     """(wall s of one `sarproc` process run from ``tree``, the stage's printed time or, warm, the second run's)."""
     import re
 
@@ -469,7 +485,7 @@ def process_rows(trees: dict[str, Path], rounds: int, workdir: Path) -> list[dic
             _sarproc(tree, [a.format(d=d) for a in argv] + ["--overwrite", "-q"])
         for _, _, argv in PROCESS_CASES:  # once untimed: every kernel in this tree's numba cache
             _sarproc(tree, [a.format(d=d) for a in argv] + ["--overwrite", "-q"])
-    best = {}
+    best: dict[tuple[str, str], list[Any]] = {}  # (stage, tree): best wall, best warm, best printed time
     for r in range(rounds):
         for stage, _detail, argv in PROCESS_CASES:
             for label, tree in trees.items():
@@ -498,7 +514,7 @@ def process_rows(trees: dict[str, Path], rounds: int, workdir: Path) -> list[dic
     return rows
 
 
-def fmt_process_table(rows) -> str:
+def fmt_process_table(rows: list[dict]) -> str:
     lines = [
         "| stage | data, tree | process (s) | compute (s) | printed (s) | overhead (s) |",
         "|---|---|---:|---:|---:|---:|",
@@ -513,7 +529,7 @@ def fmt_process_table(rows) -> str:
 
 
 # ---- report -------------------------------------------------------------------------------------------------
-def fmt_table(rows, previous):
+def fmt_table(rows: list[dict], previous: dict | None) -> str:
     prev = {r["stage"] + "|" + r.get("detail", ""): r for r in (previous or {}).get("stages", [])}
     lines = [
         "| stage | data | time (s) | FFT equivalents | peak RSS / (in+out) | CPU/wall | rate | agreement (dB) "
@@ -540,7 +556,7 @@ def fmt_table(rows, previous):
     return "\n".join(lines)
 
 
-def main(argv=None):
+def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--rounds", type=int, default=3, help="rounds of the heavy stages (best of)")
     ap.add_argument("--bp-rounds", type=int, default=5, help="rounds of the backprojection stages (best of)")
@@ -577,7 +593,10 @@ def main(argv=None):
         notes.append(f"FastSAR: {args.fastsar_python} missing (make bench-venv), skipped")
     for case in cases:
         stages, truth = bp_stages(case)
-        fast = {"linear": [np.inf, None, None], "cubic": [np.inf, None, None]}
+        fast: dict[str, list[Any]] = {
+            "linear": [np.inf, None, None],
+            "cubic": [np.inf, None, None],
+        }  # time, image, info
         version = None
         with tempfile.TemporaryDirectory() as tmp:
             for r in range(args.bp_rounds):
@@ -702,7 +721,7 @@ def main(argv=None):
 FFBP_SETTINGS = [(4, 3.0, "cubic"), (4, 4.0, "cubic"), (4, 5.0, "cubic")]
 
 
-def best_of_calls(fn, repeats):
+def best_of_calls(fn: Callable[..., Any], repeats: int) -> tuple[Any, float]:
     out, best = None, math.inf
     for _ in range(repeats):
         t = time.perf_counter()
@@ -711,7 +730,9 @@ def best_of_calls(fn, repeats):
     return out, best
 
 
-def fastsar_rows(case, n, spacing, exact, power, python, calls):
+def fastsar_rows(
+    case: dict[str, Any], n: int, spacing: float, exact: np.ndarray, power: float, python: str, calls: int
+) -> list[dict]:
     """FastSAR's formers on the same pulses and grid (scripts/bench_fastsar.py in its venv), each image's error
     against sarproc's exact one after a least-squares complex scale (FastSAR's own normalisation)."""
     import subprocess
@@ -720,7 +741,7 @@ def fastsar_rows(case, n, spacing, exact, power, python, calls):
     S, ref, fmin, df = history_from_pulses(
         case["rc"], case["range_time"], case["gate"], case["pos"], case["centre"], case["fc"], case["fs"]
     )
-    rows = []
+    rows: list[dict] = []
     with tempfile.TemporaryDirectory() as tmp:
         path, out = Path(tmp) / "case.npz", Path(tmp) / "images.npz"
         np.savez(
@@ -780,7 +801,7 @@ def fastsar_rows(case, n, spacing, exact, power, python, calls):
     return rows
 
 
-def ffbp_main(argv=None):
+def ffbp_main(argv: list[str] | None = None) -> None:
     """`bench.py ffbp`: fast factorised backprojection against the exact engine (and FastSAR) on the bench
     scene, grid by grid: best of --repeats warm calls, each image's error against the exact one."""
     from sarproc.focus.backprojection import backproject_points

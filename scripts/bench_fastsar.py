@@ -12,11 +12,12 @@ to stdout as JSON. Imports only numpy and fastsar, so it runs without sarproc.
 import argparse
 import json
 import time
+from typing import Any
 
 import numpy as np
 
 
-def main():
+def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("case")
     ap.add_argument("out")
@@ -33,7 +34,8 @@ def main():
     import fastsar
 
     c = np.load(a.case)
-    result, images = {"version": fastsar.__version__}, {}
+    result: dict[str, Any] = {"version": fastsar.__version__}
+    images: dict[str, Any] = {}  # Any: numpy's savez stub would match an array to allow_pickle
     for interp in ("linear", "cubic"):
         former = fastsar.ExactFormer(
             c["ant"],

@@ -18,24 +18,27 @@ import json
 import math
 import pickle
 import time
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from sarproc.cli.dask_map import dask_mapper
 from sarproc.focus.pfa.chain import Pfa2Params, pfa2
 from sarproc.product.config import build, load_yaml
+from sarproc.product.model import Product
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def timed_serial(raw, params):
+def timed_serial(raw: Product, params: Pfa2Params) -> tuple[Product, float, list[float], list[int]]:
     """Serial run, timing every sub-image (the builtin map over focus_subimage)."""
     costs, sizes = [], []
 
-    def mapper(func, items):
+    def mapper(func: Callable[[Any], Any], items: Iterable[Any]) -> Iterator[Any]:
         for task in items:
             sizes.append(len(pickle.dumps(task, protocol=5)))
             t0 = time.perf_counter()
@@ -53,7 +56,7 @@ TABLE1 = {"resolution_m": 0.1, "target_span_m": 14 * 80.0, "valid_radius_m": 88.
 SMALL = {"resolution_m": 0.55, "target_span_m": 4 * 80.0}
 
 
-def cluster_estimate(result: dict, workers=(1, 2, 4, 8, 16, 32, 64, 169)) -> dict:
+def cluster_estimate(result: dict, workers: Sequence[int] = (1, 2, 4, 8, 16, 32, 64, 169)) -> dict:
     """Full Table 1 scene on N workers from the measured small-scene costs (stated scalings, not a run).
 
     Sub-images: one per valid-radius core over the target span (+ margins), each window's sample count
@@ -86,7 +89,7 @@ def cluster_estimate(result: dict, workers=(1, 2, 4, 8, 16, 32, 64, 169)) -> dic
     }
 
 
-def main(argv=None):
+def main(argv: list[str] | None = None) -> None:
     from dask.distributed import Client, LocalCluster
 
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)

@@ -18,13 +18,16 @@ import os
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any, TextIO
 
 ROOT = Path(__file__).resolve().parents[1]
 CFG = ROOT / "configs"
 
 # name: (simulate config, [(stage command, config)], evaluate arguments beyond the image)
-CASES = {
+# case: (scene YAML, [(command, its config or None: the scene's)], extra evaluate arguments)
+CASES: dict[str, tuple[str, list[tuple[str, str | None]], list[str]]] = {
     "demo": ("demo.yaml", [("backproject", "demo.yaml")], []),
     "000 small (fine-focus)": (
         "an2012_exp1_small.yaml",
@@ -43,7 +46,7 @@ CASES = {
 }
 
 
-def run(tree: Path, args: list, log) -> float:
+def run(tree: Path, args: list, log: TextIO) -> float:
     """One ``sarproc`` command with ``tree`` first on PYTHONPATH; wall seconds. Raises on failure."""
     env = dict(os.environ, PYTHONPATH=str(tree))
     start = time.perf_counter()
@@ -62,7 +65,7 @@ def run(tree: Path, args: list, log) -> float:
     return wall
 
 
-def floats(d, prefix: str = ""):
+def floats(d: Any, prefix: str = "") -> Iterator[tuple[str, Any]]:
     """(path, value) of every leaf of a JSON report."""
     if isinstance(d, dict):
         for k, v in d.items():
@@ -123,7 +126,9 @@ def main() -> None:
         for name in args.cases:
             chain, image = products[name]
             extra = CASES[name][2]
-            stage, before, after = [], [], []
+            stage: list[float] = []
+            before: list[float] = []
+            after: list[float] = []
             for _ in range(args.repeats):  # interleaved: stage, evaluate before, evaluate after
                 stage.append(run(ROOT, chain[-1], log))
                 for times, tree, tag in ((before, args.reference.resolve(), "before"), (after, ROOT, "after")):

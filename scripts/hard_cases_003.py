@@ -40,7 +40,7 @@ LABELS = {  # the sweep's cases (configs/sweeps/hard_cases_003.yaml, <case>-imag
 }
 
 
-def main():
+def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--results", default="results/003")
     args = ap.parse_args()

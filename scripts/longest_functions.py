@@ -19,7 +19,7 @@ def function_lengths(root: Path) -> list[tuple[int, str]]:
     for path in sorted(root.rglob("*.py")):
         for node in ast.walk(ast.parse(path.read_text(), str(path))):
             if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
-                lines = node.end_lineno - node.lineno + 1
+                lines = (node.end_lineno or node.lineno) - node.lineno + 1  # always set by ast.parse
                 found.append((lines, f"{path}:{node.lineno} {node.name}"))
     return sorted(found, key=lambda item: (-item[0], item[1]))
 

@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+from collections.abc import Collection
 from pathlib import Path
 
 from sarproc.cli.sweep_output import sweep_rows
@@ -30,7 +31,7 @@ PSLR, ISLR = -13.26, -10.16
 EQ7 = "97.7300277783166 m"
 
 
-def worst(targets, names=None) -> dict:
+def worst(targets: list[dict], names: Collection[str] | None = None) -> dict:
     """Worst values over the targets (named ones only, if given) and their axes of an evaluate report, and how
     many targets are within the issue's tolerance."""
     chosen = [t for t in targets if names is None or t["name"] in names]
@@ -57,17 +58,17 @@ def worst(targets, names=None) -> dict:
     }
 
 
-def report(row) -> dict:
+def report(row: dict) -> dict:
     return json.loads((row["dir"] / "report.json").read_text())
 
 
-def case(row) -> str:
+def case(row: dict) -> str:
     if row.get("pfa2.method") == "plain":
         return "plain"
     return "two_step_eq7" if row.get("pfa2.subimage_size") == EQ7 else "two_step"
 
 
-def main(argv=None):
+def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--pfa-sweep", type=Path, default=Path("results/motion-002/pfa2"))
     ap.add_argument("--bp-sweep", type=Path, default=Path("results/motion-002/bp"))

@@ -22,18 +22,19 @@ import argparse
 import subprocess
 import sys
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 
 import yaml
 
 from sarproc.product.io import read_product
-from sarproc.product.model import moving_target_rows
+from sarproc.product.model import Product, moving_target_rows
 
 BASE = Path(__file__).resolve().parents[1] / "configs" / "xu_scene.yaml"
 CELL = 12.5  # m, range cell of the 12 MHz sampling
 
 
-def scene(points, noise_snr=None):
+def scene(points: list[dict], noise_snr: float | None = None) -> dict:
     m = yaml.safe_load(BASE.read_text())
     for key in ("reconstruct", "backproject", "evaluate"):
         m.pop(key, None)
@@ -44,7 +45,7 @@ def scene(points, noise_snr=None):
     return m
 
 
-def vehicle(name, azimuth, rng, v_a, v_r, amplitude=1.0):
+def vehicle(name: str, azimuth: float, rng: float, v_a: float, v_r: float, amplitude: float = 1.0) -> dict:
     return {
         "name": name,
         "azimuth": f"{azimuth} m",
@@ -54,7 +55,7 @@ def vehicle(name, azimuth, rng, v_a, v_r, amplitude=1.0):
     }
 
 
-def run(mapping, work: Path, tag: str):
+def run(mapping: dict, work: Path, tag: str) -> tuple[Product, dict[str, dict], list[dict], list[str]]:
     cfg = work / f"{tag}.yaml"
     cfg.write_text(yaml.safe_dump(mapping))
     cli = [sys.executable, "-m", "sarproc"]
@@ -80,7 +81,7 @@ def run(mapping, work: Path, tag: str):
     return rec, found, false, warnings
 
 
-def describe(rec, found, names):
+def describe(rec: Product, found: dict[str, dict], names: Sequence[str]) -> str:
     out = []
     tt = {n.decode(): k for k, n in enumerate(rec.targets["name"])}
     for n in names:
@@ -95,7 +96,7 @@ def describe(rec, found, names):
     return "; ".join(out)
 
 
-def main():
+def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--results", default="results/003-movers")
     args = ap.parse_args()

@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import datetime
 import os
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 from sarproc.cli.plan_check import run_stage, within
@@ -80,7 +81,7 @@ def all_chains() -> list[str]:
     return names + ["gotcha", "formats"]
 
 
-def measure(names, out: Path, repeat: int = 1, log=print) -> list[dict]:
+def measure(names: Iterable[str], out: Path, repeat: int = 1, log: Callable[[str], object] = print) -> list[dict]:
     rows = []
     for name in names:
         for args in chain(name, out):

@@ -20,7 +20,9 @@ import os
 import subprocess
 import sys
 import time
+from collections.abc import Collection, Sequence
 from pathlib import Path
+from typing import Any, TextIO
 
 import numpy as np
 import yaml
@@ -34,7 +36,7 @@ SARPROC = (
 STAGES = ("preprocess", "coarse_focus", "fine_focus")
 
 
-def along_track_irw_theory(image_path) -> float:
+def along_track_irw_theory(image_path: str | Path) -> float:
     """The image's recorded azimuth theoretical IRW: along track (x_n), m."""
     import h5py
 
@@ -50,12 +52,13 @@ PAPER_TABLE2 = {
 }
 
 
-def run(args, log):
+def run(args: Sequence[object], log: TextIO) -> tuple[float, float]:
     """Run one sarproc command; returns (wall s, peak RSS MiB). Raises on failure."""
     t0 = time.perf_counter()
     proc = subprocess.Popen(
         SARPROC + [str(a) for a in args], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
     )
+    assert proc.stdout is not None  # stdout=PIPE
     out = proc.stdout.read()
     _, status, usage = os.wait4(proc.pid, 0)
     proc.returncode = os.waitstatus_to_exitcode(status)
@@ -67,7 +70,7 @@ def run(args, log):
     return wall, usage.ru_maxrss / 1024.0
 
 
-def write_cfg(path, base, **sections):
+def write_cfg(path: Path, base: dict, **sections: dict) -> Path:
     cfg = {s: copy.deepcopy(base.get(s) or {}) for s in STAGES}
     for sec, over in sections.items():
         cfg[sec].update(over)
@@ -75,7 +78,7 @@ def write_cfg(path, base, **sections):
     return path
 
 
-def fft_reference(path):
+def fft_reference(path: str | Path) -> tuple[float, tuple[int, ...]]:
     """Seconds of one complex64 2D FFT of the dataset in ``path`` (sarproc.product.budget.fft_seconds), and its shape."""
     from sarproc.product.budget import fft_seconds
     from sarproc.product.io import read_product
@@ -84,11 +87,11 @@ def fft_reference(path):
     return fft_seconds(shape), shape
 
 
-def report(path):
+def report(path: str | Path) -> dict:
     return json.loads(Path(path).read_text())
 
 
-def metrics_table(rep, names=None):
+def metrics_table(rep: dict, names: Collection[str] | None = None) -> list[tuple[str, dict, dict, float]]:
     rows = []
     for t in rep["targets"]:
         if names and t["name"] not in names:
@@ -98,7 +101,7 @@ def metrics_table(rep, names=None):
     return rows
 
 
-def fmt_metrics(rep, title, names=None):
+def fmt_metrics(rep: dict, title: str, names: Collection[str] | None = None) -> list[str]:
     lines = [
         f"**{title}**",
         "",
@@ -122,7 +125,7 @@ def fmt_metrics(rep, title, names=None):
     return lines
 
 
-def fmt_positions(rep, title):
+def fmt_positions(rep: dict, title: str) -> list[str]:
     lines = [
         f"**{title}** (squint frame, errors in resolution cells = theoretical IRW)",
         "",
@@ -137,7 +140,7 @@ def fmt_positions(rep, title):
     return lines
 
 
-def within(rep, names=None):
+def within(rep: dict, names: Collection[str] | None = None) -> tuple[bool, dict[str, float]]:
     """(all within the issue's tolerances, worst deviations) using the lrwc report."""
     worst = {"irw": 0.0, "pslr": 0.0, "islr": 0.0}
     ok = True
@@ -150,7 +153,9 @@ def within(rep, names=None):
     return ok, worst
 
 
-def image_figure(paths, titles, out, boxes=None, dyn=40.0):
+def image_figure(
+    paths: Sequence[Path], titles: Sequence[str], out: Path, boxes: Sequence[Any] | None = None, dyn: float = 40.0
+) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -185,7 +190,7 @@ def image_figure(paths, titles, out, boxes=None, dyn=40.0):
     plt.close(fig)
 
 
-def mosaic_figure(paths, titles, out, half=60.0):
+def mosaic_figure(paths: Sequence[Path], titles: Sequence[str], out: Path, half: float = 60.0) -> None:
     """Fig. 8-like: per image, the chips around its targets tiled as the targets' grid (dB)."""
     import matplotlib
 
@@ -237,7 +242,7 @@ def mosaic_figure(paths, titles, out, half=60.0):
     plt.close(fig)
 
 
-def chips_figure(rows, out, names, half_nulls=10.0):
+def chips_figure(rows: Sequence[tuple[Path, str]], out: Path, names: Sequence[str], half_nulls: float = 10.0) -> None:
     """Fig. 9-like: |image| around each named target, one row per image (dB), upsampled 8x by the
     band-centred interpolation of sarproc.quality.metrics (the paper also zero-pads before display)."""
     import matplotlib
@@ -275,7 +280,7 @@ def chips_figure(rows, out, names, half_nulls=10.0):
     plt.close(fig)
 
 
-def exp1(out: Path, log):
+def exp1(out: Path, log: TextIO) -> None:
     base = yaml.safe_load((ROOT / "configs" / "an2012_exp1.yaml").read_text())
     cfgs = {m: yaml.safe_load((ROOT / "configs" / f"an2012_exp1_{m}.yaml").read_text()) for m in ("linear", "none")}
     cfgs["nonlinear"] = base
@@ -458,11 +463,11 @@ def exp1(out: Path, log):
     (out / "summary.md").write_text("\n".join(lines) + "\n")
 
 
-def exp2(out: Path, log):
+def exp2(out: Path, log: TextIO) -> None:
     scene = ROOT / "configs" / "an2012_exp2.yaml"
     base = yaml.safe_load(scene.read_text())
     raw = out / "raw.h5"
-    timing = []
+    timing: list[tuple[str, float, float, tuple[float, tuple[int, ...]] | None]] = []  # (step, s, MB, FFT yardstick)
     w, m = run(["simulate", scene, "-o", raw, "--overwrite"], log)
     timing.append(("simulate", w, m, None))
     cfg = write_cfg(out / "cfg_flow2.yaml", base, fine_focus={"output_frame": "squint", "flow": 2})
@@ -543,13 +548,14 @@ def exp2(out: Path, log):
         "|---|---:|---:|---|---:|---:|",
     ]
     total = 0.0
-    for name, w, m, ref in timing:
+    for name, w, m, fft_ref in timing:
         total += w
-        if ref is None:
+        if fft_ref is None:
             lines.append(f"| {name} | {w:.1f} | {m:.0f} | - | - | - |")
         else:
             lines.append(
-                f"| {name} | {w:.1f} | {m:.0f} | {ref[1][0]} x {ref[1][1]} | {ref[0]:.3f} | {w / ref[0]:.1f} |"
+                f"| {name} | {w:.1f} | {m:.0f} | {fft_ref[1][0]} x {fft_ref[1][1]} | {fft_ref[0]:.3f} | "
+                f"{w / fft_ref[0]:.1f} |"
             )
     chain = sum(w for n, w, _, _ in timing if n != "simulate")
     lines += [
@@ -596,7 +602,7 @@ def exp2(out: Path, log):
     (out / "summary.md").write_text("\n".join(lines) + "\n")
 
 
-def _fig10(rep, out):
+def _fig10(rep: dict, out: Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -620,7 +626,7 @@ def _fig10(rep, out):
     plt.close(fig)
 
 
-def main(argv=None):
+def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("experiment", choices=("exp1", "exp2"))
     ap.add_argument("--out", type=Path, default=None)

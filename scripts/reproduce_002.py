@@ -16,6 +16,7 @@ import argparse
 import resource
 import time
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -27,13 +28,14 @@ from sarproc.focus.pfa.chain import Pfa2Params, image_frame, pfa2
 from sarproc.product.budget import fft_seconds
 from sarproc.product.config import build, load_yaml
 from sarproc.product.io import write_product
-from sarproc.quality.metrics import evaluate_product, target_patch
+from sarproc.product.model import Product
+from sarproc.quality.metrics import FalseTarget, evaluate_product, target_patch
 from sarproc.quality.summary import Tolerance, tolerance_score
 from sarproc.simulation.scene import load_scene
 from sarproc.simulation.simulate import simulate
 
 
-def table(raw, image):
+def table(raw: Product, image: Product) -> tuple[list[dict], FalseTarget | None]:
     """Per target: distance from centre, IRW / own theory per axis (the theory pfa2 records for each target,
     sarproc.product.theory), PSLR, ISLR, position (cells), peak, and its evaluate report."""
     rep = evaluate_product(image)
@@ -55,17 +57,17 @@ def table(raw, image):
     return rows, rep.false_target
 
 
-def within(row) -> bool:
+def within(row: dict) -> bool:
     """IRW within 5 % of own theory, PSLR and ISLR within 0.5 dB of it, position within 0.5 cell."""
     return tolerance_score(row["report"]) <= 1
 
 
-def badness(row) -> float:
+def badness(row: dict) -> float:
     """One number per target: the worst of |IRW/theory - 1| / 5 %, |PSLR - theory| / 0.5 dB, |ISLR - theory| / 0.5 dB."""
     return tolerance_score(row["report"], Tolerance(position_cells=None))
 
 
-def main():
+def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--config", type=Path, default=Path("configs/nie2016.yaml"))
     ap.add_argument("--out", type=Path, default=Path("results/002"))
@@ -87,7 +89,7 @@ def main():
     # one image at a time: evaluate, keep the numbers and the corner's patch, drop the pixels (memory)
     corner = args.corner or raw.targets["name"][0].decode()
     results, attrs, patches = {}, {}, {}
-    runs = [("plain", "image_pfa.h5", {}), ("two_step", "image_pfa2.h5", {})]
+    runs: list[tuple[str, str, dict[str, Any]]] = [("plain", "image_pfa.h5", {}), ("two_step", "image_pfa2.h5", {})]
     if args.corrected_plain:
         runs.append(("plain_corrected", "image_pfa_corrected.h5", {"correct_distortion": True}))
     for method, name, extra in runs:
@@ -109,6 +111,7 @@ def main():
     peak_gb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
     plain_rows, plain_false = results["plain"]
     two_rows, two_false = results["two_step"]
+    assert plain_false is not None and two_false is not None  # the summary quotes both images' levels
     radius = attrs["two_step"]["valid_radius_eq7"]
     t_plain = attrs["plain"]["stage_seconds"]["total"]
     t_two = attrs["two_step"]["stage_seconds"]["total"]
@@ -166,7 +169,7 @@ def main():
     plt.savefig(args.out / "fig_M.png", dpi=110)
     plt.close()
 
-    def fmt(rows):
+    def fmt(rows: list[dict]) -> list[str]:
         out = [
             "| target | dist (m) | IRW az/rg (x own theory) | PSLR az/rg (dB) | ISLR az/rg (dB) | pos az/rg (cells) | ok |",
             "| --- | --- | --- | --- | --- | --- | --- |",

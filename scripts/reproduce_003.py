@@ -22,7 +22,9 @@ from __future__ import annotations
 import argparse
 import json
 import math
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -30,6 +32,7 @@ from sarproc.cli.sweep_output import pick_row as pick, raw_product_of as raw_of,
 from sarproc.focus.multichannel import channels
 from sarproc.focus.multichannel.channels import product_ghost_level_db as predicted_ghost_db
 from sarproc.product.io import read_product
+from sarproc.product.model import Product
 
 CASES = {"fig9": "Fig. 9 v_a 10 m/s", "fig10": "Fig. 10 v_r 10 m/s", "static": "static A"}
 SPEEDS = (0, 2.5, 5, 7.5, 10, 12.5, 15, 17.5, 20)
@@ -75,7 +78,7 @@ def estimate(reconstructed: Path) -> tuple[float, float]:
     return (mts[0]["radial_velocity"], mts[0]["along_track_velocity"]) if mts else (float("nan"), float("nan"))
 
 
-def doppler_spectrum(rec):
+def doppler_spectrum(rec: Product) -> tuple[np.ndarray, np.ndarray]:
     """Reconstructed channel's Doppler power spectrum with the squint history removed (paper Fig. 10)."""
     r = rec.radar
     deramped = (
@@ -88,20 +91,22 @@ def doppler_spectrum(rec):
     )
 
 
-def main():
+def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--results", default="results/003")
     args = ap.parse_args()
     res = Path(args.results)
-    summary = {}
+    summary: dict[str, Any] = {}
 
     # ---- scene A, B, C (paper Fig. 11, Table 2)
     raw = read_product(res / "raw_mc.h5", load=False)
-    rows, images, movers = [], {}, {}
+    rows: list[dict] = []
+    images: dict[str, Product] = {}
+    movers: dict[str, list] = {}
     for method in ("conventional", "modified"):
         report = load_json(res / f"report_{method}.json")
-        strips = {t: mfta_db(load_json(res / f"strip_{method}_{t}.json")) for t in ("A", "B", "C")}
-        rows += metrics_rows(report, strips, f"scene {method}")
+        levels = {t: mfta_db(load_json(res / f"strip_{method}_{t}.json")) for t in ("A", "B", "C")}
+        rows += metrics_rows(report, levels, f"scene {method}")
         images[method] = read_product(res / f"image_{method}.h5")
         movers[method] = report.get("movers", [])
     info = read_product(res / "raw_modified.h5", load=False).attrs["reconstruct"]
@@ -120,7 +125,10 @@ def main():
 
     # ---- single targets (Figs. 9, 10), the static check
     cases = sweep_rows(res / "sweep-cases")
-    single_rows, strips, spectra, case_images = [], {}, {}, {}
+    single_rows: list[dict] = []
+    strips: dict[tuple[str, str], Product] = {}  # (case, method): its azimuth strip
+    spectra: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = {}
+    case_images: dict[tuple[str, str], Path] = {}
     for scene, label in CASES.items():
         for method in ("conventional", "modified"):
             img = pick(cases, scene=f"{scene}-{method}-image")
@@ -150,7 +158,7 @@ def main():
     rb = read_product(raw_of(res / "sweep-given", "e0"), load=False)
     lam, th = rb.radar.wavelength, rb.radar.squint
     tau = channels.channel_delays(rb.aux["rx_offset"][:, 0], rb.radar.velocity)
-    err_rows = []
+    err_rows: list[dict[str, float]] = []
     for err in ERRORS:
         level = mfta_db(load_json(pick(given, scene=f"e{err:g}")["dir"] / "report.json"))
         phase = 4 * np.pi * err * math.cos(th) * tau / lam  # residual channel phase (paper eq. 8 term 2)
@@ -165,7 +173,7 @@ def main():
 
     # ---- false-target level against the slant-range velocity (paper Fig. 12)
     speeds = sweep_rows(res / "sweep-speeds")
-    vel_rows = []
+    vel_rows: list[dict[str, Any]] = []
     for v_r in SPEEDS:
         row = {"v_r": v_r}
         for method in ("conventional", "modified"):
@@ -203,7 +211,14 @@ def main():
     write_summary(res, summary)
 
 
-def figures(res, images, strips, spectra, err_rows, vel_rows):
+def figures(
+    res: Path,
+    images: dict[str, Product],
+    strips: dict[tuple[str, str], Product],
+    spectra: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]],
+    err_rows: list[dict[str, float]],
+    vel_rows: list[dict[str, Any]],
+) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -285,10 +300,10 @@ def figures(res, images, strips, spectra, err_rows, vel_rows):
     plt.close(fig)
 
 
-def md_table(rows, cols, fmt):
+def md_table(rows: Sequence[dict], cols: Sequence[str], fmt: dict[str, str]) -> str:
     head = "| " + " | ".join(cols) + " |\n|" + "---|" * len(cols) + "\n"
 
-    def cell(r, c):
+    def cell(r: dict, c: str) -> str:
         return "n/a" if r.get(c) is None else fmt.get(c, "{}").format(r[c])
 
     return head + "".join("| " + " | ".join(cell(r, c) for c in cols) + " |\n" for r in rows)
@@ -323,7 +338,7 @@ MOVER_COLS = [
 ]
 
 
-def write_summary(res, s):
+def write_summary(res: Path, s: dict[str, Any]) -> None:
     fmt = dict.fromkeys(MOVER_COLS[1:], "{:.3f}")
     fmt.update(shift="{:.1f}", relocation_error="{:.2f}", relocation_error_from_velocity="{:.2f}")
     expect = s.get("scene_expect") or {}

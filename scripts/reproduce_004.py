@@ -26,6 +26,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import yaml
@@ -36,7 +37,8 @@ from sarproc.focus.backprojection import backproject_points
 from sarproc.product.config import build
 from sarproc.product.frames import ElevationFrame
 from sarproc.product.io import read_product
-from sarproc.quality.metrics import evaluate_image, evaluate_product
+from sarproc.product.model import Product
+from sarproc.quality.metrics import TargetReport, evaluate_image, evaluate_product
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
 
@@ -59,13 +61,14 @@ def timed_child(cmd: list[str]) -> tuple[float, float]:
     _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - t0
     proc.returncode = os.waitstatus_to_exitcode(status)
+    assert proc.stderr is not None  # stderr=PIPE
     if proc.returncode != 0:
         raise SystemExit(f"{' '.join(cmd)} failed: {proc.stderr.read().decode()}")
     proc.stderr.close()
     return wall, usage.ru_maxrss / 1024.0
 
 
-def metrics_row(rep_target) -> dict:
+def metrics_row(rep_target: TargetReport) -> dict:
     out = {}
     for m in rep_target.axes:
         scale = math.degrees(1) if m.axis == "elevation" else 1.0
@@ -91,7 +94,7 @@ def isolated_table(mapping: dict, params: Array3DParams) -> dict:
     return rows
 
 
-def overlap_numbers(raw, params, ch14) -> dict:
+def overlap_numbers(raw: Product, params: Array3DParams, ch14: Product) -> dict:
     res = focus_array3d(
         raw.data,
         raw.coords["range_time"],
@@ -110,7 +113,8 @@ def overlap_numbers(raw, params, ch14) -> dict:
     iaz = {x: int(np.argmin(np.abs(res.azimuth - x))) for x in (-5.0, 0.0, 5.0)}
     irg = {r: int(np.argmin(np.abs(res.range - r))) for r in (485.0, 490.0, 495.0)}
 
-    def e(x, r):
+    def e(x: float, r: float) -> np.ndarray:
+        assert res.channel_images is not None  # the reconstruction kept its channel images
         return np.abs(res.channel_images[:, iaz[x], irg[r] - 1 : irg[r] + 2]).max(axis=1) ** 2
 
     per_ch = e(0.0, 490.0) / np.mean([e(0.0, 485.0), e(0.0, 495.0), e(5.0, 490.0), e(-5.0, 490.0)], axis=0)
@@ -127,7 +131,7 @@ def overlap_numbers(raw, params, ch14) -> dict:
     }
 
 
-def backprojection_check(raw, cube) -> dict:
+def backprojection_check(raw: Product, cube: Product) -> dict:
     el, az, rg = (cube.coords[d] for d in cube.dims)
     a_sl = slice(int(np.argmin(np.abs(az + 3.0))), int(np.argmin(np.abs(az - 3.0))) + 1)
     r_sl = slice(int(np.argmin(np.abs(rg - 487.0))), int(np.argmin(np.abs(rg - 493.0))) + 1)
@@ -157,7 +161,7 @@ def backprojection_check(raw, cube) -> dict:
     irw = cube.attrs["theoretical_irw"]
     r1 = evaluate_image(sub, cube.dims, coords, irw, truth, names)
     r2 = evaluate_image(bp, cube.dims, coords, irw, truth, names)
-    out = {"bp_seconds": bp_time, "points": len(pts), "targets": {}}
+    out: dict[str, Any] = {"bp_seconds": bp_time, "points": len(pts), "targets": {}}
     for n in names:
         a, b = r1.target(n), r2.target(n)
         out["targets"][n] = {
@@ -174,15 +178,15 @@ def backprojection_check(raw, cube) -> dict:
     return out
 
 
-def figures(outdir: Path, cube, ch14, raw, overlap):
+def figures(outdir: Path, cube: Product, ch14: Product, raw: Product, overlap: dict) -> None:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    def db(x):
+    def db(x: np.ndarray) -> np.ndarray:
         a = np.abs(x)
         return 20 * np.log10(np.maximum(a / a.max(), 1e-6))
 
-    def save(fig, name):
+    def save(fig: Figure, name: str) -> None:
         FigureCanvasAgg(fig)
         fig.savefig(outdir / name, dpi=110)
 
@@ -196,12 +200,12 @@ def figures(outdir: Path, cube, ch14, raw, overlap):
         vmin=-40,
         vmax=0,
         cmap="viridis",
-        extent=[
+        extent=(
             ch14.coords["range"][0],
             ch14.coords["range"][-1],
             ch14.coords["azimuth"][0],
             ch14.coords["azimuth"][-1],
-        ],
+        ),
     )
     ax.set(
         xlabel="range (m)",
@@ -238,7 +242,7 @@ def figures(outdir: Path, cube, ch14, raw, overlap):
         [
             (
                 mag[:, :, ir],
-                [az[0], az[-1], np.degrees(el[0]), np.degrees(el[-1])],
+                (az[0], az[-1], np.degrees(el[0]), np.degrees(el[-1])),
                 "azimuth (m)",
                 "elevation (deg)",
                 "(b) range = 490 m",
@@ -246,7 +250,7 @@ def figures(outdir: Path, cube, ch14, raw, overlap):
             ),
             (
                 mag[:, ia, :],
-                [rg[0], rg[-1], np.degrees(el[0]), np.degrees(el[-1])],
+                (rg[0], rg[-1], np.degrees(el[0]), np.degrees(el[-1])),
                 "range (m)",
                 "elevation (deg)",
                 "(c) azimuth = 0 m (paper 10 m)",
@@ -254,7 +258,7 @@ def figures(outdir: Path, cube, ch14, raw, overlap):
             ),
             (
                 mag[ie, :, :],
-                [rg[0], rg[-1], az[0], az[-1]],
+                (rg[0], rg[-1], az[0], az[-1]),
                 "range (m)",
                 "azimuth (m)",
                 "(d) elevation = 0 deg",
@@ -271,7 +275,7 @@ def figures(outdir: Path, cube, ch14, raw, overlap):
     save(fig, "fig7_cube.png")
 
 
-def main(argv=None):
+def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--results", default="results/004")
     ap.add_argument("--config", default="configs/du2010.yaml")

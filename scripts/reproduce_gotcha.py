@@ -19,10 +19,11 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from sarproc.product.io import read_product
+from sarproc.product.model import Product
 from sarproc.quality.image_measures import bright_points, entropy, magnitude_ncc, subpixel_peak
 
 
-def quicklook(img, path: Path, title: str):
+def quicklook(img: Product, path: Path, title: str) -> None:
     db = 20 * np.log10(np.abs(img.data) / np.abs(img.data).max() + 1e-12)
     a, r = img.coords["azimuth"], img.coords["range"]
     plt.figure(figsize=(6, 5.4))
@@ -33,7 +34,7 @@ def quicklook(img, path: Path, title: str):
         vmin=-45,
         vmax=0,
         aspect="equal",
-        extent=[a[0], a[-1], r[0] - r[len(r) // 2], r[-1] - r[len(r) // 2]],
+        extent=(a[0], a[-1], r[0] - r[len(r) // 2], r[-1] - r[len(r) // 2]),
     )
     plt.xlabel("azimuth x' (m)")
     plt.ylabel("ground range y' from the centre (m)")
@@ -44,7 +45,7 @@ def quicklook(img, path: Path, title: str):
     plt.close()
 
 
-def compare(pfa, bp) -> dict:
+def compare(pfa: Product, bp: Product) -> dict:
     """NCC of the magnitudes and the ten brightest PFA points' offsets from the backprojection's, pixels."""
     A, B = np.abs(pfa.data), np.abs(bp.data)
     rows = []
@@ -62,13 +63,13 @@ def compare(pfa, bp) -> dict:
     }
 
 
-def main():
+def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--dir", type=Path, default=Path("results/gotcha"))
     args = ap.parse_args()
     bp = read_product(args.dir / "image_bp.h5")
-    images = [("plain (distortion corrected)", "image_pfa.h5"), ("two-step", "image_pfa_two_step.h5")]
-    images = [(label, read_product(args.dir / name)) for label, name in images if (args.dir / name).exists()]
+    files = [("plain (distortion corrected)", "image_pfa.h5"), ("two-step", "image_pfa_two_step.h5")]
+    images = [(label, read_product(args.dir / name)) for label, name in files if (args.dir / name).exists()]
     shape = bp.data.shape
     lines = [
         "# Gotcha: pfa2 against backprojection",

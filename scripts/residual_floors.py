@@ -29,7 +29,7 @@ def evaluate(image: Path, config: Path | None, out: Path, tree: Path | None = No
     return json.loads(out.read_text()), time.perf_counter() - t0
 
 
-def main(argv=None):
+def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("images", nargs="+", type=Path)
     ap.add_argument("--out", type=Path, default=None)

@@ -18,6 +18,7 @@ import dataclasses
 import subprocess
 import sys
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -33,7 +34,9 @@ def sarproc(*args: str) -> None:
     subprocess.run([sys.executable, "-m", "sarproc", *args, "--overwrite", "--no-progress", "-q"], check=True)
 
 
-def image(scene: Path, process: str, process_config: Path | None, tmp: Path, tag: str, grid_on=()) -> Path:
+def image(
+    scene: Path, process: str, process_config: Path | None, tmp: Path, tag: str, grid_on: Sequence[str] = ()
+) -> Path:
     """Simulate and process ``scene``; ``grid_on``: backproject's grid centred and sized on these targets."""
     raw, out = tmp / f"{tag}_raw.h5", tmp / f"{tag}.h5"
     sarproc("simulate", str(scene), "-o", str(raw))
@@ -52,8 +55,8 @@ def main(argv: list[str] | None = None) -> None:
     args = ap.parse_args(argv)
     scene = yaml.safe_load(args.scene.read_text())
     az, rg = (float(v) for v in args.ghost.split(","))
-    with tempfile.TemporaryDirectory() as tmp:
-        tmp = Path(tmp)
+    with tempfile.TemporaryDirectory() as tmp_name:
+        tmp = Path(tmp_name)
         with_g = dict(scene, targets=dict(scene["targets"]))
         with_g["targets"]["points"] = list(scene["targets"].get("points", [])) + [
             {"name": "G", "azimuth": f"{az} m", "range": f"{rg} m"}
@@ -70,6 +73,7 @@ def main(argv: list[str] | None = None) -> None:
     response = ghosted.data.astype(np.complex128) - clean.data
     params = EvaluateParams(residual=True)
     base = evaluate_product(clean, params)
+    assert base.residual is not None and base.false_target is not None and base.false_target_guard is not None
     ref = max(t.peak_amplitude for t in base.targets)
     g_index = np.unravel_index(np.argmax(np.abs(response)), response.shape)
     g_pos = {d: float(clean.coords[d][i]) for d, i in zip(clean.dims, g_index)}
@@ -90,6 +94,7 @@ def main(argv: list[str] | None = None) -> None:
         product = dataclasses.replace(clean, data=(clean.data + a * response).astype(np.complex64))
         rep = evaluate_product(product, params)
         ft = rep.false_target
+        assert ft is not None and rep.residual is not None and rep.false_target_guard is not None
         errs = [(ft.position[d] - g_pos[d]) / cells[d] for d in clean.dims]
         rows.append(
             f"| {level:.1f} | {ft.pixel_level_db:.2f} | {ft.pixel_level_db - level:+.2f} | "

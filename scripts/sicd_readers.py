@@ -24,7 +24,7 @@ from sarproc.quality.image_measures import bright_points
 VERSIONS = ("1.4.0", "1.3.0")
 
 
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("images", nargs="+", help="NAME=IMAGE.h5")
     ap.add_argument("--out", type=Path, default=Path("results/formats"))

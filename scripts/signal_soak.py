@@ -42,7 +42,7 @@ SCENE = {
 }
 
 
-def run_once(scene: Path, out: Path, sig=None, delay=0.0) -> dict:
+def run_once(scene: Path, out: Path, sig: signal.Signals | None = None, delay: float = 0.0) -> dict:
     proc = subprocess.Popen(
         [sys.executable, "-m", "sarproc", "simulate", str(scene), "-o", str(out), "--overwrite", "--no-progress", "-q"],
         stdout=subprocess.DEVNULL,
@@ -60,7 +60,7 @@ def run_once(scene: Path, out: Path, sig=None, delay=0.0) -> dict:
     return {"code": proc.returncode, "seconds": time.monotonic() - start, "stderr": err[-400:], "tmp_mb": tmp_mb}
 
 
-def complete(out: Path, shape) -> bool:
+def complete(out: Path, shape: tuple[int, ...]) -> bool:
     try:
         with h5py.File(out) as f:
             return f["signal"].shape == shape and f["targets"].shape[0] == 2

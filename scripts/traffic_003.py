@@ -26,11 +26,12 @@ import argparse
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from sarproc.product.io import read_product
-from sarproc.product.model import moving_target_rows
+from sarproc.product.model import Product, moving_target_rows
 from sarproc.quality.moving import implied_relocation_error
 
 APPARENT_POSITION_M = 2.0
@@ -39,18 +40,18 @@ V_R_TOLERANCE = 0.1  # m/s, the issue's (and the paper's) slant-range velocity p
 STATIC_TOLERANCE = {"peak_db": 0.05, "irw_ratio": 0.005, "pslr_db": 0.1, "islr_db": 0.1}
 
 
-def names(product):
+def names(product: Product) -> list[str]:
     return [n.decode() if isinstance(n, bytes) else str(n) for n in product.targets["name"]]
 
 
-def axis_metrics(report, name):
+def axis_metrics(report: dict | None, name: str) -> dict | None:
     for t in (report or {}).get("targets", []):
         if t["name"] == name:
             return {a["axis"]: a for a in t["axes"]}
     return None
 
 
-def mover_table(product, report):
+def mover_table(product: Product, report: dict | None) -> tuple[list[dict], list[dict]]:
     """Rows per truth mover (found or not) and the false alarms."""
     tt = product.targets
     nm = names(product)
@@ -61,7 +62,7 @@ def mover_table(product, report):
     for k in range(len(tt)):
         if not (tt["vx"][k] or tt["vy"][k] or tt["vz"][k]):
             continue
-        e = {
+        e: dict[str, Any] = {
             "name": nm[k],
             "v_r": float(tt["vy"][k]),
             "v_a": float(tt["vx"][k]),
@@ -97,11 +98,17 @@ def mover_table(product, report):
     return out, false
 
 
-def fmt(v, spec):
+def fmt(v: Any, spec: str) -> str:
     return "n/a" if v is None or (isinstance(v, float) and not math.isfinite(v)) else format(v, spec)
 
 
-def markdown(rows, false, statics, two, info):
+def markdown(
+    rows: list[dict],
+    false: list[dict],
+    statics: list[dict],
+    two: tuple[list[dict], list[dict], dict] | None,
+    info: dict,
+) -> str:
     lines = [
         "# Paper 003 traffic scene (configs/xu_traffic.yaml): moving-target detection\n",
         f"Detections examined: {json.dumps(info.get('detections', {}))}; truth: {json.dumps(info.get('truth', {}))}\n",
@@ -181,7 +188,7 @@ def markdown(rows, false, statics, two, info):
     return "\n".join(lines) + "\n"
 
 
-def static_chip_rows(res):
+def static_chip_rows(res: Path) -> list[dict]:
     """Per static point of configs/xu_traffic_static.yaml: (modified, conventional) metrics from its chips."""
     out = []
     for k in range(1, 10):
@@ -189,7 +196,7 @@ def static_chip_rows(res):
         pair = [load_json(res / "static" / f"chip_{m}_{name}.json") for m in ("modified", "conventional")]
         if not all(pair):
             continue
-        row = {"name": name}
+        row: dict[str, Any] = {"name": name}
         targets = [next(t for t in r["targets"] if t["name"] == name) for r in pair]
         row["peak_db"] = 20 * math.log10(targets[0]["peak_amplitude"] / targets[1]["peak_amplitude"])
         for axis in ("azimuth", "range"):
@@ -205,7 +212,7 @@ def static_chip_rows(res):
     return out
 
 
-def static_chip_markdown(rows):
+def static_chip_markdown(rows: list[dict]) -> str:
     if not rows:
         return ""
     tol = STATIC_TOLERANCE
@@ -232,7 +239,7 @@ def static_chip_markdown(rows):
     return "\n".join(lines) + "\n"
 
 
-def static_rows(product, report, report_conv):
+def static_rows(product: Product, report: dict, report_conv: dict) -> list[dict]:
     out = []
     nm = names(product)
     tt = product.targets
@@ -256,7 +263,7 @@ def static_rows(product, report, report_conv):
     return out
 
 
-def figure(product, path):
+def figure(product: Product, path: Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -289,11 +296,11 @@ def figure(product, path):
     plt.close(fig)
 
 
-def load_json(path):
+def load_json(path: str | Path) -> Any:
     return json.loads(Path(path).read_text()) if Path(path).exists() else None
 
 
-def main():
+def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--results", default="results/003-traffic")
     args = ap.parse_args()

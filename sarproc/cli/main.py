@@ -16,7 +16,8 @@ import signal
 import sys
 import threading
 import traceback
-from collections.abc import MutableMapping
+from collections.abc import Iterator, MutableMapping, Sequence
+from typing import Any, NoReturn
 
 import click
 
@@ -55,7 +56,7 @@ class ProcessingFailed(click.ClickException):
 
 
 @contextlib.contextmanager
-def _run_scope():
+def _run_scope() -> Iterator[None]:
     """One command's run (:mod:`sarproc.product.run`): stop signals raise Interrupted, outputs are locked."""
     from sarproc.product import run
 
@@ -80,17 +81,17 @@ def _available(target: str) -> bool:
 
 
 class LazyGroup(click.Group):
-    def list_commands(self, ctx):
+    def list_commands(self, ctx: click.Context | None) -> list[str]:  # ctx unused: callers outside click pass None
         return [name for name, target in COMMANDS.items() if _available(target)]
 
-    def get_command(self, ctx, name):
+    def get_command(self, ctx: click.Context | None, name: str) -> click.Command | None:
         target = COMMANDS.get(name)
         if target is None or not _available(target):
             return None
         module, attr = target.split(":")
         return getattr(importlib.import_module(module), attr)
 
-    def parse_args(self, ctx, args):
+    def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
         # -q / -v / -vv may come anywhere (also after the subcommand): move them in front of it.
         front: list[str] = []
         rest: list[str] = []
@@ -101,7 +102,7 @@ class LazyGroup(click.Group):
             (front if a in ("--quiet", "--verbose") or re.fullmatch(r"-v+|-q+", a) else rest).append(a)
         return super().parse_args(ctx, front + rest)
 
-    def invoke(self, ctx):
+    def invoke(self, ctx: click.Context) -> Any:
         quiet = int(ctx.params.get("quiet") or 0)
         verbosity = -quiet if quiet else int(ctx.params.get("verbose") or 0)
         ctx.meta["sarproc.verbosity"] = verbosity
@@ -172,7 +173,7 @@ class LazyGroup(click.Group):
     count=True,
     help="Only errors and the warnings that an image is wrong (ghosts, aliasing, folds); -qq: only errors.",
 )
-def cli(verbose: int, quiet: int):
+def cli(verbose: int, quiet: int) -> None:
     """SAR point-target simulator, focusing processors and quality evaluation.
 
     Every subcommand reads one HDF5 product (or a scene YAML) and writes another.
@@ -195,13 +196,13 @@ def cli(verbose: int, quiet: int):
     logging.captureWarnings(True)
 
 
-def run_cli(args=None) -> int:
+def run_cli(args: Sequence[str] | None = None) -> int:
     """Run one command as the console does, without leaving the process; returns its exit status."""
     from sarproc.product import run
 
     default_hook = sys.unraisablehook
 
-    def quiet_unraisable(unraisable):
+    def quiet_unraisable(unraisable: sys.UnraisableHookArgs) -> None:
         from sarproc.product.io import hdf5_handles_damaged
 
         # h5py objects of a damaged file complain when freed; a stop signal raised inside a callback
@@ -244,7 +245,9 @@ def set_thread_defaults(environ: MutableMapping[str, str] | None = None) -> None
         target.setdefault(key, value)
 
 
-def main(args=None):  # pragma: no cover - console entry (exercised by subprocess tests)
+def main(
+    args: Sequence[str] | None = None,
+) -> NoReturn:  # pragma: no cover - console entry (exercised by subprocess tests)
     """Console entry: run the group; after a failed HDF5 write end without HDF5's cleanup (it can crash)."""
     set_thread_defaults()
     code = run_cli(args)

@@ -106,7 +106,12 @@ def _tap_table(
 
 
 def tap_table(
-    kernel: str, taps: int, oversampling: float = 1.25, dtype=np.float64, beta: float = 6.0, steps: int = _TABLE_STEPS
+    kernel: str,
+    taps: int,
+    oversampling: float = 1.25,
+    dtype: npt.DTypeLike = np.float64,
+    beta: float = 6.0,
+    steps: int = _TABLE_STEPS,
 ) -> np.ndarray:
     """(steps + 1, taps), read-only, cached: row c holds the weights of taps m = 0 .. taps-1 (sample
     floor(p) + 1 - taps/2 + m) for the fraction p - floor(p) = c / steps, i.e. the kernel at distance
@@ -118,7 +123,18 @@ _MODES = {"nearest": 0, "linear": 1, "cubic": 2}  # any other kernel: tabulated 
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _resample_row(row, pos, out, mode, taps, table, steps, zero, lo_pos, hi_pos) -> None:
+def _resample_row(
+    row: np.ndarray,
+    pos: np.ndarray,
+    out: np.ndarray,
+    mode: int,
+    taps: int,
+    table: np.ndarray,
+    steps: int,
+    zero: complex,
+    lo_pos: float,
+    hi_pos: float,
+) -> None:
     """One row: out[j] = sum over taps of row[i] w(pos[j] - i); zeros outside the row; pos outside
     [lo_pos, hi_pos] (or NaN) gives ``zero``. Tabulated weights are renormalised to unit sum."""
     n_in = len(row)
@@ -180,7 +196,18 @@ def _resample_row(row, pos, out, mode, taps, table, steps, zero, lo_pos, hi_pos)
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=CACHE)
-def _resample_kernel(data, pos, out, mode, taps, table, steps, zero, lo_pos, hi_pos) -> None:
+def _resample_kernel(
+    data: np.ndarray,
+    pos: np.ndarray,
+    out: np.ndarray,
+    mode: int,
+    taps: int,
+    table: np.ndarray,
+    steps: int,
+    zero: complex,
+    lo_pos: float,
+    hi_pos: float,
+) -> None:
     """Rows in parallel (the per-row work is a separate function: no accumulator is shared across rows)."""
     for r in numba.prange(data.shape[0]):
         _resample_row(data[r], pos[r], out[r], mode, taps, table, steps, zero, lo_pos, hi_pos)

@@ -130,7 +130,18 @@ def cis_cycles32_short(c: np.float32) -> tuple[np.float32, np.float32]:
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _rotate_row(xr, a0, a1, a2, a3, c0, c1, c2, c3, scale) -> None:
+def _rotate_row(
+    xr: np.ndarray,
+    a0: float,
+    a1: float,
+    a2: float,
+    a3: float,
+    c0: np.ndarray,
+    c1: np.ndarray,
+    c2: np.ndarray,
+    c3: np.ndarray,
+    scale: float,
+) -> None:
     """xr (2m interleaved re, im) *= exp(j 2 pi scale (a0 c0 + a1 c1 + a2 c2 + a3 c3)); vectorisable."""
     for j in range(len(c0)):
         c = (a0 * c0[j] + a1 * c1[j] + a2 * c2[j] + a3 * c3[j]) * scale
@@ -143,14 +154,14 @@ def _rotate_row(xr, a0, a1, a2, a3, c0, c1, c2, c3, scale) -> None:
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=CACHE)
-def _separable_kernel(xf, rows, cols, scale) -> None:
+def _separable_kernel(xf: np.ndarray, rows: np.ndarray, cols: np.ndarray, scale: float) -> None:
     """Rows of xf (n, 2m) float view of complex data; rows (4, n), cols (4, m) float64."""
     for i in numba.prange(xf.shape[0]):
         _rotate_row(xf[i], rows[0, i], rows[1, i], rows[2, i], rows[3, i], cols[0], cols[1], cols[2], cols[3], scale)
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _rotate_row_field(xr, phase, mask, use_mask, scale) -> None:
+def _rotate_row_field(xr: np.ndarray, phase: np.ndarray, mask: np.ndarray, use_mask: bool, scale: float) -> None:
     for j in range(len(phase)):
         c = phase[j] * scale
         c -= np.floor(c + 0.5)
@@ -170,7 +181,7 @@ rotate_row_field = _rotate_row_field
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=CACHE)
-def _field_kernel(xf, phase, mask, use_mask, scale) -> None:
+def _field_kernel(xf: np.ndarray, phase: np.ndarray, mask: np.ndarray, use_mask: bool, scale: float) -> None:
     for i in numba.prange(xf.shape[0]):
         _rotate_row_field(xf[i], phase[i], mask[i], use_mask, scale)
 

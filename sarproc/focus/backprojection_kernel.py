@@ -34,6 +34,9 @@ from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
 from sarproc.dsp.phasor import cis_cycles32_short
 
 INTERPOLATIONS = ("nearest", "linear", "cubic", "sinc", "lanczos", "knab")
+# a leg's float32 geometry from _reference: unit vector (3), 1/R, R, 1/(2R), 1/(2R^2), whether to expand
+_Leg = tuple[np.float32, np.float32, np.float32, np.float32, np.float32, np.float32, np.float32, bool]
+
 _TABLE_STEPS = 256  # table entries per sample for the windowed-sinc kernels (linear in between)
 
 
@@ -45,14 +48,34 @@ EXPANSION_LIMIT_CYCLES = 1e-4
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _offset(ux, uy, uz, inv_r, r0, dx, dy, dz, d2):
+def _offset(
+    ux: np.float32,
+    uy: np.float32,
+    uz: np.float32,
+    inv_r: np.float32,
+    r0: np.float32,
+    dx: np.float32,
+    dy: np.float32,
+    dz: np.float32,
+    d2: np.float32,
+) -> np.float32:
     """|c + d - p| - |c - p| for u = (c - p) / |c - p|, in float32 without cancellation."""
     a = np.float32(2.0) * (ux * dx + uy * dy + uz * dz) * inv_r + d2 * inv_r * inv_r
     return r0 * a / (np.float32(1.0) + np.sqrt(np.float32(1.0) + a))
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _offset_expanded(ux, uy, uz, half_inv_r, half_inv_r2, dx, dy, dz, d2):
+def _offset_expanded(
+    ux: np.float32,
+    uy: np.float32,
+    uz: np.float32,
+    half_inv_r: np.float32,
+    half_inv_r2: np.float32,
+    dx: np.float32,
+    dy: np.float32,
+    dz: np.float32,
+    d2: np.float32,
+) -> np.float32:
     """The same difference to third order in d: du + (|d|^2 - du^2) / (2r) - du (|d|^2 - du^2) / (2r^2), du = u.d
     (no square root or division; used where the remainder is negligible, see EXPANSION_LIMIT_CYCLES)."""
     du = ux * dx + uy * dy + uz * dz
@@ -60,7 +83,7 @@ def _offset_expanded(ux, uy, uz, half_inv_r, half_inv_r2, dx, dy, dz, d2):
 
 
 @numba.njit(error_model="numpy", cache=CACHE)
-def _reference(cx, cy, cz, px, py, pz, h4kc):
+def _reference(cx: float, cy: float, cz: float, px: float, py: float, pz: float, h4kc: float) -> tuple[float, _Leg]:
     """float64 range from antenna p to tile centre c and the float32 leg geometry (unit vector, 1/R, R, 1/(2R),
     1/(2R^2), whether the expansion is accurate enough: kc h^4 / R^3 below the limit)."""
     ax, ay, az = cx - px, cy - py, cz - pz
@@ -80,7 +103,19 @@ def _reference(cx, cy, cz, px, py, pz, h4kc):
 
 
 @numba.njit(error_model="numpy", cache=CACHE)
-def _pulse_reference(cx, cy, cz, tx, rx, p, monostatic, scale, first, kc, h4kc):
+def _pulse_reference(
+    cx: float,
+    cy: float,
+    cz: float,
+    tx: np.ndarray,
+    rx: np.ndarray,
+    p: int,
+    monostatic: bool,
+    scale: float,
+    first: np.ndarray,
+    kc: float,
+    h4kc: float,
+) -> tuple[np.int64, np.float32, np.float32, _Leg, _Leg]:
     """Per tile and pulse, float64: integer sample and float32 fraction of the centre's delay, its reduced
     carrier cycles, and the float32 geometry of both legs."""
     r_tx, geo_t = _reference(cx, cy, cz, tx[p, 0], tx[p, 1], tx[p, 2], h4kc)
@@ -98,7 +133,16 @@ def _pulse_reference(cx, cy, cz, tx, rx, p, monostatic, scale, first, kc, h4kc):
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _add_leg(dr, dx, dy, dz, d2, geo, factor, first_leg) -> None:
+def _add_leg(
+    dr: np.ndarray,
+    dx: np.ndarray,
+    dy: np.ndarray,
+    dz: np.ndarray,
+    d2: np.ndarray,
+    geo: _Leg,
+    factor: np.float32,
+    first_leg: bool,
+) -> None:
     """dr (+)= factor x the leg's path difference per pixel; branch-free loops, so they vectorise."""
     ux, uy, uz, inv_r, r0, hir, hir2, expand = geo
     if expand and first_leg:
@@ -116,7 +160,16 @@ def _add_leg(dr, dx, dy, dz, d2, geo, factor, first_leg) -> None:
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _path_differences(dr, dx, dy, dz, d2, geo_t, geo_r, monostatic) -> None:
+def _path_differences(
+    dr: np.ndarray,
+    dx: np.ndarray,
+    dy: np.ndarray,
+    dz: np.ndarray,
+    d2: np.ndarray,
+    geo_t: _Leg,
+    geo_r: _Leg,
+    monostatic: bool,
+) -> None:
     if monostatic:
         _add_leg(dr, dx, dy, dz, d2, geo_t, np.float32(2.0), True)
     else:
@@ -125,7 +178,16 @@ def _path_differences(dr, dx, dy, dz, d2, geo_t, geo_r, monostatic) -> None:
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _positions(dr, frac, cos_, sin_, frac0, cyc0, scale32, kc32) -> None:
+def _positions(
+    dr: np.ndarray,
+    frac: np.ndarray,
+    cos_: np.ndarray,
+    sin_: np.ndarray,
+    frac0: np.float32,
+    cyc0: np.float32,
+    scale32: np.float32,
+    kc32: np.float32,
+) -> None:
     """Per pixel of a tile, for one pulse: sample position offset (float32, from the tile's integer base
     sample) and carrier phasor."""
     half = np.float32(0.5)
@@ -139,7 +201,9 @@ def _positions(dr, frac, cos_, sin_, frac0, cyc0, scale32, kc32) -> None:
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _indices(dr, jc, frac0, scale32, ibase, n_w) -> None:
+def _indices(
+    dr: np.ndarray, jc: np.ndarray, frac0: np.float32, scale32: np.float32, ibase: np.int32, n_w: np.int32
+) -> None:
     """Pair-table entry of each pixel, clipped to the zero entries 0 and n_w (reads outside the window add
     nothing)."""
     lo = np.int32(0)
@@ -148,7 +212,9 @@ def _indices(dr, jc, frac0, scale32, ibase, n_w) -> None:
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _weight_and_phasor(dr, frac0, cyc0, scale32, kc32):
+def _weight_and_phasor(
+    dr: np.float32, frac0: np.float32, cyc0: np.float32, scale32: np.float32, kc32: np.float32
+) -> tuple[np.float32, np.float32, np.float32]:
     """A pixel's interpolation weight (fraction of its sample position) and carrier phasor from its path
     difference dr to the tile centre."""
     t = frac0 + dr * scale32
@@ -158,7 +224,16 @@ def _weight_and_phasor(dr, frac0, cyc0, scale32, kc32):
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _combine_from_dr(acc_re, acc_im, g, dr, frac0, cyc0, scale32, kc32) -> None:
+def _combine_from_dr(
+    acc_re: np.ndarray,
+    acc_im: np.ndarray,
+    g: np.ndarray,
+    dr: np.ndarray,
+    frac0: np.float32,
+    cyc0: np.float32,
+    scale32: np.float32,
+    kc32: np.float32,
+) -> None:
     """acc += (x_s + w (x_{s+1} - x_s)) exp(j 2 pi cycles) per pixel, w and the cycles recomputed from dr (cheaper
     than storing and reloading them)."""
     for i in range(len(acc_re)):
@@ -170,7 +245,19 @@ def _combine_from_dr(acc_re, acc_im, g, dr, frac0, cyc0, scale32, kc32) -> None:
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _path_indices_mono(dr, jc, dx, dy, dz, d2, geo, frac0, scale32, ibase, n_w) -> None:
+def _path_indices_mono(
+    dr: np.ndarray,
+    jc: np.ndarray,
+    dx: np.ndarray,
+    dy: np.ndarray,
+    dz: np.ndarray,
+    d2: np.ndarray,
+    geo: _Leg,
+    frac0: np.float32,
+    scale32: np.float32,
+    ibase: np.int32,
+    n_w: np.int32,
+) -> None:
     """_path_differences and _indices in one pass for the common case: monostatic, expansion accurate."""
     ux, uy, uz, inv_r, r0, hir, hir2, expand = geo
     lo = np.int32(0)
@@ -182,7 +269,16 @@ def _path_indices_mono(dr, jc, dx, dy, dz, d2, geo, frac0, scale32, ibase, n_w) 
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _combine_cubic(acc_re, acc_im, g, dr, frac0, cyc0, scale32, kc32) -> None:
+def _combine_cubic(
+    acc_re: np.ndarray,
+    acc_im: np.ndarray,
+    g: np.ndarray,
+    dr: np.ndarray,
+    frac0: np.float32,
+    cyc0: np.float32,
+    scale32: np.float32,
+    kc32: np.float32,
+) -> None:
     """As _combine_from_dr for the cubic table: value c0 + w (c1 + w (c2 + w c3)), g holding (c0 .. c3) per pixel."""
     for i in range(len(acc_re)):
         w, co, si = _weight_and_phasor(dr[i], frac0, cyc0, scale32, kc32)
@@ -193,7 +289,7 @@ def _combine_cubic(acc_re, acc_im, g, dr, frac0, cyc0, scale32, kc32) -> None:
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _gather_quads(coef, jc, g) -> None:
+def _gather_quads(coef: np.ndarray, jc: np.ndarray, g: np.ndarray) -> None:
     """g[2i], g[2i + 1] = coef[2 jc[i]], coef[2 jc[i] + 1]: one 32-byte cubic entry per pixel."""
     for i in range(len(jc)):
         k = np.uint32(2) * jc[i]
@@ -202,14 +298,23 @@ def _gather_quads(coef, jc, g) -> None:
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _gather_pairs(pairs, jc, g) -> None:
+def _gather_pairs(pairs: np.ndarray, jc: np.ndarray, g: np.ndarray) -> None:
     """g[i] = pairs[jc[i]]: one 16-byte entry (sample, difference to the next) per pixel, the only indirect load."""
     for i in range(len(jc)):
         g[i] = pairs[jc[i]]
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _accumulate_nearest(acc_re, acc_im, frac, cos_, sin_, row, ibase, n_s) -> None:
+def _accumulate_nearest(
+    acc_re: np.ndarray,
+    acc_im: np.ndarray,
+    frac: np.ndarray,
+    cos_: np.ndarray,
+    sin_: np.ndarray,
+    row: np.ndarray,
+    ibase: np.int32,
+    n_s: np.int32,
+) -> None:
     zero = np.float32(0.0)
     for i in range(len(acc_re)):
         j = ibase + np.int32(np.floor(frac[i] + np.float32(0.5)))
@@ -222,7 +327,18 @@ def _accumulate_nearest(acc_re, acc_im, frac, cos_, sin_, row, ibase, n_s) -> No
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _accumulate_table(acc_re, acc_im, frac, cos_, sin_, row, ibase, n_s, table, taps) -> None:
+def _accumulate_table(
+    acc_re: np.ndarray,
+    acc_im: np.ndarray,
+    frac: np.ndarray,
+    cos_: np.ndarray,
+    sin_: np.ndarray,
+    row: np.ndarray,
+    ibase: np.int32,
+    n_s: np.int32,
+    table: np.ndarray,
+    taps: int,
+) -> None:
     """Tabulated kernel: pixel i reads samples j - taps/2 + 1 .. j + taps/2 (row: complex64) with the weights
     of its fraction cell, one contiguous row of ``table`` (steps + 1, taps) per cell (sarproc.dsp.interp
     .tap_table), linearly interpolated between cells; the tap loop is a short contiguous dot product."""
@@ -264,7 +380,17 @@ def _accumulate_table(acc_re, acc_im, frac, cos_, sin_, row, ibase, n_s, table, 
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=CACHE)
-def pulse_windows(first, scale, tx, rx, monostatic, centres, radius, n_s, reach):
+def pulse_windows(
+    first: np.ndarray,
+    scale: float,
+    tx: np.ndarray,
+    rx: np.ndarray,
+    monostatic: bool,
+    centres: np.ndarray,
+    radius: np.ndarray,
+    n_s: int,
+    reach: int,
+) -> tuple[np.ndarray, np.ndarray]:
     """Per pulse, the first and last table sample any pixel's entry starts at (lo, hi: int64, within -reach ..
     n - 2 + reach; an entry at s reads samples s + 1 - reach .. s + reach), from the tiles' centres and radii:
     |path - path_centre| <= 2 radius (one radius per leg), two samples of margin. An empty window (no pixel
@@ -296,7 +422,7 @@ def pulse_windows(first, scale, tx, rx, monostatic, centres, radius, n_s, reach)
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=CACHE)
-def pair_table(pulses, lo, pairs) -> None:
+def pair_table(pulses: np.ndarray, lo: np.ndarray, pairs: np.ndarray) -> None:
     """pairs[p, k] = (x_s, x_{s+1} - x_s) for the pulse's sample s = lo[p] + k - 1 (4 float32), samples outside the
     pulse taken as zero (so s = -1 and s = n - 1 interpolate towards zero, as the reference does), and always
     zero at k = 0 and k = W, where clipped positions land (pairs: (n, W + 1, 4))."""
@@ -319,7 +445,7 @@ def pair_table(pulses, lo, pairs) -> None:
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=CACHE)
-def cubic_table(pulses, lo, coef) -> None:
+def cubic_table(pulses: np.ndarray, lo: np.ndarray, coef: np.ndarray) -> None:
     """coef[p, k] = the cubic Lagrange polynomial through samples s - 1 .. s + 2 (s = lo[p] + k - 1) as
     (c0, c1, c2, c3), value c0 + w c1 + w^2 c2 + w^3 c3 at s + w (4 complex64 = 8 float32), samples outside the
     pulse taken as zero; zero at k = 0 and k = W (coef: (n, W + 1, 8))."""
@@ -355,7 +481,21 @@ def cubic_table(pulses, lo, coef) -> None:
 
 @numba.njit(parallel=True, error_model="numpy", cache=CACHE)
 def backproject_tiles(
-    pulses, pairs, first, scale, kc, tx, rx, monostatic, centres, tile_start, d, mode, table, taps, acc
+    pulses: np.ndarray,
+    pairs: np.ndarray,
+    first: np.ndarray,
+    scale: float,
+    kc: float,
+    tx: np.ndarray,
+    rx: np.ndarray,
+    monostatic: bool,
+    centres: np.ndarray,
+    tile_start: np.ndarray,
+    d: np.ndarray,
+    mode: int,
+    table: np.ndarray,
+    taps: int,
+    acc: np.ndarray,
 ) -> None:
     """Add the pulses' contributions to ``acc`` (complex128, one entry per sorted pixel).
 
@@ -443,7 +583,9 @@ def bounds(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=CACHE)
-def _tile_layout(points, origin, lo, hi, tile_size, max_tile):
+def _tile_layout(
+    points: np.ndarray, origin: np.ndarray, lo: np.ndarray, hi: np.ndarray, tile_size: float, max_tile: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Counting sort of the points by spatial cell (lo, hi: the points' bounds relative to ``origin``), tiles of
     at most ``max_tile`` points, each tile's bounding-box centre and the points' float32 offsets from it. The
     cell keys and the per-tile passes run in parallel; the sort itself is one serial counting pass."""

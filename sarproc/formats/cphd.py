@@ -24,6 +24,9 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import os
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 import scipy.fft as sfft
@@ -95,7 +98,7 @@ def from_cphd_signal(
     return sfft.ifft(np.fft.ifftshift(x, axes=-1), axis=-1, workers=-1)[:, :n_range].astype(np.complex64)
 
 
-def _pvp_layout(names_sizes):
+def _pvp_layout(names_sizes: Sequence[tuple[str, int]]) -> tuple[dict, np.dtype, int]:
     """PVP XML entries and the matching dtype (8-byte words, in order)."""
     offset, xml, fields = 0, {}, []
     for name, size in names_sizes:
@@ -126,7 +129,7 @@ PVP_FIELDS = [
 ]
 
 
-def cphd_parts(raw: Product, place: Placement, sarproc_metadata: bool = True):
+def cphd_parts(raw: Product, place: Placement, sarproc_metadata: bool = True) -> tuple[Any, np.ndarray, np.ndarray]:
     """(xml tree, signal (n_pulses, n_fft) complex64, pvps) of a raw product.
 
     ``sarproc_metadata=False`` leaves out the ``sarproc.*`` parameters (a file as another program would see it).
@@ -294,7 +297,7 @@ def cphd_parts(raw: Product, place: Placement, sarproc_metadata: bool = True):
     return tree, signal, pvps
 
 
-def _image_area(raw: Product, place: Placement):
+def _image_area(raw: Product, place: Placement) -> tuple[np.ndarray, np.ndarray]:
     """Image area (m, in the IA frame about the scene centre): the targets' span plus 100 m."""
     if len(raw.targets):
         xy = np.stack([raw.targets["x"], raw.targets["y"]], 1) - np.asarray(raw.radar.scene_center)[:2]
@@ -304,7 +307,7 @@ def _image_area(raw: Product, place: Placement):
     return lo, hi
 
 
-def _image_grid(ia, spacing: float) -> dict:
+def _image_grid(ia: tuple[np.ndarray, np.ndarray], spacing: float) -> dict:
     """A regular grid over the image area (IARP at line 0, sample 0), 1.5 samples per slant resolution."""
     (x1, y1), (x2, y2) = ia
     # cell k spans ((k - 0.5) d, (k + 0.5) d): the first and last cells hold the area's edges
@@ -317,7 +320,7 @@ def _image_grid(ia, spacing: float) -> dict:
     }
 
 
-def _corner_points(place: Placement, ia):
+def _corner_points(place: Placement, ia: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
     (x1, y1), (x2, y2) = ia
     pts = []
     for x, y in ((x1, y1), (x1, y2), (x2, y2), (x2, y1)):
@@ -326,7 +329,7 @@ def _corner_points(place: Placement, ia):
     return np.array(pts)
 
 
-def write_cphd(path, raw: Product, place: Placement, sarproc_metadata: bool = True) -> dict:
+def write_cphd(path: str | os.PathLike, raw: Product, place: Placement, sarproc_metadata: bool = True) -> dict:
     """Write a raw product as a CPHD file (atomically); returns sizes for the summary."""
     require_sarkit()
     import sarkit.cphd as skcphd
@@ -346,11 +349,11 @@ def write_cphd(path, raw: Product, place: Placement, sarproc_metadata: bool = Tr
     return {"vectors": signal.shape[0], "samples": signal.shape[1]}
 
 
-def _params(tree) -> dict:
+def _params(tree: Any) -> dict:
     return {p.get("name"): p.text for p in tree.getroot().findall("{*}ProductInfo/{*}Parameter")}
 
 
-def read_cphd(path) -> Product:
+def read_cphd(path: str | os.PathLike) -> Product:
     """A raw product from a CPHD file (first channel; FX domain, or TOA domain from other programs)."""
     require_sarkit()
     import sarkit.cphd as skcphd
@@ -445,7 +448,7 @@ class _PhaseHistory:
     method: str  # how the samples came to one grid (recorded in history)
 
 
-def _foreign_vectors(path, xh, pvps, n_vec: int) -> _ForeignVectors:
+def _foreign_vectors(path: str | os.PathLike, xh: Any, pvps: np.ndarray, n_vec: int) -> _ForeignVectors:
     """The collection's geometry and per-vector parameters, refused with the file and field when unusable."""
     domain = xh.load("{*}Global/{*}DomainType")
     sgn = int(xh.load("{*}Global/{*}SGN"))
@@ -506,7 +509,7 @@ def _foreign_vectors(path, xh, pvps, n_vec: int) -> _ForeignVectors:
     )
 
 
-def _foreign_phase_history(path, v: _ForeignVectors, fx: np.ndarray) -> _PhaseHistory:
+def _foreign_phase_history(path: str | os.PathLike, v: _ForeignVectors, fx: np.ndarray) -> _PhaseHistory:
     """Every vector on one frequency grid inside the common band, SGN = -1, referenced to O."""
     n_samp = fx.shape[1]
     sig = np.asarray(fx)
@@ -557,7 +560,7 @@ def _oversampled(ph: _PhaseHistory) -> _PhaseHistory:
     return _PhaseHistory(ph.freq[0] + (np.arange(n_pad) - left) * step, padded, ph.method)
 
 
-def _foreign_raw(path, xh, fx: np.ndarray, pvps) -> Product:
+def _foreign_raw(path: str | os.PathLike, xh: Any, fx: np.ndarray, pvps: np.ndarray) -> Product:
     """A CPHD written by another program: its phase history, from the standard fields alone, as Gotcha-style data.
 
     FX-domain CPHD is the dechirped phase history compensated to the SRP (CPHD 1.1 signal model, SGN = -1):
@@ -617,7 +620,7 @@ def _foreign_raw(path, xh, fx: np.ndarray, pvps) -> Product:
     return raw
 
 
-def _taper(f, fx1, fx2):
+def _taper(f: np.ndarray, fx1: float, fx2: float) -> np.ndarray:
     """1 on [fx1, fx2], raised cosine to 0 at the ends of the sample grid f (no taper where there is no guard)."""
     w = np.ones(len(f))
     below, above = f < fx1, f > fx2
@@ -630,7 +633,18 @@ def _taper(f, fx1, fx2):
     return w
 
 
-def _common_grid(path, domain, sig, sc0, scss, fx1, fx2, toa1, toa2, freq):
+def _common_grid(
+    path: str | os.PathLike,
+    domain: str,
+    sig: np.ndarray,
+    sc0: np.ndarray,
+    scss: np.ndarray,
+    fx1: np.ndarray,
+    fx2: np.ndarray,
+    toa1: np.ndarray,
+    toa2: np.ndarray,
+    freq: np.ndarray,
+) -> np.ndarray:
     """Every vector's phase history (SGN = -1 form, about its own SRP) at the frequencies ``freq``
     (see _foreign_raw)."""
     import scipy.signal as ss
@@ -669,7 +683,7 @@ def _radar_kwargs(d: dict) -> dict:
     return d
 
 
-def check_cphd(path) -> dict:
+def check_cphd(path: str | os.PathLike) -> dict:
     """Run sarkit's CphdConsistency (schema, header, PVPs, reference geometry, signal) on a CPHD file."""
     require_sarkit()
     import sarkit.verification as skver
@@ -680,7 +694,7 @@ def check_cphd(path) -> dict:
     return consistency_summary(con)
 
 
-def cphd_header(path) -> dict:
+def cphd_header(path: str | os.PathLike) -> dict:
     """Check a CPHD file's metadata without reading its signal; {'vectors', 'samples'} of its first channel.
 
     Raises InputError naming the file and the XML field when it is no FX- or TOA-domain monostatic CPHD.

@@ -20,6 +20,7 @@ import logging
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sarproc.product.config import param
 from sarproc.product.metadata import RadarMetadata, parse_utc
@@ -107,7 +108,7 @@ class Placement:
     def to_ecf(self, xyz: np.ndarray) -> np.ndarray:
         return self.origin_ecf + (np.asarray(xyz, float) - self.anchor) @ self.rotation.T
 
-    def vector_to_ecf(self, v) -> np.ndarray:
+    def vector_to_ecf(self, v: ArrayLike) -> np.ndarray:
         return np.asarray(v, float) @ self.rotation.T
 
     def from_ecf(self, ecf: np.ndarray) -> np.ndarray:

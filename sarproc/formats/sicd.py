@@ -17,13 +17,16 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import os
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sarproc import __version__
 from sarproc.formats.geolocation import Placement, ecf_to_geodetic, utc_datetime
 from sarproc.product.errors import InputError
-from sarproc.product.frames import GroundLosFrame, frame_from_spec
+from sarproc.product.frames import Frame, GroundLosFrame, frame_from_spec
 from sarproc.product.metadata import C
 from sarproc.product.model import Product
 
@@ -184,7 +187,7 @@ def spectral_centre(pixels: np.ndarray, axis: int, ss: float) -> float:
     return float(np.angle(np.sum(power * np.exp(2j * np.pi * np.arange(n) / n))) / (2 * np.pi * ss))
 
 
-def local_support_offsets(tree, pixels: np.ndarray, points, half: int = 16) -> np.ndarray:
+def local_support_offsets(tree: Any, pixels: np.ndarray, points: ArrayLike, half: int = 16) -> np.ndarray:
     """(measured - DeltaKCOAPoly) / ImpRespBW along (row, col) at SICD pixels ``points`` ((row, col) each): the
     spectral centre of the (2 half)^2 pixels about each point against the file's DeltaKCOAPoly there."""
     import sarkit.sicd as sksicd
@@ -208,7 +211,7 @@ def local_support_offsets(tree, pixels: np.ndarray, points, half: int = 16) -> n
     return np.array(out)
 
 
-def fold(k, ss: float):
+def fold(k: np.ndarray | float, ss: float) -> np.ndarray:
     """Spatial frequency k (cycles/m) folded by the sample spacing into [-1/(2 SS), 1/(2 SS))."""
     return k - np.round(np.asarray(k) * ss) / ss
 
@@ -226,7 +229,7 @@ class SupportModel:
     f_c: float
     pfa_centre: tuple[float, float] | None = None
 
-    def _points(self, x, y):
+    def _points(self, x: ArrayLike, y: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         x, y = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float))
         p = self.scp_ecf + x[..., None] * self.u_row + y[..., None] * self.u_col
         t = np.polynomial.polynomial.polyval2d(x, y, self.time_coa)
@@ -411,7 +414,7 @@ def _polyfit_scaled(x: np.ndarray, y: np.ndarray, order: int) -> np.ndarray:
     return coefs / scale ** np.arange(order + 1)
 
 
-def pfa_geometry(product: Product, grid: SicdGrid, frame, t_rel: np.ndarray, t_coa: float) -> PfaGeometry:
+def pfa_geometry(product: Product, grid: SicdGrid, frame: Frame, t_rel: np.ndarray, t_coa: float) -> PfaGeometry:
     """PFA parameters of a pfa2 image (scene-frame vectors; the caller maps them to ECF)."""
     pos = np.asarray(product.aux["platform_position"], float)
     e_row = frame.to_xyz(0.0, 1.0) - frame.to_xyz(0.0, 0.0)  # along range (rows)
@@ -698,7 +701,12 @@ def sicd_xml(
 
 
 def write_sicd(
-    path, product: Product, place: Placement, *, image_formation: str | None = None, version: str = "1.4.0"
+    path: str | os.PathLike,
+    product: Product,
+    place: Placement,
+    *,
+    image_formation: str | None = None,
+    version: str = "1.4.0",
 ) -> SicdGrid:
     """Write ``product`` (a 2D image) as a SICD NITF file (SICD ``version``) at ``path`` (atomically)."""
     require_sarkit()
@@ -722,7 +730,7 @@ def write_sicd(
     return grid
 
 
-def read_sicd(path) -> tuple:
+def read_sicd(path: str | os.PathLike) -> tuple[Any, np.ndarray]:
     """(xml tree, pixels (NumRows, NumCols) complex64) of a SICD NITF file."""
     require_sarkit()
     import sarkit.sicd as sksicd
@@ -731,7 +739,7 @@ def read_sicd(path) -> tuple:
         return reader.metadata.xmltree, reader.read_image()
 
 
-def consistency_summary(con) -> dict:
+def consistency_summary(con: Any) -> dict:
     """What a sarkit ConsistencyChecker found: failed checks split into errors ('Need') and warnings ('Want')."""
     import contextlib
     import io
@@ -755,7 +763,7 @@ def consistency_summary(con) -> dict:
     }
 
 
-def check_sicd(path) -> dict:
+def check_sicd(path: str | os.PathLike) -> dict:
     """Run sarkit's SicdConsistency (schema, NITF headers, every metadata relation) on a SICD file."""
     require_sarkit()
     import sarkit.verification as skver
@@ -766,7 +774,7 @@ def check_sicd(path) -> dict:
     return consistency_summary(con)
 
 
-def sarpy_check(path) -> dict:
+def sarpy_check(path: str | os.PathLike) -> dict:
     """Run NGA's older reader's validity check (``sarpy.consistency.sicd_consistency``: schema, NITF headers,
     SICDType.is_valid) on a SICD file: its verdict and the messages it logged, split by level.
 
@@ -780,11 +788,11 @@ def sarpy_check(path) -> dict:
     import warnings
 
     class Collect(logging.Handler):
-        def __init__(self):
+        def __init__(self) -> None:
             super().__init__(logging.INFO)
-            self.records = []
+            self.records: list[logging.LogRecord] = []
 
-        def emit(self, record):
+        def emit(self, record: logging.LogRecord) -> None:
             self.records.append(record)
 
     handler = Collect()
@@ -802,7 +810,7 @@ def sarpy_check(path) -> dict:
         logger.setLevel(old_level)
         logger.propagate = old_propagate
 
-    def messages(level):
+    def messages(level: int) -> list[str]:
         return [r.getMessage().strip() for r in handler.records if r.levelno == level and r.getMessage().strip()]
 
     return {

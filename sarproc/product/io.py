@@ -33,8 +33,9 @@ import socket
 import stat
 import sys
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
+from types import EllipsisType, TracebackType
 from typing import Any, NamedTuple
 
 import h5py
@@ -323,7 +324,7 @@ def _stream_into(tmp: Path, stream: Stream) -> None:
 
 
 @contextlib.contextmanager
-def atomic_path(output: Path, overwrite: bool = True):
+def atomic_path(output: str | os.PathLike, overwrite: bool = True) -> Iterator[Path]:
     """Yield a temporary path; on success publish it as ``output``, on failure remove it.
 
     A regular file (or a link's target) is published by rename from its own directory; a stream output
@@ -366,7 +367,9 @@ def atomic_path(output: Path, overwrite: bool = True):
         raise
 
 
-def _write_header(f: h5py.File, product_kind: str, radar: RadarMetadata, targets, history):
+def _write_header(
+    f: h5py.File, product_kind: str, radar: RadarMetadata, targets: np.ndarray, history: list[dict]
+) -> None:
     f.attrs["product"] = product_kind
     f.attrs["sarproc_format"] = FORMAT_VERSION
     f.attrs["history"] = json.dumps(history)
@@ -385,7 +388,7 @@ def _write_header(f: h5py.File, product_kind: str, radar: RadarMetadata, targets
     dset.dims[0].attach_scale(scale)
 
 
-def _write_scales(f: h5py.File, dset, dims, coords):
+def _write_scales(f: h5py.File, dset: h5py.Dataset, dims: tuple[str, ...], coords: dict[str, np.ndarray]) -> None:
     for i, d in enumerate(dims):
         vals = np.asarray(coords[d])
         sc = f.create_dataset(d, data=vals.astype(np.float64) if d != "channel" else vals.astype(np.int64))
@@ -396,12 +399,12 @@ def _write_scales(f: h5py.File, dset, dims, coords):
         dset.dims[i].label = d
 
 
-def _write_aux(f: h5py.File, aux: dict):
+def _write_aux(f: h5py.File, aux: dict) -> None:
     """Aux arrays under ``aux/`` with named dims (index scales in the group) and CF units."""
     g = f.create_group("aux")
-    scales = {}
+    scales: dict[tuple[str, int], h5py.Dataset] = {}
 
-    def scale(name, n):
+    def scale(name: str, n: int) -> h5py.Dataset:
         key = (name, n)
         if key not in scales:
             dname = name if name not in g else f"{name}_{n}"
@@ -426,7 +429,7 @@ def _write_aux(f: h5py.File, aux: dict):
             d.dims[i].attach_scale(scale(name, arr.shape[i]))
 
 
-def _chunks(shape):
+def _chunks(shape: tuple[int, ...]) -> tuple[int, ...]:
     # About 4 MiB complex64 chunks, whole rows along the last axis.
     row = shape[-1]
     rows = max(1, min(int(np.prod(shape[:-1])), (4 << 20) // (8 * max(row, 1))))
@@ -436,7 +439,7 @@ def _chunks(shape):
     return tuple(lead) + (row,)
 
 
-def _write_attrs(obj, attrs: dict):
+def _write_attrs(obj: h5py.HLObject, attrs: dict) -> None:
     for k, v in attrs.items():
         if isinstance(v, (dict, list)) and not (isinstance(v, list) and v and isinstance(v[0], (int, float))):
             v = json.dumps(v)
@@ -476,14 +479,14 @@ class ProductWriter:
         self._args = (radar, targets, list(history), attrs or {}, aux or {}, dtype)
         self.file: h5py.File | None = None
 
-    def _failed(self, exc: Exception):
+    def _failed(self, exc: Exception) -> ProcessingError:
         # HDF5 cannot be trusted with this file any more: keep its objects alive, never close them.
         if self.file is not None:
             _DAMAGED.append((self.file, getattr(self, "dset", None)))
             self.file = None
         return ProcessingError(f"{self.output}: cannot write the product: {_os_cause(exc)}; nothing was written")
 
-    def __enter__(self):
+    def __enter__(self) -> ProductWriter:
         self._ctx = atomic_path(self.output, overwrite=self.overwrite)
         tmp = self._ctx.__enter__()
         radar, targets, history, attrs, aux, dtype = self._args
@@ -514,14 +517,14 @@ class ProductWriter:
             raise
         return self
 
-    def write(self, index: tuple[slice, ...], block: np.ndarray) -> None:
+    def write(self, index: tuple[slice, ...] | EllipsisType, block: np.ndarray) -> None:
         run.check()  # a stop signal whose exception HDF5 swallowed ends the run at the next block
         try:
             self.dset[index] = block
         except (OSError, RuntimeError) as exc:
             raise self._failed(exc) from None
 
-    def _close_quietly(self):
+    def _close_quietly(self) -> None:
         if self.file is not None:
             f, self.file = self.file, None
             try:
@@ -529,7 +532,9 @@ class ProductWriter:
             except (OSError, RuntimeError):
                 _DAMAGED.append((f, getattr(self, "dset", None)))
 
-    def __exit__(self, exc_type, exc, tb):
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> bool | None:
         if exc_type is None:
             assert self.file is not None  # open from __enter__ until closed here
             try:
@@ -626,7 +631,7 @@ def write_product(
 _INTERNAL_ATTRS = ("DIMENSION_LIST", "REFERENCE_LIST", "CLASS", "NAME", "units", "long_name", "attribute_units")
 
 
-def _attr_value(v):
+def _attr_value(v: Any) -> Any:
     if isinstance(v, bytes):
         v = v.decode()
     if isinstance(v, str) and v[:1] in "[{":
@@ -653,12 +658,12 @@ def read_product(
         raise InputError(f"{path}: damaged or non-conforming product: {' '.join(str(exc).split())[:300]}") from None
 
 
-def _is_scale(dset) -> bool:
+def _is_scale(dset: h5py.Dataset) -> bool:
     cls = dset.attrs.get("CLASS")
     return (cls.decode() if isinstance(cls, bytes) else cls) == "DIMENSION_SCALE"
 
 
-def _check_aux(path, aux: dict, kind: str, n_pulses: int | None, n_channels: int | None):
+def _check_aux(path: Path, aux: dict, kind: str, n_pulses: int | None, n_channels: int | None) -> None:
     """Aux arrays: numeric, finite, and shaped like the product they travel with."""
     for k, v in aux.items():
         where = f"{path}: dataset 'aux/{k}'"
@@ -711,7 +716,7 @@ def _open_hdf5(path: Path) -> h5py.File:
         raise InputError(f"{path}: cannot open as HDF5: {exc}") from None
 
 
-def _read_header(f: h5py.File, path: Path, kinds) -> _Header:
+def _read_header(f: h5py.File, path: Path, kinds: tuple[str, ...] | None) -> _Header:
     """Product type (one of ``kinds`` if given), format version, history and radar metadata."""
     kind = _attr_value(f.attrs.get("product"))
     if kind is None:
@@ -874,7 +879,9 @@ def _read_signal(dset: h5py.Dataset, path: Path, check_finite: bool) -> np.ndarr
     return data
 
 
-def _read_product(path, kinds=None, *, load=True, check_finite=True) -> Product:
+def _read_product(
+    path: str | Path, kinds: tuple[str, ...] | None = None, *, load: bool = True, check_finite: bool = True
+) -> Product:
     """Read a product; ``kinds`` restricts the accepted product types (the error names them).
 
     With ``load=False`` only metadata is read: ``data`` is an empty array of the right dtype
@@ -944,7 +951,7 @@ def read_magnitude_preview(
     return preview, dims, coords, factors
 
 
-def _max_pool(block: np.ndarray, factors) -> np.ndarray:
+def _max_pool(block: np.ndarray, factors: tuple[int, ...]) -> np.ndarray:
     # Zero-pad every axis to a whole number of blocks (|x| >= 0, so padding never wins a maximum),
     # then take the maximum over each block.
     pad = [(0, -n % f) for n, f in zip(block.shape, factors)]

@@ -51,6 +51,8 @@ import dataclasses
 import functools
 import itertools
 import math
+from collections.abc import Callable, Collection, Iterable, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import scipy.fft
@@ -71,6 +73,11 @@ from sarproc.quality.residual import (
     response_basis,
     spectral_orders,
 )
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    from sarproc.product.model import Product
 
 
 @dataclasses.dataclass(frozen=True)
@@ -250,7 +257,7 @@ class QualityReport:
         return _jsonable(dataclasses.asdict(self))
 
 
-def _jsonable(v):
+def _jsonable(v: Any) -> Any:
     if isinstance(v, dict):
         return {str(k): _jsonable(x) for k, x in v.items()}
     if isinstance(v, (list, tuple)):
@@ -278,10 +285,10 @@ class _Axis:
     pslr_theory: float | None = None  # dB
     islr_theory: float | None = None
 
-    def to_index(self, x):
+    def to_index(self, x: npt.ArrayLike) -> np.ndarray:
         return (np.asarray(x, dtype=float) - self.start) / self.step
 
-    def to_coord(self, i):
+    def to_coord(self, i: npt.ArrayLike) -> np.ndarray:
         return self.start + np.asarray(i, dtype=float) * self.step
 
     def cells_to_samples(self, cells: float) -> int:
@@ -291,7 +298,9 @@ class _Axis:
         return int(math.ceil(nulls * self.null))
 
 
-def _make_axes(shape, dims, coords, theoretical_irw, irw_factor) -> list[_Axis]:
+def _make_axes(
+    shape: tuple[int, ...], dims: Sequence[str], coords: Any, theoretical_irw: npt.ArrayLike, irw_factor: float
+) -> list[_Axis]:
     if len(dims) != len(shape):
         raise InputError(f"image has {len(shape)} axes but dims {tuple(dims)}")
     irw = np.asarray(theoretical_irw, dtype=float).ravel()
@@ -334,7 +343,7 @@ def _make_axes(shape, dims, coords, theoretical_irw, irw_factor) -> list[_Axis]:
     return axes
 
 
-def window_slices(center, half, shape):
+def window_slices(center: Iterable[Any], half: Iterable[Any], shape: Iterable[int]) -> tuple[slice, ...]:
     """Slices of the box ``center +- half`` (integer samples) clipped to ``shape``."""
     out = []
     for c, h, n in zip(center, half, shape):
@@ -343,7 +352,7 @@ def window_slices(center, half, shape):
     return tuple(out)
 
 
-def extract_chip(data: np.ndarray, center, half) -> tuple[np.ndarray, bool]:
+def extract_chip(data: np.ndarray, center: Iterable[Any], half: Iterable[Any]) -> tuple[np.ndarray, bool]:
     """Box ``center +- half`` of ``data`` (shape ``2*half+1`` per axis), zero outside the image.
 
     Returns the chip (a new array, complex128) and whether it was clipped by the image edge.
@@ -369,8 +378,15 @@ class _Chip:
     :meth:`values` are image indices (float).
     """
 
-    def __init__(self, data, center, half, chip=None):
+    def __init__(
+        self,
+        data: np.ndarray | None,
+        center: Iterable[Any],
+        half: Iterable[Any],
+        chip: tuple[np.ndarray, bool] | None = None,
+    ) -> None:
         if chip is None:
+            assert data is not None  # the image, when no chip is given
             self.data, self.clipped = extract_chip(data, center, half)
         else:  # an already extracted (e.g. neighbour-cleaned) chip of the same box
             self.data, self.clipped = chip
@@ -391,7 +407,7 @@ class _Chip:
             self.freqs.append(k / n)
             self.centers.append(c / n)
 
-    def values(self, positions) -> np.ndarray:
+    def values(self, positions: Sequence[npt.ArrayLike]) -> np.ndarray:
         """Interpolated values on the outer product of per-axis position arrays (image indices)."""
         grids = [np.atleast_1d(np.asarray(p, dtype=float)) - o for p, o in zip(positions, self.origin)]
         out = self.spec
@@ -401,7 +417,7 @@ class _Chip:
             out = np.moveaxis(np.tensordot(kernel, out, axes=([1], [a])), 0, a)
         return out / self.data.size
 
-    def values_along(self, start, direction, offsets) -> np.ndarray:
+    def values_along(self, start: npt.ArrayLike, direction: npt.ArrayLike, offsets: npt.ArrayLike) -> np.ndarray:
         """Interpolated values at ``start + t * direction`` for t in ``offsets`` (image indices).
 
         Exact band-limited evaluation on a line of any direction: the last axis is contracted by one
@@ -417,7 +433,9 @@ class _Chip:
             out = np.einsum("...kt,tk->...t", out, kern(a))
         return out / self.data.size
 
-    def values_on_line(self, start, direction, first: float, step: float, count: int) -> np.ndarray:
+    def values_on_line(
+        self, start: npt.ArrayLike, direction: npt.ArrayLike, first: float, step: float, count: int
+    ) -> np.ndarray:
         """:meth:`values_along` at the uniform offsets ``first + j * step`` (j < count), as one type-1
         non-uniform FFT over the chip's bins (:func:`sarproc.quality.kernels.exponential_sums`): about
         chip size x 16 operations instead of chip size x count, equal to rounding (1e-13 of the peak)."""
@@ -428,7 +446,7 @@ class _Chip:
         coef = self.spec * np.exp(2j * np.pi * phase)
         return exponential_sums(coef, freq, first, step, count) / self.data.size
 
-    def values_on_axis(self, start, axis: int, first: float, step: float, count: int) -> np.ndarray:
+    def values_on_axis(self, start: npt.ArrayLike, axis: int, first: float, step: float, count: int) -> np.ndarray:
         """Values at ``start`` moved along image axis ``axis`` by ``first + j * step`` (j < count): the other
         axes contracted at ``start``, then one non-uniform FFT over that axis' bins (no count x bins
         exponentials)."""
@@ -439,7 +457,7 @@ class _Chip:
                 out = np.tensordot(out, np.exp(2j * np.pi * x0[b] * self.freqs[b]), axes=([b], [0]))
         return exponential_sums(out, self.freqs[axis], x0[axis] + first, step, count) / self.data.size
 
-    def refine_peak(self, start, tol=1e-4) -> tuple[np.ndarray, complex]:
+    def refine_peak(self, start: npt.ArrayLike, tol: float = 1e-4) -> tuple[np.ndarray, complex]:
         """Local maximum of |f| near ``start`` (image indices) by zooming 9-point grids."""
         pos = np.asarray(start, dtype=float)
         half = 1.0
@@ -456,7 +474,7 @@ class _Chip:
 
 
 @functools.cache
-def _orientation_grid(ndim: int):
+def _orientation_grid(ndim: int) -> tuple[np.ndarray, float, list[np.ndarray]]:
     """Candidate line orientations (unit vectors, one per +-pair), their spacing-matched kernel
     width (rad) and, per candidate, the indices of its neighbours within two kernel widths."""
     if ndim == 2:
@@ -472,7 +490,9 @@ def _orientation_grid(ndim: int):
     return cand, sigma, [np.flatnonzero(row) for row in near]
 
 
-def _orientation_density(cand, u, weight, sigma, exact=False):
+def _orientation_density(
+    cand: np.ndarray, u: np.ndarray, weight: np.ndarray, sigma: float, exact: bool = False
+) -> np.ndarray:
     """Sum over unit vectors u (weights ``weight``) of exp((cos^2 - 1) / 2 sigma^2) at each candidate.
 
     Terms below exp(-40) of their weight (1e-17) are left out unless ``exact``: the exponential is
@@ -492,7 +512,9 @@ def _orientation_density(cand, u, weight, sigma, exact=False):
     return w @ weight
 
 
-def principal_directions(chip: np.ndarray, centers, nulls, window_nulls: float = 8.0, exact: bool = False):
+def principal_directions(
+    chip: np.ndarray, centers: Sequence[float], nulls: npt.ArrayLike, window_nulls: float = 8.0, exact: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
     """Side-lobe ridge directions of the response centred in ``chip``, from its spectral support.
 
     ``centers``: band centre per axis (cycles/sample); ``nulls``: null spacing 1/B per axis (samples).
@@ -569,7 +591,15 @@ def principal_directions(chip: np.ndarray, centers, nulls, window_nulls: float =
     return V / np.diag(V)[:, None], f_c
 
 
-def _ideal_response(points, position, V, nulls, f_c, hamming: bool, exact: bool = False) -> np.ndarray:
+def _ideal_response(
+    points: npt.ArrayLike,
+    position: npt.ArrayLike,
+    V: np.ndarray,
+    nulls: npt.ArrayLike,
+    f_c: npt.ArrayLike,
+    hamming: bool,
+    exact: bool = False,
+) -> np.ndarray:
     """Ideal response at ``points`` ((ndim, N) image indices) of a target at ``position``, peak 1.
 
     The support is the parallelogram (parallelepiped) whose ridges are the rows of V (see
@@ -598,19 +628,19 @@ def _ideal_response(points, position, V, nulls, f_c, hamming: bool, exact: bool 
 
 
 def evaluate_image(
-    data,
-    dims,
-    coords,
-    theoretical_irw,
-    truth,
-    names=None,
+    data: np.ndarray,
+    dims: Sequence[str],
+    coords: Any,
+    theoretical_irw: npt.ArrayLike,
+    truth: Any,
+    names: Sequence[str] | None = None,
     params: EvaluateParams | None = None,
-    metric=None,
-    progress=None,
-    target_irw=None,
-    target_null=None,
-    target_sidelobes=None,
-    other_truth=None,
+    metric: Any = None,
+    progress: Callable[[Iterable[Any]], Iterable[Any]] | None = None,
+    target_irw: npt.ArrayLike | None = None,
+    target_null: npt.ArrayLike | None = None,
+    target_sidelobes: npt.ArrayLike | None = None,
+    other_truth: np.ndarray | Sequence[Sequence[float]] | None = None,
 ) -> QualityReport:
     """Measure every target of a 2D (azimuth, range) or 3D (elevation, azimuth, range) image.
 
@@ -678,7 +708,16 @@ def evaluate_image(
     )
 
 
-def _checked_inputs(data, dims, coords, theoretical_irw, truth, names, metric, params) -> tuple:
+def _checked_inputs(
+    data: np.ndarray,
+    dims: Sequence[str],
+    coords: Any,
+    theoretical_irw: npt.ArrayLike,
+    truth: Any,
+    names: Sequence[str] | None,
+    metric: Any,
+    params: EvaluateParams,
+) -> tuple:
     """(axes, metric, truth, names) of evaluate_image's arguments, checked; raises InputError."""
     if data.ndim not in (1, 2, 3):
         raise InputError(f"image must have 1 to 3 axes, got shape {data.shape}")
@@ -733,7 +772,16 @@ class _Peak:
         }
 
 
-def _find_peak(data, mag, axes, name: str, truth, half, nulls, params) -> _Peak:
+def _find_peak(
+    data: np.ndarray,
+    mag: np.ndarray,
+    axes: Sequence[_Axis],
+    name: str,
+    truth: np.ndarray,
+    half: Sequence[int],
+    nulls: Sequence[float],
+    params: EvaluateParams,
+) -> _Peak:
     """Pass 1: the strongest pixel within +-search_cells of the truth, the chip around it, its refined peak
     and support."""
     idx = np.array([ax.to_index(x) for ax, x in zip(axes, truth)])
@@ -752,7 +800,15 @@ def _find_peak(data, mag, axes, name: str, truth, half, nulls, params) -> _Peak:
     return _Peak(peak_index, chip, chip, pos, value, V, f_c)
 
 
-def _subtract_neighbours(data, peaks: list, names, nulls, half, params, done) -> list:
+def _subtract_neighbours(
+    data: np.ndarray,
+    peaks: list,
+    names: Sequence[str],
+    nulls: Sequence[float],
+    half: Sequence[int],
+    params: EvaluateParams,
+    done: Callable[[], None],
+) -> list:
     """Pass 2: the ideal responses of every group of targets whose chips overlap are fitted jointly to the
     image; each target's chip loses the other members' fitted responses, and its peak and support are found
     again on it. ``done``: the progress steps (one per target)."""
@@ -789,7 +845,17 @@ def _subtract_neighbours(data, peaks: list, names, nulls, half, params, done) ->
     return out
 
 
-def _false_targets(data, mag, axes, guarded, peaks: list, reports, half, nulls, params) -> tuple:
+def _false_targets(
+    data: np.ndarray,
+    mag: np.ndarray,
+    axes: Sequence[_Axis],
+    guarded: np.ndarray,
+    peaks: list,
+    reports: list[TargetReport],
+    half: Sequence[int],
+    nulls: Sequence[float],
+    params: EvaluateParams,
+) -> tuple:
     """(false target, guard-window false target, residual floor): the strongest response outside every
     target's +-guard_cells window, and with ``params.residual`` the strongest on the residual image (then the
     reported one) with the residual's floor."""
@@ -802,7 +868,14 @@ def _false_targets(data, mag, axes, guarded, peaks: list, reports, half, nulls, 
     return false, guard, floor
 
 
-def _target_axes(axes, target_irw, n_targets, irw_factor, target_null=None, target_sidelobes=None) -> list[list[_Axis]]:
+def _target_axes(
+    axes: list[_Axis],
+    target_irw: npt.ArrayLike | None,
+    n_targets: int,
+    irw_factor: float,
+    target_null: npt.ArrayLike | None = None,
+    target_sidelobes: npt.ArrayLike | None = None,
+) -> list[list[_Axis]]:
     """Each target's axes: the image's, with its own theoretical IRW, null spacing and side lobes where it has them."""
     if target_irw is None:
         return [axes] * n_targets
@@ -836,13 +909,13 @@ def _target_axes(axes, target_irw, n_targets, irw_factor, target_null=None, targ
                     f"axis {ax.name!r}: spacing {abs(ax.step):.4g} is not finer than a target's null "
                     f"spacing {null * abs(ax.step):.4g} (its theoretical IRW {v:.4g})"
                 )
-            sides = {} if np.isnan(pslr) else {"pslr_theory": float(pslr), "islr_theory": float(islr)}
+            sides: dict[str, Any] = {} if np.isnan(pslr) else {"pslr_theory": float(pslr), "islr_theory": float(islr)}
             own.append(dataclasses.replace(ax, irw=float(v), null=null, theory="target", **sides))
         out.append(own)
     return out
 
 
-def _support(chip: _Chip, nulls, params):
+def _support(chip: _Chip, nulls: npt.ArrayLike, params: EvaluateParams) -> tuple[np.ndarray, np.ndarray]:
     if params.principal_axes and chip.data.ndim > 1:
         return principal_directions(chip.data, chip.centers, nulls, exact=params.exact)
     return np.eye(chip.data.ndim), np.asarray(chip.centers, dtype=float)
@@ -861,7 +934,7 @@ class _NeighbourModel:
     nulls: np.ndarray  # null spacing 1/B per axis, samples
     rich: dict | None = None  # the response model (fit_response_models) where it fitted better
 
-    def values(self, points, hamming: bool, exact: bool = False) -> np.ndarray:
+    def values(self, points: npt.ArrayLike, hamming: bool, exact: bool = False) -> np.ndarray:
         """The fitted neighbour at ``points`` ((ndim, N) image indices)."""
         if self.rich:
             return _rich_values(points, self.rich)
@@ -870,7 +943,7 @@ class _NeighbourModel:
         )
 
 
-def _rich_values(points, rich: dict) -> np.ndarray:
+def _rich_values(points: npt.ArrayLike, rich: dict) -> np.ndarray:
     """A response model of :func:`fit_response_models` at ``points`` ((ndim, N) image indices)."""
     return (
         response_basis(points, rich["pos"], rich["V"], rich["nulls"], rich["f_c"], rich["orders"], rich["K"])
@@ -878,7 +951,9 @@ def _rich_values(points, rich: dict) -> np.ndarray:
     )
 
 
-def _neighbour_models(data, peaks: list, nulls, half, params) -> dict:
+def _neighbour_models(
+    data: np.ndarray, peaks: list, nulls: npt.ArrayLike, half: Sequence[int], params: EvaluateParams
+) -> dict:
     """Ideal responses fitted jointly to every group of targets whose chips overlap.
 
     Each member gets a complex amplitude, and its position, band centre and ridge directions (first
@@ -900,7 +975,7 @@ def _neighbour_models(data, peaks: list, nulls, half, params) -> dict:
     return models
 
 
-def _overlapping_groups(peaks: list, reach, nulls) -> list:
+def _overlapping_groups(peaks: list, reach: np.ndarray, nulls: np.ndarray) -> list:
     """Index lists (ascending) of the groups of two or more targets linked by peaks within ``reach`` (samples
     per axis). Two truths that found the same peak (within half a null: a weaker target inside a stronger
     one's search window) are one response: fitting it twice is singular, and subtracting the copy would
@@ -924,7 +999,7 @@ def _overlapping_groups(peaks: list, reach, nulls) -> list:
     return out
 
 
-def _group_samples(data, positions: list, nulls) -> tuple:
+def _group_samples(data: np.ndarray, positions: list, nulls: np.ndarray) -> tuple:
     """(points (ndim, N) float image indices, complex samples) within 3 nulls of every position, about two
     per null."""
     stride = np.maximum(1, np.floor(nulls / 2)).astype(int)
@@ -942,7 +1017,9 @@ def _group_samples(data, positions: list, nulls) -> tuple:
     return points.astype(float), y
 
 
-def _fit_ideal_group(points, y, starts: list, nulls, params) -> list:
+def _fit_ideal_group(
+    points: np.ndarray, y: np.ndarray, starts: list, nulls: np.ndarray, params: EvaluateParams
+) -> list:
     """Every member's ideal response fitted jointly to the samples ``y`` at ``points``: position, band centre
     and ridge skews by Gauss-Newton (at most 8 steps; linear convergence, about halving, on skewed supports),
     then the complex amplitudes by least squares. Returns one _NeighbourModel per member (group unset)."""
@@ -953,7 +1030,7 @@ def _fit_ideal_group(points, y, starts: list, nulls, params) -> list:
     f_c = [np.array(p.band_centre, dtype=float) for p in starts]
     V = [np.array(p.ridges, dtype=float) for p in starts]
 
-    def model(q: int, p=None, v=None) -> np.ndarray:
+    def model(q: int, p: np.ndarray | None = None, v: np.ndarray | None = None) -> np.ndarray:
         return _ideal_response(
             points, pos[q] if p is None else p, V[q] if v is None else v, nulls, f_c[q], hamming, params.exact
         )
@@ -992,7 +1069,15 @@ def _fit_ideal_group(points, y, starts: list, nulls, params) -> list:
     return [_NeighbourModel(pos[q], f_c[q], V[q], amp[q], frozenset(), misfit, nulls) for q in range(len(starts))]
 
 
-def _refit_rich(data, points, y, fit: list, members: list, nulls, params) -> tuple | None:
+def _refit_rich(
+    data: np.ndarray,
+    points: np.ndarray,
+    y: np.ndarray,
+    fit: list,
+    members: list,
+    nulls: np.ndarray,
+    params: EvaluateParams,
+) -> tuple | None:
     """Where ideal responses leave more than NEIGHBOUR_MISFIT of a group's energy, the members' own spectral
     weight, phase and chirp fitted instead (the residual image's response models, ridges as far as a chip
     reaches). Returns (one model dict or None per member, their misfit) where they explain the group within
@@ -1020,7 +1105,7 @@ def _refit_rich(data, points, y, fit: list, members: list, nulls, params) -> tup
 REFIT_BUDGET = 1e9  # rows x columns^2 of a crowded group's response-model fit above which it is not tried
 
 
-def _refit_size(members, nulls, params) -> float:
+def _refit_size(members: Sequence[int], nulls: npt.ArrayLike, params: EvaluateParams) -> float:
     """Rows x columns^2 of the least squares that refits a crowded group as response models (its cost)."""
     nulls = np.asarray(nulls, dtype=float)
     ndim = len(nulls)
@@ -1043,7 +1128,9 @@ def _refit_size(members, nulls, params) -> float:
     return float(len(members) * (box + strips) * (len(members) * columns) ** 2)
 
 
-def _measure(peak: _Peak, axes, truth, name: str, params, metric) -> TargetReport:
+def _measure(
+    peak: _Peak, axes: Sequence[_Axis], truth: np.ndarray, name: str, params: EvaluateParams, metric: np.ndarray | None
+) -> TargetReport:
     """A target's report: its cuts along the image axes and along its principal axes (ridges), the latter
     checked for contamination by poorly fitted neighbours."""
     chip, pos, V = peak.chip, peak.position, peak.ridges
@@ -1073,7 +1160,7 @@ def _measure(peak: _Peak, axes, truth, name: str, params, metric) -> TargetRepor
     )
 
 
-def least_squares(B, y, exact: bool = False):
+def least_squares(B: np.ndarray, y: np.ndarray, exact: bool = False) -> np.ndarray:
     """Least-squares solution of B x = y (B tall, full column rank).
 
     Through the normal equations of the column-equilibrated B (unit-norm columns, Cholesky) with two
@@ -1104,7 +1191,19 @@ NEIGHBOUR_MISFIT = 1e-3  # group fit residual (energy ratio) above which subtrac
 CONTAMINATION = 0.01  # neighbours' modelled energy in a cut's ISLR window / the main lobe's: flag above
 
 
-def _contamination(m: AxisMetrics, chip, axes, a, v, pos, peak2, models, truth, params, metric) -> AxisMetrics:
+def _contamination(
+    m: AxisMetrics,
+    chip: _Chip,
+    axes: Sequence[_Axis],
+    a: int,
+    v: np.ndarray,
+    pos: np.ndarray,
+    peak2: float,
+    models: Sequence[_NeighbourModel],
+    truth: np.ndarray,
+    params: EvaluateParams,
+    metric: np.ndarray | None,
+) -> AxisMetrics:
     """Flag a cut whose ISLR window holds more than CONTAMINATION of its main-lobe energy from neighbours
     that ideal responses did not fit well (so their subtraction leaves an unknown residual), and measure
     it again on a window shortened to stop half-way to the nearest of them (see AxisMetrics)."""
@@ -1143,7 +1242,7 @@ def _contamination(m: AxisMetrics, chip, axes, a, v, pos, peak2, models, truth, 
     )
 
 
-def sinc_islr_db(window_nulls: int) -> float:
+def sinc_islr_db(window_nulls: float) -> float:
     """ISLR of an unweighted sinc over +-``window_nulls`` (an integer number of nulls), dB.
 
     The integral of sinc^2 from 0 to an integer X is Si(2 pi X) / pi, so the side-lobe energy over
@@ -1155,7 +1254,17 @@ def sinc_islr_db(window_nulls: int) -> float:
     return 10 * math.log10((si(2 * math.pi * window_nulls) - si(2 * math.pi)) / si(2 * math.pi))
 
 
-def _cut(chip: _Chip, axes, a, v, pos, peak2, truth, params, metric) -> AxisMetrics:
+def _cut(
+    chip: _Chip,
+    axes: Sequence[_Axis],
+    a: int,
+    v: np.ndarray,
+    pos: np.ndarray,
+    peak2: float,
+    truth: np.ndarray,
+    params: EvaluateParams,
+    metric: np.ndarray | None,
+) -> AxisMetrics:
     """Metrics of the cut through ``pos`` along ``v`` (image samples per sample of axis a, v[a] = 1)."""
     ax = axes[a]
     window = params.islr_nulls * ax.null  # samples of axis a
@@ -1224,7 +1333,16 @@ def _cut(chip: _Chip, axes, a, v, pos, peak2, truth, params, metric) -> AxisMetr
     )
 
 
-def _false_target(data, mag, axes, truth, peaks, reports, half, params) -> FalseTarget | None:
+def _false_target(
+    data: np.ndarray,
+    mag: np.ndarray,
+    axes: Sequence[_Axis],
+    truth: np.ndarray,
+    peaks: Sequence[np.ndarray],
+    reports: list[TargetReport],
+    half: Sequence[int],
+    params: EvaluateParams,
+) -> FalseTarget | None:
     outside = np.ones(data.shape, dtype=bool)
     guard = [ax.cells_to_samples(params.guard_cells) for ax in axes]
     centres = [np.rint([ax.to_index(x) for ax, x in zip(axes, t)]).astype(int) for t in truth] + list(peaks)
@@ -1255,12 +1373,12 @@ def _false_target(data, mag, axes, truth, peaks, reports, half, params) -> False
 
 
 def target_patch(
-    data,
-    dims,
-    coords,
-    theoretical_irw,
+    data: np.ndarray,
+    dims: Sequence[str],
+    coords: Any,
+    theoretical_irw: npt.ArrayLike,
     target: TargetReport,
-    pair=(0, 1),
+    pair: tuple[int, int] = (0, 1),
     half_width_nulls: float = 4.0,
     upsample: int = 8,
     params: EvaluateParams | None = None,
@@ -1294,7 +1412,7 @@ def target_patch(
     return offsets[0], offsets[1], vals / peak
 
 
-def frame_metric(product):
+def frame_metric(product: Product) -> np.ndarray | None:
     """The image frame's local basis (:meth:`sarproc.product.frames.Frame.metric`), or None."""
     from sarproc.product.frames import frame_from_spec
 
@@ -1310,7 +1428,11 @@ def frame_metric(product):
 
 
 def evaluate_product(
-    product, params: EvaluateParams | None = None, source: str = "", progress=None, names=None
+    product: Product,
+    params: EvaluateParams | None = None,
+    source: str = "",
+    progress: Callable[[Iterable[Any]], Iterable[Any]] | None = None,
+    names: Collection[str] | None = None,
 ) -> QualityReport:
     """Evaluate an ``image``/``image3d`` :class:`sarproc.product.model.Product` against its targets table.
 
@@ -1354,7 +1476,7 @@ def evaluate_product(
     )[keep]
     own[own == 0] = np.nan  # 0 in the table: not recorded, the image's theory applies
 
-    def field(prefix):  # a theory field per target and axis; 0 (not recorded) or absent: NaN
+    def field(prefix: str) -> np.ndarray:  # a theory field per target and axis; 0 (not recorded) or absent: NaN
         v = np.stack(
             [
                 product.targets[f"{prefix}_{d}"].astype(float)
@@ -1410,7 +1532,7 @@ class AxisBounds:
         "decibel", default=None, doc=("allowed interval [lo, hi] of ISLR minus the target's own theoretical ISLR, dB")
     )
 
-    def validate(self):
+    def validate(self) -> None:
         for key in ("pslr_db", "islr_db", "pslr_vs_theory_db", "islr_vs_theory_db"):
             v = getattr(self, key)
             if v is not None and (len(v) != 2 or v[0] > v[1]):
@@ -1469,7 +1591,7 @@ def expectations_from_mapping(mapping: dict | None, source: str = "") -> Expecta
         )
     top = build(Expectations, mapping, source=source)
 
-    def sub(cls, value, key):
+    def sub(cls: type, value: object, key: str) -> Any:
         if not isinstance(value, dict):
             raise InputError(f"{source}: {key}: expected a mapping, got {type(value).__name__}")
         return build(cls, value, source=source, section=key)
@@ -1491,7 +1613,7 @@ class CheckFailure:
     value: float
     bound: str  # e.g. "<= 1.05" or "in [-13.76, -12.76]"
 
-    def __str__(self):
+    def __str__(self) -> str:
         where = (
             "false target"
             if self.target is None
@@ -1504,7 +1626,9 @@ class CheckFailure:
         return f"FAIL {where}: {self.metric} = {self.value:.4g}, expected {self.bound}"
 
 
-def check_report(report: QualityReport, expect: Expectations, source: str = "", all_names=None) -> list[CheckFailure]:
+def check_report(
+    report: QualityReport, expect: Expectations, source: str = "", all_names: Sequence[str] | None = None
+) -> list[CheckFailure]:
     """Every failed tolerance of ``report``; names in ``expect`` that match nothing raise InputError.
 
     ``all_names``: every target of the image when ``report`` measured a subset (their tolerances are

@@ -10,8 +10,15 @@ import dataclasses
 import functools
 import itertools
 import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    from sarproc.quality.metrics import EvaluateParams, FalseTarget, TargetReport, _Axis
 
 # Residual image: every target's fitted response subtracted, so false targets are searched under the
 # targets' side-lobe floor instead of outside a guard window.
@@ -44,13 +51,13 @@ def spectral_orders(ndim: int, max_order: int, max_total: int) -> np.ndarray:
     return np.array([n for n in grid if sum(abs(k) for k in n) <= max_total], dtype=int)
 
 
-def _ridge_frame(position, V, nulls):
+def _ridge_frame(position: npt.ArrayLike, V: npt.ArrayLike, nulls: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """(A, p): ridge coordinates in nulls are A @ (x - p) for image indices x."""
     A = np.linalg.inv(np.asarray(V, dtype=float).T) / np.asarray(nulls, dtype=float)[:, None]
     return A, np.asarray(position, dtype=float)
 
 
-def _shifted_sincs(c, max_order):
+def _shifted_sincs(c: np.ndarray, max_order: int) -> list[np.ndarray]:
     """sinc(c + n/2) for n = -max_order..max_order (list), from one sin/cos pair of pi c."""
     s, co = np.sin(np.pi * c), np.cos(np.pi * c)
     out = []
@@ -63,11 +70,11 @@ def _shifted_sincs(c, max_order):
     return out
 
 
-def _chirp_pairs(ndim):
+def _chirp_pairs(ndim: int) -> list[tuple[int, int]]:
     return [(a, b) for a in range(ndim) for b in range(a, ndim)]
 
 
-def _chirp_phase(x, K):
+def _chirp_phase(x: Sequence[np.ndarray] | np.ndarray, K: np.ndarray) -> np.ndarray:
     """pi x^T K x for offsets x ((ndim, N) or broadcastable per-axis arrays), K symmetric (cycles/sample^2)."""
     ndim = len(x)
     zero = np.zeros(np.broadcast_shapes(*[np.shape(v) for v in x]))
@@ -80,7 +87,7 @@ KEYSTONE_STRIPS = 32  # most range strips of a keystoned support (far lobe phase
 KEYSTONE_REACH = 100.0  # nulls out to which the strips keep that error under 0.15 rad
 
 
-def _strip_factors(c, m, kappa):
+def _strip_factors(c: Sequence[np.ndarray], m: int, kappa: np.ndarray | None) -> list[list[list[np.ndarray]]]:
     """Per strip, per axis, the 2m+1 order factors of a support whose widths along the axes before the
     last grow linearly with the last axis' band coordinate u (width 1 + kappa_a u: a keystone, the
     azimuth band of a wide-band radar scaling with range frequency). The support is cut into
@@ -122,7 +129,16 @@ def _strip_factors(c, m, kappa):
     return out
 
 
-def response_basis(points, position, V, nulls, f_c, orders, K=None, kappa=None) -> np.ndarray:
+def response_basis(
+    points: npt.ArrayLike,
+    position: npt.ArrayLike,
+    V: npt.ArrayLike,
+    nulls: npt.ArrayLike,
+    f_c: npt.ArrayLike,
+    orders: np.ndarray,
+    K: np.ndarray | None = None,
+    kappa: np.ndarray | None = None,
+) -> np.ndarray:
     """Basis of a target's response at ``points`` ((ndim, N) image indices): (N, K) complex, column k
     the response of spectral order ``orders[k]`` (carrier f_c in cycles/sample, spatial chirp K in
     cycles/sample^2, keystone kappa (ndim - 1 relative width slopes, :func:`_strip_factors`), peak 1 for
@@ -143,7 +159,7 @@ def response_basis(points, position, V, nulls, f_c, orders, K=None, kappa=None) 
     return np.stack(cols, axis=1)
 
 
-def _model_on_box(slices, model) -> np.ndarray:
+def _model_on_box(slices: Sequence[slice], model: dict) -> np.ndarray:
     """A fitted response model on the image box ``slices`` (complex128, the box's shape).
 
     Sin and cos of pi c_a are taken once per axis; the shifted sincs are then divisions, and for an
@@ -155,7 +171,7 @@ def _model_on_box(slices, model) -> np.ndarray:
     xs = [np.arange(s.start, s.stop, dtype=float) - pi for s, pi in zip(slices, p)]
     shape = [len(x) for x in xs]
 
-    def along(b, v):  # 1-D array v along image axis b, broadcastable over the box
+    def along(b: int, v: np.ndarray) -> np.ndarray:  # 1-D array v along image axis b, broadcastable over the box
         return v.reshape([-1 if i == b else 1 for i in range(ndim)])
 
     grid = [along(b, xs[b]) for b in range(ndim)]
@@ -184,7 +200,17 @@ def _model_on_box(slices, model) -> np.ndarray:
     return out * carrier
 
 
-def _fit_group(members, points, y, found, nulls, orders, K0, iterations, shape0=None):
+def _fit_group(
+    members: list[int],
+    points: np.ndarray,
+    y: np.ndarray,
+    found: list[dict],
+    nulls: np.ndarray,
+    orders: np.ndarray,
+    K0: list[np.ndarray],
+    iterations: int,
+    shape0: list[tuple[np.ndarray, np.ndarray]] | None = None,
+) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray], list]:
     """Complex amplitudes of every member's orders, and real band centres f_c and spatial chirps K by
     Gauss-Newton (the band centre first estimated as the power centroid, which a taper pulls off the
     support's middle; the amplitudes by linear least squares at each step).
@@ -205,7 +231,9 @@ def _fit_group(members, points, y, found, nulls, orders, K0, iterations, shape0=
     n_o, n_p = len(orders), ndim + len(pairs) + n_shape
     eps = 1e-4  # width and keystone step of the finite-difference derivatives
 
-    def raw(q, sh):  # member q's basis without carrier and chirp
+    def raw(
+        q: int, sh: tuple[np.ndarray, np.ndarray] | None
+    ) -> np.ndarray:  # member q's basis without carrier and chirp
         k = members[q]
         if sh is None:
             return response_basis(points, found[k]["pos"], found[k]["V"], nulls, np.zeros(ndim), orders)
@@ -215,10 +243,10 @@ def _fit_group(members, points, y, found, nulls, orders, K0, iterations, shape0=
 
     fixed = [raw(q, None) for q in range(len(members))] if shape is None else None
 
-    def carriers():
+    def carriers() -> list[np.ndarray]:
         return [np.exp(1j * (2 * np.pi * (f @ x) + _chirp_phase(x, k)))[:, None] for x, f, k in zip(offs, f_c, K)]
 
-    def bases():
+    def bases() -> list[np.ndarray]:
         return [(fixed[q] if shape is None else raw(q, shape[q])) * c for q, c in enumerate(carriers())]  # type: ignore[index]  # not None in this branch
 
     coef = least_squares(np.concatenate(bases(), axis=1), y).reshape(len(members), n_o)
@@ -243,9 +271,9 @@ def _fit_group(members, points, y, found, nulls, orders, K0, iterations, shape0=
         for q in range(len(members)):
             step = sol[q, n_o:].real
             f_c[q] = f_c[q] + np.clip(step[:ndim], -0.02, 0.02)
-            for (a, b), d in zip(pairs, step[ndim : ndim + len(pairs)]):
-                K[q][a, b] += d
-                K[q][b, a] = K[q][a, b]
+            for (a, a2), d in zip(pairs, step[ndim : ndim + len(pairs)]):
+                K[q][a, a2] += d
+                K[q][a2, a] = K[q][a, a2]
             largest = max(
                 largest, float(np.max(np.abs(step[:ndim]))), float(np.max(np.abs(step[ndim : ndim + len(pairs)]))) * 100
             )
@@ -262,7 +290,9 @@ def _fit_group(members, points, y, found, nulls, orders, K0, iterations, shape0=
     return coef, f_c, K, (shape if shape is not None else [None] * len(members))
 
 
-def _ridge_strips(pos, V, nulls, stride, shape, reach_nulls) -> list:
+def _ridge_strips(
+    pos: npt.ArrayLike, V: np.ndarray, nulls: np.ndarray, stride: np.ndarray, shape: tuple[int, ...], reach_nulls: float
+) -> list:
     """Samples (ndim, M) along each side-lobe ridge out to +-``reach_nulls`` nulls, +-1 null across it:
     the far side lobes pin the spatial chirp and band edges that the box around the peak leaves loose."""
     ndim = len(shape)
@@ -281,7 +311,9 @@ def _ridge_strips(pos, V, nulls, stride, shape, reach_nulls) -> list:
     return out
 
 
-def fit_response_models(data, found, nulls, params, support_shape: bool = False) -> list:
+def fit_response_models(
+    data: np.ndarray, found: list[dict], nulls: npt.ArrayLike, params: EvaluateParams, support_shape: bool = False
+) -> list:
     """Every target's response model, fitted by complex least squares on the samples within
     +-``params.fit_nulls`` nulls of its peak (about two per null); with ``support_shape`` its support's
     widths and keystone too (:func:`_fit_group`), as the residual image needs far out.
@@ -379,7 +411,7 @@ def fit_response_models(data, found, nulls, params, support_shape: bool = False)
     return models
 
 
-def residual_image(data, models, block_samples: int = 1 << 18) -> np.ndarray:
+def residual_image(data: np.ndarray, models: list[dict], block_samples: int = 1 << 18) -> np.ndarray:
     """``data`` minus every fitted model over the whole image (complex128), in slabs along axis 0."""
     out = np.array(data, dtype=np.complex128)
     rows = max(1, block_samples // max(1, math.prod(data.shape[1:])))
@@ -391,7 +423,9 @@ def residual_image(data, models, block_samples: int = 1 << 18) -> np.ndarray:
     return out
 
 
-def _exclusion_mask(shape, axes, truth, peaks, cells) -> np.ndarray:
+def _exclusion_mask(
+    shape: tuple[int, ...], axes: Sequence[_Axis], truth: np.ndarray, peaks: Sequence[np.ndarray], cells: float
+) -> np.ndarray:
     """True outside the +-``cells`` boxes around every truth and found peak."""
     from sarproc.quality.metrics import window_slices  # metrics imports this module
 
@@ -404,7 +438,15 @@ def _exclusion_mask(shape, axes, truth, peaks, cells) -> np.ndarray:
     return outside
 
 
-def _residual_false_target(residual, axes, truth, peaks, reports, half, params):
+def _residual_false_target(
+    residual: np.ndarray,
+    axes: Sequence[_Axis],
+    truth: np.ndarray,
+    peaks: Sequence[np.ndarray],
+    reports: Sequence[TargetReport],
+    half: Sequence[int],
+    params: EvaluateParams,
+) -> tuple[FalseTarget | None, ResidualFloor]:
     """(FalseTarget or None, ResidualFloor): strongest residual response outside the main lobes, and the
     residual's floor inside the targets' guard windows."""
     from sarproc.quality.metrics import FalseTarget, _Chip  # metrics imports this module

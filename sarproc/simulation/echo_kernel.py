@@ -26,7 +26,7 @@ from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
 
 
 @numba.njit(inline="always")
-def _cis(cycles):
+def _cis(cycles: float) -> complex:
     """exp(j 2 pi cycles) for any float64 cycles, reduced to [0, 1) first."""
     frac = cycles - math.floor(cycles)
     return complex(math.cos(2 * math.pi * frac), math.sin(2 * math.pi * frac))
@@ -43,7 +43,7 @@ def window_chirp(n_range: int, fs: float, chirp_rate: float) -> np.ndarray:
 
 
 @numba.njit(inline="always")
-def _support(rel, fs, half_pulse, n_range):
+def _support(rel: float, fs: float, half_pulse: float, n_range: int) -> tuple[int, int]:
     """First and last window sample with |n/f_s - rel| <= T_p/2 (the simulator's envelope test,
     evaluated the same way), clipped to the window; last < first when none is inside."""
     first = max(0, int(math.ceil((rel - half_pulse) * fs)) - 1)
@@ -56,7 +56,18 @@ def _support(rel, fs, half_pulse, n_range):
 
 
 @numba.njit(parallel=True, nogil=True, cache=CACHE, error_model="numpy")
-def accumulate_echoes(out, delays, gains, gate, t0, fs, pulse_duration, chirp_rate, carrier, chirp) -> None:
+def accumulate_echoes(
+    out: np.ndarray,
+    delays: np.ndarray,
+    gains: np.ndarray,
+    gate: np.ndarray,
+    t0: float,
+    fs: float,
+    pulse_duration: float,
+    chirp_rate: float,
+    carrier: float,
+    chirp: np.ndarray,
+) -> None:
     """Add every target's echo to ``out`` (n_t, n_range) complex128 or complex64, in place.
 
     Targets are summed in complex128 either way; a complex64 ``out`` receives each sample rounded once,

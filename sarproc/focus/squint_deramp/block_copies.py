@@ -24,13 +24,13 @@ if TYPE_CHECKING:
 
 
 @numba.njit(inline="always", cache=CACHE)
-def _alternate(v, j, start):
+def _alternate(v: complex, j: int, start: int) -> complex:
     """v negated where j % 2 == start (the (-1)^n modulation)."""
     return -v if j % 2 == start else v
 
 
 @numba.njit(inline="always", cache=CACHE)
-def _spectrum_entry(src, i, j, factor, start, scaled):
+def _spectrum_entry(src: np.ndarray, i: int, j: int, factor: np.ndarray, start: int, scaled: bool) -> complex:
     """alternate(src[i, j]) times factor[j] when ``scaled``, rounded as numpy's complex multiply."""
     v = _alternate(src[i, j], j, start)
     if scaled:
@@ -40,7 +40,7 @@ def _spectrum_entry(src, i, j, factor, start, scaled):
 
 
 @numba.njit(parallel=True, cache=CACHE)
-def pad_rows(src, dst, start) -> None:
+def pad_rows(src: np.ndarray, dst: np.ndarray, start: int) -> None:
     """dst[i, :n] = alternate(src[i]), dst[i, n:] = 0 (n = src.shape[1] <= dst.shape[1])."""
     n = src.shape[1]
     m = dst.shape[1]
@@ -54,7 +54,7 @@ def pad_rows(src, dst, start) -> None:
 
 
 @numba.njit(parallel=True, cache=CACHE)
-def scale_rows(x, factor, start) -> None:
+def scale_rows(x: np.ndarray, factor: np.ndarray, start: int) -> None:
     """x[i, j] = alternate(x[i, j] * factor[i]) in place."""
     for i in numba.prange(x.shape[0]):
         f = factor[i]
@@ -66,7 +66,7 @@ def scale_rows(x, factor, start) -> None:
 
 
 @numba.njit(parallel=True, cache=CACHE)
-def copy_rows(src, dst, start) -> None:
+def copy_rows(src: np.ndarray, dst: np.ndarray, start: int) -> None:
     """dst[i, j] = alternate(src[i, j]) (same shapes)."""
     if src.shape[0] != dst.shape[0] or src.shape[1] != dst.shape[1]:
         raise ValueError("copy_rows: src and dst must have the same shape")
@@ -76,7 +76,7 @@ def copy_rows(src, dst, start) -> None:
 
 
 @numba.njit(parallel=True, cache=CACHE)
-def pad_spectrum(src, dst, factor, start) -> None:
+def pad_spectrum(src: np.ndarray, dst: np.ndarray, factor: np.ndarray, start: int) -> None:
     """Zero-pad FFT-ordered rows: dst[i] holds the first (n+1)//2 and the last n//2 samples of
     f(src[i]) (f(v)_j = alternate(v_j) * factor[j], factor of src's length; ``factor`` of length 0: none) at
     the two ends of its longer axis, zeros between. src (rows, n), dst (rows, m), m >= n."""
@@ -97,7 +97,7 @@ def pad_spectrum(src, dst, factor, start) -> None:
 
 
 @numba.njit(parallel=True, cache=CACHE)
-def gather_columns(src, cols, dst, offset) -> None:
+def gather_columns(src: np.ndarray, cols: np.ndarray, dst: np.ndarray, offset: int) -> None:
     """dst[k, offset + i] = src[i, cols[k]]: selected columns of src written back as rows (transposed)."""
     n = src.shape[0]
     if len(cols) > dst.shape[0] or offset < 0 or offset + n > dst.shape[1]:
@@ -112,7 +112,7 @@ def gather_columns(src, cols, dst, offset) -> None:
 
 
 @numba.njit(parallel=True, cache=CACHE)
-def _crop_rows(src, lo, dst, bad) -> None:
+def _crop_rows(src: np.ndarray, lo: int, dst: np.ndarray, bad: np.ndarray) -> None:
     n = dst.shape[1]
     for i in numba.prange(dst.shape[0]):
         b = False

@@ -34,6 +34,7 @@ from sarproc.product.errors import IMAGE_DEFECT, InputError
 from sarproc.product.frames import SquintFrame
 from sarproc.product.metadata import C, RadarMetadata
 from sarproc.product.model import Product
+from sarproc.product.steps import ProgressFactory
 
 log = logging.getLogger(__name__)
 
@@ -79,7 +80,7 @@ def deramp_rate(radar: RadarMetadata, reference_range: float) -> float:
     return 2.0 * radar.velocity**2 * math.cos(radar.squint) ** 2 / (radar.wavelength * reference_range)
 
 
-def scene_box(product: Product, params: CoarseFocusParams, reference_range: float):
+def scene_box(product: Product, params: CoarseFocusParams, reference_range: float) -> tuple[float, float, float, float]:
     """(x_n min, x_n max, r_0 min, r_0 max) of the scene in the squint frame, m."""
     frame = SquintFrame(product.radar.squint, product.radar.altitude)
     xc, rc = frame.from_xyz(np.asarray(product.radar.scene_center))
@@ -100,7 +101,9 @@ def scene_box(product: Product, params: CoarseFocusParams, reference_range: floa
     return xa, xb, ra, rb
 
 
-def doppler_budget(radar: RadarMetadata, t_first: float, t_last: float, box, k: float, method: str) -> dict:
+def doppler_budget(
+    radar: RadarMetadata, t_first: float, t_last: float, box: tuple[float, float, float, float], k: float, method: str
+) -> dict:
     """Exact-geometry Doppler numbers of a scene box over the aperture.
 
     Returns ``total_bandwidth`` (span of the Doppler frequencies after the nonlinear correction,
@@ -147,7 +150,7 @@ def specan(
     n_out: int,
     precision: str = "float64",
     block_range: int = 1024,
-    progress=None,
+    progress: ProgressFactory | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Discrete eq. (11): returns (y (n_out, n_rg) complex64, t' (n_out,) s)."""
     n_az, n_rg = signal.shape
@@ -174,7 +177,9 @@ def specan(
     return out, t_out
 
 
-def deramp_interval(radar: RadarMetadata, t_first: float, t_last: float, box, k: float) -> tuple[float, float]:
+def deramp_interval(
+    radar: RadarMetadata, t_first: float, t_last: float, box: tuple[float, float, float, float], k: float
+) -> tuple[float, float]:
     """Deramped frequencies (Hz, after the nonlinear correction, aperture mean) spanned by a scene box:
     where its responses land on the coarse grid (t' = f / k)."""
     xa, xb, ra, rb = box
@@ -383,7 +388,9 @@ def deramped_folds(
     return out
 
 
-def _fold_messages(found: list[DerampedResponse], radar: RadarMetadata, k: float, box) -> tuple[list[str], list[str]]:
+def _fold_messages(
+    found: list[DerampedResponse], radar: RadarMetadata, k: float, box: tuple[float, float, float, float]
+) -> tuple[list[str], list[str]]:
     """(problems, notes) worded from :func:`deramped_folds`; x_n is read as v t' (flow 1's axis)."""
     v, prf = radar.velocity, radar.prf
     where = f"the scene box x_n in [{box[0]:.0f}, {box[1]:.0f}] m"
@@ -410,7 +417,9 @@ def _fold_messages(found: list[DerampedResponse], radar: RadarMetadata, k: float
     return problems, notes
 
 
-def coarse_focus(pre: Product, params: CoarseFocusParams = CoarseFocusParams(), progress=None) -> Product:
+def coarse_focus(
+    pre: Product, params: CoarseFocusParams = CoarseFocusParams(), progress: ProgressFactory | None = None
+) -> Product:
     """``preprocessed`` product -> ``coarse`` product on the deramped azimuth grid t'."""
     from sarproc.product.io import history_entry
 

@@ -34,7 +34,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 
 import numba
 import numpy as np
@@ -129,20 +129,20 @@ class FineFocusParams:
     max_samples: int = param(default=600_000_000, ge=1, doc="refuse working arrays larger than this")
 
 
-def cycles(phase):
+def cycles(phase: np.ndarray) -> np.ndarray:
     """Phase (rad, float64) reduced to cycles in [0, 1) for :func:`sarproc.dsp.phasor.unit_phasor`."""
     c = np.multiply(phase, 1.0 / (2 * np.pi))
     c -= np.floor(c)
     return c
 
 
-def phasor(phase):
+def phasor(phase: np.ndarray) -> np.ndarray:
     """exp(j phase) as complex64 from a float64 phase (float32 cos/sin of the reduced phase, < 1e-6 rad)."""
     return unit_phasor(cycles(phase))
 
 
 @numba.njit(parallel=True, cache=CACHE)
-def _negate_alternate_2d(x, axis, start):
+def _negate_alternate_2d(x: np.ndarray, axis: int, start: int) -> None:
     n, m = x.shape
     if axis == 0:
         for i in numba.prange(n):
@@ -155,7 +155,7 @@ def _negate_alternate_2d(x, axis, start):
                 x[i, j] = -x[i, j]
 
 
-def _alternate(x, axis, start):
+def _alternate(x: np.ndarray, axis: int, start: int) -> None:
     """x[..., start::2, ...] *= -1 along ``axis``, in place (2D: rows in parallel)."""
     if x.ndim == 2:
         _negate_alternate_2d(x, axis, start)
@@ -165,7 +165,7 @@ def _alternate(x, axis, start):
     x[tuple(idx)] *= -1
 
 
-def _centred(transform, x, axis, overwrite):
+def _centred(transform: Callable[..., np.ndarray], x: np.ndarray, axis: int, overwrite: bool) -> np.ndarray:
     n = x.shape[axis]
     if n % 2:
         return sfft.fftshift(transform(sfft.ifftshift(x, axes=axis), axis=axis, workers=-1), axes=axis)
@@ -178,12 +178,12 @@ def _centred(transform, x, axis, overwrite):
     return y
 
 
-def cfft(x, axis=0, overwrite=False):
+def cfft(x: np.ndarray, axis: int = 0, overwrite: bool = False) -> np.ndarray:
     """Centred DFT: time index centred on N//2 -> frequency index centred on N//2."""
     return _centred(sfft.fft, x, axis, overwrite)
 
 
-def cifft(x, axis=0, overwrite=False):
+def cifft(x: np.ndarray, axis: int = 0, overwrite: bool = False) -> np.ndarray:
     return _centred(sfft.ifft, x, axis, overwrite)
 
 
@@ -191,7 +191,7 @@ def centred(n: int, step: float) -> np.ndarray:
     return (np.arange(n) - n // 2) * step
 
 
-def depth_of_focus_half_width(radar, resolution: float) -> float:
+def depth_of_focus_half_width(radar: RadarMetadata, resolution: float) -> float:
     """|x_n| limit of eq. (17): 2 rho_a^2 cos^2(theta) / (lambda |sin(theta)|), m (inf at zero squint)."""
     s = abs(math.sin(radar.squint))
     if s < 1e-12:
@@ -199,7 +199,7 @@ def depth_of_focus_half_width(radar, resolution: float) -> float:
     return 2 * resolution**2 * math.cos(radar.squint) ** 2 / (radar.wavelength * s)
 
 
-def scene_and_focus_depth(radar, box, n_pulses: int) -> tuple[float, float]:
+def scene_and_focus_depth(radar: RadarMetadata, box: Sequence[float], n_pulses: int) -> tuple[float, float]:
     """(depth-of-focus half width, scene half width) of eq. (17), m, for the coarse product's scene box
     and aperture; flow 1 when the scene fits (also the plan's flow, sarproc.cli.stage)."""
     r_c = 0.5 * (box[2] + box[3])
@@ -208,7 +208,7 @@ def scene_and_focus_depth(radar, box, n_pulses: int) -> tuple[float, float]:
     return depth_of_focus_half_width(radar, rho_a), max(abs(box[0]), abs(box[1]))
 
 
-def _range_filter(radar, f_r: np.ndarray, kind: str) -> np.ndarray:
+def _range_filter(radar: RadarMetadata, f_r: np.ndarray, kind: str) -> np.ndarray:
     band = np.abs(f_r) <= radar.bandwidth / 2
     if kind == "phase":
         return np.where(band, np.exp(1j * np.pi * f_r**2 / radar.chirp_rate), 0)
@@ -220,7 +220,9 @@ def _range_filter(radar, f_r: np.ndarray, kind: str) -> np.ndarray:
     return np.where(band, 1.0 / np.where(band, H, 1), 0) * np.count_nonzero(h)
 
 
-def _residual_doppler(S, t_c, f_r, k, beta, prf):
+def _residual_doppler(
+    S: np.ndarray, t_c: np.ndarray, f_r: np.ndarray, k: float, beta: np.ndarray, prf: float
+) -> np.ndarray:
     """Apply the missing part of eq. (7) after the coarse step (exact when nothing folded).
 
     (s e^{j2 pi beta t}) * h (t') = e^{j2 pi beta t'} e^{-j pi beta^2/k} (s * h)(t' - beta/k). The pulses only
@@ -504,7 +506,7 @@ def to_output_frame(
             [2 * np.pi * f_r, np.ones_like(f_r)],
         )
         img = cifft(spec, 1, overwrite=True)
-        frame = SquintFrame(th, radar.altitude)
+        frame: SquintFrame | SquintLrwcFrame = SquintFrame(th, radar.altitude)
         rlo, rhi = box[2] - params.crop_margin, box[3] + params.crop_margin
     else:
         frame = _lrwc_frame(th, radar.altitude)
@@ -541,7 +543,9 @@ def target_theory(
     return targets
 
 
-def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), progress=None) -> Product:
+def fine_focus(
+    coarse: Product, params: FineFocusParams = FineFocusParams(), progress: Progress | None = None
+) -> Product:
     """``coarse`` product -> focused ``image`` product in the squint frame (see module doc)."""
     from sarproc.product.io import history_entry
 
@@ -559,7 +563,7 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
     rd = stolt_to_range_doppler(S, grid, radar, model, r_ref, params, cdt, progress)
     del S
 
-    azimuth_blocks = range(0, N, params.block_range)  # a second progress bar: azimuth compression
+    azimuth_blocks: Iterable[int] = range(0, N, params.block_range)  # a second progress bar: azimuth compression
     if progress is not None:
         azimuth_blocks = progress(azimuth_blocks)
     if choice.flow == 1:
@@ -618,11 +622,25 @@ def fine_focus(coarse: Product, params: FineFocusParams = FineFocusParams(), pro
     return out
 
 
-def _lrwc_frame(squint, altitude):
+def _lrwc_frame(squint: float, altitude: float) -> SquintLrwcFrame:
     return SquintLrwcFrame(squint, altitude)
 
 
-def _flow2(RD, t_c, f_a, r, k, model, radar, params, box, aperture, cdt, xlim, blocks):
+def _flow2(
+    RD: np.ndarray,
+    t_c: np.ndarray,
+    f_a: np.ndarray,
+    r: np.ndarray,
+    k: float,
+    model: SpectrumModel,
+    radar: RadarMetadata,
+    params: FineFocusParams,
+    box: tuple[float, float, float, float],
+    aperture: tuple[float, float],
+    cdt: type[np.complexfloating],
+    xlim: tuple[float, float],
+    blocks: Iterable[int],
+) -> tuple[np.ndarray, np.ndarray, dict]:
     """Modified NLCS azimuth compression; returns (image (n_x, N), x (n_x,), info)."""
     v, th = radar.velocity, radar.squint
     s_th, c_th = math.sin(th), math.cos(th)
@@ -734,7 +752,7 @@ def _flow2(RD, t_c, f_a, r, k, model, radar, params, box, aperture, cdt, xlim, b
     return out, x_img[keep], info
 
 
-def _theta0_terms(f, K, co, s, e):
+def _theta0_terms(f: np.ndarray, K: np.ndarray, co: dict, s: int, e: int) -> tuple[np.ndarray, np.ndarray]:
     """Exact eq. (33) phase for range bins s..e-1: evaluated at three nodes, quadratic in the bin index.
 
     Returns (vals (n_nodes, len(f)), weights (n_nodes, e - s)): theta0[i, j] = sum_a vals[a, i] weights[a, j]

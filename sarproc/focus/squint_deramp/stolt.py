@@ -169,7 +169,22 @@ class SpectrumModel:
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=CACHE)
-def _rotate_G(xf, x, pre, use_pre, a, q, b, p, mode, s, s2, c, lim, scale) -> None:
+def _rotate_G(
+    xf: np.ndarray,
+    x: np.ndarray,
+    pre: np.ndarray,
+    use_pre: bool,
+    a: np.ndarray,
+    q: np.ndarray,
+    b: np.ndarray,
+    p: np.ndarray,
+    mode: int,
+    s: float,
+    s2: float,
+    c: float,
+    lim: float,
+    scale: float,
+) -> None:
     """Rows of :meth:`SpectrumModel.rotate`; the float64 sums are written in :meth:`SpectrumModel.G`'s order
     (no fastmath: same values): exact sigma = s + a_i / b_j, g = p_j (s^2 + c root) + q_i; paper
     t = a_i / b_j, g = p_j root + q_i (q_i carries the minus sign)."""
@@ -201,7 +216,16 @@ def _rotate_G(xf, x, pre, use_pre, a, q, b, p, mode, s, s2, c, lim, scale) -> No
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=CACHE)
-def _node_positions(s_n, ok_n, seg, w, f0, df, half_band, out) -> None:
+def _node_positions(
+    s_n: np.ndarray,
+    ok_n: np.ndarray,
+    seg: np.ndarray,
+    w: np.ndarray,
+    f0: float,
+    df: float,
+    half_band: float,
+    out: np.ndarray,
+) -> None:
     """out[i, j]: sample position (f - f0) / df of the source frequency, linear between the exact nodes
     seg[j], seg[j] + 1 (weight w[j]); NaN where a node is invalid or the source is outside the band."""
     for i in numba.prange(out.shape[0]):
