@@ -209,11 +209,11 @@ def fft_seconds(shape: tuple[int, ...], repeats: int = 2) -> float:
 PROCESS = {
     "simulate": (185e6, 0.7),
     "preprocess": (225e6, 0.9),
-    "coarse-focus": (195e6, 0.8),
+    "coarse-focus": (95e6, 0.8),
     "fine-focus": (230e6, 1.1),
     "backproject": (240e6, 0.6),
     "pfa2": (290e6, 1.05),
-    "reconstruct": (255e6, 0.55),
+    "reconstruct": (170e6, 0.55),
     "array3d": (215e6, 0.55),
     "evaluate": (135e6, 0.7),
     "export-sicd": (85e6, 0.9),
