@@ -56,8 +56,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import scipy.fft
-import scipy.interpolate
-import scipy.linalg
 
 from sarproc.product.config import param
 from sarproc.product.errors import InputError
@@ -1168,6 +1166,8 @@ def least_squares(B: np.ndarray, y: np.ndarray, exact: bool = False) -> np.ndarr
     tall systems of 3D boxes several times faster than an SVD; ``exact`` (or a Gram matrix that is not
     numerically positive definite) takes numpy's SVD solver, the reference the fast path is tested against."""
     if not exact:
+        import scipy.linalg  # ~0.1 s to import: only where a least-squares fit runs
+
         scale = np.linalg.norm(B, axis=0)
         scale[scale == 0] = 1.0
         Bs = B / scale
@@ -1279,6 +1279,8 @@ def _cut(
             grids[a] = pos[a] + offsets
             vals = chip.values(grids).reshape(-1)
         else:  # exact on a 16x grid along the line, then a cubic spline (error ~1e-5 of the peak)
+            import scipy.interpolate  # ~0.25 s to import (scipy.linalg, sparse, optimize): only on oblique cuts
+
             ex = min(params.upsample, 16)
             lo = -int(math.ceil(reach * ex)) - 2
             te = np.arange(lo, -lo + 1) / ex

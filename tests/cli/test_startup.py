@@ -99,3 +99,16 @@ def test_cached_kernels_load_without_numbas_context_refresh(tmp_path):
     loaded = json.loads(_python(KERNEL_RUN, env).strip().splitlines()[-1])
     assert compiled == {"equal": True, "raised": True, "refreshed": True}
     assert loaded == {"equal": True, "raised": True, "refreshed": False}
+
+
+def test_stages_without_compiled_kernels_import_no_numba():
+    # coarse-focus, reconstruct and evaluate run no numba kernel; importing numba would cost them ~0.2 s
+    # (docs/performance.md, "Per-process overhead"); evaluate's spline and Cholesky come only where used
+    code = (
+        "import sarproc.focus.squint_deramp.coarse_focus, sarproc.focus.multichannel.reconstruct\n"
+        "import sarproc.quality.metrics\n"
+        "import json, sys\nprint(json.dumps(sorted(sys.modules)))"
+    )
+    loaded = set(json.loads(_python(code).strip().splitlines()[-1]))
+    assert not {m for m in loaded if m.split(".")[0] in ("numba", "llvmlite")}, "numba imported"
+    assert not loaded & {"scipy.interpolate", "scipy.linalg"}, sorted(loaded & {"scipy.interpolate", "scipy.linalg"})

@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from sarproc.dsp.phasor import unit_phasor
+from sarproc.dsp.numpy_phasor import unit_phasor
 from sarproc.product.metadata import C
 
 

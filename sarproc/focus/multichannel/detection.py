@@ -41,7 +41,7 @@ import numpy.typing as npt
 import scipy.fft as sfft
 from scipy import ndimage
 
-from sarproc.dsp.phasor import unit_phasor
+from sarproc.dsp.numpy_phasor import unit_phasor
 from sarproc.focus.multichannel import channels
 from sarproc.product.metadata import C
 

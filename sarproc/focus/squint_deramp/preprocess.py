@@ -25,7 +25,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 import scipy.fft as sfft
 
-from sarproc.dsp.phasor import multiply_separable_phase
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import C, RadarMetadata
@@ -90,6 +89,9 @@ def doppler_correction(
         beta = correction_frequency(radar, np.zeros(1), method)[0]
         out[...] = signal * np.exp(2j * np.pi * beta * t)[:, None].astype(cdt)
         return out
+    # numba (~0.2 s to import) only where the correction runs: coarse-focus imports this module's constants
+    from sarproc.dsp.phasor import multiply_separable_phase
+
     # FFT length from next_fast_len (6483 = 3 x 2161 samples took 3.4x longer than 6561); the correction is a
     # range shift, so the padding also keeps a little of what walks past the window's end from wrapping around
     n_fft = sfft.next_fast_len(n_rg)
