@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -311,9 +312,13 @@ def _ridge_strips(
     return out
 
 
-def fit_response_models(
-    data: np.ndarray, found: list[dict], nulls: npt.ArrayLike, params: EvaluateParams, support_shape: bool = False
-) -> list:
+# The fits' matrices are small (a few thousand rows, tens of columns): threaded BLAS only adds its
+# start-up and, on a loaded machine, threads spinning for each other (measured 7x slower on 2 cores).
+single_blas = threadpool_limits.wrap(limits=1, user_api="blas")
+
+
+@single_blas
+def fit_response_models(data, found, nulls, params, support_shape: bool = False) -> list:
     """Every target's response model, fitted by complex least squares on the samples within
     +-``params.fit_nulls`` nulls of its peak (about two per null); with ``support_shape`` its support's
     widths and keystone too (:func:`_fit_group`), as the residual image needs far out.
@@ -411,7 +416,8 @@ def fit_response_models(
     return models
 
 
-def residual_image(data: np.ndarray, models: list[dict], block_samples: int = 1 << 18) -> np.ndarray:
+@single_blas
+def residual_image(data, models, block_samples: int = 1 << 18) -> np.ndarray:
     """``data`` minus every fitted model over the whole image (complex128), in slabs along axis 0."""
     out = np.array(data, dtype=np.complex128)
     rows = max(1, block_samples // max(1, math.prod(data.shape[1:])))
