@@ -88,31 +88,35 @@ KEYSTONE_STRIPS = 32  # most range strips of a keystoned support (far lobe phase
 KEYSTONE_REACH = 100.0  # nulls out to which the strips keep that error under 0.15 rad
 
 
-def _strip_factors(c: Sequence[np.ndarray], m: int, kappa: np.ndarray | None) -> list[list[list[np.ndarray]]]:
-    """Per strip, per axis, the 2m+1 order factors of a support whose widths along the axes before the
-    last grow linearly with the last axis' band coordinate u (width 1 + kappa_a u: a keystone, the
-    azimuth band of a wide-band radar scaling with range frequency). The support is cut into
-    KEYSTONE_STRIPS strips along u, each a rectangle with its own widths, so each strip's response is
-    exact; with kappa None (or 0) this is the single rectangle, prod_a sinc(c_a + n/2). The strip count
-    grows with kappa (:data:`KEYSTONE_REACH`)."""
+def _strip_factors(c, m, kappa) -> list:
+    """Per strip, per axis, the 2m+1 order factors (one array (2m+1, *shape of c_a) per axis) of a support
+    whose widths along the axes before the last grow linearly with the last axis' band coordinate u (width
+    1 + kappa_a u: a keystone, the azimuth band of a wide-band radar scaling with range frequency). The
+    support is cut into KEYSTONE_STRIPS strips along u, each a rectangle with its own widths, so each
+    strip's response is exact; with kappa None (or 0) this is the single rectangle, prod_a sinc(c_a + n/2).
+    The strip count grows with kappa (:data:`KEYSTONE_REACH`)."""
     if kappa is None or not np.any(kappa):
-        return [[_shifted_sincs(ca, m) for ca in c]]
+        return [[np.stack(_shifted_sincs(ca, m)) for ca in c]]
     ndim = len(c)
     n_strips = min(KEYSTONE_STRIPS, math.ceil(math.pi * KEYSTONE_REACH * float(np.max(np.abs(kappa))) / 0.15))
     width = 1.0 / n_strips
     u0 = 0.5 * width - 0.5
+    half = (np.arange(-m, m + 1) / 2.0).reshape((-1,) + (1,) * np.ndim(c[0]))
     # Each strip's factors from the previous one's by complex rotations (strips are equally spaced in u),
-    # so the trigonometry is done once per axis and order, not once per strip.
-    shifted = [[np.asarray(ca, dtype=float) + n / 2.0 for n in range(-m, m + 1)] for ca in c]
-    rot, step, denom = [], [], []
+    # so the trigonometry is done once per axis, not once per strip; orders stacked along a first axis.
+    shifted = [np.asarray(ca, dtype=float)[None] + half for ca in c]
+    rot, step, denom, centre = [], [], [], []
     for a in range(ndim - 1):
-        w0 = 1.0 + kappa[a] * u0
-        rot.append([np.exp(1j * np.pi * w0 * x) for x in shifted[a]])  # exp(j pi w_s x), strip 0
-        step.append([np.exp(1j * np.pi * kappa[a] * width * x) for x in shifted[a]])
-        denom.append([np.where(np.abs(x) < 1e-9, np.nan, np.pi * x) for x in shifted[a]])
-    last_sinc = [width * np.sinc(width * x) for x in shifted[-1]]
-    last_rot = [np.exp(2j * np.pi * u0 * x) for x in shifted[-1]]
-    last_step = [np.exp(2j * np.pi * width * x) for x in shifted[-1]]
+        x = shifted[a]
+        rot.append(np.exp(1j * np.pi * (1.0 + kappa[a] * u0) * x))  # exp(j pi w_s x), strip 0
+        step.append(np.exp(1j * np.pi * kappa[a] * width * x))
+        small = np.abs(x) < 1e-9
+        centre.append(small)
+        denom.append(np.pi * np.where(small, 1.0, x))
+    x = shifted[-1]
+    last_sinc = width * np.sinc(width * x)
+    last_rot = np.exp(2j * np.pi * u0 * x)
+    last_step = np.exp(2j * np.pi * width * x)
     out = []
     for s in range(n_strips):
         u = u0 + s * width
@@ -120,12 +124,10 @@ def _strip_factors(c: Sequence[np.ndarray], m: int, kappa: np.ndarray | None) ->
         for a in range(ndim - 1):
             w = 1.0 + kappa[a] * u
             # w sinc(w x) = sin(pi w x) / (pi x), and w at x = 0
-            per_axis.append(
-                [np.where(np.isnan(d), w, r.imag / np.where(np.isnan(d), 1.0, d)) for r, d in zip(rot[a], denom[a])]
-            )
-            rot[a] = [r * st for r, st in zip(rot[a], step[a])]
-        per_axis.append([sc * r for sc, r in zip(last_sinc, last_rot)])
-        last_rot = [r * st for r, st in zip(last_rot, last_step)]
+            per_axis.append(np.where(centre[a], w, rot[a].imag / denom[a]))
+            rot[a] *= step[a]
+        per_axis.append(last_sinc * last_rot)
+        last_rot = last_rot * last_step
         out.append(per_axis)
     return out
 
@@ -152,19 +154,22 @@ def response_basis(
     phase = 2 * np.pi * (np.asarray(f_c, dtype=float) @ x)
     if K is not None:
         phase = phase + _chirp_phase(x, K)
-    carrier = np.exp(1j * phase)
-    cols = [
-        carrier * sum(np.prod([per_axis[a][n + m] for a, n in enumerate(order)], axis=0) for per_axis in strips)
-        for order in orders
-    ]
-    return np.stack(cols, axis=1)
+    index = np.asarray(orders, dtype=int).reshape(-1, len(c)) + m
+    cols: np.ndarray | int = 0
+    for per_axis in strips:  # every order's product of per-axis factors at once, (K, N)
+        term = per_axis[0][index[:, 0]]
+        for a in range(1, len(c)):
+            term = term * per_axis[a][index[:, a]]
+        cols = cols + term
+    return (np.asarray(cols) * np.exp(1j * phase)).T
 
 
 def _model_on_box(slices: Sequence[slice], model: dict) -> np.ndarray:
     """A fitted response model on the image box ``slices`` (complex128, the box's shape).
 
-    Sin and cos of pi c_a are taken once per axis; the shifted sincs are then divisions, and for an
-    unskewed support the order sum is an outer product of per-axis factors."""
+    Sin and cos of pi c_a are taken once per axis; the shifted sincs are then divisions. For an unskewed
+    support the order sum is a product of per-axis factors: in 2D one matrix product over every strip's
+    orders at once."""
     A, p = _ridge_frame(model["pos"], model["V"], model["nulls"])
     orders, coef, f_c = model["orders"], model["coef"], np.asarray(model["f_c"], dtype=float)
     ndim = len(p)
@@ -177,28 +182,31 @@ def _model_on_box(slices: Sequence[slice], model: dict) -> np.ndarray:
 
     grid = [along(b, xs[b]) for b in range(ndim)]
     carrier = np.exp(1j * (2 * np.pi * sum(f_c[b] * grid[b] for b in range(ndim)) + _chirp_phase(grid, model["K"])))
-    c = [functools.reduce(np.add, [A[a, b] * grid[b] for b in range(ndim) if A[a, b] != 0.0]) for a in range(ndim)]
-    strips = _strip_factors(c, m, model.get("kappa"))
+    tensor = np.zeros((2 * m + 1,) * ndim, dtype=complex)
+    for order, k in zip(orders, coef):
+        tensor[tuple(order + m)] = k
     if all(np.count_nonzero(A[a]) == 1 and A[a, a] != 0 for a in range(ndim)):  # separable: outer products
-        tensor = np.zeros((2 * m + 1,) * ndim, dtype=complex)
-        for order, k in zip(orders, coef):
-            tensor[tuple(order + m)] = k
+        strips = _strip_factors([A[a, a] * xs[a] for a in range(ndim)], m, model.get("kappa"))
+        if ndim == 2:  # sum_s f0_s^T T f1_s as one (n0, S(2m+1)) @ (S(2m+1), n1) product
+            left = np.concatenate([tensor.T @ f[0] for f in strips], axis=0)
+            right = np.concatenate([f[1] for f in strips], axis=0)
+            return (left.T @ right) * carrier
         total: np.ndarray | int = 0
         for factors in strips:
             out = tensor
             for a in range(ndim):  # contract each order axis with its axis' shifted sincs
-                f = np.stack([v.reshape(-1) for v in factors[a]], axis=0)  # (2m+1, n_a)
-                out = np.tensordot(out, f, axes=([0], [0]))
+                out = np.tensordot(out, factors[a], axes=([0], [0]))
             total = total + out
         return total * carrier
-    out = np.zeros(shape, dtype=complex)
-    for factors in strips:
-        for order, k in zip(orders, coef):
-            term = k * factors[0][order[0] + m]
-            for a in range(1, ndim):
-                term = term * factors[a][order[a] + m]
-            out += term
-    return out * carrier
+    c = [functools.reduce(np.add, [A[a, b] * grid[b] for b in range(ndim) if A[a, b] != 0.0]) for a in range(ndim)]
+    box = np.zeros(shape, dtype=complex)
+    for factors in _strip_factors(c, m, model.get("kappa")):
+        # contract the orders of the last axis first, then the others: (2m+1)^ndim box products in all
+        part = np.tensordot(tensor, factors[-1], axes=([ndim - 1], [0]))  # (2m+1,)*(ndim-1) + box
+        for a in range(ndim - 2, -1, -1):
+            part = np.sum(part * factors[a].reshape((1,) * a + factors[a].shape), axis=a)
+        box += part
+    return box * carrier
 
 
 def _fit_group(
