@@ -98,7 +98,7 @@ def _strip_factors(c, m, kappa) -> list:
     if kappa is None or not np.any(kappa):
         return [[np.stack(_shifted_sincs(ca, m)) for ca in c]]
     ndim = len(c)
-    n_strips = min(KEYSTONE_STRIPS, math.ceil(math.pi * KEYSTONE_REACH * float(np.max(np.abs(kappa))) / 0.15))
+    n_strips = _strip_count(kappa)
     width = 1.0 / n_strips
     u0 = 0.5 * width - 0.5
     half = (np.arange(-m, m + 1) / 2.0).reshape((-1,) + (1,) * np.ndim(c[0]))
@@ -132,16 +132,42 @@ def _strip_factors(c, m, kappa) -> list:
     return out
 
 
-def response_basis(
-    points: npt.ArrayLike,
-    position: npt.ArrayLike,
-    V: npt.ArrayLike,
-    nulls: npt.ArrayLike,
-    f_c: npt.ArrayLike,
-    orders: np.ndarray,
-    K: np.ndarray | None = None,
-    kappa: np.ndarray | None = None,
-) -> np.ndarray:
+def _strip_count(kappa) -> int:
+    """Strips of a keystoned support (:func:`_strip_factors`): enough for :data:`KEYSTONE_REACH`."""
+    return min(KEYSTONE_STRIPS, math.ceil(math.pi * KEYSTONE_REACH * float(np.max(np.abs(kappa))) / 0.15))
+
+
+def _keystone_product(xs, kappa) -> np.ndarray:
+    """The strip sum of :func:`_strip_factors` for one order per axis, in closed form: ``xs`` the shifted
+    coordinates c_a + n_a / 2 per axis (broadcastable arrays), returns sum_s prod_a factor_a,s.
+
+    A strip's factor along a keystoned axis is sin(pi w_s x) / (pi x), w_s = w_0 + kappa width s, and along
+    the last axis width sinc(width x) exp(j 2 pi u_s x), u_s = u_0 + width s: written as exponentials the
+    product is a sum over signs sigma of terms geometric in s, whose sum over the S strips is a Dirichlet
+    kernel exp(j (S - 1) theta / 2) sin(S theta / 2) / sin(theta / 2) of theta_sigma = 2 pi width x_last +
+    pi width sum_a sigma_a kappa_a x_a. Same values as the strips, 2^(ndim-1) terms instead of S."""
+    ndim = len(xs)
+    n_strips = _strip_count(kappa)
+    width = 1.0 / n_strips
+    u0 = 0.5 * width - 0.5
+    # sin(pi w x) / (pi x) at |x| = 1e-7 is its limit w to 1e-14 relative: keeps the division finite
+    xk = [np.where(np.abs(x) < 1e-7, 1e-7, x) for x in xs[:-1]]
+    last = xs[-1]
+    total: np.ndarray | int = 0
+    for signs in itertools.product((1.0, -1.0), repeat=ndim - 1):
+        theta = 2 * np.pi * width * last + sum(np.pi * width * sg * k * x for sg, k, x in zip(signs, kappa, xk))
+        phase = 2 * np.pi * u0 * last + sum(np.pi * sg * (1 + k * u0) * x for sg, k, x in zip(signs, kappa, xk))
+        half = 0.5 * theta
+        sn = np.sin(half)
+        small = np.abs(sn) < 1e-9
+        dirichlet = np.where(
+            small, n_strips * np.cos(n_strips * half) / np.cos(half), np.sin(n_strips * half) / np.where(small, 1, sn)
+        )
+        total = total + math.prod(signs) * dirichlet * np.exp(1j * (phase + (n_strips - 1) * half))
+    return np.asarray(total) * width * np.sinc(width * last) / math.prod(2j * np.pi * x for x in xk)
+
+
+def response_basis(points, position, V, nulls, f_c, orders, K=None, kappa=None) -> np.ndarray:
     """Basis of a target's response at ``points`` ((ndim, N) image indices): (N, K) complex, column k
     the response of spectral order ``orders[k]`` (carrier f_c in cycles/sample, spatial chirp K in
     cycles/sample^2, keystone kappa (ndim - 1 relative width slopes, :func:`_strip_factors`), peak 1 for
@@ -150,17 +176,16 @@ def response_basis(
     x = np.asarray(points, dtype=float) - p[:, None]
     c = A @ x
     m = int(np.abs(orders).max()) if orders.size else 0
-    strips = _strip_factors(list(c), m, kappa)
     phase = 2 * np.pi * (np.asarray(f_c, dtype=float) @ x)
     if K is not None:
         phase = phase + _chirp_phase(x, K)
-    index = np.asarray(orders, dtype=int).reshape(-1, len(c)) + m
-    cols: np.ndarray | int = 0
-    for per_axis in strips:  # every order's product of per-axis factors at once, (K, N)
-        term = per_axis[0][index[:, 0]]
-        for a in range(1, len(c)):
-            term = term * per_axis[a][index[:, a]]
-        cols = cols + term
+    n = np.asarray(orders, dtype=int).reshape(-1, len(c))
+    cols: np.ndarray | int
+    if kappa is not None and np.any(kappa):  # every order's strip sum at once, (K, N)
+        cols = _keystone_product([c[a][None, :] + n[:, a, None] / 2.0 for a in range(len(c))], kappa)
+    else:
+        per_axis = [np.stack(_shifted_sincs(ca, m)) for ca in c]
+        cols = math.prod(per_axis[a][n[:, a] + m] for a in range(len(c)))
     return (np.asarray(cols) * np.exp(1j * phase)).T
 
 
@@ -199,13 +224,15 @@ def _model_on_box(slices: Sequence[slice], model: dict) -> np.ndarray:
             total = total + out
         return total * carrier
     c = [functools.reduce(np.add, [A[a, b] * grid[b] for b in range(ndim) if A[a, b] != 0.0]) for a in range(ndim)]
+    kappa = model.get("kappa")
     box = np.zeros(shape, dtype=complex)
-    for factors in _strip_factors(c, m, model.get("kappa")):
-        # contract the orders of the last axis first, then the others: (2m+1)^ndim box products in all
-        part = np.tensordot(tensor, factors[-1], axes=([ndim - 1], [0]))  # (2m+1,)*(ndim-1) + box
-        for a in range(ndim - 2, -1, -1):
-            part = np.sum(part * factors[a].reshape((1,) * a + factors[a].shape), axis=a)
-        box += part
+    if kappa is not None and np.any(kappa):  # skewed and keystoned: each order's strip sum in closed form
+        for order, k in zip(orders, coef):
+            box += k * _keystone_product([ca + n / 2.0 for ca, n in zip(c, order)], kappa)
+        return box * carrier
+    factors = [np.stack(_shifted_sincs(ca, m)) for ca in c]
+    for order, k in zip(orders, coef):
+        box += k * math.prod(f[n + m] for f, n in zip(factors, order))
     return box * carrier
 
 
