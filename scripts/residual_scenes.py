@@ -55,8 +55,8 @@ def main(argv: list[str] | None = None) -> None:
         "with residual (s) |",
         "|---|---:|---:|---:|---|---:|---:|",
     ]
-    with tempfile.TemporaryDirectory() as tmp:
-        tmp = Path(tmp)
+    with tempfile.TemporaryDirectory() as tmpdir:
+        tmp = Path(tmpdir)
         on = tmp / "residual.yaml"
         on.write_text("evaluate:\n  residual: true\n")
         for name, (path, chain) in SCENES.items():

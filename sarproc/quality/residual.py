@@ -88,7 +88,7 @@ KEYSTONE_STRIPS = 32  # most range strips of a keystoned support (far lobe phase
 KEYSTONE_REACH = 100.0  # nulls out to which the strips keep that error under 0.15 rad
 
 
-def _strip_factors(c, m, kappa) -> list:
+def _strip_factors(c: Sequence[np.ndarray], m: int, kappa: np.ndarray | None) -> list[list[np.ndarray]]:
     """Per strip, per axis, the 2m+1 order factors (one array (2m+1, *shape of c_a) per axis) of a support
     whose widths along the axes before the last grow linearly with the last axis' band coordinate u (width
     1 + kappa_a u: a keystone, the azimuth band of a wide-band radar scaling with range frequency). The
@@ -132,12 +132,12 @@ def _strip_factors(c, m, kappa) -> list:
     return out
 
 
-def _strip_count(kappa) -> int:
+def _strip_count(kappa: np.ndarray) -> int:
     """Strips of a keystoned support (:func:`_strip_factors`): enough for :data:`KEYSTONE_REACH`."""
     return min(KEYSTONE_STRIPS, math.ceil(math.pi * KEYSTONE_REACH * float(np.max(np.abs(kappa))) / 0.15))
 
 
-def _keystone_product(xs, kappa) -> np.ndarray:
+def _keystone_product(xs: Sequence[np.ndarray], kappa: np.ndarray) -> np.ndarray:
     """The strip sum of :func:`_strip_factors` for one order per axis, in closed form: ``xs`` the shifted
     coordinates c_a + n_a / 2 per axis (broadcastable arrays), returns sum_s prod_a factor_a,s.
 
@@ -167,7 +167,16 @@ def _keystone_product(xs, kappa) -> np.ndarray:
     return np.asarray(total) * width * np.sinc(width * last) / math.prod(2j * np.pi * x for x in xk)
 
 
-def response_basis(points, position, V, nulls, f_c, orders, K=None, kappa=None) -> np.ndarray:
+def response_basis(
+    points: npt.ArrayLike,
+    position: npt.ArrayLike,
+    V: npt.ArrayLike,
+    nulls: npt.ArrayLike,
+    f_c: npt.ArrayLike,
+    orders: np.ndarray,
+    K: np.ndarray | None = None,
+    kappa: np.ndarray | None = None,
+) -> np.ndarray:
     """Basis of a target's response at ``points`` ((ndim, N) image indices): (N, K) complex, column k
     the response of spectral order ``orders[k]`` (carrier f_c in cycles/sample, spatial chirp K in
     cycles/sample^2, keystone kappa (ndim - 1 relative width slopes, :func:`_strip_factors`), peak 1 for
@@ -353,7 +362,9 @@ single_blas = threadpool_limits.wrap(limits=1, user_api="blas")
 
 
 @single_blas
-def fit_response_models(data, found, nulls, params, support_shape: bool = False) -> list:
+def fit_response_models(
+    data: np.ndarray, found: list[dict], nulls: npt.ArrayLike, params: EvaluateParams, support_shape: bool = False
+) -> list:
     """Every target's response model, fitted by complex least squares on the samples within
     +-``params.fit_nulls`` nulls of its peak (about two per null); with ``support_shape`` its support's
     widths and keystone too (:func:`_fit_group`), as the residual image needs far out.
@@ -452,7 +463,7 @@ def fit_response_models(data, found, nulls, params, support_shape: bool = False)
 
 
 @single_blas
-def residual_image(data, models, block_samples: int = 1 << 18) -> np.ndarray:
+def residual_image(data: np.ndarray, models: list[dict], block_samples: int = 1 << 18) -> np.ndarray:
     """``data`` minus every fitted model over the whole image (complex128), in slabs along axis 0."""
     out = np.array(data, dtype=np.complex128)
     rows = max(1, block_samples // max(1, math.prod(data.shape[1:])))

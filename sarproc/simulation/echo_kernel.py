@@ -144,7 +144,7 @@ def kaiser_design(fs: float, bandwidth: float, rejection_db: float = BAND_LIMITE
 
 
 @numba.njit(inline="always")
-def _bessel_i0(x):
+def _bessel_i0(x: float) -> float:
     """Modified Bessel function I_0(x) by its power series (x <= 30: terms fall below 1e-17 of the sum)."""
     term, total, k = 1.0, 1.0, 1
     q = 0.25 * x * x
@@ -156,7 +156,18 @@ def _bessel_i0(x):
 
 
 @numba.njit(parallel=True, cache=CACHE, error_model="numpy")
-def accumulate_impulses(out, delays, gains, gate, t0, fs, carrier, half_taps, beta, offset) -> None:
+def accumulate_impulses(
+    out: np.ndarray,
+    delays: np.ndarray,
+    gains: np.ndarray,
+    gate: np.ndarray,
+    t0: float,
+    fs: float,
+    carrier: float,
+    half_taps: int,
+    beta: float,
+    offset: float,
+) -> None:
     """Add every target's fractional-delay kernel g exp(-j 2 pi f_c tau) p(i - offset - rel f_s) to ``out``
     (n_t, n_ext) complex128, in place; ``out`` sample i is window sample i - ``offset`` (the window extended by
     the replica's half length and the kernel's), rel = tau - gate - t0. Arguments as accumulate_echoes."""
