@@ -133,8 +133,17 @@ def _strip_factors(c: Sequence[np.ndarray], m: int, kappa: np.ndarray | None) ->
 
 
 def _strip_count(kappa: np.ndarray) -> int:
-    """Strips of a keystoned support (:func:`_strip_factors`): enough for :data:`KEYSTONE_REACH`."""
-    return min(KEYSTONE_STRIPS, math.ceil(math.pi * KEYSTONE_REACH * float(np.max(np.abs(kappa))) / 0.15))
+    """Strips of a keystoned support (:func:`_strip_factors`): enough for :data:`KEYSTONE_REACH`, and at
+    least two, so that the fit's derivative with respect to a small keystone exists (one strip is the
+    rectangle whatever kappa)."""
+    return max(2, min(KEYSTONE_STRIPS, math.ceil(math.pi * KEYSTONE_REACH * float(np.max(np.abs(kappa))) / 0.15)))
+
+
+def _keystoned(kappa: np.ndarray | None) -> bool:
+    """Whether a fitted keystone matters over the image: its far-lobe phase error with the rectangle,
+    pi c kappa, reaches 0.15 rad within :data:`KEYSTONE_REACH` nulls (the strips' own tolerance). Below
+    that the model is evaluated over the image as the rectangle, on its cheap paths."""
+    return kappa is not None and math.pi * KEYSTONE_REACH * float(np.max(np.abs(kappa))) >= 0.15
 
 
 def _keystone_product(xs: Sequence[np.ndarray], kappa: np.ndarray) -> np.ndarray:
@@ -220,7 +229,8 @@ def _model_on_box(slices: Sequence[slice], model: dict) -> np.ndarray:
     for order, k in zip(orders, coef):
         tensor[tuple(order + m)] = k
     if all(np.count_nonzero(A[a]) == 1 and A[a, a] != 0 for a in range(ndim)):  # separable: outer products
-        strips = _strip_factors([A[a, a] * xs[a] for a in range(ndim)], m, model.get("kappa"))
+        kappa = model.get("kappa") if _keystoned(model.get("kappa")) else None
+        strips = _strip_factors([A[a, a] * xs[a] for a in range(ndim)], m, kappa)
         if ndim == 2:  # sum_s f0_s^T T f1_s as one (n0, S(2m+1)) @ (S(2m+1), n1) product
             left = np.concatenate([tensor.T @ f[0] for f in strips], axis=0)
             right = np.concatenate([f[1] for f in strips], axis=0)
@@ -235,7 +245,7 @@ def _model_on_box(slices: Sequence[slice], model: dict) -> np.ndarray:
     c = [functools.reduce(np.add, [A[a, b] * grid[b] for b in range(ndim) if A[a, b] != 0.0]) for a in range(ndim)]
     kappa = model.get("kappa")
     box = np.zeros(shape, dtype=complex)
-    if kappa is not None and np.any(kappa):  # skewed and keystoned: each order's strip sum in closed form
+    if kappa is not None and _keystoned(kappa):  # skewed and keystoned: each order's strip sum in closed form
         for order, k in zip(orders, coef):
             box += k * _keystone_product([ca + n / 2.0 for ca, n in zip(c, order)], kappa)
         return box * carrier
