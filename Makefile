@@ -110,11 +110,19 @@ backproject-tiled: $(TEST_STAMP)  # the Dask run needs dask.distributed (test ex
 # False-target figures with and without the residual (issue 20): every paper image found under results/
 # (run the reproduce targets first), guard window vs residual, floors and evaluate times; BEFORE=DIR (an
 # older checkout) adds that code's residual floor beside this one's.
-.PHONY: residual-floors residual-ghosts
+.PHONY: residual-floors residual-ghosts residual-scenes
 residual-floors: $(STAMP)
 	flock /tmp/heavy.lock nice $(PY) scripts/residual_floors.py $$(ls results/demo/image.h5 results/bp/image_*.h5 \
 		results/000-exp2/*image*.h5 results/002-small/*image*.h5 results/003/image_*.h5 results/004/*.h5 2>/dev/null \
 		| grep -v raw) $(if $(BEFORE),--before $(BEFORE)) --out results/residual_floors.md
+
+# Residual floors of the paper scenes' clean images simulated with each waveform (continuous: the aliasing
+# pedestal; band_limited: without it), stage and evaluate times beside them.
+residual-scenes: $(STAMP)
+	flock /tmp/heavy.lock nice $(PY) scripts/residual_scenes.py --waveform continuous \
+		--out results/residual_scenes_continuous.md
+	flock /tmp/heavy.lock nice $(PY) scripts/residual_scenes.py --waveform band_limited \
+		--out results/residual_scenes_band_limited.md
 
 # Ghosts at -40/-45/-50 dB left out of the truth table, found on the residual of real processed images:
 # bp_squint30 and the demo by backprojection, the small paper-002 scene by plain polar format.
@@ -123,5 +131,7 @@ residual-ghosts: $(STAMP)
 		--out results/residual_ghosts_squint30.md
 	flock /tmp/heavy.lock nice $(PY) scripts/residual_ghosts.py --scene configs/demo.yaml --ghost 30,35 \
 		--out results/residual_ghosts_demo.md
+	flock /tmp/heavy.lock nice $(PY) scripts/residual_ghosts.py --scene configs/demo.yaml --ghost 30,35 \
+		--waveform band_limited --out results/residual_ghosts_demo_band_limited.md
 	flock /tmp/heavy.lock nice $(PY) scripts/residual_ghosts.py --scene configs/nie2016_small.yaml --ghost 40,40 \
 		--process pfa2 --process-config configs/pfa2_plain.yaml --out results/residual_ghosts_002_plain.md

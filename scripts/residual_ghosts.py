@@ -52,8 +52,11 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--process", default="backproject")
     ap.add_argument("--process-config", type=Path, default=None)
     ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--waveform", default=None, help="simulation.waveform for both scenes (e.g. band_limited)")
     args = ap.parse_args(argv)
     scene = yaml.safe_load(args.scene.read_text())
+    if args.waveform is not None:
+        scene["simulation"] = dict(scene.get("simulation") or {}, waveform=args.waveform)
     az, rg = (float(v) for v in args.ghost.split(","))
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)
@@ -63,7 +66,9 @@ def main(argv: list[str] | None = None) -> None:
         ]
         ghost_scene = tmp / "scene_g.yaml"
         ghost_scene.write_text(yaml.safe_dump(with_g))
-        clean = read_product(image(args.scene, args.process, args.process_config, tmp, "clean"))
+        clean_scene = tmp / "scene.yaml"
+        clean_scene.write_text(yaml.safe_dump(scene))
+        clean = read_product(image(clean_scene, args.process, args.process_config, tmp, "clean"))
         names = [n.decode() if isinstance(n, bytes) else str(n) for n in clean.targets["name"]]
         ghosted = read_product(image(ghost_scene, args.process, args.process_config, tmp, "ghost", names))
     if clean.data.shape != ghosted.data.shape or any(
@@ -80,7 +85,7 @@ def main(argv: list[str] | None = None) -> None:
     g_peak = float(np.abs(response[g_index]))
     cells = dict(zip(clean.dims, clean.attrs["theoretical_irw"]))
     rows = [
-        f"Scene {args.scene} processed by `{args.process}`; ghost G at {g_pos} (strongest pixel of its response); "
+        f"Scene {args.scene}{'' if args.waveform is None else f' (simulation.waveform: {args.waveform})'} processed by `{args.process}`; ghost G at {g_pos} (strongest pixel of its response); "
         f"clean image: residual floor {base.residual.floor_db:.2f} dB, residual false target "
         f"{base.false_target.level_db:.2f} dB, guard-window figure {base.false_target_guard.level_db:.2f} dB.",
         "",

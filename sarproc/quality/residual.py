@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -87,31 +88,35 @@ KEYSTONE_STRIPS = 32  # most range strips of a keystoned support (far lobe phase
 KEYSTONE_REACH = 100.0  # nulls out to which the strips keep that error under 0.15 rad
 
 
-def _strip_factors(c: Sequence[np.ndarray], m: int, kappa: np.ndarray | None) -> list[list[list[np.ndarray]]]:
-    """Per strip, per axis, the 2m+1 order factors of a support whose widths along the axes before the
-    last grow linearly with the last axis' band coordinate u (width 1 + kappa_a u: a keystone, the
-    azimuth band of a wide-band radar scaling with range frequency). The support is cut into
-    KEYSTONE_STRIPS strips along u, each a rectangle with its own widths, so each strip's response is
-    exact; with kappa None (or 0) this is the single rectangle, prod_a sinc(c_a + n/2). The strip count
-    grows with kappa (:data:`KEYSTONE_REACH`)."""
+def _strip_factors(c: Sequence[np.ndarray], m: int, kappa: np.ndarray | None) -> list[list[np.ndarray]]:
+    """Per strip, per axis, the 2m+1 order factors (one array (2m+1, *shape of c_a) per axis) of a support
+    whose widths along the axes before the last grow linearly with the last axis' band coordinate u (width
+    1 + kappa_a u: a keystone, the azimuth band of a wide-band radar scaling with range frequency). The
+    support is cut into KEYSTONE_STRIPS strips along u, each a rectangle with its own widths, so each
+    strip's response is exact; with kappa None (or 0) this is the single rectangle, prod_a sinc(c_a + n/2).
+    The strip count grows with kappa (:data:`KEYSTONE_REACH`)."""
     if kappa is None or not np.any(kappa):
-        return [[_shifted_sincs(ca, m) for ca in c]]
+        return [[np.stack(_shifted_sincs(ca, m)) for ca in c]]
     ndim = len(c)
-    n_strips = min(KEYSTONE_STRIPS, math.ceil(math.pi * KEYSTONE_REACH * float(np.max(np.abs(kappa))) / 0.15))
+    n_strips = _strip_count(kappa)
     width = 1.0 / n_strips
     u0 = 0.5 * width - 0.5
+    half = (np.arange(-m, m + 1) / 2.0).reshape((-1,) + (1,) * np.ndim(c[0]))
     # Each strip's factors from the previous one's by complex rotations (strips are equally spaced in u),
-    # so the trigonometry is done once per axis and order, not once per strip.
-    shifted = [[np.asarray(ca, dtype=float) + n / 2.0 for n in range(-m, m + 1)] for ca in c]
-    rot, step, denom = [], [], []
+    # so the trigonometry is done once per axis, not once per strip; orders stacked along a first axis.
+    shifted = [np.asarray(ca, dtype=float)[None] + half for ca in c]
+    rot, step, denom, centre = [], [], [], []
     for a in range(ndim - 1):
-        w0 = 1.0 + kappa[a] * u0
-        rot.append([np.exp(1j * np.pi * w0 * x) for x in shifted[a]])  # exp(j pi w_s x), strip 0
-        step.append([np.exp(1j * np.pi * kappa[a] * width * x) for x in shifted[a]])
-        denom.append([np.where(np.abs(x) < 1e-9, np.nan, np.pi * x) for x in shifted[a]])
-    last_sinc = [width * np.sinc(width * x) for x in shifted[-1]]
-    last_rot = [np.exp(2j * np.pi * u0 * x) for x in shifted[-1]]
-    last_step = [np.exp(2j * np.pi * width * x) for x in shifted[-1]]
+        x = shifted[a]
+        rot.append(np.exp(1j * np.pi * (1.0 + kappa[a] * u0) * x))  # exp(j pi w_s x), strip 0
+        step.append(np.exp(1j * np.pi * kappa[a] * width * x))
+        small = np.abs(x) < 1e-9
+        centre.append(small)
+        denom.append(np.pi * np.where(small, 1.0, x))
+    x = shifted[-1]
+    last_sinc = width * np.sinc(width * x)
+    last_rot = np.exp(2j * np.pi * u0 * x)
+    last_step = np.exp(2j * np.pi * width * x)
     out = []
     for s in range(n_strips):
         u = u0 + s * width
@@ -119,14 +124,116 @@ def _strip_factors(c: Sequence[np.ndarray], m: int, kappa: np.ndarray | None) ->
         for a in range(ndim - 1):
             w = 1.0 + kappa[a] * u
             # w sinc(w x) = sin(pi w x) / (pi x), and w at x = 0
-            per_axis.append(
-                [np.where(np.isnan(d), w, r.imag / np.where(np.isnan(d), 1.0, d)) for r, d in zip(rot[a], denom[a])]
-            )
-            rot[a] = [r * st for r, st in zip(rot[a], step[a])]
-        per_axis.append([sc * r for sc, r in zip(last_sinc, last_rot)])
-        last_rot = [r * st for r, st in zip(last_rot, last_step)]
+            per_axis.append(np.where(centre[a], w, rot[a].imag / denom[a]))
+            rot[a] *= step[a]
+        per_axis.append(last_sinc * last_rot)
+        last_rot = last_rot * last_step
         out.append(per_axis)
     return out
+
+
+def _strip_count(kappa: np.ndarray) -> int:
+    """Strips of a keystoned support (:func:`_strip_factors`): enough for :data:`KEYSTONE_REACH`, and at
+    least two, so that the fit's derivative with respect to a small keystone exists (one strip is the
+    rectangle whatever kappa)."""
+    return max(2, min(KEYSTONE_STRIPS, math.ceil(math.pi * KEYSTONE_REACH * float(np.max(np.abs(kappa))) / 0.15)))
+
+
+def _keystoned(kappa: np.ndarray | None) -> bool:
+    """Whether a fitted keystone matters over the image: its far-lobe phase error with the rectangle,
+    pi c kappa, reaches 0.15 rad within :data:`KEYSTONE_REACH` nulls (the strips' own tolerance). Below
+    that the model is evaluated over the image as the rectangle, on its cheap paths."""
+    return kappa is not None and math.pi * KEYSTONE_REACH * float(np.max(np.abs(kappa))) >= 0.15
+
+
+def _keystone_product(xs: Sequence[np.ndarray], kappa: np.ndarray) -> np.ndarray:
+    """The strip sum of :func:`_strip_factors` for one order per axis, in closed form: ``xs`` the shifted
+    coordinates c_a + n_a / 2 per axis (broadcastable arrays), returns sum_s prod_a factor_a,s.
+
+    A strip's factor along a keystoned axis is sin(pi w_s x) / (pi x), w_s = w_0 + kappa width s, and along
+    the last axis width sinc(width x) exp(j 2 pi u_s x), u_s = u_0 + width s: written as exponentials the
+    product is a sum over signs sigma of terms geometric in s, whose sum over the S strips is a Dirichlet
+    kernel exp(j (S - 1) theta / 2) sin(S theta / 2) / sin(theta / 2) of theta_sigma = 2 pi width x_last +
+    pi width sum_a sigma_a kappa_a x_a. Same values as the strips, 2^(ndim-1) terms instead of S."""
+    ndim = len(xs)
+    n_strips = _strip_count(kappa)
+    width = 1.0 / n_strips
+    u0 = 0.5 * width - 0.5
+    # sin(pi w x) / (pi x) at |x| = 1e-7 is its limit w to 1e-14 relative: keeps the division finite
+    xk = [np.where(np.abs(x) < 1e-7, 1e-7, x) for x in xs[:-1]]
+    last = xs[-1]
+    total: np.ndarray | int = 0
+    for signs in itertools.product((1.0, -1.0), repeat=ndim - 1):
+        theta = 2 * np.pi * width * last + sum(np.pi * width * sg * k * x for sg, k, x in zip(signs, kappa, xk))
+        phase = 2 * np.pi * u0 * last + sum(np.pi * sg * (1 + k * u0) * x for sg, k, x in zip(signs, kappa, xk))
+        half = 0.5 * theta
+        sn = np.sin(half)
+        small = np.abs(sn) < 1e-9
+        dirichlet = np.where(
+            small, n_strips * np.cos(n_strips * half) / np.cos(half), np.sin(n_strips * half) / np.where(small, 1, sn)
+        )
+        total = total + math.prod(signs) * dirichlet * np.exp(1j * (phase + (n_strips - 1) * half))
+    return np.asarray(total) * width * np.sinc(width * last) / math.prod(2j * np.pi * x for x in xk)
+
+
+def _keystone_sum(c: Sequence[np.ndarray], orders: np.ndarray, coef: np.ndarray, kappa: np.ndarray) -> np.ndarray:
+    """sum_k coef_k _keystone_product(c + orders_k / 2, kappa) on a box (c broadcastable per axis).
+
+    The orders shift every angle of :func:`_keystone_product` by a constant, so the sines and cosines are
+    taken once per sign on the box and each order costs multiplications only (angle addition)."""
+    ndim = len(c)
+    n_strips = _strip_count(kappa)
+    width = 1.0 / n_strips
+    u0 = 0.5 * width - 0.5
+    last = c[-1]
+    shape = np.broadcast_shapes(*[np.shape(v) for v in c])
+    s_l, c_l = np.sin(np.pi * width * last), np.cos(np.pi * width * last)
+    total = np.zeros(shape, dtype=complex)
+    per_order = [np.zeros(shape, dtype=complex) for _ in orders]
+    for signs in itertools.product((1.0, -1.0), repeat=ndim - 1):
+        half = np.pi * width * last + sum(0.5 * np.pi * width * sg * k * x for sg, k, x in zip(signs, kappa, c[:-1]))
+        phase = 2 * np.pi * u0 * last + sum(np.pi * sg * (1 + k * u0) * x for sg, k, x in zip(signs, kappa, c[:-1]))
+        phase = phase + (n_strips - 1) * half
+        sh, ch = np.sin(half), np.cos(half)
+        ssh, csh = np.sin(n_strips * half), np.cos(n_strips * half)
+        rot = np.exp(1j * phase)
+        for q, order in enumerate(orders):
+            n_a, n_l = order[:-1], order[-1]
+            d_half = 0.5 * np.pi * width * n_l + sum(
+                0.25 * np.pi * width * sg * k * n for sg, k, n in zip(signs, kappa, n_a)
+            )
+            d_phase = np.pi * u0 * n_l + sum(0.5 * np.pi * sg * (1 + k * u0) * n for sg, k, n in zip(signs, kappa, n_a))
+            d_phase += (n_strips - 1) * d_half
+            den = sh * math.cos(d_half) + ch * math.sin(d_half)  # sin(half + d_half)
+            num = ssh * math.cos(n_strips * d_half) + csh * math.sin(n_strips * d_half)
+            small = np.abs(den) < 1e-9
+            if small.any():  # sin(S h) / sin(h) -> S cos(S h) / cos(h)
+                lim = n_strips * (csh * math.cos(n_strips * d_half) - ssh * math.sin(n_strips * d_half))
+                lim = lim / (ch * math.cos(d_half) - sh * math.sin(d_half))
+                dirichlet = np.where(small, lim, num / np.where(small, 1.0, den))
+            else:
+                dirichlet = num / den
+            per_order[q] += math.prod(signs) * dirichlet * (rot * complex(math.cos(d_phase), math.sin(d_phase)))
+    for q, (order, k) in enumerate(zip(orders, coef)):
+        x_l = last + order[-1] / 2.0
+        s_x = s_l * math.cos(0.5 * np.pi * width * order[-1]) + c_l * math.sin(0.5 * np.pi * width * order[-1])
+        small = np.abs(x_l) < 1e-12
+        sinc = np.where(small, 1.0, s_x / (np.pi * width * np.where(small, 1.0, x_l)))
+        den = math.prod(2j * np.pi * (x + n / 2.0) for x, n in zip(c[:-1], order[:-1]))
+        total += k * per_order[q] * width * sinc / np.where(den == 0, 1.0, den)
+    # within 1e-7 of a factor's removable singularity the angles above cancel to rounding: those few
+    # points from :func:`_keystone_product`, which evaluates the limit there
+    near = functools.reduce(
+        np.logical_or,
+        [np.broadcast_to(np.abs(x + n / 2.0) < 1e-7, shape) for a, x in enumerate(c[:-1]) for n in set(orders[:, a])],
+        np.zeros(shape, dtype=bool),
+    )
+    if near.any():
+        pts = [np.broadcast_to(x, shape)[near] for x in c]
+        total[near] = sum(
+            k * _keystone_product([x + n / 2.0 for x, n in zip(pts, order)], kappa) for order, k in zip(orders, coef)
+        )
+    return total
 
 
 def response_basis(
@@ -147,23 +254,25 @@ def response_basis(
     x = np.asarray(points, dtype=float) - p[:, None]
     c = A @ x
     m = int(np.abs(orders).max()) if orders.size else 0
-    strips = _strip_factors(list(c), m, kappa)
     phase = 2 * np.pi * (np.asarray(f_c, dtype=float) @ x)
     if K is not None:
         phase = phase + _chirp_phase(x, K)
-    carrier = np.exp(1j * phase)
-    cols = [
-        carrier * sum(np.prod([per_axis[a][n + m] for a, n in enumerate(order)], axis=0) for per_axis in strips)
-        for order in orders
-    ]
-    return np.stack(cols, axis=1)
+    n = np.asarray(orders, dtype=int).reshape(-1, len(c))
+    cols: np.ndarray | int
+    if kappa is not None and np.any(kappa):  # every order's strip sum at once, (K, N)
+        cols = _keystone_product([c[a][None, :] + n[:, a, None] / 2.0 for a in range(len(c))], kappa)
+    else:
+        per_axis = [np.stack(_shifted_sincs(ca, m)) for ca in c]
+        cols = math.prod(per_axis[a][n[:, a] + m] for a in range(len(c)))
+    return (np.asarray(cols) * np.exp(1j * phase)).T
 
 
 def _model_on_box(slices: Sequence[slice], model: dict) -> np.ndarray:
     """A fitted response model on the image box ``slices`` (complex128, the box's shape).
 
-    Sin and cos of pi c_a are taken once per axis; the shifted sincs are then divisions, and for an
-    unskewed support the order sum is an outer product of per-axis factors."""
+    Sin and cos of pi c_a are taken once per axis; the shifted sincs are then divisions. For an unskewed
+    support the order sum is a product of per-axis factors: in 2D one matrix product over every strip's
+    orders at once."""
     A, p = _ridge_frame(model["pos"], model["V"], model["nulls"])
     orders, coef, f_c = model["orders"], model["coef"], np.asarray(model["f_c"], dtype=float)
     ndim = len(p)
@@ -176,28 +285,32 @@ def _model_on_box(slices: Sequence[slice], model: dict) -> np.ndarray:
 
     grid = [along(b, xs[b]) for b in range(ndim)]
     carrier = np.exp(1j * (2 * np.pi * sum(f_c[b] * grid[b] for b in range(ndim)) + _chirp_phase(grid, model["K"])))
-    c = [functools.reduce(np.add, [A[a, b] * grid[b] for b in range(ndim) if A[a, b] != 0.0]) for a in range(ndim)]
-    strips = _strip_factors(c, m, model.get("kappa"))
+    tensor = np.zeros((2 * m + 1,) * ndim, dtype=complex)
+    for order, k in zip(orders, coef):
+        tensor[tuple(order + m)] = k
     if all(np.count_nonzero(A[a]) == 1 and A[a, a] != 0 for a in range(ndim)):  # separable: outer products
-        tensor = np.zeros((2 * m + 1,) * ndim, dtype=complex)
-        for order, k in zip(orders, coef):
-            tensor[tuple(order + m)] = k
+        kappa = model.get("kappa") if _keystoned(model.get("kappa")) else None
+        strips = _strip_factors([A[a, a] * xs[a] for a in range(ndim)], m, kappa)
+        if ndim == 2:  # sum_s f0_s^T T f1_s as one (n0, S(2m+1)) @ (S(2m+1), n1) product
+            left = np.concatenate([tensor.T @ f[0] for f in strips], axis=0)
+            right = np.concatenate([f[1] for f in strips], axis=0)
+            return (left.T @ right) * carrier
         total: np.ndarray | int = 0
         for factors in strips:
             out = tensor
             for a in range(ndim):  # contract each order axis with its axis' shifted sincs
-                f = np.stack([v.reshape(-1) for v in factors[a]], axis=0)  # (2m+1, n_a)
-                out = np.tensordot(out, f, axes=([0], [0]))
+                out = np.tensordot(out, factors[a], axes=([0], [0]))
             total = total + out
         return total * carrier
-    out = np.zeros(shape, dtype=complex)
-    for factors in strips:
-        for order, k in zip(orders, coef):
-            term = k * factors[0][order[0] + m]
-            for a in range(1, ndim):
-                term = term * factors[a][order[a] + m]
-            out += term
-    return out * carrier
+    c = [functools.reduce(np.add, [A[a, b] * grid[b] for b in range(ndim) if A[a, b] != 0.0]) for a in range(ndim)]
+    kappa = model.get("kappa")
+    box = np.zeros(shape, dtype=complex)
+    if kappa is not None and _keystoned(kappa):  # skewed and keystoned: each order's strip sum in closed form
+        return _keystone_sum(c, orders, coef, kappa) * carrier
+    factors = [np.stack(_shifted_sincs(ca, m)) for ca in c]
+    for order, k in zip(orders, coef):
+        box += k * math.prod(f[n + m] for f, n in zip(factors, order))
+    return box * carrier
 
 
 def _fit_group(
@@ -311,6 +424,12 @@ def _ridge_strips(
     return out
 
 
+# The fits' matrices are small (a few thousand rows, tens of columns): threaded BLAS only adds its
+# start-up and, on a loaded machine, threads spinning for each other (measured 7x slower on 2 cores).
+single_blas = threadpool_limits.wrap(limits=1, user_api="blas")
+
+
+@single_blas
 def fit_response_models(
     data: np.ndarray, found: list[dict], nulls: npt.ArrayLike, params: EvaluateParams, support_shape: bool = False
 ) -> list:
@@ -411,6 +530,7 @@ def fit_response_models(
     return models
 
 
+@single_blas
 def residual_image(data: np.ndarray, models: list[dict], block_samples: int = 1 << 18) -> np.ndarray:
     """``data`` minus every fitted model over the whole image (complex128), in slabs along axis 0."""
     out = np.array(data, dtype=np.complex128)

@@ -121,3 +121,35 @@ def test_strips_tile_the_range_band_exactly():
     # each strip's azimuth factor is the sinc of its own width, w sinc(w c)
     w = 1 + 0.02 * (0.5 / len(strips) - 0.5)
     np.testing.assert_allclose(strips[0][0][1], w * np.sinc(w * c[0]), atol=1e-12)
+
+
+@pytest.mark.parametrize("kappa", [np.array([0.015]), np.array([0.02, -0.01])], ids=["2d", "3d"])
+def test_closed_form_strip_sum_equals_the_strips(kappa):
+    """The keystone's strip sum in closed form (Dirichlet kernels) is the sum of the strips' products."""
+    from sarproc.quality.residual import _keystone_product, _strip_factors
+
+    rng = np.random.default_rng(3)
+    ndim = len(kappa) + 1
+    c = [rng.uniform(-300, 300, 5000) for _ in range(ndim)]
+    c[0][:4] = [0.0, 0.5, -0.5, 1e-12]  # on the factors' removable singularity
+    strips = _strip_factors(c, 1, kappa)
+    for order in [(0,) * ndim, (1,) * ndim, (-1,) + (1,) * (ndim - 1)]:
+        want = sum(np.prod([s[a][n + 1] for a, n in enumerate(order)], axis=0) for s in strips)
+        got = _keystone_product([ca + n / 2 for ca, n in zip(c, order)], kappa)
+        assert np.abs(got - want).max() < 1e-7 * np.abs(want).max()
+
+
+def test_box_sum_over_orders_equals_the_per_order_products():
+    """_keystone_sum (angles shifted per order) is the coefficient sum of _keystone_product, singular
+    points included."""
+    from sarproc.quality.residual import _keystone_product, _keystone_sum, spectral_orders
+
+    rng = np.random.default_rng(5)
+    c = [rng.uniform(-200, 200, (60, 70)) for _ in range(2)]
+    c[0].flat[:3] = [0.0, 0.5, -0.5]
+    orders = spectral_orders(2, 1, 2)
+    coef = rng.normal(size=len(orders)) + 1j * rng.normal(size=len(orders))
+    kappa = np.array([0.015])
+    want = sum(k * _keystone_product([x + n / 2 for x, n in zip(c, o)], kappa) for o, k in zip(orders, coef))
+    got = _keystone_sum(c, orders, coef, kappa)
+    assert np.abs(got - want).max() < 1e-10 * np.abs(want).max()
