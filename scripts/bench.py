@@ -718,7 +718,13 @@ def main(argv: list[str] | None = None) -> None:
 
 
 # ---- fast factorised backprojection against the exact engine and FastSAR (`bench.py ffbp ...`) ---------------
-FFBP_SETTINGS = [(4, 3.0, "cubic"), (4, 4.0, "cubic"), (4, 5.0, "cubic")]
+# (factor, first factor, oversample, interpolation, taps): the first version's cubic reads, then Knab reads
+FFBP_SETTINGS = [
+    (4, 4, 4.0, "cubic", 4),
+    (4, 16, 1.5, "knab", 8),
+    (4, 16, 2.0, "knab", 8),
+    (4, 16, 2.0, "knab", 10),
+]
 
 
 def best_of_calls(fn: Callable[..., Any], repeats: int) -> tuple[Any, float]:
@@ -832,9 +838,10 @@ def ffbp_main(argv: list[str] | None = None) -> None:
         power = float(np.sum(np.abs(exact) ** 2))
         rows.append({"n": n, "spacing": spacing, "engine": "exact", "time_s": t_exact})
         print(f"{n}x{n} ({spacing:.3f} m, {len(case['pos'])} pulses): exact {t_exact:.3f} s", flush=True)
-        for k, q, interp in FFBP_SETTINGS:
+        for k, k1, q, interp, taps in FFBP_SETTINGS:
+            info: dict = {}
             img, t = best_of_calls(
-                lambda pts=pts, k=k, q=q, interp=interp, n=n, common=common: ffbp_points(
+                lambda pts=pts, k=k, k1=k1, q=q, interp=interp, taps=taps, n=n, common=common, info=info: ffbp_points(
                     case["rc"],
                     case["range_time"],
                     case["pos"],
@@ -842,23 +849,30 @@ def ffbp_main(argv: list[str] | None = None) -> None:
                     case["fc"],
                     case["bandwidth"],
                     factor=k,
+                    first_factor=k1,
                     oversample=q,
                     ffbp_interpolation=interp,
+                    ffbp_taps=taps,
                     grid_shape=(n, n),
+                    info=info,
                     **common,
                 ),
                 a.repeats,
             )
             err = float(np.sum(np.abs(img - exact) ** 2)) / power
-            pred = predicted_error(len(case["pos"]), k, q, interp)
+            pred = predicted_error(len(case["pos"]), k, q, interp, taps, k1)
             rows.append(
                 {
                     "n": n,
                     "spacing": spacing,
                     "engine": "ffbp",
                     "factor": k,
+                    "first_factor": k1,
                     "oversample": q,
                     "interpolation": interp,
+                    "taps": taps,
+                    "stage_s": info.get("seconds"),
+                    "cartesian": info.get("cartesian"),
                     "time_s": t,
                     "speedup": t_exact / t,
                     "error_db": 10 * math.log10(err),
@@ -866,7 +880,7 @@ def ffbp_main(argv: list[str] | None = None) -> None:
                 }
             )
             print(
-                f"  ffbp factor {k} oversample {q} {interp}: {t:.3f} s ({t_exact / t:.2f}x), error "
+                f"  ffbp factor {k} (first {k1}) oversample {q} {interp} {taps}: {t:.3f} s ({t_exact / t:.2f}x), error "
                 f"{10 * math.log10(err):.1f} dB (predicted {10 * math.log10(pred):.1f})",
                 flush=True,
             )

@@ -155,18 +155,27 @@ def backproject_estimate(stage: str, header: Product, params: Any, memory_limit:
         detail += f", in {-(-n[0] // max(1, block // n[1]))} blocks of {max(1, block // n[1])} rows"
     seconds = n_ch * n_az * n_pix * per
     if params.engine == "ffbp":
-        from sarproc.focus.ffbp import error_bound, levels, predicted_error
+        from sarproc.focus.ffbp import error_bound, predicted_error, subaperture_lengths, taps_of
 
-        n_lev = levels(n_az, params.ffbp_factor)
+        lengths = subaperture_lengths(n_az, params.ffbp_factor, params.ffbp_first_factor)
         q = params.ffbp_oversample
-        err = predicted_error(n_az, params.ffbp_factor, q, params.ffbp_interpolation)
+        taps = taps_of(params.ffbp_interpolation, params.ffbp_taps)
+        err = predicted_error(
+            n_az, params.ffbp_factor, q, params.ffbp_interpolation, params.ffbp_taps, params.ffbp_first_factor
+        )
         # all pulses upsampled at once, and two levels' polar images (at most ~q^2 samples per pixel each)
         memory += complex_bytes(n_az, n_rg * params.upsample) + 2 * complex_bytes(n_pix) * q * q
-        # ~q^2 / 3 polar samples per pixel per level, factor reads each, ~100 ns a read (measured on the bench scene)
-        seconds = n_ch * n_pix * n_lev * q * q / 3 * params.ffbp_factor * 100e-9
+        # ~q^2 / 3 polar samples per pixel per level; the first level's reads (1D, ~15 ns) once per pulse merged,
+        # the others' (two 1D passes, ~3 ns a tap) once per subaperture merged (bench scene, scripts/bench.py ffbp)
+        per_sample = (params.ffbp_first_factor or params.ffbp_factor) * 15e-9 + (len(lengths) - 1) * (
+            params.ffbp_factor * (2 * taps * 3e-9 + 20e-9)
+        )
+        seconds = n_ch * n_pix * q * q / 3 * per_sample
+        first = "" if params.ffbp_first_factor == params.ffbp_factor else f" (first {params.ffbp_first_factor})"
+        reads = f"knab {taps}" if params.ffbp_interpolation == "knab" else params.ffbp_interpolation
         detail += (
-            f"; ffbp: {n_lev} levels of {params.ffbp_factor}, oversample {q:g}, "
-            f"{params.ffbp_interpolation}; predicted error against the exact image "
+            f"; ffbp: {len(lengths)} levels of {params.ffbp_factor}{first}, oversample {q:g}, "
+            f"{reads}; predicted error against the exact image "
             f"{10 * math.log10(max(err, 1e-30)):.1f} dB (at most "
             f"{10 * math.log10(max(error_bound(err), 1e-30)):.1f})"
         )

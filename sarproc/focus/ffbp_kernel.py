@@ -7,6 +7,10 @@ band-limited in both coordinates. Geometry rows (float64): fx, fy, h, r0, dr, th
 sin th_mid, 1 / dr, 1 / dth; integer rows:
 n_theta, n_range, offset into the level's flat complex64 buffer. A subimage with n_theta = 1 (a single pulse)
 does not depend on the angle.
+
+Reads are separable (range x angle) with tabulated weights (:func:`sarproc.focus.ffbp.read_table`): row c of a
+(steps + 1, taps) table holds the weights of samples floor(p) + 1 - taps/2 + m for the fraction c / steps, linearly
+interpolated between rows, so one kernel serves linear, cubic Lagrange and Knab reads of any length.
 """
 
 from __future__ import annotations
@@ -19,38 +23,22 @@ import numpy as np
 from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
 from sarproc.dsp.phasor import cis_cycles32_short
 
-LINEAR, CUBIC = 1, 3
+
+@numba.njit(fastmath=True, error_model="numpy", inline="always", cache=CACHE)
+def _fill_weights(table, pos, w) -> int:
+    """Weights of the table's taps at fractional sample ``pos`` into w; returns the first sample's index."""
+    steps = table.shape[0] - 1
+    p0 = math.floor(pos)
+    q = (pos - p0) * steps
+    cell = min(int(q), steps - 1)
+    t = np.float32(q - cell)
+    taps = table.shape[1]
+    for m in range(taps):
+        w[m] = table[cell, m] + (table[cell + 1, m] - table[cell, m]) * t
+    return int(p0) + 1 - taps // 2
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _weights(t, mode):
-    """Interpolation weights of samples -1, 0, 1, 2 at fraction t in [0, 1): linear or cubic Lagrange."""
-    one, two, six = type(t)(1.0), type(t)(2.0), type(t)(6.0)
-    if mode == LINEAR:
-        return t * 0, one - t, t, t * 0
-    tm, t1, t2 = t + one, t - one, t - two
-    return (-t * t1 * t2 / six, tm * t1 * t2 / two, -tm * t * t2 / two, tm * t * t1 / six)
-
-
-@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _row_value(buf, base, n, i, w0, w1, w2, w3):
-    """Samples i - 1 .. i + 2 of a row of n at buf[base:] weighted (zero outside the row; no checks inside it)."""
-    if i >= 1 and i + 2 < n:
-        v = w0 * buf[base + i - 1] + w1 * buf[base + i] + w2 * buf[base + i + 1] + w3 * buf[base + i + 2]
-        return v.real, v.imag
-    re = 0.0
-    im = 0.0
-    for m in range(4):
-        j = i - 1 + m
-        if j >= 0 and j < n:
-            wm = w0 if m == 0 else (w1 if m == 1 else (w2 if m == 2 else w3))
-            v = buf[base + j]
-            re += wm * v.real
-            im += wm * v.imag
-    return re, im
-
-
-@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
+@numba.njit(fastmath=True, error_model="numpy", inline="always", cache=CACHE)
 def _relative_angle(dx, dy, cm, sm):
     """Angle of (dx, dy) from the direction (cm, sm), in (-pi, pi]: a series for |tan| <= 1/4 (error < 1e-10 rad;
     polar grids span a few degrees), atan2 beyond."""
@@ -78,77 +66,205 @@ def _relative_angle(dx, dy, cm, sm):
     return math.atan2(crs, dot)
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _read(buf, geo, ints, c, x, y, z, r_ref, kc2, mode_r, mode_t):
+@numba.njit(fastmath=True, error_model="numpy", inline="always", cache=CACHE)
+def _read(buf, geo, ints, c, x, y, z, r_ref, kc2, tab_r, tab_t, wr, wt):
     """Subimage c read at the plane point (x, y, z), re-modulated by the carrier of its range from c's centre and
-    demodulated by that of ``r_ref``: its contribution exp(j 2 pi kc2 (r_c - r_ref)) x value."""
+    demodulated by that of ``r_ref``: its contribution exp(j 2 pi kc2 (r_c - r_ref)) x value. wr, wt: scratch
+    for the range and angle weights (zero outside the subimage)."""
     dx = x - geo[c, 0]
     dy = y - geo[c, 1]
     dz = geo[c, 2] - z
     rc = math.sqrt(dx * dx + dy * dy + dz * dz)
-    pos = (rc - geo[c, 3]) * geo[c, 10]
     n_t, n_r, off = ints[c, 0], ints[c, 1], ints[c, 2]
-    p0 = math.floor(pos)
-    i = np.int64(p0)
-    w0, w1, w2, w3 = _weights(np.float32(pos - p0), mode_r)
+    taps_r = tab_r.shape[1]
+    i0 = _fill_weights(tab_r, (rc - geo[c, 3]) * geo[c, 10], wr)
     if n_t == 1:
-        re, im = _row_value(buf, off, n_r, i, w0, w1, w2, w3)
+        taps_t = 1
+        a0 = 0
+        wt[0] = 1.0
     else:
+        taps_t = tab_t.shape[1]
         th = _relative_angle(dx, dy, geo[c, 8], geo[c, 9])
-        ta = (th - geo[c, 6]) * geo[c, 11]
-        a0 = math.floor(ta)
-        wa = _weights(ta - a0, mode_t)
-        a = np.int64(a0)
-        re = 0.0
-        im = 0.0
-        for m in range(4):
-            j = a - 1 + m
-            if wa[m] != 0.0 and j >= 0 and j < n_t:
-                vr, vi = _row_value(buf, off + j * n_r, n_r, i, w0, w1, w2, w3)
-                re += wa[m] * vr
-                im += wa[m] * vi
+        a0 = _fill_weights(tab_t, (th - geo[c, 6]) * geo[c, 11], wt)
+    re = np.float32(0.0)
+    im = np.float32(0.0)
+    if i0 >= 0 and i0 + taps_r <= n_r and a0 >= 0 and a0 + taps_t <= n_t:
+        for m in range(taps_t):
+            base = off + (a0 + m) * n_r + i0
+            sr = np.float32(0.0)
+            si = np.float32(0.0)
+            for j in range(taps_r):
+                v = buf[base + j]
+                sr += wr[j] * v.real
+                si += wr[j] * v.imag
+            re += wt[m] * sr
+            im += wt[m] * si
+    else:
+        for m in range(taps_t):
+            a = a0 + m
+            if a < 0 or a >= n_t:
+                continue
+            sr = np.float32(0.0)
+            si = np.float32(0.0)
+            for j in range(taps_r):
+                i = i0 + j
+                if i >= 0 and i < n_r:
+                    v = buf[off + a * n_r + i]
+                    sr += wr[j] * v.real
+                    si += wr[j] * v.imag
+            re += wt[m] * sr
+            im += wt[m] * si
     cyc = kc2 * (rc - r_ref)
     cyc -= math.floor(cyc + 0.5)
-    co, si = cis_cycles32_short(np.float32(cyc))
-    return re * co - im * si, re * si + im * co
+    co, si_ = cis_cycles32_short(np.float32(cyc))
+    return re * co - im * si_, re * si_ + im * co
 
 
 @numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
-def merge_level(cbuf, cgeo, cints, first_child, pgeo, pints, pbuf, row_parent, row_angle, kc2, mode_r, mode_t) -> None:
-    """Each parent polar sample: the sum of its children read at its plane point (one job per parent row)."""
+def merge_level(
+    cbuf, cgeo, cints, first_child, pgeo, pints, pbuf, row_parent, row_angle, kc2, tab_r, tab_t, max_child_range
+) -> None:
+    """Each parent polar sample: the sum of its children read at its plane point (one job per parent row).
+
+    A parent row is a ray from its foot; along it a child's range grows monotonically (the platform does not pass
+    over the image), so a child is read in two 1D passes instead of one 2D one: first in angle at its own range
+    samples, at the point where the ray crosses each (the row's values as a function of the child's range, band
+    limited like the child's rows since the ray's angle from the child drifts by about a sample over the whole
+    image), then in range at the parent's samples: taps_r + taps_t multiply-adds a read instead of their product."""
+    taps_r = tab_r.shape[1]
     for job in numba.prange(len(row_parent)):
+        wr = np.empty(taps_r, np.float32)
+        wt = np.empty(tab_t.shape[1], np.float32)
         s = row_parent[job]
         a = row_angle[job]
         th = pgeo[s, 5] + pgeo[s, 6] + a * pgeo[s, 7]
         ct, st = math.cos(th), math.sin(th)
         n_r, off = pints[s, 1], pints[s, 2] + a * pints[s, 1]
         h2 = pgeo[s, 2] * pgeo[s, 2]
+        rho = np.empty(n_r)
         for k in range(n_r):
             r = pgeo[s, 3] + k * pgeo[s, 4]
-            rho = math.sqrt(max(r * r - h2, 0.0))
-            x = pgeo[s, 0] + rho * ct
-            y = pgeo[s, 1] + rho * st
-            re = 0.0
-            im = 0.0
-            for c in range(first_child[s], first_child[s + 1]):
-                vr, vi = _read(cbuf, cgeo, cints, c, x, y, 0.0, r, kc2, mode_r, mode_t)
-                re += vr
-                im += vi
-            pbuf[off + k] = complex(re, im)
+            rho[k] = math.sqrt(max(r * r - h2, 0.0))
+        acc_re = np.zeros(n_r, np.float32)
+        acc_im = np.zeros(n_r, np.float32)
+        pos = np.empty(n_r)
+        cyc = np.empty(n_r)
+        row = np.empty(max_child_range, np.complex64)
+        for c in range(first_child[s], first_child[s + 1]):
+            n_tc, n_rc, offc = cints[c, 0], cints[c, 1], cints[c, 2]
+            # the child's range along the ray: u . d and |d|^2 + h^2 of the parent foot from the child's centre
+            dx0 = pgeo[s, 0] - cgeo[c, 0]
+            dy0 = pgeo[s, 1] - cgeo[c, 1]
+            ud = ct * dx0 + dy0 * st
+            c0 = dx0 * dx0 + dy0 * dy0 + cgeo[c, 2] * cgeo[c, 2]
+            lo = np.inf
+            hi = -np.inf
+            for k in range(n_r):
+                rc = math.sqrt(rho[k] * rho[k] + 2.0 * rho[k] * ud + c0)
+                p = (rc - cgeo[c, 3]) * cgeo[c, 10]
+                pos[k] = p
+                lo = min(lo, p)
+                hi = max(hi, p)
+                cy = kc2 * (rc - pgeo[s, 3] - k * pgeo[s, 4])
+                cyc[k] = cy - math.floor(cy + 0.5)
+            i_lo = max(0, int(math.floor(lo)) + 1 - taps_r // 2)
+            i_hi = min(n_rc - 1, int(math.floor(hi)) + taps_r // 2)
+            if i_lo > i_hi:
+                continue
+            if n_tc == 1:
+                src, base = cbuf, offc
+            else:
+                # pass 1: the child in angle where the ray crosses its range samples i_lo .. i_hi
+                taps_t = tab_t.shape[1]
+                for i in range(i_lo, i_hi + 1):
+                    rci = cgeo[c, 3] + i * cgeo[c, 4]
+                    disc = ud * ud - c0 + rci * rci
+                    if disc < 0.0:
+                        row[i] = 0
+                        continue
+                    rr = math.sqrt(disc) - ud
+                    ta = (_relative_angle(dx0 + rr * ct, dy0 + rr * st, cgeo[c, 8], cgeo[c, 9]) - cgeo[c, 6]) * cgeo[
+                        c, 11
+                    ]
+                    a0 = _fill_weights(tab_t, ta, wt)
+                    vr = np.float32(0.0)
+                    vi = np.float32(0.0)
+                    if a0 >= 0 and a0 + taps_t <= n_tc:
+                        b = offc + a0 * n_rc + i
+                        for m in range(taps_t):
+                            v = cbuf[b + m * n_rc]
+                            vr += wt[m] * v.real
+                            vi += wt[m] * v.imag
+                    else:
+                        for m in range(taps_t):
+                            if a0 + m >= 0 and a0 + m < n_tc:
+                                v = cbuf[offc + (a0 + m) * n_rc + i]
+                                vr += wt[m] * v.real
+                                vi += wt[m] * v.imag
+                    row[i] = complex(vr, vi)
+                src, base = row, 0
+            # pass 2: in range at the parent's samples, re-referenced to the parent's range carrier
+            for k in range(n_r):
+                i0 = _fill_weights(tab_r, pos[k], wr)
+                vr = np.float32(0.0)
+                vi = np.float32(0.0)
+                if i0 >= i_lo and i0 + taps_r - 1 <= i_hi:
+                    for j in range(taps_r):
+                        v = src[base + i0 + j]
+                        vr += wr[j] * v.real
+                        vi += wr[j] * v.imag
+                else:
+                    for j in range(taps_r):
+                        if i0 + j >= i_lo and i0 + j <= i_hi:
+                            v = src[base + i0 + j]
+                            vr += wr[j] * v.real
+                            vi += wr[j] * v.imag
+                co, si = cis_cycles32_short(np.float32(cyc[k]))
+                acc_re[k] += vr * co - vi * si
+                acc_im[k] += vr * si + vi * co
+        for k in range(n_r):
+            pbuf[off + k] = complex(acc_re[k], acc_im[k])
 
 
 @numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
-def final_points(buf, geo, ints, px, py, pz, kc2, mode_r, mode_t, out) -> None:
+def final_points(buf, geo, ints, px, py, pz, kc2, tab_r, tab_t, out, restore) -> None:
     """out[i] = sum of the top subimages read at point i (plane coordinates px, py, normal offset pz), with the
-    carrier of its exact range restored (exp(+j 2 pi kc2 r), as exact backprojection applies it)."""
-    for i in numba.prange(len(px)):
-        re = 0.0
-        im = 0.0
-        for c in range(geo.shape[0]):
-            vr, vi = _read(buf, geo, ints, c, px[i], py[i], pz[i], 0.0, kc2, mode_r, mode_t)
-            re += vr
-            im += vi
-        out[i] = complex(re, im)
+    carrier of its exact range restored (exp(+j 2 pi kc2 r), as exact backprojection applies it) if ``restore``,
+    else referred to the carrier of the range from subimage 0's centre (a band-limited, baseband image)."""
+    n = len(px)
+    chunk = 1024
+    for b in numba.prange((n + chunk - 1) // chunk):
+        wr = np.empty(tab_r.shape[1], np.float32)
+        wt = np.empty(max(tab_t.shape[1], 1), np.float32)
+        for i in range(b * chunk, min(n, (b + 1) * chunk)):
+            re = 0.0
+            im = 0.0
+            r_ref = 0.0
+            if not restore:
+                dx, dy, dz = px[i] - geo[0, 0], py[i] - geo[0, 1], geo[0, 2] - pz[i]
+                r_ref = math.sqrt(dx * dx + dy * dy + dz * dz)
+            for c in range(geo.shape[0]):
+                vr, vi = _read(buf, geo, ints, c, px[i], py[i], pz[i], r_ref, kc2, tab_r, tab_t, wr, wt)
+                re += vr
+                im += vi
+            out[i] = complex(re, im)
+
+
+@numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
+def restore_carrier(img, x0, y0, ax, ay, bx, by, pz, fx, fy, h, kc2, scale, out) -> None:
+    """out[i n1 + j] = scale img[i, j] exp(j 2 pi kc2 r) for the grid point (x0 + i ax + j bx, y0 + i ay + j by),
+    offset pz[i n1 + j] along the normal, r its range from (fx, fy, h)."""
+    n0, n1 = img.shape
+    for i in numba.prange(n0):
+        for j in range(n1):
+            dx = x0 + i * ax + j * bx - fx
+            dy = y0 + i * ay + j * by - fy
+            dz = h - pz[i * n1 + j]
+            cyc = kc2 * math.sqrt(dx * dx + dy * dy + dz * dz)
+            cyc -= math.floor(cyc + 0.5)
+            co, si = cis_cycles32_short(np.float32(cyc))
+            v = img[i, j]
+            out[i * n1 + j] = complex(scale * (v.real * co - v.imag * si), scale * (v.real * si + v.imag * co))
 
 
 lean_cache_loads(globals())  # cached kernels load without numba's context refresh (kernel_cache)
