@@ -31,7 +31,9 @@ from sarproc.product.metadata import C
 INTERPOLATIONS = ("knab", "cubic", "linear")
 _PULSE_READS = ("linear", "cubic")  # the first level reads the upsampled pulses as the exact engine does
 DEFAULT_TAPS = 6  # Knab reads of the polar subimages
-_TABLE_STEPS = 512  # fractions per sample of the tabulated weights (linearly interpolated: error < 1e-6)
+# fractions per sample of the tabulated weights, read at the nearest: the fraction off by 1 / 8192 at most, a phase
+# error below 2e-4 rad at the band edge of 2x oversampling (-79 dB)
+_TABLE_STEPS = 4096
 
 
 def taps_of(interpolation: str, taps: int = DEFAULT_TAPS) -> int:
@@ -69,18 +71,15 @@ def _exact_weights(t: np.ndarray, interpolation: str, oversample: float, taps: i
 
 
 def read_table(interpolation: str, oversample: float, taps: int = DEFAULT_TAPS) -> np.ndarray:
-    """(steps + 1, taps) float32: row c the weights at fraction c / steps (the kernels interpolate rows linearly);
+    """(steps + 1, taps) float32: row c the weights at fraction c / steps (the kernels read the nearest row);
     Knab's kernel is designed for a signal ``oversample`` times oversampled (nu = 1 - 1/q)."""
     t = np.arange(_TABLE_STEPS + 1) / _TABLE_STEPS
     return np.ascontiguousarray(_exact_weights(t, interpolation, oversample, taps).T, dtype=np.float32)
 
 
 def _table_weights(t: np.ndarray, table: np.ndarray) -> np.ndarray:
-    """The weights the kernels use at fractions t: the table's rows linearly interpolated, (taps, len(t))."""
-    q = t * (len(table) - 1)
-    cell = np.minimum(q.astype(int), len(table) - 2)
-    frac = (q - cell)[:, None]
-    return (table[cell] + (table[cell + 1] - table[cell]) * frac).T
+    """The weights the kernels use at fractions t: the table's nearest rows, (taps, len(t))."""
+    return table[np.floor(t * (len(table) - 1) + 0.5).astype(int)].T
 
 
 def read_error(

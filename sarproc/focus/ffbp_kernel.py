@@ -9,8 +9,8 @@ n_theta, n_range, offset into the level's flat complex64 buffer. A subimage with
 does not depend on the angle.
 
 Reads are separable (range x angle) with tabulated weights (:func:`sarproc.focus.ffbp.read_table`): row c of a
-(steps + 1, taps) table holds the weights of samples floor(p) + 1 - taps/2 + m for the fraction c / steps, linearly
-interpolated between rows, so one kernel serves linear, cubic Lagrange and Knab reads of any length.
+(steps + 1, taps) table holds the weights of samples floor(p) + 1 - taps/2 + m for the fraction c / steps (the
+nearest row is read), so one kernel serves linear, cubic Lagrange and Knab reads of any length.
 """
 
 from __future__ import annotations
@@ -26,15 +26,14 @@ from sarproc.dsp.phasor import cis_cycles32_short
 
 @numba.njit(fastmath=True, error_model="numpy", inline="always", cache=CACHE)
 def _fill_weights(table, pos, w) -> int:
-    """Weights of the table's taps at fractional sample ``pos`` into w; returns the first sample's index."""
+    """Weights of the table's taps at fractional sample ``pos`` (its nearest row) into w; returns the first
+    sample's index."""
     steps = table.shape[0] - 1
     p0 = math.floor(pos)
-    q = (pos - p0) * steps
-    cell = min(int(q), steps - 1)
-    t = np.float32(q - cell)
+    cell = int((pos - p0) * steps + 0.5)
     taps = table.shape[1]
     for m in range(taps):
-        w[m] = table[cell, m] + (table[cell + 1, m] - table[cell, m]) * t
+        w[m] = table[cell, m]
     return int(p0) + 1 - taps // 2
 
 
