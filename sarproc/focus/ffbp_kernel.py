@@ -38,30 +38,32 @@ def _fill_weights(table, pos, w) -> int:
 
 
 @numba.njit(fastmath=True, error_model="numpy", inline="always", cache=CACHE)
+def _atan_series(z):
+    """arctan(z) for |z| <= 1/4 (error < 1e-10 rad), branch-free."""
+    z2 = z * z
+    return z * (
+        1.0
+        + z2
+        * (
+            -1.0 / 3
+            + z2
+            * (
+                1.0 / 5
+                + z2
+                * (-1.0 / 7 + z2 * (1.0 / 9 + z2 * (-1.0 / 11 + z2 * (1.0 / 13 + z2 * (-1.0 / 15 + z2 * (1.0 / 17))))))
+            )
+        )
+    )
+
+
+@numba.njit(fastmath=True, error_model="numpy", inline="always", cache=CACHE)
 def _relative_angle(dx, dy, cm, sm):
     """Angle of (dx, dy) from the direction (cm, sm), in (-pi, pi]: a series for |tan| <= 1/4 (error < 1e-10 rad;
     polar grids span a few degrees), atan2 beyond."""
     dot = dx * cm + dy * sm
     crs = dy * cm - dx * sm
     if dot > 0.0 and abs(crs) <= 0.25 * dot:
-        z = crs / dot
-        z2 = z * z
-        return z * (
-            1.0
-            + z2
-            * (
-                -1.0 / 3
-                + z2
-                * (
-                    1.0 / 5
-                    + z2
-                    * (
-                        -1.0 / 7
-                        + z2 * (1.0 / 9 + z2 * (-1.0 / 11 + z2 * (1.0 / 13 + z2 * (-1.0 / 15 + z2 * (1.0 / 17)))))
-                    )
-                )
-            )
-        )
+        return _atan_series(crs / dot)
     return math.atan2(crs, dot)
 
 
@@ -147,8 +149,10 @@ def merge_level(
         acc_re = np.zeros(n_r, np.float32)
         acc_im = np.zeros(n_r, np.float32)
         pos = np.empty(n_r)
-        cyc = np.empty(n_r)
+        cos_ = np.empty(n_r, np.float32)
+        sin_ = np.empty(n_r, np.float32)
         row = np.empty(max_child_range, np.complex64)
+        ang = np.empty(max_child_range)
         for c in range(first_child[s], first_child[s + 1]):
             n_tc, n_rc, offc = cints[c, 0], cints[c, 1], cints[c, 2]
             # the child's range along the ray: u . d and |d|^2 + h^2 of the parent foot from the child's centre
@@ -156,16 +160,14 @@ def merge_level(
             dy0 = pgeo[s, 1] - cgeo[c, 1]
             ud = ct * dx0 + dy0 * st
             c0 = dx0 * dx0 + dy0 * dy0 + cgeo[c, 2] * cgeo[c, 2]
-            lo = np.inf
-            hi = -np.inf
+            # ranges, positions and carrier phasors along the row: branch-free, vectorised
             for k in range(n_r):
                 rc = math.sqrt(rho[k] * rho[k] + 2.0 * rho[k] * ud + c0)
-                p = (rc - cgeo[c, 3]) * cgeo[c, 10]
-                pos[k] = p
-                lo = min(lo, p)
-                hi = max(hi, p)
+                pos[k] = (rc - cgeo[c, 3]) * cgeo[c, 10]
                 cy = kc2 * (rc - pgeo[s, 3] - k * pgeo[s, 4])
-                cyc[k] = cy - math.floor(cy + 0.5)
+                cos_[k], sin_[k] = cis_cycles32_short(np.float32(cy - math.floor(cy + 0.5)))
+            lo = pos[:n_r].min()
+            hi = pos[:n_r].max()
             i_lo = max(0, int(math.floor(lo)) + 1 - taps_r // 2)
             i_hi = min(n_rc - 1, int(math.floor(hi)) + taps_r // 2)
             if i_lo > i_hi:
@@ -175,17 +177,34 @@ def merge_level(
             else:
                 # pass 1: the child in angle where the ray crosses its range samples i_lo .. i_hi
                 taps_t = tab_t.shape[1]
+                # the crossings' angle positions, branch-free and vectorised: the arctangent's series, valid for
+                # |tan| <= 1/4 ahead of the child's centre line (polar grids span a few degrees); any other
+                # crossing (or none: disc < 0) is redone below
+                cm, sm = cgeo[c, 8], cgeo[c, 9]
+                odd = 0
                 for i in range(i_lo, i_hi + 1):
                     rci = cgeo[c, 3] + i * cgeo[c, 4]
                     disc = ud * ud - c0 + rci * rci
-                    if disc < 0.0:
+                    rr = math.sqrt(max(disc, 0.0)) - ud
+                    dx = dx0 + rr * ct
+                    dy = dy0 + rr * st
+                    dot = dx * cm + dy * sm
+                    crs = dy * cm - dx * sm
+                    z = crs / dot
+                    ang[i] = (_atan_series(z) - cgeo[c, 6]) * cgeo[c, 11]
+                    odd += (disc < 0.0) | (dot <= 0.0) | (abs(crs) > 0.25 * dot)
+                if odd:
+                    for i in range(i_lo, i_hi + 1):
+                        rci = cgeo[c, 3] + i * cgeo[c, 4]
+                        disc = ud * ud - c0 + rci * rci
+                        rr = math.sqrt(max(disc, 0.0)) - ud
+                        th = _relative_angle(dx0 + rr * ct, dy0 + rr * st, cm, sm)
+                        ang[i] = (th - cgeo[c, 6]) * cgeo[c, 11] if disc >= 0.0 else -1e9
+                for i in range(i_lo, i_hi + 1):
+                    if ang[i] < -1e8:  # the ray never reaches this range
                         row[i] = 0
                         continue
-                    rr = math.sqrt(disc) - ud
-                    ta = (_relative_angle(dx0 + rr * ct, dy0 + rr * st, cgeo[c, 8], cgeo[c, 9]) - cgeo[c, 6]) * cgeo[
-                        c, 11
-                    ]
-                    a0 = _fill_weights(tab_t, ta, wt)
+                    a0 = _fill_weights(tab_t, ang[i], wt)
                     vr = np.float32(0.0)
                     vi = np.float32(0.0)
                     if a0 >= 0 and a0 + taps_t <= n_tc:
@@ -218,9 +237,8 @@ def merge_level(
                             v = src[base + i0 + j]
                             vr += wr[j] * v.real
                             vi += wr[j] * v.imag
-                co, si = cis_cycles32_short(np.float32(cyc[k]))
-                acc_re[k] += vr * co - vi * si
-                acc_im[k] += vr * si + vi * co
+                acc_re[k] += vr * cos_[k] - vi * sin_[k]
+                acc_im[k] += vr * sin_[k] + vi * cos_[k]
         for k in range(n_r):
             pbuf[off + k] = complex(acc_re[k], acc_im[k])
 
