@@ -438,7 +438,18 @@ def ffbp_points(
         coarse = _cartesian_grid(xy, grid_shape, cgeo[0], cints[0], oversample, boundary)
         if coarse is None:
             fk.final_points(
-                cbuf, cgeo, cints, xy[:, 0].copy(), xy[:, 1].copy(), pz.copy(), kc2, tab_c, tab_t, out, True
+                cbuf,
+                cbuf.view(np.float32),
+                cgeo,
+                cints,
+                xy[:, 0].copy(),
+                xy[:, 1].copy(),
+                pz.copy(),
+                kc2,
+                tab_c,
+                tab_t,
+                out,
+                True,
             )
             out /= n_az
         else:
@@ -451,7 +462,20 @@ def ffbp_points(
             cx = origin_c[0] + ia * step_a[0] + ib * step_b[0]
             cy = origin_c[1] + ia * step_a[1] + ib * step_b[1]
             low = np.empty(cx.size, np.complex128)
-            fk.final_points(cbuf, cgeo, cints, cx.ravel(), cy.ravel(), np.zeros(cx.size), kc2, tab_c, tab_t, low, False)
+            fk.final_points(
+                cbuf,
+                cbuf.view(np.float32),
+                cgeo,
+                cints,
+                cx.ravel(),
+                cy.ravel(),
+                np.zeros(cx.size),
+                kc2,
+                tab_c,
+                tab_t,
+                low,
+                False,
+            )
             seconds.append(time.perf_counter())
             from sarproc.dsp.interp import resample_rows
 

@@ -244,27 +244,98 @@ def merge_level(
 
 
 @numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
-def final_points(buf, geo, ints, px, py, pz, kc2, tab_r, tab_t, out, restore) -> None:
+def final_points(buf, fbuf, geo, ints, px, py, pz, kc2, tab_r, tab_t, out, restore) -> None:
     """out[i] = sum of the top subimages read at point i (plane coordinates px, py, normal offset pz), with the
     carrier of its exact range restored (exp(+j 2 pi kc2 r), as exact backprojection applies it) if ``restore``,
-    else referred to the carrier of the range from subimage 0's centre (a band-limited, baseband image)."""
+    else referred to the carrier of the range from subimage 0's centre (a band-limited, baseband image). fbuf: buf
+    viewed as float32 (re, im pairs)."""
     n = len(px)
     chunk = 1024
     for b in numba.prange((n + chunk - 1) // chunk):
         wr = np.empty(tab_r.shape[1], np.float32)
         wt = np.empty(max(tab_t.shape[1], 1), np.float32)
-        for i in range(b * chunk, min(n, (b + 1) * chunk)):
-            re = 0.0
-            im = 0.0
-            r_ref = 0.0
-            if not restore:
-                dx, dy, dz = px[i] - geo[0, 0], py[i] - geo[0, 1], geo[0, 2] - pz[i]
-                r_ref = math.sqrt(dx * dx + dy * dy + dz * dz)
-            for c in range(geo.shape[0]):
-                vr, vi = _read(buf, geo, ints, c, px[i], py[i], pz[i], r_ref, kc2, tab_r, tab_t, wr, wt)
-                re += vr
-                im += vi
-            out[i] = complex(re, im)
+        lo, hi = b * chunk, min(n, (b + 1) * chunk)
+        m = hi - lo
+        acc_re = np.zeros(m)
+        acc_im = np.zeros(m)
+        p_r = np.empty(m)
+        p_t = np.empty(m)
+        cos_ = np.empty(m, np.float32)
+        sin_ = np.empty(m, np.float32)
+        col = np.empty(2 * tab_r.shape[1], np.float32)
+        for c in range(geo.shape[0]):
+            n_t, n_r, off = ints[c, 0], ints[c, 1], ints[c, 2]
+            if n_t == 1:  # a single pulse's image (a one-pulse aperture): the plain read
+                for i in range(lo, hi):
+                    r_ref = 0.0
+                    if not restore:
+                        dx, dy, dz = px[i] - geo[0, 0], py[i] - geo[0, 1], geo[0, 2] - pz[i]
+                        r_ref = math.sqrt(dx * dx + dy * dy + dz * dz)
+                    vr, vi = _read(buf, geo, ints, c, px[i], py[i], pz[i], r_ref, kc2, tab_r, tab_t, wr, wt)
+                    acc_re[i - lo] += vr
+                    acc_im[i - lo] += vi
+                continue
+            # positions and carrier phasors of the chunk's points, branch-free and vectorised (the arctangent's
+            # series; a point outside its range is redone with atan2)
+            cm, sm = geo[c, 8], geo[c, 9]
+            odd = 0
+            for j in range(m):
+                i = lo + j
+                dx = px[i] - geo[c, 0]
+                dy = py[i] - geo[c, 1]
+                dz = geo[c, 2] - pz[i]
+                rc = math.sqrt(dx * dx + dy * dy + dz * dz)
+                p_r[j] = (rc - geo[c, 3]) * geo[c, 10]
+                dot = dx * cm + dy * sm
+                crs = dy * cm - dx * sm
+                p_t[j] = (_atan_series(crs / dot) - geo[c, 6]) * geo[c, 11]
+                odd += (dot <= 0.0) | (abs(crs) > 0.25 * dot)
+                ex = px[i] - geo[0, 0]
+                ey = py[i] - geo[0, 1]
+                ez = geo[0, 2] - pz[i]
+                r_ref = 0.0 if restore else math.sqrt(ex * ex + ey * ey + ez * ez)
+                cy = kc2 * (rc - r_ref)
+                cos_[j], sin_[j] = cis_cycles32_short(np.float32(cy - math.floor(cy + 0.5)))
+            if odd:
+                for j in range(m):
+                    i = lo + j
+                    th = _relative_angle(px[i] - geo[c, 0], py[i] - geo[c, 1], cm, sm)
+                    p_t[j] = (th - geo[c, 6]) * geo[c, 11]
+            taps_r = tab_r.shape[1]
+            taps_t = tab_t.shape[1]
+            for j in range(m):
+                i0 = _fill_weights(tab_r, p_r[j], wr)
+                a0 = _fill_weights(tab_t, p_t[j], wt)
+                re = np.float32(0.0)
+                im = np.float32(0.0)
+                if i0 >= 0 and i0 + taps_r <= n_r and a0 >= 0 and a0 + taps_t <= n_t:
+                    # rows weighted in angle first: contiguous (re, im) runs of 2 taps_r floats, vectorised
+                    col[:] = 0.0
+                    for q in range(taps_t):
+                        base = 2 * (off + (a0 + q) * n_r + i0)
+                        for k in range(2 * taps_r):
+                            col[k] += wt[q] * fbuf[base + k]
+                    for k in range(taps_r):
+                        re += wr[k] * col[2 * k]
+                        im += wr[k] * col[2 * k + 1]
+                else:
+                    for q in range(taps_t):
+                        a = a0 + q
+                        if a < 0 or a >= n_t:
+                            continue
+                        sr = np.float32(0.0)
+                        si = np.float32(0.0)
+                        for k in range(taps_r):
+                            if i0 + k >= 0 and i0 + k < n_r:
+                                v = buf[off + a * n_r + i0 + k]
+                                sr += wr[k] * v.real
+                                si += wr[k] * v.imag
+                        re += wt[q] * sr
+                        im += wt[q] * si
+                acc_re[j] += re * cos_[j] - im * sin_[j]
+                acc_im[j] += re * sin_[j] + im * cos_[j]
+        for j in range(m):
+            out[lo + j] = complex(acc_re[j], acc_im[j])
 
 
 @numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
