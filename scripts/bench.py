@@ -823,7 +823,7 @@ def ffbp_main(argv: list[str] | None = None) -> None:
     """`bench.py ffbp`: fast factorised backprojection against the exact engine (and FastSAR) on the bench
     scene, grid by grid: best of --repeats warm calls, each image's error against the exact one."""
     from sarproc.focus.backprojection import backproject_points
-    from sarproc.focus.ffbp import ffbp_points, predicted_error
+    from sarproc.focus.ffbp import ffbp_points, predicted_error, pulse_oversample
 
     ap = argparse.ArgumentParser(prog="bench.py ffbp", description=ffbp_main.__doc__)
     ap.add_argument("--sizes", type=int, nargs="+", default=[512, 1024, 2048])
@@ -897,7 +897,8 @@ def ffbp_main(argv: list[str] | None = None) -> None:
             )
             err = float(np.sum(np.abs(img - exact) ** 2)) / power
             err_cubic = float(np.sum(np.abs(img - exact_cubic) ** 2)) / power_cubic
-            pred = predicted_error(len(case["pos"]), k, q, interp, taps, k1)
+            q_pulse = pulse_oversample(case["rc"].shape[1], 8, case["fs"], case["bandwidth"])
+            pred = predicted_error(len(case["pos"]), k, q, interp, taps, k1, q_pulse, pulse)
             rows.append(
                 {
                     "n": n,
@@ -921,7 +922,7 @@ def ffbp_main(argv: list[str] | None = None) -> None:
             print(
                 f"  ffbp factor {k} (first {k1}) oversample {q} {interp} {taps}, pulses {pulse}: {t:.3f} s "
                 f"({t_exact / t:.2f}x), error {_db(err):.1f} dB (predicted {_db(pred):.1f}), {_db(err_cubic):.1f} dB "
-                f"against the cubic x8 exact image; stages {[round(x, 3) for x in info.get('seconds', [])]}",
+                f"against the cubic x8 exact image; stages {[round(float(x), 3) for x in info.get('seconds', [])]}",
                 flush=True,
             )
         if a.fastsar_python:

@@ -155,13 +155,21 @@ def backproject_estimate(stage: str, header: Product, params: Any, memory_limit:
         detail += f", in {-(-n[0] // max(1, block // n[1]))} blocks of {max(1, block // n[1])} rows"
     seconds = n_ch * n_az * n_pix * per
     if params.engine == "ffbp":
-        from sarproc.focus.ffbp import error_bound, predicted_error, subaperture_lengths, taps_of
+        from sarproc.focus.ffbp import error_bound, predicted_error, pulse_oversample, subaperture_lengths, taps_of
 
         lengths = subaperture_lengths(n_az, params.ffbp_factor, params.ffbp_first_factor)
         q = params.ffbp_oversample
         taps = taps_of(params.ffbp_interpolation, params.ffbp_taps)
+        r = header.radar
         err = predicted_error(
-            n_az, params.ffbp_factor, q, params.ffbp_interpolation, params.ffbp_taps, params.ffbp_first_factor
+            n_az,
+            params.ffbp_factor,
+            q,
+            params.ffbp_interpolation,
+            params.ffbp_taps,
+            params.ffbp_first_factor,
+            pulse_oversample(n_rg, params.upsample, r.range_sampling_rate, r.bandwidth),
+            params.interpolation,
         )
         # all pulses upsampled at once, and two levels' polar images (at most ~q^2 samples per pixel each)
         memory += complex_bytes(n_az, n_rg * params.upsample) + 2 * complex_bytes(n_pix) * q * q

@@ -9,7 +9,7 @@ import pytest
 
 from helpers import assert_theory
 from sarproc.focus.backprojection import BackprojectParams, backproject
-from sarproc.focus.ffbp import error_bound, ffbp_points, interpolation_error, predicted_error
+from sarproc.focus.ffbp import error_bound, ffbp_points, interpolation_error, predicted_error, pulse_oversample
 from sarproc.product.config import load_yaml
 from sarproc.product.errors import InputError
 from sarproc.quality.metrics import evaluate_product
@@ -36,6 +36,12 @@ MOTION = {
 }
 
 
+def pulses_q(raw, upsample=8):
+    """The upsampled pulses' rate over the bandwidth (linear reads of them: the exact image's own artefacts)."""
+    r = raw.radar
+    return pulse_oversample(raw.data.shape[1], upsample, r.range_sampling_rate, r.bandwidth)
+
+
 def nmse(image, exact):
     return float(np.sum(np.abs(image - exact) ** 2) / np.sum(np.abs(exact) ** 2))
 
@@ -55,10 +61,13 @@ def case(request):
 # the first version's reads (cubic Lagrange, factor 4 from the pulses on) and the default Knab reads
 CUBIC = {"ffbp_interpolation": "cubic", "ffbp_first_factor": 4}
 KNAB = {"ffbp_interpolation": "knab", "ffbp_taps": 8, "ffbp_first_factor": 16}
+KNAB10 = {"ffbp_interpolation": "knab", "ffbp_taps": 10, "ffbp_first_factor": 16}  # the defaults
 
 
 @pytest.mark.parametrize(
-    "reads, oversamples", [(CUBIC, (2.0, 3.0, 4.0)), (KNAB, (1.5, 2.0))], ids=["cubic", "knab8-first16"]
+    "reads, oversamples",
+    [(CUBIC, (2.0, 3.0, 4.0)), (KNAB, (1.5, 2.0)), (KNAB10, (1.75,))],
+    ids=["cubic", "knab8-first16", "knab10-first16"],
 )
 def test_ffbp_error_against_the_exact_image_is_the_predicted_one(case, reads, oversamples):
     raw, params, exact = case
@@ -67,13 +76,19 @@ def test_ffbp_error_against_the_exact_image_is_the_predicted_one(case, reads, ov
         image = backproject(raw, p).data
         measured = nmse(image, exact)
         predicted = predicted_error(
-            raw.data.shape[0], p.ffbp_factor, q, p.ffbp_interpolation, p.ffbp_taps, p.ffbp_first_factor
+            raw.data.shape[0],
+            p.ffbp_factor,
+            q,
+            p.ffbp_interpolation,
+            p.ffbp_taps,
+            p.ffbp_first_factor,
+            pulses_q(raw),
         )
         # below the bound (the model + 4 dB) and no more than 6 dB under the model: the prediction means something
         assert predicted / 4 < measured < error_bound(predicted), (q, 10 * np.log10(measured), 10 * np.log10(predicted))
 
 
-@pytest.mark.parametrize("reads, q", [(CUBIC, 4.0), (KNAB, 2.0)], ids=["cubic-q4", "knab8-q2"])
+@pytest.mark.parametrize("reads, q", [(CUBIC, 4.0), (KNAB10, 1.75)], ids=["cubic-q4", "knab10-q1.75"])
 def test_ffbp_targets_reach_theory(case, reads, q):
     raw, params, _ = case
     image = backproject(raw, dataclasses.replace(params, engine="ffbp", ffbp_oversample=q, **reads))
@@ -145,7 +160,7 @@ def test_a_fine_output_grid_is_read_on_a_coarse_one_and_upsampled():
     )
     assert np.prod(info["cartesian"]) * 4 < az.size  # the coarse grid: over 4x fewer points than the output
     measured = nmse(out.reshape(az.shape), exact)
-    predicted = predicted_error(raw.data.shape[0], 4, 2.0, "knab", 8, 16)
+    predicted = predicted_error(raw.data.shape[0], 4, 2.0, "knab", 8, 16, pulses_q(raw))
     assert predicted / 4 < measured < error_bound(predicted), (10 * np.log10(measured), 10 * np.log10(predicted))
 
 
@@ -207,7 +222,8 @@ def test_plan_prints_the_predicted_error_and_the_cli_runs_ffbp(tmp_path):
         text=True,
     )
     assert out.returncode == 0, out.stderr
-    predicted = 10 * np.log10(predicted_error(212, 4, 3.0, "cubic"))
+    raw = read_product(tmp_path / "r.h5")
+    predicted = 10 * np.log10(predicted_error(212, 4, 3.0, "cubic", first_factor=4, pulse_oversample=pulses_q(raw)))
     assert (
         f"ffbp: 4 levels of 4, oversample 3, cubic; predicted error against the exact image {predicted:.1f} dB"
         in out.stderr
