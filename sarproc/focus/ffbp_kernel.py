@@ -339,20 +339,37 @@ def final_points(buf, fbuf, geo, ints, px, py, pz, kc2, tab_r, tab_t, out, resto
 
 
 @numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
-def restore_carrier(img, x0, y0, ax, ay, bx, by, pz, fx, fy, h, kc2, scale, out) -> None:
-    """out[i n1 + j] = scale img[i, j] exp(j 2 pi kc2 r) for the grid point (x0 + i ax + j bx, y0 + i ay + j by),
-    offset pz[i n1 + j] along the normal, r its range from (fx, fy, h)."""
-    n0, n1 = img.shape
+def upsample_restore(low, ia, wa, ib, wb, x0, y0, ax, ay, bx, by, pz, fx, fy, h, kc2, scale, out) -> None:
+    """The coarse baseband image ``low`` (n_a, n_b) upsampled separably to the output grid and remodulated:
+    out[i n1 + j] = scale exp(j 2 pi kc2 r) sum_m sum_l wa[i, m] wb[j, l] low[ia[i] + m, ib[j] + l] for the grid
+    point (x0 + i ax + j bx, y0 + i ay + j by), offset pz[i n1 + j] along the normal, r its range from (fx, fy, h).
+    Per output row the coarse rows are combined first (contiguous, vectorised), then read along the row."""
+    n0, n1 = len(ia), len(ib)
+    n_b = low.shape[1]
+    ta, tb = wa.shape[1], wb.shape[1]
     for i in numba.prange(n0):
+        line_re = np.zeros(n_b, np.float32)
+        line_im = np.zeros(n_b, np.float32)
+        for m in range(ta):
+            w = wa[i, m]
+            src = low[ia[i] + m]
+            for q in range(n_b):
+                line_re[q] += w * src[q].real
+                line_im[q] += w * src[q].imag
         for j in range(n1):
+            re = np.float32(0.0)
+            im = np.float32(0.0)
+            b = ib[j]
+            for q in range(tb):
+                re += wb[j, q] * line_re[b + q]
+                im += wb[j, q] * line_im[b + q]
             dx = x0 + i * ax + j * bx - fx
             dy = y0 + i * ay + j * by - fy
             dz = h - pz[i * n1 + j]
             cyc = kc2 * math.sqrt(dx * dx + dy * dy + dz * dz)
             cyc -= math.floor(cyc + 0.5)
             co, si = cis_cycles32_short(np.float32(cyc))
-            v = img[i, j]
-            out[i * n1 + j] = complex(scale * (v.real * co - v.imag * si), scale * (v.real * si + v.imag * co))
+            out[i * n1 + j] = complex(scale * (re * co - im * si), scale * (re * si + im * co))
 
 
 lean_cache_loads(globals())  # cached kernels load without numba's context refresh (kernel_cache)
