@@ -178,9 +178,10 @@ def pulse_artefacts(interpolation: str, oversample: float) -> float:
     return float(np.mean(np.abs(read - gain * truth) ** 2))
 
 
-# The model's error relative to the measured one: within -1 .. +3.3 dB on tests/focus/test_ffbp.py's scenes
-# (broadside stripmap, 30 deg squinted spotlight, a wobbling track) at oversample 2 .. 4, up to 3.7 dB optimistic
-# on the bench scene's 1024^2 grid (scripts/bench.py ffbp); the bound adds 4 dB.
+# The model's error relative to the measured one: from 3 dB optimistic to 6 dB pessimistic on
+# tests/focus/test_ffbp.py's scenes (broadside stripmap, 30 deg squinted spotlight, a wobbling track; cubic at
+# q = 2 .. 4, Knab 8 and 10 at q = 1.5 .. 2.5) and the bench grids of scripts/bench.py ffbp (docs/performance.md);
+# the bound adds 4 dB.
 BOUND_MARGIN = 10**0.4
 
 
