@@ -173,12 +173,13 @@ def backproject_estimate(stage: str, header: Product, params: Any, memory_limit:
         )
         # all pulses upsampled at once, and two levels' polar images (at most ~q^2 samples per pixel each)
         memory += complex_bytes(n_az, n_rg * params.upsample) + 2 * complex_bytes(n_pix) * q * q
-        # ~q^2 / 3 polar samples per pixel per level; the first level's reads (1D, ~15 ns) once per pulse merged,
-        # the others' (two 1D passes, ~3 ns a tap) once per subaperture merged (bench scene, scripts/bench.py ffbp)
-        per_sample = (params.ffbp_first_factor or params.ffbp_factor) * 15e-9 + (len(lengths) - 1) * (
-            params.ffbp_factor * (2 * taps * 3e-9 + 20e-9)
+        # ~q^2 / 3 polar samples per pixel per level (pixels ~3 per resolution cell); one core's time per read
+        # measured on the 1024^2 bench grid (scripts/bench.py ffbp stage times x 2 cores): a pulse read of the
+        # first level ~11 ns, a two-pass polar read ~(3 taps + 12) ns, an output pixel's 2D read ~2.5 taps^2 ns
+        per_sample = (params.ffbp_first_factor or params.ffbp_factor) * 11e-9 + (len(lengths) - 1) * (
+            params.ffbp_factor * (3 * taps + 12) * 1e-9
         )
-        seconds = n_ch * n_pix * q * q / 3 * per_sample
+        seconds = n_ch * (n_pix * q * q / 3 * per_sample + n_pix * 2.5e-9 * taps * taps)
         first = "" if params.ffbp_first_factor == params.ffbp_factor else f" (first {params.ffbp_first_factor})"
         reads = f"knab {taps}" if params.ffbp_interpolation == "knab" else params.ffbp_interpolation
         detail += (
