@@ -472,6 +472,7 @@ def ffbp_points(
                 tab_c,
                 tab_t,
                 int(cints[:, 1].max()),
+                lev == 1 and interpolation == "linear",
             )
             cbuf, cgeo, cints, tab_c = pbuf, g, it, tab_r
             seconds.append(time.perf_counter())

@@ -123,7 +123,20 @@ def _read(buf, geo, ints, c, x, y, z, r_ref, kc2, tab_r, tab_t, wr, wt):
 
 @numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
 def merge_level(
-    cbuf, cgeo, cints, first_child, pgeo, pints, pbuf, row_parent, row_angle, kc2, tab_r, tab_t, max_child_range
+    cbuf,
+    cgeo,
+    cints,
+    first_child,
+    pgeo,
+    pints,
+    pbuf,
+    row_parent,
+    row_angle,
+    kc2,
+    tab_r,
+    tab_t,
+    max_child_range,
+    linear_pulses,
 ) -> None:
     """Each parent polar sample: the sum of its children read at its plane point (one job per parent row).
 
@@ -131,7 +144,8 @@ def merge_level(
     over the image), so a child is read in two 1D passes instead of one 2D one: first in angle at its own range
     samples, at the point where the ray crosses each (the row's values as a function of the child's range, band
     limited like the child's rows since the ray's angle from the child drifts by about a sample over the whole
-    image), then in range at the parent's samples: taps_r + taps_t multiply-adds a read instead of their product."""
+    image), then in range at the parent's samples: taps_r + taps_t multiply-adds a read instead of their product.
+    ``linear_pulses``: single-pulse children are read linearly with weights from the fraction itself."""
     taps_r = tab_r.shape[1]
     for job in numba.prange(len(row_parent)):
         wr = np.empty(taps_r, np.float32)
@@ -222,6 +236,28 @@ def merge_level(
                     row[i] = complex(vr, vi)
                 src, base = row, 0
             # pass 2: in range at the parent's samples, re-referenced to the parent's range carrier
+            if n_tc == 1 and linear_pulses:  # linear reads of a pulse: the weights from the fraction itself
+                for k in range(n_r):
+                    f = math.floor(pos[k])
+                    i0 = int(f)
+                    t = np.float32(pos[k] - f)
+                    if i0 >= i_lo and i0 + 1 <= i_hi:
+                        v0 = src[base + i0]
+                        v1 = src[base + i0 + 1]
+                        vr = v0.real + t * (v1.real - v0.real)
+                        vi = v0.imag + t * (v1.imag - v0.imag)
+                    else:
+                        vr = np.float32(0.0)
+                        vi = np.float32(0.0)
+                        if i0 >= i_lo and i0 <= i_hi:
+                            vr += (1 - t) * src[base + i0].real
+                            vi += (1 - t) * src[base + i0].imag
+                        if i0 + 1 >= i_lo and i0 + 1 <= i_hi:
+                            vr += t * src[base + i0 + 1].real
+                            vi += t * src[base + i0 + 1].imag
+                    acc_re[k] += vr * cos_[k] - vi * sin_[k]
+                    acc_im[k] += vr * sin_[k] + vi * cos_[k]
+                continue
             for k in range(n_r):
                 i0 = _fill_weights(tab_r, pos[k], wr)
                 vr = np.float32(0.0)
