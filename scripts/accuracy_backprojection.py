@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -33,7 +34,7 @@ EXACT = ("compiled", 8, "linear", "")  # what ffbp approximates
 TOL = {"irw": 0.03, "pslr": 0.3, "islr": 0.3, "pos": 0.05}  # issue 2's tolerances for the reference
 
 
-def within(q):
+def within(q: dict) -> bool:
     return (
         q["irw_dev"] < TOL["irw"]
         and abs(q["pslr"] + 13.26) < TOL["pslr"]
@@ -42,7 +43,7 @@ def within(q):
     )
 
 
-def table(result):
+def table(result: dict) -> str:
     ref_t = next(r["time_s"] for r in result["rows"] if _key(r) == REFERENCE)
     lines = [
         f"## {result['scene']}",
@@ -82,7 +83,7 @@ def _ffbp_setting(r: dict) -> str:
 
     d = BackprojectParams()
 
-    def get(k: str) -> object:
+    def get(k: str) -> Any:
         v = r.get(f"backproject.{k}")
         return getattr(d, k) if v in (None, "") else v
 
@@ -147,7 +148,7 @@ def from_sweep(directory: Path) -> list:
     return results
 
 
-def main(argv=None):
+def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "bp-accuracy")
     ap.add_argument("--from-sweep", type=Path, required=True, help="the sweep of configs/sweeps/backprojection.yaml")

@@ -25,7 +25,7 @@ from sarproc.dsp.phasor import cis_cycles32_short
 
 
 @numba.njit(fastmath=True, error_model="numpy", inline="always", cache=CACHE)
-def _fill_weights(table, pos, w) -> int:
+def _fill_weights(table: np.ndarray, pos: float, w: np.ndarray) -> int:
     """Weights of the table's taps at fractional sample ``pos`` (its nearest row) into w; returns the first
     sample's index."""
     steps = table.shape[0] - 1
@@ -38,7 +38,7 @@ def _fill_weights(table, pos, w) -> int:
 
 
 @numba.njit(fastmath=True, error_model="numpy", inline="always", cache=CACHE)
-def _atan_series(z):
+def _atan_series(z: float) -> float:
     """arctan(z) for |z| <= 1/4 (error < 1e-10 rad), branch-free."""
     z2 = z * z
     return z * (
@@ -57,7 +57,7 @@ def _atan_series(z):
 
 
 @numba.njit(fastmath=True, error_model="numpy", inline="always", cache=CACHE)
-def _relative_angle(dx, dy, cm, sm):
+def _relative_angle(dx: float, dy: float, cm: float, sm: float) -> float:
     """Angle of (dx, dy) from the direction (cm, sm), in (-pi, pi]: a series for |tan| <= 1/4 (error < 1e-10 rad;
     polar grids span a few degrees), atan2 beyond."""
     dot = dx * cm + dy * sm
@@ -68,7 +68,21 @@ def _relative_angle(dx, dy, cm, sm):
 
 
 @numba.njit(fastmath=True, error_model="numpy", inline="always", cache=CACHE)
-def _read(buf, geo, ints, c, x, y, z, r_ref, kc2, tab_r, tab_t, wr, wt):
+def _read(
+    buf: np.ndarray,
+    geo: np.ndarray,
+    ints: np.ndarray,
+    c: int,
+    x: float,
+    y: float,
+    z: float,
+    r_ref: float,
+    kc2: float,
+    tab_r: np.ndarray,
+    tab_t: np.ndarray,
+    wr: np.ndarray,
+    wt: np.ndarray,
+) -> tuple[float, float]:
     """Subimage c read at the plane point (x, y, z), re-modulated by the carrier of its range from c's centre and
     demodulated by that of ``r_ref``: its contribution exp(j 2 pi kc2 (r_c - r_ref)) x value. wr, wt: scratch
     for the range and angle weights (zero outside the subimage)."""
@@ -123,20 +137,20 @@ def _read(buf, geo, ints, c, x, y, z, r_ref, kc2, tab_r, tab_t, wr, wt):
 
 @numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
 def merge_level(
-    cbuf,
-    cgeo,
-    cints,
-    first_child,
-    pgeo,
-    pints,
-    pbuf,
-    row_parent,
-    row_angle,
-    kc2,
-    tab_r,
-    tab_t,
-    max_child_range,
-    linear_pulses,
+    cbuf: np.ndarray,
+    cgeo: np.ndarray,
+    cints: np.ndarray,
+    first_child: np.ndarray,
+    pgeo: np.ndarray,
+    pints: np.ndarray,
+    pbuf: np.ndarray,
+    row_parent: np.ndarray,
+    row_angle: np.ndarray,
+    kc2: float,
+    tab_r: np.ndarray,
+    tab_t: np.ndarray,
+    max_child_range: int,
+    linear_pulses: bool,
 ) -> None:
     """Each parent polar sample: the sum of its children read at its plane point (one job per parent row).
 
@@ -280,7 +294,20 @@ def merge_level(
 
 
 @numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
-def final_points(buf, fbuf, geo, ints, px, py, pz, kc2, tab_r, tab_t, out, restore) -> None:
+def final_points(
+    buf: np.ndarray,
+    fbuf: np.ndarray,
+    geo: np.ndarray,
+    ints: np.ndarray,
+    px: np.ndarray,
+    py: np.ndarray,
+    pz: np.ndarray,
+    kc2: float,
+    tab_r: np.ndarray,
+    tab_t: np.ndarray,
+    out: np.ndarray,
+    restore: bool,
+) -> None:
     """out[i] = sum of the top subimages read at point i (plane coordinates px, py, normal offset pz), with the
     carrier of its exact range restored (exp(+j 2 pi kc2 r), as exact backprojection applies it) if ``restore``,
     else referred to the carrier of the range from subimage 0's centre (a band-limited, baseband image). fbuf: buf
@@ -375,7 +402,26 @@ def final_points(buf, fbuf, geo, ints, px, py, pz, kc2, tab_r, tab_t, out, resto
 
 
 @numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
-def upsample_restore(low, ia, wa, ib, wb, x0, y0, ax, ay, bx, by, pz, fx, fy, h, kc2, scale, out) -> None:
+def upsample_restore(
+    low: np.ndarray,
+    ia: np.ndarray,
+    wa: np.ndarray,
+    ib: np.ndarray,
+    wb: np.ndarray,
+    x0: float,
+    y0: float,
+    ax: float,
+    ay: float,
+    bx: float,
+    by: float,
+    pz: np.ndarray,
+    fx: float,
+    fy: float,
+    h: float,
+    kc2: float,
+    scale: float,
+    out: np.ndarray,
+) -> None:
     """The coarse baseband image ``low`` (n_a, n_b) upsampled separably to the output grid and remodulated:
     out[i n1 + j] = scale exp(j 2 pi kc2 r) sum_m sum_l wa[i, m] wb[j, l] low[ia[i] + m, ib[j] + l] for the grid
     point (x0 + i ax + j bx, y0 + i ay + j by), offset pz[i n1 + j] along the normal, r its range from (fx, fy, h).
