@@ -431,18 +431,25 @@ class BackprojectParams:
         "ffbp (fast factorised backprojection, O(N^2 log N), error predicted in the plan)",
     )
     ffbp_factor: int = param(default=4, ge=2, le=64, doc="ffbp: subapertures merged per level")
+    ffbp_first_factor: int = param(
+        default=16,
+        ge=2,
+        le=256,
+        doc="ffbp: pulses merged by the first level (cheap 1D reads of the pulses; larger saves a level)",
+    )
     ffbp_oversample: float = param(
-        default=4.0,
+        default=1.75,
         ge=1.0,
         le=16.0,
         doc="ffbp: polar grid sampling over Nyquist "
         "(range by the bandwidth, angle by the subaperture length); the error knob",
     )
     ffbp_interpolation: str = param(
-        default="cubic",
-        choices=("cubic", "linear"),
-        doc="ffbp: reads of the polar subimages (4-sample Lagrange or linear)",
+        default="knab",
+        choices=("knab", "cubic", "linear"),
+        doc="ffbp: reads of the polar subimages (ffbp_taps-tap Knab for the oversampling, 4-sample Lagrange or linear)",
     )
+    ffbp_taps: int = param(default=10, ge=2, le=16, doc="ffbp: taps per axis of the knab reads (even)")
     range_window: str = param(default="none", choices=WINDOWS, doc="range spectral taper (README: Windows)")
     azimuth_window: str = param(default="none", choices=WINDOWS, doc="taper over the pulses (README: Windows)")
     max_pixels: int = param(default=16_000_000, ge=1, doc="refuse grids larger than this")
@@ -572,6 +579,8 @@ def _check_params(params: BackprojectParams) -> None:
             f"backproject.kernel_length: {params.kernel_length} taps; the {params.interpolation} "
             "kernel needs an even number"
         )
+    if params.engine == "ffbp" and params.ffbp_interpolation == "knab" and params.ffbp_taps % 2:
+        raise InputError(f"backproject.ffbp_taps: {params.ffbp_taps}; the knab reads need an even number")
     if params.engine == "ffbp" and params.interpolation not in ("linear", "cubic"):
         raise InputError(
             f"backproject.interpolation: {params.interpolation!r} with engine: ffbp; it reads the "
@@ -700,8 +709,10 @@ def backproject_rows(
                 interpolation=params.interpolation,
                 gate_offset=pulses.gate_offset,
                 factor=params.ffbp_factor,
+                first_factor=params.ffbp_first_factor,
                 oversample=params.ffbp_oversample,
                 ffbp_interpolation=params.ffbp_interpolation,
+                ffbp_taps=params.ffbp_taps,
                 grid_shape=az.shape,
                 workers=workers,
             )

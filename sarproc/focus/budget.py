@@ -155,18 +155,36 @@ def backproject_estimate(stage: str, header: Product, params: Any, memory_limit:
         detail += f", in {-(-n[0] // max(1, block // n[1]))} blocks of {max(1, block // n[1])} rows"
     seconds = n_ch * n_az * n_pix * per
     if params.engine == "ffbp":
-        from sarproc.focus.ffbp import error_bound, levels, predicted_error
+        from sarproc.focus.ffbp import error_bound, predicted_error, pulse_oversample, subaperture_lengths, taps_of
 
-        n_lev = levels(n_az, params.ffbp_factor)
+        lengths = subaperture_lengths(n_az, params.ffbp_factor, params.ffbp_first_factor)
         q = params.ffbp_oversample
-        err = predicted_error(n_az, params.ffbp_factor, q, params.ffbp_interpolation)
+        taps = taps_of(params.ffbp_interpolation, params.ffbp_taps)
+        r = header.radar
+        err = predicted_error(
+            n_az,
+            params.ffbp_factor,
+            q,
+            params.ffbp_interpolation,
+            params.ffbp_taps,
+            params.ffbp_first_factor,
+            pulse_oversample(n_rg, params.upsample, r.range_sampling_rate, r.bandwidth),
+            params.interpolation,
+        )
         # all pulses upsampled at once, and two levels' polar images (at most ~q^2 samples per pixel each)
         memory += complex_bytes(n_az, n_rg * params.upsample) + 2 * complex_bytes(n_pix) * q * q
-        # ~q^2 / 3 polar samples per pixel per level, factor reads each, ~100 ns a read (measured on the bench scene)
-        seconds = n_ch * n_pix * n_lev * q * q / 3 * params.ffbp_factor * 100e-9
+        # ~q^2 / 3 polar samples per pixel per level (pixels ~3 per resolution cell); one core's time per read
+        # measured on the 1024^2 bench grid (scripts/bench.py ffbp stage times x 2 cores): a pulse read of the
+        # first level ~11 ns, a two-pass polar read ~(3 taps + 12) ns, an output pixel's 2D read ~2.5 taps^2 ns
+        per_sample = (params.ffbp_first_factor or params.ffbp_factor) * 11e-9 + (len(lengths) - 1) * (
+            params.ffbp_factor * (3 * taps + 12) * 1e-9
+        )
+        seconds = n_ch * (n_pix * q * q / 3 * per_sample + n_pix * 2.5e-9 * taps * taps)
+        first = "" if params.ffbp_first_factor == params.ffbp_factor else f" (first {params.ffbp_first_factor})"
+        reads = f"knab {taps}" if params.ffbp_interpolation == "knab" else params.ffbp_interpolation
         detail += (
-            f"; ffbp: {n_lev} levels of {params.ffbp_factor}, oversample {q:g}, "
-            f"{params.ffbp_interpolation}; predicted error against the exact image "
+            f"; ffbp: {len(lengths)} levels of {params.ffbp_factor}{first}, oversample {q:g}, "
+            f"{reads}; predicted error against the exact image "
             f"{10 * math.log10(max(err, 1e-30)):.1f} dB (at most "
             f"{10 * math.log10(max(error_bound(err), 1e-30)):.1f})"
         )

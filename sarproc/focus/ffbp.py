@@ -1,36 +1,59 @@
 """Fast factorised backprojection (Ulander, Hellsten and Stenstrom 2003): the exact sum of
 :mod:`sarproc.focus.backprojection` in O(N^2 log N).
 
-The aperture is split recursively: the single pulses are the first subapertures, and each level merges ``factor``
-consecutive subapertures into one. A subaperture's image is kept on a polar grid around its centre (range from the
-centre, in-plane angle about its foot on the image plane), demodulated by the carrier of that range so it is
-band-limited: in range by the pulse bandwidth B (spacing c / (2 B q)), in angle by the subaperture's length L
-(spacing lambda_min / (2 L q), lambda_min at the band's top frequency); q is the oversampling knob. A parent's polar
-sample is the sum of its children's images read at the same plane point (cubic or linear in range and angle) with
-their carrier phase re-referenced to the parent's range; the first level reads the upsampled pulses exactly as the
-exact engine does. The last polar image is read at the output points with their exact range's carrier restored.
-Antenna positions are taken pulse by pulse (curved tracks); the output points must lie on a plane (every frame's
-grid does), and the platform must not pass over the image.
+The aperture is split recursively: the single pulses are the first subapertures, the first level merges
+``first_factor`` consecutive pulses and each further level ``factor`` consecutive subapertures into one. A
+subaperture's image is kept on a polar grid around its centre (range from the centre, in-plane angle about its foot
+on the image plane), demodulated by the carrier of that range so it is band-limited: in range by the pulse
+bandwidth B (spacing c / (2 B q)), in angle by the subaperture's length L (spacing lambda_min / (2 L q), lambda_min
+at the band's top frequency); q is the oversampling knob. A parent's polar sample is the sum of its children's
+images read at the same plane point (Knab, cubic Lagrange or linear in range and angle, as two 1D passes along the
+parent's rows: :func:`sarproc.focus.ffbp_kernel.merge_level`) with their carrier phase re-referenced to the
+parent's range; the first level reads the upsampled pulses exactly as the exact engine does. The last polar image
+is read at the output points with their exact range's carrier restored; a regular output grid finer than the
+image's bandwidth is read on a coarse grid and upsampled (:func:`_cartesian_grid`). Antenna positions are taken
+pulse by pulse (curved tracks); the output points must lie on a plane (every frame's grid does), and the platform
+must not pass over the image.
 
 Error against the exact image (power, relative): every read of a polar image (one per level above the first, and
-the final one) adds the interpolator's mean-square error on a flat band filling 1/q of its sampling rate, in range
-and in angle (:func:`interpolation_error`); the angular band is narrower than the bound assumes (squint, elevation),
-so the sum is an upper estimate. See :func:`predicted_error`.
+the final one) adds the interpolator's mean-square error on a band filling 1/q of its sampling rate, in range
+and in angle (:func:`read_error`, :func:`predicted_error`).
 """
 
 from __future__ import annotations
+
+import time
 
 import numpy as np
 
 from sarproc.product.metadata import C
 
-INTERPOLATIONS = ("cubic", "linear")
-_MODES = {"linear": 1, "cubic": 3}
+INTERPOLATIONS = ("knab", "cubic", "linear")
+_PULSE_READS = ("linear", "cubic")  # the first level reads the upsampled pulses as the exact engine does
+DEFAULT_TAPS = 6  # Knab reads of the polar subimages
+# fractions per sample of the tabulated weights, read at the nearest: the fraction off by 1 / 8192 at most, a phase
+# error below 2e-4 rad at the band edge of 2x oversampling (-79 dB)
+_TABLE_STEPS = 4096
 
 
-def _weights(t: np.ndarray, interpolation: str) -> np.ndarray:
+def taps_of(interpolation: str, taps: int = DEFAULT_TAPS) -> int:
+    """Samples per axis a read uses: 2 (linear), 4 (cubic Lagrange) or ``taps`` (Knab, even)."""
     if interpolation == "linear":
-        return np.stack([np.zeros_like(t), 1 - t, t, np.zeros_like(t)])
+        return 2
+    if interpolation == "cubic":
+        return 4
+    if interpolation == "knab":
+        if taps < 2 or taps % 2:
+            raise ValueError(f"ffbp knab reads need an even number of taps >= 2, got {taps}")
+        return int(taps)
+    raise ValueError(f"unknown ffbp interpolation {interpolation!r}; known: {INTERPOLATIONS}")
+
+
+def _exact_weights(t: np.ndarray, interpolation: str, oversample: float, taps: int) -> np.ndarray:
+    """(taps, len(t)) weights of samples floor(p) + 1 - taps/2 + m at fractions t = p - floor(p)."""
+    n = taps_of(interpolation, taps)
+    if interpolation == "linear":
+        return np.stack([1 - t, t])
     if interpolation == "cubic":
         return np.stack(
             [
@@ -40,58 +63,125 @@ def _weights(t: np.ndarray, interpolation: str) -> np.ndarray:
                 (t + 1) * t * (t - 1) / 6,
             ]
         )
-    raise ValueError(f"unknown ffbp interpolation {interpolation!r}; known: {INTERPOLATIONS}")
+    from sarproc.dsp.interp import kernel_weights
+
+    d = t[None, :] - (np.arange(n)[:, None] + 1 - n // 2)  # distance of the point from each tap
+    w = kernel_weights(d, "knab", n, oversampling=oversample)
+    return w / w.sum(axis=0)  # unit gain at DC, as the windowed-sinc kernels elsewhere
 
 
-def read_error(f: np.ndarray, interpolation: str) -> tuple[float, complex]:
-    """Reading tones at frequencies ``f`` (cycles per sample, equally weighted) by the 4-sample ``interpolation`` at
-    uniformly random fractions t: the mean-square error p = E|e|^2 and the mean m = E[e conj(g)] of the error
-    e = read - g relative to the true tone g = exp(j 2 pi f t) (m makes the range and angle errors of one 2D read
-    add partly coherently: both are mostly a loss of gain towards the band edge)."""
+def read_table(interpolation: str, oversample: float, taps: int = DEFAULT_TAPS) -> np.ndarray:
+    """(steps + 1, taps) float32: row c the weights at fraction c / steps (the kernels read the nearest row);
+    Knab's kernel is designed for a signal ``oversample`` times oversampled (nu = 1 - 1/q)."""
+    t = np.arange(_TABLE_STEPS + 1) / _TABLE_STEPS
+    return np.ascontiguousarray(_exact_weights(t, interpolation, oversample, taps).T, dtype=np.float32)
+
+
+def _table_weights(t: np.ndarray, table: np.ndarray) -> np.ndarray:
+    """The weights the kernels use at fractions t: the table's nearest rows, (taps, len(t))."""
+    return table[np.floor(t * (len(table) - 1) + 0.5).astype(int)].T
+
+
+def read_error(
+    f: np.ndarray, interpolation: str, oversample: float = 2.0, taps: int = DEFAULT_TAPS
+) -> tuple[float, complex]:
+    """Reading tones at frequencies ``f`` (cycles per sample, equally weighted) by ``interpolation`` (as the
+    kernels tabulate it, :func:`read_table`) at uniformly random fractions t: the mean-square error p = E|e|^2
+    and the mean m = E[e conj(g)] of the error e = read - g relative to the true tone g = exp(j 2 pi f t) (m makes
+    the range and angle errors of one 2D read add partly coherently: both are mostly a loss of gain towards the
+    band edge)."""
     t = (np.arange(128) + 0.5) / 128
     f = np.asarray(f, float)
-    taps = np.exp(2j * np.pi * np.outer(np.arange(-1, 3), f))  # (4, n_f)
+    w = _table_weights(t, read_table(interpolation, oversample, taps)).astype(float)
+    n = w.shape[0]
+    taps_at = np.exp(2j * np.pi * np.outer(np.arange(n) + 1 - n // 2, f))  # (taps, n_f)
     truth = np.exp(2j * np.pi * np.outer(t, f))  # (n_t, n_f)
-    err = np.einsum("mt,mf->tf", _weights(t, interpolation), taps) - truth
+    err = np.einsum("mt,mf->tf", w, taps_at) - truth
     return float(np.mean(np.abs(err) ** 2)), complex(np.mean(err * truth.conj()))
 
 
-def interpolation_error(q: float, interpolation: str) -> float:
+def interpolation_error(q: float, interpolation: str, taps: int = DEFAULT_TAPS) -> float:
     """Mean-square relative error of reading a signal with a flat spectrum over |f| < 1 / (2 q) cycles per sample
-    (q times oversampled) by the 4-sample ``interpolation`` at a uniformly random fraction."""
-    return read_error((np.arange(512) + 0.5) / 512 / q - 1 / (2 * q), interpolation)[0]
+    (q times oversampled) by ``interpolation`` at a uniformly random fraction."""
+    return read_error((np.arange(512) + 0.5) / 512 / q - 1 / (2 * q), interpolation, q, taps)[0]
 
 
-def levels(n_pulses: int, factor: int) -> int:
-    """Merge levels from single pulses to the whole aperture."""
-    n, k = int(n_pulses), 0
+def subaperture_lengths(n_pulses: int, factor: int, first_factor: int | None = None) -> list[int]:
+    """Pulses per subaperture at each merge level: the first level merges ``first_factor`` pulses (default
+    ``factor``; merging pulses is cheap, 1D reads, so a larger first factor saves a level), each further level
+    ``factor`` subapertures, until one covers the aperture."""
+    out, m = [], 1
+    n, f = int(n_pulses), int(first_factor or factor)
     while n > 1:
-        n = -(-n // factor)
-        k += 1
-    return k
+        n = -(-n // f)
+        m = min(m * f, int(n_pulses))
+        out.append(m)
+        f = factor
+    return out
 
 
-def predicted_error(n_pulses: int, factor: int, oversample: float, interpolation: str) -> float:
+def levels(n_pulses: int, factor: int, first_factor: int | None = None) -> int:
+    """Merge levels from single pulses to the whole aperture."""
+    return len(subaperture_lengths(n_pulses, factor, first_factor))
+
+
+def predicted_error(
+    n_pulses: int,
+    factor: int,
+    oversample: float,
+    interpolation: str,
+    taps: int = DEFAULT_TAPS,
+    first_factor: int | None = None,
+    pulse_oversample: float | None = None,
+    pulse_interpolation: str = "linear",
+) -> float:
     """Predicted relative mean-square error (power) of the ffbp image against the exact one.
 
     Each level's polar images are read once (by the next level, the last by the output grid). In range their
     spectrum is flat over the band (q = oversample); in angle a subaperture of m equally spaced pulses holds m
     tones at frequencies proportional to the pulses' offsets from its centre, the outermost at the grid's band
     edge 1 / (2 q) (a straight track at broadside, the widest case). A read's error is the range and angle
-    errors' sum (:func:`read_error`), the levels' errors add in power."""
-    rng_p, rng_m = read_error((np.arange(512) + 0.5) / 512 / oversample - 1 / (2 * oversample), interpolation)
-    total, m = 0.0, 1
-    for _ in range(levels(n_pulses, factor)):
-        m = min(m * factor, n_pulses)
+    errors' sum (:func:`read_error`), the levels' errors add in power. With ``pulse_oversample`` (the upsampled
+    pulses' rate over the bandwidth) the pulse reads' artefacts are added too (:func:`pulse_artefacts`)."""
+    q = oversample
+    rng_p, rng_m = read_error((np.arange(512) + 0.5) / 512 / q - 1 / (2 * q), interpolation, q, taps)
+    total = 0.0
+    for m in subaperture_lengths(n_pulses, factor, first_factor):
         u = (np.arange(m) - (m - 1) / 2) / max((m - 1) / 2, 1e-9)
-        ang_p, ang_m = read_error(u / (2 * oversample), interpolation)
+        ang_p, ang_m = read_error(u / (2 * q), interpolation, q, taps)
         total += rng_p + ang_p + 2 * (rng_m * ang_m.conjugate()).real
+    if pulse_oversample:
+        total += 2 * pulse_artefacts(pulse_interpolation, pulse_oversample)
     return total
 
 
-# The model's error relative to the measured one: within -1 .. +3.3 dB on tests/focus/test_ffbp.py's scenes
-# (broadside stripmap, 30 deg squinted spotlight, a wobbling track) at oversample 2 .. 4, up to 3.7 dB optimistic
-# on the bench scene's 1024^2 grid (scripts/bench.py ffbp); the bound adds 4 dB.
+def pulse_oversample(n_range: int, upsample: int, sampling_rate: float, bandwidth: float) -> float:
+    """The upsampled pulses' sampling rate over the bandwidth (as both engines upsample them)."""
+    from sarproc.focus.backprojection import upsampled_length
+
+    return upsampled_length(n_range, upsample) / n_range * sampling_rate / bandwidth
+
+
+def pulse_artefacts(interpolation: str, oversample: float) -> float:
+    """The part of a pulse read's error that is not a gain of its frequency: reading tones over a flat band
+    |f| < 1 / (2 q) at uniformly random fractions, E|read - G(f) g|^2 with G(f) the mean gain at f. Exact and
+    ffbp images both read the pulses so (ffbp onto its first polar grids): the gain is common to both, the rest
+    is not band-limited, so each image carries its own (twice this against each other: -51.9 dB for linear x8
+    at 1.2 x sampling, q = 9.6, where ffbp's error against the exact image floors whatever its own reads)."""
+    t = (np.arange(256) + 0.5) / 256
+    f = (np.arange(512) + 0.5) / 512 / oversample - 1 / (2 * oversample)
+    w = _table_weights(t, read_table(interpolation, oversample, 2 if interpolation == "linear" else 4)).astype(float)
+    n = w.shape[0]
+    truth = np.exp(2j * np.pi * np.outer(t, f))
+    read = np.einsum("mt,mf->tf", w, np.exp(2j * np.pi * np.outer(np.arange(n) + 1 - n // 2, f)))
+    gain = np.mean(read * truth.conj(), axis=0)
+    return float(np.mean(np.abs(read - gain * truth) ** 2))
+
+
+# The model's error relative to the measured one: from 3 dB optimistic to 6 dB pessimistic on
+# tests/focus/test_ffbp.py's scenes (broadside stripmap, 30 deg squinted spotlight, a wobbling track; cubic at
+# q = 2 .. 4, Knab 8 and 10 at q = 1.5 .. 2.5) and the bench grids of scripts/bench.py ffbp (docs/performance.md);
+# the bound adds 4 dB.
 BOUND_MARGIN = 10**0.4
 
 
@@ -103,7 +193,7 @@ def error_bound(predicted: float) -> float:
 def _plane(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Origin, in-plane axes e1, e2 and normal of the points' best-fitting plane."""
     sample = points[:: max(1, len(points) // 4096)]
-    origin = points.mean(axis=0)
+    origin = sample.mean(axis=0)  # any point near the plane: the fit is the sample's
     if len(sample) < 3:
         return origin, np.eye(3)[0], np.eye(3)[1], np.eye(3)[2]
     _, _, vt = np.linalg.svd(sample - origin, full_matrices=False)
@@ -123,6 +213,70 @@ def _boundary(xy: np.ndarray, grid_shape: tuple[int, int] | None) -> np.ndarray:
         return xy[ConvexHull(xy).vertices]
     except Exception:  # degenerate (collinear) points: all of them bound themselves
         return xy
+
+
+CARTESIAN_TAPS, CARTESIAN_OVERSAMPLE = 8, 2.5  # the upsampling's reads: below -71 dB each (interpolation_error)
+
+
+def _cartesian_grid(
+    xy: np.ndarray,
+    grid_shape: tuple[int, int] | None,
+    top_geo: np.ndarray,
+    top_ints: np.ndarray,
+    oversample: float,
+    boundary: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[int, int], np.ndarray, np.ndarray] | None:
+    """A coarse grid along the output grid's axes that samples the top image (demodulated by the carrier of the
+    range from its centre: a baseband image) CARTESIAN_OVERSAMPLE times its bandwidth along each axis, when the
+    output grid is regular and at least twice as dense; else None. Returns its origin and steps (plane
+    coordinates), shape, and the output rows' and columns' positions in its samples."""
+    if grid_shape is None or min(grid_shape) < 2:
+        return None
+    n0, n1 = grid_shape
+    a, b = xy[n1] - xy[0], xy[1] - xy[0]
+    # regular: every point on the lattice of its first steps (checked on ~64 k points spread over the grid, and
+    # the last row and column)
+    pick = np.unique(np.r_[np.arange(0, len(xy), max(1, len(xy) // 65536)), np.arange(n1 - 1, len(xy), n1)])
+    pick = np.unique(np.r_[pick, np.arange(len(xy) - n1, len(xy))])
+    ii, jj = np.divmod(pick, n1)
+    if np.abs(xy[0] + ii[:, None] * a + jj[:, None] * b - xy[pick]).max() > 1e-6 * min(np.hypot(*a), np.hypot(*b)):
+        return None
+    # band half-widths (cycles per metre) of the top polar image: B/c radially, 1 / (2 q dtheta rho) across
+    fx, fy, _, _, dr, th_mid, _, dth = top_geo[:8]
+    d = boundary - [fx, fy]
+    rho = np.hypot(d[:, 0], d[:, 1])
+    if rho.min() <= 0:
+        return None
+    u_r = d / rho[:, None]
+    u_t = np.stack([-u_r[:, 1], u_r[:, 0]], axis=1)
+    q = oversample
+    b_r, b_t = 1.0 / (2 * q * dr), 1.0 / (2 * q * dth * rho)
+    steps, counts, pos = [], [], []
+    margin = CARTESIAN_TAPS // 2 + 1
+    for v, n in ((a, n0), (b, n1)):
+        length = np.hypot(*v)
+        u = v / length
+        width = (np.abs(u_r @ u) * b_r + np.abs(u_t @ u) * b_t).max() * 1.02
+        step = min(1.0 / (2 * CARTESIAN_OVERSAMPLE * width), length * n)
+        steps.append(u * step)
+        counts.append(int(np.ceil((n - 1) * length / step)) + 2 * margin + 1)
+        pos.append(margin + np.arange(n) * length / step)
+    if counts[0] * counts[1] * 2 > n0 * n1:
+        return None
+    origin = xy[0] - margin * (steps[0] + steps[1])
+    return origin, steps[0], steps[1], (counts[0], counts[1]), pos[0], pos[1]
+
+
+def _upsampling_weights(pos: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """First sample and (len(pos), CARTESIAN_TAPS) float32 Knab weights (unit sum) of reading n samples at
+    positions ``pos``; taps outside 0 .. n-1 weigh zero (their index clamped)."""
+    first = np.floor(pos).astype(np.int64) + 1 - CARTESIAN_TAPS // 2
+    w = _exact_weights(pos - np.floor(pos), "knab", CARTESIAN_OVERSAMPLE, CARTESIAN_TAPS).T
+    shift = np.clip(first, 0, n - CARTESIAN_TAPS) - first  # taps past an edge: move the window, zero them
+    idx = np.arange(CARTESIAN_TAPS)[None, :] + shift[:, None]  # new tap m is old tap m + shift
+    ok = (idx >= 0) & (idx < CARTESIAN_TAPS)
+    moved = np.where(ok, np.take_along_axis(w, np.clip(idx, 0, CARTESIAN_TAPS - 1), axis=1), 0.0)
+    return first + shift, np.ascontiguousarray(moved, dtype=np.float32)
 
 
 def _extents(
@@ -178,8 +332,10 @@ def ffbp_points(
     interpolation: str = "linear",
     gate_offset: np.ndarray | None = None,
     factor: int = 4,
+    first_factor: int | None = None,
     oversample: float = 2.0,
-    ffbp_interpolation: str = "cubic",
+    ffbp_interpolation: str = "knab",
+    ffbp_taps: int = DEFAULT_TAPS,
     grid_shape: tuple[int, int] | None = None,
     workers: int | None = None,
     info: dict | None = None,
@@ -197,12 +353,13 @@ def ffbp_points(
     from sarproc.focus import ffbp_kernel as fk
     from sarproc.focus.backprojection import upsample_into, upsampled_length
 
-    if interpolation not in _MODES:
+    if interpolation not in _PULSE_READS:
         raise ValueError(f"ffbp reads the pulses 'linear' or 'cubic', not {interpolation!r}")
-    if ffbp_interpolation not in _MODES:
-        raise ValueError(f"unknown ffbp interpolation {ffbp_interpolation!r}; known: {INTERPOLATIONS}")
-    if factor < 2 or oversample < 1:
-        raise ValueError(f"ffbp needs factor >= 2 and oversample >= 1 (got {factor}, {oversample})")
+    taps = taps_of(ffbp_interpolation, ffbp_taps)
+    if factor < 2 or oversample < 1 or (first_factor or factor) < 2:
+        raise ValueError(
+            f"ffbp needs factors >= 2 and oversample >= 1 (got {factor}, first {first_factor}, {oversample})"
+        )
     rc = np.asarray(rc)
     n_az, n_rg = rc.shape
     points = np.asarray(points, float).reshape(-1, 3)
@@ -226,16 +383,18 @@ def ffbp_points(
     ant_xy = np.stack([ant @ e1, ant @ e2], axis=-1)
     ant_h = ant @ nrm
     boundary = _boundary(xy, grid_shape)
-    centre_xy = xy.mean(axis=0)
+    centre_xy = boundary.mean(axis=0)  # inside the image (a mean over all points costs ~0.2 s at 4096^2)
     kc2 = 2.0 * carrier_frequency / C
     f_max = carrier_frequency + 0.5 * bandwidth
     dr = C / (2.0 * bandwidth * (range_oversample or oversample))
-    mode_t = _MODES[ffbp_interpolation]
+    q_r = range_oversample or oversample
+    tab_r, tab_t = read_table(ffbp_interpolation, q_r, taps), read_table(ffbp_interpolation, oversample, taps)
+    margin = taps // 2 + 1  # samples beyond a sector that its reads reach (+1: the fractions' rounding)
 
-    # The tree: level 0 the pulses, level l the groups of factor^l consecutive pulses.
+    # The tree: level 0 the pulses, level 1 groups of first_factor consecutive pulses, then groups of factor.
     spans = [np.arange(n_az + 1)]
     while len(spans[-1]) > 2:
-        edges = spans[-1][::factor]
+        edges = spans[-1][:: factor if len(spans) > 1 else int(first_factor or factor)]
         spans.append(edges if edges[-1] == n_az else np.append(edges, n_az))
     n_levels = len(spans) - 1
     csum = np.concatenate([np.zeros((1, 3)), np.cumsum(ant, axis=0)])
@@ -253,8 +412,8 @@ def ffbp_points(
         g[:, 10], g[:, 11] = 1.0 / dr, 1.0 / g[:, 7]
         geos.append(g)
         ints_.append(np.zeros((len(centre), 3), np.int64))
-    # Extents top-down: the top grid covers the image, each child the sector its parent's grid spans; three
-    # samples of margin for the 4-sample reads.
+    # Extents top-down: the top grid covers the image, each child the sector its parent's grid spans; a
+    # margin of taps / 2 + 1 samples for the reads.
     for lev in range(n_levels, 0, -1):
         g, it = geos[lev - 1], ints_[lev - 1]
         if lev == n_levels:
@@ -263,10 +422,10 @@ def ffbp_points(
             parent_of = np.searchsorted(spans[lev + 1], spans[lev][:-1], side="right") - 1
             bnd = _sector_boundary(geos[lev], ints_[lev])[parent_of]
         r_lo, r_hi, t_lo, t_hi = _extents(g[:, :2], g[:, 2], bnd, g[:, 5])
-        g[:, 3] = r_lo - 3 * dr
-        it[:, 1] = np.ceil((r_hi - r_lo) / dr).astype(np.int64) + 7
-        g[:, 6] = t_lo - 3 * g[:, 7]
-        it[:, 0] = np.ceil((t_hi - t_lo) / g[:, 7]).astype(np.int64) + 7
+        g[:, 3] = r_lo - margin * dr
+        it[:, 1] = np.ceil((r_hi - r_lo) / dr).astype(np.int64) + 2 * margin + 1
+        g[:, 6] = t_lo - margin * g[:, 7]
+        it[:, 0] = np.ceil((t_hi - t_lo) / g[:, 7]).astype(np.int64) + 2 * margin + 1
         it[:, 2] = np.concatenate([[0], np.cumsum(it[:, 0] * it[:, 1])[:-1]])
     if info is not None and n_levels:
         info.update(
@@ -279,6 +438,7 @@ def ffbp_points(
     old = numba.get_num_threads()
     if workers:
         numba.set_num_threads(max(1, min(int(workers), numba.config.NUMBA_NUM_THREADS)))
+    seconds = [time.perf_counter()]
     try:
         n_up = upsampled_length(n_rg, upsample)
         fs_up = n_up / (n_rg * dt)
@@ -290,7 +450,8 @@ def ffbp_points(
         cgeo[:, 7] = 1.0
         cgeo[:, 10], cgeo[:, 11] = 1.0 / cgeo[:, 4], 1.0
         cints = np.stack([np.ones(n_az, np.int64), np.full(n_az, n_up), np.arange(n_az) * n_up], axis=1)
-        mode_c = _MODES[interpolation]
+        tab_c = read_table(interpolation, 1.0)
+        seconds.append(time.perf_counter())
         for lev in range(1, n_levels + 1):
             g, it = geos[lev - 1], ints_[lev - 1]
             pbuf = np.empty(int((it[:, 0] * it[:, 1]).sum()), np.complex64)
@@ -308,12 +469,83 @@ def ffbp_points(
                 row_parent,
                 row_angle,
                 kc2,
-                mode_c,
-                mode_t if lev > 1 else mode_c,
+                tab_c,
+                tab_t,
+                int(cints[:, 1].max()),
+                lev == 1 and interpolation == "linear",
             )
-            cbuf, cgeo, cints, mode_c = pbuf, g, it, _MODES[ffbp_interpolation]
+            cbuf, cgeo, cints, tab_c = pbuf, g, it, tab_r
+            seconds.append(time.perf_counter())
         out = np.empty(len(points), np.complex128)
-        fk.final_points(cbuf, cgeo, cints, xy[:, 0].copy(), xy[:, 1].copy(), pz.copy(), kc2, mode_c, mode_t, out)
+        coarse = _cartesian_grid(xy, grid_shape, cgeo[0], cints[0], oversample, boundary)
+        if coarse is None:
+            fk.final_points(
+                cbuf,
+                cbuf.view(np.float32),
+                cgeo,
+                cints,
+                xy[:, 0].copy(),
+                xy[:, 1].copy(),
+                pz.copy(),
+                kc2,
+                tab_c,
+                tab_t,
+                out,
+                True,
+            )
+            out /= n_az
+        else:
+            # read the top image on a coarse grid at the image's own bandwidth, upsample that separably
+            # (Knab, CARTESIAN_TAPS) to the output grid, then restore the carrier pixel by pixel
+            origin_c, step_a, step_b, shape_c, pos_a, pos_b = coarse
+            if info is not None:
+                info["cartesian"] = shape_c
+            ia, ib = np.meshgrid(np.arange(shape_c[0]), np.arange(shape_c[1]), indexing="ij")
+            cx = origin_c[0] + ia * step_a[0] + ib * step_b[0]
+            cy = origin_c[1] + ia * step_a[1] + ib * step_b[1]
+            low = np.empty(cx.size, np.complex128)
+            fk.final_points(
+                cbuf,
+                cbuf.view(np.float32),
+                cgeo,
+                cints,
+                cx.ravel(),
+                cy.ravel(),
+                np.zeros(cx.size),
+                kc2,
+                tab_c,
+                tab_t,
+                low,
+                False,
+            )
+            seconds.append(time.perf_counter())
+            low_c = low.astype(np.complex64).reshape(shape_c)
+            ia, wa = _upsampling_weights(pos_a, shape_c[0])
+            ib, wb = _upsampling_weights(pos_b, shape_c[1])
+            a_xy, b_xy = xy[len(pos_b)] - xy[0], xy[1] - xy[0]
+            fk.upsample_restore(
+                low_c,
+                ia,
+                wa,
+                ib,
+                wb,
+                xy[0, 0],
+                xy[0, 1],
+                a_xy[0],
+                a_xy[1],
+                b_xy[0],
+                b_xy[1],
+                np.ascontiguousarray(pz),
+                cgeo[0, 0],
+                cgeo[0, 1],
+                cgeo[0, 2],
+                kc2,
+                1.0 / n_az,
+                out,
+            )
+        seconds.append(time.perf_counter())
     finally:
         numba.set_num_threads(old)
-    return out / n_az
+    if info is not None:  # the pulses' upsampling, each level's merge, the output's read
+        info["seconds"] = list(np.diff(seconds))
+    return out

@@ -7,6 +7,10 @@ band-limited in both coordinates. Geometry rows (float64): fx, fy, h, r0, dr, th
 sin th_mid, 1 / dr, 1 / dth; integer rows:
 n_theta, n_range, offset into the level's flat complex64 buffer. A subimage with n_theta = 1 (a single pulse)
 does not depend on the angle.
+
+Reads are separable (range x angle) with tabulated weights (:func:`sarproc.focus.ffbp.read_table`): row c of a
+(steps + 1, taps) table holds the weights of samples floor(p) + 1 - taps/2 + m for the fraction c / steps (the
+nearest row is read), so one kernel serves linear, cubic Lagrange and Knab reads of any length.
 """
 
 from __future__ import annotations
@@ -19,136 +23,435 @@ import numpy as np
 from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
 from sarproc.dsp.phasor import cis_cycles32_short
 
-LINEAR, CUBIC = 1, 3
+
+@numba.njit(fastmath=True, error_model="numpy", inline="always", cache=CACHE)
+def _fill_weights(table: np.ndarray, pos: float, w: np.ndarray) -> int:
+    """Weights of the table's taps at fractional sample ``pos`` (its nearest row) into w; returns the first
+    sample's index."""
+    steps = table.shape[0] - 1
+    p0 = math.floor(pos)
+    cell = int((pos - p0) * steps + 0.5)
+    taps = table.shape[1]
+    for m in range(taps):
+        w[m] = table[cell, m]
+    return int(p0) + 1 - taps // 2
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _weights(t, mode):
-    """Interpolation weights of samples -1, 0, 1, 2 at fraction t in [0, 1): linear or cubic Lagrange."""
-    one, two, six = type(t)(1.0), type(t)(2.0), type(t)(6.0)
-    if mode == LINEAR:
-        return t * 0, one - t, t, t * 0
-    tm, t1, t2 = t + one, t - one, t - two
-    return (-t * t1 * t2 / six, tm * t1 * t2 / two, -tm * t * t2 / two, tm * t * t1 / six)
+@numba.njit(fastmath=True, error_model="numpy", inline="always", cache=CACHE)
+def _atan_series(z: float) -> float:
+    """arctan(z) for |z| <= 1/4 (error < 1e-10 rad), branch-free."""
+    z2 = z * z
+    return z * (
+        1.0
+        + z2
+        * (
+            -1.0 / 3
+            + z2
+            * (
+                1.0 / 5
+                + z2
+                * (-1.0 / 7 + z2 * (1.0 / 9 + z2 * (-1.0 / 11 + z2 * (1.0 / 13 + z2 * (-1.0 / 15 + z2 * (1.0 / 17))))))
+            )
+        )
+    )
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _row_value(buf, base, n, i, w0, w1, w2, w3):
-    """Samples i - 1 .. i + 2 of a row of n at buf[base:] weighted (zero outside the row; no checks inside it)."""
-    if i >= 1 and i + 2 < n:
-        v = w0 * buf[base + i - 1] + w1 * buf[base + i] + w2 * buf[base + i + 1] + w3 * buf[base + i + 2]
-        return v.real, v.imag
-    re = 0.0
-    im = 0.0
-    for m in range(4):
-        j = i - 1 + m
-        if j >= 0 and j < n:
-            wm = w0 if m == 0 else (w1 if m == 1 else (w2 if m == 2 else w3))
-            v = buf[base + j]
-            re += wm * v.real
-            im += wm * v.imag
-    return re, im
-
-
-@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _relative_angle(dx, dy, cm, sm):
+@numba.njit(fastmath=True, error_model="numpy", inline="always", cache=CACHE)
+def _relative_angle(dx: float, dy: float, cm: float, sm: float) -> float:
     """Angle of (dx, dy) from the direction (cm, sm), in (-pi, pi]: a series for |tan| <= 1/4 (error < 1e-10 rad;
     polar grids span a few degrees), atan2 beyond."""
     dot = dx * cm + dy * sm
     crs = dy * cm - dx * sm
     if dot > 0.0 and abs(crs) <= 0.25 * dot:
-        z = crs / dot
-        z2 = z * z
-        return z * (
-            1.0
-            + z2
-            * (
-                -1.0 / 3
-                + z2
-                * (
-                    1.0 / 5
-                    + z2
-                    * (
-                        -1.0 / 7
-                        + z2 * (1.0 / 9 + z2 * (-1.0 / 11 + z2 * (1.0 / 13 + z2 * (-1.0 / 15 + z2 * (1.0 / 17)))))
-                    )
-                )
-            )
-        )
+        return _atan_series(crs / dot)
     return math.atan2(crs, dot)
 
 
-@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _read(buf, geo, ints, c, x, y, z, r_ref, kc2, mode_r, mode_t):
+@numba.njit(fastmath=True, error_model="numpy", inline="always", cache=CACHE)
+def _read(
+    buf: np.ndarray,
+    geo: np.ndarray,
+    ints: np.ndarray,
+    c: int,
+    x: float,
+    y: float,
+    z: float,
+    r_ref: float,
+    kc2: float,
+    tab_r: np.ndarray,
+    tab_t: np.ndarray,
+    wr: np.ndarray,
+    wt: np.ndarray,
+) -> tuple[float, float]:
     """Subimage c read at the plane point (x, y, z), re-modulated by the carrier of its range from c's centre and
-    demodulated by that of ``r_ref``: its contribution exp(j 2 pi kc2 (r_c - r_ref)) x value."""
+    demodulated by that of ``r_ref``: its contribution exp(j 2 pi kc2 (r_c - r_ref)) x value. wr, wt: scratch
+    for the range and angle weights (zero outside the subimage)."""
     dx = x - geo[c, 0]
     dy = y - geo[c, 1]
     dz = geo[c, 2] - z
     rc = math.sqrt(dx * dx + dy * dy + dz * dz)
-    pos = (rc - geo[c, 3]) * geo[c, 10]
     n_t, n_r, off = ints[c, 0], ints[c, 1], ints[c, 2]
-    p0 = math.floor(pos)
-    i = np.int64(p0)
-    w0, w1, w2, w3 = _weights(np.float32(pos - p0), mode_r)
+    taps_r = tab_r.shape[1]
+    i0 = _fill_weights(tab_r, (rc - geo[c, 3]) * geo[c, 10], wr)
     if n_t == 1:
-        re, im = _row_value(buf, off, n_r, i, w0, w1, w2, w3)
+        taps_t = 1
+        a0 = 0
+        wt[0] = 1.0
     else:
+        taps_t = tab_t.shape[1]
         th = _relative_angle(dx, dy, geo[c, 8], geo[c, 9])
-        ta = (th - geo[c, 6]) * geo[c, 11]
-        a0 = math.floor(ta)
-        wa = _weights(ta - a0, mode_t)
-        a = np.int64(a0)
-        re = 0.0
-        im = 0.0
-        for m in range(4):
-            j = a - 1 + m
-            if wa[m] != 0.0 and j >= 0 and j < n_t:
-                vr, vi = _row_value(buf, off + j * n_r, n_r, i, w0, w1, w2, w3)
-                re += wa[m] * vr
-                im += wa[m] * vi
+        a0 = _fill_weights(tab_t, (th - geo[c, 6]) * geo[c, 11], wt)
+    re = np.float32(0.0)
+    im = np.float32(0.0)
+    if i0 >= 0 and i0 + taps_r <= n_r and a0 >= 0 and a0 + taps_t <= n_t:
+        for m in range(taps_t):
+            base = off + (a0 + m) * n_r + i0
+            sr = np.float32(0.0)
+            si = np.float32(0.0)
+            for j in range(taps_r):
+                v = buf[base + j]
+                sr += wr[j] * v.real
+                si += wr[j] * v.imag
+            re += wt[m] * sr
+            im += wt[m] * si
+    else:
+        for m in range(taps_t):
+            a = a0 + m
+            if a < 0 or a >= n_t:
+                continue
+            sr = np.float32(0.0)
+            si = np.float32(0.0)
+            for j in range(taps_r):
+                i = i0 + j
+                if i >= 0 and i < n_r:
+                    v = buf[off + a * n_r + i]
+                    sr += wr[j] * v.real
+                    si += wr[j] * v.imag
+            re += wt[m] * sr
+            im += wt[m] * si
     cyc = kc2 * (rc - r_ref)
     cyc -= math.floor(cyc + 0.5)
-    co, si = cis_cycles32_short(np.float32(cyc))
-    return re * co - im * si, re * si + im * co
+    co, si_ = cis_cycles32_short(np.float32(cyc))
+    return re * co - im * si_, re * si_ + im * co
 
 
 @numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
-def merge_level(cbuf, cgeo, cints, first_child, pgeo, pints, pbuf, row_parent, row_angle, kc2, mode_r, mode_t) -> None:
-    """Each parent polar sample: the sum of its children read at its plane point (one job per parent row)."""
+def merge_level(
+    cbuf: np.ndarray,
+    cgeo: np.ndarray,
+    cints: np.ndarray,
+    first_child: np.ndarray,
+    pgeo: np.ndarray,
+    pints: np.ndarray,
+    pbuf: np.ndarray,
+    row_parent: np.ndarray,
+    row_angle: np.ndarray,
+    kc2: float,
+    tab_r: np.ndarray,
+    tab_t: np.ndarray,
+    max_child_range: int,
+    linear_pulses: bool,
+) -> None:
+    """Each parent polar sample: the sum of its children read at its plane point (one job per parent row).
+
+    A parent row is a ray from its foot; along it a child's range grows monotonically (the platform does not pass
+    over the image), so a child is read in two 1D passes instead of one 2D one: first in angle at its own range
+    samples, at the point where the ray crosses each (the row's values as a function of the child's range, band
+    limited like the child's rows since the ray's angle from the child drifts by about a sample over the whole
+    image), then in range at the parent's samples: taps_r + taps_t multiply-adds a read instead of their product.
+    ``linear_pulses``: single-pulse children are read linearly with weights from the fraction itself."""
+    taps_r = tab_r.shape[1]
     for job in numba.prange(len(row_parent)):
+        wr = np.empty(taps_r, np.float32)
+        wt = np.empty(tab_t.shape[1], np.float32)
         s = row_parent[job]
         a = row_angle[job]
         th = pgeo[s, 5] + pgeo[s, 6] + a * pgeo[s, 7]
         ct, st = math.cos(th), math.sin(th)
         n_r, off = pints[s, 1], pints[s, 2] + a * pints[s, 1]
         h2 = pgeo[s, 2] * pgeo[s, 2]
+        rho = np.empty(n_r)
         for k in range(n_r):
             r = pgeo[s, 3] + k * pgeo[s, 4]
-            rho = math.sqrt(max(r * r - h2, 0.0))
-            x = pgeo[s, 0] + rho * ct
-            y = pgeo[s, 1] + rho * st
-            re = 0.0
-            im = 0.0
-            for c in range(first_child[s], first_child[s + 1]):
-                vr, vi = _read(cbuf, cgeo, cints, c, x, y, 0.0, r, kc2, mode_r, mode_t)
-                re += vr
-                im += vi
-            pbuf[off + k] = complex(re, im)
+            rho[k] = math.sqrt(max(r * r - h2, 0.0))
+        acc_re = np.zeros(n_r, np.float32)
+        acc_im = np.zeros(n_r, np.float32)
+        pos = np.empty(n_r)
+        cos_ = np.empty(n_r, np.float32)
+        sin_ = np.empty(n_r, np.float32)
+        row = np.empty(max_child_range, np.complex64)
+        ang = np.empty(max_child_range)
+        for c in range(first_child[s], first_child[s + 1]):
+            n_tc, n_rc, offc = cints[c, 0], cints[c, 1], cints[c, 2]
+            # the child's range along the ray: u . d and |d|^2 + h^2 of the parent foot from the child's centre
+            dx0 = pgeo[s, 0] - cgeo[c, 0]
+            dy0 = pgeo[s, 1] - cgeo[c, 1]
+            ud = ct * dx0 + dy0 * st
+            c0 = dx0 * dx0 + dy0 * dy0 + cgeo[c, 2] * cgeo[c, 2]
+            # ranges, positions and carrier phasors along the row: branch-free, vectorised
+            for k in range(n_r):
+                rc = math.sqrt(rho[k] * rho[k] + 2.0 * rho[k] * ud + c0)
+                pos[k] = (rc - cgeo[c, 3]) * cgeo[c, 10]
+                cy = kc2 * (rc - pgeo[s, 3] - k * pgeo[s, 4])
+                cos_[k], sin_[k] = cis_cycles32_short(np.float32(cy - math.floor(cy + 0.5)))
+            lo = pos[:n_r].min()
+            hi = pos[:n_r].max()
+            i_lo = max(0, int(math.floor(lo)) + 1 - taps_r // 2)
+            i_hi = min(n_rc - 1, int(math.floor(hi)) + taps_r // 2)
+            if i_lo > i_hi:
+                continue
+            if n_tc == 1:
+                src, base = cbuf, offc
+            else:
+                # pass 1: the child in angle where the ray crosses its range samples i_lo .. i_hi
+                taps_t = tab_t.shape[1]
+                # the crossings' angle positions, branch-free and vectorised: the arctangent's series, valid for
+                # |tan| <= 1/4 ahead of the child's centre line (polar grids span a few degrees); any other
+                # crossing (or none: disc < 0) is redone below
+                cm, sm = cgeo[c, 8], cgeo[c, 9]
+                odd = 0
+                for i in range(i_lo, i_hi + 1):
+                    rci = cgeo[c, 3] + i * cgeo[c, 4]
+                    disc = ud * ud - c0 + rci * rci
+                    rr = math.sqrt(max(disc, 0.0)) - ud
+                    dx = dx0 + rr * ct
+                    dy = dy0 + rr * st
+                    dot = dx * cm + dy * sm
+                    crs = dy * cm - dx * sm
+                    z = crs / dot
+                    ang[i] = (_atan_series(z) - cgeo[c, 6]) * cgeo[c, 11]
+                    odd += (disc < 0.0) | (dot <= 0.0) | (abs(crs) > 0.25 * dot)
+                if odd:
+                    for i in range(i_lo, i_hi + 1):
+                        rci = cgeo[c, 3] + i * cgeo[c, 4]
+                        disc = ud * ud - c0 + rci * rci
+                        rr = math.sqrt(max(disc, 0.0)) - ud
+                        th = _relative_angle(dx0 + rr * ct, dy0 + rr * st, cm, sm)
+                        ang[i] = (th - cgeo[c, 6]) * cgeo[c, 11] if disc >= 0.0 else -1e9
+                for i in range(i_lo, i_hi + 1):
+                    if ang[i] < -1e8:  # the ray never reaches this range
+                        row[i] = 0
+                        continue
+                    a0 = _fill_weights(tab_t, ang[i], wt)
+                    vr = np.float32(0.0)
+                    vi = np.float32(0.0)
+                    if a0 >= 0 and a0 + taps_t <= n_tc:
+                        b = offc + a0 * n_rc + i
+                        for m in range(taps_t):
+                            v = cbuf[b + m * n_rc]
+                            vr += wt[m] * v.real
+                            vi += wt[m] * v.imag
+                    else:
+                        for m in range(taps_t):
+                            if a0 + m >= 0 and a0 + m < n_tc:
+                                v = cbuf[offc + (a0 + m) * n_rc + i]
+                                vr += wt[m] * v.real
+                                vi += wt[m] * v.imag
+                    row[i] = complex(vr, vi)
+                src, base = row, 0
+            # pass 2: in range at the parent's samples, re-referenced to the parent's range carrier
+            if n_tc == 1 and linear_pulses:  # linear reads of a pulse: the weights from the fraction itself
+                for k in range(n_r):
+                    f = math.floor(pos[k])
+                    i0 = int(f)
+                    t = np.float32(pos[k] - f)
+                    if i0 >= i_lo and i0 + 1 <= i_hi:
+                        v0 = src[base + i0]
+                        v1 = src[base + i0 + 1]
+                        vr = v0.real + t * (v1.real - v0.real)
+                        vi = v0.imag + t * (v1.imag - v0.imag)
+                    else:
+                        vr = np.float32(0.0)
+                        vi = np.float32(0.0)
+                        if i0 >= i_lo and i0 <= i_hi:
+                            vr += (1 - t) * src[base + i0].real
+                            vi += (1 - t) * src[base + i0].imag
+                        if i0 + 1 >= i_lo and i0 + 1 <= i_hi:
+                            vr += t * src[base + i0 + 1].real
+                            vi += t * src[base + i0 + 1].imag
+                    acc_re[k] += vr * cos_[k] - vi * sin_[k]
+                    acc_im[k] += vr * sin_[k] + vi * cos_[k]
+                continue
+            for k in range(n_r):
+                i0 = _fill_weights(tab_r, pos[k], wr)
+                vr = np.float32(0.0)
+                vi = np.float32(0.0)
+                if i0 >= i_lo and i0 + taps_r - 1 <= i_hi:
+                    for j in range(taps_r):
+                        v = src[base + i0 + j]
+                        vr += wr[j] * v.real
+                        vi += wr[j] * v.imag
+                else:
+                    for j in range(taps_r):
+                        if i0 + j >= i_lo and i0 + j <= i_hi:
+                            v = src[base + i0 + j]
+                            vr += wr[j] * v.real
+                            vi += wr[j] * v.imag
+                acc_re[k] += vr * cos_[k] - vi * sin_[k]
+                acc_im[k] += vr * sin_[k] + vi * cos_[k]
+        for k in range(n_r):
+            pbuf[off + k] = complex(acc_re[k], acc_im[k])
 
 
 @numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
-def final_points(buf, geo, ints, px, py, pz, kc2, mode_r, mode_t, out) -> None:
+def final_points(
+    buf: np.ndarray,
+    fbuf: np.ndarray,
+    geo: np.ndarray,
+    ints: np.ndarray,
+    px: np.ndarray,
+    py: np.ndarray,
+    pz: np.ndarray,
+    kc2: float,
+    tab_r: np.ndarray,
+    tab_t: np.ndarray,
+    out: np.ndarray,
+    restore: bool,
+) -> None:
     """out[i] = sum of the top subimages read at point i (plane coordinates px, py, normal offset pz), with the
-    carrier of its exact range restored (exp(+j 2 pi kc2 r), as exact backprojection applies it)."""
-    for i in numba.prange(len(px)):
-        re = 0.0
-        im = 0.0
+    carrier of its exact range restored (exp(+j 2 pi kc2 r), as exact backprojection applies it) if ``restore``,
+    else referred to the carrier of the range from subimage 0's centre (a band-limited, baseband image). fbuf: buf
+    viewed as float32 (re, im pairs)."""
+    n = len(px)
+    chunk = 1024
+    for b in numba.prange((n + chunk - 1) // chunk):
+        wr = np.empty(tab_r.shape[1], np.float32)
+        wt = np.empty(max(tab_t.shape[1], 1), np.float32)
+        lo, hi = b * chunk, min(n, (b + 1) * chunk)
+        m = hi - lo
+        acc_re = np.zeros(m)
+        acc_im = np.zeros(m)
+        p_r = np.empty(m)
+        p_t = np.empty(m)
+        cos_ = np.empty(m, np.float32)
+        sin_ = np.empty(m, np.float32)
+        col = np.empty(2 * tab_r.shape[1], np.float32)
         for c in range(geo.shape[0]):
-            vr, vi = _read(buf, geo, ints, c, px[i], py[i], pz[i], 0.0, kc2, mode_r, mode_t)
-            re += vr
-            im += vi
-        out[i] = complex(re, im)
+            n_t, n_r, off = ints[c, 0], ints[c, 1], ints[c, 2]
+            if n_t == 1:  # a single pulse's image (a one-pulse aperture): the plain read
+                for i in range(lo, hi):
+                    r_ref = 0.0
+                    if not restore:
+                        dx, dy, dz = px[i] - geo[0, 0], py[i] - geo[0, 1], geo[0, 2] - pz[i]
+                        r_ref = math.sqrt(dx * dx + dy * dy + dz * dz)
+                    vr, vi = _read(buf, geo, ints, c, px[i], py[i], pz[i], r_ref, kc2, tab_r, tab_t, wr, wt)
+                    acc_re[i - lo] += vr
+                    acc_im[i - lo] += vi
+                continue
+            # positions and carrier phasors of the chunk's points, branch-free and vectorised (the arctangent's
+            # series; a point outside its range is redone with atan2)
+            cm, sm = geo[c, 8], geo[c, 9]
+            odd = 0
+            for j in range(m):
+                i = lo + j
+                dx = px[i] - geo[c, 0]
+                dy = py[i] - geo[c, 1]
+                dz = geo[c, 2] - pz[i]
+                rc = math.sqrt(dx * dx + dy * dy + dz * dz)
+                p_r[j] = (rc - geo[c, 3]) * geo[c, 10]
+                dot = dx * cm + dy * sm
+                crs = dy * cm - dx * sm
+                p_t[j] = (_atan_series(crs / dot) - geo[c, 6]) * geo[c, 11]
+                odd += (dot <= 0.0) | (abs(crs) > 0.25 * dot)
+                ex = px[i] - geo[0, 0]
+                ey = py[i] - geo[0, 1]
+                ez = geo[0, 2] - pz[i]
+                r_ref = 0.0 if restore else math.sqrt(ex * ex + ey * ey + ez * ez)
+                cy = kc2 * (rc - r_ref)
+                cos_[j], sin_[j] = cis_cycles32_short(np.float32(cy - math.floor(cy + 0.5)))
+            if odd:
+                for j in range(m):
+                    i = lo + j
+                    th = _relative_angle(px[i] - geo[c, 0], py[i] - geo[c, 1], cm, sm)
+                    p_t[j] = (th - geo[c, 6]) * geo[c, 11]
+            taps_r = tab_r.shape[1]
+            taps_t = tab_t.shape[1]
+            for j in range(m):
+                i0 = _fill_weights(tab_r, p_r[j], wr)
+                a0 = _fill_weights(tab_t, p_t[j], wt)
+                re = np.float32(0.0)
+                im = np.float32(0.0)
+                if i0 >= 0 and i0 + taps_r <= n_r and a0 >= 0 and a0 + taps_t <= n_t:
+                    # rows weighted in angle first: contiguous (re, im) runs of 2 taps_r floats, vectorised
+                    col[:] = 0.0
+                    for q in range(taps_t):
+                        base = 2 * (off + (a0 + q) * n_r + i0)
+                        for k in range(2 * taps_r):
+                            col[k] += wt[q] * fbuf[base + k]
+                    for k in range(taps_r):
+                        re += wr[k] * col[2 * k]
+                        im += wr[k] * col[2 * k + 1]
+                else:
+                    for q in range(taps_t):
+                        a = a0 + q
+                        if a < 0 or a >= n_t:
+                            continue
+                        sr = np.float32(0.0)
+                        si = np.float32(0.0)
+                        for k in range(taps_r):
+                            if i0 + k >= 0 and i0 + k < n_r:
+                                v = buf[off + a * n_r + i0 + k]
+                                sr += wr[k] * v.real
+                                si += wr[k] * v.imag
+                        re += wt[q] * sr
+                        im += wt[q] * si
+                acc_re[j] += re * cos_[j] - im * sin_[j]
+                acc_im[j] += re * sin_[j] + im * cos_[j]
+        for j in range(m):
+            out[lo + j] = complex(acc_re[j], acc_im[j])
+
+
+@numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
+def upsample_restore(
+    low: np.ndarray,
+    ia: np.ndarray,
+    wa: np.ndarray,
+    ib: np.ndarray,
+    wb: np.ndarray,
+    x0: float,
+    y0: float,
+    ax: float,
+    ay: float,
+    bx: float,
+    by: float,
+    pz: np.ndarray,
+    fx: float,
+    fy: float,
+    h: float,
+    kc2: float,
+    scale: float,
+    out: np.ndarray,
+) -> None:
+    """The coarse baseband image ``low`` (n_a, n_b) upsampled separably to the output grid and remodulated:
+    out[i n1 + j] = scale exp(j 2 pi kc2 r) sum_m sum_l wa[i, m] wb[j, l] low[ia[i] + m, ib[j] + l] for the grid
+    point (x0 + i ax + j bx, y0 + i ay + j by), offset pz[i n1 + j] along the normal, r its range from (fx, fy, h).
+    Per output row the coarse rows are combined first (contiguous, vectorised), then read along the row."""
+    n0, n1 = len(ia), len(ib)
+    n_b = low.shape[1]
+    ta, tb = wa.shape[1], wb.shape[1]
+    for i in numba.prange(n0):
+        line_re = np.zeros(n_b, np.float32)
+        line_im = np.zeros(n_b, np.float32)
+        for m in range(ta):
+            w = wa[i, m]
+            src = low[ia[i] + m]
+            for q in range(n_b):
+                line_re[q] += w * src[q].real
+                line_im[q] += w * src[q].imag
+        for j in range(n1):
+            re = np.float32(0.0)
+            im = np.float32(0.0)
+            b = ib[j]
+            for q in range(tb):
+                re += wb[j, q] * line_re[b + q]
+                im += wb[j, q] * line_im[b + q]
+            dx = x0 + i * ax + j * bx - fx
+            dy = y0 + i * ay + j * by - fy
+            dz = h - pz[i * n1 + j]
+            cyc = kc2 * math.sqrt(dx * dx + dy * dy + dz * dz)
+            cyc -= math.floor(cyc + 0.5)
+            co, si = cis_cycles32_short(np.float32(cyc))
+            out[i * n1 + j] = complex(scale * (re * co - im * si), scale * (re * si + im * co))
 
 
 lean_cache_loads(globals())  # cached kernels load without numba's context refresh (kernel_cache)

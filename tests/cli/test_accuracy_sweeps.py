@@ -29,9 +29,14 @@ def test_backprojection_sweep_has_the_same_settings_on_both_scenes_with_the_fine
     by_scene = _settings_by_scene(plan)
     assert sorted(by_scene) == ["squint30", "stripmap"]  # accuracy_backprojection.py's SCENES
     assert sorted(by_scene["stripmap"]) == sorted(by_scene["squint30"])
-    assert len(set(by_scene["stripmap"])) == len(by_scene["stripmap"]) == 18
+    assert len(set(by_scene["stripmap"])) == len(by_scene["stripmap"]) == 22
     finest = {"backproject.engine": "reference", "backproject.upsample": 32, "backproject.interpolation": "linear"}
     assert all(sum(t.setting == finest for t in plan.tasks if t.scene == s) == 1 for s in by_scene)
+    # ffbp's settings beside the exact image they are measured against (accuracy_backprojection.py's EXACT)
+    exact = {"backproject.engine": "compiled", "backproject.upsample": 8, "backproject.interpolation": "linear"}
+    assert all(sum(t.setting == exact for t in plan.tasks if t.scene == s) == 1 for s in by_scene)
+    ffbp = [t.setting for t in plan.tasks if t.scene == "stripmap" and t.setting["backproject.engine"] == "ffbp"]
+    assert len(ffbp) == 4 and all(f["backproject.upsample"] == 8 for f in ffbp)
 
 
 def test_000_sweep_measures_in_the_lrwc_frame_with_the_same_settings_on_both_scenes():

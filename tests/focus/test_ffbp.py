@@ -9,7 +9,7 @@ import pytest
 
 from helpers import assert_theory
 from sarproc.focus.backprojection import BackprojectParams, backproject
-from sarproc.focus.ffbp import error_bound, ffbp_points, interpolation_error, predicted_error
+from sarproc.focus.ffbp import error_bound, ffbp_points, interpolation_error, predicted_error, pulse_oversample
 from sarproc.product.config import load_yaml
 from sarproc.product.errors import InputError
 from sarproc.quality.metrics import evaluate_product
@@ -36,6 +36,12 @@ MOTION = {
 }
 
 
+def pulses_q(raw, upsample=8):
+    """The upsampled pulses' rate over the bandwidth (linear reads of them: the exact image's own artefacts)."""
+    r = raw.radar
+    return pulse_oversample(raw.data.shape[1], upsample, r.range_sampling_rate, r.bandwidth)
+
+
 def nmse(image, exact):
     return float(np.sum(np.abs(image - exact) ** 2) / np.sum(np.abs(exact) ** 2))
 
@@ -52,19 +58,40 @@ def case(request):
     return raw, params, backproject(raw, params).data
 
 
-def test_ffbp_error_against_the_exact_image_is_the_predicted_one(case):
+# the first version's reads (cubic Lagrange, factor 4 from the pulses on) and the default Knab reads
+CUBIC = {"ffbp_interpolation": "cubic", "ffbp_first_factor": 4}
+KNAB = {"ffbp_interpolation": "knab", "ffbp_taps": 8, "ffbp_first_factor": 16}
+KNAB10 = {"ffbp_interpolation": "knab", "ffbp_taps": 10, "ffbp_first_factor": 16}  # the defaults
+
+
+@pytest.mark.parametrize(
+    "reads, oversamples",
+    [(CUBIC, (2.0, 3.0, 4.0)), (KNAB, (1.5, 2.0)), (KNAB10, (1.75,))],
+    ids=["cubic", "knab8-first16", "knab10-first16"],
+)
+def test_ffbp_error_against_the_exact_image_is_the_predicted_one(case, reads, oversamples):
     raw, params, exact = case
-    for q in (2.0, 3.0, 4.0):
-        image = backproject(raw, dataclasses.replace(params, engine="ffbp", ffbp_oversample=q)).data
+    for q in oversamples:
+        p = dataclasses.replace(params, engine="ffbp", ffbp_oversample=q, **reads)
+        image = backproject(raw, p).data
         measured = nmse(image, exact)
-        predicted = predicted_error(raw.data.shape[0], params.ffbp_factor, q, "cubic")
+        predicted = predicted_error(
+            raw.data.shape[0],
+            p.ffbp_factor,
+            q,
+            p.ffbp_interpolation,
+            p.ffbp_taps,
+            p.ffbp_first_factor,
+            pulses_q(raw),
+        )
         # below the bound (the model + 4 dB) and no more than 6 dB under the model: the prediction means something
         assert predicted / 4 < measured < error_bound(predicted), (q, 10 * np.log10(measured), 10 * np.log10(predicted))
 
 
-def test_ffbp_targets_reach_theory(case):
+@pytest.mark.parametrize("reads, q", [(CUBIC, 4.0), (KNAB10, 1.75)], ids=["cubic-q4", "knab10-q1.75"])
+def test_ffbp_targets_reach_theory(case, reads, q):
     raw, params, _ = case
-    image = backproject(raw, dataclasses.replace(params, engine="ffbp", ffbp_oversample=4.0))
+    image = backproject(raw, dataclasses.replace(params, engine="ffbp", ffbp_oversample=q, **reads))
     report = evaluate_product(image)
     assert_theory(report, irw_tol=0.03, db_tol=0.3, pos_cells=0.05, n_targets=3)
 
@@ -92,6 +119,7 @@ def test_ffbp_oversample_trades_error_for_work():
             raw.radar.carrier_frequency,
             raw.radar.bandwidth,
             oversample=q,
+            ffbp_interpolation="cubic",
             grid_shape=az.shape,
             info=info,
         )
@@ -100,6 +128,40 @@ def test_ffbp_oversample_trades_error_for_work():
     assert all(a > 4 * b for a, b in zip(errors, errors[1:])), errors  # each step: > 6 dB better
     assert all(a < b for a, b in zip(work, work[1:])), work
     assert errors[-1] < 10**-4  # -40 dB at 4x oversampling
+
+
+def test_a_fine_output_grid_is_read_on_a_coarse_one_and_upsampled():
+    """Pixels 6 per IRW: the top image is read on a grid at its own bandwidth (far fewer points) and upsampled;
+    the image stays within the predicted error of the exact one."""
+    raw = simulate(scene_from_mapping(SQUINT30))
+    params = BackprojectParams(frame="los", azimuth_extent=40.0, range_extent=40.0, oversample=6.0)
+    img = backproject(raw, params)
+    exact = img.data
+    from sarproc.dsp.rangecomp import range_compress
+    from sarproc.product.frames import make_frame
+
+    frame = make_frame("los", raw.radar)
+    az, rg = np.meshgrid(img.coords["azimuth"], img.coords["range"], indexing="ij")
+    pts = frame.to_xyz(az.ravel(), rg.ravel())
+    rc = range_compress(raw.data, raw.radar)
+    info = {}
+    out = ffbp_points(
+        rc,
+        raw.coords["range_time"],
+        raw.aux["platform_position"],
+        pts,
+        raw.radar.carrier_frequency,
+        raw.radar.bandwidth,
+        oversample=2.0,
+        first_factor=16,
+        ffbp_taps=8,
+        grid_shape=az.shape,
+        info=info,
+    )
+    assert np.prod(info["cartesian"]) * 4 < az.size  # the coarse grid: over 4x fewer points than the output
+    measured = nmse(out.reshape(az.shape), exact)
+    predicted = predicted_error(raw.data.shape[0], 4, 2.0, "knab", 8, 16, pulses_q(raw))
+    assert predicted / 4 < measured < error_bound(predicted), (10 * np.log10(measured), 10 * np.log10(predicted))
 
 
 def test_interpolation_error_falls_with_oversampling_and_order():
@@ -133,6 +195,8 @@ def test_plan_prints_the_predicted_error_and_the_cli_runs_ffbp(tmp_path):
             "range_extent": "20 m",
             "engine": "ffbp",
             "ffbp_oversample": 3,
+            "ffbp_interpolation": "cubic",
+            "ffbp_first_factor": 4,
         },
     }
     (tmp_path / "s.yaml").write_text(yaml.safe_dump(scene))
@@ -158,7 +222,8 @@ def test_plan_prints_the_predicted_error_and_the_cli_runs_ffbp(tmp_path):
         text=True,
     )
     assert out.returncode == 0, out.stderr
-    predicted = 10 * np.log10(predicted_error(212, 4, 3.0, "cubic"))
+    raw = read_product(tmp_path / "r.h5")
+    predicted = 10 * np.log10(predicted_error(212, 4, 3.0, "cubic", first_factor=4, pulse_oversample=pulses_q(raw)))
     assert (
         f"ffbp: 4 levels of 4, oversample 3, cubic; predicted error against the exact image {predicted:.1f} dB"
         in out.stderr
