@@ -258,3 +258,7 @@ def main(
         sys.stderr.flush()
         os._exit(code)
     sys.exit(code)
+
+
+if __name__ == "__main__":  # python -m sarproc.cli.main behaves like the sarproc command, not silently nothing
+    main()

@@ -112,3 +112,10 @@ def test_stages_without_compiled_kernels_import_no_numba():
     loaded = set(json.loads(_python(code).strip().splitlines()[-1]))
     assert not {m for m in loaded if m.split(".")[0] in ("numba", "llvmlite")}, "numba imported"
     assert not loaded & {"scipy.interpolate", "scipy.linalg"}, sorted(loaded & {"scipy.interpolate", "scipy.linalg"})
+
+
+def test_python_dash_m_runs_the_command_line():
+    """`python -m sarproc` and `python -m sarproc.cli.main` are the sarproc command, not a silent no-op."""
+    for module in ("sarproc", "sarproc.cli.main"):
+        done = subprocess.run([sys.executable, "-m", module, "--version"], capture_output=True, text=True, check=True)
+        assert done.stdout.strip().startswith("sarproc, version"), (module, done.stdout, done.stderr)
