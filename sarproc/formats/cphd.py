@@ -129,6 +129,124 @@ PVP_FIELDS = [
 ]
 
 
+def _check_exportable(raw: Product) -> None:
+    """CPHD export writes one monostatic channel of raw pulses."""
+    if raw.kind != "raw" or raw.dims != ("azimuth_time", "range_time"):
+        raise InputError(f"CPHD export handles single-channel raw products; got {raw.kind} {raw.dims}")
+    for key in ("tx_offset", "rx_offset"):
+        if np.any(np.asarray(raw.aux.get(key, 0.0)) != 0):
+            raise InputError(f"CPHD export: aux/{key} is not zero; only monostatic raw data are exported")
+
+
+def _signal_and_pvps(raw: Product, place: Placement) -> tuple[np.ndarray, np.ndarray]:
+    """The FX-domain signal array (n_pulses, n_fft) complex64 and its per-vector parameters (PVP_FIELDS):
+    platform state, the scene reference point (SRP) and each pulse's saved frequencies and times of arrival."""
+    r = raw.radar
+    t = pulse_times(raw)
+    n_pulses, n_range = raw.data.shape
+    fs = r.range_sampling_rate
+    gate = np.asarray(raw.aux.get("range_gate_offset", np.zeros(n_pulses)), float)
+    t_start = float(raw.coords["range_time"][0]) + gate
+    pos = place.to_ecf(raw.aux["platform_position"])
+    vel = np.gradient(pos, t, axis=0) if n_pulses > 1 else place.vector_to_ecf([r.velocity, 0, 0])[None]
+    srp = place.to_ecf(np.asarray(r.scene_center, float))
+    tau_srp = 2 * np.linalg.norm(pos - srp, axis=1) / C
+    n_fft = replica_fft_size(r, n_range)
+    signal = to_cphd_signal(raw.data, r, t_start, tau_srp, n_fft)
+    fb0 = -(n_fft // 2) * fs / n_fft
+
+    _, pvp_dtype, _ = _pvp_layout(PVP_FIELDS)
+    pvps = np.zeros(n_pulses, pvp_dtype)
+    tx_time = t - t[0]  # CPHD times run from the collection start
+    pvps["TxTime"], pvps["TxPos"], pvps["TxVel"] = tx_time, pos, vel
+    pvps["RcvTime"], pvps["RcvPos"], pvps["RcvVel"] = tx_time + tau_srp, pos, vel
+    pvps["SRPPos"] = srp
+    u = (pos - srp) / np.linalg.norm(pos - srp, axis=1, keepdims=True)
+    pvps["aFDOP"] = -2.0 / C * np.sum(vel * u, axis=1)  # rdot of the SRP, both ways (CPHD 1.1 eq.)
+    pvps["FX1"], pvps["FX2"] = r.carrier_frequency - r.bandwidth / 2, r.carrier_frequency + r.bandwidth / 2
+    pvps["TOA1"], pvps["TOA2"] = t_start - tau_srp, t_start + (n_range - 1) / fs - tau_srp
+    pvps["SC0"], pvps["SCSS"] = r.carrier_frequency + fb0, fs / n_fft
+    return signal, pvps
+
+
+def _channel_blocks(r: RadarMetadata, pvps: np.ndarray, n_fft: int, n_range: int) -> dict[str, Any]:
+    """CPHD's Data, Channel, PVP, Dwell and TxRcv blocks of the one channel (radar.polarization 'H:V', else
+    CPHD's UNSPECIFIED)."""
+    n_pulses = len(pvps)
+    toa1, toa2 = pvps["TOA1"], pvps["TOA2"]
+    toa_fixed = bool(np.all(toa1 == toa1[0]) and np.all(toa2 == toa2[0]))
+    pvp_xml, _, pvp_bytes = _pvp_layout(PVP_FIELDS)
+    tx_pol, rcv_pol = r.polarization.split(":") if r.polarization else ("UNSPECIFIED", "UNSPECIFIED")
+    fs = r.range_sampling_rate
+    channel = {
+        "Identifier": CHANNEL,
+        "RefVectorIndex": n_pulses // 2,
+        "FXFixed": True,
+        "TOAFixed": toa_fixed,
+        "SRPFixed": True,
+        "Polarization": {"TxPol": tx_pol, "RcvPol": rcv_pol},
+        "FxC": r.carrier_frequency,
+        "FxBW": r.bandwidth,
+        "TOASaved": float(toa2.max() - toa1.min()),
+        "DwellTimes": {"CODId": "cod", "DwellId": "dwell"},
+        "TxRcv": {"TxWFId": ["tx"], "RcvId": ["rcv"]},
+    }
+    tx = {
+        "Identifier": "tx",
+        "PulseLength": r.pulse_duration,
+        "RFBandwidth": r.bandwidth,
+        "FreqCenter": r.carrier_frequency,
+        "LFMRate": r.chirp_rate,
+        "Polarization": tx_pol,
+    }
+    rcv = {
+        "Identifier": "rcv",
+        "WindowLength": n_range / fs,
+        "SampleRate": fs,
+        "IFFilterBW": fs,
+        "FreqCenter": r.carrier_frequency,
+        "Polarization": rcv_pol,
+    }
+    array = {
+        "Identifier": CHANNEL,
+        "NumVectors": n_pulses,
+        "NumSamples": n_fft,
+        "SignalArrayByteOffset": 0,
+        "PVPArrayByteOffset": 0,
+    }
+    return {
+        "Data": {
+            "SignalArrayFormat": "CF8",
+            "NumBytesPVP": pvp_bytes,
+            "NumCPHDChannels": 1,
+            "Channel": [array],
+            "NumSupportArrays": 0,
+        },
+        "Channel": {
+            "RefChId": CHANNEL,
+            "FXFixedCPHD": True,
+            "TOAFixedCPHD": toa_fixed,
+            "SRPFixedCPHD": True,
+            "Parameters": [channel],
+        },
+        "PVP": pvp_xml,
+        "TxRcv": {"NumTxWFs": 1, "TxWFParameters": [tx], "NumRcvs": 1, "RcvParameters": [rcv]},
+    }
+
+
+def _sarproc_parameters(raw: Product, place: Placement) -> dict[str, str]:
+    """ProductInfo parameters that let import invert export exactly (radar, targets, frame, time origins)."""
+    return {
+        "sarproc.radar": raw.radar.to_json(),
+        "sarproc.targets": json.dumps(_targets_to_json(raw.targets)),
+        "sarproc.frame": json.dumps(raw.attrs.get("frame")),
+        "sarproc.azimuth_time0": repr(float(pulse_times(raw)[0])),
+        "sarproc.range_time0": repr(float(raw.coords["range_time"][0])),
+        "sarproc.placement": json.dumps({"anchor": place.anchor.tolist(), "heading": place.heading}),
+        "sarproc.history": json.dumps(raw.history),
+    }
+
+
 def cphd_parts(raw: Product, place: Placement, sarproc_metadata: bool = True) -> tuple[Any, np.ndarray, np.ndarray]:
     """(xml tree, signal (n_pulses, n_fft) complex64, pvps) of a raw product.
 
@@ -137,45 +255,15 @@ def cphd_parts(raw: Product, place: Placement, sarproc_metadata: bool = True) ->
     import lxml.etree
     import sarkit.cphd as skcphd
 
-    if raw.kind != "raw" or raw.dims != ("azimuth_time", "range_time"):
-        raise InputError(f"CPHD export handles single-channel raw products; got {raw.kind} {raw.dims}")
-    for key in ("tx_offset", "rx_offset"):
-        if np.any(np.asarray(raw.aux.get(key, 0.0)) != 0):
-            raise InputError(f"CPHD export: aux/{key} is not zero; only monostatic raw data are exported")
+    _check_exportable(raw)
     r = raw.radar
     t = pulse_times(raw)
-    n_pulses, n_range = raw.data.shape
-    rt = np.asarray(raw.coords["range_time"], float)
-    fs = r.range_sampling_rate
-    gate = np.asarray(raw.aux.get("range_gate_offset", np.zeros(n_pulses)), float)
-    t_start = rt[0] + gate
-    pos = place.to_ecf(raw.aux["platform_position"])
-    vel = np.gradient(pos, t, axis=0) if n_pulses > 1 else place.vector_to_ecf([r.velocity, 0, 0])[None]
-    srp = place.to_ecf(np.asarray(r.scene_center, float))
-    tau_srp = 2 * np.linalg.norm(pos - srp, axis=1) / C
-    n_fft = replica_fft_size(r, n_range)
-    signal = to_cphd_signal(raw.data, r, t_start, tau_srp, n_fft)
-    fb0 = -(n_fft // 2) * fs / n_fft
-    f1, f2 = r.carrier_frequency - r.bandwidth / 2, r.carrier_frequency + r.bandwidth / 2
-    toa1, toa2 = t_start - tau_srp, t_start + (n_range - 1) / fs - tau_srp
-
-    pvp_xml, pvp_dtype, pvp_bytes = _pvp_layout(PVP_FIELDS)
-    pvps = np.zeros(n_pulses, pvp_dtype)
-    tx_time = t - t[0]  # CPHD times run from the collection start
-    pvps["TxTime"], pvps["TxPos"], pvps["TxVel"] = tx_time, pos, vel
-    pvps["RcvTime"], pvps["RcvPos"], pvps["RcvVel"] = tx_time + tau_srp, pos, vel
-    pvps["SRPPos"] = srp
-    u = (pos - srp) / np.linalg.norm(pos - srp, axis=1, keepdims=True)
-    pvps["aFDOP"] = -2.0 / C * np.sum(vel * u, axis=1)  # rdot of the SRP, both ways (CPHD 1.1 eq.)
-    pvps["FX1"], pvps["FX2"] = f1, f2
-    pvps["TOA1"], pvps["TOA2"] = toa1, toa2
-    pvps["SC0"], pvps["SCSS"] = r.carrier_frequency + fb0, fs / n_fft
-    toa_fixed = bool(np.all(toa1 == toa1[0]) and np.all(toa2 == toa2[0]))
-
+    signal, pvps = _signal_and_pvps(raw, place)
+    tx_time = pvps["TxTime"]
     ia = _image_area(raw, place)
     lat, lon, h = place.lat_lon_height
-    iarp_llh = np.array([math.degrees(lat), math.degrees(lon), h])
-    cod_time = float(-t[0])  # aperture centre
+    channel = _channel_blocks(r, pvps, signal.shape[1], raw.data.shape[1])
+
     root = skcphd.ElementWrapper(lxml.etree.Element(f"{{{CPHD_NS}}}CPHD"))
     root["CollectionID"] = {
         "CollectorName": "sarproc simulator",
@@ -193,102 +281,34 @@ def cphd_parts(raw: Product, place: Placement, sarproc_metadata: bool = True) ->
             "TxTime1": float(tx_time[0]),
             "TxTime2": float(tx_time[-1]),
         },
-        "FxBand": {"FxMin": f1, "FxMax": f2},
-        "TOASwath": {"TOAMin": float(toa1.min()), "TOAMax": float(toa2.max())},
+        "FxBand": {"FxMin": float(pvps["FX1"][0]), "FxMax": float(pvps["FX2"][0])},
+        "TOASwath": {"TOAMin": float(pvps["TOA1"].min()), "TOAMax": float(pvps["TOA2"].max())},
     }
     root["SceneCoordinates"] = {
         "EarthModel": "WGS_84",
-        "IARP": {"ECF": place.origin_ecf, "LLH": iarp_llh},
+        "IARP": {"ECF": place.origin_ecf, "LLH": np.array([math.degrees(lat), math.degrees(lon), h])},
         "ReferenceSurface": {"Planar": {"uIAX": place.rotation[:, 0], "uIAY": place.rotation[:, 1]}},
         "ImageArea": {"X1Y1": ia[0], "X2Y2": ia[1]},
         "ImageAreaCornerPoints": _corner_points(place, ia),
         "ImageGrid": _image_grid(ia, C / (2 * r.bandwidth) / 1.5),
     }
-    root["Data"] = {
-        "SignalArrayFormat": "CF8",
-        "NumBytesPVP": pvp_bytes,
-        "NumCPHDChannels": 1,
-        "Channel": [
-            {
-                "Identifier": CHANNEL,
-                "NumVectors": n_pulses,
-                "NumSamples": n_fft,
-                "SignalArrayByteOffset": 0,
-                "PVPArrayByteOffset": 0,
-            }
-        ],
-        "NumSupportArrays": 0,
-    }
-    # radar.polarization ('H:V'), else CPHD's UNSPECIFIED
-    tx_pol, rcv_pol = r.polarization.split(":") if r.polarization else ("UNSPECIFIED", "UNSPECIFIED")
-    root["Channel"] = {
-        "RefChId": CHANNEL,
-        "FXFixedCPHD": True,
-        "TOAFixedCPHD": toa_fixed,
-        "SRPFixedCPHD": True,
-        "Parameters": [
-            {
-                "Identifier": CHANNEL,
-                "RefVectorIndex": n_pulses // 2,
-                "FXFixed": True,
-                "TOAFixed": toa_fixed,
-                "SRPFixed": True,
-                "Polarization": {"TxPol": tx_pol, "RcvPol": rcv_pol},
-                "FxC": r.carrier_frequency,
-                "FxBW": r.bandwidth,
-                "TOASaved": float(toa2.max() - toa1.min()),
-                "DwellTimes": {"CODId": "cod", "DwellId": "dwell"},
-                "TxRcv": {"TxWFId": ["tx"], "RcvId": ["rcv"]},
-            }
-        ],
-    }
-    root["PVP"] = pvp_xml
+    root["Data"] = channel["Data"]
+    root["Channel"] = channel["Channel"]
+    root["PVP"] = channel["PVP"]
     root["Dwell"] = {
         "NumCODTimes": 1,
-        "CODTime": [{"Identifier": "cod", "CODTimePoly": np.array([[cod_time]])}],
+        "CODTime": [{"Identifier": "cod", "CODTimePoly": np.array([[float(-t[0])]])}],  # aperture centre
         "NumDwellTimes": 1,
         "DwellTime": [{"Identifier": "dwell", "DwellTimePoly": np.array([[float(tx_time[-1])]])}],
     }
-    root["TxRcv"] = {
-        "NumTxWFs": 1,
-        "TxWFParameters": [
-            {
-                "Identifier": "tx",
-                "PulseLength": r.pulse_duration,
-                "RFBandwidth": r.bandwidth,
-                "FreqCenter": r.carrier_frequency,
-                "LFMRate": r.chirp_rate,
-                "Polarization": tx_pol,
-            }
-        ],
-        "NumRcvs": 1,
-        "RcvParameters": [
-            {
-                "Identifier": "rcv",
-                "WindowLength": n_range / fs,
-                "SampleRate": fs,
-                "IFFilterBW": fs,
-                "FreqCenter": r.carrier_frequency,
-                "Polarization": rcv_pol,
-            }
-        ],
-    }
-    sarproc_meta = {
-        "sarproc.radar": r.to_json(),
-        "sarproc.targets": json.dumps(_targets_to_json(raw.targets)),
-        "sarproc.frame": json.dumps(raw.attrs.get("frame")),
-        "sarproc.azimuth_time0": repr(float(t[0])),
-        "sarproc.range_time0": repr(float(rt[0])),
-        "sarproc.placement": json.dumps({"anchor": place.anchor.tolist(), "heading": place.heading}),
-        "sarproc.history": json.dumps(raw.history),
-    }
+    root["TxRcv"] = channel["TxRcv"]
     root["ProductInfo"] = {
         "CreationInfo": [
             {"Application": f"sarproc {__version__}", "DateTime": utc_datetime(np.datetime64("now", "us"))}
         ]
     }
     if sarproc_metadata:
-        root["ProductInfo"]["Parameter"] = list(sarproc_meta.items())
+        root["ProductInfo"]["Parameter"] = list(_sarproc_parameters(raw, place).items())
     assert root.elem is not None
     tree = root.elem.getroottree()
     # ReferenceGeometry from the PVPs, as sarkit's checker recomputes it (CPHD vol. 1, 6.5)

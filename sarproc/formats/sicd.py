@@ -466,27 +466,19 @@ def pfa_geometry(product: Product, grid: SicdGrid, frame: Frame, t_rel: np.ndarr
     )
 
 
-def sicd_xml(
-    product: Product, place: Placement, *, image_formation: str | None = None, version: str = "1.4.0"
-) -> tuple[object, SicdGrid]:
-    """The SICD XML tree of an image product (lxml ElementTree) and its grid (with the carrier the pixels
-    lose on export: :func:`sicd_pixels`)."""
-    import lxml.etree
-    import sarkit.sicd as sksicd
+def _formation_and_grid(product: Product, place: Placement, image_formation: str | None) -> tuple[str, SicdGrid, bool]:
+    """The ImageFormAlgo to write (OTHER or PFA; None: chosen from the product) and the image's SICD grid.
 
-    r = product.radar
+    Returns (algorithm, grid, auto); an automatic PFA falls back to OTHER, with a warning, where PFA's SCP
+    (the point pfa2 formatted the phase history about) cannot be placed on the grid."""
     auto = image_formation is None
-    if auto:
-        image_formation = image_formation_algo(product)
-    if version not in SICD_VERSIONS:
-        raise InputError(f"SICD export: version {version!r} is not one of {', '.join(SICD_VERSIONS)}")
-    if image_formation not in ("OTHER", "PFA"):
-        raise InputError(f"SICD export: ImageFormAlgo {image_formation!r} is not one of OTHER, PFA")
-    if image_formation == "PFA" and not formed_by_pfa(product):
+    algo = image_formation_algo(product) if image_formation is None else image_formation
+    if algo not in ("OTHER", "PFA"):
+        raise InputError(f"SICD export: ImageFormAlgo {algo!r} is not one of OTHER, PFA")
+    if algo == "PFA" and not formed_by_pfa(product):
         raise InputError("SICD export: ImageFormAlgo PFA needs an image of pfa2 (its recorded k-space rectangle)")
     grid = image_grid(product, place)
-    if image_formation == "PFA":
-        # the SCP is the point the phase history was formatted about (pfa2's frame origin)
+    if algo == "PFA":
         frame = frame_from_spec(product.attrs["frame"])
         assert isinstance(frame, GroundLosFrame)  # formed_by_pfa: pfa2 images are in its ground_los frame
         try:
@@ -495,47 +487,65 @@ def sicd_xml(
             if not auto:
                 raise
             log.warning("%s: written as ImageFormAlgo OTHER (PFA needs the SCP there)", exc)
-            image_formation = "OTHER"
-    if image_formation == "PFA" and not polar_format_geometry(product):
+            algo = "OTHER"
+    if algo == "PFA" and not polar_format_geometry(product):
         log.warning(
             "SICD export: ImageFormAlgo PFA for a pfa2 image on the true ground grid (two-step or "
             "distortion-corrected): SICD's PFA projection then misplaces pixels by the wavefront curvature"
         )
-    t = pulse_times(product)
-    t_rel = t - t[0]  # SICD times run from CollectStart
-    arp_ecf = place.to_ecf(product.aux["platform_position"])
-    arp_poly, resid = fit_position_poly(t_rel, arp_ecf)
-    if resid > 0.01:
-        raise InputError(f"SICD export: the platform track is not a smooth polynomial (residual {resid:.3g} m)")
-    scp_ecf = place.to_ecf(grid.scp_scene)
-    scp_llh = ecf_to_geodetic(scp_ecf)
-    t_coa = float(-t[0])  # aperture centre, where the spotlight COA is
-    time_coa = np.array([[t_coa]])  # spotlight: one centre of aperture for every pixel
-    if r.mode != "spotlight":
-        # beam-limited: the centre of aperture moves with the along-track position (speed v along +x), from
-        # the aperture centre at the scene origin; the SCP is the image's centre pixel, scp_scene[0] along track
-        vx = place.rotation[:, 0] * r.velocity
-        time_coa = np.array(
-            [
-                [t_coa + float(grid.scp_scene[0]) / r.velocity, float(grid.u_col @ vx) / r.velocity**2],
-                [float(grid.u_row @ vx) / r.velocity**2, 0.0],
-            ]
+    return algo, grid, auto
+
+
+def _time_coa_poly(product: Product, place: Placement, grid: SicdGrid, t_coa: float) -> np.ndarray:
+    """SICD's TimeCOAPoly: one centre of aperture for a spotlight image; beam-limited, it moves with the
+    along-track position (speed v along +x) from the aperture centre at the scene origin (the SCP is the
+    image's centre pixel, scp_scene[0] along track)."""
+    r = product.radar
+    if r.mode == "spotlight":
+        return np.array([[t_coa]])
+    vx = place.rotation[:, 0] * r.velocity
+    return np.array(
+        [
+            [t_coa + float(grid.scp_scene[0]) / r.velocity, float(grid.u_col @ vx) / r.velocity**2],
+            [float(grid.u_row @ vx) / r.velocity**2, 0.0],
+        ]
+    )
+
+
+def _pfa_or_other(
+    product: Product, grid: SicdGrid, algo: str, auto: bool, t_rel: np.ndarray, t_coa: float
+) -> tuple[str, PfaGeometry | None]:
+    """The PFA block's geometry for a PFA export (None for OTHER); an automatic PFA whose polar angle or scale
+    factor is not a smooth polynomial of the track is written as OTHER (the SCP on the formatting point is as
+    good for PLANE)."""
+    if algo != "PFA":
+        return algo, None
+    pfa = pfa_geometry(product, grid, frame_from_spec(product.attrs["frame"]), t_rel, t_coa)
+    if pfa.fit_residual[0] > 1e-6 or pfa.fit_residual[1] > 1e-6:
+        msg = (
+            f"SICD export: the polar angle / scale factor are not smooth polynomials of the track (residuals "
+            f"{pfa.fit_residual[0]:.3g} rad, {pfa.fit_residual[1]:.3g})"
         )
+        if not auto:
+            raise InputError(msg)
+        log.warning("%s: written as ImageFormAlgo OTHER", msg)
+        return "OTHER", None
+    return algo, pfa
+
+
+def _grid_dims(
+    product: Product,
+    grid: SicdGrid,
+    scp_ecf: np.ndarray,
+    arp_poly: np.ndarray,
+    time_coa: np.ndarray,
+    pfa: PfaGeometry | None,
+) -> tuple[SicdGrid, dict[str, dict[str, Any]]]:
+    """SICD's Grid/Row and Grid/Col blocks and the grid with the carrier its pixels lose on export.
+
+    The centre of support (KCtr + DeltaKCOAPoly) comes from the geometry: polar format's processed rectangle
+    (one support for every pixel), else the line of sight at each pixel's centre of aperture."""
     irw_az, irw_rg = (float(w) for w in product.attrs["theoretical_irw"])
-    pfa = None
-    if image_formation == "PFA":
-        pfa = pfa_geometry(product, grid, frame_from_spec(product.attrs["frame"]), t_rel, t_coa)
-        if pfa.fit_residual[0] > 1e-6 or pfa.fit_residual[1] > 1e-6:
-            msg = (
-                f"SICD export: the polar angle / scale factor are not smooth polynomials of the track (residuals "
-                f"{pfa.fit_residual[0]:.3g} rad, {pfa.fit_residual[1]:.3g})"
-            )
-            if not auto:
-                raise InputError(msg)
-            log.warning("%s: written as ImageFormAlgo OTHER", msg)
-            image_formation, pfa = "OTHER", None  # the SCP on the formatting point is as good for PLANE
-    # the centre of support (SICD's KCtr + DeltaKCOAPoly) from the geometry: polar format's processed
-    # rectangle (one support for every pixel), else the line of sight at each pixel's centre of aperture
     irw = {"Row": irw_rg, "Col": irw_az}
     bw = {name: KAPFAC / irw[name] for name in irw}
     model = SupportModel(
@@ -544,7 +554,7 @@ def sicd_xml(
         u_col=grid.u_col,
         arp_poly=arp_poly,
         time_coa=time_coa,
-        f_c=r.carrier_frequency,
+        f_c=product.radar.carrier_frequency,
         pfa_centre=None if pfa is None else (float(np.mean(pfa.krg)), float(np.mean(pfa.kaz))),
     )
     k_row, k_col = model.centre(0.0, 0.0)
@@ -575,27 +585,110 @@ def sicd_xml(
             "DeltaKCOAPoly": poly,
             "WgtType": {"WindowName": "UNIFORM"},
         }
-    n_rows, n_cols = grid.shape
-    collect_start = place.datetime64(float(t[0]))
+    return grid, dims
+
+
+def _collection_blocks(product: Product, place: Placement, t: np.ndarray, algo: str) -> dict[str, Any]:
+    """SICD's CollectionInfo, ImageCreation, Timeline, RadarCollection and ImageFormation blocks: who made the
+    image, when the pulses were sent, the waveform and what was processed."""
+    r = product.radar
     duration = len(t) / r.prf  # the last pulse's interval included (IPPEnd = n - 1)
     f_lo, f_hi = r.carrier_frequency - r.bandwidth / 2, r.carrier_frequency + r.bandwidth / 2
-    created = np.datetime64("now", "us")
     tx_pol, txrcv_pol = polarization(product)
+    waveform = {
+        "TxPulseLength": r.pulse_duration,
+        "TxRFBandwidth": r.bandwidth,
+        "TxFreqStart": f_lo,
+        "TxFMRate": r.chirp_rate,
+        "RcvDemodType": "CHIRP",
+        "ADCSampleRate": r.range_sampling_rate,
+        "RcvFMRate": 0.0,
+        "@index": 1,
+    }
+    ipp = {"TStart": 0.0, "TEnd": duration, "IPPStart": 0, "IPPEnd": len(t) - 1, "IPPPoly": np.array([0.0, r.prf])}
+    return {
+        "CollectionInfo": {
+            "CollectorName": "sarproc simulator",
+            "CoreName": f"sarproc_{product.kind}",
+            "CollectType": "MONOSTATIC",
+            "RadarMode": {"ModeType": MODE_TYPE.get(r.mode, "SPOTLIGHT")},
+            "Classification": "UNCLASSIFIED",
+        },
+        "ImageCreation": {
+            "Application": f"sarproc {__version__}",
+            "DateTime": utc_datetime(np.datetime64("now", "us")),
+            "Profile": "sarproc export-sicd",
+        },
+        "Timeline": {
+            "CollectStart": utc_datetime(place.datetime64(float(t[0]))),
+            "CollectDuration": duration,
+            "IPP": {"@size": 1, "Set": [{**ipp, "@index": 1}]},
+        },
+        "RadarCollection": {
+            "TxFrequency": {"Min": f_lo, "Max": f_hi},
+            "Waveform": {"@size": 1, "WFParameters": [waveform]},
+            "TxPolarization": tx_pol,
+            "RcvChannels": {"@size": 1, "ChanParameters": [{"TxRcvPolarization": txrcv_pol, "@index": 1}]},
+        },
+        "ImageFormation": {
+            "RcvChanProc": {"NumChanProc": 1, "ChanIndex": [1]},
+            "TxRcvPolarizationProc": txrcv_pol,
+            "TStartProc": 0.0,
+            "TEndProc": duration,
+            "TxFrequencyProc": {"MinProc": f_lo, "MaxProc": f_hi},
+            "ImageFormAlgo": algo,
+            "STBeamComp": "NO",
+            "ImageBeamComp": "NO",
+            "AzAutofocus": "NO",
+            "RgAutofocus": "NO",
+        },
+    }
+
+
+def _project_corners(root: Any, tree: Any, n_rows: int, n_cols: int, height: float) -> None:
+    """GeoData/ImageCorners and RadarCollection/Area: the corner pixels projected (R/Rdot, SICD vol. 3) onto
+    the SCP's height above the ellipsoid (the area is optional in SICD; sarpy's validity check counts a
+    missing one as invalid)."""
+    import sarkit.sicd as sksicd
+
+    corners_rc = np.array([(0, 0), (0, n_cols - 1), (n_rows - 1, n_cols - 1), (n_rows - 1, 0)])
+    ground, _, ok = sksicd.image_to_constant_hae_surface(tree, sksicd.rowcol_to_xrowycol(tree, corners_rc), height)
+    if not ok:
+        raise InputError("SICD export: the image corners do not project onto the ground")
+    corners_llh = ecf_to_geodetic(ground)
+    root["GeoData"]["ImageCorners"] = np.degrees(corners_llh[:, :2])
+    root["RadarCollection"]["Area"] = {"Corner": np.column_stack([np.degrees(corners_llh[:, :2]), corners_llh[:, 2]])}
+
+
+def sicd_xml(
+    product: Product, place: Placement, *, image_formation: str | None = None, version: str = "1.4.0"
+) -> tuple[object, SicdGrid]:
+    """The SICD XML tree of an image product (lxml ElementTree) and its grid (with the carrier the pixels
+    lose on export: :func:`sicd_pixels`)."""
+    import lxml.etree
+    import sarkit.sicd as sksicd
+
+    if version not in SICD_VERSIONS:
+        raise InputError(f"SICD export: version {version!r} is not one of {', '.join(SICD_VERSIONS)}")
+    algo, grid, auto = _formation_and_grid(product, place, image_formation)
+    t = pulse_times(product)
+    t_rel = t - t[0]  # SICD times run from CollectStart
+    arp_poly, resid = fit_position_poly(t_rel, place.to_ecf(product.aux["platform_position"]))
+    if resid > 0.01:
+        raise InputError(f"SICD export: the platform track is not a smooth polynomial (residual {resid:.3g} m)")
+    scp_ecf = place.to_ecf(grid.scp_scene)
+    scp_llh = ecf_to_geodetic(scp_ecf)
+    t_coa = float(-t[0])  # aperture centre, where the spotlight COA is
+    time_coa = _time_coa_poly(product, place, grid, t_coa)
+    algo, pfa = _pfa_or_other(product, grid, algo, auto, t_rel, t_coa)
+    grid, dims = _grid_dims(product, grid, scp_ecf, arp_poly, time_coa, pfa)
+    n_rows, n_cols = grid.shape
+    blocks = _collection_blocks(product, place, t, algo)
 
     ns = f"urn:SICD:{version}"
     root = sksicd.ElementWrapper(lxml.etree.Element(f"{{{ns}}}SICD"))
-    root["CollectionInfo"] = {
-        "CollectorName": "sarproc simulator",
-        "CoreName": f"sarproc_{product.kind}",
-        "CollectType": "MONOSTATIC",
-        "RadarMode": {"ModeType": MODE_TYPE.get(r.mode, "SPOTLIGHT")},
-        "Classification": "UNCLASSIFIED",
-    }
-    root["ImageCreation"] = {
-        "Application": f"sarproc {__version__}",
-        "DateTime": utc_datetime(created),
-        "Profile": "sarproc export-sicd",
-    }
+    root["CollectionInfo"] = blocks["CollectionInfo"]
+    root["ImageCreation"] = blocks["ImageCreation"]
     root["ImageData"] = {
         "PixelType": "RE32F_IM32F",
         "NumRows": n_rows,
@@ -610,65 +703,18 @@ def sicd_xml(
         "SCP": {"ECF": scp_ecf, "LLH": np.array([*np.degrees(scp_llh[:2]), scp_llh[2]])},
         "ImageCorners": np.zeros((4, 2)),
     }  # projected below, once the geometry is complete
+    slant = abs(float(np.cross(grid.u_row, grid.u_col) @ place.rotation[:, 2])) < 0.999
     root["Grid"] = {
-        "ImagePlane": "SLANT"
-        if abs(float(np.cross(grid.u_row, grid.u_col) @ place.rotation[:, 2])) < 0.999
-        else "GROUND",
+        "ImagePlane": "SLANT" if slant else "GROUND",
         "Type": "RGAZIM" if pfa is not None else "PLANE",
         "TimeCOAPoly": time_coa,
         "Row": dims["Row"],
         "Col": dims["Col"],
     }
-    root["Timeline"] = {
-        "CollectStart": utc_datetime(collect_start),
-        "CollectDuration": duration,
-        "IPP": {
-            "@size": 1,
-            "Set": [
-                {
-                    "TStart": 0.0,
-                    "TEnd": duration,
-                    "IPPStart": 0,
-                    "IPPEnd": len(t) - 1,
-                    "IPPPoly": np.array([0.0, r.prf]),
-                    "@index": 1,
-                }
-            ],
-        },
-    }
+    root["Timeline"] = blocks["Timeline"]
     root["Position"] = {"ARPPoly": arp_poly}
-    root["RadarCollection"] = {
-        "TxFrequency": {"Min": f_lo, "Max": f_hi},
-        "Waveform": {
-            "@size": 1,
-            "WFParameters": [
-                {
-                    "TxPulseLength": r.pulse_duration,
-                    "TxRFBandwidth": r.bandwidth,
-                    "TxFreqStart": f_lo,
-                    "TxFMRate": r.chirp_rate,
-                    "RcvDemodType": "CHIRP",
-                    "ADCSampleRate": r.range_sampling_rate,
-                    "RcvFMRate": 0.0,
-                    "@index": 1,
-                }
-            ],
-        },
-        "TxPolarization": tx_pol,
-        "RcvChannels": {"@size": 1, "ChanParameters": [{"TxRcvPolarization": txrcv_pol, "@index": 1}]},
-    }
-    root["ImageFormation"] = {
-        "RcvChanProc": {"NumChanProc": 1, "ChanIndex": [1]},
-        "TxRcvPolarizationProc": txrcv_pol,
-        "TStartProc": 0.0,
-        "TEndProc": duration,
-        "TxFrequencyProc": {"MinProc": f_lo, "MaxProc": f_hi},
-        "ImageFormAlgo": image_formation,
-        "STBeamComp": "NO",
-        "ImageBeamComp": "NO",
-        "AzAutofocus": "NO",
-        "RgAutofocus": "NO",
-    }
+    root["RadarCollection"] = blocks["RadarCollection"]
+    root["ImageFormation"] = blocks["ImageFormation"]
     if pfa is not None:  # schema order: the PFA block comes last (SCPCOA is put before it below)
         root["PFA"] = {
             "FPN": place.vector_to_ecf(pfa.fpn),
@@ -683,20 +729,9 @@ def sicd_xml(
         }
     assert root.elem is not None
     tree = root.elem.getroottree()
-    scpcoa = sksicd.compute_scp_coa(tree)
     # SCPCOA belongs after ImageFormation (schema order)
-    tree.getroot().find(f"{{{ns}}}ImageFormation").addnext(scpcoa)
-    # image corners: the corner pixels projected (R/Rdot, SICD vol. 3) onto the SCP's height above the ellipsoid
-    corners_rc = np.array([(0, 0), (0, n_cols - 1), (n_rows - 1, n_cols - 1), (n_rows - 1, 0)])
-    ground, _, ok = sksicd.image_to_constant_hae_surface(
-        tree, sksicd.rowcol_to_xrowycol(tree, corners_rc), float(scp_llh[2])
-    )
-    if not ok:
-        raise InputError("SICD export: the image corners do not project onto the ground")
-    corners_llh = ecf_to_geodetic(ground)
-    root["GeoData"]["ImageCorners"] = np.degrees(corners_llh[:, :2])
-    # the imaged area (optional in SICD; sarpy's validity check counts a missing one as invalid)
-    root["RadarCollection"]["Area"] = {"Corner": np.column_stack([np.degrees(corners_llh[:, :2]), corners_llh[:, 2]])}
+    tree.getroot().find(f"{{{ns}}}ImageFormation").addnext(sksicd.compute_scp_coa(tree))
+    _project_corners(root, tree, n_rows, n_cols, float(scp_llh[2]))
     return tree, grid
 
 
