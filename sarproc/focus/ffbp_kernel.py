@@ -414,7 +414,6 @@ def upsample_restore(
     ay: float,
     bx: float,
     by: float,
-    pz: np.ndarray,
     fx: float,
     fy: float,
     h: float,
@@ -424,34 +423,63 @@ def upsample_restore(
 ) -> None:
     """The coarse baseband image ``low`` (n_a, n_b) upsampled separably to the output grid and remodulated:
     out[i n1 + j] = scale exp(j 2 pi kc2 r) sum_m sum_l wa[i, m] wb[j, l] low[ia[i] + m, ib[j] + l] for the grid
-    point (x0 + i ax + j bx, y0 + i ay + j by), offset pz[i n1 + j] along the normal, r its range from (fx, fy, h).
-    Per output row the coarse rows are combined first (contiguous, vectorised), then read along the row."""
+    point (x0 + i ax + j bx, y0 + i ay + j by) of the plane, r its range from (fx, fy, h) (h off the plane).
+    The coarse rows are read at the output columns first (n_a rows, fewer than the output's), then each output row
+    combines them (contiguous, vectorised) and is remodulated in a separate vectorised loop."""
     n0, n1 = len(ia), len(ib)
-    n_b = low.shape[1]
+    n_a = low.shape[0]
     ta, tb = wa.shape[1], wb.shape[1]
-    for i in numba.prange(n0):
-        line_re = np.zeros(n_b, np.float32)
-        line_im = np.zeros(n_b, np.float32)
-        for m in range(ta):
-            w = wa[i, m]
-            src = low[ia[i] + m]
-            for q in range(n_b):
-                line_re[q] += w * src[q].real
-                line_im[q] += w * src[q].imag
+    lf = low.view(np.float32)  # (n_a, 2 n_b): re, im pairs
+    t_re = np.empty((n_a, n1), np.float32)
+    t_im = np.empty((n_a, n1), np.float32)
+    for r in numba.prange(n_a):
         for j in range(n1):
             re = np.float32(0.0)
             im = np.float32(0.0)
-            b = ib[j]
+            b = 2 * ib[j]
             for q in range(tb):
-                re += wb[j, q] * line_re[b + q]
-                im += wb[j, q] * line_im[b + q]
-            dx = x0 + i * ax + j * bx - fx
-            dy = y0 + i * ay + j * by - fy
-            dz = h - pz[i * n1 + j]
-            cyc = kc2 * math.sqrt(dx * dx + dy * dy + dz * dz)
-            cyc -= math.floor(cyc + 0.5)
-            co, si = cis_cycles32_short(np.float32(cyc))
-            out[i * n1 + j] = complex(scale * (re * co - im * si), scale * (re * si + im * co))
+                re += wb[j, q] * lf[r, b + 2 * q]
+                im += wb[j, q] * lf[r, b + 2 * q + 1]
+            t_re[r, j] = re
+            t_im[r, j] = im
+    for i in numba.prange(n0):
+        row_re = np.zeros(n1, np.float32)
+        row_im = np.zeros(n1, np.float32)
+        for m in range(ta):
+            w = wa[i, m]
+            src_re = t_re[ia[i] + m]
+            src_im = t_im[ia[i] + m]
+            for j in range(n1):
+                row_re[j] += w * src_re[j]
+                row_im[j] += w * src_im[j]
+        dx0 = x0 + i * ax - fx
+        dy0 = y0 + i * ay - fy
+        h2 = h * h
+        for j in range(n1):
+            dx = dx0 + j * bx
+            dy = dy0 + j * by
+            cyc = kc2 * math.sqrt(dx * dx + dy * dy + h2)
+            co, si = cis_cycles32_short(np.float32(cyc - math.floor(cyc + 0.5)))
+            vr, vi = scale * row_re[j], scale * row_im[j]
+            out[i * n1 + j] = complex(vr * co - vi * si, vr * si + vi * co)
+
+
+@numba.njit(parallel=True, error_model="numpy", cache=CACHE)
+def lattice_deviation(points: np.ndarray, p0: np.ndarray, a: np.ndarray, b: np.ndarray, n1: int) -> float:
+    """The largest distance of points[i n1 + j] (n, 3) from the lattice point p0 + i a + j b in any coordinate
+    (inf where a point is not finite)."""
+    n0 = len(points) // n1
+    dev = np.zeros(n0)
+    for i in numba.prange(n0):
+        m = 0.0
+        total = 0.0  # NaN if any point is
+        for j in range(n1):
+            for d in range(3):
+                e = abs(points[i * n1 + j, d] - (p0[d] + i * a[d] + j * b[d]))
+                m = max(m, e)
+                total += e
+        dev[i] = m if total == total and total < np.inf else np.inf
+    return dev.max() if n0 else 0.0
 
 
 lean_cache_loads(globals())  # cached kernels load without numba's context refresh (kernel_cache)
