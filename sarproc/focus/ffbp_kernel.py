@@ -159,11 +159,21 @@ def merge_level(
     samples, at the point where the ray crosses each (the row's values as a function of the child's range, band
     limited like the child's rows since the ray's angle from the child drifts by about a sample over the whole
     image), then in range at the parent's samples: taps_r + taps_t multiply-adds a read instead of their product.
-    ``linear_pulses``: single-pulse children are read linearly with weights from the fraction itself."""
+    ``linear_pulses``: single-pulse children are read linearly with weights from the fraction itself.
+
+    Both passes loop over samples innermost and over taps outside (gathers of the tables' weights and of the
+    samples, taps outside a child masked to zero), so that they vectorise."""
     taps_r = tab_r.shape[1]
+    taps_t = tab_t.shape[1]
+    steps_r = tab_r.shape[0] - 1
+    steps_t = tab_t.shape[0] - 1
+    cf = cbuf.view(np.float32)
+    pad = max(taps_r, 2)
+    # scratch along a child's range: its angle reads (children of more than one pulse) and its row (unless every
+    # read is a linear pulse read)
+    n_ang = max_child_range if cints[:, 0].max() > 1 else 1
+    n_row = max_child_range + 2 * pad if (n_ang > 1 or not linear_pulses) else 1
     for job in numba.prange(len(row_parent)):
-        wr = np.empty(taps_r, np.float32)
-        wt = np.empty(tab_t.shape[1], np.float32)
         s = row_parent[job]
         a = row_angle[job]
         th = pgeo[s, 5] + pgeo[s, 6] + a * pgeo[s, 7]
@@ -179,8 +189,16 @@ def merge_level(
         pos = np.empty(n_r)
         cos_ = np.empty(n_r, np.float32)
         sin_ = np.empty(n_r, np.float32)
-        row = np.empty(max_child_range, np.complex64)
-        ang = np.empty(max_child_range)
+        vr = np.empty(n_r, np.float32)
+        vi = np.empty(n_r, np.float32)
+        first = np.empty(n_r, np.int64)
+        wra = np.empty((taps_r, n_r), np.float32)
+        wta = np.empty((taps_t, n_ang), np.float32)
+        # the ray's values along the child's range samples, zero-padded by ``pad`` on each side
+        row_re = np.zeros(n_row, np.float32)
+        row_im = np.zeros(n_row, np.float32)
+        ang = np.empty(n_ang)
+        a0 = np.empty(n_ang, np.int64)
         for c in range(first_child[s], first_child[s + 1]):
             n_tc, n_rc, offc = cints[c, 0], cints[c, 1], cints[c, 2]
             # the child's range along the ray: u . d and |d|^2 + h^2 of the parent foot from the child's centre
@@ -200,95 +218,121 @@ def merge_level(
             i_hi = min(n_rc - 1, int(math.floor(hi)) + taps_r // 2)
             if i_lo > i_hi:
                 continue
-            if n_tc == 1:
-                src, base = cbuf, offc
-            else:
-                # pass 1: the child in angle where the ray crosses its range samples i_lo .. i_hi
-                taps_t = tab_t.shape[1]
-                # the crossings' angle positions, branch-free and vectorised: the arctangent's series, valid for
-                # |tan| <= 1/4 ahead of the child's centre line (polar grids span a few degrees); any other
-                # crossing (or none: disc < 0) is redone below
-                cm, sm = cgeo[c, 8], cgeo[c, 9]
-                odd = 0
-                for i in range(i_lo, i_hi + 1):
-                    rci = cgeo[c, 3] + i * cgeo[c, 4]
-                    disc = ud * ud - c0 + rci * rci
-                    rr = math.sqrt(max(disc, 0.0)) - ud
-                    dx = dx0 + rr * ct
-                    dy = dy0 + rr * st
-                    dot = dx * cm + dy * sm
-                    crs = dy * cm - dx * sm
-                    z = crs / dot
-                    ang[i] = (_atan_series(z) - cgeo[c, 6]) * cgeo[c, 11]
-                    odd += (disc < 0.0) | (dot <= 0.0) | (abs(crs) > 0.25 * dot)
-                if odd:
-                    for i in range(i_lo, i_hi + 1):
-                        rci = cgeo[c, 3] + i * cgeo[c, 4]
-                        disc = ud * ud - c0 + rci * rci
-                        rr = math.sqrt(max(disc, 0.0)) - ud
-                        th = _relative_angle(dx0 + rr * ct, dy0 + rr * st, cm, sm)
-                        ang[i] = (th - cgeo[c, 6]) * cgeo[c, 11] if disc >= 0.0 else -1e9
-                for i in range(i_lo, i_hi + 1):
-                    if ang[i] < -1e8:  # the ray never reaches this range
-                        row[i] = 0
-                        continue
-                    a0 = _fill_weights(tab_t, ang[i], wt)
-                    vr = np.float32(0.0)
-                    vi = np.float32(0.0)
-                    if a0 >= 0 and a0 + taps_t <= n_tc:
-                        b = offc + a0 * n_rc + i
-                        for m in range(taps_t):
-                            v = cbuf[b + m * n_rc]
-                            vr += wt[m] * v.real
-                            vi += wt[m] * v.imag
-                    else:
-                        for m in range(taps_t):
-                            if a0 + m >= 0 and a0 + m < n_tc:
-                                v = cbuf[offc + (a0 + m) * n_rc + i]
-                                vr += wt[m] * v.real
-                                vi += wt[m] * v.imag
-                    row[i] = complex(vr, vi)
-                src, base = row, 0
-            # pass 2: in range at the parent's samples, re-referenced to the parent's range carrier
             if n_tc == 1 and linear_pulses:  # linear reads of a pulse: the weights from the fraction itself
                 for k in range(n_r):
                     f = math.floor(pos[k])
                     i0 = int(f)
                     t = np.float32(pos[k] - f)
                     if i0 >= i_lo and i0 + 1 <= i_hi:
-                        v0 = src[base + i0]
-                        v1 = src[base + i0 + 1]
-                        vr = v0.real + t * (v1.real - v0.real)
-                        vi = v0.imag + t * (v1.imag - v0.imag)
+                        v0 = cbuf[offc + i0]
+                        v1 = cbuf[offc + i0 + 1]
+                        xr = v0.real + t * (v1.real - v0.real)
+                        xi = v0.imag + t * (v1.imag - v0.imag)
                     else:
-                        vr = np.float32(0.0)
-                        vi = np.float32(0.0)
+                        xr = np.float32(0.0)
+                        xi = np.float32(0.0)
                         if i0 >= i_lo and i0 <= i_hi:
-                            vr += (1 - t) * src[base + i0].real
-                            vi += (1 - t) * src[base + i0].imag
+                            xr += (1 - t) * cbuf[offc + i0].real
+                            xi += (1 - t) * cbuf[offc + i0].imag
                         if i0 + 1 >= i_lo and i0 + 1 <= i_hi:
-                            vr += t * src[base + i0 + 1].real
-                            vi += t * src[base + i0 + 1].imag
-                    acc_re[k] += vr * cos_[k] - vi * sin_[k]
-                    acc_im[k] += vr * sin_[k] + vi * cos_[k]
+                            xr += t * cbuf[offc + i0 + 1].real
+                            xi += t * cbuf[offc + i0 + 1].imag
+                    acc_re[k] += xr * cos_[k] - xi * sin_[k]
+                    acc_im[k] += xr * sin_[k] + xi * cos_[k]
                 continue
+            n_i = i_hi - i_lo + 1
+            if n_tc == 1:  # a pulse read by the range table: its samples i_lo .. i_hi as the row
+                for i in range(n_i):
+                    row_re[pad + i] = cf[2 * (offc + i_lo + i)]
+                    row_im[pad + i] = cf[2 * (offc + i_lo + i) + 1]
+            else:
+                # pass 1: the child in angle where the ray crosses its range samples i_lo .. i_hi; the crossings'
+                # angle positions by the arctangent's series, valid for |tan| <= 1/4 ahead of the child's centre
+                # line (polar grids span a few degrees); any other crossing (or none: disc < 0) is redone below
+                cm, sm = cgeo[c, 8], cgeo[c, 9]
+                odd = 0
+                for i in range(n_i):
+                    rci = cgeo[c, 3] + (i_lo + i) * cgeo[c, 4]
+                    disc = ud * ud - c0 + rci * rci
+                    rr = math.sqrt(max(disc, 0.0)) - ud
+                    dx = dx0 + rr * ct
+                    dy = dy0 + rr * st
+                    dot = dx * cm + dy * sm
+                    crs = dy * cm - dx * sm
+                    ang[i] = (_atan_series(crs / dot) - cgeo[c, 6]) * cgeo[c, 11]
+                    odd += (disc < 0.0) | (dot <= 0.0) | (abs(crs) > 0.25 * dot)
+                if odd:
+                    for i in range(n_i):
+                        rci = cgeo[c, 3] + (i_lo + i) * cgeo[c, 4]
+                        disc = ud * ud - c0 + rci * rci
+                        rr = math.sqrt(max(disc, 0.0)) - ud
+                        th = _relative_angle(dx0 + rr * ct, dy0 + rr * st, cm, sm)
+                        # the ray never reaches this range: a position that no tap reaches
+                        ang[i] = (th - cgeo[c, 6]) * cgeo[c, 11] if disc >= 0.0 else -1e9
+                for i in range(n_i):
+                    p = min(max(ang[i], -2.0 * taps_t), n_tc + 2.0 * taps_t)
+                    f = math.floor(p)
+                    a0[i] = int(f) + 1 - taps_t // 2
+                    cl = int((p - f) * steps_t + 0.5)
+                    for m in range(taps_t):
+                        wta[m, i] = tab_t[cl, m]
+                    row_re[pad + i] = 0.0
+                    row_im[pad + i] = 0.0
+                # runs of equal first angle sample (the crossings drift by about a sample over the image): each
+                # tap of a run reads one child row contiguously
+                i = 0
+                while i < n_i:
+                    e = i + 1
+                    while e < n_i and a0[e] == a0[i]:
+                        e += 1
+                    dst_re = row_re[pad + i : pad + e]
+                    dst_im = row_im[pad + i : pad + e]
+                    for m in range(taps_t):
+                        aa = a0[i] + m
+                        if aa < 0 or aa >= n_tc:
+                            continue
+                        b = offc + aa * n_rc + i_lo
+                        src = cbuf[b + i : b + e]
+                        w = wta[m, i:e]
+                        for u in range(e - i):
+                            dst_re[u] += w[u] * src[u].real
+                            dst_im[u] += w[u] * src[u].imag
+                    i = e
+            # pass 2: in range at the parent's samples, re-referenced to the parent's range carrier; taps outside
+            # i_lo .. i_hi read the row's zero padding
+            for i in range(pad):
+                row_re[pad + n_i + i] = 0.0
+                row_im[pad + n_i + i] = 0.0
             for k in range(n_r):
-                i0 = _fill_weights(tab_r, pos[k], wr)
-                vr = np.float32(0.0)
-                vi = np.float32(0.0)
-                if i0 >= i_lo and i0 + taps_r - 1 <= i_hi:
-                    for j in range(taps_r):
-                        v = src[base + i0 + j]
-                        vr += wr[j] * v.real
-                        vi += wr[j] * v.imag
-                else:
-                    for j in range(taps_r):
-                        if i0 + j >= i_lo and i0 + j <= i_hi:
-                            v = src[base + i0 + j]
-                            vr += wr[j] * v.real
-                            vi += wr[j] * v.imag
-                acc_re[k] += vr * cos_[k] - vi * sin_[k]
-                acc_im[k] += vr * sin_[k] + vi * cos_[k]
+                p = min(max(pos[k], i_lo - 2.0 * pad), i_hi + 2.0 * pad)
+                f = math.floor(p)
+                first[k] = min(max(int(f) + 1 - taps_r // 2 - i_lo, -pad), n_i) + pad
+                cl = int((p - f) * steps_r + 0.5)
+                for j in range(taps_r):
+                    wra[j, k] = tab_r[cl, j]
+                vr[k] = 0.0
+                vi[k] = 0.0
+            # runs of equal offset between the parent's and the child's samples (they drift by a few samples over
+            # the image): each tap of a run reads the row contiguously
+            k = 0
+            while k < n_r:
+                e = k + 1
+                while e < n_r and first[e] - e == first[k] - k:
+                    e += 1
+                d = first[k] - k
+                dst_re = vr[k:e]
+                dst_im = vi[k:e]
+                for j in range(taps_r):
+                    src_re = row_re[k + d + j : e + d + j]
+                    src_im = row_im[k + d + j : e + d + j]
+                    w = wra[j, k:e]
+                    for u in range(e - k):
+                        dst_re[u] += w[u] * src_re[u]
+                        dst_im[u] += w[u] * src_im[u]
+                k = e
+            for k in range(n_r):
+                acc_re[k] += vr[k] * cos_[k] - vi[k] * sin_[k]
+                acc_im[k] += vr[k] * sin_[k] + vi[k] * cos_[k]
         for k in range(n_r):
             pbuf[off + k] = complex(acc_re[k], acc_im[k])
 
