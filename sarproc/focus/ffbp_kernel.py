@@ -420,8 +420,10 @@ def final_points(
                     col[:] = 0.0
                     for q in range(taps_t):
                         base = 2 * (off + (a0 + q) * n_r + i0)
+                        src = fbuf[base : base + 2 * taps_r]  # a view indexed from zero: no index wrap, vectorised
+                        w = wt[q]
                         for k in range(2 * taps_r):
-                            col[k] += wt[q] * fbuf[base + k]
+                            col[k] += w * src[k]
                     for k in range(taps_r):
                         re += wr[k] * col[2 * k]
                         im += wr[k] * col[2 * k + 1]
