@@ -61,13 +61,14 @@ def case(request):
 # the first version's reads (cubic Lagrange, factor 4 from the pulses on) and the default Knab reads
 CUBIC = {"ffbp_interpolation": "cubic", "ffbp_first_factor": 4}
 KNAB = {"ffbp_interpolation": "knab", "ffbp_taps": 8, "ffbp_first_factor": 16}
-KNAB10 = {"ffbp_interpolation": "knab", "ffbp_taps": 10, "ffbp_first_factor": 16}  # the defaults
+KNAB10 = {"ffbp_interpolation": "knab", "ffbp_taps": 10, "ffbp_first_factor": 16}  # the defaults until 2026-12-02
+KNAB12 = {"ffbp_interpolation": "knab", "ffbp_taps": 12, "ffbp_first_factor": 16}  # the defaults (q = 1.5)
 
 
 @pytest.mark.parametrize(
     "reads, oversamples",
-    [(CUBIC, (2.0, 3.0, 4.0)), (KNAB, (1.5, 2.0)), (KNAB10, (1.75,))],
-    ids=["cubic", "knab8-first16", "knab10-first16"],
+    [(CUBIC, (2.0, 3.0, 4.0)), (KNAB, (1.5, 2.0)), (KNAB10, (1.75,)), (KNAB12, (1.5,))],
+    ids=["cubic", "knab8-first16", "knab10-first16", "knab12-first16"],
 )
 def test_ffbp_error_against_the_exact_image_is_the_predicted_one(case, reads, oversamples):
     raw, params, exact = case
@@ -88,7 +89,9 @@ def test_ffbp_error_against_the_exact_image_is_the_predicted_one(case, reads, ov
         assert predicted / 4 < measured < error_bound(predicted), (q, 10 * np.log10(measured), 10 * np.log10(predicted))
 
 
-@pytest.mark.parametrize("reads, q", [(CUBIC, 4.0), (KNAB10, 1.75)], ids=["cubic-q4", "knab10-q1.75"])
+@pytest.mark.parametrize(
+    "reads, q", [(CUBIC, 4.0), (KNAB10, 1.75), (KNAB12, 1.5)], ids=["cubic-q4", "knab10-q1.75", "knab12-q1.5"]
+)
 def test_ffbp_targets_reach_theory(case, reads, q):
     raw, params, _ = case
     image = backproject(raw, dataclasses.replace(params, engine="ffbp", ffbp_oversample=q, **reads))
