@@ -333,8 +333,9 @@ def merge_level(
             for k in range(n_r):
                 acc_re[k] += vr[k] * cos_[k] - vi[k] * sin_[k]
                 acc_im[k] += vr[k] * sin_[k] + vi[k] * cos_[k]
+        dst = pbuf[off : off + n_r]
         for k in range(n_r):
-            pbuf[off + k] = complex(acc_re[k], acc_im[k])
+            dst[k] = complex(acc_re[k], acc_im[k])
 
 
 @numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
@@ -482,10 +483,11 @@ def upsample_restore(
         for j in range(n1):
             re = np.float32(0.0)
             im = np.float32(0.0)
-            b = 2 * ib[j]
+            src = lf[r, 2 * ib[j] : 2 * ib[j] + 2 * tb]  # zero-based views: no index wrap
+            w = wb[j]
             for q in range(tb):
-                re += wb[j, q] * lf[r, b + 2 * q]
-                im += wb[j, q] * lf[r, b + 2 * q + 1]
+                re += w[q] * src[2 * q]
+                im += w[q] * src[2 * q + 1]
             t_re[r, j] = re
             t_im[r, j] = im
     for i in numba.prange(n0):
@@ -501,29 +503,34 @@ def upsample_restore(
         dx0 = x0 + i * ax - fx
         dy0 = y0 + i * ay - fy
         h2 = h * h
+        dst = out[i * n1 : (i + 1) * n1]  # a view indexed from zero: no index wrap, vectorised
         for j in range(n1):
             dx = dx0 + j * bx
             dy = dy0 + j * by
             cyc = kc2 * math.sqrt(dx * dx + dy * dy + h2)
             co, si = cis_cycles32_short(np.float32(cyc - math.floor(cyc + 0.5)))
             vr, vi = scale * row_re[j], scale * row_im[j]
-            out[i * n1 + j] = complex(vr * co - vi * si, vr * si + vi * co)
+            dst[j] = complex(vr * co - vi * si, vr * si + vi * co)
 
 
 @numba.njit(parallel=True, error_model="numpy", cache=CACHE)
 def lattice_deviation(points: np.ndarray, p0: np.ndarray, a: np.ndarray, b: np.ndarray, n1: int) -> float:
-    """The largest distance of points[i n1 + j] (n, 3) from the lattice point p0 + i a + j b in any coordinate
-    (inf where a point is not finite)."""
+    """The largest distance of points[i n1 + j] (n, 3), C-contiguous, from the lattice point p0 + i a + j b in any
+    coordinate (inf where a point is not finite). Row by row through zero-based views (no index wrap)."""
     n0 = len(points) // n1
+    flat = points.reshape(-1)
     dev = np.zeros(n0)
     for i in numba.prange(n0):
+        seg = flat[3 * i * n1 : 3 * (i + 1) * n1]
+        x0, y0, z0 = p0[0] + i * a[0], p0[1] + i * a[1], p0[2] + i * a[2]
         m = 0.0
         total = 0.0  # NaN if any point is
         for j in range(n1):
-            for d in range(3):
-                e = abs(points[i * n1 + j, d] - (p0[d] + i * a[d] + j * b[d]))
-                m = max(m, e)
-                total += e
+            ex = abs(seg[3 * j] - (x0 + j * b[0]))
+            ey = abs(seg[3 * j + 1] - (y0 + j * b[1]))
+            ez = abs(seg[3 * j + 2] - (z0 + j * b[2]))
+            m = max(m, max(ex, max(ey, ez)))
+            total += ex + ey + ez
         dev[i] = m if total == total and total < np.inf else np.inf
     return dev.max() if n0 else 0.0
 
