@@ -212,13 +212,34 @@ def merge_level(
                 pos[k] = (rc - cgeo[c, 3]) * cgeo[c, 10]
                 cy = kc2 * (rc - pgeo[s, 3] - k * pgeo[s, 4])
                 cos_[k], sin_[k] = cis_cycles32_short(np.float32(cy - math.floor(cy + 0.5)))
-            lo = pos[:n_r].min()
-            hi = pos[:n_r].max()
+            lo, hi = pos[0], pos[0]
+            for k in range(n_r):  # a select, not min(): numba's min checks for NaN and stays scalar
+                lo = pos[k] if pos[k] < lo else lo
+                hi = pos[k] if pos[k] > hi else hi
             i_lo = max(0, int(math.floor(lo)) + 1 - taps_r // 2)
             i_hi = min(n_rc - 1, int(math.floor(hi)) + taps_r // 2)
             if i_lo > i_hi:
                 continue
-            if n_tc == 1 and linear_pulses:  # linear reads of a pulse: the weights from the fraction itself
+            if n_tc == 1 and linear_pulses and i_hi > i_lo:
+                # linear reads of a pulse, the weights from the fraction itself, branch-free: the pair of samples
+                # j0, j0 + 1 inside i_lo .. i_hi nearest the read, weighted as the read's own taps where they are
+                pulse = cf[2 * (offc + i_lo) : 2 * (offc + i_hi + 1)]  # a zero-based view: no index wrap
+                last = i_hi - i_lo - 1
+                for k in range(n_r):
+                    f = math.floor(pos[k])
+                    t = np.float32(pos[k] - f)
+                    i0 = int(f) - i_lo
+                    j0 = min(max(i0, 0), last)
+                    one = np.float32(1.0)
+                    w0 = one - t if i0 == j0 else (t if i0 == j0 - 1 else np.float32(0.0))
+                    w1 = t if i0 == j0 else (one - t if i0 == j0 + 1 else np.float32(0.0))
+                    b = 2 * j0
+                    xr = w0 * pulse[b] + w1 * pulse[b + 2]
+                    xi = w0 * pulse[b + 1] + w1 * pulse[b + 3]
+                    acc_re[k] += xr * cos_[k] - xi * sin_[k]
+                    acc_im[k] += xr * sin_[k] + xi * cos_[k]
+                continue
+            if n_tc == 1 and linear_pulses:  # one sample in reach
                 for k in range(n_r):
                     f = math.floor(pos[k])
                     i0 = int(f)
