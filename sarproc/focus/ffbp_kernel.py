@@ -169,10 +169,9 @@ def merge_level(
     steps_t = tab_t.shape[0] - 1
     cf = cbuf.view(np.float32)
     pad = max(taps_r, 2)
-    # scratch along a child's range: its angle reads (children of more than one pulse) and its row (unless every
-    # read is a linear pulse read)
+    # scratch along a child's range (children of more than one pulse): its angle reads and its row
     n_ang = max_child_range if cints[:, 0].max() > 1 else 1
-    n_row = max_child_range + 2 * pad if (n_ang > 1 or not linear_pulses) else 1
+    n_row = max_child_range + 2 * pad if n_ang > 1 else 1
     for job in numba.prange(len(row_parent)):
         s = row_parent[job]
         a = row_angle[job]
@@ -192,6 +191,7 @@ def merge_level(
         vr = np.empty(n_r, np.float32)
         vi = np.empty(n_r, np.float32)
         first = np.empty(n_r, np.int64)
+        wr = np.empty(taps_r, np.float32)
         wra = np.empty((taps_r, n_r), np.float32)
         wta = np.empty((taps_t, n_ang), np.float32)
         # the ray's values along the child's range samples, zero-padded by ``pad`` on each side
@@ -262,10 +262,20 @@ def merge_level(
                     acc_im[k] += xr * sin_[k] + xi * cos_[k]
                 continue
             n_i = i_hi - i_lo + 1
-            if n_tc == 1:  # a pulse read by the range table: its samples i_lo .. i_hi as the row
-                for i in range(n_i):
-                    row_re[pad + i] = cf[2 * (offc + i_lo + i)]
-                    row_im[pad + i] = cf[2 * (offc + i_lo + i) + 1]
+            if n_tc == 1:
+                # a pulse read by the range table (cubic): read by read, its samples a few apart (no runs)
+                for k in range(n_r):
+                    i0 = _fill_weights(tab_r, pos[k], wr)
+                    xr = np.float32(0.0)
+                    xi = np.float32(0.0)
+                    for j in range(taps_r):
+                        if i0 + j >= i_lo and i0 + j <= i_hi:
+                            v = cbuf[offc + i0 + j]
+                            xr += wr[j] * v.real
+                            xi += wr[j] * v.imag
+                    acc_re[k] += xr * cos_[k] - xi * sin_[k]
+                    acc_im[k] += xr * sin_[k] + xi * cos_[k]
+                continue
             else:
                 # pass 1: the child in angle where the ray crosses its range samples i_lo .. i_hi; the crossings'
                 # angle positions by the arctangent's series, valid for |tan| <= 1/4 ahead of the child's centre
