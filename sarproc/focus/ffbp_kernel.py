@@ -391,8 +391,8 @@ def final_points(
     n = len(px)
     chunk = 1024
     for b in numba.prange((n + chunk - 1) // chunk):
-        wr = np.empty(tab_r.shape[1], np.float32)
-        wt = np.empty(max(tab_t.shape[1], 1), np.float32)
+        wr1 = np.empty(tab_r.shape[1], np.float32)  # scratch of the one-pulse reads
+        wt1 = np.empty(max(tab_t.shape[1], 1), np.float32)
         lo, hi = b * chunk, min(n, (b + 1) * chunk)
         m = hi - lo
         acc_re = np.zeros(m)
@@ -410,7 +410,7 @@ def final_points(
                     if not restore:
                         dx, dy, dz = px[i] - geo[0, 0], py[i] - geo[0, 1], geo[0, 2] - pz[i]
                         r_ref = math.sqrt(dx * dx + dy * dy + dz * dz)
-                    vr, vi = _read(buf, geo, ints, c, px[i], py[i], pz[i], r_ref, kc2, tab_r, tab_t, wr, wt)
+                    vr, vi = _read(buf, geo, ints, c, px[i], py[i], pz[i], r_ref, kc2, tab_r, tab_t, wr1, wt1)
                     acc_re[i - lo] += vr
                     acc_im[i - lo] += vi
                 continue
@@ -442,9 +442,14 @@ def final_points(
                     p_t[j] = (th - geo[c, 6]) * geo[c, 11]
             taps_r = tab_r.shape[1]
             taps_t = tab_t.shape[1]
+            steps_r, steps_t = tab_r.shape[0] - 1, tab_t.shape[0] - 1
             for j in range(m):
-                i0 = _fill_weights(tab_r, p_r[j], wr)
-                a0 = _fill_weights(tab_t, p_t[j], wt)
+                # the tables' nearest rows as views (no copy)
+                f_r, f_t = math.floor(p_r[j]), math.floor(p_t[j])
+                i0 = int(f_r) + 1 - taps_r // 2
+                a0 = int(f_t) + 1 - taps_t // 2
+                wr = tab_r[int((p_r[j] - f_r) * steps_r + 0.5)]
+                wt = tab_t[int((p_t[j] - f_t) * steps_t + 0.5)]
                 re = np.float32(0.0)
                 im = np.float32(0.0)
                 if i0 >= 0 and i0 + taps_r <= n_r and a0 >= 0 and a0 + taps_t <= n_t:
