@@ -362,7 +362,9 @@ def ffbp_points(
     :func:`predicted_error`. rc, range_time, gate_offset, upsample and interpolation ('linear' / 'cubic' on the
     upsampled pulse) as there; factor: subapertures merged per level; oversample: polar grid sampling over Nyquist;
     ffbp_interpolation: 'cubic' or 'linear' reads of the polar images; grid_shape: (n_az, n_rg) if the points are a
-    grid in that order (its edges bound it). ``info`` (a dict) receives the levels and grid sizes.
+    grid in that order (its edges bound it; a regular lattice gives the plane coordinates without a pass over the
+    points and, when finer than the image's bandwidth, is read on a coarse grid and upsampled). ``info`` (a dict)
+    receives the levels and grid sizes.
     Returns (n_points,) complex128: the sum over pulses divided by n_az."""
     import numba
 
