@@ -719,13 +719,15 @@ def main(argv: list[str] | None = None) -> None:
 
 # ---- fast factorised backprojection against the exact engine and FastSAR (`bench.py ffbp ...`) ---------------
 # (factor, first factor, oversample, interpolation, taps, pulse reads): the first version's default (cubic reads,
-# q = 4), then Knab reads; the last reads the pulses cubic x8, as the second exact image does
+# q = 4), then Knab reads (knab 10 at q = 1.75 the default until 2026-12-02, knab 12 at q = 1.5 since); the last
+# reads the pulses cubic x8, as the second exact image does
 FFBP_SETTINGS = [
     (4, 4, 4.0, "cubic", 4, "linear"),
     (4, 16, 1.5, "knab", 8, "linear"),
     (4, 16, 2.0, "knab", 8, "linear"),
     (4, 16, 1.75, "knab", 10, "linear"),
-    (4, 16, 1.75, "knab", 10, "cubic"),
+    (4, 16, 1.5, "knab", 12, "linear"),
+    (4, 16, 1.5, "knab", 12, "cubic"),
 ]
 
 

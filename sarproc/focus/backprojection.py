@@ -438,7 +438,7 @@ class BackprojectParams:
         doc="ffbp: pulses merged by the first level (cheap 1D reads of the pulses; larger saves a level)",
     )
     ffbp_oversample: float = param(
-        default=1.75,
+        default=1.5,
         ge=1.0,
         le=16.0,
         doc="ffbp: polar grid sampling over Nyquist "
@@ -449,7 +449,7 @@ class BackprojectParams:
         choices=("knab", "cubic", "linear"),
         doc="ffbp: reads of the polar subimages (ffbp_taps-tap Knab for the oversampling, 4-sample Lagrange or linear)",
     )
-    ffbp_taps: int = param(default=10, ge=2, le=16, doc="ffbp: taps per axis of the knab reads (even)")
+    ffbp_taps: int = param(default=12, ge=2, le=16, doc="ffbp: taps per axis of the knab reads (even)")
     range_window: str = param(default="none", choices=WINDOWS, doc="range spectral taper (README: Windows)")
     azimuth_window: str = param(default="none", choices=WINDOWS, doc="taper over the pulses (README: Windows)")
     max_pixels: int = param(default=16_000_000, ge=1, doc="refuse grids larger than this")

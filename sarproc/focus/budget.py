@@ -174,12 +174,13 @@ def backproject_estimate(stage: str, header: Product, params: Any, memory_limit:
         # all pulses upsampled at once, and two levels' polar images (at most ~q^2 samples per pixel each)
         memory += complex_bytes(n_az, n_rg * params.upsample) + 2 * complex_bytes(n_pix) * q * q
         # ~q^2 / 3 polar samples per pixel per level (pixels ~3 per resolution cell); one core's time per read
-        # measured on the 1024^2 bench grid (scripts/bench.py ffbp stage times x 2 cores): a pulse read of the
-        # first level ~11 ns, a two-pass polar read ~(3 taps + 12) ns, an output pixel's 2D read ~2.5 taps^2 ns
-        per_sample = (params.ffbp_first_factor or params.ffbp_factor) * 11e-9 + (len(lengths) - 1) * (
-            params.ffbp_factor * (3 * taps + 12) * 1e-9
+        # measured on the 1024^2 bench grid (scripts/bench.py ffbp stage times x 2 cores, the third round's
+        # vectorised kernels): a pulse read of the first level ~6 ns, a two-pass polar read ~(taps + 12) ns, an
+        # output point's 2D read ~0.85 taps^2 ns (every pixel: an upper bound where a coarse grid is read instead)
+        per_sample = (params.ffbp_first_factor or params.ffbp_factor) * 6e-9 + (len(lengths) - 1) * (
+            params.ffbp_factor * (taps + 12) * 1e-9
         )
-        seconds = n_ch * (n_pix * q * q / 3 * per_sample + n_pix * 2.5e-9 * taps * taps)
+        seconds = n_ch * (n_pix * q * q / 3 * per_sample + n_pix * 0.85e-9 * taps * taps)
         first = "" if params.ffbp_first_factor == params.ffbp_factor else f" (first {params.ffbp_first_factor})"
         reads = f"knab {taps}" if params.ffbp_interpolation == "knab" else params.ffbp_interpolation
         detail += (

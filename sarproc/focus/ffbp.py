@@ -200,6 +200,28 @@ def _plane(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.n
     return origin, vt[0], vt[1], vt[2]
 
 
+def _lattice(
+    points: np.ndarray, grid_shape: tuple[int, int] | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """(first point, step along axis 0, step along axis 1) when the points are that regular (n0, n1) lattice,
+    every point within a millionth of a step of it (checked on all points, compiled: a few ms a million points);
+    else None."""
+    from sarproc.focus import ffbp_kernel as fk
+
+    if grid_shape is None or min(grid_shape) < 2 or grid_shape[0] * grid_shape[1] != len(points):
+        return None
+    n0, n1 = grid_shape
+    p0 = points[0].copy()
+    a = (points[(n0 - 1) * n1] - p0) / (n0 - 1)
+    b = (points[n1 - 1] - p0) / (n1 - 1)
+    la, lb = np.linalg.norm(a), np.linalg.norm(b)
+    if not (la > 0 and lb > 0) or np.linalg.norm(np.cross(a, b)) < 1e-6 * la * lb:
+        return None
+    if fk.lattice_deviation(np.ascontiguousarray(points), p0, a, b, n1) > 1e-6 * min(la, lb):
+        return None
+    return p0, a, b
+
+
 def _boundary(xy: np.ndarray, grid_shape: tuple[int, int] | None) -> np.ndarray:
     """Points on the image's boundary in plane coordinates: the grid's edges, else the convex hull."""
     if grid_shape is not None:
@@ -215,32 +237,26 @@ def _boundary(xy: np.ndarray, grid_shape: tuple[int, int] | None) -> np.ndarray:
         return xy
 
 
-CARTESIAN_TAPS, CARTESIAN_OVERSAMPLE = 8, 2.5  # the upsampling's reads: below -71 dB each (interpolation_error)
+# the upsampling's reads: -80 dB each (interpolation_error), far below the polar reads' and the pulses' floor
+CARTESIAN_TAPS, CARTESIAN_OVERSAMPLE = 12, 1.75
+CARTESIAN_FILL = 0.75  # the coarse grid is used when it has at most this many points per output point
 
 
 def _cartesian_grid(
-    xy: np.ndarray,
-    grid_shape: tuple[int, int] | None,
+    xy0: np.ndarray,
+    a: np.ndarray,
+    b: np.ndarray,
+    grid_shape: tuple[int, int],
     top_geo: np.ndarray,
-    top_ints: np.ndarray,
     oversample: float,
     boundary: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[int, int], np.ndarray, np.ndarray] | None:
-    """A coarse grid along the output grid's axes that samples the top image (demodulated by the carrier of the
-    range from its centre: a baseband image) CARTESIAN_OVERSAMPLE times its bandwidth along each axis, when the
-    output grid is regular and at least twice as dense; else None. Returns its origin and steps (plane
-    coordinates), shape, and the output rows' and columns' positions in its samples."""
-    if grid_shape is None or min(grid_shape) < 2:
-        return None
+    """A coarse grid along the axes of the output lattice (first point xy0, steps a and b in plane coordinates)
+    that samples the top image (demodulated by the carrier of the range from its centre: a baseband image)
+    CARTESIAN_OVERSAMPLE times its bandwidth along each axis, when the output grid is at least 1 / CARTESIAN_FILL
+    times as dense; else None. Returns its origin and steps (plane coordinates), shape, and the output rows' and
+    columns' positions in its samples."""
     n0, n1 = grid_shape
-    a, b = xy[n1] - xy[0], xy[1] - xy[0]
-    # regular: every point on the lattice of its first steps (checked on ~64 k points spread over the grid, and
-    # the last row and column)
-    pick = np.unique(np.r_[np.arange(0, len(xy), max(1, len(xy) // 65536)), np.arange(n1 - 1, len(xy), n1)])
-    pick = np.unique(np.r_[pick, np.arange(len(xy) - n1, len(xy))])
-    ii, jj = np.divmod(pick, n1)
-    if np.abs(xy[0] + ii[:, None] * a + jj[:, None] * b - xy[pick]).max() > 1e-6 * min(np.hypot(*a), np.hypot(*b)):
-        return None
     # band half-widths (cycles per metre) of the top polar image: B/c radially, 1 / (2 q dtheta rho) across
     fx, fy, _, _, dr, th_mid, _, dth = top_geo[:8]
     d = boundary - [fx, fy]
@@ -261,9 +277,9 @@ def _cartesian_grid(
         steps.append(u * step)
         counts.append(int(np.ceil((n - 1) * length / step)) + 2 * margin + 1)
         pos.append(margin + np.arange(n) * length / step)
-    if counts[0] * counts[1] * 2 > n0 * n1:
+    if counts[0] * counts[1] > CARTESIAN_FILL * n0 * n1:
         return None
-    origin = xy[0] - margin * (steps[0] + steps[1])
+    origin = xy0 - margin * (steps[0] + steps[1])
     return origin, steps[0], steps[1], (counts[0], counts[1]), pos[0], pos[1]
 
 
@@ -346,7 +362,9 @@ def ffbp_points(
     :func:`predicted_error`. rc, range_time, gate_offset, upsample and interpolation ('linear' / 'cubic' on the
     upsampled pulse) as there; factor: subapertures merged per level; oversample: polar grid sampling over Nyquist;
     ffbp_interpolation: 'cubic' or 'linear' reads of the polar images; grid_shape: (n_az, n_rg) if the points are a
-    grid in that order (its edges bound it). ``info`` (a dict) receives the levels and grid sizes.
+    grid in that order (its edges bound it; a regular lattice gives the plane coordinates without a pass over the
+    points and, when finer than the image's bandwidth, is read on a coarse grid and upsampled). ``info`` (a dict)
+    receives the levels and grid sizes.
     Returns (n_points,) complex128: the sum over pulses divided by n_az."""
     import numba
 
@@ -370,19 +388,38 @@ def ffbp_points(
         return np.zeros(0, np.complex128)
     gate = np.zeros(n_az) if gate_offset is None else np.asarray(gate_offset, float)
     dt = (range_time[-1] - range_time[0]) / (n_rg - 1) if n_rg > 1 else 1.0
-    origin, e1, e2, nrm = _plane(points)
-    rel = points - origin
-    xy = np.stack([rel @ e1, rel @ e2], axis=-1)
-    pz = rel @ nrm
-    if np.abs(pz).max() > 1e-3 * C / carrier_frequency:
-        raise ValueError(
-            f"ffbp needs the points on a plane: they leave their best plane by up to "
-            f"{np.abs(pz).max():.3g} m (more than a thousandth of a wavelength)"
-        )
+    lattice = _lattice(points, grid_shape)
+    if lattice is not None:
+        # a regular grid (every frame's plane grids): its plane and plane coordinates from the lattice itself, no
+        # pass over all points (~1.5 s at 4096^2)
+        p0, la, lb = lattice
+        n0, n1 = grid_shape  # type: ignore[misc]
+        e1 = la / np.linalg.norm(la)
+        nrm = np.cross(la, lb)
+        nrm /= np.linalg.norm(nrm)
+        e2 = np.cross(nrm, e1)
+        origin = p0 + 0.5 * ((n0 - 1) * la + (n1 - 1) * lb)
+        xy0 = np.array([(p0 - origin) @ e1, (p0 - origin) @ e2])
+        a_xy, b_xy = np.array([la @ e1, la @ e2]), np.array([lb @ e1, lb @ e2])
+        ii, jj = np.arange(n0)[:, None], np.arange(n1)[None, :]
+        rows, cols = np.arange(n0), np.arange(n1)
+        edge_ij = [(0 * cols, cols), (0 * cols + n0 - 1, cols), (rows, 0 * rows), (rows, 0 * rows + n1 - 1)]
+        boundary = np.concatenate([xy0 + i[:, None] * a_xy + j[:, None] * b_xy for i, j in edge_ij])
+        xy = pz = None
+    else:
+        origin, e1, e2, nrm = _plane(points)
+        rel = points - origin
+        xy = np.stack([rel @ e1, rel @ e2], axis=-1)
+        pz = rel @ nrm
+        if np.abs(pz).max() > 1e-3 * C / carrier_frequency:
+            raise ValueError(
+                f"ffbp needs the points on a plane: they leave their best plane by up to "
+                f"{np.abs(pz).max():.3g} m (more than a thousandth of a wavelength)"
+            )
+        boundary = _boundary(xy, grid_shape)
     ant = pos - origin
     ant_xy = np.stack([ant @ e1, ant @ e2], axis=-1)
     ant_h = ant @ nrm
-    boundary = _boundary(xy, grid_shape)
     centre_xy = boundary.mean(axis=0)  # inside the image (a mean over all points costs ~0.2 s at 4096^2)
     kc2 = 2.0 * carrier_frequency / C
     f_max = carrier_frequency + 0.5 * bandwidth
@@ -477,16 +514,22 @@ def ffbp_points(
             cbuf, cgeo, cints, tab_c = pbuf, g, it, tab_r
             seconds.append(time.perf_counter())
         out = np.empty(len(points), np.complex128)
-        coarse = _cartesian_grid(xy, grid_shape, cgeo[0], cints[0], oversample, boundary)
+        coarse = None
+        if lattice is not None:
+            coarse = _cartesian_grid(xy0, a_xy, b_xy, (n0, n1), cgeo[0], oversample, boundary)
+            if coarse is None:  # the lattice's points, for the reads at every point
+                xy = (xy0 + ii[..., None] * a_xy + jj[..., None] * b_xy).reshape(-1, 2)
+                pz = np.zeros(len(xy))
         if coarse is None:
+            assert xy is not None and pz is not None
             fk.final_points(
                 cbuf,
                 cbuf.view(np.float32),
                 cgeo,
                 cints,
-                xy[:, 0].copy(),
-                xy[:, 1].copy(),
-                pz.copy(),
+                np.ascontiguousarray(xy[:, 0]),
+                np.ascontiguousarray(xy[:, 1]),
+                np.ascontiguousarray(pz),
                 kc2,
                 tab_c,
                 tab_t,
@@ -522,20 +565,18 @@ def ffbp_points(
             low_c = low.astype(np.complex64).reshape(shape_c)
             ia, wa = _upsampling_weights(pos_a, shape_c[0])
             ib, wb = _upsampling_weights(pos_b, shape_c[1])
-            a_xy, b_xy = xy[len(pos_b)] - xy[0], xy[1] - xy[0]
             fk.upsample_restore(
                 low_c,
                 ia,
                 wa,
                 ib,
                 wb,
-                xy[0, 0],
-                xy[0, 1],
+                xy0[0],
+                xy0[1],
                 a_xy[0],
                 a_xy[1],
                 b_xy[0],
                 b_xy[1],
-                np.ascontiguousarray(pz),
                 cgeo[0, 0],
                 cgeo[0, 1],
                 cgeo[0, 2],

@@ -159,11 +159,20 @@ def merge_level(
     samples, at the point where the ray crosses each (the row's values as a function of the child's range, band
     limited like the child's rows since the ray's angle from the child drifts by about a sample over the whole
     image), then in range at the parent's samples: taps_r + taps_t multiply-adds a read instead of their product.
-    ``linear_pulses``: single-pulse children are read linearly with weights from the fraction itself."""
+    ``linear_pulses``: single-pulse children are read linearly with weights from the fraction itself.
+
+    Both passes loop over samples innermost and over taps outside (gathers of the tables' weights and of the
+    samples, taps outside a child masked to zero), so that they vectorise."""
     taps_r = tab_r.shape[1]
+    taps_t = tab_t.shape[1]
+    steps_r = tab_r.shape[0] - 1
+    steps_t = tab_t.shape[0] - 1
+    cf = cbuf.view(np.float32)
+    pad = max(taps_r, 2)
+    # scratch along a child's range (children of more than one pulse): its angle reads and its row
+    n_ang = max_child_range if cints[:, 0].max() > 1 else 1
+    n_row = max_child_range + 2 * pad if n_ang > 1 else 1
     for job in numba.prange(len(row_parent)):
-        wr = np.empty(taps_r, np.float32)
-        wt = np.empty(tab_t.shape[1], np.float32)
         s = row_parent[job]
         a = row_angle[job]
         th = pgeo[s, 5] + pgeo[s, 6] + a * pgeo[s, 7]
@@ -179,8 +188,17 @@ def merge_level(
         pos = np.empty(n_r)
         cos_ = np.empty(n_r, np.float32)
         sin_ = np.empty(n_r, np.float32)
-        row = np.empty(max_child_range, np.complex64)
-        ang = np.empty(max_child_range)
+        vr = np.empty(n_r, np.float32)
+        vi = np.empty(n_r, np.float32)
+        first = np.empty(n_r, np.int64)
+        wr = np.empty(taps_r, np.float32)
+        wra = np.empty((taps_r, n_r), np.float32)
+        wta = np.empty((taps_t, n_ang), np.float32)
+        # the ray's values along the child's range samples, zero-padded by ``pad`` on each side
+        row_re = np.zeros(n_row, np.float32)
+        row_im = np.zeros(n_row, np.float32)
+        ang = np.empty(n_ang)
+        a0 = np.empty(n_ang, np.int64)
         for c in range(first_child[s], first_child[s + 1]):
             n_tc, n_rc, offc = cints[c, 0], cints[c, 1], cints[c, 2]
             # the child's range along the ray: u . d and |d|^2 + h^2 of the parent foot from the child's centre
@@ -194,103 +212,161 @@ def merge_level(
                 pos[k] = (rc - cgeo[c, 3]) * cgeo[c, 10]
                 cy = kc2 * (rc - pgeo[s, 3] - k * pgeo[s, 4])
                 cos_[k], sin_[k] = cis_cycles32_short(np.float32(cy - math.floor(cy + 0.5)))
-            lo = pos[:n_r].min()
-            hi = pos[:n_r].max()
+            lo, hi = pos[0], pos[0]
+            for k in range(n_r):  # a select, not min(): numba's min checks for NaN and stays scalar
+                lo = pos[k] if pos[k] < lo else lo
+                hi = pos[k] if pos[k] > hi else hi
             i_lo = max(0, int(math.floor(lo)) + 1 - taps_r // 2)
             i_hi = min(n_rc - 1, int(math.floor(hi)) + taps_r // 2)
             if i_lo > i_hi:
                 continue
+            if n_tc == 1 and linear_pulses and i_hi > i_lo:
+                # linear reads of a pulse, the weights from the fraction itself, branch-free: the pair of samples
+                # j0, j0 + 1 inside i_lo .. i_hi nearest the read, weighted as the read's own taps where they are
+                pulse = cf[2 * (offc + i_lo) : 2 * (offc + i_hi + 1)]  # a zero-based view: no index wrap
+                last = i_hi - i_lo - 1
+                for k in range(n_r):
+                    f = math.floor(pos[k])
+                    t = np.float32(pos[k] - f)
+                    i0 = int(f) - i_lo
+                    j0 = min(max(i0, 0), last)
+                    one = np.float32(1.0)
+                    w0 = one - t if i0 == j0 else (t if i0 == j0 - 1 else np.float32(0.0))
+                    w1 = t if i0 == j0 else (one - t if i0 == j0 + 1 else np.float32(0.0))
+                    b = 2 * j0
+                    xr = w0 * pulse[b] + w1 * pulse[b + 2]
+                    xi = w0 * pulse[b + 1] + w1 * pulse[b + 3]
+                    acc_re[k] += xr * cos_[k] - xi * sin_[k]
+                    acc_im[k] += xr * sin_[k] + xi * cos_[k]
+                continue
+            if n_tc == 1 and linear_pulses:  # one sample in reach
+                for k in range(n_r):
+                    f = math.floor(pos[k])
+                    i0 = int(f)
+                    t = np.float32(pos[k] - f)
+                    if i0 >= i_lo and i0 + 1 <= i_hi:
+                        v0 = cbuf[offc + i0]
+                        v1 = cbuf[offc + i0 + 1]
+                        xr = v0.real + t * (v1.real - v0.real)
+                        xi = v0.imag + t * (v1.imag - v0.imag)
+                    else:
+                        xr = np.float32(0.0)
+                        xi = np.float32(0.0)
+                        if i0 >= i_lo and i0 <= i_hi:
+                            xr += (1 - t) * cbuf[offc + i0].real
+                            xi += (1 - t) * cbuf[offc + i0].imag
+                        if i0 + 1 >= i_lo and i0 + 1 <= i_hi:
+                            xr += t * cbuf[offc + i0 + 1].real
+                            xi += t * cbuf[offc + i0 + 1].imag
+                    acc_re[k] += xr * cos_[k] - xi * sin_[k]
+                    acc_im[k] += xr * sin_[k] + xi * cos_[k]
+                continue
+            n_i = i_hi - i_lo + 1
             if n_tc == 1:
-                src, base = cbuf, offc
+                # a pulse read by the range table (cubic): read by read, its samples a few apart (no runs)
+                for k in range(n_r):
+                    i0 = _fill_weights(tab_r, pos[k], wr)
+                    xr = np.float32(0.0)
+                    xi = np.float32(0.0)
+                    for j in range(taps_r):
+                        if i0 + j >= i_lo and i0 + j <= i_hi:
+                            v = cbuf[offc + i0 + j]
+                            xr += wr[j] * v.real
+                            xi += wr[j] * v.imag
+                    acc_re[k] += xr * cos_[k] - xi * sin_[k]
+                    acc_im[k] += xr * sin_[k] + xi * cos_[k]
+                continue
             else:
-                # pass 1: the child in angle where the ray crosses its range samples i_lo .. i_hi
-                taps_t = tab_t.shape[1]
-                # the crossings' angle positions, branch-free and vectorised: the arctangent's series, valid for
-                # |tan| <= 1/4 ahead of the child's centre line (polar grids span a few degrees); any other
-                # crossing (or none: disc < 0) is redone below
+                # pass 1: the child in angle where the ray crosses its range samples i_lo .. i_hi; the crossings'
+                # angle positions by the arctangent's series, valid for |tan| <= 1/4 ahead of the child's centre
+                # line (polar grids span a few degrees); any other crossing (or none: disc < 0) is redone below
                 cm, sm = cgeo[c, 8], cgeo[c, 9]
                 odd = 0
-                for i in range(i_lo, i_hi + 1):
-                    rci = cgeo[c, 3] + i * cgeo[c, 4]
+                for i in range(n_i):
+                    rci = cgeo[c, 3] + (i_lo + i) * cgeo[c, 4]
                     disc = ud * ud - c0 + rci * rci
                     rr = math.sqrt(max(disc, 0.0)) - ud
                     dx = dx0 + rr * ct
                     dy = dy0 + rr * st
                     dot = dx * cm + dy * sm
                     crs = dy * cm - dx * sm
-                    z = crs / dot
-                    ang[i] = (_atan_series(z) - cgeo[c, 6]) * cgeo[c, 11]
+                    ang[i] = (_atan_series(crs / dot) - cgeo[c, 6]) * cgeo[c, 11]
                     odd += (disc < 0.0) | (dot <= 0.0) | (abs(crs) > 0.25 * dot)
                 if odd:
-                    for i in range(i_lo, i_hi + 1):
-                        rci = cgeo[c, 3] + i * cgeo[c, 4]
+                    for i in range(n_i):
+                        rci = cgeo[c, 3] + (i_lo + i) * cgeo[c, 4]
                         disc = ud * ud - c0 + rci * rci
                         rr = math.sqrt(max(disc, 0.0)) - ud
                         th = _relative_angle(dx0 + rr * ct, dy0 + rr * st, cm, sm)
+                        # the ray never reaches this range: a position that no tap reaches
                         ang[i] = (th - cgeo[c, 6]) * cgeo[c, 11] if disc >= 0.0 else -1e9
-                for i in range(i_lo, i_hi + 1):
-                    if ang[i] < -1e8:  # the ray never reaches this range
-                        row[i] = 0
-                        continue
-                    a0 = _fill_weights(tab_t, ang[i], wt)
-                    vr = np.float32(0.0)
-                    vi = np.float32(0.0)
-                    if a0 >= 0 and a0 + taps_t <= n_tc:
-                        b = offc + a0 * n_rc + i
-                        for m in range(taps_t):
-                            v = cbuf[b + m * n_rc]
-                            vr += wt[m] * v.real
-                            vi += wt[m] * v.imag
-                    else:
-                        for m in range(taps_t):
-                            if a0 + m >= 0 and a0 + m < n_tc:
-                                v = cbuf[offc + (a0 + m) * n_rc + i]
-                                vr += wt[m] * v.real
-                                vi += wt[m] * v.imag
-                    row[i] = complex(vr, vi)
-                src, base = row, 0
-            # pass 2: in range at the parent's samples, re-referenced to the parent's range carrier
-            if n_tc == 1 and linear_pulses:  # linear reads of a pulse: the weights from the fraction itself
-                for k in range(n_r):
-                    f = math.floor(pos[k])
-                    i0 = int(f)
-                    t = np.float32(pos[k] - f)
-                    if i0 >= i_lo and i0 + 1 <= i_hi:
-                        v0 = src[base + i0]
-                        v1 = src[base + i0 + 1]
-                        vr = v0.real + t * (v1.real - v0.real)
-                        vi = v0.imag + t * (v1.imag - v0.imag)
-                    else:
-                        vr = np.float32(0.0)
-                        vi = np.float32(0.0)
-                        if i0 >= i_lo and i0 <= i_hi:
-                            vr += (1 - t) * src[base + i0].real
-                            vi += (1 - t) * src[base + i0].imag
-                        if i0 + 1 >= i_lo and i0 + 1 <= i_hi:
-                            vr += t * src[base + i0 + 1].real
-                            vi += t * src[base + i0 + 1].imag
-                    acc_re[k] += vr * cos_[k] - vi * sin_[k]
-                    acc_im[k] += vr * sin_[k] + vi * cos_[k]
-                continue
+                for i in range(n_i):
+                    p = min(max(ang[i], -2.0 * taps_t), n_tc + 2.0 * taps_t)
+                    f = math.floor(p)
+                    a0[i] = int(f) + 1 - taps_t // 2
+                    cl = int((p - f) * steps_t + 0.5)
+                    for m in range(taps_t):
+                        wta[m, i] = tab_t[cl, m]
+                    row_re[pad + i] = 0.0
+                    row_im[pad + i] = 0.0
+                # runs of equal first angle sample (the crossings drift by about a sample over the image): each
+                # tap of a run reads one child row contiguously
+                i = 0
+                while i < n_i:
+                    e = i + 1
+                    while e < n_i and a0[e] == a0[i]:
+                        e += 1
+                    dst_re = row_re[pad + i : pad + e]
+                    dst_im = row_im[pad + i : pad + e]
+                    for m in range(taps_t):
+                        aa = a0[i] + m
+                        if aa < 0 or aa >= n_tc:
+                            continue
+                        b = offc + aa * n_rc + i_lo
+                        src = cbuf[b + i : b + e]
+                        w = wta[m, i:e]
+                        for u in range(e - i):
+                            dst_re[u] += w[u] * src[u].real
+                            dst_im[u] += w[u] * src[u].imag
+                    i = e
+            # pass 2: in range at the parent's samples, re-referenced to the parent's range carrier; taps outside
+            # i_lo .. i_hi read the row's zero padding
+            for i in range(pad):
+                row_re[pad + n_i + i] = 0.0
+                row_im[pad + n_i + i] = 0.0
             for k in range(n_r):
-                i0 = _fill_weights(tab_r, pos[k], wr)
-                vr = np.float32(0.0)
-                vi = np.float32(0.0)
-                if i0 >= i_lo and i0 + taps_r - 1 <= i_hi:
-                    for j in range(taps_r):
-                        v = src[base + i0 + j]
-                        vr += wr[j] * v.real
-                        vi += wr[j] * v.imag
-                else:
-                    for j in range(taps_r):
-                        if i0 + j >= i_lo and i0 + j <= i_hi:
-                            v = src[base + i0 + j]
-                            vr += wr[j] * v.real
-                            vi += wr[j] * v.imag
-                acc_re[k] += vr * cos_[k] - vi * sin_[k]
-                acc_im[k] += vr * sin_[k] + vi * cos_[k]
+                p = min(max(pos[k], i_lo - 2.0 * pad), i_hi + 2.0 * pad)
+                f = math.floor(p)
+                first[k] = min(max(int(f) + 1 - taps_r // 2 - i_lo, -pad), n_i) + pad
+                cl = int((p - f) * steps_r + 0.5)
+                for j in range(taps_r):
+                    wra[j, k] = tab_r[cl, j]
+                vr[k] = 0.0
+                vi[k] = 0.0
+            # runs of equal offset between the parent's and the child's samples (they drift by a few samples over
+            # the image): each tap of a run reads the row contiguously
+            k = 0
+            while k < n_r:
+                e = k + 1
+                while e < n_r and first[e] - e == first[k] - k:
+                    e += 1
+                d = first[k] - k
+                dst_re = vr[k:e]
+                dst_im = vi[k:e]
+                for j in range(taps_r):
+                    src_re = row_re[k + d + j : e + d + j]
+                    src_im = row_im[k + d + j : e + d + j]
+                    w = wra[j, k:e]
+                    for u in range(e - k):
+                        dst_re[u] += w[u] * src_re[u]
+                        dst_im[u] += w[u] * src_im[u]
+                k = e
+            for k in range(n_r):
+                acc_re[k] += vr[k] * cos_[k] - vi[k] * sin_[k]
+                acc_im[k] += vr[k] * sin_[k] + vi[k] * cos_[k]
+        dst = pbuf[off : off + n_r]
         for k in range(n_r):
-            pbuf[off + k] = complex(acc_re[k], acc_im[k])
+            dst[k] = complex(acc_re[k], acc_im[k])
 
 
 @numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
@@ -315,8 +391,8 @@ def final_points(
     n = len(px)
     chunk = 1024
     for b in numba.prange((n + chunk - 1) // chunk):
-        wr = np.empty(tab_r.shape[1], np.float32)
-        wt = np.empty(max(tab_t.shape[1], 1), np.float32)
+        wr1 = np.empty(tab_r.shape[1], np.float32)  # scratch of the one-pulse reads
+        wt1 = np.empty(max(tab_t.shape[1], 1), np.float32)
         lo, hi = b * chunk, min(n, (b + 1) * chunk)
         m = hi - lo
         acc_re = np.zeros(m)
@@ -334,7 +410,7 @@ def final_points(
                     if not restore:
                         dx, dy, dz = px[i] - geo[0, 0], py[i] - geo[0, 1], geo[0, 2] - pz[i]
                         r_ref = math.sqrt(dx * dx + dy * dy + dz * dz)
-                    vr, vi = _read(buf, geo, ints, c, px[i], py[i], pz[i], r_ref, kc2, tab_r, tab_t, wr, wt)
+                    vr, vi = _read(buf, geo, ints, c, px[i], py[i], pz[i], r_ref, kc2, tab_r, tab_t, wr1, wt1)
                     acc_re[i - lo] += vr
                     acc_im[i - lo] += vi
                 continue
@@ -366,9 +442,14 @@ def final_points(
                     p_t[j] = (th - geo[c, 6]) * geo[c, 11]
             taps_r = tab_r.shape[1]
             taps_t = tab_t.shape[1]
+            steps_r, steps_t = tab_r.shape[0] - 1, tab_t.shape[0] - 1
             for j in range(m):
-                i0 = _fill_weights(tab_r, p_r[j], wr)
-                a0 = _fill_weights(tab_t, p_t[j], wt)
+                # the tables' nearest rows as views (no copy)
+                f_r, f_t = math.floor(p_r[j]), math.floor(p_t[j])
+                i0 = int(f_r) + 1 - taps_r // 2
+                a0 = int(f_t) + 1 - taps_t // 2
+                wr = tab_r[int((p_r[j] - f_r) * steps_r + 0.5)]
+                wt = tab_t[int((p_t[j] - f_t) * steps_t + 0.5)]
                 re = np.float32(0.0)
                 im = np.float32(0.0)
                 if i0 >= 0 and i0 + taps_r <= n_r and a0 >= 0 and a0 + taps_t <= n_t:
@@ -376,8 +457,10 @@ def final_points(
                     col[:] = 0.0
                     for q in range(taps_t):
                         base = 2 * (off + (a0 + q) * n_r + i0)
+                        src = fbuf[base : base + 2 * taps_r]  # a view indexed from zero: no index wrap, vectorised
+                        w = wt[q]
                         for k in range(2 * taps_r):
-                            col[k] += wt[q] * fbuf[base + k]
+                            col[k] += w * src[k]
                     for k in range(taps_r):
                         re += wr[k] * col[2 * k]
                         im += wr[k] * col[2 * k + 1]
@@ -414,7 +497,6 @@ def upsample_restore(
     ay: float,
     bx: float,
     by: float,
-    pz: np.ndarray,
     fx: float,
     fy: float,
     h: float,
@@ -424,34 +506,69 @@ def upsample_restore(
 ) -> None:
     """The coarse baseband image ``low`` (n_a, n_b) upsampled separably to the output grid and remodulated:
     out[i n1 + j] = scale exp(j 2 pi kc2 r) sum_m sum_l wa[i, m] wb[j, l] low[ia[i] + m, ib[j] + l] for the grid
-    point (x0 + i ax + j bx, y0 + i ay + j by), offset pz[i n1 + j] along the normal, r its range from (fx, fy, h).
-    Per output row the coarse rows are combined first (contiguous, vectorised), then read along the row."""
+    point (x0 + i ax + j bx, y0 + i ay + j by) of the plane, r its range from (fx, fy, h) (h off the plane).
+    The coarse rows are read at the output columns first (n_a rows, fewer than the output's), then each output row
+    combines them (contiguous, vectorised) and is remodulated in a separate vectorised loop."""
     n0, n1 = len(ia), len(ib)
-    n_b = low.shape[1]
+    n_a = low.shape[0]
     ta, tb = wa.shape[1], wb.shape[1]
-    for i in numba.prange(n0):
-        line_re = np.zeros(n_b, np.float32)
-        line_im = np.zeros(n_b, np.float32)
-        for m in range(ta):
-            w = wa[i, m]
-            src = low[ia[i] + m]
-            for q in range(n_b):
-                line_re[q] += w * src[q].real
-                line_im[q] += w * src[q].imag
+    lf = low.view(np.float32)  # (n_a, 2 n_b): re, im pairs
+    t_re = np.empty((n_a, n1), np.float32)
+    t_im = np.empty((n_a, n1), np.float32)
+    for r in numba.prange(n_a):
         for j in range(n1):
             re = np.float32(0.0)
             im = np.float32(0.0)
-            b = ib[j]
+            src = lf[r, 2 * ib[j] : 2 * ib[j] + 2 * tb]  # zero-based views: no index wrap
+            w = wb[j]
             for q in range(tb):
-                re += wb[j, q] * line_re[b + q]
-                im += wb[j, q] * line_im[b + q]
-            dx = x0 + i * ax + j * bx - fx
-            dy = y0 + i * ay + j * by - fy
-            dz = h - pz[i * n1 + j]
-            cyc = kc2 * math.sqrt(dx * dx + dy * dy + dz * dz)
-            cyc -= math.floor(cyc + 0.5)
-            co, si = cis_cycles32_short(np.float32(cyc))
-            out[i * n1 + j] = complex(scale * (re * co - im * si), scale * (re * si + im * co))
+                re += w[q] * src[2 * q]
+                im += w[q] * src[2 * q + 1]
+            t_re[r, j] = re
+            t_im[r, j] = im
+    for i in numba.prange(n0):
+        row_re = np.zeros(n1, np.float32)
+        row_im = np.zeros(n1, np.float32)
+        for m in range(ta):
+            w = wa[i, m]
+            src_re = t_re[ia[i] + m]
+            src_im = t_im[ia[i] + m]
+            for j in range(n1):
+                row_re[j] += w * src_re[j]
+                row_im[j] += w * src_im[j]
+        dx0 = x0 + i * ax - fx
+        dy0 = y0 + i * ay - fy
+        h2 = h * h
+        dst = out[i * n1 : (i + 1) * n1]  # a view indexed from zero: no index wrap, vectorised
+        for j in range(n1):
+            dx = dx0 + j * bx
+            dy = dy0 + j * by
+            cyc = kc2 * math.sqrt(dx * dx + dy * dy + h2)
+            co, si = cis_cycles32_short(np.float32(cyc - math.floor(cyc + 0.5)))
+            vr, vi = scale * row_re[j], scale * row_im[j]
+            dst[j] = complex(vr * co - vi * si, vr * si + vi * co)
+
+
+@numba.njit(parallel=True, error_model="numpy", cache=CACHE)
+def lattice_deviation(points: np.ndarray, p0: np.ndarray, a: np.ndarray, b: np.ndarray, n1: int) -> float:
+    """The largest distance of points[i n1 + j] (n, 3), C-contiguous, from the lattice point p0 + i a + j b in any
+    coordinate (inf where a point is not finite). Row by row through zero-based views (no index wrap)."""
+    n0 = len(points) // n1
+    flat = points.reshape(-1)
+    dev = np.zeros(n0)
+    for i in numba.prange(n0):
+        seg = flat[3 * i * n1 : 3 * (i + 1) * n1]
+        x0, y0, z0 = p0[0] + i * a[0], p0[1] + i * a[1], p0[2] + i * a[2]
+        m = 0.0
+        total = 0.0  # NaN if any point is
+        for j in range(n1):
+            ex = abs(seg[3 * j] - (x0 + j * b[0]))
+            ey = abs(seg[3 * j + 1] - (y0 + j * b[1]))
+            ez = abs(seg[3 * j + 2] - (z0 + j * b[2]))
+            m = max(m, max(ex, max(ey, ez)))
+            total += ex + ey + ez
+        dev[i] = m if total == total and total < np.inf else np.inf
+    return dev.max() if n0 else 0.0
 
 
 lean_cache_loads(globals())  # cached kernels load without numba's context refresh (kernel_cache)

@@ -61,13 +61,14 @@ def case(request):
 # the first version's reads (cubic Lagrange, factor 4 from the pulses on) and the default Knab reads
 CUBIC = {"ffbp_interpolation": "cubic", "ffbp_first_factor": 4}
 KNAB = {"ffbp_interpolation": "knab", "ffbp_taps": 8, "ffbp_first_factor": 16}
-KNAB10 = {"ffbp_interpolation": "knab", "ffbp_taps": 10, "ffbp_first_factor": 16}  # the defaults
+KNAB10 = {"ffbp_interpolation": "knab", "ffbp_taps": 10, "ffbp_first_factor": 16}  # the defaults until 2026-12-02
+KNAB12 = {"ffbp_interpolation": "knab", "ffbp_taps": 12, "ffbp_first_factor": 16}  # the defaults (q = 1.5)
 
 
 @pytest.mark.parametrize(
     "reads, oversamples",
-    [(CUBIC, (2.0, 3.0, 4.0)), (KNAB, (1.5, 2.0)), (KNAB10, (1.75,))],
-    ids=["cubic", "knab8-first16", "knab10-first16"],
+    [(CUBIC, (2.0, 3.0, 4.0)), (KNAB, (1.5, 2.0)), (KNAB10, (1.75,)), (KNAB12, (1.5,))],
+    ids=["cubic", "knab8-first16", "knab10-first16", "knab12-first16"],
 )
 def test_ffbp_error_against_the_exact_image_is_the_predicted_one(case, reads, oversamples):
     raw, params, exact = case
@@ -88,7 +89,9 @@ def test_ffbp_error_against_the_exact_image_is_the_predicted_one(case, reads, ov
         assert predicted / 4 < measured < error_bound(predicted), (q, 10 * np.log10(measured), 10 * np.log10(predicted))
 
 
-@pytest.mark.parametrize("reads, q", [(CUBIC, 4.0), (KNAB10, 1.75)], ids=["cubic-q4", "knab10-q1.75"])
+@pytest.mark.parametrize(
+    "reads, q", [(CUBIC, 4.0), (KNAB10, 1.75), (KNAB12, 1.5)], ids=["cubic-q4", "knab10-q1.75", "knab12-q1.5"]
+)
 def test_ffbp_targets_reach_theory(case, reads, q):
     raw, params, _ = case
     image = backproject(raw, dataclasses.replace(params, engine="ffbp", ffbp_oversample=q, **reads))
@@ -237,3 +240,60 @@ def test_ffbp_refuses_points_off_a_plane():
     pos = np.array([[0.0, -1000, 500]] * 4) + np.arange(4)[:, None] * [1.0, 0, 0]
     with pytest.raises(ValueError, match="ffbp needs the points on a plane"):
         ffbp_points(rc, np.arange(16) * 1e-8, pos, pts, 10e9, 100e6)
+
+
+def test_a_regular_grid_is_read_from_its_lattice_and_any_other_point_set_point_by_point():
+    """A regular grid takes its plane coordinates from its lattice (no pass over all points); the same points
+    without their grid shape (read point by point, plane fitted) give the same image, and a grid with one point
+    off its lattice falls back to reading every point where it is."""
+    from sarproc.dsp.rangecomp import range_compress
+    from sarproc.focus.backprojection import backproject_points
+    from sarproc.product.frames import make_frame
+
+    raw = simulate(scene_from_mapping(SQUINT30))
+    img = backproject(raw, BackprojectParams(frame="los", azimuth_extent=30.0, range_extent=30.0))
+    az, rg = np.meshgrid(img.coords["azimuth"], img.coords["range"], indexing="ij")
+    pts = make_frame("los", raw.radar).to_xyz(az.ravel(), rg.ravel())
+    rc = range_compress(raw.data, raw.radar)
+    args = (rc, raw.coords["range_time"], raw.aux["platform_position"])
+    common = dict(first_factor=16, ffbp_taps=10, oversample=1.75)
+    fc, bw = raw.radar.carrier_frequency, raw.radar.bandwidth
+    lattice = ffbp_points(*args, pts, fc, bw, grid_shape=az.shape, **common)
+    loose = ffbp_points(*args, pts, fc, bw, **common)
+    predicted = predicted_error(raw.data.shape[0], 4, 1.75, "knab", 10, 16, pulses_q(raw))
+    # the two polar trees span slightly different sectors (grid edges, convex hull): their reads differ, the
+    # pulses' artefacts (most of the prediction) are common
+    assert nmse(lattice, loose) < predicted / 10
+    moved = pts.copy()
+    k = az.size // 2 + az.shape[1] // 3
+    moved[k] += 0.4 * (pts[1] - pts[0]) + 0.3 * (pts[az.shape[1]] - pts[0])  # in the plane, off the lattice
+    out = ffbp_points(*args, moved, fc, bw, grid_shape=az.shape, **common)
+    exact = backproject_points(rc, args[1], args[2], args[2], moved[k - 2 : k + 3], fc, engine="compiled")
+    assert nmse(out[k - 2 : k + 3], exact) < error_bound(predicted)
+    assert nmse(out[k - 2 : k + 3], lattice[k - 2 : k + 3]) > 100 * error_bound(predicted)  # it did move
+
+
+def test_ffbp_reads_the_pulses_cubic_as_the_exact_engine_does():
+    """interpolation: cubic (four-sample Lagrange on the x8 pulses) in both engines: ffbp's error against that
+    exact image is the predicted one, far below the linear reads' floor."""
+    raw = simulate(scene_from_mapping(SQUINT30))
+    params = BackprojectParams(frame="los", azimuth_extent=40.0, range_extent=40.0, interpolation="cubic")
+    exact = backproject(raw, params).data
+    image = backproject(raw, dataclasses.replace(params, engine="ffbp")).data
+    measured = nmse(image, exact)
+    p = params
+    predicted = predicted_error(
+        raw.data.shape[0],
+        p.ffbp_factor,
+        p.ffbp_oversample,
+        "knab",
+        p.ffbp_taps,
+        p.ffbp_first_factor,
+        pulses_q(raw),
+        "cubic",
+    )
+    linear_floor = predicted_error(
+        raw.data.shape[0], p.ffbp_factor, p.ffbp_oversample, "knab", p.ffbp_taps, p.ffbp_first_factor, pulses_q(raw)
+    )
+    assert predicted / 4 < measured < error_bound(predicted), (10 * np.log10(measured), 10 * np.log10(predicted))
+    assert measured < linear_floor / 4
