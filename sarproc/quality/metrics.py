@@ -55,8 +55,8 @@ from collections.abc import Callable, Collection, Iterable, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import scipy.fft
 
+from sarproc.product import fft as sfft
 from sarproc.product.config import param
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import SINC_IRW_FACTOR
@@ -390,7 +390,7 @@ class _Chip:
             self.data, self.clipped = chip
         self.origin = np.array([int(c) - int(h) for c, h in zip(center, half)])
         self.shape = self.data.shape
-        spec = scipy.fft.fftn(self.data, workers=-1)
+        spec = sfft.fftn(self.data, workers=-1)
         power = np.abs(spec) ** 2
         self.spec = spec
         self.freqs = []  # unwrapped frequency of each bin, cycles per sample
@@ -535,7 +535,7 @@ def principal_directions(
         hw = min(window_nulls * nulls[a], (n + 1) / 2)
         w = np.multiply.outer(w, np.where(np.abs(x) < hw, np.cos(np.pi * x / (2 * hw)) ** 2, 0.0))
     nfft = [(2 if ndim <= 2 else 1) * n for n in shape]
-    spec = scipy.fft.fftn(chip * w, s=nfft, workers=-1)
+    spec = sfft.fftn(chip * w, s=nfft, workers=-1)
     shift = [n // 2 - int(round(c * n)) for c, n in zip(centers, nfft)]
     mag = np.roll(np.abs(spec), shift, axis=tuple(range(ndim)))
     freqs = [(np.arange(n) - n // 2) / n + (round(c * n) / n) for c, n in zip(centers, nfft)]
