@@ -1289,11 +1289,11 @@ def uniform_cubic_spline(x0: float, h: float, y: np.ndarray, x: np.ndarray) -> n
     m[0] = 2.0 * m[1] - m[2]
     m[-1] = 2.0 * m[-2] - m[-3]
     t = (np.asarray(x, float) - x0) / h
-    i = np.clip(np.floor(t).astype(np.int64), 0, n - 2)
-    a = t - i  # position inside the interval, 0 .. 1
+    j = np.clip(np.floor(t).astype(np.int64), 0, n - 2)
+    a = t - j  # position inside the interval, 0 .. 1
     b = 1.0 - a
     hh = h * h / 6.0
-    out: np.ndarray = b * y[i] + a * y[i + 1] + hh * ((b**3 - b) * m[i] + (a**3 - a) * m[i + 1])
+    out: np.ndarray = b * y[j] + a * y[j + 1] + hh * ((b**3 - b) * m[j] + (a**3 - a) * m[j + 1])
     return out
 
 
