@@ -109,7 +109,7 @@ def export_sicd(
     from sarproc.product.errors import InputError, ProcessingError
     from sarproc.product.io import atomic_path, read_product
 
-    require_sarkit()
+    require_sarkit("sarkit.verification")  # the output is checked with it
     # config, input header (and its placement), output location, plan; then the data
     params = load_config(GeolocationParams, config_path, section="geolocation")
     header = read_product(input_path, kinds=("image",), load=False)
@@ -158,7 +158,7 @@ def export_cphd(
     from sarproc.formats.geolocation import GeolocationParams, placement
     from sarproc.product.io import atomic_path, read_product
 
-    require_sarkit()
+    require_sarkit("sarkit.verification")  # the output is checked with it
     params = load_config(GeolocationParams, config_path, section="geolocation")
     header = read_product(input_path, kinds=("raw",), load=False)
     with naming(input_path, config_path, "geolocation"):

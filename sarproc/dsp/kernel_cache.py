@@ -4,6 +4,12 @@ simulation kernels that import it from here."""
 
 from __future__ import annotations
 
-from sarproc.product.kernel_cache import CACHE, default_locator_works, lean_cache_loads, private_temp_cache
+from sarproc.product.kernel_cache import (
+    CACHE,
+    default_locator_works,
+    lean_cache_loads,
+    private_temp_cache,
+    slp_vectorized,
+)
 
-__all__ = ["CACHE", "default_locator_works", "lean_cache_loads", "private_temp_cache"]
+__all__ = ["CACHE", "default_locator_works", "lean_cache_loads", "private_temp_cache", "slp_vectorized"]

@@ -5,8 +5,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import scipy.fft as sfft
 
+from sarproc.product import fft as sfft
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import RadarMetadata
 from sarproc.product.theory import WINDOWS, window_taper

@@ -19,11 +19,10 @@ import os
 from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.fft as sfft
 
 from sarproc.dsp.phasor import unit_phasor
 from sarproc.dsp.rangecomp import range_compress
-from sarproc.product import beam, moving, theory
+from sarproc.product import beam, fft as sfft, moving, theory
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import InputError
 from sarproc.product.frames import Frame, image_axis, make_frame, targets_in_frame

@@ -29,12 +29,12 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-import scipy.fft as sfft
 
 from sarproc import __version__
 from sarproc.dsp.rangecomp import replica_fft_size, replica_spectrum
 from sarproc.formats.geolocation import Placement, ecf_to_geodetic, utc_datetime
 from sarproc.formats.sicd import MODE_TYPE, consistency_summary, pulse_times, require_sarkit
+from sarproc.product import fft as sfft
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import C, RadarMetadata
 from sarproc.product.model import TARGET_DTYPE, TARGET_NAMES, TARGET_THEORY_FIELDS, Product
@@ -705,7 +705,7 @@ def _radar_kwargs(d: dict) -> dict:
 
 def check_cphd(path: str | os.PathLike) -> dict:
     """Run sarkit's CphdConsistency (schema, header, PVPs, reference geometry, signal) on a CPHD file."""
-    require_sarkit()
+    require_sarkit("sarkit.verification")
     import sarkit.verification as skver
 
     with open(path, "rb") as fh:

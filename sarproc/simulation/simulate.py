@@ -246,9 +246,8 @@ def band_limited_echoes(
     processor's chirp replica (sarproc.dsp.rangecomp.chirp_replica), by FFT. Delays on a sample give the
     replica itself; in between, the echo's spectrum over |f| <= B/2 is the replica's times exp(-j 2 pi f tau)
     (to the filter's 120 dB), so range compression leaves no aliasing pedestal."""
-    import scipy.fft as sfft
-
     from sarproc.dsp.rangecomp import chirp_replica
+    from sarproc.product import fft as sfft
     from sarproc.simulation.echo_kernel import accumulate_impulses, kaiser_design
 
     fs = radar.range_sampling_rate

@@ -119,3 +119,17 @@ def test_python_dash_m_runs_the_command_line():
     for module in ("sarproc", "sarproc.cli.main"):
         done = subprocess.run([sys.executable, "-m", module, "--version"], capture_output=True, text=True, check=True)
         assert done.stdout.strip().startswith("sarproc, version"), (module, done.stdout, done.stderr)
+
+
+def test_stage_modules_import_no_scipy_subpackage():
+    # scipy.fft (array-API layer, scipy.special: 0.15-0.2 s) is replaced by sarproc.product.fft, which loads
+    # the same pocketfft extension; scipy.ndimage by a numpy maximum filter (docs/performance.md)
+    code = (
+        "import sarproc.focus.squint_deramp.coarse_focus, sarproc.focus.squint_deramp.fine_focus\n"
+        "import sarproc.focus.multichannel.reconstruct, sarproc.focus.backprojection, sarproc.simulation.simulate\n"
+        "import sarproc.focus.array3d.linear_array, sarproc.formats.cphd, sarproc.quality.metrics\n"
+        "import json, sys\nprint(json.dumps(sorted(sys.modules)))"
+    )
+    loaded = set(json.loads(_python(code).strip().splitlines()[-1]))
+    sub = {m for m in loaded if m.startswith("scipy.") and not m.startswith(("scipy._", "scipy.version"))}
+    assert not sub, sorted(sub)

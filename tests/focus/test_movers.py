@@ -296,3 +296,14 @@ def test_a_mover_below_the_clutter_nulls_mdv_is_reported_missed_with_its_reason(
     (reason,) = truth["missed_reasons"]
     assert reason.startswith("SLOW: the clutter null keeps") and "speed 0.06 m/s, below this null's minimum" in reason
     assert [w for w in warnings if w.startswith("reconstruct: truth mover")] == [f"reconstruct: truth mover {reason}"]
+
+
+@pytest.mark.parametrize("shape", [(7, 9), (1, 5), (20, 3), (4, 1), (2, 2)])
+def test_maximum_filter_equals_scipy_ndimage(shape):
+    from scipy import ndimage
+
+    from sarproc.focus.multichannel.detection import maximum_filter
+
+    x = np.random.default_rng(1).standard_normal(shape)
+    assert np.array_equal(maximum_filter(x, (3, 3), "edge"), ndimage.maximum_filter(x, size=3, mode="nearest"))
+    assert np.array_equal(maximum_filter(x, (5, 3), "wrap"), ndimage.maximum_filter(x, size=(5, 3), mode="wrap"))

@@ -40,11 +40,11 @@ import math
 from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.fft as sfft
 
 from sarproc.dsp.interp import KERNELS, resample
 from sarproc.dsp.phasor import multiply_separable_phase
 from sarproc.dsp.rangecomp import chirp_replica, replica_fft_size, replica_spectrum
+from sarproc.product import fft as sfft
 from sarproc.product.config import param
 from sarproc.product.errors import IMAGE_DEFECT, InputError, ProcessingError
 from sarproc.product.metadata import SINC_IRW_FACTOR, C, RadarMetadata

@@ -34,15 +34,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 import numpy.typing as npt
-import scipy.fft as sfft
-from scipy import ndimage
 
 from sarproc.dsp.numpy_phasor import unit_phasor
 from sarproc.focus.multichannel import channels
+from sarproc.product import fft as sfft
 from sarproc.product.metadata import C
 
 if TYPE_CHECKING:
@@ -64,6 +63,29 @@ class Detection:
     @property
     def snr_db(self) -> float:
         return 10 * math.log10(self.power / self.background) if self.background > 0 else float("inf")
+
+
+def maximum_filter(x: np.ndarray, size: tuple[int, ...], mode: Literal["edge", "wrap"]) -> np.ndarray:
+    """Maximum over a centred box of odd ``size`` around every sample; outside the array ``mode`` as in
+    numpy.pad ("edge": the nearest sample, "wrap": periodic). scipy.ndimage.maximum_filter's values
+    (modes "nearest" and "wrap"; a maximum is exact, so equal bit for bit) without importing scipy.ndimage
+    (~0.1 s of the command's start)."""
+    out = np.asarray(x)
+    for axis, n in enumerate(size):
+        if n % 2 != 1:
+            raise ValueError(f"maximum_filter: size {size} must be odd")
+        h = n // 2
+        if h == 0:
+            continue
+        pad = [(0, 0)] * out.ndim
+        pad[axis] = (h, h)
+        padded = np.pad(out, pad, mode=mode)
+        length = out.shape[axis]
+        acc = np.take(padded, np.arange(0, length), axis=axis)
+        for k in range(1, n):
+            acc = np.maximum(acc, np.take(padded, np.arange(k, k + length), axis=axis))
+        out = acc
+    return out
 
 
 def fm_rate(
@@ -98,7 +120,7 @@ def background(power: np.ndarray, tile: tuple[int, int] = TILE) -> np.ndarray:
         for r in range(nr):
             med[a, r] = np.median(rows[:, ir == r])
     # Neighbouring tiles' median too (a 3 x 3 max), so a tile edge inside clutter is not a false alarm.
-    med = ndimage.maximum_filter(med, size=3, mode="nearest")
+    med = maximum_filter(med, (3, 3), "edge")
     return (med[ia][:, ir] / math.log(2)).astype(np.float32)
 
 
@@ -131,7 +153,7 @@ def find_detections(
     if peak <= 0:
         return [], 0
     above = (power > bg * 10 ** (cfar_db / 10)) & (power > peak * 10 ** (level_db / 10))
-    local = ndimage.maximum_filter(power, size=(5, 3), mode="wrap") == power
+    local = maximum_filter(power, (5, 3), "wrap") == power
     idx = np.argwhere(above & local)
     order = np.argsort(-power[idx[:, 0], idx[:, 1]])
     found: list[Detection] = []

@@ -31,10 +31,9 @@ from collections.abc import Iterable
 from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.fft as sfft
 
 from sarproc.focus.multichannel import channels, deramp, detection, velocity
-from sarproc.product import moving
+from sarproc.product import fft as sfft, moving
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import IMAGE_DEFECT, InputError
 from sarproc.product.metadata import C

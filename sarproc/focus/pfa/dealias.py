@@ -28,12 +28,11 @@ import math
 from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.fft as sfft
 
 from sarproc.dsp.phasor import unit_phasor
 from sarproc.focus.pfa.phase_history import PhaseHistory, reference_ranges
 from sarproc.focus.pfa.polar import los_components, wavenumbers
-from sarproc.product import beam
+from sarproc.product import beam, fft as sfft
 from sarproc.product.errors import IMAGE_DEFECT, InputError
 
 if TYPE_CHECKING:

@@ -28,10 +28,10 @@ import math
 from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.fft as sfft
 
 from sarproc.dsp.phasor import unit_phasor
 from sarproc.dsp.rangecomp import range_compress
+from sarproc.product import fft as sfft
 from sarproc.product.metadata import C, RadarMetadata
 
 if TYPE_CHECKING:

@@ -31,10 +31,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
-import scipy.fft as sfft
 
 from sarproc.dsp.interp import resample_rows
 from sarproc.dsp.phasor import unit_phasor
+from sarproc.product import fft as sfft
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import SINC_IRW_FACTOR, C
 

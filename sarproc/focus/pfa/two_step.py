@@ -32,7 +32,6 @@ from collections.abc import Callable, Iterable
 from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.fft as sfft
 
 from sarproc.dsp.phasor import unit_phasor
 from sarproc.focus.pfa.correction import PfaGeometry, distortion_field, extended_grid, pfa_distortion, warp_to_truth
@@ -50,6 +49,7 @@ from sarproc.focus.pfa.polar import (
     rect_to_polar,
     wavenumbers,
 )
+from sarproc.product import fft as sfft
 from sarproc.product.metadata import SINC_IRW_FACTOR, C
 
 if TYPE_CHECKING:

@@ -26,9 +26,9 @@ import logging
 import math
 
 import numpy as np
-import scipy.fft as sfft
 
 from sarproc.focus.squint_deramp.preprocess import METHODS, PRECISIONS, complex_dtype
+from sarproc.product import fft as sfft
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import IMAGE_DEFECT, InputError
 from sarproc.product.frames import SquintFrame

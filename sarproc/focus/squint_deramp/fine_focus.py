@@ -38,7 +38,6 @@ from collections.abc import Callable, Iterable, Sequence
 
 import numba
 import numpy as np
-import scipy.fft as sfft
 
 from sarproc.dsp.interp import KERNELS, resample_rows
 from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
@@ -61,6 +60,7 @@ from sarproc.focus.squint_deramp.nlcs import (
 )
 from sarproc.focus.squint_deramp.preprocess import PRECISIONS, complex_dtype, correction_frequency
 from sarproc.focus.squint_deramp.stolt import MODELS, SpectrumModel, stolt_resample
+from sarproc.product import fft as sfft
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import InputError, ProcessingError
 from sarproc.product.frames import SquintFrame, SquintLrwcFrame, targets_in_frame

@@ -23,8 +23,8 @@ import math
 from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.fft as sfft
 
+from sarproc.product import fft as sfft
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import C, RadarMetadata

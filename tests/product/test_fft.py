@@ -1,0 +1,95 @@
+"""sarproc.product.fft: scipy.fft's pocketfft without importing scipy.fft, bit for bit scipy.fft's results."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import scipy.fft
+
+from sarproc.product import fft as sfft
+
+RNG = np.random.default_rng(7)
+C64 = (RNG.standard_normal((6, 40)) + 1j * RNG.standard_normal((6, 40))).astype(np.complex64)
+C128 = RNG.standard_normal((5, 7, 33)) + 1j * RNG.standard_normal((5, 7, 33))
+F32 = RNG.standard_normal((8, 30)).astype(np.float32)
+F64 = RNG.standard_normal(45)
+INT = np.arange(24).reshape(4, 6)
+
+CASES_1D = [
+    (C64, {}),
+    (C64, {"axis": 0}),
+    (C64, {"n": 64}),  # zero padding
+    (C64, {"n": 25, "axis": -1}),  # truncation
+    (C64[:, ::3], {"workers": -1}),  # strided input
+    (C128, {"axis": 1, "norm": "ortho"}),
+    (C128, {"norm": "forward", "workers": 2}),
+    (F32, {}),  # real input, float32 stays single precision
+    (F64, {"n": 50}),
+    (INT, {"axis": 0}),
+    (C64.T, {}),  # Fortran order
+]
+
+
+@pytest.mark.parametrize(("x", "kw"), CASES_1D)
+@pytest.mark.parametrize("name", ["fft", "ifft"])
+def test_one_dimensional_transforms_are_scipys_bit_for_bit(name, x, kw):
+    got = getattr(sfft, name)(x, **kw)
+    want = getattr(scipy.fft, name)(x, **kw)
+    assert got.dtype == want.dtype and got.shape == want.shape
+    assert got.tobytes() == want.tobytes()
+
+
+CASES_ND = [
+    (C64, {}),
+    (C64, {"s": (8, 48)}),
+    (C128, {"axes": (0, 2)}),
+    (C128, {"s": (4, 40), "axes": (-1, 0), "norm": "ortho", "workers": -1}),
+    (F32, {}),
+]
+
+
+@pytest.mark.parametrize(("x", "kw"), CASES_ND)
+@pytest.mark.parametrize("name", ["fft2", "ifft2", "fftn", "ifftn"])
+def test_multidimensional_transforms_are_scipys_bit_for_bit(name, x, kw):
+    if name.endswith("2") and "axes" not in kw and x.ndim < 2:
+        pytest.skip("2-D transform of a 1-D array")
+    got = getattr(sfft, name)(x, **kw)
+    want = getattr(scipy.fft, name)(x, **kw)
+    assert got.dtype == want.dtype and got.shape == want.shape
+    assert got.tobytes() == want.tobytes()
+
+
+def test_overwrite_x_transforms_in_place_like_scipy():
+    a, b = C64.copy(), C64.copy()
+    got = sfft.fft(a, overwrite_x=True)
+    want = scipy.fft.fft(b, overwrite_x=True)
+    assert got.tobytes() == want.tobytes()
+    assert np.shares_memory(got, a) == np.shares_memory(want, b)
+
+
+def test_helpers_and_errors_match_scipy():
+    for n in (1, 7, 1001, 6483, 17287, np.int64(2161)):
+        assert sfft.next_fast_len(n) == scipy.fft.next_fast_len(n)
+        assert sfft.next_fast_len(n, True) == scipy.fft.next_fast_len(n, True)
+    assert np.array_equal(sfft.fftfreq(9, 0.5), scipy.fft.fftfreq(9, 0.5))
+    assert np.array_equal(sfft.fftshift(C64, axes=1), scipy.fft.fftshift(C64, axes=1))
+    assert np.array_equal(sfft.ifftshift(F64), scipy.fft.ifftshift(F64))
+    for call in (lambda m: m.fft(C64, n=0), lambda m: m.fft(C64, norm="bad"), lambda m: m.fft(C64, workers=0)):
+        with pytest.raises(ValueError):
+            call(scipy.fft)
+        with pytest.raises(ValueError):
+            call(sfft)
+
+
+def test_importing_it_leaves_scipy_fft_unimported():
+    code = "import sys, sarproc.product.fft as f; f.fft([1, 2, 3]); print('scipy.fft' in sys.modules, f._pfft.__name__)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["False", "pypocketfft"]
+
+
+def test_extension_loaded_from_its_file_not_through_scipy_fft():
+    # the wrappers under test call the directly loaded extension even though scipy.fft is imported here
+    assert sfft._pfft is not scipy.fft._pocketfft.pypocketfft and sfft._pfft.__name__ == "pypocketfft"
