@@ -264,3 +264,23 @@ def next_fast_len(target: int, real: bool = False) -> int:
     """scipy.fft.next_fast_len."""
     size: int = _pfft.good_size(target, real)
     return size
+
+
+def _agrees_with_numpy() -> bool:
+    """A few small transforms through the loaded extension against numpy's: False if a scipy release changed
+    the private extension's calls or results (then the public scipy.fft is used below)."""
+    try:
+        x = np.exp(1j * np.arange(60.0) ** 2 / 7).reshape(5, 12).astype(np.complex64)
+        return bool(
+            np.allclose(fft(x, axis=0), np.fft.fft(x, axis=0), atol=1e-4)
+            and np.allclose(ifft(x, 16), np.fft.ifft(x, 16), atol=1e-5)
+            and np.allclose(fft2(x, workers=2), np.fft.fft2(x), atol=1e-4)
+            and np.allclose(ifftn(x.real), np.fft.ifftn(x.real), atol=1e-5)
+            and next_fast_len(97) == 98
+        )
+    except Exception:
+        return False
+
+
+if not _agrees_with_numpy():  # pragma: no cover - another scipy: its public API, bit for bit what was meant
+    from scipy.fft import fft, fft2, fftn, ifft, ifft2, ifftn, next_fast_len  # type: ignore[no-redef]

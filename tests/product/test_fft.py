@@ -93,3 +93,20 @@ def test_importing_it_leaves_scipy_fft_unimported():
 def test_extension_loaded_from_its_file_not_through_scipy_fft():
     # the wrappers under test call the directly loaded extension even though scipy.fft is imported here
     assert sfft._pfft is not scipy.fft._pocketfft.pypocketfft and sfft._pfft.__name__ == "pypocketfft"
+
+
+def test_self_check_accepts_this_scipy_and_rejects_a_changed_extension(monkeypatch):
+    """The private extension is used only while it reproduces numpy's transforms (else: public scipy.fft)."""
+    import sarproc.product.fft as sfft_mod
+
+    assert sfft_mod._agrees_with_numpy()
+
+    class Changed:  # an extension whose c2c takes other arguments, as a future scipy might
+        @staticmethod
+        def c2c(*args, **kwargs):
+            raise TypeError("c2c() got an unexpected keyword argument")
+
+        good_size = staticmethod(sfft_mod._pfft.good_size)
+
+    monkeypatch.setattr(sfft_mod, "_pfft", Changed)
+    assert not sfft_mod._agrees_with_numpy()
