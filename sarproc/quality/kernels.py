@@ -81,4 +81,51 @@ def ideal_response(
     return out
 
 
+@numba.njit(error_model="numpy", cache=CACHE)
+def _grid_shape(s: float, q: float, hamming: bool) -> float:  # pragma: no cover - compiled
+    """_shape(q) given s = sin(pi q) (sin(pi (q -+ 1)) = -s); near q = 0 from math.sin itself, where s / (pi q)
+    would lose digits to the rounding of s."""
+    if abs(q) < 1e-3:
+        return _shape(q, hamming)
+    value = s / (math.pi * q)
+    if hamming:
+        lo = 1.0 if q == 1.0 else -s / (math.pi * (q - 1.0))
+        hi = 1.0 if q == -1.0 else -s / (math.pi * (q + 1.0))
+        return 0.54 * value + 0.23 * (lo + hi)
+    return value
+
+
+@numba.njit(error_model="numpy", parallel=True, cache=CACHE)
+def ideal_response_box(
+    origin: np.ndarray, shape: np.ndarray, position: np.ndarray, ridge: np.ndarray, f_c: np.ndarray, hamming: bool
+) -> np.ndarray:  # pragma: no cover - compiled
+    """:func:`ideal_response` of a 3D response on the image box origin + (i, j, k), i < shape[0] ...: the
+    ridge coordinates are linear on the box, so sin(pi c_a) and the carrier are products of per-axis complex
+    exponentials (9 + 3 short tables instead of 4 transcendental calls per sample; equal to rounding)."""
+    n0, n1, n2 = shape[0], shape[1], shape[2]
+    sizes = (n0, n1, n2)
+    longest = max(n0, max(n1, n2))
+    rot = np.empty((3, 3, longest), dtype=np.complex128)  # exp(i pi ridge[a, b] d_b)
+    lin = np.empty((3, 3, longest))  # ridge[a, b] d_b
+    car = np.empty((3, longest), dtype=np.complex128)  # exp(2 pi i f_c[b] d_b)
+    for b in range(3):
+        for i in range(sizes[b]):
+            d = origin[b] + i - position[b]
+            car[b, i] = complex(math.cos(2.0 * math.pi * f_c[b] * d), math.sin(2.0 * math.pi * f_c[b] * d))
+            for a in range(3):
+                lin[a, b, i] = ridge[a, b] * d
+                rot[a, b, i] = complex(math.cos(math.pi * lin[a, b, i]), math.sin(math.pi * lin[a, b, i]))
+    out = np.empty((n0, n1, n2), dtype=np.complex128)
+    for i in numba.prange(n0):
+        for j in range(n1):
+            for k in range(n2):
+                amp = 1.0
+                for a in range(3):
+                    q = lin[a, 0, i] + lin[a, 1, j] + lin[a, 2, k]
+                    s = (rot[a, 0, i] * rot[a, 1, j] * rot[a, 2, k]).imag
+                    amp *= _grid_shape(s, q, hamming)
+                out[i, j, k] = amp * (car[0, i] * car[1, j] * car[2, k])
+    return out
+
+
 lean_cache_loads(globals())  # cached kernels load without numba's context refresh (kernel_cache)

@@ -854,9 +854,9 @@ def _subtract_neighbours(
         ]
         if not others or not abs(peak.value) > 0:
             continue
-        grid = np.meshgrid(*[np.arange(n) + o for n, o in zip(shape, raw.origin)], indexing="ij")
-        points = np.stack([g.ravel() for g in grid], axis=0).astype(float)
-        cleaned = raw.data.ravel() - sum(models[j].values(points, hamming, params.exact) for j in others)
+        cleaned = raw.data.ravel() - sum(
+            models[j].values_on_box(raw.origin, shape, hamming, params.exact) for j in others
+        )
         chip = _Chip(None, peak.index, half, chip=(cleaned.reshape(raw.shape), raw.clipped))
         pos, value = chip.refine_peak(peak.position)
         V, f_c = _support(chip, nulls, params)
@@ -969,6 +969,25 @@ class _NeighbourModel:
         return self.amplitude * _ideal_response(
             points, self.position, self.ridges, self.nulls, self.band_centre, hamming, exact
         )
+
+    def values_on_box(self, origin, shape, hamming: bool, exact: bool = False) -> np.ndarray:
+        """:meth:`values` on the image box ``origin + index`` of ``shape``, raveled (C order); an ideal 3D
+        response from per-axis tables (compiled), the others at the box's points."""
+        if not self.rich and not exact and len(shape) == 3:
+            from sarproc.quality import kernels
+
+            ridge = np.linalg.inv(np.asarray(self.ridges, dtype=float).T) / np.asarray(self.nulls, dtype=float)[:, None]
+            box = kernels.ideal_response_box(
+                np.asarray(origin, dtype=float),
+                np.asarray(shape, dtype=np.int64),
+                np.asarray(self.position, dtype=float),
+                ridge,
+                np.asarray(self.band_centre, dtype=float),
+                hamming,
+            )
+            return self.amplitude * box.ravel()
+        grid = np.meshgrid(*[np.arange(n) + o for n, o in zip(shape, origin)], indexing="ij")
+        return self.values(np.stack([g.ravel() for g in grid], axis=0).astype(float), hamming, exact)
 
 
 def _rich_values(points: npt.ArrayLike, rich: dict) -> np.ndarray:
