@@ -443,7 +443,7 @@ class _Chip:
         phase = functools.reduce(np.add.outer, [f * x for f, x in zip(self.freqs, x0)])
         freq = functools.reduce(np.add.outer, [f * d for f, d in zip(self.freqs, v)])
         coef = self.spec * np.exp(2j * np.pi * phase)
-        return exponential_sums(coef, freq, first, step, count) / self.data.size
+        return exponential_sums(coef, freq, first, step, count, compiled=coef.ndim == 3) / self.data.size
 
     def values_on_axis(self, start: npt.ArrayLike, axis: int, first: float, step: float, count: int) -> np.ndarray:
         """Values at ``start`` moved along image axis ``axis`` by ``first + j * step`` (j < count): the other
@@ -631,7 +631,8 @@ def _ideal_response(
         from sarproc.quality import kernels  # numba: worth its loading time on 3D cubes only
 
         ridge = np.linalg.inv(np.asarray(V, dtype=float).T) / np.asarray(nulls, dtype=float)[:, None]
-        return kernels.ideal_response(
+        kernel = kernels.ideal_response if np.shape(points)[1] > 20000 else kernels.ideal_response_serial
+        return kernel(
             np.ascontiguousarray(points, dtype=float),
             np.asarray(position, dtype=float),
             ridge,
@@ -970,7 +971,9 @@ class _NeighbourModel:
             points, self.position, self.ridges, self.nulls, self.band_centre, hamming, exact
         )
 
-    def values_on_box(self, origin, shape, hamming: bool, exact: bool = False) -> np.ndarray:
+    def values_on_box(
+        self, origin: Sequence[int], shape: Sequence[int], hamming: bool, exact: bool = False
+    ) -> np.ndarray:
         """:meth:`values` on the image box ``origin + index`` of ``shape``, raveled (C order); an ideal 3D
         response from per-axis tables (compiled), the others at the box's points."""
         if not self.rich and not exact and len(shape) == 3:
@@ -979,6 +982,7 @@ class _NeighbourModel:
             ridge = np.linalg.inv(np.asarray(self.ridges, dtype=float).T) / np.asarray(self.nulls, dtype=float)[:, None]
             box = kernels.ideal_response_box(
                 np.asarray(origin, dtype=float),
+                np.ones(3),
                 np.asarray(shape, dtype=np.int64),
                 np.asarray(self.position, dtype=float),
                 ridge,
@@ -1012,8 +1016,8 @@ def _neighbour_models(
     nulls = np.asarray(nulls, dtype=float)
     models = {}
     for members in _overlapping_groups(peaks, np.asarray(half, dtype=float) + nulls, nulls):
-        points, y = _group_samples(data, [peaks[k].position for k in members], nulls)
-        fit = _fit_ideal_group(points, y, [peaks[k] for k in members], nulls, params)
+        points, y, boxes = _group_samples(data, [peaks[k].position for k in members], nulls)
+        fit = _fit_ideal_group(points, y, [peaks[k] for k in members], nulls, params, boxes)
         rich = _refit_rich(data, points, y, fit, members, nulls, params)
         for q, k in enumerate(members):
             models[k] = dataclasses.replace(fit[q], group=frozenset(members))
@@ -1047,11 +1051,12 @@ def _overlapping_groups(peaks: list, reach: np.ndarray, nulls: np.ndarray) -> li
 
 
 def _group_samples(data: np.ndarray, positions: list, nulls: np.ndarray) -> tuple:
-    """(points (ndim, N) float image indices, complex samples) within 3 nulls of every position, about two
-    per null."""
+    """(points (ndim, N) float image indices, complex samples, boxes) within 3 nulls of every position, about
+    two per null. ``boxes`` (:class:`_SampleBoxes`) says which box each point came from, so a response can be
+    evaluated box by box."""
     stride = np.maximum(1, np.floor(nulls / 2)).astype(int)
     r = np.ceil(3 * nulls).astype(int)
-    boxes = []
+    boxes, layout = [], []
     for p in positions:
         c = np.rint(p).astype(int)
         axes_pts = [
@@ -1059,17 +1064,55 @@ def _group_samples(data: np.ndarray, positions: list, nulls: np.ndarray) -> tupl
         ]
         g = np.meshgrid(*axes_pts, indexing="ij")
         boxes.append(np.stack([x.ravel() for x in g], axis=0))
-    points = np.unique(np.concatenate(boxes, axis=1), axis=1)
+        layout.append((np.array([a[0] if a.size else 0 for a in axes_pts]), np.array([a.size for a in axes_pts])))
+    points, inverse = np.unique(np.concatenate(boxes, axis=1), axis=1, return_inverse=True)
     y = data[tuple(points)].astype(complex)
-    return points.astype(float), y
+    return points.astype(float), y, _SampleBoxes(stride, layout, inverse.ravel(), points.shape[1])
+
+
+@dataclasses.dataclass(frozen=True)
+class _SampleBoxes:
+    """The strided boxes a group's samples were drawn from: per box (origin, shape), and each box point's
+    index among the (deduplicated) samples, boxes in order."""
+
+    stride: np.ndarray
+    layout: list
+    inverse: np.ndarray
+    count: int
+
+    def ideal_response(
+        self, position: npt.ArrayLike, V: npt.ArrayLike, nulls: npt.ArrayLike, f_c: npt.ArrayLike, hamming: bool
+    ) -> np.ndarray:
+        """A 3D ideal response (:func:`_ideal_response`) at the samples, from per-axis tables box by box
+        (compiled; equal to rounding)."""
+        from sarproc.quality import kernels
+
+        ridge = np.linalg.inv(np.asarray(V, dtype=float).T) / np.asarray(nulls, dtype=float)[:, None]
+        return kernels.ideal_response_boxes(
+            np.array([o for o, _ in self.layout], dtype=float),
+            self.stride.astype(float),
+            np.array([n for _, n in self.layout], dtype=np.int64),
+            self.inverse.astype(np.int64),
+            self.count,
+            np.asarray(position, dtype=float),
+            ridge,
+            np.asarray(f_c, dtype=float),
+            hamming,
+        )
 
 
 def _fit_ideal_group(
-    points: np.ndarray, y: np.ndarray, starts: list, nulls: np.ndarray, params: EvaluateParams
+    points: np.ndarray,
+    y: np.ndarray,
+    starts: list,
+    nulls: np.ndarray,
+    params: EvaluateParams,
+    boxes: _SampleBoxes | None = None,
 ) -> list:
     """Every member's ideal response fitted jointly to the samples ``y`` at ``points``: position, band centre
     and ridge skews by Gauss-Newton (at most 8 steps; linear convergence, about halving, on skewed supports),
-    then the complex amplitudes by least squares. Returns one _NeighbourModel per member (group unset)."""
+    then the complex amplitudes by least squares; ``boxes``: where the samples came from (3D responses are then
+    evaluated box by box). Returns one _NeighbourModel per member (group unset)."""
     hamming = params.irw_factor > 1.1
     ndim = points.shape[0]
     skew = [(a, b) for a in range(ndim) for b in range(ndim) if a != b]  # free entries of V
@@ -1078,6 +1121,8 @@ def _fit_ideal_group(
     V = [np.array(p.ridges, dtype=float) for p in starts]
 
     def model(q: int, p: np.ndarray | None = None, v: np.ndarray | None = None) -> np.ndarray:
+        if boxes is not None and ndim == 3 and not params.exact:
+            return boxes.ideal_response(pos[q] if p is None else p, V[q] if v is None else v, nulls, f_c[q], hamming)
         return _ideal_response(
             points, pos[q] if p is None else p, V[q] if v is None else v, nulls, f_c[q], hamming, params.exact
         )
