@@ -485,8 +485,10 @@ def _orientation_grid(ndim: int) -> tuple[np.ndarray, float, list[np.ndarray]]:
         z, phi = i / n, i * math.pi * (3.0 - math.sqrt(5.0))
         r = np.sqrt(1.0 - z**2)
         cand, sigma = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1), math.radians(3.0)
-    near = np.abs(cand @ cand.T) > math.cos(2 * sigma)
-    return cand, sigma, [np.flatnonzero(row) for row in near]
+    # in blocks of rows: the whole 4000 x 4000 product in 3D is 128 MB to allocate and fault in
+    reach = math.cos(2 * sigma)
+    near = [np.flatnonzero(row) for b in range(0, len(cand), 500) for row in np.abs(cand[b : b + 500] @ cand.T) > reach]
+    return cand, sigma, near
 
 
 def _orientation_density(
@@ -1258,15 +1260,23 @@ def least_squares(B: np.ndarray, y: np.ndarray, exact: bool = False) -> np.ndarr
     Through the normal equations of the column-equilibrated B (unit-norm columns, Cholesky) with two
     steps of iterative refinement (which restore the accuracy the squared condition number costs): on the
     tall systems of 3D boxes several times faster than an SVD; ``exact`` (or a Gram matrix that is not
-    numerically positive definite) takes numpy's SVD solver, the reference the fast path is tested against."""
+    numerically positive definite) takes numpy's SVD solver, the reference the fast path is tested against.
+    The Gram matrix is one BLAS rank-k update of B as stored (no conjugated or scaled copy of B) and the
+    columns are equilibrated on it (their norms are its diagonal)."""
     if not exact:
         import scipy.linalg  # ~0.1 s to import: only where a least-squares fit runs
+        from scipy.linalg import blas
 
-        scale = np.linalg.norm(B, axis=0)
+        B = np.asarray(B)
+        y = np.asarray(y)
+        complex_ = np.iscomplexobj(B)
+        Bt = np.asarray(B.T, dtype=np.complex128 if complex_ else np.float64)
+        # B^T conj(B) (upper triangle) from B's rows as they lie in memory; its conjugate is B^H B
+        gram = blas.zherk(1.0, Bt, trans=0, lower=0).conj() if complex_ else blas.dsyrk(1.0, Bt, trans=0, lower=0)
+        scale = np.sqrt(np.real(np.diagonal(gram)))
         scale[scale == 0] = 1.0
-        Bs = B / scale
         try:
-            factor = scipy.linalg.cho_factor(Bs.conj().T @ Bs)
+            factor = scipy.linalg.cho_factor(gram / np.outer(scale, scale), lower=False)
         except np.linalg.LinAlgError:
             factor = None
         if factor is not None:
@@ -1274,9 +1284,13 @@ def least_squares(B: np.ndarray, y: np.ndarray, exact: bool = False) -> np.ndarr
             if not pivots.min() > 1e-7 * pivots.max():  # Gram condition beyond ~1e14 (e.g. equal columns)
                 factor = None
         if factor is not None:
-            x = scipy.linalg.cho_solve(factor, Bs.conj().T @ y)
+
+            def adjoint(r: np.ndarray) -> np.ndarray:  # B^H r / scale, without conjugating B
+                return (Bt @ r.conj()).conj() / scale if complex_ else (Bt @ r) / scale
+
+            x = scipy.linalg.cho_solve(factor, adjoint(y))
             for _ in range(2):  # iterative refinement: the normal equations' squared condition number undone
-                x = x + scipy.linalg.cho_solve(factor, Bs.conj().T @ (y - Bs @ x))
+                x = x + scipy.linalg.cho_solve(factor, adjoint(y - B @ (x / scale)))
             return x / scale
     return np.linalg.lstsq(B, y, rcond=None)[0]
 
