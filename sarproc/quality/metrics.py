@@ -55,6 +55,7 @@ from collections.abc import Callable, Collection, Iterable, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from sarproc.product import fft as sfft
 from sarproc.product.config import param
@@ -442,7 +443,7 @@ class _Chip:
         phase = functools.reduce(np.add.outer, [f * x for f, x in zip(self.freqs, x0)])
         freq = functools.reduce(np.add.outer, [f * d for f, d in zip(self.freqs, v)])
         coef = self.spec * np.exp(2j * np.pi * phase)
-        return exponential_sums(coef, freq, first, step, count) / self.data.size
+        return exponential_sums(coef, freq, first, step, count, compiled=coef.ndim == 3) / self.data.size
 
     def values_on_axis(self, start: npt.ArrayLike, axis: int, first: float, step: float, count: int) -> np.ndarray:
         """Values at ``start`` moved along image axis ``axis`` by ``first + j * step`` (j < count): the other
@@ -484,8 +485,10 @@ def _orientation_grid(ndim: int) -> tuple[np.ndarray, float, list[np.ndarray]]:
         z, phi = i / n, i * math.pi * (3.0 - math.sqrt(5.0))
         r = np.sqrt(1.0 - z**2)
         cand, sigma = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1), math.radians(3.0)
-    near = np.abs(cand @ cand.T) > math.cos(2 * sigma)
-    return cand, sigma, [np.flatnonzero(row) for row in near]
+    # in blocks of rows: the whole 4000 x 4000 product in 3D is 128 MB to allocate and fault in
+    reach = math.cos(2 * sigma)
+    near = [np.flatnonzero(row) for b in range(0, len(cand), 500) for row in np.abs(cand[b : b + 500] @ cand.T) > reach]
+    return cand, sigma, near
 
 
 def _orientation_density(
@@ -501,6 +504,8 @@ def _orientation_density(
         return kernels.orientation_density(
             np.ascontiguousarray(cand, dtype=float), np.ascontiguousarray(u, dtype=float), weight, float(sigma)
         )
+    if not exact and cand.shape[1] == 2 and _angle_reach(len(cand), sigma) < len(cand) // 2:
+        return _orientation_density_2d(cand, u, weight, sigma)
     d2 = (cand @ u.T) ** 2
     if exact:
         return np.exp((d2 - 1.0) / (2 * sigma**2)) @ weight
@@ -508,6 +513,26 @@ def _orientation_density(
     w = np.zeros_like(d2)
     w[near] = np.exp((d2[near] - 1.0) / (2 * sigma**2))
     return w @ weight
+
+
+def _angle_reach(n: int, sigma: float) -> int:
+    """Candidates on either side of its own that a 2D unit vector reaches in the pruned density: those within
+    acos(sqrt(1 - 80 sigma^2)) of its angle, ``n`` candidates spread over 180 deg."""
+    return int(math.ceil(math.acos(math.sqrt(max(0.0, 1.0 - 80.0 * sigma**2))) / (math.pi / n))) + 1
+
+
+def _orientation_density_2d(cand: np.ndarray, u: np.ndarray, weight: np.ndarray, sigma: float) -> np.ndarray:
+    """The pruned density of 2D candidates equally spaced in angle over 180 deg: each u only reaches the
+    candidates within :func:`_angle_reach` of its own angle (mod 180 deg), so only those pairs (a tenth of
+    them) are formed; the same terms as the dense pruned sum."""
+    n = len(cand)
+    reach = _angle_reach(n, sigma)
+    floor = 1.0 - 80.0 * sigma**2
+    nearest = np.rint((np.arctan2(u[:, 1], u[:, 0]) - math.atan2(cand[0, 1], cand[0, 0])) / (math.pi / n))
+    idx = (nearest.astype(np.int64)[:, None] + np.arange(-reach, reach + 1)) % n  # (len(u), 2 reach + 1)
+    d2 = (cand[idx, 0] * u[:, 0, None] + cand[idx, 1] * u[:, 1, None]) ** 2
+    w = np.where(d2 > floor, np.exp((np.maximum(d2, floor) - 1.0) / (2 * sigma**2)), 0.0)
+    return np.bincount(idx.ravel(), weights=(w * weight[:, None]).ravel(), minlength=n)
 
 
 def principal_directions(
@@ -608,7 +633,8 @@ def _ideal_response(
         from sarproc.quality import kernels  # numba: worth its loading time on 3D cubes only
 
         ridge = np.linalg.inv(np.asarray(V, dtype=float).T) / np.asarray(nulls, dtype=float)[:, None]
-        return kernels.ideal_response(
+        kernel = kernels.ideal_response if np.shape(points)[1] > 20000 else kernels.ideal_response_serial
+        return kernel(
             np.ascontiguousarray(points, dtype=float),
             np.asarray(position, dtype=float),
             ridge,
@@ -624,7 +650,14 @@ def _ideal_response(
 # ----------------------------------------------------------------------------------------------
 # Public entry points
 
+# evaluate's matrices are small (chips of a few thousand to a few hundred thousand samples contracted with
+# 9-row kernels, least squares of tens of columns): threaded BLAS only adds its start-up and, on a loaded
+# machine, threads spinning for each other (the 002 small image: 5.5 s of CPU with two threads, 1.8 s with
+# one; the results do not depend on it).
+single_blas = threadpool_limits.wrap(limits=1, user_api="blas")
 
+
+@single_blas
 def evaluate_image(
     data: np.ndarray,
     dims: Sequence[str],
@@ -824,9 +857,9 @@ def _subtract_neighbours(
         ]
         if not others or not abs(peak.value) > 0:
             continue
-        grid = np.meshgrid(*[np.arange(n) + o for n, o in zip(shape, raw.origin)], indexing="ij")
-        points = np.stack([g.ravel() for g in grid], axis=0).astype(float)
-        cleaned = raw.data.ravel() - sum(models[j].values(points, hamming, params.exact) for j in others)
+        cleaned = raw.data.ravel() - sum(
+            models[j].values_on_box(raw.origin, shape, hamming, params.exact) for j in others
+        )
         chip = _Chip(None, peak.index, half, chip=(cleaned.reshape(raw.shape), raw.clipped))
         pos, value = chip.refine_peak(peak.position)
         V, f_c = _support(chip, nulls, params)
@@ -940,6 +973,28 @@ class _NeighbourModel:
             points, self.position, self.ridges, self.nulls, self.band_centre, hamming, exact
         )
 
+    def values_on_box(
+        self, origin: Sequence[int], shape: Sequence[int], hamming: bool, exact: bool = False
+    ) -> np.ndarray:
+        """:meth:`values` on the image box ``origin + index`` of ``shape``, raveled (C order); an ideal 3D
+        response from per-axis tables (compiled), the others at the box's points."""
+        if not self.rich and not exact and len(shape) == 3:
+            from sarproc.quality import kernels
+
+            ridge = np.linalg.inv(np.asarray(self.ridges, dtype=float).T) / np.asarray(self.nulls, dtype=float)[:, None]
+            box = kernels.ideal_response_box(
+                np.asarray(origin, dtype=float),
+                np.ones(3),
+                np.asarray(shape, dtype=np.int64),
+                np.asarray(self.position, dtype=float),
+                ridge,
+                np.asarray(self.band_centre, dtype=float),
+                hamming,
+            )
+            return self.amplitude * box.ravel()
+        grid = np.meshgrid(*[np.arange(n) + o for n, o in zip(shape, origin)], indexing="ij")
+        return self.values(np.stack([g.ravel() for g in grid], axis=0).astype(float), hamming, exact)
+
 
 def _rich_values(points: npt.ArrayLike, rich: dict) -> np.ndarray:
     """A response model of :func:`fit_response_models` at ``points`` ((ndim, N) image indices)."""
@@ -963,8 +1018,8 @@ def _neighbour_models(
     nulls = np.asarray(nulls, dtype=float)
     models = {}
     for members in _overlapping_groups(peaks, np.asarray(half, dtype=float) + nulls, nulls):
-        points, y = _group_samples(data, [peaks[k].position for k in members], nulls)
-        fit = _fit_ideal_group(points, y, [peaks[k] for k in members], nulls, params)
+        points, y, boxes = _group_samples(data, [peaks[k].position for k in members], nulls)
+        fit = _fit_ideal_group(points, y, [peaks[k] for k in members], nulls, params, boxes)
         rich = _refit_rich(data, points, y, fit, members, nulls, params)
         for q, k in enumerate(members):
             models[k] = dataclasses.replace(fit[q], group=frozenset(members))
@@ -998,11 +1053,12 @@ def _overlapping_groups(peaks: list, reach: np.ndarray, nulls: np.ndarray) -> li
 
 
 def _group_samples(data: np.ndarray, positions: list, nulls: np.ndarray) -> tuple:
-    """(points (ndim, N) float image indices, complex samples) within 3 nulls of every position, about two
-    per null."""
+    """(points (ndim, N) float image indices, complex samples, boxes) within 3 nulls of every position, about
+    two per null. ``boxes`` (:class:`_SampleBoxes`) says which box each point came from, so a response can be
+    evaluated box by box."""
     stride = np.maximum(1, np.floor(nulls / 2)).astype(int)
     r = np.ceil(3 * nulls).astype(int)
-    boxes = []
+    boxes, layout = [], []
     for p in positions:
         c = np.rint(p).astype(int)
         axes_pts = [
@@ -1010,17 +1066,55 @@ def _group_samples(data: np.ndarray, positions: list, nulls: np.ndarray) -> tupl
         ]
         g = np.meshgrid(*axes_pts, indexing="ij")
         boxes.append(np.stack([x.ravel() for x in g], axis=0))
-    points = np.unique(np.concatenate(boxes, axis=1), axis=1)
+        layout.append((np.array([a[0] if a.size else 0 for a in axes_pts]), np.array([a.size for a in axes_pts])))
+    points, inverse = np.unique(np.concatenate(boxes, axis=1), axis=1, return_inverse=True)
     y = data[tuple(points)].astype(complex)
-    return points.astype(float), y
+    return points.astype(float), y, _SampleBoxes(stride, layout, inverse.ravel(), points.shape[1])
+
+
+@dataclasses.dataclass(frozen=True)
+class _SampleBoxes:
+    """The strided boxes a group's samples were drawn from: per box (origin, shape), and each box point's
+    index among the (deduplicated) samples, boxes in order."""
+
+    stride: np.ndarray
+    layout: list
+    inverse: np.ndarray
+    count: int
+
+    def ideal_response(
+        self, position: npt.ArrayLike, V: npt.ArrayLike, nulls: npt.ArrayLike, f_c: npt.ArrayLike, hamming: bool
+    ) -> np.ndarray:
+        """A 3D ideal response (:func:`_ideal_response`) at the samples, from per-axis tables box by box
+        (compiled; equal to rounding)."""
+        from sarproc.quality import kernels
+
+        ridge = np.linalg.inv(np.asarray(V, dtype=float).T) / np.asarray(nulls, dtype=float)[:, None]
+        return kernels.ideal_response_boxes(
+            np.array([o for o, _ in self.layout], dtype=float),
+            self.stride.astype(float),
+            np.array([n for _, n in self.layout], dtype=np.int64),
+            self.inverse.astype(np.int64),
+            self.count,
+            np.asarray(position, dtype=float),
+            ridge,
+            np.asarray(f_c, dtype=float),
+            hamming,
+        )
 
 
 def _fit_ideal_group(
-    points: np.ndarray, y: np.ndarray, starts: list, nulls: np.ndarray, params: EvaluateParams
+    points: np.ndarray,
+    y: np.ndarray,
+    starts: list,
+    nulls: np.ndarray,
+    params: EvaluateParams,
+    boxes: _SampleBoxes | None = None,
 ) -> list:
     """Every member's ideal response fitted jointly to the samples ``y`` at ``points``: position, band centre
     and ridge skews by Gauss-Newton (at most 8 steps; linear convergence, about halving, on skewed supports),
-    then the complex amplitudes by least squares. Returns one _NeighbourModel per member (group unset)."""
+    then the complex amplitudes by least squares; ``boxes``: where the samples came from (3D responses are then
+    evaluated box by box). Returns one _NeighbourModel per member (group unset)."""
     hamming = params.irw_factor > 1.1
     ndim = points.shape[0]
     skew = [(a, b) for a in range(ndim) for b in range(ndim) if a != b]  # free entries of V
@@ -1029,6 +1123,8 @@ def _fit_ideal_group(
     V = [np.array(p.ridges, dtype=float) for p in starts]
 
     def model(q: int, p: np.ndarray | None = None, v: np.ndarray | None = None) -> np.ndarray:
+        if boxes is not None and ndim == 3 and not params.exact:
+            return boxes.ideal_response(pos[q] if p is None else p, V[q] if v is None else v, nulls, f_c[q], hamming)
         return _ideal_response(
             points, pos[q] if p is None else p, V[q] if v is None else v, nulls, f_c[q], hamming, params.exact
         )
@@ -1164,15 +1260,23 @@ def least_squares(B: np.ndarray, y: np.ndarray, exact: bool = False) -> np.ndarr
     Through the normal equations of the column-equilibrated B (unit-norm columns, Cholesky) with two
     steps of iterative refinement (which restore the accuracy the squared condition number costs): on the
     tall systems of 3D boxes several times faster than an SVD; ``exact`` (or a Gram matrix that is not
-    numerically positive definite) takes numpy's SVD solver, the reference the fast path is tested against."""
+    numerically positive definite) takes numpy's SVD solver, the reference the fast path is tested against.
+    The Gram matrix is one BLAS rank-k update of B as stored (no conjugated or scaled copy of B) and the
+    columns are equilibrated on it (their norms are its diagonal)."""
     if not exact:
         import scipy.linalg  # ~0.1 s to import: only where a least-squares fit runs
+        from scipy.linalg import blas
 
-        scale = np.linalg.norm(B, axis=0)
+        B = np.asarray(B)
+        y = np.asarray(y)
+        complex_ = np.iscomplexobj(B)
+        Bt = np.asarray(B.T, dtype=np.complex128 if complex_ else np.float64)
+        # B^T conj(B) (upper triangle) from B's rows as they lie in memory; its conjugate is B^H B
+        gram = blas.zherk(1.0, Bt, trans=0, lower=0).conj() if complex_ else blas.dsyrk(1.0, Bt, trans=0, lower=0)
+        scale = np.sqrt(np.real(np.diagonal(gram)))
         scale[scale == 0] = 1.0
-        Bs = B / scale
         try:
-            factor = scipy.linalg.cho_factor(Bs.conj().T @ Bs)
+            factor = scipy.linalg.cho_factor(gram / np.outer(scale, scale), lower=False)
         except np.linalg.LinAlgError:
             factor = None
         if factor is not None:
@@ -1180,9 +1284,13 @@ def least_squares(B: np.ndarray, y: np.ndarray, exact: bool = False) -> np.ndarr
             if not pivots.min() > 1e-7 * pivots.max():  # Gram condition beyond ~1e14 (e.g. equal columns)
                 factor = None
         if factor is not None:
-            x = scipy.linalg.cho_solve(factor, Bs.conj().T @ y)
+
+            def adjoint(r: np.ndarray) -> np.ndarray:  # B^H r / scale, without conjugating B
+                return (Bt @ r.conj()).conj() / scale if complex_ else (Bt @ r) / scale
+
+            x = scipy.linalg.cho_solve(factor, adjoint(y))
             for _ in range(2):  # iterative refinement: the normal equations' squared condition number undone
-                x = x + scipy.linalg.cho_solve(factor, Bs.conj().T @ (y - Bs @ x))
+                x = x + scipy.linalg.cho_solve(factor, adjoint(y - B @ (x / scale)))
             return x / scale
     return np.linalg.lstsq(B, y, rcond=None)[0]
 

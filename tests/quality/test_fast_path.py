@@ -114,3 +114,33 @@ def test_crowded_skewed_3d_same_report_as_reference_numerics():
     assert sum(bool(t.neighbours_removed) for t in fast.targets) >= 2
     assert any(m.angle_deg > 1.0 for t in fast.targets for m in t.axes)  # oblique cuts taken
     _assert_same(fast, exact)
+
+
+def test_compiled_box_responses_equal_pointwise():
+    """The neighbour responses from per-axis tables (a chip box, the strided sample boxes of a group fit) equal
+    the pointwise compiled response, unweighted and Hamming, including points on a ridge coordinate's zero."""
+    from sarproc.quality import kernels
+
+    rng = np.random.default_rng(3)
+    V = np.eye(3) + 0.05 * rng.standard_normal((3, 3))
+    ridge = np.linalg.inv(V.T) / np.array([2.5, 1.7, 1.2])[:, None]
+    position, f_c = np.array([7.0, 5.3, 4.0]), np.array([0.11, -0.27, 0.43])  # integer coordinates: c = 0 there
+    origins, shapes = np.array([[0.0, 1.0, 2.0], [3.0, 1.0, 0.0]]), np.array([[7, 6, 5], [5, 8, 6]])
+    step = np.array([2.0, 1.0, 1.0])
+    boxes = [
+        np.stack(
+            [g.ravel() for g in np.meshgrid(*[o + s * np.arange(n) for o, s, n in zip(org, step, shp)], indexing="ij")]
+        )
+        for org, shp in zip(origins, shapes)
+    ]
+    points, inverse = np.unique(np.concatenate(boxes, axis=1), axis=1, return_inverse=True)
+    for hamming in (False, True):
+        ref = kernels.ideal_response(points, position, ridge, f_c, hamming)
+        got = kernels.ideal_response_boxes(
+            origins, step, shapes, inverse.ravel().astype(np.int64), points.shape[1], position, ridge, f_c, hamming
+        )
+        np.testing.assert_allclose(got, ref, rtol=0, atol=1e-14)
+        box = kernels.ideal_response_box(origins[1], step, shapes[1], position, ridge, f_c, hamming).ravel()
+        np.testing.assert_allclose(
+            box, kernels.ideal_response(boxes[1], position, ridge, f_c, hamming), rtol=0, atol=1e-14
+        )
