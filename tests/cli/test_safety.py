@@ -246,10 +246,13 @@ def test_second_writer_stops_at_once_naming_the_first(tmp_path):
         stderr=subprocess.PIPE,
     )
     try:
+        # paused once it holds the output's lock and has said who it is (from the output check to the publishing:
+        # the whole run, not only its write, which the compiled simulator finishes in milliseconds)
+        lock = tmp_path / ".raw.h5.sarproc-lock"
         end = time.monotonic() + 60
-        while not list(tmp_path.glob(".*.sarproc-tmp")) and time.monotonic() < end and first.poll() is None:
-            time.sleep(0.02)
-        first.send_signal(signal.SIGSTOP)  # frozen mid-write, holding its lock, however slow the second is
+        while time.monotonic() < end and first.poll() is None and not (lock.exists() and lock.read_text().strip()):
+            time.sleep(0.005)
+        first.send_signal(signal.SIGSTOP)  # frozen mid-run, holding its lock, however slow the second is
         assert first.poll() is None, "the first run ended before it could be paused: make it slower"
         start = time.monotonic()
         second = sarproc("simulate", slow, "-o", out, "--overwrite")
@@ -281,12 +284,15 @@ def made_scene(tmp_path: Path) -> Path:
 def test_every_signal_stops_the_run_or_lands_after_publishing(made, tmp_path):
     """36 deliveries (SIGTERM, SIGINT, SIGHUP) at random moments of simulate and backproject runs: each
     ends 128 + N with nothing left, or 0 with the complete output."""
-    scene = dump(tmp_path / "scene.yaml", merge(SCENE, {"simulation": {"block_pulses": 8}}))
+    # a 4x longer aperture than SCENE in small blocks: the compute, not the publishing, fills most of each run
+    # (with the compiled echo kernel SCENE's own simulation is over in a few blocks)
+    long_scene = merge(SCENE, {"acquisition": {"aperture_time": "2 s"}, "simulation": {"block_pulses": 8}})
+    scene = dump(tmp_path / "scene.yaml", long_scene)
     commands = {
         "simulate": lambda out: ["simulate", str(scene), "-o", str(out), "-q"],
         "backproject": lambda out: [
             "backproject",
-            str(made / "raw.h5"),
+            str(tmp_path / "warm_simulate_0.h5"),  # the first unsignalled run's raw product
             "--config",
             str(made / "bp.yaml"),
             "-o",
@@ -294,7 +300,8 @@ def test_every_signal_stops_the_run_or_lands_after_publishing(made, tmp_path):
             "-q",
         ],
     }
-    refs = {"simulate": made / "raw.h5", "backproject": made / "image.h5"}
+    # the unsignalled runs' products (run first, in order) are the references
+    refs = {"simulate": tmp_path / "warm_simulate_0.h5", "backproject": tmp_path / "warm_backproject_0.h5"}
     # two unsignalled runs of each first: kernels loaded, run time measured
     runs = [{"key": c, "args": commands[c](tmp_path / f"warm_{c}_{k}.h5")} for k in range(2) for c in commands]
     rng = random.Random(18)
