@@ -139,6 +139,19 @@ def apply_filter_bank(spectra: np.ndarray, bank: FilterBank) -> np.ndarray:
     return out.reshape((n * n_az,) + rest)
 
 
+def synthesise_channels(spectrum: np.ndarray, bank: FilterBank) -> np.ndarray:
+    """Inverse of :func:`apply_filter_bank`: reconstructed spectrum (N n_az, ...) -> channel spectra (N, n_az, ...).
+
+    Each base bin's N band values are mapped back through H = P^-1 (eq. 3: the channels a target with that
+    reconstructed spectrum and the bank's channel delays gives); exact for an unregularised bank.
+    """
+    n, n_az = bank.out_index.shape[1], bank.out_index.shape[0]
+    rest = spectrum.shape[1:]
+    z = spectrum.reshape(n * n_az, -1)[bank.out_index.reshape(-1)].reshape(n_az, n, -1) / n
+    s = np.linalg.inv(bank.matrix).astype(np.complex64) @ z.astype(np.complex64)  # (n_az, N ch, m)
+    return np.moveaxis(s, 1, 0).reshape((n, n_az) + rest)
+
+
 def ghost_level_db(tau: np.ndarray, prf: float, error_phase: np.ndarray, half_band: float, n_az: int = 256) -> float:
     """First-order false-target level (dB) left by a channel phase error phi_n (eq. 6, docs/multichannel.md).
 

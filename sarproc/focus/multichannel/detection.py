@@ -101,6 +101,12 @@ def compressed(y_fa: np.ndarray, out_f: np.ndarray, ka: np.ndarray) -> np.ndarra
     return sfft.ifft2(y_fa * comp, workers=-1)
 
 
+def decompressed(image: np.ndarray, out_f: np.ndarray, ka: np.ndarray) -> np.ndarray:
+    """Inverse of :func:`compressed`: complex detection image (t', range cell) -> spectrum (f_a, f_r)."""
+    comp = unit_phasor(np.mod(0.5 * out_f[:, None] ** 2 / ka[None, :], 1.0))
+    return sfft.fft2(image, workers=-1) * comp
+
+
 def detection_image(y_fa: np.ndarray, out_f: np.ndarray, ka: np.ndarray) -> np.ndarray:
     """Power of :func:`compressed`, float32."""
     img = compressed(y_fa, out_f, ka)

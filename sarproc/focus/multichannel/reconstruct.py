@@ -27,7 +27,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -153,6 +153,9 @@ class MovingTarget:
     snr_db: float = float("nan")  # detection SNR (peak over mean local background)
     apparent_time: float = float("nan")  # s, where it appears (beam-centre time of its static equivalent)
     apparent_range: float = float("nan")  # m, slant range of its static equivalent at apparent_time
+    # with the null fit: the output azimuth sample where the mover appears (None: eq. 5 was kept)
+    null_fit_index: float | None = None
+    null_fit_cell: int | None = None  # and its range cell in the window
 
 
 @dataclasses.dataclass
@@ -322,6 +325,124 @@ class _Window:
         return float(slope * C / (2 * g.fs))
 
 
+NULL_FIT_HALF_WIDTH = 12  # azimuth samples either side of a mover's response kept and compared (_NullFit)
+NULL_FIT_CELLS = 3  # range cells either side of it
+NULL_FIT_MISMATCH = 0.3  # a velocity leaving more than this fraction of the residual response unexplained is wrong
+
+
+class _NullFit:
+    """A mover's clutter-null residual predicted from a trial velocity, against the measured one (issue 19).
+
+    Eq. (5) weighs everything in the window's channels: static clutter in the mover's cells and at its
+    apparent time modulo PRF / K_a (which the dechirp mask keeps) pulls its minimum towards v_los = 0. The
+    null removes that clutter but keeps of a slow mover only its channel phase 2 pi f_v tau_n, which sets
+    the residual's amplitude (to first order in v_los) and sign against the mover's focused response. Per
+    trial velocity: the window's in-band reconstruction (demodulated) is compressed and kept only at the
+    mover's own response (its strongest peak among the positions k PRF / K_a apart, within the ghost walk
+    of the detection's cell), taken back to channels through the trial channel model
+    (channels.synthesise_channels), re-modulated, nulled and compressed as the detection image was; the
+    mismatch is the energy of measured minus predicted residual around the detection, over the measured
+    energy: near 0 for the right velocity, near 1 for one that predicts no residual (v_los = 0).
+    """
+
+    def __init__(
+        self,
+        win: _Window,
+        index: int,
+        cell: int,
+        ka: np.ndarray,
+        ka0: float,
+        projector: np.ndarray,
+        bank: channels.FilterBank,
+        ghost_cells: int,
+    ) -> None:
+        g = win.g
+        self.win, self.ka, self.ka0, self.proj, self.static_bank = win, ka, ka0, projector, bank
+        self.index, self.cell, self.ghost_cells = index, cell, ghost_cells
+        self.n_out = g.n * len(g.times)
+        self.spacing = g.prf / ka0 * g.n * g.prf  # samples between a response and its ambiguities
+        self.in_band = np.abs(win.out_f) <= g.half_band
+        # The residual response compared: the strongest near the detection in this window's own residual image
+        # (the dechirp mask and the ghost's range walk can move it a few samples and cells from the detection).
+        self.rows, self.cols = self._rows(index, 4 * NULL_FIT_HALF_WIDTH), self._cols(cell, ghost_cells)
+        near = np.abs(self._residual(win.x)) ** 2
+        i, c = np.unravel_index(int(np.argmax(near)), near.shape)
+        self.index, self.cell = int(self.rows[i]), int(self.cols[c])
+        self.rows, self.cols = self._rows(self.index), self._cols(self.cell)
+        self.measured = self._residual(win.x)
+        self.last_peak = float(self.index)  # where the last isolated() found the mover, output samples
+        self.last_cell = self.cell  # and in which of the window's cells
+
+    def _rows(self, centre: float, half: int = NULL_FIT_HALF_WIDTH) -> np.ndarray:
+        c = int(round(centre))
+        return np.arange(c - half, c + half + 1) % self.n_out
+
+    def _cols(self, cell: int, half: int = NULL_FIT_CELLS) -> np.ndarray:
+        return np.arange(max(0, cell - half), min(self.win.x.shape[2], cell + half + 1))
+
+    def _residual(self, x_tf: np.ndarray) -> np.ndarray:
+        """The detection image of the window's nulled channels (as _detect_and_focus's), at the compared samples."""
+        res = clutter_null(sfft.fft(x_tf, axis=1, workers=-1), self.win.g, projector=self.proj)[0]
+        img = detection.compressed(channels.apply_filter_bank(res, self.static_bank), self.win.out_f, self.ka)
+        return img[np.ix_(self.rows, self.cols)]
+
+    def image(self, v_r: float, v_a: float) -> np.ndarray:
+        """The window's in-band reconstruction for the trial velocity, demodulated and compressed (t', cell)."""
+        spec = self.win.demodulated_spectrum(v_r, v_a) * self.in_band[:, None]
+        return detection.compressed(spec, self.win.out_f, self.ka)
+
+    def isolated(
+        self,
+        v_r: float,
+        v_a: float,
+        shift: int,
+        half_width: int = NULL_FIT_HALF_WIDTH,
+        image: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """The window's channels (N, n_az, L) of the mover alone as the trial velocity sees it (class doc).
+
+        The mover is taken to appear ``shift`` x PRF / K_a from the detection (a slow mover's residual peaks one
+        such step away from it): its strongest peak there (a local maximum, not a neighbour's skirt at the edge of
+        the search), within the ghost walk of the detection's cell, is kept over +-``half_width`` samples and
+        NULL_FIT_CELLS cells. ``image``: :meth:`image` of the same trial, if already computed.
+        """
+        g, win = self.win.g, self.win
+        img = self.image(v_r, v_a) if image is None else image
+        v_los = channels.line_of_sight_velocity(v_r, v_a, g.squint)
+        # removing the trial Doppler offset moves every response by 2 v_los / (lambda K_a)
+        centre = self.index + 2 * v_los * g.fc / C / self.ka0 * g.n * g.prf - shift * self.spacing
+        near = self._cols(self.cell, self.ghost_cells)
+        sub = np.abs(img[np.ix_(self._rows(centre), near)]) ** 2
+        sub[[0, -1], :] = 0.0
+        j = np.unravel_index(int(np.argmax(sub)), sub.shape)
+        peak = centre - NULL_FIT_HALF_WIDTH + int(j[0])
+        self.last_peak = (peak - 2 * v_los * g.fc / C / self.ka0 * g.n * g.prf) % self.n_out  # Doppler restored
+        rows = self._rows(peak, half_width)
+        self.last_cell = int(near[j[1]])
+        cols = self._cols(self.last_cell)
+        own = np.zeros_like(img)
+        own[np.ix_(rows, cols)] = img[np.ix_(rows, cols)]
+        spec = detection.decompressed(own, win.out_f, self.ka) * self.in_band[:, None]
+        x_dem = sfft.ifft(channels.synthesise_channels(spec, win.bank(v_a)), axis=1, workers=-1)
+        return x_dem * deramp.doppler_shift_phasor(g.times, win.f_r, v_los, g.fc, sign=+1)[None]
+
+    def fit(self, v_r: float, v_a: float) -> tuple[float, int]:
+        """(mismatch, shift): the energy of the measured residual minus the predicted one, over the measured, for
+        the best of the mover's positions 0, +-1 x PRF / K_a from the detection."""
+        total = float(np.sum(np.abs(self.measured) ** 2))
+        if total <= 0:
+            return 0.0, 0
+        best = (math.inf, 0)
+        img = self.image(v_r, v_a)
+        for shift in (0, -1, 1):
+            predicted = self._residual(self.isolated(v_r, v_a, shift, image=img))
+            best = min(best, (float(np.sum(np.abs(self.measured - predicted) ** 2) / total), shift))
+        return best
+
+    def mismatch(self, v_r: float, v_a: float) -> float:
+        return self.fit(v_r, v_a)[0]
+
+
 def _estimate(
     win: _Window,
     params: ReconstructParams,
@@ -329,6 +450,7 @@ def _estimate(
     centre_range: float,
     static_below: float | None = None,
     flat_above: float | None = None,
+    null_fit: _NullFit | None = None,
 ) -> tuple[MovingTarget | None, list[str]]:
     """Slant-range velocity by the leakage search, along-track by autofocus, then a refined search.
 
@@ -337,7 +459,9 @@ def _estimate(
     search is below it (m/s) is a static target: (None, ["static <v_los>"]); with ``flat_above``, one whose eq. 5 at the
     estimate is above that fraction of its median over the first search's grid, or at white noise's
     out-of-band fraction, has no velocity that explains it (noise, or a response that is no point
-    target): (None, ["incoherent"]).
+    target): (None, ["incoherent"]). With ``null_fit`` (a detection on the clutter-null residual), an eq. 5
+    estimate that leaves more than NULL_FIT_MISMATCH of that residual unexplained was pulled by the clutter
+    in the window: the velocity is searched again by the null fit (_NullFit), and that criterion kept.
     """
     empty = np.zeros((0, 2))
     notes: list[str] = []
@@ -351,9 +475,11 @@ def _estimate(
         )
     v_a = params.along_track_velocity if params.along_track_velocity is not None else 0.0
 
+    criterion: Callable[[float, float], float] = win.leakage
+
     def search(v_a_now: float, lo: float, hi: float, coarse: float) -> velocity.SearchResult:
         return velocity.fast_search(
-            lambda u: win.leakage(u, v_a_now),
+            lambda u: criterion(u, v_a_now),
             lo,
             hi,
             params.velocity_step,
@@ -381,20 +507,54 @@ def _estimate(
             v_r = alias.estimate
     else:
         v_r = 0.0
+    if null_fit is not None and result is not None and null_fit.mismatch(v_r, v_a) > NULL_FIT_MISMATCH:
+        refit = velocity.fast_search(
+            lambda u: null_fit.mismatch(u, v_a),
+            params.velocity_min,
+            params.velocity_max,
+            params.velocity_step,
+            params.coarse_step,
+            exhaustive=params.search == "exhaustive",
+        )
+        log.debug(
+            "reconstruct: eq. 5 gives %.2f m/s (null-fit mismatch %.2f), the null fit %.2f m/s (%.2f)",
+            v_r,
+            null_fit.mismatch(v_r, v_a),
+            refit.estimate,
+            null_fit.mismatch(refit.estimate, v_a),
+        )
+        if null_fit.mismatch(refit.estimate, v_a) <= NULL_FIT_MISMATCH:
+            log.info(
+                "reconstruct: eq. 5 gave %.2f m/s, which leaves the clutter-null residual unexplained; the null fit "
+                "gives %.2f m/s",
+                v_r,
+                refit.estimate,
+            )
+            v_r, result, criterion = refit.estimate, refit, null_fit.mismatch
     if static_below is not None:
         v_los_first = channels.line_of_sight_velocity(v_r, v_a, g.squint)
         if abs(v_los_first) < static_below:
             return None, [f"static {v_los_first:.6g}"]
     y_dem = sfft.ifft(win.demodulated_spectrum(v_r, v_a), axis=0, workers=-1)
-    p = np.sum(np.abs(y_dem) ** 2, axis=1)
+    own_cells = None
+    shift = None
+    if null_fit is not None and criterion != win.leakage:
+        # The clutter that outweighs the mover in its window also pulls its beam-centre time and autofocus (clutter
+        # is sharpest at v_a = 0): both use only the range cells holding half of the isolated mover's peak.
+        shift = null_fit.fit(v_r, v_a)[1]
+        iso = null_fit.isolated(v_r, v_a, shift)
+        iso_power = np.sum(np.abs(sfft.ifft(iso, axis=-1, workers=-1)) ** 2, axis=(0, 1))
+        own_cells = np.nonzero(iso_power >= 0.5 * iso_power.max())[0]
+    p = np.sum(np.abs(y_dem if own_cells is None else sfft.ifft(y_dem, axis=1, workers=-1)[:, own_cells]) ** 2, axis=1)
     t_c = float(np.sum(g.out_times * p) / np.sum(p)) if np.sum(p) > 0 else 0.0
     slant_range = centre_range - g.velocity * math.sin(g.squint) * t_c
     af = empty
     if flat_above is not None and result is not None:
         # No dip at any velocity, or as much energy out of band as white noise has (1 - B_a / (N PRF)):
         # nothing band-limited to estimate.
-        at = win.leakage(v_r, v_a)
-        if at > flat_above * float(np.median(result.trials[:, 1])) or at >= 1 - 2 * g.half_band / (g.n * g.prf):
+        at = criterion(v_r, v_a)
+        white = criterion == win.leakage and at >= 1 - 2 * g.half_band / (g.n * g.prf)
+        if at > flat_above * float(np.median(result.trials[:, 1])) or white:
             return None, ["incoherent"]
     if params.autofocus and params.along_track_velocity is None:
         v_los = channels.line_of_sight_velocity(v_r, v_a, g.squint)
@@ -402,7 +562,8 @@ def _estimate(
         # FM rate at the carrier (the range-frequency spread of R'' is 0.3 %): one azimuth FFT per trial.
         y_cells = sfft.ifft(y_dem, axis=1, workers=-1)
         cell_power = np.sum(np.abs(y_cells) ** 2, axis=0)
-        y_cells = np.ascontiguousarray(y_cells[:, cell_power >= 0.01 * cell_power.max()])
+        keep = cell_power >= 0.01 * cell_power.max() if own_cells is None else own_cells
+        y_cells = np.ascontiguousarray(y_cells[:, keep])
 
         def crit(u: float) -> float:  # keep the line-of-sight velocity found by the search while v_a varies
             vr_u = (v_los - u * math.sin(g.squint)) / math.cos(g.squint)
@@ -426,6 +587,10 @@ def _estimate(
             )
             v_r = fine.estimate
     leak = win.leakage(v_r, v_a) if can_search else float("nan")
+    appears = appears_cell = None
+    if null_fit is not None and shift is not None:
+        null_fit.isolated(v_r, v_a, null_fit.fit(v_r, v_a)[1])  # where the mover is, with its final velocity
+        appears, appears_cell = null_fit.last_peak, null_fit.last_cell
     on_bound = (
         result is not None
         and min(abs(v_r - params.velocity_min), abs(v_r - params.velocity_max)) < params.velocity_step
@@ -452,6 +617,8 @@ def _estimate(
         at_bound=bool(beyond or on_bound),
         search=result.trials if result is not None else empty,
         autofocus=af,
+        null_fit_index=appears,
+        null_fit_cell=appears_cell,
     ), notes
 
 
@@ -478,20 +645,31 @@ def _resolve_blind_velocity(
     return float(candidates[best]), bool(walks[best] > 0.5 * step)
 
 
-def clutter_null(spec_fa: np.ndarray, g: _Geometry, band_factor: float = 1.0) -> tuple[np.ndarray, int]:
+def clutter_projector(n_az: int, g: _Geometry, band_factor: float = 1.0) -> tuple[np.ndarray, int]:
+    """(n_az, N, N) projector of each base bin onto the complement of the static clutter steering vectors.
+
+    Also returns the fewest redundant channels over the base bins.
+    """
+    n = len(g.tau0)
+    fo = channels.band_frequencies(n_az, g.prf, n)
+    h = np.exp(2j * np.pi * g.tau0[None, :, None] * fo[:, None, :])  # (n_az, N, N), eq. (3)
+    clutter = np.abs(fo) <= g.half_band * band_factor  # aliases the static band covers
+    a = h * clutter[:, None, :]
+    return np.eye(n)[None] - a @ np.linalg.pinv(a, rcond=1e-10), int(n - clutter.sum(axis=1).max())
+
+
+def clutter_null(
+    spec_fa: np.ndarray, g: _Geometry, band_factor: float = 1.0, projector: np.ndarray | None = None
+) -> tuple[np.ndarray, int]:
     """Project channel spectra (N, n_az, m) onto the complement of the static clutter steering vectors.
 
     Returns the residual (same shape) and the fewest redundant channels over the base bins.
     """
     n, n_az = spec_fa.shape[:2]
-    fo = channels.band_frequencies(n_az, g.prf, n)
-    h = np.exp(2j * np.pi * g.tau0[None, :, None] * fo[:, None, :])  # (n_az, N, N), eq. (3)
-    clutter = np.abs(fo) <= g.half_band * band_factor  # aliases the static band covers
-    a = h * clutter[:, None, :]
-    proj = np.eye(n)[None] - a @ np.linalg.pinv(a, rcond=1e-10)
+    proj, dof = clutter_projector(n_az, g, band_factor) if projector is None else (projector, -1)
     s = np.moveaxis(spec_fa, 0, 1).reshape(n_az, n, -1)
     res = (proj.astype(np.complex64) @ s).reshape((n_az, n) + spec_fa.shape[2:])
-    return np.moveaxis(res, 1, 0), int(n - clutter.sum(axis=1).max())
+    return np.moveaxis(res, 1, 0), dof
 
 
 def _swath_centre_range(raw: Product) -> float:
@@ -500,23 +678,35 @@ def _swath_centre_range(raw: Product) -> float:
 
 
 def _refine_peak(
-    y_win_tf: np.ndarray, ka: np.ndarray, out_f: np.ndarray, index: int, spacing: float, n_out: int
+    y_win_tf: np.ndarray,
+    ka: np.ndarray,
+    out_f: np.ndarray,
+    index: int,
+    spacing: float,
+    n_out: int,
+    only_here: bool = False,
+    cell: int | None = None,
 ) -> tuple[float, float]:
     """Sub-sample (azimuth index, window cell) of a refocused mover in its window's detection image.
 
     The detection may be one of the mover's ambiguities (``spacing`` = PRF / K_a in samples apart; the
     clutter null leaves a mover's energy mostly there): the strongest of them after the modified
-    reconstruction, which puts the energy where the mover appears, is taken.
+    reconstruction, which puts the energy where the mover appears, is taken; with ``only_here`` (``index`` is
+    where the null fit isolated the mover) only that one, as clutter brighter than the mover may sit at the others.
+    With ``cell`` (the null fit's too) only the range cells within NULL_FIT_CELLS of it.
     """
     power = detection.detection_image(sfft.fft(y_win_tf, axis=0, workers=-1), out_f, ka)
     best = None
     k_max = int(n_out // spacing) + 1
-    for k in range(-k_max, k_max + 1):
+    for k in [0] if only_here else range(-k_max, k_max + 1):
         centre = int(round(index + k * spacing))
         if not 0 <= centre < n_out:
             continue
         rows = np.arange(centre - 8, centre + 9) % n_out
         sub = power[rows]
+        if cell is not None:
+            sub = sub.copy()
+            sub[:, np.abs(np.arange(sub.shape[1]) - cell) > NULL_FIT_CELLS] = 0.0
         i, c = np.unravel_index(int(np.argmax(sub)), sub.shape)
         if best is None or sub[i, c] > best[0]:
             best = (sub[i, c], centre - 8, sub, i, c)
@@ -616,11 +806,13 @@ def _detect_and_focus(
         k = round(dt)
         return abs(d1.cell - d2.cell) > (cells if k == 0 else max(cells, ghost_cells)) or abs(dt - k) * ambiguity > sep
 
+    projector = clutter_projector(len(g.times), g, params.clutter_band)[0] if residual_mode else None
+
     def remove(ext: np.ndarray, a: int, b: int, ka_w: np.ndarray) -> None:
         """Take one examined detection's whole response (ambiguities, clutter-null artefacts) out of the image."""
         x_fa = sfft.fft(ext, axis=1, workers=-1)
         if residual_mode:
-            x_fa = clutter_null(x_fa, g, params.clutter_band)[0]
+            x_fa = clutter_null(x_fa, g, projector=projector)[0]
         image[:, a:b] -= detection.compressed(channels.apply_filter_bank(x_fa, bank), out_f, ka_w)
 
     for det in progress(dets) if progress is not None else dets:
@@ -689,7 +881,7 @@ def _detect_and_focus(
             # Energy of this detection's channels that survives the clutter null: static points leave the
             # null's floor, a mover its channel-phase mismatch (v_r) or band shift (v_los).
             e_fa = sfft.fft(ext, axis=1, workers=-1)
-            kept = float(np.sum(np.abs(clutter_null(e_fa, g, params.clutter_band)[0]) ** 2))
+            kept = float(np.sum(np.abs(clutter_null(e_fa, g, projector=projector)[0]) ** 2))
             total = float(np.sum(np.abs(e_fa) ** 2))
             null_db = 10 * math.log10(kept / total) if kept > 0 and total > 0 else -math.inf
             log.debug(
@@ -700,7 +892,20 @@ def _detect_and_focus(
             )
         centre_range = C / 2 * (rt0 + (det.cell - lead) / g.fs)
         # A criterion with no dip at any velocity: no point target (noise, a side lobe, clutter residue).
-        mt, notes = _estimate(win, params, g, centre_range, static_below=params.detection_velocity, flat_above=0.95)
+        null_fit = (
+            _NullFit(win, det.index, det.cell - a, ka_w, ka0, projector, bank, ghost_cells)
+            if projector is not None
+            else None
+        )
+        mt, notes = _estimate(
+            win,
+            params,
+            g,
+            centre_range,
+            static_below=params.detection_velocity,
+            flat_above=0.95,
+            null_fit=null_fit,
+        )
         # The other targets in this window (detected anywhere in its cells, not at this one's position or
         # ambiguities) keep their own reconstruction; everything else in the window takes this mover's.
         others = []
@@ -755,7 +960,14 @@ def _detect_and_focus(
         y_conv = sfft.ifft(_reconstruct(whole, win.bank(0.0)), axis=0, workers=-1)
         y_tr[:, a:b] += sfft.ifft(y_mod - y_conv, axis=1, workers=-1)
         index, cell = _refine_peak(
-            sfft.fft(y_tr[:, a:b], axis=1, workers=-1), ka_w, out_f, det.index, ambiguity * g.n * g.prf, n_out
+            sfft.fft(y_tr[:, a:b], axis=1, workers=-1),
+            ka_w,
+            out_f,
+            det.index if mt.null_fit_index is None else int(round(mt.null_fit_index)),
+            ambiguity * g.n * g.prf,
+            n_out,
+            mt.null_fit_index is not None,
+            mt.null_fit_cell,
         )
         t_app = g.out_times[0] + index / (g.n * g.prf)
         wc_range = C / 2 * (rt0 + (a + cell - lead) / g.fs)
@@ -1014,6 +1226,13 @@ def reconstruct(
         "uniform_prf": 2 * g.velocity / (n_ch * float(np.mean(np.diff(g.dx)))) if n_ch > 1 else g.prf,
         "method": params.method,
     }
+    # With the clutter null, detection and estimation see only the chirp's range band: the bins outside it hold
+    # the chirp's spectral tails aliased by the range sampling (true frequency f_r -+ f_s), whose azimuth history
+    # the deramp (built for f_r) does not make static. The null cannot cancel them, and compression puts their
+    # residue about T_p in range from every bright static point (docs/multichannel.md section 8: false alarms of
+    # bright static points). The reconstruction keeps every bin (a mover's tails keep their conventional one).
+    in_band = np.abs(f_r) <= r.bandwidth / 2
+    spec_est = spec * in_band if params.clutter_suppression and not np.all(in_band) else spec
     residual = None
     if params.clutter_suppression:
         spec_fa = sfft.fft(spec, axis=1, workers=-1)
@@ -1024,14 +1243,17 @@ def reconstruct(
         if dof <= 0:
             log.warning("reconstruct: no redundant channel (N PRF barely covers the Doppler band): no clutter null")
         if params.method == "modified" and params.detection == "auto":
-            residual = res
+            residual = res * in_band
         del spec_fa, res
     y = _reconstruct(spec, bank)  # (N n_az, n_fft) in (f_a, f_r)
     movers: list[MovingTarget] = []
     if params.method == "modified" and params.detection == "auto":
         src = y if residual is None else channels.apply_filter_bank(residual, bank)
-        movers = _detect_and_focus(raw, params, g, spec, src, y, f_r, lead, info, progress, bank, residual is not None)
+        movers = _detect_and_focus(
+            raw, params, g, spec_est, src, y, f_r, lead, info, progress, bank, residual is not None
+        )
         del src
+    del spec_est
     residual = None
     y = sfft.ifft(y, axis=0, workers=-1)  # (t', f_r)
     if params.method == "modified" and params.detection == "whole":
