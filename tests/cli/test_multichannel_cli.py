@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -44,6 +45,9 @@ def test_reconstruct_cli_writes_a_raw_product_at_n_prf(tmp_path):
         assert f.attrs["product"] == "raw"
         assert f["signal"].shape[0] == 1800
         assert float(f["radar"].attrs["prf"]) == 3000.0
+        # no internal hand-over left in the product's metadata (a static-only scene once kept "_probes")
+        info = json.loads(f["signal"].attrs["reconstruct"])
+        assert not [k for k in info if k.startswith("_")], sorted(info)
         assert np.all(np.isfinite(f["signal"][()]))
     r = runner.invoke(cli, ["reconstruct", str(out), "-o", str(tmp_path / "again.h5")])
     assert r.exit_code == 2 and "raw_multichannel" in r.output

@@ -1437,6 +1437,7 @@ def _output_product(
     else:  # no detection ran: an empty table, and no claim about the truth movers
         aux["moving_targets"] = np.zeros((0, len(MOVING_TARGET_COLUMNS)))
     radar = raw.radar.replace(prf=g.n * g.prf, n_channels=1)
+    info.pop("_probes", None)  # _detect_and_focus's hand-over to _moving_target_rows, not product metadata
     attrs = dict(raw.attrs.items())
     attrs["reconstruct"] = info
     prod = raw.derive(
