@@ -22,6 +22,7 @@ and in angle (:func:`read_error`, :func:`predicted_error`).
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
@@ -336,6 +337,304 @@ def _sector_boundary(geo: np.ndarray, ints: np.ndarray, n_edge: int = 24) -> np.
     return np.stack([fx[:, None] + rho * np.cos(tt), fy[:, None] + rho * np.sin(tt)], axis=-1)
 
 
+@dataclasses.dataclass
+class _ImagePlane:
+    """The output points' plane: origin, in-plane axes e1, e2 and normal nrm; the image's boundary in plane
+    coordinates; the points' plane coordinates xy and heights pz off the plane (None for a regular lattice until
+    its points are needed); for a regular lattice its first point xy0, steps a_xy, b_xy and shape."""
+
+    origin: np.ndarray
+    e1: np.ndarray
+    e2: np.ndarray
+    nrm: np.ndarray
+    boundary: np.ndarray
+    xy: np.ndarray | None = None
+    pz: np.ndarray | None = None
+    xy0: np.ndarray | None = None
+    a_xy: np.ndarray | None = None
+    b_xy: np.ndarray | None = None
+    shape: tuple[int, int] | None = None
+
+
+@dataclasses.dataclass
+class _Tree:
+    """The subaperture tree: spans[lev] the first pulse of each level-lev subaperture (and n_az); per level >= 1
+    its polar grids' float geometry geos[lev - 1] (n_sub, 12) and integer layout ints[lev - 1] (n_sub, 3) as
+    :func:`sarproc.focus.ffbp_kernel.merge_level` reads them."""
+
+    spans: list[np.ndarray]
+    geos: list[np.ndarray]
+    ints: list[np.ndarray]
+
+    @property
+    def n_levels(self) -> int:
+        return len(self.spans) - 1
+
+
+@dataclasses.dataclass
+class _Image:
+    """One level's images in the kernels' layout: flat complex64 samples, float geometry (n, 12), integer layout
+    (n, 3) and the weights table of reading them in range."""
+
+    buf: np.ndarray
+    geo: np.ndarray
+    ints: np.ndarray
+    table: np.ndarray
+
+
+def _checked_taps(
+    interpolation: str,
+    ffbp_interpolation: str,
+    ffbp_taps: int,
+    factor: int,
+    first_factor: int | None,
+    oversample: float,
+) -> int:
+    """The polar reads' taps, after refusing pulse reads, factors or oversampling ffbp cannot use."""
+    if interpolation not in _PULSE_READS:
+        raise ValueError(f"ffbp reads the pulses 'linear' or 'cubic', not {interpolation!r}")
+    taps = taps_of(ffbp_interpolation, ffbp_taps)
+    if factor < 2 or oversample < 1 or (first_factor or factor) < 2:
+        raise ValueError(
+            f"ffbp needs factors >= 2 and oversample >= 1 (got {factor}, first {first_factor}, {oversample})"
+        )
+    return taps
+
+
+def _image_plane(points: np.ndarray, grid_shape: tuple[int, int] | None, carrier_frequency: float) -> _ImagePlane:
+    """The points' plane, their plane coordinates and boundary; refuses points off a plane."""
+    lattice = _lattice(points, grid_shape)
+    if lattice is not None:
+        # a regular grid (every frame's plane grids): its plane and plane coordinates from the lattice itself, no
+        # pass over all points (~1.5 s at 4096^2)
+        p0, la, lb = lattice
+        n0, n1 = grid_shape  # type: ignore[misc]
+        e1 = la / np.linalg.norm(la)
+        nrm = np.cross(la, lb)
+        nrm /= np.linalg.norm(nrm)
+        e2 = np.cross(nrm, e1)
+        origin = p0 + 0.5 * ((n0 - 1) * la + (n1 - 1) * lb)
+        xy0 = np.array([(p0 - origin) @ e1, (p0 - origin) @ e2])
+        a_xy, b_xy = np.array([la @ e1, la @ e2]), np.array([lb @ e1, lb @ e2])
+        rows, cols = np.arange(n0), np.arange(n1)
+        edge_ij = [(0 * cols, cols), (0 * cols + n0 - 1, cols), (rows, 0 * rows), (rows, 0 * rows + n1 - 1)]
+        boundary = np.concatenate([xy0 + i[:, None] * a_xy + j[:, None] * b_xy for i, j in edge_ij])
+        return _ImagePlane(origin, e1, e2, nrm, boundary, xy0=xy0, a_xy=a_xy, b_xy=b_xy, shape=(n0, n1))
+    origin, e1, e2, nrm = _plane(points)
+    rel = points - origin
+    xy = np.stack([rel @ e1, rel @ e2], axis=-1)
+    pz = rel @ nrm
+    if np.abs(pz).max() > 1e-3 * C / carrier_frequency:
+        raise ValueError(
+            f"ffbp needs the points on a plane: they leave their best plane by up to "
+            f"{np.abs(pz).max():.3g} m (more than a thousandth of a wavelength)"
+        )
+    return _ImagePlane(origin, e1, e2, nrm, _boundary(xy, grid_shape), xy=xy, pz=pz)
+
+
+def _lattice_points(plane: _ImagePlane) -> tuple[np.ndarray, np.ndarray]:
+    """Plane coordinates and (zero) heights of every point of the plane's regular lattice."""
+    assert plane.xy0 is not None and plane.a_xy is not None and plane.b_xy is not None and plane.shape is not None
+    n0, n1 = plane.shape
+    ii, jj = np.arange(n0)[:, None], np.arange(n1)[None, :]
+    xy = (plane.xy0 + ii[..., None] * plane.a_xy + jj[..., None] * plane.b_xy).reshape(-1, 2)
+    return xy, np.zeros(len(xy))
+
+
+def _subaperture_spans(n_az: int, factor: int, first_factor: int | None) -> list[np.ndarray]:
+    """The tree's levels as subaperture edges: level 0 the pulses, level 1 groups of first_factor consecutive
+    pulses, then groups of factor."""
+    spans = [np.arange(n_az + 1)]
+    while len(spans[-1]) > 2:
+        edges = spans[-1][:: factor if len(spans) > 1 else int(first_factor or factor)]
+        spans.append(edges if edges[-1] == n_az else np.append(edges, n_az))
+    return spans
+
+
+def _polar_grids(
+    spans: list[np.ndarray], ant: np.ndarray, plane: _ImagePlane, dr: float, f_max: float, oversample: float
+) -> _Tree:
+    """Each subaperture's polar grid about its centre (antenna positions ``ant`` relative to the plane's origin):
+    range spacing dr, angle spacing from its length, centred on the direction of the image's centre; extents
+    left to :func:`_fit_extents`."""
+    centre_xy = plane.boundary.mean(axis=0)  # inside the image (a mean over all points costs ~0.2 s at 4096^2)
+    e1, e2, nrm = plane.e1, plane.e2, plane.nrm
+    csum = np.concatenate([np.zeros((1, 3)), np.cumsum(ant, axis=0)])
+    geos, ints_ = [], []
+    for lev in range(1, len(spans)):
+        e = spans[lev]
+        centre = (csum[e[1:]] - csum[e[:-1]]) / np.diff(e)[:, None]
+        half = np.array([np.linalg.norm(ant[a:b] - c, axis=1).max() for a, b, c in zip(e[:-1], e[1:], centre)])
+        g = np.zeros((len(centre), 12))
+        g[:, 0], g[:, 1], g[:, 2] = centre @ e1, centre @ e2, centre @ nrm
+        g[:, 4] = dr
+        g[:, 5] = np.arctan2(centre_xy[1] - g[:, 1], centre_xy[0] - g[:, 0])
+        g[:, 7] = C / (f_max * 4.0 * np.maximum(half, 1e-9) * oversample)
+        g[:, 8], g[:, 9] = np.cos(g[:, 5]), np.sin(g[:, 5])
+        g[:, 10], g[:, 11] = 1.0 / dr, 1.0 / g[:, 7]
+        geos.append(g)
+        ints_.append(np.zeros((len(centre), 3), np.int64))
+    return _Tree(spans, geos, ints_)
+
+
+def _fit_extents(tree: _Tree, boundary: np.ndarray, dr: float, margin: int) -> None:
+    """Set each polar grid's first range and angle, sample counts and offset in its level's buffer, top-down:
+    the top grid covers the image, each child the sector its parent's grid spans; ``margin`` samples beyond
+    for the reads."""
+    n_levels = tree.n_levels
+    for lev in range(n_levels, 0, -1):
+        g, it = tree.geos[lev - 1], tree.ints[lev - 1]
+        if lev == n_levels:
+            bnd = np.broadcast_to(boundary, (len(g),) + boundary.shape)
+        else:
+            parent_of = np.searchsorted(tree.spans[lev + 1], tree.spans[lev][:-1], side="right") - 1
+            bnd = _sector_boundary(tree.geos[lev], tree.ints[lev])[parent_of]
+        r_lo, r_hi, t_lo, t_hi = _extents(g[:, :2], g[:, 2], bnd, g[:, 5])
+        g[:, 3] = r_lo - margin * dr
+        it[:, 1] = np.ceil((r_hi - r_lo) / dr).astype(np.int64) + 2 * margin + 1
+        g[:, 6] = t_lo - margin * g[:, 7]
+        it[:, 0] = np.ceil((t_hi - t_lo) / g[:, 7]).astype(np.int64) + 2 * margin + 1
+        it[:, 2] = np.concatenate([[0], np.cumsum(it[:, 0] * it[:, 1])[:-1]])
+
+
+def _pulse_image(
+    rc: np.ndarray,
+    range_time: np.ndarray,
+    gate: np.ndarray,
+    upsample: int,
+    interpolation: str,
+    ant_xy: np.ndarray,
+    ant_h: np.ndarray,
+) -> _Image:
+    """The upsampled pulses as level 0's images: one angle each, range from the antenna."""
+    from sarproc.focus.backprojection import upsample_into, upsampled_length
+
+    n_az, n_rg = rc.shape
+    dt = (range_time[-1] - range_time[0]) / (n_rg - 1) if n_rg > 1 else 1.0
+    n_up = upsampled_length(n_rg, upsample)
+    fs_up = n_up / (n_rg * dt)
+    cbuf = upsample_into(np.asarray(rc, np.complex64), np.empty((n_az, n_up), np.complex64)).ravel()
+    cgeo = np.zeros((n_az, 12))
+    cgeo[:, 0], cgeo[:, 1], cgeo[:, 2] = ant_xy[:, 0], ant_xy[:, 1], ant_h
+    cgeo[:, 3] = C * (range_time[0] + gate) / 2.0
+    cgeo[:, 4] = C / (2.0 * fs_up)
+    cgeo[:, 7] = 1.0
+    cgeo[:, 10], cgeo[:, 11] = 1.0 / cgeo[:, 4], 1.0
+    cints = np.stack([np.ones(n_az, np.int64), np.full(n_az, n_up), np.arange(n_az) * n_up], axis=1)
+    return _Image(cbuf, cgeo, cints, read_table(interpolation, 1.0))
+
+
+def _merge(
+    child: _Image, tree: _Tree, lev: int, kc2: float, tab_t: np.ndarray, tab_r: np.ndarray, linear: bool
+) -> _Image:
+    """Level lev's polar images, each the sum of its children's (level lev - 1) read on its grid."""
+    from sarproc.focus import ffbp_kernel as fk
+
+    g, it = tree.geos[lev - 1], tree.ints[lev - 1]
+    pbuf = np.empty(int((it[:, 0] * it[:, 1]).sum()), np.complex64)
+    row_parent = np.repeat(np.arange(len(g)), it[:, 0])
+    row_angle = np.arange(len(row_parent)) - np.repeat(np.cumsum(it[:, 0]) - it[:, 0], it[:, 0])
+    first_child = np.searchsorted(tree.spans[lev - 1], tree.spans[lev], side="left")
+    fk.merge_level(
+        child.buf,
+        child.geo,
+        child.ints,
+        first_child,
+        g,
+        it,
+        pbuf,
+        row_parent,
+        row_angle,
+        kc2,
+        child.table,
+        tab_t,
+        int(child.ints[:, 1].max()),
+        linear,
+    )
+    return _Image(pbuf, g, it, tab_r)
+
+
+def _read_points(
+    top: _Image, xy: np.ndarray, pz: np.ndarray, kc2: float, tab_t: np.ndarray, n_az: int, out: np.ndarray
+) -> None:
+    """Read the top image at every output point (plane coordinates xy, heights pz), carrier restored, into out."""
+    from sarproc.focus import ffbp_kernel as fk
+
+    fk.final_points(
+        top.buf,
+        top.buf.view(np.float32),
+        top.geo,
+        top.ints,
+        np.ascontiguousarray(xy[:, 0]),
+        np.ascontiguousarray(xy[:, 1]),
+        np.ascontiguousarray(pz),
+        kc2,
+        top.table,
+        tab_t,
+        out,
+        True,
+    )
+    out /= n_az
+
+
+def _read_coarse(top: _Image, coarse: tuple, kc2: float, tab_t: np.ndarray) -> np.ndarray:
+    """The top image (baseband) read on the coarse grid from :func:`_cartesian_grid`: complex64 of its shape."""
+    from sarproc.focus import ffbp_kernel as fk
+
+    origin_c, step_a, step_b, shape_c, _, _ = coarse
+    ia, ib = np.meshgrid(np.arange(shape_c[0]), np.arange(shape_c[1]), indexing="ij")
+    cx = origin_c[0] + ia * step_a[0] + ib * step_b[0]
+    cy = origin_c[1] + ia * step_a[1] + ib * step_b[1]
+    low = np.empty(cx.size, np.complex128)
+    fk.final_points(
+        top.buf,
+        top.buf.view(np.float32),
+        top.geo,
+        top.ints,
+        cx.ravel(),
+        cy.ravel(),
+        np.zeros(cx.size),
+        kc2,
+        top.table,
+        tab_t,
+        low,
+        False,
+    )
+    return low.astype(np.complex64).reshape(shape_c)
+
+
+def _upsample_to_lattice(
+    low_c: np.ndarray, coarse: tuple, plane: _ImagePlane, top_geo: np.ndarray, kc2: float, n_az: int, out: np.ndarray
+) -> None:
+    """Upsample the coarse grid separably (Knab, CARTESIAN_TAPS) to the output lattice and restore the carrier
+    pixel by pixel (the range from the top image's centre ``top_geo``), into out."""
+    from sarproc.focus import ffbp_kernel as fk
+
+    assert plane.xy0 is not None and plane.a_xy is not None and plane.b_xy is not None
+    _, _, _, shape_c, pos_a, pos_b = coarse
+    ia, wa = _upsampling_weights(pos_a, shape_c[0])
+    ib, wb = _upsampling_weights(pos_b, shape_c[1])
+    fk.upsample_restore(
+        low_c,
+        ia,
+        wa,
+        ib,
+        wb,
+        plane.xy0[0],
+        plane.xy0[1],
+        plane.a_xy[0],
+        plane.a_xy[1],
+        plane.b_xy[0],
+        plane.b_xy[1],
+        top_geo[0],
+        top_geo[1],
+        top_geo[2],
+        kc2,
+        1.0 / n_az,
+        out,
+    )
+
+
 def ffbp_points(
     rc: np.ndarray,
     range_time: np.ndarray,
@@ -368,16 +667,7 @@ def ffbp_points(
     Returns (n_points,) complex128: the sum over pulses divided by n_az."""
     import numba
 
-    from sarproc.focus import ffbp_kernel as fk
-    from sarproc.focus.backprojection import upsample_into, upsampled_length
-
-    if interpolation not in _PULSE_READS:
-        raise ValueError(f"ffbp reads the pulses 'linear' or 'cubic', not {interpolation!r}")
-    taps = taps_of(ffbp_interpolation, ffbp_taps)
-    if factor < 2 or oversample < 1 or (first_factor or factor) < 2:
-        raise ValueError(
-            f"ffbp needs factors >= 2 and oversample >= 1 (got {factor}, first {first_factor}, {oversample})"
-        )
+    taps = _checked_taps(interpolation, ffbp_interpolation, ffbp_taps, factor, first_factor, oversample)
     rc = np.asarray(rc)
     n_az, n_rg = rc.shape
     points = np.asarray(points, float).reshape(-1, 3)
@@ -387,40 +677,10 @@ def ffbp_points(
     if len(points) == 0:
         return np.zeros(0, np.complex128)
     gate = np.zeros(n_az) if gate_offset is None else np.asarray(gate_offset, float)
-    dt = (range_time[-1] - range_time[0]) / (n_rg - 1) if n_rg > 1 else 1.0
-    lattice = _lattice(points, grid_shape)
-    if lattice is not None:
-        # a regular grid (every frame's plane grids): its plane and plane coordinates from the lattice itself, no
-        # pass over all points (~1.5 s at 4096^2)
-        p0, la, lb = lattice
-        n0, n1 = grid_shape  # type: ignore[misc]
-        e1 = la / np.linalg.norm(la)
-        nrm = np.cross(la, lb)
-        nrm /= np.linalg.norm(nrm)
-        e2 = np.cross(nrm, e1)
-        origin = p0 + 0.5 * ((n0 - 1) * la + (n1 - 1) * lb)
-        xy0 = np.array([(p0 - origin) @ e1, (p0 - origin) @ e2])
-        a_xy, b_xy = np.array([la @ e1, la @ e2]), np.array([lb @ e1, lb @ e2])
-        ii, jj = np.arange(n0)[:, None], np.arange(n1)[None, :]
-        rows, cols = np.arange(n0), np.arange(n1)
-        edge_ij = [(0 * cols, cols), (0 * cols + n0 - 1, cols), (rows, 0 * rows), (rows, 0 * rows + n1 - 1)]
-        boundary = np.concatenate([xy0 + i[:, None] * a_xy + j[:, None] * b_xy for i, j in edge_ij])
-        xy = pz = None
-    else:
-        origin, e1, e2, nrm = _plane(points)
-        rel = points - origin
-        xy = np.stack([rel @ e1, rel @ e2], axis=-1)
-        pz = rel @ nrm
-        if np.abs(pz).max() > 1e-3 * C / carrier_frequency:
-            raise ValueError(
-                f"ffbp needs the points on a plane: they leave their best plane by up to "
-                f"{np.abs(pz).max():.3g} m (more than a thousandth of a wavelength)"
-            )
-        boundary = _boundary(xy, grid_shape)
-    ant = pos - origin
-    ant_xy = np.stack([ant @ e1, ant @ e2], axis=-1)
-    ant_h = ant @ nrm
-    centre_xy = boundary.mean(axis=0)  # inside the image (a mean over all points costs ~0.2 s at 4096^2)
+    plane = _image_plane(points, grid_shape, carrier_frequency)
+    ant = pos - plane.origin
+    ant_xy = np.stack([ant @ plane.e1, ant @ plane.e2], axis=-1)
+    ant_h = ant @ plane.nrm
     kc2 = 2.0 * carrier_frequency / C
     f_max = carrier_frequency + 0.5 * bandwidth
     dr = C / (2.0 * bandwidth * (range_oversample or oversample))
@@ -428,48 +688,15 @@ def ffbp_points(
     tab_r, tab_t = read_table(ffbp_interpolation, q_r, taps), read_table(ffbp_interpolation, oversample, taps)
     margin = taps // 2 + 1  # samples beyond a sector that its reads reach (+1: the fractions' rounding)
 
-    # The tree: level 0 the pulses, level 1 groups of first_factor consecutive pulses, then groups of factor.
-    spans = [np.arange(n_az + 1)]
-    while len(spans[-1]) > 2:
-        edges = spans[-1][:: factor if len(spans) > 1 else int(first_factor or factor)]
-        spans.append(edges if edges[-1] == n_az else np.append(edges, n_az))
-    n_levels = len(spans) - 1
-    csum = np.concatenate([np.zeros((1, 3)), np.cumsum(ant, axis=0)])
-    geos, ints_ = [], []
-    for lev in range(1, n_levels + 1):
-        e = spans[lev]
-        centre = (csum[e[1:]] - csum[e[:-1]]) / np.diff(e)[:, None]
-        half = np.array([np.linalg.norm(ant[a:b] - c, axis=1).max() for a, b, c in zip(e[:-1], e[1:], centre)])
-        g = np.zeros((len(centre), 12))
-        g[:, 0], g[:, 1], g[:, 2] = centre @ e1, centre @ e2, centre @ nrm
-        g[:, 4] = dr
-        g[:, 5] = np.arctan2(centre_xy[1] - g[:, 1], centre_xy[0] - g[:, 0])
-        g[:, 7] = C / (f_max * 4.0 * np.maximum(half, 1e-9) * oversample)
-        g[:, 8], g[:, 9] = np.cos(g[:, 5]), np.sin(g[:, 5])
-        g[:, 10], g[:, 11] = 1.0 / dr, 1.0 / g[:, 7]
-        geos.append(g)
-        ints_.append(np.zeros((len(centre), 3), np.int64))
-    # Extents top-down: the top grid covers the image, each child the sector its parent's grid spans; a
-    # margin of taps / 2 + 1 samples for the reads.
-    for lev in range(n_levels, 0, -1):
-        g, it = geos[lev - 1], ints_[lev - 1]
-        if lev == n_levels:
-            bnd = np.broadcast_to(boundary, (len(g),) + boundary.shape)
-        else:
-            parent_of = np.searchsorted(spans[lev + 1], spans[lev][:-1], side="right") - 1
-            bnd = _sector_boundary(geos[lev], ints_[lev])[parent_of]
-        r_lo, r_hi, t_lo, t_hi = _extents(g[:, :2], g[:, 2], bnd, g[:, 5])
-        g[:, 3] = r_lo - margin * dr
-        it[:, 1] = np.ceil((r_hi - r_lo) / dr).astype(np.int64) + 2 * margin + 1
-        g[:, 6] = t_lo - margin * g[:, 7]
-        it[:, 0] = np.ceil((t_hi - t_lo) / g[:, 7]).astype(np.int64) + 2 * margin + 1
-        it[:, 2] = np.concatenate([[0], np.cumsum(it[:, 0] * it[:, 1])[:-1]])
+    tree = _polar_grids(_subaperture_spans(n_az, factor, first_factor), ant, plane, dr, f_max, oversample)
+    _fit_extents(tree, plane.boundary, dr, margin)
+    n_levels = tree.n_levels
     if info is not None and n_levels:
         info.update(
             levels=n_levels,
-            samples=[int((it[:, 0] * it[:, 1]).sum()) for it in ints_],
-            angles_top=int(ints_[-1][0, 0]),
-            ranges_top=int(ints_[-1][0, 1]),
+            samples=[int((it[:, 0] * it[:, 1]).sum()) for it in tree.ints],
+            angles_top=int(tree.ints[-1][0, 0]),
+            ranges_top=int(tree.ints[-1][0, 1]),
         )
 
     old = numba.get_num_threads()
@@ -477,113 +704,31 @@ def ffbp_points(
         numba.set_num_threads(max(1, min(int(workers), numba.config.NUMBA_NUM_THREADS)))
     seconds = [time.perf_counter()]
     try:
-        n_up = upsampled_length(n_rg, upsample)
-        fs_up = n_up / (n_rg * dt)
-        cbuf = upsample_into(np.asarray(rc, np.complex64), np.empty((n_az, n_up), np.complex64)).ravel()
-        cgeo = np.zeros((n_az, 12))
-        cgeo[:, 0], cgeo[:, 1], cgeo[:, 2] = ant_xy[:, 0], ant_xy[:, 1], ant_h
-        cgeo[:, 3] = C * (range_time[0] + gate) / 2.0
-        cgeo[:, 4] = C / (2.0 * fs_up)
-        cgeo[:, 7] = 1.0
-        cgeo[:, 10], cgeo[:, 11] = 1.0 / cgeo[:, 4], 1.0
-        cints = np.stack([np.ones(n_az, np.int64), np.full(n_az, n_up), np.arange(n_az) * n_up], axis=1)
-        tab_c = read_table(interpolation, 1.0)
+        image = _pulse_image(rc, range_time, gate, upsample, interpolation, ant_xy, ant_h)
         seconds.append(time.perf_counter())
         for lev in range(1, n_levels + 1):
-            g, it = geos[lev - 1], ints_[lev - 1]
-            pbuf = np.empty(int((it[:, 0] * it[:, 1]).sum()), np.complex64)
-            row_parent = np.repeat(np.arange(len(g)), it[:, 0])
-            row_angle = np.arange(len(row_parent)) - np.repeat(np.cumsum(it[:, 0]) - it[:, 0], it[:, 0])
-            first_child = np.searchsorted(spans[lev - 1], spans[lev], side="left")
-            fk.merge_level(
-                cbuf,
-                cgeo,
-                cints,
-                first_child,
-                g,
-                it,
-                pbuf,
-                row_parent,
-                row_angle,
-                kc2,
-                tab_c,
-                tab_t,
-                int(cints[:, 1].max()),
-                lev == 1 and interpolation == "linear",
-            )
-            cbuf, cgeo, cints, tab_c = pbuf, g, it, tab_r
+            image = _merge(image, tree, lev, kc2, tab_t, tab_r, lev == 1 and interpolation == "linear")
             seconds.append(time.perf_counter())
         out = np.empty(len(points), np.complex128)
         coarse = None
-        if lattice is not None:
-            coarse = _cartesian_grid(xy0, a_xy, b_xy, (n0, n1), cgeo[0], oversample, boundary)
-            if coarse is None:  # the lattice's points, for the reads at every point
-                xy = (xy0 + ii[..., None] * a_xy + jj[..., None] * b_xy).reshape(-1, 2)
-                pz = np.zeros(len(xy))
-        if coarse is None:
-            assert xy is not None and pz is not None
-            fk.final_points(
-                cbuf,
-                cbuf.view(np.float32),
-                cgeo,
-                cints,
-                np.ascontiguousarray(xy[:, 0]),
-                np.ascontiguousarray(xy[:, 1]),
-                np.ascontiguousarray(pz),
-                kc2,
-                tab_c,
-                tab_t,
-                out,
-                True,
+        if plane.shape is not None:
+            assert plane.xy0 is not None and plane.a_xy is not None and plane.b_xy is not None
+            coarse = _cartesian_grid(
+                plane.xy0, plane.a_xy, plane.b_xy, plane.shape, image.geo[0], oversample, plane.boundary
             )
-            out /= n_az
+            if coarse is None:  # the lattice's points, for the reads at every point
+                plane.xy, plane.pz = _lattice_points(plane)
+        if coarse is None:
+            assert plane.xy is not None and plane.pz is not None
+            _read_points(image, plane.xy, plane.pz, kc2, tab_t, n_az, out)
         else:
             # read the top image on a coarse grid at the image's own bandwidth, upsample that separably
             # (Knab, CARTESIAN_TAPS) to the output grid, then restore the carrier pixel by pixel
-            origin_c, step_a, step_b, shape_c, pos_a, pos_b = coarse
             if info is not None:
-                info["cartesian"] = shape_c
-            ia, ib = np.meshgrid(np.arange(shape_c[0]), np.arange(shape_c[1]), indexing="ij")
-            cx = origin_c[0] + ia * step_a[0] + ib * step_b[0]
-            cy = origin_c[1] + ia * step_a[1] + ib * step_b[1]
-            low = np.empty(cx.size, np.complex128)
-            fk.final_points(
-                cbuf,
-                cbuf.view(np.float32),
-                cgeo,
-                cints,
-                cx.ravel(),
-                cy.ravel(),
-                np.zeros(cx.size),
-                kc2,
-                tab_c,
-                tab_t,
-                low,
-                False,
-            )
+                info["cartesian"] = coarse[3]
+            low_c = _read_coarse(image, coarse, kc2, tab_t)
             seconds.append(time.perf_counter())
-            low_c = low.astype(np.complex64).reshape(shape_c)
-            ia, wa = _upsampling_weights(pos_a, shape_c[0])
-            ib, wb = _upsampling_weights(pos_b, shape_c[1])
-            fk.upsample_restore(
-                low_c,
-                ia,
-                wa,
-                ib,
-                wb,
-                xy0[0],
-                xy0[1],
-                a_xy[0],
-                a_xy[1],
-                b_xy[0],
-                b_xy[1],
-                cgeo[0, 0],
-                cgeo[0, 1],
-                cgeo[0, 2],
-                kc2,
-                1.0 / n_az,
-                out,
-            )
+            _upsample_to_lattice(low_c, coarse, plane, image.geo[0], kc2, n_az, out)
         seconds.append(time.perf_counter())
     finally:
         numba.set_num_threads(old)
