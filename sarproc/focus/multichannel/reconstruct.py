@@ -724,6 +724,140 @@ def _refine_peak(
     return lo + vertex(sub[:, c], i), vertex(sub[i], c)
 
 
+@dataclasses.dataclass
+class _Detections:
+    """CFAR detections in the azimuth-compressed detection source (``_detect``)."""
+
+    out_f: np.ndarray  # azimuth frequencies of the N PRF output (Hz)
+    r_mid: float  # swath-centre slant range (m): the FM rates' range
+    image: np.ndarray  # compressed detection source; each examined detection's response is taken out of it
+    bg: np.ndarray  # CFAR background of its power
+    dets: list[detection.Detection]
+    dropped: int  # detections over 20 max_detections, never examined
+    static_peaks: list[detection.Detection]  # the conventional image's (residual mode only)
+    probes: dict  # _probe_truth's, for the miss reasons of the truth movers
+
+
+@dataclasses.dataclass(frozen=True)
+class _Spacing:
+    """Apparent-time spacing of a mover's ambiguities, and when two detections are separate targets."""
+
+    ka0: float  # azimuth FM rate at f_r = 0 (Hz/s)
+    ambiguity: float  # apparent-time spacing the channel samples cannot tell apart (s)
+    sep: float  # apparent time the separation mask spans (s)
+    t_ill: float  # illumination time (s)
+    ghost_cells: int  # range cells a static point's ambiguity is smeared over either side
+
+    def apart(self, d1: detection.Detection, d2: detection.Detection, cells: int) -> bool:
+        dt = (d1.time - d2.time) / self.ambiguity
+        k = round(dt)
+        return (
+            abs(d1.cell - d2.cell) > (cells if k == 0 else max(cells, self.ghost_cells))
+            or abs(dt - k) * self.ambiguity > self.sep
+        )
+
+
+@dataclasses.dataclass
+class _Tally:
+    """What the detections examined so far have found (``_detect_and_focus``)."""
+
+    dropped: int
+    counts: dict[str, int]
+    movers: list[MovingTarget] = dataclasses.field(default_factory=list)
+    peaks: list[detection.Detection] = dataclasses.field(default_factory=list)  # each mover's detection
+    rejected: list[dict] = dataclasses.field(default_factory=list)  # examined, no mover (for the miss reasons)
+    flat_snr: list[float] = dataclasses.field(default_factory=list)  # SNR of those with no velocity dip
+    examined: int = 0
+
+
+@dataclasses.dataclass
+class _Scan:
+    """What every detection's examination reads (and the two images it updates in place)."""
+
+    params: ReconstructParams
+    g: _Geometry
+    bank: channels.FilterBank
+    projector: np.ndarray | None  # clutter projector, residual mode only
+    found: _Detections
+    spacing: _Spacing
+    x_tr: np.ndarray  # channel data in (t, range time)
+    y_tr: np.ndarray  # reconstruction in (t', range time): each mover's modified one replaces its conventional one
+    rt0: float  # first range time of the input (s)
+    lead: int
+    n_out: int
+    n_cells: int
+
+
+@dataclasses.dataclass
+class _DetWindow:
+    """One detection's range cells and its channels separated from the rest of them."""
+
+    a: int  # first range cell
+    b: int  # one past the last
+    f_w: np.ndarray  # range frequencies of the window (Hz)
+    ka_w: np.ndarray  # azimuth FM rate per range frequency (Hz/s)
+    x_w: np.ndarray  # channel data of the window in (t, f_r)
+    ext: np.ndarray  # this detection's channels (detection.extract)
+    win: _Window
+
+
+def _detect(
+    raw: Product,
+    params: ReconstructParams,
+    g: _Geometry,
+    src: np.ndarray,
+    y: np.ndarray,
+    f_r: np.ndarray,
+    lead: int,
+    residual_mode: bool,
+) -> _Detections:
+    """CFAR detections in the compressed ``src`` (and, residual mode, the conventional ``y``'s static peaks)."""
+    r = raw.radar
+    n_out = y.shape[0]
+    out_f = sfft.fftfreq(n_out, 1.0 / (g.n * g.prf))
+    r_mid = _swath_centre_range(raw)
+    ka = detection.fm_rate(g.velocity, g.squint, r_mid, g.fc, f_r)
+    image = detection.compressed(src, out_f, ka)
+    power = (image.real**2 + image.imag**2).astype(np.float32)
+    bg = detection.background(power)
+    dets, dropped = detection.find_detections(
+        power,
+        bg,
+        g.out_times,
+        params.detection_snr,
+        params.detection_level,
+        max(1.0, g.fs / r.bandwidth),
+        20 * params.max_detections,
+    )
+    static_peaks: list[detection.Detection] = []
+    conv = bg_conv = None
+    if residual_mode:
+        # What the conventional image holds above the CFAR threshold (static points, clutter, the movers):
+        # a mover's reconstruction must leave the static ones as they are (see _spared below).
+        conv = detection.detection_image(y, out_f, ka)
+        bg_conv = detection.background(conv)
+        static_peaks = detection.find_detections(
+            conv,
+            bg_conv,
+            g.out_times,
+            params.detection_snr,
+            params.detection_level,
+            max(1.0, g.fs / r.bandwidth),
+            20 * params.max_detections,
+        )[0]
+    probes = _probe_truth(raw, params, g, lead, power, bg, conv, bg_conv)
+    return _Detections(out_f, r_mid, image, bg, dets, dropped, static_peaks, probes)
+
+
+def _spacing(g: _Geometry, params: ReconstructParams, r_mid: float) -> _Spacing:
+    ka0 = float(detection.fm_rate(g.velocity, g.squint, r_mid, g.fc, 0.0))
+    # An ambiguity k PRF / K_a away keeps the mover's range history while a static point there walks by
+    # lambda k PRF / 2 m/s: over the illumination time it is smeared over this many cells either side.
+    t_ill = 2 * g.half_band / ka0
+    ghost_cells = 2 + math.ceil(C / g.fc * g.prf / 2 * t_ill / 2 * 2 * g.fs / C)
+    return _Spacing(ka0, g.prf / ka0, 1.5 * params.separation_bandwidth / ka0, t_ill, ghost_cells)
+
+
 def _detect_and_focus(
     raw: Product,
     params: ReconstructParams,
@@ -745,246 +879,273 @@ def _detect_and_focus(
     other movers are untouched). Detections whose line-of-sight velocity is under ``detection_velocity``
     are static targets (or the clutter null's residue) and are left as they are.
     """
-    r = raw.radar
-    n_out, n_cells = y.shape
-    out_f = sfft.fftfreq(n_out, 1.0 / (g.n * g.prf))
-    r_mid = _swath_centre_range(raw)
-    ka = detection.fm_rate(g.velocity, g.squint, r_mid, g.fc, f_r)
-    image = detection.compressed(src, out_f, ka)
-    power = (image.real**2 + image.imag**2).astype(np.float32)
-    bg = detection.background(power)
-    dets, dropped = detection.find_detections(
-        power,
-        bg,
-        g.out_times,
-        params.detection_snr,
-        params.detection_level,
-        max(1.0, g.fs / r.bandwidth),
-        20 * params.max_detections,
-    )
-    threshold = 10 ** (params.detection_snr / 10)
-    static_peaks: list[detection.Detection] = []
-    conv = bg_conv = None
-    if residual_mode:
-        # What the conventional image holds above the CFAR threshold (static points, clutter, the movers):
-        # a mover's reconstruction must leave the static ones as they are (see ``spared`` below).
-        conv = detection.detection_image(y, out_f, ka)
-        bg_conv = detection.background(conv)
-        static_peaks = detection.find_detections(
-            conv,
-            bg_conv,
-            g.out_times,
-            params.detection_snr,
-            params.detection_level,
-            max(1.0, g.fs / r.bandwidth),
-            20 * params.max_detections,
-        )[0]
-    probes = _probe_truth(raw, params, g, lead, power, bg, conv, bg_conv)
-    del conv, bg_conv
-    del power
-    examined = 0
-    flat_snr: list[float] = []
-    ka0 = float(detection.fm_rate(g.velocity, g.squint, r_mid, g.fc, 0.0))
-    ambiguity = g.prf / ka0  # apparent-time spacing the channel samples cannot tell apart (s)
-    sep = 1.5 * params.separation_bandwidth / ka0
+    found = _detect(raw, params, g, src, y, f_r, lead, residual_mode)
+    spacing = _spacing(g, params, found.r_mid)
     x_tr = sfft.ifft(spec, axis=-1, workers=-1)
     y_tr = sfft.ifft(sfft.ifft(y, axis=0, workers=-1), axis=1, workers=-1)
-    rt0 = float(raw.coords["range_time"][0])
-    m = params.window_margin
-    movers: list[MovingTarget] = []
-    peaks: list[detection.Detection] = []
-    counts = {"detections": len(dets), "static": 0, "ambiguous": 0, "incoherent": 0, "explained": 0}
-    rejected: list[dict] = []  # detections examined and found no mover (for the truth movers' miss reasons)
-
-    # An ambiguity k PRF / K_a away keeps the mover's range history while a static point there walks by
-    # lambda k PRF / 2 m/s: over the illumination time it is smeared over this many cells either side.
-    t_ill = 2 * g.half_band / ka0
-    ghost_cells = 2 + math.ceil(C / g.fc * g.prf / 2 * t_ill / 2 * 2 * g.fs / C)
-
-    def apart(d1: detection.Detection, d2: detection.Detection, cells: int) -> bool:
-        dt = (d1.time - d2.time) / ambiguity
-        k = round(dt)
-        return abs(d1.cell - d2.cell) > (cells if k == 0 else max(cells, ghost_cells)) or abs(dt - k) * ambiguity > sep
-
     projector = clutter_projector(len(g.times), g, params.clutter_band)[0] if residual_mode else None
+    n_out, n_cells = y.shape
+    rt0 = float(raw.coords["range_time"][0])
+    scan = _Scan(params, g, bank, projector, found, spacing, x_tr, y_tr, rt0, lead, n_out, n_cells)
+    counts = {"detections": len(found.dets), "static": 0, "ambiguous": 0, "incoherent": 0, "explained": 0}
+    tally = _Tally(found.dropped, counts)
+    for det in progress(found.dets) if progress is not None else found.dets:
+        _visit(det, scan, tally)
+    _warn_unseparated(tally.peaks, spacing, params.window_margin)
+    _warn_unexamined(tally, params)
+    counts["not_examined"] = tally.dropped
+    del scan, x_tr
+    y[:] = sfft.fft(sfft.fft(y_tr, axis=1, workers=-1), axis=0, workers=-1)
+    info["detections"] = counts
+    info["_probes"] = (found.probes, tally.rejected, spacing.ambiguity * g.n * g.prf)
+    return tally.movers
 
-    def remove(ext: np.ndarray, a: int, b: int, ka_w: np.ndarray) -> None:
-        """Take one examined detection's whole response (ambiguities, clutter-null artefacts) out of the image."""
-        x_fa = sfft.fft(ext, axis=1, workers=-1)
-        if residual_mode:
-            x_fa = clutter_null(x_fa, g, projector=projector)[0]
-        image[:, a:b] -= detection.compressed(channels.apply_filter_bank(x_fa, bank), out_f, ka_w)
 
-    for det in progress(dets) if progress is not None else dets:
-        left = image[det.index, det.cell]
-        explained = abs(left) ** 2 < threshold * bg[det.index, det.cell]
-        same = [k for k, p in enumerate(peaks) if not apart(det, p, m)]
-        if same:
-            k = same[0]
-            counts["ambiguous"] += 1
-            rejected.append({"cell": det.cell, "index": det.index, "snr_db": det.snr_db, "kind": "merged", "mover": k})
-            log.debug("reconstruct: detection at cell %d, %.4f s merged with mover %d", det.cell, det.time, k)
-            # A mover spreads over its range walk |v_los| T and curvature R'' T^2 / 8 in walk-corrected range:
-            # a response inside that is its own; one beyond it and as strong is another target.
-            own = movers[k]
-            v_los_k = channels.line_of_sight_velocity(own.radial_velocity, own.along_track_velocity, g.squint)
-            spread = (
-                abs(v_los_k) * t_ill + g.velocity**2 * math.cos(g.squint) ** 2 / r_mid * t_ill**2 / 8
-            ) * 2 * g.fs / C + 2
-            n_amb = round((det.time - peaks[k].time) / ambiguity)
-            # an ambiguity k PRF / K_a away walks by lambda k PRF / 2 m/s against the mover: smeared further
-            spread += abs(n_amb) * C / g.fc * g.prf / 2 * t_ill * 2 * g.fs / C
-            # ... or beyond its own azimuth width (the same range cells, a different apparent azimuth)
-            d_samples = abs((det.time - peaks[k].time) - n_amb * ambiguity) * g.n * g.prf
-            apart_azimuth = d_samples > 2 * max(peaks[k].width, det.width) + 2
-            if det.power > 0.25 * peaks[k].power and (abs(det.cell - peaks[k].cell) > spread or apart_azimuth):
-                where = (
-                    f"{1e3 * (det.time - peaks[k].time):+.1f} ms from it in apparent time"
-                    if n_amb == 0
-                    else f"{n_amb:+d} x PRF / K_a = {n_amb * ambiguity:+.3f} s from it in apparent time (its ambiguity)"
-                )
-                log.warning(
-                    "reconstruct: a response %.1f dB under mover %d, in range cell %d (%d cells from its "
-                    "peak; its own range extent %.0f cells) %s, could not be separated from it: "
-                    "another mover there shares its window and its velocity estimate",
-                    10 * math.log10(peaks[k].power / det.power),
-                    k,
-                    det.cell,
-                    det.cell - peaks[k].cell,
-                    spread,
-                    where,
-                )
-            continue
-        if explained:
-            counts["explained"] += 1  # a response of a detection already examined, no target of its own
-            rejected.append({"cell": det.cell, "index": det.index, "snr_db": det.snr_db, "kind": "explained"})
-            log.debug(
-                "reconstruct: detection at cell %d, %.4f s (SNR %.1f dB) explained by those examined",
-                det.cell,
-                det.time,
-                det.snr_db,
-            )
-            continue
-        if examined >= params.max_detections:
-            dropped += 1
-            continue
-        examined += 1
-        a, b = max(0, det.cell - m), min(n_cells, det.cell + m + 1)
-        f_w = sfft.fftfreq(b - a, 1.0 / g.fs)
-        ka_w = detection.fm_rate(g.velocity, g.squint, r_mid, g.fc, f_w)
-        x_w = sfft.fft(x_tr[:, :, a:b], axis=-1, workers=-1)
-        ext = detection.extract(x_w, g.times, g.prf, det.time, ka_w, params.separation_bandwidth)
-        win = _Window(ext, f_w, g, params)
-        win.keep_own_cells()
-        null_db = None
-        if residual_mode:
-            # Energy of this detection's channels that survives the clutter null: static points leave the
-            # null's floor, a mover its channel-phase mismatch (v_r) or band shift (v_los).
-            e_fa = sfft.fft(ext, axis=1, workers=-1)
-            kept = float(np.sum(np.abs(clutter_null(e_fa, g, projector=projector)[0]) ** 2))
-            total = float(np.sum(np.abs(e_fa) ** 2))
-            null_db = 10 * math.log10(kept / total) if kept > 0 and total > 0 else -math.inf
-            log.debug(
-                "reconstruct: detection at cell %d, %.4f s: %.1f dB of its energy survives the clutter null",
-                det.cell,
-                det.time,
-                null_db,
-            )
-        centre_range = C / 2 * (rt0 + (det.cell - lead) / g.fs)
-        # A criterion with no dip at any velocity: no point target (noise, a side lobe, clutter residue).
-        null_fit = (
-            _NullFit(win, det.index, det.cell - a, ka_w, ka0, projector, bank, ghost_cells)
-            if projector is not None
-            else None
+def _visit(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
+    """Merge ``det`` into a mover found, pass it as explained or unexamined, or examine it."""
+    params, found = scan.params, scan.found
+    threshold = 10 ** (params.detection_snr / 10)
+    left = found.image[det.index, det.cell]
+    explained = abs(left) ** 2 < threshold * found.bg[det.index, det.cell]
+    same = [k for k, p in enumerate(tally.peaks) if not scan.spacing.apart(det, p, params.window_margin)]
+    if same:
+        _merge(det, same[0], scan, tally)
+        return
+    if explained:
+        tally.counts["explained"] += 1  # a response of a detection already examined, no target of its own
+        tally.rejected.append({"cell": det.cell, "index": det.index, "snr_db": det.snr_db, "kind": "explained"})
+        log.debug(
+            "reconstruct: detection at cell %d, %.4f s (SNR %.1f dB) explained by those examined",
+            det.cell,
+            det.time,
+            det.snr_db,
         )
-        mt, notes = _estimate(
-            win,
-            params,
-            g,
-            centre_range,
-            static_below=params.detection_velocity,
-            flat_above=0.95,
-            null_fit=null_fit,
+        return
+    if tally.examined >= params.max_detections:
+        tally.dropped += 1
+        return
+    tally.examined += 1
+    _examine(det, scan, tally)
+
+
+def _merge(det: detection.Detection, k: int, scan: _Scan, tally: _Tally) -> None:
+    """Count ``det`` as part of mover ``k``; warn when it looks like another target sharing its window."""
+    g, sp = scan.g, scan.spacing
+    peak = tally.peaks[k]
+    tally.counts["ambiguous"] += 1
+    tally.rejected.append({"cell": det.cell, "index": det.index, "snr_db": det.snr_db, "kind": "merged", "mover": k})
+    log.debug("reconstruct: detection at cell %d, %.4f s merged with mover %d", det.cell, det.time, k)
+    # A mover spreads over its range walk |v_los| T and curvature R'' T^2 / 8 in walk-corrected range:
+    # a response inside that is its own; one beyond it and as strong is another target.
+    own = tally.movers[k]
+    v_los_k = channels.line_of_sight_velocity(own.radial_velocity, own.along_track_velocity, g.squint)
+    spread = (
+        abs(v_los_k) * sp.t_ill + g.velocity**2 * math.cos(g.squint) ** 2 / scan.found.r_mid * sp.t_ill**2 / 8
+    ) * 2 * g.fs / C + 2
+    n_amb = round((det.time - peak.time) / sp.ambiguity)
+    # an ambiguity k PRF / K_a away walks by lambda k PRF / 2 m/s against the mover: smeared further
+    spread += abs(n_amb) * C / g.fc * g.prf / 2 * sp.t_ill * 2 * g.fs / C
+    # ... or beyond its own azimuth width (the same range cells, a different apparent azimuth)
+    d_samples = abs((det.time - peak.time) - n_amb * sp.ambiguity) * g.n * g.prf
+    apart_azimuth = d_samples > 2 * max(peak.width, det.width) + 2
+    if det.power > 0.25 * peak.power and (abs(det.cell - peak.cell) > spread or apart_azimuth):
+        where = (
+            f"{1e3 * (det.time - peak.time):+.1f} ms from it in apparent time"
+            if n_amb == 0
+            else f"{n_amb:+d} x PRF / K_a = {n_amb * sp.ambiguity:+.3f} s from it in apparent time (its ambiguity)"
         )
-        # The other targets in this window (detected anywhere in its cells, not at this one's position or
-        # ambiguities) keep their own reconstruction; everything else in the window takes this mover's.
-        others = []
-        for d in dets:
-            f_d = ka0 * (d.time - det.time)
-            f_d = (f_d + g.prf / 2) % g.prf - g.prf / 2
-            if d is not det and a - 2 <= d.cell < b + 2 and abs(f_d) > 1.5 * params.separation_bandwidth:
-                others.append(f_d)
-        whole = detection.extract(x_w, g.times, g.prf, det.time, ka_w, params.separation_bandwidth, notches=others)
-        remove(whole, a, b, ka_w)
-        # The reconstruction also spares the static targets the null hid from the detections (bright points in
-        # the conventional image, in this window's cells, not at this detection's apparent time modulo PRF / K_a).
-        spared = [
-            f_d
-            for d in static_peaks
-            if a - 2 <= d.cell < b + 2
-            and abs(f_d := (ka0 * (d.time - det.time) + g.prf / 2) % g.prf - g.prf / 2)
-            > 1.5 * params.separation_bandwidth
-        ]
-        if spared:
-            whole = detection.extract(
-                x_w, g.times, g.prf, det.time, ka_w, params.separation_bandwidth, notches=others + spared
-            )
-        if mt is None:
-            kind = "incoherent" if notes == ["incoherent"] else "static"
-            counts[kind] += 1
-            if kind == "incoherent":
-                flat_snr.append(det.snr_db)
-            rejected.append(
-                {
-                    "cell": det.cell,
-                    "index": det.index,
-                    "snr_db": det.snr_db,
-                    "kind": kind,
-                    "v_los": float(notes[0].split()[1]) if kind == "static" else None,
-                }
-            )
-            log.info(
-                "reconstruct: detection at range cell %d, %.3f s (SNR %.1f dB) is %s",
-                det.cell,
-                det.time,
-                det.snr_db,
-                "no point target" if kind == "incoherent" else "static",
-            )
-            continue
-        for note in notes:
-            log.warning("reconstruct: mover in range cells %d-%d at %.3f s: %s", a, b - 1, det.time, note)
-        win_whole = _Window(whole, f_w, g, params)
-        y_mod = win_whole.output(
-            mt.radial_velocity, mt.along_track_velocity, mt.beam_centre_time, mt.slant_range, focus_along_track=True
+        log.warning(
+            "reconstruct: a response %.1f dB under mover %d, in range cell %d (%d cells from its "
+            "peak; its own range extent %.0f cells) %s, could not be separated from it: "
+            "another mover there shares its window and its velocity estimate",
+            10 * math.log10(peak.power / det.power),
+            k,
+            det.cell,
+            det.cell - peak.cell,
+            spread,
+            where,
         )
-        y_conv = sfft.ifft(_reconstruct(whole, win.bank(0.0)), axis=0, workers=-1)
-        y_tr[:, a:b] += sfft.ifft(y_mod - y_conv, axis=1, workers=-1)
-        index, cell = _refine_peak(
-            sfft.fft(y_tr[:, a:b], axis=1, workers=-1),
-            ka_w,
-            out_f,
-            det.index if mt.null_fit_index is None else int(round(mt.null_fit_index)),
-            ambiguity * g.n * g.prf,
-            n_out,
-            mt.null_fit_index is not None,
-            mt.null_fit_cell,
+
+
+def _examine(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
+    """Estimate ``det``'s velocities in its window, take its response out of the image, refocus it if it moves."""
+    params, g = scan.params, scan.g
+    w = _window_at(det, scan)
+    if scan.projector is not None:
+        _log_null_survival(det, w.ext, scan)
+    centre_range = C / 2 * (scan.rt0 + (det.cell - scan.lead) / g.fs)
+    # A criterion with no dip at any velocity: no point target (noise, a side lobe, clutter residue).
+    null_fit = (
+        _NullFit(
+            w.win,
+            det.index,
+            det.cell - w.a,
+            w.ka_w,
+            scan.spacing.ka0,
+            scan.projector,
+            scan.bank,
+            scan.spacing.ghost_cells,
         )
-        t_app = g.out_times[0] + index / (g.n * g.prf)
-        wc_range = C / 2 * (rt0 + (a + cell - lead) / g.fs)
-        movers.append(
-            dataclasses.replace(
-                mt,
-                first_cell=a,
-                last_cell=b,
-                snr_db=det.snr_db,
-                apparent_time=t_app,
-                apparent_range=wc_range - g.velocity * math.sin(g.squint) * t_app,
-            )
+        if scan.projector is not None
+        else None
+    )
+    mt, notes = _estimate(
+        w.win,
+        params,
+        g,
+        centre_range,
+        static_below=params.detection_velocity,
+        flat_above=0.95,
+        null_fit=null_fit,
+    )
+    # The other targets in this window (detected anywhere in its cells, not at this one's position or
+    # ambiguities) keep their own reconstruction; everything else in the window takes this mover's.
+    others = _others(det, w, scan)
+    whole = detection.extract(w.x_w, g.times, g.prf, det.time, w.ka_w, params.separation_bandwidth, notches=others)
+    _remove_response(whole, w, scan)
+    # The reconstruction also spares the static targets the null hid from the detections (bright points in
+    # the conventional image, in this window's cells, not at this detection's apparent time modulo PRF / K_a).
+    spared = _spared(det, w, scan)
+    if spared:
+        whole = detection.extract(
+            w.x_w, g.times, g.prf, det.time, w.ka_w, params.separation_bandwidth, notches=others + spared
         )
-        peaks.append(det)
+    if mt is None:
+        _reject(det, notes, tally)
+        return
+    for note in notes:
+        log.warning("reconstruct: mover in range cells %d-%d at %.3f s: %s", w.a, w.b - 1, det.time, note)
+    _refocus(det, mt, w, whole, scan, tally)
+
+
+def _window_at(det: detection.Detection, scan: _Scan) -> _DetWindow:
+    """The range cells within window_margin of ``det`` and its channels separated from the rest of them."""
+    params, g, m = scan.params, scan.g, scan.params.window_margin
+    a, b = max(0, det.cell - m), min(scan.n_cells, det.cell + m + 1)
+    f_w = sfft.fftfreq(b - a, 1.0 / g.fs)
+    ka_w = detection.fm_rate(g.velocity, g.squint, scan.found.r_mid, g.fc, f_w)
+    x_w = sfft.fft(scan.x_tr[:, :, a:b], axis=-1, workers=-1)
+    ext = detection.extract(x_w, g.times, g.prf, det.time, ka_w, params.separation_bandwidth)
+    win = _Window(ext, f_w, g, params)
+    win.keep_own_cells()
+    return _DetWindow(a, b, f_w, ka_w, x_w, ext, win)
+
+
+def _log_null_survival(det: detection.Detection, ext: np.ndarray, scan: _Scan) -> None:
+    """Log the energy of this detection's channels that survives the clutter null.
+
+    Static points leave the null's floor, a mover its channel-phase mismatch (v_r) or band shift (v_los).
+    """
+    e_fa = sfft.fft(ext, axis=1, workers=-1)
+    kept = float(np.sum(np.abs(clutter_null(e_fa, scan.g, projector=scan.projector)[0]) ** 2))
+    total = float(np.sum(np.abs(e_fa) ** 2))
+    null_db = 10 * math.log10(kept / total) if kept > 0 and total > 0 else -math.inf
+    log.debug(
+        "reconstruct: detection at cell %d, %.4f s: %.1f dB of its energy survives the clutter null",
+        det.cell,
+        det.time,
+        null_db,
+    )
+
+
+def _others(det: detection.Detection, w: _DetWindow, scan: _Scan) -> list[float]:
+    """Doppler offsets (Hz, modulo PRF) of the other detections in ``w``'s cells, away from ``det``'s mask."""
+    g, ka0, band = scan.g, scan.spacing.ka0, scan.params.separation_bandwidth
+    others = []
+    for d in scan.found.dets:
+        f_d = ka0 * (d.time - det.time)
+        f_d = (f_d + g.prf / 2) % g.prf - g.prf / 2
+        if d is not det and w.a - 2 <= d.cell < w.b + 2 and abs(f_d) > 1.5 * band:
+            others.append(f_d)
+    return others
+
+
+def _spared(det: detection.Detection, w: _DetWindow, scan: _Scan) -> list[float]:
+    """Doppler offsets (Hz, modulo PRF) of the conventional image's static peaks in ``w``'s cells, off ``det``'s."""
+    g, ka0, band = scan.g, scan.spacing.ka0, scan.params.separation_bandwidth
+    return [
+        f_d
+        for d in scan.found.static_peaks
+        if w.a - 2 <= d.cell < w.b + 2
+        and abs(f_d := (ka0 * (d.time - det.time) + g.prf / 2) % g.prf - g.prf / 2) > 1.5 * band
+    ]
+
+
+def _remove_response(ext: np.ndarray, w: _DetWindow, scan: _Scan) -> None:
+    """Take one examined detection's whole response (ambiguities, clutter-null artefacts) out of the image."""
+    x_fa = sfft.fft(ext, axis=1, workers=-1)
+    if scan.projector is not None:
+        x_fa = clutter_null(x_fa, scan.g, projector=scan.projector)[0]
+    scan.found.image[:, w.a : w.b] -= detection.compressed(
+        channels.apply_filter_bank(x_fa, scan.bank), scan.found.out_f, w.ka_w
+    )
+
+
+def _reject(det: detection.Detection, notes: list[str], tally: _Tally) -> None:
+    """Record an examined detection that is no mover: static, or no point target (no velocity dip)."""
+    kind = "incoherent" if notes == ["incoherent"] else "static"
+    tally.counts[kind] += 1
+    if kind == "incoherent":
+        tally.flat_snr.append(det.snr_db)
+    tally.rejected.append(
+        {
+            "cell": det.cell,
+            "index": det.index,
+            "snr_db": det.snr_db,
+            "kind": kind,
+            "v_los": float(notes[0].split()[1]) if kind == "static" else None,
+        }
+    )
+    log.info(
+        "reconstruct: detection at range cell %d, %.3f s (SNR %.1f dB) is %s",
+        det.cell,
+        det.time,
+        det.snr_db,
+        "no point target" if kind == "incoherent" else "static",
+    )
+
+
+def _refocus(
+    det: detection.Detection, mt: MovingTarget, w: _DetWindow, whole: np.ndarray, scan: _Scan, tally: _Tally
+) -> None:
+    """Replace the mover's conventional reconstruction by its modified one in ``y_tr``; locate and record it."""
+    g, sp = scan.g, scan.spacing
+    win_whole = _Window(whole, w.f_w, g, scan.params)
+    y_mod = win_whole.output(
+        mt.radial_velocity, mt.along_track_velocity, mt.beam_centre_time, mt.slant_range, focus_along_track=True
+    )
+    y_conv = sfft.ifft(_reconstruct(whole, w.win.bank(0.0)), axis=0, workers=-1)
+    scan.y_tr[:, w.a : w.b] += sfft.ifft(y_mod - y_conv, axis=1, workers=-1)
+    index, cell = _refine_peak(
+        sfft.fft(scan.y_tr[:, w.a : w.b], axis=1, workers=-1),
+        w.ka_w,
+        scan.found.out_f,
+        det.index if mt.null_fit_index is None else int(round(mt.null_fit_index)),
+        sp.ambiguity * g.n * g.prf,
+        scan.n_out,
+        mt.null_fit_index is not None,
+        mt.null_fit_cell,
+    )
+    t_app = g.out_times[0] + index / (g.n * g.prf)
+    wc_range = C / 2 * (scan.rt0 + (w.a + cell - scan.lead) / g.fs)
+    tally.movers.append(
+        dataclasses.replace(
+            mt,
+            first_cell=w.a,
+            last_cell=w.b,
+            snr_db=det.snr_db,
+            apparent_time=t_app,
+            apparent_range=wc_range - g.velocity * math.sin(g.squint) * t_app,
+        )
+    )
+    tally.peaks.append(det)
+
+
+def _warn_unseparated(peaks: list[detection.Detection], spacing: _Spacing, m: int) -> None:
+    """Warn of movers found whose detections the windows could not separate."""
     for i in range(len(peaks)):
         for j in range(i + 1, len(peaks)):
-            if not apart(peaks[i], peaks[j], m):
+            if not spacing.apart(peaks[i], peaks[j], m):
                 log.warning(
                     "reconstruct: movers %d and %d in range cells %d-%d (%d cells and %.1f ms apart in "
                     "apparent time) could not be separated; their velocity estimates mix both",
@@ -995,28 +1156,26 @@ def _detect_and_focus(
                     abs(peaks[i].cell - peaks[j].cell),
                     1e3 * abs(peaks[i].time - peaks[j].time),
                 )
-    if flat_snr:
+
+
+def _warn_unexamined(tally: _Tally, params: ReconstructParams) -> None:
+    """Warn of detections with no velocity dip and of those max_detections left unexamined."""
+    if tally.flat_snr:
         log.warning(
             "reconstruct: %d detection(s) above the CFAR threshold (SNR %.1f-%.1f dB) have no slant-range "
             "velocity that explains them (too weak for the velocity search, or no point target: side lobes, "
             "clutter residue); they are not in moving_targets",
-            len(flat_snr),
-            min(flat_snr),
-            max(flat_snr),
+            len(tally.flat_snr),
+            min(tally.flat_snr),
+            max(tally.flat_snr),
         )
-    if dropped:
+    if tally.dropped:
         log.warning(
             "reconstruct: %d further detections above the CFAR threshold were not examined "
             "(reconstruct.max_detections = %d): movers among them are missed",
-            dropped,
+            tally.dropped,
             params.max_detections,
         )
-    counts["not_examined"] = dropped
-    del x_tr
-    y[:] = sfft.fft(sfft.fft(y_tr, axis=1, workers=-1), axis=0, workers=-1)
-    info["detections"] = counts
-    info["_probes"] = (probes, rejected, ambiguity * g.n * g.prf)
-    return movers
 
 
 def _truth_cell_index(raw: Product, g: _Geometry, lead: int, k: int, centres: np.ndarray) -> tuple[float, float]:
