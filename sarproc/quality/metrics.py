@@ -65,9 +65,8 @@ from sarproc.product.theory import cut_metrics as _cut_metrics, window_theory
 from sarproc.quality.linesum import exponential_sums
 from sarproc.quality.residual import (
     ResidualFloor,
-    _residual_false_target,
     fit_response_models,
-    residual_image,
+    residual_false_target,
     response_basis,
     spectral_orders,
 )
@@ -862,7 +861,7 @@ def _false_targets(
     if not params.residual:
         return guard, guard, None
     models = fit_response_models(data, [p.fit_start() for p in peaks], nulls, params, support_shape=True)
-    false, floor = _residual_false_target(residual_image(data, models), axes, guarded, indices, reports, half, params)
+    false, floor = residual_false_target(data, models, axes, guarded, indices, reports, half, params)
     return false, guard, floor
 
 
