@@ -6,11 +6,12 @@ names taken from metrics are imported where they are used.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -176,9 +177,39 @@ def _keystone_product(xs: Sequence[np.ndarray], kappa: np.ndarray) -> np.ndarray
     return np.asarray(total) * width * np.sinc(width * last) / math.prod(2j * np.pi * x for x in xk)
 
 
+# The keystoned columns through the compiled kernel (sarproc.quality.residual_kernels); False (and
+# EvaluateParams.exact) keeps the numpy reference, :func:`_keystone_columns`.
+COMPILED = True
+
+
+@contextlib.contextmanager
+def numerics(exact: bool) -> Iterator[None]:
+    """Within: the numpy reference of the keystoned columns where ``exact``, else the compiled kernel."""
+    global COMPILED
+    before, COMPILED = COMPILED, COMPILED and not exact
+    try:
+        yield
+    finally:
+        COMPILED = before
+
+
+def _columns(c: Sequence[np.ndarray], orders: np.ndarray, kappa: np.ndarray) -> np.ndarray:
+    """(K, *shape) stack of :func:`_keystone_columns` (c broadcastable per axis), compiled where allowed."""
+    shape = np.broadcast_shapes(*[np.shape(v) for v in c])
+    if not COMPILED:
+        return np.stack([np.broadcast_to(col, shape) for col in _keystone_columns(c, orders, kappa)])
+    from sarproc.quality.residual_kernels import keystone_columns  # numba: only when the residual is asked for
+
+    pts = np.stack([np.broadcast_to(np.asarray(v, dtype=float), shape).ravel() for v in c])
+    cols = keystone_columns(
+        pts, np.asarray(orders, dtype=np.int64), np.asarray(kappa, dtype=float), _strip_count(kappa)
+    )
+    return cols.reshape((len(orders),) + tuple(shape))
+
+
 def _keystone_sum(c: Sequence[np.ndarray], orders: np.ndarray, coef: np.ndarray, kappa: np.ndarray) -> np.ndarray:
     """sum_k coef_k _keystone_product(c + orders_k / 2, kappa) on a box (c broadcastable per axis)."""
-    return functools.reduce(np.add, [k * col for k, col in zip(coef, _keystone_columns(c, orders, kappa))])
+    return np.tensordot(np.asarray(coef), _columns(c, orders, kappa), axes=1)
 
 
 def _keystone_columns(c: Sequence[np.ndarray], orders: np.ndarray, kappa: np.ndarray) -> list[np.ndarray]:
@@ -263,7 +294,7 @@ def response_basis(
     n = np.asarray(orders, dtype=int).reshape(-1, len(c))
     cols: np.ndarray | int
     if kappa is not None and np.any(kappa):  # every order's strip sum, (K, N)
-        cols = np.stack(_keystone_columns(list(c), n, kappa))
+        cols = _columns(list(c), n, kappa)
     else:
         per_axis = [np.stack(_shifted_sincs(ca, m)) for ca in c]
         cols = math.prod(per_axis[a][n[:, a] + m] for a in range(len(c)))
@@ -434,8 +465,16 @@ FIT_REACH_DB = -100.0  # other groups' side lobes are subtracted from a fit's sa
 single_blas = threadpool_limits.wrap(limits=1, user_api="blas")
 
 
-@single_blas
 def fit_response_models(
+    data: np.ndarray, found: list[dict], nulls: npt.ArrayLike, params: EvaluateParams, support_shape: bool = False
+) -> list:
+    """:func:`_fit_response_models` with the numerics ``params.exact`` asks for."""
+    with numerics(params.exact):
+        return _fit_response_models(data, found, nulls, params, support_shape)
+
+
+@single_blas
+def _fit_response_models(
     data: np.ndarray, found: list[dict], nulls: npt.ArrayLike, params: EvaluateParams, support_shape: bool = False
 ) -> list:
     """Every target's response model, fitted by complex least squares on the samples within
@@ -687,7 +726,8 @@ def residual_false_target(
     :data:`REACH_FIRST_DB` below the strongest peak, then :data:`REACH_BELOW_FLOOR_DB` below the floor so
     found (:func:`subtract_models`; ``params.exact``: over the whole image, :func:`residual_image`)."""
     if params.exact:
-        return _residual_false_target(residual_image(data, models), axes, truth, peaks, reports, half, params)
+        with numerics(exact=True):
+            return _residual_false_target(residual_image(data, models), axes, truth, peaks, reports, half, params)
     ref = max(r.peak_amplitude for r in reports)
     out = np.array(data, dtype=np.complex128)
     level = ref * 10 ** (REACH_FIRST_DB / 20)
