@@ -396,10 +396,11 @@ def _fit_group(
     def bases() -> list[np.ndarray]:
         return [(fixed[q] if shape is None else raw(q, shape[q])) * c for q, c in enumerate(carriers())]  # type: ignore[index]  # not None in this branch
 
-    coef = least_squares(np.concatenate(bases(), axis=1), y).reshape(len(members), n_o)
+    current = bases()  # the bases at the current parameters, reused by the next step
+    coef = least_squares(np.concatenate(current, axis=1), y).reshape(len(members), n_o)
     for _ in range(iterations):
         cols = []
-        for q, (b, x, c, car) in enumerate(zip(bases(), offs, coef, carriers())):
+        for q, (b, x, c, car) in enumerate(zip(current, offs, coef, carriers())):
             model = b @ c
             cols.append(b)
             derivs = [2j * np.pi * x[a] * model for a in range(ndim)]
@@ -431,7 +432,8 @@ def _fit_group(
                     np.clip(shape[q][1] + d_shape[ndim:], -0.2, 0.2),
                 )
                 largest = max(largest, float(np.max(np.abs(d_shape))) * 0.01)
-        coef = least_squares(np.concatenate(bases(), axis=1), y).reshape(len(members), n_o)
+        current = bases()
+        coef = least_squares(np.concatenate(current, axis=1), y).reshape(len(members), n_o)
         if largest < 1e-6:
             break
     return coef, f_c, K, (shape if shape is not None else [None] * len(members))
