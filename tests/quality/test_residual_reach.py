@@ -98,3 +98,32 @@ def test_compiled_keystone_columns_are_the_numpy_reference(ndim):
         # of the (small) value there
         np.testing.assert_allclose(got[:, 60:], want[:, 60:], rtol=0, atol=1e-13 * np.abs(want).max())
         np.testing.assert_allclose(got[:, :60], want[:, :60], rtol=0, atol=1e-8 * np.abs(want).max())
+
+
+def test_weighted_targets_are_fitted_with_the_window_orders(monkeypatch):
+    """Hamming-weighted responses (their theory says so: PSLR -42.7 dB) are modelled with two spectral
+    orders, which follow the window's cosine; one order leaves the window's misfit."""
+    from sarproc.quality import metrics
+    from sarproc.quality.metrics import EvaluateParams, evaluate_image
+
+    step, n, bw = 0.4, (240, 256), 1.0  # band 1 cycle/m, 2.5 samples per null
+    f = (np.arange(801) + 0.5) / 801 - 0.5
+    window = 0.54 + 0.46 * np.cos(2 * np.pi * f)
+
+    def psf(x):
+        return (np.exp(2j * np.pi * np.multiply.outer(x * bw, f)) @ window) / window.sum()
+
+    axes = [(np.arange(k) - k // 2) * step for k in n]
+    truth = [(-10.3, -12.1), (9.7, 14.6)]
+    img = sum(a * np.outer(psf(axes[0] - t[0]), psf(axes[1] - t[1])) for t, a in zip(truth, [1.0, 0.6j]))
+    params = EvaluateParams(residual=True, irw_factor=1.30)  # Hamming IRW 1.30 / B: its theory PSLR -42.7 dB
+
+    def run():
+        return evaluate_image(img, ("azimuth", "range"), axes, (1.30 / bw,) * 2, truth, params=params)
+
+    two = run()
+    monkeypatch.setattr(metrics, "WEIGHTED_PSLR_DB", -np.inf)  # the rule off: residual_orders 1
+    one = run()
+    assert two.residual.orders > one.residual.orders
+    assert two.residual.floor_db < -45.0 and two.false_target.level_db < -45.0  # bp_hamming's gate
+    assert one.residual.floor_db > two.residual.floor_db + 10.0
