@@ -714,6 +714,25 @@ def _exclusion_mask(
     return outside
 
 
+def _search_masks(
+    shape: tuple[int, ...],
+    axes: Sequence[_Axis],
+    truth: np.ndarray,
+    peaks: Sequence[np.ndarray],
+    measured: int,
+    params: EvaluateParams,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(search, guard): where false targets are searched on the residual (outside every main lobe) and
+    where its floor is taken (the targets' guard windows, main lobes excluded). Truth rows beyond the first
+    ``measured`` (targets left out of a --targets subset) have no fitted model, so their whole guard windows
+    stay out of both (their side lobes are still in the residual)."""
+    search = _exclusion_mask(shape, axes, truth, peaks, params.exclusion_cells)
+    if len(truth) > measured:
+        search &= _exclusion_mask(shape, axes, truth[measured:], [], params.guard_cells)
+    guard = ~_exclusion_mask(shape, axes, truth, peaks, params.guard_cells) & search
+    return search, guard
+
+
 def residual_false_target(
     data: np.ndarray,
     models: list[dict],
@@ -734,8 +753,7 @@ def residual_false_target(
     out = np.array(data, dtype=np.complex128)
     level = ref * 10 ** (REACH_FIRST_DB / 20)
     subtract_models(out, models, level)
-    search = _exclusion_mask(out.shape, axes, truth, peaks, params.exclusion_cells)
-    guard = ~_exclusion_mask(out.shape, axes, truth, peaks, params.guard_cells) & search
+    search, guard = _search_masks(out.shape, axes, truth, peaks, len(reports), params)
     while guard.any():  # down to REACH_BELOW_FLOOR_DB under the floor, which falls as more is subtracted
         want = max(float(np.abs(out[guard]).max()) * 10 ** (REACH_BELOW_FLOOR_DB / 20), ref * 1e-12)
         if want >= 0.999 * level:
@@ -760,8 +778,7 @@ def _residual_false_target(
 
     ref = max(reports, key=lambda r: r.peak_amplitude)
     mag = np.abs(residual)
-    search = _exclusion_mask(residual.shape, axes, truth, peaks, params.exclusion_cells)
-    guard = ~_exclusion_mask(residual.shape, axes, truth, peaks, params.guard_cells) & search
+    search, guard = _search_masks(residual.shape, axes, truth, peaks, len(reports), params)
     db = lambda v: float(20 * np.log10(v / ref.peak_amplitude)) if v > 0 and ref.peak_amplitude > 0 else -np.inf  # noqa: E731
     floor = ResidualFloor(
         floor_db=db(float(mag[guard].max())) if guard.any() else -np.inf,

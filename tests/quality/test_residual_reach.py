@@ -127,3 +127,23 @@ def test_weighted_targets_are_fitted_with_the_window_orders(monkeypatch):
     assert two.residual.orders > one.residual.orders
     assert two.residual.floor_db < -45.0 and two.false_target.level_db < -45.0  # bp_hamming's gate
     assert one.residual.floor_db > two.residual.floor_db + 10.0
+
+
+def test_targets_left_out_of_a_subset_are_no_residual_false_targets():
+    """--targets A: B is not measured, so not modelled; its guard window stays out of the residual search
+    (its side lobes are still there), as the guard-window figure keeps it out."""
+    from sarproc.quality.metrics import EvaluateParams, evaluate_image
+
+    axes = [(np.arange(k) - k // 2) * 0.4 for k in (200, 220)]
+    a, b = (-12.3, -10.1), (13.7, 15.2)
+    img = sum(
+        amp * np.outer(np.sinc(0.886 * (axes[0] - t[0])), np.sinc(0.886 * (axes[1] - t[1])))
+        for t, amp in zip((a, b), (1.0, 0.8j))
+    )
+    params = EvaluateParams(residual=True)
+    rep = evaluate_image(img, ("azimuth", "range"), axes, (1.0, 1.0), [a], names=["A"], params=params, other_truth=[b])
+    # without its guard window the residual read B's first side lobe, -19.8 dB; now what is left of B is
+    # its ridges beyond that window, which the guard-window figure sees as well
+    assert rep.false_target.level_db < -30.0 and rep.residual.floor_db < -45.0
+    assert rep.false_target.level_db <= rep.false_target_guard.level_db + 0.5
+    assert any(abs(rep.false_target.position[d] - x) > params.guard_cells for d, x in zip(("azimuth", "range"), b))
