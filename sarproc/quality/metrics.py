@@ -66,9 +66,8 @@ from sarproc.product.theory import cut_metrics as _cut_metrics, window_theory
 from sarproc.quality.linesum import exponential_sums
 from sarproc.quality.residual import (
     ResidualFloor,
-    _residual_false_target,
     fit_response_models,
-    residual_image,
+    residual_false_target,
     response_basis,
     spectral_orders,
 )
@@ -876,6 +875,9 @@ def _subtract_neighbours(
     return out
 
 
+WEIGHTED_PSLR_DB = -30.0  # a theoretical PSLR below this: a weighting window (Hamming -42.7 dB), not a taper
+
+
 def _false_targets(
     data: np.ndarray,
     mag: np.ndarray,
@@ -894,8 +896,11 @@ def _false_targets(
     guard = _false_target(data, mag, axes, guarded, indices, reports, half, params)
     if not params.residual:
         return guard, guard, None
+    if any(m.pslr_theory_db is not None and m.pslr_theory_db < WEIGHTED_PSLR_DB for r in reports for m in r.axes):
+        # a window's taper (Hamming: the band's cosine) needs the second spectral order (residual_orders doc)
+        params = dataclasses.replace(params, residual_orders=max(params.residual_orders, 2))
     models = fit_response_models(data, [p.fit_start() for p in peaks], nulls, params, support_shape=True)
-    false, floor = _residual_false_target(residual_image(data, models), axes, guarded, indices, reports, half, params)
+    false, floor = residual_false_target(data, models, axes, guarded, indices, reports, half, params)
     return false, guard, floor
 
 

@@ -6,11 +6,12 @@ names taken from metrics are imported where they are used.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -176,8 +177,43 @@ def _keystone_product(xs: Sequence[np.ndarray], kappa: np.ndarray) -> np.ndarray
     return np.asarray(total) * width * np.sinc(width * last) / math.prod(2j * np.pi * x for x in xk)
 
 
+# The keystoned columns through the compiled kernel (sarproc.quality.residual_kernels); False (and
+# EvaluateParams.exact) keeps the numpy reference, :func:`_keystone_columns`.
+COMPILED = True
+
+
+@contextlib.contextmanager
+def numerics(exact: bool) -> Iterator[None]:
+    """Within: the numpy reference of the keystoned columns where ``exact``, else the compiled kernel."""
+    global COMPILED
+    before, COMPILED = COMPILED, COMPILED and not exact
+    try:
+        yield
+    finally:
+        COMPILED = before
+
+
+def _columns(c: Sequence[np.ndarray], orders: np.ndarray, kappa: np.ndarray) -> np.ndarray:
+    """(K, *shape) stack of :func:`_keystone_columns` (c broadcastable per axis), compiled where allowed."""
+    shape = np.broadcast_shapes(*[np.shape(v) for v in c])
+    if not COMPILED:
+        return np.stack([np.broadcast_to(col, shape) for col in _keystone_columns(c, orders, kappa)])
+    from sarproc.quality.residual_kernels import keystone_columns  # numba: only when the residual is asked for
+
+    pts = np.stack([np.broadcast_to(np.asarray(v, dtype=float), shape).ravel() for v in c])
+    cols = keystone_columns(
+        pts, np.asarray(orders, dtype=np.int64), np.asarray(kappa, dtype=float), _strip_count(kappa)
+    )
+    return cols.reshape((len(orders),) + tuple(shape))
+
+
 def _keystone_sum(c: Sequence[np.ndarray], orders: np.ndarray, coef: np.ndarray, kappa: np.ndarray) -> np.ndarray:
-    """sum_k coef_k _keystone_product(c + orders_k / 2, kappa) on a box (c broadcastable per axis).
+    """sum_k coef_k _keystone_product(c + orders_k / 2, kappa) on a box (c broadcastable per axis)."""
+    return np.tensordot(np.asarray(coef), _columns(c, orders, kappa), axes=1)
+
+
+def _keystone_columns(c: Sequence[np.ndarray], orders: np.ndarray, kappa: np.ndarray) -> list[np.ndarray]:
+    """_keystone_product(c + orders_k / 2, kappa) for every order k (c broadcastable per axis).
 
     The orders shift every angle of :func:`_keystone_product` by a constant, so the sines and cosines are
     taken once per sign on the box and each order costs multiplications only (angle addition)."""
@@ -188,7 +224,6 @@ def _keystone_sum(c: Sequence[np.ndarray], orders: np.ndarray, coef: np.ndarray,
     last = c[-1]
     shape = np.broadcast_shapes(*[np.shape(v) for v in c])
     s_l, c_l = np.sin(np.pi * width * last), np.cos(np.pi * width * last)
-    total = np.zeros(shape, dtype=complex)
     per_order = [np.zeros(shape, dtype=complex) for _ in orders]
     for signs in itertools.product((1.0, -1.0), repeat=ndim - 1):
         half = np.pi * width * last + sum(0.5 * np.pi * width * sg * k * x for sg, k, x in zip(signs, kappa, c[:-1]))
@@ -214,13 +249,13 @@ def _keystone_sum(c: Sequence[np.ndarray], orders: np.ndarray, coef: np.ndarray,
             else:
                 dirichlet = num / den
             per_order[q] += math.prod(signs) * dirichlet * (rot * complex(math.cos(d_phase), math.sin(d_phase)))
-    for q, (order, k) in enumerate(zip(orders, coef)):
+    for q, order in enumerate(orders):
         x_l = last + order[-1] / 2.0
         s_x = s_l * math.cos(0.5 * np.pi * width * order[-1]) + c_l * math.sin(0.5 * np.pi * width * order[-1])
         small = np.abs(x_l) < 1e-12
         sinc = np.where(small, 1.0, s_x / (np.pi * width * np.where(small, 1.0, x_l)))
         den = math.prod(2j * np.pi * (x + n / 2.0) for x, n in zip(c[:-1], order[:-1]))
-        total += k * per_order[q] * width * sinc / np.where(den == 0, 1.0, den)
+        per_order[q] *= width * sinc / np.where(den == 0, 1.0, den)
     # within 1e-7 of a factor's removable singularity the angles above cancel to rounding: those few
     # points from :func:`_keystone_product`, which evaluates the limit there
     near = functools.reduce(
@@ -230,10 +265,9 @@ def _keystone_sum(c: Sequence[np.ndarray], orders: np.ndarray, coef: np.ndarray,
     )
     if near.any():
         pts = [np.broadcast_to(x, shape)[near] for x in c]
-        total[near] = sum(
-            k * _keystone_product([x + n / 2.0 for x, n in zip(pts, order)], kappa) for order, k in zip(orders, coef)
-        )
-    return total
+        for q, order in enumerate(orders):
+            per_order[q][near] = _keystone_product([x + n / 2.0 for x, n in zip(pts, order)], kappa)
+    return per_order
 
 
 def response_basis(
@@ -259,8 +293,8 @@ def response_basis(
         phase = phase + _chirp_phase(x, K)
     n = np.asarray(orders, dtype=int).reshape(-1, len(c))
     cols: np.ndarray | int
-    if kappa is not None and np.any(kappa):  # every order's strip sum at once, (K, N)
-        cols = _keystone_product([c[a][None, :] + n[:, a, None] / 2.0 for a in range(len(c))], kappa)
+    if kappa is not None and np.any(kappa):  # every order's strip sum, (K, N)
+        cols = _columns(list(c), n, kappa)
     else:
         per_axis = [np.stack(_shifted_sincs(ca, m)) for ca in c]
         cols = math.prod(per_axis[a][n[:, a] + m] for a in range(len(c)))
@@ -362,10 +396,11 @@ def _fit_group(
     def bases() -> list[np.ndarray]:
         return [(fixed[q] if shape is None else raw(q, shape[q])) * c for q, c in enumerate(carriers())]  # type: ignore[index]  # not None in this branch
 
-    coef = least_squares(np.concatenate(bases(), axis=1), y).reshape(len(members), n_o)
+    current = bases()  # the bases at the current parameters, reused by the next step
+    coef = least_squares(np.concatenate(current, axis=1), y).reshape(len(members), n_o)
     for _ in range(iterations):
         cols = []
-        for q, (b, x, c, car) in enumerate(zip(bases(), offs, coef, carriers())):
+        for q, (b, x, c, car) in enumerate(zip(current, offs, coef, carriers())):
             model = b @ c
             cols.append(b)
             derivs = [2j * np.pi * x[a] * model for a in range(ndim)]
@@ -397,7 +432,8 @@ def _fit_group(
                     np.clip(shape[q][1] + d_shape[ndim:], -0.2, 0.2),
                 )
                 largest = max(largest, float(np.max(np.abs(d_shape))) * 0.01)
-        coef = least_squares(np.concatenate(bases(), axis=1), y).reshape(len(members), n_o)
+        current = bases()
+        coef = least_squares(np.concatenate(current, axis=1), y).reshape(len(members), n_o)
         if largest < 1e-6:
             break
     return coef, f_c, K, (shape if shape is not None else [None] * len(members))
@@ -424,13 +460,23 @@ def _ridge_strips(
     return out
 
 
+FIT_REACH_DB = -100.0  # other groups' side lobes are subtracted from a fit's samples down to this level
+
 # The fits' matrices are small (a few thousand rows, tens of columns): threaded BLAS only adds its
 # start-up and, on a loaded machine, threads spinning for each other (measured 7x slower on 2 cores).
 single_blas = threadpool_limits.wrap(limits=1, user_api="blas")
 
 
-@single_blas
 def fit_response_models(
+    data: np.ndarray, found: list[dict], nulls: npt.ArrayLike, params: EvaluateParams, support_shape: bool = False
+) -> list:
+    """:func:`_fit_response_models` with the numerics ``params.exact`` asks for."""
+    with numerics(params.exact):
+        return _fit_response_models(data, found, nulls, params, support_shape)
+
+
+@single_blas
+def _fit_response_models(
     data: np.ndarray, found: list[dict], nulls: npt.ArrayLike, params: EvaluateParams, support_shape: bool = False
 ) -> list:
     """Every target's response model, fitted by complex least squares on the samples within
@@ -479,6 +525,7 @@ def fit_response_models(
         near = np.unique(np.concatenate([boxes[k] for k in members], axis=1), axis=1)
         far = np.unique(np.concatenate([strips[k] for k in members], axis=1), axis=1)
         fits.append((members, near, data[tuple(near)].astype(complex), far, data[tuple(far)].astype(complex)))
+    reach = 0.0 if params.exact else float(np.abs(data).max()) * 10 ** (FIT_REACH_DB / 20)
     # Sweep 0 on the boxes alone (the chirp converges from zero there); then on boxes and ridge strips, with
     # the other groups' models subtracted.
     for sweep in range(3):
@@ -486,22 +533,26 @@ def fit_response_models(
             points, y = (near, y_near) if sweep == 0 else (far, y_far)
             rhs = y
             if sweep > 0:  # the other groups' current models on these samples (their side lobes)
-                others = [j for j in live if j not in members and models[j]]
-                if others:
-                    rhs = y - sum(
-                        response_basis(
-                            points,
-                            models[j]["pos"],
-                            models[j]["V"],
-                            models[j]["nulls"],
-                            models[j]["f_c"],
-                            orders,
-                            models[j]["K"],
-                            kappa=models[j].get("kappa"),
+                rhs = y.copy()
+                for j in live:
+                    if j in members or not models[j]:
+                        continue
+                    # only where its envelope reaches FIT_REACH_DB under the image's peak
+                    near = envelope_bound(models[j], points.T) >= reach
+                    if near.any():
+                        rhs[near] -= (
+                            response_basis(
+                                points[:, near],
+                                models[j]["pos"],
+                                models[j]["V"],
+                                models[j]["nulls"],
+                                models[j]["f_c"],
+                                orders,
+                                models[j]["K"],
+                                kappa=models[j].get("kappa"),
+                            )
+                            @ models[j]["coef"]
                         )
-                        @ models[j]["coef"]
-                        for j in others
-                    )
             K0 = [models[k]["K"] if models[k] else np.zeros((ndim, ndim)) for k in members]
             start = [dict(found[k], f_c=models[k]["f_c"]) if models[k] else found[k] for k in members]
             shape0 = None
@@ -532,7 +583,8 @@ def fit_response_models(
 
 @single_blas
 def residual_image(data: np.ndarray, models: list[dict], block_samples: int = 1 << 18) -> np.ndarray:
-    """``data`` minus every fitted model over the whole image (complex128), in slabs along axis 0."""
+    """``data`` minus every fitted model over the whole image (complex128), in slabs along axis 0 (the
+    reference: :func:`subtract_models` evaluates each model only where it can matter)."""
     out = np.array(data, dtype=np.complex128)
     rows = max(1, block_samples // max(1, math.prod(data.shape[1:])))
     for start in range(0, data.shape[0], rows):
@@ -541,6 +593,110 @@ def residual_image(data: np.ndarray, models: list[dict], block_samples: int = 1 
             if model:
                 out[slab] -= _model_on_box(slab, model)
     return out
+
+
+# Each model is evaluated only on the image blocks where its envelope (an upper bound of |model|) reaches a
+# level: first REACH_FIRST_DB below the strongest target's peak, then, once the residual's floor in the guard
+# windows is known, REACH_BELOW_FLOOR_DB below that floor. A sample left out then changes the residual by
+# less than the level (per model), so the floor, the false target and the RMS move by a few thousandths of a
+# dB at most, and a model costs its ridges and the box around its peak instead of the whole image.
+REACH_FIRST_DB = -40.0
+REACH_BELOW_FLOOR_DB = -40.0
+REACH_BLOCK = 32  # samples per block edge (2D); 3D cubes use REACH_BLOCK // 2
+
+
+def envelope_bound(model: dict, lo: np.ndarray, hi: np.ndarray | None = None) -> np.ndarray:
+    """Upper bound of |model| over each image box [lo, hi] ((B, ndim) inclusive index corners; ``hi`` None:
+    at the points ``lo``): (B,).
+
+    The model is a sum over orders n of coef_n prod_a sinc(c_a + n_a / 2) times a carrier of modulus 1, c =
+    A (x - p) affine in the image index x, so over a box each c_a spans an interval (centre and radius) and
+    |sinc| <= min(1, 1 / (pi d)), d the interval's distance from zero less the largest order shift. A
+    keystoned support (the widths 1 + kappa u along the other axes growing with the last axis' band
+    coordinate u) is a trapezoid: its response is, per sign, a sinc of c_last +- kappa c_a / 2 over pi c_a, so
+    the last axis' distance shrinks by sum_a |kappa_a| |c_a| / 2 (that ridge fans out) and the widths reach 1
+    + sum |kappa| / 2; the strips that approximate the trapezoid (:func:`_strip_factors`) get a factor of 2
+    of margin, and their staircase's own ridges a term of their own."""
+    A, p = _ridge_frame(model["pos"], model["V"], model["nulls"])
+    centre = (lo - p if hi is None else (lo + hi) / 2.0 - p) @ A.T  # (B, ndim)
+    radius = np.zeros_like(centre) if hi is None else ((hi - lo) / 2.0) @ np.abs(A).T
+    shift = float(np.abs(model["orders"]).max()) / 2.0
+    dist = np.maximum(0.0, np.abs(centre) - radius - shift)
+    kappa = model.get("kappa")
+    width, margin, steps = 1.0, 1.0, 0.0
+    if kappa is not None and _keystoned(kappa):
+        k = np.abs(np.asarray(kappa, dtype=float))
+        # the strips' staircase: its steps' edges add ridges across the last axis every S nulls along it,
+        # of about sum |kappa| / (4 pi |c_last|) whatever the other coordinates (bounded 4x over here)
+        steps = float(k.sum()) / (np.pi * np.maximum(dist[:, -1], _strip_count(k) / 2.0))
+        far = (np.abs(centre[:, :-1]) + radius[:, :-1] + shift) @ k
+        dist[:, -1] = np.maximum(0.0, dist[:, -1] - far / 2.0)
+        width, margin = 1.0 + float(k.sum()) / 2.0, 2.0
+    env = np.minimum(width, 1.0 / (np.pi * np.maximum(dist, 1e-300)))
+    return float(np.abs(model["coef"]).sum()) * (margin * env.prod(axis=-1) + steps)
+
+
+def _block_grid(shape: tuple[int, ...]) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
+    """(edges per axis, lo, hi): the image cut into blocks, their inclusive corners (B, ndim) in C order."""
+    size = REACH_BLOCK if len(shape) <= 2 else max(4, REACH_BLOCK // 2)
+    edges = [np.append(np.arange(0, n, size), n) for n in shape]
+    starts = np.meshgrid(*[e[:-1] for e in edges], indexing="ij")
+    stops = np.meshgrid(*[e[1:] - 1 for e in edges], indexing="ij")
+    return edges, np.stack([s.ravel() for s in starts], axis=1), np.stack([s.ravel() for s in stops], axis=1)
+
+
+def _boxes(needed: np.ndarray, edges: list[np.ndarray]) -> list[tuple[slice, ...]]:
+    """Boxes (slices) covering the True blocks of ``needed`` (the block grid's shape): runs along the last
+    axis, merged over consecutive blocks of the axis before it where their runs are the same."""
+
+    def runs(row: np.ndarray) -> list[tuple[int, int]]:
+        d = np.diff(np.concatenate([[0], row.astype(np.int8), [0]]))
+        return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
+
+    last = edges[-1]
+    if needed.ndim == 1:
+        return [(slice(int(last[a]), int(last[b])),) for a, b in runs(needed)]
+    done: list = []
+    open_: dict[tuple, list[int]] = {}  # (outer blocks, run) -> [first, last] block along the axis before the last
+    for lead in np.ndindex(*needed.shape[:-1]):
+        outer, i = lead[:-1], lead[-1]
+        for run in runs(needed[lead]):
+            key = (outer, run)
+            if key in open_ and open_[key][1] == i - 1:
+                open_[key][1] = i
+                continue
+            if key in open_:
+                done.append((key, open_[key]))
+            open_[key] = [i, i]
+    done += list(open_.items())
+    inner = edges[-2]
+    return [
+        tuple(slice(int(edges[a][k]), int(edges[a][k + 1])) for a, k in enumerate(outer))
+        + (slice(int(inner[first]), int(inner[stop + 1])), slice(int(last[run[0]]), int(last[run[1]])))
+        for (outer, run), (first, stop) in done
+    ]
+
+
+@single_blas
+def subtract_models(
+    out: np.ndarray, models: list[dict], level: float, above: float = np.inf, block_samples: int = 1 << 18
+) -> None:
+    """Subtract from ``out`` (in place) every model on the blocks where its :func:`envelope_bound` lies in
+    [level, above): elsewhere it is below ``level`` (or was subtracted by an earlier call with that level)."""
+    edges, lo, hi = _block_grid(out.shape)
+    grid = tuple(len(e) - 1 for e in edges)
+    for model in models:
+        if not model:
+            continue
+        bound = envelope_bound(model, lo, hi)
+        needed = ((bound >= level) & (bound < above)).reshape(grid)
+        if not needed.any():
+            continue
+        for box in _boxes(needed, edges):
+            rows = max(1, block_samples // max(1, math.prod(s.stop - s.start for s in box[1:])))
+            for start in range(box[0].start, box[0].stop, rows):
+                part = (slice(start, min(box[0].stop, start + rows)),) + box[1:]
+                out[part] -= _model_on_box(part, model)
 
 
 def _exclusion_mask(
@@ -558,6 +714,55 @@ def _exclusion_mask(
     return outside
 
 
+def _search_masks(
+    shape: tuple[int, ...],
+    axes: Sequence[_Axis],
+    truth: np.ndarray,
+    peaks: Sequence[np.ndarray],
+    measured: int,
+    params: EvaluateParams,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(search, guard): where false targets are searched on the residual (outside every main lobe) and
+    where its floor is taken (the targets' guard windows, main lobes excluded). Truth rows beyond the first
+    ``measured`` (targets left out of a --targets subset) have no fitted model, so their whole guard windows
+    stay out of both (their side lobes are still in the residual)."""
+    search = _exclusion_mask(shape, axes, truth, peaks, params.exclusion_cells)
+    if len(truth) > measured:
+        search &= _exclusion_mask(shape, axes, truth[measured:], [], params.guard_cells)
+    guard = ~_exclusion_mask(shape, axes, truth, peaks, params.guard_cells) & search
+    return search, guard
+
+
+def residual_false_target(
+    data: np.ndarray,
+    models: list[dict],
+    axes: Sequence[_Axis],
+    truth: np.ndarray,
+    peaks: Sequence[np.ndarray],
+    reports: Sequence[TargetReport],
+    half: Sequence[int],
+    params: EvaluateParams,
+) -> tuple[FalseTarget | None, ResidualFloor]:
+    """:func:`_residual_false_target` of ``data`` minus every model, each evaluated only where it reaches
+    :data:`REACH_FIRST_DB` below the strongest peak, then :data:`REACH_BELOW_FLOOR_DB` below the floor so
+    found (:func:`subtract_models`; ``params.exact``: over the whole image, :func:`residual_image`)."""
+    if params.exact:
+        with numerics(exact=True):
+            return _residual_false_target(residual_image(data, models), axes, truth, peaks, reports, half, params)
+    ref = max(r.peak_amplitude for r in reports)
+    out = np.array(data, dtype=np.complex128)
+    level = ref * 10 ** (REACH_FIRST_DB / 20)
+    subtract_models(out, models, level)
+    search, guard = _search_masks(out.shape, axes, truth, peaks, len(reports), params)
+    while guard.any():  # down to REACH_BELOW_FLOOR_DB under the floor, which falls as more is subtracted
+        want = max(float(np.abs(out[guard]).max()) * 10 ** (REACH_BELOW_FLOOR_DB / 20), ref * 1e-12)
+        if want >= 0.999 * level:
+            break
+        subtract_models(out, models, want, above=level)
+        level = want
+    return _residual_false_target(out, axes, truth, peaks, reports, half, params)
+
+
 def _residual_false_target(
     residual: np.ndarray,
     axes: Sequence[_Axis],
@@ -573,8 +778,7 @@ def _residual_false_target(
 
     ref = max(reports, key=lambda r: r.peak_amplitude)
     mag = np.abs(residual)
-    search = _exclusion_mask(residual.shape, axes, truth, peaks, params.exclusion_cells)
-    guard = ~_exclusion_mask(residual.shape, axes, truth, peaks, params.guard_cells) & search
+    search, guard = _search_masks(residual.shape, axes, truth, peaks, len(reports), params)
     db = lambda v: float(20 * np.log10(v / ref.peak_amplitude)) if v > 0 and ref.peak_amplitude > 0 else -np.inf  # noqa: E731
     floor = ResidualFloor(
         floor_db=db(float(mag[guard].max())) if guard.any() else -np.inf,

@@ -227,7 +227,8 @@ def test_false_target_level_and_place():
 def test_no_false_target_region_is_reported_as_none():
     coords = [axis_coords(48, STEP2[0]), axis_coords(48, STEP2[1])]
     img = separable_image(coords, [sinc_psf(b) for b in BW2], [(0.0, 0.0)])
-    rep = evaluate_image(img, ("azimuth", "range"), coords, RES2, [(0.0, 0.0)], params=EvaluateParams(guard_cells=40))
+    params = EvaluateParams(guard_cells=40, residual=False)
+    rep = evaluate_image(img, ("azimuth", "range"), coords, RES2, [(0.0, 0.0)], params=params)
     assert rep.false_target is None
     assert rep.targets[0].chip_clipped  # the 48-sample image is smaller than the chip
     for m in rep.targets[0].axes:  # zero padding beyond +-12 nulls barely matters
@@ -235,6 +236,12 @@ def test_no_false_target_region_is_reported_as_none():
     d = rep.to_dict()
     assert d["false_target"] is None
     json.dumps(d, allow_nan=False)
+    # the residual search leaves out only the main lobe: what it finds there is the subtraction's floor,
+    # far below the target; the guard-window figure is still none
+    params = EvaluateParams(guard_cells=40, residual=True)
+    res = evaluate_image(img, ("azimuth", "range"), coords, RES2, [(0.0, 0.0)], params=params)
+    assert res.false_target_guard is None and res.false_target.level_db < -60.0
+    json.dumps(res.to_dict(), allow_nan=False)
 
 
 def test_report_is_json_and_cheap_on_a_large_image():
