@@ -36,8 +36,9 @@ def evaluate_estimate(stage: str, header: Product, params: Any) -> Plan:
     # whose chips can overlap it)
     # (constants halved after the residual-model merge, measured on an idle 2-core machine: demo 1.0 s,
     # bp_squint30 1.2 s, the du2010 cube 14.8 s of wall time with the process, against 2.3 / 1.5 / 30 s planned;
-    # halved again after the cuts became non-uniform FFTs: demo 0.37 s of CPU in process, 0.76 s as a process)
-    seconds = n * 10e-9 + n_tg * (0.025 + 0.75e-7 * cut) + 0.6e-6 * chip * n_tg * (1 + min(n_tg, 8) / 4)
+    # halved again after the cuts became non-uniform FFTs: demo 0.37 s of CPU in process, 0.76 s as a process;
+    # x0.6 after the one-thread BLAS and Gram-update fits: the demo's whole process 0.40-0.44 s on an idle machine)
+    seconds = 0.6 * (n * 10e-9 + n_tg * (0.025 + 0.75e-7 * cut) + 0.6e-6 * chip * n_tg * (1 + min(n_tg, 8) / 4))
     # the JSON report: about 3 kB per target (figures are not counted)
     return Plan(
         stage,
