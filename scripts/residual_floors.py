@@ -18,6 +18,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from sarproc.cli.markdown import publish
+
 
 def evaluate(image: Path, config: Path | None, out: Path, tree: Path | None = None) -> tuple[dict, float]:
     cmd = [sys.executable, "-m", "sarproc", "evaluate", str(image), "-o", str(out), "--overwrite", "--no-progress"]
@@ -64,11 +66,7 @@ def main(argv: list[str] | None = None) -> None:
                 f"{fmt(res['residual']['rms_db'])} | {t_plain:.1f} | {t_res:.1f} |" + extra
             )
             print(rows[-1], flush=True)
-    text = "\n".join(rows) + "\n"
-    if args.out is not None:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(text)
-    print(text)
+    publish("\n".join(rows) + "\n", args.out)
 
 
 if __name__ == "__main__":

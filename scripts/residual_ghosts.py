@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from sarproc.cli.markdown import publish
 from sarproc.product.io import read_product
 from sarproc.quality.metrics import EvaluateParams, evaluate_product
 
@@ -107,11 +108,7 @@ def main(argv: list[str] | None = None) -> None:
             + f" | {rep.false_target_guard.level_db:.2f} | {rep.residual.floor_db:.2f} |"
         )
         print(rows[-1], flush=True)
-    text = "\n".join(rows) + "\n"
-    if args.out is not None:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(text)
-    print(text)
+    publish("\n".join(rows) + "\n", args.out)
 
 
 if __name__ == "__main__":

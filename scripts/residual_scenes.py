@@ -19,6 +19,8 @@ from pathlib import Path
 
 import yaml
 
+from sarproc.cli.markdown import publish
+
 # name -> (scene, chain of (stage, --config or None for the scene itself))
 SCENES = {
     "demo (backproject)": ("configs/demo.yaml", [("backproject", None)]),
@@ -83,11 +85,7 @@ def main(argv: list[str] | None = None) -> None:
                 f"{rep['false_target_guard']['level_db']:.1f} | {', '.join(times)} | {t_guard:.1f} | {t_res:.1f} |"
             )
             print(rows[-1], flush=True)
-    text = "\n".join(rows) + "\n"
-    if args.out is not None:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(text)
-    print(text)
+    publish("\n".join(rows) + "\n", args.out)
 
 
 if __name__ == "__main__":

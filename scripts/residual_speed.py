@@ -18,6 +18,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from sarproc.cli.markdown import publish
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -69,11 +71,7 @@ def main(argv: list[str] | None = None) -> None:
                 f"{figures(tmp / 'now_residual.json')} |"
             )
             print(rows[-1], flush=True)
-    text = "\n".join(rows) + "\n"
-    if args.out is not None:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(text)
-    print(text)
+    publish("\n".join(rows) + "\n", args.out)
 
 
 if __name__ == "__main__":
