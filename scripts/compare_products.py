@@ -22,6 +22,7 @@ from typing import Any
 import h5py
 import numpy as np
 
+from sarproc.cli.markdown import markdown_table
 from sarproc.product.io import read_product
 
 
@@ -148,6 +149,52 @@ def compare_bytes(base: Path, new: Path) -> str:
     return f"{where.size} of {len(a)} bytes differ, at offsets {where[0]}..{where[-1]}"
 
 
+PRODUCT_COLUMNS = (
+    "product",
+    "kind",
+    "shape",
+    "signal diff / signal",
+    "max abs diff / max abs",
+    "other datasets",
+    "attributes",
+    "sha256",
+)
+REPORT_COLUMNS = (
+    "report",
+    "numbers differing",
+    "largest difference per metric family (absolute)",
+    "other fields differing",
+    "sha256",
+)
+
+
+def same_bytes(b: Path, a: Path) -> str:
+    return "same" if sha256(b) == sha256(a) else "differ"
+
+
+def product_row(base: Path, new: Path, name: str) -> list[str]:
+    b, a = base / name, new / name
+    if not a.exists():
+        return [name, "missing in new"] + [""] * (len(PRODUCT_COLUMNS) - 2)
+    r = compare_hdf5(b, a)
+    return [name, r["kind"], r["shape"], r["signal"], r["rel"], r["datasets"], r["attrs"], same_bytes(b, a)]
+
+
+def report_row(base: Path, new: Path, name: str) -> list[str]:
+    b, a = base / name, new / name
+    if not a.exists():
+        return [name, "missing in new"] + [""] * (len(REPORT_COLUMNS) - 2)
+    r = compare_json(b, a)
+    return [name, str(r["numbers"]), r["moved"], r["other"], same_bytes(b, a)]
+
+
+def file_row(base: Path, new: Path, name: str) -> list[str]:
+    b, a = base / name, new / name
+    if not a.exists():
+        return [name, "missing in new", ""]
+    return [name, compare_bytes(b, a), same_bytes(b, a)]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("base", type=Path, help="folder of the older tree's products")
@@ -158,41 +205,12 @@ def main() -> None:
     js = [n for n in names if n.endswith(".json")]
     rest = [n for n in names if n not in h5 and n not in js]
     print(f"Products of `{args.new}` against `{args.base}` (scripts/compare_products.py).\n")
-    print(
-        "| product | kind | shape | signal diff / signal | max abs diff / max abs | other datasets | attributes | sha256 |"
-    )
-    print("|---|---|---|---|---|---|---|---|")
-    for n in h5:
-        b, a = args.base / n, args.new / n
-        if not a.exists():
-            print(f"| {n} | missing in new | | | | | | |")
-            continue
-        r = compare_hdf5(b, a)
-        same = "same" if sha256(b) == sha256(a) else "differ"
-        row = (n, r["kind"], r["shape"], r["signal"], r["rel"], r["datasets"], r["attrs"], same)
-        print("| " + " | ".join(row) + " |")
-    print(
-        "\n| report | numbers differing | largest difference per metric family (absolute) | other fields differing | sha256 |"
-    )
-    print("|---|---|---|---|---|")
-    for n in js:
-        b, a = args.base / n, args.new / n
-        if not a.exists():
-            print(f"| {n} | missing in new | | | |")
-            continue
-        r = compare_json(b, a)
-        same = "same" if sha256(b) == sha256(a) else "differ"
-        print(f"| {n} | {r['numbers']} | {r['moved']} | {r['other']} | {same} |")
+    print(markdown_table(PRODUCT_COLUMNS, [product_row(args.base, args.new, n) for n in h5]))
+    print()
+    print(markdown_table(REPORT_COLUMNS, [report_row(args.base, args.new, n) for n in js]))
     if rest:
-        print("\n| file | bytes | sha256 |")
-        print("|---|---|---|")
-        for n in rest:
-            b, a = args.base / n, args.new / n
-            if not a.exists():
-                print(f"| {n} | missing in new | |")
-                continue
-            same = "same" if sha256(b) == sha256(a) else "differ"
-            print(f"| {n} | {compare_bytes(b, a)} | {same} |")
+        print()
+        print(markdown_table(("file", "bytes", "sha256"), [file_row(args.base, args.new, n) for n in rest]))
 
 
 if __name__ == "__main__":
