@@ -38,6 +38,8 @@ from sarproc.focus.pfa.polar import (
 from sarproc.focus.pfa.two_step import (
     SubImageTask,
     Tile,
+    TileSupport,
+    lit_pulses,
     local_irw,
     mosaic,
     plan_tiles,
@@ -272,7 +274,7 @@ def pfa2(
     from sarproc.product.io import history_entry  # product layer; the core stays free of h5py at import
 
     targets = targets_in_frame(raw.targets, frame)
-    _record_target_theory(targets, ph, e_a, e_r, kg, params)
+    _record_target_theory(targets, ph, e_a, e_r, kg, params, radar)
     out = raw.derive(
         "image",
         img,
@@ -316,7 +318,13 @@ def _plain_corrected(
 
 
 def _record_target_theory(
-    targets: np.ndarray, ph: PhaseHistory, e_a: np.ndarray, e_r: np.ndarray, kg: KGrid, params: Pfa2Params
+    targets: np.ndarray,
+    ph: PhaseHistory,
+    e_a: np.ndarray,
+    e_r: np.ndarray,
+    kg: KGrid,
+    params: Pfa2Params,
+    radar: RadarMetadata,
 ) -> None:
     """Fill each target's theory (irw_, null_, pslr_, islr_<axis>, in place): a flat azimuth support and the
     range window over the polar support it is focused with, the image's rectangle (plain) or its own
@@ -328,7 +336,8 @@ def _record_target_theory(
     for i in range(len(targets)):
         if params.method == "two_step":
             point = np.array([targets["x"][i], targets["y"][i], targets["z"][i]], float)
-            nulls = local_irw(ph.positions, point, e_a, e_r, ph.carrier_frequency, band, factor=1.0)
+            lit = lit_pulses(radar, ph.positions, point)
+            nulls = local_irw(ph.positions, point, e_a, e_r, ph.carrier_frequency, band, factor=1.0, lit=lit)
         own.append([shape.scaled(null) for shape, null in zip(shapes, nulls)])
     fill_target_theory(targets, ("azimuth", "range"), own)
 
@@ -382,7 +391,8 @@ class SecondStepLayout:
     """Each sub-image's window (slices of the step-1 grid) and k grid, and the largest window's extent (m)."""
 
     slices: list[tuple[slice, slice]]
-    kgrids: list[KGrid]
+    kgrids: list[KGrid]  # on each sub-image's turned axes (TileSupport)
+    angles: list[float]
     content_extent: tuple[float, float]
 
 
@@ -444,7 +454,7 @@ def _first_step(scene: TwoStepScene, tiles: Sequence[Tile], interp: Interpolatio
 
 
 def _second_step_layout(
-    scene: TwoStepScene, tiles: Sequence[Tile], rects: Sequence[Rect], first: FirstStep, oversampling: float
+    scene: TwoStepScene, tiles: Sequence[Tile], supports: Sequence[TileSupport], first: FirstStep, oversampling: float
 ) -> SecondStepLayout:
     """Windows of the step-1 image, and one k grid spacing for every sub-image: sampled for the largest
     window, FFT-exact on the output pixels (each sub-image's own support)."""
@@ -458,9 +468,9 @@ def _second_step_layout(
         make_kgrid(
             r, 2 * math.pi / (oversampling * wa), 2 * math.pi / (oversampling * wr), grid.da, grid.dr, n_ca, n_cr
         )[0]
-        for r in rects
+        for r in (sup.rect for sup in supports)
     ]
-    return SecondStepLayout(slices, kgrids, (wa, wr))
+    return SecondStepLayout(slices, kgrids, [sup.angle for sup in supports], (wa, wr))
 
 
 def _subimage_tasks(
@@ -469,7 +479,7 @@ def _subimage_tasks(
     """One :class:`SubImageTask` per tile (lazily: each holds a copy of its window)."""
     g1, grid, ph = first.grid, scene.grid, scene.ph
     os_ = params.subimage_oversampling
-    for t, (sa, sr), kg2 in zip(tiles, layout.slices, layout.kgrids):
+    for t, (sa, sr), kg2, angle in zip(tiles, layout.slices, layout.kgrids, layout.angles):
         wg = Grid(
             g1.a0 + sa.start * g1.da, g1.da, sa.stop - sa.start, g1.r0 + sr.start * g1.dr, g1.dr, sr.stop - sr.start
         )
@@ -501,6 +511,7 @@ def _subimage_tasks(
             content_extent=layout.content_extent,
             oversampling=os_,
             interp=_interp(params, os_),
+            support_angle=angle,
         )
 
 
@@ -533,12 +544,12 @@ def _two_step(
         ph.carrier_frequency,
         scene.band,
     )
-    rects = tile_rects(tiles, ph.positions, origin, e_a, e_r, ph.carrier_frequency, scene.band)
+    supports = tile_rects(tiles, ph.positions, origin, e_a, e_r, ph.carrier_frequency, scene.band, radar)
     timing["plan"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     first = _first_step(scene, tiles, _interp(params, az_os))
     timing["pfa_step1"] = time.perf_counter() - t0
-    layout = _second_step_layout(scene, tiles, rects, first, params.subimage_oversampling)
+    layout = _second_step_layout(scene, tiles, supports, first, params.subimage_oversampling)
     t0 = time.perf_counter()
     results = run_tasks(_subimage_tasks(scene, tiles, first, layout, params), mapper)
     if progress is not None:
