@@ -22,7 +22,7 @@ import numpy as np
 from sarproc.dsp.interp import resample_rows
 from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
 from sarproc.dsp.phasor import unit_phasor
-from sarproc.focus.pfa.polar import Grid, Interpolation, KGrid, Rect, los_components, polar_support
+from sarproc.focus.pfa.polar import Grid, Interpolation, KGrid, Rect, los_components, polar_support, rotate_axes
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -135,15 +135,14 @@ def distortion_field(
     """Displacement D(p) - p over ``core`` (offsets from s), m: two bicubic splines (azimuth, range).
 
     Sampled by :func:`pfa_distortion` on an n x n lattice over the core and the k grid's rectangle.
-    ``angle``: the PFA image's axes are the core's turned by it (``two_step.rotate_axes``); D(p) is then
+    ``angle``: the PFA image's axes are the core's turned by it (:func:`.polar.rotate_axes`); D(p) is then
     in the image's coordinates, p in the core's.
     """
     la = np.linspace(core.a[0], core.a[-1], n)
     lr = np.linspace(core.r[0], core.r[-1], n)
     a, r = np.meshgrid(la, lr, indexing="ij")
     points = geo.center + a.ravel()[:, None] * geo.e_azimuth + r.ravel()[:, None] * geo.e_range
-    c, s = math.cos(angle), math.sin(angle)
-    e_a, e_r = c * geo.e_azimuth - s * geo.e_range, s * geo.e_azimuth + c * geo.e_range
+    e_a, e_r = rotate_axes(geo.e_azimuth, geo.e_range, angle)
     fits = pfa_distortions(geo.positions, geo.center, points, e_a, e_r, geo.carrier_frequency, geo.band, kgrid_rect(kg))
     da = np.array([d.azimuth for d in fits]).reshape(n, n) - a
     dr = np.array([d.range for d in fits]).reshape(n, n) - r

@@ -49,6 +49,7 @@ from sarproc.focus.pfa.polar import (
     pfa,
     polar_support,
     rect_to_polar,
+    rotate_axes,
     wavenumbers,
 )
 from sarproc.product import beam, fft as sfft
@@ -306,13 +307,6 @@ class TileSupport:
     rect: Rect
 
 
-def rotate_axes(e_azimuth: np.ndarray, e_range: np.ndarray, angle: float) -> tuple[np.ndarray, np.ndarray]:
-    """(e_a', e_r'): e_a, e_r turned by ``angle`` from e_r towards e_a (a line of sight at that angle: u . e_a' = 0)."""
-    c, s = math.cos(angle), math.sin(angle)
-    e_a, e_r = np.asarray(e_azimuth, float), np.asarray(e_range, float)
-    return c * e_a - s * e_r, s * e_a + c * e_r
-
-
 def own_support(
     positions: np.ndarray,
     point: npt.ArrayLike,
@@ -338,8 +332,8 @@ def own_support(
     if lit is not None and np.count_nonzero(lit) > 1:
         theta = theta[lit]
     angle = float((theta.min() + theta.max()) / 2)
-    c, s = math.cos(angle), math.sin(angle)
-    r = polar_support(c * ua - s * ur, s * ua + c * ur, carrier_frequency, np.asarray(band), "inscribed")
+    ua, ur = los_components(positions, point, *rotate_axes(e_azimuth, e_range, angle))
+    r = polar_support(ua, ur, carrier_frequency, np.asarray(band), "inscribed")
     if not r.valid:
         raise ValueError("two-step PFA: a sub-image centre has no inscribed polar support")
     return TileSupport(angle, r)
