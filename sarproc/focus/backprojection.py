@@ -20,7 +20,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sarproc.dsp.phasor import unit_phasor
 from sarproc.dsp.rangecomp import range_compress
 from sarproc.product import beam, fft as sfft, moving, theory
 from sarproc.product.config import as_dict, param
@@ -151,6 +150,8 @@ def _backproject_block(
     # Carrier phase in float64 cycles, reduced to [0, 1) before the complex64 exponential.
     cyc = r * (carrier_frequency / C)
     cyc -= np.floor(cyc)
+    from sarproc.dsp.phasor import unit_phasor  # numba: imported where the reference engine runs
+
     val *= unit_phasor(cyc)
     return val.sum(axis=0, dtype=np.complex128)
 
@@ -274,14 +275,22 @@ def backproject_points(
 MAX_TILE_RADIUS_CYCLES = 256.0
 
 
-def _tile_size(points: np.ndarray, tile_points: int, max_radius: float = np.inf) -> float:
+def _tile_size(
+    points: np.ndarray,
+    tile_points: int,
+    max_radius: float = np.inf,
+    bounds: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None = None,
+) -> float:
     """Edge (m) of a square/cubic tile holding about ``tile_points`` points of a regular grid, capped so that a
     tile's half-diagonal stays within ``max_radius`` (m): sparse points would otherwise make huge tiles.
 
     A dimension thinner than the edge the others give (a flat grid with micrometres of height noise, a narrow
-    strip) does not count: counted, it would shrink the tiles to single points."""
-    from sarproc.focus.backprojection_kernel import bounds
+    strip) does not count: counted, it would shrink the tiles to single points. ``bounds``: the points'
+    per-axis min and max (default: the numba kernel's)."""
+    if bounds is None:
+        from sarproc.focus.backprojection_kernel import bounds as numba_bounds
 
+        bounds = numba_bounds
     lo, hi = bounds(np.ascontiguousarray(points, dtype=float))
     ext = np.sort(hi - lo)[::-1]
     ext = ext[ext > 1e-9 * max(float(ext[0]), 1.0)]
@@ -314,22 +323,38 @@ def _backproject_compiled(
     progress: ProgressFactory | None,
     workers: int | None,
 ) -> np.ndarray:
-    import numba
-
-    from sarproc.dsp.interp import kernel_length as taps_of, tap_table
-    from sarproc.focus import backprojection_kernel as bk
+    from sarproc.focus import backprojection_aot
 
     n_az, n_rg = rc.shape
     if len(points) == 0:
         return np.zeros(0, np.complex128)
     mode = {"nearest": 0, "linear": 1, "cubic": 3}.get(interpolation, 2)
+    # a small image on linear reads: the kernels compiled ahead of time, serial, without numba's start-up
+    # (sarproc.focus.backprojection_aot); otherwise, or while that module is not built, the numba kernels
+    small = mode == 1 and backprojection_aot.serial_pays(len(points) * n_az, workers)
+    aot = backprojection_aot.load() if small else None
+    if aot is None:
+        from sarproc.focus import backprojection_kernel as bk
     taps = 0
     table = np.zeros((2, 1), np.float32)
     if mode == 2:
+        from sarproc.dsp.interp import kernel_length as taps_of, tap_table
+
         taps = taps_of(interpolation, kernel_length)
         table = tap_table(interpolation, taps, oversampling, np.float32, steps=bk._TABLE_STEPS)
-    edge = _tile_size(points, tile_points, MAX_TILE_RADIUS_CYCLES * C / carrier_frequency)
-    order, tile_start, centres, origin, d = bk.make_tiles(points, edge, max_tile=4 * tile_points)
+    edge = _tile_size(
+        points,
+        tile_points,
+        MAX_TILE_RADIUS_CYCLES * C / carrier_frequency,
+        bounds=None if aot is None else aot.bounds,
+    )
+    if aot is None:
+        order, tile_start, centres, origin, d = bk.make_tiles(points, edge, max_tile=4 * tile_points)
+    else:
+        order, tile_start, centres, origin, d = backprojection_aot.make_tiles(
+            points, edge, aot, max_tile=4 * tile_points
+        )
+    k = bk if aot is None else aot
     n_up = upsampled_length(n_rg, upsample)
     fs_up = n_up / (n_rg * dt)
     first = -(t0 + gate) * fs_up
@@ -340,26 +365,27 @@ def _backproject_compiled(
     spans = [(s, min(s + chunk, n_az)) for s in range(0, n_az, chunk)]
     if mode in (1, 3):  # each pulse's window of samples the pixels can reach
         radius = np.sqrt(np.maximum.reduceat(d[3], tile_start[:-1])).astype(float)
-        lo, hi = bk.pulse_windows(
-            first, fs_up / C, tx_c, rx_c, monostatic, centres, radius, n_up, 1 if mode == 1 else 2
-        )
+        lo, hi = k.pulse_windows(first, fs_up / C, tx_c, rx_c, monostatic, centres, radius, n_up, 1 if mode == 1 else 2)
         n_w = int((hi - lo).max()) + 3
         first = first - lo + 1  # positions counted in table entries
         pairs = np.empty((chunk, n_w + 1, 4 if mode == 1 else 8), np.float32)
     else:
         pairs = np.zeros((1, 1, 4), np.float32)
-    old = numba.get_num_threads()
-    if workers:
-        numba.set_num_threads(max(1, min(int(workers), numba.config.NUMBA_NUM_THREADS)))
+    if aot is None:
+        import numba
+
+        old = numba.get_num_threads()
+        if workers:
+            numba.set_num_threads(max(1, min(int(workers), numba.config.NUMBA_NUM_THREADS)))
     try:
         buf = np.empty((chunk, n_up), np.complex64)
         for s, e in progress(spans) if progress is not None else spans:
             pulses = upsample_into(np.asarray(rc[s:e], np.complex64), buf[: e - s])
             if mode == 1:
-                bk.pair_table(pulses, lo[s:e], pairs[: e - s])
+                k.pair_table(pulses, lo[s:e], pairs[: e - s])
             elif mode == 3:
                 bk.cubic_table(pulses, lo[s:e], pairs[: e - s])
-            bk.backproject_tiles(
+            k.backproject_tiles(
                 pulses,
                 pairs[: e - s],
                 first[s:e],
@@ -377,7 +403,10 @@ def _backproject_compiled(
                 acc,
             )
     finally:
-        numba.set_num_threads(old)
+        if aot is None:
+            numba.set_num_threads(old)
+    if aot is None and small:
+        backprojection_aot.request_build()  # for the next small image (once; in the background)
     acc /= n_az
     out = np.empty_like(acc)
     out[order] = acc

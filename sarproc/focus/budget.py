@@ -189,7 +189,14 @@ def backproject_estimate(stage: str, header: Product, params: Any, memory_limit:
             f"{10 * math.log10(max(err, 1e-30)):.1f} dB (at most "
             f"{10 * math.log10(max(error_bound(err), 1e-30)):.1f})"
         )
-    return Plan(stage, stored_bytes(*n), memory, seconds, detail)
+    kernel_modules = None
+    if params.engine == "compiled" and params.interpolation == "linear":
+        from sarproc.focus import backprojection_aot
+
+        # a small image runs the kernels compiled ahead of time (no numba, nothing to compile) once they are built
+        if backprojection_aot.serial_pays(n_az * min(n_pix, block)) and backprojection_aot.load():
+            kernel_modules = ()
+    return Plan(stage, stored_bytes(*n), memory, seconds, detail, kernel_modules)
 
 
 def pfa2_estimate(stage: str, header: Product, params: Any) -> Plan:

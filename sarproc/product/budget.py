@@ -78,6 +78,8 @@ class Plan:
     memory_bytes: float
     seconds: float
     detail: str = ""
+    # the numba modules the run will load (None: the stage's in KERNELS); () where it runs none
+    kernel_modules: tuple[str, ...] | None = None
 
     def describe(self) -> str:
         return (
@@ -270,6 +272,8 @@ def whole_process(plan: Plan) -> Plan:
     memory, seconds = PROCESS.get(plan.stage, (200e6, 1.0))
     detail = plan.detail
     modules, compile_s, compile_bytes = KERNELS.get(plan.stage, ((), 0.0, 0.0))
+    if plan.kernel_modules is not None:
+        modules = plan.kernel_modules
     if modules and not kernels_cached(modules):
         seconds += compile_s
         memory += compile_bytes

@@ -1,5 +1,9 @@
 """sarproc pfa2 and sarproc import-gotcha through the command line."""
 
+import json
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -55,6 +59,22 @@ def test_pfa2_bad_key_and_value_exit_2(tmp_path, raw_file):
     res = run("pfa2", raw_file, "-o", tmp_path / "image.h5", "--config", cfg)
     assert res.exit_code == 2 and "pfa2.method" in res.output
     assert not (tmp_path / "image.h5").exists()
+
+
+def test_two_step_pfa_imports_no_scipy_interpolate(tmp_path, raw_file):
+    # the two-step with its distortion warp, as a process runs it: scipy.interpolate (with the scipy.linalg,
+    # sparse, special and fft it brings) cost a pfa2 process ~0.5 s (docs/performance.md, "Per-process overhead")
+    code = (
+        "import json, sys\nfrom sarproc.cli.main import run_cli\n"
+        f"assert run_cli(['pfa2', {str(raw_file)!r}, '--config', {str(ROOT / 'configs' / 'nie2016_small.yaml')!r}, "
+        f"'-o', {str(tmp_path / 'image.h5')!r}, '-q']) == 0\n"
+        "print(json.dumps(sorted(sys.modules)))"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=dict(os.environ))
+    assert done.returncode == 0, done.stderr[-2000:]
+    loaded = json.loads(done.stdout.strip().splitlines()[-1])
+    assert "sarproc.focus.pfa.two_step" in loaded
+    assert not [m for m in loaded if m.startswith(("scipy.interpolate", "scipy.fft"))]
 
 
 @pytest.mark.skipif(not GOTCHA.exists(), reason="Gotcha data not present")

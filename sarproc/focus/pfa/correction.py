@@ -22,13 +22,13 @@ import numpy as np
 from sarproc.dsp.interp import resample_rows
 from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
 from sarproc.dsp.phasor import unit_phasor
+from sarproc.dsp.spline import GridSpline, bspline_basis
 from sarproc.focus.pfa.polar import Grid, Interpolation, KGrid, Rect, los_components, polar_support, rotate_axes
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
 
     import numpy.typing as npt
-    from scipy.interpolate import RectBivariateSpline
 
 
 @dataclasses.dataclass(frozen=True)
@@ -131,7 +131,7 @@ def kgrid_rect(kg: KGrid) -> Rect:
 
 def distortion_field(
     geo: PfaGeometry, kg: KGrid, core: Grid, n: int = 9, angle: float = 0.0
-) -> tuple[RectBivariateSpline, RectBivariateSpline]:
+) -> tuple[GridSpline, GridSpline]:
     """Displacement D(p) - p over ``core`` (offsets from s), m: two bicubic splines (azimuth, range).
 
     Sampled by :func:`pfa_distortion` on an n x n lattice over the core and the k grid's rectangle.
@@ -146,12 +146,10 @@ def distortion_field(
     fits = pfa_distortions(geo.positions, geo.center, points, e_a, e_r, geo.carrier_frequency, geo.band, kgrid_rect(kg))
     da = np.array([d.azimuth for d in fits]).reshape(n, n) - a
     dr = np.array([d.range for d in fits]).reshape(n, n) - r
-    from scipy.interpolate import RectBivariateSpline  # ~0.3 s to import: only where a distortion is corrected
-
-    return RectBivariateSpline(la, lr, da), RectBivariateSpline(la, lr, dr)
+    return GridSpline(la, lr, da), GridSpline(la, lr, dr)
 
 
-def extended_grid(core: Grid, warp: tuple[RectBivariateSpline, RectBivariateSpline]) -> Grid:
+def extended_grid(core: Grid, warp: tuple[GridSpline, GridSpline]) -> Grid:
     """``core`` grown by the largest displacement plus 8 pixels of kernel support on every side."""
     fa, fr = warp
     m_a = 8 + int(math.ceil(np.max(np.abs(fa(core.a, core.r))) / core.da))
@@ -162,15 +160,16 @@ def extended_grid(core: Grid, warp: tuple[RectBivariateSpline, RectBivariateSpli
 
 
 class ColumnSpline:
-    """A bicubic :class:`RectBivariateSpline` f(x, y) read at any x on fixed columns y_j: (n, n_cols) -> values.
+    """A bicubic :class:`~sarproc.dsp.spline.GridSpline` f(x, y) read at any x on fixed columns y_j:
+    (n, n_cols) -> values.
 
-    FITPACK evaluates scattered points one by one (most of a sub-image's time); on fixed columns f is a
+    Scattered points one by one (as FITPACK reads them) would take most of a sub-image's time; on fixed columns f is a
     cubic spline in x whose coefficients are computed once per column, and the compiled
     :func:`_column_spline_kernel` reads it at every x with FITPACK's own recursion (fpbspl), rows in
     parallel. Points outside the knots are clamped to them, as FITPACK does.
     """
 
-    def __init__(self, spline: RectBivariateSpline, y: np.ndarray) -> None:
+    def __init__(self, spline: GridSpline, y: np.ndarray) -> None:
         tx, ty, c = spline.tck
         kx, ky = spline.degrees
         if kx != 3:
@@ -179,9 +178,7 @@ class ColumnSpline:
         n_cx, n_cy = len(tx) - kx - 1, len(ty) - ky - 1
         ty = np.asarray(ty, float)
         y = np.clip(np.asarray(y, float), ty[ky], ty[n_cy])  # clamped, as FITPACK does
-        from scipy.interpolate import BSpline
-
-        weights_y = BSpline.design_matrix(y, ty, ky).toarray()  # (n_cols, n_coef_y)
+        weights_y = bspline_basis(y, ty, ky)  # (n_cols, n_coef_y)
         # column j's coefficients in x: sum_l weights_y[j, l] coef[:, l]; stored (n_cols, n_coef_x)
         self.columns = np.ascontiguousarray(weights_y @ np.asarray(c, float).reshape(n_cx, n_cy).T)
 
@@ -239,7 +236,7 @@ def warp_to_truth(
     img: np.ndarray,
     grid: Grid,
     core: Grid,
-    warp: tuple[RectBivariateSpline, RectBivariateSpline],
+    warp: tuple[GridSpline, GridSpline],
     geo: PfaGeometry,
     kg: KGrid,
     interp: Interpolation,

@@ -1,0 +1,185 @@
+"""The backprojection kernels compiled ahead of time (sarproc.product.aot, sarproc.focus.backprojection_aot).
+
+One module build (~10-20 s: numba compiles the serial kernels, the C compiler the module) serves the tests that
+need it; the rest check the dispatch and the build bookkeeping without compiling.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sarproc.dsp.rangecomp import range_compress
+from sarproc.focus import backprojection_aot as bpa
+from sarproc.product import aot
+from sarproc.product.config import load_yaml
+from sarproc.simulation.scene import scene_from_mapping
+from sarproc.simulation.simulate import simulate
+
+ROOT = Path(__file__).resolve().parents[2]
+HAVE_CC = shutil.which(os.environ.get("CC", "cc")) is not None or shutil.which("gcc") is not None
+
+
+@pytest.fixture
+def aot_dir(tmp_path, monkeypatch):
+    monkeypatch.setenv("SARPROC_AOT", "1")
+    monkeypatch.setenv("SARPROC_AOT_DIR", str(tmp_path / "aot"))
+    monkeypatch.setattr(aot, "_LOADED", {})
+    return tmp_path / "aot"
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    """The module built once into a directory of this test module (skipped without a C compiler)."""
+    if not HAVE_CC:
+        pytest.skip("no C compiler: the kernels run in numba only (the fallback the other tests check)")
+    d = tmp_path_factory.mktemp("aot")
+    old = os.environ.get("SARPROC_AOT_DIR"), os.environ.get("SARPROC_AOT")
+    os.environ["SARPROC_AOT_DIR"], os.environ["SARPROC_AOT"] = str(d), "1"
+    try:
+        d.chmod(0o700)
+        path = bpa.build(aot.module_key(bpa.SOURCES))
+    finally:
+        for key, value in zip(("SARPROC_AOT_DIR", "SARPROC_AOT"), old, strict=True):
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
+    return d, path
+
+
+@pytest.fixture(scope="module")
+def raw():
+    return simulate(scene_from_mapping(load_yaml(ROOT / "configs" / "bp_squint30.yaml")))
+
+
+def test_serial_pays_only_where_threads_save_less_than_numbas_start_up():
+    assert bpa.serial_pays(1e12, workers=1)  # one thread: parallel saves nothing
+    assert bpa.serial_pays(1e6, workers=64)
+    assert not bpa.serial_pays(1e10, workers=2)  # a big image on 2 threads: 40 s parallel against 20 s
+    # the break-even moves down with more threads
+    limit = [w for w in (2, 4, 16) if bpa.serial_pays(1.2e8, workers=w)]
+    assert limit == [2]
+
+
+def test_off_switch_and_missing_module_keep_numba(aot_dir, monkeypatch):
+    assert bpa.load() is None  # not built
+    monkeypatch.setenv("SARPROC_AOT", "0")
+    monkeypatch.setattr(aot, "_LOADED", {})
+    assert bpa.load() is None
+    assert not bpa.request_build()
+    assert not aot_dir.exists()
+
+
+def test_a_build_is_started_once_and_never_after_a_failure(aot_dir, monkeypatch):
+    started = []
+    monkeypatch.setattr(aot.subprocess, "Popen", lambda args, **kw: started.append((args, kw["env"])))
+    assert bpa.request_build()
+    assert not bpa.request_build()  # its lock is held: no second builder
+    (args, env) = started[0]
+    assert args[1:3] == ["-m", "sarproc.focus.backprojection_aot"] and args[3] == aot.module_key(bpa.SOURCES)
+    lock = Path(env["SARPROC_AOT_LOCK"])
+    assert lock.exists() and oct(aot_dir.stat().st_mode & 0o777) == "0o700"
+    lock.unlink()
+    aot.module_path(bpa.NAME, args[3]).with_suffix(".failed").write_text("no compiler")
+    assert not bpa.request_build()  # a failed build is not retried until the sources change
+    assert len(started) == 1
+
+
+def test_a_stale_lock_is_taken_over(aot_dir, monkeypatch):
+    started = []
+    monkeypatch.setattr(aot.subprocess, "Popen", lambda args, **kw: started.append(args))
+    key = aot.module_key(bpa.SOURCES)
+    aot_dir.mkdir(mode=0o700, parents=True)
+    lock = aot.module_path(bpa.NAME, key).with_suffix(".lock")
+    lock.touch()
+    old = lock.stat().st_mtime - aot.STALE_LOCK_S - 1
+    os.utime(lock, (old, old))
+    assert bpa.request_build() and len(started) == 1
+
+
+def test_the_key_follows_the_kernel_source(tmp_path):
+    src = [tmp_path / "k.py", tmp_path / "p.py"]
+    src[0].write_text("a = 1\n")
+    src[1].write_text("b = 1\n")
+    key = aot.module_key(src)
+    assert aot.module_key(src) == key
+    src[1].write_text("b = 2\n")
+    assert aot.module_key(src) != key
+
+
+def test_a_module_in_a_directory_others_can_write_is_not_loaded(built, aot_dir):
+    d, path = built
+    aot_dir.mkdir(mode=0o700, parents=True)
+    shutil.copy(path, aot_dir / path.name)
+    aot_dir.chmod(0o777)
+    assert bpa.load() is None
+    aot_dir.chmod(0o700)
+    aot._LOADED.clear()
+    assert bpa.load() is not None
+
+
+def test_compiled_module_tiles_like_numba(built, aot_dir, raw):
+    from sarproc.focus import backprojection_kernel as bk
+
+    shutil.copytree(built[0], aot_dir)
+    k = bpa.load()
+    assert k is not None
+    rng = np.random.default_rng(3)
+    pts = np.asarray(raw.radar.scene_center) + rng.normal(0.0, 30.0, (5000, 3))
+    for a, b in zip(bpa.make_tiles(pts, 4.0, k, max_tile=64), bk.make_tiles(pts, 4.0, max_tile=64), strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("monostatic", [True, False])
+def test_compiled_module_image_equals_numbas(built, aot_dir, raw, monkeypatch, monostatic):
+    """Same source, serial instead of parallel tiles: each tile sums its pulses in the same order, so the
+    images agree to float rounding (here: equal)."""
+    from sarproc.focus.backprojection import backproject_points
+
+    shutil.copytree(built[0], aot_dir)
+    rc = range_compress(raw.data, raw.radar)
+    pos = raw.aux["platform_position"]
+    rx = pos if monostatic else pos + np.array([0.0, 40.0, -15.0])
+    g = np.arange(-40, 40) * 0.3
+    centre = np.asarray(raw.radar.scene_center)
+    pts = centre + np.stack([np.repeat(g, len(g)), np.tile(g, len(g)), np.zeros(len(g) ** 2)], 1)
+    args = (rc, raw.coords["range_time"], pos, rx, pts, raw.radar.carrier_frequency)
+    calls = []
+    real_load = bpa.load
+    monkeypatch.setattr(bpa, "load", lambda: calls.append(1) or real_load())
+    compiled = backproject_points(*args, interpolation="linear", engine="compiled", workers=1)
+    assert calls and real_load() is not None  # the compiled module ran
+    monkeypatch.setattr(bpa, "load", lambda: None)
+    monkeypatch.setattr(bpa, "request_build", lambda: False)
+    jit = backproject_points(*args, interpolation="linear", engine="compiled", workers=1)
+    np.testing.assert_allclose(compiled, jit, rtol=0, atol=1e-6 * np.max(np.abs(jit)))
+    assert np.array_equal(compiled, jit)
+
+
+def test_a_small_backproject_process_imports_no_numba(built, tmp_path):
+    d, _ = built
+    env = {**os.environ, "SARPROC_AOT_DIR": str(d), "SARPROC_AOT": "1"}
+    raw_path, img = tmp_path / "raw.h5", tmp_path / "img.h5"
+    scene = load_yaml(ROOT / "configs" / "demo.yaml")
+    scene["backproject"].update(azimuth_extent="20 m", range_extent="20 m")  # small on any number of cores
+    cfg = str(tmp_path / "demo.yaml")
+    Path(cfg).write_text(json.dumps(scene))
+    subprocess.run([sys.executable, "-m", "sarproc", "simulate", cfg, "-o", str(raw_path), "-q"], check=True, env=env)
+    code = (
+        "import json, sys\nfrom sarproc.cli.main import run_cli\n"
+        f"assert run_cli(['backproject', {str(raw_path)!r}, '--config', {cfg!r}, '-o', {str(img)!r}, '-q']) == 0\n"
+        "print(json.dumps(sorted(sys.modules)))"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=False)
+    assert done.returncode == 0, done.stderr[-2000:]
+    loaded = json.loads(done.stdout.strip().splitlines()[-1])
+    assert not [m for m in loaded if m.split(".")[0] in ("numba", "llvmlite")]
+    assert any(m.startswith("_backprojection_aot_") for m in loaded)
