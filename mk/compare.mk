@@ -54,8 +54,8 @@ compare-products-run:
 # chain of -003, the CLI products of -002's Table 1) in both trees, into $(CMPF)/{base,new}/CHAIN/. Same
 # scheme as above: the base tree simulates (imports) the raw products, the new tree processes a copy of
 # them (its own simulate goes to simulated/, beside links to base's raw in base/CHAIN/simulated/), each
-# tree running its own configs and reproduce script. One `flock /tmp/heavy.lock nice` per chain and tree,
-# so other heavy jobs interleave; wall time and peak RSS per chain in $(CMPF)/times.txt. Then
+# tree running its own configs and reproduce script. One `flock /tmp/heavy.lock nice` per chain (both
+# trees), so other heavy jobs interleave; wall time and peak RSS per chain in $(CMPF)/times.txt. Then
 # scripts/compare_products.py tabulates products, reports and the scripts' Markdown tables
 # ($(CMPF)/table.md). Usage: make compare-reproductions BASE=DIR [CMPF_CHAINS="000-exp1 004"] [VENV=...]
 CMPF := results/compare-full
@@ -65,15 +65,19 @@ CMPF_CHAINS ?= 000-exp1 000-exp2 004 gotcha 003 002
 compare-reproductions:
 	@test -n "$(BASE)" || { echo "usage: make compare-reproductions BASE=<checkout of the older commit>"; exit 2; }
 	mkdir -p $(CMPF)
-	for c in $(CMPF_CHAINS); do for role in base new; do \
-	  tree=$$([ $$role = base ] && echo $(abspath $(BASE)) || echo $(CURDIR)); \
-	  flock /tmp/heavy.lock nice /usr/bin/time -a -o $(CMPF)/times.txt \
-	    -f "$$c $$role: %e s wall, %M KB peak RSS (largest process)" \
-	    $(MAKE) --no-print-directory cmpf-$$c ROLE=$$role T=$$tree \
-	      O=$(CMPF)/$$role/$$c R=$(CURDIR)/$(CMPF)/base/$$c > $(CMPF)/$$c-$$role.log 2>&1 \
-	    || echo "$$c $$role: FAILED ($(CMPF)/$$c-$$role.log)" | tee -a $(CMPF)/times.txt; \
-	done; done
+	for c in $(CMPF_CHAINS); do \
+	  flock /tmp/heavy.lock nice $(MAKE) --no-print-directory cmpf-pair C=$$c BASE=$(abspath $(BASE)); done
 	$(MAKE) --no-print-directory compare-reproductions-table
+
+# One chain in both trees under one hold of the lock: wall time and peak RSS of each in times.txt.
+.PHONY: cmpf-pair
+cmpf-pair:
+	for role in base new; do \
+	  tree=$$([ $$role = base ] && echo $(BASE) || echo $(CURDIR)); \
+	  /usr/bin/time -a -o $(CMPF)/times.txt -f "$(C) $$role: %e s wall, %M KB peak RSS (largest process)" \
+	    $(MAKE) --no-print-directory cmpf-$(C) ROLE=$$role T=$$tree O=$(CMPF)/$$role/$(C) R=$(CURDIR)/$(CMPF)/base/$(C) \
+	    > $(CMPF)/$(C)-$$role.log 2>&1 || echo "$(C) $$role: FAILED ($(CMPF)/$(C)-$$role.log)" | tee -a $(CMPF)/times.txt; \
+	done
 
 compare-reproductions-table:
 	PYTHONPATH=$(CURDIR) $(PY) scripts/compare_products.py $(CMPF)/base $(CMPF)/new > $(CMPF)/table.md
