@@ -49,3 +49,99 @@ compare-products-run:
 	$(call cmp_tree,$(CURDIR),$(CMP)/new)
 	PYTHONPATH=$(CURDIR) $(PY) scripts/compare_products.py $(CMP)/base $(CMP)/new > $(CMP)/table.md
 	cat $(CMP)/table.md
+
+# Issue 21, full size: each reproduction's chain (reproduce-000-exp1, -000-exp2, -004, -gotcha, the scene
+# chain of -003, the CLI products of -002's Table 1) in both trees, into $(CMPF)/{base,new}/CHAIN/. Same
+# scheme as above: the base tree simulates (imports) the raw products, the new tree processes a copy of
+# them (its own simulate goes to simulated/, beside links to base's raw in base/CHAIN/simulated/), each
+# tree running its own configs and reproduce script. One `flock /tmp/heavy.lock nice` per chain (both
+# trees), so other heavy jobs interleave; wall time and peak RSS per chain in $(CMPF)/times.txt. Then
+# scripts/compare_products.py tabulates products, reports and the scripts' Markdown tables
+# ($(CMPF)/table.md). Usage: make compare-reproductions BASE=DIR [CMPF_CHAINS="000-exp1 004"] [VENV=...]
+CMPF := results/compare-full
+CMPF_CHAINS ?= 000-exp1 000-exp2 004 gotcha 003 002
+
+.PHONY: compare-reproductions compare-reproductions-table
+compare-reproductions:
+	@test -n "$(BASE)" || { echo "usage: make compare-reproductions BASE=<checkout of the older commit>"; exit 2; }
+	mkdir -p $(CMPF)
+	for c in $(CMPF_CHAINS); do \
+	  flock /tmp/heavy.lock nice $(MAKE) --no-print-directory cmpf-pair C=$$c BASE=$(abspath $(BASE)); done
+	$(MAKE) --no-print-directory compare-reproductions-table
+
+# One chain in both trees under one hold of the lock: wall time and peak RSS of each in times.txt.
+.PHONY: cmpf-pair
+cmpf-pair:
+	for role in base new; do \
+	  tree=$$([ $$role = base ] && echo $(BASE) || echo $(CURDIR)); \
+	  /usr/bin/time -a -o $(CMPF)/times.txt -f "$(C) $$role: %e s wall, %M KB peak RSS (largest process)" \
+	    $(MAKE) --no-print-directory cmpf-$(C) ROLE=$$role T=$$tree O=$(CMPF)/$$role/$(C) R=$(CURDIR)/$(CMPF)/base/$(C) \
+	    > $(CMPF)/$(C)-$$role.log 2>&1 || echo "$(C) $$role: FAILED ($(CMPF)/$(C)-$$role.log)" | tee -a $(CMPF)/times.txt; \
+	done
+
+compare-reproductions-table:
+	PYTHONPATH=$(CURDIR) $(PY) scripts/compare_products.py $(CMPF)/base $(CMPF)/new > $(CMPF)/table.md
+	cat $(CMPF)/table.md
+
+# Inside one chain: ROLE (base|new), T (the tree), O (its output folder), R (base's output folder).
+CMPF_S = env PYTHONPATH=$(T) $(abspath $(SARPROC))
+CMPF_P = env PYTHONPATH=$(T) $(abspath $(PY))
+# $(call cmpf_raw,SCENE_YAML,NAME): base simulates O/NAME (linked from O/simulated/NAME); new links base's
+# R/NAME to O/NAME and simulates its own into O/simulated/NAME.
+define cmpf_raw
+	mkdir -p $(O)/simulated
+	$(if $(filter new,$(ROLE)),ln -f $(R)/$(2) $(O)/$(2),$(CMPF_S) simulate $(1) -o $(O)/$(2) --overwrite --no-progress)
+	$(if $(filter new,$(ROLE)),$(CMPF_S) simulate $(1) -o $(O)/simulated/$(2) --overwrite --no-progress,ln -sf ../$(2) $(O)/simulated/$(2))
+endef
+
+.PHONY: cmpf-000-exp1 cmpf-000-exp2 cmpf-004 cmpf-gotcha cmpf-003 cmpf-002
+cmpf-000-exp1 cmpf-000-exp2: cmpf-000-%:
+	mkdir -p $(O)/simulated
+	$(CMPF_P) $(T)/scripts/reproduce_000.py $* --out $(O) $(if $(filter new,$(ROLE)),--raw-from $(R))
+	$(if $(filter new,$(ROLE)),$(CMPF_S) simulate $(T)/configs/an2012_$*.yaml -o $(O)/simulated/raw.h5 --overwrite --no-progress,ln -sf ../raw.h5 $(O)/simulated/raw.h5)
+	$(if $(filter exp1,$*),$(if $(filter new,$(ROLE)),$(CMPF_S) simulate $(R)/scene_prf1850.yaml -o $(O)/simulated/raw_prf1850.h5 --overwrite --no-progress,ln -sf ../raw_prf1850.h5 $(O)/simulated/raw_prf1850.h5))
+
+cmpf-004:
+	$(call cmpf_raw,$(T)/configs/du2010.yaml,raw.h5)
+	$(CMPF_S) array3d $(O)/raw.h5 -o $(O)/cube.h5 --config $(T)/configs/du2010.yaml --overwrite --no-progress \
+		--channel-image 14 --channel-output $(O)/image_channel14.h5
+	$(CMPF_S) evaluate $(O)/cube.h5 -o $(O)/report_cube.json --overwrite --plot $(O)/plots_cube > $(O)/report_cube.md
+	$(CMPF_S) evaluate $(O)/image_channel14.h5 -o $(O)/report_channel14.json --overwrite > $(O)/report_channel14.md
+	$(CMPF_P) $(T)/scripts/reproduce_004.py --results $(O) --config $(T)/configs/du2010.yaml
+
+cmpf-gotcha:
+	mkdir -p $(O)/simulated
+	$(if $(filter new,$(ROLE)),$(CMPF_S) import-gotcha $(GOTCHA_DIR) -o $(O)/simulated/raw.h5 --overwrite && ln -f $(R)/raw.h5 $(O)/raw.h5,$(CMPF_S) import-gotcha $(GOTCHA_DIR) -o $(O)/raw.h5 --overwrite && ln -sf ../raw.h5 $(O)/simulated/raw.h5)
+	$(CMPF_S) pfa2 $(O)/raw.h5 --config $(T)/configs/gotcha.yaml -o $(O)/image_pfa.h5 --overwrite --no-progress
+	$(CMPF_S) pfa2 $(O)/raw.h5 --config $(T)/configs/gotcha_two_step.yaml -o $(O)/image_pfa_two_step.h5 --overwrite --no-progress
+	$(CMPF_S) backproject $(O)/raw.h5 --config $(T)/configs/gotcha.yaml -o $(O)/image_bp.h5 --overwrite --no-progress
+	$(CMPF_P) $(T)/scripts/reproduce_gotcha.py --dir $(O)
+
+# reproduce-003's scene chain (A, B, C: images, strips, reports); not its five sweeps (72 tasks of the
+# full scene in each tree) nor the scripts that tabulate them.
+cmpf-003:
+	$(call cmpf_raw,$(T)/configs/xu_scene.yaml,raw_mc.h5)
+	$(CMPF_S) reconstruct $(O)/raw_mc.h5 -o $(O)/raw_conventional.h5 --config $(T)/configs/xu_conventional.yaml --overwrite --no-progress
+	$(CMPF_S) reconstruct $(O)/raw_mc.h5 -o $(O)/raw_modified.h5 --config $(T)/configs/xu_scene.yaml --overwrite --no-progress
+	set -e; for m in conventional modified; do \
+	  $(CMPF_S) backproject $(O)/raw_$$m.h5 -o $(O)/image_$$m.h5 --config $(T)/configs/xu_scene.yaml --overwrite --no-progress; \
+	  for t in A B C; do \
+	    $(CMPF_S) backproject $(O)/raw_$$m.h5 -o $(O)/strip_$${m}_$$t.h5 --config $(T)/configs/xu_strip.yaml --targets $$t --overwrite --no-progress; \
+	    $(CMPF_S) evaluate $(O)/strip_$${m}_$$t.h5 -o $(O)/strip_$${m}_$$t.json --config $(T)/configs/xu_strip.yaml --targets $$t --overwrite > /dev/null; \
+	  done; \
+	done
+	$(CMPF_S) evaluate $(O)/image_modified.h5 -o $(O)/report_modified.json --config $(T)/configs/xu_scene.yaml --expect $(T)/configs/xu_scene_expect.yaml --overwrite > $(O)/report_modified.md
+	$(CMPF_S) evaluate $(O)/image_conventional.h5 -o $(O)/report_conventional.json --config $(T)/configs/xu_scene.yaml --overwrite > $(O)/report_conventional.md
+
+# reproduce-002's Table 1 products through the CLI (reproduce_002.py makes the same images in-process and
+# tabulates evaluate's numbers): plain (the config with pfa2.method plain) and two-step PFA, evaluated; the
+# new tree's simulate last. Peak ~11 GB (pfa2 on 13660 x 17287 samples, docs/pfa.md).
+cmpf-002:
+	mkdir -p $(O)/simulated
+	$(if $(filter new,$(ROLE)),ln -f $(R)/raw.h5 $(O)/raw.h5,$(CMPF_S) simulate $(T)/$(CONFIG002) -o $(O)/raw.h5 --overwrite --no-progress && ln -sf ../raw.h5 $(O)/simulated/raw.h5)
+	sed 's/method: two_step/method: plain/' $(T)/$(CONFIG002) > $(O)/config_plain.yaml
+	$(CMPF_S) pfa2 $(O)/raw.h5 --config $(O)/config_plain.yaml -o $(O)/image_pfa.h5 --overwrite --no-progress
+	$(CMPF_S) evaluate $(O)/image_pfa.h5 -o $(O)/report_pfa.json --config $(T)/$(CONFIG002) --overwrite > /dev/null
+	$(CMPF_S) pfa2 $(O)/raw.h5 --config $(T)/$(CONFIG002) -o $(O)/image_pfa2.h5 --overwrite --no-progress
+	$(CMPF_S) evaluate $(O)/image_pfa2.h5 -o $(O)/report_pfa2.json --config $(T)/$(CONFIG002) --overwrite > /dev/null
+	$(if $(filter new,$(ROLE)),$(CMPF_S) simulate $(T)/$(CONFIG002) -o $(O)/simulated/raw.h5 --overwrite --no-progress)

@@ -6,8 +6,11 @@ product: the signal (sarproc.product.io.read_product) as difference power over s
 magnitude; every other dataset and attribute compared exactly (those that differ named; root 'history'
 holds times and versions, so it is named apart). For each evaluate report (JSON): the largest absolute
 difference of any number, per metric family (the last key of its path: irw, pslr_db, position, ...), and
-any non-number that differs. For every file: whether the sha256 agree; other files (SICD, CPHD): the bytes
-that differ. Prints Markdown.
+any non-number that differs. For each Markdown file (the reproduce scripts' summaries, evaluate's printed
+reports): its tables paired by header and their rows by first cell, the cells that differ and the largest
+difference per numeric column. For every file: whether the sha256 agree; other files (SICD, CPHD): the bytes
+that differ. Folders are walked (paired by path below BASE_DIR and NEW_DIR); figures, logs and YAML are skipped.
+The signal is read in blocks of rows, so a raw product of several GB is compared in ~1 GB. Prints Markdown.
 """
 
 from __future__ import annotations
@@ -24,6 +27,10 @@ import numpy as np
 
 from sarproc.cli.markdown import markdown_table
 from sarproc.product.io import read_product
+from sarproc.product.model import DATA_NAME
+
+BLOCK_BYTES = 64 << 20  # complex64 input per block (x 6 in complex128 work arrays)
+SKIPPED_SUFFIXES = (".done.json", ".png", ".log", ".yaml", ".yml")
 
 
 def sha256(path: Path) -> str:
@@ -34,14 +41,38 @@ def sha256(path: Path) -> str:
     return h.hexdigest()
 
 
-def difference_db(base: np.ndarray, new: np.ndarray) -> tuple[float, float]:
-    """(difference power / signal power in dB, max |new - base| / max |base|), in float64."""
+def difference_sums(base: np.ndarray, new: np.ndarray) -> tuple[float, float, float, float]:
+    """(sum |new - base|^2, sum |base|^2, max |new - base|, max |base|) in float64."""
     a = np.asarray(base, dtype=np.complex128)
     d = np.asarray(new, dtype=np.complex128) - a
-    err, sig = float(np.vdot(d, d).real), float(np.vdot(a, a).real)
+    return (
+        float(np.vdot(d, d).real),
+        float(np.vdot(a, a).real),
+        float(np.max(np.abs(d), initial=0.0)),
+        float(np.max(np.abs(a), initial=0.0)),
+    )
+
+
+def _ratios(err: float, sig: float, dmax: float, peak: float) -> tuple[float, float]:
     db = -math.inf if err == 0 else (math.inf if sig == 0 else 10 * math.log10(err / sig))
-    peak = float(np.max(np.abs(a))) if a.size else 0.0
-    return db, (float(np.max(np.abs(d))) / peak if peak else float(np.max(np.abs(d), initial=0.0)))
+    return db, (dmax / peak if peak else dmax)
+
+
+def difference_db(base: np.ndarray, new: np.ndarray) -> tuple[float, float]:
+    """(difference power / signal power in dB, max |new - base| / max |base|), in float64."""
+    return _ratios(*difference_sums(base, new))
+
+
+def dataset_difference_db(a: h5py.Dataset, b: h5py.Dataset) -> tuple[float, float]:
+    """difference_db of two same-shaped datasets, read in blocks along the first axis."""
+    row_bytes = max(1, int(np.prod(a.shape[1:], dtype=np.int64)) * a.dtype.itemsize)
+    step = max(1, BLOCK_BYTES // row_bytes)
+    err = sig = dmax = peak = 0.0
+    for i in range(0, a.shape[0] if a.ndim else 1, step):
+        sl = slice(i, i + step) if a.ndim else ()
+        e, s_, d, p = difference_sums(a[sl], b[sl])
+        err, sig, dmax, peak = err + e, sig + s_, max(dmax, d), max(peak, p)
+    return _ratios(err, sig, dmax, peak)
 
 
 def _same(a: Any, b: Any) -> bool:
@@ -70,7 +101,7 @@ def hdf5_differences(base: Path, new: Path, signal: str) -> tuple[list[str], lis
                     continue
                 if key not in oa.attrs or key not in ob.attrs or not _same(oa.attrs[key], ob.attrs[key]):
                     attrs.append(f"{name}@{key}")
-            if isinstance(oa, h5py.Dataset) and name != signal and not _same(oa[()], ob[()]):
+            if isinstance(oa, h5py.Dataset) and name.lstrip("/") != signal and not _same(oa[()], ob[()]):
                 dsets.append(name)
     return dsets, attrs
 
@@ -79,17 +110,23 @@ def _fmt_db(db: float) -> str:
     return "identical" if db == -math.inf else f"{db:.1f} dB"
 
 
+def _fmt_rel(rel: float) -> str:
+    return "0" if rel == 0 else f"{rel:.1e} ({20 * math.log10(rel):.1f} dB)"
+
+
 def compare_hdf5(base: Path, new: Path) -> dict[str, Any]:
-    pa, pb = read_product(base), read_product(new)
-    with h5py.File(base, "r") as f:
-        signal = next(n for n, o in f.items() if isinstance(o, h5py.Dataset) and o.dtype.kind == "c")
-    row: dict[str, Any] = {"kind": pa.kind, "shape": "x".join(map(str, pa.data.shape))}
-    if pa.data.shape != pb.data.shape:
-        row["signal"] = f"shapes differ: {pa.data.shape} vs {pb.data.shape}"
-        row["rel"] = ""
-    else:
-        db, rel = difference_db(pa.data, pb.data)
-        row["signal"], row["rel"] = _fmt_db(db), f"{rel:.1e}"
+    kind = read_product(base, load=False).kind
+    read_product(new, load=False)  # a readable product of its own
+    signal = DATA_NAME[kind]
+    with h5py.File(base, "r") as fa, h5py.File(new, "r") as fb:
+        sa, sb = fa[signal], fb[signal]
+        row: dict[str, Any] = {"kind": kind, "shape": "x".join(map(str, sa.shape))}
+        if sa.shape != sb.shape:
+            row["signal"] = f"shapes differ: {sa.shape} vs {sb.shape}"
+            row["rel"] = ""
+        else:
+            db, rel = dataset_difference_db(sa, sb)
+            row["signal"], row["rel"] = _fmt_db(db), _fmt_rel(rel)
     dsets, attrs = hdf5_differences(base, new, signal)
     row["datasets"] = ", ".join(dsets) or "none"
     other = [a for a in attrs if a != "/@history"]
@@ -139,6 +176,65 @@ def compare_json(base: Path, new: Path) -> dict[str, Any]:
     }
 
 
+def markdown_tables(text: str) -> dict[tuple[str, str, int], dict[str, list[str]]]:
+    """The Markdown tables of ``text``: key (heading above, header row, n-th such table) -> first cell -> cells."""
+    tables: dict[tuple[str, str, int], dict[str, list[str]]] = {}
+    heading, lines, i = "", text.splitlines(), 0
+    while i < len(lines):
+        line = lines[i].strip()
+        if line.startswith("#"):
+            heading = line.lstrip("# ")
+        if line.startswith("|") and i + 1 < len(lines) and set(lines[i + 1].strip()) <= set("|-: "):
+            header = line
+            rows: dict[str, list[str]] = {}
+            i += 2
+            while i < len(lines) and lines[i].strip().startswith("|"):
+                cells = [c.strip() for c in lines[i].strip().strip("|").split("|")]
+                rows[cells[0]] = cells
+                i += 1
+            n = sum(1 for k in tables if k[:2] == (heading, header))
+            tables[(heading, header, n)] = rows
+            continue
+        i += 1
+    return tables
+
+
+def _number(cell: str) -> float | None:
+    try:
+        return float(cell.replace("−", "-").split()[0].rstrip("%"))
+    except (ValueError, IndexError):
+        return None
+
+
+def compare_markdown(base: Path, new: Path) -> dict[str, str]:
+    ta, tb = markdown_tables(base.read_text()), markdown_tables(new.read_text())
+    cells = differ = 0
+    worst: dict[str, float] = {}
+    text: list[str] = []
+    for key in sorted(set(ta) & set(tb)):
+        header = [c.strip() for c in key[1].strip("|").split("|")]
+        for first in sorted(set(ta[key]) & set(tb[key])):
+            for col, (x, y) in enumerate(zip(ta[key][first], tb[key][first], strict=False)):
+                cells += 1
+                if x == y:
+                    continue
+                differ += 1
+                name = header[col] if col < len(header) else str(col)
+                nx, ny = _number(x), _number(y)
+                if nx is not None and ny is not None:
+                    worst[name] = max(worst.get(name, 0.0), abs(ny - nx))
+                else:
+                    text.append(f"{first} / {name}: {x!r} -> {y!r}")
+    only = [f"{k[0] or '(top)'}: {k[1][:40]}" for k in sorted(set(ta) ^ set(tb))]
+    rows_only = sum(len(set(ta[k]) ^ set(tb[k])) for k in set(ta) & set(tb))
+    return {
+        "tables": f"{len(set(ta) & set(tb))} paired, {len(only)} unpaired, {rows_only} unpaired rows",
+        "cells": f"{differ} of {cells}",
+        "moved": ", ".join(f"{k} {v:.3g}" for k, v in sorted(worst.items(), key=lambda kv: -kv[1])[:8]) or "none",
+        "text": "; ".join(text[:4]) + (f" (+{len(text) - 4})" if len(text) > 4 else "") or "none",
+    }
+
+
 def compare_bytes(base: Path, new: Path) -> str:
     a, b = base.read_bytes(), new.read_bytes()
     if len(a) != len(b):
@@ -154,7 +250,7 @@ PRODUCT_COLUMNS = (
     "kind",
     "shape",
     "signal diff / signal",
-    "max abs diff / max abs",
+    "max abs diff / max abs (dB of peak)",
     "other datasets",
     "attributes",
     "sha256",
@@ -188,6 +284,23 @@ def report_row(base: Path, new: Path, name: str) -> list[str]:
     return [name, str(r["numbers"]), r["moved"], r["other"], same_bytes(b, a)]
 
 
+MARKDOWN_COLUMNS = (
+    "tables (Markdown)",
+    "tables",
+    "cells differing",
+    "largest difference per numeric column",
+    "text cells differing",
+)
+
+
+def markdown_row(base: Path, new: Path, name: str) -> list[str]:
+    b, a = base / name, new / name
+    if not a.exists():
+        return [name, "missing in new"] + [""] * (len(MARKDOWN_COLUMNS) - 2)
+    r = compare_markdown(b, a)
+    return [name, r["tables"], r["cells"], r["moved"], r["text"]]
+
+
 def file_row(base: Path, new: Path, name: str) -> list[str]:
     b, a = base / name, new / name
     if not a.exists():
@@ -200,14 +313,23 @@ def main() -> None:
     ap.add_argument("base", type=Path, help="folder of the older tree's products")
     ap.add_argument("new", type=Path, help="folder of this tree's products (same file names)")
     args = ap.parse_args()
-    names = sorted(p.name for p in args.base.iterdir() if p.is_file() and not p.name.endswith(".done.json"))
+    names = sorted(
+        p.relative_to(args.base).as_posix()
+        for p in args.base.rglob("*")
+        if p.is_file() and not p.name.endswith(SKIPPED_SUFFIXES)
+    )
     h5 = [n for n in names if n.endswith(".h5")]
     js = [n for n in names if n.endswith(".json")]
-    rest = [n for n in names if n not in h5 and n not in js]
+    md = [n for n in names if n.endswith(".md")]
+    rest = [n for n in names if n not in h5 and n not in js and n not in md]
     print(f"Products of `{args.new}` against `{args.base}` (scripts/compare_products.py).\n")
     print(markdown_table(PRODUCT_COLUMNS, [product_row(args.base, args.new, n) for n in h5]))
-    print()
-    print(markdown_table(REPORT_COLUMNS, [report_row(args.base, args.new, n) for n in js]))
+    if js:
+        print()
+        print(markdown_table(REPORT_COLUMNS, [report_row(args.base, args.new, n) for n in js]))
+    if md:
+        print()
+        print(markdown_table(MARKDOWN_COLUMNS, [markdown_row(args.base, args.new, n) for n in md]))
     if rest:
         print()
         print(markdown_table(("file", "bytes", "sha256"), [file_row(args.base, args.new, n) for n in rest]))

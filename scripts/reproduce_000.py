@@ -3,6 +3,7 @@
 
     python scripts/reproduce_000.py exp1 [--out results/000-exp1]
     python scripts/reproduce_000.py exp2 [--out results/000-exp2]
+    python scripts/reproduce_000.py exp1 --raw-from DIR  # DIR's raw products instead of simulating (make compare-reproductions)
 
 Every product is made by the ``sarproc`` command line (one subprocess per stage; wall time and peak
 RSS of each stage measured with os.wait4), stage sections come from configs/an2012_exp*.yaml (variants
@@ -17,6 +18,7 @@ import argparse
 import copy
 import json
 import os
+import shutil
 import subprocess
 import sys
 import time
@@ -68,6 +70,17 @@ def run(args: Sequence[object], log: TextIO) -> tuple[float, float]:
     if proc.returncode != 0:
         raise SystemExit(f"sarproc {' '.join(map(str, args))} failed ({proc.returncode}):\n{out}")
     return wall, usage.ru_maxrss / 1024.0
+
+
+def simulate(scene: Path, raw: Path, log: TextIO, raw_from: Path | None) -> tuple[float, float]:
+    """``sarproc simulate scene -o raw``, or with ``raw_from`` a copy of ``raw_from / raw.name`` (another tree's
+    raw product: make compare-reproductions processes the same raw products in both trees); (wall s, peak MiB)."""
+    if raw_from is None:
+        return run(["simulate", scene, "-o", raw, "--overwrite"], log)
+    t0 = time.perf_counter()
+    shutil.copyfile(raw_from / raw.name, raw)
+    log.write(f"$ cp {raw_from / raw.name} {raw}  # instead of: sarproc simulate {scene}\n")
+    return time.perf_counter() - t0, 0.0
 
 
 def write_cfg(path: Path, base: dict, **sections: dict) -> Path:
@@ -280,12 +293,12 @@ def chips_figure(rows: Sequence[tuple[Path, str]], out: Path, names: Sequence[st
     plt.close(fig)
 
 
-def exp1(out: Path, log: TextIO) -> None:
+def exp1(out: Path, log: TextIO, raw_from: Path | None = None) -> None:
     base = yaml.safe_load((ROOT / "configs" / "an2012_exp1.yaml").read_text())
     cfgs = {m: yaml.safe_load((ROOT / "configs" / f"an2012_exp1_{m}.yaml").read_text()) for m in ("linear", "none")}
     cfgs["nonlinear"] = base
     raw = out / "raw.h5"
-    run(["simulate", ROOT / "configs" / "an2012_exp1.yaml", "-o", raw, "--overwrite"], log)
+    simulate(ROOT / "configs" / "an2012_exp1.yaml", raw, log, raw_from)
     lines = [
         "# Paper 000, experiment 1 (Table 1, Fig. 8): none / linear / nonlinear Doppler correction",
         "",
@@ -347,7 +360,7 @@ def exp1(out: Path, log: TextIO) -> None:
     scene["radar"]["prf"] = "1850 Hz"
     scene_path = out / "scene_prf1850.yaml"
     scene_path.write_text(yaml.safe_dump(scene, sort_keys=False))
-    run(["simulate", scene_path, "-o", out / "raw_prf1850.h5", "--overwrite"], log)
+    simulate(scene_path, out / "raw_prf1850.h5", log, raw_from)
     for frame, flow in (("lrwc", 2), ("squint", 2), ("lrwc", 1)):
         cfg = write_cfg(
             out / f"cfg_prf1850_{frame}_{flow}.yaml", base, fine_focus={"output_frame": frame, "flow": flow}
@@ -463,12 +476,12 @@ def exp1(out: Path, log: TextIO) -> None:
     (out / "summary.md").write_text("\n".join(lines) + "\n")
 
 
-def exp2(out: Path, log: TextIO) -> None:
+def exp2(out: Path, log: TextIO, raw_from: Path | None = None) -> None:
     scene = ROOT / "configs" / "an2012_exp2.yaml"
     base = yaml.safe_load(scene.read_text())
     raw = out / "raw.h5"
     timing: list[tuple[str, float, float, tuple[float, tuple[int, ...]] | None]] = []  # (step, s, MB, FFT yardstick)
-    w, m = run(["simulate", scene, "-o", raw, "--overwrite"], log)
+    w, m = simulate(scene, raw, log, raw_from)
     timing.append(("simulate", w, m, None))
     cfg = write_cfg(out / "cfg_flow2.yaml", base, fine_focus={"output_frame": "squint", "flow": 2})
     steps = [
@@ -630,12 +643,15 @@ def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("experiment", choices=("exp1", "exp2"))
     ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument(
+        "--raw-from", type=Path, default=None, help="copy the raw products from this folder instead of simulating"
+    )
     a = ap.parse_args(argv)
     out = a.out or ROOT / "results" / f"000-{a.experiment}"
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     with open(out / "commands.log", "w") as log:
-        (exp1 if a.experiment == "exp1" else exp2)(out, log)
+        (exp1 if a.experiment == "exp1" else exp2)(out, log, a.raw_from)
     print(f"reproduce_000 {a.experiment}: {out / 'summary.md'} ({time.perf_counter() - t0:.0f} s)")
 
 

@@ -569,23 +569,7 @@ def fine_focus(
     if choice.flow == 1:
         focused = flow1_compress(rd, grid, radar, model, params, cdt, azimuth_blocks, progress)
     else:
-        box = grid.scene_box
-        img, x, extra = _flow2(
-            rd.data,
-            grid.azimuth_time,
-            rd.azimuth_frequency,
-            rd.slant_range,
-            grid.deramp_rate,
-            model,
-            radar,
-            params,
-            box,
-            grid.aperture,
-            cdt,
-            (box[0] - params.crop_margin, box[1] + params.crop_margin),
-            azimuth_blocks,
-        )
-        focused = AzimuthFocused(img, x, extra["alpha"], extra)
+        focused = flow2_compress(rd, grid, radar, model, params, cdt, azimuth_blocks)
     f_r, r, over, masked = rd.range_frequency, rd.slant_range, rd.stolt_oversampling, rd.stolt_masked_fraction
     del rd  # the range-Doppler array is no longer needed (flow 1's image is a copy of its rows)
     img, frame, ranges = to_output_frame(focused, f_r, r, grid, radar, params)
@@ -626,30 +610,46 @@ def _lrwc_frame(squint: float, altitude: float) -> SquintLrwcFrame:
     return SquintLrwcFrame(squint, altitude)
 
 
-def _flow2(
-    RD: np.ndarray,
-    t_c: np.ndarray,
-    f_a: np.ndarray,
-    r: np.ndarray,
-    k: float,
-    model: SpectrumModel,
-    radar: RadarMetadata,
-    params: FineFocusParams,
-    box: tuple[float, float, float, float],
-    aperture: tuple[float, float],
-    cdt: type[np.complexfloating],
-    xlim: tuple[float, float],
-    blocks: Iterable[int],
-) -> tuple[np.ndarray, np.ndarray, dict]:
-    """Modified NLCS azimuth compression; returns (image (n_x, N), x (n_x,), info)."""
+@dataclasses.dataclass(frozen=True)
+class NlcsDesign:
+    """Flow 2's coefficients per range bin (:mod:`sarproc.focus.squint_deramp.nlcs`) and the scene's target times."""
+
+    coefficients: dict  # nlcs_coefficients: alpha, q2, q3, q4 (eq. 27), Y3, Y4 (eq. 24), per range bin
+    positions: dict  # position_terms: a1, c2, c3 (image time of a target at t_n), per range bin
+    doppler_rate: np.ndarray  # K(r), Hz/s
+    range_walk: np.ndarray  # eps(r) = v sin(theta) / r, 1/s
+    target_times: np.ndarray  # t_n = x / v at 33 points across the scene box, s
+
+    @property
+    def alpha(self) -> float:
+        return float(self.coefficients["alpha"])
+
+
+@dataclasses.dataclass(frozen=True)
+class NlcsWindow:
+    """Flow 2's azimuth grids (FFT order: index 0 = zero time / frequency): the compact t' spectrum zero-padded
+    to ``n_padded`` samples, then ``n_scaled`` samples at ``sampling_rate`` after the chirp scaling."""
+
+    n_padded: int  # L1: the aperture, the targets' image times and the filter's dispersion fit
+    n_scaled: int  # N2: the scaled frequency span fits
+    sampling_rate: float  # F2, Hz
+    dispersion: float  # group-delay span of the eq. (33) filter over the band, s
+    f1: np.ndarray  # (L1,) padded spectrum's frequencies, Hz
+    f2: np.ndarray  # (N2,) scaled spectrum's frequencies, Hz
+    t2: np.ndarray  # (N2,) image times, s
+    keep: np.ndarray  # rows of the (N2,) image inside the cropped scene box, by ascending x
+    x: np.ndarray  # (len(keep),) their azimuth 2 alpha v t2, m
+
+
+def nlcs_design(
+    slant_range: np.ndarray, radar: RadarMetadata, model: SpectrumModel, params: FineFocusParams, box: Sequence[float]
+) -> NlcsDesign:
+    """Flow 2's NLCS coefficients (eq. 31, ``params.nlcs_variant``) and position terms at every range bin."""
     v, th = radar.velocity, radar.squint
     s_th, c_th = math.sin(th), math.cos(th)
-    lam = radar.wavelength
-    M, N = RD.shape
-    dtc = t_c[1] - t_c[0]
-    Fa = 1.0 / dtc
-    g2, g3 = model.taylor()
-    K = -2 * v**2 * c_th**2 / (lam * r)
+    r = slant_range
+    _, g3 = model.taylor()
+    K = -2 * v**2 * c_th**2 / (radar.wavelength * r)
     eps = v * s_th / r
     p = v * s_th * g3 / np.pi
     variant = params.nlcs_variant
@@ -657,17 +657,28 @@ def _flow2(
         co = nlcs_coefficients(K, eps, 0.0 if variant != "modified" else p, params.alpha, variant)
     except ValueError as exc:
         raise InputError(f"fine_focus.alpha: {exc}") from None
-    alpha = co["alpha"]
-    pos = position_terms(K, eps, p, co)
-    t_first, t_last = aperture
-    tn = np.linspace(box[0], box[1], 33) / v
-    # frequency span after scaling, over aperture times, scene positions and range bins (two extremes)
+    return NlcsDesign(co, position_terms(K, eps, p, co), K, eps, np.linspace(box[0], box[1], 33) / v)
+
+
+def nlcs_window(
+    design: NlcsDesign, grid: CoarseGrid, radar: RadarMetadata, params: FineFocusParams, shape: tuple[int, int]
+) -> NlcsWindow:
+    """Flow 2's zero padding and grids. The time window holds the aperture, the targets' image times and the
+    eq. (33) filter's dispersion; the scaled band holds the frequency span over aperture times, scene positions
+    and range bins (first, middle, last of the range-Doppler array's ``shape`` (M, N)); refused when the scaled
+    length is too large."""
+    v, co, pos, tn = radar.velocity, design.coefficients, design.positions, design.target_times
+    t_c = grid.azimuth_time
+    M, N = shape
+    dtc = t_c[1] - t_c[0]
+    Fa = 1.0 / dtc
+    t_first, t_last = grid.aperture
     t = np.linspace(t_first, t_last, 65)
     spans = []
     disp = 0.0
     for j in (0, N // 2, N - 1):
-        Kj = K[j]
-        Ka = Kj / (1 - eps[j] * tn[None, :])
+        Kj = design.doppler_rate[j]
+        Ka = Kj / (1 - design.range_walk[j] * tn[None, :])
         fr = Ka * (t[:, None] - tn[None, :])
         Fv = fr + co["q2"][j] * t[:, None] + 1.5 * co["q3"][j] * t[:, None] ** 2 + 2 * co["q4"][j] * t[:, None] ** 3
         spans.append(np.abs(Fv).max())
@@ -686,24 +697,46 @@ def _flow2(
     N2 = sfft.next_fast_len(max(L1, int(math.ceil(L1 * F_need / Fa))))
     if N2 * min(N, params.block_range) > params.max_samples or N2 > 4_000_000:
         raise InputError(
-            f"fine-focus: flow 2 needs {N2} azimuth samples (alpha = {alpha}, dispersion {disp:.3g} s); "
+            f"fine-focus: flow 2 needs {N2} azimuth samples (alpha = {co['alpha']}, dispersion {disp:.3g} s); "
             "alpha too close to 1/2 or the scene too wide; change fine_focus.alpha or max_samples"
         )
     df = Fa / L1
     F2 = N2 * df
-    # FFT order throughout (index 0 = zero time / frequency): no shifts inside the block loop
-    f1 = sfft.fftfreq(L1, 1.0 / (L1 * df))
-    f2 = sfft.fftfreq(N2, 1.0 / F2)
     t2 = sfft.fftfreq(N2, df)
-    x_img = 2 * alpha * v * t2
+    x_img = 2 * co["alpha"] * v * t2
+    box = grid.scene_box
+    xlim = (box[0] - params.crop_margin, box[1] + params.crop_margin)
     keep = np.flatnonzero((x_img >= xlim[0]) & (x_img <= xlim[1]))
     keep = keep[np.argsort(x_img[keep])]
+    return NlcsWindow(
+        L1, N2, F2, disp, sfft.fftfreq(L1, 1.0 / (L1 * df)), sfft.fftfreq(N2, 1.0 / F2), t2, keep, x_img[keep]
+    )
+
+
+def nlcs_compress(
+    rd: RangeDoppler,
+    design: NlcsDesign,
+    window: NlcsWindow,
+    deramp_rate: float,
+    model: SpectrumModel,
+    params: FineFocusParams,
+    cdt: type[np.complexfloating],
+    blocks: Iterable[int],
+) -> np.ndarray:
+    """Flow 2's block loop over range bins: eq. (12)'s reference removed in the zero-padded spectrum, eq. (24)
+    (plus eq. 22 for the modified variant), eq. (27) (the chirp scaling), eq. (33) (azimuth filter); returns the
+    kept image rows, (len(window.keep), N) complex64."""
+    RD, r = rd.data, rd.slant_range
+    M, N = RD.shape
+    co, f1, f2, t2, keep = design.coefficients, window.f1, window.f2, window.t2, window.keep
+    L1, N2 = window.n_padded, window.n_scaled
+    g2, _ = model.taylor()
     out = np.empty((len(keep), N), np.complex64)
     pdt = np.complex64
-    ref = np.exp(1j * np.mod(np.pi * f1**2 / k, 2 * np.pi)).astype(pdt)
+    ref = np.exp(1j * np.mod(np.pi * f1**2 / deramp_rate, 2 * np.pi)).astype(pdt)
     gc_full, okc = model.Gc(f2)
     hopc = np.where(okc, gc_full - g2 * f2**2, 0.0)
-    rows24 = [np.pi * f2**3, np.pi * f2**4] + ([hopc] if variant == "modified" else [])
+    rows24 = [np.pi * f2**3, np.pi * f2**4] + ([hopc] if params.nlcs_variant == "modified" else [])
     rows27 = [np.pi * t2**2, np.pi * t2**3, np.pi * t2**4]
     no_factor = np.ones(0, pdt)
 
@@ -733,23 +766,50 @@ def _flow2(
         xt = sfft.ifft(X, axis=1, workers=-1, overwrite_x=True)
         multiply_separable_phase(xt, [co["q2"][s:e], co["q3"][s:e], co["q4"][s:e]], rows27)  # eq. (27)
         X = sfft.fft(xt, axis=1, workers=-1, overwrite_x=True)
-        vals, weights = _theta0_terms(f2, K, co, s, e)  # eq. (33), exact
+        vals, weights = _theta0_terms(f2, design.doppler_rate, co, s, e)  # eq. (33), exact
         multiply_separable_phase(X, weights, -vals)
         img = sfft.ifft(X, axis=1, workers=-1, overwrite_x=True)
         gather_columns(img, keep, out, s)  # out[:, s:e] = img[:, keep].T
-    info = {
+    return out
+
+
+def nlcs_info(design: NlcsDesign, window: NlcsWindow, velocity: float) -> dict:
+    """Flow 2's figures recorded in the history: alpha, the window, the predicted residual position error."""
+    pos, tn, alpha = design.positions, design.target_times, design.coefficients["alpha"]
+    return {
         "alpha": float(alpha),
-        "nlcs_azimuth_samples": int(N2),
-        "nlcs_time_window": float(N2 / F2),
-        "nlcs_sampling_rate": float(F2),
-        "nlcs_dispersion": float(disp),
+        "nlcs_azimuth_samples": int(window.n_scaled),
+        "nlcs_time_window": float(window.n_scaled / window.sampling_rate),
+        "nlcs_sampling_rate": float(window.sampling_rate),
+        "nlcs_dispersion": float(window.dispersion),
         "nlcs_c3_max": float(np.abs(pos["c3"]).max()),
         "nlcs_c2_max": float(np.abs(pos["c2"]).max()),
         "nlcs_position_error_max_m": float(
-            2 * alpha * v * (np.abs(pos["c2"]).max() * tn.max() ** 2 + np.abs(pos["c3"]).max() * np.abs(tn).max() ** 3)
+            2
+            * alpha
+            * velocity
+            * (np.abs(pos["c2"]).max() * tn.max() ** 2 + np.abs(pos["c3"]).max() * np.abs(tn).max() ** 3)
         ),
     }
-    return out, x_img[keep], info
+
+
+def flow2_compress(
+    rd: RangeDoppler,
+    grid: CoarseGrid,
+    radar: RadarMetadata,
+    model: SpectrumModel,
+    params: FineFocusParams,
+    cdt: type[np.complexfloating],
+    blocks: Iterable[int],
+) -> AzimuthFocused:
+    """Step 3, flow 2: modified NLCS azimuth compression (eqs. 22-33) in four steps: the coefficients
+    (:func:`nlcs_design`), the window and grids (:func:`nlcs_window`), the block loop (:func:`nlcs_compress`)
+    and the recorded figures (:func:`nlcs_info`); rows cropped to the scene box."""
+    design = nlcs_design(rd.slant_range, radar, model, params, grid.scene_box)
+    window = nlcs_window(design, grid, radar, params, rd.data.shape)
+    img = nlcs_compress(rd, design, window, grid.deramp_rate, model, params, cdt, blocks)
+    info = nlcs_info(design, window, radar.velocity)
+    return AzimuthFocused(img, window.x, info["alpha"], info)
 
 
 def _theta0_terms(f: np.ndarray, K: np.ndarray, co: dict, s: int, e: int) -> tuple[np.ndarray, np.ndarray]:
