@@ -52,7 +52,13 @@ def _sinc(q: float) -> float:  # pragma: no cover - compiled
 
 @numba.njit(error_model="numpy", cache=CACHE)
 def _ideal_at(
-    points: np.ndarray, k: int, position: np.ndarray, ridge: np.ndarray, f_c: np.ndarray, hamming: bool
+    points: np.ndarray,
+    k: int,
+    position: np.ndarray,
+    ridge: np.ndarray,
+    f_c: np.ndarray,
+    chirp: np.ndarray,
+    hamming: bool,
 ) -> complex:  # pragma: no cover - compiled
     ndim = points.shape[0]
     amp = 1.0
@@ -62,34 +68,35 @@ def _ideal_at(
         for b in range(ndim):
             c += ridge[a, b] * (points[b, k] - position[b])
         amp *= _shape(c, hamming)
-        phase += f_c[a] * (points[a, k] - position[a])
+        d = points[a, k] - position[a]
+        phase += f_c[a] * d + 0.5 * chirp[a] * d * d
     phase *= 2.0 * math.pi
     return complex(amp * math.cos(phase), amp * math.sin(phase))
 
 
 @numba.njit(error_model="numpy", cache=CACHE)
 def ideal_response_serial(
-    points: np.ndarray, position: np.ndarray, ridge: np.ndarray, f_c: np.ndarray, hamming: bool
+    points: np.ndarray, position: np.ndarray, ridge: np.ndarray, f_c: np.ndarray, chirp: np.ndarray, hamming: bool
 ) -> np.ndarray:  # pragma: no cover - compiled
     """:func:`ideal_response` on one thread, for a few points (a cut line): a parallel launch costs more."""
     n = points.shape[1]
     out = np.empty(n, dtype=np.complex128)
     for k in range(n):
-        out[k] = _ideal_at(points, k, position, ridge, f_c, hamming)
+        out[k] = _ideal_at(points, k, position, ridge, f_c, chirp, hamming)
     return out
 
 
 @numba.njit(error_model="numpy", parallel=True, cache=CACHE)
 def ideal_response(
-    points: np.ndarray, position: np.ndarray, ridge: np.ndarray, f_c: np.ndarray, hamming: bool
+    points: np.ndarray, position: np.ndarray, ridge: np.ndarray, f_c: np.ndarray, chirp: np.ndarray, hamming: bool
 ) -> np.ndarray:  # pragma: no cover - compiled
-    """prod_a shape((ridge @ (x - position))_a) exp(2 pi i f_c . (x - position)) at each column x of
-    points (ndim, N): the ideal response of :func:`sarproc.quality.metrics._ideal_response`, ``ridge``
-    the matrix taking image-index offsets to ridge coordinates in nulls."""
+    """prod_a shape((ridge @ d)_a) exp(2 pi i f_c . d + pi i sum_a chirp_a d_a^2), d = x - position, at each
+    column x of points (ndim, N): the ideal response of :func:`sarproc.quality.metrics._ideal_response`,
+    ``ridge`` the matrix taking image-index offsets to ridge coordinates in nulls."""
     n = points.shape[1]
     out = np.empty(n, dtype=np.complex128)
     for k in numba.prange(n):
-        out[k] = _ideal_at(points, k, position, ridge, f_c, hamming)
+        out[k] = _ideal_at(points, k, position, ridge, f_c, chirp, hamming)
     return out
 
 
@@ -109,10 +116,16 @@ def _grid_shape(s: float, q: float, hamming: bool) -> float:  # pragma: no cover
 
 @numba.njit(error_model="numpy", cache=CACHE)
 def _box_tables(
-    origin: np.ndarray, step: np.ndarray, shape: np.ndarray, position: np.ndarray, ridge: np.ndarray, f_c: np.ndarray
+    origin: np.ndarray,
+    step: np.ndarray,
+    shape: np.ndarray,
+    position: np.ndarray,
+    ridge: np.ndarray,
+    f_c: np.ndarray,
+    chirp: np.ndarray,
 ) -> tuple:  # pragma: no cover - compiled
     """Per-axis tables of a box: lin[a, b, i] = ridge[a, b] d_b, rot = exp(i pi lin), car[b, i] = exp(2 pi i
-    f_c[b] d_b), d_b = origin[b] + step[b] i - position[b]."""
+    (f_c[b] d_b + chirp[b] d_b^2 / 2)), d_b = origin[b] + step[b] i - position[b]."""
     longest = max(shape[0], max(shape[1], shape[2]))
     rot = np.empty((3, 3, longest), dtype=np.complex128)
     lin = np.empty((3, 3, longest))
@@ -120,7 +133,8 @@ def _box_tables(
     for b in range(3):
         for i in range(shape[b]):
             d = origin[b] + step[b] * i - position[b]
-            car[b, i] = complex(math.cos(2.0 * math.pi * f_c[b] * d), math.sin(2.0 * math.pi * f_c[b] * d))
+            t = 2.0 * math.pi * f_c[b] * d + math.pi * chirp[b] * d * d
+            car[b, i] = complex(math.cos(t), math.sin(t))
             for a in range(3):
                 lin[a, b, i] = ridge[a, b] * d
                 rot[a, b, i] = complex(math.cos(math.pi * lin[a, b, i]), math.sin(math.pi * lin[a, b, i]))
@@ -147,12 +161,13 @@ def ideal_response_box(
     position: np.ndarray,
     ridge: np.ndarray,
     f_c: np.ndarray,
+    chirp: np.ndarray,
     hamming: bool,
 ) -> np.ndarray:  # pragma: no cover - compiled
     """:func:`ideal_response` of a 3D response on the image box origin + step * (i, j, k), i < shape[0] ...:
     the ridge coordinates are linear on the box, so sin(pi c_a) and the carrier are products of per-axis
     complex exponentials (9 + 3 short tables instead of 4 transcendental calls per sample; equal to rounding)."""
-    lin, rot, car = _box_tables(origin, step, shape, position, ridge, f_c)
+    lin, rot, car = _box_tables(origin, step, shape, position, ridge, f_c, chirp)
     out = np.empty((shape[0], shape[1], shape[2]), dtype=np.complex128)
     for i in numba.prange(shape[0]):
         for j in range(shape[1]):
@@ -171,6 +186,7 @@ def ideal_response_boxes(
     position: np.ndarray,
     ridge: np.ndarray,
     f_c: np.ndarray,
+    chirp: np.ndarray,
     hamming: bool,
 ) -> np.ndarray:  # pragma: no cover - compiled
     """:func:`ideal_response_box` on several boxes (rows of origins, shapes) whose points, in order, are the
@@ -180,7 +196,7 @@ def ideal_response_boxes(
     n = 0
     for box in range(origins.shape[0]):
         shape = shapes[box]
-        lin, rot, car = _box_tables(origins[box], step, shape, position, ridge, f_c)
+        lin, rot, car = _box_tables(origins[box], step, shape, position, ridge, f_c, chirp)
         for i in range(shape[0]):
             for j in range(shape[1]):
                 for k in range(shape[2]):

@@ -621,13 +621,17 @@ def _ideal_response(
     f_c: npt.ArrayLike,
     hamming: bool,
     exact: bool = False,
+    chirp: npt.ArrayLike | None = None,
 ) -> np.ndarray:
     """Ideal response at ``points`` ((ndim, N) image indices) of a target at ``position``, peak 1.
 
     The support is the parallelogram (parallelepiped) whose ridges are the rows of V (see
     :func:`principal_directions`) with null spacing ``nulls[a]`` along ridge a (measured along axis
-    a); the spectrum is flat (or Hamming) over it and centred on ``f_c`` (cycles/sample).
+    a); the spectrum is flat (or Hamming) over it and centred on ``f_c`` (cycles/sample). ``chirp``
+    (cycles/sample^2 per axis; default none): the response is also multiplied by exp(j pi sum_a chirp_a
+    d_a^2), d = x - position (a processor's matched filter longer than the aperture, as array3d's).
     """
+    k = np.zeros(np.shape(points)[0]) if chirp is None else np.asarray(chirp, dtype=float)
     if not exact and len(V) == 3:
         from sarproc.quality import kernels  # numba: worth its loading time on 3D cubes only
 
@@ -638,12 +642,16 @@ def _ideal_response(
             np.asarray(position, dtype=float),
             ridge,
             np.asarray(f_c, dtype=float),
+            k,
             hamming,
         )
     x = points - np.asarray(position, dtype=float)[:, None]
     c = np.linalg.solve(V.T, x) / np.asarray(nulls, dtype=float)[:, None]  # ridge coordinates, nulls
     shape_fn = (lambda q: 0.54 * np.sinc(q) + 0.23 * (np.sinc(q - 1) + np.sinc(q + 1))) if hamming else np.sinc
-    return np.prod(shape_fn(c), axis=0) * np.exp(2j * np.pi * (np.asarray(f_c) @ x))
+    phase = np.asarray(f_c) @ x
+    if np.any(k != 0):
+        phase = phase + 0.5 * (k @ x**2)
+    return np.prod(shape_fn(c), axis=0) * np.exp(2j * np.pi * phase)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -671,6 +679,7 @@ def evaluate_image(
     target_null: npt.ArrayLike | None = None,
     target_sidelobes: npt.ArrayLike | None = None,
     other_truth: np.ndarray | Sequence[Sequence[float]] | None = None,
+    target_chirp: npt.ArrayLike | None = None,
 ) -> QualityReport:
     """Measure every target of a 2D (azimuth, range) or 3D (elevation, azimuth, range) image.
 
@@ -690,8 +699,11 @@ def evaluate_image(
     (NaN: its IRW / irw_factor), so a weighted target's ISLR window is +-islr_nulls of its bandwidth;
     target_sidelobes: optional (n_targets, ndim, 2) its theoretical PSLR and ISLR, dB (NaN: not
     recorded). other_truth: (n, ndim) positions of targets not measured (a subset was asked for):
-    their neighbourhoods are kept out of the false-target search like the measured ones'. Raises
-    InputError.
+    their neighbourhoods are kept out of the false-target search like the measured ones'. target_chirp:
+    optional (n_targets, ndim) chirp rate k of each target's response per axis, axis units^-2: the response
+    is its ideal one times exp(j pi sum_a k_a (x_a - x0_a)^2) about its own peak (array3d's azimuth matched
+    filter, longer than the aperture, leaves k = 2 / (lambda r)); the neighbour models carry it (0 or NaN:
+    none). Raises InputError.
 
     Steps: :func:`_find_peak` per target (pass 1: peak and support on the image's chip),
     :func:`_subtract_neighbours` (pass 2: the groups' fitted responses off each chip, peak and support again),
@@ -715,7 +727,8 @@ def evaluate_image(
         _find_peak(data, mag, axes, name, t, half, nulls, params) for name, t in wrapped(done, list(zip(names, truth)))
     ]
     if params.remove_neighbours:
-        peaks = _subtract_neighbours(data, peaks, names, nulls, half, params, done)
+        chirps = _chirps_in_samples(target_chirp, axes, len(names))
+        peaks = _subtract_neighbours(data, peaks, names, nulls, half, params, done, chirps)
     reports = [
         _measure(peak, own, t, name, params, metric)
         for peak, name, t, own in wrapped(done, list(zip(peaks, names, truth, own_axes)))
@@ -736,6 +749,20 @@ def evaluate_image(
         false_target_guard=guard,
         residual=floor,
     )
+
+
+def _chirps_in_samples(target_chirp: npt.ArrayLike | None, axes: Sequence[_Axis], n_targets: int) -> np.ndarray | None:
+    """target_chirp (axis units^-2) in cycles/sample^2, NaN as 0; None where absent or all zero."""
+    if target_chirp is None:
+        return None
+    k = np.asarray(target_chirp, dtype=float)
+    if k.shape != (n_targets, len(axes)):
+        raise InputError(f"target_chirp has shape {k.shape}; expected ({n_targets}, {len(axes)})")
+    k = np.where(np.isnan(k), 0.0, k)
+    if not np.all(np.isfinite(k)):
+        raise InputError("target_chirp values must be finite (or NaN: none)")
+    k = k * np.array([ax.step**2 for ax in axes])[None, :]
+    return k if np.any(k != 0) else None
 
 
 def _checked_inputs(
@@ -838,11 +865,13 @@ def _subtract_neighbours(
     half: Sequence[int],
     params: EvaluateParams,
     done: Callable[[], None],
+    chirps: np.ndarray | None = None,
 ) -> list:
     """Pass 2: the ideal responses of every group of targets whose chips overlap are fitted jointly to the
     image; each target's chip loses the other members' fitted responses, and its peak and support are found
-    again on it. ``done``: the progress steps (one per target)."""
-    models = _neighbour_models(data, peaks, nulls, half, params)
+    again on it. ``done``: the progress steps (one per target); ``chirps``: each target's known chirp
+    (:func:`_neighbour_models`)."""
+    models = _neighbour_models(data, peaks, nulls, half, params, chirps)
     hamming = params.irw_factor > 1.1
     out = list(peaks)
     for i, peak in wrapped(done, list(enumerate(peaks))):
@@ -969,13 +998,14 @@ class _NeighbourModel:
     misfit: float  # the group fit's residual energy / the fitted samples' energy
     nulls: np.ndarray  # null spacing 1/B per axis, samples
     rich: dict | None = None  # the response model (fit_response_models) where it fitted better
+    chirp: np.ndarray | None = None  # its known chirp, cycles/sample^2 per axis (_ideal_response); None: none
 
     def values(self, points: npt.ArrayLike, hamming: bool, exact: bool = False) -> np.ndarray:
         """The fitted neighbour at ``points`` ((ndim, N) image indices)."""
         if self.rich:
             return _rich_values(points, self.rich)
         return self.amplitude * _ideal_response(
-            points, self.position, self.ridges, self.nulls, self.band_centre, hamming, exact
+            points, self.position, self.ridges, self.nulls, self.band_centre, hamming, exact, self.chirp
         )
 
     def values_on_box(
@@ -994,11 +1024,16 @@ class _NeighbourModel:
                 np.asarray(self.position, dtype=float),
                 ridge,
                 np.asarray(self.band_centre, dtype=float),
+                _chirp_or_zero(self.chirp, 3),
                 hamming,
             )
             return self.amplitude * box.ravel()
         grid = np.meshgrid(*[np.arange(n) + o for n, o in zip(shape, origin)], indexing="ij")
         return self.values(np.stack([g.ravel() for g in grid], axis=0).astype(float), hamming, exact)
+
+
+def _chirp_or_zero(chirp: npt.ArrayLike | None, ndim: int) -> np.ndarray:
+    return np.zeros(ndim) if chirp is None else np.asarray(chirp, dtype=float)
 
 
 def _rich_values(points: npt.ArrayLike, rich: dict) -> np.ndarray:
@@ -1010,21 +1045,28 @@ def _rich_values(points: npt.ArrayLike, rich: dict) -> np.ndarray:
 
 
 def _neighbour_models(
-    data: np.ndarray, peaks: list, nulls: npt.ArrayLike, half: Sequence[int], params: EvaluateParams
+    data: np.ndarray,
+    peaks: list,
+    nulls: npt.ArrayLike,
+    half: Sequence[int],
+    params: EvaluateParams,
+    chirps: np.ndarray | None = None,
 ) -> dict:
     """Ideal responses fitted jointly to every group of targets whose chips overlap.
 
     Each member gets a complex amplitude, and its position, band centre and ridge directions (first
     estimated on its own chip, where the others' side lobes bias them) are refined by joint Gauss-Newton
     steps on the samples within 3 nulls of every member's peak (about two per null); groups that ideal
-    responses fit poorly are refitted as response models (:func:`_refit_rich`).
+    responses fit poorly are refitted as response models (:func:`_refit_rich`). ``chirps``: (n_targets, ndim)
+    each target's known chirp, cycles/sample^2 (:func:`_ideal_response`; rows of zeros: none).
     Returns {target index: _NeighbourModel} for members of groups of two or more.
     """
     nulls = np.asarray(nulls, dtype=float)
     models = {}
     for members in _overlapping_groups(peaks, np.asarray(half, dtype=float) + nulls, nulls):
         points, y, boxes = _group_samples(data, [peaks[k].position for k in members], nulls)
-        fit = _fit_ideal_group(points, y, [peaks[k] for k in members], nulls, params, boxes)
+        own = None if chirps is None else [chirps[k] if np.any(chirps[k] != 0) else None for k in members]
+        fit = _fit_ideal_group(points, y, [peaks[k] for k in members], nulls, params, boxes, own)
         rich = _refit_rich(data, points, y, fit, members, nulls, params)
         for q, k in enumerate(members):
             models[k] = dataclasses.replace(fit[q], group=frozenset(members))
@@ -1088,7 +1130,13 @@ class _SampleBoxes:
     count: int
 
     def ideal_response(
-        self, position: npt.ArrayLike, V: npt.ArrayLike, nulls: npt.ArrayLike, f_c: npt.ArrayLike, hamming: bool
+        self,
+        position: npt.ArrayLike,
+        V: npt.ArrayLike,
+        nulls: npt.ArrayLike,
+        f_c: npt.ArrayLike,
+        hamming: bool,
+        chirp: npt.ArrayLike | None = None,
     ) -> np.ndarray:
         """A 3D ideal response (:func:`_ideal_response`) at the samples, from per-axis tables box by box
         (compiled; equal to rounding)."""
@@ -1104,6 +1152,7 @@ class _SampleBoxes:
             np.asarray(position, dtype=float),
             ridge,
             np.asarray(f_c, dtype=float),
+            _chirp_or_zero(chirp, 3),
             hamming,
         )
 
@@ -1115,23 +1164,28 @@ def _fit_ideal_group(
     nulls: np.ndarray,
     params: EvaluateParams,
     boxes: _SampleBoxes | None = None,
+    chirps: Sequence[np.ndarray | None] | None = None,
 ) -> list:
     """Every member's ideal response fitted jointly to the samples ``y`` at ``points``: position, band centre
     and ridge skews by Gauss-Newton (at most 8 steps; linear convergence, about halving, on skewed supports),
     then the complex amplitudes by least squares; ``boxes``: where the samples came from (3D responses are then
-    evaluated box by box). Returns one _NeighbourModel per member (group unset)."""
+    evaluated box by box); ``chirps``: each member's known chirp (cycles/sample^2 per axis, None: none), carried
+    by its response, not fitted. Returns one _NeighbourModel per member (group unset)."""
     hamming = params.irw_factor > 1.1
     ndim = points.shape[0]
     skew = [(a, b) for a in range(ndim) for b in range(ndim) if a != b]  # free entries of V
     pos = [np.array(p.position, dtype=float) for p in starts]
     f_c = [np.array(p.band_centre, dtype=float) for p in starts]
     V = [np.array(p.ridges, dtype=float) for p in starts]
+    chirp = list(chirps) if chirps is not None else [None] * len(starts)
 
     def model(q: int, p: np.ndarray | None = None, v: np.ndarray | None = None) -> np.ndarray:
         if boxes is not None and ndim == 3 and not params.exact:
-            return boxes.ideal_response(pos[q] if p is None else p, V[q] if v is None else v, nulls, f_c[q], hamming)
+            return boxes.ideal_response(
+                pos[q] if p is None else p, V[q] if v is None else v, nulls, f_c[q], hamming, chirp[q]
+            )
         return _ideal_response(
-            points, pos[q] if p is None else p, V[q] if v is None else v, nulls, f_c[q], hamming, params.exact
+            points, pos[q] if p is None else p, V[q] if v is None else v, nulls, f_c[q], hamming, params.exact, chirp[q]
         )
 
     for _ in range(8):
@@ -1165,7 +1219,10 @@ def _fit_ideal_group(
     amp = least_squares(basis, y, params.exact)
     # How well ideal responses explain the group: a poor fit leaves the neighbours' side lobes in.
     misfit = float(np.sum(np.abs(y - basis @ amp) ** 2) / max(np.sum(np.abs(y) ** 2), 1e-300))
-    return [_NeighbourModel(pos[q], f_c[q], V[q], amp[q], frozenset(), misfit, nulls) for q in range(len(starts))]
+    return [
+        _NeighbourModel(pos[q], f_c[q], V[q], amp[q], frozenset(), misfit, nulls, chirp=chirp[q])
+        for q in range(len(starts))
+    ]
 
 
 def _refit_rich(
@@ -1662,10 +1719,31 @@ def evaluate_product(
             target_null=field("null")[keep],
             target_sidelobes=lobes[keep],
             other_truth=truth_all[~keep],
+            target_chirp=target_chirp(product, truth_all[keep], where),
         )
     except InputError as exc:
         raise InputError(f"{where}{exc}") from None
     return dataclasses.replace(report, movers=mover_reports(product, table, report, source))
+
+
+CHIRP_ATTR = "azimuth_chirp_times_range"  # 1/m: the azimuth response of a target at slant range r carries
+# exp(j pi (value / r) (x - x0)^2), x along track in m (array3d: 2 / lambda; see its attribute's note)
+
+
+def target_chirp(product: Product, truth: np.ndarray, where: str = "") -> np.ndarray | None:
+    """(n_targets, ndim) chirp rate of each target's response per axis, axis units^-2 (evaluate_image's
+    target_chirp), from the image attribute CHIRP_ATTR and each target's slant range; None without it."""
+    value = product.attrs.get(CHIRP_ATTR)
+    if value is None:
+        return None
+    dims = list(product.dims)
+    if "azimuth" not in dims or "range" not in dims or not (np.isfinite(value) and value > 0):
+        raise InputError(
+            f"{where}image attribute {CHIRP_ATTR!r} = {value!r} needs azimuth and range axes and a positive value"
+        )
+    out = np.zeros(truth.shape)
+    out[:, dims.index("azimuth")] = float(value) / truth[:, dims.index("range")]
+    return out
 
 
 # ----------------------------------------------------------------------------------------------

@@ -9,7 +9,13 @@ import math
 import numpy as np
 from test_metrics import axis_coords, separable_image, sinc_psf
 
-from sarproc.quality.metrics import EvaluateParams, evaluate_image, least_squares, principal_directions
+from sarproc.quality.metrics import (
+    EvaluateParams,
+    _ideal_response,
+    evaluate_image,
+    least_squares,
+    principal_directions,
+)
 
 
 def _floats(d, prefix=""):
@@ -125,6 +131,7 @@ def test_compiled_box_responses_equal_pointwise():
     V = np.eye(3) + 0.05 * rng.standard_normal((3, 3))
     ridge = np.linalg.inv(V.T) / np.array([2.5, 1.7, 1.2])[:, None]
     position, f_c = np.array([7.0, 5.3, 4.0]), np.array([0.11, -0.27, 0.43])  # integer coordinates: c = 0 there
+    chirp = np.array([0.008, -0.011, 0.003])  # cycles/sample^2 (array3d's azimuth chirp is 0.008)
     origins, shapes = np.array([[0.0, 1.0, 2.0], [3.0, 1.0, 0.0]]), np.array([[7, 6, 5], [5, 8, 6]])
     step = np.array([2.0, 1.0, 1.0])
     boxes = [
@@ -135,12 +142,23 @@ def test_compiled_box_responses_equal_pointwise():
     ]
     points, inverse = np.unique(np.concatenate(boxes, axis=1), axis=1, return_inverse=True)
     for hamming in (False, True):
-        ref = kernels.ideal_response(points, position, ridge, f_c, hamming)
+        ref = kernels.ideal_response(points, position, ridge, f_c, chirp, hamming)
+        numpy_ref = _ideal_response(points, position, V, [2.5, 1.7, 1.2], f_c, hamming, exact=True, chirp=chirp)
+        np.testing.assert_allclose(ref, numpy_ref, rtol=0, atol=1e-13)
         got = kernels.ideal_response_boxes(
-            origins, step, shapes, inverse.ravel().astype(np.int64), points.shape[1], position, ridge, f_c, hamming
+            origins,
+            step,
+            shapes,
+            inverse.ravel().astype(np.int64),
+            points.shape[1],
+            position,
+            ridge,
+            f_c,
+            chirp,
+            hamming,
         )
         np.testing.assert_allclose(got, ref, rtol=0, atol=1e-14)
-        box = kernels.ideal_response_box(origins[1], step, shapes[1], position, ridge, f_c, hamming).ravel()
+        box = kernels.ideal_response_box(origins[1], step, shapes[1], position, ridge, f_c, chirp, hamming).ravel()
         np.testing.assert_allclose(
-            box, kernels.ideal_response(boxes[1], position, ridge, f_c, hamming), rtol=0, atol=1e-14
+            box, kernels.ideal_response(boxes[1], position, ridge, f_c, chirp, hamming), rtol=0, atol=1e-14
         )
