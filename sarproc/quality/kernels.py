@@ -37,16 +37,23 @@ def orientation_density(
 
 
 @numba.njit(error_model="numpy", cache=CACHE)
-def _shape(q: float, hamming: bool) -> float:  # pragma: no cover - compiled
+def _shape(q: float, period: float, hamming: bool) -> float:  # pragma: no cover - compiled
     if hamming:
-        return 0.54 * _sinc(q) + 0.23 * (_sinc(q - 1.0) + _sinc(q + 1.0))
-    return _sinc(q)
+        return 0.54 * _sinc(q, period) + 0.23 * (_sinc(q - 1.0, period) + _sinc(q + 1.0, period))
+    return _sinc(q, period)
 
 
 @numba.njit(error_model="numpy", cache=CACHE)
-def _sinc(q: float) -> float:  # pragma: no cover - compiled
+def _sinc(q: float, period: float) -> float:  # pragma: no cover - compiled
+    """sin(pi q) / (pi q), or with a period P > 0 (nulls) the periodic sinc sin(pi q) / (P sin(pi q / P)) (the array
+    factor of P uniform receivers)."""
     if q == 0.0:
         return 1.0
+    if period > 0.0:
+        den = period * math.sin(math.pi * q / period)
+        if abs(den) < 1e-12:  # a grating lobe: the limit
+            return math.cos(math.pi * q) / math.cos(math.pi * q / period)
+        return math.sin(math.pi * q) / den
     return math.sin(math.pi * q) / (math.pi * q)
 
 
@@ -58,6 +65,7 @@ def _ideal_at(
     ridge: np.ndarray,
     f_c: np.ndarray,
     chirp: np.ndarray,
+    period: np.ndarray,
     hamming: bool,
 ) -> complex:  # pragma: no cover - compiled
     ndim = points.shape[0]
@@ -67,7 +75,7 @@ def _ideal_at(
         c = 0.0
         for b in range(ndim):
             c += ridge[a, b] * (points[b, k] - position[b])
-        amp *= _shape(c, hamming)
+        amp *= _shape(c, period[a], hamming)
         d = points[a, k] - position[a]
         phase += f_c[a] * d + 0.5 * chirp[a] * d * d
     phase *= 2.0 * math.pi
@@ -76,36 +84,49 @@ def _ideal_at(
 
 @numba.njit(error_model="numpy", cache=CACHE)
 def ideal_response_serial(
-    points: np.ndarray, position: np.ndarray, ridge: np.ndarray, f_c: np.ndarray, chirp: np.ndarray, hamming: bool
+    points: np.ndarray,
+    position: np.ndarray,
+    ridge: np.ndarray,
+    f_c: np.ndarray,
+    chirp: np.ndarray,
+    period: np.ndarray,
+    hamming: bool,
 ) -> np.ndarray:  # pragma: no cover - compiled
     """:func:`ideal_response` on one thread, for a few points (a cut line): a parallel launch costs more."""
     n = points.shape[1]
     out = np.empty(n, dtype=np.complex128)
     for k in range(n):
-        out[k] = _ideal_at(points, k, position, ridge, f_c, chirp, hamming)
+        out[k] = _ideal_at(points, k, position, ridge, f_c, chirp, period, hamming)
     return out
 
 
 @numba.njit(error_model="numpy", parallel=True, cache=CACHE)
 def ideal_response(
-    points: np.ndarray, position: np.ndarray, ridge: np.ndarray, f_c: np.ndarray, chirp: np.ndarray, hamming: bool
+    points: np.ndarray,
+    position: np.ndarray,
+    ridge: np.ndarray,
+    f_c: np.ndarray,
+    chirp: np.ndarray,
+    period: np.ndarray,
+    hamming: bool,
 ) -> np.ndarray:  # pragma: no cover - compiled
     """prod_a shape((ridge @ d)_a) exp(2 pi i f_c . d + pi i sum_a chirp_a d_a^2), d = x - position, at each
     column x of points (ndim, N): the ideal response of :func:`sarproc.quality.metrics._ideal_response`,
-    ``ridge`` the matrix taking image-index offsets to ridge coordinates in nulls."""
+    ``ridge`` the matrix taking image-index offsets to ridge coordinates in nulls, shape the sinc (or, where
+    period_a > 0, the periodic sinc of that period in nulls) or its Hamming-weighted sum."""
     n = points.shape[1]
     out = np.empty(n, dtype=np.complex128)
     for k in numba.prange(n):
-        out[k] = _ideal_at(points, k, position, ridge, f_c, chirp, hamming)
+        out[k] = _ideal_at(points, k, position, ridge, f_c, chirp, period, hamming)
     return out
 
 
 @numba.njit(error_model="numpy", cache=CACHE)
-def _grid_shape(s: float, q: float, hamming: bool) -> float:  # pragma: no cover - compiled
+def _grid_shape(s: float, q: float, period: float, hamming: bool) -> float:  # pragma: no cover - compiled
     """_shape(q) given s = sin(pi q) (sin(pi (q -+ 1)) = -s); near q = 0 from math.sin itself, where s / (pi q)
-    would lose digits to the rounding of s."""
-    if abs(q) < 1e-3:
-        return _shape(q, hamming)
+    would lose digits to the rounding of s; a periodic sinc (period > 0) from math.sin throughout."""
+    if abs(q) < 1e-3 or period > 0.0:
+        return _shape(q, period, hamming)
     value = s / (math.pi * q)
     if hamming:
         lo = 1.0 if q == 1.0 else -s / (math.pi * (q - 1.0))
@@ -143,13 +164,13 @@ def _box_tables(
 
 @numba.njit(error_model="numpy", cache=CACHE)
 def _box_value(
-    lin: np.ndarray, rot: np.ndarray, car: np.ndarray, i: int, j: int, k: int, hamming: bool
+    lin: np.ndarray, rot: np.ndarray, car: np.ndarray, i: int, j: int, k: int, period: np.ndarray, hamming: bool
 ) -> complex:  # pragma: no cover - compiled
     amp = 1.0
     for a in range(3):
         q = lin[a, 0, i] + lin[a, 1, j] + lin[a, 2, k]
         s = (rot[a, 0, i] * rot[a, 1, j] * rot[a, 2, k]).imag
-        amp *= _grid_shape(s, q, hamming)
+        amp *= _grid_shape(s, q, period[a], hamming)
     return amp * (car[0, i] * car[1, j] * car[2, k])
 
 
@@ -162,6 +183,7 @@ def ideal_response_box(
     ridge: np.ndarray,
     f_c: np.ndarray,
     chirp: np.ndarray,
+    period: np.ndarray,
     hamming: bool,
 ) -> np.ndarray:  # pragma: no cover - compiled
     """:func:`ideal_response` of a 3D response on the image box origin + step * (i, j, k), i < shape[0] ...:
@@ -172,7 +194,7 @@ def ideal_response_box(
     for i in numba.prange(shape[0]):
         for j in range(shape[1]):
             for k in range(shape[2]):
-                out[i, j, k] = _box_value(lin, rot, car, i, j, k, hamming)
+                out[i, j, k] = _box_value(lin, rot, car, i, j, k, period, hamming)
     return out
 
 
@@ -187,6 +209,7 @@ def ideal_response_boxes(
     ridge: np.ndarray,
     f_c: np.ndarray,
     chirp: np.ndarray,
+    period: np.ndarray,
     hamming: bool,
 ) -> np.ndarray:  # pragma: no cover - compiled
     """:func:`ideal_response_box` on several boxes (rows of origins, shapes) whose points, in order, are the
@@ -200,7 +223,7 @@ def ideal_response_boxes(
         for i in range(shape[0]):
             for j in range(shape[1]):
                 for k in range(shape[2]):
-                    out[inverse[n]] = _box_value(lin, rot, car, i, j, k, hamming)
+                    out[inverse[n]] = _box_value(lin, rot, car, i, j, k, period, hamming)
                     n += 1
     return out
 

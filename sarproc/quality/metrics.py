@@ -622,6 +622,7 @@ def _ideal_response(
     hamming: bool,
     exact: bool = False,
     chirp: npt.ArrayLike | None = None,
+    period: npt.ArrayLike | None = None,
 ) -> np.ndarray:
     """Ideal response at ``points`` ((ndim, N) image indices) of a target at ``position``, peak 1.
 
@@ -629,9 +630,12 @@ def _ideal_response(
     :func:`principal_directions`) with null spacing ``nulls[a]`` along ridge a (measured along axis
     a); the spectrum is flat (or Hamming) over it and centred on ``f_c`` (cycles/sample). ``chirp``
     (cycles/sample^2 per axis; default none): the response is also multiplied by exp(j pi sum_a chirp_a
-    d_a^2), d = x - position (a processor's matched filter longer than the aperture, as array3d's).
+    d_a^2), d = x - position (a processor's matched filter longer than the aperture, as array3d's). ``period``
+    (nulls per axis, 0: none; default none): along ridge a the shape is the periodic sinc sin(pi q) / (P sin(pi q /
+    P)) of period P = period_a, the array factor of P uniform receivers (array3d's elevation).
     """
-    k = np.zeros(np.shape(points)[0]) if chirp is None else np.asarray(chirp, dtype=float)
+    k = _zero_or(chirp, np.shape(points)[0])
+    per = _zero_or(period, np.shape(points)[0])
     if not exact and len(V) == 3:
         from sarproc.quality import kernels  # numba: worth its loading time on 3D cubes only
 
@@ -643,15 +647,32 @@ def _ideal_response(
             ridge,
             np.asarray(f_c, dtype=float),
             k,
+            per,
             hamming,
         )
     x = points - np.asarray(position, dtype=float)[:, None]
     c = np.linalg.solve(V.T, x) / np.asarray(nulls, dtype=float)[:, None]  # ridge coordinates, nulls
-    shape_fn = (lambda q: 0.54 * np.sinc(q) + 0.23 * (np.sinc(q - 1) + np.sinc(q + 1))) if hamming else np.sinc
+    amp = np.prod([_shape_np(c[a], per[a], hamming) for a in range(len(c))], axis=0)
     phase = np.asarray(f_c) @ x
     if np.any(k != 0):
         phase = phase + 0.5 * (k @ x**2)
-    return np.prod(shape_fn(c), axis=0) * np.exp(2j * np.pi * phase)
+    return amp * np.exp(2j * np.pi * phase)
+
+
+def _periodic_sinc(q: np.ndarray, period: float) -> np.ndarray:
+    """np.sinc(q), or with period > 0 (nulls) sin(pi q) / (P sin(pi q / P)) (its limit at the grating lobes)."""
+    if not period > 0:
+        return np.sinc(q)
+    den = period * np.sin(np.pi * q / period)
+    near = np.abs(den) < 1e-12
+    safe = np.where(near, 1.0, den)
+    return np.where(near, np.cos(np.pi * q) / np.cos(np.pi * q / period), np.sin(np.pi * q) / safe)
+
+
+def _shape_np(q: np.ndarray, period: float, hamming: bool) -> np.ndarray:
+    if hamming:
+        return 0.54 * _periodic_sinc(q, period) + 0.23 * (_periodic_sinc(q - 1, period) + _periodic_sinc(q + 1, period))
+    return _periodic_sinc(q, period)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -680,6 +701,7 @@ def evaluate_image(
     target_sidelobes: npt.ArrayLike | None = None,
     other_truth: np.ndarray | Sequence[Sequence[float]] | None = None,
     target_chirp: npt.ArrayLike | None = None,
+    response_period: npt.ArrayLike | None = None,
 ) -> QualityReport:
     """Measure every target of a 2D (azimuth, range) or 3D (elevation, azimuth, range) image.
 
@@ -703,7 +725,9 @@ def evaluate_image(
     optional (n_targets, ndim) chirp rate k of each target's response per axis, axis units^-2: the response
     is its ideal one times exp(j pi sum_a k_a (x_a - x0_a)^2) about its own peak (array3d's azimuth matched
     filter, longer than the aperture, leaves k = 2 / (lambda r)); the neighbour models carry it (0 or NaN:
-    none). Raises InputError.
+    none). response_period: optional (ndim,) period of the responses along each axis, axis units (0 or NaN:
+    none): their shape there is the periodic sinc of that period, the array factor of uniform receivers (array3d's
+    elevation, period lambda / d); the neighbour models carry it. Raises InputError.
 
     Steps: :func:`_find_peak` per target (pass 1: peak and support on the image's chip),
     :func:`_subtract_neighbours` (pass 2: the groups' fitted responses off each chip, peak and support again),
@@ -728,7 +752,8 @@ def evaluate_image(
     ]
     if params.remove_neighbours:
         chirps = _chirps_in_samples(target_chirp, axes, len(names))
-        peaks = _subtract_neighbours(data, peaks, names, nulls, half, params, done, chirps)
+        period = _period_in_nulls(response_period, axes)
+        peaks = _subtract_neighbours(data, peaks, names, nulls, half, params, done, chirps, period)
     reports = [
         _measure(peak, own, t, name, params, metric)
         for peak, name, t, own in wrapped(done, list(zip(peaks, names, truth, own_axes)))
@@ -763,6 +788,20 @@ def _chirps_in_samples(target_chirp: npt.ArrayLike | None, axes: Sequence[_Axis]
         raise InputError("target_chirp values must be finite (or NaN: none)")
     k = k * np.array([ax.step**2 for ax in axes])[None, :]
     return k if np.any(k != 0) else None
+
+
+def _period_in_nulls(response_period: npt.ArrayLike | None, axes: Sequence[_Axis]) -> np.ndarray | None:
+    """response_period (axis units) in each axis' nulls, NaN as 0; None where absent or all zero."""
+    if response_period is None:
+        return None
+    p = np.asarray(response_period, dtype=float)
+    if p.shape != (len(axes),):
+        raise InputError(f"response_period has shape {p.shape}; expected ({len(axes)},)")
+    p = np.where(np.isnan(p), 0.0, p)
+    if not np.all(np.isfinite(p) & (p >= 0)):
+        raise InputError("response_period values must be positive and finite, 0 or NaN (none)")
+    p = p / np.array([abs(ax.step) * ax.null for ax in axes])
+    return p if np.any(p != 0) else None
 
 
 def _checked_inputs(
@@ -866,12 +905,13 @@ def _subtract_neighbours(
     params: EvaluateParams,
     done: Callable[[], None],
     chirps: np.ndarray | None = None,
+    period: np.ndarray | None = None,
 ) -> list:
     """Pass 2: the ideal responses of every group of targets whose chips overlap are fitted jointly to the
     image; each target's chip loses the other members' fitted responses, and its peak and support are found
     again on it. ``done``: the progress steps (one per target); ``chirps``: each target's known chirp
-    (:func:`_neighbour_models`)."""
-    models = _neighbour_models(data, peaks, nulls, half, params, chirps)
+    and the responses' periodic-sinc periods (:func:`_neighbour_models`)."""
+    models = _neighbour_models(data, peaks, nulls, half, params, chirps, period)
     hamming = params.irw_factor > 1.1
     out = list(peaks)
     for i, peak in wrapped(done, list(enumerate(peaks))):
@@ -999,13 +1039,14 @@ class _NeighbourModel:
     nulls: np.ndarray  # null spacing 1/B per axis, samples
     rich: dict | None = None  # the response model (fit_response_models) where it fitted better
     chirp: np.ndarray | None = None  # its known chirp, cycles/sample^2 per axis (_ideal_response); None: none
+    period: np.ndarray | None = None  # periodic-sinc period per axis, nulls (_ideal_response); None or 0: a sinc
 
     def values(self, points: npt.ArrayLike, hamming: bool, exact: bool = False) -> np.ndarray:
         """The fitted neighbour at ``points`` ((ndim, N) image indices)."""
         if self.rich:
             return _rich_values(points, self.rich)
         return self.amplitude * _ideal_response(
-            points, self.position, self.ridges, self.nulls, self.band_centre, hamming, exact, self.chirp
+            points, self.position, self.ridges, self.nulls, self.band_centre, hamming, exact, self.chirp, self.period
         )
 
     def values_on_box(
@@ -1024,7 +1065,8 @@ class _NeighbourModel:
                 np.asarray(self.position, dtype=float),
                 ridge,
                 np.asarray(self.band_centre, dtype=float),
-                _chirp_or_zero(self.chirp, 3),
+                _zero_or(self.chirp, 3),
+                _zero_or(self.period, 3),
                 hamming,
             )
             return self.amplitude * box.ravel()
@@ -1032,8 +1074,8 @@ class _NeighbourModel:
         return self.values(np.stack([g.ravel() for g in grid], axis=0).astype(float), hamming, exact)
 
 
-def _chirp_or_zero(chirp: npt.ArrayLike | None, ndim: int) -> np.ndarray:
-    return np.zeros(ndim) if chirp is None else np.asarray(chirp, dtype=float)
+def _zero_or(values: npt.ArrayLike | None, ndim: int) -> np.ndarray:
+    return np.zeros(ndim) if values is None else np.asarray(values, dtype=float)
 
 
 def _rich_values(points: npt.ArrayLike, rich: dict) -> np.ndarray:
@@ -1051,6 +1093,7 @@ def _neighbour_models(
     half: Sequence[int],
     params: EvaluateParams,
     chirps: np.ndarray | None = None,
+    period: np.ndarray | None = None,
 ) -> dict:
     """Ideal responses fitted jointly to every group of targets whose chips overlap.
 
@@ -1058,7 +1101,8 @@ def _neighbour_models(
     estimated on its own chip, where the others' side lobes bias them) are refined by joint Gauss-Newton
     steps on the samples within 3 nulls of every member's peak (about two per null); groups that ideal
     responses fit poorly are refitted as response models (:func:`_refit_rich`). ``chirps``: (n_targets, ndim)
-    each target's known chirp, cycles/sample^2 (:func:`_ideal_response`; rows of zeros: none).
+    each target's known chirp, cycles/sample^2 (:func:`_ideal_response`; rows of zeros: none); ``period``: the
+    responses' periodic-sinc period per axis, nulls (None: sincs).
     Returns {target index: _NeighbourModel} for members of groups of two or more.
     """
     nulls = np.asarray(nulls, dtype=float)
@@ -1066,7 +1110,7 @@ def _neighbour_models(
     for members in _overlapping_groups(peaks, np.asarray(half, dtype=float) + nulls, nulls):
         points, y, boxes = _group_samples(data, [peaks[k].position for k in members], nulls)
         own = None if chirps is None else [chirps[k] if np.any(chirps[k] != 0) else None for k in members]
-        fit = _fit_ideal_group(points, y, [peaks[k] for k in members], nulls, params, boxes, own)
+        fit = _fit_ideal_group(points, y, [peaks[k] for k in members], nulls, params, boxes, own, period)
         rich = _refit_rich(data, points, y, fit, members, nulls, params)
         for q, k in enumerate(members):
             models[k] = dataclasses.replace(fit[q], group=frozenset(members))
@@ -1137,6 +1181,7 @@ class _SampleBoxes:
         f_c: npt.ArrayLike,
         hamming: bool,
         chirp: npt.ArrayLike | None = None,
+        period: npt.ArrayLike | None = None,
     ) -> np.ndarray:
         """A 3D ideal response (:func:`_ideal_response`) at the samples, from per-axis tables box by box
         (compiled; equal to rounding)."""
@@ -1152,7 +1197,8 @@ class _SampleBoxes:
             np.asarray(position, dtype=float),
             ridge,
             np.asarray(f_c, dtype=float),
-            _chirp_or_zero(chirp, 3),
+            _zero_or(chirp, 3),
+            _zero_or(period, 3),
             hamming,
         )
 
@@ -1165,12 +1211,14 @@ def _fit_ideal_group(
     params: EvaluateParams,
     boxes: _SampleBoxes | None = None,
     chirps: Sequence[np.ndarray | None] | None = None,
+    period: np.ndarray | None = None,
 ) -> list:
     """Every member's ideal response fitted jointly to the samples ``y`` at ``points``: position, band centre
     and ridge skews by Gauss-Newton (at most 8 steps; linear convergence, about halving, on skewed supports),
     then the complex amplitudes by least squares; ``boxes``: where the samples came from (3D responses are then
     evaluated box by box); ``chirps``: each member's known chirp (cycles/sample^2 per axis, None: none), carried
-    by its response, not fitted. Returns one _NeighbourModel per member (group unset)."""
+    by its response, not fitted; ``period``: the responses' periodic-sinc periods per axis (nulls; None: sincs).
+    Returns one _NeighbourModel per member (group unset)."""
     hamming = params.irw_factor > 1.1
     ndim = points.shape[0]
     skew = [(a, b) for a in range(ndim) for b in range(ndim) if a != b]  # free entries of V
@@ -1182,10 +1230,18 @@ def _fit_ideal_group(
     def model(q: int, p: np.ndarray | None = None, v: np.ndarray | None = None) -> np.ndarray:
         if boxes is not None and ndim == 3 and not params.exact:
             return boxes.ideal_response(
-                pos[q] if p is None else p, V[q] if v is None else v, nulls, f_c[q], hamming, chirp[q]
+                pos[q] if p is None else p, V[q] if v is None else v, nulls, f_c[q], hamming, chirp[q], period
             )
         return _ideal_response(
-            points, pos[q] if p is None else p, V[q] if v is None else v, nulls, f_c[q], hamming, params.exact, chirp[q]
+            points,
+            pos[q] if p is None else p,
+            V[q] if v is None else v,
+            nulls,
+            f_c[q],
+            hamming,
+            params.exact,
+            chirp[q],
+            period,
         )
 
     for _ in range(8):
@@ -1220,7 +1276,7 @@ def _fit_ideal_group(
     # How well ideal responses explain the group: a poor fit leaves the neighbours' side lobes in.
     misfit = float(np.sum(np.abs(y - basis @ amp) ** 2) / max(np.sum(np.abs(y) ** 2), 1e-300))
     return [
-        _NeighbourModel(pos[q], f_c[q], V[q], amp[q], frozenset(), misfit, nulls, chirp=chirp[q])
+        _NeighbourModel(pos[q], f_c[q], V[q], amp[q], frozenset(), misfit, nulls, chirp=chirp[q], period=period)
         for q in range(len(starts))
     ]
 
@@ -1720,6 +1776,7 @@ def evaluate_product(
             target_sidelobes=lobes[keep],
             other_truth=truth_all[~keep],
             target_chirp=target_chirp(product, truth_all[keep], where),
+            response_period=response_period(product, where),
         )
     except InputError as exc:
         raise InputError(f"{where}{exc}") from None
@@ -1743,6 +1800,26 @@ def target_chirp(product: Product, truth: np.ndarray, where: str = "") -> np.nda
         )
     out = np.zeros(truth.shape)
     out[:, dims.index("azimuth")] = float(value) / truth[:, dims.index("range")]
+    return out
+
+
+PERIOD_ATTR = "elevation_period"  # rad: the elevation response is the periodic sinc of this period (array3d's
+# uniform array: its array factor, period lambda / d in sin(theta), taken as theta near nadir)
+
+
+def response_period(product: Product, where: str = "") -> np.ndarray | None:
+    """(ndim,) period of the responses per axis, axis units (evaluate_image's response_period), from the image
+    attribute PERIOD_ATTR; None without it."""
+    value = product.attrs.get(PERIOD_ATTR)
+    if value is None:
+        return None
+    dims = list(product.dims)
+    if "elevation" not in dims or not (np.isfinite(value) and value > 0):
+        raise InputError(
+            f"{where}image attribute {PERIOD_ATTR!r} = {value!r} needs an elevation axis and a positive value"
+        )
+    out = np.zeros(len(dims))
+    out[dims.index("elevation")] = float(value)
     return out
 
 

@@ -430,3 +430,23 @@ def test_azimuth_response_carries_the_recorded_chirp(single):
     curvature, slope, _ = np.polyfit(x[lobe], phase, 2, w=np.abs(cube.data[i, lobe, r]))
     assert curvature / math.pi == pytest.approx(k[0, 1], rel=0.05)
     assert abs(slope) < 0.05  # rad/m: the chirp is centred on the target (not on the track: 2 pi K x0 would show)
+
+
+def test_elevation_response_is_the_recorded_array_factor(single):
+    """8 uniform receivers: the elevation response is sin(pi q) / (8 sin(pi q / 8)), periodic with lambda / d, as
+    recorded for evaluate's neighbour models: on +-2.5 nulls it fits the cube to 1e-6 of the energy, a sinc to 1e-3
+    (18 % apart at 2.5 nulls)."""
+    from sarproc.quality.metrics import PERIOD_ATTR, response_period
+
+    _, cube = single
+    assert cube.attrs[PERIOD_ATTR] == pytest.approx(LAM / D, rel=1e-9)
+    assert response_period(cube).tolist() == [pytest.approx(LAM / D, rel=1e-9), 0.0, 0.0]
+    i, j, r = np.unravel_index(np.argmax(np.abs(cube.data)), cube.data.shape)
+    el = cube.coords["elevation"]
+    q = np.sin(el - el[i]) / (LAM / (8 * D))  # nulls of the array factor
+    line = (np.abs(q) <= 2.5) & (np.abs(q) > 0)
+    y = (cube.data[:, j, r] / cube.data[i, j, r])[line]
+    periodic = np.sin(np.pi * q[line]) / (8 * np.sin(np.pi * q[line] / 8))
+    misfit = np.sum(np.abs(y - periodic) ** 2) / np.sum(np.abs(y) ** 2)
+    sinc_misfit = np.sum(np.abs(y - np.sinc(q[line])) ** 2) / np.sum(np.abs(y) ** 2)
+    assert misfit < 1e-6 and sinc_misfit > 1e-4, (misfit, sinc_misfit)

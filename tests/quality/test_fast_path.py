@@ -4,6 +4,7 @@ report as the reference path (EvaluateParams(exact=True): SVD least squares, ful
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 
 import numpy as np
@@ -141,9 +142,11 @@ def test_compiled_box_responses_equal_pointwise():
         for org, shp in zip(origins, shapes)
     ]
     points, inverse = np.unique(np.concatenate(boxes, axis=1), axis=1, return_inverse=True)
-    for hamming in (False, True):
-        ref = kernels.ideal_response(points, position, ridge, f_c, chirp, hamming)
-        numpy_ref = _ideal_response(points, position, V, [2.5, 1.7, 1.2], f_c, hamming, exact=True, chirp=chirp)
+    for hamming, period in itertools.product((False, True), (np.zeros(3), np.array([6.0, 0.0, 0.0]))):
+        ref = kernels.ideal_response(points, position, ridge, f_c, chirp, period, hamming)
+        numpy_ref = _ideal_response(
+            points, position, V, [2.5, 1.7, 1.2], f_c, hamming, exact=True, chirp=chirp, period=period
+        )
         np.testing.assert_allclose(ref, numpy_ref, rtol=0, atol=1e-13)
         got = kernels.ideal_response_boxes(
             origins,
@@ -155,10 +158,13 @@ def test_compiled_box_responses_equal_pointwise():
             ridge,
             f_c,
             chirp,
+            period,
             hamming,
         )
         np.testing.assert_allclose(got, ref, rtol=0, atol=1e-14)
-        box = kernels.ideal_response_box(origins[1], step, shapes[1], position, ridge, f_c, chirp, hamming).ravel()
+        box = kernels.ideal_response_box(
+            origins[1], step, shapes[1], position, ridge, f_c, chirp, period, hamming
+        ).ravel()
         np.testing.assert_allclose(
-            box, kernels.ideal_response(boxes[1], position, ridge, f_c, chirp, hamming), rtol=0, atol=1e-14
+            box, kernels.ideal_response(boxes[1], position, ridge, f_c, chirp, period, hamming), rtol=0, atol=1e-14
         )

@@ -617,6 +617,22 @@ def _chirp_attrs(radar: RadarMetadata) -> dict:
     return {"azimuth_chirp_times_range": 2.0 / radar.wavelength, "azimuth_chirp_note": AZIMUTH_CHIRP_NOTE}
 
 
+def _period_attrs(raw: Product) -> dict:
+    """A uniform array's elevation response is its array factor, periodic in sin(theta) with period lambda / d:
+    recorded so that evaluate's neighbour models follow it (a sinc departs from it by 20 % nine nulls out
+    with 28 receivers)."""
+    geom = array_geometry(raw.aux["tx_offset"], raw.aux["rx_offset"])
+    if not geom.uniform:
+        return {}
+    return {
+        "elevation_period": raw.radar.wavelength / geom.spacing,
+        "elevation_period_note": (
+            "uniform receivers: the elevation response is the array factor sin(pi q) / (N sin(pi q / N)), q in "
+            "nulls lambda / (N d), periodic in sin(theta) with period lambda / d (rad near nadir)"
+        ),
+    }
+
+
 def _cube_product(raw: Product, res: Array3DResult, params: Array3DParams, command: str) -> Product:
     """The ``image3d`` product of a focused cube: elevation ambiguities warned and recorded, each target's
     theory in its table, the azimuth chirp of its responses."""
@@ -668,6 +684,7 @@ def _cube_product(raw: Product, res: Array3DResult, params: Array3DParams, comma
                 "/ lambda) (rect beam; PRF/v without a beam), range = 0.886 c / (2 B)"
             ),
             **_chirp_attrs(raw.radar),
+            **_period_attrs(raw),
         },
         history=list(raw.history) + [entry],
     )
