@@ -58,6 +58,17 @@ def _sinc(q: float, period: float) -> float:  # pragma: no cover - compiled
 
 
 @numba.njit(error_model="numpy", cache=CACHE)
+def _tabled(q: float, row: np.ndarray, rate: float) -> float:  # pragma: no cover - compiled
+    """The tabulated shape ``row`` (centred, ``rate`` points per null) at q nulls, linearly interpolated; NaN
+    beyond the table."""
+    t = q * rate + (row.shape[0] - 1) / 2.0
+    i = int(math.floor(t))
+    if i < 0 or i >= row.shape[0] - 1:
+        return math.nan
+    return row[i] + (t - i) * (row[i + 1] - row[i])
+
+
+@numba.njit(error_model="numpy", cache=CACHE)
 def _ideal_at(
     points: np.ndarray,
     k: int,
@@ -66,6 +77,8 @@ def _ideal_at(
     f_c: np.ndarray,
     chirp: np.ndarray,
     period: np.ndarray,
+    table: np.ndarray,
+    rate: np.ndarray,
     hamming: bool,
 ) -> complex:  # pragma: no cover - compiled
     ndim = points.shape[0]
@@ -75,7 +88,8 @@ def _ideal_at(
         c = 0.0
         for b in range(ndim):
             c += ridge[a, b] * (points[b, k] - position[b])
-        amp *= _shape(c, period[a], hamming)
+        v = _tabled(c, table[a], rate[a]) if rate[a] > 0.0 else math.nan
+        amp *= _shape(c, period[a], hamming) if math.isnan(v) else v
         d = points[a, k] - position[a]
         phase += f_c[a] * d + 0.5 * chirp[a] * d * d
     phase *= 2.0 * math.pi
@@ -90,13 +104,15 @@ def ideal_response_serial(
     f_c: np.ndarray,
     chirp: np.ndarray,
     period: np.ndarray,
+    table: np.ndarray,
+    rate: np.ndarray,
     hamming: bool,
 ) -> np.ndarray:  # pragma: no cover - compiled
     """:func:`ideal_response` on one thread, for a few points (a cut line): a parallel launch costs more."""
     n = points.shape[1]
     out = np.empty(n, dtype=np.complex128)
     for k in range(n):
-        out[k] = _ideal_at(points, k, position, ridge, f_c, chirp, period, hamming)
+        out[k] = _ideal_at(points, k, position, ridge, f_c, chirp, period, table, rate, hamming)
     return out
 
 
@@ -108,16 +124,19 @@ def ideal_response(
     f_c: np.ndarray,
     chirp: np.ndarray,
     period: np.ndarray,
+    table: np.ndarray,
+    rate: np.ndarray,
     hamming: bool,
 ) -> np.ndarray:  # pragma: no cover - compiled
     """prod_a shape((ridge @ d)_a) exp(2 pi i f_c . d + pi i sum_a chirp_a d_a^2), d = x - position, at each
     column x of points (ndim, N): the ideal response of :func:`sarproc.quality.metrics._ideal_response`,
     ``ridge`` the matrix taking image-index offsets to ridge coordinates in nulls, shape the sinc (or, where
-    period_a > 0, the periodic sinc of that period in nulls) or its Hamming-weighted sum."""
+    period_a > 0, the periodic sinc of that period in nulls) or its Hamming-weighted sum; where rate_a > 0 the
+    tabulated shape table[a] (centred, rate_a points per null) inside the table, that beyond it."""
     n = points.shape[1]
     out = np.empty(n, dtype=np.complex128)
     for k in numba.prange(n):
-        out[k] = _ideal_at(points, k, position, ridge, f_c, chirp, period, hamming)
+        out[k] = _ideal_at(points, k, position, ridge, f_c, chirp, period, table, rate, hamming)
     return out
 
 
@@ -164,13 +183,23 @@ def _box_tables(
 
 @numba.njit(error_model="numpy", cache=CACHE)
 def _box_value(
-    lin: np.ndarray, rot: np.ndarray, car: np.ndarray, i: int, j: int, k: int, period: np.ndarray, hamming: bool
+    lin: np.ndarray,
+    rot: np.ndarray,
+    car: np.ndarray,
+    i: int,
+    j: int,
+    k: int,
+    period: np.ndarray,
+    table: np.ndarray,
+    rate: np.ndarray,
+    hamming: bool,
 ) -> complex:  # pragma: no cover - compiled
     amp = 1.0
     for a in range(3):
         q = lin[a, 0, i] + lin[a, 1, j] + lin[a, 2, k]
         s = (rot[a, 0, i] * rot[a, 1, j] * rot[a, 2, k]).imag
-        amp *= _grid_shape(s, q, period[a], hamming)
+        v = _tabled(q, table[a], rate[a]) if rate[a] > 0.0 else math.nan
+        amp *= _grid_shape(s, q, period[a], hamming) if math.isnan(v) else v
     return amp * (car[0, i] * car[1, j] * car[2, k])
 
 
@@ -184,6 +213,8 @@ def ideal_response_box(
     f_c: np.ndarray,
     chirp: np.ndarray,
     period: np.ndarray,
+    table: np.ndarray,
+    rate: np.ndarray,
     hamming: bool,
 ) -> np.ndarray:  # pragma: no cover - compiled
     """:func:`ideal_response` of a 3D response on the image box origin + step * (i, j, k), i < shape[0] ...:
@@ -194,7 +225,7 @@ def ideal_response_box(
     for i in numba.prange(shape[0]):
         for j in range(shape[1]):
             for k in range(shape[2]):
-                out[i, j, k] = _box_value(lin, rot, car, i, j, k, period, hamming)
+                out[i, j, k] = _box_value(lin, rot, car, i, j, k, period, table, rate, hamming)
     return out
 
 
@@ -210,6 +241,8 @@ def ideal_response_boxes(
     f_c: np.ndarray,
     chirp: np.ndarray,
     period: np.ndarray,
+    table: np.ndarray,
+    rate: np.ndarray,
     hamming: bool,
 ) -> np.ndarray:  # pragma: no cover - compiled
     """:func:`ideal_response_box` on several boxes (rows of origins, shapes) whose points, in order, are the
@@ -223,7 +256,7 @@ def ideal_response_boxes(
         for i in range(shape[0]):
             for j in range(shape[1]):
                 for k in range(shape[2]):
-                    out[inverse[n]] = _box_value(lin, rot, car, i, j, k, period, hamming)
+                    out[inverse[n]] = _box_value(lin, rot, car, i, j, k, period, table, rate, hamming)
                     n += 1
     return out
 

@@ -622,7 +622,7 @@ def _ideal_response(
     hamming: bool,
     exact: bool = False,
     chirp: npt.ArrayLike | None = None,
-    period: npt.ArrayLike | None = None,
+    shapes: ResponseShapes | None = None,
 ) -> np.ndarray:
     """Ideal response at ``points`` ((ndim, N) image indices) of a target at ``position``, peak 1.
 
@@ -630,12 +630,11 @@ def _ideal_response(
     :func:`principal_directions`) with null spacing ``nulls[a]`` along ridge a (measured along axis
     a); the spectrum is flat (or Hamming) over it and centred on ``f_c`` (cycles/sample). ``chirp``
     (cycles/sample^2 per axis; default none): the response is also multiplied by exp(j pi sum_a chirp_a
-    d_a^2), d = x - position (a processor's matched filter longer than the aperture, as array3d's). ``period``
-    (nulls per axis, 0: none; default none): along ridge a the shape is the periodic sinc sin(pi q) / (P sin(pi q /
-    P)) of period P = period_a, the array factor of P uniform receivers (array3d's elevation).
+    d_a^2), d = x - position (a processor's matched filter longer than the aperture, as array3d's). ``shapes``
+    (:class:`ResponseShapes`; default none): known shapes along the ridges, periodic sincs and tabulated shapes.
     """
     k = _zero_or(chirp, np.shape(points)[0])
-    per = _zero_or(period, np.shape(points)[0])
+    per, table, rate = _shape_args(shapes, np.shape(points)[0])
     if not exact and len(V) == 3:
         from sarproc.quality import kernels  # numba: worth its loading time on 3D cubes only
 
@@ -648,11 +647,13 @@ def _ideal_response(
             np.asarray(f_c, dtype=float),
             k,
             per,
+            table,
+            rate,
             hamming,
         )
     x = points - np.asarray(position, dtype=float)[:, None]
     c = np.linalg.solve(V.T, x) / np.asarray(nulls, dtype=float)[:, None]  # ridge coordinates, nulls
-    amp = np.prod([_shape_np(c[a], per[a], hamming) for a in range(len(c))], axis=0)
+    amp = np.prod([_axis_shape_np(c[a], per[a], table[a], rate[a], hamming) for a in range(len(c))], axis=0)
     phase = np.asarray(f_c) @ x
     if np.any(k != 0):
         phase = phase + 0.5 * (k @ x**2)
@@ -667,6 +668,38 @@ def _periodic_sinc(q: np.ndarray, period: float) -> np.ndarray:
     near = np.abs(den) < 1e-12
     safe = np.where(near, 1.0, den)
     return np.where(near, np.cos(np.pi * q) / np.cos(np.pi * q / period), np.sin(np.pi * q) / safe)
+
+
+def _axis_shape_np(q: np.ndarray, period: float, row: np.ndarray, rate: float, hamming: bool) -> np.ndarray:
+    """The shape along one ridge at q nulls: the tabulated ``row`` (``rate`` > 0, centred, linearly interpolated as
+    the compiled kernels do) inside the table, else the (periodic) sinc or its Hamming sum."""
+    base = _shape_np(q, period, hamming)
+    if not rate > 0:
+        return base
+    t = q * rate + (row.shape[0] - 1) / 2.0
+    i = np.floor(t).astype(np.int64)
+    inside = (i >= 0) & (i < row.shape[0] - 1)
+    j = np.where(inside, i, 0)
+    value = row[j] + (t - j) * (row[j + 1] - row[j])
+    return np.where(inside & ~np.isnan(value), value, base)
+
+
+@dataclasses.dataclass(frozen=True)
+class ResponseShapes:
+    """Known shapes of the responses along each axis (ridge), beyond the sinc: ``period`` (ndim,) the periodic
+    sinc's period in nulls (0: none); ``table`` (ndim, n) centred tabulated shapes, ``rate`` (ndim,) their points
+    per null (0: none)."""
+
+    period: np.ndarray
+    table: np.ndarray
+    rate: np.ndarray
+
+
+def _shape_args(shapes: ResponseShapes | None, ndim: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(period, table, rate) for the compiled kernels (zeros: sincs)."""
+    if shapes is None:
+        return np.zeros(ndim), np.zeros((ndim, 2)), np.zeros(ndim)
+    return shapes.period, shapes.table, shapes.rate
 
 
 def _shape_np(q: np.ndarray, period: float, hamming: bool) -> np.ndarray:
@@ -702,6 +735,7 @@ def evaluate_image(
     other_truth: np.ndarray | Sequence[Sequence[float]] | None = None,
     target_chirp: npt.ArrayLike | None = None,
     response_period: npt.ArrayLike | None = None,
+    response_table: Sequence[tuple[np.ndarray, float] | None] | None = None,
 ) -> QualityReport:
     """Measure every target of a 2D (azimuth, range) or 3D (elevation, azimuth, range) image.
 
@@ -727,7 +761,10 @@ def evaluate_image(
     filter, longer than the aperture, leaves k = 2 / (lambda r)); the neighbour models carry it (0 or NaN:
     none). response_period: optional (ndim,) period of the responses along each axis, axis units (0 or NaN:
     none): their shape there is the periodic sinc of that period, the array factor of uniform receivers (array3d's
-    elevation, period lambda / d); the neighbour models carry it. Raises InputError.
+    elevation, period lambda / d); the neighbour models carry it. response_table: optional, per axis None or
+    (values, step): the responses' shape along that axis tabulated (real, centred on the peak, value 1 there) at
+    ``step`` axis units (array3d's range response, the autocorrelation of the chirp under its matched filter); the
+    neighbour models take it inside the table, their sinc beyond. Raises InputError.
 
     Steps: :func:`_find_peak` per target (pass 1: peak and support on the image's chip),
     :func:`_subtract_neighbours` (pass 2: the groups' fitted responses off each chip, peak and support again),
@@ -752,8 +789,8 @@ def evaluate_image(
     ]
     if params.remove_neighbours:
         chirps = _chirps_in_samples(target_chirp, axes, len(names))
-        period = _period_in_nulls(response_period, axes)
-        peaks = _subtract_neighbours(data, peaks, names, nulls, half, params, done, chirps, period)
+        shapes = _response_shapes(response_period, response_table, axes)
+        peaks = _subtract_neighbours(data, peaks, names, nulls, half, params, done, chirps, shapes)
     reports = [
         _measure(peak, own, t, name, params, metric)
         for peak, name, t, own in wrapped(done, list(zip(peaks, names, truth, own_axes)))
@@ -788,6 +825,34 @@ def _chirps_in_samples(target_chirp: npt.ArrayLike | None, axes: Sequence[_Axis]
         raise InputError("target_chirp values must be finite (or NaN: none)")
     k = k * np.array([ax.step**2 for ax in axes])[None, :]
     return k if np.any(k != 0) else None
+
+
+def _response_shapes(
+    response_period: npt.ArrayLike | None,
+    response_table: Sequence[tuple[np.ndarray, float] | None] | None,
+    axes: Sequence[_Axis],
+) -> ResponseShapes | None:
+    """evaluate_image's response_period and response_table in nulls (ResponseShapes); None where both are absent."""
+    period = _period_in_nulls(response_period, axes)
+    if response_table is None or all(t is None for t in response_table):
+        return None if period is None else ResponseShapes(period, np.zeros((len(axes), 2)), np.zeros(len(axes)))
+    if len(response_table) != len(axes):
+        raise InputError(f"response_table has {len(response_table)} entries; expected one per axis ({len(axes)})")
+    rows = [np.zeros(1) if t is None else np.asarray(t[0], dtype=float).ravel() for t in response_table]
+    n = max(len(r) for r in rows)
+    table = np.zeros((len(axes), n + (n + 1) % 2))
+    rate = np.zeros(len(axes))
+    for a, (t, row) in enumerate(zip(response_table, rows)):
+        if t is None:
+            continue
+        if len(row) < 3 or len(row) % 2 == 0 or not (np.all(np.isfinite(row)) and np.isfinite(t[1]) and t[1] > 0):
+            raise InputError(f"response_table[{a}]: expected an odd number (>= 3) of finite values and a positive step")
+        pad = (table.shape[1] - len(row)) // 2
+        table[a, pad : pad + len(row)] = row
+        table[a, :pad] = np.nan  # beyond this axis' table: the sinc (the kernels' NaN)
+        table[a, pad + len(row) :] = np.nan
+        rate[a] = axes[a].null * abs(axes[a].step) / float(t[1])
+    return ResponseShapes(np.zeros(len(axes)) if period is None else period, table, rate)
 
 
 def _period_in_nulls(response_period: npt.ArrayLike | None, axes: Sequence[_Axis]) -> np.ndarray | None:
@@ -905,13 +970,13 @@ def _subtract_neighbours(
     params: EvaluateParams,
     done: Callable[[], None],
     chirps: np.ndarray | None = None,
-    period: np.ndarray | None = None,
+    shapes: ResponseShapes | None = None,
 ) -> list:
     """Pass 2: the ideal responses of every group of targets whose chips overlap are fitted jointly to the
     image; each target's chip loses the other members' fitted responses, and its peak and support are found
     again on it. ``done``: the progress steps (one per target); ``chirps``: each target's known chirp
-    and the responses' periodic-sinc periods (:func:`_neighbour_models`)."""
-    models = _neighbour_models(data, peaks, nulls, half, params, chirps, period)
+    and the responses' known shapes (:func:`_neighbour_models`)."""
+    models = _neighbour_models(data, peaks, nulls, half, params, chirps, shapes)
     hamming = params.irw_factor > 1.1
     out = list(peaks)
     for i, peak in wrapped(done, list(enumerate(peaks))):
@@ -1039,14 +1104,14 @@ class _NeighbourModel:
     nulls: np.ndarray  # null spacing 1/B per axis, samples
     rich: dict | None = None  # the response model (fit_response_models) where it fitted better
     chirp: np.ndarray | None = None  # its known chirp, cycles/sample^2 per axis (_ideal_response); None: none
-    period: np.ndarray | None = None  # periodic-sinc period per axis, nulls (_ideal_response); None or 0: a sinc
+    shapes: ResponseShapes | None = None  # known shapes along the ridges (_ideal_response); None: sincs
 
     def values(self, points: npt.ArrayLike, hamming: bool, exact: bool = False) -> np.ndarray:
         """The fitted neighbour at ``points`` ((ndim, N) image indices)."""
         if self.rich:
             return _rich_values(points, self.rich)
         return self.amplitude * _ideal_response(
-            points, self.position, self.ridges, self.nulls, self.band_centre, hamming, exact, self.chirp, self.period
+            points, self.position, self.ridges, self.nulls, self.band_centre, hamming, exact, self.chirp, self.shapes
         )
 
     def values_on_box(
@@ -1066,7 +1131,7 @@ class _NeighbourModel:
                 ridge,
                 np.asarray(self.band_centre, dtype=float),
                 _zero_or(self.chirp, 3),
-                _zero_or(self.period, 3),
+                *_shape_args(self.shapes, 3),
                 hamming,
             )
             return self.amplitude * box.ravel()
@@ -1093,7 +1158,7 @@ def _neighbour_models(
     half: Sequence[int],
     params: EvaluateParams,
     chirps: np.ndarray | None = None,
-    period: np.ndarray | None = None,
+    shapes: ResponseShapes | None = None,
 ) -> dict:
     """Ideal responses fitted jointly to every group of targets whose chips overlap.
 
@@ -1101,8 +1166,8 @@ def _neighbour_models(
     estimated on its own chip, where the others' side lobes bias them) are refined by joint Gauss-Newton
     steps on the samples within 3 nulls of every member's peak (about two per null); groups that ideal
     responses fit poorly are refitted as response models (:func:`_refit_rich`). ``chirps``: (n_targets, ndim)
-    each target's known chirp, cycles/sample^2 (:func:`_ideal_response`; rows of zeros: none); ``period``: the
-    responses' periodic-sinc period per axis, nulls (None: sincs).
+    each target's known chirp, cycles/sample^2 (:func:`_ideal_response`; rows of zeros: none); ``shapes``: the
+    responses' known shapes (None: sincs).
     Returns {target index: _NeighbourModel} for members of groups of two or more.
     """
     nulls = np.asarray(nulls, dtype=float)
@@ -1110,7 +1175,7 @@ def _neighbour_models(
     for members in _overlapping_groups(peaks, np.asarray(half, dtype=float) + nulls, nulls):
         points, y, boxes = _group_samples(data, [peaks[k].position for k in members], nulls)
         own = None if chirps is None else [chirps[k] if np.any(chirps[k] != 0) else None for k in members]
-        fit = _fit_ideal_group(points, y, [peaks[k] for k in members], nulls, params, boxes, own, period)
+        fit = _fit_ideal_group(points, y, [peaks[k] for k in members], nulls, params, boxes, own, shapes)
         rich = _refit_rich(data, points, y, fit, members, nulls, params)
         for q, k in enumerate(members):
             models[k] = dataclasses.replace(fit[q], group=frozenset(members))
@@ -1181,7 +1246,7 @@ class _SampleBoxes:
         f_c: npt.ArrayLike,
         hamming: bool,
         chirp: npt.ArrayLike | None = None,
-        period: npt.ArrayLike | None = None,
+        shapes: ResponseShapes | None = None,
     ) -> np.ndarray:
         """A 3D ideal response (:func:`_ideal_response`) at the samples, from per-axis tables box by box
         (compiled; equal to rounding)."""
@@ -1198,7 +1263,7 @@ class _SampleBoxes:
             ridge,
             np.asarray(f_c, dtype=float),
             _zero_or(chirp, 3),
-            _zero_or(period, 3),
+            *_shape_args(shapes, 3),
             hamming,
         )
 
@@ -1211,13 +1276,13 @@ def _fit_ideal_group(
     params: EvaluateParams,
     boxes: _SampleBoxes | None = None,
     chirps: Sequence[np.ndarray | None] | None = None,
-    period: np.ndarray | None = None,
+    shapes: ResponseShapes | None = None,
 ) -> list:
     """Every member's ideal response fitted jointly to the samples ``y`` at ``points``: position, band centre
     and ridge skews by Gauss-Newton (at most 8 steps; linear convergence, about halving, on skewed supports),
     then the complex amplitudes by least squares; ``boxes``: where the samples came from (3D responses are then
     evaluated box by box); ``chirps``: each member's known chirp (cycles/sample^2 per axis, None: none), carried
-    by its response, not fitted; ``period``: the responses' periodic-sinc periods per axis (nulls; None: sincs).
+    by its response, not fitted; ``shapes``: the responses' known shapes (None: sincs).
     Returns one _NeighbourModel per member (group unset)."""
     hamming = params.irw_factor > 1.1
     ndim = points.shape[0]
@@ -1230,7 +1295,7 @@ def _fit_ideal_group(
     def model(q: int, p: np.ndarray | None = None, v: np.ndarray | None = None) -> np.ndarray:
         if boxes is not None and ndim == 3 and not params.exact:
             return boxes.ideal_response(
-                pos[q] if p is None else p, V[q] if v is None else v, nulls, f_c[q], hamming, chirp[q], period
+                pos[q] if p is None else p, V[q] if v is None else v, nulls, f_c[q], hamming, chirp[q], shapes
             )
         return _ideal_response(
             points,
@@ -1241,7 +1306,7 @@ def _fit_ideal_group(
             hamming,
             params.exact,
             chirp[q],
-            period,
+            shapes,
         )
 
     for _ in range(8):
@@ -1276,7 +1341,7 @@ def _fit_ideal_group(
     # How well ideal responses explain the group: a poor fit leaves the neighbours' side lobes in.
     misfit = float(np.sum(np.abs(y - basis @ amp) ** 2) / max(np.sum(np.abs(y) ** 2), 1e-300))
     return [
-        _NeighbourModel(pos[q], f_c[q], V[q], amp[q], frozenset(), misfit, nulls, chirp=chirp[q], period=period)
+        _NeighbourModel(pos[q], f_c[q], V[q], amp[q], frozenset(), misfit, nulls, chirp=chirp[q], shapes=shapes)
         for q in range(len(starts))
     ]
 
@@ -1777,6 +1842,7 @@ def evaluate_product(
             other_truth=truth_all[~keep],
             target_chirp=target_chirp(product, truth_all[keep], where),
             response_period=response_period(product, where),
+            response_table=response_table(product, where),
         )
     except InputError as exc:
         raise InputError(f"{where}{exc}") from None
@@ -1821,6 +1887,25 @@ def response_period(product: Product, where: str = "") -> np.ndarray | None:
     out = np.zeros(len(dims))
     out[dims.index("elevation")] = float(value)
     return out
+
+
+TABLE_ATTR = "range_response"  # the range response tabulated (real, centred, 1 at the peak), at TABLE_STEP_ATTR m
+
+
+TABLE_STEP_ATTR = "range_response_step"
+
+
+def response_table(product: Product, where: str = "") -> list | None:
+    """Per axis None or (values, step): the tabulated responses (evaluate_image's response_table), from the image
+    attributes TABLE_ATTR and TABLE_STEP_ATTR (array3d's range response); None without them."""
+    values = product.attrs.get(TABLE_ATTR)
+    if values is None:
+        return None
+    step = product.attrs.get(TABLE_STEP_ATTR)
+    dims = list(product.dims)
+    if "range" not in dims or step is None:
+        raise InputError(f"{where}image attribute {TABLE_ATTR!r} needs a range axis and {TABLE_STEP_ATTR!r}")
+    return [(np.asarray(values, dtype=float), float(step)) if d == "range" else None for d in dims]
 
 
 # ----------------------------------------------------------------------------------------------

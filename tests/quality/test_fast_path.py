@@ -12,6 +12,7 @@ from test_metrics import axis_coords, separable_image, sinc_psf
 
 from sarproc.quality.metrics import (
     EvaluateParams,
+    ResponseShapes,
     _ideal_response,
     evaluate_image,
     least_squares,
@@ -142,10 +143,23 @@ def test_compiled_box_responses_equal_pointwise():
         for org, shp in zip(origins, shapes)
     ]
     points, inverse = np.unique(np.concatenate(boxes, axis=1), axis=1, return_inverse=True)
-    for hamming, period in itertools.product((False, True), (np.zeros(3), np.array([6.0, 0.0, 0.0]))):
-        ref = kernels.ideal_response(points, position, ridge, f_c, chirp, period, hamming)
+    # a tabulated shape along the third ridge over +-1.5 nulls (the sinc beyond), 8 points per null
+    q = np.arange(-12, 13) / 8.0
+    tabled = np.stack([np.zeros(25), np.zeros(25), np.sinc(q) * (1 - 0.1 * q**2)])
+    plain = (np.zeros(3), np.zeros((3, 25)), np.zeros(3))
+    known = (np.array([6.0, 0.0, 0.0]), tabled, np.array([0.0, 0.0, 8.0]))
+    for hamming, (period, table, rate) in itertools.product((False, True), (plain, known)):
+        ref = kernels.ideal_response(points, position, ridge, f_c, chirp, period, table, rate, hamming)
         numpy_ref = _ideal_response(
-            points, position, V, [2.5, 1.7, 1.2], f_c, hamming, exact=True, chirp=chirp, period=period
+            points,
+            position,
+            V,
+            [2.5, 1.7, 1.2],
+            f_c,
+            hamming,
+            exact=True,
+            chirp=chirp,
+            shapes=ResponseShapes(period, table, rate),
         )
         np.testing.assert_allclose(ref, numpy_ref, rtol=0, atol=1e-13)
         got = kernels.ideal_response_boxes(
@@ -159,12 +173,17 @@ def test_compiled_box_responses_equal_pointwise():
             f_c,
             chirp,
             period,
+            table,
+            rate,
             hamming,
         )
         np.testing.assert_allclose(got, ref, rtol=0, atol=1e-14)
         box = kernels.ideal_response_box(
-            origins[1], step, shapes[1], position, ridge, f_c, chirp, period, hamming
+            origins[1], step, shapes[1], position, ridge, f_c, chirp, period, table, rate, hamming
         ).ravel()
         np.testing.assert_allclose(
-            box, kernels.ideal_response(boxes[1], position, ridge, f_c, chirp, period, hamming), rtol=0, atol=1e-14
+            box,
+            kernels.ideal_response(boxes[1], position, ridge, f_c, chirp, period, table, rate, hamming),
+            rtol=0,
+            atol=1e-14,
         )
