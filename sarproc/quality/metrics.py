@@ -990,9 +990,10 @@ def _subtract_neighbours(
         ]
         if not others or not abs(peak.value) > 0:
             continue
-        cleaned = raw.data.ravel() - sum(
-            models[j].values_on_box(raw.origin, shape, hamming, params.exact) for j in others
-        )
+        fitted = sum(models[j].values_on_box(raw.origin, shape, hamming, params.exact) for j in others)
+        if raw.clipped:  # the chip's zeros beyond the image edge stay zeros (a periodic model repeats there)
+            fitted = (fitted.reshape(raw.shape) * _inside_image(raw.origin, shape, data.shape)).ravel()
+        cleaned = raw.data.ravel() - fitted
         chip = _Chip(None, peak.index, half, chip=(cleaned.reshape(raw.shape), raw.clipped))
         pos, value = chip.refine_peak(peak.position)
         V, f_c = _support(chip, nulls, params)
@@ -1007,6 +1008,17 @@ def _subtract_neighbours(
             contaminating=tuple(models[j] for j in others if models[j].misfit > NEIGHBOUR_MISFIT),
         )
     return out
+
+
+def _inside_image(origin: np.ndarray, shape: np.ndarray, image_shape: Sequence[int]) -> np.ndarray:
+    """1 where the box ``origin + index`` of ``shape`` lies inside the image, 0 beyond its edges."""
+    mask = np.ones(tuple(int(n) for n in shape))
+    for a, (o, n, size) in enumerate(zip(origin.tolist(), shape.tolist(), image_shape)):
+        index = int(o) + np.arange(int(n))
+        view = [1] * len(shape)
+        view[a] = n
+        mask = mask * ((index >= 0) & (index < size)).reshape(view)
+    return mask
 
 
 WEIGHTED_PSLR_DB = -30.0  # a theoretical PSLR below this: a weighting window (Hamming -42.7 dB), not a taper
