@@ -2,7 +2,7 @@
 """Evaluate time against the time of the stage that made the image, before and after (issue 20 item 5).
 
 Makes the products of the make targets' small configs through the command line (demo, paper 000's small
-scene, paper 002's small scene through pfa2, paper 003's scene A-B-C, paper 004's cube, the two
+scene, paper 002's small scene through pfa2, paper 003's scene A-B-C and small scene, paper 004's cube, the two
 backprojection scenes), then times, interleaved in one run, the focusing stage and ``sarproc evaluate``
 of this tree and of a reference tree (``--reference``: a checkout of the code before), best of
 ``--repeats``; and compares the two reports number by number (largest relative difference).
@@ -39,6 +39,11 @@ CASES: dict[str, tuple[str, list[tuple[str, str | None]], list[str]]] = {
         "xu_scene.yaml",
         [("reconstruct", "xu_scene.yaml"), ("backproject", "xu_scene.yaml")],
         ["--config", str(CFG / "xu_scene.yaml")],
+    ),
+    "003 xu_small (reconstruct, backproject)": (
+        "xu_small.yaml",
+        [("reconstruct", "xu_small.yaml"), ("backproject", "xu_small.yaml")],
+        ["--config", str(CFG / "xu_small.yaml")],
     ),
     "004 du2010 cube (array3d)": ("du2010.yaml", [("array3d", "du2010.yaml")], []),
     "bp stripmap": ("bp_stripmap.yaml", [("backproject", "bp_stripmap.yaml")], []),

@@ -37,22 +37,49 @@ def orientation_density(
 
 
 @numba.njit(error_model="numpy", cache=CACHE)
-def _shape(q: float, hamming: bool) -> float:  # pragma: no cover - compiled
+def _shape(q: float, period: float, hamming: bool) -> float:  # pragma: no cover - compiled
     if hamming:
-        return 0.54 * _sinc(q) + 0.23 * (_sinc(q - 1.0) + _sinc(q + 1.0))
-    return _sinc(q)
+        return 0.54 * _sinc(q, period) + 0.23 * (_sinc(q - 1.0, period) + _sinc(q + 1.0, period))
+    return _sinc(q, period)
 
 
 @numba.njit(error_model="numpy", cache=CACHE)
-def _sinc(q: float) -> float:  # pragma: no cover - compiled
+def _sinc(q: float, period: float) -> float:  # pragma: no cover - compiled
+    """sin(pi q) / (pi q), or with a period P > 0 (nulls) the periodic sinc sin(pi q) / (P sin(pi q / P)) (the array
+    factor of P uniform receivers)."""
     if q == 0.0:
         return 1.0
+    if period > 0.0:
+        den = period * math.sin(math.pi * q / period)
+        if abs(den) < 1e-12:  # a grating lobe: the limit
+            return math.cos(math.pi * q) / math.cos(math.pi * q / period)
+        return math.sin(math.pi * q) / den
     return math.sin(math.pi * q) / (math.pi * q)
 
 
 @numba.njit(error_model="numpy", cache=CACHE)
+def _tabled(q: float, row: np.ndarray, rate: float) -> float:  # pragma: no cover - compiled
+    """The tabulated shape ``row`` (centred, ``rate`` points per null) at q nulls, linearly interpolated; NaN
+    beyond the table."""
+    t = q * rate + (row.shape[0] - 1) / 2.0
+    i = int(math.floor(t))
+    if i < 0 or i >= row.shape[0] - 1:
+        return math.nan
+    return row[i] + (t - i) * (row[i + 1] - row[i])
+
+
+@numba.njit(error_model="numpy", cache=CACHE)
 def _ideal_at(
-    points: np.ndarray, k: int, position: np.ndarray, ridge: np.ndarray, f_c: np.ndarray, hamming: bool
+    points: np.ndarray,
+    k: int,
+    position: np.ndarray,
+    ridge: np.ndarray,
+    f_c: np.ndarray,
+    chirp: np.ndarray,
+    period: np.ndarray,
+    table: np.ndarray,
+    rate: np.ndarray,
+    hamming: bool,
 ) -> complex:  # pragma: no cover - compiled
     ndim = points.shape[0]
     amp = 1.0
@@ -61,44 +88,64 @@ def _ideal_at(
         c = 0.0
         for b in range(ndim):
             c += ridge[a, b] * (points[b, k] - position[b])
-        amp *= _shape(c, hamming)
-        phase += f_c[a] * (points[a, k] - position[a])
+        v = _tabled(c, table[a], rate[a]) if rate[a] > 0.0 else math.nan
+        amp *= _shape(c, period[a], hamming) if math.isnan(v) else v
+        d = points[a, k] - position[a]
+        phase += f_c[a] * d + 0.5 * chirp[a] * d * d
     phase *= 2.0 * math.pi
     return complex(amp * math.cos(phase), amp * math.sin(phase))
 
 
 @numba.njit(error_model="numpy", cache=CACHE)
 def ideal_response_serial(
-    points: np.ndarray, position: np.ndarray, ridge: np.ndarray, f_c: np.ndarray, hamming: bool
+    points: np.ndarray,
+    position: np.ndarray,
+    ridge: np.ndarray,
+    f_c: np.ndarray,
+    chirp: np.ndarray,
+    period: np.ndarray,
+    table: np.ndarray,
+    rate: np.ndarray,
+    hamming: bool,
 ) -> np.ndarray:  # pragma: no cover - compiled
     """:func:`ideal_response` on one thread, for a few points (a cut line): a parallel launch costs more."""
     n = points.shape[1]
     out = np.empty(n, dtype=np.complex128)
     for k in range(n):
-        out[k] = _ideal_at(points, k, position, ridge, f_c, hamming)
+        out[k] = _ideal_at(points, k, position, ridge, f_c, chirp, period, table, rate, hamming)
     return out
 
 
 @numba.njit(error_model="numpy", parallel=True, cache=CACHE)
 def ideal_response(
-    points: np.ndarray, position: np.ndarray, ridge: np.ndarray, f_c: np.ndarray, hamming: bool
+    points: np.ndarray,
+    position: np.ndarray,
+    ridge: np.ndarray,
+    f_c: np.ndarray,
+    chirp: np.ndarray,
+    period: np.ndarray,
+    table: np.ndarray,
+    rate: np.ndarray,
+    hamming: bool,
 ) -> np.ndarray:  # pragma: no cover - compiled
-    """prod_a shape((ridge @ (x - position))_a) exp(2 pi i f_c . (x - position)) at each column x of
-    points (ndim, N): the ideal response of :func:`sarproc.quality.metrics._ideal_response`, ``ridge``
-    the matrix taking image-index offsets to ridge coordinates in nulls."""
+    """prod_a shape((ridge @ d)_a) exp(2 pi i f_c . d + pi i sum_a chirp_a d_a^2), d = x - position, at each
+    column x of points (ndim, N): the ideal response of :func:`sarproc.quality.metrics._ideal_response`,
+    ``ridge`` the matrix taking image-index offsets to ridge coordinates in nulls, shape the sinc (or, where
+    period_a > 0, the periodic sinc of that period in nulls) or its Hamming-weighted sum; where rate_a > 0 the
+    tabulated shape table[a] (centred, rate_a points per null) inside the table, that beyond it."""
     n = points.shape[1]
     out = np.empty(n, dtype=np.complex128)
     for k in numba.prange(n):
-        out[k] = _ideal_at(points, k, position, ridge, f_c, hamming)
+        out[k] = _ideal_at(points, k, position, ridge, f_c, chirp, period, table, rate, hamming)
     return out
 
 
 @numba.njit(error_model="numpy", cache=CACHE)
-def _grid_shape(s: float, q: float, hamming: bool) -> float:  # pragma: no cover - compiled
+def _grid_shape(s: float, q: float, period: float, hamming: bool) -> float:  # pragma: no cover - compiled
     """_shape(q) given s = sin(pi q) (sin(pi (q -+ 1)) = -s); near q = 0 from math.sin itself, where s / (pi q)
-    would lose digits to the rounding of s."""
-    if abs(q) < 1e-3:
-        return _shape(q, hamming)
+    would lose digits to the rounding of s; a periodic sinc (period > 0) from math.sin throughout."""
+    if abs(q) < 1e-3 or period > 0.0:
+        return _shape(q, period, hamming)
     value = s / (math.pi * q)
     if hamming:
         lo = 1.0 if q == 1.0 else -s / (math.pi * (q - 1.0))
@@ -109,10 +156,16 @@ def _grid_shape(s: float, q: float, hamming: bool) -> float:  # pragma: no cover
 
 @numba.njit(error_model="numpy", cache=CACHE)
 def _box_tables(
-    origin: np.ndarray, step: np.ndarray, shape: np.ndarray, position: np.ndarray, ridge: np.ndarray, f_c: np.ndarray
+    origin: np.ndarray,
+    step: np.ndarray,
+    shape: np.ndarray,
+    position: np.ndarray,
+    ridge: np.ndarray,
+    f_c: np.ndarray,
+    chirp: np.ndarray,
 ) -> tuple:  # pragma: no cover - compiled
     """Per-axis tables of a box: lin[a, b, i] = ridge[a, b] d_b, rot = exp(i pi lin), car[b, i] = exp(2 pi i
-    f_c[b] d_b), d_b = origin[b] + step[b] i - position[b]."""
+    (f_c[b] d_b + chirp[b] d_b^2 / 2)), d_b = origin[b] + step[b] i - position[b]."""
     longest = max(shape[0], max(shape[1], shape[2]))
     rot = np.empty((3, 3, longest), dtype=np.complex128)
     lin = np.empty((3, 3, longest))
@@ -120,7 +173,8 @@ def _box_tables(
     for b in range(3):
         for i in range(shape[b]):
             d = origin[b] + step[b] * i - position[b]
-            car[b, i] = complex(math.cos(2.0 * math.pi * f_c[b] * d), math.sin(2.0 * math.pi * f_c[b] * d))
+            t = 2.0 * math.pi * f_c[b] * d + math.pi * chirp[b] * d * d
+            car[b, i] = complex(math.cos(t), math.sin(t))
             for a in range(3):
                 lin[a, b, i] = ridge[a, b] * d
                 rot[a, b, i] = complex(math.cos(math.pi * lin[a, b, i]), math.sin(math.pi * lin[a, b, i]))
@@ -129,13 +183,23 @@ def _box_tables(
 
 @numba.njit(error_model="numpy", cache=CACHE)
 def _box_value(
-    lin: np.ndarray, rot: np.ndarray, car: np.ndarray, i: int, j: int, k: int, hamming: bool
+    lin: np.ndarray,
+    rot: np.ndarray,
+    car: np.ndarray,
+    i: int,
+    j: int,
+    k: int,
+    period: np.ndarray,
+    table: np.ndarray,
+    rate: np.ndarray,
+    hamming: bool,
 ) -> complex:  # pragma: no cover - compiled
     amp = 1.0
     for a in range(3):
         q = lin[a, 0, i] + lin[a, 1, j] + lin[a, 2, k]
         s = (rot[a, 0, i] * rot[a, 1, j] * rot[a, 2, k]).imag
-        amp *= _grid_shape(s, q, hamming)
+        v = _tabled(q, table[a], rate[a]) if rate[a] > 0.0 else math.nan
+        amp *= _grid_shape(s, q, period[a], hamming) if math.isnan(v) else v
     return amp * (car[0, i] * car[1, j] * car[2, k])
 
 
@@ -147,17 +211,21 @@ def ideal_response_box(
     position: np.ndarray,
     ridge: np.ndarray,
     f_c: np.ndarray,
+    chirp: np.ndarray,
+    period: np.ndarray,
+    table: np.ndarray,
+    rate: np.ndarray,
     hamming: bool,
 ) -> np.ndarray:  # pragma: no cover - compiled
     """:func:`ideal_response` of a 3D response on the image box origin + step * (i, j, k), i < shape[0] ...:
     the ridge coordinates are linear on the box, so sin(pi c_a) and the carrier are products of per-axis
     complex exponentials (9 + 3 short tables instead of 4 transcendental calls per sample; equal to rounding)."""
-    lin, rot, car = _box_tables(origin, step, shape, position, ridge, f_c)
+    lin, rot, car = _box_tables(origin, step, shape, position, ridge, f_c, chirp)
     out = np.empty((shape[0], shape[1], shape[2]), dtype=np.complex128)
     for i in numba.prange(shape[0]):
         for j in range(shape[1]):
             for k in range(shape[2]):
-                out[i, j, k] = _box_value(lin, rot, car, i, j, k, hamming)
+                out[i, j, k] = _box_value(lin, rot, car, i, j, k, period, table, rate, hamming)
     return out
 
 
@@ -171,6 +239,10 @@ def ideal_response_boxes(
     position: np.ndarray,
     ridge: np.ndarray,
     f_c: np.ndarray,
+    chirp: np.ndarray,
+    period: np.ndarray,
+    table: np.ndarray,
+    rate: np.ndarray,
     hamming: bool,
 ) -> np.ndarray:  # pragma: no cover - compiled
     """:func:`ideal_response_box` on several boxes (rows of origins, shapes) whose points, in order, are the
@@ -180,11 +252,11 @@ def ideal_response_boxes(
     n = 0
     for box in range(origins.shape[0]):
         shape = shapes[box]
-        lin, rot, car = _box_tables(origins[box], step, shape, position, ridge, f_c)
+        lin, rot, car = _box_tables(origins[box], step, shape, position, ridge, f_c, chirp)
         for i in range(shape[0]):
             for j in range(shape[1]):
                 for k in range(shape[2]):
-                    out[inverse[n]] = _box_value(lin, rot, car, i, j, k, hamming)
+                    out[inverse[n]] = _box_value(lin, rot, car, i, j, k, period, table, rate, hamming)
                     n += 1
     return out
 

@@ -621,13 +621,20 @@ def _ideal_response(
     f_c: npt.ArrayLike,
     hamming: bool,
     exact: bool = False,
+    chirp: npt.ArrayLike | None = None,
+    shapes: ResponseShapes | None = None,
 ) -> np.ndarray:
     """Ideal response at ``points`` ((ndim, N) image indices) of a target at ``position``, peak 1.
 
     The support is the parallelogram (parallelepiped) whose ridges are the rows of V (see
     :func:`principal_directions`) with null spacing ``nulls[a]`` along ridge a (measured along axis
-    a); the spectrum is flat (or Hamming) over it and centred on ``f_c`` (cycles/sample).
+    a); the spectrum is flat (or Hamming) over it and centred on ``f_c`` (cycles/sample). ``chirp``
+    (cycles/sample^2 per axis; default none): the response is also multiplied by exp(j pi sum_a chirp_a
+    d_a^2), d = x - position (a processor's matched filter longer than the aperture, as array3d's). ``shapes``
+    (:class:`ResponseShapes`; default none): known shapes along the ridges, periodic sincs and tabulated shapes.
     """
+    k = _zero_or(chirp, np.shape(points)[0])
+    per, table, rate = _shape_args(shapes, np.shape(points)[0])
     if not exact and len(V) == 3:
         from sarproc.quality import kernels  # numba: worth its loading time on 3D cubes only
 
@@ -638,12 +645,67 @@ def _ideal_response(
             np.asarray(position, dtype=float),
             ridge,
             np.asarray(f_c, dtype=float),
+            k,
+            per,
+            table,
+            rate,
             hamming,
         )
     x = points - np.asarray(position, dtype=float)[:, None]
     c = np.linalg.solve(V.T, x) / np.asarray(nulls, dtype=float)[:, None]  # ridge coordinates, nulls
-    shape_fn = (lambda q: 0.54 * np.sinc(q) + 0.23 * (np.sinc(q - 1) + np.sinc(q + 1))) if hamming else np.sinc
-    return np.prod(shape_fn(c), axis=0) * np.exp(2j * np.pi * (np.asarray(f_c) @ x))
+    amp = np.prod([_axis_shape_np(c[a], per[a], table[a], rate[a], hamming) for a in range(len(c))], axis=0)
+    phase = np.asarray(f_c) @ x
+    if np.any(k != 0):
+        phase = phase + 0.5 * (k @ x**2)
+    return amp * np.exp(2j * np.pi * phase)
+
+
+def _periodic_sinc(q: np.ndarray, period: float) -> np.ndarray:
+    """np.sinc(q), or with period > 0 (nulls) sin(pi q) / (P sin(pi q / P)) (its limit at the grating lobes)."""
+    if not period > 0:
+        return np.sinc(q)
+    den = period * np.sin(np.pi * q / period)
+    near = np.abs(den) < 1e-12
+    safe = np.where(near, 1.0, den)
+    return np.where(near, np.cos(np.pi * q) / np.cos(np.pi * q / period), np.sin(np.pi * q) / safe)
+
+
+def _axis_shape_np(q: np.ndarray, period: float, row: np.ndarray, rate: float, hamming: bool) -> np.ndarray:
+    """The shape along one ridge at q nulls: the tabulated ``row`` (``rate`` > 0, centred, linearly interpolated as
+    the compiled kernels do) inside the table, else the (periodic) sinc or its Hamming sum."""
+    base = _shape_np(q, period, hamming)
+    if not rate > 0:
+        return base
+    t = q * rate + (row.shape[0] - 1) / 2.0
+    i = np.floor(t).astype(np.int64)
+    inside = (i >= 0) & (i < row.shape[0] - 1)
+    j = np.where(inside, i, 0)
+    value = row[j] + (t - j) * (row[j + 1] - row[j])
+    return np.where(inside & ~np.isnan(value), value, base)
+
+
+@dataclasses.dataclass(frozen=True)
+class ResponseShapes:
+    """Known shapes of the responses along each axis (ridge), beyond the sinc: ``period`` (ndim,) the periodic
+    sinc's period in nulls (0: none); ``table`` (ndim, n) centred tabulated shapes, ``rate`` (ndim,) their points
+    per null (0: none)."""
+
+    period: np.ndarray
+    table: np.ndarray
+    rate: np.ndarray
+
+
+def _shape_args(shapes: ResponseShapes | None, ndim: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(period, table, rate) for the compiled kernels (zeros: sincs)."""
+    if shapes is None:
+        return np.zeros(ndim), np.zeros((ndim, 2)), np.zeros(ndim)
+    return shapes.period, shapes.table, shapes.rate
+
+
+def _shape_np(q: np.ndarray, period: float, hamming: bool) -> np.ndarray:
+    if hamming:
+        return 0.54 * _periodic_sinc(q, period) + 0.23 * (_periodic_sinc(q - 1, period) + _periodic_sinc(q + 1, period))
+    return _periodic_sinc(q, period)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -671,6 +733,9 @@ def evaluate_image(
     target_null: npt.ArrayLike | None = None,
     target_sidelobes: npt.ArrayLike | None = None,
     other_truth: np.ndarray | Sequence[Sequence[float]] | None = None,
+    target_chirp: npt.ArrayLike | None = None,
+    response_period: npt.ArrayLike | None = None,
+    response_table: Sequence[tuple[np.ndarray, float] | None] | None = None,
 ) -> QualityReport:
     """Measure every target of a 2D (azimuth, range) or 3D (elevation, azimuth, range) image.
 
@@ -690,8 +755,16 @@ def evaluate_image(
     (NaN: its IRW / irw_factor), so a weighted target's ISLR window is +-islr_nulls of its bandwidth;
     target_sidelobes: optional (n_targets, ndim, 2) its theoretical PSLR and ISLR, dB (NaN: not
     recorded). other_truth: (n, ndim) positions of targets not measured (a subset was asked for):
-    their neighbourhoods are kept out of the false-target search like the measured ones'. Raises
-    InputError.
+    their neighbourhoods are kept out of the false-target search like the measured ones'. target_chirp:
+    optional (n_targets, ndim) chirp rate k of each target's response per axis, axis units^-2: the response
+    is its ideal one times exp(j pi sum_a k_a (x_a - x0_a)^2) about its own peak (array3d's azimuth matched
+    filter, longer than the aperture, leaves k = 2 / (lambda r)); the neighbour models carry it (0 or NaN:
+    none). response_period: optional (ndim,) period of the responses along each axis, axis units (0 or NaN:
+    none): their shape there is the periodic sinc of that period, the array factor of uniform receivers (array3d's
+    elevation, period lambda / d); the neighbour models carry it. response_table: optional, per axis None or
+    (values, step): the responses' shape along that axis tabulated (real, centred on the peak, value 1 there) at
+    ``step`` axis units (array3d's range response, the autocorrelation of the chirp under its matched filter); the
+    neighbour models take it inside the table, their sinc beyond. Raises InputError.
 
     Steps: :func:`_find_peak` per target (pass 1: peak and support on the image's chip),
     :func:`_subtract_neighbours` (pass 2: the groups' fitted responses off each chip, peak and support again),
@@ -715,7 +788,9 @@ def evaluate_image(
         _find_peak(data, mag, axes, name, t, half, nulls, params) for name, t in wrapped(done, list(zip(names, truth)))
     ]
     if params.remove_neighbours:
-        peaks = _subtract_neighbours(data, peaks, names, nulls, half, params, done)
+        chirps = _chirps_in_samples(target_chirp, axes, len(names))
+        shapes = _response_shapes(response_period, response_table, axes)
+        peaks = _subtract_neighbours(data, peaks, names, nulls, half, params, done, chirps, shapes)
     reports = [
         _measure(peak, own, t, name, params, metric)
         for peak, name, t, own in wrapped(done, list(zip(peaks, names, truth, own_axes)))
@@ -736,6 +811,62 @@ def evaluate_image(
         false_target_guard=guard,
         residual=floor,
     )
+
+
+def _chirps_in_samples(target_chirp: npt.ArrayLike | None, axes: Sequence[_Axis], n_targets: int) -> np.ndarray | None:
+    """target_chirp (axis units^-2) in cycles/sample^2, NaN as 0; None where absent or all zero."""
+    if target_chirp is None:
+        return None
+    k = np.asarray(target_chirp, dtype=float)
+    if k.shape != (n_targets, len(axes)):
+        raise InputError(f"target_chirp has shape {k.shape}; expected ({n_targets}, {len(axes)})")
+    k = np.where(np.isnan(k), 0.0, k)
+    if not np.all(np.isfinite(k)):
+        raise InputError("target_chirp values must be finite (or NaN: none)")
+    k = k * np.array([ax.step**2 for ax in axes])[None, :]
+    return k if np.any(k != 0) else None
+
+
+def _response_shapes(
+    response_period: npt.ArrayLike | None,
+    response_table: Sequence[tuple[np.ndarray, float] | None] | None,
+    axes: Sequence[_Axis],
+) -> ResponseShapes | None:
+    """evaluate_image's response_period and response_table in nulls (ResponseShapes); None where both are absent."""
+    period = _period_in_nulls(response_period, axes)
+    if response_table is None or all(t is None for t in response_table):
+        return None if period is None else ResponseShapes(period, np.zeros((len(axes), 2)), np.zeros(len(axes)))
+    if len(response_table) != len(axes):
+        raise InputError(f"response_table has {len(response_table)} entries; expected one per axis ({len(axes)})")
+    rows = [np.zeros(1) if t is None else np.asarray(t[0], dtype=float).ravel() for t in response_table]
+    n = max(len(r) for r in rows)
+    table = np.zeros((len(axes), n + (n + 1) % 2))
+    rate = np.zeros(len(axes))
+    for a, (t, row) in enumerate(zip(response_table, rows)):
+        if t is None:
+            continue
+        if len(row) < 3 or len(row) % 2 == 0 or not (np.all(np.isfinite(row)) and np.isfinite(t[1]) and t[1] > 0):
+            raise InputError(f"response_table[{a}]: expected an odd number (>= 3) of finite values and a positive step")
+        pad = (table.shape[1] - len(row)) // 2
+        table[a, pad : pad + len(row)] = row
+        table[a, :pad] = np.nan  # beyond this axis' table: the sinc (the kernels' NaN)
+        table[a, pad + len(row) :] = np.nan
+        rate[a] = axes[a].null * abs(axes[a].step) / float(t[1])
+    return ResponseShapes(np.zeros(len(axes)) if period is None else period, table, rate)
+
+
+def _period_in_nulls(response_period: npt.ArrayLike | None, axes: Sequence[_Axis]) -> np.ndarray | None:
+    """response_period (axis units) in each axis' nulls, NaN as 0; None where absent or all zero."""
+    if response_period is None:
+        return None
+    p = np.asarray(response_period, dtype=float)
+    if p.shape != (len(axes),):
+        raise InputError(f"response_period has shape {p.shape}; expected ({len(axes)},)")
+    p = np.where(np.isnan(p), 0.0, p)
+    if not np.all(np.isfinite(p) & (p >= 0)):
+        raise InputError("response_period values must be positive and finite, 0 or NaN (none)")
+    p = p / np.array([abs(ax.step) * ax.null for ax in axes])
+    return p if np.any(p != 0) else None
 
 
 def _checked_inputs(
@@ -838,11 +969,14 @@ def _subtract_neighbours(
     half: Sequence[int],
     params: EvaluateParams,
     done: Callable[[], None],
+    chirps: np.ndarray | None = None,
+    shapes: ResponseShapes | None = None,
 ) -> list:
     """Pass 2: the ideal responses of every group of targets whose chips overlap are fitted jointly to the
     image; each target's chip loses the other members' fitted responses, and its peak and support are found
-    again on it. ``done``: the progress steps (one per target)."""
-    models = _neighbour_models(data, peaks, nulls, half, params)
+    again on it. ``done``: the progress steps (one per target); ``chirps``: each target's known chirp
+    and the responses' known shapes (:func:`_neighbour_models`)."""
+    models = _neighbour_models(data, peaks, nulls, half, params, chirps, shapes)
     hamming = params.irw_factor > 1.1
     out = list(peaks)
     for i, peak in wrapped(done, list(enumerate(peaks))):
@@ -856,9 +990,10 @@ def _subtract_neighbours(
         ]
         if not others or not abs(peak.value) > 0:
             continue
-        cleaned = raw.data.ravel() - sum(
-            models[j].values_on_box(raw.origin, shape, hamming, params.exact) for j in others
-        )
+        fitted = sum(models[j].values_on_box(raw.origin, shape, hamming, params.exact) for j in others)
+        if raw.clipped:  # the chip's zeros beyond the image edge stay zeros (a periodic model repeats there)
+            fitted = (fitted.reshape(raw.shape) * _inside_image(raw.origin, shape, data.shape)).ravel()
+        cleaned = raw.data.ravel() - fitted
         chip = _Chip(None, peak.index, half, chip=(cleaned.reshape(raw.shape), raw.clipped))
         pos, value = chip.refine_peak(peak.position)
         V, f_c = _support(chip, nulls, params)
@@ -873,6 +1008,17 @@ def _subtract_neighbours(
             contaminating=tuple(models[j] for j in others if models[j].misfit > NEIGHBOUR_MISFIT),
         )
     return out
+
+
+def _inside_image(origin: np.ndarray, shape: np.ndarray, image_shape: Sequence[int]) -> np.ndarray:
+    """1 where the box ``origin + index`` of ``shape`` lies inside the image, 0 beyond its edges."""
+    mask = np.ones(tuple(int(n) for n in shape))
+    for a, (o, n, size) in enumerate(zip(origin.tolist(), shape.tolist(), image_shape)):
+        index = int(o) + np.arange(int(n))
+        view = [1] * len(shape)
+        view[a] = n
+        mask = mask * ((index >= 0) & (index < size)).reshape(view)
+    return mask
 
 
 WEIGHTED_PSLR_DB = -30.0  # a theoretical PSLR below this: a weighting window (Hamming -42.7 dB), not a taper
@@ -969,13 +1115,15 @@ class _NeighbourModel:
     misfit: float  # the group fit's residual energy / the fitted samples' energy
     nulls: np.ndarray  # null spacing 1/B per axis, samples
     rich: dict | None = None  # the response model (fit_response_models) where it fitted better
+    chirp: np.ndarray | None = None  # its known chirp, cycles/sample^2 per axis (_ideal_response); None: none
+    shapes: ResponseShapes | None = None  # known shapes along the ridges (_ideal_response); None: sincs
 
     def values(self, points: npt.ArrayLike, hamming: bool, exact: bool = False) -> np.ndarray:
         """The fitted neighbour at ``points`` ((ndim, N) image indices)."""
         if self.rich:
             return _rich_values(points, self.rich)
         return self.amplitude * _ideal_response(
-            points, self.position, self.ridges, self.nulls, self.band_centre, hamming, exact
+            points, self.position, self.ridges, self.nulls, self.band_centre, hamming, exact, self.chirp, self.shapes
         )
 
     def values_on_box(
@@ -994,11 +1142,17 @@ class _NeighbourModel:
                 np.asarray(self.position, dtype=float),
                 ridge,
                 np.asarray(self.band_centre, dtype=float),
+                _zero_or(self.chirp, 3),
+                *_shape_args(self.shapes, 3),
                 hamming,
             )
             return self.amplitude * box.ravel()
         grid = np.meshgrid(*[np.arange(n) + o for n, o in zip(shape, origin)], indexing="ij")
         return self.values(np.stack([g.ravel() for g in grid], axis=0).astype(float), hamming, exact)
+
+
+def _zero_or(values: npt.ArrayLike | None, ndim: int) -> np.ndarray:
+    return np.zeros(ndim) if values is None else np.asarray(values, dtype=float)
 
 
 def _rich_values(points: npt.ArrayLike, rich: dict) -> np.ndarray:
@@ -1010,21 +1164,30 @@ def _rich_values(points: npt.ArrayLike, rich: dict) -> np.ndarray:
 
 
 def _neighbour_models(
-    data: np.ndarray, peaks: list, nulls: npt.ArrayLike, half: Sequence[int], params: EvaluateParams
+    data: np.ndarray,
+    peaks: list,
+    nulls: npt.ArrayLike,
+    half: Sequence[int],
+    params: EvaluateParams,
+    chirps: np.ndarray | None = None,
+    shapes: ResponseShapes | None = None,
 ) -> dict:
     """Ideal responses fitted jointly to every group of targets whose chips overlap.
 
     Each member gets a complex amplitude, and its position, band centre and ridge directions (first
     estimated on its own chip, where the others' side lobes bias them) are refined by joint Gauss-Newton
     steps on the samples within 3 nulls of every member's peak (about two per null); groups that ideal
-    responses fit poorly are refitted as response models (:func:`_refit_rich`).
+    responses fit poorly are refitted as response models (:func:`_refit_rich`). ``chirps``: (n_targets, ndim)
+    each target's known chirp, cycles/sample^2 (:func:`_ideal_response`; rows of zeros: none); ``shapes``: the
+    responses' known shapes (None: sincs).
     Returns {target index: _NeighbourModel} for members of groups of two or more.
     """
     nulls = np.asarray(nulls, dtype=float)
     models = {}
     for members in _overlapping_groups(peaks, np.asarray(half, dtype=float) + nulls, nulls):
         points, y, boxes = _group_samples(data, [peaks[k].position for k in members], nulls)
-        fit = _fit_ideal_group(points, y, [peaks[k] for k in members], nulls, params, boxes)
+        own = None if chirps is None else [chirps[k] if np.any(chirps[k] != 0) else None for k in members]
+        fit = _fit_ideal_group(points, y, [peaks[k] for k in members], nulls, params, boxes, own, shapes)
         rich = _refit_rich(data, points, y, fit, members, nulls, params)
         for q, k in enumerate(members):
             models[k] = dataclasses.replace(fit[q], group=frozenset(members))
@@ -1088,7 +1251,14 @@ class _SampleBoxes:
     count: int
 
     def ideal_response(
-        self, position: npt.ArrayLike, V: npt.ArrayLike, nulls: npt.ArrayLike, f_c: npt.ArrayLike, hamming: bool
+        self,
+        position: npt.ArrayLike,
+        V: npt.ArrayLike,
+        nulls: npt.ArrayLike,
+        f_c: npt.ArrayLike,
+        hamming: bool,
+        chirp: npt.ArrayLike | None = None,
+        shapes: ResponseShapes | None = None,
     ) -> np.ndarray:
         """A 3D ideal response (:func:`_ideal_response`) at the samples, from per-axis tables box by box
         (compiled; equal to rounding)."""
@@ -1104,6 +1274,8 @@ class _SampleBoxes:
             np.asarray(position, dtype=float),
             ridge,
             np.asarray(f_c, dtype=float),
+            _zero_or(chirp, 3),
+            *_shape_args(shapes, 3),
             hamming,
         )
 
@@ -1115,23 +1287,38 @@ def _fit_ideal_group(
     nulls: np.ndarray,
     params: EvaluateParams,
     boxes: _SampleBoxes | None = None,
+    chirps: Sequence[np.ndarray | None] | None = None,
+    shapes: ResponseShapes | None = None,
 ) -> list:
     """Every member's ideal response fitted jointly to the samples ``y`` at ``points``: position, band centre
     and ridge skews by Gauss-Newton (at most 8 steps; linear convergence, about halving, on skewed supports),
     then the complex amplitudes by least squares; ``boxes``: where the samples came from (3D responses are then
-    evaluated box by box). Returns one _NeighbourModel per member (group unset)."""
+    evaluated box by box); ``chirps``: each member's known chirp (cycles/sample^2 per axis, None: none), carried
+    by its response, not fitted; ``shapes``: the responses' known shapes (None: sincs).
+    Returns one _NeighbourModel per member (group unset)."""
     hamming = params.irw_factor > 1.1
     ndim = points.shape[0]
     skew = [(a, b) for a in range(ndim) for b in range(ndim) if a != b]  # free entries of V
     pos = [np.array(p.position, dtype=float) for p in starts]
     f_c = [np.array(p.band_centre, dtype=float) for p in starts]
     V = [np.array(p.ridges, dtype=float) for p in starts]
+    chirp = list(chirps) if chirps is not None else [None] * len(starts)
 
     def model(q: int, p: np.ndarray | None = None, v: np.ndarray | None = None) -> np.ndarray:
         if boxes is not None and ndim == 3 and not params.exact:
-            return boxes.ideal_response(pos[q] if p is None else p, V[q] if v is None else v, nulls, f_c[q], hamming)
+            return boxes.ideal_response(
+                pos[q] if p is None else p, V[q] if v is None else v, nulls, f_c[q], hamming, chirp[q], shapes
+            )
         return _ideal_response(
-            points, pos[q] if p is None else p, V[q] if v is None else v, nulls, f_c[q], hamming, params.exact
+            points,
+            pos[q] if p is None else p,
+            V[q] if v is None else v,
+            nulls,
+            f_c[q],
+            hamming,
+            params.exact,
+            chirp[q],
+            shapes,
         )
 
     for _ in range(8):
@@ -1165,7 +1352,10 @@ def _fit_ideal_group(
     amp = least_squares(basis, y, params.exact)
     # How well ideal responses explain the group: a poor fit leaves the neighbours' side lobes in.
     misfit = float(np.sum(np.abs(y - basis @ amp) ** 2) / max(np.sum(np.abs(y) ** 2), 1e-300))
-    return [_NeighbourModel(pos[q], f_c[q], V[q], amp[q], frozenset(), misfit, nulls) for q in range(len(starts))]
+    return [
+        _NeighbourModel(pos[q], f_c[q], V[q], amp[q], frozenset(), misfit, nulls, chirp=chirp[q], shapes=shapes)
+        for q in range(len(starts))
+    ]
 
 
 def _refit_rich(
@@ -1662,10 +1852,72 @@ def evaluate_product(
             target_null=field("null")[keep],
             target_sidelobes=lobes[keep],
             other_truth=truth_all[~keep],
+            target_chirp=target_chirp(product, truth_all[keep], where),
+            response_period=response_period(product, where),
+            response_table=response_table(product, where),
         )
     except InputError as exc:
         raise InputError(f"{where}{exc}") from None
     return dataclasses.replace(report, movers=mover_reports(product, table, report, source))
+
+
+CHIRP_ATTR = "azimuth_chirp_times_range"  # 1/m: the azimuth response of a target at slant range r carries
+# exp(j pi (value / r) (x - x0)^2), x along track in m (array3d: 2 / lambda; see its attribute's note)
+
+
+def target_chirp(product: Product, truth: np.ndarray, where: str = "") -> np.ndarray | None:
+    """(n_targets, ndim) chirp rate of each target's response per axis, axis units^-2 (evaluate_image's
+    target_chirp), from the image attribute CHIRP_ATTR and each target's slant range; None without it."""
+    value = product.attrs.get(CHIRP_ATTR)
+    if value is None:
+        return None
+    dims = list(product.dims)
+    if "azimuth" not in dims or "range" not in dims or not (np.isfinite(value) and value > 0):
+        raise InputError(
+            f"{where}image attribute {CHIRP_ATTR!r} = {value!r} needs azimuth and range axes and a positive value"
+        )
+    out = np.zeros(truth.shape)
+    out[:, dims.index("azimuth")] = float(value) / truth[:, dims.index("range")]
+    return out
+
+
+PERIOD_ATTR = "elevation_period"  # rad: the elevation response is the periodic sinc of this period (array3d's
+# uniform array: its array factor, period lambda / d in sin(theta), taken as theta near nadir)
+
+
+def response_period(product: Product, where: str = "") -> np.ndarray | None:
+    """(ndim,) period of the responses per axis, axis units (evaluate_image's response_period), from the image
+    attribute PERIOD_ATTR; None without it."""
+    value = product.attrs.get(PERIOD_ATTR)
+    if value is None:
+        return None
+    dims = list(product.dims)
+    if "elevation" not in dims or not (np.isfinite(value) and value > 0):
+        raise InputError(
+            f"{where}image attribute {PERIOD_ATTR!r} = {value!r} needs an elevation axis and a positive value"
+        )
+    out = np.zeros(len(dims))
+    out[dims.index("elevation")] = float(value)
+    return out
+
+
+TABLE_ATTR = "range_response"  # the range response tabulated (real, centred, 1 at the peak), at TABLE_STEP_ATTR m
+
+
+TABLE_STEP_ATTR = "range_response_step"
+
+
+def response_table(product: Product, where: str = "") -> list | None:
+    """Per axis None or (values, step): the tabulated responses (evaluate_image's response_table), from the image
+    attributes TABLE_ATTR and TABLE_STEP_ATTR (array3d's range response); None without them."""
+    values = product.attrs.get(TABLE_ATTR)
+    if values is None:
+        return None
+    step = product.attrs.get(TABLE_STEP_ATTR)
+    dims = list(product.dims)
+    if "range" not in dims or step is None:
+        raise InputError(f"{where}image attribute {TABLE_ATTR!r} needs a range axis and {TABLE_STEP_ATTR!r}")
+    return [(np.asarray(values, dtype=float), float(step)) if d == "range" else None for d in dims]
 
 
 # ----------------------------------------------------------------------------------------------

@@ -4,12 +4,20 @@ report as the reference path (EvaluateParams(exact=True): SVD least squares, ful
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 
 import numpy as np
 from test_metrics import axis_coords, separable_image, sinc_psf
 
-from sarproc.quality.metrics import EvaluateParams, evaluate_image, least_squares, principal_directions
+from sarproc.quality.metrics import (
+    EvaluateParams,
+    ResponseShapes,
+    _ideal_response,
+    evaluate_image,
+    least_squares,
+    principal_directions,
+)
 
 
 def _floats(d, prefix=""):
@@ -125,6 +133,7 @@ def test_compiled_box_responses_equal_pointwise():
     V = np.eye(3) + 0.05 * rng.standard_normal((3, 3))
     ridge = np.linalg.inv(V.T) / np.array([2.5, 1.7, 1.2])[:, None]
     position, f_c = np.array([7.0, 5.3, 4.0]), np.array([0.11, -0.27, 0.43])  # integer coordinates: c = 0 there
+    chirp = np.array([0.008, -0.011, 0.003])  # cycles/sample^2 (array3d's azimuth chirp is 0.008)
     origins, shapes = np.array([[0.0, 1.0, 2.0], [3.0, 1.0, 0.0]]), np.array([[7, 6, 5], [5, 8, 6]])
     step = np.array([2.0, 1.0, 1.0])
     boxes = [
@@ -134,13 +143,47 @@ def test_compiled_box_responses_equal_pointwise():
         for org, shp in zip(origins, shapes)
     ]
     points, inverse = np.unique(np.concatenate(boxes, axis=1), axis=1, return_inverse=True)
-    for hamming in (False, True):
-        ref = kernels.ideal_response(points, position, ridge, f_c, hamming)
+    # a tabulated shape along the third ridge over +-1.5 nulls (the sinc beyond), 8 points per null
+    q = np.arange(-12, 13) / 8.0
+    tabled = np.stack([np.zeros(25), np.zeros(25), np.sinc(q) * (1 - 0.1 * q**2)])
+    plain = (np.zeros(3), np.zeros((3, 25)), np.zeros(3))
+    known = (np.array([6.0, 0.0, 0.0]), tabled, np.array([0.0, 0.0, 8.0]))
+    for hamming, (period, table, rate) in itertools.product((False, True), (plain, known)):
+        ref = kernels.ideal_response(points, position, ridge, f_c, chirp, period, table, rate, hamming)
+        numpy_ref = _ideal_response(
+            points,
+            position,
+            V,
+            [2.5, 1.7, 1.2],
+            f_c,
+            hamming,
+            exact=True,
+            chirp=chirp,
+            shapes=ResponseShapes(period, table, rate),
+        )
+        np.testing.assert_allclose(ref, numpy_ref, rtol=0, atol=1e-13)
         got = kernels.ideal_response_boxes(
-            origins, step, shapes, inverse.ravel().astype(np.int64), points.shape[1], position, ridge, f_c, hamming
+            origins,
+            step,
+            shapes,
+            inverse.ravel().astype(np.int64),
+            points.shape[1],
+            position,
+            ridge,
+            f_c,
+            chirp,
+            period,
+            table,
+            rate,
+            hamming,
         )
         np.testing.assert_allclose(got, ref, rtol=0, atol=1e-14)
-        box = kernels.ideal_response_box(origins[1], step, shapes[1], position, ridge, f_c, hamming).ravel()
+        box = kernels.ideal_response_box(
+            origins[1], step, shapes[1], position, ridge, f_c, chirp, period, table, rate, hamming
+        ).ravel()
         np.testing.assert_allclose(
-            box, kernels.ideal_response(boxes[1], position, ridge, f_c, hamming), rtol=0, atol=1e-14
+            box,
+            kernels.ideal_response(boxes[1], position, ridge, f_c, chirp, period, table, rate, hamming),
+            rtol=0,
+            atol=1e-14,
         )

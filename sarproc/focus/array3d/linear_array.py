@@ -567,14 +567,29 @@ def array3d_product(
     ``channel_image`` (1-based receiver number, as the paper's "14th receiver") also returns the
     2D ``image`` of that channel before elevation compression (paper Fig. 5), else None.
     Returns (cube product, channel product or None).
+
+    Steps: :func:`_checked_raw`, :func:`focus_array3d`, :func:`_cube_product` (elevation ambiguities,
+    history, each target's theory), :func:`_channel_product`.
     """
-    import logging
+    _checked_raw(raw, channel_image)
+    res = focus_array3d(
+        raw.data,
+        raw.coords["range_time"],
+        raw.aux["platform_position"],
+        raw.aux["tx_offset"],
+        raw.aux["rx_offset"],
+        raw.radar,
+        params,
+        keep_channel_images=channel_image is not None,
+        progress=progress,
+    )
+    cube = _cube_product(raw, res, params, command)
+    chan = None if channel_image is None else _channel_product(raw, res, params, channel_image, command)
+    return cube, chan
 
-    from sarproc.focus.array3d.ambiguity import elevation_ambiguities
-    from sarproc.product.config import as_dict
-    from sarproc.product.frames import ElevationFrame, SquintFrame, targets_in_frame
-    from sarproc.product.io import history_entry
 
+def _checked_raw(raw: Product, channel_image: int | None) -> None:
+    """Refuse a product array3d cannot focus (InputError naming the key)."""
     if raw.kind != "raw_array":
         raise InputError(f"array3d needs a raw_array product, got {raw.kind!r}")
     if tuple(raw.dims) != ("channel", "azimuth_time", "range_time"):
@@ -587,17 +602,83 @@ def array3d_product(
     n_ch = raw.data.shape[0]
     if channel_image is not None and not 1 <= channel_image <= n_ch:
         raise InputError(f"--channel-image {channel_image}: receivers are numbered 1..{n_ch}")
-    res = focus_array3d(
-        raw.data,
-        raw.coords["range_time"],
-        raw.aux["platform_position"],
-        raw.aux["tx_offset"],
-        raw.aux["rx_offset"],
-        raw.radar,
-        params,
-        keep_channel_images=channel_image is not None,
-        progress=progress,
-    )
+
+
+AZIMUTH_CHIRP_NOTE = (
+    "the azimuth matched filter exp(-j pi f^2 / K_a) of eq. (17) spans the whole azimuth FFT band, so a target "
+    "seen over a finite aperture (the beam's) focuses to its aperture's sinc times exp(j pi K_a (x - x0)^2) about "
+    "its own peak, K_a = 2 / (lambda r): azimuth_chirp_times_range = 2 / lambda (1/m), K_a = value / r "
+    "(the magnitude is the sinc's; the phase matters to a neighbour's side lobes)"
+)
+
+
+def _chirp_attrs(radar: RadarMetadata) -> dict:
+    """The azimuth chirp every response carries (AZIMUTH_CHIRP_NOTE), for the cube and the channel images."""
+    return {"azimuth_chirp_times_range": 2.0 / radar.wavelength, "azimuth_chirp_note": AZIMUTH_CHIRP_NOTE}
+
+
+def _period_attrs(raw: Product) -> dict:
+    """A uniform array's elevation response is its array factor, periodic in sin(theta) with period lambda / d:
+    recorded so that evaluate's neighbour models follow it (a sinc departs from it by 20 % nine nulls out
+    with 28 receivers)."""
+    geom = array_geometry(raw.aux["tx_offset"], raw.aux["rx_offset"])
+    if not geom.uniform:
+        return {}
+    return {
+        "elevation_period": raw.radar.wavelength / geom.spacing,
+        "elevation_period_note": (
+            "uniform receivers: the elevation response is the array factor sin(pi q) / (N sin(pi q / N)), q in "
+            "nulls lambda / (N d), periodic in sin(theta) with period lambda / d (rad near nadir)"
+        ),
+    }
+
+
+RANGE_TABLE_OVERSAMPLING = 32  # table points per range sample (linear interpolation: 2e-4 of the peak)
+RANGE_TABLE_SAMPLES = 40  # half-width of the table, range samples (a chip reaches 10 + 2 nulls, 15 samples)
+
+
+def range_response(radar: RadarMetadata, n_range: int, kind: str) -> tuple[np.ndarray, float]:
+    """The range response of a point target after :func:`range_compress` (``kind``), tabulated: (values, step in
+    m), real, centred on the peak (1 there), RANGE_TABLE_OVERSAMPLING points per sample over +-RANGE_TABLE_SAMPLES
+    samples. Matched: the chirp's autocorrelation, whose far side lobes are not a sinc's (the 1 us, 375 MHz chirp
+    of paper 004: -31...-35 dB of the peak 10-18 samples out, where the sinc has nulls); flat: the rect's sinc."""
+    n_fft = replica_fft_size(radar, n_range)
+    spec_h = replica_spectrum(radar, n_fft)
+    if kind == "matched":
+        weight = np.abs(spec_h) ** 2
+    else:
+        weight = (np.abs(sfft.fftfreq(n_fft, 1.0 / radar.range_sampling_rate)) <= radar.bandwidth / 2).astype(float)
+    k = sfft.fftfreq(n_fft)  # cycles per range sample
+    m = np.arange(-RANGE_TABLE_SAMPLES * RANGE_TABLE_OVERSAMPLING, RANGE_TABLE_SAMPLES * RANGE_TABLE_OVERSAMPLING + 1)
+    x = m / RANGE_TABLE_OVERSAMPLING  # range samples
+    r = np.cos(2 * np.pi * np.outer(x, k)) @ weight  # the spectrum's even part (its odd part is 1e-5 of the peak)
+    step = C / (2 * radar.range_sampling_rate) / RANGE_TABLE_OVERSAMPLING
+    return r / r[len(x) // 2], step
+
+
+def _range_response_attrs(raw: Product, params: Array3DParams) -> dict:
+    """The range response (:func:`range_response`), for evaluate's neighbour models."""
+    values, step = range_response(raw.radar, raw.data.shape[-1], params.range_filter)
+    return {
+        "range_response": [float(v) for v in values],
+        "range_response_step": step,
+        "range_response_note": (
+            f"a point target's range response after range compression ({params.range_filter} filter), real, "
+            "centred on its peak (1 there), every range_response_step m"
+        ),
+    }
+
+
+def _cube_product(raw: Product, res: Array3DResult, params: Array3DParams, command: str) -> Product:
+    """The ``image3d`` product of a focused cube: elevation ambiguities warned and recorded, each target's
+    theory in its table, the azimuth chirp of its responses."""
+    import logging
+
+    from sarproc.focus.array3d.ambiguity import elevation_ambiguities
+    from sarproc.product.config import as_dict
+    from sarproc.product.frames import ElevationFrame, targets_in_frame
+    from sarproc.product.io import history_entry
+
     frame = ElevationFrame(raw.radar.altitude)
     ambiguities = elevation_ambiguities(
         res.cube,
@@ -623,7 +704,7 @@ def array3d_product(
             res.channel_irw,
         ),
     )
-    cube = raw.derive(
+    return raw.derive(
         "image3d",
         res.cube,
         ("elevation", "azimuth", "range"),
@@ -638,36 +719,47 @@ def array3d_product(
                 "offsets (0.886 lambda / (N d) for many receivers), azimuth = 0.886 / (4 sin(beta_az/2) "
                 "/ lambda) (rect beam; PRF/v without a beam), range = 0.886 c / (2 B)"
             ),
+            **_chirp_attrs(raw.radar),
+            **_period_attrs(raw),
+            **_range_response_attrs(raw, params),
         },
         history=list(raw.history) + [entry],
     )
-    chan = None
-    if channel_image is not None:
-        assert res.channel_images is not None  # kept because channel_image is set
-        f2 = SquintFrame(0.0, raw.radar.altitude)  # zero-Doppler: (x, slant range from the track)
-        chan = raw.derive(
-            "image",
-            res.channel_images[channel_image - 1],
-            ("azimuth", "range"),
-            {"azimuth": res.azimuth, "range": res.range},
-            targets=targets_in_frame(raw.targets, f2),
-            attrs={
-                "frame": f2.spec,
-                "theoretical_irw": [float(x) for x in res.channel_irw],
-                "axis_units": ["m", "m"],
-                "channel": int(channel_image),
-                "rx_offset": [float(x) for x in np.asarray(raw.aux["rx_offset"])[channel_image - 1]],
-            },
-            history=list(raw.history)
-            + [
-                history_entry(
-                    command + f" --channel-image {channel_image}",
-                    {
-                        **as_dict(params),
-                        "channel_image": channel_image,
-                        "stage": "range compression, azimuth RCMC and compression (before elevation compression)",
-                    },
-                )
-            ],
-        )
-    return cube, chan
+
+
+def _channel_product(
+    raw: Product, res: Array3DResult, params: Array3DParams, channel_image: int, command: str
+) -> Product:
+    """The 2D ``image`` of receiver ``channel_image`` (1-based) before elevation compression (paper Fig. 5)."""
+    from sarproc.product.config import as_dict
+    from sarproc.product.frames import SquintFrame, targets_in_frame
+    from sarproc.product.io import history_entry
+
+    assert res.channel_images is not None  # kept because channel_image is set
+    f2 = SquintFrame(0.0, raw.radar.altitude)  # zero-Doppler: (x, slant range from the track)
+    return raw.derive(
+        "image",
+        res.channel_images[channel_image - 1],
+        ("azimuth", "range"),
+        {"azimuth": res.azimuth, "range": res.range},
+        targets=targets_in_frame(raw.targets, f2),
+        attrs={
+            "frame": f2.spec,
+            "theoretical_irw": [float(x) for x in res.channel_irw],
+            "axis_units": ["m", "m"],
+            "channel": int(channel_image),
+            "rx_offset": [float(x) for x in np.asarray(raw.aux["rx_offset"])[channel_image - 1]],
+            **_chirp_attrs(raw.radar),
+        },
+        history=list(raw.history)
+        + [
+            history_entry(
+                command + f" --channel-image {channel_image}",
+                {
+                    **as_dict(params),
+                    "channel_image": channel_image,
+                    "stage": "range compression, azimuth RCMC and compression (before elevation compression)",
+                },
+            )
+        ],
+    )
