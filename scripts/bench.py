@@ -847,9 +847,12 @@ def ffbp_main(argv: list[str] | None = None) -> None:
         help="the bench venv's python (make bench-venv): FastSAR's exact linear x8 "
         "and factorised ImageFormer (target -40 and -50 dB) on the same pulses",
     )
+    ap.add_argument("--exact-only", action="store_true", help="only the exact engine (and FastSAR's formers)")
+    ap.add_argument("--save-exact", help="write the exact images to this .npz (key n<size>), e.g. to compare trees")
     a = ap.parse_args(argv)
     case = bench_scene_case()
     rows = []
+    saved: dict[str, Any] = {}  # Any: numpy's savez stub would match an array to allow_pickle
     for n in a.sizes:
         spacing = case["spacing"] * 512 / n * 2 if n > 1024 else case["spacing"]  # 2048: 0.15 m, 307 m wide
         pts = plane_grid(case["centre"], case["e1"], case["e2"], n, spacing)
@@ -861,6 +864,7 @@ def ffbp_main(argv: list[str] | None = None) -> None:
             a.repeats,
         )
         power = float(np.sum(np.abs(exact) ** 2))
+        saved[f"n{n}"] = exact
         # the exact image with cubic x8 pulse reads (-84 dB against -47 dB for linear x8: closer to the truth)
         t0 = time.perf_counter()
         exact_cubic = backproject_points(
@@ -884,7 +888,7 @@ def ffbp_main(argv: list[str] | None = None) -> None:
             f"against the cubic x8 exact image, {t_cubic:.3f} s once)",
             flush=True,
         )
-        for k, k1, q, interp, taps, pulse in FFBP_SETTINGS:
+        for k, k1, q, interp, taps, pulse in [] if a.exact_only else FFBP_SETTINGS:
             info: dict = {}
             img, t = best_of_calls(
                 lambda pts=pts, k=k, k1=k1, q=q, interp=interp, taps=taps, pulse=pulse, n=n, common=common, info=info: (
@@ -942,6 +946,8 @@ def ffbp_main(argv: list[str] | None = None) -> None:
             rows += fastsar_rows(case, n, spacing, exact, power, a.fastsar_python, a.repeats, exact_cubic)
     if a.json:
         Path(a.json).write_text(json.dumps(rows, indent=1))
+    if a.save_exact:
+        np.savez(a.save_exact, **saved)
 
 
 if __name__ == "__main__":

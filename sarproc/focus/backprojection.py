@@ -275,6 +275,12 @@ def backproject_points(
 MAX_TILE_RADIUS_CYCLES = 256.0
 
 
+# Pulses per chunk of the compiled engine, and the most bytes its upsampled pulses and tables may take (at least
+# 64 pulses whatever that takes).
+CHUNK_PULSES = 256
+CHUNK_BYTES = 64 << 20
+
+
 def _tile_size(
     points: np.ndarray,
     tile_points: int,
@@ -361,13 +367,19 @@ def _backproject_compiled(
     tx_c = np.ascontiguousarray(tx_pos - origin)
     rx_c = np.ascontiguousarray(rx_pos - origin)
     acc = np.zeros(len(points), np.complex128)
-    chunk = max(1, min(n_az, 64))  # pulses upsampled and backprojected at a time (bounded memory)
-    spans = [(s, min(s + chunk, n_az)) for s in range(0, n_az, chunk)]
+    entry = 0  # bytes per pulse of the pair / cubic tables
     if mode in (1, 3):  # each pulse's window of samples the pixels can reach
         radius = np.sqrt(np.maximum.reduceat(d[3], tile_start[:-1])).astype(float)
         lo, hi = k.pulse_windows(first, fs_up / C, tx_c, rx_c, monostatic, centres, radius, n_up, 1 if mode == 1 else 2)
         n_w = int((hi - lo).max()) + 3
         first = first - lo + 1  # positions counted in table entries
+        entry = (n_w + 1) * (16 if mode == 1 else 32)
+    # pulses upsampled and backprojected at a time: up to CHUNK_PULSES (each tile's pixels and sums are read once per
+    # chunk, so fewer chunks move less memory on big grids), the chunk's samples and tables within CHUNK_BYTES
+    chunk = max(1, min(n_az, CHUNK_PULSES, max(64, CHUNK_BYTES // (8 * n_up + entry))))
+    chunk = -(-n_az // -(-n_az // chunk))  # as many chunks, of even sizes
+    spans = [(s, min(s + chunk, n_az)) for s in range(0, n_az, chunk)]
+    if mode in (1, 3):
         pairs = np.empty((chunk, n_w + 1, 4 if mode == 1 else 8), np.float32)
     else:
         pairs = np.zeros((1, 1, 4), np.float32)
@@ -407,9 +419,8 @@ def _backproject_compiled(
             numba.set_num_threads(old)
     if aot is None and small:
         backprojection_aot.request_build()  # for the next small image (once; in the background)
-    acc /= n_az
     out = np.empty_like(acc)
-    out[order] = acc
+    k.scatter_scaled(acc, order, float(n_az), out)
     return out
 
 

@@ -46,6 +46,7 @@ EXPORTS = {
         "void(c8[:, ::1], f4[:, :, ::1], f8[::1], f8, f8, f8[:, ::1], f8[:, ::1], b1, f8[:, ::1], i8[::1], "
         "f4[:, ::1], i8, f4[:, ::1], i8, c16[::1])",
     ),
+    "scatter_scaled": ("scatter_scaled", "void(c16[::1], i8[::1], f8, c16[::1])"),
 }
 
 # Serial pixel-pulses per second of the linear kernel (measured on the reference machine, 2.3-2.6e8: the

@@ -562,6 +562,13 @@ def backproject_tiles(
             acc[s0 + i] += complex(acc_re[i], acc_im[i])
 
 
+@numba.njit(parallel=True, error_model="numpy", cache=CACHE)
+def scatter_scaled(acc: np.ndarray, order: np.ndarray, divisor: float, out: np.ndarray) -> None:
+    """out[order[i]] = acc[i] / divisor: the tile-sorted sums back in the points' order, in one parallel pass."""
+    for i in numba.prange(len(acc)):
+        out[order[i]] = acc[i] / divisor
+
+
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def bounds(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(min, max) over points (n, 3) float64 per coordinate, in one vectorised pass (points must be finite: under
