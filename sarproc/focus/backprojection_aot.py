@@ -27,6 +27,7 @@ BUILDER = "sarproc.focus.backprojection_aot"
 SOURCES = [
     Path(__file__).with_name("backprojection_kernel.py"),
     Path(__file__).parents[1] / "dsp" / "phasor.py",  # its phasor polynomials are inlined into the kernel
+    Path(__file__),  # EXPORTS: a module built before an export was added lacks it
 ]
 # Export name -> (kernel in backprojection_kernel, signature): the argument types _backproject_compiled passes
 # (C-contiguous arrays). A call with other types raises TypeError in the compiled module.
