@@ -133,7 +133,7 @@ cmpf-003:
 	$(CMPF_S) evaluate $(O)/image_modified.h5 -o $(O)/report_modified.json --config $(T)/configs/xu_scene.yaml --expect $(T)/configs/xu_scene_expect.yaml --overwrite > $(O)/report_modified.md
 	$(CMPF_S) evaluate $(O)/image_conventional.h5 -o $(O)/report_conventional.json --config $(T)/configs/xu_scene.yaml --overwrite > $(O)/report_conventional.md
 
-# reproduce-002's Table 1 products through the CLI (reproduce_002.py makes the same images in-process and
+# reproduce-002's Table 1 products through the CLI (the steps mk/002.mk runs before reproduce_002.py
 # tabulates evaluate's numbers): plain (the config with pfa2.method plain) and two-step PFA, evaluated; the
 # new tree's simulate last. Peak ~11 GB (pfa2 on 13660 x 17287 samples, docs/pfa.md).
 cmpf-002:
