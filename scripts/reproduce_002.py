@@ -18,9 +18,7 @@ unit (measured here: a yardstick of the machine, not a processing step).
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
-import math
 from pathlib import Path
 from typing import Any
 
@@ -35,7 +33,7 @@ from sarproc.product.budget import fft_seconds
 from sarproc.product.config import load_yaml
 from sarproc.product.io import read_product
 from sarproc.product.model import Product
-from sarproc.quality.metrics import AxisMetrics, TargetReport, target_patch
+from sarproc.quality.metrics import TargetReport, target_patch
 from sarproc.quality.summary import Tolerance, tolerance_score
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import plan_simulation
@@ -52,32 +50,6 @@ RUNS: dict[str, tuple[str, str, dict[str, Any]]] = {
 }
 
 
-def _number(v: Any) -> Any:
-    """JSON writes non-finite floats as null: back to NaN."""
-    return math.nan if v is None else v
-
-
-def _axis(d: dict) -> AxisMetrics:
-    fields = {f.name for f in dataclasses.fields(AxisMetrics)}
-    kw = {k: v for k, v in d.items() if k in fields}
-    for k in ("irw_ratio", "pslr_db", "islr_db", "position_error_cells", "position"):
-        kw[k] = _number(kw[k])
-    kw["direction"] = tuple(kw.get("direction", ()))
-    return AxisMetrics(**kw)
-
-
-def target_report(d: dict) -> TargetReport:
-    """One target of an evaluate JSON report (QualityReport.to_dict) as the TargetReport it was written from."""
-    return TargetReport(
-        name=d["name"],
-        peak_amplitude=_number(d["peak_amplitude"]),
-        peak_phase=_number(d["peak_phase"]),
-        peak_index=tuple(d["peak_index"]),
-        chip_clipped=d["chip_clipped"],
-        axes=tuple(_axis(a) for a in d["axes"]),
-    )
-
-
 def table(image: Product, report: dict) -> list[dict]:
     """Per target: distance from centre, IRW / own theory per axis (the theory pfa2 records for each target,
     sarproc.product.theory), PSLR, ISLR, position (cells), peak, and its evaluate report."""
@@ -85,7 +57,7 @@ def table(image: Product, report: dict) -> list[dict]:
     truth = {t["name"].decode(): t for t in image.targets}
     rows = []
     for d in report["targets"]:
-        t_rep = target_report(d)
+        t_rep = TargetReport.from_dict(d)
         t = truth[t_rep.name]
         rows.append(
             dict(
