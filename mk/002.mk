@@ -4,15 +4,39 @@ GOTCHA_DIR ?= ../shared/data/gotcha
 
 .PHONY: reproduce-002 reproduce-002-small reproduce-gotcha
 
+# Every step through the CLI, each under /usr/bin/time (times/STEP.txt: wall seconds, peak RSS in kB):
+# simulate -> pfa2 plain (the config with pfa2.method plain; with CORRECTED=1 also plain with
+# correct_distortion) -> pfa2 two-step (the config) -> evaluate each image (report_*.json). The script
+# only reads those products and reports and tabulates and plots them (summary.md, fig_M.png,
+# quality_vs_distance.png). $(call run002,CONFIG,DIR,CORRECTED)
+PLAIN002 = sed -E 's/^( *)method: two_step *$$/\1method: plain/; s/\{ *method: two_step/{method: plain/'
+CORR002 = sed -E 's/^( *)method: two_step *$$/\1method: plain\n\1correct_distortion: true/; s/\{ *method: two_step/{method: plain, correct_distortion: true/'
+TIME002 = /usr/bin/time -o $(2)/times/$(1).txt -f "%e %M"
+define run002
+	rm -rf $(2)/times && mkdir -p $(2)/times
+	$(call TIME002,simulate,$(2)) $(SARPROC) simulate $(1) -o $(2)/raw.h5 --overwrite --no-progress
+	$(PLAIN002) $(1) > $(2)/config_plain.yaml
+	$(call TIME002,pfa2_plain,$(2)) $(SARPROC) pfa2 $(2)/raw.h5 --config $(2)/config_plain.yaml -o $(2)/image_pfa.h5 --overwrite --no-progress
+	$(if $(3),$(CORR002) $(1) > $(2)/config_plain_corrected.yaml)
+	$(if $(3),$(call TIME002,pfa2_plain_corrected,$(2)) $(SARPROC) pfa2 $(2)/raw.h5 --config $(2)/config_plain_corrected.yaml -o $(2)/image_pfa_corrected.h5 --overwrite --no-progress)
+	$(call TIME002,pfa2_two_step,$(2)) $(SARPROC) pfa2 $(2)/raw.h5 --config $(1) -o $(2)/image_pfa2.h5 --overwrite --no-progress
+	set -e; for m in pfa pfa2 $(if $(3),pfa_corrected); do \
+	  $(call TIME002,evaluate_$$m,$(2)) $(SARPROC) evaluate $(2)/image_$$m.h5 -o $(2)/report_$$m.json --overwrite > $(2)/report_$$m.md; \
+	done
+	$(PY) scripts/reproduce_002.py --config $(1) --out $(2) $(if $(3),--corrected-plain)
+endef
+
 # Full Table 1 scene (heavy: about 11k pulses x 17k samples; serialised with other heavy runs).
 reproduce-002: $(STAMP)
-	mkdir -p results/002
-	flock /tmp/heavy.lock nice $(PY) scripts/reproduce_002.py --config $(CONFIG002) --out results/002
+	flock /tmp/heavy.lock nice $(MAKE) --no-print-directory run-002 CONFIG=$(CONFIG002) OUT=results/002
 
 # The reduced scene of the tests (seconds).
 reproduce-002-small: $(STAMP)
-	mkdir -p results/002-small
-	$(PY) scripts/reproduce_002.py --config configs/nie2016_small.yaml --out results/002-small --corrected-plain
+	$(MAKE) --no-print-directory run-002 CONFIG=configs/nie2016_small.yaml OUT=results/002-small CORRECTED=1
+
+.PHONY: run-002
+run-002:
+	$(call run002,$(CONFIG),$(OUT),$(CORRECTED))
 
 reproduce-gotcha: $(STAMP)
 	mkdir -p results/gotcha

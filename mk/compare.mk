@@ -101,12 +101,19 @@ cmpf-000-exp1 cmpf-000-exp2: cmpf-000-%:
 	$(if $(filter new,$(ROLE)),$(CMPF_S) simulate $(T)/configs/an2012_$*.yaml -o $(O)/simulated/raw.h5 --overwrite --no-progress,ln -sf ../raw.h5 $(O)/simulated/raw.h5)
 	$(if $(filter exp1,$*),$(if $(filter new,$(ROLE)),$(CMPF_S) simulate $(R)/scene_prf1850.yaml -o $(O)/simulated/raw_prf1850.h5 --overwrite --no-progress,ln -sf ../raw_prf1850.h5 $(O)/simulated/raw_prf1850.h5))
 
+# Trees whose reproduce_004.py tabulates the CLI's times/ and isolated-target sweep (mk/004.mk) get them
+# too (a tree without configs/sweeps/reproduce_004_isolated.yaml runs its own timing and isolated targets).
 cmpf-004:
 	$(call cmpf_raw,$(T)/configs/du2010.yaml,raw.h5)
-	$(CMPF_S) array3d $(O)/raw.h5 -o $(O)/cube.h5 --config $(T)/configs/du2010.yaml --overwrite --no-progress \
+	rm -rf $(O)/times && mkdir -p $(O)/times
+	/usr/bin/time -o $(O)/times/simulate.txt -f "%e %M" \
+		$(CMPF_S) simulate $(T)/configs/du2010.yaml -o $(O)/times/raw.h5 --overwrite --no-progress && rm $(O)/times/raw.h5
+	/usr/bin/time -o $(O)/times/array3d.txt -f "%e %M" $(CMPF_S) array3d $(O)/raw.h5 -o $(O)/cube.h5 --config $(T)/configs/du2010.yaml --overwrite --no-progress \
 		--channel-image 14 --channel-output $(O)/image_channel14.h5
 	$(CMPF_S) evaluate $(O)/cube.h5 -o $(O)/report_cube.json --overwrite --plot $(O)/plots_cube > $(O)/report_cube.md
 	$(CMPF_S) evaluate $(O)/image_channel14.h5 -o $(O)/report_channel14.json --overwrite > $(O)/report_channel14.md
+	if [ -f $(T)/configs/sweeps/reproduce_004_isolated.yaml ]; then rm -rf $(O)/isolated && \
+	  $(CMPF_S) sweep $(T)/configs/sweeps/reproduce_004_isolated.yaml -o $(O)/isolated --scheduler serial; fi
 	$(CMPF_P) $(T)/scripts/reproduce_004.py --results $(O) --config $(T)/configs/du2010.yaml
 
 cmpf-gotcha:
@@ -133,7 +140,7 @@ cmpf-003:
 	$(CMPF_S) evaluate $(O)/image_modified.h5 -o $(O)/report_modified.json --config $(T)/configs/xu_scene.yaml --expect $(T)/configs/xu_scene_expect.yaml --overwrite > $(O)/report_modified.md
 	$(CMPF_S) evaluate $(O)/image_conventional.h5 -o $(O)/report_conventional.json --config $(T)/configs/xu_scene.yaml --overwrite > $(O)/report_conventional.md
 
-# reproduce-002's Table 1 products through the CLI (reproduce_002.py makes the same images in-process and
+# reproduce-002's Table 1 products through the CLI (the steps mk/002.mk runs before reproduce_002.py
 # tabulates evaluate's numbers): plain (the config with pfa2.method plain) and two-step PFA, evaluated; the
 # new tree's simulate last. Peak ~11 GB (pfa2 on 13660 x 17287 samples, docs/pfa.md).
 cmpf-002:

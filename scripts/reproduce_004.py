@@ -1,29 +1,25 @@
 """Reproduce paper 004 (Du, Wang, Hong, Wu 2010): Table 3, Figs. 5-7, overlap before / resolution after.
 
-Run by ``make reproduce-004`` after ``sarproc simulate`` / ``array3d`` / ``evaluate`` have written
-results/004/{raw,cube,image_channel14}.h5 and the evaluate reports. This script adds:
+Run by ``make reproduce-004`` (mk/004.mk) after the CLI has written results/004/{raw,cube,image_channel14}.h5,
+their evaluate reports (report_cube.json, report_channel14.json), times/{simulate,array3d}.txt
+(/usr/bin/time: wall seconds, peak RSS in kB) and the isolated-target sweep (isolated/: each of the seven
+targets simulated, focused and evaluated alone, configs/sweeps/reproduce_004_isolated.yaml; the paper's
+targets are 2 deg apart in elevation, 9.3 elevation nulls, inside the +-10-null ISLR window of our metric
+contract, so in the full scene the elevation PSLR/ISLR of targets 3, 6, 7 measure the neighbours). This
+script tabulates those reports (Table 3 from the isolated targets, the in-scene numbers beside it) and
+plots Figs. 5-7, and still computes two checks in-process:
 
-* full-size end-to-end time and peak memory (simulate and array3d rerun as child processes,
-  peak RSS from wait4);
-* Table 3 from isolated targets: the paper's targets are 2 deg apart in elevation, 9.3 elevation
-  nulls, inside the +-10-null ISLR window of our metric contract, so in the full scene the
-  elevation PSLR/ISLR of targets 3, 6, 7 measure the neighbours. Processing is linear, so each
-  target is simulated and focused alone with the same config (its cube is the full cube minus
-  the other six responses) and evaluated there; the in-scene numbers are listed too;
-* the Fig. 5 overlap: centre/neighbour energy in receiver 14's image and over all receivers;
-* an exact 3D backprojection of the same raw data on a sub-cube around targets 3, 6, 7;
-* figures (Fig. 5, Fig. 6, Fig. 7 a-d) and summary.md.
+* the Fig. 5 overlap over all 28 receivers (the array3d core rerun keeping every receiver's image; the
+  CLI writes one receiver's image, --channel-image; receiver 14's ratio comes from its evaluate report);
+* an exact 3D backprojection of the same raw data on a sub-cube around targets 3, 6, 7 (sarproc
+  backproject has no elevation grid), evaluated beside the cube's sub-cube.
 """
 
 from __future__ import annotations
 
 import argparse
-import copy
 import json
 import math
-import os
-import subprocess
-import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -31,16 +27,15 @@ from typing import Any
 import numpy as np
 import yaml
 
+from sarproc.cli.sweep_output import sweep_rows
 from sarproc.dsp.rangecomp import range_compress
-from sarproc.focus.array3d.linear_array import Array3DParams, array3d_product, focus_array3d
+from sarproc.focus.array3d.linear_array import Array3DParams, focus_array3d
 from sarproc.focus.backprojection import backproject_points
 from sarproc.product.config import build
 from sarproc.product.frames import ElevationFrame
 from sarproc.product.io import read_product
 from sarproc.product.model import Product
-from sarproc.quality.metrics import TargetReport, evaluate_image, evaluate_product
-from sarproc.simulation.scene import scene_from_mapping
-from sarproc.simulation.simulate import simulate
+from sarproc.quality.metrics import TargetReport, evaluate_image
 
 PAPER_T3 = {  # target: (az m, rg m, el deg, PSLR az, rg, el, ISLR az, rg, el)
     "1": (0.43, 0.40, 0.23, -13.01, -13.25, -13.18, -9.96, -10.46, -10.12),
@@ -54,18 +49,10 @@ PAPER_T3 = {  # target: (az m, rg m, el deg, PSLR az, rg, el, ISLR az, rg, el)
 AXES = ("azimuth", "range", "elevation")
 
 
-def timed_child(cmd: list[str]) -> tuple[float, float]:
-    """Run ``cmd``; return (wall seconds, peak RSS MiB of that child)."""
-    t0 = time.perf_counter()
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    _, status, usage = os.wait4(proc.pid, 0)
-    wall = time.perf_counter() - t0
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    assert proc.stderr is not None  # stderr=PIPE
-    if proc.returncode != 0:
-        raise SystemExit(f"{' '.join(cmd)} failed: {proc.stderr.read().decode()}")
-    proc.stderr.close()
-    return wall, usage.ru_maxrss / 1024.0
+def step_time(out: Path, step: str) -> tuple[float, float]:
+    """(wall seconds, peak RSS MiB) of one CLI step, as /usr/bin/time -f '%e %M' recorded it (mk/004.mk)."""
+    wall, kb = (out / "times" / f"{step}.txt").read_text().split()[-2:]
+    return float(wall), float(kb) / 1024.0
 
 
 def metrics_row(rep_target: TargetReport) -> dict:
@@ -83,18 +70,20 @@ def metrics_row(rep_target: TargetReport) -> dict:
     return out
 
 
-def isolated_table(mapping: dict, params: Array3DParams) -> dict:
-    rows = {}
-    for pt in mapping["targets"]["points"]:
-        m = copy.deepcopy(mapping)
-        m["targets"]["points"] = [pt]
-        raw = simulate(scene_from_mapping(m))
-        cube, _ = array3d_product(raw, params)
-        rows[pt["name"]] = metrics_row(evaluate_product(cube).target(pt["name"]))
-    return rows
+def report_targets(path: Path) -> dict[str, TargetReport]:
+    """The targets of a `sarproc evaluate -o` JSON report, by name."""
+    return {t["name"]: TargetReport.from_dict(t) for t in json.loads(path.read_text())["targets"]}
 
 
-def overlap_numbers(raw: Product, params: Array3DParams, ch14: Product) -> dict:
+def isolated_table(mapping: dict, sweep: Path) -> dict:
+    """Each target's metrics from the sweep that simulated, focused and evaluated it alone."""
+    found: dict[str, TargetReport] = {}
+    for row in sweep_rows(sweep):
+        found.update(report_targets(row["dir"] / "report.json"))
+    return {str(pt["name"]): metrics_row(found[str(pt["name"])]) for pt in mapping["targets"]["points"]}
+
+
+def overlap_numbers(raw: Product, params: Array3DParams, ch14_report: dict[str, TargetReport]) -> dict:
     res = focus_array3d(
         raw.data,
         raw.coords["range_time"],
@@ -105,8 +94,7 @@ def overlap_numbers(raw: Product, params: Array3DParams, ch14: Product) -> dict:
         params,
         keep_channel_images=True,
     )
-    rep = evaluate_product(ch14)
-    amp = {t.name: t.peak_amplitude for t in rep.targets}
+    amp = {name: t.peak_amplitude for name, t in ch14_report.items()}
     neigh = [amp[k] ** 2 for k in ("1", "2", "4", "5")]
     ratio14 = amp["3"] ** 2 / float(np.mean(neigh))
     # Over all receivers: pixel energy at (x=0, r=490) over the mean of the four neighbours' pixels.
@@ -279,43 +267,23 @@ def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--results", default="results/004")
     ap.add_argument("--config", default="configs/du2010.yaml")
-    ap.add_argument("--sarproc", default=str(Path(sys.executable).with_name("sarproc")))
     args = ap.parse_args(argv)
     out = Path(args.results)
     with open(args.config) as fh:
         mapping = yaml.safe_load(fh)
     params = build(Array3DParams, mapping.get("array3d"), source=args.config, section="array3d")
 
-    # End-to-end time and peak memory of the full-size case (fresh child processes).
-    tmp = out / "timing"
-    tmp.mkdir(parents=True, exist_ok=True)
-    t_sim, m_sim = timed_child(
-        [args.sarproc, "simulate", args.config, "-o", str(tmp / "raw.h5"), "--overwrite", "--no-progress"]
-    )
-    t_a3, m_a3 = timed_child(
-        [
-            args.sarproc,
-            "array3d",
-            str(tmp / "raw.h5"),
-            "-o",
-            str(tmp / "cube.h5"),
-            "--config",
-            args.config,
-            "--overwrite",
-            "--no-progress",
-        ]
-    )
+    t_sim, m_sim = step_time(out, "simulate")
+    t_a3, m_a3 = step_time(out, "array3d")
     raw = read_product(out / "raw.h5", kinds=("raw_array",))
     cube = read_product(out / "cube.h5", kinds=("image3d",))
     ch14 = read_product(out / "image_channel14.h5", kinds=("image",))
-    t0 = time.perf_counter()
-    array3d_product(raw, params)
-    t_core = time.perf_counter() - t0
 
-    in_scene = {t.name: metrics_row(t) for t in evaluate_product(cube).targets}
-    pos_err = {t.name: {m.axis: m.position_error_cells for m in t.axes} for t in evaluate_product(cube).targets}
-    isolated = isolated_table(mapping, params)
-    ov = overlap_numbers(raw, params, ch14)
+    cube_report = report_targets(out / "report_cube.json")
+    in_scene = {name: metrics_row(t) for name, t in cube_report.items()}
+    pos_err = {name: {m.axis: m.position_error_cells for m in t.axes} for name, t in cube_report.items()}
+    isolated = isolated_table(mapping, out / "isolated")
+    ov = overlap_numbers(raw, params, report_targets(out / "report_channel14.json"))
     bp = backprojection_check(raw, cube)
     figures(out, cube, ch14, raw, ov)
     ov.pop("images")
@@ -326,7 +294,6 @@ def main(argv: list[str] | None = None) -> None:
             "simulate_peak_rss_mib": m_sim,
             "array3d_cli_s": t_a3,
             "array3d_peak_rss_mib": m_a3,
-            "array3d_core_s": t_core,
             "raw_shape": list(raw.data.shape),
             "cube_shape": list(cube.data.shape),
         },
@@ -424,9 +391,8 @@ def main(argv: list[str] | None = None) -> None:
         "",
         "## Time and memory (full size, this machine)",
         "",
-        f"- simulate: {tm['simulate_s']:.2f} s wall, peak RSS {tm['simulate_peak_rss_mib']:.0f} MiB",
+        f"- simulate CLI: {tm['simulate_s']:.2f} s wall, peak RSS {tm['simulate_peak_rss_mib']:.0f} MiB",
         f"- array3d CLI (read, process, write): {tm['array3d_cli_s']:.2f} s wall, peak RSS {tm['array3d_peak_rss_mib']:.0f} MiB",
-        f"- array3d core in-process: {tm['array3d_core_s']:.2f} s",
         "",
         "Figures: fig5_channel14.png, fig6_cross_track_rcm.png, fig7_cube.png; evaluate plots in plots_cube/.",
         "",

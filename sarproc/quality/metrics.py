@@ -223,6 +223,43 @@ class TargetReport:
                 return m
         raise KeyError(name)
 
+    @classmethod
+    def from_dict(cls, d: dict) -> TargetReport:
+        """The report of one target back from its JSON (an element of ``QualityReport.to_dict()["targets"]``,
+        as ``sarproc evaluate -o`` writes it): what scripts tabulate and :func:`target_patch` plots. JSON has no
+        NaN or infinity, so a plain-float figure written as null reads back as NaN (an -inf PSLR too)."""
+        return cls(
+            name=d["name"],
+            peak_amplitude=_float(d["peak_amplitude"]),
+            peak_phase=_float(d["peak_phase"]),
+            peak_index=tuple(d["peak_index"]),
+            chip_clipped=d["chip_clipped"],
+            axes=tuple(_axis_from_dict(a) for a in d["axes"]),
+            image_axes=tuple(_axis_from_dict(a) for a in d.get("image_axes", ())),
+            neighbours_removed=tuple(d.get("neighbours_removed", ())),
+        )
+
+
+def _float(v: Any) -> float:
+    return math.nan if v is None else float(v)
+
+
+_AXIS_FIELDS = {f.name: f.type for f in dataclasses.fields(AxisMetrics)}
+
+
+def _axis_from_dict(d: dict) -> AxisMetrics:
+    """AxisMetrics from its JSON: plain-float fields null -> NaN, lists -> tuples, unknown keys left out."""
+    kw: dict[str, Any] = {}
+    for k, v in d.items():
+        if k not in _AXIS_FIELDS:
+            continue
+        if _AXIS_FIELDS[k] == "float":
+            v = _float(v)
+        elif isinstance(v, list):
+            v = tuple(v)
+        kw[k] = v
+    return AxisMetrics(**kw)
+
 
 @dataclasses.dataclass(frozen=True)
 class FalseTarget:

@@ -9,6 +9,7 @@ spectrum's Fourier integral in this file, never from sarproc.quality.metrics.
 from __future__ import annotations
 
 import json
+import math
 import time
 
 import numpy as np
@@ -18,6 +19,7 @@ from hypothesis import given, settings, strategies as st
 from sarproc.product.errors import InputError
 from sarproc.quality.metrics import (
     EvaluateParams,
+    TargetReport,
     check_report,
     evaluate_image,
     expectations_from_mapping,
@@ -401,3 +403,17 @@ def test_uniform_cubic_spline_is_scipys_not_a_knot_spline(n):
     want = scipy.interpolate.CubicSpline(te, ve)(x)
     assert np.abs(got - want).max() <= 1e-13 * np.abs(want).max()
     assert np.allclose(uniform_cubic_spline(te[0], te[1] - te[0], ve, te), ve, rtol=0, atol=1e-14)
+
+
+def test_target_report_reads_back_from_its_json():
+    """What `sarproc evaluate -o` writes reads back as the same TargetReport (scripts tabulate from it)."""
+    coords = [axis_coords(256, STEP2[0]), axis_coords(256, STEP2[1])]
+    targets = [(-30.0, 0.2), (0.3, -20.0), (25.0, 15.0)]
+    img = separable_image(coords, [sinc_psf(b) for b in BW2], targets)
+    rep = evaluate_image(img, ("azimuth", "range"), coords, RES2, targets)
+    d = json.loads(json.dumps(rep.to_dict(), allow_nan=False))
+    back = [TargetReport.from_dict(t) for t in d["targets"]]
+    assert back == list(rep.targets)
+    # JSON's null for a non-finite figure reads back as NaN, not None
+    d["targets"][0]["axes"][0]["pslr_db"] = None
+    assert math.isnan(TargetReport.from_dict(d["targets"][0]).axes[0].pslr_db)
