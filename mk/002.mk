@@ -4,14 +4,14 @@ GOTCHA_DIR ?= ../shared/data/gotcha
 
 .PHONY: reproduce-002 reproduce-002-small reproduce-gotcha
 
-# Every step through the CLI, each under /usr/bin/time (times/STEP.txt: wall seconds, peak RSS in kB):
+# Every step through the CLI, each under scripts/timed.py (times/STEP.txt: wall seconds, peak RSS in kB):
 # simulate -> pfa2 plain (the config with pfa2.method plain; with CORRECTED=1 also plain with
 # correct_distortion) -> pfa2 two-step (the config) -> evaluate each image (report_*.json). The script
 # only reads those products and reports and tabulates and plots them (summary.md, fig_M.png,
 # quality_vs_distance.png). $(call run002,CONFIG,DIR,CORRECTED)
 PLAIN002 = sed -E 's/^( *)method: two_step *$$/\1method: plain/; s/\{ *method: two_step/{method: plain/'
 CORR002 = sed -E 's/^( *)method: two_step *$$/\1method: plain\n\1correct_distortion: true/; s/\{ *method: two_step/{method: plain, correct_distortion: true/'
-TIME002 = /usr/bin/time -o $(2)/times/$(1).txt -f "%e %M"
+TIME002 = $(PY) scripts/timed.py $(2)/times/$(1).txt --
 define run002
 	rm -rf $(2)/times && mkdir -p $(2)/times
 	$(call TIME002,simulate,$(2)) $(SARPROC) simulate $(1) -o $(2)/raw.h5 --overwrite --no-progress

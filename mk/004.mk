@@ -1,5 +1,5 @@
 # Paper 004 (Du 2010): linear-array down-looking 3D SAR. Outputs under results/004*/.
-# Through the CLI: simulate and array3d (each under /usr/bin/time: times/STEP.txt, wall seconds and peak
+# Through the CLI: simulate and array3d (each under scripts/timed.py: times/STEP.txt, wall seconds and peak
 # RSS in kB), evaluate of the cube and of receiver 14's image, and Table 3's isolated targets (a sweep:
 # configs/sweeps/reproduce_004_isolated.yaml). scripts/reproduce_004.py tabulates and plots them; it still
 # computes two checks in-process (its docstring): the Fig. 5 overlap over all 28 receivers and an exact
@@ -8,9 +8,9 @@
 
 reproduce-004: $(STAMP)
 	rm -rf results/004/times && mkdir -p results/004/times
-	/usr/bin/time -o results/004/times/simulate.txt -f "%e %M" \
+	$(PY) scripts/timed.py results/004/times/simulate.txt -- \
 		$(SARPROC) simulate configs/du2010.yaml -o results/004/raw.h5 --overwrite --no-progress
-	/usr/bin/time -o results/004/times/array3d.txt -f "%e %M" \
+	$(PY) scripts/timed.py results/004/times/array3d.txt -- \
 		$(SARPROC) array3d results/004/raw.h5 -o results/004/cube.h5 --config configs/du2010.yaml --overwrite --no-progress \
 		--channel-image 14 --channel-output results/004/image_channel14.h5
 	$(SARPROC) evaluate results/004/cube.h5 -o results/004/report_cube.json --overwrite --plot results/004/plots_cube > results/004/report_cube.md

@@ -106,9 +106,9 @@ cmpf-000-exp1 cmpf-000-exp2: cmpf-000-%:
 cmpf-004:
 	$(call cmpf_raw,$(T)/configs/du2010.yaml,raw.h5)
 	rm -rf $(O)/times && mkdir -p $(O)/times
-	/usr/bin/time -o $(O)/times/simulate.txt -f "%e %M" \
+	$(PY) scripts/timed.py $(O)/times/simulate.txt -- \
 		$(CMPF_S) simulate $(T)/configs/du2010.yaml -o $(O)/times/raw.h5 --overwrite --no-progress && rm $(O)/times/raw.h5
-	/usr/bin/time -o $(O)/times/array3d.txt -f "%e %M" $(CMPF_S) array3d $(O)/raw.h5 -o $(O)/cube.h5 --config $(T)/configs/du2010.yaml --overwrite --no-progress \
+	$(PY) scripts/timed.py $(O)/times/array3d.txt -- $(CMPF_S) array3d $(O)/raw.h5 -o $(O)/cube.h5 --config $(T)/configs/du2010.yaml --overwrite --no-progress \
 		--channel-image 14 --channel-output $(O)/image_channel14.h5
 	$(CMPF_S) evaluate $(O)/cube.h5 -o $(O)/report_cube.json --overwrite --plot $(O)/plots_cube > $(O)/report_cube.md
 	$(CMPF_S) evaluate $(O)/image_channel14.h5 -o $(O)/report_channel14.json --overwrite > $(O)/report_channel14.md

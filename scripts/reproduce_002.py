@@ -5,7 +5,7 @@
 
 The products come from the CLI (mk/002.mk): raw.h5 (sarproc simulate), image_pfa.h5 (pfa2, method plain),
 image_pfa2.h5 (pfa2 two-step), optionally image_pfa_corrected.h5 (plain with correct_distortion), each
-evaluated into report_*.json (sarproc evaluate -o), and times/STEP.txt (/usr/bin/time: wall seconds, peak
+evaluated into report_*.json (sarproc evaluate -o), and times/STEP.txt (scripts/timed.py: wall seconds, peak
 RSS in kB, of each CLI process). This script only reads them and writes fig_M.png (contours of the corner
 point M, plain vs two-step, like the paper's Fig. 7), quality_vs_distance.png (worst quality of the plain
 image against distance from the scene centre, eq. 7's radius marked) and summary.md: every target's metrics
@@ -75,7 +75,7 @@ def table(image: Product, report: dict) -> list[dict]:
 
 
 def step_time(out: Path, step: str) -> tuple[float, float]:
-    """(wall seconds, peak RSS in GB) of one CLI step, as /usr/bin/time -f '%e %M' recorded it (mk/002.mk)."""
+    """(wall seconds, peak RSS in GB) of one CLI step, as scripts/timed.py recorded it (mk/002.mk)."""
     wall, kb = (out / "times" / f"{step}.txt").read_text().split()[-2:]
     return float(wall), float(kb) * 1024 / 2**30
 

@@ -2,7 +2,7 @@
 
 Run by ``make reproduce-004`` (mk/004.mk) after the CLI has written results/004/{raw,cube,image_channel14}.h5,
 their evaluate reports (report_cube.json, report_channel14.json), times/{simulate,array3d}.txt
-(/usr/bin/time: wall seconds, peak RSS in kB) and the isolated-target sweep (isolated/: each of the seven
+(scripts/timed.py: wall seconds, peak RSS in kB) and the isolated-target sweep (isolated/: each of the seven
 targets simulated, focused and evaluated alone, configs/sweeps/reproduce_004_isolated.yaml; the paper's
 targets are 2 deg apart in elevation, 9.3 elevation nulls, inside the +-10-null ISLR window of our metric
 contract, so in the full scene the elevation PSLR/ISLR of targets 3, 6, 7 measure the neighbours). This
@@ -50,7 +50,7 @@ AXES = ("azimuth", "range", "elevation")
 
 
 def step_time(out: Path, step: str) -> tuple[float, float]:
-    """(wall seconds, peak RSS MiB) of one CLI step, as /usr/bin/time -f '%e %M' recorded it (mk/004.mk)."""
+    """(wall seconds, peak RSS MiB) of one CLI step, as scripts/timed.py recorded it (mk/004.mk)."""
     wall, kb = (out / "times" / f"{step}.txt").read_text().split()[-2:]
     return float(wall), float(kb) / 1024.0
 
