@@ -357,6 +357,7 @@ def _fit_group(
     K0: list[np.ndarray],
     iterations: int,
     shape0: list[tuple[np.ndarray, np.ndarray]] | None = None,
+    centre: list[np.ndarray] | None = None,
 ) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray], list]:
     """Complex amplitudes of every member's orders, and real band centres f_c and spatial chirps K by
     Gauss-Newton (the band centre first estimated as the power centroid, which a taper pulls off the
@@ -365,7 +366,8 @@ def _fit_group(
     With ``shape0`` (per member: (scale, kappa) starting values) the support's shape is fitted too: its
     widths (null spacing ``nulls * (1 + scale)`` per axis) and keystone kappa (:func:`_strip_factors`).
     They matter far out: a support edge 0.5 % off puts the side lobes 40 nulls away a fifth of a null out
-    of step. Returns (coef, f_c, K, (scale, kappa) or None) per member."""
+    of step. The widths stay within 10 % of ``centre`` (per member, the nulls' scale; default 1).
+    Returns (coef, f_c, K, (scale, kappa) or None) per member."""
     from sarproc.quality.metrics import least_squares  # metrics imports this module
 
     ndim = points.shape[0]
@@ -398,7 +400,8 @@ def _fit_group(
 
     current = bases()  # the bases at the current parameters, reused by the next step
     coef = least_squares(np.concatenate(current, axis=1), y).reshape(len(members), n_o)
-    for _ in range(iterations):
+    shape_jacobian: list[list[np.ndarray]] = []  # per member, per shape parameter: d raw basis (no carrier)
+    for it in range(iterations):
         cols = []
         for q, (b, x, c, car) in enumerate(zip(current, offs, coef, carriers())):
             model = b @ c
@@ -406,13 +409,23 @@ def _fit_group(
             derivs = [2j * np.pi * x[a] * model for a in range(ndim)]
             derivs += [1j * np.pi * (1.0 if a == a2 else 2.0) * x[a] * x[a2] * model for a, a2 in pairs]
             if shape is not None:
-                for i in range(n_shape):
-                    sc, kp = shape[q][0].copy(), shape[q][1].copy()
-                    if i < ndim:
-                        sc[i] += eps
+                if it == 0 or not FROZEN_SHAPE_JACOBIAN:
+                    # the shape's derivatives by finite differences, taken at the first step and kept (a
+                    # chord step: the widths and keystone move by a few tenths of a per cent after it)
+                    here = b / car
+                    steps = []
+                    for i in range(n_shape):
+                        sc, kp = shape[q][0].copy(), shape[q][1].copy()
+                        if i < ndim:
+                            sc[i] += eps
+                        else:
+                            kp[i - ndim] += eps
+                        steps.append((raw(q, (sc, kp)) - here) / eps)
+                    if q < len(shape_jacobian):
+                        shape_jacobian[q] = steps
                     else:
-                        kp[i - ndim] += eps
-                    derivs.append(((raw(q, (sc, kp)) * car) @ c - model) / eps)
+                        shape_jacobian.append(steps)
+                derivs += [(d * car) @ c for d in shape_jacobian[q]]
             cols.append(np.stack(derivs, axis=1))
         sol = least_squares(np.concatenate(cols, axis=1), y).reshape(len(members), n_o + n_p)
         largest = 0.0
@@ -427,8 +440,9 @@ def _fit_group(
             )
             if shape is not None:
                 d_shape = np.clip(step[ndim + len(pairs) :], -0.01, 0.01)
+                mid = np.ones(ndim) if centre is None else centre[q]
                 shape[q] = (
-                    np.clip(shape[q][0] + d_shape[:ndim], -0.1, 0.1),
+                    np.clip(shape[q][0] + d_shape[:ndim], 0.9 * mid - 1, 1.1 * mid - 1),
                     np.clip(shape[q][1] + d_shape[ndim:], -0.2, 0.2),
                 )
                 largest = max(largest, float(np.max(np.abs(d_shape))) * 0.01)
@@ -460,6 +474,102 @@ def _ridge_strips(
     return out
 
 
+# A lone target whose first fit (on its box, the image's band widths within 10 %) leaves more than this
+# fraction of the box's energy has a support of its own: partly lit (a sliding spotlight's edge targets,
+# a stripmap's beam edge) or wider than the nominal band with an antenna taper across it. Its widths are
+# then searched (:func:`_search_widths`) before the ridge sweeps.
+WIDTH_SEARCH_MISFIT = 1e-3
+WIDTH_SCALES = 1.1 ** np.arange(-8, 18)  # 0.47 .. 5.1 times the image's null spacing, 10 % apart
+
+
+def _misfit(model: dict, points: np.ndarray, y: np.ndarray) -> float:
+    """|y - model|^2 / |y|^2 on ``points``."""
+    if not model:
+        return 0.0
+    fit = (
+        response_basis(
+            points,
+            model["pos"],
+            model["V"],
+            model["nulls"],
+            model["f_c"],
+            model["orders"],
+            model["K"],
+            kappa=model.get("kappa"),
+        )
+        @ model["coef"]
+    )
+    energy = float(np.vdot(y, y).real)
+    return float(np.vdot(y - fit, y - fit).real) / energy if energy > 0 else 0.0
+
+
+def _fit_samples(
+    found: dict, nulls: np.ndarray, shape: tuple[int, ...], params: EvaluateParams
+) -> tuple[np.ndarray, np.ndarray]:
+    """(box, box and ridge strips): the image indices ((ndim, M)) a target's model is fitted on, about two per
+    null: +-``params.fit_nulls`` nulls around its peak, and strips along its ridges (:func:`_ridge_strips`)."""
+    r = np.ceil(params.fit_nulls * nulls).astype(int)
+    stride = np.maximum(1, np.floor(nulls / 2)).astype(int)
+    c = np.rint(found["pos"]).astype(int)
+    pts = [np.arange(max(0, ci - ri), min(n, ci + ri + 1), st) for ci, ri, n, st in zip(c, r, shape, stride)]
+    g = np.meshgrid(*pts, indexing="ij")
+    box = np.stack([x.ravel() for x in g], axis=0)
+    ridges = _ridge_strips(found["pos"], found["V"], nulls, stride, shape, params.fit_ridge_nulls)
+    return box, np.concatenate([box] + ridges, axis=1)
+
+
+def _refit_lone(
+    model: dict,
+    found: dict,
+    points: np.ndarray,
+    y: np.ndarray,
+    nulls: np.ndarray,
+    orders: np.ndarray,
+    centre: np.ndarray | None,
+) -> dict:
+    """A lone target's model fitted again on its box (:func:`_fit_group`, support shape included) with
+    ``orders`` and, given ``centre``, its widths started there (and kept within 10 % of it)."""
+    ndim = len(nulls)
+    start = np.ones(ndim) if centre is None else centre
+    coef, f_c, K, shape = _fit_group(
+        [0],
+        points,
+        y,
+        [dict(found, f_c=model["f_c"])],
+        nulls,
+        orders,
+        [model["K"]],
+        10,
+        [(start - 1, np.zeros(ndim - 1))],
+        [start],
+    )
+    return dict(
+        model, f_c=f_c[0], K=K[0], coef=coef[0], orders=orders, nulls=nulls * (1 + shape[0][0]), kappa=shape[0][1]
+    )
+
+
+def _search_widths(model: dict, points: np.ndarray, y: np.ndarray, nulls: np.ndarray) -> np.ndarray:
+    """The support widths that fit ``y`` best with the rectangle's basis (linear least squares at the model's
+    band centre and chirp, the model's orders), one axis at a time: per axis the scale of the image's null
+    spacing ``nulls``, from :data:`WIDTH_SCALES`."""
+    from sarproc.quality.metrics import least_squares  # metrics imports this module
+
+    scale = np.ones(len(nulls))
+    for a in range(len(nulls)):
+        best = (np.inf, 1.0)
+        for s in WIDTH_SCALES:
+            trial = scale.copy()
+            trial[a] = s
+            B = response_basis(
+                points, model["pos"], model["V"], nulls * trial, model["f_c"], model["orders"], model["K"]
+            )
+            r = y - B @ least_squares(B, y)
+            best = min(best, (float(np.vdot(r, r).real), float(s)))
+        scale[a] = best[1]
+    return scale
+
+
+FROZEN_SHAPE_JACOBIAN = True
 FIT_REACH_DB = -100.0  # other groups' side lobes are subtracted from a fit's samples down to this level
 
 # The fits' matrices are small (a few thousand rows, tens of columns): threaded BLAS only adds its
@@ -490,19 +600,10 @@ def _fit_response_models(
     ndim = data.ndim
     orders = spectral_orders(ndim, params.residual_orders, params.residual_orders + (1 if ndim == 2 else 0))
     r = np.ceil(params.fit_nulls * nulls).astype(int)
-    stride = np.maximum(1, np.floor(nulls / 2)).astype(int)
     live = [j for j, f in enumerate(found) if abs(f["value"]) > 0]
     boxes, strips = {}, {}
     for j in live:
-        c = np.rint(found[j]["pos"]).astype(int)
-        pts = [np.arange(max(0, ci - ri), min(n, ci + ri + 1), st) for ci, ri, n, st in zip(c, r, data.shape, stride)]
-        g = np.meshgrid(*pts, indexing="ij")
-        boxes[j] = np.stack([x.ravel() for x in g], axis=0)
-        strips[j] = np.concatenate(
-            [boxes[j]]
-            + _ridge_strips(found[j]["pos"], found[j]["V"], nulls, stride, data.shape, params.fit_ridge_nulls),
-            axis=1,
-        )
+        boxes[j], strips[j] = _fit_samples(found[j], nulls, data.shape, params)
     group = {j: {j} for j in live}
     for j in live:
         for k in live:
@@ -526,9 +627,29 @@ def _fit_response_models(
         far = np.unique(np.concatenate([strips[k] for k in members], axis=1), axis=1)
         fits.append((members, near, data[tuple(near)].astype(complex), far, data[tuple(far)].astype(complex)))
     reach = 0.0 if params.exact else float(np.abs(data).max()) * 10 ** (FIT_REACH_DB / 20)
+    centre: dict[int, np.ndarray] = {}  # a member's support widths found by _search_widths (nulls' scale)
+    richer = spectral_orders(ndim, max(2, params.residual_orders), max(2, params.residual_orders) + (ndim == 2))
+    own_orders: dict[int, np.ndarray] = {}  # a misfitted lone member's orders (at least two per axis)
     # Sweep 0 on the boxes alone (the chirp converges from zero there); then on boxes and ridge strips, with
     # the other groups' models subtracted.
     for sweep in range(3):
+        if sweep == 1 and support_shape:
+            for g, (members, near, y_near, far, y_far) in enumerate(fits):
+                if len(members) == 1 and _misfit(models[members[0]], near, y_near) > WIDTH_SEARCH_MISFIT:
+                    k = members[0]
+                    own_orders[k] = richer
+                    models[k] = _refit_lone(models[k], found[k], near, y_near, nulls, richer, None)
+                    scale = np.ones(ndim)
+                    for _ in range(2):  # the box and ridges follow the widths found
+                        if _misfit(models[k], near, y_near) <= WIDTH_SEARCH_MISFIT:
+                            break
+                        scale = _search_widths(models[k], near, y_near, nulls)
+                        near, far = _fit_samples(found[k], nulls * scale, data.shape, params)
+                        y_near, y_far = data[tuple(near)].astype(complex), data[tuple(far)].astype(complex)
+                        models[k] = _refit_lone(models[k], found[k], near, y_near, nulls, richer, scale)
+                    if np.any(scale != 1):
+                        centre[k] = scale
+                        fits[g] = (members, near, y_near, far, y_far)
         for members, near, y_near, far, y_far in fits:
             points, y = (near, y_near) if sweep == 0 else (far, y_far)
             rhs = y
@@ -547,7 +668,7 @@ def _fit_response_models(
                                 models[j]["V"],
                                 models[j]["nulls"],
                                 models[j]["f_c"],
-                                orders,
+                                models[j]["orders"],
                                 models[j]["K"],
                                 kappa=models[j].get("kappa"),
                             )
@@ -558,13 +679,22 @@ def _fit_response_models(
             shape0 = None
             if support_shape:
                 shape0 = [
-                    (models[k]["nulls"] / nulls - 1, models[k]["kappa"])
+                    (models[k]["nulls"] / nulls - 1, models[k].get("kappa", np.zeros(ndim - 1)))
                     if models[k]
                     else (np.zeros(ndim), np.zeros(ndim - 1))
                     for k in members
                 ]
             coef, f_c, K, shape = _fit_group(
-                list(range(len(members))), points, rhs, start, nulls, orders, K0, 10 if sweep == 0 else 3, shape0
+                list(range(len(members))),
+                points,
+                rhs,
+                start,
+                nulls,
+                own_orders.get(members[0], orders),
+                K0,
+                10 if sweep == 0 else 3,
+                shape0,
+                [centre.get(k, np.ones(ndim)) for k in members],
             )
             for q, k in enumerate(members):
                 models[k] = {
@@ -572,7 +702,7 @@ def _fit_response_models(
                     "V": np.asarray(found[k]["V"]),
                     "f_c": f_c[q],
                     "nulls": nulls if shape[q] is None else nulls * (1 + shape[q][0]),
-                    "orders": orders,
+                    "orders": own_orders.get(k, orders),
                     "coef": coef[q],
                     "K": K[q],
                 }

@@ -91,6 +91,8 @@ def keystone_columns(
     for q in range(n_orders):
         cos_l[q] = math.cos(0.5 * math.pi * width * orders[q, ndim - 1])
         sin_l[q] = math.sin(0.5 * math.pi * width * orders[q, ndim - 1])
+    two_pi_pow = (2.0 * math.pi) ** (ndim - 1)
+    j_pow = (-1j) ** (ndim - 1)
     out = np.empty((n_orders, n), dtype=np.complex128)
     acc = np.empty(n_orders, dtype=np.complex128)
     x = np.empty(ndim)
@@ -132,11 +134,14 @@ def keystone_columns(
         for q in range(n_orders):
             x_l = last + 0.5 * orders[q, ndim - 1]
             small = abs(x_l) < 1e-12
-            sinc = 1.0 if small else (s_l * cos_l[q] + c_l * sin_l[q]) / (math.pi * width * x_l)
-            den_c = 1.0 + 0j
+            # width sinc(width x_l) / prod_a (2 j pi x_a): one real division; 1 / (2 j pi)^(ndim - 1) is
+            # (-j / (2 pi))^(ndim - 1)
+            den = 1.0
             for a in range(ndim - 1):
-                den_c *= 2j * math.pi * (c[a, i] + 0.5 * orders[q, a])
-            out[q, i] = acc[q] * width * sinc / den_c
+                den *= c[a, i] + 0.5 * orders[q, a]
+            den *= two_pi_pow
+            factor = width / den if small else (s_l * cos_l[q] + c_l * sin_l[q]) / (math.pi * x_l * den)
+            out[q, i] = acc[q] * factor * j_pow
     return out
 
 

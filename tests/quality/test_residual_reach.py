@@ -103,7 +103,7 @@ def test_compiled_keystone_columns_are_the_numpy_reference(ndim):
 def test_weighted_targets_are_fitted_with_the_window_orders(monkeypatch):
     """Hamming-weighted responses (their theory says so: PSLR -42.7 dB) are modelled with two spectral
     orders, which follow the window's cosine; one order leaves the window's misfit."""
-    from sarproc.quality import metrics
+    from sarproc.quality import metrics, residual
     from sarproc.quality.metrics import EvaluateParams, evaluate_image
 
     step, n, bw = 0.4, (240, 256), 1.0  # band 1 cycle/m, 2.5 samples per null
@@ -123,9 +123,13 @@ def test_weighted_targets_are_fitted_with_the_window_orders(monkeypatch):
 
     two = run()
     monkeypatch.setattr(metrics, "WEIGHTED_PSLR_DB", -np.inf)  # the rule off: residual_orders 1
-    one = run()
-    assert two.residual.orders > one.residual.orders
+    # a lone target's misfit then still raises its own orders (residual.WIDTH_SEARCH_MISFIT): same floor
+    repaired = run()
+    assert two.residual.orders > repaired.residual.orders
     assert two.residual.floor_db < -45.0 and two.false_target.level_db < -45.0  # bp_hamming's gate
+    assert repaired.residual.floor_db < -45.0 and repaired.false_target.level_db < -45.0
+    monkeypatch.setattr(residual, "WIDTH_SEARCH_MISFIT", np.inf)  # and that repair off: one order
+    one = run()
     assert one.residual.floor_db > two.residual.floor_db + 10.0
 
 
