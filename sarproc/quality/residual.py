@@ -180,6 +180,7 @@ def _keystone_product(xs: Sequence[np.ndarray], kappa: np.ndarray) -> np.ndarray
 # The keystoned columns through the compiled kernel (sarproc.quality.residual_kernels); False (and
 # EvaluateParams.exact) keeps the numpy reference, :func:`_keystone_columns`.
 COMPILED = True
+BOX_KERNEL = True
 
 
 @contextlib.contextmanager
@@ -340,6 +341,22 @@ def _model_on_box(slices: Sequence[slice], model: dict) -> np.ndarray:
     kappa = model.get("kappa")
     box = np.zeros(shape, dtype=complex)
     if kappa is not None and _keystoned(kappa):  # skewed and keystoned: each order's strip sum in closed form
+        if BOX_KERNEL and COMPILED and ndim == 2:  # along the box's rows by rotations, the orders summed in the kernel
+            from sarproc.quality.residual_kernels import keystone_box_sum
+
+            corner = np.array([s.start for s in slices], dtype=float) - p
+            box = keystone_box_sum(
+                A @ corner,
+                np.ascontiguousarray(A[:, 0]),
+                np.ascontiguousarray(A[:, 1]),
+                shape[0],
+                shape[1],
+                np.asarray(orders, dtype=np.int64),
+                np.asarray(coef, dtype=np.complex128),
+                np.asarray(kappa, dtype=float),
+                _strip_count(kappa),
+            )
+            return box * carrier
         return _keystone_sum(c, orders, coef, kappa) * carrier
     factors = [np.stack(_shifted_sincs(ca, m)) for ca in c]
     for order, k in zip(orders, coef):
@@ -358,6 +375,7 @@ def _fit_group(
     iterations: int,
     shape0: list[tuple[np.ndarray, np.ndarray]] | None = None,
     centre: list[np.ndarray] | None = None,
+    chord: bool = False,
 ) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray], list]:
     """Complex amplitudes of every member's orders, and real band centres f_c and spatial chirps K by
     Gauss-Newton (the band centre first estimated as the power centroid, which a taper pulls off the
@@ -366,8 +384,10 @@ def _fit_group(
     With ``shape0`` (per member: (scale, kappa) starting values) the support's shape is fitted too: its
     widths (null spacing ``nulls * (1 + scale)`` per axis) and keystone kappa (:func:`_strip_factors`).
     They matter far out: a support edge 0.5 % off puts the side lobes 40 nulls away a fifth of a null out
-    of step. The widths stay within 10 % of ``centre`` (per member, the nulls' scale; default 1).
-    Returns (coef, f_c, K, (scale, kappa) or None) per member."""
+    of step. The widths stay within 10 % of ``centre`` (per member, the nulls' scale; default 1). With
+    ``chord`` the shape's finite-difference derivatives are taken at the first step only and kept (for
+    starts close to the solution: the ridge sweeps). Returns (coef, f_c, K, (scale, kappa) or None) per
+    member."""
     from sarproc.quality.metrics import least_squares  # metrics imports this module
 
     ndim = points.shape[0]
@@ -409,7 +429,7 @@ def _fit_group(
             derivs = [2j * np.pi * x[a] * model for a in range(ndim)]
             derivs += [1j * np.pi * (1.0 if a == a2 else 2.0) * x[a] * x[a2] * model for a, a2 in pairs]
             if shape is not None:
-                if it == 0 or not FROZEN_SHAPE_JACOBIAN:
+                if it == 0 or not chord:
                     # the shape's derivatives by finite differences, taken at the first step and kept (a
                     # chord step: the widths and keystone move by a few tenths of a per cent after it)
                     here = b / car
@@ -525,12 +545,12 @@ def _refit_lone(
     y: np.ndarray,
     nulls: np.ndarray,
     orders: np.ndarray,
-    centre: np.ndarray | None,
+    scale: np.ndarray,
 ) -> dict:
-    """A lone target's model fitted again on its box (:func:`_fit_group`, support shape included) with
-    ``orders`` and, given ``centre``, its widths started there (and kept within 10 % of it)."""
+    """A lone target's model fitted again on ``points`` (:func:`_fit_group`, support shape included) with
+    ``orders``, its widths started at ``scale`` times the image's null spacing ``nulls`` (and kept within
+    10 % of it)."""
     ndim = len(nulls)
-    start = np.ones(ndim) if centre is None else centre
     coef, f_c, K, shape = _fit_group(
         [0],
         points,
@@ -540,8 +560,8 @@ def _refit_lone(
         orders,
         [model["K"]],
         10,
-        [(start - 1, np.zeros(ndim - 1))],
-        [start],
+        [(scale - 1, np.zeros(ndim - 1))],
+        [scale],
     )
     return dict(
         model, f_c=f_c[0], K=K[0], coef=coef[0], orders=orders, nulls=nulls * (1 + shape[0][0]), kappa=shape[0][1]
@@ -569,7 +589,6 @@ def _search_widths(model: dict, points: np.ndarray, y: np.ndarray, nulls: np.nda
     return scale
 
 
-FROZEN_SHAPE_JACOBIAN = True
 FIT_REACH_DB = -100.0  # other groups' side lobes are subtracted from a fit's samples down to this level
 
 # The fits' matrices are small (a few thousand rows, tens of columns): threaded BLAS only adds its
@@ -635,21 +654,24 @@ def _fit_response_models(
     for sweep in range(3):
         if sweep == 1 and support_shape:
             for g, (members, near, y_near, far, y_far) in enumerate(fits):
-                if len(members) == 1 and _misfit(models[members[0]], near, y_near) > WIDTH_SEARCH_MISFIT:
-                    k = members[0]
-                    own_orders[k] = richer
-                    models[k] = _refit_lone(models[k], found[k], near, y_near, nulls, richer, None)
-                    scale = np.ones(ndim)
-                    for _ in range(2):  # the box and ridges follow the widths found
-                        if _misfit(models[k], near, y_near) <= WIDTH_SEARCH_MISFIT:
-                            break
-                        scale = _search_widths(models[k], near, y_near, nulls)
-                        near, far = _fit_samples(found[k], nulls * scale, data.shape, params)
-                        y_near, y_far = data[tuple(near)].astype(complex), data[tuple(far)].astype(complex)
-                        models[k] = _refit_lone(models[k], found[k], near, y_near, nulls, richer, scale)
-                    if np.any(scale != 1):
-                        centre[k] = scale
-                        fits[g] = (members, near, y_near, far, y_far)
+                k = members[0]
+                if len(members) > 1 or (before := _misfit(models[k], near, y_near)) <= WIDTH_SEARCH_MISFIT:
+                    continue
+                # two orders, then (still misfit) the widths searched and the samples taken on them; kept
+                # where the misfit at least halves (else the target keeps its first fit: structure no band-
+                # limited model follows, e.g. the two-step PFA's, is not chased at every target)
+                trial = _refit_lone(models[k], found[k], near, y_near, nulls, richer, np.ones(ndim))
+                scale, samples = np.ones(ndim), (near, y_near, far, y_far)
+                for _ in range(2):
+                    if _misfit(trial, samples[0], samples[1]) <= WIDTH_SEARCH_MISFIT:
+                        break
+                    scale = _search_widths(trial, samples[0], samples[1], nulls)
+                    at, along = _fit_samples(found[k], nulls * scale, data.shape, params)
+                    samples = (at, data[tuple(at)].astype(complex), along, data[tuple(along)].astype(complex))
+                    trial = _refit_lone(trial, found[k], samples[0], samples[1], nulls, richer, scale)
+                if _misfit(trial, samples[0], samples[1]) < 0.5 * before:
+                    models[k], own_orders[k], centre[k] = trial, richer, scale
+                    fits[g] = (members, *samples)
         for members, near, y_near, far, y_far in fits:
             points, y = (near, y_near) if sweep == 0 else (far, y_far)
             rhs = y
@@ -695,6 +717,7 @@ def _fit_response_models(
                 10 if sweep == 0 else 3,
                 shape0,
                 [centre.get(k, np.ones(ndim)) for k in members],
+                chord=sweep > 0,
             )
             for q, k in enumerate(members):
                 models[k] = {
