@@ -499,7 +499,7 @@ def _ridge_strips(
 # a stripmap's beam edge) or wider than the nominal band with an antenna taper across it. Its widths are
 # then searched (:func:`_search_widths`) before the ridge sweeps.
 WIDTH_SEARCH_MISFIT = 1e-3
-WIDTH_SCALES = 1.1 ** np.arange(-8, 18)  # 0.47 .. 5.1 times the image's null spacing, 10 % apart
+WIDTH_SCALES = 1.25 ** np.arange(-3, 8)  # 0.51 .. 4.8 times the image's null spacing, 25 % apart
 
 
 def _misfit(model: dict, points: np.ndarray, y: np.ndarray) -> float:
@@ -568,25 +568,32 @@ def _refit_lone(
     )
 
 
-def _search_widths(model: dict, points: np.ndarray, y: np.ndarray, nulls: np.ndarray) -> np.ndarray:
-    """The support widths that fit ``y`` best with the rectangle's basis (linear least squares at the model's
-    band centre and chirp, the model's orders), one axis at a time: per axis the scale of the image's null
-    spacing ``nulls``, from :data:`WIDTH_SCALES`."""
+def _search_widths(model: dict, points: np.ndarray, y: np.ndarray, nulls: np.ndarray) -> tuple[np.ndarray, float]:
+    """(scale, misfit): the support widths that fit ``y`` best with the rectangle's basis (linear least
+    squares at the model's band centre and chirp, the model's orders), one axis at a time, per axis the
+    scale of the image's null spacing ``nulls`` (:data:`WIDTH_SCALES`, then a half and a quarter step either
+    side of the best), and the misfit (|residual|^2 / |y|^2) there."""
     from sarproc.quality.metrics import least_squares  # metrics imports this module
 
+    def misfit(scale: np.ndarray) -> float:
+        B = response_basis(points, model["pos"], model["V"], nulls * scale, model["f_c"], model["orders"], model["K"])
+        r = y - B @ least_squares(B, y)
+        return float(np.vdot(r, r).real)
+
     scale = np.ones(len(nulls))
+    best = misfit(scale)
+    step = WIDTH_SCALES[1] / WIDTH_SCALES[0]
     for a in range(len(nulls)):
-        best = (np.inf, 1.0)
-        for s in WIDTH_SCALES:
-            trial = scale.copy()
-            trial[a] = s
-            B = response_basis(
-                points, model["pos"], model["V"], nulls * trial, model["f_c"], model["orders"], model["K"]
-            )
-            r = y - B @ least_squares(B, y)
-            best = min(best, (float(np.vdot(r, r).real), float(s)))
-        scale[a] = best[1]
-    return scale
+        for grid in (WIDTH_SCALES, [step**-0.5, step**0.5], [step**-0.25, step**0.25]):
+            centre = scale[a] if grid is not WIDTH_SCALES else 1.0
+            for s in np.asarray(grid) * centre:
+                trial = scale.copy()
+                trial[a] = s
+                value = misfit(trial)
+                if value < best:
+                    best, scale = value, trial
+    energy = float(np.vdot(y, y).real)
+    return scale, best / energy if energy > 0 else 0.0
 
 
 FIT_REACH_DB = -100.0  # other groups' side lobes are subtracted from a fit's samples down to this level
@@ -657,15 +664,22 @@ def _fit_response_models(
                 k = members[0]
                 if len(members) > 1 or (before := _misfit(models[k], near, y_near)) <= WIDTH_SEARCH_MISFIT:
                     continue
-                # two orders, then (still misfit) the widths searched and the samples taken on them; kept
-                # where the misfit at least halves (else the target keeps its first fit: structure no band-
-                # limited model follows, e.g. the two-step PFA's, is not chased at every target)
+                # two orders, then (still misfit) the widths searched and the samples taken on them; only where
+                # the linear fit at the current band centre and chirp says it would halve the misfit, and kept
+                # where it does (structure no band-limited model follows, e.g. the two-step PFA's, is not
+                # chased at every target)
+                rich = dict(models[k], orders=richer)
+                rich.pop("kappa", None)
+                linear = _search_widths(rich, near, y_near, nulls)[1]
+                if linear >= 0.5 * before:
+                    continue
+                samples = (near, y_near, far, y_far)
                 trial = _refit_lone(models[k], found[k], near, y_near, nulls, richer, np.ones(ndim))
-                scale, samples = np.ones(ndim), (near, y_near, far, y_far)
-                for _ in range(2):
+                scale = np.ones(ndim)
+                for _ in range(2):  # the box and ridges follow the widths found
                     if _misfit(trial, samples[0], samples[1]) <= WIDTH_SEARCH_MISFIT:
                         break
-                    scale = _search_widths(trial, samples[0], samples[1], nulls)
+                    scale = _search_widths(trial, samples[0], samples[1], nulls)[0]
                     at, along = _fit_samples(found[k], nulls * scale, data.shape, params)
                     samples = (at, data[tuple(at)].astype(complex), along, data[tuple(along)].astype(complex))
                     trial = _refit_lone(trial, found[k], samples[0], samples[1], nulls, richer, scale)
