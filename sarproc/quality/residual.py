@@ -375,7 +375,6 @@ def _fit_group(
     iterations: int,
     shape0: list[tuple[np.ndarray, np.ndarray]] | None = None,
     centre: list[np.ndarray] | None = None,
-    chord: bool = False,
 ) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray], list]:
     """Complex amplitudes of every member's orders, and real band centres f_c and spatial chirps K by
     Gauss-Newton (the band centre first estimated as the power centroid, which a taper pulls off the
@@ -384,10 +383,8 @@ def _fit_group(
     With ``shape0`` (per member: (scale, kappa) starting values) the support's shape is fitted too: its
     widths (null spacing ``nulls * (1 + scale)`` per axis) and keystone kappa (:func:`_strip_factors`).
     They matter far out: a support edge 0.5 % off puts the side lobes 40 nulls away a fifth of a null out
-    of step. The widths stay within 10 % of ``centre`` (per member, the nulls' scale; default 1). With
-    ``chord`` the shape's finite-difference derivatives are taken at the first step only and kept (for
-    starts close to the solution: the ridge sweeps). Returns (coef, f_c, K, (scale, kappa) or None) per
-    member."""
+    of step. The widths stay within 10 % of ``centre`` (per member, the nulls' scale; default 1).
+    Returns (coef, f_c, K, (scale, kappa) or None) per member."""
     from sarproc.quality.metrics import least_squares  # metrics imports this module
 
     ndim = points.shape[0]
@@ -420,8 +417,7 @@ def _fit_group(
 
     current = bases()  # the bases at the current parameters, reused by the next step
     coef = least_squares(np.concatenate(current, axis=1), y).reshape(len(members), n_o)
-    shape_jacobian: list[list[np.ndarray]] = []  # per member, per shape parameter: d raw basis (no carrier)
-    for it in range(iterations):
+    for _ in range(iterations):
         cols = []
         for q, (b, x, c, car) in enumerate(zip(current, offs, coef, carriers())):
             model = b @ c
@@ -429,23 +425,13 @@ def _fit_group(
             derivs = [2j * np.pi * x[a] * model for a in range(ndim)]
             derivs += [1j * np.pi * (1.0 if a == a2 else 2.0) * x[a] * x[a2] * model for a, a2 in pairs]
             if shape is not None:
-                if it == 0 or not chord:
-                    # the shape's derivatives by finite differences, taken at the first step and kept (a
-                    # chord step: the widths and keystone move by a few tenths of a per cent after it)
-                    here = b / car
-                    steps = []
-                    for i in range(n_shape):
-                        sc, kp = shape[q][0].copy(), shape[q][1].copy()
-                        if i < ndim:
-                            sc[i] += eps
-                        else:
-                            kp[i - ndim] += eps
-                        steps.append((raw(q, (sc, kp)) - here) / eps)
-                    if q < len(shape_jacobian):
-                        shape_jacobian[q] = steps
+                for i in range(n_shape):
+                    sc, kp = shape[q][0].copy(), shape[q][1].copy()
+                    if i < ndim:
+                        sc[i] += eps
                     else:
-                        shape_jacobian.append(steps)
-                derivs += [(d * car) @ c for d in shape_jacobian[q]]
+                        kp[i - ndim] += eps
+                    derivs.append(((raw(q, (sc, kp)) * car) @ c - model) / eps)
             cols.append(np.stack(derivs, axis=1))
         sol = least_squares(np.concatenate(cols, axis=1), y).reshape(len(members), n_o + n_p)
         largest = 0.0
@@ -731,7 +717,6 @@ def _fit_response_models(
                 10 if sweep == 0 else 3,
                 shape0,
                 [centre.get(k, np.ones(ndim)) for k in members],
-                chord=sweep > 0,
             )
             for q, k in enumerate(members):
                 models[k] = {
