@@ -26,6 +26,8 @@ from sarproc.focus.pfa.phase_history import compensate
 from sarproc.focus.pfa.polar import (
     Grid,
     Interpolation,
+    KGrid,
+    Rect,
     data_sampling,
     los_components,
     make_kgrid,
@@ -35,6 +37,9 @@ from sarproc.focus.pfa.polar import (
 )
 from sarproc.focus.pfa.two_step import (
     SubImageTask,
+    Tile,
+    TileSupport,
+    lit_pulses,
     local_irw,
     mosaic,
     plan_tiles,
@@ -58,7 +63,6 @@ if TYPE_CHECKING:
     from typing import Any
 
     from sarproc.focus.pfa.phase_history import PhaseHistory
-    from sarproc.focus.pfa.polar import KGrid, Rect
     from sarproc.product.metadata import RadarMetadata
     from sarproc.product.steps import ProgressFactory
 
@@ -270,7 +274,7 @@ def pfa2(
     from sarproc.product.io import history_entry  # product layer; the core stays free of h5py at import
 
     targets = targets_in_frame(raw.targets, frame)
-    _record_target_theory(targets, ph, e_a, e_r, kg, params)
+    _record_target_theory(targets, ph, e_a, e_r, kg, params, radar)
     out = raw.derive(
         "image",
         img,
@@ -314,7 +318,13 @@ def _plain_corrected(
 
 
 def _record_target_theory(
-    targets: np.ndarray, ph: PhaseHistory, e_a: np.ndarray, e_r: np.ndarray, kg: KGrid, params: Pfa2Params
+    targets: np.ndarray,
+    ph: PhaseHistory,
+    e_a: np.ndarray,
+    e_r: np.ndarray,
+    kg: KGrid,
+    params: Pfa2Params,
+    radar: RadarMetadata,
 ) -> None:
     """Fill each target's theory (irw_, null_, pslr_, islr_<axis>, in place): a flat azimuth support and the
     range window over the polar support it is focused with, the image's rectangle (plain) or its own
@@ -326,7 +336,8 @@ def _record_target_theory(
     for i in range(len(targets)):
         if params.method == "two_step":
             point = np.array([targets["x"][i], targets["y"][i], targets["z"][i]], float)
-            nulls = local_irw(ph.positions, point, e_a, e_r, ph.carrier_frequency, band, factor=1.0)
+            lit = lit_pulses(radar, ph.positions, point)
+            nulls = local_irw(ph.positions, point, e_a, e_r, ph.carrier_frequency, band, factor=1.0, lit=lit)
         own.append([shape.scaled(null) for shape, null in zip(shapes, nulls)])
     fill_target_theory(targets, ("azimuth", "range"), own)
 
@@ -335,6 +346,173 @@ def _rect_irw(rect: Rect) -> tuple[float, float]:
     return SINC_IRW_FACTOR * 2 * math.pi / (rect.ka_hi - rect.ka_lo), SINC_IRW_FACTOR * 2 * math.pi / (
         rect.kr_hi - rect.kr_lo
     )
+
+
+@dataclasses.dataclass(frozen=True)
+class TwoStepScene:
+    """What every step of the two-step PFA reads: the compensated phase history and the image frame."""
+
+    ph: PhaseHistory
+    grid: Grid  # the output grid (offsets from the origin along e_a, e_r)
+    origin: np.ndarray
+    e_a: np.ndarray
+    e_r: np.ndarray
+
+    @property
+    def band(self) -> tuple[float, float]:
+        return float(self.ph.freqs[0]), float(self.ph.freqs[-1])
+
+    def los(self) -> tuple[np.ndarray, np.ndarray]:
+        return los_components(self.ph.positions, self.origin, self.e_a, self.e_r)
+
+
+@dataclasses.dataclass(frozen=True)
+class SubImageSize:
+    """The sub-image core (m) and what bounds it: eq. (7)'s valid radius and a curved track's limit."""
+
+    core: float
+    valid_radius: float
+    track_residual: float
+    track_limit: float  # inf for a track without wiggles
+
+
+@dataclasses.dataclass(frozen=True)
+class FirstStep:
+    """Step 1: the whole scene by PFA on the circumscribed support, on pixels covering every window."""
+
+    grid: Grid
+    image: np.ndarray
+    kgrid: KGrid
+    rect: Rect
+
+
+@dataclasses.dataclass(frozen=True)
+class SecondStepLayout:
+    """Each sub-image's window (slices of the step-1 grid) and k grid, and the largest window's extent (m)."""
+
+    slices: list[tuple[slice, slice]]
+    kgrids: list[KGrid]  # on each sub-image's turned axes (TileSupport)
+    angles: list[float]
+    content_extent: tuple[float, float]
+
+
+def _subimage_size(scene: TwoStepScene, params: Pfa2Params, radar: RadarMetadata) -> SubImageSize:
+    """Sub-image core: ``subimage_size``, else eq. (7)'s valid radius shrunk to what a curved track allows."""
+    ph, origin = scene.ph, scene.origin
+    ua, ur = scene.los()
+    r_ac = float(np.linalg.norm(ph.positions[len(ph.positions) // 2] - origin))
+    rect_in = polar_support(ua, ur, ph.carrier_frequency, ph.freqs, "inscribed")
+    radius = valid_radius(
+        2 * math.pi / (rect_in.ka_hi - rect_in.ka_lo), r_ac, radar.wavelength, params.valid_radius_factor
+    )
+    # a curved track's residual (non-polynomial wiggle of the range) bounds the sub-image as well:
+    # a core's corners, core / sqrt(2) from its centre, must stay within track_radius
+    wiggle = track_residual(ph.positions, origin, scene.e_a, scene.e_r)
+    k_max = float(wavenumbers(ph.carrier_frequency, scene.band[1]))
+    curved = math.sqrt(2) * track_radius(wiggle, r_ac, k_max, params.track_phase_budget)
+    core = params.subimage_size or min(radius, curved)
+    if core > curved:
+        corner = k_max * (core / math.sqrt(2)) ** 2 * wiggle / (2 * r_ac**2)
+        log.warning(
+            "pfa2: sub-images of %.3g m exceed the %.3g m that the track's %.3g m wiggle allows: "
+            "paired echoes of %.3g rad may raise a PSLR by up to %.2f dB",
+            core,
+            curved,
+            wiggle,
+            corner,
+            pslr_rise_db(corner),
+        )
+    return SubImageSize(core, radius, wiggle, curved)
+
+
+def _first_step_grid(tiles: Sequence[Tile], rect1: Rect) -> Grid:
+    """Step-1 pixels: fine enough for the circumscribed support (x 1.15), covering every window (+ 4 pixels)."""
+    da1 = 2 * math.pi / ((rect1.ka_hi - rect1.ka_lo) * 1.15)
+    dr1 = 2 * math.pi / ((rect1.kr_hi - rect1.kr_lo) * 1.15)
+    a_lo = min(t.window[0] for t in tiles)
+    a_hi = max(t.window[1] for t in tiles)
+    r_lo = min(t.window[2] for t in tiles)
+    r_hi = max(t.window[3] for t in tiles)
+    return Grid(
+        a_lo - 4 * da1,
+        da1,
+        int(math.ceil((a_hi - a_lo) / da1)) + 9,
+        r_lo - 4 * dr1,
+        dr1,
+        int(math.ceil((r_hi - r_lo) / dr1)) + 9,
+    )
+
+
+def _first_step(scene: TwoStepScene, tiles: Sequence[Tile], interp: Interpolation) -> FirstStep:
+    """Step 1: PFA of the whole scene on the circumscribed support (the inverse then loses no polar sample)."""
+    ph = scene.ph
+    ua, ur = scene.los()
+    rect1 = polar_support(ua, ur, ph.carrier_frequency, ph.freqs, "circumscribed")
+    g1 = _first_step_grid(tiles, rect1)
+    img1, kg1 = pfa(ph, scene.e_a, scene.e_r, g1, rect=rect1, interp=interp)
+    return FirstStep(g1, img1, kg1, rect1)
+
+
+def _second_step_layout(
+    scene: TwoStepScene, tiles: Sequence[Tile], supports: Sequence[TileSupport], first: FirstStep, oversampling: float
+) -> SecondStepLayout:
+    """Windows of the step-1 image, and one k grid spacing for every sub-image: sampled for the largest
+    window, FFT-exact on the output pixels (each sub-image's own support)."""
+    g1, grid = first.grid, scene.grid
+    slices = [window_slices(g1, t.window) for t in tiles]
+    wa = max((s[0].stop - s[0].start) * g1.da for s in slices)
+    wr = max((s[1].stop - s[1].start) * g1.dr for s in slices)
+    n_ca = max(t.rows.stop - t.rows.start for t in tiles)
+    n_cr = max(t.cols.stop - t.cols.start for t in tiles)
+    kgrids = [
+        make_kgrid(
+            r, 2 * math.pi / (oversampling * wa), 2 * math.pi / (oversampling * wr), grid.da, grid.dr, n_ca, n_cr
+        )[0]
+        for r in (sup.rect for sup in supports)
+    ]
+    return SecondStepLayout(slices, kgrids, [sup.angle for sup in supports], (wa, wr))
+
+
+def _subimage_tasks(
+    scene: TwoStepScene, tiles: Sequence[Tile], first: FirstStep, layout: SecondStepLayout, params: Pfa2Params
+) -> Iterator[SubImageTask]:
+    """One :class:`SubImageTask` per tile (lazily: each holds a copy of its window)."""
+    g1, grid, ph = first.grid, scene.grid, scene.ph
+    os_ = params.subimage_oversampling
+    for t, (sa, sr), kg2, angle in zip(tiles, layout.slices, layout.kgrids, layout.angles):
+        wg = Grid(
+            g1.a0 + sa.start * g1.da, g1.da, sa.stop - sa.start, g1.r0 + sr.start * g1.dr, g1.dr, sr.stop - sr.start
+        )
+        core_grid = Grid(
+            grid.a0 + t.rows.start * grid.da,
+            grid.da,
+            t.rows.stop - t.rows.start,
+            grid.r0 + t.cols.start * grid.dr,
+            grid.dr,
+            t.cols.stop - t.cols.start,
+        )
+        centre = scene.origin + t.center_offset[0] * scene.e_a + t.center_offset[1] * scene.e_r
+        yield SubImageTask(
+            window=np.ascontiguousarray(first.image[sa, sr]),
+            window_grid=wg,
+            forward=first.kgrid,
+            forward_rect=first.rect,
+            window_center=t.window_center,
+            center=centre,
+            center_offset=t.center_offset,
+            core=core_grid,
+            kgrid=kg2,
+            positions=ph.positions,
+            reference=scene.origin,
+            e_azimuth=scene.e_a,
+            e_range=scene.e_r,
+            carrier_frequency=ph.carrier_frequency,
+            band=scene.band,
+            content_extent=layout.content_extent,
+            oversampling=os_,
+            interp=_interp(params, os_),
+            support_angle=angle,
+        )
 
 
 def _two_step(
@@ -350,114 +528,45 @@ def _two_step(
     mapper: Callable | None,
     timing: dict[str, float],
 ) -> tuple[np.ndarray, KGrid, dict]:
-    band = (float(ph.freqs[0]), float(ph.freqs[-1]))
-    ua, ur = los_components(ph.positions, origin, e_a, e_r)
-    r_ac = float(np.linalg.norm(ph.positions[len(ph.positions) // 2] - origin))
-    rect_in = polar_support(ua, ur, ph.carrier_frequency, ph.freqs, "inscribed")
-    radius = valid_radius(
-        2 * math.pi / (rect_in.ka_hi - rect_in.ka_lo), r_ac, radar.wavelength, params.valid_radius_factor
-    )
-    # a curved track's residual (non-polynomial wiggle of the range) bounds the sub-image as well:
-    # a core's corners, core / sqrt(2) from its centre, must stay within track_radius
-    wiggle = track_residual(ph.positions, origin, e_a, e_r)
-    k_max = float(wavenumbers(ph.carrier_frequency, band[1]))
-    curved = math.sqrt(2) * track_radius(wiggle, r_ac, k_max, params.track_phase_budget)
-    core = params.subimage_size or min(radius, curved)
-    if core > curved:
-        corner = k_max * (core / math.sqrt(2)) ** 2 * wiggle / (2 * r_ac**2)
-        log.warning(
-            "pfa2: sub-images of %.3g m exceed the %.3g m that the track's %.3g m wiggle allows: "
-            "paired echoes of %.3g rad may raise a PSLR by up to %.2f dB",
-            core,
-            curved,
-            wiggle,
-            corner,
-            pslr_rise_db(corner),
-        )
+    """Two-step PFA (Figs. 3-5): sub-image size -> tiles and their supports -> step 1 -> windows and k grids
+    -> one task per sub-image (step 2) -> mosaic."""
+    scene = TwoStepScene(ph, grid, origin, e_a, e_r)
+    size = _subimage_size(scene, params, radar)
     t0 = time.perf_counter()
     tiles = plan_tiles(
-        grid, (core, core), params.subimage_overlap, ph.positions, origin, e_a, e_r, ph.carrier_frequency, band
+        grid,
+        (size.core, size.core),
+        params.subimage_overlap,
+        ph.positions,
+        origin,
+        e_a,
+        e_r,
+        ph.carrier_frequency,
+        scene.band,
     )
-    rects = tile_rects(tiles, ph.positions, origin, e_a, e_r, ph.carrier_frequency, band)
-    # step 1: circumscribed support, pixels fine enough for all of it, covering every window
-    rect1 = polar_support(ua, ur, ph.carrier_frequency, ph.freqs, "circumscribed")
-    da1 = 2 * math.pi / ((rect1.ka_hi - rect1.ka_lo) * 1.15)
-    dr1 = 2 * math.pi / ((rect1.kr_hi - rect1.kr_lo) * 1.15)
-    a_lo = min(t.window[0] for t in tiles)
-    a_hi = max(t.window[1] for t in tiles)
-    r_lo = min(t.window[2] for t in tiles)
-    r_hi = max(t.window[3] for t in tiles)
-    g1 = Grid(
-        a_lo - 4 * da1,
-        da1,
-        int(math.ceil((a_hi - a_lo) / da1)) + 9,
-        r_lo - 4 * dr1,
-        dr1,
-        int(math.ceil((r_hi - r_lo) / dr1)) + 9,
-    )
+    supports = tile_rects(tiles, ph.positions, origin, e_a, e_r, ph.carrier_frequency, scene.band, radar)
     timing["plan"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    img1, kg1 = pfa(ph, e_a, e_r, g1, rect=rect1, interp=_interp(params, az_os))
+    first = _first_step(scene, tiles, _interp(params, az_os))
     timing["pfa_step1"] = time.perf_counter() - t0
-    # one k grid for every sub-image: sampled for the largest window, FFT-exact on the output pixels
-    os_ = params.subimage_oversampling
-    slices = [window_slices(g1, t.window) for t in tiles]
-    wa = max((s[0].stop - s[0].start) * da1 for s in slices)
-    wr = max((s[1].stop - s[1].start) * dr1 for s in slices)
-    n_ca = max(t.rows.stop - t.rows.start for t in tiles)
-    n_cr = max(t.cols.stop - t.cols.start for t in tiles)
-    kgrids = [
-        make_kgrid(r, 2 * math.pi / (os_ * wa), 2 * math.pi / (os_ * wr), grid.da, grid.dr, n_ca, n_cr)[0]
-        for r in rects
-    ]
-
-    def tasks() -> Iterator[SubImageTask]:
-        for t, (sa, sr), kg2 in zip(tiles, slices, kgrids):
-            wg = Grid(g1.a0 + sa.start * da1, da1, sa.stop - sa.start, g1.r0 + sr.start * dr1, dr1, sr.stop - sr.start)
-            core_grid = Grid(
-                grid.a0 + t.rows.start * grid.da,
-                grid.da,
-                t.rows.stop - t.rows.start,
-                grid.r0 + t.cols.start * grid.dr,
-                grid.dr,
-                t.cols.stop - t.cols.start,
-            )
-            centre = origin + t.center_offset[0] * e_a + t.center_offset[1] * e_r
-            yield SubImageTask(
-                window=np.ascontiguousarray(img1[sa, sr]),
-                window_grid=wg,
-                forward=kg1,
-                forward_rect=rect1,
-                window_center=t.window_center,
-                center=centre,
-                center_offset=t.center_offset,
-                core=core_grid,
-                kgrid=kg2,
-                positions=ph.positions,
-                reference=origin,
-                e_azimuth=e_a,
-                e_range=e_r,
-                carrier_frequency=ph.carrier_frequency,
-                band=band,
-                content_extent=(wa, wr),
-                oversampling=os_,
-                interp=_interp(params, os_),
-            )
-
+    layout = _second_step_layout(scene, tiles, supports, first, params.subimage_oversampling)
     t0 = time.perf_counter()
-    results = run_tasks(tasks(), mapper)
+    results = run_tasks(_subimage_tasks(scene, tiles, first, layout, params), mapper)
     if progress is not None:
         results = progress(results)
     img = mosaic((grid.n_a, grid.n_r), tiles, results)
     timing["subimages"] = time.perf_counter() - t0
     info = {
         "subimages": len(tiles),
-        "subimage_core": core,
-        "valid_radius_eq7": radius,
-        "track_residual": wiggle,
-        "track_core_limit": curved if math.isfinite(curved) else -1.0,
-        "step1_shape": [g1.n_a, g1.n_r],
-        "window_shape_max": [max(s[0].stop - s[0].start for s in slices), max(s[1].stop - s[1].start for s in slices)],
+        "subimage_core": size.core,
+        "valid_radius_eq7": size.valid_radius,
+        "track_residual": size.track_residual,
+        "track_core_limit": size.track_limit if math.isfinite(size.track_limit) else -1.0,
+        "step1_shape": [first.grid.n_a, first.grid.n_r],
+        "window_shape_max": [
+            max(s[0].stop - s[0].start for s in layout.slices),
+            max(s[1].stop - s[1].start for s in layout.slices),
+        ],
     }
     centre_tile = min(range(len(tiles)), key=lambda i: math.hypot(*tiles[i].center_offset))
-    return img, kgrids[centre_tile], info
+    return img, layout.kgrids[centre_tile], info

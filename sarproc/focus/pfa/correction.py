@@ -22,7 +22,7 @@ import numpy as np
 from sarproc.dsp.interp import resample_rows
 from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
 from sarproc.dsp.phasor import unit_phasor
-from sarproc.focus.pfa.polar import Grid, Interpolation, KGrid, Rect, los_components, polar_support
+from sarproc.focus.pfa.polar import Grid, Interpolation, KGrid, Rect, los_components, polar_support, rotate_axes
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -130,19 +130,20 @@ def kgrid_rect(kg: KGrid) -> Rect:
 
 
 def distortion_field(
-    geo: PfaGeometry, kg: KGrid, core: Grid, n: int = 9
+    geo: PfaGeometry, kg: KGrid, core: Grid, n: int = 9, angle: float = 0.0
 ) -> tuple[RectBivariateSpline, RectBivariateSpline]:
     """Displacement D(p) - p over ``core`` (offsets from s), m: two bicubic splines (azimuth, range).
 
     Sampled by :func:`pfa_distortion` on an n x n lattice over the core and the k grid's rectangle.
+    ``angle``: the PFA image's axes are the core's turned by it (:func:`.polar.rotate_axes`); D(p) is then
+    in the image's coordinates, p in the core's.
     """
     la = np.linspace(core.a[0], core.a[-1], n)
     lr = np.linspace(core.r[0], core.r[-1], n)
     a, r = np.meshgrid(la, lr, indexing="ij")
     points = geo.center + a.ravel()[:, None] * geo.e_azimuth + r.ravel()[:, None] * geo.e_range
-    fits = pfa_distortions(
-        geo.positions, geo.center, points, geo.e_azimuth, geo.e_range, geo.carrier_frequency, geo.band, kgrid_rect(kg)
-    )
+    e_a, e_r = rotate_axes(geo.e_azimuth, geo.e_range, angle)
+    fits = pfa_distortions(geo.positions, geo.center, points, e_a, e_r, geo.carrier_frequency, geo.band, kgrid_rect(kg))
     da = np.array([d.azimuth for d in fits]).reshape(n, n) - a
     dr = np.array([d.range for d in fits]).reshape(n, n) - r
     from scipy.interpolate import RectBivariateSpline  # ~0.3 s to import: only where a distortion is corrected
@@ -242,11 +243,17 @@ def warp_to_truth(
     geo: PfaGeometry,
     kg: KGrid,
     interp: Interpolation,
+    angle: float = 0.0,
 ) -> np.ndarray:
-    """Read the PFA image ``img`` (on ``grid``) at D(p) for every pixel p of ``core``: (n_a, n_r) complex64."""
+    """Read the PFA image ``img`` (on ``grid``) at D(p) for every pixel p of ``core``: (n_a, n_r) complex64.
+
+    ``angle``: the image's axes (``grid``, ``kg``) are the core's turned by it (:func:`distortion_field`).
+    """
     fa, fr = warp
     kc_a, kc_r = kg.ka0 + (kg.n_ka - 1) / 2 * kg.dka, kg.kr0 + (kg.n_kr - 1) / 2 * kg.dkr
     base = img * _carrier(grid.a, grid.r, kc_a, kc_r, +1)  # to baseband: the rectangle's centre
+    c, s = math.cos(angle), math.sin(angle)
+    kc_a, kc_r = c * kc_a + s * kc_r, c * kc_r - s * kc_a  # the same k_c on the core's axes
     os_a = 2 * math.pi / (kg.n_ka * kg.dka * core.da)
     os_r = 2 * math.pi / (kg.n_kr * kg.dkr * core.dr)
     # pass 1 (range): row a_i of the image holds the points p = (a, r) with D_a(p) = a_i; read D_r(p)

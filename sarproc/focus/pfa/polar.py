@@ -105,6 +105,13 @@ def los_components(
     return u @ np.asarray(e_azimuth, float), u @ np.asarray(e_range, float)
 
 
+def rotate_axes(e_azimuth: np.ndarray, e_range: np.ndarray, angle: float) -> tuple[np.ndarray, np.ndarray]:
+    """(e_a', e_r'): e_a, e_r turned by ``angle`` from e_r towards e_a (a line of sight at that angle: u . e_a' = 0)."""
+    c, s = math.cos(angle), math.sin(angle)
+    e_a, e_r = np.asarray(e_azimuth, float), np.asarray(e_range, float)
+    return c * e_a - s * e_r, s * e_a + c * e_r
+
+
 def wavenumbers(carrier_frequency: float, freqs: npt.ArrayLike) -> np.ndarray:
     """K = 4 pi (f_c + f_r) / c, rad/m."""
     return 4 * math.pi * (carrier_frequency + np.asarray(freqs, float)) / C

@@ -15,13 +15,15 @@ step-1 image and a decimated polar raster:
 3. restore the band-pass carrier exp{+j k . x_s'} of the window centre (sec. 3.3, last
    paragraph) and re-reference the motion compensation to the tile centre s (eq. 8):
    S_n = S exp{j K [r_s(t) - r_0(t)]} (eq. 9);
-4. PFA again with s as reference (eq. 10), on one k grid shared by all tiles.
+4. PFA again with s as reference (eq. 10), on k grids of one spacing for all tiles.
 
-The second pass interpolates onto a rectangle aligned with the mosaic's axes: its polar
-interpolation runs along each pulse's line of sight to s, so the rotation of s's line of sight
-against the scene centre's (a LOSPI sub-image's rotation) is taken out in the interpolation,
-and the translation is the tile's offset in the output grid. Every tile thus lands exactly on
-its own pixels of the output grid (seamless mosaic, no image-domain resampling).
+The second pass interpolates onto the rectangle inscribed in s's own polar support, on axes turned
+onto the bisector of s's lines of sight (:func:`own_support`): seen from any point p of the tile
+those are the same pulses and frequencies, so a point on a seam gets the same response from both
+tiles (a rectangle on the mosaic's axes holds samples turned by theta_p - theta_s instead, whose band
+centre jumps at the seam: -27 dB between the two halves of a response, tests/focus/test_pfa_seams.py).
+The planar-wavefront distortion and that turn are taken out together when each tile is read back at
+the distorted place of its own pixels of the output grid (:func:`focus_subimage`).
 """
 
 from __future__ import annotations
@@ -47,13 +49,16 @@ from sarproc.focus.pfa.polar import (
     pfa,
     polar_support,
     rect_to_polar,
+    rotate_axes,
     wavenumbers,
 )
-from sarproc.product import fft as sfft
+from sarproc.product import beam, fft as sfft
 from sarproc.product.metadata import SINC_IRW_FACTOR, C
 
 if TYPE_CHECKING:
     import numpy.typing as npt
+
+    from sarproc.product.metadata import RadarMetadata
 
 
 def valid_radius(azimuth_resolution: float, reference_range: float, wavelength: float, ka: float = 1.3) -> float:
@@ -132,6 +137,7 @@ class SubImageTask:
     content_extent: tuple[float, float]
     oversampling: float
     interp: Interpolation
+    support_angle: float = 0.0  # the second PFA's axes: e_a, e_r turned by this angle (:class:`TileSupport`)
 
 
 def subimage_phase_history(task: SubImageTask) -> PhaseHistory:
@@ -202,11 +208,13 @@ def focus_subimage(task: SubImageTask) -> np.ndarray:
         task.carrier_frequency,
         task.band,
     )
-    warp = distortion_field(geo, task.kgrid, core)
+    angle = task.support_angle
+    warp = distortion_field(geo, task.kgrid, core, angle=angle)
     grid = extended_grid(core, warp)
     interp = dataclasses.replace(task.interp, azimuth_oversampling=task.oversampling)
-    img, _ = pfa(ph, task.e_azimuth, task.e_range, grid, kgrid=task.kgrid, interp=interp, workers=1)
-    return warp_to_truth(img, grid, core, warp, geo, task.kgrid, interp)
+    e_a, e_r = rotate_axes(task.e_azimuth, task.e_range, angle)
+    img, _ = pfa(ph, e_a, e_r, grid, kgrid=task.kgrid, interp=interp, workers=1)
+    return warp_to_truth(img, grid, core, warp, geo, task.kgrid, interp, angle=angle)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -289,6 +297,48 @@ def window_slices(grid: Grid, window: tuple[float, float, float, float]) -> tupl
     return out[0], out[1]
 
 
+@dataclasses.dataclass(frozen=True)
+class TileSupport:
+    """A sub-image's polar support: the rectangle ``rect`` inscribed in its centre's polar support, on the
+    axes e_a, e_r turned by ``angle`` (rad, from e_r towards e_a) onto the bisector of the centre's lines of
+    sight (:func:`rotate_axes`)."""
+
+    angle: float
+    rect: Rect
+
+
+def own_support(
+    positions: np.ndarray,
+    point: npt.ArrayLike,
+    e_azimuth: np.ndarray,
+    e_range: np.ndarray,
+    carrier_frequency: float,
+    band: tuple[float, float],
+    lit: np.ndarray | None = None,
+) -> TileSupport:
+    """The rectangle inscribed in a point's polar support, aligned with the bisector of its lines of sight
+    (of the pulses ``lit``, bool (n,), that illuminate it, where a beam sweeps: :func:`lit_pulses`).
+
+    Seen from any point p, the same pulses and frequencies fill a sector turned by p's own line-of-sight
+    angle theta_p. Aligned with that angle, the inscribed rectangle holds (to first order in |p - s| / R)
+    the same pulses and frequencies whatever its centre s: a point on a seam gets the same response from
+    both sub-images. A rectangle aligned with the image axes instead holds a set of samples turned by
+    theta_p - theta_s, whose band centre and edges differ from one side of a seam to the other.
+    A point lit by part of the aperture only (sliding spotlight, stripmap) has a narrow strip of that
+    sector along its lit lines of sight, whose ends the rectangle then cuts square.
+    """
+    ua, ur = los_components(positions, point, e_azimuth, e_range)
+    theta = np.arctan(ua / ur)  # from the e_r axis (u_r < 0: the antenna is on the near side)
+    if lit is not None and np.count_nonzero(lit) > 1:
+        theta = theta[lit]
+    angle = float((theta.min() + theta.max()) / 2)
+    ua, ur = los_components(positions, point, *rotate_axes(e_azimuth, e_range, angle))
+    r = polar_support(ua, ur, carrier_frequency, np.asarray(band), "inscribed")
+    if not r.valid:
+        raise ValueError("two-step PFA: a sub-image centre has no inscribed polar support")
+    return TileSupport(angle, r)
+
+
 def tile_rects(
     tiles: Iterable[Tile],
     positions: np.ndarray,
@@ -297,22 +347,23 @@ def tile_rects(
     e_range: np.ndarray,
     carrier_frequency: float,
     band: tuple[float, float],
-) -> list[Rect]:
-    """Each tile centre's inscribed polar support (its own resolution and carrier).
-
-    After the distortion warp a response at p is resolved by this support mapped through the
-    warp's Jacobian, i.e. p's own support: both tiles of a seam give p its natural response.
-    """
+    radar: RadarMetadata | None = None,
+) -> list[TileSupport]:
+    """Each tile centre's own polar support (:func:`own_support`: its resolution, carrier and orientation)."""
     ref = np.asarray(reference, float)
-    rects = []
+    supports = []
     for t in tiles:
         s = ref + t.center_offset[0] * np.asarray(e_azimuth) + t.center_offset[1] * np.asarray(e_range)
-        ua, ur = los_components(positions, s, e_azimuth, e_range)
-        r = polar_support(ua, ur, carrier_frequency, np.asarray(band), "inscribed")
-        if not r.valid:
-            raise ValueError("two-step PFA: a sub-image centre has no inscribed polar support")
-        rects.append(r)
-    return rects
+        lit = lit_pulses(radar, positions, s)
+        supports.append(own_support(positions, s, e_azimuth, e_range, carrier_frequency, band, lit))
+    return supports
+
+
+def lit_pulses(radar: RadarMetadata | None, positions: np.ndarray, point: npt.ArrayLike) -> np.ndarray | None:
+    """The pulses whose -3 dB azimuth beam holds ``point`` (bool (n,)); None: every pulse (spotlight, no beam)."""
+    if radar is None or radar.mode == "spotlight" or radar.azimuth_beamwidth <= 0:
+        return None
+    return beam.illuminated(radar, positions, np.asarray(point, float))
 
 
 def local_irw(
@@ -323,10 +374,11 @@ def local_irw(
     carrier_frequency: float,
     band: tuple[float, float],
     factor: float = SINC_IRW_FACTOR,
+    lit: np.ndarray | None = None,
 ) -> tuple[float, float]:
-    """Theoretical (azimuth, range) IRW, m, of a point's own inscribed polar support (varies over a wide scene)."""
-    ua, ur = los_components(positions, point, e_azimuth, e_range)
-    r = polar_support(ua, ur, carrier_frequency, np.asarray(band), "inscribed")
+    """Theoretical (azimuth, range) IRW, m, of a point's own polar support (:func:`own_support`; along its
+    side-lobe ridges, turned by the support's angle; varies over a wide scene)."""
+    r = own_support(positions, point, e_azimuth, e_range, carrier_frequency, band, lit).rect
     return factor * 2 * math.pi / (r.ka_hi - r.ka_lo), factor * 2 * math.pi / (r.kr_hi - r.kr_lo)
 
 
