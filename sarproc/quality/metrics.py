@@ -689,7 +689,8 @@ def evaluate_image(
     theoretical_irw; NaN: use the image's), for images whose resolution varies with position: a
     target's cuts (IRW ratio, position in cells, ISLR/PSLR window in its own nulls) then use it and
     say so (``theory``). Chips are sized for the widest theory; supports and neighbour models keep
-    the image's. target_null: optional (n_targets, ndim) null spacings 1/B of each target's own support
+    the image's; the residual's response models start from each target's own null spacing where it fits
+    better. target_null: optional (n_targets, ndim) null spacings 1/B of each target's own support
     (NaN: its IRW / irw_factor), so a weighted target's ISLR window is +-islr_nulls of its bandwidth;
     target_sidelobes: optional (n_targets, ndim, 2) its theoretical PSLR and ISLR, dB (NaN: not
     recorded). other_truth: (n, ndim) positions of targets not measured (a subset was asked for):
@@ -729,7 +730,7 @@ def evaluate_image(
         if other_truth is None or len(other_truth) == 0
         else np.concatenate([truth, np.asarray(other_truth, dtype=float).reshape(-1, len(axes))])
     )
-    false, guard, floor = _false_targets(data, mag, axes, guarded, peaks, reports, half, nulls, params)
+    false, guard, floor = _false_targets(data, mag, axes, guarded, peaks, reports, half, nulls, params, own_axes)
     done()
     return QualityReport(
         dims=tuple(ax.name for ax in axes),
@@ -902,10 +903,12 @@ def _false_targets(
     half: Sequence[int],
     nulls: Sequence[float],
     params: EvaluateParams,
+    own_axes: Sequence[Sequence[_Axis]] | None = None,
 ) -> tuple:
     """(false target, guard-window false target, residual floor): the strongest response outside every
     target's +-guard_cells window, and with ``params.residual`` the strongest on the residual image (then the
-    reported one) with the residual's floor."""
+    reported one) with the residual's floor. ``own_axes``: each target's axes (:func:`_target_axes`); its
+    response model starts from their null spacing (its own theory's where it has one, else the image's)."""
     indices = [p.index for p in peaks]
     guard = _false_target(data, mag, axes, guarded, indices, reports, half, params)
     if not params.residual or data.ndim == 3:  # cubes: RESIDUAL_3D_NOTE
@@ -913,7 +916,11 @@ def _false_targets(
     if any(m.pslr_theory_db is not None and m.pslr_theory_db < WEIGHTED_PSLR_DB for r in reports for m in r.axes):
         # a window's taper (Hamming: the band's cosine) needs the second spectral order (residual_orders doc)
         params = dataclasses.replace(params, residual_orders=max(params.residual_orders, 2))
-    models = fit_response_models(data, [p.fit_start() for p in peaks], nulls, params, support_shape=True)
+    starts = [
+        p.fit_start() if own_axes is None else dict(p.fit_start(), nulls=np.array([ax.null for ax in own]))
+        for p, own in zip(peaks, own_axes or [axes] * len(peaks))
+    ]
+    models = fit_response_models(data, starts, nulls, params, support_shape=True)
     false, floor = residual_false_target(data, models, axes, guarded, indices, reports, half, params)
     return false, guard, floor
 

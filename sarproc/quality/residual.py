@@ -534,7 +534,7 @@ def _refit_lone(
     scale: np.ndarray,
 ) -> dict:
     """A lone target's model fitted again on ``points`` (:func:`_fit_group`, support shape included) with
-    ``orders``, its widths started at ``scale`` times the image's null spacing ``nulls`` (and kept within
+    ``orders``, its widths started at ``scale`` times the null spacing ``nulls`` (and kept within
     10 % of it)."""
     ndim = len(nulls)
     coef, f_c, K, shape = _fit_group(
@@ -582,6 +582,29 @@ def _search_widths(model: dict, points: np.ndarray, y: np.ndarray, nulls: np.nda
     return scale, best / energy if energy > 0 else 0.0
 
 
+def _start_nulls(
+    data: np.ndarray, found: dict, nulls: np.ndarray, orders: np.ndarray, params: EvaluateParams
+) -> np.ndarray:
+    """The null spacing a target's fit starts from: its own (``found["nulls"]``, its theory's) unless the
+    image's ``nulls`` fit its box better (linear least squares at its band centre), so that a theory the
+    response does not follow (a beam edge's partly lit support with the antenna's taper across it) is not
+    where its widths start."""
+    from sarproc.quality.metrics import least_squares  # metrics imports this module
+
+    own = np.asarray(found.get("nulls", nulls), dtype=float)
+    if np.allclose(own, nulls, rtol=1e-3, atol=0) or not abs(found["value"]) > 0:
+        return own
+    box = _fit_samples(found, own, data.shape, params)[0]
+    y = data[tuple(box)].astype(complex)
+
+    def misfit(x: np.ndarray) -> float:
+        B = response_basis(box, found["pos"], found["V"], x, found["f_c"], orders)
+        r = y - B @ least_squares(B, y)
+        return float(np.vdot(r, r).real)
+
+    return own if misfit(own) <= misfit(nulls) else nulls
+
+
 FIT_REACH_DB = -100.0  # other groups' side lobes are subtracted from a fit's samples down to this level
 
 # The fits' matrices are small (a few thousand rows, tens of columns): threaded BLAS only adds its
@@ -607,21 +630,27 @@ def _fit_response_models(
 
     Targets whose fit boxes (plus a null) overlap are fitted jointly; then each group is fitted again,
     twice, on its boxes and ridge strips (``params.fit_ridge_nulls``) minus the other groups' models.
+    ``nulls``: the image's null spacing (samples per axis); with ``support_shape`` a target's optional
+    ``found[k]["nulls"]``, its own (its theory's, where the image's resolution varies with position),
+    sizes its box and strips and is where its widths start (and stay within 10 % of) where it fits the
+    box better than the image's (:func:`_start_nulls`).
     Returns one model dict per target ({} for a target with no response)."""
     nulls = np.asarray(nulls, dtype=float)
     ndim = data.ndim
     orders = spectral_orders(ndim, params.residual_orders, params.residual_orders + (1 if ndim == 2 else 0))
-    r = np.ceil(params.fit_nulls * nulls).astype(int)
+    # each target's own null spacing (the image's without support_shape: the basis' widths are then fixed)
+    own = [_start_nulls(data, f, nulls, orders, params) if support_shape else nulls for f in found]
+    r = [np.ceil(params.fit_nulls * x).astype(int) for x in own]
     live = [j for j, f in enumerate(found) if abs(f["value"]) > 0]
     boxes, strips = {}, {}
     for j in live:
-        boxes[j], strips[j] = _fit_samples(found[j], nulls, data.shape, params)
+        boxes[j], strips[j] = _fit_samples(found[j], own[j], data.shape, params)
     group = {j: {j} for j in live}
     for j in live:
         for k in live:
             if (
                 k > j
-                and np.all(np.abs(found[j]["pos"] - found[k]["pos"]) <= 2 * r + nulls)
+                and np.all(np.abs(found[j]["pos"] - found[k]["pos"]) <= r[j] + r[k] + np.maximum(own[j], own[k]))
                 and group[j] is not group[k]
             ):
                 merged = group[j] | group[k]
@@ -639,7 +668,8 @@ def _fit_response_models(
         far = np.unique(np.concatenate([strips[k] for k in members], axis=1), axis=1)
         fits.append((members, near, data[tuple(near)].astype(complex), far, data[tuple(far)].astype(complex)))
     reach = 0.0 if params.exact else float(np.abs(data).max()) * 10 ** (FIT_REACH_DB / 20)
-    centre: dict[int, np.ndarray] = {}  # a member's support widths found by _search_widths (nulls' scale)
+    # a member's support widths (the image nulls' scale): its own null spacing, or where _search_widths found them
+    centre = {j: own[j] / nulls for j in live}
     richer = spectral_orders(ndim, max(2, params.residual_orders), max(2, params.residual_orders) + (ndim == 2))
     own_orders: dict[int, np.ndarray] = {}  # a misfitted lone member's orders (at least two per axis)
     # Sweep 0 on the boxes alone (the chirp converges from zero there); then on boxes and ridge strips, with
@@ -656,21 +686,21 @@ def _fit_response_models(
                 # chased at every target)
                 rich = dict(models[k], orders=richer)
                 rich.pop("kappa", None)
-                linear = _search_widths(rich, near, y_near, nulls)[1]
+                linear = _search_widths(rich, near, y_near, own[k])[1]
                 if linear >= 0.5 * before:
                     continue
                 samples = (near, y_near, far, y_far)
-                trial = _refit_lone(models[k], found[k], near, y_near, nulls, richer, np.ones(ndim))
+                trial = _refit_lone(models[k], found[k], near, y_near, own[k], richer, np.ones(ndim))
                 scale = np.ones(ndim)
                 for _ in range(2):  # the box and ridges follow the widths found
                     if _misfit(trial, samples[0], samples[1]) <= WIDTH_SEARCH_MISFIT:
                         break
-                    scale = _search_widths(trial, samples[0], samples[1], nulls)[0]
-                    at, along = _fit_samples(found[k], nulls * scale, data.shape, params)
+                    scale = _search_widths(trial, samples[0], samples[1], own[k])[0]
+                    at, along = _fit_samples(found[k], own[k] * scale, data.shape, params)
                     samples = (at, data[tuple(at)].astype(complex), along, data[tuple(along)].astype(complex))
-                    trial = _refit_lone(trial, found[k], samples[0], samples[1], nulls, richer, scale)
+                    trial = _refit_lone(trial, found[k], samples[0], samples[1], own[k], richer, scale)
                 if _misfit(trial, samples[0], samples[1]) < 0.5 * before:
-                    models[k], own_orders[k], centre[k] = trial, richer, scale
+                    models[k], own_orders[k], centre[k] = trial, richer, scale * own[k] / nulls
                     fits[g] = (members, *samples)
         for members, near, y_near, far, y_far in fits:
             points, y = (near, y_near) if sweep == 0 else (far, y_far)
@@ -703,7 +733,7 @@ def _fit_response_models(
                 shape0 = [
                     (models[k]["nulls"] / nulls - 1, models[k].get("kappa", np.zeros(ndim - 1)))
                     if models[k]
-                    else (np.zeros(ndim), np.zeros(ndim - 1))
+                    else (centre[k] - 1, np.zeros(ndim - 1))
                     for k in members
                 ]
             coef, f_c, K, shape = _fit_group(
@@ -716,7 +746,7 @@ def _fit_response_models(
                 K0,
                 10 if sweep == 0 else 3,
                 shape0,
-                [centre.get(k, np.ones(ndim)) for k in members],
+                [centre[k] for k in members],
             )
             for q, k in enumerate(members):
                 models[k] = {
