@@ -1,7 +1,8 @@
 """False-target figures with and without the residual (issue 20 item 1), via the CLI only.
 
-For each image: `sarproc evaluate` with the default (guard window) and with `evaluate.residual: true`;
-tabulates the guard-window figure, the residual false target, the residual floor and both run times.
+For each image: `sarproc evaluate` with `evaluate.residual: false` (guard window only) and `true` (the
+default on 2D images); tabulates the guard-window figure, the residual false target, the residual floor and
+both run times.
 With --before DIR (a checkout of an older sarproc) the residual is also evaluated with that tree's code,
 so the table holds the floor before and after a change.
 Usage: python scripts/residual_floors.py IMAGE.h5 [...] [--before DIR] --out results/residual_floors.md
@@ -49,8 +50,10 @@ def main(argv: list[str] | None = None) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         cfg = Path(tmp) / "residual.yaml"
         cfg.write_text("evaluate:\n  residual: true\n")
+        guard = Path(tmp) / "guard.yaml"
+        guard.write_text("evaluate:\n  residual: false\n")
         for image in args.images:
-            plain, t_plain = evaluate(image, None, Path(tmp) / "plain.json")
+            plain, t_plain = evaluate(image, guard, Path(tmp) / "plain.json")
             res, t_res = evaluate(image, cfg, Path(tmp) / "res.json")
             ft = res["false_target"]
             extra = ""

@@ -61,6 +61,8 @@ def main(argv: list[str] | None = None) -> None:
         tmp = Path(tmpdir)
         on = tmp / "residual.yaml"
         on.write_text("evaluate:\n  residual: true\n")
+        off = tmp / "guard.yaml"
+        off.write_text("evaluate:\n  residual: false\n")
         for name, (path, chain) in SCENES.items():
             if args.only and not any(o in name for o in args.only):
                 continue
@@ -76,7 +78,7 @@ def main(argv: list[str] | None = None) -> None:
                     f"{stage} {sarproc(stage, str(product), '--config', config or str(cfg), '-o', str(out)):.1f}"
                 )
                 product = out
-            t_guard = sarproc("evaluate", str(product), "-o", str(tmp / "guard.json"))
+            t_guard = sarproc("evaluate", str(product), "--config", str(off), "-o", str(tmp / "guard.json"))
             t_res = sarproc("evaluate", str(product), "--config", str(on), "-o", str(tmp / "res.json"))
             rep = json.loads((tmp / "res.json").read_text())
             floor = rep["residual"]["floor_db"]

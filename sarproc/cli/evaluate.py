@@ -196,6 +196,8 @@ def false_target_lines(report: QualityReport, units: dict) -> list[str]:
             f"lobes of +-{fl.exclusion_cells:g} cells excluded); residual floor in the targets' guard windows "
             f"{_fmt(fl.floor_db, '.2f')} dB, residual RMS {_fmt(fl.rms_db, '.2f')} dB"
         )
+    if report.residual_note:
+        out.append(f"\nResidual: {report.residual_note}.")
     label = "False target (guard window)" if report.residual is not None else "False target"
     if guard is None:
         out.append(
@@ -273,8 +275,9 @@ def evaluate(
     poorly fitted neighbour energy 'contaminated': --expect counts both as unverified (fail).
     Parameters come from the `evaluate:` section of --config (search_cells, guard_cells,
     upsample, islr_nulls, margin_nulls, irw_factor, principal_axes, remove_neighbours, exact; the
-    experimental residual false-target search: residual, residual_orders, fit_nulls, fit_ridge_nulls,
-    exclusion_cells). Prints a Markdown table; exit status 1 when --expect tolerances fail, 2 on bad input.
+    residual false-target search, on by default for 2D images: residual, residual_orders, fit_nulls,
+    fit_ridge_nulls, exclusion_cells). Prints a Markdown table; exit status 1 when --expect tolerances
+    fail, 2 on bad input.
     """
     from sarproc.cli.progress import progress_factory
     from sarproc.cli.stage import naming, report_plan

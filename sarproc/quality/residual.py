@@ -180,6 +180,7 @@ def _keystone_product(xs: Sequence[np.ndarray], kappa: np.ndarray) -> np.ndarray
 # The keystoned columns through the compiled kernel (sarproc.quality.residual_kernels); False (and
 # EvaluateParams.exact) keeps the numpy reference, :func:`_keystone_columns`.
 COMPILED = True
+BOX_KERNEL = True
 
 
 @contextlib.contextmanager
@@ -340,6 +341,22 @@ def _model_on_box(slices: Sequence[slice], model: dict) -> np.ndarray:
     kappa = model.get("kappa")
     box = np.zeros(shape, dtype=complex)
     if kappa is not None and _keystoned(kappa):  # skewed and keystoned: each order's strip sum in closed form
+        if BOX_KERNEL and COMPILED and ndim == 2:  # along the box's rows by rotations, the orders summed in the kernel
+            from sarproc.quality.residual_kernels import keystone_box_sum
+
+            corner = np.array([s.start for s in slices], dtype=float) - p
+            box = keystone_box_sum(
+                A @ corner,
+                np.ascontiguousarray(A[:, 0]),
+                np.ascontiguousarray(A[:, 1]),
+                shape[0],
+                shape[1],
+                np.asarray(orders, dtype=np.int64),
+                np.asarray(coef, dtype=np.complex128),
+                np.asarray(kappa, dtype=float),
+                _strip_count(kappa),
+            )
+            return box * carrier
         return _keystone_sum(c, orders, coef, kappa) * carrier
     factors = [np.stack(_shifted_sincs(ca, m)) for ca in c]
     for order, k in zip(orders, coef):
@@ -357,6 +374,7 @@ def _fit_group(
     K0: list[np.ndarray],
     iterations: int,
     shape0: list[tuple[np.ndarray, np.ndarray]] | None = None,
+    centre: list[np.ndarray] | None = None,
 ) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray], list]:
     """Complex amplitudes of every member's orders, and real band centres f_c and spatial chirps K by
     Gauss-Newton (the band centre first estimated as the power centroid, which a taper pulls off the
@@ -365,7 +383,8 @@ def _fit_group(
     With ``shape0`` (per member: (scale, kappa) starting values) the support's shape is fitted too: its
     widths (null spacing ``nulls * (1 + scale)`` per axis) and keystone kappa (:func:`_strip_factors`).
     They matter far out: a support edge 0.5 % off puts the side lobes 40 nulls away a fifth of a null out
-    of step. Returns (coef, f_c, K, (scale, kappa) or None) per member."""
+    of step. The widths stay within 10 % of ``centre`` (per member, the nulls' scale; default 1).
+    Returns (coef, f_c, K, (scale, kappa) or None) per member."""
     from sarproc.quality.metrics import least_squares  # metrics imports this module
 
     ndim = points.shape[0]
@@ -427,8 +446,9 @@ def _fit_group(
             )
             if shape is not None:
                 d_shape = np.clip(step[ndim + len(pairs) :], -0.01, 0.01)
+                mid = np.ones(ndim) if centre is None else centre[q]
                 shape[q] = (
-                    np.clip(shape[q][0] + d_shape[:ndim], -0.1, 0.1),
+                    np.clip(shape[q][0] + d_shape[:ndim], 0.9 * mid - 1, 1.1 * mid - 1),
                     np.clip(shape[q][1] + d_shape[ndim:], -0.2, 0.2),
                 )
                 largest = max(largest, float(np.max(np.abs(d_shape))) * 0.01)
@@ -460,6 +480,131 @@ def _ridge_strips(
     return out
 
 
+# A lone target whose first fit (on its box, the image's band widths within 10 %) leaves more than this
+# fraction of the box's energy has a support of its own: partly lit (a sliding spotlight's edge targets,
+# a stripmap's beam edge) or wider than the nominal band with an antenna taper across it. Its widths are
+# then searched (:func:`_search_widths`) before the ridge sweeps.
+WIDTH_SEARCH_MISFIT = 1e-3
+WIDTH_SCALES = 1.25 ** np.arange(-3, 8)  # 0.51 .. 4.8 times the image's null spacing, 25 % apart
+
+
+def _misfit(model: dict, points: np.ndarray, y: np.ndarray) -> float:
+    """|y - model|^2 / |y|^2 on ``points``."""
+    if not model:
+        return 0.0
+    fit = (
+        response_basis(
+            points,
+            model["pos"],
+            model["V"],
+            model["nulls"],
+            model["f_c"],
+            model["orders"],
+            model["K"],
+            kappa=model.get("kappa"),
+        )
+        @ model["coef"]
+    )
+    energy = float(np.vdot(y, y).real)
+    return float(np.vdot(y - fit, y - fit).real) / energy if energy > 0 else 0.0
+
+
+def _fit_samples(
+    found: dict, nulls: np.ndarray, shape: tuple[int, ...], params: EvaluateParams
+) -> tuple[np.ndarray, np.ndarray]:
+    """(box, box and ridge strips): the image indices ((ndim, M)) a target's model is fitted on, about two per
+    null: +-``params.fit_nulls`` nulls around its peak, and strips along its ridges (:func:`_ridge_strips`)."""
+    r = np.ceil(params.fit_nulls * nulls).astype(int)
+    stride = np.maximum(1, np.floor(nulls / 2)).astype(int)
+    c = np.rint(found["pos"]).astype(int)
+    pts = [np.arange(max(0, ci - ri), min(n, ci + ri + 1), st) for ci, ri, n, st in zip(c, r, shape, stride)]
+    g = np.meshgrid(*pts, indexing="ij")
+    box = np.stack([x.ravel() for x in g], axis=0)
+    ridges = _ridge_strips(found["pos"], found["V"], nulls, stride, shape, params.fit_ridge_nulls)
+    return box, np.concatenate([box] + ridges, axis=1)
+
+
+def _refit_lone(
+    model: dict,
+    found: dict,
+    points: np.ndarray,
+    y: np.ndarray,
+    nulls: np.ndarray,
+    orders: np.ndarray,
+    scale: np.ndarray,
+) -> dict:
+    """A lone target's model fitted again on ``points`` (:func:`_fit_group`, support shape included) with
+    ``orders``, its widths started at ``scale`` times the null spacing ``nulls`` (and kept within
+    10 % of it)."""
+    ndim = len(nulls)
+    coef, f_c, K, shape = _fit_group(
+        [0],
+        points,
+        y,
+        [dict(found, f_c=model["f_c"])],
+        nulls,
+        orders,
+        [model["K"]],
+        10,
+        [(scale - 1, np.zeros(ndim - 1))],
+        [scale],
+    )
+    return dict(
+        model, f_c=f_c[0], K=K[0], coef=coef[0], orders=orders, nulls=nulls * (1 + shape[0][0]), kappa=shape[0][1]
+    )
+
+
+def _search_widths(model: dict, points: np.ndarray, y: np.ndarray, nulls: np.ndarray) -> tuple[np.ndarray, float]:
+    """(scale, misfit): the support widths that fit ``y`` best with the rectangle's basis (linear least
+    squares at the model's band centre and chirp, the model's orders), one axis at a time, per axis the
+    scale of the image's null spacing ``nulls`` (:data:`WIDTH_SCALES`, then a half and a quarter step either
+    side of the best), and the misfit (|residual|^2 / |y|^2) there."""
+    from sarproc.quality.metrics import least_squares  # metrics imports this module
+
+    def misfit(scale: np.ndarray) -> float:
+        B = response_basis(points, model["pos"], model["V"], nulls * scale, model["f_c"], model["orders"], model["K"])
+        r = y - B @ least_squares(B, y)
+        return float(np.vdot(r, r).real)
+
+    scale = np.ones(len(nulls))
+    best = misfit(scale)
+    step = WIDTH_SCALES[1] / WIDTH_SCALES[0]
+    for a in range(len(nulls)):
+        for grid in (WIDTH_SCALES, [step**-0.5, step**0.5], [step**-0.25, step**0.25]):
+            centre = scale[a] if grid is not WIDTH_SCALES else 1.0
+            for s in np.asarray(grid) * centre:
+                trial = scale.copy()
+                trial[a] = s
+                value = misfit(trial)
+                if value < best:
+                    best, scale = value, trial
+    energy = float(np.vdot(y, y).real)
+    return scale, best / energy if energy > 0 else 0.0
+
+
+def _start_nulls(
+    data: np.ndarray, found: dict, nulls: np.ndarray, orders: np.ndarray, params: EvaluateParams
+) -> np.ndarray:
+    """The null spacing a target's fit starts from: its own (``found["nulls"]``, its theory's) unless the
+    image's ``nulls`` fit its box better (linear least squares at its band centre), so that a theory the
+    response does not follow (a beam edge's partly lit support with the antenna's taper across it) is not
+    where its widths start."""
+    from sarproc.quality.metrics import least_squares  # metrics imports this module
+
+    own = np.asarray(found.get("nulls", nulls), dtype=float)
+    if np.allclose(own, nulls, rtol=1e-3, atol=0) or not abs(found["value"]) > 0:
+        return own
+    box = _fit_samples(found, own, data.shape, params)[0]
+    y = data[tuple(box)].astype(complex)
+
+    def misfit(x: np.ndarray) -> float:
+        B = response_basis(box, found["pos"], found["V"], x, found["f_c"], orders)
+        r = y - B @ least_squares(B, y)
+        return float(np.vdot(r, r).real)
+
+    return own if misfit(own) <= misfit(nulls) else nulls
+
+
 FIT_REACH_DB = -100.0  # other groups' side lobes are subtracted from a fit's samples down to this level
 
 # The fits' matrices are small (a few thousand rows, tens of columns): threaded BLAS only adds its
@@ -485,30 +630,27 @@ def _fit_response_models(
 
     Targets whose fit boxes (plus a null) overlap are fitted jointly; then each group is fitted again,
     twice, on its boxes and ridge strips (``params.fit_ridge_nulls``) minus the other groups' models.
+    ``nulls``: the image's null spacing (samples per axis); with ``support_shape`` a target's optional
+    ``found[k]["nulls"]``, its own (its theory's, where the image's resolution varies with position),
+    sizes its box and strips and is where its widths start (and stay within 10 % of) where it fits the
+    box better than the image's (:func:`_start_nulls`).
     Returns one model dict per target ({} for a target with no response)."""
     nulls = np.asarray(nulls, dtype=float)
     ndim = data.ndim
     orders = spectral_orders(ndim, params.residual_orders, params.residual_orders + (1 if ndim == 2 else 0))
-    r = np.ceil(params.fit_nulls * nulls).astype(int)
-    stride = np.maximum(1, np.floor(nulls / 2)).astype(int)
+    # each target's own null spacing (the image's without support_shape: the basis' widths are then fixed)
+    own = [_start_nulls(data, f, nulls, orders, params) if support_shape else nulls for f in found]
+    r = [np.ceil(params.fit_nulls * x).astype(int) for x in own]
     live = [j for j, f in enumerate(found) if abs(f["value"]) > 0]
     boxes, strips = {}, {}
     for j in live:
-        c = np.rint(found[j]["pos"]).astype(int)
-        pts = [np.arange(max(0, ci - ri), min(n, ci + ri + 1), st) for ci, ri, n, st in zip(c, r, data.shape, stride)]
-        g = np.meshgrid(*pts, indexing="ij")
-        boxes[j] = np.stack([x.ravel() for x in g], axis=0)
-        strips[j] = np.concatenate(
-            [boxes[j]]
-            + _ridge_strips(found[j]["pos"], found[j]["V"], nulls, stride, data.shape, params.fit_ridge_nulls),
-            axis=1,
-        )
+        boxes[j], strips[j] = _fit_samples(found[j], own[j], data.shape, params)
     group = {j: {j} for j in live}
     for j in live:
         for k in live:
             if (
                 k > j
-                and np.all(np.abs(found[j]["pos"] - found[k]["pos"]) <= 2 * r + nulls)
+                and np.all(np.abs(found[j]["pos"] - found[k]["pos"]) <= r[j] + r[k] + np.maximum(own[j], own[k]))
                 and group[j] is not group[k]
             ):
                 merged = group[j] | group[k]
@@ -526,9 +668,40 @@ def _fit_response_models(
         far = np.unique(np.concatenate([strips[k] for k in members], axis=1), axis=1)
         fits.append((members, near, data[tuple(near)].astype(complex), far, data[tuple(far)].astype(complex)))
     reach = 0.0 if params.exact else float(np.abs(data).max()) * 10 ** (FIT_REACH_DB / 20)
+    # a member's support widths (the image nulls' scale): its own null spacing, or where _search_widths found them
+    centre = {j: own[j] / nulls for j in live}
+    richer = spectral_orders(ndim, max(2, params.residual_orders), max(2, params.residual_orders) + (ndim == 2))
+    own_orders: dict[int, np.ndarray] = {}  # a misfitted lone member's orders (at least two per axis)
     # Sweep 0 on the boxes alone (the chirp converges from zero there); then on boxes and ridge strips, with
     # the other groups' models subtracted.
     for sweep in range(3):
+        if sweep == 1 and support_shape:
+            for g, (members, near, y_near, far, y_far) in enumerate(fits):
+                k = members[0]
+                if len(members) > 1 or (before := _misfit(models[k], near, y_near)) <= WIDTH_SEARCH_MISFIT:
+                    continue
+                # two orders, then (still misfit) the widths searched and the samples taken on them; only where
+                # the linear fit at the current band centre and chirp says it would halve the misfit, and kept
+                # where it does (structure no band-limited model follows, e.g. the two-step PFA's, is not
+                # chased at every target)
+                rich = dict(models[k], orders=richer)
+                rich.pop("kappa", None)
+                linear = _search_widths(rich, near, y_near, own[k])[1]
+                if linear >= 0.5 * before:
+                    continue
+                samples = (near, y_near, far, y_far)
+                trial = _refit_lone(models[k], found[k], near, y_near, own[k], richer, np.ones(ndim))
+                scale = np.ones(ndim)
+                for _ in range(2):  # the box and ridges follow the widths found
+                    if _misfit(trial, samples[0], samples[1]) <= WIDTH_SEARCH_MISFIT:
+                        break
+                    scale = _search_widths(trial, samples[0], samples[1], own[k])[0]
+                    at, along = _fit_samples(found[k], own[k] * scale, data.shape, params)
+                    samples = (at, data[tuple(at)].astype(complex), along, data[tuple(along)].astype(complex))
+                    trial = _refit_lone(trial, found[k], samples[0], samples[1], own[k], richer, scale)
+                if _misfit(trial, samples[0], samples[1]) < 0.5 * before:
+                    models[k], own_orders[k], centre[k] = trial, richer, scale * own[k] / nulls
+                    fits[g] = (members, *samples)
         for members, near, y_near, far, y_far in fits:
             points, y = (near, y_near) if sweep == 0 else (far, y_far)
             rhs = y
@@ -547,7 +720,7 @@ def _fit_response_models(
                                 models[j]["V"],
                                 models[j]["nulls"],
                                 models[j]["f_c"],
-                                orders,
+                                models[j]["orders"],
                                 models[j]["K"],
                                 kappa=models[j].get("kappa"),
                             )
@@ -558,13 +731,22 @@ def _fit_response_models(
             shape0 = None
             if support_shape:
                 shape0 = [
-                    (models[k]["nulls"] / nulls - 1, models[k]["kappa"])
+                    (models[k]["nulls"] / nulls - 1, models[k].get("kappa", np.zeros(ndim - 1)))
                     if models[k]
-                    else (np.zeros(ndim), np.zeros(ndim - 1))
+                    else (centre[k] - 1, np.zeros(ndim - 1))
                     for k in members
                 ]
             coef, f_c, K, shape = _fit_group(
-                list(range(len(members))), points, rhs, start, nulls, orders, K0, 10 if sweep == 0 else 3, shape0
+                list(range(len(members))),
+                points,
+                rhs,
+                start,
+                nulls,
+                own_orders.get(members[0], orders),
+                K0,
+                10 if sweep == 0 else 3,
+                shape0,
+                [centre[k] for k in members],
             )
             for q, k in enumerate(members):
                 models[k] = {
@@ -572,7 +754,7 @@ def _fit_response_models(
                     "V": np.asarray(found[k]["V"]),
                     "f_c": f_c[q],
                     "nulls": nulls if shape[q] is None else nulls * (1 + shape[q][0]),
-                    "orders": orders,
+                    "orders": own_orders.get(k, orders),
                     "coef": coef[q],
                     "K": K[q],
                 }

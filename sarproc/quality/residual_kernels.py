@@ -91,6 +91,8 @@ def keystone_columns(
     for q in range(n_orders):
         cos_l[q] = math.cos(0.5 * math.pi * width * orders[q, ndim - 1])
         sin_l[q] = math.sin(0.5 * math.pi * width * orders[q, ndim - 1])
+    two_pi_pow = (2.0 * math.pi) ** (ndim - 1)
+    j_pow = (-1j) ** (ndim - 1)
     out = np.empty((n_orders, n), dtype=np.complex128)
     acc = np.empty(n_orders, dtype=np.complex128)
     x = np.empty(ndim)
@@ -132,11 +134,161 @@ def keystone_columns(
         for q in range(n_orders):
             x_l = last + 0.5 * orders[q, ndim - 1]
             small = abs(x_l) < 1e-12
-            sinc = 1.0 if small else (s_l * cos_l[q] + c_l * sin_l[q]) / (math.pi * width * x_l)
-            den_c = 1.0 + 0j
+            # width sinc(width x_l) / prod_a (2 j pi x_a): one real division; 1 / (2 j pi)^(ndim - 1) is
+            # (-j / (2 pi))^(ndim - 1)
+            den = 1.0
             for a in range(ndim - 1):
-                den_c *= 2j * math.pi * (c[a, i] + 0.5 * orders[q, a])
-            out[q, i] = acc[q] * width * sinc / den_c
+                den *= c[a, i] + 0.5 * orders[q, a]
+            den *= two_pi_pow
+            factor = width / den if small else (s_l * cos_l[q] + c_l * sin_l[q]) / (math.pi * x_l * den)
+            out[q, i] = acc[q] * factor * j_pow
+    return out
+
+
+RESEED = 16  # samples along a box row between exact angles in keystone_box_sum
+
+
+@numba.njit(error_model="numpy", cache=CACHE)
+def keystone_box_sum(
+    c0: np.ndarray,
+    d_row: np.ndarray,
+    d_col: np.ndarray,
+    n_rows: int,
+    n_cols: int,
+    orders: np.ndarray,
+    coef: np.ndarray,
+    kappa: np.ndarray,
+    n_strips: int,
+) -> np.ndarray:  # pragma: no cover - compiled
+    """(n_rows, n_cols) complex: sum_k coef[k] times the strip sum of order ``orders[k]`` (what
+    :func:`keystone_columns` gives) at the ridge coordinates c0 + i d_row + j d_col (2D boxes, c affine
+    in the image indices). Along a row every angle grows by a constant, so its sines and cosines are
+    complex rotations, taken afresh at each row's start: no trigonometry per sample."""
+    ndim = c0.shape[0]
+    n_orders = orders.shape[0]
+    n_signs = 1 << (ndim - 1)
+    width = 1.0 / n_strips
+    u0 = 0.5 * width - 0.5
+    cos_dh = np.empty((n_signs, n_orders))
+    sin_dh = np.empty((n_signs, n_orders))
+    cos_sdh = np.empty((n_signs, n_orders))
+    sin_sdh = np.empty((n_signs, n_orders))
+    shift = np.empty((n_signs, n_orders), dtype=np.complex128)
+    signs = np.empty((n_signs, ndim))
+    for s in range(n_signs):
+        prod = 1.0
+        for a in range(ndim - 1):
+            signs[s, a] = 1.0 - 2.0 * ((s >> a) & 1)
+            prod *= signs[s, a]
+        signs[s, ndim - 1] = prod
+        for q in range(n_orders):
+            n_l = orders[q, ndim - 1]
+            d_half = 0.5 * math.pi * width * n_l
+            d_phase = math.pi * u0 * n_l
+            for a in range(ndim - 1):
+                d_half += 0.25 * math.pi * width * signs[s, a] * kappa[a] * orders[q, a]
+                d_phase += 0.5 * math.pi * signs[s, a] * (1.0 + kappa[a] * u0) * orders[q, a]
+            d_phase += (n_strips - 1) * d_half
+            cos_dh[s, q], sin_dh[s, q] = math.cos(d_half), math.sin(d_half)
+            cos_sdh[s, q], sin_sdh[s, q] = math.cos(n_strips * d_half), math.sin(n_strips * d_half)
+            shift[s, q] = prod * coef[q] * complex(math.cos(d_phase), math.sin(d_phase))
+    cos_l = np.empty(n_orders)
+    sin_l = np.empty(n_orders)
+    for q in range(n_orders):
+        cos_l[q] = math.cos(0.5 * math.pi * width * orders[q, ndim - 1])
+        sin_l[q] = math.sin(0.5 * math.pi * width * orders[q, ndim - 1])
+    two_pi_pow = (2.0 * math.pi) ** (ndim - 1)
+    j_pow = (-1j) ** (ndim - 1)
+
+    def angles(c: np.ndarray, s: int) -> tuple[float, float]:
+        half = math.pi * width * c[ndim - 1]
+        phase = 2.0 * math.pi * u0 * c[ndim - 1]
+        for a in range(ndim - 1):
+            half += 0.5 * math.pi * width * signs[s, a] * kappa[a] * c[a]
+            phase += math.pi * signs[s, a] * (1.0 + kappa[a] * u0) * c[a]
+        return half, phase + (n_strips - 1) * half
+
+    out = np.empty((n_rows, n_cols), dtype=np.complex128)
+    e_half = np.empty(n_signs, dtype=np.complex128)  # exp(j half), exp(j S half), exp(j phase) per sign
+    e_shalf = np.empty(n_signs, dtype=np.complex128)
+    e_phase = np.empty(n_signs, dtype=np.complex128)
+    r_half = np.empty(n_signs, dtype=np.complex128)  # their steps along a row
+    r_shalf = np.empty(n_signs, dtype=np.complex128)
+    r_phase = np.empty(n_signs, dtype=np.complex128)
+    zero = np.zeros(ndim)
+    for s in range(n_signs):
+        dh, dp = angles(d_col, s)
+        dh0, dp0 = angles(zero, s)  # the angles' constant parts (zero: they are linear in c)
+        dh -= dh0
+        dp -= dp0
+        r_half[s] = complex(math.cos(dh), math.sin(dh))
+        r_shalf[s] = complex(math.cos(n_strips * dh), math.sin(n_strips * dh))
+        r_phase[s] = complex(math.cos(dp), math.sin(dp))
+    step_l = math.pi * width * d_col[ndim - 1]
+    r_l = complex(math.cos(step_l), math.sin(step_l))
+    c = np.empty(ndim)
+    x = np.empty(ndim)
+    here = np.empty(ndim)
+    e_l = 1.0 + 0j
+    for i in range(n_rows):
+        for a in range(ndim):
+            c[a] = c0[a] + i * d_row[a]
+        for j in range(n_cols):
+            if j % RESEED == 0:  # the rotations' rounding kept to ~1e-14: exact angles every RESEED samples
+                for a in range(ndim):
+                    here[a] = c[a] + j * d_col[a]
+                for s in range(n_signs):
+                    half, phase = angles(here, s)
+                    e_half[s] = complex(math.cos(half), math.sin(half))
+                    e_shalf[s] = complex(math.cos(n_strips * half), math.sin(n_strips * half))
+                    e_phase[s] = complex(math.cos(phase), math.sin(phase))
+                arg = math.pi * width * here[ndim - 1]
+                e_l = complex(math.cos(arg), math.sin(arg))
+            near = False
+            for a in range(ndim - 1):
+                for q in range(n_orders):
+                    if abs(c[a] + j * d_col[a] + 0.5 * orders[q, a]) < 1e-7:
+                        near = True
+            total = 0j
+            if near:  # within 1e-7 of a removable singularity: the direct product evaluates the limit
+                for q in range(n_orders):
+                    for a in range(ndim):
+                        x[a] = c[a] + j * d_col[a] + 0.5 * orders[q, a]
+                    total += coef[q] * _product_at(x, kappa, n_strips)
+            else:
+                last = c[ndim - 1] + j * d_col[ndim - 1]
+                s_l, c_l = e_l.imag, e_l.real
+                for q in range(n_orders):
+                    acc = 0j
+                    for s in range(n_signs):
+                        sh, ch = e_half[s].imag, e_half[s].real
+                        ssh, csh = e_shalf[s].imag, e_shalf[s].real
+                        den = sh * cos_dh[s, q] + ch * sin_dh[s, q]
+                        if abs(den) < 1e-9:  # sin(S h) / sin(h) -> S cos(S h) / cos(h)
+                            dirichlet = (
+                                n_strips
+                                * (csh * cos_sdh[s, q] - ssh * sin_sdh[s, q])
+                                / (ch * cos_dh[s, q] - sh * sin_dh[s, q])
+                            )
+                        else:
+                            dirichlet = (ssh * cos_sdh[s, q] + csh * sin_sdh[s, q]) / den
+                        acc += dirichlet * (e_phase[s] * shift[s, q])
+                    x_l = last + 0.5 * orders[q, ndim - 1]
+                    den_a = two_pi_pow
+                    for a in range(ndim - 1):
+                        den_a *= c[a] + j * d_col[a] + 0.5 * orders[q, a]
+                    if abs(x_l) < 1e-12:
+                        factor = width / den_a
+                    else:
+                        factor = (s_l * cos_l[q] + c_l * sin_l[q]) / (math.pi * x_l * den_a)
+                    total += acc * factor
+                total *= j_pow
+            out[i, j] = total
+            for s in range(n_signs):
+                e_half[s] *= r_half[s]
+                e_shalf[s] *= r_shalf[s]
+                e_phase[s] *= r_phase[s]
+            e_l *= r_l
     return out
 
 

@@ -103,7 +103,7 @@ def test_compiled_keystone_columns_are_the_numpy_reference(ndim):
 def test_weighted_targets_are_fitted_with_the_window_orders(monkeypatch):
     """Hamming-weighted responses (their theory says so: PSLR -42.7 dB) are modelled with two spectral
     orders, which follow the window's cosine; one order leaves the window's misfit."""
-    from sarproc.quality import metrics
+    from sarproc.quality import metrics, residual
     from sarproc.quality.metrics import EvaluateParams, evaluate_image
 
     step, n, bw = 0.4, (240, 256), 1.0  # band 1 cycle/m, 2.5 samples per null
@@ -123,9 +123,13 @@ def test_weighted_targets_are_fitted_with_the_window_orders(monkeypatch):
 
     two = run()
     monkeypatch.setattr(metrics, "WEIGHTED_PSLR_DB", -np.inf)  # the rule off: residual_orders 1
-    one = run()
-    assert two.residual.orders > one.residual.orders
+    # a lone target's misfit then still raises its own orders (residual.WIDTH_SEARCH_MISFIT): same floor
+    repaired = run()
+    assert two.residual.orders > repaired.residual.orders
     assert two.residual.floor_db < -45.0 and two.false_target.level_db < -45.0  # bp_hamming's gate
+    assert repaired.residual.floor_db < -45.0 and repaired.false_target.level_db < -45.0
+    monkeypatch.setattr(residual, "WIDTH_SEARCH_MISFIT", np.inf)  # and that repair off: one order
+    one = run()
     assert one.residual.floor_db > two.residual.floor_db + 10.0
 
 
@@ -147,3 +151,22 @@ def test_targets_left_out_of_a_subset_are_no_residual_false_targets():
     assert rep.false_target.level_db < -30.0 and rep.residual.floor_db < -45.0
     assert rep.false_target.level_db <= rep.false_target_guard.level_db + 0.5
     assert any(abs(rep.false_target.position[d] - x) > params.guard_cells for d, x in zip(("azimuth", "range"), b))
+
+
+@pytest.mark.parametrize("kappa", [0.003, 0.015, 0.08])
+def test_compiled_box_sum_is_the_columns_summed(kappa):
+    """The box kernel (rotations along each row, the orders summed inside) gives the coefficient-weighted
+    sum of the per-point kernel's strip sums over a skewed box, singular points included."""
+    from sarproc.quality.residual import _strip_count, spectral_orders
+    from sarproc.quality.residual_kernels import keystone_box_sum, keystone_columns
+
+    orders = spectral_orders(2, 2, 3).astype(np.int64)
+    coef = np.random.default_rng(3).normal(size=(len(orders), 2)) @ np.array([1.0, 1j])
+    k, strips = np.array([kappa]), _strip_count(np.array([kappa]))
+    c0, d_row, d_col = np.array([-20.0, -31.5]), np.array([0.5, 0.04]), np.array([0.0, 0.41])  # rows hit c_az = -n/2
+    rows, cols = 90, 150
+    got = keystone_box_sum(c0, d_row, d_col, rows, cols, orders, coef, k, strips)
+    ii, jj = np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij")
+    pts = np.stack([c0[a] + ii.ravel() * d_row[a] + jj.ravel() * d_col[a] for a in range(2)])
+    want = (coef @ keystone_columns(pts, orders, k, strips)).reshape(rows, cols)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-11 * np.abs(want).max())
