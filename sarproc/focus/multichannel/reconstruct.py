@@ -336,6 +336,7 @@ class _Window:
 NULL_FIT_HALF_WIDTH = 12  # azimuth samples either side of a mover's response kept and compared (_NullFit)
 NULL_FIT_CELLS = 3  # range cells either side of it
 NULL_FIT_MISMATCH = 0.3  # a velocity leaving more than this fraction of the residual response unexplained is wrong
+STATIC_CELLS = 2  # range cells either side of an examined static detection that share its answer (_visit)
 
 
 class _NullFit:
@@ -461,6 +462,9 @@ class _Estimate:
     result: velocity.SearchResult | None = None  # the slant-range search (None: v_r given, or no band to search)
     beyond: bool = False  # no slant-range velocity inside the bounds removes the range walk
     by_null_fit: bool = False  # the criterion is the null fit's mismatch (eq. 5 left the residual unexplained)
+    # neither eq. 5 nor the null fit's search explains the clutter-null residual: (eq. 5's v_r and its mismatch,
+    # the null fit's best v_r and its mismatch); None when one of them does, or without the null fit
+    unexplained: tuple[float, float, float, float] | None = None
     autofocus: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 2)))  # (n, 2) v_a, sharpness
 
     def v_los(self, g: _Geometry) -> float:
@@ -540,7 +544,10 @@ def _null_refit(est: _Estimate, params: ReconstructParams, null_fit: _NullFit) -
         refit.estimate,
         null_fit.mismatch(refit.estimate, v_a),
     )
-    if null_fit.mismatch(refit.estimate, v_a) <= NULL_FIT_MISMATCH:
+    best = null_fit.mismatch(refit.estimate, v_a)
+    if best > NULL_FIT_MISMATCH:
+        est.unexplained = (v_r, null_fit.mismatch(v_r, v_a), refit.estimate, best)
+    else:
         log.info(
             "reconstruct: eq. 5 gave %.2f m/s, which leaves the clutter-null residual unexplained; the null fit "
             "gives %.2f m/s",
@@ -672,6 +679,20 @@ def _estimate(
         _null_refit(est, params, null_fit)
     if static_below is not None and abs(v_los_first := est.v_los(g)) < static_below:
         return None, [f"static {v_los_first:.6g}"]
+    if flat_above is not None and est.unexplained is not None:
+        # A residual that no velocity explains is no point mover (xu_traffic_static: V5's ambiguity residue
+        # -1 x PRF / K_a from it, 16.2 dB, eq. 5 5.70 m/s leaving 1.00 of it, the null fit's best 0.32).
+        e5, m5, nf, mf = est.unexplained
+        log.info(
+            "reconstruct: no velocity explains the clutter-null residual: eq. 5's %.2f m/s leaves %.2f of it, the "
+            "null fit's best %.2f m/s %.2f (a mover's: <= %.2f)",
+            e5,
+            m5,
+            nf,
+            mf,
+            NULL_FIT_MISMATCH,
+        )
+        return None, ["incoherent"]
     centre = _centre(win, g, est, centre_range, null_fit)
     if flat_above is not None and est.result is not None and _incoherent(est, g, flat_above):
         return None, ["incoherent"]
@@ -844,6 +865,9 @@ class _Tally:
     peaks: list[detection.Detection] = dataclasses.field(default_factory=list)  # each mover's detection
     rejected: list[dict] = dataclasses.field(default_factory=list)  # examined, no mover (for the miss reasons)
     flat_snr: list[float] = dataclasses.field(default_factory=list)  # SNR of those with no velocity dip
+    # examined and found static, with their line-of-sight velocity: the detections they make static (_visit)
+    statics: list[tuple[detection.Detection, float]] = dataclasses.field(default_factory=list)
+    ambiguity_residues: list[str] = dataclasses.field(default_factory=list)  # incoherent ones at a mover's ambiguity
     examined: int = 0
 
 
@@ -980,7 +1004,7 @@ def _detect_and_focus(
 
 def _visit(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
     """Merge ``det`` into a mover found, pass it as explained or unexamined, or examine it."""
-    params, found = scan.params, scan.found
+    params, found, sep = scan.params, scan.found, scan.spacing.sep
     threshold = 10 ** (params.detection_snr / 10)
     left = found.image[det.index, det.cell]
     explained = abs(left) ** 2 < threshold * found.bg[det.index, det.cell]
@@ -997,6 +1021,13 @@ def _visit(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
             det.time,
             det.snr_db,
         )
+        return
+    static = [v for s, v in tally.statics if abs(det.cell - s.cell) <= STATIC_CELLS and abs(det.time - s.time) <= sep]
+    if static:
+        # In the range cell of a detection examined and found static and inside its separation mask: the same
+        # channels, the same answer; examining it again costs the null fit's search (xu_traffic_static: 21
+        # detections in one range cell within 15 ms, each static at v_los 0.00-0.14 m/s, 5-12 s each).
+        _reject(det, [f"static {static[0]:.6g}"], tally, examined=False)
         return
     if tally.examined >= params.max_detections:
         tally.dropped += 1
@@ -1026,21 +1057,27 @@ def _merge(det: detection.Detection, k: int, scan: _Scan, tally: _Tally) -> None
     d_samples = abs((det.time - peak.time) - n_amb * sp.ambiguity) * g.n * g.prf
     apart_azimuth = d_samples > 2 * max(peak.width, det.width) + 2
     if det.power > 0.25 * peak.power and (abs(det.cell - peak.cell) > spread or apart_azimuth):
-        where = (
-            f"{1e3 * (det.time - peak.time):+.1f} ms from it in apparent time"
-            if n_amb == 0
-            else f"{n_amb:+d} x PRF / K_a = {n_amb * sp.ambiguity:+.3f} s from it in apparent time (its ambiguity)"
-        )
+        if n_amb == 0:
+            where = f"{1e3 * (det.time - peak.time):+.1f} ms from it in apparent time"
+            cause = "another mover there shares its window and its velocity estimate"
+        else:
+            # At an ambiguity the response may be the mover's own residue (xu_traffic_static: V9's at -2 x PRF / K_a,
+            # 16 cells off, where no truth mover is): nothing here tells which, so both are said.
+            where = (
+                f"{n_amb:+d} x PRF / K_a {1e3 * (det.time - peak.time - n_amb * sp.ambiguity):+.1f} ms from it in "
+                "apparent time (at its ambiguity)"
+            )
+            cause = "its ambiguity's residue, or another mover there sharing its window (not examined on its own)"
         log.warning(
             "reconstruct: a response %.1f dB under mover %d, in range cell %d (%d cells from its "
-            "peak; its own range extent %.0f cells) %s, could not be separated from it: "
-            "another mover there shares its window and its velocity estimate",
+            "peak; its own range extent %.0f cells) %s, could not be separated from it: %s",
             10 * math.log10(peak.power / det.power),
             k,
             det.cell,
             det.cell - peak.cell,
             spread,
             where,
+            cause,
         )
 
 
@@ -1088,7 +1125,7 @@ def _examine(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
             w.x_w, g.times, g.prf, det.time, w.ka_w, params.separation_bandwidth, notches=others + spared
         )
     if mt is None:
-        _reject(det, notes, tally)
+        _reject(det, notes, tally, ambiguity_of=_ambiguity_of(det, scan, tally) if notes == ["incoherent"] else None)
         return
     for note in notes:
         log.warning("reconstruct: mover in range cells %d-%d at %.3f s: %s", w.a, w.b - 1, det.time, note)
@@ -1158,12 +1195,36 @@ def _remove_response(ext: np.ndarray, w: _DetWindow, scan: _Scan) -> None:
     )
 
 
-def _reject(det: detection.Detection, notes: list[str], tally: _Tally) -> None:
-    """Record an examined detection that is no mover: static, or no point target (no velocity dip)."""
+def _ambiguity_of(det: detection.Detection, scan: _Scan, tally: _Tally) -> str | None:
+    """Which mover found ``det`` sits at an ambiguity of (k != 0 times PRF / K_a in apparent time, within the
+    ghost walk in range), said in words; None if none."""
+    sp = scan.spacing
+    for i, p in enumerate(tally.peaks):
+        k = round((det.time - p.time) / sp.ambiguity)
+        if k != 0 and abs(det.cell - p.cell) <= sp.ghost_cells:
+            off = det.time - p.time - k * sp.ambiguity
+            return f"{k:+d} x PRF / K_a {1e3 * off:+.1f} ms from mover {i} (range cell {p.cell}, SNR {p.snr_db:.1f} dB)"
+    return None
+
+
+def _reject(
+    det: detection.Detection,
+    notes: list[str],
+    tally: _Tally,
+    examined: bool = True,
+    ambiguity_of: str | None = None,
+) -> None:
+    """Record a detection that is no mover: static, or no point target (no velocity dip, or a clutter-null residual
+    that no velocity explains). ``examined``: False for one made static by an examined neighbour (_visit);
+    ``ambiguity_of``: the mover whose ambiguity an incoherent detection sits at (_ambiguity_of)."""
     kind = "incoherent" if notes == ["incoherent"] else "static"
     tally.counts[kind] += 1
+    if kind == "static" and examined:
+        tally.statics.append((det, float(notes[0].split()[1])))
     if kind == "incoherent":
         tally.flat_snr.append(det.snr_db)
+        if ambiguity_of is not None:
+            tally.ambiguity_residues.append(ambiguity_of)
     tally.rejected.append(
         {
             "cell": det.cell,
@@ -1178,7 +1239,11 @@ def _reject(det: detection.Detection, notes: list[str], tally: _Tally) -> None:
         det.cell,
         det.time,
         det.snr_db,
-        "no point target" if kind == "incoherent" else "static",
+        ("no point target" + (f", at {ambiguity_of}: its ambiguity's residue" if ambiguity_of else ""))
+        if kind == "incoherent"
+        else "static"
+        if examined
+        else "static, as the one examined in its range cell and separation mask",
     )
 
 
@@ -1245,6 +1310,12 @@ def _warn_unexamined(tally: _Tally, params: ReconstructParams) -> None:
             len(tally.flat_snr),
             min(tally.flat_snr),
             max(tally.flat_snr),
+        )
+    for where in tally.ambiguity_residues:
+        log.warning(
+            "reconstruct: a detection with no velocity that explains it sits at %s, outside its separation mask: "
+            "that mover's ambiguity residue, not a target",
+            where,
         )
     if tally.dropped:
         log.warning(
