@@ -369,11 +369,15 @@ def test_an_incoherent_detection_at_a_movers_ambiguity_is_named_as_its_residue()
 
     from sarproc.focus.multichannel import reconstruct as rec
 
-    scan = SimpleNamespace(spacing=SimpleNamespace(ambiguity=0.4719, ghost_cells=10))
+    scan = SimpleNamespace(
+        params=ReconstructParams(), spacing=SimpleNamespace(ambiguity=0.4719, ghost_cells=10, ka0=5298.0)
+    )
     tally = rec._Tally(0, {})
-    tally.peaks.append(detection.Detection(cell=959, index=0, time=0.3094, power=1e4, background=1.0, width=2.0))
+    for cell, time in ((956, 0.1486), (959, 0.3094)):  # V3 (its ambiguity 171 ms away) and V5
+        tally.peaks.append(detection.Detection(cell=cell, index=0, time=time, power=1e4, background=1.0, width=2.0))
     near = detection.Detection(cell=961, index=0, time=-0.1514, power=40.0, background=1.0, width=2.0)
     where = rec._ambiguity_of(near, scan, tally)
-    assert where is not None and where.startswith("-1 x PRF / K_a +11.1 ms from mover 0 (range cell 959")
+    assert where is not None and where.startswith("-1 x PRF / K_a +11.1 ms from mover 1 (range cell 959"), where
     assert rec._ambiguity_of(detection.Detection(961, 0, 0.31, 40.0, 1.0, 2.0), scan, tally) is None  # k = 0
     assert rec._ambiguity_of(detection.Detection(990, 0, -0.1514, 40.0, 1.0, 2.0), scan, tally) is None  # far
+    assert rec._ambiguity_of(detection.Detection(961, 0, -0.1314, 40.0, 1.0, 2.0), scan, tally) is None  # 31 ms

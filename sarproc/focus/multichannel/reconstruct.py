@@ -1196,15 +1196,22 @@ def _remove_response(ext: np.ndarray, w: _DetWindow, scan: _Scan) -> None:
 
 
 def _ambiguity_of(det: detection.Detection, scan: _Scan, tally: _Tally) -> str | None:
-    """Which mover found ``det`` sits at an ambiguity of (k != 0 times PRF / K_a in apparent time, within the
-    ghost walk in range), said in words; None if none."""
+    """The mover found whose ambiguity ``det`` sits at (k != 0 times PRF / K_a in apparent time, within the ghost walk
+    in range and within 2.5 x separation_bandwidth / K_a of the exact ambiguity: what the masks cannot separate),
+    the nearest one, said in words; None if none."""
     sp = scan.spacing
+    reach = 2.5 * scan.params.separation_bandwidth / sp.ka0
+    best: tuple[float, str] | None = None
     for i, p in enumerate(tally.peaks):
         k = round((det.time - p.time) / sp.ambiguity)
-        if k != 0 and abs(det.cell - p.cell) <= sp.ghost_cells:
-            off = det.time - p.time - k * sp.ambiguity
-            return f"{k:+d} x PRF / K_a {1e3 * off:+.1f} ms from mover {i} (range cell {p.cell}, SNR {p.snr_db:.1f} dB)"
-    return None
+        off = det.time - p.time - k * sp.ambiguity
+        if k != 0 and abs(det.cell - p.cell) <= sp.ghost_cells and abs(off) <= reach:
+            where = (
+                f"{k:+d} x PRF / K_a {1e3 * off:+.1f} ms from mover {i} (range cell {p.cell}, SNR {p.snr_db:.1f} dB)"
+            )
+            if best is None or abs(off) < best[0]:
+                best = (abs(off), where)
+    return None if best is None else best[1]
 
 
 def _reject(
