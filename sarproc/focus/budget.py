@@ -219,9 +219,19 @@ def pfa2_estimate(stage: str, header: Product, params: Any) -> Plan:
 def reconstruct_estimate(stage: str, header: Product, params: Any) -> Plan:
     """The channels' range spectra (zero-padded) in several complex64 copies at once: the deramped
     spectra, their azimuth FFT, the reconstructed N-PRF signal in (f_a, f_r) and (t, f_r), and for
-    the modified method its range-time copies; about eight input-sized arrays (measured)."""
+    the modified method its range-time copies; about eight input-sized arrays (measured). With the clutter
+    null and a chirp band narrower than the range sampling rate, one more copy of the zero-padded spectra:
+    the in-band channels the detection, the velocity fit and the null fit read (reconstruct.py)."""
+    from sarproc.focus.multichannel.reconstruct import range_padding
+
     n_ch, n_az, n_rg = header_shape(header)
     n = n_ch * n_az * n_rg
+    memory = 8 * complex_bytes(n)
+    r = header.radar
+    if params.clutter_suppression and r.bandwidth < r.range_sampling_rate:
+        times = np.asarray(header.coords["azimuth_time"], float)
+        n_fft = range_padding(n_rg, r.velocity, r.squint, times, r.prf, r.range_sampling_rate)[0]
+        memory += complex_bytes(n_ch, n_az, n_fft)
     # the modified method's detection and velocity searches nearly double the filter bank's time (measured)
     per_sample = 0.55e-6 if params.method == "modified" else 0.3e-6
     if params.clutter_suppression:  # the clutter null's projections and the movers' searches after it
@@ -229,7 +239,7 @@ def reconstruct_estimate(stage: str, header: Product, params: Any) -> Plan:
     return Plan(
         stage,
         stored_bytes(n_ch * n_az, n_rg),
-        8 * complex_bytes(n),
+        memory,
         n * per_sample,
         f"{n_ch} channels x {n_az} pulses x {n_rg} samples -> {n_ch * n_az} pulses",
     )

@@ -332,3 +332,52 @@ def test_slow_mover_among_brighter_clutter_is_estimated_by_the_null_fit(caplog):
     s, c = np.sin(np.radians(20)), np.cos(np.radians(20))
     assert row["v_r"] * c + row["v_a"] * s == pytest.approx(-2.0 * c + 10.0 * s, abs=0.1)
     assert row["v_r"] == pytest.approx(-2.0, abs=row["v_r_sigma"])
+
+
+def test_a_detection_beside_an_examined_static_one_shares_its_answer_unexamined(monkeypatch):
+    """reconstruct._visit: a detection in the range cell (+-STATIC_CELLS) and separation mask of one examined and
+    found static holds the same channels: it is counted static without the null fit's search (xu_traffic_static:
+    21 detections in one cell within 15 ms, 5-12 s each); one a mask away, or in another cell, is examined."""
+    from types import SimpleNamespace
+
+    from sarproc.focus.multichannel import reconstruct as rec
+
+    examined = []
+    monkeypatch.setattr(rec, "_examine", lambda det, scan, tally: examined.append(det))
+    power = np.ones((100, 50), np.float32) * 1e3  # every detection above the CFAR threshold: none explained
+    spacing = SimpleNamespace(sep=0.007, ambiguity=0.47, apart=lambda d1, d2, cells: True)
+    scan = SimpleNamespace(
+        params=ReconstructParams(), spacing=spacing, found=SimpleNamespace(image=power, bg=np.ones_like(power))
+    )
+    tally = rec._Tally(0, {"detections": 4, "static": 0, "ambiguous": 0, "incoherent": 0, "explained": 0})
+
+    def det(cell, time):
+        return detection.Detection(cell=cell, index=10, time=time, power=1e3, background=1.0, width=2.0)
+
+    first = det(20, -0.010)
+    rec._reject(first, ["static 0.07"], tally)  # as _examine does for a static one
+    for d in (det(20, -0.005), det(22, -0.016), det(20, -0.020), det(30, -0.010)):
+        rec._visit(d, scan, tally)
+    assert [(d.cell, d.time) for d in examined] == [(20, -0.020), (30, -0.010)]
+    assert tally.counts["static"] == 3 and [r["v_los"] for r in tally.rejected] == [0.07, 0.07, 0.07]
+    assert len(tally.statics) == 1  # only examined ones make others static: no creeping along a cell
+
+
+def test_an_incoherent_detection_at_a_movers_ambiguity_is_named_as_its_residue():
+    """The false alarm of xu_traffic_static (16.2 dB, -1 x PRF / K_a + 11.1 ms from V5, 2 cells off): named."""
+    from types import SimpleNamespace
+
+    from sarproc.focus.multichannel import reconstruct as rec
+
+    scan = SimpleNamespace(
+        params=ReconstructParams(), spacing=SimpleNamespace(ambiguity=0.4719, ghost_cells=10, ka0=5298.0)
+    )
+    tally = rec._Tally(0, {})
+    for cell, time in ((956, 0.1486), (959, 0.3094)):  # V3 (its ambiguity 171 ms away) and V5
+        tally.peaks.append(detection.Detection(cell=cell, index=0, time=time, power=1e4, background=1.0, width=2.0))
+    near = detection.Detection(cell=961, index=0, time=-0.1514, power=40.0, background=1.0, width=2.0)
+    where = rec._ambiguity_of(near, scan, tally)
+    assert where is not None and where.startswith("-1 x PRF / K_a +11.1 ms from mover 1 (range cell 959"), where
+    assert rec._ambiguity_of(detection.Detection(961, 0, 0.31, 40.0, 1.0, 2.0), scan, tally) is None  # k = 0
+    assert rec._ambiguity_of(detection.Detection(990, 0, -0.1514, 40.0, 1.0, 2.0), scan, tally) is None  # far
+    assert rec._ambiguity_of(detection.Detection(961, 0, -0.1314, 40.0, 1.0, 2.0), scan, tally) is None  # 31 ms

@@ -217,13 +217,21 @@ def _geometry(raw: Product, params: ReconstructParams) -> _Geometry:
     )
 
 
+def range_padding(
+    n_rg: int, velocity: float, squint: float, times: np.ndarray, prf: float, fs: float
+) -> tuple[int, int]:
+    """(n_fft, lead): the zero-padded range FFT length and the samples added before the echo, so that the range
+    walk correction (v sin(theta) t, plus 50 m/s of target motion) cannot wrap."""
+    walk = (velocity * abs(math.sin(squint)) + 50.0) * float(np.max(np.abs(times)) + 1.0 / prf)
+    lead = int(math.ceil(2 * walk / C * fs)) + 8
+    return sfft.next_fast_len(n_rg + 2 * lead), lead
+
+
 def _to_deramped(raw: Product, g: _Geometry) -> tuple[np.ndarray, np.ndarray, int]:
     """Channels in (azimuth time, range frequency), compressed and deramped; also f_r and the lead offset."""
     r = raw.radar
     n_ch, n_az, n_rg = raw.data.shape
-    walk = (g.velocity * abs(math.sin(g.squint)) + 50.0) * float(np.max(np.abs(g.times)) + 1.0 / g.prf)
-    lead = int(math.ceil(2 * walk / C * g.fs)) + 8
-    n_fft = sfft.next_fast_len(n_rg + 2 * lead)
+    n_fft, lead = range_padding(n_rg, g.velocity, g.squint, g.times, g.prf, g.fs)
     f_r = sfft.fftfreq(n_fft, 1.0 / g.fs)
     buf = np.zeros((n_ch, n_az, n_fft), np.complex64)
     buf[:, :, lead : lead + n_rg] = raw.data
@@ -328,6 +336,7 @@ class _Window:
 NULL_FIT_HALF_WIDTH = 12  # azimuth samples either side of a mover's response kept and compared (_NullFit)
 NULL_FIT_CELLS = 3  # range cells either side of it
 NULL_FIT_MISMATCH = 0.3  # a velocity leaving more than this fraction of the residual response unexplained is wrong
+STATIC_CELLS = 2  # range cells either side of an examined static detection that share its answer (_visit)
 
 
 class _NullFit:
@@ -443,6 +452,197 @@ class _NullFit:
         return self.fit(v_r, v_a)[0]
 
 
+@dataclasses.dataclass
+class _Estimate:
+    """One window's velocities as the steps of ``_estimate`` refine them."""
+
+    v_r: float  # m/s, slant range
+    v_a: float  # m/s, along track
+    criterion: Callable[[float, float], float]  # of (v_r, v_a): eq. 5 (the window's leakage) or the null fit's
+    result: velocity.SearchResult | None = None  # the slant-range search (None: v_r given, or no band to search)
+    beyond: bool = False  # no slant-range velocity inside the bounds removes the range walk
+    by_null_fit: bool = False  # the criterion is the null fit's mismatch (eq. 5 left the residual unexplained)
+    # neither eq. 5 nor the null fit's search explains the clutter-null residual: (eq. 5's v_r and its mismatch,
+    # the null fit's best v_r and its mismatch); None when one of them does, or without the null fit
+    unexplained: tuple[float, float, float, float] | None = None
+    autofocus: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 2)))  # (n, 2) v_a, sharpness
+
+    def v_los(self, g: _Geometry) -> float:
+        return channels.line_of_sight_velocity(self.v_r, self.v_a, g.squint)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Centre:
+    """Where a mover's energy is centred in time: its beam-centre time and range, the cells its autofocus uses."""
+
+    y_dem: np.ndarray  # the window's demodulated reconstruction in (t', f_r)
+    t_c: float  # s, beam-centre time
+    slant_range: float  # m, at t_c
+    own_cells: np.ndarray | None  # the cells holding half of the null fit's isolated mover (None: eq. 5 kept)
+    shift: int | None  # the null fit's ambiguity step of the mover (None: eq. 5 kept)
+
+
+def _search(
+    est: _Estimate, params: ReconstructParams, v_a: float, lo: float, hi: float, coarse: float
+) -> velocity.SearchResult:
+    """Search v_r in [lo, hi] by the estimate's current criterion at along-track velocity ``v_a``."""
+    criterion = est.criterion
+    return velocity.fast_search(
+        lambda u: criterion(u, v_a),
+        lo,
+        hi,
+        params.velocity_step,
+        coarse,
+        exhaustive=params.search == "exhaustive",
+    )
+
+
+def _first_search(win: _Window, params: ReconstructParams, g: _Geometry, can_search: bool) -> _Estimate:
+    """v_r by eq. 5 over the bounds at the given (or zero) v_a, the blind-velocity alias chosen by range walk."""
+    v_a = params.along_track_velocity if params.along_track_velocity is not None else 0.0
+    est = _Estimate(v_r=0.0, v_a=v_a, criterion=win.leakage)
+    if params.radial_velocity is not None:
+        est.v_r = params.radial_velocity
+        return est
+    if not can_search:
+        return est
+    result = _search(est, params, v_a, params.velocity_min, params.velocity_max, params.coarse_step)
+    v_r, est.beyond = _resolve_blind_velocity(win, result.estimate, v_a, params, g)
+    if abs(v_r - result.estimate) > params.velocity_step:
+        lo, hi = (
+            max(params.velocity_min, v_r - params.coarse_step),
+            min(params.velocity_max, v_r + params.coarse_step),
+        )
+        alias = _search(est, params, v_a, lo, hi, params.coarse_step / 4)
+        trials = np.concatenate([result.trials, alias.trials])
+        result = velocity.SearchResult(
+            alias.estimate, alias.at_bound, trials[np.argsort(trials[:, 0])], result.evaluations + alias.evaluations
+        )
+        v_r = alias.estimate
+    est.v_r, est.result = v_r, result
+    return est
+
+
+def _null_refit(est: _Estimate, params: ReconstructParams, null_fit: _NullFit) -> None:
+    """When eq. 5's v_r leaves more than NULL_FIT_MISMATCH of the null residual unexplained, search v_r by the null
+    fit instead and keep that criterion if its estimate explains the residual."""
+    v_r, v_a = est.v_r, est.v_a
+    if est.result is None or null_fit.mismatch(v_r, v_a) <= NULL_FIT_MISMATCH:
+        return
+    refit = velocity.fast_search(
+        lambda u: null_fit.mismatch(u, v_a),
+        params.velocity_min,
+        params.velocity_max,
+        params.velocity_step,
+        params.coarse_step,
+        exhaustive=params.search == "exhaustive",
+    )
+    log.debug(
+        "reconstruct: eq. 5 gives %.2f m/s (null-fit mismatch %.2f), the null fit %.2f m/s (%.2f)",
+        v_r,
+        null_fit.mismatch(v_r, v_a),
+        refit.estimate,
+        null_fit.mismatch(refit.estimate, v_a),
+    )
+    best = null_fit.mismatch(refit.estimate, v_a)
+    if best > NULL_FIT_MISMATCH:
+        est.unexplained = (v_r, null_fit.mismatch(v_r, v_a), refit.estimate, best)
+    else:
+        log.info(
+            "reconstruct: eq. 5 gave %.2f m/s, which leaves the clutter-null residual unexplained; the null fit "
+            "gives %.2f m/s",
+            v_r,
+            refit.estimate,
+        )
+        est.v_r, est.result, est.criterion, est.by_null_fit = refit.estimate, refit, null_fit.mismatch, True
+
+
+def _centre(win: _Window, g: _Geometry, est: _Estimate, centre_range: float, null_fit: _NullFit | None) -> _Centre:
+    """The mover's beam-centre time (its energy's centroid in t') and the slant range there."""
+    y_dem = sfft.ifft(win.demodulated_spectrum(est.v_r, est.v_a), axis=0, workers=-1)
+    own_cells = None
+    shift = None
+    if null_fit is not None and est.by_null_fit:
+        # The clutter that outweighs the mover in its window also pulls its beam-centre time and autofocus (clutter
+        # is sharpest at v_a = 0): both use only the range cells holding half of the isolated mover's peak.
+        shift = null_fit.fit(est.v_r, est.v_a)[1]
+        iso = null_fit.isolated(est.v_r, est.v_a, shift)
+        iso_power = np.sum(np.abs(sfft.ifft(iso, axis=-1, workers=-1)) ** 2, axis=(0, 1))
+        own_cells = np.nonzero(iso_power >= 0.5 * iso_power.max())[0]
+    p = np.sum(np.abs(y_dem if own_cells is None else sfft.ifft(y_dem, axis=1, workers=-1)[:, own_cells]) ** 2, axis=1)
+    t_c = float(np.sum(g.out_times * p) / np.sum(p)) if np.sum(p) > 0 else 0.0
+    slant_range = centre_range - g.velocity * math.sin(g.squint) * t_c
+    return _Centre(y_dem, t_c, slant_range, own_cells, shift)
+
+
+def _incoherent(est: _Estimate, g: _Geometry, flat_above: float) -> bool:
+    """No dip at any velocity, or as much energy out of band as white noise has (1 - B_a / (N PRF)): nothing
+    band-limited to estimate."""
+    assert est.result is not None
+    at = est.criterion(est.v_r, est.v_a)
+    white = not est.by_null_fit and at >= 1 - 2 * g.half_band / (g.n * g.prf)
+    return at > flat_above * float(np.median(est.result.trials[:, 1])) or white
+
+
+def _autofocus(
+    est: _Estimate, win: _Window, params: ReconstructParams, g: _Geometry, centre: _Centre, can_search: bool
+) -> None:
+    """v_a by azimuth autofocus at the line-of-sight velocity found, then v_r refined with v_a known."""
+    v_los = est.v_los(g)
+    # Autofocus on the mover's own range cells (its energy above 1 % of its strongest cell), with the
+    # FM rate at the carrier (the range-frequency spread of R'' is 0.3 %): one azimuth FFT per trial.
+    y_cells = sfft.ifft(centre.y_dem, axis=1, workers=-1)
+    cell_power = np.sum(np.abs(y_cells) ** 2, axis=0)
+    keep = cell_power >= 0.01 * cell_power.max() if centre.own_cells is None else centre.own_cells
+    y_cells = np.ascontiguousarray(y_cells[:, keep])
+    t_c, slant_range = centre.t_c, centre.slant_range
+
+    def crit(u: float) -> float:  # keep the line-of-sight velocity found by the search while v_a varies
+        vr_u = (v_los - u * math.sin(g.squint)) / math.cos(g.squint)
+        acc = velocity.range_acceleration(g.velocity, u, vr_u, g.squint, slant_range)
+        ph = deramp.quadratic_phasor(g.out_times, np.zeros(1), acc, t_c, g.fc)
+        return velocity.sharpness(sfft.fft(y_cells * ph, axis=0, workers=-1))
+
+    v_a, af = velocity.maximise(crit, est.v_a - params.autofocus_span, est.v_a + params.autofocus_span, 1.0)
+    v_a, af2 = velocity.maximise(crit, v_a - 1.0, v_a + 1.0, 0.05)
+    est.autofocus = np.concatenate([af, af2])
+    est.v_a = v_a
+    est.v_r = (v_los - v_a * math.sin(g.squint)) / math.cos(g.squint)
+    if params.radial_velocity is None and can_search:
+        # Refine v_r with the along-track velocity known (the channel delays depend on it).
+        span = 5 * params.velocity_step
+        lo, hi = max(params.velocity_min, est.v_r - span), min(params.velocity_max, est.v_r + span)
+        fine = _search(est, params, v_a, lo, hi, params.velocity_step)
+        assert est.result is not None  # searched above: can_search and no radial velocity given
+        trials = np.concatenate([est.result.trials, fine.trials])
+        est.result = velocity.SearchResult(
+            fine.estimate, False, trials[np.argsort(trials[:, 0])], est.result.evaluations + fine.evaluations
+        )
+        est.v_r = fine.estimate
+
+
+def _bound_notes(est: _Estimate, params: ReconstructParams) -> tuple[bool, list[str]]:
+    """(at_bound, notes): whether the estimate is on the search bound or its true velocity beyond it, and why."""
+    v_r = est.v_r
+    on_bound = (
+        est.result is not None
+        and min(abs(v_r - params.velocity_min), abs(v_r - params.velocity_max)) < params.velocity_step
+    )
+    notes: list[str] = []
+    if est.beyond:
+        notes.append(
+            f"no slant-range velocity in [{params.velocity_min:g}, {params.velocity_max:g}] m/s removes "
+            f"its range walk (best {v_r:.2f} m/s): it moves faster than the search bound, or the window "
+            "holds more than one mover"
+        )
+    elif on_bound:
+        notes.append(
+            f"slant-range velocity estimate {v_r:.2f} m/s is on the search bound "
+            f"[{params.velocity_min:g}, {params.velocity_max:g}] m/s; the target may move faster"
+        )
+    return bool(est.beyond or on_bound), notes
+
+
 def _estimate(
     win: _Window,
     params: ReconstructParams,
@@ -462,9 +662,10 @@ def _estimate(
     target): (None, ["incoherent"]). With ``null_fit`` (a detection on the clutter-null residual), an eq. 5
     estimate that leaves more than NULL_FIT_MISMATCH of that residual unexplained was pulled by the clutter
     in the window: the velocity is searched again by the null fit (_NullFit), and that criterion kept.
+
+    Steps: _first_search (eq. 5, blind velocity), _null_refit, the static test, _centre (beam-centre time),
+    _incoherent, _autofocus (v_a, then v_r refined), _bound_notes; the null fit then locates the mover.
     """
-    empty = np.zeros((0, 2))
-    notes: list[str] = []
     can_search = g.n * g.prf > 2 * g.half_band
     if not can_search and params.radial_velocity is None:
         log.warning(
@@ -473,150 +674,47 @@ def _estimate(
             g.n * g.prf,
             2 * g.half_band,
         )
-    v_a = params.along_track_velocity if params.along_track_velocity is not None else 0.0
-
-    criterion: Callable[[float, float], float] = win.leakage
-
-    def search(v_a_now: float, lo: float, hi: float, coarse: float) -> velocity.SearchResult:
-        return velocity.fast_search(
-            lambda u: criterion(u, v_a_now),
-            lo,
-            hi,
-            params.velocity_step,
-            coarse,
-            exhaustive=params.search == "exhaustive",
+    est = _first_search(win, params, g, can_search)
+    if null_fit is not None:
+        _null_refit(est, params, null_fit)
+    if static_below is not None and abs(v_los_first := est.v_los(g)) < static_below:
+        return None, [f"static {v_los_first:.6g}"]
+    if flat_above is not None and est.unexplained is not None:
+        # A residual that no velocity explains is no point mover (xu_traffic_static: V5's ambiguity residue
+        # -1 x PRF / K_a from it, 16.2 dB, eq. 5 5.70 m/s leaving 1.00 of it, the null fit's best 0.32).
+        e5, m5, nf, mf = est.unexplained
+        log.info(
+            "reconstruct: no velocity explains the clutter-null residual: eq. 5's %.2f m/s leaves %.2f of it, the "
+            "null fit's best %.2f m/s %.2f (a mover's: <= %.2f)",
+            e5,
+            m5,
+            nf,
+            mf,
+            NULL_FIT_MISMATCH,
         )
-
-    result = None
-    beyond = False
-    if params.radial_velocity is not None:
-        v_r = params.radial_velocity
-    elif can_search:
-        result = search(v_a, params.velocity_min, params.velocity_max, params.coarse_step)
-        v_r, beyond = _resolve_blind_velocity(win, result.estimate, v_a, params, g)
-        if abs(v_r - result.estimate) > params.velocity_step:
-            lo, hi = (
-                max(params.velocity_min, v_r - params.coarse_step),
-                min(params.velocity_max, v_r + params.coarse_step),
-            )
-            alias = search(v_a, lo, hi, params.coarse_step / 4)
-            trials = np.concatenate([result.trials, alias.trials])
-            result = velocity.SearchResult(
-                alias.estimate, alias.at_bound, trials[np.argsort(trials[:, 0])], result.evaluations + alias.evaluations
-            )
-            v_r = alias.estimate
-    else:
-        v_r = 0.0
-    if null_fit is not None and result is not None and null_fit.mismatch(v_r, v_a) > NULL_FIT_MISMATCH:
-        refit = velocity.fast_search(
-            lambda u: null_fit.mismatch(u, v_a),
-            params.velocity_min,
-            params.velocity_max,
-            params.velocity_step,
-            params.coarse_step,
-            exhaustive=params.search == "exhaustive",
-        )
-        log.debug(
-            "reconstruct: eq. 5 gives %.2f m/s (null-fit mismatch %.2f), the null fit %.2f m/s (%.2f)",
-            v_r,
-            null_fit.mismatch(v_r, v_a),
-            refit.estimate,
-            null_fit.mismatch(refit.estimate, v_a),
-        )
-        if null_fit.mismatch(refit.estimate, v_a) <= NULL_FIT_MISMATCH:
-            log.info(
-                "reconstruct: eq. 5 gave %.2f m/s, which leaves the clutter-null residual unexplained; the null fit "
-                "gives %.2f m/s",
-                v_r,
-                refit.estimate,
-            )
-            v_r, result, criterion = refit.estimate, refit, null_fit.mismatch
-    if static_below is not None:
-        v_los_first = channels.line_of_sight_velocity(v_r, v_a, g.squint)
-        if abs(v_los_first) < static_below:
-            return None, [f"static {v_los_first:.6g}"]
-    y_dem = sfft.ifft(win.demodulated_spectrum(v_r, v_a), axis=0, workers=-1)
-    own_cells = None
-    shift = None
-    if null_fit is not None and criterion != win.leakage:
-        # The clutter that outweighs the mover in its window also pulls its beam-centre time and autofocus (clutter
-        # is sharpest at v_a = 0): both use only the range cells holding half of the isolated mover's peak.
-        shift = null_fit.fit(v_r, v_a)[1]
-        iso = null_fit.isolated(v_r, v_a, shift)
-        iso_power = np.sum(np.abs(sfft.ifft(iso, axis=-1, workers=-1)) ** 2, axis=(0, 1))
-        own_cells = np.nonzero(iso_power >= 0.5 * iso_power.max())[0]
-    p = np.sum(np.abs(y_dem if own_cells is None else sfft.ifft(y_dem, axis=1, workers=-1)[:, own_cells]) ** 2, axis=1)
-    t_c = float(np.sum(g.out_times * p) / np.sum(p)) if np.sum(p) > 0 else 0.0
-    slant_range = centre_range - g.velocity * math.sin(g.squint) * t_c
-    af = empty
-    if flat_above is not None and result is not None:
-        # No dip at any velocity, or as much energy out of band as white noise has (1 - B_a / (N PRF)):
-        # nothing band-limited to estimate.
-        at = criterion(v_r, v_a)
-        white = criterion == win.leakage and at >= 1 - 2 * g.half_band / (g.n * g.prf)
-        if at > flat_above * float(np.median(result.trials[:, 1])) or white:
-            return None, ["incoherent"]
+        return None, ["incoherent"]
+    centre = _centre(win, g, est, centre_range, null_fit)
+    if flat_above is not None and est.result is not None and _incoherent(est, g, flat_above):
+        return None, ["incoherent"]
     if params.autofocus and params.along_track_velocity is None:
-        v_los = channels.line_of_sight_velocity(v_r, v_a, g.squint)
-        # Autofocus on the mover's own range cells (its energy above 1 % of its strongest cell), with the
-        # FM rate at the carrier (the range-frequency spread of R'' is 0.3 %): one azimuth FFT per trial.
-        y_cells = sfft.ifft(y_dem, axis=1, workers=-1)
-        cell_power = np.sum(np.abs(y_cells) ** 2, axis=0)
-        keep = cell_power >= 0.01 * cell_power.max() if own_cells is None else own_cells
-        y_cells = np.ascontiguousarray(y_cells[:, keep])
-
-        def crit(u: float) -> float:  # keep the line-of-sight velocity found by the search while v_a varies
-            vr_u = (v_los - u * math.sin(g.squint)) / math.cos(g.squint)
-            acc = velocity.range_acceleration(g.velocity, u, vr_u, g.squint, slant_range)
-            ph = deramp.quadratic_phasor(g.out_times, np.zeros(1), acc, t_c, g.fc)
-            return velocity.sharpness(sfft.fft(y_cells * ph, axis=0, workers=-1))
-
-        v_a, af = velocity.maximise(crit, v_a - params.autofocus_span, v_a + params.autofocus_span, 1.0)
-        v_a, af2 = velocity.maximise(crit, v_a - 1.0, v_a + 1.0, 0.05)
-        af = np.concatenate([af, af2])
-        v_r = (v_los - v_a * math.sin(g.squint)) / math.cos(g.squint)
-        if params.radial_velocity is None and can_search:
-            # Refine v_r with the along-track velocity known (the channel delays depend on it).
-            span = 5 * params.velocity_step
-            lo, hi = max(params.velocity_min, v_r - span), min(params.velocity_max, v_r + span)
-            fine = search(v_a, lo, hi, params.velocity_step)
-            assert result is not None  # searched above: can_search and no radial velocity given
-            trials = np.concatenate([result.trials, fine.trials])
-            result = velocity.SearchResult(
-                fine.estimate, False, trials[np.argsort(trials[:, 0])], result.evaluations + fine.evaluations
-            )
-            v_r = fine.estimate
-    leak = win.leakage(v_r, v_a) if can_search else float("nan")
+        _autofocus(est, win, params, g, centre, can_search)
+    leak = win.leakage(est.v_r, est.v_a) if can_search else float("nan")
     appears = appears_cell = None
-    if null_fit is not None and shift is not None:
-        null_fit.isolated(v_r, v_a, null_fit.fit(v_r, v_a)[1])  # where the mover is, with its final velocity
+    if null_fit is not None and centre.shift is not None:
+        null_fit.isolated(est.v_r, est.v_a, null_fit.fit(est.v_r, est.v_a)[1])  # where it is, with its final velocity
         appears, appears_cell = null_fit.last_peak, null_fit.last_cell
-    on_bound = (
-        result is not None
-        and min(abs(v_r - params.velocity_min), abs(v_r - params.velocity_max)) < params.velocity_step
-    )
-    if beyond:
-        notes.append(
-            f"no slant-range velocity in [{params.velocity_min:g}, {params.velocity_max:g}] m/s removes "
-            f"its range walk (best {v_r:.2f} m/s): it moves faster than the search bound, or the window "
-            "holds more than one mover"
-        )
-    elif on_bound:
-        notes.append(
-            f"slant-range velocity estimate {v_r:.2f} m/s is on the search bound "
-            f"[{params.velocity_min:g}, {params.velocity_max:g}] m/s; the target may move faster"
-        )
+    at_bound, notes = _bound_notes(est, params)
     return MovingTarget(
         first_cell=0,
         last_cell=0,
-        slant_range=slant_range,
-        radial_velocity=float(v_r),
-        along_track_velocity=float(v_a),
-        beam_centre_time=t_c,
+        slant_range=centre.slant_range,
+        radial_velocity=float(est.v_r),
+        along_track_velocity=float(est.v_a),
+        beam_centre_time=centre.t_c,
         leakage=leak,
-        at_bound=bool(beyond or on_bound),
-        search=result.trials if result is not None else empty,
-        autofocus=af,
+        at_bound=at_bound,
+        search=est.result.trials if est.result is not None else np.zeros((0, 2)),
+        autofocus=est.autofocus,
         null_fit_index=appears,
         null_fit_cell=appears_cell,
     ), notes
@@ -767,6 +865,9 @@ class _Tally:
     peaks: list[detection.Detection] = dataclasses.field(default_factory=list)  # each mover's detection
     rejected: list[dict] = dataclasses.field(default_factory=list)  # examined, no mover (for the miss reasons)
     flat_snr: list[float] = dataclasses.field(default_factory=list)  # SNR of those with no velocity dip
+    # examined and found static, with their line-of-sight velocity: the detections they make static (_visit)
+    statics: list[tuple[detection.Detection, float]] = dataclasses.field(default_factory=list)
+    ambiguity_residues: list[str] = dataclasses.field(default_factory=list)  # incoherent ones at a mover's ambiguity
     examined: int = 0
 
 
@@ -903,7 +1004,7 @@ def _detect_and_focus(
 
 def _visit(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
     """Merge ``det`` into a mover found, pass it as explained or unexamined, or examine it."""
-    params, found = scan.params, scan.found
+    params, found, sep = scan.params, scan.found, scan.spacing.sep
     threshold = 10 ** (params.detection_snr / 10)
     left = found.image[det.index, det.cell]
     explained = abs(left) ** 2 < threshold * found.bg[det.index, det.cell]
@@ -920,6 +1021,13 @@ def _visit(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
             det.time,
             det.snr_db,
         )
+        return
+    static = [v for s, v in tally.statics if abs(det.cell - s.cell) <= STATIC_CELLS and abs(det.time - s.time) <= sep]
+    if static:
+        # In the range cell of a detection examined and found static and inside its separation mask: the same
+        # channels, the same answer; examining it again costs the null fit's search (xu_traffic_static: 21
+        # detections in one range cell within 15 ms, each static at v_los 0.00-0.14 m/s, 5-12 s each).
+        _reject(det, [f"static {static[0]:.6g}"], tally, examined=False)
         return
     if tally.examined >= params.max_detections:
         tally.dropped += 1
@@ -949,21 +1057,27 @@ def _merge(det: detection.Detection, k: int, scan: _Scan, tally: _Tally) -> None
     d_samples = abs((det.time - peak.time) - n_amb * sp.ambiguity) * g.n * g.prf
     apart_azimuth = d_samples > 2 * max(peak.width, det.width) + 2
     if det.power > 0.25 * peak.power and (abs(det.cell - peak.cell) > spread or apart_azimuth):
-        where = (
-            f"{1e3 * (det.time - peak.time):+.1f} ms from it in apparent time"
-            if n_amb == 0
-            else f"{n_amb:+d} x PRF / K_a = {n_amb * sp.ambiguity:+.3f} s from it in apparent time (its ambiguity)"
-        )
+        if n_amb == 0:
+            where = f"{1e3 * (det.time - peak.time):+.1f} ms from it in apparent time"
+            cause = "another mover there shares its window and its velocity estimate"
+        else:
+            # At an ambiguity the response may be the mover's own residue (xu_traffic_static: V9's at -2 x PRF / K_a,
+            # 16 cells off, where no truth mover is): nothing here tells which, so both are said.
+            where = (
+                f"{n_amb:+d} x PRF / K_a {1e3 * (det.time - peak.time - n_amb * sp.ambiguity):+.1f} ms from it in "
+                "apparent time (at its ambiguity)"
+            )
+            cause = "its ambiguity's residue, or another mover there sharing its window (not examined on its own)"
         log.warning(
             "reconstruct: a response %.1f dB under mover %d, in range cell %d (%d cells from its "
-            "peak; its own range extent %.0f cells) %s, could not be separated from it: "
-            "another mover there shares its window and its velocity estimate",
+            "peak; its own range extent %.0f cells) %s, could not be separated from it: %s",
             10 * math.log10(peak.power / det.power),
             k,
             det.cell,
             det.cell - peak.cell,
             spread,
             where,
+            cause,
         )
 
 
@@ -1011,7 +1125,7 @@ def _examine(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
             w.x_w, g.times, g.prf, det.time, w.ka_w, params.separation_bandwidth, notches=others + spared
         )
     if mt is None:
-        _reject(det, notes, tally)
+        _reject(det, notes, tally, ambiguity_of=_ambiguity_of(det, scan, tally) if notes == ["incoherent"] else None)
         return
     for note in notes:
         log.warning("reconstruct: mover in range cells %d-%d at %.3f s: %s", w.a, w.b - 1, det.time, note)
@@ -1081,12 +1195,43 @@ def _remove_response(ext: np.ndarray, w: _DetWindow, scan: _Scan) -> None:
     )
 
 
-def _reject(det: detection.Detection, notes: list[str], tally: _Tally) -> None:
-    """Record an examined detection that is no mover: static, or no point target (no velocity dip)."""
+def _ambiguity_of(det: detection.Detection, scan: _Scan, tally: _Tally) -> str | None:
+    """The mover found whose ambiguity ``det`` sits at (k != 0 times PRF / K_a in apparent time, within the ghost walk
+    in range and within 2.5 x separation_bandwidth / K_a of the exact ambiguity: what the masks cannot separate),
+    the nearest one, said in words; None if none."""
+    sp = scan.spacing
+    reach = 2.5 * scan.params.separation_bandwidth / sp.ka0
+    best: tuple[float, str] | None = None
+    for i, p in enumerate(tally.peaks):
+        k = round((det.time - p.time) / sp.ambiguity)
+        off = det.time - p.time - k * sp.ambiguity
+        if k != 0 and abs(det.cell - p.cell) <= sp.ghost_cells and abs(off) <= reach:
+            where = (
+                f"{k:+d} x PRF / K_a {1e3 * off:+.1f} ms from mover {i} (range cell {p.cell}, SNR {p.snr_db:.1f} dB)"
+            )
+            if best is None or abs(off) < best[0]:
+                best = (abs(off), where)
+    return None if best is None else best[1]
+
+
+def _reject(
+    det: detection.Detection,
+    notes: list[str],
+    tally: _Tally,
+    examined: bool = True,
+    ambiguity_of: str | None = None,
+) -> None:
+    """Record a detection that is no mover: static, or no point target (no velocity dip, or a clutter-null residual
+    that no velocity explains). ``examined``: False for one made static by an examined neighbour (_visit);
+    ``ambiguity_of``: the mover whose ambiguity an incoherent detection sits at (_ambiguity_of)."""
     kind = "incoherent" if notes == ["incoherent"] else "static"
     tally.counts[kind] += 1
+    if kind == "static" and examined:
+        tally.statics.append((det, float(notes[0].split()[1])))
     if kind == "incoherent":
         tally.flat_snr.append(det.snr_db)
+        if ambiguity_of is not None:
+            tally.ambiguity_residues.append(ambiguity_of)
     tally.rejected.append(
         {
             "cell": det.cell,
@@ -1101,7 +1246,11 @@ def _reject(det: detection.Detection, notes: list[str], tally: _Tally) -> None:
         det.cell,
         det.time,
         det.snr_db,
-        "no point target" if kind == "incoherent" else "static",
+        ("no point target" + (f", at {ambiguity_of}: its ambiguity's residue" if ambiguity_of else ""))
+        if kind == "incoherent"
+        else "static"
+        if examined
+        else "static, as the one examined in its range cell and separation mask",
     )
 
 
@@ -1168,6 +1317,12 @@ def _warn_unexamined(tally: _Tally, params: ReconstructParams) -> None:
             len(tally.flat_snr),
             min(tally.flat_snr),
             max(tally.flat_snr),
+        )
+    for where in tally.ambiguity_residues:
+        log.warning(
+            "reconstruct: a detection with no velocity that explains it sits at %s, outside its separation mask: "
+            "that mover's ambiguity residue, not a target",
+            where,
         )
     if tally.dropped:
         log.warning(
