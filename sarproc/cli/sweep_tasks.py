@@ -61,6 +61,7 @@ from sarproc import __version__
 from sarproc.cli.schema import SECTION_MODELS
 from sarproc.product.config import STAGE_SECTIONS, build, load_yaml, param
 from sarproc.product.errors import InputError, ProcessingError
+from sarproc.quality.blas import one_blas_thread, single_blas
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -391,6 +392,7 @@ def _write_yaml_if_changed(path: Path, mapping: dict) -> None:
         tmp.write_text(text)
 
 
+@single_blas  # a worker's BLAS like the serial run's: one thread, the same rounding
 def run_simulation(job: SimJob) -> dict:
     """Simulate one raw product (or find it done); returns its record."""
     _write_yaml_if_changed(job.scene_yaml, job.config)
@@ -402,6 +404,7 @@ def _without(mapping: dict, section: str) -> dict:
     return {k: v for k, v in mapping.items() if k != section}
 
 
+@single_blas  # a worker's BLAS like the serial run's: one thread, the same rounding
 def run_task(task: Task, sim: dict) -> dict:
     """Focus chain and evaluate of one task (each step skipped when done); returns its table row."""
     config_path = task.directory / "config.yaml"
@@ -463,6 +466,7 @@ def _same_data(a: Path, b: Path) -> bool:
     return pa.data.shape == pb.data.shape and bool(np.array_equal(pa.data, pb.data, equal_nan=True))
 
 
+@single_blas  # a worker's BLAS like the serial run's: one thread, the same rounding
 def run_repeat(task: Task, sim: dict, k: int) -> dict:
     """Repeat ``k`` (1, 2, ...) of the task's focus chain, timed, into ``tasks/<id>/repeat/``; each product
     compared with the first run's (bit for bit) and removed. Returns {"seconds", "identical"}; skipped
@@ -547,6 +551,11 @@ def _order(plan: Plan, rows: list) -> list:
 
 def run_serial(plan: Plan, on_row: Callable[[dict], object] | None = None) -> Outcome:
     """Every task in this process, one after the other (no Dask needed)."""
+    with one_blas_thread():
+        return _run_serial(plan, on_row)
+
+
+def _run_serial(plan: Plan, on_row: Callable[[dict], object] | None = None) -> Outcome:
     start = time.perf_counter()
     sims, rows, failures = {}, [], []
     for job in plan.sims:
@@ -612,6 +621,11 @@ def local_client(workers: int, threads_per_worker: int = 1, processes: bool = Tr
 
 def run_dask(plan: Plan, client: Client, on_row: Callable[[dict], object] | None = None) -> Outcome:
     """Submit the simulations and the tasks (each depending on its raw product) to a Dask client."""
+    with one_blas_thread():  # this process's BLAS, for threads of a local cluster
+        return _run_dask(plan, client, on_row)
+
+
+def _run_dask(plan: Plan, client: Client, on_row: Callable[[dict], object] | None = None) -> Outcome:
     from dask.distributed import as_completed
 
     start = time.perf_counter()

@@ -39,12 +39,14 @@ def evaluate_estimate(stage: str, header: Product, params: Any) -> Plan:
     # halved again after the cuts became non-uniform FFTs: demo 0.37 s of CPU in process, 0.76 s as a process;
     # x0.6 after the one-thread BLAS and Gram-update fits: the demo's whole process 0.40-0.44 s on an idle machine)
     seconds = 0.6 * (n * 10e-9 + n_tg * (0.025 + 0.75e-7 * cut) + 0.6e-6 * chip * n_tg * (1 + min(n_tg, 8) / 4))
-    if params.residual and len(shape) == 2:
+    residual = bool(params.residual and len(shape) == 2)
+    if residual:
         # the residual (default on 2D images): per target its model's fit, and its subtraction where it
         # reaches, about the image for each of the first few targets (measured: the demo, 5 targets on
         # 189 k pixels, 0.8 s in process on an idle machine; 002 two-step, 25 on 1.76 M, about 4 s)
         seconds += n_tg * 0.08 + 0.35e-6 * n * min(n_tg, 8)
         memory += 24.0 * n  # the residual image (complex128) and its masks
+        memory += 60e6  # numba's runtime and the residual's compiled kernels, loaded only here (demo: 70 -> 185 MB)
     # the JSON report: about 3 kB per target (figures are not counted)
     return Plan(
         stage,
@@ -52,6 +54,7 @@ def evaluate_estimate(stage: str, header: Product, params: Any) -> Plan:
         memory,
         seconds,
         f"{n_tg} targets on {n} pixels, chips of {' x '.join(map(str, lengths))}",
+        kernel_modules=None if residual else (),
     )
 
 

@@ -55,7 +55,6 @@ from collections.abc import Callable, Collection, Iterable, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from threadpoolctl import threadpool_limits
 
 from sarproc.product import fft as sfft
 from sarproc.product.config import param
@@ -63,6 +62,7 @@ from sarproc.product.errors import InputError
 from sarproc.product.metadata import SINC_IRW_FACTOR
 from sarproc.product.steps import steps, wrapped
 from sarproc.product.theory import cut_metrics as _cut_metrics, window_theory
+from sarproc.quality.blas import limit_loaded, single_blas
 from sarproc.quality.linesum import exponential_sums
 from sarproc.quality.residual import (
     ResidualFloor,
@@ -754,8 +754,8 @@ def _shape_np(q: np.ndarray, period: float, hamming: bool) -> np.ndarray:
 # evaluate's matrices are small (chips of a few thousand to a few hundred thousand samples contracted with
 # 9-row kernels, least squares of tens of columns): threaded BLAS only adds its start-up and, on a loaded
 # machine, threads spinning for each other (the 002 small image: 5.5 s of CPU with two threads, 1.8 s with
-# one; the results do not depend on it).
-single_blas = threadpool_limits.wrap(limits=1, user_api="blas")
+# one). Threaded BLAS also rounds differently, which the residual fits carry into the figures' last digits:
+# one thread keeps a Dask sweep's table equal to the serial one (:mod:`sarproc.quality.blas`).
 
 
 @single_blas
@@ -1519,6 +1519,8 @@ def least_squares(B: np.ndarray, y: np.ndarray, exact: bool = False) -> np.ndarr
     if not exact:
         import scipy.linalg  # ~0.1 s to import: only where a least-squares fit runs
         from scipy.linalg import blas
+
+        limit_loaded()  # scipy's own BLAS, loaded just now: one thread like numpy's
 
         B = np.asarray(B)
         y = np.asarray(y)

@@ -15,7 +15,8 @@ from collections.abc import Iterator, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
-from threadpoolctl import threadpool_limits
+
+from sarproc.quality.blas import single_blas
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -608,8 +609,8 @@ def _start_nulls(
 FIT_REACH_DB = -100.0  # other groups' side lobes are subtracted from a fit's samples down to this level
 
 # The fits' matrices are small (a few thousand rows, tens of columns): threaded BLAS only adds its
-# start-up and, on a loaded machine, threads spinning for each other (measured 7x slower on 2 cores).
-single_blas = threadpool_limits.wrap(limits=1, user_api="blas")
+# start-up and, on a loaded machine, threads spinning for each other (measured 7x slower on 2 cores); one
+# thread also keeps the figures the same in every run (:mod:`sarproc.quality.blas`).
 
 
 def fit_response_models(

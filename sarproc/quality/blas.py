@@ -1,0 +1,62 @@
+"""One BLAS thread while evaluate's small matrices are worked on, safe when several threads evaluate at once.
+
+threadpoolctl's limits are process-wide: with two Dask threads each wrapping its call in
+``threadpool_limits(1)``, the first to leave restored the threaded BLAS under the other, whose least squares
+then ran threaded and rounded differently (a sweep's residual false-target level differed from the serial
+run's in the ninth digit). Here the first thread in sets the limit and the last one out restores it; a
+BLAS loaded inside (scipy's own, with a lazy ``import scipy.linalg``) is limited too, by :func:`limit_loaded`.
+"""
+
+from __future__ import annotations
+
+import functools
+import threading
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import Any, TypeVar
+
+from threadpoolctl import threadpool_limits
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+_lock = threading.Lock()
+_inside = 0
+_limiters: list[threadpool_limits] = []
+
+
+@contextmanager
+def one_blas_thread() -> Iterator[None]:
+    """BLAS limited to one thread from the first caller's entry to the last caller's exit."""
+    global _inside
+    with _lock:
+        if _inside == 0:
+            _limiters.append(threadpool_limits(limits=1, user_api="blas"))
+        _inside += 1
+    try:
+        yield
+    finally:
+        with _lock:
+            _inside -= 1
+            if _inside == 0:
+                while _limiters:
+                    _limiters.pop().restore_original_limits()
+
+
+def limit_loaded() -> None:
+    """Inside :func:`one_blas_thread`, limit the BLAS libraries loaded since it began (threadpoolctl limits
+    only those loaded when asked); restored with the others at the last exit. Once per entry: a scan of the
+    loaded libraries costs milliseconds, and a caller may ask on every fit."""
+    with _lock:
+        if _inside > 0 and len(_limiters) == 1:
+            _limiters.append(threadpool_limits(limits=1, user_api="blas"))
+
+
+def single_blas(func: F) -> F:
+    """``func`` run inside :func:`one_blas_thread`."""
+
+    @functools.wraps(func)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        with one_blas_thread():
+            return func(*args, **kwargs)
+
+    return wrapper  # type: ignore[return-value]
