@@ -1,10 +1,13 @@
-"""One BLAS thread while evaluate's small matrices are worked on, safe when several threads evaluate at once.
+"""One BLAS thread while evaluate's small matrices are worked on, also when several threads evaluate at once.
 
-threadpoolctl's limits are process-wide: with two Dask threads each wrapping its call in
-``threadpool_limits(1)``, the first to leave restored the threaded BLAS under the other, whose least squares
-then ran threaded and rounded differently (a sweep's residual false-target level differed from the serial
-run's in the ninth digit). Here the first thread in sets the limit and the last one out restores it; a
-BLAS loaded inside (scipy's own, with a lazy ``import scipy.linalg``) is limited too, by :func:`limit_loaded`.
+threadpoolctl's limits are process-wide, and with this OpenBLAS (0.3.31, scipy-openblas) a limit asked for
+from a worker thread did not take effect once the main thread had set one (measured: the worker read 2
+threads inside its own one-thread limit). A Dask sweep on local threads therefore ran evaluate's fits on
+threaded BLAS, while the serial run used one thread, and the residual false-target levels differed in the
+ninth digit. So the sweep runners hold the limit in the calling thread for the whole run, and here the
+first caller in sets it and the last one out restores it (no thread restores threaded BLAS under
+another); a BLAS loaded inside (scipy's own, by a lazy ``import scipy.linalg``) is limited too, by
+:func:`limit_loaded`.
 """
 
 from __future__ import annotations
