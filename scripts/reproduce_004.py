@@ -29,7 +29,7 @@ import yaml
 
 from sarproc.cli.sweep_output import sweep_rows
 from sarproc.dsp.rangecomp import range_compress
-from sarproc.focus.array3d.linear_array import Array3DParams, focus_array3d
+from sarproc.focus.array3d.linear_array import Array3DParams, focus_raw_array
 from sarproc.focus.backprojection import backproject_points
 from sarproc.product.config import build
 from sarproc.product.frames import ElevationFrame
@@ -84,16 +84,7 @@ def isolated_table(mapping: dict, sweep: Path) -> dict:
 
 
 def overlap_numbers(raw: Product, params: Array3DParams, ch14_report: dict[str, TargetReport]) -> dict:
-    res = focus_array3d(
-        raw.data,
-        raw.coords["range_time"],
-        raw.aux["platform_position"],
-        raw.aux["tx_offset"],
-        raw.aux["rx_offset"],
-        raw.radar,
-        params,
-        keep_channel_images=True,
-    )
+    res = focus_raw_array(raw, params, keep_channel_images=True)
     amp = {name: t.peak_amplitude for name, t in ch14_report.items()}
     neigh = [amp[k] ** 2 for k in ("1", "2", "4", "5")]
     ratio14 = amp["3"] ** 2 / float(np.mean(neigh))

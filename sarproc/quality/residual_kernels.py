@@ -52,17 +52,17 @@ def _product_at(x: np.ndarray, kappa: np.ndarray, n_strips: int) -> complex:  # 
 
 
 @numba.njit(error_model="numpy", cache=CACHE)
-def keystone_columns(
-    c: np.ndarray, orders: np.ndarray, kappa: np.ndarray, n_strips: int
-) -> np.ndarray:  # pragma: no cover - compiled
-    """(K, N) complex: the strip sum of order ``orders[k]`` at each column of ``c`` ((ndim, N) ridge
-    coordinates in nulls), a keystone ``kappa`` (ndim - 1) and ``n_strips`` strips."""
-    ndim, n = c.shape
+def _strip_constants(
+    orders: np.ndarray, kappa: np.ndarray, n_strips: int, ndim: int
+) -> tuple:  # pragma: no cover - compiled
+    """What the strip sums of :func:`keystone_columns` and :func:`keystone_box_sum` hold constant: per sign
+    combination of the keystone axes their signs, and per sign and order the cos / sin of the half-angle
+    step, of S times it, and the phase shift (times the signs' product); per order cos / sin of the last
+    axis's half step."""
     n_orders = orders.shape[0]
     n_signs = 1 << (ndim - 1)
     width = 1.0 / n_strips
     u0 = 0.5 * width - 0.5
-    # per sign and order: the constant angle shifts of :func:`residual._keystone_columns`
     cos_dh = np.empty((n_signs, n_orders))
     sin_dh = np.empty((n_signs, n_orders))
     cos_sdh = np.empty((n_signs, n_orders))
@@ -91,6 +91,22 @@ def keystone_columns(
     for q in range(n_orders):
         cos_l[q] = math.cos(0.5 * math.pi * width * orders[q, ndim - 1])
         sin_l[q] = math.sin(0.5 * math.pi * width * orders[q, ndim - 1])
+    return signs, cos_dh, sin_dh, cos_sdh, sin_sdh, shift, cos_l, sin_l
+
+
+@numba.njit(error_model="numpy", cache=CACHE)
+def keystone_columns(
+    c: np.ndarray, orders: np.ndarray, kappa: np.ndarray, n_strips: int
+) -> np.ndarray:  # pragma: no cover - compiled
+    """(K, N) complex: the strip sum of order ``orders[k]`` at each column of ``c`` ((ndim, N) ridge
+    coordinates in nulls), a keystone ``kappa`` (ndim - 1) and ``n_strips`` strips."""
+    ndim, n = c.shape
+    n_orders = orders.shape[0]
+    n_signs = 1 << (ndim - 1)
+    width = 1.0 / n_strips
+    u0 = 0.5 * width - 0.5
+    # per sign and order: the constant angle shifts of :func:`residual._keystone_columns`
+    signs, cos_dh, sin_dh, cos_sdh, sin_sdh, shift, cos_l, sin_l = _strip_constants(orders, kappa, n_strips, ndim)
     two_pi_pow = (2.0 * math.pi) ** (ndim - 1)
     j_pow = (-1j) ** (ndim - 1)
     out = np.empty((n_orders, n), dtype=np.complex128)
@@ -169,34 +185,10 @@ def keystone_box_sum(
     n_signs = 1 << (ndim - 1)
     width = 1.0 / n_strips
     u0 = 0.5 * width - 0.5
-    cos_dh = np.empty((n_signs, n_orders))
-    sin_dh = np.empty((n_signs, n_orders))
-    cos_sdh = np.empty((n_signs, n_orders))
-    sin_sdh = np.empty((n_signs, n_orders))
-    shift = np.empty((n_signs, n_orders), dtype=np.complex128)
-    signs = np.empty((n_signs, ndim))
-    for s in range(n_signs):
-        prod = 1.0
-        for a in range(ndim - 1):
-            signs[s, a] = 1.0 - 2.0 * ((s >> a) & 1)
-            prod *= signs[s, a]
-        signs[s, ndim - 1] = prod
-        for q in range(n_orders):
-            n_l = orders[q, ndim - 1]
-            d_half = 0.5 * math.pi * width * n_l
-            d_phase = math.pi * u0 * n_l
-            for a in range(ndim - 1):
-                d_half += 0.25 * math.pi * width * signs[s, a] * kappa[a] * orders[q, a]
-                d_phase += 0.5 * math.pi * signs[s, a] * (1.0 + kappa[a] * u0) * orders[q, a]
-            d_phase += (n_strips - 1) * d_half
-            cos_dh[s, q], sin_dh[s, q] = math.cos(d_half), math.sin(d_half)
-            cos_sdh[s, q], sin_sdh[s, q] = math.cos(n_strips * d_half), math.sin(n_strips * d_half)
-            shift[s, q] = prod * coef[q] * complex(math.cos(d_phase), math.sin(d_phase))
-    cos_l = np.empty(n_orders)
-    sin_l = np.empty(n_orders)
+    signs, cos_dh, sin_dh, cos_sdh, sin_sdh, shift, cos_l, sin_l = _strip_constants(orders, kappa, n_strips, ndim)
     for q in range(n_orders):
-        cos_l[q] = math.cos(0.5 * math.pi * width * orders[q, ndim - 1])
-        sin_l[q] = math.sin(0.5 * math.pi * width * orders[q, ndim - 1])
+        for sg in range(n_signs):
+            shift[sg, q] = coef[q] * shift[sg, q]
     two_pi_pow = (2.0 * math.pi) ** (ndim - 1)
     j_pow = (-1j) ** (ndim - 1)
 

@@ -20,7 +20,7 @@ from hypothesis import given, settings, strategies as st
 from sarproc.cli.main import cli
 from sarproc.dsp.interp import kernel_weights, resample
 from sarproc.dsp.rangecomp import range_compress
-from sarproc.focus.array3d.linear_array import Array3DParams, array3d_product, elevation_irw, focus_array3d
+from sarproc.focus.array3d.linear_array import Array3DParams, array3d_product, elevation_irw, focus_raw_array
 from sarproc.focus.backprojection import backproject_points
 from sarproc.product.config import build
 from sarproc.product.errors import InputError
@@ -234,16 +234,7 @@ def test_overlap_before_and_resolution_after_elevation_compression():
     m = reduced(targets={"points": pts}, effects={"cross_track_array": {"n_receivers": 16}})
     raw = simulate(scene_from_mapping(m))
     params = Array3DParams()
-    res = focus_array3d(
-        raw.data,
-        raw.coords["range_time"],
-        raw.aux["platform_position"],
-        raw.aux["tx_offset"],
-        raw.aux["rx_offset"],
-        raw.radar,
-        params,
-        keep_channel_images=True,
-    )
+    res = focus_raw_array(raw, params, keep_channel_images=True)
     ia = int(np.argmin(np.abs(res.azimuth)))
     i_c, i_r = (int(np.argmin(np.abs(res.range - r))) for r in (490.0, 494.0))
     e_c = np.abs(res.channel_images[:, ia, i_c - 1 : i_c + 2]).max(axis=1) ** 2

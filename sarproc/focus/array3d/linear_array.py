@@ -554,6 +554,27 @@ def focus_array3d(
 # Product level (in memory; the CLI only reads and writes)
 
 
+def focus_raw_array(
+    raw: Product,
+    params: Array3DParams = Array3DParams(),
+    *,
+    keep_channel_images: bool = False,
+    progress: ProgressFactory | None = None,
+) -> Array3DResult:
+    """:func:`focus_array3d` on a ``raw_array`` product's signal, range times, track and array offsets."""
+    return focus_array3d(
+        raw.data,
+        raw.coords["range_time"],
+        raw.aux["platform_position"],
+        raw.aux["tx_offset"],
+        raw.aux["rx_offset"],
+        raw.radar,
+        params,
+        keep_channel_images=keep_channel_images,
+        progress=progress,
+    )
+
+
 def array3d_product(
     raw: Product,
     params: Array3DParams = Array3DParams(),
@@ -572,17 +593,7 @@ def array3d_product(
     history, each target's theory), :func:`_channel_product`.
     """
     _checked_raw(raw, channel_image)
-    res = focus_array3d(
-        raw.data,
-        raw.coords["range_time"],
-        raw.aux["platform_position"],
-        raw.aux["tx_offset"],
-        raw.aux["rx_offset"],
-        raw.radar,
-        params,
-        keep_channel_images=channel_image is not None,
-        progress=progress,
-    )
+    res = focus_raw_array(raw, params, keep_channel_images=channel_image is not None, progress=progress)
     cube = _cube_product(raw, res, params, command)
     chan = None if channel_image is None else _channel_product(raw, res, params, channel_image, command)
     return cube, chan
