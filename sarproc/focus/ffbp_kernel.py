@@ -135,6 +135,273 @@ def _read(
     return re * co - im * si_, re * si_ + im * co
 
 
+@numba.njit(fastmath=True, error_model="numpy", inline="always", cache=CACHE)
+def _child_along_ray(
+    cgeo: np.ndarray,
+    c: int,
+    pgeo: np.ndarray,
+    s: int,
+    ct: float,
+    st: float,
+    rho: np.ndarray,
+    kc2: float,
+    pos: np.ndarray,
+    cos_: np.ndarray,
+    sin_: np.ndarray,
+) -> tuple[float, float, float, float, float, float]:
+    """Child c's fractional range sample (pos) and carrier phasor (cos_, sin_) at each sample of parent s's ray
+    (direction ct, st; in-plane ranges rho), branch-free so that it vectorises. Returns the parent foot's offset
+    from the child's centre (dx0, dy0), u . d and |d|^2 + h^2 of it (ud, c0), and the least and largest pos."""
+    dx0 = pgeo[s, 0] - cgeo[c, 0]
+    dy0 = pgeo[s, 1] - cgeo[c, 1]
+    ud = ct * dx0 + dy0 * st
+    c0 = dx0 * dx0 + dy0 * dy0 + cgeo[c, 2] * cgeo[c, 2]
+    for k in range(len(rho)):
+        rc = math.sqrt(rho[k] * rho[k] + 2.0 * rho[k] * ud + c0)
+        pos[k] = (rc - cgeo[c, 3]) * cgeo[c, 10]
+        cy = kc2 * (rc - pgeo[s, 3] - k * pgeo[s, 4])
+        cos_[k], sin_[k] = cis_cycles32_short(np.float32(cy - math.floor(cy + 0.5)))
+    lo, hi = pos[0], pos[0]
+    for k in range(len(rho)):  # a select, not min(): numba's min checks for NaN and stays scalar
+        lo = pos[k] if pos[k] < lo else lo
+        hi = pos[k] if pos[k] > hi else hi
+    return dx0, dy0, ud, c0, lo, hi
+
+
+@numba.njit(fastmath=True, error_model="numpy", inline="always", cache=CACHE)
+def _add_pulse_linear(
+    pulse: np.ndarray,
+    i_lo: int,
+    last: int,
+    pos: np.ndarray,
+    cos_: np.ndarray,
+    sin_: np.ndarray,
+    acc_re: np.ndarray,
+    acc_im: np.ndarray,
+) -> None:
+    """Linear reads of a pulse (``pulse``: its samples i_lo .. last + i_lo + 1 as interleaved float32), the weights
+    from the fraction itself, branch-free: the pair of samples j0, j0 + 1 nearest the read, weighted as the read's
+    own taps where they are; each read turned by its carrier phasor and added to acc."""
+    for k in range(len(pos)):
+        f = math.floor(pos[k])
+        t = np.float32(pos[k] - f)
+        i0 = int(f) - i_lo
+        j0 = min(max(i0, 0), last)
+        one = np.float32(1.0)
+        w0 = one - t if i0 == j0 else (t if i0 == j0 - 1 else np.float32(0.0))
+        w1 = t if i0 == j0 else (one - t if i0 == j0 + 1 else np.float32(0.0))
+        b = 2 * j0
+        xr = w0 * pulse[b] + w1 * pulse[b + 2]
+        xi = w0 * pulse[b + 1] + w1 * pulse[b + 3]
+        acc_re[k] += xr * cos_[k] - xi * sin_[k]
+        acc_im[k] += xr * sin_[k] + xi * cos_[k]
+
+
+@numba.njit(fastmath=True, error_model="numpy", inline="always", cache=CACHE)
+def _add_pulse_one_sample(
+    cbuf: np.ndarray,
+    offc: int,
+    i_lo: int,
+    i_hi: int,
+    pos: np.ndarray,
+    cos_: np.ndarray,
+    sin_: np.ndarray,
+    acc_re: np.ndarray,
+    acc_im: np.ndarray,
+) -> None:
+    """Linear reads of a pulse with one sample in reach (i_lo == i_hi), added to acc as in _add_pulse_linear."""
+    for k in range(len(pos)):
+        f = math.floor(pos[k])
+        i0 = int(f)
+        t = np.float32(pos[k] - f)
+        if i0 >= i_lo and i0 + 1 <= i_hi:
+            v0 = cbuf[offc + i0]
+            v1 = cbuf[offc + i0 + 1]
+            xr = v0.real + t * (v1.real - v0.real)
+            xi = v0.imag + t * (v1.imag - v0.imag)
+        else:
+            xr = np.float32(0.0)
+            xi = np.float32(0.0)
+            if i0 >= i_lo and i0 <= i_hi:
+                xr += (1 - t) * cbuf[offc + i0].real
+                xi += (1 - t) * cbuf[offc + i0].imag
+            if i0 + 1 >= i_lo and i0 + 1 <= i_hi:
+                xr += t * cbuf[offc + i0 + 1].real
+                xi += t * cbuf[offc + i0 + 1].imag
+        acc_re[k] += xr * cos_[k] - xi * sin_[k]
+        acc_im[k] += xr * sin_[k] + xi * cos_[k]
+
+
+@numba.njit(fastmath=True, error_model="numpy", inline="always", cache=CACHE)
+def _add_pulse_table(
+    cbuf: np.ndarray,
+    offc: int,
+    i_lo: int,
+    i_hi: int,
+    tab_r: np.ndarray,
+    wr: np.ndarray,
+    pos: np.ndarray,
+    cos_: np.ndarray,
+    sin_: np.ndarray,
+    acc_re: np.ndarray,
+    acc_im: np.ndarray,
+) -> None:
+    """A pulse read by the range table (cubic): read by read, its samples a few apart (no runs); taps outside
+    i_lo .. i_hi are left out. Each read turned by its carrier phasor and added to acc."""
+    taps_r = tab_r.shape[1]
+    for k in range(len(pos)):
+        i0 = _fill_weights(tab_r, pos[k], wr)
+        xr = np.float32(0.0)
+        xi = np.float32(0.0)
+        for j in range(taps_r):
+            if i0 + j >= i_lo and i0 + j <= i_hi:
+                v = cbuf[offc + i0 + j]
+                xr += wr[j] * v.real
+                xi += wr[j] * v.imag
+        acc_re[k] += xr * cos_[k] - xi * sin_[k]
+        acc_im[k] += xr * sin_[k] + xi * cos_[k]
+
+
+@numba.njit(fastmath=True, error_model="numpy", inline="always", cache=CACHE)
+def _crossing_angles(
+    cgeo: np.ndarray,
+    c: int,
+    i_lo: int,
+    n_i: int,
+    dx0: float,
+    dy0: float,
+    ud: float,
+    c0: float,
+    ct: float,
+    st: float,
+    ang: np.ndarray,
+) -> None:
+    """Child c's fractional angle sample (ang) where the ray crosses its range samples i_lo .. i_lo + n_i - 1: by
+    the arctangent's series, valid for |tan| <= 1/4 ahead of the child's centre line (polar grids span a few
+    degrees); any other crossing (or none: disc < 0) is redone with atan2, a ray that never reaches a range
+    getting a position that no tap reaches."""
+    cm, sm = cgeo[c, 8], cgeo[c, 9]
+    odd = 0
+    for i in range(n_i):
+        rci = cgeo[c, 3] + (i_lo + i) * cgeo[c, 4]
+        disc = ud * ud - c0 + rci * rci
+        rr = math.sqrt(max(disc, 0.0)) - ud
+        dx = dx0 + rr * ct
+        dy = dy0 + rr * st
+        dot = dx * cm + dy * sm
+        crs = dy * cm - dx * sm
+        ang[i] = (_atan_series(crs / dot) - cgeo[c, 6]) * cgeo[c, 11]
+        odd += (disc < 0.0) | (dot <= 0.0) | (abs(crs) > 0.25 * dot)
+    if odd:
+        for i in range(n_i):
+            rci = cgeo[c, 3] + (i_lo + i) * cgeo[c, 4]
+            disc = ud * ud - c0 + rci * rci
+            rr = math.sqrt(max(disc, 0.0)) - ud
+            th = _relative_angle(dx0 + rr * ct, dy0 + rr * st, cm, sm)
+            ang[i] = (th - cgeo[c, 6]) * cgeo[c, 11] if disc >= 0.0 else -1e9
+
+
+@numba.njit(fastmath=True, error_model="numpy", inline="always", cache=CACHE)
+def _angle_pass(
+    cbuf: np.ndarray,
+    offc: int,
+    n_tc: int,
+    n_rc: int,
+    i_lo: int,
+    n_i: int,
+    ang: np.ndarray,
+    tab_t: np.ndarray,
+    a0: np.ndarray,
+    wta: np.ndarray,
+    row_re: np.ndarray,
+    row_im: np.ndarray,
+    pad: int,
+) -> None:
+    """Pass 1: the child read in angle at fractional angle samples ang[:n_i] of its range samples i_lo .., into the
+    row (offset by pad). Runs of equal first angle sample (the crossings drift by about a sample over the image):
+    each tap of a run reads one child row contiguously."""
+    taps_t = tab_t.shape[1]
+    steps_t = tab_t.shape[0] - 1
+    for i in range(n_i):
+        p = min(max(ang[i], -2.0 * taps_t), n_tc + 2.0 * taps_t)
+        f = math.floor(p)
+        a0[i] = int(f) + 1 - taps_t // 2
+        cl = int((p - f) * steps_t + 0.5)
+        for m in range(taps_t):
+            wta[m, i] = tab_t[cl, m]
+        row_re[pad + i] = 0.0
+        row_im[pad + i] = 0.0
+    i = 0
+    while i < n_i:
+        e = i + 1
+        while e < n_i and a0[e] == a0[i]:
+            e += 1
+        dst_re = row_re[pad + i : pad + e]
+        dst_im = row_im[pad + i : pad + e]
+        for m in range(taps_t):
+            aa = a0[i] + m
+            if aa < 0 or aa >= n_tc:
+                continue
+            b = offc + aa * n_rc + i_lo
+            src = cbuf[b + i : b + e]
+            w = wta[m, i:e]
+            for u in range(e - i):
+                dst_re[u] += w[u] * src[u].real
+                dst_im[u] += w[u] * src[u].imag
+        i = e
+
+
+@numba.njit(fastmath=True, error_model="numpy", inline="always", cache=CACHE)
+def _range_pass(
+    row_re: np.ndarray,
+    row_im: np.ndarray,
+    pad: int,
+    i_lo: int,
+    i_hi: int,
+    n_i: int,
+    pos: np.ndarray,
+    tab_r: np.ndarray,
+    first: np.ndarray,
+    wra: np.ndarray,
+    vr: np.ndarray,
+    vi: np.ndarray,
+) -> None:
+    """Pass 2: the row (the child along the ray at its range samples i_lo .. i_hi, zero-padded by pad) read in range
+    at the parent's fractional samples pos, into (vr, vi). Runs of equal offset between the parent's and the
+    child's samples (they drift by a few samples over the image): each tap of a run reads the row contiguously."""
+    taps_r = tab_r.shape[1]
+    steps_r = tab_r.shape[0] - 1
+    n_r = len(pos)
+    for i in range(pad):
+        row_re[pad + n_i + i] = 0.0
+        row_im[pad + n_i + i] = 0.0
+    for k in range(n_r):
+        p = min(max(pos[k], i_lo - 2.0 * pad), i_hi + 2.0 * pad)
+        f = math.floor(p)
+        first[k] = min(max(int(f) + 1 - taps_r // 2 - i_lo, -pad), n_i) + pad
+        cl = int((p - f) * steps_r + 0.5)
+        for j in range(taps_r):
+            wra[j, k] = tab_r[cl, j]
+        vr[k] = 0.0
+        vi[k] = 0.0
+    k = 0
+    while k < n_r:
+        e = k + 1
+        while e < n_r and first[e] - e == first[k] - k:
+            e += 1
+        d = first[k] - k
+        dst_re = vr[k:e]
+        dst_im = vi[k:e]
+        for j in range(taps_r):
+            src_re = row_re[k + d + j : e + d + j]
+            src_im = row_im[k + d + j : e + d + j]
+            w = wra[j, k:e]
+            for u in range(e - k):
+                dst_re[u] += w[u] * src_re[u]
+                dst_im[u] += w[u] * src_im[u]
+        k = e
+
+
 @numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
 def merge_level(
     cbuf: np.ndarray,
@@ -165,8 +432,6 @@ def merge_level(
     samples, taps outside a child masked to zero), so that they vectorise."""
     taps_r = tab_r.shape[1]
     taps_t = tab_t.shape[1]
-    steps_r = tab_r.shape[0] - 1
-    steps_t = tab_t.shape[0] - 1
     cf = cbuf.view(np.float32)
     pad = max(taps_r, 2)
     # scratch along a child's range (children of more than one pulse): its angle reads and its row
@@ -201,172 +466,136 @@ def merge_level(
         a0 = np.empty(n_ang, np.int64)
         for c in range(first_child[s], first_child[s + 1]):
             n_tc, n_rc, offc = cints[c, 0], cints[c, 1], cints[c, 2]
-            # the child's range along the ray: u . d and |d|^2 + h^2 of the parent foot from the child's centre
-            dx0 = pgeo[s, 0] - cgeo[c, 0]
-            dy0 = pgeo[s, 1] - cgeo[c, 1]
-            ud = ct * dx0 + dy0 * st
-            c0 = dx0 * dx0 + dy0 * dy0 + cgeo[c, 2] * cgeo[c, 2]
-            # ranges, positions and carrier phasors along the row: branch-free, vectorised
-            for k in range(n_r):
-                rc = math.sqrt(rho[k] * rho[k] + 2.0 * rho[k] * ud + c0)
-                pos[k] = (rc - cgeo[c, 3]) * cgeo[c, 10]
-                cy = kc2 * (rc - pgeo[s, 3] - k * pgeo[s, 4])
-                cos_[k], sin_[k] = cis_cycles32_short(np.float32(cy - math.floor(cy + 0.5)))
-            lo, hi = pos[0], pos[0]
-            for k in range(n_r):  # a select, not min(): numba's min checks for NaN and stays scalar
-                lo = pos[k] if pos[k] < lo else lo
-                hi = pos[k] if pos[k] > hi else hi
+            dx0, dy0, ud, c0, lo, hi = _child_along_ray(cgeo, c, pgeo, s, ct, st, rho, kc2, pos, cos_, sin_)
             i_lo = max(0, int(math.floor(lo)) + 1 - taps_r // 2)
             i_hi = min(n_rc - 1, int(math.floor(hi)) + taps_r // 2)
             if i_lo > i_hi:
                 continue
             if n_tc == 1 and linear_pulses and i_hi > i_lo:
-                # linear reads of a pulse, the weights from the fraction itself, branch-free: the pair of samples
-                # j0, j0 + 1 inside i_lo .. i_hi nearest the read, weighted as the read's own taps where they are
                 pulse = cf[2 * (offc + i_lo) : 2 * (offc + i_hi + 1)]  # a zero-based view: no index wrap
-                last = i_hi - i_lo - 1
-                for k in range(n_r):
-                    f = math.floor(pos[k])
-                    t = np.float32(pos[k] - f)
-                    i0 = int(f) - i_lo
-                    j0 = min(max(i0, 0), last)
-                    one = np.float32(1.0)
-                    w0 = one - t if i0 == j0 else (t if i0 == j0 - 1 else np.float32(0.0))
-                    w1 = t if i0 == j0 else (one - t if i0 == j0 + 1 else np.float32(0.0))
-                    b = 2 * j0
-                    xr = w0 * pulse[b] + w1 * pulse[b + 2]
-                    xi = w0 * pulse[b + 1] + w1 * pulse[b + 3]
-                    acc_re[k] += xr * cos_[k] - xi * sin_[k]
-                    acc_im[k] += xr * sin_[k] + xi * cos_[k]
+                _add_pulse_linear(pulse, i_lo, i_hi - i_lo - 1, pos, cos_, sin_, acc_re, acc_im)
                 continue
-            if n_tc == 1 and linear_pulses:  # one sample in reach
-                for k in range(n_r):
-                    f = math.floor(pos[k])
-                    i0 = int(f)
-                    t = np.float32(pos[k] - f)
-                    if i0 >= i_lo and i0 + 1 <= i_hi:
-                        v0 = cbuf[offc + i0]
-                        v1 = cbuf[offc + i0 + 1]
-                        xr = v0.real + t * (v1.real - v0.real)
-                        xi = v0.imag + t * (v1.imag - v0.imag)
-                    else:
-                        xr = np.float32(0.0)
-                        xi = np.float32(0.0)
-                        if i0 >= i_lo and i0 <= i_hi:
-                            xr += (1 - t) * cbuf[offc + i0].real
-                            xi += (1 - t) * cbuf[offc + i0].imag
-                        if i0 + 1 >= i_lo and i0 + 1 <= i_hi:
-                            xr += t * cbuf[offc + i0 + 1].real
-                            xi += t * cbuf[offc + i0 + 1].imag
-                    acc_re[k] += xr * cos_[k] - xi * sin_[k]
-                    acc_im[k] += xr * sin_[k] + xi * cos_[k]
+            if n_tc == 1 and linear_pulses:
+                _add_pulse_one_sample(cbuf, offc, i_lo, i_hi, pos, cos_, sin_, acc_re, acc_im)
+                continue
+            if n_tc == 1:
+                _add_pulse_table(cbuf, offc, i_lo, i_hi, tab_r, wr, pos, cos_, sin_, acc_re, acc_im)
                 continue
             n_i = i_hi - i_lo + 1
-            if n_tc == 1:
-                # a pulse read by the range table (cubic): read by read, its samples a few apart (no runs)
-                for k in range(n_r):
-                    i0 = _fill_weights(tab_r, pos[k], wr)
-                    xr = np.float32(0.0)
-                    xi = np.float32(0.0)
-                    for j in range(taps_r):
-                        if i0 + j >= i_lo and i0 + j <= i_hi:
-                            v = cbuf[offc + i0 + j]
-                            xr += wr[j] * v.real
-                            xi += wr[j] * v.imag
-                    acc_re[k] += xr * cos_[k] - xi * sin_[k]
-                    acc_im[k] += xr * sin_[k] + xi * cos_[k]
-                continue
-            else:
-                # pass 1: the child in angle where the ray crosses its range samples i_lo .. i_hi; the crossings'
-                # angle positions by the arctangent's series, valid for |tan| <= 1/4 ahead of the child's centre
-                # line (polar grids span a few degrees); any other crossing (or none: disc < 0) is redone below
-                cm, sm = cgeo[c, 8], cgeo[c, 9]
-                odd = 0
-                for i in range(n_i):
-                    rci = cgeo[c, 3] + (i_lo + i) * cgeo[c, 4]
-                    disc = ud * ud - c0 + rci * rci
-                    rr = math.sqrt(max(disc, 0.0)) - ud
-                    dx = dx0 + rr * ct
-                    dy = dy0 + rr * st
-                    dot = dx * cm + dy * sm
-                    crs = dy * cm - dx * sm
-                    ang[i] = (_atan_series(crs / dot) - cgeo[c, 6]) * cgeo[c, 11]
-                    odd += (disc < 0.0) | (dot <= 0.0) | (abs(crs) > 0.25 * dot)
-                if odd:
-                    for i in range(n_i):
-                        rci = cgeo[c, 3] + (i_lo + i) * cgeo[c, 4]
-                        disc = ud * ud - c0 + rci * rci
-                        rr = math.sqrt(max(disc, 0.0)) - ud
-                        th = _relative_angle(dx0 + rr * ct, dy0 + rr * st, cm, sm)
-                        # the ray never reaches this range: a position that no tap reaches
-                        ang[i] = (th - cgeo[c, 6]) * cgeo[c, 11] if disc >= 0.0 else -1e9
-                for i in range(n_i):
-                    p = min(max(ang[i], -2.0 * taps_t), n_tc + 2.0 * taps_t)
-                    f = math.floor(p)
-                    a0[i] = int(f) + 1 - taps_t // 2
-                    cl = int((p - f) * steps_t + 0.5)
-                    for m in range(taps_t):
-                        wta[m, i] = tab_t[cl, m]
-                    row_re[pad + i] = 0.0
-                    row_im[pad + i] = 0.0
-                # runs of equal first angle sample (the crossings drift by about a sample over the image): each
-                # tap of a run reads one child row contiguously
-                i = 0
-                while i < n_i:
-                    e = i + 1
-                    while e < n_i and a0[e] == a0[i]:
-                        e += 1
-                    dst_re = row_re[pad + i : pad + e]
-                    dst_im = row_im[pad + i : pad + e]
-                    for m in range(taps_t):
-                        aa = a0[i] + m
-                        if aa < 0 or aa >= n_tc:
-                            continue
-                        b = offc + aa * n_rc + i_lo
-                        src = cbuf[b + i : b + e]
-                        w = wta[m, i:e]
-                        for u in range(e - i):
-                            dst_re[u] += w[u] * src[u].real
-                            dst_im[u] += w[u] * src[u].imag
-                    i = e
-            # pass 2: in range at the parent's samples, re-referenced to the parent's range carrier; taps outside
-            # i_lo .. i_hi read the row's zero padding
-            for i in range(pad):
-                row_re[pad + n_i + i] = 0.0
-                row_im[pad + n_i + i] = 0.0
-            for k in range(n_r):
-                p = min(max(pos[k], i_lo - 2.0 * pad), i_hi + 2.0 * pad)
-                f = math.floor(p)
-                first[k] = min(max(int(f) + 1 - taps_r // 2 - i_lo, -pad), n_i) + pad
-                cl = int((p - f) * steps_r + 0.5)
-                for j in range(taps_r):
-                    wra[j, k] = tab_r[cl, j]
-                vr[k] = 0.0
-                vi[k] = 0.0
-            # runs of equal offset between the parent's and the child's samples (they drift by a few samples over
-            # the image): each tap of a run reads the row contiguously
-            k = 0
-            while k < n_r:
-                e = k + 1
-                while e < n_r and first[e] - e == first[k] - k:
-                    e += 1
-                d = first[k] - k
-                dst_re = vr[k:e]
-                dst_im = vi[k:e]
-                for j in range(taps_r):
-                    src_re = row_re[k + d + j : e + d + j]
-                    src_im = row_im[k + d + j : e + d + j]
-                    w = wra[j, k:e]
-                    for u in range(e - k):
-                        dst_re[u] += w[u] * src_re[u]
-                        dst_im[u] += w[u] * src_im[u]
-                k = e
+            _crossing_angles(cgeo, c, i_lo, n_i, dx0, dy0, ud, c0, ct, st, ang)
+            _angle_pass(cbuf, offc, n_tc, n_rc, i_lo, n_i, ang, tab_t, a0, wta, row_re, row_im, pad)
+            _range_pass(row_re, row_im, pad, i_lo, i_hi, n_i, pos, tab_r, first, wra, vr, vi)
             for k in range(n_r):
                 acc_re[k] += vr[k] * cos_[k] - vi[k] * sin_[k]
                 acc_im[k] += vr[k] * sin_[k] + vi[k] * cos_[k]
         dst = pbuf[off : off + n_r]
         for k in range(n_r):
             dst[k] = complex(acc_re[k], acc_im[k])
+
+
+@numba.njit(fastmath=True, error_model="numpy", inline="always", cache=CACHE)
+def _chunk_positions(
+    geo: np.ndarray,
+    c: int,
+    px: np.ndarray,
+    py: np.ndarray,
+    pz: np.ndarray,
+    lo: int,
+    kc2: float,
+    restore: bool,
+    p_r: np.ndarray,
+    p_t: np.ndarray,
+    cos_: np.ndarray,
+    sin_: np.ndarray,
+) -> None:
+    """Fractional range and angle samples (p_r, p_t) in subimage c of points lo .. lo + len(p_r) - 1, and their
+    carrier phasors (see final_points' ``restore``): branch-free and vectorised (the arctangent's series; a point
+    outside its range is redone with atan2)."""
+    cm, sm = geo[c, 8], geo[c, 9]
+    odd = 0
+    for j in range(len(p_r)):
+        i = lo + j
+        dx = px[i] - geo[c, 0]
+        dy = py[i] - geo[c, 1]
+        dz = geo[c, 2] - pz[i]
+        rc = math.sqrt(dx * dx + dy * dy + dz * dz)
+        p_r[j] = (rc - geo[c, 3]) * geo[c, 10]
+        dot = dx * cm + dy * sm
+        crs = dy * cm - dx * sm
+        p_t[j] = (_atan_series(crs / dot) - geo[c, 6]) * geo[c, 11]
+        odd += (dot <= 0.0) | (abs(crs) > 0.25 * dot)
+        ex = px[i] - geo[0, 0]
+        ey = py[i] - geo[0, 1]
+        ez = geo[0, 2] - pz[i]
+        r_ref = 0.0 if restore else math.sqrt(ex * ex + ey * ey + ez * ez)
+        cy = kc2 * (rc - r_ref)
+        cos_[j], sin_[j] = cis_cycles32_short(np.float32(cy - math.floor(cy + 0.5)))
+    if odd:
+        for j in range(len(p_r)):
+            i = lo + j
+            th = _relative_angle(px[i] - geo[c, 0], py[i] - geo[c, 1], cm, sm)
+            p_t[j] = (th - geo[c, 6]) * geo[c, 11]
+
+
+@numba.njit(fastmath=True, error_model="numpy", inline="always", cache=CACHE)
+def _add_polar_reads(
+    buf: np.ndarray,
+    fbuf: np.ndarray,
+    off: int,
+    n_t: int,
+    n_r: int,
+    p_r: np.ndarray,
+    p_t: np.ndarray,
+    cos_: np.ndarray,
+    sin_: np.ndarray,
+    tab_r: np.ndarray,
+    tab_t: np.ndarray,
+    col: np.ndarray,
+    acc_re: np.ndarray,
+    acc_im: np.ndarray,
+) -> None:
+    """A polar subimage (n_t x n_r samples at ``off``) read at fractional samples (p_r, p_t) by the tables' nearest
+    rows (views, no copy), turned by the carrier phasors and added to acc; taps outside the subimage are left out.
+    col: scratch of 2 taps_r floats."""
+    taps_r = tab_r.shape[1]
+    taps_t = tab_t.shape[1]
+    steps_r, steps_t = tab_r.shape[0] - 1, tab_t.shape[0] - 1
+    for j in range(len(p_r)):
+        f_r, f_t = math.floor(p_r[j]), math.floor(p_t[j])
+        i0 = int(f_r) + 1 - taps_r // 2
+        a0 = int(f_t) + 1 - taps_t // 2
+        wr = tab_r[int((p_r[j] - f_r) * steps_r + 0.5)]
+        wt = tab_t[int((p_t[j] - f_t) * steps_t + 0.5)]
+        re = np.float32(0.0)
+        im = np.float32(0.0)
+        if i0 >= 0 and i0 + taps_r <= n_r and a0 >= 0 and a0 + taps_t <= n_t:
+            # rows weighted in angle first: contiguous (re, im) runs of 2 taps_r floats, vectorised
+            col[:] = 0.0
+            for q in range(taps_t):
+                base = 2 * (off + (a0 + q) * n_r + i0)
+                src = fbuf[base : base + 2 * taps_r]  # a view indexed from zero: no index wrap, vectorised
+                w = wt[q]
+                for k in range(2 * taps_r):
+                    col[k] += w * src[k]
+            for k in range(taps_r):
+                re += wr[k] * col[2 * k]
+                im += wr[k] * col[2 * k + 1]
+        else:
+            for q in range(taps_t):
+                a = a0 + q
+                if a < 0 or a >= n_t:
+                    continue
+                sr = np.float32(0.0)
+                si = np.float32(0.0)
+                for k in range(taps_r):
+                    if i0 + k >= 0 and i0 + k < n_r:
+                        v = buf[off + a * n_r + i0 + k]
+                        sr += wr[k] * v.real
+                        si += wr[k] * v.imag
+                re += wt[q] * sr
+                im += wt[q] * si
+        acc_re[j] += re * cos_[j] - im * sin_[j]
+        acc_im[j] += re * sin_[j] + im * cos_[j]
 
 
 @numba.njit(parallel=True, fastmath=True, error_model="numpy", cache=CACHE)
@@ -414,72 +643,8 @@ def final_points(
                     acc_re[i - lo] += vr
                     acc_im[i - lo] += vi
                 continue
-            # positions and carrier phasors of the chunk's points, branch-free and vectorised (the arctangent's
-            # series; a point outside its range is redone with atan2)
-            cm, sm = geo[c, 8], geo[c, 9]
-            odd = 0
-            for j in range(m):
-                i = lo + j
-                dx = px[i] - geo[c, 0]
-                dy = py[i] - geo[c, 1]
-                dz = geo[c, 2] - pz[i]
-                rc = math.sqrt(dx * dx + dy * dy + dz * dz)
-                p_r[j] = (rc - geo[c, 3]) * geo[c, 10]
-                dot = dx * cm + dy * sm
-                crs = dy * cm - dx * sm
-                p_t[j] = (_atan_series(crs / dot) - geo[c, 6]) * geo[c, 11]
-                odd += (dot <= 0.0) | (abs(crs) > 0.25 * dot)
-                ex = px[i] - geo[0, 0]
-                ey = py[i] - geo[0, 1]
-                ez = geo[0, 2] - pz[i]
-                r_ref = 0.0 if restore else math.sqrt(ex * ex + ey * ey + ez * ez)
-                cy = kc2 * (rc - r_ref)
-                cos_[j], sin_[j] = cis_cycles32_short(np.float32(cy - math.floor(cy + 0.5)))
-            if odd:
-                for j in range(m):
-                    i = lo + j
-                    th = _relative_angle(px[i] - geo[c, 0], py[i] - geo[c, 1], cm, sm)
-                    p_t[j] = (th - geo[c, 6]) * geo[c, 11]
-            taps_r = tab_r.shape[1]
-            taps_t = tab_t.shape[1]
-            steps_r, steps_t = tab_r.shape[0] - 1, tab_t.shape[0] - 1
-            for j in range(m):
-                # the tables' nearest rows as views (no copy)
-                f_r, f_t = math.floor(p_r[j]), math.floor(p_t[j])
-                i0 = int(f_r) + 1 - taps_r // 2
-                a0 = int(f_t) + 1 - taps_t // 2
-                wr = tab_r[int((p_r[j] - f_r) * steps_r + 0.5)]
-                wt = tab_t[int((p_t[j] - f_t) * steps_t + 0.5)]
-                re = np.float32(0.0)
-                im = np.float32(0.0)
-                if i0 >= 0 and i0 + taps_r <= n_r and a0 >= 0 and a0 + taps_t <= n_t:
-                    # rows weighted in angle first: contiguous (re, im) runs of 2 taps_r floats, vectorised
-                    col[:] = 0.0
-                    for q in range(taps_t):
-                        base = 2 * (off + (a0 + q) * n_r + i0)
-                        src = fbuf[base : base + 2 * taps_r]  # a view indexed from zero: no index wrap, vectorised
-                        w = wt[q]
-                        for k in range(2 * taps_r):
-                            col[k] += w * src[k]
-                    for k in range(taps_r):
-                        re += wr[k] * col[2 * k]
-                        im += wr[k] * col[2 * k + 1]
-                else:
-                    for q in range(taps_t):
-                        a = a0 + q
-                        if a < 0 or a >= n_t:
-                            continue
-                        sr = np.float32(0.0)
-                        si = np.float32(0.0)
-                        for k in range(taps_r):
-                            if i0 + k >= 0 and i0 + k < n_r:
-                                v = buf[off + a * n_r + i0 + k]
-                                sr += wr[k] * v.real
-                                si += wr[k] * v.imag
-                        re += wt[q] * sr
-                        im += wt[q] * si
-                acc_re[j] += re * cos_[j] - im * sin_[j]
-                acc_im[j] += re * sin_[j] + im * cos_[j]
+            _chunk_positions(geo, c, px, py, pz, lo, kc2, restore, p_r, p_t, cos_, sin_)
+            _add_polar_reads(buf, fbuf, off, n_t, n_r, p_r, p_t, cos_, sin_, tab_r, tab_t, col, acc_re, acc_im)
         for j in range(m):
             out[lo + j] = complex(acc_re[j], acc_im[j])
 
