@@ -94,7 +94,7 @@ define cmpf_raw
 	$(if $(filter new,$(ROLE)),$(CMPF_S) simulate $(1) -o $(O)/simulated/$(2) --overwrite --no-progress,ln -sf ../$(2) $(O)/simulated/$(2))
 endef
 
-.PHONY: cmpf-000-exp1 cmpf-000-exp2 cmpf-004 cmpf-gotcha cmpf-003 cmpf-002
+.PHONY: cmpf-000-exp1 cmpf-000-exp2 cmpf-004 cmpf-gotcha cmpf-003 cmpf-003-full cmpf-002
 cmpf-000-exp1 cmpf-000-exp2: cmpf-000-%:
 	mkdir -p $(O)/simulated
 	$(CMPF_P) $(T)/scripts/reproduce_000.py $* --out $(O) $(if $(filter new,$(ROLE)),--raw-from $(R))
@@ -124,8 +124,17 @@ cmpf-gotcha:
 	$(CMPF_S) backproject $(O)/raw.h5 --config $(T)/configs/gotcha.yaml -o $(O)/image_bp.h5 --overwrite --no-progress
 	$(CMPF_P) $(T)/scripts/reproduce_gotcha.py --dir $(O)
 
-# reproduce-003's scene chain (A, B, C: images, strips, reports); not its five sweeps (72 tasks of the
-# full scene in each tree) nor the scripts that tabulate them.
+# reproduce-003's scene chain (A, B, C: images, strips, reports). cmpf-003-full adds its five sweeps (72
+# tasks of the full scene in each tree, each tree simulating its own raw products) and the two scripts
+# that tabulate them (summary.md, hard_cases.md); not in the default chains: hours on two cores.
+cmpf-003-full: cmpf-003
+	set -e; for s in cases given speeds clutter; do \
+	  $(CMPF_S) sweep $(T)/configs/sweeps/reproduce_003_$$s.yaml -o $(O)/sweep-$$s --scheduler serial; done
+	$(CMPF_S) sweep $(T)/configs/sweeps/hard_cases_003.yaml -o $(O)/sweep-hard --scheduler serial
+	$(CMPF_P) $(T)/scripts/reproduce_003.py --results $(O)
+	$(CMPF_P) $(T)/scripts/hard_cases_003.py --results $(O)
+	rm -f $(O)/sweep-*/tasks/*/reconstruct.h5 $(O)/sweep-*/raw/*.h5
+
 cmpf-003:
 	$(call cmpf_raw,$(T)/configs/xu_scene.yaml,raw_mc.h5)
 	$(CMPF_S) reconstruct $(O)/raw_mc.h5 -o $(O)/raw_conventional.h5 --config $(T)/configs/xu_conventional.yaml --overwrite --no-progress
