@@ -142,6 +142,7 @@ def markdown(
         "",
         f"- found {len(found)} of {len(rows)} vehicles; false alarms above the CFAR threshold (the measured "
         f"clutter residual + {info.get('cfar_db', 15):g} dB): {len(false)}"
+        + cfar_line(info.get("detection_cfar"))
         + (
             "".join(
                 f"\n  - false alarm: SNR {f['snr']:.1f} dB, v_r {f['v_r']:.2f}, v_a {f['v_a']:.2f} m/s" for f in false
@@ -298,6 +299,18 @@ def figure(product: Product, path: Path) -> None:
 
 def load_json(path: str | Path) -> Any:
     return json.loads(Path(path).read_text()) if Path(path).exists() else None
+
+
+def cfar_line(cfar: dict | None) -> str:
+    """The second pass's CFAR against the measured background (reconstruct.detection_cfar), in words."""
+    if not cfar or "tail" not in cfar:
+        return ""
+    return (
+        f"\n- CFAR against the measured background (examined responses taken out): {cfar['background_peaks']} peaks, "
+        f"generalised Pareto tail xi {cfar['tail']['xi']:.2f}; threshold {cfar['threshold_db']:.1f} dB for a "
+        f"false-alarm rate {cfar['false_alarm_rate']:g} per peak (set by {cfar['set_by']}; "
+        f"{cfar['expected_false_alarms']:.2f} expected)"
+    )
 
 
 def main() -> None:

@@ -85,8 +85,18 @@ class ReconstructParams:
         default=15.0,
         ge=0,
         doc=(
-            "CFAR threshold: a detection-image peak must exceed the mean local background (clutter residual and "
-            "noise, from tile medians) by this much"
+            "lowest CFAR threshold: a detection-image peak must exceed the mean local background (clutter residual "
+            "and noise, from tile medians) by this much, and by what false_alarm_rate sets"
+        ),
+    )
+    false_alarm_rate: float = param(
+        default=1e-6,
+        gt=0,
+        lt=1e-2,
+        doc=(
+            "CFAR false-alarm rate per peak of the measured background (the detection image with every examined "
+            "response taken out): the threshold over the local background that this fraction of its peaks exceeds, "
+            "from a generalised Pareto fit of their top 1 %; a second pass examines the peaks above it"
         ),
     )
     window_margin: int = param(
@@ -584,10 +594,58 @@ def _incoherent(est: _Estimate, g: _Geometry, flat_above: float) -> bool:
     return at > flat_above * float(np.median(est.result.trials[:, 1])) or white
 
 
+def _tone_offset(z: np.ndarray, f_az: np.ndarray, reach: float) -> float | None:
+    """Frequency (Hz) of the strongest bin of the cell-summed power of ``z`` (n_out, cells) within +-``reach`` Hz,
+    refined by a parabola through it and its neighbours; None if the strongest is on the edge of the reach."""
+    p = np.sum(np.abs(z) ** 2, axis=1)
+    inside = np.nonzero(np.abs(f_az) <= reach)[0]
+    if len(inside) < 3:
+        return None
+    k = int(inside[np.argmax(p[inside])])
+    n = len(p)
+    if np.abs(f_az[(k - 1) % n]) > reach or np.abs(f_az[(k + 1) % n]) > reach:
+        return None
+    a, b, c = float(p[(k - 1) % n]), float(p[k]), float(p[(k + 1) % n])
+    den = a - 2 * b + c
+    frac = 0.5 * (a - c) / den if den < 0 else 0.0
+    return float(f_az[k] + frac * (f_az[1] - f_az[0]))
+
+
+def _along_track_for(acc: float, v_los: float, g: _Geometry, slant_range: float, guess: float) -> float:
+    """The along-track velocity u (m/s) at which a mover of line-of-sight velocity ``v_los`` at ``slant_range`` has
+    range acceleration ``acc`` (velocity.range_acceleration, decreasing in u near the platform's velocity):
+    bisection within +-10 m/s of ``guess``."""
+
+    def acc_at(u: float) -> float:
+        vr_u = (v_los - u * math.sin(g.squint)) / math.cos(g.squint)
+        return velocity.range_acceleration(g.velocity, u, vr_u, g.squint, slant_range)
+
+    lo, hi = guess - 10.0, guess + 10.0
+    if not (acc_at(lo) - acc) * (acc_at(hi) - acc) <= 0:
+        return guess
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if (acc_at(lo) - acc) * (acc_at(mid) - acc) <= 0:
+            hi = mid
+        else:
+            lo = mid
+    return 0.5 * (lo + hi)
+
+
 def _autofocus(
     est: _Estimate, win: _Window, params: ReconstructParams, g: _Geometry, centre: _Centre, can_search: bool
-) -> None:
-    """v_a by azimuth autofocus at the line-of-sight velocity found, then v_r refined with v_a known."""
+) -> tuple[float, float]:
+    """v_a by azimuth autofocus at the line-of-sight velocity found, then v_r refined with v_a known.
+
+    The quadratic the autofocus finds is the range acceleration R'' at the mover's beam-centre time t_0 (the middle
+    of its illumination; a cubic term is odd about it and leaves it); v_a follows from R'' through the slant range
+    at t_0, R(t_0) = (walk-corrected range) - v sin(theta) t_0, and dR'' / R'' = -dR / R: 1 ms of t_0 (2.6 m)
+    moves v_a by v / 2 x 4.3e-6 = 0.016 m/s. The energy centroid of the mover's cells (``centre.t_c``) is pulled by
+    the clutter in them (xu_traffic V9: +19 ms, v_a +0.31 m/s). Dechirped about t_c with the right R'', the
+    mover is one tone at f = 2 R'' (t_0 - t_c) / lambda: t_0 from the tone's frequency, v_a again from the same
+    R'' at R(t_0) (the sharpness against R'' does not depend on t_c: only a linear phase changes). Returns
+    (t_0, R(t_0)), the beam-centre time and slant range the mover's reconstruction uses.
+    """
     v_los = est.v_los(g)
     # Autofocus on the mover's own range cells (its energy above 1 % of its strongest cell), with the
     # FM rate at the carrier (the range-frequency spread of R'' is 0.3 %): one azimuth FFT per trial.
@@ -606,6 +664,20 @@ def _autofocus(
     v_a, af = velocity.maximise(crit, est.v_a - params.autofocus_span, est.v_a + params.autofocus_span, 1.0)
     v_a, af2 = velocity.maximise(crit, v_a - 1.0, v_a + 1.0, 0.05)
     est.autofocus = np.concatenate([af, af2])
+    # The beam-centre time from the focused tone (docstring), searched within a quarter of the illumination time of
+    # the centroid (clutter pulls the centroid by a fraction of that; a tone beyond it is clutter's).
+    lam = C / g.fc
+    vr_a = (v_los - v_a * math.sin(g.squint)) / math.cos(g.squint)
+    acc = velocity.range_acceleration(g.velocity, v_a, vr_a, g.squint, slant_range)
+    t_ill = 2 * g.half_band * lam * slant_range / (2 * (g.velocity * math.cos(g.squint)) ** 2)
+    f_az = sfft.fftfreq(len(g.out_times), 1.0 / (g.n * g.prf))
+    ph = deramp.quadratic_phasor(g.out_times, np.zeros(1), acc, t_c, g.fc)
+    f_tone = _tone_offset(sfft.fft(y_cells * ph, axis=0, workers=-1), f_az, 2 * acc * 0.25 * t_ill / lam)
+    if f_tone is not None:
+        walk_corrected = slant_range + g.velocity * math.sin(g.squint) * t_c
+        t_c = t_c + f_tone * lam / (2 * acc)
+        slant_range = walk_corrected - g.velocity * math.sin(g.squint) * t_c
+        v_a = _along_track_for(acc, v_los, g, slant_range, v_a)
     est.v_a = v_a
     est.v_r = (v_los - v_a * math.sin(g.squint)) / math.cos(g.squint)
     if params.radial_velocity is None and can_search:
@@ -619,6 +691,7 @@ def _autofocus(
             fine.estimate, False, trials[np.argsort(trials[:, 0])], est.result.evaluations + fine.evaluations
         )
         est.v_r = fine.estimate
+    return t_c, slant_range
 
 
 def _bound_notes(est: _Estimate, params: ReconstructParams) -> tuple[bool, list[str]]:
@@ -696,8 +769,9 @@ def _estimate(
     centre = _centre(win, g, est, centre_range, null_fit)
     if flat_above is not None and est.result is not None and _incoherent(est, g, flat_above):
         return None, ["incoherent"]
+    t_c, slant_range = centre.t_c, centre.slant_range
     if params.autofocus and params.along_track_velocity is None:
-        _autofocus(est, win, params, g, centre, can_search)
+        t_c, slant_range = _autofocus(est, win, params, g, centre, can_search)
     leak = win.leakage(est.v_r, est.v_a) if can_search else float("nan")
     appears = appears_cell = None
     if null_fit is not None and centre.shift is not None:
@@ -707,10 +781,10 @@ def _estimate(
     return MovingTarget(
         first_cell=0,
         last_cell=0,
-        slant_range=centre.slant_range,
+        slant_range=slant_range,
         radial_velocity=float(est.v_r),
         along_track_velocity=float(est.v_a),
-        beam_centre_time=centre.t_c,
+        beam_centre_time=t_c,
         leakage=leak,
         at_bound=at_bound,
         search=est.result.trials if est.result is not None else np.zeros((0, 2)),
@@ -834,6 +908,10 @@ class _Detections:
     dropped: int  # detections over 20 max_detections, never examined
     static_peaks: list[detection.Detection]  # the conventional image's (residual mode only)
     probes: dict  # _probe_truth's, for the miss reasons of the truth movers
+    cfar_db: float  # threshold over the local background: detection_snr, then the measured background's (_second_pass)
+    range_width: float  # range cells per range resolution (find_detections' side-lobe test)
+    tail: detection.TailFit | None = None  # the measured background's tail (_second_pass)
+    background_peaks: np.ndarray | None = None  # sorted z of the measured background's peaks (_second_pass)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -921,11 +999,12 @@ def _detect(
     image = detection.compressed(src, out_f, ka)
     power = (image.real**2 + image.imag**2).astype(np.float32)
     bg = detection.background(power)
+    cfar_db = params.detection_snr
     dets, dropped = detection.find_detections(
         power,
         bg,
         g.out_times,
-        params.detection_snr,
+        cfar_db,
         params.detection_level,
         max(1.0, g.fs / r.bandwidth),
         20 * params.max_detections,
@@ -946,8 +1025,80 @@ def _detect(
             max(1.0, g.fs / r.bandwidth),
             20 * params.max_detections,
         )[0]
-    probes = _probe_truth(raw, params, g, lead, power, bg, conv, bg_conv)
-    return _Detections(out_f, r_mid, image, bg, dets, dropped, static_peaks, probes)
+    probes = _probe_truth(raw, params, g, lead, power, bg, conv, bg_conv, cfar_db)
+    return _Detections(
+        out_f, r_mid, image, bg, dets, dropped, static_peaks, probes, cfar_db, max(1.0, g.fs / r.bandwidth)
+    )
+
+
+def _second_pass(scan: _Scan, tally: _Tally) -> list[detection.Detection]:
+    """CFAR against the measured background: the detection image with every examined response taken out.
+
+    The first pass (detection_snr over the tile-median background, detection_level under the strongest peak) finds
+    the strong responses; each examined one is removed from the image (_remove_response). What is left is the
+    background: clutter-null residue, noise and the movers too weak to be seen beside the strong ones' side lobes.
+    Its peaks' normalised powers are fitted by a generalised Pareto tail (detection.peak_cfar) and the threshold
+    set where they exceed it with probability false_alarm_rate (at least detection_snr); its peaks above that and
+    above detection_level of its own strongest, off the side-lobe envelopes of the first pass's detections and not
+    already seen, are the second pass's detections. The truth probes get the residual
+    SNR where each mover appears and how many background peaks exceed it (the miss reasons say so).
+    """
+    params, found, g = scan.params, scan.found, scan.g
+    power = (found.image.real**2 + found.image.imag**2).astype(np.float32)
+    bg = detection.background(power)
+    cfar_db, tail, z = detection.peak_cfar(power, bg, params.false_alarm_rate, params.detection_snr)
+    found.bg, found.cfar_db, found.tail, found.background_peaks = bg, cfar_db, tail, z
+    dets, dropped = detection.find_detections(
+        power,
+        bg,
+        g.out_times,
+        cfar_db,
+        params.detection_level,
+        found.range_width,
+        20 * params.max_detections,
+        known=sorted(found.dets, key=lambda d: -d.power),
+    )
+    new = [
+        d
+        for d in dets
+        if not any(abs(d.cell - p.cell) <= 2 and abs(d.index - p.index) <= max(2.0, p.width) for p in found.dets)
+    ]
+    tally.dropped += dropped
+    found.dets.extend(new)
+    for row in found.probes.values():
+        i, c = row["peak_index"], row["peak_cell"]
+        rows = np.arange(i - PROBE_SAMPLES, i + PROBE_SAMPLES + 1) % scan.n_out
+        cols = slice(max(0, c - 3), min(scan.n_cells, c + 4))
+        level = float(np.max(power[rows, cols] / np.maximum(bg[rows, cols], 1e-30)))
+        row["residual_snr_db"] = 10 * math.log10(level) if level > 0 else -math.inf
+        row["background_peaks_above"] = int(len(z) - np.searchsorted(z, level, side="right"))
+    log.info(
+        "reconstruct: measured background (%d peaks, tail xi %.2f): CFAR threshold %.1f dB for a false-alarm rate "
+        "%.3g per peak; %d new detection(s)",
+        len(z),
+        tail.xi if tail is not None else float("nan"),
+        cfar_db,
+        params.false_alarm_rate,
+        len(new),
+    )
+    return new
+
+
+def _cfar_info(found: _Detections, params: ReconstructParams) -> dict:
+    """The CFAR threshold and the measured background's tail it was set from (product metadata)."""
+    peaks = found.background_peaks
+    out: dict = {
+        "threshold_db": found.cfar_db,
+        "false_alarm_rate": params.false_alarm_rate,
+        "floor_db": params.detection_snr,
+        "set_by": "floor" if found.tail is None or found.cfar_db <= params.detection_snr else "false_alarm_rate",
+        "background_peaks": 0 if peaks is None else len(peaks),
+        "expected_false_alarms": 0.0 if peaks is None else params.false_alarm_rate * len(peaks),
+    }
+    if found.tail is not None:
+        t = found.tail
+        out["tail"] = {"u": t.u, "p_u": t.p_u, "xi": t.xi, "sigma": t.sigma, "peaks": t.n}
+    return out
 
 
 def _spacing(g: _Geometry, params: ReconstructParams, r_mid: float) -> _Spacing:
@@ -992,12 +1143,18 @@ def _detect_and_focus(
     tally = _Tally(found.dropped, counts)
     for det in progress(found.dets) if progress is not None else found.dets:
         _visit(det, scan, tally)
+    second = _second_pass(scan, tally)
+    counts["detections"] += len(second)
+    counts["second_pass"] = len(second)
+    for det in second:
+        _visit(det, scan, tally)
     _warn_unseparated(tally.peaks, spacing, params.window_margin)
     _warn_unexamined(tally, params)
     counts["not_examined"] = tally.dropped
     del scan, x_tr
     y[:] = sfft.fft(sfft.fft(y_tr, axis=1, workers=-1), axis=0, workers=-1)
     info["detections"] = counts
+    info["detection_cfar"] = _cfar_info(found, params)
     info["_probes"] = (found.probes, tally.rejected, spacing.ambiguity * g.n * g.prf)
     return tally.movers
 
@@ -1005,7 +1162,7 @@ def _detect_and_focus(
 def _visit(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
     """Merge ``det`` into a mover found, pass it as explained or unexamined, or examine it."""
     params, found, sep = scan.params, scan.found, scan.spacing.sep
-    threshold = 10 ** (params.detection_snr / 10)
+    threshold = 10 ** (found.cfar_db / 10)
     left = found.image[det.index, det.cell]
     explained = abs(left) ** 2 < threshold * found.bg[det.index, det.cell]
     same = [k for k, p in enumerate(tally.peaks) if not scan.spacing.apart(det, p, params.window_margin)]
@@ -1359,6 +1516,7 @@ def _probe_truth(
     bg: np.ndarray,
     conv: np.ndarray | None,
     bg_conv: np.ndarray | None,
+    cfar_db: float,
 ) -> dict:
     """Per moving truth target: its SNR in the detection image(s) where it appears, and the clutter null's MDV.
 
@@ -1430,7 +1588,7 @@ def _probe_truth(
                     if 0 <= j < n_out:
                         levels.append(float(bg[j, c]))
                 depth.append(10 * math.log10(min(levels) / float(bg_conv[i, c])) if levels else math.inf)
-            need = params.detection_snr - row["conventional_snr_db"] + np.array(depth)
+            need = cfar_db - row["conventional_snr_db"] + np.array(depth)
             need = np.minimum(need, need[::-1])  # either sign of k
             row["mdv"] = detection.minimum_detectable_velocity(
                 g.tau0, g.prf, g.half_band, params.clutter_band, lam, need
@@ -1439,7 +1597,9 @@ def _probe_truth(
     return out
 
 
-def _miss_reason(name: str, probe: dict | None, rejected: list[dict], spacing: float, params: ReconstructParams) -> str:
+def _miss_reason(
+    name: str, probe: dict | None, rejected: list[dict], spacing: float, params: ReconstructParams, cfar: dict
+) -> str:
     """Why truth mover ``name`` is not in moving_targets, from what the detection image held where it appears."""
     if probe is None:
         return f"{name}: not found"
@@ -1478,8 +1638,18 @@ def _miss_reason(name: str, probe: dict | None, rejected: list[dict], spacing: f
             f"{name}: detected (SNR {d['snr_db']:.1f} dB) but no slant-range velocity explains its response "
             "(too weak for the velocity search)"
         )
-    cfar = params.detection_snr
-    if "mdv" in probe and probe["snr_db"] < cfar:
+    level = probe.get("residual_snr_db", probe["snr_db"])
+    if "residual_snr_db" in probe:
+        # the second pass's CFAR against the measured background (_second_pass)
+        under = (
+            f"; with the examined responses taken out it stands {level:.1f} dB over the measured background, "
+            f"{probe['background_peaks_above']} of whose {cfar.get('background_peaks', 0)} peaks are stronger: under "
+            f"the CFAR threshold {cfar['threshold_db']:.1f} dB that a false-alarm rate {params.false_alarm_rate:g} "
+            "per peak sets there"
+        )
+    else:
+        under = f", under the CFAR threshold {cfar['threshold_db']:.1f} dB"
+    if "mdv" in probe and level < cfar["threshold_db"]:
         v, mdv = abs(probe["v_los"]), probe["mdv"]
         # the gain model is good to about 1.5 dB (docs/multichannel.md), 20 % in v_los (gain ~ v_los^2)
         where = (
@@ -1492,13 +1662,10 @@ def _miss_reason(name: str, probe: dict | None, rejected: list[dict], spacing: f
         return (
             f"{name}: the clutter null keeps {probe['null_gain_db']:.1f} dB of its peak (line-of-sight speed "
             f"{v:.2f} m/s, {where} for its conventional SNR {probe['conventional_snr_db']:.1f} dB): its residual peaks "
-            f"{probe['snr_db']:.1f} dB over the background, under the CFAR threshold {cfar:g} dB"
+            f"{probe['snr_db']:.1f} dB over the background{under}"
         )
-    if probe["snr_db"] < cfar:
-        return (
-            f"{name}: its peak is {probe['snr_db']:.1f} dB over the background where it appears, under the "
-            f"CFAR threshold {cfar:g} dB"
-        )
+    if level < cfar["threshold_db"]:
+        return f"{name}: its peak is {probe['snr_db']:.1f} dB over the background where it appears{under}"
     return (
         f"{name}: its peak is {probe['snr_db']:.1f} dB over the background where it appears, but no detection "
         "was made there (a side lobe of a stronger detection, or beyond max_detections)"
@@ -1695,8 +1862,9 @@ def _moving_target_rows(
         names = [n.decode() if isinstance(n, bytes) else str(n) for n in truth["name"]]
         found = {int(k) for k in rows[:, -1] if k >= 0} if len(rows) else set()
         probes, rejected, spacing = info.pop("_probes", ({}, [], 1.0))
+        cfar = info.get("detection_cfar", {"threshold_db": params.detection_snr})
         missed = [k for k in moving_rows if k not in found]
-        reasons = [_miss_reason(names[k], probes.get(int(k)), rejected, spacing, params) for k in missed]
+        reasons = [_miss_reason(names[k], probes.get(int(k)), rejected, spacing, params, cfar) for k in missed]
         for reason in reasons:
             log.warning("reconstruct: truth mover %s", reason)
         info["truth"] = {
