@@ -95,7 +95,7 @@ def overlap_numbers(cube: Product, ch14_report: dict[str, TargetReport]) -> dict
 def backprojection_numbers(out: Path, cube_report: dict[str, TargetReport]) -> dict:
     """The exact 3D backprojection (sarproc backproject, frame elevation) beside the cube, from the two
     evaluate reports."""
-    bp = report_targets(out / "report_bp.json")
+    bp = {n: t for n, t in report_targets(out / "report_bp.json").items() if n in ("3", "6", "7")}
     bp_cube = read_product(out / "bp_cube.h5", kinds=("image3d",), load=False)
     result: dict[str, Any] = {"shape": list(bp_cube.attrs["shape"]), "targets": {}}
     for n, b in bp.items():
