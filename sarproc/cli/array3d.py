@@ -1,4 +1,4 @@
-"""sarproc array3d RAW.h5 -o CUBE.h5 [--config FILE.yaml] [--channel-image N --channel-output IMG.h5]"""
+"""sarproc array3d RAW.h5 -o CUBE.h5 [--config FILE] [--channel-image N --channel-output IMG.h5] [--channel-overlap]"""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from sarproc.cli.options import SectionCommand, common_options, input_argument, summary, want_progress
+from sarproc.cli.options import SectionCommand, common_options, info, input_argument, summary, want_progress
 
 
 @click.command(cls=SectionCommand, section="array3d")
@@ -26,6 +26,14 @@ from sarproc.cli.options import SectionCommand, common_options, input_argument, 
     default=None,
     help="Output of --channel-image (an `image` product, dims azimuth, range).",
 )
+@click.option(
+    "--channel-overlap",
+    is_flag=True,
+    default=False,
+    help="Measure, over every receiver's 2D image before elevation compression, the energy of targets sharing "
+    "one (azimuth, range) cell over that of lone targets, beside its coherent-sum prediction (paper Fig. 5); "
+    "recorded as the cube's attribute channel_overlap.",
+)
 def array3d(
     input_path: Path,
     output: Path,
@@ -34,6 +42,7 @@ def array3d(
     progress: bool | None,
     channel_image: int | None,
     channel_output: Path | None,
+    channel_overlap: bool,
 ) -> None:
     """Linear-array down-looking 3D SAR (paper 004): range, azimuth and elevation-angle compression.
 
@@ -68,6 +77,7 @@ def array3d(
             raw,
             params,
             channel_image=channel_image,
+            channel_overlap=channel_overlap,
             progress=progress_factory(want_progress(progress), "array3d"),
             command=f"sarproc array3d {input_path}",
         )
@@ -76,6 +86,11 @@ def array3d(
         assert channel_output is not None  # --channel-image comes with --channel-output
         write_product(channel_output, chan, inputs=[input_path], overwrite=overwrite)
     shape = "x".join(map(str, cube.data.shape))
+    for g in cube.attrs.get("channel_overlap", {}).get("groups", []):
+        info(
+            f"array3d: targets {', '.join(g['targets'])} share one 2D cell: energy over the lone targets' "
+            f"{g['mean_ratio']:.2f} on average over the receivers (coherent sum {g['mean_predicted']:.2f})"
+        )
     summary(
         f"array3d: {shape} (elevation x azimuth x range) cube -> {output}"
         + (f", channel {channel_image} image -> {channel_output}" if chan is not None else "")

@@ -34,6 +34,10 @@ def backproject(
 ) -> None:
     """Exact time-domain backprojection of a raw product onto a frame grid (section `backproject:`).
 
+    In the 3D frame `elevation` (a raw_array product: a cross-track receiver array) the grid is
+    (elevation, azimuth, range), keys elevation_center / _extent / _spacing as angles, and the
+    output an image3d cube: the exact time-domain reference for `sarproc array3d`'s cubes.
+
     The default grid covers the targets table, moving targets at their static-equivalent positions
     (where a static-scene image focuses them). The image is computed and written in blocks of rows
     (`block_pixels`, smaller under --max-memory), so it need not fit in memory; with --scheduler the
@@ -111,9 +115,8 @@ def backproject(
                 f"backproject: {len(blocks)} blocks on {len(peaks)} Dask workers, peak memory per worker "
                 + ", ".join(human(v) for v in sorted(peaks.values()))
             )
-    n_az, n_rg = plan.shape
     parts = f" in {len(blocks)} blocks" if len(blocks) > 1 else ""
     summary(
-        f"backproject: {n_az}x{n_rg} image{parts} in frame {plan.frame.spec['name']} -> {output} "
-        f"({time.perf_counter() - start:.2f} s)"
+        f"backproject: {'x'.join(map(str, plan.shape))} ({' x '.join(plan.dims)}) image{parts} in frame "
+        f"{plan.frame.spec['name']} -> {output} ({time.perf_counter() - start:.2f} s)"
     )

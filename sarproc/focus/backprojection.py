@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sarproc.dsp.rangecomp import range_compress
+from sarproc.dsp.rangecomp import FILTERS, range_compress
 from sarproc.product import beam, fft as sfft, moving, theory
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import InputError
@@ -447,6 +447,18 @@ class BackprojectParams:
         doc="grid centre (frame coordinate); default: middle of the targets, else the scene centre",
     )
     range_center: float | None = param("length", default=None, doc="grid centre along range (frame coordinate)")
+    elevation_extent: float | None = param(
+        "angle",
+        default=None,
+        gt=0,
+        doc="3D frames only (frame elevation, raw_array products): grid size along elevation; default as azimuth",
+    )
+    elevation_spacing: float | None = param(
+        "angle", default=None, gt=0, doc="3D frames only: default theoretical IRW / oversample"
+    )
+    elevation_center: float | None = param(
+        "angle", default=None, doc="3D frames only: grid centre along elevation (from nadir, towards +y)"
+    )
     oversample: float = param(default=2.0, ge=1.0, doc="pixels per theoretical IRW for default spacings")
     margin_cells: float = param(default=24.0, ge=0, doc="resolution cells around the targets for default extents")
     upsample: int = param(
@@ -490,6 +502,12 @@ class BackprojectParams:
     )
     ffbp_taps: int = param(default=12, ge=2, le=16, doc="ffbp: taps per axis of the knab reads (even)")
     range_window: str = param(default="none", choices=WINDOWS, doc="range spectral taper (README: Windows)")
+    range_filter: str = param(
+        default="flat",
+        choices=FILTERS,
+        doc="range compression: flat (divide by the chirp spectrum in the band: an exact rect spectrum) or "
+        "matched (conjugate chirp spectrum, array3d's default)",
+    )
     azimuth_window: str = param(default="none", choices=WINDOWS, doc="taper over the pulses (README: Windows)")
     max_pixels: int = param(default=16_000_000, ge=1, doc="refuse grids larger than this")
     block_pixels: int = param(
@@ -599,17 +617,35 @@ class PulseSet:
 
 @dataclasses.dataclass(frozen=True)
 class BackprojectionPlan:
-    """The output grid and everything written beside the image, decided before any pixel is summed."""
+    """The output grid and everything written beside the image, decided before any pixel is summed.
+    ``elevation``: the third axis of a 3D (elevation-frame) grid, first in the image's dims; None in 2D."""
 
     frame: Frame
     azimuth: np.ndarray
     range: np.ndarray
     targets: object
     attrs: dict
+    elevation: np.ndarray | None = None
 
     @property
-    def shape(self) -> tuple[int, int]:
-        return len(self.azimuth), len(self.range)
+    def shape(self) -> tuple[int, ...]:
+        head = () if self.elevation is None else (len(self.elevation),)
+        return head + (len(self.azimuth), len(self.range))
+
+    @property
+    def dims(self) -> tuple[str, ...]:
+        return (() if self.elevation is None else ("elevation",)) + ("azimuth", "range")
+
+    @property
+    def coords(self) -> dict[str, np.ndarray]:
+        axes = {"azimuth": self.azimuth, "range": self.range}
+        return axes if self.elevation is None else {"elevation": self.elevation, **axes}
+
+    def points(self, rows: slice) -> tuple[np.ndarray, tuple[int, ...]]:
+        """Scene positions (n, 3) of the grid's rows ``rows`` (indices along its first axis) and their shape."""
+        axes = [self.coords[d] for d in self.dims]
+        grid = np.meshgrid(axes[0][rows], *axes[1:], indexing="ij")
+        return self.frame.to_xyz(*(g.ravel() for g in grid)), grid[0].shape
 
 
 def _check_params(params: BackprojectParams) -> None:
@@ -646,10 +682,17 @@ def plan_backprojection(
         frame = make_frame(spec["name"], radar, **{k: v for k, v in spec.items() if k != "name"})
     else:
         frame = make_frame(params.frame, radar)
-    if len(frame.axes) != 2:
-        raise InputError(f"backproject: frame {frame.name!r} is not 2D; use backproject_points for 3D grids")
+    elevation_keys = [k for k in ("elevation_extent", "elevation_spacing", "elevation_center") if getattr(params, k)]
+    if len(frame.axes) == 2 and elevation_keys:
+        raise InputError(
+            f"backproject.{elevation_keys[0]}: the elevation grid needs a 3D frame (frame: elevation, on a "
+            f"raw_array product); frame {frame.name!r} is 2D"
+        )
+    three_d = len(frame.axes) == 3
+    if three_d:
+        _check_3d(raw, frame, params)
     centre_scene = [float(c) for c in frame.from_xyz(np.asarray(radar.scene_center))]
-    irw0 = theoretical_irw(raw, frame, centre_scene)
+    irw0 = _centre_theory(raw, frame, centre_scene)
     pos = raw.aux["platform_position"]
     tx_off = raw.aux.get("tx_offset", np.zeros(3))
     rx_offs = raw.aux.get("rx_offset", np.zeros((1, 3)))
@@ -657,14 +700,16 @@ def plan_backprojection(
     taper = theory.sample_taper(params.azimuth_window, n_pulses)
     targets = targets_in_frame(raw.targets, frame)
     # Every target's own theory at its true position (the table's): a moving target's support follows its
-    # true track (its illumination), not the static-equivalent position where the image focuses it.
+    # true track (its illumination), not the static-equivalent position where the image focuses it. In 3D:
+    # the array factor in elevation, the pulses' supports in the (azimuth, range) plane at its elevation.
     rows = list(range(len(targets)))
     own = [
-        theory.target_theory(
+        ([theory.array_elevation_theory(rx_offs[:, 1], radar.wavelength, targets["elevation"][i])] if three_d else [])
+        + theory.target_theory(
             radar,
             pos + tx_off,
             pos + rx_offs[0],
-            frame,
+            _ElevationPlane(frame, targets["elevation"][i]) if three_d else frame,
             (targets["azimuth"][i], targets["range"][i]),
             range_window=params.range_window,
             taper=taper,
@@ -674,13 +719,13 @@ def plan_backprojection(
     theory.fill_target_theory(targets, frame.axes, own, rows=rows)
     # Default spacing from the finest own theory: a target lit by the pattern's skirts or side lobes has a
     # finer response than the -3 dB beam's (sampled at the centre theory, its IRW read 10 % short).
-    finest = [min([t[a].irw for t in own] + [irw0[a]]) for a in range(2)]
+    finest = [min([t[a].irw for t in own] + [irw0[a]]) for a in range(len(frame.axes))]
     grid = _default_grid(params, raw, frame, irw0, finest, grid_targets)
-    n_pix = len(grid["azimuth"]) * len(grid["range"])
+    n_pix = math.prod(len(v) for v in grid.values())
     if n_pix > params.max_pixels:
         raise InputError(
             f"backproject: grid of {n_pix} pixels exceeds max_pixels {params.max_pixels}; "
-            "set azimuth/range extents or spacings"
+            f"set {'/'.join(frame.axes)} extents or spacings"
         )
     if params.engine == "ffbp" and any(not np.array_equal(tx_off, rx) for rx in rx_offs):
         raise InputError(
@@ -690,13 +735,64 @@ def plan_backprojection(
     centre_img = [float(np.mean(grid[ax])) for ax in frame.axes]
     # The image's theory: its targets' typical (unweighted) one, not that of the grid centre, which a target
     # at the edge of the beam drags off the lit aperture (the centre theory is kept for scenes without targets).
-    attrs = {
+    attrs: dict = {
         "frame": frame.spec,
-        "theoretical_irw": theory.unweighted_irw(own, theoretical_irw(raw, frame, centre_img)),
+        "theoretical_irw": theory.unweighted_irw(own, _centre_theory(raw, frame, centre_img)),
     }
+    if three_d:  # the responses of a cross-track array, as array3d records them for evaluate's neighbour models
+        from sarproc.focus.array_response import chirp_attrs, period_attrs, range_response_attrs
+
+        attrs["axis_units"] = ["rad", "m", "m"]
+        attrs.update(chirp_attrs(radar))
+        attrs.update(period_attrs(radar, rx_offs))
+        if params.range_window == "none":
+            attrs.update(range_response_attrs(radar, len(raw.coords["range_time"]), params.range_filter))
     if "reconstruct" in raw.attrs:  # its velocity estimates per moving-target window (evaluate reads them)
         attrs["reconstruct"] = raw.attrs["reconstruct"]
-    return BackprojectionPlan(frame, grid["azimuth"], grid["range"], targets, attrs)
+    return BackprojectionPlan(
+        frame, grid["azimuth"], grid["range"], targets, attrs, grid["elevation"] if three_d else None
+    )
+
+
+def _check_3d(raw: Product, frame: Frame, params: BackprojectParams) -> None:
+    """A 3D grid needs the elevation frame and a cross-track receiver array (the elevation aperture)."""
+    if tuple(frame.axes) != ("elevation", "azimuth", "range"):
+        raise InputError(f"backproject: 3D frame {frame.name!r} is not supported (only elevation)")
+    if raw.kind != "raw_array":
+        raise InputError(
+            f"backproject: a 3D grid (frame {frame.name!r}) needs a raw_array product (a cross-track receiver "
+            f"array resolves elevation), got {raw.kind!r}"
+        )
+    rx = np.asarray(raw.aux.get("rx_offset", np.zeros((1, 3))), float).reshape(-1, 3)
+    if len(rx) < 2 or np.any(np.abs(rx[:, [0, 2]]) > 1e-9) or np.ptp(rx[:, 1]) <= 0:
+        raise InputError("aux rx_offset: a 3D grid needs two or more receivers spread across track (y) only")
+    if params.engine == "ffbp":
+        raise InputError("backproject.engine: ffbp forms 2D images only; a 3D grid needs compiled or reference")
+
+
+class _ElevationPlane(Frame):
+    """The (azimuth, range) plane of a 3D elevation frame at one elevation: the 2D frame whose pulse supports
+    give a 3D grid's azimuth and range theory (the receivers' array gives its elevation theory)."""
+
+    axes = ("azimuth", "range")
+
+    def __init__(self, frame: Frame, elevation: float) -> None:
+        self.frame, self.elevation = frame, float(elevation)
+
+    def to_xyz(self, azimuth: object, range_: object) -> np.ndarray:
+        return self.frame.to_xyz(self.elevation, azimuth, range_)
+
+    def from_xyz(self, xyz: np.ndarray) -> tuple[np.ndarray, ...]:
+        return self.frame.from_xyz(xyz)[1:]
+
+
+def _centre_theory(raw: Product, frame: Frame, centre: Sequence[float]) -> list[float]:
+    """:func:`theoretical_irw` at ``centre``; in the elevation frame the array factor's IRW first, then the
+    azimuth and range widths in the plane of the centre's elevation."""
+    if len(frame.axes) == 2:
+        return theoretical_irw(raw, frame, centre)
+    el = theory.array_elevation_theory(raw.aux["rx_offset"][:, 1], raw.radar.wavelength, centre[0])
+    return [SINC_IRW_FACTOR * el.null] + theoretical_irw(raw, _ElevationPlane(frame, centre[0]), centre[1:])
 
 
 def pulse_set(raw: Product, params: BackprojectParams) -> PulseSet:
@@ -709,7 +805,10 @@ def pulse_set(raw: Product, params: BackprojectParams) -> PulseSet:
     taper = theory.sample_taper(params.azimuth_window, data.shape[1])[:, None].astype(np.float32)
     gate = raw.aux.get("range_gate_offset")
     return PulseSet(
-        channels=tuple(range_compress(data[ch], radar, params.range_window) * taper for ch in range(data.shape[0])),
+        channels=tuple(
+            range_compress(data[ch], radar, params.range_window, filter=params.range_filter) * taper
+            for ch in range(data.shape[0])
+        ),
         range_time=raw.coords["range_time"],
         tx=pos + tx_off,
         rx=tuple(pos + rx_offs[ch] for ch in range(data.shape[0])),
@@ -728,10 +827,10 @@ def backproject_rows(
     progress: ProgressFactory | None = None,
     workers: int | None = None,
 ) -> np.ndarray:
-    """The image rows ``rows`` (azimuth indices of the plan's grid): (n_rows, n_range) complex64, every
-    channel summed coherently. Pure: the same rows give the same block wherever they are computed."""
-    az, rg = np.meshgrid(plan.azimuth[rows], plan.range, indexing="ij")
-    points = plan.frame.to_xyz(az.ravel(), rg.ravel())
+    """The image rows ``rows`` (indices along the grid's first axis: azimuth, or elevation in 3D): (n_rows,
+    ...) complex64, every channel summed coherently. Pure: the same rows give the same block wherever they
+    are computed."""
+    points, shape = plan.points(rows)
     img = np.zeros(len(points), np.complex128)
     for ch, rc in enumerate(pulses.channels):
         if params.engine == "ffbp":
@@ -752,7 +851,7 @@ def backproject_rows(
                 oversample=params.ffbp_oversample,
                 ffbp_interpolation=params.ffbp_interpolation,
                 ffbp_taps=params.ffbp_taps,
-                grid_shape=az.shape,
+                grid_shape=(shape[0], shape[1]),  # ffbp grids are 2D (a 3D plan refuses engine ffbp)
                 workers=workers,
             )
             continue
@@ -773,16 +872,17 @@ def backproject_rows(
             workers=workers,
         )
     img /= len(pulses.channels)
-    return img.reshape(az.shape).astype(np.complex64)
+    return img.reshape(shape).astype(np.complex64)
 
 
-def row_blocks(shape: tuple[int, int], block_pixels: int) -> list[slice]:
-    """Whole rows of an (n_az, n_rg) grid in blocks of at most ``block_pixels`` (at least one row each);
-    the decomposition depends on the grid and ``block_pixels`` only, so a local and a distributed run sum
-    the same pixels together (the compiled kernel's float32 offsets are relative to its tiles)."""
-    n_az, n_rg = shape
-    step = max(1, min(n_az, int(block_pixels) // max(1, n_rg)))
-    return [slice(s, min(s + step, n_az)) for s in range(0, n_az, step)]
+def row_blocks(shape: tuple[int, ...], block_pixels: int) -> list[slice]:
+    """Whole rows of an (n_az, n_rg) grid (whole elevation planes of an (n_el, n_az, n_rg) one) in blocks of
+    at most ``block_pixels`` (at least one row each); the decomposition depends on the grid and
+    ``block_pixels`` only, so a local and a distributed run sum the same pixels together (the compiled
+    kernel's float32 offsets are relative to its tiles)."""
+    n_rows, row = shape[0], math.prod(shape[1:])
+    step = max(1, min(n_rows, int(block_pixels) // max(1, row)))
+    return [slice(s, min(s + step, n_rows)) for s in range(0, n_rows, step)]
 
 
 def backproject_blocks(
@@ -840,10 +940,10 @@ def image_product(raw: Product, plan: BackprojectionPlan, params: BackprojectPar
     from sarproc.product.io import history_entry
 
     out = raw.derive(
-        "image",
+        "image" if plan.elevation is None else "image3d",
         img,
-        ("azimuth", "range"),
-        {"azimuth": plan.azimuth, "range": plan.range},
+        plan.dims,
+        plan.coords,
         targets=plan.targets,
         attrs=plan.attrs,
     )

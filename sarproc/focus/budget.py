@@ -108,6 +108,29 @@ def image_pixels(header: Product, params: Any) -> tuple[int, int]:
     return n[0], n[1]
 
 
+def elevation_pixels(header: Product, params: Any) -> int:
+    """Elevation planes of backproject's grid: 1 in a 2D frame; in the elevation frame (a raw_array's
+    cross-track receivers) as the elevation keys and the array factor's IRW give them."""
+    name = params.frame if params.frame != "product" else (header.attrs.get("frame") or {}).get("name", "squint")
+    if name != "elevation":
+        return 1
+    v = np.sort(np.asarray(header.aux.get("rx_offset", np.zeros((1, 3))), float).reshape(-1, 3)[:, 1])
+    span = float(np.ptp(v)) + (float(np.median(np.diff(v))) if len(v) > 1 else 0.0)
+    # backproject itself refuses a product without a cross-track array; 0.01 rad: any width for the count
+    irw = SINC_IRW_FACTOR * header.radar.wavelength / span if span > 0 else 0.01
+    t = header.targets["elevation"] if len(header.targets) else [0.0]
+    _, _, pixels = image_axis(
+        np.asarray(t, float),
+        irw,
+        params.oversample,
+        params.margin_cells,
+        params.elevation_spacing,
+        0.0,
+        params.elevation_extent,
+    )
+    return pixels
+
+
 # per pixel of an output block: its grid coordinates and float64 position, the kernel's tile order and offsets,
 # two complex128 sums and the complex64 block (tracemalloc peak of backproject_rows: 127-136 B on 1024-2048 wide
 # demo grids; 64 B, the old figure, let an 8192^2 run with --max-memory 384M peak at 466 MiB)
@@ -129,7 +152,8 @@ def backproject_block_pixels(header: Product, params: Any, memory_limit: int | N
     n_az, n_rg = header_shape(header)[-2:]
     n_ch = header_shape(header)[0] if len(header_shape(header)) == 3 else 1
     room = memory_limit - PROCESS["backproject"][0] - _backproject_fixed_bytes(n_ch, n_az, n_rg, params)
-    row = image_pixels(header, params)[1]
+    n_az_px, n_rg_px = image_pixels(header, params)
+    row = n_rg_px * (n_az_px if elevation_pixels(header, params) > 1 else 1)  # a 3D grid's rows: elevation planes
     return max(row, min(block, int(room / BACKPROJECT_BYTES_PER_PIXEL) // row * row))
 
 
@@ -137,12 +161,15 @@ def backproject_estimate(stage: str, header: Product, params: Any, memory_limit:
     """``memory_limit``: --max-memory (bytes), which sets the output blocks (:func:`backproject_block_pixels`)."""
     n_az, n_rg = header_shape(header)[-2:]
     n_ch = header_shape(header)[0] if len(header_shape(header)) == 3 else 1
+    n_el = elevation_pixels(header, params)
     n = image_pixels(header, params)
+    if n_el > 1:  # blocks of whole elevation planes
+        n = (n_el, n[0] * n[1])
     n_pix = n[0] * n[1]
     if n_pix > params.max_pixels:
         raise InputError(
             f"backproject.max_pixels: the grid of ~{n[0]} x {n[1]} pixels exceeds {params.max_pixels}; "
-            "set backproject azimuth/range extents or spacings, or raise max_pixels"
+            "set backproject azimuth/range (elevation) extents or spacings, or raise max_pixels"
         )
     # the raw data and its range-compressed copies (about four input-sized arrays, measured), at most
     # 64 pulses upsampled at a time, and per pixel of one output block its complex128 sum and float64

@@ -264,6 +264,17 @@ def target_theory(
     return out
 
 
+def array_elevation_theory(offsets: np.ndarray, wavelength: float, elevation: float) -> ResponseTheory:
+    """Elevation theory (rad) of a cross-track receiver array seen from elevation ``elevation`` (rad): the array
+    factor of the offsets ``offsets`` (m, across track, the transmitter on the track), spatial frequencies
+    v_n cos(theta) / lambda per radian, each receiver a cell of the median spacing wide (paper 004, eq. 26).
+    The theory of array3d's cubes and of backproject's 3D (elevation-frame) images."""
+    v = np.sort(np.asarray(offsets, float))
+    cell = float(np.median(np.diff(v))) if len(v) > 1 else 0.0
+    c = math.cos(float(elevation)) / wavelength
+    return response_theory(v * c, np.ones_like(v), ((v[0] - cell / 2) * c, (v[-1] + cell / 2) * c))
+
+
 def fill_target_theory(
     targets: np.ndarray,
     dims: Sequence[str],

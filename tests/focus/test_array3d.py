@@ -257,6 +257,36 @@ def test_overlap_before_and_resolution_after_elevation_compression():
         assert np.abs(cube[j]) > 0.8 * np.abs(res.cube[:, ia, i_r]).max()
 
 
+def test_cli_channel_overlap_records_fig5_over_every_receiver(tmp_path):
+    """array3d --channel-overlap: the cube's attribute channel_overlap holds, per receiver, the energy of the
+    cell that C, U, L share over that of R (alone), beside |1 + 2 cos(2 pi v_n sin(2 deg) / lambda)|^2."""
+    pts = [
+        {"name": "C", "azimuth": "0 m", "range": "490 m", "elevation": "0 deg"},
+        {"name": "U", "azimuth": "0 m", "range": "490 m", "elevation": "2 deg"},
+        {"name": "L", "azimuth": "0 m", "range": "490 m", "elevation": "-2 deg"},
+        {"name": "R", "azimuth": "0 m", "range": "494 m", "elevation": "0 deg"},
+    ]
+    raw = simulate(
+        scene_from_mapping(reduced(targets={"points": pts}, effects={"cross_track_array": {"n_receivers": 16}}))
+    )
+    write_product(tmp_path / "raw.h5", raw)
+    out = tmp_path / "cube.h5"
+    res = CliRunner().invoke(cli, ["-v", "array3d", str(tmp_path / "raw.h5"), "-o", str(out), "--channel-overlap"])
+    assert res.exit_code == 0, res.output
+    assert "targets C, U, L share one 2D cell" in res.output
+    ov = read_product(out, kinds=("image3d",)).attrs["channel_overlap"]
+    assert ov["reference_targets"] == ["R"] and [g["targets"] for g in ov["groups"]] == [["C", "U", "L"]]
+    g = ov["groups"][0]
+    v = raw.aux["rx_offset"][:, 1]
+    paper = (1 + 2 * np.cos(2 * np.pi * v * math.sin(math.radians(2)) / LAM)) ** 2
+    np.testing.assert_allclose(g["per_image_predicted"], paper, atol=0.02)
+    np.testing.assert_allclose(g["per_image_ratio"], paper, rtol=0.05)
+    assert g["mean_ratio"] == pytest.approx(3.0, abs=0.5)
+    # without the flag no attribute is written
+    res = CliRunner().invoke(cli, ["array3d", str(tmp_path / "raw.h5"), "-o", str(tmp_path / "c2.h5")])
+    assert res.exit_code == 0 and "channel_overlap" not in read_product(tmp_path / "c2.h5", load=False).attrs
+
+
 @pytest.mark.parametrize(
     "knobs",
     [

@@ -44,12 +44,13 @@ import numpy as np
 from sarproc.dsp.interp import KERNELS, resample
 from sarproc.dsp.phasor import multiply_separable_phase
 from sarproc.dsp.rangecomp import chirp_replica, replica_fft_size, replica_spectrum
+from sarproc.focus.array_response import chirp_attrs, period_attrs, range_response_attrs
 from sarproc.product import fft as sfft
 from sarproc.product.config import param
 from sarproc.product.errors import IMAGE_DEFECT, InputError, ProcessingError
 from sarproc.product.metadata import SINC_IRW_FACTOR, C, RadarMetadata
 from sarproc.product.steps import steps, wrapped
-from sarproc.product.theory import fill_target_theory, response_theory, window_theory
+from sarproc.product.theory import array_elevation_theory, fill_target_theory, window_theory
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -213,16 +214,11 @@ def target_theory_3d(
     range m): the receivers' array factor seen from its elevation theta (spatial frequencies v_n cos(theta) /
     lambda per radian, each receiver a cell of the median spacing wide), and the flat azimuth and range
     supports of ``channel_irw`` (their unweighted IRWs)."""
-    v = np.sort(np.asarray(offsets, float))
-    cell = float(np.median(np.diff(v))) if len(v) > 1 else 0.0
     flat = window_theory("none")
     others = [flat.scaled(w / SINC_IRW_FACTOR) for w in channel_irw]
-    out = []
-    for theta in np.asarray(elevations, float):
-        c = math.cos(float(theta)) / wavelength
-        el = response_theory(v * c, np.ones_like(v), ((v[0] - cell / 2) * c, (v[-1] + cell / 2) * c))
-        out.append([el] + others)
-    return out
+    return [
+        [array_elevation_theory(offsets, wavelength, float(theta))] + others for theta in np.asarray(elevations, float)
+    ]
 
 
 def azimuth_bandwidth(radar: RadarMetadata, du: float) -> float:
@@ -580,6 +576,7 @@ def array3d_product(
     params: Array3DParams = Array3DParams(),
     *,
     channel_image: int | None = None,
+    channel_overlap: bool = False,
     progress: ProgressFactory | None = None,
     command: str = "array3d",
 ) -> tuple[Product, Product | None]:
@@ -587,16 +584,62 @@ def array3d_product(
 
     ``channel_image`` (1-based receiver number, as the paper's "14th receiver") also returns the
     2D ``image`` of that channel before elevation compression (paper Fig. 5), else None.
+    ``channel_overlap``: measure, over every receiver's 2D image, the overlap of targets sharing one
+    (azimuth, range) cell (:func:`channel_overlap`), recorded as the cube's attribute ``channel_overlap``.
     Returns (cube product, channel product or None).
 
     Steps: :func:`_checked_raw`, :func:`focus_array3d`, :func:`_cube_product` (elevation ambiguities,
     history, each target's theory), :func:`_channel_product`.
     """
     _checked_raw(raw, channel_image)
-    res = focus_raw_array(raw, params, keep_channel_images=channel_image is not None, progress=progress)
+    keep = channel_image is not None or channel_overlap
+    res = focus_raw_array(raw, params, keep_channel_images=keep, progress=progress)
     cube = _cube_product(raw, res, params, command)
+    if channel_overlap:
+        cube.attrs["channel_overlap"] = channel_overlap_measure(raw, res)
     chan = None if channel_image is None else _channel_product(raw, res, params, channel_image, command)
     return cube, chan
+
+
+def channel_overlap_measure(raw: Product, res: Array3DResult) -> dict:
+    """Paper 004's Fig. 5 overlap over every receiver (:func:`sarproc.quality.overlap.image_overlap` on
+    ``res.channel_images``): targets sharing one (azimuth, range) cell of the 2D images, each group's energy
+    over the mean of the lone targets' per receiver, and the coherent sum its targets' two-way paths predict
+    (at the pulse nearest each target's azimuth)."""
+    from sarproc.product.frames import SquintFrame, targets_in_frame
+    from sarproc.product.model import target_names
+    from sarproc.quality.overlap import image_overlap
+
+    if res.channel_images is None:
+        raise ValueError("channel_overlap_measure: the result kept no channel images")
+    t = targets_in_frame(raw.targets, SquintFrame(0.0, raw.radar.altitude))
+    xyz = np.stack([t["x"], t["y"], t["z"]], axis=1)
+    pos = np.asarray(raw.aux["platform_position"], float)
+    pulse = np.argmin(np.abs(pos[:, 0][None, :] - xyz[:, 0][:, None]), axis=1)  # (k,) nearest pulse
+    tx = pos[pulse] + np.asarray(raw.aux["tx_offset"], float).reshape(3)  # (k, 3)
+    rx = pos[pulse][None, :, :] + np.asarray(raw.aux["rx_offset"], float)[:, None, :]  # (n, k, 3)
+    paths = np.linalg.norm(xyz - tx, axis=-1)[None, :] + np.linalg.norm(xyz[None] - rx, axis=-1)
+    names = target_names(t)
+    groups, lone = image_overlap(
+        res.channel_images,
+        res.azimuth,
+        res.range,
+        names,
+        np.stack([t["azimuth"], t["range"]], axis=1),
+        res.channel_irw,
+        paths,
+        t["amplitude"],
+        raw.radar.wavelength,
+    )
+    return {
+        "groups": [g.to_dict() for g in groups],
+        "reference_targets": lone,
+        "note": (
+            "per receiver (1..N), before elevation compression: the largest |pixel|^2 at a group's (azimuth, "
+            "range) cell (nearest azimuth row, 3 nearest range samples) over its mean at the lone targets' cells; "
+            "predicted: |sum_k a_k exp(-j 2 pi R_nk / lambda)|^2 / mean |a_lone|^2, R_nk the two-way paths"
+        ),
+    }
 
 
 def _checked_raw(raw: Product, channel_image: int | None) -> None:
@@ -625,59 +668,18 @@ AZIMUTH_CHIRP_NOTE = (
 
 def _chirp_attrs(radar: RadarMetadata) -> dict:
     """The azimuth chirp every response carries (AZIMUTH_CHIRP_NOTE), for the cube and the channel images."""
-    return {"azimuth_chirp_times_range": 2.0 / radar.wavelength, "azimuth_chirp_note": AZIMUTH_CHIRP_NOTE}
+    return chirp_attrs(radar, AZIMUTH_CHIRP_NOTE)
 
 
 def _period_attrs(raw: Product) -> dict:
-    """A uniform array's elevation response is its array factor, periodic in sin(theta) with period lambda / d:
-    recorded so that evaluate's neighbour models follow it (a sinc departs from it by 20 % nine nulls out
-    with 28 receivers)."""
-    geom = array_geometry(raw.aux["tx_offset"], raw.aux["rx_offset"])
-    if not geom.uniform:
-        return {}
-    return {
-        "elevation_period": raw.radar.wavelength / geom.spacing,
-        "elevation_period_note": (
-            "uniform receivers: the elevation response is the array factor sin(pi q) / (N sin(pi q / N)), q in "
-            "nulls lambda / (N d), periodic in sin(theta) with period lambda / d (rad near nadir)"
-        ),
-    }
-
-
-RANGE_TABLE_OVERSAMPLING = 32  # table points per range sample (linear interpolation: 2e-4 of the peak)
-RANGE_TABLE_SAMPLES = 40  # half-width of the table, range samples (a chip reaches 10 + 2 nulls, 15 samples)
-
-
-def range_response(radar: RadarMetadata, n_range: int, kind: str) -> tuple[np.ndarray, float]:
-    """The range response of a point target after :func:`range_compress` (``kind``), tabulated: (values, step in
-    m), real, centred on the peak (1 there), RANGE_TABLE_OVERSAMPLING points per sample over +-RANGE_TABLE_SAMPLES
-    samples. Matched: the chirp's autocorrelation, whose far side lobes are not a sinc's (the 1 us, 375 MHz chirp
-    of paper 004: -31...-35 dB of the peak 10-18 samples out, where the sinc has nulls); flat: the rect's sinc."""
-    n_fft = replica_fft_size(radar, n_range)
-    spec_h = replica_spectrum(radar, n_fft)
-    if kind == "matched":
-        weight = np.abs(spec_h) ** 2
-    else:
-        weight = (np.abs(sfft.fftfreq(n_fft, 1.0 / radar.range_sampling_rate)) <= radar.bandwidth / 2).astype(float)
-    k = sfft.fftfreq(n_fft)  # cycles per range sample
-    m = np.arange(-RANGE_TABLE_SAMPLES * RANGE_TABLE_OVERSAMPLING, RANGE_TABLE_SAMPLES * RANGE_TABLE_OVERSAMPLING + 1)
-    x = m / RANGE_TABLE_OVERSAMPLING  # range samples
-    r = np.cos(2 * np.pi * np.outer(x, k)) @ weight  # the spectrum's even part (its odd part is 1e-5 of the peak)
-    step = C / (2 * radar.range_sampling_rate) / RANGE_TABLE_OVERSAMPLING
-    return r / r[len(x) // 2], step
+    """:func:`sarproc.focus.array_response.period_attrs` of the receivers."""
+    return period_attrs(raw.radar, raw.aux["rx_offset"])
 
 
 def _range_response_attrs(raw: Product, params: Array3DParams) -> dict:
-    """The range response (:func:`range_response`), for evaluate's neighbour models."""
-    values, step = range_response(raw.radar, raw.data.shape[-1], params.range_filter)
-    return {
-        "range_response": [float(v) for v in values],
-        "range_response_step": step,
-        "range_response_note": (
-            f"a point target's range response after range compression ({params.range_filter} filter), real, "
-            "centred on its peak (1 there), every range_response_step m"
-        ),
-    }
+    """The range response (:func:`sarproc.focus.array_response.range_response`), for evaluate's neighbour
+    models."""
+    return range_response_attrs(raw.radar, raw.data.shape[-1], params.range_filter)
 
 
 def _cube_product(raw: Product, res: Array3DResult, params: Array3DParams, command: str) -> Product:
