@@ -196,6 +196,14 @@ def false_target_lines(report: QualityReport, units: dict) -> list[str]:
             f"lobes of +-{fl.exclusion_cells:g} cells excluded); residual floor in the targets' guard windows "
             f"{_fmt(fl.floor_db, '.2f')} dB, residual RMS {_fmt(fl.rms_db, '.2f')} dB"
         )
+    if report.residual is not None and report.residual.misfit_targets:
+        from sarproc.quality.residual import MISFIT_DB
+
+        out.append(
+            f"\nResidual: the models of {', '.join(report.residual.misfit_targets)} leave over {MISFIT_DB:g} dB of "
+            "their peak beside it (not the response an ideal point-target model fits: defocused?); "
+            "the boxes their models were fitted on are left out of the false-target search."
+        )
     if report.residual_note:
         out.append(f"\nResidual: {report.residual_note}.")
     label = "False target (guard window)" if report.residual is not None else "False target"

@@ -45,6 +45,13 @@ class ResidualFloor:
     rms_db: float  # residual RMS outside the main lobes, same reference
     exclusion_cells: float  # main-lobe half-box left out of both searches, resolution cells
     orders: int  # spectral-weight orders per target model
+    # targets whose fitted model leaves over MISFIT_DB of their peak inside its fit box (a defocused
+    # response is not the one the model fits): those boxes stay out of the search; named here
+    misfit_targets: tuple[str, ...] = ()
+
+
+# A model leaving this much of its target's peak (dB) inside the box it was fitted on does not fit it.
+MISFIT_DB = -30.0
 
 
 @functools.cache
@@ -883,18 +890,59 @@ def subtract_models(
 
 
 def _exclusion_mask(
-    shape: tuple[int, ...], axes: Sequence[_Axis], truth: np.ndarray, peaks: Sequence[np.ndarray], cells: float
+    shape: tuple[int, ...],
+    axes: Sequence[_Axis],
+    truth: np.ndarray,
+    peaks: Sequence[np.ndarray],
+    cells: float,
+    broadening: Sequence[float] = (),
 ) -> np.ndarray:
-    """True outside the +-``cells`` boxes around every truth and found peak."""
+    """True outside the +-``cells`` boxes around every truth and found peak; the boxes of the first
+    len(broadening) truth rows and peaks are widened by those factors (a target's measured main lobe over
+    its theory's)."""
     from sarproc.quality.metrics import window_slices  # metrics imports this module
 
     outside = np.ones(shape, dtype=bool)
-    half = [ax.cells_to_samples(cells) for ax in axes]
     # every truth row (unmeasured targets of a --targets subset included) and every found peak
-    centres = [np.rint([ax.to_index(x) for ax, x in zip(axes, t)]).astype(int) for t in truth] + list(peaks)
-    for c in centres:
-        outside[window_slices(c, half, shape)] = False
+    centres = [np.rint([ax.to_index(x) for ax, x in zip(axes, t)]).astype(int) for t in truth]
+    factor = lambda i: broadening[i] if i < len(broadening) else 1.0  # noqa: E731
+    factors = [factor(i) for i in range(len(centres))] + [factor(i) for i in range(len(peaks))]
+    for c, f in zip(centres + list(peaks), factors):
+        outside[window_slices(c, [ax.cells_to_samples(cells * f) for ax in axes], shape)] = False
     return outside
+
+
+def _misfit_targets(
+    mag: np.ndarray,
+    axes: Sequence[_Axis],
+    peaks: Sequence[np.ndarray],
+    reports: Sequence[TargetReport],
+    params: EvaluateParams,
+) -> list[int]:
+    """Indices of the targets whose residual (``mag``) inside the box their model was fitted on (+-fit_nulls,
+    widened as their main lobe measured) is over :data:`MISFIT_DB` of their peak: the model does not fit them.
+    Good fits leave -35 dB or less there (the two-step PFA's seams, the worst of the test scenes)."""
+    from sarproc.quality.metrics import window_slices  # metrics imports this module
+
+    out = []
+    for i, (peak, report) in enumerate(zip(peaks, reports)):
+        box = window_slices(peak, _fit_box(axes, report, params), mag.shape)
+        if report.peak_amplitude > 0 and mag[box].max() > report.peak_amplitude * 10 ** (MISFIT_DB / 20):
+            out.append(i)
+    return out
+
+
+def _fit_box(axes: Sequence[_Axis], report: TargetReport, params: EvaluateParams) -> list[int]:
+    """Half-sizes in samples of the box a target's model is fitted on, widened as its main lobe measured."""
+    nulls = params.fit_nulls * main_lobe_broadening(report)
+    return [ax.nulls_to_samples(nulls) for ax in axes]
+
+
+def main_lobe_broadening(report: TargetReport) -> float:
+    """How much wider a target's measured main lobe is than its theory's (at least 1): a defocused target's
+    own main lobe is not a false target, however badly its ideal response model fits it."""
+    ratios = [m.irw_ratio for m in report.axes if np.isfinite(m.irw_ratio)]
+    return max([1.0, *ratios])
 
 
 def _search_masks(
@@ -902,16 +950,26 @@ def _search_masks(
     axes: Sequence[_Axis],
     truth: np.ndarray,
     peaks: Sequence[np.ndarray],
-    measured: int,
+    reports: Sequence[TargetReport],
     params: EvaluateParams,
+    misfit: Sequence[int] = (),
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(search, guard): where false targets are searched on the residual (outside every main lobe) and
-    where its floor is taken (the targets' guard windows, main lobes excluded). Truth rows beyond the first
-    ``measured`` (targets left out of a --targets subset) have no fitted model, so their whole guard windows
-    stay out of both (their side lobes are still in the residual)."""
-    search = _exclusion_mask(shape, axes, truth, peaks, params.exclusion_cells)
+    """(search, guard): where false targets are searched on the residual (outside every main lobe, each as
+    wide as measured: :func:`main_lobe_broadening`) and where its floor is taken (the targets' guard windows,
+    main lobes excluded). Truth rows and peaks are in the reports' order; truth rows beyond them (targets
+    left out of a --targets subset) have no fitted model, so their whole guard windows stay out of both
+    (their side lobes are still in the residual); the ``misfit`` targets' (indices) fit boxes, where their
+    models do not fit them, stay out of the search."""
+    from sarproc.quality.metrics import window_slices  # metrics imports this module
+
+    measured = len(reports)
+    broadening = [main_lobe_broadening(r) for r in reports]
+    search = _exclusion_mask(shape, axes, truth, peaks, params.exclusion_cells, broadening)
     if len(truth) > measured:
         search &= _exclusion_mask(shape, axes, truth[measured:], [], params.guard_cells)
+    for i in misfit:
+        box = window_slices(peaks[i], _fit_box(axes, reports[i], params), shape)
+        search[box] = False
     guard = ~_exclusion_mask(shape, axes, truth, peaks, params.guard_cells) & search
     return search, guard
 
@@ -936,7 +994,7 @@ def residual_false_target(
     out = np.array(data, dtype=np.complex128)
     level = ref * 10 ** (REACH_FIRST_DB / 20)
     subtract_models(out, models, level)
-    search, guard = _search_masks(out.shape, axes, truth, peaks, len(reports), params)
+    search, guard = _search_masks(out.shape, axes, truth, peaks, reports, params)
     while guard.any():  # down to REACH_BELOW_FLOOR_DB under the floor, which falls as more is subtracted
         want = max(float(np.abs(out[guard]).max()) * 10 ** (REACH_BELOW_FLOOR_DB / 20), ref * 1e-12)
         if want >= 0.999 * level:
@@ -961,12 +1019,14 @@ def _residual_false_target(
 
     ref = max(reports, key=lambda r: r.peak_amplitude)
     mag = np.abs(residual)
-    search, guard = _search_masks(residual.shape, axes, truth, peaks, len(reports), params)
+    misfit = _misfit_targets(mag, axes, peaks, reports, params)
+    search, guard = _search_masks(residual.shape, axes, truth, peaks, reports, params, misfit)
     db = lambda v: float(20 * np.log10(v / ref.peak_amplitude)) if v > 0 and ref.peak_amplitude > 0 else -np.inf  # noqa: E731
     floor = ResidualFloor(
         floor_db=db(float(mag[guard].max())) if guard.any() else -np.inf,
         rms_db=db(float(np.sqrt(np.mean(mag[search] ** 2)))) if search.any() else -np.inf,
         exclusion_cells=params.exclusion_cells,
+        misfit_targets=tuple(reports[i].name for i in misfit),
         orders=len(
             spectral_orders(
                 residual.ndim, params.residual_orders, params.residual_orders + (1 if residual.ndim == 2 else 0)

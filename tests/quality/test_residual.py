@@ -210,3 +210,25 @@ def test_cubes_report_the_guard_window_figure_with_a_note():
     rep = evaluate_image(img.astype(np.complex64), ("elevation", "azimuth", "range"), axes, res, truth)
     assert rep.residual is None and rep.residual_note == RESIDUAL_3D_NOTE
     assert rep.false_target == rep.false_target_guard
+
+
+def test_a_defocused_targets_misfit_is_not_reported_as_a_ghost(monkeypatch):
+    """A target focused badly (a quadratic phase of 2.5 rad at its azimuth band's edges: main lobe 1.27x theory)
+    is not the response the ideal model fits; its misfit (-28.9 dB, 3 m from it, on the residual with the main-lobe box
+    alone) must not be reported as a false target, and a real ghost beyond its guard window still is, at its
+    level. (Stronger defocus spreads side lobes beyond the widened guard window: 4 rad leaves -36 dB there.)"""
+    import sys
+
+    here = sys.modules[__name__]
+    target, ghost, level = (-40.0, 0.0), (35.0, 10.0), -35.0
+    monkeypatch.setattr(here, "PHASE", 2.5)
+    blurred, coords = _scene([target], [1.0])
+    monkeypatch.setattr(here, "PHASE", 0.0)
+    img = blurred + _scene([ghost], [10 ** (level / 20)])[0]
+    rep = evaluate_image(img, ("azimuth", "range"), coords, RES, [target], names=["A"], params=PARAMS)
+    assert rep.targets[0].axis("azimuth").irw_ratio > 1.25  # the precondition: defocused
+    assert rep.residual.misfit_targets == ("A",)
+    ft = rep.false_target
+    assert ft.level_db == pytest.approx(level, abs=1.0)
+    for a, dim in enumerate(("azimuth", "range")):
+        assert abs(ft.position[dim] - ghost[a]) <= 2 * RES[a]
