@@ -735,6 +735,133 @@ def fit_response_models(
         return _fit_response_models(data, found, nulls, params, support_shape)
 
 
+def _overlapping_groups(
+    found: list[dict], live: list[int], own: list[np.ndarray], half: list[np.ndarray]
+) -> list[list[int]]:
+    """The live targets grouped (transitively) where their fit boxes (half-widths ``half``) plus a null
+    overlap: each group is fitted jointly."""
+    group = {j: {j} for j in live}
+    for j in live:
+        for k in live:
+            if (
+                k > j
+                and np.all(np.abs(found[j]["pos"] - found[k]["pos"]) <= half[j] + half[k] + np.maximum(own[j], own[k]))
+                and group[j] is not group[k]
+            ):
+                merged = group[j] | group[k]
+                for q in merged:
+                    group[q] = merged
+    distinct: list[set[int]] = []
+    for j in live:
+        if group[j] not in distinct:
+            distinct.append(group[j])
+    return [sorted(g) for g in distinct]
+
+
+def _widen_misfitted_lone(
+    data: np.ndarray,
+    fits: list,
+    models: list[dict],
+    found: list[dict],
+    own: list[np.ndarray],
+    nulls: np.ndarray,
+    richer: np.ndarray,
+    params: EvaluateParams,
+    own_orders: dict[int, np.ndarray],
+    centre: dict[int, np.ndarray],
+) -> None:
+    """For each lone target its first fit leaves misfit (:data:`WIDTH_SEARCH_MISFIT`): two orders, then
+    (still misfit) the widths searched and the samples taken on them; only where the linear fit at the
+    current band centre and chirp says it would halve the misfit, and kept where it does (structure no
+    band-limited model follows, e.g. the two-step PFA's, is not chased at every target). Updates
+    ``models``, ``own_orders``, ``centre`` and ``fits`` in place."""
+    ndim = data.ndim
+    for g, (members, near, y_near, far, y_far) in enumerate(fits):
+        k = members[0]
+        if len(members) > 1 or (before := _misfit(models[k], near, y_near)) <= WIDTH_SEARCH_MISFIT:
+            continue
+        rich = dict(models[k], orders=richer)
+        rich.pop("kappa", None)
+        linear = _search_widths(rich, near, y_near, own[k])[1]
+        if linear >= 0.5 * before:
+            continue
+        samples = (near, y_near, far, y_far)
+        trial = _refit_lone(models[k], found[k], near, y_near, own[k], richer, np.ones(ndim))
+        scale = np.ones(ndim)
+        for _ in range(2):  # the box and ridges follow the widths found
+            if _misfit(trial, samples[0], samples[1]) <= WIDTH_SEARCH_MISFIT:
+                break
+            scale = _search_widths(trial, samples[0], samples[1], own[k])[0]
+            at, along = _fit_samples(found[k], own[k] * scale, data.shape, params)
+            samples = (at, data[tuple(at)].astype(complex), along, data[tuple(along)].astype(complex))
+            trial = _refit_lone(trial, found[k], samples[0], samples[1], own[k], richer, scale)
+        if _misfit(trial, samples[0], samples[1]) < 0.5 * before:
+            models[k], own_orders[k], centre[k] = trial, richer, scale * own[k] / nulls
+            fits[g] = (members, *samples)
+
+
+def _others_subtracted(
+    y: np.ndarray, points: np.ndarray, members: list[int], live: list[int], models: list[dict], reach: float
+) -> np.ndarray:
+    """``y`` minus the other groups' current models on ``points`` (their side lobes), each only where its
+    envelope reaches ``reach``."""
+    rhs = y.copy()
+    for j in live:
+        if j in members or not models[j]:
+            continue
+        near = envelope_bound(models[j], points.T) >= reach
+        if near.any():
+            m = models[j]
+            rhs[near] -= (
+                response_basis(
+                    points[:, near], m["pos"], m["V"], m["nulls"], m["f_c"], m["orders"], m["K"], kappa=m.get("kappa")
+                )
+                @ m["coef"]
+            )
+    return rhs
+
+
+def _fit_one_group(
+    members: list[int],
+    points: np.ndarray,
+    rhs: np.ndarray,
+    models: list[dict],
+    found: list[dict],
+    nulls: np.ndarray,
+    orders: np.ndarray,
+    centre: dict[int, np.ndarray],
+    support_shape: bool,
+) -> None:
+    """One group's :func:`_fit_group` on ``points`` / ``rhs``, started from its current models (or its
+    peaks), its members' models replaced in ``models``. ``orders``: the group's."""
+    ndim = points.shape[0]
+    K0 = [models[k]["K"] if models[k] else np.zeros((ndim, ndim)) for k in members]
+    start = [dict(found[k], f_c=models[k]["f_c"]) if models[k] else found[k] for k in members]
+    shape0 = None
+    if support_shape:
+        shape0 = [
+            (models[k]["nulls"] / nulls - 1, models[k].get("kappa", np.zeros(ndim - 1)))
+            if models[k]
+            else (centre[k] - 1, np.zeros(ndim - 1))
+            for k in members
+        ]
+    coef, f_c, K, shape = _fit_group(
+        list(range(len(members))), points, rhs, start, nulls, orders, K0, shape0, [centre[k] for k in members]
+    )
+    for q, k in enumerate(members):
+        models[k] = {
+            "pos": np.asarray(found[k]["pos"], dtype=float),
+            "V": np.asarray(found[k]["V"]),
+            "f_c": f_c[q],
+            "nulls": nulls if shape[q] is None else nulls * (1 + shape[q][0]),
+            "orders": orders,
+            "coef": coef[q],
+            "K": K[q],
+        }
+        if shape[q] is not None:
+            models[k]["kappa"] = shape[q][1]
+
+
 @single_blas
 def _fit_response_models(
     data: np.ndarray, found: list[dict], nulls: npt.ArrayLike, params: EvaluateParams, support_shape: bool = False
@@ -743,8 +870,10 @@ def _fit_response_models(
     +-``params.fit_nulls`` nulls of its peak (about two per null); with ``support_shape`` its support's
     widths and keystone too (:func:`_fit_group`), as the residual image needs far out.
 
-    Targets whose fit boxes (plus a null) overlap are fitted jointly; then each group is fitted again,
-    twice, on its boxes and ridge strips (``params.fit_ridge_nulls``) minus the other groups' models.
+    Targets whose fit boxes (plus a null) overlap are fitted jointly (:func:`_overlapping_groups`); then
+    each group is fitted again, twice, on its boxes and ridge strips (``params.fit_ridge_nulls``) minus the
+    other groups' models (:func:`_others_subtracted`), misfitted lone targets first given richer orders and
+    widths of their own (:func:`_widen_misfitted_lone`).
     ``nulls``: the image's null spacing (samples per axis); with ``support_shape`` a target's optional
     ``found[k]["nulls"]``, its own (its theory's, where the image's resolution varies with position),
     sizes its box and strips and is where its widths start (and stay within 10 % of) where it fits the
@@ -755,30 +884,14 @@ def _fit_response_models(
     orders = spectral_orders(ndim, params.residual_orders, params.residual_orders + (1 if ndim == 2 else 0))
     # each target's own null spacing (the image's without support_shape: the basis' widths are then fixed)
     own = [_start_nulls(data, f, nulls, orders, params) if support_shape else nulls for f in found]
-    r = [np.ceil(params.fit_nulls * x).astype(int) for x in own]
+    half = [np.ceil(params.fit_nulls * x).astype(int) for x in own]
     live = [j for j, f in enumerate(found) if abs(f["value"]) > 0]
     boxes, strips = {}, {}
     for j in live:
         boxes[j], strips[j] = _fit_samples(found[j], own[j], data.shape, params)
-    group = {j: {j} for j in live}
-    for j in live:
-        for k in live:
-            if (
-                k > j
-                and np.all(np.abs(found[j]["pos"] - found[k]["pos"]) <= r[j] + r[k] + np.maximum(own[j], own[k]))
-                and group[j] is not group[k]
-            ):
-                merged = group[j] | group[k]
-                for q in merged:
-                    group[q] = merged
-    distinct: list[set[int]] = []
-    for j in live:
-        if group[j] not in distinct:
-            distinct.append(group[j])
-    groups = [sorted(g) for g in distinct]
     models: list[dict] = [{} for _ in found]
-    fits = []
-    for members in groups:
+    fits = []  # per group: (members, box samples, their values, box and ridge samples, their values)
+    for members in _overlapping_groups(found, live, own, half):
         near = np.unique(np.concatenate([boxes[k] for k in members], axis=1), axis=1)
         far = np.unique(np.concatenate([strips[k] for k in members], axis=1), axis=1)
         fits.append((members, near, data[tuple(near)].astype(complex), far, data[tuple(far)].astype(complex)))
@@ -791,89 +904,14 @@ def _fit_response_models(
     # the other groups' models subtracted.
     for sweep in range(3):
         if sweep == 1 and support_shape:
-            for g, (members, near, y_near, far, y_far) in enumerate(fits):
-                k = members[0]
-                if len(members) > 1 or (before := _misfit(models[k], near, y_near)) <= WIDTH_SEARCH_MISFIT:
-                    continue
-                # two orders, then (still misfit) the widths searched and the samples taken on them; only where
-                # the linear fit at the current band centre and chirp says it would halve the misfit, and kept
-                # where it does (structure no band-limited model follows, e.g. the two-step PFA's, is not
-                # chased at every target)
-                rich = dict(models[k], orders=richer)
-                rich.pop("kappa", None)
-                linear = _search_widths(rich, near, y_near, own[k])[1]
-                if linear >= 0.5 * before:
-                    continue
-                samples = (near, y_near, far, y_far)
-                trial = _refit_lone(models[k], found[k], near, y_near, own[k], richer, np.ones(ndim))
-                scale = np.ones(ndim)
-                for _ in range(2):  # the box and ridges follow the widths found
-                    if _misfit(trial, samples[0], samples[1]) <= WIDTH_SEARCH_MISFIT:
-                        break
-                    scale = _search_widths(trial, samples[0], samples[1], own[k])[0]
-                    at, along = _fit_samples(found[k], own[k] * scale, data.shape, params)
-                    samples = (at, data[tuple(at)].astype(complex), along, data[tuple(along)].astype(complex))
-                    trial = _refit_lone(trial, found[k], samples[0], samples[1], own[k], richer, scale)
-                if _misfit(trial, samples[0], samples[1]) < 0.5 * before:
-                    models[k], own_orders[k], centre[k] = trial, richer, scale * own[k] / nulls
-                    fits[g] = (members, *samples)
+            _widen_misfitted_lone(data, fits, models, found, own, nulls, richer, params, own_orders, centre)
         for members, near, y_near, far, y_far in fits:
-            points, y = (near, y_near) if sweep == 0 else (far, y_far)
-            rhs = y
-            if sweep > 0:  # the other groups' current models on these samples (their side lobes)
-                rhs = y.copy()
-                for j in live:
-                    if j in members or not models[j]:
-                        continue
-                    # only where its envelope reaches FIT_REACH_DB under the image's peak
-                    near = envelope_bound(models[j], points.T) >= reach
-                    if near.any():
-                        rhs[near] -= (
-                            response_basis(
-                                points[:, near],
-                                models[j]["pos"],
-                                models[j]["V"],
-                                models[j]["nulls"],
-                                models[j]["f_c"],
-                                models[j]["orders"],
-                                models[j]["K"],
-                                kappa=models[j].get("kappa"),
-                            )
-                            @ models[j]["coef"]
-                        )
-            K0 = [models[k]["K"] if models[k] else np.zeros((ndim, ndim)) for k in members]
-            start = [dict(found[k], f_c=models[k]["f_c"]) if models[k] else found[k] for k in members]
-            shape0 = None
-            if support_shape:
-                shape0 = [
-                    (models[k]["nulls"] / nulls - 1, models[k].get("kappa", np.zeros(ndim - 1)))
-                    if models[k]
-                    else (centre[k] - 1, np.zeros(ndim - 1))
-                    for k in members
-                ]
-            coef, f_c, K, shape = _fit_group(
-                list(range(len(members))),
-                points,
-                rhs,
-                start,
-                nulls,
-                own_orders.get(members[0], orders),
-                K0,
-                shape0,
-                [centre[k] for k in members],
-            )
-            for q, k in enumerate(members):
-                models[k] = {
-                    "pos": np.asarray(found[k]["pos"], dtype=float),
-                    "V": np.asarray(found[k]["V"]),
-                    "f_c": f_c[q],
-                    "nulls": nulls if shape[q] is None else nulls * (1 + shape[q][0]),
-                    "orders": own_orders.get(k, orders),
-                    "coef": coef[q],
-                    "K": K[q],
-                }
-                if shape[q] is not None:
-                    models[k]["kappa"] = shape[q][1]
+            if sweep == 0:
+                points, rhs = near, y_near
+            else:
+                points, rhs = far, _others_subtracted(y_far, far, members, live, models, reach)
+            group_orders = own_orders.get(members[0], orders)
+            _fit_one_group(members, points, rhs, models, found, nulls, group_orders, centre, support_shape)
     return models
 
 
