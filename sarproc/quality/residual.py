@@ -93,7 +93,7 @@ def _chirp_phase(x: Sequence[np.ndarray] | np.ndarray, K: np.ndarray) -> np.ndar
     )
 
 
-KEYSTONE_STRIPS = 32  # most range strips of a keystoned support (far lobe phase error pi c kappa / strips)
+KEYSTONE_STRIPS = 32  # range strips of a keystoned support (far lobe phase error pi c kappa / strips)
 KEYSTONE_REACH = 100.0  # nulls out to which the strips keep that error under 0.15 rad
 
 
@@ -103,7 +103,7 @@ def _strip_factors(c: Sequence[np.ndarray], m: int, kappa: np.ndarray | None) ->
     1 + kappa_a u: a keystone, the azimuth band of a wide-band radar scaling with range frequency). The
     support is cut into KEYSTONE_STRIPS strips along u, each a rectangle with its own widths, so each
     strip's response is exact; with kappa None (or 0) this is the single rectangle, prod_a sinc(c_a + n/2).
-    The strip count grows with kappa (:data:`KEYSTONE_REACH`)."""
+    The strip count is :data:`KEYSTONE_STRIPS` (:func:`_strip_count`)."""
     if kappa is None or not np.any(kappa):
         return [[np.stack(_shifted_sincs(ca, m)) for ca in c]]
     ndim = len(c)
@@ -142,10 +142,11 @@ def _strip_factors(c: Sequence[np.ndarray], m: int, kappa: np.ndarray | None) ->
 
 
 def _strip_count(kappa: np.ndarray) -> int:
-    """Strips of a keystoned support (:func:`_strip_factors`): enough for :data:`KEYSTONE_REACH`, and at
-    least two, so that the fit's derivative with respect to a small keystone exists (one strip is the
-    rectangle whatever kappa)."""
-    return max(2, min(KEYSTONE_STRIPS, math.ceil(math.pi * KEYSTONE_REACH * float(np.max(np.abs(kappa))) / 0.15)))
+    """Strips of a keystoned support (:func:`_strip_factors`): :data:`KEYSTONE_STRIPS` whatever kappa, so
+    that the model is smooth in kappa (a count growing with |kappa| made it jump, and the fits' derivatives
+    and their end with it); every path but the separable one evaluates the strip sum in closed form, at a
+    cost that does not depend on the count."""
+    return KEYSTONE_STRIPS
 
 
 def _keystoned(kappa: np.ndarray | None) -> bool:
@@ -372,6 +373,125 @@ def _model_on_box(slices: Sequence[slice], model: dict) -> np.ndarray:
     return box * carrier
 
 
+# The group fit is a Gauss-Newton (variable projection) on the real parameters (band centres, chirps and,
+# with the support's shape, its widths and keystone), the complex amplitudes solved by linear least squares
+# at every step; it runs to convergence: until the step it predicts would lower the misfit by less than
+# FIT_TOLERANCE of it (no step limits what is reported: the figures do not depend on where it stops, nor on
+# FD_STEP, tests/quality/test_residual_convergence.py).
+FD_STEP = 1e-4  # width and keystone step of the central-difference derivatives
+FIT_TOLERANCE = 1e-9  # predicted relative decrease of the misfit below which a group fit has converged
+FIT_MAX_STEPS = 60  # Gauss-Newton steps at most (a safeguard: the fits converge in a few)
+MAX_CARRIER_STEP = 0.02  # cycles/sample: a step's band-centre change at most (scaled down to it)
+MAX_SHAPE_STEP = 0.01  # relative width / keystone change of a step at most
+KAPPA_LIMIT = 0.2  # |keystone| at most
+
+
+@dataclasses.dataclass
+class _GroupFit:
+    """What :func:`_fit_group` solves for: per member a real parameter vector (band centre f_c, the spatial
+    chirp's upper triangle, with the support's shape its width scales - 1 and keystone) and the complex
+    amplitudes of its orders at those parameters."""
+
+    points: np.ndarray
+    y: np.ndarray
+    found: list[dict]
+    nulls: np.ndarray
+    orders: np.ndarray
+    shaped: bool
+    lower: np.ndarray  # (P,) bounds of one member's parameters (widths within 10 % of their centre)
+    upper: np.ndarray
+
+    @property
+    def ndim(self) -> int:
+        return self.points.shape[0]
+
+    def split(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
+        """(f_c, K, (scale, kappa) or None) of one member's parameter vector."""
+        ndim, pairs = self.ndim, _chirp_pairs(self.ndim)
+        K = np.zeros((ndim, ndim))
+        for (a, b), v in zip(pairs, theta[ndim : ndim + len(pairs)]):
+            K[a, b] = K[b, a] = v
+        shape = None
+        if self.shaped:
+            rest = theta[ndim + len(pairs) :]
+            shape = (rest[:ndim].copy(), rest[ndim:].copy())
+        return theta[:ndim].copy(), K, shape
+
+    def raw(self, q: int, shape: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
+        """Member q's basis without carrier and chirp (N, orders)."""
+        f = self.found[q]
+        if shape is None:
+            return response_basis(self.points, f["pos"], f["V"], self.nulls, np.zeros(self.ndim), self.orders)
+        return response_basis(
+            self.points, f["pos"], f["V"], self.nulls * (1 + shape[0]), np.zeros(self.ndim), self.orders, kappa=shape[1]
+        )
+
+    def carrier(self, q: int, theta: np.ndarray) -> np.ndarray:
+        f_c, K, _ = self.split(theta)
+        x = self.offsets(q)
+        return np.exp(1j * (2 * np.pi * (f_c @ x) + _chirp_phase(x, K)))
+
+    def offsets(self, q: int) -> np.ndarray:
+        """Member q's sample offsets from its peak (ndim, N)."""
+        return self._offsets[q]
+
+    def __post_init__(self) -> None:
+        self._offsets = [self.points - np.asarray(f["pos"], dtype=float)[:, None] for f in self.found]
+
+    def bases(self, thetas: list[np.ndarray], fixed: list[np.ndarray] | None) -> list[np.ndarray]:
+        """Every member's basis (N, orders) at its parameters (``fixed``: the raw bases, shape not fitted)."""
+        out = []
+        for q, theta in enumerate(thetas):
+            raw = fixed[q] if fixed is not None else self.raw(q, self.split(theta)[2])
+            out.append(raw * self.carrier(q, theta)[:, None])
+        return out
+
+    def jacobian(self, q: int, theta: np.ndarray, basis: np.ndarray, coef: np.ndarray) -> np.ndarray:
+        """(N, P) derivatives of member q's response (``basis @ coef``) with respect to its parameters:
+        analytic for the band centre and chirp, central differences (:data:`FD_STEP`) for the shape."""
+        ndim, pairs = self.ndim, _chirp_pairs(self.ndim)
+        x = self.offsets(q)
+        model = basis @ coef
+        cols = [2j * np.pi * x[a] * model for a in range(ndim)]
+        cols += [1j * np.pi * (1.0 if a == b else 2.0) * x[a] * x[b] * model for a, b in pairs]
+        if self.shaped:
+            car = self.carrier(q, theta)
+            base = len(cols)
+            for i in range(2 * ndim - 1):
+                plus, minus = theta.copy(), theta.copy()
+                plus[base + i] += FD_STEP
+                minus[base + i] -= FD_STEP
+                diff = self.raw(q, self.split(plus)[2]) - self.raw(q, self.split(minus)[2])
+                cols.append(((diff * car[:, None]) @ coef) / (2 * FD_STEP))
+        return np.stack(cols, axis=1)
+
+
+def _amplitudes(bases: list[np.ndarray], y: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """(coef (members, orders), residual, |residual|^2): the members' amplitudes by linear least squares."""
+    from sarproc.quality.metrics import least_squares  # metrics imports this module
+
+    B = np.concatenate(bases, axis=1)
+    coef = least_squares(B, y)
+    r = y - B @ coef
+    return coef.reshape(len(bases), -1), r, float(np.vdot(r, r).real)
+
+
+def _gauss_newton_step(B: np.ndarray, r: np.ndarray, J: np.ndarray, free: np.ndarray) -> tuple[np.ndarray, float]:
+    """(step, predicted decrease of |r|^2): the real parameters' Gauss-Newton step (the ``free`` ones; the
+    others 0), the amplitudes eliminated (variable projection: J projected off the span of the bases B)."""
+    Q = np.linalg.qr(B)[0]
+    Jp = J[:, free] - Q @ (Q.conj().T @ J[:, free])
+    A = np.concatenate([Jp.real, Jp.imag], axis=0)
+    b = np.concatenate([r.real, r.imag])
+    scale = np.linalg.norm(A, axis=0)
+    scale[scale == 0] = 1.0
+    d = np.linalg.lstsq(A / scale, b, rcond=None)[0] / scale
+    step = np.zeros(J.shape[1])
+    step[free] = d
+    fit = A @ d
+    return step, float(fit @ fit)
+
+
 def _fit_group(
     members: list[int],
     points: np.ndarray,
@@ -380,91 +500,86 @@ def _fit_group(
     nulls: np.ndarray,
     orders: np.ndarray,
     K0: list[np.ndarray],
-    iterations: int,
     shape0: list[tuple[np.ndarray, np.ndarray]] | None = None,
     centre: list[np.ndarray] | None = None,
 ) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray], list]:
     """Complex amplitudes of every member's orders, and real band centres f_c and spatial chirps K by
-    Gauss-Newton (the band centre first estimated as the power centroid, which a taper pulls off the
-    support's middle; the amplitudes by linear least squares at each step).
+    Gauss-Newton to convergence (:data:`FIT_TOLERANCE`; the amplitudes by linear least squares at each step,
+    a step halved until it lowers the misfit).
 
     With ``shape0`` (per member: (scale, kappa) starting values) the support's shape is fitted too: its
     widths (null spacing ``nulls * (1 + scale)`` per axis) and keystone kappa (:func:`_strip_factors`).
     They matter far out: a support edge 0.5 % off puts the side lobes 40 nulls away a fifth of a null out
     of step. The widths stay within 10 % of ``centre`` (per member, the nulls' scale; default 1).
     Returns (coef, f_c, K, (scale, kappa) or None) per member."""
-    from sarproc.quality.metrics import least_squares  # metrics imports this module
-
     ndim = points.shape[0]
     pairs = _chirp_pairs(ndim)
-    K = [np.array(k, dtype=float) for k in K0]
-    f_c = [np.array(found[k]["f_c"], dtype=float) for k in members]
-    shape = None if shape0 is None else [(np.array(a, dtype=float), np.array(b, dtype=float)) for a, b in shape0]
-    offs = [points - np.asarray(found[k]["pos"], dtype=float)[:, None] for k in members]
-    n_shape = 0 if shape is None else 2 * ndim - 1
-    n_o, n_p = len(orders), ndim + len(pairs) + n_shape
-    eps = 1e-4  # width and keystone step of the finite-difference derivatives
-
-    def raw(
-        q: int, sh: tuple[np.ndarray, np.ndarray] | None
-    ) -> np.ndarray:  # member q's basis without carrier and chirp
-        k = members[q]
-        if sh is None:
-            return response_basis(points, found[k]["pos"], found[k]["V"], nulls, np.zeros(ndim), orders)
-        return response_basis(
-            points, found[k]["pos"], found[k]["V"], nulls * (1 + sh[0]), np.zeros(ndim), orders, kappa=sh[1]
-        )
-
-    fixed = [raw(q, None) for q in range(len(members))] if shape is None else None
-
-    def carriers() -> list[np.ndarray]:
-        return [np.exp(1j * (2 * np.pi * (f @ x) + _chirp_phase(x, k)))[:, None] for x, f, k in zip(offs, f_c, K)]
-
-    def bases() -> list[np.ndarray]:
-        return [(fixed[q] if shape is None else raw(q, shape[q])) * c for q, c in enumerate(carriers())]  # type: ignore[index]  # not None in this branch
-
-    current = bases()  # the bases at the current parameters, reused by the next step
-    coef = least_squares(np.concatenate(current, axis=1), y).reshape(len(members), n_o)
-    for _ in range(iterations):
-        cols = []
-        for q, (b, x, c, car) in enumerate(zip(current, offs, coef, carriers())):
-            model = b @ c
-            cols.append(b)
-            derivs = [2j * np.pi * x[a] * model for a in range(ndim)]
-            derivs += [1j * np.pi * (1.0 if a == a2 else 2.0) * x[a] * x[a2] * model for a, a2 in pairs]
-            if shape is not None:
-                for i in range(n_shape):
-                    sc, kp = shape[q][0].copy(), shape[q][1].copy()
-                    if i < ndim:
-                        sc[i] += eps
-                    else:
-                        kp[i - ndim] += eps
-                    derivs.append(((raw(q, (sc, kp)) * car) @ c - model) / eps)
-            cols.append(np.stack(derivs, axis=1))
-        sol = least_squares(np.concatenate(cols, axis=1), y).reshape(len(members), n_o + n_p)
-        largest = 0.0
+    shaped = shape0 is not None
+    n_p = ndim + len(pairs) + (2 * ndim - 1 if shaped else 0)
+    thetas = []
+    for q, k in enumerate(members):
+        parts = [np.asarray(found[k]["f_c"], dtype=float), np.array([K0[q][a, b] for a, b in pairs], dtype=float)]
+        if shape0 is not None:
+            parts += [np.asarray(shape0[q][0], dtype=float), np.asarray(shape0[q][1], dtype=float)]
+        thetas.append(np.concatenate(parts))
+    lower = np.full((len(members), n_p), -np.inf)
+    upper = np.full((len(members), n_p), np.inf)
+    if shaped:
+        s0 = ndim + len(pairs)
         for q in range(len(members)):
-            step = sol[q, n_o:].real
-            f_c[q] = f_c[q] + np.clip(step[:ndim], -0.02, 0.02)
-            for (a, a2), d in zip(pairs, step[ndim : ndim + len(pairs)]):
-                K[q][a, a2] += d
-                K[q][a2, a] = K[q][a, a2]
-            largest = max(
-                largest, float(np.max(np.abs(step[:ndim]))), float(np.max(np.abs(step[ndim : ndim + len(pairs)]))) * 100
-            )
-            if shape is not None:
-                d_shape = np.clip(step[ndim + len(pairs) :], -0.01, 0.01)
-                mid = np.ones(ndim) if centre is None else centre[q]
-                shape[q] = (
-                    np.clip(shape[q][0] + d_shape[:ndim], 0.9 * mid - 1, 1.1 * mid - 1),
-                    np.clip(shape[q][1] + d_shape[ndim:], -0.2, 0.2),
-                )
-                largest = max(largest, float(np.max(np.abs(d_shape))) * 0.01)
-        current = bases()
-        coef = least_squares(np.concatenate(current, axis=1), y).reshape(len(members), n_o)
-        if largest < 1e-6:
+            mid = np.ones(ndim) if centre is None else np.asarray(centre[q], dtype=float)
+            lower[q, s0 : s0 + ndim], upper[q, s0 : s0 + ndim] = 0.9 * mid - 1, 1.1 * mid - 1
+            lower[q, s0 + ndim :], upper[q, s0 + ndim :] = -KAPPA_LIMIT, KAPPA_LIMIT
+    thetas = [np.clip(t, lo, hi) for t, lo, hi in zip(thetas, lower, upper)]
+    fit = _GroupFit(points, y, [found[k] for k in members], nulls, orders, shaped, lower[0], upper[0])
+    fixed = None if shaped else [fit.raw(q, None) for q in range(len(members))]
+    bases = fit.bases(thetas, fixed)
+    coef, r, cost = _amplitudes(bases, y)
+    for _ in range(FIT_MAX_STEPS):
+        if cost <= 1e-30 * max(float(np.vdot(y, y).real), 1e-300):
             break
-    return coef, f_c, K, (shape if shape is not None else [None] * len(members))
+        J = np.concatenate([fit.jacobian(q, t, b, c) for q, (t, b, c) in enumerate(zip(thetas, bases, coef))], axis=1)
+        B = np.concatenate(bases, axis=1)
+        theta = np.concatenate(thetas)
+        lo, hi = lower.ravel(), upper.ravel()
+        free: np.ndarray = np.ones(theta.size, dtype=bool)
+        step, predicted = _gauss_newton_step(B, r, J, free)
+        # parameters at a bound that the step pushes beyond it stay there (the step solved without them)
+        held = ((theta <= lo) & (step < 0)) | ((theta >= hi) & (step > 0))
+        if held.any():
+            free = ~held
+            step, predicted = (np.zeros_like(step), 0.0) if not free.any() else _gauss_newton_step(B, r, J, free)
+        if predicted <= FIT_TOLERANCE * cost:
+            break
+        step = step * _step_limit(step, len(members), ndim, len(pairs), shaped)
+        for _halving in range(30):
+            trial_theta = np.clip(theta + step, lo, hi)
+            trial = list(trial_theta.reshape(len(members), n_p))
+            trial_bases = fit.bases(trial, fixed)
+            trial_coef, trial_r, trial_cost = _amplitudes(trial_bases, y)
+            if trial_cost < cost:
+                break
+            step = step / 2
+        else:
+            break  # no step lowers the misfit: at its minimum to rounding
+        thetas, bases, coef, r, cost = trial, trial_bases, trial_coef, trial_r, trial_cost
+    out = [fit.split(t) for t in thetas]
+    return coef, [o[0] for o in out], [o[1] for o in out], [o[2] for o in out]
+
+
+def _step_limit(step: np.ndarray, members: int, ndim: int, n_pairs: int, shaped: bool) -> float:
+    """The factor (<= 1) that keeps a step's band-centre changes within :data:`MAX_CARRIER_STEP` and its
+    shape changes within :data:`MAX_SHAPE_STEP` (the whole step scaled, its direction kept)."""
+    per = step.reshape(members, -1)
+    factor = 1.0
+    largest = float(np.abs(per[:, :ndim]).max())
+    if largest > MAX_CARRIER_STEP:
+        factor = MAX_CARRIER_STEP / largest
+    if shaped:
+        largest = float(np.abs(per[:, ndim + n_pairs :]).max())
+        if largest > MAX_SHAPE_STEP:
+            factor = min(factor, MAX_SHAPE_STEP / largest)
+    return factor
 
 
 def _ridge_strips(
@@ -553,7 +668,6 @@ def _refit_lone(
         nulls,
         orders,
         [model["K"]],
-        10,
         [(scale - 1, np.zeros(ndim - 1))],
         [scale],
     )
@@ -628,6 +742,133 @@ def fit_response_models(
         return _fit_response_models(data, found, nulls, params, support_shape)
 
 
+def _overlapping_groups(
+    found: list[dict], live: list[int], own: list[np.ndarray], half: list[np.ndarray]
+) -> list[list[int]]:
+    """The live targets grouped (transitively) where their fit boxes (half-widths ``half``) plus a null
+    overlap: each group is fitted jointly."""
+    group = {j: {j} for j in live}
+    for j in live:
+        for k in live:
+            if (
+                k > j
+                and np.all(np.abs(found[j]["pos"] - found[k]["pos"]) <= half[j] + half[k] + np.maximum(own[j], own[k]))
+                and group[j] is not group[k]
+            ):
+                merged = group[j] | group[k]
+                for q in merged:
+                    group[q] = merged
+    distinct: list[set[int]] = []
+    for j in live:
+        if group[j] not in distinct:
+            distinct.append(group[j])
+    return [sorted(g) for g in distinct]
+
+
+def _widen_misfitted_lone(
+    data: np.ndarray,
+    fits: list,
+    models: list[dict],
+    found: list[dict],
+    own: list[np.ndarray],
+    nulls: np.ndarray,
+    richer: np.ndarray,
+    params: EvaluateParams,
+    own_orders: dict[int, np.ndarray],
+    centre: dict[int, np.ndarray],
+) -> None:
+    """For each lone target its first fit leaves misfit (:data:`WIDTH_SEARCH_MISFIT`): two orders, then
+    (still misfit) the widths searched and the samples taken on them; only where the linear fit at the
+    current band centre and chirp says it would halve the misfit, and kept where it does (structure no
+    band-limited model follows, e.g. the two-step PFA's, is not chased at every target). Updates
+    ``models``, ``own_orders``, ``centre`` and ``fits`` in place."""
+    ndim = data.ndim
+    for g, (members, near, y_near, far, y_far) in enumerate(fits):
+        k = members[0]
+        if len(members) > 1 or (before := _misfit(models[k], near, y_near)) <= WIDTH_SEARCH_MISFIT:
+            continue
+        rich = dict(models[k], orders=richer)
+        rich.pop("kappa", None)
+        linear = _search_widths(rich, near, y_near, own[k])[1]
+        if linear >= 0.5 * before:
+            continue
+        samples = (near, y_near, far, y_far)
+        trial = _refit_lone(models[k], found[k], near, y_near, own[k], richer, np.ones(ndim))
+        scale = np.ones(ndim)
+        for _ in range(2):  # the box and ridges follow the widths found
+            if _misfit(trial, samples[0], samples[1]) <= WIDTH_SEARCH_MISFIT:
+                break
+            scale = _search_widths(trial, samples[0], samples[1], own[k])[0]
+            at, along = _fit_samples(found[k], own[k] * scale, data.shape, params)
+            samples = (at, data[tuple(at)].astype(complex), along, data[tuple(along)].astype(complex))
+            trial = _refit_lone(trial, found[k], samples[0], samples[1], own[k], richer, scale)
+        if _misfit(trial, samples[0], samples[1]) < 0.5 * before:
+            models[k], own_orders[k], centre[k] = trial, richer, scale * own[k] / nulls
+            fits[g] = (members, *samples)
+
+
+def _others_subtracted(
+    y: np.ndarray, points: np.ndarray, members: list[int], live: list[int], models: list[dict], reach: float
+) -> np.ndarray:
+    """``y`` minus the other groups' current models on ``points`` (their side lobes), each only where its
+    envelope reaches ``reach``."""
+    rhs = y.copy()
+    for j in live:
+        if j in members or not models[j]:
+            continue
+        near = envelope_bound(models[j], points.T) >= reach
+        if near.any():
+            m = models[j]
+            rhs[near] -= (
+                response_basis(
+                    points[:, near], m["pos"], m["V"], m["nulls"], m["f_c"], m["orders"], m["K"], kappa=m.get("kappa")
+                )
+                @ m["coef"]
+            )
+    return rhs
+
+
+def _fit_one_group(
+    members: list[int],
+    points: np.ndarray,
+    rhs: np.ndarray,
+    models: list[dict],
+    found: list[dict],
+    nulls: np.ndarray,
+    orders: np.ndarray,
+    centre: dict[int, np.ndarray],
+    support_shape: bool,
+) -> None:
+    """One group's :func:`_fit_group` on ``points`` / ``rhs``, started from its current models (or its
+    peaks), its members' models replaced in ``models``. ``orders``: the group's."""
+    ndim = points.shape[0]
+    K0 = [models[k]["K"] if models[k] else np.zeros((ndim, ndim)) for k in members]
+    start = [dict(found[k], f_c=models[k]["f_c"]) if models[k] else found[k] for k in members]
+    shape0 = None
+    if support_shape:
+        shape0 = [
+            (models[k]["nulls"] / nulls - 1, models[k].get("kappa", np.zeros(ndim - 1)))
+            if models[k]
+            else (centre[k] - 1, np.zeros(ndim - 1))
+            for k in members
+        ]
+    coef, f_c, K, shape = _fit_group(
+        list(range(len(members))), points, rhs, start, nulls, orders, K0, shape0, [centre[k] for k in members]
+    )
+    for q, k in enumerate(members):
+        models[k] = {
+            "pos": np.asarray(found[k]["pos"], dtype=float),
+            "V": np.asarray(found[k]["V"]),
+            "f_c": f_c[q],
+            "nulls": nulls if shape[q] is None else nulls * (1 + shape[q][0]),
+            "orders": orders,
+            "coef": coef[q],
+            "K": K[q],
+        }
+        if shape[q] is not None:
+            models[k]["kappa"] = shape[q][1]
+
+
 @single_blas
 def _fit_response_models(
     data: np.ndarray, found: list[dict], nulls: npt.ArrayLike, params: EvaluateParams, support_shape: bool = False
@@ -636,8 +877,10 @@ def _fit_response_models(
     +-``params.fit_nulls`` nulls of its peak (about two per null); with ``support_shape`` its support's
     widths and keystone too (:func:`_fit_group`), as the residual image needs far out.
 
-    Targets whose fit boxes (plus a null) overlap are fitted jointly; then each group is fitted again,
-    twice, on its boxes and ridge strips (``params.fit_ridge_nulls``) minus the other groups' models.
+    Targets whose fit boxes (plus a null) overlap are fitted jointly (:func:`_overlapping_groups`); then
+    each group is fitted again, twice, on its boxes and ridge strips (``params.fit_ridge_nulls``) minus the
+    other groups' models (:func:`_others_subtracted`), misfitted lone targets first given richer orders and
+    widths of their own (:func:`_widen_misfitted_lone`).
     ``nulls``: the image's null spacing (samples per axis); with ``support_shape`` a target's optional
     ``found[k]["nulls"]``, its own (its theory's, where the image's resolution varies with position),
     sizes its box and strips and is where its widths start (and stay within 10 % of) where it fits the
@@ -648,30 +891,14 @@ def _fit_response_models(
     orders = spectral_orders(ndim, params.residual_orders, params.residual_orders + (1 if ndim == 2 else 0))
     # each target's own null spacing (the image's without support_shape: the basis' widths are then fixed)
     own = [_start_nulls(data, f, nulls, orders, params) if support_shape else nulls for f in found]
-    r = [np.ceil(params.fit_nulls * x).astype(int) for x in own]
+    half = [np.ceil(params.fit_nulls * x).astype(int) for x in own]
     live = [j for j, f in enumerate(found) if abs(f["value"]) > 0]
     boxes, strips = {}, {}
     for j in live:
         boxes[j], strips[j] = _fit_samples(found[j], own[j], data.shape, params)
-    group = {j: {j} for j in live}
-    for j in live:
-        for k in live:
-            if (
-                k > j
-                and np.all(np.abs(found[j]["pos"] - found[k]["pos"]) <= r[j] + r[k] + np.maximum(own[j], own[k]))
-                and group[j] is not group[k]
-            ):
-                merged = group[j] | group[k]
-                for q in merged:
-                    group[q] = merged
-    distinct: list[set[int]] = []
-    for j in live:
-        if group[j] not in distinct:
-            distinct.append(group[j])
-    groups = [sorted(g) for g in distinct]
     models: list[dict] = [{} for _ in found]
-    fits = []
-    for members in groups:
+    fits = []  # per group: (members, box samples, their values, box and ridge samples, their values)
+    for members in _overlapping_groups(found, live, own, half):
         near = np.unique(np.concatenate([boxes[k] for k in members], axis=1), axis=1)
         far = np.unique(np.concatenate([strips[k] for k in members], axis=1), axis=1)
         fits.append((members, near, data[tuple(near)].astype(complex), far, data[tuple(far)].astype(complex)))
@@ -684,90 +911,14 @@ def _fit_response_models(
     # the other groups' models subtracted.
     for sweep in range(3):
         if sweep == 1 and support_shape:
-            for g, (members, near, y_near, far, y_far) in enumerate(fits):
-                k = members[0]
-                if len(members) > 1 or (before := _misfit(models[k], near, y_near)) <= WIDTH_SEARCH_MISFIT:
-                    continue
-                # two orders, then (still misfit) the widths searched and the samples taken on them; only where
-                # the linear fit at the current band centre and chirp says it would halve the misfit, and kept
-                # where it does (structure no band-limited model follows, e.g. the two-step PFA's, is not
-                # chased at every target)
-                rich = dict(models[k], orders=richer)
-                rich.pop("kappa", None)
-                linear = _search_widths(rich, near, y_near, own[k])[1]
-                if linear >= 0.5 * before:
-                    continue
-                samples = (near, y_near, far, y_far)
-                trial = _refit_lone(models[k], found[k], near, y_near, own[k], richer, np.ones(ndim))
-                scale = np.ones(ndim)
-                for _ in range(2):  # the box and ridges follow the widths found
-                    if _misfit(trial, samples[0], samples[1]) <= WIDTH_SEARCH_MISFIT:
-                        break
-                    scale = _search_widths(trial, samples[0], samples[1], own[k])[0]
-                    at, along = _fit_samples(found[k], own[k] * scale, data.shape, params)
-                    samples = (at, data[tuple(at)].astype(complex), along, data[tuple(along)].astype(complex))
-                    trial = _refit_lone(trial, found[k], samples[0], samples[1], own[k], richer, scale)
-                if _misfit(trial, samples[0], samples[1]) < 0.5 * before:
-                    models[k], own_orders[k], centre[k] = trial, richer, scale * own[k] / nulls
-                    fits[g] = (members, *samples)
+            _widen_misfitted_lone(data, fits, models, found, own, nulls, richer, params, own_orders, centre)
         for members, near, y_near, far, y_far in fits:
-            points, y = (near, y_near) if sweep == 0 else (far, y_far)
-            rhs = y
-            if sweep > 0:  # the other groups' current models on these samples (their side lobes)
-                rhs = y.copy()
-                for j in live:
-                    if j in members or not models[j]:
-                        continue
-                    # only where its envelope reaches FIT_REACH_DB under the image's peak
-                    near = envelope_bound(models[j], points.T) >= reach
-                    if near.any():
-                        rhs[near] -= (
-                            response_basis(
-                                points[:, near],
-                                models[j]["pos"],
-                                models[j]["V"],
-                                models[j]["nulls"],
-                                models[j]["f_c"],
-                                models[j]["orders"],
-                                models[j]["K"],
-                                kappa=models[j].get("kappa"),
-                            )
-                            @ models[j]["coef"]
-                        )
-            K0 = [models[k]["K"] if models[k] else np.zeros((ndim, ndim)) for k in members]
-            start = [dict(found[k], f_c=models[k]["f_c"]) if models[k] else found[k] for k in members]
-            shape0 = None
-            if support_shape:
-                shape0 = [
-                    (models[k]["nulls"] / nulls - 1, models[k].get("kappa", np.zeros(ndim - 1)))
-                    if models[k]
-                    else (centre[k] - 1, np.zeros(ndim - 1))
-                    for k in members
-                ]
-            coef, f_c, K, shape = _fit_group(
-                list(range(len(members))),
-                points,
-                rhs,
-                start,
-                nulls,
-                own_orders.get(members[0], orders),
-                K0,
-                10 if sweep == 0 else 3,
-                shape0,
-                [centre[k] for k in members],
-            )
-            for q, k in enumerate(members):
-                models[k] = {
-                    "pos": np.asarray(found[k]["pos"], dtype=float),
-                    "V": np.asarray(found[k]["V"]),
-                    "f_c": f_c[q],
-                    "nulls": nulls if shape[q] is None else nulls * (1 + shape[q][0]),
-                    "orders": own_orders.get(k, orders),
-                    "coef": coef[q],
-                    "K": K[q],
-                }
-                if shape[q] is not None:
-                    models[k]["kappa"] = shape[q][1]
+            if sweep == 0:
+                points, rhs = near, y_near
+            else:
+                points, rhs = far, _others_subtracted(y_far, far, members, live, models, reach)
+            group_orders = own_orders.get(members[0], orders)
+            _fit_one_group(members, points, rhs, models, found, nulls, group_orders, centre, support_shape)
     return models
 
 
