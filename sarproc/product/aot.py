@@ -322,5 +322,17 @@ def release_lock() -> None:
             os.unlink(lock)
 
 
-if __name__ == "__main__":  # pragma: no cover - the background builder (the tests call Kernels.build)
-    owner_kernels(sys.argv[1]).build(sys.argv[2])
+def main(argv: list[str]) -> None:
+    """The background builder: ``python -m sarproc.product.aot OWNER KEY``."""
+    from sarproc.product import aot  # the importable module: this file runs as __main__, the owners use that one
+
+    try:
+        kernels = aot.owner_kernels(argv[0])
+    except Exception:
+        aot.release_lock()  # no Kernels, no name for a .failed marker: the next small run tries again
+        raise
+    kernels.build(argv[1])
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

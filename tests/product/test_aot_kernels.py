@@ -42,7 +42,17 @@ def built(tmp_path_factory):
     try:
         modules = {}
         for group in GROUPS:
-            group.build(aot.module_key(group.source_paths))
+            if group is phasor.AOT:  # one through the background builder's own command, as request_build starts it
+                done = subprocess.run(
+                    [sys.executable, "-m", "sarproc.product.aot", group.owner, aot.module_key(group.source_paths)],
+                    capture_output=True,
+                    text=True,
+                    check=False,
+                    env={**os.environ, "PYTHONPATH": str(ROOT)},
+                )
+                assert done.returncode == 0, done.stderr[-2000:]
+            else:
+                group.build(aot.module_key(group.source_paths))
             aot._LOADED.pop(group.name, None)
             modules[group.name] = group.load()
             assert modules[group.name] is not None
