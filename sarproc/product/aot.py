@@ -103,13 +103,13 @@ class Kernels:
         range), so the results agree.
         """
         global _SERIAL_SPENT
-        small = usable and self.module not in sys.modules and serial_pays(_SERIAL_SPENT + serial_seconds, workers)
-        module = self.load() if small else None
-        if module is not None:
-            _SERIAL_SPENT += serial_seconds
-            return module
-        if small:
-            self.request_build()
+        if usable and serial_pays(_SERIAL_SPENT + serial_seconds, workers):
+            module = self.load()
+            if module is None:
+                self.request_build()  # also where numba's kernels are loaded (e.g. by the plan's cache check)
+            elif self.module not in sys.modules:
+                _SERIAL_SPENT += serial_seconds
+                return module
         return self.numba()
 
     def is_compiled(self, module: ModuleType) -> bool:

@@ -255,8 +255,9 @@ def test_pick_takes_the_compiled_module_only_within_the_serial_budget(monkeypatc
     monkeypatch.setattr(aot, "_SERIAL_SPENT", 0.0)
     monkeypatch.setattr(aot.Kernels, "load", lambda self: None)
     assert group.pick(0.01, workers=2) == "numba" and builds == [1]  # not built: numba, and a build started
-    monkeypatch.setattr(aot.Kernels, "load", lambda self: fake)
     monkeypatch.setitem(sys.modules, "sarproc.dsp.phasor_kernels", object())
+    assert group.pick(0.01, workers=2) == "numba" and builds == [1, 1]  # numba's kernels loaded: built all the same
+    monkeypatch.setattr(aot.Kernels, "load", lambda self: fake)
     assert group.pick(0.01, workers=2) == "numba"  # numba's kernels already loaded: no reason to run serially
 
 
