@@ -145,8 +145,8 @@ def _layout(a: np.ndarray) -> str:
     return "C" if a.flags.c_contiguous else "F" if a.flags.f_contiguous else "A"
 
 
-# Serial output samples x taps per second of the resampling kernel (complex64), for AOT.pick (measured:
-# docs/performance.md).
+# Serial output samples x taps per second of the resampling kernel (complex64), for AOT.pick: an estimate, not a
+# measurement (docs/performance.md, fifth round).
 RESAMPLE_SERIAL_RATE = 2e8
 
 

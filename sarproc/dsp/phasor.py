@@ -25,7 +25,8 @@ AOT = Kernels(
     exports={"_separable_kernel": "void(f4[:, ::1], f8[:, ::1], f8[:, ::1], f8)"},
     owner="sarproc.dsp.phasor:AOT",
 )
-# Serial elements per second of the separable kernel (complex64), for AOT.pick (measured: docs/performance.md).
+# Serial elements per second of the separable kernel (complex64), for AOT.pick: an estimate, not a measurement
+# (docs/performance.md, fifth round); it only moves where the process's serial budget runs out.
 SEPARABLE_SERIAL_RATE = 1.5e8
 
 

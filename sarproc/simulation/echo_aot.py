@@ -31,8 +31,8 @@ ECHO = Kernels(
     owner="sarproc.simulation.echo_aot:ECHO",
     slp=True,
 )
-# Serial target-samples (one pulse, one target, one window sample) per second of the echo kernel (measured:
-# docs/performance.md).
+# Serial target-samples (one pulse, one target, one window sample) per second of the echo kernel: an estimate,
+# not a measurement (docs/performance.md, fifth round).
 SERIAL_RATE = 4e8
 
 

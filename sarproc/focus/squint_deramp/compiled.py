@@ -42,8 +42,8 @@ STOLT = Kernels(
     },
     owner="sarproc.focus.squint_deramp.compiled:STOLT",
 )
-# Serial elements per second (measured: docs/performance.md): the copies, the rotation by G (a square root and a
-# phasor each), the node interpolation.
+# Serial elements per second (estimates, not measurements: docs/performance.md, fifth round): the copies, the
+# rotation by G (a square root and a phasor each), the node interpolation.
 COPY_SERIAL_RATE = 5e8
 ROTATE_SERIAL_RATE = 1e8
 NODES_SERIAL_RATE = 3e8
