@@ -21,13 +21,11 @@ kernels come from a table linearly interpolated, in the output's real precision.
 from __future__ import annotations
 
 import functools
-import math
 from typing import TYPE_CHECKING
 
-import numba
 import numpy as np
 
-from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
+from sarproc.product.aot import Kernels
 
 if TYPE_CHECKING:
     from typing import Any
@@ -121,96 +119,35 @@ def tap_table(
 
 _MODES = {"nearest": 0, "linear": 1, "cubic": 2}  # any other kernel: tabulated (3)
 
-
-@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _resample_row(
-    row: np.ndarray,
-    pos: np.ndarray,
-    out: np.ndarray,
-    mode: int,
-    taps: int,
-    table: np.ndarray,
-    steps: int,
-    zero: complex,
-    lo_pos: float,
-    hi_pos: float,
-) -> None:
-    """One row: out[j] = sum over taps of row[i] w(pos[j] - i); zeros outside the row; pos outside
-    [lo_pos, hi_pos] (or NaN) gives ``zero``. Tabulated weights are renormalised to unit sum."""
-    n_in = len(row)
-    half = taps // 2
-    for j in range(len(out)):
-        p = pos[j]
-        if not (p >= lo_pos and p <= hi_pos):
-            out[j] = zero
-            continue
-        acc = zero
-        if mode == 0:
-            b = int(math.floor(p + 0.5))
-            if b >= 0 and b < n_in:
-                acc += row[b]
-        elif mode == 1:
-            b = int(math.floor(p))
-            f = table.dtype.type(p - b)
-            if b >= 0 and b < n_in:
-                acc += row[b] * (1 - f)
-            if b + 1 >= 0 and b + 1 < n_in:
-                acc += row[b + 1] * f
-        elif mode == 2:
-            b = int(math.floor(p))
-            for off in range(-1, 3):
-                i = b + off
-                if i >= 0 and i < n_in:
-                    x = abs(table.dtype.type(p - i))  # Keys' cubic convolution, a = -0.5
-                    if x <= 1:
-                        w = (1.5 * x - 2.5) * x * x + 1
-                    elif x < 2:
-                        w = ((-0.5 * x + 2.5) * x - 4) * x + 2
-                    else:
-                        w = 0.0 * x
-                    acc += row[i] * w
-        else:
-            b = int(math.floor(p))
-            q = (p - b) * steps
-            cell = int(math.floor(q))
-            t = table.dtype.type(q - cell)
-            wsum = table.dtype.type(0)
-            # tap m reads sample b + 1 - half + m; its weights at this cell and the next are contiguous rows
-            # of ``table`` (see resample_rows), so the tap loop is a short dot product
-            first = b + 1 - half
-            if first >= 0 and first + taps <= n_in:
-                for m in range(taps):
-                    w = table[cell, m] + (table[cell + 1, m] - table[cell, m]) * t
-                    wsum += w
-                    acc += row[first + m] * w
-            else:
-                for m in range(taps):
-                    w = table[cell, m] + (table[cell + 1, m] - table[cell, m]) * t
-                    wsum += w
-                    i = first + m
-                    if i >= 0 and i < n_in:
-                        acc += row[i] * w
-            if wsum > 0:
-                acc = acc / wsum
-        out[j] = acc
+# The resampling kernel compiled ahead of time for complex64 rows and float32 weights (sarproc.product.aot);
+# a small call runs it without importing numba (the numba kernels: sarproc.dsp.interp_kernels). One export per
+# layout (C, F or A, as numba types an array) of data and positions: numba compiles each layout apart and its
+# fast-math loops may round differently between them, so the compiled call takes the layouts numba's would.
+_LAYOUT = {"C": ":, ::1", "F": "::1, :", "A": ":, :"}
+AOT = Kernels(
+    name="interp",
+    module="sarproc.dsp.interp_kernels",
+    sources=("dsp/interp_kernels.py", "dsp/interp.py"),
+    exports={
+        f"resample_{d}{p}": (
+            "_resample_kernel",
+            f"void(c8[{_LAYOUT[d]}], f8[{_LAYOUT[p]}], c8[:, ::1], i8, i8, f4[:, ::1], i8, c8, f8, f8)",
+        )
+        for d in _LAYOUT
+        for p in _LAYOUT
+    },
+    owner="sarproc.dsp.interp:AOT",
+)
 
 
-@numba.njit(parallel=True, error_model="numpy", cache=CACHE)
-def _resample_kernel(
-    data: np.ndarray,
-    pos: np.ndarray,
-    out: np.ndarray,
-    mode: int,
-    taps: int,
-    table: np.ndarray,
-    steps: int,
-    zero: complex,
-    lo_pos: float,
-    hi_pos: float,
-) -> None:
-    """Rows in parallel (the per-row work is a separate function: no accumulator is shared across rows)."""
-    for r in numba.prange(data.shape[0]):
-        _resample_row(data[r], pos[r], out[r], mode, taps, table, steps, zero, lo_pos, hi_pos)
+def _layout(a: np.ndarray) -> str:
+    """numba's layout of ``a`` (numba.np.numpy_support.map_layout)."""
+    return "C" if a.flags.c_contiguous else "F" if a.flags.f_contiguous else "A"
+
+
+# Serial output samples x taps per second of the resampling kernel (complex64), for AOT.pick: an estimate, not a
+# measurement (docs/performance.md, fifth round).
+RESAMPLE_SERIAL_RATE = 2e8
 
 
 def resample_rows(
@@ -248,7 +185,10 @@ def resample_rows(
     if not np.issubdtype(data.dtype, np.inexact):
         data = data.astype(np.float64)
     if n_rows and pos.shape[1]:
-        _resample_kernel(
+        usable = data.dtype == out.dtype == np.complex64
+        k = AOT.pick(pos.size * taps / RESAMPLE_SERIAL_RATE, usable=usable)
+        name = f"resample_{_layout(data)}{_layout(pos)}" if AOT.is_compiled(k) else "_resample_kernel"
+        getattr(k, name)(
             data, pos, out, mode, taps, table, _TABLE_STEPS, out.dtype.type(0), -pad / 2, n_in - 1 + pad / 2
         )
     return out
@@ -264,6 +204,3 @@ def resample(
     rows = np.broadcast_to(data, lead + data.shape[-1:]).reshape(-1, data.shape[-1])
     pos = np.broadcast_to(pos, lead + pos.shape[-1:]).reshape(-1, pos.shape[-1])
     return resample_rows(rows, pos, kernel, length, **kwargs).reshape(lead + pos.shape[-1:])
-
-
-lean_cache_loads(globals())  # cached kernels load without numba's context refresh (kernel_cache)

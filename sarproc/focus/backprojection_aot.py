@@ -26,7 +26,7 @@ NAME = "backprojection"
 BUILDER = "sarproc.focus.backprojection_aot"
 SOURCES = [
     Path(__file__).with_name("backprojection_kernel.py"),
-    Path(__file__).parents[1] / "dsp" / "phasor.py",  # its phasor polynomials are inlined into the kernel
+    Path(__file__).parents[1] / "dsp" / "phasor_kernels.py",  # its phasor polynomials are inlined into the kernel
     Path(__file__),  # EXPORTS: a module built before an export was added lacks it
 ]
 # Export name -> (kernel in backprojection_kernel, signature): the argument types _backproject_compiled passes

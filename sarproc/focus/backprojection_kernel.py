@@ -31,7 +31,7 @@ import numba
 import numpy as np
 
 from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
-from sarproc.dsp.phasor import cis_cycles32_short
+from sarproc.dsp.phasor_kernels import cis_cycles32_short
 
 INTERPOLATIONS = ("nearest", "linear", "cubic", "sinc", "lanczos", "knab")
 # a leg's float32 geometry from _reference: unit vector (3), 1/R, R, 1/(2R), 1/(2R^2), whether to expand

@@ -21,7 +21,7 @@ import numba
 import numpy as np
 
 from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
-from sarproc.dsp.phasor import cis_cycles32_short
+from sarproc.dsp.phasor_kernels import cis_cycles32_short
 
 
 @numba.njit(fastmath=True, error_model="numpy", inline="always", cache=CACHE)

@@ -18,7 +18,9 @@ the whole mechanism off (the numba kernels only). This module imports no numba; 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import hashlib
+import importlib
 import importlib.machinery
 import importlib.util
 import os
@@ -32,8 +34,113 @@ from types import ModuleType
 from typing import Any
 
 _LOADED: dict[str, ModuleType | None] = {}
+_SERIAL_SPENT = 0.0  # serial seconds of the compiled calls so far (Kernels.pick)
 OLD_MODULE_S = 30 * 86400.0
 STALE_LOCK_S = 900.0  # a build lock older than this is from a builder that died (a build takes ~10-30 s)
+# What a process saves by not starting numba: import, kernel loads, threads (docs/performance.md, s).
+NUMBA_STARTUP_S = 0.3
+PACKAGE = Path(__file__).parents[1]  # sarproc/
+
+
+def available_threads() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def serial_pays(serial_seconds: float, workers: int | None = None) -> bool:
+    """Whether a serial kernel expected to take ``serial_seconds``, numba not started, finishes first: what
+    the parallel kernel saves on ``workers`` threads (default: the CPUs this process may use; 90 % efficient)
+    is less than numba's start-up."""
+    threads = int(workers) if workers else available_threads()
+    return serial_seconds * (1.0 - 1.0 / max(1.0, 0.9 * threads)) < NUMBA_STARTUP_S
+
+
+@dataclasses.dataclass(frozen=True)
+class Kernels:
+    """A module of numba kernels (``module``) and its exports compiled ahead of time (module file ``name``).
+
+    ``sources``: the files, relative to the sarproc package, whose edits change the kernels (the kernel module
+    and what its kernels inline); ``exports``: export name -> pycc signature of the kernel of that name in
+    ``module``, or -> (kernel name, signature) for a second signature of a kernel (C-contiguous arrays: the
+    callers pass such); ``owner``: the importable, numba-free ``module:attribute`` naming this
+    object, which the background builder imports (``python -m sarproc.product.aot OWNER KEY``); ``slp``:
+    compile with LLVM's SLP vectoriser as the numba kernels are (``kernel_cache.slp_vectorized``).
+    """
+
+    name: str
+    module: str
+    sources: tuple[str, ...]
+    exports: dict[str, str | tuple[str, str]]
+    owner: str
+    slp: bool = False
+
+    @property
+    def source_paths(self) -> list[Path]:
+        return [PACKAGE / s for s in self.sources]
+
+    def load(self) -> ModuleType | None:
+        """The compiled module, or None while it is not built (or building is off, or it failed)."""
+        return load(self.name, self.source_paths)
+
+    def request_build(self) -> bool:
+        return request_build(self.name, self.source_paths, "sarproc.product.aot", self.owner)
+
+    def numba(self) -> ModuleType:
+        """The numba kernels' module (imports numba)."""
+        return importlib.import_module(self.module)
+
+    def pick(self, serial_seconds: float, workers: int | None = None, *, usable: bool = True) -> ModuleType:
+        """The module to call the kernels from for a call of ``serial_seconds`` of serial work.
+
+        The compiled module while the serial work of this process's compiled calls so far, this one included,
+        stays small enough that running it serially without numba's start-up finishes first
+        (:func:`serial_pays`; so a big product's many small block calls do not all run serially: past that
+        budget they go to numba), it is built, numba's kernels of this module are not loaded already, and
+        ``usable`` (the caller's arguments have the exported types); else the numba kernels, and for a small
+        call a build is started in the background for the next process. Both run the same source (prange as
+        range), so the results agree.
+        """
+        global _SERIAL_SPENT
+        if usable and serial_pays(_SERIAL_SPENT + serial_seconds, workers):
+            module = self.load()
+            if module is None:
+                self.request_build()  # also where numba's kernels are loaded (e.g. by the plan's cache check)
+            elif self.module not in sys.modules:
+                _SERIAL_SPENT += serial_seconds
+                return module
+        return self.numba()
+
+    def is_compiled(self, module: ModuleType) -> bool:
+        """Whether ``module`` (from :meth:`pick`) is the module compiled ahead of time."""
+        return module.__name__ != self.module
+
+    def build(self, key: str) -> Path:
+        """Compile the module for ``key`` (which must be the current sources' key)."""
+        if key != module_key(self.source_paths):
+            release_lock()
+            raise RuntimeError(f"stale build request {key}: the kernels' sources changed")
+        kernels = self.numba()
+        exports = {}
+        for export, spec in self.exports.items():
+            kernel, sig = (export, spec) if isinstance(spec, str) else spec
+            exports[export] = (getattr(kernels, kernel), sig)
+        if not self.slp:
+            return build(self.name, key, exports)
+        from sarproc.product.kernel_cache import slp_vectorized
+
+        with slp_vectorized():
+            return build(self.name, key, exports)
+
+
+def owner_kernels(owner: str) -> Kernels:
+    """The :class:`Kernels` named by ``owner`` (``module:attribute``)."""
+    module, _, attr = owner.partition(":")
+    obj = getattr(importlib.import_module(module), attr)
+    if not isinstance(obj, Kernels):
+        raise TypeError(f"{owner} is not a Kernels")
+    return obj
 
 
 def enabled() -> bool:
@@ -121,9 +228,9 @@ def load(name: str, sources: list[Path]) -> ModuleType | None:
     return module
 
 
-def request_build(name: str, sources: list[Path], builder: str) -> bool:
-    """Start ``python -m builder`` in the background to build module ``name`` unless it exists, failed before,
-    is being built, or building is off; True when a build was started."""
+def request_build(name: str, sources: list[Path], builder: str, *builder_args: str) -> bool:
+    """Start ``python -m builder [builder_args] KEY`` in the background to build module ``name`` unless it
+    exists, failed before, is being built, or building is off; True when a build was started."""
     if not enabled():
         return False
     try:
@@ -146,7 +253,7 @@ def request_build(name: str, sources: list[Path], builder: str) -> bool:
         return False  # another process is building it
     try:
         subprocess.Popen(
-            [sys.executable, "-m", builder, key],
+            [sys.executable, "-m", builder, *builder_args, key],
             stdin=subprocess.DEVNULL,
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,
@@ -213,3 +320,19 @@ def release_lock() -> None:
     if lock:
         with contextlib.suppress(OSError):
             os.unlink(lock)
+
+
+def main(argv: list[str]) -> None:
+    """The background builder: ``python -m sarproc.product.aot OWNER KEY``."""
+    from sarproc.product import aot  # the importable module: this file runs as __main__, the owners use that one
+
+    try:
+        kernels = aot.owner_kernels(argv[0])
+    except Exception:
+        aot.release_lock()  # no Kernels, no name for a .failed marker: the next small run tries again
+        raise
+    kernels.build(argv[1])
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

@@ -231,23 +231,49 @@ PROCESS = {
 # stage: (the numba modules it runs, seconds and bytes to compile them when numba's cache lacks them)
 KERNELS = {
     "simulate": (("sarproc.simulation.echo_kernel",), 12.0, 60e6),
-    "preprocess": (("sarproc.dsp.phasor",), 0.5, 10e6),
+    "preprocess": (("sarproc.dsp.phasor_kernels",), 0.5, 10e6),
     "fine-focus": (
         (
-            "sarproc.focus.squint_deramp.stolt",
+            "sarproc.focus.squint_deramp.stolt_kernels",
             "sarproc.focus.squint_deramp.block_copies",
-            "sarproc.focus.squint_deramp.fine_focus",
-            "sarproc.dsp.interp",
-            "sarproc.dsp.phasor",
+            "sarproc.dsp.interp_kernels",
+            "sarproc.dsp.phasor_kernels",
         ),
         10.0,
         70e6,
     ),
-    "backproject": (("sarproc.focus.backprojection_kernel", "sarproc.dsp.phasor"), 14.0, 105e6),
+    "backproject": (("sarproc.focus.backprojection_kernel", "sarproc.dsp.phasor_kernels"), 14.0, 105e6),
     # the residual's kernels (evaluate_estimate names them only where the residual runs); measured on the
     # demo from a fresh clone: 3.9 s and 234 MB compiling, 1.1 s and 185 MB cached
     "evaluate": (("sarproc.quality.residual_kernels", "sarproc.quality.kernels"), 2.8, 50e6),
 }
+
+
+# stage: the kernels compiled ahead of time (sarproc.product.aot, ``module:attribute`` of their Kernels) that
+# run all of its numba work on a small product
+AOT_KERNELS = {
+    "preprocess": ("sarproc.dsp.phasor:AOT",),
+    "simulate": ("sarproc.simulation.echo_aot:ECHO",),
+    "fine-focus": (
+        "sarproc.focus.squint_deramp.compiled:BLOCKS",
+        "sarproc.focus.squint_deramp.compiled:STOLT",
+        "sarproc.dsp.interp:AOT",
+        "sarproc.dsp.phasor:AOT",
+    ),
+}
+
+
+def aot_covers(plan: Plan) -> bool:
+    """Whether the stage's kernels run compiled ahead of time (no numba, nothing to compile): its work is small
+    enough for the serial kernels (the plan's seconds on every CPU) and their modules are built."""
+    owners = AOT_KERNELS.get(plan.stage)
+    if not owners:
+        return False
+    from sarproc.product import aot
+
+    if not aot.serial_pays(plan.seconds * aot.available_threads()):
+        return False
+    return all(aot.owner_kernels(owner).load() is not None for owner in owners)
 
 
 def kernels_cached(modules: Iterable[str]) -> bool:
@@ -277,6 +303,8 @@ def whole_process(plan: Plan) -> Plan:
     modules, compile_s, compile_bytes = KERNELS.get(plan.stage, ((), 0.0, 0.0))
     if plan.kernel_modules is not None:
         modules = plan.kernel_modules
+    elif modules and aot_covers(plan):
+        modules = ()
     if modules and not kernels_cached(modules):
         seconds += compile_s
         memory += compile_bytes

@@ -193,17 +193,32 @@ def illumination_warnings(scene: Scene, plan: SimulationPlan) -> list[str]:
     return lines
 
 
+def echo_target_samples(scene: Scene, plan: SimulationPlan, n_pulses: int) -> float:
+    """The echo kernel's work for ``n_pulses``: pulses x targets x channels x samples per pulse."""
+    r = scene.radar
+    per_pulse = r.pulse_duration * r.range_sampling_rate + 2
+    return float(n_pulses) * len(_scatterers(scene)[0]) * len(plan.rx_offsets) * per_pulse
+
+
 def echo_block(
-    scene: Scene, plan: SimulationPlan, t: np.ndarray, chirp: np.ndarray | None = None, dtype: type = np.complex128
+    scene: Scene,
+    plan: SimulationPlan,
+    t: np.ndarray,
+    chirp: np.ndarray | None = None,
+    dtype: type = np.complex128,
 ) -> np.ndarray:
     """Echoes of pulses at times ``t`` for every channel: (n_ch, n_t, n_range) of ``dtype``.
+
+    The kernels run compiled ahead of time where the block is small (:mod:`sarproc.simulation.echo_aot`), else
+    in numba; the echoes are the same either way.
 
     Geometry, gate offsets and the effects' gains are evaluated here per (pulse, target); the
     samples themselves in the compiled :func:`echo_kernel.accumulate_echoes`, which sums in complex128
     and rounds each sample once into a complex64 block (bit for bit the cast of the complex128 one).
     """
-    from sarproc.simulation.echo_kernel import accumulate_echoes, window_chirp
+    from sarproc.simulation import echo_aot
 
+    k = echo_aot.kernels(echo_target_samples(scene, plan, len(t)))
     r = scene.radar
     fs = r.range_sampling_rate
     t0 = float(plan.coords["range_time"][0])
@@ -213,7 +228,7 @@ def echo_block(
     amplitude = _scatterers(scene)[2]
     gate = np.ascontiguousarray(_gate_offsets(scene, t, 2 * r.reference_range / C), dtype=float)
     if chirp is None:  # the window's chirp is the same for every block: simulate_blocks passes it once
-        chirp = window_chirp(n_rg, fs, r.chirp_rate)
+        chirp = echo_aot.window_chirp(k, n_rg, fs, r.chirp_rate)
     out: np.ndarray = np.zeros((len(plan.rx_offsets), len(t), n_rg), dtype=dtype)
     for ch, rx in enumerate(plan.rx_offsets):
         tau = _delays(pos + plan.tx_offset, pos + rx, tg)  # (n_t, n_tg)
@@ -223,7 +238,8 @@ def echo_block(
         if scene.params.simulation.waveform == "band_limited":
             out[ch] = band_limited_echoes(r, tau, gains, gate, t0, n_rg)
             continue
-        accumulate_echoes(
+        echo_aot.accumulate_echoes(
+            k,
             out[ch],
             np.ascontiguousarray(tau),
             np.ascontiguousarray(gains, dtype=np.complex128),
@@ -294,9 +310,11 @@ def simulate_blocks(
     power = float(np.max(np.abs(scene.target_amplitude)) ** 2) if len(scene.target_amplitude) else 0.0
     step = plan.block_pulses
     slices = [slice(s, min(s + step, len(t_all))) for s in range(0, len(t_all), step)]
-    from sarproc.simulation.echo_kernel import window_chirp
+    from sarproc.simulation import echo_aot
 
-    chirp = window_chirp(len(plan.coords["range_time"]), scene.radar.range_sampling_rate, scene.radar.chirp_rate)
+    n_rg = len(plan.coords["range_time"])
+    k = echo_aot.kernels(n_rg)
+    chirp = echo_aot.window_chirp(k, n_rg, scene.radar.range_sampling_rate, scene.radar.chirp_rate)
     # A finalize step (noise) adds to the complex128 echoes before the one rounding; without one the
     # kernel rounds into complex64 itself, in parallel, instead of a serial cast here.
     finalizing = [e for e in scene.effects if type(e).finalize is not Effect.finalize]

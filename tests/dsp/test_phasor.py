@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from sarproc.dsp.phasor import cis_cycles32, cis_cycles32_short, multiply_phase, multiply_separable_phase, unit_phasor
+from sarproc.dsp.phasor import multiply_phase, multiply_separable_phase, unit_phasor
+from sarproc.dsp.phasor_kernels import cis_cycles32, cis_cycles32_short
 
 
 def test_quarter_cycle_polynomial_is_float32_exact():

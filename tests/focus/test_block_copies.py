@@ -7,12 +7,12 @@ from sarproc.dsp.interp import resample_rows
 from sarproc.dsp.phasor import multiply_phase
 from sarproc.focus.squint_deramp.block_copies import (
     copy_rows,
-    crop_columns,
     gather_columns,
     pad_rows,
     pad_spectrum,
     scale_rows,
 )
+from sarproc.focus.squint_deramp.compiled import crop_columns
 from sarproc.focus.squint_deramp.stolt import SpectrumModel
 
 

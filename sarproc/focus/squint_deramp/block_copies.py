@@ -3,7 +3,7 @@
 Each kernel replaces a numpy sequence of the block loops of :mod:`sarproc.focus.squint_deramp.fine_focus`
 (zero padding, a (-1)^n modulation, a per-row or per-column factor, a transposed write-back) by one
 parallel pass that computes the same values: negation is exact and the complex multiplies round as numpy's
-SIMD loop does (:func:`sarproc.dsp.phasor.cmul`), so the image does not change.
+SIMD loop does (:func:`sarproc.dsp.phasor_kernels.cmul`), so the image does not change.
 
 "Alternate" means x[..., j] negated for j % 2 == ``start`` (the (-1)^n modulation that turns an
 fftshift of an even-length axis into a sign flip, see ``fine_focus._centred``); ``start`` < 0: none.
@@ -11,16 +11,11 @@ fftshift of an even-length axis into a sign flip, see ``fine_focus._centred``); 
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numba
 import numpy as np
 
 from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
-from sarproc.dsp.phasor import cmul
-
-if TYPE_CHECKING:
-    import numpy.typing as npt
+from sarproc.dsp.phasor_kernels import cmul
 
 
 @numba.njit(inline="always", cache=CACHE)
@@ -124,13 +119,19 @@ def _crop_rows(src: np.ndarray, lo: int, dst: np.ndarray, bad: np.ndarray) -> No
         bad[i] = b
 
 
-def crop_columns(src: np.ndarray, lo: int, hi: int, dtype: npt.DTypeLike = np.complex64) -> tuple[np.ndarray, bool]:
-    """(src[:, lo:hi] as a new C-contiguous ``dtype`` array, whether every value is finite), one parallel pass."""
-    dst = np.empty((src.shape[0], hi - lo), dtype)
-    bad = np.zeros(src.shape[0], np.bool_)
-    if dst.size:
-        _crop_rows(src, lo, dst, bad)
-    return dst, not bad.any()
+@numba.njit(parallel=True, cache=CACHE)
+def negate_alternate_2d(x: np.ndarray, axis: int, start: int) -> None:
+    """x negated on every second row (axis 0) or column (axis 1), from ``start``, in place."""
+    n, m = x.shape
+    if axis == 0:
+        for i in numba.prange(n):
+            if i % 2 == start:
+                for j in range(m):
+                    x[i, j] = -x[i, j]
+    else:
+        for i in numba.prange(n):
+            for j in range(start, m, 2):
+                x[i, j] = -x[i, j]
 
 
 lean_cache_loads(globals())  # cached kernels load without numba's context refresh (kernel_cache)

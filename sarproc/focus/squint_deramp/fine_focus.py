@@ -36,14 +36,13 @@ import logging
 import math
 from collections.abc import Callable, Iterable, Sequence
 
-import numba
 import numpy as np
 
 from sarproc.dsp.interp import KERNELS, resample_rows
-from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
 from sarproc.dsp.phasor import multiply_separable_phase, unit_phasor
 from sarproc.dsp.rangecomp import chirp_replica, replica_spectrum
-from sarproc.focus.squint_deramp.block_copies import (
+from sarproc.focus.squint_deramp import compiled
+from sarproc.focus.squint_deramp.compiled import (
     copy_rows,
     crop_columns,
     gather_columns,
@@ -141,24 +140,10 @@ def phasor(phase: np.ndarray) -> np.ndarray:
     return unit_phasor(cycles(phase))
 
 
-@numba.njit(parallel=True, cache=CACHE)
-def _negate_alternate_2d(x: np.ndarray, axis: int, start: int) -> None:
-    n, m = x.shape
-    if axis == 0:
-        for i in numba.prange(n):
-            if i % 2 == start:
-                for j in range(m):
-                    x[i, j] = -x[i, j]
-    else:
-        for i in numba.prange(n):
-            for j in range(start, m, 2):
-                x[i, j] = -x[i, j]
-
-
 def _alternate(x: np.ndarray, axis: int, start: int) -> None:
     """x[..., start::2, ...] *= -1 along ``axis``, in place (2D: rows in parallel)."""
     if x.ndim == 2:
-        _negate_alternate_2d(x, axis, start)
+        compiled.negate_alternate_2d(x, axis, start)
         return
     idx = [slice(None)] * x.ndim
     idx[axis] = slice(start, None, 2)
@@ -832,6 +817,3 @@ def _theta0_terms(f: np.ndarray, K: np.ndarray, co: dict, s: int, e: int) -> tup
             if jb != ja:
                 weights[a] *= (idx - jb) / (ja - jb)
     return np.array(vals), weights
-
-
-lean_cache_loads(globals())  # cached kernels load without numba's context refresh (kernel_cache)

@@ -24,13 +24,11 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 import numpy.typing as npt
 
 from sarproc.dsp.interp import resample_rows
-from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
-from sarproc.dsp.phasor import cmul, rotate_row_field
+from sarproc.focus.squint_deramp import compiled
 from sarproc.product.metadata import C
 
 MODELS = ("exact", "paper")
@@ -101,7 +99,7 @@ class SpectrumModel:
             mode = 1
         use_pre = pre is not None
         pre = np.asarray(pre, x.dtype) if use_pre else np.ones(1, x.dtype)
-        _rotate_G(
+        compiled.rotate_G(
             x.view(x.real.dtype).reshape(x.shape[0], -1),
             x,
             pre,
@@ -168,76 +166,6 @@ class SpectrumModel:
         return f - self.fc, ok & ok0
 
 
-@numba.njit(parallel=True, error_model="numpy", cache=CACHE)
-def _rotate_G(
-    xf: np.ndarray,
-    x: np.ndarray,
-    pre: np.ndarray,
-    use_pre: bool,
-    a: np.ndarray,
-    q: np.ndarray,
-    b: np.ndarray,
-    p: np.ndarray,
-    mode: int,
-    s: float,
-    s2: float,
-    c: float,
-    lim: float,
-    scale: float,
-) -> None:
-    """Rows of :meth:`SpectrumModel.rotate`; the float64 sums are written in :meth:`SpectrumModel.G`'s order
-    (no fastmath: same values): exact sigma = s + a_i / b_j, g = p_j (s^2 + c root) + q_i; paper
-    t = a_i / b_j, g = p_j root + q_i (q_i carries the minus sign)."""
-    m = len(b)
-    for i in numba.prange(x.shape[0]):
-        g = np.empty(m)
-        ok = np.empty(m, np.bool_)
-        ai = a[i]
-        qi = q[i]
-        for j in range(m):
-            if mode == 0:
-                sigma = s + ai / b[j]
-                arg = 1 - sigma * sigma
-            else:
-                t = ai / b[j]
-                arg = 1 - t * t
-            good = arg > lim
-            root = np.sqrt(arg if good else 1.0)
-            if mode == 0:
-                g[j] = p[j] * (s2 + c * root) + qi
-            else:
-                g[j] = p[j] * root + qi
-            ok[j] = good
-        if use_pre:
-            for j in range(m):
-                re, im = cmul(x[i, j], pre[j])  # rounded as numpy's x * pre
-                x[i, j] = complex(re, im)
-        rotate_row_field(xf[i], g, ok, True, scale)
-
-
-@numba.njit(parallel=True, error_model="numpy", cache=CACHE)
-def _node_positions(
-    s_n: np.ndarray,
-    ok_n: np.ndarray,
-    seg: np.ndarray,
-    w: np.ndarray,
-    f0: float,
-    df: float,
-    half_band: float,
-    out: np.ndarray,
-) -> None:
-    """out[i, j]: sample position (f - f0) / df of the source frequency, linear between the exact nodes
-    seg[j], seg[j] + 1 (weight w[j]); NaN where a node is invalid or the source is outside the band."""
-    for i in numba.prange(out.shape[0]):
-        for j in range(out.shape[1]):
-            k = seg[j]
-            src = s_n[i, k] * (1.0 - w[j]) + s_n[i, k + 1] * w[j]
-            if ok_n[i, k] and ok_n[i, k + 1] and abs(src) <= half_band:
-                out[i, j] = (src - f0) / df
-            else:
-                out[i, j] = np.nan
-
-
 def stolt_resample(
     spec: np.ndarray,
     f_r: np.ndarray,
@@ -269,7 +197,7 @@ def stolt_resample(
         w = (j - nodes[seg]) / (nodes[seg + 1] - nodes[seg])
         pos = np.empty((len(f_a), n))
         half_band = np.inf if band is None else band / 2 + 1e-9 * band
-        _node_positions(
+        compiled.node_positions(
             np.ascontiguousarray(s_n), np.ascontiguousarray(ok_n), seg, w, float(f_r[0]), float(df), half_band, pos
         )  # one parallel pass, no temporaries
     else:
@@ -282,6 +210,3 @@ def stolt_resample(
     lim_ok = model.mapped_frequency(np.zeros(1), f_a)[1]
     masked = int(np.count_nonzero(~lim_ok)) * spec.shape[1]
     return out, masked
-
-
-lean_cache_loads(globals())  # cached kernels load without numba's context refresh (kernel_cache)
