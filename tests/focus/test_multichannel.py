@@ -298,6 +298,38 @@ def test_clutter_is_nulled_with_a_redundant_channel():
     assert info["clutter_suppression_db"] < -23.0  # measured -26.0 dB; the rect beam's tails limit it
 
 
+def test_clutter_null_leaves_exactly_the_clutter_spectrum_beyond_its_band():
+    """The null's residual is the clutter's own Doppler spectrum outside the nulled band (issue 19).
+
+    The same clutter seen by one channel at N PRF (no aliasing, no channel model) has that much of its
+    spectrum beyond clutter_band x B_a / 2: any error of the null's steering model (channel phase against
+    range or Doppler, time alignment, the channels' antenna gains) would add to it."""
+    from sarproc.focus.multichannel import reconstruct as rc
+
+    def in_band(m, null):
+        raw = simulate(scene_from_mapping(m))
+        g = rc._geometry(raw, ReconstructParams())
+        spec, f_r, _ = rc._to_deramped(raw, g)
+        fa = sfft.fft(spec[:, :, np.abs(f_r) <= raw.radar.bandwidth / 2], axis=1)
+        if null:
+            out = rc.clutter_null(fa, g, band)[0]
+        else:
+            out = fa * (np.abs(np.fft.fftfreq(fa.shape[1], 1 / g.prf)) > band * g.half_band)[None, :, None]
+        return 10 * math.log10(float(np.sum(np.abs(out) ** 2) / np.sum(np.abs(fa) ** 2)))
+
+    m = scene([mover("B", v_r=10.0, amplitude=0.0)])
+    m["effects"]["antenna"]["azimuth_beamwidth"] = "0.2 deg"
+    m["effects"]["clutter"] = {"n_scatterers": 30, "azimuth_extent": "300 m", "range_extent": "200 m"}
+    one = dict(m)
+    one["radar"] = dict(m["radar"], prf="3000 Hz")  # N PRF, one receiver
+    one["effects"] = dict(m["effects"], azimuth_channels={"n_receivers": 1, "spacing": "5 m"})
+    band = ReconstructParams().clutter_band
+    nulled, beyond = in_band(m, True), in_band(one, False)
+    # measured -27.16 dB (the null -27.15): the rect beam's Fresnel tails beyond 1.2 B_a / 2
+    assert -40.0 < beyond < -20.0
+    assert abs(nulled - beyond) < 0.1
+
+
 def test_wrong_products_are_refused():
     raw = simulate(scene_from_mapping(scene(effects={"azimuth_channels": None})))
     with pytest.raises(InputError, match="raw_multichannel"):
