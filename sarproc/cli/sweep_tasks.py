@@ -15,6 +15,7 @@ A sweep YAML names the scenes, the focusing chain and the knobs to vary::
     output: ../../results/sweep-bp               # default for -o (relative to this file)
     evaluate: true                                # false: no evaluate step (a chain whose product is no image)
     repeats: 3                                    # time the focus chain this many times (default 1)
+    refusals: false                               # true: a step refusing its input is a row, not a failure
 
 A scene given as a mapping is a variant of its ``file``: ``targets`` keeps only the named targets (a
 target simulated and focused alone), ``set`` applies dotted keys to this scene only (after the sweep's

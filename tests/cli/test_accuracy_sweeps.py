@@ -181,3 +181,35 @@ def test_motion_002_sweeps_focus_the_same_raw_products_over_the_issues_ranges():
     # the eq. (7) case is the sub-image size of the straight scene's default (accuracy_002.yaml's radius)
     sizes = {t.setting.get("pfa2.subimage_size") for t in pfa.tasks} - {None}
     assert sizes == {"97.7300277783166 m"}
+
+
+def test_004_hard_cases_reduce_the_paper_scene_and_put_the_grating_target_half_a_degree_past_the_lobe():
+    """configs/sweeps/hard_cases_004.yaml: the paper scene with 8 receivers, 65 pulses and array3d's defaults
+    (no array3d knob set), one target each; the grating case's target sits at asin(lambda / d + sin 0.5 deg),
+    measured at its fold (0.5 deg); refusals are rows (the 1-receiver case's result)."""
+    import math
+
+    from sarproc.product.config import load_yaml
+
+    paper = load_yaml(ROOT / "configs" / "du2010.yaml")
+    path = ROOT / "configs" / "sweeps" / "hard_cases_004.yaml"
+    plan = plan_sweep(path)
+    assert load_yaml(path)["refusals"] is True
+    tasks = {t.scene: t for t in plan.tasks}
+    assert set(tasks) == {"nadir", "one_receiver", "two_receivers", "grating", "azimuth_edge", "sector_edge"}
+    receivers = {"one_receiver": 1, "two_receivers": 2}
+    for scene, t in tasks.items():
+        assert t.config["array3d"] == {} and t.config["acquisition"]["n_pulses"] == 65
+        array = t.config["effects"]["cross_track_array"]
+        assert array["n_receivers"] == receivers.get(scene, 8)
+        assert parse_quantity(array["spacing"], "length") == parse_quantity(
+            paper["effects"]["cross_track_array"]["spacing"], "length"
+        )
+        assert [p["name"] for p in t.config["targets"]["points"]] == ["A"]
+        assert t.config.get("evaluate", {}).get("fold_elevation", False) is (scene == "grating")
+    grating = tasks["grating"].config
+    lam = 299792458.0 / parse_quantity(paper["radar"]["carrier_frequency"], "frequency")
+    d = parse_quantity(paper["effects"]["cross_track_array"]["spacing"], "length")
+    theta = parse_quantity(grating["targets"]["points"][0]["elevation"], "angle")
+    assert theta == pytest.approx(math.asin(lam / d + math.sin(math.radians(0.5))), abs=1e-14)
+    assert parse_quantity(grating["effects"]["antenna"]["elevation_beamwidth"], "angle") == 0.0
