@@ -213,3 +213,35 @@ def test_004_hard_cases_reduce_the_paper_scene_and_put_the_grating_target_half_a
     theta = parse_quantity(grating["targets"]["points"][0]["elevation"], "angle")
     assert theta == pytest.approx(math.asin(lam / d + math.sin(math.radians(0.5))), abs=1e-14)
     assert parse_quantity(grating["effects"]["antenna"]["elevation_beamwidth"], "angle") == 0.0
+
+
+def test_000_hard_cases_prf_is_the_coarse_need_of_their_base_scene():
+    """configs/sweeps/hard_cases_000.yaml: prf_up / prf_down differ from prf_base only in the PRF (and the
+    output frame), which is 1.02 / 0.98 of prf_base's coarse deramp_extent rounded to 1 mHz; every case but
+    sqrt_limit measures in the squint_lrwc frame; refusals are rows."""
+    from sarproc.focus.squint_deramp.coarse_focus import CoarseFocusParams, coarse_focus
+    from sarproc.focus.squint_deramp.preprocess import PreprocessParams, preprocess
+    from sarproc.product.config import build, load_yaml
+    from sarproc.simulation.scene import scene_from_mapping
+    from sarproc.simulation.simulate import simulate
+
+    path = ROOT / "configs" / "sweeps" / "hard_cases_000.yaml"
+    assert load_yaml(path)["refusals"] is True
+    tasks = {t.scene: t for t in plan_sweep(path).tasks}
+    base = tasks["prf_base"].config
+    stages = ("preprocess", "coarse_focus", "fine_focus")
+    raw = simulate(scene_from_mapping({k: v for k, v in base.items() if k not in stages}))
+    coarse = coarse_focus(
+        preprocess(raw, build(PreprocessParams, base["preprocess"])), build(CoarseFocusParams, base["coarse_focus"])
+    )
+    extent = coarse.attrs["deramp_extent"]
+    for scene, factor in (("prf_up", 1.02), ("prf_down", 0.98)):
+        cfg = tasks[scene].config
+        assert cfg["radar"]["prf"] == f"{extent * factor:.3f} Hz"
+        assert cfg["fine_focus"] == {**base["fine_focus"], "output_frame": "lrwc"}
+        assert {k: v for k, v in cfg.items() if k not in ("radar", "fine_focus")} == {
+            k: v for k, v in base.items() if k not in ("radar", "fine_focus")
+        }
+    for scene, t in tasks.items():
+        if scene not in ("prf_base", "sqrt_limit"):
+            assert t.config["fine_focus"]["output_frame"] == "lrwc", scene
