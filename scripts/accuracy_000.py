@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -92,7 +93,7 @@ def hard_cases(directory: Path, out: Path) -> None:
     for scene, (case, names) in CASES.items():
         row, task = table[scene], tasks[scene]
         if row.get("refused") is not None:
-            msg = row["refused"].split(".h5: ", 1)[-1]  # the message without the product's file name
+            msg = re.sub(r"^\S+\.(h5|yaml): ", "", row["refused"])  # without the input's file name
             rows.append(f"| {case} | refused (exit 2) | - | - | - | - | - | {msg[:160]} |")
             continue
         img = read_product(task.directory / "fine-focus.h5", check_finite=False)

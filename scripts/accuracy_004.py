@@ -27,6 +27,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -164,7 +165,7 @@ def hard_cases(directory: Path) -> list[dict]:
         name = label.format(elevation=math.degrees(parse_quantity(point["elevation"], "angle")))
         refused, by = row.get("refused"), row.get("refused_by")
         if refused is not None:
-            refused = refused.split(".h5: ", 1)[-1]  # the message without the product's file name
+            refused = re.sub(r"^\S+\.(h5|yaml): ", "", refused)  # without the input's file name
         if refused is not None and by != "evaluate":
             out.append({"case": name, "result": f"InputError: {refused}"})
             continue
