@@ -1,10 +1,11 @@
 """Accuracy versus time for array3d (paper 004): one row per knob setting.
 
-    python scripts/accuracy_004.py --from-sweep DIR --wide-sweep DIR2 --results results/004-accuracy
+    python scripts/accuracy_004.py --from-sweep DIR --wide-sweep DIR2 --hard-sweep DIR3 --results results/004-accuracy
 
 ``make accuracy-004`` runs the settings as two sweeps (the one list of settings: configs/sweeps/
 accuracy_004.yaml, the paper scene configs/du2010.yaml and its seven targets alone, 152 tasks;
-configs/sweeps/accuracy_004_wide.yaml, the wide-swath family, 7 tasks) and then this script. Per setting:
+configs/sweeps/accuracy_004_wide.yaml, the wide-swath family, 7 tasks), the hard cases as a third
+(configs/sweeps/hard_cases_004.yaml, 6 tasks) and then this script. Per setting:
 
 * the sweep's array3d time on the seven-target raw data (best and spread of its interleaved repeats as a
   CLI step, product I/O included);
@@ -16,17 +17,18 @@ configs/sweeps/accuracy_004_wide.yaml, the wide-swath family, 7 tasks) and then 
   highest ISLR, largest |position error| (cells).
 
 The cross-track knobs are also run on a wide-swath scene (+-30 deg, cross-track RCM of 8 range cells)
-where they matter, and the hard cases are run here and reported with their quality loss. Output:
+where they matter, and the hard cases are reported with their quality loss (or the refusal) from their
+sweep's reports. Output:
 ``table.md``, ``numbers.json`` and ``accuracy_vs_time.png`` in ``--results``.
 """
 
 from __future__ import annotations
 
 import argparse
-import copy
 import json
 import math
-from collections.abc import Callable, Sequence
+import re
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -35,13 +37,9 @@ import yaml
 
 from sarproc.focus.array3d.linear_array import Array3DParams, array3d_product
 from sarproc.product.config import as_dict, build, load_yaml
-from sarproc.product.errors import InputError
 from sarproc.product.model import Product
 from sarproc.quality.image_measures import deviation_db
-from sarproc.quality.metrics import evaluate_product
 from sarproc.quality.summary import worst_quality_json
-from sarproc.simulation.scene import scene_from_mapping
-from sarproc.simulation.simulate import simulate
 
 
 def cube_deviation_db(cube: Product, ref: Product) -> float | None:
@@ -137,66 +135,56 @@ def sweep_family(directory: Path, scene: str, base: dict, singles: Sequence[str]
     return rows
 
 
-def hard_cases(mapping: dict) -> list[dict]:
-    """Quality loss of the hard cases on reduced versions of the paper scene (8 receivers)."""
-    base = copy.deepcopy(mapping)
-    base["effects"]["cross_track_array"]["n_receivers"] = 8
-    base["acquisition"]["n_pulses"] = 65
+HARD_CASES = {  # the scenes of configs/sweeps/hard_cases_004.yaml: their rows' labels ({elevation}: the target's)
+    "nadir": "nadir reference (8 receivers)",
+    "one_receiver": "1 receiver",
+    "two_receivers": "2 receivers (elevation lobe fills the sector)",
+    "grating": "target at {elevation:.2f} deg = grating-lobe angle + 0.5 deg (measured at its fold, 0.5 deg)",
+    "azimuth_edge": "azimuth edge: x = 3 m, 70 % of the aperture in the data",
+    "sector_edge": "elevation sector edge: 2.8 deg (sector +-3.0 deg)",
+}
+
+
+def hard_cases(directory: Path) -> list[dict]:
+    """The hard cases' rows from a sweep of configs/sweeps/hard_cases_004.yaml (reduced versions of the paper
+    scene, 8 receivers): the refusal message, or whether the cube is finite and its target's quality per axis
+    (evaluate's report)."""
+    from sarproc.product.io import read_product
+    from sarproc.product.units import parse_quantity
+
+    doc = json.loads((directory / "table.json").read_text())
+    if doc["failures"]:
+        raise SystemExit(f"{directory}: the sweep has failed tasks: {doc['failures']}")
+    rows = {row["scene"]: row for row in doc["rows"]}
+    if set(rows) != set(HARD_CASES):
+        raise SystemExit(f"{directory}: expected the scenes {sorted(HARD_CASES)}, got {sorted(rows)}")
     out: list[dict] = []
-
-    def case(
-        name: str, pts: list[dict], changes: dict | None = None, fix: Callable[[Product], None] | None = None
-    ) -> None:
-        m = copy.deepcopy(base)
-        m["targets"]["points"] = pts
-        for k, v in (changes or {}).items():
-            m[k] = {**m.get(k, {}), **v} if isinstance(v, dict) else v
-        try:
-            raw = simulate(scene_from_mapping(m))
-            cube, _ = array3d_product(raw)
-        except InputError as exc:
-            out.append({"case": name, "result": f"InputError: {exc}"})
-            return
-        finite = bool(np.all(np.isfinite(cube.data)))
-        if fix:
-            fix(cube)
-        try:
-            rep = evaluate_product(cube)
-            t = rep.targets[0]
-            q: dict[str, dict[str, float]] | str = {
-                m.axis: {"irw_ratio": m.irw_ratio, "pslr": m.pslr_db, "islr": m.islr_db, "pos": m.position_error_cells}
-                for m in t.axes
+    for scene, label in HARD_CASES.items():
+        row, task = rows[scene], directory / "tasks" / rows[scene]["task"]
+        point = load_yaml(task / "config.yaml")["targets"]["points"][0]
+        name = label.format(elevation=math.degrees(parse_quantity(point["elevation"], "angle")))
+        refused, by = row.get("refused"), row.get("refused_by")
+        if refused is not None:
+            refused = re.sub(r"^\S+\.(h5|yaml): ", "", refused)  # without the input's file name
+        if refused is not None and by != "evaluate":
+            out.append({"case": name, "result": f"InputError: {refused}"})
+            continue
+        finite = bool(np.all(np.isfinite(read_product(task / "array3d.h5", check_finite=False).data)))
+        q: dict[str, dict[str, float]] | str
+        if refused is not None:
+            q = f"evaluate refused: {refused}"
+        else:
+            t = json.loads((task / "report.json").read_text())["targets"][0]
+            q = {
+                a["axis"]: {
+                    "irw_ratio": a["irw_ratio"],
+                    "pslr": a["pslr_db"],
+                    "islr": a["islr_db"],
+                    "pos": a["position_error_cells"],
+                }
+                for a in t["axes"]
             }
-        except InputError as exc:
-            q = f"evaluate refused: {exc}"
         out.append({"case": name, "finite": finite, "quality": q})
-
-    pt = {"name": "A", "azimuth": "0 m", "range": "490 m", "elevation": "0 deg"}
-    case("nadir reference (8 receivers)", [pt])
-    case(
-        "1 receiver",
-        [pt],
-        {"effects": {**base["effects"], "cross_track_array": {"n_receivers": 1, "spacing": "0.0764 m"}}},
-    )
-    case(
-        "2 receivers (elevation lobe fills the sector)",
-        [{**pt, "elevation": "1 deg"}],
-        {"effects": {**base["effects"], "cross_track_array": {"n_receivers": 2, "spacing": "0.0764 m"}}},
-    )
-    lam = 299792458.0 / 37.5e9
-    th = math.degrees(math.asin(lam / 0.0764 + math.sin(math.radians(0.5))))
-
-    def fold(cube: Product) -> None:
-        cube.targets["elevation"][0] = math.radians(0.5)
-
-    case(
-        f"target at {th:.2f} deg = grating-lobe angle + 0.5 deg (measured at its fold, 0.5 deg)",
-        [{**pt, "elevation": f"{th} deg"}],
-        {"effects": {**base["effects"], "antenna": {**base["effects"]["antenna"], "elevation_beamwidth": "0 deg"}}},
-        fix=fold,
-    )
-    case("azimuth edge: x = 3 m, 70 % of the aperture in the data", [{**pt, "azimuth": "3 m"}])
-    case("elevation sector edge: 2.8 deg (sector +-3.0 deg)", [{**pt, "elevation": "2.8 deg"}])
     return out
 
 
@@ -209,6 +197,7 @@ def main(argv: list[str] | None = None) -> None:
     )
     ap.add_argument("--from-sweep", type=Path, required=True, help="the sweep of configs/sweeps/accuracy_004.yaml")
     ap.add_argument("--wide-sweep", type=Path, required=True, help="the sweep of configs/sweeps/accuracy_004_wide.yaml")
+    ap.add_argument("--hard-sweep", type=Path, required=True, help="the sweep of configs/sweeps/hard_cases_004.yaml")
     args = ap.parse_args(argv)
     out = Path(args.results)
     out.mkdir(parents=True, exist_ok=True)
@@ -223,7 +212,7 @@ def main(argv: list[str] | None = None) -> None:
         "(max - min) of the sweeps' interleaved repeats as a CLI step, product reads and writes included; "
         "a setting is faster than another only when its worst time is below the other's best)"
     )
-    hard = hard_cases(mapping)
+    hard = hard_cases(args.hard_sweep)
     (out / "numbers.json").write_text(json.dumps({"paper": paper, "wide": wide, "hard": hard}, indent=1, default=str))
 
     def table(rows: list[dict], title: str, note: str) -> list[str]:

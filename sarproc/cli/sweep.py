@@ -139,10 +139,13 @@ def sweep(
         with atomic_path(table_path) as tmp:
             tmp.write_text(sweep_table(plan, outcome.rows) + "\n", encoding="utf-8")
     skipped = sum(1 for r in outcome.rows if r["skipped"])
+    refused = sum(1 for r in outcome.rows if r.get("refused") is not None)
     for task, error in outcome.failures:
         click.echo(f"sweep: task {task} failed: {error}", err=True)
     summary(
-        f"sweep: {len(outcome.rows)}/{len(plan.tasks)} tasks ({skipped} already done) on {runner} "
+        f"sweep: {len(outcome.rows)}/{len(plan.tasks)} tasks ({skipped} already done"
+        + (f", {refused} refused their input" if refused else "")
+        + f") on {runner} "
         f"in {outcome.seconds:.1f} s -> {paths['md']}"
     )
     if outcome.failures:

@@ -15,6 +15,7 @@ A sweep YAML names the scenes, the focusing chain and the knobs to vary::
     output: ../../results/sweep-bp               # default for -o (relative to this file)
     evaluate: true                                # false: no evaluate step (a chain whose product is no image)
     repeats: 3                                    # time the focus chain this many times (default 1)
+    refusals: false                               # true: a step refusing its input is a row, not a failure
 
 A scene given as a mapping is a variant of its ``file``: ``targets`` keeps only the named targets (a
 target simulated and focused alone), ``set`` applies dotted keys to this scene only (after the sweep's
@@ -84,6 +85,13 @@ class SweepParams:
     output: str | None = param(default=None, doc="output directory (relative to the sweep file)")
     evaluate: bool = param(default=True, doc="run evaluate on each task's last product (false: quality n/a)")
     repeats: int = param(default=1, doc="timed runs of each task's focus chain, interleaved over the tasks")
+    refusals: bool = param(
+        default=False,
+        doc=(
+            "a focusing or evaluate step that refuses its input (InputError, the CLI's exit 2) ends its task as a "
+            "row with the message in 'refused' instead of failing the sweep (hard cases whose refusal is the result)"
+        ),
+    )
 
     def validate(self) -> None:
         from sarproc.cli.main import COMMANDS
@@ -139,6 +147,7 @@ class Task:
     sim_key: str
     evaluate: bool = True
     repeats: int = 1
+    refusals: bool = False
 
 
 @dataclasses.dataclass(frozen=True)
@@ -257,6 +266,7 @@ def plan_sweep(path: str | Path, output: str | Path | None = None) -> Plan:
                         sim_key,
                         params.evaluate,
                         params.repeats,
+                        params.refusals,
                     )
                 )
     ids = [t.task_id for t in tasks]
@@ -406,7 +416,30 @@ def _without(mapping: dict, section: str) -> dict:
 
 @single_blas  # a worker's BLAS like the serial run's: one thread, the same rounding
 def run_task(task: Task, sim: dict) -> dict:
-    """Focus chain and evaluate of one task (each step skipped when done); returns its table row."""
+    """Focus chain and evaluate of one task (each step skipped when done); returns its table row. With
+    ``task.refusals``, a step refusing its input (InputError) gives a row with the message in ``refused``
+    (the command in ``refused_by``), no times beyond the simulation's and no quality."""
+    try:
+        return _run_task(task, sim)
+    except ProcessingError as exc:
+        cause = exc.__cause__
+        if not (task.refusals and isinstance(cause, InputError)):
+            raise
+        return {
+            "task": task.task_id,
+            "scene": task.scene,
+            **task.setting,
+            "simulate_s": sim["seconds"],
+            "focus_s": None,
+            "evaluate_s": None,
+            **dict.fromkeys(QUALITY_COLUMNS),
+            "refused": str(cause),
+            "refused_by": str(exc).split(" ", 2)[1],  # "sarproc COMMAND args: message"
+            "skipped": False,
+        }
+
+
+def _run_task(task: Task, sim: dict) -> dict:
     config_path = task.directory / "config.yaml"
     _write_yaml_if_changed(config_path, task.config)
     source, key = Path(sim["path"]), sim["key"]
@@ -514,6 +547,8 @@ def with_repeats(row: dict, repeats: list) -> dict:
     """The row with its focus time summarised over the first run and its repeats (best, median, spread)."""
     from sarproc.quality.tradeoff import timing_stats
 
+    if row.get("refused") is not None:  # a refused task: no focus time
+        return {**row, "focus_median_s": None, "focus_spread_s": None, "focus_times": [], "repeats_identical": None}
     times = [row["focus_s"]] + [r["seconds"] for r in repeats]
     stats = timing_stats(times)
     return {
@@ -597,7 +632,8 @@ def _repeat_rounds(
     if n <= 1:
         return [with_repeats(r, []) for r in rows]
     by_id = {t.task_id: t for t in plan.tasks}
-    done: dict[str, list] = {r["task"]: [] for r in rows}
+    refused = {r["task"] for r in rows if r.get("refused") is not None}  # nothing to repeat
+    done: dict[str, list] = {r["task"]: [] for r in rows if r["task"] not in refused}
     for k in range(1, n):
         calls = [(tid, (by_id[tid], sims[by_id[tid].sim_key], k)) for tid in done]
         for tid, result in run_round(calls):
@@ -606,7 +642,7 @@ def _repeat_rounds(
                 done.pop(tid, None)
             else:
                 done[tid].append(result)
-    return [with_repeats(r, done[r["task"]]) for r in rows if r["task"] in done]
+    return [with_repeats(r, done.get(r["task"], [])) for r in rows if r["task"] in done or r["task"] in refused]
 
 
 def local_client(workers: int, threads_per_worker: int = 1, processes: bool = True) -> Client:
@@ -678,6 +714,8 @@ def sweep_table(plan: Plan, rows: list) -> str:
     from sarproc.cli.markdown import markdown_table
 
     columns = ["scene", *plan.knobs, *TIME_COLUMNS, *QUALITY_COLUMNS]
+    if any(row.get("refused") is not None for row in rows):
+        columns.append("refused")
     # a knob a task does not set keeps its default: blank
     cells = [[_cell(row.get(c)) if c in row or c not in plan.knobs else "" for c in columns] for row in rows]
     return markdown_table(columns, cells)
@@ -722,7 +760,7 @@ def write_results(plan: Plan, outcome: Outcome, runner: str) -> dict[str, Path]:
     )
     with atomic_path(paths["md"]) as tmp:
         tmp.write_text(head + sweep_table(plan, outcome.rows) + "\n")
-    if outcome.rows:
+    if any(r.get("refused") is None for r in outcome.rows):
         with atomic_path(paths["plot"]) as tmp:
             plot_sweep(tmp, plan, outcome.rows)
     return paths
@@ -735,6 +773,7 @@ def plot_sweep(path: Path, plan: Plan, rows: list) -> None:
 
     from sarproc.quality.tradeoff_plot import plot_tradeoff
 
+    rows = [r for r in rows if r.get("refused") is None]  # a refused task has no time to plot
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
     pngs: list[Path] = []
     with tempfile.TemporaryDirectory() as tmp:

@@ -149,6 +149,14 @@ class EvaluateParams:
             "taper and phase over the band, 2 a Hamming window)"
         ),
     )
+    fold_elevation: bool = param(
+        default=False,
+        doc=(
+            "3D cubes of a uniform array: measure each target where the array images it, sin(elevation) wrapped "
+            "into the array's unambiguous period (image attribute elevation_period, lambda / d), so a target "
+            "beyond the grating-lobe angle is measured at its fold; targets inside the period are unchanged"
+        ),
+    )
     fit_nulls: float = param(default=6.0, gt=1, doc="half-width of the box each response model is fitted on, nulls")
     fit_ridge_nulls: float = param(
         default=40.0,
@@ -1875,6 +1883,8 @@ def evaluate_product(
             )
     keep = np.array([names is None or n in names for n in all_names])
     table = apparent_truth(product, source)
+    if params is not None and params.fold_elevation:
+        table = folded_truth(product, table, where)
     truth_all = np.stack([table[d].astype(float) for d in product.dims], axis=1)
     own = np.stack(
         [table[f"irw_{d}"].astype(float) if f"irw_{d}" in fields else np.zeros(len(truth_all)) for d in product.dims],
@@ -1943,6 +1953,31 @@ def target_chirp(product: Product, truth: np.ndarray, where: str = "") -> np.nda
 
 PERIOD_ATTR = "elevation_period"  # rad: the elevation response is the periodic sinc of this period (array3d's
 # uniform array: its array factor, period lambda / d in sin(theta), taken as theta near nadir)
+
+
+def folded_elevation(elevation: npt.ArrayLike, period: float) -> np.ndarray:
+    """Elevation angle(s) (rad) where a uniform array whose response is periodic in sin(theta) with ``period``
+    (lambda / d) images a target at ``elevation``: sin(theta) wrapped into [-period / 2, period / 2); angles
+    inside that interval are returned unchanged (bit for bit)."""
+    theta = np.asarray(elevation, dtype=float)
+    s = np.sin(theta)
+    outside = np.abs(s) >= period / 2
+    return np.where(outside, np.arcsin(np.mod(s + period / 2, period) - period / 2), theta)
+
+
+def folded_truth(product: Product, table: np.ndarray, where: str = "") -> np.ndarray:
+    """The targets table with each target's elevation where the cube's array images it (:func:`folded_elevation`
+    with the image attribute PERIOD_ATTR), for ``evaluate.fold_elevation``."""
+    period = product.attrs.get(PERIOD_ATTR)
+    if "elevation" not in product.dims or period is None or not (np.isfinite(period) and period > 0):
+        raise InputError(
+            f"{where}evaluate.fold_elevation needs a 3D cube with an elevation axis and the image attribute "
+            f"{PERIOD_ATTR!r} (a uniform array's lambda / d); this image has dims {product.dims} and {PERIOD_ATTR}="
+            f"{period!r}"
+        )
+    out = table.copy()
+    out["elevation"] = folded_elevation(table["elevation"], float(period))
+    return out
 
 
 def response_period(product: Product, where: str = "") -> np.ndarray | None:

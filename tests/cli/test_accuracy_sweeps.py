@@ -181,3 +181,67 @@ def test_motion_002_sweeps_focus_the_same_raw_products_over_the_issues_ranges():
     # the eq. (7) case is the sub-image size of the straight scene's default (accuracy_002.yaml's radius)
     sizes = {t.setting.get("pfa2.subimage_size") for t in pfa.tasks} - {None}
     assert sizes == {"97.7300277783166 m"}
+
+
+def test_004_hard_cases_reduce_the_paper_scene_and_put_the_grating_target_half_a_degree_past_the_lobe():
+    """configs/sweeps/hard_cases_004.yaml: the paper scene with 8 receivers, 65 pulses and array3d's defaults
+    (no array3d knob set), one target each; the grating case's target sits at asin(lambda / d + sin 0.5 deg),
+    measured at its fold (0.5 deg); refusals are rows (the 1-receiver case's result)."""
+    import math
+
+    from sarproc.product.config import load_yaml
+
+    paper = load_yaml(ROOT / "configs" / "du2010.yaml")
+    path = ROOT / "configs" / "sweeps" / "hard_cases_004.yaml"
+    plan = plan_sweep(path)
+    assert load_yaml(path)["refusals"] is True
+    tasks = {t.scene: t for t in plan.tasks}
+    assert set(tasks) == {"nadir", "one_receiver", "two_receivers", "grating", "azimuth_edge", "sector_edge"}
+    receivers = {"one_receiver": 1, "two_receivers": 2}
+    for scene, t in tasks.items():
+        assert t.config["array3d"] == {} and t.config["acquisition"]["n_pulses"] == 65
+        array = t.config["effects"]["cross_track_array"]
+        assert array["n_receivers"] == receivers.get(scene, 8)
+        assert parse_quantity(array["spacing"], "length") == parse_quantity(
+            paper["effects"]["cross_track_array"]["spacing"], "length"
+        )
+        assert [p["name"] for p in t.config["targets"]["points"]] == ["A"]
+        assert t.config.get("evaluate", {}).get("fold_elevation", False) is (scene == "grating")
+    grating = tasks["grating"].config
+    lam = 299792458.0 / parse_quantity(paper["radar"]["carrier_frequency"], "frequency")
+    d = parse_quantity(paper["effects"]["cross_track_array"]["spacing"], "length")
+    theta = parse_quantity(grating["targets"]["points"][0]["elevation"], "angle")
+    assert theta == pytest.approx(math.asin(lam / d + math.sin(math.radians(0.5))), abs=1e-14)
+    assert parse_quantity(grating["effects"]["antenna"]["elevation_beamwidth"], "angle") == 0.0
+
+
+def test_000_hard_cases_prf_is_the_coarse_need_of_their_base_scene():
+    """configs/sweeps/hard_cases_000.yaml: prf_up / prf_down differ from prf_base only in the PRF (and the
+    output frame), which is 1.02 / 0.98 of prf_base's coarse deramp_extent rounded to 1 mHz; every case but
+    sqrt_limit measures in the squint_lrwc frame; refusals are rows."""
+    from sarproc.focus.squint_deramp.coarse_focus import CoarseFocusParams, coarse_focus
+    from sarproc.focus.squint_deramp.preprocess import PreprocessParams, preprocess
+    from sarproc.product.config import build, load_yaml
+    from sarproc.simulation.scene import scene_from_mapping
+    from sarproc.simulation.simulate import simulate
+
+    path = ROOT / "configs" / "sweeps" / "hard_cases_000.yaml"
+    assert load_yaml(path)["refusals"] is True
+    tasks = {t.scene: t for t in plan_sweep(path).tasks}
+    base = tasks["prf_base"].config
+    stages = ("preprocess", "coarse_focus", "fine_focus")
+    raw = simulate(scene_from_mapping({k: v for k, v in base.items() if k not in stages}))
+    coarse = coarse_focus(
+        preprocess(raw, build(PreprocessParams, base["preprocess"])), build(CoarseFocusParams, base["coarse_focus"])
+    )
+    extent = coarse.attrs["deramp_extent"]
+    for scene, factor in (("prf_up", 1.02), ("prf_down", 0.98)):
+        cfg = tasks[scene].config
+        assert cfg["radar"]["prf"] == f"{extent * factor:.3f} Hz"
+        assert cfg["fine_focus"] == {**base["fine_focus"], "output_frame": "lrwc"}
+        assert {k: v for k, v in cfg.items() if k not in ("radar", "fine_focus")} == {
+            k: v for k, v in base.items() if k not in ("radar", "fine_focus")
+        }
+    for scene, t in tasks.items():
+        if scene not in ("prf_base", "sqrt_limit"):
+            assert t.config["fine_focus"]["output_frame"] == "lrwc", scene

@@ -260,3 +260,36 @@ def test_repeats_time_the_focus_interleaved_and_check_determinism(tmp_path):
     path.write_text(yaml.safe_dump({"scenes": {"one": "one.yaml"}, "output": "out", "repeats": 0}))
     with pytest.raises(InputError, match="repeats: expected an integer >= 1"):
         plan_sweep(path)
+
+
+def test_refusals_make_rows_and_failures_without_them(tmp_path):
+    """refusals: true turns a step's InputError (here evaluate.fold_elevation on a 2D image) into a row with
+    the message, kept out of the repeats and the plot; without it the same task is a failure."""
+    mapping = merge(
+        BASE_SCENE, {"targets": {"frame": "squint", "points": [{"name": "A"}]}, "backproject": {"margin_cells": 8}}
+    )
+    (tmp_path / "one.yaml").write_text(yaml.safe_dump(mapping))
+    sweep = {
+        "scenes": {"ok": "one.yaml", "bad": {"file": "one.yaml", "set": {"evaluate.fold_elevation": True}}},
+        "focus": "backproject",
+        "output": "out",
+        "repeats": 2,
+        "refusals": True,
+    }
+    path = tmp_path / "sweep.yaml"
+    path.write_text(yaml.safe_dump(sweep, sort_keys=False))
+    plan = plan_sweep(path)
+    outcome = run_serial(plan)
+    assert not outcome.failures and [r["scene"] for r in outcome.rows] == ["ok", "bad"]
+    ok, bad = outcome.rows
+    assert ok.get("refused") is None and len(ok["focus_times"]) == 2 and ok["irw_dev"] is not None
+    assert bad["refused_by"] == "evaluate" and "evaluate.fold_elevation needs a 3D cube" in bad["refused"]
+    assert bad["focus_s"] is None and bad["focus_times"] == [] and all(bad[c] is None for c in QUALITY_COLUMNS)
+    assert not (plan.tasks[1].directory / "repeat-1.done.json").exists()
+    paths = write_results(plan, outcome, "serial")
+    assert "| refused |" in paths["md"].read_text() and paths["plot"].exists()
+    assert json.loads(paths["json"].read_text())["rows"][1]["refused_by"] == "evaluate"
+    path.write_text(yaml.safe_dump({**sweep, "refusals": False}, sort_keys=False))
+    strict = run_serial(plan_sweep(path, tmp_path / "strict"))
+    assert [r["scene"] for r in strict.rows] == ["ok"]
+    assert len(strict.failures) == 1 and "fold_elevation" in strict.failures[0][1]

@@ -19,7 +19,7 @@ from sarproc.product.config import build, load_yaml
 from sarproc.product.errors import InputError
 from sarproc.product.io import write_product
 from sarproc.product.metadata import C
-from sarproc.quality.metrics import evaluate_product
+from sarproc.quality.metrics import EvaluateParams, evaluate_product
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
 
@@ -81,10 +81,15 @@ def test_target_at_grating_lobe_angle_folds_predictably():
     k = np.unravel_index(np.argmax(mag), mag.shape)
     step = cube.coords["elevation"][1] - cube.coords["elevation"][0]
     assert cube.coords["elevation"][k[0]] == pytest.approx(math.radians(0.5), abs=step)
-    cube.targets["elevation"][0] = math.radians(0.5)  # evaluate the folded image of G
+    folded = evaluate_product(cube, EvaluateParams(fold_elevation=True)).target("G")  # G measured at its fold
+    with pytest.raises(InputError, match="lies outside the image extent"):
+        evaluate_product(cube)  # at its true angle, G lies outside the cube's sector
+    cube.targets["elevation"][0] = math.radians(0.5)  # the folded image of G, by hand
     rep = evaluate_product(cube).target("G")
-    for ax in rep.axes:
+    for ax, fx in zip(rep.axes, folded.axes):
         assert abs(ax.position_error_cells) < 0.5 and abs(ax.irw_ratio - 1) < 0.1, ax
+        assert fx.irw_ratio == pytest.approx(ax.irw_ratio, rel=1e-9), (fx, ax)
+        assert fx.position_error_cells == pytest.approx(ax.position_error_cells, abs=1e-9), (fx, ax)
 
 
 @pytest.fixture(scope="module")

@@ -417,3 +417,22 @@ def test_target_report_reads_back_from_its_json():
     # JSON's null for a non-finite figure reads back as NaN, not None
     d["targets"][0]["axes"][0]["pslr_db"] = None
     assert math.isnan(TargetReport.from_dict(d["targets"][0]).axes[0].pslr_db)
+
+
+def test_folded_elevation_wraps_sin_theta_by_the_array_period():
+    """A uniform array images a target at theta where sin(theta) wrapped by lambda / d lies: 0.5 deg beyond the
+    first grating lobe (paper 004's array: lambda = c / 37.5 GHz, d = 0.0764 m) folds to 0.5 deg; angles inside
+    the period come back unchanged, bit for bit."""
+    from sarproc.quality.metrics import folded_elevation
+
+    period = 299792458.0 / 37.5e9 / 0.0764
+    inside = np.radians([-2.9, 0.0, 0.5, 2.8])  # the unambiguous half-sector: asin(period / 2) = 3.0 deg
+    assert np.array_equal(folded_elevation(inside, period), inside)
+    for k in (1, -1, 2):
+        beyond = math.asin(k * period + math.sin(math.radians(0.5))) if abs(k * period) < 1 else None
+        if beyond is not None:
+            assert folded_elevation(beyond, period) == pytest.approx(math.radians(0.5), abs=1e-12)
+    s = np.linspace(-0.99, 0.99, 41)
+    folded = np.sin(folded_elevation(np.arcsin(s), period))
+    assert np.all(np.abs(folded) <= period / 2)
+    assert np.allclose(np.mod(folded - s + period / 2, period), period / 2, atol=1e-12)  # differ by whole periods
