@@ -2,9 +2,9 @@
 fine focusing's block copies and Stolt kernels.
 
 One build of the five modules (~1-2 min here: numba compiles the serial kernels, the C compiler the modules) serves
-the tests that need it: every export equals its numba kernel on the same arguments (bit for bit), and small
-stages run through the command line import no numba and write the products numba's kernels write. The rest
-check the dispatch rules without compiling.
+the tests that need it: every export equals its numba kernel on the same arguments (bit for bit, or to float32
+rounding where a fast-math loop is compiled differently), and small stages run through the command line import no
+numba and write the products numba's kernels write (alike). The rest check the dispatch rules without compiling.
 """
 
 from __future__ import annotations
@@ -85,6 +85,20 @@ def test_phase_field_equals_numbas(built):
         assert np.array_equal(a, b)
 
 
+def _equal_to_float32_rounding(a: np.ndarray, b: np.ndarray) -> bool:
+    """Bit for bit, or for fast-math float data within 8 float32 ulps of the peak: a fast-math loop compiled
+    twice (ahead of time and by numba's JIT in another process, or JIT in another compile context) may
+    reassociate its sums differently. Measured in a fresh clone: resampling's (strided data, C positions)
+    layout with knab and sinc taps 1.4e-7 and 1.7e-7 of the peak apart; elsewhere bit for bit."""
+    if a.dtype.kind not in "fc" or a.size == 0:
+        return bool(np.array_equal(a, b))
+    if np.array_equal(a, b, equal_nan=True):
+        return True
+    same_nan = np.array_equal(np.isnan(a), np.isnan(b))
+    peak = np.nanmax(np.abs(b))
+    return bool(same_nan and np.nanmax(np.abs(a - b)) <= 8 * np.finfo(np.float32).eps * peak)
+
+
 @pytest.mark.parametrize("kernel", ["knab", "sinc", "linear", "cubic", "nearest"])
 def test_resampling_equals_numbas_for_every_layout(built, kernel):
     """One export per layout of data and positions, as numba types them: its fast-math loops are compiled per
@@ -110,7 +124,7 @@ def test_resampling_equals_numbas_for_every_layout(built, kernel):
             a, b = np.empty(pos.shape, np.complex64), np.empty(pos.shape, np.complex64)
             getattr(k, f"resample_{dl}{pl}")(data, pos, a, *args)
             ik._resample_kernel(data, pos, b, *args)
-            assert np.array_equal(a, b), (dl, pl)
+            assert _equal_to_float32_rounding(a, b), (dl, pl)
 
 
 @pytest.mark.parametrize("dtype", [np.complex64, np.complex128])
@@ -203,7 +217,7 @@ def _datasets(path: Path) -> dict[str, np.ndarray]:
 def test_small_stages_import_no_numba_and_write_numbas_products(built, tmp_path):
     """simulate (the demo), preprocess and fine-focus (an2012_exp1_small) as processes with the modules built:
     no numba or llvmlite imported, each compiled module loaded; the products equal those of the numba kernels
-    (SARPROC_AOT=0) in every dataset."""
+    (SARPROC_AOT=0) in every dataset, to float32 rounding (_equal_to_float32_rounding)."""
     d, _ = built
     on = {**os.environ, "SARPROC_AOT_DIR": str(d), "SARPROC_AOT": "1", "PYTHONPATH": str(ROOT)}
     off = {**on, "SARPROC_AOT": "0"}
@@ -229,7 +243,7 @@ def test_small_stages_import_no_numba_and_write_numbas_products(built, tmp_path)
         a, b = _datasets(outs["on"]), _datasets(outs["off"])
         assert a.keys() == b.keys()
         for key in a:
-            assert np.array_equal(a[key], b[key], equal_nan=a[key].dtype.kind in "fc"), (stage, key)
+            assert _equal_to_float32_rounding(a[key], b[key]), (stage, key)
 
 
 class _Fake:
