@@ -69,16 +69,19 @@ sweep-004-wide: $(DIST_STAMP)
 	$(SARPROC) sweep configs/sweeps/accuracy_004_wide.yaml
 
 .PHONY: accuracy-003 sweep-003
-# Paper 003's reconstruct knobs on its single moving target T (v_r 10 m/s): the script's 5 velocity-search
-# settings and 3 channel counts as an 8-task sweep (reconstruct only, no evaluate: its product is phase
-# history), then accuracy_003.py --from-sweep: v_r error and search evaluations read off the sweep's
-# products, reconstruct times the sweep's; the moving target imaged at its static-equivalent position
-# (quality), the false-target strips (MFTA) and the 5 backprojection-knob rows computed there, in-process,
-# from the sweep's products. Same table as the script's own run
-# (13 rows, quality columns, v_r errors and evaluation counts identical; docs/sweeps.md).
+# Paper 003's reconstruct knobs on its single moving target T (v_r 10 m/s): the 5 velocity-search settings
+# and 3 channel counts as an 8-task sweep timing reconstruct alone (no evaluate: its product is phase history),
+# then the images sweep configs/sweeps/accuracy_003_images.yaml: the same 8 cases and 5 backprojection
+# interpolation settings on the N = 3 reconstruct, each reconstructed and backprojected where T appears
+# (quality) and on its false-target strip (MFTA), and evaluated (26 tasks). accuracy_003.py --from-sweep
+# --images-sweep only tabulates: v_r error and search evaluations off the products' attributes, times the
+# sweeps' (reconstruct: best of 3 interleaved; interpolation rows: the backproject step), quality and MFTA
+# the images sweep's reports (docs/sweeps.md: the check against the former in-process table).
 accuracy-003: $(DIST_STAMP)
 	$(SARPROC) sweep configs/sweeps/accuracy_003.yaml -o results/003-accuracy/sweep
-	$(PY) scripts/accuracy_003.py --from-sweep results/003-accuracy/sweep --results results/003-accuracy
+	$(SARPROC) sweep configs/sweeps/accuracy_003_images.yaml -o results/003-accuracy/images
+	$(PY) scripts/accuracy_003.py --from-sweep results/003-accuracy/sweep --images-sweep results/003-accuracy/images \
+		--results results/003-accuracy
 
 sweep-003: $(DIST_STAMP)
 	$(SARPROC) sweep configs/sweeps/accuracy_003.yaml

@@ -1,193 +1,159 @@
-"""What accuracy costs in time for paper 003's reconstruct (``make accuracy-003``).
+"""What accuracy costs in time for paper 003's reconstruct (``make accuracy-003``): a table of two sweeps.
 
-On the single moving target T of the sweep configs/sweeps/accuracy_003.yaml (v_r = 10 m/s), one knob
-at a time, the sweep's settings (its one source):
+On the single moving target T (v_r = 10 m/s), one knob at a time, the sweeps' settings (their one source):
 
 * velocity-search step (and fast vs exhaustive search): reconstruct time, number of leakage
   evaluations, |v_r error|, and the false-target level it leaves (strip MFTA);
 * number of channels N = 3, 4, 5 at the same PRF and beam (d = 2 v / (N PRF), uniform): time,
   v_r error, worst IRW ratio / PSLR and MFTA;
-* backprojection interpolation knobs on the reconstructed output of the sweep's N = 3 task (range
-  upsampling, linear vs nearest; this script's own settings, INTERPOLATION): time against worst-target
-  quality and MFTA (reconstruct itself interpolates nothing: its filter bank is exact in the frequency
-  domain).
+* backprojection interpolation knobs on the N = 3 reconstruct (range upsampling, linear vs nearest):
+  backproject time against worst-target quality and MFTA (reconstruct itself interpolates nothing: its
+  filter bank is exact in the frequency domain).
 
-Writes table.md, table.json and accuracy.png under --results.
+The computing is the sweeps' (``make accuracy-003`` runs both): configs/sweeps/accuracy_003.yaml times
+reconstruct alone (best of its interleaved repeats as a CLI step, product I/O included) and its products
+hold the search results (v_r, evaluations); configs/sweeps/accuracy_003_images.yaml reconstructs every
+case again and backprojects it twice, ``image`` (where the moving target appears: the quality) and
+``strip`` (the false-target strip: MFTA), and evaluates both. This script only reads the two sweeps'
+tables, products' attributes and step records, and writes table.md, table.json and accuracy.png
+under --results.
 
-    python scripts/accuracy_003.py --from-sweep DIR --results results/003-accuracy
-
-``make accuracy-003`` runs the sweep (on Dask) and then this script: the search results (v_r, evaluations)
-from the sweep's reconstructed products, their time the sweep's reconstruct time (best of its interleaved
-repeats as a CLI step, product I/O included); the moving target's image at its static-equivalent position
-(quality), the false-target strips (MFTA) and the backprojection-knob rows are computed here, in-process,
-from the sweep's products (backproject and evaluate follow a moving target to where it appears,
-sarproc.product.moving).
+    python scripts/accuracy_003.py --from-sweep DIR --images-sweep DIR2 --results results/003-accuracy
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import time
 from pathlib import Path
 from typing import Any
 
-from sarproc.focus.backprojection import BackprojectParams, backproject
-from sarproc.focus.multichannel.channels import ghost_spacing
+from sarproc.cli.sweep_output import sweep_rows
 from sarproc.focus.multichannel.reconstruct import ReconstructParams
-from sarproc.product.config import build
-from sarproc.product.model import Product, target_names
-from sarproc.quality.metrics import EvaluateParams, QualityReport, evaluate_product
-from sarproc.quality.summary import worst_of_targets
-
-STRIP_GUARD = 0.45  # guard around the target on a strip, in ghost spacings (the sinc side lobes there: < -66 dB)
+from sarproc.product.config import build, load_yaml
+from sarproc.product.io import read_product
+from sarproc.product.units import parse_quantity
 
 
-def ghost_strips(
-    rec: Product, raw: Product, extent_ghosts: float = 1.5, **bp_knobs: Any
-) -> dict[str, tuple[float, Product]]:
-    """{target: (MFTA dB, strip image)} on azimuth strips (squint_lrwc) of +-extent_ghosts ghost spacings
-    around where each target appears, its own +-STRIP_GUARD spacing left out."""
-    extent = 2 * extent_ghosts * ghost_spacing(rec.radar, raw.radar.prf)
-    out = {}
-    for name in target_names(rec.targets):
-        strip = backproject(
-            rec,
-            BackprojectParams(
-                frame="squint_lrwc", azimuth_extent=extent, range_extent=30.0, oversample=1.2, **bp_knobs
-            ),
-            grid_targets=[name],
-        )
-        guard = STRIP_GUARD * extent / (2 * extent_ghosts) / strip.attrs["theoretical_irw"][0]
-        rep = evaluate_product(strip, EvaluateParams(guard_cells=guard), names=[name])
-        out[name] = (rep.false_target.level_db if rep.false_target else float("-inf"), strip)
-    return out
-
-
-def only_window(rec: Product) -> dict:
-    """The one moving-target window of a single-target scene (a second one would be a detection error)."""
-    windows = rec.attrs["reconstruct"]["moving_targets"]
+def only_window(rec_path: Path) -> dict:
+    """The one moving-target window of a single-target scene's reconstruct product (a second one would be a
+    detection error)."""
+    windows = read_product(rec_path, load=False).attrs["reconstruct"]["moving_targets"]
     if len(windows) != 1:
-        raise RuntimeError(f"expected one moving-target window, got {len(windows)}: {windows}")
+        raise SystemExit(f"{rec_path}: expected one moving-target window, got {len(windows)}: {windows}")
     return windows[0]
 
 
-def worst(report: QualityReport) -> tuple[float | None, float | None, float | None]:
-    """Worst |IRW / theory - 1|, PSLR and |position error| of the one target's image."""
-    w = worst_of_targets(report.targets)
-    return w.irw_dev, w.pslr_db, w.position_cells
+def _quality(row: dict[str, Any]) -> dict[str, Any]:
+    """Worst |IRW / theory - 1|, PSLR and |position error| of an image row (the sweep's evaluate report)."""
+    return {"worst_irw_dev": row["irw_dev"], "worst_pslr_db": row["pslr_db"], "worst_pos_cells": row["position_cells"]}
 
 
-INTERPOLATION = (("nearest", 8), ("linear", 2), ("linear", 4), ("linear", 8), ("linear", 16))
+def _mfta(row: dict[str, Any]) -> float:
+    """The strip's false-target level, dB (-inf where the evaluate report found none)."""
+    level = row["false_target_db"]
+    return float("-inf") if level is None else float(level)
 
 
-def image(rec: Product, bp: BackprojectParams) -> Product:
-    """Image of ``rec``: backproject's default grid follows a moving target to where it appears and records
-    its own theory (that of its true position)."""
-    return backproject(rec, bp)
+KNOBS = ("interpolation", "upsample")  # the backprojection knobs of the interpolation rows
 
 
-def channel_row(n: int, rec: Product, r: Product, dt: float, t_sim: float, v_r: float) -> dict:
-    mt = only_window(rec)
-    irw, pslr, pos = worst(
-        evaluate_product(image(rec, BackprojectParams(oversample=1.25)), EvaluateParams(guard_cells=60))
-    )
-    return {
-        "knob": f"N = {n} channels",
-        "time_s": dt,
-        "simulate_s": t_sim,
-        "evaluations": mt["search_evaluations"],
-        "v_r_error": abs(mt["radial_velocity"] - v_r),
-        "worst_irw_dev": irw,
-        "worst_pslr_db": pslr,
-        "worst_pos_cells": pos,
-        "mfta_db": ghost_strips(rec, r)["T"][0],
-    }
+def _stem(config: dict[str, Any]) -> dict[str, Any]:
+    """What a task reconstructs: its config without the backprojection and evaluate sections."""
+    return {k: v for k, v in config.items() if k not in ("backproject", "evaluate")}
 
 
-def search_row(p: ReconstructParams, rec: Product, raw: Product, dt: float, v_r: float) -> dict:
-    mt = only_window(rec)
-    return {
-        "knob": f"search {p.search} step {p.velocity_step} m/s",
-        "time_s": dt,
-        "evaluations": mt["search_evaluations"],
-        "v_r_error": abs(mt["radial_velocity"] - v_r),
-        "mfta_db": ghost_strips(rec, raw)["T"][0],
-    }
+def _images_of(image_rows: list[dict[str, Any]], config: dict[str, Any]) -> dict[str, dict[str, Any]]:
+    """{"image": row, "strip": row} of the images sweep for a reconstruct config (no interpolation knob set)."""
+    found: dict[str, list] = {"image": [], "strip": []}
+    for row in image_rows:
+        cfg = row["config"]
+        if _stem(cfg) == _stem(config) and not set(KNOBS) & set(cfg["backproject"]):
+            found["strip" if cfg["backproject"].get("frame") == "squint_lrwc" else "image"].append(row)
+    if len(found["strip"]) != 1 or len(found["image"]) > 1:
+        raise SystemExit(f"expected one strip and at most one image of {config.get('reconstruct')}, got {found}")
+    return {k: v[0] for k, v in found.items() if v}
 
 
-def interpolation_rows(rec: Product, raw: Product) -> list[dict]:
-    rows = []
-    for interp, up in INTERPOLATION:
-        bp = BackprojectParams(oversample=1.25, upsample=up, interpolation=interp)
-        t0 = time.perf_counter()
-        img = image(rec, bp)
-        dt = time.perf_counter() - t0
-        irw, pslr, pos = worst(evaluate_product(img, EvaluateParams(guard_cells=60)))
-        rows.append(
-            {
-                "knob": f"backproject {interp} x{up}",
-                "time_s": dt,
-                "worst_irw_dev": irw,
-                "worst_pslr_db": pslr,
-                "worst_pos_cells": pos,
-                "mfta_db": ghost_strips(rec, raw, upsample=up, interpolation=interp)["T"][0],
-            }
-        )
-    return rows
-
-
-def from_sweep(directory: Path) -> list:
-    """The script's rows from a sweep of configs/sweeps/accuracy_003.yaml: a row per task, in the sweep's order
-    (tasks that set reconstruct knobs are search rows, the others channel rows), then the interpolation rows
-    on the N = 3 task's products."""
-    from sarproc.cli.sweep_tasks import plan_sweep
-    from sarproc.product.io import read_product
-    from sarproc.product.units import parse_quantity
-
-    doc = json.loads((directory / "table.json").read_text())
-    if doc["failures"]:
-        raise SystemExit(f"{directory}: the sweep has failed tasks: {doc['failures']}")
-    plan = plan_sweep(doc["sweep"], directory)  # the tasks' configs and raw products
-    raws = {job.key: job.raw for job in plan.sims}
-    times = {r["task"]: r for r in doc["rows"]}
-    if set(times) != {t.task_id for t in plan.tasks}:
-        raise SystemExit(f"{directory}: the sweep's table does not hold the tasks of {doc['sweep']}")
+def from_sweeps(timed: Path, images: Path) -> list[dict[str, Any]]:
+    """The script's rows: a row per task of the timed reconstruct sweep, in its order (tasks that set
+    reconstruct knobs are search rows, the others channel rows), then the images sweep's interpolation rows
+    (its images with a backprojection knob); a row's image and strip are the images sweep's tasks that
+    reconstruct as it does."""
+    timed_rows = sweep_rows(timed)
+    image_rows = [{**r, "config": load_yaml(r["dir"] / "config.yaml")} for r in sweep_rows(images)]
+    knobs = json.loads((timed / "table.json").read_text())["knobs"]
     search_rows: list[dict] = []
     channel_rows: list[dict] = []
-    rec3: Product | None = None
-    raw3: Product | None = None
-    for task in plan.tasks:
-        row = times[task.task_id]
-        rec, raw = read_product(task.directory / "reconstruct.h5"), read_product(raws[task.sim_key])
-        v_r = parse_quantity(task.config["targets"]["points"][0]["velocity"][1], "velocity")
-        if any(k.startswith("reconstruct.") for k in task.setting):
-            p = build(ReconstructParams, task.config.get("reconstruct") or {})
-            search_rows.append(search_row(p, rec, raw, row["focus_s"], v_r))
-            search_rows[-1]["times_s"] = row.get("focus_times") or [row["focus_s"]]
+    for row in timed_rows:
+        config = load_yaml(row["dir"] / "config.yaml")
+        v_r = parse_quantity(config["targets"]["points"][0]["velocity"][1], "velocity")
+        mt = only_window(row["dir"] / "reconstruct.h5")
+        shots = _images_of(image_rows, config)
+        out = {
+            "time_s": row["focus_s"],
+            "times_s": row.get("focus_times") or [row["focus_s"]],
+            "evaluations": mt["search_evaluations"],
+            "v_r_error": abs(mt["radial_velocity"] - v_r),
+        }
+        if any(k.startswith("reconstruct.") for k in knobs if k in row):
+            p = build(ReconstructParams, config.get("reconstruct") or {})
+            knob = f"search {p.search} step {p.velocity_step} m/s"
+            search_rows.append({"knob": knob, **out, "mfta_db": _mfta(shots["strip"])})
         else:
-            n = task.config["effects"]["azimuth_channels"]["n_receivers"]
-            channel_rows.append(channel_row(n, rec, raw, row["focus_s"], row["simulate_s"], v_r))
-            channel_rows[-1]["times_s"] = row.get("focus_times") or [row["focus_s"]]
-            if n == 3:
-                rec3, raw3 = rec, raw  # the default reconstruct for the interpolation rows
-    if rec3 is None or raw3 is None:
-        raise SystemExit(f"{directory}: no channel task with N = 3 for the interpolation rows")
-    return search_rows + channel_rows + interpolation_rows(rec3, raw3)
+            n = config["effects"]["azimuth_channels"]["n_receivers"]
+            channel_rows.append(
+                {
+                    "knob": f"N = {n} channels",
+                    **out,
+                    "simulate_s": row["simulate_s"],
+                    **_quality(shots["image"]),
+                    "mfta_db": _mfta(shots["strip"]),
+                }
+            )
+    interpolation_rows: list[dict] = []
+    for row in image_rows:
+        bp = row["config"]["backproject"]
+        if bp.get("frame") == "squint_lrwc" or not set(KNOBS) & set(bp):
+            continue
+        strip = [
+            r
+            for r in image_rows
+            if {k: v for k, v in r["config"]["backproject"].items() if k in KNOBS}
+            == {k: v for k, v in bp.items() if k in KNOBS}
+            and r["task"] != row["task"]
+        ]
+        if len(strip) != 1:
+            raise SystemExit(f"{images}: expected one strip with the knobs of {row['task']}, got {len(strip)}")
+        # the backproject step's own time (its reconstruct before it is the N = 3 one)
+        dt = json.loads((row["dir"] / "backproject.h5.done.json").read_text())["seconds"]
+        interpolation_rows.append(
+            {
+                "knob": f"backproject {bp['interpolation']} x{bp['upsample']}",
+                "time_s": dt,
+                **_quality(row),
+                "mfta_db": _mfta(strip[0]),
+            }
+        )
+    return search_rows + channel_rows + interpolation_rows
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--results", default="results/003-accuracy")
     ap.add_argument("--from-sweep", type=Path, required=True, help="the sweep of configs/sweeps/accuracy_003.yaml")
+    ap.add_argument(
+        "--images-sweep", type=Path, required=True, help="the sweep of configs/sweeps/accuracy_003_images.yaml"
+    )
     args = ap.parse_args()
     res = Path(args.results)
     res.mkdir(parents=True, exist_ok=True)
-    rows = from_sweep(args.from_sweep)
+    rows = from_sweeps(args.from_sweep, args.images_sweep)
     how = (
-        f"Sweep {args.from_sweep}: search and channel rows' time_s and simulate_s are the sweep's step "
-        "times (best of the sweep's interleaved repeats as a CLI step, product I/O included; time_spread_s "
-        "max - min of them); interpolation rows timed here, one run."
+        f"Sweeps {args.from_sweep} (reconstruct) and {args.images_sweep} (images and strips): search and "
+        "channel rows' time_s and simulate_s are the reconstruct sweep's step times (best of its interleaved "
+        "repeats as a CLI step, product I/O included; time_spread_s max - min of them); interpolation rows' "
+        "the images sweep's backproject step, one run (a CLI step, product I/O included)."
     )
     write(res, rows, how)
 

@@ -128,6 +128,68 @@ def test_003_sweep_searches_on_three_channels_and_spaces_channels_uniformly():
     assert channels == {3, 4, 5}  # accuracy_003.py's interpolation rows use the N = 3 task
 
 
+def test_003_images_sweep_images_every_timed_case_and_the_interpolation_knobs_on_three_channels():
+    """configs/sweeps/accuracy_003_images.yaml reconstructs as accuracy_003.yaml's tasks do (one strip each, an
+    image each channel row) and as its N = 3 task with backprojection knobs alone (an image and a strip each),
+    ``-image`` with the scene's backprojection and guard, ``-strip`` on +-1.5 ghost spacings with the target's
+    own +-0.45 spacing left out, in cells of the strip's theoretical azimuth IRW (of the reconstructed product)."""
+    from sarproc.focus.backprojection import BackprojectParams, plan_backprojection
+    from sarproc.focus.multichannel.channels import ghost_spacing
+    from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct
+    from sarproc.product.config import build, load_yaml
+    from sarproc.quality.metrics import EvaluateParams
+    from sarproc.simulation.scene import scene_from_mapping
+    from sarproc.simulation.simulate import simulate
+
+    sweeps = ROOT / "configs" / "sweeps"
+    timed, plan = plan_sweep(sweeps / "accuracy_003.yaml"), plan_sweep(sweeps / "accuracy_003_images.yaml")
+    scene = load_yaml(ROOT / "configs" / "xu_scene.yaml")
+    assert all(t.focus == ("reconstruct", "backproject") and t.evaluate for t in plan.tasks)
+    knobs = ("interpolation", "upsample")
+
+    def stem(config):
+        return {k: v for k, v in config.items() if k not in ("backproject", "evaluate")}
+
+    def bp_knobs(config):
+        return {k: v for k, v in config["backproject"].items() if k in knobs}
+
+    n3 = next(t.config for t in timed.tasks if t.setting.get("effects.azimuth_channels.n_receivers") == 3)
+    shots: dict = {}  # (what it reconstructs, its backprojection knobs) -> the scene names
+    for t in plan.tasks:
+        assert t.scene.rsplit("-", 1)[1] in ("image", "strip")
+        shots.setdefault((repr(stem(t.config)), repr(bp_knobs(t.config))), []).append(t.scene.rsplit("-", 1)[1])
+        if bp_knobs(t.config):
+            assert stem(t.config) == stem(n3), t.scene
+    for t in timed.tasks:
+        channel_row = not any(k.startswith("reconstruct.") for k in t.setting)
+        assert sorted(shots.pop((repr(stem(t.config)), "{}"))) == (["image", "strip"] if channel_row else ["strip"])
+    assert all(sorted(v) == ["image", "strip"] for v in shots.values())  # the interpolation rows
+    interpolation = [bp_knobs(t.config) for t in plan.tasks if bp_knobs(t.config) and t.scene.endswith("-image")]
+    assert len(shots) == len(interpolation) and sorted((k["interpolation"], k["upsample"]) for k in interpolation) == (
+        sorted([("nearest", 8), ("linear", 2), ("linear", 4), ("linear", 8), ("linear", 16)])
+    )
+    spacing = ghost_spacing(scene_from_mapping(dict(scene)).radar)
+    raws: dict = {}
+    for t in plan.tasks:
+        bp = build(BackprojectParams, t.config["backproject"])
+        guard = build(EvaluateParams, t.config.get("evaluate") or {}).guard_cells
+        if t.scene.endswith("-image"):
+            assert t.config["backproject"] == {**scene["backproject"], **bp_knobs(t.config)}
+            assert guard == 60
+            continue
+        assert bp.frame == "squint_lrwc" and bp.range_extent == 30.0 and bp.oversample == 1.2
+        assert bp.azimuth_extent == pytest.approx(3 * spacing, rel=1e-12)
+        # the guard from the reconstructed product's strip theory, once per channel count
+        n = t.config["effects"]["azimuth_channels"]["n_receivers"]
+        if n not in raws:
+            raw = simulate(scene_from_mapping(stem(dict(t.config))))
+            rec = reconstruct(raw, build(ReconstructParams, t.config["reconstruct"]))
+            assert ghost_spacing(rec.radar, raw.radar.prf) == spacing
+            raws[n] = plan_backprojection(rec, bp).attrs["theoretical_irw"][0]
+        assert guard == pytest.approx(0.45 * spacing / raws[n], rel=1e-12), t.scene
+    assert sorted(raws) == [3, 4, 5]
+
+
 def test_reproduce_003_sweeps_and_strip_config_hold_the_reproductions_geometry():
     """make reproduce-003's strips span +-1.5 ghost spacings PRF v / K_a of their own scene (a PRF changed in a
     scene without its strip would silently measure other ghosts), and every given-velocity scene reconstructs
