@@ -43,8 +43,11 @@ def evaluate_estimate(stage: str, header: Product, params: Any) -> Plan:
     if residual:
         # the residual (default on 2D images): per target its model's fit, and its subtraction where it
         # reaches, about the image for each of the first few targets (measured: the demo, 5 targets on
-        # 189 k pixels, 0.8 s in process on an idle machine; 002 two-step, 25 on 1.76 M, about 4 s)
-        seconds += n_tg * 0.08 + 0.35e-6 * n * min(n_tg, 8)
+        # 189 k pixels, 0.8 s in process on an idle machine; 002 two-step, 25 on 1.76 M, about 4 s). Since the
+        # fits run to convergence (session 14) a fit costs about 4e-5 s per chip sample: whole processes on an
+        # idle 2-core machine, demo 2.84 s (5 targets, chips 93 x 93), bp_squint30 1.37 s (3, 75 x 75),
+        # nie2016_small 6.81 s (25, 77 x 73), against 1.2 / 0.72 / 8.1 s planned before
+        seconds += n_tg * (0.08 + 4e-5 * chip) + 0.15e-6 * n * min(n_tg, 8)
         memory += 24.0 * n  # the residual image (complex128) and its masks
         memory += 60e6  # numba's runtime and the residual's compiled kernels, loaded only here (demo: 70 -> 185 MB)
     # the JSON report: about 3 kB per target (figures are not counted)
