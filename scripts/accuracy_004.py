@@ -42,6 +42,19 @@ from sarproc.quality.image_measures import deviation_db
 from sarproc.quality.summary import worst_quality_json
 
 
+def axis_quality(target: dict) -> dict:
+    """A target's report (evaluate's JSON) per axis: IRW ratio, PSLR, ISLR, position error in cells."""
+    return {
+        a["axis"]: {
+            "irw_ratio": a["irw_ratio"],
+            "pslr": a["pslr_db"],
+            "islr": a["islr_db"],
+            "pos": a["position_error_cells"],
+        }
+        for a in target["axes"]
+    }
+
+
 def cube_deviation_db(cube: Product, ref: Product) -> float | None:
     """The cube's deviation from the reference cube (None: another grid)."""
     return deviation_db(cube.data, ref.data) if cube.data.shape == ref.data.shape else None
@@ -103,15 +116,7 @@ def sweep_family(directory: Path, scene: str, base: dict, singles: Sequence[str]
         per_target = {
             t["name"]: {
                 "peak": t["peak_amplitude"],
-                **{
-                    a["axis"]: {
-                        "irw_ratio": a["irw_ratio"],
-                        "pslr": a["pslr_db"],
-                        "islr": a["islr_db"],
-                        "pos": a["position_error_cells"],
-                    }
-                    for a in t["axes"]
-                },
+                **axis_quality(t),
             }
             for t in targets
         }
@@ -175,15 +180,7 @@ def hard_cases(directory: Path) -> list[dict]:
             q = f"evaluate refused: {refused}"
         else:
             t = json.loads((task / "report.json").read_text())["targets"][0]
-            q = {
-                a["axis"]: {
-                    "irw_ratio": a["irw_ratio"],
-                    "pslr": a["pslr_db"],
-                    "islr": a["islr_db"],
-                    "pos": a["position_error_cells"],
-                }
-                for a in t["axes"]
-            }
+            q = axis_quality(t)
         out.append({"case": name, "finite": finite, "quality": q})
     return out
 
