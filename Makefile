@@ -33,8 +33,9 @@ lint: $(TEST_STAMP)
 	$(VENV)/bin/ruff format --check .
 	$(VENV)/bin/mypy
 
+# --durations: the slowest tests in the log, to keep CI (2 cores) inside its budget.
 test: lint
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q --durations=25
 
 # Stage timings interleaved in one run, beside FastSAR (installed only in the bench venv .venv-bench,
 # never a runtime dependency); results/bench/latest.json (+ a timestamped copy). Heavy: waits for heavy.lock.
