@@ -257,7 +257,10 @@ def _write_text_atomic(path: Path, text: str, overwrite: bool = True) -> None:
     "target_names",
     default=None,
     metavar="NAMES",
-    help="Measure only these targets (comma-separated names); the others stay out of the false-target search.",
+    help=(
+        "Report only these targets (comma-separated names); the others in the image are still subtracted as "
+        "neighbours and stay out of the false-target search."
+    ),
 )
 @config_option
 @progress_option
