@@ -47,10 +47,11 @@ sweep-002: $(DIST_STAMP)
 .PHONY: accuracy-004 sweep-004 sweep-004-wide
 # Paper 004's array3d knobs: the script's 19 settings as a 152-task sweep (the paper scene for the time and
 # the cube, each of its 7 targets simulated and focused alone for the quality, as scripts/accuracy_004.py
-# scores them) and its 7 wide-swath settings as a 7-task sweep, then accuracy_004.py --from-sweep: the
-# script's tables from the sweeps' products (the cube deviation from a float64 reference computed on the
-# sweep's raw product, worst quality over the single-target tasks) and the hard cases (the 6-task sweep
-# configs/sweeps/hard_cases_004.yaml: its refusal is a row, not a failure).
+# scores them) and its 7 wide-swath settings as a 7-task sweep, the hard cases (the 6-task sweep
+# configs/sweeps/hard_cases_004.yaml: its refusal is a row, not a failure) and the reference cubes (the 5-task
+# sweep configs/sweeps/accuracy_004_reference.yaml: float64, sinc 32, one per scene and elevation padding),
+# then accuracy_004.py --from-sweep, which only reads: the script's tables from the sweeps' products (each
+# cube's deviation from its reference cube, worst quality over the single-target tasks) and the hard cases.
 # Against the script's own run: deviations identical, quality columns within 1.5e-7 (relative): Dask
 # workers run BLAS single-threaded (OMP_NUM_THREADS=1), which rounds array3d's complex64 elevation
 # matmul differently by one float32 ulp; the script run with OMP_NUM_THREADS=1 gives the sweep's cubes
@@ -59,8 +60,10 @@ accuracy-004: $(DIST_STAMP)
 	$(SARPROC) sweep configs/sweeps/accuracy_004.yaml -o results/004-accuracy/sweep
 	$(SARPROC) sweep configs/sweeps/accuracy_004_wide.yaml -o results/004-accuracy/sweep-wide
 	$(SARPROC) sweep configs/sweeps/hard_cases_004.yaml -o results/004-accuracy/hard-cases
+	$(SARPROC) sweep configs/sweeps/accuracy_004_reference.yaml -o results/004-accuracy/reference
 	$(PY) scripts/accuracy_004.py --from-sweep results/004-accuracy/sweep --wide-sweep results/004-accuracy/sweep-wide \
-		--hard-sweep results/004-accuracy/hard-cases --results results/004-accuracy --config configs/du2010.yaml
+		--hard-sweep results/004-accuracy/hard-cases --reference-sweep results/004-accuracy/reference \
+		--results results/004-accuracy --config configs/du2010.yaml
 
 sweep-004: $(DIST_STAMP)
 	$(SARPROC) sweep configs/sweeps/accuracy_004.yaml

@@ -1,16 +1,18 @@
 """Accuracy versus time for array3d (paper 004): one row per knob setting.
 
-    python scripts/accuracy_004.py --from-sweep DIR --wide-sweep DIR2 --hard-sweep DIR3 --results results/004-accuracy
+    python scripts/accuracy_004.py --from-sweep DIR --wide-sweep DIR2 --hard-sweep DIR3 --reference-sweep DIR4 \
+        --results results/004-accuracy
 
 ``make accuracy-004`` runs the settings as two sweeps (the one list of settings: configs/sweeps/
 accuracy_004.yaml, the paper scene configs/du2010.yaml and its seven targets alone, 152 tasks;
 configs/sweeps/accuracy_004_wide.yaml, the wide-swath family, 7 tasks), the hard cases as a third
-(configs/sweeps/hard_cases_004.yaml, 6 tasks) and then this script. Per setting:
+(configs/sweeps/hard_cases_004.yaml, 6 tasks), the reference cubes as a fourth
+(configs/sweeps/accuracy_004_reference.yaml, 5 tasks) and then this script, which only reads. Per setting:
 
 * the sweep's array3d time on the seven-target raw data (best and spread of its interleaved repeats as a
   CLI step, product I/O included);
-* the deviation of its cube from a float64 reference cube of the same knob family (max |c - c_ref| over
-  the peak, dB), where the grids agree: the reference is focused here on the sweep's raw product;
+* the deviation of its cube from the float64 / sinc 32 reference cube of the reference sweep simulated from
+  the same scene with the same elevation padding (max |c - c_ref| over the peak, dB), where the grids agree;
 * the worst point-target quality over the seven targets, each simulated and focused alone (the
   paper's targets sit inside each other's ISLR windows; see scripts/reproduce_004.py), from the
   single-target tasks' reports (sarproc.quality.summary): largest |IRW/theory - 1|, highest PSLR,
@@ -35,7 +37,8 @@ from typing import Any
 import numpy as np
 import yaml
 
-from sarproc.focus.array3d.linear_array import Array3DParams, array3d_product
+from sarproc.cli.sweep_output import same_simulation
+from sarproc.focus.array3d.linear_array import Array3DParams
 from sarproc.product.config import as_dict, build, load_yaml
 from sarproc.product.model import Product
 from sarproc.quality.image_measures import deviation_db
@@ -60,11 +63,29 @@ def cube_deviation_db(cube: Product, ref: Product) -> float | None:
     return deviation_db(cube.data, ref.data) if cube.data.shape == ref.data.shape else None
 
 
-def _reference(raw: Product, base: dict, pad: float) -> Product:
-    return array3d_product(
-        raw,
-        build(Array3DParams, {**base, "precision": "float64", "rcmc_kernel_length": 32, "elevation_zero_padding": pad}),
-    )[0]
+def _params(task: Path) -> Array3DParams:
+    return build(Array3DParams, load_yaml(task / "config.yaml").get("array3d") or {})
+
+
+def reference_task(references: Path, task: Path) -> Path:
+    """The task of the reference sweep (configs/sweeps/accuracy_004_reference.yaml) whose cube is the reference
+    of ``task``'s: simulated from the same scene, with the same elevation padding (so the same grid)."""
+    doc = json.loads((references / "table.json").read_text())
+    if doc["failures"]:
+        raise SystemExit(f"{references}: the sweep has failed tasks: {doc['failures']}")
+    pad = _params(task).elevation_zero_padding
+    found = [
+        references / "tasks" / row["task"]
+        for row in doc["rows"]
+        if same_simulation(references / "tasks" / row["task"], task)
+        and _params(references / "tasks" / row["task"]).elevation_zero_padding == pad
+    ]
+    if len(found) != 1:
+        raise SystemExit(
+            f"{references}: expected one reference cube of the scene of {task} with elevation_zero_padding {pad:g}, "
+            f"found {len(found)} (add it to configs/sweeps/accuracy_004_reference.yaml)"
+        )
+    return found[0]
 
 
 def _resolved(config: dict) -> str:
@@ -72,10 +93,10 @@ def _resolved(config: dict) -> str:
     return json.dumps(as_dict(build(Array3DParams, config.get("array3d") or {})), sort_keys=True, default=str)
 
 
-def sweep_family(directory: Path, scene: str, base: dict, singles: Sequence[str] = ()) -> list[dict]:
-    """One row per task of ``scene`` in the sweep (its order): time, cube deviation and the worst quality over
-    the targets of ``singles`` (the names of its one-target scenes with the same setting; empty: over the
-    scene's own targets)."""
+def sweep_family(directory: Path, scene: str, references: Path, singles: Sequence[str] = ()) -> list[dict]:
+    """One row per task of ``scene`` in the sweep (its order): time, cube deviation from its reference cube in
+    the sweep ``references`` and the worst quality over the targets of ``singles`` (the names of its one-target
+    scenes with the same setting; empty: over the scene's own targets)."""
     from sarproc.product.io import read_product
 
     doc = json.loads((directory / "table.json").read_text())
@@ -90,21 +111,18 @@ def sweep_family(directory: Path, scene: str, base: dict, singles: Sequence[str]
         tasks[key] = (row["task"], row)
         if row["scene"] == scene:
             order.append(key)
-    raws = sorted((directory / "raw").glob(f"{scene}-*.h5"))
-    if len(raws) != 1:
-        raise SystemExit(f"{directory}: expected one raw product of scene {scene}, found {len(raws)}")
-    raw = read_product(raws[0])
-    ref_cache, rows, used = {}, [], set()
+    ref_cache: dict[Path, Product] = {}
+    rows, used = [], set()
     for key in order:
         task_id, row = tasks[key]
         knobs = {k.split(".", 1)[1]: v for k, v in row.items() if k.startswith("array3d.")}
         label = ", ".join(f"{k} {v}" for k, v in knobs.items())
-        params = build(Array3DParams, load_yaml(directory / "tasks" / task_id / "config.yaml").get("array3d") or {})
+        params = _params(directory / "tasks" / task_id)
         cube = read_product(directory / "tasks" / task_id / "array3d.h5")
-        pad = params.elevation_zero_padding
-        if pad not in ref_cache:
-            ref_cache[pad] = _reference(raw, base, pad)
-        dev = cube_deviation_db(cube, ref_cache[pad])
+        ref = reference_task(references, directory / "tasks" / task_id)
+        if ref not in ref_cache:
+            ref_cache[ref] = read_product(ref / "array3d.h5")
+        dev = cube_deviation_db(cube, ref_cache[ref])
         reports = []
         for name in singles or (scene,):
             if (name, key[1]) not in tasks:
@@ -189,21 +207,20 @@ def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--results", default="results/004-accuracy")
     ap.add_argument("--config", default="configs/du2010.yaml", help="the paper scene of the sweep")
-    ap.add_argument(
-        "--wide-config", default="configs/du2010_wide_swath.yaml", help="the wide-swath scene of the wide sweep"
-    )
     ap.add_argument("--from-sweep", type=Path, required=True, help="the sweep of configs/sweeps/accuracy_004.yaml")
     ap.add_argument("--wide-sweep", type=Path, required=True, help="the sweep of configs/sweeps/accuracy_004_wide.yaml")
     ap.add_argument("--hard-sweep", type=Path, required=True, help="the sweep of configs/sweeps/hard_cases_004.yaml")
+    ap.add_argument(
+        "--reference-sweep", type=Path, required=True, help="the sweep of configs/sweeps/accuracy_004_reference.yaml"
+    )
     args = ap.parse_args(argv)
     out = Path(args.results)
     out.mkdir(parents=True, exist_ok=True)
     with open(args.config) as fh:
         mapping = yaml.safe_load(fh)
-    base = mapping.pop("array3d", {}) or {}
     singles = tuple(f"target{pt['name']}" for pt in mapping["targets"]["points"])
-    paper = sweep_family(args.from_sweep, "du2010", base, singles)
-    wide = sweep_family(args.wide_sweep, "wide", load_yaml(args.wide_config).get("array3d") or {})
+    paper = sweep_family(args.from_sweep, "du2010", args.reference_sweep, singles)
+    wide = sweep_family(args.wide_sweep, "wide", args.reference_sweep)
     timing = (
         f"times are the sweeps' array3d times ({args.from_sweep}, {args.wide_sweep}: best and spread "
         "(max - min) of the sweeps' interleaved repeats as a CLI step, product reads and writes included; "
@@ -235,7 +252,8 @@ def main(argv: list[str] | None = None) -> None:
         "# array3d accuracy versus time (paper 004)",
         "",
         f"Config `{args.config}`; {timing} on this machine (a shared 2-core machine: differences under ~30 % are noise). Cube deviation: "
-        "max |cube - reference| / max |reference| with the reference = float64, sinc 32, same elevation grid. "
+        "max |cube - reference| / max |reference| with the reference = float64, sinc 32, same elevation grid "
+        f"({args.reference_sweep}: configs/sweeps/accuracy_004_reference.yaml). "
         "The range filter row differs from the reference mainly by its gain normalisation (flat vs matched).",
         "",
     ]

@@ -4,11 +4,22 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
 from sarproc.cli.dask_map import scheduler_option
 from sarproc.cli.options import SectionCommand, common_options, input_argument, summary, want_progress
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from dask.distributed import Client
+
+    from sarproc.focus.backprojection import BackprojectionPlan, BackprojectParams, PulseSet
+    from sarproc.product.io import ProductWriter
+    from sarproc.product.model import Product
+    from sarproc.product.steps import ProgressFactory
 
 
 @click.command(cls=SectionCommand, section="backproject")
@@ -47,16 +58,14 @@ def backproject(
 
     import numpy as np
 
-    from sarproc.cli.dask_map import dask_mapper, scheduler_client, worker_threads, workers_peak_memory
-    from sarproc.cli.options import info, max_memory
+    from sarproc.cli.dask_map import scheduler_client
+    from sarproc.cli.options import max_memory
     from sarproc.cli.progress import progress_factory
     from sarproc.cli.stage import naming, prepare
     from sarproc.focus import backprojection as bp
     from sarproc.focus.budget import backproject_block_pixels, backproject_estimate
-    from sarproc.product.budget import human
     from sarproc.product.errors import InputError
     from sarproc.product.frames import frame_names
-    from sarproc.product.io import ProductWriter
 
     params, raw = prepare(
         "backproject",
@@ -86,37 +95,62 @@ def backproject(
     with (
         naming(input_path, config_path, "backproject"),
         scheduler_client(scheduler) as client,
-        ProductWriter(
-            output,
-            header.kind,
-            header.dims,
-            header.coords,
-            header.radar,
-            header.targets,
-            attrs=header.attrs,
-            aux=header.aux,
-            history=header.history,
-            inputs=[input_path],
-            overwrite=overwrite,
-        ) as writer,
+        _writer(output, header, input_path, overwrite) as writer,
     ):
-        mapper, source, threads = None, pulses, None
-        if client is not None:  # the pulses travel to every worker once; each block is a task
-            mapper = dask_mapper(client, "backproject-block")
-            source = client.scatter(pulses, broadcast=True)
-            threads = worker_threads(client)
-        for rows, block in bp.backproject_blocks(
-            source, plan, params, blocks, mapper, progress_factory(want_progress(progress), "backproject"), threads
-        ):
-            writer.write((rows, slice(None)), block)
-        if client is not None:
-            peaks = workers_peak_memory(client)
-            info(
-                f"backproject: {len(blocks)} blocks on {len(peaks)} Dask workers, peak memory per worker "
-                + ", ".join(human(v) for v in sorted(peaks.values()))
-            )
+        _write_blocks(
+            writer, pulses, plan, params, blocks, client, progress_factory(want_progress(progress), "backproject")
+        )
     parts = f" in {len(blocks)} blocks" if len(blocks) > 1 else ""
     summary(
         f"backproject: {'x'.join(map(str, plan.shape))} ({' x '.join(plan.dims)}) image{parts} in frame "
         f"{plan.frame.spec['name']} -> {output} ({time.perf_counter() - start:.2f} s)"
     )
+
+
+def _writer(output: Path, header: Product, input_path: Path, overwrite: bool) -> ProductWriter:
+    """The image's block writer: ``header``'s grid, metadata and history."""
+    from sarproc.product.io import ProductWriter
+
+    return ProductWriter(
+        output,
+        header.kind,
+        header.dims,
+        header.coords,
+        header.radar,
+        header.targets,
+        attrs=header.attrs,
+        aux=header.aux,
+        history=header.history,
+        inputs=[input_path],
+        overwrite=overwrite,
+    )
+
+
+def _write_blocks(
+    writer: ProductWriter,
+    pulses: PulseSet,
+    plan: BackprojectionPlan,
+    params: BackprojectParams,
+    blocks: Sequence[slice],
+    client: Client | None,
+    progress: ProgressFactory | None,
+) -> None:
+    """Backproject the row blocks, here or on the Dask ``client``'s workers, and write each as it comes."""
+    from sarproc.cli.dask_map import dask_mapper, worker_threads, workers_peak_memory
+    from sarproc.cli.options import info
+    from sarproc.focus import backprojection as bp
+    from sarproc.product.budget import human
+
+    mapper, source, threads = None, pulses, None
+    if client is not None:  # the pulses travel to every worker once; each block is a task
+        mapper = dask_mapper(client, "backproject-block")
+        source = client.scatter(pulses, broadcast=True)
+        threads = worker_threads(client)
+    for rows, block in bp.backproject_blocks(source, plan, params, blocks, mapper, progress, threads):
+        writer.write((rows, slice(None)), block)
+    if client is not None:
+        peaks = workers_peak_memory(client)
+        info(
+            f"backproject: {len(blocks)} blocks on {len(peaks)} Dask workers, peak memory per worker "
+            + ", ".join(human(v) for v in sorted(peaks.values()))
+        )

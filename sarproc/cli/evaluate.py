@@ -29,7 +29,7 @@ if TYPE_CHECKING:
     from collections.abc import Mapping, Sequence
 
     from sarproc.product.model import Product
-    from sarproc.quality.metrics import AxisMetrics, EvaluateParams, FalseTarget, QualityReport
+    from sarproc.quality.metrics import AxisMetrics, CheckFailure, EvaluateParams, FalseTarget, QualityReport
     from sarproc.quality.moving import MoverReport
 
 
@@ -257,7 +257,10 @@ def _write_text_atomic(path: Path, text: str, overwrite: bool = True) -> None:
     "target_names",
     default=None,
     metavar="NAMES",
-    help="Measure only these targets (comma-separated names); the others stay out of the false-target search.",
+    help=(
+        "Report only these targets (comma-separated names); the others in the image are still subtracted as "
+        "neighbours and stay out of the false-target search."
+    ),
 )
 @config_option
 @progress_option
@@ -290,7 +293,6 @@ def evaluate(
     from sarproc.cli.progress import progress_factory
     from sarproc.cli.stage import naming, report_plan
     from sarproc.product.config import load_yaml
-    from sarproc.product.errors import InputError
     from sarproc.product.io import check_output_path, read_product
     from sarproc.product.model import UNITS
     from sarproc.product.run import mark_published
@@ -300,20 +302,13 @@ def evaluate(
     # Every argument is checked before the (possibly long) evaluation: config, tolerances, the
     # image's layout, then the outputs.
     params = load_config(EvaluateParams, config_path, section="evaluate")
-    names = None
-    if target_names is not None:
-        names = [n.strip() for n in target_names.split(",") if n.strip()]
-        if not names:
-            raise InputError(f"--targets: no target names in {target_names!r}")
+    names = _target_names(target_names)
     expect = expectations_from_mapping(load_yaml(expect_path), str(expect_path)) if expect_path else None
     header = read_product(input_path, kinds=("image", "image3d"), load=False)
     if output is not None:
         check_output_path(output, [input_path], overwrite=overwrite)
     if plot_dir is not None:
-        if plot_dir.exists() and not plot_dir.is_dir():
-            raise InputError(f"{plot_dir}: --plot needs a directory, this is a file")
-        # an existing folder must take new files; a missing one must be creatable
-        check_output_path(plot_dir / "quicklook.png" if plot_dir.exists() else plot_dir, [input_path], overwrite=True)
+        _check_plot_dir(plot_dir, input_path)
     with naming(input_path, config_path, "evaluate"):
         plan = evaluate_estimate("evaluate", header, params)
     report_plan(plan, [output], input_path)
@@ -335,20 +330,7 @@ def evaluate(
     if output is not None:
         doc = {"input": str(input_path), "units": units, **report.to_dict()}
         if expect is not None:
-            doc["expect"] = {
-                "file": str(expect_path),
-                "passed": not failures,
-                "failures": [
-                    {
-                        "target": f.target,
-                        "axis": f.axis,
-                        "metric": f.metric,
-                        "value": f.value if math.isfinite(f.value) else None,
-                        "bound": f.bound,
-                    }
-                    for f in failures
-                ],
-            }
+            doc["expect"] = _expect_doc(expect_path, failures)
         _write_text_atomic(output, json.dumps(doc, indent=2, allow_nan=False) + "\n", overwrite)
     if plot_dir is not None:
         from sarproc.quality.moving import apparent_truth
@@ -359,12 +341,57 @@ def evaluate(
     if verbosity() >= 0:
         click.echo(metrics_table(report, units), err=stdout_taken())
     if expect is not None:
-        for f in failures:
-            click.echo(str(f), err=True)
-        if failures:
-            click.echo(f"evaluate: {len(failures)} check(s) failed against {expect_path}", err=True)
-            click.get_current_context().exit(1)
-        summary(f"evaluate: all checks passed against {expect_path}")
+        _verdict(failures, expect_path)
+
+
+def _target_names(target_names: str | None) -> list[str] | None:
+    """--targets as a list of names (None: every target); raises InputError when it names none."""
+    from sarproc.product.errors import InputError
+
+    if target_names is None:
+        return None
+    names = [n.strip() for n in target_names.split(",") if n.strip()]
+    if not names:
+        raise InputError(f"--targets: no target names in {target_names!r}")
+    return names
+
+
+def _check_plot_dir(plot_dir: Path, input_path: Path) -> None:
+    """--plot must be a directory that takes new files (existing) or can be created (missing)."""
+    from sarproc.product.errors import InputError
+    from sarproc.product.io import check_output_path
+
+    if plot_dir.exists() and not plot_dir.is_dir():
+        raise InputError(f"{plot_dir}: --plot needs a directory, this is a file")
+    check_output_path(plot_dir / "quicklook.png" if plot_dir.exists() else plot_dir, [input_path], overwrite=True)
+
+
+def _expect_doc(expect_path: Path | None, failures: Sequence[CheckFailure]) -> dict:
+    """The report JSON's "expect" entry: the tolerance file, whether it passed, and each failure."""
+    return {
+        "file": str(expect_path),
+        "passed": not failures,
+        "failures": [
+            {
+                "target": f.target,
+                "axis": f.axis,
+                "metric": f.metric,
+                "value": f.value if math.isfinite(f.value) else None,
+                "bound": f.bound,
+            }
+            for f in failures
+        ],
+    }
+
+
+def _verdict(failures: Sequence[CheckFailure], expect_path: Path | None) -> None:
+    """Each failed check on stderr and exit 1, or the all-passed summary line."""
+    for f in failures:
+        click.echo(str(f), err=True)
+    if failures:
+        click.echo(f"evaluate: {len(failures)} check(s) failed against {expect_path}", err=True)
+        click.get_current_context().exit(1)
+    summary(f"evaluate: all checks passed against {expect_path}")
 
 
 def _plots(

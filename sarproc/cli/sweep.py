@@ -3,10 +3,14 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
 from sarproc.cli.options import SectionCommand, summary, verbosity
+
+if TYPE_CHECKING:
+    from sarproc.cli.sweep_tasks import Outcome, Plan
 
 
 @click.command(cls=SectionCommand, section="sweep")
@@ -70,12 +74,9 @@ def sweep(
     (pip install 'sarproc[distributed]'); see docs/sweeps.md for a SLURM cluster. SWEEP_PATH '-'
     reads the sweep from standard input (relative paths then start in the current directory).
     """
-    import logging
-    import os
-
-    from sarproc.cli.sweep_tasks import local_client, plan_sweep, run_dask, run_serial, sweep_table, write_results
+    from sarproc.cli.sweep_tasks import plan_sweep, sweep_table, write_results
     from sarproc.product import run
-    from sarproc.product.errors import InputError, ProcessingError
+    from sarproc.product.errors import ProcessingError
     from sarproc.product.io import atomic_path, check_output_path
 
     plan = plan_sweep(sweep_path, output)
@@ -92,52 +93,71 @@ def sweep(
     table_on_stdout = run.stdout_taken()
     run.take_stdout(False)  # not yet: the steps' own summaries are captured from stdout for their records
     run.keep_published_on_interrupt()  # finished steps stay: a rerun resumes from them
-    if scheduler is None:
-        try:
-            import dask.distributed  # noqa: F401
-
-            scheduler = "local"
-        except ImportError:
-            scheduler = "serial"
-            if verbosity() >= 0:
-                click.echo(
-                    "sweep: Dask is not installed: the tasks run one after the other in this process "
-                    "(pip install 'sarproc[distributed]' to run them in parallel)",
-                    err=True,
-                )
-    if scheduler == "serial":
-        outcome = run_serial(plan)
-        runner = "serial"
-    else:
-        try:
-            from dask.distributed import Client
-        except ImportError:
-            raise InputError(
-                "--scheduler: Dask is not installed; pip install 'sarproc[distributed]' or use --scheduler serial"
-            ) from None
-        # distributed logs its cluster's life at INFO; show it only when sarproc itself is verbose
-        logging.getLogger("distributed").setLevel(max(logging.getLogger().level, logging.WARNING))
-        if scheduler == "local":
-            client = local_client(workers or os.cpu_count() or 1, threads_per_worker, processes)
-            runner = f"local Dask cluster, {len(client.scheduler_info()['workers'])} workers"
-        else:
-            try:
-                client = Client(scheduler)  # waits distributed.comm.timeouts.connect (dask config)
-            except (OSError, ValueError) as exc:
-                raise InputError(f"--scheduler: cannot reach Dask scheduler {scheduler}: {exc}") from None
-            runner = f"Dask scheduler {scheduler}, {len(client.scheduler_info()['workers'])} workers"
-        try:
-            outcome = run_dask(plan, client)
-        finally:
-            cluster = client.cluster if scheduler == "local" else None
-            client.close()
-            if cluster is not None:
-                cluster.close()
+    outcome, runner = _run(plan, scheduler or _default_scheduler(), workers, threads_per_worker, processes)
     paths = write_results(plan, outcome, runner)
     run.take_stdout(table_on_stdout)
     if table_path is not None:
         with atomic_path(table_path) as tmp:
             tmp.write_text(sweep_table(plan, outcome.rows) + "\n", encoding="utf-8")
+    _report(plan, outcome, runner, paths["md"])
+    if outcome.failures:
+        raise ProcessingError(f"sweep: {len(outcome.failures)} task(s) failed; rerun to retry them")
+
+
+def _default_scheduler() -> str:
+    """'local' where Dask is installed, else 'serial' (said once on stderr)."""
+    try:
+        import dask.distributed  # noqa: F401
+
+        return "local"
+    except ImportError:
+        if verbosity() >= 0:
+            click.echo(
+                "sweep: Dask is not installed: the tasks run one after the other in this process "
+                "(pip install 'sarproc[distributed]' to run them in parallel)",
+                err=True,
+            )
+        return "serial"
+
+
+def _run(plan: Plan, scheduler: str, workers: int, threads_per_worker: int, processes: bool) -> tuple[Outcome, str]:
+    """Run the plan's tasks serially or on Dask: (the outcome, where it ran in words)."""
+    import logging
+    import os
+
+    from sarproc.cli.sweep_tasks import local_client, run_dask, run_serial
+    from sarproc.product.errors import InputError
+
+    if scheduler == "serial":
+        return run_serial(plan), "serial"
+    try:
+        from dask.distributed import Client
+    except ImportError:
+        raise InputError(
+            "--scheduler: Dask is not installed; pip install 'sarproc[distributed]' or use --scheduler serial"
+        ) from None
+    # distributed logs its cluster's life at INFO; show it only when sarproc itself is verbose
+    logging.getLogger("distributed").setLevel(max(logging.getLogger().level, logging.WARNING))
+    if scheduler == "local":
+        client = local_client(workers or os.cpu_count() or 1, threads_per_worker, processes)
+        runner = f"local Dask cluster, {len(client.scheduler_info()['workers'])} workers"
+    else:
+        try:
+            client = Client(scheduler)  # waits distributed.comm.timeouts.connect (dask config)
+        except (OSError, ValueError) as exc:
+            raise InputError(f"--scheduler: cannot reach Dask scheduler {scheduler}: {exc}") from None
+        runner = f"Dask scheduler {scheduler}, {len(client.scheduler_info()['workers'])} workers"
+    try:
+        return run_dask(plan, client), runner
+    finally:
+        cluster = client.cluster if scheduler == "local" else None
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _report(plan: Plan, outcome: Outcome, runner: str, table_md: Path) -> None:
+    """The failed tasks' errors on stderr and the summary line."""
     skipped = sum(1 for r in outcome.rows if r["skipped"])
     refused = sum(1 for r in outcome.rows if r.get("refused") is not None)
     for task, error in outcome.failures:
@@ -146,7 +166,5 @@ def sweep(
         f"sweep: {len(outcome.rows)}/{len(plan.tasks)} tasks ({skipped} already done"
         + (f", {refused} refused their input" if refused else "")
         + f") on {runner} "
-        f"in {outcome.seconds:.1f} s -> {paths['md']}"
+        f"in {outcome.seconds:.1f} s -> {table_md}"
     )
-    if outcome.failures:
-        raise ProcessingError(f"sweep: {len(outcome.failures)} task(s) failed; rerun to retry them")

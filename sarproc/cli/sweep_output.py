@@ -45,6 +45,12 @@ def _scene_part(config: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in config.items() if k not in stages}
 
 
+def same_simulation(task_a: Path, task_b: Path) -> bool:
+    """Whether two task folders (of one sweep or of two) simulate the same scene: their configs' sections other
+    than the stages' are equal (so are their raw products: the simulation is deterministic)."""
+    return _scene_part(load_yaml(Path(task_a) / "config.yaml")) == _scene_part(load_yaml(Path(task_b) / "config.yaml"))
+
+
 def raw_product_of(directory: Path, scene: str) -> Path:
     """The raw product a sweep simulated for ``scene``: the one whose scene YAML holds the simulation sections
     of the scene's first task (raw products are shared between scenes that simulate the same and named after

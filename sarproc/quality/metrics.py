@@ -784,6 +784,7 @@ def evaluate_image(
     target_chirp: npt.ArrayLike | None = None,
     response_period: npt.ArrayLike | None = None,
     response_table: Sequence[tuple[np.ndarray, float] | None] | None = None,
+    measure: npt.ArrayLike | None = None,
 ) -> QualityReport:
     """Measure every target of a 2D (azimuth, range) or 3D (elevation, azimuth, range) image.
 
@@ -813,7 +814,10 @@ def evaluate_image(
     elevation, period lambda / d); the neighbour models carry it. response_table: optional, per axis None or
     (values, step): the responses' shape along that axis tabulated (real, centred on the peak, value 1 there) at
     ``step`` axis units (array3d's range response, the autocorrelation of the chirp under its matched filter); the
-    neighbour models take it inside the table, their sinc beyond. Raises InputError.
+    neighbour models take it inside the table, their sinc beyond. measure: optional (n_targets,) booleans,
+    the targets to report (a subset was asked for): the others are still found and subtracted from their
+    neighbours' chips (so a measured target's figures are those of the run over every target), then kept out of
+    the false-target search like ``other_truth``. Raises InputError.
 
     Steps: :func:`_find_peak` per target (pass 1: peak and support on the image's chip),
     :func:`_subtract_neighbours` (pass 2: the groups' fitted responses off each chip, peak and support again),
@@ -823,6 +827,9 @@ def evaluate_image(
     data = np.asarray(data)
     axes, metric, truth, names = _checked_inputs(data, dims, coords, theoretical_irw, truth, names, metric, params)
     own_axes = _target_axes(axes, target_irw, truth.shape[0], params.irw_factor, target_null, target_sidelobes)
+    measured = np.ones(len(names), dtype=bool) if measure is None else np.asarray(measure, dtype=bool)
+    if measured.shape != (len(names),) or not measured.any():
+        raise InputError(f"measure must flag at least one of the {len(names)} targets, got shape {measured.shape}")
     mag = np.abs(data)
     # chips wide enough for every target's own ISLR window
     half = [
@@ -832,7 +839,7 @@ def evaluate_image(
     nulls = [ax.null for ax in axes]
     # One bar over the whole evaluation: each target's pass 1, pass 2 (when neighbours are removed) and
     # measurement, then the false-target search.
-    done = steps(progress, len(names) * (3 if params.remove_neighbours else 2) + 1)
+    done = steps(progress, len(names) * (2 if params.remove_neighbours else 1) + int(measured.sum()) + 1)
     peaks = [
         _find_peak(data, mag, axes, name, t, half, nulls, params) for name, t in wrapped(done, list(zip(names, truth)))
     ]
@@ -840,16 +847,15 @@ def evaluate_image(
         chirps = _chirps_in_samples(target_chirp, axes, len(names))
         shapes = _response_shapes(response_period, response_table, axes)
         peaks = _subtract_neighbours(data, peaks, names, nulls, half, params, done, chirps, shapes)
+    # only the measured targets from here on; the others (and other_truth) guard their neighbourhoods
+    order = [int(i) for i in np.flatnonzero(measured)]
+    peaks, own_axes = [peaks[i] for i in order], [own_axes[i] for i in order]
     reports = [
-        _measure(peak, own, t, name, params, metric)
-        for peak, name, t, own in wrapped(done, list(zip(peaks, names, truth, own_axes)))
+        _measure(peak, own, truth[i], names[i], params, metric)
+        for peak, own, i in wrapped(done, list(zip(peaks, own_axes, order)))
     ]
-    # targets not measured (a subset was asked for) still guard their neighbourhoods from the search
-    guarded = (
-        truth
-        if other_truth is None or len(other_truth) == 0
-        else np.concatenate([truth, np.asarray(other_truth, dtype=float).reshape(-1, len(axes))])
-    )
+    others = [truth[~measured]] + ([] if other_truth is None else [np.asarray(other_truth, dtype=float)])
+    guarded = np.concatenate([truth[measured]] + [o.reshape(-1, len(axes)) for o in others])
     false, guard, floor = _false_targets(data, mag, axes, guarded, peaks, reports, half, nulls, params, own_axes)
     done()
     return QualityReport(
@@ -1855,9 +1861,10 @@ def evaluate_product(
     reported with its velocity and relocation errors (:mod:`sarproc.quality.moving`); theory is the target's own
     ``irw_<dim>``, ``null_<dim>``, ``pslr_<dim>`` and ``islr_<dim>`` fields where recorded (not 0; every
     processor records them from the target's own illumination and weighting), else
-    ``product.attrs['theoretical_irw']`` with ``irw_factor``. ``names``: measure only these
-    targets (the others' neighbourhoods stay out of the false-target search). ``source`` (the file name)
-    prefixes error messages.
+    ``product.attrs['theoretical_irw']`` with ``irw_factor``. ``names``: report only these
+    targets (the others inside the image are still found and subtracted as neighbours, so the named targets'
+    figures are those of the run over all; every other's neighbourhood stays out of the false-target search).
+    ``source`` (the file name) prefixes error messages.
     """
     from sarproc.quality.moving import apparent_truth, mover_reports
 
@@ -1881,11 +1888,13 @@ def evaluate_product(
                 f"{where}--targets: no target(s) {', '.join(map(repr, unknown))} in the targets table "
                 f"(targets: {', '.join(all_names)})"
             )
-    keep = np.array([names is None or n in names for n in all_names])
     table = apparent_truth(product, source)
     if params is not None and params.fold_elevation:
         table = folded_truth(product, table, where)
     truth_all = np.stack([table[d].astype(float) for d in product.dims], axis=1)
+    measured = np.array([names is None or n in names for n in all_names])
+    # the targets left out of a subset are still modelled as neighbours where they lie in the image
+    keep = measured | _within_extent(product, truth_all)
     own = np.stack(
         [table[f"irw_{d}"].astype(float) if f"irw_{d}" in fields else np.zeros(len(truth_all)) for d in product.dims],
         axis=1,
@@ -1925,10 +1934,22 @@ def evaluate_product(
             target_chirp=target_chirp(product, truth_all[keep], where),
             response_period=response_period(product, where),
             response_table=response_table(product, where),
+            measure=measured[keep],
         )
     except InputError as exc:
         raise InputError(f"{where}{exc}") from None
     return dataclasses.replace(report, movers=mover_reports(product, table, report, source))
+
+
+def _within_extent(product: Product, truth: np.ndarray) -> np.ndarray:
+    """(n_targets,) whether each truth position lies within the image's extent (half a sample beyond the
+    first and last coordinates, as :func:`_find_peak` requires)."""
+    inside = np.ones(len(truth), dtype=bool)
+    for a, d in enumerate(product.dims):
+        c = np.asarray(product.coords[d], dtype=float)
+        half = abs(c[1] - c[0]) / 2 if len(c) > 1 else 0.0
+        inside &= (truth[:, a] >= c.min() - half) & (truth[:, a] <= c.max() + half)
+    return inside
 
 
 CHIRP_ATTR = "azimuth_chirp_times_range"  # 1/m: the azimuth response of a target at slant range r carries

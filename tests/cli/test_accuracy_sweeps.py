@@ -105,6 +105,40 @@ def test_004_sweeps_have_the_same_settings_on_the_scene_and_each_isolated_target
     assert len({_array3d(t.config) for t in wide.tasks}) == len(wide.tasks) == 7
 
 
+def test_004_reference_sweep_has_one_float64_cube_per_scene_and_elevation_grid():
+    """configs/sweeps/accuracy_004_reference.yaml: for every paper-scene and wide-swath task, exactly one
+    reference task simulating the same scene with the same elevation padding (accuracy_004.py's match), at
+    float64 with a 32-tap sinc and otherwise the scene's array3d section."""
+    from sarproc.focus.array3d.linear_array import Array3DParams
+    from sarproc.product.config import as_dict, build, load_yaml
+
+    REFERENCE = {"precision": "float64", "rcmc_kernel": "sinc", "rcmc_kernel_length": 32}
+    bases = {"du2010": load_yaml(ROOT / "configs" / "du2010.yaml")["array3d"], "wide": {}}
+
+    def scene(config):
+        return {k: v for k, v in config.items() if k != "array3d"}
+
+    refs = plan_sweep(ROOT / "configs" / "sweeps" / "accuracy_004_reference.yaml")
+    assert not refs.tasks[0].evaluate
+    ref_params = [build(Array3DParams, t.config.get("array3d") or {}) for t in refs.tasks]
+    paper = plan_sweep(ROOT / "configs" / "sweeps" / "accuracy_004.yaml")
+    wide = plan_sweep(ROOT / "configs" / "sweeps" / "accuracy_004_wide.yaml")
+    used = set()
+    for task in [t for t in paper.tasks if t.scene == "du2010"] + list(wide.tasks):
+        pad = build(Array3DParams, task.config.get("array3d") or {}).elevation_zero_padding
+        found = [
+            i
+            for i, (ref, p) in enumerate(zip(refs.tasks, ref_params))
+            if scene(ref.config) == scene(task.config) and p.elevation_zero_padding == pad
+        ]
+        assert len(found) == 1, (task.task_id, found)
+        used.add(found[0])
+        # the scene file's array3d section with only the precision, the kernel and the padding set
+        want = {**bases[task.scene], **REFERENCE, "elevation_zero_padding": pad}
+        assert as_dict(ref_params[found[0]]) == as_dict(build(Array3DParams, want))
+    assert used == set(range(len(refs.tasks)))  # no reference cube that no table row reads
+
+
 def test_003_sweep_searches_on_three_channels_and_spaces_channels_uniformly():
     from sarproc.focus.multichannel.reconstruct import ReconstructParams
     from sarproc.product.config import build

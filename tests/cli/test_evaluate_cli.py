@@ -53,9 +53,9 @@ def sinc_image(coords, res, truth, doppler):
     return out.astype(np.complex64)
 
 
-def make_image(path, *, irw=True, three_d=False, ghost_db=None):
-    names = list(TARGETS)
-    truth = [TARGETS[n] for n in names]
+def make_image(path, *, irw=True, three_d=False, ghost_db=None, targets=TARGETS):
+    names = list(targets)
+    truth = [targets[n] for n in names]
     if three_d:
         dims, res, steps = ("elevation", "azimuth", "range"), (0.02,) + RES, (0.012,) + STEP
         truth = [(0.0011 * (i + 1),) + t for i, t in enumerate(truth)]
@@ -149,6 +149,33 @@ false_target_db_max: -30
 axes: {range: {irw_ratio_max: 1.1}}
 targets: {B: {pslr_db: [-20, -12]}}
 """
+
+
+def test_targets_subset_keeps_the_others_as_neighbours(tmp_path):
+    """--targets A on two targets 3-4 IRW apart (inside each other's ISLR windows): B is still fitted and
+    subtracted from A's chip, so A's figures are those of the run over both (issue 21: B's side lobes left
+    in A's window read its range ISLR 1.2 dB high on paper 004's cube)."""
+    image = make_image(tmp_path / "close.h5", targets={"A": (-2.1, -1.6), "B": (1.9, 1.55)})
+    reports = {}
+    for label, extra in (("all", []), ("A", ["--targets", "A"])):
+        res = run(image, "-o", tmp_path / f"{label}.json", *extra)
+        assert res.exit_code == 0, res.output
+        reports[label] = json.loads((tmp_path / f"{label}.json").read_text())
+    both, alone = reports["all"]["targets"], reports["A"]["targets"]
+    assert [t["name"] for t in both] == ["A", "B"] and [t["name"] for t in alone] == ["A"]
+    assert alone[0]["neighbours_removed"] == ["B"]
+    assert alone[0] == both[0]
+    # and B's side lobes would be in A's windows without it: its ISLR rises
+    res = run(image, "-o", tmp_path / "off.json", "--targets", "A", "--config", _no_neighbours(tmp_path))
+    assert res.exit_code == 0, res.output
+    off = json.loads((tmp_path / "off.json").read_text())["targets"][0]
+    assert max(m["islr_db"] for m in off["axes"]) > max(m["islr_db"] for m in both[0]["axes"]) + 1.0
+
+
+def _no_neighbours(tmp_path):
+    path = tmp_path / "no_neighbours.yaml"
+    path.write_text("evaluate: {remove_neighbours: false}\n")
+    return path
 
 
 def test_expect_pass_and_fail(image2d, tmp_path):

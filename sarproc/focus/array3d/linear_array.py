@@ -459,40 +459,15 @@ def focus_array3d(
     tx_offset (3,), rx_offset (n_ch, 3) m relative to the platform. Inputs are not modified.
     """
     signal = np.asarray(signal)
-    if signal.ndim != 3:
-        raise InputError(f"signal: expected (channel, azimuth_time, range_time), got shape {signal.shape}")
+    acq = _checked_acquisition(signal, range_time, platform_position, tx_offset, rx_offset, radar)
+    geom, u, du, range_time = acq.geometry, acq.along_track, acq.along_track_spacing, acq.range_time
     n_ch, n_az, n_rg = signal.shape
-    geom = array_geometry(tx_offset, rx_offset)
-    if len(geom.offsets) != n_ch:
-        raise InputError(f"aux rx_offset has {len(geom.offsets)} receivers, the signal {n_ch} channels")
-    if radar.altitude <= 0:
-        raise InputError("radar.altitude: array3d is a down-looking processor and needs altitude > 0")
-    u, du = _along_track(platform_position, radar)
-    if len(u) != n_az:
-        raise InputError(f"aux platform_position has {len(u)} pulses, the signal {n_az}")
-    range_time = np.asarray(range_time, float)
-    if len(range_time) != n_rg:
-        raise InputError(f"range_time has {len(range_time)} samples, the signal {n_rg}")
-    if not np.all(np.isfinite(signal)):
-        raise InputError("signal contains NaN or Inf")
     ctype = np.complex64 if params.precision == "float32" else np.complex128
     lam = radar.wavelength
     ranges = C * range_time / 2.0
 
     theta = elevation_grid(geom, lam, params)
-    if params.crop_range:
-        keep = np.nonzero(
-            (range_time >= range_time[0] + radar.pulse_duration / 2)
-            & (range_time <= range_time[-1] - radar.pulse_duration / 2)
-        )[0]
-        if len(keep) < 2:
-            raise ProcessingError(
-                "the receive window is shorter than the pulse: no fully compressed range "
-                "sample (set array3d.crop_range: false to keep partial ones)"
-            )
-        sl = slice(int(keep[0]), int(keep[-1]) + 1)
-    else:
-        sl = slice(None)
+    sl = _range_crop(range_time, radar, params)
     # One bar over the whole chain: range compression, azimuth focusing, then each elevation block.
     n_kept = len(range(n_rg)[sl])
     blocks = _elevation_blocks((n_ch, n_az, n_kept), ranges[sl], geom, theta, radar, params)[1]
@@ -518,8 +493,89 @@ def focus_array3d(
     irw_az = SINC_IRW_FACTOR / b_az
     irw_rg = SINC_IRW_FACTOR * C / (2 * radar.bandwidth)
     irw_el = elevation_irw(geom.offsets, lam)
-    info = {
-        "n_channels": n_ch,
+    info = _chain_info(geom, theta, lam, b_az, du, ranges, sl, n_rg)
+    chans = images[:, :, sl].astype(np.complex64) if keep_channel_images else None
+    return Array3DResult(
+        cube=cube.astype(np.complex64, copy=False),
+        elevation=theta,
+        azimuth=u.copy(),
+        range=ranges[sl].copy(),
+        theoretical_irw=[irw_el, irw_az, irw_rg],
+        channel_images=chans,
+        channel_irw=[irw_az, irw_rg],
+        info=info,
+    )
+
+
+@dataclasses.dataclass(frozen=True)
+class _Acquisition:
+    """What :func:`focus_array3d` needs of its inputs besides the signal, checked against its shape."""
+
+    geometry: ArrayGeometry
+    along_track: np.ndarray  # (n_az,) m, the pulses' platform x
+    along_track_spacing: float  # m
+    range_time: np.ndarray  # (n_rg,) s since transmit, float64
+
+
+def _checked_acquisition(
+    signal: np.ndarray,
+    range_time: np.ndarray,
+    platform_position: np.ndarray,
+    tx_offset: np.ndarray,
+    rx_offset: np.ndarray,
+    radar: RadarMetadata,
+) -> _Acquisition:
+    """The array geometry, the along-track axis and the range times of a (n_ch, n_az, n_rg) signal; raises
+    InputError where they do not match it (or the signal holds NaN or Inf)."""
+    if signal.ndim != 3:
+        raise InputError(f"signal: expected (channel, azimuth_time, range_time), got shape {signal.shape}")
+    n_ch, n_az, n_rg = signal.shape
+    geom = array_geometry(tx_offset, rx_offset)
+    if len(geom.offsets) != n_ch:
+        raise InputError(f"aux rx_offset has {len(geom.offsets)} receivers, the signal {n_ch} channels")
+    if radar.altitude <= 0:
+        raise InputError("radar.altitude: array3d is a down-looking processor and needs altitude > 0")
+    u, du = _along_track(platform_position, radar)
+    if len(u) != n_az:
+        raise InputError(f"aux platform_position has {len(u)} pulses, the signal {n_az}")
+    range_time = np.asarray(range_time, float)
+    if len(range_time) != n_rg:
+        raise InputError(f"range_time has {len(range_time)} samples, the signal {n_rg}")
+    if not np.all(np.isfinite(signal)):
+        raise InputError("signal contains NaN or Inf")
+    return _Acquisition(geom, u, du, range_time)
+
+
+def _range_crop(range_time: np.ndarray, radar: RadarMetadata, params: Array3DParams) -> slice:
+    """The range samples kept: with ``crop_range`` those fully compressed (half a pulse from either end of the
+    receive window), else all."""
+    if not params.crop_range:
+        return slice(None)
+    keep = np.nonzero(
+        (range_time >= range_time[0] + radar.pulse_duration / 2)
+        & (range_time <= range_time[-1] - radar.pulse_duration / 2)
+    )[0]
+    if len(keep) < 2:
+        raise ProcessingError(
+            "the receive window is shorter than the pulse: no fully compressed range "
+            "sample (set array3d.crop_range: false to keep partial ones)"
+        )
+    return slice(int(keep[0]), int(keep[-1]) + 1)
+
+
+def _chain_info(
+    geom: ArrayGeometry,
+    theta: np.ndarray,
+    lam: float,
+    b_az: float,
+    du: float,
+    ranges: np.ndarray,
+    sl: slice,
+    n_rg: int,
+) -> dict:
+    """The numbers of a focus_array3d run worth recording in the history (Array3DResult.info)."""
+    return {
+        "n_channels": len(geom.offsets),
         "receiver_spacing_m": geom.spacing,
         "uniform_array": geom.uniform,
         "elevation_bins": int(len(theta)),
@@ -533,17 +589,6 @@ def focus_array3d(
         ),
         "range_crop_samples": [int(sl.start or 0), int(sl.stop or n_rg)],
     }
-    chans = images[:, :, sl].astype(np.complex64) if keep_channel_images else None
-    return Array3DResult(
-        cube=cube.astype(np.complex64, copy=False),
-        elevation=theta,
-        azimuth=u.copy(),
-        range=ranges[sl].copy(),
-        theoretical_irw=[irw_el, irw_az, irw_rg],
-        channel_images=chans,
-        channel_irw=[irw_az, irw_rg],
-        info=info,
-    )
 
 
 # ----------------------------------------------------------------------------------------------

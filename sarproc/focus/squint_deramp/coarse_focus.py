@@ -417,33 +417,29 @@ def _fold_messages(
     return problems, notes
 
 
-def coarse_focus(
-    pre: Product, params: CoarseFocusParams = CoarseFocusParams(), progress: ProgressFactory | None = None
-) -> Product:
-    """``preprocessed`` product -> ``coarse`` product on the deramped azimuth grid t'."""
-    from sarproc.product.io import history_entry
-
-    if pre.kind != "preprocessed":
-        raise InputError(f"coarse-focus needs a 'preprocessed' product, got {pre.kind!r}")
-    radar = pre.radar
+def _azimuth_time(pre: Product) -> np.ndarray:
+    """The pulses' azimuth times (float64 s), checked: at least two, uniform at the PRF."""
     t = np.asarray(pre.coords["azimuth_time"], float)
     if len(t) < 2:
         raise InputError("coarse-focus: need at least two pulses")
-    prf = radar.prf
-    dt = np.diff(t)
-    if not np.allclose(dt, 1.0 / prf, rtol=1e-6, atol=0):
+    if not np.allclose(np.diff(t), 1.0 / pre.radar.prf, rtol=1e-6, atol=0):
         raise InputError("coarse-focus: azimuth_time is not uniformly sampled at the PRF")
-    r_ref = params.reference_range or radar.reference_range
-    k = deramp_rate(radar, r_ref)
-    method = pre.attrs.get("doppler_correction", "none")
-    box = scene_box(pre, params, r_ref)
-    budget = doppler_budget(radar, t[0], t[-1], box, k, method)
+    return t
+
+
+def _output_samples(params: CoarseFocusParams, budget: dict, prf: float, k: float, n_pulses: int) -> int:
+    """Samples of the deramped azimuth grid: ``azimuth_samples``, or the total Doppler bandwidth times the
+    margin at the deramped rate (at least the pulses), rounded up to a fast FFT length."""
     if params.azimuth_samples is not None:
-        n_out = params.azimuth_samples
-    else:
-        need = params.bandwidth_margin * budget["total_bandwidth"] * prf / k
-        n_out = sfft.next_fast_len(max(len(t), int(math.ceil(need))))
-    f_out = n_out * k / prf
+        return params.azimuth_samples
+    need = params.bandwidth_margin * budget["total_bandwidth"] * prf / k
+    return sfft.next_fast_len(max(n_pulses, int(math.ceil(need))))
+
+
+def _alias_problems(
+    budget: dict, f_out: float, prf: float, method: str, box: tuple[float, float, float, float]
+) -> list[str]:
+    """What folds after deramping (spread beyond the PRF) or is cut by the output rate F_a'', with the fix."""
     problems = []
     if budget["deramp_extent"] > prf:
         fix = "raise the PRF or shrink the scene" + (
@@ -460,6 +456,28 @@ def coarse_focus(
             f"F_a'' = {f_out:.1f} Hz is below the total Doppler bandwidth {budget['total_bandwidth']:.1f} "
             "Hz; raise coarse_focus.azimuth_samples"
         )
+    return problems
+
+
+def coarse_focus(
+    pre: Product, params: CoarseFocusParams = CoarseFocusParams(), progress: ProgressFactory | None = None
+) -> Product:
+    """``preprocessed`` product -> ``coarse`` product on the deramped azimuth grid t'."""
+    from sarproc.product.io import history_entry
+
+    if pre.kind != "preprocessed":
+        raise InputError(f"coarse-focus needs a 'preprocessed' product, got {pre.kind!r}")
+    radar = pre.radar
+    t = _azimuth_time(pre)
+    prf = radar.prf
+    r_ref = params.reference_range or radar.reference_range
+    k = deramp_rate(radar, r_ref)
+    method = pre.attrs.get("doppler_correction", "none")
+    box = scene_box(pre, params, r_ref)
+    budget = doppler_budget(radar, t[0], t[-1], box, k, method)
+    n_out = _output_samples(params, budget, prf, k, len(t))
+    f_out = n_out * k / prf
+    problems = _alias_problems(budget, f_out, prf, method, box)
     folds = []
     if params.fold_check and method == "nonlinear":
         folds = deramped_folds(pre.data, t, radar, k, n_out, deramp_interval(radar, t[0], t[-1], box, k))
