@@ -72,6 +72,11 @@ from sarproc.quality.residual import (
     spectral_orders,
 )
 
+# Samples per null spacing 1/B below which an axis is undersampled. A grid at exactly 1/B is critically sampled
+# and measurable (the cut is sinc-interpolated); array3d at elevation padding 1 steps asin(lambda / (N d)), which
+# the small-angle null lambda / (N d) puts 2e-6 below one sample: that is rounding of the theory, not aliasing.
+CRITICAL_SAMPLING = 1.0 - 1e-5
+
 if TYPE_CHECKING:
     import numpy.typing as npt
 
@@ -368,7 +373,7 @@ def _make_axes(
         if not (math.isfinite(irw[a]) and irw[a] > 0):
             raise InputError(f"theoretical_irw[{a}] ({name}) must be positive and finite, got {irw[a]!r}")
         null = irw[a] / (irw_factor * abs(step))  # samples per 1/B
-        if null <= 1.0:
+        if null < CRITICAL_SAMPLING:
             raise InputError(
                 f"axis {name!r}: spacing {abs(step):.4g} is not finer than the null spacing 1/B = "
                 f"{null * abs(step):.4g} (theoretical IRW {irw[a]:.4g}); the image is undersampled for this theory"
@@ -1158,7 +1163,7 @@ def _target_axes(
                 own.append(ax)
                 continue
             null = float(v) / (irw_factor * abs(ax.step)) if np.isnan(own_null) else float(own_null) / abs(ax.step)
-            if null <= 1.0:
+            if null < CRITICAL_SAMPLING:
                 raise InputError(
                     f"axis {ax.name!r}: spacing {abs(ax.step):.4g} is not finer than a target's null "
                     f"spacing {null * abs(ax.step):.4g} (its theoretical IRW {v:.4g})"

@@ -436,3 +436,24 @@ def test_folded_elevation_wraps_sin_theta_by_the_array_period():
     folded = np.sin(folded_elevation(np.arcsin(s), period))
     assert np.all(np.abs(folded) <= period / 2)
     assert np.allclose(np.mod(folded - s + period / 2, period), period / 2, atol=1e-12)  # differ by whole periods
+
+
+@pytest.mark.parametrize("coarser, refused", [(1 + 2e-6, False), (1 + 1e-3, True)])
+def test_a_critically_sampled_axis_is_measured_and_a_coarser_one_refused(coarser, refused):
+    """Spacing 1/B (array3d's elevation padding 1, whose asin step the small-angle theory puts 2e-6 above 1/B) is
+    the Nyquist rate of a complex image: measured, at theory. A spacing 1e-3 coarser is undersampled: refused."""
+    bw = 1.0
+    step = coarser / bw
+    coords = [axis_coords(64, step), axis_coords(64, 0.25)]
+    truth = [(0.37 * step, 0.1)]
+    img = separable_image(coords, [sinc_psf(bw), sinc_psf(bw)], truth)
+    res = (0.886 / bw, 0.886 / bw)
+    if refused:
+        with pytest.raises(InputError, match="undersampled"):
+            evaluate_image(img, ("azimuth", "range"), coords, res, truth)
+        return
+    rep = evaluate_image(img, ("azimuth", "range"), coords, res, truth)
+    az = rep.targets[0].axes[0]
+    assert az.irw_ratio == pytest.approx(1.0, abs=0.01), az
+    assert az.pslr_db == pytest.approx(-13.26, abs=0.2), az
+    assert abs(az.position_error_cells) < 0.02, az
