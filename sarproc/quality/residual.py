@@ -378,7 +378,10 @@ def _model_on_box(slices: Sequence[slice], model: dict) -> np.ndarray:
 # at every step; it runs to convergence: until the step it predicts would lower the misfit by less than
 # FIT_TOLERANCE of it (no step limits what is reported: the figures do not depend on where it stops, nor on
 # FD_STEP, tests/quality/test_residual_convergence.py).
-FD_STEP = 1e-4  # width and keystone step of the central-difference derivatives
+FD_STEP = 1e-4  # width and keystone step of the central-difference derivatives (the numpy reference's)
+# The width and keystone derivatives analytic, in one compiled pass with the strip sums (the reference,
+# EvaluateParams.exact or False here: central differences, two bases per parameter)
+ANALYTIC_SHAPE = True
 FIT_TOLERANCE = 1e-9  # predicted relative decrease of the misfit below which a group fit has converged
 FIT_MAX_STEPS = 60  # Gauss-Newton steps at most (a safeguard: the fits converge in a few)
 MAX_CARRIER_STEP = 0.02  # cycles/sample: a step's band-centre change at most (scaled down to it)
@@ -448,13 +451,16 @@ class _GroupFit:
 
     def jacobian(self, q: int, theta: np.ndarray, basis: np.ndarray, coef: np.ndarray) -> np.ndarray:
         """(N, P) derivatives of member q's response (``basis @ coef``) with respect to its parameters:
-        analytic for the band centre and chirp, central differences (:data:`FD_STEP`) for the shape."""
+        analytic for the band centre and chirp and, with the support's shape, for its widths and keystone
+        (:meth:`_shape_columns`; the numpy reference: central differences, :data:`FD_STEP`)."""
         ndim, pairs = self.ndim, _chirp_pairs(self.ndim)
         x = self.offsets(q)
         model = basis @ coef
         cols = [2j * np.pi * x[a] * model for a in range(ndim)]
         cols += [1j * np.pi * (1.0 if a == b else 2.0) * x[a] * x[b] * model for a, b in pairs]
-        if self.shaped:
+        if self.shaped and COMPILED and ANALYTIC_SHAPE:
+            cols += self._shape_columns(q, theta, coef)
+        elif self.shaped:
             car = self.carrier(q, theta)
             base = len(cols)
             for i in range(2 * ndim - 1):
@@ -464,6 +470,29 @@ class _GroupFit:
                 diff = self.raw(q, self.split(plus)[2]) - self.raw(q, self.split(minus)[2])
                 cols.append(((diff * car[:, None]) @ coef) / (2 * FD_STEP))
         return np.stack(cols, axis=1)
+
+    def _shape_columns(self, q: int, theta: np.ndarray, coef: np.ndarray) -> list[np.ndarray]:
+        """Member q's response derivatives with respect to its width scales and keystone, analytic
+        (:func:`sarproc.quality.residual_kernels.keystone_derivatives`): the ridge coordinates are c_a =
+        (A x)_a / (1 + scale_a), so d / d scale_a is -c_a / (1 + scale_a) d / d c_a."""
+        from sarproc.quality.residual_kernels import keystone_derivatives  # numba: only for the residual
+
+        scale, kappa = self.split(theta)[2]  # type: ignore[misc]
+        f = self.found[q]
+        A, _ = _ridge_frame(f["pos"], f["V"], self.nulls * (1 + scale))
+        c = A @ self.offsets(q)
+        d = keystone_derivatives(
+            c,
+            np.asarray(self.orders, dtype=np.int64),
+            np.asarray(coef, dtype=np.complex128),
+            kappa,
+            _strip_count(kappa),
+        )
+        car = self.carrier(q, theta)
+        ndim = self.ndim
+        return [d[a] * (-c[a] / (1 + scale[a])) * car for a in range(ndim)] + [
+            d[ndim + a] * car for a in range(ndim - 1)
+        ]
 
 
 def _amplitudes(bases: list[np.ndarray], y: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:

@@ -284,4 +284,196 @@ def keystone_box_sum(
     return out
 
 
+# Near a removable singularity the closed forms' derivatives cancel: below these the series or the
+# interpolation of :func:`keystone_derivatives` take over (their error there ~1e-9 relative).
+SERIES_E = 1e-3  # |h - m pi| below which the Dirichlet kernel and its derivative are its Taylor series
+NEAR_X = 1e-3  # |x_a| (a keystoned axis) below which the derivatives are interpolated from +-NODE, +-2 NODE
+NODE = 3e-3
+
+
+@numba.njit(error_model="numpy", cache=CACHE)
+def _dirichlet(h: float, sh: float, ch: float, ssh: float, csh: float, n_strips: int) -> tuple:  # pragma: no cover
+    """(D, dD/dh) of D(h) = sin(S h) / sin(h), given sin / cos of h and of S h; near h = m pi their Taylor
+    series in e = h - m pi (D there is (-1)^(m (S - 1)) sin(S e) / sin(e))."""
+    m = round(h / math.pi)
+    e = h - m * math.pi
+    if abs(e) < SERIES_E:
+        s2 = float(n_strips) * n_strips
+        r = 1.0 - 2.0 * ((int(m) * (n_strips - 1)) & 1)
+        a2 = (s2 - 1.0) / 6.0
+        a4 = (s2 - 1.0) * (3.0 * s2 - 7.0) / 360.0
+        return r * n_strips * (1.0 - a2 * e * e + a4 * e**4), r * n_strips * (-2.0 * a2 * e + 4.0 * a4 * e**3)
+    return ssh / sh, (n_strips * csh * sh - ssh * ch) / (sh * sh)
+
+
+@numba.njit(error_model="numpy", cache=CACHE)
+def _last_factor(x_l: float, s_x: float, c_x: float, width: float) -> tuple:  # pragma: no cover - compiled
+    """(G, dG/dx) of G(x) = width sinc(width x) = sin(pi width x) / (pi x), given sin / cos of pi width x."""
+    z = math.pi * width * x_l
+    if abs(z) < SERIES_E:
+        return width * (1.0 - z * z / 6.0 + z**4 / 120.0), -width * z * math.pi * width / 3.0 * (1.0 - z * z / 10.0)
+    g = s_x / (math.pi * x_l)
+    return g, (width * c_x - g) / x_l
+
+
+@numba.njit(error_model="numpy", cache=CACHE)
+def _derivatives_at(
+    x: np.ndarray, kappa: np.ndarray, n_strips: int, d_x: np.ndarray, d_k: np.ndarray
+) -> None:  # pragma: no cover - compiled
+    """The strip sum's derivatives at shifted coordinates x (ndim,) (no |x_a| near 0, a < ndim - 1) with
+    respect to x (into d_x) and kappa (into d_k), by direct trigonometry: :func:`keystone_derivatives`."""
+    ndim = x.shape[0]
+    n_k = ndim - 1
+    width = 1.0 / n_strips
+    u0 = 0.5 * width - 0.5
+    last = x[n_k]
+    t = 0j
+    t_l = 0j
+    t_a = np.zeros(n_k, dtype=np.complex128)
+    t_k = np.zeros(n_k, dtype=np.complex128)
+    for s in range(1 << n_k):
+        half = math.pi * width * last
+        phase = 2.0 * math.pi * u0 * last
+        sign = 1.0
+        for a in range(n_k):
+            sg = 1.0 - 2.0 * ((s >> a) & 1)
+            sign *= sg
+            half += 0.5 * math.pi * width * sg * kappa[a] * x[a]
+            phase += math.pi * sg * (1.0 + kappa[a] * u0) * x[a]
+        phase += (n_strips - 1) * half
+        d, dd = _dirichlet(
+            half, math.sin(half), math.cos(half), math.sin(n_strips * half), math.cos(n_strips * half), n_strips
+        )
+        e = sign * complex(math.cos(phase), math.sin(phase))
+        t += e * d
+        t_l += e * (dd * math.pi * width + 1j * d * (2.0 * math.pi * u0 + (n_strips - 1) * math.pi * width))
+        for a in range(n_k):
+            sg = 1.0 - 2.0 * ((s >> a) & 1)
+            h_a = 0.5 * math.pi * width * sg  # d half / d (kappa_a x_a)
+            t_a[a] += e * (
+                dd * h_a * kappa[a] + 1j * d * (math.pi * sg * (1.0 + kappa[a] * u0) + (n_strips - 1) * h_a * kappa[a])
+            )
+            t_k[a] += e * x[a] * (dd * h_a + 1j * d * (math.pi * sg * u0 + (n_strips - 1) * h_a))
+    arg = math.pi * width * last
+    g, dg = _last_factor(last, math.sin(arg), math.cos(arg), width)
+    h = (-1j) ** n_k / (2.0 * math.pi) ** n_k
+    for a in range(n_k):
+        h /= x[a]
+    for a in range(n_k):
+        d_x[a] = (t_a[a] - t / x[a]) * g * h
+        d_k[a] = t_k[a] * g * h
+    d_x[n_k] = (t_l * g + t * dg) * h
+
+
+@numba.njit(error_model="numpy", cache=CACHE)
+def keystone_derivatives(
+    c: np.ndarray, orders: np.ndarray, coef: np.ndarray, kappa: np.ndarray, n_strips: int
+) -> np.ndarray:  # pragma: no cover - compiled
+    """(2 ndim - 1, N) complex: the derivatives of sum_k coef[k] times the strip sum of order ``orders[k]``
+    (what :func:`keystone_columns` gives) at each column of ``c`` ((ndim, N) ridge coordinates in nulls):
+    with respect to each coordinate c_a (rows 0..ndim-1), then each keystone kappa_a (rows ndim..).
+
+    Analytic, in the same pass as the strip sums (angle addition per order, as :func:`keystone_columns`);
+    where a factor's closed form cancels, Taylor series (the Dirichlet kernel near its poles, the last axis'
+    sinc near 0), or, within :data:`NEAR_X` of a keystoned axis' zero, interpolation from four points
+    either side (the strip sum is analytic there)."""
+    ndim, n = c.shape
+    n_k = ndim - 1
+    n_orders = orders.shape[0]
+    n_signs = 1 << n_k
+    width = 1.0 / n_strips
+    u0 = 0.5 * width - 0.5
+    signs, cos_dh, sin_dh, cos_sdh, sin_sdh, shift, cos_l, sin_l = _strip_constants(orders, kappa, n_strips, ndim)
+    d_half = np.empty((n_signs, n_orders))  # the orders' half-angle shifts (for the series' distance to a pole)
+    for s in range(n_signs):
+        for q in range(n_orders):
+            d_half[s, q] = 0.5 * math.pi * width * orders[q, n_k]
+            for a in range(n_k):
+                d_half[s, q] += 0.25 * math.pi * width * signs[s, a] * kappa[a] * orders[q, a]
+    h_const = (-1j) ** n_k / (2.0 * math.pi) ** n_k
+    out = np.zeros((2 * ndim - 1, n), dtype=np.complex128)
+    t = np.empty(n_orders, dtype=np.complex128)
+    t_l = np.empty(n_orders, dtype=np.complex128)
+    t_a = np.empty((n_orders, max(n_k, 1)), dtype=np.complex128)
+    t_k = np.empty((n_orders, max(n_k, 1)), dtype=np.complex128)
+    near = np.empty(n_orders, dtype=np.bool_)
+    x = np.empty(ndim)
+    node = np.empty(ndim)
+    d_x = np.empty(ndim, dtype=np.complex128)
+    d_k = np.empty(max(n_k, 1), dtype=np.complex128)
+    weights = (-1.0 / 6.0, 2.0 / 3.0, 2.0 / 3.0, -1.0 / 6.0)  # Lagrange, nodes -2, -1, 1, 2 (times NODE), at 0
+    for i in range(n):
+        for q in range(n_orders):
+            near[q] = False
+            for a in range(n_k):
+                if abs(c[a, i] + 0.5 * orders[q, a]) < NEAR_X:
+                    near[q] = True
+            t[q] = 0j
+            t_l[q] = 0j
+            for a in range(n_k):
+                t_a[q, a] = 0j
+                t_k[q, a] = 0j
+        last = c[n_k, i]
+        for s in range(n_signs):
+            half = math.pi * width * last
+            phase = 2.0 * math.pi * u0 * last
+            for a in range(n_k):
+                half += 0.5 * math.pi * width * signs[s, a] * kappa[a] * c[a, i]
+                phase += math.pi * signs[s, a] * (1.0 + kappa[a] * u0) * c[a, i]
+            phase += (n_strips - 1) * half
+            sh, ch = math.sin(half), math.cos(half)
+            ssh, csh = math.sin(n_strips * half), math.cos(n_strips * half)
+            rot = complex(math.cos(phase), math.sin(phase))
+            for q in range(n_orders):
+                if near[q]:
+                    continue
+                d, dd = _dirichlet(
+                    half + d_half[s, q],
+                    sh * cos_dh[s, q] + ch * sin_dh[s, q],
+                    ch * cos_dh[s, q] - sh * sin_dh[s, q],
+                    ssh * cos_sdh[s, q] + csh * sin_sdh[s, q],
+                    csh * cos_sdh[s, q] - ssh * sin_sdh[s, q],
+                    n_strips,
+                )
+                e = rot * shift[s, q]  # the signs' product included
+                t[q] += e * d
+                t_l[q] += e * (dd * math.pi * width + 1j * d * (2.0 * math.pi * u0 + (n_strips - 1) * math.pi * width))
+                for a in range(n_k):
+                    sg = signs[s, a]
+                    h_a = 0.5 * math.pi * width * sg
+                    t_a[q, a] += e * (
+                        dd * h_a * kappa[a]
+                        + 1j * d * (math.pi * sg * (1.0 + kappa[a] * u0) + (n_strips - 1) * h_a * kappa[a])
+                    )
+                    t_k[q, a] += (e * (c[a, i] + 0.5 * orders[q, a])) * (
+                        dd * h_a + 1j * d * (math.pi * sg * u0 + (n_strips - 1) * h_a)
+                    )
+        s_l, c_l = math.sin(math.pi * width * last), math.cos(math.pi * width * last)
+        for q in range(n_orders):
+            if near[q]:  # the four nodes move every keystoned coordinate within NEAR_X of 0 by the same t
+                for a in range(ndim):
+                    x[a] = c[a, i] + 0.5 * orders[q, a]
+                for w_i in range(4):
+                    step = (w_i - 2 if w_i < 2 else w_i - 1) * NODE
+                    for a in range(ndim):
+                        node[a] = x[a] + step if a < n_k and abs(x[a]) < NEAR_X else x[a]
+                    _derivatives_at(node, kappa, n_strips, d_x, d_k)
+                    for a in range(ndim):
+                        out[a, i] += weights[w_i] * coef[q] * d_x[a]
+                    for a in range(n_k):
+                        out[ndim + a, i] += weights[w_i] * coef[q] * d_k[a]
+                continue
+            x_l = last + 0.5 * orders[q, n_k]
+            g, dg = _last_factor(x_l, s_l * cos_l[q] + c_l * sin_l[q], c_l * cos_l[q] - s_l * sin_l[q], width)
+            h = h_const
+            for a in range(n_k):
+                h /= c[a, i] + 0.5 * orders[q, a]
+            gh = coef[q] * g * h
+            for a in range(n_k):
+                out[a, i] += (t_a[q, a] - t[q] / (c[a, i] + 0.5 * orders[q, a])) * gh
+                out[ndim + a, i] += t_k[q, a] * gh
+            out[n_k, i] += coef[q] * (t_l[q] * g + t[q] * dg) * h
+    return out
+
+
 lean_cache_loads(globals())  # cached kernels load without numba's context refresh (kernel_cache)

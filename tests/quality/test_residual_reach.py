@@ -174,3 +174,43 @@ def test_compiled_box_sum_is_the_columns_summed(kappa):
     pts = np.stack([c0[a] + ii.ravel() * d_row[a] + jj.ravel() * d_col[a] for a in range(2)])
     want = (coef @ keystone_columns(pts, orders, k, strips)).reshape(rows, cols)
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-11 * np.abs(want).max())
+
+
+def _richardson(f, h: float) -> np.ndarray:
+    """f'(0) from f(+-h), f(+-2h), f(+-3h): sixth order, for the reference of the analytic derivatives."""
+    return (45 * (f(h) - f(-h)) - 9 * (f(2 * h) - f(-2 * h)) + (f(3 * h) - f(-3 * h))) / (60 * h)
+
+
+@pytest.mark.parametrize("ndim", [2, 3])
+@pytest.mark.parametrize("keystone", [0.0, 0.03, -0.15])
+def test_analytic_shape_derivatives_are_the_strip_sums_derivatives(ndim, keystone):
+    """The compiled derivatives of a coefficient-weighted strip sum with respect to the ridge coordinates and
+    the keystone (what the group fits' Jacobian uses instead of central differences) equal high-order
+    differences of the strip sums: at ordinary points, near a Dirichlet pole and the last axis' zero
+    (Taylor series), and within 1e-3 of a keystoned axis' zero, on it included (interpolated)."""
+    from sarproc.quality.residual import _strip_count
+    from sarproc.quality.residual_kernels import keystone_columns, keystone_derivatives
+
+    rng = np.random.default_rng(5)
+    orders = spectral_orders(ndim, 1, 2).astype(np.int64)
+    coef = rng.normal(size=len(orders)) + 1j * rng.normal(size=len(orders))
+    kappa = np.linspace(keystone, 0.5 * keystone, ndim - 1)
+    strips = _strip_count(kappa)
+    far = rng.uniform(-40, 40, size=(ndim, 2000))
+    far[:, :200] = rng.uniform(-3, 3, size=(ndim, 200))
+    far[-1, 200:230] = rng.uniform(-1e-4, 1e-4, 30)  # the last axis' sinc at its centre
+    far[-1, 230:250] = 0.5 * strips + rng.uniform(-1e-3, 1e-3, 20)  # near a pole of the Dirichlet kernel
+    near = rng.uniform(-3, 3, size=(ndim, 60))
+    near[0] = 0.5 + rng.uniform(-1e-3, 1e-3, 60)  # order -1's keystoned factor within 1e-3 of its zero
+    near[0, :10] = 0.5
+    # the references' steps: small where the strip sums are accurate, larger near the zeros (where they cancel)
+    for c, h in ((far, 1e-5), (near, 2e-2)):
+        got = keystone_derivatives(c, orders, coef, kappa, strips)
+
+        def value(cc, k=kappa):
+            return coef @ keystone_columns(cc, orders, k, strips)
+
+        want = [_richardson(lambda t, a=a, c=c: value(c + t * np.eye(ndim)[:, a : a + 1]), h) for a in range(ndim)]
+        want += [_richardson(lambda t, a=a, c=c: value(c, kappa + t * np.eye(ndim - 1)[a]), h) for a in range(ndim - 1)]
+        for row, ref in zip(got, want):
+            np.testing.assert_allclose(row, ref, rtol=0, atol=1e-6 * np.abs(ref).max())
