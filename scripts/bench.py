@@ -463,6 +463,10 @@ def _sarproc(tree: Path, argv: Sequence[str], warm: bool = False) -> tuple[float
     import re
 
     env = {**os.environ, "PYTHONPATH": str(tree)}
+    # bytecode cached as in a user's install (pip compiles it; an editable tree caches it on first import): an
+    # environment with PYTHONDONTWRITEBYTECODE set would recompile sarproc's sources in every timed process
+    # (~0.1-0.15 s of evaluate's start, measured; docs/performance.md, sixth round)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
     cmd = [sys.executable, "-c", WARM_RUN, "-q", *argv] if warm else [sys.executable, "-m", "sarproc", *argv]
     t0 = time.perf_counter()
     done = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True, check=False)
