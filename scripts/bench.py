@@ -452,6 +452,11 @@ import os, sys, time
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 from sarproc.cli.main import run_cli
 assert run_cli(sys.argv[1:]) == 0
+try:  # the second run takes the kernels the first took: the compiled modules' serial budget starts again
+    import sarproc.product.aot as aot
+    aot._SERIAL_SPENT = 0.0
+except ImportError:
+    pass
 t = time.perf_counter()
 assert run_cli(sys.argv[1:]) == 0
 print(f"WARM {time.perf_counter() - t:.6f}")
@@ -463,6 +468,10 @@ def _sarproc(tree: Path, argv: Sequence[str], warm: bool = False) -> tuple[float
     import re
 
     env = {**os.environ, "PYTHONPATH": str(tree)}
+    # bytecode cached as in a user's install (pip compiles it; an editable tree caches it on first import): an
+    # environment with PYTHONDONTWRITEBYTECODE set would recompile sarproc's sources in every timed process
+    # (~0.1-0.15 s of evaluate's start, measured; docs/performance.md, sixth round)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
     cmd = [sys.executable, "-c", WARM_RUN, "-q", *argv] if warm else [sys.executable, "-m", "sarproc", *argv]
     t0 = time.perf_counter()
     done = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True, check=False)
@@ -482,10 +491,11 @@ def _wait_for_aot_builds(directory: Path, timeout: float = 300.0) -> None:
         time.sleep(0.5)
 
 
-def process_rows(trees: dict[str, Path], rounds: int, workdir: Path) -> list[dict]:
+def process_rows(trees: dict[str, Path], rounds: int, workdir: Path, only: set[str] | None = None) -> list[dict]:
     """Per stage and tree: process wall, in-process compute and overhead (best of ``rounds``, interleaved).
     Kernels compiled ahead of time go to a fresh directory under ``workdir`` (built by the untimed first runs)."""
     os.environ["SARPROC_AOT_DIR"] = str(workdir / "aot")
+    cases = [c for c in PROCESS_CASES if only is None or c[0] in only]
     data = {}
     for label, tree in trees.items():
         d = workdir / label
@@ -493,12 +503,12 @@ def process_rows(trees: dict[str, Path], rounds: int, workdir: Path) -> list[dic
         data[label] = d
         for argv in PROCESS_SETUP:
             _sarproc(tree, [a.format(d=d) for a in argv] + ["--overwrite", "-q"])
-        for _, _, argv in PROCESS_CASES:  # once untimed: every kernel in this tree's numba cache
+        for _, _, argv in cases:  # once untimed: every kernel in this tree's numba cache
             _sarproc(tree, [a.format(d=d) for a in argv] + ["--overwrite", "-q"])
     _wait_for_aot_builds(Path(os.environ["SARPROC_AOT_DIR"]))
     best: dict[tuple[str, str], list[Any]] = {}  # (stage, tree): best wall, best warm, best printed time
     for r in range(rounds):
-        for stage, _detail, argv in PROCESS_CASES:
+        for stage, _detail, argv in cases:
             for label, tree in trees.items():
                 args = [a.format(d=data[label]) for a in argv] + ["--overwrite"]
                 wall, printed = _sarproc(tree, args)
@@ -509,7 +519,7 @@ def process_rows(trees: dict[str, Path], rounds: int, workdir: Path) -> list[dic
                     b[2] = printed if b[2] is None else min(b[2], printed)
         print(f"  process overhead: round {r + 1}/{rounds} done", file=sys.stderr)
     rows = []
-    for stage, detail, _ in PROCESS_CASES:
+    for stage, detail, _ in cases:
         for label in trees:
             wall, warm, printed = best[(stage, label)]
             rows.append(
@@ -577,6 +587,11 @@ def main(argv: list[str] | None = None) -> None:
         type=Path,
         default=None,
         help="an older checkout (git archive COMMIT | tar -x -C DIR): its per-process rows interleaved with this tree's",
+    )
+    ap.add_argument(
+        "--process-stages",
+        default=None,
+        help="comma-separated stages of the per-process rows (default: all of PROCESS_CASES)",
     )
     ap.add_argument("--fastsar-python", default=str(ROOT / ".venv-bench" / "bin" / "python"))
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
@@ -706,7 +721,8 @@ def main(argv: list[str] | None = None) -> None:
         if args.baseline is not None:
             trees = {"baseline": args.baseline.resolve(), **trees}
         with tempfile.TemporaryDirectory() as tmp:
-            process = process_rows(trees, args.rounds, Path(tmp))
+            only = set(args.process_stages.split(",")) if args.process_stages else None
+            process = process_rows(trees, args.rounds, Path(tmp), only)
 
     stamp = datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%SZ")
     tables = [fmt_table(rows, previous), ""] + ([fmt_process_table(process), ""] if process else [])

@@ -145,9 +145,11 @@ def _layout(a: np.ndarray) -> str:
     return "C" if a.flags.c_contiguous else "F" if a.flags.f_contiguous else "A"
 
 
-# Serial output samples x taps per second of the resampling kernel (complex64), for AOT.pick: an estimate, not a
-# measurement (docs/performance.md, fifth round).
-RESAMPLE_SERIAL_RATE = 2e8
+# Serial output samples x taps per second of the resampling kernel (complex64), for AOT.pick: the compiled module's
+# rate measured over whole stages, pfa2 nie2016_small 3.4-4.0e8 (117 calls), array3d du2010 6-7.8e8 (28 calls;
+# fine-focus an2012_exp1_small's 5 tiny calls 1.2e8, 0.02 s); was an estimate of 2e8 (docs/performance.md, sixth
+# round).
+RESAMPLE_SERIAL_RATE = 3.5e8
 
 
 def resample_rows(

@@ -57,7 +57,8 @@ def evaluate_estimate(stage: str, header: Product, params: Any) -> Plan:
         memory,
         seconds,
         f"{n_tg} targets on {n} pixels, chips of {' x '.join(map(str, lengths))}",
-        kernel_modules=None if residual else (),
+        # the residual's kernels only: sarproc.quality.kernels serve 3D cubes, whose plan checks none
+        kernel_modules=("sarproc.quality.residual_kernels",) if residual else (),
     )
 
 

@@ -1536,8 +1536,8 @@ def least_squares(B: np.ndarray, y: np.ndarray, exact: bool = False) -> np.ndarr
     The Gram matrix is one BLAS rank-k update of B as stored (no conjugated or scaled copy of B) and the
     columns are equilibrated on it (their norms are its diagonal)."""
     if not exact:
-        import scipy.linalg  # ~0.1 s to import: only where a least-squares fit runs
-        from scipy.linalg import blas
+        # scipy's BLAS and LAPACK without importing scipy.linalg (~0.2 s): only where a least-squares fit runs
+        from sarproc.product.linalg import blas, cho_factor, cho_solve
 
         limit_loaded()  # scipy's own BLAS, loaded just now: one thread like numpy's
 
@@ -1550,7 +1550,7 @@ def least_squares(B: np.ndarray, y: np.ndarray, exact: bool = False) -> np.ndarr
         scale = np.sqrt(np.real(np.diagonal(gram)))
         scale[scale == 0] = 1.0
         try:
-            factor = scipy.linalg.cho_factor(gram / np.outer(scale, scale), lower=False)
+            factor = cho_factor(gram / np.outer(scale, scale), lower=False)
         except np.linalg.LinAlgError:
             factor = None
         if factor is not None:
@@ -1562,9 +1562,9 @@ def least_squares(B: np.ndarray, y: np.ndarray, exact: bool = False) -> np.ndarr
             def adjoint(r: np.ndarray) -> np.ndarray:  # B^H r / scale, without conjugating B
                 return (Bt @ r.conj()).conj() / scale if complex_ else (Bt @ r) / scale
 
-            x = scipy.linalg.cho_solve(factor, adjoint(y))
+            x = cho_solve(factor, adjoint(y))
             for _ in range(2):  # iterative refinement: the normal equations' squared condition number undone
-                x = x + scipy.linalg.cho_solve(factor, adjoint(y - B @ (x / scale)))
+                x = x + cho_solve(factor, adjoint(y - B @ (x / scale)))
             return x / scale
     return np.linalg.lstsq(B, y, rcond=None)[0]
 

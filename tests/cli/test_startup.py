@@ -114,6 +114,14 @@ def test_stages_without_compiled_kernels_import_no_numba():
     assert not loaded & {"scipy.interpolate", "scipy.linalg"}, sorted(loaded & {"scipy.interpolate", "scipy.linalg"})
 
 
+def test_pfa_modules_import_no_numba():
+    # pfa2's kernels (resampling, the column spline) sit in their own modules, imported only where numba runs
+    # them: a small two-step PFA runs them compiled ahead of time without numba (docs/performance.md)
+    code = "import sarproc.cli.pfa, sarproc.focus.pfa.chain\nimport json, sys\nprint(json.dumps(sorted(sys.modules)))"
+    loaded = set(json.loads(_python(code).strip().splitlines()[-1]))
+    assert not {m for m in loaded if m.split(".")[0] in ("numba", "llvmlite")}, "numba imported"
+
+
 def test_python_dash_m_runs_the_command_line():
     """`python -m sarproc` and `python -m sarproc.cli.main` are the sarproc command, not a silent no-op."""
     for module in ("sarproc", "sarproc.cli.main"):

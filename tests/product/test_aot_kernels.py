@@ -1,7 +1,7 @@
 """The stages' kernels compiled ahead of time (sarproc.product.aot.Kernels): phase fields, resampling, echoes,
-fine focusing's block copies and Stolt kernels.
+fine focusing's block copies and Stolt kernels, the two-step PFA's column spline.
 
-One build of the five modules (~1-2 min here: numba compiles the serial kernels, the C compiler the modules) serves
+One build of the six modules (~1-2 min here: numba compiles the serial kernels, the C compiler the modules) serves
 the tests that need it: every export equals its numba kernel on the same arguments (bit for bit, or to float32
 rounding where a fast-math loop is compiled differently), and small stages run through the command line import no
 numba and write the products numba's kernels write (alike). The rest check the dispatch rules without compiling.
@@ -21,18 +21,19 @@ import numpy as np
 import pytest
 
 from sarproc.dsp import interp, phasor
+from sarproc.focus.pfa import correction
 from sarproc.focus.squint_deramp import compiled
 from sarproc.product import aot
 from sarproc.simulation import echo_aot
 
 ROOT = Path(__file__).resolve().parents[2]
 HAVE_CC = shutil.which(os.environ.get("CC", "cc")) is not None or shutil.which("gcc") is not None
-GROUPS = (phasor.AOT, interp.AOT, echo_aot.ECHO, compiled.BLOCKS, compiled.STOLT)
+GROUPS = (phasor.AOT, interp.AOT, echo_aot.ECHO, compiled.BLOCKS, compiled.STOLT, correction.AOT)
 
 
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
-    """The five modules built once into a directory of this test module (skipped without a C compiler)."""
+    """The six modules built once into a directory of this test module (skipped without a C compiler)."""
     if not HAVE_CC:
         pytest.skip("no C compiler: the kernels run in numba only")
     d = tmp_path_factory.mktemp("aot")
@@ -196,10 +197,30 @@ def test_fine_focus_block_kernels_equal_numbas(built):
     assert np.array_equal(outs[0], outs[1], equal_nan=True)
 
 
+def test_column_spline_equals_numbas(built):
+    """The two-step PFA's warp read on fixed columns: knots of a FITPACK spline, points inside, outside (clamped)
+    and on the knots."""
+    from sarproc.focus.pfa import spline_kernels as sk
+
+    k = built[1]["pfa_spline"]
+    rng = np.random.default_rng(5)
+    t = np.concatenate([np.zeros(3), np.sort(rng.uniform(0, 10, 9)), [0.0, 10.0], np.full(3, 10.0)])
+    t = np.sort(t)
+    columns = rng.standard_normal((17, len(t) - 4))
+    x = rng.uniform(-1, 11, (23, 17))
+    x[0, :5] = t[3:8]
+    a, b = np.empty_like(x), np.empty_like(x)
+    k._column_spline_kernel(t, columns, x, a)
+    sk._column_spline_kernel(t, columns, x, b)
+    assert np.array_equal(a, b) and np.isfinite(a).all()
+
+
 def _stage(args: list[str], env: dict, tmp_path: Path) -> list[str]:
-    """Run ``sarproc ARGS`` in a fresh process; the modules it imported."""
+    """Run ``sarproc ARGS`` in a fresh process on at most two CPUs (where the compiled modules pay depends on the
+    CPUs: aot.serial_pays; pfa2's ~0.5 s of serial work does on two, not on 16); the modules it imported."""
     code = (
-        "import json, sys\nfrom sarproc.cli.main import run_cli\n"
+        "import json, os, sys\nfrom sarproc.cli.main import run_cli\n"
+        "if hasattr(os, 'sched_setaffinity'):\n    os.sched_setaffinity(0, sorted(os.sched_getaffinity(0))[:2])\n"
         f"assert run_cli({args!r}) == 0\nprint(json.dumps(sorted(sys.modules)))"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=False, cwd=ROOT)
@@ -215,7 +236,8 @@ def _datasets(path: Path) -> dict[str, np.ndarray]:
 
 
 def test_small_stages_import_no_numba_and_write_numbas_products(built, tmp_path):
-    """simulate (the demo), preprocess and fine-focus (an2012_exp1_small) as processes with the modules built:
+    """simulate (the demo), preprocess and fine-focus (an2012_exp1_small) and the two-step pfa2 (nie2016_small) as
+    processes with the modules built:
     no numba or llvmlite imported, each compiled module loaded; the products equal those of the numba kernels
     (SARPROC_AOT=0) in every dataset, to float32 rounding (_equal_to_float32_rounding)."""
     d, _ = built
@@ -226,10 +248,13 @@ def test_small_stages_import_no_numba_and_write_numbas_products(built, tmp_path)
     _stage(["simulate", cfg, "-o", str(raw), "-q"], off, tmp_path)
     _stage(["preprocess", str(raw), "--config", cfg, "-o", str(pre), "-q"], off, tmp_path)
     _stage(["coarse-focus", str(pre), "--config", cfg, "-o", str(coarse), "-q"], off, tmp_path)
+    nie, nie_raw = "configs/nie2016_small.yaml", tmp_path / "nie_raw.h5"
+    _stage(["simulate", nie, "-o", str(nie_raw), "-q"], off, tmp_path)
     cases = {
         "simulate": (["simulate", "configs/demo.yaml"], ("echo",)),
         "preprocess": (["preprocess", str(raw), "--config", cfg], ("phasor",)),
         "fine-focus": (["fine-focus", str(coarse), "--config", cfg], ("block_copies", "stolt", "interp", "phasor")),
+        "pfa2": (["pfa2", str(nie_raw), "--config", nie], ("interp", "pfa_spline")),
     }
     for stage, (args, names) in cases.items():
         outs = {}

@@ -16,14 +16,13 @@ import dataclasses
 import math
 from typing import TYPE_CHECKING
 
-import numba
 import numpy as np
 
 from sarproc.dsp.interp import resample_rows
-from sarproc.dsp.kernel_cache import CACHE, lean_cache_loads
 from sarproc.dsp.phasor import unit_phasor
 from sarproc.dsp.spline import GridSpline, bspline_basis
 from sarproc.focus.pfa.polar import Grid, Interpolation, KGrid, Rect, los_components, polar_support, rotate_axes
+from sarproc.product.aot import Kernels
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -159,14 +158,30 @@ def extended_grid(core: Grid, warp: tuple[GridSpline, GridSpline]) -> Grid:
     )
 
 
+# The column spline kernel compiled ahead of time (sarproc.product.aot): a small two-step PFA reads its warps
+# without importing numba (the numba kernel: sarproc.focus.pfa.spline_kernels). The callers' arrays are
+# C-contiguous float64 (ColumnSpline makes them so).
+AOT = Kernels(
+    name="pfa_spline",
+    module="sarproc.focus.pfa.spline_kernels",
+    sources=("focus/pfa/spline_kernels.py", "focus/pfa/correction.py"),
+    exports={"_column_spline_kernel": "void(f8[::1], f8[:, ::1], f8[:, ::1], f8[:, ::1])"},
+    owner="sarproc.focus.pfa.correction:AOT",
+)
+# Serial points per second of the column spline kernel (a binary search over the knots and FITPACK's
+# recursion per point), for AOT.pick: 5.1e7 measured on nie2016_small (6.1 M points, one thread; docs/performance.md,
+# sixth round).
+COLUMN_SPLINE_SERIAL_RATE = 5e7
+
+
 class ColumnSpline:
     """A bicubic :class:`~sarproc.dsp.spline.GridSpline` f(x, y) read at any x on fixed columns y_j:
     (n, n_cols) -> values.
 
     Scattered points one by one (as FITPACK reads them) would take most of a sub-image's time; on fixed columns f is a
     cubic spline in x whose coefficients are computed once per column, and the compiled
-    :func:`_column_spline_kernel` reads it at every x with FITPACK's own recursion (fpbspl), rows in
-    parallel. Points outside the knots are clamped to them, as FITPACK does.
+    :func:`~sarproc.focus.pfa.spline_kernels._column_spline_kernel` reads it at every x with FITPACK's own
+    recursion (fpbspl), rows in parallel. Points outside the knots are clamped to them, as FITPACK does.
     """
 
     def __init__(self, spline: GridSpline, y: np.ndarray) -> None:
@@ -185,51 +200,10 @@ class ColumnSpline:
     def __call__(self, x: np.ndarray) -> np.ndarray:
         x = np.ascontiguousarray(x, dtype=float)
         out = np.empty(x.shape)
-        _column_spline_kernel(self.tx, self.columns, x, out)
+        if x.size:
+            k = AOT.pick(x.size / COLUMN_SPLINE_SERIAL_RATE, usable=x.ndim == 2 and self.tx.flags.c_contiguous)
+            k._column_spline_kernel(self.tx, self.columns, x, out)
         return out
-
-
-@numba.njit(parallel=True, fastmath=False, cache=CACHE)
-def _column_spline_kernel(t: np.ndarray, columns: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:
-    """out[r, j] = the cubic spline on knots t with coefficients columns[j] at x[r, j] (clamped to the knots);
-    the weights by FITPACK's fpbspl recursion written out for degree 3, rows in parallel."""
-    n = len(t)
-    lo_x, hi_x = t[3], t[n - 4]
-    for r in numba.prange(x.shape[0]):
-        for j in range(x.shape[1]):
-            xv = min(max(x[r, j], lo_x), hi_x)
-            lo, hi = 3, n - 5  # the interval l with t[l] <= x < t[l + 1] (the last one includes its end)
-            while lo < hi:
-                mid = (lo + hi + 1) // 2
-                if t[mid] <= xv:
-                    lo = mid
-                else:
-                    hi = mid - 1
-            span = lo
-            # degree 1
-            f = 1.0 / (t[span + 1] - t[span])
-            h0 = f * (t[span + 1] - xv)
-            h1 = f * (xv - t[span])
-            # degree 2
-            f = h0 / (t[span + 1] - t[span - 1])
-            g0 = f * (t[span + 1] - xv)
-            g1 = f * (xv - t[span - 1])
-            f = h1 / (t[span + 2] - t[span])
-            g1 += f * (t[span + 2] - xv)
-            g2 = f * (xv - t[span])
-            # degree 3
-            f = g0 / (t[span + 1] - t[span - 2])
-            w0 = f * (t[span + 1] - xv)
-            w1 = f * (xv - t[span - 2])
-            f = g1 / (t[span + 2] - t[span - 1])
-            w1 += f * (t[span + 2] - xv)
-            w2 = f * (xv - t[span - 1])
-            f = g2 / (t[span + 3] - t[span])
-            w2 += f * (t[span + 3] - xv)
-            w3 = f * (xv - t[span])
-            c = columns[j]
-            i = span - 3
-            out[r, j] = w0 * c[i] + w1 * c[i + 1] + w2 * c[i + 2] + w3 * c[i + 3]
 
 
 def warp_to_truth(
@@ -309,6 +283,3 @@ def _carrier(a: np.ndarray, r: np.ndarray, ka: float, kr: float, sign: int) -> n
     pa = np.exp(sign * 1j * np.mod(np.asarray(a) * ka, 2 * math.pi)).astype(np.complex64)
     pr = np.exp(sign * 1j * np.mod(np.asarray(r) * kr, 2 * math.pi)).astype(np.complex64)
     return pa[:, None] * pr[None, :]
-
-
-lean_cache_loads(globals())  # cached kernels load without numba's context refresh (kernel_cache)
