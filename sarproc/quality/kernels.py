@@ -37,6 +37,65 @@ def orientation_density(
 
 
 @numba.njit(error_model="numpy", cache=CACHE)
+def _derivative(mag: np.ndarray, i: int, j: int, k: int, axis: int, h: float) -> float:  # pragma: no cover
+    """np.gradient of a 3D array along ``axis`` at (i, j, k), spacing h: central differences inside, one-sided
+    at the edges (edge_order 1), the same operations."""
+    n = mag.shape[axis]
+    at = i if axis == 0 else (j if axis == 1 else k)
+    lo = at - 1 if at > 0 else at
+    hi = at + 1 if at < n - 1 else at
+    if n < 2:
+        return 0.0
+    if axis == 0:
+        a, b = mag[hi, j, k], mag[lo, j, k]
+    elif axis == 1:
+        a, b = mag[i, hi, k], mag[i, lo, k]
+    else:
+        a, b = mag[i, j, hi], mag[i, j, lo]
+    return (a - b) / (2.0 * h) if hi - lo == 2 else (a - b) / h
+
+
+@numba.njit(error_model="numpy", parallel=True, cache=CACHE)
+def _gradient_norms(mag: np.ndarray, h: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
+    out = np.empty(mag.shape)
+    for p in numba.prange(mag.shape[0]):
+        i = np.int64(p)  # prange's index may be unsigned; the derivative's indices are one signed type
+        for j in range(mag.shape[1]):
+            for k in range(mag.shape[2]):
+                g0 = _derivative(mag, i, j, k, 0, h[0])
+                g1 = _derivative(mag, i, j, k, 1, h[1])
+                g2 = _derivative(mag, i, j, k, 2, h[2])
+                out[i, j, k] = math.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
+    return out
+
+
+@numba.njit(error_model="numpy", cache=CACHE)
+def strong_gradients(mag: np.ndarray, h: np.ndarray, fraction: float) -> tuple:  # pragma: no cover - compiled
+    """(g (m, 3), norm (m,)): np.gradient of the 3D array ``mag`` (spacings h) and its Euclidean norm at the m
+    points (C order) where the norm exceeds ``fraction`` of its largest value, without the full gradient arrays
+    (principal_directions' edge normals)."""
+    norms = _gradient_norms(mag, h)
+    limit = fraction * norms.max()
+    m = 0
+    for v in norms.ravel():
+        if v > limit:
+            m += 1
+    g = np.empty((m, 3))
+    norm = np.empty(m)
+    n = 0
+    for i in range(mag.shape[0]):
+        for j in range(mag.shape[1]):
+            for k in range(mag.shape[2]):
+                if norms[i, j, k] > limit:
+                    g[n, 0] = _derivative(mag, i, j, k, 0, h[0])
+                    g[n, 1] = _derivative(mag, i, j, k, 1, h[1])
+                    g[n, 2] = _derivative(mag, i, j, k, 2, h[2])
+                    norm[n] = norms[i, j, k]
+                    n += 1
+    return g, norm
+
+
+@numba.njit(error_model="numpy", cache=CACHE)
 def _shape(q: float, period: float, hamming: bool) -> float:  # pragma: no cover - compiled
     if hamming:
         return 0.54 * _sinc(q, period) + 0.23 * (_sinc(q - 1.0, period) + _sinc(q + 1.0, period))
@@ -163,11 +222,14 @@ def _box_tables(
     ridge: np.ndarray,
     f_c: np.ndarray,
     chirp: np.ndarray,
+    period: np.ndarray,
 ) -> tuple:  # pragma: no cover - compiled
     """Per-axis tables of a box: lin[a, b, i] = ridge[a, b] d_b, rot = exp(i pi lin), car[b, i] = exp(2 pi i
-    (f_c[b] d_b + chirp[b] d_b^2 / 2)), d_b = origin[b] + step[b] i - position[b]."""
+    (f_c[b] d_b + chirp[b] d_b^2 / 2)), d_b = origin[b] + step[b] i - position[b]; where period[a] > 0 also
+    per[a, b, i] = exp(i pi lin / period[a]) (the periodic sinc's denominator; 1 elsewhere)."""
     longest = max(shape[0], max(shape[1], shape[2]))
     rot = np.empty((3, 3, longest), dtype=np.complex128)
+    per = np.ones((3, 3, longest), dtype=np.complex128)
     lin = np.empty((3, 3, longest))
     car = np.empty((3, longest), dtype=np.complex128)
     for b in range(3):
@@ -178,13 +240,17 @@ def _box_tables(
             for a in range(3):
                 lin[a, b, i] = ridge[a, b] * d
                 rot[a, b, i] = complex(math.cos(math.pi * lin[a, b, i]), math.sin(math.pi * lin[a, b, i]))
-    return lin, rot, car
+                if period[a] > 0.0:
+                    u = math.pi * lin[a, b, i] / period[a]
+                    per[a, b, i] = complex(math.cos(u), math.sin(u))
+    return lin, rot, per, car
 
 
 @numba.njit(error_model="numpy", cache=CACHE)
 def _box_value(
     lin: np.ndarray,
     rot: np.ndarray,
+    per: np.ndarray,
     car: np.ndarray,
     i: int,
     j: int,
@@ -197,9 +263,18 @@ def _box_value(
     amp = 1.0
     for a in range(3):
         q = lin[a, 0, i] + lin[a, 1, j] + lin[a, 2, k]
-        s = (rot[a, 0, i] * rot[a, 1, j] * rot[a, 2, k]).imag
         v = _tabled(q, table[a], rate[a]) if rate[a] > 0.0 else math.nan
-        amp *= _grid_shape(s, q, period[a], hamming) if math.isnan(v) else v
+        if not math.isnan(v):
+            amp *= v
+            continue
+        e = rot[a, 0, i] * rot[a, 1, j] * rot[a, 2, k]  # exp(i pi q)
+        if period[a] > 0.0 and not hamming and abs(q) >= 1e-3:
+            # the periodic sinc sin(pi q) / (P sin(pi q / P)) from the tables (its limit at a grating lobe)
+            p = per[a, 0, i] * per[a, 1, j] * per[a, 2, k]  # exp(i pi q / P)
+            den = period[a] * p.imag
+            amp *= e.real / p.real if abs(den) < 1e-12 else e.imag / den
+        else:
+            amp *= _grid_shape(e.imag, q, period[a], hamming)
     return amp * (car[0, i] * car[1, j] * car[2, k])
 
 
@@ -220,12 +295,12 @@ def ideal_response_box(
     """:func:`ideal_response` of a 3D response on the image box origin + step * (i, j, k), i < shape[0] ...:
     the ridge coordinates are linear on the box, so sin(pi c_a) and the carrier are products of per-axis
     complex exponentials (9 + 3 short tables instead of 4 transcendental calls per sample; equal to rounding)."""
-    lin, rot, car = _box_tables(origin, step, shape, position, ridge, f_c, chirp)
+    lin, rot, per, car = _box_tables(origin, step, shape, position, ridge, f_c, chirp, period)
     out = np.empty((shape[0], shape[1], shape[2]), dtype=np.complex128)
     for i in numba.prange(shape[0]):
         for j in range(shape[1]):
             for k in range(shape[2]):
-                out[i, j, k] = _box_value(lin, rot, car, i, j, k, period, table, rate, hamming)
+                out[i, j, k] = _box_value(lin, rot, per, car, i, j, k, period, table, rate, hamming)
     return out
 
 
@@ -252,11 +327,11 @@ def ideal_response_boxes(
     n = 0
     for box in range(origins.shape[0]):
         shape = shapes[box]
-        lin, rot, car = _box_tables(origins[box], step, shape, position, ridge, f_c, chirp)
+        lin, rot, per, car = _box_tables(origins[box], step, shape, position, ridge, f_c, chirp, period)
         for i in range(shape[0]):
             for j in range(shape[1]):
                 for k in range(shape[2]):
-                    out[inverse[n]] = _box_value(lin, rot, car, i, j, k, period, table, rate, hamming)
+                    out[inverse[n]] = _box_value(lin, rot, per, car, i, j, k, period, table, rate, hamming)
                     n += 1
     return out
 
