@@ -375,7 +375,7 @@ def test_slow_movers_beam_centre_time_is_that_of_its_focused_tone_not_of_the_clu
         "the stated 1-sigma is not calibrated in clutter: the autofocus's own signal to clutter-plus-noise ratio "
         "(14.8 dB here, against the 35.1 dB detection SNR of the nulled image) gives v_a 0.685 m/s against its "
         "+0.701 error (v_r 0.385 against -0.318 passes, mostly by the detection-SNR v_los term); over "
-        "scripts/movers_sigma_003.py's Monte-Carlo 1 of 9 clutter movers has v_a within 1 sigma, 5 within 2 "
+        "scripts/movers_sigma_003.py's Monte-Carlo 2 of 9 clutter movers have v_a within 1 sigma, 6 within 2 "
         "(docs/multichannel.md section 8)"
     ),
 )

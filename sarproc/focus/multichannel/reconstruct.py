@@ -744,7 +744,7 @@ def _autofocus_snr(
     ring = (np.abs(f - f0) >= 2.0 / t_w) & (np.abs(f - f0) <= mask_half_width)
     if not ring.any() or peak <= 0:
         return math.inf
-    # less the focused mover's own residue there (AUTOFOCUS_SELF_DB: what noise-free clean movers leave)
+    # less the focused mover's own residue there (AUTOFOCUS_SELF: what noise-free clean movers leave)
     interference = float(np.mean(p[ring] - peak * np.sinc((f[ring] - f0) * t_w) ** 2)) - peak * AUTOFOCUS_SELF
     return peak / interference if interference > 0 else math.inf
 
@@ -1817,7 +1817,7 @@ def reconstruct(
 PROBE_SAMPLES = 16  # azimuth samples either side of a truth mover's predicted peak searched for it (_probe_truth)
 VELOCITY_FLOOR = (0.02, 0.05)  # m/s: v_r and v_a errors on noise-free scenes (docs/multichannel.md)
 # the autofocus's data of a noise-free mover alone: 24.6-26.1 dB over its ring bins (_autofocus_snr; the focus's residue
-# beyond the quadratic and cubic phase), measured on tests/focus/test_movers.py's two_movers and xu_scene's C
+# beyond the quadratic and cubic phase), measured on tests/focus/test_movers.py's two_movers M1 and M2
 AUTOFOCUS_SELF = 10 ** (-24.0 / 10)
 
 
@@ -1839,7 +1839,7 @@ def _uncertainties(mt: MovingTarget, g: _Geometry) -> tuple[float, float, float]
     v_a (autofocus): the quadratic phase coefficient over T has variance 90 / (snr_af T^4), so
     sigma_K = sqrt(90 / snr_af) / (pi T^2) and dK/dv_a = 2 K / v; snr_af is the autofocus's own integrated signal to
     clutter-plus-noise ratio (_autofocus_snr: the clutter in the mover's cells, which the null hid from the
-    detection SNR, counts), the detection SNR where no autofocus ran.
+    detection SNR, counts), never above the detection SNR (which it is where no autofocus ran).
     v_r = (v_los - v_a sin(theta)) / cos(theta) (the refined search keeps v_los with v_a fixed), so
     sigma_vr^2 = (sigma_los^2 + sin(theta)^2 sigma_va^2) / cos(theta)^2.
     Each is combined with the estimator's floor on noise-free scenes (VELOCITY_FLOOR, measured on
@@ -1848,7 +1848,8 @@ def _uncertainties(mt: MovingTarget, g: _Geometry) -> tuple[float, float, float]
     sigma_los' = cos(theta) x v_r's 1-sigma at v_a known.
     """
     snr = 10 ** (mt.snr_db / 10) if np.isfinite(mt.snr_db) else float("inf")
-    snr_af = snr if math.isnan(mt.autofocus_snr) else mt.autofocus_snr
+    # the autofocus's data holds at least the detection's background (noise); inf: nothing above a clean mover's residue
+    snr_af = snr if math.isnan(mt.autofocus_snr) else min(snr, mt.autofocus_snr)
     floor_r, floor_a = VELOCITY_FLOOR
     lam = C / g.fc
     cos, sin = math.cos(g.squint), math.sin(g.squint)
