@@ -70,3 +70,9 @@ reproduce-003-traffic: $(STAMP)
 .PHONY: movers-003-limits
 movers-003-limits: $(STAMP)
 	$(PY) scripts/movers_limits_003.py --results results/003-movers
+
+# Issue 19: are the moving_targets table's 1-sigma velocity uncertainties true? A small Monte-Carlo of clutter
+# seeds and mover velocities on reduced scenes (about 7 min; results/003-movers/sigma_calibration.md).
+.PHONY: movers-003-sigma
+movers-003-sigma: $(STAMP)
+	flock /tmp/heavy.lock nice $(PY) scripts/movers_sigma_003.py --results results/003-movers

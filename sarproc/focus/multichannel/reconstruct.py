@@ -161,6 +161,8 @@ class MovingTarget:
     search: np.ndarray  # (n, 2) velocity, leakage
     autofocus: np.ndarray  # (n, 2) velocity, sharpness (empty if not run)
     snr_db: float = float("nan")  # detection SNR (peak over mean local background)
+    # the autofocus's own integrated signal to clutter-plus-noise ratio (power; nan: no autofocus, inf: no interference)
+    autofocus_snr: float = float("nan")
     apparent_time: float = float("nan")  # s, where it appears (beam-centre time of its static equivalent)
     apparent_range: float = float("nan")  # m, slant range of its static equivalent at apparent_time
     # with the null fit: the output azimuth sample where the mover appears (None: eq. 5 was kept)
@@ -476,6 +478,7 @@ class _Estimate:
     # the null fit's best v_r and its mismatch); None when one of them does, or without the null fit
     unexplained: tuple[float, float, float, float] | None = None
     autofocus: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 2)))  # (n, 2) v_a, sharpness
+    autofocus_snr: float = math.inf  # integrated signal to clutter-plus-noise ratio the autofocus saw (_autofocus_snr)
 
     def v_los(self, g: _Geometry) -> float:
         return channels.line_of_sight_velocity(self.v_r, self.v_a, g.squint)
@@ -678,6 +681,14 @@ def _autofocus(
         t_c = t_c + f_tone * lam / (2 * acc)
         slant_range = walk_corrected - g.velocity * math.sin(g.squint) * t_c
         v_a = _along_track_for(acc, v_los, g, slant_range, v_a)
+    vr_a = (v_los - v_a * math.sin(g.squint)) / math.cos(g.squint)
+    acc = velocity.range_acceleration(g.velocity, v_a, vr_a, g.squint, slant_range)
+    own = np.zeros((1, centre.y_dem.shape[1]), np.complex64)
+    own[0, np.arange(centre.y_dem.shape[1])[keep]] = 1.0
+    y_own = sfft.fft(sfft.ifft(centre.y_dem, axis=1, workers=-1) * own, axis=1, workers=-1)  # (t', f_r), own cells
+    rdot = -(g.velocity - v_a) * math.sin(g.squint) + vr_a * math.cos(g.squint)
+    jerk = -3 * rdot * acc / slant_range
+    est.autofocus_snr = _autofocus_snr(y_own, win.f_r, g, acc, t_c, t_ill, params.separation_bandwidth, jerk)
     est.v_a = v_a
     est.v_r = (v_los - v_a * math.sin(g.squint)) / math.cos(g.squint)
     if params.radial_velocity is None and can_search:
@@ -692,6 +703,50 @@ def _autofocus(
         )
         est.v_r = fine.estimate
     return t_c, slant_range
+
+
+def _autofocus_snr(
+    y_tf: np.ndarray,
+    f_r: np.ndarray,
+    g: _Geometry,
+    acc: float,
+    t_0: float,
+    t_ill: float,
+    mask_half_width: float,
+    jerk: float = 0.0,
+) -> float:
+    """The integrated signal to clutter-plus-noise ratio of the autofocus's data (power ratio; inf: no interference).
+
+    The FM-rate estimate's variance 90 / (snr T^4) (_uncertainties) needs the mover's energy over the interference's
+    density where the mover is in time and frequency. ``y_tf`` (t', f_r): the autofocus's own range cells, dechirped
+    at each range frequency with the range acceleration found (which also straightens the range curvature: in one
+    range cell the mover would be a shorter burst, its tone wider), about the beam-centre time t_0, kept over the
+    illumination time T. The mover is then one tone at f = 0 (peak power P = E M, M samples), sinc^2-shaped (rect
+    illumination); whatever else the separation mask kept there (clutter within +-``mask_half_width`` Hz of the
+    mover's apparent Doppler, noise) spreads over the bins, M x its density per bin. P over the mean power of the
+    bins 2 / T to ``mask_half_width`` from the tone, less the tone's own sinc^2 side lobes there, is E / density:
+    the detection SNR's counterpart that counts the clutter in the mover's cells, which the null hid from detection.
+    """
+    inside = np.abs(g.out_times - t_0) <= t_ill / 2
+    if inside.sum() < 8:
+        return math.inf
+    dt = g.out_times[inside] - t_0
+    ph = deramp.quadratic_phasor(g.out_times[inside], f_r, acc, t_0, g.fc)
+    # and the cubic term jerk dt^3 / 6 (jerk = -3 R' R'' / R: 3.8 rad at the beam edges at 20 deg squint, 600 km)
+    ph *= np.exp(2j * np.pi * np.outer(dt**3, (g.fc + f_r) * jerk / (3 * C)))
+    p = np.sum(np.abs(sfft.fft(y_tf[inside] * ph, axis=0, workers=-1)) ** 2, axis=1)
+    f = sfft.fftfreq(len(p), 1.0 / (g.n * g.prf))
+    t_w = inside.sum() / (g.n * g.prf)  # the window's duration (s): the tone's sinc width is 1 / t_w
+    f0 = _tone_offset(p[:, None] ** 0.5, f, mask_half_width)  # near 0 unless t_0 is off (f = 2 R'' dt / lambda)
+    f0 = 0.0 if f0 is None else f0
+    k = int(np.argmin(np.abs(f - f0)))
+    peak = float(p[k]) / max(float(np.sinc((f[k] - f0) * t_w)) ** 2, 0.5)
+    ring = (np.abs(f - f0) >= 2.0 / t_w) & (np.abs(f - f0) <= mask_half_width)
+    if not ring.any() or peak <= 0:
+        return math.inf
+    # less the focused mover's own residue there (AUTOFOCUS_SELF: what noise-free clean movers leave)
+    interference = float(np.mean(p[ring] - peak * np.sinc((f[ring] - f0) * t_w) ** 2)) - peak * AUTOFOCUS_SELF
+    return peak / interference if interference > 0 else math.inf
 
 
 def _bound_notes(est: _Estimate, params: ReconstructParams) -> tuple[bool, list[str]]:
@@ -791,6 +846,7 @@ def _estimate(
         autofocus=est.autofocus,
         null_fit_index=appears,
         null_fit_cell=appears_cell,
+        autofocus_snr=est.autofocus_snr if len(est.autofocus) else float("nan"),
     ), notes
 
 
@@ -1760,6 +1816,9 @@ def reconstruct(
 
 PROBE_SAMPLES = 16  # azimuth samples either side of a truth mover's predicted peak searched for it (_probe_truth)
 VELOCITY_FLOOR = (0.02, 0.05)  # m/s: v_r and v_a errors on noise-free scenes (docs/multichannel.md)
+# the autofocus's data of a noise-free mover alone: 24.6-26.1 dB over its ring bins (_autofocus_snr; the focus's residue
+# beyond the quadratic and cubic phase), measured on tests/focus/test_movers.py's two_movers M1 and M2
+AUTOFOCUS_SELF = 10 ** (-24.0 / 10)
 
 
 def _beam_centre_point(platform_xyz: np.ndarray, slant_range: float, squint: float) -> np.ndarray:
@@ -1771,28 +1830,38 @@ def _beam_centre_point(platform_xyz: np.ndarray, slant_range: float, squint: flo
 
 
 def _uncertainties(mt: MovingTarget, g: _Geometry) -> tuple[float, float, float]:
-    """1-sigma v_r, v_a (m/s) and along-track relocation (m) from the detection SNR (docs/multichannel.md).
+    """1-sigma v_r, v_a (m/s) and along-track relocation (m), each from what its estimator sees (docs/multichannel.md).
 
-    v_r: the leakage search measures the channel phase 4 pi v_r cos(theta) tau_n / lambda; with per-channel
-    coherent SNR snr / N its phase noise is 1 / sqrt(2 snr / N), a straight-line fit over tau_n gives
-    sigma = lambda / (4 pi cos(theta) sqrt(sum (tau_n - mean)^2)) / sqrt(2 snr / N).
-    v_a: autofocus measures the FM rate; the quadratic phase coefficient over T has variance 90 / (snr T^4),
-    so sigma_K = sqrt(90 / snr) / (pi T^2) and dK/dv_a = 2 K / v.
+    v_los (the leakage search or the null fit, on the detection's channels): the criterion measures the channel
+    phase 4 pi v_los tau_n / lambda; with per-channel coherent SNR snr / N (snr the detection SNR) its phase noise
+    is 1 / sqrt(2 snr / N), a straight-line fit over tau_n gives
+    sigma_los = lambda / (4 pi sqrt(sum (tau_n - mean)^2)) / sqrt(2 snr / N).
+    v_a (autofocus): the quadratic phase coefficient over T has variance 90 / (snr_af T^4), so
+    sigma_K = sqrt(90 / snr_af) / (pi T^2) and dK/dv_a = 2 K / v; snr_af is the autofocus's own integrated signal to
+    clutter-plus-noise ratio (_autofocus_snr: the clutter in the mover's cells, which the null hid from the
+    detection SNR, counts), never above the detection SNR (which it is where no autofocus ran).
+    v_r = (v_los - v_a sin(theta)) / cos(theta) (the refined search keeps v_los with v_a fixed), so
+    sigma_vr^2 = (sigma_los^2 + sin(theta)^2 sigma_va^2) / cos(theta)^2.
     Each is combined with the estimator's floor on noise-free scenes (VELOCITY_FLOOR, measured on
     configs/xu_scene.yaml and xu_traffic.yaml: the model error of the leakage criterion and autofocus).
-    Relocation: the apparent shift is about R v_los / v, so sigma_x = R sqrt((cos sigma_r)^2 + (sin sigma_a)^2) / v.
+    Relocation: the apparent shift is about R v_los / v, so sigma_x = R sqrt(sigma_los'^2 + (sin sigma_a)^2) / v with
+    sigma_los' = cos(theta) x v_r's 1-sigma at v_a known.
     """
     snr = 10 ** (mt.snr_db / 10) if np.isfinite(mt.snr_db) else float("inf")
+    # the autofocus's data holds at least the detection's background (noise); inf: nothing above a clean mover's residue
+    snr_af = snr if math.isnan(mt.autofocus_snr) else min(snr, mt.autofocus_snr)
     floor_r, floor_a = VELOCITY_FLOOR
     lam = C / g.fc
+    cos, sin = math.cos(g.squint), math.sin(g.squint)
     spread = float(np.sqrt(np.sum((g.tau0 - g.tau0.mean()) ** 2)))
-    s_r = lam / (4 * math.pi * math.cos(g.squint) * spread) / math.sqrt(2 * snr / g.n) if spread > 0 else float("inf")
-    ka = 2 * (g.velocity * math.cos(g.squint)) ** 2 / (lam * mt.apparent_range)
+    s_los = lam / (4 * math.pi * spread) / math.sqrt(2 * snr / g.n) if spread > 0 else float("inf")
+    ka = 2 * (g.velocity * cos) ** 2 / (lam * mt.apparent_range)
     t_ill = 2 * g.half_band / ka
-    s_k = math.sqrt(90 / snr) / (math.pi * t_ill**2)
-    s_a = s_k * g.velocity / (2 * ka)
-    s_r, s_a = math.hypot(s_r, floor_r), math.hypot(s_a, floor_a)
-    s_x = mt.apparent_range * math.hypot(math.cos(g.squint) * s_r, math.sin(g.squint) * s_a) / g.velocity
+    s_k = math.sqrt(90 / snr_af) / (math.pi * t_ill**2)
+    s_a = math.hypot(s_k * g.velocity / (2 * ka), floor_a)
+    s_r_known_a = math.hypot(s_los / cos, floor_r)  # v_r's 1-sigma were v_a exact
+    s_r = math.hypot(s_r_known_a, sin / cos * s_a)
+    s_x = mt.apparent_range * math.hypot(cos * s_r_known_a, sin * s_a) / g.velocity
     return s_r, s_a, s_x
 
 
@@ -1906,6 +1975,8 @@ def _output_product(
                 "at_bound": bool(mt.at_bound),
                 "search_evaluations": int(len(mt.search)),
                 "snr_db": float(mt.snr_db) if np.isfinite(mt.snr_db) else None,
+                # the autofocus's own signal to clutter-plus-noise ratio (v_a_sigma's; None: no autofocus or none)
+                "autofocus_snr_db": 10 * math.log10(mt.autofocus_snr) if 0 < mt.autofocus_snr < math.inf else None,
                 "apparent_time": float(mt.apparent_time) if np.isfinite(mt.apparent_time) else None,
             }
         )
