@@ -1555,7 +1555,7 @@ def _measure(
 
 
 def least_squares(B: np.ndarray, y: np.ndarray, exact: bool = False) -> np.ndarray:
-    """Least-squares solution of B x = y (B tall, full column rank).
+    """Least-squares solution of B x = y (B tall, full column rank; y one vector or one column per system).
 
     Through the normal equations of the column-equilibrated B (unit-norm columns, Cholesky) with two
     steps of iterative refinement (which restore the accuracy the squared condition number costs): on the
@@ -1586,14 +1586,15 @@ def least_squares(B: np.ndarray, y: np.ndarray, exact: bool = False) -> np.ndarr
             if not pivots.min() > 1e-7 * pivots.max():  # Gram condition beyond ~1e14 (e.g. equal columns)
                 factor = None
         if factor is not None:
+            col = scale if y.ndim == 1 else scale[:, None]  # y: one right-hand side or a column per system
 
             def adjoint(r: np.ndarray) -> np.ndarray:  # B^H r / scale, without conjugating B
-                return (Bt @ r.conj()).conj() / scale if complex_ else (Bt @ r) / scale
+                return (Bt @ r.conj()).conj() / col if complex_ else (Bt @ r) / col
 
             x = cho_solve(factor, adjoint(y))
             for _ in range(2):  # iterative refinement: the normal equations' squared condition number undone
-                x = x + cho_solve(factor, adjoint(y - B @ (x / scale)))
-            return x / scale
+                x = x + cho_solve(factor, adjoint(y - B @ (x / col)))
+            return x / col
     return np.linalg.lstsq(B, y, rcond=None)[0]
 
 

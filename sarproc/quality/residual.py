@@ -513,8 +513,14 @@ def _amplitudes(bases: list[np.ndarray], y: np.ndarray) -> tuple[np.ndarray, np.
 def _gauss_newton_step(B: np.ndarray, r: np.ndarray, J: np.ndarray, free: np.ndarray) -> tuple[np.ndarray, float]:
     """(step, predicted decrease of |r|^2): the real parameters' Gauss-Newton step (the ``free`` ones; the
     others 0), the amplitudes eliminated (variable projection: J projected off the span of the bases B)."""
-    Q = np.linalg.qr(B)[0]
-    Jp = J[:, free] - Q @ (Q.conj().T @ J[:, free])
+    Jf = J[:, free]
+    if COMPILED:  # B's least squares for every column of J (normal equations, refined): no full Q of a tall B
+        from sarproc.quality.metrics import least_squares  # metrics imports this module
+
+        Jp = Jf - B @ least_squares(B, Jf)
+    else:  # the numpy reference
+        Q = np.linalg.qr(B)[0]
+        Jp = Jf - Q @ (Q.conj().T @ Jf)
     A = np.concatenate([Jp.real, Jp.imag], axis=0)
     b = np.concatenate([r.real, r.imag])
     scale = np.linalg.norm(A, axis=0)
