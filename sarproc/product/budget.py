@@ -217,7 +217,10 @@ PROCESS = {
     "coarse-focus": (75e6, 0.24),
     "fine-focus": (230e6, 0.55),
     "backproject": (240e6, 0.36),
-    "pfa2": (290e6, 0.7),
+    # pfa2 runs its kernels ahead-of-time compiled and serial while that beats numba's start (issue 23): a
+    # fresh-clone CI run measured nie2016_sliding_small at 2.07 s wall, 2.23 s CPU against a plan of 1.0 s;
+    # refitted to ~0.75x that CPU by the rule above
+    "pfa2": (290e6, 1.35),
     "reconstruct": (170e6, 0.1),  # its model (0.55 us a sample) counts 0.52 s on xu_small, whose run takes ~0.7 s
     "array3d": (215e6, 0.45),
     "evaluate": (85e6, 0.3),  # idle: the demo's process 0.40-0.44 s, 74 MB peak RSS (plan was 1.7-1.8x both)
