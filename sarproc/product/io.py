@@ -590,7 +590,11 @@ class WriteBehind:
     def write(self, index: Any, block: np.ndarray) -> None:
         """Queue ``block`` for ``writer.write(index, block)``; the caller must not change it afterwards."""
         self._raise_error()
-        self._queue.put((index, block))
+        # Deferred: a stop signal raised inside Queue.put can leave the queue's condition with a stale waiter
+        # (threading's primitives are not signal-safe), and the writer thread then never sees the end marker.
+        # The wait is at most one block's write.
+        with run.deferred():
+            self._queue.put((index, block))
 
     def __enter__(self) -> WriteBehind:
         self._thread.start()

@@ -1152,7 +1152,12 @@ def test_signal_during_write_removes_temporary(tmp_path, sig):
     assert wait_for_temporary(tmp_path, proc), proc.communicate()
     time.sleep(0.2)
     proc.send_signal(getattr(signal, sig))
-    _, err = proc.communicate(timeout=60)
+    try:
+        _, err = proc.communicate(timeout=60)
+    except subprocess.TimeoutExpired:  # a hang is the failure; the process must not outlive the test
+        proc.kill()
+        _, err = proc.communicate()
+        pytest.fail(f"simulate did not stop within 60 s of {sig}: {err[-2000:]}")
     assert proc.returncode == 128 + getattr(signal, sig), err
     assert f"interrupted by {sig}" in err and "Traceback" not in err
     assert snapshot(tmp_path) == before

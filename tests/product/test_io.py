@@ -1,5 +1,7 @@
 import hashlib
 import json
+import os
+import time
 
 import h5py
 import numpy as np
@@ -190,3 +192,49 @@ def test_write_behind_drops_queued_blocks_when_the_caller_fails(tmp_path):
         behind.write((slice(0, 2), slice(None)), p.data[:2])
         raise RuntimeError("caller")
     assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_a_stop_signal_never_cuts_the_write_behind_queue(tmp_path, monkeypatch):
+    """A signal while the caller waits for a queue slot is acted on once the block is queued: raised inside
+    Queue.put it can leave a stale waiter, and the writer thread then never sees the end marker (simulate hung
+    2 times in 25 SIGINTs that way)."""
+    import signal
+    import threading
+
+    from sarproc.product import run
+
+    p = image_product(n_az=40)
+    real_write = ProductWriter.write
+
+    def slow_write(self, index, block):
+        time.sleep(0.3)
+        return real_write(self, index, block)
+
+    monkeypatch.setattr(ProductWriter, "write", slow_write)
+    previous = {s: signal.getsignal(s) for s in run.STOP_SIGNALS}
+    run.begin()
+    run.install_handlers()
+    try:
+        started = time.monotonic()
+        with (
+            pytest.raises(run.Interrupted),
+            ProductWriter(tmp_path / "out.h5", "image", p.dims, p.coords, p.radar, p.targets, attrs=p.attrs) as w,
+            WriteBehind(w) as behind,
+        ):
+            behind.write((slice(0, 2), slice(None)), p.data[:2])  # taken by the writer at once
+            behind.write((slice(2, 4), slice(None)), p.data[2:4])  # fills the queue
+            threading.Timer(0.1, os.kill, (os.getpid(), signal.SIGINT)).start()
+            try:
+                behind.write((slice(4, 6), slice(None)), p.data[4:6])  # waits for a slot; the signal lands here
+            finally:
+                raised = time.monotonic() - started
+            pytest.fail("the signal was not acted on")
+        waited = time.monotonic() - started
+    finally:
+        run.end()
+        for s, h in previous.items():
+            signal.signal(s, h)
+    assert raised > 0.25, raised  # acted on once the writer freed the slot (0.3 s), not inside Queue.put
+    assert waited < 5, waited  # and the writer thread was joined
+    assert not behind._thread.is_alive()
+    assert list(tmp_path.iterdir()) == []
