@@ -13,10 +13,11 @@ interpolation) and multiplied by exp(+j 2 pi f_c R / c). Two engines compute thi
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import os
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -32,6 +33,7 @@ from sarproc.product.theory import WINDOWS
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterable, Iterator, Sequence
     from concurrent.futures import Executor
+    from types import ModuleType
 
     from sarproc.product.steps import ProgressFactory
 
@@ -104,51 +106,20 @@ def _ranges(platform: np.ndarray, points_c: np.ndarray, points_sq: np.ndarray) -
     return np.sqrt(r2, out=r2)
 
 
-def _backproject_block(
-    s: int,
-    e: int,
-    flat: np.ndarray,
-    stride: int,
-    n_up: int,
-    scale: float,
-    t0: float,
-    gate: np.ndarray,
-    tx_c: np.ndarray,
-    rx_c: np.ndarray,
-    monostatic: bool,
-    points_c: np.ndarray,
-    points_sq: np.ndarray,
-    carrier_frequency: float,
-    interpolation: str,
-) -> np.ndarray:
-    r = _ranges(tx_c[s:e], points_c, points_sq)
-    if monostatic:
+def _backproject_block(s: int, e: int, c: _ReferenceChunk) -> np.ndarray:
+    """Sum over pulses s .. e of chunk ``c`` at every point (reference engine, float64 ranges)."""
+    r = _ranges(c.tx_c[s:e], c.points.points_c, c.points.points_sq)
+    if c.monostatic:
         r *= 2.0
     else:
-        r += _ranges(rx_c[s:e], points_c, points_sq)
+        r += _ranges(c.rx_c[s:e], c.points.points_c, c.points.points_sq)
     # Fractional sample of the upsampled pulse: (R / c - t0 - gate) * f_s * upsample.
-    pos = r * (scale / C)
-    pos -= ((t0 + gate[s:e]) * scale)[:, None]
-    rows = (np.arange(s, e) * stride)[:, None]
-    if interpolation == "nearest":
-        idx = np.rint(pos).astype(np.int64)
-        idx[(idx < 0) | (idx >= n_up)] = n_up  # the zero sample
-        val = flat[idx + rows]
-    else:
-        i0 = np.floor(pos)
-        w = (pos - i0).astype(np.float32)
-        i0 = i0.astype(np.int64)
-        # Samples outside the pulse are zero on both sides: i0 = -1 pairs the previous row's zero sample (the
-        # last row's for the first pulse, by wrap-around) with sample 0, i0 = n_up - 1 the last sample with
-        # this row's zero sample; further out, weight 1 on the zero sample gives exactly 0.
-        outside = (i0 < -1) | (i0 >= n_up)
-        i0[outside] = n_up - 1
-        w[outside] = 1.0
-        i0 += rows
-        lo = flat[i0]
-        val = lo + (flat[i0 + 1] - lo) * w
+    pos = r * (c.scale / C)
+    pos -= ((c.t0 + c.gate[s:e]) * c.scale)[:, None]
+    rows = (np.arange(s, e) * c.stride)[:, None]
+    val = _read_nearest(c.flat, pos, rows, c.n_up) if c.interpolation == "nearest" else _read_linear(c, pos, rows)
     # Carrier phase in float64 cycles, reduced to [0, 1) before the complex64 exponential.
-    cyc = r * (carrier_frequency / C)
+    cyc = r * (c.carrier_frequency / C)
     cyc -= np.floor(cyc)
     from sarproc.dsp.phasor import unit_phasor  # numba: imported where the reference engine runs
 
@@ -156,8 +127,79 @@ def _backproject_block(
     return val.sum(axis=0, dtype=np.complex128)
 
 
+def _read_nearest(flat: np.ndarray, pos: np.ndarray, rows: np.ndarray, n_up: int) -> np.ndarray:
+    idx = np.rint(pos).astype(np.int64)
+    idx[(idx < 0) | (idx >= n_up)] = n_up  # the zero sample
+    return flat[idx + rows]
+
+
+def _read_linear(c: _ReferenceChunk, pos: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    i0 = np.floor(pos)
+    w = (pos - i0).astype(np.float32)
+    i0 = i0.astype(np.int64)
+    # Samples outside the pulse are zero on both sides: i0 = -1 pairs the previous row's zero sample (the
+    # last row's for the first pulse, by wrap-around) with sample 0, i0 = n_up - 1 the last sample with
+    # this row's zero sample; further out, weight 1 on the zero sample gives exactly 0.
+    outside = (i0 < -1) | (i0 >= c.n_up)
+    i0[outside] = c.n_up - 1
+    w[outside] = 1.0
+    i0 += rows
+    lo = c.flat[i0]
+    return lo + (c.flat[i0 + 1] - lo) * w
+
+
 ENGINES = ("compiled", "reference", "ffbp")
 INTERPOLATIONS = ("linear", "nearest", "cubic", "knab", "sinc", "lanczos")
+
+
+@dataclasses.dataclass(frozen=True)
+class _Pulses:
+    """Range-compressed pulses and where they were sent and received: what both engines read."""
+
+    rc: np.ndarray  # (n_az, n_rg) complex
+    t0: float  # delay of the first range sample, s
+    dt: float  # range sample spacing, s
+    gate: np.ndarray  # (n_az,) each pulse's range-window offset, s
+    tx_pos: np.ndarray  # (n_az, 3) m
+    rx_pos: np.ndarray  # (n_az, 3) m
+    monostatic: bool
+    carrier_frequency: float
+
+
+def _pulses(
+    rc: np.ndarray,
+    range_time: np.ndarray,
+    tx_pos: np.ndarray,
+    rx_pos: np.ndarray,
+    carrier_frequency: float,
+    gate_offset: np.ndarray | None,
+) -> _Pulses:
+    rc = np.asarray(rc)
+    n_az, n_rg = rc.shape
+    if n_az == 0:  # the sum over pulses divided by n_az would be 0 / 0
+        raise ValueError("backproject_points: no pulses (rc has 0 rows)")
+    tx_pos, rx_pos = np.asarray(tx_pos, float), np.asarray(rx_pos, float)
+    return _Pulses(
+        rc=rc,
+        t0=range_time[0],
+        dt=(range_time[-1] - range_time[0]) / (n_rg - 1) if n_rg > 1 else 1.0,
+        gate=np.zeros(n_az) if gate_offset is None else np.asarray(gate_offset, float),
+        tx_pos=tx_pos,
+        rx_pos=rx_pos,
+        monostatic=np.array_equal(tx_pos, rx_pos),
+        carrier_frequency=carrier_frequency,
+    )
+
+
+@dataclasses.dataclass(frozen=True)
+class _Reads:
+    """How the compiled engine reads a pulse: on the signal upsampled ``upsample`` times, by ``interpolation``
+    (a tap kernel of ``kernel_length`` taps, Knab designed for ``oversampling``, where it is one)."""
+
+    upsample: int
+    interpolation: str
+    kernel_length: int
+    oversampling: float
 
 
 def backproject_points(
@@ -191,77 +233,106 @@ def backproject_points(
     (numba, tiles of about ``tile_points`` pixels on ``workers`` threads; default: all cores).
     Returns (n_points,) complex128: the sum over pulses divided by n_az.
     """
-    rc = np.asarray(rc)
-    n_az, n_rg = rc.shape
-    if n_az == 0:  # the sum over pulses divided by n_az would be 0 / 0
-        raise ValueError("backproject_points: no pulses (rc has 0 rows)")
+    pulses = _pulses(rc, range_time, tx_pos, rx_pos, carrier_frequency, gate_offset)
     points = np.asarray(points, float).reshape(-1, 3)
-    tx_pos, rx_pos = np.asarray(tx_pos, float), np.asarray(rx_pos, float)
-    monostatic = np.array_equal(tx_pos, rx_pos)
-    dt = (range_time[-1] - range_time[0]) / (n_rg - 1) if n_rg > 1 else 1.0
-    gate = np.zeros(n_az) if gate_offset is None else np.asarray(gate_offset, float)
     if interpolation not in INTERPOLATIONS:
         raise ValueError(f"unknown interpolation {interpolation!r}; known: {INTERPOLATIONS}")
     if engine == "compiled":
-        return _backproject_compiled(
-            rc,
-            range_time[0],
-            dt,
-            gate,
-            tx_pos,
-            rx_pos,
-            monostatic,
-            points,
-            carrier_frequency,
-            upsample,
-            interpolation,
-            kernel_length,
-            oversampling or 1.25 * upsample,
-            tile_points,
-            progress,
-            workers,
-        )
+        reads = _Reads(upsample, interpolation, kernel_length, oversampling or 1.25 * upsample)
+        return _backproject_compiled(pulses, points, reads, tile_points, progress, workers)
     if engine != "reference":
         raise ValueError(f"unknown backprojection engine {engine!r}; known: {ENGINES}")
     if interpolation not in ("linear", "nearest"):
         raise ValueError(f"the reference engine interpolates 'linear' or 'nearest', not {interpolation!r}")
+    return _backproject_reference(pulses, points, upsample, interpolation, block_elements, progress, workers)
+
+
+@dataclasses.dataclass(frozen=True)
+class _CentredPoints:
+    """The points relative to their centroid ``origin`` and their squared norms (see :func:`_ranges`)."""
+
+    origin: np.ndarray
+    points_c: np.ndarray
+    points_sq: np.ndarray
+
+
+def _centred(points: np.ndarray) -> _CentredPoints:
+    origin = points.mean(axis=0) if len(points) else np.zeros(3)
+    points_c = points - origin
+    return _CentredPoints(origin, points_c, np.einsum("ij,ij->i", points_c, points_c))
+
+
+@dataclasses.dataclass(frozen=True)
+class _ReferenceChunk:
+    """A chunk of pulses upsampled for the reference engine, with what its blocks read beside them."""
+
+    flat: np.ndarray  # the upsampled pulses, each followed by one zero sample, flattened
+    stride: int  # samples per pulse in flat (n_up + 1)
+    n_up: int  # upsampled samples per pulse
+    scale: float  # upsampled samples per second
+    t0: float
+    gate: np.ndarray  # the chunk's pulses'
+    tx_c: np.ndarray  # the chunk's positions relative to the points' centroid
+    rx_c: np.ndarray
+    monostatic: bool
+    points: _CentredPoints
+    carrier_frequency: float
+    interpolation: str
+
+
+def _reference_spans(
+    n_az: int, n_points: int, block_elements: int
+) -> tuple[list[tuple[int, int]], list[list[tuple[int, int]]]]:
+    """Chunks of pulses upsampled at a time (at most 64 pulses, whole blocks) and, per chunk, its blocks of pulses
+    (``block_elements`` pixel-pulses each) relative to the chunk's start."""
+    block = max(1, min(64, int(block_elements // max(n_points, 1))))
+    chunk = block * max(1, 64 // block)
+    chunks = [(c, min(c + chunk, n_az)) for c in range(0, n_az, chunk)]
+    spans = [[(s - c0, min(s + block, c1) - c0) for s in range(c0, c1, block)] for c0, c1 in chunks]
+    return chunks, spans
+
+
+def _backproject_reference(
+    pulses: _Pulses,
+    points: np.ndarray,
+    upsample: int,
+    interpolation: str,
+    block_elements: int,
+    progress: ProgressFactory | None,
+    workers: int | None,
+) -> np.ndarray:
+    """The reference engine: numpy, float64 ranges, blocks of pulses summed on ``workers`` threads."""
     from concurrent.futures import ThreadPoolExecutor
 
+    p = pulses
+    n_az, n_rg = p.rc.shape
     # One zero sample past each pulse: reads outside the window land on it and add nothing. Pulses are upsampled
     # a chunk at a time (the whole upsampled history was 3x the input and output together).
     n_up = upsampled_length(n_rg, upsample)
-    origin = points.mean(axis=0) if len(points) else np.zeros(3)
-    points_c = points - origin
-    points_sq = np.einsum("ij,ij->i", points_c, points_c)
-    block = max(1, min(64, int(block_elements // max(len(points), 1))))
-    chunk = block * max(1, 64 // block)  # whole blocks, at most 64 pulses upsampled at a time
-    chunks = [(c, min(c + chunk, n_az)) for c in range(0, n_az, chunk)]
-    spans = [[(s - c0, min(s + block, c1) - c0) for s in range(c0, c1, block)] for c0, c1 in chunks]
-    tx_c, rx_c = tx_pos - origin, rx_pos - origin
-    n_workers = workers or os.cpu_count() or 1
+    centred = _centred(points)
+    chunks, spans = _reference_spans(n_az, len(points), block_elements)
+    tx_c, rx_c = p.tx_pos - centred.origin, p.rx_pos - centred.origin
 
     def parts(pool: Executor) -> Iterator[np.ndarray]:
         for (c0, c1), local in zip(chunks, spans):
-            flat = upsample_range(rc[c0:c1], upsample, pad=1, length=n_up).ravel()
-            args = (
-                flat,
-                n_up + 1,
-                n_up,
-                n_up / (n_rg * dt),
-                range_time[0],
-                gate[c0:c1],
-                tx_c[c0:c1],
-                rx_c[c0:c1],
-                monostatic,
-                points_c,
-                points_sq,
-                carrier_frequency,
-                interpolation,
+            chunk = _ReferenceChunk(
+                flat=upsample_range(p.rc[c0:c1], upsample, pad=1, length=n_up).ravel(),
+                stride=n_up + 1,
+                n_up=n_up,
+                scale=n_up / (n_rg * p.dt),
+                t0=p.t0,
+                gate=p.gate[c0:c1],
+                tx_c=tx_c[c0:c1],
+                rx_c=rx_c[c0:c1],
+                monostatic=p.monostatic,
+                points=centred,
+                carrier_frequency=p.carrier_frequency,
+                interpolation=interpolation,
             )
-            yield from pool.map(lambda span, a=args: _backproject_block(*span, *a), local)
+            yield from pool.map(lambda span, c=chunk: _backproject_block(span[0], span[1], c), local)
 
     acc = np.zeros(len(points), np.complex128)
-    with ThreadPoolExecutor(max_workers=n_workers) as pool:
+    with ThreadPoolExecutor(max_workers=workers or os.cpu_count() or 1) as pool:
         results: Iterable[np.ndarray] = parts(pool)
         if progress is not None:
             results = progress(results, total=sum(len(x) for x in spans))
@@ -311,43 +382,52 @@ def _tile_size(
     return min(edge, 2 * max_radius / math.sqrt(len(ext)))
 
 
-def _backproject_compiled(
-    rc: np.ndarray,
-    t0: float,
-    dt: float,
-    gate: np.ndarray,
-    tx_pos: np.ndarray,
-    rx_pos: np.ndarray,
-    monostatic: bool,
-    points: np.ndarray,
-    carrier_frequency: float,
-    upsample: int,
-    interpolation: str,
-    kernel_length: int,
-    oversampling: float,
-    tile_points: int,
-    progress: ProgressFactory | None,
-    workers: int | None,
-) -> np.ndarray:
+@contextlib.contextmanager
+def numba_threads(workers: int | None) -> Iterator[None]:
+    """numba's parallel kernels on ``workers`` threads (None or 0: as set) inside the block, restored after."""
+    import numba
+
+    old = numba.get_num_threads()
+    if workers:
+        numba.set_num_threads(max(1, min(int(workers), numba.config.NUMBA_NUM_THREADS)))
+    try:
+        yield
+    finally:
+        numba.set_num_threads(old)
+
+
+# The compiled kernels' read modes: 2 is a tap kernel (knab, sinc, lanczos) on the upsampled samples.
+_READ_MODES = {"nearest": 0, "linear": 1, "cubic": 3}
+
+
+def _tap_table(reads: _Reads) -> tuple[int, np.ndarray]:
+    """Taps and weight table of a tap-kernel read; (0, a dummy table) for the other modes."""
+    if _READ_MODES.get(reads.interpolation, 2) != 2:
+        return 0, np.zeros((2, 1), np.float32)
+    from sarproc.dsp.interp import kernel_length as taps_of, tap_table
+    from sarproc.focus import backprojection_kernel as bk
+
+    taps = taps_of(reads.interpolation, reads.kernel_length)
+    return taps, tap_table(reads.interpolation, taps, reads.oversampling, np.float32, steps=bk._TABLE_STEPS)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Tiles:
+    """The points sorted into tiles (the kernels' make_tiles): ``order`` the sorted points' original indices,
+    tile t's points ``start[t] .. start[t + 1]``, its centre ``centres[t]`` relative to ``origin``, and ``d``
+    the points' float32 offsets from their tile's centre (row 3: squared distance)."""
+
+    order: np.ndarray
+    start: np.ndarray
+    centres: np.ndarray
+    origin: np.ndarray
+    d: np.ndarray
+
+
+def _tiles(points: np.ndarray, tile_points: int, carrier_frequency: float, aot: ModuleType | None) -> _Tiles:
+    """Tiles of about ``tile_points`` points, small enough in carrier cycles for the float32 offsets."""
     from sarproc.focus import backprojection_aot
 
-    n_az, n_rg = rc.shape
-    if len(points) == 0:
-        return np.zeros(0, np.complex128)
-    mode = {"nearest": 0, "linear": 1, "cubic": 3}.get(interpolation, 2)
-    # a small image on linear reads: the kernels compiled ahead of time, serial, without numba's start-up
-    # (sarproc.focus.backprojection_aot); otherwise, or while that module is not built, the numba kernels
-    small = mode == 1 and backprojection_aot.serial_pays(len(points) * n_az, workers)
-    aot = backprojection_aot.load() if small else None
-    if aot is None:
-        from sarproc.focus import backprojection_kernel as bk
-    taps = 0
-    table = np.zeros((2, 1), np.float32)
-    if mode == 2:
-        from sarproc.dsp.interp import kernel_length as taps_of, tap_table
-
-        taps = taps_of(interpolation, kernel_length)
-        table = tap_table(interpolation, taps, oversampling, np.float32, steps=bk._TABLE_STEPS)
     edge = _tile_size(
         points,
         tile_points,
@@ -355,72 +435,114 @@ def _backproject_compiled(
         bounds=None if aot is None else aot.bounds,
     )
     if aot is None:
-        order, tile_start, centres, origin, d = bk.make_tiles(points, edge, max_tile=4 * tile_points)
-    else:
-        order, tile_start, centres, origin, d = backprojection_aot.make_tiles(
-            points, edge, aot, max_tile=4 * tile_points
-        )
-    k = bk if aot is None else aot
-    n_up = upsampled_length(n_rg, upsample)
-    fs_up = n_up / (n_rg * dt)
-    first = -(t0 + gate) * fs_up
-    tx_c = np.ascontiguousarray(tx_pos - origin)
-    rx_c = np.ascontiguousarray(rx_pos - origin)
-    acc = np.zeros(len(points), np.complex128)
-    entry = 0  # bytes per pulse of the pair / cubic tables
-    if mode in (1, 3):  # each pulse's window of samples the pixels can reach
-        radius = np.sqrt(np.maximum.reduceat(d[3], tile_start[:-1])).astype(float)
-        lo, hi = k.pulse_windows(first, fs_up / C, tx_c, rx_c, monostatic, centres, radius, n_up, 1 if mode == 1 else 2)
-        n_w = int((hi - lo).max()) + 3
-        first = first - lo + 1  # positions counted in table entries
-        entry = (n_w + 1) * (16 if mode == 1 else 32)
-    # pulses upsampled and backprojected at a time: up to CHUNK_PULSES (each tile's pixels and sums are read once per
-    # chunk, so fewer chunks move less memory on big grids), the chunk's samples and tables within CHUNK_BYTES
+        from sarproc.focus import backprojection_kernel as bk
+
+        return _Tiles(*bk.make_tiles(points, edge, max_tile=4 * tile_points))
+    return _Tiles(*backprojection_aot.make_tiles(points, edge, aot, max_tile=4 * tile_points))
+
+
+@dataclasses.dataclass(frozen=True)
+class _Windows:
+    """Where each pulse is read: ``first`` the fractional position of the pulse's start (upsampled samples; with
+    table reads, table entries of the window starting at ``lo``, n_w samples wide), ``entry`` the bytes per
+    pulse of those tables (0 without)."""
+
+    first: np.ndarray
+    lo: np.ndarray | None = None
+    n_w: int = 0
+    entry: int = 0
+
+
+def _pulse_windows(
+    k: Any, mode: int, pulses: _Pulses, tiles: _Tiles, tx_c: np.ndarray, rx_c: np.ndarray, n_up: int, fs_up: float
+) -> _Windows:
+    """Each pulse's window of samples the pixels can reach, for the linear and cubic reads' tables."""
+    first = -(pulses.t0 + pulses.gate) * fs_up
+    if mode not in (1, 3):
+        return _Windows(first)
+    radius = np.sqrt(np.maximum.reduceat(tiles.d[3], tiles.start[:-1])).astype(float)
+    lo, hi = k.pulse_windows(
+        first, fs_up / C, tx_c, rx_c, pulses.monostatic, tiles.centres, radius, n_up, 1 if mode == 1 else 2
+    )
+    n_w = int((hi - lo).max()) + 3
+    # positions counted in table entries
+    return _Windows(first - lo + 1, lo, n_w, (n_w + 1) * (16 if mode == 1 else 32))
+
+
+def _chunk_pulses(n_az: int, n_up: int, entry: int) -> int:
+    """Pulses upsampled and backprojected at a time: up to CHUNK_PULSES (each tile's pixels and sums are read once
+    per chunk, so fewer chunks move less memory on big grids), the chunk's samples and tables within CHUNK_BYTES;
+    chunks of even sizes."""
     chunk = max(1, min(n_az, CHUNK_PULSES, max(64, CHUNK_BYTES // (8 * n_up + entry))))
-    chunk = -(-n_az // -(-n_az // chunk))  # as many chunks, of even sizes
+    return -(-n_az // -(-n_az // chunk))
+
+
+def _backproject_compiled(
+    pulses: _Pulses,
+    points: np.ndarray,
+    reads: _Reads,
+    tile_points: int,
+    progress: ProgressFactory | None,
+    workers: int | None,
+) -> np.ndarray:
+    """The compiled engine: tiles of points on numba's threads (or, small images on linear reads, serially in
+    the kernels compiled ahead of time), chunks of pulses upsampled and read through the mode's tables."""
+    from sarproc.focus import backprojection_aot
+
+    p = pulses
+    n_az, n_rg = p.rc.shape
+    if len(points) == 0:
+        return np.zeros(0, np.complex128)
+    mode = _READ_MODES.get(reads.interpolation, 2)
+    # a small image on linear reads: the kernels compiled ahead of time, serial, without numba's start-up
+    # (sarproc.focus.backprojection_aot); otherwise, or while that module is not built, the numba kernels
+    small = mode == 1 and backprojection_aot.serial_pays(len(points) * n_az, workers)
+    aot = backprojection_aot.load() if small else None
+    if aot is None:
+        from sarproc.focus import backprojection_kernel as bk
+    k = bk if aot is None else aot
+    taps, table = _tap_table(reads)
+    tiles = _tiles(points, tile_points, p.carrier_frequency, aot)
+    n_up = upsampled_length(n_rg, reads.upsample)
+    fs_up = n_up / (n_rg * p.dt)
+    tx_c = np.ascontiguousarray(p.tx_pos - tiles.origin)
+    rx_c = np.ascontiguousarray(p.rx_pos - tiles.origin)
+    win = _pulse_windows(k, mode, p, tiles, tx_c, rx_c, n_up, fs_up)
+    chunk = _chunk_pulses(n_az, n_up, win.entry)
     spans = [(s, min(s + chunk, n_az)) for s in range(0, n_az, chunk)]
     if mode in (1, 3):
-        pairs = np.empty((chunk, n_w + 1, 4 if mode == 1 else 8), np.float32)
+        pairs = np.empty((chunk, win.n_w + 1, 4 if mode == 1 else 8), np.float32)
     else:
         pairs = np.zeros((1, 1, 4), np.float32)
-    if aot is None:
-        import numba
-
-        old = numba.get_num_threads()
-        if workers:
-            numba.set_num_threads(max(1, min(int(workers), numba.config.NUMBA_NUM_THREADS)))
-    try:
+    acc = np.zeros(len(points), np.complex128)
+    with numba_threads(workers) if aot is None else contextlib.nullcontext():
         buf = np.empty((chunk, n_up), np.complex64)
         for s, e in progress(spans) if progress is not None else spans:
-            pulses = upsample_into(np.asarray(rc[s:e], np.complex64), buf[: e - s])
-            if mode == 1:
-                k.pair_table(pulses, lo[s:e], pairs[: e - s])
-            elif mode == 3:
-                bk.cubic_table(pulses, lo[s:e], pairs[: e - s])
+            chunk_pulses = upsample_into(np.asarray(p.rc[s:e], np.complex64), buf[: e - s])
+            if mode in (1, 3):
+                assert win.lo is not None
+                (k.pair_table if mode == 1 else k.cubic_table)(chunk_pulses, win.lo[s:e], pairs[: e - s])
             k.backproject_tiles(
-                pulses,
+                chunk_pulses,
                 pairs[: e - s],
-                first[s:e],
+                win.first[s:e],
                 fs_up / C,
-                carrier_frequency / C,
+                p.carrier_frequency / C,
                 tx_c[s:e],
                 rx_c[s:e],
-                monostatic,
-                centres,
-                tile_start,
-                d,
+                p.monostatic,
+                tiles.centres,
+                tiles.start,
+                tiles.d,
                 mode,
                 table,
                 taps,
                 acc,
             )
-    finally:
-        if aot is None:
-            numba.set_num_threads(old)
     if aot is None and small:
         backprojection_aot.request_build()  # for the next small image (once; in the background)
     out = np.empty_like(acc)
-    k.scatter_scaled(acc, order, float(n_az), out)
+    k.scatter_scaled(acc, tiles.order, float(n_az), out)
     return out
 
 

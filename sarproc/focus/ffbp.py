@@ -243,6 +243,19 @@ CARTESIAN_TAPS, CARTESIAN_OVERSAMPLE = 12, 1.75
 CARTESIAN_FILL = 0.75  # the coarse grid is used when it has at most this many points per output point
 
 
+@dataclasses.dataclass(frozen=True)
+class _CoarseGrid:
+    """A coarse grid along the output lattice's axes (:func:`_cartesian_grid`): its first point and steps in plane
+    coordinates, its shape, and the output rows' and columns' positions in its samples."""
+
+    origin: np.ndarray
+    step_a: np.ndarray
+    step_b: np.ndarray
+    shape: tuple[int, int]
+    pos_a: np.ndarray
+    pos_b: np.ndarray
+
+
 def _cartesian_grid(
     xy0: np.ndarray,
     a: np.ndarray,
@@ -251,7 +264,7 @@ def _cartesian_grid(
     top_geo: np.ndarray,
     oversample: float,
     boundary: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[int, int], np.ndarray, np.ndarray] | None:
+) -> _CoarseGrid | None:
     """A coarse grid along the axes of the output lattice (first point xy0, steps a and b in plane coordinates)
     that samples the top image (demodulated by the carrier of the range from its centre: a baseband image)
     CARTESIAN_OVERSAMPLE times its bandwidth along each axis, when the output grid is at least 1 / CARTESIAN_FILL
@@ -281,7 +294,7 @@ def _cartesian_grid(
     if counts[0] * counts[1] > CARTESIAN_FILL * n0 * n1:
         return None
     origin = xy0 - margin * (steps[0] + steps[1])
-    return origin, steps[0], steps[1], (counts[0], counts[1]), pos[0], pos[1]
+    return _CoarseGrid(origin, steps[0], steps[1], (counts[0], counts[1]), pos[0], pos[1])
 
 
 def _upsampling_weights(pos: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -577,14 +590,13 @@ def _read_points(
     out /= n_az
 
 
-def _read_coarse(top: _Image, coarse: tuple, kc2: float, tab_t: np.ndarray) -> np.ndarray:
+def _read_coarse(top: _Image, coarse: _CoarseGrid, kc2: float, tab_t: np.ndarray) -> np.ndarray:
     """The top image (baseband) read on the coarse grid from :func:`_cartesian_grid`: complex64 of its shape."""
     from sarproc.focus import ffbp_kernel as fk
 
-    origin_c, step_a, step_b, shape_c, _, _ = coarse
-    ia, ib = np.meshgrid(np.arange(shape_c[0]), np.arange(shape_c[1]), indexing="ij")
-    cx = origin_c[0] + ia * step_a[0] + ib * step_b[0]
-    cy = origin_c[1] + ia * step_a[1] + ib * step_b[1]
+    ia, ib = np.meshgrid(np.arange(coarse.shape[0]), np.arange(coarse.shape[1]), indexing="ij")
+    cx = coarse.origin[0] + ia * coarse.step_a[0] + ib * coarse.step_b[0]
+    cy = coarse.origin[1] + ia * coarse.step_a[1] + ib * coarse.step_b[1]
     low = np.empty(cx.size, np.complex128)
     fk.final_points(
         top.buf,
@@ -600,20 +612,25 @@ def _read_coarse(top: _Image, coarse: tuple, kc2: float, tab_t: np.ndarray) -> n
         low,
         False,
     )
-    return low.astype(np.complex64).reshape(shape_c)
+    return low.astype(np.complex64).reshape(coarse.shape)
 
 
 def _upsample_to_lattice(
-    low_c: np.ndarray, coarse: tuple, plane: _ImagePlane, top_geo: np.ndarray, kc2: float, n_az: int, out: np.ndarray
+    low_c: np.ndarray,
+    coarse: _CoarseGrid,
+    plane: _ImagePlane,
+    top_geo: np.ndarray,
+    kc2: float,
+    n_az: int,
+    out: np.ndarray,
 ) -> None:
     """Upsample the coarse grid separably (Knab, CARTESIAN_TAPS) to the output lattice and restore the carrier
     pixel by pixel (the range from the top image's centre ``top_geo``), into out."""
     from sarproc.focus import ffbp_kernel as fk
 
     assert plane.xy0 is not None and plane.a_xy is not None and plane.b_xy is not None
-    _, _, _, shape_c, pos_a, pos_b = coarse
-    ia, wa = _upsampling_weights(pos_a, shape_c[0])
-    ib, wb = _upsampling_weights(pos_b, shape_c[1])
+    ia, wa = _upsampling_weights(coarse.pos_a, coarse.shape[0])
+    ib, wb = _upsampling_weights(coarse.pos_b, coarse.shape[1])
     fk.upsample_restore(
         low_c,
         ia,
@@ -633,6 +650,72 @@ def _upsample_to_lattice(
         1.0 / n_az,
         out,
     )
+
+
+@dataclasses.dataclass(frozen=True)
+class _PolarReads:
+    """How the polar images are sampled and read: range spacing ``dr`` (m), the range and angle weight tables,
+    and the samples beyond a sector that its reads reach."""
+
+    dr: float
+    tab_r: np.ndarray
+    tab_t: np.ndarray
+    margin: int
+
+
+def _polar_reads(
+    ffbp_interpolation: str, taps: int, bandwidth: float, oversample: float, range_oversample: float | None
+) -> _PolarReads:
+    q_r = range_oversample or oversample
+    return _PolarReads(
+        dr=C / (2.0 * bandwidth * q_r),
+        tab_r=read_table(ffbp_interpolation, q_r, taps),
+        tab_t=read_table(ffbp_interpolation, oversample, taps),
+        margin=taps // 2 + 1,  # +1: the fractions' rounding
+    )
+
+
+def _level_info(tree: _Tree) -> dict:
+    """The tree's levels and polar grid sizes, for ``info``."""
+    return dict(
+        levels=tree.n_levels,
+        samples=[int((it[:, 0] * it[:, 1]).sum()) for it in tree.ints],
+        angles_top=int(tree.ints[-1][0, 0]),
+        ranges_top=int(tree.ints[-1][0, 1]),
+    )
+
+
+def _read_output(
+    top: _Image,
+    plane: _ImagePlane,
+    n_points: int,
+    kc2: float,
+    tab_t: np.ndarray,
+    oversample: float,
+    n_az: int,
+    info: dict | None,
+    seconds: list[float],
+) -> np.ndarray:
+    """The top image at every output point, carrier restored, divided by n_az: a regular lattice finer than the
+    image's bandwidth is read on a coarse grid at that bandwidth and upsampled; other points are read one by
+    one."""
+    out = np.empty(n_points, np.complex128)
+    coarse = None
+    if plane.shape is not None:
+        assert plane.xy0 is not None and plane.a_xy is not None and plane.b_xy is not None
+        coarse = _cartesian_grid(plane.xy0, plane.a_xy, plane.b_xy, plane.shape, top.geo[0], oversample, plane.boundary)
+        if coarse is None:  # the lattice's points, for the reads at every point
+            plane.xy, plane.pz = _lattice_points(plane)
+    if coarse is None:
+        assert plane.xy is not None and plane.pz is not None
+        _read_points(top, plane.xy, plane.pz, kc2, tab_t, n_az, out)
+        return out
+    if info is not None:
+        info["cartesian"] = coarse.shape
+    low_c = _read_coarse(top, coarse, kc2, tab_t)
+    seconds.append(time.perf_counter())
+    _upsample_to_lattice(low_c, coarse, plane, top.geo[0], kc2, n_az, out)
+    return out
 
 
 def ffbp_points(
@@ -665,11 +748,11 @@ def ffbp_points(
     points and, when finer than the image's bandwidth, is read on a coarse grid and upsampled). ``info`` (a dict)
     receives the levels and grid sizes.
     Returns (n_points,) complex128: the sum over pulses divided by n_az."""
-    import numba
+    from sarproc.focus.backprojection import numba_threads
 
     taps = _checked_taps(interpolation, ffbp_interpolation, ffbp_taps, factor, first_factor, oversample)
     rc = np.asarray(rc)
-    n_az, n_rg = rc.shape
+    n_az = rc.shape[0]
     points = np.asarray(points, float).reshape(-1, 3)
     pos = np.asarray(pos, float)
     if n_az == 0:
@@ -679,59 +762,25 @@ def ffbp_points(
     gate = np.zeros(n_az) if gate_offset is None else np.asarray(gate_offset, float)
     plane = _image_plane(points, grid_shape, carrier_frequency)
     ant = pos - plane.origin
-    ant_xy = np.stack([ant @ plane.e1, ant @ plane.e2], axis=-1)
-    ant_h = ant @ plane.nrm
     kc2 = 2.0 * carrier_frequency / C
-    f_max = carrier_frequency + 0.5 * bandwidth
-    dr = C / (2.0 * bandwidth * (range_oversample or oversample))
-    q_r = range_oversample or oversample
-    tab_r, tab_t = read_table(ffbp_interpolation, q_r, taps), read_table(ffbp_interpolation, oversample, taps)
-    margin = taps // 2 + 1  # samples beyond a sector that its reads reach (+1: the fractions' rounding)
+    reads = _polar_reads(ffbp_interpolation, taps, bandwidth, oversample, range_oversample)
+    spans = _subaperture_spans(n_az, factor, first_factor)
+    tree = _polar_grids(spans, ant, plane, reads.dr, carrier_frequency + 0.5 * bandwidth, oversample)
+    _fit_extents(tree, plane.boundary, reads.dr, reads.margin)
+    if info is not None and tree.n_levels:
+        info.update(_level_info(tree))
 
-    tree = _polar_grids(_subaperture_spans(n_az, factor, first_factor), ant, plane, dr, f_max, oversample)
-    _fit_extents(tree, plane.boundary, dr, margin)
-    n_levels = tree.n_levels
-    if info is not None and n_levels:
-        info.update(
-            levels=n_levels,
-            samples=[int((it[:, 0] * it[:, 1]).sum()) for it in tree.ints],
-            angles_top=int(tree.ints[-1][0, 0]),
-            ranges_top=int(tree.ints[-1][0, 1]),
-        )
-
-    old = numba.get_num_threads()
-    if workers:
-        numba.set_num_threads(max(1, min(int(workers), numba.config.NUMBA_NUM_THREADS)))
+    ant_xy = np.stack([ant @ plane.e1, ant @ plane.e2], axis=-1)
     seconds = [time.perf_counter()]
-    try:
-        image = _pulse_image(rc, range_time, gate, upsample, interpolation, ant_xy, ant_h)
+    with numba_threads(workers):
+        image = _pulse_image(rc, range_time, gate, upsample, interpolation, ant_xy, ant @ plane.nrm)
         seconds.append(time.perf_counter())
-        for lev in range(1, n_levels + 1):
-            image = _merge(image, tree, lev, kc2, tab_t, tab_r, lev == 1 and interpolation == "linear")
+        for lev in range(1, tree.n_levels + 1):
+            linear = lev == 1 and interpolation == "linear"
+            image = _merge(image, tree, lev, kc2, reads.tab_t, reads.tab_r, linear)
             seconds.append(time.perf_counter())
-        out = np.empty(len(points), np.complex128)
-        coarse = None
-        if plane.shape is not None:
-            assert plane.xy0 is not None and plane.a_xy is not None and plane.b_xy is not None
-            coarse = _cartesian_grid(
-                plane.xy0, plane.a_xy, plane.b_xy, plane.shape, image.geo[0], oversample, plane.boundary
-            )
-            if coarse is None:  # the lattice's points, for the reads at every point
-                plane.xy, plane.pz = _lattice_points(plane)
-        if coarse is None:
-            assert plane.xy is not None and plane.pz is not None
-            _read_points(image, plane.xy, plane.pz, kc2, tab_t, n_az, out)
-        else:
-            # read the top image on a coarse grid at the image's own bandwidth, upsample that separably
-            # (Knab, CARTESIAN_TAPS) to the output grid, then restore the carrier pixel by pixel
-            if info is not None:
-                info["cartesian"] = coarse[3]
-            low_c = _read_coarse(image, coarse, kc2, tab_t)
-            seconds.append(time.perf_counter())
-            _upsample_to_lattice(low_c, coarse, plane, image.geo[0], kc2, n_az, out)
+        out = _read_output(image, plane, len(points), kc2, reads.tab_t, oversample, n_az, info, seconds)
         seconds.append(time.perf_counter())
-    finally:
-        numba.set_num_threads(old)
     if info is not None:  # the pulses' upsampling, each level's merge, the output's read
         info["seconds"] = list(np.diff(seconds))
     return out

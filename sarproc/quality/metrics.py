@@ -82,6 +82,7 @@ if TYPE_CHECKING:
     import numpy.typing as npt
 
     from sarproc.product.model import Product
+    from sarproc.quality.moving import MoverReport
 
 
 @dataclasses.dataclass(frozen=True)
@@ -2198,95 +2199,136 @@ def check_report(
 
     ``all_names``: every target of the image when ``report`` measured a subset (their tolerances are
     then not checked, and not refused)."""
-    where = f"{source}: " if source else ""
     names = list(all_names) if all_names is not None else [t.name for t in report.targets]
+    _check_names(expect, report.dims, names, f"{source}: " if source else "")
+    failures = []
+    for t in report.targets:
+        for m in t.axes:
+            failures += _cut_failures(t.name, m, _axis_bounds(expect, t.name, m.axis))
+    for mv in report.movers:
+        failures += _mover_failures(mv, expect)
+    failures += _false_target_failures(report.false_target, expect)
+    return failures
+
+
+def _check_names(expect: Expectations, dims: Sequence[str], names: Sequence[str], where: str) -> None:
+    """InputError for an axis or target of ``expect`` that the image does not have (a typo would
+    otherwise silently check nothing)."""
     for a in expect.axes:
-        if a not in report.dims:
-            raise InputError(f"{where}axes.{a}: the image has no axis {a!r} (axes: {', '.join(report.dims)})")
+        if a not in dims:
+            raise InputError(f"{where}axes.{a}: the image has no axis {a!r} (axes: {', '.join(dims)})")
     for n, tb in expect.targets.items():
         if n not in names:
             raise InputError(f"{where}targets.{n}: the image has no target {n!r} (targets: {', '.join(names)})")
         for a in tb.axes:
-            if a not in report.dims:
+            if a not in dims:
                 raise InputError(f"{where}targets.{n}.axes.{a}: the image has no axis {a!r}")
 
-    failures = []
-    for t in report.targets:
-        tb = expect.targets.get(t.name)
-        for m in t.axes:
-            layers = [expect, expect.axes.get(m.axis), tb, tb.axes.get(m.axis) if tb else None]
-            bound = {
-                k: next((getattr(b, k) for b in reversed(layers) if b is not None and getattr(b, k) is not None), None)
-                for k in METRIC_KEYS
-            }
 
-            def fail(metric: str, value: float, text: str, t: TargetReport = t, m: AxisMetrics = m) -> None:
-                failures.append(CheckFailure(t.name, m.axis, metric, value, text))
+def _axis_bounds(expect: Expectations, target: str, axis: str) -> AxisBounds:
+    """The tolerances of ``target``'s cut along ``axis``: each key from the most specific layer that sets it
+    (targets.<T>.axes.<a>, targets.<T>, axes.<a>, top level)."""
+    tb = expect.targets.get(target)
+    layers = [expect, expect.axes.get(axis), tb, tb.axes.get(axis) if tb else None]
+    return AxisBounds(
+        **{
+            k: next((getattr(b, k) for b in reversed(layers) if b is not None and getattr(b, k) is not None), None)
+            for k in METRIC_KEYS
+        }
+    )
 
-            if (
-                bound["position_cells_max"] is not None
-                and not abs(m.position_error_cells) <= bound["position_cells_max"]
-            ):
-                fail("position_error_cells", m.position_error_cells, f"|.| <= {bound['position_cells_max']:g}")
-            if m.truncated and any(bound[k] is not None for k in METRIC_KEYS if k != "position_cells_max"):
-                # a cut measured on a window that leaves the image is never counted as a pass
-                fail("truncated", math.nan, "the cut's ISLR window reaches the image edge (truncated)")
-                continue
-            if m.contaminated_db is not None and any(
-                bound[k] is not None for k in METRIC_KEYS if k != "position_cells_max"
-            ):
-                # a shortened window is not the contract's: its figures are reported, never gated
-                short = (
-                    "" if m.shortened_nulls is None else f"; measured on +-{m.shortened_nulls:g} nulls only (shortened)"
-                )
-                fail(
-                    "contaminated",
-                    m.contaminated_db,
-                    f"neighbours that ideal responses do not fit put "
-                    f"{m.contaminated_db:.1f} dB of the main-lobe energy in the ISLR window (contaminated){short}",
-                )
-                continue
-            # NaN compares False everywhere, so each test is written to fail on NaN.
-            if bound["irw_ratio_max"] is not None and not m.irw_ratio <= bound["irw_ratio_max"]:
-                fail("irw_ratio", m.irw_ratio, f"<= {bound['irw_ratio_max']:g}")
-            if bound["irw_ratio_min"] is not None and not m.irw_ratio >= bound["irw_ratio_min"]:
-                fail("irw_ratio", m.irw_ratio, f">= {bound['irw_ratio_min']:g}")
-            for key in ("pslr_db", "islr_db"):
-                lo_hi = bound[key]
-                value = getattr(m, key)
-                if lo_hi is not None and not lo_hi[0] <= value <= lo_hi[1]:
-                    fail(key, value, f"in [{lo_hi[0]:g}, {lo_hi[1]:g}]")
-            for key, theory in (("pslr", m.pslr_theory_db), ("islr", m.islr_theory_db)):
-                lo_hi = bound[f"{key}_vs_theory_db"]
-                value = getattr(m, f"{key}_db") - (np.nan if theory is None else theory)
-                if lo_hi is not None and not lo_hi[0] <= value <= lo_hi[1]:
-                    told = "none recorded" if theory is None else f"{theory:.2f} dB"
-                    fail(f"{key}_vs_theory_db", value, f"in [{lo_hi[0]:g}, {lo_hi[1]:g}] (theory {told})")
-    for mv in report.movers:
-        for key, value, unit in (
-            ("v_r_error", mv.v_r_error, "m/s"),
-            ("v_a_error", mv.v_a_error, "m/s"),
-            ("relocation_error", mv.relocation_error, "m"),
-        ):
-            bound = getattr(expect, f"{key}_max")
-            if bound is None:
-                continue
-            if value is None:
-                failures.append(
-                    CheckFailure(
-                        mv.name, None, key, math.nan, f"|.| <= {bound:g} {unit}; the product holds no estimate for it"
-                    )
-                )
-            elif not abs(value) <= bound:
-                failures.append(CheckFailure(mv.name, None, key, value, f"|.| <= {bound:g} {unit}"))
-    if (
-        expect.false_target_db_max is not None
-        and report.false_target is not None
-        and not report.false_target.level_db <= expect.false_target_db_max
-    ):
-        failures.append(
-            CheckFailure(
-                None, None, "false_target_db", report.false_target.level_db, f"<= {expect.false_target_db_max:g}"
-            )
+
+def _cut_failures(target: str, m: AxisMetrics, bound: AxisBounds) -> list[CheckFailure]:
+    """The failed tolerances of one cut: its position, then either why its lobes are unverified or each
+    lobe figure out of bounds."""
+    failures = _position_failures(target, m, bound)
+    unverified = _unverified_failure(target, m, bound)
+    if unverified is not None:
+        return [*failures, unverified]
+    return failures + _irw_failures(target, m, bound) + _lobe_failures(target, m, bound)
+
+
+def _position_failures(target: str, m: AxisMetrics, bound: AxisBounds) -> list[CheckFailure]:
+    limit = bound.position_cells_max
+    if limit is not None and not abs(m.position_error_cells) <= limit:  # written to fail on NaN
+        return [CheckFailure(target, m.axis, "position_error_cells", m.position_error_cells, f"|.| <= {limit:g}")]
+    return []
+
+
+def _unverified_failure(target: str, m: AxisMetrics, bound: AxisBounds) -> CheckFailure | None:
+    """A failure when any lobe tolerance is set on a cut whose figures cannot be trusted: truncated or
+    contaminated (never counted as a pass); None otherwise."""
+    if not any(getattr(bound, k) is not None for k in METRIC_KEYS if k != "position_cells_max"):
+        return None
+    if m.truncated:  # a cut measured on a window that leaves the image
+        return CheckFailure(
+            target, m.axis, "truncated", math.nan, "the cut's ISLR window reaches the image edge (truncated)"
         )
+    if m.contaminated_db is not None:  # a shortened window is not the contract's: its figures are reported only
+        short = "" if m.shortened_nulls is None else f"; measured on +-{m.shortened_nulls:g} nulls only (shortened)"
+        return CheckFailure(
+            target,
+            m.axis,
+            "contaminated",
+            m.contaminated_db,
+            f"neighbours that ideal responses do not fit put "
+            f"{m.contaminated_db:.1f} dB of the main-lobe energy in the ISLR window (contaminated){short}",
+        )
+    return None
+
+
+# NaN compares False everywhere, so each test below is written to fail on NaN.
+
+
+def _irw_failures(target: str, m: AxisMetrics, bound: AxisBounds) -> list[CheckFailure]:
+    failures = []
+    if bound.irw_ratio_max is not None and not m.irw_ratio <= bound.irw_ratio_max:
+        failures.append(CheckFailure(target, m.axis, "irw_ratio", m.irw_ratio, f"<= {bound.irw_ratio_max:g}"))
+    if bound.irw_ratio_min is not None and not m.irw_ratio >= bound.irw_ratio_min:
+        failures.append(CheckFailure(target, m.axis, "irw_ratio", m.irw_ratio, f">= {bound.irw_ratio_min:g}"))
     return failures
+
+
+def _lobe_failures(target: str, m: AxisMetrics, bound: AxisBounds) -> list[CheckFailure]:
+    """PSLR and ISLR outside their intervals, then their differences from the target's theory outside theirs
+    (no theory recorded: the difference is NaN and fails)."""
+    failures = []
+    for key in ("pslr_db", "islr_db"):
+        lo_hi = getattr(bound, key)
+        value = getattr(m, key)
+        if lo_hi is not None and not lo_hi[0] <= value <= lo_hi[1]:
+            failures.append(CheckFailure(target, m.axis, key, value, f"in [{lo_hi[0]:g}, {lo_hi[1]:g}]"))
+    for key, theory in (("pslr", m.pslr_theory_db), ("islr", m.islr_theory_db)):
+        lo_hi = getattr(bound, f"{key}_vs_theory_db")
+        value = getattr(m, f"{key}_db") - (np.nan if theory is None else theory)
+        if lo_hi is not None and not lo_hi[0] <= value <= lo_hi[1]:
+            told = "none recorded" if theory is None else f"{theory:.2f} dB"
+            text = f"in [{lo_hi[0]:g}, {lo_hi[1]:g}] (theory {told})"
+            failures.append(CheckFailure(target, m.axis, f"{key}_vs_theory_db", value, text))
+    return failures
+
+
+def _mover_failures(mv: MoverReport, expect: Expectations) -> list[CheckFailure]:
+    """A moving target's velocity and relocation errors over their bounds; a bound without an estimate fails."""
+    failures = []
+    for key, value, unit in (
+        ("v_r_error", mv.v_r_error, "m/s"),
+        ("v_a_error", mv.v_a_error, "m/s"),
+        ("relocation_error", mv.relocation_error, "m"),
+    ):
+        bound = getattr(expect, f"{key}_max")
+        if bound is None:
+            continue
+        if value is None:
+            text = f"|.| <= {bound:g} {unit}; the product holds no estimate for it"
+            failures.append(CheckFailure(mv.name, None, key, math.nan, text))
+        elif not abs(value) <= bound:
+            failures.append(CheckFailure(mv.name, None, key, value, f"|.| <= {bound:g} {unit}"))
+    return failures
+
+
+def _false_target_failures(false_target: FalseTarget | None, expect: Expectations) -> list[CheckFailure]:
+    limit = expect.false_target_db_max
+    if limit is None or false_target is None or false_target.level_db <= limit:
+        return []
+    return [CheckFailure(None, None, "false_target_db", false_target.level_db, f"<= {limit:g}")]

@@ -55,6 +55,92 @@ def _support(rel: float, fs: float, half_pulse: float, n_range: int) -> tuple[in
     return first, last
 
 
+@numba.njit(inline="always")
+def _echo_start(
+    tau: float, rel: float, fs: float, chirp_rate: float, carrier: float, first: int
+) -> tuple[complex, complex, complex]:
+    """A target's echo over the window as a geometric series (module docstring): its phasor at sample ``first``
+    without the gain, the step w between samples and w^8."""
+    step_cycles = -chirp_rate * rel / fs
+    base = 0.5 * chirp_rate * rel * rel - carrier * tau
+    return _cis(base + first * step_cycles), _cis(step_cycles), _cis(8 * step_cycles)
+
+
+@numba.njit(inline="always")
+def _add_series(
+    acc_re: np.ndarray, acc_im: np.ndarray, p: complex, w: complex, w8: complex, first: int, last: int
+) -> None:
+    """Add p w^(n - first) to acc at samples first .. last (float64 real and imaginary sums apart)."""
+    wr, wi = w8.real, w8.imag
+    # eight recurrences (samples n .. n + 7, each stepped by w^8), written out as scalars so that the
+    # SLP vectoriser packs them; unsigned indices spare numba's negative-index wrap-around
+    r0, i0 = p.real, p.imag
+    p *= w
+    r1, i1 = p.real, p.imag
+    p *= w
+    r2, i2 = p.real, p.imag
+    p *= w
+    r3, i3 = p.real, p.imag
+    p *= w
+    r4, i4 = p.real, p.imag
+    p *= w
+    r5, i5 = p.real, p.imag
+    p *= w
+    r6, i6 = p.real, p.imag
+    p *= w
+    r7, i7 = p.real, p.imag
+    n = numba.uint64(first)
+    end = numba.uint64(last + 1)
+    while n + numba.uint64(8) <= end:
+        acc_re[n] += r0
+        acc_re[n + numba.uint64(1)] += r1
+        acc_re[n + numba.uint64(2)] += r2
+        acc_re[n + numba.uint64(3)] += r3
+        acc_re[n + numba.uint64(4)] += r4
+        acc_re[n + numba.uint64(5)] += r5
+        acc_re[n + numba.uint64(6)] += r6
+        acc_re[n + numba.uint64(7)] += r7
+        acc_im[n] += i0
+        acc_im[n + numba.uint64(1)] += i1
+        acc_im[n + numba.uint64(2)] += i2
+        acc_im[n + numba.uint64(3)] += i3
+        acc_im[n + numba.uint64(4)] += i4
+        acc_im[n + numba.uint64(5)] += i5
+        acc_im[n + numba.uint64(6)] += i6
+        acc_im[n + numba.uint64(7)] += i7
+        r0, i0 = r0 * wr - i0 * wi, r0 * wi + i0 * wr
+        r1, i1 = r1 * wr - i1 * wi, r1 * wi + i1 * wr
+        r2, i2 = r2 * wr - i2 * wi, r2 * wi + i2 * wr
+        r3, i3 = r3 * wr - i3 * wi, r3 * wi + i3 * wr
+        r4, i4 = r4 * wr - i4 * wi, r4 * wi + i4 * wr
+        r5, i5 = r5 * wr - i5 * wi, r5 * wi + i5 * wr
+        r6, i6 = r6 * wr - i6 * wi, r6 * wi + i6 * wr
+        r7, i7 = r7 * wr - i7 * wi, r7 * wi + i7 * wr
+        n += numba.uint64(8)
+    rest = end - n  # 0 .. 7 samples left: lane k holds sample n + k
+    if rest > 0:
+        acc_re[n] += r0
+        acc_im[n] += i0
+    if rest > 1:
+        acc_re[n + numba.uint64(1)] += r1
+        acc_im[n + numba.uint64(1)] += i1
+    if rest > 2:
+        acc_re[n + numba.uint64(2)] += r2
+        acc_im[n + numba.uint64(2)] += i2
+    if rest > 3:
+        acc_re[n + numba.uint64(3)] += r3
+        acc_im[n + numba.uint64(3)] += i3
+    if rest > 4:
+        acc_re[n + numba.uint64(4)] += r4
+        acc_im[n + numba.uint64(4)] += i4
+    if rest > 5:
+        acc_re[n + numba.uint64(5)] += r5
+        acc_im[n + numba.uint64(5)] += i5
+    if rest > 6:
+        acc_re[n + numba.uint64(6)] += r6
+        acc_im[n + numba.uint64(6)] += i6
+
+
 @numba.njit(parallel=True, nogil=True, cache=CACHE, error_model="numpy")
 def _accumulate_echoes(
     out: np.ndarray,
@@ -86,79 +172,8 @@ def _accumulate_echoes(
             first, last = _support(rel, fs, half, n_range)
             if last < first:
                 continue
-            step_cycles = -chirp_rate * rel / fs
-            w = _cis(step_cycles)
-            w8 = _cis(8 * step_cycles)
-            wr, wi = w8.real, w8.imag
-            base = 0.5 * chirp_rate * rel * rel - carrier * tau
-            # eight recurrences (samples n .. n + 7, each stepped by w^8), written out as scalars so that the
-            # SLP vectoriser packs them; unsigned indices spare numba's negative-index wrap-around
-            p = g * _cis(base + first * step_cycles)
-            r0, i0 = p.real, p.imag
-            p *= w
-            r1, i1 = p.real, p.imag
-            p *= w
-            r2, i2 = p.real, p.imag
-            p *= w
-            r3, i3 = p.real, p.imag
-            p *= w
-            r4, i4 = p.real, p.imag
-            p *= w
-            r5, i5 = p.real, p.imag
-            p *= w
-            r6, i6 = p.real, p.imag
-            p *= w
-            r7, i7 = p.real, p.imag
-            n = numba.uint64(first)
-            end = numba.uint64(last + 1)
-            while n + numba.uint64(8) <= end:
-                acc_re[n] += r0
-                acc_re[n + numba.uint64(1)] += r1
-                acc_re[n + numba.uint64(2)] += r2
-                acc_re[n + numba.uint64(3)] += r3
-                acc_re[n + numba.uint64(4)] += r4
-                acc_re[n + numba.uint64(5)] += r5
-                acc_re[n + numba.uint64(6)] += r6
-                acc_re[n + numba.uint64(7)] += r7
-                acc_im[n] += i0
-                acc_im[n + numba.uint64(1)] += i1
-                acc_im[n + numba.uint64(2)] += i2
-                acc_im[n + numba.uint64(3)] += i3
-                acc_im[n + numba.uint64(4)] += i4
-                acc_im[n + numba.uint64(5)] += i5
-                acc_im[n + numba.uint64(6)] += i6
-                acc_im[n + numba.uint64(7)] += i7
-                r0, i0 = r0 * wr - i0 * wi, r0 * wi + i0 * wr
-                r1, i1 = r1 * wr - i1 * wi, r1 * wi + i1 * wr
-                r2, i2 = r2 * wr - i2 * wi, r2 * wi + i2 * wr
-                r3, i3 = r3 * wr - i3 * wi, r3 * wi + i3 * wr
-                r4, i4 = r4 * wr - i4 * wi, r4 * wi + i4 * wr
-                r5, i5 = r5 * wr - i5 * wi, r5 * wi + i5 * wr
-                r6, i6 = r6 * wr - i6 * wi, r6 * wi + i6 * wr
-                r7, i7 = r7 * wr - i7 * wi, r7 * wi + i7 * wr
-                n += numba.uint64(8)
-            rest = end - n  # 0 .. 7 samples left: lane k holds sample n + k
-            if rest > 0:
-                acc_re[n] += r0
-                acc_im[n] += i0
-            if rest > 1:
-                acc_re[n + numba.uint64(1)] += r1
-                acc_im[n + numba.uint64(1)] += i1
-            if rest > 2:
-                acc_re[n + numba.uint64(2)] += r2
-                acc_im[n + numba.uint64(2)] += i2
-            if rest > 3:
-                acc_re[n + numba.uint64(3)] += r3
-                acc_im[n + numba.uint64(3)] += i3
-            if rest > 4:
-                acc_re[n + numba.uint64(4)] += r4
-                acc_im[n + numba.uint64(4)] += i4
-            if rest > 5:
-                acc_re[n + numba.uint64(5)] += r5
-                acc_im[n + numba.uint64(5)] += i5
-            if rest > 6:
-                acc_re[n + numba.uint64(6)] += r6
-                acc_im[n + numba.uint64(6)] += i6
+            p, w, w8 = _echo_start(tau, rel, fs, chirp_rate, carrier, first)
+            _add_series(acc_re, acc_im, g * p, w, w8, first, last)
         for n in range(n_range):
             row[n] += complex(acc_re[n], acc_im[n]) * chirp[n]
 
