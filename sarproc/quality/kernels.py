@@ -74,7 +74,15 @@ def strong_gradients(mag: np.ndarray, h: np.ndarray, fraction: float) -> tuple: 
     """(g (m, 3), norm (m,)): np.gradient of the 3D array ``mag`` (spacings h) and its Euclidean norm at the m
     points (C order) where the norm exceeds ``fraction`` of its largest value, without the full gradient arrays
     (principal_directions' edge normals)."""
-    norms = _gradient_norms(mag, h)
+    return _strong_from_norms(mag, h, _gradient_norms(mag, h), fraction)
+
+
+@numba.njit(error_model="numpy", cache=CACHE)
+def _strong_from_norms(
+    mag: np.ndarray, h: np.ndarray, norms: np.ndarray, fraction: float
+) -> tuple:  # pragma: no cover - compiled
+    """:func:`strong_gradients` given the gradient's norms (the serial part: the module compiled ahead of time
+    calls the two parts itself, a parallel kernel being no callee of a serial export)."""
     limit = fraction * norms.max()
     m = 0
     for v in norms.ravel():

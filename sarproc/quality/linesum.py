@@ -74,11 +74,10 @@ def exponential_sums(
     x = np.mod(2 * np.pi * freq * step + np.pi, 2 * np.pi) - np.pi  # rad per output step, in [-pi, pi)
     c = coef * np.exp(2j * np.pi * freq * (first + centre * step))
     if compiled:
-        import numba
+        from sarproc.quality import kernels_aot
 
-        from sarproc.quality import kernels
-
-        b = kernels.spread(c, x, grid_size, _SPREAD, _BETA, numba.get_num_threads())
+        k = kernels_aot.kernels()
+        b = k.spread(c, kernels_aot.f8(x), grid_size, _SPREAD, _BETA, kernels_aot.threads(k))
     else:
         b = _spread(c, x, grid_size)
     m = np.arange(count) - centre

@@ -62,9 +62,11 @@ from sarproc.product.errors import InputError
 from sarproc.product.metadata import SINC_IRW_FACTOR
 from sarproc.product.steps import steps, wrapped
 from sarproc.product.theory import cut_metrics as _cut_metrics, window_theory
-from sarproc.quality.blas import limit_loaded, single_blas
+from sarproc.quality import kernels_aot
+from sarproc.quality.blas import single_blas
 from sarproc.quality.line_moments import line_sums
 from sarproc.quality.linesum import exponential_sums
+from sarproc.quality.lstsq import least_squares
 from sarproc.quality.residual import (
     ResidualFloor,
     fit_response_models,
@@ -569,10 +571,8 @@ def _orientation_density(
     Terms below exp(-40) of their weight (1e-17) are left out unless ``exact``: the exponential is
     then taken on the few pairs within about 9 kernel widths (a tenth of them in 3D; compiled there)."""
     if not exact and cand.shape[1] == 3:
-        from sarproc.quality import kernels  # numba: worth its loading time on 3D cubes only
-
-        return kernels.orientation_density(
-            np.ascontiguousarray(cand, dtype=float), np.ascontiguousarray(u, dtype=float), weight, float(sigma)
+        return kernels_aot.kernels().orientation_density(
+            kernels_aot.f8(cand), kernels_aot.f8(u), kernels_aot.f8(weight), float(sigma)
         )
     if not exact and cand.shape[1] == 2 and _angle_reach(len(cand), sigma) < len(cand) // 2:
         return _orientation_density_2d(cand, u, weight, sigma)
@@ -646,9 +646,7 @@ def principal_directions(
     # d|S| / d(frequency in cycles per null): each axis' band is about one unit wide.
     spacing = [nu / n for nu, n in zip(nulls, nfft)]
     if ndim == 3 and not exact:  # compiled: the strong gradients only, no full gradient arrays
-        from sarproc.quality import kernels
-
-        g, norm = kernels.strong_gradients(np.ascontiguousarray(mag), np.array(spacing, dtype=float), 0.05)
+        g, norm = kernels_aot.strong_gradients(mag, np.array(spacing), 0.05)
     else:
         grads = np.gradient(mag, *spacing)
         g = np.stack([gi.ravel() for gi in grads], axis=1)
@@ -718,20 +716,17 @@ def _ideal_response(
     k = _zero_or(chirp, np.shape(points)[0])
     per, table, rate = _shape_args(shapes, np.shape(points)[0])
     if not exact and len(V) == 3:
-        from sarproc.quality import kernels  # numba: worth its loading time on 3D cubes only
-
+        kernels = kernels_aot.kernels()
         ridge = np.linalg.inv(np.asarray(V, dtype=float).T) / np.asarray(nulls, dtype=float)[:, None]
         kernel = kernels.ideal_response if np.shape(points)[1] > 20000 else kernels.ideal_response_serial
         return kernel(
-            np.ascontiguousarray(points, dtype=float),
-            np.asarray(position, dtype=float),
-            ridge,
-            np.asarray(f_c, dtype=float),
-            k,
-            per,
-            table,
-            rate,
-            hamming,
+            kernels_aot.f8(points),
+            kernels_aot.f8(position),
+            kernels_aot.f8(ridge),
+            kernels_aot.f8(f_c),
+            kernels_aot.f8(k),
+            *map(kernels_aot.f8, (per, table, rate)),
+            bool(hamming),
         )
     x = points - np.asarray(position, dtype=float)[:, None]
     c = np.linalg.solve(V.T, x) / np.asarray(nulls, dtype=float)[:, None]  # ridge coordinates, nulls
@@ -871,6 +866,8 @@ def evaluate_image(
         for a in range(len(axes))
     ]
     nulls = [ax.null for ax in axes]
+    if len(axes) == 3 and not params.exact:  # a cube's kernels: compiled ahead of time where all of them pay
+        kernels_aot.reserve(len(names), math.prod(2 * h + 1 for h in half))
     # One bar over the whole evaluation: each target's pass 1, pass 2 (when neighbours are removed) and
     # measurement, then the false-target search.
     done = steps(progress, len(names) * (2 if params.remove_neighbours else 1) + int(measured.sum()) + 1)
@@ -1238,19 +1235,17 @@ class _NeighbourModel:
         """:meth:`values` on the image box ``origin + index`` of ``shape``, raveled (C order); an ideal 3D
         response from per-axis tables (compiled), the others at the box's points."""
         if not self.rich and not exact and len(shape) == 3:
-            from sarproc.quality import kernels
-
             ridge = np.linalg.inv(np.asarray(self.ridges, dtype=float).T) / np.asarray(self.nulls, dtype=float)[:, None]
-            box = kernels.ideal_response_box(
-                np.asarray(origin, dtype=float),
+            box = kernels_aot.kernels().ideal_response_box(
+                kernels_aot.f8(origin),
                 np.ones(3),
-                np.asarray(shape, dtype=np.int64),
-                np.asarray(self.position, dtype=float),
-                ridge,
-                np.asarray(self.band_centre, dtype=float),
-                _zero_or(self.chirp, 3),
-                *_shape_args(self.shapes, 3),
-                hamming,
+                kernels_aot.i8(shape),
+                kernels_aot.f8(self.position),
+                kernels_aot.f8(ridge),
+                kernels_aot.f8(self.band_centre),
+                kernels_aot.f8(_zero_or(self.chirp, 3)),
+                *map(kernels_aot.f8, _shape_args(self.shapes, 3)),
+                bool(hamming),
             )
             return self.amplitude * box.ravel()
         grid = np.meshgrid(*[np.arange(n) + o for n, o in zip(shape, origin)], indexing="ij")
@@ -1368,21 +1363,19 @@ class _SampleBoxes:
     ) -> np.ndarray:
         """A 3D ideal response (:func:`_ideal_response`) at the samples, from per-axis tables box by box
         (compiled; equal to rounding)."""
-        from sarproc.quality import kernels
-
         ridge = np.linalg.inv(np.asarray(V, dtype=float).T) / np.asarray(nulls, dtype=float)[:, None]
-        return kernels.ideal_response_boxes(
+        return kernels_aot.kernels().ideal_response_boxes(
             np.array([o for o, _ in self.layout], dtype=float),
-            self.stride.astype(float),
+            kernels_aot.f8(self.stride),
             np.array([n for _, n in self.layout], dtype=np.int64),
-            self.inverse.astype(np.int64),
-            self.count,
-            np.asarray(position, dtype=float),
-            ridge,
-            np.asarray(f_c, dtype=float),
-            _zero_or(chirp, 3),
-            *_shape_args(shapes, 3),
-            hamming,
+            kernels_aot.i8(self.inverse),
+            int(self.count),
+            kernels_aot.f8(position),
+            kernels_aot.f8(ridge),
+            kernels_aot.f8(f_c),
+            kernels_aot.f8(_zero_or(chirp, 3)),
+            *map(kernels_aot.f8, _shape_args(shapes, 3)),
+            bool(hamming),
         )
 
 
@@ -1553,50 +1546,6 @@ def _measure(
         image_axes=tuple(image_axes),
         neighbours_removed=tuple(peak.removed),
     )
-
-
-def least_squares(B: np.ndarray, y: np.ndarray, exact: bool = False) -> np.ndarray:
-    """Least-squares solution of B x = y (B tall, full column rank; y one vector or one column per system).
-
-    Through the normal equations of the column-equilibrated B (unit-norm columns, Cholesky) with two
-    steps of iterative refinement (which restore the accuracy the squared condition number costs): on the
-    tall systems of 3D boxes several times faster than an SVD; ``exact`` (or a Gram matrix that is not
-    numerically positive definite) takes numpy's SVD solver, the reference the fast path is tested against.
-    The Gram matrix is one BLAS rank-k update of B as stored (no conjugated or scaled copy of B) and the
-    columns are equilibrated on it (their norms are its diagonal)."""
-    if not exact:
-        # scipy's BLAS and LAPACK without importing scipy.linalg (~0.2 s): only where a least-squares fit runs
-        from sarproc.product.linalg import blas, cho_factor, cho_solve
-
-        limit_loaded()  # scipy's own BLAS, loaded just now: one thread like numpy's
-
-        B = np.asarray(B)
-        y = np.asarray(y)
-        complex_ = np.iscomplexobj(B)
-        Bt = np.asarray(B.T, dtype=np.complex128 if complex_ else np.float64)
-        # B^T conj(B) (upper triangle) from B's rows as they lie in memory; its conjugate is B^H B
-        gram = blas.zherk(1.0, Bt, trans=0, lower=0).conj() if complex_ else blas.dsyrk(1.0, Bt, trans=0, lower=0)
-        scale = np.sqrt(np.real(np.diagonal(gram)))
-        scale[scale == 0] = 1.0
-        try:
-            factor = cho_factor(gram / np.outer(scale, scale), lower=False)
-        except np.linalg.LinAlgError:
-            factor = None
-        if factor is not None:
-            pivots = np.abs(np.diag(factor[0]))
-            if not pivots.min() > 1e-7 * pivots.max():  # Gram condition beyond ~1e14 (e.g. equal columns)
-                factor = None
-        if factor is not None:
-            col = scale if y.ndim == 1 else scale[:, None]  # y: one right-hand side or a column per system
-
-            def adjoint(r: np.ndarray) -> np.ndarray:  # B^H r / scale, without conjugating B
-                return (Bt @ r.conj()).conj() / col if complex_ else (Bt @ r) / col
-
-            x = cho_solve(factor, adjoint(y))
-            for _ in range(2):  # iterative refinement: the normal equations' squared condition number undone
-                x = x + cho_solve(factor, adjoint(y - B @ (x / col)))
-            return x / col
-    return np.linalg.lstsq(B, y, rcond=None)[0]
 
 
 NEIGHBOUR_MISFIT = 1e-3  # group fit residual (energy ratio) above which subtracted neighbours may leave side lobes

@@ -16,7 +16,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from sarproc.quality import residual_aot
 from sarproc.quality.blas import single_blas
+from sarproc.quality.lstsq import least_squares
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -208,12 +210,8 @@ def _columns(c: Sequence[np.ndarray], orders: np.ndarray, kappa: np.ndarray) -> 
     shape = np.broadcast_shapes(*[np.shape(v) for v in c])
     if not COMPILED:
         return np.stack([np.broadcast_to(col, shape) for col in _keystone_columns(c, orders, kappa)])
-    from sarproc.quality.residual_kernels import keystone_columns  # numba: only when the residual is asked for
-
     pts = np.stack([np.broadcast_to(np.asarray(v, dtype=float), shape).ravel() for v in c])
-    cols = keystone_columns(
-        pts, np.asarray(orders, dtype=np.int64), np.asarray(kappa, dtype=float), _strip_count(kappa)
-    )
+    cols = residual_aot.keystone_columns(pts, orders, kappa, _strip_count(kappa))
     return cols.reshape((len(orders),) + tuple(shape))
 
 
@@ -351,19 +349,9 @@ def _model_on_box(slices: Sequence[slice], model: dict) -> np.ndarray:
     box = np.zeros(shape, dtype=complex)
     if kappa is not None and _keystoned(kappa):  # skewed and keystoned: each order's strip sum in closed form
         if BOX_KERNEL and COMPILED and ndim == 2:  # along the box's rows by rotations, the orders summed in the kernel
-            from sarproc.quality.residual_kernels import keystone_box_sum
-
             corner = np.array([s.start for s in slices], dtype=float) - p
-            box = keystone_box_sum(
-                A @ corner,
-                np.ascontiguousarray(A[:, 0]),
-                np.ascontiguousarray(A[:, 1]),
-                shape[0],
-                shape[1],
-                np.asarray(orders, dtype=np.int64),
-                np.asarray(coef, dtype=np.complex128),
-                np.asarray(kappa, dtype=float),
-                _strip_count(kappa),
+            box = residual_aot.keystone_box_sum(
+                A @ corner, A[:, 0], A[:, 1], shape[0], shape[1], orders, coef, kappa, _strip_count(kappa)
             )
             return box * carrier
         return _keystone_sum(c, orders, coef, kappa) * carrier
@@ -480,19 +468,11 @@ class _GroupFit:
         """Member q's response derivatives with respect to its width scales and keystone, analytic
         (:func:`sarproc.quality.residual_kernels.keystone_derivatives`): the ridge coordinates are c_a =
         (A x)_a / (1 + scale_a), so d / d scale_a is -c_a / (1 + scale_a) d / d c_a."""
-        from sarproc.quality.residual_kernels import keystone_derivatives  # numba: only for the residual
-
         scale, kappa = self.split(theta)[2]  # type: ignore[misc]
         f = self.found[q]
         A, _ = _ridge_frame(f["pos"], f["V"], self.nulls * (1 + scale))
         c = A @ self.offsets(q)
-        d = keystone_derivatives(
-            c,
-            np.asarray(self.orders, dtype=np.int64),
-            np.asarray(coef, dtype=np.complex128),
-            kappa,
-            _strip_count(kappa),
-        )
+        d = residual_aot.keystone_derivatives(c, self.orders, coef, kappa, _strip_count(kappa))
         car = self.carrier(q, theta)
         ndim = self.ndim
         return [d[a] * (-c[a] / (1 + scale[a])) * car for a in range(ndim)] + [
@@ -502,8 +482,6 @@ class _GroupFit:
 
 def _amplitudes(bases: list[np.ndarray], y: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     """(coef (members, orders), residual, |residual|^2): the members' amplitudes by linear least squares."""
-    from sarproc.quality.metrics import least_squares  # metrics imports this module
-
     B = np.concatenate(bases, axis=1)
     coef = least_squares(B, y)
     r = y - B @ coef
@@ -515,8 +493,6 @@ def _gauss_newton_step(B: np.ndarray, r: np.ndarray, J: np.ndarray, free: np.nda
     others 0), the amplitudes eliminated (variable projection: J projected off the span of the bases B)."""
     Jf = J[:, free]
     if COMPILED:  # B's least squares for every column of J (normal equations, refined): no full Q of a tall B
-        from sarproc.quality.metrics import least_squares  # metrics imports this module
-
         Jp = Jf - B @ least_squares(B, Jf)
     else:  # the numpy reference
         Q = np.linalg.qr(B)[0]
@@ -721,7 +697,6 @@ def _search_widths(model: dict, points: np.ndarray, y: np.ndarray, nulls: np.nda
     squares at the model's band centre and chirp, the model's orders), one axis at a time, per axis the
     scale of the image's null spacing ``nulls`` (:data:`WIDTH_SCALES`, then a half and a quarter step either
     side of the best), and the misfit (|residual|^2 / |y|^2) there."""
-    from sarproc.quality.metrics import least_squares  # metrics imports this module
 
     def misfit(scale: np.ndarray) -> float:
         B = response_basis(points, model["pos"], model["V"], nulls * scale, model["f_c"], model["orders"], model["K"])
@@ -751,8 +726,6 @@ def _start_nulls(
     image's ``nulls`` fit its box better (linear least squares at its band centre), so that a theory the
     response does not follow (a beam edge's partly lit support with the antenna's taper across it) is not
     where its widths start."""
-    from sarproc.quality.metrics import least_squares  # metrics imports this module
-
     own = np.asarray(found.get("nulls", nulls), dtype=float)
     if np.allclose(own, nulls, rtol=1e-3, atol=0) or not abs(found["value"]) > 0:
         return own

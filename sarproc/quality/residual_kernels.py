@@ -94,6 +94,22 @@ def _strip_constants(
     return signs, cos_dh, sin_dh, cos_sdh, sin_sdh, shift, cos_l, sin_l
 
 
+@numba.njit(error_model="numpy", inline="always", cache=CACHE)
+def _strip_angles(x: np.ndarray, signs: np.ndarray, kappa: np.ndarray, n_strips: int) -> tuple:  # pragma: no cover
+    """(half, phase) of one sign combination ``signs`` (ndim,) at the ridge coordinates x (ndim,): the
+    Dirichlet kernel's half angle and the strip sum's phase (:func:`residual._keystone_columns`), summed in
+    one fixed order so every kernel rounds them alike."""
+    ndim = x.shape[0]
+    width = 1.0 / n_strips
+    u0 = 0.5 * width - 0.5
+    half = math.pi * width * x[ndim - 1]
+    phase = 2.0 * math.pi * u0 * x[ndim - 1]
+    for a in range(ndim - 1):
+        half += 0.5 * math.pi * width * signs[a] * kappa[a] * x[a]
+        phase += math.pi * signs[a] * (1.0 + kappa[a] * u0) * x[a]
+    return half, phase + (n_strips - 1) * half
+
+
 @numba.njit(error_model="numpy", cache=CACHE)
 def keystone_columns(
     c: np.ndarray, orders: np.ndarray, kappa: np.ndarray, n_strips: int
@@ -104,7 +120,6 @@ def keystone_columns(
     n_orders = orders.shape[0]
     n_signs = 1 << (ndim - 1)
     width = 1.0 / n_strips
-    u0 = 0.5 * width - 0.5
     # per sign and order: the constant angle shifts of :func:`residual._keystone_columns`
     signs, cos_dh, sin_dh, cos_sdh, sin_sdh, shift, cos_l, sin_l = _strip_constants(orders, kappa, n_strips, ndim)
     two_pi_pow = (2.0 * math.pi) ** (ndim - 1)
@@ -128,12 +143,7 @@ def keystone_columns(
         for q in range(n_orders):
             acc[q] = 0j
         for s in range(n_signs):
-            half = math.pi * width * last
-            phase = 2.0 * math.pi * u0 * last
-            for a in range(ndim - 1):
-                half += 0.5 * math.pi * width * signs[s, a] * kappa[a] * c[a, i]
-                phase += math.pi * signs[s, a] * (1.0 + kappa[a] * u0) * c[a, i]
-            phase += (n_strips - 1) * half
+            half, phase = _strip_angles(c[:, i], signs[s], kappa, n_strips)
             sh, ch = math.sin(half), math.cos(half)
             ssh, csh = math.sin(n_strips * half), math.cos(n_strips * half)
             rot = complex(math.cos(phase), math.sin(phase))
@@ -184,21 +194,12 @@ def keystone_box_sum(
     n_orders = orders.shape[0]
     n_signs = 1 << (ndim - 1)
     width = 1.0 / n_strips
-    u0 = 0.5 * width - 0.5
     signs, cos_dh, sin_dh, cos_sdh, sin_sdh, shift, cos_l, sin_l = _strip_constants(orders, kappa, n_strips, ndim)
     for q in range(n_orders):
         for sg in range(n_signs):
             shift[sg, q] = coef[q] * shift[sg, q]
     two_pi_pow = (2.0 * math.pi) ** (ndim - 1)
     j_pow = (-1j) ** (ndim - 1)
-
-    def angles(c: np.ndarray, s: int) -> tuple[float, float]:
-        half = math.pi * width * c[ndim - 1]
-        phase = 2.0 * math.pi * u0 * c[ndim - 1]
-        for a in range(ndim - 1):
-            half += 0.5 * math.pi * width * signs[s, a] * kappa[a] * c[a]
-            phase += math.pi * signs[s, a] * (1.0 + kappa[a] * u0) * c[a]
-        return half, phase + (n_strips - 1) * half
 
     out = np.empty((n_rows, n_cols), dtype=np.complex128)
     e_half = np.empty(n_signs, dtype=np.complex128)  # exp(j half), exp(j S half), exp(j phase) per sign
@@ -209,8 +210,9 @@ def keystone_box_sum(
     r_phase = np.empty(n_signs, dtype=np.complex128)
     zero = np.zeros(ndim)
     for s in range(n_signs):
-        dh, dp = angles(d_col, s)
-        dh0, dp0 = angles(zero, s)  # the angles' constant parts (zero: they are linear in c)
+        dh, dp = _strip_angles(d_col, signs[s], kappa, n_strips)
+        # the angles' constant parts (zero: they are linear in c)
+        dh0, dp0 = _strip_angles(zero, signs[s], kappa, n_strips)
         dh -= dh0
         dp -= dp0
         r_half[s] = complex(math.cos(dh), math.sin(dh))
@@ -230,7 +232,7 @@ def keystone_box_sum(
                 for a in range(ndim):
                     here[a] = c[a] + j * d_col[a]
                 for s in range(n_signs):
-                    half, phase = angles(here, s)
+                    half, phase = _strip_angles(here, signs[s], kappa, n_strips)
                     e_half[s] = complex(math.cos(half), math.sin(half))
                     e_shalf[s] = complex(math.cos(n_strips * half), math.sin(n_strips * half))
                     e_phase[s] = complex(math.cos(phase), math.sin(phase))
@@ -415,12 +417,7 @@ def keystone_derivatives(
                 t_k[q, a] = 0j
         last = c[n_k, i]
         for s in range(n_signs):
-            half = math.pi * width * last
-            phase = 2.0 * math.pi * u0 * last
-            for a in range(n_k):
-                half += 0.5 * math.pi * width * signs[s, a] * kappa[a] * c[a, i]
-                phase += math.pi * signs[s, a] * (1.0 + kappa[a] * u0) * c[a, i]
-            phase += (n_strips - 1) * half
+            half, phase = _strip_angles(c[:, i], signs[s], kappa, n_strips)
             sh, ch = math.sin(half), math.cos(half)
             ssh, csh = math.sin(n_strips * half), math.cos(n_strips * half)
             rot = complex(math.cos(phase), math.sin(phase))

@@ -1,0 +1,85 @@
+"""evaluate's 3D kernels (:mod:`sarproc.quality.kernels`) compiled ahead of time, for small cubes.
+
+Several of those kernels are parallel in numba; compiled ahead of time (:mod:`sarproc.product.aot`) they run
+serially, so a cube pays for them only where its whole kernel work, serial, finishes before numba's start-up
+would have: :func:`reserve` takes that decision once per evaluation from an estimate of the work (a big cube,
+e.g. paper 004's, keeps numba's threads), and every call then goes to the module chosen (:func:`kernels`).
+Each output element is computed by the same operations in the same order either way (prange as range; no
+fast-math), so the results are equal bit for bit (tests/quality/test_kernels_aot.py). Importing this module
+imports no numba.
+"""
+
+from __future__ import annotations
+
+import os
+from types import ModuleType
+
+import numpy as np
+
+from sarproc.product import aot
+from sarproc.product.aot import Kernels
+
+_IDEAL = "f8[::1], f8[:, ::1], f8[::1], f8[::1], f8[::1], f8[:, ::1], f8[::1], b1"
+QUALITY = Kernels(
+    name="quality",
+    module="sarproc.quality.kernels",
+    sources=("quality/kernels.py", "quality/kernels_aot.py"),
+    exports={
+        "orientation_density": "f8[::1](f8[:, ::1], f8[:, ::1], f8[::1], f8)",
+        "gradient_norms": ("_gradient_norms", "f8[:, :, ::1](f8[:, :, ::1], f8[::1])"),
+        "strong_from_norms": (
+            "_strong_from_norms",
+            "Tuple((f8[:, ::1], f8[::1]))(f8[:, :, ::1], f8[::1], f8[:, :, ::1], f8)",
+        ),
+        "ideal_response": f"c16[::1](f8[:, ::1], {_IDEAL})",
+        "ideal_response_serial": f"c16[::1](f8[:, ::1], {_IDEAL})",
+        "ideal_response_box": f"c16[:, :, ::1](f8[::1], f8[::1], i8[::1], {_IDEAL})",
+        "ideal_response_boxes": f"c16[::1](f8[:, ::1], f8[::1], i8[:, ::1], i8[::1], i8, {_IDEAL})",
+        "spread": "c16[::1](c16[::1], f8[::1], i8, i8, f8, i8)",
+    },
+    owner="sarproc.quality.kernels_aot:QUALITY",
+)
+# Serial seconds of the kernels per target and chip sample of a cube's evaluation: an estimate from paper 004's
+# cube (7 targets, chips of 131 x 105 x 41: ~4 s of serial kernel work, under cProfile on the shared 2-core
+# machine); it only decides whether a cube is small enough to run them without numba.
+SERIAL_S_PER_SAMPLE = 1.1e-6
+
+
+def reserve(targets: int, chip_samples: int) -> ModuleType:
+    """Choose, once for a cube's evaluation of ``targets`` chips of ``chip_samples``, the module its kernels run
+    from (:meth:`Kernels.pick` with the whole estimate: later calls keep that choice)."""
+    return QUALITY.pick(SERIAL_S_PER_SAMPLE * targets * chip_samples)
+
+
+def kernels() -> ModuleType:
+    """The module to call the 3D kernels from: the one :func:`reserve` chose (the compiled one while its serial
+    budget lasts and numba's kernels are not loaded, else numba's)."""
+    return QUALITY.pick(0.0)
+
+
+def threads(k: ModuleType) -> int:
+    """The chunks :func:`sarproc.quality.kernels.spread` sums separately: numba's thread count, also for the
+    compiled module (the same sums in the same order), read without starting numba there."""
+    if not QUALITY.is_compiled(k):
+        import numba
+
+        return int(numba.get_num_threads())
+    return int(os.environ.get("NUMBA_NUM_THREADS") or aot.available_threads())
+
+
+def strong_gradients(mag: np.ndarray, h: np.ndarray, fraction: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`sarproc.quality.kernels.strong_gradients` from the module :func:`kernels` gives (the compiled one
+    runs its two parts in turn)."""
+    k = kernels()
+    mag, h = f8(mag), f8(h)
+    if QUALITY.is_compiled(k):
+        return k.strong_from_norms(mag, h, k.gradient_norms(mag, h), float(fraction))
+    return k.strong_gradients(mag, h, float(fraction))
+
+
+def f8(x: object) -> np.ndarray:
+    return np.ascontiguousarray(x, dtype=np.float64)
+
+
+def i8(x: object) -> np.ndarray:
+    return np.ascontiguousarray(x, dtype=np.int64)
