@@ -2,11 +2,38 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import click
 
 from sarproc.cli.options import dry_run_option, input_argument, overwrite_option, summary
+
+ARTIST_DOC_STUB = "(properties not listed: matplotlib was imported by sarproc quicklook)"
+
+
+def import_matplotlib_lean() -> None:
+    """Import matplotlib's figure and Agg canvas without building its property docstrings.
+
+    matplotlib writes every Artist subclass's ``set`` docstring (and each ``%(X:kwdoc)s`` section) as it
+    defines the class, by inspecting every setter's docstring: ~0.2 s of quicklook's ~0.45 s matplotlib
+    import, and a one-shot process never reads them. ``matplotlib.artist.kwdoc`` answers a stub only while
+    the modules load and is restored after; drawing is unaffected (the PNG is byte-identical). Nothing is
+    done once matplotlib.artist is imported (its classes are built already).
+    """
+    if "matplotlib.artist" in sys.modules:
+        return
+    import matplotlib.artist as martist
+
+    kwdoc = getattr(martist, "kwdoc", None)
+    if not callable(kwdoc):  # another matplotlib: import it as it is
+        return
+    martist.kwdoc = lambda artist: ARTIST_DOC_STUB
+    try:
+        import matplotlib.backends.backend_agg
+        import matplotlib.figure  # noqa: F401
+    finally:
+        martist.kwdoc = kwdoc
 
 
 @click.command()
@@ -69,6 +96,7 @@ def quicklook(
     frame = header.attrs.get("frame", {}).get("name", "")
     reduced = "" if all(f == 1 for f in factors) else ", block max " + " x ".join(str(f) for f in factors)
     title = f"{input_path.name}: {header.kind}, {dynamic_range_db:g} dB{reduced}"
+    import_matplotlib_lean()
     with atomic_path(output, overwrite=overwrite) as tmp:
         plot_quicklook(
             tmp,

@@ -109,3 +109,41 @@ def test_refuses_raw_products_and_bad_knobs(tmp_path):
     )
     res = run(raw, "-o", tmp_path / "ql.png")
     assert res.exit_code == 2 and "raw" in res.output and not (tmp_path / "ql.png").exists()
+
+
+LEAN_RUN = """
+import sys
+{before}
+from sarproc.cli.main import run_cli
+assert run_cli(["-q", "quicklook", *sys.argv[1:]]) == 0
+import matplotlib.artist, matplotlib.lines
+from sarproc.cli.quicklook import ARTIST_DOC_STUB
+print("STUBBED" if ARTIST_DOC_STUB in matplotlib.lines.Line2D.set.__doc__ else "FULL")
+print("RESTORED" if ARTIST_DOC_STUB not in matplotlib.artist.kwdoc(matplotlib.lines.Line2D) else "STILL STUBBED")
+"""
+
+
+@pytest.mark.parametrize("kind", ["targets", "no targets", "cube"])
+def test_lean_matplotlib_import_draws_the_same_picture(tmp_path, kind):
+    # a fresh process, as a user runs it: matplotlib imported without its property docstrings, the PNG
+    # byte-identical to the one drawn with matplotlib imported in full first, and kwdoc working again after
+    import subprocess
+    import sys
+
+    if kind == "no targets":
+        path, _ = image_without_targets(tmp_path / "img.h5")
+    else:
+        path = make_image(tmp_path / "img.h5", three_d=kind == "cube")
+    outputs = {}
+    for mode, before in (("lean", ""), ("full", "import matplotlib.figure")):
+        out = tmp_path / f"{mode}.png"
+        done = subprocess.run(
+            [sys.executable, "-c", LEAN_RUN.format(before=before), str(path), "-o", str(out)],
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        outputs[mode] = (out.read_bytes(), done.stdout.split())
+    assert outputs["lean"][1] == ["STUBBED", "RESTORED"]
+    assert outputs["full"][1] == ["FULL", "RESTORED"]
+    assert outputs["lean"][0][:8] == PNG_SIGNATURE and outputs["lean"][0] == outputs["full"][0]
