@@ -32,18 +32,17 @@ HAVE_CC = shutil.which(os.environ.get("CC", "cc")) is not None or shutil.which("
 GROUPS = (phasor.AOT, interp.AOT, echo_aot.ECHO, compiled.BLOCKS, compiled.STOLT, correction.AOT)
 
 
-def _build_command(group) -> list[str]:
-    """The background builder's own command for ``group``, as request_build starts it."""
-    return [sys.executable, "-m", "sarproc.product.aot", group.owner, aot.module_key(group.source_paths)]
+# Built by the background builder's own command (python -m sarproc.product.aot, as request_build starts it), one
+# after another in a thread, while the rest are built in this process: a build is one core's work (numba's
+# compile, then the C compiler's), so on CI's two cores the two lanes take about half the serial time. The echo
+# module stays in this process: its complex128 export equals the numba kernel bit for bit only where that kernel is
+# compiled in a process that built the module (citime's report, 2026-12-03), which the test does not settle.
+BY_COMMAND = (phasor.AOT, compiled.BLOCKS, compiled.STOLT, correction.AOT)
 
 
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
-    """The six modules built once into a directory of this test module (skipped without a C compiler).
-
-    Each through the background builder's own command (:func:`sarproc.product.aot.main`, which runs
-    ``Kernels.build``), two at a time: a build is one core's work (numba's compile, then the C compiler's), so on
-    CI's two cores the pair takes about half the serial time."""
+    """The six modules built once into a directory of this test module (skipped without a C compiler)."""
     if not HAVE_CC:
         pytest.skip("no C compiler: the kernels run in numba only")
     d = tmp_path_factory.mktemp("aot")
@@ -52,17 +51,29 @@ def built(tmp_path_factory):
     os.environ["SARPROC_AOT_DIR"], os.environ["SARPROC_AOT"] = str(d), "1"
     try:
         env = {**os.environ, "PYTHONPATH": str(ROOT)}
-        with concurrent.futures.ThreadPoolExecutor(max_workers=2) as pool:
-            runs = {
-                group.name: pool.submit(
-                    subprocess.run, _build_command(group), capture_output=True, text=True, check=False, env=env
+
+        def by_command() -> dict:
+            return {
+                group.name: subprocess.run(
+                    [sys.executable, "-m", "sarproc.product.aot", group.owner, aot.module_key(group.source_paths)],
+                    capture_output=True,
+                    text=True,
+                    check=False,
+                    env=env,
                 )
-                for group in GROUPS
+                for group in BY_COMMAND
             }
+
+        with concurrent.futures.ThreadPoolExecutor(max_workers=1) as lane:
+            runs = lane.submit(by_command)
+            for group in GROUPS:
+                if group not in BY_COMMAND:
+                    group.build(aot.module_key(group.source_paths))
+            done = runs.result()
         modules = {}
         for group in GROUPS:
-            done = runs[group.name].result()
-            assert done.returncode == 0, (group.name, done.stderr[-2000:])
+            if group in BY_COMMAND:
+                assert done[group.name].returncode == 0, (group.name, done[group.name].stderr[-2000:])
             aot._LOADED.pop(group.name, None)
             modules[group.name] = group.load()
             assert modules[group.name] is not None
