@@ -27,7 +27,7 @@ from sarproc.product.errors import InputError
 from sarproc.product.frames import ElevationFrame
 from sarproc.product.io import read_product, write_product
 from sarproc.product.metadata import C
-from sarproc.quality.metrics import evaluate_image, evaluate_product
+from sarproc.quality.metrics import EvaluateParams, evaluate_image, evaluate_product
 from sarproc.simulation.effects.cross_track_array import CrossTrackArrayParams, receiver_offsets
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
@@ -509,14 +509,16 @@ def test_crowded_azimuth_line_measured_in_place():
     line. Their responses carry array3d's azimuth chirp, so chirp-free neighbour models left their side lobes in
     each other's windows (ISLR 3 dB high on the full cube); with the chirp, array factor and range response that
     array3d records, each azimuth cut reads what the target alone reads (IRW 5 %, PSLR and ISLR 0.5 dB). The
-    group fit reaches about -28 dB here (-31.8 dB on the full cube), so the cuts may still say "contaminated"."""
+    group fit reaches about -28 dB here (-31.8 dB on the full cube), so the cuts may still say "contaminated".
+    Ideal (chirped) neighbour models only: the response-model refit that a -28 dB group is given by default misses
+    -30 dB too and is dropped (the same figures to the last bit, ~55 s of the test's ~57 s on 2 cores)."""
     points = [
         {"name": n, "azimuth": f"{x} m", "range": "490 m", "elevation": "0 deg"}
         for n, x in (("3", 0.0), ("4", 5.0), ("5", -5.0))
     ]
     acquisition = {"mode": "stripmap", "n_pulses": 161, "range_margin": "8 m"}
     _, cube, _ = run(reduced(acquisition=acquisition, targets={**REDUCED["targets"], "points": points}))
-    rep = evaluate_product(cube)
+    rep = evaluate_product(cube, EvaluateParams(neighbour_orders=0))
     _, alone, _ = run(reduced(acquisition=acquisition))
     ref = evaluate_product(alone).target("A").axis("azimuth")
     for name in ("3", "4", "5"):

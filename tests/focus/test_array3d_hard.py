@@ -149,7 +149,9 @@ def test_targets_at_the_data_edges_are_finite_with_reported_loss():
     raw = simulate(scene_from_mapping(reduced(targets={"points": pts})))
     cube, _ = array3d_product(raw)
     finite(cube)
-    rep = evaluate_product(cube)
+    # ideal neighbour models: the default response-model refit of the X-S pair (~17 s on 2 cores) leaves every
+    # figure as it is, to the last bit
+    rep = evaluate_product(cube, EvaluateParams(neighbour_orders=0))
     x = rep.target("X").axis("azimuth")
     assert 1.2 < x.irw_ratio < 1.7 and abs(x.position_error_cells) < 0.5  # 70 % aperture: about 1.4x wider
     s = rep.target("S").axis("elevation")

@@ -14,7 +14,7 @@ from sarproc.cli.main import cli
 from sarproc.focus.array3d.linear_array import Array3DParams, array3d_product
 from sarproc.focus.backprojection import row_blocks
 from sarproc.product.io import read_product, write_product
-from sarproc.quality.metrics import evaluate_product
+from sarproc.quality.metrics import EvaluateParams, evaluate_product
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
 
@@ -62,9 +62,11 @@ def test_3d_backprojection_writes_an_elevation_cube(scene):
 
 def test_3d_backprojection_agrees_with_the_array3d_cube(scene):
     """Same peaks (to a tenth of a cell), IRWs at theory (within 5 %) and within 3 % of the cube's, PSLRs within
-    0.5 dB of the cube's."""
+    0.5 dB of the cube's. Ideal neighbour models: the response-model refit that evaluate tries by default on the
+    backprojected cube's pair (~25 s on 2 cores) leaves every figure of both cubes as it is, to the last bit."""
     _, cube, bp = scene
-    rc, rb = evaluate_product(cube), evaluate_product(bp)
+    ideal = EvaluateParams(neighbour_orders=0)
+    rc, rb = evaluate_product(cube, ideal), evaluate_product(bp, ideal)
     for name in ("A", "B"):
         for m1, m2 in zip(rc.target(name).axes, rb.target(name).axes):
             assert m1.axis == m2.axis

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from test_metrics import axis_coords, separable_image, sinc_psf
 
-from sarproc.quality.metrics import evaluate_image
+from sarproc.quality.metrics import EvaluateParams, evaluate_image
 
 STEPS = (0.001, 0.125, 0.333)  # elevation rad, azimuth m, range m
 NULLS = (4.0, 3.2, 1.2)  # samples
@@ -48,8 +48,12 @@ def test_neighbours_that_carry_their_chirp_are_subtracted():
             # side lobes (-33 dB there) stay in 4's window (4 alone at its place: -13.23 dB)
             assert m.pslr_db == pytest.approx(-13.26, abs=0.5), (t.name, m)
             assert m.islr_db == pytest.approx(-10.16, abs=0.5), (t.name, m)
-    # the same scene without the chirp: ideal neighbours leave their side lobes, and the cuts say so
-    plain = evaluate_image(image, dims, coords, irw, truth, names=["3", "4", "5"])
+    # the same scene without the chirp: ideal neighbours leave their side lobes, and the cuts say so (ideal models
+    # only: the response-model refit that such a group gets by default fits no better, is dropped, and leaves these
+    # figures as they are to the last bit; ~28 s of the test's ~30 s on 2 cores)
+    plain = evaluate_image(
+        image, dims, coords, irw, truth, names=["3", "4", "5"], params=EvaluateParams(neighbour_orders=0)
+    )
     assert plain.target("3").axis("azimuth").contaminated_db is not None
 
 
