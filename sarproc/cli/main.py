@@ -245,10 +245,21 @@ def set_thread_defaults(environ: MutableMapping[str, str] | None = None) -> None
         target.setdefault(key, value)
 
 
+def keep_bytecode_under_a_file_size_limit() -> None:
+    """Under ``ulimit -f`` write no bytecode caches: Python ignores SIGXFSZ and does not check the length of
+    its .pyc writes, so a module first imported under the limit left a truncated .pyc in the install that
+    broke every later import of it ("marshal data too short": a 9 KB limit cut quality/plotting's)."""
+    import resource
+
+    if resource.getrlimit(resource.RLIMIT_FSIZE)[0] != resource.RLIM_INFINITY:
+        sys.dont_write_bytecode = True
+
+
 def main(
     args: Sequence[str] | None = None,
 ) -> NoReturn:  # pragma: no cover - console entry (exercised by subprocess tests)
     """Console entry: run the group; after a failed HDF5 write end without HDF5's cleanup (it can crash)."""
+    keep_bytecode_under_a_file_size_limit()
     set_thread_defaults()
     code = run_cli(args)
     io = sys.modules.get("sarproc.product.io")  # not imported: no HDF5 file was opened (--help stays light)

@@ -10,6 +10,7 @@ list outside pytest and prints the counts quoted in the issue's closing note.
 from __future__ import annotations
 
 import hashlib
+import os
 import re
 import shutil
 import signal
@@ -1212,6 +1213,35 @@ def test_evaluate_figures_on_a_full_disk(tmp_path, products):
     assert "plots/quicklook.png: cannot write: File too large (EFBIG)" in err and "Traceback" not in err
     assert out == ""  # no table printed before the failure
     assert set(snapshot(tmp_path)) - set(before) == {"r.json"}  # the complete report only; no plots/, no temporaries
+
+
+def test_a_file_size_limit_leaves_no_truncated_bytecode(tmp_path, products):
+    """Python ignores SIGXFSZ and does not check its .pyc writes: a first import under ``ulimit -f`` left a
+    truncated cache that broke every later run ("marshal data too short"). With a fresh cache prefix the
+    figures' modules (quality.plotting, matplotlib) are first imported under the limit, as in a new install."""
+    env = {**os.environ, "PYTHONPYCACHEPREFIX": str(tmp_path / "pycache")}
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    image = tmp_path / "image.h5"
+    shutil.copy(products / "image.h5", image)
+
+    def run(*args, limit_kb=None):
+        def pre():
+            if limit_kb is not None:
+                import resource
+
+                resource.setrlimit(resource.RLIMIT_FSIZE, (limit_kb * 1024, limit_kb * 1024))
+
+        cmd = [sys.executable, "-m", "sarproc", *map(str, args)]
+        proc = subprocess.run(cmd, capture_output=True, text=True, env=env, preexec_fn=pre, timeout=300)
+        return proc.returncode, proc.stderr
+
+    code, err = run("evaluate", image, "-o", tmp_path / "probe.json", "-q")
+    assert code == 0, err
+    limit_kb = (tmp_path / "probe.json").stat().st_size // 1024 + 2  # the report fits, its figures do not
+    code, err = run("evaluate", image, "-o", tmp_path / "r.json", "--plot", tmp_path / "plots", limit_kb=limit_kb)
+    assert code == 1 and "File too large" in err, err
+    code, err = run("evaluate", image, "-o", tmp_path / "r2.json", "--plot", tmp_path / "plots")
+    assert code == 0, err  # the modules first imported under the limit load again
 
 
 def test_two_concurrent_writers_never_replace_each_other(tmp_path):
