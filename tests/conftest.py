@@ -49,3 +49,39 @@ def scene_mapping():
         return merge(BASE_SCENE, changes)
 
     return make
+
+
+def build_aot_kernels(group, directory):
+    """``group``'s (a :class:`sarproc.product.aot.Kernels`) compiled module, built into ``directory`` through the
+    background builder's own command and loaded as a process with SARPROC_AOT=1 would."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from sarproc.product import aot
+
+    directory.chmod(0o700)
+    root = str(Path(__file__).resolve().parents[1])
+    env = {**os.environ, "SARPROC_AOT_DIR": str(directory), "SARPROC_AOT": "1", "PYTHONPATH": root}
+    done = subprocess.run(
+        [sys.executable, "-m", "sarproc.product.aot", group.owner, aot.module_key(group.source_paths)],
+        capture_output=True,
+        text=True,
+        check=False,
+        env=env,
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    old = os.environ.get("SARPROC_AOT_DIR"), os.environ.get("SARPROC_AOT")
+    os.environ["SARPROC_AOT_DIR"], os.environ["SARPROC_AOT"] = str(directory), "1"
+    aot._LOADED.pop(group.name, None)
+    try:
+        module = group.load()
+    finally:
+        for key, value in zip(("SARPROC_AOT_DIR", "SARPROC_AOT"), old, strict=True):
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
+        aot._LOADED.pop(group.name, None)
+    assert module is not None and group.is_compiled(module)
+    return module

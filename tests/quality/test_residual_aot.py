@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import build_aot_kernels
 
-from sarproc.product import aot
 from sarproc.quality import residual_aot
 from sarproc.quality.residual import _strip_count, spectral_orders
 
@@ -30,31 +30,7 @@ def built(tmp_path_factory):
     if not HAVE_CC:
         pytest.skip("no C compiler: the kernels run in numba only")
     d = tmp_path_factory.mktemp("aot")
-    d.chmod(0o700)
-    group = residual_aot.RESIDUAL
-    env = {**os.environ, "SARPROC_AOT_DIR": str(d), "SARPROC_AOT": "1", "PYTHONPATH": str(ROOT)}
-    done = subprocess.run(
-        [sys.executable, "-m", "sarproc.product.aot", group.owner, aot.module_key(group.source_paths)],
-        capture_output=True,
-        text=True,
-        check=False,
-        env=env,
-    )
-    assert done.returncode == 0, done.stderr[-2000:]
-    old = os.environ.get("SARPROC_AOT_DIR"), os.environ.get("SARPROC_AOT")
-    os.environ["SARPROC_AOT_DIR"], os.environ["SARPROC_AOT"] = str(d), "1"
-    aot._LOADED.pop(group.name, None)
-    try:
-        module = group.load()
-    finally:
-        for key, value in zip(("SARPROC_AOT_DIR", "SARPROC_AOT"), old, strict=True):
-            if value is None:
-                os.environ.pop(key, None)
-            else:
-                os.environ[key] = value
-        aot._LOADED.pop(group.name, None)
-    assert module is not None and group.is_compiled(module)
-    return d, module
+    return d, build_aot_kernels(residual_aot.RESIDUAL, d)
 
 
 def _points(rng, ndim: int, strips: int) -> np.ndarray:
