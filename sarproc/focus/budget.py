@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sarproc.product.budget import PROCESS, Plan, complex_bytes, header_shape, stored_bytes
+from sarproc.product.budget import NUMBA_PROCESS, PROCESS, Plan, complex_bytes, header_shape, stored_bytes
 from sarproc.product.errors import InputError
 from sarproc.product.frames import image_axis
 from sarproc.product.metadata import SINC_IRW_FACTOR
@@ -151,7 +151,8 @@ def backproject_block_pixels(header: Product, params: Any, memory_limit: int | N
         return block
     n_az, n_rg = header_shape(header)[-2:]
     n_ch = header_shape(header)[0] if len(header_shape(header)) == 3 else 1
-    room = memory_limit - PROCESS["backproject"][0] - _backproject_fixed_bytes(n_ch, n_az, n_rg, params)
+    process = PROCESS["backproject"][0] + NUMBA_PROCESS[0]  # numba's share counted: the blocks fit either run
+    room = memory_limit - process - _backproject_fixed_bytes(n_ch, n_az, n_rg, params)
     n_az_px, n_rg_px = image_pixels(header, params)
     row = n_rg_px * (n_az_px if elevation_pixels(header, params) > 1 else 1)  # a 3D grid's rows: elevation planes
     return max(row, min(block, int(room / BACKPROJECT_BYTES_PER_PIXEL) // row * row))
