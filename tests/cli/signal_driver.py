@@ -1,8 +1,8 @@
 """Run sarproc commands in this one process, each stopped by a signal at a given moment (issue 18).
 
 A timer thread sends the signal to this process, as a batch scheduler would, ``fraction`` times
-the command's own run time after it starts (measured by the unsignalled runs of the same ``key``
-before it, which also compile and load every kernel: an interrupted first numba call leaves numba
+the command's own run time after it starts (the shortest whole run of the same ``key`` before it; the first
+are unsignalled, and also compile and load every kernel: an interrupted first numba call leaves numba
 half-initialised in the process, which a real run never outlives). The moments fall in argument
 parsing, the compute, inside h5py's writes, in publishing and after it. Paying Python's start-up
 once makes many deliveries cheap. Prints one JSON line per run: exit status, signal, delay, wall time.
@@ -34,7 +34,8 @@ def main(path: str) -> None:
             timer.start()
         code = run_cli(r["args"])
         seconds = time.perf_counter() - start
-        if not timer:
+        if code == 0:  # a whole run (unsignalled, or the signal came after it): the shortest sets the delays,
+            # so that warm-up runs stretched by load do not push the later signals past the end of the run
             durations[r["key"]] = min(seconds, durations.get(r["key"], seconds))
         if timer:
             timer.join()  # a signal sent after the run ended must change nothing
