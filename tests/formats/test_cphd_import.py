@@ -161,11 +161,16 @@ def foreign_file(path, raw, place, *, band_wobble=0.0, offset_bins=None, srp_mot
         centre = (pvps["TOA1"] + pvps["TOA2"]) / 2
         dtoa = centre[:, None] + (np.arange(n_fft) - n_fft // 2)[None, :] / fs
         inband = (f >= fx1[:, None] - 1e-6) & (f <= fx2[:, None] + 1e-6)
-        sig = np.empty_like(s)
-        for v in range(n_vec):  # plain matmul: independent of the importer's chirp-z
-            e = np.exp(2j * np.pi * np.outer(dtoa[v], f[v, inband[v]] - fxc[v]))
-            sig[v] = df * (e @ s[v, inband[v]])
-        s = sig
+        # a plain matrix product, independent of the importer's chirp-z. With dTOA_n = c + u_n and
+        # f_k - fx_C = g_k + e (u_n = (n - N/2) / fs, g_k = (k - N/2) df, df = fs / N) the kernel factors as
+        # exp(j 2 pi (c + u_n) e) exp(j 2 pi c g_k) exp(j 2 pi (n - N/2)(k - N/2) / N): one DFT-like matrix for
+        # every vector, its phase reduced exactly in integers
+        steps = np.arange(n_fft) - n_fft // 2
+        dft = np.exp(2j * np.pi * (np.outer(steps, steps) % n_fft) / n_fft)
+        c, e = centre[:, None], (f[:, :1] - steps[0] * df) - fxc[:, None]  # e: f at k = N/2 minus fx_C
+        g = steps[None, :] * df
+        spectra = np.where(inband, s * np.exp(2j * np.pi * c * g), 0)
+        s = df * np.exp(2j * np.pi * (c + steps[None, :] / fs) * e) * (spectra @ dft.T)
         pvps["SC0"], pvps["SCSS"] = dtoa[:, 0], 1.0 / fs
         root.find(f"{ns}Global/{ns}DomainType").text = "TOA"
     ch = root.find(f"{ns}Channel")
