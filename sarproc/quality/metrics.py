@@ -848,36 +848,27 @@ def evaluate_image(
     neighbours' chips (so a measured target's figures are those of the run over every target), then kept out of
     the false-target search like ``other_truth``. Raises InputError.
 
-    Steps: :func:`_find_peak` per target (pass 1: peak and support on the image's chip),
-    :func:`_subtract_neighbours` (pass 2: the groups' fitted responses off each chip, peak and support again),
-    :func:`_measure` per target (the cuts), then :func:`_false_targets`.
+    Steps: :func:`_locate_targets` (pass 1, :func:`_find_peak` per target: peak and support on the image's chip;
+    pass 2, :func:`_subtract_neighbours`: the groups' fitted responses off each chip, peak and support again),
+    :func:`_measure` per measured target (the cuts), then :func:`_false_targets` away from
+    :func:`_guarded_positions`.
     """
     params = params or EvaluateParams()
     data = np.asarray(data)
     axes, metric, truth, names = _checked_inputs(data, dims, coords, theoretical_irw, truth, names, metric, params)
     own_axes = _target_axes(axes, target_irw, truth.shape[0], params.irw_factor, target_null, target_sidelobes)
-    measured = np.ones(len(names), dtype=bool) if measure is None else np.asarray(measure, dtype=bool)
-    if measured.shape != (len(names),) or not measured.any():
-        raise InputError(f"measure must flag at least one of the {len(names)} targets, got shape {measured.shape}")
-    mag = np.abs(data)
-    # chips wide enough for every target's own ISLR window
-    half = [
-        max(x[a].nulls_to_samples(params.islr_nulls + params.margin_nulls) for x in [axes] + own_axes)
-        for a in range(len(axes))
-    ]
+    measured = _measured_flags(measure, len(names))
+    half = _chip_half_widths(axes, own_axes, params)
     nulls = [ax.null for ax in axes]
     if len(axes) == 3 and not params.exact:  # a cube's kernels: compiled ahead of time where all of them pay
         kernels_aot.reserve(len(names), math.prod(2 * h + 1 for h in half))
     # One bar over the whole evaluation: each target's pass 1, pass 2 (when neighbours are removed) and
     # measurement, then the false-target search.
     done = steps(progress, len(names) * (2 if params.remove_neighbours else 1) + int(measured.sum()) + 1)
-    peaks = [
-        _find_peak(data, mag, axes, name, t, half, nulls, params) for name, t in wrapped(done, list(zip(names, truth)))
-    ]
-    if params.remove_neighbours:
-        chirps = _chirps_in_samples(target_chirp, axes, len(names))
-        shapes = _response_shapes(response_period, response_table, axes)
-        peaks = _subtract_neighbours(data, peaks, names, nulls, half, params, done, chirps, shapes)
+    mag = np.abs(data)
+    peaks = _locate_targets(
+        data, mag, axes, names, truth, half, nulls, params, done, target_chirp, response_period, response_table
+    )
     # only the measured targets from here on; the others (and other_truth) guard their neighbourhoods
     order = [int(i) for i in np.flatnonzero(measured)]
     peaks, own_axes = [peaks[i] for i in order], [own_axes[i] for i in order]
@@ -885,8 +876,7 @@ def evaluate_image(
         _measure(peak, own, truth[i], names[i], params, metric)
         for peak, own, i in wrapped(done, list(zip(peaks, own_axes, order)))
     ]
-    others = [truth[~measured]] + ([] if other_truth is None else [np.asarray(other_truth, dtype=float)])
-    guarded = np.concatenate([truth[measured]] + [o.reshape(-1, len(axes)) for o in others])
+    guarded = _guarded_positions(truth, measured, other_truth, len(axes))
     false, guard, floor = _false_targets(data, mag, axes, guarded, peaks, reports, half, nulls, params, own_axes)
     done()
     return QualityReport(
@@ -898,6 +888,59 @@ def evaluate_image(
         residual=floor,
         residual_note=RESIDUAL_3D_NOTE if params.residual and data.ndim == 3 else None,
     )
+
+
+def _measured_flags(measure: npt.ArrayLike | None, n_targets: int) -> np.ndarray:
+    """(n_targets,) booleans: the targets to report (evaluate_image's ``measure``; None: all of them)."""
+    measured = np.ones(n_targets, dtype=bool) if measure is None else np.asarray(measure, dtype=bool)
+    if measured.shape != (n_targets,) or not measured.any():
+        raise InputError(f"measure must flag at least one of the {n_targets} targets, got shape {measured.shape}")
+    return measured
+
+
+def _chip_half_widths(axes: Sequence[_Axis], own_axes: Sequence[Sequence[_Axis]], params: EvaluateParams) -> list[int]:
+    """Half-widths of every chip per axis (samples): wide enough for every target's own ISLR window."""
+    return [
+        max(x[a].nulls_to_samples(params.islr_nulls + params.margin_nulls) for x in [axes] + list(own_axes))
+        for a in range(len(axes))
+    ]
+
+
+def _locate_targets(
+    data: np.ndarray,
+    mag: np.ndarray,
+    axes: Sequence[_Axis],
+    names: Sequence[str],
+    truth: np.ndarray,
+    half: Sequence[int],
+    nulls: Sequence[float],
+    params: EvaluateParams,
+    done: Callable[[], None],
+    target_chirp: npt.ArrayLike | None,
+    response_period: npt.ArrayLike | None,
+    response_table: Sequence[tuple[np.ndarray, float] | None] | None,
+) -> list[_Peak]:
+    """Every target's :class:`_Peak`: pass 1 (:func:`_find_peak` on the image ``data``, magnitude ``mag``), then
+    with ``params.remove_neighbours`` pass 2 (:func:`_subtract_neighbours`; the responses' known chirps and shapes
+    are evaluate_image's ``target_chirp``, ``response_period`` and ``response_table``). ``done``: the progress
+    steps, one per target and pass."""
+    peaks = [
+        _find_peak(data, mag, axes, name, t, half, nulls, params) for name, t in wrapped(done, list(zip(names, truth)))
+    ]
+    if params.remove_neighbours:
+        chirps = _chirps_in_samples(target_chirp, axes, len(names))
+        shapes = _response_shapes(response_period, response_table, axes)
+        peaks = _subtract_neighbours(data, peaks, names, nulls, half, params, done, chirps, shapes)
+    return peaks
+
+
+def _guarded_positions(
+    truth: np.ndarray, measured: np.ndarray, other_truth: np.ndarray | Sequence[Sequence[float]] | None, ndim: int
+) -> np.ndarray:
+    """(n, ndim) positions kept out of the false-target search: the measured targets first, then the unmeasured
+    ones and ``other_truth`` (targets not evaluated)."""
+    others = [truth[~measured]] + ([] if other_truth is None else [np.asarray(other_truth, dtype=float)])
+    return np.concatenate([truth[measured]] + [o.reshape(-1, ndim) for o in others])
 
 
 def _chirps_in_samples(target_chirp: npt.ArrayLike | None, axes: Sequence[_Axis], n_targets: int) -> np.ndarray | None:
