@@ -1893,11 +1893,43 @@ def evaluate_product(
     figures are those of the run over all; every other's neighbourhood stays out of the false-target search).
     ``source`` (the file name) prefixes error messages.
     """
-    from sarproc.quality.moving import apparent_truth, mover_reports
+    from sarproc.quality.moving import mover_reports
 
     where = f"{source}: " if source else ""
-    irw = product.attrs.get("theoretical_irw")
-    if irw is None:
+    all_names = _checked_product(product, names, where)
+    table = _truth_table(product, params, source, where)
+    chosen = _chosen_targets(product, table, all_names, names)
+    keep = chosen.keep
+    theory = _recorded_theory(product, table, keep)
+    try:
+        report = evaluate_image(
+            product.data,
+            product.dims,
+            product.coords,
+            product.attrs["theoretical_irw"],
+            chosen.truth[keep],
+            [n for n, k in zip(all_names, keep) if k],
+            params,
+            metric=frame_metric(product),
+            progress=progress,
+            target_irw=theory.irw if np.any(~np.isnan(theory.irw)) else None,
+            target_null=theory.null,
+            target_sidelobes=theory.sidelobes,
+            other_truth=chosen.truth[~keep],
+            target_chirp=target_chirp(product, chosen.truth[keep], where),
+            response_period=response_period(product, where),
+            response_table=response_table(product, where),
+            measure=chosen.measured[keep],
+        )
+    except InputError as exc:
+        raise InputError(f"{where}{exc}") from None
+    return dataclasses.replace(report, movers=mover_reports(product, table, report, source))
+
+
+def _checked_product(product: Product, names: Collection[str] | None, where: str) -> list[str]:
+    """Every target's name, once the product has what evaluate_product needs: theoretical_irw, a targets field per
+    image axis, a target, and every one of ``names`` (None: all). Raises InputError prefixed with ``where``."""
+    if product.attrs.get("theoretical_irw") is None:
         raise InputError(
             f"{where}image attribute 'theoretical_irw' is missing (expected one IRW per axis {product.dims})"
         )
@@ -1915,57 +1947,74 @@ def evaluate_product(
                 f"{where}--targets: no target(s) {', '.join(map(repr, unknown))} in the targets table "
                 f"(targets: {', '.join(all_names)})"
             )
+    return all_names
+
+
+def _truth_table(product: Product, params: EvaluateParams | None, source: str, where: str) -> np.ndarray:
+    """The targets table where the image shows them: each mover at its static equivalent
+    (:func:`sarproc.quality.moving.apparent_truth`), with ``params.fold_elevation`` the elevation folded
+    (:func:`folded_truth`)."""
+    from sarproc.quality.moving import apparent_truth
+
     table = apparent_truth(product, source)
     if params is not None and params.fold_elevation:
         table = folded_truth(product, table, where)
-    truth_all = np.stack([table[d].astype(float) for d in product.dims], axis=1)
+    return table
+
+
+@dataclasses.dataclass(frozen=True)
+class _ChosenTargets:
+    """Which of a product's targets evaluate_image gets (``keep``) and which of those it reports (``measured``)."""
+
+    truth: np.ndarray  # (n_targets, ndim) every target's position in the image, dims order
+    measured: np.ndarray  # (n_targets,) named (every one without names)
+    keep: np.ndarray  # (n_targets,) measured, or within the image: modelled as a neighbour
+
+
+def _chosen_targets(
+    product: Product, table: np.ndarray, all_names: Sequence[str], names: Collection[str] | None
+) -> _ChosenTargets:
+    """The targets named (``names``; None: all) and the others modelled as neighbours: those the image holds."""
+    truth = np.stack([table[d].astype(float) for d in product.dims], axis=1)
     measured = np.array([names is None or n in names for n in all_names])
     # the targets left out of a subset are still modelled as neighbours where they lie in the image
-    keep = measured | _within_extent(product, truth_all)
-    own = np.stack(
-        [table[f"irw_{d}"].astype(float) if f"irw_{d}" in fields else np.zeros(len(truth_all)) for d in product.dims],
-        axis=1,
-    )[keep]
-    own[own == 0] = np.nan  # 0 in the table: not recorded, the image's theory applies
+    return _ChosenTargets(truth, measured, measured | _within_extent(product, truth))
 
-    def field(prefix: str) -> np.ndarray:  # a theory field per target and axis; 0 (not recorded) or absent: NaN
-        v = np.stack(
-            [
-                product.targets[f"{prefix}_{d}"].astype(float)
-                if f"{prefix}_{d}" in fields
-                else np.zeros(len(truth_all))
-                for d in product.dims
-            ],
-            axis=1,
-        )
-        v[v == 0] = np.nan
-        return v
 
-    lobes = np.stack([field("pslr"), field("islr")], axis=-1)
+@dataclasses.dataclass(frozen=True)
+class _RecordedTheory:
+    """The targets table's own theory for each target evaluate_image gets, per axis (dims order); NaN where not
+    recorded (0 in the table, or no such field): evaluate_image's target_irw, target_null and target_sidelobes."""
+
+    irw: np.ndarray  # (n, ndim) IRW, axis units
+    null: np.ndarray  # (n, ndim) null spacing 1/B, axis units
+    sidelobes: np.ndarray  # (n, ndim, 2) PSLR and ISLR, dB (both NaN where either is not recorded)
+
+
+def _recorded_theory(product: Product, table: np.ndarray, keep: np.ndarray) -> _RecordedTheory:
+    """The ``keep`` targets' recorded theory: IRW from ``table`` (the targets where the image shows them), null
+    spacing and side lobes from ``product.targets``."""
+    lobes = np.stack(
+        [_theory_field(product.targets, "pslr", product.dims), _theory_field(product.targets, "islr", product.dims)],
+        axis=-1,
+    )
     lobes[np.isnan(lobes).any(axis=-1)] = np.nan
-    try:
-        report = evaluate_image(
-            product.data,
-            product.dims,
-            product.coords,
-            irw,
-            truth_all[keep],
-            [n for n, k in zip(all_names, keep) if k],
-            params,
-            metric=frame_metric(product),
-            progress=progress,
-            target_irw=own if np.any(~np.isnan(own)) else None,
-            target_null=field("null")[keep],
-            target_sidelobes=lobes[keep],
-            other_truth=truth_all[~keep],
-            target_chirp=target_chirp(product, truth_all[keep], where),
-            response_period=response_period(product, where),
-            response_table=response_table(product, where),
-            measure=measured[keep],
-        )
-    except InputError as exc:
-        raise InputError(f"{where}{exc}") from None
-    return dataclasses.replace(report, movers=mover_reports(product, table, report, source))
+    return _RecordedTheory(
+        irw=_theory_field(table, "irw", product.dims)[keep],
+        null=_theory_field(product.targets, "null", product.dims)[keep],
+        sidelobes=lobes[keep],
+    )
+
+
+def _theory_field(targets: np.ndarray, prefix: str, dims: Sequence[str]) -> np.ndarray:
+    """(n_targets, ndim) a theory field ``<prefix>_<dim>`` per target and axis; 0 (not recorded) or absent: NaN."""
+    fields = targets.dtype.names or ()
+    v = np.stack(
+        [targets[f"{prefix}_{d}"].astype(float) if f"{prefix}_{d}" in fields else np.zeros(len(targets)) for d in dims],
+        axis=1,
+    )
+    v[v == 0] = np.nan
+    return v
 
 
 def _within_extent(product: Product, truth: np.ndarray) -> np.ndarray:
