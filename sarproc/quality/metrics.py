@@ -621,19 +621,9 @@ def principal_directions(
     centroid of the band, cycles/sample. Falls back to the image axes when no edge is found.
     """
     ndim = chip.ndim
-    shape = chip.shape
     nulls = np.asarray(nulls, dtype=float)
     eye = np.eye(ndim)
-    w = np.ones(())
-    for a, n in enumerate(shape):
-        x = np.arange(n) - (n - 1) / 2
-        hw = min(window_nulls * nulls[a], (n + 1) / 2)
-        w = np.multiply.outer(w, np.where(np.abs(x) < hw, np.cos(np.pi * x / (2 * hw)) ** 2, 0.0))
-    nfft = [(2 if ndim <= 2 else 1) * n for n in shape]
-    spec = sfft.fftn(chip * w, s=nfft, workers=-1)
-    shift = [n // 2 - int(round(c * n)) for c, n in zip(centers, nfft)]
-    mag = np.roll(np.abs(spec), shift, axis=tuple(range(ndim)))
-    freqs = [(np.arange(n) - n // 2) / n + (round(c * n) / n) for c, n in zip(centers, nfft)]
+    mag, freqs = _support_spectrum(chip, centers, nulls, window_nulls)
     power = mag**2
     total = power.sum()
     if not total > 0:
@@ -644,30 +634,67 @@ def principal_directions(
     if ndim == 1:
         return eye, f_c
     # d|S| / d(frequency in cycles per null): each axis' band is about one unit wide.
-    spacing = [nu / n for nu, n in zip(nulls, nfft)]
-    if ndim == 3 and not exact:  # compiled: the strong gradients only, no full gradient arrays
-        g, norm = kernels_aot.strong_gradients(mag, np.array(spacing), 0.05)
-    else:
-        grads = np.gradient(mag, *spacing)
-        g = np.stack([gi.ravel() for gi in grads], axis=1)
-        norm = np.linalg.norm(g, axis=1)
-        keep = norm > 0.05 * norm.max()
-        g, norm = g[keep], norm[keep]
+    spacing = [nu / n for nu, n in zip(nulls, mag.shape)]
+    g, norm = _strong_gradients(mag, spacing, exact)
     u = g / norm[:, None]
+    cand, peaks = _orientation_peaks(u, norm, ndim, exact)
+    found = _edge_normals(cand, peaks, u, g, ndim)
+    if len(found) < ndim or abs(np.linalg.det(np.array(found))) < 0.2:
+        return eye, f_c
+    return _ridges(np.array(found), nulls), f_c
+
+
+def _support_spectrum(
+    chip: np.ndarray, centers: Sequence[float], nulls: np.ndarray, window_nulls: float
+) -> tuple[np.ndarray, list[np.ndarray]]:
+    """(|S|, frequencies per axis in cycles/sample) of the Hann-windowed ``chip`` (+-``window_nulls`` nulls),
+    zero-padded 2x (1x in 3D) and rolled so each axis' band centre ``centers`` sits mid-array."""
+    ndim = chip.ndim
+    w = np.ones(())
+    for a, n in enumerate(chip.shape):
+        x = np.arange(n) - (n - 1) / 2
+        hw = min(window_nulls * nulls[a], (n + 1) / 2)
+        w = np.multiply.outer(w, np.where(np.abs(x) < hw, np.cos(np.pi * x / (2 * hw)) ** 2, 0.0))
+    nfft = [(2 if ndim <= 2 else 1) * n for n in chip.shape]
+    spec = sfft.fftn(chip * w, s=nfft, workers=-1)
+    shift = [n // 2 - int(round(c * n)) for c, n in zip(centers, nfft)]
+    mag = np.roll(np.abs(spec), shift, axis=tuple(range(ndim)))
+    freqs = [(np.arange(n) - n // 2) / n + (round(c * n) / n) for c, n in zip(centers, nfft)]
+    return mag, freqs
+
+
+def _strong_gradients(mag: np.ndarray, spacing: Sequence[float], exact: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(gradients (m, ndim), their norms (m,)) of ``mag`` at sample ``spacing``, those over 5 % of the largest."""
+    if mag.ndim == 3 and not exact:  # compiled: the strong gradients only, no full gradient arrays
+        return kernels_aot.strong_gradients(mag, np.array(spacing), 0.05)
+    grads = np.gradient(mag, *spacing)
+    g = np.stack([gi.ravel() for gi in grads], axis=1)
+    norm = np.linalg.norm(g, axis=1)
+    keep = norm > 0.05 * norm.max()
+    return g[keep], norm[keep]
+
+
+def _orientation_peaks(u: np.ndarray, norm: np.ndarray, ndim: int, exact: bool) -> tuple[np.ndarray, list]:
+    """(candidate orientations, the indices of the peaks of the orientation density of unit vectors ``u`` weighted
+    by ``norm``, strongest first)."""
     cand, sigma, near = _orientation_grid(ndim)
     sub = slice(None, None, max(1, len(u) // 4000))  # the density only locates the peaks
     if ndim == 3 and not exact:  # compiled: one launch over every candidate (each one's sum is the same)
         dens = _orientation_density(cand, u[sub], norm[sub], sigma)
         peak = dens >= dens[_padded_neighbours(ndim)].max(axis=1)
-        peaks = [i for i in np.argsort(dens)[::-1] if peak[i] and dens[i] > 0]
-    else:
-        dens = np.concatenate(
-            [
-                _orientation_density(c, u[sub], norm[sub], sigma, exact)
-                for c in np.array_split(cand, max(1, len(cand) // 500))
-            ]
-        )
-        peaks = [i for i in np.argsort(dens)[::-1] if dens[i] >= dens[near[i]].max() and dens[i] > 0]
+        return cand, [i for i in np.argsort(dens)[::-1] if peak[i] and dens[i] > 0]
+    dens = np.concatenate(
+        [
+            _orientation_density(c, u[sub], norm[sub], sigma, exact)
+            for c in np.array_split(cand, max(1, len(cand) // 500))
+        ]
+    )
+    return cand, [i for i in np.argsort(dens)[::-1] if dens[i] >= dens[near[i]].max() and dens[i] > 0]
+
+
+def _edge_normals(cand: np.ndarray, peaks: Sequence[int], u: np.ndarray, g: np.ndarray, ndim: int) -> list[np.ndarray]:
+    """Up to ``ndim`` edge normals: each density peak (``cand[peaks]``) more than 20 deg from those kept, refined
+    to the sign-aligned mean of the raw gradients ``g`` (unit vectors ``u``) within 8 deg of it."""
     found: list[np.ndarray] = []
     for i in peaks:
         if all(abs(cand[i] @ f) < math.cos(math.radians(20.0)) for f in found):
@@ -682,15 +709,20 @@ def principal_directions(
             found.append(f)
         if len(found) == ndim:
             break
-    if len(found) < ndim or abs(np.linalg.det(np.array(found))) < 0.2:
-        return eye, f_c
-    directions = np.array(found)
+    return found
+
+
+def _ridges(directions: np.ndarray, nulls: np.ndarray) -> np.ndarray:
+    """V of :func:`principal_directions` from the edge normals ``directions`` (rows, null-normalised frequency):
+    each given to one image axis (the assignment with the largest product of their components along their axes),
+    in samples, V[a, a] = 1."""
+    ndim = len(directions)
     best = max(
         itertools.permutations(range(ndim)),
         key=lambda perm: np.prod([abs(directions[perm[a], a]) for a in range(ndim)]),
     )
     V = np.array([directions[best[a]] * nulls for a in range(ndim)])  # nulls -> samples
-    return V / np.diag(V)[:, None], f_c
+    return V / np.diag(V)[:, None]
 
 
 def _ideal_response(
