@@ -1779,27 +1779,17 @@ def _miss_reason(
 def reconstruct(
     raw: Product, params: ReconstructParams = ReconstructParams(), progress: ProgressFactory | None = None
 ) -> Product:
-    """Reconstruct a raw_multichannel product into a single-channel raw product at N PRF (module docstring)."""
+    """Reconstruct a raw_multichannel product into a single-channel raw product at N PRF (module docstring).
+
+    Steps: the filter bank (:func:`_filter_bank`), the channels deramped (:func:`_to_deramped`), with
+    clutter_suppression the null's residual (:func:`_clutter_residual`), the reconstruction (:func:`_reconstruct`),
+    the movers detected and focused (:func:`_detect_and_focus`, detection auto) or the whole swath as one
+    (:func:`_whole_swath_mover`, detection whole), then back to raw echoes (:func:`_raw_echoes`).
+    """
     _check_input(raw)
     g = _geometry(raw, params)
-    r = raw.radar
     n_ch, n_az, n_rg = raw.data.shape
-    if g.n * g.prf < 2 * g.half_band:
-        log.warning(
-            "reconstruct: N PRF = %.4g Hz is below the Doppler bandwidth %.4g Hz: the output stays aliased",
-            g.n * g.prf,
-            2 * g.half_band,
-            extra=IMAGE_DEFECT,
-        )
-    bank = channels.filter_bank(g.tau0, g.prf, n_az, regularization=params.regularization)
-    if bank.max_condition > params.max_condition:
-        log.warning(
-            "reconstruct: filter bank condition number %.3g exceeds %.3g (noise gain %.1f dB)%s",
-            bank.max_condition,
-            params.max_condition,
-            10 * math.log10(bank.noise_gain),
-            "" if params.regularization > 0 else "; set reconstruct.regularization",
-        )
+    bank = _filter_bank(g, n_az, params)
     spec, f_r, lead = _to_deramped(raw, g)  # (N, n_az, n_fft) in (t, f_r)
     info = {
         "n_channels": int(n_ch),
@@ -1816,20 +1806,9 @@ def reconstruct(
     # the deramp (built for f_r) does not make static. The null cannot cancel them, and compression puts their
     # residue about T_p in range from every bright static point (docs/multichannel.md section 8: false alarms of
     # bright static points). The reconstruction keeps every bin (a mover's tails keep their conventional one).
-    in_band = np.abs(f_r) <= r.bandwidth / 2
+    in_band = np.abs(f_r) <= raw.radar.bandwidth / 2
     spec_est = spec * in_band if params.clutter_suppression and not np.all(in_band) else spec
-    residual = None
-    if params.clutter_suppression:
-        spec_fa = sfft.fft(spec, axis=1, workers=-1)
-        res, dof = clutter_null(spec_fa, g, params.clutter_band)
-        before, after = float(np.sum(np.abs(spec_fa) ** 2)), float(np.sum(np.abs(res) ** 2))
-        info["clutter_redundant_channels"] = dof
-        info["clutter_suppression_db"] = 10 * math.log10(after / before) if before > 0 and after > 0 else None
-        if dof <= 0:
-            log.warning("reconstruct: no redundant channel (N PRF barely covers the Doppler band): no clutter null")
-        if params.method == "modified" and params.detection == "auto":
-            residual = res * in_band
-        del spec_fa, res
+    residual = _clutter_residual(spec, in_band, g, params, info) if params.clutter_suppression else None
     y = _reconstruct(spec, bank)  # (N n_az, n_fft) in (f_a, f_r)
     movers: list[MovingTarget] = []
     if params.method == "modified" and params.detection == "auto":
@@ -1842,24 +1821,85 @@ def reconstruct(
     residual = None
     y = sfft.ifft(y, axis=0, workers=-1)  # (t', f_r)
     if params.method == "modified" and params.detection == "whole":
-        y_tr = sfft.ifft(y, axis=1, workers=-1)
-        win = _Window(spec, f_r, g, params)
-        centre_range = C / 2 * (raw.coords["range_time"][0] + ((len(f_r) - 1) / 2 - lead) / g.fs)
-        mt, notes = _estimate(win, params, g, centre_range)
-        for note in notes:
-            log.warning("reconstruct: the whole swath as one mover: %s", note)
-        assert mt is not None  # only a static_below threshold (not given here) drops a mover
-        mt = dataclasses.replace(mt, first_cell=0, last_cell=len(f_r))
+        mt, y = _whole_swath_mover(raw, params, g, spec, y, f_r, lead)
         movers.append(mt)
-        y = win.output(
-            mt.radial_velocity, mt.along_track_velocity, mt.beam_centre_time, mt.slant_range, focus_along_track=True
-        )
-        del y_tr
     del spec
-    y *= deramp.deramp_phasor(g.out_times, f_r, g.velocity, g.squint, g.fc, sign=+1)
-    y *= deramp.compression_phasor(f_r, r.chirp_rate, sign=-1)[None, :]
-    out = sfft.ifft(y, axis=1, workers=-1)[:, lead : lead + n_rg].astype(np.complex64)
+    out = _raw_echoes(y, g, f_r, raw.radar.chirp_rate, lead, n_rg)
     return _output_product(raw, params, g, out, info, movers)
+
+
+def _filter_bank(g: _Geometry, n_az: int, params: ReconstructParams) -> channels.FilterBank:
+    """The reconstruction filter bank, with a warning where N PRF is below the Doppler band (the output stays
+    aliased) or the bank's condition number exceeds max_condition."""
+    if g.n * g.prf < 2 * g.half_band:
+        log.warning(
+            "reconstruct: N PRF = %.4g Hz is below the Doppler bandwidth %.4g Hz: the output stays aliased",
+            g.n * g.prf,
+            2 * g.half_band,
+            extra=IMAGE_DEFECT,
+        )
+    bank = channels.filter_bank(g.tau0, g.prf, n_az, regularization=params.regularization)
+    if bank.max_condition > params.max_condition:
+        log.warning(
+            "reconstruct: filter bank condition number %.3g exceeds %.3g (noise gain %.1f dB)%s",
+            bank.max_condition,
+            params.max_condition,
+            10 * math.log10(bank.noise_gain),
+            "" if params.regularization > 0 else "; set reconstruct.regularization",
+        )
+    return bank
+
+
+def _clutter_residual(
+    spec: np.ndarray, in_band: np.ndarray, g: _Geometry, params: ReconstructParams, info: dict
+) -> np.ndarray | None:
+    """The clutter null's residual of the deramped channels ``spec`` in (f_a, f_r), the chirp's range band only
+    (``in_band``), for detection (method modified, detection auto; else None); its redundant channels and
+    suppression go into ``info``, with a warning where no channel is redundant."""
+    spec_fa = sfft.fft(spec, axis=1, workers=-1)
+    res, dof = clutter_null(spec_fa, g, params.clutter_band)
+    before, after = float(np.sum(np.abs(spec_fa) ** 2)), float(np.sum(np.abs(res) ** 2))
+    info["clutter_redundant_channels"] = dof
+    info["clutter_suppression_db"] = 10 * math.log10(after / before) if before > 0 and after > 0 else None
+    if dof <= 0:
+        log.warning("reconstruct: no redundant channel (N PRF barely covers the Doppler band): no clutter null")
+    if params.method == "modified" and params.detection == "auto":
+        return res * in_band
+    return None
+
+
+def _whole_swath_mover(
+    raw: Product,
+    params: ReconstructParams,
+    g: _Geometry,
+    spec: np.ndarray,
+    y: np.ndarray,
+    f_r: np.ndarray,
+    lead: int,
+) -> tuple[MovingTarget, np.ndarray]:
+    """detection whole: the whole swath estimated as one mover, and the reconstruction ``y`` (t', f_r) replaced
+    by its modified one (focused along track)."""
+    y_tr = sfft.ifft(y, axis=1, workers=-1)
+    win = _Window(spec, f_r, g, params)
+    centre_range = C / 2 * (raw.coords["range_time"][0] + ((len(f_r) - 1) / 2 - lead) / g.fs)
+    mt, notes = _estimate(win, params, g, centre_range)
+    for note in notes:
+        log.warning("reconstruct: the whole swath as one mover: %s", note)
+    assert mt is not None  # only a static_below threshold (not given here) drops a mover
+    mt = dataclasses.replace(mt, first_cell=0, last_cell=len(f_r))
+    y = win.output(
+        mt.radial_velocity, mt.along_track_velocity, mt.beam_centre_time, mt.slant_range, focus_along_track=True
+    )
+    del y_tr
+    return mt, y
+
+
+def _raw_echoes(y: np.ndarray, g: _Geometry, f_r: np.ndarray, chirp_rate: float, lead: int, n_rg: int) -> np.ndarray:
+    """The reconstruction ``y`` (t', f_r) back to raw echoes on the input's range samples: the deramp restored and
+    the chirp re-expanded, complex64 (t', range time). ``y`` is changed in place."""
+    y *= deramp.deramp_phasor(g.out_times, f_r, g.velocity, g.squint, g.fc, sign=+1)
+    y *= deramp.compression_phasor(f_r, chirp_rate, sign=-1)[None, :]
+    return sfft.ifft(y, axis=1, workers=-1)[:, lead : lead + n_rg].astype(np.complex64)
 
 
 PROBE_SAMPLES = 16  # azimuth samples either side of a truth mover's predicted peak searched for it (_probe_truth)
