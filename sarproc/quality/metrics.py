@@ -621,19 +621,9 @@ def principal_directions(
     centroid of the band, cycles/sample. Falls back to the image axes when no edge is found.
     """
     ndim = chip.ndim
-    shape = chip.shape
     nulls = np.asarray(nulls, dtype=float)
     eye = np.eye(ndim)
-    w = np.ones(())
-    for a, n in enumerate(shape):
-        x = np.arange(n) - (n - 1) / 2
-        hw = min(window_nulls * nulls[a], (n + 1) / 2)
-        w = np.multiply.outer(w, np.where(np.abs(x) < hw, np.cos(np.pi * x / (2 * hw)) ** 2, 0.0))
-    nfft = [(2 if ndim <= 2 else 1) * n for n in shape]
-    spec = sfft.fftn(chip * w, s=nfft, workers=-1)
-    shift = [n // 2 - int(round(c * n)) for c, n in zip(centers, nfft)]
-    mag = np.roll(np.abs(spec), shift, axis=tuple(range(ndim)))
-    freqs = [(np.arange(n) - n // 2) / n + (round(c * n) / n) for c, n in zip(centers, nfft)]
+    mag, freqs = _support_spectrum(chip, centers, nulls, window_nulls)
     power = mag**2
     total = power.sum()
     if not total > 0:
@@ -644,30 +634,67 @@ def principal_directions(
     if ndim == 1:
         return eye, f_c
     # d|S| / d(frequency in cycles per null): each axis' band is about one unit wide.
-    spacing = [nu / n for nu, n in zip(nulls, nfft)]
-    if ndim == 3 and not exact:  # compiled: the strong gradients only, no full gradient arrays
-        g, norm = kernels_aot.strong_gradients(mag, np.array(spacing), 0.05)
-    else:
-        grads = np.gradient(mag, *spacing)
-        g = np.stack([gi.ravel() for gi in grads], axis=1)
-        norm = np.linalg.norm(g, axis=1)
-        keep = norm > 0.05 * norm.max()
-        g, norm = g[keep], norm[keep]
+    spacing = [nu / n for nu, n in zip(nulls, mag.shape)]
+    g, norm = _strong_gradients(mag, spacing, exact)
     u = g / norm[:, None]
+    cand, peaks = _orientation_peaks(u, norm, ndim, exact)
+    found = _edge_normals(cand, peaks, u, g, ndim)
+    if len(found) < ndim or abs(np.linalg.det(np.array(found))) < 0.2:
+        return eye, f_c
+    return _ridges(np.array(found), nulls), f_c
+
+
+def _support_spectrum(
+    chip: np.ndarray, centers: Sequence[float], nulls: np.ndarray, window_nulls: float
+) -> tuple[np.ndarray, list[np.ndarray]]:
+    """(|S|, frequencies per axis in cycles/sample) of the Hann-windowed ``chip`` (+-``window_nulls`` nulls),
+    zero-padded 2x (1x in 3D) and rolled so each axis' band centre ``centers`` sits mid-array."""
+    ndim = chip.ndim
+    w = np.ones(())
+    for a, n in enumerate(chip.shape):
+        x = np.arange(n) - (n - 1) / 2
+        hw = min(window_nulls * nulls[a], (n + 1) / 2)
+        w = np.multiply.outer(w, np.where(np.abs(x) < hw, np.cos(np.pi * x / (2 * hw)) ** 2, 0.0))
+    nfft = [(2 if ndim <= 2 else 1) * n for n in chip.shape]
+    spec = sfft.fftn(chip * w, s=nfft, workers=-1)
+    shift = [n // 2 - int(round(c * n)) for c, n in zip(centers, nfft)]
+    mag = np.roll(np.abs(spec), shift, axis=tuple(range(ndim)))
+    freqs = [(np.arange(n) - n // 2) / n + (round(c * n) / n) for c, n in zip(centers, nfft)]
+    return mag, freqs
+
+
+def _strong_gradients(mag: np.ndarray, spacing: Sequence[float], exact: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(gradients (m, ndim), their norms (m,)) of ``mag`` at sample ``spacing``, those over 5 % of the largest."""
+    if mag.ndim == 3 and not exact:  # compiled: the strong gradients only, no full gradient arrays
+        return kernels_aot.strong_gradients(mag, np.array(spacing), 0.05)
+    grads = np.gradient(mag, *spacing)
+    g = np.stack([gi.ravel() for gi in grads], axis=1)
+    norm = np.linalg.norm(g, axis=1)
+    keep = norm > 0.05 * norm.max()
+    return g[keep], norm[keep]
+
+
+def _orientation_peaks(u: np.ndarray, norm: np.ndarray, ndim: int, exact: bool) -> tuple[np.ndarray, list]:
+    """(candidate orientations, the indices of the peaks of the orientation density of unit vectors ``u`` weighted
+    by ``norm``, strongest first)."""
     cand, sigma, near = _orientation_grid(ndim)
     sub = slice(None, None, max(1, len(u) // 4000))  # the density only locates the peaks
     if ndim == 3 and not exact:  # compiled: one launch over every candidate (each one's sum is the same)
         dens = _orientation_density(cand, u[sub], norm[sub], sigma)
         peak = dens >= dens[_padded_neighbours(ndim)].max(axis=1)
-        peaks = [i for i in np.argsort(dens)[::-1] if peak[i] and dens[i] > 0]
-    else:
-        dens = np.concatenate(
-            [
-                _orientation_density(c, u[sub], norm[sub], sigma, exact)
-                for c in np.array_split(cand, max(1, len(cand) // 500))
-            ]
-        )
-        peaks = [i for i in np.argsort(dens)[::-1] if dens[i] >= dens[near[i]].max() and dens[i] > 0]
+        return cand, [i for i in np.argsort(dens)[::-1] if peak[i] and dens[i] > 0]
+    dens = np.concatenate(
+        [
+            _orientation_density(c, u[sub], norm[sub], sigma, exact)
+            for c in np.array_split(cand, max(1, len(cand) // 500))
+        ]
+    )
+    return cand, [i for i in np.argsort(dens)[::-1] if dens[i] >= dens[near[i]].max() and dens[i] > 0]
+
+
+def _edge_normals(cand: np.ndarray, peaks: Sequence[int], u: np.ndarray, g: np.ndarray, ndim: int) -> list[np.ndarray]:
+    """Up to ``ndim`` edge normals: each density peak (``cand[peaks]``) more than 20 deg from those kept, refined
+    to the sign-aligned mean of the raw gradients ``g`` (unit vectors ``u``) within 8 deg of it."""
     found: list[np.ndarray] = []
     for i in peaks:
         if all(abs(cand[i] @ f) < math.cos(math.radians(20.0)) for f in found):
@@ -682,15 +709,20 @@ def principal_directions(
             found.append(f)
         if len(found) == ndim:
             break
-    if len(found) < ndim or abs(np.linalg.det(np.array(found))) < 0.2:
-        return eye, f_c
-    directions = np.array(found)
+    return found
+
+
+def _ridges(directions: np.ndarray, nulls: np.ndarray) -> np.ndarray:
+    """V of :func:`principal_directions` from the edge normals ``directions`` (rows, null-normalised frequency):
+    each given to one image axis (the assignment with the largest product of their components along their axes),
+    in samples, V[a, a] = 1."""
+    ndim = len(directions)
     best = max(
         itertools.permutations(range(ndim)),
         key=lambda perm: np.prod([abs(directions[perm[a], a]) for a in range(ndim)]),
     )
     V = np.array([directions[best[a]] * nulls for a in range(ndim)])  # nulls -> samples
-    return V / np.diag(V)[:, None], f_c
+    return V / np.diag(V)[:, None]
 
 
 def _ideal_response(
@@ -848,36 +880,27 @@ def evaluate_image(
     neighbours' chips (so a measured target's figures are those of the run over every target), then kept out of
     the false-target search like ``other_truth``. Raises InputError.
 
-    Steps: :func:`_find_peak` per target (pass 1: peak and support on the image's chip),
-    :func:`_subtract_neighbours` (pass 2: the groups' fitted responses off each chip, peak and support again),
-    :func:`_measure` per target (the cuts), then :func:`_false_targets`.
+    Steps: :func:`_locate_targets` (pass 1, :func:`_find_peak` per target: peak and support on the image's chip;
+    pass 2, :func:`_subtract_neighbours`: the groups' fitted responses off each chip, peak and support again),
+    :func:`_measure` per measured target (the cuts), then :func:`_false_targets` away from
+    :func:`_guarded_positions`.
     """
     params = params or EvaluateParams()
     data = np.asarray(data)
     axes, metric, truth, names = _checked_inputs(data, dims, coords, theoretical_irw, truth, names, metric, params)
     own_axes = _target_axes(axes, target_irw, truth.shape[0], params.irw_factor, target_null, target_sidelobes)
-    measured = np.ones(len(names), dtype=bool) if measure is None else np.asarray(measure, dtype=bool)
-    if measured.shape != (len(names),) or not measured.any():
-        raise InputError(f"measure must flag at least one of the {len(names)} targets, got shape {measured.shape}")
-    mag = np.abs(data)
-    # chips wide enough for every target's own ISLR window
-    half = [
-        max(x[a].nulls_to_samples(params.islr_nulls + params.margin_nulls) for x in [axes] + own_axes)
-        for a in range(len(axes))
-    ]
+    measured = _measured_flags(measure, len(names))
+    half = _chip_half_widths(axes, own_axes, params)
     nulls = [ax.null for ax in axes]
     if len(axes) == 3 and not params.exact:  # a cube's kernels: compiled ahead of time where all of them pay
         kernels_aot.reserve(len(names), math.prod(2 * h + 1 for h in half))
     # One bar over the whole evaluation: each target's pass 1, pass 2 (when neighbours are removed) and
     # measurement, then the false-target search.
     done = steps(progress, len(names) * (2 if params.remove_neighbours else 1) + int(measured.sum()) + 1)
-    peaks = [
-        _find_peak(data, mag, axes, name, t, half, nulls, params) for name, t in wrapped(done, list(zip(names, truth)))
-    ]
-    if params.remove_neighbours:
-        chirps = _chirps_in_samples(target_chirp, axes, len(names))
-        shapes = _response_shapes(response_period, response_table, axes)
-        peaks = _subtract_neighbours(data, peaks, names, nulls, half, params, done, chirps, shapes)
+    mag = np.abs(data)
+    peaks = _locate_targets(
+        data, mag, axes, names, truth, half, nulls, params, done, target_chirp, response_period, response_table
+    )
     # only the measured targets from here on; the others (and other_truth) guard their neighbourhoods
     order = [int(i) for i in np.flatnonzero(measured)]
     peaks, own_axes = [peaks[i] for i in order], [own_axes[i] for i in order]
@@ -885,8 +908,7 @@ def evaluate_image(
         _measure(peak, own, truth[i], names[i], params, metric)
         for peak, own, i in wrapped(done, list(zip(peaks, own_axes, order)))
     ]
-    others = [truth[~measured]] + ([] if other_truth is None else [np.asarray(other_truth, dtype=float)])
-    guarded = np.concatenate([truth[measured]] + [o.reshape(-1, len(axes)) for o in others])
+    guarded = _guarded_positions(truth, measured, other_truth, len(axes))
     false, guard, floor = _false_targets(data, mag, axes, guarded, peaks, reports, half, nulls, params, own_axes)
     done()
     return QualityReport(
@@ -898,6 +920,59 @@ def evaluate_image(
         residual=floor,
         residual_note=RESIDUAL_3D_NOTE if params.residual and data.ndim == 3 else None,
     )
+
+
+def _measured_flags(measure: npt.ArrayLike | None, n_targets: int) -> np.ndarray:
+    """(n_targets,) booleans: the targets to report (evaluate_image's ``measure``; None: all of them)."""
+    measured = np.ones(n_targets, dtype=bool) if measure is None else np.asarray(measure, dtype=bool)
+    if measured.shape != (n_targets,) or not measured.any():
+        raise InputError(f"measure must flag at least one of the {n_targets} targets, got shape {measured.shape}")
+    return measured
+
+
+def _chip_half_widths(axes: Sequence[_Axis], own_axes: Sequence[Sequence[_Axis]], params: EvaluateParams) -> list[int]:
+    """Half-widths of every chip per axis (samples): wide enough for every target's own ISLR window."""
+    return [
+        max(x[a].nulls_to_samples(params.islr_nulls + params.margin_nulls) for x in [axes] + list(own_axes))
+        for a in range(len(axes))
+    ]
+
+
+def _locate_targets(
+    data: np.ndarray,
+    mag: np.ndarray,
+    axes: Sequence[_Axis],
+    names: Sequence[str],
+    truth: np.ndarray,
+    half: Sequence[int],
+    nulls: Sequence[float],
+    params: EvaluateParams,
+    done: Callable[[], None],
+    target_chirp: npt.ArrayLike | None,
+    response_period: npt.ArrayLike | None,
+    response_table: Sequence[tuple[np.ndarray, float] | None] | None,
+) -> list[_Peak]:
+    """Every target's :class:`_Peak`: pass 1 (:func:`_find_peak` on the image ``data``, magnitude ``mag``), then
+    with ``params.remove_neighbours`` pass 2 (:func:`_subtract_neighbours`; the responses' known chirps and shapes
+    are evaluate_image's ``target_chirp``, ``response_period`` and ``response_table``). ``done``: the progress
+    steps, one per target and pass."""
+    peaks = [
+        _find_peak(data, mag, axes, name, t, half, nulls, params) for name, t in wrapped(done, list(zip(names, truth)))
+    ]
+    if params.remove_neighbours:
+        chirps = _chirps_in_samples(target_chirp, axes, len(names))
+        shapes = _response_shapes(response_period, response_table, axes)
+        peaks = _subtract_neighbours(data, peaks, names, nulls, half, params, done, chirps, shapes)
+    return peaks
+
+
+def _guarded_positions(
+    truth: np.ndarray, measured: np.ndarray, other_truth: np.ndarray | Sequence[Sequence[float]] | None, ndim: int
+) -> np.ndarray:
+    """(n, ndim) positions kept out of the false-target search: the measured targets first, then the unmeasured
+    ones and ``other_truth`` (targets not evaluated)."""
+    others = [truth[~measured]] + ([] if other_truth is None else [np.asarray(other_truth, dtype=float)])
+    return np.concatenate([truth[measured]] + [o.reshape(-1, ndim) for o in others])
 
 
 def _chirps_in_samples(target_chirp: npt.ArrayLike | None, axes: Sequence[_Axis], n_targets: int) -> np.ndarray | None:
@@ -1850,11 +1925,43 @@ def evaluate_product(
     figures are those of the run over all; every other's neighbourhood stays out of the false-target search).
     ``source`` (the file name) prefixes error messages.
     """
-    from sarproc.quality.moving import apparent_truth, mover_reports
+    from sarproc.quality.moving import mover_reports
 
     where = f"{source}: " if source else ""
-    irw = product.attrs.get("theoretical_irw")
-    if irw is None:
+    all_names = _checked_product(product, names, where)
+    table = _truth_table(product, params, source, where)
+    chosen = _chosen_targets(product, table, all_names, names)
+    keep = chosen.keep
+    theory = _recorded_theory(product, table, keep)
+    try:
+        report = evaluate_image(
+            product.data,
+            product.dims,
+            product.coords,
+            product.attrs["theoretical_irw"],
+            chosen.truth[keep],
+            [n for n, k in zip(all_names, keep) if k],
+            params,
+            metric=frame_metric(product),
+            progress=progress,
+            target_irw=theory.irw if np.any(~np.isnan(theory.irw)) else None,
+            target_null=theory.null,
+            target_sidelobes=theory.sidelobes,
+            other_truth=chosen.truth[~keep],
+            target_chirp=target_chirp(product, chosen.truth[keep], where),
+            response_period=response_period(product, where),
+            response_table=response_table(product, where),
+            measure=chosen.measured[keep],
+        )
+    except InputError as exc:
+        raise InputError(f"{where}{exc}") from None
+    return dataclasses.replace(report, movers=mover_reports(product, table, report, source))
+
+
+def _checked_product(product: Product, names: Collection[str] | None, where: str) -> list[str]:
+    """Every target's name, once the product has what evaluate_product needs: theoretical_irw, a targets field per
+    image axis, a target, and every one of ``names`` (None: all). Raises InputError prefixed with ``where``."""
+    if product.attrs.get("theoretical_irw") is None:
         raise InputError(
             f"{where}image attribute 'theoretical_irw' is missing (expected one IRW per axis {product.dims})"
         )
@@ -1872,57 +1979,74 @@ def evaluate_product(
                 f"{where}--targets: no target(s) {', '.join(map(repr, unknown))} in the targets table "
                 f"(targets: {', '.join(all_names)})"
             )
+    return all_names
+
+
+def _truth_table(product: Product, params: EvaluateParams | None, source: str, where: str) -> np.ndarray:
+    """The targets table where the image shows them: each mover at its static equivalent
+    (:func:`sarproc.quality.moving.apparent_truth`), with ``params.fold_elevation`` the elevation folded
+    (:func:`folded_truth`)."""
+    from sarproc.quality.moving import apparent_truth
+
     table = apparent_truth(product, source)
     if params is not None and params.fold_elevation:
         table = folded_truth(product, table, where)
-    truth_all = np.stack([table[d].astype(float) for d in product.dims], axis=1)
+    return table
+
+
+@dataclasses.dataclass(frozen=True)
+class _ChosenTargets:
+    """Which of a product's targets evaluate_image gets (``keep``) and which of those it reports (``measured``)."""
+
+    truth: np.ndarray  # (n_targets, ndim) every target's position in the image, dims order
+    measured: np.ndarray  # (n_targets,) named (every one without names)
+    keep: np.ndarray  # (n_targets,) measured, or within the image: modelled as a neighbour
+
+
+def _chosen_targets(
+    product: Product, table: np.ndarray, all_names: Sequence[str], names: Collection[str] | None
+) -> _ChosenTargets:
+    """The targets named (``names``; None: all) and the others modelled as neighbours: those the image holds."""
+    truth = np.stack([table[d].astype(float) for d in product.dims], axis=1)
     measured = np.array([names is None or n in names for n in all_names])
     # the targets left out of a subset are still modelled as neighbours where they lie in the image
-    keep = measured | _within_extent(product, truth_all)
-    own = np.stack(
-        [table[f"irw_{d}"].astype(float) if f"irw_{d}" in fields else np.zeros(len(truth_all)) for d in product.dims],
-        axis=1,
-    )[keep]
-    own[own == 0] = np.nan  # 0 in the table: not recorded, the image's theory applies
+    return _ChosenTargets(truth, measured, measured | _within_extent(product, truth))
 
-    def field(prefix: str) -> np.ndarray:  # a theory field per target and axis; 0 (not recorded) or absent: NaN
-        v = np.stack(
-            [
-                product.targets[f"{prefix}_{d}"].astype(float)
-                if f"{prefix}_{d}" in fields
-                else np.zeros(len(truth_all))
-                for d in product.dims
-            ],
-            axis=1,
-        )
-        v[v == 0] = np.nan
-        return v
 
-    lobes = np.stack([field("pslr"), field("islr")], axis=-1)
+@dataclasses.dataclass(frozen=True)
+class _RecordedTheory:
+    """The targets table's own theory for each target evaluate_image gets, per axis (dims order); NaN where not
+    recorded (0 in the table, or no such field): evaluate_image's target_irw, target_null and target_sidelobes."""
+
+    irw: np.ndarray  # (n, ndim) IRW, axis units
+    null: np.ndarray  # (n, ndim) null spacing 1/B, axis units
+    sidelobes: np.ndarray  # (n, ndim, 2) PSLR and ISLR, dB (both NaN where either is not recorded)
+
+
+def _recorded_theory(product: Product, table: np.ndarray, keep: np.ndarray) -> _RecordedTheory:
+    """The ``keep`` targets' recorded theory: IRW from ``table`` (the targets where the image shows them), null
+    spacing and side lobes from ``product.targets``."""
+    lobes = np.stack(
+        [_theory_field(product.targets, "pslr", product.dims), _theory_field(product.targets, "islr", product.dims)],
+        axis=-1,
+    )
     lobes[np.isnan(lobes).any(axis=-1)] = np.nan
-    try:
-        report = evaluate_image(
-            product.data,
-            product.dims,
-            product.coords,
-            irw,
-            truth_all[keep],
-            [n for n, k in zip(all_names, keep) if k],
-            params,
-            metric=frame_metric(product),
-            progress=progress,
-            target_irw=own if np.any(~np.isnan(own)) else None,
-            target_null=field("null")[keep],
-            target_sidelobes=lobes[keep],
-            other_truth=truth_all[~keep],
-            target_chirp=target_chirp(product, truth_all[keep], where),
-            response_period=response_period(product, where),
-            response_table=response_table(product, where),
-            measure=measured[keep],
-        )
-    except InputError as exc:
-        raise InputError(f"{where}{exc}") from None
-    return dataclasses.replace(report, movers=mover_reports(product, table, report, source))
+    return _RecordedTheory(
+        irw=_theory_field(table, "irw", product.dims)[keep],
+        null=_theory_field(product.targets, "null", product.dims)[keep],
+        sidelobes=lobes[keep],
+    )
+
+
+def _theory_field(targets: np.ndarray, prefix: str, dims: Sequence[str]) -> np.ndarray:
+    """(n_targets, ndim) a theory field ``<prefix>_<dim>`` per target and axis; 0 (not recorded) or absent: NaN."""
+    fields = targets.dtype.names or ()
+    v = np.stack(
+        [targets[f"{prefix}_{d}"].astype(float) if f"{prefix}_{d}" in fields else np.zeros(len(targets)) for d in dims],
+        axis=1,
+    )
+    v[v == 0] = np.nan
+    return v
 
 
 def _within_extent(product: Product, truth: np.ndarray) -> np.ndarray:

@@ -39,7 +39,7 @@ from sarproc.product.errors import InputError
 from sarproc.product.metadata import C
 
 if TYPE_CHECKING:
-    from collections.abc import Sequence
+    from collections.abc import Collection, Sequence
 
     from sarproc.product.frames import Frame
     from sarproc.product.metadata import RadarMetadata
@@ -157,7 +157,7 @@ def moving_target_table(product: Product) -> list[dict]:
     return []
 
 
-def _match_table(rows: Sequence[dict], movers: Sequence[dict], cell: float) -> dict[str, dict]:
+def _match_table(rows: Sequence[dict], movers: Sequence[_TruthMover], cell: float) -> dict[str, dict]:
     """{truth name: row}: by the row's truth column, else the nearest S within MATCH_CELLS cells."""
     out: dict[str, dict] = {}
     for row in rows:
@@ -168,7 +168,7 @@ def _match_table(rows: Sequence[dict], movers: Sequence[dict], cell: float) -> d
         s = _xyz(row, "apparent")
         if s is None:
             continue
-        dist = {m["name"]: float(np.linalg.norm(m["S"] - s)) for m in movers if m["name"] not in out}
+        dist = {m.name: float(np.linalg.norm(m.apparent - s)) for m in movers if m.name not in out}
         if dist:
             best = min(dist, key=dist.__getitem__)
             if dist[best] <= MATCH_CELLS * cell:
@@ -183,7 +183,7 @@ def implied_relocation_error(radar: RadarMetadata, slant_range: float, dv_a: flo
 
 
 def _match_windows(
-    windows: Sequence[dict], movers: Sequence[dict], radar: RadarMetadata, cell_range: float, cell_azimuth: float
+    windows: Sequence[dict], movers: Sequence[_TruthMover], radar: RadarMetadata, cell_range: float, cell_azimuth: float
 ) -> dict[str, dict]:
     """{truth name: window}: reconstruct's windows matched by slant range at t_c and t_c."""
     out = {}
@@ -192,23 +192,40 @@ def _match_windows(
         half = 0.5 * (w.get("last_cell", 0) - w.get("first_cell", 0)) * range_cell
         best, best_cost = None, math.inf
         for m in movers:
-            if m["name"] in out:
+            if m.name in out:
                 continue
-            d_range = abs(m["range"] - float(w["slant_range"]))
-            d_az = abs(m["t_c"] - float(w["beam_centre_time"])) * radar.velocity
+            d_range = abs(m.slant_range - float(w["slant_range"]))
+            d_az = abs(m.centre_time - float(w["beam_centre_time"])) * radar.velocity
             if d_range <= half + MATCH_CELLS * cell_range and d_az <= MATCH_CELLS * cell_azimuth:
                 cost = d_range / cell_range + d_az / cell_azimuth
                 if cost < best_cost:
-                    best, best_cost = m["name"], cost
+                    best, best_cost = m.name, cost
         if best is not None:
             out[best] = w
     return out
 
 
+@dataclasses.dataclass(frozen=True)
+class _TruthMover:
+    """A moving truth target measured in the report: where it is, how it moves, where the image shows it."""
+
+    name: str
+    k: int  # its row in the targets table
+    xyz: np.ndarray  # true position at azimuth time 0 (m)
+    vel: np.ndarray  # velocity (m/s)
+    apparent: np.ndarray  # its static equivalent S (m)
+    centre_time: float  # illumination-centre time t_c (s)
+    slant_range: float  # |S - phase centre at t_c| (m)
+
+
 def mover_reports(
     product: Product, apparent: np.ndarray, report: QualityReport, source: str = ""
 ) -> tuple[MoverReport, ...]:
-    """One :class:`MoverReport` per moving truth target measured in ``report`` (module docstring)."""
+    """One :class:`MoverReport` per moving truth target measured in ``report`` (module docstring).
+
+    Steps: :func:`_truth_movers` (the measured movers), their estimates matched (:func:`_match_table` to the
+    product's moving_targets table, else :func:`_match_windows` to reconstruct's windows), then
+    :func:`_mover_report` for each."""
     targets = product.targets
     if len(targets) == 0 or not np.any(moving.is_moving(targets)):
         return ()
@@ -220,19 +237,7 @@ def mover_reports(
     irw = [float(v) for v in product.attrs.get("theoretical_irw", [])]
     cell_az = irw[list(product.dims).index("azimuth")] if "azimuth" in product.dims and irw else 1.0
     cell_rg = irw[list(product.dims).index("range")] if "range" in product.dims and irw else 1.0
-    movers: list[dict[str, Any]] = []
-    for k in np.nonzero(moving.is_moving(targets))[0]:
-        name = targets["name"][k].decode() if isinstance(targets["name"][k], bytes) else str(targets["name"][k])
-        if name not in measured:
-            continue
-        xyz = np.array([targets[c][k] for c in "xyz"], float)
-        vel = np.array([targets[f"v{c}"][k] for c in "xyz"], float)
-        s = np.array([apparent[c][k] for c in "xyz"], float)
-        t_c = moving.illumination_centre_time(radar, times, xyz, vel, positions)
-        p_c = np.array([np.interp(t_c, times, positions[:, i]) for i in range(3)])
-        movers.append(
-            {"name": name, "xyz": xyz, "vel": vel, "S": s, "t_c": t_c, "k": k, "range": float(np.linalg.norm(s - p_c))}
-        )
+    movers = _truth_movers(targets, apparent, measured, radar, times, positions)
     table = moving_target_table(product)
     if table:
         source_name, matched = "moving_targets", _match_table(table, movers, max(cell_az, cell_rg))
@@ -242,47 +247,88 @@ def mover_reports(
         matched = _match_windows(windows, movers, radar, cell_rg, cell_az)
     out = []
     for m in movers:
-        t = measured[m["name"]]
+        t = measured[m.name]
         coords = {d: float(t.axis(d).position) for d in product.dims}
         peak = np.asarray(frame.to_xyz(*[coords[d] for d in frame.axes]), float).reshape(3)
-        v_a, v_r = moving.slant_velocity(m["xyz"], m["vel"], radar.altitude)
-        fields: dict[str, Any] = dict(
-            name=m["name"],
-            true_position=tuple(m["xyz"]),
-            v_a=v_a,
-            v_r=v_r,
-            centre_time=m["t_c"],
-            apparent_position=tuple(m["S"]),
-            apparent_coords={d: float(apparent[d][m["k"]]) for d in product.dims},
-            shift=float(np.linalg.norm(m["S"] - (m["xyz"] + m["vel"] * m["t_c"]))),
-            measured_position=tuple(float(c) for c in peak),
-        )
-        est = matched.get(m["name"])
-        if est is not None:
-            e_vr = float(est.get("v_r", est.get("radial_velocity", math.nan)))
-            e_va = float(est.get("v_a", est.get("along_track_velocity", math.nan)))
-            relocated = _xyz(est, "relocated") if source_name == "moving_targets" else None
-            how = "table"
-            if relocated is None and math.isfinite(e_vr) and math.isfinite(e_va):
-                e_vel = moving.scene_velocity(peak, e_va, e_vr, radar.altitude)
-                relocated = moving.relocate(radar, times, peak, e_vel, positions)
-                how = "measured peak + estimated velocity"
-            implied = implied_relocation_error(radar, m["range"], e_va - v_a, e_vr - v_r)
-            fields.update(
-                estimate=source_name,
-                v_a_estimated=e_va,
-                v_r_estimated=e_vr,
-                v_a_error=e_va - v_a,
-                v_r_error=e_vr - v_r,
-                relocation_error_from_velocity=implied,
-            )
-            if relocated is not None:
-                err = relocated - m["xyz"]
-                fields.update(
-                    relocated_position=tuple(float(c) for c in relocated),
-                    relocation=how,
-                    relocation_error=float(np.linalg.norm(err)),
-                    relocation_error_xyz=tuple(float(c) for c in err),
-                )
-        out.append(MoverReport(**fields))
+        apparent_coords = {d: float(apparent[d][m.k]) for d in product.dims}
+        est = matched.get(m.name)
+        out.append(_mover_report(m, peak, apparent_coords, est, source_name, radar, times, positions))
     return tuple(out)
+
+
+def _truth_movers(
+    targets: np.ndarray,
+    apparent: np.ndarray,
+    measured: Collection[str],
+    radar: RadarMetadata,
+    times: np.ndarray,
+    positions: np.ndarray,
+) -> list[_TruthMover]:
+    """The moving truth targets whose names are ``measured``, in table order, with their static equivalents
+    (``apparent``, the targets table where the image shows them) and illumination centres."""
+    movers: list[_TruthMover] = []
+    for k in np.nonzero(moving.is_moving(targets))[0]:
+        name = targets["name"][k].decode() if isinstance(targets["name"][k], bytes) else str(targets["name"][k])
+        if name not in measured:
+            continue
+        xyz = np.array([targets[c][k] for c in "xyz"], float)
+        vel = np.array([targets[f"v{c}"][k] for c in "xyz"], float)
+        s = np.array([apparent[c][k] for c in "xyz"], float)
+        t_c = moving.illumination_centre_time(radar, times, xyz, vel, positions)
+        p_c = np.array([np.interp(t_c, times, positions[:, i]) for i in range(3)])
+        movers.append(_TruthMover(name, int(k), xyz, vel, s, t_c, float(np.linalg.norm(s - p_c))))
+    return movers
+
+
+def _mover_report(
+    m: _TruthMover,
+    peak: np.ndarray,
+    apparent_coords: dict[str, float],
+    est: dict | None,
+    source_name: str,
+    radar: RadarMetadata,
+    times: np.ndarray,
+    positions: np.ndarray,
+) -> MoverReport:
+    """The :class:`MoverReport` of truth mover ``m`` measured at ``peak`` (scene xyz), with its matched estimate
+    ``est`` (a row of ``source_name``'s table or window; None: not estimated): velocity errors and relocation (the
+    table's relocated position, else the measured peak moved by the estimated velocity)."""
+    v_a, v_r = moving.slant_velocity(m.xyz, m.vel, radar.altitude)
+    fields: dict[str, Any] = dict(
+        name=m.name,
+        true_position=tuple(m.xyz),
+        v_a=v_a,
+        v_r=v_r,
+        centre_time=m.centre_time,
+        apparent_position=tuple(m.apparent),
+        apparent_coords=apparent_coords,
+        shift=float(np.linalg.norm(m.apparent - (m.xyz + m.vel * m.centre_time))),
+        measured_position=tuple(float(c) for c in peak),
+    )
+    if est is not None:
+        e_vr = float(est.get("v_r", est.get("radial_velocity", math.nan)))
+        e_va = float(est.get("v_a", est.get("along_track_velocity", math.nan)))
+        relocated = _xyz(est, "relocated") if source_name == "moving_targets" else None
+        how = "table"
+        if relocated is None and math.isfinite(e_vr) and math.isfinite(e_va):
+            e_vel = moving.scene_velocity(peak, e_va, e_vr, radar.altitude)
+            relocated = moving.relocate(radar, times, peak, e_vel, positions)
+            how = "measured peak + estimated velocity"
+        implied = implied_relocation_error(radar, m.slant_range, e_va - v_a, e_vr - v_r)
+        fields.update(
+            estimate=source_name,
+            v_a_estimated=e_va,
+            v_r_estimated=e_vr,
+            v_a_error=e_va - v_a,
+            v_r_error=e_vr - v_r,
+            relocation_error_from_velocity=implied,
+        )
+        if relocated is not None:
+            err = relocated - m.xyz
+            fields.update(
+                relocated_position=tuple(float(c) for c in relocated),
+                relocation=how,
+                relocation_error=float(np.linalg.norm(err)),
+                relocation_error_xyz=tuple(float(c) for c in err),
+            )
+    return MoverReport(**fields)

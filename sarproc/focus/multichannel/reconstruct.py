@@ -963,7 +963,7 @@ class _Detections:
     dets: list[detection.Detection]
     dropped: int  # detections over 20 max_detections, never examined
     static_peaks: list[detection.Detection]  # the conventional image's (residual mode only)
-    probes: dict  # _probe_truth's, for the miss reasons of the truth movers
+    probes: dict[int, _TruthProbe]  # _probe_truth's, for the miss reasons of the truth movers
     cfar_db: float  # threshold over the local background: detection_snr, then the measured background's (_second_pass)
     range_width: float  # range cells per range resolution (find_detections' side-lobe test)
     tail: detection.TailFit | None = None  # the measured background's tail (_second_pass)
@@ -1121,13 +1121,13 @@ def _second_pass(scan: _Scan, tally: _Tally) -> list[detection.Detection]:
     ]
     tally.dropped += dropped
     found.dets.extend(new)
-    for row in found.probes.values():
-        i, c = row["peak_index"], row["peak_cell"]
+    for probe in found.probes.values():
+        i, c = probe.peak_index, probe.peak_cell
         rows = np.arange(i - PROBE_SAMPLES, i + PROBE_SAMPLES + 1) % scan.n_out
         cols = slice(max(0, c - 3), min(scan.n_cells, c + 4))
         level = float(np.max(power[rows, cols] / np.maximum(bg[rows, cols], 1e-30)))
-        row["residual_snr_db"] = 10 * math.log10(level) if level > 0 else -math.inf
-        row["background_peaks_above"] = int(len(z) - np.searchsorted(z, level, side="right"))
+        probe.residual_snr_db = 10 * math.log10(level) if level > 0 else -math.inf
+        probe.background_peaks_above = int(len(z) - np.searchsorted(z, level, side="right"))
     log.info(
         "reconstruct: measured background (%d peaks, tail xi %.2f): CFAR threshold %.1f dB for a false-alarm rate "
         "%.3g per peak; %d new detection(s)",
@@ -1563,6 +1563,31 @@ def _truth_cell_index(raw: Product, g: _Geometry, lead: int, k: int, centres: np
     return (2 * wc_range / C - rt0) * g.fs + lead, (t_app - g.out_times[0]) * g.n * g.prf
 
 
+@dataclasses.dataclass
+class _TruthProbe:
+    """A moving truth target where it appears in the detection image(s) (_probe_truth), for its miss reason."""
+
+    cell: float  # walk-corrected range cell where it appears (_truth_cell_index)
+    index: float  # output azimuth sample where it appears
+    snr_db: float  # strongest of its ambiguities over the background in the searched image
+    peak_index: int  # that peak's azimuth sample
+    peak_cell: int  # and range cell
+    v_los: float  # its true line-of-sight velocity (m/s)
+    null: _NullProbe | None = None  # the clutter null's effect on it (None: the searched image is conventional)
+    residual_snr_db: float | None = None  # over the measured background (_second_pass; None: no second pass)
+    background_peaks_above: int = 0  # the measured background's peaks stronger than that (_second_pass)
+
+
+@dataclasses.dataclass(frozen=True)
+class _NullProbe:
+    """What the clutter null did to a truth mover (_probe_truth's, when the searched image is the null's residual)."""
+
+    conventional_snr_db: float  # its SNR in the conventional detection image
+    null_depth_db: float  # background where its residual peaks over that where it appears
+    null_gain_db: float  # detection.clutter_null_peak_gain of its true v_los
+    mdv: float  # the null's minimum detectable velocity for its conventional SNR (m/s)
+
+
 def _probe_truth(
     raw: Product,
     params: ReconstructParams,
@@ -1573,14 +1598,14 @@ def _probe_truth(
     conv: np.ndarray | None,
     bg_conv: np.ndarray | None,
     cfar_db: float,
-) -> dict:
-    """Per moving truth target: its SNR in the detection image(s) where it appears, and the clutter null's MDV.
+) -> dict[int, _TruthProbe]:
+    """Per moving truth target (its row): its SNR in the detection image(s) where it appears, and the clutter null's
+    MDV.
 
     ``power``, ``bg``: the detection image searched and its background; ``conv``, ``bg_conv`` the conventional
-    detection image and its background when ``power`` is the clutter-null residual (None: it is conventional). Returns
-    {row: {...}}: cell, index, snr_db (strongest of the target's ambiguities k PRF / K_a apart in the
-    searched image), and with the null conventional_snr_db, null_depth_db (background after over before),
-    null_gain_db (detection.clutter_null_peak_gain of its true v_los) and mdv (detection.minimum_detectable_velocity).
+    detection image and its background when ``power`` is the clutter-null residual (None: it is conventional); the
+    :class:`_TruthProbe` then has the :class:`_NullProbe`. Its snr_db is the strongest of the target's ambiguities
+    k PRF / K_a apart in the searched image (:func:`_snr_near`).
     """
     truth = raw.targets
     if not len(truth):
@@ -1589,82 +1614,104 @@ def _probe_truth(
     if not len(moving_rows):
         return {}
     centres = moving.phase_centres(raw)
-    n_out, n_cells = power.shape
     r_mid = _swath_centre_range(raw)
     spacing = g.prf / float(detection.fm_rate(g.velocity, g.squint, r_mid, g.fc, 0.0)) * g.n * g.prf
-
-    def snr_near(
-        pw: np.ndarray, bgr: np.ndarray, index: float, cell: float, shifts: Iterable[int]
-    ) -> tuple[float, int, int]:
-        """Strongest peak over its background within +-PROBE_SAMPLES samples and +-3 cells of each shifted position.
-
-        The prediction lands within about 10 samples (7 m) of the focused peak: its illumination centre and the
-        compressed image's time origin differ slightly; the window allows for that.
-        """
-        best, where = 0.0, (round(index) % n_out, min(max(round(cell), 0), n_cells - 1))
-        c0, c1 = max(0, round(cell) - 3), min(n_cells, round(cell) + 4)
-        for k in shifts:
-            i = round(index + k * spacing)
-            if not 0 <= i < n_out or c0 >= c1:
-                continue
-            rows = np.arange(i - PROBE_SAMPLES, i + PROBE_SAMPLES + 1) % n_out
-            sub = pw[rows, c0:c1] / np.maximum(bgr[rows, c0:c1], 1e-30)
-            j, c = np.unravel_index(int(np.argmax(sub)), sub.shape)
-            if float(sub[j, c]) > best:
-                best, where = float(sub[j, c]), (int(rows[j]), c0 + int(c))
-        return (10 * math.log10(best) if best > 0 else -math.inf), where[0], where[1]
-
-    lam = C / g.fc
     out = {}
     for k in moving_rows:
         cell, index = _truth_cell_index(raw, g, lead, int(k), centres)
-        row = {"cell": cell, "index": index}
-        row["snr_db"], i_res, c_res = snr_near(power, bg, index, cell, range(-g.n + 1, g.n))
-        row["peak_index"], row["peak_cell"] = i_res, c_res
+        snr_db, i_res, c_res = _snr_near(power, bg, index, cell, range(-g.n + 1, g.n), spacing)
         xyz = np.array([truth["x"][k], truth["y"][k], truth["z"][k]], float)
         vel = np.array([truth["vx"][k], truth["vy"][k], truth["vz"][k]], float)
         v_a, v_r = moving.slant_velocity(xyz, vel, raw.radar.altitude)
-        row["v_los"] = channels.line_of_sight_velocity(v_r, v_a, g.squint)
+        probe = _TruthProbe(cell, index, snr_db, i_res, c_res, channels.line_of_sight_velocity(v_r, v_a, g.squint))
         if conv is not None and bg_conv is not None:
-            row["conventional_snr_db"], i, c = snr_near(conv, bg_conv, index, cell, [0])
-            # the background where its residual peaks (one of its ambiguities) over that where it appears
-            row["null_depth_db"] = 10 * math.log10(float(bg[i_res, c_res]) / float(bg_conv[i, c]))
-            gains = detection.clutter_null_peak_gains(
-                g.tau0, g.prf, g.half_band, params.clutter_band, lam, row["v_los"]
-            )
-            gain = float(gains.max())
-            row["null_gain_db"] = 10 * math.log10(gain) if gain > 0 else -math.inf
-            # Response k lies k PRF / K_a away (which way depends on the sign convention: the responses are
-            # nearly symmetric in k, so each |k| takes the lower background of the two places).
-            depth = []
-            for shift in range(-g.n + 1, g.n):
-                levels = []
-                for sign in (1, -1):
-                    j = round(index + sign * shift * spacing)
-                    if 0 <= j < n_out:
-                        levels.append(float(bg[j, c]))
-                depth.append(10 * math.log10(min(levels) / float(bg_conv[i, c])) if levels else math.inf)
-            need = cfar_db - row["conventional_snr_db"] + np.array(depth)
-            need = np.minimum(need, need[::-1])  # either sign of k
-            row["mdv"] = detection.minimum_detectable_velocity(
-                g.tau0, g.prf, g.half_band, params.clutter_band, lam, need
-            )
-        out[int(k)] = row
+            probe.null = _null_probe(probe, params, g, bg, conv, bg_conv, cfar_db, spacing)
+        out[int(k)] = probe
     return out
 
 
+def _snr_near(
+    pw: np.ndarray, bgr: np.ndarray, index: float, cell: float, shifts: Iterable[int], spacing: float
+) -> tuple[float, int, int]:
+    """(SNR dB, azimuth sample, range cell) of the strongest peak of ``pw`` over its background ``bgr`` within
+    +-PROBE_SAMPLES samples and +-3 cells of each position ``index + k spacing`` (k in ``shifts``), ``cell``.
+
+    The prediction lands within about 10 samples (7 m) of the focused peak: its illumination centre and the
+    compressed image's time origin differ slightly; the window allows for that.
+    """
+    n_out, n_cells = pw.shape
+    best, where = 0.0, (round(index) % n_out, min(max(round(cell), 0), n_cells - 1))
+    c0, c1 = max(0, round(cell) - 3), min(n_cells, round(cell) + 4)
+    for k in shifts:
+        i = round(index + k * spacing)
+        if not 0 <= i < n_out or c0 >= c1:
+            continue
+        rows = np.arange(i - PROBE_SAMPLES, i + PROBE_SAMPLES + 1) % n_out
+        sub = pw[rows, c0:c1] / np.maximum(bgr[rows, c0:c1], 1e-30)
+        j, c = np.unravel_index(int(np.argmax(sub)), sub.shape)
+        if float(sub[j, c]) > best:
+            best, where = float(sub[j, c]), (int(rows[j]), c0 + int(c))
+    return (10 * math.log10(best) if best > 0 else -math.inf), where[0], where[1]
+
+
+def _null_probe(
+    probe: _TruthProbe,
+    params: ReconstructParams,
+    g: _Geometry,
+    bg: np.ndarray,
+    conv: np.ndarray,
+    bg_conv: np.ndarray,
+    cfar_db: float,
+    spacing: float,
+) -> _NullProbe:
+    """The clutter null's effect on a truth mover found by ``probe`` in its residual (background ``bg``): its SNR
+    in the conventional detection image ``conv`` (background ``bg_conv``), the null's depth and peak gain there,
+    and the minimum detectable velocity for that SNR against the CFAR threshold ``cfar_db``."""
+    lam = C / g.fc
+    conventional_snr_db, i, c = _snr_near(conv, bg_conv, probe.index, probe.cell, [0], spacing)
+    gains = detection.clutter_null_peak_gains(g.tau0, g.prf, g.half_band, params.clutter_band, lam, probe.v_los)
+    gain = float(gains.max())
+    depth = _ambiguity_depths(bg, float(bg_conv[i, c]), probe.index, c, g.n, spacing)
+    need = cfar_db - conventional_snr_db + np.array(depth)
+    need = np.minimum(need, need[::-1])  # either sign of k
+    return _NullProbe(
+        conventional_snr_db=conventional_snr_db,
+        # the background where its residual peaks (one of its ambiguities) over that where it appears
+        null_depth_db=10 * math.log10(float(bg[probe.peak_index, probe.peak_cell]) / float(bg_conv[i, c])),
+        null_gain_db=10 * math.log10(gain) if gain > 0 else -math.inf,
+        mdv=detection.minimum_detectable_velocity(g.tau0, g.prf, g.half_band, params.clutter_band, lam, need),
+    )
+
+
+def _ambiguity_depths(bg: np.ndarray, level: float, index: float, cell: int, n: int, spacing: float) -> list[float]:
+    """Per response k = -(n - 1) .. n - 1 of a mover at azimuth sample ``index``, range cell ``cell``: the residual's
+    background ``bg`` there over the conventional one ``level`` where it appears, dB (inf beyond the image).
+
+    Response k lies k PRF / K_a away (which way depends on the sign convention: the responses are nearly
+    symmetric in k, so each |k| takes the lower background of the two places)."""
+    depth = []
+    for shift in range(-n + 1, n):
+        levels = []
+        for sign in (1, -1):
+            j = round(index + sign * shift * spacing)
+            if 0 <= j < bg.shape[0]:
+                levels.append(float(bg[j, cell]))
+        depth.append(10 * math.log10(min(levels) / level) if levels else math.inf)
+    return depth
+
+
 def _miss_reason(
-    name: str, probe: dict | None, rejected: list[dict], spacing: float, params: ReconstructParams, cfar: dict
+    name: str, probe: _TruthProbe | None, rejected: list[dict], spacing: float, params: ReconstructParams, cfar: dict
 ) -> str:
     """Why truth mover ``name`` is not in moving_targets, from what the detection image held where it appears."""
     if probe is None:
         return f"{name}: not found"
 
     def off(index: float) -> float:  # samples from the mover's strongest peak, modulo its ambiguity spacing
-        k = (index - probe["peak_index"]) / spacing
+        k = (index - probe.peak_index) / spacing
         return abs(k - round(k)) * spacing
 
-    near = [d for d in rejected if abs(d["cell"] - probe["peak_cell"]) <= 4 and off(d["index"]) <= 8]
+    near = [d for d in rejected if abs(d["cell"] - probe.peak_cell) <= 4 and off(d["index"]) <= 8]
     if near:
         d = max(near, key=lambda d: d["snr_db"])
         if d["kind"] == "merged":
@@ -1679,10 +1726,10 @@ def _miss_reason(
             )
         if d["kind"] == "static":
             why = (
-                f"its true line-of-sight velocity {probe['v_los']:.2f} m/s is itself under detection_velocity "
+                f"its true line-of-sight velocity {probe.v_los:.2f} m/s is itself under detection_velocity "
                 f"{params.detection_velocity:g} m/s"
-                if abs(probe["v_los"]) < params.detection_velocity
-                else f"the true one is {probe['v_los']:.2f} m/s: the search runs on its window's channels before the "
+                if abs(probe.v_los) < params.detection_velocity
+                else f"the true one is {probe.v_los:.2f} m/s: the search runs on its window's channels before the "
                 "null, where the static clutter in those cells outweighs it"
             )
             return (
@@ -1694,19 +1741,20 @@ def _miss_reason(
             f"{name}: detected (SNR {d['snr_db']:.1f} dB) but no slant-range velocity explains its response "
             "(too weak for the velocity search)"
         )
-    level = probe.get("residual_snr_db", probe["snr_db"])
-    if "residual_snr_db" in probe:
+    level = probe.snr_db if probe.residual_snr_db is None else probe.residual_snr_db
+    if probe.residual_snr_db is not None:
         # the second pass's CFAR against the measured background (_second_pass)
         under = (
             f"; with the examined responses taken out it stands {level:.1f} dB over the measured background, "
-            f"{probe['background_peaks_above']} of whose {cfar.get('background_peaks', 0)} peaks are stronger: under "
+            f"{probe.background_peaks_above} of whose {cfar.get('background_peaks', 0)} peaks are stronger: under "
             f"the CFAR threshold {cfar['threshold_db']:.1f} dB that a false-alarm rate {params.false_alarm_rate:g} "
             "per peak sets there"
         )
     else:
         under = f", under the CFAR threshold {cfar['threshold_db']:.1f} dB"
-    if "mdv" in probe and level < cfar["threshold_db"]:
-        v, mdv = abs(probe["v_los"]), probe["mdv"]
+    null = probe.null
+    if null is not None and level < cfar["threshold_db"]:
+        v, mdv = abs(probe.v_los), null.mdv
         # the gain model is good to about 1.5 dB (docs/multichannel.md), 20 % in v_los (gain ~ v_los^2)
         where = (
             f"below this null's minimum detectable velocity {mdv:.2f} m/s"
@@ -1716,14 +1764,14 @@ def _miss_reason(
             else f"above this null's minimum detectable velocity {mdv:.2f} m/s"
         )
         return (
-            f"{name}: the clutter null keeps {probe['null_gain_db']:.1f} dB of its peak (line-of-sight speed "
-            f"{v:.2f} m/s, {where} for its conventional SNR {probe['conventional_snr_db']:.1f} dB): its residual peaks "
-            f"{probe['snr_db']:.1f} dB over the background{under}"
+            f"{name}: the clutter null keeps {null.null_gain_db:.1f} dB of its peak (line-of-sight speed "
+            f"{v:.2f} m/s, {where} for its conventional SNR {null.conventional_snr_db:.1f} dB): its residual peaks "
+            f"{probe.snr_db:.1f} dB over the background{under}"
         )
     if level < cfar["threshold_db"]:
-        return f"{name}: its peak is {probe['snr_db']:.1f} dB over the background where it appears{under}"
+        return f"{name}: its peak is {probe.snr_db:.1f} dB over the background where it appears{under}"
     return (
-        f"{name}: its peak is {probe['snr_db']:.1f} dB over the background where it appears, but no detection "
+        f"{name}: its peak is {probe.snr_db:.1f} dB over the background where it appears, but no detection "
         "was made there (a side lobe of a stronger detection, or beyond max_detections)"
     )
 
@@ -1731,27 +1779,17 @@ def _miss_reason(
 def reconstruct(
     raw: Product, params: ReconstructParams = ReconstructParams(), progress: ProgressFactory | None = None
 ) -> Product:
-    """Reconstruct a raw_multichannel product into a single-channel raw product at N PRF (module docstring)."""
+    """Reconstruct a raw_multichannel product into a single-channel raw product at N PRF (module docstring).
+
+    Steps: the filter bank (:func:`_filter_bank`), the channels deramped (:func:`_to_deramped`), with
+    clutter_suppression the null's residual (:func:`_clutter_residual`), the reconstruction (:func:`_reconstruct`),
+    the movers detected and focused (:func:`_detect_and_focus`, detection auto) or the whole swath as one
+    (:func:`_whole_swath_mover`, detection whole), then back to raw echoes (:func:`_raw_echoes`).
+    """
     _check_input(raw)
     g = _geometry(raw, params)
-    r = raw.radar
     n_ch, n_az, n_rg = raw.data.shape
-    if g.n * g.prf < 2 * g.half_band:
-        log.warning(
-            "reconstruct: N PRF = %.4g Hz is below the Doppler bandwidth %.4g Hz: the output stays aliased",
-            g.n * g.prf,
-            2 * g.half_band,
-            extra=IMAGE_DEFECT,
-        )
-    bank = channels.filter_bank(g.tau0, g.prf, n_az, regularization=params.regularization)
-    if bank.max_condition > params.max_condition:
-        log.warning(
-            "reconstruct: filter bank condition number %.3g exceeds %.3g (noise gain %.1f dB)%s",
-            bank.max_condition,
-            params.max_condition,
-            10 * math.log10(bank.noise_gain),
-            "" if params.regularization > 0 else "; set reconstruct.regularization",
-        )
+    bank = _filter_bank(g, n_az, params)
     spec, f_r, lead = _to_deramped(raw, g)  # (N, n_az, n_fft) in (t, f_r)
     info = {
         "n_channels": int(n_ch),
@@ -1768,20 +1806,9 @@ def reconstruct(
     # the deramp (built for f_r) does not make static. The null cannot cancel them, and compression puts their
     # residue about T_p in range from every bright static point (docs/multichannel.md section 8: false alarms of
     # bright static points). The reconstruction keeps every bin (a mover's tails keep their conventional one).
-    in_band = np.abs(f_r) <= r.bandwidth / 2
+    in_band = np.abs(f_r) <= raw.radar.bandwidth / 2
     spec_est = spec * in_band if params.clutter_suppression and not np.all(in_band) else spec
-    residual = None
-    if params.clutter_suppression:
-        spec_fa = sfft.fft(spec, axis=1, workers=-1)
-        res, dof = clutter_null(spec_fa, g, params.clutter_band)
-        before, after = float(np.sum(np.abs(spec_fa) ** 2)), float(np.sum(np.abs(res) ** 2))
-        info["clutter_redundant_channels"] = dof
-        info["clutter_suppression_db"] = 10 * math.log10(after / before) if before > 0 and after > 0 else None
-        if dof <= 0:
-            log.warning("reconstruct: no redundant channel (N PRF barely covers the Doppler band): no clutter null")
-        if params.method == "modified" and params.detection == "auto":
-            residual = res * in_band
-        del spec_fa, res
+    residual = _clutter_residual(spec, in_band, g, params, info) if params.clutter_suppression else None
     y = _reconstruct(spec, bank)  # (N n_az, n_fft) in (f_a, f_r)
     movers: list[MovingTarget] = []
     if params.method == "modified" and params.detection == "auto":
@@ -1794,24 +1821,85 @@ def reconstruct(
     residual = None
     y = sfft.ifft(y, axis=0, workers=-1)  # (t', f_r)
     if params.method == "modified" and params.detection == "whole":
-        y_tr = sfft.ifft(y, axis=1, workers=-1)
-        win = _Window(spec, f_r, g, params)
-        centre_range = C / 2 * (raw.coords["range_time"][0] + ((len(f_r) - 1) / 2 - lead) / g.fs)
-        mt, notes = _estimate(win, params, g, centre_range)
-        for note in notes:
-            log.warning("reconstruct: the whole swath as one mover: %s", note)
-        assert mt is not None  # only a static_below threshold (not given here) drops a mover
-        mt = dataclasses.replace(mt, first_cell=0, last_cell=len(f_r))
+        mt, y = _whole_swath_mover(raw, params, g, spec, y, f_r, lead)
         movers.append(mt)
-        y = win.output(
-            mt.radial_velocity, mt.along_track_velocity, mt.beam_centre_time, mt.slant_range, focus_along_track=True
-        )
-        del y_tr
     del spec
-    y *= deramp.deramp_phasor(g.out_times, f_r, g.velocity, g.squint, g.fc, sign=+1)
-    y *= deramp.compression_phasor(f_r, r.chirp_rate, sign=-1)[None, :]
-    out = sfft.ifft(y, axis=1, workers=-1)[:, lead : lead + n_rg].astype(np.complex64)
+    out = _raw_echoes(y, g, f_r, raw.radar.chirp_rate, lead, n_rg)
     return _output_product(raw, params, g, out, info, movers)
+
+
+def _filter_bank(g: _Geometry, n_az: int, params: ReconstructParams) -> channels.FilterBank:
+    """The reconstruction filter bank, with a warning where N PRF is below the Doppler band (the output stays
+    aliased) or the bank's condition number exceeds max_condition."""
+    if g.n * g.prf < 2 * g.half_band:
+        log.warning(
+            "reconstruct: N PRF = %.4g Hz is below the Doppler bandwidth %.4g Hz: the output stays aliased",
+            g.n * g.prf,
+            2 * g.half_band,
+            extra=IMAGE_DEFECT,
+        )
+    bank = channels.filter_bank(g.tau0, g.prf, n_az, regularization=params.regularization)
+    if bank.max_condition > params.max_condition:
+        log.warning(
+            "reconstruct: filter bank condition number %.3g exceeds %.3g (noise gain %.1f dB)%s",
+            bank.max_condition,
+            params.max_condition,
+            10 * math.log10(bank.noise_gain),
+            "" if params.regularization > 0 else "; set reconstruct.regularization",
+        )
+    return bank
+
+
+def _clutter_residual(
+    spec: np.ndarray, in_band: np.ndarray, g: _Geometry, params: ReconstructParams, info: dict
+) -> np.ndarray | None:
+    """The clutter null's residual of the deramped channels ``spec`` in (f_a, f_r), the chirp's range band only
+    (``in_band``), for detection (method modified, detection auto; else None); its redundant channels and
+    suppression go into ``info``, with a warning where no channel is redundant."""
+    spec_fa = sfft.fft(spec, axis=1, workers=-1)
+    res, dof = clutter_null(spec_fa, g, params.clutter_band)
+    before, after = float(np.sum(np.abs(spec_fa) ** 2)), float(np.sum(np.abs(res) ** 2))
+    info["clutter_redundant_channels"] = dof
+    info["clutter_suppression_db"] = 10 * math.log10(after / before) if before > 0 and after > 0 else None
+    if dof <= 0:
+        log.warning("reconstruct: no redundant channel (N PRF barely covers the Doppler band): no clutter null")
+    if params.method == "modified" and params.detection == "auto":
+        return res * in_band
+    return None
+
+
+def _whole_swath_mover(
+    raw: Product,
+    params: ReconstructParams,
+    g: _Geometry,
+    spec: np.ndarray,
+    y: np.ndarray,
+    f_r: np.ndarray,
+    lead: int,
+) -> tuple[MovingTarget, np.ndarray]:
+    """detection whole: the whole swath estimated as one mover, and the reconstruction ``y`` (t', f_r) replaced
+    by its modified one (focused along track)."""
+    y_tr = sfft.ifft(y, axis=1, workers=-1)
+    win = _Window(spec, f_r, g, params)
+    centre_range = C / 2 * (raw.coords["range_time"][0] + ((len(f_r) - 1) / 2 - lead) / g.fs)
+    mt, notes = _estimate(win, params, g, centre_range)
+    for note in notes:
+        log.warning("reconstruct: the whole swath as one mover: %s", note)
+    assert mt is not None  # only a static_below threshold (not given here) drops a mover
+    mt = dataclasses.replace(mt, first_cell=0, last_cell=len(f_r))
+    y = win.output(
+        mt.radial_velocity, mt.along_track_velocity, mt.beam_centre_time, mt.slant_range, focus_along_track=True
+    )
+    del y_tr
+    return mt, y
+
+
+def _raw_echoes(y: np.ndarray, g: _Geometry, f_r: np.ndarray, chirp_rate: float, lead: int, n_rg: int) -> np.ndarray:
+    """The reconstruction ``y`` (t', f_r) back to raw echoes on the input's range samples: the deramp restored and
+    the chirp re-expanded, complex64 (t', range time). ``y`` is changed in place."""
+    y *= deramp.deramp_phasor(g.out_times, f_r, g.velocity, g.squint, g.fc, sign=+1)
+    y *= deramp.compression_phasor(f_r, chirp_rate, sign=-1)[None, :]
+    return sfft.ifft(y, axis=1, workers=-1)[:, lead : lead + n_rg].astype(np.complex64)
 
 
 PROBE_SAMPLES = 16  # azimuth samples either side of a truth mover's predicted peak searched for it (_probe_truth)
