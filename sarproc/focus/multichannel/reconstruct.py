@@ -1879,7 +1879,6 @@ def _whole_swath_mover(
 ) -> tuple[MovingTarget, np.ndarray]:
     """detection whole: the whole swath estimated as one mover, and the reconstruction ``y`` (t', f_r) replaced
     by its modified one (focused along track)."""
-    y_tr = sfft.ifft(y, axis=1, workers=-1)
     win = _Window(spec, f_r, g, params)
     centre_range = C / 2 * (raw.coords["range_time"][0] + ((len(f_r) - 1) / 2 - lead) / g.fs)
     mt, notes = _estimate(win, params, g, centre_range)
@@ -1890,7 +1889,6 @@ def _whole_swath_mover(
     y = win.output(
         mt.radial_velocity, mt.along_track_velocity, mt.beam_centre_time, mt.slant_range, focus_along_track=True
     )
-    del y_tr
     return mt, y
 
 
