@@ -51,6 +51,52 @@ def require_sarkit(*modules: str) -> None:
         raise InputError("SICD/CPHD need NGA's sarkit (Python >= 3.11): pip install 'sarproc[formats]'") from None
 
 
+_CHECKERS = {"SICD": ("_sicd_consistency", "SicdConsistency"), "CPHD": ("_cphd_consistency", "CphdConsistency")}
+
+
+def consistency_checker(kind: str) -> Any:
+    """sarkit's consistency checker class for ``kind`` ('SICD' or 'CPHD'), with its module alone imported.
+
+    ``import sarkit.verification`` imports all four checkers (CPHD, CRSD, SICD, SIDD and their readers,
+    shapely; ~50 ms more than the one an export runs: docs/performance.md, eighth round). Where that package
+    is not imported yet, it is created from its spec without running its ``__init__``, so that only the one
+    checker's module is loaded; the package's own ``__init__`` runs on the first attribute it lacks (PEP 562
+    ``__getattr__``), so a later ``import sarkit.verification`` still gets every checker, the same classes.
+    Raises InputError saying how to install sarkit (and shapely, which the checkers need) where it is missing."""
+    import importlib
+    import importlib.util
+    import sys
+
+    module, name = _CHECKERS[kind]
+    package = "sarkit.verification"
+    partial = None
+    try:
+        if package not in sys.modules:
+            import sarkit
+
+            spec = importlib.util.find_spec(package)
+            if spec is not None and spec.loader is not None and spec.submodule_search_locations is not None:
+                partial = importlib.util.module_from_spec(spec)
+
+                def complete(attr: str, partial: Any = partial, loader: Any = spec.loader) -> Any:
+                    del partial.__dict__["__getattr__"]  # once: the package's __init__ then defines what it exports
+                    loader.exec_module(partial)
+                    return getattr(partial, attr)
+
+                partial.__dict__["__getattr__"] = complete
+                sys.modules[package] = partial
+                sarkit.verification = partial  # type: ignore[attr-defined]
+        return getattr(importlib.import_module(f"{package}.{module}"), name)
+    except ImportError:
+        if partial is not None and sys.modules.get(package) is partial:  # as if never tried
+            del sys.modules[package]
+            sarkit.__dict__.pop("verification", None)
+        raise InputError(
+            f"the {kind} consistency check needs NGA's sarkit with shapely (Python >= 3.11): "
+            "pip install 'sarproc[formats]'"
+        ) from None
+
+
 def pulse_times(product: Product) -> np.ndarray:
     """Azimuth times of the pulses, s: the raw axis, or (for images) the simulator's centred PRF grid."""
     if "azimuth_time" in product.coords:
@@ -806,11 +852,8 @@ def consistency_summary(con: Any) -> dict:
 
 def check_sicd(path: str | os.PathLike) -> dict:
     """Run sarkit's SicdConsistency (schema, NITF headers, every metadata relation) on a SICD file."""
-    require_sarkit("sarkit.verification")
-    import sarkit.verification as skver
-
     with open(path, "rb") as fh:
-        con = skver.SicdConsistency.from_file(fh)
+        con = consistency_checker("SICD").from_file(fh)
         con.check()
     return consistency_summary(con)
 

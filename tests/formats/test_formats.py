@@ -369,3 +369,34 @@ def test_format_commands(demo, tmp_path):
         ],
     )
     assert res.exit_code == 2 and "geolocation.latitude" in res.output
+
+
+CHECKER_RUN = """
+import json, sys
+from sarproc.formats.sicd import consistency_checker
+checker = consistency_checker({kind!r})
+alone = sorted(m for m in sys.modules if m.startswith("sarkit.verification."))
+import sarkit.verification as skver
+from sarkit.verification import CrsdConsistency
+print(json.dumps({{"alone": alone, "same": getattr(skver, {name!r}) is checker,
+                  "all": all(hasattr(skver, n) for n in skver.__all__) and len(skver.__all__) == 4}}))
+"""
+
+
+@pytest.mark.parametrize(
+    ("kind", "name", "module"),
+    [("SICD", "SicdConsistency", "_sicd_consistency"), ("CPHD", "CphdConsistency", "_cphd_consistency")],
+)
+def test_an_export_imports_its_own_consistency_checker_alone(kind, name, module):
+    """`import sarkit.verification` loads all four checkers (~50 ms more than one, docs/performance.md eighth
+    round); an export loads its own, and a later import of the package still gets every checker, the same."""
+    import json
+    import subprocess
+    import sys
+
+    done = subprocess.run(
+        [sys.executable, "-c", CHECKER_RUN.format(kind=kind, name=name)], capture_output=True, text=True, check=True
+    )
+    out = json.loads(done.stdout.strip().splitlines()[-1])
+    assert out["alone"] == sorted(["sarkit.verification._consistency", f"sarkit.verification.{module}"])
+    assert out["same"] and out["all"]
