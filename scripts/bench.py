@@ -491,6 +491,17 @@ def _wait_for_aot_builds(directory: Path, timeout: float = 300.0) -> None:
         time.sleep(0.5)
 
 
+def _setup_for(cases: Sequence[tuple]) -> list[tuple]:
+    """The PROCESS_SETUP commands whose outputs the ``cases`` read, and those these read in turn (in order)."""
+    needed = {a for _, _, argv in cases for a in argv if a.startswith("{d}/")}
+    chosen = []
+    for argv in reversed(PROCESS_SETUP):
+        if argv[argv.index("-o") + 1] in needed:
+            chosen.append(argv)
+            needed |= {a for a in argv if a.startswith("{d}/")}
+    return chosen[::-1]
+
+
 def process_rows(trees: dict[str, Path], rounds: int, workdir: Path, only: set[str] | None = None) -> list[dict]:
     """Per stage and tree: process wall, in-process compute and overhead (best of ``rounds``, interleaved).
     Kernels compiled ahead of time go to a fresh directory under ``workdir`` (built by the untimed first runs)."""
@@ -501,7 +512,7 @@ def process_rows(trees: dict[str, Path], rounds: int, workdir: Path, only: set[s
         d = workdir / label
         d.mkdir(parents=True, exist_ok=True)
         data[label] = d
-        for argv in PROCESS_SETUP:
+        for argv in _setup_for(cases):
             _sarproc(tree, [a.format(d=d) for a in argv] + ["--overwrite", "-q"])
         for _, _, argv in cases:  # once untimed: every kernel in this tree's numba cache
             _sarproc(tree, [a.format(d=d) for a in argv] + ["--overwrite", "-q"])

@@ -99,17 +99,17 @@ def export_sicd(
     from sarproc.formats.geolocation import GeolocationParams, placement
     from sarproc.formats.sicd import (
         check_sicd,
+        consistency_checker,
         formed_by_pfa,
         image_grid,
         read_sicd,
-        require_sarkit,
         sicd_pixels,
         write_sicd,
     )
     from sarproc.product.errors import InputError, ProcessingError
     from sarproc.product.io import atomic_path, read_product
 
-    require_sarkit("sarkit.verification")  # the output is checked with it
+    consistency_checker("SICD")  # the output is checked with it
     # config, input header (and its placement), output location, plan; then the data
     params = load_config(GeolocationParams, config_path, section="geolocation")
     header = read_product(input_path, kinds=("image",), load=False)
@@ -154,11 +154,11 @@ def export_cphd(
     """Export a single-channel raw product to CPHD 1.1.0 (FX domain), checked by sarkit's CphdConsistency."""
     from sarproc.cli.stage import naming, plan_outputs
     from sarproc.formats.budget import export_cphd_estimate
-    from sarproc.formats.cphd import check_cphd, require_sarkit, write_cphd
+    from sarproc.formats.cphd import check_cphd, consistency_checker, write_cphd
     from sarproc.formats.geolocation import GeolocationParams, placement
     from sarproc.product.io import atomic_path, read_product
 
-    require_sarkit("sarkit.verification")  # the output is checked with it
+    consistency_checker("CPHD")  # the output is checked with it
     params = load_config(GeolocationParams, config_path, section="geolocation")
     header = read_product(input_path, kinds=("raw",), load=False)
     with naming(input_path, config_path, "geolocation"):

@@ -33,7 +33,7 @@ import numpy as np
 from sarproc import __version__
 from sarproc.dsp.rangecomp import replica_fft_size, replica_spectrum
 from sarproc.formats.geolocation import Placement, ecf_to_geodetic, utc_datetime
-from sarproc.formats.sicd import MODE_TYPE, consistency_summary, pulse_times, require_sarkit
+from sarproc.formats.sicd import MODE_TYPE, consistency_checker, consistency_summary, pulse_times, require_sarkit
 from sarproc.product import fft as sfft
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import C, RadarMetadata
@@ -705,11 +705,8 @@ def _radar_kwargs(d: dict) -> dict:
 
 def check_cphd(path: str | os.PathLike) -> dict:
     """Run sarkit's CphdConsistency (schema, header, PVPs, reference geometry, signal) on a CPHD file."""
-    require_sarkit("sarkit.verification")
-    import sarkit.verification as skver
-
     with open(path, "rb") as fh:
-        con = skver.CphdConsistency.from_file(fh, thorough=True)
+        con = consistency_checker("CPHD").from_file(fh, thorough=True)
         con.check()
     return consistency_summary(con)
 

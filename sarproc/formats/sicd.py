@@ -37,18 +37,82 @@ KAPFAC = 0.88589  # -3 dB width x bandwidth of a uniformly weighted response (SI
 MODE_TYPE = {"spotlight": "SPOTLIGHT", "stripmap": "STRIPMAP", "sliding_spotlight": "DYNAMIC STRIPMAP"}
 
 
-def require_sarkit(*modules: str) -> None:
-    """Raise InputError saying how to install sarkit when it (or one of ``modules``, e.g. its verification
-    package, which needs shapely; ~0.15 s to import, so only the checks ask for it) cannot be imported."""
+def deferred_module(name: str) -> Any:
+    """Module ``name`` put in ``sys.modules`` without running its code, which runs on the first attribute the
+    module lacks (PEP 562 ``__getattr__``): importing it costs nothing until something uses it, and then it is
+    the whole module, the same object. For what sarkit imports but an export or import rarely uses
+    (docs/performance.md, eighth round). The module as it is where already imported, or where it cannot be
+    found or is no plain source module or package (then it is imported)."""
     import importlib
+    import importlib.machinery
+    import importlib.util
+    import sys
 
+    if name in sys.modules:
+        return sys.modules[name]
+    spec = importlib.util.find_spec(name)
+    if spec is None or not isinstance(spec.loader, importlib.machinery.SourceFileLoader):
+        return importlib.import_module(name)
+    module = importlib.util.module_from_spec(spec)
+
+    def complete(attr: str, module: Any = module, loader: Any = spec.loader) -> Any:
+        del module.__dict__["__getattr__"]  # once: the module's code then defines what it has
+        try:
+            loader.exec_module(module)
+        except BaseException:
+            sys.modules.pop(name, None)  # as a failed import leaves it: the next import tries again
+            raise
+        return getattr(module, attr)
+
+    module.__dict__["__getattr__"] = complete
+    sys.modules[name] = module
+    parent, _, child = name.rpartition(".")
+    if parent:
+        setattr(sys.modules[parent], child, module)
+    return module
+
+
+def require_sarkit() -> None:
+    """Raise InputError saying how to install sarkit when it cannot be imported.
+
+    numpy.testing (~50-70 ms: unittest, importlib.metadata, email), which sarkit's XML helpers import for one
+    rarely used search (``ElementWrapper.findall`` with keywords), is deferred to its first use."""
     try:
+        deferred_module("numpy.testing")
         import sarkit  # noqa: F401
-
-        for name in modules:
-            importlib.import_module(name)
     except ImportError:
         raise InputError("SICD/CPHD need NGA's sarkit (Python >= 3.11): pip install 'sarproc[formats]'") from None
+
+
+_CHECKERS = {"SICD": ("_sicd_consistency", "SicdConsistency"), "CPHD": ("_cphd_consistency", "CphdConsistency")}
+
+
+def consistency_checker(kind: str) -> Any:
+    """sarkit's consistency checker class for ``kind`` ('SICD' or 'CPHD'), with its module alone imported.
+
+    ``import sarkit.verification`` imports all four checkers (CPHD, CRSD, SICD, SIDD and their readers,
+    shapely; ~50 ms more than the one an export runs: docs/performance.md, eighth round). Where that package
+    is not imported yet, it is deferred (:func:`deferred_module`): only the one checker's module is loaded, and
+    the package's ``__init__`` runs on the first attribute it lacks, so a later ``import sarkit.verification``
+    still gets every checker, the same classes. Raises InputError saying how to install sarkit (and shapely,
+    which the checkers need) where it is missing."""
+    import importlib
+    import sys
+
+    module, name = _CHECKERS[kind]
+    package = "sarkit.verification"
+    before = sys.modules.get(package)
+    try:
+        require_sarkit()
+        deferred_module(package)
+        return getattr(importlib.import_module(f"{package}.{module}"), name)
+    except ImportError:
+        if before is None and package in sys.modules and "__getattr__" in vars(sys.modules[package]):
+            del sys.modules[package]  # as if never tried
+        raise InputError(
+            f"the {kind} consistency check needs NGA's sarkit with shapely (Python >= 3.11): "
+            "pip install 'sarproc[formats]'"
+        ) from None
 
 
 def pulse_times(product: Product) -> np.ndarray:
@@ -806,11 +870,8 @@ def consistency_summary(con: Any) -> dict:
 
 def check_sicd(path: str | os.PathLike) -> dict:
     """Run sarkit's SicdConsistency (schema, NITF headers, every metadata relation) on a SICD file."""
-    require_sarkit("sarkit.verification")
-    import sarkit.verification as skver
-
     with open(path, "rb") as fh:
-        con = skver.SicdConsistency.from_file(fh)
+        con = consistency_checker("SICD").from_file(fh)
         con.check()
     return consistency_summary(con)
 

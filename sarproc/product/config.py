@@ -10,13 +10,12 @@ file and the dotted key path in every error. :func:`as_dict` gives the resolved 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import sys
 import typing
 from pathlib import Path
 from typing import TYPE_CHECKING
-
-import yaml
 
 from sarproc.product.errors import InputError
 from sarproc.product.units import parse_quantity
@@ -63,33 +62,43 @@ def param(
     return dataclasses.field(default=default, metadata=meta)
 
 
-class _StrictLoader(yaml.SafeLoader):
-    """SafeLoader that refuses a key given twice in one mapping (plain YAML keeps the last)."""
+@functools.cache
+def _strict_loader() -> type:
+    """SafeLoader subclass that refuses a key given twice in one mapping (plain YAML keeps the last).
 
+    Built on first use: ``import yaml`` (~25 ms, mostly compiling its regular expressions) is paid only by
+    commands that read a YAML file, not by every stage's start (docs/performance.md, eighth round)."""
+    import yaml
 
-def _construct_mapping(loader: yaml.SafeLoader, node: yaml.MappingNode, deep: bool = False) -> dict:
-    loader.flatten_mapping(node)
-    seen: dict = {}
-    for key_node, _ in node.value:
-        key = loader.construct_object(key_node, deep=True)
-        try:
-            hash(key)
-        except TypeError:
-            raise InputError(f"line {key_node.start_mark.line + 1}: a mapping key must be a plain name") from None
-        if key in seen:
-            raise yaml.constructor.ConstructorError(
-                None, None, f"key {key!r} is given twice (first on line {seen[key] + 1}); keep one", key_node.start_mark
-            )
-        seen[key] = key_node.start_mark.line
-    return loader.construct_mapping(node, deep=deep)
+    def construct_mapping(loader: yaml.SafeLoader, node: yaml.MappingNode, deep: bool = False) -> dict:
+        loader.flatten_mapping(node)
+        seen: dict = {}
+        for key_node, _ in node.value:
+            key = loader.construct_object(key_node, deep=True)
+            try:
+                hash(key)
+            except TypeError:
+                raise InputError(f"line {key_node.start_mark.line + 1}: a mapping key must be a plain name") from None
+            if key in seen:
+                raise yaml.constructor.ConstructorError(
+                    None,
+                    None,
+                    f"key {key!r} is given twice (first on line {seen[key] + 1}); keep one",
+                    key_node.start_mark,
+                )
+            seen[key] = key_node.start_mark.line
+        return loader.construct_mapping(node, deep=deep)
 
+    class StrictLoader(yaml.SafeLoader):
+        pass
 
-_StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
-# Dates stay strings ('2024-05-01T10:00:00Z'): parameters that are times parse them with their zone.
-_StrictLoader.yaml_implicit_resolvers = {
-    first: [(tag, rx) for tag, rx in resolvers if tag != "tag:yaml.org,2002:timestamp"]
-    for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
-}
+    StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, construct_mapping)
+    # Dates stay strings ('2024-05-01T10:00:00Z'): parameters that are times parse them with their zone.
+    StrictLoader.yaml_implicit_resolvers = {
+        first: [(tag, rx) for tag, rx in resolvers if tag != "tag:yaml.org,2002:timestamp"]
+        for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
+    }
+    return StrictLoader
 
 
 _STDIN: dict[int, bytes] = {}
@@ -120,8 +129,10 @@ def load_yaml(path: str | Path) -> dict:
         raise InputError(f"{path}: cannot read: {exc.strerror}") from None
     if "\x00" in text:
         raise InputError(f"{path}: contains NUL bytes (a binary file?); expected YAML")
+    import yaml
+
     try:
-        data = yaml.load(text, Loader=_StrictLoader)  # a SafeLoader subclass
+        data = yaml.load(text, Loader=_strict_loader())  # a SafeLoader subclass
     except yaml.YAMLError as exc:
         raise InputError(f"{path}: not valid YAML: {' '.join(str(exc).split())}") from None
     except InputError as exc:

@@ -141,3 +141,21 @@ def test_stage_modules_import_no_scipy_subpackage():
     loaded = set(json.loads(_python(code).strip().splitlines()[-1]))
     sub = {m for m in loaded if m.startswith("scipy.") and not m.startswith(("scipy._", "scipy.version"))}
     assert not sub, sorted(sub)
+
+
+def test_stages_import_yaml_only_to_read_a_config():
+    # `import yaml` (~25 ms, its regular expressions) is paid by commands given a YAML file, not at every
+    # stage's start (docs/performance.md, eighth round); the stages' parameter models import the config module
+    code = (
+        "import importlib\n"
+        + "".join(f"importlib.import_module({target.split(':')[0]!r})\n" for target in COMMANDS.values())
+        + (
+            "import sarproc.quality.metrics, sarproc.focus.backprojection, sarproc.product.io, sarproc.product.config\n"
+            "import sarproc.formats.cphd, sarproc.formats.sicd\n"
+        )
+    )
+    assert "yaml" not in _loaded_after(code)
+    assert "yaml" in _loaded_after(
+        "import pathlib, tempfile\nfrom sarproc.product.config import load_yaml\n"
+        "p = pathlib.Path(tempfile.mkdtemp()) / 'c.yaml'\np.write_text('a: 1\\n')\nassert load_yaml(p) == {'a': 1}"
+    )

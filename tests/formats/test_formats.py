@@ -369,3 +369,39 @@ def test_format_commands(demo, tmp_path):
         ],
     )
     assert res.exit_code == 2 and "geolocation.latitude" in res.output
+
+
+CHECKER_RUN = """
+import json, sys
+from sarproc.formats.sicd import consistency_checker
+checker = consistency_checker({kind!r})
+alone = sorted(m for m in sys.modules if m.startswith("sarkit.verification."))
+deferred = "__getattr__" in vars(sys.modules["numpy.testing"]) and "unittest" not in sys.modules
+import sarkit.xmlhelp._core as xml_core
+xml_core.npt.assert_equal([1.0, 2.0], [1.0, 2.0])  # sarkit's use of it loads it whole
+from numpy.testing import assert_allclose
+import sarkit.verification as skver
+from sarkit.verification import CrsdConsistency
+print(json.dumps({{"alone": alone, "deferred": deferred, "same": getattr(skver, {name!r}) is checker,
+                  "all": all(hasattr(skver, n) for n in skver.__all__) and len(skver.__all__) == 4}}))
+"""
+
+
+@pytest.mark.parametrize(
+    ("kind", "name", "module"),
+    [("SICD", "SicdConsistency", "_sicd_consistency"), ("CPHD", "CphdConsistency", "_cphd_consistency")],
+)
+def test_an_export_imports_its_own_consistency_checker_alone(kind, name, module):
+    """`import sarkit.verification` loads all four checkers (~50 ms more than one, docs/performance.md eighth
+    round); an export loads its own, and a later import of the package still gets every checker, the same.
+    numpy.testing, which sarkit imports for one rarely used search, loads on its first use."""
+    import json
+    import subprocess
+    import sys
+
+    done = subprocess.run(
+        [sys.executable, "-c", CHECKER_RUN.format(kind=kind, name=name)], capture_output=True, text=True, check=True
+    )
+    out = json.loads(done.stdout.strip().splitlines()[-1])
+    assert out["alone"] == sorted(["sarkit.verification._consistency", f"sarkit.verification.{module}"])
+    assert out["deferred"] and out["same"] and out["all"]
