@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import os
 
@@ -51,6 +52,23 @@ def scene_mapping():
     return make
 
 
+@contextlib.contextmanager
+def aot_environment(directory):
+    """SARPROC_AOT=1 with modules in ``directory`` for the block, both variables as they were after it (a
+    module-scoped fixture cannot use monkeypatch)."""
+    keys = ("SARPROC_AOT_DIR", "SARPROC_AOT")
+    old = [os.environ.get(key) for key in keys]
+    os.environ["SARPROC_AOT_DIR"], os.environ["SARPROC_AOT"] = str(directory), "1"
+    try:
+        yield
+    finally:
+        for key, value in zip(keys, old, strict=True):
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
+
+
 def build_aot_kernels(group, directory):
     """``group``'s (a :class:`sarproc.product.aot.Kernels`) compiled module, built into ``directory`` through the
     background builder's own command and loaded as a process with SARPROC_AOT=1 would."""
@@ -71,17 +89,11 @@ def build_aot_kernels(group, directory):
         env=env,
     )
     assert done.returncode == 0, done.stderr[-2000:]
-    old = os.environ.get("SARPROC_AOT_DIR"), os.environ.get("SARPROC_AOT")
-    os.environ["SARPROC_AOT_DIR"], os.environ["SARPROC_AOT"] = str(directory), "1"
     aot._LOADED.pop(group.name, None)
     try:
-        module = group.load()
+        with aot_environment(directory):
+            module = group.load()
     finally:
-        for key, value in zip(("SARPROC_AOT_DIR", "SARPROC_AOT"), old, strict=True):
-            if value is None:
-                os.environ.pop(key, None)
-            else:
-                os.environ[key] = value
         aot._LOADED.pop(group.name, None)
     assert module is not None and group.is_compiled(module)
     return module

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import aot_environment
 
 from sarproc.dsp.rangecomp import range_compress
 from sarproc.focus import backprojection_aot as bpa
@@ -41,17 +42,9 @@ def built(tmp_path_factory):
     if not HAVE_CC:
         pytest.skip("no C compiler: the kernels run in numba only (the fallback the other tests check)")
     d = tmp_path_factory.mktemp("aot")
-    old = os.environ.get("SARPROC_AOT_DIR"), os.environ.get("SARPROC_AOT")
-    os.environ["SARPROC_AOT_DIR"], os.environ["SARPROC_AOT"] = str(d), "1"
-    try:
+    with aot_environment(d):
         d.chmod(0o700)
         path = bpa.build(aot.module_key(bpa.SOURCES))
-    finally:
-        for key, value in zip(("SARPROC_AOT_DIR", "SARPROC_AOT"), old, strict=True):
-            if value is None:
-                os.environ.pop(key, None)
-            else:
-                os.environ[key] = value
     return d, path
 
 

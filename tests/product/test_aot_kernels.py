@@ -20,6 +20,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
+from conftest import aot_environment
 
 from sarproc.dsp import interp, phasor
 from sarproc.focus.pfa import correction
@@ -47,44 +48,38 @@ def built(tmp_path_factory):
         pytest.skip("no C compiler: the kernels run in numba only")
     d = tmp_path_factory.mktemp("aot")
     d.chmod(0o700)
-    old = os.environ.get("SARPROC_AOT_DIR"), os.environ.get("SARPROC_AOT")
-    os.environ["SARPROC_AOT_DIR"], os.environ["SARPROC_AOT"] = str(d), "1"
-    try:
-        env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    with aot_environment(d):
+        try:
+            env = {**os.environ, "PYTHONPATH": str(ROOT)}
 
-        def by_command() -> dict:
-            return {
-                group.name: subprocess.run(
-                    [sys.executable, "-m", "sarproc.product.aot", group.owner, aot.module_key(group.source_paths)],
-                    capture_output=True,
-                    text=True,
-                    check=False,
-                    env=env,
-                )
-                for group in BY_COMMAND
-            }
+            def by_command() -> dict:
+                return {
+                    group.name: subprocess.run(
+                        [sys.executable, "-m", "sarproc.product.aot", group.owner, aot.module_key(group.source_paths)],
+                        capture_output=True,
+                        text=True,
+                        check=False,
+                        env=env,
+                    )
+                    for group in BY_COMMAND
+                }
 
-        with concurrent.futures.ThreadPoolExecutor(max_workers=1) as lane:
-            runs = lane.submit(by_command)
+            with concurrent.futures.ThreadPoolExecutor(max_workers=1) as lane:
+                runs = lane.submit(by_command)
+                for group in GROUPS:
+                    if group not in BY_COMMAND:
+                        group.build(aot.module_key(group.source_paths))
+                done = runs.result()
+            modules = {}
             for group in GROUPS:
-                if group not in BY_COMMAND:
-                    group.build(aot.module_key(group.source_paths))
-            done = runs.result()
-        modules = {}
-        for group in GROUPS:
-            if group in BY_COMMAND:
-                assert done[group.name].returncode == 0, (group.name, done[group.name].stderr[-2000:])
-            aot._LOADED.pop(group.name, None)
-            modules[group.name] = group.load()
-            assert modules[group.name] is not None
-    finally:
-        for key, value in zip(("SARPROC_AOT_DIR", "SARPROC_AOT"), old, strict=True):
-            if value is None:
-                os.environ.pop(key, None)
-            else:
-                os.environ[key] = value
-        for group in GROUPS:
-            aot._LOADED.pop(group.name, None)
+                if group in BY_COMMAND:
+                    assert done[group.name].returncode == 0, (group.name, done[group.name].stderr[-2000:])
+                aot._LOADED.pop(group.name, None)
+                modules[group.name] = group.load()
+                assert modules[group.name] is not None
+        finally:
+            for group in GROUPS:
+                aot._LOADED.pop(group.name, None)
     return d, modules
 
 
