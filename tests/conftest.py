@@ -71,7 +71,8 @@ def aot_environment(directory):
 
 def build_aot_kernels(group, directory):
     """``group``'s (a :class:`sarproc.product.aot.Kernels`) compiled module, built into ``directory`` through the
-    background builder's own command and loaded as a process with SARPROC_AOT=1 would."""
+    background builder's own command and loaded as a process with SARPROC_AOT=1 would; the build writes nothing
+    into numba's cache."""
     import subprocess
     import sys
     from pathlib import Path
@@ -80,7 +81,14 @@ def build_aot_kernels(group, directory):
 
     directory.chmod(0o700)
     root = str(Path(__file__).resolve().parents[1])
-    env = {**os.environ, "SARPROC_AOT_DIR": str(directory), "SARPROC_AOT": "1", "PYTHONPATH": root}
+    numba_cache = directory / "numba-cache"  # the user's numba cache as the builder sees it: it must stay empty
+    env = {
+        **os.environ,
+        "SARPROC_AOT_DIR": str(directory),
+        "SARPROC_AOT": "1",
+        "PYTHONPATH": root,
+        "NUMBA_CACHE_DIR": str(numba_cache),
+    }
     done = subprocess.run(
         [sys.executable, "-m", "sarproc.product.aot", group.owner, aot.module_key(group.source_paths)],
         capture_output=True,
@@ -89,6 +97,8 @@ def build_aot_kernels(group, directory):
         env=env,
     )
     assert done.returncode == 0, done.stderr[-2000:]
+    # its callees compiled in a build differ in the last bits from a plain process's (aot.private_numba_cache)
+    assert not numba_cache.exists() or not any(numba_cache.iterdir())
     aot._LOADED.pop(group.name, None)
     try:
         with aot_environment(directory):

@@ -4,9 +4,10 @@ A small scene's echoes (the demo: ~1e8 target-samples) take a few hundredths of 
 numba's start-up (~0.3 s a process); such a simulation runs the kernels compiled ahead of time
 (:mod:`sarproc.product.aot`, serial: prange as range) without importing numba, once the module is built (in
 the background, on the first small run). Pulses are independent rows and each sums its targets in order, so the
-echoes equal numba's bit for bit where both were compiled in the same process; otherwise they differ by float
-rounding (2.9e-15 relative in complex128; why the compiles differ is not settled), tested in
-tests/product/test_aot_kernels.py. Importing this module imports no numba.
+echoes equal numba's bit for bit (tested in tests/product/test_aot_kernels.py). They did not while the builder
+wrote its own compiles of the kernels' callees into numba's cache (1 ulp, 2.9e-15 relative in complex128); it
+now builds with a private cache (:func:`sarproc.product.aot.private_numba_cache`). Importing this module imports
+no numba.
 """
 
 from __future__ import annotations
