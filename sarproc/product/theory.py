@@ -233,13 +233,21 @@ def target_theory(
     range_window: str = "none",
     taper: np.ndarray | None = None,
 ) -> list[ResponseTheory]:
-    """Theory along each axis of a 2D frame for the point at frame ``coords``.
+    """Theory along each axis of a 2D frame for the point at frame ``coords``, as evaluate measures it: along
+    the response's side-lobe ridge of that axis, in that axis' units (its extent along the axis as the cut
+    crosses the main lobe).
 
     tx_pos, rx_pos: (n_pulses, 3) antenna positions of the pulses processed; ``taper``: (n_pulses,)
     amplitude weights the processor puts on the pulses (default: ``azimuth_window`` over all of them).
-    Range: the band (2B/c)|u.e| of the line of sight u at the target's illumination centre, weighted by
-    ``range_window``; other axes: k(t) = (u_tx(t) + u_rx(t)).e / lambda over the pulses, weighted by the
-    two-way antenna gain and the taper.
+    In the frame's own coordinates each pulse sees spatial frequencies kappa = (u_tx + u_rx) . E / lambda (E:
+    the frame's axis vectors, u the lines of sight), so the support is two bands: the range band
+    (2 B / c) u . E at the target's illumination centre, weighted by ``range_window``, and the azimuth band
+    that kappa sweeps over the pulses, weighted by the two-way antenna gain and the taper. Each axis' ridge
+    (:func:`ridge_directions`) is where the other band's phase stands still; along it the response is the
+    transform of its own band projected onto the ridge. Where the bands lie along the frame's frequency axes
+    (a line-of-sight frame, the squint frame), the ridges are the axes; a squinted aperture in a
+    zero-Doppler or ground frame has both ridges rotated, and an axis' own band alone would put the range
+    theory 1 / cos^2(squint) too wide along the ridge evaluate cuts.
     """
     p0 = np.asarray(frame.to_xyz(*coords), float).reshape(3)
     lit = illumination(radar, tx_pos, p0)
@@ -248,19 +256,50 @@ def target_theory(
         weights = np.ones(len(tx_pos))  # unlit (e.g. a rect beam that misses it): the aperture's theory
     u = _unit(p0 - tx_pos) + _unit(p0 - rx_pos)  # (n_pulses, 3): two-way line of sight
     centre = int(np.clip(np.round(np.average(np.arange(len(u)), weights=weights)), 0, len(u) - 1))
-    out = []
     eps = 1e-3
-    for i, ax in enumerate(frame.axes):
+    axes_xyz = []
+    for i in range(len(frame.axes)):
         shifted = list(coords)
         shifted[i] = shifted[i] + eps
-        e = (np.asarray(frame.to_xyz(*shifted), float).reshape(3) - p0) / eps
+        axes_xyz.append((np.asarray(frame.to_xyz(*shifted), float).reshape(3) - p0) / eps)
+    E = np.stack(axes_xyz, axis=1)  # (3, ndim)
+    kappa = (u @ E) / radar.wavelength  # (n_pulses, ndim): cycles per axis unit
+    main = lit.in_beam & (weights > 0)
+    lit_rows = np.flatnonzero(main if np.count_nonzero(main) > 1 else weights > 0)
+    azimuth_band = kappa[lit_rows[-1]] - kappa[lit_rows[0]]
+    range_band = (radar.bandwidth / C) * (u[centre] @ E)
+    bands = [range_band if ax == "range" else azimuth_band for ax in frame.axes]
+    ridges = ridge_directions(bands)
+    out = []
+    for ax, d in zip(frame.axes, ridges):
         if ax == "range":
-            out.append(window_theory(range_window).scaled(1.0 / ((radar.bandwidth / C) * abs(float(u[centre] @ e)))))
+            out.append(window_theory(range_window).scaled(1.0 / abs(float(range_band @ d))))
             continue
-        k = (u @ e) / radar.wavelength
-        main = lit.in_beam & (weights > 0)
+        k = kappa @ d
         band = (k[main].min(), k[main].max()) if np.count_nonzero(main) > 1 else None
         out.append(response_theory(k, weights, band))
+    return out
+
+
+def ridge_directions(bands: Sequence[np.ndarray]) -> list[np.ndarray]:
+    """Per axis a, the direction (axis units, its a-th component 1) along which every other band's phase stands
+    still: the side-lobe ridge of a support spanned by the ``bands`` (one band vector per axis, in cycles per
+    axis unit; axis a's own band is the a-th). A band with no extent, or a ridge that would run parallel to
+    the axis' own band's edges, leaves that axis' direction the axis itself."""
+    B = np.asarray(bands, float)  # (ndim, ndim): row j the band of axis j
+    ndim = B.shape[0]
+    out = []
+    for a in range(ndim):
+        d = np.eye(ndim)[a]
+        others = [j for j in range(ndim) if j != a and np.linalg.norm(B[j]) > 0]
+        if others:
+            rest = [b for b in range(ndim) if b != a]
+            M = B[np.ix_(others, rest)]  # others . d = 0 with d_a = 1: M d_rest = -B[others, a]
+            if M.shape[0] == M.shape[1] and abs(np.linalg.det(M)) > 1e-12 * np.abs(B).max() ** len(others):
+                d[rest] = np.linalg.solve(M, -B[others, a])
+        if not abs(float(B[a] @ d)) > 0:
+            d = np.eye(ndim)[a]
+        out.append(d)
     return out
 
 

@@ -20,8 +20,16 @@ SQUINT_SPOTLIGHT = load_yaml(CONFIGS / "bp_squint30.yaml")
 
 @pytest.mark.parametrize(
     "scene,frame",
-    [(STRIPMAP, "zero_doppler"), (SQUINT_SPOTLIGHT, "los")],
-    ids=["broadside-stripmap", "squint30-spotlight"],
+    [
+        (STRIPMAP, "zero_doppler"),
+        (SQUINT_SPOTLIGHT, "los"),
+        # the 30 deg squinted response rotated in these frames: each target's theory along its own ridges
+        # (theory.ridge_directions; an axis' own band alone read IRW/theory cos^2(30 deg) = 0.75 in range)
+        (SQUINT_SPOTLIGHT, "zero_doppler"),
+        # targets on the ground plane (bp_squint30's are in the slant plane, off it: laid over in a ground image)
+        ({**SQUINT_SPOTLIGHT, "targets": {**SQUINT_SPOTLIGHT["targets"], "frame": "ground"}}, "ground"),
+    ],
+    ids=["broadside-stripmap", "squint30-spotlight", "squint30-zero-doppler", "squint30-ground"],
 )
 def test_backprojection_reaches_theory(scene, frame):
     raw = simulate(scene_from_mapping(scene))
