@@ -88,6 +88,7 @@ def backproject(
     with naming(input_path, config_path, "backproject"):
         plan = bp.plan_backprojection(raw, params, grid_targets=names)
         pulses = bp.pulse_set(raw, params)
+        bp.warn_ambiguities(raw, plan, pulses)
     raw.data = None  # type: ignore[assignment]  # the pulses hold what the blocks need: free the echoes
     header = bp.image_product(raw, plan, params, np.broadcast_to(np.complex64(0), plan.shape))
     header.history[-1]["command"] = f"sarproc backproject {input_path}"

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import logging
 import math
 import os
 from typing import TYPE_CHECKING, Any
@@ -24,11 +25,13 @@ import numpy as np
 from sarproc.dsp.rangecomp import FILTERS, range_compress
 from sarproc.product import beam, fft as sfft, moving, theory
 from sarproc.product.config import as_dict, param
-from sarproc.product.errors import InputError
+from sarproc.product.errors import IMAGE_DEFECT, InputError
 from sarproc.product.frames import Frame, image_axis, make_frame, targets_in_frame
 from sarproc.product.metadata import SINC_IRW_FACTOR, C
 from sarproc.product.model import Product, target_names
 from sarproc.product.theory import WINDOWS
+
+log = logging.getLogger(__name__)
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -1048,12 +1051,24 @@ def backproject(
     """
     plan = plan_backprojection(raw, params, grid_targets)
     pulses = pulse_set(raw, params)
+    warn_ambiguities(raw, plan, pulses)
     img = np.empty(plan.shape, np.complex64)
     for rows, block in backproject_blocks(
         pulses, plan, params, row_blocks(plan.shape, params.block_pixels), progress=progress
     ):
         img[rows] = block
     return image_product(raw, plan, params, img)
+
+
+def warn_ambiguities(raw: Product, plan: BackprojectionPlan, pulses: PulseSet) -> None:
+    """Warn where the pulses undersample the grid's Doppler, naming the targets whose ghosts land in it
+    (:mod:`sarproc.focus.backprojection_alias`); silent where the grid's Doppler fits the PRF."""
+    from sarproc.focus import backprojection_alias
+
+    times = np.asarray(raw.coords["azimuth_time"], float)
+    ambiguity = backprojection_alias.grid_ambiguity(plan, pulses, times, raw.radar)
+    for message in backprojection_alias.messages(ambiguity):
+        log.warning("backproject: %s", message, extra=IMAGE_DEFECT)
 
 
 def image_product(raw: Product, plan: BackprojectionPlan, params: BackprojectParams, img: np.ndarray) -> Product:

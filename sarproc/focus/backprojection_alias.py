@@ -1,0 +1,208 @@
+"""Azimuth ambiguities of a backprojection grid: where the pulses undersample the grid's Doppler.
+
+Backprojection sums each pixel's own phase history, so a pixel whose history matches a scatterer's up to a
+whole number of cycles per pulse (at the same range, its Doppler one PRF or more away) focuses that scatterer
+too, at full strength when the two histories stay matched over the aperture. That happens only where the grid
+spans more than the PRF of Doppler at one range: a squinted spotlight whose scene folds (paper 000's scenes,
+which the squint deramp chain unfolds) imaged by backprojection over a grid that wide. This module finds it
+before any pixel is summed: the grid's widest Doppler span at equal range (the aperture's centre pulse), and
+for every static target of the table the alias positions inside the grid, with the image's level there against
+the target's own, backprojected from the data (a handful of points).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from sarproc.product.metadata import C
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from sarproc.focus.backprojection import BackprojectionPlan, PulseSet
+    from sarproc.product.frames import Frame
+    from sarproc.product.metadata import RadarMetadata
+
+GRID_SAMPLES = 256  # grid points per axis for the Doppler span (its extent, not its detail, matters)
+ORDERS = (-2, -1, 1, 2)  # alias orders searched (Doppler offsets of m PRF)
+
+
+@dataclasses.dataclass(frozen=True)
+class DopplerAlias:
+    """A target's echoes focused a second time, ``order`` PRFs away in Doppler, inside the grid."""
+
+    target: str
+    order: int
+    azimuth: float  # frame coordinates of the alias, or of the grid's nearest point where it peaks beyond the edge
+    range: float
+    level_db: float  # |image| there over |image| at the target, from the data
+    beyond_edge: bool = False
+
+
+@dataclasses.dataclass(frozen=True)
+class GridAmbiguity:
+    """The grid's widest Doppler span at equal range (Hz, centre pulse) against the PRF, the azimuth distance
+    one PRF of Doppler makes at the grid centre (m), and every target alias inside the grid."""
+
+    doppler_span: float
+    prf: float
+    alias_spacing: float
+    aliases: tuple[DopplerAlias, ...]
+
+    @property
+    def ambiguous(self) -> bool:
+        return self.doppler_span > self.prf
+
+
+def _history(
+    xyz: np.ndarray, tx: np.ndarray, rx: np.ndarray, v_tx: np.ndarray, v_rx: np.ndarray, wavelength: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Two-way path (m) and Doppler (Hz) of points ``xyz`` (n, 3) at one pulse."""
+    d_tx, d_rx = xyz - tx, xyz - rx
+    n_tx, n_rx = np.linalg.norm(d_tx, axis=-1), np.linalg.norm(d_rx, axis=-1)
+    rate = (d_tx @ v_tx) / n_tx + (d_rx @ v_rx) / n_rx  # d(path)/dt with the scene still: -(v . u) per leg
+    return n_tx + n_rx, rate / wavelength
+
+
+def _widest_span(path: np.ndarray, doppler: np.ndarray, bandwidth: float) -> float:
+    """The widest Doppler span among points of equal path (bins of one two-way range resolution, c / B)."""
+    bins = np.floor((path - path.min()) / (C / bandwidth)).astype(np.int64)
+    n = int(bins.max()) + 1
+    hi = np.full(n, -np.inf)
+    lo = np.full(n, np.inf)
+    np.maximum.at(hi, bins, doppler)
+    np.minimum.at(lo, bins, doppler)
+    seen = np.isfinite(hi)
+    return float((hi[seen] - lo[seen]).max())
+
+
+def _solve_alias(
+    start: tuple[float, float], goal: tuple[float, float], history: Callable[[np.ndarray], tuple[float, float]]
+) -> tuple[float, float] | None:
+    """Frame coordinates (azimuth, range) where ``history`` (path, Doppler) is ``goal``, by Newton from ``start``."""
+    q = np.array(start, float)
+    for _ in range(30):
+        value = np.array(history(q)) - goal
+        if abs(value[0]) < 1e-4 and abs(value[1]) < 1e-4:
+            return float(q[0]), float(q[1])
+        jac = np.empty((2, 2))
+        for a, step in enumerate((1e-2, 1e-2)):
+            shifted = q.copy()
+            shifted[a] += step
+            jac[:, a] = (np.array(history(shifted)) - goal - value) / step
+        try:
+            q = q - np.linalg.solve(jac, value)
+        except np.linalg.LinAlgError:
+            return None
+    return None
+
+
+def grid_ambiguity(
+    plan: BackprojectionPlan, pulses: PulseSet, times: np.ndarray, radar: RadarMetadata
+) -> GridAmbiguity | None:
+    """The grid's azimuth ambiguity (None for a 3D grid or a single pulse): see the module doc.
+
+    A beam that moves with the platform (stripmap, sliding spotlight) lets each point's echoes into the pulses
+    of its own beam only: the Doppler that can meet at one range is then the beam's band, and a grid longer
+    than the beam is no ambiguity while that band fits the PRF (the simulator warns when it does not)."""
+    if plan.elevation is not None or len(times) < 3:
+        return None
+    prf = float(radar.prf)
+    if radar.mode != "spotlight" and radar.azimuth_beamwidth > 0:
+        band = 2 * radar.velocity * math.cos(radar.squint) * radar.azimuth_beamwidth / radar.wavelength
+        if band <= prf:
+            return GridAmbiguity(band, prf, math.inf, ())
+    c = len(times) // 2
+    tx, rx = pulses.tx, pulses.rx[0]
+    v_tx, v_rx = np.gradient(tx, times, axis=0)[c], np.gradient(rx, times, axis=0)[c]
+    wavelength = C / pulses.carrier_frequency
+    frame = plan.frame
+
+    def history(coords: np.ndarray) -> tuple[float, float]:
+        xyz = np.asarray(frame.to_xyz(coords[0], coords[1]), float).reshape(1, 3)
+        path, doppler = _history(xyz, tx[c], rx[c], v_tx, v_rx, wavelength)
+        return float(path[0]), float(doppler[0])
+
+    az = plan.azimuth[np.unique(np.linspace(0, len(plan.azimuth) - 1, GRID_SAMPLES).astype(int))]
+    rg = plan.range[np.unique(np.linspace(0, len(plan.range) - 1, GRID_SAMPLES).astype(int))]
+    grid_az, grid_rg = np.meshgrid(az, rg, indexing="ij")
+    xyz = np.asarray(frame.to_xyz(grid_az.ravel(), grid_rg.ravel()), float).reshape(-1, 3)
+    path, doppler = _history(xyz, tx[c], rx[c], v_tx, v_rx, wavelength)
+    span = _widest_span(path, doppler, pulses.bandwidth)
+    mid = (float(np.mean(plan.azimuth)), float(np.mean(plan.range)))
+    step = max(float(np.ptp(plan.azimuth)) / 100, 1e-3)
+    slope = (history(np.array([mid[0] + step, mid[1]]))[1] - history(np.array(mid))[1]) / step  # Hz per m
+    spacing = prf / abs(slope) if slope != 0 else math.inf
+    if span <= prf:
+        return GridAmbiguity(span, prf, spacing, ())
+    found = []
+    # an alias up to a resolution cell beyond the grid's edge still puts its main lobe inside
+    irw = [float(x) for x in plan.attrs.get("theoretical_irw", (0.0, 0.0))]
+    bounds = (min(plan.azimuth[0], plan.azimuth[-1]) - irw[0], max(plan.azimuth[0], plan.azimuth[-1]) + irw[0])
+    r_bounds = (min(plan.range[0], plan.range[-1]) - irw[1], max(plan.range[0], plan.range[-1]) + irw[1])
+    targets = plan.targets
+    for k in range(len(targets)):  # type: ignore[arg-type]
+        row = targets[k]  # type: ignore[index]
+        if any(float(row[v]) != 0 for v in ("vx", "vy", "vz")):
+            continue  # a mover focuses where it appears, not at its table position
+        p = (float(row["azimuth"]), float(row["range"]))
+        if not (bounds[0] <= p[0] <= bounds[1] and r_bounds[0] <= p[1] <= r_bounds[1]):
+            continue
+        path_p, f_p = history(np.array(p))
+        for m in ORDERS:
+            q = _solve_alias((p[0] + m * prf / slope, p[1]), (path_p, f_p + m * prf), history)
+            if q is not None and bounds[0] <= q[0] <= bounds[1] and r_bounds[0] <= q[1] <= r_bounds[1]:
+                found.append((row["name"], m, p, q))
+    edges = ((bounds[0] + irw[0], bounds[1] - irw[0]), (r_bounds[0] + irw[1], r_bounds[1] - irw[1]))
+    return GridAmbiguity(span, prf, spacing, tuple(_levels(found, frame, pulses, edges)))
+
+
+def _levels(found: list, frame: Frame, pulses: PulseSet, edges: tuple) -> list[DopplerAlias]:
+    """Each alias with the image's level there against its target's, backprojected from the pulses; an alias
+    peaking beyond the grid's ``edges`` ((lo, hi) per axis) is read at the grid's nearest point."""
+    from sarproc.focus.backprojection import backproject_points
+
+    if not found:
+        return []
+    found = [(n, m, p, (float(np.clip(q[0], *edges[0])), float(np.clip(q[1], *edges[1]))), q) for n, m, p, q in found]
+    coords = np.array([c for _, _, p, q, _ in found for c in (p, q)], float)
+    xyz = np.asarray(frame.to_xyz(coords[:, 0], coords[:, 1]), float).reshape(-1, 3)
+    values = np.zeros(len(xyz), complex)
+    for rc, rx in zip(pulses.channels, pulses.rx):  # the channels summed coherently, as the image sums them
+        values += backproject_points(
+            rc, pulses.range_time, pulses.tx, rx, xyz, pulses.carrier_frequency, gate_offset=pulses.gate_offset
+        )
+    out = []
+    for i, (name, m, _, q, peak) in enumerate(found):
+        at_p, at_q = abs(values[2 * i]), abs(values[2 * i + 1])
+        level = 20 * math.log10(at_q / at_p) if at_p > 0 and at_q > 0 else -math.inf
+        label = name.decode() if isinstance(name, bytes) else str(name)
+        out.append(DopplerAlias(label, m, q[0], q[1], level, beyond_edge=q != peak))
+    return out
+
+
+def messages(ambiguity: GridAmbiguity | None, floor_db: float = -50.0) -> list[str]:
+    """What to warn about (nothing where the grid's Doppler fits the PRF, or its targets' aliases are all below
+    ``floor_db``)."""
+    if ambiguity is None or not ambiguity.ambiguous:
+        return []
+    head = (
+        f"the grid spans {ambiguity.doppler_span:.4g} Hz of Doppler at equal range, more than the PRF "
+        f"{ambiguity.prf:.4g} Hz: pixels about {ambiguity.alias_spacing:.4g} m apart in azimuth receive the same "
+        "echoes (raise the PRF, narrow the grid's azimuth extent, or use a chain that unfolds the spectrum)"
+    )
+    strong = [a for a in ambiguity.aliases if a.level_db > floor_db]
+    if not ambiguity.aliases:
+        return [head + "; a scatterer in one also appears in the other"]
+    if not strong:
+        return []
+    ghosts = "; ".join(
+        f"target {a.target}'s ghost {'on the grid edge ' if a.beyond_edge else ''}at azimuth {a.azimuth:.6g} m, "
+        f"range {a.range:.8g} m ({a.order:+d} PRF, {a.level_db:+.1f} dB against {a.target})"
+        for a in sorted(strong, key=lambda a: -a.level_db)
+    )
+    return [f"{head}; in this image: {ghosts}"]
