@@ -388,8 +388,8 @@ def test_slow_movers_velocities_are_within_their_stated_uncertainties(slowish):
     """The clutter in the mover's autofocus cell pulls its range acceleration (v_a +0.70 m/s here, +0.10 without
     the clutter; v_r -0.318 through v_los = v_r cos(theta) + v_a sin(theta)). The stated 1-sigma covers both
     (reconstruct._uncertainties): the CRB from the autofocus's own SNR (14.8 dB: 0.685 m/s) missed the pull, which
-    the autofocus on the mover's illumination alone measures (reconstruct.illumination_pull: -0.666 m/s), so
-    v_a_sigma is 0.955 and v_r_sigma 0.455 (scripts/movers_sigma_003.py: 5 of 9 clutter movers' v_a within 1 sigma,
+    the autofocus on the mover's illumination alone measures (reconstruct.illumination_pull: -0.707 m/s), so
+    v_a_sigma is 0.984 and v_r_sigma 0.463 (scripts/movers_sigma_003.py: 5 of 9 clutter movers' v_a within 1 sigma,
     7 within 2; docs/multichannel.md section 8)."""
     by_name, _ = found(slowish[1])
     row = by_name["SLOWISH"]

@@ -781,7 +781,7 @@ def illumination_pull(
     cubic term ``jerk`` dt^3 / 6; sharpness over u in +-``span`` at 1 m/s, then +-0.5 m/s at 0.1 zero-padded to
     twice the window, each refined by a parabola. The autofocus runs on the whole output time (``_autofocus``),
     where the mover's cells also hold clutter illuminated before and after it, whose focus pulls the sharpness
-    maximum (SLOWISH: -0.67 of its +0.70 m/s v_a error). The data outside hold nothing of the mover, so without such
+    maximum (SLOWISH: -0.71 of its +0.70 m/s v_a error). The data outside hold nothing of the mover, so without such
     interference both estimates measure the same R'' and differ by noise only (variance var_full - var_window):
     the offset is the pull itself, estimated from the data, not from a model of it.
     """
