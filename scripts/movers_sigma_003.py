@@ -11,7 +11,8 @@ A small Monte-Carlo of reduced scenes, each simulated and reconstructed in-proce
 Per mover: the error of v_r and v_a against the truth and the stated 1-sigma; per column, the fraction of
 |error| <= 1 sigma (68 % if calibrated) and <= 2 sigma (95 %). The sigma that the detection SNR alone gives (the
 rule before the autofocus's own signal-to-clutter-plus-noise ratio and the propagation of v_a's error into v_r)
-is tabulated beside it. Writes <results>/sigma_calibration.md.
+is tabulated beside it; "pull" is v_a's offset on the mover's illumination alone (reconstruct.illumination_pull, in
+v_a_sigma since issue 19's sigma calibration). Writes <results>/sigma_calibration.md.
 
     PYTHONPATH=. python scripts/movers_sigma_003.py --results results/003-movers
 """
@@ -94,11 +95,13 @@ def rows_of(mapping: dict, clutter: bool) -> tuple[list[dict], float]:
         r = {c: float(v[i]) for c, v in table.items()}
         old_r, old_a = detection_snr_sigmas(r["snr"], n_rx, dx, 600e3)
         af = info[int(r["id"])].get("autofocus_snr_db")
+        pull = info[int(r["id"])].get("autofocus_pull")
         out.append(
             {
                 "name": names[k],
                 "snr": r["snr"],
                 "af_snr": float("nan") if af is None else af,
+                "pull": float("nan") if pull is None else pull,
                 "dv_r": r["v_r"] - float(rec.targets["vy"][k]),
                 "s_r": r["v_r_sigma"],
                 "dv_a": r["v_a"] - float(rec.targets["vx"][k]),
@@ -124,8 +127,8 @@ def main() -> None:
     lines = [
         "# 1-sigma calibration of the moving_targets velocities (scripts/movers_sigma_003.py)",
         "",
-        "| case | SNR dB | autofocus SNR dB | dv_r | sigma_r (before) | dv_a | sigma_a (before) |",
-        "|---|---|---|---|---|---|---|",
+        "| case | SNR dB | autofocus SNR dB | pull | dv_r | sigma_r (before) | dv_a | sigma_a (before) |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     cluttered: list[dict] = []
     clean: list[dict] = []
@@ -134,7 +137,8 @@ def main() -> None:
         for r in rows:
             into.append(r)
             line = (
-                f"| {case} {r['name']} | {r['snr']:.1f} | {r['af_snr']:.1f} | {r['dv_r']:+.3f} | {r['s_r']:.3f} "
+                f"| {case} {r['name']} | {r['snr']:.1f} | {r['af_snr']:.1f} | {r['pull']:+.3f} | {r['dv_r']:+.3f} "
+                f"| {r['s_r']:.3f} "
                 f"({r['old_r']:.3f}) | {r['dv_a']:+.3f} | {r['s_a']:.3f} ({r['old_a']:.3f}) |"
             )
             lines.append(line)
@@ -149,7 +153,7 @@ def main() -> None:
             rows, secs = rows_of(scene([vehicle("SLOWISH", 0, 0, v_a, v_r)], seed), True)
             add(f"clutter seed {seed} v_r {v_r:g} v_a {v_a:g}", rows, secs, cluttered)
             if not rows:
-                lines.append(f"| clutter seed {seed} v_r {v_r:g} v_a {v_a:g}: not found | | | | | | |")
+                lines.append(f"| clutter seed {seed} v_r {v_r:g} v_a {v_a:g}: not found | | | | | | | |")
     lines += [
         "",
         "Fraction of movers with |error| <= 1 sigma / <= 2 sigma (68 % / 95 % if calibrated):",

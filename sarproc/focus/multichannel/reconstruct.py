@@ -163,6 +163,8 @@ class MovingTarget:
     snr_db: float = float("nan")  # detection SNR (peak over mean local background)
     # the autofocus's own integrated signal to clutter-plus-noise ratio (power; nan: no autofocus, inf: no interference)
     autofocus_snr: float = float("nan")
+    # m/s: the autofocus's v_a offset on the mover's illumination alone (illumination_pull; nan: no autofocus)
+    autofocus_pull: float = float("nan")
     apparent_time: float = float("nan")  # s, where it appears (beam-centre time of its static equivalent)
     apparent_range: float = float("nan")  # m, slant range of its static equivalent at apparent_time
     # with the null fit: the output azimuth sample where the mover appears (None: eq. 5 was kept)
@@ -479,6 +481,7 @@ class _Estimate:
     unexplained: tuple[float, float, float, float] | None = None
     autofocus: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 2)))  # (n, 2) v_a, sharpness
     autofocus_snr: float = math.inf  # integrated signal to clutter-plus-noise ratio the autofocus saw (_autofocus_snr)
+    pull: float = float("nan")  # m/s: v_a's offset on the mover's illumination alone (illumination_pull)
 
     def v_los(self, g: _Geometry) -> float:
         return channels.line_of_sight_velocity(self.v_r, self.v_a, g.squint)
@@ -689,6 +692,17 @@ def _autofocus(
     rdot = -(g.velocity - v_a) * math.sin(g.squint) + vr_a * math.cos(g.squint)
     jerk = -3 * rdot * acc / slant_range
     est.autofocus_snr = _autofocus_snr(y_own, win.f_r, g, acc, t_c, t_ill, params.separation_bandwidth, jerk)
+    # the autofocus again on the mover's illumination alone: its offset is the pull of the clutter outside it
+    d_u = 0.5
+    acc_hi, acc_lo = (
+        velocity.range_acceleration(
+            g.velocity, u, (v_los - u * math.sin(g.squint)) / math.cos(g.squint), g.squint, slant_range
+        )
+        for u in (v_a + d_u, v_a - d_u)
+    )
+    est.pull = illumination_pull(
+        y_cells, g.out_times, g.fc, acc, (acc_hi - acc_lo) / (2 * d_u), jerk, t_c, t_ill, params.autofocus_span
+    )
     est.v_a = v_a
     est.v_r = (v_los - v_a * math.sin(g.squint)) / math.cos(g.squint)
     if params.radial_velocity is None and can_search:
@@ -747,6 +761,46 @@ def _autofocus_snr(
     # less the focused mover's own residue there (AUTOFOCUS_SELF: what noise-free clean movers leave)
     interference = float(np.mean(p[ring] - peak * np.sinc((f[ring] - f0) * t_w) ** 2)) - peak * AUTOFOCUS_SELF
     return peak / interference if interference > 0 else math.inf
+
+
+def illumination_pull(
+    y_cells: np.ndarray,
+    times: np.ndarray,
+    fc: float,
+    acc: float,
+    dacc_dva: float,
+    jerk: float,
+    t_0: float,
+    t_ill: float,
+    span: float,
+) -> float:
+    """How far (m/s) the autofocus's v_a moves when its data are kept to the mover's own illumination: the offset of
+    the sharpness maximum on |t' - ``t_0``| <= ``t_ill`` / 2 from that at R'' = ``acc``.
+
+    ``y_cells`` (t', cells): the autofocus's own data. Trial R'' = ``acc`` + ``dacc_dva`` u about t_0, with the
+    cubic term ``jerk`` dt^3 / 6; sharpness over u in +-``span`` at 1 m/s, then +-0.5 m/s at 0.1 zero-padded to
+    twice the window, each refined by a parabola. The autofocus runs on the whole output time (``_autofocus``),
+    where the mover's cells also hold clutter illuminated before and after it, whose focus pulls the sharpness
+    maximum (SLOWISH: -0.71 of its +0.70 m/s v_a error). The data outside hold nothing of the mover, so without such
+    interference both estimates measure the same R'' and differ by noise only (variance var_full - var_window):
+    the offset is the pull itself, estimated from the data, not from a model of it.
+    """
+    inside = np.abs(times - t_0) <= t_ill / 2
+    if inside.sum() < 8:
+        return float("nan")
+    dt = times[inside] - t_0
+    base = y_cells[inside] * np.exp(2j * np.pi * fc / C * (acc * dt**2 + jerk * dt**3 / 3))[:, None]
+    phase = (2 * np.pi * fc / C * dacc_dva * dt**2)[:, None]
+    m = int(inside.sum())
+
+    def crit(u: float, n_fft: int) -> float:
+        return velocity.sharpness(sfft.fft(base * np.exp(1j * u * phase), n=n_fft, axis=0, workers=-1))
+
+    # the whole span unpadded (a gross pull, scripts/movers_sigma_003.py seed 1 (4, -6): -6.1 m/s, with a local
+    # maximum near 0), then the peak zero-padded to twice the window against scalloping
+    u, _ = velocity.maximise(lambda x: crit(x, sfft.next_fast_len(m)), -span, span, 1.0)
+    padded = sfft.next_fast_len(2 * m)
+    return velocity.maximise(lambda x: crit(x, padded), u - 0.5, u + 0.5, 0.1)[0]
 
 
 def _bound_notes(est: _Estimate, params: ReconstructParams) -> tuple[bool, list[str]]:
@@ -847,6 +901,7 @@ def _estimate(
         null_fit_index=appears,
         null_fit_cell=appears_cell,
         autofocus_snr=est.autofocus_snr if len(est.autofocus) else float("nan"),
+        autofocus_pull=est.pull if len(est.autofocus) else float("nan"),
     ), notes
 
 
@@ -1925,7 +1980,10 @@ def _uncertainties(mt: MovingTarget, g: _Geometry) -> tuple[float, float, float]
     v_a (autofocus): the quadratic phase coefficient over T has variance 90 / (snr_af T^4), so
     sigma_K = sqrt(90 / snr_af) / (pi T^2) and dK/dv_a = 2 K / v; snr_af is the autofocus's own integrated signal to
     clutter-plus-noise ratio (_autofocus_snr: the clutter in the mover's cells, which the null hid from the
-    detection SNR, counts), never above the detection SNR (which it is where no autofocus ran).
+    detection SNR, counts), never above the detection SNR (which it is where no autofocus ran). The clutter in the
+    mover's cells illuminated before and after it pulls the autofocus (a bias, not noise: no SNR predicts it); the
+    autofocus run again on the mover's illumination alone measures that pull (illumination_pull), added in
+    quadrature. Without such clutter the term is noise of variance var_full - var_window (at most the CRB term's).
     v_r = (v_los - v_a sin(theta)) / cos(theta) (the refined search keeps v_los with v_a fixed), so
     sigma_vr^2 = (sigma_los^2 + sin(theta)^2 sigma_va^2) / cos(theta)^2.
     Each is combined with the estimator's floor on noise-free scenes (VELOCITY_FLOOR, measured on
@@ -1944,7 +2002,9 @@ def _uncertainties(mt: MovingTarget, g: _Geometry) -> tuple[float, float, float]
     ka = 2 * (g.velocity * cos) ** 2 / (lam * mt.apparent_range)
     t_ill = 2 * g.half_band / ka
     s_k = math.sqrt(90 / snr_af) / (math.pi * t_ill**2)
-    s_a = math.hypot(s_k * g.velocity / (2 * ka), floor_a)
+    # the clutter's pull, which the CRB misses: measured by the autofocus itself (illumination_pull)
+    pull = abs(mt.autofocus_pull) if np.isfinite(mt.autofocus_pull) else 0.0
+    s_a = math.hypot(math.hypot(s_k * g.velocity / (2 * ka), floor_a), pull)
     s_r_known_a = math.hypot(s_los / cos, floor_r)  # v_r's 1-sigma were v_a exact
     s_r = math.hypot(s_r_known_a, sin / cos * s_a)
     s_x = mt.apparent_range * math.hypot(cos * s_r_known_a, sin * s_a) / g.velocity
@@ -2063,6 +2123,8 @@ def _output_product(
                 "snr_db": float(mt.snr_db) if np.isfinite(mt.snr_db) else None,
                 # the autofocus's own signal to clutter-plus-noise ratio (v_a_sigma's; None: no autofocus or none)
                 "autofocus_snr_db": 10 * math.log10(mt.autofocus_snr) if 0 < mt.autofocus_snr < math.inf else None,
+                # v_a's offset (m/s) on its illumination alone: the clutter's pull in v_a_sigma (None: no autofocus)
+                "autofocus_pull": float(mt.autofocus_pull) if np.isfinite(mt.autofocus_pull) else None,
                 "apparent_time": float(mt.apparent_time) if np.isfinite(mt.apparent_time) else None,
             }
         )
