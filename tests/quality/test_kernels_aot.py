@@ -13,7 +13,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
 from conftest import build_aot_kernels
 
@@ -33,49 +32,76 @@ def built(tmp_path_factory):
     return d, build_aot_kernels(kernels_aot.QUALITY, d)
 
 
-def test_compiled_kernels_equal_numbas(built):
-    """Each export (serial) on the same arguments as numba's kernel (parallel where it is): the same bits."""
-    from sarproc.quality import kernels as nk
+# Each export (serial) on the same arguments as numba's kernel (parallel where it is), compared in a process
+# whose numba compiles its kernels itself (a private cache, see fresh_numba): the same bits.
+COMPARE = """
+import numpy as np
+from sarproc.quality import kernels as nk, kernels_aot
 
-    k = built[1]
-    rng = np.random.default_rng(21)
-    cand = rng.standard_normal((700, 3))
-    cand /= np.linalg.norm(cand, axis=1)[:, None]
-    u = rng.standard_normal((900, 3))
-    u /= np.linalg.norm(u, axis=1)[:, None]
-    w = rng.random(900)
-    assert np.array_equal(k.orientation_density(cand, u, w, 0.05), nk.orientation_density(cand, u, w, 0.05))
-    mag = np.abs(rng.standard_normal((9, 11, 7)))
-    h = np.array([0.3, 0.2, 0.5])
-    for a, b in zip(k.strong_from_norms(mag, h, k.gradient_norms(mag, h), 0.05), nk.strong_gradients(mag, h, 0.05)):
-        assert np.array_equal(a, b) and a.shape[0] > 0
-    V = np.eye(3) + 0.05 * rng.standard_normal((3, 3))
-    ridge = np.linalg.inv(V.T) / np.array([2.5, 1.7, 1.2])[:, None]
-    position, f_c, chirp = np.array([7.0, 5.3, 4.0]), np.array([0.11, -0.27, 0.43]), np.array([0.008, -0.011, 0.003])
-    q = np.arange(-12, 13) / 8.0
-    table = np.stack([np.zeros(25), np.zeros(25), np.sinc(q) * (1 - 0.1 * q**2)])
-    shapes = [
-        (np.zeros(3), np.zeros((3, 25)), np.zeros(3)),
-        (np.array([6.0, 0.0, 0.0]), table, np.array([0.0, 0.0, 8.0])),
-    ]
-    origins, sizes = np.array([[0.0, 1.0, 2.0], [3.0, 1.0, 0.0]]), np.array([[7, 6, 5], [5, 8, 6]], dtype=np.int64)
-    step = np.array([2.0, 1.0, 1.0])
-    points = np.ascontiguousarray(rng.uniform(0, 12, (3, 400)))
-    points[:, :5] = position[:, None]  # on the ridge coordinates' zero
-    inverse = np.arange(7 * 6 * 5 + 5 * 8 * 6, dtype=np.int64) % 300
-    for hamming in (False, True):
-        for period, tab, rate in shapes:
-            args = (position, ridge, f_c, chirp, period, tab, rate, hamming)
-            for name in ("ideal_response", "ideal_response_serial"):
-                assert np.array_equal(getattr(k, name)(points, *args), getattr(nk, name)(points, *args)), name
-            a = k.ideal_response_box(origins[1], step, sizes[1], *args)
-            assert np.array_equal(a, nk.ideal_response_box(origins[1], step, sizes[1], *args))
-            a = k.ideal_response_boxes(origins, step, sizes, inverse, 300, *args)
-            assert np.array_equal(a, nk.ideal_response_boxes(origins, step, sizes, inverse, 300, *args))
-    coef = rng.standard_normal(5000) + 1j * rng.standard_normal(5000)
-    x = rng.uniform(-np.pi, np.pi, 5000)
-    for chunks in (1, 2, 3):
-        assert np.array_equal(k.spread(coef, x, 256, 16, 36.8, chunks), nk.spread(coef, x, 256, 16, 36.8, chunks))
+k = kernels_aot.QUALITY.load()
+assert k is not None and kernels_aot.QUALITY.is_compiled(k)
+rng = np.random.default_rng(21)
+cand = rng.standard_normal((700, 3))
+cand /= np.linalg.norm(cand, axis=1)[:, None]
+u = rng.standard_normal((900, 3))
+u /= np.linalg.norm(u, axis=1)[:, None]
+w = rng.random(900)
+assert np.array_equal(k.orientation_density(cand, u, w, 0.05), nk.orientation_density(cand, u, w, 0.05))
+mag = np.abs(rng.standard_normal((9, 11, 7)))
+h = np.array([0.3, 0.2, 0.5])
+for a, b in zip(k.strong_from_norms(mag, h, k.gradient_norms(mag, h), 0.05), nk.strong_gradients(mag, h, 0.05)):
+    assert np.array_equal(a, b) and a.shape[0] > 0
+V = np.eye(3) + 0.05 * rng.standard_normal((3, 3))
+ridge = np.linalg.inv(V.T) / np.array([2.5, 1.7, 1.2])[:, None]
+position, f_c, chirp = np.array([7.0, 5.3, 4.0]), np.array([0.11, -0.27, 0.43]), np.array([0.008, -0.011, 0.003])
+q = np.arange(-12, 13) / 8.0
+table = np.stack([np.zeros(25), np.zeros(25), np.sinc(q) * (1 - 0.1 * q**2)])
+shapes = [
+    (np.zeros(3), np.zeros((3, 25)), np.zeros(3)),
+    (np.array([6.0, 0.0, 0.0]), table, np.array([0.0, 0.0, 8.0])),
+]
+origins, sizes = np.array([[0.0, 1.0, 2.0], [3.0, 1.0, 0.0]]), np.array([[7, 6, 5], [5, 8, 6]], dtype=np.int64)
+step = np.array([2.0, 1.0, 1.0])
+points = np.ascontiguousarray(rng.uniform(0, 12, (3, 400)))
+points[:, :5] = position[:, None]  # on the ridge coordinates' zero
+inverse = np.arange(7 * 6 * 5 + 5 * 8 * 6, dtype=np.int64) % 300
+for hamming in (False, True):
+    for period, tab, rate in shapes:
+        args = (position, ridge, f_c, chirp, period, tab, rate, hamming)
+        for name in ("ideal_response", "ideal_response_serial"):
+            assert np.array_equal(getattr(k, name)(points, *args), getattr(nk, name)(points, *args)), name
+        a = k.ideal_response_box(origins[1], step, sizes[1], *args)
+        assert np.array_equal(a, nk.ideal_response_box(origins[1], step, sizes[1], *args))
+        a = k.ideal_response_boxes(origins, step, sizes, inverse, 300, *args)
+        assert np.array_equal(a, nk.ideal_response_boxes(origins, step, sizes, inverse, 300, *args))
+coef = rng.standard_normal(5000) + 1j * rng.standard_normal(5000)
+x = rng.uniform(-np.pi, np.pi, 5000)
+for chunks in (1, 2, 3):
+    assert np.array_equal(k.spread(coef, x, 256, 16, 36.8, chunks), nk.spread(coef, x, 256, 16, 36.8, chunks))
+print("equal")
+"""
+
+
+@pytest.fixture(scope="module")
+def fresh_numba(tmp_path_factory):
+    """A numba cache this module's subprocesses share and nothing else writes: their numba kernels are compiled
+    there, by a plain process, from the sources. A cache written by other processes can hold compiles that
+    differ from a fresh one in the last bits (docs/performance.md, "Traced (session 18)"), which a bit-for-bit
+    comparison with the compiled module must not depend on."""
+    return tmp_path_factory.mktemp("numba-cache")
+
+
+def test_compiled_kernels_equal_numbas(built, fresh_numba):
+    """Each export (serial) on the same arguments as numba's freshly compiled kernel: the same bits."""
+    env = {
+        **os.environ,
+        "SARPROC_AOT_DIR": str(built[0]),
+        "SARPROC_AOT": "1",
+        "PYTHONPATH": str(ROOT),
+        "NUMBA_CACHE_DIR": str(fresh_numba),
+    }
+    done = subprocess.run([sys.executable, "-c", COMPARE], capture_output=True, text=True, env=env, check=False)
+    assert done.returncode == 0 and done.stdout.strip().endswith("equal"), done.stderr[-3000:]
 
 
 def test_a_cube_reserves_the_compiled_module_only_when_all_its_kernels_pay(monkeypatch):
@@ -109,11 +135,17 @@ print(json.dumps(sorted(sys.modules)))
 """
 
 
-def test_a_small_cube_imports_no_numba_and_reports_numbas_figures(built):
+def test_a_small_cube_imports_no_numba_and_reports_numbas_figures(built, fresh_numba):
     """A crowded skewed cube (tests/quality/test_fast_path.py's: neighbours fitted, subtracted, oblique cuts; every
     3D kernel runs) evaluated in a fresh process with the module built: no numba or llvmlite imported, the
     compiled module loaded, and the report equal to the one with numba's kernels (SARPROC_AOT=0)."""
-    on = {**os.environ, "SARPROC_AOT_DIR": str(built[0]), "SARPROC_AOT": "1", "PYTHONPATH": str(ROOT)}
+    on = {
+        **os.environ,
+        "SARPROC_AOT_DIR": str(built[0]),
+        "SARPROC_AOT": "1",
+        "PYTHONPATH": str(ROOT),
+        "NUMBA_CACHE_DIR": str(fresh_numba),
+    }
     runs = {}
     for label, env in (("on", on), ("off", {**on, "SARPROC_AOT": "0"})):
         done = subprocess.run([sys.executable, "-c", CUBE], capture_output=True, text=True, env=env, check=False)
