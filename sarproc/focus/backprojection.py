@@ -773,7 +773,8 @@ class BackprojectionPlan:
         return self.frame.to_xyz(*(g.ravel() for g in grid)), grid[0].shape
 
 
-def _check_params(params: BackprojectParams) -> None:
+def check_params(params: BackprojectParams) -> None:
+    """Refuse combinations the declarations cannot (the plan estimate runs this first)."""
     if params.interpolation in ("knab", "sinc", "lanczos") and params.kernel_length % 2:
         raise InputError(
             f"backproject.kernel_length: {params.kernel_length} taps; the {params.interpolation} "
@@ -800,7 +801,7 @@ def plan_backprojection(
     these names), every target's own theory and the image attributes: all but the pixel sums."""
     if raw.kind not in ("raw", "raw_multichannel", "raw_array"):
         raise InputError(f"backproject needs a raw product, got {raw.kind!r}")
-    _check_params(params)
+    check_params(params)
     radar = raw.radar
     if params.frame == "product":
         spec = raw.attrs.get("frame") or {"name": "squint"}

@@ -160,6 +160,9 @@ def backproject_block_pixels(header: Product, params: Any, memory_limit: int | N
 
 def backproject_estimate(stage: str, header: Product, params: Any, memory_limit: int | None = None) -> Plan:
     """``memory_limit``: --max-memory (bytes), which sets the output blocks (:func:`backproject_block_pixels`)."""
+    from sarproc.focus.backprojection import check_params
+
+    check_params(params)  # an odd ffbp_taps is an input error, not taps_of's ValueError below
     n_az, n_rg = header_shape(header)[-2:]
     n_ch = header_shape(header)[0] if len(header_shape(header)) == 3 else 1
     n_el = elevation_pixels(header, params)

@@ -396,6 +396,10 @@ config_case(
     {"backproject": {"azimuth_extent": "10 km", "range_extent": "10 km"}},
     "backproject.max_pixels",
 )
+# checked before the plan estimate, which reads the taps (was an internal ValueError, exit 1)
+config_case(
+    "config-backproject-ffbp-odd-taps", {"backproject": {"engine": "ffbp", "ffbp_taps": 5}}, "backproject.ffbp_taps"
+)
 config_case("config-backproject-frame-unknown", {"backproject": {"frame": "polar"}}, "frame")
 config_case("config-preprocess-method", {"preprocess": {"method": "bogus"}}, "preprocess.method", stage="preprocess")
 config_case(

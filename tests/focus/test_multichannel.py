@@ -223,6 +223,16 @@ def test_blind_velocities_are_told_apart_by_range_walk():
     assert ma["leakage"] == pytest.approx(mt["leakage"], rel=0.2)  # the leakage criterion alone cannot choose
 
 
+def test_blind_velocity_alias_is_chosen_again_with_the_along_track_velocity():
+    """v_r 18, v_a 10 m/s at 20 deg: at v_a = 0 its v_los reads as v_r 18 + 10 tan(20 deg) = 21.6 m/s, beyond the
+    [-20, 20] search, so the first search keeps an alias; with v_a estimated the true v_r is inside the bounds."""
+    raw = simulate(scene_from_mapping(scene([mover(v_r=18.0, v_a=10.0)])))
+    (mt,) = reconstruct(raw, ReconstructParams()).attrs["reconstruct"]["moving_targets"]
+    assert mt["radial_velocity"] == pytest.approx(18.0, abs=0.2)  # not 18 - 16.6 (one blind velocity)
+    assert mt["along_track_velocity"] == pytest.approx(10.0, abs=0.3)
+    assert not mt["at_bound"]
+
+
 # ---------------------------------------------------------------------------------------------- hard cases
 
 

@@ -881,6 +881,15 @@ def _estimate(
     t_c, slant_range = centre.t_c, centre.slant_range
     if params.autofocus and params.along_track_velocity is None:
         t_c, slant_range = _autofocus(est, win, params, g, centre, can_search)
+        # _first_search chose the blind-velocity alias at v_a = 0, but v_a moves a v_los's v_r by v_a tan(theta):
+        # with v_a known another alias may be the one inside the bounds without range walk (v_r 18, v_a 10 m/s at
+        # 20 deg reads 21.6 m/s at v_a = 0); centre and autofocus again at it
+        if can_search and params.radial_velocity is None:
+            v_r, beyond = _resolve_blind_velocity(win, est.v_r, est.v_a, params, g)
+            if abs(v_r - est.v_r) > params.velocity_step:
+                est.v_r, est.beyond = v_r, beyond
+                centre = _centre(win, g, est, centre_range, null_fit)
+                t_c, slant_range = _autofocus(est, win, params, g, centre, can_search)
     leak = win.leakage(est.v_r, est.v_a) if can_search else float("nan")
     appears = appears_cell = None
     if null_fit is not None and centre.shift is not None:
