@@ -617,14 +617,20 @@ def _tone_offset(z: np.ndarray, f_az: np.ndarray, reach: float) -> float | None:
     return float(f_az[k] + frac * (f_az[1] - f_az[0]))
 
 
+def _acceleration_keeping_los(g: _Geometry, v_los: float, u: float, slant_range: float) -> float:
+    """Range acceleration at ``slant_range`` of a mover of along-track velocity ``u`` and line-of-sight velocity
+    ``v_los`` (its v_r follows from both)."""
+    vr_u = (v_los - u * math.sin(g.squint)) / math.cos(g.squint)
+    return velocity.range_acceleration(g.velocity, u, vr_u, g.squint, slant_range)
+
+
 def _along_track_for(acc: float, v_los: float, g: _Geometry, slant_range: float, guess: float) -> float:
     """The along-track velocity u (m/s) at which a mover of line-of-sight velocity ``v_los`` at ``slant_range`` has
     range acceleration ``acc`` (velocity.range_acceleration, decreasing in u near the platform's velocity):
     bisection within +-10 m/s of ``guess``."""
 
     def acc_at(u: float) -> float:
-        vr_u = (v_los - u * math.sin(g.squint)) / math.cos(g.squint)
-        return velocity.range_acceleration(g.velocity, u, vr_u, g.squint, slant_range)
+        return _acceleration_keeping_los(g, v_los, u, slant_range)
 
     lo, hi = guess - 10.0, guess + 10.0
     if not (acc_at(lo) - acc) * (acc_at(hi) - acc) <= 0:
@@ -662,8 +668,7 @@ def _autofocus(
     t_c, slant_range = centre.t_c, centre.slant_range
 
     def crit(u: float) -> float:  # keep the line-of-sight velocity found by the search while v_a varies
-        vr_u = (v_los - u * math.sin(g.squint)) / math.cos(g.squint)
-        acc = velocity.range_acceleration(g.velocity, u, vr_u, g.squint, slant_range)
+        acc = _acceleration_keeping_los(g, v_los, u, slant_range)
         ph = deramp.quadratic_phasor(g.out_times, np.zeros(1), acc, t_c, g.fc)
         return velocity.sharpness(sfft.fft(y_cells * ph, axis=0, workers=-1))
 
@@ -694,12 +699,7 @@ def _autofocus(
     est.autofocus_snr = _autofocus_snr(y_own, win.f_r, g, acc, t_c, t_ill, params.separation_bandwidth, jerk)
     # the autofocus again on the mover's illumination alone: its offset is the pull of the clutter outside it
     d_u = 0.5
-    acc_hi, acc_lo = (
-        velocity.range_acceleration(
-            g.velocity, u, (v_los - u * math.sin(g.squint)) / math.cos(g.squint), g.squint, slant_range
-        )
-        for u in (v_a + d_u, v_a - d_u)
-    )
+    acc_hi, acc_lo = (_acceleration_keeping_los(g, v_los, u, slant_range) for u in (v_a + d_u, v_a - d_u))
     est.pull = illumination_pull(
         y_cells, g.out_times, g.fc, acc, (acc_hi - acc_lo) / (2 * d_u), jerk, t_c, t_ill, params.autofocus_span
     )
