@@ -1140,15 +1140,17 @@ def _subtract_neighbours(
     and the responses' known shapes (:func:`_neighbour_models`)."""
     models = _neighbour_models(data, peaks, nulls, half, params, chirps, shapes)
     hamming = params.irw_factor > 1.1
+    period = _period_in_samples(shapes, nulls)
     out = list(peaks)
     for i, peak in wrapped(done, list(enumerate(peaks))):
         raw = peak.raw
         shape = np.array(raw.shape)
-        lo, hi = raw.origin - np.asarray(nulls), raw.origin + shape - 1 + np.asarray(nulls)
+        centre = raw.origin + (shape - 1) / 2
+        reach = (shape - 1) / 2 + np.asarray(nulls)
         others = [
             j
             for j, m in models.items()
-            if j != i and i in m.group and np.all(m.position >= lo) and np.all(m.position <= hi)
+            if j != i and i in m.group and np.all(np.abs(_nearest_offset(centre, m.position, period)) <= reach)
         ]
         if not others or not abs(peak.value) > 0:
             continue
@@ -1360,7 +1362,8 @@ def _neighbour_models(
     """
     nulls = np.asarray(nulls, dtype=float)
     models = {}
-    for members in _overlapping_groups(peaks, np.asarray(half, dtype=float) + nulls, nulls):
+    period = _period_in_samples(shapes, nulls)
+    for members in _overlapping_groups(peaks, np.asarray(half, dtype=float) + nulls, nulls, period):
         points, y, boxes = _group_samples(data, [peaks[k].position for k in members], nulls)
         own = None if chirps is None else [chirps[k] if np.any(chirps[k] != 0) else None for k in members]
         fit = _fit_ideal_group(points, y, [peaks[k] for k in members], nulls, params, boxes, own, shapes)
@@ -1372,11 +1375,29 @@ def _neighbour_models(
     return models
 
 
-def _overlapping_groups(peaks: list, reach: np.ndarray, nulls: np.ndarray) -> list:
+def _period_in_samples(shapes: ResponseShapes | None, nulls: npt.ArrayLike) -> np.ndarray:
+    """The responses' period along each axis in samples (0: none), from the shapes' period in nulls."""
+    if shapes is None:
+        return np.zeros(np.shape(nulls))
+    return np.asarray(shapes.period, dtype=float) * np.asarray(nulls, dtype=float)
+
+
+def _nearest_offset(origin: np.ndarray, position: np.ndarray, period: np.ndarray) -> np.ndarray:
+    """position - origin per axis, where the responses are periodic (``period`` > 0, samples) the offset of
+    the nearest repetition: a uniform array's response repeats every lambda / d, so a target near one edge of
+    the elevation period puts its side lobes on targets near the other edge."""
+    d = np.asarray(position, dtype=float) - np.asarray(origin, dtype=float)
+    p = np.asarray(period, dtype=float)
+    return np.where(p > 0, d - p * np.round(d / np.where(p > 0, p, 1.0)), d)
+
+
+def _overlapping_groups(peaks: list, reach: np.ndarray, nulls: np.ndarray, period: np.ndarray | None = None) -> list:
     """Index lists (ascending) of the groups of two or more targets linked by peaks within ``reach`` (samples
-    per axis). Two truths that found the same peak (within half a null: a weaker target inside a stronger
-    one's search window) are one response: fitting it twice is singular, and subtracting the copy would
-    remove the target itself, so only the first is kept."""
+    per axis; along a periodic axis, ``period`` > 0 samples, the nearest repetition). Two truths that found the
+    same peak (within half a null: a weaker target inside a stronger one's search window) are one response:
+    fitting it twice is singular, and subtracting the copy would remove the target itself, so only the first
+    is kept."""
+    period = np.zeros(len(nulls)) if period is None else period
     live: list[int] = []
     for j, p in enumerate(peaks):
         if abs(p.value) > 0 and not any(np.all(np.abs(p.position - peaks[k].position) < 0.5 * nulls) for k in live):
@@ -1384,7 +1405,8 @@ def _overlapping_groups(peaks: list, reach: np.ndarray, nulls: np.ndarray) -> li
     group = {j: {j} for j in live}
     for j in live:
         for k in live:
-            if k > j and np.all(np.abs(peaks[j].position - peaks[k].position) <= reach) and group[j] is not group[k]:
+            near = np.all(np.abs(_nearest_offset(peaks[j].position, peaks[k].position, period)) <= reach)
+            if k > j and near and group[j] is not group[k]:
                 merged = group[j] | group[k]
                 for q in merged:
                     group[q] = merged
