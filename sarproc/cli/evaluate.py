@@ -116,6 +116,10 @@ def metrics_table(report: QualityReport, units: dict) -> str:
         "'(own)': the theory is the target's own from the targets table (irw_, null_, pslr_, islr_<axis>: "
         "its illumination and weighting), not the image's; PSLR and ISLR show it in parentheses."
     )
+    noted = [t for t in report.targets if t.notes]
+    if noted:
+        lines.append("\nNotes from the focusing stage (the figures above do not describe a focused response where so):")
+        lines += [f"- {t.name}: {'; '.join(t.notes)}." for t in noted]
     if report.movers:
         lines.append(movers_table(report.movers))
     lines += false_target_lines(report, units)

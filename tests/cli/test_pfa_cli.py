@@ -112,3 +112,63 @@ def test_gotcha_pfa_and_backprojection_agree(tmp_path):
     assert ncc > 0.95
     ia, ib = np.unravel_index(np.argmax(A), A.shape), np.unravel_index(np.argmax(B), B.shape)
     assert max(abs(i - j) for i, j in zip(ia, ib)) <= 1  # the brightest point on the same pixel
+
+
+@pytest.fixture(scope="module")
+def wide_raw(tmp_path_factory):
+    # the reduced Table 1 scene's plain PFA valid radius (eq. 7) is 97.7 m: C and R inside, F beyond
+    d = tmp_path_factory.mktemp("pfa_wide")
+    points = [{"name": "C"}, {"name": "R", "range": "80 m"}, {"name": "F", "azimuth": "150 m"}]
+    (d / "scene.yaml").write_text(yaml.safe_dump(dict(SMALL, targets={"frame": "ground_los", "points": points})))
+    res = run("simulate", d / "scene.yaml", "-o", d / "raw.h5")
+    assert res.exit_code == 0, res.output
+    return d / "raw.h5"
+
+
+def _warnings(output, phrase):
+    return [line for line in output.splitlines() if "WARNING" in line and phrase in line]
+
+
+def test_plain_pfa_beyond_the_valid_radius_warns_naming_radius_reach_and_targets(tmp_path, wide_raw):
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(yaml.safe_dump({"pfa2": {"method": "plain"}}))
+    res = run("pfa2", wide_raw, "-o", tmp_path / "image.h5", "--config", cfg)
+    assert res.exit_code == 0, res.output
+    img = read_product(tmp_path / "image.h5")
+    radius = img.attrs["valid_radius"]
+    assert 80 < radius < 150
+    (text,) = _warnings(res.output, "valid radius")
+    assert f"{radius:.4g} m" in text and f"F 150 m ({150 / radius:.2f} radii)" in text and "1 target(s)" in text
+    reach = img.attrs["focus_limits"]["image_reach"]
+    assert reach > 150 and f"reaches {reach:.4g} m" in text
+    assert img.attrs["focus_limits"]["beyond_valid_radius"] == pytest.approx({"F": 150.0})
+    res = run("evaluate", tmp_path / "image.h5", "-o", tmp_path / "r.json")
+    assert res.exit_code == 0, res.output
+    notes = {t["name"]: t["notes"] for t in json.loads((tmp_path / "r.json").read_text())["targets"]}
+    assert any("beyond plain PFA's valid radius" in n for n in notes["F"])
+    assert not any("valid radius" in n for n in notes["C"] + notes["R"])
+    assert "- F: beyond plain PFA's valid radius: 150 m" in res.output
+
+
+def test_plain_pfa_inside_the_valid_radius_and_two_step_are_silent(tmp_path, raw_file):
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(yaml.safe_dump({"pfa2": {"method": "plain"}}))
+    res = run("pfa2", raw_file, "-o", tmp_path / "plain.h5", "--config", cfg)
+    assert res.exit_code == 0 and not _warnings(res.output, "valid radius"), res.output
+    limits = read_product(tmp_path / "plain.h5").attrs["focus_limits"]
+    assert limits["beyond_valid_radius"] == {} and limits["image_reach"] < limits["valid_radius"]
+    res = run("pfa2", raw_file, "-o", tmp_path / "two_step.h5")
+    assert res.exit_code == 0 and "WARNING" not in res.output, res.output
+
+
+def test_two_step_subimages_reaching_past_the_valid_radius_warn(tmp_path, wide_raw):
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(yaml.safe_dump({"pfa2": {"method": "two_step"}}))
+    res = run("pfa2", wide_raw, "-o", tmp_path / "default.h5", "--config", cfg)
+    assert res.exit_code == 0 and not _warnings(res.output, "valid radius"), res.output
+    cfg.write_text(yaml.safe_dump({"pfa2": {"method": "two_step", "subimage_size": "400 m"}}))
+    res = run("pfa2", wide_raw, "-o", tmp_path / "big.h5", "--config", cfg)
+    assert res.exit_code == 0, res.output
+    radius = read_product(tmp_path / "default.h5").attrs["valid_radius_eq7"]
+    (text,) = _warnings(res.output, "valid radius")
+    assert "sub-images of 400 m" in text and f"valid radius of {radius:.4g} m" in text
