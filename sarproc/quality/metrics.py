@@ -1964,7 +1964,8 @@ def evaluate_product(
 
 def focus_limit_notes(limits: Mapping[str, Any] | None, search_cells: float) -> dict[str, tuple[str, ...]]:
     """Per target, what the focusing stage's ``focus_limits`` attribute says makes its figures other than a
-    focused response at its truth (pfa2 plain: beyond eq. (7)'s valid radius)."""
+    focused response at its truth (pfa2 plain: beyond eq. (7)'s valid radius; the planar-wavefront distortion
+    left in, with its predicted displacement)."""
     if not limits:
         return {}
     notes: dict[str, list[str]] = {}
@@ -1974,6 +1975,22 @@ def focus_limit_notes(limits: Mapping[str, Any] | None, search_cells: float) -> 
             f"beyond plain PFA's valid radius: {dist:.4g} m = {dist / radius:.2f} x {radius:.4g} m (eq. 7), its "
             "response defocused: the figures are not those of a focused target"
         )
+    irw = limits.get("theoretical_irw", (math.nan, math.nan))
+    for name, shift in limits.get("distortion_uncorrected", {}).items():
+        cells = [x / w for x, w in zip(shift, irw)]
+        if max(abs(c) for c in cells) < 0.01:  # the reference point itself: nothing to say
+            continue
+        text = (
+            "its position error includes plain PFA's planar-wavefront distortion, left in (pfa2 "
+            f"correct_distortion: false), predicted displacement azimuth {shift[0]:+.3g} m ({cells[0]:+.2f} cells), "
+            f"range {shift[1]:+.3g} m ({cells[1]:+.2f} cells)"
+        )
+        if max(abs(c) for c in cells) > search_cells:
+            text += (
+                f": beyond the +-{search_cells:g}-cell peak search around the truth, so the figures measure "
+                "what lies there (side lobes), not the target's response"
+            )
+        notes.setdefault(name, []).append(text)
     return {k: tuple(v) for k, v in notes.items()}
 
 

@@ -172,3 +172,29 @@ def test_two_step_subimages_reaching_past_the_valid_radius_warn(tmp_path, wide_r
     radius = read_product(tmp_path / "default.h5").attrs["valid_radius_eq7"]
     (text,) = _warnings(res.output, "valid radius")
     assert "sub-images of 400 m" in text and f"valid radius of {radius:.4g} m" in text
+
+
+def test_plain_pfa_without_distortion_correction_notes_the_predicted_displacement(tmp_path, wide_raw):
+    # R, 80 m down range, inside the valid radius: its plain PFA response sits ~0.4 cells from the truth on
+    # each axis, which is the planar-wavefront distortion left in; evaluate measures it and says so
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(yaml.safe_dump({"pfa2": {"method": "plain"}}))
+    assert run("pfa2", wide_raw, "-o", tmp_path / "image.h5", "--config", cfg).exit_code == 0
+    res = run("evaluate", tmp_path / "image.h5", "-o", tmp_path / "r.json", "--targets", "C,R")
+    assert res.exit_code == 0, res.output
+    limits = read_product(tmp_path / "image.h5").attrs["focus_limits"]
+    report = {t["name"]: t for t in json.loads((tmp_path / "r.json").read_text())["targets"]}
+    predicted = np.array(limits["distortion_uncorrected"]["R"]) / np.array(limits["theoretical_irw"])
+    measured = np.array([a["position_error_cells"] for a in report["R"]["axes"]])
+    assert np.all(np.abs(predicted) > 0.3) and np.allclose(measured, predicted, atol=0.05)
+    (note,) = report["R"]["notes"]
+    assert "distortion, left in (pfa2 correct_distortion: false)" in note
+    assert f"azimuth {limits['distortion_uncorrected']['R'][0]:+.3g} m ({predicted[0]:+.2f} cells)" in note
+    assert report["C"]["notes"] == [] and "- R: its position error includes" in res.output
+    # corrected, the responses sit at the truth and nothing is noted
+    cfg.write_text(yaml.safe_dump({"pfa2": {"method": "plain", "correct_distortion": True}}))
+    assert run("pfa2", wide_raw, "-o", tmp_path / "corrected.h5", "--config", cfg).exit_code == 0
+    assert "distortion_uncorrected" not in read_product(tmp_path / "corrected.h5").attrs["focus_limits"]
+    res = run("evaluate", tmp_path / "corrected.h5", "-o", tmp_path / "c.json", "--targets", "C,R")
+    report = {t["name"]: t for t in json.loads((tmp_path / "c.json").read_text())["targets"]}
+    assert report["R"]["notes"] == [] and all(abs(a["position_error_cells"]) < 0.05 for a in report["R"]["axes"])

@@ -25,6 +25,7 @@ from sarproc.focus.pfa.correction import (
     PfaGeometry,
     distortion_field,
     extended_grid,
+    pfa_distortions,
     warp_to_truth,
 )
 from sarproc.focus.pfa.phase_history import compensate
@@ -376,7 +377,8 @@ def _plain_limits(
     irw: Sequence[float],
 ) -> dict[str, Any]:
     """Plain PFA's limits on this image, warned about and recorded (``focus_limits``) for evaluate: targets
-    beyond eq. (7)'s valid radius."""
+    beyond eq. (7)'s valid radius, and (``correct_distortion`` off) each static target's predicted
+    planar-wavefront displacement (m, azimuth and range), which its position error then includes."""
     names = [n.decode() if isinstance(n, bytes) else str(n) for n in targets["name"]]
     reach = radius_reach(grid, radius, names, targets["azimuth"], targets["range"] - frame.ground_range)
     if reach.exceeded:
@@ -387,6 +389,21 @@ def _plain_limits(
         "beyond_valid_radius": reach.beyond,
         "theoretical_irw": list(irw),
     }
+    if not params.correct_distortion and len(targets):
+        # a mover is imaged at its static equivalent, not at its table position: no prediction for it here
+        fields = [v for v in ("vx", "vy", "vz") if v in (targets.dtype.names or ())]
+        static = [i for i in range(len(targets)) if not any(float(targets[v][i]) for v in fields)]
+        points = np.array([[targets[c][i] for c in ("x", "y", "z")] for i in static], float).reshape(-1, 3)
+        where = pfa_distortions(
+            ph.positions, frame.origin, points, frame.u_azimuth, frame.u_range, ph.carrier_frequency, ph.freqs, rect
+        )
+        limits["distortion_uncorrected"] = {
+            names[i]: [
+                d.azimuth - float(targets["azimuth"][i]),
+                d.range - (float(targets["range"][i]) - frame.ground_range),
+            ]
+            for i, d in zip(static, where)
+        }
     return limits
 
 
