@@ -295,7 +295,7 @@ def evaluate(
     fail, 2 on bad input.
     """
     from sarproc.cli.progress import progress_factory
-    from sarproc.cli.stage import naming, report_plan
+    from sarproc.cli.stage import naming, report_plan, unapplied_scene_section
     from sarproc.product.config import load_yaml
     from sarproc.product.io import check_output_path, read_product
     from sarproc.product.model import UNITS
@@ -309,6 +309,8 @@ def evaluate(
     names = _target_names(target_names)
     expect = expectations_from_mapping(load_yaml(expect_path), str(expect_path)) if expect_path else None
     header = read_product(input_path, kinds=("image", "image3d"), load=False)
+    if config_path is None:
+        unapplied_scene_section(header, EvaluateParams, "evaluate", input_path)
     if output is not None:
         check_output_path(output, [input_path], overwrite=overwrite)
     if plot_dir is not None:

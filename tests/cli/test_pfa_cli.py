@@ -198,3 +198,30 @@ def test_plain_pfa_without_distortion_correction_notes_the_predicted_displacemen
     res = run("evaluate", tmp_path / "corrected.h5", "-o", tmp_path / "c.json", "--targets", "C,R")
     report = {t["name"]: t for t in json.loads((tmp_path / "c.json").read_text())["targets"]}
     assert report["R"]["notes"] == [] and all(abs(a["position_error_cells"]) < 0.05 for a in report["R"]["axes"])
+
+
+def test_a_scene_files_stage_section_is_named_when_not_applied(tmp_path):
+    # the scene's pfa2 section is applied with --config SCENE; without it the defaults run, and a warning says
+    # which of the scene's keys are left out (none when the section only repeats the defaults: raw_file's)
+    scene = tmp_path / "scene.yaml"
+    points = [{"name": "C"}, {"name": "P", "azimuth": "20 m"}]
+    scene.write_text(
+        yaml.safe_dump(dict(SMALL, targets={"frame": "ground_los", "points": points}, pfa2={"method": "plain"}))
+    )
+    assert run("simulate", scene, "-o", tmp_path / "raw.h5").exit_code == 0
+    res = run("pfa2", tmp_path / "raw.h5", "-o", tmp_path / "default.h5")
+    assert res.exit_code == 0, res.output
+    (text,) = _warnings(res.output, "not applied")
+    assert f"simulation of {scene}, whose `pfa2:` section (method: plain)" in text
+    assert "defaults run (method: two_step)" in text and f"--config {scene}" in text
+    assert read_product(tmp_path / "default.h5").attrs["method"] == "two_step"
+    res = run("pfa2", tmp_path / "raw.h5", "-o", tmp_path / "plain.h5", "--config", scene)
+    assert res.exit_code == 0 and not _warnings(res.output, "not applied"), res.output
+    assert read_product(tmp_path / "plain.h5").attrs["method"] == "plain"
+    assert "not applied" in " ".join(run("pfa2", "--help").output.split())
+
+
+def test_a_scene_section_repeating_the_defaults_is_not_named(tmp_path, raw_file):
+    assert SMALL["pfa2"] == {"method": "two_step"}  # raw_file's scene
+    res = run("pfa2", raw_file, "-o", tmp_path / "image.h5")
+    assert res.exit_code == 0 and not _warnings(res.output, "not applied"), res.output
