@@ -116,6 +116,10 @@ def metrics_table(report: QualityReport, units: dict) -> str:
         "'(own)': the theory is the target's own from the targets table (irw_, null_, pslr_, islr_<axis>: "
         "its illumination and weighting), not the image's; PSLR and ISLR show it in parentheses."
     )
+    noted = [t for t in report.targets if t.notes]
+    if noted:
+        lines.append("\nNotes from the focusing stage (the figures above do not describe a focused response where so):")
+        lines += [f"- {t.name}: {'; '.join(t.notes)}." for t in noted]
     if report.movers:
         lines.append(movers_table(report.movers))
     lines += false_target_lines(report, units)
@@ -291,7 +295,7 @@ def evaluate(
     fail, 2 on bad input.
     """
     from sarproc.cli.progress import progress_factory
-    from sarproc.cli.stage import naming, report_plan
+    from sarproc.cli.stage import naming, report_plan, unapplied_scene_section
     from sarproc.product.config import load_yaml
     from sarproc.product.io import check_output_path, read_product
     from sarproc.product.model import UNITS
@@ -305,6 +309,8 @@ def evaluate(
     names = _target_names(target_names)
     expect = expectations_from_mapping(load_yaml(expect_path), str(expect_path)) if expect_path else None
     header = read_product(input_path, kinds=("image", "image3d"), load=False)
+    if config_path is None:
+        unapplied_scene_section(header, EvaluateParams, "evaluate", input_path)
     if output is not None:
         check_output_path(output, [input_path], overwrite=overwrite)
     if plot_dir is not None:

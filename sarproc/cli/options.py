@@ -23,7 +23,11 @@ config_option = click.option(
     "config_path",
     type=click.Path(dir_okay=False, allow_dash=True, path_type=Path),
     default=None,
-    help="YAML file of algorithm parameters (defaults from the product; '-': standard input).",
+    help=(
+        "YAML file whose section for this command sets its parameters (a scene file will do; '-': standard "
+        "input). Without it the defaults run, some derived from the input, even where the scene the input was "
+        "simulated from has the section (a warning then names what is not applied)."
+    ),
 )
 overwrite_option = click.option("--overwrite", is_flag=True, help="Replace an existing output file.")
 progress_option = click.option(

@@ -33,7 +33,7 @@ def simulate(scene_path: Path, output: Path, overwrite: bool, progress: bool | N
     from sarproc.cli.dask_map import dask_mapper, scheduler_client
     from sarproc.cli.progress import progress_factory
     from sarproc.cli.stage import naming, report_plan
-    from sarproc.product.io import ProductWriter, WriteBehind, check_output_path, history_entry
+    from sarproc.product.io import ProductWriter, WriteBehind, check_output_path
     from sarproc.simulation.budget import simulate_estimate
     from sarproc.simulation.scene import load_scene
     from sarproc.simulation.simulate import illumination_warnings, plan_simulation, simulate_blocks
@@ -47,7 +47,7 @@ def simulate(scene_path: Path, output: Path, overwrite: bool, progress: bool | N
     with naming(scene_path):
         plan = plan_simulation(scene)
         illumination_warnings(scene, plan)
-    history = [history_entry(f"sarproc simulate {scene_path}", scene.resolved())]
+    history = [scene.history_entry(f"sarproc simulate {scene_path}")]
     with (
         ProductWriter(
             output,

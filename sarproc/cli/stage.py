@@ -59,6 +59,8 @@ def prepare(
 
     params: Any = load_config(params_cls, config_path, section=section)
     header = read_product(input_path, kinds=kinds, load=False)
+    if config_path is None:
+        unapplied_scene_section(header, params_cls, section, input_path)
     plan_outputs(
         input_path,
         outputs,
@@ -69,6 +71,42 @@ def prepare(
     )
     product = read_product(input_path, kinds=kinds)
     return params, product
+
+
+def unapplied_scene_section(product: Product, params_cls: type, section: str, input_path: str | Path) -> None:
+    """Without --config a stage runs on its defaults: say so when the scene the product was simulated from
+    has a ``section`` that would change them (recorded in the simulate history entry), naming the keys."""
+    import logging
+
+    from sarproc.product.config import build
+
+    entry = next((h for h in product.history if isinstance(h, dict) and "stage_sections" in h), None)
+    data = (entry or {}).get("stage_sections", {}).get(section) or {}
+    if not isinstance(data, dict) or not data:
+        return
+    defaults: Any = build(params_cls, {}, source="defaults")
+    theirs: Any
+    try:
+        theirs = build(params_cls, data, source="scene", section=section)
+    except InputError:
+        changed = sorted(data)  # not even valid: certainly not what runs
+    else:
+        changed = [k for k in data if getattr(theirs, k, None) != getattr(defaults, k, None)]
+    if not changed:
+        return
+    command = str(entry.get("command", "")) if entry else ""
+    scene = command.split(" ", 2)[2] if command.startswith("sarproc simulate ") else "its scene file"
+    logging.getLogger(__name__).warning(
+        "%s comes from a simulation of %s, whose `%s:` section (%s) is not applied: without --config the defaults "
+        "run "
+        "(%s); pass --config %s to apply it",
+        input_path,
+        scene,
+        section,
+        ", ".join(f"{k}: {data[k]}" for k in changed),
+        ", ".join(f"{k}: {getattr(defaults, k, '?')}" for k in changed),
+        scene if entry and command.startswith("sarproc simulate ") else "SCENE.yaml",
+    )
 
 
 def plan_outputs(

@@ -51,7 +51,7 @@ import dataclasses
 import functools
 import itertools
 import math
-from collections.abc import Callable, Collection, Iterable, Sequence
+from collections.abc import Callable, Collection, Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -231,6 +231,7 @@ class TargetReport:
     axes: tuple[AxisMetrics, ...]  # principal-axis cuts, one per image axis (what --expect checks)
     image_axes: tuple[AxisMetrics, ...] = ()  # cuts along the image axes, for comparison
     neighbours_removed: tuple[str, ...] = ()  # targets whose fitted ideal responses were subtracted
+    notes: tuple[str, ...] = ()  # what the focusing stage recorded about this target (:func:`focus_limit_notes`)
 
     @property
     def truncated(self) -> bool:
@@ -256,6 +257,7 @@ class TargetReport:
             axes=tuple(_axis_from_dict(a) for a in d["axes"]),
             image_axes=tuple(_axis_from_dict(a) for a in d.get("image_axes", ())),
             neighbours_removed=tuple(d.get("neighbours_removed", ())),
+            notes=tuple(d.get("notes", ())),
         )
 
 
@@ -1977,7 +1979,41 @@ def evaluate_product(
         )
     except InputError as exc:
         raise InputError(f"{where}{exc}") from None
-    return dataclasses.replace(report, movers=mover_reports(product, table, report, source))
+    notes = focus_limit_notes(product.attrs.get("focus_limits"), report.params.search_cells)
+    targets = tuple(dataclasses.replace(t, notes=notes.get(t.name, ())) for t in report.targets)
+    return dataclasses.replace(report, targets=targets, movers=mover_reports(product, table, report, source))
+
+
+def focus_limit_notes(limits: Mapping[str, Any] | None, search_cells: float) -> dict[str, tuple[str, ...]]:
+    """Per target, what the focusing stage's ``focus_limits`` attribute says makes its figures other than a
+    focused response at its truth (pfa2 plain: beyond eq. (7)'s valid radius; the planar-wavefront distortion
+    left in, with its predicted displacement)."""
+    if not limits:
+        return {}
+    notes: dict[str, list[str]] = {}
+    radius = float(limits.get("valid_radius", math.nan))
+    for name, dist in limits.get("beyond_valid_radius", {}).items():
+        notes.setdefault(name, []).append(
+            f"beyond plain PFA's valid radius: {dist:.4g} m = {dist / radius:.2f} x {radius:.4g} m (eq. 7), its "
+            "response defocused: the figures are not those of a focused target"
+        )
+    irw = limits.get("theoretical_irw", (math.nan, math.nan))
+    for name, shift in limits.get("distortion_uncorrected", {}).items():
+        cells = [x / w for x, w in zip(shift, irw)]
+        if max(abs(c) for c in cells) < 0.01:  # the reference point itself: nothing to say
+            continue
+        text = (
+            "its position error includes plain PFA's planar-wavefront distortion, left in (pfa2 "
+            f"correct_distortion: false), predicted displacement azimuth {shift[0]:+.3g} m ({cells[0]:+.2f} cells), "
+            f"range {shift[1]:+.3g} m ({cells[1]:+.2f} cells)"
+        )
+        if max(abs(c) for c in cells) > search_cells:
+            text += (
+                f": beyond the +-{search_cells:g}-cell peak search around the truth, so the figures measure "
+                "what lies there (side lobes), not the target's response"
+            )
+        notes.setdefault(name, []).append(text)
+    return {k: tuple(v) for k, v in notes.items()}
 
 
 def _checked_product(product: Product, names: Collection[str] | None, where: str) -> list[str]:

@@ -9,6 +9,7 @@ scene loader ignores and each stage reads for itself.
 from __future__ import annotations
 
 import dataclasses
+import json
 import logging
 import math
 from pathlib import Path
@@ -233,6 +234,9 @@ class Scene:
     target_names: list[str]
     target_frame: Frame
     source: str = "<mapping>"
+    # the scene file's stage sections, verbatim: recorded in the raw product's history, so a stage run on it
+    # without --config can say that they are not applied (sarproc.cli.stage.unapplied_scene_section)
+    stage_sections: dict = dataclasses.field(default_factory=dict)
 
     @property
     def n_pulses(self) -> int:
@@ -254,6 +258,15 @@ class Scene:
 
     def resolved(self) -> dict:
         return as_dict(self.params)
+
+    def history_entry(self, command: str) -> dict:
+        """The raw product's provenance record: the resolved scene, and the file's stage sections."""
+        from sarproc.product.io import history_entry
+
+        entry = history_entry(command, self.resolved())
+        if self.stage_sections:
+            entry["stage_sections"] = self.stage_sections
+        return entry
 
 
 def _aperture_time(p: SceneParams, wavelength: float) -> float:
@@ -332,6 +345,7 @@ def scene_from_mapping(mapping: dict, source: str = "<mapping>") -> Scene:
 
     mapping = dict(mapping)
     declared = tuple(section for section in STAGE_SECTIONS if section in mapping and section != "evaluate")
+    sections = json.loads(json.dumps({k: mapping[k] for k in STAGE_SECTIONS if k in mapping}, default=str))
     for section in STAGE_SECTIONS + OTHER_SECTIONS:
         mapping.pop(section, None)
     p = build(SceneParams, mapping, source=source)
@@ -382,6 +396,7 @@ def scene_from_mapping(mapping: dict, source: str = "<mapping>") -> Scene:
         target_names=names,
         target_frame=frame,
         source=source,
+        stage_sections=sections,
     )
     _sanity_warnings(scene, declared)
     return scene

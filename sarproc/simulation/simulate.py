@@ -329,7 +329,6 @@ def simulate_blocks(
 
 def simulate(scene: Scene, progress: ProgressFactory | None = None) -> Product:
     """Simulate the whole scene in memory and return the raw product."""
-    from sarproc.product.io import history_entry
 
     plan = plan_simulation(scene)
     illumination_warnings(scene, plan)
@@ -347,5 +346,5 @@ def simulate(scene: Scene, progress: ProgressFactory | None = None) -> Product:
         targets=plan.targets,
         attrs={"frame": scene.target_frame.spec},
         aux=plan.aux,
-        history=[history_entry("simulate", scene.resolved())],
+        history=[scene.history_entry("simulate")],
     )

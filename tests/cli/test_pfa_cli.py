@@ -112,3 +112,116 @@ def test_gotcha_pfa_and_backprojection_agree(tmp_path):
     assert ncc > 0.95
     ia, ib = np.unravel_index(np.argmax(A), A.shape), np.unravel_index(np.argmax(B), B.shape)
     assert max(abs(i - j) for i, j in zip(ia, ib)) <= 1  # the brightest point on the same pixel
+
+
+@pytest.fixture(scope="module")
+def wide_raw(tmp_path_factory):
+    # the reduced Table 1 scene's plain PFA valid radius (eq. 7) is 97.7 m: C and R inside, F beyond
+    d = tmp_path_factory.mktemp("pfa_wide")
+    points = [{"name": "C"}, {"name": "R", "range": "80 m"}, {"name": "F", "azimuth": "150 m"}]
+    (d / "scene.yaml").write_text(yaml.safe_dump(dict(SMALL, targets={"frame": "ground_los", "points": points})))
+    res = run("simulate", d / "scene.yaml", "-o", d / "raw.h5")
+    assert res.exit_code == 0, res.output
+    return d / "raw.h5"
+
+
+def _warnings(output, phrase):
+    return [line for line in output.splitlines() if "WARNING" in line and phrase in line]
+
+
+def test_plain_pfa_beyond_the_valid_radius_warns_naming_radius_reach_and_targets(tmp_path, wide_raw):
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(yaml.safe_dump({"pfa2": {"method": "plain"}}))
+    res = run("pfa2", wide_raw, "-o", tmp_path / "image.h5", "--config", cfg)
+    assert res.exit_code == 0, res.output
+    img = read_product(tmp_path / "image.h5")
+    radius = img.attrs["valid_radius"]
+    assert 80 < radius < 150
+    (text,) = _warnings(res.output, "valid radius")
+    assert f"{radius:.4g} m" in text and f"F 150 m ({150 / radius:.2f} radii)" in text and "1 target(s)" in text
+    reach = img.attrs["focus_limits"]["image_reach"]
+    assert reach > 150 and f"reaches {reach:.4g} m" in text
+    assert img.attrs["focus_limits"]["beyond_valid_radius"] == pytest.approx({"F": 150.0})
+    res = run("evaluate", tmp_path / "image.h5", "-o", tmp_path / "r.json")
+    assert res.exit_code == 0, res.output
+    notes = {t["name"]: t["notes"] for t in json.loads((tmp_path / "r.json").read_text())["targets"]}
+    assert any("beyond plain PFA's valid radius" in n for n in notes["F"])
+    assert not any("valid radius" in n for n in notes["C"] + notes["R"])
+    assert "- F: beyond plain PFA's valid radius: 150 m" in res.output
+
+
+def test_plain_pfa_inside_the_valid_radius_and_two_step_are_silent(tmp_path, raw_file):
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(yaml.safe_dump({"pfa2": {"method": "plain"}}))
+    res = run("pfa2", raw_file, "-o", tmp_path / "plain.h5", "--config", cfg)
+    assert res.exit_code == 0 and not _warnings(res.output, "valid radius"), res.output
+    limits = read_product(tmp_path / "plain.h5").attrs["focus_limits"]
+    assert limits["beyond_valid_radius"] == {} and limits["image_reach"] < limits["valid_radius"]
+    res = run("pfa2", raw_file, "-o", tmp_path / "two_step.h5")
+    assert res.exit_code == 0 and "WARNING" not in res.output, res.output
+
+
+def test_two_step_subimages_reaching_past_the_valid_radius_warn(tmp_path, wide_raw):
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(yaml.safe_dump({"pfa2": {"method": "two_step"}}))
+    res = run("pfa2", wide_raw, "-o", tmp_path / "default.h5", "--config", cfg)
+    assert res.exit_code == 0 and not _warnings(res.output, "valid radius"), res.output
+    cfg.write_text(yaml.safe_dump({"pfa2": {"method": "two_step", "subimage_size": "400 m"}}))
+    res = run("pfa2", wide_raw, "-o", tmp_path / "big.h5", "--config", cfg)
+    assert res.exit_code == 0, res.output
+    radius = read_product(tmp_path / "default.h5").attrs["valid_radius_eq7"]
+    (text,) = _warnings(res.output, "valid radius")
+    assert "sub-images of 400 m" in text and f"valid radius of {radius:.4g} m" in text
+
+
+def test_plain_pfa_without_distortion_correction_notes_the_predicted_displacement(tmp_path, wide_raw):
+    # R, 80 m down range, inside the valid radius: its plain PFA response sits ~0.4 cells from the truth on
+    # each axis, which is the planar-wavefront distortion left in; evaluate measures it and says so
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(yaml.safe_dump({"pfa2": {"method": "plain"}}))
+    assert run("pfa2", wide_raw, "-o", tmp_path / "image.h5", "--config", cfg).exit_code == 0
+    res = run("evaluate", tmp_path / "image.h5", "-o", tmp_path / "r.json", "--targets", "C,R")
+    assert res.exit_code == 0, res.output
+    limits = read_product(tmp_path / "image.h5").attrs["focus_limits"]
+    report = {t["name"]: t for t in json.loads((tmp_path / "r.json").read_text())["targets"]}
+    predicted = np.array(limits["distortion_uncorrected"]["R"]) / np.array(limits["theoretical_irw"])
+    measured = np.array([a["position_error_cells"] for a in report["R"]["axes"]])
+    assert np.all(np.abs(predicted) > 0.3) and np.allclose(measured, predicted, atol=0.05)
+    (note,) = report["R"]["notes"]
+    assert "distortion, left in (pfa2 correct_distortion: false)" in note
+    assert f"azimuth {limits['distortion_uncorrected']['R'][0]:+.3g} m ({predicted[0]:+.2f} cells)" in note
+    assert report["C"]["notes"] == [] and "- R: its position error includes" in res.output
+    # corrected, the responses sit at the truth and nothing is noted
+    cfg.write_text(yaml.safe_dump({"pfa2": {"method": "plain", "correct_distortion": True}}))
+    assert run("pfa2", wide_raw, "-o", tmp_path / "corrected.h5", "--config", cfg).exit_code == 0
+    assert "distortion_uncorrected" not in read_product(tmp_path / "corrected.h5").attrs["focus_limits"]
+    res = run("evaluate", tmp_path / "corrected.h5", "-o", tmp_path / "c.json", "--targets", "C,R")
+    report = {t["name"]: t for t in json.loads((tmp_path / "c.json").read_text())["targets"]}
+    assert report["R"]["notes"] == [] and all(abs(a["position_error_cells"]) < 0.05 for a in report["R"]["axes"])
+
+
+def test_a_scene_files_stage_section_is_named_when_not_applied(tmp_path):
+    # the scene's pfa2 section is applied with --config SCENE; without it the defaults run, and a warning says
+    # which of the scene's keys are left out (none when the section only repeats the defaults: raw_file's)
+    scene = tmp_path / "scene.yaml"
+    points = [{"name": "C"}, {"name": "P", "azimuth": "20 m"}]
+    scene.write_text(
+        yaml.safe_dump(dict(SMALL, targets={"frame": "ground_los", "points": points}, pfa2={"method": "plain"}))
+    )
+    assert run("simulate", scene, "-o", tmp_path / "raw.h5").exit_code == 0
+    res = run("pfa2", tmp_path / "raw.h5", "-o", tmp_path / "default.h5")
+    assert res.exit_code == 0, res.output
+    (text,) = _warnings(res.output, "not applied")
+    assert f"simulation of {scene}, whose `pfa2:` section (method: plain)" in text
+    assert "defaults run (method: two_step)" in text and f"--config {scene}" in text
+    assert read_product(tmp_path / "default.h5").attrs["method"] == "two_step"
+    res = run("pfa2", tmp_path / "raw.h5", "-o", tmp_path / "plain.h5", "--config", scene)
+    assert res.exit_code == 0 and not _warnings(res.output, "not applied"), res.output
+    assert read_product(tmp_path / "plain.h5").attrs["method"] == "plain"
+    assert "not applied" in " ".join(run("pfa2", "--help").output.split())
+
+
+def test_a_scene_section_repeating_the_defaults_is_not_named(tmp_path, raw_file):
+    assert SMALL["pfa2"] == {"method": "two_step"}  # raw_file's scene
+    res = run("pfa2", raw_file, "-o", tmp_path / "image.h5")
+    assert res.exit_code == 0 and not _warnings(res.output, "not applied"), res.output

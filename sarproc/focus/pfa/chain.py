@@ -21,7 +21,13 @@ import numpy as np
 from sarproc.dsp.interp import KERNELS
 from sarproc.dsp.rangecomp import WINDOWS
 from sarproc.focus.pfa import dealias as dealias_mod
-from sarproc.focus.pfa.correction import PfaGeometry, distortion_field, extended_grid, warp_to_truth
+from sarproc.focus.pfa.correction import (
+    PfaGeometry,
+    distortion_field,
+    extended_grid,
+    pfa_distortions,
+    warp_to_truth,
+)
 from sarproc.focus.pfa.phase_history import compensate
 from sarproc.focus.pfa.polar import (
     Grid,
@@ -52,7 +58,7 @@ from sarproc.focus.pfa.two_step import (
     window_slices,
 )
 from sarproc.product.config import as_dict, param
-from sarproc.product.errors import InputError
+from sarproc.product.errors import IMAGE_DEFECT, InputError
 from sarproc.product.frames import GroundLosFrame, image_axis, make_frame, targets_in_frame
 from sarproc.product.metadata import SINC_IRW_FACTOR, aperture_center_position
 from sarproc.product.model import Product
@@ -257,16 +263,17 @@ def pfa2(
         img, kg, info = _two_step(ph, params, grid, origin, e_a, e_r, radar, az_os, progress, mapper, timing)
         attrs.update(info)
     timing["total"] = time.perf_counter() - t_all
+    radius = valid_radius(
+        2 * math.pi / kg.spans[0],
+        float(np.linalg.norm(pos[len(pos) // 2] - origin)),
+        radar.wavelength,
+        params.valid_radius_factor,
+    )
     attrs.update(
         {
             "frame": frame.spec,
             "theoretical_irw": list(kg.irw()),
-            "valid_radius": valid_radius(
-                2 * math.pi / kg.spans[0],
-                float(np.linalg.norm(pos[len(pos) // 2] - origin)),
-                radar.wavelength,
-                params.valid_radius_factor,
-            ),
+            "valid_radius": radius,
             "support_rectangle": [kg.ka0, kg.dka, kg.n_ka, kg.kr0, kg.dkr, kg.n_kr],
             "stage_seconds": timing,
         }
@@ -274,6 +281,8 @@ def pfa2(
     from sarproc.product.io import history_entry  # product layer; the core stays free of h5py at import
 
     targets = targets_in_frame(raw.targets, frame)
+    if params.method == "plain":
+        attrs["focus_limits"] = _plain_limits(targets, frame, grid, radius, ph, rect, params, kg.irw())
     _record_target_theory(targets, ph, e_a, e_r, kg, params, radar)
     out = raw.derive(
         "image",
@@ -315,6 +324,87 @@ def _plain_corrected(
     kg, _ = make_kgrid(rect, dka, dkr, ext.da, ext.dr, ext.n_a, ext.n_r)
     img, _ = pfa(ph, e_a, e_r, ext, kgrid=kg, interp=interp)
     return warp_to_truth(img, ext, grid, warp, geo, kg, interp), kg
+
+
+@dataclasses.dataclass(frozen=True)
+class RadiusReach:
+    """How far an image and its targets reach from the PFA reference, against eq. (7)'s valid radius (m)."""
+
+    radius: float
+    image_reach: float  # the farthest pixel's distance
+    beyond: dict[str, float]  # the targets farther than the radius: name -> distance
+
+    @property
+    def exceeded(self) -> bool:
+        return self.image_reach > self.radius or bool(self.beyond)
+
+
+def radius_reach(grid: Grid, radius: float, names: Sequence[str], a: np.ndarray, r: np.ndarray) -> RadiusReach:
+    """Distances of the grid's farthest corner and of each target (offsets ``a``, ``r`` from the reference)."""
+    reach = max(
+        math.hypot(x, y)
+        for x in (grid.a0, grid.a0 + (grid.n_a - 1) * grid.da)
+        for y in (grid.r0, grid.r0 + (grid.n_r - 1) * grid.dr)
+    )
+    dist = np.hypot(a, r)
+    return RadiusReach(radius, reach, {n: float(d) for n, d in zip(names, dist) if d > radius})
+
+
+def radius_message(reach: RadiusReach, factor: float, shown: int = 8) -> str:
+    """The warning that a plain PFA image reaches past eq. (7)'s valid radius, naming the targets beyond it."""
+    r = reach.radius
+    msg = (
+        f"plain PFA focuses within eq. (7)'s valid radius, {r:.4g} m around the scene reference (main lobe "
+        f"broadened by up to valid_radius_factor = {factor:g} there; the defocus grows as the distance squared); "
+        f"this image reaches {reach.image_reach:.4g} m ({reach.image_reach / r:.2f} radii)"
+    )
+    if reach.beyond:
+        far = sorted(reach.beyond.items(), key=lambda kv: (-round(kv[1], 6), kv[0]))
+        listed = ", ".join(f"{n} {d:.4g} m ({d / r:.2f} radii)" for n, d in far[:shown])
+        more = f" and {len(far) - shown} more" if len(far) > shown else ""
+        msg += f"; {len(far)} target(s) lie beyond it, their responses defocused: {listed}{more}"
+    return msg + "; method: two_step focuses the whole scene"
+
+
+def _plain_limits(
+    targets: np.ndarray,
+    frame: GroundLosFrame,
+    grid: Grid,
+    radius: float,
+    ph: PhaseHistory,
+    rect: Rect,
+    params: Pfa2Params,
+    irw: Sequence[float],
+) -> dict[str, Any]:
+    """Plain PFA's limits on this image, warned about and recorded (``focus_limits``) for evaluate: targets
+    beyond eq. (7)'s valid radius, and (``correct_distortion`` off) each static target's predicted
+    planar-wavefront displacement (m, azimuth and range), which its position error then includes."""
+    names = [n.decode() if isinstance(n, bytes) else str(n) for n in targets["name"]]
+    reach = radius_reach(grid, radius, names, targets["azimuth"], targets["range"] - frame.ground_range)
+    if reach.exceeded:
+        log.warning("pfa2: %s", radius_message(reach, params.valid_radius_factor), extra=IMAGE_DEFECT)
+    limits: dict[str, Any] = {
+        "valid_radius": radius,
+        "image_reach": reach.image_reach,
+        "beyond_valid_radius": reach.beyond,
+        "theoretical_irw": list(irw),
+    }
+    if not params.correct_distortion and len(targets):
+        # a mover is imaged at its static equivalent, not at its table position: no prediction for it here
+        fields = [v for v in ("vx", "vy", "vz") if v in (targets.dtype.names or ())]
+        static = [i for i in range(len(targets)) if not any(float(targets[v][i]) for v in fields)]
+        points = np.array([[targets[c][i] for c in ("x", "y", "z")] for i in static], float).reshape(-1, 3)
+        where = pfa_distortions(
+            ph.positions, frame.origin, points, frame.u_azimuth, frame.u_range, ph.carrier_frequency, ph.freqs, rect
+        )
+        limits["distortion_uncorrected"] = {
+            names[i]: [
+                d.azimuth - float(targets["azimuth"][i]),
+                d.range - (float(targets["range"][i]) - frame.ground_range),
+            ]
+            for i, d in zip(static, where)
+        }
+    return limits
 
 
 def _record_target_theory(
@@ -544,6 +634,21 @@ def _two_step(
         ph.carrier_frequency,
         scene.band,
     )
+    # a sub-image is plain PFA around its centre: its pixels must stay within eq. (7)'s radius of it
+    reach = max(
+        math.hypot((t.rows.stop - t.rows.start - 1) * grid.da, (t.cols.stop - t.cols.start - 1) * grid.dr) / 2
+        for t in tiles
+    )
+    if reach > size.valid_radius:
+        log.warning(
+            "pfa2: sub-images of %.4g m (subimage_size) reach %.4g m from their centres, %.2f times eq. (7)'s "
+            "valid radius of %.4g m: responses near their corners are defocused (the default core is the radius)",
+            size.core,
+            reach,
+            reach / size.valid_radius,
+            size.valid_radius,
+            extra=IMAGE_DEFECT,
+        )
     supports = tile_rects(tiles, ph.positions, origin, e_a, e_r, ph.carrier_frequency, scene.band, radar)
     timing["plan"] = time.perf_counter() - t0
     t0 = time.perf_counter()
