@@ -18,6 +18,7 @@ import dataclasses
 import logging
 import math
 import os
+import sys
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -498,8 +499,13 @@ def _backproject_compiled(
         return np.zeros(0, np.complex128)
     mode = _READ_MODES.get(reads.interpolation, 2)
     # a small image on linear reads: the kernels compiled ahead of time, serial, without numba's start-up
-    # (sarproc.focus.backprojection_aot); otherwise, or while that module is not built, the numba kernels
-    small = mode == 1 and backprojection_aot.serial_pays(len(points) * n_az, workers)
+    # (sarproc.focus.backprojection_aot); otherwise, or while that module is not built, or where numba's kernels
+    # are loaded already (their threads cost no start-up: sarproc.product.aot.Kernels.pick), the numba kernels
+    small = (
+        mode == 1
+        and "sarproc.focus.backprojection_kernel" not in sys.modules
+        and backprojection_aot.serial_pays(len(points) * n_az, workers)
+    )
     aot = backprojection_aot.load() if small else None
     if aot is None:
         from sarproc.focus import backprojection_kernel as bk

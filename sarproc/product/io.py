@@ -28,8 +28,6 @@ import json
 import math
 import os
 import re
-import secrets
-import socket
 import stat
 import sys
 import tempfile
@@ -74,7 +72,7 @@ LONG_NAMES = {
 }
 
 TMP_SUFFIX = ".sarproc-tmp"
-_HOST = re.sub(r"[^A-Za-z0-9-]", "-", socket.gethostname())[:32] or "host"
+_HOST = re.sub(r"[^A-Za-z0-9-]", "-", run.hostname())[:32] or "host"
 _DAMAGED: list = []  # h5py objects of files whose write failed: kept alive, never closed
 
 
@@ -142,7 +140,9 @@ def clean_stale_temporaries(directory: str | Path) -> list[Path]:
 
 
 def _temporary_name(output: Path) -> Path:
-    return output.parent / f".{output.name}.{_HOST}.{os.getpid()}.{secrets.token_hex(4)}{TMP_SUFFIX}"
+    return (
+        output.parent / f".{output.name}.{_HOST}.{os.getpid()}.{os.urandom(4).hex()}{TMP_SUFFIX}"
+    )  # = secrets.token_hex(4)
 
 
 # errno values meaning the output could not be stored (a processing failure, exit 1)
@@ -304,6 +304,8 @@ def _stream_into(tmp: Path, stream: Stream) -> None:
     if stream.fd is not None:
         fd, close = stream.fd, False
     elif stream.socket:
+        import socket  # only here: ~5 ms of every stage's start otherwise
+
         sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
         sock.connect(_stream_path(stream))
         fd, close = sock.fileno(), False

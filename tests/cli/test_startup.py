@@ -159,3 +159,18 @@ def test_stages_import_yaml_only_to_read_a_config():
         "import pathlib, tempfile\nfrom sarproc.product.config import load_yaml\n"
         "p = pathlib.Path(tempfile.mkdtemp()) / 'c.yaml'\np.write_text('a: 1\\n')\nassert load_yaml(p) == {'a': 1}"
     )
+
+
+def test_products_io_imports_no_socket_or_secrets():
+    # every stage imports sarproc.product.io and .run: socket and secrets (with hmac and OpenSSL's _hashlib)
+    # cost ~5-10 ms of each start for a host name and 4 random bytes, which os.uname() and os.urandom() give
+    # (docs/performance.md, ninth round); a socket is imported only to write to a Unix socket output
+    code = "import sarproc.product.io, sarproc.product.run, sarproc.cli.stage, sarproc.cli.main\n"
+    loaded = set(json.loads(_python(code + "import json, sys\nprint(json.dumps(sorted(sys.modules)))")))
+    assert not loaded & {"socket", "secrets", "hmac"}, sorted(loaded & {"socket", "secrets", "hmac"})
+    out = _python(
+        "import socket\nfrom pathlib import Path\nfrom sarproc.product import io, run\n"
+        "parts = io._temporary_name(Path('/tmp/x.h5')).name[: -len(io.TMP_SUFFIX)].rsplit('.', 3)\n"
+        "print(run.hostname() == socket.gethostname(), parts[1] == io._HOST, len(parts[3]), int(parts[3], 16) >= 0)"
+    )
+    assert out.split() == ["True", "True", "8", "True"], out

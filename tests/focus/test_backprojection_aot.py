@@ -190,6 +190,29 @@ def test_compiled_module_image_equals_numbas(built, raw, fresh_numba, tmp_path, 
     assert done.returncode == 0 and done.stdout.strip().endswith("equal"), done.stderr[-3000:]
 
 
+def test_a_small_image_runs_numbas_kernels_where_they_are_loaded(raw, monkeypatch):
+    """Numba's kernels loaded already (a library caller's earlier image, the bench): their threads cost no
+    start-up, so a small image runs them, not the serial module (as Kernels.pick; 512^2 x 600 ran serially at
+    CPU/wall 1.0 in the bench before, 0.71x FastSAR's exact rate: docs/performance.md, ninth round)."""
+    import sarproc.focus.backprojection_kernel  # noqa: F401
+    from sarproc.focus.backprojection import backproject_points
+
+    rc = range_compress(raw.data, raw.radar)
+    pos = raw.aux["platform_position"]
+    g = np.arange(-20, 20) * 0.3
+    pts = np.asarray(raw.radar.scene_center) + np.stack(
+        [np.repeat(g, len(g)), np.tile(g, len(g)), np.zeros(len(g) ** 2)], 1
+    )
+    assert bpa.serial_pays(len(pts) * len(pos), workers=2)  # small: serial where numba is not loaded
+    calls = []
+    monkeypatch.setattr(bpa, "load", lambda: calls.append(1))
+    monkeypatch.setattr(bpa, "request_build", lambda: calls.append(2) or False)
+    img = backproject_points(
+        rc, raw.coords["range_time"], pos, pos, pts, raw.radar.carrier_frequency, engine="compiled", workers=2
+    )
+    assert not calls and np.all(np.isfinite(img))
+
+
 def test_a_small_backproject_process_imports_no_numba(built, tmp_path):
     d, _ = built
     env = {**os.environ, "SARPROC_AOT_DIR": str(d), "SARPROC_AOT": "1"}
