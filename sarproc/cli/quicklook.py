@@ -79,7 +79,7 @@ def quicklook(
 
     from sarproc.cli.stage import plan_outputs
     from sarproc.product.io import atomic_path, read_magnitude_preview, read_product
-    from sarproc.product.model import UNITS
+    from sarproc.product.model import UNITS, target_names
     from sarproc.quality.budget import quicklook_estimate
     from sarproc.quality.plotting import plot_quicklook
 
@@ -92,7 +92,7 @@ def quicklook(
 
         table = apparent_truth(header, str(input_path))  # moving targets where the image focuses them
         truth = np.stack([table[d].astype(float) for d in dims], axis=1)
-        names = [n.decode() if isinstance(n, bytes) else str(n) for n in table["name"]]
+        names = target_names(table)
     frame = header.attrs.get("frame", {}).get("name", "")
     reduced = "" if all(f == 1 for f in factors) else ", block max " + " x ".join(str(f) for f in factors)
     title = f"{input_path.name}: {header.kind}, {dynamic_range_db:g} dB{reduced}"

@@ -60,6 +60,7 @@ from sarproc.product import fft as sfft
 from sarproc.product.config import param
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import SINC_IRW_FACTOR
+from sarproc.product.model import target_names
 from sarproc.product.steps import steps, wrapped
 from sarproc.product.theory import cut_metrics as _cut_metrics, window_theory
 from sarproc.quality import kernels_aot
@@ -2029,7 +2030,7 @@ def _checked_product(product: Product, names: Collection[str] | None, where: str
         raise InputError(f"{where}targets table has no field(s) {missing} for the image axes {product.dims}")
     if len(product.targets) == 0:
         raise InputError(f"{where}targets table is empty; nothing to evaluate")
-    all_names = [n.decode() if isinstance(n, bytes) else str(n) for n in product.targets["name"]]
+    all_names = target_names(product.targets)
     if names is not None:
         unknown = [n for n in names if n not in all_names]
         if unknown:

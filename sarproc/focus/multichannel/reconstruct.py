@@ -37,7 +37,7 @@ from sarproc.product import fft as sfft, moving
 from sarproc.product.config import as_dict, param
 from sarproc.product.errors import IMAGE_DEFECT, InputError
 from sarproc.product.metadata import C
-from sarproc.product.model import MOVING_TARGET_COLUMNS, Product
+from sarproc.product.model import MOVING_TARGET_COLUMNS, Product, target_names
 
 if TYPE_CHECKING:
     from sarproc.product.steps import ProgressFactory
@@ -2083,7 +2083,7 @@ def _moving_target_rows(
                 free.discard(i)
                 taken.add(k)
     if moving_rows:
-        names = [n.decode() if isinstance(n, bytes) else str(n) for n in truth["name"]]
+        names = target_names(truth)
         found = {int(k) for k in rows[:, -1] if k >= 0} if len(rows) else set()
         probes, rejected, spacing = info.pop("_probes", ({}, [], 1.0))
         cfar = info.get("detection_cfar", {"threshold_db": params.detection_snr})

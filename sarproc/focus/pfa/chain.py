@@ -61,7 +61,7 @@ from sarproc.product.config import as_dict, param
 from sarproc.product.errors import IMAGE_DEFECT, InputError
 from sarproc.product.frames import GroundLosFrame, image_axis, make_frame, targets_in_frame
 from sarproc.product.metadata import SINC_IRW_FACTOR, aperture_center_position
-from sarproc.product.model import Product
+from sarproc.product.model import Product, target_names
 from sarproc.product.theory import fill_target_theory, window_theory
 
 if TYPE_CHECKING:
@@ -379,7 +379,7 @@ def _plain_limits(
     """Plain PFA's limits on this image, warned about and recorded (``focus_limits``) for evaluate: targets
     beyond eq. (7)'s valid radius, and (``correct_distortion`` off) each static target's predicted
     planar-wavefront displacement (m, azimuth and range), which its position error then includes."""
-    names = [n.decode() if isinstance(n, bytes) else str(n) for n in targets["name"]]
+    names = target_names(targets)
     reach = radius_reach(grid, radius, names, targets["azimuth"], targets["range"] - frame.ground_range)
     if reach.exceeded:
         log.warning("pfa2: %s", radius_message(reach, params.valid_radius_factor), extra=IMAGE_DEFECT)
