@@ -640,8 +640,11 @@ def principal_directions(
     spacing = [nu / n for nu, n in zip(nulls, mag.shape)]
     g, norm = _strong_gradients(mag, spacing, exact)
     u = g / norm[:, None]
-    cand, peaks = _orientation_peaks(u, norm, ndim, exact)
-    found = _edge_normals(cand, peaks, u, g, ndim)
+    cand, peaks, dens = _orientation_peaks(u, norm, ndim, exact)
+    arcs = None
+    if ndim == 2:  # the curved edges' plateaus, checked against where their gradients lie
+        arcs = _Arcs(_plateaus(dens, peaks), _strong_positions(mag, spacing, len(g)), norm)
+    found = _edge_normals(cand, peaks, u, g, ndim, arcs)
     if len(found) < ndim or abs(np.linalg.det(np.array(found))) < 0.2:
         return eye, f_c
     return _ridges(np.array(found), nulls), f_c
@@ -677,34 +680,113 @@ def _strong_gradients(mag: np.ndarray, spacing: Sequence[float], exact: bool) ->
     return g[keep], norm[keep]
 
 
-def _orientation_peaks(u: np.ndarray, norm: np.ndarray, ndim: int, exact: bool) -> tuple[np.ndarray, list]:
+def _strong_positions(mag: np.ndarray, spacing: Sequence[float], count: int) -> np.ndarray | None:
+    """The positions (null units) of :func:`_strong_gradients`' gradients of a 2D ``mag``, in its order (None if
+    ``count`` disagrees: the compiled 3D path is not this one)."""
+    grads = np.gradient(mag, *spacing)
+    norm = np.hypot(grads[0], grads[1]).ravel()
+    keep = np.flatnonzero(norm > 0.05 * norm.max())
+    if keep.size != count:
+        return None
+    return np.stack(np.unravel_index(keep, mag.shape), axis=1) * np.asarray(spacing)
+
+
+def _orientation_peaks(u: np.ndarray, norm: np.ndarray, ndim: int, exact: bool) -> tuple[np.ndarray, list, np.ndarray]:
     """(candidate orientations, the indices of the peaks of the orientation density of unit vectors ``u`` weighted
-    by ``norm``, strongest first)."""
+    by ``norm``, strongest first, the density at every candidate)."""
     cand, sigma, near = _orientation_grid(ndim)
     sub = slice(None, None, max(1, len(u) // 4000))  # the density only locates the peaks
     if ndim == 3 and not exact:  # compiled: one launch over every candidate (each one's sum is the same)
         dens = _orientation_density(cand, u[sub], norm[sub], sigma)
         peak = dens >= dens[_padded_neighbours(ndim)].max(axis=1)
-        return cand, [i for i in np.argsort(dens)[::-1] if peak[i] and dens[i] > 0]
+        return cand, [i for i in np.argsort(dens)[::-1] if peak[i] and dens[i] > 0], dens
     dens = np.concatenate(
         [
             _orientation_density(c, u[sub], norm[sub], sigma, exact)
             for c in np.array_split(cand, max(1, len(cand) // 500))
         ]
     )
-    return cand, [i for i in np.argsort(dens)[::-1] if dens[i] >= dens[near[i]].max() and dens[i] > 0]
+    return cand, [i for i in np.argsort(dens)[::-1] if dens[i] >= dens[near[i]].max() and dens[i] > 0], dens
 
 
-def _edge_normals(cand: np.ndarray, peaks: Sequence[int], u: np.ndarray, g: np.ndarray, ndim: int) -> list[np.ndarray]:
+# An edge whose normals spread more than this either side, turning steadily along it (a curved one), is refined
+# over its whole spread; "steadily": the normals' angle and their position along the edge correlate beyond
+# ARC_CORRELATION (a narrowband aperture's arcs: 0.73; straight edges, crowded chips' fringes: |r| < 0.11).
+CURVED_EDGE_DEG = 4.0
+ARC_CORRELATION = 0.5
+
+
+@dataclasses.dataclass(frozen=True)
+class _Arcs:
+    """What :func:`_edge_normals` needs to recognise a curved edge: the density plateaus (middle and half-width,
+    deg, per peak), the strong gradients' positions (null units; None when unknown) and their norms."""
+
+    plateaus: dict[int, tuple[float, float]]
+    positions: np.ndarray | None
+    norm: np.ndarray
+
+    def curved(self, peak: int, u: np.ndarray) -> tuple[np.ndarray, float] | None:
+        """(starting normal, cone half-angle in deg) for the whole plateau of ``peak`` if it is a curved edge."""
+        middle, half = self.plateaus[peak]
+        if half <= CURVED_EDGE_DEG or self.positions is None:
+            return None
+        a = math.radians(middle)
+        normal, tangent = np.array([math.cos(a), math.sin(a)]), np.array([-math.sin(a), math.cos(a)])
+        c = u @ normal
+        sel = np.abs(c) > math.cos(math.radians(half + CURVED_EDGE_DEG))
+        if np.count_nonzero(sel) < 8:
+            return None
+        turn = np.sign(c[sel]) * (u[sel] @ tangent)  # sine of each normal's angle from the middle
+        along = self.positions[sel] @ tangent
+        w = self.norm[sel]
+        cov = np.cov(turn, along, aweights=w)
+        if not cov[0, 0] > 0 or not cov[1, 1] > 0:
+            return None
+        if abs(cov[0, 1]) / math.sqrt(cov[0, 0] * cov[1, 1]) < ARC_CORRELATION:
+            return None
+        return normal, half + CURVED_EDGE_DEG
+
+
+def _plateaus(dens: np.ndarray, peaks: Sequence[int], level: float = 0.5) -> dict[int, tuple[float, float]]:
+    """Per 2D density peak (candidates every 180 / n deg), the middle and half-width (deg) of the run of
+    candidates around it whose density stays above ``level`` of the peak's (at most 45 deg either side)."""
+    n = len(dens)
+    step = 180.0 / n
+    reach = int(45.0 / step)
+    out = {}
+    for i in peaks:
+        floor = level * dens[i]
+        lo = next((k for k in range(1, reach + 1) if dens[(i - k) % n] < floor), reach + 1) - 1
+        hi = next((k for k in range(1, reach + 1) if dens[(i + k) % n] < floor), reach + 1) - 1
+        out[i] = ((i + (hi - lo) / 2) * step, (hi + lo) / 2 * step)
+    return out
+
+
+def _edge_normals(
+    cand: np.ndarray,
+    peaks: Sequence[int],
+    u: np.ndarray,
+    g: np.ndarray,
+    ndim: int,
+    arcs: _Arcs | None = None,
+) -> list[np.ndarray]:
     """Up to ``ndim`` edge normals: each density peak (``cand[peaks]``) more than 20 deg from those kept, refined
-    to the sign-aligned mean of the raw gradients ``g`` (unit vectors ``u``) within 8 deg of it."""
+    to the sign-aligned mean of the raw gradients ``g`` (unit vectors ``u``) within 8 deg of it.
+
+    A curved edge (the range edges of a narrowband, wide-angle aperture's support are arcs) spreads its normals
+    over the aperture's angles and the density over a plateau whose ends are its highest points (the normals
+    crowd where the arc bends least in null-normalised frequency): its normal is the mean over the whole
+    plateau (``arcs``: the plateaus and where their gradients lie), the side-lobe fan's centre, not one end."""
     found: list[np.ndarray] = []
     for i in peaks:
         if all(abs(cand[i] @ f) < math.cos(math.radians(20.0)) for f in found):
-            f = cand[i]
+            f, cone = cand[i], 8.0
+            arc = arcs.curved(i, u) if arcs is not None else None
+            if arc is not None:
+                f, cone = arc
             for _ in range(4):  # cluster mean of the raw gradients, signs aligned
                 c = u @ f
-                sel = np.abs(c) > math.cos(math.radians(8.0))
+                sel = np.abs(c) > math.cos(math.radians(cone))
                 if not sel.any():
                     break
                 f = (np.sign(c[sel])[:, None] * g[sel]).sum(axis=0)

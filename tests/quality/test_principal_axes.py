@@ -255,3 +255,56 @@ def test_neighbour_with_spectral_phase_is_fitted_and_both_are_measured_in_place(
     assert mb.pslr_db == pytest.approx(ref["pslr_db"], abs=0.1)
     assert mb.islr_db == pytest.approx(ref["islr_db"], abs=0.1)
     assert check_report(rep, expectations_from_mapping({"pslr_db": [-30, 0]})) == []
+
+
+# A narrowband, wide-angle aperture: fractional bandwidth 1/67 (30 MHz at 2 GHz), +-3.9 deg of look angles
+# (paper 002's reduced scene). Its support is an annular sector whose range edges are arcs, so the range side
+# lobes fan out over the look angles instead of lying on one ridge.
+FAN_CARRIER, FAN_HALF_ANGLE = 67.0, 0.0685  # carrier over bandwidth; half the aperture, rad
+
+
+def fan_response(x, y, centre_deg, n_angles=400):
+    """The annular sector's response at (x, y) (range nulls: bandwidth 1): the sum over look angles phi of
+    sinc(rho) exp(j 2 pi f_c rho), rho = x cos(phi) + y sin(phi), phi spread evenly over the aperture."""
+    phi = math.radians(centre_deg) + FAN_HALF_ANGLE * ((np.arange(n_angles) + 0.5) / n_angles * 2 - 1)
+    out = np.zeros(np.broadcast(x, y).shape, complex)
+    for c, s in zip(np.cos(phi), np.sin(phi)):
+        rho = x * c + y * s
+        out += np.sinc(rho) * np.exp(2j * np.pi * FAN_CARRIER * rho)
+    return out / n_angles
+
+
+def fan_cut_reference(centre_deg, window_nulls=10.0, step=1 / 256):
+    """IRW, PSLR and ISLR of the closed form sampled densely along the fan's centre (independent of sarproc)."""
+    t = np.arange(-(window_nulls + 2), window_nulls + 2 + step, step)
+    a = math.radians(centre_deg)
+    p = np.abs(fan_response(t * math.cos(a), t * math.sin(a), centre_deg)) ** 2
+    k = int(np.argmax(p))
+    left = k - int(np.argmax(np.diff(p[k::-1]) > 0))  # first nulls: where the power stops falling
+    right = k + int(np.argmax(np.diff(p[k:]) > 0))
+    half = np.flatnonzero(p >= p[k] / 2)
+    inside = np.abs(t) <= window_nulls
+    main = p[left : right + 1].sum()
+    return {
+        "irw": (half[-1] - half[0]) * step,
+        "pslr_db": 10 * np.log10(max(p[: left + 1].max(), p[right:].max()) / p[k]),
+        "islr_db": 10 * np.log10((p[inside].sum() - main) / main),
+    }
+
+
+@pytest.mark.parametrize("centre_deg", [0.0, 3.0])
+def test_a_fan_of_range_side_lobes_is_cut_through_its_centre(centre_deg):
+    """The range ridge of a narrowband, wide-angle aperture is the centre of its fan of side lobes, where they are
+    highest: one end of the fan (where the arcs' normals crowd) reads the side lobes 2 dB too low."""
+    az, rg = axis_coords(150, 0.04), axis_coords(160, 0.4)
+    A, R = np.meshgrid(az, rg, indexing="ij")
+    img = fan_response(R, A, centre_deg).astype(np.complex64)  # range along x, azimuth along y
+    ref = fan_cut_reference(centre_deg)
+    assert ref["pslr_db"] > SINC_PSLR - 1.0  # the fan's centre: close to a sinc's side lobes
+    azimuth_irw = 0.886 / (2 * FAN_CARRIER * math.sin(FAN_HALF_ANGLE))
+    rep = evaluate_image(img, DIMS, [az, rg], (azimuth_irw, ref["irw"]), [(0.0, 0.0)], metric=np.eye(2))
+    cut = rep.targets[0].axes[1]
+    assert cut.angle_deg == pytest.approx(centre_deg, abs=0.5), cut
+    assert cut.irw == pytest.approx(ref["irw"], rel=0.01), cut
+    assert cut.pslr_db == pytest.approx(ref["pslr_db"], abs=0.15), cut
+    assert cut.islr_db == pytest.approx(ref["islr_db"], abs=0.2), cut
