@@ -52,6 +52,15 @@ def scene_mapping():
     return make
 
 
+@pytest.fixture(scope="module")
+def fresh_numba(tmp_path_factory):
+    """A numba cache that only this module's subprocesses write: their numba kernels are compiled there from the
+    sources by a plain process. A cache written by other processes, or kernels a long test process compiled
+    earlier, can differ from a fresh compile in the last bits (docs/performance.md, "Traced (session 18)"),
+    which a bit-for-bit comparison with a compiled module must not depend on."""
+    return tmp_path_factory.mktemp("numba-cache")
+
+
 @contextlib.contextmanager
 def aot_environment(directory):
     """SARPROC_AOT=1 with modules in ``directory`` for the block, both variables as they were after it (a

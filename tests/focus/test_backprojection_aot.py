@@ -156,13 +156,6 @@ print("equal")
 """
 
 
-@pytest.fixture(scope="module")
-def fresh_numba(tmp_path_factory):
-    """A numba cache only this module's subprocesses write: their numba kernels are compiled there from the
-    sources by a plain process."""
-    return tmp_path_factory.mktemp("numba-cache")
-
-
 @pytest.mark.parametrize("monostatic", [True, False])
 def test_compiled_module_image_equals_numbas(built, raw, fresh_numba, tmp_path, monostatic):
     """Same source, serial instead of parallel tiles: each tile sums its pulses in the same order, so the

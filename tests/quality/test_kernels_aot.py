@@ -82,15 +82,6 @@ print("equal")
 """
 
 
-@pytest.fixture(scope="module")
-def fresh_numba(tmp_path_factory):
-    """A numba cache this module's subprocesses share and nothing else writes: their numba kernels are compiled
-    there, by a plain process, from the sources. A cache written by other processes can hold compiles that
-    differ from a fresh one in the last bits (docs/performance.md, "Traced (session 18)"), which a bit-for-bit
-    comparison with the compiled module must not depend on."""
-    return tmp_path_factory.mktemp("numba-cache")
-
-
 def test_compiled_kernels_equal_numbas(built, fresh_numba):
     """Each export (serial) on the same arguments as numba's freshly compiled kernel: the same bits."""
     env = {

@@ -13,12 +13,10 @@ import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
 from conftest import build_aot_kernels
 
 from sarproc.quality import residual_aot
-from sarproc.quality.residual import _strip_count, spectral_orders
 
 ROOT = Path(__file__).resolve().parents[2]
 HAVE_CC = shutil.which(os.environ.get("CC", "cc")) is not None or shutil.which("gcc") is not None
@@ -33,9 +31,19 @@ def built(tmp_path_factory):
     return d, build_aot_kernels(residual_aot.RESIDUAL, d)
 
 
-def _points(rng, ndim: int, strips: int) -> np.ndarray:
-    """Ridge coordinates with the kernels' special points: removable singularities of an order (c + n / 2 = 0)
-    and within 1e-7 of one, the last axis' zero, a Dirichlet pole, a keystoned axis within 1e-3 of its zero."""
+# The comparisons run in a process whose numba compiles the kernels itself into a private cache (fresh_numba):
+# a cache written by other processes can differ from a fresh compile in the last bits (docs/performance.md,
+# "Traced (session 18)"), which a bit-for-bit comparison must not depend on.
+COMPARE = """
+import sys
+import numpy as np
+from sarproc.quality import residual_aot, residual_kernels as rk
+from sarproc.quality.residual import _strip_count, spectral_orders
+
+
+def points(rng, ndim, strips):
+    # ridge coordinates with the kernels' special points: removable singularities of an order (c + n / 2 = 0)
+    # and within 1e-7 of one, the last axis' zero, a Dirichlet pole, a keystoned axis within 1e-3 of its zero
     c = rng.uniform(-60, 60, size=(ndim, 3000))
     c[:, :300] = rng.uniform(-3, 3, size=(ndim, 300))
     c[0, 300:320] = 0.5
@@ -47,47 +55,58 @@ def _points(rng, ndim: int, strips: int) -> np.ndarray:
     return c
 
 
-@pytest.mark.parametrize("ndim", [2, 3])
-@pytest.mark.parametrize("keystone", [0.003, 0.03, -0.15])
-def test_compiled_kernels_equal_numbas(built, ndim, keystone):
-    """Every export on the same arguments as numba's kernel: the same bits (both compile the source without
-    fast-math, for the host CPU), special points included."""
-    from sarproc.quality import residual_kernels as rk
-
-    k = built[1]
-    rng = np.random.default_rng(11)
-    orders = np.ascontiguousarray(spectral_orders(ndim, 1, 2), dtype=np.int64)
-    kappa = np.linspace(keystone, 0.5 * keystone, ndim - 1)
-    strips = _strip_count(kappa)
-    coef = rng.normal(size=len(orders)) + 1j * rng.normal(size=len(orders))
-    c = _points(rng, ndim, strips)
-    a, b = k.keystone_columns(c, orders, kappa, strips), rk.keystone_columns(c, orders, kappa, strips)
-    assert np.array_equal(a, b) and np.isfinite(a).all()
-    a = k.keystone_derivatives(c, orders, coef, kappa, strips)
-    b = rk.keystone_derivatives(c, orders, coef, kappa, strips)
-    assert np.array_equal(a, b) and np.isfinite(a).all()
-    if ndim == 2:  # the box kernel: a skewed box whose rows hit c_az = -n / 2
-        c0, d_row, d_col = np.array([-20.0, -31.5]), np.array([0.5, 0.04]), np.array([0.0, 0.41])
-        a = k.keystone_box_sum(c0, d_row, d_col, 90, 150, orders, coef, kappa, strips)
-        b = rk.keystone_box_sum(c0, d_row, d_col, 90, 150, orders, coef, kappa, strips)
-        assert np.array_equal(a, b) and np.isfinite(a).all()
+def same(a, b, what):
+    assert np.array_equal(a, b) and np.isfinite(a).all(), what
 
 
-def test_the_wrappers_take_any_layout(built, monkeypatch):
-    """The residual's calls (strided views, int32 orders, a list for kappa) reach the compiled exports, whose
-    signatures are C-contiguous float64 / int64 / complex128."""
-    from sarproc.quality import residual_kernels as rk
+k = residual_aot.RESIDUAL.load()
+assert k is not None and residual_aot.RESIDUAL.is_compiled(k), "the compiled module did not load"
+for ndim in (2, 3):
+    for keystone in (0.003, 0.03, -0.15):
+        rng = np.random.default_rng(11)
+        orders = np.ascontiguousarray(spectral_orders(ndim, 1, 2), dtype=np.int64)
+        kappa = np.linspace(keystone, 0.5 * keystone, ndim - 1)
+        strips = _strip_count(kappa)
+        coef = rng.normal(size=len(orders)) + 1j * rng.normal(size=len(orders))
+        c = points(rng, ndim, strips)
+        what = f"ndim {ndim}, keystone {keystone}: "
+        a = k.keystone_columns(c, orders, kappa, strips)
+        same(a, rk.keystone_columns(c, orders, kappa, strips), what + "columns")
+        a = k.keystone_derivatives(c, orders, coef, kappa, strips)
+        same(a, rk.keystone_derivatives(c, orders, coef, kappa, strips), what + "derivatives")
+        if ndim == 2:  # the box kernel: a skewed box whose rows hit c_az = -n / 2
+            box = (np.array([-20.0, -31.5]), np.array([0.5, 0.04]), np.array([0.0, 0.41]), 90, 150)
+            a = k.keystone_box_sum(*box, orders, coef, kappa, strips)
+            same(a, rk.keystone_box_sum(*box, orders, coef, kappa, strips), what + "box sum")
+# the residual's own calls (strided views, int32 orders, a list for kappa) reach the exports, whose signatures
+# are C-contiguous float64 / int64 / complex128
+residual_aot.kernels = lambda: k  # pick() would take numba's, loaded above
+rng = np.random.default_rng(12)
+orders = spectral_orders(2, 1, 2).astype(np.int32)
+c = np.asfortranarray(points(rng, 2, 3))
+coef = (rng.normal(size=len(orders)) + 1j * rng.normal(size=len(orders))).tolist()
+got = residual_aot.keystone_derivatives(c[:, ::2], orders, coef, [0.01], 3)
+want = rk.keystone_derivatives(
+    np.ascontiguousarray(c[:, ::2]), orders.astype(np.int64), np.array(coef), np.array([0.01]), 3
+)
+same(got, want, "wrapper")
+print("equal")
+"""
 
-    monkeypatch.setattr(residual_aot, "kernels", lambda: built[1])
-    rng = np.random.default_rng(12)
-    orders = spectral_orders(2, 1, 2).astype(np.int32)
-    c = np.asfortranarray(_points(rng, 2, 3))
-    coef = (rng.normal(size=len(orders)) + 1j * rng.normal(size=len(orders))).tolist()
-    got = residual_aot.keystone_derivatives(c[:, ::2], orders, coef, [0.01], 3)
-    want = rk.keystone_derivatives(
-        np.ascontiguousarray(c[:, ::2]), orders.astype(np.int64), np.array(coef), np.array([0.01]), 3
-    )
-    assert np.array_equal(got, want)
+
+def test_compiled_kernels_equal_numbas(built, fresh_numba):
+    """Every export on the same arguments as numba's freshly compiled kernel (2D and 3D, three keystones): the
+    same bits (both compile the source without fast-math, for the host CPU), special points included; and the
+    residual's wrappers take any layout of their arguments."""
+    env = {
+        **os.environ,
+        "SARPROC_AOT_DIR": str(built[0]),
+        "SARPROC_AOT": "1",
+        "PYTHONPATH": str(ROOT),
+        "NUMBA_CACHE_DIR": str(fresh_numba),
+    }
+    done = subprocess.run([sys.executable, "-c", COMPARE], capture_output=True, text=True, env=env, check=False)
+    assert done.returncode == 0 and done.stdout.strip().endswith("equal"), done.stderr[-3000:]
 
 
 def _evaluate(image: Path, out: Path, env: dict) -> list[str]:
@@ -102,11 +121,17 @@ def _evaluate(image: Path, out: Path, env: dict) -> list[str]:
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
-def test_evaluate_imports_no_numba_and_reports_numbas_figures(built, tmp_path):
+def test_evaluate_imports_no_numba_and_reports_numbas_figures(built, fresh_numba, tmp_path):
     """The demo image's evaluate (residual on: every residual kernel runs) with the module built: no numba or
     llvmlite imported, the compiled module loaded, and the same report as with numba's kernels (SARPROC_AOT=0)."""
     d, _ = built
-    on = {**os.environ, "SARPROC_AOT_DIR": str(d), "SARPROC_AOT": "1", "PYTHONPATH": str(ROOT)}
+    on = {
+        **os.environ,
+        "SARPROC_AOT_DIR": str(d),
+        "SARPROC_AOT": "1",
+        "PYTHONPATH": str(ROOT),
+        "NUMBA_CACHE_DIR": str(fresh_numba),
+    }
     off = {**on, "SARPROC_AOT": "0"}
     cfg = str(ROOT / "configs" / "demo.yaml")
     raw, image = tmp_path / "raw.h5", tmp_path / "image.h5"
