@@ -2062,25 +2062,31 @@ def evaluate_product(
         )
     except InputError as exc:
         raise InputError(f"{where}{exc}") from None
-    notes = focus_limit_notes(product.attrs.get("focus_limits"), report.params.search_cells)
+    notes = focus_limit_notes(
+        product.attrs.get("focus_limits"),
+        report.params.search_cells,
+        product.attrs.get("valid_radius", math.nan),
+        product.attrs.get("theoretical_irw", (math.nan,) * 2),
+    )
     targets = tuple(dataclasses.replace(t, notes=notes.get(t.name, ())) for t in report.targets)
     return dataclasses.replace(report, targets=targets, movers=mover_reports(product, table, report, source))
 
 
-def focus_limit_notes(limits: Mapping[str, Any] | None, search_cells: float) -> dict[str, tuple[str, ...]]:
+def focus_limit_notes(
+    limits: Mapping[str, Any] | None, search_cells: float, valid_radius: float, irw: Sequence[float]
+) -> dict[str, tuple[str, ...]]:
     """Per target, what the focusing stage's ``focus_limits`` attribute says makes its figures other than a
-    focused response at its truth (pfa2 plain: beyond eq. (7)'s valid radius; the planar-wavefront distortion
-    left in, with its predicted displacement)."""
+    focused response at its truth (pfa2 plain: beyond eq. (7)'s ``valid_radius``; the planar-wavefront
+    distortion left in, with its predicted displacement, also in cells of the image's theoretical ``irw``)."""
     if not limits:
         return {}
     notes: dict[str, list[str]] = {}
-    radius = float(limits.get("valid_radius", math.nan))
+    radius = float(valid_radius)
     for name, dist in limits.get("beyond_valid_radius", {}).items():
         notes.setdefault(name, []).append(
             f"beyond plain PFA's valid radius: {dist:.4g} m = {dist / radius:.2f} x {radius:.4g} m (eq. 7), its "
             "response defocused: the figures are not those of a focused target"
         )
-    irw = limits.get("theoretical_irw", (math.nan, math.nan))
     for name, shift in limits.get("distortion_uncorrected", {}).items():
         cells = [x / w for x, w in zip(shift, irw)]
         if max(abs(c) for c in cells) < 0.01:  # the reference point itself: nothing to say

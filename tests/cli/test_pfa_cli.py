@@ -156,7 +156,10 @@ def test_plain_pfa_inside_the_valid_radius_and_two_step_are_silent(tmp_path, raw
     res = run("pfa2", raw_file, "-o", tmp_path / "plain.h5", "--config", cfg)
     assert res.exit_code == 0 and not _warnings(res.output, "valid radius"), res.output
     limits = read_product(tmp_path / "plain.h5").attrs["focus_limits"]
-    assert limits["beyond_valid_radius"] == {} and limits["image_reach"] < limits["valid_radius"]
+    assert (
+        limits["beyond_valid_radius"] == {}
+        and limits["image_reach"] < read_product(tmp_path / "plain.h5").attrs["valid_radius"]
+    )
     res = run("pfa2", raw_file, "-o", tmp_path / "two_step.h5")
     assert res.exit_code == 0 and "WARNING" not in res.output, res.output
 
@@ -182,9 +185,10 @@ def test_plain_pfa_without_distortion_correction_notes_the_predicted_displacemen
     assert run("pfa2", wide_raw, "-o", tmp_path / "image.h5", "--config", cfg).exit_code == 0
     res = run("evaluate", tmp_path / "image.h5", "-o", tmp_path / "r.json", "--targets", "C,R")
     assert res.exit_code == 0, res.output
-    limits = read_product(tmp_path / "image.h5").attrs["focus_limits"]
+    attrs = read_product(tmp_path / "image.h5").attrs
+    limits = attrs["focus_limits"]
     report = {t["name"]: t for t in json.loads((tmp_path / "r.json").read_text())["targets"]}
-    predicted = np.array(limits["distortion_uncorrected"]["R"]) / np.array(limits["theoretical_irw"])
+    predicted = np.array(limits["distortion_uncorrected"]["R"]) / np.array(attrs["theoretical_irw"])
     measured = np.array([a["position_error_cells"] for a in report["R"]["axes"]])
     assert np.all(np.abs(predicted) > 0.3) and np.allclose(measured, predicted, atol=0.05)
     (note,) = report["R"]["notes"]

@@ -282,7 +282,7 @@ def pfa2(
 
     targets = targets_in_frame(raw.targets, frame)
     if params.method == "plain":
-        attrs["focus_limits"] = _plain_limits(targets, frame, grid, radius, ph, rect, params, kg.irw())
+        attrs["focus_limits"] = _plain_limits(targets, frame, grid, radius, ph, rect, params)
     _record_target_theory(targets, ph, e_a, e_r, kg, params, radar)
     out = raw.derive(
         "image",
@@ -374,21 +374,16 @@ def _plain_limits(
     ph: PhaseHistory,
     rect: Rect,
     params: Pfa2Params,
-    irw: Sequence[float],
 ) -> dict[str, Any]:
-    """Plain PFA's limits on this image, warned about and recorded (``focus_limits``) for evaluate: targets
-    beyond eq. (7)'s valid radius, and (``correct_distortion`` off) each static target's predicted
+    """Plain PFA's limits on this image, warned about and recorded (``focus_limits``) for evaluate: how far the
+    image reaches from the scene centre and the targets beyond eq. (7)'s valid radius (the image's own
+    ``valid_radius`` attribute), and (``correct_distortion`` off) each static target's predicted
     planar-wavefront displacement (m, azimuth and range), which its position error then includes."""
     names = target_names(targets)
     reach = radius_reach(grid, radius, names, targets["azimuth"], targets["range"] - frame.ground_range)
     if reach.exceeded:
         log.warning("pfa2: %s", radius_message(reach, params.valid_radius_factor), extra=IMAGE_DEFECT)
-    limits: dict[str, Any] = {
-        "valid_radius": radius,
-        "image_reach": reach.image_reach,
-        "beyond_valid_radius": reach.beyond,
-        "theoretical_irw": list(irw),
-    }
+    limits: dict[str, Any] = {"image_reach": reach.image_reach, "beyond_valid_radius": reach.beyond}
     if not params.correct_distortion and len(targets):
         # a mover is imaged at its static equivalent, not at its table position: no prediction for it here
         fields = [v for v in ("vx", "vy", "vz") if v in (targets.dtype.names or ())]
