@@ -9,9 +9,17 @@ import pytest
 
 from helpers import assert_theory
 from sarproc.focus.backprojection import BackprojectParams, backproject
-from sarproc.focus.ffbp import error_bound, ffbp_points, interpolation_error, predicted_error, pulse_oversample
+from sarproc.focus.ffbp import (
+    error_bound,
+    ffbp_points,
+    interpolation_error,
+    predicted_error,
+    predicted_image_error,
+    pulse_oversample,
+)
 from sarproc.product.config import load_yaml
 from sarproc.product.errors import InputError
+from sarproc.product.frames import make_frame
 from sarproc.quality.metrics import evaluate_product
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
@@ -42,6 +50,33 @@ def pulses_q(raw, upsample=8):
     return pulse_oversample(raw.data.shape[1], upsample, r.range_sampling_rate, r.bandwidth)
 
 
+def grid_points(raw, image, frame):
+    """The image's pixels as points (n, 3) and its grid shape."""
+    az, rg = np.meshgrid(image.coords["azimuth"], image.coords["range"], indexing="ij")
+    return make_frame(frame, raw.radar).to_xyz(az.ravel(), rg.ravel()), az.shape
+
+
+def predicted(raw, image, p, **changes):
+    """predicted_image_error of ffbp with params p (and ``changes`` to them) on the image's grid."""
+    p = dataclasses.replace(p, **changes)
+    pts, shape = grid_points(raw, image, p.frame)
+    r = raw.radar
+    return predicted_image_error(
+        raw.aux["platform_position"],
+        pts,
+        r.carrier_frequency,
+        r.bandwidth,
+        grid_shape=shape,
+        factor=p.ffbp_factor,
+        first_factor=p.ffbp_first_factor,
+        oversample=p.ffbp_oversample,
+        ffbp_interpolation=p.ffbp_interpolation,
+        ffbp_taps=p.ffbp_taps,
+        pulse_oversample=pulses_q(raw, p.upsample),
+        pulse_interpolation=p.interpolation,
+    )
+
+
 def nmse(image, exact):
     return float(np.sum(np.abs(image - exact) ** 2) / np.sum(np.abs(exact) ** 2))
 
@@ -55,7 +90,7 @@ def case(request):
     scene, frame = request.param
     raw = simulate(scene_from_mapping(scene))
     params = BackprojectParams(frame=frame, margin_cells=28)
-    return raw, params, backproject(raw, params).data
+    return raw, params, backproject(raw, params)
 
 
 # the first version's reads (cubic Lagrange, factor 4 from the pulses on) and the default Knab reads
@@ -74,19 +109,10 @@ def test_ffbp_error_against_the_exact_image_is_the_predicted_one(case, reads, ov
     raw, params, exact = case
     for q in oversamples:
         p = dataclasses.replace(params, engine="ffbp", ffbp_oversample=q, **reads)
-        image = backproject(raw, p).data
-        measured = nmse(image, exact)
-        predicted = predicted_error(
-            raw.data.shape[0],
-            p.ffbp_factor,
-            q,
-            p.ffbp_interpolation,
-            p.ffbp_taps,
-            p.ffbp_first_factor,
-            pulses_q(raw),
-        )
+        measured = nmse(backproject(raw, p).data, exact.data)
+        expected = predicted(raw, exact, p)
         # below the bound (the model + 4 dB) and no more than 6 dB under the model: the prediction means something
-        assert predicted / 4 < measured < error_bound(predicted), (q, 10 * np.log10(measured), 10 * np.log10(predicted))
+        assert expected / 4 < measured < error_bound(expected), (q, 10 * np.log10(measured), 10 * np.log10(expected))
 
 
 @pytest.mark.parametrize(
@@ -163,8 +189,8 @@ def test_a_fine_output_grid_is_read_on_a_coarse_one_and_upsampled():
     )
     assert np.prod(info["cartesian"]) * 4 < az.size  # the coarse grid: over 4x fewer points than the output
     measured = nmse(out.reshape(az.shape), exact)
-    predicted = predicted_error(raw.data.shape[0], 4, 2.0, "knab", 8, 16, pulses_q(raw))
-    assert predicted / 4 < measured < error_bound(predicted), (10 * np.log10(measured), 10 * np.log10(predicted))
+    expected = predicted(raw, img, params, ffbp_oversample=2.0, ffbp_first_factor=16, ffbp_taps=8)
+    assert expected / 4 < measured < error_bound(expected), (10 * np.log10(measured), 10 * np.log10(expected))
 
 
 def test_two_runs_give_identical_images():
@@ -311,22 +337,10 @@ def test_ffbp_reads_the_pulses_cubic_as_the_exact_engine_does():
     exact image is the predicted one, far below the linear reads' floor."""
     raw = simulate(scene_from_mapping(SQUINT30))
     params = BackprojectParams(frame="los", azimuth_extent=40.0, range_extent=40.0, interpolation="cubic")
-    exact = backproject(raw, params).data
+    exact = backproject(raw, params)
     image = backproject(raw, dataclasses.replace(params, engine="ffbp")).data
-    measured = nmse(image, exact)
-    p = params
-    predicted = predicted_error(
-        raw.data.shape[0],
-        p.ffbp_factor,
-        p.ffbp_oversample,
-        "knab",
-        p.ffbp_taps,
-        p.ffbp_first_factor,
-        pulses_q(raw),
-        "cubic",
-    )
-    linear_floor = predicted_error(
-        raw.data.shape[0], p.ffbp_factor, p.ffbp_oversample, "knab", p.ffbp_taps, p.ffbp_first_factor, pulses_q(raw)
-    )
-    assert predicted / 4 < measured < error_bound(predicted), (10 * np.log10(measured), 10 * np.log10(predicted))
+    measured = nmse(image, exact.data)
+    expected = predicted(raw, exact, params)
+    linear_floor = predicted(raw, exact, params, interpolation="linear")
+    assert expected / 4 < measured < error_bound(expected), (10 * np.log10(measured), 10 * np.log10(expected))
     assert measured < linear_floor / 4
