@@ -363,6 +363,7 @@ def _cartesian_grid(
     grid_shape: tuple[int, int],
     top_geo: np.ndarray,
     oversample: float,
+    range_oversample: float,
     boundary: np.ndarray,
 ) -> _CoarseGrid | None:
     """A coarse grid along the axes of the output lattice (first point xy0, steps a and b in plane coordinates)
@@ -379,8 +380,8 @@ def _cartesian_grid(
         return None
     u_r = d / rho[:, None]
     u_t = np.stack([-u_r[:, 1], u_r[:, 0]], axis=1)
-    q = oversample
-    b_r, b_t = 1.0 / (2 * q * dr), 1.0 / (2 * q * dth * rho)
+    # the radial band is the range grid's (dr sampled range_oversample times it), the angular the angle grid's
+    b_r, b_t = 1.0 / (2 * range_oversample * dr), 1.0 / (2 * oversample * dth * rho)
     steps, counts, pos = [], [], []
     margin = CARTESIAN_TAPS // 2 + 1
     for v, n in ((a, n0), (b, n1)):
@@ -792,6 +793,7 @@ def _read_output(
     kc2: float,
     tab_t: np.ndarray,
     oversample: float,
+    range_oversample: float,
     n_az: int,
     info: dict | None,
     seconds: list[float],
@@ -803,7 +805,9 @@ def _read_output(
     coarse = None
     if plane.shape is not None:
         assert plane.xy0 is not None and plane.a_xy is not None and plane.b_xy is not None
-        coarse = _cartesian_grid(plane.xy0, plane.a_xy, plane.b_xy, plane.shape, top.geo[0], oversample, plane.boundary)
+        coarse = _cartesian_grid(
+            plane.xy0, plane.a_xy, plane.b_xy, plane.shape, top.geo[0], oversample, range_oversample, plane.boundary
+        )
         if coarse is None:  # the lattice's points, for the reads at every point
             plane.xy, plane.pz = _lattice_points(plane)
     if coarse is None:
@@ -879,7 +883,8 @@ def ffbp_points(
             linear = lev == 1 and interpolation == "linear"
             image = _merge(image, tree, lev, kc2, reads.tab_t, reads.tab_r, linear)
             seconds.append(time.perf_counter())
-        out = _read_output(image, plane, len(points), kc2, reads.tab_t, oversample, n_az, info, seconds)
+        q_r = range_oversample or oversample
+        out = _read_output(image, plane, len(points), kc2, reads.tab_t, oversample, q_r, n_az, info, seconds)
         seconds.append(time.perf_counter())
     if info is not None:  # the pulses' upsampling, each level's merge, the output's read
         info["seconds"] = list(np.diff(seconds))

@@ -344,3 +344,26 @@ def test_ffbp_reads_the_pulses_cubic_as_the_exact_engine_does():
     linear_floor = predicted(raw, exact, params, interpolation="linear")
     assert expected / 4 < measured < error_bound(expected), (10 * np.log10(measured), 10 * np.log10(expected))
     assert measured < linear_floor / 4
+
+
+def test_the_lattice_read_samples_the_range_band_of_the_range_grid():
+    """With range oversampling below the angle's (range_oversample), the coarse Cartesian grid the lattice is read
+    on must sample the radial band of the range grid: sized by the angle's oversampling it undersamples it and
+    the lattice's image parts from the point-by-point read of the same points."""
+    from sarproc.dsp.rangecomp import range_compress
+    from sarproc.product.frames import make_frame
+
+    raw = simulate(scene_from_mapping(SQUINT30))
+    img = backproject(raw, BackprojectParams(frame="los", azimuth_extent=10.0, range_extent=10.0))
+    # four times the default grid's density: fine enough for the coarse grid to pay
+    fine = [np.linspace(c[0], c[-1], 4 * len(c)) for c in (img.coords["azimuth"], img.coords["range"])]
+    az, rg = np.meshgrid(*fine, indexing="ij")
+    pts = make_frame("los", raw.radar).to_xyz(az.ravel(), rg.ravel())
+    args = (range_compress(raw.data, raw.radar), raw.coords["range_time"], raw.aux["platform_position"])
+    common = dict(first_factor=16, ffbp_taps=10, oversample=3.0, range_oversample=1.25)
+    fc, bw = raw.radar.carrier_frequency, raw.radar.bandwidth
+    info: dict = {}
+    lattice = ffbp_points(*args, pts, fc, bw, grid_shape=az.shape, info=info, **common)
+    assert "cartesian" in info  # read on the coarse grid
+    loose = ffbp_points(*args, pts, fc, bw, **common)
+    assert nmse(lattice, loose) < 1e-4, 10 * np.log10(nmse(lattice, loose))
