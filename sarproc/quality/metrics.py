@@ -1145,23 +1145,25 @@ def _subtract_neighbours(
     hamming = params.irw_factor > 1.1
     period = _period_in_samples(shapes, nulls)
     out = list(peaks)
-    for i, peak in wrapped(done, list(enumerate(peaks))):
-        raw = peak.raw
-        shape = np.array(raw.shape)
-        centre = raw.origin + (shape - 1) / 2
+    others = {}
+    for i, peak in enumerate(peaks):
+        shape = np.array(peak.raw.shape)
+        centre = peak.raw.origin + (shape - 1) / 2
         reach = (shape - 1) / 2 + np.asarray(nulls)
-        others = [
+        near = [
             j
             for j, m in models.items()
             if j != i and i in m.group and np.all(np.abs(_nearest_offset(centre, m.position, period)) <= reach)
         ]
-        if not others or not abs(peak.value) > 0:
+        if near and abs(peak.value) > 0:
+            others[i] = near
+    fitted = _neighbours_on_chips(data.shape, [p.raw for p in peaks], models, others, hamming, params.exact)
+    for i, peak in wrapped(done, list(enumerate(peaks))):
+        if i not in others:
             continue
-        fitted = sum(models[j].values_on_box(raw.origin, shape, hamming, params.exact) for j in others)
-        if raw.clipped:  # the chip's zeros beyond the image edge stay zeros (a periodic model repeats there)
-            fitted = (fitted.reshape(raw.shape) * _inside_image(raw.origin, shape, data.shape)).ravel()
-        cleaned = raw.data.ravel() - fitted
-        chip = _Chip(None, peak.index, half, chip=(cleaned.reshape(raw.shape), raw.clipped))
+        raw = peak.raw
+        cleaned = raw.data - fitted[i]
+        chip = _Chip(None, peak.index, half, chip=(cleaned, raw.clipped))
         pos, value = chip.refine_peak(peak.position)
         V, f_c = _support(chip, nulls, params)
         out[i] = dataclasses.replace(
@@ -1171,21 +1173,43 @@ def _subtract_neighbours(
             value=value,
             ridges=V,
             band_centre=f_c,
-            removed=tuple(names[j] for j in others),
-            contaminating=tuple(models[j] for j in others if models[j].misfit > NEIGHBOUR_MISFIT),
+            removed=tuple(names[j] for j in others[i]),
+            contaminating=tuple(models[j] for j in others[i] if models[j].misfit > NEIGHBOUR_MISFIT),
         )
     return out
 
 
-def _inside_image(origin: np.ndarray, shape: np.ndarray, image_shape: Sequence[int]) -> np.ndarray:
-    """1 where the box ``origin + index`` of ``shape`` lies inside the image, 0 beyond its edges."""
-    mask = np.ones(tuple(int(n) for n in shape))
-    for a, (o, n, size) in enumerate(zip(origin.tolist(), shape.tolist(), image_shape)):
-        index = int(o) + np.arange(int(n))
-        view = [1] * len(shape)
-        view[a] = n
-        mask = mask * ((index >= 0) & (index < size)).reshape(view)
-    return mask
+def _neighbours_on_chips(
+    image_shape: Sequence[int], chips: Sequence[_Chip], models: dict, others: dict, hamming: bool, exact: bool
+) -> dict:
+    """{chip index i: the sum, in ``others[i]``'s order, of those neighbours' models on chip i's box (zero beyond
+    the image edge, where a periodic model would repeat)}. Each model is evaluated once, on the box spanning
+    every chip it is subtracted from (inside the image), where that is smaller than those chips together:
+    crowded chips overlap, and the values at a sample do not depend on the box (the same operations)."""
+    sums = {i: np.zeros(chips[i].shape, dtype=np.complex128) for i in others}
+    inside = {
+        i: window_slices(chips[i].origin + np.array(chips[i].shape) // 2, np.array(chips[i].shape) // 2, image_shape)
+        for i in others
+    }
+    for j, model in models.items():
+        users = [i for i in others if j in others[i]]
+        if not users:
+            continue
+        lo = np.min([[s.start for s in inside[i]] for i in users], axis=0)
+        hi = np.max([[s.stop for s in inside[i]] for i in users], axis=0)
+        union = math.prod((hi - lo).tolist()) < sum(math.prod(s.stop - s.start for s in inside[i]) for i in users)
+        span = model.values_on_box(lo, hi - lo, hamming, exact).reshape(tuple(hi - lo)) if union else None
+        for i in users:
+            box = inside[i]
+            values = (
+                span[tuple(slice(s.start - a, s.stop - a) for s, a in zip(box, lo.tolist()))]
+                if span is not None
+                else model.values_on_box(
+                    np.array([s.start for s in box]), np.array([s.stop - s.start for s in box]), hamming, exact
+                ).reshape(tuple(s.stop - s.start for s in box))
+            )
+            sums[i][tuple(slice(s.start - o, s.stop - o) for s, o in zip(box, chips[i].origin.tolist()))] += values
+    return sums
 
 
 WEIGHTED_PSLR_DB = -30.0  # a theoretical PSLR below this: a weighting window (Hamming -42.7 dB), not a taper
