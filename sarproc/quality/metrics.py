@@ -788,12 +788,8 @@ def _axis_shape_np(q: np.ndarray, period: float, row: np.ndarray, rate: float, h
     base = _shape_np(q, period, hamming)
     if not rate > 0:
         return base
-    t = q * rate + (row.shape[0] - 1) / 2.0
-    i = np.floor(t).astype(np.int64)
-    inside = (i >= 0) & (i < row.shape[0] - 1)
-    j = np.where(inside, i, 0)
-    value = row[j] + (t - j) * (row[j + 1] - row[j])
-    return np.where(inside & ~np.isnan(value), value, base)
+    value = _tabled_np(q, row, rate)
+    return np.where(~np.isnan(value), value, base)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -1487,8 +1483,35 @@ class _SampleBoxes:
     ) -> np.ndarray:
         """A 3D ideal response (:func:`_ideal_response`) at the samples, from per-axis tables box by box
         (compiled; equal to rounding)."""
+        return self._call("ideal_response_boxes", position, V, nulls, f_c, hamming, chirp, shapes)
+
+    def ideal_slopes(
+        self,
+        position: npt.ArrayLike,
+        V: npt.ArrayLike,
+        nulls: npt.ArrayLike,
+        f_c: npt.ArrayLike,
+        hamming: bool,
+        chirp: npt.ArrayLike | None = None,
+        shapes: ResponseShapes | None = None,
+    ) -> np.ndarray:
+        """(4, N): :meth:`ideal_response` and its derivatives along each ridge coordinate (nulls), the other
+        ridges' shapes and the carrier held (:func:`sarproc.quality.kernels.ideal_response_boxes_slopes`)."""
+        return self._call("ideal_response_boxes_slopes", position, V, nulls, f_c, hamming, chirp, shapes)
+
+    def _call(
+        self,
+        kernel: str,
+        position: npt.ArrayLike,
+        V: npt.ArrayLike,
+        nulls: npt.ArrayLike,
+        f_c: npt.ArrayLike,
+        hamming: bool,
+        chirp: npt.ArrayLike | None,
+        shapes: ResponseShapes | None,
+    ) -> np.ndarray:
         ridge = np.linalg.inv(np.asarray(V, dtype=float).T) / np.asarray(nulls, dtype=float)[:, None]
-        return kernels_aot.kernels().ideal_response_boxes(
+        return getattr(kernels_aot.kernels(), kernel)(
             np.array([o for o, _ in self.layout], dtype=float),
             kernels_aot.f8(self.stride),
             np.array([n for _, n in self.layout], dtype=np.int64),
@@ -1547,8 +1570,13 @@ def _fit_ideal_group(
     for _ in range(8):
         cols = []
         for q in range(len(starts)):
-            m = model(q)
             offs = points - pos[q][:, None]
+            if ndim == 3:  # closed-form columns (one kernel pass on the boxes)
+                fast = None if params.exact else boxes
+                m, *more = _ideal_columns(fast, offs, pos[q], V[q], nulls, f_c[q], hamming, chirp[q], shapes, skew)
+                cols += [m] + [2j * np.pi * offs[a] * m for a in range(ndim)] + more
+                continue
+            m = model(q)
             cols += [m] + [2j * np.pi * offs[a] * m for a in range(ndim)]
             for a in range(ndim):
                 d = np.zeros(ndim)
@@ -1579,6 +1607,87 @@ def _fit_ideal_group(
         _NeighbourModel(pos[q], f_c[q], V[q], amp[q], frozenset(), misfit, nulls, chirp=chirp[q], shapes=shapes)
         for q in range(len(starts))
     ]
+
+
+def _ideal_columns(
+    boxes: _SampleBoxes | None,
+    offs: np.ndarray,
+    position: np.ndarray,
+    V: np.ndarray,
+    nulls: np.ndarray,
+    f_c: np.ndarray,
+    hamming: bool,
+    chirp: np.ndarray | None,
+    shapes: ResponseShapes | None,
+    skew: Sequence[tuple[int, int]],
+) -> list[np.ndarray]:
+    """A 3D ideal response at the samples (``offs``: their offsets from ``position``, (3, N)) and its derivatives
+    with respect to the position (3) and the ``skew`` entries of V, in closed form from the derivatives G_a along
+    each ridge coordinate c = R (x - p) / nulls, R = V^-T: with H_b = sum_a G_a R[a, b] / nulls[a],
+    dm/dp_b = -H_b - 2 pi i (f_c[b] + chirp[b] d_b) m and dm/dV[a, b] = -nulls[a] c_a H_b (dR = -R dV^T R).
+    ``boxes``: the samples' boxes (the compiled kernel); None: the numpy reference."""
+    ridge = np.linalg.inv(np.asarray(V, dtype=float).T) / np.asarray(nulls, dtype=float)[:, None]
+    c = ridge @ offs
+    if boxes is not None:
+        out = boxes.ideal_slopes(position, V, nulls, f_c, hamming, chirp, shapes)
+        m, G = out[0], out[1:]
+    else:
+        m, G = _ideal_slopes_np(c, offs, f_c, hamming, chirp, shapes)
+    H = ridge.T @ G
+    k = _zero_or(chirp, 3)
+    d_pos = [-H[b] - 2j * np.pi * (f_c[b] + k[b] * offs[b]) * m for b in range(3)]
+    return [m, *d_pos, *[-nulls[a] * c[a] * H[b] for a, b in skew]]
+
+
+def _ideal_slopes_np(
+    c: np.ndarray,
+    offs: np.ndarray,
+    f_c: np.ndarray,
+    hamming: bool,
+    chirp: np.ndarray | None,
+    shapes: ResponseShapes | None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(m, G (3, N)): the ideal response at ridge coordinates ``c`` (offsets ``offs`` from its position) and its
+    derivatives along each ridge coordinate, the reference of the compiled kernel's: a sinc's or its Hamming sum's
+    slope in closed form, a tabulated (inside its table) or periodic shape's by central differences of 1e-5 nulls."""
+    per, table, rate = _shape_args(shapes, 3)
+    amps, slopes = [], []
+    h = 1e-5
+    for a in range(3):
+        q = c[a]
+        amps.append(_axis_shape_np(q, per[a], table[a], rate[a], hamming))
+        fd = (
+            _axis_shape_np(q + h, per[a], table[a], rate[a], hamming)
+            - _axis_shape_np(q - h, per[a], table[a], rate[a], hamming)
+        ) / (2 * h)
+        if per[a] > 0:
+            slopes.append(fd)
+            continue
+        closed = _sinc_slope_np(q)
+        if hamming:
+            closed = 0.54 * closed + 0.23 * (_sinc_slope_np(q - 1) + _sinc_slope_np(q + 1))
+        tabled = ~np.isnan(_tabled_np(q, table[a], rate[a])) if rate[a] > 0 else np.zeros(q.shape, dtype=bool)
+        slopes.append(np.where(tabled, fd, closed))
+    phase = np.asarray(f_c) @ offs + 0.5 * (_zero_or(chirp, 3) @ offs**2)
+    carrier = np.exp(2j * np.pi * phase)
+    G = np.stack([slopes[a] * amps[(a + 1) % 3] * amps[(a + 2) % 3] * carrier for a in range(3)])
+    return amps[0] * amps[1] * amps[2] * carrier, G
+
+
+def _sinc_slope_np(q: np.ndarray) -> np.ndarray:
+    """d sinc(q) / dq; near q = 0 from its series."""
+    small = np.abs(q) < 1e-3
+    safe = np.where(small, 1.0, q)
+    return np.where(small, -(np.pi**2) * q / 3 + np.pi**4 * q**3 / 30, (np.cos(np.pi * safe) - np.sinc(safe)) / safe)
+
+
+def _tabled_np(q: np.ndarray, row: np.ndarray, rate: float) -> np.ndarray:
+    """The tabulated shape ``row`` at q nulls (linear), NaN beyond the table (the compiled kernels' _tabled)."""
+    t = q * rate + (row.shape[0] - 1) / 2.0
+    i = np.floor(t).astype(np.int64)
+    inside = (i >= 0) & (i < row.shape[0] - 1)
+    j = np.where(inside, i, 0)
+    return np.where(inside, row[j] + (t - j) * (row[j + 1] - row[j]), np.nan)
 
 
 def _refit_rich(
