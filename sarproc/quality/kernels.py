@@ -271,15 +271,23 @@ def _box_amp(
     """(shape along ridge a at box sample (i, j, k), its ridge coordinate q, exp(i pi q)) from the tables."""
     q = lin[a, 0, i] + lin[a, 1, j] + lin[a, 2, k]
     e = rot[a, 0, i] * rot[a, 1, j] * rot[a, 2, k]  # exp(i pi q)
-    v = _tabled(q, table[a], rate[a]) if rate[a] > 0.0 else math.nan
+    p = per[a, 0, i] * per[a, 1, j] * per[a, 2, k]  # exp(i pi q / P)
+    return _shape_at(q, e, p, period[a], table[a], rate[a], hamming), q, e
+
+
+@numba.njit(error_model="numpy", cache=CACHE)
+def _shape_at(
+    q: float, e: complex, p: complex, period: float, row: np.ndarray, rate: float, hamming: bool
+) -> float:  # pragma: no cover - compiled
+    """The shape along one ridge at coordinate q given e = exp(i pi q) and p = exp(i pi q / period)."""
+    v = _tabled(q, row, rate) if rate > 0.0 else math.nan
     if not math.isnan(v):
-        return v, q, e
-    if period[a] > 0.0 and not hamming and abs(q) >= 1e-3:
+        return v
+    if period > 0.0 and not hamming and abs(q) >= 1e-3:
         # the periodic sinc sin(pi q) / (P sin(pi q / P)) from the tables (its limit at a grating lobe)
-        p = per[a, 0, i] * per[a, 1, j] * per[a, 2, k]  # exp(i pi q / P)
-        den = period[a] * p.imag
-        return (e.real / p.real if abs(den) < 1e-12 else e.imag / den), q, e
-    return _grid_shape(e.imag, q, period[a], hamming), q, e
+        den = period * p.imag
+        return e.real / p.real if abs(den) < 1e-12 else e.imag / den
+    return _grid_shape(e.imag, q, period, hamming)
 
 
 @numba.njit(error_model="numpy", cache=CACHE)
@@ -323,8 +331,22 @@ def ideal_response_box(
     out = np.empty((shape[0], shape[1], shape[2]), dtype=np.complex128)
     for i in numba.prange(shape[0]):
         for j in range(shape[1]):
+            # _box_value's sums and products over the first two axes, taken once per row (the same operations)
+            q0, q1, q2 = lin[0, 0, i] + lin[0, 1, j], lin[1, 0, i] + lin[1, 1, j], lin[2, 0, i] + lin[2, 1, j]
+            e0, e1, e2 = rot[0, 0, i] * rot[0, 1, j], rot[1, 0, i] * rot[1, 1, j], rot[2, 0, i] * rot[2, 1, j]
+            p0, p1, p2 = per[0, 0, i] * per[0, 1, j], per[1, 0, i] * per[1, 1, j], per[2, 0, i] * per[2, 1, j]
+            c = car[0, i] * car[1, j]
             for k in range(shape[2]):
-                out[i, j, k] = _box_value(lin, rot, per, car, i, j, k, period, table, rate, hamming)
+                amp = _shape_at(
+                    q0 + lin[0, 2, k], e0 * rot[0, 2, k], p0 * per[0, 2, k], period[0], table[0], rate[0], hamming
+                )
+                amp *= _shape_at(
+                    q1 + lin[1, 2, k], e1 * rot[1, 2, k], p1 * per[1, 2, k], period[1], table[1], rate[1], hamming
+                )
+                amp *= _shape_at(
+                    q2 + lin[2, 2, k], e2 * rot[2, 2, k], p2 * per[2, 2, k], period[2], table[2], rate[2], hamming
+                )
+                out[i, j, k] = amp * (c * car[2, k])
     return out
 
 
