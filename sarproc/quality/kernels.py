@@ -255,6 +255,42 @@ def _box_tables(
 
 
 @numba.njit(error_model="numpy", cache=CACHE)
+def _box_amp(
+    lin: np.ndarray,
+    rot: np.ndarray,
+    per: np.ndarray,
+    a: int,
+    i: int,
+    j: int,
+    k: int,
+    period: np.ndarray,
+    table: np.ndarray,
+    rate: np.ndarray,
+    hamming: bool,
+) -> tuple:  # pragma: no cover - compiled
+    """(shape along ridge a at box sample (i, j, k), its ridge coordinate q, exp(i pi q)) from the tables."""
+    q = lin[a, 0, i] + lin[a, 1, j] + lin[a, 2, k]
+    e = rot[a, 0, i] * rot[a, 1, j] * rot[a, 2, k]  # exp(i pi q)
+    p = per[a, 0, i] * per[a, 1, j] * per[a, 2, k]  # exp(i pi q / P)
+    return _shape_at(q, e, p, period[a], table[a], rate[a], hamming), q, e
+
+
+@numba.njit(error_model="numpy", cache=CACHE)
+def _shape_at(
+    q: float, e: complex, p: complex, period: float, row: np.ndarray, rate: float, hamming: bool
+) -> float:  # pragma: no cover - compiled
+    """The shape along one ridge at coordinate q given e = exp(i pi q) and p = exp(i pi q / period)."""
+    v = _tabled(q, row, rate) if rate > 0.0 else math.nan
+    if not math.isnan(v):
+        return v
+    if period > 0.0 and not hamming and abs(q) >= 1e-3:
+        # the periodic sinc sin(pi q) / (P sin(pi q / P)) from the tables (its limit at a grating lobe)
+        den = period * p.imag
+        return e.real / p.real if abs(den) < 1e-12 else e.imag / den
+    return _grid_shape(e.imag, q, period, hamming)
+
+
+@numba.njit(error_model="numpy", cache=CACHE)
 def _box_value(
     lin: np.ndarray,
     rot: np.ndarray,
@@ -270,19 +306,7 @@ def _box_value(
 ) -> complex:  # pragma: no cover - compiled
     amp = 1.0
     for a in range(3):
-        q = lin[a, 0, i] + lin[a, 1, j] + lin[a, 2, k]
-        v = _tabled(q, table[a], rate[a]) if rate[a] > 0.0 else math.nan
-        if not math.isnan(v):
-            amp *= v
-            continue
-        e = rot[a, 0, i] * rot[a, 1, j] * rot[a, 2, k]  # exp(i pi q)
-        if period[a] > 0.0 and not hamming and abs(q) >= 1e-3:
-            # the periodic sinc sin(pi q) / (P sin(pi q / P)) from the tables (its limit at a grating lobe)
-            p = per[a, 0, i] * per[a, 1, j] * per[a, 2, k]  # exp(i pi q / P)
-            den = period[a] * p.imag
-            amp *= e.real / p.real if abs(den) < 1e-12 else e.imag / den
-        else:
-            amp *= _grid_shape(e.imag, q, period[a], hamming)
+        amp *= _box_amp(lin, rot, per, a, i, j, k, period, table, rate, hamming)[0]
     return amp * (car[0, i] * car[1, j] * car[2, k])
 
 
@@ -307,8 +331,22 @@ def ideal_response_box(
     out = np.empty((shape[0], shape[1], shape[2]), dtype=np.complex128)
     for i in numba.prange(shape[0]):
         for j in range(shape[1]):
+            # _box_value's sums and products over the first two axes, taken once per row (the same operations)
+            q0, q1, q2 = lin[0, 0, i] + lin[0, 1, j], lin[1, 0, i] + lin[1, 1, j], lin[2, 0, i] + lin[2, 1, j]
+            e0, e1, e2 = rot[0, 0, i] * rot[0, 1, j], rot[1, 0, i] * rot[1, 1, j], rot[2, 0, i] * rot[2, 1, j]
+            p0, p1, p2 = per[0, 0, i] * per[0, 1, j], per[1, 0, i] * per[1, 1, j], per[2, 0, i] * per[2, 1, j]
+            c = car[0, i] * car[1, j]
             for k in range(shape[2]):
-                out[i, j, k] = _box_value(lin, rot, per, car, i, j, k, period, table, rate, hamming)
+                amp = _shape_at(
+                    q0 + lin[0, 2, k], e0 * rot[0, 2, k], p0 * per[0, 2, k], period[0], table[0], rate[0], hamming
+                )
+                amp *= _shape_at(
+                    q1 + lin[1, 2, k], e1 * rot[1, 2, k], p1 * per[1, 2, k], period[1], table[1], rate[1], hamming
+                )
+                amp *= _shape_at(
+                    q2 + lin[2, 2, k], e2 * rot[2, 2, k], p2 * per[2, 2, k], period[2], table[2], rate[2], hamming
+                )
+                out[i, j, k] = amp * (c * car[2, k])
     return out
 
 
@@ -340,6 +378,76 @@ def ideal_response_boxes(
             for j in range(shape[1]):
                 for k in range(shape[2]):
                     out[inverse[n]] = _box_value(lin, rot, per, car, i, j, k, period, table, rate, hamming)
+                    n += 1
+    return out
+
+
+@numba.njit(error_model="numpy", cache=CACHE)
+def _sinc_slope(q: float, s: float, c: float) -> float:  # pragma: no cover - compiled
+    """d sinc(q) / dq given s = sin(pi q), c = cos(pi q); near q = 0 from its series."""
+    if abs(q) < 1e-3:
+        return -(math.pi**2) * q / 3.0 + math.pi**4 * q**3 / 30.0
+    return (c - s / (math.pi * q)) / q
+
+
+@numba.njit(error_model="numpy", cache=CACHE)
+def _shape_slope(
+    q: float, e: complex, period: float, row: np.ndarray, rate: float, hamming: bool
+) -> float:  # pragma: no cover - compiled
+    """d shape(q) / dq of :func:`_box_value`'s shape along one ridge (e = exp(i pi q)): a sinc's or its Hamming
+    sum's in closed form; a tabulated or periodic shape's by central differences of 1e-5 nulls."""
+    h = 1e-5
+    if rate > 0.0 and not math.isnan(_tabled(q, row, rate)):
+        hi = _tabled(q + h, row, rate)
+        lo = _tabled(q - h, row, rate)
+        hi = _shape(q + h, period, hamming) if math.isnan(hi) else hi
+        lo = _shape(q - h, period, hamming) if math.isnan(lo) else lo
+        return (hi - lo) / (2.0 * h)
+    if period > 0.0:
+        return (_shape(q + h, period, hamming) - _shape(q - h, period, hamming)) / (2.0 * h)
+    slope = _sinc_slope(q, e.imag, e.real)
+    if hamming:  # sin and cos of pi (q -+ 1) are -s and -c
+        return 0.54 * slope + 0.23 * (_sinc_slope(q - 1.0, -e.imag, -e.real) + _sinc_slope(q + 1.0, -e.imag, -e.real))
+    return slope
+
+
+@numba.njit(error_model="numpy", cache=CACHE)
+def ideal_response_boxes_slopes(
+    origins: np.ndarray,
+    step: np.ndarray,
+    shapes: np.ndarray,
+    inverse: np.ndarray,
+    count: int,
+    position: np.ndarray,
+    ridge: np.ndarray,
+    f_c: np.ndarray,
+    chirp: np.ndarray,
+    period: np.ndarray,
+    table: np.ndarray,
+    rate: np.ndarray,
+    hamming: bool,
+) -> np.ndarray:  # pragma: no cover - compiled
+    """(4, count): row 0 :func:`ideal_response_boxes` (the same value), row 1 + a its derivative with respect to
+    the ridge coordinate a (nulls), the other ridges' shapes and the carrier held: what a Gauss-Newton step on
+    the position and ridges needs (the chain rule gives those columns), in one pass instead of a pair of
+    responses per parameter."""
+    out = np.empty((4, count), dtype=np.complex128)
+    n = 0
+    for box in range(origins.shape[0]):
+        shape = shapes[box]
+        lin, rot, per, car = _box_tables(origins[box], step, shape, position, ridge, f_c, chirp, period)
+        for i in range(shape[0]):
+            for j in range(shape[1]):
+                for k in range(shape[2]):
+                    carrier = car[0, i] * car[1, j] * car[2, k]
+                    a0, q0, e0 = _box_amp(lin, rot, per, 0, i, j, k, period, table, rate, hamming)
+                    a1, q1, e1 = _box_amp(lin, rot, per, 1, i, j, k, period, table, rate, hamming)
+                    a2, q2, e2 = _box_amp(lin, rot, per, 2, i, j, k, period, table, rate, hamming)
+                    at = inverse[n]
+                    out[0, at] = a0 * a1 * a2 * carrier  # _box_value's operations
+                    out[1, at] = _shape_slope(q0, e0, period[0], table[0], rate[0], hamming) * a1 * a2 * carrier
+                    out[2, at] = a0 * _shape_slope(q1, e1, period[1], table[1], rate[1], hamming) * a2 * carrier
+                    out[3, at] = a0 * a1 * _shape_slope(q2, e2, period[2], table[2], rate[2], hamming) * carrier
                     n += 1
     return out
 

@@ -35,6 +35,7 @@ QUALITY = Kernels(
         "ideal_response_serial": f"c16[::1](f8[:, ::1], {_IDEAL})",
         "ideal_response_box": f"c16[:, :, ::1](f8[::1], f8[::1], i8[::1], {_IDEAL})",
         "ideal_response_boxes": f"c16[::1](f8[:, ::1], f8[::1], i8[:, ::1], i8[::1], i8, {_IDEAL})",
+        "ideal_response_boxes_slopes": f"c16[:, ::1](f8[:, ::1], f8[::1], i8[:, ::1], i8[::1], i8, {_IDEAL})",
         "spread": "c16[::1](c16[::1], f8[::1], i8, i8, f8, i8)",
     },
     owner="sarproc.quality.kernels_aot:QUALITY",

@@ -870,12 +870,8 @@ def _axis_shape_np(q: np.ndarray, period: float, row: np.ndarray, rate: float, h
     base = _shape_np(q, period, hamming)
     if not rate > 0:
         return base
-    t = q * rate + (row.shape[0] - 1) / 2.0
-    i = np.floor(t).astype(np.int64)
-    inside = (i >= 0) & (i < row.shape[0] - 1)
-    j = np.where(inside, i, 0)
-    value = row[j] + (t - j) * (row[j + 1] - row[j])
-    return np.where(inside & ~np.isnan(value), value, base)
+    value = _tabled_np(q, row, rate)
+    return np.where(~np.isnan(value), value, base)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -1227,23 +1223,25 @@ def _subtract_neighbours(
     hamming = params.irw_factor > 1.1
     period = _period_in_samples(shapes, nulls)
     out = list(peaks)
-    for i, peak in wrapped(done, list(enumerate(peaks))):
-        raw = peak.raw
-        shape = np.array(raw.shape)
-        centre = raw.origin + (shape - 1) / 2
+    others = {}
+    for i, peak in enumerate(peaks):
+        shape = np.array(peak.raw.shape)
+        centre = peak.raw.origin + (shape - 1) / 2
         reach = (shape - 1) / 2 + np.asarray(nulls)
-        others = [
+        near = [
             j
             for j, m in models.items()
             if j != i and i in m.group and np.all(np.abs(_nearest_offset(centre, m.position, period)) <= reach)
         ]
-        if not others or not abs(peak.value) > 0:
+        if near and abs(peak.value) > 0:
+            others[i] = near
+    fitted = _neighbours_on_chips(data.shape, [p.raw for p in peaks], models, others, hamming, params.exact)
+    for i, peak in wrapped(done, list(enumerate(peaks))):
+        if i not in others:
             continue
-        fitted = sum(models[j].values_on_box(raw.origin, shape, hamming, params.exact) for j in others)
-        if raw.clipped:  # the chip's zeros beyond the image edge stay zeros (a periodic model repeats there)
-            fitted = (fitted.reshape(raw.shape) * _inside_image(raw.origin, shape, data.shape)).ravel()
-        cleaned = raw.data.ravel() - fitted
-        chip = _Chip(None, peak.index, half, chip=(cleaned.reshape(raw.shape), raw.clipped))
+        raw = peak.raw
+        cleaned = raw.data - fitted[i]
+        chip = _Chip(None, peak.index, half, chip=(cleaned, raw.clipped))
         pos, value = chip.refine_peak(peak.position)
         V, f_c = _support(chip, nulls, params)
         out[i] = dataclasses.replace(
@@ -1253,21 +1251,43 @@ def _subtract_neighbours(
             value=value,
             ridges=V,
             band_centre=f_c,
-            removed=tuple(names[j] for j in others),
-            contaminating=tuple(models[j] for j in others if models[j].misfit > NEIGHBOUR_MISFIT),
+            removed=tuple(names[j] for j in others[i]),
+            contaminating=tuple(models[j] for j in others[i] if models[j].misfit > NEIGHBOUR_MISFIT),
         )
     return out
 
 
-def _inside_image(origin: np.ndarray, shape: np.ndarray, image_shape: Sequence[int]) -> np.ndarray:
-    """1 where the box ``origin + index`` of ``shape`` lies inside the image, 0 beyond its edges."""
-    mask = np.ones(tuple(int(n) for n in shape))
-    for a, (o, n, size) in enumerate(zip(origin.tolist(), shape.tolist(), image_shape)):
-        index = int(o) + np.arange(int(n))
-        view = [1] * len(shape)
-        view[a] = n
-        mask = mask * ((index >= 0) & (index < size)).reshape(view)
-    return mask
+def _neighbours_on_chips(
+    image_shape: Sequence[int], chips: Sequence[_Chip], models: dict, others: dict, hamming: bool, exact: bool
+) -> dict:
+    """{chip index i: the sum, in ``others[i]``'s order, of those neighbours' models on chip i's box (zero beyond
+    the image edge, where a periodic model would repeat)}. Each model is evaluated once, on the box spanning
+    every chip it is subtracted from (inside the image), where that is smaller than those chips together:
+    crowded chips overlap, and the values at a sample do not depend on the box (the same operations)."""
+    sums = {i: np.zeros(chips[i].shape, dtype=np.complex128) for i in others}
+    inside = {
+        i: window_slices(chips[i].origin + np.array(chips[i].shape) // 2, np.array(chips[i].shape) // 2, image_shape)
+        for i in others
+    }
+    for j, model in models.items():
+        users = [i for i in others if j in others[i]]
+        if not users:
+            continue
+        lo = np.min([[s.start for s in inside[i]] for i in users], axis=0)
+        hi = np.max([[s.stop for s in inside[i]] for i in users], axis=0)
+        union = math.prod((hi - lo).tolist()) < sum(math.prod(s.stop - s.start for s in inside[i]) for i in users)
+        span = model.values_on_box(lo, hi - lo, hamming, exact).reshape(tuple(hi - lo)) if union else None
+        for i in users:
+            box = inside[i]
+            values = (
+                span[tuple(slice(s.start - a, s.stop - a) for s, a in zip(box, lo.tolist()))]
+                if span is not None
+                else model.values_on_box(
+                    np.array([s.start for s in box]), np.array([s.stop - s.start for s in box]), hamming, exact
+                ).reshape(tuple(s.stop - s.start for s in box))
+            )
+            sums[i][tuple(slice(s.start - o, s.stop - o) for s, o in zip(box, chips[i].origin.tolist()))] += values
+    return sums
 
 
 WEIGHTED_PSLR_DB = -30.0  # a theoretical PSLR below this: a weighting window (Hamming -42.7 dB), not a taper
@@ -1545,8 +1565,35 @@ class _SampleBoxes:
     ) -> np.ndarray:
         """A 3D ideal response (:func:`_ideal_response`) at the samples, from per-axis tables box by box
         (compiled; equal to rounding)."""
+        return self._call("ideal_response_boxes", position, V, nulls, f_c, hamming, chirp, shapes)
+
+    def ideal_slopes(
+        self,
+        position: npt.ArrayLike,
+        V: npt.ArrayLike,
+        nulls: npt.ArrayLike,
+        f_c: npt.ArrayLike,
+        hamming: bool,
+        chirp: npt.ArrayLike | None = None,
+        shapes: ResponseShapes | None = None,
+    ) -> np.ndarray:
+        """(4, N): :meth:`ideal_response` and its derivatives along each ridge coordinate (nulls), the other
+        ridges' shapes and the carrier held (:func:`sarproc.quality.kernels.ideal_response_boxes_slopes`)."""
+        return self._call("ideal_response_boxes_slopes", position, V, nulls, f_c, hamming, chirp, shapes)
+
+    def _call(
+        self,
+        kernel: str,
+        position: npt.ArrayLike,
+        V: npt.ArrayLike,
+        nulls: npt.ArrayLike,
+        f_c: npt.ArrayLike,
+        hamming: bool,
+        chirp: npt.ArrayLike | None,
+        shapes: ResponseShapes | None,
+    ) -> np.ndarray:
         ridge = np.linalg.inv(np.asarray(V, dtype=float).T) / np.asarray(nulls, dtype=float)[:, None]
-        return kernels_aot.kernels().ideal_response_boxes(
+        return getattr(kernels_aot.kernels(), kernel)(
             np.array([o for o, _ in self.layout], dtype=float),
             kernels_aot.f8(self.stride),
             np.array([n for _, n in self.layout], dtype=np.int64),
@@ -1605,8 +1652,13 @@ def _fit_ideal_group(
     for _ in range(8):
         cols = []
         for q in range(len(starts)):
-            m = model(q)
             offs = points - pos[q][:, None]
+            if ndim == 3:  # closed-form columns (one kernel pass on the boxes)
+                fast = None if params.exact else boxes
+                m, *more = _ideal_columns(fast, offs, pos[q], V[q], nulls, f_c[q], hamming, chirp[q], shapes, skew)
+                cols += [m] + [2j * np.pi * offs[a] * m for a in range(ndim)] + more
+                continue
+            m = model(q)
             cols += [m] + [2j * np.pi * offs[a] * m for a in range(ndim)]
             for a in range(ndim):
                 d = np.zeros(ndim)
@@ -1637,6 +1689,87 @@ def _fit_ideal_group(
         _NeighbourModel(pos[q], f_c[q], V[q], amp[q], frozenset(), misfit, nulls, chirp=chirp[q], shapes=shapes)
         for q in range(len(starts))
     ]
+
+
+def _ideal_columns(
+    boxes: _SampleBoxes | None,
+    offs: np.ndarray,
+    position: np.ndarray,
+    V: np.ndarray,
+    nulls: np.ndarray,
+    f_c: np.ndarray,
+    hamming: bool,
+    chirp: np.ndarray | None,
+    shapes: ResponseShapes | None,
+    skew: Sequence[tuple[int, int]],
+) -> list[np.ndarray]:
+    """A 3D ideal response at the samples (``offs``: their offsets from ``position``, (3, N)) and its derivatives
+    with respect to the position (3) and the ``skew`` entries of V, in closed form from the derivatives G_a along
+    each ridge coordinate c = R (x - p) / nulls, R = V^-T: with H_b = sum_a G_a R[a, b] / nulls[a],
+    dm/dp_b = -H_b - 2 pi i (f_c[b] + chirp[b] d_b) m and dm/dV[a, b] = -nulls[a] c_a H_b (dR = -R dV^T R).
+    ``boxes``: the samples' boxes (the compiled kernel); None: the numpy reference."""
+    ridge = np.linalg.inv(np.asarray(V, dtype=float).T) / np.asarray(nulls, dtype=float)[:, None]
+    c = ridge @ offs
+    if boxes is not None:
+        out = boxes.ideal_slopes(position, V, nulls, f_c, hamming, chirp, shapes)
+        m, G = out[0], out[1:]
+    else:
+        m, G = _ideal_slopes_np(c, offs, f_c, hamming, chirp, shapes)
+    H = ridge.T @ G
+    k = _zero_or(chirp, 3)
+    d_pos = [-H[b] - 2j * np.pi * (f_c[b] + k[b] * offs[b]) * m for b in range(3)]
+    return [m, *d_pos, *[-nulls[a] * c[a] * H[b] for a, b in skew]]
+
+
+def _ideal_slopes_np(
+    c: np.ndarray,
+    offs: np.ndarray,
+    f_c: np.ndarray,
+    hamming: bool,
+    chirp: np.ndarray | None,
+    shapes: ResponseShapes | None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(m, G (3, N)): the ideal response at ridge coordinates ``c`` (offsets ``offs`` from its position) and its
+    derivatives along each ridge coordinate, the reference of the compiled kernel's: a sinc's or its Hamming sum's
+    slope in closed form, a tabulated (inside its table) or periodic shape's by central differences of 1e-5 nulls."""
+    per, table, rate = _shape_args(shapes, 3)
+    amps, slopes = [], []
+    h = 1e-5
+    for a in range(3):
+        q = c[a]
+        amps.append(_axis_shape_np(q, per[a], table[a], rate[a], hamming))
+        fd = (
+            _axis_shape_np(q + h, per[a], table[a], rate[a], hamming)
+            - _axis_shape_np(q - h, per[a], table[a], rate[a], hamming)
+        ) / (2 * h)
+        if per[a] > 0:
+            slopes.append(fd)
+            continue
+        closed = _sinc_slope_np(q)
+        if hamming:
+            closed = 0.54 * closed + 0.23 * (_sinc_slope_np(q - 1) + _sinc_slope_np(q + 1))
+        tabled = ~np.isnan(_tabled_np(q, table[a], rate[a])) if rate[a] > 0 else np.zeros(q.shape, dtype=bool)
+        slopes.append(np.where(tabled, fd, closed))
+    phase = np.asarray(f_c) @ offs + 0.5 * (_zero_or(chirp, 3) @ offs**2)
+    carrier = np.exp(2j * np.pi * phase)
+    G = np.stack([slopes[a] * amps[(a + 1) % 3] * amps[(a + 2) % 3] * carrier for a in range(3)])
+    return amps[0] * amps[1] * amps[2] * carrier, G
+
+
+def _sinc_slope_np(q: np.ndarray) -> np.ndarray:
+    """d sinc(q) / dq; near q = 0 from its series."""
+    small = np.abs(q) < 1e-3
+    safe = np.where(small, 1.0, q)
+    return np.where(small, -(np.pi**2) * q / 3 + np.pi**4 * q**3 / 30, (np.cos(np.pi * safe) - np.sinc(safe)) / safe)
+
+
+def _tabled_np(q: np.ndarray, row: np.ndarray, rate: float) -> np.ndarray:
+    """The tabulated shape ``row`` at q nulls (linear), NaN beyond the table (the compiled kernels' _tabled)."""
+    t = q * rate + (row.shape[0] - 1) / 2.0
+    i = np.floor(t).astype(np.int64)
+    inside = (i >= 0) & (i < row.shape[0] - 1)
+    j = np.where(inside, i, 0)
+    return np.where(inside, row[j] + (t - j) * (row[j + 1] - row[j]), np.nan)
 
 
 def _refit_rich(

@@ -74,6 +74,8 @@ for hamming in (False, True):
         assert np.array_equal(a, nk.ideal_response_box(origins[1], step, sizes[1], *args))
         a = k.ideal_response_boxes(origins, step, sizes, inverse, 300, *args)
         assert np.array_equal(a, nk.ideal_response_boxes(origins, step, sizes, inverse, 300, *args))
+        a = k.ideal_response_boxes_slopes(origins, step, sizes, inverse, 300, *args)
+        assert np.array_equal(a, nk.ideal_response_boxes_slopes(origins, step, sizes, inverse, 300, *args))
 coef = rng.standard_normal(5000) + 1j * rng.standard_normal(5000)
 x = rng.uniform(-np.pi, np.pi, 5000)
 for chunks in (1, 2, 3):
