@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import logging
 import math
 import os
@@ -400,6 +401,57 @@ def numba_threads(workers: int | None) -> Iterator[None]:
         numba.set_num_threads(old)
 
 
+def _run_all(fn: Callable[[Any], Any], items: Iterable[Any]) -> None:
+    for item in items:
+        fn(item)
+
+
+@contextlib.contextmanager
+def _thread_map(threads: int) -> Iterator[Callable[[Callable[[Any], Any], Iterable[Any]], None]]:
+    """A function calling fn(item) for each item on ``threads`` threads and returning when all are done (in turn
+    on one thread); the calls must release the GIL to run side by side."""
+    if threads <= 1:
+        yield _run_all
+        return
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max_workers=threads) as pool:
+
+        def run(fn: Callable[[Any], Any], items: Iterable[Any]) -> None:
+            for _ in pool.map(fn, items):  # re-raises a call's exception
+                pass
+
+        yield run
+
+
+def _table_rows(kernel: Any, pulses: np.ndarray, lo: np.ndarray, out: np.ndarray, rows: tuple[int, int]) -> None:
+    """The read tables (pair_table / cubic_table) of pulses rows[0] .. rows[1]."""
+    r0, r1 = rows
+    kernel(pulses[r0:r1], lo[r0:r1], out[r0:r1])
+
+
+def _tile_sums(kernel: Any, head: tuple, tiles: _Tiles, tail: tuple, group: tuple[int, int]) -> None:
+    """backproject_tiles(*head, tiles' centres and starts, offsets, *tail) over the tiles of ``group``: each
+    tile adds into its own pixels of the sum (tail[-1]), so groups may run side by side."""
+    t0, t1 = group
+    kernel(*head, tiles.centres[t0:t1], tiles.start[t0 : t1 + 1], tiles.d, *tail)
+
+
+def _even_spans(n: int, parts: int) -> list[tuple[int, int]]:
+    """0 .. n in at most ``parts`` contiguous spans of near-equal length, none empty."""
+    cuts = sorted({n * i // parts for i in range(parts + 1)})
+    return list(zip(cuts[:-1], cuts[1:]))
+
+
+def _tile_groups(start: np.ndarray, parts: int) -> list[tuple[int, int]]:
+    """Tiles 0 .. len(start) - 1 in at most ``parts`` contiguous groups of near-equal pixel counts (start: each
+    tile's first pixel, then the pixel count), none empty."""
+    n_tiles = len(start) - 1
+    cuts = np.searchsorted(start, np.arange(1, parts) * (start[-1] / parts))
+    edges = sorted({0, n_tiles, *(int(c) for c in cuts if 0 < c < n_tiles)})
+    return list(zip(edges[:-1], edges[1:]))
+
+
 # The compiled kernels' read modes: 2 is a tap kernel (knab, sinc, lanczos) on the upsampled samples.
 _READ_MODES = {"nearest": 0, "linear": 1, "cubic": 3}
 
@@ -489,8 +541,9 @@ def _backproject_compiled(
     progress: ProgressFactory | None,
     workers: int | None,
 ) -> np.ndarray:
-    """The compiled engine: tiles of points on numba's threads (or, small images on linear reads, serially in
-    the kernels compiled ahead of time), chunks of pulses upsampled and read through the mode's tables."""
+    """The compiled engine: tiles of points on numba's threads (or, small images on linear reads, on Python
+    threads in the kernels compiled ahead of time), chunks of pulses upsampled and read through the mode's
+    tables."""
     from sarproc.focus import backprojection_aot
 
     p = pulses
@@ -498,15 +551,12 @@ def _backproject_compiled(
     if len(points) == 0:
         return np.zeros(0, np.complex128)
     mode = _READ_MODES.get(reads.interpolation, 2)
-    # a small image on linear reads: the kernels compiled ahead of time, serial, without numba's start-up
+    # a small image on linear reads: the kernels compiled ahead of time, on threads, without numba's start-up
     # (sarproc.focus.backprojection_aot); otherwise, or while that module is not built, or where numba's kernels
     # are loaded already (their threads cost no start-up: sarproc.product.aot.Kernels.pick), the numba kernels
-    small = (
-        mode == 1
-        and "sarproc.focus.backprojection_kernel" not in sys.modules
-        and backprojection_aot.serial_pays(len(points) * n_az, workers)
-    )
-    aot = backprojection_aot.load() if small else None
+    small = mode == 1 and backprojection_aot.compiled_pays(len(points) * n_az, workers)
+    numba_loaded = "sarproc.focus.backprojection_kernel" in sys.modules
+    aot = backprojection_aot.load() if small and not numba_loaded else None
     if aot is None:
         from sarproc.focus import backprojection_kernel as bk
     k = bk if aot is None else aot
@@ -524,32 +574,26 @@ def _backproject_compiled(
     else:
         pairs = np.zeros((1, 1, 4), np.float32)
     acc = np.zeros(len(points), np.complex128)
-    with numba_threads(workers) if aot is None else contextlib.nullcontext():
+    # the compiled module's kernels are serial and release the GIL: its calls go to threads, each on a share of
+    # the pulses (tables) or of the tiles (sums: each tile adds into its own pixels, so the sums are the same)
+    threads = 1 if aot is None else int(workers or backprojection_aot.available_threads())
+    groups = _tile_groups(tiles.start, 4 * threads) if threads > 1 else [(0, len(tiles.centres))]
+    with numba_threads(workers) if aot is None else contextlib.nullcontext(), _thread_map(threads) as run:
         buf = np.empty((chunk, n_up), np.complex64)
         for s, e in progress(spans) if progress is not None else spans:
             chunk_pulses = upsample_into(np.asarray(p.rc[s:e], np.complex64), buf[: e - s])
             if mode in (1, 3):
                 assert win.lo is not None
-                (k.pair_table if mode == 1 else k.cubic_table)(chunk_pulses, win.lo[s:e], pairs[: e - s])
-            k.backproject_tiles(
-                chunk_pulses,
-                pairs[: e - s],
-                win.first[s:e],
-                fs_up / C,
-                p.carrier_frequency / C,
-                tx_c[s:e],
-                rx_c[s:e],
-                p.monostatic,
-                tiles.centres,
-                tiles.start,
-                tiles.d,
-                mode,
-                table,
-                taps,
-                acc,
-            )
+                tables = k.pair_table if mode == 1 else k.cubic_table
+                rows = _even_spans(e - s, threads)
+                run(functools.partial(_table_rows, tables, chunk_pulses, win.lo[s:e], pairs), rows)
+            head: tuple = (chunk_pulses, pairs[: e - s], win.first[s:e], fs_up / C, p.carrier_frequency / C)
+            head += (tx_c[s:e], rx_c[s:e], p.monostatic)
+            run(functools.partial(_tile_sums, k.backproject_tiles, head, tiles, (mode, table, taps, acc)), groups)
     if aot is None and small:
-        backprojection_aot.request_build()  # for the next small image (once; in the background)
+        # for the next small image (once; in the background); also where numba's kernels were loaded already:
+        # the plan's cache check (product.budget.kernels_cached) loads them while the module is not built
+        backprojection_aot.request_build()
     out = np.empty_like(acc)
     k.scatter_scaled(acc, tiles.order, float(n_az), out)
     return out

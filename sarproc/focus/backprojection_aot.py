@@ -1,10 +1,11 @@
 """The compiled backprojection's linear path without numba: the kernels of
 :mod:`sarproc.focus.backprojection_kernel` compiled ahead of time (:mod:`sarproc.product.aot`), for small images.
 
-pycc compiles no parallel loops, so the module runs the tiles serially; it serves the work where numba's start-up
-(~0.3 s a process: import, kernel loads, threads) outweighs what the parallel kernel saves on the machine's
-cores (:func:`serial_pays`); bigger images, the other interpolations and runs where the module is missing keep
-the numba kernels. Both run the same Python source (prange as range here), so the images agree to float
+pycc compiles no parallel loops, so each call runs serially; the calls release the GIL, and the caller spreads
+them over threads (tables by pulses, sums by groups of tiles: sarproc.focus.backprojection). It serves images
+up to a few seconds of work (:func:`compiled_pays`), where it saves numba's start-up (~0.3 s a process:
+import, kernel loads, threads); bigger images, the other interpolations and runs where the module is missing
+keep the numba kernels. Both run the same Python source (prange as range here), so the images agree to float
 rounding (equal in the tests). Run as ``python -m sarproc.focus.backprojection_aot KEY`` it builds the module
 (started in the background by :func:`request_build`).
 
@@ -54,6 +55,10 @@ EXPORTS = {
 # per-process table in docs/performance.md) and numba's start-up a process saves without it, s.
 SERIAL_RATE = 2.5e8
 NUMBA_STARTUP_S = 0.3
+# Longest expected run of the compiled module on threads, s: it ran at numba's parallel rate on 256^2 to 1024^2
+# grids here (2 threads; docs/performance.md, tenth round), where numba's start-up is >= 15 % of the work;
+# beyond, the numba kernels (rates on more cores and bigger grids not measured).
+COMPILED_MAX_S = 2.0
 
 
 def available_threads() -> int:
@@ -63,13 +68,12 @@ def available_threads() -> int:
         return os.cpu_count() or 1
 
 
-def serial_pays(pixel_pulses: float, workers: int | None = None) -> bool:
-    """Whether the serial kernel, numba not started, is expected to finish first: what the parallel kernel
-    saves on ``workers`` threads (default: the CPUs this process may use; 90 % efficient) is less than numba's
-    start-up."""
+def compiled_pays(pixel_pulses: float, workers: int | None = None) -> bool:
+    """Whether to run the compiled module on ``workers`` threads (default: the CPUs this process may use)
+    rather than numba's parallel kernel: on one thread always (numba's threads would save nothing), else while
+    its expected time (serial rate, 90 % efficient threads) is at most :data:`COMPILED_MAX_S`."""
     threads = int(workers) if workers else available_threads()
-    saved_by_threads = pixel_pulses / SERIAL_RATE * (1.0 - 1.0 / max(1.0, 0.9 * threads))
-    return saved_by_threads < NUMBA_STARTUP_S
+    return threads <= 1 or pixel_pulses / (SERIAL_RATE * 0.9 * threads) <= COMPILED_MAX_S
 
 
 def load() -> ModuleType | None:

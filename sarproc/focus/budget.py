@@ -225,7 +225,7 @@ def backproject_estimate(stage: str, header: Product, params: Any, memory_limit:
         from sarproc.focus import backprojection_aot
 
         # a small image runs the kernels compiled ahead of time (no numba, nothing to compile) once they are built
-        if backprojection_aot.serial_pays(n_az * min(n_pix, block)) and backprojection_aot.load():
+        if backprojection_aot.compiled_pays(n_az * min(n_pix, block)) and backprojection_aot.load():
             kernel_modules = ()
     return Plan(stage, stored_bytes(*n), memory, seconds, detail, kernel_modules)
 

@@ -270,7 +270,8 @@ def request_build(name: str, sources: list[Path], builder: str, *builder_args: s
 def build(name: str, key: str, exports: dict[str, tuple[Any, str]]) -> Path:
     """Compile ``exports`` (export name -> (numba dispatcher, signature string)) into module ``name``'s file
     for ``key``: each a serial variant of the dispatcher's Python function with its fastmath and error model
-    (pycc compiles no parallel loops: prange runs as range), compiled for the host CPU. Written to a temporary
+    (pycc compiles no parallel loops: prange runs as range), compiled for the host CPU, releasing the GIL while
+    it runs (so a caller can spread a kernel's independent parts over threads). Written to a temporary
     directory and moved into place, so a reader never sees half a file; a failure leaves a ``.failed`` marker
     with the error."""
     path = module_path(name, key)
@@ -284,9 +285,19 @@ def build(name: str, key: str, exports: dict[str, tuple[Any, str]]) -> Path:
 
         with warnings.catch_warnings():  # "pending deprecation; replacement being developed": still in numba
             warnings.simplefilter("ignore", numba.NumbaPendingDeprecationWarning)
-            from numba.pycc import CC
+            from numba.pycc import CC, compiler as pycc_compiler
 
-        with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
+        class _ReleasingFlags(pycc_compiler.Flags):
+            """pycc's compile flags with the GIL released around each call (numba's ``nogil``), which CC does
+            not expose: the exports take and return arrays only, and a caller may run them on threads."""
+
+            def __init__(self, *args: Any, **kwargs: Any) -> None:
+                super().__init__(*args, **kwargs)
+                self.release_gil = True
+
+        flags = pycc_compiler.Flags
+        pycc_compiler.Flags = _ReleasingFlags  # what pycc's module compiler makes its flags from
+        with tempfile.TemporaryDirectory(dir=path.parent) as tmp, _restored(pycc_compiler, "Flags", flags):
             cc = CC(module_name(name, key))
             cc.output_dir = tmp
             cc.target_cpu = "host"
@@ -313,6 +324,14 @@ def build(name: str, key: str, exports: dict[str, tuple[Any, str]]) -> Path:
     finally:
         release_lock()
     return path
+
+
+@contextlib.contextmanager
+def _restored(obj: Any, attr: str, value: Any) -> Iterator[None]:
+    try:
+        yield
+    finally:
+        setattr(obj, attr, value)
 
 
 def release_lock() -> None:

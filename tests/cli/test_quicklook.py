@@ -120,13 +120,19 @@ import matplotlib.artist, matplotlib.lines
 from sarproc.cli.quicklook import ARTIST_DOC_STUB
 print("STUBBED" if ARTIST_DOC_STUB in matplotlib.lines.Line2D.set.__doc__ else "FULL")
 print("RESTORED" if ARTIST_DOC_STUB not in matplotlib.artist.kwdoc(matplotlib.lines.Line2D) else "STILL STUBBED")
+import inspect
+print("SIGNED" if "linewidth" in str(inspect.signature(matplotlib.lines.Line2D.set)) else "UNSIGNED")
+class Later(matplotlib.lines.Line2D):  # defined after the import: matplotlib's own set() again
+    pass
+print("RESTORED" if "linewidth" in str(inspect.signature(Later.set)) else "STILL LEAN")
 """
 
 
 @pytest.mark.parametrize("kind", ["targets", "no targets", "cube"])
 def test_lean_matplotlib_import_draws_the_same_picture(tmp_path, kind):
-    # a fresh process, as a user runs it: matplotlib imported without its property docstrings, the PNG
-    # byte-identical to the one drawn with matplotlib imported in full first, and kwdoc working again after
+    # a fresh process, as a user runs it: matplotlib imported without its property docstrings and set()
+    # signatures, the PNG byte-identical to the one drawn with matplotlib imported in full first, and kwdoc
+    # and the signatures of classes defined later working again after
     import subprocess
     import sys
 
@@ -144,6 +150,6 @@ def test_lean_matplotlib_import_draws_the_same_picture(tmp_path, kind):
             check=True,
         )
         outputs[mode] = (out.read_bytes(), done.stdout.split())
-    assert outputs["lean"][1] == ["STUBBED", "RESTORED"]
-    assert outputs["full"][1] == ["FULL", "RESTORED"]
+    assert outputs["lean"][1] == ["STUBBED", "RESTORED", "UNSIGNED", "RESTORED"]
+    assert outputs["full"][1] == ["FULL", "RESTORED", "SIGNED", "RESTORED"]
     assert outputs["lean"][0][:8] == PNG_SIGNATURE and outputs["lean"][0] == outputs["full"][0]
