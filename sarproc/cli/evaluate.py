@@ -118,7 +118,7 @@ def metrics_table(report: QualityReport, units: dict) -> str:
     )
     noted = [t for t in report.targets if t.notes]
     if noted:
-        lines.append("\nNotes from the focusing stage (the figures above do not describe a focused response where so):")
+        lines.append("\nNotes from the focusing stage and evaluate (what the figures above describe):")
         lines += [f"- {t.name}: {'; '.join(t.notes)}." for t in noted]
     if report.movers:
         lines.append(movers_table(report.movers))
@@ -204,8 +204,8 @@ def false_target_lines(report: QualityReport, units: dict) -> list[str]:
         from sarproc.quality.residual import MISFIT_DB
 
         out.append(
-            f"\nResidual: the models of {', '.join(report.residual.misfit_targets)} leave over {MISFIT_DB:g} dB of "
-            "their peak beside it (not the response an ideal point-target model fits: defocused?); "
+            f"\nResidual: the models of {', '.join(report.residual.misfit_targets)} do not fit their responses "
+            f"(they leave over {MISFIT_DB:g} dB of the peak beside it: defocused?; or the notes say why); "
             "the boxes their models were fitted on are left out of the false-target search."
         )
     if report.residual_note:

@@ -611,6 +611,24 @@ def _orientation_density_2d(cand: np.ndarray, u: np.ndarray, weight: np.ndarray,
 def principal_directions(
     chip: np.ndarray, centers: Sequence[float], nulls: npt.ArrayLike, window_nulls: float = 8.0, exact: bool = False
 ) -> tuple[np.ndarray, np.ndarray]:
+    """``(V, f_c)`` of :func:`principal_support`."""
+    support = principal_support(chip, centers, nulls, window_nulls, exact)
+    return support.ridges, support.band_centre
+
+
+@dataclasses.dataclass(frozen=True)
+class Support:
+    """What the spectral support says of a response: its ridges (:func:`principal_directions`' V), band centre
+    (cycles/sample) and the axes whose ridge crosses a curved edge pair (a fan of side lobes, :func:`_Arcs`)."""
+
+    ridges: np.ndarray
+    band_centre: np.ndarray
+    fanned: tuple[int, ...] = ()
+
+
+def principal_support(
+    chip: np.ndarray, centers: Sequence[float], nulls: npt.ArrayLike, window_nulls: float = 8.0, exact: bool = False
+) -> Support:
     """Side-lobe ridge directions of the response centred in ``chip``, from its spectral support.
 
     ``centers``: band centre per axis (cycles/sample); ``nulls``: null spacing 1/B per axis (samples).
@@ -621,7 +639,8 @@ def principal_directions(
     ridge is parallel to the normal of the edge pair it crosses (the response is the product of sincs
     of the support's dual coordinates). Returns ``(V, f_c)``: V (ndim, ndim), row a the ridge that
     belongs to image axis a, in image samples per sample along axis a (V[a, a] = 1); f_c the power
-    centroid of the band, cycles/sample. Falls back to the image axes when no edge is found.
+    centroid of the band, cycles/sample (both in a :class:`Support`, with the axes whose ridge is the centre of a
+    fan). Falls back to the image axes when no edge is found.
     """
     ndim = chip.ndim
     nulls = np.asarray(nulls, dtype=float)
@@ -630,12 +649,12 @@ def principal_directions(
     power = mag**2
     total = power.sum()
     if not total > 0:
-        return eye, np.asarray(centers, dtype=float)
+        return Support(eye, np.asarray(centers, dtype=float))
     f_c = np.array(
         [np.sum(power.sum(axis=tuple(b for b in range(ndim) if b != a)) * freqs[a]) / total for a in range(ndim)]
     )
     if ndim == 1:
-        return eye, f_c
+        return Support(eye, f_c)
     # d|S| / d(frequency in cycles per null): each axis' band is about one unit wide.
     spacing = [nu / n for nu, n in zip(nulls, mag.shape)]
     g, norm = _strong_gradients(mag, spacing, exact)
@@ -644,10 +663,12 @@ def principal_directions(
     arcs = None
     if ndim == 2:  # the curved edges' plateaus, checked against where their gradients lie
         arcs = _Arcs(_plateaus(dens, peaks), _strong_positions(mag, spacing, len(g)), norm)
-    found = _edge_normals(cand, peaks, u, g, ndim, arcs)
+    found, curved = _edge_normals(cand, peaks, u, g, ndim, arcs)
     if len(found) < ndim or abs(np.linalg.det(np.array(found))) < 0.2:
-        return eye, f_c
-    return _ridges(np.array(found), nulls), f_c
+        return Support(eye, f_c)
+    best = _assignment(np.array(found))
+    fanned = tuple(a for a in range(ndim) if curved[best[a]])
+    return Support(_ridges(np.array(found), nulls), f_c, fanned)
 
 
 def _support_spectrum(
@@ -769,21 +790,24 @@ def _edge_normals(
     g: np.ndarray,
     ndim: int,
     arcs: _Arcs | None = None,
-) -> list[np.ndarray]:
-    """Up to ``ndim`` edge normals: each density peak (``cand[peaks]``) more than 20 deg from those kept, refined
-    to the sign-aligned mean of the raw gradients ``g`` (unit vectors ``u``) within 8 deg of it.
+) -> tuple[list[np.ndarray], list[bool]]:
+    """Up to ``ndim`` edge normals (and whether each is a curved edge's): each density peak (``cand[peaks]``) more
+    than 20 deg from those kept, refined to the sign-aligned mean of the raw gradients ``g`` (unit vectors ``u``)
+    within 8 deg of it.
 
     A curved edge (the range edges of a narrowband, wide-angle aperture's support are arcs) spreads its normals
     over the aperture's angles and the density over a plateau whose ends are its highest points (the normals
     crowd where the arc bends least in null-normalised frequency): its normal is the mean over the whole
     plateau (``arcs``: the plateaus and where their gradients lie), the side-lobe fan's centre, not one end."""
     found: list[np.ndarray] = []
+    curved: list[bool] = []
     for i in peaks:
         if all(abs(cand[i] @ f) < math.cos(math.radians(20.0)) for f in found):
             f, cone = cand[i], 8.0
             arc = arcs.curved(i, u) if arcs is not None else None
             if arc is not None:
                 f, cone = arc
+            curved.append(arc is not None)
             for _ in range(4):  # cluster mean of the raw gradients, signs aligned
                 c = u @ f
                 sel = np.abs(c) > math.cos(math.radians(cone))
@@ -794,20 +818,26 @@ def _edge_normals(
             found.append(f)
         if len(found) == ndim:
             break
-    return found
+    return found, curved
 
 
 def _ridges(directions: np.ndarray, nulls: np.ndarray) -> np.ndarray:
     """V of :func:`principal_directions` from the edge normals ``directions`` (rows, null-normalised frequency):
     each given to one image axis (the assignment with the largest product of their components along their axes),
     in samples, V[a, a] = 1."""
+    best = _assignment(directions)
+    V = np.array([directions[best[a]] * nulls for a in range(len(directions))])  # nulls -> samples
+    return V / np.diag(V)[:, None]
+
+
+def _assignment(directions: np.ndarray) -> tuple[int, ...]:
+    """Which edge normal (row of ``directions``) belongs to each image axis: the assignment with the largest
+    product of their components along their axes."""
     ndim = len(directions)
-    best = max(
+    return max(
         itertools.permutations(range(ndim)),
         key=lambda perm: np.prod([abs(directions[perm[a], a]) for a in range(ndim)]),
     )
-    V = np.array([directions[best[a]] * nulls for a in range(ndim)])  # nulls -> samples
-    return V / np.diag(V)[:, None]
 
 
 def _ideal_response(
@@ -1164,6 +1194,7 @@ class _Peak:
     band_centre: np.ndarray  # power centroid of the band, cycles/sample
     removed: tuple[str, ...] = ()  # neighbours subtracted from the chip
     contaminating: tuple = ()  # the subtracted neighbours (_NeighbourModel) that ideal responses fitted poorly
+    fanned: tuple[int, ...] = ()  # axes whose side lobes fan out (curved support edges): cut through the centre
 
     def fit_start(self) -> dict:
         """The start of a response-model fit: the per-target dict of :func:`fit_response_models`."""
@@ -1200,8 +1231,8 @@ def _find_peak(
     peak_index = tuple(int(s.start + i) for s, i in zip(win, k))
     chip = _Chip(data, peak_index, half)
     pos, value = chip.refine_peak(peak_index)
-    V, f_c = _support(chip, nulls, params)
-    return _Peak(peak_index, chip, chip, pos, value, V, f_c)
+    support = _support(chip, nulls, params)
+    return _Peak(peak_index, chip, chip, pos, value, support.ridges, support.band_centre, fanned=support.fanned)
 
 
 def _subtract_neighbours(
@@ -1243,14 +1274,15 @@ def _subtract_neighbours(
         cleaned = raw.data - fitted[i]
         chip = _Chip(None, peak.index, half, chip=(cleaned, raw.clipped))
         pos, value = chip.refine_peak(peak.position)
-        V, f_c = _support(chip, nulls, params)
+        support = _support(chip, nulls, params)
         out[i] = dataclasses.replace(
             peak,
             chip=chip,
             position=pos,
             value=value,
-            ridges=V,
-            band_centre=f_c,
+            ridges=support.ridges,
+            band_centre=support.band_centre,
+            fanned=support.fanned,
             removed=tuple(names[j] for j in others[i]),
             contaminating=tuple(models[j] for j in others[i] if models[j].misfit > NEIGHBOUR_MISFIT),
         )
@@ -1331,7 +1363,8 @@ def _false_targets(
         for p, own in zip(peaks, own_axes or [axes] * len(peaks))
     ]
     models = fit_response_models(data, starts, nulls, params, support_shape=True)
-    false, floor = residual_false_target(data, models, axes, guarded, indices, reports, half, params)
+    fanned = [i for i, p in enumerate(peaks) if p.fanned]
+    false, floor = residual_false_target(data, models, axes, guarded, indices, reports, half, params, fanned)
     return false, guard, floor
 
 
@@ -1382,10 +1415,10 @@ def _target_axes(
     return out
 
 
-def _support(chip: _Chip, nulls: npt.ArrayLike, params: EvaluateParams) -> tuple[np.ndarray, np.ndarray]:
+def _support(chip: _Chip, nulls: npt.ArrayLike, params: EvaluateParams) -> Support:
     if params.principal_axes and chip.data.ndim > 1:
-        return principal_directions(chip.data, chip.centers, nulls, exact=params.exact)
-    return np.eye(chip.data.ndim), np.asarray(chip.centers, dtype=float)
+        return principal_support(chip.data, chip.centers, nulls, exact=params.exact)
+    return Support(np.eye(chip.data.ndim), np.asarray(chip.centers, dtype=float))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -1860,6 +1893,17 @@ def _measure(
         axes=tuple(principal),
         image_axes=tuple(image_axes),
         neighbours_removed=tuple(peak.removed),
+        notes=tuple(fan_note(axes[a].name) for a in peak.fanned),
+    )
+
+
+def fan_note(axis: str) -> str:
+    """The note of a target whose ``axis`` side lobes fan out."""
+    return (
+        f"its {axis} side lobes fan out over the aperture's look angles (the support's {axis} edges are arcs: a "
+        "narrowband, wide-angle aperture); the cut runs through the fan's centre, and the ideal point-target "
+        "response the residual subtracts does not describe a fan (its fit box is left out of the false-target "
+        "search)"
     )
 
 
@@ -2201,7 +2245,7 @@ def evaluate_product(
         product.attrs.get("valid_radius", math.nan),
         product.attrs.get("theoretical_irw", (math.nan,) * 2),
     )
-    targets = tuple(dataclasses.replace(t, notes=notes.get(t.name, ())) for t in report.targets)
+    targets = tuple(dataclasses.replace(t, notes=t.notes + notes.get(t.name, ())) for t in report.targets)
     return dataclasses.replace(report, targets=targets, movers=mover_reports(product, table, report, source))
 
 

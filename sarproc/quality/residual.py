@@ -48,7 +48,8 @@ class ResidualFloor:
     exclusion_cells: float  # main-lobe half-box left out of both searches, resolution cells
     orders: int  # spectral-weight orders per target model
     # targets whose fitted model leaves over MISFIT_DB of their peak inside its fit box (a defocused
-    # response is not the one the model fits): those boxes stay out of the search; named here
+    # response is not the one the model fits), or whose response it is known not to describe (a fan of side
+    # lobes): those boxes stay out of the search; named here
     misfit_targets: tuple[str, ...] = ()
 
 
@@ -1157,13 +1158,17 @@ def residual_false_target(
     reports: Sequence[TargetReport],
     half: Sequence[int],
     params: EvaluateParams,
+    unmodelled: Sequence[int] = (),
 ) -> tuple[FalseTarget | None, ResidualFloor]:
     """:func:`_residual_false_target` of ``data`` minus every model, each evaluated only where it reaches
     :data:`REACH_FIRST_DB` below the strongest peak, then :data:`REACH_BELOW_FLOOR_DB` below the floor so
-    found (:func:`subtract_models`; ``params.exact``: over the whole image, :func:`residual_image`)."""
+    found (:func:`subtract_models`; ``params.exact``: over the whole image, :func:`residual_image`).
+    ``unmodelled``: the targets whose response the model is known not to describe (a fan of side lobes),
+    treated as misfits whatever their residual."""
     if params.exact:
         with numerics(exact=True):
-            return _residual_false_target(residual_image(data, models), axes, truth, peaks, reports, half, params)
+            residual = residual_image(data, models)
+            return _residual_false_target(residual, axes, truth, peaks, reports, half, params, unmodelled)
     ref = max(r.peak_amplitude for r in reports)
     out = np.array(data, dtype=np.complex128)
     level = ref * 10 ** (REACH_FIRST_DB / 20)
@@ -1175,7 +1180,7 @@ def residual_false_target(
             break
         subtract_models(out, models, want, above=level)
         level = want
-    return _residual_false_target(out, axes, truth, peaks, reports, half, params)
+    return _residual_false_target(out, axes, truth, peaks, reports, half, params, unmodelled)
 
 
 def _residual_false_target(
@@ -1186,14 +1191,15 @@ def _residual_false_target(
     reports: Sequence[TargetReport],
     half: Sequence[int],
     params: EvaluateParams,
+    unmodelled: Sequence[int] = (),
 ) -> tuple[FalseTarget | None, ResidualFloor]:
     """(FalseTarget or None, ResidualFloor): strongest residual response outside the main lobes, and the
-    residual's floor inside the targets' guard windows."""
+    residual's floor inside the targets' guard windows (``unmodelled`` counted as misfits)."""
     from sarproc.quality.metrics import FalseTarget, _Chip  # metrics imports this module
 
     ref = max(reports, key=lambda r: r.peak_amplitude)
     mag = np.abs(residual)
-    misfit = _misfit_targets(mag, axes, peaks, reports, params)
+    misfit = sorted(set(_misfit_targets(mag, axes, peaks, reports, params)) | set(unmodelled))
     search, guard = _search_masks(residual.shape, axes, truth, peaks, reports, params, misfit)
     db = lambda v: float(20 * np.log10(v / ref.peak_amplitude)) if v > 0 and ref.peak_amplitude > 0 else -np.inf  # noqa: E731
     floor = ResidualFloor(
