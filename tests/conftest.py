@@ -61,6 +61,21 @@ def fresh_numba(tmp_path_factory):
     return tmp_path_factory.mktemp("numba-cache")
 
 
+def compiled_module_env(directory, numba_cache):
+    """The environment of a subprocess that loads the compiled modules in ``directory`` (SARPROC_AOT=1), imports
+    this tree and compiles numba's kernels into ``numba_cache`` (a :func:`fresh_numba`)."""
+    from pathlib import Path
+
+    root = str(Path(__file__).resolve().parents[1])
+    return {
+        **os.environ,
+        "SARPROC_AOT_DIR": str(directory),
+        "SARPROC_AOT": "1",
+        "PYTHONPATH": root,
+        "NUMBA_CACHE_DIR": str(numba_cache),
+    }
+
+
 @contextlib.contextmanager
 def aot_environment(directory):
     """SARPROC_AOT=1 with modules in ``directory`` for the block, both variables as they were after it (a

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import aot_environment
+from conftest import aot_environment, compiled_module_env
 
 from sarproc.dsp.rangecomp import range_compress
 from sarproc.focus import backprojection_aot as bpa
@@ -174,13 +174,7 @@ def test_compiled_module_image_equals_numbas(built, raw, fresh_numba, tmp_path, 
     np.savez(
         inputs, rc=rc, range_time=raw.coords["range_time"], pos=pos, rx=rx, pts=pts, f_c=raw.radar.carrier_frequency
     )
-    env = {
-        **os.environ,
-        "SARPROC_AOT_DIR": str(built[0]),
-        "SARPROC_AOT": "1",
-        "PYTHONPATH": str(ROOT),
-        "NUMBA_CACHE_DIR": str(fresh_numba),
-    }
+    env = compiled_module_env(built[0], fresh_numba)
     done = subprocess.run(
         [sys.executable, "-c", COMPARE, str(inputs)], capture_output=True, text=True, env=env, check=False
     )

@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import build_aot_kernels
+from conftest import build_aot_kernels, compiled_module_env
 
 from sarproc.product import aot
 from sarproc.quality import kernels_aot
@@ -86,13 +86,7 @@ print("equal")
 
 def test_compiled_kernels_equal_numbas(built, fresh_numba):
     """Each export (serial) on the same arguments as numba's freshly compiled kernel: the same bits."""
-    env = {
-        **os.environ,
-        "SARPROC_AOT_DIR": str(built[0]),
-        "SARPROC_AOT": "1",
-        "PYTHONPATH": str(ROOT),
-        "NUMBA_CACHE_DIR": str(fresh_numba),
-    }
+    env = compiled_module_env(built[0], fresh_numba)
     done = subprocess.run([sys.executable, "-c", COMPARE], capture_output=True, text=True, env=env, check=False)
     assert done.returncode == 0 and done.stdout.strip().endswith("equal"), done.stderr[-3000:]
 
@@ -132,13 +126,7 @@ def test_a_small_cube_imports_no_numba_and_reports_numbas_figures(built, fresh_n
     """A crowded skewed cube (tests/quality/test_fast_path.py's: neighbours fitted, subtracted, oblique cuts; every
     3D kernel runs) evaluated in a fresh process with the module built: no numba or llvmlite imported, the
     compiled module loaded, and the report equal to the one with numba's kernels (SARPROC_AOT=0)."""
-    on = {
-        **os.environ,
-        "SARPROC_AOT_DIR": str(built[0]),
-        "SARPROC_AOT": "1",
-        "PYTHONPATH": str(ROOT),
-        "NUMBA_CACHE_DIR": str(fresh_numba),
-    }
+    on = compiled_module_env(built[0], fresh_numba)
     runs = {}
     for label, env in (("on", on), ("off", {**on, "SARPROC_AOT": "0"})):
         done = subprocess.run([sys.executable, "-c", CUBE], capture_output=True, text=True, env=env, check=False)

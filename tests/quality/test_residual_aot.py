@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import build_aot_kernels
+from conftest import build_aot_kernels, compiled_module_env
 
 from sarproc.quality import residual_aot
 
@@ -98,13 +98,7 @@ def test_compiled_kernels_equal_numbas(built, fresh_numba):
     """Every export on the same arguments as numba's freshly compiled kernel (2D and 3D, three keystones): the
     same bits (both compile the source without fast-math, for the host CPU), special points included; and the
     residual's wrappers take any layout of their arguments."""
-    env = {
-        **os.environ,
-        "SARPROC_AOT_DIR": str(built[0]),
-        "SARPROC_AOT": "1",
-        "PYTHONPATH": str(ROOT),
-        "NUMBA_CACHE_DIR": str(fresh_numba),
-    }
+    env = compiled_module_env(built[0], fresh_numba)
     done = subprocess.run([sys.executable, "-c", COMPARE], capture_output=True, text=True, env=env, check=False)
     assert done.returncode == 0 and done.stdout.strip().endswith("equal"), done.stderr[-3000:]
 
@@ -125,13 +119,7 @@ def test_evaluate_imports_no_numba_and_reports_numbas_figures(built, fresh_numba
     """The demo image's evaluate (residual on: every residual kernel runs) with the module built: no numba or
     llvmlite imported, the compiled module loaded, and the same report as with numba's kernels (SARPROC_AOT=0)."""
     d, _ = built
-    on = {
-        **os.environ,
-        "SARPROC_AOT_DIR": str(d),
-        "SARPROC_AOT": "1",
-        "PYTHONPATH": str(ROOT),
-        "NUMBA_CACHE_DIR": str(fresh_numba),
-    }
+    on = compiled_module_env(d, fresh_numba)
     off = {**on, "SARPROC_AOT": "0"}
     cfg = str(ROOT / "configs" / "demo.yaml")
     raw, image = tmp_path / "raw.h5", tmp_path / "image.h5"
