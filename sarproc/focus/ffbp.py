@@ -243,6 +243,7 @@ def predicted_image_error(
     total = 0.0
     for p in at.reshape(-1, 2):
         gain, power = np.ones((len(pos), len(f_r)), complex), np.ones((len(pos), len(f_r)))
+        r_j = np.sqrt(((p - ant_xy) ** 2).sum(axis=1) + (ant @ plane.nrm) ** 2)  # each pulse's range to p
         for lev in range(1, tree.n_levels + 1):
             g, e = tree.geos[lev - 1], spans[lev]
             child = np.repeat(np.arange(len(e) - 1), np.diff(e))
@@ -253,7 +254,6 @@ def predicted_image_error(
             # angle tone of each pulse: d(range)/d(angle) at fixed range from its subaperture's centre, over half
             tang = np.stack([-d[:, 1], d[:, 0]], axis=-1) / rho[:, None]
             off = ant_xy - g[child, :2]
-            r_j = np.sqrt(((p - ant_xy) ** 2).sum(axis=1) + (ant @ plane.nrm) ** 2)
             u = -rho[child] * (off * tang[child]).sum(axis=1) / (r_j * half[child])
             f_a = np.clip(np.outer(u, rf) / (2 * q), -0.5, 0.5)
             ga = np.interp(f_a, f_tab, g_tab.real) + 1j * np.interp(f_a, f_tab, g_tab.imag)

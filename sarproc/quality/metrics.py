@@ -657,12 +657,12 @@ def principal_support(
         return Support(eye, f_c)
     # d|S| / d(frequency in cycles per null): each axis' band is about one unit wide.
     spacing = [nu / n for nu, n in zip(nulls, mag.shape)]
-    g, norm = _strong_gradients(mag, spacing, exact)
+    g, norm, where = _strong_gradients(mag, spacing, exact)
     u = g / norm[:, None]
     cand, peaks, dens = _orientation_peaks(u, norm, ndim, exact)
     arcs = None
     if ndim == 2:  # the curved edges' plateaus, checked against where their gradients lie
-        arcs = _Arcs(_plateaus(dens, peaks), _strong_positions(mag, spacing, len(g)), norm)
+        arcs = _Arcs(_plateaus(dens, peaks), where, norm)
     found, curved = _edge_normals(cand, peaks, u, g, ndim, arcs)
     if len(found) < ndim or abs(np.linalg.det(np.array(found))) < 0.2:
         return Support(eye, f_c)
@@ -690,26 +690,20 @@ def _support_spectrum(
     return mag, freqs
 
 
-def _strong_gradients(mag: np.ndarray, spacing: Sequence[float], exact: bool) -> tuple[np.ndarray, np.ndarray]:
-    """(gradients (m, ndim), their norms (m,)) of ``mag`` at sample ``spacing``, those over 5 % of the largest."""
+def _strong_gradients(
+    mag: np.ndarray, spacing: Sequence[float], exact: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """(gradients (m, ndim), their norms (m,), their positions (m, ndim), null units) of ``mag`` at sample
+    ``spacing``, those over 5 % of the largest; the compiled 3D path gives no positions (None)."""
     if mag.ndim == 3 and not exact:  # compiled: the strong gradients only, no full gradient arrays
-        return kernels_aot.strong_gradients(mag, np.array(spacing), 0.05)
+        g, norm = kernels_aot.strong_gradients(mag, np.array(spacing), 0.05)
+        return g, norm, None
     grads = np.gradient(mag, *spacing)
     g = np.stack([gi.ravel() for gi in grads], axis=1)
     norm = np.linalg.norm(g, axis=1)
-    keep = norm > 0.05 * norm.max()
-    return g[keep], norm[keep]
-
-
-def _strong_positions(mag: np.ndarray, spacing: Sequence[float], count: int) -> np.ndarray | None:
-    """The positions (null units) of :func:`_strong_gradients`' gradients of a 2D ``mag``, in its order (None if
-    ``count`` disagrees: the compiled 3D path is not this one)."""
-    grads = np.gradient(mag, *spacing)
-    norm = np.hypot(grads[0], grads[1]).ravel()
     keep = np.flatnonzero(norm > 0.05 * norm.max())
-    if keep.size != count:
-        return None
-    return np.stack(np.unravel_index(keep, mag.shape), axis=1) * np.asarray(spacing)
+    where = np.stack(np.unravel_index(keep, mag.shape), axis=1) * np.asarray(spacing)
+    return g[keep], norm[keep], where
 
 
 def _orientation_peaks(u: np.ndarray, norm: np.ndarray, ndim: int, exact: bool) -> tuple[np.ndarray, list, np.ndarray]:
