@@ -17,6 +17,7 @@ if TYPE_CHECKING:
     from dask.distributed import Client
 
     from sarproc.focus.backprojection import BackprojectionPlan, BackprojectParams, PulseSet
+    from sarproc.product.budget import Plan
     from sarproc.product.io import ProductWriter
     from sarproc.product.model import Product
     from sarproc.product.steps import ProgressFactory
@@ -67,6 +68,14 @@ def backproject(
     from sarproc.product.errors import InputError
     from sarproc.product.frames import frame_names
 
+    names = None if target_names is None else [n.strip() for n in target_names.split(",") if n.strip()]
+    grids: list[bp.BackprojectionPlan] = []
+
+    def estimate(stage: str, header: Product, params: bp.BackprojectParams) -> Plan:
+        if params.engine == "ffbp":  # its error is predicted on the run's grid: made once, for both
+            grids.append(bp.plan_backprojection(header, params, grid_targets=names))
+        return backproject_estimate(stage, header, params, max_memory(), grids[0] if grids else None)
+
     params, raw = prepare(
         "backproject",
         input_path,
@@ -76,7 +85,7 @@ def backproject(
         ("raw", "raw_multichannel", "raw_array"),
         bp.BackprojectParams,
         "backproject",
-        lambda stage, header, params: backproject_estimate(stage, header, params, max_memory()),
+        estimate,
     )
     if params.frame != "product" and params.frame not in frame_names():
         raise InputError(
@@ -84,9 +93,8 @@ def backproject(
         )
     params = dataclasses.replace(params, block_pixels=backproject_block_pixels(raw, params, max_memory()))
     start = time.perf_counter()
-    names = None if target_names is None else [n.strip() for n in target_names.split(",") if n.strip()]
     with naming(input_path, config_path, "backproject"):
-        plan = bp.plan_backprojection(raw, params, grid_targets=names)
+        plan = grids[0] if grids else bp.plan_backprojection(raw, params, grid_targets=names)
         pulses = bp.pulse_set(raw, params)
         bp.warn_ambiguities(raw, plan, pulses)
     raw.data = None  # type: ignore[assignment]  # the pulses hold what the blocks need: free the echoes

@@ -872,7 +872,7 @@ def plan_backprojection(
     pos = raw.aux["platform_position"]
     tx_off = raw.aux.get("tx_offset", np.zeros(3))
     rx_offs = raw.aux.get("rx_offset", np.zeros((1, 3)))
-    n_pulses = raw.data.shape[-2]
+    n_pulses = len(pos)  # (the data itself is not read: the plan runs on a header too)
     taper = theory.sample_taper(params.azimuth_window, n_pulses)
     targets = targets_in_frame(raw.targets, frame)
     # Every target's own theory at its true position (the table's): a moving target's support follows its

@@ -284,13 +284,23 @@ def test_plan_prints_the_predicted_error_and_the_cli_runs_ffbp(tmp_path):
         text=True,
     )
     assert out.returncode == 0, out.stderr
-    raw = read_product(tmp_path / "r.h5")
-    predicted = 10 * np.log10(predicted_error(212, 4, 3.0, "cubic", first_factor=4, pulse_oversample=pulses_q(raw)))
+    raw, image = read_product(tmp_path / "r.h5"), read_product(tmp_path / "i.h5")
+    p = BackprojectParams(
+        frame="los",
+        engine="ffbp",
+        ffbp_oversample=3,
+        ffbp_interpolation="cubic",
+        ffbp_first_factor=4,
+    )
+    # the plan predicts on the grid the run writes, with the geometry's own tree (not the broadside model)
+    on_grid = 10 * np.log10(predicted(raw, image, p))
+    broadside = 10 * np.log10(predicted_error(212, 4, 3.0, "cubic", first_factor=4, pulse_oversample=pulses_q(raw)))
+    assert abs(on_grid - broadside) > 0.1
     assert (
-        f"ffbp: 4 levels of 4, oversample 3, cubic; predicted error against the exact image {predicted:.1f} dB"
+        f"ffbp: 4 levels of 4, oversample 3, cubic; predicted error against the exact image {on_grid:.1f} dB"
         in out.stderr
     )
-    assert read_product(tmp_path / "i.h5").history[-1]["parameters"]["engine"] == "ffbp"
+    assert image.history[-1]["parameters"]["engine"] == "ffbp"
 
 
 def test_ffbp_refuses_points_off_a_plane():
