@@ -863,7 +863,7 @@ def ffbp_main(argv: list[str] | None = None) -> None:
     """`bench.py ffbp`: fast factorised backprojection against the exact engine (and FastSAR) on the bench
     scene, grid by grid: best of --repeats warm calls, each image's error against the exact one."""
     from sarproc.focus.backprojection import backproject_points
-    from sarproc.focus.ffbp import ffbp_points, predicted_error, pulse_oversample
+    from sarproc.focus.ffbp import ffbp_points, predicted_image_error, pulse_oversample
 
     ap = argparse.ArgumentParser(prog="bench.py ffbp", description=ffbp_main.__doc__)
     ap.add_argument("--sizes", type=int, nargs="+", default=[512, 1024, 2048])
@@ -942,7 +942,20 @@ def ffbp_main(argv: list[str] | None = None) -> None:
             err = float(np.sum(np.abs(img - exact) ** 2)) / power
             err_cubic = float(np.sum(np.abs(img - exact_cubic) ** 2)) / power_cubic
             q_pulse = pulse_oversample(case["rc"].shape[1], 8, case["fs"], case["bandwidth"])
-            pred = predicted_error(len(case["pos"]), k, q, interp, taps, k1, q_pulse, pulse)
+            pred = predicted_image_error(  # as the plan prints it
+                case["pos"],
+                pts,
+                case["fc"],
+                case["bandwidth"],
+                grid_shape=(n, n),
+                factor=k,
+                first_factor=k1,
+                oversample=q,
+                ffbp_interpolation=interp,
+                ffbp_taps=taps,
+                pulse_oversample=q_pulse,
+                pulse_interpolation=pulse,
+            )
             rows.append(
                 {
                     "n": n,
