@@ -1,8 +1,8 @@
 # Issue 21 "Must show": this tree's products against an older checkout's (BASE=DIR, e.g. a detached
 # worktree of the last landed commit), on the small config of every paper chain. Each tree simulates its
 # own raw products (results/compare/{base,new}/raw_*.h5); then both trees process the SAME raw products
-# (base's) through every later stage, each tree feeding its own intermediate products on. The script only
-# tabulates (results/compare/table.md). Heavy: waits for heavy.lock. Usage: make compare-products BASE=DIR
+# (base's) through every later stage, each tree feeding its own intermediate products on. `sarproc compare`
+# tabulates them (results/compare/table.md). Heavy: waits for heavy.lock. Usage: make compare-products BASE=DIR
 # (with the shared venv of a worktree: add VENV=/path/to/.venv).
 CMP := results/compare
 CMP_SCENES := demo an2012_exp1_small nie2016_small xu_small du2010_wide_swath bp_squint30
@@ -47,7 +47,7 @@ compare-products:
 compare-products-run:
 	$(call cmp_tree,$(BASE),$(CMP)/base)
 	$(call cmp_tree,$(CURDIR),$(CMP)/new)
-	PYTHONPATH=$(CURDIR) $(PY) scripts/compare_products.py $(CMP)/base $(CMP)/new > $(CMP)/table.md
+	env PYTHONPATH=$(CURDIR) $(abspath $(SARPROC)) compare $(CMP)/base $(CMP)/new > $(CMP)/table.md
 	cat $(CMP)/table.md
 
 # Issue 21, full size: each reproduction's chain (reproduce-000-exp1, -000-exp2, -004, -gotcha, the scene
@@ -56,7 +56,7 @@ compare-products-run:
 # them (its own simulate goes to simulated/, beside links to base's raw in base/CHAIN/simulated/), each
 # tree running its own configs and reproduce script. One `flock /tmp/heavy.lock nice` per chain (both
 # trees), so other heavy jobs interleave; wall time and peak RSS per chain in $(CMPF)/times.txt. Then
-# scripts/compare_products.py tabulates products, reports and the scripts' Markdown tables
+# `sarproc compare` tabulates products, reports and the scripts' Markdown tables
 # ($(CMPF)/table.md). Usage: make compare-reproductions BASE=DIR [CMPF_CHAINS="000-exp1 004"] [VENV=...]
 CMPF := results/compare-full
 CMPF_CHAINS ?= 000-exp1 000-exp2 004 gotcha 003 002
@@ -80,7 +80,7 @@ cmpf-pair:
 	done
 
 compare-reproductions-table:
-	PYTHONPATH=$(CURDIR) $(PY) scripts/compare_products.py $(CMPF)/base $(CMPF)/new > $(CMPF)/table.md
+	env PYTHONPATH=$(CURDIR) $(abspath $(SARPROC)) compare $(CMPF)/base $(CMPF)/new > $(CMPF)/table.md
 	cat $(CMPF)/table.md
 
 # Inside one chain: ROLE (base|new), T (the tree), O (its output folder), R (base's output folder).

@@ -42,6 +42,7 @@ COMMANDS = {
     "export-cphd": "sarproc.cli.formats:export_cphd",
     "import-cphd": "sarproc.cli.formats:import_cphd",
     "schema": "sarproc.cli.schema:schema",
+    "compare": "sarproc.cli.compare:compare",
 }
 
 

@@ -1,21 +1,19 @@
-"""Tabulate two folders of products made by two sarproc trees (issue 21): `make compare-products BASE=DIR`.
+"""Two sets of products compared (`sarproc compare BASE NEW`): the same products made by two trees or settings.
 
-Reads only; processes nothing. Files are paired by name (BASE_DIR/x against NEW_DIR/x). For each HDF5
-product: the signal (sarproc.product.io.read_product) as difference power over signal power in dB
-(10 log10 sum|new - base|^2 / sum|base|^2; -inf: identical) and the largest difference over the largest
-magnitude; every other dataset and attribute compared exactly (those that differ named; root 'history'
-holds times and versions, so it is named apart). For each evaluate report (JSON): the largest absolute
-difference of any number, per metric family (the last key of its path: irw, pslr_db, position, ...), and
-any non-number that differs. For each Markdown file (the reproduce scripts' summaries, evaluate's printed
-reports): its tables paired by header and their rows by first cell, the cells that differ and the largest
-difference per numeric column. For every file: whether the sha256 agree; other files (SICD, CPHD): the bytes
-that differ. Folders are walked (paired by path below BASE_DIR and NEW_DIR); figures, logs and YAML are skipped.
-The signal is read in blocks of rows, so a raw product of several GB is compared in ~1 GB. Prints Markdown.
+Reads only. Files are paired by name (BASE/x against NEW/x). For each HDF5 product: the signal
+(sarproc.product.io.read_product) as difference power over signal power in dB (10 log10 sum|new - base|^2 /
+sum|base|^2; -inf: identical) and the largest difference over the largest magnitude; every other dataset and
+attribute compared exactly (those that differ named; root 'history' holds times and versions, so it is named
+apart). For each evaluate report (JSON): the largest absolute difference of any number, per metric family (the
+last key of its path: irw, pslr_db, position, ...), and any non-number that differs. For each Markdown file (the
+reproductions' summaries, evaluate's printed reports): its tables paired by header and their rows by first cell,
+the cells that differ and the largest difference per numeric column. For every file: whether the sha256 agree;
+other files (SICD, CPHD): the bytes that differ. The signal is read in blocks of rows, so a raw product of
+several GB is compared in ~1 GB. Each ``*_row`` gives one row of its table (``*_COLUMNS``).
 """
 
 from __future__ import annotations
 
-import argparse
 import hashlib
 import json
 import math
@@ -25,7 +23,6 @@ from typing import Any
 import h5py
 import numpy as np
 
-from sarproc.cli.markdown import markdown_table
 from sarproc.product.io import read_product
 from sarproc.product.model import DATA_NAME
 
@@ -268,16 +265,15 @@ def same_bytes(b: Path, a: Path) -> str:
     return "same" if sha256(b) == sha256(a) else "differ"
 
 
-def product_row(base: Path, new: Path, name: str) -> list[str]:
-    b, a = base / name, new / name
+def product_row(b: Path, a: Path, name: str) -> list[str]:
+    """Row ``name`` of the products' table: HDF5 product ``b`` (base) against ``a`` (new)."""
     if not a.exists():
         return [name, "missing in new"] + [""] * (len(PRODUCT_COLUMNS) - 2)
     r = compare_hdf5(b, a)
     return [name, r["kind"], r["shape"], r["signal"], r["rel"], r["datasets"], r["attrs"], same_bytes(b, a)]
 
 
-def report_row(base: Path, new: Path, name: str) -> list[str]:
-    b, a = base / name, new / name
+def report_row(b: Path, a: Path, name: str) -> list[str]:
     if not a.exists():
         return [name, "missing in new"] + [""] * (len(REPORT_COLUMNS) - 2)
     r = compare_json(b, a)
@@ -293,47 +289,39 @@ MARKDOWN_COLUMNS = (
 )
 
 
-def markdown_row(base: Path, new: Path, name: str) -> list[str]:
-    b, a = base / name, new / name
+def markdown_row(b: Path, a: Path, name: str) -> list[str]:
     if not a.exists():
         return [name, "missing in new"] + [""] * (len(MARKDOWN_COLUMNS) - 2)
     r = compare_markdown(b, a)
     return [name, r["tables"], r["cells"], r["moved"], r["text"]]
 
 
-def file_row(base: Path, new: Path, name: str) -> list[str]:
-    b, a = base / name, new / name
+FILE_COLUMNS = ("file", "bytes", "sha256")
+
+
+def file_row(b: Path, a: Path, name: str) -> list[str]:
     if not a.exists():
         return [name, "missing in new", ""]
     return [name, compare_bytes(b, a), same_bytes(b, a)]
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("base", type=Path, help="folder of the older tree's products")
-    ap.add_argument("new", type=Path, help="folder of this tree's products (same file names)")
-    args = ap.parse_args()
-    names = sorted(
-        p.relative_to(args.base).as_posix()
-        for p in args.base.rglob("*")
-        if p.is_file() and not p.name.endswith(SKIPPED_SUFFIXES)
+# each table: its columns and rows, by the files' suffix (anything else: the files' bytes)
+TABLES = {
+    "h5": (PRODUCT_COLUMNS, product_row),
+    "json": (REPORT_COLUMNS, report_row),
+    "md": (MARKDOWN_COLUMNS, markdown_row),
+    "other": (FILE_COLUMNS, file_row),
+}
+
+
+def table_of(name: str) -> str:
+    """The table file ``name`` goes in (a key of TABLES)."""
+    suffix = name.rsplit(".", 1)[-1] if "." in Path(name).name else ""
+    return suffix if suffix in TABLES else "other"
+
+
+def paired_names(base: Path) -> list[str]:
+    """The files below ``base`` (paths relative to it), figures, logs, YAML and sweep stamps skipped."""
+    return sorted(
+        p.relative_to(base).as_posix() for p in base.rglob("*") if p.is_file() and not p.name.endswith(SKIPPED_SUFFIXES)
     )
-    h5 = [n for n in names if n.endswith(".h5")]
-    js = [n for n in names if n.endswith(".json")]
-    md = [n for n in names if n.endswith(".md")]
-    rest = [n for n in names if n not in h5 and n not in js and n not in md]
-    print(f"Products of `{args.new}` against `{args.base}` (scripts/compare_products.py).\n")
-    print(markdown_table(PRODUCT_COLUMNS, [product_row(args.base, args.new, n) for n in h5]))
-    if js:
-        print()
-        print(markdown_table(REPORT_COLUMNS, [report_row(args.base, args.new, n) for n in js]))
-    if md:
-        print()
-        print(markdown_table(MARKDOWN_COLUMNS, [markdown_row(args.base, args.new, n) for n in md]))
-    if rest:
-        print()
-        print(markdown_table(("file", "bytes", "sha256"), [file_row(args.base, args.new, n) for n in rest]))
-
-
-if __name__ == "__main__":
-    main()

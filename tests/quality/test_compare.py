@@ -1,29 +1,19 @@
-"""scripts/compare_products.py (make compare-products / compare-reproductions): what it reads off two folders."""
+"""sarproc compare (make compare-products / compare-reproductions): what it reads off two products or folders."""
 
 from __future__ import annotations
 
-import importlib.util
 import math
-from pathlib import Path
+import subprocess
+import sys
 
 import h5py
 import numpy as np
 
+from sarproc.quality import compare as cp
 from tests.cli.test_quicklook import image_without_targets
-
-SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "compare_products.py"
-
-
-def load_script():
-    spec = importlib.util.spec_from_file_location("compare_products", SCRIPT)
-    assert spec is not None and spec.loader is not None
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
 
 
 def test_signal_difference_read_in_blocks_matches_the_whole_array(tmp_path, monkeypatch):
-    cp = load_script()
     base, new = tmp_path / "base" / "sub", tmp_path / "new" / "sub"
     base.mkdir(parents=True)
     new.mkdir(parents=True)
@@ -46,7 +36,6 @@ def test_signal_difference_read_in_blocks_matches_the_whole_array(tmp_path, monk
 
 
 def test_markdown_tables_paired_by_header_and_first_cell(tmp_path):
-    cp = load_script()
     base, new = tmp_path / "a.md", tmp_path / "b.md"
     base.write_text("# T\n\n| name | irw | note |\n|---|---:|---|\n| A | 1.50 | ok |\n| B | -13.2 dB | x |\n")
     new.write_text(
@@ -57,3 +46,27 @@ def test_markdown_tables_paired_by_header_and_first_cell(tmp_path):
     assert r["cells"] == "2 of 6"
     assert r["moved"] == "irw 0.3"
     assert r["text"] == "B / note: 'x' -> 'y'"
+
+
+def test_the_command_tabulates_two_folders_and_two_files(tmp_path):
+    base, new = tmp_path / "base", tmp_path / "new"
+    for d in (base / "sub", new / "sub"):
+        d.mkdir(parents=True)
+        image_without_targets(d / "image.h5")
+        (d / "notes.md").write_text("| name | irw |\n|---|---:|\n| A | 1.50 |\n")
+        (d / "plot.png").write_bytes(b"skipped")
+    with h5py.File(new / "sub" / "image.h5", "r+") as f:
+        f["image"][5, :] = f["image"][5, :] * np.complex64(2)
+    (new / "sub" / "notes.md").write_text("| name | irw |\n|---|---:|\n| A | 1.75 |\n")
+    cmd = [sys.executable, "-m", "sarproc", "compare"]
+    out = subprocess.run([*cmd, str(base), str(new)], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    rows = {line.split("|")[1].strip(): line for line in out.stdout.splitlines() if line.startswith("| sub/")}
+    assert set(rows) == {"sub/image.h5", "sub/notes.md"}  # the figure skipped
+    assert " dB |" in rows["sub/image.h5"] and "identical" not in rows["sub/image.h5"]
+    assert "irw 0.25" in rows["sub/notes.md"]
+    one = str(base / "sub" / "image.h5")
+    same = subprocess.run([*cmd, one, one], capture_output=True, text=True)
+    assert same.returncode == 0 and "| identical |" in same.stdout
+    mixed = subprocess.run([*cmd, str(base), one], capture_output=True, text=True)
+    assert mixed.returncode == 2 and "two files or two folders" in mixed.stderr
