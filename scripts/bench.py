@@ -766,6 +766,10 @@ FFBP_SETTINGS = [
     (4, 16, 1.75, "knab", 10, "linear"),
     (4, 16, 1.5, "knab", 12, "linear"),
     (4, 16, 1.5, "knab", 12, "cubic"),
+    # cubic pulse reads past the linear reads' -47 dB floor: against the cubic x8 exact image (the closest to
+    # the truth) where FastSAR's factorised former measures -60.7 dB on the 2048^2 grid
+    (4, 16, 2.0, "knab", 10, "cubic"),
+    (4, 16, 1.75, "knab", 12, "cubic"),
 ]
 
 
