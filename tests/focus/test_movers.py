@@ -320,6 +320,10 @@ def test_a_mover_below_the_clutter_nulls_mdv_is_reported_missed_with_its_reason(
     assert truth["missed"] == ["SLOW"] and truth["found"] == 2
     (reason,) = truth["missed_reasons"]
     assert reason.startswith("SLOW: the clutter null keeps") and "speed 0.06 m/s, below this null's minimum" in reason
+    # the MDV against the CFAR threshold in force, which the second pass may raise above the floor (xu_traffic V1:
+    # 0.30 m/s against 15 dB, 6.77 m/s against 42.7 dB)
+    threshold = rec.attrs["reconstruct"]["detection_cfar"]["threshold_db"]
+    assert f"and the CFAR threshold {threshold:.1f} dB)" in reason
     assert [w for w in warnings if w.startswith("reconstruct: truth mover")] == [f"reconstruct: truth mover {reason}"]
 
 
