@@ -118,6 +118,12 @@ def coverage(rows: list[dict], err: str, sig: str) -> str:
     return f"{np.mean(z <= 1):.0%} / {np.mean(z <= 2):.0%}" if len(z) else "-"
 
 
+def rms_z(rows: list[dict], err: str, sig: str) -> str:
+    """rms of error / stated sigma (1 if calibrated; under 1: sigma over-stated by its inverse)."""
+    z = np.array([r[err] / r[sig] for r in rows])
+    return f"{math.sqrt(float(np.mean(z**2))):.2f}" if len(z) else "-"
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--results", default="results/003-movers")
@@ -156,15 +162,17 @@ def main() -> None:
                 lines.append(f"| clutter seed {seed} v_r {v_r:g} v_a {v_a:g}: not found | | | | | | | |")
     lines += [
         "",
-        "Fraction of movers with |error| <= 1 sigma / <= 2 sigma (68 % / 95 % if calibrated):",
+        "Fraction of movers with |error| <= 1 sigma / <= 2 sigma (68 % / 95 % if calibrated); rms z: the rms of",
+        "error / sigma (1 if calibrated):",
         "",
-        "| movers | n | v_r | v_r (before) | v_a | v_a (before) |",
-        "|---|---|---|---|---|---|",
+        "| movers | n | v_r | v_r (before) | v_a | v_a (before) | rms z v_r | rms z v_a |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for label, rows in (("in clutter", cluttered), ("clean", clean)):
         lines.append(
             f"| {label} | {len(rows)} | {coverage(rows, 'dv_r', 's_r')} | {coverage(rows, 'dv_r', 'old_r')} | "
-            f"{coverage(rows, 'dv_a', 's_a')} | {coverage(rows, 'dv_a', 'old_a')} |"
+            f"{coverage(rows, 'dv_a', 's_a')} | {coverage(rows, 'dv_a', 'old_a')} | "
+            f"{rms_z(rows, 'dv_r', 's_r')} | {rms_z(rows, 'dv_a', 's_a')} |"
         )
     out = Path(args.results)
     out.mkdir(parents=True, exist_ok=True)

@@ -88,6 +88,11 @@ def test_two_movers_in_one_range_window_are_both_found_and_estimated(two_movers,
     # v_a's propagated into v_r: 0.027), not vacuous; the autofocus saw nothing beyond the mover's own focus residue
     for row in by_name.values():
         assert row["v_r_sigma"] <= 0.03 and row["v_a_sigma"] <= 0.055, row
+    # and v_a is within it: the autofocus converts R'' into v_a at the range of the focused mover, not at its
+    # detection's 12.5 m cell (M2 +0.072 m/s with it; +0.007 and +0.039 now)
+    tt = {n.decode(): k for k, n in enumerate(two_movers.targets["name"])}
+    for name, row in by_name.items():
+        assert abs(row["v_a"] - two_movers.targets["vx"][tt[name]]) <= row["v_a_sigma"], (name, row)
     assert all(m["autofocus_snr_db"] is None for m in rec.attrs["reconstruct"]["moving_targets"])
     assert rec.attrs["reconstruct"]["truth"] == {
         "movers": 2,
@@ -315,6 +320,10 @@ def test_a_mover_below_the_clutter_nulls_mdv_is_reported_missed_with_its_reason(
     assert truth["missed"] == ["SLOW"] and truth["found"] == 2
     (reason,) = truth["missed_reasons"]
     assert reason.startswith("SLOW: the clutter null keeps") and "speed 0.06 m/s, below this null's minimum" in reason
+    # the MDV against the CFAR threshold in force, which the second pass may raise above the floor (xu_traffic V1:
+    # 0.30 m/s against 15 dB, 6.77 m/s against 42.7 dB)
+    threshold = rec.attrs["reconstruct"]["detection_cfar"]["threshold_db"]
+    assert f"and the CFAR threshold {threshold:.1f} dB)" in reason
     assert [w for w in warnings if w.startswith("reconstruct: truth mover")] == [f"reconstruct: truth mover {reason}"]
 
 
@@ -373,24 +382,32 @@ def test_slow_movers_beam_centre_time_is_that_of_its_focused_tone_not_of_the_clu
     """reconstruct._autofocus: v_a follows from the range acceleration through the slant range at the beam-centre
     time (1 ms: 0.016 m/s). The energy centroid of the mover's cells is pulled by the clutter in them (here 13.8 ms
     early; xu_traffic V9 19.5 ms late, +0.31 m/s of v_a); the time from the focused mover's tone is within 3 ms
-    of the truth (here 2.1 ms, the null fit's v_los error of 0.13 m/s shifting the tone)."""
+    of the truth (here 2.1 ms, the null fit's v_los error of 0.13 m/s shifting the tone). The slant range there
+    (1 m: 0.006 m/s) is the focused mover's too (reconstruct._focused_cell), within 1 m of the truth; the detection's
+    cell it replaced is one of the mover's ambiguity in the clutter-null residual, 4-5 cells off (here 14 m short,
+    +0.09 m/s of v_a)."""
     from sarproc.product import moving
 
     raw, rec, _ = slowish
     (mt,) = rec.attrs["reconstruct"]["moving_targets"]
     xyz = np.array([raw.targets[c][0] for c in "xyz"], float)
     vel = np.array([raw.targets["v" + c][0] for c in "xyz"], float)
-    t0 = moving.illumination_centre_time(raw.radar, moving.pulse_times(raw), xyz, vel, moving.phase_centres(raw))
+    times, centres = moving.pulse_times(raw), moving.phase_centres(raw)
+    t0 = moving.illumination_centre_time(raw.radar, times, xyz, vel, centres)
     assert abs(mt["beam_centre_time"] - t0) < 3e-3
+    t_c = mt["beam_centre_time"]
+    platform = np.array([np.interp(t_c, times, centres[:, k]) for k in range(3)])
+    assert abs(mt["slant_range"] - np.linalg.norm(xyz + vel * t_c - platform)) < 1.0
 
 
 def test_slow_movers_velocities_are_within_their_stated_uncertainties(slowish):
-    """The clutter in the mover's autofocus cell pulls its range acceleration (v_a +0.70 m/s here, +0.10 without
-    the clutter; v_r -0.318 through v_los = v_r cos(theta) + v_a sin(theta)). The stated 1-sigma covers both
+    """The clutter in the mover's autofocus cell pulls its range acceleration (v_a +0.615 m/s here, +0.040 without
+    the clutter, scripts/movers_sigma_budget_003.py --seed 9 --v-r -2 --v-a 10; v_r -0.287 through
+    v_los = v_r cos(theta) + v_a sin(theta)). The stated 1-sigma covers both
     (reconstruct._uncertainties): the CRB from the autofocus's own SNR (14.8 dB: 0.685 m/s) missed the pull, which
     the autofocus on the mover's illumination alone measures (reconstruct.illumination_pull: -0.707 m/s), so
-    v_a_sigma is 0.984 and v_r_sigma 0.463 (scripts/movers_sigma_003.py: 5 of 9 clutter movers' v_a within 1 sigma,
-    7 within 2; docs/multichannel.md section 8)."""
+    v_a_sigma is 0.984 and v_r_sigma 0.463 (scripts/movers_sigma_003.py: 8 of 9 clutter movers' v_a within 1 sigma,
+    9 within 2; docs/multichannel.md section 8)."""
     by_name, _ = found(slowish[1])
     row = by_name["SLOWISH"]
     (mt,) = slowish[1].attrs["reconstruct"]["moving_targets"]
@@ -572,3 +589,30 @@ def test_illumination_pull_measures_what_data_outside_the_movers_illumination_do
     rms_err, rms_stated = np.sqrt(np.mean(np.square(err))), np.sqrt(np.mean(np.square(stated)))
     assert crb < rms_err / 1.5  # the CRB alone understates the whole-time estimate's error
     assert rms_err / 1.5 < rms_stated < 1.5 * rms_err, (rms_err, rms_stated, crb)
+
+
+def test_focused_cell_is_the_movers_range_at_its_beam_centre_time():
+    """reconstruct._focused_cell on a synthetic mover in (t', f_r) (rect illumination T about t_0 = 0.2 s, the range
+    history r_0 + R'' dt^2 / 2 + R''' dt^3 / 6, xu_scene's 30 MHz in 36 MHz): the window cell of r_0 within 0.05 cells
+    (0.2 m, 0.001 m/s of v_a), wherever r_0 falls between cells, also from cells beside the peak. The autofocus
+    converts R'' into v_a through this range; the detection's cell it replaced was 4-5 cells off for a detection at
+    the mover's ambiguity (scripts/movers_sigma_budget_003.py seed 2 (4, -6): -19.5 m, v_a +0.13 m/s)."""
+    from types import SimpleNamespace
+
+    from sarproc.focus.multichannel import reconstruct as rc
+
+    c, fc, fs, acc, jerk, t_0, t_ill = 299792458.0, 9.6e9, 36e6, 82.8, 1.06, 0.2, 0.75
+    out_times = (np.arange(12000) - 6000) / 1e4
+    f_r = np.fft.fftfreq(33, 1 / fs)
+    g = SimpleNamespace(out_times=out_times, fc=fc, fs=fs)
+    dt = out_times - t_0
+    for x0 in (14.0, 14.37, 15.5, 9.81):
+        r = x0 * c / (2 * fs) + acc * dt**2 / 2 + jerk * dt**3 / 6
+        y = np.exp(-4j * np.pi * np.outer(r, fc + f_r) / c) * (np.abs(dt) <= t_ill / 2)[:, None]
+        y *= np.abs(f_r) <= 15e6
+        cell = rc._focused_cell(y, f_r, g, acc, jerk, t_0, t_ill, np.arange(int(x0) - 1, int(x0) + 2))
+        assert cell == pytest.approx(x0, abs=0.05), x0
+        # the autofocus's cells one off the peak (clutter in them): their neighbour's peak is found all the same
+        if abs(x0 - round(x0)) < 0.4:  # (half-way between two cells, either is the nearest)
+            off = rc._focused_cell(y, f_r, g, acc, jerk, t_0, t_ill, np.arange(round(x0) + 1, round(x0) + 3))
+            assert off == pytest.approx(x0, abs=0.05), x0

@@ -496,6 +496,7 @@ class _Centre:
     slant_range: float  # m, at t_c
     own_cells: np.ndarray | None  # the cells holding half of the null fit's isolated mover (None: eq. 5 kept)
     shift: int | None  # the null fit's ambiguity step of the mover (None: eq. 5 kept)
+    cell: float  # the window cell whose walk-corrected range slant_range was taken from (the detection's)
 
 
 def _search(
@@ -573,8 +574,11 @@ def _null_refit(est: _Estimate, params: ReconstructParams, null_fit: _NullFit) -
         est.v_r, est.result, est.criterion, est.by_null_fit = refit.estimate, refit, null_fit.mismatch, True
 
 
-def _centre(win: _Window, g: _Geometry, est: _Estimate, centre_range: float, null_fit: _NullFit | None) -> _Centre:
-    """The mover's beam-centre time (its energy's centroid in t') and the slant range there."""
+def _centre(
+    win: _Window, g: _Geometry, est: _Estimate, centre_range: float, centre_cell: float, null_fit: _NullFit | None
+) -> _Centre:
+    """The mover's beam-centre time (its energy's centroid in t') and the slant range there (``centre_range``, the
+    walk-corrected range of window cell ``centre_cell``, less the walk to t_c; _autofocus refines both)."""
     y_dem = sfft.ifft(win.demodulated_spectrum(est.v_r, est.v_a), axis=0, workers=-1)
     own_cells = None
     shift = None
@@ -588,7 +592,7 @@ def _centre(win: _Window, g: _Geometry, est: _Estimate, centre_range: float, nul
     p = np.sum(np.abs(y_dem if own_cells is None else sfft.ifft(y_dem, axis=1, workers=-1)[:, own_cells]) ** 2, axis=1)
     t_c = float(np.sum(g.out_times * p) / np.sum(p)) if np.sum(p) > 0 else 0.0
     slant_range = centre_range - g.velocity * math.sin(g.squint) * t_c
-    return _Centre(y_dem, t_c, slant_range, own_cells, shift)
+    return _Centre(y_dem, t_c, slant_range, own_cells, shift, centre_cell)
 
 
 def _incoherent(est: _Estimate, g: _Geometry, flat_above: float) -> bool:
@@ -684,11 +688,21 @@ def _autofocus(
     f_az = sfft.fftfreq(len(g.out_times), 1.0 / (g.n * g.prf))
     ph = deramp.quadratic_phasor(g.out_times, np.zeros(1), acc, t_c, g.fc)
     f_tone = _tone_offset(sfft.fft(y_cells * ph, axis=0, workers=-1), f_az, 2 * acc * 0.25 * t_ill / lam)
+    walk_corrected = slant_range + g.velocity * math.sin(g.squint) * t_c
     if f_tone is not None:
-        walk_corrected = slant_range + g.velocity * math.sin(g.squint) * t_c
         t_c = t_c + f_tone * lam / (2 * acc)
-        slant_range = walk_corrected - g.velocity * math.sin(g.squint) * t_c
-        v_a = _along_track_for(acc, v_los, g, slant_range, v_a)
+    # ... and its range there from the focused mover too: the detection's cell, where slant_range came from, is a
+    # cell of the mover's response in the detection image, which for a detection at the mover's ambiguity (the
+    # null leaves a slow mover's energy mostly there) walks 4-5 cells from the mover (scripts/movers_sigma_003.py
+    # seed 2 (4, -6): -19.5 m, v_a +0.13 m/s), and is whole cells in any case (12.5 m: 0.08 m/s)
+    rdot = -(g.velocity - v_a) * math.sin(g.squint) + vr_a * math.cos(g.squint)
+    jerk = -3 * rdot * acc / slant_range
+    cell = _focused_cell(centre.y_dem, win.f_r, g, acc, jerk, t_c, t_ill, np.arange(centre.y_dem.shape[1])[keep])
+    if cell is not None:
+        # y_dem has the walk v_los t removed about t = 0 (demodulated_spectrum): the mover sits at R(t_0) - v_los t_0
+        walk_corrected += (cell - centre.cell) * C / (2 * g.fs) + v_los * t_c
+    slant_range = walk_corrected - g.velocity * math.sin(g.squint) * t_c
+    v_a = _along_track_for(acc, v_los, g, slant_range, v_a)
     vr_a = (v_los - v_a * math.sin(g.squint)) / math.cos(g.squint)
     acc = velocity.range_acceleration(g.velocity, v_a, vr_a, g.squint, slant_range)
     own = np.zeros((1, centre.y_dem.shape[1]), np.complex64)
@@ -717,6 +731,44 @@ def _autofocus(
         )
         est.v_r = fine.estimate
     return t_c, slant_range
+
+
+def _focused_cell(
+    y_tf: np.ndarray,
+    f_r: np.ndarray,
+    g: _Geometry,
+    acc: float,
+    jerk: float,
+    t_0: float,
+    t_ill: float,
+    cells: np.ndarray,
+) -> float | None:
+    """The window cell (fractional) of the mover focused in ``y_tf`` (t', f_r): dechirped at each range frequency
+    with R'' = ``acc`` and the cubic term ``jerk`` about ``t_0`` over the illumination ``t_ill`` (which also
+    straightens its range curvature), summed over t' (the tone at f = 0), its range profile's peak among ``cells``
+    +-1, interpolated (the band-limited profile at 1/20 cell about the strongest cell, then a parabola). None when
+    that is no local maximum of the profile, or there are too few samples."""
+    inside = np.abs(g.out_times - t_0) <= t_ill / 2
+    if inside.sum() < 8 or len(cells) == 0:
+        return None
+    dt = g.out_times[inside] - t_0
+    ph = deramp.quadratic_phasor(g.out_times[inside], f_r, acc, t_0, g.fc)
+    ph *= np.exp(2j * np.pi * np.outer(dt**3, (g.fc + f_r) * jerk / (3 * C)))
+    spec = np.sum(y_tf[inside] * ph, axis=0)  # (n_f,)
+    n = len(f_r)
+    profile = np.abs(sfft.ifft(spec, workers=-1)) ** 2
+    near = np.unique(np.clip(np.concatenate([cells - 1, cells, cells + 1]), 0, n - 1))
+    k = int(near[np.argmax(profile[near])])
+    if profile[k] < max(profile[(k - 1) % n], profile[(k + 1) % n]):  # rising beyond them: not the mover's peak
+        return None
+    x = k + np.arange(-20, 21) / 20.0
+    fine = np.abs(np.exp(2j * np.pi * np.outer(x, f_r / g.fs)) @ spec) ** 2
+    j = int(np.argmax(fine))
+    if 0 < j < len(x) - 1:
+        a, b, c = fine[j - 1 : j + 2]
+        den = a - 2 * b + c
+        return float(x[j] + (0.5 * (a - c) / den if den < 0 else 0.0) * (x[1] - x[0]))
+    return float(x[j])
 
 
 def _autofocus_snr(
@@ -781,7 +833,7 @@ def illumination_pull(
     cubic term ``jerk`` dt^3 / 6; sharpness over u in +-``span`` at 1 m/s, then +-0.5 m/s at 0.1 zero-padded to
     twice the window, each refined by a parabola. The autofocus runs on the whole output time (``_autofocus``),
     where the mover's cells also hold clutter illuminated before and after it, whose focus pulls the sharpness
-    maximum (SLOWISH: -0.71 of its +0.70 m/s v_a error). The data outside hold nothing of the mover, so without such
+    maximum (SLOWISH: -0.71 of its +0.62 m/s v_a error). The data outside hold nothing of the mover, so without such
     interference both estimates measure the same R'' and differ by noise only (variance var_full - var_window):
     the offset is the pull itself, estimated from the data, not from a model of it.
     """
@@ -830,6 +882,7 @@ def _estimate(
     params: ReconstructParams,
     g: _Geometry,
     centre_range: float,
+    centre_cell: float,
     static_below: float | None = None,
     flat_above: float | None = None,
     null_fit: _NullFit | None = None,
@@ -875,7 +928,7 @@ def _estimate(
             NULL_FIT_MISMATCH,
         )
         return None, ["incoherent"]
-    centre = _centre(win, g, est, centre_range, null_fit)
+    centre = _centre(win, g, est, centre_range, centre_cell, null_fit)
     if flat_above is not None and est.result is not None and _incoherent(est, g, flat_above):
         return None, ["incoherent"]
     t_c, slant_range = centre.t_c, centre.slant_range
@@ -888,7 +941,7 @@ def _estimate(
             v_r, beyond = _resolve_blind_velocity(win, est.v_r, est.v_a, params, g)
             if abs(v_r - est.v_r) > params.velocity_step:
                 est.v_r, est.beyond = v_r, beyond
-                centre = _centre(win, g, est, centre_range, null_fit)
+                centre = _centre(win, g, est, centre_range, centre_cell, null_fit)
                 t_c, slant_range = _autofocus(est, win, params, g, centre, can_search)
     leak = win.leakage(est.v_r, est.v_a) if can_search else float("nan")
     appears = appears_cell = None
@@ -1145,7 +1198,7 @@ def _detect(
             max(1.0, g.fs / r.bandwidth),
             20 * params.max_detections,
         )[0]
-    probes = _probe_truth(raw, params, g, lead, power, bg, conv, bg_conv, cfar_db)
+    probes = _probe_truth(raw, params, g, lead, power, bg, conv, bg_conv)
     return _Detections(
         out_f, r_mid, image, bg, dets, dropped, static_peaks, probes, cfar_db, max(1.0, g.fs / r.bandwidth)
     )
@@ -1385,6 +1438,7 @@ def _examine(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
         params,
         g,
         centre_range,
+        det.cell - w.a,
         static_below=params.detection_velocity,
         flat_above=0.95,
         null_fit=null_fit,
@@ -1649,7 +1703,9 @@ class _NullProbe:
     conventional_snr_db: float  # its SNR in the conventional detection image
     null_depth_db: float  # background where its residual peaks over that where it appears
     null_gain_db: float  # detection.clutter_null_peak_gain of its true v_los
-    mdv: float  # the null's minimum detectable velocity for its conventional SNR (m/s)
+    # the null's minimum detectable velocity (m/s) for its conventional SNR against a CFAR threshold (dB): the one in
+    # force is known only after the second pass, which can raise it far above detection_snr (xu_traffic: 42.7 dB)
+    mdv_at: Callable[[float], float]
 
 
 def _probe_truth(
@@ -1661,7 +1717,6 @@ def _probe_truth(
     bg: np.ndarray,
     conv: np.ndarray | None,
     bg_conv: np.ndarray | None,
-    cfar_db: float,
 ) -> dict[int, _TruthProbe]:
     """Per moving truth target (its row): its SNR in the detection image(s) where it appears, and the clutter null's
     MDV.
@@ -1689,7 +1744,7 @@ def _probe_truth(
         v_a, v_r = moving.slant_velocity(xyz, vel, raw.radar.altitude)
         probe = _TruthProbe(cell, index, snr_db, i_res, c_res, channels.line_of_sight_velocity(v_r, v_a, g.squint))
         if conv is not None and bg_conv is not None:
-            probe.null = _null_probe(probe, params, g, bg, conv, bg_conv, cfar_db, spacing)
+            probe.null = _null_probe(probe, params, g, bg, conv, bg_conv, spacing)
         out[int(k)] = probe
     return out
 
@@ -1725,25 +1780,30 @@ def _null_probe(
     bg: np.ndarray,
     conv: np.ndarray,
     bg_conv: np.ndarray,
-    cfar_db: float,
     spacing: float,
 ) -> _NullProbe:
     """The clutter null's effect on a truth mover found by ``probe`` in its residual (background ``bg``): its SNR
     in the conventional detection image ``conv`` (background ``bg_conv``), the null's depth and peak gain there,
-    and the minimum detectable velocity for that SNR against the CFAR threshold ``cfar_db``."""
+    and the minimum detectable velocity for that SNR against a CFAR threshold (``mdv_at``)."""
     lam = C / g.fc
     conventional_snr_db, i, c = _snr_near(conv, bg_conv, probe.index, probe.cell, [0], spacing)
     gains = detection.clutter_null_peak_gains(g.tau0, g.prf, g.half_band, params.clutter_band, lam, probe.v_los)
     gain = float(gains.max())
     depth = _ambiguity_depths(bg, float(bg_conv[i, c]), probe.index, c, g.n, spacing)
-    need = cfar_db - conventional_snr_db + np.array(depth)
-    need = np.minimum(need, need[::-1])  # either sign of k
+    margins = np.array(depth) - conventional_snr_db
+    margins = np.minimum(margins, margins[::-1])  # either sign of k
+
+    def mdv_at(threshold_db: float) -> float:
+        return detection.minimum_detectable_velocity(
+            g.tau0, g.prf, g.half_band, params.clutter_band, lam, threshold_db + margins
+        )
+
     return _NullProbe(
         conventional_snr_db=conventional_snr_db,
         # the background where its residual peaks (one of its ambiguities) over that where it appears
         null_depth_db=10 * math.log10(float(bg[probe.peak_index, probe.peak_cell]) / float(bg_conv[i, c])),
         null_gain_db=10 * math.log10(gain) if gain > 0 else -math.inf,
-        mdv=detection.minimum_detectable_velocity(g.tau0, g.prf, g.half_band, params.clutter_band, lam, need),
+        mdv_at=mdv_at,
     )
 
 
@@ -1818,7 +1878,9 @@ def _miss_reason(
         under = f", under the CFAR threshold {cfar['threshold_db']:.1f} dB"
     null = probe.null
     if null is not None and level < cfar["threshold_db"]:
-        v, mdv = abs(probe.v_los), null.mdv
+        # against the threshold in force, not the first pass's floor (xu_traffic V1, v_los 0.35 m/s: 0.30 m/s against
+        # 15 dB, "within 20 %" of it; against the 42.7 dB the measured background sets it is far below)
+        v, mdv = abs(probe.v_los), null.mdv_at(cfar["threshold_db"])
         # the gain model is good to about 1.5 dB (docs/multichannel.md), 20 % in v_los (gain ~ v_los^2)
         where = (
             f"below this null's minimum detectable velocity {mdv:.2f} m/s"
@@ -1829,7 +1891,8 @@ def _miss_reason(
         )
         return (
             f"{name}: the clutter null keeps {null.null_gain_db:.1f} dB of its peak (line-of-sight speed "
-            f"{v:.2f} m/s, {where} for its conventional SNR {null.conventional_snr_db:.1f} dB): its residual peaks "
+            f"{v:.2f} m/s, {where} for its conventional SNR {null.conventional_snr_db:.1f} dB and the CFAR threshold "
+            f"{cfar['threshold_db']:.1f} dB): its residual peaks "
             f"{probe.snr_db:.1f} dB over the background{under}"
         )
     if level < cfar["threshold_db"]:
@@ -1945,7 +2008,7 @@ def _whole_swath_mover(
     by its modified one (focused along track)."""
     win = _Window(spec, f_r, g, params)
     centre_range = C / 2 * (raw.coords["range_time"][0] + ((len(f_r) - 1) / 2 - lead) / g.fs)
-    mt, notes = _estimate(win, params, g, centre_range)
+    mt, notes = _estimate(win, params, g, centre_range, (len(f_r) - 1) / 2)
     for note in notes:
         log.warning("reconstruct: the whole swath as one mover: %s", note)
     assert mt is not None  # only a static_below threshold (not given here) drops a mover
