@@ -402,7 +402,7 @@ def test_slow_movers_beam_centre_time_is_that_of_its_focused_tone_not_of_the_clu
 
 def test_slow_movers_velocities_are_within_their_stated_uncertainties(slowish):
     """The clutter in the mover's autofocus cell pulls its range acceleration (v_a +0.615 m/s here, +0.040 without
-    the clutter, scripts/movers_sigma_budget_003.py --seed 9 --v-r -2 --v-a 10; v_r -0.287 through
+    the clutter, the error-budget diagnostic of 8e71af8, --seed 9 --v-r -2 --v-a 10; v_r -0.287 through
     v_los = v_r cos(theta) + v_a sin(theta)). The stated 1-sigma covers both
     (reconstruct._uncertainties): the CRB from the autofocus's own SNR (14.8 dB: 0.685 m/s) missed the pull, which
     the autofocus on the mover's illumination alone measures (reconstruct.illumination_pull: -0.707 m/s), so
@@ -596,7 +596,7 @@ def test_focused_cell_is_the_movers_range_at_its_beam_centre_time():
     history r_0 + R'' dt^2 / 2 + R''' dt^3 / 6, xu_scene's 30 MHz in 36 MHz): the window cell of r_0 within 0.05 cells
     (0.2 m, 0.001 m/s of v_a), wherever r_0 falls between cells, also from cells beside the peak. The autofocus
     converts R'' into v_a through this range; the detection's cell it replaced was 4-5 cells off for a detection at
-    the mover's ambiguity (scripts/movers_sigma_budget_003.py seed 2 (4, -6): -19.5 m, v_a +0.13 m/s)."""
+    the mover's ambiguity (the error-budget diagnostic of 8e71af8, seed 2 (4, -6): -19.5 m, v_a +0.13 m/s)."""
     from types import SimpleNamespace
 
     from sarproc.focus.multichannel import reconstruct as rc
