@@ -214,3 +214,33 @@ def test_analytic_shape_derivatives_are_the_strip_sums_derivatives(ndim, keyston
         want += [_richardson(lambda t, a=a, c=c: value(c, kappa + t * np.eye(ndim - 1)[a]), h) for a in range(ndim - 1)]
         for row, ref in zip(got, want):
             np.testing.assert_allclose(row, ref, rtol=0, atol=1e-6 * np.abs(ref).max())
+
+
+def test_the_search_leaves_out_each_main_lobe_in_its_own_cells():
+    """A weighted target's main lobe spans more of the image's cells (Hamming: IRW 1.30 / B against the image's
+    0.886 / B, first nulls at 2 / B): the false-target search leaves out +-exclusion_cells of its own IRW, so the
+    skirt of its main lobe (where a model's misfit of the lobe itself shows) is not searched. Bp_hamming's cubic
+    x32 image read -42.8 dB there before, inside the main lobe's first nulls."""
+    from types import SimpleNamespace
+
+    from sarproc.quality.metrics import EvaluateParams, _make_axes
+
+    step, irw = 0.25, 0.886
+    axes = _make_axes((81, 81), ("azimuth", "range"), [np.arange(81) * step] * 2, (irw, irw), 0.886)
+    centre = np.array([40, 40])
+
+    def report(own_irw):
+        cut = [SimpleNamespace(axis=a, irw_theory=own_irw, irw_ratio=1.0) for a in ("azimuth", "range")]
+        return SimpleNamespace(axes=cut, peak_amplitude=1.0)
+
+    def searched(own_irw, cells):
+        truth = np.array([[10.0, 10.0]])
+        search, _ = R._search_masks((81, 81), axes, truth, [centre], [report(own_irw)], EvaluateParams())
+        k = int(round(cells * irw / step))
+        return bool(search[40 + k, 40 + k])
+
+    hamming = 1.30 / 0.886 * irw
+    assert R.own_cell_broadening(report(hamming), axes) == pytest.approx(1.30 / 0.886)
+    assert searched(irw, 2.6) and not searched(hamming, 2.6)  # inside the Hamming lobe's +-2 own cells
+    assert searched(hamming, 3.5)  # beyond them
+    assert R.own_cell_broadening(report(0.8 * irw), axes) == 1.0  # a finer own theory never narrows the box
