@@ -621,13 +621,14 @@ def _pulse_image(
     ant_h: np.ndarray,
 ) -> _Image:
     """The upsampled pulses as level 0's images: one angle each, range from the antenna."""
-    from sarproc.focus.backprojection import upsample_into, upsampled_length
+    from sarproc.focus.backprojection import read_emphasis, upsample_into, upsampled_length
 
     n_az, n_rg = rc.shape
     dt = (range_time[-1] - range_time[0]) / (n_rg - 1) if n_rg > 1 else 1.0
     n_up = upsampled_length(n_rg, upsample)
     fs_up = n_up / (n_rg * dt)
-    cbuf = upsample_into(np.asarray(rc, np.complex64), np.empty((n_az, n_up), np.complex64)).ravel()
+    buf = np.empty((n_az, n_up), np.complex64)
+    cbuf = upsample_into(np.asarray(rc, np.complex64), buf, emphasis=read_emphasis(n_rg, n_up, interpolation)).ravel()
     cgeo = np.zeros((n_az, 12))
     cgeo[:, 0], cgeo[:, 1], cgeo[:, 2] = ant_xy[:, 0], ant_xy[:, 1], ant_h
     cgeo[:, 3] = C * (range_time[0] + gate) / 2.0

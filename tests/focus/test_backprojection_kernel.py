@@ -1,14 +1,16 @@
 """The compiled (numba, tiled, float32-offset) backprojection against the float64 reference and theory."""
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
 import pytest
+import scipy.fft as sfft
 
 from helpers import assert_theory
 from sarproc.dsp.rangecomp import range_compress
 from sarproc.focus import backprojection_kernel as bk
-from sarproc.focus.backprojection import BackprojectParams, backproject, backproject_points
+from sarproc.focus.backprojection import BackprojectParams, backproject, backproject_points, upsampled_length
 from sarproc.product.config import load_yaml
 from sarproc.product.errors import InputError
 from sarproc.quality.metrics import evaluate_product
@@ -90,7 +92,7 @@ def test_compiled_cubic_matches_a_float64_cubic_sum(squint_raw):
         rc, rt, pos, pos, pts, squint_raw.radar.carrier_frequency, engine="compiled", interpolation="linear", upsample=4
     )
     assert db(fast, ref) < -70
-    assert db(lin, ref) > -60  # the comparison can tell cubic from linear
+    assert db(lin, ref) > db(fast, ref) + 6  # the comparison can tell cubic from linear
 
 
 def test_cubic_on_x8_is_closer_to_truth_than_linear_x8(squint_raw):
@@ -288,3 +290,19 @@ def test_a_micrometre_of_height_jitter_does_not_shrink_tiles_to_single_points():
     pts[:, 2] = 1e-6 * np.random.default_rng(0).standard_normal(len(pts))
     rough = len(bk.make_tiles(pts, _tile_size(pts, 1024), 4096)[1]) - 1
     assert rough <= 2 * flat
+
+
+def test_linear_reads_mean_gain_is_undone(squint_raw):
+    """Linear reads of x8 pulses give a tone sinc^2(f) on average, a taper of the range spectrum: undone in the
+    upsampling (read_emphasis), the image is ~15 dB closer to the truth (cubic x32) than with the taper left."""
+    truth = backproject(squint_raw, BackprojectParams(frame="los", interpolation="cubic", upsample=32)).data
+    lin = backproject(squint_raw, BackprojectParams(frame="los", interpolation="linear", upsample=8)).data
+    # the taper left: the echoes' range spectrum weighted by the gain the emphasis undoes
+    n = squint_raw.data.shape[1]
+    f = sfft.fftfreq(n) * n / upsampled_length(n, 8)
+    tapered = dataclasses.replace(
+        squint_raw, data=sfft.ifft(sfft.fft(squint_raw.data, axis=-1) * np.sinc(f) ** 2, axis=-1).astype(np.complex64)
+    )
+    lin_taper = backproject(tapered, BackprojectParams(frame="los", interpolation="linear", upsample=8)).data
+    assert db(lin, truth) < -58
+    assert db(lin, truth) < db(lin_taper, truth) - 10
