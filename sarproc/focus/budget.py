@@ -244,6 +244,7 @@ def ffbp_predicted_error(header: Product, params: Any, plan: BackprojectionPlan,
     blocks = row_blocks(plan.shape, block_pixels)
     tx = header.aux["platform_position"] + header.aux.get("tx_offset", np.zeros(3))
     r = header.radar
+    pulse_q = pulse_oversample(header_shape(header)[-1], params.upsample, r.range_sampling_rate, r.bandwidth)
     errors = []
     for i in sorted({0, len(blocks) // 2, len(blocks) - 1}):
         # the model reads the grid's plane and outline only: ~64 rows and columns of the block, its edges kept,
@@ -264,9 +265,7 @@ def ffbp_predicted_error(header: Product, params: Any, plan: BackprojectionPlan,
                 oversample=params.ffbp_oversample,
                 ffbp_interpolation=params.ffbp_interpolation,
                 ffbp_taps=params.ffbp_taps,
-                pulse_oversample=pulse_oversample(
-                    header_shape(header)[-1], params.upsample, r.range_sampling_rate, r.bandwidth
-                ),
+                pulse_oversample=pulse_q,
                 pulse_interpolation=params.interpolation,
             )
         )
