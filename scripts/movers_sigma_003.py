@@ -179,14 +179,15 @@ def main() -> None:
         "Fraction of movers with |error| <= 1 sigma / <= 2 sigma (68 % / 95 % if calibrated); rms z: the rms of",
         "error / sigma (1 if calibrated):",
         "",
-        "| movers | n | v_r | v_r (before) | v_a | v_a (before) | rms z v_r | rms z v_a |",
+        "| movers | n | v_r | v_r (before) | v_a | v_a (before) | rms z v_r (before) | rms z v_a (before) |",
         "|---|---|---|---|---|---|---|---|",
     ]
     for label, rows in (("in clutter", cluttered), ("clean", clean)):
         lines.append(
             f"| {label} | {len(rows)} | {coverage(rows, 'dv_r', 's_r')} | {coverage(rows, 'dv_r', 'old_r')} | "
             f"{coverage(rows, 'dv_a', 's_a')} | {coverage(rows, 'dv_a', 'old_a')} | "
-            f"{rms_z(rows, 'dv_r', 's_r')} | {rms_z(rows, 'dv_a', 's_a')} |"
+            f"{rms_z(rows, 'dv_r', 's_r')} ({rms_z(rows, 'dv_r', 'old_r')}) | "
+            f"{rms_z(rows, 'dv_a', 's_a')} ({rms_z(rows, 'dv_a', 'old_a')}) |"
         )
     out = Path(args.results)
     out.mkdir(parents=True, exist_ok=True)
