@@ -624,8 +624,8 @@ def test_stated_velocity_sigmas_match_the_errors_of_clean_and_clutter_movers(two
     """The rms of error / stated 1-sigma over this module's movers (two clean, two fast and one slow mover in clutter
     with the clutter null) is near 1 for v_r and v_a (reconstruct._uncertainties). Before, with the clutter null's
     residual SNR taken for the mover's own (it keeps only the null's peak gain G, -10 to -36 dB, of the mover) and
-    v_a's floor at 0.05 m/s, v_r's rms z was 0.52 and v_a's 0.64 here (scripts/movers_sigma_003.py: v_r 0.51 over
-    nine clutter movers, 0.16 over xu_traffic's ten)."""
+    v_a's floor at 0.05 m/s, v_r's rms z was 0.52 and v_a's 0.64 here, now 0.85 and 0.90
+    (scripts/movers_sigma_003.py: v_r 0.51 over nine clutter movers, 0.16 over xu_traffic's ten)."""
     zs: dict[str, list[float]] = {"v_r": [], "v_a": []}
     for rec in (reconstruct(two_movers, ReconstructParams()), movers_in_clutter[0], slowish[1]):
         by_name, _ = found(rec)
