@@ -6,13 +6,14 @@ A small Monte-Carlo of reduced scenes, each simulated and reconstructed in-proce
 * clutter: tests/focus/test_movers.py's SLOWISH scene (the radar of configs/xu_scene.yaml with 4 receivers
   1.5 m apart, a 30 MHz chirp at 36 MHz, 60 clutter scatterers as bright as the mover over 400 x 200 m around it,
   clutter null on) for each clutter seed and mover velocity (v_r, v_a);
-* clean: the same radar with no clutter and no null (two movers as tests/focus/test_movers.py's two_movers).
+* clean: the same radar with no clutter and no null (two movers as tests/focus/test_movers.py's two_movers, xu_scene's
+  C, and CLEAN_PAIRS): the movers the estimators' floors (reconstruct.LOS_FLOOR, ALONG_TRACK_FLOOR) are measured on.
 
 Per mover: the error of v_r and v_a against the truth and the stated 1-sigma; per column, the fraction of
-|error| <= 1 sigma (68 % if calibrated) and <= 2 sigma (95 %). The sigma that the detection SNR alone gives (the
-rule before the autofocus's own signal-to-clutter-plus-noise ratio and the propagation of v_a's error into v_r)
-is tabulated beside it; "pull" is v_a's offset on the mover's illumination alone (reconstruct.illumination_pull, in
-v_a_sigma since issue 19's sigma calibration). Writes <results>/sigma_calibration.md.
+|error| <= 1 sigma (68 % if calibrated) and <= 2 sigma (95 %). The rule before (main_rule_sigmas: the clutter-null
+residual's detection SNR taken for the mover's own, v_a's floor 0.05 m/s) is tabulated beside it; "v_los by" is the
+criterion that estimated v_los (eq. 5, or the null fit); "pull" is v_a's offset on the mover's illumination alone
+(reconstruct.illumination_pull). Writes <results>/sigma_calibration.md.
 
     PYTHONPATH=. python scripts/movers_sigma_003.py --results results/003-movers
 """
@@ -27,7 +28,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from sarproc.focus.multichannel.reconstruct import VELOCITY_FLOOR, ReconstructParams, reconstruct
+from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct
 from sarproc.product.model import moving_target_table
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
@@ -35,6 +36,8 @@ from sarproc.simulation.simulate import simulate
 BASE = Path(__file__).resolve().parents[1] / "configs" / "xu_scene.yaml"
 VELOCITIES = ((-2.0, 10.0), (-3.0, 12.0), (4.0, -6.0), (-5.0, 5.0))  # (v_r, v_a) m/s: v_los 1.5, 1.3, 1.7, -3.0
 SEEDS = (9, 1, 2, 3)
+# two clean movers per scene, (v_r, v_a) m/s each, 80 m apart in walk-corrected range as two_movers
+CLEAN_PAIRS = (((-8.0, 5.0), (5.0, -8.0)), ((15.0, -12.0), (-12.0, 15.0)), ((3.0, 8.0), (-15.0, -4.0)))
 
 
 def vehicle(name: str, azimuth: float, rng: float, v_a: float, v_r: float) -> dict:
@@ -64,18 +67,23 @@ def scene(points: list[dict], clutter_seed: int | None) -> dict:
     return m
 
 
-def detection_snr_sigmas(snr_db: float, n: int, dx: float, apparent_range: float) -> tuple[float, float]:
-    """The rule before: v_r and v_a 1-sigma from the detection SNR alone, no propagation (xu_scene's radar)."""
-    lam, v, theta, half_band = 299792458.0 / 9.6e9, 7500.0, math.radians(20), None
+def main_rule_sigmas(
+    snr_db: float, af_db: float, pull: float, n: int, dx: float, apparent_range: float
+) -> tuple[float, float]:
+    """The rule before (main at 0f76d93): v_r and v_a 1-sigma with the detection SNR itself as the mover's SNR (the
+    clutter-null residual's, in the v_los CRB and the autofocus CRB) and floors 0.02 (v_r) and 0.05 (v_a) m/s."""
+    lam, v, theta = 299792458.0 / 9.6e9, 7500.0, math.radians(20)
     snr = 10 ** (snr_db / 10)
+    snr_af = snr if math.isnan(af_db) else min(snr, 10 ** (af_db / 10))
     tau = np.arange(n) * dx / (2 * v)
     spread = math.sqrt(float(np.sum((tau - tau.mean()) ** 2)))
-    s_r = lam / (4 * math.pi * math.cos(theta) * spread) / math.sqrt(2 * snr / n)
+    s_los = lam / (4 * math.pi * spread) / math.sqrt(2 * snr / n)
     half_band = v * math.cos(theta) * math.radians(0.507) / lam
     ka = 2 * (v * math.cos(theta)) ** 2 / (lam * apparent_range)
     t_ill = 2 * half_band / ka
-    s_a = math.sqrt(90 / snr) / (math.pi * t_ill**2) * v / (2 * ka)
-    return math.hypot(s_r, VELOCITY_FLOOR[0]), math.hypot(s_a, VELOCITY_FLOOR[1])
+    s_k = math.sqrt(90 / snr_af) / (math.pi * t_ill**2)
+    s_a = math.hypot(math.hypot(s_k * v / (2 * ka), 0.05), 0.0 if math.isnan(pull) else pull)
+    return math.hypot(math.hypot(s_los / math.cos(theta), 0.02), math.tan(theta) * s_a), s_a
 
 
 def rows_of(mapping: dict, clutter: bool) -> tuple[list[dict], float]:
@@ -93,15 +101,18 @@ def rows_of(mapping: dict, clutter: bool) -> tuple[list[dict], float]:
         if k < 0:
             continue
         r = {c: float(v[i]) for c, v in table.items()}
-        old_r, old_a = detection_snr_sigmas(r["snr"], n_rx, dx, 600e3)
         af = info[int(r["id"])].get("autofocus_snr_db")
         pull = info[int(r["id"])].get("autofocus_pull")
+        old_r, old_a = main_rule_sigmas(
+            r["snr"], float("nan") if af is None else af, float("nan") if pull is None else pull, n_rx, dx, 600e3
+        )
         out.append(
             {
                 "name": names[k],
                 "snr": r["snr"],
                 "af_snr": float("nan") if af is None else af,
                 "pull": float("nan") if pull is None else pull,
+                "path": "null fit" if info[int(r["id"])].get("null_fit") else "eq. 5",
                 "dv_r": r["v_r"] - float(rec.targets["vy"][k]),
                 "s_r": r["v_r_sigma"],
                 "dv_a": r["v_a"] - float(rec.targets["vx"][k]),
@@ -133,8 +144,8 @@ def main() -> None:
     lines = [
         "# 1-sigma calibration of the moving_targets velocities (scripts/movers_sigma_003.py)",
         "",
-        "| case | SNR dB | autofocus SNR dB | pull | dv_r | sigma_r (before) | dv_a | sigma_a (before) |",
-        "|---|---|---|---|---|---|---|---|",
+        "| case | v_los by | SNR dB | autofocus SNR dB | pull | dv_r | sigma_r (before) | dv_a | sigma_a (before) |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     cluttered: list[dict] = []
     clean: list[dict] = []
@@ -143,7 +154,7 @@ def main() -> None:
         for r in rows:
             into.append(r)
             line = (
-                f"| {case} {r['name']} | {r['snr']:.1f} | {r['af_snr']:.1f} | {r['pull']:+.3f} | {r['dv_r']:+.3f} "
+                f"| {case} {r['name']} | {r['path']} | {r['snr']:.1f} | {r['af_snr']:.1f} | {r['pull']:+.3f} | {r['dv_r']:+.3f} "
                 f"| {r['s_r']:.3f} "
                 f"({r['old_r']:.3f}) | {r['dv_a']:+.3f} | {r['s_a']:.3f} ({r['old_a']:.3f}) |"
             )
@@ -154,25 +165,29 @@ def main() -> None:
     add("clean two_movers", rows, secs, clean)
     rows, secs = rows_of(scene([vehicle("C", 1090, -650, 10, 10)], None), False)
     add("clean xu_scene C", rows, secs, clean)
+    for (r1, a1), (r2, a2) in CLEAN_PAIRS:
+        rows, secs = rows_of(scene([vehicle("P", 800, 0, a1, r1), vehicle("Q", 600, 148, a2, r2)], None), False)
+        add(f"clean ({r1:g}, {a1:g}) ({r2:g}, {a2:g})", rows, secs, clean)
     for v_r, v_a in VELOCITIES[: args.velocities]:
         for seed in args.seeds:
             rows, secs = rows_of(scene([vehicle("SLOWISH", 0, 0, v_a, v_r)], seed), True)
             add(f"clutter seed {seed} v_r {v_r:g} v_a {v_a:g}", rows, secs, cluttered)
             if not rows:
-                lines.append(f"| clutter seed {seed} v_r {v_r:g} v_a {v_a:g}: not found | | | | | | | |")
+                lines.append(f"| clutter seed {seed} v_r {v_r:g} v_a {v_a:g}: not found | | | | | | | | |")
     lines += [
         "",
         "Fraction of movers with |error| <= 1 sigma / <= 2 sigma (68 % / 95 % if calibrated); rms z: the rms of",
         "error / sigma (1 if calibrated):",
         "",
-        "| movers | n | v_r | v_r (before) | v_a | v_a (before) | rms z v_r | rms z v_a |",
+        "| movers | n | v_r | v_r (before) | v_a | v_a (before) | rms z v_r (before) | rms z v_a (before) |",
         "|---|---|---|---|---|---|---|---|",
     ]
     for label, rows in (("in clutter", cluttered), ("clean", clean)):
         lines.append(
             f"| {label} | {len(rows)} | {coverage(rows, 'dv_r', 's_r')} | {coverage(rows, 'dv_r', 'old_r')} | "
             f"{coverage(rows, 'dv_a', 's_a')} | {coverage(rows, 'dv_a', 'old_a')} | "
-            f"{rms_z(rows, 'dv_r', 's_r')} | {rms_z(rows, 'dv_a', 's_a')} |"
+            f"{rms_z(rows, 'dv_r', 's_r')} ({rms_z(rows, 'dv_r', 'old_r')}) | "
+            f"{rms_z(rows, 'dv_a', 's_a')} ({rms_z(rows, 'dv_a', 'old_a')}) |"
         )
     out = Path(args.results)
     out.mkdir(parents=True, exist_ok=True)

@@ -84,15 +84,17 @@ def test_two_movers_in_one_range_window_are_both_found_and_estimated(two_movers,
         rec = reconstruct(two_movers, ReconstructParams())
     by_name = check(rec, ["M1", "M2"])
     assert "search bound" not in caplog.text and "could not be separated" not in caplog.text
-    # noise-free, no clutter: the stated 1-sigma stays at the estimators' floors (VELOCITY_FLOOR, 0.02 and 0.05 m/s,
-    # v_a's propagated into v_r: 0.027), not vacuous; the autofocus saw nothing beyond the mover's own focus residue
+    # noise-free, no clutter: the stated 1-sigma stays at the estimators' floors (reconstruct.LOS_FLOOR 0.03 over
+    # cos(theta), ALONG_TRACK_FLOOR 0.025 m/s with the pull, 0.009-0.017 here), not vacuous: v_a's floor was 0.05,
+    # measured with the 0.08 m/s bias of the detection's range cell in it; the autofocus saw nothing beyond the mover's
+    # own focus residue
     for row in by_name.values():
-        assert row["v_r_sigma"] <= 0.03 and row["v_a_sigma"] <= 0.055, row
-    # and v_a is within it: the autofocus converts R'' into v_a at the range of the focused mover, not at its
-    # detection's 12.5 m cell (M2 +0.072 m/s with it; +0.007 and +0.039 now)
+        assert row["v_r_sigma"] <= 0.036 and row["v_a_sigma"] <= 0.035, row
+    # and v_a is within 2 sigma: the autofocus converts R'' into v_a at the range of the focused mover, not at its
+    # detection's 12.5 m cell (M2 +0.072 m/s with it, over 2 sigma; +0.007 and +0.039 now)
     tt = {n.decode(): k for k, n in enumerate(two_movers.targets["name"])}
     for name, row in by_name.items():
-        assert abs(row["v_a"] - two_movers.targets["vx"][tt[name]]) <= row["v_a_sigma"], (name, row)
+        assert abs(row["v_a"] - two_movers.targets["vx"][tt[name]]) <= 2 * row["v_a_sigma"], (name, row)
     assert all(m["autofocus_snr_db"] is None for m in rec.attrs["reconstruct"]["moving_targets"])
     assert rec.attrs["reconstruct"]["truth"] == {
         "movers": 2,
@@ -406,7 +408,7 @@ def test_slow_movers_velocities_are_within_their_stated_uncertainties(slowish):
     v_los = v_r cos(theta) + v_a sin(theta)). The stated 1-sigma covers both
     (reconstruct._uncertainties): the CRB from the autofocus's own SNR (14.8 dB: 0.685 m/s) missed the pull, which
     the autofocus on the mover's illumination alone measures (reconstruct.illumination_pull: -0.707 m/s), so
-    v_a_sigma is 0.984 and v_r_sigma 0.463 (scripts/movers_sigma_003.py: 8 of 9 clutter movers' v_a within 1 sigma,
+    v_a_sigma is 0.984 and v_r_sigma 0.368 (scripts/movers_sigma_003.py: 6 of 9 clutter movers' v_a within 1 sigma,
     9 within 2; docs/multichannel.md section 8)."""
     by_name, _ = found(slowish[1])
     row = by_name["SLOWISH"]
@@ -616,3 +618,24 @@ def test_focused_cell_is_the_movers_range_at_its_beam_centre_time():
         if abs(x0 - round(x0)) < 0.4:  # (half-way between two cells, either is the nearest)
             off = rc._focused_cell(y, f_r, g, acc, jerk, t_0, t_ill, np.arange(round(x0) + 1, round(x0) + 3))
             assert off == pytest.approx(x0, abs=0.05), x0
+
+
+def test_stated_velocity_sigmas_match_the_errors_of_clean_and_clutter_movers(two_movers, movers_in_clutter, slowish):
+    """The rms of error / stated 1-sigma over this module's movers (two clean, two fast and one slow mover in clutter
+    with the clutter null) is near 1 for v_r and v_a (reconstruct._uncertainties). Before, with the clutter null's
+    residual SNR taken for the mover's own (it keeps only the null's peak gain G, -10 to -36 dB, of the mover) and
+    v_a's floor at 0.05 m/s, v_r's rms z was 0.52 and v_a's 0.64 here, now 0.85 and 0.90
+    (scripts/movers_sigma_003.py: v_r 0.51 over nine clutter movers, 0.16 over xu_traffic's ten)."""
+    zs: dict[str, list[float]] = {"v_r": [], "v_a": []}
+    for rec in (reconstruct(two_movers, ReconstructParams()), movers_in_clutter[0], slowish[1]):
+        by_name, _ = found(rec)
+        tt = {n.decode(): k for k, n in enumerate(rec.targets["name"])}
+        for name, row in by_name.items():
+            k = tt[name]
+            zs["v_r"].append((row["v_r"] - rec.targets["vy"][k]) / row["v_r_sigma"])
+            zs["v_a"].append((row["v_a"] - rec.targets["vx"][k]) / row["v_a_sigma"])
+    assert len(zs["v_r"]) == 5
+    for column, z in zs.items():
+        rms = float(np.sqrt(np.mean(np.square(z))))
+        assert 0.6 <= rms <= 1.6, (column, rms, z)
+        assert np.all(np.abs(z) <= 2.5), (column, z)

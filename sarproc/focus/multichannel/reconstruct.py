@@ -2028,7 +2028,16 @@ def _raw_echoes(y: np.ndarray, g: _Geometry, f_r: np.ndarray, chirp_rate: float,
 
 
 PROBE_SAMPLES = 16  # azimuth samples either side of a truth mover's predicted peak searched for it (_probe_truth)
-VELOCITY_FLOOR = (0.02, 0.05)  # m/s: v_r and v_a errors on noise-free scenes (docs/multichannel.md)
+# m/s: each estimator's error that no SNR predicts, measured (docs/multichannel.md section 8, make movers-003-sigma,
+# xu_traffic): eq. 5's v_los over 24 movers (9 noise-free, rms 0.019; 15 in clutter with the null, rms 0.033: the
+# clutter left in the window pulls it); the null fit's v_los over the 6 clutter movers it estimated (rms 0.072, up to
+# 0.113); the autofocus's v_a over the 9 noise-free movers (rms 0.023; 0.05 before, measured with the 0.08 m/s bias
+# of the detection's range cell in it) and, with the clutter null, over the 15 clutter movers in whose cells
+# _autofocus_snr found nothing above the mover's own residue (rms 0.040: clutter too weak to measure still pulls it)
+LOS_FLOOR = 0.03
+NULL_FIT_FLOOR = 0.08
+ALONG_TRACK_FLOOR = 0.025
+ALONG_TRACK_CLUTTER_FLOOR = 0.04
 # the autofocus's data of a noise-free mover alone: 24.6-26.1 dB over its ring bins (_autofocus_snr; the focus's residue
 # beyond the quadratic and cubic phase), measured on tests/focus/test_movers.py's two_movers M1 and M2
 AUTOFOCUS_SELF = 10 ** (-24.0 / 10)
@@ -2042,44 +2051,54 @@ def _beam_centre_point(platform_xyz: np.ndarray, slant_range: float, squint: flo
     return p + slant_range * np.array([ux, math.sqrt(max(0.0, 1.0 - ux**2 - uz**2)), uz])
 
 
-def _uncertainties(mt: MovingTarget, g: _Geometry) -> tuple[float, float, float]:
+def _uncertainties(mt: MovingTarget, g: _Geometry, clutter_band: float | None) -> tuple[float, float, float]:
     """1-sigma v_r, v_a (m/s) and along-track relocation (m), each from what its estimator sees (docs/multichannel.md).
 
-    v_los (the leakage search or the null fit, on the detection's channels): the criterion measures the channel
-    phase 4 pi v_los tau_n / lambda; with per-channel coherent SNR snr / N (snr the detection SNR) its phase noise
-    is 1 / sqrt(2 snr / N), a straight-line fit over tau_n gives
-    sigma_los = lambda / (4 pi sqrt(sum (tau_n - mean)^2)) / sqrt(2 snr / N).
+    Both estimators work on the mover's whole echo, before the clutter null. Without the null its SNR is the
+    detection SNR; with it (``clutter_band``: the null's) the detection SNR is the residual's, which keeps only the
+    null's peak gain G(v_los) of the mover (detection.clutter_null_peak_gain: -10 to -36 dB on xu_traffic), so the
+    mover's own SNR is snr = detection SNR / G. Taking the residual's SNR for it over-stated both CRB terms by
+    1 / sqrt(G) (v_r's 1-sigma about 2x, its line-of-sight part 3.5x on the clutter Monte-Carlo).
+    v_los (the leakage search, or the null fit): the criterion measures the channel phase 4 pi v_los tau_n / lambda;
+    with per-channel coherent SNR snr / N its phase noise is 1 / sqrt(2 snr / N), a straight-line fit over tau_n gives
+    sigma_los = lambda / (4 pi sqrt(sum (tau_n - mean)^2)) / sqrt(2 snr / N) (for a slow mover, G ~ v_los^2, the same
+    as the residual's amplitude measuring v_los to |v_los| / sqrt(2 x detection SNR)). Each path's model error, which
+    no SNR predicts, is added in quadrature: LOS_FLOOR for eq. 5, NULL_FIT_FLOOR for the null fit.
     v_a (autofocus): the quadratic phase coefficient over T has variance 90 / (snr_af T^4), so
     sigma_K = sqrt(90 / snr_af) / (pi T^2) and dK/dv_a = 2 K / v; snr_af is the autofocus's own integrated signal to
     clutter-plus-noise ratio (_autofocus_snr: the clutter in the mover's cells, which the null hid from the
-    detection SNR, counts), never above the detection SNR (which it is where no autofocus ran). The clutter in the
-    mover's cells illuminated before and after it pulls the autofocus (a bias, not noise: no SNR predicts it); the
-    autofocus run again on the mover's illumination alone measures that pull (illumination_pull), added in
-    quadrature. Without such clutter the term is noise of variance var_full - var_window (at most the CRB term's).
+    detection, counts), never above the mover's snr (which it is where no autofocus ran or it saw nothing). The
+    clutter in the mover's cells illuminated before and after it pulls the autofocus (a bias, not noise: no SNR
+    predicts it); the autofocus run again on the mover's illumination alone measures that pull (illumination_pull),
+    added in quadrature, as is the autofocus's error on noise-free movers (ALONG_TRACK_FLOOR; with the null, on
+    clutter movers whose _autofocus_snr saw no clutter: ALONG_TRACK_CLUTTER_FLOOR).
     v_r = (v_los - v_a sin(theta)) / cos(theta) (the refined search keeps v_los with v_a fixed), so
     sigma_vr^2 = (sigma_los^2 + sin(theta)^2 sigma_va^2) / cos(theta)^2.
-    Each is combined with the estimator's floor on noise-free scenes (VELOCITY_FLOOR, measured on
-    configs/xu_scene.yaml and xu_traffic.yaml: the model error of the leakage criterion and autofocus).
-    Relocation: the apparent shift is about R v_los / v, so sigma_x = R sqrt(sigma_los'^2 + (sin sigma_a)^2) / v with
-    sigma_los' = cos(theta) x v_r's 1-sigma at v_a known.
+    Relocation: the apparent shift is about R v_los / v, so sigma_x = R sqrt(sigma_los^2 + (sin sigma_a)^2) / v.
     """
-    snr = 10 ** (mt.snr_db / 10) if np.isfinite(mt.snr_db) else float("inf")
-    # the autofocus's data holds at least the detection's background (noise); inf: nothing above a clean mover's residue
-    snr_af = snr if math.isnan(mt.autofocus_snr) else min(snr, mt.autofocus_snr)
-    floor_r, floor_a = VELOCITY_FLOOR
     lam = C / g.fc
     cos, sin = math.cos(g.squint), math.sin(g.squint)
+    snr = 10 ** (mt.snr_db / 10) if np.isfinite(mt.snr_db) else float("inf")
+    if clutter_band is not None and math.isfinite(snr):
+        # the detection SNR is the clutter-null residual's, which keeps G of the mover's peak; both estimators work
+        # on its whole echo before the null
+        v_los = channels.line_of_sight_velocity(mt.radial_velocity, mt.along_track_velocity, g.squint)
+        gain = min(1.0, detection.clutter_null_peak_gain(g.tau0, g.prf, g.half_band, clutter_band, lam, v_los))
+        snr = snr / gain if gain > 0 else float("inf")
+    # the autofocus's data holds at least the mover's background; inf: nothing above a clean mover's residue
+    snr_af = snr if math.isnan(mt.autofocus_snr) else min(snr, mt.autofocus_snr)
     spread = float(np.sqrt(np.sum((g.tau0 - g.tau0.mean()) ** 2)))
     s_los = lam / (4 * math.pi * spread) / math.sqrt(2 * snr / g.n) if spread > 0 else float("inf")
+    s_los = math.hypot(s_los, NULL_FIT_FLOOR if mt.null_fit_index is not None else LOS_FLOOR)
     ka = 2 * (g.velocity * cos) ** 2 / (lam * mt.apparent_range)
     t_ill = 2 * g.half_band / ka
     s_k = math.sqrt(90 / snr_af) / (math.pi * t_ill**2)
     # the clutter's pull, which the CRB misses: measured by the autofocus itself (illumination_pull)
     pull = abs(mt.autofocus_pull) if np.isfinite(mt.autofocus_pull) else 0.0
+    floor_a = ALONG_TRACK_FLOOR if clutter_band is None else ALONG_TRACK_CLUTTER_FLOOR
     s_a = math.hypot(math.hypot(s_k * g.velocity / (2 * ka), floor_a), pull)
-    s_r_known_a = math.hypot(s_los / cos, floor_r)  # v_r's 1-sigma were v_a exact
-    s_r = math.hypot(s_r_known_a, sin / cos * s_a)
-    s_x = mt.apparent_range * math.hypot(cos * s_r_known_a, sin * s_a) / g.velocity
+    s_r = math.hypot(s_los, sin * s_a) / cos
+    s_x = mt.apparent_range * math.hypot(s_los, sin * s_a) / g.velocity
     return s_r, s_a, s_x
 
 
@@ -2110,7 +2129,7 @@ def _moving_target_rows(
         except InputError as exc:
             log.warning("reconstruct: mover %d not relocated: %s", i, exc)
             true_xyz = np.full(3, np.nan)
-        s_r, s_a, s_x = _uncertainties(mt, g)
+        s_r, s_a, s_x = _uncertainties(mt, g, params.clutter_band if params.clutter_suppression else None)
         out.append(
             [
                 i,
@@ -2197,6 +2216,8 @@ def _output_product(
                 "autofocus_snr_db": 10 * math.log10(mt.autofocus_snr) if 0 < mt.autofocus_snr < math.inf else None,
                 # v_a's offset (m/s) on its illumination alone: the clutter's pull in v_a_sigma (None: no autofocus)
                 "autofocus_pull": float(mt.autofocus_pull) if np.isfinite(mt.autofocus_pull) else None,
+                # v_los from the clutter-null residual's fit (_NullFit) rather than eq. 5 (NULL_FIT_FLOOR in v_r_sigma)
+                "null_fit": mt.null_fit_index is not None,
                 "apparent_time": float(mt.apparent_time) if np.isfinite(mt.apparent_time) else None,
             }
         )
