@@ -317,6 +317,7 @@ def fastsar_run(
         [python, str(ROOT / "scripts" / "bench_fastsar.py"), str(path), str(out), "--calls", str(calls)],
         capture_output=True,
         text=True,
+        env=dict(os.environ, OMP_NUM_THREADS=str(os.cpu_count() or 1)),  # as many threads as numba's default
     )
     if res.returncode != 0:
         return None, res.stderr.strip().splitlines()[-1] if res.stderr.strip() else f"exit {res.returncode}"

@@ -124,9 +124,11 @@ def describe() -> dict[str, Any]:
     import fastsar
     from fastsar import ffbp_cpu
 
-    flags = ""
+    flags, model = "", ""
     with open("/proc/cpuinfo") as fh:
         for line in fh:
+            if line.startswith("model name") and not model:
+                model = line.split(":", 1)[1].strip()
             if line.startswith("flags"):
                 flags = line
                 break
@@ -134,6 +136,7 @@ def describe() -> dict[str, Any]:
         "version": fastsar.__version__,
         "threads": int(ffbp_cpu.lib().ffbp_cpu_threads()),
         "omp_num_threads": os.environ.get("OMP_NUM_THREADS"),
+        "cpu": model,
         "avx512f": " avx512f" in flags,
     }
 
