@@ -940,7 +940,12 @@ def ffbp_main(argv: list[str] | None = None) -> None:
             args = (case["rc"], case["range_time"], case["pos"], case["pos"], pts, case["fc"])
             common: dict[str, Any] = {"gate_offset": case["gate"], "engine": "compiled"}
             formers: dict[str, Callable[[], np.ndarray]] = {
-                "sarproc exact linear x8": lambda args=args, common=common: backproject_points(*args, **common)
+                "sarproc exact linear x8": lambda args=args, common=common: backproject_points(*args, **common),
+                # FastSAR's exact former pads its profiles to a power of two (nfft = 2^ceil(log2(8 K)): 16384 for
+                # 1060 samples, x15.5): its "x8" reads a profile as fine as our x16
+                "sarproc exact linear x16": lambda args=args, common=common: backproject_points(
+                    *args, **common, upsample=16
+                ),
             }
             infos: dict[str, dict] = {}
             for setting in [] if a.exact_only else settings:
@@ -995,7 +1000,7 @@ def ffbp_main(argv: list[str] | None = None) -> None:
                 backproject_points(*args, **common, interpolation="cubic", upsample=32) if n <= a.truth_size else None
             )
             # the FastSAR formers each of ours is timed against (the factorised one stock, then with --lanes)
-            versus = {"sarproc exact linear x8": ["fastsar linear"]}
+            versus = {"sarproc exact linear x8": ["fastsar linear"], "sarproc exact linear x16": ["fastsar linear"]}
             versus.update(dict.fromkeys(infos, [key for key in order if key.startswith("fastsar imageformer")]))
             for label in order:
                 fast = label.startswith("fastsar ")
