@@ -37,6 +37,7 @@ import argparse
 import contextlib
 import ctypes
 import datetime
+import functools
 import gc
 import inspect
 import json
@@ -940,19 +941,17 @@ def ffbp_main(argv: list[str] | None = None) -> None:
             args = (case["rc"], case["range_time"], case["pos"], case["pos"], pts, case["fc"])
             common: dict[str, Any] = {"gate_offset": case["gate"], "engine": "compiled"}
             formers: dict[str, Callable[[], np.ndarray]] = {
-                "sarproc exact linear x8": lambda args=args, common=common: backproject_points(*args, **common),
+                "sarproc exact linear x8": functools.partial(backproject_points, *args, **common),
                 # FastSAR's exact former pads its profiles to a power of two (nfft = 2^ceil(log2(8 K)): 16384 for
                 # 1060 samples, x15.5): its "x8" reads a profile as fine as our x16
-                "sarproc exact linear x16": lambda args=args, common=common: backproject_points(
-                    *args, **common, upsample=16
-                ),
+                "sarproc exact linear x16": functools.partial(backproject_points, *args, **common, upsample=16),
             }
             infos: dict[str, dict] = {}
             for setting in [] if a.exact_only else settings:
-                k, k1, q, interp, taps, pulse = setting
                 info: dict = {}
                 infos[ffbp_label(setting)] = info
-                formers[ffbp_label(setting)] = lambda setting=setting, info=info, pts=pts, n=n: ffbp_points(
+                formers[ffbp_label(setting)] = functools.partial(
+                    ffbp_points,
                     case["rc"],
                     case["range_time"],
                     case["pos"],

@@ -111,7 +111,7 @@ def build(c: Any, targets: list[float], lanes: int | None) -> dict[str, Any]:
     from fastsar import ffbp_cpu
 
     for suffix in ("", f" lanes{lanes}") if lanes else ("",):
-        if suffix:
+        if lanes and suffix:
             with_lanes(lanes)
         for db in targets:
             former = fastsar.ImageFormer(*common, backend="cpu", window=False, target_db=db, ref=c["ref"])
