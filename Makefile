@@ -50,6 +50,11 @@ bench-venv: $(BENCH_VENV)/.installed
 bench: $(STAMP) $(BENCH_VENV)/.installed
 	flock /tmp/heavy.lock nice $(PY) scripts/bench.py --fastsar-python $(BENCH_VENV)/bin/python
 
+# Exact and factorised backprojection against FastSAR's formers, calls interleaved (docs/performance.md).
+.PHONY: bench-ffbp
+bench-ffbp: $(STAMP) $(BENCH_VENV)/.installed
+	flock /tmp/heavy.lock nice $(PY) scripts/bench.py ffbp --sizes 512 1024 2048 --fastsar-python $(BENCH_VENV)/bin/python
+
 # Every stage's plan (sarproc STAGE ... --dry-run) against its measured peak RSS and wall time, for every
 # shipped config (configs/*.yaml, sweeps excluded): the table in docs/plans.md. Heavy: waits for heavy.lock.
 .PHONY: plan-accuracy

@@ -37,6 +37,7 @@ import argparse
 import contextlib
 import ctypes
 import datetime
+import functools
 import gc
 import inspect
 import json
@@ -317,6 +318,7 @@ def fastsar_run(
         [python, str(ROOT / "scripts" / "bench_fastsar.py"), str(path), str(out), "--calls", str(calls)],
         capture_output=True,
         text=True,
+        env=dict(os.environ, OMP_NUM_THREADS=str(os.cpu_count() or 1)),  # as many threads as numba's default
     )
     if res.returncode != 0:
         return None, res.stderr.strip().splitlines()[-1] if res.stderr.strip() else f"exit {res.returncode}"
@@ -777,37 +779,18 @@ def _db(x: float) -> float:
     return 10 * math.log10(max(x, 1e-30))
 
 
-def best_of_calls(fn: Callable[..., Any], repeats: int) -> tuple[Any, float]:
-    out, best = None, math.inf
-    for _ in range(repeats):
-        t = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t)
-    return out, best
+class FastSARServer:
+    """FastSAR's formers in the bench venv, one process serving timed calls (scripts/bench_fastsar.py --serve), so
+    that its calls interleave with ours: every former built and called once untimed first, on ``threads`` threads
+    (OMP_NUM_THREADS, as many as our kernels use)."""
 
-
-def fastsar_rows(
-    case: dict[str, Any],
-    n: int,
-    spacing: float,
-    exact: np.ndarray,
-    power: float,
-    python: str,
-    calls: int,
-    exact_cubic: np.ndarray | None = None,
-) -> list[dict]:
-    """FastSAR's formers on the same pulses and grid (scripts/bench_fastsar.py in its venv), each image's error
-    against sarproc's exact one (and the cubic x8 one) after a least-squares complex scale (FastSAR's own
-    normalisation)."""
-    import subprocess
-    import tempfile
-
-    S, ref, fmin, df = history_from_pulses(
-        case["rc"], case["range_time"], case["gate"], case["pos"], case["centre"], case["fc"], case["fs"]
-    )
-    rows: list[dict] = []
-    with tempfile.TemporaryDirectory() as tmp:
-        path, out = Path(tmp) / "case.npz", Path(tmp) / "images.npz"
+    def __init__(
+        self, python: str, case: dict[str, Any], n: int, spacing: float, threads: int, workdir: Path, lanes: int | None
+    ) -> None:
+        S, ref, fmin, df = history_from_pulses(
+            case["rc"], case["range_time"], case["gate"], case["pos"], case["centre"], case["fc"], case["fs"]
+        )
+        path, self.out = workdir / f"case{n}.npz", workdir / f"images{n}.npz"
         np.savez(
             path,
             S=S,
@@ -823,173 +806,236 @@ def fastsar_rows(
             e2=case["e2"],
             center=np.zeros(3),
         )
-        res = subprocess.run(
-            [
-                python,
-                str(Path(__file__).resolve().parent / "bench_fastsar.py"),
-                str(path),
-                str(out),
-                "--calls",
-                str(calls),
-                "--factorised",
-                "-40",
-                "-50",
-            ],
-            capture_output=True,
-            text=True,
-        )
-        if res.returncode != 0:
-            print(f"  FastSAR failed: {res.stderr.strip()[-300:]}", flush=True)
-            return rows
-        info = json.loads(res.stdout.strip().splitlines()[-1])
-        imgs = np.load(out)
-        ex = exact.reshape(n, n)
-        for key in ("linear", "imageformer-40", "imageformer-50"):
-            img = imgs[key].reshape(n, n)
-            scale = np.vdot(img, ex) / np.vdot(img, img)
-            err = float(np.sum(np.abs(scale * img - ex) ** 2)) / power
-            row = {"n": n, "spacing": spacing, "engine": f"fastsar {key}", "time_s": info[key]["time_s"]}
-            row["error_db"] = _db(err)
-            if exact_cubic is not None:
-                exc = exact_cubic.reshape(n, n)
-                sc = np.vdot(img, exc) / np.vdot(img, img)
-                row["error_cubic_db"] = _db(float(np.sum(np.abs(sc * img - exc) ** 2) / np.sum(np.abs(exc) ** 2)))
-            rows.append(row)
-            print(
-                f"  FastSAR {key}: {info[key]['time_s']:.3f} s, error {row['error_db']:.1f} dB against sarproc's "
-                f"exact image ({row.get('error_cubic_db', math.nan):.1f} against the cubic x8 one)",
-                flush=True,
-            )
-    return rows
+        argv = [python, str(ROOT / "scripts" / "bench_fastsar.py"), str(path), str(self.out), "--serve"]
+        argv += ["--factorised", "-50"] + (["--lanes", str(lanes)] if lanes else [])
+        env = dict(os.environ, OMP_NUM_THREADS=str(threads))
+        self.proc = subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env)
+        self.head = self._answer()
+        self.keys = ["linear", "cubic", "imageformer-50"] + ([f"imageformer-50 lanes{lanes}"] if lanes else [])
+
+    def _answer(self) -> dict:
+        assert self.proc.stdout is not None
+        line = self.proc.stdout.readline()
+        if not line:
+            raise RuntimeError(f"bench_fastsar.py ended (exit {self.proc.wait()})")
+        return json.loads(line)
+
+    def call(self, key: str) -> dict:
+        assert self.proc.stdin is not None
+        self.proc.stdin.write(key + "\n")
+        self.proc.stdin.flush()
+        return self._answer()
+
+    def images(self) -> Any:
+        self.call("save")
+        return np.load(self.out)
+
+    def close(self) -> None:
+        if self.proc.stdin is not None:
+            self.proc.stdin.write("quit\n")
+            self.proc.stdin.close()
+        self.proc.wait()
+
+
+def _cpu_times() -> tuple[float, float]:
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime, r.ru_stime
+
+
+def timed(fn: Callable[[], Any]) -> tuple[Any, dict]:
+    """fn()'s result and its wall, user and system seconds (all threads of this process)."""
+    u0, s0 = _cpu_times()
+    t = time.perf_counter()
+    out = fn()
+    wall = time.perf_counter() - t
+    u1, s1 = _cpu_times()
+    return out, {"time_s": wall, "user_s": u1 - u0, "sys_s": s1 - s0}
+
+
+def error_db(img: np.ndarray, ref: np.ndarray, fit: bool = False) -> float:
+    """10 log10(|img - ref|^2 / |ref|^2) over the image; fit: img scaled by the least-squares complex factor
+    first (FastSAR's normalisation differs from ours)."""
+    img, ref = np.asarray(img).ravel(), np.asarray(ref).ravel()
+    if fit:
+        img = img * (np.vdot(img, ref) / np.vdot(img, img))
+    return _db(float(np.sum(np.abs(img - ref) ** 2) / np.sum(np.abs(ref) ** 2)))
+
+
+def ffbp_label(setting: tuple) -> str:
+    k, k1, q, interp, taps, pulse = setting
+    return f"sarproc ffbp {interp} {taps} q {q:g} (factor {k}, first {k1}), pulses {pulse} x8"
+
+
+def fmt_ffbp_table(rows: list[dict]) -> str:
+    """Markdown: per grid, every former's best time, its ratio to FastSAR's counterpart in the same run (FastSAR's
+    time over ours: > 1 means ours is faster) and its errors."""
+    lines = []
+    for n in sorted({r["n"] for r in rows}):
+        grid = [r for r in rows if r["n"] == n]
+        fs = {r["engine"]: r for r in grid}
+        lines += [
+            f"\n{n} x {n} ({grid[0]['spacing']:.3f} m), best of {grid[0]['calls']} interleaved calls\n",
+            "| former | time (s) | user + sys (s) | sys (s) | FastSAR's time / this (stock, lanes 8) | vs sarproc exact (dB) "
+            "| vs exact cubic x8 (dB) | vs cubic x32 truth (dB) |",
+            "|---|---:|---:|---:|---:|---:|---:|---:|",
+        ]
+        for r in grid:
+            ratio = " / ".join(f"{fs[v]['time_s'] / r['time_s']:.2f}x" for v in r.get("versus", []) if v in fs)
+            cells = [
+                r["engine"],
+                f"{r['time_s']:.3f}",
+                f"{r['user_s'] + r['sys_s']:.2f}",
+                f"{r['sys_s']:.2f}",
+                ratio,
+                *(
+                    f"{r[k]:.1f}" if r.get(k) is not None else ""
+                    for k in ("error_db", "error_cubic_db", "error_truth_db")
+                ),
+            ]
+            lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
 
 
 def ffbp_main(argv: list[str] | None = None) -> None:
-    """`bench.py ffbp`: fast factorised backprojection against the exact engine (and FastSAR) on the bench
-    scene, grid by grid: best of --repeats warm calls, each image's error against the exact one."""
+    """`bench.py ffbp`: fast factorised backprojection and the exact engine against FastSAR's exact and factorised
+    formers on the bench scene, grid by grid; every former's calls interleaved round by round (--repeats rounds,
+    each former's best), each image's error against our exact image, the cubic x8 exact one and, on grids up to
+    --truth-size, a cubic x32 one (the truth)."""
     from sarproc.focus.backprojection import backproject_points
     from sarproc.focus.ffbp import ffbp_points, predicted_image_error, pulse_oversample
 
     ap = argparse.ArgumentParser(prog="bench.py ffbp", description=ffbp_main.__doc__)
     ap.add_argument("--sizes", type=int, nargs="+", default=[512, 1024, 2048])
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--json")
+    ap.add_argument("--json", help="rows to this file (default OUT/ffbp-latest.json, and a Markdown table beside)")
+    ap.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
     ap.add_argument(
         "--fastsar-python",
-        help="the bench venv's python (make bench-venv): FastSAR's exact linear x8 "
-        "and factorised ImageFormer (target -40 and -50 dB) on the same pulses",
+        help="the bench venv's python (make bench-venv): FastSAR's exact linear and cubic x8 and factorised "
+        "ImageFormer (target -50 dB) on the same pulses",
     )
+    ap.add_argument(
+        "--lanes",
+        type=int,
+        default=8,
+        help="FastSAR's factorised former also rebuilt with this many floats per vector (0: not); 8 is one "
+        "AVX2 register, where its stock 16 spill",
+    )
+    ap.add_argument("--settings", help="indices into FFBP_SETTINGS, comma-separated (default: all)")
+    ap.add_argument("--truth-size", type=int, default=512, help="cubic x32 truth on grids up to this size")
     ap.add_argument("--exact-only", action="store_true", help="only the exact engine (and FastSAR's formers)")
     ap.add_argument("--save-exact", help="write the exact images to this .npz (key n<size>), e.g. to compare trees")
     a = ap.parse_args(argv)
+    import numba
+
+    threads = numba.get_num_threads()
+    settings = FFBP_SETTINGS if a.settings is None else [FFBP_SETTINGS[int(i)] for i in a.settings.split(",")]
     case = bench_scene_case()
-    rows = []
+    rows: list[dict] = []
     saved: dict[str, Any] = {}  # Any: numpy's savez stub would match an array to allow_pickle
-    for n in a.sizes:
-        spacing = case["spacing"] * 512 / n * 2 if n > 1024 else case["spacing"]  # 2048: 0.15 m, 307 m wide
-        pts = plane_grid(case["centre"], case["e1"], case["e2"], n, spacing)
-        common = dict(gate_offset=case["gate"])
-        exact, t_exact = best_of_calls(
-            lambda pts=pts, common=common: backproject_points(
-                case["rc"], case["range_time"], case["pos"], case["pos"], pts, case["fc"], engine="compiled", **common
-            ),
-            a.repeats,
-        )
-        power = float(np.sum(np.abs(exact) ** 2))
-        saved[f"n{n}"] = exact
-        # the exact image with cubic x8 pulse reads (-84 dB against -47 dB for linear x8: closer to the truth)
-        t0 = time.perf_counter()
-        exact_cubic = backproject_points(
-            case["rc"],
-            case["range_time"],
-            case["pos"],
-            case["pos"],
-            pts,
-            case["fc"],
-            engine="compiled",
-            interpolation="cubic",
-            **common,
-        )
-        t_cubic = time.perf_counter() - t0
-        power_cubic = float(np.sum(np.abs(exact_cubic) ** 2))
-        lin_vs_cubic = _db(float(np.sum(np.abs(exact - exact_cubic) ** 2)) / power_cubic)
-        rows.append({"n": n, "spacing": spacing, "engine": "exact", "time_s": t_exact, "error_cubic_db": lin_vs_cubic})
-        rows.append({"n": n, "spacing": spacing, "engine": "exact cubic", "time_s": t_cubic})
-        print(
-            f"{n}x{n} ({spacing:.3f} m, {len(case['pos'])} pulses): exact {t_exact:.3f} s ({lin_vs_cubic:.1f} dB "
-            f"against the cubic x8 exact image, {t_cubic:.3f} s once)",
-            flush=True,
-        )
-        for k, k1, q, interp, taps, pulse in [] if a.exact_only else FFBP_SETTINGS:
-            info: dict = {}
-            img, t = best_of_calls(
-                lambda pts=pts, k=k, k1=k1, q=q, interp=interp, taps=taps, pulse=pulse, n=n, common=common, info=info: (
-                    ffbp_points(
-                        case["rc"],
-                        case["range_time"],
+    meta: dict[str, Any] = {"threads": threads, "load_before": os.getloadavg()}
+    with tempfile.TemporaryDirectory() as tmp:
+        for n in a.sizes:
+            spacing = case["spacing"] * 512 / n * 2 if n > 1024 else case["spacing"]  # 2048: 0.15 m, 307 m wide
+            pts = plane_grid(case["centre"], case["e1"], case["e2"], n, spacing)
+            args = (case["rc"], case["range_time"], case["pos"], case["pos"], pts, case["fc"])
+            common: dict[str, Any] = {"gate_offset": case["gate"], "engine": "compiled"}
+            formers: dict[str, Callable[[], np.ndarray]] = {
+                "sarproc exact linear x8": functools.partial(backproject_points, *args, **common),
+                # FastSAR's exact former pads its profiles to a power of two (nfft = 2^ceil(log2(8 K)): 16384 for
+                # 1060 samples, x15.5): its "x8" reads a profile as fine as our x16
+                "sarproc exact linear x16": functools.partial(backproject_points, *args, **common, upsample=16),
+            }
+            infos: dict[str, dict] = {}
+            for setting in [] if a.exact_only else settings:
+                info: dict = {}
+                infos[ffbp_label(setting)] = info
+                formers[ffbp_label(setting)] = functools.partial(
+                    ffbp_points,
+                    case["rc"],
+                    case["range_time"],
+                    case["pos"],
+                    pts,
+                    case["fc"],
+                    case["bandwidth"],
+                    factor=setting[0],
+                    first_factor=setting[1],
+                    oversample=setting[2],
+                    ffbp_interpolation=setting[3],
+                    ffbp_taps=setting[4],
+                    interpolation=setting[5],
+                    grid_shape=(n, n),
+                    info=info,
+                    gate_offset=case["gate"],
+                )
+            server = None
+            if a.fastsar_python:
+                server = FastSARServer(a.fastsar_python, case, n, spacing, threads, Path(tmp), a.lanes or None)
+                meta[f"fastsar {n}"] = server.head
+                print(f"{n}x{n}: FastSAR {json.dumps(server.head)}", flush=True)
+            # the untimed first calls of ours (FastSAR's were made by the server)
+            images = {label: fn() for label, fn in formers.items()}
+            best: dict[str, dict] = {}
+            order = list(formers) + ([f"fastsar {key}" for key in server.keys] if server else [])
+            for r in range(a.repeats):
+                for label in order:
+                    if label.startswith("fastsar "):
+                        assert server is not None
+                        info = server.call(label.removeprefix("fastsar "))
+                    else:
+                        images[label], info = timed(formers[label])
+                    if info["time_s"] < best.get(label, {"time_s": math.inf})["time_s"]:
+                        best[label] = info
+                    print(f"  round {r} {label}: {info['time_s']:.3f} s (sys {info['sys_s']:.2f})", flush=True)
+            if server is not None:
+                fs_images = server.images()
+                server.close()
+                for key in server.keys:
+                    images[f"fastsar {key}"] = np.asarray(fs_images[key]).reshape(-1)
+            exact = images["sarproc exact linear x8"]
+            saved[f"n{n}"] = exact
+            exact_cubic = backproject_points(*args, **common, interpolation="cubic")
+            truth = (
+                backproject_points(*args, **common, interpolation="cubic", upsample=32) if n <= a.truth_size else None
+            )
+            # the FastSAR formers each of ours is timed against (the factorised one stock, then with --lanes)
+            versus = {"sarproc exact linear x8": ["fastsar linear"], "sarproc exact linear x16": ["fastsar linear"]}
+            versus.update(dict.fromkeys(infos, [key for key in order if key.startswith("fastsar imageformer")]))
+            for label in order:
+                fast = label.startswith("fastsar ")
+                img = images[label]
+                row: dict[str, Any] = {"n": n, "spacing": spacing, "engine": label, "calls": a.repeats, **best[label]}
+                row["versus"] = versus.get(label, [])
+                row["error_db"] = None if label == "sarproc exact linear x8" else error_db(img, exact, fast)
+                row["error_cubic_db"] = error_db(img, exact_cubic, fast)
+                row["error_truth_db"] = None if truth is None else error_db(img, truth, fast)
+                if label in infos:
+                    setting = next(s for s in settings if ffbp_label(s) == label)
+                    pred = predicted_image_error(  # as the plan prints it
                         case["pos"],
                         pts,
                         case["fc"],
                         case["bandwidth"],
-                        factor=k,
-                        first_factor=k1,
-                        oversample=q,
-                        ffbp_interpolation=interp,
-                        ffbp_taps=taps,
-                        interpolation=pulse,
                         grid_shape=(n, n),
-                        info=info,
-                        **common,
+                        factor=setting[0],
+                        first_factor=setting[1],
+                        oversample=setting[2],
+                        ffbp_interpolation=setting[3],
+                        ffbp_taps=setting[4],
+                        pulse_oversample=pulse_oversample(case["rc"].shape[1], 8, case["fs"], case["bandwidth"]),
+                        pulse_interpolation=setting[5],
                     )
-                ),
-                a.repeats,
-            )
-            err = float(np.sum(np.abs(img - exact) ** 2)) / power
-            err_cubic = float(np.sum(np.abs(img - exact_cubic) ** 2)) / power_cubic
-            q_pulse = pulse_oversample(case["rc"].shape[1], 8, case["fs"], case["bandwidth"])
-            pred = predicted_image_error(  # as the plan prints it
-                case["pos"],
-                pts,
-                case["fc"],
-                case["bandwidth"],
-                grid_shape=(n, n),
-                factor=k,
-                first_factor=k1,
-                oversample=q,
-                ffbp_interpolation=interp,
-                ffbp_taps=taps,
-                pulse_oversample=q_pulse,
-                pulse_interpolation=pulse,
-            )
-            rows.append(
-                {
-                    "n": n,
-                    "spacing": spacing,
-                    "engine": "ffbp",
-                    "factor": k,
-                    "first_factor": k1,
-                    "oversample": q,
-                    "interpolation": interp,
-                    "taps": taps,
-                    "pulse_reads": pulse,
-                    "error_cubic_db": _db(err_cubic),
-                    "stage_s": info.get("seconds"),
-                    "cartesian": info.get("cartesian"),
-                    "time_s": t,
-                    "speedup": t_exact / t,
-                    "error_db": 10 * math.log10(err),
-                    "predicted_db": 10 * math.log10(pred),
-                }
-            )
-            print(
-                f"  ffbp factor {k} (first {k1}) oversample {q} {interp} {taps}, pulses {pulse}: {t:.3f} s "
-                f"({t_exact / t:.2f}x), error {_db(err):.1f} dB (predicted {_db(pred):.1f}), {_db(err_cubic):.1f} dB "
-                f"against the cubic x8 exact image; stages {[round(float(x), 3) for x in info.get('seconds', [])]}",
-                flush=True,
-            )
-        if a.fastsar_python:
-            rows += fastsar_rows(case, n, spacing, exact, power, a.fastsar_python, a.repeats, exact_cubic)
-    if a.json:
-        Path(a.json).write_text(json.dumps(rows, indent=1))
+                    row["predicted_db"] = _db(pred)
+                    row["stage_s"] = [float(x) for x in infos[label].get("seconds", [])]
+                rows.append(row)
+            print(fmt_ffbp_table([r for r in rows if r["n"] == n]), flush=True)
+    meta["load_after"] = os.getloadavg()
+    a.out.mkdir(parents=True, exist_ok=True)
+    path = Path(a.json) if a.json else a.out / "ffbp-latest.json"
+    path.write_text(json.dumps({"meta": meta, "rows": rows}, indent=1))
+    table = fmt_ffbp_table(rows)
+    path.with_suffix(".md").write_text(f"`bench.py ffbp {' '.join(argv or sys.argv[2:])}`; {json.dumps(meta)}\n{table}")
+    print(f"rows: {path}; table: {path.with_suffix('.md')}")
     if a.save_exact:
         np.savez(a.save_exact, **saved)
 
