@@ -16,23 +16,41 @@ from sarproc.product.kernel_cache import CACHE, lean_cache_loads
 
 @numba.njit(error_model="numpy", parallel=True, cache=CACHE)
 def orientation_density(
-    cand: np.ndarray, u: np.ndarray, weight: np.ndarray, sigma: float
+    cand: np.ndarray,
+    u: np.ndarray,
+    weight: np.ndarray,
+    sigma: float,
+    order: np.ndarray,
+    starts: np.ndarray,
+    centre: np.ndarray,
+    reach: np.ndarray,
 ) -> np.ndarray:  # pragma: no cover - compiled
     """sum_j weight[j] exp((cos^2 - 1) / 2 sigma^2) over unit vectors u[j] at each candidate cand[i],
-    terms below exp(-40) of their weight left out (the numpy reference's pruning)."""
+    terms below exp(-40) of their weight left out (the numpy reference's pruning).
+
+    The candidates come in blocks (block b: cand[order[starts[b]:starts[b + 1]]], inside a cone about the unit
+    vector centre[b]): a u with |u . centre[b]| below reach[b] is farther than the pruning's reach from every one
+    of them (:func:`sarproc.quality.metrics._candidate_blocks`), so the block skips it with one dot product
+    instead of one per candidate. Each candidate still sums its terms in the order of j, the same terms: the
+    same result bit for bit as the loop over every pair."""
     out = np.zeros(cand.shape[0])
     floor = 1.0 - 80.0 * sigma * sigma
     scale = 1.0 / (2.0 * sigma * sigma)
-    for i in numba.prange(cand.shape[0]):
-        s = 0.0
+    for b in numba.prange(starts.shape[0] - 1):
         for j in range(u.shape[0]):
-            d = 0.0
+            e = 0.0
             for a in range(u.shape[1]):
-                d += cand[i, a] * u[j, a]
-            d2 = d * d
-            if d2 > floor:
-                s += math.exp((d2 - 1.0) * scale) * weight[j]
-        out[i] = s
+                e += centre[b, a] * u[j, a]
+            if abs(e) < reach[b]:
+                continue
+            for k in range(starts[b], starts[b + 1]):
+                i = order[k]
+                d = 0.0
+                for a in range(u.shape[1]):
+                    d += cand[i, a] * u[j, a]
+                d2 = d * d
+                if d2 > floor:
+                    out[i] += math.exp((d2 - 1.0) * scale) * weight[j]
     return out
 
 

@@ -25,7 +25,7 @@ QUALITY = Kernels(
     module="sarproc.quality.kernels",
     sources=("quality/kernels.py", "quality/kernels_aot.py"),
     exports={
-        "orientation_density": "f8[::1](f8[:, ::1], f8[:, ::1], f8[::1], f8)",
+        "orientation_density": "f8[::1](f8[:, ::1], f8[:, ::1], f8[::1], f8, i8[::1], i8[::1], f8[:, ::1], f8[::1])",
         "gradient_norms": ("_gradient_norms", "f8[:, :, ::1](f8[:, :, ::1], f8[::1])"),
         "strong_from_norms": (
             "_strong_from_norms",

@@ -574,8 +574,10 @@ def _orientation_density(
     Terms below exp(-40) of their weight (1e-17) are left out unless ``exact``: the exponential is
     then taken on the few pairs within about 9 kernel widths (a tenth of them in 3D; compiled there)."""
     if not exact and cand.shape[1] == 3:
+        cand = kernels_aot.f8(cand)
+        blocks = _candidate_blocks(cand.tobytes(), float(sigma))
         return kernels_aot.kernels().orientation_density(
-            kernels_aot.f8(cand), kernels_aot.f8(u), kernels_aot.f8(weight), float(sigma)
+            cand, kernels_aot.f8(u), kernels_aot.f8(weight), float(sigma), *blocks
         )
     if not exact and cand.shape[1] == 2 and _angle_reach(len(cand), sigma) < len(cand) // 2:
         return _orientation_density_2d(cand, u, weight, sigma)
@@ -586,6 +588,46 @@ def _orientation_density(
     w = np.zeros_like(d2)
     w[near] = np.exp((d2[near] - 1.0) / (2 * sigma**2))
     return w @ weight
+
+
+# The blocks of 3D candidates the compiled density skips unit vectors by (:func:`_candidate_blocks`): cells of
+# about this many radians of polar angle by as many of arc along the parallels (61 blocks of the 4000-point grid:
+# 2x faster than 206 blocks of 10 deg or no blocks, on paper 004's chips; the exponentials are left).
+BLOCK_RAD = math.radians(20.0)
+BLOCK_MARGIN_RAD = 1e-6  # beyond rounding: a block skips only unit vectors this much farther than the reach
+
+
+@functools.lru_cache(maxsize=4)
+def _candidate_blocks(cand_bytes: bytes, sigma: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(order, starts, centre, reach) of the compiled 3D orientation density's blocks of the unit vectors
+    ``cand_bytes`` (C-order float64 (n, 3)): block b holds the candidates order[starts[b]:starts[b + 1]], cells
+    of :data:`BLOCK_RAD` in polar angle and along the parallels, inside a cone of half-angle r_b about the unit
+    vector centre[b]. A unit vector u with |u . centre[b]| < reach[b] = cos(rho + r_b + margin) is farther than
+    rho from every candidate of the block, +-u alike, rho = acos(sqrt(1 - 80 sigma^2)) the density's pruning
+    reach: their terms are all left out (reach -1 where that cone passes 90 deg: the block skips nothing)."""
+    cand = np.frombuffer(cand_bytes, dtype=np.float64).reshape(-1, 3)
+    theta = np.arccos(np.clip(cand[:, 2], -1.0, 1.0))
+    phi = np.arctan2(cand[:, 1], cand[:, 0]) + math.pi
+    band = np.floor(theta / BLOCK_RAD).astype(np.int64)
+    sectors = np.maximum(1, np.rint(2 * math.pi * np.sin((band + 0.5) * BLOCK_RAD) / BLOCK_RAD)).astype(np.int64)
+    sector = np.minimum(sectors - 1, np.floor(phi / (2 * math.pi) * sectors).astype(np.int64))
+    cell = band * (sectors.max() + 1) + sector
+    order = np.argsort(cell, kind="stable")
+    ids, starts = np.unique(cell[order], return_index=True)
+    starts = np.append(starts, len(order)).astype(np.int64)
+    rho = math.acos(math.sqrt(max(0.0, 1.0 - 80.0 * sigma**2)))
+    centre = np.zeros((len(ids), 3))
+    reach = np.full(len(ids), -1.0)
+    for b in range(len(ids)):
+        members = cand[order[starts[b] : starts[b + 1]]]
+        mean = members.sum(axis=0)
+        if np.linalg.norm(mean) == 0:
+            continue
+        centre[b] = mean / np.linalg.norm(mean)
+        cone = rho + float(np.arccos(np.clip(members @ centre[b], -1.0, 1.0)).max()) + BLOCK_MARGIN_RAD
+        if cone < math.pi / 2:
+            reach[b] = math.cos(cone)
+    return order.astype(np.int64), starts, centre, reach
 
 
 def _angle_reach(n: int, sigma: float) -> int:

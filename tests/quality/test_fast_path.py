@@ -187,3 +187,48 @@ def test_compiled_box_responses_equal_pointwise():
             rtol=0,
             atol=1e-14,
         )
+
+
+def test_blocked_orientation_density_equals_every_pair():
+    """The compiled 3D orientation density skips a block of candidates with one dot product where a unit vector is
+    out of every member's reach: bit for bit the sum over every pair in the same order (each candidate's terms in
+    the order of the vectors), on the evaluation's grid and on candidates spread over the whole sphere, with
+    vectors placed just inside and outside the pruning's reach of candidates."""
+    import math
+
+    from sarproc.quality import kernels
+    from sarproc.quality.metrics import _candidate_blocks, _orientation_grid
+
+    rng = np.random.default_rng(7)
+    sigma = math.radians(3.0)
+    floor = 1.0 - 80.0 * sigma * sigma  # the kernel's expressions, so the same rounding
+    scale = 1.0 / (2.0 * sigma * sigma)
+    rho = math.acos(math.sqrt(floor))
+    grid = _orientation_grid(3)[0]
+    spread = rng.standard_normal((300, 3))
+    spread /= np.linalg.norm(spread, axis=1)[:, None]
+    for cand in (grid[::7], spread):
+        cand = np.ascontiguousarray(cand)
+        u = rng.standard_normal((150, 3))
+        # vectors at rho -+ 1e-4 rad from some candidates: the pruning's edge, where a block must not skip
+        for i, c in enumerate(cand[:40]):
+            side = np.cross(c, [0.3, 0.5, 0.8])
+            side /= np.linalg.norm(side)
+            angle = rho + (1e-4 if i % 2 else -1e-4)
+            u = np.vstack([u, math.cos(angle) * c + math.sin(angle) * side])
+        u /= np.linalg.norm(u, axis=1)[:, None]
+        w = rng.random(len(u))
+        blocks = _candidate_blocks(cand.tobytes(), sigma)
+        assert np.count_nonzero(blocks[3] > -1) > len(blocks[3]) // 2  # most blocks do skip
+        got = kernels.orientation_density(cand, u, w, sigma, *blocks)
+        want = np.zeros(len(cand))
+        for i, c in enumerate(cand):
+            s = 0.0
+            for j in range(len(u)):
+                d = 0.0
+                for a in range(3):
+                    d += float(c[a]) * float(u[j, a])
+                if d * d > floor:
+                    s += math.exp((d * d - 1.0) * scale) * float(w[j])
+            want[i] = s
+        assert np.array_equal(got, want)

@@ -46,7 +46,10 @@ cand /= np.linalg.norm(cand, axis=1)[:, None]
 u = rng.standard_normal((900, 3))
 u /= np.linalg.norm(u, axis=1)[:, None]
 w = rng.random(900)
-assert np.array_equal(k.orientation_density(cand, u, w, 0.05), nk.orientation_density(cand, u, w, 0.05))
+from sarproc.quality.metrics import _candidate_blocks
+blocks = _candidate_blocks(np.ascontiguousarray(cand).tobytes(), 0.05)
+density = k.orientation_density(cand, u, w, 0.05, *blocks)
+assert np.array_equal(density, nk.orientation_density(cand, u, w, 0.05, *blocks))
 mag = np.abs(rng.standard_normal((9, 11, 7)))
 h = np.array([0.3, 0.2, 0.5])
 for a, b in zip(k.strong_from_norms(mag, h, k.gradient_norms(mag, h), 0.05), nk.strong_gradients(mag, h, 0.05)):
