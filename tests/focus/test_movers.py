@@ -16,12 +16,12 @@ import pytest
 
 from sarproc.focus.multichannel import detection
 from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct
+from sarproc.product import moving
 from sarproc.product.config import load_yaml
 from sarproc.product.io import read_product, write_product
-from sarproc.product import moving
 from sarproc.product.model import MOVING_TARGET_COLUMNS, moving_target_table
-from sarproc.simulation.scene import scene_from_mapping
 from sarproc.quality.moving import implied_relocation_error
+from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
 
 CONFIG = Path(__file__).resolve().parents[2] / "configs" / "xu_scene.yaml"
