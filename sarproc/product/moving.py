@@ -90,6 +90,39 @@ def _crossing(t: np.ndarray, angle: np.ndarray, level: float, i: int, j: int) ->
     return float(t[i] + (level - angle[i]) * (t[j] - t[i]) / (angle[j] - angle[i]))
 
 
+def illumination_interval(
+    radar: RadarMetadata,
+    times: np.ndarray,
+    xyz: np.ndarray,
+    velocity: npt.ArrayLike,
+    positions: np.ndarray | None = None,
+) -> tuple[float, float]:
+    """(start, end) times (s) of the pulses whose -3 dB azimuth beam holds the moving point.
+
+    The beam edges are interpolated between pulses (so the result is continuous in the position);
+    an illumination cut by the data window ends at the data's edge. No azimuth beam, or spotlight
+    (the beam follows the scene): the whole data. A point the beam never holds: the pulse of the
+    smallest off-boresight angle, twice.
+    """
+    t = np.asarray(times, float)
+    xyz, velocity = np.asarray(xyz, float).reshape(3), np.asarray(velocity, float).reshape(3)
+    if len(t) == 0:
+        raise InputError("illumination_interval: no pulses")
+    if radar.azimuth_beamwidth <= 0 or radar.mode == "spotlight":
+        return float(t[0]), float(t[-1])
+    pos = nominal_track(radar, t) if positions is None else np.asarray(positions, float)
+    tg = (xyz[None, :] + t[:, None] * velocity[None, :])[:, None, :]
+    az = np.abs(beam.off_boresight_angles(beam.boresight(radar, pos), pos, tg)[0][:, 0])
+    half = radar.azimuth_beamwidth / 2
+    lit = np.nonzero(az <= half)[0]
+    if len(lit) == 0:
+        return float(t[np.argmin(az)]), float(t[np.argmin(az)])
+    first, last = int(lit[0]), int(lit[-1])
+    start = _crossing(t, az, half, first - 1, first) if first > 0 else t[0]
+    end = _crossing(t, az, half, last, last + 1) if last + 1 < len(t) else t[-1]
+    return float(start), float(end)
+
+
 def illumination_centre_time(
     radar: RadarMetadata,
     times: np.ndarray,
@@ -97,29 +130,9 @@ def illumination_centre_time(
     velocity: npt.ArrayLike,
     positions: np.ndarray | None = None,
 ) -> float:
-    """Centre time (s) of the pulses whose -3 dB azimuth beam holds the moving point (module docstring).
-
-    The beam edges are interpolated between pulses (so the result is continuous in the position);
-    an illumination cut by the data window is centred on what the data holds. No azimuth beam, or
-    spotlight (the beam follows the scene): the middle of the data. A point the beam never holds:
-    the pulse of the smallest off-boresight angle.
-    """
-    t = np.asarray(times, float)
-    xyz, velocity = np.asarray(xyz, float).reshape(3), np.asarray(velocity, float).reshape(3)
-    if len(t) == 0:
-        raise InputError("illumination_centre_time: no pulses")
-    if radar.azimuth_beamwidth <= 0 or radar.mode == "spotlight":
-        return float((t[0] + t[-1]) / 2)
-    pos = nominal_track(radar, t) if positions is None else np.asarray(positions, float)
-    tg = (xyz[None, :] + t[:, None] * velocity[None, :])[:, None, :]
-    az = np.abs(beam.off_boresight_angles(beam.boresight(radar, pos), pos, tg)[0][:, 0])
-    half = radar.azimuth_beamwidth / 2
-    lit = np.nonzero(az <= half)[0]
-    if len(lit) == 0:
-        return float(t[np.argmin(az)])
-    first, last = int(lit[0]), int(lit[-1])
-    start = _crossing(t, az, half, first - 1, first) if first > 0 else t[0]
-    end = _crossing(t, az, half, last, last + 1) if last + 1 < len(t) else t[-1]
+    """Centre time (s) of the pulses whose -3 dB azimuth beam holds the moving point (module docstring):
+    the middle of :func:`illumination_interval`."""
+    start, end = illumination_interval(radar, times, xyz, velocity, positions)
     return float((start + end) / 2)
 
 
