@@ -72,9 +72,15 @@ def backproject(
     grids: list[bp.BackprojectionPlan] = []
 
     def estimate(stage: str, header: Product, params: bp.BackprojectParams) -> Plan:
-        if params.engine == "ffbp":  # its error is predicted on the run's grid: made once, for both
-            grids.append(bp.plan_backprojection(header, params, grid_targets=names))
-        return backproject_estimate(stage, header, params, max_memory(), grids[0] if grids else None)
+        # the run's grid, made once for both: the plan's size (moving targets where they appear, a --targets
+        # subset) and ffbp's predicted error are those of the image the run writes
+        bp.check_params(params)
+        if params.frame != "product" and params.frame not in frame_names():
+            raise InputError(
+                f"{config_path}: backproject.frame: {params.frame!r} is not 'product' or one of {frame_names()}"
+            )
+        grids.append(bp.plan_backprojection(header, params, grid_targets=names))
+        return backproject_estimate(stage, header, params, max_memory(), grids[0])
 
     params, raw = prepare(
         "backproject",
@@ -87,14 +93,10 @@ def backproject(
         "backproject",
         estimate,
     )
-    if params.frame != "product" and params.frame not in frame_names():
-        raise InputError(
-            f"{config_path}: backproject.frame: {params.frame!r} is not 'product' or one of {frame_names()}"
-        )
-    params = dataclasses.replace(params, block_pixels=backproject_block_pixels(raw, params, max_memory()))
+    plan = grids[0]
+    params = dataclasses.replace(params, block_pixels=backproject_block_pixels(raw, params, max_memory(), plan))
     start = time.perf_counter()
     with naming(input_path, config_path, "backproject"):
-        plan = grids[0] if grids else bp.plan_backprojection(raw, params, grid_targets=names)
         pulses = bp.pulse_set(raw, params)
         bp.warn_ambiguities(raw, plan, pulses)
     raw.data = None  # type: ignore[assignment]  # the pulses hold what the blocks need: free the echoes

@@ -923,7 +923,7 @@ def plan_backprojection(
     n_pix = math.prod(len(v) for v in grid.values())
     if n_pix > params.max_pixels:
         raise InputError(
-            f"backproject: grid of {n_pix} pixels exceeds max_pixels {params.max_pixels}; "
+            f"backproject.max_pixels: the grid of {n_pix} pixels exceeds {params.max_pixels}; "
             f"set {'/'.join(frame.axes)} extents or spacings"
         )
     if params.engine == "ffbp" and any(not np.array_equal(tx_off, rx) for rx in rx_offs):

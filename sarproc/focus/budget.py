@@ -144,9 +144,22 @@ def _backproject_fixed_bytes(n_ch: int, n_az: int, n_rg: int, params: Any) -> fl
     return raw + 2 * up
 
 
-def backproject_block_pixels(header: Product, params: Any, memory_limit: int | None) -> int:
+def grid_pixels(header: Product, params: Any, grid: BackprojectionPlan | None) -> tuple[int, int, int]:
+    """(elevation, azimuth, range) pixels of backproject's grid: the run's plan's when given (its default grid
+    covers what the header alone does not give: moving targets where they appear, a --targets subset), else
+    what the extents and spacings give about the targets table (:func:`image_pixels`)."""
+    if grid is not None:
+        shape = tuple(int(v) for v in grid.shape)
+        return (shape[0], shape[1], shape[2]) if len(shape) == 3 else (1, shape[0], shape[1])
+    return (elevation_pixels(header, params), *image_pixels(header, params))
+
+
+def backproject_block_pixels(
+    header: Product, params: Any, memory_limit: int | None, grid: BackprojectionPlan | None = None
+) -> int:
     """Pixels per output block: ``params.block_pixels``, fewer (whole rows, at least one) when the blocks
-    would not fit ``memory_limit`` (bytes) beside the pulses and the process itself."""
+    would not fit ``memory_limit`` (bytes) beside the pulses and the process itself; ``grid``: the run's plan
+    (:func:`grid_pixels`)."""
     block = int(params.block_pixels)
     if memory_limit is None:
         return block
@@ -154,8 +167,8 @@ def backproject_block_pixels(header: Product, params: Any, memory_limit: int | N
     n_ch = header_shape(header)[0] if len(header_shape(header)) == 3 else 1
     process = PROCESS["backproject"][0] + NUMBA_PROCESS[0]  # numba's share counted: the blocks fit either run
     room = memory_limit - process - _backproject_fixed_bytes(n_ch, n_az, n_rg, params)
-    n_az_px, n_rg_px = image_pixels(header, params)
-    row = n_rg_px * (n_az_px if elevation_pixels(header, params) > 1 else 1)  # a 3D grid's rows: elevation planes
+    n_el_px, n_az_px, n_rg_px = grid_pixels(header, params, grid)
+    row = n_rg_px * (n_az_px if n_el_px > 1 else 1)  # a 3D grid's rows: elevation planes
     return max(row, min(block, int(room / BACKPROJECT_BYTES_PER_PIXEL) // row * row))
 
 
@@ -174,10 +187,8 @@ def backproject_estimate(
     check_params(params)  # an odd ffbp_taps is an input error, not taps_of's ValueError below
     n_az, n_rg = header_shape(header)[-2:]
     n_ch = header_shape(header)[0] if len(header_shape(header)) == 3 else 1
-    n_el = elevation_pixels(header, params)
-    n = image_pixels(header, params)
-    if n_el > 1:  # blocks of whole elevation planes
-        n = (n_el, n[0] * n[1])
+    n_el, n_az_px, n_rg_px = grid_pixels(header, params, grid)
+    n = (n_el, n_az_px * n_rg_px) if n_el > 1 else (n_az_px, n_rg_px)  # 3D: blocks of whole elevation planes
     n_pix = n[0] * n[1]
     if n_pix > params.max_pixels:
         raise InputError(
@@ -187,7 +198,7 @@ def backproject_estimate(
     # the raw data and its range-compressed copies (about four input-sized arrays, measured), at most
     # 64 pulses upsampled at a time, and per pixel of one output block its complex128 sum and float64
     # positions: the image itself is written block by block, never held whole
-    block = backproject_block_pixels(header, params, memory_limit)
+    block = backproject_block_pixels(header, params, memory_limit, grid)
     memory = _backproject_fixed_bytes(n_ch, n_az, n_rg, params) + BACKPROJECT_BYTES_PER_PIXEL * min(n_pix, block)
     per = 4e-9 if params.engine == "compiled" else 25e-9
     detail = f"~{n[0]} x {n[1]} pixels from {n_ch * n_az} pulses"

@@ -83,6 +83,24 @@ def test_default_grid_covers_where_movers_appear_not_where_they_are(chain):
     assert az[0] < -650
 
 
+def test_the_plan_sizes_the_grid_the_run_writes(chain, tmp_path):
+    """--dry-run's pixels are those of the image written: moving targets where they appear (the plan sized the
+    targets table's true positions before: 3.6x too few pixels on xu_traffic), and a --targets subset."""
+    d, cfg = chain
+    with h5py.File(d / "image.h5") as f:
+        shape = f["image"].shape
+    res = run("backproject", d / "raw.h5", "-o", tmp_path / "x.h5", "--config", cfg, "--dry-run")
+    assert res.exit_code == 0, res.output
+    assert f"~{shape[0]} x {shape[1]} pixels" in res.output
+    sub = run("backproject", d / "raw.h5", "-o", tmp_path / "b.h5", "--config", cfg, "--targets", "B", "--no-progress")
+    assert sub.exit_code == 0, sub.output
+    with h5py.File(tmp_path / "b.h5") as f:
+        b_shape = f["image"].shape
+    assert b_shape[0] < shape[0]
+    res = run("backproject", d / "raw.h5", "-o", tmp_path / "y.h5", "--config", cfg, "--targets", "B", "--dry-run")
+    assert f"~{b_shape[0]} x {b_shape[1]} pixels" in res.output
+
+
 def test_evaluate_measures_movers_where_they_appear_with_velocity_and_relocation_errors(chain, tmp_path):
     d, cfg = chain
     expect = tmp_path / "expect.yaml"
