@@ -119,7 +119,11 @@ def decompressed(image: np.ndarray, out_f: np.ndarray, ka: np.ndarray) -> np.nda
 
 def detection_image(y_fa: np.ndarray, out_f: np.ndarray, ka: np.ndarray) -> np.ndarray:
     """Power of :func:`compressed`, float32."""
-    img = compressed(y_fa, out_f, ka)
+    return intensity(compressed(y_fa, out_f, ka))
+
+
+def intensity(img: np.ndarray) -> np.ndarray:
+    """|img|^2 as float32 (a detection image's power)."""
     return (img.real**2 + img.imag**2).astype(np.float32)
 
 

@@ -1041,8 +1041,7 @@ def _refine_peak(
     With ``cell`` (the null fit's too) only the range cells within NULL_FIT_CELLS of it.
     """
     spec = sfft.fft(y_win_tf, axis=0, workers=-1) * detection.compression(out_f, ka)
-    img = sfft.ifft2(spec, workers=-1)
-    power = (img.real**2 + img.imag**2).astype(np.float32)
+    power = detection.intensity(sfft.ifft2(spec, workers=-1))
     best = None
     k_max = int(n_out // spacing) + 1
     for k in [0] if only_here else range(-k_max, k_max + 1):
@@ -1056,10 +1055,10 @@ def _refine_peak(
             sub[:, np.abs(np.arange(sub.shape[1]) - cell) > NULL_FIT_CELLS] = 0.0
         i, c = np.unravel_index(int(np.argmax(sub)), sub.shape)
         if best is None or sub[i, c] > best[0]:
-            best = (sub[i, c], centre - 8, sub, i, c)
+            best = (sub[i, c], centre - 8, i, c)
     if best is None:
         raise ValueError(f"no alias of index {index} falls inside the {n_out} output cells")
-    _, lo, _, i, c = best
+    _, lo, i, c = best
     return detection.band_limited_peak(spec, lo + int(i), int(c))
 
 
@@ -1937,7 +1936,7 @@ def reconstruct(
         movers = _detect_and_focus(
             raw, params, g, spec_est, src, y, f_r, lead, info, progress, bank, residual is not None
         )
-        movers = [_compression_corrected(raw, g, mt) for mt in movers]
+        movers = _compression_corrected(raw, g, movers)
         del src
     del spec_est
     residual = None
@@ -2038,8 +2037,21 @@ ALONG_TRACK_CLUTTER_FLOOR = 0.04
 AUTOFOCUS_SELF = 10 ** (-24.0 / 10)
 
 
-def _compression_corrected(raw: Product, g: _Geometry, mt: MovingTarget) -> MovingTarget:
-    """``mt`` with the detection image's compression offset taken out of its apparent time (and range).
+def _compression_corrected(raw: Product, g: _Geometry, movers: list[MovingTarget]) -> list[MovingTarget]:
+    """``movers``, each with the detection image's compression offset taken out of its apparent time (and range)
+    (:func:`_compression_corrected_one`; the track and the compression shared by all computed once)."""
+    centres = moving.phase_centres(raw)
+    positions = np.stack([np.interp(g.out_times, g.times, centres[:, c]) for c in range(3)], axis=-1)
+    ka = float(detection.fm_rate(g.velocity, g.squint, _swath_centre_range(raw), g.fc, 0.0))
+    return [_compression_corrected_one(raw, g, mt, centres, positions, ka) for mt in movers]
+
+
+def _compression_corrected_one(
+    raw: Product, g: _Geometry, mt: MovingTarget, centres: np.ndarray, positions: np.ndarray, ka: float
+) -> MovingTarget:
+    """``mt`` with the detection image's compression offset taken out of its apparent time (and range);
+    ``centres``: the phase centres at ``g.times``, ``positions`` at ``g.out_times``; ``ka``: the compression's
+    FM rate.
 
     The detection image's peak (_refine_peak) is not at the static equivalent's beam-centre time: the quadratic
     compression leaves the squint's cubic term, whose offset over the mover's illumination is -0.13 to -0.18 ms
@@ -2049,7 +2061,6 @@ def _compression_corrected(raw: Product, g: _Geometry, mt: MovingTarget) -> Movi
     """
     if not (mt.first_cell < mt.last_cell) or not np.isfinite(mt.apparent_time):
         return mt
-    centres = moving.phase_centres(raw)
     p = np.array([np.interp(mt.apparent_time, g.times, centres[:, c]) for c in range(3)])
     app = _beam_centre_point(p, mt.apparent_range, g.squint)
     try:
@@ -2059,8 +2070,6 @@ def _compression_corrected(raw: Product, g: _Geometry, mt: MovingTarget) -> Movi
         )
     except InputError:
         return mt  # not relocatable: _moving_target_rows says so
-    positions = np.stack([np.interp(g.out_times, g.times, centres[:, c]) for c in range(3)], axis=-1)
-    ka = float(detection.fm_rate(g.velocity, g.squint, _swath_centre_range(raw), g.fc, 0.0))
     dt = detection.compressed_peak_offset(
         g.out_times, positions, app, interval, mt.apparent_time, g.squint, g.velocity, raw.radar.wavelength, ka
     )
