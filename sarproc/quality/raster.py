@@ -216,7 +216,7 @@ def nice_ticks(lo: float, hi: float, min_spacing: float, length_px: float) -> tu
             if step >= raw * (1 - 1e-9):
                 first = math.ceil(lo / step - 1e-9)
                 ticks = (first + np.arange(int(math.floor(hi / step + 1e-9)) - first + 1)) * step
-                decimals = max(0, -e) + (1 if m == 2.5 else 0)
+                decimals = max(0, -e + (1 if m == 2.5 else 0))
                 return ticks, decimals
     return np.array([lo, hi]), 0  # pragma: no cover - the loop always finds a step
 
@@ -450,10 +450,11 @@ def _draw_panel(
             y = top + ih - _pixel(row[plan.v], cv, plan.kv)
             if not (left <= x <= left + iw and top <= y <= top + ih):
                 continue
-            canvas.mask(ring, int(round(y)) - r, int(round(x)) - r, TARGET_RED, clip)
+            cy, cx = int(math.floor(y)), int(math.floor(x))  # the screen pixel holding the target
+            canvas.mask(ring, cy - r, cx - r, TARGET_RED, clip)
             if i < len(names):
-                canvas.mask(text_mask(str(names[i])), int(round(y)) - r - TEXT_HEIGHT, int(round(x)) + r, TARGET_RED)
-                canvas.texts.append(PlacedText(str(names[i]), int(round(x)) + r, int(round(y)) - r - TEXT_HEIGHT))
+                canvas.mask(text_mask(str(names[i])), cy - r - TEXT_HEIGHT, cx + r, TARGET_RED)
+                canvas.texts.append(PlacedText(str(names[i]), cx + r, cy - r - TEXT_HEIGHT))
     return Panel(top, left, rows, cols, plan.kv, plan.kh)
 
 
