@@ -110,7 +110,7 @@ def quicklook(
     from sarproc.quality.budget import quicklook_estimate
 
     header = read_product(input_path, kinds=("image", "image3d"), load=False)
-    plan_outputs(input_path, [output], overwrite, lambda: quicklook_estimate("quicklook", header, max_pixels))
+    plan_outputs(input_path, [output], overwrite, lambda: quicklook_estimate("quicklook", header, max_pixels, renderer))
     magnitude, dims, coords, factors = read_magnitude_preview(input_path, max_side=max_pixels, header=header)
     truth, names = None, []
     if mark_targets and len(header.targets):

