@@ -252,11 +252,14 @@ def _factor(n: int) -> int:
     return int(min(max(1, math.ceil(MIN_SIDE / max(n, 1))), max(1, MAX_SIDE // max(n, 1))))
 
 
-def _pairs(ndim: int) -> list[tuple[int, int]]:
+def axis_pairs(ndim: int) -> list[tuple[int, int]]:
+    """(vertical axis, horizontal axis) index pairs: the image itself in 2D; the three projections
+    (azimuth-range, elevation-range, elevation-azimuth) in 3D."""
     return [(0, 1)] if ndim == 2 else [(1, 2), (0, 2), (0, 1)]
 
 
-def _label(dim: str, units: Mapping[str, str], frame: str) -> str:
+def axis_label(dim: str, units: Mapping[str, str], frame: str = "") -> str:
+    """'range (m, ground frame)': the axis name, its unit and the image frame where known."""
     inside = ", ".join(x for x in (units.get(dim, ""), f"{frame} frame" if frame else "") if x)
     return f"{dim} ({inside})" if inside else dim
 
@@ -351,7 +354,7 @@ def render_quicklook(
     if mag.ndim not in (2, 3):
         raise ValueError(f"a quicklook draws 2D images and 3D cubes, got {mag.ndim} dimensions")
     peak = float(mag.max()) if mag.size and mag.max() > 0 else 1.0
-    pairs = _pairs(mag.ndim)
+    pairs = axis_pairs(mag.ndim)
     plans = []
     for v, h in pairs:
         other = [dims[o] for o in range(mag.ndim) if o not in (v, h)]
@@ -364,7 +367,7 @@ def render_quicklook(
     image_h = max(p.db.shape[0] * p.kv for p in plans)
     bottom = TICK + PAD + TEXT_HEIGHT + GAP + TEXT_HEIGHT + margin
     widths = [p.left + p.db.shape[1] * p.kh + p.right for p in plans]
-    labels_w = [text_width(_label(dims[p.h], units, frame)) for p in plans]
+    labels_w = [text_width(axis_label(dims[p.h], units, frame)) for p in plans]
     widths = [max(w, p.left + lw) for w, p, lw in zip(widths, plans, labels_w)]
     width = max(2 * margin + sum(widths) + 2 * GAP * (len(plans) - 1), 2 * margin + text_width(title))
     canvas = _Canvas(top + image_h + bottom, width)
@@ -419,7 +422,7 @@ def _draw_panel(
             py = min(py, top + ih - 1)
             canvas.fill(py, py + 1, left - 1 - TICK, left - 1, BLACK)
             canvas.text(label, py - TEXT_HEIGHT // 2, left - 1 - TICK - PAD - text_width(label))
-    xlabel, ylabel = _label(dims[plan.h], units, frame), _label(dims[plan.v], units, frame)
+    xlabel, ylabel = axis_label(dims[plan.h], units, frame), axis_label(dims[plan.v], units, frame)
     canvas.text(xlabel, top + ih + 1 + TICK + PAD + TEXT_HEIGHT + GAP, left + (iw - text_width(xlabel)) // 2)
     canvas.text(ylabel, top + (ih - text_width(ylabel)) // 2, left - plan.left, vertical=True)
 
