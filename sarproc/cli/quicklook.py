@@ -1,4 +1,5 @@
-"""sarproc quicklook IMAGE.h5 -o PICTURE.png [--dynamic-range DB] [--targets/--no-targets] [--max-pixels N]"""
+"""sarproc quicklook IMAGE.h5 -o PICTURE.png [--dynamic-range DB] [--targets/--no-targets] [--max-pixels N]
+[--renderer builtin|matplotlib]"""
 
 from __future__ import annotations
 
@@ -77,14 +78,29 @@ def import_matplotlib_lean() -> None:
     help="Largest number of pixels drawn along an axis; longer axes are reduced by taking the "
     "maximum of each block, so a one-pixel target stays visible.",
 )
+@click.option(
+    "--renderer",
+    type=click.Choice(["builtin", "matplotlib"]),
+    default="builtin",
+    show_default=True,
+    help="builtin: drawn with numpy, every preview pixel a block of whole screen pixels (no matplotlib "
+    "import: ~0.45 s less per process); matplotlib: the figure evaluate --plot draws.",
+)
 def quicklook(
-    input_path: Path, output: Path, overwrite: bool, dynamic_range_db: float, mark_targets: bool, max_pixels: int
+    input_path: Path,
+    output: Path,
+    overwrite: bool,
+    dynamic_range_db: float,
+    mark_targets: bool,
+    max_pixels: int,
+    renderer: str,
 ) -> None:
     """Picture of any image product, with or without truth targets.
 
     2D images: magnitude in dB relative to the peak, axes in metres named by the image frame.
     3D cubes: the three maximum projections. Big images are read block by block and reduced
-    by block maxima (--max-pixels), so memory stays small. The same drawing as evaluate --plot.
+    by block maxima (--max-pixels), so memory stays small. The picture shows the same things as
+    evaluate --plot's quicklook (--renderer matplotlib draws that very figure).
     """
     import numpy as np
 
@@ -92,10 +108,9 @@ def quicklook(
     from sarproc.product.io import atomic_path, read_magnitude_preview, read_product
     from sarproc.product.model import UNITS, target_names
     from sarproc.quality.budget import quicklook_estimate
-    from sarproc.quality.plotting import plot_quicklook
 
     header = read_product(input_path, kinds=("image", "image3d"), load=False)
-    plan_outputs(input_path, [output], overwrite, lambda: quicklook_estimate("quicklook", header, max_pixels))
+    plan_outputs(input_path, [output], overwrite, lambda: quicklook_estimate("quicklook", header, max_pixels, renderer))
     magnitude, dims, coords, factors = read_magnitude_preview(input_path, max_side=max_pixels, header=header)
     truth, names = None, []
     if mark_targets and len(header.targets):
@@ -107,18 +122,17 @@ def quicklook(
     frame = header.attrs.get("frame", {}).get("name", "")
     reduced = "" if all(f == 1 for f in factors) else ", block max " + " x ".join(str(f) for f in factors)
     title = f"{input_path.name}: {header.kind}, {dynamic_range_db:g} dB{reduced}"
-    import_matplotlib_lean()
+    units = {d: UNITS.get(d, "") for d in dims}
+    args = (magnitude, dims, coords, truth, names, units)
     with atomic_path(output, overwrite=overwrite) as tmp:
-        plot_quicklook(
-            tmp,
-            magnitude,
-            dims,
-            coords,
-            truth,
-            names,
-            {d: UNITS.get(d, "") for d in dims},
-            dynamic_range_db=dynamic_range_db,
-            title=title,
-            frame=frame,
-        )
+        if renderer == "matplotlib":
+            from sarproc.quality.plotting import plot_quicklook
+
+            import_matplotlib_lean()
+            plot_quicklook(tmp, *args, dynamic_range_db=dynamic_range_db, title=title, frame=frame)
+        else:
+            from sarproc.quality.raster import encode_png, render_quicklook
+
+            picture = render_quicklook(*args, dynamic_range_db=dynamic_range_db, title=title, frame=frame)
+            Path(tmp).write_bytes(encode_png(picture.rgb))
     summary(f"quicklook: wrote {output} ({' x '.join(str(n) for n in magnitude.shape)} pixels drawn)")

@@ -33,7 +33,14 @@ import numpy as np
 from sarproc import __version__
 from sarproc.dsp.rangecomp import replica_fft_size, replica_spectrum
 from sarproc.formats.geolocation import Placement, ecf_to_geodetic, utc_datetime
-from sarproc.formats.sicd import MODE_TYPE, consistency_checker, consistency_summary, pulse_times, require_sarkit
+from sarproc.formats.sicd import (
+    MODE_TYPE,
+    consistency_checker,
+    consistency_summary,
+    pulse_times,
+    require_sarkit,
+    run_checks,
+)
 from sarproc.product import fft as sfft
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import C, RadarMetadata
@@ -707,7 +714,7 @@ def check_cphd(path: str | os.PathLike) -> dict:
     """Run sarkit's CphdConsistency (schema, header, PVPs, reference geometry, signal) on a CPHD file."""
     with open(path, "rb") as fh:
         con = consistency_checker("CPHD").from_file(fh, thorough=True)
-        con.check()
+        run_checks(con)
     return consistency_summary(con)
 
 

@@ -227,7 +227,9 @@ PROCESS = {
     "export-cphd": (125e6, 1.25),
     "import-cphd": (120e6, 0.4),
     "import-gotcha": (88e6, 0.6),
-    "quicklook": (105e6, 1.15),  # demo 1.32 s, xu_small 0.92 s, du2010 cube 1.96 s (planned 0.9 s + drawing)
+    # builtin renderer (matplotlib's import: sarproc.quality.budget.MATPLOTLIB_IMPORT): demo 0.45 s, 59 MB;
+    # du2010 cube 0.50 s, 82 MB (loaded machine, session 23)
+    "quicklook": (60e6, 0.42),
 }
 
 # What starting numba adds to a run of NUMBA_STAGES: its import and runtime and its cached kernels loaded

@@ -14,6 +14,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from sarproc.quality.raster import axis_label, axis_pairs
+
 if TYPE_CHECKING:
     from collections.abc import Mapping, Sequence
 
@@ -39,17 +41,6 @@ def _figure(n_panels: int, width: float = 5.0, height: float = 4.2) -> tuple[Fig
     return fig, [fig.add_subplot(1, n_panels, i + 1) for i in range(n_panels)]
 
 
-def _pairs(ndim: int) -> list[tuple[int, int]]:
-    # (vertical axis, horizontal axis) index pairs: the image itself in 2D; the three
-    # projections (azimuth-range, elevation-range, elevation-azimuth) in 3D.
-    return [(0, 1)] if ndim == 2 else [(1, 2), (0, 2), (0, 1)]
-
-
-def _label(dim: str, units: Mapping[str, str], frame: str = "") -> str:
-    inside = ", ".join(x for x in (units.get(dim, ""), f"{frame} frame" if frame else "") if x)
-    return f"{dim} ({inside})" if inside else dim
-
-
 def plot_quicklook(
     path: str | Path,
     data: np.ndarray,
@@ -72,7 +63,7 @@ def plot_quicklook(
     units = units or {}
     mag = np.abs(np.asarray(data))
     peak = mag.max() if mag.size and mag.max() > 0 else 1.0
-    pairs = _pairs(mag.ndim)
+    pairs = axis_pairs(mag.ndim)
     fig, axs = _figure(len(pairs))
     for ax, (v, h) in zip(axs, pairs):
         other = tuple(a for a in range(mag.ndim) if a not in (v, h))
@@ -97,8 +88,8 @@ def plot_quicklook(
                 ax.annotate(
                     str(n), (row[h], row[v]), xytext=(5, 5), textcoords="offset points", color="tab:red", fontsize=8
                 )
-        ax.set_xlabel(_label(dims[h], units, frame))
-        ax.set_ylabel(_label(dims[v], units, frame))
+        ax.set_xlabel(axis_label(dims[h], units, frame))
+        ax.set_ylabel(axis_label(dims[v], units, frame))
         if other:
             ax.set_title(f"max over {', '.join(dims[o] for o in other)}", fontsize=9)
         fig.colorbar(im, ax=ax, label="dB")
@@ -128,7 +119,7 @@ def plot_target(
     from sarproc.quality.metrics import target_patch
 
     units = units or {}
-    pairs = _pairs(np.ndim(data))
+    pairs = axis_pairs(np.ndim(data))
     fig, axs = _figure(len(pairs), width=4.6)
     for ax, (v, h) in zip(axs, pairs):
         off_v, off_h, vals = target_patch(
@@ -146,8 +137,8 @@ def plot_target(
         cs = ax.contourf(off_h, off_v, db, levels=np.arange(-40, 0.1, 2.5), cmap="viridis", extend="min")
         ax.contour(off_h, off_v, db, levels=list(CONTOUR_LEVELS_DB), colors="k", linewidths=0.5, linestyles="solid")
         ax.contour(off_h, off_v, db, levels=[-3], colors="w", linewidths=1.2, linestyles="solid")
-        ax.set_xlabel(f"{_label(dims[h], units)} from peak")
-        ax.set_ylabel(f"{_label(dims[v], units)} from peak")
+        ax.set_xlabel(f"{axis_label(dims[h], units)} from peak")
+        ax.set_ylabel(f"{axis_label(dims[v], units)} from peak")
         ax.set_title(
             "\n".join(
                 f"{d}: IRW {target.axis(d).irw:.3g} {units.get(d, '')}, PSLR {target.axis(d).pslr_db:.2f} dB"

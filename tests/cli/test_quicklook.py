@@ -115,7 +115,7 @@ LEAN_RUN = """
 import sys
 {before}
 from sarproc.cli.main import run_cli
-assert run_cli(["-q", "quicklook", *sys.argv[1:]]) == 0
+assert run_cli(["-q", "quicklook", "--renderer", "matplotlib", *sys.argv[1:]]) == 0
 import matplotlib.artist, matplotlib.lines
 from sarproc.cli.quicklook import ARTIST_DOC_STUB
 print("STUBBED" if ARTIST_DOC_STUB in matplotlib.lines.Line2D.set.__doc__ else "FULL")
@@ -153,3 +153,35 @@ def test_lean_matplotlib_import_draws_the_same_picture(tmp_path, kind):
     assert outputs["lean"][1] == ["STUBBED", "RESTORED", "UNSIGNED", "RESTORED"]
     assert outputs["full"][1] == ["FULL", "RESTORED", "SIGNED", "RESTORED"]
     assert outputs["lean"][0][:8] == PNG_SIGNATURE and outputs["lean"][0] == outputs["full"][0]
+
+
+BUILTIN_RUN = """
+import sys
+from sarproc.cli.main import run_cli
+assert run_cli(["-q", "quicklook", *sys.argv[1:]]) == 0
+print(sorted(m for m in sys.modules if m.split(".")[0] in ("matplotlib", "PIL", "pyparsing")))
+"""
+
+
+@pytest.mark.parametrize("three_d", [False, True])
+def test_default_picture_is_drawn_without_matplotlib(tmp_path, three_d):
+    # a fresh process, as a user runs it: no matplotlib imported (0.42-0.48 s of the process, docs/performance.md
+    # twelfth round); the PNG holds the peak where the target is, circled in red
+    import subprocess
+    import sys
+
+    from tests.quality.test_raster import decode_png
+
+    path = make_image(tmp_path / "img.h5", three_d=three_d)
+    out = tmp_path / "ql.png"
+    done = subprocess.run(
+        [sys.executable, "-c", BUILTIN_RUN, str(path), "-o", str(out)], capture_output=True, text=True, check=True
+    )
+    assert done.stdout.split()[-1] == "[]"
+    rgb = decode_png(out.read_bytes())
+    red = np.all(rgb == (214, 39, 40), axis=-1)
+    assert rgb.shape[1] > (900 if three_d else 300) and red.sum() > (150 if three_d else 50)
+    assert (rgb == 255).all(axis=-1).sum() > 0  # the peaks: 0 dB white
+    res = run(path, "-o", tmp_path / "mpl.png", "--renderer", "matplotlib")
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "mpl.png").read_bytes()[:8] == PNG_SIGNATURE

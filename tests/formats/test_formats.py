@@ -101,6 +101,32 @@ def test_cphd_round_trip_focuses_identically(demo, place, tmp_path):
     assert db(np.abs(refocused.data - image.data).max() / np.abs(image.data).max()) < -100
 
 
+def test_checks_are_sarkits_own_with_arrays_summarised_in_messages(demo, place, tmp_path):
+    """run_checks runs every check of sarkit's checker with the same outcome; only the values its messages
+    print are summarised (the "Skip" records of preconditions formatted 600-record PVP arrays in full)."""
+    from sarproc.formats.sicd import consistency_checker, consistency_summary, run_checks
+
+    path = tmp_path / "raw.cphd"
+    write_cphd(path, demo[0], place)
+    with open(path, "rb") as fh:
+        full = consistency_checker("CPHD").from_file(fh, thorough=True)
+        full.check()
+        lean = consistency_checker("CPHD").from_file(fh, thorough=True)
+        run_checks(lean)
+    assert consistency_summary(lean) == consistency_summary(full)  # report text included
+    for kind in ("passes", "failures", "skips"):
+        assert getattr(lean, kind)().keys() == getattr(full, kind)().keys(), kind
+    details = [
+        [(d["severity"], d["passed"], d["details"], d["message"]) for r in con.all().values() for d in r["details"]]
+        for con in (full, lean)
+    ]
+    assert [d[:3] for d in details[0]] == [d[:3] for d in details[1]]
+    assert [d[3].split("\n")[0] for d in details[0]] == [d[3].split("\n")[0] for d in details[1]]
+    size = [sum(len(d[3]) for d in x) for x in details]
+    assert size[1] < size[0] / 20, size  # demo CPHD: 1.84 MB of message text -> 41 kB
+    assert any("..." in d[3] and "..." not in f[3] for f, d in zip(*details))
+
+
 def test_cphd_of_another_program_is_imported_from_its_standard_fields(demo, place, tmp_path):
     """Without sarproc's parameters the file is read as SRP-compensated phase history (gotcha.py's model):
     the scene centre becomes the origin, and the response on a 3 x 3 cell patch around every target
