@@ -139,7 +139,9 @@ def main() -> None:
             for i, (cmd, cfg) in enumerate(stages):
                 dst = out / f"{tag}_{i}_{cmd}.h5"
                 # every stage reads its section of the scene's config unless given its own
-                chain.append([cmd, src, "-o", dst, "--overwrite", "--no-progress", "--config", stage_config(cfg or scene, out)])
+                chain.append(
+                    [cmd, src, "-o", dst, "--overwrite", "--no-progress", "--config", stage_config(cfg or scene, out)]
+                )
                 src = dst
             for c in chain[:-1]:  # the inputs of the timed stage
                 if not (args.reuse and Path(c[3]).exists()):
