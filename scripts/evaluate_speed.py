@@ -15,6 +15,7 @@ import argparse
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 import time
@@ -35,6 +36,8 @@ CASES: dict[str, tuple[str, list[tuple[str, str | None]], list[str]]] = {
         [],
     ),
     "002 small (pfa2)": ("nie2016_small.yaml", [("pfa2", "nie2016_small.yaml")], []),
+    # make reproduce-002-small's plain polar format image (its config with pfa2.method plain, as mk/002.mk's sed)
+    "002 small plain (pfa2 plain)": ("nie2016_small.yaml", [("pfa2", "nie2016_small.yaml:plain")], []),
     "003 xu_scene (reconstruct, backproject)": (
         "xu_scene.yaml",
         [("reconstruct", "xu_scene.yaml"), ("backproject", "xu_scene.yaml")],
@@ -48,7 +51,21 @@ CASES: dict[str, tuple[str, list[tuple[str, str | None]], list[str]]] = {
     "004 du2010 cube (array3d)": ("du2010.yaml", [("array3d", "du2010.yaml")], []),
     "bp stripmap": ("bp_stripmap.yaml", [("backproject", "bp_stripmap.yaml")], []),
     "bp squint30": ("bp_squint30.yaml", [("backproject", "bp_squint30.yaml")], []),
+    "bp beam_edge": ("bp_beam_edge.yaml", [("backproject", "bp_beam_edge.yaml")], []),
+    "bp hamming": ("bp_hamming.yaml", [("backproject", "bp_hamming.yaml")], []),
+    "004 du2010 BP cube (backproject)": ("du2010.yaml", [("backproject", "du2010.yaml")], []),
 }
+
+
+def stage_config(cfg: str, out: Path) -> Path:
+    """The stage's config file; ``NAME:plain`` is NAME with ``method: two_step`` made plain (mk/002.mk's sed)."""
+    name, _, variant = cfg.partition(":")
+    if not variant:
+        return CFG / name
+    path = out / f"{name.removesuffix('.yaml')}_{variant}.yaml"
+    text = re.sub(r"(?m)^( *)method: two_step *$", r"\1method: plain", (CFG / name).read_text())
+    path.write_text(re.sub(r"\{ *method: two_step", "{method: plain", text))
+    return path
 
 
 def run(tree: Path, args: list, log: TextIO) -> float:
@@ -114,7 +131,7 @@ def main() -> None:
         products = {}
         for name in args.cases:
             scene, stages, _ = CASES[name]
-            tag = name.split()[0] + "_" + scene.removesuffix(".yaml")
+            tag = name.split(" (")[0].replace(" ", "_")
             src = out / f"{tag}_raw.h5"
             if not (args.reuse and src.exists()):
                 run(ROOT, ["simulate", CFG / scene, "-o", src, "--overwrite", "--no-progress"], log)
@@ -122,7 +139,9 @@ def main() -> None:
             for i, (cmd, cfg) in enumerate(stages):
                 dst = out / f"{tag}_{i}_{cmd}.h5"
                 # every stage reads its section of the scene's config unless given its own
-                chain.append([cmd, src, "-o", dst, "--overwrite", "--no-progress", "--config", CFG / (cfg or scene)])
+                chain.append(
+                    [cmd, src, "-o", dst, "--overwrite", "--no-progress", "--config", stage_config(cfg or scene, out)]
+                )
                 src = dst
             for c in chain[:-1]:  # the inputs of the timed stage
                 if not (args.reuse and Path(c[3]).exists()):

@@ -62,3 +62,35 @@ def test_the_strip_count_does_not_jump_with_the_keystone():
     fit's derivatives with respect to it exist."""
     counts = {residual._strip_count(np.array([k])) for k in (1e-6, 1e-4, 3e-3, 0.01, 0.2)}
     assert counts == {residual.KEYSTONE_STRIPS}
+
+
+def test_a_fit_its_model_cannot_describe_stops_where_longer_fits_end(monkeypatch):
+    """Targets drowned in noise (their fits' misfit above HOPELESS_MISFIT): the fits stop once they stop
+    moving instead of running to FIT_MAX_STEPS, and their figures are those of fits allowed twice the steps
+    (measured 0.0075 dB apart), as close as the capped fits of the code before are (0.05 dB)."""
+    img, coords = _scene(TRUTH, AMPS)
+    rng = np.random.default_rng(1)
+    img = img + (0.05 * (rng.standard_normal(img.shape) + 1j * rng.standard_normal(img.shape))).astype(np.complex64)
+    steps = [0]
+    step = residual._gauss_newton_step
+
+    def counted(*args):
+        steps[0] += 1
+        return step(*args)
+
+    monkeypatch.setattr(residual, "_gauss_newton_step", counted)
+
+    def run():
+        steps[0] = 0
+        return _figures(img, coords, TRUTH), steps[0]
+
+    stopped, n_stopped = run()
+    with monkeypatch.context() as m:
+        m.setattr(residual, "HOPELESS_MISFIT", np.inf)  # the code before: on to FIT_MAX_STEPS
+        capped, n_capped = run()
+        m.setattr(residual, "FIT_MAX_STEPS", 2 * residual.FIT_MAX_STEPS)
+        longer, _ = run()
+    assert n_stopped < 0.6 * n_capped  # 240 against 450
+    np.testing.assert_allclose(stopped, longer, atol=0.02)
+    # nearer than where the cap stopped them (0.0075 against 0.05 dB)
+    assert np.abs(np.subtract(stopped, longer)).max() < np.abs(np.subtract(capped, longer)).max()
