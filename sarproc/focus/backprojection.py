@@ -228,6 +228,10 @@ class _Reads:
     oversampling: float
 
 
+# Pixels per tile of the compiled engine unless the carrier-cycle cap (MAX_TILE_RADIUS_CYCLES) makes them fewer.
+DEFAULT_TILE_POINTS = 1024
+
+
 def backproject_points(
     rc: np.ndarray,
     range_time: np.ndarray,
@@ -245,7 +249,7 @@ def backproject_points(
     engine: str = "reference",
     kernel_length: int = 8,
     oversampling: float | None = None,
-    tile_points: int = 1024,
+    tile_points: int = DEFAULT_TILE_POINTS,
 ) -> np.ndarray:
     """Backproject range-compressed pulses onto arbitrary points.
 
@@ -396,17 +400,37 @@ def _tile_size(
 
         bounds = numba_bounds
     lo, hi = bounds(np.ascontiguousarray(points, dtype=float))
-    ext = np.sort(hi - lo)[::-1]
+    return tile_edge(hi - lo, len(points), tile_points, max_radius)
+
+
+def tile_edge(extents: np.ndarray, n_points: int, tile_points: int, max_radius: float = np.inf) -> float:
+    """:func:`_tile_size`'s rule from the points' extents (m, per axis) and their number."""
+    ext = np.sort(np.asarray(extents, float))[::-1]
     ext = ext[ext > 1e-9 * max(float(ext[0]), 1.0)]
     if len(ext) == 0:
         return 1.0
     while True:
-        cell = (float(np.prod(ext)) / len(points)) ** (1.0 / len(ext))
+        cell = (float(np.prod(ext)) / n_points) ** (1.0 / len(ext))
         edge = cell * tile_points ** (1.0 / len(ext))
         if len(ext) == 1 or ext[-1] >= edge:
             break
         ext = ext[:-1]  # the thinnest dimension fits inside one tile: drop it
     return min(edge, 2 * max_radius / math.sqrt(len(ext)))
+
+
+def grid_tile_count(shape: tuple[int, ...], spacings: tuple[float, ...], carrier_frequency: float) -> int:
+    """About how many tiles the compiled engine makes of a regular grid (``shape`` pixels ``spacings`` m apart
+    per axis), for its time estimate: pixels coarse against the wavelength make tiles of tens of pixels under the
+    carrier-cycle cap, and each tile costs the same per pulse whatever it holds."""
+    n = int(np.prod(shape))
+    if n == 0:
+        return 0
+    ext = np.array([k * d for k, d in zip(shape, spacings, strict=True)], float)
+    edge = tile_edge(ext, n, DEFAULT_TILE_POINTS, MAX_TILE_RADIUS_CYCLES * C / carrier_frequency)
+    per_tile = 1.0
+    for k, d in zip(shape, spacings, strict=True):
+        per_tile *= min(float(k), max(1.0, edge / d)) if d > 0 else 1.0
+    return max(1, math.ceil(n / per_tile))
 
 
 @contextlib.contextmanager

@@ -172,6 +172,22 @@ def backproject_block_pixels(
     return max(row, min(block, int(room / BACKPROJECT_BYTES_PER_PIXEL) // row * row))
 
 
+# The compiled engine's cost of one tile and pulse beyond its pixels' (wall s on two cores): 0.2-0.3 us of one core
+# (scripts/tile_cost.py; docs/performance.md "Coarse pixels"), about 100 pixel-pulses' worth, so it counts where
+# the carrier-cycle cap leaves tiles of tens of pixels (X band, metre pixels: 003's traffic grid, 26 a tile).
+TILE_PULSE_SECONDS = 0.15e-6
+
+
+def _compiled_tiles(header: Product, params: Any, grid: BackprojectionPlan | None) -> int:
+    """Tiles of the compiled engine's 2D grid (0 for the other engines, 3D grids and when no grid is planned)."""
+    if params.engine != "compiled" or grid is None or grid.elevation is not None:
+        return 0
+    from sarproc.focus.backprojection import grid_tile_count
+
+    spacings = tuple(float(abs(a[1] - a[0])) if len(a) > 1 else 0.0 for a in (grid.azimuth, grid.range))
+    return grid_tile_count(grid.shape, spacings, header.radar.carrier_frequency)
+
+
 def backproject_estimate(
     stage: str,
     header: Product,
@@ -204,7 +220,7 @@ def backproject_estimate(
     detail = f"~{n[0]} x {n[1]} pixels from {n_ch * n_az} pulses"
     if n_pix > block:
         detail += f", in {-(-n[0] // max(1, block // n[1]))} blocks of {max(1, block // n[1])} rows"
-    seconds = n_ch * n_az * n_pix * per
+    seconds = n_ch * n_az * (n_pix * per + _compiled_tiles(header, params, grid) * TILE_PULSE_SECONDS)
     if params.engine == "ffbp":
         from sarproc.focus.ffbp import error_bound, subaperture_lengths, taps_of
 

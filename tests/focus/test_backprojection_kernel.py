@@ -306,3 +306,19 @@ def test_linear_reads_mean_gain_is_undone(squint_raw):
     lin_taper = backproject(tapered, BackprojectParams(frame="los", interpolation="linear", upsample=8)).data
     assert db(lin, truth) < -58
     assert db(lin, truth) < db(lin_taper, truth) - 10
+
+
+@pytest.mark.parametrize("spacing", [(0.3, 0.3), (1.4, 3.5), (2.0, 0.5)])
+def test_the_time_model_counts_the_tiles_the_engine_makes(spacing):
+    """backproject's plan charges each tile per pulse (budget.TILE_PULSE_SECONDS): coarse pixels at X band make
+    tiles of tens of pixels under the carrier-cycle cap, 2.6x the time per pixel-pulse of 1024-pixel tiles. The
+    count it predicts from the grid alone is the count make_tiles then makes."""
+    from sarproc.focus.backprojection import MAX_TILE_RADIUS_CYCLES, C, _tile_size, grid_tile_count
+
+    fc = 9.6e9
+    shape = (400, 120)
+    x, y = np.meshgrid(np.arange(shape[0]) * spacing[0], np.arange(shape[1]) * spacing[1], indexing="ij")
+    pts = np.stack([x.ravel(), y.ravel(), np.zeros(x.size)], 1)
+    made = len(bk.make_tiles(pts, _tile_size(pts, 1024, MAX_TILE_RADIUS_CYCLES * C / fc), 4096)[1]) - 1
+    predicted = grid_tile_count(shape, spacing, fc)
+    assert 0.7 * made <= predicted <= 1.3 * made
