@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sarproc.quality.raster import axis_label, axis_pairs
+from sarproc.quality.raster import axis_label, axis_pairs, db_panels
 
 if TYPE_CHECKING:
     from collections.abc import Mapping, Sequence
@@ -58,17 +58,11 @@ def plot_quicklook(
     ``data`` may be complex or a magnitude already (e.g. :func:`sarproc.product.io.read_magnitude_preview`);
     ``frame`` names the image frame in the axis labels.
     """
-    if not dynamic_range_db > 0:
-        raise ValueError(f"dynamic range must be positive, got {dynamic_range_db} dB")
     units = units or {}
-    mag = np.abs(np.asarray(data))
-    peak = mag.max() if mag.size and mag.max() > 0 else 1.0
-    pairs = axis_pairs(mag.ndim)
-    fig, axs = _figure(len(pairs))
-    for ax, (v, h) in zip(axs, pairs):
-        other = tuple(a for a in range(mag.ndim) if a not in (v, h))
-        proj = mag.max(axis=other) if other else mag
-        db = 20 * np.log10(np.maximum(proj / peak, 10 ** (-dynamic_range_db / 20)))
+    panels = db_panels(np.abs(np.asarray(data)), dynamic_range_db)
+    fig, axs = _figure(len(panels))
+    for ax, panel in zip(axs, panels):
+        v, h, other, db = panel.v, panel.h, panel.other, panel.db
         cv, ch = np.asarray(coords[dims[v]]), np.asarray(coords[dims[h]])
         extent = (ch[0], ch[-1], cv[0], cv[-1])
         im = ax.imshow(

@@ -301,19 +301,38 @@ class _PanelPlan:
     title: str
 
 
+@dataclass(frozen=True)
+class DbPanel:
+    """One panel of a quicklook: image axes ``v`` (vertical) and ``h``, the axes ``other`` maximised over, and the
+    projection in dB below the image's peak, clipped at the dynamic range."""
+
+    v: int
+    h: int
+    other: tuple[int, ...]
+    db: np.ndarray
+
+
+def db_panels(mag: np.ndarray, dynamic_range_db: float) -> list[DbPanel]:
+    """The panels both quicklook renderers draw of a magnitude image (2D: one; 3D: its three maximum projections)."""
+    if not dynamic_range_db > 0:
+        raise ValueError(f"dynamic range must be positive, got {dynamic_range_db} dB")
+    peak = float(mag.max()) if mag.size and mag.max() > 0 else 1.0
+    panels = []
+    for v, h in axis_pairs(mag.ndim):
+        other = tuple(a for a in range(mag.ndim) if a not in (v, h))
+        proj = mag.max(axis=other) if other else mag  # axes (v, h): v < h in every pair
+        panels.append(DbPanel(v, h, other, 20 * np.log10(np.maximum(proj / peak, 10 ** (-dynamic_range_db / 20)))))
+    return panels
+
+
 def _plan_panel(
-    mag: np.ndarray,
-    pair: tuple[int, int],
-    peak: float,
+    panel: DbPanel,
     coords_v: np.ndarray,
     coords_h: np.ndarray,
     dynamic_range_db: float,
     title: str,
 ) -> _PanelPlan:
-    v, h = pair
-    other = tuple(a for a in range(mag.ndim) if a not in (v, h))
-    proj = mag.max(axis=other) if other else mag  # axes (v, h): v < h in every pair
-    db = 20 * np.log10(np.maximum(proj / peak, 10 ** (-dynamic_range_db / 20)))
+    v, h, db = panel.v, panel.h, panel.db
     kv, kh = _factor(db.shape[0]), _factor(db.shape[1])
     lo_v, hi_v, _ = _edges(coords_v)
     lo_h, hi_h, _ = _edges(coords_h)
@@ -353,14 +372,11 @@ def render_quicklook(
     mag = np.abs(np.asarray(data))
     if mag.ndim not in (2, 3):
         raise ValueError(f"a quicklook draws 2D images and 3D cubes, got {mag.ndim} dimensions")
-    peak = float(mag.max()) if mag.size and mag.max() > 0 else 1.0
-    pairs = axis_pairs(mag.ndim)
     plans = []
-    for v, h in pairs:
-        other = [dims[o] for o in range(mag.ndim) if o not in (v, h)]
-        sub = f"max over {', '.join(other)}" if other else ""
-        cv, ch = np.asarray(coords[dims[v]], float), np.asarray(coords[dims[h]], float)
-        plans.append(_plan_panel(mag, (v, h), peak, cv, ch, dynamic_range_db, sub))
+    for panel in db_panels(mag, dynamic_range_db):
+        sub = f"max over {', '.join(dims[o] for o in panel.other)}" if panel.other else ""
+        cv, ch = np.asarray(coords[dims[panel.v]], float), np.asarray(coords[dims[panel.h]], float)
+        plans.append(_plan_panel(panel, cv, ch, dynamic_range_db, sub))
 
     margin = 12
     top = margin + (TEXT_HEIGHT + 2 * GAP if title else 0) + (TEXT_HEIGHT + GAP if mag.ndim == 3 else 0)
