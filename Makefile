@@ -96,6 +96,12 @@ check-backprojection: $(STAMP)
 check-theory: $(STAMP)
 	$(call bp_check,results/theory,beam_edge hamming,configs/bp_%_expect.yaml)
 
+# What backproject's default range upsampling (x16; x8 before session 24) does to every measurement of the
+# shipped backprojection scenes, against the float64 reference engine on x32 pulses: results/range-upsample/.
+.PHONY: range-upsample
+range-upsample: $(STAMP)
+	$(PY) scripts/range_upsample_effect.py --out results/range-upsample
+
 # accuracy-backprojection (the reference's own knobs: time vs quality) is a sweep: mk/sweeps.mk, as are
 # accuracy-000, -002, -003 and -004.
 

@@ -257,9 +257,9 @@ def bp_stages(case: dict[str, Any]) -> tuple[list[Stage], np.ndarray]:
     kw: dict[str, Any] = {"gate_offset": case["gate"]}
     over = case["fs"] / case["bandwidth"]
     engines: list[tuple[str, dict[str, Any]]] = [
-        ("reference", {"engine": "reference"}),
-        ("compiled linear x8", {"engine": "compiled"}),
-        ("compiled cubic x8", {"engine": "compiled", "interpolation": "cubic"}),
+        ("reference", {"engine": "reference", "upsample": 8}),
+        ("compiled linear x8", {"engine": "compiled", "upsample": 8}),
+        ("compiled cubic x8", {"engine": "compiled", "interpolation": "cubic", "upsample": 8}),
         ("compiled knab8 x2", {"engine": "compiled", "interpolation": "knab", "upsample": 2, "oversampling": 2 * over}),
     ]
     if "engine" not in inspect.signature(backproject_points).parameters:  # an older sarproc (--stages before)
@@ -280,7 +280,7 @@ def bp_stages(case: dict[str, Any]) -> tuple[list[Stage], np.ndarray]:
         )
         st.pixel_pulses = n * n * len(pos)
         stages.append(st)
-    truth = backproject_points(*args, **kw, **engines[0][1], upsample=32).reshape(n, n)  # type: ignore[misc]
+    truth = backproject_points(*args, **kw, **{**engines[0][1], "upsample": 32}).reshape(n, n)  # type: ignore[misc]
     return stages, truth
 
 
@@ -940,7 +940,7 @@ def ffbp_main(argv: list[str] | None = None) -> None:
             args = (case["rc"], case["range_time"], case["pos"], case["pos"], pts, case["fc"])
             common: dict[str, Any] = {"gate_offset": case["gate"], "engine": "compiled"}
             formers: dict[str, Callable[[], np.ndarray]] = {
-                "sarproc exact linear x8": functools.partial(backproject_points, *args, **common),
+                "sarproc exact linear x8": functools.partial(backproject_points, *args, **common, upsample=8),
                 # FastSAR's exact former pads its profiles to a power of two (nfft = 2^ceil(log2(8 K)): 16384 for
                 # 1060 samples, x15.5): its "x8" reads a profile as fine as our x16
                 "sarproc exact linear x16": functools.partial(backproject_points, *args, **common, upsample=16),

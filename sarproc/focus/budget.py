@@ -140,7 +140,7 @@ BACKPROJECT_BYTES_PER_PIXEL = 140.0
 
 def _backproject_fixed_bytes(n_ch: int, n_az: int, n_rg: int, params: Any) -> float:
     raw = 4 * complex_bytes(n_ch, n_az, n_rg)
-    up = complex_bytes(min(64, n_az), n_rg * params.upsample, itemsize=16)
+    up = complex_bytes(min(64, n_az), n_rg * params.range_upsample, itemsize=16)
     return raw + 2 * up
 
 
@@ -233,7 +233,7 @@ def backproject_estimate(
             grid = plan_backprojection(header, params)
         err = ffbp_predicted_error(header, params, grid, block)
         # all pulses upsampled at once, and two levels' polar images (at most ~q^2 samples per pixel each)
-        memory += complex_bytes(n_az, n_rg * params.upsample) + 2 * complex_bytes(n_pix) * q * q
+        memory += complex_bytes(n_az, n_rg * params.range_upsample) + 2 * complex_bytes(n_pix) * q * q
         # ~q^2 / 3 polar samples per pixel per level (pixels ~3 per resolution cell); one core's time per read
         # measured on the 1024^2 bench grid (scripts/bench.py ffbp stage times x 2 cores, the third round's
         # vectorised kernels): a pulse read of the first level ~6 ns, a two-pass polar read ~(taps + 12) ns, an
@@ -271,7 +271,7 @@ def ffbp_predicted_error(header: Product, params: Any, plan: BackprojectionPlan,
     blocks = row_blocks(plan.shape, block_pixels)
     tx = header.aux["platform_position"] + header.aux.get("tx_offset", np.zeros(3))
     r = header.radar
-    pulse_q = pulse_oversample(header_shape(header)[-1], params.upsample, r.range_sampling_rate, r.bandwidth)
+    pulse_q = pulse_oversample(header_shape(header)[-1], params.range_upsample, r.range_sampling_rate, r.bandwidth)
     errors = []
     for i in sorted({0, len(blocks) // 2, len(blocks) - 1}):
         # the model reads the grid's plane and outline only: ~64 rows and columns of the block, its edges kept,

@@ -104,7 +104,7 @@ def test_help_lists_every_declared_key(name: str) -> None:
             assert key in rows
     # units and defaults come with the keys: e.g. a quantity shows its SI unit, a default its value
     if name == "backproject":
-        assert rows["azimuth_spacing"].startswith("[m] ") and "(default 8)" in rows["upsample"]
+        assert rows["azimuth_spacing"].startswith("[m] ") and "default 16 for the exact engines" in rows["upsample"]
         assert "one of compiled, reference, ffbp" in rows["engine"] and ">= 1, <= 64" in rows["upsample"]
     if name == "simulate":
         assert rows["radar.carrier_frequency"].startswith("[Hz] ") and rows["radar.carrier_frequency"].endswith(

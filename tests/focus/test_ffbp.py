@@ -72,7 +72,7 @@ def predicted(raw, image, p, **changes):
         oversample=p.ffbp_oversample,
         ffbp_interpolation=p.ffbp_interpolation,
         ffbp_taps=p.ffbp_taps,
-        pulse_oversample=pulses_q(raw, p.upsample),
+        pulse_oversample=pulses_q(raw, p.range_upsample),
         pulse_interpolation=p.interpolation,
     )
 
@@ -346,7 +346,7 @@ def test_ffbp_reads_the_pulses_cubic_as_the_exact_engine_does():
     """interpolation: cubic (four-sample Lagrange on the x8 pulses) in both engines: ffbp's error against that
     exact image is the predicted one, far below the linear reads' floor."""
     raw = simulate(scene_from_mapping(SQUINT30))
-    params = BackprojectParams(frame="los", azimuth_extent=40.0, range_extent=40.0, interpolation="cubic")
+    params = BackprojectParams(frame="los", azimuth_extent=40.0, range_extent=40.0, interpolation="cubic", upsample=8)
     exact = backproject(raw, params)
     image = backproject(raw, dataclasses.replace(params, engine="ffbp")).data
     measured = nmse(image, exact.data)
