@@ -232,7 +232,7 @@ class _Reads:
 DEFAULT_TILE_POINTS = 1024
 
 # Range upsampling of the pulses by default: linear reads at x8 leave -55 dB of error on the bp scenes, enough to
-# misread a weak target's side lobes by ~1 dB; x16 costs the same per pixel-pulse (docs/backprojection.md). ffbp
+# misread a weak target's side lobes by ~1 dB; x16 costs the same per pixel-pulse (docs/performance.md). ffbp
 # holds every upsampled pulse at once, so it keeps x8 (its own reads' error dominates).
 EXACT_UPSAMPLE = 16
 FFBP_UPSAMPLE = 8
@@ -695,7 +695,7 @@ class BackprojectParams:
         le=64,
         doc="range FFT upsampling before interpolation (the length is rounded up to a fast FFT length); "
         "default 16 for the exact engines (linear reads at 8 misread a weak target's side lobes by up to "
-        "1.2 dB, docs/backprojection.md), 8 for ffbp (it holds every upsampled pulse at once)",
+        "1.2 dB, docs/performance.md), 8 for ffbp (it holds every upsampled pulse at once)",
     )
     interpolation: str = param(
         default="linear",
