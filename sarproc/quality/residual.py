@@ -396,9 +396,11 @@ HOPELESS_CRAWL = 1e-3
 # 1.5 times the predicted decrease at every step, each step going half the way and each decrease a quarter of the
 # previous (13-14 steps); 000 small's by 0.46 times (overshooting by half). No step limit or halving was
 # involved. Where two successive full steps find the same best length along them (:func:`_stretch`, within
-# STEADY), the next step is that many Gauss-Newton steps long. Erratic ratios (a fit zig-zagging, or leaving its
-# basin: a fit on the partly lit target of tests/quality/test_evaluate_pinned.py found a misfit 0.3 % lower
-# there, moving the floor 0.085 dB) and fits the model does not describe (STRETCH_MISFIT) are not stretched.
+# STEADY), the next step is that many Gauss-Newton steps long. Only steady ones: stretching by every step's
+# parabola took a fit on the partly lit target of tests/quality/test_evaluate_pinned.py's own-supports scene, its
+# ratio rising step by step, into another basin (misfit 0.3 % lower, floor 0.085 dB off the pinned one); fits
+# the model does not describe (above STRETCH_MISFIT: the noisy scene of test_residual_convergence.py, whose
+# stretched fits ended 0.23 dB from the unstretched ones) are not stretched either.
 STRETCH = True
 MAX_STRETCH = 4.0  # best lengths beyond [1 / MAX_STRETCH, MAX_STRETCH] Gauss-Newton steps are not taken
 STEADY = 0.1
@@ -549,7 +551,8 @@ def _fit_group(
 ) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray], list]:
     """Complex amplitudes of every member's orders, and real band centres f_c and spatial chirps K by
     Gauss-Newton to convergence (:data:`FIT_TOLERANCE`; the amplitudes by linear least squares at each step,
-    a step halved until it lowers the misfit).
+    a step halved until it lowers the misfit, stretched where the steps fall short or overshoot steadily:
+    :data:`STRETCH`).
 
     With ``shape0`` (per member: (scale, kappa) starting values) the support's shape is fitted too: its
     widths (null spacing ``nulls * (1 + scale)`` per axis) and keystone kappa (:func:`_strip_factors`).
