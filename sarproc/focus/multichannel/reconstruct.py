@@ -348,10 +348,11 @@ class _Window:
 
 
 NULL_FIT_HALF_WIDTH = 12  # azimuth samples either side of a mover's response searched and compared (_NullFit)
-# ... and kept as the mover, focused at its own FM rate (resolution 2.5 samples): whatever else is kept is modelled as
-# moving with it, so clutter there biases v_los (scripts/movers_sigma_003.py seed 9 (-2, 10): -0.3 m/s at +-12, 0 at +-6)
-NULL_FIT_KEPT = 6
 NULL_FIT_CELLS = 3  # range cells either side of it
+# azimuth samples either side kept as the mover, focused at its own FM rate (resolution 2.5 samples): whatever else is
+# kept is modelled as moving with it, so clutter there biases v_los (movers_sigma_003.py seed 9 (-2, 10): -0.3 m/s at
+# +-12, 0 at +-6)
+NULL_FIT_KEPT = 6
 NULL_FIT_ALONG_TRACK = (8.0, -8.0, 16.0, -16.0)  # m/s: the null fit's trial v_a when v_a = 0 explains nothing
 NULL_FIT_MISMATCH = 0.3  # a velocity leaving more than this fraction of the residual response unexplained is wrong
 STATIC_CELLS = 2  # range cells either side of an examined static detection that share its answer (_visit)
@@ -416,7 +417,8 @@ class _NullFit:
     def mover_ka(self, v_r: float, v_a: float) -> np.ndarray:
         """The trial mover's azimuth FM rate K_a(f_r): the static one scaled by R''_mover / R''_static. Compressed
         with the static rate, a mover of v_a 12 m/s (R'' -0.36 %) spreads over 27 samples (2.7 ms of its 0.76 s
-        illumination), more than the +-NULL_FIT_HALF_WIDTH kept, and lies under the clutter focused beside it."""
+        illumination), more than the +-12 that were kept (half its energy), and lies under the clutter focused
+        beside it, which the fit then isolated instead (docs/multichannel.md, "Why (-3, 12) was missed")."""
         g = self.win.g
         ratio = velocity.range_acceleration(g.velocity, v_a, v_r, g.squint, 1.0) / velocity.range_acceleration(
             g.velocity, 0.0, 0.0, g.squint, 1.0
