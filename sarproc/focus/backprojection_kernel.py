@@ -291,24 +291,24 @@ def _combine_cubic(
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _gather_quads(coef: np.ndarray, jc: np.ndarray, g: np.ndarray) -> None:
-    """g[2i], g[2i + 1] = coef[2 jc[i]], coef[2 jc[i] + 1]: one 32-byte cubic entry per pixel."""
+def _gather_quads(coef: np.ndarray, base: np.uint64, jc: np.ndarray, g: np.ndarray) -> None:
+    """g[2i], g[2i + 1] = coef[base + 2 jc[i]], coef[base + 2 jc[i] + 1]: one 32-byte cubic entry per pixel."""
     for i in range(len(jc)):
-        k = np.uint32(2) * jc[i]
+        k = base + np.uint64(2) * np.uint64(jc[i])
         g[2 * i] = coef[k]
-        g[2 * i + 1] = coef[k + np.uint32(1)]
+        g[2 * i + 1] = coef[k + np.uint64(1)]
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _gather_pairs(pairs: np.ndarray, jc: np.ndarray, a: np.ndarray, b: np.ndarray) -> None:
-    """a[i], b[i] = the halves of pair entry jc[i] (sample, difference to the next; pairs: its complex64 view,
-    two per entry), the only indirect loads. Two arrays of 8-byte halves rather than one of 16-byte entries: the
+def _gather_pairs(pairs: np.ndarray, base: np.uint64, jc: np.ndarray, a: np.ndarray, b: np.ndarray) -> None:
+    """a[i], b[i] = the halves of pair entry jc[i] (sample, difference to the next; pairs: the tables' flat
+    complex64 view, two per entry, this pulse's from ``base``), the only indirect loads. Two arrays of 8-byte halves rather than one of 16-byte entries: the
     combine pass then de-interleaves pairs of floats, not quadruples (~57 instead of ~115 instructions per 8
     pixels; the kernel 11 % faster on an AVX2 host, docs/performance.md)."""
     for i in range(len(jc)):
-        k = np.uint32(2) * jc[i]
+        k = base + np.uint64(2) * np.uint64(jc[i])
         a[i] = pairs[k]
-        b[i] = pairs[k + np.uint32(1)]
+        b[i] = pairs[k + np.uint64(1)]
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
@@ -521,17 +521,25 @@ def backproject_tiles(
     n_tiles = len(tile_start) - 1
     scale32 = np.float32(scale)
     kc32 = np.float32(kc)
+    # the tables as flat arrays of their entries' halves (linear) or entries (cubic), pulse p's from 2 p (W + 1):
+    # views made once, not per tile and pulse (each view costs its reference count's atomic updates)
+    flat = pairs.reshape(-1)
+    halves = flat.view(np.complex64)
+    quads = flat.view(np.complex128)
+    per_pulse = np.uint64(2 * pairs.shape[1])
     for t in numba.prange(n_tiles):
         s0, s1 = tile_start[t], tile_start[t + 1]
         n = s1 - s0
         acc_re = np.zeros(n, np.float32)
         acc_im = np.zeros(n, np.float32)
         scratch = np.empty((4, n), np.float32)
+        dr, frac, cos_, sin_ = scratch[0], scratch[1], scratch[2], scratch[3]
         jc = np.empty(n, np.uint32)
         gq = np.empty(2 * n if mode == 3 else 0, np.complex128)  # 32-byte cubic entries, moved bit for bit
         g = gq.view(np.float32)
         ga = np.empty(n if mode == 1 else 0, np.complex64)  # the linear entries' halves
         gb = np.empty(n if mode == 1 else 0, np.complex64)
+        ga32, gb32 = ga.view(np.float32), gb.view(np.float32)
         dx, dy, dz, d2 = d[0, s0:s1], d[1, s0:s1], d[2, s0:s1], d[3, s0:s1]
         h2 = 0.0
         for i in range(n):
@@ -546,29 +554,25 @@ def backproject_tiles(
             ib = np.int32(min(max(ibase, -(1 << 28)), 1 << 28))
             fused = (mode == 1 or mode == 3) and monostatic and geo_t[7]
             if fused:
-                _path_indices_mono(scratch[0], jc, dx, dy, dz, d2, geo_t, frac0, scale32, ib, n_s)
+                _path_indices_mono(dr, jc, dx, dy, dz, d2, geo_t, frac0, scale32, ib, n_s)
             else:
-                _path_differences(scratch[0], dx, dy, dz, d2, geo_t, geo_r, monostatic)
+                _path_differences(dr, dx, dy, dz, d2, geo_t, geo_r, monostatic)
             if mode == 1 or mode == 3:
                 if not fused:
-                    _indices(scratch[0], jc, frac0, scale32, ib, n_s)
+                    _indices(dr, jc, frac0, scale32, ib, n_s)
                 if mode == 1:
-                    _gather_pairs(pairs[p].reshape(-1).view(np.complex64), jc, ga, gb)
-                    _combine_from_dr(
-                        acc_re, acc_im, ga.view(np.float32), gb.view(np.float32), scratch[0], frac0, cyc0, scale32, kc32
-                    )
+                    _gather_pairs(halves, np.uint64(p) * per_pulse, jc, ga, gb)
+                    _combine_from_dr(acc_re, acc_im, ga32, gb32, dr, frac0, cyc0, scale32, kc32)
                 else:
-                    _gather_quads(pairs[p].reshape(-1).view(np.complex128), jc, gq)
-                    _combine_cubic(acc_re, acc_im, g, scratch[0], frac0, cyc0, scale32, kc32)
+                    _gather_quads(quads, np.uint64(p) * per_pulse, jc, gq)
+                    _combine_cubic(acc_re, acc_im, g, dr, frac0, cyc0, scale32, kc32)
             else:
-                _positions(scratch[0], scratch[1], scratch[2], scratch[3], frac0, cyc0, scale32, kc32)
+                _positions(dr, frac, cos_, sin_, frac0, cyc0, scale32, kc32)
                 row = pulses[p]
                 if mode == 0:
-                    _accumulate_nearest(
-                        acc_re, acc_im, scratch[1], scratch[2], scratch[3], row.view(np.float32), ib, n_s
-                    )
+                    _accumulate_nearest(acc_re, acc_im, frac, cos_, sin_, row.view(np.float32), ib, n_s)
                 else:
-                    _accumulate_table(acc_re, acc_im, scratch[1], scratch[2], scratch[3], row, ib, n_s, table, taps)
+                    _accumulate_table(acc_re, acc_im, frac, cos_, sin_, row, ib, n_s, table, taps)
         for i in range(n):
             acc[s0 + i] += complex(acc_re[i], acc_im[i])
 
