@@ -433,6 +433,21 @@ def grid_tile_count(shape: tuple[int, ...], spacings: tuple[float, ...], carrier
     return max(1, math.ceil(n / per_tile))
 
 
+def grid_block_count(shape: tuple[int, ...], spacings: tuple[float, ...], carrier_frequency: float) -> int:
+    """About how many blocks of tiles (:func:`tile_block`) the compiled engine runs a regular grid's tiles in on
+    linear monostatic reads: :func:`grid_tile_count` where the tiles are not capped, fewer where they are."""
+    n = int(np.prod(shape))
+    if n == 0:
+        return 0
+    ext = np.array([k * d for k, d in zip(shape, spacings, strict=True)], float)
+    edge = tile_edge(ext, n, DEFAULT_TILE_POINTS, MAX_TILE_RADIUS_CYCLES * C / carrier_frequency)
+    side = edge * tile_block(edge, tile_edge(ext, n, DEFAULT_TILE_POINTS), True)
+    per_block = 1.0
+    for k, d in zip(shape, spacings, strict=True):
+        per_block *= min(float(k), max(1.0, side / d)) if d > 0 else 1.0
+    return max(1, math.ceil(n / per_block))
+
+
 @contextlib.contextmanager
 def numba_threads(workers: int | None) -> Iterator[None]:
     """numba's parallel kernels on ``workers`` threads (None or 0: as set) inside the block, restored after."""

@@ -302,9 +302,10 @@ def _gather_quads(coef: np.ndarray, base: np.uint64, jc: np.ndarray, g: np.ndarr
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def _gather_pairs(pairs: np.ndarray, base: np.uint64, jc: np.ndarray, a: np.ndarray, b: np.ndarray) -> None:
     """a[i], b[i] = the halves of pair entry jc[i] (sample, difference to the next; pairs: the tables' flat
-    complex64 view, two per entry, this pulse's from ``base``), the only indirect loads. Two arrays of 8-byte halves rather than one of 16-byte entries: the
-    combine pass then de-interleaves pairs of floats, not quadruples (~57 instead of ~115 instructions per 8
-    pixels; the kernel 11 % faster on an AVX2 host, docs/performance.md)."""
+    complex64 view, two per entry, this pulse's from ``base``), the only indirect loads. Two arrays of 8-byte
+    halves rather than one of 16-byte entries: the combine pass then de-interleaves pairs of floats, not
+    quadruples (~57 instead of ~115 instructions per 8 pixels; the kernel 11 % faster on an AVX2 host,
+    docs/performance.md)."""
     for i in range(len(jc)):
         k = base + np.uint64(2) * np.uint64(jc[i])
         a[i] = pairs[k]
@@ -827,11 +828,11 @@ def _tile_layout(
     tile_start = np.empty(n_tiles + 1, np.int64)
     block_start = np.empty(n_blocks + 1, np.int64)
     t = 0
-    b = 0
+    nb = 0
     for k in range(n_keys):
         if g > 1 and k % g3 == 0 and count[k + g3] > count[k]:
-            block_start[b] = t
-            b += 1
+            block_start[nb] = t
+            nb += 1
         for s in range(count[k], count[k + 1], max_tile):
             if g == 1:
                 block_start[t] = t
