@@ -584,9 +584,13 @@ def _tile_pulse(
     gq: np.ndarray,
     ga: np.ndarray,
     gb: np.ndarray,
+    g: np.ndarray,
+    ga32: np.ndarray,
+    gb32: np.ndarray,
 ) -> None:
     """One tile's sums += one pulse's contributions (the arrays: the tile's pixels; dr .. sin_ and the gather
-    buffers: room for them)."""
+    buffers: room for them; g, ga32, gb32: the float32 views of gq, ga, gb): a block's tiles one by one where
+    the expansion does not hold over the block (backproject_tiles writes the same steps out for a tile alone)."""
     scale32 = np.float32(scale)
     kc32 = np.float32(kc)
     ibase, frac0, cyc0, geo_t, geo_r = _pulse_reference(
@@ -604,10 +608,10 @@ def _tile_pulse(
             _indices(dr, jc, frac0, scale32, ib, n_s)
         if mode == 1:
             _gather_pairs(halves, np.uint64(p) * per_pulse, jc, ga, gb)
-            _combine_from_dr(acc_re, acc_im, ga.view(np.float32), gb.view(np.float32), dr, frac0, cyc0, scale32, kc32)
+            _combine_from_dr(acc_re, acc_im, ga32, gb32, dr, frac0, cyc0, scale32, kc32)
         else:
             _gather_quads(quads, np.uint64(p) * per_pulse, jc, gq)
-            _combine_cubic(acc_re, acc_im, gq.view(np.float32), dr, frac0, cyc0, scale32, kc32)
+            _combine_cubic(acc_re, acc_im, g, dr, frac0, cyc0, scale32, kc32)
     else:
         _positions(dr, frac, cos_, sin_, frac0, cyc0, scale32, kc32)
         row = pulses[p]
@@ -684,18 +688,42 @@ def backproject_tiles(
         gq = np.empty(2 * n if mode == 3 else 0, np.complex128)  # 32-byte cubic entries, moved bit for bit
         ga = np.empty(n if mode == 1 else 0, np.complex64)  # the linear entries' halves
         gb = np.empty(n if mode == 1 else 0, np.complex64)
+        g, ga32, gb32 = gq.view(np.float32), ga.view(np.float32), gb.view(np.float32)
         dr, frac, cos_, sin_ = scratch[0], scratch[1], scratch[2], scratch[3]
         dx, dy, dz, d2 = d[0, s0:s1], d[1, s0:s1], d[2, s0:s1], d[3, s0:s1]
         h4kc = np.empty(t1 - t0)
         for t in range(t0, t1):
             h2 = _max_norm2(d[3, tile_start[t] : tile_start[t + 1]])
             h4kc[t - t0] = h2 * h2 * kc
-        if t1 - t0 == 1:
+        if t1 - t0 == 1:  # a tile alone: _tile_pulse written out (called, its array arguments cost ~0.2 us)
+            cx, cy, cz = centres[t0, 0], centres[t0, 1], centres[t0, 2]
             for p in range(n_pulses):
-                _tile_pulse(
-                    pulses, halves, quads, per_pulse, first, scale, kc, tx, rx, monostatic, centres[t0], h4kc[0], p,
-                    dx, dy, dz, d2, mode, table, taps, n_s, acc_re, acc_im, dr, frac, cos_, sin_, jc, gq, ga, gb,
-                )  # fmt: skip
+                ibase, frac0, cyc0, geo_t, geo_r = _pulse_reference(
+                    cx, cy, cz, tx, rx, p, monostatic, scale, first, kc, h4kc[0]
+                )
+                # the tile's base sample, clipped so that int32 offsets cannot overflow (far reads add nothing)
+                ib = np.int32(min(max(ibase, -(1 << 28)), 1 << 28))
+                fused = (mode == 1 or mode == 3) and monostatic and geo_t[7]
+                if fused:
+                    _path_indices_mono(dr, jc, dx, dy, dz, d2, geo_t, frac0, scale32, ib, n_s)
+                else:
+                    _path_differences(dr, dx, dy, dz, d2, geo_t, geo_r, monostatic)
+                if mode == 1 or mode == 3:
+                    if not fused:
+                        _indices(dr, jc, frac0, scale32, ib, n_s)
+                    if mode == 1:
+                        _gather_pairs(halves, np.uint64(p) * per_pulse, jc, ga, gb)
+                        _combine_from_dr(acc_re, acc_im, ga32, gb32, dr, frac0, cyc0, scale32, kc32)
+                    else:
+                        _gather_quads(quads, np.uint64(p) * per_pulse, jc, gq)
+                        _combine_cubic(acc_re, acc_im, g, dr, frac0, cyc0, scale32, kc32)
+                else:
+                    _positions(dr, frac, cos_, sin_, frac0, cyc0, scale32, kc32)
+                    row = pulses[p]
+                    if mode == 0:
+                        _accumulate_nearest(acc_re, acc_im, frac, cos_, sin_, row.view(np.float32), ib, n_s)
+                    else:
+                        _accumulate_table(acc_re, acc_im, frac, cos_, sin_, row, ib, n_s, table, taps)
         else:
             # the block's centre (its tiles' centres' box) and the pixels' offsets x from it
             cb = np.empty(3)
@@ -731,9 +759,7 @@ def backproject_tiles(
                     u = (np.float32(ux), np.float32(uy), np.float32(uz), np.float32(0.5 / r), np.float32(0.5 / (r * r)))
                     _path_indices_block(dr, jc, dx, dy, dz, x, u, pos, scale32, ib, n_s)
                     _gather_pairs(halves, np.uint64(p) * per_pulse, jc, ga, gb)
-                    _combine_block(
-                        acc_re, acc_im, ga.view(np.float32), gb.view(np.float32), dr, pos, cyc, scale32, kc32
-                    )
+                    _combine_block(acc_re, acc_im, ga32, gb32, dr, pos, cyc, scale32, kc32)
                 else:  # tile by tile
                     for t in range(t0, t1):
                         a, b = tile_start[t] - s0, tile_start[t + 1] - s0
@@ -743,7 +769,7 @@ def backproject_tiles(
                             pulses, halves, quads, per_pulse, first, scale, kc, tx, rx, monostatic, centres[t],
                             h4kc[t - t0], p, dx[a:b], dy[a:b], dz[a:b], d2[a:b], mode, table, taps, n_s, acc_re[a:b],
                             acc_im[a:b], dr[a:b], frac[a:b], cos_[a:b], sin_[a:b], jc[a:b], gq[qa:qb], ga[la:lb],
-                            gb[la:lb],
+                            gb[la:lb], g[4 * qa : 4 * qb], ga32[2 * la : 2 * lb], gb32[2 * la : 2 * lb],
                         )  # fmt: skip
         for i in range(n):
             acc[s0 + i] += complex(acc_re[i], acc_im[i])
