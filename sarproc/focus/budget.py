@@ -172,14 +172,15 @@ def backproject_block_pixels(
     return max(row, min(block, int(room / BACKPROJECT_BYTES_PER_PIXEL) // row * row))
 
 
-# The compiled engine's cost of one tile and pulse beyond its pixels' (wall s on two cores): 0.2-0.3 us of one core
-# (scripts/tile_cost.py; docs/performance.md "Coarse pixels"), about 100 pixel-pulses' worth, so it counts where
-# the carrier-cycle cap leaves tiles of tens of pixels (X band, metre pixels: 003's traffic grid, 26 a tile).
-# On linear reads such tiles run in blocks of ~1024 pixels (focus.backprojection.tile_block): each block costs
-# TILE_PULSE_SECONDS a pulse and each further tile in it SUBTILE_PULSE_SECONDS (its float64 u.X and its pixels'
-# share of the pass, docs/performance.md "Coarse pixels in blocks").
-TILE_PULSE_SECONDS = 0.15e-6
-SUBTILE_PULSE_SECONDS = 0.03e-6
+# The compiled engine's cost of one tile and pulse beyond its pixels' (wall s on two cores): 0.11 us of one core
+# (0.17-0.3 before its views were made once a tile; scripts/tile_cost.py, docs/performance.md "Coarse pixels"),
+# about 50 pixel-pulses' worth, so it counts where the carrier-cycle cap leaves tiles of tens of pixels (X band,
+# metre pixels: 003's traffic grid, 26 a tile). On linear reads such tiles run in blocks of ~1024 pixels
+# (focus.backprojection.tile_block): each block costs TILE_PULSE_SECONDS a pulse and each further tile in it
+# SUBTILE_PULSE_SECONDS (its float64 u.X, its pixels' per-tile phase and position: 0.05-0.06 us of one core,
+# docs/performance.md "Coarse pixels in blocks").
+TILE_PULSE_SECONDS = 0.1e-6
+SUBTILE_PULSE_SECONDS = 0.035e-6
 
 
 def _compiled_tile_seconds(header: Product, params: Any, grid: BackprojectionPlan | None) -> float:
