@@ -5,7 +5,9 @@
 
 One synthetic 560k-pixel flat grid (2000 x 280 at 0.3 m) read from 512 random X-band pulses at ~600 km, on one
 numba thread, with tiles of 32 to 1024 pixels (``tile_points``); the best CPU time of each is fitted as
-a + b x tile-pulses, a / pixel-pulses being the per-pixel-pulse cost and b the per-tile-pulse cost.
+a + b x tile-pulses, a / pixel-pulses being the per-pixel-pulse cost and b the per-tile-pulse cost. Then the
+same pixel count at 1.4 x 2.2 m (tiles capped at ~40 pixels, run in blocks on these linear reads): what its CPU
+time leaves over a per pixel-pulse and b per block-pulse, per pulse of each further tile in a block.
 """
 
 from __future__ import annotations
@@ -54,6 +56,20 @@ def main() -> None:
     for s in sizes:
         print(f"| {s} | {tiles[s]} | {best[s]:.3f} |")
     print(f"\nper pixel-pulse {a / (len(pts) * n_az) * 1e9:.2f} ns, per tile-pulse {b * 1e6:.3f} us (one core)")
+    xc, yc = np.meshgrid(np.arange(2000) * 1.4, np.arange(280) * 2.2, indexing="ij")
+    coarse = np.stack([xc.ravel(), yc.ravel(), np.zeros(xc.size)], 1)
+    tiles_c = bp._tiles(coarse, bp.DEFAULT_TILE_POINTS, fc, None, blocks=True)
+    n_tiles, n_blocks = len(tiles_c.start) - 1, len(tiles_c.blocks) - 1
+    cpu_c = np.inf
+    for _ in range(args.rounds):
+        c = time.process_time()
+        bp.backproject_points(rc, rt, pos, pos, coarse, fc, engine="compiled", workers=1)
+        cpu_c = min(cpu_c, time.process_time() - c)
+    rest = (cpu_c - a * len(coarse) / len(pts) - b * n_blocks * n_az) / ((n_tiles - n_blocks) * n_az)
+    print(
+        f"1.4 x 2.2 m: {n_tiles} tiles in {n_blocks} blocks, CPU {cpu_c:.3f} s (best), "
+        f"per further tile-pulse in a block {rest * 1e6:.3f} us (one core)"
+    )
 
 
 if __name__ == "__main__":

@@ -439,6 +439,21 @@ def grid_tile_count(shape: tuple[int, ...], spacings: tuple[float, ...], carrier
     return max(1, math.ceil(n / per_tile))
 
 
+def grid_block_count(shape: tuple[int, ...], spacings: tuple[float, ...], carrier_frequency: float) -> int:
+    """About how many blocks of tiles (:func:`tile_block`) the compiled engine runs a regular grid's tiles in on
+    linear monostatic reads: :func:`grid_tile_count` where the tiles are not capped, fewer where they are."""
+    n = int(np.prod(shape))
+    if n == 0:
+        return 0
+    ext = np.array([k * d for k, d in zip(shape, spacings, strict=True)], float)
+    edge = tile_edge(ext, n, DEFAULT_TILE_POINTS, MAX_TILE_RADIUS_CYCLES * C / carrier_frequency)
+    side = edge * tile_block(edge, tile_edge(ext, n, DEFAULT_TILE_POINTS), True)
+    per_block = 1.0
+    for k, d in zip(shape, spacings, strict=True):
+        per_block *= min(float(k), max(1.0, side / d)) if d > 0 else 1.0
+    return max(1, math.ceil(n / per_block))
+
+
 @contextlib.contextmanager
 def numba_threads(workers: int | None) -> Iterator[None]:
     """numba's parallel kernels on ``workers`` threads (None or 0: as set) inside the block, restored after."""
@@ -483,10 +498,10 @@ def _table_rows(kernel: Any, pulses: np.ndarray, lo: np.ndarray, out: np.ndarray
 
 
 def _tile_sums(kernel: Any, head: tuple, tiles: _Tiles, tail: tuple, group: tuple[int, int]) -> None:
-    """backproject_tiles(*head, tiles' centres and starts, offsets, *tail) over the tiles of ``group``: each
-    tile adds into its own pixels of the sum (tail[-1]), so groups may run side by side."""
-    t0, t1 = group
-    kernel(*head, tiles.centres[t0:t1], tiles.start[t0 : t1 + 1], tiles.d, *tail)
+    """backproject_tiles(*head, tiles' centres and starts, offsets, *tail) over the blocks of tiles of ``group``:
+    each tile adds into its own pixels of the sum (tail[-1]), so groups may run side by side."""
+    b0, b1 = group
+    kernel(*head, tiles.centres, tiles.start, tiles.blocks[b0 : b1 + 1], tiles.d, *tail)
 
 
 def _even_spans(n: int, parts: int) -> list[tuple[int, int]]:
@@ -523,30 +538,42 @@ def _tap_table(reads: _Reads) -> tuple[int, np.ndarray]:
 class _Tiles:
     """The points sorted into tiles (the kernels' make_tiles): ``order`` the sorted points' original indices,
     tile t's points ``start[t] .. start[t + 1]``, its centre ``centres[t]`` relative to ``origin``, and ``d``
-    the points' float32 offsets from their tile's centre (row 3: squared distance)."""
+    the points' float32 offsets from their tile's centre (row 3: squared distance); tiles ``blocks[b] ..
+    blocks[b + 1]`` the kernel runs together."""
 
     order: np.ndarray
     start: np.ndarray
     centres: np.ndarray
     origin: np.ndarray
     d: np.ndarray
+    blocks: np.ndarray
 
 
-def _tiles(points: np.ndarray, tile_points: int, carrier_frequency: float, aot: ModuleType | None) -> _Tiles:
-    """Tiles of about ``tile_points`` points, small enough in carrier cycles for the float32 offsets."""
+def tile_block(edge: float, uncapped: float, blocks: bool) -> int:
+    """Tiles a side of the compiled engine's blocks: as many as fit the edge ``uncapped`` (m) a tile of
+    ``tile_points`` would have where the carrier-cycle cap cut the tiles to ``edge`` (m), on linear monostatic
+    reads (``blocks``); else 1."""
+    return max(1, int(uncapped / edge)) if blocks and edge > 0 else 1
+
+
+def _tiles(
+    points: np.ndarray, tile_points: int, carrier_frequency: float, aot: ModuleType | None, blocks: bool = False
+) -> _Tiles:
+    """Tiles of about ``tile_points`` points, small enough in carrier cycles for the float32 offsets; where that
+    makes them smaller, blocks of them of about ``tile_points`` points (on linear monostatic reads, ``blocks``)."""
     from sarproc.focus import backprojection_aot
 
-    edge = _tile_size(
-        points,
-        tile_points,
-        MAX_TILE_RADIUS_CYCLES * C / carrier_frequency,
-        bounds=None if aot is None else aot.bounds,
-    )
     if aot is None:
         from sarproc.focus import backprojection_kernel as bk
 
-        return _Tiles(*bk.make_tiles(points, edge, max_tile=4 * tile_points))
-    return _Tiles(*backprojection_aot.make_tiles(points, edge, aot, max_tile=4 * tile_points))
+        lo, hi = bk.bounds(np.ascontiguousarray(points, dtype=float))
+    else:
+        lo, hi = aot.bounds(np.ascontiguousarray(points, dtype=float))
+    edge = tile_edge(hi - lo, len(points), tile_points, MAX_TILE_RADIUS_CYCLES * C / carrier_frequency)
+    block = tile_block(edge, tile_edge(hi - lo, len(points), tile_points), blocks)
+    if aot is None:
+        return _Tiles(*bk.make_tiles(points, edge, max_tile=4 * tile_points, block=block))
+    return _Tiles(*backprojection_aot.make_tiles(points, edge, aot, max_tile=4 * tile_points, block=block))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -613,7 +640,7 @@ def _backproject_compiled(
         from sarproc.focus import backprojection_kernel as bk
     k = bk if aot is None else aot
     taps, table = _tap_table(reads)
-    tiles = _tiles(points, tile_points, p.carrier_frequency, aot)
+    tiles = _tiles(points, tile_points, p.carrier_frequency, aot, mode == 1 and p.monostatic)
     n_up = upsampled_length(n_rg, reads.upsample)
     emphasis = read_emphasis(n_rg, n_up, reads.interpolation)
     fs_up = n_up / (n_rg * p.dt)
@@ -630,7 +657,8 @@ def _backproject_compiled(
     # the compiled module's kernels are serial and release the GIL: its calls go to threads, each on a share of
     # the pulses (tables) or of the tiles (sums: each tile adds into its own pixels, so the sums are the same)
     threads = 1 if aot is None else int(workers or backprojection_aot.available_threads())
-    groups = _tile_groups(tiles.start, 4 * threads) if threads > 1 else [(0, len(tiles.centres))]
+    n_blocks = len(tiles.blocks) - 1
+    groups = _tile_groups(tiles.start[tiles.blocks], 4 * threads) if threads > 1 else [(0, n_blocks)]
     with numba_threads(workers) if aot is None else contextlib.nullcontext(), _thread_map(threads) as run:
         buf = np.empty((chunk, n_up), np.complex64)
         for s, e in progress(spans) if progress is not None else spans:

@@ -36,7 +36,7 @@ EXPORTS = {
     "bounds": ("bounds", "UniTuple(f8[::1], 2)(f8[:, ::1])"),
     "tile_layout": (
         "_tile_layout",
-        "Tuple((i8[::1], i8[::1], f8[:, ::1], f4[:, ::1]))(f8[:, ::1], f8[::1], f8[::1], f8[::1], f8, i8)",
+        "Tuple((i8[::1], i8[::1], f8[:, ::1], f4[:, ::1], i8[::1]))(f8[:, ::1], f8[::1], f8[::1], f8[::1], f8, i8, i8)",
     ),
     "pulse_windows": (
         "pulse_windows",
@@ -46,7 +46,7 @@ EXPORTS = {
     "backproject_tiles": (
         "backproject_tiles",
         "void(c8[:, ::1], f4[:, :, ::1], f8[::1], f8, f8, f8[:, ::1], f8[:, ::1], b1, f8[:, ::1], i8[::1], "
-        "f4[:, ::1], i8, f4[:, ::1], i8, c16[::1])",
+        "i8[::1], f4[:, ::1], i8, f4[:, ::1], i8, c16[::1])",
     ),
     "scatter_scaled": ("scatter_scaled", "void(c16[::1], i8[::1], f8, c16[::1])"),
 }
@@ -87,8 +87,8 @@ def request_build() -> bool:
 
 
 def make_tiles(
-    points: np.ndarray, tile_size: float, k: ModuleType, max_tile: int = 1024
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    points: np.ndarray, tile_size: float, k: ModuleType, max_tile: int = 1024, block: int = 1
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`sarproc.focus.backprojection_kernel.make_tiles` on the compiled module ``k`` (the same steps;
     tested equal)."""
     points = np.ascontiguousarray(np.asarray(points, float).reshape(-1, 3))
@@ -99,15 +99,16 @@ def make_tiles(
             np.zeros((0, 3)),
             np.zeros(3),
             np.zeros((4, 0), np.float32),
+            np.zeros(1, np.int64),
         )
     if not np.isfinite(points).all():
         raise ValueError("points must be finite")
     lo, hi = k.bounds(points)
     origin = 0.5 * (lo + hi)
-    order, tile_start, centres, d = k.tile_layout(
-        points, origin, lo - origin, hi - origin, float(tile_size), int(max_tile)
+    order, tile_start, centres, d, block_start = k.tile_layout(
+        points, origin, lo - origin, hi - origin, float(tile_size), int(max_tile), int(block)
     )
-    return order, tile_start, centres, origin, d
+    return order, tile_start, centres, origin, d, block_start
 
 
 def build(key: str) -> Path:

@@ -291,24 +291,25 @@ def _combine_cubic(
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _gather_quads(coef: np.ndarray, jc: np.ndarray, g: np.ndarray) -> None:
-    """g[2i], g[2i + 1] = coef[2 jc[i]], coef[2 jc[i] + 1]: one 32-byte cubic entry per pixel."""
+def _gather_quads(coef: np.ndarray, base: np.uint64, jc: np.ndarray, g: np.ndarray) -> None:
+    """g[2i], g[2i + 1] = coef[base + 2 jc[i]], coef[base + 2 jc[i] + 1]: one 32-byte cubic entry per pixel."""
     for i in range(len(jc)):
-        k = np.uint32(2) * jc[i]
+        k = base + np.uint64(2) * np.uint64(jc[i])
         g[2 * i] = coef[k]
-        g[2 * i + 1] = coef[k + np.uint32(1)]
+        g[2 * i + 1] = coef[k + np.uint64(1)]
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _gather_pairs(pairs: np.ndarray, jc: np.ndarray, a: np.ndarray, b: np.ndarray) -> None:
-    """a[i], b[i] = the halves of pair entry jc[i] (sample, difference to the next; pairs: its complex64 view,
-    two per entry), the only indirect loads. Two arrays of 8-byte halves rather than one of 16-byte entries: the
-    combine pass then de-interleaves pairs of floats, not quadruples (~57 instead of ~115 instructions per 8
-    pixels; the kernel 11 % faster on an AVX2 host, docs/performance.md)."""
+def _gather_pairs(pairs: np.ndarray, base: np.uint64, jc: np.ndarray, a: np.ndarray, b: np.ndarray) -> None:
+    """a[i], b[i] = the halves of pair entry jc[i] (sample, difference to the next; pairs: the tables' flat
+    complex64 view, two per entry, this pulse's from ``base``), the only indirect loads. Two arrays of 8-byte
+    halves rather than one of 16-byte entries: the combine pass then de-interleaves pairs of floats, not
+    quadruples (~57 instead of ~115 instructions per 8 pixels; the kernel 11 % faster on an AVX2 host,
+    docs/performance.md)."""
     for i in range(len(jc)):
-        k = np.uint32(2) * jc[i]
+        k = base + np.uint64(2) * np.uint64(jc[i])
         a[i] = pairs[k]
-        b[i] = pairs[k + np.uint32(1)]
+        b[i] = pairs[k + np.uint64(1)]
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
@@ -486,6 +487,148 @@ def cubic_table(pulses: np.ndarray, lo: np.ndarray, coef: np.ndarray) -> None:
             coef[p, k, 7] = c3.imag
 
 
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
+def _path_indices_block(
+    dr: np.ndarray,
+    jc: np.ndarray,
+    dx: np.ndarray,
+    dy: np.ndarray,
+    dz: np.ndarray,
+    x: np.ndarray,
+    u: tuple[np.float32, np.float32, np.float32, np.float32, np.float32],
+    pos: np.ndarray,
+    scale32: np.float32,
+    ibase: np.int32,
+    n_w: np.int32,
+) -> None:
+    """The fused pass of a block (monostatic, expansion accurate over the block): dr = 2 (u.d + (|x|^2 - (u.x)^2)
+    (1/2R - u.x / 2R^2)), the path difference to the pixel's tile centre, whose own u.X to the block centre is in
+    ``pos`` (and the phase); d: offsets from the tile centres, x: from the block centre (rows x, y, z, |x|^2)."""
+    ux, uy, uz, hir, hir2 = u
+    lo = np.int32(0)
+    two = np.float32(2.0)
+    for i in range(len(dr)):
+        du = ux * dx[i] + uy * dy[i] + uz * dz[i]
+        ul = ux * x[0, i] + uy * x[1, i] + uz * x[2, i]
+        r = two * (du + (x[3, i] - ul * ul) * (hir - ul * hir2))
+        dr[i] = r
+        jc[i] = np.uint32(min(max(ibase + np.int32(np.floor(pos[i] + r * scale32)), lo), n_w))
+
+
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
+def _combine_block(
+    acc_re: np.ndarray,
+    acc_im: np.ndarray,
+    a: np.ndarray,
+    b: np.ndarray,
+    dr: np.ndarray,
+    pos: np.ndarray,
+    cyc: np.ndarray,
+    scale32: np.float32,
+    kc32: np.float32,
+) -> None:
+    """_combine_from_dr with each pixel's own (its tile's) position and cycles at dr = 0."""
+    for i in range(len(acc_re)):
+        w, co, si = _weight_and_phasor(dr[i], pos[i], cyc[i], scale32, kc32)
+        vr = a[2 * i] + w * b[2 * i]
+        vi = a[2 * i + 1] + w * b[2 * i + 1]
+        acc_re[i] += vr * co - vi * si
+        acc_im[i] += vr * si + vi * co
+
+
+@numba.njit(error_model="numpy", cache=CACHE)
+def _block_reference(
+    cx: float, cy: float, cz: float, tx: np.ndarray, p: int, scale: float, first: np.ndarray, kc: float
+) -> tuple[np.int64, float, float, float, float, float, float]:
+    """Per block and pulse, monostatic, float64: integer sample, fraction and reduced carrier cycles of the block
+    centre's delay, the unit vector to it and its range."""
+    ax, ay, az = cx - tx[p, 0], cy - tx[p, 1], cz - tx[p, 2]
+    r = math.sqrt(ax * ax + ay * ay + az * az)
+    ir = 1.0 / r
+    pos0 = 2.0 * r * scale + first[p]
+    base = math.floor(pos0)
+    cyc = 2.0 * r * kc
+    return np.int64(base), pos0 - base, cyc - math.floor(cyc), ax * ir, ay * ir, az * ir, r
+
+
+@numba.njit(error_model="numpy", cache=CACHE)
+def _tile_pulse(
+    pulses: np.ndarray,
+    halves: np.ndarray,
+    quads: np.ndarray,
+    per_pulse: np.uint64,
+    first: np.ndarray,
+    scale: float,
+    kc: float,
+    tx: np.ndarray,
+    rx: np.ndarray,
+    monostatic: bool,
+    centre: np.ndarray,
+    h4kc: float,
+    p: int,
+    dx: np.ndarray,
+    dy: np.ndarray,
+    dz: np.ndarray,
+    d2: np.ndarray,
+    mode: int,
+    table: np.ndarray,
+    taps: int,
+    n_s: np.int32,
+    acc_re: np.ndarray,
+    acc_im: np.ndarray,
+    dr: np.ndarray,
+    frac: np.ndarray,
+    cos_: np.ndarray,
+    sin_: np.ndarray,
+    jc: np.ndarray,
+    gq: np.ndarray,
+    ga: np.ndarray,
+    gb: np.ndarray,
+    g: np.ndarray,
+    ga32: np.ndarray,
+    gb32: np.ndarray,
+) -> None:
+    """One tile's sums += one pulse's contributions (the arrays: the tile's pixels; dr .. sin_ and the gather
+    buffers: room for them; g, ga32, gb32: the float32 views of gq, ga, gb): a block's tiles one by one where
+    the expansion does not hold over the block (backproject_tiles writes the same steps out for a tile alone)."""
+    scale32 = np.float32(scale)
+    kc32 = np.float32(kc)
+    ibase, frac0, cyc0, geo_t, geo_r = _pulse_reference(
+        centre[0], centre[1], centre[2], tx, rx, p, monostatic, scale, first, kc, h4kc
+    )
+    # the tile's base sample, clipped so that int32 offsets cannot overflow (far reads add nothing anyway)
+    ib = np.int32(min(max(ibase, -(1 << 28)), 1 << 28))
+    fused = (mode == 1 or mode == 3) and monostatic and geo_t[7]
+    if fused:
+        _path_indices_mono(dr, jc, dx, dy, dz, d2, geo_t, frac0, scale32, ib, n_s)
+    else:
+        _path_differences(dr, dx, dy, dz, d2, geo_t, geo_r, monostatic)
+    if mode == 1 or mode == 3:
+        if not fused:
+            _indices(dr, jc, frac0, scale32, ib, n_s)
+        if mode == 1:
+            _gather_pairs(halves, np.uint64(p) * per_pulse, jc, ga, gb)
+            _combine_from_dr(acc_re, acc_im, ga32, gb32, dr, frac0, cyc0, scale32, kc32)
+        else:
+            _gather_quads(quads, np.uint64(p) * per_pulse, jc, gq)
+            _combine_cubic(acc_re, acc_im, g, dr, frac0, cyc0, scale32, kc32)
+    else:
+        _positions(dr, frac, cos_, sin_, frac0, cyc0, scale32, kc32)
+        row = pulses[p]
+        if mode == 0:
+            _accumulate_nearest(acc_re, acc_im, frac, cos_, sin_, row.view(np.float32), ib, n_s)
+        else:
+            _accumulate_table(acc_re, acc_im, frac, cos_, sin_, row, ib, n_s, table, taps)
+
+
+@numba.njit(error_model="numpy", cache=CACHE)
+def _max_norm2(d2: np.ndarray) -> float:
+    h2 = 0.0
+    for i in range(len(d2)):
+        h2 = max(h2, float(d2[i]))
+    return h2
+
+
 @numba.njit(parallel=True, error_model="numpy", cache=CACHE)
 def backproject_tiles(
     pulses: np.ndarray,
@@ -498,6 +641,7 @@ def backproject_tiles(
     monostatic: bool,
     centres: np.ndarray,
     tile_start: np.ndarray,
+    block_start: np.ndarray,
     d: np.ndarray,
     mode: int,
     table: np.ndarray,
@@ -513,62 +657,120 @@ def backproject_tiles(
     first: (n_pulses,) float64, sample position of zero two-way path; scale: samples per metre of two-way path
     (fs / c); kc: carrier cycles per metre (f_c / c); tx, rx: (n_pulses, 3) float64 relative to the
     tiles' origin; centres: (n_tiles, 3) float64; tile_start: (n_tiles + 1,) int64 into the sorted pixels;
+    block_start: the blocks of tiles to run (make_tiles; a slice of its array: those blocks only);
     d: (4, n_pixels) float32 rows dx, dy, dz, |d|^2 of each pixel from its tile centre;
     mode: 0 nearest, 1 linear, 2 tabulated kernel of ``taps`` taps with ``table`` (steps + 1, taps), 3 cubic.
+
+    A block of several tiles (make_tiles' ``block``: tiles under the carrier-cycle cap, coarse pixels) on linear
+    monostatic reads runs as one tile where the expansion holds over it: per pulse its centre's range in float64,
+    each tile's u.X (X its centre from the block's) in float64 as its pixels' reduced cycles and position, each
+    pixel's u.d + the block-wide second- and third-order terms in float32: the same float32 rounding as the
+    tile's own pass (d stays within the tile), one pass over all the block's pixels instead of one per tile.
     """
     n_pulses = len(first)
     n_s = np.int32(pairs.shape[1] - 1) if mode in (1, 3) else np.int32(pulses.shape[1])
-    n_tiles = len(tile_start) - 1
     scale32 = np.float32(scale)
     kc32 = np.float32(kc)
-    for t in numba.prange(n_tiles):
-        s0, s1 = tile_start[t], tile_start[t + 1]
+    # the tables as flat arrays of their entries' halves (linear) or entries (cubic), pulse p's from 2 p (W + 1):
+    # views made once, not per tile and pulse (each view costs its reference count's atomic updates)
+    flat = pairs.reshape(-1)
+    halves = flat.view(np.complex64)
+    quads = flat.view(np.complex128)
+    per_pulse = np.uint64(2 * pairs.shape[1])
+    for blk in numba.prange(len(block_start) - 1):
+        t0, t1 = block_start[blk], block_start[blk + 1]
+        s0, s1 = tile_start[t0], tile_start[t1]
         n = s1 - s0
         acc_re = np.zeros(n, np.float32)
         acc_im = np.zeros(n, np.float32)
         scratch = np.empty((4, n), np.float32)
         jc = np.empty(n, np.uint32)
         gq = np.empty(2 * n if mode == 3 else 0, np.complex128)  # 32-byte cubic entries, moved bit for bit
-        g = gq.view(np.float32)
         ga = np.empty(n if mode == 1 else 0, np.complex64)  # the linear entries' halves
         gb = np.empty(n if mode == 1 else 0, np.complex64)
+        g, ga32, gb32 = gq.view(np.float32), ga.view(np.float32), gb.view(np.float32)
+        dr, frac, cos_, sin_ = scratch[0], scratch[1], scratch[2], scratch[3]
         dx, dy, dz, d2 = d[0, s0:s1], d[1, s0:s1], d[2, s0:s1], d[3, s0:s1]
-        h2 = 0.0
-        for i in range(n):
-            h2 = max(h2, float(d2[i]))
-        h4kc = h2 * h2 * kc
-        cx, cy, cz = centres[t, 0], centres[t, 1], centres[t, 2]
-        for p in range(n_pulses):
-            ibase, frac0, cyc0, geo_t, geo_r = _pulse_reference(
-                cx, cy, cz, tx, rx, p, monostatic, scale, first, kc, h4kc
-            )
-            # the tile's base sample, clipped so that int32 offsets cannot overflow (far reads add nothing anyway)
-            ib = np.int32(min(max(ibase, -(1 << 28)), 1 << 28))
-            fused = (mode == 1 or mode == 3) and monostatic and geo_t[7]
-            if fused:
-                _path_indices_mono(scratch[0], jc, dx, dy, dz, d2, geo_t, frac0, scale32, ib, n_s)
-            else:
-                _path_differences(scratch[0], dx, dy, dz, d2, geo_t, geo_r, monostatic)
-            if mode == 1 or mode == 3:
-                if not fused:
-                    _indices(scratch[0], jc, frac0, scale32, ib, n_s)
-                if mode == 1:
-                    _gather_pairs(pairs[p].reshape(-1).view(np.complex64), jc, ga, gb)
-                    _combine_from_dr(
-                        acc_re, acc_im, ga.view(np.float32), gb.view(np.float32), scratch[0], frac0, cyc0, scale32, kc32
-                    )
+        h4kc = np.empty(t1 - t0)
+        for t in range(t0, t1):
+            h2 = _max_norm2(d[3, tile_start[t] : tile_start[t + 1]])
+            h4kc[t - t0] = h2 * h2 * kc
+        if t1 - t0 == 1:  # a tile alone: _tile_pulse written out (called, its array arguments cost ~0.2 us)
+            cx, cy, cz = centres[t0, 0], centres[t0, 1], centres[t0, 2]
+            for p in range(n_pulses):
+                ibase, frac0, cyc0, geo_t, geo_r = _pulse_reference(
+                    cx, cy, cz, tx, rx, p, monostatic, scale, first, kc, h4kc[0]
+                )
+                # the tile's base sample, clipped so that int32 offsets cannot overflow (far reads add nothing)
+                ib = np.int32(min(max(ibase, -(1 << 28)), 1 << 28))
+                fused = (mode == 1 or mode == 3) and monostatic and geo_t[7]
+                if fused:
+                    _path_indices_mono(dr, jc, dx, dy, dz, d2, geo_t, frac0, scale32, ib, n_s)
                 else:
-                    _gather_quads(pairs[p].reshape(-1).view(np.complex128), jc, gq)
-                    _combine_cubic(acc_re, acc_im, g, scratch[0], frac0, cyc0, scale32, kc32)
-            else:
-                _positions(scratch[0], scratch[1], scratch[2], scratch[3], frac0, cyc0, scale32, kc32)
-                row = pulses[p]
-                if mode == 0:
-                    _accumulate_nearest(
-                        acc_re, acc_im, scratch[1], scratch[2], scratch[3], row.view(np.float32), ib, n_s
-                    )
+                    _path_differences(dr, dx, dy, dz, d2, geo_t, geo_r, monostatic)
+                if mode == 1 or mode == 3:
+                    if not fused:
+                        _indices(dr, jc, frac0, scale32, ib, n_s)
+                    if mode == 1:
+                        _gather_pairs(halves, np.uint64(p) * per_pulse, jc, ga, gb)
+                        _combine_from_dr(acc_re, acc_im, ga32, gb32, dr, frac0, cyc0, scale32, kc32)
+                    else:
+                        _gather_quads(quads, np.uint64(p) * per_pulse, jc, gq)
+                        _combine_cubic(acc_re, acc_im, g, dr, frac0, cyc0, scale32, kc32)
                 else:
-                    _accumulate_table(acc_re, acc_im, scratch[1], scratch[2], scratch[3], row, ib, n_s, table, taps)
+                    _positions(dr, frac, cos_, sin_, frac0, cyc0, scale32, kc32)
+                    row = pulses[p]
+                    if mode == 0:
+                        _accumulate_nearest(acc_re, acc_im, frac, cos_, sin_, row.view(np.float32), ib, n_s)
+                    else:
+                        _accumulate_table(acc_re, acc_im, frac, cos_, sin_, row, ib, n_s, table, taps)
+        else:
+            # the block's centre (its tiles' centres' box) and the pixels' offsets x from it
+            cb = np.empty(3)
+            for k in range(3):
+                cb[k] = 0.5 * (centres[t0:t1, k].min() + centres[t0:t1, k].max())
+            x = np.empty((4, n), np.float32)
+            for t in range(t0, t1):
+                for i in range(tile_start[t] - s0, tile_start[t + 1] - s0):
+                    r2 = np.float32(0.0)
+                    for k in range(3):
+                        v = np.float32(centres[t, k] - cb[k]) + d[k, s0 + i]
+                        x[k, i] = v
+                        r2 += v * v
+                    x[3, i] = r2
+            hb2 = _max_norm2(x[3])
+            h4kc_b = hb2 * hb2 * kc
+            pos = np.empty(n, np.float32)  # per pixel: its tile centre's sample position (from the block's base)
+            cyc = np.empty(n, np.float32)  # and reduced carrier cycles
+            for p in range(n_pulses):
+                ibase, frac0, cyc0, ux, uy, uz, r = _block_reference(cb[0], cb[1], cb[2], tx, p, scale, first, kc)
+                if mode == 1 and monostatic and h4kc_b / (r * r * r) < EXPANSION_LIMIT_CYCLES:
+                    for t in range(t0, t1):
+                        lin = 2.0 * (
+                            ux * (centres[t, 0] - cb[0]) + uy * (centres[t, 1] - cb[1]) + uz * (centres[t, 2] - cb[2])
+                        )
+                        pt = np.float32(frac0 + lin * scale)
+                        c = cyc0 + lin * kc
+                        ct = np.float32(c - math.floor(c))
+                        for i in range(tile_start[t] - s0, tile_start[t + 1] - s0):
+                            pos[i] = pt
+                            cyc[i] = ct
+                    ib = np.int32(min(max(ibase, -(1 << 28)), 1 << 28))
+                    u = (np.float32(ux), np.float32(uy), np.float32(uz), np.float32(0.5 / r), np.float32(0.5 / (r * r)))
+                    _path_indices_block(dr, jc, dx, dy, dz, x, u, pos, scale32, ib, n_s)
+                    _gather_pairs(halves, np.uint64(p) * per_pulse, jc, ga, gb)
+                    _combine_block(acc_re, acc_im, ga32, gb32, dr, pos, cyc, scale32, kc32)
+                else:  # tile by tile
+                    for t in range(t0, t1):
+                        a, b = tile_start[t] - s0, tile_start[t + 1] - s0
+                        qa, qb = (2 * a, 2 * b) if mode == 3 else (0, 0)
+                        la, lb = (a, b) if mode == 1 else (0, 0)
+                        _tile_pulse(
+                            pulses, halves, quads, per_pulse, first, scale, kc, tx, rx, monostatic, centres[t],
+                            h4kc[t - t0], p, dx[a:b], dy[a:b], dz[a:b], d2[a:b], mode, table, taps, n_s, acc_re[a:b],
+                            acc_im[a:b], dr[a:b], frac[a:b], cos_[a:b], sin_[a:b], jc[a:b], gq[qa:qb], ga[la:lb],
+                            gb[la:lb], g[4 * qa : 4 * qb], ga32[2 * la : 2 * lb], gb32[2 * la : 2 * lb],
+                        )  # fmt: skip
         for i in range(n):
             acc[s0 + i] += complex(acc_re[i], acc_im[i])
 
@@ -602,22 +804,32 @@ def bounds(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 @numba.njit(parallel=True, error_model="numpy", cache=CACHE)
 def _tile_layout(
-    points: np.ndarray, origin: np.ndarray, lo: np.ndarray, hi: np.ndarray, tile_size: float, max_tile: int
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    points: np.ndarray,
+    origin: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    tile_size: float,
+    max_tile: int,
+    block: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Counting sort of the points by spatial cell (lo, hi: the points' bounds relative to ``origin``), tiles of
-    at most ``max_tile`` points, each tile's bounding-box centre and the points' float32 offsets from it. The
+    at most ``max_tile`` points, each tile's bounding-box centre and the points' float32 offsets from it, and the
+    tiles in blocks of ``block`` cells a side (consecutive; each tile its own block where ``block`` is 1). The
     cell keys and the per-tile passes run in parallel; the sort itself is one serial counting pass."""
     n = points.shape[0]
+    g = max(np.int64(block), np.int64(1))
     dims = np.empty(3, np.int64)
     for k in range(3):
-        dims[k] = np.int64(math.floor((hi[k] - lo[k]) / tile_size)) + 1
+        dims[k] = -(-(np.int64(math.floor((hi[k] - lo[k]) / tile_size)) + 1) // g) * g  # whole blocks
     key = np.empty(n, np.int64)
     zero = np.int64(0)
     for i in numba.prange(n):
         c0 = max(np.int64(math.floor((points[i, 0] - origin[0] - lo[0]) / tile_size)), zero)
         c1 = max(np.int64(math.floor((points[i, 1] - origin[1] - lo[1]) / tile_size)), zero)
         c2 = max(np.int64(math.floor((points[i, 2] - origin[2] - lo[2]) / tile_size)), zero)
-        key[i] = (min(c0, dims[0] - 1) * dims[1] + min(c1, dims[1] - 1)) * dims[2] + min(c2, dims[2] - 1)
+        c0, c1, c2 = min(c0, dims[0] - 1), min(c1, dims[1] - 1), min(c2, dims[2] - 1)
+        outer = ((c0 // g) * (dims[1] // g) + c1 // g) * (dims[2] // g) + c2 // g
+        key[i] = outer * g * g * g + ((c0 % g) * g + c1 % g) * g + c2 % g  # a block's cells consecutive
     n_keys = dims[0] * dims[1] * dims[2]
     count = np.zeros(n_keys + 1, np.int64)
     for i in range(n):
@@ -630,16 +842,30 @@ def _tile_layout(
         order[fill[key[i]]] = i
         fill[key[i]] += 1
     n_tiles = 0
+    n_blocks = 0
+    g3 = g * g * g
     for k in range(n_keys):
         m = count[k + 1] - count[k]
         n_tiles += (m + max_tile - 1) // max_tile
+        if g > 1 and k % g3 == 0 and count[k + g3] > count[k]:
+            n_blocks += 1
+    if g == 1:
+        n_blocks = n_tiles
     tile_start = np.empty(n_tiles + 1, np.int64)
+    block_start = np.empty(n_blocks + 1, np.int64)
     t = 0
+    nb = 0
     for k in range(n_keys):
+        if g > 1 and k % g3 == 0 and count[k + g3] > count[k]:
+            block_start[nb] = t
+            nb += 1
         for s in range(count[k], count[k + 1], max_tile):
+            if g == 1:
+                block_start[t] = t
             tile_start[t] = s
             t += 1
     tile_start[n_tiles] = n
+    block_start[n_blocks] = n_tiles
     centres = np.empty((n_tiles, 3))
     d = np.empty((4, n), np.float32)
     for t in numba.prange(n_tiles):
@@ -659,17 +885,19 @@ def _tile_layout(
                 d[k, j] = v
                 r2 += v * v
             d[3, j] = r2
-    return order, tile_start, centres, d
+    return order, tile_start, centres, d, block_start
 
 
 def make_tiles(
-    points: np.ndarray, tile_size: float, max_tile: int = 1024
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    points: np.ndarray, tile_size: float, max_tile: int = 1024, block: int = 1
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Group points into spatial tiles of about ``tile_size`` metres (at most ``max_tile`` points each).
 
-    Returns (order, tile_start, centres, origin, d): points[order] are grouped by tile, tile t holding
-    sorted indices tile_start[t] .. tile_start[t+1]-1; centres (n_tiles, 3) float64 relative to ``origin``;
-    d (4, n) float32: offsets of the sorted points from their tile centre and their squared norm.
+    Returns (order, tile_start, centres, origin, d, block_start): points[order] are grouped by tile, tile t
+    holding sorted indices tile_start[t] .. tile_start[t+1]-1; centres (n_tiles, 3) float64 relative to
+    ``origin``; d (4, n) float32: offsets of the sorted points from their tile centre and their squared norm;
+    block b: tiles block_start[b] .. block_start[b+1]-1, those of ``block`` x ``block`` (x ``block``) cells (each
+    tile its own block at 1), which backproject_tiles runs together.
     """
     points = np.ascontiguousarray(np.asarray(points, float).reshape(-1, 3))
     n = len(points)
@@ -680,15 +908,16 @@ def make_tiles(
             np.zeros((0, 3)),
             np.zeros(3),
             np.zeros((4, 0), np.float32),
+            np.zeros(1, np.int64),
         )
     if not np.isfinite(points).all():  # not from bounds(): its fastmath min/max skip a NaN after the first point
         raise ValueError("points must be finite")
     lo, hi = bounds(points)
     origin = 0.5 * (lo + hi)
-    order, tile_start, centres, d = _tile_layout(
-        points, origin, lo - origin, hi - origin, float(tile_size), int(max_tile)
+    order, tile_start, centres, d, block_start = _tile_layout(
+        points, origin, lo - origin, hi - origin, float(tile_size), int(max_tile), int(block)
     )
-    return order, tile_start, centres, origin, d
+    return order, tile_start, centres, origin, d, block_start
 
 
 lean_cache_loads(globals())  # cached kernels load without numba's context refresh (kernel_cache)

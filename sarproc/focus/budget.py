@@ -172,20 +172,30 @@ def backproject_block_pixels(
     return max(row, min(block, int(room / BACKPROJECT_BYTES_PER_PIXEL) // row * row))
 
 
-# The compiled engine's cost of one tile and pulse beyond its pixels' (wall s on two cores): 0.2-0.3 us of one core
-# (scripts/tile_cost.py; docs/performance.md "Coarse pixels"), about 100 pixel-pulses' worth, so it counts where
-# the carrier-cycle cap leaves tiles of tens of pixels (X band, metre pixels: 003's traffic grid, 26 a tile).
-TILE_PULSE_SECONDS = 0.15e-6
+# The compiled engine's cost of one tile and pulse beyond its pixels' (wall s on two cores): 0.11 us of one core
+# (0.17-0.3 before its views were made once a tile; scripts/tile_cost.py, docs/performance.md "Coarse pixels"),
+# about 50 pixel-pulses' worth, so it counts where the carrier-cycle cap leaves tiles of tens of pixels (X band,
+# metre pixels: 003's traffic grid, 26 a tile). On linear reads such tiles run in blocks of ~1024 pixels
+# (focus.backprojection.tile_block): each block costs TILE_PULSE_SECONDS a pulse and each further tile in it
+# SUBTILE_PULSE_SECONDS (its float64 u.X, its pixels' per-tile phase and position: 0.05-0.06 us of one core,
+# docs/performance.md "Coarse pixels in blocks").
+TILE_PULSE_SECONDS = 0.1e-6
+SUBTILE_PULSE_SECONDS = 0.035e-6
 
 
-def _compiled_tiles(header: Product, params: Any, grid: BackprojectionPlan | None) -> int:
-    """Tiles of the compiled engine's 2D grid (0 for the other engines, 3D grids and when no grid is planned)."""
+def _compiled_tile_seconds(header: Product, params: Any, grid: BackprojectionPlan | None) -> float:
+    """Seconds a pulse the compiled engine's tiles and blocks cost on a 2D grid beyond its pixels (0 for the other
+    engines, 3D grids and when no grid is planned)."""
     if params.engine != "compiled" or grid is None or grid.elevation is not None:
-        return 0
-    from sarproc.focus.backprojection import grid_tile_count
+        return 0.0
+    from sarproc.focus.backprojection import grid_block_count, grid_tile_count
 
     spacings = tuple(float(abs(a[1] - a[0])) if len(a) > 1 else 0.0 for a in (grid.azimuth, grid.range))
-    return grid_tile_count(grid.shape, spacings, header.radar.carrier_frequency)
+    fc = header.radar.carrier_frequency
+    tiles = grid_tile_count(grid.shape, spacings, fc)
+    # blocks on linear reads (monostatic; a bistatic run's tiles cost more than planned)
+    blocks = min(tiles, grid_block_count(grid.shape, spacings, fc)) if params.interpolation == "linear" else tiles
+    return blocks * TILE_PULSE_SECONDS + (tiles - blocks) * SUBTILE_PULSE_SECONDS
 
 
 def backproject_estimate(
@@ -220,7 +230,7 @@ def backproject_estimate(
     detail = f"~{n[0]} x {n[1]} pixels from {n_ch * n_az} pulses"
     if n_pix > block:
         detail += f", in {-(-n[0] // max(1, block // n[1]))} blocks of {max(1, block // n[1])} rows"
-    seconds = n_ch * n_az * (n_pix * per + _compiled_tiles(header, params, grid) * TILE_PULSE_SECONDS)
+    seconds = n_ch * n_az * (n_pix * per + _compiled_tile_seconds(header, params, grid))
     if params.engine == "ffbp":
         from sarproc.focus.ffbp import error_bound, subaperture_lengths, taps_of
 
