@@ -347,13 +347,8 @@ class _Window:
         return float(slope * C / (2 * g.fs))
 
 
-NULL_FIT_HALF_WIDTH = 12  # azimuth samples either side of a mover's response searched and compared (_NullFit)
+NULL_FIT_HALF_WIDTH = 12  # azimuth samples either side of a mover's response kept and compared (_NullFit)
 NULL_FIT_CELLS = 3  # range cells either side of it
-# azimuth samples either side kept as the mover, focused at its own FM rate (resolution 2.5 samples): whatever else is
-# kept is modelled as moving with it, so clutter there biases v_los (movers_sigma_003.py seed 9 (-2, 10): -0.3 m/s at
-# +-12, 0 at +-6)
-NULL_FIT_KEPT = 6
-NULL_FIT_ALONG_TRACK = (8.0, -8.0, 16.0, -16.0)  # m/s: the null fit's trial v_a when v_a = 0 explains nothing
 NULL_FIT_MISMATCH = 0.3  # a velocity leaving more than this fraction of the residual response unexplained is wrong
 STATIC_CELLS = 2  # range cells either side of an examined static detection that share its answer (_visit)
 
@@ -414,29 +409,17 @@ class _NullFit:
         img = detection.compressed(channels.apply_filter_bank(res, self.static_bank), self.win.out_f, self.ka)
         return img[np.ix_(self.rows, self.cols)]
 
-    def mover_ka(self, v_r: float, v_a: float) -> np.ndarray:
-        """The trial mover's azimuth FM rate K_a(f_r): the static one scaled by R''_mover / R''_static. Compressed
-        with the static rate, a mover of v_a 12 m/s (R'' -0.36 %) spreads over 27 samples (2.7 ms of its 0.76 s
-        illumination), more than the +-12 that were kept (half its energy), and lies under the clutter focused
-        beside it, which the fit then isolated instead (docs/multichannel.md, "Why (-3, 12) was missed")."""
-        g = self.win.g
-        ratio = velocity.range_acceleration(g.velocity, v_a, v_r, g.squint, 1.0) / velocity.range_acceleration(
-            g.velocity, 0.0, 0.0, g.squint, 1.0
-        )
-        return self.ka * ratio
-
     def image(self, v_r: float, v_a: float) -> np.ndarray:
-        """The window's in-band reconstruction for the trial velocity, demodulated and compressed at the trial mover's
-        FM rate, so that the mover is focused (t', cell)."""
+        """The window's in-band reconstruction for the trial velocity, demodulated and compressed (t', cell)."""
         spec = self.win.demodulated_spectrum(v_r, v_a) * self.in_band[:, None]
-        return detection.compressed(spec, self.win.out_f, self.mover_ka(v_r, v_a))
+        return detection.compressed(spec, self.win.out_f, self.ka)
 
     def isolated(
         self,
         v_r: float,
         v_a: float,
         shift: int,
-        half_width: int = NULL_FIT_KEPT,
+        half_width: int = NULL_FIT_HALF_WIDTH,
         image: np.ndarray | None = None,
     ) -> np.ndarray:
         """The window's channels (N, n_az, L) of the mover alone as the trial velocity sees it (class doc).
@@ -462,7 +445,7 @@ class _NullFit:
         cols = self._cols(self.last_cell)
         own = np.zeros_like(img)
         own[np.ix_(rows, cols)] = img[np.ix_(rows, cols)]
-        spec = detection.decompressed(own, win.out_f, self.mover_ka(v_r, v_a)) * self.in_band[:, None]
+        spec = detection.decompressed(own, win.out_f, self.ka) * self.in_band[:, None]
         x_dem = sfft.ifft(channels.synthesise_channels(spec, win.bank(v_a)), axis=1, workers=-1)
         return x_dem * deramp.doppler_shift_phasor(g.times, win.f_r, v_los, g.fc, sign=+1)[None]
 
@@ -559,61 +542,36 @@ def _first_search(win: _Window, params: ReconstructParams, g: _Geometry, can_sea
 
 def _null_refit(est: _Estimate, params: ReconstructParams, null_fit: _NullFit) -> None:
     """When eq. 5's v_r leaves more than NULL_FIT_MISMATCH of the null residual unexplained, search v_r by the null
-    fit instead and keep that criterion if its estimate explains the residual.
-
-    The fit models the mover at the trial v_a (its FM rate, _NullFit.mover_ka), which the first search takes as 0
-    (or as given): when no v_r explains the residual there, v_r is searched again at each of NULL_FIT_ALONG_TRACK
-    and the best kept (with its v_a, the autofocus's starting point)."""
+    fit instead and keep that criterion if its estimate explains the residual."""
     v_r, v_a = est.v_r, est.v_a
     if est.result is None or null_fit.mismatch(v_r, v_a) <= NULL_FIT_MISMATCH:
         return
-
-    def refit_at(u_a: float) -> velocity.SearchResult:
-        return velocity.fast_search(
-            lambda u: null_fit.mismatch(u, u_a),
-            params.velocity_min,
-            params.velocity_max,
-            params.velocity_step,
-            params.coarse_step,
-            exhaustive=params.search == "exhaustive",
-        )
-
-    refit = refit_at(v_a)
-    best = null_fit.mismatch(refit.estimate, v_a)
-    refit_v_a = v_a
-    if best > NULL_FIT_MISMATCH and params.along_track_velocity is None:
-        # A mover of v_a 12 m/s seen at v_a = 0 is spread over 27 samples under clutter focused beside it, and the
-        # fit isolates the clutter (scripts/movers_sigma_003.py's (-3, 12): mismatch 1.000 at every v_r; 0.09 at
-        # the truth with v_a 9-18 m/s): a coarse grid of v_a, each within 4 m/s of any |v_a| <= 20 m/s.
-        for u_a in NULL_FIT_ALONG_TRACK:
-            trial = refit_at(u_a)
-            if (m := null_fit.mismatch(trial.estimate, u_a)) < best:
-                refit, best, refit_v_a = trial, m, u_a
+    refit = velocity.fast_search(
+        lambda u: null_fit.mismatch(u, v_a),
+        params.velocity_min,
+        params.velocity_max,
+        params.velocity_step,
+        params.coarse_step,
+        exhaustive=params.search == "exhaustive",
+    )
     log.debug(
-        "reconstruct: eq. 5 gives %.2f m/s (null-fit mismatch %.2f), the null fit %.2f m/s at v_a %.0f m/s (%.2f)",
+        "reconstruct: eq. 5 gives %.2f m/s (null-fit mismatch %.2f), the null fit %.2f m/s (%.2f)",
         v_r,
         null_fit.mismatch(v_r, v_a),
         refit.estimate,
-        refit_v_a,
-        best,
+        null_fit.mismatch(refit.estimate, v_a),
     )
+    best = null_fit.mismatch(refit.estimate, v_a)
     if best > NULL_FIT_MISMATCH:
         est.unexplained = (v_r, null_fit.mismatch(v_r, v_a), refit.estimate, best)
     else:
         log.info(
             "reconstruct: eq. 5 gave %.2f m/s, which leaves the clutter-null residual unexplained; the null fit "
-            "gives %.2f m/s at v_a %.0f m/s",
+            "gives %.2f m/s",
             v_r,
             refit.estimate,
-            refit_v_a,
         )
-        est.v_r, est.v_a, est.result, est.criterion, est.by_null_fit = (
-            refit.estimate,
-            refit_v_a,
-            refit,
-            null_fit.mismatch,
-            True,
-        )
+        est.v_r, est.result, est.criterion, est.by_null_fit = refit.estimate, refit, null_fit.mismatch, True
 
 
 def _centre(
