@@ -428,30 +428,38 @@ def grid_tile_count(shape: tuple[int, ...], spacings: tuple[float, ...], carrier
     """About how many tiles the compiled engine makes of a regular grid (``shape`` pixels ``spacings`` m apart
     per axis), for its time estimate: pixels coarse against the wavelength make tiles of tens of pixels under the
     carrier-cycle cap, and each tile costs the same per pulse whatever it holds."""
-    n = int(np.prod(shape))
-    if n == 0:
-        return 0
-    ext = np.array([k * d for k, d in zip(shape, spacings, strict=True)], float)
-    edge = tile_edge(ext, n, DEFAULT_TILE_POINTS, MAX_TILE_RADIUS_CYCLES * C / carrier_frequency)
-    per_tile = 1.0
-    for k, d in zip(shape, spacings, strict=True):
-        per_tile *= min(float(k), max(1.0, edge / d)) if d > 0 else 1.0
-    return max(1, math.ceil(n / per_tile))
+    edge, _ = _grid_tile_edges(shape, spacings, carrier_frequency)
+    return _squares(shape, spacings, edge)
 
 
 def grid_block_count(shape: tuple[int, ...], spacings: tuple[float, ...], carrier_frequency: float) -> int:
     """About how many blocks of tiles (:func:`tile_block`) the compiled engine runs a regular grid's tiles in on
     linear monostatic reads: :func:`grid_tile_count` where the tiles are not capped, fewer where they are."""
+    edge, uncapped = _grid_tile_edges(shape, spacings, carrier_frequency)
+    return _squares(shape, spacings, edge * tile_block(edge, uncapped, True))
+
+
+def _grid_tile_edges(
+    shape: tuple[int, ...], spacings: tuple[float, ...], carrier_frequency: float
+) -> tuple[float, float]:
+    """(capped, uncapped) tile edges (m) of :func:`_tiles` for a regular grid (0, 0 for an empty one)."""
+    n = int(np.prod(shape))
+    if n == 0:
+        return 0.0, 0.0
+    ext = np.array([k * d for k, d in zip(shape, spacings, strict=True)], float)
+    capped = tile_edge(ext, n, DEFAULT_TILE_POINTS, MAX_TILE_RADIUS_CYCLES * C / carrier_frequency)
+    return capped, tile_edge(ext, n, DEFAULT_TILE_POINTS)
+
+
+def _squares(shape: tuple[int, ...], spacings: tuple[float, ...], side: float) -> int:
+    """How many squares (cubes) of edge ``side`` (m) cover a regular grid: 0 for an empty grid."""
     n = int(np.prod(shape))
     if n == 0:
         return 0
-    ext = np.array([k * d for k, d in zip(shape, spacings, strict=True)], float)
-    edge = tile_edge(ext, n, DEFAULT_TILE_POINTS, MAX_TILE_RADIUS_CYCLES * C / carrier_frequency)
-    side = edge * tile_block(edge, tile_edge(ext, n, DEFAULT_TILE_POINTS), True)
-    per_block = 1.0
+    per_square = 1.0
     for k, d in zip(shape, spacings, strict=True):
-        per_block *= min(float(k), max(1.0, side / d)) if d > 0 else 1.0
-    return max(1, math.ceil(n / per_block))
+        per_square *= min(float(k), max(1.0, side / d)) if d > 0 else 1.0
+    return max(1, math.ceil(n / per_square))
 
 
 @contextlib.contextmanager
