@@ -121,5 +121,8 @@ def build(key: str) -> Path:
     return aot.build(NAME, key, {export: (getattr(bk, kernel), sig) for export, (kernel, sig) in EXPORTS.items()})
 
 
-if __name__ == "__main__":  # pragma: no cover - the background builder (exercised by the tests through build())
-    build(sys.argv[1])
+if __name__ == "__main__":  # pragma: no cover - the background builder (run by the tests as a command)
+    # numba's cache in a throwaway directory: the callees the build compiles differ in the last bits from a plain
+    # process's, and written to the user's cache they would change later numba images (aot.private_numba_cache)
+    with aot.private_numba_cache():
+        build(sys.argv[1])
