@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 from sarproc.product.aot import NUMBA_STARTUP_S
 from sarproc.product.budget import NUMBA_PROCESS, Plan, header_shape
 from sarproc.product.errors import InputError
+from sarproc.product.io import PREVIEW_BLOCK_BYTES
 from sarproc.quality import residual_aot
 
 if TYPE_CHECKING:
@@ -87,10 +88,14 @@ def quicklook_estimate(stage: str, header: Product, max_pixels: int, renderer: s
     drawn = math.prod(side) if len(side) < 3 else side[0] * side[1] + side[0] * side[2] + side[1] * side[2]
     per_pixel = (75.0, 0.3e-6) if renderer == "matplotlib" else (32.0, 0.14e-6)
     base = MATPLOTLIB_IMPORT if renderer == "matplotlib" else (0.0, 0.0)
+    # the preview (float32, every axis reduced: a 3D cube's is the whole cube, not only the projections drawn)
+    # and the block being read (sarproc.product.io.PREVIEW_BLOCK_BYTES): the du2010 cube 52 -> 131 MB measured
+    preview = math.prod(-(-n // max(1, -(-n // max_pixels))) for n in shape)
+    reading = 2.5 * min(PREVIEW_BLOCK_BYTES, 8 * math.prod(shape)) + 4.0 * preview
     return Plan(
         stage,
         1e5,
-        base[0] + per_pixel[0] * drawn,
+        base[0] + per_pixel[0] * drawn + reading,
         base[1] + per_pixel[1] * drawn + 50e-9 * math.prod(shape),
         f"{drawn} pixels drawn from {math.prod(shape)}",
     )
