@@ -63,6 +63,7 @@ from sarproc.product.metadata import SINC_IRW_FACTOR
 from sarproc.product.model import target_names
 from sarproc.product.steps import steps, wrapped
 from sarproc.product.theory import cut_metrics as _cut_metrics, window_theory
+from sarproc.product.uniform_spline import uniform_cubic_spline
 from sarproc.quality import kernels_aot
 from sarproc.quality.blas import single_blas
 from sarproc.quality.line_moments import line_sums
@@ -2008,49 +2009,6 @@ def sinc_islr_db(window_nulls: float) -> float:
 
     si = lambda x: float(scipy.special.sici(x)[0])  # noqa: E731
     return 10 * math.log10((si(2 * math.pi * window_nulls) - si(2 * math.pi)) / si(2 * math.pi))
-
-
-def uniform_cubic_spline(x0: float, h: float, y: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """The not-a-knot cubic spline through ``y`` (real or complex) at x0 + i h, i = 0 .. n - 1 (n >= 4),
-    evaluated at ``x`` inside that range: scipy.interpolate.CubicSpline's default to rounding (tested),
-    without importing scipy.interpolate (~0.25 s with scipy.linalg, sparse and optimize).
-
-    Second derivatives M: M[i-1] + 4 M[i] + M[i+1] = 6 (y[i+1] - 2 y[i] + y[i-1]) / h^2 inside; not-a-knot
-    (continuous third derivative at the second and the last but one knot) is M[0] - 2 M[1] + M[2] = 0 on a
-    uniform grid, which turns the first equation into 6 M[1] = d[1] (the same at the other end); the rest is
-    tridiagonal, solved by elimination."""
-    n = len(y)
-    if n < 4:
-        raise ValueError(f"uniform_cubic_spline needs at least 4 knots, got {n}")
-    y = np.asarray(y)
-    d = np.zeros_like(y, dtype=np.result_type(y, float))
-    d[1:-1] = 6.0 * (y[2:] - 2.0 * y[1:-1] + y[:-2]) / (h * h)
-    m = np.zeros_like(d)
-    m[1], m[-2] = d[1] / 6.0, d[-2] / 6.0
-    k = n - 4  # unknowns M[2] .. M[n-3]
-    if k > 0:
-        rhs = d[2:-2].copy()
-        rhs[0] -= m[1]
-        rhs[-1] -= m[-2]
-        diag = np.full(k, 4.0)
-        for i in range(1, k):  # forward elimination (sub- and super-diagonal 1)
-            f = 1.0 / diag[i - 1]
-            diag[i] -= f
-            rhs[i] -= f * rhs[i - 1]
-        sol = np.empty_like(rhs)
-        sol[-1] = rhs[-1] / diag[-1]
-        for i in range(k - 2, -1, -1):
-            sol[i] = (rhs[i] - sol[i + 1]) / diag[i]
-        m[2:-2] = sol
-    m[0] = 2.0 * m[1] - m[2]
-    m[-1] = 2.0 * m[-2] - m[-3]
-    t = (np.asarray(x, float) - x0) / h
-    j = np.clip(np.floor(t).astype(np.int64), 0, n - 2)
-    a = t - j  # position inside the interval, 0 .. 1
-    b = 1.0 - a
-    hh = h * h / 6.0
-    out: np.ndarray = b * y[j] + a * y[j + 1] + hh * ((b**3 - b) * m[j] + (a**3 - a) * m[j + 1])
-    return out
 
 
 def _cut(

@@ -61,19 +61,34 @@ def test_pfa2_bad_key_and_value_exit_2(tmp_path, raw_file):
     assert not (tmp_path / "image.h5").exists()
 
 
-def test_two_step_pfa_imports_no_scipy_interpolate(tmp_path, raw_file):
-    # the two-step with its distortion warp, as a process runs it: scipy.interpolate (with the scipy.linalg,
-    # sparse, special and fft it brings) cost a pfa2 process ~0.5 s (docs/performance.md, "Per-process overhead")
+def pfa2_process_modules(raw, config, image):
+    """The modules a `sarproc pfa2` process has imported when it is done."""
     code = (
         "import json, sys\nfrom sarproc.cli.main import run_cli\n"
-        f"assert run_cli(['pfa2', {str(raw_file)!r}, '--config', {str(ROOT / 'configs' / 'nie2016_small.yaml')!r}, "
-        f"'-o', {str(tmp_path / 'image.h5')!r}, '-q']) == 0\n"
+        f"assert run_cli(['pfa2', {str(raw)!r}, '--config', {str(config)!r}, '-o', {str(image)!r}, '-q']) == 0\n"
         "print(json.dumps(sorted(sys.modules)))"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=dict(os.environ))
     assert done.returncode == 0, done.stderr[-2000:]
-    loaded = json.loads(done.stdout.strip().splitlines()[-1])
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def test_two_step_pfa_imports_no_scipy_interpolate(tmp_path, raw_file):
+    # the two-step with its distortion warp, as a process runs it: scipy.interpolate (with the scipy.linalg,
+    # sparse, special and fft it brings) cost a pfa2 process ~0.5 s (docs/performance.md, "Per-process overhead")
+    loaded = pfa2_process_modules(raw_file, ROOT / "configs" / "nie2016_small.yaml", tmp_path / "image.h5")
     assert "sarproc.focus.pfa.two_step" in loaded
+    assert not [m for m in loaded if m.startswith(("scipy.interpolate", "scipy.fft"))]
+
+
+def test_de_aliasing_pfa_imports_no_scipy_interpolate(tmp_path):
+    # the sub-aperture de-aliasing splines the track at the upsampled pulses: through CubicSpline it imported
+    # scipy.interpolate (nie2016_sliding_small's dealias step 2.25 s of a loaded machine, 0.24 s without)
+    config = ROOT / "configs" / "nie2016_sliding_small.yaml"
+    res = run("simulate", config, "-o", tmp_path / "raw.h5")
+    assert res.exit_code == 0, res.output
+    loaded = pfa2_process_modules(tmp_path / "raw.h5", config, tmp_path / "image.h5")
+    assert "sarproc.focus.pfa.dealias" in loaded
     assert not [m for m in loaded if m.startswith(("scipy.interpolate", "scipy.fft"))]
 
 

@@ -394,22 +394,6 @@ def test_progress_one_bar_over_every_target():
     assert bars[0]["total"] == 3 * len(targets) + 1  # pass 1, neighbour pass, measurement; false targets
 
 
-@pytest.mark.parametrize("n", [4, 5, 9, 50, 400])
-def test_uniform_cubic_spline_is_scipys_not_a_knot_spline(n):
-    import scipy.interpolate
-
-    from sarproc.quality.metrics import uniform_cubic_spline
-
-    rng = np.random.default_rng(n)
-    te = (np.arange(n) - n // 2) / 16.0
-    ve = rng.standard_normal(n) + 1j * rng.standard_normal(n)
-    x = np.linspace(te[0], te[-1], 3 * n + 1)
-    got = uniform_cubic_spline(te[0], te[1] - te[0], ve, x)
-    want = scipy.interpolate.CubicSpline(te, ve)(x)
-    assert np.abs(got - want).max() <= 1e-13 * np.abs(want).max()
-    assert np.allclose(uniform_cubic_spline(te[0], te[1] - te[0], ve, te), ve, rtol=0, atol=1e-14)
-
-
 def test_target_report_reads_back_from_its_json():
     """What `sarproc evaluate -o` writes reads back as the same TargetReport (scripts tabulate from it)."""
     coords = [axis_coords(256, STEP2[0]), axis_coords(256, STEP2[1])]

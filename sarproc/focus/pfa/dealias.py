@@ -34,6 +34,7 @@ from sarproc.focus.pfa.phase_history import PhaseHistory, reference_ranges
 from sarproc.focus.pfa.polar import los_components, wavenumbers
 from sarproc.product import beam, fft as sfft
 from sarproc.product.errors import IMAGE_DEFECT, InputError
+from sarproc.product.uniform_spline import UniformCubicSpline
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -141,11 +142,9 @@ def upsample_subapertures(ph: PhaseHistory, radar: RadarMetadata, n_sub: int, fa
     n, n_f = ph.data.shape
     if factor == 1:
         return ph
-    k = wavenumbers(ph.carrier_frequency, ph.freqs)
     idx = np.arange(n, dtype=float)
-    from scipy.interpolate import CubicSpline  # ~0.3 s to import: only when de-aliasing runs
-
-    spline = CubicSpline(idx, ph.positions, axis=0)
+    spline = UniformCubicSpline(0.0, 1.0, ph.positions)  # platform positions at fractional pulse indices
+    k = wavenumbers(ph.carrier_frequency, ph.freqs)
     hop = max(1, n_sub // 2)
     starts = list(range(0, max(1, n - n_sub + 1), hop))
     if starts[-1] + n_sub < n:
