@@ -402,7 +402,7 @@ class _NullFit:
         self.measured = self._residual(win.x)
         self.last_peak = float(self.index)  # where the last isolated() found the mover, output samples
         self.last_cell = self.cell  # and in which of the window's cells
-        # compress the trial mover at its own FM rate (mover_ka) rather than the static one: set by _null_refit
+        # compress the trial mover at its own FM rate (rate) rather than the static one: set by _null_refit
         # once v_a is searched, as only then is the trial v_a meant as the mover's
         self.at_mover_rate = False
 
@@ -425,7 +425,7 @@ class _NullFit:
 
         At the static rate a mover of v_a 12 m/s (R'' -0.36 %) spreads over 27 samples of its 0.76 s illumination,
         more than the +-12 kept, and lies under the clutter focused beside it, which the fit then isolated instead
-        (docs/multichannel.md section 8, "Why (-3, 12) was missed"). The mover's rate is used only at a trial v_a
+        (docs/multichannel.md section 8, "Why (-3, 12) is missed"). The mover's rate is used only at a trial v_a
         meant as the mover's: at the first search's v_a = 0 the trial v_r is v_los / cos(theta), which holds
         v_a tan(theta) besides v_r, and R'' ~ ((v - v_a) cos + v_r sin)^2 then takes the FM rate of a mover whose
         v_a is off by v_a / cos^2 rather than the static rate's v_a - v_r tan(theta) (xu_traffic V11: 13.6 against
