@@ -349,7 +349,14 @@ class _Window:
 
 NULL_FIT_HALF_WIDTH = 12  # azimuth samples either side of a mover's response kept and compared (_NullFit)
 NULL_FIT_CELLS = 3  # range cells either side of it
+# azimuth samples either side kept as the mover when the fit focuses it at its own FM rate (_NullFit.rate; resolution
+# 2.5 samples): whatever else is kept is modelled as moving with it, so clutter there biases v_los (the (-3, 12) MC,
+# seed 9: v_r -0.095 m/s at +-12, -0.043 at +-6)
+NULL_FIT_KEPT = 6
 NULL_FIT_MISMATCH = 0.3  # a velocity leaving more than this fraction of the residual response unexplained is wrong
+# m/s: the null fit's trial v_a, at the mover's own FM rate, when no v_r at v_a = 0 explains the residual
+# (_null_refit): each |v_a| <= 20 m/s within 4 m/s of one of them
+NULL_FIT_ALONG_TRACK = (8.0, -8.0, 16.0, -16.0)
 STATIC_CELLS = 2  # range cells either side of an examined static detection that share its answer (_visit)
 
 
@@ -395,6 +402,9 @@ class _NullFit:
         self.measured = self._residual(win.x)
         self.last_peak = float(self.index)  # where the last isolated() found the mover, output samples
         self.last_cell = self.cell  # and in which of the window's cells
+        # compress the trial mover at its own FM rate (rate) rather than the static one: set by _null_refit
+        # once v_a is searched, as only then is the trial v_a meant as the mover's
+        self.at_mover_rate = False
 
     def _rows(self, centre: float, half: int = NULL_FIT_HALF_WIDTH) -> np.ndarray:
         c = int(round(centre))
@@ -409,17 +419,35 @@ class _NullFit:
         img = detection.compressed(channels.apply_filter_bank(res, self.static_bank), self.win.out_f, self.ka)
         return img[np.ix_(self.rows, self.cols)]
 
+    def rate(self, v_r: float, v_a: float) -> np.ndarray:
+        """The FM rate K_a(f_r) the trial image is compressed at: the static one, or with ``at_mover_rate`` the
+        trial mover's, the static one scaled by R''_mover / R''_static.
+
+        At the static rate a mover of v_a 12 m/s (R'' -0.36 %) spreads over 27 samples of its 0.76 s illumination,
+        more than the +-12 kept, and lies under the clutter focused beside it, which the fit then isolated instead
+        (docs/multichannel.md section 8, "Why (-3, 12) is missed"). The mover's rate is used only at a trial v_a
+        meant as the mover's: at the first search's v_a = 0 the trial v_r is v_los / cos(theta), which holds
+        v_a tan(theta) besides v_r, and R'' ~ ((v - v_a) cos + v_r sin)^2 then takes the FM rate of a mover whose
+        v_a is off by v_a / cos^2 rather than the static rate's v_a - v_r tan(theta) (xu_traffic V11: 13.6 against
+        10.2 m/s, its mismatch at eq. 5's estimate 0.38 against 0.19, and lost; section 8)."""
+        if not self.at_mover_rate:
+            return self.ka
+        g = self.win.g
+        static = velocity.range_acceleration(g.velocity, 0.0, 0.0, g.squint, 1.0)
+        return self.ka * (velocity.range_acceleration(g.velocity, v_a, v_r, g.squint, 1.0) / static)
+
     def image(self, v_r: float, v_a: float) -> np.ndarray:
-        """The window's in-band reconstruction for the trial velocity, demodulated and compressed (t', cell)."""
+        """The window's in-band reconstruction for the trial velocity, demodulated and compressed (t', cell) at
+        :meth:`rate`."""
         spec = self.win.demodulated_spectrum(v_r, v_a) * self.in_band[:, None]
-        return detection.compressed(spec, self.win.out_f, self.ka)
+        return detection.compressed(spec, self.win.out_f, self.rate(v_r, v_a))
 
     def isolated(
         self,
         v_r: float,
         v_a: float,
         shift: int,
-        half_width: int = NULL_FIT_HALF_WIDTH,
+        half_width: int | None = None,
         image: np.ndarray | None = None,
     ) -> np.ndarray:
         """The window's channels (N, n_az, L) of the mover alone as the trial velocity sees it (class doc).
@@ -427,9 +455,12 @@ class _NullFit:
         The mover is taken to appear ``shift`` x PRF / K_a from the detection (a slow mover's residual peaks one
         such step away from it): its strongest peak there (a local maximum, not a neighbour's skirt at the edge of
         the search), within the ghost walk of the detection's cell, is kept over +-``half_width`` samples and
-        NULL_FIT_CELLS cells. ``image``: :meth:`image` of the same trial, if already computed.
+        NULL_FIT_CELLS cells (``half_width`` None: NULL_FIT_HALF_WIDTH, or NULL_FIT_KEPT at the mover's FM rate).
+        ``image``: :meth:`image` of the same trial, if already computed.
         """
         g, win = self.win.g, self.win
+        if half_width is None:
+            half_width = NULL_FIT_KEPT if self.at_mover_rate else NULL_FIT_HALF_WIDTH
         img = self.image(v_r, v_a) if image is None else image
         v_los = channels.line_of_sight_velocity(v_r, v_a, g.squint)
         # removing the trial Doppler offset moves every response by 2 v_los / (lambda K_a)
@@ -445,7 +476,7 @@ class _NullFit:
         cols = self._cols(self.last_cell)
         own = np.zeros_like(img)
         own[np.ix_(rows, cols)] = img[np.ix_(rows, cols)]
-        spec = detection.decompressed(own, win.out_f, self.ka) * self.in_band[:, None]
+        spec = detection.decompressed(own, win.out_f, self.rate(v_r, v_a)) * self.in_band[:, None]
         x_dem = sfft.ifft(channels.synthesise_channels(spec, win.bank(v_a)), axis=1, workers=-1)
         return x_dem * deramp.doppler_shift_phasor(g.times, win.f_r, v_los, g.fc, sign=+1)[None]
 
@@ -542,36 +573,61 @@ def _first_search(win: _Window, params: ReconstructParams, g: _Geometry, can_sea
 
 def _null_refit(est: _Estimate, params: ReconstructParams, null_fit: _NullFit) -> None:
     """When eq. 5's v_r leaves more than NULL_FIT_MISMATCH of the null residual unexplained, search v_r by the null
-    fit instead and keep that criterion if its estimate explains the residual."""
+    fit instead and keep that criterion if its estimate explains the residual.
+
+    The fit first models the mover at the first search's v_a (0 unless given) and the static FM rate. When no v_r
+    explains the residual there (a mover whose v_a spreads it beside focused clutter: (-3, 12) m/s), v_r is searched
+    again at each of NULL_FIT_ALONG_TRACK with the fit at the trial mover's FM rate (_NullFit.rate), and the best
+    kept with its v_a (the autofocus's starting point) and that rate."""
     v_r, v_a = est.v_r, est.v_a
-    if est.result is None or null_fit.mismatch(v_r, v_a) <= NULL_FIT_MISMATCH:
+    if est.result is None or (eq5 := null_fit.mismatch(v_r, v_a)) <= NULL_FIT_MISMATCH:
         return
-    refit = velocity.fast_search(
-        lambda u: null_fit.mismatch(u, v_a),
-        params.velocity_min,
-        params.velocity_max,
-        params.velocity_step,
-        params.coarse_step,
-        exhaustive=params.search == "exhaustive",
-    )
+
+    def refit_at(u_a: float) -> tuple[velocity.SearchResult, float]:
+        found = velocity.fast_search(
+            lambda u: null_fit.mismatch(u, u_a),
+            params.velocity_min,
+            params.velocity_max,
+            params.velocity_step,
+            params.coarse_step,
+            exhaustive=params.search == "exhaustive",
+        )
+        return found, null_fit.mismatch(found.estimate, u_a)
+
+    refit, best = refit_at(v_a)
+    refit_v_a = v_a
     log.debug(
         "reconstruct: eq. 5 gives %.2f m/s (null-fit mismatch %.2f), the null fit %.2f m/s (%.2f)",
         v_r,
-        null_fit.mismatch(v_r, v_a),
+        eq5,
         refit.estimate,
-        null_fit.mismatch(refit.estimate, v_a),
+        best,
     )
-    best = null_fit.mismatch(refit.estimate, v_a)
+    if best > NULL_FIT_MISMATCH and params.along_track_velocity is None:
+        null_fit.at_mover_rate = True
+        for u_a in NULL_FIT_ALONG_TRACK:
+            trial, m = refit_at(u_a)
+            log.debug("reconstruct: the null fit at v_a %.0f m/s, its FM rate: %.2f m/s (%.2f)", u_a, trial.estimate, m)
+            if m < best:
+                refit, best, refit_v_a = trial, m, u_a
+        null_fit.at_mover_rate = refit_v_a != v_a and best <= NULL_FIT_MISMATCH
     if best > NULL_FIT_MISMATCH:
-        est.unexplained = (v_r, null_fit.mismatch(v_r, v_a), refit.estimate, best)
+        est.unexplained = (v_r, eq5, refit.estimate, best)
     else:
         log.info(
             "reconstruct: eq. 5 gave %.2f m/s, which leaves the clutter-null residual unexplained; the null fit "
-            "gives %.2f m/s",
+            "gives %.2f m/s at v_a %.0f m/s",
             v_r,
             refit.estimate,
+            refit_v_a,
         )
-        est.v_r, est.result, est.criterion, est.by_null_fit = refit.estimate, refit, null_fit.mismatch, True
+        est.v_r, est.v_a, est.result, est.criterion, est.by_null_fit = (
+            refit.estimate,
+            refit_v_a,
+            refit,
+            null_fit.mismatch,
+            True,
+        )
 
 
 def _centre(
