@@ -40,16 +40,24 @@ QUALITY = Kernels(
     },
     owner="sarproc.quality.kernels_aot:QUALITY",
 )
-# Serial seconds of the kernels per target and chip sample of a cube's evaluation: an estimate from paper 004's
-# cube (7 targets, chips of 131 x 105 x 41: ~4 s of serial kernel work, under cProfile on the shared 2-core
-# machine); it only decides whether a cube is small enough to run them without numba.
-SERIAL_S_PER_SAMPLE = 1.1e-6
+# Serial seconds of the kernels per target and chip sample of a cube's evaluation: paper 004's cube (7 targets,
+# chips of 131 x 105 x 41) runs 0.89 s of them through this module on the shared 2-core machine (session 25: the
+# orientation density 0.41 s, the neighbours' boxes 0.23 s, the group fit's slopes 0.14 s; 1.1e-6 before the
+# density's blocks and the boxes' tables); it only decides whether a cube runs them without numba.
+SERIAL_S_PER_SAMPLE = 2.3e-7
+# What a cube's evaluation pays to run these kernels through numba (session 25, a process with numpy, h5py and
+# evaluate's modules loaded): numba's import 0.26 s, the first two kernels' loads with numba's BLAS check (scipy's
+# linalg) and its threads 0.45 s, three more loads 0.03 s each. More than the 0.3 s :func:`aot.serial_pays` weighs
+# for a stage's few kernels, so the estimate is scaled to it.
+STARTUP_S = 0.8
 
 
 def reserve(targets: int, chip_samples: int) -> ModuleType:
     """Choose, once for a cube's evaluation of ``targets`` chips of ``chip_samples``, the module its kernels run
-    from (:meth:`Kernels.pick` with the whole estimate: later calls keep that choice)."""
-    return QUALITY.pick(SERIAL_S_PER_SAMPLE * targets * chip_samples)
+    from (:meth:`Kernels.pick` with the whole estimate, weighed against :data:`STARTUP_S`: later calls keep that
+    choice). Paper 004's cube runs them compiled on two CPUs (0.89 s serial against 0.5 s on two threads and
+    numba's 0.8 s start), through numba on 16."""
+    return QUALITY.pick(SERIAL_S_PER_SAMPLE * targets * chip_samples * aot.NUMBA_STARTUP_S / STARTUP_S)
 
 
 def kernels() -> ModuleType:

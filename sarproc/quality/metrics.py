@@ -540,31 +540,48 @@ class _Chip:
 
 
 @functools.cache
-def _orientation_grid(ndim: int) -> tuple[np.ndarray, float, list[np.ndarray]]:
-    """Candidate line orientations (unit vectors, one per +-pair), their spacing-matched kernel
-    width (rad) and, per candidate, the indices of its neighbours within two kernel widths."""
+def _orientation_grid(ndim: int) -> tuple[np.ndarray, float]:
+    """Candidate line orientations (unit vectors, one per +-pair) and their spacing-matched kernel width (rad)."""
     if ndim == 2:
         a = np.deg2rad(np.arange(0.0, 180.0, 0.5))
-        cand, sigma = np.stack([np.cos(a), np.sin(a)], axis=1), math.radians(1.0)
-    else:  # Fibonacci points on the half sphere z >= 0, about 2.3 deg apart
-        n = 4000
-        i = np.arange(n) + 0.5
-        z, phi = i / n, i * math.pi * (3.0 - math.sqrt(5.0))
-        r = np.sqrt(1.0 - z**2)
-        cand, sigma = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1), math.radians(3.0)
-    # in blocks of rows: the whole 4000 x 4000 product in 3D is 128 MB to allocate and fault in
-    reach = math.cos(2 * sigma)
-    near = [np.flatnonzero(row) for b in range(0, len(cand), 500) for row in np.abs(cand[b : b + 500] @ cand.T) > reach]
-    return cand, sigma, near
+        return np.stack([np.cos(a), np.sin(a)], axis=1), math.radians(1.0)
+    # Fibonacci points on the half sphere z >= 0, about 2.3 deg apart
+    n = 4000
+    i = np.arange(n) + 0.5
+    z, phi = i / n, i * math.pi * (3.0 - math.sqrt(5.0))
+    r = np.sqrt(1.0 - z**2)
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1), math.radians(3.0)
 
 
 @functools.cache
 def _padded_neighbours(ndim: int) -> np.ndarray:
-    """_orientation_grid's neighbour lists as one index array, each row padded with its own candidate (so
-    ``dens[rows].max(axis=1)`` is each candidate's neighbourhood maximum, as the lists give)."""
-    near = _orientation_grid(ndim)[2]
-    width = max(len(n) for n in near)
-    return np.array([np.concatenate([n, np.full(width - len(n), i)]) for i, n in enumerate(near)])
+    """Per candidate of :func:`_orientation_grid`, the indices (ascending) of its neighbours within two kernel
+    widths (+-), one row each, padded with its own index (so ``dens[rows].max(axis=1)`` is each candidate's
+    neighbourhood maximum).
+
+    A block of 500 rows at a time, against only the candidates whose last coordinate can be near enough: two
+    unit vectors within an angle 2 sigma differ by less than that in every coordinate (|c_i - c_j| < 2 sigma),
+    and two within 2 sigma of opposite (|c_i + c_j| < 2 sigma) sum to less in every coordinate. The 3D grid
+    (4000, sorted by that coordinate) then takes a tenth of the products: the whole 4000 x 4000 took 0.09 s of
+    the cube's evaluate."""
+    cand, sigma = _orientation_grid(ndim)
+    reach = math.cos(2 * sigma)
+    band = 2 * sigma + 1e-6  # beyond rounding
+    z = cand[:, -1]
+    rows_of: list[np.ndarray] = []
+    cols_of: list[np.ndarray] = []
+    for b in range(0, len(cand), 500):
+        lo, hi = float(z[b : b + 500].min()), float(z[b : b + 500].max())
+        cols = np.flatnonzero(((z > lo - band) & (z < hi + band)) | ((z > -band - hi) & (z < band - lo)))
+        rows, at = np.nonzero(np.abs(cand[b : b + 500] @ cand[cols].T) > reach)  # row-major: columns ascending
+        rows_of.append(b + rows)
+        cols_of.append(cols[at])
+    rows, cols = np.concatenate(rows_of), np.concatenate(cols_of)
+    first = np.searchsorted(rows, np.arange(len(cand)))  # where each row's run starts
+    place = np.arange(len(rows)) - first[rows]
+    out = np.repeat(np.arange(len(cand)), int(place.max()) + 1).reshape(len(cand), -1)
+    out[rows, place] = cols
+    return out
 
 
 def _orientation_density(
@@ -752,19 +769,19 @@ def _strong_gradients(
 def _orientation_peaks(u: np.ndarray, norm: np.ndarray, ndim: int, exact: bool) -> tuple[np.ndarray, list, np.ndarray]:
     """(candidate orientations, the indices of the peaks of the orientation density of unit vectors ``u`` weighted
     by ``norm``, strongest first, the density at every candidate)."""
-    cand, sigma, near = _orientation_grid(ndim)
+    cand, sigma = _orientation_grid(ndim)
     sub = slice(None, None, max(1, len(u) // 4000))  # the density only locates the peaks
     if ndim == 3 and not exact:  # compiled: one launch over every candidate (each one's sum is the same)
         dens = _orientation_density(cand, u[sub], norm[sub], sigma)
-        peak = dens >= dens[_padded_neighbours(ndim)].max(axis=1)
-        return cand, [i for i in np.argsort(dens)[::-1] if peak[i] and dens[i] > 0], dens
-    dens = np.concatenate(
-        [
-            _orientation_density(c, u[sub], norm[sub], sigma, exact)
-            for c in np.array_split(cand, max(1, len(cand) // 500))
-        ]
-    )
-    return cand, [i for i in np.argsort(dens)[::-1] if dens[i] >= dens[near[i]].max() and dens[i] > 0], dens
+    else:
+        dens = np.concatenate(
+            [
+                _orientation_density(c, u[sub], norm[sub], sigma, exact)
+                for c in np.array_split(cand, max(1, len(cand) // 500))
+            ]
+        )
+    peak = dens >= dens[_padded_neighbours(ndim)].max(axis=1)
+    return cand, [i for i in np.argsort(dens)[::-1] if peak[i] and dens[i] > 0], dens
 
 
 # An edge whose normals spread more than this either side, turning steadily along it (a curved one), is refined

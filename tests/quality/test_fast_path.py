@@ -232,3 +232,19 @@ def test_blocked_orientation_density_equals_every_pair():
                     s += math.exp((d * d - 1.0) * scale) * float(w[j])
             want[i] = s
         assert np.array_equal(got, want)
+
+
+def test_padded_neighbours_are_every_pair_within_reach():
+    """The orientation grid's neighbour rows (formed against only the candidates whose last coordinate can be
+    within reach) hold exactly the candidates within two kernel widths of each, +- alike, as every pair's product
+    finds them, ascending, padded with the candidate's own index."""
+    from sarproc.quality.metrics import _orientation_grid, _padded_neighbours
+
+    for ndim in (2, 3):
+        cand, sigma = _orientation_grid(ndim)
+        near = np.abs(cand @ cand.T) > math.cos(2 * sigma)
+        rows = _padded_neighbours(ndim)
+        assert rows.shape == (len(cand), near.sum(axis=1).max())
+        for i, row in enumerate(rows):
+            count = int(near[i].sum())
+            assert np.array_equal(row[:count], np.flatnonzero(near[i])) and np.all(row[count:] == i)
