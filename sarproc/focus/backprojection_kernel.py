@@ -783,8 +783,9 @@ def backproject_tiles(
                         r2 += v * v
                     lat[6, i] = r2
             nx, ny, nz, ex, ey, ez, x2 = lat[0], lat[1], lat[2], lat[3], lat[4], lat[5], lat[6]
-            flat = not (np.any(nz) or np.any(ez))  # a level grid's block: its z terms are zero, not read
+            level = not (np.any(nz) or np.any(ez))  # a level grid's block: its z terms are zero, not read
             w, cyc = frac, cos_
+            scale2, kc2 = np.float32(2.0 * scale), np.float32(2.0 * kc)
             for p in range(n_pulses):
                 ibase, frac0, cyc0, ux, uy, uz, r = _block_reference(cb[0], cb[1], cb[2], tx, p, scale, first, kc)
                 if mode == 1 and monostatic and h4kc_b / (r * r * r) < EXPANSION_LIMIT_CYCLES:
@@ -800,8 +801,8 @@ def backproject_tiles(
                         np.float32(step * uz),
                     )
                     _positions_block(
-                        w, cyc, jc, nx, ny, nz, ex, ey, ez, x2, flat, u, steps, np.float32(frac0), np.float32(cyc0), np.float32(2.0 * scale),
-                        np.float32(2.0 * kc), ib, n_s,
+                        w, cyc, jc, nx, ny, nz, ex, ey, ez, x2, level, u, steps, np.float32(frac0), np.float32(cyc0),
+                        scale2, kc2, ib, n_s,
                     )  # fmt: skip
                     _gather_pairs(halves, np.uint64(p) * per_pulse, jc, ga, gb)
                     _combine_block(acc_re, acc_im, ga32, gb32, w, cyc)
