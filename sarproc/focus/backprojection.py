@@ -436,7 +436,15 @@ def grid_block_count(shape: tuple[int, ...], spacings: tuple[float, ...], carrie
     """About how many blocks of tiles (:func:`tile_block`) the compiled engine runs a regular grid's tiles in on
     linear monostatic reads: :func:`grid_tile_count` where the tiles are not capped, fewer where they are."""
     edge, uncapped = _grid_tile_edges(shape, spacings, carrier_frequency)
-    return _squares(shape, spacings, edge * tile_block(edge, uncapped, True))
+    if edge == 0:
+        return 0
+    # per axis, as make_tiles lays them: whole blocks of g cells over the grid's span (the partial blocks at the
+    # edges count, a large share where a block is ~45 m and the grid only a few blocks wide)
+    g = tile_block(edge, uncapped, True)
+    count = 1
+    for k, d in zip(shape, spacings, strict=True):
+        count *= -(-(math.floor((k - 1) * d / edge) + 1) // g)
+    return count
 
 
 def _grid_tile_edges(
