@@ -389,6 +389,17 @@ def test_coarse_pixel_blocks_round_less_than_the_tiles():
     assert db(blocked, ref) < db(tiled, ref) - 5.0
 
 
+def test_coarse_pixel_blocks_on_hilly_ground_round_as_finely():
+    """Pixels off a level plane (a DEM's grid, 25 m of relief) take the block pass's general branch, its z
+    lattice rows read: as accurate as on level ground (-92.2 dB; session 24's blocks -83.3 dB)."""
+    rc, rt, pos, pts, fc = _coarse_grid()
+    pts = pts.copy()
+    pts[:, 2] = 15 * np.sin(pts[:, 0] / 40) + 10 * np.cos(pts[:, 1] / 30)
+    ref = backproject_points(rc, rt, pos, pos, pts, fc, engine="reference")
+    blocked = backproject_points(rc, rt, pos, pos, pts, fc, engine="compiled", workers=1)
+    assert db(blocked, ref) < -88
+
+
 def test_table_entries_clamp_in_float32_as_the_integer_sum_would():
     """The linear reads' table entry is summed and clamped in float32 (so the pass vectorises): the same entry as
     the int64 sum, clamped to 0 .. n_w, for bases near the window and far outside it (clipped at 2^28)."""
