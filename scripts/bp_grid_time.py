@@ -2,11 +2,12 @@
 """CPU and wall time of one compiled backprojection call on a synthetic X-band grid (docs/performance.md,
 "Coarse pixels in blocks"); saves the image for a comparison between trees.
 
-    python scripts/bp_grid_time.py {coarse,fine512,fine2048} OUT.npy
+    python scripts/bp_grid_time.py {coarse,fine512,fine2048} OUT.npy [--upsample 8]
 
 coarse: xu_small-like, 2143 x 273 pixels at 1.4 x 2.2 m, 1800 pulses; fine512: 512^2 at 0.3 m, 600 pulses;
-fine2048: 2048^2 at 0.15 m, 300 pulses. Random pulses from ~600 km, linear x8 reads, numba's threads (run with
-SARPROC_AOT=0 so both trees load the same kernels), the kernels loaded by a small call first.
+fine2048: 2048^2 at 0.15 m, 300 pulses. Random pulses from ~600 km, linear reads (x8 unless told: older trees'
+default), numba's threads (run with SARPROC_AOT=0 so both trees load the same kernels), the kernels loaded by a
+small call first.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("grid", choices=sorted(GRIDS))
     ap.add_argument("out")
+    ap.add_argument("--upsample", type=int, default=8)
     args = ap.parse_args()
     nx, ny, sx, sy, n_az = GRIDS[args.grid]
     rng = np.random.default_rng(0)
@@ -42,7 +44,7 @@ def main() -> None:
     rt = 2 * (r0 - 700) / bp.C + np.arange(n_rg) / fs
     bp.backproject_points(rc[:64], rt, pos[:64], pos[:64], pts[:5000], fc, engine="compiled")  # load the kernels
     c, w = time.process_time(), time.perf_counter()
-    img = bp.backproject_points(rc, rt, pos, pos, pts, fc, engine="compiled")
+    img = bp.backproject_points(rc, rt, pos, pos, pts, fc, engine="compiled", upsample=args.upsample)
     print(f"{args.grid} cpu {time.process_time() - c:.3f} wall {time.perf_counter() - w:.3f}")
     np.save(args.out, img)
 

@@ -201,14 +201,23 @@ def _positions(
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
+def _entry(f: np.float32, base: np.float32, n_w: np.float32) -> np.uint32:
+    """Table entry of the integer-valued sample offset f from ``base`` (the float32 base sample), clamped to the
+    zero entries 0 and n_w, summed and clamped in float32 so that the loop vectorises (numba widens an int32 sum
+    to int64, for which AVX2 has no min, max or conversion: ~1 ns a pixel). The sum is exact while |base| <
+    2^24; beyond, it clamps to the same end as the integer sum."""
+    return np.uint32(np.int32(min(max(f + base, np.float32(0.0)), n_w)))
+
+
+@numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def _indices(
     dr: np.ndarray, jc: np.ndarray, frac0: np.float32, scale32: np.float32, ibase: np.int32, n_w: np.int32
 ) -> None:
     """Pair-table entry of each pixel, clipped to the zero entries 0 and n_w (reads outside the window add
     nothing)."""
-    lo = np.int32(0)
+    base, top = np.float32(ibase), np.float32(n_w)
     for i in range(len(dr)):
-        jc[i] = np.uint32(min(max(ibase + np.int32(np.floor(frac0 + dr[i] * scale32)), lo), n_w))
+        jc[i] = _entry(np.floor(frac0 + dr[i] * scale32), base, top)
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
@@ -262,12 +271,12 @@ def _path_indices_mono(
 ) -> None:
     """_path_differences and _indices in one pass for the common case: monostatic, expansion accurate."""
     ux, uy, uz, inv_r, r0, hir, hir2, expand = geo
-    lo = np.int32(0)
+    base, top = np.float32(ibase), np.float32(n_w)
     two = np.float32(2.0)
     for i in range(len(dr)):
         x = two * _offset_expanded(ux, uy, uz, hir, hir2, dx[i], dy[i], dz[i], d2[i])
         dr[i] = x
-        jc[i] = np.uint32(min(max(ibase + np.int32(np.floor(frac0 + x * scale32)), lo), n_w))
+        jc[i] = _entry(np.floor(frac0 + x * scale32), base, top)
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
@@ -488,50 +497,68 @@ def cubic_table(pulses: np.ndarray, lo: np.ndarray, coef: np.ndarray) -> None:
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
-def _path_indices_block(
-    dr: np.ndarray,
+def _positions_block(
+    w: np.ndarray,
+    cyc: np.ndarray,
     jc: np.ndarray,
-    dx: np.ndarray,
-    dy: np.ndarray,
-    dz: np.ndarray,
-    x: np.ndarray,
+    nx: np.ndarray,
+    ny: np.ndarray,
+    nz: np.ndarray,
+    ex: np.ndarray,
+    ey: np.ndarray,
+    ez: np.ndarray,
+    x2: np.ndarray,
+    flat: bool,
     u: tuple[np.float32, np.float32, np.float32, np.float32, np.float32],
-    pos: np.ndarray,
-    scale32: np.float32,
+    steps: tuple[np.float32, np.float32, np.float32, np.float32, np.float32, np.float32],
+    frac0: np.float32,
+    cyc0: np.float32,
+    scale2: np.float32,
+    kc2: np.float32,
     ibase: np.int32,
     n_w: np.int32,
 ) -> None:
-    """The fused pass of a block (monostatic, expansion accurate over the block): dr = 2 (u.d + (|x|^2 - (u.x)^2)
-    (1/2R - u.x / 2R^2)), the path difference to the pixel's tile centre, whose own u.X to the block centre is in
-    ``pos`` (and the phase); d: offsets from the tile centres, x: from the block centre (rows x, y, z, |x|^2)."""
+    """The first pass of a block (monostatic, expansion accurate over the block): each pixel's offset from the
+    block centre is x = n h + e (n small integers); its two-way path difference 2 (u.x + (|x|^2 - (u.x)^2) (1/2R -
+    u.x / 2R^2)) gives the weight w and table entry jc; its carrier cycles are the block centre's plus n.a
+    (``steps`` a: the lattice steps' cycles, reduced in float64; b: the steps' u_k h_k) plus the rest's, whose
+    float32 rounding is that of u.e (|e| < h). ``flat``: n_z and e_z are all zero (a level grid), not read."""
     ux, uy, uz, hir, hir2 = u
-    lo = np.int32(0)
-    two = np.float32(2.0)
-    for i in range(len(dr)):
-        du = ux * dx[i] + uy * dy[i] + uz * dz[i]
-        ul = ux * x[0, i] + uy * x[1, i] + uz * x[2, i]
-        r = two * (du + (x[3, i] - ul * ul) * (hir - ul * hir2))
-        dr[i] = r
-        jc[i] = np.uint32(min(max(ibase + np.int32(np.floor(pos[i] + r * scale32)), lo), n_w))
+    a0, a1, a2, b0, b1, b2 = steps
+    base, top = np.float32(ibase), np.float32(n_w)
+    if flat:
+        for i in range(len(w)):
+            du = ux * ex[i] + uy * ey[i]
+            ul = du + b0 * nx[i] + b1 * ny[i]
+            q = (x2[i] - ul * ul) * (hir - ul * hir2)
+            t = frac0 + (ul + q) * scale2
+            f = np.floor(t)
+            w[i] = t - f
+            cyc[i] = cyc0 + a0 * nx[i] + a1 * ny[i] + (du + q) * kc2
+            jc[i] = _entry(f, base, top)
+    else:
+        for i in range(len(w)):
+            du = ux * ex[i] + uy * ey[i] + uz * ez[i]
+            ul = du + b0 * nx[i] + b1 * ny[i] + b2 * nz[i]
+            q = (x2[i] - ul * ul) * (hir - ul * hir2)
+            t = frac0 + (ul + q) * scale2
+            f = np.floor(t)
+            w[i] = t - f
+            cyc[i] = cyc0 + a0 * nx[i] + a1 * ny[i] + a2 * nz[i] + (du + q) * kc2
+            jc[i] = _entry(f, base, top)
 
 
 @numba.njit(fastmath=True, error_model="numpy", cache=CACHE)
 def _combine_block(
-    acc_re: np.ndarray,
-    acc_im: np.ndarray,
-    a: np.ndarray,
-    b: np.ndarray,
-    dr: np.ndarray,
-    pos: np.ndarray,
-    cyc: np.ndarray,
-    scale32: np.float32,
-    kc32: np.float32,
+    acc_re: np.ndarray, acc_im: np.ndarray, a: np.ndarray, b: np.ndarray, w: np.ndarray, cyc: np.ndarray
 ) -> None:
-    """_combine_from_dr with each pixel's own (its tile's) position and cycles at dr = 0."""
+    """_combine_from_dr with each pixel's weight and carrier cycles from _positions_block."""
+    half = np.float32(0.5)
     for i in range(len(acc_re)):
-        w, co, si = _weight_and_phasor(dr[i], pos[i], cyc[i], scale32, kc32)
-        vr = a[2 * i] + w * b[2 * i]
-        vi = a[2 * i + 1] + w * b[2 * i + 1]
+        c = cyc[i]
+        co, si = cis_cycles32_short(c - np.floor(c + half))
+        vr = a[2 * i] + w[i] * b[2 * i]
+        vi = a[2 * i + 1] + w[i] * b[2 * i + 1]
         acc_re[i] += vr * co - vi * si
         acc_im[i] += vr * si + vi * co
 
@@ -662,10 +689,11 @@ def backproject_tiles(
     mode: 0 nearest, 1 linear, 2 tabulated kernel of ``taps`` taps with ``table`` (steps + 1, taps), 3 cubic.
 
     A block of several tiles (make_tiles' ``block``: tiles under the carrier-cycle cap, coarse pixels) on linear
-    monostatic reads runs as one tile where the expansion holds over it: per pulse its centre's range in float64,
-    each tile's u.X (X its centre from the block's) in float64 as its pixels' reduced cycles and position, each
-    pixel's u.d + the block-wide second- and third-order terms in float32: the same float32 rounding as the
-    tile's own pass (d stays within the tile), one pass over all the block's pixels instead of one per tile.
+    monostatic reads runs as one tile where the expansion holds over it: per pulse its centre's range in float64
+    and the carrier cycles of the steps of a lattice (x = n h + e, n small integers, each pixel's offset from the
+    block centre) reduced in float64; per pixel n.a + u.e + the block-wide second- and third-order terms in
+    float32, which round ~10x finer than a tile's u.d (|e| < h ~ 1 m, not a tile radius); one pass over all the
+    block's pixels, with nothing per tile.
     """
     n_pulses = len(first)
     n_s = np.int32(pairs.shape[1] - 1) if mode in (1, 3) else np.int32(pulses.shape[1])
@@ -725,41 +753,59 @@ def backproject_tiles(
                     else:
                         _accumulate_table(acc_re, acc_im, frac, cos_, sin_, row, ib, n_s, table, taps)
         else:
-            # the block's centre (its tiles' centres' box) and the pixels' offsets x from it
+            # the block's centre (its tiles' centres' box) and the pixels' offsets x from it, as n h + e on a lattice
+            # of step h: per pulse the lattice steps' carrier cycles are reduced in float64, so a pixel's float32
+            # cycles round as u.e's (|e| < h) and n.a's (small integers n), not as u.x's over the whole block.
+            # h = sqrt(radius / kc) balances the two (about 0.8 m on 1.4 x 2.2 m X-band pixels, rounding ~10 x
+            # below the tile by tile pass's u.d), and no per-tile step is left in a pulse.
             cb = np.empty(3)
             for k in range(3):
                 cb[k] = 0.5 * (centres[t0:t1, k].min() + centres[t0:t1, k].max())
-            x = np.empty((4, n), np.float32)
+            hb2 = 0.0
             for t in range(t0, t1):
                 for i in range(tile_start[t] - s0, tile_start[t + 1] - s0):
-                    r2 = np.float32(0.0)
+                    r2 = 0.0
                     for k in range(3):
-                        v = np.float32(centres[t, k] - cb[k]) + d[k, s0 + i]
-                        x[k, i] = v
+                        v = centres[t, k] - cb[k] + d[k, s0 + i]
                         r2 += v * v
-                    x[3, i] = r2
-            hb2 = _max_norm2(x[3])
+                    hb2 = max(hb2, r2)
             h4kc_b = hb2 * hb2 * kc
-            pos = np.empty(n, np.float32)  # per pixel: its tile centre's sample position (from the block's base)
-            cyc = np.empty(n, np.float32)  # and reduced carrier cycles
+            step = math.sqrt(max(math.sqrt(hb2), 1e-3) / kc)
+            lat = np.empty((7, n), np.float32)  # rows n_x, n_y, n_z, e_x, e_y, e_z, |x|^2
+            for t in range(t0, t1):
+                for i in range(tile_start[t] - s0, tile_start[t + 1] - s0):
+                    r2 = 0.0
+                    for k in range(3):
+                        v = centres[t, k] - cb[k] + d[k, s0 + i]
+                        m = math.floor(v / step + 0.5)
+                        lat[k, i] = m
+                        lat[3 + k, i] = v - m * step
+                        r2 += v * v
+                    lat[6, i] = r2
+            nx, ny, nz, ex, ey, ez, x2 = lat[0], lat[1], lat[2], lat[3], lat[4], lat[5], lat[6]
+            level = not (np.any(nz) or np.any(ez))  # a level grid's block: its z terms are zero, not read
+            w, cyc = frac, cos_
+            scale2, kc2 = np.float32(2.0 * scale), np.float32(2.0 * kc)
             for p in range(n_pulses):
                 ibase, frac0, cyc0, ux, uy, uz, r = _block_reference(cb[0], cb[1], cb[2], tx, p, scale, first, kc)
                 if mode == 1 and monostatic and h4kc_b / (r * r * r) < EXPANSION_LIMIT_CYCLES:
-                    for t in range(t0, t1):
-                        lin = 2.0 * (
-                            ux * (centres[t, 0] - cb[0]) + uy * (centres[t, 1] - cb[1]) + uz * (centres[t, 2] - cb[2])
-                        )
-                        pt = np.float32(frac0 + lin * scale)
-                        c = cyc0 + lin * kc
-                        ct = np.float32(c - math.floor(c))
-                        for i in range(tile_start[t] - s0, tile_start[t + 1] - s0):
-                            pos[i] = pt
-                            cyc[i] = ct
                     ib = np.int32(min(max(ibase, -(1 << 28)), 1 << 28))
                     u = (np.float32(ux), np.float32(uy), np.float32(uz), np.float32(0.5 / r), np.float32(0.5 / (r * r)))
-                    _path_indices_block(dr, jc, dx, dy, dz, x, u, pos, scale32, ib, n_s)
+                    av = (2.0 * kc * step * ux, 2.0 * kc * step * uy, 2.0 * kc * step * uz)
+                    steps = (
+                        np.float32(av[0] - math.floor(av[0] + 0.5)),
+                        np.float32(av[1] - math.floor(av[1] + 0.5)),
+                        np.float32(av[2] - math.floor(av[2] + 0.5)),
+                        np.float32(step * ux),
+                        np.float32(step * uy),
+                        np.float32(step * uz),
+                    )
+                    _positions_block(
+                        w, cyc, jc, nx, ny, nz, ex, ey, ez, x2, level, u, steps, np.float32(frac0), np.float32(cyc0),
+                        scale2, kc2, ib, n_s,
+                    )  # fmt: skip
                     _gather_pairs(halves, np.uint64(p) * per_pulse, jc, ga, gb)
-                    _combine_block(acc_re, acc_im, ga32, gb32, dr, pos, cyc, scale32, kc32)
+                    _combine_block(acc_re, acc_im, ga32, gb32, w, cyc)
                 else:  # tile by tile
                     for t in range(t0, t1):
                         a, b = tile_start[t] - s0, tile_start[t + 1] - s0

@@ -172,15 +172,22 @@ def backproject_block_pixels(
     return max(row, min(block, int(room / BACKPROJECT_BYTES_PER_PIXEL) // row * row))
 
 
-# The compiled engine's cost of one tile and pulse beyond its pixels' (wall s on two cores): 0.11 us of one core
+# The compiled engine's cost of one tile and pulse beyond its pixels' (wall s on two cores): 0.11-0.14 us of one core
 # (0.17-0.3 before its views were made once a tile; scripts/tile_cost.py, docs/performance.md "Coarse pixels"),
 # about 50 pixel-pulses' worth, so it counts where the carrier-cycle cap leaves tiles of tens of pixels (X band,
-# metre pixels: 003's traffic grid, 26 a tile). On linear reads such tiles run in blocks of ~1024 pixels
-# (focus.backprojection.tile_block): each block costs TILE_PULSE_SECONDS a pulse and each further tile in it
-# SUBTILE_PULSE_SECONDS (its float64 u.X, its pixels' per-tile phase and position: 0.05-0.06 us of one core,
-# docs/performance.md "Coarse pixels in blocks").
+# metre pixels: 003's traffic grid, 26 a tile). On linear reads such tiles run in blocks of ~2000 pixels
+# (focus.backprojection.tile_block): each block costs TILE_PULSE_SECONDS a pulse, and each further tile in it
+# SUBTILE_PULSE_SECONDS: nothing is done per tile any more, but a block's pixels cost ~0.5 ns (one core) a pulse
+# more than a large tile's (their lattice terms), ~40 pixels a tile (docs/performance.md "a lattice per block").
 TILE_PULSE_SECONDS = 0.1e-6
-SUBTILE_PULSE_SECONDS = 0.035e-6
+SUBTILE_PULSE_SECONDS = 0.01e-6
+# The compiled engine per pixel and pulse (wall s on two cores, tables, upsampling and writing included): idle
+# session 25 runs (docs/performance.md) took 1.3 ns on a 2048^2 grid (stage 3.33 s) and 1.5 ns on the
+# xu_small-like grid (1.62 s); 4 ns was fitted on loaded runs and planned those at 2-3x.
+COMPILED_PIXEL_PULSE_SECONDS = 1.8e-9
+# The plan's own theory of every target (and of the scene centre) costs ~50 ms each before the pixels are
+# summed (plan_backprojection; 1.35 s for the 25 targets of scripts/bench.py's scene, 0.27 s for the demo's 5)
+THEORY_SECONDS_PER_TARGET = 0.05
 
 
 def _compiled_tile_seconds(header: Product, params: Any, grid: BackprojectionPlan | None) -> float:
@@ -226,7 +233,7 @@ def backproject_estimate(
     # positions: the image itself is written block by block, never held whole
     block = backproject_block_pixels(header, params, memory_limit, grid)
     memory = _backproject_fixed_bytes(n_ch, n_az, n_rg, params) + BACKPROJECT_BYTES_PER_PIXEL * min(n_pix, block)
-    per = 4e-9 if params.engine == "compiled" else 25e-9
+    per = COMPILED_PIXEL_PULSE_SECONDS if params.engine == "compiled" else 25e-9
     detail = f"~{n[0]} x {n[1]} pixels from {n_ch * n_az} pulses"
     if n_pix > block:
         detail += f", in {-(-n[0] // max(1, block // n[1]))} blocks of {max(1, block // n[1])} rows"
@@ -267,6 +274,7 @@ def backproject_estimate(
         # a small image runs the kernels compiled ahead of time (no numba, nothing to compile) once they are built
         if backprojection_aot.compiled_pays(n_az * min(n_pix, block)) and backprojection_aot.load():
             kernel_modules = ()
+    seconds += THEORY_SECONDS_PER_TARGET * (len(header.targets) + 1)
     return Plan(stage, stored_bytes(*n), memory, seconds, detail, kernel_modules)
 
 
