@@ -176,12 +176,15 @@ def response_theory(
     reach = islr_nulls + 3
     m = int(math.ceil(reach * upsample))
     step = np.diff(u)
+    # The sums below are taken at x >= 0 only: with real weights and even window transforms the response at -x
+    # is the conjugate of that at x (cos, sin and sinc are exactly even or odd in floating point, so the mirror
+    # is bit for bit what the sum there gives), which halves a backproject plan's ~50 ms of theory a target
     if segments is not None and segments[0] > 0:
         centre = 0.5 * (float(k.min()) + float(k.max())) / span  # u + centre: the samples' k in units of B
-        x = np.arange(-m, m + 1) / upsample
+        x = np.arange(0, m + 1) / upsample
         phase = 2 * np.pi * np.outer(x, u)
         shape = window_transform(segments[1], np.outer(x, (u + centre) * segments[0]))
-        p = np.abs((np.cos(phase) * shape) @ w + 1j * ((np.sin(phase) * shape) @ w)) ** 2
+        p = _mirrored(np.abs((np.cos(phase) * shape) @ w + 1j * ((np.sin(phase) * shape) @ w)) ** 2)
     elif u.size > 1 and np.allclose(step, 1.0 / round(1.0 / step[0]), rtol=1e-9, atol=0):
         # cell spacing 1/n of B: a zero-padded FFT samples the response every 1/upsample null exactly; the
         # response repeats every n nulls (grating lobes of a sparse support: a short array), read modulo
@@ -189,12 +192,17 @@ def response_theory(
         spec = np.fft.fft(w, n * upsample)
         p = np.abs(spec[np.arange(-m, m + 1) % (n * upsample)]) ** 2
     else:
-        x = np.arange(-m, m + 1) / upsample
+        x = np.arange(0, m + 1) / upsample
         phase = 2 * np.pi * np.outer(x, u)
-        p = np.abs(np.cos(phase) @ w + 1j * (np.sin(phase) @ w)) ** 2
+        p = _mirrored(np.abs(np.cos(phase) @ w + 1j * (np.sin(phase) @ w)) ** 2)
     p /= p[m]  # w >= 0: the peak is at x = 0
     irw, pslr, islr, _ = cut_metrics(p, 1.0 / upsample, m, islr_nulls)
     return ResponseTheory(irw=irw / span, null=1.0 / span, pslr_db=max(pslr, -300.0), islr_db=max(islr, -300.0))
+
+
+def _mirrored(half: np.ndarray) -> np.ndarray:
+    """An even function's samples at -m .. m from those at 0 .. m."""
+    return np.concatenate([half[:0:-1], half])
 
 
 @functools.cache
