@@ -185,9 +185,10 @@ SUBTILE_PULSE_SECONDS = 0.01e-6
 # session 25 runs (docs/performance.md) took 1.3 ns on a 2048^2 grid (stage 3.33 s) and 1.5 ns on the
 # xu_small-like grid (1.62 s); 4 ns was fitted on loaded runs and planned those at 2-3x.
 COMPILED_PIXEL_PULSE_SECONDS = 1.8e-9
-# The plan's own theory of every target (and of the scene centre) costs ~50 ms each before the pixels are
-# summed (plan_backprojection; 1.35 s for the 25 targets of scripts/bench.py's scene, 0.27 s for the demo's 5)
-THEORY_SECONDS_PER_TARGET = 0.05
+# The plan's own theory of every target (and of the scene centre) before the pixels are summed
+# (plan_backprojection): ~50 ms each (1.35 s for the 25 targets of scripts/bench.py's scene), 23 ms since the
+# responses are summed at x >= 0 (the demo's 5 and its centre: 0.28 -> 0.14 s, best of 3 in process)
+THEORY_SECONDS_PER_TARGET = 0.025
 
 
 def _compiled_tile_seconds(header: Product, params: Any, grid: BackprojectionPlan | None) -> float:
