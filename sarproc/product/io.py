@@ -931,6 +931,12 @@ def _read_product(
 PREVIEW_BLOCK_BYTES = 16 << 20
 
 
+def preview_shape(shape: tuple[int, ...], max_side: int) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """(per-axis reduction factors, preview shape) of :func:`read_magnitude_preview` for an image of ``shape``."""
+    factors = tuple(max(1, -(-n // max_side)) for n in shape)
+    return factors, tuple(-(-n // f) for n, f in zip(shape, factors))
+
+
 def read_magnitude_preview(
     path: str | Path, max_side: int = 2048, block_bytes: int = PREVIEW_BLOCK_BYTES, header: Product | None = None
 ) -> tuple[np.ndarray, tuple[str, ...], dict[str, np.ndarray], tuple[int, ...]]:
@@ -946,8 +952,7 @@ def read_magnitude_preview(
         header = read_product(path, kinds=("image", "image3d"), load=False)
     dims = header.dims
     shape = tuple(len(header.coords[d]) for d in dims)
-    factors = tuple(max(1, -(-n // max_side)) for n in shape)
-    out_shape = tuple(-(-n // f) for n, f in zip(shape, factors))
+    factors, out_shape = preview_shape(shape, max_side)
     preview = np.zeros(out_shape, dtype=np.float32)
     row_bytes = 8 * int(np.prod(shape[1:], dtype=np.int64))
     rows = max(factors[0], (block_bytes // max(row_bytes, 1)) // factors[0] * factors[0])

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 from sarproc.product.aot import NUMBA_STARTUP_S
 from sarproc.product.budget import NUMBA_PROCESS, Plan, header_shape
 from sarproc.product.errors import InputError
-from sarproc.product.io import PREVIEW_BLOCK_BYTES
+from sarproc.product.io import PREVIEW_BLOCK_BYTES, preview_shape
 from sarproc.quality import residual_aot
 
 if TYPE_CHECKING:
@@ -92,7 +92,7 @@ def quicklook_estimate(stage: str, header: Product, max_pixels: int, renderer: s
     base = MATPLOTLIB_IMPORT if renderer == "matplotlib" else (0.0, 0.0)
     # the preview (float32, every axis reduced: a 3D cube's is the whole cube, not only the projections drawn)
     # and the block being read (sarproc.product.io.PREVIEW_BLOCK_BYTES): the du2010 cube 52 -> 131 MB measured
-    preview = math.prod(-(-n // max(1, -(-n // max_pixels))) for n in shape)
+    preview = math.prod(preview_shape(shape, max_pixels)[1])
     reading = 2.5 * min(PREVIEW_BLOCK_BYTES, 8 * math.prod(shape)) + 4.0 * preview
     return Plan(
         stage,
