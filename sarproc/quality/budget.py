@@ -9,12 +9,17 @@ from sarproc.product.aot import NUMBA_STARTUP_S
 from sarproc.product.budget import NUMBA_PROCESS, Plan, header_shape
 from sarproc.product.errors import InputError
 from sarproc.product.io import PREVIEW_BLOCK_BYTES, preview_shape
-from sarproc.quality import residual_aot
+from sarproc.quality import kernels_aot, residual_aot
 
 if TYPE_CHECKING:
     from typing import Any
 
     from sarproc.product.model import Product
+
+
+# what running a cube's kernels through numba adds to evaluate's peak RSS (the same runs, SARPROC_AOT=0 against
+# 1): du2010_wide_swath +110 MB, paper 004's cube +123 MB
+NUMBA_CUBE_BYTES = 120e6
 
 
 def evaluate_estimate(stage: str, header: Product, params: Any) -> Plan:
@@ -34,7 +39,16 @@ def evaluate_estimate(stage: str, header: Product, params: Any) -> Plan:
     cut = max(
         (2 * math.ceil((params.islr_nulls + 2) * ax.null * params.upsample) + 1) * L for ax, L in zip(axes, lengths)
     )
-    memory = (15.0 if len(shape) < 3 else 30.0) * n + 160.0 * n_tg * chip + 32.0 * cut
+    if len(shape) < 3:
+        memory = 15.0 * n + 160.0 * n_tg * chip + 32.0 * cut
+    else:
+        # fitted to two cubes with the kernels compiled ahead of time (session 26, peak RSS less PROCESS's):
+        # du2010_wide_swath 252 MB (3 targets, 6.2 M voxels), paper 004's 417 MB (7, 1.8 M), where the former
+        # 30 B a voxel and 160 B a chip sample planned them at 2.3x / 1.9x; through numba (its runtime, threads
+        # and cached kernels) 362 / 540 MB
+        memory = 4.0 * n + 80.0 * n_tg * chip + 32.0 * cut
+        if not kernels_aot.runs_compiled(n_tg, 0 if params.exact else chip):
+            memory += NUMBA_CUBE_BYTES
     # neighbours are fitted jointly, so a target's work grows with how many there are (up to the few
     # whose chips can overlap it)
     # (constants halved after the residual-model merge, measured on an idle 2-core machine: demo 1.0 s,

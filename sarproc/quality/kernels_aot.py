@@ -52,12 +52,24 @@ SERIAL_S_PER_SAMPLE = 2.3e-7
 STARTUP_S = 0.8
 
 
+def serial_estimate(targets: int, chip_samples: int) -> float:
+    """The serial seconds :func:`reserve` weighs for ``targets`` chips of ``chip_samples``, scaled from
+    :data:`STARTUP_S` to the start-up :func:`aot.serial_pays` weighs."""
+    return SERIAL_S_PER_SAMPLE * targets * chip_samples * aot.NUMBA_STARTUP_S / STARTUP_S
+
+
 def reserve(targets: int, chip_samples: int) -> ModuleType:
     """Choose, once for a cube's evaluation of ``targets`` chips of ``chip_samples``, the module its kernels run
     from (:meth:`Kernels.pick` with the whole estimate, weighed against :data:`STARTUP_S`: later calls keep that
     choice). Paper 004's cube runs them compiled on two CPUs (0.89 s serial against 0.5 s on two threads and
     numba's 0.8 s start), through numba on 16."""
-    return QUALITY.pick(SERIAL_S_PER_SAMPLE * targets * chip_samples * aot.NUMBA_STARTUP_S / STARTUP_S)
+    return QUALITY.pick(serial_estimate(targets, chip_samples))
+
+
+def runs_compiled(targets: int, chip_samples: int) -> bool:
+    """Whether a fresh process's :func:`reserve` would choose the compiled module (for a plan, before any run):
+    it pays and it is built. Loads the module where built; imports no numba."""
+    return aot.serial_pays(serial_estimate(targets, chip_samples)) and QUALITY.load() is not None
 
 
 def kernels() -> ModuleType:

@@ -53,6 +53,8 @@ STAGES = [
     ("backproject", "demo_raw.h5", "demo"),
     ("evaluate", "demo_image.h5", "demo"),
     ("quicklook", "demo_image.h5", None),
+    # a cube's chips and kernels (numba's here: the tests run SARPROC_AOT=0; 362 MB peak RSS, 582 MB planned before)
+    ("evaluate", "du2010_cube.h5", "du2010_wide_swath"),
     # a 3D cube's preview holds every voxel (49 MB of complex64: 131 MB peak RSS against 64 MB planned before)
     ("quicklook", "du2010_cube.h5", None),
     ("preprocess", "an2012_exp1_small_raw.h5", "an2012_exp1_small"),
