@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from sarproc.cli.markdown import markdown_table
 from sarproc.cli.sweep_output import pick_row as pick, raw_product_of as raw_of, sweep_rows
 from sarproc.focus.multichannel import channels
 from sarproc.focus.multichannel.channels import product_ghost_level_db as predicted_ghost_db
@@ -301,12 +302,10 @@ def figures(
 
 
 def md_table(rows: Sequence[dict], cols: Sequence[str], fmt: dict[str, str]) -> str:
-    head = "| " + " | ".join(cols) + " |\n|" + "---|" * len(cols) + "\n"
-
     def cell(r: dict, c: str) -> str:
         return "n/a" if r.get(c) is None else fmt.get(c, "{}").format(r[c])
 
-    return head + "".join("| " + " | ".join(cell(r, c) for c in cols) + " |\n" for r in rows)
+    return markdown_table(cols, [[cell(r, c) for c in cols] for r in rows]) + "\n"
 
 
 METRIC_COLS = [
