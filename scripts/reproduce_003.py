@@ -79,19 +79,6 @@ def estimate(reconstructed: Path) -> tuple[float, float]:
     return (mts[0]["radial_velocity"], mts[0]["along_track_velocity"]) if mts else (float("nan"), float("nan"))
 
 
-def doppler_spectrum(rec: Product) -> tuple[np.ndarray, np.ndarray]:
-    """Reconstructed channel's Doppler power spectrum with the squint history removed (paper Fig. 10)."""
-    r = rec.radar
-    deramped = (
-        rec.data
-        * np.exp(-2j * np.pi * 2 * r.velocity * math.sin(r.squint) / r.wavelength * rec.coords["azimuth_time"])[:, None]
-    )
-    return (
-        np.fft.fftshift(np.fft.fftfreq(len(deramped), 1 / r.prf)),
-        np.fft.fftshift(np.sum(np.abs(np.fft.fft(deramped, axis=0)) ** 2, axis=1)),
-    )
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--results", default="results/003")
@@ -141,7 +128,7 @@ def main() -> None:
             row["v_r_est"], row["v_a_est"] = estimate(img["dir"] / "reconstruct.h5")
             single_rows.append(row)
             strips[(label, method)] = read_product(strip["dir"] / "backproject.h5")
-            spectra[(label, method)] = doppler_spectrum(read_product(img["dir"] / "reconstruct.h5"))
+            spectra[(label, method)] = channels.doppler_power_spectrum(read_product(img["dir"] / "reconstruct.h5"))
             case_images[(scene, method)] = img["dir"] / "backproject.h5"
     ref_row = pick(cases, scene="single_n_prf-image")
     a = read_product(case_images[("static", "conventional")]).data
