@@ -25,6 +25,7 @@ import numpy as np
 
 from sarproc.product.io import read_product
 from sarproc.quality.image_measures import deviation_db
+from sarproc.quality.summary import SINC_ISLR_DB, SINC_PSLR_DB
 from sarproc.quality.tradeoff import pareto_front, timing_stats
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -37,8 +38,8 @@ TOL = {"irw": 0.03, "pslr": 0.3, "islr": 0.3, "pos": 0.05}  # issue 2's toleranc
 def within(q: dict) -> bool:
     return (
         q["irw_dev"] < TOL["irw"]
-        and abs(q["pslr"] + 13.26) < TOL["pslr"]
-        and abs(q["islr"] + 10.16) < TOL["islr"]
+        and abs(q["pslr"] - SINC_PSLR_DB) < TOL["pslr"]
+        and abs(q["islr"] - SINC_ISLR_DB) < TOL["islr"]
         and q["pos"] < TOL["pos"]
     )
 

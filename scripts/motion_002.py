@@ -25,9 +25,9 @@ from sarproc.focus.pfa.chain import antenna_positions, image_frame
 from sarproc.focus.pfa.polar import wavenumbers
 from sarproc.focus.pfa.two_step import pslr_rise_db
 from sarproc.product.io import read_product
-from sarproc.quality.summary import worst_quality_json
+from sarproc.quality.summary import SINC_ISLR_DB, SINC_PSLR_DB, worst_quality_json
 
-PSLR, ISLR = -13.26, -10.16
+PSLR, ISLR = SINC_PSLR_DB, SINC_ISLR_DB
 EQ7 = "97.7300277783166 m"
 
 

@@ -155,13 +155,15 @@ def fmt_positions(rep: dict, title: str) -> list[str]:
 
 def within(rep: dict, names: Collection[str] | None = None) -> tuple[bool, dict[str, float]]:
     """(all within the issue's tolerances, worst deviations) using the lrwc report."""
+    from sarproc.quality.summary import SINC_ISLR_DB, SINC_PSLR_DB
+
     worst = {"irw": 0.0, "pslr": 0.0, "islr": 0.0}
     ok = True
     for _name, a, r, _ in metrics_table(rep, names):
         for m in (a, r):
             worst["irw"] = max(worst["irw"], abs(m["irw_ratio"] - 1))
-            worst["pslr"] = max(worst["pslr"], abs(m["pslr_db"] + 13.26))
-            worst["islr"] = max(worst["islr"], abs(m["islr_db"] + 10.16))
+            worst["pslr"] = max(worst["pslr"], abs(m["pslr_db"] - SINC_PSLR_DB))
+            worst["islr"] = max(worst["islr"], abs(m["islr_db"] - SINC_ISLR_DB))
     ok = worst["irw"] < 0.05 and worst["pslr"] < 0.5 and worst["islr"] < 0.5
     return ok, worst
 

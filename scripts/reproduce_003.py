@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from sarproc.cli.markdown import markdown_table
 from sarproc.cli.sweep_output import pick_row as pick, raw_product_of as raw_of, sweep_rows
 from sarproc.focus.multichannel import channels
 from sarproc.focus.multichannel.channels import product_ghost_level_db as predicted_ghost_db
@@ -76,19 +77,6 @@ def estimate(reconstructed: Path) -> tuple[float, float]:
     """(v_r, v_a) of the one moving-target window of a reconstructed product (nan if none)."""
     mts = read_product(reconstructed, load=False).attrs["reconstruct"]["moving_targets"]
     return (mts[0]["radial_velocity"], mts[0]["along_track_velocity"]) if mts else (float("nan"), float("nan"))
-
-
-def doppler_spectrum(rec: Product) -> tuple[np.ndarray, np.ndarray]:
-    """Reconstructed channel's Doppler power spectrum with the squint history removed (paper Fig. 10)."""
-    r = rec.radar
-    deramped = (
-        rec.data
-        * np.exp(-2j * np.pi * 2 * r.velocity * math.sin(r.squint) / r.wavelength * rec.coords["azimuth_time"])[:, None]
-    )
-    return (
-        np.fft.fftshift(np.fft.fftfreq(len(deramped), 1 / r.prf)),
-        np.fft.fftshift(np.sum(np.abs(np.fft.fft(deramped, axis=0)) ** 2, axis=1)),
-    )
 
 
 def main() -> None:
@@ -140,7 +128,7 @@ def main() -> None:
             row["v_r_est"], row["v_a_est"] = estimate(img["dir"] / "reconstruct.h5")
             single_rows.append(row)
             strips[(label, method)] = read_product(strip["dir"] / "backproject.h5")
-            spectra[(label, method)] = doppler_spectrum(read_product(img["dir"] / "reconstruct.h5"))
+            spectra[(label, method)] = channels.doppler_power_spectrum(read_product(img["dir"] / "reconstruct.h5"))
             case_images[(scene, method)] = img["dir"] / "backproject.h5"
     ref_row = pick(cases, scene="single_n_prf-image")
     a = read_product(case_images[("static", "conventional")]).data
@@ -301,12 +289,10 @@ def figures(
 
 
 def md_table(rows: Sequence[dict], cols: Sequence[str], fmt: dict[str, str]) -> str:
-    head = "| " + " | ".join(cols) + " |\n|" + "---|" * len(cols) + "\n"
-
     def cell(r: dict, c: str) -> str:
         return "n/a" if r.get(c) is None else fmt.get(c, "{}").format(r[c])
 
-    return head + "".join("| " + " | ".join(cell(r, c) for c in cols) + " |\n" for r in rows)
+    return markdown_table(cols, [[cell(r, c) for c in cols] for r in rows]) + "\n"
 
 
 METRIC_COLS = [

@@ -26,6 +26,7 @@ import yaml
 
 from sarproc.cli.sweep_output import sweep_rows
 from sarproc.product.io import read_product
+from sarproc.product.metadata import SINC_IRW_FACTOR
 from sarproc.product.model import Product
 from sarproc.quality.metrics import TargetReport
 
@@ -54,7 +55,7 @@ def metrics_row(rep_target: TargetReport) -> dict:
         out[m.axis] = {
             "irw": m.irw * scale,
             "irw_ratio": m.irw_ratio,
-            "resolution_1_over_B": m.irw / 0.886 * scale,
+            "resolution_1_over_B": m.irw / SINC_IRW_FACTOR * scale,
             "pslr": m.pslr_db,
             "islr": m.islr_db,
             "err_cells": m.position_error_cells,

@@ -46,7 +46,10 @@ def main(argv: list[str] | None = None) -> None:
         "residual RMS (dB) | evaluate (s) | with residual (s) |" + before_head,
         "|---|---:|---:|---:|---:|---:|---:|" + ("---:|---:|---:|" if args.before else ""),
     ]
-    fmt = lambda v: "n/a" if v is None else f"{v:.2f}"  # noqa: E731
+
+    def fmt(v: float | None) -> str:
+        return "n/a" if v is None else f"{v:.2f}"
+
     with tempfile.TemporaryDirectory() as tmp:
         cfg = Path(tmp) / "residual.yaml"
         cfg.write_text("evaluate:\n  residual: true\n")

@@ -8,12 +8,31 @@ scipy.linalg, sparse, special, optimize and fft along; docs/performance.md, "Per
 
 from __future__ import annotations
 
-import numpy as np
-from threadpoolctl import threadpool_limits
+import functools
+from collections.abc import Callable
+from typing import Any, TypeVar
 
-# The matrices are small (a grid of points by ~10 coefficients): threaded BLAS only adds its start-up and, on a
-# loaded machine or inside worker threads, threads waiting for each other (measured ~10x slower on 2 cores).
-_single_blas = threadpool_limits.wrap(limits=1, user_api="blas")
+import numpy as np
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def _single_blas(func: F) -> F:
+    """``func`` run with one BLAS thread. The matrices are small (a grid of points by ~10 coefficients):
+    threaded BLAS only adds its start-up and, on a loaded machine or inside worker threads, threads waiting
+    for each other (measured ~10x slower on 2 cores). threadpoolctl is imported at the first call: importing
+    it sets KMP_DUPLICATE_LIB_OK in the process's environment, which importing sarproc must not do."""
+    limited: list[Callable[..., Any]] = []  # threadpoolctl's wrapper of func, made once
+
+    @functools.wraps(func)
+    def run(*args: Any, **kwargs: Any) -> Any:
+        if not limited:
+            from threadpoolctl import threadpool_limits
+
+            limited.append(threadpool_limits.wrap(limits=1, user_api="blas")(func))
+        return limited[0](*args, **kwargs)
+
+    return run  # type: ignore[return-value]
 
 
 def bspline_basis(x: np.ndarray, t: np.ndarray, k: int = 3) -> np.ndarray:

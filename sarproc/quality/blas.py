@@ -16,9 +16,10 @@ import functools
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
-from threadpoolctl import threadpool_limits
+if TYPE_CHECKING:
+    from threadpoolctl import threadpool_limits
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -27,13 +28,21 @@ _inside = 0
 _limiters: list[threadpool_limits] = []
 
 
+def _one_thread_limit() -> threadpool_limits:
+    """A one-thread BLAS limit, threadpoolctl imported here: importing it sets KMP_DUPLICATE_LIB_OK in the
+    process's environment, which importing sarproc must not do (issue 21)."""
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=1, user_api="blas")
+
+
 @contextmanager
 def one_blas_thread() -> Iterator[None]:
     """BLAS limited to one thread from the first caller's entry to the last caller's exit."""
     global _inside
     with _lock:
         if _inside == 0:
-            _limiters.append(threadpool_limits(limits=1, user_api="blas"))
+            _limiters.append(_one_thread_limit())
         _inside += 1
     try:
         yield
@@ -51,7 +60,7 @@ def limit_loaded() -> None:
     loaded libraries costs milliseconds, and a caller may ask on every fit."""
     with _lock:
         if _inside > 0 and len(_limiters) == 1:
-            _limiters.append(threadpool_limits(limits=1, user_api="blas"))
+            _limiters.append(_one_thread_limit())
 
 
 def single_blas(func: F) -> F:

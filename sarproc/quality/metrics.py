@@ -486,7 +486,10 @@ class _Chip:
         v = np.asarray(direction, dtype=float)
         t = np.asarray(offsets, dtype=float)
         n = self.spec.ndim
-        kern = lambda a: np.exp(2j * np.pi * np.outer(x0[a] + t * v[a], self.freqs[a]))  # (T, K_a)  # noqa: E731
+
+        def kern(a: int) -> np.ndarray:  # (T, K_a)
+            return np.exp(2j * np.pi * np.outer(x0[a] + t * v[a], self.freqs[a]))
+
         out = (self.spec.reshape(-1, self.shape[-1]) @ kern(n - 1).T).reshape(self.shape[:-1] + (t.size,))
         for a in range(n - 2, -1, -1):
             out = np.einsum("...kt,tk->...t", out, kern(a))
@@ -2024,7 +2027,9 @@ def sinc_islr_db(window_nulls: float) -> float:
     """
     import scipy.special
 
-    si = lambda x: float(scipy.special.sici(x)[0])  # noqa: E731
+    def si(x: float) -> float:
+        return float(scipy.special.sici(x)[0])
+
     return 10 * math.log10((si(2 * math.pi * window_nulls) - si(2 * math.pi)) / si(2 * math.pi))
 
 

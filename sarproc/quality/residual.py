@@ -1131,7 +1131,10 @@ def _exclusion_mask(
     outside = np.ones(shape, dtype=bool)
     # every truth row (unmeasured targets of a --targets subset included) and every found peak
     centres = [np.rint([ax.to_index(x) for ax, x in zip(axes, t)]).astype(int) for t in truth]
-    factor = lambda i: broadening[i] if i < len(broadening) else 1.0  # noqa: E731
+
+    def factor(i: int) -> float:
+        return broadening[i] if i < len(broadening) else 1.0
+
     factors = [factor(i) for i in range(len(centres))] + [factor(i) for i in range(len(peaks))]
     for c, f in zip(centres + list(peaks), factors):
         outside[window_slices(c, [ax.cells_to_samples(cells * f) for ax in axes], shape)] = False
@@ -1265,7 +1268,10 @@ def _residual_false_target(
     mag = np.abs(residual)
     misfit = sorted(set(_misfit_targets(mag, axes, peaks, reports, params)) | set(unmodelled))
     search, guard = _search_masks(residual.shape, axes, truth, peaks, reports, params, misfit)
-    db = lambda v: float(20 * np.log10(v / ref.peak_amplitude)) if v > 0 and ref.peak_amplitude > 0 else -np.inf  # noqa: E731
+
+    def db(v: float) -> float:
+        return float(20 * np.log10(v / ref.peak_amplitude)) if v > 0 and ref.peak_amplitude > 0 else -np.inf
+
     floor = ResidualFloor(
         floor_db=db(float(mag[guard].max())) if guard.any() else -np.inf,
         rms_db=db(float(np.sqrt(np.mean(mag[search] ** 2)))) if search.any() else -np.inf,

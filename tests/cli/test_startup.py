@@ -40,6 +40,24 @@ def test_import_sarproc_leaves_the_environment_unchanged():
     assert json.loads(out) is True
 
 
+def test_importing_every_library_module_leaves_the_environment_unchanged():
+    """Also through what the modules import: threadpoolctl sets KMP_DUPLICATE_LIB_OK when imported, so the
+    library imports it where it first limits BLAS (quality.blas, dsp.spline), not at the top of a module."""
+    env = {k: v for k, v in os.environ.items() if k not in ("OMP_WAIT_POLICY", "KMP_DUPLICATE_LIB_OK")}
+    out = _python(
+        "import importlib, json, os, pkgutil\nbefore = dict(os.environ)\nimport sarproc\n"
+        "modules = pkgutil.walk_packages(sarproc.__path__, 'sarproc.')\n"
+        "names = [m.name for m in modules if m.name != 'sarproc.__main__']\n"
+        "for name in names:\n    importlib.import_module(name)\n"
+        "changed = {k: v for k, v in os.environ.items() if before.get(k) != v}\n"
+        "print(json.dumps([len(names), changed, sorted(set(before) - set(os.environ))]))",
+        env,
+    )
+    count, changed, removed = json.loads(out.strip().splitlines()[-1])
+    assert count > 100  # every module of the package was imported
+    assert changed == {} and removed == []
+
+
 def test_the_command_sets_the_wait_policy_unless_the_user_did():
     env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
     # main() ends the process (after the exit handlers): the policy is printed by one

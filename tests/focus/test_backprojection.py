@@ -17,6 +17,7 @@ from sarproc.focus.backprojection import (
     warn_ambiguities as bp_warn,
 )
 from sarproc.product.config import load_yaml
+from sarproc.product.metadata import SINC_IRW_FACTOR
 from sarproc.quality.metrics import evaluate_product
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
@@ -172,7 +173,7 @@ def test_hamming_windows_are_written_as_each_targets_own_theory():
     )
     ham, t = window_theory("hamming"), image.targets[0]
     for a, ax in enumerate(("azimuth", "range")):
-        assert t[f"null_{ax}"] == pytest.approx(image.attrs["theoretical_irw"][a] / 0.886, rel=1e-6)
+        assert t[f"null_{ax}"] == pytest.approx(image.attrs["theoretical_irw"][a] / SINC_IRW_FACTOR, rel=1e-6)
         assert t[f"irw_{ax}"] / t[f"null_{ax}"] == pytest.approx(ham.factor, rel=0.003)
         assert t[f"pslr_{ax}"] == pytest.approx(ham.pslr_db, abs=0.1)
         assert t[f"islr_{ax}"] == pytest.approx(ham.islr_db, abs=0.1)

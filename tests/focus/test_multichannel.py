@@ -116,6 +116,29 @@ def test_filter_bank_recovers_a_band_limited_signal_uniform_and_not():
     assert channels.filter_bank(channels.channel_delays(dx, prf * n / 2), prf, n_az).noise_gain == pytest.approx(1.0)
 
 
+def test_doppler_power_spectrum_removes_the_squint_centroid():
+    """A tone at the squint's Doppler centroid 2 v sin(theta) / lambda plus f0 (a bin) lands wholly in f0's bin of
+    an ascending grid over the PRF, its power kept (Parseval); left in, the centroid (233 kHz, 170.67 bins past a
+    multiple of the PRF) would put the peak elsewhere and spread it."""
+    from types import SimpleNamespace
+
+    radar = SimpleNamespace(velocity=7000.0, squint=math.radians(30), wavelength=0.03, prf=2000.0)
+    n = 256
+    t = (np.arange(n) - n / 2) / radar.prf
+    centroid = 2 * radar.velocity * math.sin(radar.squint) / radar.wavelength
+    f0 = 37 * radar.prf / n
+    data = np.exp(2j * np.pi * (centroid + f0) * t)[:, None] * np.array([1.0, 0.5j, -0.25])
+    product = SimpleNamespace(radar=radar, data=data, coords={"azimuth_time": t})
+    freqs, power = channels.doppler_power_spectrum(product)
+    assert len(freqs) == n and np.all(np.diff(freqs) > 0)
+    assert freqs[0] == pytest.approx(-radar.prf / 2)
+    assert freqs[np.argmax(power)] == pytest.approx(f0)
+    assert power.sum() == pytest.approx(n * np.sum(np.abs(data) ** 2), rel=1e-9)
+    assert power.max() / power.sum() > 0.999
+    with pytest.raises(ValueError, match="single-channel"):
+        channels.doppler_power_spectrum(SimpleNamespace(radar=radar, data=data[None], coords={"azimuth_time": t}))
+
+
 def test_channel_model_matches_exact_bistatic_paths():
     """Eqs. (1), (2) and the v_r phase: |P - T| + |P + dx - T| = 2 R_mono(t + tau_n) - 2 v_r cos(theta) tau_n + e_n."""
     v, squint, r0, lam = 7500.0, math.radians(20), 600e3, C / 9.6e9

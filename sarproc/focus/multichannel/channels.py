@@ -191,6 +191,21 @@ def product_ghost_level_db(raw: Product, error_phase: np.ndarray) -> float:
     return ghost_level_db(channel_delays(offsets, r.velocity), r.prf, error_phase, half_band)
 
 
+def doppler_power_spectrum(product: Product) -> tuple[np.ndarray, np.ndarray]:
+    """(Doppler frequencies, Hz, ascending; power summed over range) of a single-channel raw product's azimuth
+    spectrum with the squint's Doppler centroid 2 v sin(theta) / lambda removed: where a reconstructed
+    channel's band lies within the N PRF it carries, and its ghosts' bands (paper 003, Fig. 10)."""
+    if product.data.ndim != 2:
+        raise ValueError(f"doppler_power_spectrum: a single-channel product, not one of {product.data.ndim} axes")
+    r = product.radar
+    t = np.asarray(product.coords["azimuth_time"], dtype=float)
+    deramped = product.data * np.exp(-2j * np.pi * 2 * r.velocity * math.sin(r.squint) / r.wavelength * t)[:, None]
+    return (
+        np.fft.fftshift(np.fft.fftfreq(len(deramped), 1 / r.prf)),
+        np.fft.fftshift(np.sum(np.abs(np.fft.fft(deramped, axis=0)) ** 2, axis=1)),
+    )
+
+
 def ghost_spacing(radar: RadarMetadata, prf: float | None = None) -> float:
     """Azimuth distance between a target and its first channel ghost, m: PRF v / K_a with the azimuth FM rate
     K_a = 2 (v cos theta)^2 / (lambda R_ref) at the reference range. ``prf``: the channels' PRF (default the
