@@ -70,10 +70,12 @@ from sarproc.quality.line_moments import line_sums
 from sarproc.quality.linesum import exponential_sums
 from sarproc.quality.lstsq import least_squares
 from sarproc.quality.residual import (
+    FitStart,
     ResidualFloor,
+    ResponseModel,
     fit_response_models,
+    model_values,
     residual_false_target,
-    response_basis,
     spectral_orders,
 )
 
@@ -1253,15 +1255,11 @@ class _Peak:
     contaminating: tuple = ()  # the subtracted neighbours (_NeighbourModel) that ideal responses fitted poorly
     fanned: tuple[int, ...] = ()  # axes whose side lobes fan out (curved support edges): cut through the centre
 
-    def fit_start(self) -> dict:
-        """The start of a response-model fit: the per-target dict of :func:`fit_response_models`."""
-        return {
-            "peak_index": self.index,
-            "pos": self.position,
-            "value": self.value,
-            "V": self.ridges,
-            "f_c": self.band_centre,
-        }
+    def fit_start(self, nulls: np.ndarray | None = None) -> FitStart:
+        """The start of its response-model fit (:func:`fit_response_models`); ``nulls``: its own null spacing."""
+        return FitStart(
+            position=self.position, ridges=self.ridges, band_centre=self.band_centre, value=self.value, nulls=nulls
+        )
 
 
 def _find_peak(
@@ -1416,7 +1414,7 @@ def _false_targets(
         # a window's taper (Hamming: the band's cosine) needs the second spectral order (residual_orders doc)
         params = dataclasses.replace(params, residual_orders=max(params.residual_orders, 2))
     starts = [
-        p.fit_start() if own_axes is None else dict(p.fit_start(), nulls=np.array([ax.null for ax in own]))
+        p.fit_start(None if own_axes is None else np.array([ax.null for ax in own]))
         for p, own in zip(peaks, own_axes or [axes] * len(peaks))
     ]
     models = fit_response_models(data, starts, nulls, params, support_shape=True)
@@ -1489,14 +1487,14 @@ class _NeighbourModel:
     group: frozenset  # indices of the targets fitted together
     misfit: float  # the group fit's residual energy / the fitted samples' energy
     nulls: np.ndarray  # null spacing 1/B per axis, samples
-    rich: dict | None = None  # the response model (fit_response_models) where it fitted better
+    rich: ResponseModel | None = None  # the response model (fit_response_models) where it fitted better
     chirp: np.ndarray | None = None  # its known chirp, cycles/sample^2 per axis (_ideal_response); None: none
     shapes: ResponseShapes | None = None  # known shapes along the ridges (_ideal_response); None: sincs
 
     def values(self, points: npt.ArrayLike, hamming: bool, exact: bool = False) -> np.ndarray:
         """The fitted neighbour at ``points`` ((ndim, N) image indices)."""
-        if self.rich:
-            return _rich_values(points, self.rich)
+        if self.rich is not None:
+            return model_values(points, self.rich)
         return self.amplitude * _ideal_response(
             points, self.position, self.ridges, self.nulls, self.band_centre, hamming, exact, self.chirp, self.shapes
         )
@@ -1506,7 +1504,7 @@ class _NeighbourModel:
     ) -> np.ndarray:
         """:meth:`values` on the image box ``origin + index`` of ``shape``, raveled (C order); an ideal 3D
         response from per-axis tables (compiled), the others at the box's points."""
-        if not self.rich and not exact and len(shape) == 3:
+        if self.rich is None and not exact and len(shape) == 3:
             ridge = np.linalg.inv(np.asarray(self.ridges, dtype=float).T) / np.asarray(self.nulls, dtype=float)[:, None]
             box = kernels_aot.kernels().ideal_response_box(
                 kernels_aot.f8(origin),
@@ -1526,14 +1524,6 @@ class _NeighbourModel:
 
 def _zero_or(values: npt.ArrayLike | None, ndim: int) -> np.ndarray:
     return np.zeros(ndim) if values is None else np.asarray(values, dtype=float)
-
-
-def _rich_values(points: npt.ArrayLike, rich: dict) -> np.ndarray:
-    """A response model of :func:`fit_response_models` at ``points`` ((ndim, N) image indices)."""
-    return (
-        response_basis(points, rich["pos"], rich["V"], rich["nulls"], rich["f_c"], rich["orders"], rich["K"])
-        @ rich["coef"]
-    )
 
 
 def _neighbour_models(
@@ -1873,7 +1863,7 @@ def _refit_rich(
 ) -> tuple | None:
     """Where ideal responses leave more than NEIGHBOUR_MISFIT of a group's energy, the members' own spectral
     weight, phase and chirp fitted instead (the residual image's response models, ridges as far as a chip
-    reaches). Returns (one model dict or None per member, their misfit) where they explain the group within
+    reaches). Returns (one ResponseModel or None per member, their misfit) where they explain the group within
     NEIGHBOUR_MISFIT, else None (the ideal models stay and the cuts say contaminated)."""
     if not (
         fit[0].misfit > NEIGHBOUR_MISFIT
@@ -1881,7 +1871,7 @@ def _refit_rich(
         and _refit_size(members, nulls, params) <= REFIT_BUDGET
     ):
         return None
-    start = [{"pos": m.position, "V": m.ridges, "f_c": m.band_centre, "value": m.amplitude} for m in fit]
+    start = [FitStart(position=m.position, ridges=m.ridges, band_centre=m.band_centre, value=m.amplitude) for m in fit]
     fitted = fit_response_models(
         data,
         start,
@@ -1890,9 +1880,9 @@ def _refit_rich(
             params, residual_orders=params.neighbour_orders, fit_ridge_nulls=params.islr_nulls + params.margin_nulls
         ),
     )
-    pred = sum(_rich_values(points, m) for m in fitted if m)
+    pred = sum(model_values(points, m) for m in fitted if m is not None)
     misfit = float(np.sum(np.abs(y - pred) ** 2) / max(np.sum(np.abs(y) ** 2), 1e-300))
-    return ([m or None for m in fitted], misfit) if misfit <= NEIGHBOUR_MISFIT else None
+    return (fitted, misfit) if misfit <= NEIGHBOUR_MISFIT else None
 
 
 REFIT_BUDGET = 1e9  # rows x columns^2 of a crowded group's response-model fit above which it is not tried

@@ -57,6 +57,34 @@ class ResidualFloor:
 MISFIT_DB = -30.0
 
 
+@dataclasses.dataclass(frozen=True)
+class FitStart:
+    """A target's response as found in the image, where its model's fit (:func:`fit_response_models`)
+    starts."""
+
+    position: np.ndarray  # refined peak, image indices (ndim,)
+    ridges: np.ndarray  # side-lobe ridge directions V (rows, :func:`principal_directions`)
+    band_centre: np.ndarray  # the band's centre f_c, cycles/sample (ndim,)
+    value: complex  # interpolated peak value; 0: no response, no model fitted
+    nulls: np.ndarray | None = None  # its own null spacing, samples per axis (its theory's); None: the image's
+
+
+@dataclasses.dataclass(frozen=True)
+class ResponseModel:
+    """A target's fitted response model (:func:`fit_response_models`): a band-limited response on its
+    spectral support, sum over orders n of coef_n prod_a sinc(c_a + n_a / 2) (c the ridge coordinates in
+    nulls, :func:`_ridge_frame`) times a carrier at its band centre and spatial chirp."""
+
+    position: np.ndarray  # peak, image indices (ndim,): the origin of the ridge coordinates and carrier
+    ridges: np.ndarray  # side-lobe ridge directions V (rows)
+    nulls: np.ndarray  # null spacing along each ridge (the support's widths), samples (ndim,)
+    band_centre: np.ndarray  # carrier f_c, cycles/sample (ndim,)
+    orders: np.ndarray  # spectral orders n (K, ndim), :func:`spectral_orders`
+    coef: np.ndarray  # complex amplitude of each order (K,)
+    chirp: np.ndarray  # spatial chirp K, symmetric (ndim, ndim), cycles/sample^2
+    kappa: np.ndarray | None = None  # keystone, relative width slopes (ndim - 1,) (:func:`_strip_factors`); None: none
+
+
 @functools.cache
 def spectral_orders(ndim: int, max_order: int, max_total: int) -> np.ndarray:
     """Orders n (ndim integers in -max_order..max_order, sum |n_a| <= max_total) of the response basis."""
@@ -310,14 +338,29 @@ def response_basis(
     return (np.asarray(cols) * np.exp(1j * phase)).T
 
 
-def _model_on_box(slices: Sequence[slice], model: dict) -> np.ndarray:
+def model_values(points: npt.ArrayLike, model: ResponseModel) -> np.ndarray:
+    """A fitted response model at ``points`` ((ndim, N) image indices), (N,) complex."""
+    basis = response_basis(
+        points,
+        model.position,
+        model.ridges,
+        model.nulls,
+        model.band_centre,
+        model.orders,
+        model.chirp,
+        kappa=model.kappa,
+    )
+    return basis @ model.coef
+
+
+def _model_on_box(slices: Sequence[slice], model: ResponseModel) -> np.ndarray:
     """A fitted response model on the image box ``slices`` (complex128, the box's shape).
 
     Sin and cos of pi c_a are taken once per axis; the shifted sincs are then divisions. For an unskewed
     support the order sum is a product of per-axis factors: in 2D one matrix product over every strip's
     orders at once."""
-    A, p = _ridge_frame(model["pos"], model["V"], model["nulls"])
-    orders, coef, f_c = model["orders"], model["coef"], np.asarray(model["f_c"], dtype=float)
+    A, p = _ridge_frame(model.position, model.ridges, model.nulls)
+    orders, coef, f_c = model.orders, model.coef, np.asarray(model.band_centre, dtype=float)
     ndim = len(p)
     m = int(np.abs(orders).max())
     xs = [np.arange(s.start, s.stop, dtype=float) - pi for s, pi in zip(slices, p)]
@@ -327,12 +370,12 @@ def _model_on_box(slices: Sequence[slice], model: dict) -> np.ndarray:
         return v.reshape([-1 if i == b else 1 for i in range(ndim)])
 
     grid = [along(b, xs[b]) for b in range(ndim)]
-    carrier = np.exp(1j * (2 * np.pi * sum(f_c[b] * grid[b] for b in range(ndim)) + _chirp_phase(grid, model["K"])))
+    carrier = np.exp(1j * (2 * np.pi * sum(f_c[b] * grid[b] for b in range(ndim)) + _chirp_phase(grid, model.chirp)))
     tensor = np.zeros((2 * m + 1,) * ndim, dtype=complex)
     for order, k in zip(orders, coef):
         tensor[tuple(order + m)] = k
     if all(np.count_nonzero(A[a]) == 1 and A[a, a] != 0 for a in range(ndim)):  # separable: outer products
-        kappa = model.get("kappa") if _keystoned(model.get("kappa")) else None
+        kappa = model.kappa if _keystoned(model.kappa) else None
         strips = _strip_factors([A[a, a] * xs[a] for a in range(ndim)], m, kappa)
         if ndim == 2:  # sum_s f0_s^T T f1_s as one (n0, S(2m+1)) @ (S(2m+1), n1) product
             left = np.concatenate([tensor.T @ f[0] for f in strips], axis=0)
@@ -346,7 +389,7 @@ def _model_on_box(slices: Sequence[slice], model: dict) -> np.ndarray:
             total = total + out
         return total * carrier
     c = [functools.reduce(np.add, [A[a, b] * grid[b] for b in range(ndim) if A[a, b] != 0.0]) for a in range(ndim)]
-    kappa = model.get("kappa")
+    kappa = model.kappa
     box = np.zeros(shape, dtype=complex)
     if kappa is not None and _keystoned(kappa):  # skewed and keystoned: each order's strip sum in closed form
         if BOX_KERNEL and COMPILED and ndim == 2:  # along the box's rows by rotations, the orders summed in the kernel
@@ -418,7 +461,7 @@ class _GroupFit:
 
     points: np.ndarray
     y: np.ndarray
-    found: list[dict]
+    found: list[FitStart]
     nulls: np.ndarray
     orders: np.ndarray
     shaped: bool
@@ -445,9 +488,15 @@ class _GroupFit:
         """Member q's basis without carrier and chirp (N, orders)."""
         f = self.found[q]
         if shape is None:
-            return response_basis(self.points, f["pos"], f["V"], self.nulls, np.zeros(self.ndim), self.orders)
+            return response_basis(self.points, f.position, f.ridges, self.nulls, np.zeros(self.ndim), self.orders)
         return response_basis(
-            self.points, f["pos"], f["V"], self.nulls * (1 + shape[0]), np.zeros(self.ndim), self.orders, kappa=shape[1]
+            self.points,
+            f.position,
+            f.ridges,
+            self.nulls * (1 + shape[0]),
+            np.zeros(self.ndim),
+            self.orders,
+            kappa=shape[1],
         )
 
     def carrier(self, q: int, theta: np.ndarray) -> np.ndarray:
@@ -460,7 +509,7 @@ class _GroupFit:
         return self._offsets[q]
 
     def __post_init__(self) -> None:
-        self._offsets = [self.points - np.asarray(f["pos"], dtype=float)[:, None] for f in self.found]
+        self._offsets = [self.points - np.asarray(f.position, dtype=float)[:, None] for f in self.found]
 
     def bases(self, thetas: list[np.ndarray], fixed: list[np.ndarray] | None) -> list[np.ndarray]:
         """Every member's basis (N, orders) at its parameters (``fixed``: the raw bases, shape not fitted)."""
@@ -500,7 +549,7 @@ class _GroupFit:
         (A x)_a / (1 + scale_a), so d / d scale_a is -c_a / (1 + scale_a) d / d c_a."""
         scale, kappa = self.split(theta)[2]  # type: ignore[misc]
         f = self.found[q]
-        A, _ = _ridge_frame(f["pos"], f["V"], self.nulls * (1 + scale))
+        A, _ = _ridge_frame(f.position, f.ridges, self.nulls * (1 + scale))
         c = A @ self.offsets(q)
         d = residual_aot.keystone_derivatives(c, self.orders, coef, kappa, _strip_count(kappa))
         car = self.carrier(q, theta)
@@ -542,7 +591,7 @@ def _fit_group(
     members: list[int],
     points: np.ndarray,
     y: np.ndarray,
-    found: list[dict],
+    found: list[FitStart],
     nulls: np.ndarray,
     orders: np.ndarray,
     K0: list[np.ndarray],
@@ -565,7 +614,7 @@ def _fit_group(
     n_p = ndim + len(pairs) + (2 * ndim - 1 if shaped else 0)
     thetas = []
     for q, k in enumerate(members):
-        parts = [np.asarray(found[k]["f_c"], dtype=float), np.array([K0[q][a, b] for a, b in pairs], dtype=float)]
+        parts = [np.asarray(found[k].band_centre, dtype=float), np.array([K0[q][a, b] for a, b in pairs], dtype=float)]
         if shape0 is not None:
             parts += [np.asarray(shape0[q][0], dtype=float), np.asarray(shape0[q][1], dtype=float)]
         thetas.append(np.concatenate(parts))
@@ -689,51 +738,39 @@ WIDTH_SEARCH_MISFIT = 1e-3
 WIDTH_SCALES = 1.25 ** np.arange(-3, 8)  # 0.51 .. 4.8 times the image's null spacing, 25 % apart
 
 
-def _misfit(model: dict, points: np.ndarray, y: np.ndarray) -> float:
+def _misfit(model: ResponseModel | None, points: np.ndarray, y: np.ndarray) -> float:
     """|y - model|^2 / |y|^2 on ``points``."""
-    if not model:
+    if model is None:
         return 0.0
-    fit = (
-        response_basis(
-            points,
-            model["pos"],
-            model["V"],
-            model["nulls"],
-            model["f_c"],
-            model["orders"],
-            model["K"],
-            kappa=model.get("kappa"),
-        )
-        @ model["coef"]
-    )
+    fit = model_values(points, model)
     energy = float(np.vdot(y, y).real)
     return float(np.vdot(y - fit, y - fit).real) / energy if energy > 0 else 0.0
 
 
 def _fit_samples(
-    found: dict, nulls: np.ndarray, shape: tuple[int, ...], params: EvaluateParams
+    found: FitStart, nulls: np.ndarray, shape: tuple[int, ...], params: EvaluateParams
 ) -> tuple[np.ndarray, np.ndarray]:
     """(box, box and ridge strips): the image indices ((ndim, M)) a target's model is fitted on, about two per
     null: +-``params.fit_nulls`` nulls around its peak, and strips along its ridges (:func:`_ridge_strips`)."""
     r = np.ceil(params.fit_nulls * nulls).astype(int)
     stride = np.maximum(1, np.floor(nulls / 2)).astype(int)
-    c = np.rint(found["pos"]).astype(int)
+    c = np.rint(found.position).astype(int)
     pts = [np.arange(max(0, ci - ri), min(n, ci + ri + 1), st) for ci, ri, n, st in zip(c, r, shape, stride)]
     g = np.meshgrid(*pts, indexing="ij")
     box = np.stack([x.ravel() for x in g], axis=0)
-    ridges = _ridge_strips(found["pos"], found["V"], nulls, stride, shape, params.fit_ridge_nulls)
+    ridges = _ridge_strips(found.position, found.ridges, nulls, stride, shape, params.fit_ridge_nulls)
     return box, np.concatenate([box] + ridges, axis=1)
 
 
 def _refit_lone(
-    model: dict,
-    found: dict,
+    model: ResponseModel,
+    found: FitStart,
     points: np.ndarray,
     y: np.ndarray,
     nulls: np.ndarray,
     orders: np.ndarray,
     scale: np.ndarray,
-) -> dict:
+) -> ResponseModel:
     """A lone target's model fitted again on ``points`` (:func:`_fit_group`, support shape included) with
     ``orders``, its widths started at ``scale`` times the null spacing ``nulls`` (and kept within
     10 % of it)."""
@@ -742,26 +779,36 @@ def _refit_lone(
         [0],
         points,
         y,
-        [dict(found, f_c=model["f_c"])],
+        [dataclasses.replace(found, band_centre=model.band_centre)],
         nulls,
         orders,
-        [model["K"]],
+        [model.chirp],
         [(scale - 1, np.zeros(ndim - 1))],
         [scale],
     )
-    return dict(
-        model, f_c=f_c[0], K=K[0], coef=coef[0], orders=orders, nulls=nulls * (1 + shape[0][0]), kappa=shape[0][1]
+    return dataclasses.replace(
+        model,
+        band_centre=f_c[0],
+        chirp=K[0],
+        coef=coef[0],
+        orders=orders,
+        nulls=nulls * (1 + shape[0][0]),
+        kappa=shape[0][1],
     )
 
 
-def _search_widths(model: dict, points: np.ndarray, y: np.ndarray, nulls: np.ndarray) -> tuple[np.ndarray, float]:
+def _search_widths(
+    model: ResponseModel, points: np.ndarray, y: np.ndarray, nulls: np.ndarray
+) -> tuple[np.ndarray, float]:
     """(scale, misfit): the support widths that fit ``y`` best with the rectangle's basis (linear least
     squares at the model's band centre and chirp, the model's orders), one axis at a time, per axis the
     scale of the image's null spacing ``nulls`` (:data:`WIDTH_SCALES`, then a half and a quarter step either
     side of the best), and the misfit (|residual|^2 / |y|^2) there."""
 
     def misfit(scale: np.ndarray) -> float:
-        B = response_basis(points, model["pos"], model["V"], nulls * scale, model["f_c"], model["orders"], model["K"])
+        B = response_basis(
+            points, model.position, model.ridges, nulls * scale, model.band_centre, model.orders, model.chirp
+        )
         r = y - B @ least_squares(B, y)
         return float(np.vdot(r, r).real)
 
@@ -782,20 +829,20 @@ def _search_widths(model: dict, points: np.ndarray, y: np.ndarray, nulls: np.nda
 
 
 def _start_nulls(
-    data: np.ndarray, found: dict, nulls: np.ndarray, orders: np.ndarray, params: EvaluateParams
+    data: np.ndarray, found: FitStart, nulls: np.ndarray, orders: np.ndarray, params: EvaluateParams
 ) -> np.ndarray:
-    """The null spacing a target's fit starts from: its own (``found["nulls"]``, its theory's) unless the
+    """The null spacing a target's fit starts from: its own (``found.nulls``, its theory's) unless the
     image's ``nulls`` fit its box better (linear least squares at its band centre), so that a theory the
     response does not follow (a beam edge's partly lit support with the antenna's taper across it) is not
     where its widths start."""
-    own = np.asarray(found.get("nulls", nulls), dtype=float)
-    if np.allclose(own, nulls, rtol=1e-3, atol=0) or not abs(found["value"]) > 0:
+    own = np.asarray(nulls if found.nulls is None else found.nulls, dtype=float)
+    if np.allclose(own, nulls, rtol=1e-3, atol=0) or not abs(found.value) > 0:
         return own
     box = _fit_samples(found, own, data.shape, params)[0]
     y = data[tuple(box)].astype(complex)
 
     def misfit(x: np.ndarray) -> float:
-        B = response_basis(box, found["pos"], found["V"], x, found["f_c"], orders)
+        B = response_basis(box, found.position, found.ridges, x, found.band_centre, orders)
         r = y - B @ least_squares(B, y)
         return float(np.vdot(r, r).real)
 
@@ -810,15 +857,15 @@ FIT_REACH_DB = -100.0  # other groups' side lobes are subtracted from a fit's sa
 
 
 def fit_response_models(
-    data: np.ndarray, found: list[dict], nulls: npt.ArrayLike, params: EvaluateParams, support_shape: bool = False
-) -> list:
+    data: np.ndarray, found: list[FitStart], nulls: npt.ArrayLike, params: EvaluateParams, support_shape: bool = False
+) -> list[ResponseModel | None]:
     """:func:`_fit_response_models` with the numerics ``params.exact`` asks for."""
     with numerics(params.exact):
         return _fit_response_models(data, found, nulls, params, support_shape)
 
 
 def _overlapping_groups(
-    found: list[dict], live: list[int], own: list[np.ndarray], half: list[np.ndarray]
+    found: list[FitStart], live: list[int], own: list[np.ndarray], half: list[np.ndarray]
 ) -> list[list[int]]:
     """The live targets grouped (transitively) where their fit boxes (half-widths ``half``) plus a null
     overlap: each group is fitted jointly."""
@@ -827,7 +874,9 @@ def _overlapping_groups(
         for k in live:
             if (
                 k > j
-                and np.all(np.abs(found[j]["pos"] - found[k]["pos"]) <= half[j] + half[k] + np.maximum(own[j], own[k]))
+                and np.all(
+                    np.abs(found[j].position - found[k].position) <= half[j] + half[k] + np.maximum(own[j], own[k])
+                )
                 and group[j] is not group[k]
             ):
                 merged = group[j] | group[k]
@@ -843,8 +892,8 @@ def _overlapping_groups(
 def _widen_misfitted_lone(
     data: np.ndarray,
     fits: list,
-    models: list[dict],
-    found: list[dict],
+    models: list[ResponseModel | None],
+    found: list[FitStart],
     own: list[np.ndarray],
     nulls: np.ndarray,
     richer: np.ndarray,
@@ -859,16 +908,15 @@ def _widen_misfitted_lone(
     ``models``, ``own_orders``, ``centre`` and ``fits`` in place."""
     ndim = data.ndim
     for g, (members, near, y_near, far, y_far) in enumerate(fits):
-        k = members[0]
-        if len(members) > 1 or (before := _misfit(models[k], near, y_near)) <= WIDTH_SEARCH_MISFIT:
+        k, model = members[0], models[members[0]]
+        if model is None or len(members) > 1 or (before := _misfit(model, near, y_near)) <= WIDTH_SEARCH_MISFIT:
             continue
-        rich = dict(models[k], orders=richer)
-        rich.pop("kappa", None)
+        rich = dataclasses.replace(model, orders=richer, kappa=None)
         linear = _search_widths(rich, near, y_near, own[k])[1]
         if linear >= 0.5 * before:
             continue
         samples = (near, y_near, far, y_far)
-        trial = _refit_lone(models[k], found[k], near, y_near, own[k], richer, np.ones(ndim))
+        trial = _refit_lone(model, found[k], near, y_near, own[k], richer, np.ones(ndim))
         scale = np.ones(ndim)
         for _ in range(2):  # the box and ridges follow the widths found
             if _misfit(trial, samples[0], samples[1]) <= WIDTH_SEARCH_MISFIT:
@@ -883,23 +931,23 @@ def _widen_misfitted_lone(
 
 
 def _others_subtracted(
-    y: np.ndarray, points: np.ndarray, members: list[int], live: list[int], models: list[dict], reach: float
+    y: np.ndarray,
+    points: np.ndarray,
+    members: list[int],
+    live: list[int],
+    models: list[ResponseModel | None],
+    reach: float,
 ) -> np.ndarray:
     """``y`` minus the other groups' current models on ``points`` (their side lobes), each only where its
     envelope reaches ``reach``."""
     rhs = y.copy()
     for j in live:
-        if j in members or not models[j]:
+        m = models[j]
+        if j in members or m is None:
             continue
-        near = envelope_bound(models[j], points.T) >= reach
+        near = envelope_bound(m, points.T) >= reach
         if near.any():
-            m = models[j]
-            rhs[near] -= (
-                response_basis(
-                    points[:, near], m["pos"], m["V"], m["nulls"], m["f_c"], m["orders"], m["K"], kappa=m.get("kappa")
-                )
-                @ m["coef"]
-            )
+            rhs[near] -= model_values(points[:, near], m)
     return rhs
 
 
@@ -907,8 +955,8 @@ def _fit_one_group(
     members: list[int],
     points: np.ndarray,
     rhs: np.ndarray,
-    models: list[dict],
-    found: list[dict],
+    models: list[ResponseModel | None],
+    found: list[FitStart],
     nulls: np.ndarray,
     orders: np.ndarray,
     centre: dict[int, np.ndarray],
@@ -917,37 +965,40 @@ def _fit_one_group(
     """One group's :func:`_fit_group` on ``points`` / ``rhs``, started from its current models (or its
     peaks), its members' models replaced in ``models``. ``orders``: the group's."""
     ndim = points.shape[0]
-    K0 = [models[k]["K"] if models[k] else np.zeros((ndim, ndim)) for k in members]
-    start = [dict(found[k], f_c=models[k]["f_c"]) if models[k] else found[k] for k in members]
+    current = [models[k] for k in members]
+    K0 = [np.zeros((ndim, ndim)) if m is None else m.chirp for m in current]
+    start = [
+        found[k] if m is None else dataclasses.replace(found[k], band_centre=m.band_centre)
+        for k, m in zip(members, current)
+    ]
     shape0 = None
     if support_shape:
         shape0 = [
-            (models[k]["nulls"] / nulls - 1, models[k].get("kappa", np.zeros(ndim - 1)))
-            if models[k]
-            else (centre[k] - 1, np.zeros(ndim - 1))
-            for k in members
+            (centre[k] - 1, np.zeros(ndim - 1))
+            if m is None
+            else (m.nulls / nulls - 1, np.zeros(ndim - 1) if m.kappa is None else m.kappa)
+            for k, m in zip(members, current)
         ]
     coef, f_c, K, shape = _fit_group(
         list(range(len(members))), points, rhs, start, nulls, orders, K0, shape0, [centre[k] for k in members]
     )
     for q, k in enumerate(members):
-        models[k] = {
-            "pos": np.asarray(found[k]["pos"], dtype=float),
-            "V": np.asarray(found[k]["V"]),
-            "f_c": f_c[q],
-            "nulls": nulls if shape[q] is None else nulls * (1 + shape[q][0]),
-            "orders": orders,
-            "coef": coef[q],
-            "K": K[q],
-        }
-        if shape[q] is not None:
-            models[k]["kappa"] = shape[q][1]
+        models[k] = ResponseModel(
+            position=np.asarray(found[k].position, dtype=float),
+            ridges=np.asarray(found[k].ridges),
+            nulls=nulls if shape[q] is None else nulls * (1 + shape[q][0]),
+            band_centre=f_c[q],
+            orders=orders,
+            coef=coef[q],
+            chirp=K[q],
+            kappa=None if shape[q] is None else shape[q][1],
+        )
 
 
 @single_blas
 def _fit_response_models(
-    data: np.ndarray, found: list[dict], nulls: npt.ArrayLike, params: EvaluateParams, support_shape: bool = False
-) -> list:
+    data: np.ndarray, found: list[FitStart], nulls: npt.ArrayLike, params: EvaluateParams, support_shape: bool = False
+) -> list[ResponseModel | None]:
     """Every target's response model, fitted by complex least squares on the samples within
     +-``params.fit_nulls`` nulls of its peak (about two per null); with ``support_shape`` its support's
     widths and keystone too (:func:`_fit_group`), as the residual image needs far out.
@@ -957,21 +1008,21 @@ def _fit_response_models(
     other groups' models (:func:`_others_subtracted`), misfitted lone targets first given richer orders and
     widths of their own (:func:`_widen_misfitted_lone`).
     ``nulls``: the image's null spacing (samples per axis); with ``support_shape`` a target's optional
-    ``found[k]["nulls"]``, its own (its theory's, where the image's resolution varies with position),
+    ``found[k].nulls``, its own (its theory's, where the image's resolution varies with position),
     sizes its box and strips and is where its widths start (and stay within 10 % of) where it fits the
     box better than the image's (:func:`_start_nulls`).
-    Returns one model dict per target ({} for a target with no response)."""
+    Returns one model per target (None for a target with no response)."""
     nulls = np.asarray(nulls, dtype=float)
     ndim = data.ndim
     orders = spectral_orders(ndim, params.residual_orders, params.residual_orders + (1 if ndim == 2 else 0))
     # each target's own null spacing (the image's without support_shape: the basis' widths are then fixed)
     own = [_start_nulls(data, f, nulls, orders, params) if support_shape else nulls for f in found]
     half = [np.ceil(params.fit_nulls * x).astype(int) for x in own]
-    live = [j for j, f in enumerate(found) if abs(f["value"]) > 0]
+    live = [j for j, f in enumerate(found) if abs(f.value) > 0]
     boxes, strips = {}, {}
     for j in live:
         boxes[j], strips[j] = _fit_samples(found[j], own[j], data.shape, params)
-    models: list[dict] = [{} for _ in found]
+    models: list[ResponseModel | None] = [None for _ in found]
     fits = []  # per group: (members, box samples, their values, box and ridge samples, their values)
     for members in _overlapping_groups(found, live, own, half):
         near = np.unique(np.concatenate([boxes[k] for k in members], axis=1), axis=1)
@@ -998,7 +1049,9 @@ def _fit_response_models(
 
 
 @single_blas
-def residual_image(data: np.ndarray, models: list[dict], block_samples: int = 1 << 18) -> np.ndarray:
+def residual_image(
+    data: np.ndarray, models: Sequence[ResponseModel | None], block_samples: int = 1 << 18
+) -> np.ndarray:
     """``data`` minus every fitted model over the whole image (complex128), in slabs along axis 0 (the
     reference: :func:`subtract_models` evaluates each model only where it can matter)."""
     out = np.array(data, dtype=np.complex128)
@@ -1006,7 +1059,7 @@ def residual_image(data: np.ndarray, models: list[dict], block_samples: int = 1 
     for start in range(0, data.shape[0], rows):
         slab = (slice(start, min(data.shape[0], start + rows)),) + tuple(slice(0, n) for n in data.shape[1:])
         for model in models:
-            if model:
+            if model is not None:
                 out[slab] -= _model_on_box(slab, model)
     return out
 
@@ -1021,7 +1074,7 @@ REACH_BELOW_FLOOR_DB = -40.0
 REACH_BLOCK = 32  # samples per block edge (2D); 3D cubes use REACH_BLOCK // 2
 
 
-def envelope_bound(model: dict, lo: np.ndarray, hi: np.ndarray | None = None) -> np.ndarray:
+def envelope_bound(model: ResponseModel, lo: np.ndarray, hi: np.ndarray | None = None) -> np.ndarray:
     """Upper bound of |model| over each image box [lo, hi] ((B, ndim) inclusive index corners; ``hi`` None:
     at the points ``lo``): (B,).
 
@@ -1033,12 +1086,12 @@ def envelope_bound(model: dict, lo: np.ndarray, hi: np.ndarray | None = None) ->
     the last axis' distance shrinks by sum_a |kappa_a| |c_a| / 2 (that ridge fans out) and the widths reach 1
     + sum |kappa| / 2; the strips that approximate the trapezoid (:func:`_strip_factors`) get a factor of 2
     of margin, and their staircase's own ridges a term of their own."""
-    A, p = _ridge_frame(model["pos"], model["V"], model["nulls"])
+    A, p = _ridge_frame(model.position, model.ridges, model.nulls)
     centre = (lo - p if hi is None else (lo + hi) / 2.0 - p) @ A.T  # (B, ndim)
     radius = np.zeros_like(centre) if hi is None else ((hi - lo) / 2.0) @ np.abs(A).T
-    shift = float(np.abs(model["orders"]).max()) / 2.0
+    shift = float(np.abs(model.orders).max()) / 2.0
     dist = np.maximum(0.0, np.abs(centre) - radius - shift)
-    kappa = model.get("kappa")
+    kappa = model.kappa
     width, margin, steps = 1.0, 1.0, 0.0
     if kappa is not None and _keystoned(kappa):
         k = np.abs(np.asarray(kappa, dtype=float))
@@ -1049,7 +1102,7 @@ def envelope_bound(model: dict, lo: np.ndarray, hi: np.ndarray | None = None) ->
         dist[:, -1] = np.maximum(0.0, dist[:, -1] - far / 2.0)
         width, margin = 1.0 + float(k.sum()) / 2.0, 2.0
     env = np.minimum(width, 1.0 / (np.pi * np.maximum(dist, 1e-300)))
-    return float(np.abs(model["coef"]).sum()) * (margin * env.prod(axis=-1) + steps)
+    return float(np.abs(model.coef).sum()) * (margin * env.prod(axis=-1) + steps)
 
 
 def _block_grid(shape: tuple[int, ...]) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
@@ -1095,14 +1148,18 @@ def _boxes(needed: np.ndarray, edges: list[np.ndarray]) -> list[tuple[slice, ...
 
 @single_blas
 def subtract_models(
-    out: np.ndarray, models: list[dict], level: float, above: float = np.inf, block_samples: int = 1 << 18
+    out: np.ndarray,
+    models: Sequence[ResponseModel | None],
+    level: float,
+    above: float = np.inf,
+    block_samples: int = 1 << 18,
 ) -> None:
     """Subtract from ``out`` (in place) every model on the blocks where its :func:`envelope_bound` lies in
     [level, above): elsewhere it is below ``level`` (or was subtracted by an earlier call with that level)."""
     edges, lo, hi = _block_grid(out.shape)
     grid = tuple(len(e) - 1 for e in edges)
     for model in models:
-        if not model:
+        if model is None:
             continue
         bound = envelope_bound(model, lo, hi)
         needed = ((bound >= level) & (bound < above)).reshape(grid)
@@ -1218,7 +1275,7 @@ def _search_masks(
 
 def residual_false_target(
     data: np.ndarray,
-    models: list[dict],
+    models: Sequence[ResponseModel | None],
     axes: Sequence[_Axis],
     truth: np.ndarray,
     peaks: Sequence[np.ndarray],

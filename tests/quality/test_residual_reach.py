@@ -14,12 +14,18 @@ import numpy as np
 import pytest
 
 from sarproc.quality import residual as R
-from sarproc.quality.residual import envelope_bound, residual_image, spectral_orders, subtract_models
+from sarproc.quality.residual import (
+    ResponseModel,
+    envelope_bound,
+    residual_image,
+    spectral_orders,
+    subtract_models,
+)
 
 SHAPE = (700, 760)
 
 
-def _models(keystone: float) -> list[dict]:
+def _models(keystone: float) -> list[ResponseModel]:
     rng = np.random.default_rng(7)
     orders = spectral_orders(2, 1, 2)
     out = []
@@ -28,16 +34,16 @@ def _models(keystone: float) -> list[dict]:
         coef[np.all(orders == 0, axis=1)] = 1.0
         coef += 0.05 * (rng.normal(size=len(orders)) + 1j * rng.normal(size=len(orders)))  # a taper and phase
         out.append(
-            {
-                "pos": np.array(pos),
-                "V": np.array([[1.0, skew], [-0.5 * skew, 1.0]]),
-                "nulls": np.array([2.2, 2.4]),
-                "f_c": np.array([0.1, -0.2]),
-                "orders": orders,
-                "coef": coef,
-                "K": np.array([[2e-4, 0.0], [0.0, 0.0]]),
-                "kappa": np.array([keystone]),
-            }
+            ResponseModel(
+                position=np.array(pos),
+                ridges=np.array([[1.0, skew], [-0.5 * skew, 1.0]]),
+                nulls=np.array([2.2, 2.4]),
+                band_centre=np.array([0.1, -0.2]),
+                orders=orders,
+                coef=coef,
+                chirp=np.array([[2e-4, 0.0], [0.0, 0.0]]),
+                kappa=np.array([keystone]),
+            )
         )
     return out
 
