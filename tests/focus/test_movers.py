@@ -545,6 +545,44 @@ def test_a_detection_beside_an_examined_static_one_shares_its_answer_unexamined(
     assert len(tally.statics) == 1  # only examined ones make others static: no creeping along a cell
 
 
+def test_a_static_residue_left_unexplained_at_v_a_0_skips_the_v_a_search():
+    """reconstruct._null_refit: a detection whose clutter-null residual no v_r at v_a = 0 explains is searched again
+    at v_a = +-8, +-16 m/s (the null fit at the trial mover's FM rate) only when its residual is no static response's
+    residue (_NullFit.static_residue, what the null kept of the static image there, at or over
+    NULL_FIT_STATIC_RESIDUE). Measured on main's detections that reached the search: xu_traffic_static's two beside
+    S2 -39.1 and -18.0 dB (static, 25 s of search each); the MC's movers +7.4 to +14.2 dB, (-3, 12) seed 9 +7.7."""
+    from sarproc.focus.multichannel import reconstruct as rec
+    from sarproc.focus.multichannel.velocity import SearchResult
+
+    class Unexplained:
+        """A null fit that explains nothing at v_a = 0, and at the mover's FM rate only (-3, 12) m/s."""
+
+        def __init__(self, kept_db: float) -> None:
+            self.kept, self.at_mover_rate, self.at_rate = 10 ** (kept_db / 10), False, []
+
+        def static_residue(self) -> float:
+            return self.kept
+
+        def mismatch(self, v_r: float, v_a: float) -> float:
+            self.at_rate.append(self.at_mover_rate)
+            return 0.05 + 0.01 * (v_r + 3.0) ** 2 if self.at_mover_rate and v_a == 16.0 else 1.0
+
+    def refit(kept_db: float) -> tuple[rec._Estimate, Unexplained]:
+        est = rec._Estimate(v_r=0.07, v_a=0.0, criterion=lambda u, a: 0.0)
+        est.result = SearchResult(0.07, False, np.zeros((0, 2)), 0)
+        fit = Unexplained(kept_db)
+        rec._null_refit(est, ReconstructParams(clutter_suppression=True), fit)  # type: ignore[arg-type]
+        return est, fit
+
+    static, fit = refit(-39.1)  # S2's detection
+    assert fit.at_rate and not any(fit.at_rate)  # the v_a = 0 search ran, none at the mover's FM rate
+    assert static.unexplained is not None and not static.by_null_fit and static.v_r == 0.07
+    assert not any(refit(-18.0)[1].at_rate)
+    mover, fit = refit(7.7)  # (-3, 12) seed 9's
+    assert sum(fit.at_rate) > 20 and mover.by_null_fit
+    assert (mover.v_a, mover.v_r) == (16.0, pytest.approx(-3.0, abs=0.1))
+
+
 def test_an_incoherent_detection_at_a_movers_ambiguity_is_named_as_its_residue():
     """The false alarm of xu_traffic_static (16.2 dB, -1 x PRF / K_a + 11.1 ms from V5, 2 cells off): named."""
     from types import SimpleNamespace

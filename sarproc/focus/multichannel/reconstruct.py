@@ -357,6 +357,10 @@ NULL_FIT_MISMATCH = 0.3  # a velocity leaving more than this fraction of the res
 # m/s: the null fit's trial v_a, at the mover's own FM rate, when no v_r at v_a = 0 explains the residual
 # (_null_refit): each |v_a| <= 20 m/s within 4 m/s of one of them
 NULL_FIT_ALONG_TRACK = (8.0, -8.0, 16.0, -16.0)
+# A residual under this fraction of the static model's image energy at the same samples is a static response's
+# residue, and the v_a search (_null_refit) is skipped (_NullFit.static_residue: measured xu_traffic_static's two
+# static detections that reached it, -39 and -18 dB; the MC movers it finds +7.4 to +13.5 dB)
+NULL_FIT_STATIC_RESIDUE = 0.1
 STATIC_CELLS = 2  # range cells either side of an examined static detection that share its answer (_visit)
 
 
@@ -418,6 +422,19 @@ class _NullFit:
         res = clutter_null(sfft.fft(x_tf, axis=1, workers=-1), self.win.g, projector=self.proj)[0]
         img = detection.compressed(channels.apply_filter_bank(res, self.static_bank), self.win.out_f, self.ka)
         return img[np.ix_(self.rows, self.cols)]
+
+    def static_residue(self) -> float:
+        """The measured residual's energy over that of the static model's image at the same samples (the window's
+        in-band reconstruction at v = 0, compressed at the static FM rate): what the clutter null kept there.
+
+        The null cancels a static response but for its floor, a small fraction of its image at the same samples.
+        A slow mover's residual is its channel-phase mismatch, which the static reconstruction puts in the same
+        samples (as the mover's ambiguity) without cancelling it: about as much energy as the residual, less only
+        by the clutter the null removed there."""
+        spec = self.win.demodulated_spectrum(0.0, 0.0) * self.in_band[:, None]
+        static = detection.compressed(spec, self.win.out_f, self.ka)[np.ix_(self.rows, self.cols)]
+        total = float(np.sum(np.abs(static) ** 2))
+        return float(np.sum(np.abs(self.measured) ** 2)) / total if total > 0 else math.inf
 
     def rate(self, v_r: float, v_a: float) -> np.ndarray:
         """The FM rate K_a(f_r) the trial image is compressed at: the static one, or with ``at_mover_rate`` the
@@ -578,7 +595,8 @@ def _null_refit(est: _Estimate, params: ReconstructParams, null_fit: _NullFit) -
     The fit first models the mover at the first search's v_a (0 unless given) and the static FM rate. When no v_r
     explains the residual there (a mover whose v_a spreads it beside focused clutter: (-3, 12) m/s), v_r is searched
     again at each of NULL_FIT_ALONG_TRACK with the fit at the trial mover's FM rate (_NullFit.rate), and the best
-    kept with its v_a (the autofocus's starting point) and that rate."""
+    kept with its v_a (the autofocus's starting point) and that rate; not where the residual is a static response's
+    residue (_NullFit.static_residue under NULL_FIT_STATIC_RESIDUE), which no mover's velocity explains."""
     v_r, v_a = est.v_r, est.v_a
     if est.result is None or (eq5 := null_fit.mismatch(v_r, v_a)) <= NULL_FIT_MISMATCH:
         return
@@ -604,13 +622,20 @@ def _null_refit(est: _Estimate, params: ReconstructParams, null_fit: _NullFit) -
         best,
     )
     if best > NULL_FIT_MISMATCH and params.along_track_velocity is None:
-        null_fit.at_mover_rate = True
-        for u_a in NULL_FIT_ALONG_TRACK:
-            trial, m = refit_at(u_a)
-            log.debug("reconstruct: the null fit at v_a %.0f m/s, its FM rate: %.2f m/s (%.2f)", u_a, trial.estimate, m)
-            if m < best:
-                refit, best, refit_v_a = trial, m, u_a
-        null_fit.at_mover_rate = refit_v_a != v_a and best <= NULL_FIT_MISMATCH
+        kept = null_fit.static_residue()
+        if kept < NULL_FIT_STATIC_RESIDUE:
+            # a static response's residue (xu_traffic_static: two beside S2, 25 s of searching each for nothing)
+            log.debug("reconstruct: the null kept %.3g of the static image at the detection: v_a not searched", kept)
+        else:
+            null_fit.at_mover_rate = True
+            for u_a in NULL_FIT_ALONG_TRACK:
+                trial, m = refit_at(u_a)
+                log.debug(
+                    "reconstruct: the null fit at v_a %.0f m/s, its FM rate: %.2f m/s (%.2f)", u_a, trial.estimate, m
+                )
+                if m < best:
+                    refit, best, refit_v_a = trial, m, u_a
+            null_fit.at_mover_rate = refit_v_a != v_a and best <= NULL_FIT_MISMATCH
     if best > NULL_FIT_MISMATCH:
         est.unexplained = (v_r, eq5, refit.estimate, best)
     else:
