@@ -747,6 +747,17 @@ def _misfit(model: ResponseModel | None, points: np.ndarray, y: np.ndarray) -> f
     return float(np.vdot(y - fit, y - fit).real) / energy if energy > 0 else 0.0
 
 
+def unique_columns(points: np.ndarray, shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """(columns, inverse): ``np.unique(points, axis=1, return_inverse=True)`` of (ndim, N) indices into an array
+    of ``shape``, by their flat indices: the same columns in the same (lexicographic) order and the same inverse,
+    from a sort of integers instead of numpy's sort of whole columns (6000 2D columns: 12 ms -> 0.5 ms; the
+    demo's evaluate spent 0.07-0.10 s in it)."""
+    flat, inverse = np.unique(np.ravel_multi_index(tuple(points), shape), return_inverse=True)
+    # laid out as numpy's (column-major): the fits' products of these points then round alike
+    columns = np.stack(np.unravel_index(flat, shape), axis=1).T
+    return columns.astype(points.dtype, copy=False), inverse.ravel()
+
+
 def _fit_samples(
     found: FitStart, nulls: np.ndarray, shape: tuple[int, ...], params: EvaluateParams
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -1025,8 +1036,8 @@ def _fit_response_models(
     models: list[ResponseModel | None] = [None for _ in found]
     fits = []  # per group: (members, box samples, their values, box and ridge samples, their values)
     for members in _overlapping_groups(found, live, own, half):
-        near = np.unique(np.concatenate([boxes[k] for k in members], axis=1), axis=1)
-        far = np.unique(np.concatenate([strips[k] for k in members], axis=1), axis=1)
+        near = unique_columns(np.concatenate([boxes[k] for k in members], axis=1), data.shape)[0]
+        far = unique_columns(np.concatenate([strips[k] for k in members], axis=1), data.shape)[0]
         fits.append((members, near, data[tuple(near)].astype(complex), far, data[tuple(far)].astype(complex)))
     reach = 0.0 if params.exact else float(np.abs(data).max()) * 10 ** (FIT_REACH_DB / 20)
     # a member's support widths (the image nulls' scale): its own null spacing, or where _search_widths found them

@@ -107,6 +107,23 @@ def test_keystoned_support_is_fitted_to_a_floor_below_minus_50_db():
     assert rep.false_target.level_db <= -50.0
 
 
+@pytest.mark.parametrize("shape", [(40, 7), (9, 30, 12)], ids=["2d", "3d"])
+def test_unique_columns_are_numpys_unique_columns(shape):
+    """The fits' sample sets deduplicated by flat index are numpy's ``unique(axis=1)``: the same columns in the
+    same order, the same inverse, dtype and memory layout (so every fit sees the same samples in the same order
+    and its products round alike: a C-ordered copy moved the demo's false target by 1e-9), image edges included."""
+    from sarproc.quality.residual import unique_columns
+
+    rng = np.random.default_rng(7)
+    for size in (1, 50, 2000):
+        points = np.stack([rng.integers(0, n, size) for n in shape])
+        points[:, 0] = [n - 1 for n in shape]
+        want, want_inverse = np.unique(points, axis=1, return_inverse=True)
+        got, inverse = unique_columns(points, shape)
+        assert got.dtype == want.dtype and got.strides == want.strides and np.array_equal(got, want)
+        assert np.array_equal(inverse, want_inverse.ravel()) and np.array_equal(got[:, inverse], points)
+
+
 def test_strips_tile_the_range_band_exactly():
     """The range strips' responses add up to the whole band's (half-null-shifted sincs), and a zero
     keystone is the rectangle itself."""
