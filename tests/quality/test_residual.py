@@ -78,6 +78,37 @@ def test_clean_scene_floor_is_below_minus_50_db():
     assert off.targets == rep.targets  # the residual changes no target's figures
 
 
+def test_each_fit_step_factorises_its_bases_once(monkeypatch):
+    """A Gauss-Newton step projects the Jacobian off the bases whose amplitudes were just solved: it reuses
+    that solve's factorised Gram matrix, one factorisation per set of bases rather than one per solve."""
+    from sarproc.quality import lstsq, residual
+
+    counts = {"gram": 0, "amplitudes": 0, "steps": 0}
+
+    class Counted(lstsq.NormalEquations):
+        def __init__(self, B: np.ndarray) -> None:
+            counts["gram"] += 1
+            super().__init__(B)
+
+    amplitudes, step = residual._amplitudes, residual._gauss_newton_step
+
+    def counted_amplitudes(*args):
+        counts["amplitudes"] += 1
+        return amplitudes(*args)
+
+    def counted_step(*args):
+        counts["steps"] += 1
+        return step(*args)
+
+    monkeypatch.setattr(residual, "NormalEquations", Counted)
+    monkeypatch.setattr(residual, "_amplitudes", counted_amplitudes)
+    monkeypatch.setattr(residual, "_gauss_newton_step", counted_step)
+    img, coords = _scene(TRUTH, AMPS)
+    evaluate_image(img, ("azimuth", "range"), coords, RES, TRUTH, params=PARAMS)
+    assert counts["steps"] > 10
+    assert counts["gram"] == counts["amplitudes"]
+
+
 KEYSTONE = 0.02  # azimuth band width grows by this fraction across the range band (a 2 % fractional bandwidth)
 
 
