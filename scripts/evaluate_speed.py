@@ -5,8 +5,8 @@ Makes the products of the make targets' small configs through the command line (
 scene, paper 002's small scene through pfa2, paper 003's scene A-B-C and small scene, paper 004's cube, the two
 backprojection scenes), then times, interleaved in one run, the focusing stage and ``sarproc evaluate``
 of this tree and of a reference tree (``--reference``: a checkout of the code before), best of
-``--repeats``; and compares the two reports number by number (largest relative difference).
-Writes ``OUT/evaluate_speed.md`` and ``.json``.
+``--repeats``, wall and CPU seconds (user + system of the command's process and its children); and compares the
+two reports number by number (largest relative difference). Writes ``OUT/evaluate_speed.md`` and ``.json``.
 """
 
 from __future__ import annotations
@@ -16,6 +16,7 @@ import json
 import math
 import os
 import re
+import resource
 import subprocess
 import sys
 import time
@@ -28,8 +29,15 @@ CFG = ROOT / "configs"
 
 # name: (simulate config, [(stage command, config)], evaluate arguments beyond the image)
 # case: (scene YAML, [(command, its config or None: the scene's)], extra evaluate arguments)
+# (evaluate's arguments as the make target's: --expect; "{out}" is replaced by the case's output directory)
 CASES: dict[str, tuple[str, list[tuple[str, str | None]], list[str]]] = {
-    "demo": ("demo.yaml", [("backproject", "demo.yaml")], []),
+    "demo": ("demo.yaml", [("backproject", "demo.yaml")], ["--expect", str(CFG / "demo_expect.yaml")]),
+    # make demo's evaluate draws the figures too
+    "demo --plot": (
+        "demo.yaml",
+        [("backproject", "demo.yaml")],
+        ["--expect", str(CFG / "demo_expect.yaml"), "--plot", "{out}"],
+    ),
     "000 small (fine-focus)": (
         "an2012_exp1_small.yaml",
         [("preprocess", "an2012_exp1_small.yaml"), ("coarse-focus", None), ("fine-focus", None)],
@@ -49,10 +57,26 @@ CASES: dict[str, tuple[str, list[tuple[str, str | None]], list[str]]] = {
         ["--config", str(CFG / "xu_small.yaml")],
     ),
     "004 du2010 cube (array3d)": ("du2010.yaml", [("array3d", "du2010.yaml")], []),
-    "bp stripmap": ("bp_stripmap.yaml", [("backproject", "bp_stripmap.yaml")], []),
-    "bp squint30": ("bp_squint30.yaml", [("backproject", "bp_squint30.yaml")], []),
-    "bp beam_edge": ("bp_beam_edge.yaml", [("backproject", "bp_beam_edge.yaml")], []),
-    "bp hamming": ("bp_hamming.yaml", [("backproject", "bp_hamming.yaml")], []),
+    "bp stripmap": (
+        "bp_stripmap.yaml",
+        [("backproject", "bp_stripmap.yaml")],
+        ["--expect", str(CFG / "bp_expect.yaml")],
+    ),
+    "bp squint30": (
+        "bp_squint30.yaml",
+        [("backproject", "bp_squint30.yaml")],
+        ["--expect", str(CFG / "bp_expect.yaml")],
+    ),
+    "bp beam_edge": (
+        "bp_beam_edge.yaml",
+        [("backproject", "bp_beam_edge.yaml")],
+        ["--expect", str(CFG / "bp_beam_edge_expect.yaml")],
+    ),
+    "bp hamming": (
+        "bp_hamming.yaml",
+        [("backproject", "bp_hamming.yaml")],
+        ["--expect", str(CFG / "bp_hamming_expect.yaml")],
+    ),
     "004 du2010 BP cube (backproject)": ("du2010.yaml", [("backproject", "du2010.yaml")], []),
 }
 
@@ -68,9 +92,21 @@ def stage_config(cfg: str, out: Path) -> Path:
     return path
 
 
-def run(tree: Path, args: list, log: TextIO) -> float:
-    """One ``sarproc`` command with ``tree`` first on PYTHONPATH; wall seconds. Raises on failure."""
+def case_tag(name: str) -> str:
+    """The case's file-name prefix ("demo --plot": demo_plot)."""
+    return name.split(" (")[0].replace("--", "").replace(" ", "_")
+
+
+def child_cpu() -> float:
+    """User + system CPU seconds of this script's finished child processes so far."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def run(tree: Path, args: list, log: TextIO) -> tuple[float, float]:
+    """One ``sarproc`` command with ``tree`` first on PYTHONPATH; (wall, CPU) seconds. Raises on failure."""
     env = dict(os.environ, PYTHONPATH=str(tree))
+    cpu = child_cpu()
     start = time.perf_counter()
     proc = subprocess.run(
         [sys.executable, "-m", "sarproc", *map(str, args)],
@@ -81,10 +117,11 @@ def run(tree: Path, args: list, log: TextIO) -> float:
         check=False,
     )
     wall = time.perf_counter() - start
-    log.write(f"$ PYTHONPATH={tree} sarproc {' '.join(map(str, args))}  # {wall:.2f} s\n{proc.stderr}")
+    cpu = child_cpu() - cpu
+    log.write(f"$ PYTHONPATH={tree} sarproc {' '.join(map(str, args))}  # {wall:.2f} s, CPU {cpu:.2f} s\n{proc.stderr}")
     if proc.returncode != 0:
         raise SystemExit(f"sarproc {' '.join(map(str, args))} failed ({proc.returncode}):\n{proc.stderr}")
-    return wall
+    return wall, cpu
 
 
 def floats(d: Any, prefix: str = "") -> Iterator[tuple[str, Any]]:
@@ -131,7 +168,7 @@ def main() -> None:
         products = {}
         for name in args.cases:
             scene, stages, _ = CASES[name]
-            tag = name.split(" (")[0].replace(" ", "_")
+            tag = case_tag(name)
             src = out / f"{tag}_raw.h5"
             if not (args.reuse and src.exists()):
                 run(ROOT, ["simulate", CFG / scene, "-o", src, "--overwrite", "--no-progress"], log)
@@ -149,10 +186,10 @@ def main() -> None:
             products[name] = (chain, src)
         for name in args.cases:
             chain, image = products[name]
-            extra = CASES[name][2]
-            stage: list[float] = []
-            before: list[float] = []
-            after: list[float] = []
+            extra = [a.replace("{out}", str(out / f"{case_tag(name)}_plots")) for a in CASES[name][2]]
+            stage: list[tuple[float, float]] = []
+            before: list[tuple[float, float]] = []
+            after: list[tuple[float, float]] = []
             for _ in range(args.repeats):  # interleaved: stage, evaluate before, evaluate after
                 stage.append(run(ROOT, chain[-1], log))
                 for times, tree, tag in ((before, args.reference.resolve(), "before"), (after, ROOT, "after")):
@@ -177,10 +214,13 @@ def main() -> None:
                 {
                     "case": name,
                     "stage": chain[-1][0],
-                    "stage_s": min(stage),
-                    "evaluate_before_s": min(before),
-                    "evaluate_after_s": min(after),
-                    "spread_after_s": max(after) - min(after),
+                    "stage_s": min(w for w, _ in stage),
+                    "evaluate_before_s": min(w for w, _ in before),
+                    "evaluate_after_s": min(w for w, _ in after),
+                    "spread_after_s": max(w for w, _ in after) - min(w for w, _ in after),
+                    "stage_cpu_s": min(c for _, c in stage),
+                    "evaluate_before_cpu_s": min(c for _, c in before),
+                    "evaluate_after_cpu_s": min(c for _, c in after),
                     "largest_relative_difference": diff,
                     "where": where,
                 }
@@ -189,21 +229,24 @@ def main() -> None:
     lines = [
         (
             f"Evaluate against the stage that made the image (best of {args.repeats} interleaved runs, wall seconds "
-            f"of the subprocess, I/O and start-up included; {os.cpu_count()} cores, shared). Reference: "
-            f"{args.reference}."
+            f"of the subprocess, I/O and start-up included, and its CPU seconds, user + system; {os.cpu_count()} "
+            f"cores, shared). Reference: {args.reference}."
         ),
         "",
         (
             "| product | stage | stage (s) | evaluate before (s) | evaluate after (s) | after / stage | speed-up | "
+            "stage CPU (s) | evaluate CPU before (s) | after (s) | CPU after / stage | "
             "largest relative difference of the reports |"
         ),
-        "|---|---|---:|---:|---:|---:|---:|---|",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|",
     ]
     for r in rows:
         lines.append(
             f"| {r['case']} | {r['stage']} | {r['stage_s']:.2f} | {r['evaluate_before_s']:.2f} | "
             f"{r['evaluate_after_s']:.2f} | {r['evaluate_after_s'] / r['stage_s']:.2f} | "
-            f"{r['evaluate_before_s'] / r['evaluate_after_s']:.1f} | {r['largest_relative_difference']:.1e} "
+            f"{r['evaluate_before_s'] / r['evaluate_after_s']:.2f} | {r['stage_cpu_s']:.2f} | "
+            f"{r['evaluate_before_cpu_s']:.2f} | {r['evaluate_after_cpu_s']:.2f} | "
+            f"{r['evaluate_after_cpu_s'] / r['stage_cpu_s']:.2f} | {r['largest_relative_difference']:.1e} "
             f"({r['where'] or '-'}) |"
         )
     (out / "evaluate_speed.md").write_text("\n".join(lines) + "\n")

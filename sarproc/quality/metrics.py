@@ -77,6 +77,7 @@ from sarproc.quality.residual import (
     model_values,
     residual_false_target,
     spectral_orders,
+    unique_columns,
 )
 
 # Samples per null spacing 1/B below which an axis is undersampled. A grid at exactly 1/B is critically sampled
@@ -1618,9 +1619,9 @@ def _group_samples(data: np.ndarray, positions: list, nulls: np.ndarray) -> tupl
         g = np.meshgrid(*axes_pts, indexing="ij")
         boxes.append(np.stack([x.ravel() for x in g], axis=0))
         layout.append((np.array([a[0] if a.size else 0 for a in axes_pts]), np.array([a.size for a in axes_pts])))
-    points, inverse = np.unique(np.concatenate(boxes, axis=1), axis=1, return_inverse=True)
+    points, inverse = unique_columns(np.concatenate(boxes, axis=1), data.shape)
     y = data[tuple(points)].astype(complex)
-    return points.astype(float), y, _SampleBoxes(stride, layout, inverse.ravel(), points.shape[1])
+    return points.astype(float), y, _SampleBoxes(stride, layout, inverse, points.shape[1])
 
 
 @dataclasses.dataclass(frozen=True)

@@ -78,6 +78,37 @@ def test_clean_scene_floor_is_below_minus_50_db():
     assert off.targets == rep.targets  # the residual changes no target's figures
 
 
+def test_each_fit_step_factorises_its_bases_once(monkeypatch):
+    """A Gauss-Newton step projects the Jacobian off the bases whose amplitudes were just solved: it reuses
+    that solve's factorised Gram matrix, one factorisation per set of bases rather than one per solve."""
+    from sarproc.quality import lstsq, residual
+
+    counts = {"gram": 0, "amplitudes": 0, "steps": 0}
+
+    class Counted(lstsq.NormalEquations):
+        def __init__(self, B: np.ndarray) -> None:
+            counts["gram"] += 1
+            super().__init__(B)
+
+    amplitudes, step = residual._amplitudes, residual._gauss_newton_step
+
+    def counted_amplitudes(*args):
+        counts["amplitudes"] += 1
+        return amplitudes(*args)
+
+    def counted_step(*args):
+        counts["steps"] += 1
+        return step(*args)
+
+    monkeypatch.setattr(residual, "NormalEquations", Counted)
+    monkeypatch.setattr(residual, "_amplitudes", counted_amplitudes)
+    monkeypatch.setattr(residual, "_gauss_newton_step", counted_step)
+    img, coords = _scene(TRUTH, AMPS)
+    evaluate_image(img, ("azimuth", "range"), coords, RES, TRUTH, params=PARAMS)
+    assert counts["steps"] > 10
+    assert counts["gram"] == counts["amplitudes"]
+
+
 KEYSTONE = 0.02  # azimuth band width grows by this fraction across the range band (a 2 % fractional bandwidth)
 
 
@@ -105,6 +136,23 @@ def test_keystoned_support_is_fitted_to_a_floor_below_minus_50_db():
     # with a rectangular support (residual.KEYSTONE_STRIPS = 1) the floor is -47.3 dB: the far azimuth ridges
     assert rep.residual.floor_db <= -50.0
     assert rep.false_target.level_db <= -50.0
+
+
+@pytest.mark.parametrize("shape", [(40, 7), (9, 30, 12)], ids=["2d", "3d"])
+def test_unique_columns_are_numpys_unique_columns(shape):
+    """The fits' sample sets deduplicated by flat index are numpy's ``unique(axis=1)``: the same columns in the
+    same order, the same inverse, dtype and memory layout (so every fit sees the same samples in the same order
+    and its products round alike: a C-ordered copy moved the demo's false target by 1e-9), image edges included."""
+    from sarproc.quality.residual import unique_columns
+
+    rng = np.random.default_rng(7)
+    for size in (1, 50, 2000):
+        points = np.stack([rng.integers(0, n, size) for n in shape])
+        points[:, 0] = [n - 1 for n in shape]
+        want, want_inverse = np.unique(points, axis=1, return_inverse=True)
+        got, inverse = unique_columns(points, shape)
+        assert got.dtype == want.dtype and got.strides == want.strides and np.array_equal(got, want)
+        assert np.array_equal(inverse, want_inverse.ravel()) and np.array_equal(got[:, inverse], points)
 
 
 def test_strips_tile_the_range_band_exactly():
