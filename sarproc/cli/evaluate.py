@@ -419,8 +419,11 @@ def _draw(
 ) -> None:
     import numpy as np
 
+    from sarproc.cli.quicklook import import_matplotlib_lean
     from sarproc.product.io import atomic_path
     from sarproc.quality.plotting import plot_quicklook, plot_target, safe_name
+
+    import_matplotlib_lean()
 
     truth = np.stack([product.targets[d].astype(float) for d in product.dims], axis=1)
     names = [t.name for t in report.targets]

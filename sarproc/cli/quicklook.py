@@ -10,7 +10,7 @@ import click
 
 from sarproc.cli.options import dry_run_option, input_argument, overwrite_option, summary
 
-ARTIST_DOC_STUB = "(properties not listed: matplotlib was imported by sarproc quicklook)"
+ARTIST_DOC_STUB = "(properties not listed: matplotlib was imported by a sarproc command)"
 
 
 def _lean_set_signature(cls: type) -> None:
@@ -25,10 +25,10 @@ def import_matplotlib_lean() -> None:
 
     matplotlib writes every Artist subclass's ``set`` signature and docstring (and each ``%(X:kwdoc)s``
     section) as it defines the class, by inspecting every setter and its docstring: ~0.2 s of quicklook's
-    ~0.45 s matplotlib import, and a one-shot process never reads them. ``matplotlib.artist.kwdoc`` answers a
-    stub and ``Artist._update_set_signature_and_docstring`` sets only the flag matplotlib reads, while the
-    modules load; both are restored after. Drawing is unaffected (the PNG is byte-identical). Nothing is done
-    once matplotlib.artist is imported (its classes are built already).
+    ~0.45 s matplotlib import, and a one-shot process (quicklook, evaluate --plot) never reads them.
+    ``matplotlib.artist.kwdoc`` answers a stub and ``Artist._update_set_signature_and_docstring`` sets only the
+    flag matplotlib reads, while the modules load; both are restored after. Drawing is unaffected (the PNG is
+    byte-identical). Nothing is done once matplotlib.artist is imported (its classes are built already).
     """
     if "matplotlib.artist" in sys.modules:
         return

@@ -119,6 +119,42 @@ def test_table_json_and_plots(image2d, tmp_path):
     assert res.exit_code == 2 and "input" in res.output
 
 
+@pytest.mark.parametrize("three_d", [False, True], ids=["2d", "3d"])
+def test_plots_text_inside_the_figure_and_apart(tmp_path, monkeypatch, three_d):
+    """The figures are laid out with fixed margins (no constrained layout: it drew every text once more): every
+    label, tick label and title lies inside its figure, and no two overlap (a colour bar's label and the next
+    panel's axis label, tick labels of a narrowed axis)."""
+    from matplotlib.figure import Figure
+    from matplotlib.text import Text
+
+    drawn, save = [], Figure.savefig
+
+    def recording(fig, *args, **kwargs):
+        save(fig, *args, **kwargs)
+        drawn.append(fig)
+
+    monkeypatch.setattr(Figure, "savefig", recording)
+    img = make_image(tmp_path / "img.h5", three_d=three_d)
+    res = run(img, "-o", tmp_path / "r.json", "--plot", tmp_path / "p")
+    assert res.exit_code == 0, res.output
+    assert len(drawn) == 3  # the quicklook and both targets
+    for fig in drawn:
+        fig.canvas.draw()  # at the figure's own dpi, which its bbox uses (savefig drew at 110)
+        renderer = fig.canvas.get_renderer()
+        frame = fig.bbox.padded(1.0)
+        texts = [t for t in fig.findobj(Text) if t.get_visible() and t.get_text().strip()]
+        # tick labels of two different axes may meet at a corner (where the ticks are, not the layout)
+        owner = {id(t): id(axis) for ax in fig.axes for axis in (ax.xaxis, ax.yaxis) for t in axis.get_ticklabels()}
+        boxes = [(t.get_text(), owner.get(id(t)), t.get_window_extent(renderer)) for t in texts]
+        assert len(boxes) > 10
+        for text, _, box in boxes:
+            assert frame.contains(box.x0, box.y0) and frame.contains(box.x1, box.y1), text
+        for i, (a, axis_a, box_a) in enumerate(boxes):
+            for b, axis_b, box_b in boxes[i + 1 :]:
+                if axis_a is None or axis_b is None or axis_a == axis_b:
+                    assert not box_a.overlaps(box_b), (a, b)
+
+
 def test_3d_image_with_config(tmp_path):
     img = make_image(tmp_path / "cube.h5", three_d=True)
     cfg = tmp_path / "cfg.yaml"
