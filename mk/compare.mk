@@ -102,14 +102,21 @@ cmpf-000-exp1 cmpf-000-exp2: cmpf-000-%:
 	$(if $(filter exp1,$*),$(if $(filter new,$(ROLE)),$(CMPF_S) simulate $(R)/scene_prf1850.yaml -o $(O)/simulated/raw_prf1850.h5 --overwrite --no-progress,ln -sf ../raw_prf1850.h5 $(O)/simulated/raw_prf1850.h5))
 
 # Trees whose reproduce_004.py tabulates the CLI's times/ and isolated-target sweep (mk/004.mk) get them
-# too (a tree without configs/sweeps/reproduce_004_isolated.yaml runs its own timing and isolated targets).
+# too (a tree without configs/sweeps/reproduce_004_isolated.yaml runs its own timing and isolated targets);
+# a tree whose mk/004.mk runs the channel overlap and the timed 3D backprojection (reproduce_004.py then reads
+# times/backproject.txt) runs them here too (session 26: cmpf-004 failed without them).
 cmpf-004:
 	$(call cmpf_raw,$(T)/configs/du2010.yaml,raw.h5)
 	rm -rf $(O)/times && mkdir -p $(O)/times
 	$(PY) scripts/timed.py $(O)/times/simulate.txt -- \
 		$(CMPF_S) simulate $(T)/configs/du2010.yaml -o $(O)/times/raw.h5 --overwrite --no-progress && rm $(O)/times/raw.h5
 	$(PY) scripts/timed.py $(O)/times/array3d.txt -- $(CMPF_S) array3d $(O)/raw.h5 -o $(O)/cube.h5 --config $(T)/configs/du2010.yaml --overwrite --no-progress \
-		--channel-image 14 --channel-output $(O)/image_channel14.h5
+		--channel-image 14 --channel-output $(O)/image_channel14.h5 \
+		$$(grep -q -- --channel-overlap $(T)/mk/004.mk && echo --channel-overlap)
+	if grep -q times/backproject.txt $(T)/mk/004.mk; then \
+	  $(PY) scripts/timed.py $(O)/times/backproject.txt -- $(CMPF_S) backproject $(O)/raw.h5 -o $(O)/bp_cube.h5 \
+	    --config $(T)/configs/du2010.yaml --overwrite --no-progress && \
+	  $(CMPF_S) evaluate $(O)/bp_cube.h5 -o $(O)/report_bp.json --overwrite > $(O)/report_bp.md; fi
 	$(CMPF_S) evaluate $(O)/cube.h5 -o $(O)/report_cube.json --overwrite --plot $(O)/plots_cube > $(O)/report_cube.md
 	$(CMPF_S) evaluate $(O)/image_channel14.h5 -o $(O)/report_channel14.json --overwrite > $(O)/report_channel14.md
 	if [ -f $(T)/configs/sweeps/reproduce_004_isolated.yaml ]; then rm -rf $(O)/isolated && \

@@ -33,7 +33,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SARPROC = (
     [str(ROOT / ".venv" / "bin" / "sarproc")]
     if (ROOT / ".venv" / "bin" / "sarproc").exists()
-    else [sys.executable, "-m", "sarproc"]
+    else [sys.executable, "-P", "-m", "sarproc"]  # -P: the sarproc of PYTHONPATH, not of the working directory
 )
 STAGES = ("preprocess", "coarse_focus", "fine_focus")
 
