@@ -122,19 +122,7 @@ def _writer(output: Path, header: Product, input_path: Path, overwrite: bool) ->
     """The image's block writer: ``header``'s grid, metadata and history."""
     from sarproc.product.io import ProductWriter
 
-    return ProductWriter(
-        output,
-        header.kind,
-        header.dims,
-        header.coords,
-        header.radar,
-        header.targets,
-        attrs=header.attrs,
-        aux=header.aux,
-        history=header.history,
-        inputs=[input_path],
-        overwrite=overwrite,
-    )
+    return ProductWriter.like(output, header, inputs=[input_path], overwrite=overwrite)
 
 
 def _write_blocks(

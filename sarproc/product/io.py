@@ -481,6 +481,32 @@ class ProductWriter:
         self._args = (radar, targets, list(history), attrs or {}, aux or {}, dtype)
         self.file: h5py.File | None = None
 
+    @classmethod
+    def like(
+        cls,
+        output: str | Path,
+        header: Product,
+        *,
+        dtype: np.dtype | type = np.complex64,
+        inputs: Sequence[str | Path] = (),
+        overwrite: bool = False,
+    ) -> ProductWriter:
+        """A writer of ``header``'s grid, metadata and history (its data is not read)."""
+        return cls(
+            output,
+            header.kind,
+            header.dims,
+            header.coords,
+            header.radar,
+            header.targets,
+            attrs=header.attrs,
+            aux=header.aux,
+            history=header.history,
+            dtype=dtype,
+            inputs=inputs,
+            overwrite=overwrite,
+        )
+
     def _failed(self, exc: Exception) -> ProcessingError:
         # HDF5 cannot be trusted with this file any more: keep its objects alive, never close them.
         if self.file is not None:
@@ -616,20 +642,8 @@ def write_product(
     output: str | Path, product: Product, *, inputs: Sequence[str | Path] = (), overwrite: bool = False
 ) -> Path:
     """Write ``product`` to ``output`` atomically."""
-    with ProductWriter(
-        output,
-        product.kind,
-        product.dims,
-        product.coords,
-        product.radar,
-        product.targets,
-        attrs=product.attrs,
-        aux=product.aux,
-        history=product.history,
-        dtype=np.complex64 if np.iscomplexobj(product.data) else product.data.dtype,
-        inputs=inputs,
-        overwrite=overwrite,
-    ) as w:
+    dtype = np.complex64 if np.iscomplexobj(product.data) else product.data.dtype
+    with ProductWriter.like(output, product, dtype=dtype, inputs=inputs, overwrite=overwrite) as w:
         w.write(Ellipsis, product.data)
     return Path(output)
 

@@ -16,6 +16,7 @@ from sarproc.dsp.rangecomp import range_compress
 from sarproc.focus.backprojection import backproject_points, theoretical_irw
 from sarproc.focus.pfa.chain import Pfa2Params, antenna_positions, image_frame, pfa2
 from sarproc.focus.pfa.correction import pfa_distortion
+from sarproc.focus.pfa.polar import Grid
 from sarproc.focus.pfa.two_step import local_irw
 from sarproc.product.config import load_yaml
 from sarproc.product.model import target_names
@@ -264,3 +265,11 @@ def test_subimage_tasks_are_pure_and_picklable():
     np.testing.assert_array_equal(threaded.data, serial.data)
     again = two_step.focus_subimage(seen[0])
     assert again.shape == (seen[0].core.n_a, seen[0].core.n_r)
+
+
+def test_a_sub_grid_holds_the_parent_pixels_it_names():
+    g = Grid(-3.5, 0.25, 40, 120.0, 0.5, 30)
+    sub = g.sub(slice(7, 19), slice(3, 25))
+    assert (sub.n_a, sub.n_r, sub.da, sub.dr) == (12, 22, g.da, g.dr)
+    np.testing.assert_allclose(sub.a, g.a[7:19], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(sub.r, g.r[3:25], rtol=0, atol=1e-12)

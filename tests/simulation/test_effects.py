@@ -12,6 +12,7 @@ from helpers import assert_theory
 from sarproc.focus.backprojection import BackprojectParams, backproject
 from sarproc.product.metadata import C
 from sarproc.quality.metrics import evaluate_product
+from sarproc.simulation.effects.base import offsets_along
 from sarproc.simulation.effects.range_gate import linear_range_rate
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
@@ -214,3 +215,7 @@ def test_platform_motion_needs_a_period():
 
     with pytest.raises(InputError, match="cross_track_period: required"):
         scene_from_mapping(with_effects(SQUINT50, platform_motion={"cross_track_amplitude": "1 m"}))
+
+
+def test_receiver_offsets_lie_along_the_named_axis_only():
+    np.testing.assert_array_equal(offsets_along(np.array([-1.5, 0.0, 1.5]), 1), [[0, -1.5, 0], [0, 0, 0], [0, 1.5, 0]])

@@ -565,17 +565,8 @@ def _subimage_tasks(
     g1, grid, ph = first.grid, scene.grid, scene.ph
     os_ = params.subimage_oversampling
     for t, (sa, sr), kg2, angle in zip(tiles, layout.slices, layout.kgrids, layout.angles):
-        wg = Grid(
-            g1.a0 + sa.start * g1.da, g1.da, sa.stop - sa.start, g1.r0 + sr.start * g1.dr, g1.dr, sr.stop - sr.start
-        )
-        core_grid = Grid(
-            grid.a0 + t.rows.start * grid.da,
-            grid.da,
-            t.rows.stop - t.rows.start,
-            grid.r0 + t.cols.start * grid.dr,
-            grid.dr,
-            t.cols.stop - t.cols.start,
-        )
+        wg = g1.sub(sa, sr)
+        core_grid = grid.sub(t.rows, t.cols)
         centre = scene.origin + t.center_offset[0] * scene.e_a + t.center_offset[1] * scene.e_r
         yield SubImageTask(
             window=np.ascontiguousarray(first.image[sa, sr]),

@@ -324,6 +324,17 @@ class Grid:
     def r(self) -> np.ndarray:
         return self.r0 + self.dr * np.arange(self.n_r)
 
+    def sub(self, rows: slice, cols: slice) -> Grid:
+        """The grid of pixels [rows, cols] (slices with explicit start and stop)."""
+        return Grid(
+            self.a0 + rows.start * self.da,
+            self.da,
+            rows.stop - rows.start,
+            self.r0 + cols.start * self.dr,
+            self.dr,
+            cols.stop - cols.start,
+        )
+
 
 def rect_to_image(spec: np.ndarray, kg: KGrid, grid: Grid, workers: int = -1) -> np.ndarray:
     """I(a, r) = sum_k spec(k) exp{-j (k_a a + k_r r)} / n_k on ``grid``: (n_a, n_r) complex64."""

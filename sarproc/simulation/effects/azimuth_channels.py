@@ -22,7 +22,7 @@ import numpy as np
 
 from sarproc.product.config import param
 from sarproc.product.errors import InputError
-from sarproc.simulation.effects.base import ReceiverArray, register_effect
+from sarproc.simulation.effects.base import ReceiverArray, offsets_along, register_effect
 
 if TYPE_CHECKING:
     from sarproc.product.metadata import RadarMetadata
@@ -63,8 +63,7 @@ class AzimuthChannels(ReceiverArray):
     def __init__(self, params: AzimuthChannelsParams, scene_params: SceneParams, radar: RadarMetadata) -> None:
         super().__init__(params, scene_params, radar)
         self.dx = along_track_offsets(params.n_receivers, params.spacing)
-        self.receiver_offsets = np.zeros((len(self.dx), 3))
-        self.receiver_offsets[:, 0] = self.dx
+        self.receiver_offsets = offsets_along(self.dx, 0)
         n = params.n_receivers
         phase = np.asarray(params.phase_imbalance or np.zeros(n), float)
         amp = np.asarray(params.amplitude_imbalance or np.zeros(n), float)

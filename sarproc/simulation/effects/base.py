@@ -89,6 +89,13 @@ class Effect:
         return {}
 
 
+def offsets_along(values: np.ndarray, axis: int) -> np.ndarray:
+    """(n, 3) receiver offsets, m: ``values`` along coordinate ``axis`` (0 along track, 1 cross track), 0 elsewhere."""
+    offsets = np.zeros((len(values), 3))
+    offsets[:, axis] = values
+    return offsets
+
+
 class ReceiverArray(Effect):
     """An effect that replaces the one monostatic channel by receivers at fixed offsets from the
     transmitter (which stays at the platform position). Subclasses set ``receiver_offsets`` (n_ch, 3), m."""

@@ -25,7 +25,7 @@ import numpy as np
 from sarproc.product.config import param
 from sarproc.product.errors import InputError
 from sarproc.simulation.effects.antenna import one_way_amplitude
-from sarproc.simulation.effects.base import ReceiverArray, register_effect
+from sarproc.simulation.effects.base import ReceiverArray, offsets_along, register_effect
 
 if TYPE_CHECKING:
     from sarproc.product.metadata import RadarMetadata
@@ -78,8 +78,7 @@ class CrossTrackArray(ReceiverArray):
     def __init__(self, params: CrossTrackArrayParams, scene_params: SceneParams, radar: RadarMetadata) -> None:
         super().__init__(params, scene_params, radar)
         self.v = receiver_offsets(params)
-        self.receiver_offsets = np.zeros((len(self.v), 3))
-        self.receiver_offsets[:, 1] = self.v
+        self.receiver_offsets = offsets_along(self.v, 1)
 
     def gains(
         self, t: np.ndarray, platform_pos: np.ndarray, target_pos: np.ndarray, channel: int, gains: np.ndarray
