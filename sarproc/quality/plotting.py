@@ -45,26 +45,24 @@ COLORBAR_FRACTION, COLORBAR_PAD = 0.05, 0.04
 
 
 def _figure(
-    n_panels: int, width: float = 5.0, height: float = 4.2, margins: Mapping[str, float] | None = None
+    n_panels: int, margins: Mapping[str, float], width: float = 5.0, height: float = 4.2
 ) -> tuple[Figure, list[Axes]]:
-    """A figure of ``n_panels`` side by side; ``margins`` (inches, as :data:`TARGET_MARGINS`) fix the layout,
-    else matplotlib's constrained layout places it."""
+    """A figure of ``n_panels`` side by side, laid out by ``margins`` (inches, as :data:`TARGET_MARGINS`)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
     size = (width * n_panels, height)
-    fig = Figure(figsize=size, layout=None if margins else "constrained")
+    fig = Figure(figsize=size)
     FigureCanvasAgg(fig)
-    if margins:
-        gap = margins["left"] + margins["right"]  # a panel's colour bar labels, then the next one's y labels
-        panel = (size[0] - gap * n_panels) / n_panels
-        fig.subplots_adjust(
-            left=margins["left"] / size[0],
-            right=1 - margins["right"] / size[0],
-            bottom=margins["bottom"] / size[1],
-            top=1 - margins["top"] / size[1],
-            wspace=gap / panel,
-        )
+    gap = margins["left"] + margins["right"]  # a panel's colour bar labels, then the next one's y labels
+    panel = (size[0] - gap * n_panels) / n_panels
+    fig.subplots_adjust(
+        left=margins["left"] / size[0],
+        right=1 - margins["right"] / size[0],
+        bottom=margins["bottom"] / size[1],
+        top=1 - margins["top"] / size[1],
+        wspace=gap / panel,
+    )
     return fig, [fig.add_subplot(1, n_panels, i + 1) for i in range(n_panels)]
 
 
@@ -87,7 +85,7 @@ def plot_quicklook(
     """
     units = units or {}
     panels = db_panels(np.abs(np.asarray(data)), dynamic_range_db)
-    fig, axs = _figure(len(panels), margins=QUICKLOOK_MARGINS)
+    fig, axs = _figure(len(panels), QUICKLOOK_MARGINS)
     for ax, panel in zip(axs, panels):
         v, h, other, db = panel.v, panel.h, panel.other, panel.db
         cv, ch = np.asarray(coords[dims[v]]), np.asarray(coords[dims[h]])
@@ -141,7 +139,7 @@ def plot_target(
 
     units = units or {}
     pairs = axis_pairs(np.ndim(data))
-    fig, axs = _figure(len(pairs), width=4.6, margins=TARGET_MARGINS)
+    fig, axs = _figure(len(pairs), TARGET_MARGINS, width=4.6)
     for ax, (v, h) in zip(axs, pairs):
         off_v, off_h, vals = target_patch(
             data,
