@@ -237,7 +237,7 @@ def test_detection_keeps_a_weak_peak_beside_a_strong_one_and_drops_side_lobes():
     x = np.arange(n) - 1000.0
     power[:, 20] += (1e4 * np.sinc(x / 2.0) ** 2).astype(np.float32)  # strong point, sinc side lobes
     power[1300, 24] += 50.0  # weak target 4 cells away in range
-    found, dropped = detection.find_detections(power, detection.background(power), t, 15.0, -40.0, 1.2, 10)
+    found, dropped, _ = detection.find_detections(power, detection.background(power), t, 15.0, -40.0, 1.2, 10)
     cells = sorted((d.index, d.cell) for d in found)
     assert cells == [(1000, 20), (1300, 24)]
     assert dropped == 0
