@@ -8,6 +8,7 @@ itself (moving_targets column truth_index), and checked here against the truth v
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from pathlib import Path
 
@@ -257,6 +258,27 @@ def test_detection_keeps_a_weak_peak_beside_a_strong_one_and_drops_side_lobes():
     cells = sorted((d.index, d.cell) for d in found)
     assert cells == [(1000, 20), (1300, 24)]
     assert dropped == 0
+
+
+def test_a_residual_peak_mirrored_about_a_bright_static_one_is_its_side_lobe_and_a_lone_one_is_not():
+    n = 4096
+    power = np.full((n, 40), 1e-12, np.float32)
+    bright = detection.Detection(cell=20, index=2000, time=0.0, power=1e6, background=1e-12, width=2.0)
+    static = detection.StaticSources([bright], cells=10, far=750.0)
+    for off in (-400, 400, -900, 900):  # side-lobe pairs: +-40 and +-90 ms at 10 kHz, 3 dB apart at most
+        power[2000 + off, 21] = 1e-4 * (1.4 if off > 0 else 1.0)
+    power[2600, 22] = 1e-4  # no partner at 1400
+    power[3100, 35] = 1e-4  # mirrored, but 15 cells away in range
+    power[1300, 20] = 1e-1  # mirrored partner absent and far above the side-lobe envelope anyway
+    power[3500, 23] = 1e-4  # no partner at 500, 150 ms out
+    assert detection.static_side_lobe(power, 2400, 21, 1.4e-4, static)
+    assert detection.static_side_lobe(power, 1600, 21, 1e-4, static)
+    assert not detection.static_side_lobe(power, 2600, 22, 1e-4, static)
+    assert not detection.static_side_lobe(power, 3100, 35, 1e-4, static)
+    assert not detection.static_side_lobe(power, 1300, 20, 1e-1, static)
+    # beyond `far`, 10 dB deep under the envelope: a side lobe with no partner (several points' tails add there)
+    assert detection.static_side_lobe(power, 3500, 23, 1e-4, static)
+    assert not detection.static_side_lobe(power, 3500, 23, 1e-4, dataclasses.replace(static, far=1600.0))
 
 
 def test_extraction_separates_two_chirps_in_one_range_cell():
