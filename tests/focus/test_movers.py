@@ -8,6 +8,7 @@ itself (moving_targets column truth_index), and checked here against the truth v
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from pathlib import Path
 
@@ -221,6 +222,22 @@ def test_mover_free_scene_with_clutter_gives_no_false_alarm():
     assert "truth" not in rec.attrs["reconstruct"]  # no moving truth target to find
 
 
+def test_bright_static_points_alone_make_no_false_mover_and_a_mover_beside_them_is_found():
+    # No clutter, no noise: the bright points' far azimuth side lobes, which the clutter null passes (their spectrum
+    # beyond the nulled band), stand 15-30 dB over the residual's background; before they were dropped as side lobes
+    # the null fit made movers of them (one point of amplitude 10: >= 13, v_r 13-20 m/s).
+    statics = [
+        {"name": "S1", "amplitude": 10.0},
+        {"name": "S2", "azimuth": "300 m", "range": "60 m", "amplitude": 3.0},
+        {"name": "S3", "azimuth": "-250 m", "range": "-40 m", "amplitude": 1.0},
+    ]
+    raw = simulate(scene_from_mapping(scene([*statics, vehicle("V1", 500, -30, 5, 8)], n_receivers=4, spacing="1.5 m")))
+    rec = reconstruct(raw, ReconstructParams(clutter_suppression=True, max_detections=8))
+    check(rec, ["V1"])
+    counts = rec.attrs["reconstruct"]["detections"]
+    assert counts["static_side_lobes"] > 100, counts  # said, not hidden
+
+
 def test_moving_target_table_is_written_read_and_carried(two_movers, tmp_path):
     rec = reconstruct(two_movers, ReconstructParams())
     path = tmp_path / "rec.h5"
@@ -237,10 +254,31 @@ def test_detection_keeps_a_weak_peak_beside_a_strong_one_and_drops_side_lobes():
     x = np.arange(n) - 1000.0
     power[:, 20] += (1e4 * np.sinc(x / 2.0) ** 2).astype(np.float32)  # strong point, sinc side lobes
     power[1300, 24] += 50.0  # weak target 4 cells away in range
-    found, dropped = detection.find_detections(power, detection.background(power), t, 15.0, -40.0, 1.2, 10)
+    found, dropped, _ = detection.find_detections(power, detection.background(power), t, 15.0, -40.0, 1.2, 10)
     cells = sorted((d.index, d.cell) for d in found)
     assert cells == [(1000, 20), (1300, 24)]
     assert dropped == 0
+
+
+def test_a_residual_peak_mirrored_about_a_bright_static_one_is_its_side_lobe_and_a_lone_one_is_not():
+    n = 4096
+    power = np.full((n, 40), 1e-12, np.float32)
+    bright = detection.Detection(cell=20, index=2000, time=0.0, power=1e6, background=1e-12, width=2.0)
+    static = detection.StaticSources([bright], cells=10, far=750.0)
+    for off in (-400, 400, -900, 900):  # side-lobe pairs: +-40 and +-90 ms at 10 kHz, 3 dB apart at most
+        power[2000 + off, 21] = 1e-4 * (1.4 if off > 0 else 1.0)
+    power[2600, 22] = 1e-4  # no partner at 1400
+    power[3100, 35] = 1e-4  # mirrored, but 15 cells away in range
+    power[1300, 20] = 1e-1  # mirrored partner absent and far above the side-lobe envelope anyway
+    power[3500, 23] = 1e-4  # no partner at 500, 150 ms out
+    assert detection.static_side_lobe(power, 2400, 21, 1.4e-4, static)
+    assert detection.static_side_lobe(power, 1600, 21, 1e-4, static)
+    assert not detection.static_side_lobe(power, 2600, 22, 1e-4, static)
+    assert not detection.static_side_lobe(power, 3100, 35, 1e-4, static)
+    assert not detection.static_side_lobe(power, 1300, 20, 1e-1, static)
+    # beyond `far`, 10 dB deep under the envelope: a side lobe with no partner (several points' tails add there)
+    assert detection.static_side_lobe(power, 3500, 23, 1e-4, static)
+    assert not detection.static_side_lobe(power, 3500, 23, 1e-4, dataclasses.replace(static, far=1600.0))
 
 
 def test_extraction_separates_two_chirps_in_one_range_cell():

@@ -23,7 +23,9 @@ peaks-over-threshold model of extreme values; exponential when xi = 0), and the 
 falls to the stated false-alarm rate per peak. ``reconstruct`` applies it to the image with the examined
 responses taken out (reconstruct._second_pass). Side lobes: a candidate on the range or azimuth cut of a stronger
 detection is kept only if it rises 6 dB over that detection's sinc envelope 1 / (pi x)^2
-(x: distance in the detection's own measured -3 dB widths; a defocused mover's width is larger).
+(x: distance in the detection's own measured -3 dB widths; a defocused mover's width is larger). With the clutter
+null, a residual candidate under that envelope of a conventional-image peak that is mirrored about it, or deep under
+it where the null passes the peak's spectral tails, is that static peak's side lobe (:func:`static_side_lobe`).
 
 Separation (``extract``): the channels of one detection, in the range cells of its window, are
 dechirped about t_app with (7); the detection becomes a tone at 0 Hz (modulo the channel PRF) whose
@@ -55,6 +57,18 @@ if TYPE_CHECKING:
 
 TILE = (256, 32)  # CFAR background tiles: azimuth samples x range cells
 SIDELOBE_MARGIN = 4.0  # 6 dB over a stronger detection's sinc envelope
+# A static response's side lobes that the clutter null passes (find_detections' ``static`` test, StaticSources).
+# Mirror test: the energy over +-MIRROR_HALF samples at a candidate against the most over the same span near its
+# mirror about the static peak (within MIRROR_STRETCH of the offset: one side's tails sit up to 1.7 % further out
+# than the other's); a side lobe stands less than MIRROR_MARGIN over it (one bright point's pairs, measured: -1.5 to
+# +3.3 dB apart). The envelope (below) keeps xu_traffic's V9: a fixed 50 dB under the peak instead dropped it and
+# 17 other residual peaks, which stood 10.4-23.6 dB over that envelope.
+MIRROR_HALF = 12
+MIRROR_STRETCH = 0.02
+MIRROR_MARGIN = 2.5
+# Beyond where the null passes a point's side lobes, one DEEP under its envelope needs no mirror (the side lobes of
+# several points add there; measured 17.6-18.9 dB under it, unpaired, on three points).
+DEEP = 0.1
 
 
 @dataclasses.dataclass(frozen=True)
@@ -190,6 +204,53 @@ def fit_tail(z: np.ndarray, tail_fraction: float = TAIL_FRACTION) -> TailFit:
     return TailFit(u, k / n, float(xi), float(sigma), n)
 
 
+@dataclasses.dataclass(frozen=True)
+class StaticSources:
+    """The conventional image's bright responses whose side lobes the clutter null passes (:func:`static_side_lobe`).
+
+    The null cancels a static point's Doppler band (times clutter_band) but not its spectrum beyond it: the
+    illumination a rect beam cuts sharply spreads the point's chirp past the band edge by Delta f with an amplitude
+    ~ 1 / Delta f, and compression puts that tail Delta f / K_a from the point. So from ``far`` = (clutter_band - 1)
+    half_band / K_a on (paper 003's radar: 75 ms) the residual holds the point's side lobes almost whole (-1 to -2.5
+    dB under the conventional image's), nearer ones cancelled by 13-40 dB (docs/multichannel.md section 8).
+    """
+
+    peaks: Sequence[Detection]  # strongest first, in the residual image's scale
+    cells: int  # range cells a peak's response reaches either side (side lobes, the chirp's aliased tails)
+    far: float  # azimuth samples from a peak beyond which the null passes its side lobes
+
+
+def static_side_lobe(power: np.ndarray, index: int, cell: int, p: float, static: StaticSources) -> bool:
+    """Whether the clutter-null residual's candidate at (``index``, ``cell``) of power ``p`` is a side lobe of one of
+    the ``static`` sources that the null did not cancel.
+
+    For a source beyond the candidate's own span in azimuth and within ``static.cells`` in range, under its azimuth
+    side-lobe envelope (find_detections' 1 / (pi x)^2 with SIDELOBE_MARGIN): when it is also DEEP under that
+    envelope beyond ``static.far``, or else it stands less than MIRROR_MARGIN over its mirror about the source
+    (energies over +-MIRROR_HALF samples in its range cell). A point's response comes in pairs mirrored about it; a
+    mover's does not.
+    """
+    n = power.shape[0]
+    span = 2 * MIRROR_HALF + 1
+    here = None
+    for s in static.peaks:
+        dt = (index - s.index + n // 2) % n - n // 2
+        if abs(dt) < 2 * s.width + span or abs(cell - s.cell) > static.cells:
+            continue
+        envelope = s.power * SIDELOBE_MARGIN / (math.pi * dt / s.width) ** 2
+        if p > envelope:
+            continue
+        if abs(dt) >= static.far and p <= DEEP * envelope:
+            return True
+        if here is None:
+            here = float(np.sum(power[(index + np.arange(-MIRROR_HALF, MIRROR_HALF + 1)) % n, cell]))
+        reach = MIRROR_HALF + int(MIRROR_STRETCH * abs(dt))
+        near = power[(s.index - dt + np.arange(-reach, reach + 1)) % n, cell].astype(np.float64)
+        if here < MIRROR_MARGIN * float(np.max(np.convolve(near, np.ones(span), "valid"))):
+            return True
+    return False
+
+
 def local_peaks(power: np.ndarray) -> np.ndarray:
     """Mask of the local maxima of a (t', range) power image over a 5 x 3 box (find_detections' candidates)."""
     return (maximum_filter(power, (5, 3), "wrap") == power) & (power > 0)
@@ -236,22 +297,26 @@ def find_detections(
     range_width: float,
     max_detections: int,
     known: Sequence[Detection] = (),
-) -> tuple[list[Detection], int]:
+    static: StaticSources | None = None,
+) -> tuple[list[Detection], int, int]:
     """CFAR peaks of a (t', range) power image, side lobes of stronger peaks removed (module docstring).
 
     ``known``: detections made before (whose responses the image may no longer hold): a candidate on their side-lobe
-    envelope is dropped as well. Returns the new detections, strongest first, and the number of candidates beyond
-    ``max_detections``.
+    envelope is dropped as well. ``static``: with a clutter-null residual image, the conventional image's bright
+    responses: a candidate that is one of their side lobes the null passed (:func:`static_side_lobe`) is dropped and
+    counted.
+    Returns the new detections, strongest first, the number of candidates beyond ``max_detections`` and the number
+    of static side lobes dropped.
     """
     peak = float(power.max()) if power.size else 0.0
     if peak <= 0:
-        return [], 0
+        return [], 0, 0
     above = (power > bg * 10 ** (cfar_db / 10)) & (power > peak * 10 ** (level_db / 10))
     local = maximum_filter(power, (5, 3), "wrap") == power
     idx = np.argwhere(above & local)
     order = np.argsort(-power[idx[:, 0], idx[:, 1]])
     found: list[Detection] = []
-    dropped = 0
+    dropped = side_lobes = 0
     for t_i, r_i in idx[order]:
         p = float(power[t_i, r_i])
         sidelobe = False
@@ -271,6 +336,9 @@ def find_detections(
                 break
         if sidelobe:
             continue
+        if static is not None and static_side_lobe(power, int(t_i), int(r_i), p, static):
+            side_lobes += 1
+            continue
         if len(found) >= max_detections:
             dropped += 1
             continue
@@ -284,7 +352,7 @@ def find_detections(
                 width=_width(power[:, r_i], int(t_i)),
             )
         )
-    return found, dropped
+    return found, dropped, side_lobes
 
 
 def extraction_mask(frequencies: np.ndarray, prf: float, half_width: float) -> np.ndarray:
