@@ -240,9 +240,10 @@ def run_cli(args: Sequence[str] | None = None) -> int:
 # OpenBLAS (numpy's, and scipy's own where evaluate loads its LAPACK) starts its worker threads when it is
 # loaded, at numpy's import, and each spins for 2^28 TSC cycles (~0.1 s) waiting for work, before and after
 # every threaded BLAS call, on the cores the stage needs: 0.05 s of CPU per library in every process
-# (docs/performance.md, fourteenth round). 2^16 cycles (~20 us) still bridges the calls of a batched matmul;
-# the number of BLAS threads, hence every product, is unchanged. Read when the library loads.
-THREAD_DEFAULTS = {"OMP_WAIT_POLICY": "PASSIVE", "OPENBLAS_THREAD_TIMEOUT": "16"}
+# (docs/performance.md, fourteenth round). 2^20 cycles (~0.4 ms) still bridges the calls of a batched matmul
+# (2^4 made one 4x slower: every call woke sleeping workers); the number of BLAS threads, hence every product,
+# is unchanged. Read when the library loads.
+THREAD_DEFAULTS = {"OMP_WAIT_POLICY": "PASSIVE", "OPENBLAS_THREAD_TIMEOUT": "20"}
 
 
 def set_thread_defaults(environ: MutableMapping[str, str] | None = None) -> None:

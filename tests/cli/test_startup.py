@@ -11,6 +11,7 @@ import json
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -68,7 +69,7 @@ def test_the_command_sets_the_wait_policies_unless_the_user_did():
         "atexit.register(lambda: print(os.environ.get('OMP_WAIT_POLICY'), os.environ.get('OPENBLAS_THREAD_TIMEOUT')))"
         "\nmain()"
     )
-    assert _python(code, env).split()[-2:] == ["PASSIVE", "16"]
+    assert _python(code, env).split()[-2:] == ["PASSIVE", "20"]
     users = {"OMP_WAIT_POLICY": "ACTIVE", "OPENBLAS_THREAD_TIMEOUT": "0"}
     assert _python(code, {**env, **users}).split()[-2:] == ["ACTIVE", "0"]
     mine = dict(users)
@@ -235,6 +236,46 @@ def _exit_run(setup: str, code: int = 3) -> subprocess.CompletedProcess:
         f"kept = Freed()\nsys.stdout.write('buffered output')\n{setup}\nexit_without_teardown({code})\n"
     )
     return subprocess.run([sys.executable, "-c", program], capture_output=True, text=True, check=False)
+
+
+NUMPY_MA_IMPORTERS = """
+import json, sys, traceback
+from sarproc.cli.main import run_cli
+importers = []
+
+
+class Watch:
+    def find_spec(self, name, path=None, target=None):
+        if name == "numpy.ma":  # the line outside numpy and the import system whose call imported it
+            frames = [f for f in traceback.extract_stack()[:-1] if "importlib" not in f.filename]
+            while frames and "/numpy/" in frames[-1].filename:
+                frames.pop()
+            if frames and "/sarproc/" in frames[-1].filename:
+                importers.append(f"{frames[-1].filename}:{frames[-1].lineno}")
+        return None
+
+
+sys.meta_path.insert(0, Watch())
+assert run_cli(ARGS) == 0
+print(json.dumps(importers))
+"""
+
+
+@pytest.mark.parametrize(
+    "config, stage", [("demo.yaml", "backproject"), ("nie2016_small.yaml", "pfa2"), ("demo.yaml", "simulate")]
+)
+def test_stages_import_no_numpy_ma_through_sarprocs_own_calls(tmp_path, config, stage):
+    # np.median's NaN check and np.unique's mask check imported numpy.ma (10-25 ms of a process) for a median
+    # spacing or a few survey indices (docs/performance.md, fourteenth round); numba's own import of it, where
+    # a test runs the kernels without their compiled modules, is not sarproc's call
+    config = str(Path(__file__).resolve().parents[2] / "configs" / config)
+    raw, out = str(tmp_path / "raw.h5"), str(tmp_path / "out.h5")
+    run = ["simulate", config, "-o", raw, "-q"]
+    if stage != "simulate":  # the raw product from another process
+        _python(f"from sarproc.cli.main import run_cli\nassert run_cli({run!r}) == 0")
+        run = [stage, raw, "--config", config, "-o", out, "-q"]
+    importers = json.loads(_python(NUMPY_MA_IMPORTERS.replace("ARGS", repr(run))).strip().splitlines()[-1])
+    assert importers == [], importers
 
 
 def test_the_command_ends_after_its_exit_handlers_without_the_interpreters_teardown():
