@@ -453,8 +453,8 @@ PROCESS_CASES = (
 # Runs a command twice in one process; prints the second run's wall time (the stage's compute) last.
 WARM_RUN = """
 import os, sys, time
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
-from sarproc.cli.main import run_cli
+from sarproc.cli.main import run_cli, set_thread_defaults
+set_thread_defaults()  # the command's thread settings, before numpy loads OpenBLAS
 assert run_cli(sys.argv[1:]) == 0
 try:  # the second run takes the kernels the first took: the compiled modules' serial budget starts again
     import sarproc.product.aot as aot

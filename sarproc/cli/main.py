@@ -237,7 +237,13 @@ def run_cli(args: Sequence[str] | None = None) -> int:
 # needs: full exp. 2 fine-focus took 2.19-2.24 s with it and 1.62 s with passive waits (docs/performance.md),
 # backprojection the same either way. Read once, when libgomp starts: set by the command before any stage
 # imports numba; a value the user set wins. Dask workers the command starts inherit it.
-THREAD_DEFAULTS = {"OMP_WAIT_POLICY": "PASSIVE"}
+# OpenBLAS (numpy's, and scipy's own where evaluate loads its LAPACK) starts its worker threads when it is
+# loaded, at numpy's import, and each spins for 2^28 TSC cycles (~0.1 s) waiting for work, before and after
+# every threaded BLAS call, on the cores the stage needs: 0.05 s of CPU per library in every process
+# (docs/performance.md, fourteenth round). 2^20 cycles (~0.4 ms) still bridges the calls of a batched matmul
+# (2^4 made one 4x slower: every call woke sleeping workers); the number of BLAS threads, hence every product,
+# is unchanged. Read when the library loads.
+THREAD_DEFAULTS = {"OMP_WAIT_POLICY": "PASSIVE", "OPENBLAS_THREAD_TIMEOUT": "20"}
 
 
 def set_thread_defaults(environ: MutableMapping[str, str] | None = None) -> None:

@@ -10,6 +10,7 @@ import numpy as np
 from sarproc.dsp.rangecomp import replica_fft_size, replica_spectrum
 from sarproc.product import fft as sfft
 from sarproc.product.metadata import C, RadarMetadata
+from sarproc.product.sorted_values import median
 
 APERTURE_CHIRP_NOTE = (
     "a target seen over a finite (beam-limited) aperture focuses to its aperture's sinc times "
@@ -31,7 +32,7 @@ def period_attrs(radar: RadarMetadata, rx_offset: np.ndarray) -> dict:
     s = np.diff(v)
     if len(s) == 0 or np.any(s <= 0):
         return {}
-    d = float(np.median(s))
+    d = median(s)
     if not np.allclose(s, d, rtol=1e-6, atol=1e-12):
         return {}
     return {

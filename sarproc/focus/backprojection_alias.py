@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from sarproc.product.metadata import C
+from sarproc.product.sorted_values import unique_integers
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -127,8 +128,8 @@ def grid_ambiguity(
         path, doppler = _history(xyz, tx[c], rx[c], v_tx, v_rx, wavelength)
         return float(path[0]), float(doppler[0])
 
-    az = plan.azimuth[np.unique(np.linspace(0, len(plan.azimuth) - 1, GRID_SAMPLES).astype(int))]
-    rg = plan.range[np.unique(np.linspace(0, len(plan.range) - 1, GRID_SAMPLES).astype(int))]
+    az = plan.azimuth[unique_integers(np.linspace(0, len(plan.azimuth) - 1, GRID_SAMPLES).astype(int))]
+    rg = plan.range[unique_integers(np.linspace(0, len(plan.range) - 1, GRID_SAMPLES).astype(int))]
     grid_az, grid_rg = np.meshgrid(az, rg, indexing="ij")
     xyz = np.asarray(frame.to_xyz(grid_az.ravel(), grid_rg.ravel()), float).reshape(-1, 3)
     path, doppler = _history(xyz, tx[c], rx[c], v_tx, v_rx, wavelength)

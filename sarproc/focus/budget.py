@@ -13,6 +13,7 @@ from sarproc.product.budget import NUMBA_PROCESS, PROCESS, Plan, complex_bytes, 
 from sarproc.product.errors import InputError
 from sarproc.product.frames import image_axis
 from sarproc.product.metadata import SINC_IRW_FACTOR
+from sarproc.product.sorted_values import median, unique_integers
 
 if TYPE_CHECKING:
     from typing import Any
@@ -116,7 +117,7 @@ def elevation_pixels(header: Product, params: Any) -> int:
     if name != "elevation":
         return 1
     v = np.sort(np.asarray(header.aux.get("rx_offset", np.zeros((1, 3))), float).reshape(-1, 3)[:, 1])
-    span = float(np.ptp(v)) + (float(np.median(np.diff(v))) if len(v) > 1 else 0.0)
+    span = float(np.ptp(v)) + (median(np.diff(v)) if len(v) > 1 else 0.0)
     # backproject itself refuses a product without a cross-track array; 0.01 rad: any width for the count
     irw = SINC_IRW_FACTOR * header.radar.wavelength / span if span > 0 else 0.01
     t = header.targets["elevation"] if len(header.targets) else [0.0]
@@ -295,9 +296,11 @@ def ffbp_predicted_error(header: Product, params: Any, plan: BackprojectionPlan,
     for i in sorted({0, len(blocks) // 2, len(blocks) - 1}):
         # the model reads the grid's plane and outline only: ~64 rows and columns of the block, its edges kept,
         # spare the plan the ~0.4 us per pixel of every point's position
-        rows, cols = (np.unique(np.linspace(0, n - 1, min(n, 64)).round().astype(int)) for n in (len(az), len(rg)))
+        rows, cols = (
+            unique_integers(np.linspace(0, n - 1, min(n, 64)).round().astype(int)) for n in (len(az), len(rg))
+        )
         rows = rows[(rows >= blocks[i].start) & (rows < blocks[i].stop)]
-        rows = np.unique(np.r_[rows, blocks[i].start, blocks[i].stop - 1])
+        rows = unique_integers(np.r_[rows, blocks[i].start, blocks[i].stop - 1])
         grid = np.meshgrid(az[rows], rg[cols], indexing="ij")
         errors.append(
             predicted_image_error(

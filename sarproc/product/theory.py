@@ -28,6 +28,7 @@ import numpy as np
 from sarproc.product import beam
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import SINC_IRW_FACTOR, C
+from sarproc.product.sorted_values import median, unique_integers
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -268,7 +269,7 @@ def sample_band(k: np.ndarray, mask: np.ndarray, weights: np.ndarray | None = No
     kk = np.sort(np.asarray(k, float)[mask])
     w = None if weights is None else np.abs(np.asarray(weights, float)[mask])
     flat = w is None or float(np.ptp(w)) <= 1e-9 * float(w.max())
-    half = 0.5 * float(np.median(np.diff(kk))) if flat else 0.0
+    half = 0.5 * median(np.diff(kk)) if flat else 0.0
     return float(kk[0]) - half, float(kk[-1]) + half
 
 
@@ -368,7 +369,7 @@ def array_elevation_theory(offsets: np.ndarray, wavelength: float, elevation: fl
     v_n cos(theta) / lambda per radian, each receiver a cell of the median spacing wide (paper 004, eq. 26).
     The theory of array3d's cubes and of backproject's 3D (elevation-frame) images."""
     v = np.sort(np.asarray(offsets, float))
-    cell = float(np.median(np.diff(v))) if len(v) > 1 else 0.0
+    cell = median(np.diff(v)) if len(v) > 1 else 0.0
     c = math.cos(float(elevation)) / wavelength
     return response_theory(v * c, np.ones_like(v), ((v[0] - cell / 2) * c, (v[-1] + cell / 2) * c))
 
@@ -395,7 +396,7 @@ def unweighted_irw(theories: Sequence[Sequence[ResponseTheory]], fallback: Seque
     an image-wide theory that a target at the edge of the beam does not drag away from the rest."""
     if not theories:
         return [float(x) for x in fallback]
-    return [float(np.median([SINC_IRW_FACTOR * t[a].null for t in theories])) for a in range(len(theories[0]))]
+    return [median([SINC_IRW_FACTOR * t[a].null for t in theories]) for a in range(len(theories[0]))]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -476,7 +477,7 @@ def illumination_survey(
     sub = (
         pos
         if len(pos) <= _SURVEY_PULSES
-        else pos[np.unique(np.linspace(0, len(pos) - 1, _SURVEY_PULSES).round().astype(int))]
+        else pos[unique_integers(np.linspace(0, len(pos) - 1, _SURVEY_PULSES).round().astype(int))]
     )
     fraction, peak = np.zeros(len(targets)), np.zeros(len(targets))
     for s in range(0, len(targets), _SURVEY_BLOCK):

@@ -29,6 +29,7 @@ from sarproc.product.metadata import (
     scene_center_from_geometry,
 )
 from sarproc.product.model import make_targets
+from sarproc.product.sorted_values import unique_integers
 
 log = logging.getLogger(__name__)
 
@@ -421,7 +422,7 @@ FOLDING_BLOCK = 128
 
 def _folding_pulses(n: int, cap: int) -> np.ndarray:
     """Indices of at most ``cap`` evenly spaced pulses, the first and the last included."""
-    return np.unique(np.round(np.linspace(0, n - 1, min(n, cap))).astype(int))
+    return unique_integers(np.round(np.linspace(0, n - 1, min(n, cap))).astype(int))
 
 
 def _folding_targets(scene: Scene, t_ends: np.ndarray, cap: int) -> np.ndarray:
@@ -461,9 +462,9 @@ def _folding_targets(scene: Scene, t_ends: np.ndarray, cap: int) -> np.ndarray:
         / np.hypot(x[None, :] - r.velocity * t_ends[:, None], rho[None, :])
     )
     widest = np.argsort(ends[0] - ends[1])[-(cap // 8) :]
-    chosen = np.unique(np.concatenate([np.asarray(keep, int), hull, widest]))
+    chosen = unique_integers(np.concatenate([np.asarray(keep, int), hull, widest]))
     rest = max(cap - len(chosen), 0)
-    return np.unique(np.concatenate([chosen, _folding_pulses(n, rest) if rest else np.zeros(0, int)]))
+    return unique_integers(np.concatenate([chosen, _folding_pulses(n, rest) if rest else np.zeros(0, int)]))
 
 
 def doppler_folding(scene: Scene, max_pulses: int | None = None, max_targets: int | None = None) -> dict | None:

@@ -11,8 +11,11 @@ import json
 import os
 import subprocess
 import sys
+from pathlib import Path
 
-from sarproc.cli.main import COMMANDS, set_thread_defaults
+import pytest
+
+from sarproc.cli.main import COMMANDS, THREAD_DEFAULTS, set_thread_defaults
 
 # Libraries that only a stage's own work needs; loading them for `--help` would cost a second or more.
 HEAVY = ("numba", "llvmlite", "scipy", "h5py", "dask", "distributed", "matplotlib", "xarray", "sarkit", "PIL")
@@ -31,7 +34,7 @@ def _loaded_after(code: str) -> set[str]:
 
 
 def test_import_sarproc_leaves_the_environment_unchanged():
-    env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+    env = {k: v for k, v in os.environ.items() if k not in THREAD_DEFAULTS}
     out = _python(
         "import os, json\nbefore = dict(os.environ)\nimport sarproc, sarproc.cli.main\n"
         "print(json.dumps(dict(os.environ) == before))",
@@ -43,7 +46,7 @@ def test_import_sarproc_leaves_the_environment_unchanged():
 def test_importing_every_library_module_leaves_the_environment_unchanged():
     """Also through what the modules import: threadpoolctl sets KMP_DUPLICATE_LIB_OK when imported, so the
     library imports it where it first limits BLAS (quality.blas, dsp.spline), not at the top of a module."""
-    env = {k: v for k, v in os.environ.items() if k not in ("OMP_WAIT_POLICY", "KMP_DUPLICATE_LIB_OK")}
+    env = {k: v for k, v in os.environ.items() if k not in {*THREAD_DEFAULTS, "KMP_DUPLICATE_LIB_OK"}}
     out = _python(
         "import importlib, json, os, pkgutil\nbefore = dict(os.environ)\nimport sarproc\n"
         "modules = pkgutil.walk_packages(sarproc.__path__, 'sarproc.')\n"
@@ -58,18 +61,45 @@ def test_importing_every_library_module_leaves_the_environment_unchanged():
     assert changed == {} and removed == []
 
 
-def test_the_command_sets_the_wait_policy_unless_the_user_did():
-    env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
-    # main() ends the process (after the exit handlers): the policy is printed by one
+def test_the_command_sets_the_wait_policies_unless_the_user_did():
+    env = {k: v for k, v in os.environ.items() if k not in THREAD_DEFAULTS}
+    # main() ends the process (after the exit handlers): the policies are printed by one
     code = (
         "import atexit, os, sys\nfrom sarproc.cli.main import main\nsys.argv = ['sarproc', '--version']\n"
-        "atexit.register(lambda: print(os.environ.get('OMP_WAIT_POLICY')))\nmain()"
+        "atexit.register(lambda: print(os.environ.get('OMP_WAIT_POLICY'), os.environ.get('OPENBLAS_THREAD_TIMEOUT')))"
+        "\nmain()"
     )
-    assert _python(code, env).split()[-1] == "PASSIVE"
-    assert _python(code, {**env, "OMP_WAIT_POLICY": "ACTIVE"}).split()[-1] == "ACTIVE"
-    mine = {"OMP_WAIT_POLICY": "ACTIVE"}
+    assert _python(code, env).split()[-2:] == ["PASSIVE", "20"]
+    users = {"OMP_WAIT_POLICY": "ACTIVE", "OPENBLAS_THREAD_TIMEOUT": "0"}
+    assert _python(code, {**env, **users}).split()[-2:] == ["ACTIVE", "0"]
+    mine = dict(users)
     set_thread_defaults(mine)
-    assert mine == {"OMP_WAIT_POLICY": "ACTIVE"}
+    assert mine == users
+
+
+BLAS_WORKERS = """
+import json, os, time
+from sarproc.cli.main import set_thread_defaults
+set_thread_defaults()
+before = set(os.listdir("/proc/self/task"))
+import numpy  # loads OpenBLAS, which starts its worker threads
+workers = set(os.listdir("/proc/self/task")) - before
+time.sleep(0.2)  # past a default spin (2^28 cycles: ~0.1 s at 2.5 GHz)
+print(json.dumps([int(open(f"/proc/self/task/{w}/schedstat").read().split()[0]) for w in workers]))
+"""
+
+
+def test_under_the_commands_defaults_blas_workers_do_not_spin_at_numpys_import():
+    """OpenBLAS's workers, started when numpy loads it, otherwise spin for work that is not coming: 33-37 ms
+    of CPU each here, on the cores the stage needs (docs/performance.md, fourteenth round); 0.05 ms with the
+    command's defaults. schedstat's first field: the thread's time on a CPU, ns."""
+    if not os.path.exists("/proc/self/schedstat"):
+        pytest.skip("no per-thread scheduler statistics (/proc/PID/task/TID/schedstat)")
+    env = {k: v for k, v in os.environ.items() if k not in {*THREAD_DEFAULTS, "OPENBLAS_NUM_THREADS"}}
+    on_cpu_ns = json.loads(_python(BLAS_WORKERS, env).strip().splitlines()[-1])
+    if not on_cpu_ns:
+        pytest.skip("OpenBLAS started no worker threads (one CPU)")
+    assert max(on_cpu_ns) < 5e6, on_cpu_ns
 
 
 def test_the_command_group_and_its_help_import_no_heavy_library():
@@ -206,6 +236,46 @@ def _exit_run(setup: str, code: int = 3) -> subprocess.CompletedProcess:
         f"kept = Freed()\nsys.stdout.write('buffered output')\n{setup}\nexit_without_teardown({code})\n"
     )
     return subprocess.run([sys.executable, "-c", program], capture_output=True, text=True, check=False)
+
+
+NUMPY_MA_IMPORTERS = """
+import json, sys, traceback
+from sarproc.cli.main import run_cli
+importers = []
+
+
+class Watch:
+    def find_spec(self, name, path=None, target=None):
+        if name == "numpy.ma":  # the line outside numpy and the import system whose call imported it
+            frames = [f for f in traceback.extract_stack()[:-1] if "importlib" not in f.filename]
+            while frames and "/numpy/" in frames[-1].filename:
+                frames.pop()
+            if frames and "/sarproc/" in frames[-1].filename:
+                importers.append(f"{frames[-1].filename}:{frames[-1].lineno}")
+        return None
+
+
+sys.meta_path.insert(0, Watch())
+assert run_cli(ARGS) == 0
+print(json.dumps(importers))
+"""
+
+
+@pytest.mark.parametrize(
+    "config, stage", [("demo.yaml", "backproject"), ("nie2016_small.yaml", "pfa2"), ("demo.yaml", "simulate")]
+)
+def test_stages_import_no_numpy_ma_through_sarprocs_own_calls(tmp_path, config, stage):
+    # np.median's NaN check and np.unique's mask check imported numpy.ma (10-25 ms of a process) for a median
+    # spacing or a few survey indices (docs/performance.md, fourteenth round); numba's own import of it, where
+    # a test runs the kernels without their compiled modules, is not sarproc's call
+    config = str(Path(__file__).resolve().parents[2] / "configs" / config)
+    raw, out = str(tmp_path / "raw.h5"), str(tmp_path / "out.h5")
+    run = ["simulate", config, "-o", raw, "-q"]
+    if stage != "simulate":  # the raw product from another process
+        _python(f"from sarproc.cli.main import run_cli\nassert run_cli({run!r}) == 0")
+        run = [stage, raw, "--config", config, "-o", out, "-q"]
+    importers = json.loads(_python(NUMPY_MA_IMPORTERS.replace("ARGS", repr(run))).strip().splitlines()[-1])
+    assert importers == [], importers
 
 
 def test_the_command_ends_after_its_exit_handlers_without_the_interpreters_teardown():

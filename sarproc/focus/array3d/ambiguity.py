@@ -21,6 +21,8 @@ import math
 
 import numpy as np
 
+from sarproc.product.sorted_values import median
+
 
 def unambiguous_half_sector(wavelength: float, spacing: float) -> float:
     """psi = asin(lambda / 2d), rad (pi/2 when d <= lambda / 2)."""
@@ -73,7 +75,7 @@ def elevation_ambiguities(
     than twice the array-factor side lobe of the strongest response on its (azimuth, range) line is
     that response's side lobe, not a scatterer, and is not named."""
     offsets = np.asarray(offsets, dtype=float)
-    spacing = float(np.median(np.diff(np.sort(offsets)))) if offsets.size > 1 else float("inf")
+    spacing = median(np.diff(np.sort(offsets))) if offsets.size > 1 else float("inf")
     bands = alias_bands(beamwidth, wavelength, spacing, resolution)
     if not bands:
         return []

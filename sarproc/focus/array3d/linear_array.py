@@ -49,6 +49,7 @@ from sarproc.product import fft as sfft
 from sarproc.product.config import param
 from sarproc.product.errors import IMAGE_DEFECT, InputError, ProcessingError
 from sarproc.product.metadata import SINC_IRW_FACTOR, C, RadarMetadata
+from sarproc.product.sorted_values import median
 from sarproc.product.steps import steps, wrapped
 from sarproc.product.theory import array_elevation_theory, fill_target_theory, window_theory
 
@@ -184,7 +185,7 @@ def array_geometry(tx_offset: np.ndarray, rx_offset: np.ndarray) -> ArrayGeometr
     s = np.diff(np.sort(v))
     if np.any(s <= 0):
         raise InputError("aux rx_offset: two receivers share a cross-track position")
-    d = float(np.median(s))
+    d = median(s)
     return ArrayGeometry(offsets=v, spacing=d, uniform=bool(np.allclose(s, d, rtol=1e-6, atol=1e-12)))
 
 
@@ -195,7 +196,7 @@ def elevation_irw(offsets: np.ndarray, wavelength: float) -> float:
     non-uniform arrays get their true width.
     """
     v = np.asarray(offsets, float) - np.mean(offsets)
-    span = float(np.ptp(v)) + float(np.median(np.diff(np.sort(v))))
+    span = float(np.ptp(v)) + median(np.diff(np.sort(v)))
     first_null = wavelength / span
     w = np.linspace(0.0, 1.5 * first_null, 6001)
     af = np.abs(np.exp(2j * np.pi * np.outer(w, v) / wavelength).sum(axis=1)) / len(v)

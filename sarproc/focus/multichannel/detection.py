@@ -51,6 +51,7 @@ from sarproc.dsp.numpy_phasor import unit_phasor
 from sarproc.focus.multichannel import channels
 from sarproc.product import fft as sfft
 from sarproc.product.metadata import C
+from sarproc.product.sorted_values import median
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -152,7 +153,7 @@ def background(power: np.ndarray, tile: tuple[int, int] = TILE) -> np.ndarray:
     for a in range(na):
         rows = power[ia == a]
         for r in range(nr):
-            med[a, r] = np.median(rows[:, ir == r])
+            med[a, r] = median(rows[:, ir == r])
     # Neighbouring tiles' median too (a 3 x 3 max), so a tile edge inside clutter is not a false alarm.
     med = maximum_filter(med, (3, 3), "edge")
     return (med[ia][:, ir] / math.log(2)).astype(np.float32)

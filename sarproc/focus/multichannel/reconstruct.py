@@ -38,6 +38,7 @@ from sarproc.product.config import as_dict, param
 from sarproc.product.errors import IMAGE_DEFECT, InputError
 from sarproc.product.metadata import C
 from sarproc.product.model import MOVING_TARGET_COLUMNS, Product, target_names
+from sarproc.product.sorted_values import median, unique_integers
 
 if TYPE_CHECKING:
     from sarproc.product.steps import ProgressFactory
@@ -280,7 +281,7 @@ class _Window:
         median cell (the window's floor) to the strongest; ``margin`` cells are added either side.
         """
         p = np.sum(np.abs(sfft.ifft(self.x, axis=-1, workers=-1)) ** 2, axis=(0, 1))
-        floor, top = float(np.median(p)), float(p.max())
+        floor, top = median(p), float(p.max())
         own = np.nonzero(p > floor + 0.05 * (top - floor))[0]
         if len(own) == 0:
             return
@@ -682,7 +683,7 @@ def _incoherent(est: _Estimate, g: _Geometry, flat_above: float) -> bool:
     assert est.result is not None
     at = est.criterion(est.v_r, est.v_a)
     white = not est.by_null_fit and at >= 1 - 2 * g.half_band / (g.n * g.prf)
-    return at > flat_above * float(np.median(est.result.trials[:, 1])) or white
+    return at > flat_above * median(est.result.trials[:, 1]) or white
 
 
 def _tone_offset(z: np.ndarray, f_az: np.ndarray, reach: float) -> float | None:
@@ -838,7 +839,7 @@ def _focused_cell(
     spec = np.sum(y_tf[inside] * ph, axis=0)  # (n_f,)
     n = len(f_r)
     profile = np.abs(sfft.ifft(spec, workers=-1)) ** 2
-    near = np.unique(np.clip(np.concatenate([cells - 1, cells, cells + 1]), 0, n - 1))
+    near = unique_integers(np.clip(np.concatenate([cells - 1, cells, cells + 1]), 0, n - 1))
     k = int(near[np.argmax(profile[near])])
     if profile[k] < max(profile[(k - 1) % n], profile[(k + 1) % n]):  # rising beyond them: not the mover's peak
         return None

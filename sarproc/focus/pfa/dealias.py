@@ -34,6 +34,7 @@ from sarproc.focus.pfa.phase_history import PhaseHistory, reference_ranges
 from sarproc.focus.pfa.polar import los_components, wavenumbers
 from sarproc.product import beam, fft as sfft
 from sarproc.product.errors import IMAGE_DEFECT, InputError
+from sarproc.product.sorted_values import median
 from sarproc.product.uniform_spline import UniformCubicSpline
 
 if TYPE_CHECKING:
@@ -75,7 +76,7 @@ def content_extent(radar: RadarMetadata, ph: PhaseHistory, e_a: np.ndarray, grid
         return grid_a, grid_a, 0.0
     q = footprint_centres(radar, ph.positions)
     qa = (q - ph.reference) @ np.asarray(e_a)
-    rng = float(np.median(reference_ranges(ph.positions, ph.reference)))
+    rng = median(reference_ranges(ph.positions, ph.reference))
     width = 2 * rng * math.tan(radar.azimuth_beamwidth / 2)  # -3 dB footprint (the pattern's skirts fold too)
     slide = float(np.max(np.abs(np.diff(qa)))) if len(qa) > 1 else 0.0
     return float(np.ptp(qa)) + width, width, slide

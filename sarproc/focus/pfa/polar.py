@@ -37,6 +37,7 @@ from sarproc.dsp.phasor import unit_phasor
 from sarproc.product import fft as sfft
 from sarproc.product.errors import InputError
 from sarproc.product.metadata import SINC_IRW_FACTOR, C
+from sarproc.product.sorted_values import median
 
 if TYPE_CHECKING:
     from sarproc.focus.pfa.phase_history import PhaseHistory
@@ -238,7 +239,7 @@ def data_sampling(ua: np.ndarray, ur: np.ndarray, k_max: float, freq_step: float
     """Largest k spacings that keep the data's own sampling density (rad/m)."""
     dkr = 4 * math.pi * freq_step / C * float(np.min(np.abs(ur)))
     ratio = ua / ur
-    dka = k_max * float(np.max(np.abs(ur))) * float(np.median(np.abs(np.diff(ratio)))) if len(ratio) > 1 else dkr
+    dka = k_max * float(np.max(np.abs(ur))) * median(np.abs(np.diff(ratio))) if len(ratio) > 1 else dkr
     return dka, dkr
 
 

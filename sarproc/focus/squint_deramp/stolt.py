@@ -30,6 +30,7 @@ import numpy.typing as npt
 from sarproc.dsp.interp import resample_rows
 from sarproc.focus.squint_deramp import compiled
 from sarproc.product.metadata import C
+from sarproc.product.sorted_values import unique_integers
 
 MODELS = ("exact", "paper")
 
@@ -190,7 +191,7 @@ def stolt_resample(
     if n > 4 * step:
         # the mapping is smooth in f_r' (curvature ~ a^2 / f^3): exact on every 32nd sample, linear between
         # (error below 1e-6 sample for any SAR geometry this chain accepts)
-        nodes = np.unique(np.r_[np.arange(0, n, step), n - 1])
+        nodes = unique_integers(np.r_[np.arange(0, n, step), n - 1])
         s_n, ok_n = model.source_frequency(f_r[nodes][None, :], f_a[:, None])
         j = np.arange(n)
         seg = np.clip(np.searchsorted(nodes, j, side="right") - 1, 0, len(nodes) - 2)
