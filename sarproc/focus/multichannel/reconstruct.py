@@ -1250,6 +1250,7 @@ def _detect(
     power = (image.real**2 + image.imag**2).astype(np.float32)
     bg = detection.background(power)
     cfar_db = params.detection_snr
+    range_width = max(1.0, g.fs / r.bandwidth)  # range cells per resolution cell
     static_peaks: list[detection.Detection] = []
     conv = bg_conv = static = None
     if residual_mode:
@@ -1263,7 +1264,7 @@ def _detect(
             g.out_times,
             params.detection_snr,
             params.detection_level,
-            max(1.0, g.fs / r.bandwidth),
+            range_width,
             20 * params.max_detections,
         )[0]
         static = _static_sources(raw, g, params, static_peaks, r_mid)
@@ -1273,7 +1274,7 @@ def _detect(
         g.out_times,
         cfar_db,
         params.detection_level,
-        max(1.0, g.fs / r.bandwidth),
+        range_width,
         20 * params.max_detections,
         static=static,
     )
@@ -1288,7 +1289,7 @@ def _detect(
         static_peaks,
         probes,
         cfar_db,
-        max(1.0, g.fs / r.bandwidth),
+        range_width,
         side_lobes,
         static,
     )
