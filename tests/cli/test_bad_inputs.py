@@ -1138,10 +1138,19 @@ def sarproc(*args, limit_kb=None):
     )
 
 
+def _size(path: Path) -> int:
+    try:
+        return path.stat().st_size
+    except FileNotFoundError:
+        return 0
+
+
 def wait_for_temporary(folder: Path, proc, timeout=60.0):
+    # The product's own temporary: the writability probe (product.io._probe_directory) makes an empty one with the
+    # same suffix and removes it within milliseconds, which a kill after it would find gone.
     end = time.monotonic() + timeout
     while time.monotonic() < end:
-        if list(folder.glob(".*.sarproc-tmp")):
+        if any(_size(p) > 0 for p in folder.glob(".*.sarproc-tmp")):
             return True
         if proc.poll() is not None:
             return False
