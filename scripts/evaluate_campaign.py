@@ -122,7 +122,7 @@ def draw_scene(rng: np.random.Generator) -> dict:
         "squint": round(squint, 2),
         "pattern": pattern,
         "window": window,
-        "snr_db": round(float(rng.uniform(28, 36)), 1) if noise else None,
+        "snr_db": round(float(rng.uniform(40, 46)), 1) if noise else None,
         "truth": truth,
         "ghosts": ghosts,
     }
