@@ -347,6 +347,8 @@ def main(argv: list[str] | None = None) -> None:
         r["draw"]["ghosts"] = [dataclasses.asdict(p) for p in d["ghosts"]]
         results.append(r)
         print(f"scene {i}: {judge(r)[2] or 'ok'}", flush=True)
+        (args.out / "results.json").write_text(json.dumps(results, indent=1))  # a stopped run keeps its scenes
+        publish(results, args)
     (args.out / "results.json").write_text(json.dumps(results, indent=1))
     publish(results, args)
 
