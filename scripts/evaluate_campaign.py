@@ -329,7 +329,16 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--out", type=Path, default=Path("results/evaluate-campaign"))
     ap.add_argument("--waveform", default="band_limited", help="simulation.waveform (continuous: the chirp's pedestal)")
     ap.add_argument("--only", type=int, nargs="*", default=None, help="run only these scene numbers")
+    ap.add_argument(
+        "--compare", type=Path, default=None, help="a run of older code (its --out): tabulate both, run nothing"
+    )
     args = ap.parse_args(argv)
+    if args.compare is not None:
+        before = json.loads((args.compare / "results.json").read_text())
+        after = json.loads((args.out / "results.json").read_text())
+        (args.out / "compare.md").write_text(compare(before, after, args))
+        print((args.out / "compare.md").read_text())
+        return
     args.out.mkdir(parents=True, exist_ok=True)
     work = args.out / "work"
     results = []
@@ -351,6 +360,47 @@ def main(argv: list[str] | None = None) -> None:
         publish(results, args)
     (args.out / "results.json").write_text(json.dumps(results, indent=1))
     publish(results, args)
+
+
+def _scene_figures(r: dict) -> tuple[str, int, int, list[str]]:
+    """(residual floor, targets judged off their own theory (lit, no flag), residual misfits, failures)."""
+    if "crash" in r:
+        return "crash", 0, 0, ["crash"]
+    trows, _, failures = judge(r)
+    res = r["clean"].get("residual") or {}
+    off = sum(1 for row in trows if "IRW/pos" in row or "side lobes" in row)
+    return _db(res.get("floor_db")), off, len(res.get("misfit_targets", ())), sorted(set(failures))
+
+
+def compare(before: list[dict], after: list[dict], args: argparse.Namespace) -> str:
+    """Per scene, the older run's figures against this one's (same seed, same scenes), and both summaries."""
+    rows = [
+        f"Same scenes (seed {args.seed}): before = the run in {args.compare}, after = {args.out}.",
+        "",
+        "| scene | residual floor (dB) before / after | targets off own theory before / after | residual misfits "
+        "before / after | failures before | failures after |",
+        "|---:|---|---|---|---|---|",
+    ]
+    count: dict[str, list[int]] = {"before": [0, 0], "after": [0, 0]}
+    classes: dict[str, dict[str, int]] = {}
+    for b, a in zip(before, after):
+        fb, fa = _scene_figures(b), _scene_figures(a)
+        for tag, f in (("before", fb), ("after", fa)):
+            count[tag][0] += f[1]
+            count[tag][1] += f[2]
+            for c in f[3]:
+                classes.setdefault(c, {"before": 0, "after": 0})[tag] += 1
+        rows.append(
+            f"| {a['scene']} | {fb[0]} / {fa[0]} | {fb[1]} / {fa[1]} | {fb[2]} / {fa[2]} | "
+            f"{', '.join(fb[3]) or '-'} | {', '.join(fa[3]) or '-'} |"
+        )
+    rows += ["", "| failure class | scenes before | scenes after |", "|---|---:|---:|"]
+    rows += [f"| {c} | {v['before']} | {v['after']} |" for c, v in sorted(classes.items())]
+    rows.append(
+        f"| targets off own theory (all scenes) | {count['before'][0]} | {count['after'][0]} |\n"
+        f"| residual misfits (all scenes) | {count['before'][1]} | {count['after'][1]} |"
+    )
+    return "\n".join(rows) + "\n"
 
 
 def publish(results: list[dict], args: argparse.Namespace) -> None:
