@@ -122,7 +122,7 @@ backproject-tiled: $(TEST_STAMP)  # the Dask run needs dask.distributed (test ex
 # False-target figures with and without the residual (issue 20): every paper image found under results/
 # (run the reproduce targets first), guard window vs residual, floors and evaluate times; BEFORE=DIR (an
 # older checkout) adds that code's residual floor beside this one's.
-.PHONY: residual-floors residual-ghosts residual-scenes
+.PHONY: residual-floors residual-ghosts residual-scenes evaluate-campaign
 residual-floors: $(STAMP)
 	flock /tmp/heavy.lock nice $(PY) scripts/residual_floors.py $$(ls results/demo/image.h5 results/bp/image_*.h5 \
 		results/000-exp2/*image*.h5 results/002-small/*image*.h5 results/003/image_*.h5 results/004/*.h5 2>/dev/null \
@@ -147,3 +147,12 @@ residual-ghosts: $(STAMP)
 		--waveform band_limited --out results/residual_ghosts_demo_band_limited.md
 	flock /tmp/heavy.lock nice $(PY) scripts/residual_ghosts.py --scene configs/nie2016_small.yaml --ghost 40,40 \
 		--process pfa2 --process-config configs/pfa2_plain.yaml --out results/residual_ghosts_002_plain.md
+
+# evaluate on scenes nobody tuned (issue 20): SCENES random squinted stripmap scenes (truth near and beyond the beam
+# edge, close pairs, ghosts left out of the truth at -40..-50 dB, sinc/gaussian/rect beams, Hamming or none,
+# noise or none) through simulate / backproject / evaluate; tables and a summary in results/evaluate-campaign/.
+SCENES ?= 30
+SEED ?= 1
+evaluate-campaign: $(STAMP)
+	flock /tmp/heavy.lock nice $(PY) scripts/evaluate_campaign.py --scenes $(SCENES) --seed $(SEED) \
+		--out results/evaluate-campaign

@@ -693,7 +693,12 @@ class Support:
 
 
 def principal_support(
-    chip: np.ndarray, centers: Sequence[float], nulls: npt.ArrayLike, window_nulls: float = 8.0, exact: bool = False
+    chip: np.ndarray,
+    centers: Sequence[float],
+    nulls: npt.ArrayLike,
+    window_nulls: float = 8.0,
+    exact: bool = False,
+    gram: np.ndarray | None = None,
 ) -> Support:
     """Side-lobe ridge directions of the response centred in ``chip``, from its spectral support.
 
@@ -706,7 +711,9 @@ def principal_support(
     of the support's dual coordinates). Returns ``(V, f_c)``: V (ndim, ndim), row a the ridge that
     belongs to image axis a, in image samples per sample along axis a (V[a, a] = 1); f_c the power
     centroid of the band, cycles/sample (both in a :class:`Support`, with the axes whose ridge is the centre of a
-    fan). Falls back to the image axes when no edge is found.
+    fan). Falls back to the image axes when no edge is found. ``gram`` (2D, optional): the physical Gram matrix
+    of the image's sample steps (:func:`_sample_gram`); a SAR support's two edge pairs are then perpendicular
+    in space (:func:`_perpendicular_second`).
     """
     ndim = chip.ndim
     nulls = np.asarray(nulls, dtype=float)
@@ -730,11 +737,45 @@ def principal_support(
     if ndim == 2:  # the curved edges' plateaus, checked against where their gradients lie
         arcs = _Arcs(_plateaus(dens, peaks), where, norm)
     found, curved = _edge_normals(cand, peaks, u, g, ndim, arcs)
+    if gram is not None and len(found) == 2:
+        found[1] = _perpendicular_second(found[0], found[1], nulls, gram)
     if len(found) < ndim or abs(np.linalg.det(np.array(found))) < 0.2:
         return Support(eye, f_c)
     best = _assignment(np.array(found))
     fanned = tuple(a for a in range(ndim) if curved[best[a]])
     return Support(_ridges(np.array(found), nulls), f_c, fanned)
+
+
+# A SAR image's 2D support is the pulses' lines of sight (each its range band) swept over the aperture: the
+# range edges run along the sweep and the azimuth edges along the lines of sight, so the two edge pairs, and
+# with them the ridges, are perpendicular in space (bp_beam_edge's A: 89.7 deg, backproject's theory). A
+# second edge normal further than this from the perpendicular to the first (the strongest) is not an edge: a
+# smooth taper along that axis (a Gaussian or rect antenna under a Hamming window) has none, and the density's
+# second peak is then a mix of the taper's gradients and the first edge's (ridges 35-65 deg off in
+# scripts/evaluate_campaign.py, IRW/theory 1.13, residual floors -33 dB). Edges found agree within a degree or two.
+PERPENDICULAR_EDGE_DEG = 10.0
+
+
+def _sample_gram(axes: Sequence[_Axis], metric: np.ndarray | None) -> np.ndarray | None:
+    """Physical Gram matrix of one sample step per axis (``metric`` rows: displacement per axis unit), or None
+    without a metric or outside 2D."""
+    if metric is None or len(axes) != 2:
+        return None
+    steps = np.array([ax.step for ax in axes])[:, None] * np.asarray(metric, dtype=float)
+    return steps @ steps.T
+
+
+def _perpendicular_second(first: np.ndarray, second: np.ndarray, nulls: np.ndarray, gram: np.ndarray) -> np.ndarray:
+    """``second`` (edge normal, null-normalised frequency) where its ridge is within PERPENDICULAR_EDGE_DEG of
+    perpendicular in space to ``first``'s, else the normal whose ridge is. A ridge is parallel to its edge
+    normal (:func:`_ridges`): normal n is the ridge n * nulls in samples."""
+    r1, r2 = first * nulls, second * nulls
+    perp = np.array([-(gram @ r1)[1], (gram @ r1)[0]])  # r1' G perp = 0: perpendicular in space
+    cos = abs(float(perp @ gram @ r2)) / math.sqrt(float(perp @ gram @ perp) * float(r2 @ gram @ r2))
+    if cos >= math.cos(math.radians(PERPENDICULAR_EDGE_DEG)):
+        return second
+    n = perp / nulls
+    return n / np.linalg.norm(n)
 
 
 def _support_spectrum(
@@ -1073,8 +1114,9 @@ def evaluate_image(
     # measurement, then the false-target search.
     done = steps(progress, len(names) * (2 if params.remove_neighbours else 1) + int(measured.sum()) + 1)
     mag = np.abs(data)
+    gram = _sample_gram(axes, metric)
     peaks = _locate_targets(
-        data, mag, axes, names, truth, half, nulls, params, done, target_chirp, response_period, response_table
+        data, mag, axes, names, truth, half, nulls, params, done, target_chirp, response_period, response_table, gram
     )
     # only the measured targets from here on; the others (and other_truth) guard their neighbourhoods
     order = [int(i) for i in np.flatnonzero(measured)]
@@ -1126,18 +1168,20 @@ def _locate_targets(
     target_chirp: npt.ArrayLike | None,
     response_period: npt.ArrayLike | None,
     response_table: Sequence[tuple[np.ndarray, float] | None] | None,
+    gram: np.ndarray | None = None,
 ) -> list[_Peak]:
     """Every target's :class:`_Peak`: pass 1 (:func:`_find_peak` on the image ``data``, magnitude ``mag``), then
     with ``params.remove_neighbours`` pass 2 (:func:`_subtract_neighbours`; the responses' known chirps and shapes
     are evaluate_image's ``target_chirp``, ``response_period`` and ``response_table``). ``done``: the progress
-    steps, one per target and pass."""
+    steps, one per target and pass; ``gram``: :func:`_sample_gram`."""
     peaks = [
-        _find_peak(data, mag, axes, name, t, half, nulls, params) for name, t in wrapped(done, list(zip(names, truth)))
+        _find_peak(data, mag, axes, name, t, half, nulls, params, gram)
+        for name, t in wrapped(done, list(zip(names, truth)))
     ]
     if params.remove_neighbours:
         chirps = _chirps_in_samples(target_chirp, axes, len(names))
         shapes = _response_shapes(response_period, response_table, axes)
-        peaks = _subtract_neighbours(data, peaks, names, nulls, half, params, done, chirps, shapes)
+        peaks = _subtract_neighbours(data, peaks, names, nulls, half, params, done, chirps, shapes, gram)
     return peaks
 
 
@@ -1276,6 +1320,7 @@ def _find_peak(
     half: Sequence[int],
     nulls: Sequence[float],
     params: EvaluateParams,
+    gram: np.ndarray | None = None,
 ) -> _Peak:
     """Pass 1: the strongest pixel within +-search_cells of the truth, the chip around it, its refined peak
     and support."""
@@ -1291,7 +1336,7 @@ def _find_peak(
     peak_index = tuple(int(s.start + i) for s, i in zip(win, k))
     chip = _Chip(data, peak_index, half)
     pos, value = chip.refine_peak(peak_index)
-    support = _support(chip, nulls, params)
+    support = _support(chip, nulls, params, gram)
     return _Peak(peak_index, chip, chip, pos, value, support.ridges, support.band_centre, fanned=support.fanned)
 
 
@@ -1305,6 +1350,7 @@ def _subtract_neighbours(
     done: Callable[[], None],
     chirps: np.ndarray | None = None,
     shapes: ResponseShapes | None = None,
+    gram: np.ndarray | None = None,
 ) -> list:
     """Pass 2: the ideal responses of every group of targets whose chips overlap are fitted jointly to the
     image; each target's chip loses the other members' fitted responses, and its peak and support are found
@@ -1334,7 +1380,7 @@ def _subtract_neighbours(
         cleaned = raw.data - fitted[i]
         chip = _Chip(None, peak.index, half, chip=(cleaned, raw.clipped))
         pos, value = chip.refine_peak(peak.position)
-        support = _support(chip, nulls, params)
+        support = _support(chip, nulls, params, gram)
         out[i] = dataclasses.replace(
             peak,
             chip=chip,
@@ -1475,9 +1521,9 @@ def _target_axes(
     return out
 
 
-def _support(chip: _Chip, nulls: npt.ArrayLike, params: EvaluateParams) -> Support:
+def _support(chip: _Chip, nulls: npt.ArrayLike, params: EvaluateParams, gram: np.ndarray | None = None) -> Support:
     if params.principal_axes and chip.data.ndim > 1:
-        return principal_support(chip.data, chip.centers, nulls, exact=params.exact)
+        return principal_support(chip.data, chip.centers, nulls, exact=params.exact, gram=gram)
     return Support(np.eye(chip.data.ndim), np.asarray(chip.centers, dtype=float))
 
 
