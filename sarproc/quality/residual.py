@@ -1059,6 +1059,18 @@ def _fit_response_models(
     own_orders: dict[int, np.ndarray] = {}  # a misfitted lone member's orders (at least two per axis)
     # Sweep 0 on the boxes alone (the chirp converges from zero there); then on boxes and ridge strips, with
     # the other groups' models subtracted.
+    # These sweeps descend on no one misfit (each group fits its own samples, the others' models held) and three
+    # are not always converged (issue 20 item 1, session 28; more sweeps as 1-2, sweep 0 run fully or stopped at a
+    # predicted decrease of 1e-3): the pinned skewed, keystoned, own-supports and defocused scenes and bp_stripmap
+    # settle by sweep 3 (floor within 0.004 dB of 10 sweeps', from either start); the pinned simulated,
+    # backprojected scene converges slowly from either start (floor -54.91 dB after 3 sweeps, -55.77 after 30, its
+    # misfit then still falling 1e-4 of itself a sweep); the demo settles by sweep 8 from sweep 0 run fully
+    # (-38.69 dB; -38.86 after 3) and not from sweep 0 stopped (misfit half as large, floor -39.6..-41.8 dB); 000
+    # small's never does (total misfit 3.1-3.5e-3 and floor -38.2..-40.7 dB from sweep to sweep through 30), so
+    # the 0.3 dB that stopping sweep 0 early moved its floor is one draw of that wander. One joint fit of its nine
+    # targets converges from either start (floor -42.18 / -42.16 dB, misfit 2.75e-3) at 30-60 times the CPU; each
+    # group fitted on every group's samples (a descent on one misfit) settles from either start too, but at
+    # -38.55 dB (0.01 dB apart after 10 sweeps; 10-20 times the CPU): its fits have minima 3.6 dB apart in floor.
     for sweep in range(3):
         if sweep == 1 and support_shape:
             _widen_misfitted_lone(data, fits, models, found, own, nulls, richer, params, own_orders, centre)
