@@ -116,8 +116,9 @@ def draw_scene(rng: np.random.Generator) -> dict:
     return m
 
 
-def run_scene(mapping: dict, work: Path, tag: str) -> dict:
-    """simulate and reconstruct one scene through the CLI; the product's findings against the truth."""
+def run_scene(mapping: dict, work: Path, tag: str, timeout: float) -> dict:
+    """simulate and reconstruct one scene through the CLI; the product's findings against the truth. A reconstruct
+    running over ``timeout`` seconds (wall) is stopped and recorded as a failure (its cost)."""
     draws = mapping.pop("campaign")
     cfg = work / f"{tag}.yaml"
     cfg.write_text(yaml.safe_dump(mapping))
@@ -131,14 +132,20 @@ def run_scene(mapping: dict, work: Path, tag: str) -> dict:
         return {**out, "crash": f"simulate: {sim.stderr.strip().splitlines()[-1:]}"}
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    p = subprocess.run(
-        [*cli, "reconstruct", str(raw), "-o", str(rec_path), "--config", str(cfg), "--overwrite", "--no-progress"],
-        capture_output=True,
-        text=True,
-    )
+    try:
+        p = subprocess.run(
+            [*cli, "reconstruct", str(raw), "-o", str(rec_path), "--config", str(cfg), "--overwrite", "--no-progress"],
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+        )
+    except subprocess.TimeoutExpired:
+        p = None
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     out["cpu_s"] = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
     out["wall_s"] = time.perf_counter() - t0
+    if p is None:
+        return {**out, "crash": f"reconstruct: over {timeout:.0f} s wall, stopped"}
     if p.returncode:
         return {**out, "crash": f"reconstruct: {p.stderr.strip().splitlines()[-1:]}"}
     out["warnings"] = [ln.split("WARNING: ", 1)[1] for ln in p.stderr.splitlines() if "WARNING: " in ln]
@@ -267,6 +274,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--first", type=int, default=0, help="skip the first this many scenes (same draws)")
     ap.add_argument("--results", default="results/mover-campaign")
+    ap.add_argument("--timeout", type=float, default=300.0, help="stop a reconstruct after this many seconds (wall)")
     args = ap.parse_args()
     rng = np.random.default_rng(args.seed)
     scenes = [draw_scene(rng) for _ in range(args.n)]
@@ -281,7 +289,7 @@ def main() -> None:
             (out / f"scene{i:03d}.yaml").write_text(
                 yaml.safe_dump({k: v for k, v in mapping.items() if k != "campaign"})
             )
-            s = run_scene(mapping, Path(tmp), f"{i:03d}")
+            s = run_scene(mapping, Path(tmp), f"{i:03d}", args.timeout)
             results.append(s)
             print(table([s])[-1], flush=True)
             for w in s.get("warnings", []):
