@@ -1225,6 +1225,8 @@ class _Scan:
     lead: int
     n_out: int
     n_cells: int
+    # pairs of detections at one apparent time found to be two targets in range (_two_in_range), decided once
+    split: dict[frozenset[detection.Detection], bool] = dataclasses.field(default_factory=dict)
 
 
 @dataclasses.dataclass
@@ -1617,14 +1619,33 @@ def _window_bounds(det: detection.Detection, scan: _Scan) -> tuple[int, int]:
         gap = d.cell - det.cell
         if d is det or abs(gap) <= reach or sp.apart(d, det, m) or round((d.time - det.time) / sp.ambiguity) != 0:
             continue
-        envelope = detection.SIDELOBE_MARGIN / (math.pi * gap / scan.found.range_width) ** 2
-        if min(d.power, det.power) <= envelope * max(d.power, det.power):
+        if not _two_in_range(det, d, scan):
             continue
         if gap > 0:
             b = min(b, det.cell + math.ceil(gap / 2))
         else:
             a = max(a, det.cell + math.floor(gap / 2) + 1)
     return a, b
+
+
+def _two_in_range(d1: detection.Detection, d2: detection.Detection, scan: _Scan) -> bool:
+    """Whether two detections at one apparent time, farther apart in range than a mover's extent, are two targets:
+    the weaker rises over the stronger's range side-lobe envelope (as find_detections asks) and the detection image
+    dips between them by 6 dB under the weaker. A mover's response at an ambiguity with the clutter null is smeared
+    in range by its walk against the mover (lambda k PRF / 2 m/s) into a ridge of several peaks with no dip between
+    (tests/focus/test_movers.py's movers_in_clutter: V2's at +1 x PRF / K_a, 4-5 cells long, two false alarms when
+    split). Decided the first time the pair is seen, before either's response is taken out of the image."""
+    key = frozenset((d1, d2))
+    if key not in scan.split:
+        weak, strong = sorted((d1.power, d2.power))
+        envelope = detection.SIDELOBE_MARGIN / (math.pi * (d1.cell - d2.cell) / scan.found.range_width) ** 2
+        c0, c1 = sorted((d1.cell, d2.cell))
+        i0, i1 = sorted((d1.index, d2.index))
+        rows = np.arange(i0 - 1, i1 + 2) % scan.n_out
+        between = scan.found.image[np.ix_(rows, np.arange(c0 + 1, c1))]
+        valley = float(np.min(np.max(between.real**2 + between.imag**2, axis=0)))
+        scan.split[key] = weak > envelope * strong and valley < 0.25 * weak
+    return scan.split[key]
 
 
 def _window_at(det: detection.Detection, scan: _Scan) -> _DetWindow:
