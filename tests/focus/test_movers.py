@@ -176,6 +176,17 @@ def test_movers_at_one_apparent_azimuth_are_separated_by_range(apart, caplog):
     assert "could not be separated" not in caplog.text and "range walk" not in caplog.text
 
 
+def test_movers_closer_than_the_range_resolution_are_one_response_and_its_side_lobe_no_target():
+    """12.5 m apart (the resolution is 15 m): one response, one row. A lobe of it 20 dB under, 8 cells out (0.5 dB over
+    the sinc envelope, a dip between) is a side lobe, not a second target: it has its mirror about the peak
+    (reconstruct._two_in_range; taken for a target it was a false alarm and a warning about the range walk)."""
+    m = scene([vehicle("P", 0, 0, 0, 10), vehicle("R", 0, 12.5, 0, 10)])
+    m["radar"]["pulse_duration"] = "15 us"
+    rec = reconstruct(simulate(scene_from_mapping(m)), ReconstructParams())
+    by_name, false = found(rec)
+    assert len(by_name) == 1 and not false, (by_name, false)
+
+
 @pytest.fixture(scope="module")
 def movers_in_clutter():
     """Four receivers, 150 clutter scatterers (rms 1 each, as bright as the movers) in their range cells.
