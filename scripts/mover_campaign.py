@@ -293,8 +293,14 @@ def main() -> None:
             print(table([s])[-1], flush=True)
             for w in s.get("warnings", []):
                 print("   ", w, flush=True)
+            write(out, results, args)  # after each scene: a stopped campaign keeps what it ran
+    print("\n".join(summary(results)))
+
+
+def write(out: Path, results: list[dict], args: argparse.Namespace) -> None:
     lines = [
-        f"# Mover campaign: {args.n} random scenes, seed {args.seed} (scripts/mover_campaign.py)",
+        f"# Mover campaign: {len(results)} of {args.n} random scenes, seed {args.seed}, reconstruct stopped over "
+        f"{args.timeout:g} s of CPU (scripts/mover_campaign.py)",
         "",
         *summary(results),
         "",
@@ -306,7 +312,6 @@ def main() -> None:
     ]
     (out / "campaign.md").write_text("\n".join(lines) + "\n")
     (out / "campaign.json").write_text(json.dumps(results, indent=1, default=float))
-    print("\n".join(summary(results)))
 
 
 if __name__ == "__main__":
