@@ -197,9 +197,15 @@ def run_scene(mapping: dict, work: Path, tag: str, timeout: float) -> dict:
         app = np.array([r[f"apparent_{c}"] for c in "xyz"])
         # the nearest static point (a static one's apparent position is its own): within MATCH_M, taken for a mover
         d = {x["name"]: float(np.linalg.norm(app - xyz_of[x["name"]])) for x in statics}
-        near = min(d, key=d.__getitem__, default="-")
+        closest = min(d, key=d.__getitem__) if d else "-"
         false.append(
-            {"snr": r["snr"], "v_r": r["v_r"], "v_a": r["v_a"], "nearest": near, "nearest_m": d.get(near, math.inf)}
+            {
+                "snr": r["snr"],
+                "v_r": r["v_r"],
+                "v_a": r["v_a"],
+                "nearest": closest,
+                "nearest_m": d.get(closest, math.inf),
+            }
         )
     out.update(
         movers=movers,
