@@ -76,3 +76,12 @@ movers-003-limits: $(STAMP)
 .PHONY: movers-003-sigma
 movers-003-sigma: $(STAMP)
 	flock /tmp/heavy.lock nice $(PY) scripts/movers_sigma_003.py --results results/003-movers
+
+# Issue 19: moving targets on scenes nobody tuned: N random reduced scenes (movers, static points, beam, squint,
+# clutter, noise drawn from SEED), simulate and reconstruct through the CLI, tabulated against the truth
+# (results/mover-campaign/campaign.md; about 1 min of one core per scene).
+.PHONY: mover-campaign
+CAMPAIGN_N ?= 30
+CAMPAIGN_SEED ?= 1
+mover-campaign: $(STAMP)
+	nice $(PY) scripts/mover_campaign.py --n $(CAMPAIGN_N) --seed $(CAMPAIGN_SEED) --results results/mover-campaign

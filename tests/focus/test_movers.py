@@ -158,14 +158,59 @@ def test_apparent_position_is_the_static_equivalent_and_relocation_only_the_velo
         assert err < bound + 0.1, (name, err, bound)
 
 
-def test_movers_at_one_apparent_position_are_reported_not_separated(caplog):
-    """Same walk-corrected range and the same apparent azimuth: the warning names both and the cells."""
-    # P and R: same v_los, so the same azimuth shift; R 60 m (5 cells) further in range, inside P's window.
-    raw = simulate(scene_from_mapping(scene([vehicle("P", 0, 0, 0, 10), vehicle("R", 0, 60, 0, 10)])))
+@pytest.mark.parametrize("apart", [50.0, 125.0])
+def test_movers_at_one_apparent_azimuth_are_separated_by_range(apart, caplog):
+    """Same velocity (so the same apparent azimuth and Doppler: one separation mask) and 4 or 10 range cells apart,
+    inside one another's window but beyond any mover's range extent (3.7 cells at |v_los| 20 m/s): two targets, each
+    estimated on its own cells. Before, the second was merged into the first as its response (R missed at 125 m, P
+    at 50 m; the found one's v_r 0.13 m/s off at 125 m, warned as "could not be separated"); the mover campaign's
+    scene 003 had two such movers of different velocities (v_los 9.5 and 4.8 m/s), one missed and the other's v_r
+    1.07 m/s off. A 15 us chirp: at 5 us (time-bandwidth 50) the chirp's echo a pulse length away is detected."""
+    m = scene([vehicle("P", 0, 0, 0, 10), vehicle("R", 0, apart, 0, 10)])
+    m["radar"]["pulse_duration"] = "15 us"
+    raw = simulate(scene_from_mapping(m))
     with caplog.at_level(logging.WARNING):
-        reconstruct(raw, ReconstructParams())
-    assert "could not be separated" in caplog.text
-    assert "search bound" not in caplog.text
+        rec = reconstruct(raw, ReconstructParams())
+    by_name = check(rec, ["P", "R"], v_tol=0.06)
+    assert by_name["P"]["range_cell_last"] <= by_name["R"]["range_cell_first"]  # each takes its own cells
+    assert "could not be separated" not in caplog.text and "range walk" not in caplog.text
+
+
+@pytest.mark.xfail(strict=True, reason="a weak target off a bright one's range cut is taken for its side lobe")
+def test_a_mover_beside_a_bright_static_point_at_its_apparent_time_is_not_taken_out_with_it(caplog):
+    """The mover campaign's scene 006 (13.1 deg squint): M1 (v_r -7.37, v_a 10.41 m/s) appears 1.1 ms (8 samples) and
+    8 range cells from S3, a static point 16.5 dB brighter: one separation mask. S3 is examined first and its
+    response taken out over its whole window with M1's in it (M1 missed: "taken for a response of a mover already
+    examined"): M1 stands 0.6 dB under S3's range side-lobe envelope there (_two_in_range), though 8 samples off
+    S3's range cut. Applying the envelope on the cut only finds M1 (v_r error +0.21 m/s, within 2 sigma: S3's side
+    lobes in its cells) but splits a lobe of two unresolved movers 3 samples off their cut (standing 4.0 dB over its
+    mirror, the margin 3.98 dB) into a false alarm: not done; a side-lobe model of a skewed mover response is."""
+    m = scene(
+        [
+            vehicle("M1", 467.2, -156.1, 10.41, -7.37, 0.8665),
+            {"name": "S3", "azimuth": "881.9 m", "range": "-149.4 m", "amplitude": 5.769},
+        ]
+    )
+    m["radar"]["pulse_duration"] = "15 us"
+    m["geometry"]["squint"] = "13.1 deg"
+    with caplog.at_level(logging.WARNING):
+        rec = reconstruct(simulate(scene_from_mapping(m)), ReconstructParams())
+    by_name, false = found(rec)
+    assert sorted(by_name) == ["M1"] and not false
+    row = by_name["M1"]
+    assert abs(row["v_r"] + 7.37) <= 2 * row["v_r_sigma"] and abs(row["v_a"] - 10.41) <= 2 * row["v_a_sigma"], row
+    assert "range walk" not in caplog.text and "truth mover" not in caplog.text
+
+
+def test_movers_closer_than_the_range_resolution_are_one_response_and_its_side_lobe_no_target():
+    """12.5 m apart (the resolution is 15 m): one response, one row. A lobe of it 20 dB under, 8 cells out (0.5 dB over
+    the sinc envelope, a dip between) is a side lobe, not a second target: it has its mirror about the peak
+    (reconstruct._two_in_range; taken for a target it was a false alarm and a warning about the range walk)."""
+    m = scene([vehicle("P", 0, 0, 0, 10), vehicle("R", 0, 12.5, 0, 10)])
+    m["radar"]["pulse_duration"] = "15 us"
+    rec = reconstruct(simulate(scene_from_mapping(m)), ReconstructParams())
+    by_name, false = found(rec)
+    assert len(by_name) == 1 and not false, (by_name, false)
 
 
 @pytest.fixture(scope="module")

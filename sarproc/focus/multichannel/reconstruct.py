@@ -273,6 +273,8 @@ class _Window:
         self.out_f = sfft.fftfreq(g.n * len(g.times), 1.0 / (g.n * g.prf))
         self._banks: dict[float, channels.FilterBank] = {}
         self.cells: np.ndarray | None = None  # the criterion's range cells (None: all of the window)
+        # the cells this target may take (None: all): a second target at its Doppler holds the others (_window_bounds)
+        self.gate: np.ndarray | None = None
 
     def keep_own_cells(self, margin: int = 2) -> None:
         """Restrict the criterion to the cells holding the target (noise in the others only dilutes eq. 5).
@@ -281,13 +283,17 @@ class _Window:
         median cell (the window's floor) to the strongest; ``margin`` cells are added either side.
         """
         p = np.sum(np.abs(sfft.ifft(self.x, axis=-1, workers=-1)) ** 2, axis=(0, 1))
-        floor, top = median(p), float(p.max())
+        floor, top = median(p), float(p.max() if self.gate is None else p[self.gate].max())
         own = np.nonzero(p > floor + 0.05 * (top - floor))[0]
-        if len(own) == 0:
-            return
         keep = np.zeros(len(p), bool)
         for c in own:
             keep[max(0, c - margin) : c + margin + 1] = True
+        if self.gate is not None:
+            gate = np.zeros(len(p), bool)
+            gate[self.gate] = True
+            keep = keep & gate if np.any(keep & gate) else gate
+        elif len(own) == 0:
+            return
         self.cells = np.nonzero(keep)[0]
 
     def bank(self, v_a: float) -> channels.FilterBank:
@@ -337,9 +343,11 @@ class _Window:
         g = self.g
         y = sfft.ifft(sfft.ifft(self.demodulated_spectrum(v_r, v_a), axis=0, workers=-1), axis=1, workers=-1)
         p = np.abs(y) ** 2
+        cells = np.arange(p.shape[1])
+        if self.gate is not None:
+            p, cells = p[:, self.gate], self.gate
         w = p.sum(axis=1)
         keep = w > 0.1 * w.max() if w.max() > 0 else w > 0
-        cells = np.arange(p.shape[1])
         centre = (p[keep] @ cells) / w[keep]
         tt = g.out_times[keep]
         if len(tt) < 3:
@@ -671,6 +679,8 @@ def _centre(
         iso = null_fit.isolated(est.v_r, est.v_a, shift)
         iso_power = np.sum(np.abs(sfft.ifft(iso, axis=-1, workers=-1)) ** 2, axis=(0, 1))
         own_cells = np.nonzero(iso_power >= 0.5 * iso_power.max())[0]
+    if win.gate is not None:  # another target at its Doppler in the window's other cells
+        own_cells = win.gate if own_cells is None else np.intersect1d(own_cells, win.gate)
     p = np.sum(np.abs(y_dem if own_cells is None else sfft.ifft(y_dem, axis=1, workers=-1)[:, own_cells]) ** 2, axis=1)
     t_c = float(np.sum(g.out_times * p) / np.sum(p)) if np.sum(p) > 0 else 0.0
     slant_range = centre_range - g.velocity * math.sin(g.squint) * t_c
@@ -1215,6 +1225,8 @@ class _Scan:
     lead: int
     n_out: int
     n_cells: int
+    # pairs of detections at one apparent time found to be two targets in range (_two_in_range), decided once
+    split: dict[frozenset[detection.Detection], bool] = dataclasses.field(default_factory=dict)
 
 
 @dataclasses.dataclass
@@ -1228,6 +1240,8 @@ class _DetWindow:
     x_w: np.ndarray  # channel data of the window in (t, f_r)
     ext: np.ndarray  # this detection's channels (detection.extract)
     win: _Window
+    lo: int  # the cells its target takes, [lo, hi) (_window_bounds): [a, b) unless another target shares its Doppler
+    hi: int
 
 
 def _detect(
@@ -1425,7 +1439,7 @@ def _detect_and_focus(
     counts["second_pass"] = len(second)
     for det in second:
         _visit(det, scan, tally)
-    _warn_unseparated(tally.peaks, spacing, params.window_margin)
+    _warn_unseparated(scan, tally)
     _warn_unexamined(tally, params)
     counts["not_examined"] = tally.dropped
     counts["static_side_lobes"] = found.side_lobes
@@ -1449,7 +1463,7 @@ def _visit(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
     threshold = 10 ** (found.cfar_db / 10)
     left = found.image[det.index, det.cell]
     explained = abs(left) ** 2 < threshold * found.bg[det.index, det.cell]
-    same = [k for k, p in enumerate(tally.peaks) if not scan.spacing.apart(det, p, params.window_margin)]
+    same = [k for k, p in enumerate(tally.peaks) if _shares_window(det, k, scan, tally)]
     if same:
         _merge(det, same[0], scan, tally)
         return
@@ -1477,6 +1491,15 @@ def _visit(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
     _examine(det, scan, tally)
 
 
+def _shares_window(det: detection.Detection, k: int, scan: _Scan, tally: _Tally) -> bool:
+    """Whether ``det`` lies in mover k's window and separation mask (or an ambiguity of it): the same channels. At the
+    same apparent time (k = 0) only inside the range cells of its window, which _window_bounds may have narrowed."""
+    p, mt = tally.peaks[k], tally.movers[k]
+    if scan.spacing.apart(det, p, scan.params.window_margin):
+        return False
+    return round((det.time - p.time) / scan.spacing.ambiguity) != 0 or mt.first_cell <= det.cell < mt.last_cell
+
+
 def _merge(det: detection.Detection, k: int, scan: _Scan, tally: _Tally) -> None:
     """Count ``det`` as part of mover ``k``; warn when it looks like another target sharing its window."""
     g, sp = scan.g, scan.spacing
@@ -1488,9 +1511,7 @@ def _merge(det: detection.Detection, k: int, scan: _Scan, tally: _Tally) -> None
     # a response inside that is its own; one beyond it and as strong is another target.
     own = tally.movers[k]
     v_los_k = channels.line_of_sight_velocity(own.radial_velocity, own.along_track_velocity, g.squint)
-    spread = (
-        abs(v_los_k) * sp.t_ill + g.velocity**2 * math.cos(g.squint) ** 2 / scan.found.r_mid * sp.t_ill**2 / 8
-    ) * 2 * g.fs / C + 2
+    spread = _range_extent(v_los_k, scan)
     n_amb = round((det.time - peak.time) / sp.ambiguity)
     # an ambiguity k PRF / K_a away walks by lambda k PRF / 2 m/s against the mover: smeared further
     spread += abs(n_amb) * C / g.fc * g.prf / 2 * sp.t_ill * 2 * g.fs / C
@@ -1570,21 +1591,89 @@ def _examine(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
         _reject(det, notes, tally, ambiguity_of=_ambiguity_of(det, scan, tally) if notes == ["incoherent"] else None)
         return
     for note in notes:
-        log.warning("reconstruct: mover in range cells %d-%d at %.3f s: %s", w.a, w.b - 1, det.time, note)
+        log.warning("reconstruct: mover in range cells %d-%d at %.3f s: %s", w.lo, w.hi - 1, det.time, note)
     _refocus(det, mt, w, whole, scan, tally)
 
 
+def _range_extent(v_los: float, scan: _Scan) -> float:
+    """Walk-corrected range cells a mover's response spreads over (either side of its peak, with 2 cells of range
+    resolution): its range walk |v_los| T and curvature R'' T^2 / 8 over the illumination time T."""
+    g, sp = scan.g, scan.spacing
+    curvature = g.velocity**2 * math.cos(g.squint) ** 2 / scan.found.r_mid * sp.t_ill**2 / 8
+    return (abs(v_los) * sp.t_ill + curvature) * 2 * g.fs / C + 2
+
+
+def _window_bounds(det: detection.Detection, scan: _Scan) -> tuple[int, int]:
+    """The range cells [lo, hi) ``det``'s target may take: window_margin cells either side, but only up to half way to
+    another detection at the same apparent time (inside the separation mask, k = 0) farther than any mover's own range
+    extent (the search bound's |v_los|): a second target there. The mask cannot tell the two apart (the same
+    Doppler), their range cells do; a target taking both mixed their velocities and merged the second into the
+    first (mover campaign scene 003: two movers 7 cells apart at one apparent azimuth, one missed, the other's v_r
+    1.07 m/s off with a warning blaming the search bound). The weaker of the two must rise over the stronger's range
+    side-lobe envelope as find_detections asks (a mover's range side lobe, off its azimuth index by its range-azimuth
+    coupling, is not a second target: 29 dB under a mover 14 cells away, it became one)."""
+    params, sp, m = scan.params, scan.spacing, scan.params.window_margin
+    a, b = max(0, det.cell - m), min(scan.n_cells, det.cell + m + 1)
+    reach = _range_extent(max(abs(params.velocity_min), abs(params.velocity_max)), scan)
+    for d in scan.found.dets:
+        gap = d.cell - det.cell
+        if d is det or abs(gap) <= reach or sp.apart(d, det, m) or round((d.time - det.time) / sp.ambiguity) != 0:
+            continue
+        if not _two_in_range(det, d, scan):
+            continue
+        if gap > 0:
+            b = min(b, det.cell + math.ceil(gap / 2))
+        else:
+            a = max(a, det.cell + math.floor(gap / 2) + 1)
+    return a, b
+
+
+def _two_in_range(d1: detection.Detection, d2: detection.Detection, scan: _Scan) -> bool:
+    """Whether two detections at one apparent time, farther apart in range than a mover's extent, are two targets:
+    the weaker rises over the stronger's range side-lobe envelope (as find_detections asks) and the detection image
+    dips between them by 6 dB under the weaker. A mover's response at an ambiguity with the clutter null is smeared
+    in range by its walk against the mover (lambda k PRF / 2 m/s) into a ridge of several peaks with no dip between
+    (tests/focus/test_movers.py's movers_in_clutter: V2's at +1 x PRF / K_a, 4-5 cells long, two false alarms when
+    split). Decided the first time the pair is seen, before either's response is taken out of the image."""
+    key = frozenset((d1, d2))
+    if key not in scan.split:
+        top, low = (d1, d2) if d1.power >= d2.power else (d2, d1)
+        envelope = detection.SIDELOBE_MARGIN / (math.pi * (d1.cell - d2.cell) / scan.found.range_width) ** 2
+        c0, c1 = sorted((d1.cell, d2.cell))
+        i0, i1 = sorted((d1.index, d2.index))
+        rows = np.arange(i0 - 1, i1 + 2) % scan.n_out
+        between = scan.found.image[np.ix_(rows, np.arange(c0 + 1, c1))]
+        valley = float(np.min(np.max(between.real**2 + between.imag**2, axis=0)))
+        # a side lobe has its mirror image about the stronger peak (the response is symmetric in range); a second
+        # target has none (P and R 12.5 m apart, one response: a lobe 19.9 dB under it 8 cells out, 0.5 dB over the
+        # sinc envelope, 2.3 dB over its mirror)
+        m = 2 * top.cell - low.cell
+        mirror = scan.found.image[np.ix_(rows, np.arange(max(0, m - 1), min(scan.n_cells, m + 2)))]
+        mirrored = float(np.max(mirror.real**2 + mirror.imag**2)) if mirror.size else 0.0
+        scan.split[key] = (
+            low.power > envelope * top.power
+            and valley < 0.25 * low.power
+            and low.power > detection.MIRROR_MARGIN * mirrored
+        )
+    return scan.split[key]
+
+
 def _window_at(det: detection.Detection, scan: _Scan) -> _DetWindow:
-    """The range cells within window_margin of ``det`` and its channels separated from the rest of them."""
+    """The range cells of ``det``'s window (_window_bounds) and its channels separated from the rest of them."""
     params, g, m = scan.params, scan.g, scan.params.window_margin
     a, b = max(0, det.cell - m), min(scan.n_cells, det.cell + m + 1)
+    # The window keeps all its cells (its range processing and the separation see whole responses); the target
+    # takes only its gate [lo, hi): its velocity criterion, centre, autofocus, reconstruction and removal.
+    lo, hi = _window_bounds(det, scan)
     f_w = sfft.fftfreq(b - a, 1.0 / g.fs)
     ka_w = detection.fm_rate(g.velocity, g.squint, scan.found.r_mid, g.fc, f_w)
     x_w = sfft.fft(scan.x_tr[:, :, a:b], axis=-1, workers=-1)
     ext = detection.extract(x_w, g.times, g.prf, det.time, ka_w, params.separation_bandwidth)
     win = _Window(ext, f_w, g, params)
+    if (lo, hi) != (a, b):
+        win.gate = np.arange(lo - a, hi - a)
     win.keep_own_cells()
-    return _DetWindow(a, b, f_w, ka_w, x_w, ext, win)
+    return _DetWindow(a, b, f_w, ka_w, x_w, ext, win, lo, hi)
 
 
 def _log_null_survival(det: detection.Detection, ext: np.ndarray, scan: _Scan) -> None:
@@ -1632,9 +1721,9 @@ def _remove_response(ext: np.ndarray, w: _DetWindow, scan: _Scan) -> None:
     x_fa = sfft.fft(ext, axis=1, workers=-1)
     if scan.projector is not None:
         x_fa = clutter_null(x_fa, scan.g, projector=scan.projector)[0]
-    scan.found.image[:, w.a : w.b] -= detection.compressed(
+    scan.found.image[:, w.lo : w.hi] -= detection.compressed(
         channels.apply_filter_bank(x_fa, scan.bank), scan.found.out_f, w.ka_w
-    )
+    )[:, w.lo - w.a : w.hi - w.a]
 
 
 def _ambiguity_of(det: detection.Detection, scan: _Scan, tally: _Tally) -> str | None:
@@ -1706,24 +1795,27 @@ def _refocus(
         mt.radial_velocity, mt.along_track_velocity, mt.beam_centre_time, mt.slant_range, focus_along_track=True
     )
     y_conv = sfft.ifft(_reconstruct(whole, w.win.bank(0.0)), axis=0, workers=-1)
-    scan.y_tr[:, w.a : w.b] += sfft.ifft(y_mod - y_conv, axis=1, workers=-1)
+    scan.y_tr[:, w.lo : w.hi] += sfft.ifft(y_mod - y_conv, axis=1, workers=-1)[:, w.lo - w.a : w.hi - w.a]
+    ka = w.ka_w
+    if (w.lo, w.hi) != (w.a, w.b):
+        ka = detection.fm_rate(g.velocity, g.squint, scan.found.r_mid, g.fc, sfft.fftfreq(w.hi - w.lo, 1.0 / g.fs))
     index, cell = _refine_peak(
-        sfft.fft(scan.y_tr[:, w.a : w.b], axis=1, workers=-1),
-        w.ka_w,
+        sfft.fft(scan.y_tr[:, w.lo : w.hi], axis=1, workers=-1),
+        ka,
         scan.found.out_f,
         det.index if mt.null_fit_index is None else int(round(mt.null_fit_index)),
         sp.ambiguity * g.n * g.prf,
         scan.n_out,
         mt.null_fit_index is not None,
-        mt.null_fit_cell,
+        None if mt.null_fit_cell is None else min(max(mt.null_fit_cell + w.a - w.lo, 0), w.hi - w.lo - 1),
     )
     t_app = g.out_times[0] + index / (g.n * g.prf)
-    wc_range = C / 2 * (scan.rt0 + (w.a + cell - scan.lead) / g.fs)
+    wc_range = C / 2 * (scan.rt0 + (w.lo + cell - scan.lead) / g.fs)
     tally.movers.append(
         dataclasses.replace(
             mt,
-            first_cell=w.a,
-            last_cell=w.b,
+            first_cell=w.lo,
+            last_cell=w.hi,
             snr_db=det.snr_db,
             apparent_time=t_app,
             apparent_range=wc_range - g.velocity * math.sin(g.squint) * t_app,
@@ -1732,11 +1824,12 @@ def _refocus(
     tally.peaks.append(det)
 
 
-def _warn_unseparated(peaks: list[detection.Detection], spacing: _Spacing, m: int) -> None:
+def _warn_unseparated(scan: _Scan, tally: _Tally) -> None:
     """Warn of movers found whose detections the windows could not separate."""
+    peaks = tally.peaks
     for i in range(len(peaks)):
         for j in range(i + 1, len(peaks)):
-            if not spacing.apart(peaks[i], peaks[j], m):
+            if _shares_window(peaks[i], j, scan, tally) or _shares_window(peaks[j], i, scan, tally):
                 log.warning(
                     "reconstruct: movers %d and %d in range cells %d-%d (%d cells and %.1f ms apart in "
                     "apparent time) could not be separated; their velocity estimates mix both",
