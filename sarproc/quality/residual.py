@@ -56,6 +56,42 @@ class ResidualFloor:
 # A model leaving this much of its target's peak (dB) inside the box it was fitted on does not fit it.
 MISFIT_DB = -30.0
 
+# The false-target list (every ghost, not only the strongest): a local maximum of the residual outside the
+# main lobes is listed when its pixel stands LIST_MARGIN_DB over the residual floor. The floor is the
+# strongest residual pixel in the guard windows, where the subtraction errors are largest, so a clean
+# image's residual elsewhere rarely passes it: measured, the strongest clean residual outside the main lobes
+# stands 0.1-0.6 dB over the floor (demo, bp_stripmap, paper scenes 000, 002, 003; docs/product.md), and
+# 1 dB still lists a ghost 1.5 dB over the floor (the test's -50 dB ghost over a -52.4 dB floor).
+LIST_MARGIN_DB = 1.0
+# at most this many entries, strongest first; the number beyond is reported
+LIST_CAP = 10
+
+
+@dataclasses.dataclass(frozen=True)
+class ListedFalseTarget:
+    """One false target of the list: a local maximum of the residual above its threshold."""
+
+    level_db: float  # refined peak, relative to the strongest target's peak (as FalseTarget's)
+    pixel_level_db: float  # its pixel, same reference
+    position: dict  # {dim: refined peak, axis units (the frame's coordinates, metres for its axes)}
+    index: dict  # {dim: refined peak, image samples}
+    nearest_target: str  # the measured target whose peak is nearest, in resolution cells
+    nearest_cells: float  # distance to that peak, resolution cells of the image's theory (root sum of squares)
+
+
+@dataclasses.dataclass(frozen=True)
+class FalseTargetList:
+    """Every false target the residual shows, not only the strongest: local maxima outside the main lobes
+    whose pixel stands ``margin_db`` over the residual floor, strongest pixel first (the order the report's
+    ``false_target`` is chosen by, so the first entry is that figure), at most ``cap`` of them; a maximum
+    within +-exclusion_cells of a stronger one is in its main lobe and not listed."""
+
+    threshold_db: float  # floor_db + margin_db, relative to the strongest target's peak
+    margin_db: float
+    cap: int
+    entries: tuple[ListedFalseTarget, ...]
+    beyond: int  # maxima above the threshold left out by the cap
+
 
 @dataclasses.dataclass(frozen=True)
 class FitStart:
@@ -1307,7 +1343,7 @@ def residual_false_target(
     half: Sequence[int],
     params: EvaluateParams,
     unmodelled: Sequence[int] = (),
-) -> tuple[FalseTarget | None, ResidualFloor]:
+) -> tuple[FalseTarget | None, ResidualFloor, FalseTargetList | None]:
     """:func:`_residual_false_target` of ``data`` minus every model, each evaluated only where it reaches
     :data:`REACH_FIRST_DB` below the strongest peak, then :data:`REACH_BELOW_FLOOR_DB` below the floor so
     found (:func:`subtract_models`; ``params.exact``: over the whole image, :func:`residual_image`).
@@ -1340,9 +1376,10 @@ def _residual_false_target(
     half: Sequence[int],
     params: EvaluateParams,
     unmodelled: Sequence[int] = (),
-) -> tuple[FalseTarget | None, ResidualFloor]:
-    """(FalseTarget or None, ResidualFloor): strongest residual response outside the main lobes, and the
-    residual's floor inside the targets' guard windows (``unmodelled`` counted as misfits)."""
+) -> tuple[FalseTarget | None, ResidualFloor, FalseTargetList | None]:
+    """(FalseTarget or None, ResidualFloor, FalseTargetList or None): strongest residual response outside the
+    main lobes, the residual's floor inside the targets' guard windows (``unmodelled`` counted as misfits) and
+    every false target over that floor (:func:`_listed_false_targets`; None without a finite floor)."""
     from sarproc.quality.metrics import FalseTarget, _Chip  # metrics imports this module
 
     ref = max(reports, key=lambda r: r.peak_amplitude)
@@ -1364,19 +1401,84 @@ def _residual_false_target(
             )
         ),
     )
+    listed = (
+        _listed_false_targets(residual, mag, search, axes, peaks, reports, half, params, floor.floor_db)
+        if math.isfinite(floor.floor_db) and ref.peak_amplitude > 0
+        else None
+    )
     if not search.any():
-        return None, floor
+        return None, floor, listed
     k = np.unravel_index(np.argmax(np.where(search, mag, -1.0)), mag.shape)
     pixel = float(mag[k])
     position = {ax.name: float(ax.to_coord(i)) for ax, i in zip(axes, k)}
     if pixel == 0.0 or ref.peak_amplitude == 0.0:
-        return FalseTarget(
-            level_db=-np.inf, position=position, pixel_level_db=-np.inf, reference_target=ref.name
-        ), floor
+        return (
+            FalseTarget(level_db=-np.inf, position=position, pixel_level_db=-np.inf, reference_target=ref.name),
+            floor,
+            listed,
+        )
     pos, value = _Chip(residual, k, half).refine_peak(k)
-    return FalseTarget(
-        level_db=db(max(abs(value), pixel)),
-        position={ax.name: float(ax.to_coord(p)) for ax, p in zip(axes, pos)},
-        pixel_level_db=db(pixel),
-        reference_target=ref.name,
-    ), floor
+    return (
+        FalseTarget(
+            level_db=db(max(abs(value), pixel)),
+            position={ax.name: float(ax.to_coord(p)) for ax, p in zip(axes, pos)},
+            pixel_level_db=db(pixel),
+            reference_target=ref.name,
+        ),
+        floor,
+        listed,
+    )
+
+
+def _listed_false_targets(
+    residual: np.ndarray,
+    mag: np.ndarray,
+    search: np.ndarray,
+    axes: Sequence[_Axis],
+    peaks: Sequence[np.ndarray],
+    reports: Sequence[TargetReport],
+    half: Sequence[int],
+    params: EvaluateParams,
+    floor_db: float,
+) -> FalseTargetList:
+    """:class:`FalseTargetList` of the residual: its local maxima (3 samples per axis) in ``search`` whose pixel
+    is over ``floor_db`` + :data:`LIST_MARGIN_DB`, each refined like the single false target."""
+    from scipy.ndimage import maximum_filter
+
+    from sarproc.quality.metrics import _Chip  # metrics imports this module
+
+    ref = max(r.peak_amplitude for r in reports)
+    threshold_db = floor_db + LIST_MARGIN_DB
+    inside = np.where(search, mag, 0.0)  # zero outside, so an excluded main lobe hides no maximum beside it
+    local = (inside == maximum_filter(inside, size=3, mode="nearest")) & (inside > ref * 10 ** (threshold_db / 20))
+    found = np.argwhere(local)
+    found = found[np.argsort(-inside[local], kind="stable")]  # strongest first; ties in the argmax's order
+    own = np.array([[ax.cells_to_samples(params.exclusion_cells) for ax in axes]])
+    kept: list[np.ndarray] = []
+    for k in found:  # a maximum in a stronger one's main lobe (+-exclusion_cells) is that one's
+        if not kept or not np.any(np.all(np.abs(np.array(kept) - k) <= own, axis=1)):
+            kept.append(k)
+    cells = np.array([abs(ax.step) / ax.irw for ax in axes])
+    centres = np.array([np.asarray(p, dtype=float) for p in peaks])
+
+    def entry(k: np.ndarray) -> ListedFalseTarget:
+        pos, value = _Chip(residual, tuple(k), half).refine_peak(tuple(k))
+        pixel = float(mag[tuple(k)])
+        dist = np.sqrt((((centres - pos) * cells) ** 2).sum(axis=1))
+        near = int(np.argmin(dist))
+        return ListedFalseTarget(
+            level_db=float(20 * np.log10(max(abs(value), pixel) / ref)),
+            pixel_level_db=float(20 * np.log10(pixel / ref)),
+            position={ax.name: float(ax.to_coord(p)) for ax, p in zip(axes, pos)},
+            index={ax.name: float(p) for ax, p in zip(axes, pos)},
+            nearest_target=reports[near].name,
+            nearest_cells=float(dist[near]),
+        )
+
+    return FalseTargetList(
+        threshold_db=threshold_db,
+        margin_db=LIST_MARGIN_DB,
+        cap=LIST_CAP,
+        entries=tuple(entry(k) for k in kept[:LIST_CAP]),
+        beyond=max(len(kept) - LIST_CAP, 0),
+    )
