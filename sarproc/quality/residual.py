@@ -65,6 +65,12 @@ MISFIT_DB = -30.0
 LIST_MARGIN_DB = 1.0
 # at most this many entries, strongest first; the number beyond is reported
 LIST_CAP = 10
+# A ghost is not modelled, so its own side lobes stay in the residual: a maximum under a stronger entry's
+# sinc envelope 1/(pi |c|) per ridge (c its ridge coordinates from that entry, in nulls, on the frame of the
+# entry's nearest target's model) times this allowance is that entry's side lobe, not listed. 2 (6 dB)
+# covers pixel scalloping and a ghost's ridges a little off its neighbour's; a -30 dB ghost's range side lobes
+# 3.5 nulls out (-20.8 dB under it, exactly the envelope) were listed as ghosts without it.
+SIDE_LOBE_ALLOWANCE = 2.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -84,7 +90,8 @@ class FalseTargetList:
     """Every false target the residual shows, not only the strongest: local maxima outside the main lobes
     whose pixel stands ``margin_db`` over the residual floor, strongest pixel first (the order the report's
     ``false_target`` is chosen by, so the first entry is that figure), at most ``cap`` of them; a maximum
-    within +-exclusion_cells of a stronger one is in its main lobe and not listed."""
+    within +-exclusion_cells of a stronger one, or under its side-lobe envelope (:data:`SIDE_LOBE_ALLOWANCE`),
+    is that one's response and not listed."""
 
     threshold_db: float  # floor_db + margin_db, relative to the strongest target's peak
     margin_db: float
@@ -1349,10 +1356,11 @@ def residual_false_target(
     found (:func:`subtract_models`; ``params.exact``: over the whole image, :func:`residual_image`).
     ``unmodelled``: the targets whose response the model is known not to describe (a fan of side lobes),
     treated as misfits whatever their residual."""
+    frames = [None if m is None else _ridge_frame(m.position, m.ridges, m.nulls)[0] for m in models]
     if params.exact:
         with numerics(exact=True):
             residual = residual_image(data, models)
-            return _residual_false_target(residual, axes, truth, peaks, reports, half, params, unmodelled)
+            return _residual_false_target(residual, axes, truth, peaks, reports, half, params, unmodelled, frames)
     ref = max(r.peak_amplitude for r in reports)
     out = np.array(data, dtype=np.complex128)
     level = ref * 10 ** (REACH_FIRST_DB / 20)
@@ -1364,7 +1372,7 @@ def residual_false_target(
             break
         subtract_models(out, models, want, above=level)
         level = want
-    return _residual_false_target(out, axes, truth, peaks, reports, half, params, unmodelled)
+    return _residual_false_target(out, axes, truth, peaks, reports, half, params, unmodelled, frames)
 
 
 def _residual_false_target(
@@ -1376,10 +1384,12 @@ def _residual_false_target(
     half: Sequence[int],
     params: EvaluateParams,
     unmodelled: Sequence[int] = (),
+    frames: Sequence[np.ndarray | None] = (),
 ) -> tuple[FalseTarget | None, ResidualFloor, FalseTargetList | None]:
     """(FalseTarget or None, ResidualFloor, FalseTargetList or None): strongest residual response outside the
     main lobes, the residual's floor inside the targets' guard windows (``unmodelled`` counted as misfits) and
-    every false target over that floor (:func:`_listed_false_targets`; None without a finite floor)."""
+    every false target over that floor (:func:`_listed_false_targets`; None without a finite floor).
+    ``frames``: each target's model's ridge frame A (:func:`_ridge_frame`; None: no model)."""
     from sarproc.quality.metrics import FalseTarget, _Chip  # metrics imports this module
 
     ref = max(reports, key=lambda r: r.peak_amplitude)
@@ -1402,7 +1412,7 @@ def _residual_false_target(
         ),
     )
     listed = (
-        _listed_false_targets(residual, mag, search, axes, peaks, reports, half, params, floor.floor_db)
+        _listed_false_targets(residual, mag, search, axes, peaks, reports, half, params, floor.floor_db, frames)
         if math.isfinite(floor.floor_db) and ref.peak_amplitude > 0
         else None
     )
@@ -1440,9 +1450,11 @@ def _listed_false_targets(
     half: Sequence[int],
     params: EvaluateParams,
     floor_db: float,
+    frames: Sequence[np.ndarray | None] = (),
 ) -> FalseTargetList:
     """:class:`FalseTargetList` of the residual: its local maxima (3 samples per axis) in ``search`` whose pixel
-    is over ``floor_db`` + :data:`LIST_MARGIN_DB`, each refined like the single false target."""
+    is over ``floor_db`` + :data:`LIST_MARGIN_DB` and is no stronger one's main or side lobe, each refined like
+    the single false target. ``frames``: per target, its model's ridge frame (None: the image axes' nulls)."""
     from scipy.ndimage import maximum_filter
 
     from sarproc.quality.metrics import _Chip  # metrics imports this module
@@ -1453,19 +1465,35 @@ def _listed_false_targets(
     local = (inside == maximum_filter(inside, size=3, mode="nearest")) & (inside > ref * 10 ** (threshold_db / 20))
     found = np.argwhere(local)
     found = found[np.argsort(-inside[local], kind="stable")]  # strongest first; ties in the argmax's order
-    own = np.array([[ax.cells_to_samples(params.exclusion_cells) for ax in axes]])
-    kept: list[np.ndarray] = []
-    for k in found:  # a maximum in a stronger one's main lobe (+-exclusion_cells) is that one's
-        if not kept or not np.any(np.all(np.abs(np.array(kept) - k) <= own, axis=1)):
-            kept.append(k)
+    own = np.array([ax.cells_to_samples(params.exclusion_cells) for ax in axes])
     cells = np.array([abs(ax.step) / ax.irw for ax in axes])
     centres = np.array([np.asarray(p, dtype=float) for p in peaks])
+    image_frame = np.diag([1.0 / ax.null for ax in axes])
+
+    def nearest(x: np.ndarray) -> tuple[int, np.ndarray]:
+        dist = np.sqrt((((centres - x) * cells) ** 2).sum(axis=1))
+        return int(np.argmin(dist)), dist
+
+    kept: list[np.ndarray] = []
+    kept_frames: list[np.ndarray] = []
+    for k in found:
+        if kept:
+            offset = k - np.array(kept)
+            if np.any(np.all(np.abs(offset) <= own, axis=1)):  # a stronger one's main lobe
+                continue
+            c = np.abs(np.einsum("mij,mj->mi", np.array(kept_frames), offset))
+            envelope = np.prod(np.minimum(1.0, 1.0 / (np.pi * np.maximum(c, 1e-12))), axis=1)
+            if np.any(inside[tuple(k)] <= SIDE_LOBE_ALLOWANCE * envelope * inside[tuple(np.array(kept).T)]):
+                continue  # under a stronger one's side-lobe envelope
+        kept.append(k)
+        near = nearest(k.astype(float))[0]
+        frame = frames[near] if near < len(frames) else None
+        kept_frames.append(image_frame if frame is None else frame)
 
     def entry(k: np.ndarray) -> ListedFalseTarget:
         pos, value = _Chip(residual, tuple(k), half).refine_peak(tuple(k))
         pixel = float(mag[tuple(k)])
-        dist = np.sqrt((((centres - pos) * cells) ** 2).sum(axis=1))
-        near = int(np.argmin(dist))
+        near, dist = nearest(pos)
         return ListedFalseTarget(
             level_db=float(20 * np.log10(max(abs(value), pixel) / ref)),
             pixel_level_db=float(20 * np.log10(pixel / ref)),
