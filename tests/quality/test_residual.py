@@ -309,3 +309,13 @@ def test_every_ghost_over_the_floor_is_listed_in_order():
     rep = evaluate_image(clean, ("azimuth", "range"), coords, RES, TRUTH, names=["A", "B", "C"], params=PARAMS)
     assert rep.false_targets is not None and rep.false_targets.entries == ()
     assert rep.false_target.level_db < rep.false_targets.threshold_db  # the single figure is still given
+
+
+def test_local_maxima_equal_scipys_maximum_filter():
+    from scipy.ndimage import maximum_filter
+
+    from sarproc.quality.residual import _local_maxima
+
+    x = np.abs(np.random.default_rng(0).standard_normal((41, 37)))
+    x[3:9, 30:] = 0.0  # a flat plateau (every sample its own maximum) reaching the edge
+    assert np.array_equal(_local_maxima(x), maximum_filter(x, size=3, mode="nearest") == x)
