@@ -31,6 +31,7 @@ if TYPE_CHECKING:
     from sarproc.product.model import Product
     from sarproc.quality.metrics import AxisMetrics, CheckFailure, EvaluateParams, FalseTarget, QualityReport
     from sarproc.quality.moving import MoverReport
+    from sarproc.quality.residual import FalseTargetList
 
 
 def _fmt(x: float | None, spec: str) -> str:
@@ -200,6 +201,8 @@ def false_target_lines(report: QualityReport, units: dict) -> list[str]:
             f"lobes of +-{fl.exclusion_cells:g} cells excluded); residual floor in the targets' guard windows "
             f"{_fmt(fl.floor_db, '.2f')} dB, residual RMS {_fmt(fl.rms_db, '.2f')} dB"
         )
+    if report.false_targets is not None:
+        out += false_target_list_lines(report.false_targets, units)
     if report.residual is not None and report.residual.misfit_targets:
         from sarproc.quality.residual import MISFIT_DB
 
@@ -221,6 +224,34 @@ def false_target_lines(report: QualityReport, units: dict) -> list[str]:
             f"\n{label}: {_fmt(guard.level_db, '.2f')} dB relative to target {guard.reference_target}, "
             f"at {where(guard)}"
         )
+    return out
+
+
+FALSE_TARGET_COLUMNS = ("#", "level (dB)", "position", "image samples", "nearest target", "distance (cells)")
+
+
+def false_target_list_lines(listed: FalseTargetList, units: dict) -> list[str]:
+    """Every false target over the residual's floor (the first is the figure above), as Markdown."""
+    head = (
+        f"\nFalse targets on the residual over its floor + {listed.margin_db:g} dB "
+        f"({_fmt(listed.threshold_db, '.2f')} dB), strongest first, at most {listed.cap}:"
+    )
+    if not listed.entries:
+        return [f"{head} none."]
+    rows = [
+        (
+            str(n),
+            _fmt(e.level_db, ".2f"),
+            ", ".join(f"{d} = {v:.4g} {units.get(d, '')}".rstrip() for d, v in e.position.items()),
+            ", ".join(f"{v:.2f}" for v in e.index.values()),
+            e.nearest_target,
+            _fmt(e.nearest_cells, ".1f"),
+        )
+        for n, e in enumerate(listed.entries, 1)
+    ]
+    out = [head + "\n", markdown_table(FALSE_TARGET_COLUMNS, rows, "rrlllr")]
+    if listed.beyond:
+        out.append(f"\n{listed.beyond} more over the threshold, not listed.")
     return out
 
 

@@ -70,6 +70,7 @@ from sarproc.quality.line_moments import line_sums
 from sarproc.quality.linesum import exponential_sums
 from sarproc.quality.lstsq import least_squares
 from sarproc.quality.residual import (
+    FalseTargetList,
     FitStart,
     ResidualFloor,
     ResponseModel,
@@ -307,6 +308,8 @@ class QualityReport:
     false_target_guard: FalseTarget | None = None
     residual: ResidualFloor | None = None
     residual_note: str | None = None  # why the residual figures were not taken, where asked for
+    # every false target over the residual's floor (the first is false_target); None without the residual
+    false_targets: FalseTargetList | None = None
 
     def target(self, name: str) -> TargetReport:
         for t in self.targets:
@@ -1126,7 +1129,9 @@ def evaluate_image(
         for peak, own, i in wrapped(done, list(zip(peaks, own_axes, order)))
     ]
     guarded = _guarded_positions(truth, measured, other_truth, len(axes))
-    false, guard, floor = _false_targets(data, mag, axes, guarded, peaks, reports, half, nulls, params, own_axes)
+    false, guard, floor, listed = _false_targets(
+        data, mag, axes, guarded, peaks, reports, half, nulls, params, own_axes
+    )
     done()
     return QualityReport(
         dims=tuple(ax.name for ax in axes),
@@ -1136,6 +1141,7 @@ def evaluate_image(
         false_target_guard=guard,
         residual=floor,
         residual_note=RESIDUAL_3D_NOTE if params.residual and data.ndim == 3 else None,
+        false_targets=listed,
     )
 
 
@@ -1453,14 +1459,15 @@ def _false_targets(
     params: EvaluateParams,
     own_axes: Sequence[Sequence[_Axis]] | None = None,
 ) -> tuple:
-    """(false target, guard-window false target, residual floor): the strongest response outside every
-    target's +-guard_cells window, and with ``params.residual`` the strongest on the residual image (then the
-    reported one) with the residual's floor. ``own_axes``: each target's axes (:func:`_target_axes`); its
-    response model starts from their null spacing (its own theory's where it has one, else the image's)."""
+    """(false target, guard-window false target, residual floor, false-target list): the strongest response
+    outside every target's +-guard_cells window, and with ``params.residual`` the strongest on the residual
+    image (then the reported one) with the residual's floor and every false target over it. ``own_axes``: each
+    target's axes (:func:`_target_axes`); its response model starts from their null spacing (its own theory's
+    where it has one, else the image's)."""
     indices = [p.index for p in peaks]
     guard = _false_target(data, mag, axes, guarded, indices, reports, half, params)
     if not params.residual or data.ndim == 3:  # cubes: RESIDUAL_3D_NOTE
-        return guard, guard, None
+        return guard, guard, None, None
     if any(m.pslr_theory_db is not None and m.pslr_theory_db < WEIGHTED_PSLR_DB for r in reports for m in r.axes):
         # a window's taper (Hamming: the band's cosine) needs the second spectral order (residual_orders doc)
         params = dataclasses.replace(params, residual_orders=max(params.residual_orders, 2))
@@ -1470,8 +1477,8 @@ def _false_targets(
     ]
     models = fit_response_models(data, starts, nulls, params, support_shape=True)
     fanned = [i for i, p in enumerate(peaks) if p.fanned]
-    false, floor = residual_false_target(data, models, axes, guarded, indices, reports, half, params, fanned)
-    return false, guard, floor
+    false, floor, listed = residual_false_target(data, models, axes, guarded, indices, reports, half, params, fanned)
+    return false, guard, floor, listed
 
 
 def _target_axes(

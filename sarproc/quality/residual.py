@@ -56,6 +56,49 @@ class ResidualFloor:
 # A model leaving this much of its target's peak (dB) inside the box it was fitted on does not fit it.
 MISFIT_DB = -30.0
 
+# The false-target list (every ghost, not only the strongest): a local maximum of the residual outside the
+# main lobes is listed when its pixel stands LIST_MARGIN_DB over the residual floor. The floor is the
+# strongest residual pixel in the guard windows, where the subtraction errors are largest, so a clean
+# image's residual elsewhere rarely passes it: measured, the strongest clean residual outside the main lobes
+# stands 0.1-0.6 dB over the floor (demo, bp_stripmap, paper scenes 000, 002, 003; docs/product.md), and
+# 1 dB still lists a ghost 1.5 dB over the floor (the test's -50 dB ghost over a -52.4 dB floor).
+LIST_MARGIN_DB = 1.0
+# at most this many entries, strongest first; the number beyond is reported
+LIST_CAP = 10
+# A ghost is not modelled, so its own side lobes stay in the residual: a maximum under a stronger entry's
+# sinc envelope 1/(pi |c|) per ridge (c its ridge coordinates from that entry, in nulls, on the frame of the
+# entry's nearest target's model) times this allowance is that entry's side lobe, not listed. 2 (6 dB)
+# covers pixel scalloping and a ghost's ridges a little off its neighbour's; a -30 dB ghost's range side lobes
+# 3.5 nulls out (-20.8 dB under it, exactly the envelope) were listed as ghosts without it.
+SIDE_LOBE_ALLOWANCE = 2.0
+
+
+@dataclasses.dataclass(frozen=True)
+class ListedFalseTarget:
+    """One false target of the list: a local maximum of the residual above its threshold."""
+
+    level_db: float  # refined peak, relative to the strongest target's peak (as FalseTarget's)
+    pixel_level_db: float  # its pixel, same reference
+    position: dict  # {dim: refined peak, axis units (the frame's coordinates, metres for its axes)}
+    index: dict  # {dim: refined peak, image samples}
+    nearest_target: str  # the measured target whose peak is nearest, in resolution cells
+    nearest_cells: float  # distance to that peak, resolution cells of the image's theory (root sum of squares)
+
+
+@dataclasses.dataclass(frozen=True)
+class FalseTargetList:
+    """Every false target the residual shows, not only the strongest: local maxima outside the main lobes
+    whose pixel stands ``margin_db`` over the residual floor, strongest pixel first (the order the report's
+    ``false_target`` is chosen by, so the first entry is that figure), at most ``cap`` of them; a maximum
+    within +-exclusion_cells of a stronger one, or under its side-lobe envelope (:data:`SIDE_LOBE_ALLOWANCE`),
+    is that one's response and not listed."""
+
+    threshold_db: float  # floor_db + margin_db, relative to the strongest target's peak
+    margin_db: float
+    cap: int
+    entries: tuple[ListedFalseTarget, ...]
+    beyond: int  # maxima above the threshold left out by the cap
+
 
 @dataclasses.dataclass(frozen=True)
 class FitStart:
@@ -1319,16 +1362,17 @@ def residual_false_target(
     half: Sequence[int],
     params: EvaluateParams,
     unmodelled: Sequence[int] = (),
-) -> tuple[FalseTarget | None, ResidualFloor]:
+) -> tuple[FalseTarget | None, ResidualFloor, FalseTargetList | None]:
     """:func:`_residual_false_target` of ``data`` minus every model, each evaluated only where it reaches
     :data:`REACH_FIRST_DB` below the strongest peak, then :data:`REACH_BELOW_FLOOR_DB` below the floor so
     found (:func:`subtract_models`; ``params.exact``: over the whole image, :func:`residual_image`).
     ``unmodelled``: the targets whose response the model is known not to describe (a fan of side lobes),
     treated as misfits whatever their residual."""
+    frames = [None if m is None else _ridge_frame(m.position, m.ridges, m.nulls)[0] for m in models]
     if params.exact:
         with numerics(exact=True):
             residual = residual_image(data, models)
-            return _residual_false_target(residual, axes, truth, peaks, reports, half, params, unmodelled)
+            return _residual_false_target(residual, axes, truth, peaks, reports, half, params, unmodelled, frames)
     ref = max(r.peak_amplitude for r in reports)
     out = np.array(data, dtype=np.complex128)
     level = ref * 10 ** (REACH_FIRST_DB / 20)
@@ -1340,7 +1384,7 @@ def residual_false_target(
             break
         subtract_models(out, models, want, above=level)
         level = want
-    return _residual_false_target(out, axes, truth, peaks, reports, half, params, unmodelled)
+    return _residual_false_target(out, axes, truth, peaks, reports, half, params, unmodelled, frames)
 
 
 def _residual_false_target(
@@ -1352,9 +1396,12 @@ def _residual_false_target(
     half: Sequence[int],
     params: EvaluateParams,
     unmodelled: Sequence[int] = (),
-) -> tuple[FalseTarget | None, ResidualFloor]:
-    """(FalseTarget or None, ResidualFloor): strongest residual response outside the main lobes, and the
-    residual's floor inside the targets' guard windows (``unmodelled`` counted as misfits)."""
+    frames: Sequence[np.ndarray | None] = (),
+) -> tuple[FalseTarget | None, ResidualFloor, FalseTargetList | None]:
+    """(FalseTarget or None, ResidualFloor, FalseTargetList or None): strongest residual response outside the
+    main lobes, the residual's floor inside the targets' guard windows (``unmodelled`` counted as misfits) and
+    every false target over that floor (:func:`_listed_false_targets`; None without a finite floor).
+    ``frames``: each target's model's ridge frame A (:func:`_ridge_frame`; None: no model)."""
     from sarproc.quality.metrics import FalseTarget, _Chip  # metrics imports this module
 
     ref = max(reports, key=lambda r: r.peak_amplitude)
@@ -1376,19 +1423,111 @@ def _residual_false_target(
             )
         ),
     )
+    listed = (
+        _listed_false_targets(residual, mag, search, axes, peaks, reports, half, params, floor.floor_db, frames)
+        if math.isfinite(floor.floor_db) and ref.peak_amplitude > 0
+        else None
+    )
     if not search.any():
-        return None, floor
+        return None, floor, listed
     k = np.unravel_index(np.argmax(np.where(search, mag, -1.0)), mag.shape)
     pixel = float(mag[k])
     position = {ax.name: float(ax.to_coord(i)) for ax, i in zip(axes, k)}
     if pixel == 0.0 or ref.peak_amplitude == 0.0:
-        return FalseTarget(
-            level_db=-np.inf, position=position, pixel_level_db=-np.inf, reference_target=ref.name
-        ), floor
+        return (
+            FalseTarget(level_db=-np.inf, position=position, pixel_level_db=-np.inf, reference_target=ref.name),
+            floor,
+            listed,
+        )
     pos, value = _Chip(residual, k, half).refine_peak(k)
-    return FalseTarget(
-        level_db=db(max(abs(value), pixel)),
-        position={ax.name: float(ax.to_coord(p)) for ax, p in zip(axes, pos)},
-        pixel_level_db=db(pixel),
-        reference_target=ref.name,
-    ), floor
+    return (
+        FalseTarget(
+            level_db=db(max(abs(value), pixel)),
+            position={ax.name: float(ax.to_coord(p)) for ax, p in zip(axes, pos)},
+            pixel_level_db=db(pixel),
+            reference_target=ref.name,
+        ),
+        floor,
+        listed,
+    )
+
+
+def _local_maxima(x: np.ndarray) -> np.ndarray:
+    """True where ``x`` is the largest of its 3 samples per axis (the edge sample repeated beyond the edge):
+    scipy.ndimage.maximum_filter(x, 3, mode="nearest") == x without importing scipy.ndimage (45 ms of
+    evaluate's start; focus.multichannel.detection has one, but quality does not import focus)."""
+    padded = np.pad(x, 1, mode="edge")
+    out = np.ones(x.shape, dtype=bool)
+    for shift in itertools.product(range(3), repeat=x.ndim):
+        out &= x >= padded[tuple(slice(o, o + n) for o, n in zip(shift, x.shape))]
+    return out
+
+
+def _listed_false_targets(
+    residual: np.ndarray,
+    mag: np.ndarray,
+    search: np.ndarray,
+    axes: Sequence[_Axis],
+    peaks: Sequence[np.ndarray],
+    reports: Sequence[TargetReport],
+    half: Sequence[int],
+    params: EvaluateParams,
+    floor_db: float,
+    frames: Sequence[np.ndarray | None] = (),
+) -> FalseTargetList:
+    """:class:`FalseTargetList` of the residual: its local maxima (3 samples per axis) in ``search`` whose pixel
+    is over ``floor_db`` + :data:`LIST_MARGIN_DB` and is no stronger one's main or side lobe, each refined like
+    the single false target. ``frames``: per target, its model's ridge frame (None: the image axes' nulls)."""
+    from sarproc.quality.metrics import _Chip  # metrics imports this module
+
+    ref = max(r.peak_amplitude for r in reports)
+    threshold_db = floor_db + LIST_MARGIN_DB
+    inside = np.where(search, mag, 0.0)  # zero outside, so an excluded main lobe hides no maximum beside it
+    local = _local_maxima(inside) & (inside > ref * 10 ** (threshold_db / 20))
+    found = np.argwhere(local)
+    found = found[np.argsort(-inside[local], kind="stable")]  # strongest first; ties in the argmax's order
+    own = np.array([ax.cells_to_samples(params.exclusion_cells) for ax in axes])
+    cells = np.array([abs(ax.step) / ax.irw for ax in axes])
+    centres = np.array([np.asarray(p, dtype=float) for p in peaks])
+    image_frame = np.diag([1.0 / ax.null for ax in axes])
+
+    def nearest(x: np.ndarray) -> tuple[int, np.ndarray]:
+        dist = np.sqrt((((centres - x) * cells) ** 2).sum(axis=1))
+        return int(np.argmin(dist)), dist
+
+    kept: list[np.ndarray] = []
+    kept_frames: list[np.ndarray] = []
+    for k in found:
+        if kept:
+            offset = k - np.array(kept)
+            if np.any(np.all(np.abs(offset) <= own, axis=1)):  # a stronger one's main lobe
+                continue
+            c = np.abs(np.einsum("mij,mj->mi", np.array(kept_frames), offset))
+            envelope = np.prod(np.minimum(1.0, 1.0 / (np.pi * np.maximum(c, 1e-12))), axis=1)
+            if np.any(inside[tuple(k)] <= SIDE_LOBE_ALLOWANCE * envelope * inside[tuple(np.array(kept).T)]):
+                continue  # under a stronger one's side-lobe envelope
+        kept.append(k)
+        near = nearest(k.astype(float))[0]
+        frame = frames[near] if near < len(frames) else None
+        kept_frames.append(image_frame if frame is None else frame)
+
+    def entry(k: np.ndarray) -> ListedFalseTarget:
+        pos, value = _Chip(residual, tuple(k), half).refine_peak(tuple(k))
+        pixel = float(mag[tuple(k)])
+        near, dist = nearest(pos)
+        return ListedFalseTarget(
+            level_db=float(20 * np.log10(max(abs(value), pixel) / ref)),
+            pixel_level_db=float(20 * np.log10(pixel / ref)),
+            position={ax.name: float(ax.to_coord(p)) for ax, p in zip(axes, pos)},
+            index={ax.name: float(p) for ax, p in zip(axes, pos)},
+            nearest_target=reports[near].name,
+            nearest_cells=float(dist[near]),
+        )
+
+    return FalseTargetList(
+        threshold_db=threshold_db,
+        margin_db=LIST_MARGIN_DB,
+        cap=LIST_CAP,
+        entries=tuple(entry(k) for k in kept[:LIST_CAP]),
+        beyond=max(len(kept) - LIST_CAP, 0),
+    )

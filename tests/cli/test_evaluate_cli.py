@@ -245,6 +245,25 @@ def test_false_target_gate(tmp_path):
     assert level == pytest.approx(-24.0, abs=0.1)
 
 
+def test_false_target_list_in_table_and_json(tmp_path):
+    """The list of false targets over the residual's floor reaches the JSON and the printed report."""
+    img, report = make_image(tmp_path / "ghost.h5", ghost_db=-30.0), tmp_path / "report.json"
+    res = run(img, "-o", report)
+    assert res.exit_code == 0, res.output
+    doc = json.loads(report.read_text())
+    (first,) = doc["false_targets"]["entries"]
+    assert [first[k] for k in ("level_db", "position")] == [doc["false_target"][k] for k in ("level_db", "position")]
+    ghost = (-20.0, 20.0)  # make_image's
+    assert first["level_db"] == pytest.approx(-30.0, abs=0.5)
+    assert first["position"]["azimuth"] == pytest.approx(ghost[0], abs=RES[0])
+    assert first["position"]["range"] == pytest.approx(ghost[1], abs=RES[1])
+    cells = {n: np.hypot(*(np.subtract(ghost, t) / RES)) for n, t in TARGETS.items()}
+    assert first["nearest_target"] == min(cells, key=cells.__getitem__) == "B"
+    assert first["nearest_cells"] == pytest.approx(cells["B"], abs=1.0)
+    assert "False targets on the residual over its floor + 1 dB" in res.output
+    assert f"| 1 | {first['level_db']:.2f} | azimuth = " in res.output
+
+
 @pytest.mark.parametrize(
     "content, match",
     [

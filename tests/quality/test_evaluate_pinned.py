@@ -169,8 +169,20 @@ def pinned() -> dict:
 
 
 @pytest.fixture(scope="module")
-def now() -> dict:
-    return {name: rep.to_dict() for name, rep in reports()}
+def now(pinned) -> dict:
+    out = {}
+    for name, rep in reports():
+        d = rep.to_dict()
+        # The false-target list (issue 20 item 1) is newer than these pinned reports: compared where they
+        # hold it; else its first entry is checked to be the report's false_target, which they pin.
+        if "false_targets" not in pinned["reports"].get(name, {}):
+            listed = d.pop("false_targets")
+            for first in (listed or {}).get("entries", [])[:1]:
+                assert [first[k] for k in ("level_db", "pixel_level_db", "position")] == [
+                    d["false_target"][k] for k in ("level_db", "pixel_level_db", "position")
+                ]
+        out[name] = d
+    return out
 
 
 def test_every_pinned_scene_is_evaluated(pinned, now):

@@ -280,3 +280,42 @@ def test_a_defocused_targets_misfit_is_not_reported_as_a_ghost(monkeypatch):
     assert ft.level_db == pytest.approx(level, abs=1.0)
     for a, dim in enumerate(("azimuth", "range")):
         assert abs(ft.position[dim] - ghost[a]) <= 2 * RES[a]
+
+
+GHOSTS = [(-30.3, 22.6), (30.1, 30.3), (-5.2, -40.1)]  # off-grid, apart, off every target's ridges
+GHOST_DB = [-40.0, -45.0, -50.0]
+
+
+def test_every_ghost_over_the_floor_is_listed_in_order():
+    """Three ghosts in one image: each is listed at its place and level, strongest first, the first being
+    the single false-target figure; the clean image lists none."""
+    img, coords = _scene(TRUTH + GHOSTS, AMPS + [10 ** (g / 20) for g in GHOST_DB])
+    rep = evaluate_image(img, ("azimuth", "range"), coords, RES, TRUTH, names=["A", "B", "C"], params=PARAMS)
+    listed = rep.false_targets
+    assert len(listed.entries) == 3 and listed.beyond == 0
+    assert listed.threshold_db == pytest.approx(rep.residual.floor_db + listed.margin_db)
+    for entry, ghost, level in zip(listed.entries, GHOSTS, GHOST_DB):
+        assert entry.level_db == pytest.approx(level, abs=1.0)
+        for a, dim in enumerate(("azimuth", "range")):
+            assert abs(entry.position[dim] - ghost[a]) <= 2 * RES[a]
+            assert coords[a][0] + entry.index[dim] * STEP[a] == pytest.approx(entry.position[dim])
+        # the nearest target and its distance in cells
+        cells = [np.hypot(*((np.subtract(ghost, t)) / RES)) for t in TRUTH]
+        assert entry.nearest_target == "ABC"[int(np.argmin(cells))]
+        assert entry.nearest_cells == pytest.approx(min(cells), abs=2.0)
+    first, ft = listed.entries[0], rep.false_target
+    assert (first.level_db, first.pixel_level_db, first.position) == (ft.level_db, ft.pixel_level_db, ft.position)
+    clean, coords = _scene(TRUTH, AMPS)
+    rep = evaluate_image(clean, ("azimuth", "range"), coords, RES, TRUTH, names=["A", "B", "C"], params=PARAMS)
+    assert rep.false_targets is not None and rep.false_targets.entries == ()
+    assert rep.false_target.level_db < rep.false_targets.threshold_db  # the single figure is still given
+
+
+def test_local_maxima_equal_scipys_maximum_filter():
+    from scipy.ndimage import maximum_filter
+
+    from sarproc.quality.residual import _local_maxima
+
+    x = np.abs(np.random.default_rng(0).standard_normal((41, 37)))
+    x[3:9, 30:] = 0.0  # a flat plateau (every sample its own maximum) reaching the edge
+    assert np.array_equal(_local_maxima(x), maximum_filter(x, size=3, mode="nearest") == x)
