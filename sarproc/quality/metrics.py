@@ -1434,7 +1434,23 @@ def _neighbours_on_chips(
     return sums
 
 
+SINC_PSLR_DB = -13.26  # unweighted sinc: what a cut with no recorded theory is judged against
 WEIGHTED_PSLR_DB = -30.0  # a theoretical PSLR below this: a weighting window (Hamming -42.7 dB), not a taper
+AUTO_ORDERS_MAX = 3  # the deepest order the theory picks (a Gaussian beam under Hamming: -55 dB, 3 orders)
+
+
+def theory_residual_orders(reports: Sequence[TargetReport], requested: int) -> int:
+    """The response models' spectral orders for an image whose targets' theories are ``reports``: one more
+    order per (SINC_PSLR_DB - WEIGHTED_PSLR_DB) dB that the deepest theoretical PSLR lies under the
+    unweighted sinc's, up to AUTO_ORDERS_MAX, never under ``requested``. A smoother weighting (a window, the
+    antenna pattern over the aperture a target sees) needs more of the half-null-shifted sincs to follow:
+    Hamming (-42.7 dB) takes 2, a Gaussian beam under Hamming (-55 dB) 3."""
+    theory = [m.pslr_theory_db for r in reports for m in r.axes if m.pslr_theory_db is not None]
+    if not theory:
+        return requested
+    step = SINC_PSLR_DB - WEIGHTED_PSLR_DB
+    auto = 1 + math.floor(max(SINC_PSLR_DB - min(theory), 0.0) / step)
+    return max(requested, min(auto, AUTO_ORDERS_MAX))
 
 
 # The residual is not taken on 3D cubes (measured on paper 004's du2010 cube: its response models leave a
@@ -1468,9 +1484,8 @@ def _false_targets(
     guard = _false_target(data, mag, axes, guarded, indices, reports, half, params)
     if not params.residual or data.ndim == 3:  # cubes: RESIDUAL_3D_NOTE
         return guard, guard, None, None
-    if any(m.pslr_theory_db is not None and m.pslr_theory_db < WEIGHTED_PSLR_DB for r in reports for m in r.axes):
-        # a window's taper (Hamming: the band's cosine) needs the second spectral order (residual_orders doc)
-        params = dataclasses.replace(params, residual_orders=max(params.residual_orders, 2))
+    # a weighting's taper (Hamming: the band's cosine; times a Gaussian beam) needs more spectral orders
+    params = dataclasses.replace(params, residual_orders=theory_residual_orders(reports, params.residual_orders))
     starts = [
         p.fit_start(None if own_axes is None else np.array([ax.null for ax in own]))
         for p, own in zip(peaks, own_axes or [axes] * len(peaks))

@@ -19,9 +19,8 @@ import math
 from collections.abc import Iterable, Mapping
 from typing import Any
 
-from sarproc.quality.metrics import AxisMetrics, FalseTarget, QualityReport, TargetReport
+from sarproc.quality.metrics import SINC_PSLR_DB, AxisMetrics, FalseTarget, QualityReport, TargetReport
 
-SINC_PSLR_DB = -13.26  # unweighted sinc: what a cut with no recorded theory is judged against
 SINC_ISLR_DB = -10.16  # over +-10 nulls (the contract's ISLR window)
 
 

@@ -250,3 +250,21 @@ def test_the_search_leaves_out_each_main_lobe_in_its_own_cells():
     assert searched(irw, 2.6) and not searched(hamming, 2.6)  # inside the Hamming lobe's +-2 own cells
     assert searched(hamming, 3.5)  # beyond them
     assert R.own_cell_broadening(report(0.8 * irw), axes) == 1.0  # a finer own theory never narrows the box
+
+
+@pytest.mark.parametrize(
+    ("pslr_db", "requested", "orders"),
+    [(-13.26, 1, 1), (-31.5, 1, 2), (-42.7, 1, 2), (-48.2, 1, 3), (-55.3, 1, 3), (-300.0, 1, 3), (-42.7, 4, 4)],
+)
+def test_the_theory_s_side_lobe_depth_picks_the_orders(pslr_db, requested, orders):
+    """One more order per 16.7 dB under the sinc's side lobes (unweighted 1, Hann and Hamming 2, a Gaussian
+    beam under Hamming 3, at most 3 unless asked): the deepest axis of any target decides."""
+    from sarproc.quality.metrics import AxisMetrics, TargetReport, theory_residual_orders
+
+    def axis(name: str, pslr: float | None) -> AxisMetrics:
+        return AxisMetrics(name, 1.0, 1.0, 1.0, -13.0, -10.0, 2.0, 0.0, 0.0, 0.0, 0.0, 0.0, pslr_theory_db=pslr)
+
+    sinc = TargetReport("A", 1.0, 0.0, (0, 0), False, (axis("azimuth", None), axis("range", -13.26)))
+    weighted = TargetReport("B", 0.5, 0.0, (9, 9), False, (axis("azimuth", pslr_db), axis("range", -13.26)))
+    assert theory_residual_orders([sinc, weighted], requested) == orders
+    assert theory_residual_orders([sinc], requested) == requested

@@ -16,6 +16,7 @@ import pytest
 
 from sarproc.focus.backprojection import BackprojectParams, backproject
 from sarproc.quality.metrics import EvaluateParams, evaluate_product
+from sarproc.quality.residual import spectral_orders
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
 
@@ -61,3 +62,14 @@ def test_response_models_fit_and_the_floor_falls(report):
     assert report.residual.misfit_targets == ()
     assert report.residual.floor_db < -40.0
     assert np.isfinite(report.false_target.level_db) and report.false_target.level_db < -40.0
+
+
+def test_the_theory_picks_three_orders_and_the_floor_reaches_minus_50_db(report):
+    """The azimuth weighting is the Gaussian beam times Hamming (theory PSLR -55 dB against Hamming's -42.7):
+    two spectral orders follow Hamming's cosine, not the bell on it (floor -41.35 dB); the theory's depth
+    picks three (issue 20 item 1: floor <= -50 dB on clean scenes)."""
+    deepest = min(m.pslr_theory_db for t in report.targets for m in t.axes)
+    assert deepest < -50.0
+    assert report.residual.orders == len(spectral_orders(2, 3, 4))
+    assert report.residual.misfit_targets == ()
+    assert report.residual.floor_db <= -50.0
