@@ -181,11 +181,12 @@ def test_movers_at_one_apparent_azimuth_are_separated_by_range(apart, caplog):
 def test_a_mover_beside_a_bright_static_point_at_its_apparent_time_is_not_taken_out_with_it(caplog):
     """The mover campaign's scene 006 (13.1 deg squint): M1 (v_r -7.37, v_a 10.41 m/s) appears 1.1 ms (8 samples) and
     8 range cells from S3, a static point 16.5 dB brighter: one separation mask. S3 is examined first and its
-    response taken out over its whole window with M1's in it (M1 missed: "taken for a response of a mover already
-    examined"): M1 stands 0.6 dB under S3's range side-lobe envelope there (_two_in_range), though 8 samples off
-    S3's range cut. Applying the envelope on the cut only finds M1 (v_r error +0.21 m/s, within 2 sigma: S3's side
-    lobes in its cells) but splits a lobe of two unresolved movers 3 samples off their cut (standing 4.0 dB over its
-    mirror, the margin 3.98 dB) into a false alarm: not done; a side-lobe model of a skewed mover response is."""
+    response taken out over its whole window with M1's in it (M1 missed: "taken out with the response of a static
+    target examined", below): M1 stands 0.6 dB under S3's range side-lobe envelope there (_two_in_range), though 8
+    samples off S3's range cut. Applying the envelope on the cut only finds M1 (v_r error +0.21 m/s, within 2 sigma:
+    S3's side lobes in its cells) but splits a lobe of two unresolved movers 3 samples off their cut (standing 4.0 dB
+    over its mirror, the margin 3.98 dB) into a false alarm: not done; a side-lobe model of a skewed mover response
+    is."""
     with caplog.at_level(logging.WARNING):
         rec = reconstruct(simulate(scene_from_mapping(mover_beside_a_static_point())), ReconstructParams())
     by_name, false = found(rec)
