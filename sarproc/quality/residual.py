@@ -65,6 +65,14 @@ MISFIT_DB = -30.0
 LIST_MARGIN_DB = 1.0
 # at most this many entries, strongest first; the number beyond is reported
 LIST_CAP = 10
+# A ghost inside a target's guard window would be that window's strongest residual pixel, i.e. the floor
+# itself, and never stand LIST_MARGIN_DB over it. So the floor is taken once every local maximum standing
+# PEEL_MARGIN_DB over all the guard pixels outside its own main lobe and side-lobe envelope is set aside
+# (:func:`_floor_beside_ghosts`). 3 dB, not LIST_MARGIN_DB: in noise, the strongest of many pixels stands d dB
+# over the next with probability exp(-(10^(d/10) - 1) ln N) for N independent pixels (the spacing of the
+# two largest exponential powers is exponential, the largest about ln N times the mean): 1 dB over 10^4
+# pixels 0.09, 3 dB 1e-4.
+PEEL_MARGIN_DB = 3.0
 # A ghost is not modelled, so its own side lobes stay in the residual: a maximum under a stronger entry's
 # sinc envelope 1/(pi |c|) per ridge (c its ridge coordinates from that entry, in nulls, on the frame of the
 # entry's nearest target's model) times this allowance is that entry's side lobe, not listed. 2 (6 dB)
@@ -1462,7 +1470,7 @@ def _residual_false_target(
         return float(20 * np.log10(v / ref.peak_amplitude)) if v > 0 and ref.peak_amplitude > 0 else -np.inf
 
     floor = ResidualFloor(
-        floor_db=db(float(mag[guard].max())) if guard.any() else -np.inf,
+        floor_db=db(_floor_beside_ghosts(mag, guard, search, axes, peaks, params, frames)) if guard.any() else -np.inf,
         rms_db=db(float(np.sqrt(np.mean(mag[search] ** 2)))) if search.any() else -np.inf,
         exclusion_cells=params.exclusion_cells,
         misfit_targets=tuple(reports[i].name for i in misfit),
@@ -1510,6 +1518,77 @@ def _local_maxima(x: np.ndarray) -> np.ndarray:
     for shift in itertools.product(range(3), repeat=x.ndim):
         out &= x >= padded[tuple(slice(o, o + n) for o, n in zip(shift, x.shape))]
     return out
+
+
+def _ridge_envelope(offset: np.ndarray, frame: np.ndarray) -> np.ndarray:
+    """Sinc side-lobe envelope, per row of ``offset`` (samples from a peak), of a response whose ridge frame
+    is ``frame`` (rows: the ridge coordinates in nulls per sample): prod over its axes of min(1, 1 / (pi c))."""
+    c = np.abs(offset @ frame.T)
+    return np.prod(np.minimum(1.0, 1.0 / (np.pi * np.maximum(c, 1e-12))), axis=1)
+
+
+def _nearest_frame(
+    k: np.ndarray, axes: Sequence[_Axis], peaks: Sequence[np.ndarray], frames: Sequence[np.ndarray | None]
+) -> np.ndarray:
+    """The ridge frame of the target whose peak is nearest ``k`` (resolution cells), or the image axes'."""
+    cells = np.array([abs(ax.step) / ax.irw for ax in axes])
+    centres = np.array([np.asarray(p, dtype=float) for p in peaks])
+    near = int(np.argmin((((centres - k) * cells) ** 2).sum(axis=1)))
+    frame = frames[near] if near < len(frames) else None
+    return np.diag([1.0 / ax.null for ax in axes]) if frame is None else frame
+
+
+def _floor_beside_ghosts(
+    mag: np.ndarray,
+    guard: np.ndarray,
+    search: np.ndarray,
+    axes: Sequence[_Axis],
+    peaks: Sequence[np.ndarray],
+    params: EvaluateParams,
+    frames: Sequence[np.ndarray | None] = (),
+) -> float:
+    """The residual floor (amplitude): the strongest pixel of ``mag`` in ``guard`` once the ghosts standing
+    there are set aside. The guard's strongest pixel, while it is a local maximum (of the search region), is
+    set aside with its own main lobe (+-exclusion cells) and side-lobe envelope
+    (:data:`SIDE_LOBE_ALLOWANCE`, the nearest target's ridge frame), at most :data:`LIST_CAP` times; the floor
+    is the strongest pixel left after the largest number m of these whose m-th stands :data:`PEEL_MARGIN_DB`
+    over it (so two ghosts of like level are both set aside), none where none does. A maximum on a target's
+    ridge (within a null of it) must also stand that margin over the rest of the ridge in the guard: a model
+    that misses its target's spectral shape leaves a chain of maxima there (paired lobes, a defocused ridge),
+    the floor's very subject, not ghosts."""
+    local = _local_maxima(np.where(search, mag, 0.0))
+    centres = np.array([np.asarray(p, dtype=float) for p in peaks])
+    image_frame = np.diag([1.0 / ax.null for ax in axes])
+    ridge_frames = np.array(
+        [image_frame if f is None else f for f in list(frames) + [None] * (len(peaks) - len(frames))]
+    )
+    own = np.array([ax.cells_to_samples(params.exclusion_cells) for ax in axes])
+    where = np.argwhere(guard)
+    values = mag[guard]
+    alive = np.ones(values.size, dtype=bool)
+    margin = 10 ** (PEEL_MARGIN_DB / 20)
+    tops = [float(values.max())]
+    floor = tops[0]
+    for _ in range(LIST_CAP):
+        j = int(np.argmax(np.where(alive, values, -1.0)))
+        k = where[j]
+        if not local[tuple(k)]:
+            break
+        offset = where - k
+        envelope = _ridge_envelope(offset.astype(float), _nearest_frame(k.astype(float), axes, peaks, frames))
+        own_lobes = np.all(np.abs(offset) <= own, axis=1) | (values <= SIDE_LOBE_ALLOWANCE * envelope * values[j])
+        ridge = np.einsum("mij,mj->mi", ridge_frames, k - centres)  # nulls along each target's ridge axes
+        for m, i in zip(*np.nonzero(np.abs(ridge) < 1.0)):  # on target m's ridge that runs across axis i
+            band = alive & ~own_lobes & (np.abs((where - centres[m]) @ ridge_frames[m, i]) < 1.0)
+            if band.any() and values[j] < margin * float(values[band].max()):
+                return floor  # one of a chain of maxima along that ridge
+        alive &= ~own_lobes
+        if not alive.any():
+            break
+        tops.append(float(values[alive].max()))
+        if tops[-2] >= margin * tops[-1]:
+            floor = tops[-1]
+    return floor
 
 
 def _listed_false_targets(

@@ -311,6 +311,41 @@ def test_every_ghost_over_the_floor_is_listed_in_order():
     assert rep.false_target.level_db < rep.false_targets.threshold_db  # the single figure is still given
 
 
+# Ghosts inside the targets' guard windows (+-20 cells), where the floor is taken: 7-9 cells from A or B off
+# their ridges, and one on A's azimuth ridge (the range ridge leans by SKEW) 12 cells out, where A's own side
+# lobes stand -31.5 dB before the subtraction. (6 cells out, inside A's fit box, the ghost pulls A's fit: the
+# floor rises from -52.4 to -50.5 dB, the ghost still listed.)
+GUARD_GHOSTS = {"off A's ridges": (-15.1, -8.3), "off B's ridges": (16.2, 5.1), "on A's azimuth ridge": (-10.0, -15.44)}
+
+
+@pytest.mark.parametrize(
+    "ghosts",
+    [
+        {"off A's ridges": -45.0},
+        {"off A's ridges": -44.0, "off B's ridges": -45.5},  # two of like level: each must leave the floor
+        {"on A's azimuth ridge": -42.0},
+    ],
+    ids=["one", "two of like level", "on a ridge"],
+)
+def test_ghosts_inside_the_guard_windows_are_listed_and_leave_the_floor(ghosts):
+    """A ghost near a target is the strongest residual pixel of that target's guard window: taken as the floor
+    it could never stand over it and would not be listed. Set aside, the floor stays the clean image's and
+    every ghost is listed at its place and level."""
+    places = [GUARD_GHOSTS[g] for g in ghosts]
+    img, coords = _scene(TRUTH + places, AMPS + [10 ** (v / 20) for v in ghosts.values()])
+    rep = evaluate_image(img, ("azimuth", "range"), coords, RES, TRUTH, names=["A", "B", "C"], params=PARAMS)
+    clean, _ = _scene(TRUTH, AMPS)
+    floor = evaluate_image(clean, ("azimuth", "range"), coords, RES, TRUTH, params=PARAMS).residual.floor_db
+    assert floor <= -50.0
+    assert rep.residual.floor_db == pytest.approx(floor, abs=1.0)
+    entries = rep.false_targets.entries
+    assert len(entries) == len(ghosts)
+    for entry, place, level in zip(entries, places, sorted(ghosts.values(), reverse=True)):
+        assert entry.level_db == pytest.approx(level, abs=1.0)
+        for a, dim in enumerate(("azimuth", "range")):
+            assert abs(entry.position[dim] - place[a]) <= 2 * RES[a]
+
+
 def test_local_maxima_equal_scipys_maximum_filter():
     from scipy.ndimage import maximum_filter
 
