@@ -19,6 +19,9 @@ the lit fraction of each target's -3 dB passage (computed here from the platform
 seconds of evaluate against backproject's.
 
 Usage: python scripts/evaluate_campaign.py --scenes 30 --seed 1 --out results/evaluate-campaign
+       PYTHONPATH=OTHER_CHECKOUT python scripts/evaluate_campaign.py --reevaluate results/evaluate-campaign \
+           --out results/evaluate-campaign-other   (the same images, evaluated by other code)
+       python scripts/evaluate_campaign.py --out AFTER --compare BEFORE   (both runs side by side)
 """
 
 from __future__ import annotations
@@ -352,7 +355,17 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument(
         "--compare", type=Path, default=None, help="a run of older code (its --out): tabulate both, run nothing"
     )
+    ap.add_argument(
+        "--reevaluate",
+        type=Path,
+        default=None,
+        help="a finished run (its --out): evaluate its kept images again (clean.h5, ghosted.h5) with the sarproc "
+        "on this PYTHONPATH, tabulate into --out; nothing simulated or backprojected",
+    )
     args = ap.parse_args(argv)
+    if args.reevaluate is not None:
+        reevaluate(args)
+        return
     if args.compare is not None:
         before = json.loads((args.compare / "results.json").read_text())
         after = json.loads((args.out / "results.json").read_text())
@@ -378,6 +391,27 @@ def main(argv: list[str] | None = None) -> None:
         print(f"scene {i}: {judge(r)[2] or 'ok'}", flush=True)
         (args.out / "results.json").write_text(json.dumps(results, indent=1))  # a stopped run keeps its scenes
         publish(results, args)
+    (args.out / "results.json").write_text(json.dumps(results, indent=1))
+    publish(results, args)
+
+
+def reevaluate(args: argparse.Namespace) -> None:
+    """Every scene of the run in ``args.reevaluate`` with its images evaluated again (evaluate's CPU too)."""
+    results = json.loads((args.reevaluate / "results.json").read_text())
+    args.out.mkdir(parents=True, exist_ok=True)
+    for r in results:
+        if "crash" in r:
+            continue
+        sdir = (args.reevaluate / "work" / f"scene{r['scene']:02d}").resolve()
+        for image, key in (("clean", "clean"), ("ghosted", "ghosted")):
+            if key not in r:
+                continue
+            report = args.out.resolve() / f"scene{r['scene']:02d}_{image}.json"
+            cpu, _ = cpu_run(["evaluate", str(sdir / f"{image}.h5"), "-o", str(report)], sdir)
+            r[key] = json.loads(report.read_text())
+            if key == "clean":
+                r["eval_cpu"] = cpu
+        print(f"scene {r['scene']}: {judge(r)[2] or 'ok'}", flush=True)
     (args.out / "results.json").write_text(json.dumps(results, indent=1))
     publish(results, args)
 

@@ -1470,7 +1470,9 @@ def _residual_false_target(
         return float(20 * np.log10(v / ref.peak_amplitude)) if v > 0 and ref.peak_amplitude > 0 else -np.inf
 
     floor = ResidualFloor(
-        floor_db=db(_floor_beside_ghosts(mag, guard, search, axes, peaks, params, frames)) if guard.any() else -np.inf,
+        floor_db=db(_floor_beside_ghosts(mag, guard, search, axes, peaks, params, frames, misfit))
+        if guard.any()
+        else -np.inf,
         rms_db=db(float(np.sqrt(np.mean(mag[search] ** 2)))) if search.any() else -np.inf,
         exclusion_cells=params.exclusion_cells,
         misfit_targets=tuple(reports[i].name for i in misfit),
@@ -1546,6 +1548,7 @@ def _floor_beside_ghosts(
     peaks: Sequence[np.ndarray],
     params: EvaluateParams,
     frames: Sequence[np.ndarray | None] = (),
+    misfit: Sequence[int] = (),
 ) -> float:
     """The residual floor (amplitude): the strongest pixel of ``mag`` in ``guard`` once the ghosts standing
     there are set aside. The guard's strongest pixel, while it is a local maximum (of the search region), is
@@ -1555,7 +1558,8 @@ def _floor_beside_ghosts(
     over it (so two ghosts of like level are both set aside), none where none does. A maximum on a target's
     ridge (within a null of it) must also stand that margin over the rest of the ridge in the guard: a model
     that misses its target's spectral shape leaves a chain of maxima there (paired lobes, a defocused ridge),
-    the floor's very subject, not ghosts."""
+    the floor's very subject, not ghosts. Nor is a maximum in a ``misfit`` target's guard window set aside:
+    that model is known not to describe its target, and what it leaves reaches beyond its fit box."""
     local = _local_maxima(np.where(search, mag, 0.0))
     centres = np.array([np.asarray(p, dtype=float) for p in peaks])
     image_frame = np.diag([1.0 / ax.null for ax in axes])
@@ -1563,6 +1567,7 @@ def _floor_beside_ghosts(
         [image_frame if f is None else f for f in list(frames) + [None] * (len(peaks) - len(frames))]
     )
     own = np.array([ax.cells_to_samples(params.exclusion_cells) for ax in axes])
+    reach = np.array([ax.cells_to_samples(params.guard_cells) for ax in axes])
     where = np.argwhere(guard)
     values = mag[guard]
     alive = np.ones(values.size, dtype=bool)
@@ -1572,7 +1577,7 @@ def _floor_beside_ghosts(
     for _ in range(LIST_CAP):
         j = int(np.argmax(np.where(alive, values, -1.0)))
         k = where[j]
-        if not local[tuple(k)]:
+        if not local[tuple(k)] or any(np.all(np.abs(k - centres[i]) <= reach) for i in misfit):
             break
         offset = where - k
         envelope = _ridge_envelope(offset.astype(float), _nearest_frame(k.astype(float), axes, peaks, frames))
