@@ -231,13 +231,20 @@ FALSE_TARGET_COLUMNS = ("#", "level (dB)", "position", "image samples", "nearest
 
 
 def false_target_list_lines(listed: FalseTargetList, units: dict) -> list[str]:
-    """Every false target over the residual's floor (the first is the figure above), as Markdown."""
+    """Every false target over the residual's floor (the first is the figure above unless that is a ridge's
+    residue), as Markdown."""
     head = (
         f"\nFalse targets on the residual over its floor + {listed.margin_db:g} dB "
         f"({_fmt(listed.threshold_db, '.2f')} dB), strongest first, at most {listed.cap}:"
     )
+    ridges = (
+        f"\n{listed.on_ridges} more over the threshold along targets' ridges, not listed: links of a chain of like "
+        "maxima there, the residue of that target's model, not ghosts."
+        if listed.on_ridges
+        else ""
+    )
     if not listed.entries:
-        return [f"{head} none."]
+        return [f"{head} none.{ridges}"]
     rows = [
         (
             str(n),
@@ -252,6 +259,8 @@ def false_target_list_lines(listed: FalseTargetList, units: dict) -> list[str]:
     out = [head + "\n", markdown_table(FALSE_TARGET_COLUMNS, rows, "rrlllr")]
     if listed.beyond:
         out.append(f"\n{listed.beyond} more over the threshold, not listed.")
+    if ridges:
+        out.append(ridges)
     return out
 
 

@@ -99,13 +99,17 @@ class FalseTargetList:
     whose pixel stands ``margin_db`` over the residual floor, strongest pixel first (the order the report's
     ``false_target`` is chosen by, so the first entry is that figure), at most ``cap`` of them; a maximum
     within +-exclusion_cells of a stronger one, or under its side-lobe envelope (:data:`SIDE_LOBE_ALLOWANCE`),
-    is that one's response and not listed."""
+    is that one's response and not listed; nor is a link of a chain of like maxima along a target's ridge, the
+    residue of its model (so the single false target, the strongest residual pixel, may be left out)."""
 
     threshold_db: float  # floor_db + margin_db, relative to the strongest target's peak
     margin_db: float
     cap: int
     entries: tuple[ListedFalseTarget, ...]
     beyond: int  # maxima above the threshold left out by the cap
+    # maxima above the threshold left out as links of a chain along a target's ridge (the residue of its
+    # model: none stands PEEL_MARGIN_DB over the others there), not ghosts
+    on_ridges: int = 0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -1540,6 +1544,35 @@ def _nearest_frame(
     return np.diag([1.0 / ax.null for ax in axes]) if frame is None else frame
 
 
+def _ridge_frames(
+    axes: Sequence[_Axis], peaks: Sequence[np.ndarray], frames: Sequence[np.ndarray | None]
+) -> np.ndarray:
+    """(targets, ndim, ndim): each target's ridge frame (the image axes' nulls where it has no model)."""
+    image_frame = np.diag([1.0 / ax.null for ax in axes])
+    return np.array([image_frame if f is None else f for f in list(frames) + [None] * (len(peaks) - len(frames))])
+
+
+def _on_a_chain(
+    k: np.ndarray,
+    value: float,
+    others: np.ndarray,
+    other_values: np.ndarray,
+    own_lobes: np.ndarray,
+    centres: np.ndarray,
+    ridge_frames: np.ndarray,
+) -> bool:
+    """True where ``k`` lies within a null of a target's ridge on which another of ``others`` (outside
+    ``own_lobes``, k's own main lobe and side lobes) stands within :data:`PEEL_MARGIN_DB` of ``value``: a link
+    of the chain of maxima a model leaves along its target's ridge where it misses the spectral shape."""
+    margin = 10 ** (PEEL_MARGIN_DB / 20)
+    ridge = np.einsum("mij,mj->mi", ridge_frames, k - centres)  # nulls along each target's ridge axes
+    for m, i in zip(*np.nonzero(np.abs(ridge) < 1.0)):  # on target m's ridge that runs across axis i
+        band = ~own_lobes & (np.abs((others - centres[m]) @ ridge_frames[m, i]) < 1.0)
+        if band.any() and value < margin * float(other_values[band].max()):
+            return True
+    return False
+
+
 def _floor_beside_ghosts(
     mag: np.ndarray,
     guard: np.ndarray,
@@ -1562,10 +1595,7 @@ def _floor_beside_ghosts(
     that model is known not to describe its target, and what it leaves reaches beyond its fit box."""
     local = _local_maxima(np.where(search, mag, 0.0))
     centres = np.array([np.asarray(p, dtype=float) for p in peaks])
-    image_frame = np.diag([1.0 / ax.null for ax in axes])
-    ridge_frames = np.array(
-        [image_frame if f is None else f for f in list(frames) + [None] * (len(peaks) - len(frames))]
-    )
+    ridge_frames = _ridge_frames(axes, peaks, frames)
     own = np.array([ax.cells_to_samples(params.exclusion_cells) for ax in axes])
     reach = np.array([ax.cells_to_samples(params.guard_cells) for ax in axes])
     where = np.argwhere(guard)
@@ -1582,11 +1612,8 @@ def _floor_beside_ghosts(
         offset = where - k
         envelope = _ridge_envelope(offset.astype(float), _nearest_frame(k.astype(float), axes, peaks, frames))
         own_lobes = np.all(np.abs(offset) <= own, axis=1) | (values <= SIDE_LOBE_ALLOWANCE * envelope * values[j])
-        ridge = np.einsum("mij,mj->mi", ridge_frames, k - centres)  # nulls along each target's ridge axes
-        for m, i in zip(*np.nonzero(np.abs(ridge) < 1.0)):  # on target m's ridge that runs across axis i
-            band = alive & ~own_lobes & (np.abs((where - centres[m]) @ ridge_frames[m, i]) < 1.0)
-            if band.any() and values[j] < margin * float(values[band].max()):
-                return floor  # one of a chain of maxima along that ridge
+        if _on_a_chain(k, float(values[j]), where, values, own_lobes | ~alive, centres, ridge_frames):
+            return floor
         alive &= ~own_lobes
         if not alive.any():
             break
@@ -1609,8 +1636,9 @@ def _listed_false_targets(
     frames: Sequence[np.ndarray | None] = (),
 ) -> FalseTargetList:
     """:class:`FalseTargetList` of the residual: its local maxima (3 samples per axis) in ``search`` whose pixel
-    is over ``floor_db`` + :data:`LIST_MARGIN_DB` and is no stronger one's main or side lobe, each refined like
-    the single false target. ``frames``: per target, its model's ridge frame (None: the image axes' nulls)."""
+    is over ``floor_db`` + :data:`LIST_MARGIN_DB` and is no stronger one's main or side lobe, nor a link of a
+    chain along a target's ridge (:func:`_on_a_chain`; counted in ``on_ridges``), each refined like the single
+    false target. ``frames``: per target, its model's ridge frame (None: the image axes' nulls)."""
     from sarproc.quality.metrics import _Chip  # metrics imports this module
 
     ref = max(r.peak_amplitude for r in reports)
@@ -1628,21 +1656,36 @@ def _listed_false_targets(
         dist = np.sqrt((((centres - x) * cells) ** 2).sum(axis=1))
         return int(np.argmin(dist)), dist
 
+    # the maxima a chain's links are compared with: down to PEEL_MARGIN_DB under the threshold
+    others = np.argwhere(_local_maxima(inside) & (inside > ref * 10 ** ((threshold_db - PEEL_MARGIN_DB) / 20)))
+    other_values = inside[tuple(others.T)]
+    ridge_frames = _ridge_frames(axes, peaks, frames)
     kept: list[np.ndarray] = []
-    kept_frames: list[np.ndarray] = []
+    stronger: list[np.ndarray] = []  # those kept and the chains' links: their lobes are not listed either
+    stronger_frames: list[np.ndarray] = []
+    on_ridges = 0
     for k in found:
-        if kept:
-            offset = k - np.array(kept)
+        if stronger:
+            offset = k - np.array(stronger)
             if np.any(np.all(np.abs(offset) <= own, axis=1)):  # a stronger one's main lobe
                 continue
-            c = np.abs(np.einsum("mij,mj->mi", np.array(kept_frames), offset))
+            c = np.abs(np.einsum("mij,mj->mi", np.array(stronger_frames), offset))
             envelope = np.prod(np.minimum(1.0, 1.0 / (np.pi * np.maximum(c, 1e-12))), axis=1)
-            if np.any(inside[tuple(k)] <= SIDE_LOBE_ALLOWANCE * envelope * inside[tuple(np.array(kept).T)]):
+            if np.any(inside[tuple(k)] <= SIDE_LOBE_ALLOWANCE * envelope * inside[tuple(np.array(stronger).T)]):
                 continue  # under a stronger one's side-lobe envelope
-        kept.append(k)
         near = nearest(k.astype(float))[0]
         frame = frames[near] if near < len(frames) else None
-        kept_frames.append(image_frame if frame is None else frame)
+        frame = image_frame if frame is None else frame
+        offset = others - k
+        own_lobes = np.all(np.abs(offset) <= own, axis=1) | (
+            other_values <= SIDE_LOBE_ALLOWANCE * _ridge_envelope(offset.astype(float), frame) * inside[tuple(k)]
+        )
+        stronger.append(k)
+        stronger_frames.append(frame)
+        if _on_a_chain(k, float(inside[tuple(k)]), others, other_values, own_lobes, centres, ridge_frames):
+            on_ridges += 1
+            continue
+        kept.append(k)
 
     def entry(k: np.ndarray) -> ListedFalseTarget:
         pos, value = _Chip(residual, tuple(k), half).refine_peak(tuple(k))
@@ -1663,4 +1706,5 @@ def _listed_false_targets(
         cap=LIST_CAP,
         entries=tuple(entry(k) for k in kept[:LIST_CAP]),
         beyond=max(len(kept) - LIST_CAP, 0),
+        on_ridges=on_ridges,
     )
