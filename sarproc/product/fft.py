@@ -291,6 +291,9 @@ def ifft2(
     return _c2cn(False, x, s, axes, norm, overwrite_x, workers)
 
 
+ROWS_PER_WORKER = 256  # Ifft2Rows transforms fewer rows than this in one thread
+
+
 class Ifft2Rows:
     """Rows of :func:`ifft2` of a 2-D array, bit for bit, transforming the second axis only on the rows asked for.
 
@@ -314,7 +317,9 @@ class Ifft2Rows:
     def __getitem__(self, rows: Any) -> np.ndarray:
         """ifft2(x)[rows] (``rows``: an integer index array or a slice along axis 0)."""
         sub = self._first[rows] * self._scale  # a new array: the first pass is kept for other rows
-        return ifft(sub, axis=1, norm="forward", overwrite_x=True, workers=self.workers)
+        # a few rows in one thread: starting the pool cost more than the transform (1.6 ms a call for 25 x 33)
+        workers = self.workers if len(sub) >= ROWS_PER_WORKER else None
+        return ifft(sub, axis=1, norm="forward", overwrite_x=True, workers=workers)
 
 
 def next_fast_len(target: int, real: bool = False) -> int:
