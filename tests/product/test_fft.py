@@ -81,6 +81,31 @@ def test_fftn_of_a_box_is_fftn_of_the_zero_filled_array_bit_for_bit(box_shape, s
     np.testing.assert_array_equal(got, sfft.fftn(full, workers=workers))
 
 
+@pytest.mark.parametrize(
+    "shape",
+    [
+        (12000, 33),  # reconstruct's null fit: 4 channels x 3000 pulses, a 33-cell window
+        (9000, 17),  # 3 channels, a window cut at the swath's edge
+        (12004, 31),  # 3001 (prime) pulses: Bluestein
+        (97, 13),  # primes both ways
+        (64, 1),
+    ],
+)
+@pytest.mark.parametrize("dtype", [np.complex64, np.complex128])
+@pytest.mark.parametrize("workers", [None, -1])
+def test_ifft2_rows_are_the_rows_of_ifft2_bit_for_bit(shape, dtype, workers):
+    """Ifft2Rows: ifft2's normalisation is applied in its first (axis 0) pass, each line transformed on its own."""
+    x = (RNG.standard_normal(shape) + 1j * RNG.standard_normal(shape)).astype(dtype)
+    want = scipy.fft.ifft2(x, workers=workers)
+    rows = sfft.Ifft2Rows(x, workers=workers)
+    for pick in (np.arange(-12, 13) % shape[0], np.array([shape[0] - 1, 0, 0]), slice(3, 9)):
+        got = rows[pick]
+        assert got.dtype == want.dtype
+        assert got.tobytes() == want[pick].tobytes()
+    with pytest.raises(ValueError, match="2-D complex"):
+        sfft.Ifft2Rows(x.real)
+
+
 def test_overwrite_x_transforms_in_place_like_scipy():
     a, b = C64.copy(), C64.copy()
     got = sfft.fft(a, overwrite_x=True)

@@ -41,6 +41,7 @@ trades residual ambiguities for noise. The noise gain reported is mean_f sum_jn 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from typing import TYPE_CHECKING
 
@@ -93,6 +94,17 @@ class FilterBank:
     def max_condition(self) -> float:
         return float(np.max(self.condition))
 
+    @functools.cached_property
+    def matrix64(self) -> np.ndarray:
+        """``matrix`` as complex64 (what apply_filter_bank multiplies by), computed once per bank."""
+        return self.matrix.astype(np.complex64)
+
+    @functools.cached_property
+    def synthesis64(self) -> np.ndarray:
+        """(n_az, N, N) H = P^-1 as complex64 (synthesise_channels), computed once per bank: the null fit maps
+        its trial mover back to channels 3-4 times per trial velocity through the same bank."""
+        return np.linalg.inv(self.matrix).astype(np.complex64)
+
 
 def band_frequencies(n_az: int, prf: float, n_bands: int, band_center: float = 0.0) -> np.ndarray:
     """(n_az, n_bands) frequencies f + j PRF of each base bin's aliases inside the processed band, Hz."""
@@ -132,7 +144,7 @@ def apply_filter_bank(spectra: np.ndarray, bank: FilterBank) -> np.ndarray:
     n, n_az = spectra.shape[:2]
     rest = spectra.shape[2:]
     s = np.moveaxis(spectra, 0, 1).reshape(n_az, n, -1)  # (n_az, N, m)
-    z = bank.matrix.astype(np.complex64) @ s  # (n_az, N_band, m)
+    z = bank.matrix64 @ s  # (n_az, N_band, m)
     out = np.empty((n * n_az,) + (s.shape[-1],), np.complex64)
     out[bank.out_index.reshape(-1)] = z.reshape(n_az * n, -1)
     out *= np.float32(n)
@@ -148,7 +160,7 @@ def synthesise_channels(spectrum: np.ndarray, bank: FilterBank) -> np.ndarray:
     n, n_az = bank.out_index.shape[1], bank.out_index.shape[0]
     rest = spectrum.shape[1:]
     z = spectrum.reshape(n * n_az, -1)[bank.out_index.reshape(-1)].reshape(n_az, n, -1) / n
-    s = np.linalg.inv(bank.matrix).astype(np.complex64) @ z.astype(np.complex64)  # (n_az, N ch, m)
+    s = bank.synthesis64 @ z.astype(np.complex64)  # (n_az, N ch, m)
     return np.moveaxis(s, 1, 0).reshape((n, n_az) + rest)
 
 

@@ -128,8 +128,12 @@ def compression(out_f: np.ndarray, ka: np.ndarray) -> np.ndarray:
 
 def decompressed(image: np.ndarray, out_f: np.ndarray, ka: np.ndarray) -> np.ndarray:
     """Inverse of :func:`compressed`: complex detection image (t', range cell) -> spectrum (f_a, f_r)."""
-    comp = unit_phasor(np.mod(0.5 * out_f[:, None] ** 2 / ka[None, :], 1.0))
-    return sfft.fft2(image, workers=-1) * comp
+    return sfft.fft2(image, workers=-1) * decompression(out_f, ka)
+
+
+def decompression(out_f: np.ndarray, ka: np.ndarray) -> np.ndarray:
+    """The phasor exp(+j pi f_a^2 / K_a(f_r)) of :func:`decompressed`, (n f_a, n f_r)."""
+    return unit_phasor(np.mod(0.5 * out_f[:, None] ** 2 / ka[None, :], 1.0))
 
 
 def detection_image(y_fa: np.ndarray, out_f: np.ndarray, ka: np.ndarray) -> np.ndarray:

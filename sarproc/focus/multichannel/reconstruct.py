@@ -402,6 +402,10 @@ class _NullFit:
         g = win.g
         self.win, self.ka, self.ka0, self.proj, self.static_bank = win, ka, ka0, projector, bank
         self.index, self.cell, self.ghost_cells = index, cell, ghost_cells
+        self.proj64 = projector.astype(np.complex64)  # what clutter_null multiplies by, converted once
+        # the compression phasors (detection.compression) by FM rate, the static one and the last trial's: the same
+        # values detection.compressed / decompressed compute, once per rate instead of once per transform
+        self._phasors: dict[tuple[bool, bytes], np.ndarray] = {}
         self.n_out = g.n * len(g.times)
         self.spacing = g.prf / ka0 * g.n * g.prf  # samples between a response and its ambiguities
         self.in_band = np.abs(win.out_f) <= g.half_band
@@ -426,11 +430,31 @@ class _NullFit:
     def _cols(self, cell: int, half: int = NULL_FIT_CELLS) -> np.ndarray:
         return np.arange(max(0, cell - half), min(self.win.x.shape[2], cell + half + 1))
 
+    def _phasor(self, ka: np.ndarray, inverse: bool) -> np.ndarray:
+        """detection.compression(out_f, ka), or with ``inverse`` the phasor detection.decompressed multiplies by,
+        kept for the static rate and the last other one (a trial's image and its 3 isolated movers share it)."""
+        key = (inverse, np.asarray(ka, float).tobytes())
+        if key not in self._phasors:
+            static = (inverse, np.asarray(self.ka, float).tobytes())
+            for k in [k for k in self._phasors if k[0] == inverse and k != static]:
+                del self._phasors[k]
+            out_f = self.win.out_f
+            self._phasors[key] = detection.decompression(out_f, ka) if inverse else detection.compression(out_f, ka)
+        return self._phasors[key]
+
+    def _compressed(self, y_fa: np.ndarray, ka: np.ndarray) -> sfft.Ifft2Rows:
+        """detection.compressed(y_fa, out_f, ka), its rows computed on demand (bit for bit the same values)."""
+        # a copy of the phasor, not the phasor: numpy then multiplies into the temporary in place (temporary elision)
+        # as it does into detection.compression's, which rounds unlike a product into a new array (its SIMD loop's
+        # FMA) by a unit in the last place
+        return sfft.Ifft2Rows(y_fa * self._phasor(ka, inverse=False).copy(), workers=-1)
+
     def _residual(self, x_tf: np.ndarray) -> np.ndarray:
         """The detection image of the window's nulled channels (as _detect_and_focus's), at the compared samples."""
-        res = clutter_null(sfft.fft(x_tf, axis=1, workers=-1), self.win.g, projector=self.proj)[0]
-        img = detection.compressed(channels.apply_filter_bank(res, self.static_bank), self.win.out_f, self.ka)
-        return img[np.ix_(self.rows, self.cols)]
+        res = clutter_null(sfft.fft(x_tf, axis=1, workers=-1), self.win.g, projector=self.proj64)[0]
+        img = self._compressed(channels.apply_filter_bank(res, self.static_bank), self.ka)
+        # C order, as img[np.ix_(rows, cols)] was: the mismatch's float32 sums run in memory order
+        return np.ascontiguousarray(img[self.rows][:, self.cols])
 
     def static_residue(self) -> float:
         """The measured residual's energy over that of the static model's image at the same samples (the window's
@@ -462,11 +486,11 @@ class _NullFit:
         static = velocity.range_acceleration(g.velocity, 0.0, 0.0, g.squint, 1.0)
         return self.ka * (velocity.range_acceleration(g.velocity, v_a, v_r, g.squint, 1.0) / static)
 
-    def image(self, v_r: float, v_a: float) -> np.ndarray:
+    def image(self, v_r: float, v_a: float) -> sfft.Ifft2Rows:
         """The window's in-band reconstruction for the trial velocity, demodulated and compressed (t', cell) at
-        :meth:`rate`."""
+        :meth:`rate` (its rows on demand: :meth:`isolated` reads a few dozen)."""
         spec = self.win.demodulated_spectrum(v_r, v_a) * self.in_band[:, None]
-        return detection.compressed(spec, self.win.out_f, self.rate(v_r, v_a))
+        return self._compressed(spec, self.rate(v_r, v_a))
 
     def isolated(
         self,
@@ -474,7 +498,7 @@ class _NullFit:
         v_a: float,
         shift: int,
         half_width: int | None = None,
-        image: np.ndarray | None = None,
+        image: sfft.Ifft2Rows | None = None,
     ) -> np.ndarray:
         """The window's channels (N, n_az, L) of the mover alone as the trial velocity sees it (class doc).
 
@@ -492,7 +516,7 @@ class _NullFit:
         # removing the trial Doppler offset moves every response by 2 v_los / (lambda K_a)
         centre = self.index + 2 * v_los * g.fc / C / self.ka0 * g.n * g.prf - shift * self.spacing
         near = self._cols(self.cell, self.ghost_cells)
-        sub = np.abs(img[np.ix_(self._rows(centre), near)]) ** 2
+        sub = np.abs(np.ascontiguousarray(img[self._rows(centre)][:, near])) ** 2
         sub[[0, -1], :] = 0.0
         j = np.unravel_index(int(np.argmax(sub)), sub.shape)
         peak = centre - NULL_FIT_HALF_WIDTH + int(j[0])
@@ -500,9 +524,17 @@ class _NullFit:
         rows = self._rows(peak, half_width)
         self.last_cell = int(near[j[1]])
         cols = self._cols(self.last_cell)
-        own = np.zeros_like(img)
-        own[np.ix_(rows, cols)] = img[np.ix_(rows, cols)]
-        spec = detection.decompressed(own, win.out_f, self.rate(v_r, v_a)) * self.in_band[:, None]
+        # the image kept at (rows, cols), zero elsewhere, and detection.decompressed of it: fft2 transforms only
+        # the kept columns along azimuth (a zero line stays zero: sfft.fftn_of_box, bit for bit)
+        own = np.zeros((self.n_out, len(cols)), np.complex64)
+        own[rows] = img[rows][:, cols]
+        rate = self.rate(v_r, v_a)
+        # one expression of temporaries, as detection.decompressed(...) * in_band was: the same in-place products
+        spec = (
+            sfft.fftn_of_box(own, (0, int(cols[0])), (self.n_out, len(win.f_r)), workers=-1)
+            * self._phasor(rate, inverse=True).copy()
+            * self.in_band[:, None]
+        )
         x_dem = sfft.ifft(channels.synthesise_channels(spec, win.bank(v_a)), axis=1, workers=-1)
         return x_dem * deramp.doppler_shift_phasor(g.times, win.f_r, v_los, g.fc, sign=+1)[None]
 
