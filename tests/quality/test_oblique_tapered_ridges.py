@@ -84,27 +84,18 @@ def test_a_squinted_hamming_stripmap_meets_its_own_range_theory():
     """simulate -> backproject -> evaluate of one target (the campaign's stripmap, 25 deg squint, sinc beam,
     Hamming in range and azimuth): before, range IRW/theory 0.975, PSLR -44.65 and ISLR -39.74 dB against its
     own -42.72 and -36.86."""
-    from sarproc.focus.backprojection import BackprojectParams, backproject
+    import copy
+
+    from sarproc.focus.backprojection import backproject
     from sarproc.quality.metrics import evaluate_product
     from sarproc.simulation.scene import scene_from_mapping
     from sarproc.simulation.simulate import simulate
+    from tests.quality.test_tapered_ridges import PARAMS as params, SCENE  # the campaign's stripmap, Hamming
 
-    scene = {
-        "radar": {
-            "carrier_frequency": "10 GHz",
-            "bandwidth": "150 MHz",
-            "pulse_duration": "2 us",
-            "range_sampling_rate": "180 MHz",
-            "prf": "1500 Hz",
-        },
-        "platform": {"velocity": "100 m/s", "altitude": "500 m"},
-        "geometry": {"reference_range": "2 km", "squint": f"{SQUINT_DEG} deg"},
-        "acquisition": {"mode": "stripmap", "aperture_time": "1.2 s"},
-        "effects": {"antenna": {"pattern": "sinc", "azimuth_beamwidth": "2 deg"}},
-        "targets": {"frame": "zero_doppler", "points": [{"name": "T1"}]},
-        "simulation": {"waveform": "band_limited"},
-    }
-    params = BackprojectParams(frame="zero_doppler", margin_cells=28, range_window="hamming", azimuth_window="hamming")
+    scene = copy.deepcopy(SCENE)
+    scene["geometry"]["squint"] = f"{SQUINT_DEG} deg"
+    scene["effects"]["antenna"]["pattern"] = "sinc"
+    scene["targets"]["points"] = [{"name": "T1"}]
     report = evaluate_product(backproject(simulate(scene_from_mapping(scene)), params), EvaluateParams())
     rg = report.targets[0].axis("range")
     assert abs(rg.angle_deg - SQUINT_DEG) < 0.2, rg
