@@ -742,8 +742,6 @@ def principal_support(
     found, curved = _edge_normals(cand, peaks, u, g, ndim, arcs)
     if gram is not None and len(found) == 2:
         found[1] = _perpendicular_second(found[0], found[1], nulls, gram)
-        if not any(curved) and _obliqueness_deg(found[0], found[1]) > OBLIQUE_EDGE_DEG:
-            found = _edges_in_space(chip, centers, nulls, window_nulls, found[0], gram)
     if len(found) < ndim or abs(np.linalg.det(np.array(found))) < 0.2:
         return Support(eye, f_c)
     best = _assignment(np.array(found))
@@ -759,77 +757,6 @@ def principal_support(
 # second peak is then a mix of the taper's gradients and the first edge's (ridges 35-65 deg off in
 # scripts/evaluate_campaign.py, IRW/theory 1.13, residual floors -33 dB). Edges found agree within a degree or two.
 PERPENDICULAR_EDGE_DEG = 10.0
-
-
-# A support whose edges are oblique in null-normalised frequency (a squinted aperture in a zero-Doppler or ground
-# frame) and tapered (Hamming windows, a Gaussian or sinc beam) has no sharp edge for the gradients to be normal
-# to: each gradient is a mix of the two tapers' slopes, and a cone about one normal in a frame where the other is
-# oblique takes more of them on one side. The cluster mean then leans: a 25 deg squinted stripmap under Hamming
-# in range and azimuth had its range ridge cut at 27.3 deg, which reads IRW/theory 0.975 and range PSLR and ISLR
-# 1.9 and 2.9 dB under the target's own theory (docs/product.md, "evaluate on scenes nobody tuned"). Beyond this
-# obliqueness (deg from perpendicular) the first edge is refined where the two edge pairs are perpendicular, in
-# space (:func:`_edges_in_space`); below it (a support along the image axes) the cone is symmetric as it is.
-OBLIQUE_EDGE_DEG = 2.0
-SPACE_PASSES = 3  # window along the ridges, refine, again: the normal settles to 0.01 deg in three (0.3 deg in one)
-SPACE_ITERATIONS = 8  # cluster-mean iterations per pass
-
-
-def _obliqueness_deg(first: np.ndarray, second: np.ndarray) -> float:
-    """How far two edge normals (null-normalised frequency) are from perpendicular there, deg."""
-    c = abs(float(first @ second)) / float(np.linalg.norm(first) * np.linalg.norm(second))
-    return math.degrees(math.asin(min(1.0, c)))
-
-
-def _edges_in_space(
-    chip: np.ndarray,
-    centers: Sequence[float],
-    nulls: np.ndarray,
-    window_nulls: float,
-    first: np.ndarray,
-    gram: np.ndarray,
-) -> list[np.ndarray]:
-    """The two edge normals (null-normalised frequency) of a 2D SAR support whose edges are oblique there: the first
-    refined where the edge pairs are perpendicular (in space: the gradients as lengths, ``gram``), on the spectrum
-    of the chip windowed along the ridges themselves, and the second perpendicular to it in space.
-
-    A support that is a product of two tapers along its own (perpendicular) edge normals, W_r(p) W_a(q), has
-    gradients W_r'(p) W_a(q) n_r + W_r(p) W_a'(q) n_a; with n_r and n_a perpendicular, a cone about n_r takes
-    +q and -q alike and the sign-aligned sum of the second term cancels. Two things break that mirror in the
-    image's own frame: the cone, where the normals are oblique, and the chip's Hann window along the image axes,
-    whose transform (the spectrum is convolved with it) is not a product along p and q. So the chip is windowed
-    by Hann tapers along the ridges (the same +-``window_nulls`` nulls, fitted inside the chip), and the pass is
-    repeated from the refined normal. The second normal is taken perpendicular in space rather than refined: a
-    peaked azimuth taper (a sinc beam under Hamming over a squinted stripmap's track) bends its own cluster mean
-    by 2-4 deg, and its side lobes hardly depend on the direction (2.3 deg moves that azimuth ISLR by 0.1 dB)."""
-    space = np.linalg.cholesky(gram).T * nulls  # a null-normalised gradient -> its components along orthonormal axes
-    grid = np.stack(np.meshgrid(*[np.arange(n) - (n - 1) / 2 for n in chip.shape], indexing="ij"), axis=-1)
-    nfft = [2 * n for n in chip.shape]
-    shift = [n // 2 - int(round(c * n)) for c, n in zip(centers, nfft)]
-    spacing = [nu / n for nu, n in zip(nulls, nfft)]
-    found = [first, _perpendicular_in_space(first, nulls, gram)]
-    for _ in range(SPACE_PASSES):
-        V = _ridges(np.array(found), nulls) * nulls[:, None]  # row a: one null of axis a along its ridge, samples
-        along = grid @ np.linalg.inv(V)  # each sample's coordinates along the ridges, nulls
-        fit = min((n - 1) / 2 / float(np.abs(V[:, a]).sum()) for a, n in enumerate(chip.shape))
-        half = min(window_nulls, fit)
-        w = np.prod(np.where(np.abs(along) < half, np.cos(np.pi * along / (2 * half)) ** 2, 0.0), axis=-1)
-        mag = np.roll(np.abs(sfft.fftn_of_box(chip * w, [0, 0], nfft, workers=-1)), shift, axis=(0, 1))
-        g, _, _ = _strong_gradients(mag, spacing, False)
-        gs = g @ space.T
-        us = gs / np.linalg.norm(gs, axis=1, keepdims=True)
-        fs = space @ found[0]
-        fs = fs / np.linalg.norm(fs)
-        for _ in range(SPACE_ITERATIONS):
-            c = us @ fs
-            sel = np.abs(c) > math.cos(math.radians(8.0))
-            if not sel.any():
-                break
-            fs = (np.sign(c[sel])[:, None] * gs[sel]).sum(axis=0)
-            fs = fs / np.linalg.norm(fs)
-        f = np.linalg.solve(space, fs)
-        f = f / np.linalg.norm(f)
-        found = [f, _perpendicular_in_space(f, nulls, gram)]
-    return found
 
 
 def _sample_gram(axes: Sequence[_Axis], metric: np.ndarray | None) -> np.ndarray | None:
@@ -850,13 +777,7 @@ def _perpendicular_second(first: np.ndarray, second: np.ndarray, nulls: np.ndarr
     cos = abs(float(perp @ gram @ r2)) / math.sqrt(float(perp @ gram @ perp) * float(r2 @ gram @ r2))
     if cos >= math.cos(math.radians(PERPENDICULAR_EDGE_DEG)):
         return second
-    return _perpendicular_in_space(first, nulls, gram)
-
-
-def _perpendicular_in_space(first: np.ndarray, nulls: np.ndarray, gram: np.ndarray) -> np.ndarray:
-    """The edge normal (null-normalised frequency, unit) whose ridge is perpendicular in space to ``first``'s."""
-    r1 = first * nulls
-    n = np.array([-(gram @ r1)[1], (gram @ r1)[0]]) / nulls
+    n = perp / nulls
     return n / np.linalg.norm(n)
 
 
