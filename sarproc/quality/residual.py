@@ -1473,8 +1473,9 @@ def _residual_false_target(
     def db(v: float) -> float:
         return float(20 * np.log10(v / ref.peak_amplitude)) if v > 0 and ref.peak_amplitude > 0 else -np.inf
 
+    maxima = _local_maxima(np.where(search, mag, 0.0))  # of the search region, for the floor and the list
     floor = ResidualFloor(
-        floor_db=db(_floor_beside_ghosts(mag, guard, search, axes, peaks, params, frames, misfit))
+        floor_db=db(_floor_beside_ghosts(mag, guard, maxima, axes, peaks, params, frames, misfit))
         if guard.any()
         else -np.inf,
         rms_db=db(float(np.sqrt(np.mean(mag[search] ** 2)))) if search.any() else -np.inf,
@@ -1487,7 +1488,7 @@ def _residual_false_target(
         ),
     )
     listed = (
-        _listed_false_targets(residual, mag, search, axes, peaks, reports, half, params, floor.floor_db, frames)
+        _listed_false_targets(residual, mag, search, maxima, axes, peaks, reports, half, params, floor.floor_db, frames)
         if math.isfinite(floor.floor_db) and ref.peak_amplitude > 0
         else None
     )
@@ -1533,15 +1534,13 @@ def _ridge_envelope(offset: np.ndarray, frame: np.ndarray) -> np.ndarray:
     return np.prod(np.minimum(1.0, 1.0 / (np.pi * np.maximum(c, 1e-12))), axis=1)
 
 
-def _nearest_frame(
-    k: np.ndarray, axes: Sequence[_Axis], peaks: Sequence[np.ndarray], frames: Sequence[np.ndarray | None]
-) -> np.ndarray:
-    """The ridge frame of the target whose peak is nearest ``k`` (resolution cells), or the image axes'."""
+def _nearest_target(x: np.ndarray, axes: Sequence[_Axis], peaks: Sequence[np.ndarray]) -> tuple[int, np.ndarray]:
+    """(index of the target whose peak is nearest ``x``, every target's distance), in resolution cells of the
+    image's theory (root sum of squares over the axes)."""
     cells = np.array([abs(ax.step) / ax.irw for ax in axes])
     centres = np.array([np.asarray(p, dtype=float) for p in peaks])
-    near = int(np.argmin((((centres - k) * cells) ** 2).sum(axis=1)))
-    frame = frames[near] if near < len(frames) else None
-    return np.diag([1.0 / ax.null for ax in axes]) if frame is None else frame
+    dist = np.sqrt((((centres - x) * cells) ** 2).sum(axis=1))
+    return int(np.argmin(dist)), dist
 
 
 def _ridge_frames(
@@ -1576,7 +1575,7 @@ def _on_a_chain(
 def _floor_beside_ghosts(
     mag: np.ndarray,
     guard: np.ndarray,
-    search: np.ndarray,
+    maxima: np.ndarray,
     axes: Sequence[_Axis],
     peaks: Sequence[np.ndarray],
     params: EvaluateParams,
@@ -1584,7 +1583,8 @@ def _floor_beside_ghosts(
     misfit: Sequence[int] = (),
 ) -> float:
     """The residual floor (amplitude): the strongest pixel of ``mag`` in ``guard`` once the ghosts standing
-    there are set aside. The guard's strongest pixel, while it is a local maximum (of the search region), is
+    there are set aside. The guard's strongest pixel, while it is one of ``maxima`` (the local maxima of the
+    search region), is
     set aside with its own main lobe (+-exclusion cells) and side-lobe envelope
     (:data:`SIDE_LOBE_ALLOWANCE`, the nearest target's ridge frame), at most :data:`LIST_CAP` times; the floor
     is the strongest pixel left after the largest number m of these whose m-th stands :data:`PEEL_MARGIN_DB`
@@ -1593,7 +1593,6 @@ def _floor_beside_ghosts(
     that misses its target's spectral shape leaves a chain of maxima there (paired lobes, a defocused ridge),
     the floor's very subject, not ghosts. Nor is a maximum in a ``misfit`` target's guard window set aside:
     that model is known not to describe its target, and what it leaves reaches beyond its fit box."""
-    local = _local_maxima(np.where(search, mag, 0.0))
     centres = np.array([np.asarray(p, dtype=float) for p in peaks])
     ridge_frames = _ridge_frames(axes, peaks, frames)
     own = np.array([ax.cells_to_samples(params.exclusion_cells) for ax in axes])
@@ -1607,10 +1606,11 @@ def _floor_beside_ghosts(
     for _ in range(LIST_CAP):
         j = int(np.argmax(np.where(alive, values, -1.0)))
         k = where[j]
-        if not local[tuple(k)] or any(np.all(np.abs(k - centres[i]) <= reach) for i in misfit):
+        if not maxima[tuple(k)] or any(np.all(np.abs(k - centres[i]) <= reach) for i in misfit):
             break
         offset = where - k
-        envelope = _ridge_envelope(offset.astype(float), _nearest_frame(k.astype(float), axes, peaks, frames))
+        frame = ridge_frames[_nearest_target(k.astype(float), axes, peaks)[0]]
+        envelope = _ridge_envelope(offset.astype(float), frame)
         own_lobes = np.all(np.abs(offset) <= own, axis=1) | (values <= SIDE_LOBE_ALLOWANCE * envelope * values[j])
         if _on_a_chain(k, float(values[j]), where, values, own_lobes | ~alive, centres, ridge_frames):
             return floor
@@ -1627,6 +1627,7 @@ def _listed_false_targets(
     residual: np.ndarray,
     mag: np.ndarray,
     search: np.ndarray,
+    maxima: np.ndarray,
     axes: Sequence[_Axis],
     peaks: Sequence[np.ndarray],
     reports: Sequence[TargetReport],
@@ -1638,26 +1639,21 @@ def _listed_false_targets(
     """:class:`FalseTargetList` of the residual: its local maxima (3 samples per axis) in ``search`` whose pixel
     is over ``floor_db`` + :data:`LIST_MARGIN_DB` and is no stronger one's main or side lobe, nor a link of a
     chain along a target's ridge (:func:`_on_a_chain`; counted in ``on_ridges``), each refined like the single
-    false target. ``frames``: per target, its model's ridge frame (None: the image axes' nulls)."""
+    false target. ``maxima``: the local maxima of the search region. ``frames``: per target, its model's ridge
+    frame (None: the image axes' nulls)."""
     from sarproc.quality.metrics import _Chip  # metrics imports this module
 
     ref = max(r.peak_amplitude for r in reports)
     threshold_db = floor_db + LIST_MARGIN_DB
     inside = np.where(search, mag, 0.0)  # zero outside, so an excluded main lobe hides no maximum beside it
-    local = _local_maxima(inside) & (inside > ref * 10 ** (threshold_db / 20))
+    local = maxima & (inside > ref * 10 ** (threshold_db / 20))
     found = np.argwhere(local)
     found = found[np.argsort(-inside[local], kind="stable")]  # strongest first; ties in the argmax's order
     own = np.array([ax.cells_to_samples(params.exclusion_cells) for ax in axes])
-    cells = np.array([abs(ax.step) / ax.irw for ax in axes])
     centres = np.array([np.asarray(p, dtype=float) for p in peaks])
-    image_frame = np.diag([1.0 / ax.null for ax in axes])
-
-    def nearest(x: np.ndarray) -> tuple[int, np.ndarray]:
-        dist = np.sqrt((((centres - x) * cells) ** 2).sum(axis=1))
-        return int(np.argmin(dist)), dist
 
     # the maxima a chain's links are compared with: down to PEEL_MARGIN_DB under the threshold
-    others = np.argwhere(_local_maxima(inside) & (inside > ref * 10 ** ((threshold_db - PEEL_MARGIN_DB) / 20)))
+    others = np.argwhere(maxima & (inside > ref * 10 ** ((threshold_db - PEEL_MARGIN_DB) / 20)))
     other_values = inside[tuple(others.T)]
     ridge_frames = _ridge_frames(axes, peaks, frames)
     kept: list[np.ndarray] = []
@@ -1673,9 +1669,7 @@ def _listed_false_targets(
             envelope = np.prod(np.minimum(1.0, 1.0 / (np.pi * np.maximum(c, 1e-12))), axis=1)
             if np.any(inside[tuple(k)] <= SIDE_LOBE_ALLOWANCE * envelope * inside[tuple(np.array(stronger).T)]):
                 continue  # under a stronger one's side-lobe envelope
-        near = nearest(k.astype(float))[0]
-        frame = frames[near] if near < len(frames) else None
-        frame = image_frame if frame is None else frame
+        frame = ridge_frames[_nearest_target(k.astype(float), axes, peaks)[0]]
         offset = others - k
         own_lobes = np.all(np.abs(offset) <= own, axis=1) | (
             other_values <= SIDE_LOBE_ALLOWANCE * _ridge_envelope(offset.astype(float), frame) * inside[tuple(k)]
@@ -1690,7 +1684,7 @@ def _listed_false_targets(
     def entry(k: np.ndarray) -> ListedFalseTarget:
         pos, value = _Chip(residual, tuple(k), half).refine_peak(tuple(k))
         pixel = float(mag[tuple(k)])
-        near, dist = nearest(pos)
+        near, dist = _nearest_target(pos, axes, peaks)
         return ListedFalseTarget(
             level_db=float(20 * np.log10(max(abs(value), pixel) / ref)),
             pixel_level_db=float(20 * np.log10(pixel / ref)),
