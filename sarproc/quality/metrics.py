@@ -1439,14 +1439,13 @@ WEIGHTED_PSLR_DB = -30.0  # a theoretical PSLR below this: a weighting window (H
 # A theory deeper than two steps (a Gaussian beam under Hamming: -48 to -55 dB) takes this many orders, not
 # three: three left -46.0..-48.3 dB residue on the campaign's fully lit Gaussian-x-Hamming targets (scenes 1, 4
 # and 15 of scripts/evaluate_campaign.py --seed 1, docs/product.md), four bring 1 and 4 under -50 dB.
-DEEP_TAPER_ORDERS = 4
-AUTO_ORDERS_MAX = 4  # the deepest order the theory picks
+DEEP_TAPER_ORDERS = 4  # also the deepest order the theory picks
 
 
 def theory_residual_orders(reports: Sequence[TargetReport], requested: int) -> int:
     """The response models' spectral orders for an image whose targets' theories are ``reports``: one more
     order per (SINC_PSLR_DB - WEIGHTED_PSLR_DB) dB that the deepest theoretical PSLR lies under the
-    unweighted sinc's, up to AUTO_ORDERS_MAX, never under ``requested``. A smoother weighting (a window, the
+    unweighted sinc's, never under ``requested``. A smoother weighting (a window, the
     antenna pattern over the aperture a target sees) needs more of the half-null-shifted sincs to follow:
     Hamming (-42.7 dB) takes 2; anything deeper than two steps (a Gaussian beam under Hamming, -48 to -55 dB)
     :data:`DEEP_TAPER_ORDERS`, as three do not follow the bell on the cosine."""
@@ -1455,9 +1454,7 @@ def theory_residual_orders(reports: Sequence[TargetReport], requested: int) -> i
         return requested
     step = SINC_PSLR_DB - WEIGHTED_PSLR_DB
     auto = 1 + math.floor(max(SINC_PSLR_DB - min(theory), 0.0) / step)
-    if auto > 2:
-        auto = max(auto, DEEP_TAPER_ORDERS)
-    return max(requested, min(auto, AUTO_ORDERS_MAX))
+    return max(requested, DEEP_TAPER_ORDERS if auto > 2 else auto)
 
 
 # The residual is not taken on 3D cubes (measured on paper 004's du2010 cube: its response models leave a
