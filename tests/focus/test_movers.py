@@ -526,6 +526,20 @@ def test_a_mover_below_the_clutter_nulls_mdv_is_reported_missed_with_its_reason(
     assert [w for w in warnings if w.startswith("reconstruct: truth mover")] == [f"reconstruct: truth mover {reason}"]
 
 
+@pytest.mark.parametrize(("mdv", "said"), [(math.inf, "undetectable at any speed with this null"), (30.0, "below")])
+def test_a_mover_too_weak_for_any_speed_is_said_to_be_so(mdv, said):
+    """A mover whose conventional SNR no speed's null gain lifts over the CFAR threshold has no minimum detectable
+    velocity: its reason says so instead of "below this null's minimum detectable velocity inf m/s" (campaign scene
+    010's M2: conventional SNR 5.7 dB against a 52.2 dB threshold)."""
+    from sarproc.focus.multichannel.reconstruct import _miss_reason, _NullProbe, _TruthProbe
+
+    null = _NullProbe(conventional_snr_db=5.7, null_depth_db=-40.0, null_gain_db=-11.5, mdv_at=lambda threshold: mdv)
+    probe = _TruthProbe(cell=10.0, index=100.0, snr_db=3.0, peak_index=100, peak_cell=10, v_los=20.04, null=null)
+    reason = _miss_reason("M2", probe, [], 500.0, ReconstructParams(), {"threshold_db": 52.2})
+    assert reason.startswith("M2: the clutter null keeps -11.5 dB of its peak (line-of-sight speed 20.04 m/s, " + said)
+    assert "inf" not in reason and "for its conventional SNR 5.7 dB and the CFAR threshold 52.2 dB" in reason
+
+
 @pytest.mark.parametrize("shape", [(7, 9), (1, 5), (20, 3), (4, 1), (2, 2)])
 def test_maximum_filter_equals_scipy_ndimage(shape):
     from scipy import ndimage

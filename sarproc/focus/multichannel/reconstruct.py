@@ -2311,7 +2311,10 @@ def _miss_reason(
         v, mdv = abs(probe.v_los), null.mdv_at(cfar["threshold_db"])
         # the gain model is good to about 1.5 dB (docs/multichannel.md), 20 % in v_los (gain ~ v_los^2)
         where = (
-            f"below this null's minimum detectable velocity {mdv:.2f} m/s"
+            # no speed's peak gain lifts that SNR over the threshold (campaign scene 010's M2: 5.7 dB against 52.2)
+            "undetectable at any speed with this null"
+            if not math.isfinite(mdv)
+            else f"below this null's minimum detectable velocity {mdv:.2f} m/s"
             if v < mdv
             else f"within the model's 20 % of this null's minimum detectable velocity {mdv:.2f} m/s"
             if v < 1.2 * mdv
