@@ -1598,6 +1598,11 @@ def _detect_and_focus(
     return tally.movers
 
 
+def _on_leakage(det: detection.Detection, clean: detection.Detection) -> bool:
+    """Whether ``det`` stands on a background LEAKAGE_BACKGROUND_DB over ``clean``'s (its ambiguity's)."""
+    return clean.background * 10 ** (LEAKAGE_BACKGROUND_DB / 10) < det.background
+
+
 def _examination_order(dets: list[detection.Detection], scan: _Scan) -> list[detection.Detection]:
     """The order detections are examined in: strongest (power) first, but on the clutter null's residual each one's
     ambiguity family (the detections k != 0 times PRF / K_a from it in apparent time, within the ghost walk in
@@ -1630,11 +1635,7 @@ def _examination_order(dets: list[detection.Detection], scan: _Scan) -> list[det
     for d in dets:
         if id(d) in placed:
             continue
-        cleaner = (
-            e
-            for e in dets
-            if id(e) not in placed and family(d, e) and e.background * 10 ** (LEAKAGE_BACKGROUND_DB / 10) < d.background
-        )
+        cleaner = (e for e in dets if id(e) not in placed and family(d, e) and _on_leakage(d, e))
         best = max(cleaner, key=lambda e: e.snr_db, default=d)
         for e in (best, d) if best.snr_db > d.snr_db else (d,):
             order.append(e)
@@ -1725,7 +1726,7 @@ def _merge(det: detection.Detection, k: int, scan: _Scan, tally: _Tally) -> None
     d_samples = abs((det.time - peak.time) - n_amb * sp.ambiguity) * g.n * g.prf
     apart_azimuth = d_samples > 2 * max(peak.width, det.width) + 2
     # the mover's own response on the static leakage, examined from its ambiguity instead (_examination_order)
-    on_leakage = n_amb != 0 and peak.background * 10 ** (LEAKAGE_BACKGROUND_DB / 10) < det.background
+    on_leakage = n_amb != 0 and _on_leakage(det, peak)
     if det.power > 0.25 * peak.power and (abs(det.cell - peak.cell) > spread or apart_azimuth) and not on_leakage:
         if n_amb == 0:
             where = f"{1e3 * (det.time - peak.time):+.1f} ms from it in apparent time"
