@@ -538,11 +538,21 @@ def _first_step(scene: TwoStepScene, tiles: Sequence[Tile], interp: Interpolatio
     return FirstStep(g1, img1, kg1, rect1)
 
 
+# A sub-image's k grid samples its rectangle for a period of SUBIMAGE_PERIOD x subimage_oversampling x its
+# window: the second PFA's image repeats with that period along the sub-image's own (turned) axes, so a target
+# comes back one period away, off its own line by the period times the turn, and the side-lobe ridges of that
+# copy cross the core beside the target's own. At 1 x 1.5 windows (105 m on nie2016_row3) they left -41.7 dB
+# beside W's azimuth ridge and -46.2 dB beside C alone; at 2 x they are 6 dB lower and C alone floors at -57.9 dB
+# (docs/product.md, "The two-step's edge residue").
+SUBIMAGE_PERIOD = 2.0
+
+
 def _second_step_layout(
     scene: TwoStepScene, tiles: Sequence[Tile], supports: Sequence[TileSupport], first: FirstStep, oversampling: float
 ) -> SecondStepLayout:
-    """Windows of the step-1 image, and one k grid spacing for every sub-image: sampled for the largest
-    window, FFT-exact on the output pixels (each sub-image's own support)."""
+    """Windows of the step-1 image, and one k grid spacing for every sub-image: sampled for
+    :data:`SUBIMAGE_PERIOD` x ``oversampling`` x the largest window, FFT-exact on the output pixels (each
+    sub-image's own support)."""
     g1, grid = first.grid, scene.grid
     slices = [window_slices(g1, t.window) for t in tiles]
     wa = max((s[0].stop - s[0].start) * g1.da for s in slices)
@@ -551,7 +561,13 @@ def _second_step_layout(
     n_cr = max(t.cols.stop - t.cols.start for t in tiles)
     kgrids = [
         make_kgrid(
-            r, 2 * math.pi / (oversampling * wa), 2 * math.pi / (oversampling * wr), grid.da, grid.dr, n_ca, n_cr
+            r,
+            2 * math.pi / (SUBIMAGE_PERIOD * oversampling * wa),
+            2 * math.pi / (SUBIMAGE_PERIOD * oversampling * wr),
+            grid.da,
+            grid.dr,
+            n_ca,
+            n_cr,
         )[0]
         for r in (sup.rect for sup in supports)
     ]
