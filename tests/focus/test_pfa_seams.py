@@ -63,10 +63,10 @@ def test_a_target_on_a_seam_gets_the_same_response_from_both_subimages():
 
 def test_a_lone_target_on_a_seam_leaves_no_copy_of_itself_one_sub_image_period_away():
     """C alone on the row's seam, on the row's grid. Each sub-image's second PFA repeats with the period its k
-    grid samples, along its own turned axes: a copy of C one period away, off C's lines by the period times the
-    turn, whose side-lobe ridges cross the core beside C's own. Sampled for 1.5 windows (105 m) they left
-    -46.2 dB beside C's range ridge; for 2 x 1.5 windows (chain.SUBIMAGE_PERIOD) C floors at -57.9 dB, as far
-    under plain PFA's limit as the row's other lone targets (W alone: -51.5 -> -61.1 dB, plain PFA -61.1)."""
+    grid samples, along its own axes; C's ridges run turned from them by theta_C - theta_s (own_support), so C's
+    copy one period away has ridges beside C's own, off them by period x sin(theta_C - theta_s). Sampled for
+    1.5 windows they left -46.2 dB beside C's range ridge; for 2 x 1.5 windows (chain.SUBIMAGE_PERIOD) C floors
+    at -57.9 dB (W alone: -51.5 -> -61.1 dB, plain PFA's -61.1)."""
     raw = simulate(scene_from_mapping(merge(ROW3, {"targets": {"points": [{"name": "C"}]}})))
     image = pfa2(raw, Pfa2Params(method="two_step", azimuth_extent=107.0, azimuth_center=0.0))
     assert image.attrs["subimages"] == 2

@@ -539,10 +539,11 @@ def _first_step(scene: TwoStepScene, tiles: Sequence[Tile], interp: Interpolatio
 
 
 # A sub-image's k grid samples its rectangle for a period of SUBIMAGE_PERIOD x subimage_oversampling x its
-# window: the second PFA's image repeats with that period along the sub-image's own (turned) axes, so a target
-# comes back one period away, off its own line by the period times the turn, and the side-lobe ridges of that
-# copy cross the core beside the target's own. At 1 x 1.5 windows (105 m on nie2016_row3) they left -41.7 dB
-# beside W's azimuth ridge and -46.2 dB beside C alone; at 2 x they are 6 dB lower and C alone floors at -57.9 dB
+# window: the second PFA's image repeats with that period along the sub-image's axes. A point p's ridges run
+# turned from those axes by theta_p - theta_s (two_step.own_support), so its copy one period away has ridges
+# parallel to p's own, off them by period x sin(theta_p - theta_s), across the core. At 1 x 1.5 windows
+# (105.5 m on nie2016_row3) W's copy ridge ran 0.96 m (4 columns) beside W's own azimuth ridge, -41.7 dB at its
+# guard edge, and C alone floored at -46.2 dB; at 2 x C alone floors at -57.9 dB, W alone at plain PFA's -61.1
 # (docs/product.md, "The two-step's edge residue").
 SUBIMAGE_PERIOD = 2.0
 
