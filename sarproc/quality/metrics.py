@@ -772,8 +772,8 @@ PERPENDICULAR_EDGE_DEG = 10.0
 # this obliqueness (deg from perpendicular) the ridge is refined in space (:func:`_ridges_in_space`).
 OBLIQUE_EDGE_DEG = 2.0
 RIDGE_SEARCH_DEG = 4.0  # the refined ridge lies within this of the spectral one (its bias: 2.3 and 1.3 deg above)
-RIDGE_SCAN_DEG = 0.25  # first a scan at this step, then golden sections about its best to RIDGE_TOL_DEG
-RIDGE_TOL_DEG = 0.002
+RIDGE_SCAN_DEG = 1.0  # first a scan at this step, then golden sections about its best to RIDGE_TOL_DEG
+RIDGE_TOL_DEG = 0.01
 GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
 
 
