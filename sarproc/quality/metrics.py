@@ -774,6 +774,10 @@ OBLIQUE_EDGE_DEG = 2.0
 RIDGE_SEARCH_DEG = 4.0  # the refined ridge lies within this of the spectral one (its bias: 2.3 and 1.3 deg above)
 RIDGE_SCAN_DEG = 1.0  # first a scan at this step, then golden sections about its best to RIDGE_TOL_DEG
 RIDGE_TOL_DEG = 0.01
+# The scan's fall off its maximum, on each side, must be at least this fraction of a straight ridge's
+# (:func:`_fall_against_a_ridge`): 0.86-1.58 on the tapered, skewed and wide-angle responses the search is for,
+# 0.28 (0.46 on its other side) on the backprojected polar sector whose ridges it turned 1.5 deg wrong
+RIDGE_FALL_MIN = 0.6
 GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
 
 
@@ -803,14 +807,11 @@ def _ridges_in_space(
     e0 = lower @ ridges[k]
     theta0 = math.atan2(e0[1], e0[0])
 
-    def ridge(theta: float) -> np.ndarray:  # samples per metre along the direction theta in space
-        return np.linalg.solve(lower, np.array([math.cos(theta), math.sin(theta)]))
-
     # the line's samples in metres, the same for every direction (a window fixed in samples of an image axis
     # would lengthen with the angle on a skewed grid, and its extra side lobes pull the maximum)
     step = nulls[k] * float(np.linalg.norm(e0)) / 8.0  # |h|^2 has twice the band: oversampled fourfold
     count = int(math.ceil(window_nulls * 8.0))
-    line = lambda theta: chip.values_on_line(pos, ridge(theta), -count * step, step, 2 * count + 1)  # noqa: E731
+    line = lambda theta: chip.values_on_line(pos, _turned(lower, theta), -count * step, step, 2 * count + 1)  # noqa: E731
     # the main lobe's first nulls along the spectral ridge (the mean of the two sides' first minima)
     mag = np.abs(line(theta0))
     edge = []
@@ -842,11 +843,54 @@ def _ridges_in_space(
             b = lo + GOLDEN * (hi - lo)
             fb = energy(b)
     theta = (lo + hi) / 2
+    # The search's premise, checked: the maximum is a ridge's only if the energy falls off it as a straight
+    # ridge's does (below); where it falls less, the side lobes are spread over the angles, not on one line.
+    offsets = np.arange(-count, count + 1) * step
+    across = chip.values_on_line(pos, _turned(lower, theta + math.pi / 2), -count * step, step, 2 * count + 1)
+    fall = _fall_against_a_ridge(grid, profile, theta, np.abs(line(theta)) ** 2, np.abs(across) ** 2, offsets, lobes)
+    if fall < RIDGE_FALL_MIN:
+        return ridges
     out = np.empty((2, 2))
-    out[k] = ridge(theta) / ridge(theta)[k]
-    other = np.linalg.solve(lower, np.array([-math.sin(theta), math.cos(theta)]))
+    out[k] = _turned(lower, theta) / _turned(lower, theta)[k]
+    other = _turned(lower, theta + math.pi / 2)
     out[1 - k] = other / other[1 - k]
     return out
+
+
+def _turned(lower: np.ndarray, theta: float) -> np.ndarray:
+    """Samples per metre along the direction ``theta`` in space (``lower``: the sample Gram's Cholesky factor)."""
+    return np.linalg.solve(lower, np.array([math.cos(theta), math.sin(theta)]))
+
+
+def _fall_against_a_ridge(
+    grid: np.ndarray,
+    profile: np.ndarray,
+    theta: float,
+    along: np.ndarray,
+    across: np.ndarray,
+    offsets: np.ndarray,
+    lobes: np.ndarray,
+) -> float:
+    """How far the line energy ``profile`` (at the angles ``grid``) falls off its maximum at ``theta``, against
+    how far a straight ridge's would: the lesser of the two sides' ratios (sum of measured falls over sum of
+    predicted falls, the scan's angles on that side).
+
+    A response separable along the ridge and across it, h(x, y) = a(x) b(y) / h(0), puts the line turned by d
+    from the ridge at the offset x tan d across it at x along it: its energy is sum a(x)^2 |b(x tan d)|^2 /
+    |h(0)|^2 over the side lobes. ``along`` and ``across`` are |h|^2 on the two lines through the peak at
+    ``theta`` (samples at ``offsets``, metres; ``lobes`` the side-lobe samples of ``along``), so the prediction
+    is the image's own. A support whose side lobes are spread over angles (the unweighted polar sector of a
+    backprojected spotlight: radial edges, arcs) falls far less, and its maximum is no ridge's."""
+    total = float(np.sum(along[lobes]))
+    across = across / across[np.argmin(np.abs(offsets))]
+    ratios = []
+    for side in (grid < theta, grid > theta):
+        turns = grid[side] - theta
+        predicted = [np.sum(along[lobes] * np.interp(offsets[lobes] * math.tan(t), offsets, across)) for t in turns]
+        predicted_fall = float(np.sum(1.0 - np.array(predicted) / total))
+        measured_fall = float(np.sum(1.0 - profile[side] / total))
+        ratios.append(measured_fall / predicted_fall if predicted_fall > 0 else math.inf)
+    return min(ratios)
 
 
 def _single_peak(profile: np.ndarray, best: int) -> bool:
