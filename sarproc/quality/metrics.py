@@ -693,6 +693,7 @@ class Support:
     ridges: np.ndarray
     band_centre: np.ndarray
     fanned: tuple[int, ...] = ()
+    oblique: bool = False  # straight edges oblique in null-normalised frequency: refine in space (_ridges_in_space)
 
 
 def principal_support(
@@ -740,13 +741,15 @@ def principal_support(
     if ndim == 2:  # the curved edges' plateaus, checked against where their gradients lie
         arcs = _Arcs(_plateaus(dens, peaks), where, norm)
     found, curved = _edge_normals(cand, peaks, u, g, ndim, arcs)
+    oblique = False
     if gram is not None and len(found) == 2:
         found[1] = _perpendicular_second(found[0], found[1], nulls, gram)
+        oblique = not any(curved) and _obliqueness_deg(found[0], found[1]) > OBLIQUE_EDGE_DEG
     if len(found) < ndim or abs(np.linalg.det(np.array(found))) < 0.2:
         return Support(eye, f_c)
     best = _assignment(np.array(found))
     fanned = tuple(a for a in range(ndim) if curved[best[a]])
-    return Support(_ridges(np.array(found), nulls), f_c, fanned)
+    return Support(_ridges(np.array(found), nulls), f_c, fanned, oblique)
 
 
 # A SAR image's 2D support is the pulses' lines of sight (each its range band) swept over the aperture: the
@@ -757,6 +760,163 @@ def principal_support(
 # second peak is then a mix of the taper's gradients and the first edge's (ridges 35-65 deg off in
 # scripts/evaluate_campaign.py, IRW/theory 1.13, residual floors -33 dB). Edges found agree within a degree or two.
 PERPENDICULAR_EDGE_DEG = 10.0
+
+
+# A support whose straight edges are oblique in null-normalised frequency (a squinted aperture in a zero-Doppler
+# or ground frame; a wide-angle one whose range null is tens of azimuth nulls) and tapered (Hamming windows, a
+# Gaussian or sinc beam) has no sharp edge for the gradients to be normal to: each gradient mixes the two tapers'
+# slopes, a cone about one normal takes more of them on one side where the other is oblique, and the chip's Hann
+# window along the image axes does the same. The cluster mean leans: a 25 deg squinted stripmap under Hamming had
+# its range ridge cut at 27.27 deg (range PSLR / ISLR 1.9 / 2.9 dB under its own theory), the 60 deg hard case of
+# tests/focus/test_squint_deramp.py at 1.29 deg where its range side lobes lie at 0.0 (docs/product.md). Beyond
+# this obliqueness (deg from perpendicular) the ridge is refined in space (:func:`_ridges_in_space`).
+OBLIQUE_EDGE_DEG = 2.0
+RIDGE_SEARCH_DEG = 4.0  # the refined ridge lies within this of the spectral one (its bias: 2.3 and 1.3 deg above)
+RIDGE_SCAN_DEG = 1.0  # first a scan at this step, then golden sections about its best to RIDGE_TOL_DEG
+RIDGE_TOL_DEG = 0.01
+# The scan's fall off its maximum, on each side, must be at least this fraction of a straight ridge's
+# (:func:`_fall_against_a_ridge`): 0.86-1.58 on the tapered, skewed and wide-angle responses the search is for,
+# 0.28 (0.46 on its other side) on the backprojected polar sector whose ridges it turned 1.5 deg wrong
+RIDGE_FALL_MIN = 0.6
+# The side-lobe energy on the two sides of the peak, along the turned ridge, must agree within this: 0.00-0.05
+# dB on those responses, 12.4 dB on campaign scene 17's unresolved pair (the line took the other's main lobe)
+RIDGE_BALANCE_DB = 1.0
+GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+
+
+def _obliqueness_deg(first: np.ndarray, second: np.ndarray) -> float:
+    """How far two edge normals (null-normalised frequency) are from perpendicular there, deg."""
+    c = abs(float(first @ second)) / float(np.linalg.norm(first) * np.linalg.norm(second))
+    return math.degrees(math.asin(min(1.0, c)))
+
+
+def _ridges_in_space(
+    chip: _Chip, pos: np.ndarray, ridges: np.ndarray, nulls: np.ndarray, gram: np.ndarray, window_nulls: float
+) -> np.ndarray:
+    """The ridges ``ridges`` (V of :func:`principal_support`: rows in samples, V[a, a] = 1) of the 2D response at
+    ``pos`` (image indices) in ``chip``, refined in space: the ridge of the axis with the longer null in metres is
+    turned, within RIDGE_SEARCH_DEG of where it is, to the direction along which the response's side lobes hold
+    the most energy (the sum of |h|^2 on the line through the peak, from the main lobe's first nulls to
+    +-``window_nulls`` of that axis, as the cut measures them); the other is set perpendicular to it in space.
+
+    The objective is one fixed function of one angle, evaluated on the band-limited interpolant (exact), so a
+    scan at RIDGE_SCAN_DEG and golden sections about its maximum converge to RIDGE_TOL_DEG. Along the ridge of
+    the longer null the objective is sharp: a line turned by d leaves the other axis' main lobe after (its null)
+    / d, so that line's side lobes fade; along the shorter one it is flat (a line 1 deg off an azimuth ridge 35
+    times narrower than its range lobe stays inside that lobe). The main lobe is left out: its energy is 40 dB
+    over a Hamming cut's side lobes and its axis need not be theirs."""
+    lower = np.linalg.cholesky(gram).T  # a step in samples -> its components along orthonormal axes in space
+    k = int(np.argmax([nulls[a] * math.sqrt(gram[a, a]) for a in range(2)]))
+    e0 = lower @ ridges[k]
+    theta0 = math.atan2(e0[1], e0[0])
+
+    # the line's samples in metres, the same for every direction (a window fixed in samples of an image axis
+    # would lengthen with the angle on a skewed grid, and its extra side lobes pull the maximum)
+    step = nulls[k] * float(np.linalg.norm(e0)) / 8.0  # |h|^2 has twice the band: oversampled fourfold
+    count = int(math.ceil(window_nulls * 8.0))
+    line = lambda theta: chip.values_on_line(pos, _turned(lower, theta), -count * step, step, 2 * count + 1)  # noqa: E731
+    # the main lobe's first nulls along the spectral ridge (the mean of the two sides' first minima)
+    mag = np.abs(line(theta0))
+    edge = []
+    for side in (mag[count:], mag[count::-1]):
+        mins = np.flatnonzero((side[1:-1] <= side[:-2]) & (side[1:-1] <= side[2:])) + 1
+        edge.append(float(mins[0]) if mins.size else 8.0)
+    lobes = np.abs(np.arange(-count, count + 1)) >= float(np.mean(edge))
+
+    def energy(theta: float) -> float:
+        return float(np.sum(np.abs(line(theta)[lobes]) ** 2))
+
+    span = math.radians(RIDGE_SEARCH_DEG)
+    d = math.radians(RIDGE_SCAN_DEG)
+    grid = theta0 + np.arange(-span, span + d / 2, d)
+    profile = np.array([energy(t) for t in grid])
+    best = int(np.argmax(profile))
+    if not 0 < best < len(grid) - 1 or not _single_peak(profile, best):
+        return ridges  # no maximum inside the span, or more than one (side lobes under noise): not determined
+    lo, hi = grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)]
+    a, b = hi - GOLDEN * (hi - lo), lo + GOLDEN * (hi - lo)
+    fa, fb = energy(a), energy(b)
+    while hi - lo > math.radians(RIDGE_TOL_DEG):
+        if fa >= fb:
+            hi, b, fb = b, a, fa
+            a = hi - GOLDEN * (hi - lo)
+            fa = energy(a)
+        else:
+            lo, a, fa = a, b, fb
+            b = lo + GOLDEN * (hi - lo)
+            fb = energy(b)
+    theta = (lo + hi) / 2
+    # The search's premises, checked; where either fails, the maximum is not the ridge and the spectral ridges
+    # stay. (1) The line holds side lobes only: a real-weighted support's response has |h(-r)| = |h(r)| about its
+    # peak, so the line's two sides hold equal energy; another response's lobes on one side (an unresolved
+    # neighbour) break that. (2) The energy falls off the maximum as a straight ridge's does; where it falls
+    # less, the side lobes are spread over the angles (a polar sector's), not on one line.
+    along = np.abs(line(theta)) ** 2
+    if abs(_side_balance_db(along, lobes)) > RIDGE_BALANCE_DB:
+        return ridges
+    offsets = np.arange(-count, count + 1) * step
+    across = chip.values_on_line(pos, _turned(lower, theta + math.pi / 2), -count * step, step, 2 * count + 1)
+    if _fall_against_a_ridge(grid, profile, theta, along, np.abs(across) ** 2, offsets, lobes) < RIDGE_FALL_MIN:
+        return ridges
+    out = np.empty((2, 2))
+    out[k] = _turned(lower, theta) / _turned(lower, theta)[k]
+    other = _turned(lower, theta + math.pi / 2)
+    out[1 - k] = other / other[1 - k]
+    return out
+
+
+def _turned(lower: np.ndarray, theta: float) -> np.ndarray:
+    """Samples per metre along the direction ``theta`` in space (``lower``: the sample Gram's Cholesky factor)."""
+    return np.linalg.solve(lower, np.array([math.cos(theta), math.sin(theta)]))
+
+
+def _side_balance_db(along: np.ndarray, lobes: np.ndarray) -> float:
+    """The side-lobe energy of ``along`` (|h|^2 on a line centred on the peak) before the peak over after it, dB."""
+    c = along.size // 2
+    before, after = float(np.sum(along[:c][lobes[:c]])), float(np.sum(along[c + 1 :][lobes[c + 1 :]]))
+    return 10.0 * math.log10(before / after) if before > 0 and after > 0 else math.inf
+
+
+def _fall_against_a_ridge(
+    grid: np.ndarray,
+    profile: np.ndarray,
+    theta: float,
+    along: np.ndarray,
+    across: np.ndarray,
+    offsets: np.ndarray,
+    lobes: np.ndarray,
+) -> float:
+    """How far the line energy ``profile`` (at the angles ``grid``) falls off its maximum at ``theta``, against
+    how far a straight ridge's would: the lesser of the two sides' ratios (sum of measured falls over sum of
+    predicted falls, the scan's angles on that side).
+
+    A response separable along the ridge and across it, h(x, y) = a(x) b(y) / h(0), puts the line turned by d
+    from the ridge at the offset x tan d across it at x along it: its energy is sum a(x)^2 |b(x tan d)|^2 /
+    |h(0)|^2 over the side lobes. ``along`` and ``across`` are |h|^2 on the two lines through the peak at
+    ``theta`` (samples at ``offsets``, metres; ``lobes`` the side-lobe samples of ``along``), so the prediction
+    is the image's own. A support whose side lobes are spread over angles (the unweighted polar sector of a
+    backprojected spotlight: radial edges, arcs) falls far less, and its maximum is no ridge's."""
+    total = float(np.sum(along[lobes]))
+    across = across / across[np.argmin(np.abs(offsets))]
+    ratios = []
+    for side in (grid < theta, grid > theta):
+        turns = grid[side] - theta
+        predicted = [np.sum(along[lobes] * np.interp(offsets[lobes] * math.tan(t), offsets, across)) for t in turns]
+        predicted_fall = float(np.sum(1.0 - np.array(predicted) / total))
+        measured_fall = float(np.sum(1.0 - profile[side] / total))
+        ratios.append(measured_fall / predicted_fall if predicted_fall > 0 else math.inf)
+    return min(ratios)
+
+
+def _single_peak(profile: np.ndarray, best: int) -> bool:
+    """Whether ``profile`` falls steadily from its maximum at ``best`` on both sides down to half of it (or to the
+    span's ends): one maximum, not the highest of the many that noise along the lines makes."""
+    half = 0.5 * profile[best]
+    for side in (profile[best:], profile[best::-1]):
+        top = side[: int(np.argmax(side < half)) or side.size]
+        if np.any(np.diff(top) > 0):
+            return False
+    return True
 
 
 def _sample_gram(axes: Sequence[_Axis], metric: np.ndarray | None) -> np.ndarray | None:
@@ -1342,7 +1502,7 @@ def _find_peak(
     peak_index = tuple(int(s.start + i) for s, i in zip(win, k))
     chip = _Chip(data, peak_index, half)
     pos, value = chip.refine_peak(peak_index)
-    support = _support(chip, nulls, params, gram)
+    support = _support(chip, pos, nulls, params, gram)
     return _Peak(peak_index, chip, chip, pos, value, support.ridges, support.band_centre, fanned=support.fanned)
 
 
@@ -1386,7 +1546,7 @@ def _subtract_neighbours(
         cleaned = raw.data - fitted[i]
         chip = _Chip(None, peak.index, half, chip=(cleaned, raw.clipped))
         pos, value = chip.refine_peak(peak.position)
-        support = _support(chip, nulls, params, gram)
+        support = _support(chip, pos, nulls, params, gram)
         out[i] = dataclasses.replace(
             peak,
             chip=chip,
@@ -1547,9 +1707,15 @@ def _target_axes(
     return out
 
 
-def _support(chip: _Chip, nulls: npt.ArrayLike, params: EvaluateParams, gram: np.ndarray | None = None) -> Support:
+def _support(
+    chip: _Chip, pos: np.ndarray, nulls: npt.ArrayLike, params: EvaluateParams, gram: np.ndarray | None = None
+) -> Support:
     if params.principal_axes and chip.data.ndim > 1:
-        return principal_support(chip.data, chip.centers, nulls, exact=params.exact, gram=gram)
+        support = principal_support(chip.data, chip.centers, nulls, exact=params.exact, gram=gram)
+        if support.oblique and gram is not None:
+            ridges = _ridges_in_space(chip, pos, support.ridges, np.asarray(nulls, float), gram, params.islr_nulls)
+            support = dataclasses.replace(support, ridges=ridges)
+        return support
     return Support(np.eye(chip.data.ndim), np.asarray(chip.centers, dtype=float))
 
 
