@@ -1107,3 +1107,30 @@ def test_a_truth_movers_probe_looks_where_it_appears_when_its_static_equivalents
     index = rc._truth_cell_index(raw, g, 0, 0, moving.phase_centres(raw))[1]
     t_probe = g.out_times[0] + index / (g.n * g.prf)
     assert abs(t_probe - row["apparent_time"]) < 1e-3, (t_probe, row["apparent_time"])
+
+
+def test_a_mover_beyond_the_bound_is_tabled_on_it_not_at_an_alias(caplog):
+    """v_r 24, v_a 0 m/s at 20 deg squint: beyond the +-20 m/s bounds, within the autofocus's reach of them (30 x
+    tan(20 deg) = 10.9 m/s). Its alias -17.5 m/s inside the bounds keeps the range walk; it was taken anyway and the
+    mover tabled at v_r -13.89, v_a -10.08 m/s one PRF / K_a away: a false alarm and a miss. Now the alias 24 m/s is
+    searched, v_r kept on the bound and the mover matched, with the bound's note."""
+    raw = simulate(scene_from_mapping(scene([vehicle("F", -900, 0, 0, 24)])))
+    with caplog.at_level(logging.WARNING):
+        rec = reconstruct(raw, ReconstructParams())
+    by_name, false = found(rec)
+    assert not false, false
+    assert by_name["F"]["v_r"] == pytest.approx(20.0, abs=0.05)
+    assert "is on the search bound" in caplog.text
+
+
+@pytest.mark.parametrize(("snr", "weak"), [(15.0, True), (51.5, False)])
+def test_a_detection_no_velocity_explains_is_called_too_weak_only_under_20_db(snr, weak):
+    """Scene 010's M2 (after the alias fix) was detected at 51.5 dB and eq. 5 had no dip there: its reason said
+    "too weak for the velocity search", which at 51.5 dB is not why (section 8: under about 20 dB)."""
+    from sarproc.focus.multichannel.reconstruct import _miss_reason, _TruthProbe
+
+    probe = _TruthProbe(cell=10.0, index=100.0, snr_db=snr, peak_index=100, peak_cell=10, v_los=20.04)
+    rejected = [{"cell": 10, "index": 100, "snr_db": snr, "kind": "incoherent", "v_los": None}]
+    reason = _miss_reason("M2", probe, rejected, 500.0, ReconstructParams(), {"threshold_db": 15.0})
+    assert reason.startswith(f"M2: detected (SNR {snr:.1f} dB) but no slant-range velocity explains its response")
+    assert ("too weak for the velocity search" in reason) == weak

@@ -2084,11 +2084,13 @@ def _warn_unexamined(tally: _Tally, params: ReconstructParams) -> None:
     if tally.flat_snr:
         log.warning(
             "reconstruct: %d detection(s) above the CFAR threshold (SNR %.1f-%.1f dB) have no slant-range "
-            "velocity that explains them (too weak for the velocity search, or no point target: side lobes, "
-            "clutter residue); they are not in moving_targets",
+            "velocity that explains them (too weak for the velocity search under about %.0f dB; no point target: "
+            "side lobes, clutter residue; or a point target whose velocity criterion has no dip); they are not in "
+            "moving_targets",
             len(tally.flat_snr),
             min(tally.flat_snr),
             max(tally.flat_snr),
+            WEAK_SEARCH_DB,
         )
     for where in tally.ambiguity_residues:
         log.warning(
@@ -2336,9 +2338,11 @@ def _miss_reason(
                 f"{name}: detected (SNR {d['snr_db']:.1f} dB) but taken for static: its velocity search estimated a "
                 f"line-of-sight velocity of {d['v_los']:.3f} m/s, under detection_velocity {thr:g} m/s; {why}"
             )
-        return (
-            f"{name}: detected (SNR {d['snr_db']:.1f} dB) but no slant-range velocity explains its response "
+        return f"{name}: detected (SNR {d['snr_db']:.1f} dB) but no slant-range velocity explains its response " + (
             "(too weak for the velocity search)"
+            if d["snr_db"] < WEAK_SEARCH_DB
+            else "(not for weakness at this SNR: the velocity search's criterion has no dip, or its estimate "
+            "leaves the clutter-null residual unexplained)"
         )
     level = probe.snr_db if probe.residual_snr_db is None else probe.residual_snr_db
     if probe.residual_snr_db is not None:
@@ -2506,6 +2510,10 @@ def _raw_echoes(y: np.ndarray, g: _Geometry, f_r: np.ndarray, chirp_rate: float,
     return sfft.ifft(y, axis=1, workers=-1)[:, lead : lead + n_rg].astype(np.complex64)
 
 
+# dB: detection SNR under which a detection no velocity explains is said to be too weak for the velocity search
+# (docs/multichannel.md section 8, "Where it breaks, the product says so"); above it that is no explanation (mover
+# campaign scene 010's M2, 51.5 dB, whose eq. 5 has no dip; a static point 26 dB brighter shares its range cell)
+WEAK_SEARCH_DB = 20.0
 PROBE_SAMPLES = 16  # azimuth samples either side of a truth mover's predicted peak searched for it (_probe_truth)
 # m/s: each estimator's error that no SNR predicts, measured (docs/multichannel.md section 8, make movers-003-sigma,
 # xu_traffic): eq. 5's v_los over 24 movers (9 noise-free, rms 0.019; 15 in clutter with the null, rms 0.033: the
