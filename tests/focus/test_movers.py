@@ -1074,3 +1074,63 @@ def test_a_null_fit_overruling_a_movers_eq_5_is_said_to_and_its_sigma_covers_bot
     assert abs(row["v_r"] + 4.83) > 5  # the wrong minimum is still taken ...
     assert abs(row["v_r"] + 4.83) <= row["v_r_sigma"]  # ... but not stated to 0.12 m/s
     assert re.search(r"v_r ambiguous: eq\. 5 gives -6\.0\d m/s, the null fit -16\.\d\d m/s", caplog.text)
+
+
+def test_a_mover_whose_along_track_velocity_takes_its_v_los_beyond_the_bound_is_found_at_its_alias():
+    """v_r -17, v_a -13 m/s at 20 deg squint: inside the +-20 m/s bounds, but the first search at v_a = 0 reads
+    v_los / cos = v_r + v_a tan(theta) = -21.7 m/s, outside them. Its blind-velocity alias +19.8 m/s (41.5 m/s
+    on) is inside, so it was kept though its range walk is wrong by lambda PRF / 2: the autofocus then ran at
+    that v_los and the mover was tabled at v_r +20.00 (on the bound) one PRF / K_a from where it appears, a false
+    alarm and a miss (mover campaign scene 010's M2). The alias within the autofocus's reach beyond the bounds
+    that removes the walk is the one taken (reconstruct._resolve_blind_velocity)."""
+    raw = simulate(scene_from_mapping(scene([vehicle("F", -900, 0, -13, -17)])))
+    rec = reconstruct(raw, ReconstructParams())
+    by_name, false = found(rec)
+    assert not false, false
+    row = by_name["F"]
+    assert abs(row["v_r"] - -17.0) < max(3 * row["v_r_sigma"], 0.1), row
+    assert abs(row["v_a"] - -13.0) < max(3 * row["v_a_sigma"], 0.3), row
+
+
+def test_a_truth_movers_probe_looks_where_it_appears_when_its_static_equivalents_illumination_is_cut():
+    """The miss reasons look for a truth mover at its static equivalent S's beam-centre time. A fast mover's S lies
+    v_los R / (v cos(theta))^2 from it in apparent time (here v_r -19.5 m/s, v_los -18.3 m/s: +0.22 s from its own
+    0.04 s), and S's illumination then runs past the data's end (+-0.6 s): taken as the middle of the cut interval
+    it was early (mover campaign scene 010's M2: 26 ms, outside the probe's +-16 samples, and its miss reason said
+    "undetectable at any speed"). The probe's time is where the mover is tabled, its apparent time."""
+    from sarproc.focus.multichannel import reconstruct as rc
+
+    raw = simulate(scene_from_mapping(scene([vehicle("F", 300, 0, 0, -19.5)])))
+    rec = reconstruct(raw, ReconstructParams())
+    row = found(rec)[0]["F"]
+    g = rc._geometry(raw, ReconstructParams())
+    index = rc._truth_cell_index(raw, g, 0, 0, moving.phase_centres(raw))[1]
+    t_probe = g.out_times[0] + index / (g.n * g.prf)
+    assert abs(t_probe - row["apparent_time"]) < 1e-3, (t_probe, row["apparent_time"])
+
+
+def test_a_mover_beyond_the_bound_is_tabled_on_it_not_at_an_alias(caplog):
+    """v_r 24, v_a 0 m/s at 20 deg squint: beyond the +-20 m/s bounds, within the autofocus's reach of them (30 x
+    tan(20 deg) = 10.9 m/s). Its alias -17.5 m/s inside the bounds keeps the range walk; it was taken anyway and the
+    mover tabled at v_r -13.89, v_a -10.08 m/s one PRF / K_a away: a false alarm and a miss. Now the alias 24 m/s is
+    searched, v_r kept on the bound and the mover matched, with the bound's note."""
+    raw = simulate(scene_from_mapping(scene([vehicle("F", -900, 0, 0, 24)])))
+    with caplog.at_level(logging.WARNING):
+        rec = reconstruct(raw, ReconstructParams())
+    by_name, false = found(rec)
+    assert not false, false
+    assert by_name["F"]["v_r"] == pytest.approx(20.0, abs=0.05)
+    assert "is on the search bound" in caplog.text
+
+
+@pytest.mark.parametrize(("snr", "weak"), [(15.0, True), (51.5, False)])
+def test_a_detection_no_velocity_explains_is_called_too_weak_only_under_20_db(snr, weak):
+    """Scene 010's M2 (after the alias fix) was detected at 51.5 dB and eq. 5 had no dip there: its reason said
+    "too weak for the velocity search", which at 51.5 dB is not why (section 8: under about 20 dB)."""
+    from sarproc.focus.multichannel.reconstruct import _miss_reason, _TruthProbe
+
+    probe = _TruthProbe(cell=10.0, index=100.0, snr_db=snr, peak_index=100, peak_cell=10, v_los=20.04)
+    rejected = [{"cell": 10, "index": 100, "snr_db": snr, "kind": "incoherent", "v_los": None}]
+    reason = _miss_reason("M2", probe, rejected, 500.0, ReconstructParams(), {"threshold_db": 15.0})
+    assert reason.startswith(f"M2: detected (SNR {snr:.1f} dB) but no slant-range velocity explains its response")
+    assert ("too weak for the velocity search" in reason) == weak

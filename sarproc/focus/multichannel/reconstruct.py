@@ -665,11 +665,12 @@ def _first_search(win: _Window, params: ReconstructParams, g: _Geometry, can_sea
     if not can_search:
         return est
     result = _search(est, params, v_a, params.velocity_min, params.velocity_max, params.coarse_step)
-    v_r, est.beyond = _resolve_blind_velocity(win, result.estimate, v_a, params, g)
+    reach = _along_track_reach(params, g)
+    v_r, est.beyond = _resolve_blind_velocity(win, result.estimate, v_a, params, g, reach)
     if abs(v_r - result.estimate) > params.velocity_step:
         lo, hi = (
-            max(params.velocity_min, v_r - params.coarse_step),
-            min(params.velocity_max, v_r + params.coarse_step),
+            max(params.velocity_min - reach, v_r - params.coarse_step),
+            min(params.velocity_max + reach, v_r + params.coarse_step),
         )
         alias = _search(est, params, v_a, lo, hi, params.coarse_step / 4)
         trials = np.concatenate([result.trials, alias.trials])
@@ -1192,21 +1193,46 @@ def blind_velocity_period(g: _Geometry) -> float:
     return C / g.fc * g.prf / (2 * math.cos(g.squint))
 
 
+def _along_track_reach(params: ReconstructParams, g: _Geometry) -> float:
+    """m/s of v_r beyond the search bounds where a mover inside them appears to a search at v_a = 0: it reads
+    v_los / cos(theta) = v_r + v_a tan(theta), and the autofocus finds v_a within +-autofocus_span (0 when v_a is
+    given or not estimated: the search then runs at the mover's own v_a)."""
+    if not params.autofocus or params.along_track_velocity is not None:
+        return 0.0
+    return params.autofocus_span * abs(math.tan(g.squint))
+
+
 def _resolve_blind_velocity(
-    win: _Window, estimate: float, v_a: float, params: ReconstructParams, g: _Geometry
+    win: _Window, estimate: float, v_a: float, params: ReconstructParams, g: _Geometry, reach: float = 0.0
 ) -> tuple[float, bool]:
     """Among the leakage minimum and its blind-velocity aliases inside the bounds, the one without range walk.
 
     Returns (velocity, beyond): ``beyond`` when even the best candidate keeps a residual walk of more than
     half the walk step lambda PRF / 2 between aliases, i.e. the true velocity is an alias outside the bounds.
+    Then, with ``reach`` (m/s, _along_track_reach), the aliases up to ``reach`` beyond the bounds are tried too, and
+    one that removes the walk is taken (not beyond): a mover inside the bounds whose v_a tan(theta) takes it outside
+    them at this v_a (mover campaign scene 010's M2, v_r -17.14, v_a -13.03 m/s at 15.8 deg: -20.83 m/s at v_a = 0;
+    its alias +19.74 was kept, its v_a autofocused at that wrong v_los to -6.1 m/s, v_r read +20.00 on the bound and
+    the mover placed one PRF / K_a from where it appears: a false alarm and a miss).
     """
     period = blind_velocity_period(g)
-    k_lo = math.ceil((params.velocity_min - estimate) / period - 1e-9)
-    k_hi = math.floor((params.velocity_max - estimate) / period + 1e-9)
-    candidates = [estimate + k * period for k in range(k_lo, k_hi + 1)] or [estimate]
+
+    def aliases(lo: float, hi: float) -> list[float]:
+        k_lo = math.ceil((lo - estimate) / period - 1e-9)
+        k_hi = math.floor((hi - estimate) / period + 1e-9)
+        return [estimate + k * period for k in range(k_lo, k_hi + 1)]
+
+    candidates = aliases(params.velocity_min, params.velocity_max) or [estimate]
     walks = [abs(win.walk_rate(u, v_a)) for u in candidates]
     best = int(np.argmin(walks))
     step = C / g.fc * g.prf / 2
+    if walks[best] > 0.5 * step and reach > 0:
+        outside = [u for u in aliases(params.velocity_min - reach, params.velocity_max + reach) if u not in candidates]
+        if outside:
+            walks_out = [abs(win.walk_rate(u, v_a)) for u in outside]
+            j = int(np.argmin(walks_out))
+            if walks_out[j] <= 0.5 * step:
+                return float(outside[j]), False
     return float(candidates[best]), bool(walks[best] > 0.5 * step)
 
 
@@ -2058,11 +2084,13 @@ def _warn_unexamined(tally: _Tally, params: ReconstructParams) -> None:
     if tally.flat_snr:
         log.warning(
             "reconstruct: %d detection(s) above the CFAR threshold (SNR %.1f-%.1f dB) have no slant-range "
-            "velocity that explains them (too weak for the velocity search, or no point target: side lobes, "
-            "clutter residue); they are not in moving_targets",
+            "velocity that explains them (too weak for the velocity search under about %.0f dB; no point target: "
+            "side lobes, clutter residue; or a point target whose velocity criterion has no dip); they are not in "
+            "moving_targets",
             len(tally.flat_snr),
             min(tally.flat_snr),
             max(tally.flat_snr),
+            WEAK_SEARCH_DB,
         )
     for where in tally.ambiguity_residues:
         log.warning(
@@ -2089,11 +2117,31 @@ def _truth_cell_index(raw: Product, g: _Geometry, lead: int, k: int, centres: np
     xyz = np.array([t["x"][k], t["y"][k], t["z"][k]], float)
     vel = np.array([t["vx"][k], t["vy"][k], t["vz"][k]], float)
     s, _ = moving.apparent_position(raw.radar, g.times, xyz, vel, centres)
-    t_app = moving.illumination_centre_time(raw.radar, g.times, s, np.zeros(3), centres)
+    t_app = _beam_centre_time(raw, g, s, centres)
     p = np.array([np.interp(t_app, g.times, centres[:, c]) for c in range(3)])
     wc_range = float(np.linalg.norm(s - p)) + g.velocity * math.sin(g.squint) * t_app
     rt0 = float(raw.coords["range_time"][0])
     return (2 * wc_range / C - rt0) * g.fs + lead, (t_app - g.out_times[0]) * g.n * g.prf
+
+
+def _beam_centre_time(raw: Product, g: _Geometry, s: np.ndarray, centres: np.ndarray) -> float:
+    """Beam-centre time of the static point ``s``: the middle of its illumination on the track extended (linearly) by
+    the data's length either side, so that an illumination the data window cuts is not centred on the cut. A fast
+    mover's S lies up to v_los R / (v cos(theta))^2 from it in apparent time, near or past the data's end (mover
+    campaign scene 010's M2, v_los -20.04 m/s: S's illumination cut at +0.600 s put it at 0.2577 s, 26 ms before
+    the 0.2836 s where the mover appears at SNR 51.5 dB; its miss reason then read "undetectable at any speed" from
+    the background there)."""
+    t = g.times
+    span = float(t[-1] - t[0])
+    rate = (centres[-1] - centres[0]) / span
+    step = span / max(len(t) - 1, 1)
+    before = t[0] - step * np.arange(len(t), 0, -1)
+    after = t[-1] + step * np.arange(1, len(t) + 1)
+    t_ext = np.concatenate([before, t, after])
+    c_ext = np.concatenate(
+        [centres[0] + np.outer(before - t[0], rate), centres, centres[-1] + np.outer(after - t[-1], rate)]
+    )
+    return moving.illumination_centre_time(raw.radar, t_ext, s, np.zeros(3), c_ext)
 
 
 @dataclasses.dataclass
@@ -2290,9 +2338,11 @@ def _miss_reason(
                 f"{name}: detected (SNR {d['snr_db']:.1f} dB) but taken for static: its velocity search estimated a "
                 f"line-of-sight velocity of {d['v_los']:.3f} m/s, under detection_velocity {thr:g} m/s; {why}"
             )
-        return (
-            f"{name}: detected (SNR {d['snr_db']:.1f} dB) but no slant-range velocity explains its response "
+        return f"{name}: detected (SNR {d['snr_db']:.1f} dB) but no slant-range velocity explains its response " + (
             "(too weak for the velocity search)"
+            if d["snr_db"] < WEAK_SEARCH_DB
+            else "(not for weakness at this SNR: the velocity search's criterion has no dip, or its estimate "
+            "leaves the clutter-null residual unexplained)"
         )
     level = probe.snr_db if probe.residual_snr_db is None else probe.residual_snr_db
     if probe.residual_snr_db is not None:
@@ -2460,6 +2510,10 @@ def _raw_echoes(y: np.ndarray, g: _Geometry, f_r: np.ndarray, chirp_rate: float,
     return sfft.ifft(y, axis=1, workers=-1)[:, lead : lead + n_rg].astype(np.complex64)
 
 
+# dB: detection SNR under which a detection no velocity explains is said to be too weak for the velocity search
+# (docs/multichannel.md section 8, "Where it breaks, the product says so"); above it that is no explanation (mover
+# campaign scene 010's M2, 51.5 dB, whose eq. 5 has no dip; a static point 26 dB brighter shares its range cell)
+WEAK_SEARCH_DB = 20.0
 PROBE_SAMPLES = 16  # azimuth samples either side of a truth mover's predicted peak searched for it (_probe_truth)
 # m/s: each estimator's error that no SNR predicts, measured (docs/multichannel.md section 8, make movers-003-sigma,
 # xu_traffic): eq. 5's v_los over 24 movers (9 noise-free, rms 0.019; 15 in clutter with the null, rms 0.033: the
