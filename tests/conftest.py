@@ -28,6 +28,24 @@ BASE_SCENE = {
     "targets": {"frame": "squint", "points": [{"name": "A"}]},
 }
 
+# scripts/evaluate_campaign.py's squinted stripmap (2 deg beam, 150 MHz, 1.2 s track), imaged in its zero-Doppler
+# frame; a test merges in its squint, antenna pattern and targets.
+CAMPAIGN_STRIPMAP = {
+    "radar": {
+        "carrier_frequency": "10 GHz",
+        "bandwidth": "150 MHz",
+        "pulse_duration": "2 us",
+        "range_sampling_rate": "180 MHz",
+        "prf": "1500 Hz",
+    },
+    "platform": {"velocity": "100 m/s", "altitude": "500 m"},
+    "geometry": {"reference_range": "2 km", "squint": "0 deg"},
+    "acquisition": {"mode": "stripmap", "aperture_time": "1.2 s"},
+    "effects": {"antenna": {"pattern": "sinc", "azimuth_beamwidth": "2 deg"}},
+    "targets": {"frame": "zero_doppler", "points": [{"name": "A"}]},
+    "simulation": {"waveform": "band_limited"},
+}
+
 
 def merge(base: dict, changes: dict) -> dict:
     """Deep-merge ``changes`` into a copy of ``base`` (None deletes a key)."""

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import merge
 
 from sarproc.focus.multichannel import detection
 from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct
@@ -1202,38 +1203,28 @@ def test_a_mover_detected_away_from_where_it_focuses_is_tabled_where_it_focuses(
     reconstruction focuses it. The refocused peak was searched within +-8 samples of the detection, so the table
     took the window's noise there (22 dB under the focused mover): apparent position 49.5 m from M4's, a false
     alarm and a miss. The search now covers the detection's smear (reconstruct._peak_half_width)."""
-    mapping = {
-        "acquisition": {"aperture_time": "1.2 s", "mode": "stripmap", "range_margin": "40 m"},
-        "effects": {
-            "antenna": {"azimuth_beamwidth": "0.507 deg", "pattern": "sinc"},
-            "azimuth_channels": {"n_receivers": 4, "spacing": "1.5 m"},
-            "clutter": {
-                "amplitude": 0.166,
-                "azimuth_extent": "2400 m",
-                "n_scatterers": 56,
-                "range_extent": "600 m",
-                "seed": 1131,
+    mapping = merge(
+        beam_scene("sinc"),  # the campaign's radar (scene 011's); scene 009's squint, clutter, noise and movers
+        {
+            "effects": {
+                "clutter": {
+                    "amplitude": 0.166,
+                    "azimuth_extent": "2400 m",
+                    "n_scatterers": 56,
+                    "range_extent": "600 m",
+                    "seed": 1131,
+                },
+                "noise": {"snr": "-18.6 dB"},
             },
-            "noise": {"snr": "-18.6 dB"},
-            "target_motion": {},
+            "geometry": {"squint": "15.0 deg"},
+            "targets": {
+                "points": [
+                    vehicle("M4", -951.9, -286.0, -13.14, 11.74, amplitude=0.8985),
+                    vehicle("M5", -961.6, -336.2, -3.40, -13.24, amplitude=0.6767),
+                ]
+            },
         },
-        "geometry": {"reference_range": "600 km", "squint": "15.0 deg"},
-        "platform": {"altitude": "0 m", "velocity": "7500 m/s"},
-        "radar": {
-            "bandwidth": "10 MHz",
-            "carrier_frequency": "9.6 GHz",
-            "prf": "2500 Hz",
-            "pulse_duration": "15 us",
-            "range_sampling_rate": "12 MHz",
-        },
-        "targets": {
-            "frame": "squint",
-            "points": [
-                vehicle("M4", -951.9, -286.0, -13.14, 11.74, amplitude=0.8985),
-                vehicle("M5", -961.6, -336.2, -3.40, -13.24, amplitude=0.6767),
-            ],
-        },
-    }
+    )
     raw = simulate(scene_from_mapping(mapping))
     rec = reconstruct(raw, ReconstructParams(clutter_suppression=True))
     by_name, false = found(rec)

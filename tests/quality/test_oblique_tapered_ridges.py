@@ -20,6 +20,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import CAMPAIGN_STRIPMAP, merge
 
 from sarproc.product.theory import window_theory
 from sarproc.quality.metrics import EvaluateParams, evaluate_image, evaluate_product
@@ -60,21 +61,14 @@ def _campaign_stripmap(squint_deg: float, pattern: str, points: list, window: st
     from sarproc.simulation.scene import scene_from_mapping
     from sarproc.simulation.simulate import simulate
 
-    scene = {
-        "radar": {
-            "carrier_frequency": "10 GHz",
-            "bandwidth": "150 MHz",
-            "pulse_duration": "2 us",
-            "range_sampling_rate": "180 MHz",
-            "prf": "1500 Hz",
+    scene = merge(
+        CAMPAIGN_STRIPMAP,
+        {
+            "geometry": {"squint": f"{squint_deg} deg"},
+            "effects": {"antenna": {"pattern": pattern}},
+            "targets": {"points": points},
         },
-        "platform": {"velocity": "100 m/s", "altitude": "500 m"},
-        "geometry": {"reference_range": "2 km", "squint": f"{squint_deg} deg"},
-        "acquisition": {"mode": "stripmap", "aperture_time": "1.2 s"},
-        "effects": {"antenna": {"pattern": pattern, "azimuth_beamwidth": "2 deg"}},
-        "targets": {"frame": "zero_doppler", "points": points},
-        "simulation": {"waveform": "band_limited"},
-    }
+    )
     params = BackprojectParams(frame="zero_doppler", margin_cells=28, range_window=window, azimuth_window=window)
     return backproject(simulate(scene_from_mapping(scene)), params)
 

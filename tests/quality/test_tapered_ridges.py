@@ -15,6 +15,7 @@ import copy
 
 import numpy as np
 import pytest
+from conftest import CAMPAIGN_STRIPMAP, merge
 
 from sarproc.focus.backprojection import BackprojectParams, backproject
 from sarproc.quality.metrics import EvaluateParams, evaluate_product
@@ -22,24 +23,14 @@ from sarproc.quality.residual import spectral_orders
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
 
-SCENE = {
-    "radar": {
-        "carrier_frequency": "10 GHz",
-        "bandwidth": "150 MHz",
-        "pulse_duration": "2 us",
-        "range_sampling_rate": "180 MHz",
-        "prf": "1500 Hz",
+SCENE = merge(
+    CAMPAIGN_STRIPMAP,
+    {
+        "geometry": {"squint": "12 deg"},
+        "effects": {"antenna": {"pattern": "gaussian"}},
+        "targets": {"points": [{"name": "A"}, {"name": "B", "azimuth": "-8 m", "range": "15 m", "amplitude": 0.6}]},
     },
-    "platform": {"velocity": "100 m/s", "altitude": "500 m"},
-    "geometry": {"reference_range": "2 km", "squint": "12 deg"},
-    "acquisition": {"mode": "stripmap", "aperture_time": "1.2 s"},
-    "effects": {"antenna": {"pattern": "gaussian", "azimuth_beamwidth": "2 deg"}},
-    "targets": {
-        "frame": "zero_doppler",
-        "points": [{"name": "A"}, {"name": "B", "azimuth": "-8 m", "range": "15 m", "amplitude": 0.6}],
-    },
-    "simulation": {"waveform": "band_limited"},
-}
+)
 PARAMS = BackprojectParams(frame="zero_doppler", margin_cells=28, range_window="hamming", azimuth_window="hamming")
 
 
