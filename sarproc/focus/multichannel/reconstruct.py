@@ -175,6 +175,8 @@ class MovingTarget:
     null_fit_width: float = 0.0
     # m/s of v_los: eq. 5's estimate minus the null fit's where the null fit overruled a mover's eq. 5 (_null_refit)
     overruled: float = 0.0
+    # m/s of v_los: eq. 5's 1-sigma from its independent looks' disagreement (_leakage_spread; 0: not by eq. 5)
+    leakage_spread: float = 0.0
 
 
 @dataclasses.dataclass
@@ -354,6 +356,16 @@ class _Window:
             spec = sfft.ifft(spec, axis=1, workers=-1)[:, self.cells]
         return velocity.out_of_band_fraction(spec, self.out_f, self.g.half_band)
 
+    def leakage_looks(self, v_r: float, v_a: float) -> tuple[np.ndarray, np.ndarray]:
+        """Eq. 5's out-of-band and total energy per range frequency of the criterion's cells (its independent
+        looks: noise is independent between them, and a point target has the same azimuth spectrum in each): their
+        sums over the looks are eq. 5's numerator and denominator (Parseval)."""
+        spec = self.demodulated_spectrum(v_r, v_a)
+        if self.cells is not None:
+            spec = sfft.fft(sfft.ifft(spec, axis=1, workers=-1)[:, self.cells], axis=1, workers=-1)
+        p = np.abs(spec) ** 2
+        return p[np.abs(self.out_f) > self.g.half_band].sum(axis=0), p.sum(axis=0)
+
     def output(self, v_r: float, v_a: float, t_c: float, slant_range: float, focus_along_track: bool) -> np.ndarray:
         """Target reconstructed at N PRF in (t', f_r), Doppler offset restored, FM rate matched to a static point."""
         g = self.g
@@ -421,6 +433,9 @@ NULL_FIT_AMBIGUOUS = 1.0
 # A mover whose detection is under the measured CFAR threshold is tabled only with its line-of-sight speed this many
 # 1-sigma over detection_velocity (_drop_under_threshold)
 STATIC_SIGMAS = 2.0
+# m/s: the central-difference step of eq. 5's looks' scores and curvature (_leakage_spread; on mover campaign scene 014
+# its three windows' sigmas change by under 5 % between 0.1 and 0.5 m/s)
+LEAKAGE_SPREAD_STEP = 0.25
 STATIC_CELLS = 2  # range cells either side of an examined static detection that share its answer (_visit)
 
 
@@ -782,6 +797,29 @@ def _null_refit(
             null_fit.mismatch,
             True,
         )
+
+
+def _leakage_spread(win: _Window, v_r: float, v_a: float, step: float = LEAKAGE_SPREAD_STEP) -> float:
+    """1-sigma (m/s of the searched v_r, at ``v_a``) of eq. 5's minimum at ``v_r`` from its looks' disagreement.
+
+    Eq. 5's estimate minimises L(u) = sum_k O_k(u) / sum_k T_k(u) over the looks k (_Window.leakage_looks); at the
+    minimum sum_k s_k = L'(u) = 0 with s_k = (O_k' - L T_k') / T. Where the window holds one point target and noise,
+    each s_k is noise with mean 0, and the M-estimator's (sandwich) variance is var(sum_k s_k) / L''^2, var(sum s_k)
+    estimated by n / (n - 1) sum_k s_k^2: the curvature of eq. 5 relative to how far the looks' own minima disagree.
+    Where the window holds a mixture (clutter scatterers, side lobes), the looks see it mixed differently and their
+    minima disagree however high the SNR (mover campaign scene 014's clutter read at v_r -1.34 m/s: looks' minima
+    from -2 to beyond +1.7 m/s; eq. 5 only 3.4 % under its value at rest): the SNR's curvature bound misses that.
+    Derivatives by central differences over ``step``; 0 where there is no minimum (L'' <= 0) or fewer than 2 looks."""
+    (om, tm), (o0, t0), (op, tp) = (win.leakage_looks(v_r + k * step, v_a) for k in (-1, 0, 1))
+    n, total = len(o0), float(t0.sum())
+    if n < 2 or total <= 0 or tm.sum() <= 0 or tp.sum() <= 0:
+        return 0.0
+    at = float(o0.sum()) / total
+    curvature = (float(om.sum() / tm.sum()) - 2 * at + float(op.sum() / tp.sum())) / step**2
+    if not curvature > 0:
+        return 0.0
+    score = ((op - om) - at * (tp - tm)) / (2 * step * total)
+    return float(math.sqrt(n / (n - 1) * float(np.sum(score**2))) / curvature)
 
 
 def _centre(
@@ -1160,6 +1198,9 @@ def _estimate(
                 centre = _centre(win, g, est, centre_range, centre_cell, null_fit)
                 t_c, slant_range = _autofocus(est, win, params, g, centre, can_search)
     leak = win.leakage(est.v_r, est.v_a) if can_search else float("nan")
+    # eq. 5's own 1-sigma from its looks (v_r searched at fixed v_a: v_los's is cos(theta) of it)
+    searched = can_search and params.radial_velocity is None and est.result is not None and not est.by_null_fit
+    spread = _leakage_spread(win, est.v_r, est.v_a) * math.cos(g.squint) if searched else 0.0
     appears = appears_cell = None
     if null_fit is not None and centre.shift is not None:
         null_fit.isolated(est.v_r, est.v_a, null_fit.fit(est.v_r, est.v_a)[1])  # where it is, with its final velocity
@@ -1189,6 +1230,7 @@ def _estimate(
         autofocus_pull=est.pull if len(est.autofocus) else float("nan"),
         null_fit_width=est.null_width,
         overruled=est.overruled[0] - est.overruled[1] if est.overruled is not None else 0.0,
+        leakage_spread=spread,
     ), notes
 
 
@@ -1400,6 +1442,9 @@ class _Tally:
     undo: dict[int, np.ndarray] = dataclasses.field(default_factory=dict)
     # and the null fit's mismatch at its estimate and at rest (v_r = v_a = 0)
     at_rest: dict[int, tuple[float, float]] = dataclasses.field(default_factory=dict)
+    # a response merged with a mover that could not be separated from it: (mover index, what to warn of), warned of
+    # once _drop_under_threshold has said which movers stay (_warn_merged)
+    merged: list[tuple[int, str]] = dataclasses.field(default_factory=list)
     examined: int = 0
 
 
@@ -1634,7 +1679,8 @@ def _detect_and_focus(
     counts["second_pass"] = len(second)
     for det in _examination_order(second, scan):
         _visit(det, scan, tally)
-    _drop_under_threshold(scan, tally)
+    kept = _drop_under_threshold(scan, tally)
+    _warn_merged(tally, kept)
     _warn_unseparated(scan, tally)
     _warn_unexamined(tally, params)
     counts["not_examined"] = tally.dropped
@@ -1794,17 +1840,12 @@ def _merge(det: detection.Detection, k: int, scan: _Scan, tally: _Tally) -> None
                 "apparent time (at its ambiguity)"
             )
             cause = "its ambiguity's residue, or another mover there sharing its window (not examined on its own)"
-        log.warning(
-            "reconstruct: a response %.1f dB under mover %d, in range cell %d (%d cells from its "
-            "peak; its own range extent %.0f cells) %s, could not be separated from it: %s",
-            10 * math.log10(peak.power / det.power),
-            k,
-            det.cell,
-            det.cell - peak.cell,
-            spread,
-            where,
-            cause,
+        text = (
+            f"a response {10 * math.log10(peak.power / det.power):.1f} dB under mover {{}}, in range cell {det.cell} "
+            f"({det.cell - peak.cell} cells from its peak; its own range extent {spread:.0f} cells) {where}, could "
+            f"not be separated from it: {cause}"
         )
+        tally.merged.append((k, text))
 
 
 def _examine(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
@@ -2111,10 +2152,20 @@ def _refocus(
             at_estimate,
             at_rest,
         )
-        if at_rest <= at_estimate:
+        if not _rest_ruled_out(at_estimate, at_rest):
             # a candidate for _drop_under_threshold: keep what its refocus changed, to undo it
             tally.undo[len(tally.movers) - 1] = change
             tally.at_rest[len(tally.movers) - 1] = (at_estimate, at_rest)
+
+
+def _rest_ruled_out(at_estimate: float, at_rest: float) -> bool:
+    """Whether the null fit rules out rest (v_r = v_a = 0) for a mover, from its mismatches at its estimate and at
+    rest: rest must leave more of the residual unexplained than the estimate and more than NULL_FIT_MISMATCH, the
+    fraction over which the fit calls a velocity wrong (xu_traffic V9: 1.0000 at rest, 0.2151 at its estimate).
+    Under it both explain the residual and the fit cannot tell them: with a sinc or gaussian beam a slow target's
+    residual is its skirt's leakage, which the fit predicts at any slow velocity (mover campaign scene 014: its
+    clutter read at v_r -1.34 m/s 0.177 at rest, 0.144 at it; its true M2 0.076 and 0.078)."""
+    return at_rest > max(at_estimate, NULL_FIT_MISMATCH)
 
 
 def _static_within(mt: MovingTarget, scan: _Scan) -> float | None:
@@ -2127,10 +2178,11 @@ def _static_within(mt: MovingTarget, scan: _Scan) -> float | None:
     return z if z < STATIC_SIGMAS else None
 
 
-def _drop_under_threshold(scan: _Scan, tally: _Tally) -> None:
+def _drop_under_threshold(scan: _Scan, tally: _Tally) -> dict[int, int]:
     """Take back the movers whose detection is under the CFAR threshold the measured background sets, whose
-    line-of-sight speed is not STATIC_SIGMAS over detection_velocity and whose residual the null fit explains at rest
-    as well as at their estimate (_refocus keeps those candidates): nothing tells them from the background.
+    line-of-sight speed is not STATIC_SIGMAS over detection_velocity and for which the null fit does not rule out rest
+    (_rest_ruled_out; _refocus keeps those candidates): nothing tells them from the background. Returns the movers
+    kept, old index to new.
 
     The first pass examines everything over detection_snr; only the second pass knows the threshold a false-alarm
     rate sets (_second_pass). A detection under it is as strong as the background's own peaks (mover campaign scene
@@ -2144,9 +2196,9 @@ def _drop_under_threshold(scan: _Scan, tally: _Tally) -> None:
         for k in sorted(tally.undo)
         if tally.peaks[k].snr_db < scan.found.cfar_db and scan.found.cfar_db > scan.params.detection_snr
     ]
-    if not drop:
-        return
     index = {k: i for i, k in enumerate(k for k in range(len(tally.movers)) if k not in drop)}
+    if not drop:
+        return index
     for k in drop:
         mt, det = tally.movers[k], tally.peaks[k]
         scan.y_tr[:, mt.first_cell : mt.last_cell] -= tally.undo[k]
@@ -2182,6 +2234,19 @@ def _drop_under_threshold(scan: _Scan, tally: _Tally) -> None:
     tally.movers = [m for k, m in enumerate(tally.movers) if k not in drop]
     tally.peaks = [p for k, p in enumerate(tally.peaks) if k not in drop]
     tally.counts["weak"] = len(drop)
+    return index
+
+
+def _warn_merged(tally: _Tally, kept: dict[int, int]) -> None:
+    """Warn of the responses merged with a mover that could not be separated from it (_merge), numbered as the movers
+    _drop_under_threshold kept; of one merged with a detection it took back only at info level: it names no mover
+    (mover campaign scene 014: three merged with its clutter read at -1.34 m/s, once warned of as another mover's)."""
+    for k, text in tally.merged:
+        if k in kept:
+            log.warning("reconstruct: %s", text.replace("{}", str(kept[k]), 1))
+        else:
+            head = text.split(", could not be separated")[0].replace("mover {}", "a detection taken for static", 1)
+            log.info("reconstruct: %s: merged with it, taken for static with it", head)
 
 
 def _warn_unseparated(scan: _Scan, tally: _Tally) -> None:
@@ -2752,7 +2817,7 @@ def _uncertainties(mt: MovingTarget, g: _Geometry, clutter_band: float | None) -
     s_los = lam / (4 * math.pi * spread) / math.sqrt(2 * snr / g.n) if spread > 0 else float("inf")
     s_los = math.hypot(s_los, NULL_FIT_FLOOR if mt.null_fit_index is not None else LOS_FLOOR)
     # what the criterion's own curve says, which no SNR predicts: a flat minimum, or an overruled eq. 5 estimate
-    s_los = max(s_los, mt.null_fit_width, abs(mt.overruled))
+    s_los = max(s_los, mt.null_fit_width, abs(mt.overruled), mt.leakage_spread)
     ka = 2 * (g.velocity * cos) ** 2 / (lam * mt.apparent_range)
     t_ill = 2 * g.half_band / ka
     s_k = math.sqrt(90 / snr_af) / (math.pi * t_ill**2)
