@@ -194,6 +194,7 @@ class _Geometry:
     fs: float
     # Hz: the band the null fit models a mover's reconstruction over (_NullFit; model_half_band); 0: half_band
     model_half_band: float = 0.0
+    bandwidth: float = 0.0  # Hz: the chirp's range bandwidth (_window_at's range taper; 0: none)
 
 
 def _check_input(raw: Product) -> None:
@@ -238,6 +239,7 @@ def _geometry(raw: Product, params: ReconstructParams) -> _Geometry:
         half_band=band / 2,
         fs=r.range_sampling_rate,
         model_half_band=model_half_band(r, band / 2, n * r.prf / 2),
+        bandwidth=float(r.bandwidth),
     )
 
 
@@ -306,8 +308,18 @@ def _reconstruct(spec_tf: np.ndarray, bank: channels.FilterBank) -> np.ndarray:
 class _Window:
     """One moving-target window: channel data in (t, f_r) over its L range cells, and its reconstruction."""
 
-    def __init__(self, x_tf: np.ndarray, f_r: np.ndarray, g: _Geometry, params: ReconstructParams) -> None:
+    def __init__(
+        self,
+        x_tf: np.ndarray,
+        f_r: np.ndarray,
+        g: _Geometry,
+        params: ReconstructParams,
+        x_criterion: np.ndarray | None = None,
+    ) -> None:
         self.x, self.f_r, self.g, self.params = x_tf, f_r, g, params
+        # what eq. 5's final search weighs (final_leakage): the channels range-tapered where a neighbour's range side
+        # lobes reach the criterion's cells (_window_at), else None (the channels themselves)
+        self.x_criterion = x_criterion
         self.out_f = sfft.fftfreq(g.n * len(g.times), 1.0 / (g.n * g.prf))
         self._banks: dict[float, channels.FilterBank] = {}
         self.cells: np.ndarray | None = None  # the criterion's range cells (None: all of the window)
@@ -343,24 +355,31 @@ class _Window:
             )
         return self._banks[key]
 
-    def demodulated_spectrum(self, v_r: float, v_a: float) -> np.ndarray:
-        """Reconstructed spectrum (N n_az, L) with the trial target's Doppler offset removed (band centred on 0)."""
+    def demodulated_spectrum(self, v_r: float, v_a: float, criterion: bool = False) -> np.ndarray:
+        """Reconstructed spectrum (N n_az, L) with the trial target's Doppler offset removed (band centred on 0), of
+        the channels or (``criterion``) of what eq. 5 weighs."""
         g = self.g
         v_los = channels.line_of_sight_velocity(v_r, v_a, g.squint)
         demod = deramp.doppler_shift_phasor(g.times, self.f_r, v_los, g.fc, sign=-1)
-        return _reconstruct(self.x * demod[None], self.bank(v_a))
+        x = self.x_criterion if criterion and self.x_criterion is not None else self.x
+        return _reconstruct(x * demod[None], self.bank(v_a))
 
-    def leakage(self, v_r: float, v_a: float) -> float:
-        spec = self.demodulated_spectrum(v_r, v_a)
+    def final_leakage(self, v_r: float, v_a: float) -> float:
+        """Eq. 5 on the range-tapered channels where there are (x_criterion), else ``leakage``."""
+        return self.leakage(v_r, v_a, criterion=True)
+
+    def leakage(self, v_r: float, v_a: float, criterion: bool = False) -> float:
+        spec = self.demodulated_spectrum(v_r, v_a, criterion)
         if self.cells is not None:
             spec = sfft.ifft(spec, axis=1, workers=-1)[:, self.cells]
         return velocity.out_of_band_fraction(spec, self.out_f, self.g.half_band)
 
-    def leakage_looks(self, v_r: float, v_a: float) -> tuple[np.ndarray, np.ndarray]:
+    def leakage_looks(self, v_r: float, v_a: float, criterion: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """Eq. 5's out-of-band and total energy per range frequency of the criterion's cells (its independent
         looks: noise is independent between them, and a point target has the same azimuth spectrum in each): their
-        sums over the looks are eq. 5's numerator and denominator (Parseval)."""
-        spec = self.demodulated_spectrum(v_r, v_a)
+        sums over the looks are eq. 5's numerator and denominator (Parseval); of the channels or (``criterion``) of
+        what the final search weighs (final_leakage)."""
+        spec = self.demodulated_spectrum(v_r, v_a, criterion)
         if self.cells is not None:
             spec = sfft.fft(sfft.ifft(spec, axis=1, workers=-1)[:, self.cells], axis=1, workers=-1)
         p = np.abs(spec) ** 2
@@ -436,6 +455,11 @@ STATIC_SIGMAS = 2.0
 # m/s: the central-difference step of eq. 5's looks' scores and curvature (_leakage_spread; on mover campaign scene 014
 # its three windows' sigmas change by under 5 % between 0.1 and 0.5 m/s)
 LEAKAGE_SPREAD_STEP = 0.25
+# A neighbour whose range side lobes (unweighted sinc envelope) reach a detection over this fraction of its power
+# range-tapers its final eq. 5 search (_neighbours): scene 008's M3 and M4, -24 and -22 dB at M6 and M5, pulled them
+# 0.15-0.2 m/s (docs/multichannel.md section 8)
+NEIGHBOUR_LEVEL = 1e-3
+RANGE_TAPER_CELLS = 8  # range cells either side of a window over which its range taper is applied (_range_tapered)
 STATIC_CELLS = 2  # range cells either side of an examined static detection that share its answer (_visit)
 
 
@@ -799,7 +823,13 @@ def _null_refit(
         )
 
 
-def _leakage_spread(win: _Window, v_r: float, v_a: float, step: float = LEAKAGE_SPREAD_STEP) -> float:
+def _leakage_spread(
+    win: _Window,
+    v_r: float,
+    v_a: float,
+    est_criterion: Callable[[float, float], float],
+    step: float = LEAKAGE_SPREAD_STEP,
+) -> float:
     """1-sigma (m/s of the searched v_r, at ``v_a``) of eq. 5's minimum at ``v_r`` from its looks' disagreement.
 
     Eq. 5's estimate minimises L(u) = sum_k O_k(u) / sum_k T_k(u) over the looks k (_Window.leakage_looks); at the
@@ -810,7 +840,10 @@ def _leakage_spread(win: _Window, v_r: float, v_a: float, step: float = LEAKAGE_
     minima disagree however high the SNR (mover campaign scene 014's clutter read at v_r -1.34 m/s: looks' minima
     from -2 to beyond +1.7 m/s; eq. 5 only 3.4 % under its value at rest): the SNR's curvature bound misses that.
     Derivatives by central differences over ``step``; 0 where there is no minimum (L'' <= 0) or fewer than 2 looks."""
-    (om, tm), (o0, t0), (op, tp) = (win.leakage_looks(v_r + k * step, v_a) for k in (-1, 0, 1))
+    # the looks of the curve that gave the estimate: the range-tapered channels where a neighbour made the final
+    # search weigh them (_autofocus; final_leakage)
+    tapered = est_criterion == win.final_leakage
+    (om, tm), (o0, t0), (op, tp) = (win.leakage_looks(v_r + k * step, v_a, tapered) for k in (-1, 0, 1))
     n, total = len(o0), float(t0.sum())
     if n < 2 or total <= 0 or tm.sum() <= 0 or tp.sum() <= 0:
         return 0.0
@@ -973,6 +1006,10 @@ def _autofocus(
         # Refine v_r with the along-track velocity known (the channel delays depend on it).
         span = 5 * params.velocity_step
         lo, hi = max(params.velocity_min, est.v_r - span), min(params.velocity_max, est.v_r + span)
+        if not est.by_null_fit and win.x_criterion is not None:
+            # a neighbour's range side lobes in the criterion's cells: the final search on the range-tapered
+            # channels (_window_at; the first search, the static test and the autofocus as without a neighbour)
+            est.criterion = win.final_leakage
         fine = _search(est, params, v_a, lo, hi, params.velocity_step)
         assert est.result is not None  # searched above: can_search and no radial velocity given
         trials = np.concatenate([est.result.trials, fine.trials])
@@ -1200,7 +1237,7 @@ def _estimate(
     leak = win.leakage(est.v_r, est.v_a) if can_search else float("nan")
     # eq. 5's own 1-sigma from its looks (v_r searched at fixed v_a: v_los's is cos(theta) of it)
     searched = can_search and params.radial_velocity is None and est.result is not None and not est.by_null_fit
-    spread = _leakage_spread(win, est.v_r, est.v_a) * math.cos(g.squint) if searched else 0.0
+    spread = _leakage_spread(win, est.v_r, est.v_a, est.criterion) * math.cos(g.squint) if searched else 0.0
     appears = appears_cell = None
     if null_fit is not None and centre.shift is not None:
         null_fit.isolated(est.v_r, est.v_a, null_fit.fit(est.v_r, est.v_a)[1])  # where it is, with its final velocity
@@ -1851,7 +1888,7 @@ def _merge(det: detection.Detection, k: int, scan: _Scan, tally: _Tally) -> None
 def _examine(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
     """Estimate ``det``'s velocities in its window, take its response out of the image, refocus it if it moves."""
     params, g = scan.params, scan.g
-    w = _window_at(det, scan)
+    w = _window_at(det, scan, tally)
     if scan.projector is not None:
         _log_null_survival(det, w.ext, scan)
     centre_range = C / 2 * (scan.rt0 + (det.cell - scan.lead) / g.fs)
@@ -1965,8 +2002,67 @@ def _two_in_range(d1: detection.Detection, d2: detection.Detection, scan: _Scan)
     return scan.split[key]
 
 
-def _window_at(det: detection.Detection, scan: _Scan) -> _DetWindow:
-    """The range cells of ``det``'s window (_window_bounds) and its channels separated from the rest of them."""
+def _neighbours(det: detection.Detection, scan: _Scan, tally: _Tally | None) -> int:
+    """How many other detections (or movers found) lie in ``det``'s separation pass band (under 1.5
+    separation_bandwidth from it in dechirped Doppler, modulo PRF), beyond any mover's own range extent from it (as
+    _window_bounds) and within 2 window_margin cells, whose range side lobes reach it over NEIGHBOUR_LEVEL of its
+    power and over its local background (on the unweighted sinc envelope, as _two_in_range): the targets _window_at's
+    range taper is for. Nearer in range a response is the mover's own structure or a neighbour whose main lobe the
+    taper does not take out; under the background (clutter residual, noise) the taper's loss of 1.8 dB of the
+    mover's SNR outweighs them (scene 012: a detection at SNR 16.0 dB with side lobes 20 dB under it read v_r 1.16
+    m/s tapered, a false alarm; 0.9 untapered, taken back as static)."""
+    g, sp, params = scan.g, scan.spacing, scan.params
+    band, m = params.separation_bandwidth, params.window_margin
+    reach = _range_extent(max(abs(params.velocity_min), abs(params.velocity_max)), scan)
+    peaks = tally.peaks if tally is not None else []
+    n = 0
+    for d in {id(d): d for d in (*scan.found.dets, *peaks)}.values():
+        gap = abs(d.cell - det.cell)
+        if d is det or not reach < gap <= 2 * m:
+            continue
+        f_d = (sp.ka0 * (d.time - det.time) + g.prf / 2) % g.prf - g.prf / 2
+        envelope = 1.0 / (math.pi * gap / scan.found.range_width) ** 2
+        if abs(f_d) < 1.5 * band and d.power * envelope >= max(NEIGHBOUR_LEVEL * det.power, det.background):
+            log.debug(
+                "reconstruct: detection at cell %d, %.4f s: a neighbour at cell %d, %+.1f Hz, %+.1f dB (its side lobes "
+                "%+.1f dB here)",
+                det.cell,
+                det.time,
+                d.cell,
+                f_d,
+                10 * math.log10(d.power / det.power),
+                10 * math.log10(d.power * envelope / det.power),
+            )
+            n += 1
+    return n
+
+
+def _range_tapered(scan: _Scan, a: int, b: int) -> np.ndarray:
+    """Channels of range cells [a, b) in (t, f_r) with a Hann taper over the chirp's band: what a target's range
+    side lobes leave in the cells is -31 dB of its peak and falls fast, instead of the unweighted sinc's -13 dB
+    falling as 1 / n^2. The taper is applied over RANGE_TAPER_CELLS more cells either side (its kernel's reach), so
+    the cells kept hold the line's weighted response."""
+    g = scan.g
+    a_e, b_e = max(0, a - RANGE_TAPER_CELLS), min(scan.n_cells, b + RANGE_TAPER_CELLS)
+    f_e = sfft.fftfreq(b_e - a_e, 1.0 / g.fs)
+    hann = np.where(np.abs(f_e) <= g.bandwidth / 2, 0.5 + 0.5 * np.cos(2 * np.pi * f_e / g.bandwidth), 0.0)
+    x_e = sfft.ifft(sfft.fft(scan.x_tr[:, :, a_e:b_e], axis=-1, workers=-1) * hann, axis=-1, workers=-1)
+    return sfft.fft(x_e[:, :, a - a_e : b - a_e], axis=-1, workers=-1)
+
+
+def _window_at(det: detection.Detection, scan: _Scan, tally: _Tally | None = None) -> _DetWindow:
+    """The range cells of ``det``'s window (_window_bounds) and its channels separated from the rest of them.
+
+    With another target in its separation pass band and range reach (_neighbours), the final eq. 5 search (after
+    the autofocus, _Window.final_leakage) weighs the window's channels range-tapered (_range_tapered); the first
+    search, the static test, the autofocus, the null fit, the reconstruction and the removal keep the untapered ones.
+    Eq. 5 weighs every response in the criterion's cells, and a neighbour's range side lobes there pull it: mover
+    campaign scene 008 (sinc beam, no clutter or noise), M6 read v_r -0.19 m/s off (5.5 stated sigma) with M3's side
+    lobes (7.8 dB brighter, 21 cells and 28 Hz away) at 0.3 % of its cells' energy, M5 +0.18 with M4's (4 cells and
+    23 Hz away) at 1.8 %; alone, -0.04 and 0.00; tapered, -0.01 and +0.01. Cutting the Doppler pass band half way to
+    the neighbour takes it out too, but eq. 5 on a sinc beam moves by up to 0.1 m/s with the cut's place on the
+    mover alone; tapering the autofocus's data as well moved the v_a of movers sharing range cells by up to 1.1 m/s
+    (docs/multichannel.md section 8)."""
     params, g, m = scan.params, scan.g, scan.params.window_margin
     a, b = max(0, det.cell - m), min(scan.n_cells, det.cell + m + 1)
     # The window keeps all its cells (its range processing and the separation see whole responses); the target
@@ -1976,7 +2072,17 @@ def _window_at(det: detection.Detection, scan: _Scan) -> _DetWindow:
     ka_w = detection.fm_rate(g.velocity, g.squint, scan.found.r_mid, g.fc, f_w)
     x_w = sfft.fft(scan.x_tr[:, :, a:b], axis=-1, workers=-1)
     ext = detection.extract(x_w, g.times, g.prf, det.time, ka_w, params.separation_bandwidth)
-    win = _Window(ext, f_w, g, params)
+    criterion = None
+    if g.bandwidth > 0 and _neighbours(det, scan, tally):
+        log.debug(
+            "reconstruct: detection at cell %d, %.4f s: a neighbour in its pass band, eq. 5 range-tapered",
+            det.cell,
+            det.time,
+        )
+        criterion = detection.extract(
+            _range_tapered(scan, a, b), g.times, g.prf, det.time, ka_w, params.separation_bandwidth
+        )
+    win = _Window(ext, f_w, g, params, criterion)
     if (lo, hi) != (a, b):
         win.gate = np.arange(lo - a, hi - a)
     win.keep_own_cells()
