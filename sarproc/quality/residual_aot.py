@@ -23,6 +23,7 @@ RESIDUAL = Kernels(
         "keystone_columns": "c16[:, ::1](f8[:, ::1], i8[:, ::1], f8[::1], i8)",
         "keystone_box_sum": "c16[:, ::1](f8[::1], f8[::1], f8[::1], i8, i8, i8[:, ::1], c16[::1], f8[::1], i8)",
         "keystone_derivatives": "c16[:, ::1](f8[:, ::1], i8[:, ::1], c16[::1], f8[::1], i8)",
+        "spread_bins": "f8[:, ::1](f8[::1], f8[::1], f8[::1], f8[::1], i8, i8, f8, i8)",
     },
     owner="sarproc.quality.residual_aot:RESIDUAL",
 )
@@ -82,3 +83,18 @@ def keystone_derivatives(
 ) -> np.ndarray:
     """:func:`sarproc.quality.residual_kernels.keystone_derivatives` (the same arguments, any layout)."""
     return kernels().keystone_derivatives(_f8(c), _i8(orders), _c16(coef), _f8(kappa), int(n_strips))
+
+
+def spread_bins(
+    c_re: np.ndarray,
+    c_im: np.ndarray,
+    u: np.ndarray,
+    first: np.ndarray,
+    grid_size: int,
+    taps: int,
+    beta: float,
+    block: int,
+) -> np.ndarray:
+    """:func:`sarproc.quality.residual_kernels.spread_bins` (the same arguments, any layout)."""
+    k = kernels()
+    return k.spread_bins(_f8(c_re), _f8(c_im), _f8(u), _f8(first), int(grid_size), int(taps), float(beta), int(block))
