@@ -28,6 +28,8 @@ def _spread(coef: np.ndarray, x: np.ndarray, grid_size: int) -> np.ndarray:
     (:func:`sarproc.quality.residual_kernels.spread_bins`; a campaign scene's cuts spent 3 s of CPU in it)."""
     from sarproc.quality import residual_aot
 
+    if residual_aot.spread_kernels() is None:  # neither built nor loaded: numba is not started for it
+        return _spread_numpy(coef, x, grid_size)
     u = np.mod(x * grid_size / (2 * np.pi), grid_size)
     first = np.ceil(u - _SPREAD / 2.0)
     bins = residual_aot.spread_bins(coef.real, coef.imag, u, first, grid_size, _SPREAD, _BETA, _BLOCK)

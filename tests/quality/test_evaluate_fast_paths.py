@@ -14,7 +14,7 @@ import numba
 import numpy as np
 import pytest
 
-from sarproc.quality import linesum, residual_kernels as rk
+from sarproc.quality import linesum, residual_aot, residual_kernels as rk
 from sarproc.quality.residual import _bounded_minimum, _strip_count, spectral_orders
 from sarproc.quality.residual_kernels import (
     NEAR_X,
@@ -168,6 +168,7 @@ def test_compiled_spread_is_the_numpy_grid(terms, grid, monkeypatch):
     """The compiled spreading of a line sum's terms: numpy's grid bit for bit, over several blocks of terms
     too (the block size lowered so that 2500 terms take three), terms at the grid's ends and at 0 included."""
     monkeypatch.setattr(linesum, "_BLOCK", 1000)
+    assert residual_aot.spread_kernels() is not None  # the compiled path runs (numba's kernels are loaded)
     rng = np.random.default_rng(terms)
     coef = rng.normal(size=terms) + 1j * rng.normal(size=terms)
     x = rng.uniform(-np.pi, np.pi, terms)
