@@ -24,7 +24,20 @@ _BLOCK = 1 << 15  # terms spread at once (bounds the (terms, 17) temporaries)
 
 def _spread(coef: np.ndarray, x: np.ndarray, grid_size: int) -> np.ndarray:
     """sum_k coef[k] phi((l - u_k) / (spread / 2)) on the periodic grid l, u_k = x_k grid_size / 2 pi
-    (phi = 0 beyond its support)."""
+    (phi = 0 beyond its support): :func:`_spread_numpy`'s grid bit for bit, compiled
+    (:func:`sarproc.quality.residual_kernels.spread_bins`; a campaign scene's cuts spent 3 s of CPU in it)."""
+    from sarproc.quality import residual_aot
+
+    if residual_aot.spread_kernels() is None:  # neither built nor loaded: numba is not started for it
+        return _spread_numpy(coef, x, grid_size)
+    u = np.mod(x * grid_size / (2 * np.pi), grid_size)
+    first = np.ceil(u - _SPREAD / 2.0)
+    bins = residual_aot.spread_bins(coef.real, coef.imag, u, first, grid_size, _SPREAD, _BETA, _BLOCK)
+    return bins[0] + 1j * bins[1]
+
+
+def _spread_numpy(coef: np.ndarray, x: np.ndarray, grid_size: int) -> np.ndarray:
+    """:func:`_spread` in numpy (the reference)."""
     half = _SPREAD / 2.0
     taps = np.arange(_SPREAD + 1)
     re = np.zeros(grid_size)

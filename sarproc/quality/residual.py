@@ -11,7 +11,7 @@ import dataclasses
 import functools
 import itertools
 import math
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -1437,8 +1437,6 @@ def _fit_curvature(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> t
     model, amplitudes solved by linear least squares (band centre, chirp, widths and keystone as fitted
     straight), leaves the least |y - model|^2 on ``points``: a grid of :data:`CURVATURE_STEP`, then a bounded
     scalar search within a step of its best."""
-    import scipy.optimize  # only where a 2D model's shape is fitted
-
     straight = response_basis(
         points, model.position, model.ridges, model.nulls, model.band_centre, model.orders, model.chirp, model.kappa
     )
@@ -1462,9 +1460,83 @@ def _fit_curvature(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> t
     grid = grid[np.isin(np.sign(grid), (0.0, *signs))]
     best = float(grid[int(np.argmin([misfit(float(b)) if b else before for b in grid]))])
     lo, hi = max(-CURVATURE_LIMIT, best - CURVATURE_STEP), min(CURVATURE_LIMIT, best + CURVATURE_STEP)
-    found = scipy.optimize.minimize_scalar(misfit, bounds=(lo, hi), method="bounded", options={"xatol": 2e-4})
-    beta = float(found.x)
-    return beta, least_squares(basis(beta), y), before, float(found.fun)
+    beta, least = _bounded_minimum(misfit, lo, hi, 2e-4)
+    return beta, least_squares(basis(beta), y), before, least
+
+
+def _bounded_minimum(func: Callable[[float], float], lo: float, hi: float, xatol: float) -> tuple[float, float]:
+    """(x, func(x)): the minimum of ``func`` on [lo, hi] by Brent's bounded search, step for step
+    ``scipy.optimize.minimize_scalar(func, bounds=(lo, hi), method="bounded", options={"xatol": xatol})``
+    (scipy 1.17's ``_minimize_scalar_bounded``, BSD licence: the same trial points, rounded alike, so the
+    same answer), without importing scipy.optimize (0.2 s of CPU beside scipy.special, which the bow needs)."""
+    sqrt_eps = math.sqrt(2.2e-16)
+    golden_mean = 0.5 * (3.0 - math.sqrt(5.0))
+    a, b = lo, hi
+    fulc = a + golden_mean * (b - a)
+    nfc, xf = fulc, fulc
+    rat = e = 0.0
+    x = xf
+    fx = func(x)
+    num = 1
+    ffulc = fnfc = fx
+    xm = 0.5 * (a + b)
+    tol1 = sqrt_eps * abs(xf) + xatol / 3.0
+    tol2 = 2.0 * tol1
+    while abs(xf - xm) > (tol2 - 0.5 * (b - a)):
+        golden = True
+        if abs(e) > tol1:  # a parabola through the three best points
+            golden = False
+            r = (xf - nfc) * (fx - ffulc)
+            q = (xf - fulc) * (fx - fnfc)
+            p = (xf - fulc) * q - (xf - nfc) * r
+            q = 2.0 * (q - r)
+            if q > 0.0:
+                p = -p
+            q = abs(q)
+            r = e
+            e = rat
+            if abs(p) < abs(0.5 * q * r) and p > q * (a - xf) and p < q * (b - xf):
+                rat = (p + 0.0) / q
+                x = xf + rat
+                if (x - a) < tol2 or (b - x) < tol2:
+                    rat = tol1 * (_sign(xm - xf) + float(xm - xf == 0))
+            else:
+                golden = True
+        if golden:  # a golden-section step
+            e = a - xf if xf >= xm else b - xf
+            rat = golden_mean * e
+        x = xf + (_sign(rat) + float(rat == 0)) * max(abs(rat), tol1)
+        fu = func(x)
+        num += 1
+        if fu <= fx:
+            if x >= xf:
+                a = xf
+            else:
+                b = xf
+            fulc, ffulc = nfc, fnfc
+            nfc, fnfc = xf, fx
+            xf, fx = x, fu
+        else:
+            if x < xf:
+                a = x
+            else:
+                b = x
+            if fu <= fnfc or nfc == xf:
+                fulc, ffulc = nfc, fnfc
+                nfc, fnfc = x, fu
+            elif fu <= ffulc or fulc == xf or fulc == nfc:  # noqa: SIM109 (scipy's ==: NaN never equal)
+                fulc, ffulc = x, fu
+        xm = 0.5 * (a + b)
+        tol1 = sqrt_eps * abs(xf) + xatol / 3.0
+        tol2 = 2.0 * tol1
+        if num >= 500:  # scipy's maxiter
+            break
+    return xf, fx
+
+
+def _sign(v: float) -> float:
+    """numpy's sign of a float: -1, 0 or 1 (NaN: NaN)."""
+    return float(np.sign(v))
 
 
 @single_blas

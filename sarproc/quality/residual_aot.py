@@ -9,6 +9,7 @@ per process. Both compile the same source without fast-math, so the results are 
 
 from __future__ import annotations
 
+import sys
 from types import ModuleType
 
 import numpy as np
@@ -23,6 +24,7 @@ RESIDUAL = Kernels(
         "keystone_columns": "c16[:, ::1](f8[:, ::1], i8[:, ::1], f8[::1], i8)",
         "keystone_box_sum": "c16[:, ::1](f8[::1], f8[::1], f8[::1], i8, i8, i8[:, ::1], c16[::1], f8[::1], i8)",
         "keystone_derivatives": "c16[:, ::1](f8[:, ::1], i8[:, ::1], c16[::1], f8[::1], i8)",
+        "spread_bins": "f8[:, ::1](f8[::1], f8[::1], f8[::1], f8[::1], i8, i8, f8, i8)",
     },
     owner="sarproc.quality.residual_aot:RESIDUAL",
 )
@@ -33,6 +35,15 @@ def kernels() -> ModuleType:
     No serial budget is spent (:meth:`Kernels.pick` with 0 s): numba's kernels are serial as well, so the
     compiled module is never the slower."""
     return RESIDUAL.pick(0.0)
+
+
+def spread_kernels() -> ModuleType | None:
+    """The module to spread a line sum's terms with (:func:`spread_bins`) where one is at hand without starting
+    numba: numba's where its kernels are loaded already, else the compiled one where it is built; else None
+    (then :func:`sarproc.quality.linesum._spread_numpy`, the same bits: a cube's evaluate, which needs only the
+    quality module's kernels, loads neither)."""
+    loaded = sys.modules.get(RESIDUAL.module)
+    return loaded if loaded is not None else RESIDUAL.load()
 
 
 def _f8(x: object) -> np.ndarray:
@@ -82,3 +93,18 @@ def keystone_derivatives(
 ) -> np.ndarray:
     """:func:`sarproc.quality.residual_kernels.keystone_derivatives` (the same arguments, any layout)."""
     return kernels().keystone_derivatives(_f8(c), _i8(orders), _c16(coef), _f8(kappa), int(n_strips))
+
+
+def spread_bins(
+    c_re: np.ndarray,
+    c_im: np.ndarray,
+    u: np.ndarray,
+    first: np.ndarray,
+    grid_size: int,
+    taps: int,
+    beta: float,
+    block: int,
+) -> np.ndarray:
+    """:func:`sarproc.quality.residual_kernels.spread_bins` (the same arguments, any layout)."""
+    k = spread_kernels() or kernels()
+    return k.spread_bins(_f8(c_re), _f8(c_im), _f8(u), _f8(first), int(grid_size), int(taps), float(beta), int(block))

@@ -291,6 +291,9 @@ def keystone_box_sum(
 SERIES_E = 1e-3  # |h - m pi| below which the Dirichlet kernel and its derivative are its Taylor series
 NEAR_X = 1e-3  # |x_a| (a keystoned axis) below which the derivatives are interpolated from +-NODE, +-2 NODE
 NODE = 3e-3
+# |sin h| at or above this puts h at least SERIES_E from every pole m pi (|sin e| <= |e|; the angle-added sines are
+# within 1e-15 of sin h): the closed form, without :func:`_dirichlet`'s test
+SERIES_SH = 1.001e-3
 
 
 @numba.njit(error_model="numpy", cache=CACHE)
@@ -378,7 +381,14 @@ def keystone_derivatives(
     Analytic, in the same pass as the strip sums (angle addition per order, as :func:`keystone_columns`);
     where a factor's closed form cancels, Taylor series (the Dirichlet kernel near its poles, the last axis'
     sinc near 0), or, within :data:`NEAR_X` of a keystoned axis' zero, interpolation from four points
-    either side (the strip sum is analytic there)."""
+    either side (the strip sum is analytic there).
+
+    Per point and sign the orders run in loops without branches over real arrays (the Dirichlet kernel's
+    closed form for every order, then the few within :data:`SERIES_SH` of a pole again through
+    :func:`_dirichlet`, then the sums), which the compiler vectorises: each complex product is written out in
+    real arithmetic as the complex one rounds it (its products with the zero imaginary part of a real
+    factor left out: they add only zeros), so the result is the per-order complex loop's bit for bit
+    (tests/quality/test_residual_aot.py), at half its time."""
     ndim, n = c.shape
     n_k = ndim - 1
     n_orders = orders.shape[0]
@@ -392,12 +402,42 @@ def keystone_derivatives(
             d_half[s, q] = 0.5 * math.pi * width * orders[q, n_k]
             for a in range(n_k):
                 d_half[s, q] += 0.25 * math.pi * width * signs[s, a] * kappa[a] * orders[q, a]
+    shift_r = np.empty((n_signs, n_orders))
+    shift_i = np.empty((n_signs, n_orders))
+    for s in range(n_signs):
+        for q in range(n_orders):
+            shift_r[s, q] = shift[s, q].real
+            shift_i[s, q] = shift[s, q].imag
+    # the per-(sign, axis) constants of the derivative terms, as the complex expressions round them
+    # t_l: e (dd pi width + j d (2 pi u0 + (S - 1) pi width))
+    l_q = 2.0 * math.pi * u0 + (n_strips - 1) * math.pi * width
+    a_p = np.empty((n_signs, max(n_k, 1)))  # h_a (times kappa_a: after dd h_a)
+    a_q = np.empty((n_signs, max(n_k, 1)))
+    k_q = np.empty((n_signs, max(n_k, 1)))
+    for s in range(n_signs):
+        for a in range(n_k):
+            sg = signs[s, a]
+            h_a = 0.5 * math.pi * width * sg
+            a_p[s, a] = h_a
+            a_q[s, a] = math.pi * sg * (1.0 + kappa[a] * u0) + (n_strips - 1) * h_a * kappa[a]
+            k_q[s, a] = math.pi * sg * u0 + (n_strips - 1) * h_a
     h_const = (-1j) ** n_k / (2.0 * math.pi) ** n_k
     out = np.zeros((2 * ndim - 1, n), dtype=np.complex128)
-    t = np.empty(n_orders, dtype=np.complex128)
-    t_l = np.empty(n_orders, dtype=np.complex128)
-    t_a = np.empty((n_orders, max(n_k, 1)), dtype=np.complex128)
-    t_k = np.empty((n_orders, max(n_k, 1)), dtype=np.complex128)
+    tr = np.empty(n_orders)
+    ti = np.empty(n_orders)
+    tlr = np.empty(n_orders)
+    tli = np.empty(n_orders)
+    tar = np.empty((max(n_k, 1), n_orders))
+    tai = np.empty((max(n_k, 1), n_orders))
+    tkr = np.empty((max(n_k, 1), n_orders))
+    tki = np.empty((max(n_k, 1), n_orders))
+    dv = np.empty(n_orders)
+    ddv = np.empty(n_orders)
+    sq = np.empty(n_orders)
+    cq = np.empty(n_orders)
+    ssq = np.empty(n_orders)
+    csq = np.empty(n_orders)
+    xk = np.empty((max(n_k, 1), n_orders))
     near = np.empty(n_orders, dtype=np.bool_)
     x = np.empty(ndim)
     node = np.empty(ndim)
@@ -407,47 +447,65 @@ def keystone_derivatives(
     for i in range(n):
         for q in range(n_orders):
             near[q] = False
-            for a in range(n_k):
-                if abs(c[a, i] + 0.5 * orders[q, a]) < NEAR_X:
+            tr[q] = 0.0
+            ti[q] = 0.0
+            tlr[q] = 0.0
+            tli[q] = 0.0
+        for a in range(n_k):
+            for q in range(n_orders):
+                xk[a, q] = c[a, i] + 0.5 * orders[q, a]
+                if abs(xk[a, q]) < NEAR_X:
                     near[q] = True
-            t[q] = 0j
-            t_l[q] = 0j
-            for a in range(n_k):
-                t_a[q, a] = 0j
-                t_k[q, a] = 0j
+                tar[a, q] = 0.0
+                tai[a, q] = 0.0
+                tkr[a, q] = 0.0
+                tki[a, q] = 0.0
         last = c[n_k, i]
         for s in range(n_signs):
             half, phase = _strip_angles(c[:, i], signs[s], kappa, n_strips)
             sh, ch = math.sin(half), math.cos(half)
             ssh, csh = math.sin(n_strips * half), math.cos(n_strips * half)
-            rot = complex(math.cos(phase), math.sin(phase))
+            rr, ri = math.cos(phase), math.sin(phase)
             for q in range(n_orders):
-                if near[q]:
-                    continue
-                d, dd = _dirichlet(
-                    half + d_half[s, q],
-                    sh * cos_dh[s, q] + ch * sin_dh[s, q],
-                    ch * cos_dh[s, q] - sh * sin_dh[s, q],
-                    ssh * cos_sdh[s, q] + csh * sin_sdh[s, q],
-                    csh * cos_sdh[s, q] - ssh * sin_sdh[s, q],
-                    n_strips,
-                )
-                e = rot * shift[s, q]  # the signs' product included
-                t[q] += e * d
-                t_l[q] += e * (dd * math.pi * width + 1j * d * (2.0 * math.pi * u0 + (n_strips - 1) * math.pi * width))
-                for a in range(n_k):
-                    sg = signs[s, a]
-                    h_a = 0.5 * math.pi * width * sg
-                    t_a[q, a] += e * (
-                        dd * h_a * kappa[a]
-                        + 1j * d * (math.pi * sg * (1.0 + kappa[a] * u0) + (n_strips - 1) * h_a * kappa[a])
-                    )
-                    t_k[q, a] += (e * (c[a, i] + 0.5 * orders[q, a])) * (
-                        dd * h_a + 1j * d * (math.pi * sg * u0 + (n_strips - 1) * h_a)
-                    )
+                sq[q] = sh * cos_dh[s, q] + ch * sin_dh[s, q]
+                cq[q] = ch * cos_dh[s, q] - sh * sin_dh[s, q]
+                ssq[q] = ssh * cos_sdh[s, q] + csh * sin_sdh[s, q]
+                csq[q] = csh * cos_sdh[s, q] - ssh * sin_sdh[s, q]
+                dv[q] = ssq[q] / sq[q]
+                ddv[q] = (n_strips * csq[q] * sq[q] - ssq[q] * cq[q]) / (sq[q] * sq[q])
+            for q in range(n_orders):
+                if abs(sq[q]) < SERIES_SH and not near[q]:  # maybe within SERIES_E of a pole: as _dirichlet decides
+                    dv[q], ddv[q] = _dirichlet(half + d_half[s, q], sq[q], cq[q], ssq[q], csq[q], n_strips)
+            for q in range(n_orders):
+                d = dv[q]
+                dd = ddv[q]
+                er = rr * shift_r[s, q] - ri * shift_i[s, q]
+                ei = rr * shift_i[s, q] + ri * shift_r[s, q]
+                tr[q] += er * d
+                ti[q] += ei * d
+                p = dd * math.pi * width
+                qq = d * l_q
+                tlr[q] += er * p - ei * qq
+                tli[q] += er * qq + ei * p
+            for a in range(n_k):
+                for q in range(n_orders):
+                    d = dv[q]
+                    dd = ddv[q]
+                    er = rr * shift_r[s, q] - ri * shift_i[s, q]
+                    ei = rr * shift_i[s, q] + ri * shift_r[s, q]
+                    p = dd * a_p[s, a] * kappa[a]
+                    qq = d * a_q[s, a]
+                    tar[a, q] += er * p - ei * qq
+                    tai[a, q] += er * qq + ei * p
+                    xr = er * xk[a, q]
+                    xi = ei * xk[a, q]
+                    p = dd * a_p[s, a]
+                    qq = d * k_q[s, a]
+                    tkr[a, q] += xr * p - xi * qq
+                    tki[a, q] += xr * qq + xi * p
         s_l, c_l = math.sin(math.pi * width * last), math.cos(math.pi * width * last)
         for q in range(n_orders):
-            if near[q]:  # the four nodes move every keystoned coordinate within NEAR_X of 0 by the same t
+            if near[q]:
                 for a in range(ndim):
                     x[a] = c[a, i] + 0.5 * orders[q, a]
                 for w_i in range(4):
@@ -460,6 +518,7 @@ def keystone_derivatives(
                     for a in range(n_k):
                         out[ndim + a, i] += weights[w_i] * coef[q] * d_k[a]
                 continue
+            t = complex(tr[q], ti[q])
             x_l = last + 0.5 * orders[q, n_k]
             g, dg = _last_factor(x_l, s_l * cos_l[q] + c_l * sin_l[q], c_l * cos_l[q] - s_l * sin_l[q], width)
             h = h_const
@@ -467,9 +526,47 @@ def keystone_derivatives(
                 h /= c[a, i] + 0.5 * orders[q, a]
             gh = coef[q] * g * h
             for a in range(n_k):
-                out[a, i] += (t_a[q, a] - t[q] / (c[a, i] + 0.5 * orders[q, a])) * gh
-                out[ndim + a, i] += t_k[q, a] * gh
-            out[n_k, i] += coef[q] * (t_l[q] * g + t[q] * dg) * h
+                out[a, i] += (complex(tar[a, q], tai[a, q]) - t / (c[a, i] + 0.5 * orders[q, a])) * gh
+                out[ndim + a, i] += complex(tkr[a, q], tki[a, q]) * gh
+            out[n_k, i] += coef[q] * (complex(tlr[q], tli[q]) * g + t * dg) * h
+    return out
+
+
+@numba.njit(error_model="numpy", cache=CACHE)
+def spread_bins(
+    c_re: np.ndarray,
+    c_im: np.ndarray,
+    u: np.ndarray,
+    first: np.ndarray,
+    grid_size: int,
+    taps: int,
+    beta: float,
+    block: int,
+) -> np.ndarray:  # pragma: no cover - compiled
+    """(2, grid_size): the real and imaginary grids of :func:`sarproc.quality.linesum._spread`'s numpy
+    reference (terms at grid positions ``u``, their first taps ``first = ceil(u - taps / 2)``), computed as it
+    computes them: each weight exp(beta (sqrt(1 - z^2) - 1)) times (z^2 < 1) from the same operations in the
+    same order (libm's exp, which numpy calls on machines without AVX-512), summed into each bin term after
+    term in ``block``-sized blocks as its ``bincount`` does, each block's grid added to the total. The same
+    grids bit for bit (tests/quality/test_residual_aot.py), without the (terms, taps + 1) temporaries."""
+    half = taps / 2.0
+    out = np.zeros((2, grid_size))
+    part = np.empty((2, grid_size))
+    for start in range(0, c_re.size, block):
+        part[:] = 0.0
+        for k in range(start, min(c_re.size, start + block)):
+            f = first[k]
+            lead = int(f)
+            for t in range(taps + 1):
+                z = (f + t - u[k]) / half
+                z2 = min(z * z, 1.0)
+                w = math.exp(beta * (math.sqrt(1.0 - z2) - 1.0)) * (1.0 if z2 < 1.0 else 0.0)
+                g = (lead + t) % grid_size
+                part[0, g] += c_re[k] * w
+                part[1, g] += c_im[k] * w
+        for g in range(grid_size):
+            out[0, g] += part[0, g]
+            out[1, g] += part[1, g]
     return out
 
 

@@ -78,6 +78,11 @@ for ndim in (2, 3):
             box = (np.array([-20.0, -31.5]), np.array([0.5, 0.04]), np.array([0.0, 0.41]), 90, 150)
             a = k.keystone_box_sum(*box, orders, coef, kappa, strips)
             same(a, rk.keystone_box_sum(*box, orders, coef, kappa, strips), what + "box sum")
+# the cuts' line-sum spreading (two blocks of terms)
+rng = np.random.default_rng(13)
+u = rng.uniform(0, 64, 3000)
+args = (rng.normal(size=3000), rng.normal(size=3000), u, np.ceil(u - 8.0), 64, 16, 36.8, 2000)
+same(k.spread_bins(*args), rk.spread_bins(*args), "spread")
 # the residual's own calls (strided views, int32 orders, a list for kappa) reach the exports, whose signatures
 # are C-contiguous float64 / int64 / complex128
 residual_aot.kernels = lambda: k  # pick() would take numba's, loaded above
