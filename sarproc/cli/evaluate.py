@@ -242,6 +242,11 @@ def false_target_list_lines(listed: FalseTargetList, units: dict) -> list[str]:
         "maxima there, the residue of that target's model, not ghosts."
         if listed.on_ridges
         else ""
+    ) + (
+        f"\n{listed.in_misfits} more over the threshold inside targets' fit boxes, not listed: not 3 dB over what "
+        "that target's model leaves on its own main lobe, the skirt of its misfit, not ghosts."
+        if listed.in_misfits
+        else ""
     )
     if not listed.entries:
         return [f"{head} none.{ridges}"]

@@ -1656,7 +1656,10 @@ def _false_targets(
     ]
     models = fit_response_models(data, starts, nulls, params, support_shape=True)
     fanned = [i for i, p in enumerate(peaks) if p.fanned]
-    false, floor, listed = residual_false_target(data, models, axes, guarded, indices, reports, half, params, fanned)
+    own_nulls = None if own_axes is None else [np.array([ax.null for ax in own]) for own in own_axes]
+    false, floor, listed = residual_false_target(
+        data, models, axes, guarded, indices, reports, half, params, fanned, own_nulls or ()
+    )
     return false, guard, floor, listed
 
 

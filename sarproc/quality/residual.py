@@ -79,6 +79,20 @@ PEEL_MARGIN_DB = 3.0
 # covers pixel scalloping and a ghost's ridges a little off its neighbour's; a -30 dB ghost's range side lobes
 # 3.5 nulls out (-20.8 dB under it, exactly the envelope) were listed as ghosts without it.
 SIDE_LOBE_ALLOWANCE = 2.0
+# A target's far ridge bends off the straight line through its peak (the wavefront's curvature: campaign scene
+# 20's T1 0.56 range nulls at 88 azimuth nulls out; scene 12's T2, 9 % lit, 1.0-1.23 of its own range nulls at
+# 20-24 of its azimuth nulls), so the chain of maxima its model leaves there leaves the +-1-null band of
+# :meth:`_Residues.on_a_chain`. The chain is followed from that band outwards: a maximum within 1 null across and
+# RIDGE_STEP_NULLS along of a link, farther out than it, is a link, out to RIDGE_BEND_NULLS across the straight
+# ridge (a ridge's maxima stand 1 null apart along it; 3 nulls: three times the largest bend measured).
+RIDGE_STEP_NULLS = 2.0
+RIDGE_BEND_NULLS = 3.0
+# A model that misses its target's main lobe skirt (a rect beam under Hamming: campaign scene 14's T2 leaves
+# -57.1 to -57.6 dB at 4-5 samples about its peak, inside the main lobe box where no ghost is searched) leaves
+# the skirt of that misfit just outside the box (T2's (+7, +4) samples, -57.5 dB, its mirror -62.5). A maximum
+# inside a target's fit box (+-fit_nulls of its model's nulls on its ridges, widened as its main lobe measured)
+# that does not stand PEEL_MARGIN_DB over the strongest residual in that target's main lobe box is the misfit's
+# skirt (:meth:`_Residues.in_a_misfit`), not a ghost.
 
 
 @dataclasses.dataclass(frozen=True)
@@ -110,6 +124,9 @@ class FalseTargetList:
     # maxima above the threshold left out as links of a chain along a target's ridge (the residue of its
     # model: none stands PEEL_MARGIN_DB over the others there), not ghosts
     on_ridges: int = 0
+    # maxima above the threshold left out as the skirt of a target's model misfit: inside the box that model
+    # was fitted on, not PEEL_MARGIN_DB over what it leaves on the target's own main lobe box, not ghosts
+    in_misfits: int = 0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -1706,24 +1723,38 @@ def _misfit_targets(
     peaks: Sequence[np.ndarray],
     reports: Sequence[TargetReport],
     params: EvaluateParams,
+    own_nulls: Sequence[np.ndarray | None] = (),
 ) -> list[int]:
-    """Indices of the targets whose residual (``mag``) inside the box their model was fitted on (+-fit_nulls,
-    widened as their main lobe measured) is over :data:`MISFIT_DB` of their peak: the model does not fit them.
-    Good fits leave -35 dB or less there (the two-step PFA's seams, the worst of the test scenes)."""
+    """Indices of the targets whose residual (``mag``) inside the box their model was fitted on (+-fit_nulls of
+    their own null spacing ``own_nulls``, widened as their main lobe measured) is over :data:`MISFIT_DB` of
+    their peak: the model does not fit them. Good fits leave -35 dB or less there (the two-step PFA's seams,
+    the worst of the test scenes)."""
     from sarproc.quality.metrics import window_slices  # metrics imports this module
 
     out = []
     for i, (peak, report) in enumerate(zip(peaks, reports)):
-        box = window_slices(peak, _fit_box(axes, report, params), mag.shape)
+        box = window_slices(peak, _fit_box(axes, report, params, _own(own_nulls, i)), mag.shape)
         if report.peak_amplitude > 0 and mag[box].max() > report.peak_amplitude * 10 ** (MISFIT_DB / 20):
             out.append(i)
     return out
 
 
-def _fit_box(axes: Sequence[_Axis], report: TargetReport, params: EvaluateParams) -> list[int]:
-    """Half-sizes in samples of the box a target's model is fitted on, widened as its main lobe measured."""
+def _fit_box(
+    axes: Sequence[_Axis], report: TargetReport, params: EvaluateParams, own_null: np.ndarray | None = None
+) -> list[int]:
+    """Half-sizes in samples of the box a target's model is fitted on (+-fit_nulls of ``own_null``, its own null
+    spacing in samples per axis, as :func:`_fit_samples` takes it; the image's where None), widened as its main
+    lobe measured. A partly lit target's own null is many of the image's (campaign scene 12's T2, 9 % lit: 7.2
+    in azimuth), and its model is fitted, and can fail, that far out."""
     nulls = params.fit_nulls * main_lobe_broadening(report)
-    return [ax.nulls_to_samples(nulls) for ax in axes]
+    if own_null is None:
+        return [ax.nulls_to_samples(nulls) for ax in axes]
+    return [max(ax.nulls_to_samples(nulls), int(math.ceil(nulls * n))) for ax, n in zip(axes, own_null)]
+
+
+def _own(own_nulls: Sequence[np.ndarray | None], i: int) -> np.ndarray | None:
+    """Target ``i``'s own null spacing (samples per axis), None where not given."""
+    return own_nulls[i] if i < len(own_nulls) else None
 
 
 def main_lobe_broadening(report: TargetReport) -> float:
@@ -1746,6 +1777,26 @@ def own_cell_broadening(report: TargetReport, axes: Sequence[_Axis]) -> float:
     return max([1.0, *ratios])
 
 
+def _main_lobe_residue(
+    mag: np.ndarray,
+    axes: Sequence[_Axis],
+    peaks: Sequence[np.ndarray],
+    reports: Sequence[TargetReport],
+    params: EvaluateParams,
+) -> list[float]:
+    """Per target, the strongest residual (``mag``) in its main lobe box (+-exclusion_cells, widened as the
+    search's exclusion: :func:`_search_masks`): what its model leaves on its own response, where no ghost is
+    searched."""
+    from sarproc.quality.metrics import window_slices  # metrics imports this module
+
+    out = []
+    for peak, r in zip(peaks, reports):
+        cells = params.exclusion_cells * main_lobe_broadening(r) * own_cell_broadening(r, axes)
+        box = window_slices(np.rint(peak).astype(int), [ax.cells_to_samples(cells) for ax in axes], mag.shape)
+        out.append(float(mag[box].max()))
+    return out
+
+
 def _search_masks(
     shape: tuple[int, ...],
     axes: Sequence[_Axis],
@@ -1754,6 +1805,7 @@ def _search_masks(
     reports: Sequence[TargetReport],
     params: EvaluateParams,
     misfit: Sequence[int] = (),
+    own_nulls: Sequence[np.ndarray | None] = (),
 ) -> tuple[np.ndarray, np.ndarray]:
     """(search, guard): where false targets are searched on the residual (outside every main lobe, each as
     wide as measured: :func:`main_lobe_broadening`) and where its floor is taken (the targets' guard windows,
@@ -1769,7 +1821,7 @@ def _search_masks(
     if len(truth) > measured:
         search &= _exclusion_mask(shape, axes, truth[measured:], [], params.guard_cells)
     for i in misfit:
-        box = window_slices(peaks[i], _fit_box(axes, reports[i], params), shape)
+        box = window_slices(peaks[i], _fit_box(axes, reports[i], params, _own(own_nulls, i)), shape)
         search[box] = False
     guard = ~_exclusion_mask(shape, axes, truth, peaks, params.guard_cells) & search
     return search, guard
@@ -1785,17 +1837,21 @@ def residual_false_target(
     half: Sequence[int],
     params: EvaluateParams,
     unmodelled: Sequence[int] = (),
+    own_nulls: Sequence[np.ndarray | None] = (),
 ) -> tuple[FalseTarget | None, ResidualFloor, FalseTargetList | None]:
     """:func:`_residual_false_target` of ``data`` minus every model, each evaluated only where it reaches
     :data:`REACH_FIRST_DB` below the strongest peak, then :data:`REACH_BELOW_FLOOR_DB` below the floor so
     found (:func:`subtract_models`; ``params.exact``: over the whole image, :func:`residual_image`).
     ``unmodelled``: the targets whose response the model is known not to describe (a fan of side lobes),
-    treated as misfits whatever their residual."""
+    treated as misfits whatever their residual. ``own_nulls``: each target's own null spacing (samples per axis,
+    the one its model's fit box was taken in; None: the image's)."""
     frames = [None if m is None else _ridge_frame(m.position, m.ridges, m.nulls)[0] for m in models]
     if params.exact:
         with numerics(exact=True):
             residual = residual_image(data, models)
-            return _residual_false_target(residual, axes, truth, peaks, reports, half, params, unmodelled, frames)
+            return _residual_false_target(
+                residual, axes, truth, peaks, reports, half, params, unmodelled, frames, own_nulls
+            )
     ref = max(r.peak_amplitude for r in reports)
     out = np.array(data, dtype=np.complex128)
     level = ref * 10 ** (REACH_FIRST_DB / 20)
@@ -1807,7 +1863,7 @@ def residual_false_target(
             break
         subtract_models(out, models, want, above=level)
         level = want
-    return _residual_false_target(out, axes, truth, peaks, reports, half, params, unmodelled, frames)
+    return _residual_false_target(out, axes, truth, peaks, reports, half, params, unmodelled, frames, own_nulls)
 
 
 def _residual_false_target(
@@ -1820,6 +1876,7 @@ def _residual_false_target(
     params: EvaluateParams,
     unmodelled: Sequence[int] = (),
     frames: Sequence[np.ndarray | None] = (),
+    own_nulls: Sequence[np.ndarray | None] = (),
 ) -> tuple[FalseTarget | None, ResidualFloor, FalseTargetList | None]:
     """(FalseTarget or None, ResidualFloor, FalseTargetList or None): strongest residual response outside the
     main lobes, the residual's floor inside the targets' guard windows (``unmodelled`` counted as misfits) and
@@ -1829,15 +1886,19 @@ def _residual_false_target(
 
     ref = max(reports, key=lambda r: r.peak_amplitude)
     mag = np.abs(residual)
-    misfit = sorted(set(_misfit_targets(mag, axes, peaks, reports, params)) | set(unmodelled))
-    search, guard = _search_masks(residual.shape, axes, truth, peaks, reports, params, misfit)
+    misfit = sorted(set(_misfit_targets(mag, axes, peaks, reports, params, own_nulls)) | set(unmodelled))
+    search, guard = _search_masks(residual.shape, axes, truth, peaks, reports, params, misfit, own_nulls)
 
     def db(v: float) -> float:
         return float(20 * np.log10(v / ref.peak_amplitude)) if v > 0 and ref.peak_amplitude > 0 else -np.inf
 
     maxima = _local_maxima(np.where(search, mag, 0.0))  # of the search region, for the floor and the list
+    # each target's fit box in nulls of its model's ridges and what its model leaves on its main lobe box
+    # (the misfit skirt's test; none without the models' frames)
+    boxes = [params.fit_nulls * main_lobe_broadening(r) for r in reports] if frames else []
+    levels = _main_lobe_residue(mag, axes, peaks, reports, params) if frames else []
     floor = ResidualFloor(
-        floor_db=db(_floor_beside_ghosts(mag, guard, maxima, axes, peaks, params, frames, misfit))
+        floor_db=db(_floor_beside_ghosts(mag, guard, maxima, axes, peaks, params, frames, misfit, boxes, levels))
         if guard.any()
         else -np.inf,
         rms_db=db(float(np.sqrt(np.mean(mag[search] ** 2)))) if search.any() else -np.inf,
@@ -1850,7 +1911,9 @@ def _residual_false_target(
         ),
     )
     listed = (
-        _listed_false_targets(residual, mag, search, maxima, axes, peaks, reports, half, params, floor.floor_db, frames)
+        _listed_false_targets(
+            residual, mag, search, maxima, axes, peaks, reports, half, params, floor.floor_db, frames, boxes, levels
+        )
         if math.isfinite(floor.floor_db) and ref.peak_amplitude > 0
         else None
     )
@@ -1913,25 +1976,91 @@ def _ridge_frames(
     return np.array([image_frame if f is None else f for f in list(frames) + [None] * (len(peaks) - len(frames))])
 
 
-def _on_a_chain(
-    k: np.ndarray,
-    value: float,
-    others: np.ndarray,
-    other_values: np.ndarray,
-    own_lobes: np.ndarray,
-    centres: np.ndarray,
-    ridge_frames: np.ndarray,
-) -> bool:
-    """True where ``k`` lies within a null of a target's ridge on which another of ``others`` (outside
-    ``own_lobes``, k's own main lobe and side lobes) stands within :data:`PEEL_MARGIN_DB` of ``value``: a link
-    of the chain of maxima a model leaves along its target's ridge where it misses the spectral shape."""
-    margin = 10 ** (PEEL_MARGIN_DB / 20)
-    ridge = np.einsum("mij,mj->mi", ridge_frames, k - centres)  # nulls along each target's ridge axes
-    for m, i in zip(*np.nonzero(np.abs(ridge) < 1.0)):  # on target m's ridge that runs across axis i
-        band = ~own_lobes & (np.abs((others - centres[m]) @ ridge_frames[m, i]) < 1.0)
-        if band.any() and value < margin * float(other_values[band].max()):
-            return True
-    return False
+class _Residues:
+    """The maxima ``others`` (positions (n, ndim), values, ``is_max``: which are local maxima) that decide
+    whether a maximum is the residue of a target's model: a link of a chain along its ridge
+    (:meth:`on_a_chain`) or the skirt of its misfit (:meth:`in_a_misfit`). ``boxes``: per target, the half
+    width of its fit box in nulls of its ridge frame, ``misfit_levels`` the strongest residual in its main
+    lobe box (both empty: no misfit test)."""
+
+    def __init__(
+        self,
+        others: np.ndarray,
+        other_values: np.ndarray,
+        is_max: np.ndarray,
+        centres: np.ndarray,
+        ridge_frames: np.ndarray,
+        boxes: Sequence[float] = (),
+        misfit_levels: Sequence[float] = (),
+    ) -> None:
+        self.others, self.values, self.is_max = others, other_values, is_max
+        self.centres, self.frames = centres, ridge_frames
+        self.boxes, self.misfit_levels = list(boxes), list(misfit_levels)
+        self._coords: dict[int, np.ndarray] = {}
+        self._chains: dict[tuple[int, int], np.ndarray] = {}
+
+    def coords(self, m: int) -> np.ndarray:
+        """(n, ndim): every one of ``others`` in target m's ridge coordinates (nulls)."""
+        if m not in self._coords:
+            self._coords[m] = (self.others - self.centres[m]) @ self.frames[m].T
+        return self._coords[m]
+
+    def chain(self, m: int, i: int) -> np.ndarray:
+        """Which of ``others`` lie on target m's ridge that runs across axis i: within a null of its straight
+        line, or followed from there along maxima as it bends (:data:`RIDGE_STEP_NULLS`,
+        :data:`RIDGE_BEND_NULLS`)."""
+        if (m, i) not in self._chains:
+            c = self.coords(m)
+            across, along = c[:, i], np.delete(c, i, axis=1)
+            out = np.abs(across) < 1.0
+            grow = self.is_max & ~out & (np.abs(across) <= RIDGE_BEND_NULLS)
+            front = out & self.is_max
+            reach = np.linalg.norm(along, axis=1)
+            while front.any() and grow.any():
+                cand, f = np.flatnonzero(grow), np.flatnonzero(front)
+                near = (
+                    (np.abs(across[cand][:, None] - across[f][None, :]) < 1.0)
+                    & np.all(np.abs(along[cand][:, None, :] - along[f][None, :, :]) <= RIDGE_STEP_NULLS, axis=2)
+                    & (reach[cand][:, None] > reach[f][None, :])
+                )
+                new = cand[near.any(axis=1)]
+                out[new] = True
+                grow[new] = False
+                front = np.zeros_like(out)
+                front[new] = True
+            self._chains[(m, i)] = out
+        return self._chains[(m, i)]
+
+    def _index(self, k: np.ndarray) -> int | None:
+        hit = np.flatnonzero(np.all(self.others == k, axis=1))
+        return int(hit[0]) if hit.size else None
+
+    def on_a_chain(self, k: np.ndarray, value: float, own_lobes: np.ndarray) -> bool:
+        """True where ``k`` lies on a target's ridge (:meth:`chain`) on which another of ``others`` (outside
+        ``own_lobes``, k's own main lobe and side lobes) stands within :data:`PEEL_MARGIN_DB` of ``value``: a
+        link of the chain of maxima a model leaves along its target's ridge where it misses the spectral
+        shape."""
+        margin = 10 ** (PEEL_MARGIN_DB / 20)
+        j = self._index(k)
+        ridge = np.einsum("mij,mj->mi", self.frames, k - self.centres)  # nulls along each target's ridge axes
+        for m, i in zip(*np.nonzero(np.abs(ridge) < RIDGE_BEND_NULLS)):  # near target m's ridge across axis i
+            chain = self.chain(int(m), int(i))
+            if abs(ridge[m, i]) >= 1.0 and (j is None or not chain[j]):
+                continue
+            band = ~own_lobes & chain
+            if band.any() and value < margin * float(self.values[band].max()):
+                return True
+        return False
+
+    def in_a_misfit(self, k: np.ndarray, value: float) -> bool:
+        """True where ``k`` lies in a target's fit box (``boxes``, nulls of its ridge frame) and ``value`` does
+        not stand :data:`PEEL_MARGIN_DB` over what that target's model leaves on its own main lobe box
+        (``misfit_levels``): the skirt of that model's misfit, not a ghost."""
+        margin = 10 ** (PEEL_MARGIN_DB / 20)
+        for m, (box, level) in enumerate(zip(self.boxes, self.misfit_levels)):
+            if value < margin * level and np.all(np.abs(self.frames[m] @ (k - self.centres[m])) <= box):
+                return True
+        return False
 
 
 def _floor_beside_ghosts(
@@ -1943,6 +2072,8 @@ def _floor_beside_ghosts(
     params: EvaluateParams,
     frames: Sequence[np.ndarray | None] = (),
     misfit: Sequence[int] = (),
+    boxes: Sequence[float] = (),
+    misfit_levels: Sequence[float] = (),
 ) -> float:
     """The residual floor (amplitude): the strongest pixel of ``mag`` in ``guard`` once the ghosts standing
     there are set aside. The guard's strongest pixel, while it is one of ``maxima`` (the local maxima of the
@@ -1954,13 +2085,17 @@ def _floor_beside_ghosts(
     ridge (within a null of it) must also stand that margin over the rest of the ridge in the guard: a model
     that misses its target's spectral shape leaves a chain of maxima there (paired lobes, a defocused ridge),
     the floor's very subject, not ghosts. Nor is a maximum in a ``misfit`` target's guard window set aside:
-    that model is known not to describe its target, and what it leaves reaches beyond its fit box."""
+    that model is known not to describe its target, and what it leaves reaches beyond its fit box. Nor is a
+    maximum that follows a target's ridge as it bends, or one in a target's fit box (``boxes``: per target, its
+    half width in nulls) that does not stand the margin over what its model leaves on its own main lobe box
+    (``misfit_levels``; :class:`_Residues`)."""
     centres = np.array([np.asarray(p, dtype=float) for p in peaks])
     ridge_frames = _ridge_frames(axes, peaks, frames)
     own = np.array([ax.cells_to_samples(params.exclusion_cells) for ax in axes])
     reach = np.array([ax.cells_to_samples(params.guard_cells) for ax in axes])
     where = np.argwhere(guard)
     values = mag[guard]
+    residues = _Residues(where, values, maxima[guard], centres, ridge_frames, boxes, misfit_levels)
     alive = np.ones(values.size, dtype=bool)
     margin = 10 ** (PEEL_MARGIN_DB / 20)
     tops = [float(values.max())]
@@ -1974,7 +2109,7 @@ def _floor_beside_ghosts(
         frame = ridge_frames[_nearest_target(k.astype(float), axes, peaks)[0]]
         envelope = _ridge_envelope(offset.astype(float), frame)
         own_lobes = np.all(np.abs(offset) <= own, axis=1) | (values <= SIDE_LOBE_ALLOWANCE * envelope * values[j])
-        if _on_a_chain(k, float(values[j]), where, values, own_lobes | ~alive, centres, ridge_frames):
+        if residues.on_a_chain(k, float(values[j]), own_lobes | ~alive) or residues.in_a_misfit(k, float(values[j])):
             return floor
         alive &= ~own_lobes
         if not alive.any():
@@ -1997,10 +2132,13 @@ def _listed_false_targets(
     params: EvaluateParams,
     floor_db: float,
     frames: Sequence[np.ndarray | None] = (),
+    boxes: Sequence[float] = (),
+    misfit_levels: Sequence[float] = (),
 ) -> FalseTargetList:
     """:class:`FalseTargetList` of the residual: its local maxima (3 samples per axis) in ``search`` whose pixel
     is over ``floor_db`` + :data:`LIST_MARGIN_DB` and is no stronger one's main or side lobe, nor a link of a
-    chain along a target's ridge (:func:`_on_a_chain`; counted in ``on_ridges``), each refined like the single
+    chain along a target's ridge (:meth:`_Residues.on_a_chain`; counted in ``on_ridges``) or the skirt of a
+    target's model misfit (:meth:`_Residues.in_a_misfit`; ``in_misfits``), each refined like the single
     false target. ``maxima``: the local maxima of the search region. ``frames``: per target, its model's ridge
     frame (None: the image axes' nulls)."""
     from sarproc.quality.metrics import _Chip  # metrics imports this module
@@ -2018,10 +2156,13 @@ def _listed_false_targets(
     others = np.argwhere(maxima & (inside > ref * 10 ** ((threshold_db - PEEL_MARGIN_DB) / 20)))
     other_values = inside[tuple(others.T)]
     ridge_frames = _ridge_frames(axes, peaks, frames)
+    residues = _Residues(
+        others, other_values, np.ones(len(others), dtype=bool), centres, ridge_frames, boxes, misfit_levels
+    )
     kept: list[np.ndarray] = []
     stronger: list[np.ndarray] = []  # those kept and the chains' links: their lobes are not listed either
     stronger_frames: list[np.ndarray] = []
-    on_ridges = 0
+    on_ridges = in_misfits = 0
     for k in found:
         if stronger:
             offset = k - np.array(stronger)
@@ -2038,8 +2179,11 @@ def _listed_false_targets(
         )
         stronger.append(k)
         stronger_frames.append(frame)
-        if _on_a_chain(k, float(inside[tuple(k)]), others, other_values, own_lobes, centres, ridge_frames):
+        if residues.on_a_chain(k, float(inside[tuple(k)]), own_lobes):
             on_ridges += 1
+            continue
+        if residues.in_a_misfit(k, float(inside[tuple(k)])):
+            in_misfits += 1
             continue
         kept.append(k)
 
@@ -2063,4 +2207,5 @@ def _listed_false_targets(
         entries=tuple(entry(k) for k in kept[:LIST_CAP]),
         beyond=max(len(kept) - LIST_CAP, 0),
         on_ridges=on_ridges,
+        in_misfits=in_misfits,
     )
