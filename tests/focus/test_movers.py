@@ -1107,7 +1107,7 @@ def test_eq_5s_sigma_from_its_looks_is_that_of_its_estimate_in_noise(one_mover_w
         win = rc._Window(x, f_w, g, params)
         win.keep_own_cells()
         v = velocity.fast_search(lambda u: win.leakage(u, 0.0), -20.0, 20.0, 0.1, 2.0).estimate
-        return v, rc._leakage_spread(win, v, 0.0, win.leakage)
+        return v, rc._leakage_spread(win, v, 0.0)
 
     v, spread = estimate(x_w)
     assert v == pytest.approx(5.0, abs=0.05) and 0 <= spread < 1e-3
