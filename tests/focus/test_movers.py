@@ -1148,7 +1148,7 @@ def test_a_response_merged_with_a_mover_taken_back_is_not_warned_of_as_a_movers(
         (1, "a response 2.8 dB under mover {}, in range cell 259, could not be separated from it: another mover"),
         (2, "a response 4.0 dB under mover {}, could not be separated from it: another mover"),
     ]
-    with caplog.at_level(logging.INFO):
+    with caplog.at_level(logging.INFO, logger="sarproc"):  # a CLI test may have set sarproc's level
         rc._warn_merged(tally, {0: 0, 2: 1})
     warned = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
     assert warned == ["reconstruct: a response 4.0 dB under mover 1, could not be separated from it: another mover"]
