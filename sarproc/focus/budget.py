@@ -354,8 +354,9 @@ def reconstruct_estimate(stage: str, header: Product, params: Any) -> Plan:
         times = np.asarray(header.coords["azimuth_time"], float)
         n_fft = range_padding(n_rg, r.velocity, r.squint, times, r.prf, r.range_sampling_rate)[0]
         memory += complex_bytes(n_ch, n_az, n_fft)
-    # the modified method's detection and velocity searches nearly double the filter bank's time (measured)
-    per_sample = 0.55e-6 if params.method == "modified" else 0.3e-6
+    # the filter bank, and the modified method's detection and velocity searches (refitted 2026-12-06: xu_small's
+    # modified run took 0.53 s as a process on the idle machine against 1.1 s planned, 2.06x; now 0.84 s, 1.6x)
+    per_sample = 0.3e-6
     if params.clutter_suppression:  # the clutter null's projections and the movers' searches after it
         per_sample = 2.5e-6  # (xu_clutter: 24 s of CPU for 9.7e6 samples)
     return Plan(
