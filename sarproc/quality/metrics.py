@@ -855,12 +855,13 @@ def _ridges_in_space(
     if abs(_side_balance_db(along, lobes)) > RIDGE_BALANCE_DB:
         return ridges
     offsets = np.arange(-count, count + 1) * step
-    across = chip.values_on_line(pos, _turned(lower, theta + math.pi / 2), -count * step, step, 2 * count + 1)
+    other = _turned(lower, theta + math.pi / 2)
+    across = chip.values_on_line(pos, other, -count * step, step, 2 * count + 1)
     if _fall_against_a_ridge(grid, profile, theta, along, np.abs(across) ** 2, offsets, lobes) < RIDGE_FALL_MIN:
         return ridges
     out = np.empty((2, 2))
-    out[k] = _turned(lower, theta) / _turned(lower, theta)[k]
-    other = _turned(lower, theta + math.pi / 2)
+    ridge = _turned(lower, theta)
+    out[k] = ridge / ridge[k]
     out[1 - k] = other / other[1 - k]
     return out
 

@@ -1145,17 +1145,20 @@ def test_a_response_merged_with_a_mover_taken_back_is_not_warned_of_as_a_movers(
 
     tally = rc._Tally(0, {})
     tally.merged = [
-        (1, "a response 2.8 dB under mover {}, in range cell 259, could not be separated from it: another mover"),
-        (2, "a response 4.0 dB under mover {}, could not be separated from it: another mover"),
+        rc._MergedResponse(1, 2.8, 259, 1, 3.0, "+0.3 ms from it in apparent time", "another mover"),
+        rc._MergedResponse(2, 4.0, 301, -2, 4.0, "-1.2 ms from it in apparent time", "another mover"),
     ]
     with caplog.at_level(logging.INFO, logger="sarproc"):  # a CLI test may have set sarproc's level
         rc._warn_merged(tally, {0: 0, 2: 1})
     warned = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
-    assert warned == ["reconstruct: a response 4.0 dB under mover 1, could not be separated from it: another mover"]
+    assert warned == [
+        "reconstruct: a response 4.0 dB under mover 1, in range cell 301 (-2 cells from its peak; its own range extent "
+        "4 cells) -1.2 ms from it in apparent time, could not be separated from it: another mover"
+    ]
     info = [r.getMessage() for r in caplog.records if r.levelno == logging.INFO]
     assert info == [
-        "reconstruct: a response 2.8 dB under a detection taken for static, in range cell 259: merged with it, taken "
-        "for static with it"
+        "reconstruct: a response 2.8 dB under a detection taken for static, in range cell 259 (1 cells from its peak; "
+        "its own range extent 3 cells) +0.3 ms from it in apparent time: merged with it, taken for static with it"
     ]
 
 

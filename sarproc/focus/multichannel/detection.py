@@ -86,6 +86,12 @@ class Detection:
         return 10 * math.log10(self.power / self.background) if self.background > 0 else float("inf")
 
 
+def sinc_sidelobes(offset: float) -> float:
+    """Power of an unweighted sinc response's side-lobe envelope ``offset`` resolution widths from its peak, relative
+    to the peak: 1 / (pi x)^2 (the envelope the detections' side-lobe tests are set against)."""
+    return 1.0 / (math.pi * offset) ** 2
+
+
 def maximum_filter(x: np.ndarray, size: tuple[int, ...], mode: Literal["edge", "wrap"]) -> np.ndarray:
     """Maximum over a centred box of odd ``size`` around every sample; outside the array ``mode`` as in
     numpy.pad ("edge": the nearest sample, "wrap": periodic). scipy.ndimage.maximum_filter's values
@@ -242,7 +248,7 @@ def static_side_lobe(power: np.ndarray, index: int, cell: int, p: float, static:
         dt = (index - s.index + n // 2) % n - n // 2
         if abs(dt) < 2 * s.width + span or abs(cell - s.cell) > static.cells:
             continue
-        envelope = s.power * SIDELOBE_MARGIN / (math.pi * dt / s.width) ** 2
+        envelope = s.power * SIDELOBE_MARGIN * sinc_sidelobes(dt / s.width)
         if p > envelope:
             continue
         if abs(dt) >= static.far and p <= DEEP * envelope:
@@ -332,9 +338,9 @@ def find_detections(
             # on the azimuth cut (same range cells) or the range cut (same azimuth) of a stronger one
             if (
                 dr <= 2
-                and p < d.power * SIDELOBE_MARGIN / (math.pi * max(dt / d.width, 0.5)) ** 2
+                and p < d.power * SIDELOBE_MARGIN * sinc_sidelobes(max(dt / d.width, 0.5))
                 or dt <= max(2, d.width)
-                and p < d.power * SIDELOBE_MARGIN / (math.pi * max(dr / range_width, 0.5)) ** 2
+                and p < d.power * SIDELOBE_MARGIN * sinc_sidelobes(max(dr / range_width, 0.5))
             ):
                 sidelobe = True
             if sidelobe:

@@ -178,6 +178,10 @@ class MovingTarget:
     # m/s of v_los: eq. 5's 1-sigma from its independent looks' disagreement (_leakage_spread; 0: not by eq. 5)
     leakage_spread: float = 0.0
 
+    def line_of_sight_velocity(self, squint: float) -> float:
+        """m/s: the estimated velocity's component along the beam's line of sight (v_r cos + v_a sin)."""
+        return channels.line_of_sight_velocity(self.radial_velocity, self.along_track_velocity, squint)
+
 
 @dataclasses.dataclass
 class _Geometry:
@@ -1454,6 +1458,27 @@ class _Removed:
     kind: str  # "mover", "static" or "incoherent"
 
 
+@dataclasses.dataclass(frozen=True)
+class _MergedResponse:
+    """A response _merge counted as part of mover ``mover`` that looks like another target sharing its window: warned
+    of once _drop_under_threshold has numbered the movers kept (_warn_merged)."""
+
+    mover: int
+    under_db: float
+    cell: int
+    offset: int
+    spread: float
+    place: str
+    cause: str
+
+    def said(self, subject: str) -> str:
+        """The response, where it lies, against ``subject`` (the mover it was merged with, as numbered in the end)."""
+        return (
+            f"a response {self.under_db:.1f} dB under {subject}, in range cell {self.cell} ({self.offset} cells from "
+            f"its peak; its own range extent {self.spread:.0f} cells) {self.place}"
+        )
+
+
 @dataclasses.dataclass
 class _Tally:
     """What the detections examined so far have found (``_detect_and_focus``)."""
@@ -1474,7 +1499,7 @@ class _Tally:
     at_rest: dict[int, tuple[float, float]] = dataclasses.field(default_factory=dict)
     # a response merged with a mover that could not be separated from it: (mover index, what to warn of), warned of
     # once _drop_under_threshold has said which movers stay (_warn_merged)
-    merged: list[tuple[int, str]] = dataclasses.field(default_factory=list)
+    merged: list[_MergedResponse] = dataclasses.field(default_factory=list)
     examined: int = 0
 
 
@@ -1848,7 +1873,7 @@ def _merge(det: detection.Detection, k: int, scan: _Scan, tally: _Tally) -> None
     # A mover spreads over its range walk |v_los| T and curvature R'' T^2 / 8 in walk-corrected range:
     # a response inside that is its own; one beyond it and as strong is another target.
     own = tally.movers[k]
-    v_los_k = channels.line_of_sight_velocity(own.radial_velocity, own.along_track_velocity, g.squint)
+    v_los_k = own.line_of_sight_velocity(g.squint)
     spread = _range_extent(v_los_k, scan)
     n_amb = round((det.time - peak.time) / sp.ambiguity)
     # an ambiguity k PRF / K_a away walks by lambda k PRF / 2 m/s against the mover: smeared further
@@ -1870,12 +1895,8 @@ def _merge(det: detection.Detection, k: int, scan: _Scan, tally: _Tally) -> None
                 "apparent time (at its ambiguity)"
             )
             cause = "its ambiguity's residue, or another mover there sharing its window (not examined on its own)"
-        text = (
-            f"a response {10 * math.log10(peak.power / det.power):.1f} dB under mover {{}}, in range cell {det.cell} "
-            f"({det.cell - peak.cell} cells from its peak; its own range extent {spread:.0f} cells) {where}, could "
-            f"not be separated from it: {cause}"
-        )
-        tally.merged.append((k, text))
+        under_db = 10 * math.log10(peak.power / det.power)
+        tally.merged.append(_MergedResponse(k, under_db, det.cell, det.cell - peak.cell, spread, where, cause))
 
 
 def _examine(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
@@ -1975,7 +1996,7 @@ def _two_in_range(d1: detection.Detection, d2: detection.Detection, scan: _Scan)
     key = frozenset((d1, d2))
     if key not in scan.split:
         top, low = (d1, d2) if d1.power >= d2.power else (d2, d1)
-        envelope = detection.SIDELOBE_MARGIN / (math.pi * (d1.cell - d2.cell) / scan.found.range_width) ** 2
+        envelope = detection.SIDELOBE_MARGIN * detection.sinc_sidelobes((d1.cell - d2.cell) / scan.found.range_width)
         c0, c1 = sorted((d1.cell, d2.cell))
         i0, i1 = sorted((d1.index, d2.index))
         rows = np.arange(i0 - 1, i1 + 2) % scan.n_out
@@ -2014,7 +2035,7 @@ def _neighbours(det: detection.Detection, scan: _Scan, tally: _Tally | None) -> 
         if d is det or not reach < gap <= 2 * m:
             continue
         f_d = (sp.ka0 * (d.time - det.time) + g.prf / 2) % g.prf - g.prf / 2
-        envelope = 1.0 / (math.pi * gap / scan.found.range_width) ** 2
+        envelope = detection.sinc_sidelobes(gap / scan.found.range_width)
         if abs(f_d) < 1.5 * band and d.power * envelope >= max(NEIGHBOUR_LEVEL * det.power, det.background):
             log.debug(
                 "reconstruct: detection at cell %d, %.4f s: a neighbour at cell %d, %+.1f Hz, %+.1f dB (its side lobes "
@@ -2272,7 +2293,7 @@ def _static_within(mt: MovingTarget, scan: _Scan) -> float | None:
     1-sigma of the tabled v_los = v_r cos + v_a sin: _uncertainties' sigma_vr x cos); None when it is above them."""
     g, params = scan.g, scan.params
     s_r = _uncertainties(mt, g, params.clutter_band if params.clutter_suppression else None)[0]
-    v_los = channels.line_of_sight_velocity(mt.radial_velocity, mt.along_track_velocity, g.squint)
+    v_los = mt.line_of_sight_velocity(g.squint)
     z = (abs(v_los) - params.detection_velocity) / (s_r * math.cos(g.squint))
     return z if z < STATIC_SIGMAS else None
 
@@ -2301,7 +2322,7 @@ def _drop_under_threshold(scan: _Scan, tally: _Tally) -> dict[int, int]:
     for k in drop:
         mt, det = tally.movers[k], tally.peaks[k]
         scan.y_tr[:, mt.first_cell : mt.last_cell] -= tally.undo[k]
-        v_los = channels.line_of_sight_velocity(mt.radial_velocity, mt.along_track_velocity, scan.g.squint)
+        v_los = mt.line_of_sight_velocity(scan.g.squint)
         z = _static_within(mt, scan)
         log.info(
             "reconstruct: detection at range cell %d, %.3f s (SNR %.1f dB) is under the CFAR threshold %.1f dB and "
@@ -2325,7 +2346,7 @@ def _drop_under_threshold(scan: _Scan, tally: _Tally) -> dict[int, int]:
                 d["mover"] = index[d["mover"]]
             else:
                 m = tally.movers[d["mover"]]
-                v = channels.line_of_sight_velocity(m.radial_velocity, m.along_track_velocity, scan.g.squint)
+                v = m.line_of_sight_velocity(scan.g.squint)
                 d.update(kind="weak", v_los=v, sigmas=_static_within(m, scan))
                 del d["mover"]
     dropped = [tally.peaks[k] for k in drop]
@@ -2340,12 +2361,15 @@ def _warn_merged(tally: _Tally, kept: dict[int, int]) -> None:
     """Warn of the responses merged with a mover that could not be separated from it (_merge), numbered as the movers
     _drop_under_threshold kept; of one merged with a detection it took back only at info level: it names no mover
     (mover campaign scene 014: three merged with its clutter read at -1.34 m/s, once warned of as another mover's)."""
-    for k, text in tally.merged:
-        if k in kept:
-            log.warning("reconstruct: %s", text.replace("{}", str(kept[k]), 1))
+    for m in tally.merged:
+        if m.mover in kept:
+            log.warning(
+                "reconstruct: %s, could not be separated from it: %s", m.said(f"mover {kept[m.mover]}"), m.cause
+            )
         else:
-            head = text.split(", could not be separated")[0].replace("mover {}", "a detection taken for static", 1)
-            log.info("reconstruct: %s: merged with it, taken for static with it", head)
+            log.info(
+                "reconstruct: %s: merged with it, taken for static with it", m.said("a detection taken for static")
+            )
 
 
 def _warn_unseparated(scan: _Scan, tally: _Tally) -> None:
@@ -2907,7 +2931,7 @@ def _uncertainties(mt: MovingTarget, g: _Geometry, clutter_band: float | None) -
     if clutter_band is not None and math.isfinite(snr):
         # the detection SNR is the clutter-null residual's, which keeps G of the mover's peak; both estimators work
         # on its whole echo before the null
-        v_los = channels.line_of_sight_velocity(mt.radial_velocity, mt.along_track_velocity, g.squint)
+        v_los = mt.line_of_sight_velocity(g.squint)
         gain = min(1.0, detection.clutter_null_peak_gain(g.tau0, g.prf, g.half_band, clutter_band, lam, v_los))
         snr = snr / gain if gain > 0 else float("inf")
     # the autofocus's data holds at least the mover's background; inf: nothing above a clean mover's residue
