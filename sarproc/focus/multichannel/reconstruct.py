@@ -1489,6 +1489,9 @@ class _Scan:
     found: _Detections
     spacing: _Spacing
     x_tr: np.ndarray  # channel data in (t, range time)
+    # the channel data as the removals so far left it (_remove_response): each removal takes its response out of
+    # this, not out of x_tr, so overlapping windows never take one response twice nor add a notch's edge each time
+    x_left: np.ndarray
     y_tr: np.ndarray  # reconstruction in (t', range time): each mover's modified one replaces its conventional one
     rt0: float  # first range time of the input (s)
     lead: int
@@ -1698,7 +1701,7 @@ def _detect_and_focus(
     projector = clutter_projector(len(g.times), g, params.clutter_band)[0] if residual_mode else None
     n_out, n_cells = y.shape
     rt0 = float(raw.coords["range_time"][0])
-    scan = _Scan(params, g, bank, projector, found, spacing, x_tr, y_tr, rt0, lead, n_out, n_cells)
+    scan = _Scan(params, g, bank, projector, found, spacing, x_tr, x_tr.copy(), y_tr, rt0, lead, n_out, n_cells)
     counts = {"detections": len(found.dets), "static": 0, "ambiguous": 0, "incoherent": 0, "explained": 0}
     tally = _Tally(found.dropped, counts)
     first = _examination_order(found.dets, scan)
@@ -1914,7 +1917,7 @@ def _examine(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
     # ambiguities) keep their own reconstruction; everything else in the window takes this mover's.
     others = _others(det, w, scan)
     whole = detection.extract(w.x_w, g.times, g.prf, det.time, w.ka_w, params.separation_bandwidth, notches=others)
-    _remove_response(whole, w, scan)
+    _remove_response(det, others, w, scan)
     # The reconstruction also spares the static targets the null hid from the detections (bright points in
     # the conventional image, in this window's cells, not at this detection's apparent time modulo PRF / K_a).
     spared = _spared(det, w, scan)
@@ -2122,8 +2125,18 @@ def _spared(det: detection.Detection, w: _DetWindow, scan: _Scan) -> list[float]
     ]
 
 
-def _remove_response(ext: np.ndarray, w: _DetWindow, scan: _Scan) -> None:
-    """Take one examined detection's whole response (ambiguities, clutter-null artefacts) out of the image."""
+def _remove_response(det: detection.Detection, others: list[float], w: _DetWindow, scan: _Scan) -> None:
+    """Take one examined detection's whole response (ambiguities, clutter-null artefacts) out of the image.
+
+    The response is cut from the channels as the earlier removals left them (scan.x_left), and taken out of them
+    too, so the detection image stays the compressed image of scan.x_left: a window overlapping earlier ones takes
+    only what they left (cut from the original channels every time, seven windows over one mover's cells each took
+    a notch-edge piece of it again, a false companion 5.2 dB under it; a neighbour's side lobe its notch spared
+    stayed a false alarm, mover campaign scene 000, docs/multichannel.md section 8)."""
+    g, params = scan.g, scan.params
+    x_w = sfft.fft(scan.x_left[:, :, w.a : w.b], axis=-1, workers=-1)
+    ext = detection.extract(x_w, g.times, g.prf, det.time, w.ka_w, params.separation_bandwidth, notches=others)
+    scan.x_left[:, :, w.lo : w.hi] -= sfft.ifft(ext, axis=-1, workers=-1)[:, :, w.lo - w.a : w.hi - w.a]
     x_fa = sfft.fft(ext, axis=1, workers=-1)
     if scan.projector is not None:
         x_fa = clutter_null(x_fa, scan.g, projector=scan.projector)[0]
