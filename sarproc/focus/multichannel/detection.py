@@ -299,6 +299,21 @@ def _width(profile: np.ndarray, k: int) -> float:
     return float(max(1, lo + hi + 1))
 
 
+def side_lobe_of(d: Detection, p: float, index: int, cell: int, n_az: int, range_width: float) -> bool:
+    """Whether power ``p`` at (``index``, ``cell``) of the detection image lies on ``d``'s azimuth cut (its range cells)
+    or range cut (its azimuth samples) under its sinc envelope 1 / (pi x)^2 with SIDELOBE_MARGIN (x: the distance in
+    ``d``'s measured -3 dB widths, or in range resolutions ``range_width``): find_detections' side-lobe test."""
+    dt = abs(index - d.index)
+    dt = min(dt, n_az - dt)
+    dr = abs(cell - d.cell)
+    return (
+        dr <= 2
+        and p < d.power * SIDELOBE_MARGIN * sinc_sidelobes(max(dt / d.width, 0.5))
+        or dt <= max(2, d.width)
+        and p < d.power * SIDELOBE_MARGIN * sinc_sidelobes(max(dr / range_width, 0.5))
+    )
+
+
 def find_detections(
     power: np.ndarray,
     bg: np.ndarray,
@@ -330,22 +345,7 @@ def find_detections(
     dropped = side_lobes = 0
     for t_i, r_i in idx[order]:
         p = float(power[t_i, r_i])
-        sidelobe = False
-        for d in (*known, *found):
-            dt = abs(int(t_i) - d.index)
-            dt = min(dt, power.shape[0] - dt)
-            dr = abs(int(r_i) - d.cell)
-            # on the azimuth cut (same range cells) or the range cut (same azimuth) of a stronger one
-            if (
-                dr <= 2
-                and p < d.power * SIDELOBE_MARGIN * sinc_sidelobes(max(dt / d.width, 0.5))
-                or dt <= max(2, d.width)
-                and p < d.power * SIDELOBE_MARGIN * sinc_sidelobes(max(dr / range_width, 0.5))
-            ):
-                sidelobe = True
-            if sidelobe:
-                break
-        if sidelobe:
+        if any(side_lobe_of(d, p, int(t_i), int(r_i), power.shape[0], range_width) for d in (*known, *found)):
             continue
         if static is not None and static_side_lobe(power, int(t_i), int(r_i), p, static):
             side_lobes += 1
