@@ -83,6 +83,8 @@ class Kernels:
 
     def load(self) -> ModuleType | None:
         """The compiled module, or None while it is not built (or building is off, or it failed)."""
+        if self.name in _LOADED:  # decided once per process: no paths made on every kernel call
+            return _LOADED[self.name]
         return load(self.name, self.source_paths)
 
     def request_build(self) -> bool:

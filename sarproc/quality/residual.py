@@ -449,7 +449,7 @@ def _fresnel_box(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     a unit band whose phase is quadratic across it; sinc(a) at b = 0. Closed form by the Fresnel integrals
     E = C + jS: exp(-j pi a^2 / 2b) (E(t2) - E(t1)) / 2 sqrt(b), t = (a +- b) / sqrt(b), for b > 0; F(a, -b) is
     its conjugate."""
-    import scipy.special  # only where a model has curved edges
+    from sarproc.product.special import fresnel  # only where a model has curved edges (scipy.special's ufunc)
 
     a, b = np.broadcast_arrays(np.asarray(a, dtype=float), np.asarray(b, dtype=float))
     out = np.sinc(a).astype(complex)
@@ -457,8 +457,8 @@ def _fresnel_box(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     if bent.any():
         x, y = a[bent], np.abs(b[bent])
         root = np.sqrt(y)
-        s2, c2 = scipy.special.fresnel((x + y) / root)
-        s1, c1 = scipy.special.fresnel((x - y) / root)
+        s2, c2 = fresnel((x + y) / root)
+        s1, c1 = fresnel((x - y) / root)
         f = np.exp(-0.5j * np.pi * x * x / y) / (2.0 * root) * ((c2 - c1) + 1j * (s2 - s1))
         out[bent] = np.where(b[bent] > 0, f, np.conj(f))
     return out
