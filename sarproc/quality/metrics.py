@@ -77,6 +77,7 @@ from sarproc.quality.residual import (
     fit_response_models,
     model_values,
     residual_false_target,
+    separated_starts,
     spectral_orders,
     unique_columns,
 )
@@ -1291,7 +1292,7 @@ def evaluate_image(
     ]
     guarded = _guarded_positions(truth, measured, other_truth, len(axes))
     false, guard, floor, listed = _false_targets(
-        data, mag, axes, guarded, peaks, reports, half, nulls, params, own_axes
+        data, mag, axes, guarded, peaks, reports, half, nulls, params, own_axes, truth[order]
     )
     done()
     return QualityReport(
@@ -1639,6 +1640,7 @@ def _false_targets(
     nulls: Sequence[float],
     params: EvaluateParams,
     own_axes: Sequence[Sequence[_Axis]] | None = None,
+    truth: np.ndarray | None = None,
 ) -> tuple:
     """(false target, guard-window false target, residual floor, false-target list): the strongest response
     outside every target's +-guard_cells window, and with ``params.residual`` the strongest on the residual
@@ -1655,6 +1657,8 @@ def _false_targets(
         p.fit_start(None if own_axes is None else np.array([ax.null for ax in own]))
         for p, own in zip(peaks, own_axes or [axes] * len(peaks))
     ]
+    if truth is not None:  # a close pair found on one peak: the weaker one moved to its own (separated_starts)
+        starts = separated_starts(starts, [[ax.to_index(x) for ax, x in zip(axes, t)] for t in truth], nulls, data)
     models = fit_response_models(data, starts, nulls, params, support_shape=True)
     fanned = [i for i, p in enumerate(peaks) if p.fanned]
     own_nulls = None if own_axes is None else [np.array([ax.null for ax in own]) for own in own_axes]
