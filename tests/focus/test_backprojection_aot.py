@@ -38,22 +38,18 @@ def aot_dir(tmp_path, monkeypatch):
 
 
 @pytest.fixture(scope="module")
-def built(tmp_path_factory):
+def built(aot_builds):
     """The module built once into a directory of this test module (skipped without a C compiler), by the
-    background builder's own command: built inside this long process, it would link whatever variants of the
-    callees this process had compiled or loaded from the cache, which can differ from a fresh compile in the
-    last bits (the "not bit for bit" failures of a `make test` after `make demo`, session 24)."""
+    background builder's own command (started by the session: tests/conftest.py, aot_builds): built inside this
+    long process, it would link whatever variants of the callees this process had compiled or loaded from the
+    cache, which can differ from a fresh compile in the last bits (the "not bit for bit" failures of a `make test`
+    after `make demo`, session 24)."""
     if not HAVE_CC:
         pytest.skip("no C compiler: the kernels run in numba only (the fallback the other tests check)")
-    d = tmp_path_factory.mktemp("aot")
-    d.chmod(0o700)
+    d, done = aot_builds.result(bpa.NAME)
     numba_cache = d / "numba-cache"  # the user's numba cache as the builder sees it: it must stay empty
-    env = compiled_module_env(d, numba_cache)
-    key = aot.module_key(bpa.SOURCES)
-    done = subprocess.run(
-        [sys.executable, "-m", bpa.BUILDER, key], capture_output=True, text=True, check=False, env=env
-    )
     assert done.returncode == 0, done.stderr[-2000:]
+    key = aot.module_key(bpa.SOURCES)
     # the callees a build compiles differ in the last bits from a plain process's (aot.private_numba_cache)
     assert not numba_cache.exists() or not any(numba_cache.iterdir())
     with aot_environment(d):

@@ -9,7 +9,6 @@ numba and write the products numba's kernels write (alike). The rest check the d
 
 from __future__ import annotations
 
-import concurrent.futures
 import json
 import os
 import shutil
@@ -33,47 +32,32 @@ HAVE_CC = shutil.which(os.environ.get("CC", "cc")) is not None or shutil.which("
 GROUPS = (phasor.AOT, interp.AOT, echo_aot.ECHO, compiled.BLOCKS, compiled.STOLT, correction.AOT)
 
 
-# Built by the background builder's own command (python -m sarproc.product.aot, as request_build starts it), one
-# after another in a thread, while the rest are built in this process: a build is one core's work (numba's
-# compile, then the C compiler's), so on CI's two cores the two lanes take about half the serial time. The echo
-# module stays in this process: its complex128 export equals the numba kernel bit for bit only where that kernel is
-# compiled in a process that built the module (citime's report, 2026-12-03), which the test does not settle.
+# Built by the background builder's own command (python -m sarproc.product.aot, as request_build starts it): the
+# session starts these builds with its first test, one after another in a thread (tests/conftest.py, aot_builds),
+# and the fixture builds the rest in this process meanwhile. The echo module stays in this process: its complex128
+# export equals the numba kernel bit for bit only where that kernel is compiled in a process that built the module
+# (citime's report, 2026-12-03), which the test does not settle.
 BY_COMMAND = (phasor.AOT, compiled.BLOCKS, compiled.STOLT, correction.AOT)
 
 
 @pytest.fixture(scope="module")
-def built(tmp_path_factory):
-    """The six modules built once into a directory of this test module (skipped without a C compiler)."""
+def built(aot_builds):
+    """The six modules built once into a directory of the session (skipped without a C compiler)."""
     if not HAVE_CC:
         pytest.skip("no C compiler: the kernels run in numba only")
-    d = tmp_path_factory.mktemp("aot")
-    d.chmod(0o700)
+    assert all(group.name in aot_builds.jobs for group in BY_COMMAND)
+    d = aot_builds.jobs[BY_COMMAND[0].name][0]
     with aot_environment(d):
         try:
-            env = {**os.environ, "PYTHONPATH": str(ROOT)}
-
-            def by_command() -> dict:
-                return {
-                    group.name: subprocess.run(
-                        [sys.executable, "-m", "sarproc.product.aot", group.owner, aot.module_key(group.source_paths)],
-                        capture_output=True,
-                        text=True,
-                        check=False,
-                        env=env,
-                    )
-                    for group in BY_COMMAND
-                }
-
-            with concurrent.futures.ThreadPoolExecutor(max_workers=1) as lane:
-                runs = lane.submit(by_command)
-                for group in GROUPS:
-                    if group not in BY_COMMAND:
-                        group.build(aot.module_key(group.source_paths))
-                done = runs.result()
+            for group in GROUPS:
+                if group not in BY_COMMAND:
+                    group.build(aot.module_key(group.source_paths))
+            done = {group.name: aot_builds.result(group.name) for group in BY_COMMAND}
             modules = {}
             for group in GROUPS:
                 if group in BY_COMMAND:
-                    assert done[group.name].returncode == 0, (group.name, done[group.name].stderr[-2000:])
+                    where, run = done[group.name]
+                    assert where == d and run.returncode == 0, (group.name, run.stderr[-2000:])
                 aot._LOADED.pop(group.name, None)
                 modules[group.name] = group.load()
                 assert modules[group.name] is not None

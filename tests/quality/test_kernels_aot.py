@@ -24,12 +24,12 @@ HAVE_CC = shutil.which(os.environ.get("CC", "cc")) is not None or shutil.which("
 
 
 @pytest.fixture(scope="module")
-def built(tmp_path_factory):
-    """(directory, module): the 3D kernels built once, through the background builder's own command."""
+def built(aot_builds):
+    """(directory, module): the 3D kernels built once, through the background builder's own command
+    (the session starts the build: tests/conftest.py, aot_builds)."""
     if not HAVE_CC:
         pytest.skip("no C compiler: the kernels run in numba only")
-    d = tmp_path_factory.mktemp("aot")
-    return d, build_aot_kernels(kernels_aot.QUALITY, d)
+    return build_aot_kernels(kernels_aot.QUALITY, aot_builds)
 
 
 # Each export (serial) on the same arguments as numba's kernel (parallel where it is), compared in a process
