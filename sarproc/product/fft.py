@@ -25,6 +25,8 @@ from typing import Any
 import numpy as np
 from numpy.fft import fftfreq, fftshift, ifftshift
 
+from sarproc.product.scipy_extension import load_extension
+
 __all__ = [
     "fft",
     "fft2",
@@ -43,33 +45,8 @@ __all__ = [
 _NORM = {None: 0, "backward": 0, "ortho": 1, "forward": 2}
 
 
-def _load_pocketfft() -> ModuleType | None:
-    """scipy's pypocketfft extension module, loaded from its file without importing scipy.fft; None if not."""
-    try:
-        import importlib.machinery
-        import importlib.util
-
-        spec = importlib.util.find_spec("scipy")  # locates the package without importing it
-        if spec is None or spec.origin is None:
-            return None
-        where = os.path.join(os.path.dirname(spec.origin), "fft", "_pocketfft")
-        names = [f for f in os.listdir(where) if f.startswith("pypocketfft.")]
-        path = next(os.path.join(where, f) for f in names if f.endswith(tuple(importlib.machinery.EXTENSION_SUFFIXES)))
-        loader = importlib.machinery.ExtensionFileLoader("pypocketfft", path)
-        ext_spec = importlib.util.spec_from_file_location("pypocketfft", path, loader=loader)
-        if ext_spec is None:
-            return None
-        module = importlib.util.module_from_spec(ext_spec)
-        loader.exec_module(module)
-        if not all(hasattr(module, f) for f in ("c2c", "good_size")):
-            return None
-        return module
-    except Exception:  # any other layout or loader failure: scipy.fft
-        return None
-
-
 def _pocketfft() -> ModuleType:
-    loaded = _load_pocketfft()
+    loaded = load_extension("fft/_pocketfft", "pypocketfft", needs=("c2c", "good_size"))
     if loaded is None:  # pragma: no cover - another scipy layout: the same extension through scipy.fft
         from scipy.fft._pocketfft import pypocketfft
 

@@ -13,41 +13,17 @@ cannot be found or loaded (another scipy layout), ``scipy.linalg``'s own are use
 
 from __future__ import annotations
 
-import os
-from types import ModuleType
 from typing import Any
 
 import numpy as np
 
+from sarproc.product.scipy_extension import load_extension
+
 __all__ = ["blas", "cho_factor", "cho_solve", "lapack"]
 
 
-def _load(name: str) -> ModuleType | None:
-    """scipy.linalg's extension ``name`` (``_fblas`` or ``_flapack``) loaded from its file; None if not."""
-    try:
-        import importlib.machinery
-        import importlib.util
-
-        spec = importlib.util.find_spec("scipy")  # locates the package without importing it
-        if spec is None or spec.origin is None:
-            return None
-        where = os.path.join(os.path.dirname(spec.origin), "linalg")
-        suffixes = tuple(importlib.machinery.EXTENSION_SUFFIXES)
-        files = [f for f in os.listdir(where) if f.startswith(name + ".") and f.endswith(suffixes)]
-        path = os.path.join(where, files[0])
-        loader = importlib.machinery.ExtensionFileLoader(name, path)
-        ext_spec = importlib.util.spec_from_file_location(name, path, loader=loader)
-        if ext_spec is None:
-            return None
-        module = importlib.util.module_from_spec(ext_spec)
-        loader.exec_module(module)
-        return module
-    except Exception:  # any other layout or loader failure: scipy.linalg's
-        return None
-
-
 def _modules() -> tuple[Any, Any]:
-    fblas, flapack = _load("_fblas"), _load("_flapack")
+    fblas, flapack = load_extension("linalg", "_fblas"), load_extension("linalg", "_flapack")
     if fblas is None or flapack is None or not hasattr(flapack, "dpotrf"):  # pragma: no cover - other layout
         from scipy.linalg import _fblas, _flapack
 
