@@ -27,6 +27,7 @@ Usage: python scripts/evaluate_campaign.py --scenes 30 --seed 1 --out results/ev
 from __future__ import annotations
 
 import argparse
+import copy
 import dataclasses
 import json
 import math
@@ -42,11 +43,21 @@ import h5py
 import numpy as np
 import yaml
 
-BEAMWIDTH_DEG = 2.0
-TRACK_S = 1.2
-VELOCITY = 100.0
-R0 = 2000.0
-ALTITUDE = 500.0
+# every scene's radar, track and beam; the campaign draws the rest over it
+BASE_SCENE = yaml.safe_load((Path(__file__).resolve().parents[1] / "configs" / "evaluate_campaign.yaml").read_text())
+
+
+def _number(text: str, unit: str) -> float:
+    value, got = text.split()
+    if got != unit:
+        raise SystemExit(f"configs/evaluate_campaign.yaml: {text!r} is not in {unit}")
+    return float(value)
+
+
+BEAMWIDTH_DEG = _number(BASE_SCENE["effects"]["antenna"]["azimuth_beamwidth"], "deg")
+TRACK_S = _number(BASE_SCENE["acquisition"]["aperture_time"], "s")
+VELOCITY = _number(BASE_SCENE["platform"]["velocity"], "m/s")
+R0 = _number(BASE_SCENE["geometry"]["reference_range"], "m")
 PLACE_CELLS = 2.0  # a ghost is found within this many cells of its place
 LEVEL_DB = 1.0  # and this close to its level
 LIST_MARGIN_DB = 1.0  # evaluate lists a false target this far over its residual floor (residual.LIST_MARGIN_DB)
@@ -135,36 +146,22 @@ def draw_scene(rng: np.random.Generator) -> dict:
 
 
 def scene_yaml(d: dict, points: list[Point], noise: bool, waveform: str) -> dict:
-    effects: dict = {"antenna": {"pattern": d["pattern"], "azimuth_beamwidth": f"{BEAMWIDTH_DEG} deg"}}
+    scene = copy.deepcopy(BASE_SCENE)
+    scene["effects"]["antenna"]["pattern"] = d["pattern"]
     if noise and d["snr_db"] is not None:
-        effects["noise"] = {"snr": f"{d['snr_db']} dB"}
-    return {
-        "radar": {
-            "carrier_frequency": "10 GHz",
-            "bandwidth": "150 MHz",
-            "pulse_duration": "2 us",
-            "range_sampling_rate": "180 MHz",
-            "prf": "1500 Hz",
-        },
-        "platform": {"velocity": f"{VELOCITY} m/s", "altitude": f"{ALTITUDE} m"},
-        "geometry": {"reference_range": f"{R0} m", "squint": f"{d['squint']} deg"},
-        "acquisition": {"mode": "stripmap", "aperture_time": f"{TRACK_S} s"},
-        "effects": effects,
-        "targets": {
-            "frame": "zero_doppler",
-            "points": [
-                {"name": p.name, "azimuth": f"{p.azimuth} m", "range": f"{p.range} m", "amplitude": p.amplitude}
-                for p in points
-            ],
-        },
-        "simulation": {"waveform": waveform},
-        "backproject": {
-            "frame": "zero_doppler",
-            "margin_cells": 28,
-            "range_window": d["window"],
-            "azimuth_window": d["window"],
-        },
+        scene["effects"]["noise"] = {"snr": f"{d['snr_db']} dB"}
+    scene["geometry"]["squint"] = f"{d['squint']} deg"
+    scene["targets"]["points"] = [
+        {"name": p.name, "azimuth": f"{p.azimuth} m", "range": f"{p.range} m", "amplitude": p.amplitude} for p in points
+    ]
+    scene["simulation"]["waveform"] = waveform
+    scene["backproject"] = {
+        "frame": "zero_doppler",
+        "margin_cells": 28,
+        "range_window": d["window"],
+        "azimuth_window": d["window"],
     }
+    return scene
 
 
 def lit_fractions(raw: Path) -> dict[str, float]:

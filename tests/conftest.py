@@ -4,9 +4,13 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import dataclasses
 import os
+from pathlib import Path
 
+import numpy as np
 import pytest
+import yaml
 
 # The backprojection kernels compiled ahead of time (sarproc.product.aot) are off in the tests unless a test
 # turns them on: otherwise the first small backprojection would start a background build and later tests would
@@ -30,21 +34,9 @@ BASE_SCENE = {
 
 # scripts/evaluate_campaign.py's squinted stripmap (2 deg beam, 150 MHz, 1.2 s track), imaged in its zero-Doppler
 # frame; a test merges in its squint, antenna pattern and targets.
-CAMPAIGN_STRIPMAP = {
-    "radar": {
-        "carrier_frequency": "10 GHz",
-        "bandwidth": "150 MHz",
-        "pulse_duration": "2 us",
-        "range_sampling_rate": "180 MHz",
-        "prf": "1500 Hz",
-    },
-    "platform": {"velocity": "100 m/s", "altitude": "500 m"},
-    "geometry": {"reference_range": "2 km", "squint": "0 deg"},
-    "acquisition": {"mode": "stripmap", "aperture_time": "1.2 s"},
-    "effects": {"antenna": {"pattern": "sinc", "azimuth_beamwidth": "2 deg"}},
-    "targets": {"frame": "zero_doppler", "points": [{"name": "A"}]},
-    "simulation": {"waveform": "band_limited"},
-}
+CAMPAIGN_STRIPMAP = yaml.safe_load(
+    (Path(__file__).resolve().parents[1] / "configs" / "evaluate_campaign.yaml").read_text()
+)
 
 
 def merge(base: dict, changes: dict) -> dict:
@@ -58,6 +50,26 @@ def merge(base: dict, changes: dict) -> dict:
         else:
             out[k] = copy.deepcopy(v)
     return out
+
+
+def with_ghost(image, ghost, level_db: float):
+    """``image`` with ``ghost`` (a product of one extra scatterer on the same grid) added at ``level_db`` of
+    ``image``'s peak: a scatterer left out of the truth table."""
+    assert ghost.data.shape == image.data.shape
+    scale = 10 ** (level_db / 20) * np.abs(image.data).max() / np.abs(ghost.data).max()
+    return dataclasses.replace(image, data=(image.data + scale * ghost.data).astype(np.complex64))
+
+
+def assert_ghost_listed_once(report, image, ghost, level_db: float, name: str = "G") -> None:
+    """The report lists one false target: ``ghost``'s scatterer ``name``, within 1 dB of ``level_db`` and two
+    of ``image``'s theoretical IRWs of its place along each axis."""
+    entries = report.false_targets.entries
+    assert len(entries) == 1
+    assert entries[0].pixel_level_db == pytest.approx(level_db, abs=1.0)
+    names = [str(n.decode() if isinstance(n, bytes) else n) for n in ghost.targets["name"]]
+    irw = dict(zip(image.dims, image.attrs["theoretical_irw"]))
+    for d in image.dims:
+        assert abs(entries[0].position[d] - float(ghost.targets[d][names.index(name)])) <= 2 * irw[d], d
 
 
 @pytest.fixture
@@ -82,7 +94,6 @@ def fresh_numba(tmp_path_factory):
 def compiled_module_env(directory, numba_cache):
     """The environment of a subprocess that loads the compiled modules in ``directory`` (SARPROC_AOT=1), imports
     this tree and compiles numba's kernels into ``numba_cache`` (a :func:`fresh_numba`)."""
-    from pathlib import Path
 
     root = str(Path(__file__).resolve().parents[1])
     return {
@@ -123,7 +134,6 @@ AOT_TEST_FILES = ("test_backprojection_aot.py", "test_aot_kernels.py", "test_ker
 def _aot_build_jobs(tmp_path_factory, files):
     """Kernels name -> (directory, argv, env) of the builds that the AOT test ``files`` check, in their order."""
     import sys
-    from pathlib import Path
 
     from sarproc.product import aot
 
@@ -234,7 +244,6 @@ def aot_builds(request, tmp_path_factory):
     """The builds of the compiled modules that the session's AOT tests check (those with a ``built`` fixture),
     started now (see above); none without a C compiler (the tests are skipped)."""
     import shutil
-    from pathlib import Path
 
     files = []
     if shutil.which(os.environ.get("CC", "cc")) is not None or shutil.which("gcc") is not None:

@@ -10,11 +10,9 @@ misfits, the floor -33.8 dB. Here the pair alone, noise free, at its scene place
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import pytest
-from conftest import CAMPAIGN_STRIPMAP, merge
+from conftest import CAMPAIGN_STRIPMAP, assert_ghost_listed_once, merge, with_ghost
 
 from sarproc.focus.backprojection import BackprojectParams, backproject
 from sarproc.quality.metrics import EvaluateParams, evaluate_product
@@ -52,18 +50,9 @@ def test_a_close_pair_is_fitted_under_minus_50_db(pair):
 def test_a_ghost_beside_the_pair_is_listed(pair):
     scene = merge(PAIR_SCENE, {"targets": {"points": [dict(p, amplitude=0.0) for p in PAIR] + [GHOST]}})
     ghost = backproject(simulate(scene_from_mapping(scene)), HAMMING, grid_targets=["T1", "T2"])
-    assert ghost.data.shape == pair.data.shape
-    scale = 10 ** (GHOST_DB / 20) * np.abs(pair.data).max() / np.abs(ghost.data).max()
-    ghosted = dataclasses.replace(pair, data=(pair.data + scale * ghost.data).astype(np.complex64))
-    rep = evaluate_product(ghosted, EvaluateParams())
+    rep = evaluate_product(with_ghost(pair, ghost, GHOST_DB), EvaluateParams())
     assert rep.residual.floor_db <= -50.0
-    entries = rep.false_targets.entries
-    assert len(entries) == 1
-    assert entries[0].pixel_level_db == pytest.approx(GHOST_DB, abs=1.0)
-    names = [str(n.decode() if isinstance(n, bytes) else n) for n in ghost.targets["name"]]
-    irw = dict(zip(pair.dims, pair.attrs["theoretical_irw"]))
-    for d in pair.dims:
-        assert abs(entries[0].position[d] - float(ghost.targets[d][names.index("G")])) <= 2 * irw[d], d
+    assert_ghost_listed_once(rep, pair, ghost, GHOST_DB)
 
 
 def test_a_pair_found_on_one_peak_is_started_apart():

@@ -16,11 +16,8 @@ their own targets' model residue:
 
 from __future__ import annotations
 
-import dataclasses
-
-import numpy as np
 import pytest
-from conftest import CAMPAIGN_STRIPMAP, merge
+from conftest import CAMPAIGN_STRIPMAP, assert_ghost_listed_once, merge, with_ghost
 
 from sarproc.focus.backprojection import BackprojectParams, backproject
 from sarproc.quality.metrics import EvaluateParams, evaluate_product
@@ -74,17 +71,8 @@ def test_a_models_misfit_skirt_is_not_listed_and_is_the_floor(skirt):
 def test_a_ghost_inside_the_fit_box_over_the_skirt_is_still_listed(skirt):
     scene = merge(SKIRT_SCENE, {"targets": {"points": [dict(T2, amplitude=0.0), GHOST]}})
     ghost = backproject(simulate(scene_from_mapping(scene)), HAMMING, grid_targets=["T2"])
-    assert ghost.data.shape == skirt.data.shape
-    scale = 10 ** (GHOST_DB / 20) * np.abs(skirt.data).max() / np.abs(ghost.data).max()
-    ghosted = dataclasses.replace(skirt, data=(skirt.data + scale * ghost.data).astype(np.complex64))
-    rep = evaluate_product(ghosted, EvaluateParams())
-    entries = rep.false_targets.entries
-    assert len(entries) == 1
-    assert entries[0].pixel_level_db == pytest.approx(GHOST_DB, abs=1.0)
-    names = [str(n.decode() if isinstance(n, bytes) else n) for n in ghost.targets["name"]]
-    irw = dict(zip(skirt.dims, skirt.attrs["theoretical_irw"]))
-    for d in skirt.dims:
-        assert abs(entries[0].position[d] - float(ghost.targets[d][names.index("G")])) <= 2 * irw[d], d
+    rep = evaluate_product(with_ghost(skirt, ghost, GHOST_DB), EvaluateParams())
+    assert_ghost_listed_once(rep, skirt, ghost, GHOST_DB)
 
 
 def test_a_misfit_targets_bent_far_ridge_is_not_listed():
