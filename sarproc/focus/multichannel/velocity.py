@@ -106,6 +106,23 @@ def out_of_band_fraction(spectrum: np.ndarray, frequencies: np.ndarray, half_ban
     return float(p[np.abs(frequencies) > half_band].sum() / total)
 
 
+def curve_median(trials: np.ndarray) -> float:
+    """Median of a criterion curve over the span its trials cover, each trial weighted by the span it stands for
+    (half the distance to each neighbour): the curve's level, which a coarse-to-fine search's trials, crowded at its
+    minima, do not give (their plain median sits near the minimum). ``trials`` (n, 2): velocity, value."""
+    if len(trials) == 0:
+        return float("nan")
+    t = trials[np.argsort(trials[:, 0])]
+    u, y = t[:, 0], t[:, 1]
+    if len(u) == 1:
+        return float(y[0])
+    edges = np.concatenate([[u[0]], (u[1:] + u[:-1]) / 2, [u[-1]]])
+    w = np.diff(edges)
+    order = np.argsort(y)
+    c = np.cumsum(w[order])
+    return float(y[order][int(np.searchsorted(c, 0.5 * c[-1]))])
+
+
 def sharpness(image: np.ndarray) -> float:
     """sum |Z|^4 / (sum |Z|^2)^2: 1 for a single non-zero sample, 1 / n for a flat image."""
     p = np.abs(image).astype(float) ** 2
