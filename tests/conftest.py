@@ -130,6 +130,31 @@ def aot_environment(directory):
 # work: it takes the core the session's tests leave idle, and yields it to them), and a fixture waits for its own.
 AOT_TEST_FILES = ("test_backprojection_aot.py", "test_aot_kernels.py", "test_kernels_aot.py", "test_residual_aot.py")
 
+# Numba kernels that a late test file is the first in the suite to call and that take long to compile, compiled
+# ahead by a plain process into the session's numba cache after the builds (the same thread, niced the same way,
+# never waited for): the test that first calls them loads them instead of compiling them while the session waits.
+# A plain process compiles them as the test process would from the sources (docs/performance.md, "Traced
+# (session 18)": two plain processes agree bit for bit). ffbp's two parallel kernels (merge_level, final_points)
+# were ~30 s of one core here and the first ffbp test's ~50 s in CI. The inputs only give numba the types the
+# engine passes (its buffers are typed inside ffbp_points); a warm-up that fails changes nothing but the time.
+FFBP_WARMUP = """
+import numpy as np
+from sarproc.focus.ffbp import ffbp_points
+
+n_az, n_rg, fs = 64, 200, 120e6
+rng = np.random.default_rng(0)
+rc = (rng.standard_normal((n_az, n_rg)) + 1j * rng.standard_normal((n_az, n_rg))).astype(np.complex64)
+range_time = 2 * 2000.0 / 299792458.0 + (np.arange(n_rg) - n_rg / 2) / fs
+pos = np.zeros((n_az, 3))
+pos[:, 0], pos[:, 1] = (np.arange(n_az) - n_az / 2) * 0.25, -2000.0
+a, r = np.meshgrid(np.linspace(-10, 10, 24), np.linspace(-10, 10, 20), indexing="ij")
+pts = np.stack([a.ravel(), r.ravel(), np.zeros(a.size)], 1)
+for reads in ({}, {"ffbp_interpolation": "cubic", "first_factor": 4}):
+    ffbp_points(rc, range_time, pos, pts, 10e9, 100e6, grid_shape=a.shape, **reads)  # a lattice
+    ffbp_points(rc, range_time, pos, pts[::3], 10e9, 100e6, **reads)  # points one by one
+"""
+NUMBA_WARMUPS = {"test_ffbp.py": FFBP_WARMUP}
+
 
 def _aot_build_jobs(tmp_path_factory, files):
     """Kernels name -> (directory, argv, env) of the builds that the AOT test ``files`` check, in their order."""
@@ -174,18 +199,32 @@ def _aot_build_jobs(tmp_path_factory, files):
     return jobs
 
 
-class AotBuilds:
-    """The session's module builds (above), run one after another in a thread."""
+def _numba_warmup_jobs(files):
+    """Label -> (None, argv, env) of the numba warm-ups (above) for the test ``files``, in their order."""
+    import sys
+    from pathlib import Path
 
-    def __init__(self, jobs):
+    root = str(Path(__file__).resolve().parents[1])
+    env = {**os.environ, "PYTHONPATH": root}
+    return {f"numba-warmup:{file}": (None, [sys.executable, "-c", NUMBA_WARMUPS[file]], env) for file in files}
+
+
+class AotBuilds:
+    """The session's module builds (above), run one after another in a thread, then its numba warm-ups (``warmups``,
+    the same kind of jobs; always niced, never waited for)."""
+
+    def __init__(self, jobs, warmups=None):
         import threading
 
+        self.warmups = set(warmups or ())
+        jobs = {**jobs, **(warmups or {})}
         self.jobs = jobs
         self.done = {name: threading.Event() for name in jobs}
         self.results = {}
         self.stopped = False
         self.waited = False
         self.running = None
+        self.running_name = None
         self.thread = threading.Thread(target=self._run, name="aot-builds", daemon=True)
         self.thread.start()
 
@@ -197,14 +236,15 @@ class AotBuilds:
         for name, (_, argv, env) in self.jobs.items():
             try:
                 if not self.stopped:
+                    self.running_name = name
                     self.running = subprocess.Popen(
-                        [*([] if self.waited else nice), *argv],
+                        [*([] if self.waited and name not in self.warmups else nice), *argv],
                         env=env,
                         stdout=subprocess.PIPE,
                         stderr=subprocess.PIPE,
                         text=True,
                     )
-                    if self.waited:  # a test waits: the build runs at the session's priority (see result)
+                    if self.waited and name not in self.warmups:  # a test waits: at the session's priority
                         self._unnice()
                     out, err = self.running.communicate()
                     self.results[name] = subprocess.CompletedProcess(argv, self.running.returncode, out, err)
@@ -216,7 +256,7 @@ class AotBuilds:
     def _unnice(self):
         """The running build back at the session's priority, where the system lets a process raise another's."""
         proc = self.running
-        if proc is not None and hasattr(os, "setpriority"):
+        if proc is not None and hasattr(os, "setpriority") and self.running_name not in self.warmups:
             with contextlib.suppress(OSError):
                 os.setpriority(os.PRIO_PROCESS, proc.pid, os.getpriority(os.PRIO_PROCESS, 0))
 
@@ -242,16 +282,20 @@ class AotBuilds:
 @pytest.fixture(scope="session", autouse=True)
 def aot_builds(request, tmp_path_factory):
     """The builds of the compiled modules that the session's AOT tests check (those with a ``built`` fixture),
-    started now (see above); none without a C compiler (the tests are skipped)."""
+    started now (see above; none without a C compiler: the tests are skipped), then the numba warm-ups of its
+    files in NUMBA_WARMUPS."""
     import shutil
 
-    files = []
-    if shutil.which(os.environ.get("CC", "cc")) is not None or shutil.which("gcc") is not None:
-        for item in request.session.items:
-            file = Path(str(item.path)).name
-            if file in AOT_TEST_FILES and "built" in getattr(item, "fixturenames", ()) and file not in files:
-                files.append(file)
-    builds = AotBuilds(_aot_build_jobs(tmp_path_factory, files))
+    files, warm = [], []
+    have_cc = shutil.which(os.environ.get("CC", "cc")) is not None or shutil.which("gcc") is not None
+    first = Path(str(request.session.items[0].path)).name if request.session.items else None
+    for item in request.session.items:
+        file = Path(str(item.path)).name
+        if have_cc and file in AOT_TEST_FILES and "built" in getattr(item, "fixturenames", ()) and file not in files:
+            files.append(file)
+        if file in NUMBA_WARMUPS and file != first and file not in warm:  # the first file would race its own
+            warm.append(file)
+    builds = AotBuilds(_aot_build_jobs(tmp_path_factory, files), _numba_warmup_jobs(warm))
     yield builds
     builds.stop()
 
