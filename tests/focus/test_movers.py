@@ -283,6 +283,55 @@ def test_a_pixel_the_removals_took_under_a_movers_side_lobes_is_no_false_alarm(c
     check(rec, ["M1", "M5", "M6"])
 
 
+def test_a_removal_notches_only_the_other_detections_its_mask_can_separate():
+    """reconstruct._others: another detection in the window's cells is notched (spared by the removal) only 2.5 x
+    separation_bandwidth or more from the examined one in dechirped Doppler (modulo PRF): a notch stops +-1 and tapers
+    to +-1.5 x separation_bandwidth about it, as the examined one's own mask does, so a nearer notch stops part of the
+    examined one's own pass band and its removal leaves that part behind (mover campaign scene 000's M5 + M6: notches
+    38-43 Hz from M5 left part of M5's response, a false mover)."""
+    from types import SimpleNamespace
+
+    from sarproc.focus.multichannel import reconstruct as rc
+
+    ka0, prf, band = 5000.0, 2500.0, 25.0
+    det = detection.Detection(100, 0, 0.0, 1.0, 1e-3, 4.0)
+
+    def at(f_d, cell=100):
+        return detection.Detection(cell, 0, f_d / ka0, 1.0, 1e-3, 4.0)
+
+    near = [at(f) for f in (40.0, -43.0, 62.0, 40.0 + prf)]  # within 2.5 x 25 Hz (the last modulo PRF)
+    far = [at(f) for f in (63.0, -70.0, 650.0, -1160.0)]
+    outside = [at(650.0, cell=150)]  # beyond the window's cells
+    scan = SimpleNamespace(
+        g=SimpleNamespace(prf=prf),
+        spacing=SimpleNamespace(ka0=ka0),
+        params=SimpleNamespace(separation_bandwidth=band),
+        found=SimpleNamespace(dets=[det, *near, *far, *outside]),
+    )
+    w = SimpleNamespace(a=84, b=117)
+    assert rc._others(det, w, scan) == pytest.approx([63.0, -70.0, 650.0, -1160.0])
+
+
+@pytest.mark.slow
+def test_a_movers_removal_takes_its_whole_pass_band_beside_other_detections():
+    """reconstruct._others: a removal notches only the other detections its mask can separate (2.5 x
+    separation_bandwidth or more away in dechirped Doppler). The mover campaign's scene 000 reduced to M5 and M6,
+    without its clutter but with the clutter null. In its clutter (docs/multichannel.md section 8) M5's removal
+    notched M6's detections 40 and 43 Hz from M5 (their full stop reaching inside M5's own pass band) and left part of
+    M5's own response 0.1135 s from its second ambiguity, which the null fit read as a false mover (v_r -18.43 m/s,
+    SNR 55.7 dB); here, with those notches, a false mover v_r -15.65 m/s, SNR 55.2 dB. Now M5's removal takes it
+    (explained), and M5 and M6 are found as before."""
+    pts = [
+        vehicle("M5", -768.3, 61.7, -10.18, -8.03, 0.3274),
+        vehicle("M6", 57.2, -20.3, 3.39, 9.96, 0.3478),
+    ]
+    m = scene(pts, n_receivers=4, spacing="1.5 m")
+    m["radar"]["pulse_duration"] = "15 us"
+    m["geometry"]["squint"] = "12.8 deg"
+    rec = reconstruct(simulate(scene_from_mapping(m)), ReconstructParams(clutter_suppression=True))
+    check(rec, ["M5", "M6"])
+
+
 def gaussian_beam_mover():
     """The mover campaign's scene 007 (19 deg squint, gaussian beam, four receivers and the clutter null) reduced to
     its M1 (v_r -4.27, v_a 0.11 m/s), without its clutter and static point: it fails alone as in the whole scene."""

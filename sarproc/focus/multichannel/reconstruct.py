@@ -2165,13 +2165,23 @@ def _log_null_survival(det: detection.Detection, ext: np.ndarray, scan: _Scan) -
 
 
 def _others(det: detection.Detection, w: _DetWindow, scan: _Scan) -> list[float]:
-    """Doppler offsets (Hz, modulo PRF) of the other detections in ``w``'s cells, away from ``det``'s mask."""
+    """Doppler offsets (Hz, modulo PRF) of the other detections in ``w``'s cells that its mask can separate from
+    ``det``: 2.5 separation_bandwidth or more from it (the parameter's "not separated", _ambiguity_of's reach).
+
+    A notch stops +-separation_bandwidth about its detection and tapers to 1.5 x it (detection.extraction_mask), as
+    ``det``'s own mask does: one nearer than 2.5 x stops part of ``det``'s own pass band, and the removal leaves that
+    part of ``det``'s response in the image to be examined as a target of its own. Mover campaign scene 000's M5 + M6
+    (docs/multichannel.md section 8): M5's removal notched M6's detections 40 and 43 Hz and a side lobe 38 Hz from M5
+    (their full stop reaching to 13-18 Hz from M5, inside its +-25 Hz pass band) and left |4.2| of |9.3| of M5's own
+    response 0.1135 s from its second ambiguity (M5 alone: its removal takes all of it), which the null fit read as
+    a false mover (v_r -18.43 m/s, SNR 55.7 dB). Scene 007: a static detection's removal with such notches added a
+    response one PRF / K_a from it, a second-pass detection examined for 12.7 s."""
     g, ka0, band = scan.g, scan.spacing.ka0, scan.params.separation_bandwidth
     others = []
     for d in scan.found.dets:
         f_d = ka0 * (d.time - det.time)
         f_d = (f_d + g.prf / 2) % g.prf - g.prf / 2
-        if d is not det and w.a - 2 <= d.cell < w.b + 2 and abs(f_d) > 1.5 * band:
+        if d is not det and w.a - 2 <= d.cell < w.b + 2 and abs(f_d) >= 2.5 * band:
             others.append(f_d)
     return others
 
