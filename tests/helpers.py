@@ -71,3 +71,46 @@ def scene_keys() -> list[str]:
         keys.append(f"effects.{name}")
         keys += declared_keys(effect.Params, f"effects.{name}.")
     return keys
+
+
+def mover_campaign_scene(squint, pattern, n_receivers, spacing, mover, noise_snr=None, noise_seed=0, statics=()):
+    """A mover campaign scene's radar (scripts/mover_campaign.py: 10 MHz, 0.507 deg beam, 1.2 s) and one mover:
+    (name, azimuth m, range m, v_a, v_r m/s, amplitude)."""
+    name, az, rg, v_a, v_r, amp = mover
+    m = {
+        "acquisition": {"aperture_time": "1.2 s", "mode": "stripmap", "range_margin": "40 m"},
+        "effects": {
+            "antenna": {"azimuth_beamwidth": "0.507 deg", "pattern": pattern},
+            "azimuth_channels": {"n_receivers": n_receivers, "spacing": spacing},
+            "target_motion": {},
+        },
+        "geometry": {"reference_range": "600 km", "squint": f"{squint} deg"},
+        "platform": {"altitude": "0 m", "velocity": "7500 m/s"},
+        "radar": {
+            "bandwidth": "10 MHz",
+            "carrier_frequency": "9.6 GHz",
+            "prf": "2500 Hz",
+            "pulse_duration": "15 us",
+            "range_sampling_rate": "12 MHz",
+        },
+        "targets": {
+            "frame": "squint",
+            "points": [
+                {
+                    "name": name,
+                    "azimuth": f"{az} m",
+                    "range": f"{rg} m",
+                    "amplitude": amp,
+                    "velocity": [f"{v_a} m/s", f"{v_r} m/s", "0 m/s"],
+                }
+            ]
+            + [
+                {"name": f"S{k + 1}", "azimuth": f"{a} m", "range": f"{r} m", "amplitude": amp}
+                for k, (a, r, amp) in enumerate(statics)
+            ],
+        },
+    }
+    if noise_snr is not None:
+        m["effects"]["noise"] = {"snr": f"{noise_snr} dB"}
+        m["simulation"] = {"seed": noise_seed}
+    return m

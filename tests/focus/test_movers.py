@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 from conftest import merge
 
+from helpers import mover_campaign_scene
 from sarproc.focus.multichannel import detection
 from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct
 from sarproc.product import moving
@@ -40,6 +41,15 @@ def scene(points, n_receivers=3, spacing="2 m", clutter=None):
     m["effects"]["azimuth_channels"] = {"n_receivers": n_receivers, "spacing": spacing}
     if clutter:
         m["effects"]["clutter"] = clutter
+    return m
+
+
+def scene_000(points):
+    """Mover campaign scene 000's radar (4 receivers 1.5 m apart, a 15 us chirp, 12.8 deg squint) with ``points``,
+    without its clutter."""
+    m = scene(points, n_receivers=4, spacing="1.5 m")
+    m["radar"]["pulse_duration"] = "15 us"
+    m["geometry"]["squint"] = "12.8 deg"
     return m
 
 
@@ -235,10 +245,7 @@ def test_overlapping_windows_take_a_movers_response_out_of_the_detection_image_o
     separated"). Now what is left around each mover is -58 dB of its peak."""
     from sarproc.focus.multichannel import reconstruct as rc
 
-    m = scene([vehicle("M1", -181.6, 24.8, -2.30, -6.77, 0.3856), vehicle("M6", 57.2, -20.3, 3.39, 9.96, 0.3478)])
-    m["effects"]["azimuth_channels"] = {"n_receivers": 4, "spacing": "1.5 m"}
-    m["radar"]["pulse_duration"] = "15 us"
-    m["geometry"]["squint"] = "12.8 deg"
+    m = scene_000([vehicle("M1", -181.6, 24.8, -2.30, -6.77, 0.3856), vehicle("M6", 57.2, -20.3, 3.39, 9.96, 0.3478)])
     images = {}
     detect, second_pass = rc._detect, rc._second_pass
 
@@ -276,10 +283,7 @@ def test_a_pixel_the_removals_took_under_a_movers_side_lobes_is_no_false_alarm(c
         vehicle("M5", -768.3, 61.7, -10.18, -8.03, 0.3274),
         vehicle("M6", 57.2, -20.3, 3.39, 9.96, 0.3478),
     ]
-    m = scene(pts, n_receivers=4, spacing="1.5 m")
-    m["radar"]["pulse_duration"] = "15 us"
-    m["geometry"]["squint"] = "12.8 deg"
-    rec = reconstruct(simulate(scene_from_mapping(m)), ReconstructParams(clutter_suppression=True))
+    rec = reconstruct(simulate(scene_from_mapping(scene_000(pts))), ReconstructParams(clutter_suppression=True))
     check(rec, ["M1", "M5", "M6"])
 
 
@@ -325,10 +329,7 @@ def test_a_movers_removal_takes_its_whole_pass_band_beside_other_detections():
         vehicle("M5", -768.3, 61.7, -10.18, -8.03, 0.3274),
         vehicle("M6", 57.2, -20.3, 3.39, 9.96, 0.3478),
     ]
-    m = scene(pts, n_receivers=4, spacing="1.5 m")
-    m["radar"]["pulse_duration"] = "15 us"
-    m["geometry"]["squint"] = "12.8 deg"
-    rec = reconstruct(simulate(scene_from_mapping(m)), ReconstructParams(clutter_suppression=True))
+    rec = reconstruct(simulate(scene_from_mapping(scene_000(pts))), ReconstructParams(clutter_suppression=True))
     check(rec, ["M5", "M6"])
 
 
@@ -1182,24 +1183,7 @@ def test_stated_velocity_sigmas_match_the_errors_of_clean_and_clutter_movers(two
 def beam_scene(pattern):
     """Campaign scene 011's radar and mover M1 alone (no clutter): 4 receivers 1.5 m apart at PRF 2500 Hz, 5.3 deg
     squint, a 0.507 deg beam of the given pattern; v_r -4.83, v_a -13.25 m/s (v_los -6.03 m/s)."""
-    return {
-        "acquisition": {"aperture_time": "1.2 s", "mode": "stripmap", "range_margin": "40 m"},
-        "effects": {
-            "antenna": {"azimuth_beamwidth": "0.507 deg", "pattern": pattern},
-            "azimuth_channels": {"n_receivers": 4, "spacing": "1.5 m"},
-            "target_motion": {},
-        },
-        "geometry": {"reference_range": "600 km", "squint": "5.3 deg"},
-        "platform": {"altitude": "0 m", "velocity": "7500 m/s"},
-        "radar": {
-            "bandwidth": "10 MHz",
-            "carrier_frequency": "9.6 GHz",
-            "prf": "2500 Hz",
-            "pulse_duration": "15 us",
-            "range_sampling_rate": "12 MHz",
-        },
-        "targets": {"frame": "squint", "points": [vehicle("M1", -906.9, -215.8, -13.25, -4.83, 0.4786)]},
-    }
+    return mover_campaign_scene(5.3, pattern, 4, "1.5 m", ("M1", -906.9, -215.8, -13.25, -4.83, 0.4786))
 
 
 @pytest.fixture(scope="module")

@@ -11,55 +11,13 @@ import math
 import numpy as np
 import pytest
 
+from helpers import mover_campaign_scene
 from sarproc.focus.multichannel import reconstruct as rc, velocity
 from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct
 from sarproc.product import fft as sfft
 from sarproc.product.model import moving_target_table
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
-
-
-def campaign_scene(squint, pattern, n_receivers, spacing, mover, noise_snr=None, noise_seed=0, statics=()):
-    """A mover campaign scene's radar (10 MHz, 0.507 deg beam, 1.2 s) and one mover: (name, azimuth m, range m,
-    v_a, v_r m/s, amplitude)."""
-    name, az, rg, v_a, v_r, amp = mover
-    m = {
-        "acquisition": {"aperture_time": "1.2 s", "mode": "stripmap", "range_margin": "40 m"},
-        "effects": {
-            "antenna": {"azimuth_beamwidth": "0.507 deg", "pattern": pattern},
-            "azimuth_channels": {"n_receivers": n_receivers, "spacing": spacing},
-            "target_motion": {},
-        },
-        "geometry": {"reference_range": "600 km", "squint": f"{squint} deg"},
-        "platform": {"altitude": "0 m", "velocity": "7500 m/s"},
-        "radar": {
-            "bandwidth": "10 MHz",
-            "carrier_frequency": "9.6 GHz",
-            "prf": "2500 Hz",
-            "pulse_duration": "15 us",
-            "range_sampling_rate": "12 MHz",
-        },
-        "targets": {
-            "frame": "squint",
-            "points": [
-                {
-                    "name": name,
-                    "azimuth": f"{az} m",
-                    "range": f"{rg} m",
-                    "amplitude": amp,
-                    "velocity": [f"{v_a} m/s", f"{v_r} m/s", "0 m/s"],
-                }
-            ]
-            + [
-                {"name": f"S{k + 1}", "azimuth": f"{a} m", "range": f"{r} m", "amplitude": amp}
-                for k, (a, r, amp) in enumerate(statics)
-            ],
-        },
-    }
-    if noise_snr is not None:
-        m["effects"]["noise"] = {"snr": f"{noise_snr} dB"}
-        m["simulation"] = {"seed": noise_seed}
-    return m
 
 
 def rows(rec):
@@ -121,7 +79,7 @@ def test_a_mover_whose_eq_5_dip_is_on_both_aliases_at_the_bounds_is_not_taken_fo
     45 trials, most about those two minima: eq. 5 at the estimate (0.0891) was 0.963 of their plain median (0.0926),
     over the 0.95 of _incoherent, and the mover "no point target" (in the scene, at 51.5 dB). The curve's median
     over the span searched is 0.213 (velocity.curve_median): a mover, found within its stated 1-sigma."""
-    m = campaign_scene(15.8, "gaussian", 4, "1.5 m", ("M2", 394.6, -169.6, -13.03, -17.14, 0.3294))
+    m = mover_campaign_scene(15.8, "gaussian", 4, "1.5 m", ("M2", 394.6, -169.6, -13.03, -17.14, 0.3294))
     rec = reconstruct(simulate(scene_from_mapping(m)), ReconstructParams())
     (row,) = rows(rec)
     assert row["truth_index"] == 0
@@ -136,7 +94,7 @@ def test_a_sinc_beam_mover_at_22_db_in_noise_is_found_with_a_sigma_that_covers_i
     window the noise outweighs the mover, eq. 5's dip is 10 % of its level, and its plain trial median (crowded at
     the minimum) left it 2 % under it: taken for no point target. Found now; v_r within 3 of its stated 1-sigma,
     which is about the channel phase's bound at this SNR (docs/multichannel.md section 8: 1.2 m/s)."""
-    m = campaign_scene(11.0, "sinc", 3, "2 m", ("M1", -144.7, -188.7, -4.40, -10.66, 0.535), noise_snr=-29.27)
+    m = mover_campaign_scene(11.0, "sinc", 3, "2 m", ("M1", -144.7, -188.7, -4.40, -10.66, 0.535), noise_snr=-29.27)
     rec = reconstruct(simulate(scene_from_mapping(m)), ReconstructParams())
     found = rows(rec)
     assert [r["truth_index"] for r in found] == [0], found
@@ -153,7 +111,7 @@ def test_a_noise_window_with_no_cell_over_the_floor_is_no_mover_and_a_weak_mover
     floor: eq. 5 over all its cells is the noise's own curve, 0.941 of the curve's median, 0.992 of the plain one.
     With the curve's median everywhere it was tabled (v_r -13.78 m/s, a false alarm); the plain median is kept
     where no cell stands out (_incoherent's ``compact``)."""
-    m = campaign_scene(
+    m = mover_campaign_scene(
         22.9,
         "gaussian",
         3,
