@@ -1576,3 +1576,46 @@ def test_a_neighbours_range_side_lobes_do_not_pull_a_sinc_beam_movers_v_r(points
         if name == weaker:
             assert abs(err) <= 0.05, (name, err)
     assert "range-tapered" in caplog.text
+
+
+def test_own_run_is_the_strongest_responses_cells_not_another_apart_from_it():
+    """_own_run: the cells of the strongest response, widened by 2; a second run apart from it, floor between, not."""
+    from sarproc.focus.multichannel.reconstruct import _own_run
+
+    profile = np.full(33, 1.0)
+    profile[17:19] = [400.0, 600.0]  # the target (mover campaign scene 000's M5: window cells 17-18)
+    profile[26:28] = [100.0, 150.0]  # another mover nine cells off (M3 and M4), weaker
+    assert list(_own_run(profile)) == list(range(15, 21))
+    profile[19:26] = 300.0  # one run of cells (a walk): all of it
+    assert list(_own_run(profile)) == list(range(15, 30))
+    assert list(_own_run(np.ones(33))) == list(range(33))  # nothing stands out: all cells
+
+
+@pytest.mark.slow
+def test_a_movers_range_walk_is_its_own_not_that_of_another_mover_in_its_window(caplog):
+    """Scene 000's M5 (v_r -8.03 m/s) shares its window's cells with M3 and M4, nine cells off, alone there after M5's
+    illumination ends: the walk fit over all the window's cells read 34 m/s at M5's true v_r, and reconstruct warned
+    that no v_r inside +-20 m/s removes its walk (it moves faster than the search bound). Its own track has none."""
+    # mover campaign scene 000 (scripts/mover_campaign.py --n 20 --seed 1) as the campaign wrote it
+    m = mover_campaign_scene(12.8, "rect", 4, "1.5 m", ("M1", -181.6, 24.8, -2.30, -6.77, 0.3856))
+    m["targets"]["points"] += [
+        vehicle("M2", 576.9, -98.4, 7.61, -17.01, 0.5382),
+        vehicle("M3", -475.4, 125.2, -10.98, -1.67, 0.6287),
+        vehicle("M4", -448.4, 130.1, -0.44, -7.91, 0.3233),
+        vehicle("M5", -768.3, 61.7, -10.18, -8.03, 0.3274),
+        vehicle("M6", 57.2, -20.3, 3.39, 9.96, 0.3478),
+        {"name": "S1", "azimuth": "705.3 m", "range": "46.5 m", "amplitude": 1.0},
+    ]
+    m["effects"]["clutter"] = {
+        "amplitude": 0.115,
+        "azimuth_extent": "2400 m",
+        "n_scatterers": 46,
+        "range_extent": "600 m",
+        "seed": 3446,
+    }
+    raw = simulate(scene_from_mapping(m))
+    with caplog.at_level(logging.WARNING):
+        rec = reconstruct(raw, ReconstructParams(clutter_suppression=True))
+    warnings = [r.getMessage() for r in caplog.records if r.levelno >= logging.WARNING]
+    assert not [w for w in warnings if "range walk" in w or "search bound" in w], warnings
+    check(rec, ["M1", "M2", "M3", "M4", "M5", "M6"], v_tol=0.25)
