@@ -344,9 +344,7 @@ class _Window:
         criterion cells, eq. 5's dip 0.6 % deep and taken for no point target; docs/multichannel.md section 8).
         """
         p = np.sum(np.abs(sfft.ifft(self.x, axis=-1, workers=-1)) ** 2, axis=(0, 1))
-        floor, top = median(p), float(p.max() if self.gate is None else p[self.gate].max())
-        spread = 1.4826 * median(np.abs(p - floor))
-        own = np.nonzero(p > floor + max(0.05 * (top - floor), OWN_CELL_SIGMAS * spread))[0]
+        own = np.nonzero(_over_floor(p, float(p.max() if self.gate is None else p[self.gate].max())))[0]
         self.compact = len(own) > 0
         keep = np.zeros(len(p), bool)
         for c in own:
@@ -440,6 +438,14 @@ class _Window:
         return float(slope * C / (2 * g.fs))
 
 
+def _over_floor(p: np.ndarray, top: float) -> np.ndarray:
+    """Cells of a cell-energy profile ``p`` standing out of its floor (the median cell): 5 % of the way from it to
+    ``top``, and OWN_CELL_SIGMAS robust standard deviations (1.4826 x the median absolute deviation) over it."""
+    floor = median(p)
+    spread = 1.4826 * median(np.abs(p - floor))
+    return p > floor + max(0.05 * (top - floor), OWN_CELL_SIGMAS * spread)
+
+
 def _own_run(profile: np.ndarray, margin: int = 2) -> np.ndarray:
     """Indices of the run of cells holding the strongest response in a cell-energy profile.
 
@@ -449,10 +455,8 @@ def _own_run(profile: np.ndarray, margin: int = 2) -> np.ndarray:
     blind-velocity alias included) is one run of cells; a run apart from it, floor cells between, is another target's.
     All cells when none stands out.
     """
-    floor = median(profile)
     top = int(np.argmax(profile))
-    spread = 1.4826 * median(np.abs(profile - floor))
-    own = profile > floor + max(0.05 * (profile[top] - floor), OWN_CELL_SIGMAS * spread)
+    own = _over_floor(profile, float(profile[top]))
     if not np.any(own):
         return np.arange(len(profile))
     keep = np.convolve(own, np.ones(2 * margin + 1), mode="same") > 0
