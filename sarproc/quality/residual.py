@@ -1152,6 +1152,19 @@ RESTART_MISFIT_MAX = 0.1
 PROBE_STEPS = 8
 
 
+def _band_shifted_starts(found: list[FitStart], steps: dict[int, np.ndarray], n_axes: int) -> Iterator[list[FitStart]]:
+    """The restarts' starts: for each axis and sign, ``found`` with each member ``k`` of ``steps`` started from its
+    band centre shifted by that sign of ``steps[k]`` (cycles/sample per axis) along that axis, together."""
+    for a in range(n_axes):
+        for sign in (-1.0, 1.0):
+            starts = list(found)
+            for k, step in steps.items():
+                shift = np.zeros(n_axes)
+                shift[a] = sign * step[a]
+                starts[k] = dataclasses.replace(found[k], band_centre=np.asarray(found[k].band_centre) + shift)
+            yield starts
+
+
 def _restart_misfitted_lone(
     fits: list,
     models: list[ResponseModel | None],
@@ -1174,16 +1187,12 @@ def _restart_misfitted_lone(
         if not WIDTH_SEARCH_MISFIT < first < RESTART_MISFIT_MAX:
             continue
         best, kept = 0.5 * first, None
-        for a in range(near.shape[0]):
-            for sign in (-1.0, 1.0):
-                shift = np.zeros(near.shape[0])
-                shift[a] = sign * RESTART_BAND_FRACTION / model.nulls[a]  # its band: one cycle per null
-                starts = list(found)
-                starts[k] = dataclasses.replace(found[k], band_centre=np.asarray(found[k].band_centre) + shift)
-                trial: list[ResponseModel | None] = [None] * len(models)
-                _fit_one_group(members, near, y_near, trial, starts, nulls, orders, centre, support_shape)
-                if (misfit := _misfit(trial[k], near, y_near)) < best:
-                    best, kept = misfit, trial[k]
+        # its band: one cycle per null
+        for starts in _band_shifted_starts(found, {k: RESTART_BAND_FRACTION / model.nulls}, near.shape[0]):
+            trial: list[ResponseModel | None] = [None] * len(models)
+            _fit_one_group(members, near, y_near, trial, starts, nulls, orders, centre, support_shape)
+            if (misfit := _misfit(trial[k], near, y_near)) < best:
+                best, kept = misfit, trial[k]
         if kept is not None:
             models[k] = kept
 
@@ -1224,17 +1233,12 @@ def _restart_misfitted_groups(
         band = {k: 1.0 / m.nulls for k in members if (m := models[k]) is not None}  # cycles/sample per axis
         best, kept = 0.5 * first, None
         probe, probed = math.inf, None
-        for a in range(near.shape[0]):
-            for sign in (-1.0, 1.0):
-                starts = list(found)
-                for k in members:
-                    shift = np.zeros(near.shape[0])
-                    shift[a] = sign * RESTART_BAND_FRACTION * band[k][a]
-                    starts[k] = dataclasses.replace(found[k], band_centre=np.asarray(found[k].band_centre) + shift)
-                trial: list[ResponseModel | None] = [None] * len(models)
-                _fit_one_group(members, near, y_near, trial, starts, nulls, orders, centre, True, PROBE_STEPS)
-                if (misfit := _group_misfit([trial[k] for k in members], near, y_near)) < probe:
-                    probe, probed = misfit, trial
+        steps = {k: RESTART_BAND_FRACTION * band[k] for k in members}
+        for starts in _band_shifted_starts(found, steps, near.shape[0]):
+            trial: list[ResponseModel | None] = [None] * len(models)
+            _fit_one_group(members, near, y_near, trial, starts, nulls, orders, centre, True, PROBE_STEPS)
+            if (misfit := _group_misfit([trial[k] for k in members], near, y_near)) < probe:
+                probe, probed = misfit, trial
         if probed is not None:  # the most promising basin's fit carried to convergence
             _fit_one_group(members, near, y_near, probed, found, nulls, orders, centre, True)
             if (misfit := _group_misfit([probed[k] for k in members], near, y_near)) < best:
