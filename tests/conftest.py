@@ -202,7 +202,6 @@ def _aot_build_jobs(tmp_path_factory, files):
 def _numba_warmup_jobs(files):
     """Label -> (None, argv, env) of the numba warm-ups (above) for the test ``files``, in their order."""
     import sys
-    from pathlib import Path
 
     root = str(Path(__file__).resolve().parents[1])
     env = {**os.environ, "PYTHONPATH": root}

@@ -346,9 +346,7 @@ class _Window:
         p = np.sum(np.abs(sfft.ifft(self.x, axis=-1, workers=-1)) ** 2, axis=(0, 1))
         own = np.nonzero(_over_floor(p, float(p.max() if self.gate is None else p[self.gate].max())))[0]
         self.compact = len(own) > 0
-        keep = np.zeros(len(p), bool)
-        for c in own:
-            keep[max(0, c - margin) : c + margin + 1] = True
+        keep = _widened(own, len(p), margin)
         if self.gate is not None:
             gate = np.zeros(len(p), bool)
             gate[self.gate] = True
@@ -446,6 +444,14 @@ def _over_floor(p: np.ndarray, top: float) -> np.ndarray:
     return p > floor + max(0.05 * (top - floor), OWN_CELL_SIGMAS * spread)
 
 
+def _widened(cells: np.ndarray, n: int, margin: int) -> np.ndarray:
+    """Mask of ``n`` cells: ``cells`` and ``margin`` cells either side of each."""
+    keep = np.zeros(n, bool)
+    for c in cells:
+        keep[max(0, c - margin) : c + margin + 1] = True
+    return keep
+
+
 def _own_run(profile: np.ndarray, margin: int = 2) -> np.ndarray:
     """Indices of the run of cells holding the strongest response in a cell-energy profile.
 
@@ -459,7 +465,7 @@ def _own_run(profile: np.ndarray, margin: int = 2) -> np.ndarray:
     own = _over_floor(profile, float(profile[top]))
     if not np.any(own):
         return np.arange(len(profile))
-    keep = np.convolve(own, np.ones(2 * margin + 1), mode="same") > 0
+    keep = _widened(np.nonzero(own)[0], len(profile), margin)
     lo, hi = top, top
     while lo > 0 and keep[lo - 1]:
         lo -= 1
