@@ -2050,9 +2050,9 @@ def _window_bounds(det: detection.Detection, scan: _Scan) -> tuple[int, int]:
     extent (the search bound's |v_los|): a second target there. The mask cannot tell the two apart (the same
     Doppler), their range cells do; a target taking both mixed their velocities and merged the second into the
     first (mover campaign scene 003: two movers 7 cells apart at one apparent azimuth, one missed, the other's v_r
-    1.07 m/s off with a warning blaming the search bound). The weaker of the two must rise over the stronger's range
-    side-lobe envelope as find_detections asks (a mover's range side lobe, off its azimuth index by its range-azimuth
-    coupling, is not a second target: 29 dB under a mover 14 cells away, it became one)."""
+    1.07 m/s off with a warning blaming the search bound). The weaker of the two must rise over the stronger's
+    side-lobe envelope and stand over its mirror (_two_in_range; a mover's range side lobe, off its azimuth index by
+    its range-azimuth coupling, is not a second target: 29 dB under a mover 14 cells away, it became one)."""
     params, sp, m = scan.params, scan.spacing, scan.params.window_margin
     a, b = max(0, det.cell - m), min(scan.n_cells, det.cell + m + 1)
     reach = _range_extent(max(abs(params.velocity_min), abs(params.velocity_max)), scan)
@@ -2071,32 +2071,80 @@ def _window_bounds(det: detection.Detection, scan: _Scan) -> tuple[int, int]:
 
 def _two_in_range(d1: detection.Detection, d2: detection.Detection, scan: _Scan) -> bool:
     """Whether two detections at one apparent time, farther apart in range than a mover's extent, are two targets:
-    the weaker rises over the stronger's range side-lobe envelope (as find_detections asks) and the detection image
-    dips between them by 6 dB under the weaker. A mover's response at an ambiguity with the clutter null is smeared
-    in range by its walk against the mover (lambda k PRF / 2 m/s) into a ridge of several peaks with no dip between
-    (tests/focus/test_movers.py's movers_in_clutter: V2's at +1 x PRF / K_a, 4-5 cells long, two false alarms when
-    split). Decided the first time the pair is seen, before either's response is taken out of the image."""
+    the weaker rises over the stronger's side-lobe envelope there, stands over its mirror image about the stronger
+    and the detection image dips between them by 6 dB under the weaker. A mover's response at an ambiguity with the
+    clutter null is smeared in range by its walk against the mover (lambda k PRF / 2 m/s) into a ridge of several
+    peaks with no dip between (tests/focus/test_movers.py's movers_in_clutter: V2's at +1 x PRF / K_a, 4-5 cells
+    long, two false alarms when split). Decided the first time the pair is seen, before either's response is taken
+    out of the image.
+
+    All three in two dimensions (on the stronger's range cut, the weaker at its azimuth index, they are as before).
+    The envelope is the range side-lobe envelope as find_detections asks times the stronger's own azimuth profile
+    measured on its range cut at the weaker's azimuth offset (_azimuth_level): a point's response is separable, so
+    its side lobe 8 cells and 5 samples off is the product of the two (mover campaign scene 006: M1 at -21.0 dB of
+    the static point S3, 0.6 dB under S3's range envelope alone, 10.7 dB over the product; taken for S3's side lobe
+    and missed, before), and a smeared or unresolved response is measured as wide as it is (a pair of movers' lobe 3
+    samples off its cut, a false alarm when the range envelope was applied on the cut only). The mirror is the range
+    reflection at the weaker's azimuth, the point reflection (a skewed response) and the stronger's range side lobe
+    on its cut carried to the weaker's azimuth offset by that profile; the dip is along the straight path between
+    them. Both were over the rectangle the two span, which holds the stronger's range side lobes on its own cut: a
+    weak target off the cut stood under them. In the clutter null's residual image (residual mode) they are as before,
+    the range envelope alone over that rectangle: there a static point's response is what the null left of it, with
+    the clutter's residue beside it, and the product does not bound it (mover campaign scene 007: a detection 13 cells
+    and 21 samples from the static point S1's residue, 26.1 dB under it, 8.8 dB over the product, split off into a
+    window of 10 cells: a false alarm, v_r +5.86 m/s)."""
     key = frozenset((d1, d2))
     if key not in scan.split:
         top, low = (d1, d2) if d1.power >= d2.power else (d2, d1)
-        envelope = detection.SIDELOBE_MARGIN * detection.sinc_sidelobes((d1.cell - d2.cell) / scan.found.range_width)
+        image, n = scan.found.image, scan.n_out
         c0, c1 = sorted((d1.cell, d2.cell))
-        i0, i1 = sorted((d1.index, d2.index))
-        rows = np.arange(i0 - 1, i1 + 2) % scan.n_out
-        between = scan.found.image[np.ix_(rows, np.arange(c0 + 1, c1))]
-        valley = float(np.min(np.max(between.real**2 + between.imag**2, axis=0)))
-        # a side lobe has its mirror image about the stronger peak (the response is symmetric in range); a second
-        # target has none (P and R 12.5 m apart, one response: a lobe 19.9 dB under it 8 cells out, 0.5 dB over the
-        # sinc envelope, 2.3 dB over its mirror)
-        m = 2 * top.cell - low.cell
-        mirror = scan.found.image[np.ix_(rows, np.arange(max(0, m - 1), min(scan.n_cells, m + 2)))]
-        mirrored = float(np.max(mirror.real**2 + mirror.imag**2)) if mirror.size else 0.0
+        m = 2 * top.cell - low.cell  # the mirror's cells: a side lobe has its mirror image about the stronger peak
+        cells = np.arange(max(0, m - 1), min(scan.n_cells, m + 2))
+        if scan.found.static is None:
+            # conventional image: two-dimensional (the docstring)
+            def level(centre: int) -> float:
+                v = image[np.ix_(np.arange(centre - 1, centre + 2) % n, cells)]
+                return float(np.max(v.real**2 + v.imag**2)) if v.size else 0.0
+
+            azimuth = _azimuth_level(top, low.index, scan)
+            dt = (low.index - top.index + n // 2) % n - n // 2
+            cols = np.arange(c0 + 1, c1)
+            centre = np.rint(top.index + dt * (cols - top.cell) / (low.cell - top.cell)).astype(int)
+            path = image[(centre + np.arange(-1, 2)[:, None]) % n, cols]
+            valley = float(np.min(np.max(path.real**2 + path.imag**2, axis=0)))
+            mirrored = max(level(low.index), level(2 * top.index - low.index), azimuth * level(top.index))
+        else:
+            # clutter-null residual: over the rectangle the two span, the range envelope alone (the docstring)
+            azimuth = 1.0
+            i0, i1 = sorted((d1.index, d2.index))
+            rows = np.arange(i0 - 1, i1 + 2) % n
+            between = image[np.ix_(rows, np.arange(c0 + 1, c1))]
+            valley = float(np.min(np.max(between.real**2 + between.imag**2, axis=0)))
+            mirror = image[np.ix_(rows, cells)]
+            mirrored = float(np.max(mirror.real**2 + mirror.imag**2)) if mirror.size else 0.0
+        envelope = (
+            detection.SIDELOBE_MARGIN * detection.sinc_sidelobes((d1.cell - d2.cell) / scan.found.range_width) * azimuth
+        )
         scan.split[key] = (
             low.power > envelope * top.power
             and valley < 0.25 * low.power
             and low.power > detection.MIRROR_MARGIN * mirrored
         )
     return scan.split[key]
+
+
+def _azimuth_level(top: detection.Detection, index: int, scan: _Scan) -> float:
+    """The envelope of ``top``'s azimuth profile as measured on its range cut (its cell) at azimuth sample ``index``,
+    relative to ``top``'s power and at most 1: the most the cut holds from |dt| - 1 to 2 |dt| + 1 samples either side
+    of ``top`` (dt: ``index``'s offset from it). A response's side lobes fall off outward, so the most beyond an
+    offset bounds them there: a point's sinc lobes, not the null between two (scene 006's S3: -11.3 dB 5 samples
+    out), and a smeared response or several unresolved ones as far as they reach (two points 4 samples apart:
+    -1.1 dB 5 samples from the stronger, tests/focus/test_movers.py)."""
+    n = scan.n_out
+    dt = abs((index - top.index + n // 2) % n - n // 2)
+    k = np.arange(max(dt - 1, 0), 2 * dt + 2)
+    cut = scan.found.image[np.concatenate((top.index + k, top.index - k)) % n, top.cell]
+    return min(1.0, float(np.max(cut.real**2 + cut.imag**2)) / top.power) if top.power > 0 else 1.0
 
 
 def _neighbours(det: detection.Detection, scan: _Scan, tally: _Tally | None) -> int:
