@@ -310,6 +310,21 @@ def summary(results: list[dict]) -> list[str]:
     ]
 
 
+def sigma_line(results: list[dict]) -> str:
+    """How honest the stated v_r 1-sigma is: the found movers' z = dv_r / sigma_r within 1, 2, 3 sigma (68.3, 95.4,
+    99.7 % for an honest Gaussian 1-sigma) and their rms (1)."""
+    z = np.array([m["dv_r"] / m["s_r"] for s in results if "crash" not in s for m in s["movers"] if m["found"]])
+    if not len(z):
+        return "v_r z = dv_r / sigma_r: no mover found"
+    within = [int(np.sum(np.abs(z) <= k)) for k in (1, 2, 3)]
+    pct = " / ".join(f"{100 * w / len(z):.0f}" for w in within)
+    return (
+        f"v_r z = dv_r / sigma_r over the {len(z)} found: within 1 / 2 / 3 sigma "
+        f"{' / '.join(map(str, within))} ({pct} %; 68.3 / 95.4 / 99.7 for an honest 1-sigma), "
+        f"rms {float(np.sqrt(np.mean(z**2))):.2f}, median |z| {float(np.median(np.abs(z))):.2f}"
+    )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--n", type=int, default=30, help="scenes")
@@ -342,6 +357,7 @@ def main() -> None:
                 print("   ", w, flush=True)
             write(out, results, args)  # after each scene: a stopped campaign keeps what it ran
     print("\n".join(summary(results)))
+    print(sigma_line(results))
 
 
 def write(out: Path, results: list[dict], args: argparse.Namespace) -> None:
@@ -350,6 +366,8 @@ def write(out: Path, results: list[dict], args: argparse.Namespace) -> None:
         f"{args.timeout:g} s of CPU (scripts/mover_campaign.py)",
         "",
         *summary(results),
+        "",
+        sigma_line(results),
         "",
         *table(results),
         "",

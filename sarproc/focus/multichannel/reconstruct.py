@@ -177,6 +177,9 @@ class MovingTarget:
     overruled: float = 0.0
     # m/s of v_los: eq. 5's 1-sigma from its independent looks' disagreement (_leakage_spread; 0: not by eq. 5)
     leakage_spread: float = 0.0
+    # m/s of v_los: the same of the untapered channels where a neighbour range-tapered the final search (else
+    # leakage_spread): a take-back of a weak detection weighs the larger (_static_within)
+    untapered_spread: float = 0.0
 
     def line_of_sight_velocity(self, squint: float) -> float:
         """m/s: the estimated velocity's component along the beam's line of sight (v_r cos + v_a sin)."""
@@ -383,11 +386,11 @@ class _Window:
             spec = sfft.ifft(spec, axis=1, workers=-1)[:, self.cells]
         return velocity.out_of_band_fraction(spec, self.out_f, self.g.half_band)
 
-    def leakage_looks(self, v_r: float, v_a: float) -> tuple[np.ndarray, np.ndarray]:
+    def leakage_looks(self, v_r: float, v_a: float, criterion: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """Eq. 5's out-of-band and total energy per range frequency of the criterion's cells (its independent
         looks: noise is independent between them, and a point target has the same azimuth spectrum in each): their
         sums over the looks are eq. 5's numerator and denominator (Parseval)."""
-        spec = self.demodulated_spectrum(v_r, v_a)
+        spec = self.demodulated_spectrum(v_r, v_a, criterion)
         if self.cells is not None:
             spec = sfft.fft(sfft.ifft(spec, axis=1, workers=-1)[:, self.cells], axis=1, workers=-1)
         p = np.abs(spec) ** 2
@@ -877,7 +880,9 @@ def _null_refit(
         )
 
 
-def _leakage_spread(win: _Window, v_r: float, v_a: float, step: float = LEAKAGE_SPREAD_STEP) -> float:
+def _leakage_spread(
+    win: _Window, v_r: float, v_a: float, step: float = LEAKAGE_SPREAD_STEP, criterion: bool = False
+) -> float:
     """1-sigma (m/s of the searched v_r, at ``v_a``) of eq. 5's minimum at ``v_r`` from its looks' disagreement.
 
     Eq. 5's estimate minimises L(u) = sum_k O_k(u) / sum_k T_k(u) over the looks k (_Window.leakage_looks); at the
@@ -888,10 +893,9 @@ def _leakage_spread(win: _Window, v_r: float, v_a: float, step: float = LEAKAGE_
     minima disagree however high the SNR (mover campaign scene 014's clutter read at v_r -1.34 m/s: looks' minima
     from -2 to beyond +1.7 m/s; eq. 5 only 3.4 % under its value at rest): the SNR's curvature bound misses that.
     Derivatives by central differences over ``step``; 0 where there is no minimum (L'' <= 0) or fewer than 2 looks."""
-    # the looks of the channels themselves, also where a neighbour range-tapered the final search (final_leakage):
-    # tapered, the clutter of mover campaign scene 014 read v_r -1.69 m/s with looks agreeing to 0.17 and was tabled
-    # as a mover; untapered 0.33 and taken back. Beside a neighbour this overstates (scene 008 M5, M6: 4.4x)
-    (om, tm), (o0, t0), (op, tp) = (win.leakage_looks(v_r + k * step, v_a) for k in (-1, 0, 1))
+    # ``criterion``: the looks of the range-tapered channels (final_leakage) where a neighbour tapered the final
+    # search, else of the channels themselves
+    (om, tm), (o0, t0), (op, tp) = (win.leakage_looks(v_r + k * step, v_a, criterion) for k in (-1, 0, 1))
     n, total = len(o0), float(t0.sum())
     if n < 2 or total <= 0 or tm.sum() <= 0 or tp.sum() <= 0:
         return 0.0
@@ -1297,6 +1301,11 @@ def _estimate(
     # eq. 5's own 1-sigma from its looks (v_r searched at fixed v_a: v_los's is cos(theta) of it)
     searched = can_search and params.radial_velocity is None and est.result is not None and not est.by_null_fit
     spread = _leakage_spread(win, est.v_r, est.v_a) * math.cos(g.squint) if searched else 0.0
+    # where a neighbour range-tapered the final search, the looks of the channels it weighed: the untapered ones see
+    # the neighbour's side lobes the taper took out (scene 008 M4-M6: 0.16-0.26 m/s of v_los against 0.02 tapered)
+    spread_weighed = spread
+    if searched and est.criterion is not None and est.criterion == win.final_leakage:
+        spread_weighed = _leakage_spread(win, est.v_r, est.v_a, criterion=True) * math.cos(g.squint)
     appears = appears_cell = None
     if null_fit is not None and centre.shift is not None:
         null_fit.isolated(est.v_r, est.v_a, null_fit.fit(est.v_r, est.v_a)[1])  # where it is, with its final velocity
@@ -1326,7 +1335,8 @@ def _estimate(
         autofocus_pull=est.pull if len(est.autofocus) else float("nan"),
         null_fit_width=est.null_width,
         overruled=est.overruled[0] - est.overruled[1] if est.overruled is not None else 0.0,
-        leakage_spread=spread,
+        leakage_spread=spread_weighed,
+        untapered_spread=spread,
     ), notes
 
 
@@ -2441,9 +2451,16 @@ def _rest_ruled_out(at_estimate: float, at_rest: float) -> bool:
 
 def _static_within(mt: MovingTarget, scan: _Scan) -> float | None:
     """How many 1-sigma ``mt``'s line-of-sight speed stands over detection_velocity, when under STATIC_SIGMAS (the
-    1-sigma of the tabled v_los = v_r cos + v_a sin: _uncertainties' sigma_vr x cos); None when it is above them."""
+    1-sigma of the tabled v_los = v_r cos + v_a sin: _uncertainties' sigma_vr x cos); None when it is above them.
+
+    Where a neighbour range-tapered the final eq. 5 search, the 1-sigma is taken with the larger of the looks' spreads,
+    tapered (the one tabled) and untapered: rest is ruled out only if both rule it out. A clutter response is many
+    scatterers whose mixing the taper partly hides: mover campaign scene 014's clutter (static, SNR 30.6 dB under
+    the CFAR threshold) read v_r -1.69 m/s with tapered looks agreeing to 0.14 (3.9 sigma over detection_velocity)
+    and untapered to 0.38 (1.7 sigma: taken back); docs/multichannel.md section 8."""
     g, params = scan.g, scan.params
-    s_r = _uncertainties(mt, g, params.clutter_band if params.clutter_suppression else None)[0]
+    wider = dataclasses.replace(mt, leakage_spread=max(mt.leakage_spread, mt.untapered_spread))
+    s_r = _uncertainties(wider, g, params.clutter_band if params.clutter_suppression else None)[0]
     v_los = mt.line_of_sight_velocity(g.squint)
     z = (abs(v_los) - params.detection_velocity) / (s_r * math.cos(g.squint))
     return z if z < STATIC_SIGMAS else None
