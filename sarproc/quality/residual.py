@@ -619,11 +619,6 @@ STRETCH_MISFIT = 0.5  # only fits whose model leaves less than this of their sam
 MAX_CARRIER_STEP = 0.02  # cycles/sample: a step's band-centre change at most (scaled down to it)
 MAX_SHAPE_STEP = 0.01  # relative width / keystone change of a step at most
 KAPPA_LIMIT = 0.2  # |keystone| at most
-COARSE = True
-COARSE_FRACTION = 0.25
-COARSE_ROWS = 4.0
-COARSE_STEPS = 30
-COARSE_TOLERANCE = 1e-4
 
 
 @dataclasses.dataclass
@@ -822,44 +817,19 @@ def _fit_group(
             lower[q, s0 : s0 + ndim], upper[q, s0 : s0 + ndim] = 0.9 * mid - 1, 1.1 * mid - 1
             lower[q, s0 + ndim :], upper[q, s0 + ndim :] = -KAPPA_LIMIT, KAPPA_LIMIT
     thetas = [np.clip(t, lo, hi) for t, lo, hi in zip(thetas, lower, upper)]
-    lo, hi = lower.ravel(), upper.ravel()
-    start = [found[k] for k in members]
-    n_cols = len(members) * (len(orders) + n_p)
-    rows = points.shape[1]
-    if COARSE and rows >= COARSE_ROWS * n_cols / COARSE_FRACTION:
-        # a subset of the samples first, to COARSE_TOLERANCE, then every sample from where it stopped
-        keep = np.sort(np.random.default_rng(rows).permutation(rows)[: int(rows * COARSE_FRACTION)])
-        sub = _GroupFit(points[:, keep], y[keep], start, nulls, orders, shaped, lower[0], upper[0], curvature)
-        thetas = _descend(sub, thetas, lo, hi, len(members), n_p, COARSE_STEPS, COARSE_TOLERANCE)[0]
-    fit = _GroupFit(points, y, start, nulls, orders, shaped, lower[0], upper[0], curvature)
-    thetas, coef = _descend(fit, thetas, lo, hi, len(members), n_p, FIT_MAX_STEPS if max_steps is None else max_steps)
-    out = [fit.split(t) for t in thetas]
-    return coef, [o[0] for o in out], [o[1] for o in out], [o[2] for o in out]
-
-
-def _descend(
-    fit: _GroupFit,
-    thetas: list[np.ndarray],
-    lo: np.ndarray,
-    hi: np.ndarray,
-    members: int,
-    n_p: int,
-    max_steps: int,
-    tolerance: float | None = None,
-) -> tuple[list[np.ndarray], np.ndarray]:
-    """(parameters, amplitudes): :func:`_fit_group`'s Gauss-Newton on ``fit``'s samples from ``thetas``."""
-    ndim, shaped, n_pairs = fit.ndim, fit.shaped, len(_chirp_pairs(fit.ndim))
-    fixed = None if shaped else [fit.raw(q, None) for q in range(members)]
+    fit = _GroupFit(points, y, [found[k] for k in members], nulls, orders, shaped, lower[0], upper[0], curvature)
+    fixed = None if shaped else [fit.raw(q, None) for q in range(len(members))]
     bases = fit.bases(thetas, fixed)
-    coef, r, cost, normal = _amplitudes(bases, fit.y)
+    coef, r, cost, normal = _amplitudes(bases, y)
     crawled = 0  # consecutive steps that lowered the misfit by less than FIT_CRAWL of it
     stretch, last = 1.0, math.nan  # the next step's length in Gauss-Newton steps (:func:`_stretch`), the last measured
-    energy = float(np.vdot(fit.y, fit.y).real)
-    for _ in range(max_steps):
+    energy = float(np.vdot(y, y).real)
+    for _ in range(FIT_MAX_STEPS if max_steps is None else max_steps):
         if cost <= 1e-30 * max(energy, 1e-300):
             break
         J = np.concatenate([fit.jacobian(q, t, b, c) for q, (t, b, c) in enumerate(zip(thetas, bases, coef))], axis=1)
         theta = np.concatenate(thetas)
+        lo, hi = lower.ravel(), upper.ravel()
         free: np.ndarray = np.ones(theta.size, dtype=bool)
         step, predicted = _gauss_newton_step(normal, r, J, free)
         # parameters at a bound that the step pushes beyond it stay there (the step solved without them)
@@ -867,15 +837,15 @@ def _descend(
         if held.any():
             free = ~held
             step, predicted = (np.zeros_like(step), 0.0) if not free.any() else _gauss_newton_step(normal, r, J, free)
-        if predicted <= (FIT_TOLERANCE if tolerance is None else tolerance) * cost:
+        if predicted <= FIT_TOLERANCE * cost:
             break
-        limit = _step_limit(stretch * step, members, ndim, n_pairs, shaped)
+        limit = _step_limit(stretch * step, len(members), ndim, len(pairs), shaped)
         length = stretch * limit  # the step taken, in Gauss-Newton steps
         for _halving in range(30):
             trial_theta = np.clip(theta + length * step, lo, hi)
-            trial = list(trial_theta.reshape(members, n_p))
+            trial = list(trial_theta.reshape(len(members), n_p))
             trial_bases = fit.bases(trial, fixed)
-            trial_coef, trial_r, trial_cost, trial_normal = _amplitudes(trial_bases, fit.y)
+            trial_coef, trial_r, trial_cost, trial_normal = _amplitudes(trial_bases, y)
             if trial_cost < cost:
                 break
             length = length / 2
@@ -893,7 +863,8 @@ def _descend(
         thetas, bases, coef, r, cost, normal = trial, trial_bases, trial_coef, trial_r, trial_cost, trial_normal
         if crawled >= FIT_CRAWL_STEPS or hopeless:
             break
-    return thetas, coef
+    out = [fit.split(t) for t in thetas]
+    return coef, [o[0] for o in out], [o[1] for o in out], [o[2] for o in out]
 
 
 def _stretch(cost: float, trial_cost: float, predicted: float, length: float) -> float:
