@@ -509,15 +509,53 @@ def _curvature_columns(points: np.ndarray, model: ResponseModel, beta: float) ->
 def _model_on_box(slices: Sequence[slice], model: ResponseModel) -> np.ndarray:
     """A fitted response model on the image box ``slices`` (complex128, the box's shape): its straight support
     (:func:`_straight_on_box`) plus what its range edges' bow adds (:func:`_curvature_sum`)."""
-    if model.warp is not None:  # not separable: every sample's ridge coordinates
+    if model.warp is not None and not (BOX_KERNEL and COMPILED and len(slices) == 2 and _keystoned(model.kappa)):
+        # not separable: every sample's ridge coordinates
         axes = np.meshgrid(*[np.arange(s.start, s.stop) for s in slices], indexing="ij")
         return model_values(np.stack([x.ravel() for x in axes]), model).reshape(axes[0].shape)
-    box = _straight_on_box(slices, model)
+    box = _straight_on_box(slices, model) if model.warp is None else _warped_on_box(slices, model)
     if model.curvature:
         axes = np.meshgrid(*[np.arange(s.start, s.stop) for s in slices], indexing="ij")
         grid = np.stack([x.ravel() for x in axes])
         box += _curvature_values(grid, model).reshape(box.shape)
     return box
+
+
+def _warped_on_box(slices: Sequence[slice], model: ResponseModel) -> np.ndarray:
+    """A warped, keystoned 2D model on the image box ``slices`` (its range edges straight), as
+    :func:`model_values` gives it at every sample to rounding: its ridge coordinates are quadratic in the box's
+    indices, so the compiled kernel (:func:`sarproc.quality.residual_kernels.keystone_warped_box_sum`) turns
+    every angle along a row by rotations, without the sines and cosines and the (samples, orders) basis of each
+    sample."""
+    A, p = _ridge_frame(model.position, model.ridges, model.nulls)
+    W = np.asarray(model.warp, dtype=float)
+    kappa = np.asarray(model.kappa, dtype=float)
+    u = np.array([s.start for s in slices], dtype=float) - p  # the box's first sample's offset x
+    cross = W[:, 0, 1] + W[:, 1, 0]
+    # c = A x + sum_mn W_mn x_m x_n at x = u + (i, j)
+    c0 = A @ u + W[:, 0, 0] * u[0] ** 2 + cross * u[0] * u[1] + W[:, 1, 1] * u[1] ** 2
+    d_row = A[:, 0] + 2.0 * W[:, 0, 0] * u[0] + cross * u[1]
+    d_col = A[:, 1] + cross * u[0] + 2.0 * W[:, 1, 1] * u[1]
+    shape = [s.stop - s.start for s in slices]
+    box = residual_aot.keystone_warped_box_sum(
+        c0,
+        d_row,
+        d_col,
+        W[:, 0, 0],
+        cross,
+        W[:, 1, 1],
+        shape[0],
+        shape[1],
+        model.orders,
+        model.coef,
+        kappa,
+        _strip_count(kappa),
+    )
+    grid = [
+        (np.arange(n, dtype=float) + u[b]).reshape([-1 if i == b else 1 for i in range(2)]) for b, n in enumerate(shape)
+    ]
+    f_c = np.asarray(model.band_centre, dtype=float)
+    return box * np.exp(1j * (2 * np.pi * (f_c[0] * grid[0] + f_c[1] * grid[1]) + _chirp_phase(grid, model.chirp)))
 
 
 def _straight_on_box(slices: Sequence[slice], model: ResponseModel) -> np.ndarray:

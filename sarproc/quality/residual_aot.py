@@ -23,6 +23,8 @@ RESIDUAL = Kernels(
     exports={
         "keystone_columns": "c16[:, ::1](f8[:, ::1], i8[:, ::1], f8[::1], i8)",
         "keystone_box_sum": "c16[:, ::1](f8[::1], f8[::1], f8[::1], i8, i8, i8[:, ::1], c16[::1], f8[::1], i8)",
+        "keystone_warped_box_sum": "c16[:, ::1](f8[::1], f8[::1], f8[::1], f8[::1], f8[::1], f8[::1], i8, i8, "
+        "i8[:, ::1], c16[::1], f8[::1], i8)",
         "keystone_derivatives": "c16[:, ::1](f8[:, ::1], i8[:, ::1], c16[::1], f8[::1], i8)",
         "spread_bins": "f8[:, ::1](f8[::1], f8[::1], f8[::1], f8[::1], i8, i8, f8, i8)",
     },
@@ -79,6 +81,37 @@ def keystone_box_sum(
         _f8(c0),
         _f8(d_row),
         _f8(d_col),
+        int(n_rows),
+        int(n_cols),
+        _i8(orders),
+        _c16(coef),
+        _f8(kappa),
+        int(n_strips),
+    )
+
+
+def keystone_warped_box_sum(
+    c0: np.ndarray,
+    d_row: np.ndarray,
+    d_col: np.ndarray,
+    w_rr: np.ndarray,
+    w_rc: np.ndarray,
+    w_cc: np.ndarray,
+    n_rows: int,
+    n_cols: int,
+    orders: np.ndarray,
+    coef: np.ndarray,
+    kappa: np.ndarray,
+    n_strips: int,
+) -> np.ndarray:
+    """:func:`sarproc.quality.residual_kernels.keystone_warped_box_sum` (the same arguments, any layout)."""
+    return kernels().keystone_warped_box_sum(
+        _f8(c0),
+        _f8(d_row),
+        _f8(d_col),
+        _f8(w_rr),
+        _f8(w_rc),
+        _f8(w_cc),
         int(n_rows),
         int(n_cols),
         _i8(orders),

@@ -286,6 +286,135 @@ def keystone_box_sum(
     return out
 
 
+@numba.njit(error_model="numpy", cache=CACHE)
+def keystone_warped_box_sum(
+    c0: np.ndarray,
+    d_row: np.ndarray,
+    d_col: np.ndarray,
+    w_rr: np.ndarray,
+    w_rc: np.ndarray,
+    w_cc: np.ndarray,
+    n_rows: int,
+    n_cols: int,
+    orders: np.ndarray,
+    coef: np.ndarray,
+    kappa: np.ndarray,
+    n_strips: int,
+) -> np.ndarray:  # pragma: no cover - compiled
+    """:func:`keystone_box_sum` where the ridge coordinates are quadratic in the image indices (a warped model,
+    :attr:`sarproc.quality.residual.ResponseModel.warp`): c0 + i d_row + j d_col + i^2 w_rr + i j w_rc + j^2
+    w_cc. Along a row every angle is then quadratic in j, so its sines and cosines are complex rotations whose
+    step turns by a constant: no trigonometry per sample, exact angles every :data:`RESEED` samples."""
+    ndim = c0.shape[0]
+    n_orders = orders.shape[0]
+    n_signs = 1 << (ndim - 1)
+    width = 1.0 / n_strips
+    signs, cos_dh, sin_dh, cos_sdh, sin_sdh, shift, cos_l, sin_l = _strip_constants(orders, kappa, n_strips, ndim)
+    for q in range(n_orders):
+        for sg in range(n_signs):
+            shift[sg, q] = coef[q] * shift[sg, q]
+    two_pi_pow = (2.0 * math.pi) ** (ndim - 1)
+    j_pow = (-1j) ** (ndim - 1)
+
+    out = np.empty((n_rows, n_cols), dtype=np.complex128)
+    e_half = np.empty(n_signs, dtype=np.complex128)  # exp(j half), exp(j S half), exp(j phase) per sign
+    e_shalf = np.empty(n_signs, dtype=np.complex128)
+    e_phase = np.empty(n_signs, dtype=np.complex128)
+    r_half = np.empty(n_signs, dtype=np.complex128)  # their steps to the next sample of the row
+    r_shalf = np.empty(n_signs, dtype=np.complex128)
+    r_phase = np.empty(n_signs, dtype=np.complex128)
+    t_half = np.empty(n_signs, dtype=np.complex128)  # the steps' own turn from one sample to the next
+    t_shalf = np.empty(n_signs, dtype=np.complex128)
+    t_phase = np.empty(n_signs, dtype=np.complex128)
+    for s in range(n_signs):  # the angles are linear in c without a constant part: twice w_cc's angles
+        th, tp = _strip_angles(w_cc, signs[s], kappa, n_strips)
+        t_half[s] = complex(math.cos(2.0 * th), math.sin(2.0 * th))
+        t_shalf[s] = complex(math.cos(2.0 * n_strips * th), math.sin(2.0 * n_strips * th))
+        t_phase[s] = complex(math.cos(2.0 * tp), math.sin(2.0 * tp))
+    turn_l = 2.0 * math.pi * width * w_cc[ndim - 1]
+    t_l = complex(math.cos(turn_l), math.sin(turn_l))
+    row = np.empty(ndim)  # the row's constant and linear coefficients in j
+    lin = np.empty(ndim)
+    c = np.empty(ndim)
+    step = np.empty(ndim)
+    x = np.empty(ndim)
+    e_l = 1.0 + 0j
+    r_l = 1.0 + 0j
+    for i in range(n_rows):
+        for a in range(ndim):
+            row[a] = c0[a] + i * d_row[a] + i * i * w_rr[a]
+            lin[a] = d_col[a] + i * w_rc[a]
+        for j in range(n_cols):
+            for a in range(ndim):
+                c[a] = row[a] + j * lin[a] + j * j * w_cc[a]
+            if j % RESEED == 0:  # the rotations' rounding kept to ~1e-14: exact angles every RESEED samples
+                for a in range(ndim):
+                    step[a] = lin[a] + (2 * j + 1) * w_cc[a]  # c(j + 1) - c(j)
+                for s in range(n_signs):
+                    half, phase = _strip_angles(c, signs[s], kappa, n_strips)
+                    e_half[s] = complex(math.cos(half), math.sin(half))
+                    e_shalf[s] = complex(math.cos(n_strips * half), math.sin(n_strips * half))
+                    e_phase[s] = complex(math.cos(phase), math.sin(phase))
+                    dh, dp = _strip_angles(step, signs[s], kappa, n_strips)
+                    r_half[s] = complex(math.cos(dh), math.sin(dh))
+                    r_shalf[s] = complex(math.cos(n_strips * dh), math.sin(n_strips * dh))
+                    r_phase[s] = complex(math.cos(dp), math.sin(dp))
+                arg = math.pi * width * c[ndim - 1]
+                e_l = complex(math.cos(arg), math.sin(arg))
+                arg = math.pi * width * step[ndim - 1]
+                r_l = complex(math.cos(arg), math.sin(arg))
+            near = False
+            for a in range(ndim - 1):
+                for q in range(n_orders):
+                    if abs(c[a] + 0.5 * orders[q, a]) < 1e-7:
+                        near = True
+            total = 0j
+            if near:  # within 1e-7 of a removable singularity: the direct product evaluates the limit
+                for q in range(n_orders):
+                    for a in range(ndim):
+                        x[a] = c[a] + 0.5 * orders[q, a]
+                    total += coef[q] * _product_at(x, kappa, n_strips)
+            else:
+                last = c[ndim - 1]
+                s_l, c_l = e_l.imag, e_l.real
+                for q in range(n_orders):
+                    acc = 0j
+                    for s in range(n_signs):
+                        sh, ch = e_half[s].imag, e_half[s].real
+                        ssh, csh = e_shalf[s].imag, e_shalf[s].real
+                        den = sh * cos_dh[s, q] + ch * sin_dh[s, q]
+                        if abs(den) < 1e-9:  # sin(S h) / sin(h) -> S cos(S h) / cos(h)
+                            dirichlet = (
+                                n_strips
+                                * (csh * cos_sdh[s, q] - ssh * sin_sdh[s, q])
+                                / (ch * cos_dh[s, q] - sh * sin_dh[s, q])
+                            )
+                        else:
+                            dirichlet = (ssh * cos_sdh[s, q] + csh * sin_sdh[s, q]) / den
+                        acc += dirichlet * (e_phase[s] * shift[s, q])
+                    x_l = last + 0.5 * orders[q, ndim - 1]
+                    den_a = two_pi_pow
+                    for a in range(ndim - 1):
+                        den_a *= c[a] + 0.5 * orders[q, a]
+                    if abs(x_l) < 1e-12:
+                        factor = width / den_a
+                    else:
+                        factor = (s_l * cos_l[q] + c_l * sin_l[q]) / (math.pi * x_l * den_a)
+                    total += acc * factor
+                total *= j_pow
+            out[i, j] = total
+            for s in range(n_signs):
+                e_half[s] *= r_half[s]
+                e_shalf[s] *= r_shalf[s]
+                e_phase[s] *= r_phase[s]
+                r_half[s] *= t_half[s]
+                r_shalf[s] *= t_shalf[s]
+                r_phase[s] *= t_phase[s]
+            e_l *= r_l
+            r_l *= t_l
+    return out
+
+
 # Near a removable singularity the closed forms' derivatives cancel: below these the series or the
 # interpolation of :func:`keystone_derivatives` take over (their error there ~1e-9 relative).
 SERIES_E = 1e-3  # |h - m pi| below which the Dirichlet kernel and its derivative are its Taylor series

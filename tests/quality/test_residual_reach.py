@@ -182,6 +182,63 @@ def test_compiled_box_sum_is_the_columns_summed(kappa):
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-11 * np.abs(want).max())
 
 
+@pytest.mark.parametrize("kappa", [0.003, 0.015, 0.08])
+def test_compiled_warped_box_sum_is_the_columns_summed(kappa):
+    """The warped box kernel (ridge coordinates quadratic in the box's indices; rotations whose steps turn along
+    each row) gives the coefficient-weighted sum of the per-point kernel's strip sums over a skewed box, singular
+    points included."""
+    from sarproc.quality.residual import _strip_count, spectral_orders
+    from sarproc.quality.residual_kernels import keystone_columns, keystone_warped_box_sum
+
+    orders = spectral_orders(2, 2, 3).astype(np.int64)
+    coef = np.random.default_rng(3).normal(size=(len(orders), 2)) @ np.array([1.0, 1j])
+    k, strips = np.array([kappa]), _strip_count(np.array([kappa]))
+    c0, d_row, d_col = np.array([-20.0, -31.5]), np.array([0.5, 0.04]), np.array([0.0, 0.41])  # rows hit c_az = -n/2
+    w_rr, w_rc, w_cc = np.array([0.0, 2e-4]), np.array([3e-4, -1e-4]), np.array([0.0, 5e-4])
+    rows, cols = 90, 150
+    got = keystone_warped_box_sum(c0, d_row, d_col, w_rr, w_rc, w_cc, rows, cols, orders, coef, k, strips)
+    i, j = (x.ravel().astype(float) for x in np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij"))
+    pts = np.stack(
+        [c0[a] + i * d_row[a] + j * d_col[a] + i * i * w_rr[a] + i * j * w_rc[a] + j * j * w_cc[a] for a in range(2)]
+    )
+    want = (coef @ keystone_columns(pts, orders, k, strips)).reshape(rows, cols)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-11 * np.abs(want).max())
+
+
+def test_a_warped_keystoned_model_on_a_box_is_its_values_at_every_sample(monkeypatch):
+    """A warped, keystoned 2D model (what evaluate subtracts from pfa2's images) on an image box through the
+    warped box kernel equals :func:`model_values` at every sample of the box to rounding, range-edge bow included,
+    without the per-sample kernel's columns (samples x orders)."""
+    from sarproc.quality import residual_aot
+    from sarproc.quality.residual import ResponseModel, _model_on_box, model_values, spectral_orders
+
+    orders = spectral_orders(2, 1, 2)
+    rng = np.random.default_rng(7)
+    V = np.array([[0.99, 0.14], [-0.05, 1.0]])
+    warp = np.zeros((2, 2, 2))
+    warp[0, 1, 1], warp[1, 0, 0], warp[1, 0, 1], warp[1, 1, 0] = 2e-5, -3e-5, 1e-5, 1e-5
+    for curvature in (0.0, -0.04):
+        model = ResponseModel(
+            position=np.array([60.3, 81.7]),
+            ridges=V / np.linalg.norm(V, axis=1)[:, None],
+            nulls=np.array([2.3, 2.1]),
+            band_centre=np.array([0.03, -0.11]),
+            orders=orders,
+            coef=rng.normal(size=len(orders)) + 1j * rng.normal(size=len(orders)),
+            chirp=np.array([[1e-4, 2e-5], [2e-5, -3e-4]]),
+            kappa=np.array([0.02]),
+            warp=warp,
+            curvature=curvature,
+        )
+        box = (slice(3, 140), slice(20, 230))
+        axes = np.meshgrid(*[np.arange(s.start, s.stop) for s in box], indexing="ij")
+        want = model_values(np.stack([x.ravel() for x in axes]), model).reshape(axes[0].shape)
+        with monkeypatch.context() as m:
+            m.setattr(residual_aot, "keystone_columns", None)  # not called on the box
+            got = _model_on_box(box, model)
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(model.coef).sum())
+
+
 def _richardson(f, h: float) -> np.ndarray:
     """f'(0) from f(+-h), f(+-2h), f(+-3h): sixth order, for the reference of the analytic derivatives."""
     return (45 * (f(h) - f(-h)) - 9 * (f(2 * h) - f(-2 * h)) + (f(3 * h) - f(-3 * h))) / (60 * h)
