@@ -147,6 +147,25 @@ def test_echoes_equal_numbas(built, dtype):
     assert np.array_equal(a, b) and np.abs(a).max() > 0
 
 
+def test_impulses_equal_numbas(built):
+    from sarproc.simulation import echo_kernel as ek
+
+    k = built[1]["echo"]
+    rng = np.random.default_rng(5)
+    n_t, n_tg, n_ext, fs = 5, 7, 400, 120e6
+    half_taps, beta = echo_aot.kaiser_design(fs, 100e6)
+    table = echo_aot.kaiser_table(half_taps, beta)
+    delays = 1e-6 + rng.uniform(0, 2e-6, (n_t, n_tg))
+    gains = _cx(rng, (n_t, n_tg), np.complex128)
+    gains[1, 2] = 0
+    gate = rng.uniform(-1e-7, 1e-7, n_t)
+    args = (delays, gains, gate, 0.9e-6, fs, 9.6e9, half_taps, table, float(echo_aot.KAISER_PER_SAMPLE), 40.0)
+    a, b = np.zeros((n_t, n_ext), np.complex128), np.zeros((n_t, n_ext), np.complex128)
+    echo_aot.accumulate_impulses(k, a, *args)
+    ek.accumulate_impulses(b, *args)
+    assert np.array_equal(a, b) and np.abs(a).max() > 0
+
+
 def test_fine_focus_block_kernels_equal_numbas(built):
     from sarproc.focus.squint_deramp import block_copies as bc, stolt_kernels as sk
 
