@@ -30,6 +30,9 @@ BASE_SCENE = {
     "geometry": {"reference_range": "2 km", "squint": "0 deg"},
     "acquisition": {"mode": "spotlight", "aperture_time": "0.5 s"},
     "targets": {"frame": "squint", "points": [{"name": "A"}]},
+    # the suite's small scenes check the continuous chirp's echo equation (band-limited echoes: their own tests,
+    # tests/simulation/test_band_limited.py, and the campaign scenes)
+    "simulation": {"waveform": "continuous"},
 }
 
 # scripts/evaluate_campaign.py's squinted stripmap (2 deg beam, 150 MHz, 1.2 s track), imaged in its zero-Doppler

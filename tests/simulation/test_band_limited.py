@@ -120,3 +120,13 @@ def test_tabulated_kaiser_window_is_within_its_stated_error():
     exact = np.i0(beta * np.sqrt(1 - (t / half_taps) ** 2)) / np.i0(beta)
     assert np.abs(approx - exact).max() < 1e-8
     assert table[0] == table[-1] == 1 / np.i0(beta)  # the edges from inside, not zero
+
+
+def test_default_waveform_is_band_limited_where_the_sampling_allows():
+    """waveform: auto (the default) simulates band_limited above 1.01 B sampling, else continuous; the scene
+    records which."""
+    m = _scene("band_limited")
+    del m["simulation"]
+    assert scene_from_mapping(m).params.simulation.waveform == "band_limited"
+    m["radar"]["range_sampling_rate"] = "150 MHz"
+    assert scene_from_mapping(m).params.simulation.waveform == "continuous"
