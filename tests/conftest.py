@@ -191,7 +191,9 @@ def _aot_build_jobs(tmp_path_factory, files):
 
             d = directory("aot-stages")
             env = {**os.environ, "SARPROC_AOT_DIR": str(d), "SARPROC_AOT": "1", "PYTHONPATH": root}
-            for group in (phasor.AOT, compiled.BLOCKS, compiled.STOLT, correction.AOT):  # its BY_COMMAND
+            from sarproc.simulation import echo_aot
+
+            for group in (phasor.AOT, echo_aot.IMPULSES, compiled.BLOCKS, compiled.STOLT, correction.AOT):  # BY_COMMAND
                 jobs[group.name] = (d, by_owner(group), env)
         elif file in ("test_kernels_aot.py", "test_residual_aot.py"):
             from sarproc.quality import kernels_aot, residual_aot

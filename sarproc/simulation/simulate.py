@@ -28,7 +28,6 @@ from sarproc.simulation.scene import Scene
 
 if TYPE_CHECKING:
     from collections.abc import Callable
-    from types import ModuleType
 
     from sarproc.product.steps import ProgressFactory
 
@@ -238,7 +237,7 @@ def echo_block(
         for e in scene.effects:
             gains = e.gains(t, pos, tg, ch, gains)
         if scene.params.simulation.waveform == "band_limited":
-            out[ch] = band_limited_echoes(r, tau, gains, gate, t0, n_rg, k)
+            out[ch] = band_limited_echoes(r, tau, gains, gate, t0, n_rg)
             continue
         echo_aot.accumulate_echoes(
             k,
@@ -263,11 +262,10 @@ def band_limited_echoes(
     gate: np.ndarray,
     t0: float,
     n_range: int,
-    k: ModuleType | None = None,
 ) -> np.ndarray:
     """Echoes (n_t, n_range) complex128 of a band-limited transmitter (simulation.waveform: band_limited):
-    per pulse, every target's fractional-delay kernel (echo_kernel.accumulate_impulses, from module ``k`` of
-    echo_aot.kernels; numba's when None) convolved with the processor's chirp replica
+    per pulse, every target's fractional-delay kernel (echo_kernel.accumulate_impulses, compiled ahead of time
+    where the work is small: echo_aot.impulse_kernels) convolved with the processor's chirp replica
     (sarproc.dsp.rangecomp.chirp_replica), by FFT. Delays on a sample give the replica itself; in between, the
     echo's spectrum over |f| <= B/2 is the replica's times exp(-j 2 pi f tau) (to the filter's 120 dB), so
     range compression leaves no aliasing pedestal."""
@@ -275,11 +273,10 @@ def band_limited_echoes(
     from sarproc.product import fft as sfft
     from sarproc.simulation import echo_aot
 
-    if k is None:
-        k = echo_aot.ECHO.numba()
     fs = radar.range_sampling_rate
     replica, half = chirp_replica(radar)
     half_taps, beta = echo_aot.kaiser_design(fs, radar.bandwidth)
+    k = echo_aot.impulse_kernels(tau.size * 2.0 * half_taps)
     offset = half + half_taps  # impulse row sample i is window sample i - offset
     impulses = np.zeros((tau.shape[0], n_range + 2 * offset), dtype=np.complex128)
     echo_aot.accumulate_impulses(
