@@ -1,7 +1,8 @@
 """Residual floors of the paper scenes' clean images, simulated with a given waveform (issue 20 item 1).
 
-For each scene: `sarproc simulate` with `simulation.waveform` set (continuous: the default; band_limited:
-the DAC-filtered sampled chirp, no aliasing pedestal), its processing chain, then `sarproc evaluate` with
+For each scene: `sarproc simulate` with `simulation.waveform` set (continuous: the sampled continuous chirp, the
+default before session 35 and the paper configs' setting; band_limited: the DAC-filtered sampled chirp, no aliasing
+pedestal, the default where f_s > 1.01 B), its processing chain, then `sarproc evaluate` with
 the guard window only and with `evaluate.residual: true`. Tabulates the residual floor, the residual false
 target, the guard-window figure and the run time of every stage (one run each: noisy on a shared machine).
 Usage: python scripts/residual_scenes.py --waveform band_limited [--only NAME ...] --out results/residual_scenes.md
@@ -26,6 +27,7 @@ SCENES = {
     "demo (backproject)": ("configs/demo.yaml", [("backproject", None)]),
     "bp_squint30 (backproject)": ("configs/bp_squint30.yaml", [("backproject", None)]),
     "bp_stripmap (backproject)": ("configs/bp_stripmap.yaml", [("backproject", None)]),
+    "bp_hamming (backproject)": ("configs/bp_hamming.yaml", [("backproject", None)]),
     "000 an2012_exp2_small (fine-focus)": (
         "configs/an2012_exp2_small.yaml",
         [("preprocess", None), ("coarse-focus", None), ("fine-focus", None)],

@@ -30,6 +30,9 @@ BASE_SCENE = {
     "geometry": {"reference_range": "2 km", "squint": "0 deg"},
     "acquisition": {"mode": "spotlight", "aperture_time": "0.5 s"},
     "targets": {"frame": "squint", "points": [{"name": "A"}]},
+    # the suite's small scenes check the continuous chirp's echo equation (band-limited echoes: their own tests,
+    # tests/simulation/test_band_limited.py, and the campaign scenes)
+    "simulation": {"waveform": "continuous"},
 }
 
 # scripts/evaluate_campaign.py's squinted stripmap (2 deg beam, 150 MHz, 1.2 s track), imaged in its zero-Doppler
@@ -188,7 +191,9 @@ def _aot_build_jobs(tmp_path_factory, files):
 
             d = directory("aot-stages")
             env = {**os.environ, "SARPROC_AOT_DIR": str(d), "SARPROC_AOT": "1", "PYTHONPATH": root}
-            for group in (phasor.AOT, compiled.BLOCKS, compiled.STOLT, correction.AOT):  # its BY_COMMAND
+            from sarproc.simulation import echo_aot
+
+            for group in (phasor.AOT, echo_aot.IMPULSES, compiled.BLOCKS, compiled.STOLT, correction.AOT):  # BY_COMMAND
                 jobs[group.name] = (d, by_owner(group), env)
         elif file in ("test_kernels_aot.py", "test_residual_aot.py"):
             from sarproc.quality import kernels_aot, residual_aot

@@ -110,7 +110,8 @@ def mover_campaign_scene(squint, pattern, n_receivers, spacing, mover, noise_snr
             ],
         },
     }
+    m["simulation"] = {"waveform": "continuous"}  # as the campaign's scenes (configs/xu_scene.yaml)
     if noise_snr is not None:
         m["effects"]["noise"] = {"snr": f"{noise_snr} dB"}
-        m["simulation"] = {"seed": noise_seed}
+        m["simulation"]["seed"] = noise_seed
     return m

@@ -271,7 +271,7 @@ KERNELS = {
 # run all of its numba work on a small product
 AOT_KERNELS = {
     "preprocess": ("sarproc.dsp.phasor:AOT",),
-    "simulate": ("sarproc.simulation.echo_aot:ECHO",),
+    "simulate": ("sarproc.simulation.echo_aot:ECHO", "sarproc.simulation.echo_aot:IMPULSES"),
     "fine-focus": (
         "sarproc.focus.squint_deramp.compiled:BLOCKS",
         "sarproc.focus.squint_deramp.compiled:STOLT",

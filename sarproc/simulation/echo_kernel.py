@@ -209,36 +209,8 @@ def accumulate_echoes(
         _accumulate_echoes(out, delays, gains, gate, t0, fs, pulse_duration, chirp_rate, carrier, chirp)
 
 
-# Band-limited echoes (simulation.waveform: band_limited). The transmitted pulse is the sampled chirp
-# (the processor's replica h_m) reconstructed by a DAC filter P that passes |f| <= B/2 flat and rejects
-# |f| >= f_s - B/2, so an echo delayed by tau samples as e_n = sum_m h_m p(n - m - tau f_s): the echoes
-# of a pulse are the replica convolved with each target's fractional-delay kernel p(j - delta). p is a
-# Kaiser-windowed sinc (cutoff f_s/2, so p(j) = [j == 0]: an echo on a sample is the replica itself),
-# designed for BAND_LIMITED_REJECTION_DB of stopband and passband ripple over that transition band.
-BAND_LIMITED_REJECTION_DB = 120.0
-
-
-def kaiser_design(fs: float, bandwidth: float, rejection_db: float = BAND_LIMITED_REJECTION_DB) -> tuple[int, float]:
-    """(half_taps J, Kaiser beta) of the fractional-delay kernel: the transition band runs from B/2 to
-    f_s - B/2 (fraction (f_s - B) / f_s of the sampling rate); Kaiser's formulas for ``rejection_db``."""
-    transition = (fs - bandwidth) / fs
-    if transition <= 0:
-        raise ValueError("a band-limited echo needs a sampling rate above the bandwidth")
-    beta = 0.1102 * (rejection_db - 8.7)
-    length = (rejection_db - 7.95) / (2.285 * 2 * math.pi * transition)
-    return int(math.ceil(length / 2)) + 1, beta
-
-
-@numba.njit(inline="always")
-def _bessel_i0(x: float) -> float:
-    """Modified Bessel function I_0(x) by its power series (x <= 30: terms fall below 1e-17 of the sum)."""
-    term, total, k = 1.0, 1.0, 1
-    q = 0.25 * x * x
-    while term > 1e-17 * total:
-        term *= q / (k * k)
-        total += term
-        k += 1
-    return total
+# Band-limited echoes (simulation.waveform: band_limited): the design of the fractional-delay kernel p and its
+# tabulated Kaiser window are in the numba-free :mod:`sarproc.simulation.echo_aot`.
 
 
 @numba.njit(parallel=True, cache=CACHE, error_model="numpy")
@@ -251,15 +223,19 @@ def accumulate_impulses(
     fs: float,
     carrier: float,
     half_taps: int,
-    beta: float,
+    window: np.ndarray,
+    per_sample: float,
     offset: float,
 ) -> None:
     """Add every target's fractional-delay kernel g exp(-j 2 pi f_c tau) p(i - offset - rel f_s) to ``out``
     (n_t, n_ext) complex128, in place; ``out`` sample i is window sample i - ``offset`` (the window extended by
-    the replica's half length and the kernel's), rel = tau - gate - t0. Arguments as accumulate_echoes."""
+    the replica's half length and the kernel's), rel = tau - gate - t0. p(t) = sinc(t) w(t), the Kaiser window
+    w tabulated at ``per_sample`` points a sample over [-J, J] (``window``, echo_aot.kaiser_table) and
+    interpolated linearly: a Bessel series per tap cost 5x the continuous chirp's samples. Other arguments as
+    accumulate_echoes."""
     n_t, n_tg = delays.shape
     n_ext = out.shape[1]
-    norm = _bessel_i0(beta)
+    last = window.shape[0] - 1
     for i in numba.prange(n_t):
         row = out[i]
         for j in range(n_tg):
@@ -277,10 +253,11 @@ def accumulate_impulses(
                 if n < 0 or n >= n_ext:
                     continue
                 t = k - delta  # p(t): t in (-J, J]
-                r = t / half_taps
-                if r * r >= 1.0:
+                u = (t + half_taps) * per_sample
+                m = int(u)  # u > 0: t > -J
+                if m >= last:  # t = J: p(J) = 0 (the window's edge, where the Bessel kernel stopped too)
                     continue
-                w = _bessel_i0(beta * math.sqrt(1.0 - r * r)) / norm
+                w = window[m] + (u - m) * (window[m + 1] - window[m])
                 # sinc(t) = sin(pi (k - delta)) / (pi t) = (-1)^(k+1) sin(pi delta) / (pi t)
                 p = w if abs(t) < 1e-12 else (s if k % 2 else -s) / (math.pi * t) * w
                 row[int(n)] += a * p

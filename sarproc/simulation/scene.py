@@ -199,13 +199,15 @@ class SimulationParams:
     block_pulses: int = param(default=256, ge=1, doc="pulses simulated per block (bounds memory)")
     seed: int = param(default=0, ge=0, doc="random seed for noise")
     waveform: str = param(
-        default="continuous",
-        choices=("continuous", "band_limited"),
+        default="auto",
+        choices=("auto", "band_limited", "continuous"),
         doc=(
-            "continuous: each echo samples the continuous chirp at its delay (its spectral tails beyond f_s/2 "
-            "alias, so a delay between samples compresses with a pedestal, about -45 dB at 1.2 B sampling); "
             "band_limited: the pulse is the sampled chirp through a DAC filter flat over |f| <= B/2 and rejecting "
-            "|f| >= f_s - B/2 (a digital waveform generator; 120 dB), so every echo compresses exactly"
+            "|f| >= f_s - B/2 (a digital waveform generator; 120 dB), so every echo compresses exactly; needs "
+            "radar.range_sampling_rate above 1.01 x the bandwidth. continuous: each echo samples the continuous "
+            "chirp at its delay (its spectral tails beyond f_s/2 alias, so a delay between samples compresses "
+            "with a pedestal, about -45 dB at 1.2 B sampling; the default before session 35). auto: band_limited "
+            "where the sampling rate allows it, else continuous (the scene as loaded records which)"
         ),
     )
 
@@ -378,6 +380,9 @@ def scene_from_mapping(mapping: dict, source: str = "<mapping>") -> Scene:
     keys = {e.key for e in effects}
     if np.any(vel != 0) and "target_motion" not in keys:
         raise InputError(f"{source}: targets: a target has a velocity but effects.target_motion is not declared")
+    if p.simulation.waveform == "auto":  # record the waveform simulated, not the rule that chose it
+        waveform = "band_limited" if r.range_sampling_rate > 1.01 * r.bandwidth else "continuous"
+        p = dataclasses.replace(p, simulation=dataclasses.replace(p.simulation, waveform=waveform))
     if p.simulation.waveform == "band_limited" and not r.range_sampling_rate > 1.01 * r.bandwidth:
         raise InputError(
             f"{source}: simulation.waveform: band_limited needs radar.range_sampling_rate above 1.01 x the "

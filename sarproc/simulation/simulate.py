@@ -13,6 +13,7 @@ pulse), so the cost is n_pulses x n_targets x T_p f_s, independent of the window
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import math
 from collections.abc import Iterator
@@ -116,7 +117,7 @@ def plan_simulation(scene: Scene) -> SimulationPlan:
         d = np.stack([_delays(pos + tx_off, pos + rx, tg) for rx in rx_off]) - gate[None, :, None]
         margin = 2 * acq.range_margin / C
         if scene.params.simulation.waveform == "band_limited":  # the DAC filter's ringing beyond the pulse
-            from sarproc.simulation.echo_kernel import kaiser_design
+            from sarproc.simulation.echo_aot import kaiser_design
 
             margin += kaiser_design(r.range_sampling_rate, r.bandwidth)[0] / r.range_sampling_rate
         start = float(d.min()) - r.pulse_duration / 2 - margin
@@ -255,32 +256,41 @@ def echo_block(
 
 
 def band_limited_echoes(
-    radar: RadarMetadata, tau: np.ndarray, gains: np.ndarray, gate: np.ndarray, t0: float, n_range: int
+    radar: RadarMetadata,
+    tau: np.ndarray,
+    gains: np.ndarray,
+    gate: np.ndarray,
+    t0: float,
+    n_range: int,
 ) -> np.ndarray:
     """Echoes (n_t, n_range) complex128 of a band-limited transmitter (simulation.waveform: band_limited):
-    per pulse, every target's fractional-delay kernel (echo_kernel.accumulate_impulses) convolved with the
-    processor's chirp replica (sarproc.dsp.rangecomp.chirp_replica), by FFT. Delays on a sample give the
-    replica itself; in between, the echo's spectrum over |f| <= B/2 is the replica's times exp(-j 2 pi f tau)
-    (to the filter's 120 dB), so range compression leaves no aliasing pedestal."""
+    per pulse, every target's fractional-delay kernel (echo_kernel.accumulate_impulses, compiled ahead of time
+    where the work is small: echo_aot.impulse_kernels) convolved with the processor's chirp replica
+    (sarproc.dsp.rangecomp.chirp_replica), by FFT. Delays on a sample give the replica itself; in between, the
+    echo's spectrum over |f| <= B/2 is the replica's times exp(-j 2 pi f tau) (to the filter's 120 dB), so
+    range compression leaves no aliasing pedestal."""
     from sarproc.dsp.rangecomp import chirp_replica
     from sarproc.product import fft as sfft
-    from sarproc.simulation.echo_kernel import accumulate_impulses, kaiser_design
+    from sarproc.simulation import echo_aot
 
     fs = radar.range_sampling_rate
     replica, half = chirp_replica(radar)
-    half_taps, beta = kaiser_design(fs, radar.bandwidth)
+    half_taps, beta = echo_aot.kaiser_design(fs, radar.bandwidth)
+    k = echo_aot.impulse_kernels(tau.size * 2.0 * half_taps)
     offset = half + half_taps  # impulse row sample i is window sample i - offset
     impulses = np.zeros((tau.shape[0], n_range + 2 * offset), dtype=np.complex128)
-    accumulate_impulses(
+    echo_aot.accumulate_impulses(
+        k,
         impulses,
         np.ascontiguousarray(tau),
         np.ascontiguousarray(gains, dtype=np.complex128),
-        gate,
-        t0,
-        fs,
-        radar.carrier_frequency,
-        half_taps,
-        beta,
+        np.ascontiguousarray(gate, dtype=float),
+        float(t0),
+        float(fs),
+        float(radar.carrier_frequency),
+        int(half_taps),
+        _kaiser_table(half_taps, beta),
+        float(echo_aot.KAISER_PER_SAMPLE),
         float(offset),
     )
     n_fft = sfft.next_fast_len(impulses.shape[1] + len(replica) - 1)
@@ -288,6 +298,14 @@ def band_limited_echoes(
     spec *= sfft.fft(replica, n_fft)
     full = sfft.ifft(spec, axis=-1, workers=-1, overwrite_x=True)
     return full[:, offset + half : offset + half + n_range]
+
+
+@functools.lru_cache(maxsize=4)
+def _kaiser_table(half_taps: int, beta: float) -> np.ndarray:
+    """echo_aot.kaiser_table, made once per design (every block of a simulation shares it)."""
+    from sarproc.simulation import echo_aot
+
+    return echo_aot.kaiser_table(half_taps, beta)  # never written to (the kernels only read it)
 
 
 def simulate_blocks(

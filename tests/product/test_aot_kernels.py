@@ -1,7 +1,7 @@
 """The stages' kernels compiled ahead of time (sarproc.product.aot.Kernels): phase fields, resampling, echoes,
 fine focusing's block copies and Stolt kernels, the two-step PFA's column spline.
 
-One build of the six modules (~1-2 min here: numba compiles the serial kernels, the C compiler the modules) serves
+One build of the seven modules (~1-2 min here: numba compiles the serial kernels, the C compiler the modules) serves
 the tests that need it: every export equals its numba kernel on the same arguments (bit for bit, or to float32
 rounding where a fast-math loop is compiled differently), and small stages run through the command line import no
 numba and write the products numba's kernels write (alike). The rest check the dispatch rules without compiling.
@@ -29,7 +29,7 @@ from sarproc.simulation import echo_aot
 
 ROOT = Path(__file__).resolve().parents[2]
 HAVE_CC = shutil.which(os.environ.get("CC", "cc")) is not None or shutil.which("gcc") is not None
-GROUPS = (phasor.AOT, interp.AOT, echo_aot.ECHO, compiled.BLOCKS, compiled.STOLT, correction.AOT)
+GROUPS = (phasor.AOT, interp.AOT, echo_aot.ECHO, echo_aot.IMPULSES, compiled.BLOCKS, compiled.STOLT, correction.AOT)
 
 
 # Built by the background builder's own command (python -m sarproc.product.aot, as request_build starts it): the
@@ -37,12 +37,12 @@ GROUPS = (phasor.AOT, interp.AOT, echo_aot.ECHO, compiled.BLOCKS, compiled.STOLT
 # and the fixture builds the rest in this process meanwhile. The echo module stays in this process: its complex128
 # export equals the numba kernel bit for bit only where that kernel is compiled in a process that built the module
 # (citime's report, 2026-12-03), which the test does not settle.
-BY_COMMAND = (phasor.AOT, compiled.BLOCKS, compiled.STOLT, correction.AOT)
+BY_COMMAND = (phasor.AOT, echo_aot.IMPULSES, compiled.BLOCKS, compiled.STOLT, correction.AOT)
 
 
 @pytest.fixture(scope="module")
 def built(aot_builds):
-    """The six modules built once into a directory of the session (skipped without a C compiler)."""
+    """The seven modules built once into a directory of the session (skipped without a C compiler)."""
     if not HAVE_CC:
         pytest.skip("no C compiler: the kernels run in numba only")
     assert all(group.name in aot_builds.jobs for group in BY_COMMAND)
@@ -144,6 +144,25 @@ def test_echoes_equal_numbas(built, dtype):
     a, b = np.zeros((n_t, n_rg), dtype), np.zeros((n_t, n_rg), dtype)
     echo_aot.accumulate_echoes(k, a, *args)
     ek.accumulate_echoes(b, *args)
+    assert np.array_equal(a, b) and np.abs(a).max() > 0
+
+
+def test_impulses_equal_numbas(built):
+    from sarproc.simulation import echo_kernel as ek
+
+    k = built[1]["impulses"]
+    rng = np.random.default_rng(5)
+    n_t, n_tg, n_ext, fs = 5, 7, 400, 120e6
+    half_taps, beta = echo_aot.kaiser_design(fs, 100e6)
+    table = echo_aot.kaiser_table(half_taps, beta)
+    delays = 1e-6 + rng.uniform(0, 2e-6, (n_t, n_tg))
+    gains = _cx(rng, (n_t, n_tg), np.complex128)
+    gains[1, 2] = 0
+    gate = rng.uniform(-1e-7, 1e-7, n_t)
+    args = (delays, gains, gate, 0.9e-6, fs, 9.6e9, half_taps, table, float(echo_aot.KAISER_PER_SAMPLE), 40.0)
+    a, b = np.zeros((n_t, n_ext), np.complex128), np.zeros((n_t, n_ext), np.complex128)
+    echo_aot.accumulate_impulses(k, a, *args)
+    ek.accumulate_impulses(b, *args)
     assert np.array_equal(a, b) and np.abs(a).max() > 0
 
 

@@ -35,6 +35,7 @@ def _scene(tp_us, start_off, length, ref_range, altitude, squint_deg, az_off, n_
             "range_window": {"start": f"{r_target + start_off} m", "end": f"{r_target + start_off + length} m"},
         },
         "targets": {"frame": "squint", "points": [{"name": "A", "azimuth": f"{az_off} m"}]},
+        "simulation": {"waveform": "continuous"},  # the dense model is the continuous chirp's
     }
 
 

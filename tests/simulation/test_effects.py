@@ -38,6 +38,7 @@ SQUINT50 = {
             {"name": "Q", "azimuth": "-15 m", "range": "12 m", "amplitude": 0.5},
         ],
     },
+    "simulation": {"waveform": "continuous"},  # the window sizes below are the continuous pulse's
 }
 
 # Broadside spotlight with a wobbling track: 0.5 m cross-track (~33 wavelengths) over 0.2 s

@@ -70,7 +70,7 @@ def test_samples_outside_every_envelope_are_exactly_zero(scene_mapping):
 def test_blocks_do_not_change_the_result(scene_mapping):
     m = scene_mapping(targets={"points": [{"name": "A"}, {"name": "B", "range": "15 m", "azimuth": "3 m"}]})
     one = simulate(scene_from_mapping(m))
-    m["simulation"] = {"block_pulses": 7}
+    m["simulation"] = {**m["simulation"], "block_pulses": 7}
     many = simulate(scene_from_mapping(m))
     np.testing.assert_array_equal(one.data, many.data)
 
