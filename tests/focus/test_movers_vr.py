@@ -109,8 +109,9 @@ def test_a_noise_window_with_no_cell_over_the_floor_is_no_mover_and_a_weak_mover
     m/s, detection 19.5 dB) was taken for no point target (eq. 5 0.982 of its plain trial median; 0.899 of the
     curve's, its cells 14-18 standing out). A noise detection at 21.3 dB has no cell standing out of its window's
     floor: eq. 5 over all its cells is the noise's own curve, 0.941 of the curve's median, 0.992 of the plain one.
-    With the curve's median everywhere it was tabled (v_r -13.78 m/s, a false alarm); the plain median is kept
-    where no cell stands out (_incoherent's ``compact``)."""
+    With the curve's median everywhere it was tabled (v_r -13.78 m/s, a false alarm); session 34 kept the plain
+    median where no cell stands out, session 35 the curve's median everywhere and the dip's coherence t (0.41 for
+    the noise detection, 7.2 for M1; _incoherent)."""
     m = mover_campaign_scene(
         22.9,
         "gaussian",
