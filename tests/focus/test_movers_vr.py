@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from helpers import mover_campaign_scene
-from sarproc.focus.multichannel import reconstruct as rc, velocity
+from sarproc.focus.multichannel import channels, detection, reconstruct as rc, velocity
 from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct
 from sarproc.product import fft as sfft
 from sarproc.product.model import moving_target_table
@@ -109,8 +109,9 @@ def test_a_noise_window_with_no_cell_over_the_floor_is_no_mover_and_a_weak_mover
     m/s, detection 19.5 dB) was taken for no point target (eq. 5 0.982 of its plain trial median; 0.899 of the
     curve's, its cells 14-18 standing out). A noise detection at 21.3 dB has no cell standing out of its window's
     floor: eq. 5 over all its cells is the noise's own curve, 0.941 of the curve's median, 0.992 of the plain one.
-    With the curve's median everywhere it was tabled (v_r -13.78 m/s, a false alarm); the plain median is kept
-    where no cell stands out (_incoherent's ``compact``)."""
+    With the curve's median everywhere it was tabled (v_r -13.78 m/s, a false alarm); session 34 kept the plain
+    median where no cell stands out, session 35 the curve's median everywhere and the dip's coherence t (0.41 for
+    the noise detection, 7.2 for M1; _incoherent)."""
     m = mover_campaign_scene(
         22.9,
         "gaussian",
@@ -124,3 +125,66 @@ def test_a_noise_window_with_no_cell_over_the_floor_is_no_mover_and_a_weak_mover
     found = rows(rec)
     assert [r["truth_index"] for r in found] == [0], found
     assert abs(found[0]["v_r"] + 5.00) < 3 * found[0]["v_r_sigma"], found
+
+
+def _small_window(x: np.ndarray) -> tuple[rc._Window, rc._Geometry]:
+    """A three-receiver window (N, n_az, cells) in (t, range cell) at 2.5 kHz PRF, B_a 2 kHz (white noise leaves
+    1 - 2000 / 7500 = 0.733 of its energy out of band)."""
+    n, n_az, cells = x.shape
+    g = rc._Geometry(
+        prf=2500.0,
+        times=np.arange(n_az) / 2500.0,
+        out_times=np.arange(n * n_az) / 7500.0,
+        dx=np.array([0.0, 2.0, 4.0]),
+        tau0=np.array([0.0, 2.0, 4.0]) / 15000.0,
+        n=n,
+        velocity=7500.0,
+        squint=0.2,
+        fc=9.6e9,
+        half_band=1000.0,
+        fs=12e6,
+    )
+    return rc._Window(sfft.fft(x, axis=-1), sfft.fftfreq(cells, 1 / 12e6), g, ReconstructParams()), g
+
+
+def _searched(win: rc._Window) -> rc._Estimate:
+    res = velocity.fast_search(lambda u: win.final_leakage(u, 0.0), -20.0, 20.0, 0.1)
+    return rc._Estimate(v_r=res.estimate, v_a=0.0, criterion=win.final_leakage, result=res)
+
+
+def test_eq_5s_dip_is_a_point_target_only_where_the_channels_phases_make_it():
+    """_incoherent's test: eq. 5 at the estimate against what the same channels give with their phases unrelated.
+
+    Noise band-limited in azimuth as detection.extract leaves it (a 0.8 kHz pass band about 0; 33 range cells,
+    independent between the three receivers), the criterion on cells 14-18 as if they stood out of the floor by
+    chance, has a dip where the trial Doppler centres its band: here 0.942 of the curve's median, which session
+    34's rule (under 0.95 of it where a cell stands out of the floor) took for a mover. With the phases unrelated
+    eq. 5 dips as much (Student's t 1.27 against the far cells' spread, under the 1 % point 2.50 for 23 degrees of
+    freedom): no point target. A mover as strong as that noise in its cell (the same azimuth spectrum in every range
+    cell, as a point target's), is accepted (t 9.55); docs/multichannel.md section 8."""
+    rng = np.random.default_rng(3)
+    n_az, cells = 128, 33
+    noise = (rng.standard_normal((3, n_az, cells)) + 1j * rng.standard_normal((3, n_az, cells))) / math.sqrt(2)
+    mask = detection.extraction_mask(sfft.fftfreq(n_az, 1 / 2500.0), 2500.0, 400.0)
+    noise = sfft.ifft(sfft.fft(noise, axis=1) * mask[None, :, None], axis=1)
+    win, g = _small_window(noise)
+    win.cells, win.compact = np.arange(14, 19), True
+    est = _searched(win)
+    assert est.result is not None
+    at = win.final_leakage(est.v_r, 0.0)
+    assert at < 0.95 * velocity.curve_median(est.result.trials)  # the dip session 34's rule accepted
+    assert at < 1 - 2 * g.half_band / (g.n * g.prf)  # not white noise's level either
+    assert rc._incoherent(est, win, g, 0.95)
+
+    # the mover: a band-limited reconstructed spectrum at v_los 0, mapped to the channels by the bank's H
+    y = (np.abs(win.out_f) <= 0.9 * g.half_band) * np.exp(2j * math.pi * rng.random(len(win.out_f)))
+    target = sfft.ifft(channels.synthesise_channels(y[:, None].astype(np.complex64), win.bank(0.0))[..., 0], axis=1)
+    target *= math.sqrt(np.mean(np.abs(noise) ** 2) / np.mean(np.abs(target) ** 2))
+    profile = np.zeros(cells)
+    profile[15:18] = (0.5, 1.0, 0.5)
+    mover, _ = _small_window(noise + target[:, :, None] * (profile * np.exp(2j * math.pi * rng.random(cells))))
+    mover.cells, mover.compact = np.arange(14, 19), True
+    est = _searched(mover)
+    assert abs(est.v_r) < 2.0, est.v_r
+    assert rc._coherence_t(mover, est.v_r, 0.0)[0] > 4.0
+    assert not rc._incoherent(est, mover, g, 0.95)

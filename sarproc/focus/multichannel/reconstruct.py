@@ -396,6 +396,28 @@ class _Window:
         p = np.abs(spec) ** 2
         return p[np.abs(self.out_f) > self.g.half_band].sum(axis=0), p.sum(axis=0)
 
+    def coherence_looks(
+        self, v_r: float, v_a: float, cells: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Eq. 5's out-of-band and total energy per look (as leakage_looks, of what eq. 5 weighs: x_criterion where
+        there is one), and both as the channels would give them were their phases unrelated (no point target):
+        the filter bank's |P|^2 applied to the channels' power spectra, the cross-channel terms dropped. The looks
+        are the range frequencies of ``cells`` (default: the criterion's cells)."""
+        g = self.g
+        cells = self.cells if cells is None else cells
+        v_los = channels.line_of_sight_velocity(v_r, v_a, g.squint)
+        demod = deramp.doppler_shift_phasor(g.times, self.f_r, v_los, g.fc, sign=-1)
+        x = self.x_criterion if self.x_criterion is not None else self.x
+        s = sfft.fft(x * demod[None], axis=1, workers=-1)  # (N, n_az, L f_r)
+        if cells is not None:
+            s = sfft.fft(sfft.ifft(s, axis=-1, workers=-1)[:, :, cells], axis=-1, workers=-1)
+        bank = self.bank(v_a)
+        s = np.moveaxis(s, 0, 1)  # (n_az, N, looks)
+        z = np.abs(bank.matrix64 @ s) ** 2  # (n_az, N band, looks)
+        z0 = (np.abs(bank.matrix) ** 2).astype(np.float32) @ (np.abs(s) ** 2)
+        out = np.abs(self.out_f[bank.out_index]) > g.half_band  # (n_az, N band)
+        return z[out].sum(axis=0), z.sum(axis=(0, 1)), z0[out].sum(axis=0), z0.sum(axis=(0, 1))
+
     def output(self, v_r: float, v_a: float, t_c: float, slant_range: float, focus_along_track: bool) -> np.ndarray:
         """Target reconstructed at N PRF in (t', f_r), Doppler offset restored, FM rate matched to a static point."""
         g = self.g
@@ -480,6 +502,9 @@ def _own_run(profile: np.ndarray, margin: int = 2) -> np.ndarray:
 # A criterion cell stands this many robust standard deviations of the window's cell energies over their median
 # (_Window.keep_own_cells): with 33 cells, a Gaussian spread's 4 sigma passes a noise cell in about 1 window in 1000
 OWN_CELL_SIGMAS = 4.0
+# One-sided significance of _incoherent's test: a window without a point target passes its eq. 5 dip for one in a
+# hundred (a second stage after the CFAR, whose peaks are the windows tested)
+POINT_TARGET_ALPHA = 0.01
 NULL_FIT_HALF_WIDTH = 12  # azimuth samples either side of a mover's response kept and compared (_NullFit)
 NULL_FIT_CELLS = 3  # range cells either side of it
 PEAK_HALF_WIDTH = 8  # output samples either side of a focused detection searched for the refocused mover's peak
@@ -930,24 +955,73 @@ def _centre(
     return _Centre(y_dem, t_c, slant_range, own_cells, shift, centre_cell)
 
 
-def _incoherent(est: _Estimate, g: _Geometry, flat_above: float, compact: bool = True) -> bool:
-    """No dip at any velocity, or as much energy out of band as white noise has (1 - B_a / (N PRF)): nothing
-    band-limited to estimate.
+def _incoherent(est: _Estimate, win: _Window, g: _Geometry, flat_above: float) -> bool:
+    """No point target: eq. 5 has no dip at the estimate (over ``flat_above`` of the curve's median over the span
+    searched, velocity.curve_median), or as much energy out of band as white noise has (1 - B_a / (N PRF)), or its
+    dip is not significantly lower than the same channels with unrelated phases give (_coherence_t's Student's t
+    under its one-sided POINT_TARGET_ALPHA point).
 
-    "No dip": the criterion at the estimate over ``flat_above`` of its level. With ``compact`` (the criterion's
-    cells stand out of the window's floor, _Window.keep_own_cells) the level is the curve's median over the span
-    searched (velocity.curve_median); the plain median of the search's trials, crowded at its minima by the fine
-    grids, took mover campaign scene 010's M2 (both blind-velocity aliases at the bounds, 0.963 of it; 0.42 of the
-    curve's) and 013's M1 for no point target. Without (no cell stands out: the criterion is every cell's, noise
-    and all) the plain median still: there eq. 5 is the noise's own curve, which dips 6 % under its median (mover
-    campaign scenes 016 and 017, 0.941 in both: two noise detections at 20-21 dB tabled as movers), and the plain
-    median is what kept those out (0.977-0.992). docs/multichannel.md section 8."""
+    The significance test asks what eq. 5's dip is made of. A point target's channels are related by the phases of
+    its velocity: reconstructed at it, its energy comes together in band, and eq. 5 falls below what the same
+    channels with unrelated phases give (the filter bank's |P|^2 on their power spectra, _Window.coherence_looks).
+    Noise has no such relation: whatever dip its eq. 5 has (the extraction's band, where the trial Doppler centres
+    it: mover campaign scenes 016 and 017, two noise detections at 20-21 dB, 0.941 of the curve's median) the
+    unrelated phases give too (0.994, 0.997 of it). Session 34 kept those out by the trials' plain median (crowded
+    at the minima) where no criterion cell stands out of the window's floor, and so missed movers there; the test
+    replaces that switch. The dip itself is still asked for: a static point at 18.6 dB (scene 015's S2, eq. 5's
+    minimum pulled to 8.8 m/s by the noise, 0.972 of the curve's median) is coherent at any trial velocity
+    (docs/multichannel.md section 8, sig35 bullet).
+
+    The null fit's estimates (its mismatch, not eq. 5, is the criterion) keep session 34's comparison: their
+    mismatch at the estimate over ``flat_above`` of its curve's median where the criterion's cells stand out of the
+    window's floor (_Window.compact), of the plain median of the search's trials elsewhere."""
     assert est.result is not None
     at = est.criterion(est.v_r, est.v_a)
-    white = not est.by_null_fit and at >= 1 - 2 * g.half_band / (g.n * g.prf)
-    trials = est.result.trials
-    level = velocity.curve_median(trials) if compact else median(trials[:, 1])
-    return at > flat_above * level or white
+    if est.by_null_fit:
+        trials = est.result.trials
+        level = velocity.curve_median(trials) if win.compact else median(trials[:, 1])
+        return at > flat_above * level
+    if at >= 1 - 2 * g.half_band / (g.n * g.prf) or at > flat_above * velocity.curve_median(est.result.trials):
+        return True
+    t, dof = _coherence_t(win, est.v_r, est.v_a)
+    if dof < 1:
+        return False  # one look: nothing to test with; kept
+    from scipy.special import stdtrit  # Student's t quantile (scipy.stats' import costs about 0.5 s of CPU)
+
+    critical = float(stdtrit(dof, 1 - POINT_TARGET_ALPHA))
+    log.debug("reconstruct: eq. 5's coherence t %.2f, %d degrees of freedom (a point target: > %.2f)", t, dof, critical)
+    return not t > critical
+
+
+def _coherence_t(win: _Window, v_r: float, v_a: float) -> tuple[float, int]:
+    """Student's t of eq. 5's dip under its unrelated-phase level over the criterion's looks, and its degrees of
+    freedom (0: no test).
+
+    Per look k (a range frequency of the criterion's cells: noise is independent between them, and a point target
+    has the same azimuth spectrum in each), d_k = O_k / T_k - O0_k / T0_k: eq. 5 of the look less what its channels
+    give with their phases unrelated (_Window.coherence_looks). Without a point target (noise, or channels with no
+    common velocity) each d_k has mean 0 (the cross-channel terms' phases are uniform); a point target at (v_r,
+    v_a) makes every d_k negative. t = -mean(d) / (s / sqrt(n)), s the spread of d over looks with no point target
+    in them: the looks of the window's far cells (more than 2 from any criterion cell; noise with the same
+    processing, and d is free of the noise's level) where there are 3 or more, with n_far - 1 degrees of freedom;
+    else the criterion's own looks, n - 1. Student's under no point target either way: the far looks are
+    independent of the criterion's."""
+    o, t, o0, t0 = win.coherence_looks(v_r, v_a)
+    d = o / np.maximum(t, 1e-300) - o0 / np.maximum(t0, 1e-300)
+    n = len(d)
+    spread = d
+    if win.cells is not None:
+        far = np.nonzero(~_widened(win.cells, win.x.shape[-1], 2))[0]
+        if len(far) >= 3:
+            fo, ft, fo0, ft0 = win.coherence_looks(v_r, v_a, far)
+            spread = fo / np.maximum(ft, 1e-300) - fo0 / np.maximum(ft0, 1e-300)
+    if n < 1 or len(spread) < 2:
+        return 0.0, 0
+    sd = float(np.std(spread, ddof=1))
+    mean = float(np.mean(d))
+    if not sd > 0:
+        return (math.inf if mean < 0 else 0.0), len(spread) - 1
+    return -mean / (sd / math.sqrt(n)), len(spread) - 1
 
 
 def _tone_offset(z: np.ndarray, f_az: np.ndarray, reach: float) -> float | None:
@@ -1246,9 +1320,10 @@ def _estimate(
     Returns the target and the reasons to doubt it (true statements, for the caller to warn with the
     window's location). With ``static_below``, a window whose line-of-sight velocity from the first
     search is below it (m/s) is a static target: (None, ["static <v_los>"]); with ``flat_above``, one whose eq. 5 at the
-    estimate is above that fraction of its median over the first search's grid, or at white noise's
-    out-of-band fraction, has no velocity that explains it (noise, or a response that is no point
-    target): (None, ["incoherent"]). With ``null_fit`` (a detection on the clutter-null residual), an eq. 5
+    estimate is not significantly lower than its channels with unrelated phases give, or at white noise's
+    out-of-band fraction (or whose null fit mismatch is above that fraction of its curve's level), has no
+    velocity that explains it (noise, or a response that is no point target): (None, ["incoherent"];
+    _incoherent). With ``null_fit`` (a detection on the clutter-null residual), an eq. 5
     estimate that leaves more than NULL_FIT_MISMATCH of that residual unexplained was pulled by the clutter
     in the window: the velocity is searched again by the null fit (_NullFit), and that criterion kept.
 
@@ -1283,7 +1358,7 @@ def _estimate(
         )
         return None, ["incoherent"]
     centre = _centre(win, g, est, centre_range, centre_cell, null_fit)
-    if flat_above is not None and est.result is not None and _incoherent(est, g, flat_above, win.compact):
+    if flat_above is not None and est.result is not None and _incoherent(est, win, g, flat_above):
         return None, ["incoherent"]
     t_c, slant_range = centre.t_c, centre.slant_range
     if params.autofocus and params.along_track_velocity is None:
