@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import dataclasses
 import typing
+from pathlib import Path
 
 import pytest
+import yaml
 
 
 def assert_theory(report, irw_tol=0.03, db_tol=0.3, pos_cells=0.05, n_targets=None):
@@ -73,44 +75,39 @@ def scene_keys() -> list[str]:
     return keys
 
 
+XU_SCENE = Path(__file__).resolve().parents[1] / "configs" / "xu_scene.yaml"
+# scripts/mover_campaign.py's reduction of configs/xu_scene.yaml's radar: a 10 MHz, 15 us chirp at 12 MHz (12.5 m
+# range cells, a few seconds of reconstruct)
+CAMPAIGN_RADAR = {"bandwidth": "10 MHz", "range_sampling_rate": "12 MHz", "pulse_duration": "15 us"}
+
+
 def mover_campaign_scene(squint, pattern, n_receivers, spacing, mover, noise_snr=None, noise_seed=0, statics=()):
-    """A mover campaign scene's radar (scripts/mover_campaign.py: 10 MHz, 0.507 deg beam, 1.2 s) and one mover:
-    (name, azimuth m, range m, v_a, v_r m/s, amplitude)."""
+    """A mover campaign scene (configs/xu_scene.yaml reduced as scripts/mover_campaign.py reduces it: 10 MHz, 0.507
+    deg beam, 1.2 s) with one mover (name, azimuth m, range m, v_a, v_r m/s, amplitude) and static points (azimuth m,
+    range m, amplitude)."""
     name, az, rg, v_a, v_r, amp = mover
-    m = {
-        "acquisition": {"aperture_time": "1.2 s", "mode": "stripmap", "range_margin": "40 m"},
-        "effects": {
-            "antenna": {"azimuth_beamwidth": "0.507 deg", "pattern": pattern},
-            "azimuth_channels": {"n_receivers": n_receivers, "spacing": spacing},
-            "target_motion": {},
-        },
-        "geometry": {"reference_range": "600 km", "squint": f"{squint} deg"},
-        "platform": {"altitude": "0 m", "velocity": "7500 m/s"},
-        "radar": {
-            "bandwidth": "10 MHz",
-            "carrier_frequency": "9.6 GHz",
-            "prf": "2500 Hz",
-            "pulse_duration": "15 us",
-            "range_sampling_rate": "12 MHz",
-        },
-        "targets": {
-            "frame": "squint",
-            "points": [
-                {
-                    "name": name,
-                    "azimuth": f"{az} m",
-                    "range": f"{rg} m",
-                    "amplitude": amp,
-                    "velocity": [f"{v_a} m/s", f"{v_r} m/s", "0 m/s"],
-                }
-            ]
-            + [
-                {"name": f"S{k + 1}", "azimuth": f"{a} m", "range": f"{r} m", "amplitude": amp}
-                for k, (a, r, amp) in enumerate(statics)
-            ],
-        },
+    m = yaml.safe_load(XU_SCENE.read_text())
+    for section in ("reconstruct", "backproject", "evaluate"):  # the stages' parameters are the test's
+        m.pop(section, None)
+    m["radar"].update(CAMPAIGN_RADAR)
+    m["geometry"]["squint"] = f"{squint} deg"
+    m["effects"]["antenna"] = {"azimuth_beamwidth": "0.507 deg", "pattern": pattern}
+    m["effects"]["azimuth_channels"] = {"n_receivers": n_receivers, "spacing": spacing}
+    mover_point = {
+        "name": name,
+        "azimuth": f"{az} m",
+        "range": f"{rg} m",
+        "amplitude": amp,
+        "velocity": [f"{v_a} m/s", f"{v_r} m/s", "0 m/s"],
     }
-    m["simulation"] = {"waveform": "continuous"}  # as the campaign's scenes (configs/xu_scene.yaml)
+    m["targets"] = {
+        "frame": "squint",
+        "points": [mover_point]
+        + [
+            {"name": f"S{k + 1}", "azimuth": f"{a} m", "range": f"{r} m", "amplitude": amp}
+            for k, (a, r, amp) in enumerate(statics)
+        ],
+    }
     if noise_snr is not None:
         m["effects"]["noise"] = {"snr": f"{noise_snr} dB"}
         m["simulation"]["seed"] = noise_seed
