@@ -174,6 +174,68 @@ def keystone_columns(
 RESEED = 16  # samples along a box row between exact angles in keystone_box_sum
 
 
+@numba.njit(error_model="numpy", inline="always", cache=CACHE)
+def _rotated_sample(
+    c: np.ndarray,
+    x: np.ndarray,
+    orders: np.ndarray,
+    kappa: np.ndarray,
+    n_strips: int,
+    e_half: np.ndarray,
+    e_shalf: np.ndarray,
+    e_phase: np.ndarray,
+    e_l: complex,
+    tables: tuple,
+    two_pi_pow: float,
+    j_pow: complex,
+) -> complex:  # pragma: no cover - compiled
+    """One sample of :func:`keystone_box_sum` and :func:`keystone_warped_box_sum`: the strip sums at ridge
+    coordinates ``c`` from the rotations carried to it (e_half, e_shalf, e_phase per sign, e_l) and the
+    strips' constants ``tables`` (:func:`_strip_constants`' cos_dh .. sin_l, its shift times coef); ``x``:
+    scratch of c's size."""
+    cos_dh, sin_dh, cos_sdh, sin_sdh, shift, cos_l, sin_l, coef = tables
+    ndim = c.shape[0]
+    n_orders = orders.shape[0]
+    n_signs = e_half.shape[0]
+    width = 1.0 / n_strips
+    near = False
+    for a in range(ndim - 1):
+        for q in range(n_orders):
+            if abs(c[a] + 0.5 * orders[q, a]) < 1e-7:
+                near = True
+    total = 0j
+    if near:  # within 1e-7 of a removable singularity: the direct product evaluates the limit
+        for q in range(n_orders):
+            for a in range(ndim):
+                x[a] = c[a] + 0.5 * orders[q, a]
+            total += coef[q] * _product_at(x, kappa, n_strips)
+    else:
+        last = c[ndim - 1]
+        s_l, c_l = e_l.imag, e_l.real
+        for q in range(n_orders):
+            acc = 0j
+            for s in range(n_signs):
+                sh, ch = e_half[s].imag, e_half[s].real
+                ssh, csh = e_shalf[s].imag, e_shalf[s].real
+                den = sh * cos_dh[s, q] + ch * sin_dh[s, q]
+                if abs(den) < 1e-9:  # sin(S h) / sin(h) -> S cos(S h) / cos(h)
+                    dirichlet = (
+                        n_strips * (csh * cos_sdh[s, q] - ssh * sin_sdh[s, q]) / (ch * cos_dh[s, q] - sh * sin_dh[s, q])
+                    )
+                else:
+                    dirichlet = (ssh * cos_sdh[s, q] + csh * sin_sdh[s, q]) / den
+                acc += dirichlet * (e_phase[s] * shift[s, q])
+            x_l = last + 0.5 * orders[q, ndim - 1]
+            den_a = two_pi_pow
+            for a in range(ndim - 1):
+                den_a *= c[a] + 0.5 * orders[q, a]
+            on_axis = abs(x_l) < 1e-12
+            factor = width / den_a if on_axis else (s_l * cos_l[q] + c_l * sin_l[q]) / (math.pi * x_l * den_a)
+            total += acc * factor
+        total *= j_pow
+    return total
+
+
 @numba.njit(error_model="numpy", cache=CACHE)
 def keystone_box_sum(
     c0: np.ndarray,
@@ -198,6 +260,7 @@ def keystone_box_sum(
     for q in range(n_orders):
         for sg in range(n_signs):
             shift[sg, q] = coef[q] * shift[sg, q]
+    tables = (cos_dh, sin_dh, cos_sdh, sin_sdh, shift, cos_l, sin_l, coef)
     two_pi_pow = (2.0 * math.pi) ** (ndim - 1)
     j_pow = (-1j) ** (ndim - 1)
 
@@ -222,62 +285,25 @@ def keystone_box_sum(
     r_l = complex(math.cos(step_l), math.sin(step_l))
     c = np.empty(ndim)
     x = np.empty(ndim)
-    here = np.empty(ndim)
+    pix = np.empty(ndim)  # the sample's ridge coordinates
     e_l = 1.0 + 0j
     for i in range(n_rows):
         for a in range(ndim):
             c[a] = c0[a] + i * d_row[a]
         for j in range(n_cols):
+            for a in range(ndim):
+                pix[a] = c[a] + j * d_col[a]
             if j % RESEED == 0:  # the rotations' rounding kept to ~1e-14: exact angles every RESEED samples
-                for a in range(ndim):
-                    here[a] = c[a] + j * d_col[a]
                 for s in range(n_signs):
-                    half, phase = _strip_angles(here, signs[s], kappa, n_strips)
+                    half, phase = _strip_angles(pix, signs[s], kappa, n_strips)
                     e_half[s] = complex(math.cos(half), math.sin(half))
                     e_shalf[s] = complex(math.cos(n_strips * half), math.sin(n_strips * half))
                     e_phase[s] = complex(math.cos(phase), math.sin(phase))
-                arg = math.pi * width * here[ndim - 1]
+                arg = math.pi * width * pix[ndim - 1]
                 e_l = complex(math.cos(arg), math.sin(arg))
-            near = False
-            for a in range(ndim - 1):
-                for q in range(n_orders):
-                    if abs(c[a] + j * d_col[a] + 0.5 * orders[q, a]) < 1e-7:
-                        near = True
-            total = 0j
-            if near:  # within 1e-7 of a removable singularity: the direct product evaluates the limit
-                for q in range(n_orders):
-                    for a in range(ndim):
-                        x[a] = c[a] + j * d_col[a] + 0.5 * orders[q, a]
-                    total += coef[q] * _product_at(x, kappa, n_strips)
-            else:
-                last = c[ndim - 1] + j * d_col[ndim - 1]
-                s_l, c_l = e_l.imag, e_l.real
-                for q in range(n_orders):
-                    acc = 0j
-                    for s in range(n_signs):
-                        sh, ch = e_half[s].imag, e_half[s].real
-                        ssh, csh = e_shalf[s].imag, e_shalf[s].real
-                        den = sh * cos_dh[s, q] + ch * sin_dh[s, q]
-                        if abs(den) < 1e-9:  # sin(S h) / sin(h) -> S cos(S h) / cos(h)
-                            dirichlet = (
-                                n_strips
-                                * (csh * cos_sdh[s, q] - ssh * sin_sdh[s, q])
-                                / (ch * cos_dh[s, q] - sh * sin_dh[s, q])
-                            )
-                        else:
-                            dirichlet = (ssh * cos_sdh[s, q] + csh * sin_sdh[s, q]) / den
-                        acc += dirichlet * (e_phase[s] * shift[s, q])
-                    x_l = last + 0.5 * orders[q, ndim - 1]
-                    den_a = two_pi_pow
-                    for a in range(ndim - 1):
-                        den_a *= c[a] + j * d_col[a] + 0.5 * orders[q, a]
-                    if abs(x_l) < 1e-12:
-                        factor = width / den_a
-                    else:
-                        factor = (s_l * cos_l[q] + c_l * sin_l[q]) / (math.pi * x_l * den_a)
-                    total += acc * factor
-                total *= j_pow
-            out[i, j] = total
+            out[i, j] = _rotated_sample(
+                pix, x, orders, kappa, n_strips, e_half, e_shalf, e_phase, e_l, tables, two_pi_pow, j_pow
+            )
             for s in range(n_signs):
                 e_half[s] *= r_half[s]
                 e_shalf[s] *= r_shalf[s]
@@ -313,6 +339,7 @@ def keystone_warped_box_sum(
     for q in range(n_orders):
         for sg in range(n_signs):
             shift[sg, q] = coef[q] * shift[sg, q]
+    tables = (cos_dh, sin_dh, cos_sdh, sin_sdh, shift, cos_l, sin_l, coef)
     two_pi_pow = (2.0 * math.pi) ** (ndim - 1)
     j_pow = (-1j) ** (ndim - 1)
 
@@ -363,46 +390,9 @@ def keystone_warped_box_sum(
                 e_l = complex(math.cos(arg), math.sin(arg))
                 arg = math.pi * width * step[ndim - 1]
                 r_l = complex(math.cos(arg), math.sin(arg))
-            near = False
-            for a in range(ndim - 1):
-                for q in range(n_orders):
-                    if abs(c[a] + 0.5 * orders[q, a]) < 1e-7:
-                        near = True
-            total = 0j
-            if near:  # within 1e-7 of a removable singularity: the direct product evaluates the limit
-                for q in range(n_orders):
-                    for a in range(ndim):
-                        x[a] = c[a] + 0.5 * orders[q, a]
-                    total += coef[q] * _product_at(x, kappa, n_strips)
-            else:
-                last = c[ndim - 1]
-                s_l, c_l = e_l.imag, e_l.real
-                for q in range(n_orders):
-                    acc = 0j
-                    for s in range(n_signs):
-                        sh, ch = e_half[s].imag, e_half[s].real
-                        ssh, csh = e_shalf[s].imag, e_shalf[s].real
-                        den = sh * cos_dh[s, q] + ch * sin_dh[s, q]
-                        if abs(den) < 1e-9:  # sin(S h) / sin(h) -> S cos(S h) / cos(h)
-                            dirichlet = (
-                                n_strips
-                                * (csh * cos_sdh[s, q] - ssh * sin_sdh[s, q])
-                                / (ch * cos_dh[s, q] - sh * sin_dh[s, q])
-                            )
-                        else:
-                            dirichlet = (ssh * cos_sdh[s, q] + csh * sin_sdh[s, q]) / den
-                        acc += dirichlet * (e_phase[s] * shift[s, q])
-                    x_l = last + 0.5 * orders[q, ndim - 1]
-                    den_a = two_pi_pow
-                    for a in range(ndim - 1):
-                        den_a *= c[a] + 0.5 * orders[q, a]
-                    if abs(x_l) < 1e-12:
-                        factor = width / den_a
-                    else:
-                        factor = (s_l * cos_l[q] + c_l * sin_l[q]) / (math.pi * x_l * den_a)
-                    total += acc * factor
-                total *= j_pow
-            out[i, j] = total
+            out[i, j] = _rotated_sample(
+                c, x, orders, kappa, n_strips, e_half, e_shalf, e_phase, e_l, tables, two_pi_pow, j_pow
+            )
             for s in range(n_signs):
                 e_half[s] *= r_half[s]
                 e_shalf[s] *= r_shalf[s]
