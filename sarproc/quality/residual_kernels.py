@@ -236,6 +236,20 @@ def _rotated_sample(
     return total
 
 
+@numba.njit(error_model="numpy", inline="always", cache=CACHE)
+def _box_tables(
+    orders: np.ndarray, coef: np.ndarray, kappa: np.ndarray, n_strips: int, ndim: int
+) -> tuple:  # pragma: no cover - compiled
+    """The box kernels' constants: the signs, :func:`_rotated_sample`'s ``tables`` (the strip constants, shift
+    times coef) and the factors (2 pi)^(ndim - 1) and (-j)^(ndim - 1)."""
+    signs, cos_dh, sin_dh, cos_sdh, sin_sdh, shift, cos_l, sin_l = _strip_constants(orders, kappa, n_strips, ndim)
+    for q in range(orders.shape[0]):
+        for sg in range(shift.shape[0]):
+            shift[sg, q] = coef[q] * shift[sg, q]
+    tables = (cos_dh, sin_dh, cos_sdh, sin_sdh, shift, cos_l, sin_l, coef)
+    return signs, tables, (2.0 * math.pi) ** (ndim - 1), (-1j) ** (ndim - 1)
+
+
 @numba.njit(error_model="numpy", cache=CACHE)
 def keystone_box_sum(
     c0: np.ndarray,
@@ -253,16 +267,9 @@ def keystone_box_sum(
     in the image indices). Along a row every angle grows by a constant, so its sines and cosines are
     complex rotations, taken afresh at each row's start: no trigonometry per sample."""
     ndim = c0.shape[0]
-    n_orders = orders.shape[0]
     n_signs = 1 << (ndim - 1)
     width = 1.0 / n_strips
-    signs, cos_dh, sin_dh, cos_sdh, sin_sdh, shift, cos_l, sin_l = _strip_constants(orders, kappa, n_strips, ndim)
-    for q in range(n_orders):
-        for sg in range(n_signs):
-            shift[sg, q] = coef[q] * shift[sg, q]
-    tables = (cos_dh, sin_dh, cos_sdh, sin_sdh, shift, cos_l, sin_l, coef)
-    two_pi_pow = (2.0 * math.pi) ** (ndim - 1)
-    j_pow = (-1j) ** (ndim - 1)
+    signs, tables, two_pi_pow, j_pow = _box_tables(orders, coef, kappa, n_strips, ndim)
 
     out = np.empty((n_rows, n_cols), dtype=np.complex128)
     e_half = np.empty(n_signs, dtype=np.complex128)  # exp(j half), exp(j S half), exp(j phase) per sign
@@ -332,16 +339,9 @@ def keystone_warped_box_sum(
     w_cc. Along a row every angle is then quadratic in j, so its sines and cosines are complex rotations whose
     step turns by a constant: no trigonometry per sample, exact angles every :data:`RESEED` samples."""
     ndim = c0.shape[0]
-    n_orders = orders.shape[0]
     n_signs = 1 << (ndim - 1)
     width = 1.0 / n_strips
-    signs, cos_dh, sin_dh, cos_sdh, sin_sdh, shift, cos_l, sin_l = _strip_constants(orders, kappa, n_strips, ndim)
-    for q in range(n_orders):
-        for sg in range(n_signs):
-            shift[sg, q] = coef[q] * shift[sg, q]
-    tables = (cos_dh, sin_dh, cos_sdh, sin_sdh, shift, cos_l, sin_l, coef)
-    two_pi_pow = (2.0 * math.pi) ** (ndim - 1)
-    j_pow = (-1j) ** (ndim - 1)
+    signs, tables, two_pi_pow, j_pow = _box_tables(orders, coef, kappa, n_strips, ndim)
 
     out = np.empty((n_rows, n_cols), dtype=np.complex128)
     e_half = np.empty(n_signs, dtype=np.complex128)  # exp(j half), exp(j S half), exp(j phase) per sign

@@ -53,20 +53,7 @@ def test_criterion_cells_are_the_targets_not_noise_cells_a_few_percent_over_the_
     n, n_az, cells = 3, 8, 33
     x = (rng.standard_normal((n, n_az, cells)) + 1j * rng.standard_normal((n, n_az, cells))) / math.sqrt(2)
     x[:, :, 16] *= math.sqrt(10**0.6)
-    g = rc._Geometry(
-        prf=2500.0,
-        times=np.arange(n_az) / 2500.0,
-        out_times=np.arange(n * n_az) / 7500.0,
-        dx=np.array([0.0, 2.0, 4.0]),
-        tau0=np.array([0.0, 2.0, 4.0]) / 15000.0,
-        n=n,
-        velocity=7500.0,
-        squint=0.2,
-        fc=9.6e9,
-        half_band=2000.0,
-        fs=12e6,
-    )
-    win = rc._Window(sfft.fft(x, axis=-1), sfft.fftfreq(cells, 1 / 12e6), g, ReconstructParams())
+    win, _ = _small_window(x, half_band=2000.0)
     win.keep_own_cells()
     assert win.cells is not None and set(win.cells.tolist()) == set(range(14, 19)), win.cells
 
@@ -127,9 +114,9 @@ def test_a_noise_window_with_no_cell_over_the_floor_is_no_mover_and_a_weak_mover
     assert abs(found[0]["v_r"] + 5.00) < 3 * found[0]["v_r_sigma"], found
 
 
-def _small_window(x: np.ndarray) -> tuple[rc._Window, rc._Geometry]:
-    """A three-receiver window (N, n_az, cells) in (t, range cell) at 2.5 kHz PRF, B_a 2 kHz (white noise leaves
-    1 - 2000 / 7500 = 0.733 of its energy out of band)."""
+def _small_window(x: np.ndarray, half_band: float = 1000.0) -> tuple[rc._Window, rc._Geometry]:
+    """A three-receiver window (N, n_az, cells) in (t, range cell) at 2.5 kHz PRF, B_a 2 half_band (the default, 2
+    kHz: white noise leaves 1 - 2000 / 7500 = 0.733 of its energy out of band)."""
     n, n_az, cells = x.shape
     g = rc._Geometry(
         prf=2500.0,
@@ -141,7 +128,7 @@ def _small_window(x: np.ndarray) -> tuple[rc._Window, rc._Geometry]:
         velocity=7500.0,
         squint=0.2,
         fc=9.6e9,
-        half_band=1000.0,
+        half_band=half_band,
         fs=12e6,
     )
     return rc._Window(sfft.fft(x, axis=-1), sfft.fftfreq(cells, 1 / 12e6), g, ReconstructParams()), g
