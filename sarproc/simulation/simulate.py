@@ -219,7 +219,6 @@ def echo_block(
     """
     from sarproc.simulation import echo_aot
 
-    k = echo_aot.kernels(echo_target_samples(scene, plan, len(t)))
     r = scene.radar
     fs = r.range_sampling_rate
     t0 = float(plan.coords["range_time"][0])
@@ -228,15 +227,18 @@ def echo_block(
     tg = _target_positions(scene, t)
     amplitude = _scatterers(scene)[2]
     gate = np.ascontiguousarray(_gate_offsets(scene, t, 2 * r.reference_range / C), dtype=float)
-    if chirp is None:  # the window's chirp is the same for every block: simulate_blocks passes it once
-        chirp = echo_aot.window_chirp(k, n_rg, fs, r.chirp_rate)
+    band_limited = scene.params.simulation.waveform == "band_limited"
+    if not band_limited:  # the continuous chirp's kernels (a band-limited block never loads them)
+        k = echo_aot.kernels(echo_target_samples(scene, plan, len(t)))
+        if chirp is None:  # the window's chirp is the same for every block: simulate_blocks passes it once
+            chirp = echo_aot.window_chirp(k, n_rg, fs, r.chirp_rate)
     out: np.ndarray = np.zeros((len(plan.rx_offsets), len(t), n_rg), dtype=dtype)
     for ch, rx in enumerate(plan.rx_offsets):
         tau = _delays(pos + plan.tx_offset, pos + rx, tg)  # (n_t, n_tg)
         gains = np.broadcast_to(amplitude[None, :], tau.shape).astype(complex)
         for e in scene.effects:
             gains = e.gains(t, pos, tg, ch, gains)
-        if scene.params.simulation.waveform == "band_limited":
+        if band_limited:
             out[ch] = band_limited_echoes(r, tau, gains, gate, t0, n_rg)
             continue
         echo_aot.accumulate_echoes(
@@ -295,9 +297,21 @@ def band_limited_echoes(
     )
     n_fft = sfft.next_fast_len(impulses.shape[1] + len(replica) - 1)
     spec = sfft.fft(impulses, n_fft, axis=-1, workers=-1)
-    spec *= sfft.fft(replica, n_fft)
+    spec *= _replica_fft(radar, n_fft)
     full = sfft.ifft(spec, axis=-1, workers=-1, overwrite_x=True)
     return full[:, offset + half : offset + half + n_range]
+
+
+@functools.lru_cache(maxsize=4)
+def _replica_fft(radar: RadarMetadata, n_fft: int) -> np.ndarray:
+    """FFT of the chirp replica zero-padded to ``n_fft`` (its first sample first), made once per simulation:
+    every block and channel shares it (read only)."""
+    from sarproc.dsp.rangecomp import chirp_replica
+    from sarproc.product import fft as sfft
+
+    spectrum: np.ndarray = sfft.fft(chirp_replica(radar)[0], n_fft)
+    spectrum.flags.writeable = False
+    return spectrum
 
 
 @functools.lru_cache(maxsize=4)
@@ -331,8 +345,10 @@ def simulate_blocks(
     from sarproc.simulation import echo_aot
 
     n_rg = len(plan.coords["range_time"])
-    k = echo_aot.kernels(n_rg)
-    chirp = echo_aot.window_chirp(k, n_rg, scene.radar.range_sampling_rate, scene.radar.chirp_rate)
+    chirp = None  # band-limited blocks convolve the replica instead
+    if scene.params.simulation.waveform != "band_limited":
+        k = echo_aot.kernels(n_rg)
+        chirp = echo_aot.window_chirp(k, n_rg, scene.radar.range_sampling_rate, scene.radar.chirp_rate)
     # A finalize step (noise) adds to the complex128 echoes before the one rounding; without one the
     # kernel rounds into complex64 itself, in parallel, instead of a serial cast here.
     finalizing = [e for e in scene.effects if type(e).finalize is not Effect.finalize]
