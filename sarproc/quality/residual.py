@@ -171,6 +171,29 @@ def spectral_orders(ndim: int, max_order: int, max_total: int) -> np.ndarray:
     return np.array([n for n in grid if sum(abs(k) for k in n) <= max_total], dtype=int)
 
 
+# The orders' cap on sum |n_a| in 2D: max_order + 1 (a taper on one axis times a linear phase on the other), and
+# at least 4 from two orders on, so that the product of both axes' Hamming cosines (orders 0, +-2 on each: the
+# window's spectrum is their outer product, 0.23^2 = 0.053 at the (+-2, +-2) corners against 0.54^2 = 0.29 at the
+# centre) is in the basis. Without the corners the least squares cannot represent a 2D Hamming response: on the
+# analytic response (a rectangle's, sampled 0.45 nulls apart on +-6 nulls) 21 orders leave -42.7 dB at (2, 2)
+# nulls, 25 none (-296 dB); on configs/bp_hamming.yaml's O alone the residual floor is -49.26 dB with 21 (3 m from
+# O, on the diagonal), -68.55 dB with 25 (docs/product.md, "A window on both axes"). Four orders (a Gaussian
+# beam under Hamming) already hold (+-2, +-2); their full grid (81 against 57) bought nothing measured
+# (tests/quality/test_tapered_ridges.py's pair -51.78 -> -51.66 dB, lone target -52.18 -> -52.28) at 1.4-1.9 x
+# the evaluate time, so their cap stays max_order + 1.
+HAMMING_CORNER_TOTAL = 4
+
+
+def residual_model_orders(ndim: int, max_order: int) -> np.ndarray:
+    """The residual image's response-model orders (:func:`spectral_orders`) for ``max_order`` per axis: in 2D the
+    sum |n_a| capped at max_order + 1, or at :data:`HAMMING_CORNER_TOTAL` from two orders on (the corners of a
+    window applied on both axes); in 3D at max_order."""
+    if ndim != 2:
+        return spectral_orders(ndim, max_order, max_order)
+    cap = max_order + 1 if max_order < 2 else max(max_order + 1, HAMMING_CORNER_TOTAL)
+    return spectral_orders(ndim, max_order, cap)
+
+
 def _ridge_frame(position: npt.ArrayLike, V: npt.ArrayLike, nulls: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """(A, p): ridge coordinates in nulls are A @ (x - p) for image indices x."""
     A = np.linalg.inv(np.asarray(V, dtype=float).T) / np.asarray(nulls, dtype=float)[:, None]
@@ -1446,7 +1469,11 @@ def _fit_response_models(
     Returns one model per target (None for a target with no response)."""
     nulls = np.asarray(nulls, dtype=float)
     ndim = data.ndim
-    orders = spectral_orders(ndim, params.residual_orders, params.residual_orders + (1 if ndim == 2 else 0))
+    orders = (
+        residual_model_orders(ndim, params.residual_orders)
+        if support_shape  # the residual image's models; the crowded cuts' refits keep their cap (metrics)
+        else spectral_orders(ndim, params.residual_orders, params.residual_orders + (1 if ndim == 2 else 0))
+    )
     # each target's own null spacing (the image's without support_shape: the basis' widths are then fixed)
     own = [_start_nulls(data, f, nulls, orders, params) if support_shape else nulls for f in found]
     half = [np.ceil(params.fit_nulls * x).astype(int) for x in own]
@@ -2080,11 +2107,7 @@ def _residual_false_target(
         rms_db=db(float(np.sqrt(np.mean(mag[search] ** 2)))) if search.any() else -np.inf,
         exclusion_cells=params.exclusion_cells,
         misfit_targets=tuple(reports[i].name for i in misfit),
-        orders=len(
-            spectral_orders(
-                residual.ndim, params.residual_orders, params.residual_orders + (1 if residual.ndim == 2 else 0)
-            )
-        ),
+        orders=len(residual_model_orders(residual.ndim, params.residual_orders)),
     )
     listed = (
         _listed_false_targets(
