@@ -22,7 +22,7 @@ from sarproc.product.metadata import SINC_IRW_FACTOR, C
 from sarproc.product.sorted_values import unique_integers
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
+    from collections.abc import Callable, Mapping, Sequence
 
     from sarproc.focus.backprojection import BackprojectionPlan, PulseSet
     from sarproc.product.frames import Frame
@@ -283,6 +283,10 @@ def image_edge_aliases(image: Product, floor_db: float = EDGE_FLOOR_DB) -> list[
         return []
     radar = image.radar
     prf = float(radar.prf)
+    if radar.mode != "spotlight" and radar.azimuth_beamwidth > 0:  # a moving beam: as grid_ambiguity's
+        band = 2 * radar.velocity * math.cos(radar.squint) * radar.azimuth_beamwidth / radar.wavelength
+        if band <= prf:
+            return []
     tx = pos + np.asarray(aux.get("tx_offset", np.zeros(3)), float)
     rx = pos + np.asarray(aux.get("rx_offset", np.zeros((1, 3))), float)[0]
     c = len(pos) // 2
@@ -368,3 +372,20 @@ def _image_max(mag: np.ndarray, az: np.ndarray, rg: np.ndarray, at: np.ndarray, 
     """The largest of ``mag`` within ``rows`` x ``cols`` samples of the sample nearest ``at`` (azimuth, range)."""
     i, j = int(np.argmin(np.abs(az - at[0]))), int(np.argmin(np.abs(rg - at[1])))
     return float(mag[max(i - rows, 0) : i + rows + 1, max(j - cols, 0) : j + cols + 1].max())
+
+
+def listed_at_aliases(aliases: list[EdgeAlias], image: Product, entries: Sequence[Mapping[str, float]]) -> list[int]:
+    """For each alias, the index into ``entries`` (false targets' image-sample positions, {dim: sample}) of the
+    first within EDGE_ROWS rows and EDGE_COLUMNS + 1 range samples of where its side lobes enter (-1: none)."""
+    az = np.asarray(image.coords["azimuth"], float)
+    rg = np.asarray(image.coords["range"], float)
+    out = []
+    for a in aliases:
+        i, j = int(np.argmin(np.abs(az - a.entry_azimuth))), int(np.argmin(np.abs(rg - a.entry_range)))
+        near = [
+            k
+            for k, e in enumerate(entries)
+            if abs(e["azimuth"] - i) <= EDGE_ROWS and abs(e["range"] - j) <= EDGE_COLUMNS + 1
+        ]
+        out.append(near[0] if near else -1)
+    return out

@@ -10,6 +10,7 @@ test_squint_frame_shear); positions are checked in the squint frame.
 from __future__ import annotations
 
 import copy
+import json
 import logging
 import math
 from pathlib import Path
@@ -434,6 +435,36 @@ def test_edge_aliases_follow_their_target_and_are_silent_without(exp1_small, cap
     img, found, warned = _edge_aliases(column, None, caplog)
     assert found == {} and warned == []
     assert img.history[-1]["parameters"]["azimuth_edge_aliases"] == []
+
+
+def test_cli_names_the_edge_aliases_and_evaluate_attributes_its_false_targets(tmp_path):
+    """The small scene's CLI chain as mk/compare.mk runs it: fine-focus warns of the aliases, and evaluate's
+    report says that its false target #1 (the -32 dB one 'nearest W') and its guard-window figure are E's -1 PRF
+    alias's side lobes, #2 NE's (band-limited waveform: both listed). Failed before: neither said a word."""
+    cfg = load_cfg("an2012_exp1_small.yaml")
+    cfg.pop("simulation")  # band-limited (the default): E's and NE's both listed
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(yaml.safe_dump(cfg))
+    run = CliRunner().invoke
+    r = run(cli, ["simulate", str(scene), "-o", str(tmp_path / "raw.h5")])
+    assert r.exit_code == 0, r.output
+    for cmd, a, b in (("preprocess", "raw", "pre"), ("coarse-focus", "pre", "co"), ("fine-focus", "co", "img")):
+        r = run(cli, [cmd, str(tmp_path / f"{a}.h5"), "-o", str(tmp_path / f"{b}.h5"), "--config", str(scene)])
+        assert r.exit_code == 0, r.output
+    assert "target E's alias (-1 PRF) at azimuth -435.4 m, range 300342.5 m" in r.output
+    r = run(cli, ["evaluate", str(tmp_path / "img.h5"), "-o", str(tmp_path / "r.json"), "--config", str(scene)])
+    assert r.exit_code == 0, r.output
+    doc = json.loads((tmp_path / "r.json").read_text())
+    listed = doc["false_targets"]["entries"]
+    assert len(listed) == 2 and listed[0]["level_db"] > -33 and listed[0]["nearest_target"] == "W"
+    aliases = {(a["target"], a["order"]): a for a in doc["aliases"]}
+    assert set(aliases) == {("E", -1), ("NE", -1), ("W", 1), ("SW", 1)}
+    assert aliases[("E", -1)]["false_target"] == 1 and aliases[("E", -1)]["guard_window_figure"]
+    assert aliases[("NE", -1)]["false_target"] == 2 and not aliases[("NE", -1)]["guard_window_figure"]
+    assert aliases[("W", 1)]["false_target"] is None
+    e = aliases[("E", -1)]
+    assert abs(listed[0]["position"]["range"] - e["entry_range"]) < 6.3  # within a range sample of the entry
+    assert "false target #1 above and the guard-window figure" in r.output
 
 
 # ---------------------------------------------------------------------------------- hard cases
