@@ -280,6 +280,13 @@ def image_edge_aliases(image: Product, floor_db: float = EDGE_FLOOR_DB) -> list[
     targets, aux = image.targets, image.aux
     if image.data.ndim != 2 or targets is None or len(targets) == 0 or "platform_position" not in aux:
         return []
+    names = targets.dtype.names or ()
+    if (
+        tuple(image.dims) != ("azimuth", "range")
+        or "frame" not in image.attrs
+        or not {"azimuth", "range"} <= set(names)
+    ):
+        return []
     pos = np.asarray(aux["platform_position"], float)
     if len(pos) < 3:
         return []
