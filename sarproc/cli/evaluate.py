@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -376,10 +377,13 @@ def evaluate(
     all_names = [n.decode() if isinstance(n, bytes) else str(n) for n in product.targets["name"]]
     failures = check_report(report, expect, source=str(expect_path), all_names=all_names) if expect else []
     units = {d: UNITS.get(d, "") for d in product.dims}
+    aliases, alias_lines = _aliases(product, report)
 
     # Files first, the table last: a full disk fails before anything is printed.
     if output is not None:
         doc = {"input": str(input_path), "units": units, **report.to_dict()}
+        if aliases:
+            doc["aliases"] = aliases
         if expect is not None:
             doc["expect"] = _expect_doc(expect_path, failures)
         _write_text_atomic(output, json.dumps(doc, indent=2, allow_nan=False) + "\n", overwrite)
@@ -390,9 +394,45 @@ def evaluate(
         _plots(plot_dir, product, report, units, params)
         mark_published(plot_dir)
     if verbosity() >= 0:
-        click.echo(metrics_table(report, units), err=stdout_taken())
+        click.echo(metrics_table(report, units) + "".join(alias_lines), err=stdout_taken())
     if expect is not None:
         _verdict(failures, expect_path)
+
+
+def _aliases(product: Product, report: QualityReport) -> tuple[list[dict], list[str]]:
+    """The targets' PRF aliases in the image or putting their side lobes into it from beyond its azimuth edge
+    (:func:`sarproc.focus.backprojection_alias.image_edge_aliases`, as fine-focus warns of them), each with the
+    listed false target standing where it lands (1-based, null for none): for the JSON report, and as notes."""
+    if product.kind != "image" or product.data.ndim != 2:
+        return [], []
+    from sarproc.focus.backprojection_alias import image_edge_aliases, listed_at_aliases
+
+    found = image_edge_aliases(product)
+    if not found:
+        return [], []
+    entries = report.false_targets.entries if report.false_targets is not None else ()
+    at = listed_at_aliases(found, product, [e.index for e in entries])
+    guard = report.false_target_guard if report.residual is not None else report.false_target
+    at_guard = listed_at_aliases(found, product, [_sample_index(product, guard.position)] if guard else [])
+    doc = [
+        dataclasses.asdict(a) | {"false_target": k + 1 if k >= 0 else None, "guard_window_figure": g >= 0}
+        for a, k, g in zip(found, at, at_guard)
+    ]
+    lines = [
+        "\n\nTarget aliases the PRF folds into the image or next to its azimuth edge (the data cannot tell them "
+        "from their targets; not scatterers), measured in the image against their target:"
+    ]
+    for a, k, g in zip(found, at, at_guard):
+        where = ([f"false target #{k + 1} above"] if k >= 0 else []) + (["the guard-window figure"] if g >= 0 else [])
+        lines.append(f"\n- {a.describe()}" + (f": {' and '.join(where)}" if where else ""))
+    return doc, lines
+
+
+def _sample_index(product: Product, position: Mapping[str, float]) -> dict[str, float]:
+    """Image-sample indices {dim: sample} of a position in the frame's coordinates (nearest sample)."""
+    import numpy as np
+
+    return {d: float(np.argmin(np.abs(np.asarray(product.coords[d], float) - position[d]))) for d in position}
 
 
 def _target_names(target_names: str | None) -> list[str] | None:

@@ -18,15 +18,16 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sarproc.product.metadata import C
+from sarproc.product.metadata import SINC_IRW_FACTOR, C
 from sarproc.product.sorted_values import unique_integers
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
+    from collections.abc import Callable, Mapping, Sequence
 
     from sarproc.focus.backprojection import BackprojectionPlan, PulseSet
     from sarproc.product.frames import Frame
     from sarproc.product.metadata import RadarMetadata
+    from sarproc.product.model import Product
 
 GRID_SAMPLES = 256  # grid points per axis for the Doppler span (its extent, not its detail, matters)
 ORDERS = (-2, -1, 1, 2)  # alias orders searched (Doppler offsets of m PRF)
@@ -207,3 +208,223 @@ def messages(ambiguity: GridAmbiguity | None, floor_db: float = -50.0) -> list[s
         for a in sorted(strong, key=lambda a: -a.level_db)
     )
     return [f"{head}; in this image: {ghosts}"]
+
+
+# An alias whose main lobe lies beyond the image still puts its azimuth side lobes in: an unweighted response
+# falls only as 1 / (pi d / null), -31 dB at 11 nulls (paper 000's small scene, fine-focus and backprojection
+# alike). Warned about down to this level (measured in the image, and expected of a sinc at that distance).
+EDGE_FLOOR_DB = -50.0
+EDGE_ROWS = 3  # the image rows at its azimuth edge read for an entering side-lobe ridge
+EDGE_COLUMNS = 2  # and the range samples either side of where the ridge crosses the edge
+
+
+@dataclasses.dataclass(frozen=True)
+class EdgeAlias:
+    """A target's echoes focused a second time, ``order`` PRFs away, with its main lobe at (``azimuth``,
+    ``range``) beyond the image's azimuth edge and its azimuth side-lobe ridge entering the image at
+    (``entry_azimuth``, ``entry_range``): the image's level there (``level_db``) and a sinc's at that distance
+    (``expected_db``), both against the target's own peak in the image; ``distance`` m from the alias. An alias
+    whose main lobe is in the image (or within a resolution cell of its edge) has distance 0, expected 0 dB, and
+    for entry the strongest pixel near it (:func:`_strongest_near`: where the image put it)."""
+
+    target: str
+    order: int
+    azimuth: float
+    range: float
+    entry_azimuth: float
+    entry_range: float
+    distance: float  # along the azimuth axis, from the alias to the edge
+    level_db: float
+    expected_db: float
+
+    def describe(self) -> str:
+        if self.distance == 0:
+            return (
+                f"target {self.target}'s alias ({self.order:+d} PRF) in the image, where backprojection focuses it "
+                f"at azimuth {self.azimuth:.1f} m, range {self.range:.1f} m; strongest within {ALIAS_SEARCH_IRW:g} "
+                f"IRW of it at azimuth {self.entry_azimuth:.1f} m, range {self.entry_range:.1f} m, {self.level_db:.1f} "
+                f"dB against {self.target}"
+            )
+        return (
+            f"target {self.target}'s alias ({self.order:+d} PRF) at azimuth {self.azimuth:.1f} m, range "
+            f"{self.range:.1f} m, {self.distance:.0f} m beyond the edge, enters at azimuth {self.entry_azimuth:.1f} m, "
+            f"range {self.entry_range:.1f} m at {self.level_db:.1f} dB against {self.target} (a sinc's side lobe "
+            f"there: {self.expected_db:.1f} dB)"
+        )
+
+
+def edge_alias_message(aliases: list[EdgeAlias], prf: float) -> str:
+    """One warning for :func:`image_edge_aliases`' finds (empty string for none)."""
+    if not aliases:
+        return ""
+    return (
+        f"the PRF ({prf:.4g} Hz) folds targets' echoes onto aliases in or just beyond the image's azimuth edges "
+        "(the data cannot tell an alias from its target), and their azimuth side lobes enter the image: not "
+        "scatterers (a higher PRF, or an azimuth taper, lowers them): " + "; ".join(a.describe() for a in aliases)
+    )
+
+
+def image_edge_aliases(image: Product, floor_db: float = EDGE_FLOOR_DB) -> list[EdgeAlias]:
+    """Every static target's aliases (m = +-1, +-2 PRF, solved as :func:`grid_ambiguity` solves them, at the
+    aperture's centre pulse) that peak in a 2D image, or beyond its azimuth edge yet put their azimuth side lobes
+    into it, over ``floor_db``, both as measured in the image and as a sinc's side lobe at that distance would be.
+
+    An alias has its target's range history (same two-way path at the centre pulse), so its azimuth side-lobe
+    ridge, perpendicular to the line of sight, runs along the iso-range line through it: it enters the image on
+    the nearest azimuth edge where that line crosses it. That line is the target's own azimuth ridge too: an alias
+    farther from the edge than its target is left out (the target's own side lobes are the stronger there), and of
+    a target's aliases beyond one edge only the nearest is kept. Nothing is returned for a product without the pulses'
+    positions or a target table, or a 3D one."""
+    from sarproc.product.frames import frame_from_spec
+
+    targets, aux = image.targets, image.aux
+    if image.data.ndim != 2 or targets is None or len(targets) == 0 or "platform_position" not in aux:
+        return []
+    names = targets.dtype.names or ()
+    if (
+        tuple(image.dims) != ("azimuth", "range")
+        or "frame" not in image.attrs
+        or not {"azimuth", "range"} <= set(names)
+    ):
+        return []
+    pos = np.asarray(aux["platform_position"], float)
+    if len(pos) < 3:
+        return []
+    radar = image.radar
+    prf = float(radar.prf)
+    if radar.mode != "spotlight" and radar.azimuth_beamwidth > 0:  # a moving beam: as grid_ambiguity's
+        band = 2 * radar.velocity * math.cos(radar.squint) * radar.azimuth_beamwidth / radar.wavelength
+        if band <= prf:
+            return []
+    tx = pos + np.asarray(aux.get("tx_offset", np.zeros(3)), float)
+    rx = pos + np.asarray(aux.get("rx_offset", np.zeros((1, 3))), float)[0]
+    c = len(pos) // 2
+    v_tx, v_rx = np.gradient(tx, axis=0)[c] * prf, np.gradient(rx, axis=0)[c] * prf
+    wavelength = C / radar.carrier_frequency
+    frame = frame_from_spec(image.attrs["frame"])
+    az = np.asarray(image.coords["azimuth"], float)
+    rg = np.asarray(image.coords["range"], float)
+    if len(az) < 2 or len(rg) < 2:
+        return []
+
+    def history(coords: np.ndarray) -> tuple[float, float]:
+        xyz = np.asarray(frame.to_xyz(coords[0], coords[1]), float).reshape(1, 3)
+        path, doppler = _history(xyz, tx[c], rx[c], v_tx, v_rx, wavelength)
+        return float(path[0]), float(doppler[0])
+
+    mid = np.array([float(np.mean(az)), float(np.mean(rg))])
+    step = max(float(np.ptp(az)) / 100, 1e-3)
+    slope = (history(mid + [step, 0.0])[1] - history(mid)[1]) / step  # Hz per m of azimuth
+    if slope == 0:
+        return []
+    irw = [float(x) for x in image.attrs.get("theoretical_irw", (abs(az[1] - az[0]), abs(rg[1] - rg[0])))]
+    null = irw[0] / SINC_IRW_FACTOR
+    lo, hi = min(az[0], az[-1]), max(az[0], az[-1])
+    mag = np.abs(image.data)
+    far = EdgeAlias("", 0, 0.0, 0.0, 0.0, 0.0, math.inf, -math.inf, -math.inf)
+    nearest: dict[tuple[str, float], EdgeAlias] = {}
+    own = np.array([[float(t["azimuth"]), float(t["range"])] for t in targets])  # every target's own response
+    for row in targets:
+        if any(float(row[v]) != 0 for v in ("vx", "vy", "vz") if v in (targets.dtype.names or ())):
+            continue  # a mover focuses where it appears, not at its table position
+        p = np.array([float(row["azimuth"]), float(row["range"])])
+        if not (lo <= p[0] <= hi and min(rg[0], rg[-1]) <= p[1] <= max(rg[0], rg[-1])):
+            continue
+        peak = _image_max(mag, az, rg, p, 1, 1)
+        if not peak > 0:
+            continue
+        label = row["name"].decode() if isinstance(row["name"], bytes) else str(row["name"])
+        path_p, f_p = history(p)
+        for m in ORDERS:
+            q = _solve_alias((p[0] + m * prf / slope, p[1]), (path_p, f_p + m * prf), history)
+            if q is None:
+                continue
+            if lo - irw[0] <= q[0] <= hi + irw[0]:  # its main lobe in the image (or at its edge): a ghost proper
+                if min(rg[0], rg[-1]) <= q[1] <= max(rg[0], rg[-1]):
+                    found = _strongest_near(mag, az, rg, q, irw, own)
+                    if found is not None:
+                        level_db = 20 * math.log10(found[0] / peak) if found[0] > 0 else -math.inf
+                        alias = EdgeAlias(label, m, q[0], q[1], found[1], found[2], 0.0, level_db, 0.0)
+                        nearest[(label, float(m))] = alias
+                continue
+            edge = lo if q[0] < lo else hi
+            distance = abs(q[0] - edge)
+            # the target's own ridge reaches that edge along the same iso-range line: the alias must be nearer
+            if distance >= abs(p[0] - edge) or not distance < nearest.get((label, edge), far).distance:
+                continue
+            entry = _on_iso_path(history, path_p, edge, q[1])
+            if entry is None or not min(rg[0], rg[-1]) <= entry <= max(rg[0], rg[-1]):
+                continue
+            expected = 20 * math.log10(null / (math.pi * distance))
+            level = _image_max(mag, az, rg, np.array([edge, entry]), EDGE_ROWS - 1, EDGE_COLUMNS) / peak
+            level_db = 20 * math.log10(level) if level > 0 else -math.inf
+            nearest[(label, edge)] = EdgeAlias(label, m, q[0], q[1], edge, entry, distance, level_db, expected)
+    out = [a for a in nearest.values() if a.level_db > floor_db and a.expected_db > floor_db]
+    return sorted(out, key=lambda a: -a.level_db)
+
+
+def _on_iso_path(
+    history: Callable[[np.ndarray], tuple[float, float]], path: float, azimuth: float, start: float
+) -> float | None:
+    """The range at ``azimuth`` whose two-way path (centre pulse) is ``path``, by Newton from ``start``."""
+    r = float(start)
+    for _ in range(30):
+        value = history(np.array([azimuth, r]))[0] - path
+        if abs(value) < 1e-4:
+            return r
+        deriv = (history(np.array([azimuth, r + 1e-2]))[0] - path - value) / 1e-2
+        if deriv == 0:
+            return None
+        r -= value / deriv
+    return None
+
+
+# An alias inside an image whose processing maps positions right only within its declared scene (paper 000's
+# flow 2, the NLCS perturbation) lands displaced and defocused: 9-18 m (3.5-7 IRW) from where it peaks in
+# backprojection on configs/an2012_exp1.yaml's flow-2 image. Its strongest pixel is read within this many
+# azimuth IRWs of that place (and 2 range samples), every target's own main lobe (2 IRW) left out.
+ALIAS_SEARCH_IRW = 8.0
+
+
+def _strongest_near(
+    mag: np.ndarray, az: np.ndarray, rg: np.ndarray, q: tuple[float, float], irw: list[float], own: np.ndarray
+) -> tuple[float, float, float] | None:
+    """(|pixel|, azimuth, range) of the strongest pixel of ``mag`` within ALIAS_SEARCH_IRW azimuth IRWs and 2 range
+    samples of ``q``, outside 2 IRWs of every ``own`` (azimuth, range) position; None if all of it is left out."""
+    rows = np.flatnonzero(np.abs(az - q[0]) <= ALIAS_SEARCH_IRW * irw[0])
+    j = int(np.argmin(np.abs(rg - q[1])))
+    cols = np.arange(max(j - 2, 0), min(j + 3, len(rg)))
+    if rows.size == 0:
+        return None
+    A, R = np.meshgrid(az[rows], rg[cols], indexing="ij")
+    keep = np.ones(A.shape, dtype=bool)
+    for p in own:
+        keep &= (np.abs(A - p[0]) > 2 * irw[0]) | (np.abs(R - p[1]) > 2 * irw[1])
+    if not keep.any():
+        return None
+    w = np.where(keep, mag[np.ix_(rows, cols)], -1.0)
+    k = np.unravel_index(int(np.argmax(w)), w.shape)
+    return float(w[k]), float(A[k]), float(R[k])
+
+
+def _image_max(mag: np.ndarray, az: np.ndarray, rg: np.ndarray, at: np.ndarray, rows: int, cols: int) -> float:
+    """The largest of ``mag`` within ``rows`` x ``cols`` samples of the sample nearest ``at`` (azimuth, range)."""
+    i, j = int(np.argmin(np.abs(az - at[0]))), int(np.argmin(np.abs(rg - at[1])))
+    return float(mag[max(i - rows, 0) : i + rows + 1, max(j - cols, 0) : j + cols + 1].max())
+
+
+def listed_at_aliases(aliases: list[EdgeAlias], image: Product, entries: Sequence[Mapping[str, float]]) -> list[int]:
+    """For each alias, the index into ``entries`` (false targets' image-sample positions, {dim: sample}) of the
+    first within EDGE_ROWS rows and EDGE_COLUMNS + 1 range samples of where its side lobes enter (-1: none)."""
+    az = np.asarray(image.coords["azimuth"], float)
+    rg = np.asarray(image.coords["range"], float)
+    out = []
+    for a in aliases:
+        i, j = int(np.argmin(np.abs(az - a.entry_azimuth))), int(np.argmin(np.abs(rg - a.entry_range)))
+        near = [
+            k
+            for k, e in enumerate(entries)
+            if abs(e["azimuth"] - i) <= EDGE_ROWS and abs(e["range"] - j) <= EDGE_COLUMNS + 1
+        ]
+        out.append(near[0] if near else -1)
+    return out

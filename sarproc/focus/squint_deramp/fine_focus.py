@@ -61,7 +61,7 @@ from sarproc.focus.squint_deramp.preprocess import PRECISIONS, complex_dtype, co
 from sarproc.focus.squint_deramp.stolt import MODELS, SpectrumModel, stolt_resample
 from sarproc.product import fft as sfft
 from sarproc.product.config import as_dict, param
-from sarproc.product.errors import InputError, ProcessingError
+from sarproc.product.errors import IMAGE_DEFECT, InputError, ProcessingError
 from sarproc.product.frames import SquintFrame, SquintLrwcFrame, targets_in_frame
 from sarproc.product.metadata import SINC_IRW_FACTOR, C, RadarMetadata
 from sarproc.product.model import Product
@@ -587,8 +587,25 @@ def fine_focus(
     entry.update({k_: (float(v_) if isinstance(v_, (float, np.floating)) else v_) for k_, v_ in info.items()})
     entry["resolved_flow"] = int(choice.flow)
     entry["resolved_reference_range"] = r_ref
+    entry["azimuth_edge_aliases"] = _warn_edge_aliases(out)
     out.history.append(history_entry("fine_focus", entry))
     return out
+
+
+def _warn_edge_aliases(image: Product) -> list[dict]:
+    """Warn of every target alias whose azimuth side lobes enter the image from beyond its azimuth edge
+    (:func:`sarproc.focus.backprojection_alias.image_edge_aliases`): the image spans the PRF's unambiguous extent,
+    so a target near one edge has an alias just beyond the other, its side lobes in the data as in any image of
+    them (the exact backprojection's too), at -31 dB on configs/an2012_exp1_small.yaml. Returns them for the
+    history."""
+    from sarproc.focus.backprojection_alias import edge_alias_message, image_edge_aliases
+
+    aliases = image_edge_aliases(image)
+    if aliases:
+        log.warning("fine-focus: %s", edge_alias_message(aliases, float(image.radar.prf)), extra=IMAGE_DEFECT)
+    return [
+        {k: (round(v, 2) if isinstance(v, float) else v) for k, v in dataclasses.asdict(a).items()} for a in aliases
+    ]
 
 
 def _lrwc_frame(squint: float, altitude: float) -> SquintLrwcFrame:
