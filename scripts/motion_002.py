@@ -28,7 +28,7 @@ from sarproc.product.io import read_product
 from sarproc.quality.summary import SINC_ISLR_DB, SINC_PSLR_DB, worst_quality_json
 
 PSLR, ISLR = SINC_PSLR_DB, SINC_ISLR_DB
-EQ7 = "97.7300277783166 m"
+EQ7 = "97.72952064134462 m"
 
 
 def worst(targets: list[dict], names: Collection[str] | None = None) -> dict:
@@ -127,7 +127,7 @@ def main(argv: list[str] | None = None) -> None:
     for name, e in scenes.items():
         a = e["attrs"]
         k, r = e["k_max"], e["r_ac"]
-        corner = k * (97.7300277783166 / math.sqrt(2)) ** 2 * a["track_residual"] / (2 * r**2)
+        corner = k * (97.72952064134462 / math.sqrt(2)) ** 2 * a["track_residual"] / (2 * r**2)
         predicted = pslr_rise_db(corner)
         measured = e["two_step_eq7"]["pslr_db"] - base
         t7, t2, p, b = e["two_step_eq7"], e["two_step"], e["plain"], e["bp"]

@@ -276,7 +276,7 @@ def test_motion_002_sweeps_focus_the_same_raw_products_over_the_issues_ranges():
     assert max(values("along_track_velocity_error", "velocity")) == pytest.approx(1)
     # the eq. (7) case is the sub-image size of the straight scene's default (accuracy_002.yaml's radius)
     sizes = {t.setting.get("pfa2.subimage_size") for t in pfa.tasks} - {None}
-    assert sizes == {"97.7300277783166 m"}
+    assert sizes == {"97.72952064134462 m"}
 
 
 def test_004_hard_cases_reduce_the_paper_scene_and_put_the_grating_target_half_a_degree_past_the_lobe():
