@@ -505,6 +505,13 @@ OWN_CELL_SIGMAS = 4.0
 # One-sided significance of _incoherent's test: a window without a point target passes its eq. 5 dip for one in a
 # hundred (a second stage after the CFAR, whose peaks are the windows tested)
 POINT_TARGET_ALPHA = 0.01
+# Sets of looks with unrelated phases searched as eq. 5 is, whose t at their minimum gives the selection's shift of
+# _incoherent's critical value (_selection_shift; its standard error about 1 / sqrt(sets)): this many, fewer where
+# their looks would pass SELECTION_LOOKS (the CPU is the looks'), never under SELECTION_REPLICAS_MIN
+SELECTION_REPLICAS = 100
+SELECTION_LOOKS = 1000
+SELECTION_REPLICAS_MIN = 30
+SELECTION_BATCH = 25  # sets drawn at a time: a window whose t is far from the critical value stops after one batch
 NULL_FIT_HALF_WIDTH = 12  # azimuth samples either side of a mover's response kept and compared (_NullFit)
 NULL_FIT_CELLS = 3  # range cells either side of it
 PEAK_HALF_WIDTH = 8  # output samples either side of a focused detection searched for the refocused mover's peak
@@ -955,11 +962,15 @@ def _centre(
     return _Centre(y_dem, t_c, slant_range, own_cells, shift, centre_cell)
 
 
-def _incoherent(est: _Estimate, win: _Window, g: _Geometry, flat_above: float) -> bool:
+def _incoherent(
+    est: _Estimate, win: _Window, g: _Geometry, flat_above: float, params: ReconstructParams | None = None
+) -> bool:
     """No point target: eq. 5 has no dip at the estimate (over ``flat_above`` of the curve's median over the span
     searched, velocity.curve_median), or as much energy out of band as white noise has (1 - B_a / (N PRF)), or its
     dip is not significantly lower than the same channels with unrelated phases give (_coherence_t's Student's t
-    under its one-sided POINT_TARGET_ALPHA point).
+    under its one-sided POINT_TARGET_ALPHA point moved up by what the search's choice of its minimum gives noise,
+    _selection_shift; computed only where t lies between that point and the Bonferroni point of every trial the
+    search can reach).
 
     The significance test asks what eq. 5's dip is made of. A point target's channels are related by the phases of
     its velocity: reconstructed at it, its energy comes together in band, and eq. 5 falls below what the same
@@ -986,11 +997,21 @@ def _incoherent(est: _Estimate, win: _Window, g: _Geometry, flat_above: float) -
     t, dof = _coherence_t(win, est.v_r, est.v_a)
     if dof < 1:
         return False  # one look: nothing to test with; kept
-    from scipy.special import stdtrit  # Student's t quantile (scipy.stats' import costs about 0.5 s of CPU)
+    from scipy.special import stdtrit  # Student's t (scipy.stats' import costs about 0.5 s of CPU)
 
     critical = float(stdtrit(dof, 1 - POINT_TARGET_ALPHA))
     log.debug("reconstruct: eq. 5's coherence t %.2f, %d degrees of freedom (a point target: > %.2f)", t, dof, critical)
-    return not t > critical
+    if not t > critical:
+        return True
+    params = params if params is not None else ReconstructParams()
+    span = round((params.velocity_max - params.velocity_min) / params.velocity_step) + 1
+    # a t over the Bonferroni bound of every trial the search can reach is significant at its minimum too
+    if t > float(stdtrit(dof, 1 - POINT_TARGET_ALPHA / span)):
+        return False
+    n = len(win.cells) if win.cells is not None else win.x.shape[-1]
+    shift = _selection_shift(win, est.v_a, n, _far_cells(win), params, t - critical)
+    log.debug("reconstruct: the search's minimum shifts t by %.2f (a point target: > %.2f)", shift, critical + shift)
+    return not t > critical + shift
 
 
 def _coherence_t(win: _Window, v_r: float, v_a: float) -> tuple[float, int]:
@@ -1006,15 +1027,29 @@ def _coherence_t(win: _Window, v_r: float, v_a: float) -> tuple[float, int]:
     processing, and d is free of the noise's level) where there are 3 or more, with n_far - 1 degrees of freedom;
     else the criterion's own looks, n - 1. Student's under no point target either way: the far looks are
     independent of the criterion's."""
-    o, t, o0, t0 = win.coherence_looks(v_r, v_a)
-    d = o / np.maximum(t, 1e-300) - o0 / np.maximum(t0, 1e-300)
+    d = _coherence_d(*win.coherence_looks(v_r, v_a))
+    far = _far_cells(win)
+    spread = d if far is None else _coherence_d(*win.coherence_looks(v_r, v_a, far))
+    return _t(d, spread)
+
+
+def _coherence_d(o: np.ndarray, t: np.ndarray, o0: np.ndarray, t0: np.ndarray) -> np.ndarray:
+    """Per look, eq. 5 less its value with the channels' phases unrelated (_Window.coherence_looks' four arrays)."""
+    return o / np.maximum(t, 1e-300) - o0 / np.maximum(t0, 1e-300)
+
+
+def _far_cells(win: _Window) -> np.ndarray | None:
+    """The window's cells more than 2 from any criterion cell, where there are 3 or more (None: no criterion cells,
+    or too few far from them)."""
+    if win.cells is None:
+        return None
+    far = np.nonzero(~_widened(win.cells, win.x.shape[-1], 2))[0]
+    return far if len(far) >= 3 else None
+
+
+def _t(d: np.ndarray, spread: np.ndarray) -> tuple[float, int]:
+    """One-sided Student's t of mean(d) under 0 with the spread of ``spread``'s looks, and its degrees of freedom."""
     n = len(d)
-    spread = d
-    if win.cells is not None:
-        far = np.nonzero(~_widened(win.cells, win.x.shape[-1], 2))[0]
-        if len(far) >= 3:
-            fo, ft, fo0, ft0 = win.coherence_looks(v_r, v_a, far)
-            spread = fo / np.maximum(ft, 1e-300) - fo0 / np.maximum(ft0, 1e-300)
     if n < 1 or len(spread) < 2:
         return 0.0, 0
     sd = float(np.std(spread, ddof=1))
@@ -1022,6 +1057,96 @@ def _coherence_t(win: _Window, v_r: float, v_a: float) -> tuple[float, int]:
     if not sd > 0:
         return (math.inf if mean < 0 else 0.0), len(spread) - 1
     return -mean / (sd / math.sqrt(n)), len(spread) - 1
+
+
+def _selection_shift(
+    win: _Window, v_a: float, n: int, source: np.ndarray | None, params: ReconstructParams, margin: float | None = None
+) -> float:
+    """How far the eq. 5 search's choice of its minimum moves _coherence_t's t up where there is no point target.
+
+    The search takes the trial velocity where eq. 5 of the criterion's looks is lowest, and with it where their d_k
+    happen to be lowest: at the minimum, t is Student's shifted up (synthetic noise windows, docs/multichannel.md
+    section 8: mean 0.47, sd 1.01, 2.6 % over the one-sided 1 % point). The shift is the window's own: its
+    channels' azimuth power spectra (averaged over the ``source`` cells: the far cells, or all where there are
+    none), drawn with unrelated phases as sets of ``n`` independent looks, each set searched as eq. 5 is (the
+    bounds, coarse step and step of ``params``); the shift is the mean of their standardised -mean(d) at their own
+    minimum (d's spread over the batch's drawn looks at that trial). SELECTION_REPLICAS sets (fewer where ``n`` is
+    large), drawn SELECTION_BATCH at a time (a fixed seed: the same draws for every window); with ``margin`` (t
+    less its Student's critical value), the draws stop once ``margin`` is 3 standard errors from their mean (the
+    decision is made).
+    """
+    x = sfft.ifft(win.x_criterion if win.x_criterion is not None else win.x, axis=-1, workers=-1)
+    if source is not None:
+        x = x[..., source]
+    power = np.mean(np.abs(sfft.fft(x, axis=1, workers=-1)) ** 2, axis=-1)  # (N, n_az)
+    rng = np.random.default_rng(0)
+    replicas = max(SELECTION_REPLICAS_MIN, min(SELECTION_REPLICAS, math.ceil(SELECTION_LOOKS / n)))
+    shifts: list[float] = []
+    drawn = 0
+    while drawn < replicas:
+        batch = min(SELECTION_BATCH, replicas - drawn)
+        shifts += _replica_shifts(win, v_a, n, power, rng, batch, params)
+        drawn += batch
+        if margin is not None and len(shifts) >= 2:
+            se = float(np.std(shifts, ddof=1)) / math.sqrt(len(shifts))
+            if abs(margin - float(np.mean(shifts))) > 3 * se:
+                break
+    return float(np.mean(shifts)) if shifts else 0.0
+
+
+def _replica_shifts(
+    win: _Window,
+    v_a: float,
+    n: int,
+    power: np.ndarray,
+    rng: np.random.Generator,
+    replicas: int,
+    params: ReconstructParams,
+) -> list[float]:
+    """_selection_shift's standardised -mean(d) at the search's minimum of ``replicas`` sets of ``n`` looks drawn
+    with the azimuth power spectra ``power`` (N, n_az) and unrelated phases."""
+    g = win.g
+    k = replicas * n
+    draw = rng.standard_normal((*power.shape, k)) + 1j * rng.standard_normal((*power.shape, k))
+    noise = sfft.ifft(draw * np.sqrt(power / 2)[..., None], axis=1, workers=-1)
+    bank = win.bank(v_a)
+    out = np.abs(win.out_f[bank.out_index]) > g.half_band
+    p2 = (np.abs(bank.matrix) ** 2).astype(np.float32)
+    cache: dict[float, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+    def looks(u: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        key = round(u, 9)
+        if key not in cache:
+            v_los = channels.line_of_sight_velocity(key, v_a, g.squint)
+            demod = deramp.doppler_shift_phasor(g.times, np.zeros(1), v_los, g.fc, sign=-1)  # (n_az, 1)
+            s = np.moveaxis(sfft.fft(noise * demod[None], axis=1, workers=-1), 0, 1)  # (n_az, N, looks)
+            z = np.abs(bank.matrix64 @ s) ** 2
+            z0 = p2 @ (np.abs(s) ** 2)
+            o, t = z[out].sum(axis=0), z.sum(axis=(0, 1))
+            cache[key] = (o, t, _coherence_d(o, t, z0[out].sum(axis=0), z0.sum(axis=(0, 1))))
+        return cache[key]
+
+    shifts = []
+    for r in range(replicas):
+        a = slice(r * n, (r + 1) * n)
+
+        def criterion(u: float, a: slice = a) -> float:
+            o, t, _ = looks(u)
+            return float(o[a].sum() / max(float(t[a].sum()), 1e-300))
+
+        res = velocity.fast_search(
+            criterion,
+            params.velocity_min,
+            params.velocity_max,
+            params.velocity_step,
+            params.coarse_step,
+            exhaustive=params.search == "exhaustive",
+        )
+        d = looks(float(res.trials[int(np.argmin(res.trials[:, 1])), 0]))[2]
+        sd = float(np.std(d, ddof=1))
+        if sd > 0:
+            shifts.append(-float(np.mean(d[a])) / (sd / math.sqrt(n)))
+    return shifts
 
 
 def _tone_offset(z: np.ndarray, f_az: np.ndarray, reach: float) -> float | None:
@@ -1358,7 +1483,7 @@ def _estimate(
         )
         return None, ["incoherent"]
     centre = _centre(win, g, est, centre_range, centre_cell, null_fit)
-    if flat_above is not None and est.result is not None and _incoherent(est, win, g, flat_above):
+    if flat_above is not None and est.result is not None and _incoherent(est, win, g, flat_above, params):
         return None, ["incoherent"]
     t_c, slant_range = centre.t_c, centre.slant_range
     if params.autofocus and params.along_track_velocity is None:
