@@ -443,14 +443,8 @@ def test_cli_names_the_edge_aliases_and_evaluate_attributes_its_false_targets(tm
     alias's side lobes, #2 NE's (band-limited waveform: both listed). Failed before: neither said a word."""
     cfg = load_cfg("an2012_exp1_small.yaml")
     cfg.pop("simulation")  # band-limited (the default): E's and NE's both listed
-    scene = tmp_path / "scene.yaml"
-    scene.write_text(yaml.safe_dump(cfg))
+    scene, r = _cli_chain(tmp_path, cfg)
     run = CliRunner().invoke
-    r = run(cli, ["simulate", str(scene), "-o", str(tmp_path / "raw.h5")])
-    assert r.exit_code == 0, r.output
-    for cmd, a, b in (("preprocess", "raw", "pre"), ("coarse-focus", "pre", "co"), ("fine-focus", "co", "img")):
-        r = run(cli, [cmd, str(tmp_path / f"{a}.h5"), "-o", str(tmp_path / f"{b}.h5"), "--config", str(scene)])
-        assert r.exit_code == 0, r.output
     assert "target E's alias (-1 PRF) at azimuth -435.4 m, range 300342.5 m" in r.output
     r = run(cli, ["evaluate", str(tmp_path / "img.h5"), "-o", str(tmp_path / "r.json"), "--config", str(scene)])
     assert r.exit_code == 0, r.output
@@ -587,8 +581,9 @@ def test_hard_stolt_square_root_limit_is_masked():
 # ------------------------------------------------------------------------------------------- CLI
 
 
-def test_cli_chain_and_errors(tmp_path):
-    cfg = _small()
+def _cli_chain(tmp_path, cfg):
+    """scene.yaml from ``cfg`` in tmp_path, then simulate, preprocess, coarse-focus and fine-focus (raw, pre, co,
+    img.h5), each asserted to exit 0: (the scene's path, fine-focus's result)."""
     scene = tmp_path / "scene.yaml"
     scene.write_text(yaml.safe_dump(cfg))
     run = CliRunner().invoke
@@ -597,6 +592,12 @@ def test_cli_chain_and_errors(tmp_path):
     for cmd, a, b in (("preprocess", "raw", "pre"), ("coarse-focus", "pre", "co"), ("fine-focus", "co", "img")):
         r = run(cli, [cmd, str(tmp_path / f"{a}.h5"), "-o", str(tmp_path / f"{b}.h5"), "--config", str(scene)])
         assert r.exit_code == 0, r.output
+    return scene, r
+
+
+def test_cli_chain_and_errors(tmp_path):
+    scene, r = _cli_chain(tmp_path, _small())
+    run = CliRunner().invoke
     assert "flow 1" in r.output
     from sarproc.product.io import read_product
 
