@@ -4,7 +4,8 @@ item 5: "same numbers as before").
 tests/data/evaluate_small_configs.json holds the reports ``sarproc evaluate`` wrote, through the command line as
 the make targets run it, for two of the products scripts/evaluate_speed.py times: ``make demo``'s image
 (configs/demo.yaml, backproject, ``--expect``) and paper 000's small scene (configs/an2012_exp1_small.yaml,
-preprocess, coarse-focus, fine-focus), as the code at the commit named in the file wrote them. This tree's reports
+preprocess, coarse-focus, fine-focus), both simulated with the continuous chirp as when pinned (both configs follow
+the band-limited default since), as the code at the commit named in the file wrote them. This tree's reports
 of the same products, made by this tree's stages, must equal them within the bounds of
 tests/quality/test_evaluate_pinned.py (IRW 1e-4 relative, PSLR / ISLR 0.005 dB, residual figures 0.05 dB,
 positions 0.01 cell, every flag and name identical). On the machine that wrote the file they were equal to the
@@ -38,7 +39,8 @@ CHAINS: dict[str, list[list[str]]] = {
         ["evaluate", "image.h5", "-o", "report.json", "--expect", "demo_expect.yaml"],  # the report names it
     ],
     "000 small": [
-        ["simulate", "{cfg}/an2012_exp1_small.yaml", "-o", "raw.h5"],
+        # simulated continuous, as when pinned (an2012_exp1_small follows the band-limited default since session 36)
+        ["simulate", "an2012_exp1_small_continuous.yaml", "-o", "raw.h5"],
         ["preprocess", "raw.h5", "--config", "{cfg}/an2012_exp1_small.yaml", "-o", "pre.h5"],
         ["coarse-focus", "pre.h5", "--config", "{cfg}/an2012_exp1_small.yaml", "-o", "coarse.h5"],
         ["fine-focus", "coarse.h5", "--config", "{cfg}/an2012_exp1_small.yaml", "-o", "image.h5"],
@@ -57,6 +59,8 @@ def report(product: str, where: Path) -> dict:
     shutil.copy(root / "configs" / "demo_expect.yaml", where)
     demo = (root / "configs" / "demo.yaml").read_text()
     (where / "demo_continuous.yaml").write_text(demo + "\nsimulation: {waveform: continuous}\n")
+    small = (root / "configs" / "an2012_exp1_small.yaml").read_text()
+    (where / "an2012_exp1_small_continuous.yaml").write_text(small + "\nsimulation: {waveform: continuous}\n")
     for args in CHAINS[product]:
         args = [a.replace("{cfg}", str(root / "configs")) for a in args]
         done = subprocess.run(
