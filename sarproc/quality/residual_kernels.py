@@ -250,6 +250,25 @@ def _box_tables(
     return signs, tables, (2.0 * math.pi) ** (ndim - 1), (-1j) ** (ndim - 1)
 
 
+@numba.njit(error_model="numpy", inline="always", cache=CACHE)
+def _set_rotations(
+    e_half: np.ndarray,
+    e_shalf: np.ndarray,
+    e_phase: np.ndarray,
+    s: int,
+    half: float,
+    phase: float,
+    n_strips: int,
+    scale: float,
+) -> None:  # pragma: no cover - compiled
+    """Sign ``s``'s three rotations of the box kernels, exp(j scale half), exp(j scale S half), exp(j scale
+    phase) (S = ``n_strips``), into ``e_half``, ``e_shalf``, ``e_phase``. A scale of 1 or 2 is exact, so the
+    angles round as when written out."""
+    e_half[s] = complex(math.cos(scale * half), math.sin(scale * half))
+    e_shalf[s] = complex(math.cos(scale * n_strips * half), math.sin(scale * n_strips * half))
+    e_phase[s] = complex(math.cos(scale * phase), math.sin(scale * phase))
+
+
 @numba.njit(error_model="numpy", cache=CACHE)
 def keystone_box_sum(
     c0: np.ndarray,
@@ -285,9 +304,7 @@ def keystone_box_sum(
         dh0, dp0 = _strip_angles(zero, signs[s], kappa, n_strips)
         dh -= dh0
         dp -= dp0
-        r_half[s] = complex(math.cos(dh), math.sin(dh))
-        r_shalf[s] = complex(math.cos(n_strips * dh), math.sin(n_strips * dh))
-        r_phase[s] = complex(math.cos(dp), math.sin(dp))
+        _set_rotations(r_half, r_shalf, r_phase, s, dh, dp, n_strips, 1.0)
     step_l = math.pi * width * d_col[ndim - 1]
     r_l = complex(math.cos(step_l), math.sin(step_l))
     c = np.empty(ndim)
@@ -303,9 +320,7 @@ def keystone_box_sum(
             if j % RESEED == 0:  # the rotations' rounding kept to ~1e-14: exact angles every RESEED samples
                 for s in range(n_signs):
                     half, phase = _strip_angles(pix, signs[s], kappa, n_strips)
-                    e_half[s] = complex(math.cos(half), math.sin(half))
-                    e_shalf[s] = complex(math.cos(n_strips * half), math.sin(n_strips * half))
-                    e_phase[s] = complex(math.cos(phase), math.sin(phase))
+                    _set_rotations(e_half, e_shalf, e_phase, s, half, phase, n_strips, 1.0)
                 arg = math.pi * width * pix[ndim - 1]
                 e_l = complex(math.cos(arg), math.sin(arg))
             out[i, j] = _rotated_sample(
@@ -355,9 +370,7 @@ def keystone_warped_box_sum(
     t_phase = np.empty(n_signs, dtype=np.complex128)
     for s in range(n_signs):  # the angles are linear in c without a constant part: twice w_cc's angles
         th, tp = _strip_angles(w_cc, signs[s], kappa, n_strips)
-        t_half[s] = complex(math.cos(2.0 * th), math.sin(2.0 * th))
-        t_shalf[s] = complex(math.cos(2.0 * n_strips * th), math.sin(2.0 * n_strips * th))
-        t_phase[s] = complex(math.cos(2.0 * tp), math.sin(2.0 * tp))
+        _set_rotations(t_half, t_shalf, t_phase, s, th, tp, n_strips, 2.0)
     turn_l = 2.0 * math.pi * width * w_cc[ndim - 1]
     t_l = complex(math.cos(turn_l), math.sin(turn_l))
     row = np.empty(ndim)  # the row's constant and linear coefficients in j
@@ -379,13 +392,9 @@ def keystone_warped_box_sum(
                     step[a] = lin[a] + (2 * j + 1) * w_cc[a]  # c(j + 1) - c(j)
                 for s in range(n_signs):
                     half, phase = _strip_angles(c, signs[s], kappa, n_strips)
-                    e_half[s] = complex(math.cos(half), math.sin(half))
-                    e_shalf[s] = complex(math.cos(n_strips * half), math.sin(n_strips * half))
-                    e_phase[s] = complex(math.cos(phase), math.sin(phase))
+                    _set_rotations(e_half, e_shalf, e_phase, s, half, phase, n_strips, 1.0)
                     dh, dp = _strip_angles(step, signs[s], kappa, n_strips)
-                    r_half[s] = complex(math.cos(dh), math.sin(dh))
-                    r_shalf[s] = complex(math.cos(n_strips * dh), math.sin(n_strips * dh))
-                    r_phase[s] = complex(math.cos(dp), math.sin(dp))
+                    _set_rotations(r_half, r_shalf, r_phase, s, dh, dp, n_strips, 1.0)
                 arg = math.pi * width * c[ndim - 1]
                 e_l = complex(math.cos(arg), math.sin(arg))
                 arg = math.pi * width * step[ndim - 1]
