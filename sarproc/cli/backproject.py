@@ -98,9 +98,9 @@ def backproject(
     start = time.perf_counter()
     with naming(input_path, config_path, "backproject"):
         pulses = bp.pulse_set(raw, params)
-        bp.warn_ambiguities(raw, plan, pulses)
+        edge_aliases = bp.warn_ambiguities(raw, plan, pulses)
     raw.data = None  # type: ignore[assignment]  # the pulses hold what the blocks need: free the echoes
-    header = bp.image_product(raw, plan, params, np.broadcast_to(np.complex64(0), plan.shape))
+    header = bp.image_product(raw, plan, params, np.broadcast_to(np.complex64(0), plan.shape), edge_aliases)
     header.history[-1]["command"] = f"sarproc backproject {input_path}"
     blocks = bp.row_blocks(plan.shape, params.block_pixels)
     with (

@@ -1214,29 +1214,46 @@ def backproject(
     """
     plan = plan_backprojection(raw, params, grid_targets)
     pulses = pulse_set(raw, params)
-    warn_ambiguities(raw, plan, pulses)
+    edge_aliases = warn_ambiguities(raw, plan, pulses)
     img = np.empty(plan.shape, np.complex64)
     for rows, block in backproject_blocks(
         pulses, plan, params, row_blocks(plan.shape, params.block_pixels), progress=progress
     ):
         img[rows] = block
-    return image_product(raw, plan, params, img)
+    return image_product(raw, plan, params, img, edge_aliases)
 
 
-def warn_ambiguities(raw: Product, plan: BackprojectionPlan, pulses: PulseSet) -> None:
-    """Warn where the pulses undersample the grid's Doppler, naming the targets whose ghosts land in it
-    (:mod:`sarproc.focus.backprojection_alias`); silent where the grid's Doppler fits the PRF."""
+def warn_ambiguities(raw: Product, plan: BackprojectionPlan, pulses: PulseSet) -> list[dict]:
+    """Warn where the pulses undersample the grid's Doppler, naming the targets whose ghosts land in it, and of
+    the targets' aliases beyond the grid's azimuth edge whose side lobes enter it (a grid as wide as the PRF's
+    unambiguous extent: paper 000's small scene) (:mod:`sarproc.focus.backprojection_alias`); silent where
+    neither reaches the image. Returns the edge aliases for the image's history, as fine-focus records them."""
     from sarproc.focus import backprojection_alias
 
     times = np.asarray(raw.coords["azimuth_time"], float)
     ambiguity = backprojection_alias.grid_ambiguity(plan, pulses, times, raw.radar)
     for message in backprojection_alias.messages(ambiguity):
         log.warning("backproject: %s", message, extra=IMAGE_DEFECT)
+    # a grid wider than the PRF's extent holds the ghosts themselves (warned of above), whose lobes at its edge
+    # cannot be told from an entering alias's
+    ambiguous = ambiguity is not None and ambiguity.ambiguous
+    edge = [] if ambiguous else backprojection_alias.grid_edge_aliases(plan, pulses, times, raw.radar)
+    if edge:
+        message = backprojection_alias.edge_alias_message(edge, float(raw.radar.prf))
+        log.warning("backproject: %s", message, extra=IMAGE_DEFECT)
+    return backprojection_alias.edge_alias_records(edge)
 
 
-def image_product(raw: Product, plan: BackprojectionPlan, params: BackprojectParams, img: np.ndarray) -> Product:
+def image_product(
+    raw: Product,
+    plan: BackprojectionPlan,
+    params: BackprojectParams,
+    img: np.ndarray,
+    edge_aliases: list[dict] | None = None,
+) -> Product:
     """The image product of ``plan`` around ``img`` (the full image, or any placeholder of its shape when the
-    data are streamed to disk block by block)."""
+    data are streamed to disk block by block); ``edge_aliases``: :func:`warn_ambiguities`' return, for the
+    history."""
     from sarproc.product.io import history_entry
 
     out = raw.derive(
@@ -1248,5 +1265,8 @@ def image_product(raw: Product, plan: BackprojectionPlan, params: BackprojectPar
         attrs=plan.attrs,
     )
     # the history records the upsampling used, the engine's default included
-    out.history.append(history_entry("backproject", as_dict(params) | {"upsample": params.range_upsample}))
+    entry = as_dict(params) | {"upsample": params.range_upsample}
+    if edge_aliases is not None:
+        entry["azimuth_edge_aliases"] = edge_aliases
+    out.history.append(history_entry("backproject", entry))
     return out

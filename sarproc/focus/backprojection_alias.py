@@ -123,12 +123,7 @@ def grid_ambiguity(
     v_tx, v_rx = np.gradient(tx, times, axis=0)[c], np.gradient(rx, times, axis=0)[c]
     wavelength = C / pulses.carrier_frequency
     frame = plan.frame
-
-    def history(coords: np.ndarray) -> tuple[float, float]:
-        xyz = np.asarray(frame.to_xyz(coords[0], coords[1]), float).reshape(1, 3)
-        path, doppler = _history(xyz, tx[c], rx[c], v_tx, v_rx, wavelength)
-        return float(path[0]), float(doppler[0])
-
+    history = _centre_history(frame, tx[c], rx[c], v_tx, v_rx, wavelength)
     az = plan.azimuth[unique_integers(np.linspace(0, len(plan.azimuth) - 1, GRID_SAMPLES).astype(int))]
     rg = plan.range[unique_integers(np.linspace(0, len(plan.range) - 1, GRID_SAMPLES).astype(int))]
     grid_az, grid_rg = np.meshgrid(az, rg, indexing="ij")
@@ -264,6 +259,12 @@ def edge_alias_message(aliases: list[EdgeAlias], prf: float) -> str:
     )
 
 
+def edge_alias_records(aliases: list[EdgeAlias]) -> list[dict]:
+    """The edge aliases as an image's history records them (floats to 0.01)."""
+    rounded = [dataclasses.asdict(a).items() for a in aliases]
+    return [{k: (round(float(v), 2) if isinstance(v, float) else v) for k, v in items} for items in rounded]
+
+
 def image_edge_aliases(image: Product, floor_db: float = EDGE_FLOOR_DB) -> list[EdgeAlias]:
     """Every static target's aliases (m = +-1, +-2 PRF, solved as :func:`grid_ambiguity` solves them, at the
     aperture's centre pulse) that peak in a 2D image, or beyond its azimuth edge yet put their azimuth side lobes
@@ -288,78 +289,203 @@ def image_edge_aliases(image: Product, floor_db: float = EDGE_FLOOR_DB) -> list[
     ):
         return []
     pos = np.asarray(aux["platform_position"], float)
-    if len(pos) < 3:
-        return []
+    az = np.asarray(image.coords["azimuth"], float)
+    rg = np.asarray(image.coords["range"], float)
     radar = image.radar
     prf = float(radar.prf)
-    if radar.mode != "spotlight" and radar.azimuth_beamwidth > 0:  # a moving beam: as grid_ambiguity's
-        band = 2 * radar.velocity * math.cos(radar.squint) * radar.azimuth_beamwidth / radar.wavelength
-        if band <= prf:
-            return []
+    if len(pos) < 3 or len(az) < 2 or len(rg) < 2 or _beam_band_fits(radar):
+        return []
     tx = pos + np.asarray(aux.get("tx_offset", np.zeros(3)), float)
     rx = pos + np.asarray(aux.get("rx_offset", np.zeros((1, 3))), float)[0]
     c = len(pos) // 2
     v_tx, v_rx = np.gradient(tx, axis=0)[c] * prf, np.gradient(rx, axis=0)[c] * prf
-    wavelength = C / radar.carrier_frequency
-    frame = frame_from_spec(image.attrs["frame"])
-    az = np.asarray(image.coords["azimuth"], float)
-    rg = np.asarray(image.coords["range"], float)
-    if len(az) < 2 or len(rg) < 2:
+    history = _centre_history(
+        frame_from_spec(image.attrs["frame"]), tx[c], rx[c], v_tx, v_rx, C / radar.carrier_frequency
+    )
+    irw = [float(x) for x in image.attrs.get("theoretical_irw", (abs(az[1] - az[0]), abs(rg[1] - rg[0])))]
+    found = _edge_candidates(targets, az, rg, irw, prf, history, floor_db, inside=True)
+    blocks = [np.abs(image.data[w]) for f in found for w in (f.peak, f.read)]
+    return _edge_levels(found, blocks, targets, az, rg, irw, floor_db)
+
+
+def grid_edge_aliases(
+    plan: BackprojectionPlan, pulses: PulseSet, times: np.ndarray, radar: RadarMetadata, floor_db: float = EDGE_FLOOR_DB
+) -> list[EdgeAlias]:
+    """:func:`image_edge_aliases` of a backprojection grid before any pixel is summed: the aliases beyond its
+    azimuth edge whose side lobes enter it, read where they enter and at their targets' peaks by backprojecting
+    those few pixels from the pulses (one pass over them). The aliases inside the grid are :func:`grid_ambiguity`'s."""
+    from sarproc.focus.backprojection import backproject_points
+
+    if plan.elevation is not None or len(times) < 3 or plan.targets is None:
         return []
+    targets = np.asarray(plan.targets)
+    az, rg = np.asarray(plan.azimuth, float), np.asarray(plan.range, float)
+    if len(targets) == 0:
+        return []
+    if len(az) < 2 or len(rg) < 2 or _beam_band_fits(radar):
+        return []
+    c = len(times) // 2
+    tx, rx = pulses.tx, pulses.rx[0]
+    v_tx, v_rx = np.gradient(tx, times, axis=0)[c], np.gradient(rx, times, axis=0)[c]
+    history = _centre_history(plan.frame, tx[c], rx[c], v_tx, v_rx, C / pulses.carrier_frequency)
+    irw = [float(x) for x in plan.attrs.get("theoretical_irw", (abs(az[1] - az[0]), abs(rg[1] - rg[0])))]
+    found = _edge_candidates(targets, az, rg, irw, float(radar.prf), history, floor_db, inside=False)
+    if not found:
+        return []
+    grids = [np.meshgrid(az[r], rg[k], indexing="ij") for f in found for r, k in (f.peak, f.read)]
+    flat_az = np.concatenate([a.ravel() for a, _ in grids])
+    flat_rg = np.concatenate([b.ravel() for _, b in grids])
+    xyz = np.asarray(plan.frame.to_xyz(flat_az, flat_rg), float).reshape(-1, 3)
+    values = np.zeros(len(xyz), complex)
+    for rc, rx_k in zip(pulses.channels, pulses.rx):  # the channels summed coherently, as the image sums them
+        values += backproject_points(
+            rc, pulses.range_time, pulses.tx, rx_k, xyz, pulses.carrier_frequency, gate_offset=pulses.gate_offset
+        )
+    ends = np.cumsum([a.size for a, _ in grids])
+    blocks = [np.abs(v).reshape(a.shape) for v, (a, _) in zip(np.split(values, ends[:-1]), grids)]
+    return _edge_levels(found, blocks, targets, az, rg, irw, floor_db)
+
+
+def _beam_band_fits(radar: RadarMetadata) -> bool:
+    """A beam that moves with the platform (stripmap, sliding spotlight) whose Doppler band fits the PRF: no
+    target aliases at one range (as :func:`grid_ambiguity` reasons)."""
+    if radar.mode == "spotlight" or not radar.azimuth_beamwidth > 0:
+        return False
+    band = 2 * radar.velocity * math.cos(radar.squint) * radar.azimuth_beamwidth / radar.wavelength
+    return bool(band <= radar.prf)
+
+
+def _centre_history(
+    frame: Frame, tx: np.ndarray, rx: np.ndarray, v_tx: np.ndarray, v_rx: np.ndarray, wavelength: float
+) -> Callable[[np.ndarray], tuple[float, float]]:
+    """(two-way path, Doppler) of one point's frame coordinates (azimuth, range) at the centre pulse."""
 
     def history(coords: np.ndarray) -> tuple[float, float]:
         xyz = np.asarray(frame.to_xyz(coords[0], coords[1]), float).reshape(1, 3)
-        path, doppler = _history(xyz, tx[c], rx[c], v_tx, v_rx, wavelength)
+        path, doppler = _history(xyz, tx, rx, v_tx, v_rx, wavelength)
         return float(path[0]), float(doppler[0])
 
+    return history
+
+
+Window = tuple[slice, slice]  # rows and columns of the image grid
+
+
+@dataclasses.dataclass(frozen=True)
+class _EdgeCandidate:
+    """An alias found from the geometry alone, with the image windows its level is read on: its target's peak and
+    where it is (``edge`` None: its main lobe in the image, read at the strongest pixel near it) or where its side
+    lobes enter the image (at azimuth ``edge``, range ``entry_range``; a sinc's level there ``expected_db``)."""
+
+    target: str
+    order: int
+    alias: tuple[float, float]
+    peak: Window
+    read: Window
+    edge: float | None
+    distance: float
+    entry_range: float
+    expected_db: float
+
+
+def _window(az: np.ndarray, rg: np.ndarray, at: Sequence[float] | np.ndarray, rows: int, cols: int) -> Window:
+    """The ``rows`` x ``cols`` samples either side of the sample nearest ``at`` (azimuth, range)."""
+    i, j = int(np.argmin(np.abs(az - at[0]))), int(np.argmin(np.abs(rg - at[1])))
+    return slice(max(i - rows, 0), i + rows + 1), slice(max(j - cols, 0), j + cols + 1)
+
+
+def _edge_candidates(
+    targets: np.ndarray,
+    az: np.ndarray,
+    rg: np.ndarray,
+    irw: list[float],
+    prf: float,
+    history: Callable[[np.ndarray], tuple[float, float]],
+    floor_db: float,
+    inside: bool,
+) -> list[_EdgeCandidate]:
+    """The static targets' aliases beyond the grid's azimuth edge that :func:`image_edge_aliases` reads (and,
+    ``inside``, those whose main lobe is in the grid), from the geometry alone: of each target's beyond one edge
+    the nearest, where a sinc's side lobe there is over ``floor_db`` (so nothing is read for a grid much
+    narrower than the aliases' spacing)."""
+    lo, hi = min(az[0], az[-1]), max(az[0], az[-1])
+    r_lo, r_hi = min(rg[0], rg[-1]), max(rg[0], rg[-1])
     mid = np.array([float(np.mean(az)), float(np.mean(rg))])
     step = max(float(np.ptp(az)) / 100, 1e-3)
     slope = (history(mid + [step, 0.0])[1] - history(mid)[1]) / step  # Hz per m of azimuth
     if slope == 0:
         return []
-    irw = [float(x) for x in image.attrs.get("theoretical_irw", (abs(az[1] - az[0]), abs(rg[1] - rg[0])))]
     null = irw[0] / SINC_IRW_FACTOR
-    lo, hi = min(az[0], az[-1]), max(az[0], az[-1])
-    mag = np.abs(image.data)
-    far = EdgeAlias("", 0, 0.0, 0.0, 0.0, 0.0, math.inf, -math.inf, -math.inf)
-    nearest: dict[tuple[str, float], EdgeAlias] = {}
-    own = np.array([[float(t["azimuth"]), float(t["range"])] for t in targets])  # every target's own response
+    names = targets.dtype.names or ()
+    nearest: dict[tuple, _EdgeCandidate] = {}
     for row in targets:
-        if any(float(row[v]) != 0 for v in ("vx", "vy", "vz") if v in (targets.dtype.names or ())):
+        if any(float(row[v]) != 0 for v in ("vx", "vy", "vz") if v in names):
             continue  # a mover focuses where it appears, not at its table position
         p = np.array([float(row["azimuth"]), float(row["range"])])
-        if not (lo <= p[0] <= hi and min(rg[0], rg[-1]) <= p[1] <= max(rg[0], rg[-1])):
-            continue
-        peak = _image_max(mag, az, rg, p, 1, 1)
-        if not peak > 0:
+        if not (lo <= p[0] <= hi and r_lo <= p[1] <= r_hi):
             continue
         label = row["name"].decode() if isinstance(row["name"], bytes) else str(row["name"])
+        peak = _window(az, rg, p, 1, 1)
         path_p, f_p = history(p)
-        for m in ORDERS:
-            q = _solve_alias((p[0] + m * prf / slope, p[1]), (path_p, f_p + m * prf), history)
-            if q is None:
-                continue
+        solved = [(m, _solve_alias((p[0] + m * prf / slope, p[1]), (path_p, f_p + m * prf), history)) for m in ORDERS]
+        aliases = [(m, q) for m, q in solved if q is not None]
+        # the target's responses in the image: itself and its aliases whose main lobe is in it
+        responses = [p[0]] + [q[0] for _, q in aliases if lo - irw[0] <= q[0] <= hi + irw[0]]
+        for m, q in aliases:
             if lo - irw[0] <= q[0] <= hi + irw[0]:  # its main lobe in the image (or at its edge): a ghost proper
-                if min(rg[0], rg[-1]) <= q[1] <= max(rg[0], rg[-1]):
-                    found = _strongest_near(mag, az, rg, q, irw, own)
-                    if found is not None:
-                        level_db = 20 * math.log10(found[0] / peak) if found[0] > 0 else -math.inf
-                        alias = EdgeAlias(label, m, q[0], q[1], found[1], found[2], 0.0, level_db, 0.0)
-                        nearest[(label, float(m))] = alias
+                rows = np.flatnonzero(np.abs(az - q[0]) <= ALIAS_SEARCH_IRW * irw[0])
+                if inside and r_lo <= q[1] <= r_hi and rows.size:
+                    j = int(np.argmin(np.abs(rg - q[1])))
+                    read = slice(int(rows[0]), int(rows[-1]) + 1), slice(max(j - 2, 0), min(j + 3, len(rg)))
+                    nearest[("in", label, m)] = _EdgeCandidate(label, m, q, peak, read, None, 0.0, q[1], 0.0)
                 continue
             edge = lo if q[0] < lo else hi
             distance = abs(q[0] - edge)
-            # the target's own ridge reaches that edge along the same iso-range line: the alias must be nearer
-            if distance >= abs(p[0] - edge) or not distance < nearest.get((label, edge), far).distance:
+            # the target's own ridge reaches that edge along the same iso-range line, and so do its aliases' in
+            # the image (every alias has the target's path): the alias must be nearer the edge than all of them
+            known = nearest.get(("edge", label, edge))
+            nearer = min(abs(x - edge) for x in responses)
+            if distance >= nearer or (known is not None and not distance < known.distance):
                 continue
             entry = _on_iso_path(history, path_p, edge, q[1])
-            if entry is None or not min(rg[0], rg[-1]) <= entry <= max(rg[0], rg[-1]):
+            if entry is None or not r_lo <= entry <= r_hi:
                 continue
             expected = 20 * math.log10(null / (math.pi * distance))
-            level = _image_max(mag, az, rg, np.array([edge, entry]), EDGE_ROWS - 1, EDGE_COLUMNS) / peak
-            level_db = 20 * math.log10(level) if level > 0 else -math.inf
-            nearest[(label, edge)] = EdgeAlias(label, m, q[0], q[1], edge, entry, distance, level_db, expected)
-    out = [a for a in nearest.values() if a.level_db > floor_db and a.expected_db > floor_db]
+            read = _window(az, rg, (edge, entry), EDGE_ROWS - 1, EDGE_COLUMNS)
+            nearest[("edge", label, edge)] = _EdgeCandidate(label, m, q, peak, read, edge, distance, entry, expected)
+    return [f for f in nearest.values() if f.expected_db > floor_db]
+
+
+def _edge_levels(
+    found: list[_EdgeCandidate],
+    blocks: list[np.ndarray],
+    targets: np.ndarray,
+    az: np.ndarray,
+    rg: np.ndarray,
+    irw: list[float],
+    floor_db: float,
+) -> list[EdgeAlias]:
+    """The candidates measured: ``blocks`` holds |image| on each one's peak window then its read window, in order;
+    those over ``floor_db`` (measured, and a sinc's expected), strongest first."""
+    own = np.array([[float(t["azimuth"]), float(t["range"])] for t in targets])  # every target's own response
+    out = []
+    for f, peak_block, block in zip(found, blocks[::2], blocks[1::2]):
+        peak = float(peak_block.max())
+        if not peak > 0:
+            continue
+        if f.edge is None:
+            strongest = _strongest_in(block, az[f.read[0]], rg[f.read[1]], irw, own)
+            if strongest is None:
+                continue
+            level, entry_az, entry_rg = strongest
+            distance, expected = 0.0, 0.0
+        else:
+            level, entry_az, entry_rg = float(block.max()), f.edge, f.entry_range
+            distance, expected = f.distance, f.expected_db
+        level_db = 20 * math.log10(level / peak) if level > 0 else -math.inf
+        alias = EdgeAlias(f.target, f.order, f.alias[0], f.alias[1], entry_az, entry_rg, distance, level_db, expected)
+        out.append(alias)
+    out = [a for a in out if a.level_db > floor_db and a.expected_db > floor_db]
     return sorted(out, key=lambda a: -a.level_db)
 
 
@@ -386,31 +512,20 @@ def _on_iso_path(
 ALIAS_SEARCH_IRW = 8.0
 
 
-def _strongest_near(
-    mag: np.ndarray, az: np.ndarray, rg: np.ndarray, q: tuple[float, float], irw: list[float], own: np.ndarray
+def _strongest_in(
+    block: np.ndarray, az: np.ndarray, rg: np.ndarray, irw: list[float], own: np.ndarray
 ) -> tuple[float, float, float] | None:
-    """(|pixel|, azimuth, range) of the strongest pixel of ``mag`` within ALIAS_SEARCH_IRW azimuth IRWs and 2 range
-    samples of ``q``, outside 2 IRWs of every ``own`` (azimuth, range) position; None if all of it is left out."""
-    rows = np.flatnonzero(np.abs(az - q[0]) <= ALIAS_SEARCH_IRW * irw[0])
-    j = int(np.argmin(np.abs(rg - q[1])))
-    cols = np.arange(max(j - 2, 0), min(j + 3, len(rg)))
-    if rows.size == 0:
-        return None
-    A, R = np.meshgrid(az[rows], rg[cols], indexing="ij")
+    """(|pixel|, azimuth, range) of the strongest pixel of ``block`` (|image| on the grid ``az`` x ``rg``) outside
+    2 IRWs of every ``own`` (azimuth, range) position; None if all of it is left out."""
+    A, R = np.meshgrid(az, rg, indexing="ij")
     keep = np.ones(A.shape, dtype=bool)
     for p in own:
         keep &= (np.abs(A - p[0]) > 2 * irw[0]) | (np.abs(R - p[1]) > 2 * irw[1])
     if not keep.any():
         return None
-    w = np.where(keep, mag[np.ix_(rows, cols)], -1.0)
+    w = np.where(keep, block, -1.0)
     k = np.unravel_index(int(np.argmax(w)), w.shape)
     return float(w[k]), float(A[k]), float(R[k])
-
-
-def _image_max(mag: np.ndarray, az: np.ndarray, rg: np.ndarray, at: np.ndarray, rows: int, cols: int) -> float:
-    """The largest of ``mag`` within ``rows`` x ``cols`` samples of the sample nearest ``at`` (azimuth, range)."""
-    i, j = int(np.argmin(np.abs(az - at[0]))), int(np.argmin(np.abs(rg - at[1])))
-    return float(mag[max(i - rows, 0) : i + rows + 1, max(j - cols, 0) : j + cols + 1].max())
 
 
 def listed_at_aliases(aliases: list[EdgeAlias], image: Product, entries: Sequence[Mapping[str, float]]) -> list[int]:

@@ -487,6 +487,79 @@ def test_an_alias_in_the_image_is_read_where_the_image_put_it(exp1_small):
     assert abs(m.entry_azimuth - (e.entry_azimuth + 12 * (az[1] - az[0]))) < 0.1 and m.level_db > -1.0, m
 
 
+def test_an_alias_beyond_the_edge_is_not_named_where_the_targets_alias_in_the_image_is_nearer(exp1_small):
+    """Every alias of a target lies on its iso-range line, so where one of them is in the image, an alias farther
+    beyond the edge on that line cannot be told from the in-image one's side lobes: in a backprojection 1.2 km
+    wide, NE's -1 PRF alias is in the image (-2 dB on its nearest pixel) and its -2 PRF alias, 517 m beyond the
+    edge, is not named (before: named at -35.6 dB, the in-image alias's side lobe, 10 dB over a sinc's at its
+    distance)."""
+    from sarproc.focus.backprojection import BackprojectParams, backproject
+    from sarproc.focus.backprojection_alias import image_edge_aliases
+
+    _, raw = exp1_small
+    spacing = {"azimuth_spacing": 4.152969, "range_spacing": 6.245676}
+    grid = {"frame": "squint", "azimuth_extent": 1200.0, "range_extent": 2600.0, "range_center": 300000.0}
+    found = {
+        (a.target, a.order): a for a in image_edge_aliases(backproject(raw, build(BackprojectParams, grid | spacing)))
+    }
+    assert found[("NE", -1)].distance == 0 and found[("NE", -1)].level_db > -3.0  # on a pixel, not its peak
+    assert ("NE", -2) not in found, found[("NE", -2)]
+
+
+# fine-focus's grid of the small scene (squint frame): the PRF's unambiguous 681 m of azimuth
+SMALL_GRID = {
+    "frame": "squint",
+    "azimuth_center": 0.0,
+    "azimuth_extent": 681.0869348848482,
+    "azimuth_spacing": 4.152969115151507,
+    "range_center": 300000.0,
+    "range_extent": 2298.408844666672,
+    "range_spacing": 6.245676208345685,
+}
+
+
+def test_backproject_warns_of_the_edge_aliases_its_grid_lets_in(exp1_small, tmp_path, caplog):
+    """backproject onto fine-focus's grid of the small scene warns of the same four edge aliases, before any pixel
+    is summed (their entry and peak pixels backprojected), and records them in the image's history, in process
+    and through the command line; the image it writes holds them at those levels (read from it as evaluate
+    reads them, within 0.5 dB), each near a sinc's side lobe at its distance. Failed before: backproject said
+    nothing of them."""
+    from sarproc.focus.backprojection import BackprojectParams, backproject
+    from sarproc.focus.backprojection_alias import image_edge_aliases
+    from sarproc.product.io import read_product, write_product
+
+    _, raw = exp1_small
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="sarproc.focus.backprojection"):
+        img = backproject(raw, build(BackprojectParams, SMALL_GRID))
+    warned = [r.getMessage() for r in caplog.records if "aliases in or just beyond" in r.getMessage()]
+    assert len(warned) == 1 and "target E's alias (-1 PRF) at azimuth -435.4 m, range 300342.5 m" in warned[0]
+    recorded = {(a["target"], a["order"]): a for a in img.history[-1]["parameters"]["azimuth_edge_aliases"]}
+    assert set(recorded) == {("E", -1), ("NE", -1), ("W", 1), ("SW", 1)}
+    e = recorded[("E", -1)]
+    assert e["entry_range"] == pytest.approx(300295.2, abs=0.5) and -32 < e["level_db"] < -30, e
+    in_image = {(a.target, a.order): a for a in image_edge_aliases(img)}
+    for key, a in recorded.items():
+        assert abs(a["level_db"] - in_image[key].level_db) < 0.5, (key, a, in_image[key])
+        assert abs(a["level_db"] - a["expected_db"]) < 3.0, a
+
+    write_product(tmp_path / "raw.h5", raw)
+    (tmp_path / "bp.yaml").write_text(yaml.safe_dump({"backproject": SMALL_GRID}))
+    args = [
+        "backproject",
+        str(tmp_path / "raw.h5"),
+        "-o",
+        str(tmp_path / "bp.h5"),
+        "--config",
+        str(tmp_path / "bp.yaml"),
+    ]
+    r = CliRunner().invoke(cli, args)
+    assert r.exit_code == 0, r.output
+    assert "target E's alias (-1 PRF) at azimuth -435.4 m, range 300342.5 m" in r.output
+    written = read_product(tmp_path / "bp.h5").history[-1]["parameters"]["azimuth_edge_aliases"]
+    assert {(a["target"], a["order"]): a for a in written} == recorded
+
+
 # ---------------------------------------------------------------------------------- hard cases
 
 
