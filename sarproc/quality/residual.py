@@ -532,7 +532,8 @@ def _curvature_columns(points: np.ndarray, model: ResponseModel, beta: float) ->
 def _model_on_box(slices: Sequence[slice], model: ResponseModel) -> np.ndarray:
     """A fitted response model on the image box ``slices`` (complex128, the box's shape): its straight support
     (:func:`_straight_on_box`) plus what its range edges' bow adds (:func:`_curvature_sum`)."""
-    if model.warp is not None and not (BOX_KERNEL and COMPILED and len(slices) == 2 and _keystoned(model.kappa)):
+    strips = model.kappa is not None and bool(np.any(model.kappa))  # what model_values sums: the strips
+    if model.warp is not None and not (BOX_KERNEL and COMPILED and len(slices) == 2 and strips):
         # not separable: every sample's ridge coordinates
         axes = np.meshgrid(*[np.arange(s.start, s.stop) for s in slices], indexing="ij")
         return model_values(np.stack([x.ravel() for x in axes]), model).reshape(axes[0].shape)
@@ -545,11 +546,12 @@ def _model_on_box(slices: Sequence[slice], model: ResponseModel) -> np.ndarray:
 
 
 def _warped_on_box(slices: Sequence[slice], model: ResponseModel) -> np.ndarray:
-    """A warped, keystoned 2D model on the image box ``slices`` (its range edges straight), as
-    :func:`model_values` gives it at every sample to rounding: its ridge coordinates are quadratic in the box's
+    """A warped 2D model with a keystone (any nonzero one: :func:`model_values` sums its strips whether or not
+    :func:`_keystoned` holds) on the image box ``slices`` (its range edges straight), as :func:`model_values`
+    gives it at every sample to rounding: its ridge coordinates are quadratic in the box's
     indices, so the compiled kernel (:func:`sarproc.quality.residual_kernels.keystone_warped_box_sum`) turns
-    every angle along a row by rotations, without the sines and cosines and the (samples, orders) basis of each
-    sample."""
+    every angle along a row by rotations, the carrier's included (:func:`_carrier_coefficients`), without the
+    sines and cosines and the (samples, orders) basis of each sample."""
     A, p = _ridge_frame(model.position, model.ridges, model.nulls)
     W = np.asarray(model.warp, dtype=float)
     kappa = np.asarray(model.kappa, dtype=float)
@@ -573,12 +575,28 @@ def _warped_on_box(slices: Sequence[slice], model: ResponseModel) -> np.ndarray:
         model.coef,
         kappa,
         _strip_count(kappa),
+        _carrier_coefficients(u, model),
     )
-    grid = [
-        (np.arange(n, dtype=float) + u[b]).reshape([-1 if i == b else 1 for i in range(2)]) for b, n in enumerate(shape)
-    ]
-    f_c = np.asarray(model.band_centre, dtype=float)
-    return box * np.exp(1j * (2 * np.pi * (f_c[0] * grid[0] + f_c[1] * grid[1]) + _chirp_phase(grid, model.chirp)))
+    return box
+
+
+def _carrier_coefficients(u: np.ndarray, model: ResponseModel) -> np.ndarray:
+    """The carrier's phase 2 pi f_c . x + pi x^T K x at x = u + (i, j) (a 2D box's indices i, j from its first
+    sample, offset ``u`` from the peak) as its coefficients of (1, i, j, i^2, i j, j^2)."""
+    f = np.asarray(model.band_centre, dtype=float)
+    K = np.asarray(model.chirp, dtype=float)
+    k01 = K[0, 1]  # as :func:`_chirp_phase` reads the symmetric K
+    return np.array(
+        [
+            2 * np.pi * (f[0] * u[0] + f[1] * u[1])
+            + np.pi * (K[0, 0] * u[0] ** 2 + 2 * k01 * u[0] * u[1] + K[1, 1] * u[1] ** 2),
+            2 * np.pi * f[0] + 2 * np.pi * (K[0, 0] * u[0] + k01 * u[1]),
+            2 * np.pi * f[1] + 2 * np.pi * (k01 * u[0] + K[1, 1] * u[1]),
+            np.pi * K[0, 0],
+            2 * np.pi * k01,
+            np.pi * K[1, 1],
+        ]
+    )
 
 
 def _straight_on_box(slices: Sequence[slice], model: ResponseModel) -> np.ndarray:
@@ -1380,16 +1398,30 @@ def _others_subtracted(
     reach: float,
 ) -> np.ndarray:
     """``y`` minus the other groups' current models on ``points`` (their side lobes), each only where its
-    envelope reaches ``reach``."""
+    envelope reaches ``reach``. Within :func:`_fit_response_models` a model (the same object) on the same
+    ``points`` (the same array) is evaluated once (:data:`_OTHERS_CACHE`): a quarter of these evaluations on 002
+    small two-step are of models no fit has replaced since."""
     rhs = y.copy()
     for j in live:
         m = models[j]
         if j in members or m is None:
             continue
-        near = envelope_bound(m, points.T) >= reach
-        if near.any():
-            rhs[near] -= model_values(points[:, near], m)
+        hit = None if _OTHERS_CACHE is None else _OTHERS_CACHE.get((id(m), id(points), reach))
+        if hit is not None and hit[0] is m and hit[1] is points:
+            near, values = hit[2], hit[3]
+        else:
+            near = envelope_bound(m, points.T) >= reach
+            values = model_values(points[:, near], m) if near.any() else None
+            if _OTHERS_CACHE is not None:  # the objects held with their values, so their ids are not reused
+                _OTHERS_CACHE[(id(m), id(points), reach)] = (m, points, near, values)
+        if values is not None:
+            rhs[near] -= values
     return rhs
+
+
+# (model, points, reach) -> (model, points, mask, values) of :func:`_others_subtracted`, while
+# :func:`_fit_response_models` runs (None outside it)
+_OTHERS_CACHE: dict | None = None
 
 
 def _fit_one_group(
@@ -1452,6 +1484,19 @@ def _fit_one_group(
 
 @single_blas
 def _fit_response_models(
+    data: np.ndarray, found: list[FitStart], nulls: npt.ArrayLike, params: EvaluateParams, support_shape: bool = False
+) -> list[ResponseModel | None]:
+    """:func:`_fitted_response_models` with the other groups' models on a fit's samples evaluated once
+    (:data:`_OTHERS_CACHE`)."""
+    global _OTHERS_CACHE
+    before, _OTHERS_CACHE = _OTHERS_CACHE, {}
+    try:
+        return _fitted_response_models(data, found, nulls, params, support_shape)
+    finally:
+        _OTHERS_CACHE = before
+
+
+def _fitted_response_models(
     data: np.ndarray, found: list[FitStart], nulls: npt.ArrayLike, params: EvaluateParams, support_shape: bool = False
 ) -> list[ResponseModel | None]:
     """Every target's response model, fitted by complex least squares on the samples within

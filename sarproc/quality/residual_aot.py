@@ -24,7 +24,7 @@ RESIDUAL = Kernels(
         "keystone_columns": "c16[:, ::1](f8[:, ::1], i8[:, ::1], f8[::1], i8)",
         "keystone_box_sum": "c16[:, ::1](f8[::1], f8[::1], f8[::1], i8, i8, i8[:, ::1], c16[::1], f8[::1], i8)",
         "keystone_warped_box_sum": "c16[:, ::1](f8[::1], f8[::1], f8[::1], f8[::1], f8[::1], f8[::1], i8, i8, "
-        "i8[:, ::1], c16[::1], f8[::1], i8)",
+        "i8[:, ::1], c16[::1], f8[::1], i8, f8[::1])",
         "keystone_derivatives": "c16[:, ::1](f8[:, ::1], i8[:, ::1], c16[::1], f8[::1], i8)",
         "spread_bins": "f8[:, ::1](f8[::1], f8[::1], f8[::1], f8[::1], i8, i8, f8, i8)",
     },
@@ -103,6 +103,7 @@ def keystone_warped_box_sum(
     coef: np.ndarray,
     kappa: np.ndarray,
     n_strips: int,
+    carrier: np.ndarray,
 ) -> np.ndarray:
     """:func:`sarproc.quality.residual_kernels.keystone_warped_box_sum` (the same arguments, any layout)."""
     return kernels().keystone_warped_box_sum(
@@ -118,6 +119,7 @@ def keystone_warped_box_sum(
         _c16(coef),
         _f8(kappa),
         int(n_strips),
+        _f8(carrier),
     )
 
 

@@ -174,73 +174,115 @@ def keystone_columns(
 RESEED = 16  # samples along a box row between exact angles in keystone_box_sum
 
 
-@numba.njit(error_model="numpy", inline="always", cache=CACHE)
-def _rotated_sample(
-    c: np.ndarray,
-    x: np.ndarray,
+@numba.njit(error_model="numpy", cache=CACHE)
+def _row_sums(
+    out: np.ndarray,
+    i: int,
+    n: int,
+    cs: np.ndarray,
+    near: np.ndarray,
+    eh: np.ndarray,
+    esh: np.ndarray,
+    ep: np.ndarray,
+    el: np.ndarray,
     orders: np.ndarray,
     kappa: np.ndarray,
     n_strips: int,
-    e_half: np.ndarray,
-    e_shalf: np.ndarray,
-    e_phase: np.ndarray,
-    e_l: complex,
     tables: tuple,
     two_pi_pow: float,
     j_pow: complex,
-) -> complex:  # pragma: no cover - compiled
-    """One sample of :func:`keystone_box_sum` and :func:`keystone_warped_box_sum`: the strip sums at ridge
-    coordinates ``c`` from the rotations carried to it (e_half, e_shalf, e_phase per sign, e_l) and the
-    strips' constants ``tables`` (:func:`_strip_constants`' cos_dh .. sin_l, its shift times coef); ``x``:
-    scratch of c's size."""
+    scratch: tuple,
+) -> None:  # pragma: no cover - compiled
+    """Row ``i`` (its first ``n`` samples) of :func:`keystone_box_sum` and :func:`keystone_warped_box_sum`: the
+    strip sums at the ridge coordinates ``cs`` ((ndim, n)) from the rotations carried to each sample (``eh``,
+    ``esh``, ``ep``: exp(j half), exp(j S half), exp(j phase) per sign and sample; ``el``: the last axis' half
+    angle) and the strips' constants ``tables`` (:func:`_box_tables`); ``near``: the samples within 1e-7 of a
+    removable singularity, which the direct product (:func:`_product_at`) evaluates instead.
+
+    Each sample's arithmetic is the per-sample loop's (orders outermost, the signs summed within an order, then
+    the order's factor), in the same order, so the sums are the same bits; the samples of the row innermost, so
+    the compiler runs the divisions and products several samples at once (the Dirichlet kernel's limit, where
+    its denominator is within 1e-9 of zero, patched before it is summed)."""
     cos_dh, sin_dh, cos_sdh, sin_sdh, shift, cos_l, sin_l, coef = tables
-    ndim = c.shape[0]
+    total, acc, dirichlet, x = scratch
+    ndim = cs.shape[0]
     n_orders = orders.shape[0]
-    n_signs = e_half.shape[0]
+    n_signs = eh.shape[0]
     width = 1.0 / n_strips
-    near = False
-    for a in range(ndim - 1):
-        for q in range(n_orders):
-            if abs(c[a] + 0.5 * orders[q, a]) < 1e-7:
-                near = True
-    total = 0j
-    if near:  # within 1e-7 of a removable singularity: the direct product evaluates the limit
-        for q in range(n_orders):
-            for a in range(ndim):
-                x[a] = c[a] + 0.5 * orders[q, a]
-            total += coef[q] * _product_at(x, kappa, n_strips)
-    else:
-        last = c[ndim - 1]
-        s_l, c_l = e_l.imag, e_l.real
-        for q in range(n_orders):
-            acc = 0j
-            for s in range(n_signs):
-                sh, ch = e_half[s].imag, e_half[s].real
-                ssh, csh = e_shalf[s].imag, e_shalf[s].real
-                den = sh * cos_dh[s, q] + ch * sin_dh[s, q]
-                if abs(den) < 1e-9:  # sin(S h) / sin(h) -> S cos(S h) / cos(h)
-                    dirichlet = (
-                        n_strips * (csh * cos_sdh[s, q] - ssh * sin_sdh[s, q]) / (ch * cos_dh[s, q] - sh * sin_dh[s, q])
-                    )
-                else:
-                    dirichlet = (ssh * cos_sdh[s, q] + csh * sin_sdh[s, q]) / den
-                acc += dirichlet * (e_phase[s] * shift[s, q])
-            x_l = last + 0.5 * orders[q, ndim - 1]
+    for j in range(n):
+        total[j] = 0j
+    for q in range(n_orders):
+        for j in range(n):
+            acc[j] = 0j
+        for s in range(n_signs):
+            cdh, sdh, csdh, ssdh = cos_dh[s, q], sin_dh[s, q], cos_sdh[s, q], sin_sdh[s, q]
+            for j in range(n):
+                den = eh[s, j].imag * cdh + eh[s, j].real * sdh
+                dirichlet[j] = (esh[s, j].imag * csdh + esh[s, j].real * ssdh) / den
+            for j in range(n):  # sin(S h) / sin(h) -> S cos(S h) / cos(h)
+                sh, ch = eh[s, j].imag, eh[s, j].real
+                if abs(sh * cdh + ch * sdh) < 1e-9:
+                    ssh, csh = esh[s, j].imag, esh[s, j].real
+                    dirichlet[j] = n_strips * (csh * csdh - ssh * ssdh) / (ch * cdh - sh * sdh)
+            shift_sq = shift[s, q]
+            for j in range(n):
+                acc[j] += dirichlet[j] * (ep[s, j] * shift_sq)
+        half_l, cos_lq, sin_lq = 0.5 * orders[q, ndim - 1], cos_l[q], sin_l[q]
+        for j in range(n):
+            x_l = cs[ndim - 1, j] + half_l
             den_a = two_pi_pow
             for a in range(ndim - 1):
-                den_a *= c[a] + 0.5 * orders[q, a]
+                den_a *= cs[a, j] + 0.5 * orders[q, a]
             on_axis = abs(x_l) < 1e-12
-            factor = width / den_a if on_axis else (s_l * cos_l[q] + c_l * sin_l[q]) / (math.pi * x_l * den_a)
-            total += acc * factor
-        total *= j_pow
-    return total
+            factor = width / den_a if on_axis else (el[j].imag * cos_lq + el[j].real * sin_lq) / (math.pi * x_l * den_a)
+            total[j] += acc[j] * factor
+    for j in range(n):
+        if near[j]:  # within 1e-7 of a removable singularity: the direct product evaluates the limit
+            value = 0j
+            for q in range(n_orders):
+                for a in range(ndim):
+                    x[a] = cs[a, j] + 0.5 * orders[q, a]
+                value += coef[q] * _product_at(x, kappa, n_strips)
+            out[i, j] = value
+        else:
+            out[i, j] = total[j] * j_pow
+
+
+@numba.njit(error_model="numpy", inline="always", cache=CACHE)
+def _near_singular(c: np.ndarray, orders: np.ndarray) -> bool:  # pragma: no cover - compiled
+    """Whether the ridge coordinates ``c`` lie within 1e-7 of a keystoned factor's removable singularity."""
+    for a in range(c.shape[0] - 1):
+        for q in range(orders.shape[0]):
+            if abs(c[a] + 0.5 * orders[q, a]) < 1e-7:
+                return True
+    return False
+
+
+@numba.njit(error_model="numpy", cache=CACHE)
+def _row_buffers(ndim: int, n_signs: int, n_cols: int) -> tuple:  # pragma: no cover - compiled
+    """A row's per-sample arrays for :func:`_row_sums`: (cs, near, eh, esh, ep, el) and its scratch."""
+    rows = (
+        np.empty((ndim, n_cols)),
+        np.empty(n_cols, dtype=np.bool_),
+        np.empty((n_signs, n_cols), dtype=np.complex128),
+        np.empty((n_signs, n_cols), dtype=np.complex128),
+        np.empty((n_signs, n_cols), dtype=np.complex128),
+        np.empty(n_cols, dtype=np.complex128),
+    )
+    scratch = (
+        np.empty(n_cols, dtype=np.complex128),
+        np.empty(n_cols, dtype=np.complex128),
+        np.empty(n_cols),
+        np.empty(ndim),
+    )
+    return rows, scratch
 
 
 @numba.njit(error_model="numpy", inline="always", cache=CACHE)
 def _box_tables(
     orders: np.ndarray, coef: np.ndarray, kappa: np.ndarray, n_strips: int, ndim: int
 ) -> tuple:  # pragma: no cover - compiled
-    """The box kernels' constants: the signs, :func:`_rotated_sample`'s ``tables`` (the strip constants, shift
+    """The box kernels' constants: the signs, :func:`_row_sums`' ``tables`` (the strip constants, shift
     times coef) and the factors (2 pi)^(ndim - 1) and (-j)^(ndim - 1)."""
     signs, cos_dh, sin_dh, cos_sdh, sin_sdh, shift, cos_l, sin_l = _strip_constants(orders, kappa, n_strips, ndim)
     for q in range(orders.shape[0]):
@@ -308,8 +350,8 @@ def keystone_box_sum(
     step_l = math.pi * width * d_col[ndim - 1]
     r_l = complex(math.cos(step_l), math.sin(step_l))
     c = np.empty(ndim)
-    x = np.empty(ndim)
     pix = np.empty(ndim)  # the sample's ridge coordinates
+    (cs, near, eh, esh, ep, el), scratch = _row_buffers(ndim, n_signs, n_cols)
     e_l = 1.0 + 0j
     for i in range(n_rows):
         for a in range(ndim):
@@ -317,20 +359,25 @@ def keystone_box_sum(
         for j in range(n_cols):
             for a in range(ndim):
                 pix[a] = c[a] + j * d_col[a]
+                cs[a, j] = pix[a]
             if j % RESEED == 0:  # the rotations' rounding kept to ~1e-14: exact angles every RESEED samples
                 for s in range(n_signs):
                     half, phase = _strip_angles(pix, signs[s], kappa, n_strips)
                     _set_rotations(e_half, e_shalf, e_phase, s, half, phase, n_strips, 1.0)
                 arg = math.pi * width * pix[ndim - 1]
                 e_l = complex(math.cos(arg), math.sin(arg))
-            out[i, j] = _rotated_sample(
-                pix, x, orders, kappa, n_strips, e_half, e_shalf, e_phase, e_l, tables, two_pi_pow, j_pow
-            )
+            near[j] = _near_singular(pix, orders)
+            for s in range(n_signs):
+                eh[s, j], esh[s, j], ep[s, j] = e_half[s], e_shalf[s], e_phase[s]
+            el[j] = e_l
             for s in range(n_signs):
                 e_half[s] *= r_half[s]
                 e_shalf[s] *= r_shalf[s]
                 e_phase[s] *= r_phase[s]
             e_l *= r_l
+        _row_sums(
+            out, i, n_cols, cs, near, eh, esh, ep, el, orders, kappa, n_strips, tables, two_pi_pow, j_pow, scratch
+        )
     return out
 
 
@@ -348,11 +395,14 @@ def keystone_warped_box_sum(
     coef: np.ndarray,
     kappa: np.ndarray,
     n_strips: int,
+    carrier: np.ndarray,
 ) -> np.ndarray:  # pragma: no cover - compiled
     """:func:`keystone_box_sum` where the ridge coordinates are quadratic in the image indices (a warped model,
     :attr:`sarproc.quality.residual.ResponseModel.warp`): c0 + i d_row + j d_col + i^2 w_rr + i j w_rc + j^2
     w_cc. Along a row every angle is then quadratic in j, so its sines and cosines are complex rotations whose
-    step turns by a constant: no trigonometry per sample, exact angles every :data:`RESEED` samples."""
+    step turns by a constant: no trigonometry per sample, exact angles every :data:`RESEED` samples. The sum is
+    multiplied by the model's carrier exp(j phi), phi = ``carrier`` . (1, i, j, i^2, i j, j^2) (the band centre's
+    and the spatial chirp's phase, quadratic in the box's indices too), turned along each row the same way."""
     ndim = c0.shape[0]
     n_signs = 1 << (ndim - 1)
     width = 1.0 / n_strips
@@ -373,20 +423,27 @@ def keystone_warped_box_sum(
         _set_rotations(t_half, t_shalf, t_phase, s, th, tp, n_strips, 2.0)
     turn_l = 2.0 * math.pi * width * w_cc[ndim - 1]
     t_l = complex(math.cos(turn_l), math.sin(turn_l))
+    t_car = complex(math.cos(2.0 * carrier[5]), math.sin(2.0 * carrier[5]))
+    e_car = 1.0 + 0j
+    r_car = 1.0 + 0j
+    car = np.empty(n_cols, dtype=np.complex128)
     row = np.empty(ndim)  # the row's constant and linear coefficients in j
     lin = np.empty(ndim)
     c = np.empty(ndim)
     step = np.empty(ndim)
-    x = np.empty(ndim)
+    (cs, near, eh, esh, ep, el), scratch = _row_buffers(ndim, n_signs, n_cols)
     e_l = 1.0 + 0j
     r_l = 1.0 + 0j
     for i in range(n_rows):
         for a in range(ndim):
             row[a] = c0[a] + i * d_row[a] + i * i * w_rr[a]
             lin[a] = d_col[a] + i * w_rc[a]
+        car_row = carrier[0] + i * carrier[1] + i * i * carrier[3]
+        car_lin = carrier[2] + i * carrier[4]
         for j in range(n_cols):
             for a in range(ndim):
                 c[a] = row[a] + j * lin[a] + j * j * w_cc[a]
+                cs[a, j] = c[a]
             if j % RESEED == 0:  # the rotations' rounding kept to ~1e-14: exact angles every RESEED samples
                 for a in range(ndim):
                     step[a] = lin[a] + (2 * j + 1) * w_cc[a]  # c(j + 1) - c(j)
@@ -399,9 +456,15 @@ def keystone_warped_box_sum(
                 e_l = complex(math.cos(arg), math.sin(arg))
                 arg = math.pi * width * step[ndim - 1]
                 r_l = complex(math.cos(arg), math.sin(arg))
-            out[i, j] = _rotated_sample(
-                c, x, orders, kappa, n_strips, e_half, e_shalf, e_phase, e_l, tables, two_pi_pow, j_pow
-            )
+                arg = car_row + j * car_lin + j * j * carrier[5]
+                e_car = complex(math.cos(arg), math.sin(arg))
+                arg = car_lin + (2 * j + 1) * carrier[5]
+                r_car = complex(math.cos(arg), math.sin(arg))
+            near[j] = _near_singular(c, orders)
+            for s in range(n_signs):
+                eh[s, j], esh[s, j], ep[s, j] = e_half[s], e_shalf[s], e_phase[s]
+            el[j] = e_l
+            car[j] = e_car
             for s in range(n_signs):
                 e_half[s] *= r_half[s]
                 e_shalf[s] *= r_shalf[s]
@@ -411,6 +474,13 @@ def keystone_warped_box_sum(
                 r_phase[s] *= t_phase[s]
             e_l *= r_l
             r_l *= t_l
+            e_car *= r_car
+            r_car *= t_car
+        _row_sums(
+            out, i, n_cols, cs, near, eh, esh, ep, el, orders, kappa, n_strips, tables, two_pi_pow, j_pow, scratch
+        )
+        for j in range(n_cols):
+            out[i, j] *= car[j]
     return out
 
 

@@ -186,7 +186,7 @@ def test_compiled_box_sum_is_the_columns_summed(kappa):
 def test_compiled_warped_box_sum_is_the_columns_summed(kappa):
     """The warped box kernel (ridge coordinates quadratic in the box's indices; rotations whose steps turn along
     each row) gives the coefficient-weighted sum of the per-point kernel's strip sums over a skewed box, singular
-    points included."""
+    points included, times the carrier whose phase is quadratic in the box's indices."""
     from sarproc.quality.residual import _strip_count, spectral_orders
     from sarproc.quality.residual_kernels import keystone_columns, keystone_warped_box_sum
 
@@ -196,12 +196,14 @@ def test_compiled_warped_box_sum_is_the_columns_summed(kappa):
     c0, d_row, d_col = np.array([-20.0, -31.5]), np.array([0.5, 0.04]), np.array([0.0, 0.41])  # rows hit c_az = -n/2
     w_rr, w_rc, w_cc = np.array([0.0, 2e-4]), np.array([3e-4, -1e-4]), np.array([0.0, 5e-4])
     rows, cols = 90, 150
-    got = keystone_warped_box_sum(c0, d_row, d_col, w_rr, w_rc, w_cc, rows, cols, orders, coef, k, strips)
+    carrier = np.array([0.3, 0.2, -0.7, 1e-4, -2e-4, 3e-4])  # the carrier's phase in 1, i, j, i^2, i j, j^2
+    got = keystone_warped_box_sum(c0, d_row, d_col, w_rr, w_rc, w_cc, rows, cols, orders, coef, k, strips, carrier)
     i, j = (x.ravel().astype(float) for x in np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij"))
     pts = np.stack(
         [c0[a] + i * d_row[a] + j * d_col[a] + i * i * w_rr[a] + i * j * w_rc[a] + j * j * w_cc[a] for a in range(2)]
     )
-    want = (coef @ keystone_columns(pts, orders, k, strips)).reshape(rows, cols)
+    phase = carrier @ np.stack([np.ones_like(i), i, j, i * i, i * j, j * j])
+    want = (coef @ keystone_columns(pts, orders, k, strips) * np.exp(1j * phase)).reshape(rows, cols)
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-11 * np.abs(want).max())
 
 

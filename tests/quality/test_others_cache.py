@@ -1,0 +1,54 @@
+"""The other groups' models on a fit's samples (residual._others_subtracted) are evaluated once per model object and
+sample array while the fits run: the same right-hand sides, bit for bit, as evaluating them every time."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sarproc.quality import residual
+from sarproc.quality.residual import ResponseModel, _others_subtracted, spectral_orders
+
+
+def _model(position, seed):
+    orders = spectral_orders(2, 1, 2)
+    rng = np.random.default_rng(seed)
+    V = np.array([[0.99, 0.14], [-0.05, 1.0]])
+    warp = np.zeros((2, 2, 2))
+    warp[0, 1, 1], warp[1, 0, 0] = 2e-5, -3e-5
+    return ResponseModel(
+        position=np.asarray(position, dtype=float),
+        ridges=V / np.linalg.norm(V, axis=1)[:, None],
+        nulls=np.array([2.3, 2.1]),
+        band_centre=np.array([0.03, -0.11]),
+        orders=orders,
+        coef=rng.normal(size=len(orders)) + 1j * rng.normal(size=len(orders)),
+        chirp=np.array([[1e-4, 2e-5], [2e-5, -3e-4]]),
+        kappa=np.array([0.02]),
+        warp=warp,
+    )
+
+
+def test_the_other_groups_models_are_evaluated_once_with_the_same_bits(monkeypatch):
+    models = [_model((40.0, 50.0), 1), _model((70.0, 45.0), 2), _model((55.0, 90.0), 3)]
+    rng = np.random.default_rng(4)
+    points = np.unique(rng.integers(20, 110, size=(2, 3000)), axis=1)
+    y = rng.normal(size=points.shape[1]) + 1j * rng.normal(size=points.shape[1])
+    want = _others_subtracted(y, points, [0], [0, 1, 2], models, 1e-3)
+    calls = []
+    real = residual.model_values
+
+    def counted(pts, model):
+        calls.append(model)
+        return real(pts, model)
+
+    monkeypatch.setattr(residual, "model_values", counted)
+    monkeypatch.setattr(residual, "_OTHERS_CACHE", {})
+    first = _others_subtracted(y, points, [0], [0, 1, 2], models, 1e-3)
+    again = _others_subtracted(y, points, [0], [0, 1, 2], models, 1e-3)
+    assert len(calls) == 2  # models 1 and 2, once
+    models[1] = _model((70.0, 45.0), 5)  # a refitted model: a new object, evaluated again
+    other = _others_subtracted(y, points, [0], [0, 1, 2], models, 1e-3)
+    assert len(calls) == 3
+    for got in (first, again):
+        assert np.array_equal(got.view(np.uint64), want.view(np.uint64))
+    assert not np.array_equal(other, want)
