@@ -11,6 +11,7 @@ import dataclasses
 import functools
 import itertools
 import math
+import threading
 from collections.abc import Callable, Iterator, Sequence
 from typing import TYPE_CHECKING
 
@@ -1399,29 +1400,36 @@ def _others_subtracted(
 ) -> np.ndarray:
     """``y`` minus the other groups' current models on ``points`` (their side lobes), each only where its
     envelope reaches ``reach``. Within :func:`_fit_response_models` a model (the same object) on the same
-    ``points`` (the same array) is evaluated once (:data:`_OTHERS_CACHE`): a quarter of these evaluations on 002
+    ``points`` (the same array) is evaluated once (:data:`_OTHERS`): a quarter of these evaluations on 002
     small two-step are of models no fit has replaced since."""
     rhs = y.copy()
+    cache = _OTHERS.cache
     for j in live:
         m = models[j]
         if j in members or m is None:
             continue
-        hit = None if _OTHERS_CACHE is None else _OTHERS_CACHE.get((id(m), id(points), reach))
+        hit = None if cache is None else cache.get((id(m), id(points), reach))
         if hit is not None and hit[0] is m and hit[1] is points:
             near, values = hit[2], hit[3]
         else:
             near = envelope_bound(m, points.T) >= reach
             values = model_values(points[:, near], m) if near.any() else None
-            if _OTHERS_CACHE is not None:  # the objects held with their values, so their ids are not reused
-                _OTHERS_CACHE[(id(m), id(points), reach)] = (m, points, near, values)
+            if cache is not None:  # the objects held with their values, so their ids are not reused
+                cache[(id(m), id(points), reach)] = (m, points, near, values)
         if values is not None:
             rhs[near] -= values
     return rhs
 
 
-# (model, points, reach) -> (model, points, mask, values) of :func:`_others_subtracted`, while
-# :func:`_fit_response_models` runs (None outside it)
-_OTHERS_CACHE: dict | None = None
+class _OthersCache(threading.local):
+    """Per thread (evaluations may run side by side on a Dask worker's threads): (model, points, reach) ->
+    (model, points, mask, values) of :func:`_others_subtracted` while :func:`_fit_response_models` runs (None
+    outside it)."""
+
+    cache: dict | None = None
+
+
+_OTHERS = _OthersCache()
 
 
 def _fit_one_group(
@@ -1487,13 +1495,12 @@ def _fit_response_models(
     data: np.ndarray, found: list[FitStart], nulls: npt.ArrayLike, params: EvaluateParams, support_shape: bool = False
 ) -> list[ResponseModel | None]:
     """:func:`_fitted_response_models` with the other groups' models on a fit's samples evaluated once
-    (:data:`_OTHERS_CACHE`)."""
-    global _OTHERS_CACHE
-    before, _OTHERS_CACHE = _OTHERS_CACHE, {}
+    (:data:`_OTHERS`)."""
+    before, _OTHERS.cache = _OTHERS.cache, {}
     try:
         return _fitted_response_models(data, found, nulls, params, support_shape)
     finally:
-        _OTHERS_CACHE = before
+        _OTHERS.cache = before
 
 
 def _fitted_response_models(

@@ -42,7 +42,7 @@ def test_the_other_groups_models_are_evaluated_once_with_the_same_bits(monkeypat
         return real(pts, model)
 
     monkeypatch.setattr(residual, "model_values", counted)
-    monkeypatch.setattr(residual, "_OTHERS_CACHE", {})
+    monkeypatch.setattr(residual._OTHERS, "cache", {})
     first = _others_subtracted(y, points, [0], [0, 1, 2], models, 1e-3)
     again = _others_subtracted(y, points, [0], [0, 1, 2], models, 1e-3)
     assert len(calls) == 2  # models 1 and 2, once
@@ -52,3 +52,16 @@ def test_the_other_groups_models_are_evaluated_once_with_the_same_bits(monkeypat
     for got in (first, again):
         assert np.array_equal(got.view(np.uint64), want.view(np.uint64))
     assert not np.array_equal(other, want)
+
+
+def test_each_thread_has_its_own_cache(monkeypatch):
+    """Evaluations side by side on a Dask worker's threads: one's fit does not see (or replace) another's cache."""
+    import threading
+
+    mine: dict = {}
+    monkeypatch.setattr(residual._OTHERS, "cache", mine)
+    seen = []
+    worker = threading.Thread(target=lambda: seen.append(residual._OTHERS.cache))
+    worker.start()
+    worker.join()
+    assert seen == [None] and residual._OTHERS.cache is mine
