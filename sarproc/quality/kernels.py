@@ -12,6 +12,7 @@ import numba
 import numpy as np
 
 from sarproc.product.kernel_cache import CACHE, lean_cache_loads
+from sarproc.quality.kernels_aot import DENSITY_PRUNE
 
 
 @numba.njit(error_model="numpy", parallel=True, cache=CACHE)
@@ -26,7 +27,7 @@ def orientation_density(
     reach: np.ndarray,
 ) -> np.ndarray:  # pragma: no cover - compiled
     """sum_j weight[j] exp((cos^2 - 1) / 2 sigma^2) over unit vectors u[j] at each candidate cand[i],
-    terms below exp(-40) of their weight left out (the numpy reference's pruning).
+    terms below exp(-DENSITY_PRUNE / 2) of their weight left out.
 
     The candidates come in blocks (block b: cand[order[starts[b]:starts[b + 1]]], inside a cone about the unit
     vector centre[b]): a u with |u . centre[b]| below reach[b] is farther than the pruning's reach from every one
@@ -34,7 +35,7 @@ def orientation_density(
     instead of one per candidate. Each candidate still sums its terms in the order of j, the same terms: the
     same result bit for bit as the loop over every pair."""
     out = np.zeros(cand.shape[0])
-    floor = 1.0 - 80.0 * sigma * sigma
+    floor = 1.0 - DENSITY_PRUNE * sigma * sigma
     scale = 1.0 / (2.0 * sigma * sigma)
     for b in numba.prange(starts.shape[0] - 1):
         for j in range(u.shape[0]):
@@ -119,6 +120,29 @@ def _strong_from_norms(
                     norm[n] = norms[i, j, k]
                     n += 1
     return g, norm
+
+
+@numba.njit(error_model="numpy", cache=CACHE)
+def cone_sum(u: np.ndarray, g: np.ndarray, f: np.ndarray, cos_cone: float) -> np.ndarray:  # pragma: no cover
+    """(4,): the sum of the gradients ``g`` (m, 3) whose unit vectors ``u`` lie within the cone |u . f| > cos_cone
+    about ``f``, each signed by its side (u . f < 0: subtracted), and their count: the cluster mean of
+    principal_directions' edge normals (:func:`sarproc.quality.metrics._edge_normals`) in one pass, the same sum
+    as numpy's ``(np.sign(c[sel])[:, None] * g[sel]).sum(axis=0)``, row by row in order, without the selections'
+    arrays."""
+    out = np.zeros(4)
+    for j in range(u.shape[0]):
+        c = u[j, 0] * f[0] + u[j, 1] * f[1] + u[j, 2] * f[2]
+        if abs(c) > cos_cone:
+            if c > 0:
+                out[0] += g[j, 0]
+                out[1] += g[j, 1]
+                out[2] += g[j, 2]
+            else:
+                out[0] -= g[j, 0]
+                out[1] -= g[j, 1]
+                out[2] -= g[j, 2]
+            out[3] += 1.0
+    return out
 
 
 @numba.njit(error_model="numpy", cache=CACHE)

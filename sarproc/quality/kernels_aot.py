@@ -37,9 +37,16 @@ QUALITY = Kernels(
         "ideal_response_boxes": f"c16[::1](f8[:, ::1], f8[::1], i8[:, ::1], i8[::1], i8, {_IDEAL})",
         "ideal_response_boxes_slopes": f"c16[:, ::1](f8[:, ::1], f8[::1], i8[:, ::1], i8[::1], i8, {_IDEAL})",
         "spread": "c16[::1](c16[::1], f8[::1], i8, i8, f8, i8)",
+        "cone_sum": "f8[::1](f8[:, ::1], f8[:, ::1], f8[::1], f8)",
     },
     owner="sarproc.quality.kernels_aot:QUALITY",
 )
+# The 3D orientation density leaves out a term whose unit vector lies farther from the candidate than
+# 1 - cos^2 > DENSITY_PRUNE * sigma^2, i.e. below exp(-DENSITY_PRUNE / 2) = 3.7e-6 of its weight (the 2D densities:
+# 80, exp(-40)). The density only locates its peaks (metrics._orientation_peaks): on paper 004's 14 chips the
+# peaks, in order, are those of the unpruned density, and the 14 densities take 0.15 s instead of 0.32 s
+# (session 37: the reach 20 deg -> 11 deg, a third of the pairs).
+DENSITY_PRUNE = 25.0
 # Serial seconds of the kernels per target and chip sample of a cube's evaluation: paper 004's cube (7 targets,
 # chips of 131 x 105 x 41) runs 0.89 s of them through this module on the shared 2-core machine (session 25: the
 # orientation density 0.41 s, the neighbours' boxes 0.23 s, the group fit's slopes 0.14 s; 1.1e-6 before the

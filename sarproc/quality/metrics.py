@@ -599,8 +599,9 @@ def _orientation_density(
 ) -> np.ndarray:
     """Sum over unit vectors u (weights ``weight``) of exp((cos^2 - 1) / 2 sigma^2) at each candidate.
 
-    Terms below exp(-40) of their weight (1e-17) are left out unless ``exact``: the exponential is
-    then taken on the few pairs within about 9 kernel widths (a tenth of them in 3D; compiled there)."""
+    Terms below exp(-40) of their weight (1e-17) are left out unless ``exact`` (in 3D, compiled, those below
+    exp(-kernels_aot.DENSITY_PRUNE / 2)): the exponential is then taken on the few pairs within about 9 (3D: 5)
+    kernel widths."""
     if not exact and cand.shape[1] == 3:
         cand = kernels_aot.f8(cand)
         blocks = _candidate_blocks(cand.tobytes(), float(sigma))
@@ -631,7 +632,7 @@ def _candidate_blocks(cand_bytes: bytes, sigma: float) -> tuple[np.ndarray, np.n
     ``cand_bytes`` (C-order float64 (n, 3)): block b holds the candidates order[starts[b]:starts[b + 1]], cells
     of :data:`BLOCK_RAD` in polar angle and along the parallels, inside a cone of half-angle r_b about the unit
     vector centre[b]. A unit vector u with |u . centre[b]| < reach[b] = cos(rho + r_b + margin) is farther than
-    rho from every candidate of the block, +-u alike, rho = acos(sqrt(1 - 80 sigma^2)) the density's pruning
+    rho from every candidate of the block, +-u alike, rho = acos(sqrt(1 - DENSITY_PRUNE sigma^2)) the density's pruning
     reach: their terms are all left out (reach -1 where that cone passes 90 deg: the block skips nothing)."""
     cand = np.frombuffer(cand_bytes, dtype=np.float64).reshape(-1, 3)
     theta = np.arccos(np.clip(cand[:, 2], -1.0, 1.0))
@@ -643,7 +644,7 @@ def _candidate_blocks(cand_bytes: bytes, sigma: float) -> tuple[np.ndarray, np.n
     order = np.argsort(cell, kind="stable")
     ids, starts = np.unique(cell[order], return_index=True)
     starts = np.append(starts, len(order)).astype(np.int64)
-    rho = math.acos(math.sqrt(max(0.0, 1.0 - 80.0 * sigma**2)))
+    rho = math.acos(math.sqrt(max(0.0, 1.0 - kernels_aot.DENSITY_PRUNE * sigma**2)))
     centre = np.zeros((len(ids), 3))
     reach = np.full(len(ids), -1.0)
     for b in range(len(ids)):
@@ -741,7 +742,7 @@ def principal_support(
     arcs = None
     if ndim == 2:  # the curved edges' plateaus, checked against where their gradients lie
         arcs = _Arcs(_plateaus(dens, peaks), where, norm)
-    found, curved = _edge_normals(cand, peaks, u, g, ndim, arcs)
+    found, curved = _edge_normals(cand, peaks, u, g, ndim, arcs, exact)
     oblique = False
     if gram is not None and len(found) == 2:
         found[1] = _perpendicular_second(found[0], found[1], nulls, gram)
@@ -1060,6 +1061,7 @@ def _edge_normals(
     g: np.ndarray,
     ndim: int,
     arcs: _Arcs | None = None,
+    exact: bool = False,
 ) -> tuple[list[np.ndarray], list[bool]]:
     """Up to ``ndim`` edge normals (and whether each is a curved edge's): each density peak (``cand[peaks]``) more
     than 20 deg from those kept, refined to the sign-aligned mean of the raw gradients ``g`` (unit vectors ``u``)
@@ -1068,9 +1070,14 @@ def _edge_normals(
     A curved edge (the range edges of a narrowband, wide-angle aperture's support are arcs) spreads its normals
     over the aperture's angles and the density over a plateau whose ends are its highest points (the normals
     crowd where the arc bends least in null-normalised frequency): its normal is the mean over the whole
-    plateau (``arcs``: the plateaus and where their gradients lie), the side-lobe fan's centre, not one end."""
+    plateau (``arcs``: the plateaus and where their gradients lie), the side-lobe fan's centre, not one end.
+    In 3D, unless ``exact``, each mean is one compiled pass (:func:`sarproc.quality.kernels.cone_sum`, the same
+    sum)."""
     found: list[np.ndarray] = []
     curved: list[bool] = []
+    compiled = ndim == 3 and not exact
+    if compiled:
+        u, g = kernels_aot.f8(u), kernels_aot.f8(g)
     for i in peaks:
         if all(abs(cand[i] @ f) < math.cos(math.radians(20.0)) for f in found):
             f, cone = cand[i], 8.0
@@ -1079,11 +1086,17 @@ def _edge_normals(
                 f, cone = arc
             curved.append(arc is not None)
             for _ in range(4):  # cluster mean of the raw gradients, signs aligned
-                c = u @ f
-                sel = np.abs(c) > math.cos(math.radians(cone))
-                if not sel.any():
-                    break
-                f = (np.sign(c[sel])[:, None] * g[sel]).sum(axis=0)
+                if compiled:  # one pass, the same sum (kernels.cone_sum)
+                    total = kernels_aot.kernels().cone_sum(u, g, kernels_aot.f8(f), math.cos(math.radians(cone)))
+                    if total[3] == 0:
+                        break
+                    f = total[:3]
+                else:
+                    c = u @ f
+                    sel = np.abs(c) > math.cos(math.radians(cone))
+                    if not sel.any():
+                        break
+                    f = (np.sign(c[sel])[:, None] * g[sel]).sum(axis=0)
                 f = f / np.linalg.norm(f)
             found.append(f)
         if len(found) == ndim:
@@ -1768,7 +1781,10 @@ class _NeighbourModel:
                 *map(kernels_aot.f8, _shape_args(self.shapes, 3)),
                 bool(hamming),
             )
-            return self.amplitude * box.ravel()
+            # the kernel's fresh array scaled in place, amplitude first as in amplitude * box (box * amplitude rounds
+            # otherwise: numpy's complex products are not symmetric)
+            flat = box.ravel()
+            return np.multiply(self.amplitude, flat, out=flat)
         grid = np.meshgrid(*[np.arange(n) + o for n, o in zip(shape, origin)], indexing="ij")
         return self.values(np.stack([g.ravel() for g in grid], axis=0).astype(float), hamming, exact)
 

@@ -197,11 +197,12 @@ def test_blocked_orientation_density_equals_every_pair():
     import math
 
     from sarproc.quality import kernels
+    from sarproc.quality.kernels_aot import DENSITY_PRUNE
     from sarproc.quality.metrics import _candidate_blocks, _orientation_grid
 
     rng = np.random.default_rng(7)
     sigma = math.radians(3.0)
-    floor = 1.0 - 80.0 * sigma * sigma  # the kernel's expressions, so the same rounding
+    floor = 1.0 - DENSITY_PRUNE * sigma * sigma  # the kernel's expressions, so the same rounding
     scale = 1.0 / (2.0 * sigma * sigma)
     rho = math.acos(math.sqrt(floor))
     grid = _orientation_grid(3)[0]
@@ -232,6 +233,30 @@ def test_blocked_orientation_density_equals_every_pair():
                     s += math.exp((d * d - 1.0) * scale) * float(w[j])
             want[i] = s
         assert np.array_equal(got, want)
+
+
+def test_compiled_cone_sums_equal_numpys_selection():
+    """The edge normals' cluster means in 3D (kernels.cone_sum, one pass) sum the same signed gradients in the same
+    order as the numpy selection they replace, bit for bit, on gradients like a support's edges': most within a few
+    degrees of three normals, on both sides of each (signs aligned), and a random rest."""
+    from sarproc.quality import kernels
+
+    rng = np.random.default_rng(11)
+    normals = np.linalg.qr(rng.standard_normal((3, 3)))[0]
+    u = np.concatenate([n + 0.05 * rng.standard_normal((3000, 3)) for n in normals] + [rng.standard_normal((500, 3))])
+    u[::2] *= -1  # both sides of each edge
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    g = u * rng.random(len(u))[:, None]
+    cos_cone = math.cos(math.radians(8.0))
+    for f in list(normals) + [u[7]]:
+        for _ in range(4):
+            c = u @ f
+            sel = np.abs(c) > cos_cone
+            want = (np.sign(c[sel])[:, None] * g[sel]).sum(axis=0)
+            got = kernels.cone_sum(u, g, np.ascontiguousarray(f), cos_cone)
+            assert got[3] == np.count_nonzero(sel) > 100
+            assert np.array_equal(got[:3], want)
+            f = want / np.linalg.norm(want)
 
 
 def test_padded_neighbours_are_every_pair_within_reach():

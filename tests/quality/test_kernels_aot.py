@@ -83,6 +83,8 @@ coef = rng.standard_normal(5000) + 1j * rng.standard_normal(5000)
 x = rng.uniform(-np.pi, np.pi, 5000)
 for chunks in (1, 2, 3):
     assert np.array_equal(k.spread(coef, x, 256, 16, 36.8, chunks), nk.spread(coef, x, 256, 16, 36.8, chunks))
+g = rng.standard_normal((900, 3))
+assert np.array_equal(k.cone_sum(u, g, u[3].copy(), 0.9), nk.cone_sum(u, g, u[3].copy(), 0.9))
 print("equal")
 """
 
