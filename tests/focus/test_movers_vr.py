@@ -155,7 +155,7 @@ def test_eq_5s_dip_is_a_point_target_only_where_the_channels_phases_make_it():
     mask = detection.extraction_mask(sfft.fftfreq(n_az, 1 / 2500.0), 2500.0, 400.0)
     noise = sfft.ifft(sfft.fft(noise, axis=1) * mask[None, :, None], axis=1)
     win, g = _small_window(noise)
-    win.cells, win.compact = np.arange(14, 19), True
+    win.cells = np.arange(14, 19)
     est = _searched(win)
     assert est.result is not None
     at = win.final_leakage(est.v_r, 0.0)
@@ -170,7 +170,7 @@ def test_eq_5s_dip_is_a_point_target_only_where_the_channels_phases_make_it():
     profile = np.zeros(cells)
     profile[15:18] = (0.5, 1.0, 0.5)
     mover, _ = _small_window(noise + target[:, :, None] * (profile * np.exp(2j * math.pi * rng.random(cells))))
-    mover.cells, mover.compact = np.arange(14, 19), True
+    mover.cells = np.arange(14, 19)
     est = _searched(mover)
     assert abs(est.v_r) < 2.0, est.v_r
     assert rc._coherence_t(mover, est.v_r, 0.0)[0] > 4.0
@@ -184,7 +184,7 @@ def _noise_window(seed: int) -> tuple[rc._Window, rc._Geometry]:
     rng = np.random.default_rng(seed)
     noise = (rng.standard_normal((3, n_az, cells)) + 1j * rng.standard_normal((3, n_az, cells))) / math.sqrt(2)
     win, g = _small_window(sfft.ifft(sfft.fft(noise, axis=1) * mask[None, :, None], axis=1))
-    win.cells, win.compact = np.arange(14, 19), True
+    win.cells = np.arange(14, 19)
     return win, g
 
 
