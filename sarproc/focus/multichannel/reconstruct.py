@@ -980,17 +980,16 @@ def _incoherent(
     minimum pulled to 8.8 m/s by the noise, 0.972 of the curve's median) is coherent at any trial velocity
     (docs/multichannel.md section 8, sig35 bullet).
 
-    The null fit's estimates (its mismatch, not eq. 5, is the criterion) are tested against what the window's
-    noise leaves: no point target where the fit at the estimate leaves more than NULL_FIT_MISMATCH of the
-    residual unexplained. A window with no mover in it (noise and the null's clutter residue, 18 seeded windows
-    of the slowish scene's radar and clutter, noise from -10 to +10 dB: docs/multichannel.md section 8, nf37
-    bullet) leaves 0.72-0.99 at the null fit's best velocity over every v_r and v_a it searches, so none passes
-    (the measured rate 0 / 18, under 17 % at 95 %; a Beta tail of their spread puts one at 0.3 under 1e-6); the
-    sessions-34 comparison it replaces (the mismatch under ``flat_above`` of its curve's median where the
-    criterion's cells stand out, of the trials' plain median elsewhere) passed N of those windows, so it was no
-    test: only the fit's gate upstream (_null_refit) kept them out. Eq. 5's unrelated-phase test does not apply
-    here: the window's channels hold the clutter the null cancels, which is a point target at v = 0 and makes
-    _coherence_t's t 40-60 in windows with no mover (nf37 bullet)."""
+    The null fit's estimates (its mismatch, not eq. 5, is the criterion) are tested by the fit itself: no point
+    target where the fit at the estimate leaves more than NULL_FIT_MISMATCH of the clutter-null residual
+    unexplained. Windows with no mover (seeded noise and clutter-residue windows of tests/focus/test_movers.py's
+    slowish scene, its mover moved away) leave 0.67-1.00 at the fit's best over every velocity it searches: none
+    of them passes, and the gate is 7 of their standard deviations under their mean (docs/multichannel.md section
+    8, nf37 bullet). Session 34's comparison it replaces (the mismatch under ``flat_above`` of its curve's median
+    where a criterion cell stands out, of the trials' plain median elsewhere) passed most of those windows: only
+    the same gate in _null_refit kept them out. Eq. 5's unrelated-phase test does not apply there: the window's
+    channels hold the clutter the null cancels, a point target at v = 0 coherent at any trial velocity
+    (_coherence_t 12-79 at the fit's best velocity in windows with clutter and no mover)."""
     assert est.result is not None
     at = est.criterion(est.v_r, est.v_a)
     if est.by_null_fit:
@@ -1449,7 +1448,7 @@ def _estimate(
     window's location). With ``static_below``, a window whose line-of-sight velocity from the first
     search is below it (m/s) is a static target: (None, ["static <v_los>"]); with ``flat_above``, one whose eq. 5 at the
     estimate is not significantly lower than its channels with unrelated phases give, or at white noise's
-    out-of-band fraction (or whose null fit mismatch is above that fraction of its curve's level), has no
+    out-of-band fraction (or, by the null fit, whose mismatch is over NULL_FIT_MISMATCH), has no
     velocity that explains it (noise, or a response that is no point target): (None, ["incoherent"];
     _incoherent). With ``null_fit`` (a detection on the clutter-null residual), an eq. 5
     estimate that leaves more than NULL_FIT_MISMATCH of that residual unexplained was pulled by the clutter
