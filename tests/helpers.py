@@ -110,5 +110,5 @@ def mover_campaign_scene(squint, pattern, n_receivers, spacing, mover, noise_snr
     }
     if noise_snr is not None:
         m["effects"]["noise"] = {"snr": f"{noise_snr} dB"}
-        m["simulation"]["seed"] = noise_seed
+        m.setdefault("simulation", {})["seed"] = noise_seed
     return m

@@ -717,6 +717,11 @@ def slowish_scene(v_a, v_r):
         clutter={"n_scatterers": 60, "azimuth_extent": "400 m", "range_extent": "200 m", "seed": 9},
     )
     m["radar"].update({"bandwidth": "30 MHz", "range_sampling_rate": "36 MHz"})
+    # measured on the continuous chirp's echoes (xu_scene.yaml's, stated so the scene keeps it). Band-limited (the
+    # default), the mover is detected at v_r -2.27, v_a 10.58 m/s (1-sigma 0.35, 0.93) but its apparent position is
+    # 32 m off in range (continuous: 0.2 m), beyond the 20 m truth match: not understood yet (docs/multichannel.md,
+    # session 37)
+    m["simulation"] = {"waveform": "continuous"}
     return m
 
 
@@ -1402,6 +1407,9 @@ def test_clutter_whose_eq_5_looks_disagree_is_not_tabled_as_a_slow_mover():
     m["geometry"] = {"reference_range": "600 km", "squint": "11.7 deg"}
     m["radar"]["pulse_duration"] = "15 us"
     m["targets"]["frame"] = "squint"
+    # the campaign's scene 014 as it was drawn, on the continuous chirp's echoes (xu_scene.yaml's, stated so the scene
+    # keeps it); band-limited (the default) every assertion but the last holds, and two detections are weak
+    m["simulation"] = {"waveform": "continuous"}
     raw = simulate(scene_from_mapping(m))
     rec = reconstruct(raw, ReconstructParams(clutter_suppression=True))
     by_name, false = found(rec)
@@ -1577,13 +1585,18 @@ def test_a_mover_detected_away_from_where_it_focuses_is_tabled_where_it_focuses(
 
 def sinc_pair_scene(points):
     """Mover campaign scene 008's radar (`scripts/mover_campaign.py --n 20 --seed 1`): 3 receivers 2 m apart at PRF
-    2500 Hz, 15.1 deg squint, a 0.507 deg sinc beam, no clutter and no noise; ``points`` two of its movers."""
+    2500 Hz, 15.1 deg squint, a 0.507 deg sinc beam, no clutter and no noise; ``points`` two of its movers.
+
+    On the continuous chirp's echoes, as measured (xu_scene.yaml's, stated so the scene keeps it). Band-limited (the
+    default), M5 beside M4 reads -0.065 m/s (the 0.05 below) and M4 -0.151 with a stated 0.138 (its bound 0.1);
+    M6 beside M3 holds either way (docs/multichannel.md, session 37)."""
     return merge(
         beam_scene("sinc"),
         {
             "effects": {"azimuth_channels": {"n_receivers": 3, "spacing": "2 m"}},
             "geometry": {"squint": "15.1 deg"},
             "targets": {"points": points},
+            "simulation": {"waveform": "continuous"},
         },
     )
 
