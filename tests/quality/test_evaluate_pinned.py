@@ -34,6 +34,10 @@ SIDELOBE_DB = 0.005  # PSLR, ISLR (and their shortened and contaminated figures)
 RESIDUAL_DB = 0.05  # residual floor, RMS, false-target levels (test_residual_convergence.STABLE_DB)
 POSITION_CELLS = 0.01
 SAME_CELL = 0.5  # false-target position: within half a resolution cell (the same cell)
+# A cut's angle and its direction's components, absolute: a cut within 0.001 deg of an image axis (000 small's
+# range cuts) moves by 1e-6 deg with another CPU's last bits (AVX-512 against the pinning machine), 1e-3 of
+# itself; 1e-4 deg is tighter than REL for every angle over 1 deg
+ANGLE_DEG = 1e-4
 
 
 def _axis_grid(n: int, step: float) -> np.ndarray:
@@ -150,6 +154,10 @@ def differences(before: dict, after: dict) -> list[str]:
             bound, moved = POSITION_CELLS, abs(x - y)
         elif len(path) > 2 and path[-2] == "position" and isinstance(key, str) and key in cells_by_axis:
             bound, moved = SAME_CELL, abs(x - y) / abs(cells_by_axis[key])  # a false target's position
+        elif key == "angle_deg":
+            bound, moved = ANGLE_DEG, abs(x - y)
+        elif len(path) > 1 and path[-2] == "direction":  # 1 on its own axis, the slope tan(angle) off it (rad)
+            bound, moved = math.radians(ANGLE_DEG), abs(x - y)
         elif key in ("floor_db", "rms_db", "level_db", "pixel_level_db"):
             bound, moved = RESIDUAL_DB, abs(x - y)
         elif isinstance(key, str) and key.endswith("_db"):
@@ -229,6 +237,10 @@ def test_the_comparison_sees_a_move_beyond_each_bound(pinned):
     assert moved(lambda r: r["false_target"]["position"].__setitem__("azimuth", off))
     assert moved(lambda r: r["residual"].__setitem__("misfit_targets", ["T0"]))
     assert moved(on_cut("truncated", not cut["truncated"]))
+    assert moved(on_cut("angle_deg", cut["angle_deg"] + 2 * ANGLE_DEG))
+    assert not moved(on_cut("angle_deg", cut["angle_deg"] + 0.5 * ANGLE_DEG))
+    turned = [cut["direction"][0] + 2 * math.radians(ANGLE_DEG), cut["direction"][1]]
+    assert moved(on_cut("direction", turned))
 
 
 def _write(path: Path, commit: str) -> None:
