@@ -1825,13 +1825,15 @@ def residual_image(
 # windows is known, REACH_BELOW_FLOOR_DB below that floor. A sample left out then changes the residual by
 # less than the level (per model), so the floor, the false target and the RMS move by a few thousandths of a
 # dB at most, and a model costs its ridges and the box around its peak instead of the whole image.
-# -50 dB under the floor since the warped models' bound over a box is their exact coordinate range there
-# (:func:`_warped_box_range`; before, |W| times the box's farthest |x|^2 took in most of the image): at -40 dB
-# the truncation then left 2.4e-4 of the peak against the whole-image residual on 002 small two-step, 1.3e-4
-# before; at -50 dB 8.1e-5 there (000 small 3.7e-5 -> 7.0e-6, 002 plain 1.1e-2 -> 2.9e-3), on 7.7 M samples
-# instead of 17.0 M (docs/performance.md, session 37).
+# Warped models go WARPED_REACH_DB deeper: their bound over a box is their exact coordinate range there
+# (:func:`_warped_box_range`; before session 37, |W| times the box's farthest |x|^2 from the peak took in most of
+# the image, and so subtracted them far below the level), and at the same level the truncation's largest error
+# against the whole-image residual on 002 small two-step grew from 1.3e-4 to 2.4e-4 of the peak; 10 dB deeper,
+# 8.1e-5, on 7.7 M samples instead of 17.0 M (docs/performance.md, session 37). Straight models keep the level
+# (their bound was tight already: 000 small's and 002 plain's residuals the same bits).
 REACH_FIRST_DB = -40.0
-REACH_BELOW_FLOOR_DB = -50.0
+REACH_BELOW_FLOOR_DB = -40.0
+WARPED_REACH_DB = -10.0
 REACH_BLOCK = 32  # samples per block edge (2D); 3D cubes use REACH_BLOCK // 2
 
 
@@ -1942,14 +1944,16 @@ def subtract_models(
     block_samples: int = 1 << 18,
 ) -> None:
     """Subtract from ``out`` (in place) every model on the blocks where its :func:`envelope_bound` lies in
-    [level, above): elsewhere it is below ``level`` (or was subtracted by an earlier call with that level)."""
+    [level, above): elsewhere it is below ``level`` (or was subtracted by an earlier call with that level). A
+    warped model's levels are :data:`WARPED_REACH_DB` lower."""
     edges, lo, hi = _block_grid(out.shape)
     grid = tuple(len(e) - 1 for e in edges)
     for model in models:
         if model is None:
             continue
         bound = envelope_bound(model, lo, hi)
-        needed = ((bound >= level) & (bound < above)).reshape(grid)
+        deeper = 1.0 if model.warp is None else 10 ** (WARPED_REACH_DB / 20)
+        needed = ((bound >= level * deeper) & (bound < above * deeper)).reshape(grid)
         if not needed.any():
             continue
         for box in _boxes(needed, edges):

@@ -364,7 +364,7 @@ def test_warped_envelope_bound_holds_over_each_block():
 def test_warped_models_are_subtracted_where_they_reach(monkeypatch):
     """Warped models are evaluated on the blocks their ridges reach, not on every block their warp could bend
     them to (|W| times the block's farthest |x|^2 from the peak, the bound before session 37, took in most
-    of the image), and what is left out stays under the level per model against the whole image."""
+    of the image), :data:`R.WARPED_REACH_DB` deeper: against the whole image fewer samples leave less."""
     models = _warped_models()
     whole = residual_image(np.zeros(SHAPE), models)
     evaluated = []
@@ -375,11 +375,12 @@ def test_warped_models_are_subtracted_where_they_reach(monkeypatch):
         return box(slices, model)
 
     monkeypatch.setattr(R, "_model_on_box", counted)
-    # share of the three models' whole-image evaluations: 0.121 and 0.281 here, 0.200 and 0.368 with the bound before
-    for level_db, share in ((-60.0, 0.15), (-80.0, 0.32)):
-        level = 10 ** (level_db / 20)
-        evaluated.clear()
-        out = np.zeros(SHAPE, dtype=complex)
-        subtract_models(out, models, level)
-        assert np.abs(out - whole).max() <= len(models) * level
-        assert sum(evaluated) < share * len(models) * math.prod(SHAPE)
+    level = 10 ** (-60.0 / 20)
+    out = np.zeros(SHAPE, dtype=complex)
+    subtract_models(out, models, level)
+    error = np.abs(out - whole).max()
+    assert error <= len(models) * level * 10 ** (R.WARPED_REACH_DB / 20)  # what the bound guarantees
+    # what it gives here: 0.18 of the level on 0.180 of the three models' whole-image evaluations; with the
+    # bound before, at the level itself, 0.43 on 0.200
+    assert error < 0.3 * level
+    assert sum(evaluated) < 0.19 * len(models) * math.prod(SHAPE)
