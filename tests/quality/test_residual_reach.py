@@ -58,11 +58,9 @@ def test_envelope_bounds_each_model_everywhere(keystone):
         assert np.all(value <= bound * (1 + 1e-9) + 1e-14)
 
 
-@pytest.mark.parametrize("keystone", [0.0, 0.003, 0.02])
-def test_subtraction_above_a_level_is_the_whole_image_to_that_level(keystone, monkeypatch):
-    models = _models(keystone)
-    whole = residual_image(np.zeros(SHAPE), models)
-    evaluated = []
+def _counted_samples(monkeypatch) -> list[int]:
+    """The samples of each box :func:`R._model_on_box` evaluates from now on, appended to the list returned."""
+    evaluated: list[int] = []
     box = R._model_on_box
 
     def counted(slices, model):
@@ -70,6 +68,14 @@ def test_subtraction_above_a_level_is_the_whole_image_to_that_level(keystone, mo
         return box(slices, model)
 
     monkeypatch.setattr(R, "_model_on_box", counted)
+    return evaluated
+
+
+@pytest.mark.parametrize("keystone", [0.0, 0.003, 0.02])
+def test_subtraction_above_a_level_is_the_whole_image_to_that_level(keystone, monkeypatch):
+    models = _models(keystone)
+    whole = residual_image(np.zeros(SHAPE), models)
+    evaluated = _counted_samples(monkeypatch)
     for level_db in (-60.0, -80.0):
         level = 10 ** (level_db / 20)
         evaluated.clear()
@@ -367,14 +373,7 @@ def test_warped_models_are_subtracted_where_they_reach(monkeypatch):
     of the image), :data:`R.WARPED_REACH_DB` deeper: against the whole image fewer samples leave less."""
     models = _warped_models()
     whole = residual_image(np.zeros(SHAPE), models)
-    evaluated = []
-    box = R._model_on_box
-
-    def counted(slices, model):
-        evaluated.append(math.prod(s.stop - s.start for s in slices))
-        return box(slices, model)
-
-    monkeypatch.setattr(R, "_model_on_box", counted)
+    evaluated = _counted_samples(monkeypatch)
     level = 10 ** (-60.0 / 20)
     out = np.zeros(SHAPE, dtype=complex)
     subtract_models(out, models, level)
