@@ -1832,9 +1832,30 @@ def residual_image(
 # windows is known, REACH_BELOW_FLOOR_DB below that floor. A sample left out then changes the residual by
 # less than the level (per model), so the floor, the false target and the RMS move by a few thousandths of a
 # dB at most, and a model costs its ridges and the box around its peak instead of the whole image.
+# Warped models go WARPED_REACH_DB deeper: their bound over a box is their exact coordinate range there
+# (:func:`_warped_box_range`; before session 37, |W| times the box's farthest |x|^2 from the peak took in most of
+# the image, and so subtracted them far below the level), and at the same level the truncation's largest error
+# against the whole-image residual on 002 small two-step grew from 1.3e-4 to 2.4e-4 of the peak; 10 dB deeper,
+# 8.1e-5, on 7.7 M samples instead of 17.0 M (docs/performance.md, session 37). Straight models keep the level
+# (their bound was tight already: 000 small's and 002 plain's residuals the same bits).
 REACH_FIRST_DB = -40.0
 REACH_BELOW_FLOOR_DB = -40.0
+WARPED_REACH_DB = -10.0
 REACH_BLOCK = 32  # samples per block edge (2D); 3D cubes use REACH_BLOCK // 2
+
+
+def _warped_box_range(A: np.ndarray, W: np.ndarray, mid: np.ndarray, half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(centre, radius) (B, ndim): the range of the warped ridge coordinates c_a(x) = A_a x + x^T W_a x over each
+    box of centre ``mid`` and half-widths ``half`` ((B, ndim) offsets from the peak, samples). c is quadratic,
+    so at x = mid + d exactly c(mid) + g d + d^T W_a d, g = A_a + (W_a + W_a^T) mid: over |d| <= half it lies
+    within sum |g| half + sum |W_a| half half of c(mid). The box's own warp term, not |W| times the box's
+    farthest |x|^2 from the peak: far from the peak the model's ridges are where the warp puts them, and the
+    boxes they do not reach are left out (002 small two-step at the same levels: 17.0 M -> 4.5 M samples; 7.7 M
+    with :data:`WARPED_REACH_DB`)."""
+    centre = mid @ A.T + np.einsum("bi,aij,bj->ba", mid, W, mid)
+    grad = A[None] + np.einsum("aij,bj->bai", W + W.transpose(0, 2, 1), mid)
+    radius = np.einsum("bai,bi->ba", np.abs(grad), half) + np.einsum("bi,aij,bj->ba", half, np.abs(W), half)
+    return centre, radius
 
 
 def envelope_bound(model: ResponseModel, lo: np.ndarray, hi: np.ndarray | None = None) -> np.ndarray:
@@ -1850,11 +1871,13 @@ def envelope_bound(model: ResponseModel, lo: np.ndarray, hi: np.ndarray | None =
     + sum |kappa| / 2; the strips that approximate the trapezoid (:func:`_strip_factors`) get a factor of 2
     of margin, and their staircase's own ridges a term of their own."""
     A, p = _ridge_frame(model.position, model.ridges, model.nulls)
-    centre = (lo - p if hi is None else (lo + hi) / 2.0 - p) @ A.T  # (B, ndim)
-    radius = np.zeros_like(centre) if hi is None else ((hi - lo) / 2.0) @ np.abs(A).T
-    if model.warp is not None:  # the warp moves each coordinate by at most its norm times the farthest |x|^2
-        far = (lo - p) ** 2 if hi is None else np.maximum((lo - p) ** 2, (hi - p) ** 2)
-        radius = radius + far.sum(axis=1)[:, None] * np.abs(model.warp).sum(axis=(1, 2))[None, :]
+    if hi is not None and model.warp is not None:
+        centre, radius = _warped_box_range(A, np.asarray(model.warp, dtype=float), (lo + hi) / 2.0 - p, (hi - lo) / 2.0)
+    else:
+        centre = (lo - p if hi is None else (lo + hi) / 2.0 - p) @ A.T  # (B, ndim)
+        radius = np.zeros_like(centre) if hi is None else ((hi - lo) / 2.0) @ np.abs(A).T
+        if model.warp is not None:  # at points (a fit's samples): the warp's norm times |x|^2
+            radius = radius + ((lo - p) ** 2).sum(axis=1)[:, None] * np.abs(model.warp).sum(axis=(1, 2))[None, :]
     shift = float(np.abs(model.orders).max()) / 2.0
     dist = np.maximum(0.0, np.abs(centre) - radius - shift)
     kappa = model.kappa
@@ -1929,14 +1952,16 @@ def subtract_models(
     block_samples: int = 1 << 18,
 ) -> None:
     """Subtract from ``out`` (in place) every model on the blocks where its :func:`envelope_bound` lies in
-    [level, above): elsewhere it is below ``level`` (or was subtracted by an earlier call with that level)."""
+    [level, above): elsewhere it is below ``level`` (or was subtracted by an earlier call with that level). A
+    warped model's levels are :data:`WARPED_REACH_DB` lower."""
     edges, lo, hi = _block_grid(out.shape)
     grid = tuple(len(e) - 1 for e in edges)
     for model in models:
         if model is None:
             continue
         bound = envelope_bound(model, lo, hi)
-        needed = ((bound >= level) & (bound < above)).reshape(grid)
+        deeper = 1.0 if model.warp is None else 10 ** (WARPED_REACH_DB / 20)
+        needed = ((bound >= level * deeper) & (bound < above * deeper)).reshape(grid)
         if not needed.any():
             continue
         for box in _boxes(needed, edges):
