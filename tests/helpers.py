@@ -112,3 +112,40 @@ def mover_campaign_scene(squint, pattern, n_receivers, spacing, mover, noise_snr
         m["effects"]["noise"] = {"snr": f"{noise_snr} dB"}
         m.setdefault("simulation", {})["seed"] = noise_seed
     return m
+
+
+def warped_model(rng, position=(60.3, 81.7), kappa=0.02, curvature=0.0, cross_warp=True):
+    """A warped, keystoned 2D response model of evaluate's residual (sarproc.quality.residual.ResponseModel: skewed
+    ridges, a chirp, a band centre, as pfa2's images give), its coefficients drawn from ``rng``."""
+    import numpy as np
+
+    from sarproc.quality.residual import ResponseModel, spectral_orders
+
+    orders = spectral_orders(2, 1, 2)
+    V = np.array([[0.99, 0.14], [-0.05, 1.0]])
+    warp = np.zeros((2, 2, 2))
+    warp[0, 1, 1], warp[1, 0, 0] = 2e-5, -3e-5
+    if cross_warp:
+        warp[1, 0, 1], warp[1, 1, 0] = 1e-5, 1e-5
+    return ResponseModel(
+        position=np.asarray(position, dtype=float),
+        ridges=V / np.linalg.norm(V, axis=1)[:, None],
+        nulls=np.array([2.3, 2.1]),
+        band_centre=np.array([0.03, -0.11]),
+        orders=orders,
+        coef=rng.normal(size=len(orders)) + 1j * rng.normal(size=len(orders)),
+        chirp=np.array([[1e-4, 2e-5], [2e-5, -3e-4]]),
+        kappa=np.array([kappa]),
+        warp=warp,
+        curvature=curvature,
+    )
+
+
+def model_on_every_sample(box, model):
+    """A residual response model's values at every sample of the image box ``box`` (slices), by model_values."""
+    import numpy as np
+
+    from sarproc.quality.residual import model_values
+
+    axes = np.meshgrid(*[np.arange(s.start, s.stop) for s in box], indexing="ij")
+    return model_values(np.stack([x.ravel() for x in axes]), model).reshape(axes[0].shape)

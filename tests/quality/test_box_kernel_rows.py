@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from sarproc.quality import residual_aot, residual_kernels as rk
-from sarproc.quality.residual import ResponseModel, _model_on_box, _strip_count, model_values, spectral_orders
+from sarproc.quality.residual import _model_on_box, _strip_count, spectral_orders
 from sarproc.quality.residual_kernels import RESEED, _box_tables, _product_at, _set_rotations, _strip_angles
 
 
@@ -212,28 +212,13 @@ def test_a_warped_model_with_a_small_keystone_is_subtracted_by_the_box_kernel(mo
     """002 small two-step's models: half of them (8.4 M of 17 M samples subtracted) have a keystone below
     :func:`_keystoned`'s reach, which model_values still sums as strips; on a box they go through the warped box
     kernel now, not the per-sample columns (samples x orders), to rounding of model_values."""
-    orders = spectral_orders(2, 1, 2)
-    rng = np.random.default_rng(8)
-    V = np.array([[0.99, 0.14], [-0.05, 1.0]])
-    warp = np.zeros((2, 2, 2))
-    warp[0, 1, 1], warp[1, 0, 0], warp[1, 0, 1], warp[1, 1, 0] = 2e-5, -3e-5, 1e-5, 1e-5
-    model = ResponseModel(
-        position=np.array([60.3, 81.7]),
-        ridges=V / np.linalg.norm(V, axis=1)[:, None],
-        nulls=np.array([2.3, 2.1]),
-        band_centre=np.array([0.03, -0.11]),
-        orders=orders,
-        coef=rng.normal(size=len(orders)) + 1j * rng.normal(size=len(orders)),
-        chirp=np.array([[1e-4, 2e-5], [2e-5, -3e-4]]),
-        kappa=np.array([2e-4]),
-        warp=warp,
-    )
+    from helpers import model_on_every_sample, warped_model
     from sarproc.quality.residual import _keystoned
 
+    model = warped_model(np.random.default_rng(8), kappa=2e-4)
     assert not _keystoned(model.kappa)
     box = (slice(3, 140), slice(20, 230))
-    axes = np.meshgrid(*[np.arange(s.start, s.stop) for s in box], indexing="ij")
-    want = model_values(np.stack([x.ravel() for x in axes]), model).reshape(axes[0].shape)
+    want = model_on_every_sample(box, model)
     with monkeypatch.context() as m:
         m.setattr(residual_aot, "keystone_columns", None)  # not called on the box
         got = _model_on_box(box, model)

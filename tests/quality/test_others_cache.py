@@ -5,27 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from helpers import warped_model
 from sarproc.quality import residual
-from sarproc.quality.residual import ResponseModel, _others_subtracted, spectral_orders
+from sarproc.quality.residual import _others_subtracted
 
 
 def _model(position, seed):
-    orders = spectral_orders(2, 1, 2)
-    rng = np.random.default_rng(seed)
-    V = np.array([[0.99, 0.14], [-0.05, 1.0]])
-    warp = np.zeros((2, 2, 2))
-    warp[0, 1, 1], warp[1, 0, 0] = 2e-5, -3e-5
-    return ResponseModel(
-        position=np.asarray(position, dtype=float),
-        ridges=V / np.linalg.norm(V, axis=1)[:, None],
-        nulls=np.array([2.3, 2.1]),
-        band_centre=np.array([0.03, -0.11]),
-        orders=orders,
-        coef=rng.normal(size=len(orders)) + 1j * rng.normal(size=len(orders)),
-        chirp=np.array([[1e-4, 2e-5], [2e-5, -3e-4]]),
-        kappa=np.array([0.02]),
-        warp=warp,
-    )
+    return warped_model(np.random.default_rng(seed), position, cross_warp=False)
 
 
 def test_the_other_groups_models_are_evaluated_once_with_the_same_bits(monkeypatch):

@@ -217,30 +217,15 @@ def test_a_warped_keystoned_model_on_a_box_is_its_values_at_every_sample(monkeyp
     """A warped, keystoned 2D model (what evaluate subtracts from pfa2's images) on an image box through the
     warped box kernel equals :func:`model_values` at every sample of the box to rounding, range-edge bow included,
     without the per-sample kernel's columns (samples x orders)."""
+    from helpers import model_on_every_sample, warped_model
     from sarproc.quality import residual_aot
-    from sarproc.quality.residual import ResponseModel, _model_on_box, model_values, spectral_orders
+    from sarproc.quality.residual import _model_on_box
 
-    orders = spectral_orders(2, 1, 2)
     rng = np.random.default_rng(7)
-    V = np.array([[0.99, 0.14], [-0.05, 1.0]])
-    warp = np.zeros((2, 2, 2))
-    warp[0, 1, 1], warp[1, 0, 0], warp[1, 0, 1], warp[1, 1, 0] = 2e-5, -3e-5, 1e-5, 1e-5
     for curvature in (0.0, -0.04):
-        model = ResponseModel(
-            position=np.array([60.3, 81.7]),
-            ridges=V / np.linalg.norm(V, axis=1)[:, None],
-            nulls=np.array([2.3, 2.1]),
-            band_centre=np.array([0.03, -0.11]),
-            orders=orders,
-            coef=rng.normal(size=len(orders)) + 1j * rng.normal(size=len(orders)),
-            chirp=np.array([[1e-4, 2e-5], [2e-5, -3e-4]]),
-            kappa=np.array([0.02]),
-            warp=warp,
-            curvature=curvature,
-        )
+        model = warped_model(rng, curvature=curvature)
         box = (slice(3, 140), slice(20, 230))
-        axes = np.meshgrid(*[np.arange(s.start, s.stop) for s in box], indexing="ij")
-        want = model_values(np.stack([x.ravel() for x in axes]), model).reshape(axes[0].shape)
+        want = model_on_every_sample(box, model)
         with monkeypatch.context() as m:
             m.setattr(residual_aot, "keystone_columns", None)  # not called on the box
             got = _model_on_box(box, model)
