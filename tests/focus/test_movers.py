@@ -719,8 +719,9 @@ def slowish_scene(v_a, v_r):
     m["radar"].update({"bandwidth": "30 MHz", "range_sampling_rate": "36 MHz"})
     # measured on the continuous chirp's echoes (xu_scene.yaml's, stated so the scene keeps it). Band-limited (the
     # default), the mover is detected at v_r -2.27, v_a 10.58 m/s (1-sigma 0.35, 0.93) but its apparent position is
-    # 32 m off in range (continuous: 0.2 m), beyond the 20 m truth match: not understood yet (docs/multichannel.md,
-    # session 37)
+    # 32 m off in range (continuous: 0.2 m), beyond the 20 m truth match: _NullFit.isolated takes a clutter peak as
+    # bright 8 cells short of it, which its rounded search box holds only at the band-limited estimate's v_los (no
+    # range-axis error; docs/multichannel.md section 9, branch bl37)
     m["simulation"] = {"waveform": "continuous"}
     return m
 
