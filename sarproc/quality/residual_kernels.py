@@ -110,12 +110,21 @@ def _strip_angles(x: np.ndarray, signs: np.ndarray, kappa: np.ndarray, n_strips:
     return half, phase + (n_strips - 1) * half
 
 
+COLUMN_BLOCK = 64  # samples evaluated side by side in keystone_columns
+
+
 @numba.njit(error_model="numpy", cache=CACHE)
 def keystone_columns(
     c: np.ndarray, orders: np.ndarray, kappa: np.ndarray, n_strips: int
 ) -> np.ndarray:  # pragma: no cover - compiled
     """(K, N) complex: the strip sum of order ``orders[k]`` at each column of ``c`` ((ndim, N) ridge
-    coordinates in nulls), a keystone ``kappa`` (ndim - 1) and ``n_strips`` strips."""
+    coordinates in nulls), a keystone ``kappa`` (ndim - 1) and ``n_strips`` strips.
+
+    Blocks of :data:`COLUMN_BLOCK` samples side by side: per sample and sign the sines of the half angle, of
+    S times it and the phase's rotation, then per order and sign the Dirichlet kernels of the block (the
+    |den| < 1e-9 limit patched before the sum), the sums and the order's factor, the samples innermost so the
+    compiler vectorises the divisions and products. Each sample's arithmetic is the per-sample loop's, in the
+    same order (the signs summed within an order, then the factor): the same bits."""
     ndim, n = c.shape
     n_orders = orders.shape[0]
     n_signs = 1 << (ndim - 1)
@@ -125,49 +134,67 @@ def keystone_columns(
     two_pi_pow = (2.0 * math.pi) ** (ndim - 1)
     j_pow = (-1j) ** (ndim - 1)
     out = np.empty((n_orders, n), dtype=np.complex128)
-    acc = np.empty(n_orders, dtype=np.complex128)
+    block = COLUMN_BLOCK
+    sh = np.empty((n_signs, block))
+    ch = np.empty((n_signs, block))
+    ssh = np.empty((n_signs, block))
+    csh = np.empty((n_signs, block))
+    rot = np.empty((n_signs, block), dtype=np.complex128)
+    s_l = np.empty(block)
+    c_l = np.empty(block)
+    near = np.empty(block, dtype=np.bool_)
+    acc = np.empty(block, dtype=np.complex128)
+    dirichlet = np.empty(block)
     x = np.empty(ndim)
-    for i in range(n):
-        near = False
-        for a in range(ndim - 1):
-            for q in range(n_orders):
-                if abs(c[a, i] + 0.5 * orders[q, a]) < 1e-7:
-                    near = True
-        if near:  # within 1e-7 of a removable singularity: the direct product evaluates the limit
-            for q in range(n_orders):
-                for a in range(ndim):
-                    x[a] = c[a, i] + 0.5 * orders[q, a]
-                out[q, i] = _product_at(x, kappa, n_strips)
-            continue
-        last = c[ndim - 1, i]
-        for q in range(n_orders):
-            acc[q] = 0j
-        for s in range(n_signs):
-            half, phase = _strip_angles(c[:, i], signs[s], kappa, n_strips)
-            sh, ch = math.sin(half), math.cos(half)
-            ssh, csh = math.sin(n_strips * half), math.cos(n_strips * half)
-            rot = complex(math.cos(phase), math.sin(phase))
-            for q in range(n_orders):
-                den = sh * cos_dh[s, q] + ch * sin_dh[s, q]
-                if abs(den) < 1e-9:  # sin(S h) / sin(h) -> S cos(S h) / cos(h)
-                    dirichlet = (
-                        n_strips * (csh * cos_sdh[s, q] - ssh * sin_sdh[s, q]) / (ch * cos_dh[s, q] - sh * sin_dh[s, q])
-                    )
-                else:
-                    dirichlet = (ssh * cos_sdh[s, q] + csh * sin_sdh[s, q]) / den
-                acc[q] += dirichlet * (rot * shift[s, q])
-        s_l, c_l = math.sin(math.pi * width * last), math.cos(math.pi * width * last)
-        for q in range(n_orders):
-            x_l = last + 0.5 * orders[q, ndim - 1]
-            small = abs(x_l) < 1e-12
-            # width sinc(width x_l) / prod_a (2 j pi x_a): one real division; 1 / (2 j pi)^(ndim - 1) is
-            # (-j / (2 pi))^(ndim - 1)
-            den = 1.0
+    for i0 in range(0, n, block):
+        m = min(block, n - i0)
+        for j in range(m):
+            i = i0 + j
+            near[j] = False
             for a in range(ndim - 1):
-                den *= c[a, i] + 0.5 * orders[q, a]
-            den *= two_pi_pow
-            factor = width / den if small else (s_l * cos_l[q] + c_l * sin_l[q]) / (math.pi * x_l * den)
-            out[q, i] = acc[q] * factor * j_pow
+                for q in range(n_orders):
+                    if abs(c[a, i] + 0.5 * orders[q, a]) < 1e-7:
+                        near[j] = True
+            for s in range(n_signs):
+                half, phase = _strip_angles(c[:, i], signs[s], kappa, n_strips)
+                sh[s, j], ch[s, j] = math.sin(half), math.cos(half)
+                ssh[s, j], csh[s, j] = math.sin(n_strips * half), math.cos(n_strips * half)
+                rot[s, j] = complex(math.cos(phase), math.sin(phase))
+            last = c[ndim - 1, i]
+            s_l[j], c_l[j] = math.sin(math.pi * width * last), math.cos(math.pi * width * last)
+        for q in range(n_orders):
+            for j in range(m):
+                acc[j] = 0j
+            for s in range(n_signs):
+                cdh, sdh, csdh, ssdh = cos_dh[s, q], sin_dh[s, q], cos_sdh[s, q], sin_sdh[s, q]
+                for j in range(m):
+                    dirichlet[j] = (ssh[s, j] * csdh + csh[s, j] * ssdh) / (sh[s, j] * cdh + ch[s, j] * sdh)
+                for j in range(m):  # sin(S h) / sin(h) -> S cos(S h) / cos(h)
+                    if abs(sh[s, j] * cdh + ch[s, j] * sdh) < 1e-9:
+                        num = n_strips * (csh[s, j] * csdh - ssh[s, j] * ssdh)
+                        dirichlet[j] = num / (ch[s, j] * cdh - sh[s, j] * sdh)
+                shift_sq = shift[s, q]
+                for j in range(m):
+                    acc[j] += dirichlet[j] * (rot[s, j] * shift_sq)
+            half_l, cos_lq, sin_lq = 0.5 * orders[q, ndim - 1], cos_l[q], sin_l[q]
+            for j in range(m):
+                i = i0 + j
+                x_l = c[ndim - 1, i] + half_l
+                small = abs(x_l) < 1e-12
+                # width sinc(width x_l) / prod_a (2 j pi x_a): one real division; 1 / (2 j pi)^(ndim - 1) is
+                # (-j / (2 pi))^(ndim - 1)
+                den = 1.0
+                for a in range(ndim - 1):
+                    den *= c[a, i] + 0.5 * orders[q, a]
+                den *= two_pi_pow
+                factor = width / den if small else (s_l[j] * cos_lq + c_l[j] * sin_lq) / (math.pi * x_l * den)
+                out[q, i] = acc[j] * factor * j_pow
+        for j in range(m):
+            if near[j]:  # within 1e-7 of a removable singularity: the direct product evaluates the limit
+                for q in range(n_orders):
+                    for a in range(ndim):
+                        x[a] = c[a, i0 + j] + 0.5 * orders[q, a]
+                    out[q, i0 + j] = _product_at(x, kappa, n_strips)
     return out
 
 
