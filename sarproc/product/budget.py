@@ -242,8 +242,10 @@ PROCESS = {
 # What starting numba adds to a run of NUMBA_STAGES: its import and runtime and its cached kernels loaded
 # (measured as the same run with SARPROC_AOT=0 against 1: simulate +0.67-0.74 s and +98 MB, preprocess
 # +0.61 s, backproject +0.49-0.51 s and +103 MB; on the idle machine of session 24, best of 3: simulate
-# +0.28 s, preprocess +0.26 s, +97 MB, where 0.6 s planned preprocess at 2.0-2.1x its run and failed CI)
-NUMBA_PROCESS = (100e6, 0.4)
+# +0.28 s, preprocess +0.26 s, +97 MB, where 0.6 s planned preprocess at 2.0-2.1x its run and failed CI; on
+# session 37's faster machine (AVX-512, the AOT runs 0.27 s for 0.47 here), simulate +0.17 s idle, where 0.4 s
+# planned simulate and preprocess at 2.1-2.2x their runs (0.39, 0.37 s): 0.2 s holds both machines in 2x)
+NUMBA_PROCESS = (100e6, 0.2)
 NUMBA_STAGES = ("simulate", "preprocess", "fine-focus", "backproject")
 
 # stage: (the numba modules it runs, seconds and bytes to compile them when numba's cache lacks them)

@@ -6,7 +6,7 @@ import math
 from typing import TYPE_CHECKING
 
 from sarproc.product.aot import NUMBA_STARTUP_S
-from sarproc.product.budget import NUMBA_PROCESS, Plan, header_shape
+from sarproc.product.budget import Plan, header_shape
 from sarproc.product.errors import InputError
 from sarproc.product.io import PREVIEW_BLOCK_BYTES, preview_shape
 from sarproc.quality import kernels_aot, residual_aot
@@ -20,6 +20,10 @@ if TYPE_CHECKING:
 # what running a cube's kernels through numba adds to evaluate's peak RSS (the same runs, SARPROC_AOT=0 against
 # 1): du2010_wide_swath +110 MB, paper 004's cube +123 MB
 NUMBA_CUBE_BYTES = 120e6
+# what starting numba adds to a 2D evaluate beyond its residual's fitted time (0.4 s of numba's import, runtime
+# and kernels less the ~0.3 s those runs already held: NUMBA_STARTUP_S); kept when session 37 refitted
+# product.budget.NUMBA_PROCESS for the stages, whose figures are runs without numba
+EVALUATE_NUMBA_S = 0.1
 
 
 def evaluate_estimate(stage: str, header: Product, params: Any) -> Plan:
@@ -76,8 +80,8 @@ def evaluate_estimate(stage: str, header: Product, params: Any) -> Plan:
         memory += 60e6
     if aot:  # the residual's time above was fitted to runs that started numba (~0.3 s), which this one skips
         seconds = max(0.5 * seconds, seconds - NUMBA_STARTUP_S)
-    elif residual:  # numba's start measured whole (NUMBA_PROCESS: xu_small's run 0.64 s AOT, 1.29 s through numba)
-        seconds += NUMBA_PROCESS[1] - NUMBA_STARTUP_S
+    elif residual:  # numba's start measured whole (xu_small's run 0.64 s AOT, 1.29 s through numba)
+        seconds += EVALUATE_NUMBA_S
     # the JSON report: about 3 kB per target (figures are not counted)
     return Plan(
         stage,
