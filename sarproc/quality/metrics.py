@@ -70,6 +70,7 @@ from sarproc.quality.line_moments import line_sums
 from sarproc.quality.linesum import exponential_sums
 from sarproc.quality.lstsq import least_squares
 from sarproc.quality.residual import (
+    COINCIDE_NULLS,
     FalseTargetList,
     FitStart,
     ResidualFloor,
@@ -1304,8 +1305,23 @@ def evaluate_image(
         for peak, own, i in wrapped(done, list(zip(peaks, own_axes, order)))
     ]
     guarded = _guarded_positions(truth, measured, other_truth, len(axes))
+    note = None
+    if params.residual and data.ndim == 3:
+        note = RESIDUAL_3D_NOTE
+    elif params.residual:
+        note = coinciding_note(coinciding_targets(truth, axes, names))
     false, guard, floor, listed = _false_targets(
-        data, mag, axes, guarded, peaks, reports, half, nulls, params, own_axes, truth[order]
+        data,
+        mag,
+        axes,
+        guarded,
+        peaks,
+        reports,
+        half,
+        nulls,
+        dataclasses.replace(params, residual=False) if note else params,
+        own_axes,
+        truth[order],
     )
     done()
     return QualityReport(
@@ -1315,8 +1331,35 @@ def evaluate_image(
         params=params,
         false_target_guard=guard,
         residual=floor,
-        residual_note=RESIDUAL_3D_NOTE if params.residual and data.ndim == 3 else None,
+        residual_note=note,
         false_targets=listed,
+    )
+
+
+def coinciding_targets(truth: np.ndarray, axes: Sequence[_Axis], names: Sequence[str]) -> list[list[str]]:
+    """Groups of targets (names, two or more) whose true positions lie within :data:`COINCIDE_NULLS` of the
+    image's null spacing of each other on every axis (``truth``: (n, ndim) in axis units): one response in this
+    image, their sum, however the scene places them apart in other coordinates (paper 004's receiver images
+    before elevation compression hold targets 3, 6 and 7, 4 m apart in elevation, on one pixel)."""
+    index = np.array([[ax.to_index(x) for ax, x in zip(axes, row)] for row in np.asarray(truth, dtype=float)])
+    nulls = np.array([ax.null for ax in axes])
+    groups: list[list[int]] = []
+    for j in range(len(index)):
+        near = [g for g in groups if any(np.all(np.abs(index[k] - index[j]) <= COINCIDE_NULLS * nulls) for k in g)]
+        merged = [j] + [k for g in near for k in g]
+        groups = [g for g in groups if g not in near] + [sorted(merged)]
+    return [[str(names[k]) for k in g] for g in groups if len(g) > 1]
+
+
+def coinciding_note(groups: Sequence[Sequence[str]]) -> str | None:
+    """The report's residual note for :func:`coinciding_targets`' groups (None: none coincide)."""
+    if not groups:
+        return None
+    said = "; ".join(", ".join(g[:-1]) + " and " + g[-1] for g in groups)
+    return (
+        f"the residual false-target level is not taken: targets {said} coincide in this image (true positions "
+        f"within {COINCIDE_NULLS:g} of a null on every axis), one response that a model per target cannot be "
+        "fitted to; the false target is the guard-window figure"
     )
 
 
