@@ -53,3 +53,26 @@ def test_coinciding_groups_chain_and_stay_apart():
     truth = np.array([[0, 0], [0.4 * null, 0], [0.8 * null, 0], [10, 10], [10, 10 + 0.3 * null], [-10, 0]])
     groups = coinciding_targets(truth, axes, ["a", "b", "c", "d", "e", "f"])
     assert sorted(groups) == [["a", "b", "c"], ["d", "e"]]
+
+
+def test_a_group_holding_coinciding_targets_is_not_refitted(monkeypatch):
+    """The crowded cuts' response-model refit (metrics._refit_rich) models one response per member: on a peak
+    that holds two targets it was tried and refused (receiver 14: 4 s CPU for nothing). A neighbour 8 samples
+    away joins the pair's group; with the pair 0.6 of a null apart the group is tried as before."""
+    import sarproc.quality.metrics as metrics
+
+    tried = []
+    real = metrics._refit_rich
+
+    def spy(data, points, y, fit, members, nulls, params):
+        tried.append(tuple(members))
+        return real(data, points, y, fit, members, nulls, params)
+
+    monkeypatch.setattr(metrics, "_refit_rich", spy)
+    params = EvaluateParams(residual=False)
+    for apart, expect_tried in ((0.0, False), (COINCIDE_NULLS + 0.1, True)):
+        tried.clear()
+        targets = [(0.0, 0.0), (apart * NULL[0], 0.0), (8 * STEP2[0], 0.0)]
+        img, coords = _image(targets)
+        evaluate_image(img, ("azimuth", "range"), coords, RES2, targets, names=["P", "Q", "R"], params=params)
+        assert bool(tried) == expect_tried, (apart, tried)
