@@ -13,6 +13,7 @@ terms' sum (the NUFFT's own error is 1e-14).
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -50,18 +51,17 @@ def line_sums(
     if w > MAX_TURN:
         return None
     p_max = series_length(w)
-    # c_k = spec_k exp(2 pi i f_k . (x0 + t_c v)): per-axis factors
-    coef = spec
-    for b in range(ndim):
-        shape = [1] * ndim
-        shape[b] = -1
-        coef = coef * np.exp(2j * np.pi * freqs[b] * (x0[b] + centre * v[b])).reshape(shape)
-    coef = np.moveaxis(coef, a, 0).reshape(spec.shape[a], -1)  # (n_a, others)
+    # c_k = spec_k exp(2 pi i f_k . (x0 + t_c v)) is spec_k times one factor per axis: the other axes' factors
+    # go into the powers (others x P, small) and axis a's onto the moments, so the spectrum is read once, by the
+    # one matrix product (three products over the whole spectrum and the real and imaginary copies were 2/3 of
+    # the time; the same sums to rounding)
+    factor = [np.exp(2j * np.pi * freqs[b] * (x0[b] + centre * v[b])) for b in range(ndim)]
+    others = functools.reduce(np.multiply.outer, [factor[b] for b in range(ndim) if b != a]).reshape(-1)
     eta = (eps - mid) / spread if spread > 0 else np.zeros_like(eps)
-    powers = np.vander(eta, p_max, increasing=True)  # (others, P): eta^p
-    moments = np.ascontiguousarray(coef.real) @ powers + 1j * (np.ascontiguousarray(coef.imag) @ powers)
-    tau = first + step * np.arange(count) - centre
-    along = np.exp(2j * np.pi * np.outer(tau, freqs[a])) @ moments  # (count, P)
+    powers = np.vander(eta, p_max, increasing=True) * others[:, None]  # (others, P): eta^p times the phase
+    moments = (np.moveaxis(spec, a, 0).reshape(spec.shape[a], -1) @ powers) * factor[a][:, None]  # (n_a, P)
+    tau = step * (np.arange(count) - 0.5 * (count - 1))  # t_j - t_c, symmetric about 0
+    along = _phases(tau, freqs[a]) @ moments  # (count, P)
     s = tau / half if half > 0 else np.zeros(count)
     # sum_p (i w)^p / p! s^p along[:, p], by Horner in s
     scale = [complex(1.0)]
@@ -72,3 +72,15 @@ def line_sums(
         acc = acc * s + scale[p] * along[:, p]
     out: np.ndarray = acc * np.exp(2j * np.pi * mid * tau)
     return out
+
+
+def _phases(tau: np.ndarray, freqs: np.ndarray) -> np.ndarray:
+    """exp(2 pi i tau_j f_k) (count, n) for offsets ``tau`` symmetric about 0: the cosines and sines of the half
+    tau >= 0, the other half their conjugates (a complex exponential of each pair took a third of a cut's time)."""
+    count = tau.size
+    arg = 2 * np.pi * np.outer(tau[count // 2 :], freqs)
+    half = np.empty(arg.shape, dtype=np.complex128)
+    np.cos(arg, out=half.real)
+    np.sin(arg, out=half.imag)
+    below = half[:0:-1] if count % 2 else half[::-1]  # tau < 0: the mirror of tau > 0
+    return np.concatenate([below.conj(), half])

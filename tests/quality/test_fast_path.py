@@ -273,3 +273,53 @@ def test_padded_neighbours_are_every_pair_within_reach():
         for i, row in enumerate(rows):
             count = int(near[i].sum())
             assert np.array_equal(row[:count], np.flatnonzero(near[i])) and np.all(row[count:] == i)
+
+
+def _oblique_chip():
+    """A Hamming-weighted response whose range ridge leans 25 deg in space (the squinted stripmap of
+    tests/quality/test_oblique_tapered_ridges.py, smaller): the chip _ridges_in_space turns lines on."""
+    from test_oblique_tapered_ridges import _oblique_tapered_image
+
+    from sarproc.quality.metrics import _Chip
+
+    img, coords = _oblique_tapered_image()
+    peak = np.unravel_index(np.argmax(np.abs(img)), img.shape)
+    return img, coords, _Chip(img, peak, (34, 20)), np.array(peak, dtype=float) + (0.13, -0.21)
+
+
+def test_lines_through_a_point_equal_the_nufft_and_the_direct_sums():
+    """_Chip.lines_through (one point, any direction: per-axis tables and a matrix product) against
+    values_on_line (the non-uniform FFT the cuts take) and values_along (every term summed): centred lines of
+    odd and even counts and an off-centre one, to 1e-13 of the peak."""
+    _, _, chip, pos = _oblique_chip()
+    through = chip.lines_through(pos)
+    peak = abs(chip.values([[p] for p in pos]).item())
+    for v, first, step, count in [
+        ((0.42, 1.0), -80 * 0.2, 0.2, 161),
+        ((1.0, -0.37), -30 * 0.35, 0.35, 60),
+        ((1.0, 0.05), -7.3, 0.11, 97),
+    ]:
+        got = through(v, first, step, count)
+        nufft = chip.values_on_line(pos, v, first, step, count)
+        direct = chip.values_along(pos, v, first + step * np.arange(count))
+        assert np.abs(got - direct).max() < 1e-13 * peak
+        assert np.abs(got - nufft).max() < 1e-13 * peak
+
+
+def test_ridges_in_space_same_with_the_nufft_lines(monkeypatch):
+    """The oblique ridge search on lines_through's lines reports what it reported on values_on_line's (the
+    search's comparisons do not see the lines' last bits): the same report."""
+    import sarproc.quality.metrics as metrics
+
+    img, coords, _, _ = _oblique_chip()
+    args = (img, ("azimuth", "range"), coords, (0.39 * 1.3 * 0.9, 0.906 * 1.3 * 0.9), [(0.0, 0.0)])
+    kw = dict(params=EvaluateParams(irw_factor=1.30, residual=False), metric=np.eye(2))
+    fast = evaluate_image(*args, **kw)
+    monkeypatch.setattr(
+        metrics._Chip,
+        "lines_through",
+        lambda self, start: lambda v, first, step, count: self.values_on_line(start, v, first, step, count),
+    )
+    reference = evaluate_image(*args, **kw)
+    assert dict(_floats(fast.to_dict())) == dict(_floats(reference.to_dict()))
+    assert any(abs(m.angle_deg) > 20 for m in fast.targets[0].axes)  # the ridge was turned in space

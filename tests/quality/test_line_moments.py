@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sarproc.quality.line_moments import MAX_TURN, line_sums, series_length
+from sarproc.quality.line_moments import MAX_TURN, _phases, line_sums, series_length
 
 
 def _direct(spec, freqs, x0, v, t):
@@ -29,6 +29,21 @@ def test_line_sums_equal_direct_sum():
         pick = np.array([0, 1, 333, 480, 777, count - 1])
         want = _direct(spec, freqs, x0, v, t[pick])
         np.testing.assert_allclose(got[pick], want, rtol=0, atol=1e-13 * np.abs(spec).sum())
+    # an even count: the offsets' mirror halves hold no zero
+    got = line_sums(spec, freqs, x0, np.array([1.0, 0.004, -0.002]), first, step, 960)
+    assert got is not None
+    pick = np.array([0, 1, 479, 480, 959])
+    want = _direct(spec, freqs, x0, np.array([1.0, 0.004, -0.002]), first + step * pick)
+    np.testing.assert_allclose(got[pick], want, rtol=0, atol=1e-13 * np.abs(spec).sum())
+
+
+def test_phases_of_mirrored_offsets_are_the_exponentials():
+    """The cut's table from the cosines and sines of one half of its symmetric offsets and their conjugates:
+    numpy's complex exponential of every entry, to rounding, for odd and even counts."""
+    freqs = (np.arange(41) - 20) / 41 + 0.013
+    for count in (1541, 1240, 1):
+        tau = 0.0625 * (np.arange(count) - 0.5 * (count - 1))
+        np.testing.assert_allclose(_phases(tau, freqs), np.exp(2j * np.pi * np.outer(tau, freqs)), rtol=0, atol=1e-14)
 
 
 def test_steep_line_left_to_the_nufft():
