@@ -696,6 +696,17 @@ STRETCH = True
 MAX_STRETCH = 4.0  # best lengths beyond [1 / MAX_STRETCH, MAX_STRETCH] Gauss-Newton steps are not taken
 STEADY = 0.1
 STRETCH_MISFIT = 0.5  # only fits whose model leaves less than this of their samples' energy are stretched
+# A fit whose result counts only where it ends under a misfit ``bar`` (a restart, kept where it halves the first
+# fit's misfit and beats the other restarts: :func:`_restart_misfitted_lone`; a warp, kept where it leaves under
+# WARP_GAIN of the misfit without: :func:`_fit_warp`) stops once it cannot get there by its own account: when even
+# every step it has left, each lowering the misfit by LOSING_MARGIN times what this step predicts, would leave it
+# over the bar (:func:`_cannot_win`). Its result is then discarded as it would have been. The steps such fits take
+# lower the misfit by 0.5-1.8 times their prediction, and their predictions fall step by step (bp_beam_edge's
+# restarts, after a width reaches its bound: by a factor 0.6-0.86 a step; the warps 002 small plain keeps none of:
+# first steps predict 7e-5..3e-2, keeping one needs 0.2). Measured on every pinned scene and the make targets' small
+# products: no restart or warp kept differs (models equal to the bit), while bp_beam_edge's losing restarts stop
+# after 15-36 of their 60 steps and 002 small plain's 25 warps after 46 of their 190 steps in all.
+LOSING_MARGIN = 20.0
 MAX_CARRIER_STEP = 0.02  # cycles/sample: a step's band-centre change at most (scaled down to it)
 MAX_SHAPE_STEP = 0.01  # relative width / keystone change of a step at most
 KAPPA_LIMIT = 0.2  # |keystone| at most
@@ -867,6 +878,7 @@ def _fit_group(
     centre: list[np.ndarray] | None = None,
     curvature: Sequence[float] = (),
     max_steps: int | None = None,
+    bar: float | None = None,
 ) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray], list]:
     """Complex amplitudes of every member's orders, and real band centres f_c and spatial chirps K by
     Gauss-Newton to convergence (:data:`FIT_TOLERANCE`; the amplitudes by linear least squares at each step,
@@ -877,6 +889,8 @@ def _fit_group(
     widths (null spacing ``nulls * (1 + scale)`` per axis) and keystone kappa (:func:`_strip_factors`).
     They matter far out: a support edge 0.5 % off puts the side lobes 40 nulls away a fifth of a null out
     of step. The widths stay within 10 % of ``centre`` (per member, the nulls' scale; default 1).
+    With ``bar`` (a misfit, a fraction of |y|^2, that the fit's result counts only under) it stops where it cannot
+    get under it (:data:`LOSING_MARGIN`); its result then leaves more than ``bar``.
     Returns (coef, f_c, K, (scale, kappa) or None) per member."""
     ndim = points.shape[0]
     pairs = _chirp_pairs(ndim)
@@ -904,7 +918,8 @@ def _fit_group(
     crawled = 0  # consecutive steps that lowered the misfit by less than FIT_CRAWL of it
     stretch, last = 1.0, math.nan  # the next step's length in Gauss-Newton steps (:func:`_stretch`), the last measured
     energy = float(np.vdot(y, y).real)
-    for _ in range(FIT_MAX_STEPS if max_steps is None else max_steps):
+    n_steps = FIT_MAX_STEPS if max_steps is None else max_steps
+    for n in range(n_steps):
         if cost <= 1e-30 * max(energy, 1e-300):
             break
         J = np.concatenate([fit.jacobian(q, t, b, c) for q, (t, b, c) in enumerate(zip(thetas, bases, coef))], axis=1)
@@ -918,6 +933,8 @@ def _fit_group(
             free = ~held
             step, predicted = (np.zeros_like(step), 0.0) if not free.any() else _gauss_newton_step(normal, r, J, free)
         if predicted <= FIT_TOLERANCE * cost:
+            break
+        if bar is not None and _cannot_win(cost, predicted, n_steps - n, bar * energy):
             break
         limit = _step_limit(stretch * step, len(members), ndim, len(pairs), shaped)
         length = stretch * limit  # the step taken, in Gauss-Newton steps
@@ -945,6 +962,13 @@ def _fit_group(
             break
     out = [fit.split(t) for t in thetas]
     return coef, [o[0] for o in out], [o[1] for o in out], [o[2] for o in out]
+
+
+def _cannot_win(cost: float, predicted: float, steps_left: int, bar: float) -> bool:
+    """Whether a fit at misfit ``cost`` whose next Gauss-Newton step predicts a decrease ``predicted`` stays at or over
+    ``bar`` even if each of its ``steps_left`` steps (this one included) lowered it by :data:`LOSING_MARGIN` times
+    that (all three in the same units, |residual|^2)."""
+    return cost - LOSING_MARGIN * steps_left * predicted >= bar
 
 
 def _stretch(cost: float, trial_cost: float, predicted: float, length: float) -> float:
@@ -1270,7 +1294,8 @@ def _restart_misfitted_lone(
         # its band: one cycle per null
         for starts in _band_shifted_starts(found, {k: RESTART_BAND_FRACTION / model.nulls}, near.shape[0]):
             trial: list[ResponseModel | None] = [None] * len(models)
-            _fit_one_group(members, near, y_near, trial, starts, nulls, orders, centre, support_shape)
+            # a restart that cannot get under the best misfit so far stops there (:data:`LOSING_MARGIN`)
+            _fit_one_group(members, near, y_near, trial, starts, nulls, orders, centre, support_shape, bar=best)
             if (misfit := _misfit(trial[k], near, y_near)) < best:
                 best, kept = misfit, trial[k]
         if kept is not None:
@@ -1443,10 +1468,12 @@ def _fit_one_group(
     centre: dict[int, np.ndarray],
     support_shape: bool,
     max_steps: int | None = None,
+    bar: float | None = None,
 ) -> None:
     """One group's :func:`_fit_group` on ``points`` / ``rhs``, started from its current models (or its
     peaks), its members' models replaced in ``models``. ``orders``: the group's; ``max_steps``: its
-    Gauss-Newton steps at most (None: :data:`FIT_MAX_STEPS`)."""
+    Gauss-Newton steps at most (None: :data:`FIT_MAX_STEPS`); ``bar``: the misfit (a fraction of |rhs|^2) its
+    result counts only under (:data:`LOSING_MARGIN`; None: fitted to convergence)."""
     ndim = points.shape[0]
     current = [models[k] for k in members]
     K0 = [np.zeros((ndim, ndim)) if m is None else m.chirp for m in current]
@@ -1475,6 +1502,7 @@ def _fit_one_group(
         [centre[k] for k in members],
         bows if shape0 is not None else (),
         max_steps,
+        bar,
     )
     for q, k in enumerate(members):
         models[k] = ResponseModel(
@@ -1602,15 +1630,18 @@ def _fit_warps(fits: list, models: list[ResponseModel | None], live: list[int], 
         if len(members) > 1 or model is None:
             continue
         rhs = _others_subtracted(y_far, far, members, live, models, reach)
-        warped, before, after = _fit_warp(far, rhs, model)
+        warped, before, after = _fit_warp(far, rhs, model, WARP_GAIN)
         if after < WARP_GAIN * before:
             models[k] = warped
 
 
-def _fit_warp(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> tuple[ResponseModel, float, float]:
+def _fit_warp(
+    points: np.ndarray, y: np.ndarray, model: ResponseModel, gain: float | None = None
+) -> tuple[ResponseModel, float, float]:
     """(model, misfit before, after): ``model`` with the warp (:attr:`ResponseModel.warp`, every second-order term
     of each ridge coordinate) that fits ``y`` on ``points`` best, by Gauss-Newton from none (its other parameters
-    held; amplitudes by linear least squares, eliminated from the steps)."""
+    held; amplitudes by linear least squares, eliminated from the steps). With ``gain``, the search stops where it
+    cannot leave under ``gain`` times the misfit before (:data:`LOSING_MARGIN`: it is kept only there)."""
     ndim = points.shape[0]
     A, p = _ridge_frame(model.position, model.ridges, model.nulls)
     x = np.asarray(points, dtype=float) - p[:, None]
@@ -1645,7 +1676,7 @@ def _fit_warp(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> tuple[
     w = np.zeros(ndim * len(pairs))
     c, coef, cost, normal, r = solve(w)
     before = cost
-    for _ in range(WARP_STEPS):
+    for n in range(WARP_STEPS):
         cols = []
         for a in range(ndim):
             dc = np.zeros_like(c)
@@ -1654,6 +1685,8 @@ def _fit_warp(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> tuple[
             cols += [slope * q for q in quad]
         step, predicted = _gauss_newton_step(normal, r, np.stack(cols, axis=1), np.ones(len(cols), dtype=bool))
         if predicted <= 1e-6 * cost:
+            break
+        if gain is not None and _cannot_win(cost, predicted, WARP_STEPS - n, gain * before):
             break
         length = 1.0
         for _halving in range(10):
