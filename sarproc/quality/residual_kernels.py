@@ -121,10 +121,13 @@ def keystone_columns(
     coordinates in nulls), a keystone ``kappa`` (ndim - 1) and ``n_strips`` strips.
 
     Blocks of :data:`COLUMN_BLOCK` samples side by side: per sample and sign the sines of the half angle, of
-    S times it and the phase's rotation, then per order and sign the Dirichlet kernels of the block (the
-    |den| < 1e-9 limit patched before the sum), the sums and the order's factor, the samples innermost so the
-    compiler vectorises the divisions and products. Each sample's arithmetic is the per-sample loop's, in the
-    same order (the signs summed within an order, then the factor): the same bits."""
+    S times it and the phase's rotation, then per order and sign the Dirichlet kernels of the block, the sums
+    and the order's factor, the samples innermost so the compiler vectorises the divisions and products. The
+    Dirichlet kernel's |den| < 1e-9 limit is chosen operand by operand in the same loop (one division, no
+    second pass), and each complex product is written out in real arithmetic as the complex one rounds it
+    (without its products with a real factor's zero imaginary part, which add only zeros). Each sample's
+    arithmetic is the per-sample loop's, in the same order (the signs summed within an order, then the
+    factor): the same bits (tests/quality/test_residual_kernel_bits.py)."""
     ndim, n = c.shape
     n_orders = orders.shape[0]
     n_signs = 1 << (ndim - 1)
@@ -143,8 +146,8 @@ def keystone_columns(
     s_l = np.empty(block)
     c_l = np.empty(block)
     near = np.empty(block, dtype=np.bool_)
-    acc = np.empty(block, dtype=np.complex128)
-    dirichlet = np.empty(block)
+    accr = np.empty(block)
+    acci = np.empty(block)
     x = np.empty(ndim)
     for i0 in range(0, n, block):
         m = min(block, n - i0)
@@ -164,18 +167,23 @@ def keystone_columns(
             s_l[j], c_l[j] = math.sin(math.pi * width * last), math.cos(math.pi * width * last)
         for q in range(n_orders):
             for j in range(m):
-                acc[j] = 0j
+                accr[j] = 0.0
+                acci[j] = 0.0
             for s in range(n_signs):
                 cdh, sdh, csdh, ssdh = cos_dh[s, q], sin_dh[s, q], cos_sdh[s, q], sin_sdh[s, q]
+                sr, si = shift[s, q].real, shift[s, q].imag
                 for j in range(m):
-                    dirichlet[j] = (ssh[s, j] * csdh + csh[s, j] * ssdh) / (sh[s, j] * cdh + ch[s, j] * sdh)
-                for j in range(m):  # sin(S h) / sin(h) -> S cos(S h) / cos(h)
-                    if abs(sh[s, j] * cdh + ch[s, j] * sdh) < 1e-9:
-                        num = n_strips * (csh[s, j] * csdh - ssh[s, j] * ssdh)
-                        dirichlet[j] = num / (ch[s, j] * cdh - sh[s, j] * sdh)
-                shift_sq = shift[s, q]
-                for j in range(m):
-                    acc[j] += dirichlet[j] * (rot[s, j] * shift_sq)
+                    den = sh[s, j] * cdh + ch[s, j] * sdh
+                    num = ssh[s, j] * csdh + csh[s, j] * ssdh
+                    pole = abs(den) < 1e-9
+                    num2 = n_strips * (csh[s, j] * csdh - ssh[s, j] * ssdh)
+                    den2 = ch[s, j] * cdh - sh[s, j] * sdh
+                    d = (num2 if pole else num) / (den2 if pole else den)
+                    rr, ri = rot[s, j].real, rot[s, j].imag
+                    er = rr * sr - ri * si
+                    ei = rr * si + ri * sr
+                    accr[j] += d * er
+                    acci[j] += d * ei
             half_l, cos_lq, sin_lq = 0.5 * orders[q, ndim - 1], cos_l[q], sin_l[q]
             for j in range(m):
                 i = i0 + j
@@ -188,7 +196,7 @@ def keystone_columns(
                     den *= c[a, i] + 0.5 * orders[q, a]
                 den *= two_pi_pow
                 factor = width / den if small else (s_l[j] * cos_lq + c_l[j] * sin_lq) / (math.pi * x_l * den)
-                out[q, i] = acc[j] * factor * j_pow
+                out[q, i] = complex(accr[j] * factor, acci[j] * factor) * j_pow
         for j in range(m):
             if near[j]:  # within 1e-7 of a removable singularity: the direct product evaluates the limit
                 for q in range(n_orders):
@@ -229,9 +237,10 @@ def _row_sums(
     Each sample's arithmetic is the per-sample loop's (orders outermost, the signs summed within an order, then
     the order's factor), in the same order, so the sums are the same bits; the samples of the row innermost, so
     the compiler runs the divisions and products several samples at once (the Dirichlet kernel's limit, where
-    its denominator is within 1e-9 of zero, patched before it is summed)."""
+    its denominator is within 1e-9 of zero, chosen operand by operand before its one division; the complex
+    products written out in real arithmetic as :func:`keystone_columns` writes them)."""
     cos_dh, sin_dh, cos_sdh, sin_sdh, shift, cos_l, sin_l, coef = tables
-    total, acc, dirichlet, x = scratch
+    total, acc_r, acc_i, x = scratch
     ndim = cs.shape[0]
     n_orders = orders.shape[0]
     n_signs = eh.shape[0]
@@ -240,20 +249,21 @@ def _row_sums(
         total[j] = 0j
     for q in range(n_orders):
         for j in range(n):
-            acc[j] = 0j
+            acc_r[j] = 0.0
+            acc_i[j] = 0.0
         for s in range(n_signs):
             cdh, sdh, csdh, ssdh = cos_dh[s, q], sin_dh[s, q], cos_sdh[s, q], sin_sdh[s, q]
+            sr, si = shift[s, q].real, shift[s, q].imag
             for j in range(n):
-                den = eh[s, j].imag * cdh + eh[s, j].real * sdh
-                dirichlet[j] = (esh[s, j].imag * csdh + esh[s, j].real * ssdh) / den
-            for j in range(n):  # sin(S h) / sin(h) -> S cos(S h) / cos(h)
                 sh, ch = eh[s, j].imag, eh[s, j].real
-                if abs(sh * cdh + ch * sdh) < 1e-9:
-                    ssh, csh = esh[s, j].imag, esh[s, j].real
-                    dirichlet[j] = n_strips * (csh * csdh - ssh * ssdh) / (ch * cdh - sh * sdh)
-            shift_sq = shift[s, q]
-            for j in range(n):
-                acc[j] += dirichlet[j] * (ep[s, j] * shift_sq)
+                ssh, csh = esh[s, j].imag, esh[s, j].real
+                den = sh * cdh + ch * sdh
+                pole = abs(den) < 1e-9  # sin(S h) / sin(h) -> S cos(S h) / cos(h)
+                num = n_strips * (csh * csdh - ssh * ssdh) if pole else ssh * csdh + csh * ssdh
+                d = num / ((ch * cdh - sh * sdh) if pole else den)
+                pr, pi_ = ep[s, j].real, ep[s, j].imag
+                acc_r[j] += d * (pr * sr - pi_ * si)
+                acc_i[j] += d * (pr * si + pi_ * sr)
         half_l, cos_lq, sin_lq = 0.5 * orders[q, ndim - 1], cos_l[q], sin_l[q]
         for j in range(n):
             x_l = cs[ndim - 1, j] + half_l
@@ -262,7 +272,7 @@ def _row_sums(
                 den_a *= cs[a, j] + 0.5 * orders[q, a]
             on_axis = abs(x_l) < 1e-12
             factor = width / den_a if on_axis else (el[j].imag * cos_lq + el[j].real * sin_lq) / (math.pi * x_l * den_a)
-            total[j] += acc[j] * factor
+            total[j] += complex(acc_r[j] * factor, acc_i[j] * factor)
     for j in range(n):
         if near[j]:  # within 1e-7 of a removable singularity: the direct product evaluates the limit
             value = 0j
@@ -298,7 +308,7 @@ def _row_buffers(ndim: int, n_signs: int, n_cols: int) -> tuple:  # pragma: no c
     )
     scratch = (
         np.empty(n_cols, dtype=np.complex128),
-        np.empty(n_cols, dtype=np.complex128),
+        np.empty(n_cols),
         np.empty(n_cols),
         np.empty(ndim),
     )
