@@ -1,10 +1,16 @@
-"""The residual's strip-sum kernel :func:`sarproc.quality.residual_kernels.keystone_columns` (the fits' bases, one
-call per Gauss-Newton trial) takes the Dirichlet kernel's limit by choosing its operands before one division
-and writes its complex products out in real arithmetic: the same bits as the per-sample complex loop it
-computes (copied here from main 7aa8fd3's arithmetic, one sample and one order at a time), on points at every
-special case (Dirichlet poles exactly and within the 1e-9 limit's reach of them, removable singularities of a
-keystoned axis and within 1e-7 of them, the last axis' zero); and within a stated bound of the direct product
-:func:`_product_at` (per sample and order, its own angles) at the same points.
+"""The residual's strip-sum kernels at their singular and pole points.
+
+:func:`sarproc.quality.residual_kernels.keystone_columns` (the fits' bases, one call per Gauss-Newton trial) takes
+the Dirichlet kernel's limit by choosing its operands before one division and writes its complex products out in
+real arithmetic: the same bits as the per-sample complex loop it computes (copied here from main 7aa8fd3's
+arithmetic, one sample and one order at a time), on points at every special case (Dirichlet poles exactly and
+within the 1e-9 limit's reach of them, removable singularities of a keystoned axis and within 1e-7 of them, the
+last axis' zero); and within stated bounds of the direct product :func:`_product_at` (per sample and order, its
+own angles) at the same points. :func:`keystone_derivatives` (blocks of samples; its bits against the per-order
+loop: tests/quality/test_evaluate_fast_paths.py) within a stated bound of :func:`_derivatives_at` summed over
+the orders at the same pole points. These changes keep the bits, so the tests pass on main too; each fails on a
+wrong kernel (checked: the columns' limit threshold at 1e-10 instead of 1e-9; the derivatives' series
+threshold at 1e-6 instead of SERIES_SH).
 """
 
 from __future__ import annotations
@@ -157,3 +163,47 @@ def test_keystone_columns_are_the_direct_product_at_poles_and_singularities(ndim
     near_pole[440:680] = True  # the offsets 1e-12 .. 3.2e-8 of _pole_points
     assert per_sample[near_pole].max() <= 1e-6
     assert per_sample[~near_pole].max() <= 1e-12
+
+
+@numba.njit(error_model="numpy")
+def _direct_derivatives(c, orders, coef, kappa, n_strips):
+    """sum_k coef_k times :func:`_derivatives_at` at c + order_k / 2 (each point's own angles and series): the
+    direct formula of :func:`keystone_derivatives` away from the keystoned axes' zeros."""
+    ndim, n = c.shape
+    out = np.zeros((2 * ndim - 1, n), dtype=np.complex128)
+    x = np.empty(ndim)
+    d_x = np.empty(ndim, dtype=np.complex128)
+    d_k = np.empty(max(ndim - 1, 1), dtype=np.complex128)
+    for i in range(n):
+        for q in range(orders.shape[0]):
+            for a in range(ndim):
+                x[a] = c[a, i] + 0.5 * orders[q, a]
+            rk._derivatives_at(x, kappa, n_strips, d_x, d_k)
+            for a in range(ndim):
+                out[a, i] += coef[q] * d_x[a]
+            for a in range(ndim - 1):
+                out[ndim + a, i] += coef[q] * d_k[a]
+    return out
+
+
+@pytest.mark.parametrize("ndim", [2, 3])
+@pytest.mark.parametrize("keystone", [0.0, 0.003, -0.15])
+def test_keystone_derivatives_are_the_direct_formula_at_poles(ndim, keystone):
+    """The blocked derivative kernel against :func:`_derivatives_at` summed over the orders, at the same pole
+    points (exactly on, and 1e-12 to 1e-3 off, a Dirichlet pole; the last axis' zero), the keystoned axes'
+    zeros left out (there the kernel interpolates from nodes NEAR_X away, a different formula): within 1e-10
+    of each row's largest value (measured 4.4e-12 at most; the two differ where a pole's series or closed form
+    is taken on angles rounded apart)."""
+    rng = np.random.default_rng(13)
+    orders = np.ascontiguousarray(spectral_orders(ndim, 3 if ndim == 2 else 1, 3 if ndim == 2 else 1), dtype=np.int64)
+    kappa = np.linspace(keystone, 0.5 * keystone, ndim - 1)
+    strips = _strip_count(kappa)
+    c = _pole_points(rng, ndim, strips, kappa)
+    x_a = np.abs(c[:-1, None, :] + 0.5 * orders.T[:-1, :, None]).min(axis=(0, 1))
+    c = np.ascontiguousarray(c[:, x_a >= 2 * rk.NEAR_X])
+    coef = rng.normal(size=len(orders)) + 1j * rng.normal(size=len(orders))
+    got = rk.keystone_derivatives(c, orders, coef, kappa, strips)
+    want = _direct_derivatives(c, orders, coef, kappa, strips)
+    assert np.isfinite(got).all()
+    err = np.abs(got - want) / np.abs(want).max(axis=1, keepdims=True)
+    assert err.max() <= 1e-10
