@@ -2,87 +2,28 @@
 
 :func:`sarproc.quality.residual_kernels.keystone_columns` (the fits' bases, one call per Gauss-Newton trial) takes
 the Dirichlet kernel's limit by choosing its operands before one division and writes its complex products out in
-real arithmetic: the same bits as the per-sample complex loop it computes (copied here from main 7aa8fd3's
-arithmetic, one sample and one order at a time), on points at every special case (Dirichlet poles exactly and
-within the 1e-9 limit's reach of them, removable singularities of a keystoned axis and within 1e-7 of them, the
-last axis' zero); and within stated bounds of the direct product :func:`_product_at` (per sample and order, its
-own angles) at the same points. :func:`keystone_derivatives` (blocks of samples; its bits against the per-order
-loop: tests/quality/test_evaluate_fast_paths.py) within a stated bound of :func:`_derivatives_at` summed over
-the orders at the same pole points. These changes keep the bits, so the tests pass on main too; each fails on a
-wrong kernel (checked: the columns' limit threshold at 1e-10 instead of 1e-9; the derivatives' series
-threshold at 1e-6 instead of SERIES_SH).
+real arithmetic: the same bits as the per-sample complex loop it computes (the copy of int37's one-sample-at-a-time
+loop in tests/quality/test_columns_kernel_blocks.py), on points at every special case (Dirichlet poles exactly and
+within the 1e-9 limit's reach of them, which that test's points do not reach; removable singularities of a
+keystoned axis and within 1e-7 of them; the last axis' zero); and within stated bounds of the direct product
+:func:`_product_at` (per sample and order, its own angles) at the same points. :func:`keystone_derivatives`
+(blocks of samples; its bits against the per-order loop: tests/quality/test_evaluate_fast_paths.py) within a
+stated bound of :func:`_derivatives_at` summed over the orders at the same pole points. These changes keep the
+bits, so the tests pass on main too; each fails on a wrong kernel (checked: the columns' limit threshold at
+1e-10 instead of 1e-9, which test_columns_kernel_blocks.py passes; the derivatives' series threshold at 1e-6
+instead of SERIES_SH).
 """
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 import pytest
+from test_columns_kernel_blocks import _old_columns  # int37's one-sample-at-a-time loop
 
 from sarproc.quality import residual_kernels as rk
 from sarproc.quality.residual import _strip_count, spectral_orders
-from sarproc.quality.residual_kernels import _product_at, _strip_angles, _strip_constants
-
-
-@numba.njit(error_model="numpy")
-def _per_sample_columns(c, orders, kappa, n_strips):
-    """main 7aa8fd3's keystone_columns, one sample at a time: per sign the sines and the phase's rotation,
-    per order and sign the Dirichlet kernel (its limit where |den| < 1e-9) times the rotation and shift in
-    complex arithmetic, then the order's factor; the direct product within 1e-7 of a removable singularity."""
-    ndim, n = c.shape
-    n_orders = orders.shape[0]
-    n_signs = 1 << (ndim - 1)
-    width = 1.0 / n_strips
-    signs, cos_dh, sin_dh, cos_sdh, sin_sdh, shift, cos_l, sin_l = _strip_constants(orders, kappa, n_strips, ndim)
-    two_pi_pow = (2.0 * math.pi) ** (ndim - 1)
-    j_pow = (-1j) ** (ndim - 1)
-    out = np.empty((n_orders, n), dtype=np.complex128)
-    x = np.empty(ndim)
-    sh = np.empty(n_signs)
-    ch = np.empty(n_signs)
-    ssh = np.empty(n_signs)
-    csh = np.empty(n_signs)
-    rot = np.empty(n_signs, dtype=np.complex128)
-    for i in range(n):
-        near = False
-        for a in range(ndim - 1):
-            for q in range(n_orders):
-                if abs(c[a, i] + 0.5 * orders[q, a]) < 1e-7:
-                    near = True
-        if near:
-            for q in range(n_orders):
-                for a in range(ndim):
-                    x[a] = c[a, i] + 0.5 * orders[q, a]
-                out[q, i] = _product_at(x, kappa, n_strips)
-            continue
-        for s in range(n_signs):
-            half, phase = _strip_angles(c[:, i], signs[s], kappa, n_strips)
-            sh[s], ch[s] = math.sin(half), math.cos(half)
-            ssh[s], csh[s] = math.sin(n_strips * half), math.cos(n_strips * half)
-            rot[s] = complex(math.cos(phase), math.sin(phase))
-        last = c[ndim - 1, i]
-        s_l, c_l = math.sin(math.pi * width * last), math.cos(math.pi * width * last)
-        for q in range(n_orders):
-            acc = 0j
-            for s in range(n_signs):
-                den = sh[s] * cos_dh[s, q] + ch[s] * sin_dh[s, q]
-                if abs(den) < 1e-9:  # sin(S h) / sin(h) -> S cos(S h) / cos(h)
-                    num = n_strips * (csh[s] * cos_sdh[s, q] - ssh[s] * sin_sdh[s, q])
-                    dirichlet = num / (ch[s] * cos_dh[s, q] - sh[s] * sin_dh[s, q])
-                else:
-                    dirichlet = (ssh[s] * cos_sdh[s, q] + csh[s] * sin_sdh[s, q]) / den
-                acc += dirichlet * (rot[s] * shift[s, q])
-            x_l = last + 0.5 * orders[q, ndim - 1]
-            den_a = 1.0
-            for a in range(ndim - 1):
-                den_a *= c[a, i] + 0.5 * orders[q, a]
-            den_a *= two_pi_pow
-            on_axis = abs(x_l) < 1e-12
-            factor = width / den_a if on_axis else (s_l * cos_l[q] + c_l * sin_l[q]) / (math.pi * x_l * den_a)
-            out[q, i] = acc * factor * j_pow
-    return out
+from sarproc.quality.residual_kernels import _product_at
 
 
 @numba.njit(error_model="numpy")
@@ -131,7 +72,7 @@ def test_keystone_columns_equal_the_per_sample_loop_bit_for_bit(ndim, keystone):
     kappa = np.linspace(keystone, 0.5 * keystone, ndim - 1)
     strips = _strip_count(kappa)
     c = _pole_points(rng, ndim, strips, kappa)
-    want = _per_sample_columns(c, orders, kappa, strips)
+    want = _old_columns(c, orders, kappa, strips)
     got = rk.keystone_columns(c, orders, kappa, strips)
     assert np.isfinite(got).all()
     assert np.array_equal(got, want)  # equal nonzero doubles are the same bits
