@@ -429,9 +429,6 @@ def response_basis(
     x = np.asarray(points, dtype=float) - p[:, None]
     c = _warped(A @ x, x, warp)
     m = int(np.abs(orders).max()) if orders.size else 0
-    phase = 2 * np.pi * (np.asarray(f_c, dtype=float) @ x)
-    if K is not None:
-        phase = phase + _chirp_phase(x, K)
     n = np.asarray(orders, dtype=int).reshape(-1, len(c))
     cols: np.ndarray | int
     if kappa is not None and np.any(kappa):  # every order's strip sum, (K, N)
@@ -439,6 +436,11 @@ def response_basis(
     else:
         per_axis = [np.stack(_shifted_sincs(ca, m)) for ca in c]
         cols = math.prod(per_axis[a][n[:, a] + m] for a in range(len(c)))
+    if K is None and orders.size and not np.any(f_c):  # no carrier (a fit's raw basis): times exp(0j) = 1 + 0j,
+        return np.asarray(cols, dtype=complex).T  # which leaves every value as it is
+    phase = 2 * np.pi * (np.asarray(f_c, dtype=float) @ x)
+    if K is not None:
+        phase = phase + _chirp_phase(x, K)
     return (np.asarray(cols) * np.exp(1j * phase)).T
 
 
@@ -472,20 +474,27 @@ def _fresnel_box(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """F(a, b) = integral over u in (-1/2, 1/2) of exp(2 pi j (a u + b u^2)) (broadcast arrays): the response of
     a unit band whose phase is quadratic across it; sinc(a) at b = 0. Closed form by the Fresnel integrals
     E = C + jS: exp(-j pi a^2 / 2b) (E(t2) - E(t1)) / 2 sqrt(b), t = (a +- b) / sqrt(b), for b > 0; F(a, -b) is
-    its conjugate."""
-    from sarproc.product.special import fresnel  # only where a model has curved edges (scipy.special's ufunc)
-
+    its conjugate (scipy.special's ufunc, imported only where a model has curved edges)."""
     a, b = np.broadcast_arrays(np.asarray(a, dtype=float), np.asarray(b, dtype=float))
-    out = np.sinc(a).astype(complex)
     bent = np.abs(b) > 1e-12
+    if bent.all():  # a bowed model's samples (their range coordinate nowhere 0): no sinc, no samples picked
+        return _fresnel_bent(a, b)
+    out = np.sinc(a).astype(complex)
     if bent.any():
-        x, y = a[bent], np.abs(b[bent])
-        root = np.sqrt(y)
-        s2, c2 = fresnel((x + y) / root)
-        s1, c1 = fresnel((x - y) / root)
-        f = np.exp(-0.5j * np.pi * x * x / y) / (2.0 * root) * ((c2 - c1) + 1j * (s2 - s1))
-        out[bent] = np.where(b[bent] > 0, f, np.conj(f))
+        out[bent] = _fresnel_bent(a[bent], b[bent])
     return out
+
+
+def _fresnel_bent(x: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """:func:`_fresnel_box` where every |b| > 1e-12: the Fresnel integrals' closed form."""
+    from sarproc.product.special import fresnel
+
+    y = np.abs(b)
+    root = np.sqrt(y)
+    s2, c2 = fresnel((x + y) / root)
+    s1, c1 = fresnel((x - y) / root)
+    f = np.exp(-0.5j * np.pi * x * x / y) / (2.0 * root) * ((c2 - c1) + 1j * (s2 - s1))
+    return np.where(b > 0, f, np.conj(f))
 
 
 def _curvature_sum(c: Sequence[np.ndarray], orders: np.ndarray, coef: np.ndarray | None, beta: float) -> np.ndarray:

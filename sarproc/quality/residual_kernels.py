@@ -121,10 +121,13 @@ def keystone_columns(
     coordinates in nulls), a keystone ``kappa`` (ndim - 1) and ``n_strips`` strips.
 
     Blocks of :data:`COLUMN_BLOCK` samples side by side: per sample and sign the sines of the half angle, of
-    S times it and the phase's rotation, then per order and sign the Dirichlet kernels of the block (the
-    |den| < 1e-9 limit patched before the sum), the sums and the order's factor, the samples innermost so the
-    compiler vectorises the divisions and products. Each sample's arithmetic is the per-sample loop's, in the
-    same order (the signs summed within an order, then the factor): the same bits."""
+    S times it and the phase's rotation, then per order and sign the Dirichlet kernels of the block, the sums
+    and the order's factor, the samples innermost so the compiler vectorises the divisions and products. The
+    Dirichlet kernel's |den| < 1e-9 limit is chosen operand by operand in the same loop (one division, no
+    second pass), and each complex product is written out in real arithmetic as the complex one rounds it
+    (without its products with a real factor's zero imaginary part, which add only zeros). Each sample's
+    arithmetic is the per-sample loop's, in the same order (the signs summed within an order, then the
+    factor): the same bits (tests/quality/test_residual_kernel_bits.py)."""
     ndim, n = c.shape
     n_orders = orders.shape[0]
     n_signs = 1 << (ndim - 1)
@@ -143,8 +146,8 @@ def keystone_columns(
     s_l = np.empty(block)
     c_l = np.empty(block)
     near = np.empty(block, dtype=np.bool_)
-    acc = np.empty(block, dtype=np.complex128)
-    dirichlet = np.empty(block)
+    accr = np.empty(block)
+    acci = np.empty(block)
     x = np.empty(ndim)
     for i0 in range(0, n, block):
         m = min(block, n - i0)
@@ -164,18 +167,23 @@ def keystone_columns(
             s_l[j], c_l[j] = math.sin(math.pi * width * last), math.cos(math.pi * width * last)
         for q in range(n_orders):
             for j in range(m):
-                acc[j] = 0j
+                accr[j] = 0.0
+                acci[j] = 0.0
             for s in range(n_signs):
                 cdh, sdh, csdh, ssdh = cos_dh[s, q], sin_dh[s, q], cos_sdh[s, q], sin_sdh[s, q]
+                sr, si = shift[s, q].real, shift[s, q].imag
                 for j in range(m):
-                    dirichlet[j] = (ssh[s, j] * csdh + csh[s, j] * ssdh) / (sh[s, j] * cdh + ch[s, j] * sdh)
-                for j in range(m):  # sin(S h) / sin(h) -> S cos(S h) / cos(h)
-                    if abs(sh[s, j] * cdh + ch[s, j] * sdh) < 1e-9:
-                        num = n_strips * (csh[s, j] * csdh - ssh[s, j] * ssdh)
-                        dirichlet[j] = num / (ch[s, j] * cdh - sh[s, j] * sdh)
-                shift_sq = shift[s, q]
-                for j in range(m):
-                    acc[j] += dirichlet[j] * (rot[s, j] * shift_sq)
+                    den = sh[s, j] * cdh + ch[s, j] * sdh
+                    num = ssh[s, j] * csdh + csh[s, j] * ssdh
+                    pole = abs(den) < 1e-9
+                    num2 = n_strips * (csh[s, j] * csdh - ssh[s, j] * ssdh)
+                    den2 = ch[s, j] * cdh - sh[s, j] * sdh
+                    d = (num2 if pole else num) / (den2 if pole else den)
+                    rr, ri = rot[s, j].real, rot[s, j].imag
+                    er = rr * sr - ri * si
+                    ei = rr * si + ri * sr
+                    accr[j] += d * er
+                    acci[j] += d * ei
             half_l, cos_lq, sin_lq = 0.5 * orders[q, ndim - 1], cos_l[q], sin_l[q]
             for j in range(m):
                 i = i0 + j
@@ -188,7 +196,7 @@ def keystone_columns(
                     den *= c[a, i] + 0.5 * orders[q, a]
                 den *= two_pi_pow
                 factor = width / den if small else (s_l[j] * cos_lq + c_l[j] * sin_lq) / (math.pi * x_l * den)
-                out[q, i] = acc[j] * factor * j_pow
+                out[q, i] = complex(accr[j] * factor, acci[j] * factor) * j_pow
         for j in range(m):
             if near[j]:  # within 1e-7 of a removable singularity: the direct product evaluates the limit
                 for q in range(n_orders):
@@ -229,9 +237,10 @@ def _row_sums(
     Each sample's arithmetic is the per-sample loop's (orders outermost, the signs summed within an order, then
     the order's factor), in the same order, so the sums are the same bits; the samples of the row innermost, so
     the compiler runs the divisions and products several samples at once (the Dirichlet kernel's limit, where
-    its denominator is within 1e-9 of zero, patched before it is summed)."""
+    its denominator is within 1e-9 of zero, chosen operand by operand before its one division; the complex
+    products written out in real arithmetic as :func:`keystone_columns` writes them)."""
     cos_dh, sin_dh, cos_sdh, sin_sdh, shift, cos_l, sin_l, coef = tables
-    total, acc, dirichlet, x = scratch
+    total, acc_r, acc_i, x = scratch
     ndim = cs.shape[0]
     n_orders = orders.shape[0]
     n_signs = eh.shape[0]
@@ -240,20 +249,21 @@ def _row_sums(
         total[j] = 0j
     for q in range(n_orders):
         for j in range(n):
-            acc[j] = 0j
+            acc_r[j] = 0.0
+            acc_i[j] = 0.0
         for s in range(n_signs):
             cdh, sdh, csdh, ssdh = cos_dh[s, q], sin_dh[s, q], cos_sdh[s, q], sin_sdh[s, q]
+            sr, si = shift[s, q].real, shift[s, q].imag
             for j in range(n):
-                den = eh[s, j].imag * cdh + eh[s, j].real * sdh
-                dirichlet[j] = (esh[s, j].imag * csdh + esh[s, j].real * ssdh) / den
-            for j in range(n):  # sin(S h) / sin(h) -> S cos(S h) / cos(h)
                 sh, ch = eh[s, j].imag, eh[s, j].real
-                if abs(sh * cdh + ch * sdh) < 1e-9:
-                    ssh, csh = esh[s, j].imag, esh[s, j].real
-                    dirichlet[j] = n_strips * (csh * csdh - ssh * ssdh) / (ch * cdh - sh * sdh)
-            shift_sq = shift[s, q]
-            for j in range(n):
-                acc[j] += dirichlet[j] * (ep[s, j] * shift_sq)
+                ssh, csh = esh[s, j].imag, esh[s, j].real
+                den = sh * cdh + ch * sdh
+                pole = abs(den) < 1e-9  # sin(S h) / sin(h) -> S cos(S h) / cos(h)
+                num = n_strips * (csh * csdh - ssh * ssdh) if pole else ssh * csdh + csh * ssdh
+                d = num / ((ch * cdh - sh * sdh) if pole else den)
+                pr, pi_ = ep[s, j].real, ep[s, j].imag
+                acc_r[j] += d * (pr * sr - pi_ * si)
+                acc_i[j] += d * (pr * si + pi_ * sr)
         half_l, cos_lq, sin_lq = 0.5 * orders[q, ndim - 1], cos_l[q], sin_l[q]
         for j in range(n):
             x_l = cs[ndim - 1, j] + half_l
@@ -262,7 +272,7 @@ def _row_sums(
                 den_a *= cs[a, j] + 0.5 * orders[q, a]
             on_axis = abs(x_l) < 1e-12
             factor = width / den_a if on_axis else (el[j].imag * cos_lq + el[j].real * sin_lq) / (math.pi * x_l * den_a)
-            total[j] += acc[j] * factor
+            total[j] += complex(acc_r[j] * factor, acc_i[j] * factor)
     for j in range(n):
         if near[j]:  # within 1e-7 of a removable singularity: the direct product evaluates the limit
             value = 0j
@@ -298,7 +308,7 @@ def _row_buffers(ndim: int, n_signs: int, n_cols: int) -> tuple:  # pragma: no c
     )
     scratch = (
         np.empty(n_cols, dtype=np.complex128),
-        np.empty(n_cols, dtype=np.complex128),
+        np.empty(n_cols),
         np.empty(n_cols),
         np.empty(ndim),
     )
@@ -595,6 +605,9 @@ def _derivatives_at(
     d_x[n_k] = (t_l * g + t * dg) * h
 
 
+DERIVATIVE_BLOCK = 64  # samples evaluated side by side in keystone_derivatives
+
+
 @numba.njit(error_model="numpy", cache=CACHE)
 def keystone_derivatives(
     c: np.ndarray, orders: np.ndarray, coef: np.ndarray, kappa: np.ndarray, n_strips: int
@@ -608,12 +621,16 @@ def keystone_derivatives(
     sinc near 0), or, within :data:`NEAR_X` of a keystoned axis' zero, interpolation from four points
     either side (the strip sum is analytic there).
 
-    Per point and sign the orders run in loops without branches over real arrays (the Dirichlet kernel's
-    closed form for every order, then the few within :data:`SERIES_SH` of a pole again through
-    :func:`_dirichlet`, then the sums), which the compiler vectorises: each complex product is written out in
-    real arithmetic as the complex one rounds it (its products with the zero imaginary part of a real
-    factor left out: they add only zeros), so the result is the per-order complex loop's bit for bit
-    (tests/quality/test_residual_aot.py), at half its time."""
+    Blocks of :data:`DERIVATIVE_BLOCK` samples side by side (as :func:`keystone_columns`): per sample and sign
+    the sines and the phase's rotation, then per order and sign loops over the block's samples without branches
+    (the Dirichlet kernel's closed form for every sample, then the few within :data:`SERIES_SH` of a pole again
+    through :func:`_dirichlet`, then the sums), then the order's terms (:func:`_last_factor`'s two branches as
+    selects; a complex over a real divisor as the two real divisions numba's complex division makes of it),
+    which the compiler vectorises: each complex product is written out in real arithmetic as the complex one
+    rounds it (its products with the zero imaginary part of a real factor left out: they add only zeros), and
+    each sample's sums take the orders in order, so the result is the per-order complex loop's bit for bit
+    (tests/quality/test_evaluate_fast_paths.py, tests/quality/test_residual_aot.py). Over the orders (9-25 in
+    evaluate's fits) instead of the samples, the same loops took 1.3-1.6 times as long."""
     ndim, n = c.shape
     n_k = ndim - 1
     n_orders = orders.shape[0]
@@ -648,112 +665,175 @@ def keystone_derivatives(
             k_q[s, a] = math.pi * sg * u0 + (n_strips - 1) * h_a
     h_const = (-1j) ** n_k / (2.0 * math.pi) ** n_k
     out = np.zeros((2 * ndim - 1, n), dtype=np.complex128)
-    tr = np.empty(n_orders)
-    ti = np.empty(n_orders)
-    tlr = np.empty(n_orders)
-    tli = np.empty(n_orders)
-    tar = np.empty((max(n_k, 1), n_orders))
-    tai = np.empty((max(n_k, 1), n_orders))
-    tkr = np.empty((max(n_k, 1), n_orders))
-    tki = np.empty((max(n_k, 1), n_orders))
-    dv = np.empty(n_orders)
-    ddv = np.empty(n_orders)
-    sq = np.empty(n_orders)
-    cq = np.empty(n_orders)
-    ssq = np.empty(n_orders)
-    csq = np.empty(n_orders)
-    xk = np.empty((max(n_k, 1), n_orders))
-    near = np.empty(n_orders, dtype=np.bool_)
+    block = DERIVATIVE_BLOCK
+    n_a = max(n_k, 1)
+    halves = np.empty((n_signs, block))  # per sign and sample: the half angle, its sines, the phase's rotation
+    sh = np.empty((n_signs, block))
+    ch = np.empty((n_signs, block))
+    ssh = np.empty((n_signs, block))
+    csh = np.empty((n_signs, block))
+    rr = np.empty((n_signs, block))
+    ri = np.empty((n_signs, block))
+    s_l = np.empty(block)
+    c_l = np.empty(block)
+    tr = np.empty(block)  # one order's sums over the signs, per sample
+    ti = np.empty(block)
+    tlr = np.empty(block)
+    tli = np.empty(block)
+    tar = np.empty((n_a, block))
+    tai = np.empty((n_a, block))
+    tkr = np.empty((n_a, block))
+    tki = np.empty((n_a, block))
+    dv = np.empty(block)
+    ddv = np.empty(block)
+    sq = np.empty(block)
+    cq = np.empty(block)
+    ssq = np.empty(block)
+    csq = np.empty(block)
+    xk = np.empty((n_a, block))
+    near = np.empty(block, dtype=np.bool_)
+    gq = np.empty(block)
+    dgq = np.empty(block)
+    hr = np.empty(block)
+    hi = np.empty(block)
+    ghr = np.empty(block)
+    ghi = np.empty(block)
     x = np.empty(ndim)
     node = np.empty(ndim)
     d_x = np.empty(ndim, dtype=np.complex128)
-    d_k = np.empty(max(n_k, 1), dtype=np.complex128)
+    d_k = np.empty(n_a, dtype=np.complex128)
     weights = (-1.0 / 6.0, 2.0 / 3.0, 2.0 / 3.0, -1.0 / 6.0)  # Lagrange, nodes -2, -1, 1, 2 (times NODE), at 0
-    for i in range(n):
+    for i0 in range(0, n, block):
+        m = min(block, n - i0)
+        for j in range(m):
+            i = i0 + j
+            for s in range(n_signs):
+                half, phase = _strip_angles(c[:, i], signs[s], kappa, n_strips)
+                halves[s, j] = half
+                sh[s, j], ch[s, j] = math.sin(half), math.cos(half)
+                ssh[s, j], csh[s, j] = math.sin(n_strips * half), math.cos(n_strips * half)
+                rr[s, j], ri[s, j] = math.cos(phase), math.sin(phase)
+            last = c[n_k, i]
+            s_l[j], c_l[j] = math.sin(math.pi * width * last), math.cos(math.pi * width * last)
         for q in range(n_orders):
-            near[q] = False
-            tr[q] = 0.0
-            ti[q] = 0.0
-            tlr[q] = 0.0
-            tli[q] = 0.0
-        for a in range(n_k):
-            for q in range(n_orders):
-                xk[a, q] = c[a, i] + 0.5 * orders[q, a]
-                if abs(xk[a, q]) < NEAR_X:
-                    near[q] = True
-                tar[a, q] = 0.0
-                tai[a, q] = 0.0
-                tkr[a, q] = 0.0
-                tki[a, q] = 0.0
-        last = c[n_k, i]
-        for s in range(n_signs):
-            half, phase = _strip_angles(c[:, i], signs[s], kappa, n_strips)
-            sh, ch = math.sin(half), math.cos(half)
-            ssh, csh = math.sin(n_strips * half), math.cos(n_strips * half)
-            rr, ri = math.cos(phase), math.sin(phase)
-            for q in range(n_orders):
-                sq[q] = sh * cos_dh[s, q] + ch * sin_dh[s, q]
-                cq[q] = ch * cos_dh[s, q] - sh * sin_dh[s, q]
-                ssq[q] = ssh * cos_sdh[s, q] + csh * sin_sdh[s, q]
-                csq[q] = csh * cos_sdh[s, q] - ssh * sin_sdh[s, q]
-                dv[q] = ssq[q] / sq[q]
-                ddv[q] = (n_strips * csq[q] * sq[q] - ssq[q] * cq[q]) / (sq[q] * sq[q])
-            for q in range(n_orders):
-                if abs(sq[q]) < SERIES_SH and not near[q]:  # maybe within SERIES_E of a pole: as _dirichlet decides
-                    dv[q], ddv[q] = _dirichlet(half + d_half[s, q], sq[q], cq[q], ssq[q], csq[q], n_strips)
-            for q in range(n_orders):
-                d = dv[q]
-                dd = ddv[q]
-                er = rr * shift_r[s, q] - ri * shift_i[s, q]
-                ei = rr * shift_i[s, q] + ri * shift_r[s, q]
-                tr[q] += er * d
-                ti[q] += ei * d
-                p = dd * math.pi * width
-                qq = d * l_q
-                tlr[q] += er * p - ei * qq
-                tli[q] += er * qq + ei * p
+            for j in range(m):
+                near[j] = False
+                tr[j] = 0.0
+                ti[j] = 0.0
+                tlr[j] = 0.0
+                tli[j] = 0.0
             for a in range(n_k):
-                for q in range(n_orders):
-                    d = dv[q]
-                    dd = ddv[q]
-                    er = rr * shift_r[s, q] - ri * shift_i[s, q]
-                    ei = rr * shift_i[s, q] + ri * shift_r[s, q]
-                    p = dd * a_p[s, a] * kappa[a]
-                    qq = d * a_q[s, a]
-                    tar[a, q] += er * p - ei * qq
-                    tai[a, q] += er * qq + ei * p
-                    xr = er * xk[a, q]
-                    xi = ei * xk[a, q]
-                    p = dd * a_p[s, a]
-                    qq = d * k_q[s, a]
-                    tkr[a, q] += xr * p - xi * qq
-                    tki[a, q] += xr * qq + xi * p
-        s_l, c_l = math.sin(math.pi * width * last), math.cos(math.pi * width * last)
-        for q in range(n_orders):
-            if near[q]:
-                for a in range(ndim):
-                    x[a] = c[a, i] + 0.5 * orders[q, a]
-                for w_i in range(4):
-                    step = (w_i - 2 if w_i < 2 else w_i - 1) * NODE
+                for j in range(m):
+                    xk[a, j] = c[a, i0 + j] + 0.5 * orders[q, a]
+                    if abs(xk[a, j]) < NEAR_X:
+                        near[j] = True
+                    tar[a, j] = 0.0
+                    tai[a, j] = 0.0
+                    tkr[a, j] = 0.0
+                    tki[a, j] = 0.0
+            for s in range(n_signs):
+                cdh, sdh, csdh, ssdh = cos_dh[s, q], sin_dh[s, q], cos_sdh[s, q], sin_sdh[s, q]
+                for j in range(m):
+                    sq[j] = sh[s, j] * cdh + ch[s, j] * sdh
+                    cq[j] = ch[s, j] * cdh - sh[s, j] * sdh
+                    ssq[j] = ssh[s, j] * csdh + csh[s, j] * ssdh
+                    csq[j] = csh[s, j] * csdh - ssh[s, j] * ssdh
+                    dv[j] = ssq[j] / sq[j]
+                    ddv[j] = (n_strips * csq[j] * sq[j] - ssq[j] * cq[j]) / (sq[j] * sq[j])
+                for j in range(m):
+                    if abs(sq[j]) < SERIES_SH and not near[j]:  # maybe within SERIES_E of a pole: as _dirichlet decides
+                        dv[j], ddv[j] = _dirichlet(halves[s, j] + d_half[s, q], sq[j], cq[j], ssq[j], csq[j], n_strips)
+                s_r, s_i = shift_r[s, q], shift_i[s, q]
+                for j in range(m):
+                    d = dv[j]
+                    dd = ddv[j]
+                    er = rr[s, j] * s_r - ri[s, j] * s_i
+                    ei = rr[s, j] * s_i + ri[s, j] * s_r
+                    tr[j] += er * d
+                    ti[j] += ei * d
+                    p = dd * math.pi * width
+                    qq = d * l_q
+                    tlr[j] += er * p - ei * qq
+                    tli[j] += er * qq + ei * p
+                for a in range(n_k):
+                    ap, aq, kq, ka = a_p[s, a], a_q[s, a], k_q[s, a], kappa[a]
+                    for j in range(m):
+                        d = dv[j]
+                        dd = ddv[j]
+                        er = rr[s, j] * s_r - ri[s, j] * s_i
+                        ei = rr[s, j] * s_i + ri[s, j] * s_r
+                        p = dd * ap * ka
+                        qq = d * aq
+                        tar[a, j] += er * p - ei * qq
+                        tai[a, j] += er * qq + ei * p
+                        xr = er * xk[a, j]
+                        xi = ei * xk[a, j]
+                        p = dd * ap
+                        qq = d * kq
+                        tkr[a, j] += xr * p - xi * qq
+                        tki[a, j] += xr * qq + xi * p
+            # the order's terms, each complex expression's rounding written out in real arithmetic (over a real
+            # divisor, numba's complex division is the two real divisions), added to each sample's sums in the
+            # orders' order; _last_factor's two branches as selects
+            cr, ci = coef[q].real, coef[q].imag
+            for j in range(m):
+                x_l = c[n_k, i0 + j] + 0.5 * orders[q, n_k]
+                sx = s_l[j] * cos_l[q] + c_l[j] * sin_l[q]
+                cx = c_l[j] * cos_l[q] - s_l[j] * sin_l[q]
+                z = math.pi * width * x_l
+                series = abs(z) < SERIES_E
+                g_s = width * (1.0 - z * z / 6.0 + z**4 / 120.0)
+                dg_s = -width * z * math.pi * width / 3.0 * (1.0 - z * z / 10.0)
+                g_c = sx / (math.pi * x_l)
+                dg_c = (width * cx - g_c) / x_l
+                gq[j] = g_s if series else g_c
+                dgq[j] = dg_s if series else dg_c
+                hr[j] = h_const.real
+                hi[j] = h_const.imag
+            for a in range(n_k):
+                for j in range(m):
+                    hr[j] /= xk[a, j]
+                    hi[j] /= xk[a, j]
+            for j in range(m):
+                g, dg = gq[j], dgq[j]
+                cgr, cgi = cr * g, ci * g  # gh = coef g h
+                ghr[j] = cgr * hr[j] - cgi * hi[j]
+                ghi[j] = cgr * hi[j] + cgi * hr[j]
+                vr = tlr[j] * g + tr[j] * dg  # coef (t_l g + t dg) h
+                vi = tli[j] * g + ti[j] * dg
+                wr = cr * vr - ci * vi
+                wi = cr * vi + ci * vr
+                keep = not near[j]
+                re = out[n_k, i0 + j].real + (wr * hr[j] - wi * hi[j])
+                im = out[n_k, i0 + j].imag + (wr * hi[j] + wi * hr[j])
+                if keep:
+                    out[n_k, i0 + j] = complex(re, im)
+            for a in range(n_k):
+                for j in range(m):
+                    i = i0 + j
+                    ur = tar[a, j] - tr[j] / xk[a, j]
+                    ui = tai[a, j] - ti[j] / xk[a, j]
+                    xr = out[a, i].real + (ur * ghr[j] - ui * ghi[j])
+                    xi = out[a, i].imag + (ur * ghi[j] + ui * ghr[j])
+                    kr = out[ndim + a, i].real + (tkr[a, j] * ghr[j] - tki[a, j] * ghi[j])
+                    ki = out[ndim + a, i].imag + (tkr[a, j] * ghi[j] + tki[a, j] * ghr[j])
+                    if not near[j]:
+                        out[a, i] = complex(xr, xi)
+                        out[ndim + a, i] = complex(kr, ki)
+            for j in range(m):  # within NEAR_X of a keystoned axis' zero: interpolated
+                if near[j]:
+                    i = i0 + j
                     for a in range(ndim):
-                        node[a] = x[a] + step if a < n_k and abs(x[a]) < NEAR_X else x[a]
-                    _derivatives_at(node, kappa, n_strips, d_x, d_k)
-                    for a in range(ndim):
-                        out[a, i] += weights[w_i] * coef[q] * d_x[a]
-                    for a in range(n_k):
-                        out[ndim + a, i] += weights[w_i] * coef[q] * d_k[a]
-                continue
-            t = complex(tr[q], ti[q])
-            x_l = last + 0.5 * orders[q, n_k]
-            g, dg = _last_factor(x_l, s_l * cos_l[q] + c_l * sin_l[q], c_l * cos_l[q] - s_l * sin_l[q], width)
-            h = h_const
-            for a in range(n_k):
-                h /= c[a, i] + 0.5 * orders[q, a]
-            gh = coef[q] * g * h
-            for a in range(n_k):
-                out[a, i] += (complex(tar[a, q], tai[a, q]) - t / (c[a, i] + 0.5 * orders[q, a])) * gh
-                out[ndim + a, i] += complex(tkr[a, q], tki[a, q]) * gh
-            out[n_k, i] += coef[q] * (complex(tlr[q], tli[q]) * g + t * dg) * h
+                        x[a] = c[a, i] + 0.5 * orders[q, a]
+                    for w_i in range(4):
+                        step = (w_i - 2 if w_i < 2 else w_i - 1) * NODE
+                        for a in range(ndim):
+                            node[a] = x[a] + step if a < n_k and abs(x[a]) < NEAR_X else x[a]
+                        _derivatives_at(node, kappa, n_strips, d_x, d_k)
+                        for a in range(ndim):
+                            out[a, i] += weights[w_i] * coef[q] * d_x[a]
+                        for a in range(n_k):
+                            out[ndim + a, i] += weights[w_i] * coef[q] * d_k[a]
     return out
 
 
