@@ -22,6 +22,7 @@ if TYPE_CHECKING:
 
     from matplotlib.artist import Artist
     from matplotlib.axes import Axes
+    from matplotlib.colors import Colormap
     from matplotlib.figure import Figure
 
     from sarproc.quality.metrics import EvaluateParams, TargetReport
@@ -168,6 +169,7 @@ class TargetFigure:
         self.params, self.half_width_nulls, self.upsample = params, half_width_nulls, upsample
         self.pairs = axis_pairs(np.ndim(data))
         self.fig: Figure | None = None
+        self.cmap: Colormap | None = None
         self.axs: list[Axes] = []
         self.contours: list[list[Artist]] = []  # per panel, the present target's
         self.suptitle: Artist | None = None
@@ -179,6 +181,9 @@ class TargetFigure:
 
         dims, units = self.dims, self.units
         if self.fig is None:
+            from matplotlib import colormaps
+
+            self.cmap = colormaps["viridis"]  # a copy of the registry's, once
             self.fig, self.axs = _figure(len(self.pairs), TARGET_MARGINS, width=4.6)
             for ax, (v, h) in zip(self.axs, self.pairs):
                 ax.set_xlabel(f"{axis_label(dims[h], units)} from peak")
@@ -201,11 +206,10 @@ class TargetFigure:
                 params=self.params,
             )
             db = 20 * np.log10(np.maximum(np.abs(vals), 1e-6))
-            cs = ax.contourf(off_h, off_v, db, levels=TARGET_FILL_LEVELS_DB, cmap="viridis", extend="min")
-            lines = ax.contour(
-                off_h, off_v, db, levels=list(CONTOUR_LEVELS_DB), colors="k", linewidths=0.5, linestyles="solid"
-            )
-            half = ax.contour(off_h, off_v, db, levels=[-3], colors="w", linewidths=1.2, linestyles="solid")
+            cs = ax.contourf(off_h, off_v, db, levels=TARGET_FILL_LEVELS_DB, cmap=self.cmap, extend="min")
+            # the lines from the filled contours' generator (matplotlib's reuse of a contour set's grid)
+            lines = ax.contour(cs, levels=list(CONTOUR_LEVELS_DB), colors="k", linewidths=0.5, linestyles="solid")
+            half = ax.contour(cs, levels=[-3], colors="w", linewidths=1.2, linestyles="solid")
             ax.set_xlim(off_h[0], off_h[-1])  # as the contours set them, whatever an earlier target's were
             ax.set_ylim(off_v[0], off_v[-1])
             self.contours.append([cs, lines, half])
