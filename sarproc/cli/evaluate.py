@@ -506,7 +506,7 @@ def _draw(
 
     from sarproc.cli.quicklook import import_matplotlib_lean
     from sarproc.product.io import atomic_path
-    from sarproc.quality.plotting import plot_quicklook, plot_target, safe_name
+    from sarproc.quality.plotting import TargetFigure, plot_quicklook, safe_name
 
     import_matplotlib_lean()
 
@@ -526,6 +526,7 @@ def _draw(
             title=product.kind,
             frame=product.attrs.get("frame", {}).get("name", ""),
         )
+    figure = TargetFigure(product.data, product.dims, product.coords, irw, units, params)  # one for all targets
     for t in report.targets:
         with atomic_path(plot_dir / f"target_{safe_name(t.name)}.png") as tmp:
-            plot_target(tmp, product.data, product.dims, product.coords, irw, t, units, params)
+            figure.draw(tmp, t)

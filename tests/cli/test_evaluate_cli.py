@@ -124,20 +124,21 @@ def test_plots_text_inside_the_figure_and_apart(tmp_path, monkeypatch, three_d):
     """The figures are laid out with fixed margins (no constrained layout: it drew every text once more): every
     label, tick label and title lies inside its figure, and no two overlap (a colour bar's label and the next
     panel's axis label, tick labels of a narrowed axis)."""
-    from matplotlib.figure import Figure
     from matplotlib.text import Text
 
-    drawn, save = [], Figure.savefig
+    from sarproc.quality import plotting
 
-    def recording(fig, *args, **kwargs):
-        save(fig, *args, **kwargs)
+    drawn, write = [], plotting._write_png
+
+    def recording(fig, path):
+        write(fig, path)
         drawn.append(fig)
 
-    monkeypatch.setattr(Figure, "savefig", recording)
+    monkeypatch.setattr(plotting, "_write_png", recording)
     img = make_image(tmp_path / "img.h5", three_d=three_d)
     res = run(img, "-o", tmp_path / "r.json", "--plot", tmp_path / "p")
     assert res.exit_code == 0, res.output
-    assert len(drawn) == 3  # the quicklook and both targets
+    assert len(drawn) == 3  # the quicklook and both targets (one figure drawn for each in turn)
     for fig in drawn:
         fig.canvas.draw()  # at the figure's own dpi, which its bbox uses (savefig drew at 110)
         renderer = fig.canvas.get_renderer()
@@ -153,6 +154,36 @@ def test_plots_text_inside_the_figure_and_apart(tmp_path, monkeypatch, three_d):
             for b, axis_b, box_b in boxes[i + 1 :]:
                 if axis_a is None or axis_b is None or axis_a == axis_b:
                     assert not box_a.overlaps(box_b), (a, b)
+
+
+@pytest.mark.parametrize("three_d", [False, True], ids=["2d", "3d"])
+def test_target_figures_drawn_in_turn_equal_whole_figures(tmp_path, three_d):
+    """One TargetFigure draws every target of an image over one drawing of what they share (panels, ticks,
+    labels, colour bars), with the panels' titles placed at their top instead of found at each draw: each PNG
+    has the pixels of the whole figure drawn by savefig with matplotlib placing the titles, and those of a
+    figure made for that target alone."""
+    from PIL import Image
+
+    from sarproc.product.io import read_product
+    from sarproc.quality.metrics import evaluate_product
+    from sarproc.quality.plotting import DPI, TargetFigure, plot_target
+
+    product = read_product(make_image(tmp_path / "img.h5", three_d=three_d))
+    report = evaluate_product(product)
+    irw, units = product.attrs["theoretical_irw"], dict.fromkeys(product.dims, "m")
+    figure = TargetFigure(product.data, product.dims, product.coords, irw, units)
+    pictures = []
+    for t in report.targets:
+        turn = np.asarray(Image.open(figure.draw(tmp_path / f"{t.name}.png", t)))
+        alone = plot_target(tmp_path / f"{t.name}_alone.png", product.data, product.dims, product.coords, irw, t, units)
+        assert figure.fig is not None
+        for ax in figure.axs:
+            ax.set_title(ax.get_title(), fontsize=8)  # placed by matplotlib as it draws
+        figure.fig.savefig(tmp_path / f"{t.name}_whole.png", dpi=DPI)
+        assert np.array_equal(turn, np.asarray(Image.open(tmp_path / f"{t.name}_whole.png")))
+        assert np.array_equal(turn, np.asarray(Image.open(alone)))
+        pictures.append(turn)
+    assert len(pictures) == 2 and not np.array_equal(*pictures)
 
 
 def test_3d_image_with_config(tmp_path):

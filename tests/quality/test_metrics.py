@@ -285,6 +285,33 @@ def test_patch_is_normalised_and_centred():
 
 
 @pytest.mark.parametrize(
+    "shape, half",
+    [((93, 93), {0: 60, 1: 91}), ((31, 41, 45), {2: 50, 1: 40}), ((31, 41, 45), {0: 30, 2: 91}), ((9, 9), {0: 40})],
+)
+def test_upsampled_grid_by_fft_equals_the_sums(shape, half):
+    # target_patch's grid (pos + j / 8 along the plotted axes) by zero-padded inverse FFTs: the matrix products'
+    # sums to rounding, in the same layout; a grid longer than the padded length is left to values()
+    from sarproc.quality.metrics import _Chip
+
+    rng = np.random.default_rng(1)
+    data = (rng.standard_normal(shape) + 1j * rng.standard_normal(shape)) * np.exp(
+        2j * np.pi * 0.3 * np.arange(shape[-1])
+    )
+    chip = _Chip(data, [n // 2 for n in shape], [n // 2 for n in shape])
+    pos = np.array([n // 2 + 0.37 for n in shape])
+    grids = [np.array([p]) for p in pos]
+    for a, m in half.items():
+        grids[a] = pos[a] + np.arange(-m, m + 1) / 8
+    fast = chip.values_upsampled(pos, half, 8)
+    if any(2 * m + 1 > shape[a] * 8 for a, m in half.items()):
+        assert fast is None
+        return
+    sums = chip.values(grids)
+    assert fast is not None and fast.shape == sums.shape
+    assert np.abs(fast - sums).max() < 1e-13 * np.abs(sums).max()
+
+
+@pytest.mark.parametrize(
     "bad, match",
     [
         ("outside", "outside the image extent"),
