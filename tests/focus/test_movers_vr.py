@@ -117,6 +117,68 @@ def test_a_noise_window_with_no_cell_over_the_floor_is_no_mover_and_a_weak_mover
     assert abs(found[0]["v_r"] + 5.00) < 3 * found[0]["v_r_sigma"], found
 
 
+@pytest.mark.slow
+def test_without_the_clutter_null_a_static_point_read_near_rest_by_eq_5_is_no_mover():
+    """Mover campaign scene 016 (reduced as above) on band-limited echoes: its static S2 (amplitude 1, 27.7 dB) was
+    tabled at v_r 2.02 m/s, 1-sigma 0.75 (v_los 1.68 m/s, 0.98 sigma over detection_velocity): a false alarm. Without
+    the clutter null the detection image holds the static scene, so eq. 5's velocity is the only evidence of motion,
+    and rest within STATIC_SIGMAS of it is not ruled out: taken for static (_drop_under_threshold), whatever the CFAR
+    threshold. M1 (17.9 dB, v_los read -4.25 m/s, 1.49 sigma over it) is taken for static too: at that SNR eq. 5
+    cannot tell it from rest, and its miss reason says so (docs/multichannel.md section 10)."""
+    m = mover_campaign_scene(
+        22.9,
+        "gaussian",
+        3,
+        "2 m",
+        ("M1", -995.9, -168.9, 1.61, -5.00, 0.3444),
+        noise_snr=-9.4,
+        statics=((925.8, -118.0, 5.015), (928.5, 131.4, 1.0)),
+    )
+    m["simulation"]["waveform"] = "band_limited"
+    rec = reconstruct(simulate(scene_from_mapping(m)), ReconstructParams())
+    truth = rec.attrs["reconstruct"]["truth"]
+    assert rows(rec) == [] and truth["false_alarms"] == 0, truth
+    (reason,) = truth["missed_reasons"]
+    assert "without a clutter null, taken for static" in reason and "1.5 sigma over detection_velocity" in reason
+
+
+@pytest.mark.slow
+def test_a_weak_static_point_pulled_off_rest_by_the_noise_is_no_mover():
+    """Mover campaign scene 015 as drawn (gaussian beam, 10.4 deg squint, noise -17.5 dB, three receivers, no
+    clutter), band-limited: the amplitude-1 static S2 (16.8 dB) read at v_r 4.97 m/s by eq. 5, whose minimum the
+    noise's own dip pulls off rest (the window's far cells, noise alone, have their eq. 5 minimum at +12.75 m/s),
+    1-sigma 2.40 (1.67 sigma over detection_velocity): tabled as a mover on main, taken for static now."""
+    m = mover_campaign_scene(
+        10.4,
+        "gaussian",
+        3,
+        "2 m",
+        ("M1", -684.2, -111.9, -3.26, -8.61, 0.5412),
+        noise_snr=-17.5,
+        statics=((113.1, -38.4, 8.012), (711.8, -139.5, 1.0)),
+    )
+    m["targets"]["points"][1:1] = [
+        {
+            "name": "M2",
+            "azimuth": "-683.0 m",
+            "range": "-108.2 m",
+            "amplitude": 0.3981,
+            "velocity": ["-0.82 m/s", "-2.87 m/s", "0 m/s"],
+        },
+        {
+            "name": "M3",
+            "azimuth": "112.0 m",
+            "range": "36.8 m",
+            "amplitude": 0.6355,
+            "velocity": ["-11.88 m/s", "-10.90 m/s", "0 m/s"],
+        },
+    ]
+    m["simulation"]["waveform"] = "band_limited"
+    rec = reconstruct(simulate(scene_from_mapping(m)), ReconstructParams())
+    truth = rec.attrs["reconstruct"]["truth"]
+    assert rows(rec) == [] and truth["false_alarms"] == 0, truth
+
+
 def _small_window(x: np.ndarray, half_band: float = 1000.0) -> tuple[rc._Window, rc._Geometry]:
     """A three-receiver window (N, n_az, cells) in (t, range cell) at 2.5 kHz PRF, B_a 2 half_band (the default, 2
     kHz: white noise leaves 1 - 2000 / 7500 = 0.733 of its energy out of band)."""
