@@ -2630,12 +2630,14 @@ def _refocus(
         )
     )
     tally.peaks.append(det)
-    if null_fit is None and len(mt.search) and _static_within(tally.movers[-1], scan) is not None:
+    if null_fit is None and len(mt.search) and not mt.at_bound and _static_within(tally.movers[-1], scan) is not None:
         # No clutter null: the detection image holds the static scene at full strength, so a detection's strength
         # says nothing of motion and eq. 5's velocity is the only evidence of it. Rest within STATIC_SIGMAS of the
         # tabled v_los is not ruled out: a candidate for _drop_under_threshold whatever the CFAR threshold (mover
         # campaign scene 015's static S2 band-limited, 16.8 dB: eq. 5's minimum pulled to v_r 4.97 m/s by the noise's
-        # own dip, 1-sigma 2.40; docs/multichannel.md section 10)
+        # own dip, 1-sigma 2.40; docs/multichannel.md section 10). Not on the search bound: there eq. 5 falls towards
+        # the bound, away from rest, and the 1-sigma is the bound's (tests/focus/test_movers.py: v_r 24 m/s tabled at
+        # 20, 73.7 dB, 1.96 sigma)
         tally.undo[len(tally.movers) - 1] = change
     elif null_fit is not None and _static_within(tally.movers[-1], scan) is not None:
         at_estimate = null_fit.mismatch(mt.radial_velocity, mt.along_track_velocity)
