@@ -90,15 +90,8 @@ def test_a_sinc_beam_mover_at_22_db_in_noise_is_found_with_a_sigma_that_covers_i
     assert 0.3 < row["v_r_sigma"] < 3.0, row
 
 
-@pytest.mark.slow
-def test_a_noise_window_with_no_cell_over_the_floor_is_no_mover_and_a_weak_mover_is_found():
-    """Mover campaign scene 016 (gaussian beam, 22.9 deg squint, noise -9.4 dB against S1): M1 (v_r -5.00, v_a 1.61
-    m/s, detection 19.5 dB) was taken for no point target (eq. 5 0.982 of its plain trial median; 0.899 of the
-    curve's, its cells 14-18 standing out). A noise detection at 21.3 dB has no cell standing out of its window's
-    floor: eq. 5 over all its cells is the noise's own curve, 0.941 of the curve's median, 0.992 of the plain one.
-    With the curve's median everywhere it was tabled (v_r -13.78 m/s, a false alarm); session 34 kept the plain
-    median where no cell stands out, session 35 the curve's median everywhere and the dip's coherence t (0.41 for
-    the noise detection, 7.2 for M1; _incoherent)."""
+def scene_016(waveform: str) -> dict:
+    """Mover campaign scene 016 reduced: its M1 and its two statics (S2: amplitude 1), on ``waveform``'s echoes."""
     m = mover_campaign_scene(
         22.9,
         "gaussian",
@@ -108,9 +101,23 @@ def test_a_noise_window_with_no_cell_over_the_floor_is_no_mover_and_a_weak_mover
         noise_snr=-9.4,
         statics=((925.8, -118.0, 5.015), (928.5, 131.4, 1.0)),
     )
+    m["simulation"]["waveform"] = waveform
+    return m
+
+
+@pytest.mark.slow
+def test_a_noise_window_with_no_cell_over_the_floor_is_no_mover_and_a_weak_mover_is_found():
+    """Mover campaign scene 016 (gaussian beam, 22.9 deg squint, noise -9.4 dB against S1): M1 (v_r -5.00, v_a 1.61
+    m/s, detection 19.5 dB) was taken for no point target (eq. 5 0.982 of its plain trial median; 0.899 of the
+    curve's, its cells 14-18 standing out). A noise detection at 21.3 dB has no cell standing out of its window's
+    floor: eq. 5 over all its cells is the noise's own curve, 0.941 of the curve's median, 0.992 of the plain one.
+    With the curve's median everywhere it was tabled (v_r -13.78 m/s, a false alarm); session 34 kept the plain
+    median where no cell stands out, session 35 the curve's median everywhere and the dip's coherence t (0.41 for
+    the noise detection, 7.2 for M1; _incoherent)."""
     # the campaign's scene as drawn, on the continuous chirp's echoes (xu_scene.yaml's, stated so the scene keeps it);
-    # band-limited (the default) M1 is found, and a 27.7 dB detection is tabled at v_r 2.02 m/s (1-sigma 0.75)
-    m["simulation"]["waveform"] = "continuous"
+    # band-limited (the default) the 27.7 dB static S2 was tabled at v_r 2.02 m/s (1-sigma 0.75) and M1 found; since
+    # session 38 both are taken for static there (the next test)
+    m = scene_016("continuous")
     rec = reconstruct(simulate(scene_from_mapping(m)), ReconstructParams())
     found = rows(rec)
     assert [r["truth_index"] for r in found] == [0], found
@@ -125,16 +132,7 @@ def test_without_the_clutter_null_a_static_point_read_near_rest_by_eq_5_is_no_mo
     and rest within STATIC_SIGMAS of it is not ruled out: taken for static (_drop_under_threshold), whatever the CFAR
     threshold. M1 (17.9 dB, v_los read -4.25 m/s, 1.49 sigma over it) is taken for static too: at that SNR eq. 5
     cannot tell it from rest, and its miss reason says so (docs/multichannel.md section 10)."""
-    m = mover_campaign_scene(
-        22.9,
-        "gaussian",
-        3,
-        "2 m",
-        ("M1", -995.9, -168.9, 1.61, -5.00, 0.3444),
-        noise_snr=-9.4,
-        statics=((925.8, -118.0, 5.015), (928.5, 131.4, 1.0)),
-    )
-    m["simulation"]["waveform"] = "band_limited"
+    m = scene_016("band_limited")
     rec = reconstruct(simulate(scene_from_mapping(m)), ReconstructParams())
     truth = rec.attrs["reconstruct"]["truth"]
     assert rows(rec) == [] and truth["false_alarms"] == 0, truth
