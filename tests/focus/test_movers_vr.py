@@ -90,15 +90,8 @@ def test_a_sinc_beam_mover_at_22_db_in_noise_is_found_with_a_sigma_that_covers_i
     assert 0.3 < row["v_r_sigma"] < 3.0, row
 
 
-@pytest.mark.slow
-def test_a_noise_window_with_no_cell_over_the_floor_is_no_mover_and_a_weak_mover_is_found():
-    """Mover campaign scene 016 (gaussian beam, 22.9 deg squint, noise -9.4 dB against S1): M1 (v_r -5.00, v_a 1.61
-    m/s, detection 19.5 dB) was taken for no point target (eq. 5 0.982 of its plain trial median; 0.899 of the
-    curve's, its cells 14-18 standing out). A noise detection at 21.3 dB has no cell standing out of its window's
-    floor: eq. 5 over all its cells is the noise's own curve, 0.941 of the curve's median, 0.992 of the plain one.
-    With the curve's median everywhere it was tabled (v_r -13.78 m/s, a false alarm); session 34 kept the plain
-    median where no cell stands out, session 35 the curve's median everywhere and the dip's coherence t (0.41 for
-    the noise detection, 7.2 for M1; _incoherent)."""
+def scene_016(waveform: str) -> dict:
+    """Mover campaign scene 016 reduced: its M1 and its two statics (S2: amplitude 1), on ``waveform``'s echoes."""
     m = mover_campaign_scene(
         22.9,
         "gaussian",
@@ -108,13 +101,80 @@ def test_a_noise_window_with_no_cell_over_the_floor_is_no_mover_and_a_weak_mover
         noise_snr=-9.4,
         statics=((925.8, -118.0, 5.015), (928.5, 131.4, 1.0)),
     )
+    m["simulation"]["waveform"] = waveform
+    return m
+
+
+@pytest.mark.slow
+def test_a_noise_window_with_no_cell_over_the_floor_is_no_mover_and_a_weak_mover_is_found():
+    """Mover campaign scene 016 (gaussian beam, 22.9 deg squint, noise -9.4 dB against S1): M1 (v_r -5.00, v_a 1.61
+    m/s, detection 19.5 dB) was taken for no point target (eq. 5 0.982 of its plain trial median; 0.899 of the
+    curve's, its cells 14-18 standing out). A noise detection at 21.3 dB has no cell standing out of its window's
+    floor: eq. 5 over all its cells is the noise's own curve, 0.941 of the curve's median, 0.992 of the plain one.
+    With the curve's median everywhere it was tabled (v_r -13.78 m/s, a false alarm); session 34 kept the plain
+    median where no cell stands out, session 35 the curve's median everywhere and the dip's coherence t (0.41 for
+    the noise detection, 7.2 for M1; _incoherent)."""
     # the campaign's scene as drawn, on the continuous chirp's echoes (xu_scene.yaml's, stated so the scene keeps it);
-    # band-limited (the default) M1 is found, and a 27.7 dB detection is tabled at v_r 2.02 m/s (1-sigma 0.75)
-    m["simulation"]["waveform"] = "continuous"
+    # band-limited (the default) the 27.7 dB static S2 was tabled at v_r 2.02 m/s (1-sigma 0.75) and M1 found; since
+    # session 38 both are taken for static there (the next test)
+    m = scene_016("continuous")
     rec = reconstruct(simulate(scene_from_mapping(m)), ReconstructParams())
     found = rows(rec)
     assert [r["truth_index"] for r in found] == [0], found
     assert abs(found[0]["v_r"] + 5.00) < 3 * found[0]["v_r_sigma"], found
+
+
+@pytest.mark.slow
+def test_without_the_clutter_null_a_static_point_read_near_rest_by_eq_5_is_no_mover():
+    """Mover campaign scene 016 (reduced as above) on band-limited echoes: its static S2 (amplitude 1, 27.7 dB) was
+    tabled at v_r 2.02 m/s, 1-sigma 0.75 (v_los 1.68 m/s, 0.98 sigma over detection_velocity): a false alarm. Without
+    the clutter null the detection image holds the static scene, so eq. 5's velocity is the only evidence of motion,
+    and rest within STATIC_SIGMAS of it is not ruled out: taken for static (_drop_under_threshold), whatever the CFAR
+    threshold. M1 (17.9 dB, v_los read -4.25 m/s, 1.49 sigma over it) is taken for static too: at that SNR eq. 5
+    cannot tell it from rest, and its miss reason says so (docs/multichannel.md section 10)."""
+    m = scene_016("band_limited")
+    rec = reconstruct(simulate(scene_from_mapping(m)), ReconstructParams())
+    truth = rec.attrs["reconstruct"]["truth"]
+    assert rows(rec) == [] and truth["false_alarms"] == 0, truth
+    (reason,) = truth["missed_reasons"]
+    assert "without a clutter null, taken for static" in reason and "1.5 sigma over detection_velocity" in reason
+
+
+@pytest.mark.slow
+def test_a_weak_static_point_pulled_off_rest_by_the_noise_is_no_mover():
+    """Mover campaign scene 015 as drawn (gaussian beam, 10.4 deg squint, noise -17.5 dB, three receivers, no
+    clutter), band-limited: the amplitude-1 static S2 (16.8 dB) read at v_r 4.97 m/s by eq. 5, whose minimum the
+    noise's own dip pulls off rest (the window's far cells, noise alone, have their eq. 5 minimum at +12.75 m/s),
+    1-sigma 2.40 (1.67 sigma over detection_velocity): tabled as a mover on main, taken for static now."""
+    m = mover_campaign_scene(
+        10.4,
+        "gaussian",
+        3,
+        "2 m",
+        ("M1", -684.2, -111.9, -3.26, -8.61, 0.5412),
+        noise_snr=-17.5,
+        statics=((113.1, -38.4, 8.012), (711.8, -139.5, 1.0)),
+    )
+    m["targets"]["points"][1:1] = [
+        {
+            "name": "M2",
+            "azimuth": "-683.0 m",
+            "range": "-108.2 m",
+            "amplitude": 0.3981,
+            "velocity": ["-0.82 m/s", "-2.87 m/s", "0 m/s"],
+        },
+        {
+            "name": "M3",
+            "azimuth": "112.0 m",
+            "range": "36.8 m",
+            "amplitude": 0.6355,
+            "velocity": ["-11.88 m/s", "-10.90 m/s", "0 m/s"],
+        },
+    ]
+    m["simulation"]["waveform"] = "band_limited"
+    rec = reconstruct(simulate(scene_from_mapping(m)), ReconstructParams())
+    truth = rec.attrs["reconstruct"]["truth"]
+    assert rows(rec) == [] and truth["false_alarms"] == 0, truth
 
 
 def _small_window(x: np.ndarray, half_band: float = 1000.0) -> tuple[rc._Window, rc._Geometry]:

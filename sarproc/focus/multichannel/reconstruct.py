@@ -535,8 +535,9 @@ NULL_FIT_FLAT = 0.02
 # detection_velocity: not clutter's pull to 0) by more than this is reported as ambiguous and its 1-sigma made at
 # least the difference (xu_traffic's one overrule, V9: eq. 5 -0.01 m/s, static)
 NULL_FIT_AMBIGUOUS = 1.0
-# A mover whose detection is under the measured CFAR threshold is tabled only with its line-of-sight speed this many
-# 1-sigma over detection_velocity (_drop_under_threshold)
+# A mover whose detection is under the measured CFAR threshold, or (without the clutter null) any mover that eq. 5's
+# search estimated, is tabled only with its line-of-sight speed this many 1-sigma over detection_velocity
+# (_drop_under_threshold)
 STATIC_SIGMAS = 2.0
 # m/s: the central-difference step of eq. 5's looks' scores and curvature (_leakage_spread; on mover campaign scene 014
 # its three windows' sigmas change by under 5 % between 0.1 and 0.5 m/s)
@@ -2629,7 +2630,16 @@ def _refocus(
         )
     )
     tally.peaks.append(det)
-    if null_fit is not None and _static_within(tally.movers[-1], scan) is not None:
+    if null_fit is None and len(mt.search) and not mt.at_bound and _static_within(tally.movers[-1], scan) is not None:
+        # No clutter null: the detection image holds the static scene at full strength, so a detection's strength
+        # says nothing of motion and eq. 5's velocity is the only evidence of it. Rest within STATIC_SIGMAS of the
+        # tabled v_los is not ruled out: a candidate for _drop_under_threshold whatever the CFAR threshold (mover
+        # campaign scene 015's static S2 band-limited, 16.8 dB: eq. 5's minimum pulled to v_r 4.97 m/s by the noise's
+        # own dip, 1-sigma 2.40; docs/multichannel.md section 10). Not on the search bound: there eq. 5 falls towards
+        # the bound, away from rest, and the 1-sigma is the bound's (tests/focus/test_movers.py: v_r 24 m/s tabled at
+        # 20, 73.7 dB, 1.96 sigma)
+        tally.undo[len(tally.movers) - 1] = change
+    elif null_fit is not None and _static_within(tally.movers[-1], scan) is not None:
         at_estimate = null_fit.mismatch(mt.radial_velocity, mt.along_track_velocity)
         at_rest = null_fit.mismatch(0.0, 0.0)
         log.debug(
@@ -2686,12 +2696,17 @@ def _drop_under_threshold(scan: _Scan, tally: _Tally) -> dict[int, int]:
     012: 15.99 dB against 17.1, 4 of the measured background's 466 540 peaks stronger; v_los 1.21 m/s, 0.8 sigma over
     1 m/s; null-fit mismatch 0.0818 at rest, 0.0950 at its estimate: a clutter-plus-noise peak). Neither the threshold
     nor the velocity alone decides: xu_traffic's true V9 is at 19.85 dB under 42.7 and 0.66 sigma over 1 m/s, and the
-    null fit prefers its estimate (docs/multichannel.md section 8). Its refocus is undone, it is recorded as a
-    detection taken for static ("weak"), and the detections merged with it with it."""
+    null fit prefers its estimate (docs/multichannel.md section 8). Without the clutter null (no null fit) every mover
+    eq. 5 estimated within STATIC_SIGMAS of detection_velocity is taken back whatever its SNR: the detection image
+    holds the static scene at full strength, so the threshold says nothing of motion (mover campaign scenes 013, 015,
+    016: static points at 16.8-28.6 dB read at v_los 1.6-5.0 m/s, 0.9-1.7 sigma over 1 m/s; docs/multichannel.md
+    section 10). Its refocus is undone, it is recorded as a detection taken for static ("weak"), and the detections
+    merged with it with it."""
     drop = [
         k
         for k in sorted(tally.undo)
-        if tally.peaks[k].snr_db < scan.found.cfar_db and scan.found.cfar_db > scan.params.detection_snr
+        if k not in tally.at_rest  # eq. 5's, without the clutter null (_refocus): the threshold does not apply
+        or (tally.peaks[k].snr_db < scan.found.cfar_db and scan.found.cfar_db > scan.params.detection_snr)
     ]
     index = {k: i for i, k in enumerate(k for k in range(len(tally.movers)) if k not in drop)}
     if not drop:
@@ -2701,21 +2716,42 @@ def _drop_under_threshold(scan: _Scan, tally: _Tally) -> dict[int, int]:
         scan.y_tr[:, mt.first_cell : mt.last_cell] -= tally.undo[k]
         v_los = mt.line_of_sight_velocity(scan.g.squint)
         z = _static_within(mt, scan)
-        log.info(
-            "reconstruct: detection at range cell %d, %.3f s (SNR %.1f dB) is under the CFAR threshold %.1f dB and "
-            "its v_los %.3f m/s only %.2f sigma over detection_velocity %g m/s, the null fit's mismatch %.4f at its "
-            "estimate and %.4f at rest: taken for static",
-            det.cell,
-            det.time,
-            det.snr_db,
-            scan.found.cfar_db,
-            v_los,
-            z,
-            scan.params.detection_velocity,
-            *tally.at_rest[k],
-        )
+        if k in tally.at_rest:
+            log.info(
+                "reconstruct: detection at range cell %d, %.3f s (SNR %.1f dB) is under the CFAR threshold %.1f dB "
+                "and its v_los %.3f m/s only %.2f sigma over detection_velocity %g m/s, the null fit's mismatch %.4f "
+                "at its estimate and %.4f at rest: taken for static",
+                det.cell,
+                det.time,
+                det.snr_db,
+                scan.found.cfar_db,
+                v_los,
+                z,
+                scan.params.detection_velocity,
+                *tally.at_rest[k],
+            )
+        else:
+            log.info(
+                "reconstruct: detection at range cell %d, %.3f s (SNR %.1f dB): its v_los %.3f m/s is only %.2f sigma "
+                "over detection_velocity %g m/s and no clutter null tells a mover from the static scene: taken for "
+                "static",
+                det.cell,
+                det.time,
+                det.snr_db,
+                v_los,
+                z,
+                scan.params.detection_velocity,
+            )
         tally.rejected.append(
-            {"cell": det.cell, "index": det.index, "snr_db": det.snr_db, "kind": "weak", "v_los": v_los, "sigmas": z}
+            {
+                "cell": det.cell,
+                "index": det.index,
+                "snr_db": det.snr_db,
+                "kind": "weak",
+                "v_los": v_los,
+                "sigmas": z,
+                "under_cfar": k in tally.at_rest,
+            }
         )
     for d in tally.rejected:
         if d["kind"] == "merged":
@@ -2724,7 +2760,7 @@ def _drop_under_threshold(scan: _Scan, tally: _Tally) -> dict[int, int]:
             else:
                 m = tally.movers[d["mover"]]
                 v = m.line_of_sight_velocity(scan.g.squint)
-                d.update(kind="weak", v_los=v, sigmas=_static_within(m, scan))
+                d.update(kind="weak", v_los=v, sigmas=_static_within(m, scan), under_cfar=d["mover"] in tally.at_rest)
                 del d["mover"]
     dropped = [tally.peaks[k] for k in drop]
     tally.removed = [dataclasses.replace(r, kind="static") if r.det in dropped else r for r in tally.removed]
@@ -3010,9 +3046,14 @@ def _miss_reason(
                 "that response was removed"
             )
         if d["kind"] == "weak":
+            under = (
+                f"under the CFAR threshold {cfar['threshold_db']:.1f} dB that a false-alarm rate "
+                f"{params.false_alarm_rate:g} per peak sets, and "
+                if d.get("under_cfar", True)
+                else "without a clutter null, "
+            )
             return (
-                f"{name}: detected (SNR {d['snr_db']:.1f} dB) under the CFAR threshold {cfar['threshold_db']:.1f} dB "
-                f"that a false-alarm rate {params.false_alarm_rate:g} per peak sets, and taken for static: its "
+                f"{name}: detected (SNR {d['snr_db']:.1f} dB) {under}taken for static: its "
                 f"estimated line-of-sight velocity {d['v_los']:.3f} m/s is only {d['sigmas']:.1f} sigma over "
                 f"detection_velocity {params.detection_velocity:g} m/s (its true one {probe.v_los:.3f} m/s)"
             )
