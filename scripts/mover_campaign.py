@@ -239,9 +239,11 @@ def expected(m: dict, noise: bool) -> bool:
     clutter null's MDV, or its v_los within 20 % of detection_velocity (taken for static: the gain model's and the
     search's margin), or in noise under the CFAR threshold or too weak for the velocity search (detection SNR under
     20 dB: docs/multichannel.md section 8, against SNR), or in noise without the clutter null taken for static because
-    its estimated v_los is not 2 sigma over detection_velocity (section 10)."""
+    its estimated v_los is not 2 sigma over detection_velocity (section 10), also only under 20 dB: the same bound
+    on what the velocity search can tell, whichever rule then refuses the detection."""
     reason = m["reason"]
     weak = re.search(r"detected \(SNR ([0-9.]+) dB\) but no slant-range velocity explains", reason)
+    rest = re.search(r"detected \(SNR ([0-9.]+) dB\) without a clutter null, taken for static", reason)
     return bool(
         "below this null's minimum detectable velocity" in reason
         or abs(m["v_los"]) < 1.2 * DETECTION_VELOCITY
@@ -253,7 +255,7 @@ def expected(m: dict, noise: bool) -> bool:
         )
         or (noise and weak is not None and float(weak.group(1)) < 20.0)
         # in noise without the clutter null, eq. 5's velocity not 2 sigma over detection_velocity: rest not ruled out
-        or (noise and "without a clutter null, taken for static" in reason)
+        or (noise and rest is not None and float(rest.group(1)) < 20.0)
     )
 
 
