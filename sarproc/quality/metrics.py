@@ -1357,8 +1357,22 @@ def evaluate_image(
     done = steps(progress, len(names) * (2 if params.remove_neighbours else 1) + int(measured.sum()) + 1)
     mag = np.abs(data)
     gram = _sample_gram(axes, metric)
+    coinciding = coinciding_indices(truth, axes)  # one response each: neither refitted nor residual-modelled
     peaks = _locate_targets(
-        data, mag, axes, names, truth, half, nulls, params, done, target_chirp, response_period, response_table, gram
+        data,
+        mag,
+        axes,
+        names,
+        truth,
+        half,
+        nulls,
+        params,
+        done,
+        target_chirp,
+        response_period,
+        response_table,
+        gram,
+        frozenset(k for g in coinciding for k in g),
     )
     # only the measured targets from here on; the others (and other_truth) guard their neighbourhoods
     order = [int(i) for i in np.flatnonzero(measured)]
@@ -1372,7 +1386,7 @@ def evaluate_image(
     if params.residual and data.ndim == 3:
         note = RESIDUAL_3D_NOTE
     elif params.residual:
-        note = coinciding_note(coinciding_targets(truth, axes, names))
+        note = coinciding_note([[str(names[k]) for k in g] for g in coinciding])
     false, guard, floor, listed = _false_targets(
         data,
         mag,
@@ -1461,11 +1475,13 @@ def _locate_targets(
     response_period: npt.ArrayLike | None,
     response_table: Sequence[tuple[np.ndarray, float] | None] | None,
     gram: np.ndarray | None = None,
+    coinciding: frozenset[int] = frozenset(),
 ) -> list[_Peak]:
     """Every target's :class:`_Peak`: pass 1 (:func:`_find_peak` on the image ``data``, magnitude ``mag``), then
     with ``params.remove_neighbours`` pass 2 (:func:`_subtract_neighbours`; the responses' known chirps and shapes
     are evaluate_image's ``target_chirp``, ``response_period`` and ``response_table``). ``done``: the progress
-    steps, one per target and pass; ``gram``: :func:`_sample_gram`."""
+    steps, one per target and pass; ``gram``: :func:`_sample_gram`; ``coinciding``: the targets that coincide with
+    another (:func:`coinciding_indices`)."""
     peaks = [
         _find_peak(data, mag, axes, name, t, half, nulls, params, gram)
         for name, t in wrapped(done, list(zip(names, truth)))
@@ -1473,7 +1489,6 @@ def _locate_targets(
     if params.remove_neighbours:
         chirps = _chirps_in_samples(target_chirp, axes, len(names))
         shapes = _response_shapes(response_period, response_table, axes)
-        coinciding = frozenset(k for g in coinciding_indices(truth, axes) for k in g)
         peaks = _subtract_neighbours(data, peaks, names, nulls, half, params, done, chirps, shapes, gram, coinciding)
     return peaks
 
