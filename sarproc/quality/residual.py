@@ -1161,12 +1161,14 @@ class _WidthBases:
 
 
 def _search_widths(
-    model: ResponseModel, points: np.ndarray, y: np.ndarray, nulls: np.ndarray
+    model: ResponseModel, points: np.ndarray, y: np.ndarray, nulls: np.ndarray, below: float | None = None
 ) -> tuple[np.ndarray, float]:
     """(scale, misfit): the support widths that fit ``y`` best with the rectangle's basis (linear least
     squares at the model's band centre and chirp, the model's orders), one axis at a time, per axis the
     scale of the image's null spacing ``nulls`` (:data:`WIDTH_SCALES`, then a half and a quarter step either
-    side of the best), and the misfit (|residual|^2 / |y|^2) there."""
+    side of the best), and the misfit (|residual|^2 / |y|^2) there. With ``below`` (a misfit) it returns at
+    the first scale whose misfit is under it: where only whether the search gets there is asked, the rest
+    of the search cannot change the answer (its misfit only falls)."""
 
     bases = _WidthBases(points, model, nulls)
     seen: dict[bytes, float] = {}  # the grids meet the current scale again (1.0 on each axis): solved once
@@ -1179,6 +1181,9 @@ def _search_widths(
             seen[key] = float(np.vdot(r, r).real)
         return seen[key]
 
+    energy = float(np.vdot(y, y).real)
+    if not energy > 0:
+        below = None
     scale = np.ones(len(nulls))
     best = misfit(scale)
     step = WIDTH_SCALES[1] / WIDTH_SCALES[0]
@@ -1186,12 +1191,13 @@ def _search_widths(
         for grid in (WIDTH_SCALES, [step**-0.5, step**0.5], [step**-0.25, step**0.25]):
             centre = scale[a] if grid is not WIDTH_SCALES else 1.0
             for s in np.asarray(grid) * centre:
+                if below is not None and best / energy < below:
+                    return scale, best / energy
                 trial = scale.copy()
                 trial[a] = s
                 value = misfit(trial)
                 if value < best:
                     best, scale = value, trial
-    energy = float(np.vdot(y, y).real)
     return scale, best / energy if energy > 0 else 0.0
 
 
@@ -1455,7 +1461,7 @@ def _widen_misfitted_lone(
         if model is None or len(members) > 1 or (before := _misfit(model, near, y_near)) <= WIDTH_SEARCH_MISFIT:
             continue
         rich = dataclasses.replace(model, orders=richer, kappa=None)
-        linear = _search_widths(rich, near, y_near, own[k])[1]
+        linear = _search_widths(rich, near, y_near, own[k], below=0.5 * before)[1]
         if linear >= 0.5 * before:
             continue
         samples = (near, y_near, far, y_far)
