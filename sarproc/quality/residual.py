@@ -157,7 +157,7 @@ class ResponseModel:
     chirp: np.ndarray  # spatial chirp K, symmetric (ndim, ndim), cycles/sample^2
     kappa: np.ndarray | None = None  # keystone, relative width slopes (ndim - 1,) (:func:`_strip_factors`); None: none
     # the range edges' bow (2D): the support's range band shifted by curvature * (u_az^2 - 1/12) range bands at
-    # azimuth band coordinate u_az (:func:`_curvature_columns`); 0: straight edges
+    # azimuth band coordinate u_az (:class:`_BowColumns`); 0: straight edges
     curvature: float = 0.0
     # the ridge coordinates' second-order terms (2D), nulls per sample^2: c_a += x^T warp[a] x (x the offset from
     # the peak, samples; :func:`_fit_warp`): each pulse's wavefront is a circle about the platform, so the azimuth
@@ -511,18 +511,34 @@ def _fresnel_bent(x: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.where(b > 0, f, np.conj(f))
 
 
-def _curvature_sum(c: Sequence[np.ndarray], orders: np.ndarray, coef: np.ndarray | None, beta: float) -> np.ndarray:
+class _BowTerms:
+    """What :func:`_curvature_sum` takes from the ridge coordinates and orders whatever the bow: each azimuth
+    order's shifted coordinate and its sinc, each range order's sinc (a bow's search evaluates one set of samples
+    at some 25 bows: :func:`_fit_curvature`)."""
+
+    def __init__(self, c: Sequence[np.ndarray], orders: np.ndarray) -> None:
+        self.n = np.asarray(orders, dtype=int)
+        self.c0, self.c1 = np.asarray(c[0], dtype=float), np.asarray(c[1], dtype=float)
+        self.shifted = {k: self.c0 + k / 2.0 for k in sorted(set(self.n[:, 0]))}
+        self.sincs = {k: np.sinc(x) for k, x in self.shifted.items()}
+        self.rg = {k: np.sinc(self.c1 + k / 2.0) for k in sorted(set(self.n[:, 1]))}
+
+
+def _curvature_sum(
+    c: Sequence[np.ndarray], orders: np.ndarray, coef: np.ndarray | None, beta: float, terms: _BowTerms | None = None
+) -> np.ndarray:
     """What the range edges' bow adds to a 2D model (without its carrier), at ridge coordinates c (nulls, arrays
     of one shape): the support's range band shifted by beta (u^2 - 1/12) range bands at azimuth band coordinate
     u (an annular sector's arcs against their chords; the mean shift, beta / 12, is the band centre's), so order
     n's azimuth factor sinc(c_0 + n_0 / 2) becomes F(c_0 + n_0 / 2, beta c_1) exp(-j pi beta c_1 / 6)
     (:func:`_fresnel_box`); the keystone is left out of the difference (its cross term is kappa times this
-    one). ``coef`` None: per order, (K, *shape); else the sum over the orders weighted by it."""
-    n = np.asarray(orders, dtype=int)
-    c0, c1 = np.asarray(c[0], dtype=float), np.asarray(c[1], dtype=float)
+    one). ``coef`` None: per order, (K, *shape); else the sum over the orders weighted by it. ``terms``: c's and
+    the orders' :class:`_BowTerms`, taken already (c is then not read)."""
+    t = _BowTerms(c, orders) if terms is None else terms
+    n, c0, c1 = t.n, t.c0, t.c1
     shift = np.exp(-2j * np.pi * beta * c1 / 12.0)
-    az = {k: _fresnel_box(c0 + k / 2.0, beta * c1) * shift - np.sinc(c0 + k / 2.0) for k in sorted(set(n[:, 0]))}
-    rg = {k: np.sinc(c1 + k / 2.0) for k in sorted(set(n[:, 1]))}
+    az = {k: _fresnel_box(x, beta * c1) * shift - t.sincs[k] for k, x in t.shifted.items()}
+    rg = t.rg
     if coef is None:
         return np.stack([az[a] * rg[b] for a, b in n])
     total = np.zeros(c0.shape, dtype=complex)
@@ -543,14 +559,19 @@ def _curvature_values(points: np.ndarray, model: ResponseModel, coef: np.ndarray
     return _curvature_sum(list(c), model.orders, weights, model.curvature) * np.exp(1j * phase)
 
 
-def _curvature_columns(points: np.ndarray, model: ResponseModel, beta: float) -> np.ndarray:
-    """(N, K): per order, what a range-edge bow ``beta`` adds to ``model``'s basis at ``points`` (carrier
-    included)."""
-    A, p = _ridge_frame(model.position, model.ridges, model.nulls)
-    x = np.asarray(points, dtype=float) - p[:, None]
-    c = _warped(A @ x, x, model.warp)
-    phase = 2 * np.pi * (np.asarray(model.band_centre, dtype=float) @ x) + _chirp_phase(x, model.chirp)
-    return (_curvature_sum(list(c), model.orders, None, beta) * np.exp(1j * phase)).T
+class _BowColumns:
+    """(N, K) per bow ``beta``: per order, what a range-edge bow adds to ``model``'s basis at ``points`` (carrier
+    included); the ridge coordinates, the carrier and the sincs that do not depend on the bow taken once."""
+
+    def __init__(self, points: np.ndarray, model: ResponseModel) -> None:
+        A, p = _ridge_frame(model.position, model.ridges, model.nulls)
+        x = np.asarray(points, dtype=float) - p[:, None]
+        c = _warped(A @ x, x, model.warp)
+        phase = 2 * np.pi * (np.asarray(model.band_centre, dtype=float) @ x) + _chirp_phase(x, model.chirp)
+        self.orders, self.terms, self.carrier = model.orders, _BowTerms(list(c), model.orders), np.exp(1j * phase)
+
+    def __call__(self, beta: float) -> np.ndarray:
+        return (_curvature_sum((), self.orders, None, beta, self.terms) * self.carrier).T
 
 
 def _model_on_box(slices: Sequence[slice], model: ResponseModel) -> np.ndarray:
@@ -1810,13 +1831,16 @@ def _fit_curvature(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> t
         points, model.position, model.ridges, model.nulls, model.band_centre, model.orders, model.chirp, model.kappa
     )
 
-    def basis(beta: float) -> np.ndarray:
-        return straight + _curvature_columns(points, model, beta) if beta else straight
+    bow = _BowColumns(points, model)
+    solved: dict[float, tuple[float, np.ndarray]] = {}  # per bow: (misfit, amplitudes)
 
     def misfit(beta: float) -> float:
-        B = basis(beta)
-        r = y - B @ least_squares(B, y)
-        return float(np.vdot(r, r).real)
+        if beta not in solved:
+            B = straight + bow(beta) if beta else straight
+            coef = least_squares(B, y)
+            r = y - B @ coef
+            solved[beta] = (float(np.vdot(r, r).real), coef)
+        return solved[beta][0]
 
     before = misfit(0.0)
     # the arcs bow toward zero frequency, the keystone's narrow end: beta has the sign of -kappa where it is fitted
@@ -1824,13 +1848,14 @@ def _fit_curvature(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> t
     signs = (-1.0,) if kappa > CURVATURE_SIGN_KAPPA else (1.0,) if kappa < -CURVATURE_SIGN_KAPPA else (-1.0, 1.0)
     probes = [sg * b for sg in signs for b in CURVATURE_PROBES]
     if min(misfit(b) for b in probes) >= CURVATURE_PROBE_GAIN * before:  # no bow there: nothing to search
-        return 0.0, least_squares(straight, y), before, before
+        return 0.0, solved[0.0][1], before, before
     grid = np.arange(-CURVATURE_LIMIT, CURVATURE_LIMIT + 0.5 * CURVATURE_STEP, CURVATURE_STEP)
     grid = grid[np.isin(np.sign(grid), (0.0, *signs))]
     best = float(grid[int(np.argmin([misfit(float(b)) if b else before for b in grid]))])
     lo, hi = max(-CURVATURE_LIMIT, best - CURVATURE_STEP), min(CURVATURE_LIMIT, best + CURVATURE_STEP)
     beta, least = _bounded_minimum(misfit, lo, hi, 2e-4)
-    return beta, least_squares(basis(beta), y), before, least
+    misfit(beta)  # the bounded search's best: solved already
+    return beta, solved[beta][1], before, least
 
 
 def _bounded_minimum(func: Callable[[float], float], lo: float, hi: float, xatol: float) -> tuple[float, float]:
