@@ -1993,15 +1993,21 @@ def envelope_bound(model: ResponseModel, lo: np.ndarray, hi: np.ndarray | None =
     + sum |kappa| / 2; the strips that approximate the trapezoid (:func:`_strip_factors`) get a factor of 2
     of margin, and their staircase's own ridges a term of their own."""
     A, p = _ridge_frame(model.position, model.ridges, model.nulls)
+    radius: np.ndarray | None
     if hi is not None and model.warp is not None:
         centre, radius = _warped_box_range(A, np.asarray(model.warp, dtype=float), (lo + hi) / 2.0 - p, (hi - lo) / 2.0)
     else:
         centre = (lo - p if hi is None else (lo + hi) / 2.0 - p) @ A.T  # (B, ndim)
-        radius = np.zeros_like(centre) if hi is None else ((hi - lo) / 2.0) @ np.abs(A).T
+        # at points no radius (a zero one's sums and differences change no bit; 002 small plain bounds its other
+        # groups' models at their fits' samples 1500 times)
+        radius = None if hi is None else ((hi - lo) / 2.0) @ np.abs(A).T
         if model.warp is not None:  # at points (a fit's samples): the warp's norm times |x|^2
-            radius = radius + ((lo - p) ** 2).sum(axis=1)[:, None] * np.abs(model.warp).sum(axis=(1, 2))[None, :]
+            radius = ((lo - p) ** 2).sum(axis=1)[:, None] * np.abs(model.warp).sum(axis=(1, 2))[None, :]
+    magnitude = np.abs(centre)
+    inner = magnitude if radius is None else magnitude - radius  # |c| at its least and most over each box
+    outer = magnitude if radius is None else magnitude + radius
     shift = float(np.abs(model.orders).max()) / 2.0
-    dist = np.maximum(0.0, np.abs(centre) - radius - shift)
+    dist = np.maximum(0.0, inner - shift)
     kappa = model.kappa
     width, margin, steps = 1.0, 1.0, 0.0
     if kappa is not None and _keystoned(kappa):
@@ -2009,7 +2015,7 @@ def envelope_bound(model: ResponseModel, lo: np.ndarray, hi: np.ndarray | None =
         # the strips' staircase: its steps' edges add ridges across the last axis every S nulls along it,
         # of about sum |kappa| / (4 pi |c_last|) whatever the other coordinates (bounded 4x over here)
         steps = float(k.sum()) / (np.pi * np.maximum(dist[:, -1], _strip_count(k) / 2.0))
-        far = (np.abs(centre[:, :-1]) + radius[:, :-1] + shift) @ k
+        far = (outer[:, :-1] + shift) @ k
         dist[:, -1] = np.maximum(0.0, dist[:, -1] - far / 2.0)
         width, margin = 1.0 + float(k.sum()) / 2.0, 2.0
     env = np.minimum(width, 1.0 / (np.pi * np.maximum(dist, 1e-300)))
@@ -2017,7 +2023,7 @@ def envelope_bound(model: ResponseModel, lo: np.ndarray, hi: np.ndarray | None =
     if model.curvature:
         # the bow's term: |F(a, b)| <= 1, and for |a| > |b| (integrating by parts) 1 / (pi (|a| - |b|)) +
         # |b| / (pi (|a| - |b|)^2), b = curvature c_1 at most over the box; the straight sinc's bound besides
-        b = abs(model.curvature) * (np.abs(centre[:, 1]) + radius[:, 1])
+        b = abs(model.curvature) * outer[:, 1]
         d = np.maximum(dist[:, 0] - b, 1e-3)  # within 1e-3 of |b| the bound is 1 anyway
         fresnel = np.minimum(1.0, (1.0 + b / d) / (np.pi * d))
         bound = bound + env[:, 1] * (fresnel + env[:, 0])
