@@ -711,6 +711,14 @@ FD_STENCIL = ((1, 8.0 / 12.0), (2, -1.0 / 12.0))
 ANALYTIC_SHAPE = True
 FIT_TOLERANCE = 1e-9  # predicted relative decrease of the misfit below which a group fit has converged
 FIT_MAX_STEPS = 60  # Gauss-Newton steps at most (a safeguard: the fits converge in a few)
+# A step is halved at most this many times looking for one that lowers the misfit (2^-20: a millionth of the
+# Gauss-Newton step); then the fit stops where it is. Beyond that length the decreases found are the least
+# squares' rounding, not the model's: on the make targets' small products only bp_stripmap's two bowed refits
+# halve further (their Jacobian leaves out the bow's change with the widths), and the steps they took there, 2^-26
+# of Gauss-Newton's, lowered the misfit by 5.4e-11 of itself where the step's first-order decrease is 2.3e-13. At
+# 30 halvings, as before session 39, they ran 116 trial bases for nothing: bp_stripmap's evaluate 13 % more CPU,
+# its figures the same to 5e-11 (docs/performance.md, session 39, ev39a).
+HALVINGS = 20
 # A fit that crawls (a defocused target's, whose misfit the model cannot remove: 60 steps each lowering it by
 # 1.7e-9 of itself while predicting a little more than FIT_TOLERANCE) stops after FIT_CRAWL_STEPS steps in a
 # row that lowered the misfit by less than FIT_CRAWL of it. Not sooner: stopping at 1e-6 moved the demo's
@@ -982,7 +990,7 @@ def _fit_group(
             break
         limit = _step_limit(stretch * step, len(members), ndim, len(pairs), shaped)
         length = stretch * limit  # the step taken, in Gauss-Newton steps
-        for _halving in range(30):
+        for _halving in range(HALVINGS):
             trial_theta = np.clip(theta + length * step, lo, hi)
             trial = list(trial_theta.reshape(len(members), n_p))
             trial_bases = fit.bases(trial, fixed)
