@@ -157,7 +157,7 @@ class ResponseModel:
     chirp: np.ndarray  # spatial chirp K, symmetric (ndim, ndim), cycles/sample^2
     kappa: np.ndarray | None = None  # keystone, relative width slopes (ndim - 1,) (:func:`_strip_factors`); None: none
     # the range edges' bow (2D): the support's range band shifted by curvature * (u_az^2 - 1/12) range bands at
-    # azimuth band coordinate u_az (:func:`_curvature_columns`); 0: straight edges
+    # azimuth band coordinate u_az (:class:`_BowColumns`); 0: straight edges
     curvature: float = 0.0
     # the ridge coordinates' second-order terms (2D), nulls per sample^2: c_a += x^T warp[a] x (x the offset from
     # the peak, samples; :func:`_fit_warp`): each pulse's wavefront is a circle about the platform, so the azimuth
@@ -196,9 +196,23 @@ def residual_model_orders(ndim: int, max_order: int) -> np.ndarray:
 
 
 def _ridge_frame(position: npt.ArrayLike, V: npt.ArrayLike, nulls: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-    """(A, p): ridge coordinates in nulls are A @ (x - p) for image indices x."""
-    A = np.linalg.inv(np.asarray(V, dtype=float).T) / np.asarray(nulls, dtype=float)[:, None]
-    return A, np.asarray(position, dtype=float)
+    """(A, p): ridge coordinates in nulls are A @ (x - p) for image indices x. A is kept per (V, nulls) bytes
+    (:data:`_FRAMES`): a model's frame is asked for at every evaluation of it and every bound of its envelope
+    (002 small plain: 4935 times, 40 us each for numpy's inverse of a 2 x 2 matrix), and the same inputs give
+    the same bits."""
+    V, nulls = np.asarray(V, dtype=float), np.asarray(nulls, dtype=float)
+    key = (V.shape, V.tobytes(), nulls.tobytes())
+    A = _FRAMES.get(key)
+    if A is None:
+        A = np.linalg.inv(V.T) / nulls[:, None]
+        if len(_FRAMES) >= FRAME_CACHE:
+            _FRAMES.clear()
+        _FRAMES[key] = A
+    return A.copy(), np.asarray(position, dtype=float)
+
+
+FRAME_CACHE = 4096  # ridge frames kept (:func:`_ridge_frame`); then forgotten all at once
+_FRAMES: dict[tuple, np.ndarray] = {}
 
 
 def _shifted_sincs(c: np.ndarray, max_order: int) -> list[np.ndarray]:
@@ -497,18 +511,34 @@ def _fresnel_bent(x: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.where(b > 0, f, np.conj(f))
 
 
-def _curvature_sum(c: Sequence[np.ndarray], orders: np.ndarray, coef: np.ndarray | None, beta: float) -> np.ndarray:
+class _BowTerms:
+    """What :func:`_curvature_sum` takes from the ridge coordinates and orders whatever the bow: each azimuth
+    order's shifted coordinate and its sinc, each range order's sinc (a bow's search evaluates one set of samples
+    at some 25 bows: :func:`_fit_curvature`)."""
+
+    def __init__(self, c: Sequence[np.ndarray], orders: np.ndarray) -> None:
+        self.n = np.asarray(orders, dtype=int)
+        self.c0, self.c1 = np.asarray(c[0], dtype=float), np.asarray(c[1], dtype=float)
+        self.shifted = {k: self.c0 + k / 2.0 for k in sorted(set(self.n[:, 0]))}
+        self.sincs = {k: np.sinc(x) for k, x in self.shifted.items()}
+        self.rg = {k: np.sinc(self.c1 + k / 2.0) for k in sorted(set(self.n[:, 1]))}
+
+
+def _curvature_sum(
+    c: Sequence[np.ndarray], orders: np.ndarray, coef: np.ndarray | None, beta: float, terms: _BowTerms | None = None
+) -> np.ndarray:
     """What the range edges' bow adds to a 2D model (without its carrier), at ridge coordinates c (nulls, arrays
     of one shape): the support's range band shifted by beta (u^2 - 1/12) range bands at azimuth band coordinate
     u (an annular sector's arcs against their chords; the mean shift, beta / 12, is the band centre's), so order
     n's azimuth factor sinc(c_0 + n_0 / 2) becomes F(c_0 + n_0 / 2, beta c_1) exp(-j pi beta c_1 / 6)
     (:func:`_fresnel_box`); the keystone is left out of the difference (its cross term is kappa times this
-    one). ``coef`` None: per order, (K, *shape); else the sum over the orders weighted by it."""
-    n = np.asarray(orders, dtype=int)
-    c0, c1 = np.asarray(c[0], dtype=float), np.asarray(c[1], dtype=float)
+    one). ``coef`` None: per order, (K, *shape); else the sum over the orders weighted by it. ``terms``: c's and
+    the orders' :class:`_BowTerms`, taken already (c is then not read)."""
+    t = _BowTerms(c, orders) if terms is None else terms
+    n, c0, c1 = t.n, t.c0, t.c1
     shift = np.exp(-2j * np.pi * beta * c1 / 12.0)
-    az = {k: _fresnel_box(c0 + k / 2.0, beta * c1) * shift - np.sinc(c0 + k / 2.0) for k in sorted(set(n[:, 0]))}
-    rg = {k: np.sinc(c1 + k / 2.0) for k in sorted(set(n[:, 1]))}
+    az = {k: _fresnel_box(x, beta * c1) * shift - t.sincs[k] for k, x in t.shifted.items()}
+    rg = t.rg
     if coef is None:
         return np.stack([az[a] * rg[b] for a, b in n])
     total = np.zeros(c0.shape, dtype=complex)
@@ -529,14 +559,19 @@ def _curvature_values(points: np.ndarray, model: ResponseModel, coef: np.ndarray
     return _curvature_sum(list(c), model.orders, weights, model.curvature) * np.exp(1j * phase)
 
 
-def _curvature_columns(points: np.ndarray, model: ResponseModel, beta: float) -> np.ndarray:
-    """(N, K): per order, what a range-edge bow ``beta`` adds to ``model``'s basis at ``points`` (carrier
-    included)."""
-    A, p = _ridge_frame(model.position, model.ridges, model.nulls)
-    x = np.asarray(points, dtype=float) - p[:, None]
-    c = _warped(A @ x, x, model.warp)
-    phase = 2 * np.pi * (np.asarray(model.band_centre, dtype=float) @ x) + _chirp_phase(x, model.chirp)
-    return (_curvature_sum(list(c), model.orders, None, beta) * np.exp(1j * phase)).T
+class _BowColumns:
+    """(N, K) per bow ``beta``: per order, what a range-edge bow adds to ``model``'s basis at ``points`` (carrier
+    included); the ridge coordinates, the carrier and the sincs that do not depend on the bow taken once."""
+
+    def __init__(self, points: np.ndarray, model: ResponseModel) -> None:
+        A, p = _ridge_frame(model.position, model.ridges, model.nulls)
+        x = np.asarray(points, dtype=float) - p[:, None]
+        c = _warped(A @ x, x, model.warp)
+        phase = 2 * np.pi * (np.asarray(model.band_centre, dtype=float) @ x) + _chirp_phase(x, model.chirp)
+        self.orders, self.terms, self.carrier = model.orders, _BowTerms(list(c), model.orders), np.exp(1j * phase)
+
+    def __call__(self, beta: float) -> np.ndarray:
+        return (_curvature_sum((), self.orders, None, beta, self.terms) * self.carrier).T
 
 
 def _model_on_box(slices: Sequence[slice], model: ResponseModel) -> np.ndarray:
@@ -676,6 +711,14 @@ FD_STENCIL = ((1, 8.0 / 12.0), (2, -1.0 / 12.0))
 ANALYTIC_SHAPE = True
 FIT_TOLERANCE = 1e-9  # predicted relative decrease of the misfit below which a group fit has converged
 FIT_MAX_STEPS = 60  # Gauss-Newton steps at most (a safeguard: the fits converge in a few)
+# A step is halved at most this many times looking for one that lowers the misfit (2^-20: a millionth of the
+# Gauss-Newton step); then the fit stops where it is. Beyond that length the decreases found are the least
+# squares' rounding, not the model's: on the make targets' small products only bp_stripmap's two bowed refits
+# halve further (their Jacobian leaves out the bow's change with the widths), and the steps they took there, 2^-26
+# of Gauss-Newton's, lowered the misfit by 5.4e-11 of itself where the step's first-order decrease is 2.3e-13. At
+# 30 halvings, as before session 39, they ran 116 trial bases for nothing: bp_stripmap's evaluate 13 % more CPU,
+# its figures the same to 5e-11 (docs/performance.md, session 39, ev39a).
+HALVINGS = 20
 # A fit that crawls (a defocused target's, whose misfit the model cannot remove: 60 steps each lowering it by
 # 1.7e-9 of itself while predicting a little more than FIT_TOLERANCE) stops after FIT_CRAWL_STEPS steps in a
 # row that lowered the misfit by less than FIT_CRAWL of it. Not sooner: stopping at 1e-6 moved the demo's
@@ -947,7 +990,7 @@ def _fit_group(
             break
         limit = _step_limit(stretch * step, len(members), ndim, len(pairs), shaped)
         length = stretch * limit  # the step taken, in Gauss-Newton steps
-        for _halving in range(30):
+        for _halving in range(HALVINGS):
             trial_theta = np.clip(theta + length * step, lo, hi)
             trial = list(trial_theta.reshape(len(members), n_p))
             trial_bases = fit.bases(trial, fixed)
@@ -1115,21 +1158,61 @@ def _refit_lone(
     )
 
 
+class _WidthBases:
+    """``response_basis(points, model.position, model.ridges, nulls * scale, model.band_centre, model.orders,
+    model.chirp)`` (no keystone, no warp: the rectangle's separable basis) for the scales a width search tries,
+    the same arrays: the carrier and chirp do not depend on the widths, so they are taken once, and an axis'
+    shifted sincs are reused while its ridge coordinates are the same bits (a search along one axis leaves the
+    other's row of the ridge frame, and so its coordinates, as they were)."""
+
+    def __init__(self, points: np.ndarray, model: ResponseModel, nulls: np.ndarray) -> None:
+        self.model, self.nulls = model, nulls
+        self.x = np.asarray(points, dtype=float) - np.asarray(model.position, dtype=float)[:, None]
+        orders = model.orders
+        self.m = int(np.abs(orders).max()) if orders.size else 0
+        self.n = np.asarray(orders, dtype=int).reshape(-1, self.x.shape[0])
+        phase = 2 * np.pi * (np.asarray(model.band_centre, dtype=float) @ self.x) + _chirp_phase(self.x, model.chirp)
+        self.carrier = np.exp(1j * phase)
+        self.sincs: dict[int, tuple[bytes, np.ndarray]] = {}  # per axis: (its coordinates' bytes, their sincs)
+
+    def __call__(self, scale: np.ndarray) -> np.ndarray:
+        A, _ = _ridge_frame(self.model.position, self.model.ridges, self.nulls * scale)
+        c = A @ self.x
+        per_axis = []
+        for a, ca in enumerate(c):
+            key = ca.tobytes()
+            kept = self.sincs.get(a)
+            if kept is None or kept[0] != key:
+                kept = self.sincs[a] = (key, np.stack(_shifted_sincs(ca, self.m)))
+            per_axis.append(kept[1])
+        cols = math.prod(per_axis[a][self.n[:, a] + self.m] for a in range(len(c)))
+        return (np.asarray(cols) * self.carrier).T
+
+
 def _search_widths(
-    model: ResponseModel, points: np.ndarray, y: np.ndarray, nulls: np.ndarray
+    model: ResponseModel, points: np.ndarray, y: np.ndarray, nulls: np.ndarray, below: float | None = None
 ) -> tuple[np.ndarray, float]:
     """(scale, misfit): the support widths that fit ``y`` best with the rectangle's basis (linear least
     squares at the model's band centre and chirp, the model's orders), one axis at a time, per axis the
     scale of the image's null spacing ``nulls`` (:data:`WIDTH_SCALES`, then a half and a quarter step either
-    side of the best), and the misfit (|residual|^2 / |y|^2) there."""
+    side of the best), and the misfit (|residual|^2 / |y|^2) there. With ``below`` (a misfit) it returns at
+    the first scale whose misfit is under it: where only whether the search gets there is asked, the rest
+    of the search cannot change the answer (its misfit only falls)."""
+
+    bases = _WidthBases(points, model, nulls)
+    seen: dict[bytes, float] = {}  # the grids meet the current scale again (1.0 on each axis): solved once
 
     def misfit(scale: np.ndarray) -> float:
-        B = response_basis(
-            points, model.position, model.ridges, nulls * scale, model.band_centre, model.orders, model.chirp
-        )
-        r = y - B @ least_squares(B, y)
-        return float(np.vdot(r, r).real)
+        key = scale.tobytes()
+        if key not in seen:
+            B = bases(scale)
+            r = y - B @ least_squares(B, y)
+            seen[key] = float(np.vdot(r, r).real)
+        return seen[key]
 
+    energy = float(np.vdot(y, y).real)
+    if not energy > 0:
+        below = None
     scale = np.ones(len(nulls))
     best = misfit(scale)
     step = WIDTH_SCALES[1] / WIDTH_SCALES[0]
@@ -1137,12 +1220,13 @@ def _search_widths(
         for grid in (WIDTH_SCALES, [step**-0.5, step**0.5], [step**-0.25, step**0.25]):
             centre = scale[a] if grid is not WIDTH_SCALES else 1.0
             for s in np.asarray(grid) * centre:
+                if below is not None and best / energy < below:
+                    return scale, best / energy
                 trial = scale.copy()
                 trial[a] = s
                 value = misfit(trial)
                 if value < best:
                     best, scale = value, trial
-    energy = float(np.vdot(y, y).real)
     return scale, best / energy if energy > 0 else 0.0
 
 
@@ -1406,7 +1490,7 @@ def _widen_misfitted_lone(
         if model is None or len(members) > 1 or (before := _misfit(model, near, y_near)) <= WIDTH_SEARCH_MISFIT:
             continue
         rich = dataclasses.replace(model, orders=richer, kappa=None)
-        linear = _search_widths(rich, near, y_near, own[k])[1]
+        linear = _search_widths(rich, near, y_near, own[k], below=0.5 * before)[1]
         if linear >= 0.5 * before:
             continue
         samples = (near, y_near, far, y_far)
@@ -1755,13 +1839,16 @@ def _fit_curvature(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> t
         points, model.position, model.ridges, model.nulls, model.band_centre, model.orders, model.chirp, model.kappa
     )
 
-    def basis(beta: float) -> np.ndarray:
-        return straight + _curvature_columns(points, model, beta) if beta else straight
+    bow = _BowColumns(points, model)
+    solved: dict[float, tuple[float, np.ndarray]] = {}  # per bow: (misfit, amplitudes)
 
     def misfit(beta: float) -> float:
-        B = basis(beta)
-        r = y - B @ least_squares(B, y)
-        return float(np.vdot(r, r).real)
+        if beta not in solved:
+            B = straight + bow(beta) if beta else straight
+            coef = least_squares(B, y)
+            r = y - B @ coef
+            solved[beta] = (float(np.vdot(r, r).real), coef)
+        return solved[beta][0]
 
     before = misfit(0.0)
     # the arcs bow toward zero frequency, the keystone's narrow end: beta has the sign of -kappa where it is fitted
@@ -1769,13 +1856,14 @@ def _fit_curvature(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> t
     signs = (-1.0,) if kappa > CURVATURE_SIGN_KAPPA else (1.0,) if kappa < -CURVATURE_SIGN_KAPPA else (-1.0, 1.0)
     probes = [sg * b for sg in signs for b in CURVATURE_PROBES]
     if min(misfit(b) for b in probes) >= CURVATURE_PROBE_GAIN * before:  # no bow there: nothing to search
-        return 0.0, least_squares(straight, y), before, before
+        return 0.0, solved[0.0][1], before, before
     grid = np.arange(-CURVATURE_LIMIT, CURVATURE_LIMIT + 0.5 * CURVATURE_STEP, CURVATURE_STEP)
     grid = grid[np.isin(np.sign(grid), (0.0, *signs))]
     best = float(grid[int(np.argmin([misfit(float(b)) if b else before for b in grid]))])
     lo, hi = max(-CURVATURE_LIMIT, best - CURVATURE_STEP), min(CURVATURE_LIMIT, best + CURVATURE_STEP)
     beta, least = _bounded_minimum(misfit, lo, hi, 2e-4)
-    return beta, least_squares(basis(beta), y), before, least
+    misfit(beta)  # the bounded search's best: solved already
+    return beta, solved[beta][1], before, least
 
 
 def _bounded_minimum(func: Callable[[float], float], lo: float, hi: float, xatol: float) -> tuple[float, float]:
@@ -1913,15 +2001,21 @@ def envelope_bound(model: ResponseModel, lo: np.ndarray, hi: np.ndarray | None =
     + sum |kappa| / 2; the strips that approximate the trapezoid (:func:`_strip_factors`) get a factor of 2
     of margin, and their staircase's own ridges a term of their own."""
     A, p = _ridge_frame(model.position, model.ridges, model.nulls)
+    radius: np.ndarray | None
     if hi is not None and model.warp is not None:
         centre, radius = _warped_box_range(A, np.asarray(model.warp, dtype=float), (lo + hi) / 2.0 - p, (hi - lo) / 2.0)
     else:
         centre = (lo - p if hi is None else (lo + hi) / 2.0 - p) @ A.T  # (B, ndim)
-        radius = np.zeros_like(centre) if hi is None else ((hi - lo) / 2.0) @ np.abs(A).T
+        # at points no radius (a zero one's sums and differences change no bit; 002 small plain bounds its other
+        # groups' models at their fits' samples 1500 times)
+        radius = None if hi is None else ((hi - lo) / 2.0) @ np.abs(A).T
         if model.warp is not None:  # at points (a fit's samples): the warp's norm times |x|^2
-            radius = radius + ((lo - p) ** 2).sum(axis=1)[:, None] * np.abs(model.warp).sum(axis=(1, 2))[None, :]
+            radius = ((lo - p) ** 2).sum(axis=1)[:, None] * np.abs(model.warp).sum(axis=(1, 2))[None, :]
+    magnitude = np.abs(centre)
+    inner = magnitude if radius is None else magnitude - radius  # |c| at its least and most over each box
+    outer = magnitude if radius is None else magnitude + radius
     shift = float(np.abs(model.orders).max()) / 2.0
-    dist = np.maximum(0.0, np.abs(centre) - radius - shift)
+    dist = np.maximum(0.0, inner - shift)
     kappa = model.kappa
     width, margin, steps = 1.0, 1.0, 0.0
     if kappa is not None and _keystoned(kappa):
@@ -1929,7 +2023,7 @@ def envelope_bound(model: ResponseModel, lo: np.ndarray, hi: np.ndarray | None =
         # the strips' staircase: its steps' edges add ridges across the last axis every S nulls along it,
         # of about sum |kappa| / (4 pi |c_last|) whatever the other coordinates (bounded 4x over here)
         steps = float(k.sum()) / (np.pi * np.maximum(dist[:, -1], _strip_count(k) / 2.0))
-        far = (np.abs(centre[:, :-1]) + radius[:, :-1] + shift) @ k
+        far = (outer[:, :-1] + shift) @ k
         dist[:, -1] = np.maximum(0.0, dist[:, -1] - far / 2.0)
         width, margin = 1.0 + float(k.sum()) / 2.0, 2.0
     env = np.minimum(width, 1.0 / (np.pi * np.maximum(dist, 1e-300)))
@@ -1937,7 +2031,7 @@ def envelope_bound(model: ResponseModel, lo: np.ndarray, hi: np.ndarray | None =
     if model.curvature:
         # the bow's term: |F(a, b)| <= 1, and for |a| > |b| (integrating by parts) 1 / (pi (|a| - |b|)) +
         # |b| / (pi (|a| - |b|)^2), b = curvature c_1 at most over the box; the straight sinc's bound besides
-        b = abs(model.curvature) * (np.abs(centre[:, 1]) + radius[:, 1])
+        b = abs(model.curvature) * outer[:, 1]
         d = np.maximum(dist[:, 0] - b, 1e-3)  # within 1e-3 of |b| the bound is 1 anyway
         fresnel = np.minimum(1.0, (1.0 + b / d) / (np.pi * d))
         bound = bound + env[:, 1] * (fresnel + env[:, 0])
