@@ -349,26 +349,8 @@ class _Axis:
     irw: float  # theoretical IRW, axis units
     null: float  # null spacing 1/B in samples
     theory: str = "image"  # whose IRW: the image's, or the target's own ('target')
-    sidelobes: tuple[float, float] | None = None  # theoretical (PSLR, ISLR), dB, where given (a target's own)
-    window: str | None = None  # else those of this weighting window's theory (window_theory), taken when read
-
-    @property
-    def pslr_theory(self) -> float | None:  # dB
-        return self._theory_sidelobes()[0]
-
-    @property
-    def islr_theory(self) -> float | None:  # dB
-        return self._theory_sidelobes()[1]
-
-    def _theory_sidelobes(self) -> tuple[float | None, float | None]:
-        """``sidelobes``, else the window's: computed only where a cut reads them (an image whose targets all
-        record their own, e.g. backproject's, never does: 14-18 ms of a process, session 39)."""
-        if self.sidelobes is not None:
-            return self.sidelobes
-        if self.window is None:
-            return None, None
-        theory = window_theory(self.window)
-        return theory.pslr_db, theory.islr_db
+    pslr_theory: float | None = None  # dB
+    islr_theory: float | None = None
 
     def to_index(self, x: npt.ArrayLike) -> np.ndarray:
         return (np.asarray(x, dtype=float) - self.start) / self.step
@@ -412,8 +394,19 @@ def _make_axes(
                 f"axis {name!r}: spacing {abs(step):.4g} is not finer than the null spacing 1/B = "
                 f"{null * abs(step):.4g} (theoretical IRW {irw[a]:.4g}); the image is undersampled for this theory"
             )
-        window = "hamming" if irw_factor > 1.1 else "none"  # its theory taken only where a cut reads it
-        axes.append(_Axis(name, float(c[0]), float(step), int(n), float(irw[a]), float(null), window=window))
+        window = window_theory("hamming" if irw_factor > 1.1 else "none")
+        axes.append(
+            _Axis(
+                name,
+                float(c[0]),
+                float(step),
+                int(n),
+                float(irw[a]),
+                float(null),
+                pslr_theory=window.pslr_db,
+                islr_theory=window.islr_db,
+            )
+        )
     return axes
 
 
@@ -1857,7 +1850,7 @@ def _target_axes(
                     f"axis {ax.name!r}: spacing {abs(ax.step):.4g} is not finer than a target's null "
                     f"spacing {null * abs(ax.step):.4g} (its theoretical IRW {v:.4g})"
                 )
-            sides: dict[str, Any] = {} if np.isnan(pslr) else {"sidelobes": (float(pslr), float(islr))}
+            sides: dict[str, Any] = {} if np.isnan(pslr) else {"pslr_theory": float(pslr), "islr_theory": float(islr)}
             own.append(dataclasses.replace(ax, irw=float(v), null=null, theory="target", **sides))
         out.append(own)
     return out
