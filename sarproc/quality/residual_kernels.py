@@ -110,6 +110,22 @@ def _strip_angles(x: np.ndarray, signs: np.ndarray, kappa: np.ndarray, n_strips:
     return half, phase + (n_strips - 1) * half
 
 
+@numba.njit(error_model="numpy", inline="always", cache=CACHE)
+def _dirichlet_ratio(
+    sh: float, ch: float, ssh: float, csh: float, cdh: float, sdh: float, csdh: float, ssdh: float, n_strips: int
+) -> float:  # pragma: no cover - compiled
+    """The Dirichlet kernel sin(S h') / sin(h') (S = ``n_strips``) at h' = h + dh, from the sine and cosine of h
+    (``sh``, ``ch``), of S h (``ssh``, ``csh``), of dh (``sdh``, ``cdh``) and of S dh (``ssdh``, ``csdh``) by angle
+    addition; where |sin h'| < 1e-9 its limit S cos(S h') / cos(h'), the operands chosen before the one division
+    (no branch: the loops of :func:`keystone_columns` and :func:`_row_sums` that inline it stay vectorised)."""
+    den = sh * cdh + ch * sdh
+    num = ssh * csdh + csh * ssdh
+    pole = abs(den) < 1e-9
+    num2 = n_strips * (csh * csdh - ssh * ssdh)
+    den2 = ch * cdh - sh * sdh
+    return (num2 if pole else num) / (den2 if pole else den)
+
+
 COLUMN_BLOCK = 64  # samples evaluated side by side in keystone_columns
 
 
@@ -123,11 +139,11 @@ def keystone_columns(
     Blocks of :data:`COLUMN_BLOCK` samples side by side: per sample and sign the sines of the half angle, of
     S times it and the phase's rotation, then per order and sign the Dirichlet kernels of the block, the sums
     and the order's factor, the samples innermost so the compiler vectorises the divisions and products. The
-    Dirichlet kernel's |den| < 1e-9 limit is chosen operand by operand in the same loop (one division, no
-    second pass), and each complex product is written out in real arithmetic as the complex one rounds it
-    (without its products with a real factor's zero imaginary part, which add only zeros). Each sample's
-    arithmetic is the per-sample loop's, in the same order (the signs summed within an order, then the
-    factor): the same bits (tests/quality/test_residual_kernel_bits.py)."""
+    Dirichlet kernel's |den| < 1e-9 limit is chosen operand by operand in the same loop (:func:`_dirichlet_ratio`,
+    inlined: one division, no second pass), and each complex product is written out in real arithmetic as the
+    complex one rounds it (without its products with a real factor's zero imaginary part, which add only zeros).
+    Each sample's arithmetic is the per-sample loop's, in the same order (the signs summed within an order, then
+    the factor): the same bits (tests/quality/test_residual_kernel_bits.py)."""
     ndim, n = c.shape
     n_orders = orders.shape[0]
     n_signs = 1 << (ndim - 1)
@@ -173,12 +189,7 @@ def keystone_columns(
                 cdh, sdh, csdh, ssdh = cos_dh[s, q], sin_dh[s, q], cos_sdh[s, q], sin_sdh[s, q]
                 sr, si = shift[s, q].real, shift[s, q].imag
                 for j in range(m):
-                    den = sh[s, j] * cdh + ch[s, j] * sdh
-                    num = ssh[s, j] * csdh + csh[s, j] * ssdh
-                    pole = abs(den) < 1e-9
-                    num2 = n_strips * (csh[s, j] * csdh - ssh[s, j] * ssdh)
-                    den2 = ch[s, j] * cdh - sh[s, j] * sdh
-                    d = (num2 if pole else num) / (den2 if pole else den)
+                    d = _dirichlet_ratio(sh[s, j], ch[s, j], ssh[s, j], csh[s, j], cdh, sdh, csdh, ssdh, n_strips)
                     rr, ri = rot[s, j].real, rot[s, j].imag
                     er = rr * sr - ri * si
                     ei = rr * si + ri * sr
@@ -237,8 +248,9 @@ def _row_sums(
     Each sample's arithmetic is the per-sample loop's (orders outermost, the signs summed within an order, then
     the order's factor), in the same order, so the sums are the same bits; the samples of the row innermost, so
     the compiler runs the divisions and products several samples at once (the Dirichlet kernel's limit, where
-    its denominator is within 1e-9 of zero, chosen operand by operand before its one division; the complex
-    products written out in real arithmetic as :func:`keystone_columns` writes them)."""
+    its denominator is within 1e-9 of zero, chosen operand by operand before its one division: the
+    :func:`_dirichlet_ratio` of :func:`keystone_columns`, inlined; the complex products written out in real
+    arithmetic as :func:`keystone_columns` writes them)."""
     cos_dh, sin_dh, cos_sdh, sin_sdh, shift, cos_l, sin_l, coef = tables
     total, acc_r, acc_i, x = scratch
     ndim = cs.shape[0]
@@ -255,12 +267,8 @@ def _row_sums(
             cdh, sdh, csdh, ssdh = cos_dh[s, q], sin_dh[s, q], cos_sdh[s, q], sin_sdh[s, q]
             sr, si = shift[s, q].real, shift[s, q].imag
             for j in range(n):
-                sh, ch = eh[s, j].imag, eh[s, j].real
-                ssh, csh = esh[s, j].imag, esh[s, j].real
-                den = sh * cdh + ch * sdh
-                pole = abs(den) < 1e-9  # sin(S h) / sin(h) -> S cos(S h) / cos(h)
-                num = n_strips * (csh * csdh - ssh * ssdh) if pole else ssh * csdh + csh * ssdh
-                d = num / ((ch * cdh - sh * sdh) if pole else den)
+                e_h, e_sh = eh[s, j], esh[s, j]
+                d = _dirichlet_ratio(e_h.imag, e_h.real, e_sh.imag, e_sh.real, cdh, sdh, csdh, ssdh, n_strips)
                 pr, pi_ = ep[s, j].real, ep[s, j].imag
                 acc_r[j] += d * (pr * sr - pi_ * si)
                 acc_i[j] += d * (pr * si + pi_ * sr)
