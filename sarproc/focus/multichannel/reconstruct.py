@@ -2768,8 +2768,11 @@ def _drop_under_threshold(scan: _Scan, tally: _Tally) -> dict[int, int]:
     eq. 5 estimated within STATIC_SIGMAS of detection_velocity is taken back whatever its SNR: the detection image
     holds the static scene at full strength, so the threshold says nothing of motion (mover campaign scenes 013, 015,
     016: static points at 16.8-28.6 dB read at v_los 1.6-5.0 m/s, 0.9-1.7 sigma over 1 m/s; docs/multichannel.md
-    section 10). Its refocus is undone, it is recorded as a detection taken for static ("weak"), and the detections
-    merged with it with it."""
+    section 10), and so is one whose eq. 5 falls from rest to its estimate no further than the window's noise alone
+    does (MovingTarget.noise_dip, _noise_dip: scene 017's static at 2.4 sigma; section 11). With the clutter null, a
+    mover eq. 5 read at rest and the null fit took off it (MovingTarget.from_rest) is a candidate whatever its sigma
+    (scene 007's clutter response at 5.9 sigma; section 11). Its refocus is undone, it is recorded as a detection
+    taken for static ("weak"), and the detections merged with it with it."""
     drop = [
         k
         for k in sorted(tally.undo)
