@@ -25,6 +25,20 @@ def rows(rec):
     return [{k: float(v[i]) for k, v in t.items()} for i in range(len(t["id"]))]
 
 
+def movers(*points: tuple[str, float, float, float, float, float]) -> list[dict]:
+    """Scene points of movers (name, azimuth m, range m, v_a, v_r m/s, amplitude), as mover_campaign_scene's."""
+    return [
+        {
+            "name": name,
+            "azimuth": f"{az} m",
+            "range": f"{rg} m",
+            "amplitude": amp,
+            "velocity": [f"{v_a} m/s", f"{v_r} m/s", "0 m/s"],
+        }
+        for name, az, rg, v_a, v_r, amp in points
+    ]
+
+
 def test_curve_median_is_the_curves_level_not_that_of_trials_crowded_at_its_minima():
     """A coarse-to-fine search puts most of its trials at its minima; their plain median sits near the minimum.
     velocity.curve_median weighs each trial by the span it stands for: on a 2 m/s grid with 0.5 and 0.1 m/s grids
@@ -155,22 +169,9 @@ def test_a_weak_static_point_pulled_off_rest_by_the_noise_is_no_mover():
         noise_snr=-17.5,
         statics=((113.1, -38.4, 8.012), (711.8, -139.5, 1.0)),
     )
-    m["targets"]["points"][1:1] = [
-        {
-            "name": "M2",
-            "azimuth": "-683.0 m",
-            "range": "-108.2 m",
-            "amplitude": 0.3981,
-            "velocity": ["-0.82 m/s", "-2.87 m/s", "0 m/s"],
-        },
-        {
-            "name": "M3",
-            "azimuth": "112.0 m",
-            "range": "36.8 m",
-            "amplitude": 0.6355,
-            "velocity": ["-11.88 m/s", "-10.90 m/s", "0 m/s"],
-        },
-    ]
+    m["targets"]["points"][1:1] = movers(
+        ("M2", -683.0, -108.2, -0.82, -2.87, 0.3981), ("M3", 112.0, 36.8, -11.88, -10.90, 0.6355)
+    )
     m["simulation"]["waveform"] = "band_limited"
     rec = reconstruct(simulate(scene_from_mapping(m)), ReconstructParams())
     truth = rec.attrs["reconstruct"]["truth"]
@@ -194,22 +195,9 @@ def test_a_weak_static_point_pulled_beyond_2_sigma_by_the_noises_dip_is_no_mover
         noise_snr=-18.0,
         statics=((-585.0, 30.8, 9.178), (859.2, 186.7, 1.0)),
     )
-    m["targets"]["points"][1:1] = [
-        {
-            "name": "M2",
-            "azimuth": "-470.2 m",
-            "range": "-240.1 m",
-            "amplitude": 0.3582,
-            "velocity": ["-1.31 m/s", "-4.45 m/s", "0 m/s"],
-        },
-        {
-            "name": "M3",
-            "azimuth": "-378.1 m",
-            "range": "16.0 m",
-            "amplitude": 0.977,
-            "velocity": ["8.42 m/s", "-7.60 m/s", "0 m/s"],
-        },
-    ]
+    m["targets"]["points"][1:1] = movers(
+        ("M2", -470.2, -240.1, -1.31, -4.45, 0.3582), ("M3", -378.1, 16.0, 8.42, -7.60, 0.977)
+    )
     m["simulation"]["waveform"] = "band_limited"
     rec = reconstruct(simulate(scene_from_mapping(m)), ReconstructParams())
     truth = rec.attrs["reconstruct"]["truth"]
@@ -225,18 +213,8 @@ def test_a_clutter_response_eq_5_reads_at_rest_is_a_mover_only_where_the_null_fi
     where the fit leaves 0.2645 of the residual and rest 0.2533. Tabled as a mover on main (a false alarm); now,
     eq. 5 having read it at rest, the fit must rule rest out (_rest_ruled_out) and does not: taken for static. M2 and
     M3 (eq. 5 read them moving) are found (docs/multichannel.md section 11)."""
-    m = mover_campaign_scene(
-        19.0, "gaussian", 4, "1.5 m", ("M2", 810.0, -241.6, 7.45, -7.72, 0.6006), statics=((-555.0, 31.0, 3.893),)
-    )
-    m["targets"]["points"] = m["targets"]["points"][:1] + [
-        {
-            "name": "M3",
-            "azimuth": "822.7 m",
-            "range": "-204.9 m",
-            "amplitude": 0.7395,
-            "velocity": ["14.97 m/s", "-7.07 m/s", "0 m/s"],
-        }
-    ]
+    m = mover_campaign_scene(19.0, "gaussian", 4, "1.5 m", ("M2", 810.0, -241.6, 7.45, -7.72, 0.6006))
+    m["targets"]["points"] += movers(("M3", 822.7, -204.9, 14.97, -7.07, 0.7395))
     m["effects"]["clutter"] = {
         "amplitude": 0.248,
         "azimuth_extent": "2400 m",
