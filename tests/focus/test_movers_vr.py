@@ -25,6 +25,20 @@ def rows(rec):
     return [{k: float(v[i]) for k, v in t.items()} for i in range(len(t["id"]))]
 
 
+def movers(*points: tuple[str, float, float, float, float, float]) -> list[dict]:
+    """Scene points of movers (name, azimuth m, range m, v_a, v_r m/s, amplitude), as mover_campaign_scene's."""
+    return [
+        {
+            "name": name,
+            "azimuth": f"{az} m",
+            "range": f"{rg} m",
+            "amplitude": amp,
+            "velocity": [f"{v_a} m/s", f"{v_r} m/s", "0 m/s"],
+        }
+        for name, az, rg, v_a, v_r, amp in points
+    ]
+
+
 def test_curve_median_is_the_curves_level_not_that_of_trials_crowded_at_its_minima():
     """A coarse-to-fine search puts most of its trials at its minima; their plain median sits near the minimum.
     velocity.curve_median weighs each trial by the span it stands for: on a 2 m/s grid with 0.5 and 0.1 m/s grids
@@ -155,26 +169,63 @@ def test_a_weak_static_point_pulled_off_rest_by_the_noise_is_no_mover():
         noise_snr=-17.5,
         statics=((113.1, -38.4, 8.012), (711.8, -139.5, 1.0)),
     )
-    m["targets"]["points"][1:1] = [
-        {
-            "name": "M2",
-            "azimuth": "-683.0 m",
-            "range": "-108.2 m",
-            "amplitude": 0.3981,
-            "velocity": ["-0.82 m/s", "-2.87 m/s", "0 m/s"],
-        },
-        {
-            "name": "M3",
-            "azimuth": "112.0 m",
-            "range": "36.8 m",
-            "amplitude": 0.6355,
-            "velocity": ["-11.88 m/s", "-10.90 m/s", "0 m/s"],
-        },
-    ]
+    m["targets"]["points"][1:1] = movers(
+        ("M2", -683.0, -108.2, -0.82, -2.87, 0.3981), ("M3", 112.0, 36.8, -11.88, -10.90, 0.6355)
+    )
     m["simulation"]["waveform"] = "band_limited"
     rec = reconstruct(simulate(scene_from_mapping(m)), ReconstructParams())
     truth = rec.attrs["reconstruct"]["truth"]
     assert rows(rec) == [] and truth["false_alarms"] == 0, truth
+
+
+@pytest.mark.slow
+def test_a_weak_static_point_pulled_beyond_2_sigma_by_the_noises_dip_is_no_mover():
+    """Mover campaign scene 017 as drawn (rect beam, 18.1 deg squint, noise -18.0 dB, three receivers, no clutter),
+    band-limited: the amplitude-1 static S2 (16.2 dB) read at v_r 7.90 m/s by eq. 5 (v_los 7.51 m/s, 2.4 sigma over
+    detection_velocity: past the 2-sigma take-back of session 38), its minimum the noise's own dip (the extraction
+    band centred there). Eq. 5 falls from rest to it 0.0091 less than the window's noise cells make it fall
+    (_noise_dip): a static point's leakage away from rest, no evidence of motion. Tabled as a mover (a false alarm) on
+    main; taken for static now (docs/multichannel.md section 11)."""
+    m = mover_campaign_scene(
+        18.1,
+        "rect",
+        3,
+        "2 m",
+        ("M1", 807.8, -201.2, 11.65, 10.90, 0.3524),
+        noise_snr=-18.0,
+        statics=((-585.0, 30.8, 9.178), (859.2, 186.7, 1.0)),
+    )
+    m["targets"]["points"][1:1] = movers(
+        ("M2", -470.2, -240.1, -1.31, -4.45, 0.3582), ("M3", -378.1, 16.0, 8.42, -7.60, 0.977)
+    )
+    m["simulation"]["waveform"] = "band_limited"
+    rec = reconstruct(simulate(scene_from_mapping(m)), ReconstructParams())
+    truth = rec.attrs["reconstruct"]["truth"]
+    assert rows(rec) == [] and truth["false_alarms"] == 0, truth
+
+
+@pytest.mark.slow
+def test_a_clutter_response_eq_5_reads_at_rest_is_a_mover_only_where_the_null_fit_rules_rest_out():
+    """Mover campaign scene 007 (gaussian beam, 19 deg squint, four receivers, clutter and the clutter null) reduced to
+    its M2 and M3 and the clutter, band-limited. A clutter response (33.1 dB, -15.1 dB of it left by the null) is read
+    at rest by eq. 5 (v_r -0.29 m/s), which leaves 0.34 of the null residual unexplained, over NULL_FIT_MISMATCH 0.30:
+    the null fit's search takes it to -9.97 m/s, the autofocus to v_r -8.42 m/s (5.9 sigma over detection_velocity),
+    where the fit leaves 0.2645 of the residual and rest 0.2533. Tabled as a mover on main (a false alarm); now,
+    eq. 5 having read it at rest, the fit must rule rest out (_rest_ruled_out) and does not: taken for static. M2 and
+    M3 (eq. 5 read them moving) are found (docs/multichannel.md section 11)."""
+    m = mover_campaign_scene(19.0, "gaussian", 4, "1.5 m", ("M2", 810.0, -241.6, 7.45, -7.72, 0.6006))
+    m["targets"]["points"] += movers(("M3", 822.7, -204.9, 14.97, -7.07, 0.7395))
+    m["effects"]["clutter"] = {
+        "amplitude": 0.248,
+        "azimuth_extent": "2400 m",
+        "n_scatterers": 55,
+        "range_extent": "600 m",
+        "seed": 3877,
+    }
+    m["simulation"]["waveform"] = "band_limited"
+    rec = reconstruct(simulate(scene_from_mapping(m)), ReconstructParams(clutter_suppression=True))
+    truth = rec.attrs["reconstruct"]["truth"]
+    assert sorted(r["truth_index"] for r in rows(rec)) == [0, 1] and truth["false_alarms"] == 0, truth
 
 
 def _small_window(x: np.ndarray, half_band: float = 1000.0) -> tuple[rc._Window, rc._Geometry]:

@@ -175,11 +175,17 @@ class MovingTarget:
     null_fit_width: float = 0.0
     # m/s of v_los: eq. 5's estimate minus the null fit's where the null fit overruled a mover's eq. 5 (_null_refit)
     overruled: float = 0.0
+    # the null fit replaced an eq. 5 estimate at rest (its v_los under detection_velocity; _null_refit): eq. 5 is
+    # no evidence of motion, and _refocus asks the null fit whether it rules rest out
+    from_rest: bool = False
     # m/s of v_los: eq. 5's 1-sigma from its independent looks' disagreement (_leakage_spread; 0: not by eq. 5)
     leakage_spread: float = 0.0
     # m/s of v_los: the same of the untapered channels where a neighbour range-tapered the final search (else
     # leakage_spread): a take-back of a weak detection weighs the larger (_static_within)
     untapered_spread: float = 0.0
+    # without the clutter null: how much further eq. 5 falls from rest to its first estimate than the window's own
+    # noise does (_noise_dip; <= 0: no evidence of motion; nan: not measured)
+    noise_dip: float = float("nan")
 
     def line_of_sight_velocity(self, squint: float) -> float:
         """m/s: the estimated velocity's component along the beam's line of sight (v_r cos + v_a sin)."""
@@ -751,6 +757,7 @@ class _Estimate:
     null_width: float = 0.0  # m/s of v_los: the null fit's accepted minimum's half-width (_minimum_width)
     # (eq. 5's v_los, the null fit's) where the null fit overruled an eq. 5 estimate of a mover (None: it did not)
     overruled: tuple[float, float] | None = None
+    from_rest: bool = False  # the null fit replaced an eq. 5 estimate under detection_velocity (_null_refit)
     # neither eq. 5 nor the null fit's search explains the clutter-null residual: (eq. 5's v_r and its mismatch,
     # the null fit's best v_r and its mismatch); None when one of them does, or without the null fit
     unexplained: tuple[float, float, float, float] | None = None
@@ -900,6 +907,7 @@ def _null_refit(
         est.null_width = _minimum_width(refit) * math.cos(squint)
         if mover_above is not None and abs(los_eq5) >= mover_above and abs(los_eq5 - los_fit) > NULL_FIT_AMBIGUOUS:
             est.overruled = (los_eq5, los_fit)
+        est.from_rest = mover_above is not None and abs(los_eq5) < mover_above
         log.debug(
             "reconstruct: the null fit's minimum spans +-%.2f m/s of v_los within %.2f of its mismatch",
             est.null_width,
@@ -1019,6 +1027,45 @@ def _incoherent(
     shift = _selection_shift(win, est.v_a, n, _far_cells(win), params, t - critical)
     log.debug("reconstruct: the search's minimum shifts t by %.2f (a point target: > %.2f)", shift, critical + shift)
     return not t > critical + shift
+
+
+def _noise_dip(win: _Window, v_r: float, v_a: float) -> float:
+    """How much further eq. 5 of the criterion's cells falls from rest to (``v_r``, ``v_a``) than the window's noise
+    alone makes it fall there: (L(0) - L(v)) - s (F(0) - F(v)), L eq. 5 of the criterion's cells, F of the window's
+    noise cells (its far cells, _far_cells, that hold no target: not over the cell-energy floor, _over_floor), s the
+    noise's share of the criterion's energy (a noise cell's mean energy over a criterion cell's, at rest). nan where
+    there are no criterion cells or fewer than 3 noise cells.
+
+    Eq. 5 of noise alone has its own dip: the window's channels are the detection's extraction band, and its noise
+    leaks least where the trial Doppler centres that band (mover campaign scenes 015 and 017: the far cells' minimum
+    at +8.25 to +12.75 m/s, 4-10 % under their value at rest; docs/multichannel.md section 10.1). The criterion's
+    cells hold a share s of that noise, whose fall from rest to v is s (F(0) - F(v)) in expectation. A static point
+    adds nothing out of band at rest and its leakage O_s(v) > 0 at v: its cells fall by s (F(0) - F(v)) - O_s(v) / T,
+    less than the noise's own. A point mover at v adds nothing out of band at v and O_m(0) > 0 at rest: its cells fall
+    by s (F(0) - F(v)) + O_m(0) / T, more. So a fall no further than the noise's is no evidence of motion, whatever
+    the SNR: the noise's dip pulls a weak static's eq. 5 minimum off rest by more than the SNR's 1-sigma says (a bias,
+    which no spread of the looks measures; scene 017's S2: 7.5 m/s, 2.4 sigma), and the fall measures it. No
+    threshold: the sign of an expectation; the noise draw's own scatter around it is what is left (section 11)."""
+    if win.cells is None or (far := _far_cells(win)) is None:
+        return float("nan")
+    profile = np.sum(np.abs(sfft.ifft(win.x, axis=-1, workers=-1)) ** 2, axis=(0, 1))  # as keep_own_cells
+    noise = far[~_over_floor(profile, float(profile.max()))[far]]
+    if len(noise) < 3:
+        return float("nan")
+    out = np.abs(win.out_f) > win.g.half_band
+
+    def cells(u: float) -> tuple[np.ndarray, np.ndarray]:  # per cell: eq. 5's out-of-band energy and total
+        p = np.abs(sfft.ifft(win.demodulated_spectrum(u, v_a), axis=1, workers=-1)) ** 2
+        return p[out].sum(axis=0), p.sum(axis=0)
+
+    (ov, tv), (o0, t0) = cells(v_r), cells(0.0)
+    crit = win.cells
+    if not (t0[crit].sum() > 0 and tv[crit].sum() > 0 and t0[noise].sum() > 0 and tv[noise].sum() > 0):
+        return float("nan")
+    fall = o0[crit].sum() / t0[crit].sum() - ov[crit].sum() / tv[crit].sum()
+    noise_fall = o0[noise].sum() / t0[noise].sum() - ov[noise].sum() / tv[noise].sum()
+    share = float(np.mean(t0[noise]) / np.mean(t0[crit]))
+    return float(fall - share * noise_fall)
 
 
 def _coherence_t(win: _Window, v_r: float, v_a: float) -> tuple[float, int]:
@@ -1492,6 +1539,14 @@ def _estimate(
     centre = _centre(win, g, est, centre_range, centre_cell, null_fit)
     if flat_above is not None and est.result is not None and _incoherent(est, win, g, flat_above, params):
         return None, ["incoherent"]
+    noise_dip = float("nan")
+    if flat_above is not None and null_fit is None and est.result is not None and not est.by_null_fit:
+        # without the clutter null eq. 5 is the only evidence of motion: how much of its fall from rest the noise's
+        # own dip does not explain (_refocus takes the mover back where none is left)
+        noise_dip = _noise_dip(win, est.v_r, est.v_a)
+        log.debug(
+            "reconstruct: eq. 5 falls %.4f further from rest to %.2f m/s than the window's noise", noise_dip, est.v_r
+        )
     t_c, slant_range = centre.t_c, centre.slant_range
     if params.autofocus and params.along_track_velocity is None:
         t_c, slant_range = _autofocus(est, win, params, g, centre, can_search)
@@ -1545,8 +1600,10 @@ def _estimate(
         autofocus_pull=est.pull if len(est.autofocus) else float("nan"),
         null_fit_width=est.null_width,
         overruled=est.overruled[0] - est.overruled[1] if est.overruled is not None else 0.0,
+        from_rest=est.from_rest,
         leakage_spread=spread_weighed,
         untapered_spread=spread,
+        noise_dip=noise_dip,
     ), notes
 
 
@@ -2630,7 +2687,13 @@ def _refocus(
         )
     )
     tally.peaks.append(det)
-    if null_fit is None and len(mt.search) and not mt.at_bound and _static_within(tally.movers[-1], scan) is not None:
+    if null_fit is None and mt.noise_dip <= 0:
+        # No clutter null, and eq. 5 falls from rest to the estimate no further than the window's noise alone does
+        # (_noise_dip): its minimum is the noise's dip, no evidence of motion (mover campaign scene 017's static S2
+        # band-limited, 16.2 dB, read at v_r 7.90 m/s, 2.4 sigma over detection_velocity; docs/multichannel.md
+        # section 11). A candidate for _drop_under_threshold whatever the CFAR threshold
+        tally.undo[len(tally.movers) - 1] = change
+    elif null_fit is None and len(mt.search) and not mt.at_bound and _static_within(tally.movers[-1], scan) is not None:
         # No clutter null: the detection image holds the static scene at full strength, so a detection's strength
         # says nothing of motion and eq. 5's velocity is the only evidence of it. Rest within STATIC_SIGMAS of the
         # tabled v_los is not ruled out: a candidate for _drop_under_threshold whatever the CFAR threshold (mover
@@ -2639,7 +2702,12 @@ def _refocus(
         # the bound, away from rest, and the 1-sigma is the bound's (tests/focus/test_movers.py: v_r 24 m/s tabled at
         # 20, 73.7 dB, 1.96 sigma)
         tally.undo[len(tally.movers) - 1] = change
-    elif null_fit is not None and _static_within(tally.movers[-1], scan) is not None:
+    elif null_fit is not None and (mt.from_rest or _static_within(tally.movers[-1], scan) is not None):
+        # mt.from_rest: eq. 5 read the window at rest and the null fit took it off rest only because rest there left
+        # more than NULL_FIT_MISMATCH of the residual unexplained; eq. 5 is then no evidence of motion, whatever the
+        # 1-sigma of the velocity the fit and autofocus then reached, and the fit at that velocity must rule rest out
+        # (mover campaign scene 007's clutter band-limited, 33.1 dB: eq. 5 at v_r -0.29 m/s leaving 0.34, tabled at
+        # -8.42 m/s, 5.9 sigma, which leaves 0.2645 where rest leaves 0.2533; docs/multichannel.md section 11)
         at_estimate = null_fit.mismatch(mt.radial_velocity, mt.along_track_velocity)
         at_rest = null_fit.mismatch(0.0, 0.0)
         log.debug(
@@ -2700,8 +2768,11 @@ def _drop_under_threshold(scan: _Scan, tally: _Tally) -> dict[int, int]:
     eq. 5 estimated within STATIC_SIGMAS of detection_velocity is taken back whatever its SNR: the detection image
     holds the static scene at full strength, so the threshold says nothing of motion (mover campaign scenes 013, 015,
     016: static points at 16.8-28.6 dB read at v_los 1.6-5.0 m/s, 0.9-1.7 sigma over 1 m/s; docs/multichannel.md
-    section 10). Its refocus is undone, it is recorded as a detection taken for static ("weak"), and the detections
-    merged with it with it."""
+    section 10), and so is one whose eq. 5 falls from rest to its estimate no further than the window's noise alone
+    does (MovingTarget.noise_dip, _noise_dip: scene 017's static at 2.4 sigma; section 11). With the clutter null, a
+    mover eq. 5 read at rest and the null fit took off it (MovingTarget.from_rest) is a candidate whatever its sigma
+    (scene 007's clutter response at 5.9 sigma; section 11). Its refocus is undone, it is recorded as a detection
+    taken for static ("weak"), and the detections merged with it with it."""
     drop = [
         k
         for k in sorted(tally.undo)
@@ -2716,7 +2787,20 @@ def _drop_under_threshold(scan: _Scan, tally: _Tally) -> dict[int, int]:
         scan.y_tr[:, mt.first_cell : mt.last_cell] -= tally.undo[k]
         v_los = mt.line_of_sight_velocity(scan.g.squint)
         z = _static_within(mt, scan)
-        if k in tally.at_rest:
+        if k in tally.at_rest and z is None:  # mt.from_rest (_refocus)
+            log.info(
+                "reconstruct: detection at range cell %d, %.3f s (SNR %.1f dB) is under the CFAR threshold %.1f dB, "
+                "eq. 5 reads it at rest and the null fit does not rule rest out (its mismatch %.4f at its v_los %.3f "
+                "m/s and %.4f at rest): taken for static",
+                det.cell,
+                det.time,
+                det.snr_db,
+                scan.found.cfar_db,
+                tally.at_rest[k][0],
+                v_los,
+                tally.at_rest[k][1],
+            )
+        elif k in tally.at_rest:
             log.info(
                 "reconstruct: detection at range cell %d, %.3f s (SNR %.1f dB) is under the CFAR threshold %.1f dB "
                 "and its v_los %.3f m/s only %.2f sigma over detection_velocity %g m/s, the null fit's mismatch %.4f "
@@ -2729,6 +2813,17 @@ def _drop_under_threshold(scan: _Scan, tally: _Tally) -> dict[int, int]:
                 z,
                 scan.params.detection_velocity,
                 *tally.at_rest[k],
+            )
+        elif mt.noise_dip <= 0:
+            log.info(
+                "reconstruct: detection at range cell %d, %.3f s (SNR %.1f dB): eq. 5 falls from rest to its v_los "
+                "%.3f m/s no further than the window's noise alone does there (by %.4f more) and no clutter null "
+                "tells a mover from the static scene: taken for static",
+                det.cell,
+                det.time,
+                det.snr_db,
+                v_los,
+                mt.noise_dip,
             )
         else:
             log.info(
@@ -2751,6 +2846,7 @@ def _drop_under_threshold(scan: _Scan, tally: _Tally) -> dict[int, int]:
                 "v_los": v_los,
                 "sigmas": z,
                 "under_cfar": k in tally.at_rest,
+                "noise_dip": mt.noise_dip,
             }
         )
     for d in tally.rejected:
@@ -2760,7 +2856,13 @@ def _drop_under_threshold(scan: _Scan, tally: _Tally) -> dict[int, int]:
             else:
                 m = tally.movers[d["mover"]]
                 v = m.line_of_sight_velocity(scan.g.squint)
-                d.update(kind="weak", v_los=v, sigmas=_static_within(m, scan), under_cfar=d["mover"] in tally.at_rest)
+                d.update(
+                    kind="weak",
+                    v_los=v,
+                    sigmas=_static_within(m, scan),
+                    under_cfar=d["mover"] in tally.at_rest,
+                    noise_dip=m.noise_dip,
+                )
                 del d["mover"]
     dropped = [tally.peaks[k] for k in drop]
     tally.removed = [dataclasses.replace(r, kind="static") if r.det in dropped else r for r in tally.removed]
@@ -3052,6 +3154,18 @@ def _miss_reason(
                 if d.get("under_cfar", True)
                 else "without a clutter null, "
             )
+            if d["sigmas"] is None and d.get("under_cfar", True):  # MovingTarget.from_rest (_refocus)
+                return (
+                    f"{name}: detected (SNR {d['snr_db']:.1f} dB) {under}taken for static: eq. 5 reads it at rest "
+                    f"and the null fit does not rule rest out at its estimated line-of-sight velocity "
+                    f"{d['v_los']:.3f} m/s (its true one {probe.v_los:.3f} m/s)"
+                )
+            if d.get("noise_dip", math.nan) <= 0:
+                return (
+                    f"{name}: detected (SNR {d['snr_db']:.1f} dB) {under}taken for static: eq. 5 falls from rest to "
+                    f"its estimated line-of-sight velocity {d['v_los']:.3f} m/s no further than the window's noise "
+                    f"alone does there (by {d['noise_dip']:.4f} more; its true one {probe.v_los:.3f} m/s)"
+                )
             return (
                 f"{name}: detected (SNR {d['snr_db']:.1f} dB) {under}taken for static: its "
                 f"estimated line-of-sight velocity {d['v_los']:.3f} m/s is only {d['sigmas']:.1f} sigma over "
