@@ -240,10 +240,13 @@ def expected(m: dict, noise: bool) -> bool:
     search's margin), or in noise under the CFAR threshold or too weak for the velocity search (detection SNR under
     20 dB: docs/multichannel.md section 8, against SNR), or in noise without the clutter null taken for static because
     its estimated v_los is not 2 sigma over detection_velocity (section 10), also only under 20 dB: the same bound
-    on what the velocity search can tell, whichever rule then refuses the detection."""
+    on what the velocity search can tell, whichever rule then refuses the detection; or in noise, examined in the
+    first pass over its threshold but under the measured CFAR threshold, then taken out with a brighter response,
+    again under 20 dB (section 11: too weak to be detected at the false-alarm rate, or told from rest, alone)."""
     reason = m["reason"]
     weak = re.search(r"detected \(SNR ([0-9.]+) dB\) but no slant-range velocity explains", reason)
     rest = re.search(r"detected \(SNR ([0-9.]+) dB\) without a clutter null, taken for static", reason)
+    taken_out = re.search(r"detected \(SNR ([0-9.]+) dB\) but taken out with the response", reason)
     return bool(
         "below this null's minimum detectable velocity" in reason
         or abs(m["v_los"]) < 1.2 * DETECTION_VELOCITY
@@ -256,6 +259,12 @@ def expected(m: dict, noise: bool) -> bool:
         or (noise and weak is not None and float(weak.group(1)) < 20.0)
         # in noise without the clutter null, eq. 5's velocity not 2 sigma over detection_velocity: rest not ruled out
         or (noise and rest is not None and float(rest.group(1)) < 20.0)
+        or (
+            noise
+            and taken_out is not None
+            and float(taken_out.group(1)) < 20.0
+            and "under the measured CFAR threshold" in reason
+        )
     )
 
 

@@ -1509,6 +1509,39 @@ def test_a_detection_no_velocity_explains_is_called_too_weak_only_under_20_db(sn
     assert ("too weak for the velocity search" in reason) == weak
 
 
+@pytest.mark.parametrize(("snr", "under"), [(15.2, True), (19.0, False)])
+def test_a_detection_taken_out_with_a_brighter_response_names_the_threshold_it_fell_under(snr, under):
+    """Mover campaign scene 017's M3 (band-limited): detected at 15.2 dB in the first pass, over its 15 dB
+    threshold (detection_snr), then taken out with the response of the static S1 4 cells away; the measured
+    background later set the CFAR threshold at 17.9 dB. Its reason said it "fell under the CFAR threshold" and named
+    none: the reported one, 17.9 dB, it was never over. The reason names the threshold in force when it was
+    examined, and says where its SNR is under the measured one as well (an expected miss in noise)."""
+    from sarproc.focus.multichannel import detection
+    from sarproc.focus.multichannel.reconstruct import _miss_reason, _Removed, _TruthProbe
+
+    static = detection.Detection(cell=371, index=100, time=-0.0782, power=10**3.66, background=1.0, width=2.0)
+    probe = _TruthProbe(cell=375.0, index=100.0, snr_db=snr, peak_index=100, peak_cell=375, v_los=-4.61)
+    rejected = [
+        {
+            "cell": 375,
+            "index": 100,
+            "snr_db": snr,
+            "kind": "explained",
+            "by": _Removed(static, 355, 388, "static"),
+            "threshold_db": 15.0,
+        }
+    ]
+    cfar = {"threshold_db": 17.9}
+    reason = _miss_reason("M3", probe, rejected, 500.0, ReconstructParams(), cfar)
+    assert reason.startswith(f"M3: detected (SNR {snr:.1f} dB) but taken out with the response of a static target")
+    assert "fell under the CFAR threshold 15.0 dB then in force once that response was removed" in reason
+    assert ("under the measured CFAR threshold 17.9 dB as well" in reason) == under
+    rejected[0]["by"] = None  # taken out with the responses examined, none named
+    reason = _miss_reason("M3", probe, rejected, 500.0, ReconstructParams(), cfar)
+    assert "fell under the CFAR threshold 15.0 dB once they were removed" in reason
+    assert ("under the measured CFAR threshold 17.9 dB as well" in reason) == under
+
+
 def test_a_mover_under_the_measured_cfar_threshold_and_static_within_its_sigma_is_taken_back(monkeypatch):
     """reconstruct._drop_under_threshold: mover campaign scene 012 tabled a clutter-plus-noise peak examined in the
     first pass at 15.99 dB (over the 15 dB floor), under the 17.1 dB the measured background then set (4 of its

@@ -2163,6 +2163,7 @@ def _visit(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
                 "snr_db": det.snr_db,
                 "kind": "explained",
                 "by": _explained_by(det, scan, tally),
+                "threshold_db": found.cfar_db,  # the threshold it fell under (the first pass's: detection_snr)
             }
         )
         log.debug(
@@ -3134,18 +3135,26 @@ def _miss_reason(
             )
         if d["kind"] == "explained":
             by: _Removed | None = d["by"]
+            # the threshold it fell under is the one in force when it was examined: the first pass's detection_snr,
+            # under the measured one a detection can be (mover campaign scene 017's M3: 15.2 dB, 15 then 17.9 dB)
+            then, final = d.get("threshold_db", cfar["threshold_db"]), cfar["threshold_db"]
+            under = (
+                f" (its SNR is under the measured CFAR threshold {final:.1f} dB as well)"
+                if d["snr_db"] < final and then < final
+                else ""
+            )
             if by is None:
                 return (
                     f"{name}: detected (SNR {d['snr_db']:.1f} dB) but taken out with the responses of the targets "
-                    "already examined (it fell under the CFAR threshold once they were removed)"
+                    f"already examined (it fell under the CFAR threshold {then:.1f} dB once they were removed){under}"
                 )
             what = {"mover": "a mover", "static": "a static target", "incoherent": "a detection no velocity explains"}
             return (
                 f"{name}: detected (SNR {d['snr_db']:.1f} dB) but taken out with the response of "
                 f"{what[by.kind]} examined at {by.det.time:.4f} s, range cell {by.det.cell} (SNR "
                 f"{by.det.snr_db:.1f} dB, {by.det.snr_db - d['snr_db']:.1f} dB brighter, {d['cell'] - by.det.cell:+d} "
-                f"cells from it), removed over range cells {by.lo}-{by.hi - 1}: it fell under the CFAR threshold once "
-                "that response was removed"
+                f"cells from it), removed over range cells {by.lo}-{by.hi - 1}: it fell under the CFAR threshold "
+                f"{then:.1f} dB then in force once that response was removed{under}"
             )
         if d["kind"] == "weak":
             under = (
