@@ -70,8 +70,14 @@ def evaluate_estimate(stage: str, header: Product, params: Any) -> Plan:
         # nie2016_small 6.81 s (25, 77 x 73), against 1.2 / 0.72 / 8.1 s planned before. Refitted in session 30:
         # the demo's process 1.21-1.31 s (kernels compiled ahead of time) and 1.42 s (numba's, CI's fresh clone)
         # against 2.5 / 2.9 s planned, bp_squint30's 0.62 s against 1.0, so a quiet machine ran the demo over
-        # twice as fast as planned (tests/cli/test_plans.py failed at 2.04x): 2.5e-5 s per chip sample
-        seconds += n_tg * (0.08 + 2.5e-5 * chip) + 0.15e-6 * n * min(n_tg, 8)
+        # twice as fast as planned (tests/cli/test_plans.py failed at 2.04x): 2.5e-5 s per chip sample. Sessions
+        # 37-39 cut the fits (the demo's evaluate 1.3 -> 0.95 s CPU); session 39's idle CI run of the demo through
+        # numba took 1.015 s wall against 2.2 s planned (2.17x, failed): 0.06 s and 1.7e-5 s per chip sample plan
+        # it at 1.8 s (1.8x). With the kernels compiled ahead (scripts/evaluate_speed.py's CPU seconds, ev39a):
+        # demo 1.4 s against 0.96 (1.5x), bp_squint30 0.6 / 0.47, 000 small 1.3 / 0.97, 002 small plain 6.8 /
+        # 4.04, bp_stripmap 0.59 / 1.00 (0.6x); bp_beam_edge 0.98 / 3.23 (0.3x; 0.4x before this refit: its fits'
+        # time does not follow the chip's size)
+        seconds += n_tg * (0.06 + 1.7e-5 * chip) + 0.15e-6 * n * min(n_tg, 8)
         memory += 24.0 * n  # the residual image (complex128) and its masks
     # the residual's kernels compiled ahead of time, once built (sarproc.quality.residual_aot): no numba to load,
     # nothing to compile; else numba's runtime and its cached kernels, loaded only here (demo: 70 -> 185 MB)
