@@ -25,6 +25,7 @@ cancel and what remains is moving. The energy ratio after/before is reported in 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import math
 from collections.abc import Callable, Iterable
@@ -350,7 +351,7 @@ class _Window:
         passed it (mover campaign scene 013 M1, detection SNR 22.5 dB, 5.9 dB over the floor in its cell: 19
         criterion cells, eq. 5's dip 0.6 % deep and taken for no point target; docs/multichannel.md section 8).
         """
-        p = np.sum(np.abs(sfft.ifft(self.x, axis=-1, workers=-1)) ** 2, axis=(0, 1))
+        p = self.cell_energy
         own = np.nonzero(_over_floor(p, float(p.max() if self.gate is None else p[self.gate].max())))[0]
         keep = _widened(own, len(p), margin)
         if self.gate is not None:
@@ -360,6 +361,11 @@ class _Window:
         elif len(own) == 0:
             return
         self.cells = np.nonzero(keep)[0]
+
+    @functools.cached_property
+    def cell_energy(self) -> np.ndarray:
+        """Each range cell's energy over all pulses and channels (keep_own_cells, _noise_dip)."""
+        return np.sum(np.abs(sfft.ifft(self.x, axis=-1, workers=-1)) ** 2, axis=(0, 1))
 
     def bank(self, v_a: float) -> channels.FilterBank:
         key = round(v_a, 9)
@@ -1048,7 +1054,7 @@ def _noise_dip(win: _Window, v_r: float, v_a: float) -> float:
     threshold: the sign of an expectation; the noise draw's own scatter around it is what is left (section 11)."""
     if win.cells is None or (far := _far_cells(win)) is None:
         return float("nan")
-    profile = np.sum(np.abs(sfft.ifft(win.x, axis=-1, workers=-1)) ** 2, axis=(0, 1))  # as keep_own_cells
+    profile = win.cell_energy
     noise = far[~_over_floor(profile, float(profile.max()))[far]]
     if len(noise) < 3:
         return float("nan")
@@ -2688,20 +2694,19 @@ def _refocus(
         )
     )
     tally.peaks.append(det)
-    if null_fit is None and mt.noise_dip <= 0:
-        # No clutter null, and eq. 5 falls from rest to the estimate no further than the window's noise alone does
-        # (_noise_dip): its minimum is the noise's dip, no evidence of motion (mover campaign scene 017's static S2
-        # band-limited, 16.2 dB, read at v_r 7.90 m/s, 2.4 sigma over detection_velocity; docs/multichannel.md
-        # section 11). A candidate for _drop_under_threshold whatever the CFAR threshold
-        tally.undo[len(tally.movers) - 1] = change
-    elif null_fit is None and len(mt.search) and not mt.at_bound and _static_within(tally.movers[-1], scan) is not None:
+    if null_fit is None and (
+        mt.noise_dip <= 0 or (len(mt.search) and not mt.at_bound and _static_within(tally.movers[-1], scan) is not None)
+    ):
         # No clutter null: the detection image holds the static scene at full strength, so a detection's strength
-        # says nothing of motion and eq. 5's velocity is the only evidence of it. Rest within STATIC_SIGMAS of the
-        # tabled v_los is not ruled out: a candidate for _drop_under_threshold whatever the CFAR threshold (mover
-        # campaign scene 015's static S2 band-limited, 16.8 dB: eq. 5's minimum pulled to v_r 4.97 m/s by the noise's
-        # own dip, 1-sigma 2.40; docs/multichannel.md section 10). Not on the search bound: there eq. 5 falls towards
-        # the bound, away from rest, and the 1-sigma is the bound's (tests/focus/test_movers.py: v_r 24 m/s tabled at
-        # 20, 73.7 dB, 1.96 sigma)
+        # says nothing of motion and eq. 5's velocity is the only evidence of it; a candidate for
+        # _drop_under_threshold whatever the CFAR threshold where
+        # - eq. 5 falls from rest to the estimate no further than the window's noise alone does (_noise_dip): its
+        #   minimum is the noise's dip (mover campaign scene 017's static S2 band-limited, 16.2 dB, read at v_r
+        #   7.90 m/s, 2.4 sigma over detection_velocity; docs/multichannel.md section 11), or
+        # - rest within STATIC_SIGMAS of the tabled v_los is not ruled out (scene 015's static S2 band-limited,
+        #   16.8 dB: eq. 5's minimum pulled to v_r 4.97 m/s by the noise's own dip, 1-sigma 2.40; section 10). Not on
+        #   the search bound: there eq. 5 falls towards the bound, away from rest, and the 1-sigma is the bound's
+        #   (tests/focus/test_movers.py: v_r 24 m/s tabled at 20, 73.7 dB, 1.96 sigma)
         tally.undo[len(tally.movers) - 1] = change
     elif null_fit is not None and (mt.from_rest or _static_within(tally.movers[-1], scan) is not None):
         # mt.from_rest: eq. 5 read the window at rest and the null fit took it off rest only because rest there left
@@ -3137,7 +3142,7 @@ def _miss_reason(
             by: _Removed | None = d["by"]
             # the threshold it fell under is the one in force when it was examined: the first pass's detection_snr,
             # under the measured one a detection can be (mover campaign scene 017's M3: 15.2 dB, 15 then 17.9 dB)
-            then, final = d.get("threshold_db", cfar["threshold_db"]), cfar["threshold_db"]
+            then, final = d["threshold_db"], cfar["threshold_db"]
             under = (
                 f" (its SNR is under the measured CFAR threshold {final:.1f} dB as well)"
                 if d["snr_db"] < final and then < final
