@@ -5,7 +5,8 @@
 ``make accuracy-002`` runs the settings as a sweep (configs/sweeps/accuracy_002.yaml, on Dask: the one
 list of settings) and then this script: per setting, the sweep's focus times (``repeats:`` runs of each
 task, interleaved, product I/O included: best, median and spread) and the worst target's quality, its
-score against its own theory (sarproc.quality.summary.tolerance_score: the largest of |IRW / own theory
+score against its own theory (the sweep's `sarproc evaluate` reports' tolerance_score per target,
+sarproc.quality.summary.tolerance_score: the largest of |IRW / own theory
 - 1| / 5 %, |PSLR - theory| / 0.5 dB, |ISLR - theory| / 0.5 dB and |position| / 0.5 cell; <= 1 is within
 the issue's tolerance; each target's theory is what pfa2 records from its own polar support), which is no
 sweep column. Writes table.md (with the Pareto front named), table.json and tradeoff.png. A setting is
@@ -17,12 +18,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from pathlib import Path
 
+from sarproc.cli.sweep_output import sweep_rows
 from sarproc.product.io import read_product
 from sarproc.product.units import parse_quantity
-from sarproc.quality.metrics import evaluate_product
-from sarproc.quality.summary import tolerance_score
 from sarproc.quality.tradeoff import faster_groups, pareto_front, timing_stats
 from sarproc.quality.tradeoff_plot import plot_tradeoff
 
@@ -41,24 +42,26 @@ def label(setting: dict, radius: float | None) -> str:
 
 def from_sweep(directory: Path) -> tuple[list, str]:
     """(label, times, worst score, false-target level) per task, from a sweep of configs/sweeps/accuracy_002.yaml."""
-    doc = json.loads((directory / "table.json").read_text())
-    if doc["failures"]:
-        raise SystemExit(f"{directory}: the sweep has failed tasks: {doc['failures']}")
-    images = {r["task"]: directory / "tasks" / r["task"] / "pfa2.h5" for r in doc["rows"]}
+    rows = sweep_rows(directory)
     radius = None
-    for path in images.values():
-        attrs = read_product(path, load=False).attrs
+    for row in rows:
+        attrs = read_product(row["dir"] / "pfa2.h5", load=False).attrs
         if attrs.get("valid_radius_eq7"):
             radius = attrs["valid_radius_eq7"]
             break
     results = []
-    for row in doc["rows"]:
+    for row in rows:
         setting = {k: v for k, v in row.items() if k.startswith("pfa2.")}
         if row.get("repeats_identical") is False:
             raise SystemExit(f"{directory}: task {row['task']}: its repeated images differ from the first run")
-        report = evaluate_product(read_product(images[row["task"]]))
-        worst = max(tolerance_score(t) for t in report.targets)
-        level = report.false_target.level_db if report.false_target else float("-inf")
+        report = json.loads((row["dir"] / "report.json").read_text())  # the sweep's `sarproc evaluate -o`
+        if any("tolerance_score" not in t for t in report["targets"]):
+            raise SystemExit(
+                f"{row['dir']}/report.json: no tolerance_score (an older sarproc's): delete it, rerun the sweep"
+            )
+        worst = max(math.nan if t["tolerance_score"] is None else t["tolerance_score"] for t in report["targets"])
+        ft = report["false_target"]
+        level = float("-inf") if ft is None else (math.nan if ft["level_db"] is None else ft["level_db"])
         results.append((label(setting, radius), row.get("focus_times") or [row["focus_s"]], worst, level))
     n = min(len(r[1]) for r in results)
     identical = " (repeats bit-identical to the first run)" if n > 1 else ""

@@ -337,8 +337,10 @@ def evaluate(
     Parameters come from the `evaluate:` section of --config (search_cells, guard_cells,
     upsample, islr_nulls, margin_nulls, irw_factor, principal_axes, remove_neighbours, exact; the
     residual false-target search, on by default for 2D images: residual, residual_orders, fit_nulls,
-    fit_ridge_nulls, exclusion_cells). Prints a Markdown table; exit status 1 when --expect tolerances
-    fail, 2 on bad input.
+    fit_ridge_nulls, exclusion_cells). The JSON report (-o) also gives each target's tolerance_score: its
+    cuts' worst deviation from their theory over the tolerances |IRW/theory - 1| 5 %, PSLR and ISLR 0.5 dB,
+    position 0.5 cell (<= 1: within them; null when a figure was not measured). Prints a Markdown table;
+    exit status 1 when --expect tolerances fail, 2 on bad input.
     """
     from sarproc.cli.progress import progress_factory
     from sarproc.cli.stage import naming, report_plan, unapplied_scene_section
@@ -348,6 +350,7 @@ def evaluate(
     from sarproc.product.run import mark_published
     from sarproc.quality.budget import evaluate_estimate
     from sarproc.quality.metrics import EvaluateParams, check_report, evaluate_product, expectations_from_mapping
+    from sarproc.quality.summary import tolerance_score
 
     # Every argument is checked before the (possibly long) evaluation: config, tolerances, the
     # image's layout, then the outputs.
@@ -382,6 +385,9 @@ def evaluate(
     # Files first, the table last: a full disk fails before anything is printed.
     if output is not None:
         doc = {"input": str(input_path), "units": units, **report.to_dict()}
+        doc["targets"] = [
+            {**d, "tolerance_score": _finite(tolerance_score(t))} for d, t in zip(doc["targets"], report.targets)
+        ]
         if aliases:
             doc["aliases"] = aliases
         if expect is not None:
@@ -397,6 +403,11 @@ def evaluate(
         click.echo(metrics_table(report, units) + "".join(alias_lines), err=stdout_taken())
     if expect is not None:
         _verdict(failures, expect_path)
+
+
+def _finite(x: float) -> float | None:
+    """A figure for the JSON report: NaN (unmeasured) as null."""
+    return x if math.isfinite(x) else None
 
 
 def _aliases(product: Product, report: QualityReport) -> tuple[list[dict], list[str]]:

@@ -16,6 +16,8 @@ from sarproc.cli.main import cli
 from sarproc.product.io import write_product
 from sarproc.product.metadata import RadarMetadata
 from sarproc.product.model import Product, make_targets
+from sarproc.quality.metrics import TargetReport
+from sarproc.quality.summary import tolerance_score
 
 RES = (1.0, 0.8)  # theoretical IRW (azimuth, range), m
 STEP = (0.6, 0.5)  # pixel spacing, m
@@ -117,6 +119,17 @@ def test_table_json_and_plots(image2d, tmp_path):
     # JSON output never replaces the input.
     res = run(image2d, "-o", image2d)
     assert res.exit_code == 2 and "input" in res.output
+
+
+def test_json_gives_each_targets_tolerance_score(image2d, tmp_path):
+    """The JSON report scores each target against the tolerances (summary.tolerance_score), so scripts and
+    users read it from `sarproc evaluate -o` (scripts/accuracy_002.py's worst-target column)."""
+    report = tmp_path / "report.json"
+    assert run(image2d, "-o", report).exit_code == 0
+    targets = json.loads(report.read_text())["targets"]
+    for t in targets:
+        assert t["tolerance_score"] == tolerance_score(TargetReport.from_dict(t))
+        assert 0 < t["tolerance_score"] < 0.2  # ideal sinc responses: well within the tolerances
 
 
 @pytest.mark.parametrize("three_d", [False, True], ids=["2d", "3d"])
