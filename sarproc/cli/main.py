@@ -37,6 +37,7 @@ COMMANDS = {
     "array3d": "sarproc.cli.array3d:array3d",
     "backproject": "sarproc.cli.backproject:backproject",
     "evaluate": "sarproc.cli.evaluate:evaluate",
+    "ghost-test": "sarproc.cli.ghost_test:ghost_test",
     "quicklook": "sarproc.cli.quicklook:quicklook",
     "sweep": "sarproc.cli.sweep:sweep",
     "export-sicd": "sarproc.cli.formats:export_sicd",

@@ -373,3 +373,27 @@ def test_subprocess_and_help(image2d):
     assert res.returncode == 0, res.stderr
     assert res.stdout.startswith("| target | axis |")
     assert CliRunner().invoke(cli, ["evaluate", "--help"]).exit_code == 0
+
+
+def test_ghost_test_finds_the_injected_ghost_at_its_level(tmp_path):
+    """`sarproc ghost-test`: G's response (ghosted - clean) injected into the clean image is the residual
+    false target at the injected level and place (scripts/residual_ghosts.py's table)."""
+    clean = make_image(tmp_path / "clean.h5")
+    ghosted = make_image(tmp_path / "ghosted.h5", ghost_db=0.0)  # G of amplitude 1 at make_image's (-20, 20)
+    report = tmp_path / "ghost.json"
+    res = CliRunner().invoke(cli, ["ghost-test", str(clean), str(ghosted), "--levels", "-30,-35", "-o", str(report)])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(report.read_text())
+    assert doc["ghost_position"]["azimuth"] == pytest.approx(-20.0, abs=STEP[0])
+    assert doc["ghost_position"]["range"] == pytest.approx(20.0, abs=STEP[1])
+    assert [r["injected_db"] for r in doc["rows"]] == [-30.0, -35.0]
+    for r in doc["rows"]:
+        assert r["error_db"] == pytest.approx(r["found_db"] - r["injected_db"])
+        assert abs(r["error_db"]) < 0.2
+        assert all(abs(e) < 0.5 for e in r["error_cells"].values())
+        assert r["found_position"]["azimuth"] == pytest.approx(-20.0, abs=0.1)
+    assert doc["floor_db"] < -60 and doc["rows"][0]["floor_db"] < -60
+    assert "| -30.0 | " in res.output and "residual floor" in res.output
+    cube = make_image(tmp_path / "cube.h5", three_d=True)  # not one grid (nor a 2D image): refused
+    res = CliRunner().invoke(cli, ["ghost-test", str(clean), str(cube)])
+    assert res.exit_code == 2, res.output
