@@ -4,12 +4,17 @@ Reads results/gotcha/image_bp.h5, image_pfa.h5 (plain, distortion corrected) and
 (made by `make reproduce-gotcha`), writes PNG quicklooks and results/gotcha/summary.md: per PFA image the
 normalised cross-correlation of the magnitudes with the backprojection's, the positions of its ten
 brightest points against the backprojection's (sub-pixel peaks by parabolic interpolation), in pixels,
-and the image entropy of both.
+and the image entropy of both. The measures are `sarproc evaluate` on these images without truth
+(`--reference image_bp.h5` for the PFA images; sarproc.quality.image_measures.measure_image), written
+beside them as measures_*.json; this script runs it and tabulates the JSON.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import subprocess
+import sys
 from pathlib import Path
 
 import matplotlib
@@ -20,7 +25,16 @@ import numpy as np
 
 from sarproc.product.io import read_product
 from sarproc.product.model import Product
-from sarproc.quality.image_measures import bright_points, entropy, magnitude_ncc, subpixel_peak
+
+
+def measures(image: Path, reference: Path | None = None) -> dict:
+    """`sarproc evaluate` on an image without truth (with --reference: against that image), its JSON."""
+    out = image.with_name(f"measures_{image.stem.removeprefix('image_')}.json")
+    ref = ["--reference", str(reference)] if reference is not None else []
+    subprocess.run(
+        [sys.executable, "-m", "sarproc", "evaluate", str(image), *ref, "-o", str(out), "--overwrite", "-q"], check=True
+    )
+    return json.loads(out.read_text())
 
 
 def quicklook(img: Product, path: Path, title: str) -> None:
@@ -45,43 +59,30 @@ def quicklook(img: Product, path: Path, title: str) -> None:
     plt.close()
 
 
-def compare(pfa: Product, bp: Product) -> dict:
-    """NCC of the magnitudes and the ten brightest PFA points' offsets from the backprojection's, pixels."""
-    A, B = np.abs(pfa.data), np.abs(bp.data)
-    rows = []
-    for i, j in bright_points(A, n=10, separation=10, edge=10):
-        pa = subpixel_peak(A, i, j)
-        w = B[i - 3 : i + 4, j - 3 : j + 4]
-        k = np.unravel_index(np.argmax(w), w.shape)
-        pb = subpixel_peak(B, i - 3 + k[0], j - 3 + k[1])
-        rows.append((i, j, pa[0] - pb[0], pa[1] - pb[1], 20 * np.log10(A[i, j] / A.max())))
-    return {
-        "ncc": magnitude_ncc(A, B),
-        "rows": rows,
-        "entropy": entropy(A),
-        "same_grid": all(np.allclose(pfa.coords[d], bp.coords[d]) for d in ("azimuth", "range")),
-    }
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--dir", type=Path, default=Path("results/gotcha"))
     args = ap.parse_args()
-    bp = read_product(args.dir / "image_bp.h5")
+    bp_path = args.dir / "image_bp.h5"
+    bp = measures(bp_path)
     files = [("plain (distortion corrected)", "image_pfa.h5"), ("two-step", "image_pfa_two_step.h5")]
-    images = [(label, read_product(args.dir / name)) for label, name in files if (args.dir / name).exists()]
-    shape = bp.data.shape
+    images = [(label, args.dir / name) for label, name in files if (args.dir / name).exists()]
+    shape = bp["shape"]
     lines = [
         "# Gotcha: pfa2 against backprojection",
         "",
-        f"{shape[0]} x {shape[1]} pixels of {bp.coords['azimuth'][1] - bp.coords['azimuth'][0]:.3f} m x "
-        f"{bp.coords['range'][1] - bp.coords['range'][0]:.3f} m; backprojection's entropy "
-        f"{entropy(np.abs(bp.data)):.4f} nats. Peaks: the ten brightest PFA points, offset PFA - BP (pixels).",
+        f"{shape[0]} x {shape[1]} pixels of {bp['spacing']['azimuth']:.3f} m x "
+        f"{bp['spacing']['range']:.3f} m; backprojection's entropy "
+        f"{bp['entropy']:.4f} nats. Peaks: the ten brightest PFA points, offset PFA - BP (pixels).",
         "",
         "| pfa2 | same grid | NCC of magnitudes | max d_az (px) | max d_rg (px) | entropy (nats) | sub-images |",
         "| --- | --- | --- | --- | --- | --- | --- |",
     ]
-    results = [(label, img, compare(img, bp)) for label, img in images]
+    results = []
+    for label, path in images:
+        m = measures(path, bp_path)
+        rows = [(*p["pixel"], *p["offset"], p["level_db"]) for p in m["points"]]
+        results.append((label, read_product(path), {**m, "rows": rows}))
     for label, img, c in results:
         lines.append(
             f"| {label} | {c['same_grid']} | {c['ncc']:.4f} | {max(abs(r[2]) for r in c['rows']):.3f} | "
@@ -97,7 +98,7 @@ def main() -> None:
             "| --- | --- | --- | --- |",
         ]
         lines += [f"| ({i}, {j}) | {da:+.3f} | {dr:+.3f} | {lv:.1f} |" for i, j, da, dr, lv in c["rows"]]
-    quicklook(bp, args.dir / "image_bp.png", "Gotcha pass 1 HH 0-4 deg: backprojection")
+    quicklook(read_product(bp_path), args.dir / "image_bp.png", "Gotcha pass 1 HH 0-4 deg: backprojection")
     for (label, img, _), name in zip(results, ("image_pfa.png", "image_pfa_two_step.png")):
         quicklook(img, args.dir / name, f"Gotcha pass 1 HH 0-4 deg: pfa2 {label}")
     lines += ["", "![pfa](image_pfa.png) ![bp](image_bp.png)", ""]

@@ -312,6 +312,21 @@ def _write_text_atomic(path: Path, text: str, overwrite: bool = True) -> None:
         "neighbours and stay out of the false-target search."
     ),
 )
+@click.option(
+    "--reference",
+    "reference_path",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="An image without truth only: another image of the same pixels (e.g. backprojection's) to compare with "
+    "(NCC of the magnitudes, each bright point's offset from the reference's peak).",
+)
+@click.option(
+    "--points",
+    type=click.IntRange(min=1),
+    default=10,
+    show_default=True,
+    help="An image without truth only: how many of its brightest points to locate.",
+)
 @config_option
 @progress_option
 @max_memory_option
@@ -323,6 +338,8 @@ def evaluate(
     plot_dir: Path | None,
     expect_path: Path | None,
     target_names: str | None,
+    reference_path: Path | None,
+    points: int,
     config_path: Path | None,
     progress: bool | None,
 ) -> None:
@@ -339,12 +356,15 @@ def evaluate(
     residual false-target search, on by default for 2D images: residual, residual_orders, fit_nulls,
     fit_ridge_nulls, exclusion_cells). The JSON report (-o) also gives each target's tolerance_score: its
     cuts' worst deviation from their theory over the tolerances |IRW/theory - 1| 5 %, PSLR and ISLR 0.5 dB,
-    position 0.5 cell (<= 1: within them; null when a figure was not measured). Prints a Markdown table;
-    exit status 1 when --expect tolerances fail, 2 on bad input.
+    position 0.5 cell (<= 1: within them; null when a figure was not measured). An image without truth (an
+    empty targets table: real data) gets the truth-free measures instead: its entropy and brightest points
+    (sub-pixel peaks), and with --reference the NCC of the magnitudes and each point's offset from the
+    reference's peak. Prints a Markdown table; exit status 1 when --expect tolerances fail, 2 on bad input.
     """
     from sarproc.cli.progress import progress_factory
     from sarproc.cli.stage import naming, report_plan, unapplied_scene_section
     from sarproc.product.config import load_yaml
+    from sarproc.product.errors import InputError
     from sarproc.product.io import check_output_path, read_product
     from sarproc.product.model import UNITS
     from sarproc.product.run import mark_published
@@ -358,6 +378,13 @@ def evaluate(
     names = _target_names(target_names)
     expect = expectations_from_mapping(load_yaml(expect_path), str(expect_path)) if expect_path else None
     header = read_product(input_path, kinds=("image", "image3d"), load=False)
+    if header.kind == "image" and header.targets is not None and len(header.targets) == 0:
+        if expect_path is not None or plot_dir is not None or names is not None:
+            raise InputError(f"{input_path}: no targets table: --expect, --plot and --targets need one")
+        _truth_free(input_path, reference_path, points, output, overwrite)
+        return
+    if reference_path is not None:
+        raise InputError(f"--reference: for an image without truth; {input_path} has a targets table")
     if config_path is None:
         unapplied_scene_section(header, EvaluateParams, "evaluate", input_path)
     if output is not None:
@@ -403,6 +430,61 @@ def evaluate(
         click.echo(metrics_table(report, units) + "".join(alias_lines), err=stdout_taken())
     if expect is not None:
         _verdict(failures, expect_path)
+
+
+def _truth_free(
+    input_path: Path, reference_path: Path | None, points: int, output: Path | None, overwrite: bool
+) -> None:
+    """evaluate on an image without truth: sarproc.quality.image_measures.measure_image, printed and written."""
+    import numpy as np
+
+    from sarproc.product.errors import InputError
+    from sarproc.product.io import check_output_path, read_product
+    from sarproc.quality.image_measures import measure_image
+
+    if output is not None:
+        check_output_path(output, [input_path] + ([reference_path] if reference_path else []), overwrite=overwrite)
+    image = read_product(input_path, kinds=("image",))
+    ref = None if reference_path is None else read_product(reference_path, kinds=("image",))
+    if ref is not None and (ref.data.shape != image.data.shape or ref.dims != image.dims):
+        raise InputError(f"--reference: {reference_path} {ref.data.shape} is not on the pixels of {input_path}")
+    found = measure_image(image.data, None if ref is None else ref.data, n=points)
+    spacing = {d: float(image.coords[d][1] - image.coords[d][0]) for d in image.dims}
+    same_grid = None if ref is None else all(np.allclose(image.coords[d], ref.coords[d]) for d in image.dims)
+    doc = {
+        "input": str(input_path),
+        "reference": None if reference_path is None else str(reference_path),
+        "dims": list(image.dims),
+        "spacing": spacing,
+        "same_grid": same_grid,
+        **found.to_dict(),
+    }
+    if output is not None:
+        _write_text_atomic(output, json.dumps(doc, indent=2) + "\n", overwrite)
+    if verbosity() >= 0:
+        click.echo(truth_free_table(doc), err=stdout_taken())
+
+
+def truth_free_table(doc: dict) -> str:
+    """The truth-free measures as Markdown (see :func:`_truth_free`)."""
+    pixels = " x ".join(f"{s:.3f}" for s in doc["spacing"].values())
+    head = (
+        f"No truth: {' x '.join(map(str, doc['shape']))} pixels of {pixels} ({', '.join(doc['dims'])}); entropy "
+        f"{doc['entropy']:.4f} nats."
+    )
+    if doc["reference"] is not None:
+        head += (
+            f" Against {doc['reference']} (same grid: {doc['same_grid']}; its entropy "
+            f"{doc['reference_entropy']:.4f} nats): NCC of the magnitudes {doc['ncc']:.4f}; offsets image - reference."
+        )
+    with_ref = doc["reference"] is not None
+    columns = ["pixel", "sub-pixel peak", "level (dB)"] + (["offset (px)"] if with_ref else [])
+    rows = [
+        [str(tuple(p["pixel"])), ", ".join(f"{v:.3f}" for v in p["peak"]), f"{p['level_db']:.1f}"]
+        + ([", ".join(f"{v:+.3f}" for v in p["offset"])] if with_ref else [])
+        for p in doc["points"]
+    ]
+    return head + "\n\n" + markdown_table(columns, rows, "lrrr")
 
 
 def _finite(x: float) -> float | None:

@@ -8,6 +8,8 @@ and how alike two images are (normalised cross-correlation of the magnitudes).
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 from scipy.ndimage import maximum_filter
 
@@ -61,3 +63,68 @@ def deviation_db(image: np.ndarray, reference: np.ndarray) -> float:
     if image.shape != reference.shape:
         raise ValueError(f"deviation_db: image {image.shape} and reference {reference.shape} differ in shape")
     return float(20 * np.log10(max(np.abs(image - reference).max() / np.abs(reference).max(), 1e-30)))
+
+
+@dataclasses.dataclass(frozen=True)
+class BrightPoint:
+    pixel: tuple[int, int]  # the point's brightest pixel (row, column)
+    peak: tuple[float, float]  # its sub-pixel peak (subpixel_peak), pixels
+    level_db: float  # the pixel against the image's brightest, dB
+    reference_peak: tuple[float, float] | None = None  # the reference's sub-pixel peak within +-3 pixels
+    offset: tuple[float, float] | None = None  # peak - reference_peak, pixels (row, column)
+
+
+@dataclasses.dataclass(frozen=True)
+class ImageMeasures:
+    """What :func:`measure_image` finds: the image's entropy and brightest points, and with a reference image on
+    the same pixels the NCC of the magnitudes, the reference's entropy and each point's offset from it."""
+
+    shape: tuple[int, ...]
+    entropy: float
+    points: tuple[BrightPoint, ...]
+    ncc: float | None = None
+    reference_entropy: float | None = None
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+def measure_image(
+    data: np.ndarray,
+    reference: np.ndarray | None = None,
+    n: int = 10,
+    separation: int = 10,
+    edge: int = 10,
+    window: int = 3,
+) -> ImageMeasures:
+    """Truth-free measures of a complex 2-D image (``sarproc evaluate`` on an image without a targets table):
+    its entropy and ``n`` brightest points (:func:`bright_points` with ``separation``, ``edge``; sub-pixel
+    peaks). With ``reference`` (same shape): the NCC of the magnitudes, the reference's entropy, and per point
+    the reference's sub-pixel peak at its strongest pixel within +-``window`` pixels, and the offset."""
+    A = np.abs(data)
+    B = None if reference is None else np.abs(reference)
+    if B is not None and B.shape != A.shape:
+        raise ValueError(f"measure_image: image {A.shape} and reference {B.shape} differ in shape")
+    points = []
+    for i, j in bright_points(A, n=n, separation=separation, edge=edge):
+        pa = subpixel_peak(A, i, j)
+        level = float(20 * np.log10(A[i, j] / A.max()))
+        if B is None:
+            points.append(BrightPoint((int(i), int(j)), _floats(pa), level))
+            continue
+        w = B[i - window : i + window + 1, j - window : j + window + 1]
+        k = np.unravel_index(np.argmax(w), w.shape)
+        pb = subpixel_peak(B, i - window + k[0], j - window + k[1])
+        offset = (pa[0] - pb[0], pa[1] - pb[1])
+        points.append(BrightPoint((int(i), int(j)), _floats(pa), level, _floats(pb), _floats(offset)))
+    return ImageMeasures(
+        shape=tuple(A.shape),
+        entropy=entropy(A),
+        points=tuple(points),
+        ncc=None if B is None else magnitude_ncc(A, B),
+        reference_entropy=None if B is None else entropy(B),
+    )
+
+
+def _floats(p: tuple) -> tuple[float, float]:
+    return (float(p[0]), float(p[1]))

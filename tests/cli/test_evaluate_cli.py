@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import shutil
 import subprocess
@@ -397,3 +398,34 @@ def test_ghost_test_finds_the_injected_ghost_at_its_level(tmp_path):
     cube = make_image(tmp_path / "cube.h5", three_d=True)  # not one grid (nor a 2D image): refused
     res = CliRunner().invoke(cli, ["ghost-test", str(clean), str(cube)])
     assert res.exit_code == 2, res.output
+
+
+def test_image_without_truth_gets_the_truth_free_measures(tmp_path):
+    """An image with an empty targets table (real data): evaluate reports its entropy and brightest points, and
+    against --reference the NCC and each point's offset (scripts/reproduce_gotcha.py's table)."""
+    from sarproc.product.io import read_product
+    from sarproc.quality.image_measures import entropy, magnitude_ncc
+
+    img = read_product(make_image(tmp_path / "truth.h5"))
+    img.targets = make_targets([], np.zeros((0, 3)), np.ones(0), frame_coords=[np.zeros(0)] * 3)
+    path, ref_path, report = tmp_path / "notruth.h5", tmp_path / "ref.h5", tmp_path / "m.json"
+    write_product(path, img)
+    ref = dataclasses.replace(img, data=np.roll(img.data, 1, axis=0))  # one row later
+    write_product(ref_path, ref)
+    res = run(path, "--reference", ref_path, "--points", "2", "-o", report)
+    assert res.exit_code == 0, res.output
+    doc = json.loads(report.read_text())
+    assert doc["entropy"] == entropy(np.abs(img.data)) and doc["reference_entropy"] == entropy(np.abs(ref.data))
+    assert doc["ncc"] == magnitude_ncc(np.abs(img.data), np.abs(ref.data)) and doc["same_grid"] is True
+    assert doc["spacing"] == {"azimuth": pytest.approx(STEP[0]), "range": pytest.approx(STEP[1])}
+    truth = sorted((TARGETS[n][0] / STEP[0] + 64, TARGETS[n][1] / STEP[1] + 64) for n in TARGETS)
+    found = sorted(tuple(p["peak"]) for p in doc["points"])
+    assert len(found) == 2 and np.allclose(found, truth, atol=0.25)
+    for p in doc["points"]:
+        assert p["offset"] == pytest.approx([-1.0, 0.0], abs=1e-9)
+        assert p["level_db"] <= 0
+    assert "No truth: 128 x 128 pixels" in res.output and "NCC of the magnitudes" in res.output
+    res = run(path)
+    assert res.exit_code == 0 and "offset (px)" not in res.output and 2 <= res.output.count("\n| (") <= 10
+    assert run(path, "--expect", tmp_path / "x.yaml").exit_code == 2
+    assert run(make_image(tmp_path / "t.h5"), "--reference", ref_path).exit_code == 2
