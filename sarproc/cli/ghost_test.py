@@ -9,7 +9,15 @@ from typing import TYPE_CHECKING
 import click
 
 from sarproc.cli.markdown import markdown_table
-from sarproc.cli.options import SectionCommand, config_option, load_config, stdout_taken, verbosity
+from sarproc.cli.options import (
+    SectionCommand,
+    config_option,
+    load_config,
+    progress_option,
+    stdout_taken,
+    verbosity,
+    want_progress,
+)
 
 if TYPE_CHECKING:
     from sarproc.quality.ghost_test import GhostTest
@@ -66,8 +74,15 @@ def _levels(text: str) -> list[float]:
 )
 @click.option("--overwrite", is_flag=True, help="Replace an existing -o report.")
 @config_option
+@progress_option
 def ghost_test(
-    clean_path: Path, ghosted_path: Path, levels: str, output: Path | None, overwrite: bool, config_path: Path | None
+    clean_path: Path,
+    ghosted_path: Path,
+    levels: str,
+    output: Path | None,
+    overwrite: bool,
+    config_path: Path | None,
+    progress: bool | None,
 ) -> None:
     """Injected-ghost test of evaluate's residual false-target search on two images of one scene.
 
@@ -80,6 +95,7 @@ def ghost_test(
     (the two grids differ, a 3D cube).
     """
     from sarproc.cli.evaluate import _write_text_atomic
+    from sarproc.cli.progress import progress_factory
     from sarproc.product.io import check_output_path, read_product
     from sarproc.quality.ghost_test import injected_ghosts
     from sarproc.quality.metrics import EvaluateParams
@@ -90,7 +106,7 @@ def ghost_test(
         check_output_path(output, [clean_path, ghosted_path], overwrite=overwrite)
     clean = read_product(clean_path, kinds=("image",))
     ghosted = read_product(ghosted_path, kinds=("image",))
-    test = injected_ghosts(clean, ghosted, params, wanted)
+    test = injected_ghosts(clean, ghosted, params, wanted, progress_factory(want_progress(progress), "ghost-test"))
     if output is not None:
         doc = {"clean": str(clean_path), "ghosted": str(ghosted_path), **test.to_dict()}
         _write_text_atomic(output, json.dumps(doc, indent=2) + "\n", overwrite)

@@ -10,8 +10,8 @@ level and place. Pure: products in, figures out (the command prints and writes t
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from collections.abc import Callable, Iterable, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -65,10 +65,14 @@ def _residual_figures(report: QualityReport) -> tuple[float, float, float]:
 
 
 def injected_ghosts(
-    clean: Product, ghosted: Product, params: EvaluateParams, levels: Sequence[float] = LEVELS_DB
+    clean: Product,
+    ghosted: Product,
+    params: EvaluateParams,
+    levels: Sequence[float] = LEVELS_DB,
+    progress: Callable[[Iterable[Any]], Iterable[Any]] | None = None,
 ) -> GhostTest:
     """G's response (GHOSTED - CLEAN) injected into CLEAN at each of ``levels`` and evaluated with ``params``
-    (its residual search turned on) and CLEAN's targets table."""
+    (its residual search turned on) and CLEAN's targets table; ``progress`` wraps each evaluation's targets."""
     from sarproc.quality.metrics import evaluate_product
 
     if clean.data.ndim != 2:
@@ -79,7 +83,7 @@ def injected_ghosts(
         raise InputError("ghost-test: the ghost changed the image grid: put it inside the targets' extent")
     params = dataclasses.replace(params, residual=True)
     response = ghosted.data.astype(np.complex128) - clean.data
-    base = evaluate_product(clean, params)
+    base = evaluate_product(clean, params, progress=progress)
     floor_db, ft_db, guard_db = _residual_figures(base)
     ref = max(t.peak_amplitude for t in base.targets)
     g_index = np.unravel_index(np.argmax(np.abs(response)), response.shape)
@@ -90,7 +94,7 @@ def injected_ghosts(
     for level in levels:
         a = 10 ** (level / 20) * ref / g_peak  # G's strongest pixel at `level` below the strongest target's peak
         product = dataclasses.replace(clean, data=(clean.data + a * response).astype(np.complex64))
-        rep = evaluate_product(product, params)
+        rep = evaluate_product(product, params, progress=progress)
         floor, _, guard = _residual_figures(rep)
         ft = rep.false_target
         assert ft is not None
