@@ -121,9 +121,11 @@ def compare_hdf5(base: Path, new: Path) -> dict[str, Any]:
         if sa.shape != sb.shape:
             row["signal"] = f"shapes differ: {sa.shape} vs {sb.shape}"
             row["rel"] = ""
+            row["signal_db"] = row["max_rel"] = None
         else:
             db, rel = dataset_difference_db(sa, sb)
             row["signal"], row["rel"] = _fmt_db(db), _fmt_rel(rel)
+            row["signal_db"], row["max_rel"] = db, rel  # the numbers (-inf dB: identical)
     dsets, attrs = hdf5_differences(base, new, signal)
     row["datasets"] = ", ".join(dsets) or "none"
     other = [a for a in attrs if a != "/@history"]
@@ -265,12 +267,21 @@ def same_bytes(b: Path, a: Path) -> str:
     return "same" if sha256(b) == sha256(a) else "differ"
 
 
+def product_record(b: Path, a: Path, name: str) -> dict[str, Any]:
+    """Row ``name`` of the products' table (``"row"``) with its signal figures as numbers: ``"signal_db"``
+    (difference power / signal power, dB; -inf identical) and ``"max_rel"`` (max |new - base| / max |base|),
+    None where the product is missing in new or the shapes differ."""
+    if not a.exists():
+        row = [name, "missing in new"] + [""] * (len(PRODUCT_COLUMNS) - 2)
+        return {"row": row, "signal_db": None, "max_rel": None}
+    r = compare_hdf5(b, a)
+    row = [name, r["kind"], r["shape"], r["signal"], r["rel"], r["datasets"], r["attrs"], same_bytes(b, a)]
+    return {"row": row, "signal_db": r["signal_db"], "max_rel": r["max_rel"]}
+
+
 def product_row(b: Path, a: Path, name: str) -> list[str]:
     """Row ``name`` of the products' table: HDF5 product ``b`` (base) against ``a`` (new)."""
-    if not a.exists():
-        return [name, "missing in new"] + [""] * (len(PRODUCT_COLUMNS) - 2)
-    r = compare_hdf5(b, a)
-    return [name, r["kind"], r["shape"], r["signal"], r["rel"], r["datasets"], r["attrs"], same_bytes(b, a)]
+    return list(product_record(b, a, name)["row"])
 
 
 def report_row(b: Path, a: Path, name: str) -> list[str]:

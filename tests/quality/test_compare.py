@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 import subprocess
 import sys
@@ -70,3 +71,28 @@ def test_the_command_tabulates_two_folders_and_two_files(tmp_path):
     assert same.returncode == 0 and "| identical |" in same.stdout
     mixed = subprocess.run([*cmd, str(base), one], capture_output=True, text=True)
     assert mixed.returncode == 2 and "two files or two folders" in mixed.stderr
+
+
+def test_json_output_gives_the_products_signal_figures_as_numbers(tmp_path):
+    """`sarproc compare BASE NEW -o FILE`: the tables as JSON, a product's signal figures as numbers (what
+    scripts/range_upsample_effect.py tabulates), equal to difference_db's."""
+    from click.testing import CliRunner
+
+    from sarproc.cli.main import cli
+
+    base, new, out = tmp_path / "base.h5", tmp_path / "new.h5", tmp_path / "diff.json"
+    image_without_targets(base)
+    image_without_targets(new)
+    with h5py.File(new, "r+") as f:
+        f["image"][5, :] = f["image"][5, :] * np.complex64(1.5)
+    with h5py.File(base) as fa, h5py.File(new) as fb:
+        db, rel = cp.difference_db(fa["image"][()], fb["image"][()])
+    res = CliRunner().invoke(cli, ["compare", str(base), str(new), "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    (entry,) = json.loads(out.read_text())["files"]
+    assert entry["table"] == "h5" and entry["cells"]["signal diff / signal"] == f"{db:.1f} dB"
+    assert entry["signal_db"] == db and entry["max_rel"] == rel and -60 < db < 0
+    res = CliRunner().invoke(cli, ["compare", str(base), str(base), "-o", str(out), "--overwrite"])
+    (entry,) = json.loads(out.read_text())["files"]
+    assert res.exit_code == 0 and entry["signal_db"] == -math.inf and entry["max_rel"] == 0
+    assert CliRunner().invoke(cli, ["compare", str(base), str(new), "-o", str(out)]).exit_code == 2  # exists
