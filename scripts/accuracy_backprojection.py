@@ -10,7 +10,8 @@ worst point-target quality over targets and axes, |IRW/theory - 1|, PSLR, ISLR, 
 is the sweep's), with what a sweep row cannot hold read off the sweep's images: the deviation of every
 image from the finest setting (float64 reference engine, upsample 32, linear), max |image - finest| /
 max |finest| in dB, and, for the fast factorised engine, its error against the exact image it approximates (the
-compiled engine, linear x8: power of the difference over the image's power, the figure the plan predicts).
+compiled engine, linear x8: power of the difference over the image's power, the figure the plan predicts),
+both from `sarproc compare` (-o JSON: max_rel and signal_db of the image against the finest / the exact one).
 Writes ``table.md`` and ``table.json``.
 """
 
@@ -18,13 +19,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
+import subprocess
+import sys
+import tempfile
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from sarproc.product.io import read_product
-from sarproc.quality.image_measures import deviation_db
 from sarproc.quality.summary import SINC_ISLR_DB, SINC_PSLR_DB
 from sarproc.quality.tradeoff import pareto_front, timing_stats
 
@@ -95,6 +97,15 @@ def _ffbp_setting(r: dict) -> str:
     )
 
 
+def compare(base: Path, new: Path, tmp: Path) -> dict:
+    """`sarproc compare BASE NEW -o`: the product entry (signal_db, max_rel) of its JSON."""
+    out = tmp / "compare.json"
+    cmd = [sys.executable, "-m", "sarproc", "compare", str(base), str(new), "-o", str(out), "--overwrite"]
+    subprocess.run(cmd, check=True, capture_output=True)
+    (entry,) = json.loads(out.read_text())["files"]
+    return entry
+
+
 def from_sweep(directory: Path) -> list:
     """Per scene: its rows (the sweep's times and quality, the deviation from the finest image) and shapes."""
     doc = json.loads((directory / "table.json").read_text())
@@ -110,7 +121,7 @@ def from_sweep(directory: Path) -> list:
                 r["backproject.interpolation"],
                 _ffbp_setting(r),
             )
-            images[setting] = read_product(directory / "tasks" / r["task"] / "backproject.h5")
+            images[setting] = directory / "tasks" / r["task"] / "backproject.h5"
             rows.append(
                 {
                     "engine": setting[0],
@@ -127,22 +138,22 @@ def from_sweep(directory: Path) -> list:
             )
         if REFERENCE not in images:
             raise SystemExit(f"{directory}: no task of {scene_key} with the finest setting {REFERENCE}")
-        ref = images[REFERENCE].data
-        exact = images[EXACT].data if EXACT in images else None
-        for row in rows:
-            img = images[_key(row)].data
-            row["deviation_db"] = deviation_db(img, ref)
-            row["within"] = within(row)
-            if row["engine"] == "ffbp" and exact is not None:
-                diff = float(np.sum(np.abs(img - exact) ** 2) / np.sum(np.abs(exact) ** 2))
-                row["error_db"] = 10 * np.log10(max(diff, 1e-30))
+        ref, exact = images[REFERENCE], images.get(EXACT)
+        with tempfile.TemporaryDirectory() as tmp:
+            for row in rows:
+                img = images[_key(row)]
+                row["deviation_db"] = 20 * math.log10(max(compare(ref, img, Path(tmp))["max_rel"], 1e-30))
+                row["within"] = within(row)
+                if row["engine"] == "ffbp" and exact is not None:
+                    row["error_db"] = max(compare(exact, img, Path(tmp))["signal_db"], -300.0)
         rows.sort(key=lambda r: (r["engine"] != "reference", r["engine"], r["interpolation"], r["upsample"], r["ffbp"]))
         raw = read_product(next((directory / "raw").glob(f"{scene_key}-*.h5")), load=False)
+        header = read_product(ref, load=False)
         results.append(
             {
                 "scene": scene,
                 "raw_shape": [len(raw.coords[d]) for d in raw.dims],
-                "image_shape": list(ref.shape),
+                "image_shape": [len(header.coords[d]) for d in header.dims],
                 "rows": rows,
             }
         )
