@@ -15,6 +15,7 @@ from sarproc.cli.markdown import markdown_table
 from sarproc.cli.options import (
     SectionCommand,
     config_option,
+    dry_run,
     dry_run_option,
     input_argument,
     load_config,
@@ -444,6 +445,9 @@ def _truth_free(
 
     if output is not None:
         check_output_path(output, [input_path] + ([reference_path] if reference_path else []), overwrite=overwrite)
+    if dry_run():
+        click.echo(f"{input_path}: no truth; the truth-free measures would be taken (nothing computed or written)")
+        return
     image = read_product(input_path, kinds=("image",))
     ref = None if reference_path is None else read_product(reference_path, kinds=("image",))
     if ref is not None and (ref.data.shape != image.data.shape or ref.dims != image.dims):
@@ -484,7 +488,7 @@ def truth_free_table(doc: dict) -> str:
         + ([", ".join(f"{v:+.3f}" for v in p["offset"])] if with_ref else [])
         for p in doc["points"]
     ]
-    return head + "\n\n" + markdown_table(columns, rows, "lrrr")
+    return head + "\n\n" + markdown_table(columns, rows, "lrr" + "r" * with_ref)
 
 
 def _finite(x: float) -> float | None:

@@ -427,5 +427,8 @@ def test_image_without_truth_gets_the_truth_free_measures(tmp_path):
     assert "No truth: 128 x 128 pixels" in res.output and "NCC of the magnitudes" in res.output
     res = run(path)
     assert res.exit_code == 0 and "offset (px)" not in res.output and 2 <= res.output.count("\n| (") <= 10
+    assert "|---|---:|---:|\n" in res.output  # one alignment cell per column
+    dry = run(path, "--dry-run", "-o", tmp_path / "dry.json")
+    assert dry.exit_code == 0 and "nothing computed" in dry.output and not (tmp_path / "dry.json").exists()
     assert run(path, "--expect", tmp_path / "x.yaml").exit_code == 2
     assert run(make_image(tmp_path / "t.h5"), "--reference", ref_path).exit_code == 2
