@@ -1519,7 +1519,8 @@ def _others_subtracted(
     """``y`` minus the other groups' current models on ``points`` (their side lobes), each only where its
     envelope reaches ``reach``. Within :func:`_fit_response_models` a model (the same object) on the same
     ``points`` (the same array) is evaluated once (:data:`_OTHERS`): a quarter of these evaluations on 002
-    small two-step are of models no fit has replaced since."""
+    small two-step are of models no fit has replaced since; and a model whose envelope over the box holding all of
+    ``points`` is under ``reach`` is not bounded at each of them (:func:`_outside_reach`)."""
     rhs = y.copy()
     cache = _OTHERS.cache
     for j in live:
@@ -1530,8 +1531,11 @@ def _others_subtracted(
         if hit is not None and hit[0] is m and hit[1] is points:
             near, values = hit[2], hit[3]
         else:
-            near = envelope_bound(m, points.T) >= reach
-            values = model_values(points[:, near], m) if near.any() else None
+            if cache is not None and _outside_reach(m, points, reach):
+                near, values = None, None
+            else:
+                near = envelope_bound(m, points.T) >= reach
+                values = model_values(points[:, near], m) if near.any() else None
             if cache is not None:  # the objects held with their values, so their ids are not reused
                 cache[(id(m), id(points), reach)] = (m, points, near, values)
         if values is not None:
@@ -1539,12 +1543,53 @@ def _others_subtracted(
     return rhs
 
 
+# A model's envelope over a box (:func:`envelope_bound`) bounds it at every sample in the box: where the box's bound,
+# this fraction above it for rounding, is under the reach, so is every sample's.
+BOX_MARGIN = 1e-9
+
+
+def _outside_reach(model: ResponseModel, points: np.ndarray, reach: float) -> bool:
+    """Whether ``model``'s envelope over the box that holds every sample of ``points`` ((ndim, N) indices) is under
+    ``reach`` (with :data:`BOX_MARGIN`): then its bound at each sample is too, and none need be taken (002 small
+    plain: 585 of the 1500 (model, samples) pairs its fits bound reach none of their samples, 608 in all). Within
+    :func:`_fit_response_models` a model is bounded over the boxes of every sample set the fits know at once
+    (:func:`_know_samples`), once. A warped model's bound at a sample is not its bound over a box (the warp's norm
+    times the sample's squared distance): not compared."""
+    boxes, bounds = _OTHERS.boxes, _OTHERS.bounds
+    if boxes is None or bounds is None or model.warp is not None:
+        return False
+    if id(points) not in boxes:
+        _know_samples([points])
+    kept = bounds.get(id(model))
+    if kept is None or kept[0] is not model or id(points) not in kept[1]:
+        keys = list(boxes)
+        lo = np.array([boxes[k][1] for k in keys])
+        hi = np.array([boxes[k][2] for k in keys])
+        kept = (model, dict(zip(keys, envelope_bound(model, lo, hi).tolist())))
+        bounds[id(model)] = kept  # the model held, so its id is not reused
+    return kept[1][id(points)] * (1.0 + BOX_MARGIN) < reach
+
+
+def _know_samples(sets: Sequence[np.ndarray]) -> None:
+    """Each sample set's box (its least and greatest index per axis) kept for :func:`_outside_reach` (the array
+    held, so its id is not reused) while :func:`_fit_response_models` runs."""
+    boxes = _OTHERS.boxes
+    if boxes is None:
+        return
+    for points in sets:
+        if id(points) not in boxes:
+            boxes[id(points)] = (points, points.min(axis=1).astype(float), points.max(axis=1).astype(float))
+
+
 class _OthersCache(threading.local):
-    """Per thread (evaluations may run side by side on a Dask worker's threads): (model, points, reach) ->
-    (model, points, mask, values) of :func:`_others_subtracted` while :func:`_fit_response_models` runs (None
-    outside it)."""
+    """Per thread (evaluations may run side by side on a Dask worker's threads), while :func:`_fit_response_models`
+    runs (None outside it): ``cache``, (model, points, reach) -> (model, points, mask, values) of
+    :func:`_others_subtracted`; ``boxes``, id(points) -> (points, least, greatest index per axis) and ``bounds``,
+    id(model) -> (model, {id(points): its envelope over that box}) of :func:`_outside_reach`."""
 
     cache: dict | None = None
+    boxes: dict | None = None
+    bounds: dict | None = None
 
 
 _OTHERS = _OthersCache()
@@ -1617,11 +1662,12 @@ def _fit_response_models(
 ) -> list[ResponseModel | None]:
     """:func:`_fitted_response_models` with the other groups' models on a fit's samples evaluated once
     (:data:`_OTHERS`)."""
-    before, _OTHERS.cache = _OTHERS.cache, {}
+    before = (_OTHERS.cache, _OTHERS.boxes, _OTHERS.bounds)
+    _OTHERS.cache, _OTHERS.boxes, _OTHERS.bounds = {}, {}, {}
     try:
         return _fitted_response_models(data, found, nulls, params, support_shape)
     finally:
-        _OTHERS.cache = before
+        _OTHERS.cache, _OTHERS.boxes, _OTHERS.bounds = before
 
 
 def _fitted_response_models(
@@ -1661,6 +1707,7 @@ def _fitted_response_models(
         far = unique_columns(np.concatenate([strips[k] for k in members], axis=1), data.shape)[0]
         fits.append((members, near, data[tuple(near)].astype(complex), far, data[tuple(far)].astype(complex)))
     reach = 0.0 if params.exact else float(np.abs(data).max()) * 10 ** (FIT_REACH_DB / 20)
+    _know_samples([fit[3] for fit in fits])  # every model bounded over all their boxes at once (:func:`_outside_reach`)
     # a member's support widths (the image nulls' scale): its own null spacing, or where _search_widths found them
     centre = {j: own[j] / nulls for j in live}
     rich = max(2, params.residual_orders + RICHER_EXTRA_ORDERS)
