@@ -1519,8 +1519,8 @@ def _others_subtracted(
     """``y`` minus the other groups' current models on ``points`` (their side lobes), each only where its
     envelope reaches ``reach``. Within :func:`_fit_response_models` a model (the same object) on the same
     ``points`` (the same array) is evaluated once (:data:`_OTHERS`): a quarter of these evaluations on 002
-    small two-step are of models no fit has replaced since; and a model whose envelope over the box holding all of
-    ``points`` is under ``reach`` is not bounded at each of them (:func:`_outside_reach`)."""
+    small two-step are of models no fit has replaced since; and where a model's envelope over the box holding all of
+    ``points`` decides that it reaches all of them or none, it is not bounded at each (:func:`_reach_by_box`)."""
     rhs = y.copy()
     cache = _OTHERS.cache
     for j in live:
@@ -1531,10 +1531,11 @@ def _others_subtracted(
         if hit is not None and hit[0] is m and hit[1] is points:
             near, values = hit[2], hit[3]
         else:
-            if cache is not None and _outside_reach(m, points, reach):
+            decided = _reach_by_box(m, points, reach) if cache is not None else None
+            if decided is False:
                 near, values = None, None
             else:
-                near = envelope_bound(m, points.T) >= reach
+                near = np.ones(points.shape[1], dtype=bool) if decided else envelope_bound(m, points.T) >= reach
                 values = model_values(points[:, near], m) if near.any() else None
             if cache is not None:  # the objects held with their values, so their ids are not reused
                 cache[(id(m), id(points), reach)] = (m, points, near, values)
@@ -1543,21 +1544,23 @@ def _others_subtracted(
     return rhs
 
 
-# A model's envelope over a box (:func:`envelope_bound`) bounds it at every sample in the box: where the box's bound,
-# this fraction above it for rounding, is under the reach, so is every sample's.
+# A model's envelope over a box bounds its envelope at every sample in the box from above (:func:`envelope_bound`)
+# and from below (:func:`envelope_floor`): where the one, this fraction above it for rounding, is under the reach,
+# so is every sample's; where the other is this fraction over it, so is every sample's.
 BOX_MARGIN = 1e-9
 
 
-def _outside_reach(model: ResponseModel, points: np.ndarray, reach: float) -> bool:
-    """Whether ``model``'s envelope over the box that holds every sample of ``points`` ((ndim, N) indices) is under
-    ``reach`` (with :data:`BOX_MARGIN`): then its bound at each sample is too, and none need be taken (002 small
-    plain: 585 of the 1500 (model, samples) pairs its fits bound reach none of their samples, 608 in all). Within
+def _reach_by_box(model: ResponseModel, points: np.ndarray, reach: float) -> bool | None:
+    """Whether ``model``'s envelope (:func:`envelope_bound`) reaches ``reach`` at every sample of ``points`` ((ndim, N)
+    indices), True, or at none, False, as its bounds over the box that holds them all decide (with
+    :data:`BOX_MARGIN`); None where they do not (then each sample is bounded). 002 small plain: of the 1500 (model,
+    samples) pairs its fits bound, 608 reach none of their samples and 657 all; the box decides 585 and 657. Within
     :func:`_fit_response_models` a model is bounded over the boxes of every sample set the fits know at once
     (:func:`_know_samples`), once. A warped model's bound at a sample is not its bound over a box (the warp's norm
-    times the sample's squared distance): not compared."""
+    times the sample's squared distance): not decided."""
     boxes, bounds = _OTHERS.boxes, _OTHERS.bounds
     if boxes is None or bounds is None or model.warp is not None:
-        return False
+        return None
     if id(points) not in boxes:
         _know_samples([points])
     kept = bounds.get(id(model))
@@ -1565,13 +1568,19 @@ def _outside_reach(model: ResponseModel, points: np.ndarray, reach: float) -> bo
         keys = list(boxes)
         lo = np.array([boxes[k][1] for k in keys])
         hi = np.array([boxes[k][2] for k in keys])
-        kept = (model, dict(zip(keys, envelope_bound(model, lo, hi).tolist())))
+        most, least = envelope_bound(model, lo, hi).tolist(), envelope_floor(model, lo, hi).tolist()
+        kept = (model, dict(zip(keys, zip(most, least))))
         bounds[id(model)] = kept  # the model held, so its id is not reused
-    return kept[1][id(points)] * (1.0 + BOX_MARGIN) < reach
+    most, least = kept[1][id(points)]
+    if most * (1.0 + BOX_MARGIN) < reach:
+        return False
+    if least >= reach * (1.0 + BOX_MARGIN):
+        return True
+    return None
 
 
 def _know_samples(sets: Sequence[np.ndarray]) -> None:
-    """Each sample set's box (its least and greatest index per axis) kept for :func:`_outside_reach` (the array
+    """Each sample set's box (its least and greatest index per axis) kept for :func:`_reach_by_box` (the array
     held, so its id is not reused) while :func:`_fit_response_models` runs."""
     boxes = _OTHERS.boxes
     if boxes is None:
@@ -1585,7 +1594,7 @@ class _OthersCache(threading.local):
     """Per thread (evaluations may run side by side on a Dask worker's threads), while :func:`_fit_response_models`
     runs (None outside it): ``cache``, (model, points, reach) -> (model, points, mask, values) of
     :func:`_others_subtracted`; ``boxes``, id(points) -> (points, least, greatest index per axis) and ``bounds``,
-    id(model) -> (model, {id(points): its envelope over that box}) of :func:`_outside_reach`."""
+    id(model) -> (model, {id(points): its envelope's bounds over that box, most and least}) of :func:`_reach_by_box`."""
 
     cache: dict | None = None
     boxes: dict | None = None
@@ -1707,7 +1716,7 @@ def _fitted_response_models(
         far = unique_columns(np.concatenate([strips[k] for k in members], axis=1), data.shape)[0]
         fits.append((members, near, data[tuple(near)].astype(complex), far, data[tuple(far)].astype(complex)))
     reach = 0.0 if params.exact else float(np.abs(data).max()) * 10 ** (FIT_REACH_DB / 20)
-    _know_samples([fit[3] for fit in fits])  # every model bounded over all their boxes at once (:func:`_outside_reach`)
+    _know_samples([fit[3] for fit in fits])  # every model bounded over all their boxes at once (:func:`_reach_by_box`)
     # a member's support widths (the image nulls' scale): its own null spacing, or where _search_widths found them
     centre = {j: own[j] / nulls for j in live}
     rich = max(2, params.residual_orders + RICHER_EXTRA_ORDERS)
@@ -2061,10 +2070,31 @@ def envelope_bound(model: ResponseModel, lo: np.ndarray, hi: np.ndarray | None =
     magnitude = np.abs(centre)
     inner = magnitude if radius is None else magnitude - radius  # |c| at its least and most over each box
     outer = magnitude if radius is None else magnitude + radius
+    return _envelope(model, inner, outer)
+
+
+def envelope_floor(model: ResponseModel, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """The least over each image box [lo, hi] ((B, ndim) inclusive index corners) of :func:`envelope_bound` at its
+    points, at most (an unwarped model): the bound with each term taken where the box makes it least, the ridge
+    coordinates' largest |c| where the bound falls with |c| and their least where it grows (a keystone's fan, a
+    bow), (B,)."""
+    if model.warp is not None:
+        raise ValueError("envelope_floor: a warped model's bound at points is not bounded over boxes here")
+    A, p = _ridge_frame(model.position, model.ridges, model.nulls)
+    magnitude = np.abs(((lo + hi) / 2.0 - p) @ A.T)
+    radius = ((hi - lo) / 2.0) @ np.abs(A).T
+    return _envelope(model, magnitude + radius, np.maximum(0.0, magnitude - radius))
+
+
+def _envelope(model: ResponseModel, inner: np.ndarray, outer: np.ndarray) -> np.ndarray:
+    """:func:`envelope_bound` from the ridge coordinates' |c| (B, ndim) where the bound is taken: ``inner`` for the
+    sincs' distances from their ridges (the bound falls as they grow), ``outer`` for the keystone's fan and the
+    bow (it grows with them); the same |c| for both at a point."""
     shift = float(np.abs(model.orders).max()) / 2.0
     dist = np.maximum(0.0, inner - shift)
     kappa = model.kappa
-    width, margin, steps = 1.0, 1.0, 0.0
+    width, margin = 1.0, 1.0
+    steps: float | np.ndarray = 0.0
     if kappa is not None and _keystoned(kappa):
         k = np.abs(np.asarray(kappa, dtype=float))
         # the strips' staircase: its steps' edges add ridges across the last axis every S nulls along it,

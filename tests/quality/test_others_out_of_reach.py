@@ -1,6 +1,6 @@
-"""A model whose envelope over the box holding all of a fit's samples lies under the reach reaches none of them
-(residual._outside_reach): its bound at each sample is not taken, and the right-hand sides and the fitted models
-are the same bits as when every sample is bounded."""
+"""A model whose envelope over the box holding all of a fit's samples lies under the reach reaches none of them, and
+one whose least envelope over it lies over the reach reaches all (residual._reach_by_box): its bound at each sample is
+not taken, and the right-hand sides and the fitted models are the same bits as when every sample is bounded."""
 
 from __future__ import annotations
 
@@ -18,6 +18,7 @@ from sarproc.quality.residual import (
     _model_on_box,
     _others_subtracted,
     envelope_bound,
+    envelope_floor,
     fit_response_models,
     spectral_orders,
 )
@@ -34,7 +35,7 @@ def _model(rng, position, kappa=0.0, curvature=0.0, warped=False):
 
 
 @pytest.mark.parametrize("kappa, curvature", [(0.0, 0.0), (0.02, 0.0), (-0.05, 0.0), (0.02, 0.1), (0.0, -0.15)])
-def test_the_bound_over_a_box_bounds_every_sample_in_it(kappa, curvature):
+def test_the_bounds_over_a_box_bound_every_sample_in_it(kappa, curvature):
     rng = np.random.default_rng(7)
     for _ in range(40):
         model = _model(rng, rng.uniform(0, 200, 2), kappa, curvature)
@@ -42,8 +43,9 @@ def test_the_bound_over_a_box_bounds_every_sample_in_it(kappa, curvature):
         grid = np.meshgrid(*(np.arange(c, c + s) for c, s in zip(corner, size)), indexing="ij")
         points = np.stack([x.ravel() for x in grid])
         at_samples = envelope_bound(model, points.T)
-        over_box = envelope_bound(model, points.min(axis=1)[None].astype(float), points.max(axis=1)[None].astype(float))
-        assert at_samples.max() <= over_box[0] * (1 + BOX_MARGIN)
+        lo, hi = points.min(axis=1)[None].astype(float), points.max(axis=1)[None].astype(float)
+        assert at_samples.max() <= envelope_bound(model, lo, hi)[0] * (1 + BOX_MARGIN)
+        assert at_samples.min() * (1 + BOX_MARGIN) >= envelope_floor(model, lo, hi)[0]
 
 
 def _samples_about(centre, half):
@@ -51,21 +53,24 @@ def _samples_about(centre, half):
     return np.stack([x.ravel() for x in grid])
 
 
-def test_models_out_of_reach_are_not_bounded_at_each_sample(monkeypatch):
+def test_models_the_box_decides_are_not_bounded_at_each_sample(monkeypatch):
     rng = np.random.default_rng(3)
-    # the fit's own target, a neighbour on its range ridge (reaches), one far off both ridges (does not), and a
-    # warped one far off too (its bound at a sample is not its bound over a box: bounded at each sample)
+    # the fit's own target; a neighbour on its range ridge (reaches every sample), one far off both ridges (none),
+    # one between (some: bounded at each), and a warped one (its bound at a sample is not its bound over a box)
     own = _model(rng, (100.0, 100.0))
-    near = _model(rng, (100.0, 160.0))
-    far = _model(rng, (520.0, 530.0))
+    every = _model(rng, (100.0, 160.0))
+    none = _model(rng, (520.0, 530.0))
+    some = _model(rng, (300.0, 300.0))
     warped = _model(rng, (530.0, 90.0), warped=True)
-    models = [own, near, far, warped]
+    models = [own, every, none, some, warped]
+    live = list(range(len(models)))
     points = _samples_about((100, 100), 20)
     y = rng.normal(size=points.shape[1]) + 1j * rng.normal(size=points.shape[1])
-    reach = 1e-5
-    assert envelope_bound(near, points.T).max() >= reach
-    assert envelope_bound(far, points.T).max() < reach
-    want = _others_subtracted(y, points, [0], [0, 1, 2, 3], models, reach)  # outside a fit: every sample bounded
+    reach = 1.8e-5
+    assert envelope_bound(every, points.T).min() >= reach
+    assert envelope_bound(none, points.T).max() < reach
+    assert envelope_bound(some, points.T).min() < reach <= envelope_bound(some, points.T).max()
+    want = _others_subtracted(y, points, [0], live, models, reach)  # outside a fit: every sample bounded
     at_samples = []
     real = residual.envelope_bound
 
@@ -77,9 +82,9 @@ def test_models_out_of_reach_are_not_bounded_at_each_sample(monkeypatch):
     monkeypatch.setattr(residual, "envelope_bound", counted)
     for name in ("cache", "boxes", "bounds"):
         monkeypatch.setattr(residual._OTHERS, name, {})
-    got = _others_subtracted(y, points, [0], [0, 1, 2, 3], models, reach)
+    got = _others_subtracted(y, points, [0], live, models, reach)
     assert np.array_equal(got.view(np.uint64), want.view(np.uint64))
-    assert len(at_samples) == 2 and at_samples[0] is near and at_samples[1] is warped
+    assert len(at_samples) == 2 and at_samples[0] is some and at_samples[1] is warped
 
 
 def test_a_model_is_bounded_over_every_known_box_once(monkeypatch):
@@ -122,16 +127,16 @@ def test_the_fitted_models_are_the_same_bits_without_the_box_test(monkeypatch):
     ]
     nulls = np.array([2.3, 2.1])
     decided = []
-    real = residual._outside_reach
+    real = residual._reach_by_box
 
     def counted(model, points, reach):
         decided.append(real(model, points, reach))
         return decided[-1]
 
-    monkeypatch.setattr(residual, "_outside_reach", counted)
+    monkeypatch.setattr(residual, "_reach_by_box", counted)
     fitted = fit_response_models(data, found, nulls, EvaluateParams(), support_shape=True)
-    assert any(decided)  # some models were bounded away over the boxes
-    monkeypatch.setattr(residual, "_outside_reach", lambda model, points, reach: False)
+    assert False in decided and True in decided  # models bounded away over the boxes, and reaching all
+    monkeypatch.setattr(residual, "_reach_by_box", lambda model, points, reach: None)
     every_sample = fit_response_models(data, found, nulls, EvaluateParams(), support_shape=True)
     for a, b in zip(fitted, every_sample):
         assert a is not None and b is not None
