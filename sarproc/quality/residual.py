@@ -1554,12 +1554,12 @@ def _reach_by_box(model: ResponseModel, points: np.ndarray, reach: float) -> boo
     """Whether ``model``'s envelope (:func:`envelope_bound`) reaches ``reach`` at every sample of ``points`` ((ndim, N)
     indices), True, or at none, False, as its bounds over the box that holds them all decide (with
     :data:`BOX_MARGIN`); None where they do not (then each sample is bounded). 002 small plain: of the 1500 (model,
-    samples) pairs its fits bound, 608 reach none of their samples and 657 all; the box decides 585 and 657. Within
+    samples) pairs its fits bound, 608 reach none of their samples and 657 all; the box decides 585 and 640. Within
     :func:`_fit_response_models` a model is bounded over the boxes of every sample set the fits know at once
     (:func:`_know_samples`), once. A warped model's bound at a sample is not its bound over a box (the warp's norm
     times the sample's squared distance): not decided."""
     boxes, bounds = _OTHERS.boxes, _OTHERS.bounds
-    if boxes is None or bounds is None or model.warp is not None:
+    if boxes is None or bounds is None or model.warp is not None or not points.shape[1]:
         return None
     if id(points) not in boxes:
         _know_samples([points])
@@ -1586,7 +1586,7 @@ def _know_samples(sets: Sequence[np.ndarray]) -> None:
     if boxes is None:
         return
     for points in sets:
-        if id(points) not in boxes:
+        if id(points) not in boxes and points.shape[1]:
             boxes[id(points)] = (points, points.min(axis=1).astype(float), points.max(axis=1).astype(float))
 
 

@@ -143,3 +143,14 @@ def test_the_fitted_models_are_the_same_bits_without_the_box_test(monkeypatch):
         for field in dataclasses.fields(a):
             u, v = np.asarray(getattr(a, field.name)), np.asarray(getattr(b, field.name))
             assert u.dtype == v.dtype and u.tobytes() == v.tobytes(), field.name
+
+
+def test_an_empty_sample_set_is_not_decided(monkeypatch):
+    rng = np.random.default_rng(9)
+    models = [_model(rng, (100.0, 100.0)), _model(rng, (520.0, 530.0))]
+    for name in ("cache", "boxes", "bounds"):
+        monkeypatch.setattr(residual._OTHERS, name, {})
+    empty = np.zeros((2, 0), dtype=int)
+    residual._know_samples([empty])
+    assert residual._reach_by_box(models[1], empty, 1e-5) is None
+    assert _others_subtracted(np.zeros(0, complex), empty, [0], [0, 1], models, 1e-5).shape == (0,)
