@@ -2074,10 +2074,10 @@ def envelope_bound(model: ResponseModel, lo: np.ndarray, hi: np.ndarray | None =
 
 
 def envelope_floor(model: ResponseModel, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """The least over each image box [lo, hi] ((B, ndim) inclusive index corners) of :func:`envelope_bound` at its
-    points, at most (an unwarped model): the bound with each term taken where the box makes it least, the ridge
-    coordinates' largest |c| where the bound falls with |c| and their least where it grows (a keystone's fan, a
-    bow), (B,)."""
+    """A lower bound, per image box [lo, hi] ((B, ndim) inclusive index corners), of :func:`envelope_bound` at each
+    of its points (an unwarped model): the bound with each term taken where the box makes it least, at the ridge
+    coordinates' largest |c| where it falls with |c| (the sincs) and their least where it grows (a keystone's fan,
+    a bow), (B,)."""
     if model.warp is not None:
         raise ValueError("envelope_floor: a warped model's bound at points is not bounded over boxes here")
     A, p = _ridge_frame(model.position, model.ridges, model.nulls)
