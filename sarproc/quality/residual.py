@@ -1519,7 +1519,8 @@ def _others_subtracted(
     """``y`` minus the other groups' current models on ``points`` (their side lobes), each only where its
     envelope reaches ``reach``. Within :func:`_fit_response_models` a model (the same object) on the same
     ``points`` (the same array) is evaluated once (:data:`_OTHERS`): a quarter of these evaluations on 002
-    small two-step are of models no fit has replaced since."""
+    small two-step are of models no fit has replaced since; and where a model's envelope over the box holding all of
+    ``points`` decides that it reaches all of them or none, it is not bounded at each (:func:`_reach_by_box`)."""
     rhs = y.copy()
     cache = _OTHERS.cache
     for j in live:
@@ -1530,8 +1531,12 @@ def _others_subtracted(
         if hit is not None and hit[0] is m and hit[1] is points:
             near, values = hit[2], hit[3]
         else:
-            near = envelope_bound(m, points.T) >= reach
-            values = model_values(points[:, near], m) if near.any() else None
+            decided = _reach_by_box(m, points, reach) if cache is not None else None
+            if decided is False:
+                near, values = None, None
+            else:
+                near = np.ones(points.shape[1], dtype=bool) if decided else envelope_bound(m, points.T) >= reach
+                values = model_values(points[:, near], m) if near.any() else None
             if cache is not None:  # the objects held with their values, so their ids are not reused
                 cache[(id(m), id(points), reach)] = (m, points, near, values)
         if values is not None:
@@ -1539,12 +1544,61 @@ def _others_subtracted(
     return rhs
 
 
+# A model's envelope over a box bounds its envelope at every sample in the box from above (:func:`envelope_bound`)
+# and from below (:func:`envelope_floor`): where the one, this fraction above it for rounding, is under the reach,
+# so is every sample's; where the other is this fraction over it, so is every sample's.
+BOX_MARGIN = 1e-9
+
+
+def _reach_by_box(model: ResponseModel, points: np.ndarray, reach: float) -> bool | None:
+    """Whether ``model``'s envelope (:func:`envelope_bound`) reaches ``reach`` at every sample of ``points`` ((ndim, N)
+    indices), True, or at none, False, as its bounds over the box that holds them all decide (with
+    :data:`BOX_MARGIN`); None where they do not (then each sample is bounded). 002 small plain: of the 1500 (model,
+    samples) pairs its fits bound, 608 reach none of their samples and 657 all; the box decides 585 and 640. Within
+    :func:`_fit_response_models` a model is bounded over the boxes of every sample set the fits know at once
+    (:func:`_know_samples`), once. A warped model's bound at a sample is not its bound over a box (the warp's norm
+    times the sample's squared distance): not decided."""
+    boxes, bounds = _OTHERS.boxes, _OTHERS.bounds
+    if boxes is None or bounds is None or model.warp is not None or not points.shape[1]:
+        return None
+    if id(points) not in boxes:
+        _know_samples([points])
+    kept = bounds.get(id(model))
+    if kept is None or kept[0] is not model or id(points) not in kept[1]:
+        keys = list(boxes)
+        lo = np.array([boxes[k][1] for k in keys])
+        hi = np.array([boxes[k][2] for k in keys])
+        most, least = envelope_bound(model, lo, hi).tolist(), envelope_floor(model, lo, hi).tolist()
+        kept = (model, dict(zip(keys, zip(most, least))))
+        bounds[id(model)] = kept  # the model held, so its id is not reused
+    most, least = kept[1][id(points)]
+    if most * (1.0 + BOX_MARGIN) < reach:
+        return False
+    if least >= reach * (1.0 + BOX_MARGIN):
+        return True
+    return None
+
+
+def _know_samples(sets: Sequence[np.ndarray]) -> None:
+    """Each sample set's box (its least and greatest index per axis) kept for :func:`_reach_by_box` (the array
+    held, so its id is not reused) while :func:`_fit_response_models` runs."""
+    boxes = _OTHERS.boxes
+    if boxes is None:
+        return
+    for points in sets:
+        if id(points) not in boxes and points.shape[1]:
+            boxes[id(points)] = (points, points.min(axis=1).astype(float), points.max(axis=1).astype(float))
+
+
 class _OthersCache(threading.local):
-    """Per thread (evaluations may run side by side on a Dask worker's threads): (model, points, reach) ->
-    (model, points, mask, values) of :func:`_others_subtracted` while :func:`_fit_response_models` runs (None
-    outside it)."""
+    """Per thread (evaluations may run side by side on a Dask worker's threads), while :func:`_fit_response_models`
+    runs (None outside it): ``cache``, (model, points, reach) -> (model, points, mask, values) of
+    :func:`_others_subtracted`; ``boxes``, id(points) -> (points, least, greatest index per axis) and ``bounds``,
+    id(model) -> (model, {id(points): its envelope's bounds over that box, most and least}) of :func:`_reach_by_box`."""
 
     cache: dict | None = None
+    boxes: dict | None = None
+    bounds: dict | None = None
 
 
 _OTHERS = _OthersCache()
@@ -1617,11 +1671,12 @@ def _fit_response_models(
 ) -> list[ResponseModel | None]:
     """:func:`_fitted_response_models` with the other groups' models on a fit's samples evaluated once
     (:data:`_OTHERS`)."""
-    before, _OTHERS.cache = _OTHERS.cache, {}
+    before = (_OTHERS.cache, _OTHERS.boxes, _OTHERS.bounds)
+    _OTHERS.cache, _OTHERS.boxes, _OTHERS.bounds = {}, {}, {}
     try:
         return _fitted_response_models(data, found, nulls, params, support_shape)
     finally:
-        _OTHERS.cache = before
+        _OTHERS.cache, _OTHERS.boxes, _OTHERS.bounds = before
 
 
 def _fitted_response_models(
@@ -1661,6 +1716,7 @@ def _fitted_response_models(
         far = unique_columns(np.concatenate([strips[k] for k in members], axis=1), data.shape)[0]
         fits.append((members, near, data[tuple(near)].astype(complex), far, data[tuple(far)].astype(complex)))
     reach = 0.0 if params.exact else float(np.abs(data).max()) * 10 ** (FIT_REACH_DB / 20)
+    _know_samples([fit[3] for fit in fits])  # every model bounded over all their boxes at once (:func:`_reach_by_box`)
     # a member's support widths (the image nulls' scale): its own null spacing, or where _search_widths found them
     centre = {j: own[j] / nulls for j in live}
     rich = max(2, params.residual_orders + RICHER_EXTRA_ORDERS)
@@ -2014,10 +2070,31 @@ def envelope_bound(model: ResponseModel, lo: np.ndarray, hi: np.ndarray | None =
     magnitude = np.abs(centre)
     inner = magnitude if radius is None else magnitude - radius  # |c| at its least and most over each box
     outer = magnitude if radius is None else magnitude + radius
+    return _envelope(model, inner, outer)
+
+
+def envelope_floor(model: ResponseModel, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """A lower bound, per image box [lo, hi] ((B, ndim) inclusive index corners), of :func:`envelope_bound` at each
+    of its points (an unwarped model): the bound with each term taken where the box makes it least, at the ridge
+    coordinates' largest |c| where it falls with |c| (the sincs) and their least where it grows (a keystone's fan,
+    a bow), (B,)."""
+    if model.warp is not None:
+        raise ValueError("envelope_floor: a warped model's bound at points is not bounded over boxes here")
+    A, p = _ridge_frame(model.position, model.ridges, model.nulls)
+    magnitude = np.abs(((lo + hi) / 2.0 - p) @ A.T)
+    radius = ((hi - lo) / 2.0) @ np.abs(A).T
+    return _envelope(model, magnitude + radius, np.maximum(0.0, magnitude - radius))
+
+
+def _envelope(model: ResponseModel, inner: np.ndarray, outer: np.ndarray) -> np.ndarray:
+    """:func:`envelope_bound` from the ridge coordinates' |c| (B, ndim) where the bound is taken: ``inner`` for the
+    sincs' distances from their ridges (the bound falls as they grow), ``outer`` for the keystone's fan and the
+    bow (it grows with them); the same |c| for both at a point."""
     shift = float(np.abs(model.orders).max()) / 2.0
     dist = np.maximum(0.0, inner - shift)
     kappa = model.kappa
-    width, margin, steps = 1.0, 1.0, 0.0
+    width, margin = 1.0, 1.0
+    steps: float | np.ndarray = 0.0
     if kappa is not None and _keystoned(kappa):
         k = np.abs(np.asarray(kappa, dtype=float))
         # the strips' staircase: its steps' edges add ridges across the last axis every S nulls along it,
