@@ -159,6 +159,15 @@ DATA_ATTR_UNITS = {
     "deramp_extent": "Hz",
     "scene_box": "m",
     "theoretical_irw": "axis units (m; rad for elevation)",
+    # pfa2, two-step (docs/pfa.md, "Curved tracks")
+    "subimages": "1",
+    "subimage_core": "m",
+    "valid_radius_eq7": "m",
+    "track_residual": "m",
+    "track_core_limit": "m",
+    "track_reference_range": "m",
+    "track_k_max": "rad/m",
+    "track_pslr_rise": "dB",
 }
 
 DATA_NAME = {
