@@ -7,9 +7,10 @@ Reads the two sweeps of ``make motion-002`` (configs/sweeps/motion_002.yaml: pla
 with eq. (7)'s sub-images on the reduced Table 1 scene with platform_motion; motion_002_bp.yaml:
 backprojection of the same scenes) and writes table.md / table.json: per motion setting the track's
 wiggle dr (pfa2.two_step.track_residual), the sub-image size eq. (7) and the wiggle bound allow, the
-PSLR rise the bound predicts for eq. (7)'s sub-images against the one measured, and the worst
-PSLR / ISLR / IRW / position / false target of each focuser (plain PFA: its centre target, the only one
-within eq. (7)'s radius).
+PSLR rise the bound predicts for eq. (7)'s sub-images (the eq. (7) task's track_pslr_rise) against the one
+measured, and the worst PSLR / ISLR / IRW / position / false target of each focuser (plain PFA: its centre
+target, the only one within eq. (7)'s radius). Everything comes from the images' attrs and the evaluate
+reports: the script computes nothing of its own.
 """
 
 from __future__ import annotations
