@@ -154,6 +154,7 @@ DATA_ATTR_UNITS = {
     "aperture_start": "s",
     "aperture_end": "s",
     "n_pulses": "1",
+    "fixed_gate_samples": "1",
     "total_doppler_bandwidth": "Hz",
     "deramp_spread": "Hz",
     "deramp_extent": "Hz",

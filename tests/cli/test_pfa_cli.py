@@ -292,3 +292,32 @@ def test_two_step_writes_the_pslr_rise_its_track_predicts_with_units(tmp_path, r
     # a straight track: no rise to speak of
     assert run("pfa2", raw_file, "-o", tmp_path / "straight.h5").exit_code == 0
     assert 0 <= read_product(tmp_path / "straight.h5", load=False).attrs["track_pslr_rise"] < 0.01
+
+
+def test_simulate_writes_the_fixed_gate_samples_of_a_varied_gate_with_units(raw_file):
+    """nie2016_small's range_gate: the raw product says how many samples per pulse a fixed gate would take
+    (scripts/reproduce_002.py's saving), the same as simulating the scene without the gate would."""
+    import h5py
+
+    from sarproc.simulation.scene import scene_from_mapping
+    from sarproc.simulation.simulate import plan_simulation
+
+    raw = read_product(raw_file, load=False)
+    with h5py.File(raw_file) as f:
+        assert json.loads(f["signal"].attrs["attribute_units"])["fixed_gate_samples"] == "1"
+    ungated = {k: v for k, v in SMALL.items() if k != "effects"}
+    ungated["targets"] = {"frame": "ground_los", "points": [{"name": "C"}, {"name": "P", "azimuth": "20 m"}]}
+    n_fixed = plan_simulation(scene_from_mapping(ungated)).shape[-1]
+    assert raw.attrs["fixed_gate_samples"] == n_fixed > len(raw.coords["range_time"])
+
+
+def test_pfa2_records_each_targets_distance_from_the_scene_centre(tmp_path, raw_file):
+    """target_distance (m, ground plane, from the scene reference): C at the centre, P 20 m along azimuth;
+    both methods (scripts/reproduce_002.py's distance column)."""
+    cfg = tmp_path / "c.yaml"
+    for method in ("plain", "two_step"):
+        cfg.write_text(yaml.safe_dump({"pfa2": {"method": method}}))
+        assert run("pfa2", raw_file, "-o", tmp_path / f"{method}.h5", "--config", cfg).exit_code == 0
+        dist = read_product(tmp_path / f"{method}.h5", load=False).attrs["target_distance"]
+        assert dist.keys() == {"C", "P"}
+        assert dist["C"] == pytest.approx(0, abs=1e-6) and dist["P"] == pytest.approx(20, abs=1e-6)

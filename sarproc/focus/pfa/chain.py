@@ -283,6 +283,7 @@ def pfa2(
     from sarproc.product.io import history_entry  # product layer; the core stays free of h5py at import
 
     targets = targets_in_frame(raw.targets, frame)
+    attrs["target_distance"] = target_distances(targets, frame)
     if params.method == "plain":
         attrs["focus_limits"] = _plain_limits(targets, frame, grid, radius, ph, rect, params)
     _record_target_theory(targets, ph, e_a, e_r, kg, params, radar)
@@ -350,6 +351,12 @@ def radius_reach(grid: Grid, radius: float, names: Sequence[str], a: np.ndarray,
     )
     dist = np.hypot(a, r)
     return RadiusReach(radius, reach, {n: float(d) for n, d in zip(names, dist) if d > radius})
+
+
+def target_distances(targets: np.ndarray, frame: GroundLosFrame) -> dict[str, float]:
+    """Each target's distance from the scene centre (the frame's reference O), m, in the ground plane."""
+    dist = np.hypot(targets["azimuth"], targets["range"] - frame.ground_range)
+    return {n: float(d) for n, d in zip(target_names(targets), dist)}
 
 
 def radius_message(reach: RadiusReach, factor: float, shown: int = 8) -> str:
