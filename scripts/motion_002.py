@@ -7,9 +7,10 @@ Reads the two sweeps of ``make motion-002`` (configs/sweeps/motion_002.yaml: pla
 with eq. (7)'s sub-images on the reduced Table 1 scene with platform_motion; motion_002_bp.yaml:
 backprojection of the same scenes) and writes table.md / table.json: per motion setting the track's
 wiggle dr (pfa2.two_step.track_residual), the sub-image size eq. (7) and the wiggle bound allow, the
-PSLR rise the bound predicts for eq. (7)'s sub-images against the one measured, and the worst
-PSLR / ISLR / IRW / position / false target of each focuser (plain PFA: its centre target, the only one
-within eq. (7)'s radius).
+PSLR rise the bound predicts for eq. (7)'s sub-images (the eq. (7) task's track_pslr_rise) against the one
+measured, and the worst PSLR / ISLR / IRW / position / false target of each focuser (plain PFA: its centre
+target, the only one within eq. (7)'s radius). Everything comes from the images' attrs and the evaluate
+reports: the script computes nothing of its own.
 """
 
 from __future__ import annotations
@@ -21,9 +22,6 @@ from collections.abc import Collection
 from pathlib import Path
 
 from sarproc.cli.sweep_output import sweep_rows
-from sarproc.focus.pfa.chain import antenna_positions, image_frame
-from sarproc.focus.pfa.polar import wavenumbers
-from sarproc.focus.pfa.two_step import pslr_rise_db
 from sarproc.product.io import read_product
 from sarproc.quality.summary import SINC_ISLR_DB, SINC_PSLR_DB, worst_quality_json
 
@@ -85,18 +83,18 @@ def main(argv: list[str] | None = None) -> None:
             "focus_s": row["focus_s"],
             "false_target_db": (rep.get("false_target") or {}).get("level_db"),
         }
-        if case(row) == "two_step":
-            image = read_product(args.pfa_sweep / "tasks" / row["task"] / "pfa2.h5", load=False)
-            entry["attrs"] = {
-                k: image.attrs[k]
-                for k in ("track_residual", "track_core_limit", "valid_radius_eq7", "subimages", "subimage_core")
-            }
-            raw = read_product(next((args.pfa_sweep / "raw").glob(f"{row['scene']}-*.h5")))
-            pos = antenna_positions(raw)
-            frame = image_frame(raw)
-            entry["r_ac"] = float(((pos[len(pos) // 2] - frame.origin) ** 2).sum() ** 0.5)
-            entry["k_max"] = float(wavenumbers(raw.radar.carrier_frequency, raw.radar.bandwidth / 2))
-            entry["swing_m"] = [float(pos[:, i].max() - pos[:, i].min()) for i in (1, 2)]
+        if case(row) == "plain":
+            continue
+        image = read_product(args.pfa_sweep / "tasks" / row["task"] / "pfa2.h5", load=False)
+        if case(row) == "two_step_eq7":  # pfa2's own prediction for its sub-images, eq. (7)'s 97.7 m here
+            entry["predicted"] = image.attrs["track_pslr_rise"]
+            continue
+        entry["attrs"] = {
+            k: image.attrs[k]
+            for k in ("track_residual", "track_core_limit", "valid_radius_eq7", "subimages", "subimage_core")
+        }
+        pos = image.aux["platform_position"]  # the raw's track, carried by the image
+        entry["swing_m"] = [float(pos[:, i].max() - pos[:, i].min()) for i in (1, 2)]
     for row in sweep_rows(args.bp_sweep):
         rep = report(row)
         scenes[row["scene"]]["bp"] = {
@@ -110,7 +108,8 @@ def main(argv: list[str] | None = None) -> None:
         "",
         "dr: the track's range wiggle no cubic in the line-of-sight angle follows; core: sub-image side "
         "(eq. (7): 97.7 m, 16 sub-images; bound: sqrt(2) r sqrt(2 x 0.0126 / (K_max dr))); predicted: the "
-        "PSLR rise the residual K (core / sqrt 2)^2 dr / (2 r^2) can cause at eq. (7)'s cores; measured: "
+        "PSLR rise the residual K (core / sqrt 2)^2 dr / (2 r^2) can cause at eq. (7)'s cores (pfa2's "
+        "track_pslr_rise); measured: "
         "worst PSLR of two-step with eq. (7)'s cores minus the straight track's "
         f"({base:.2f} dB). Worst over the 25 targets and both axes (plain: centre target T02_02); "
         "in tol.: targets with IRW +-5 % of own theory, PSLR/ISLR +-0.5 dB, position < 0.5 cell.",
@@ -126,9 +125,7 @@ def main(argv: list[str] | None = None) -> None:
     table = []
     for name, e in scenes.items():
         a = e["attrs"]
-        k, r = e["k_max"], e["r_ac"]
-        corner = k * (97.72952064134462 / math.sqrt(2)) ** 2 * a["track_residual"] / (2 * r**2)
-        predicted = pslr_rise_db(corner)
+        predicted = e["predicted"]
         measured = e["two_step_eq7"]["pslr_db"] - base
         t7, t2, p, b = e["two_step_eq7"], e["two_step"], e["plain"], e["bp"]
         bound = a["track_core_limit"] if a["track_core_limit"] > 0 else math.inf

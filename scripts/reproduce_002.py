@@ -28,15 +28,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from sarproc.focus.pfa.chain import image_frame
 from sarproc.product.budget import fft_seconds
-from sarproc.product.config import load_yaml
 from sarproc.product.io import read_product
 from sarproc.product.model import Product
 from sarproc.quality.metrics import TargetReport, target_patch
 from sarproc.quality.summary import Tolerance, tolerance_score
-from sarproc.simulation.scene import scene_from_mapping
-from sarproc.simulation.simulate import plan_simulation
 
 # image file, report file, what pfa2 must have recorded (history parameters)
 RUNS: dict[str, tuple[str, str, dict[str, Any]]] = {
@@ -51,18 +47,17 @@ RUNS: dict[str, tuple[str, str, dict[str, Any]]] = {
 
 
 def table(image: Product, report: dict) -> list[dict]:
-    """Per target: distance from centre, IRW / own theory per axis (the theory pfa2 records for each target,
-    sarproc.product.theory), PSLR, ISLR, position (cells), peak, and its evaluate report."""
-    frame = image_frame(image)
-    truth = {t["name"].decode(): t for t in image.targets}
+    """Per target: distance from centre (pfa2's target_distance), IRW / own theory per axis (the theory pfa2
+    records for each target, sarproc.product.theory), PSLR, ISLR, position (cells), peak, and its evaluate
+    report."""
+    dist = image.attrs["target_distance"]
     rows = []
     for d in report["targets"]:
         t_rep = TargetReport.from_dict(d)
-        t = truth[t_rep.name]
         rows.append(
             dict(
                 name=t_rep.name,
-                dist=float(np.hypot(t["azimuth"], t["range"] - frame.ground_range)),
+                dist=dist[t_rep.name],
                 peak=t_rep.peak_amplitude,
                 irw=[a.irw_ratio for a in t_rep.axes],
                 pslr=[a.pslr_db for a in t_rep.axes],
@@ -165,11 +160,8 @@ def main() -> None:
     broken_c = (
         sorted(r["dist"] for r in results["plain_corrected"] if badness(r) > 1) if "plain_corrected" in results else []
     )
-    # raw data the varied gate saves: the same scene planned with a fixed gate (the receive window
-    # plan_simulation gives it; no echoes are simulated)
-    fixed = load_yaml(args.config)
-    fixed.pop("effects", None)
-    n_fixed = plan_simulation(scene_from_mapping(fixed)).shape[-1]
+    # raw data the varied gate saves: simulate records the window a fixed gate would need for the same echoes
+    n_fixed = raw.attrs.get("fixed_gate_samples", n_rg)
     # fig M: contours, plain vs two-step
     fig, axs = plt.subplots(1, 2, figsize=(9, 4))
     left = ("plain_corrected", "(a) PFA, distortion removed") if "plain_corrected" in patches else ("plain", "(a) PFA")

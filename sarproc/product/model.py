@@ -154,11 +154,21 @@ DATA_ATTR_UNITS = {
     "aperture_start": "s",
     "aperture_end": "s",
     "n_pulses": "1",
+    "fixed_gate_samples": "1",
     "total_doppler_bandwidth": "Hz",
     "deramp_spread": "Hz",
     "deramp_extent": "Hz",
     "scene_box": "m",
     "theoretical_irw": "axis units (m; rad for elevation)",
+    # pfa2, two-step (docs/pfa.md, "Curved tracks")
+    "subimages": "1",
+    "subimage_core": "m",
+    "valid_radius_eq7": "m",
+    "track_residual": "m",
+    "track_core_limit": "m",
+    "track_reference_range": "m",
+    "track_k_max": "rad/m",
+    "track_pslr_rise": "dB",
 }
 
 DATA_NAME = {

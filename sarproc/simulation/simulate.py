@@ -47,6 +47,9 @@ class SimulationPlan:
     tx_offset: np.ndarray
     rx_offsets: np.ndarray
     block_pulses: int
+    # attributes of the raw data set: fixed_gate_samples, the samples per pulse a fixed receive gate
+    # would need for the same echoes (only with a varied gate, effects.range_gate)
+    attrs: dict = dataclasses.field(default_factory=dict)
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -97,14 +100,12 @@ def _delays(tx: np.ndarray, rx: np.ndarray, targets: np.ndarray) -> np.ndarray:
     return (r_tx + r_rx) / C
 
 
-def plan_simulation(scene: Scene) -> SimulationPlan:
-    """Axes, channels and metadata of the raw product ``scene`` will produce."""
+def _receive_window(
+    scene: Scene, t: np.ndarray, tx_off: np.ndarray, rx_off: np.ndarray, gate: np.ndarray
+) -> tuple[int, int]:
+    """First range sample and sample count of the receive window that holds every echo, gate offsets
+    ``gate`` (s, per pulse) shifting it per pulse."""
     r = scene.radar
-    tx_off, rx_off = np.zeros(3), np.zeros((1, 3))
-    for e in scene.effects:
-        tx_off, rx_off = e.channels(tx_off, rx_off)
-    tx_off, rx_off = np.asarray(tx_off, float).reshape(3), np.asarray(rx_off, float).reshape(-1, 3)
-    t = scene.azimuth_time()
     ref_delay = 2 * r.reference_range / C
     acq = scene.params.acquisition
     if acq.range_window is not None:
@@ -113,7 +114,6 @@ def plan_simulation(scene: Scene) -> SimulationPlan:
         # Delays over every pulse, channel and target; gate offsets shift the window per pulse.
         pos = _positions(scene, t)
         tg = _target_positions(scene, t)
-        gate = _gate_offsets(scene, t, ref_delay)
         d = np.stack([_delays(pos + tx_off, pos + rx, tg) for rx in rx_off]) - gate[None, :, None]
         margin = 2 * acq.range_margin / C
         if scene.params.simulation.waveform == "band_limited":  # the DAC filter's ringing beyond the pulse
@@ -126,8 +126,24 @@ def plan_simulation(scene: Scene) -> SimulationPlan:
         start, end = ref_delay - r.pulse_duration, ref_delay + r.pulse_duration
     fs = r.range_sampling_rate
     first = math.floor(start * fs)
-    n_range = max(1, math.ceil(end * fs) - first + 1)
-    range_time = (first + np.arange(n_range)) / fs
+    return first, max(1, math.ceil(end * fs) - first + 1)
+
+
+def plan_simulation(scene: Scene) -> SimulationPlan:
+    """Axes, channels and metadata of the raw product ``scene`` will produce."""
+    r = scene.radar
+    tx_off, rx_off = np.zeros(3), np.zeros((1, 3))
+    for e in scene.effects:
+        tx_off, rx_off = e.channels(tx_off, rx_off)
+    tx_off, rx_off = np.asarray(tx_off, float).reshape(3), np.asarray(rx_off, float).reshape(-1, 3)
+    t = scene.azimuth_time()
+    ref_delay = 2 * r.reference_range / C
+    gate = _gate_offsets(scene, t, ref_delay)
+    first, n_range = _receive_window(scene, t, tx_off, rx_off, gate)
+    attrs = {}
+    if np.any(gate != 0):  # what the varied gate saves: the window a fixed gate needs for the same echoes
+        attrs["fixed_gate_samples"] = _receive_window(scene, t, tx_off, rx_off, np.zeros_like(gate))[1]
+    range_time = (first + np.arange(n_range)) / r.range_sampling_rate
     kinds = {e.product_kind for e in scene.effects if e.product_kind}
     kind = kinds.pop() if kinds else ("raw" if len(rx_off) == 1 else "raw_multichannel")
     radar = r.replace(n_channels=len(rx_off))
@@ -137,7 +153,6 @@ def plan_simulation(scene: Scene) -> SimulationPlan:
     if multi:
         coords["channel"] = np.arange(len(rx_off))
     aux = {"platform_position": _positions(scene, t), "tx_offset": tx_off, "rx_offset": rx_off}
-    gate = _gate_offsets(scene, t, ref_delay)
     if np.any(gate != 0):
         aux["range_gate_offset"] = gate
     for e in scene.effects:
@@ -152,6 +167,7 @@ def plan_simulation(scene: Scene) -> SimulationPlan:
         tx_offset=tx_off,
         rx_offsets=rx_off,
         block_pulses=scene.params.simulation.block_pulses,
+        attrs=attrs,
     )
 
 
@@ -378,7 +394,7 @@ def simulate(scene: Scene, progress: ProgressFactory | None = None) -> Product:
         coords=plan.coords,
         radar=plan.radar,
         targets=plan.targets,
-        attrs={"frame": scene.target_frame.spec},
+        attrs={"frame": scene.target_frame.spec, **plan.attrs},
         aux=plan.aux,
         history=[scene.history_entry("simulate")],
     )

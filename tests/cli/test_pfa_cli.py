@@ -244,3 +244,80 @@ def test_a_scene_section_repeating_the_defaults_is_not_named(tmp_path, raw_file)
     assert SMALL["pfa2"] == {"method": "two_step"}  # raw_file's scene
     res = run("pfa2", raw_file, "-o", tmp_path / "image.h5")
     assert res.exit_code == 0 and not _warnings(res.output, "not applied"), res.output
+
+
+def test_two_step_writes_the_pslr_rise_its_track_predicts_with_units(tmp_path, raw_file):
+    """pfa2 two-step's track_pslr_rise (dB) and what it is figured from, as attrs with units: at the bound's
+    sub-images the rise is the track phase budget's, at eq. (7)'s on the issue's cross-track motion 0.6 dB."""
+    import h5py
+
+    from sarproc.focus.pfa.chain import antenna_positions, image_frame
+    from sarproc.focus.pfa.polar import wavenumbers
+    from sarproc.focus.pfa.two_step import pslr_rise_db, track_pslr_rise_db
+
+    motion = {"cross_track_amplitude": "0.4 m", "cross_track_period": "0.7 s"}
+    scene = dict(
+        SMALL,
+        targets={"frame": "ground_los", "points": [{"name": "C"}]},
+        effects={**SMALL["effects"], "platform_motion": motion},
+    )
+    (tmp_path / "scene.yaml").write_text(yaml.safe_dump(scene))
+    assert run("simulate", tmp_path / "scene.yaml", "-o", tmp_path / "raw.h5").exit_code == 0
+    raw = read_product(tmp_path / "raw.h5")
+    pos, origin = antenna_positions(raw), image_frame(raw).origin
+    cfg = tmp_path / "c.yaml"
+    eq7 = 97.72952064134462
+    for name, section in (("bound", {}), ("eq7", {"subimage_size": f"{eq7} m"})):
+        cfg.write_text(yaml.safe_dump({"pfa2": {"method": "two_step", **section}}))
+        assert run("pfa2", tmp_path / "raw.h5", "-o", tmp_path / f"{name}.h5", "--config", cfg).exit_code == 0
+        with h5py.File(tmp_path / f"{name}.h5") as f:
+            units = json.loads(f["image"].attrs["attribute_units"])
+        assert {k: units[k] for k in ("track_pslr_rise", "track_reference_range", "track_k_max")} == {
+            "track_pslr_rise": "dB",
+            "track_reference_range": "m",
+            "track_k_max": "rad/m",
+        }
+        a = read_product(tmp_path / f"{name}.h5", load=False).attrs
+        assert a["track_reference_range"] == pytest.approx(np.linalg.norm(pos[len(pos) // 2] - origin), rel=1e-9)
+        k = wavenumbers(raw.radar.carrier_frequency, raw.radar.bandwidth / 2)
+        assert a["track_k_max"] == pytest.approx(k, rel=1e-3)
+        assert a["track_pslr_rise"] == track_pslr_rise_db(
+            a["track_residual"], a["track_reference_range"], a["track_k_max"], a["subimage_core"]
+        )
+        if name == "bound":  # the sub-images are cut at the track's limit: the budget's rise
+            assert a["subimage_core"] == a["track_core_limit"]
+            assert a["track_pslr_rise"] == pytest.approx(pslr_rise_db(0.0126), rel=1e-9)
+        else:  # docs/pfa.md, "Curved tracks": predicted <= 0.62 dB on the reduced scene
+            assert a["subimage_core"] == eq7 and 0.55 < a["track_pslr_rise"] < 0.7
+    # a straight track: no rise to speak of
+    assert run("pfa2", raw_file, "-o", tmp_path / "straight.h5").exit_code == 0
+    assert 0 <= read_product(tmp_path / "straight.h5", load=False).attrs["track_pslr_rise"] < 0.01
+
+
+def test_simulate_writes_the_fixed_gate_samples_of_a_varied_gate_with_units(raw_file):
+    """nie2016_small's range_gate: the raw product says how many samples per pulse a fixed gate would take
+    (scripts/reproduce_002.py's saving), the same as simulating the scene without the gate would."""
+    import h5py
+
+    from sarproc.simulation.scene import scene_from_mapping
+    from sarproc.simulation.simulate import plan_simulation
+
+    raw = read_product(raw_file, load=False)
+    with h5py.File(raw_file) as f:
+        assert json.loads(f["signal"].attrs["attribute_units"])["fixed_gate_samples"] == "1"
+    ungated = {k: v for k, v in SMALL.items() if k != "effects"}
+    ungated["targets"] = {"frame": "ground_los", "points": [{"name": "C"}, {"name": "P", "azimuth": "20 m"}]}
+    n_fixed = plan_simulation(scene_from_mapping(ungated)).shape[-1]
+    assert raw.attrs["fixed_gate_samples"] == n_fixed > len(raw.coords["range_time"])
+
+
+def test_pfa2_records_each_targets_distance_from_the_scene_centre(tmp_path, raw_file):
+    """target_distance (m, ground plane, from the scene reference): C at the centre, P 20 m along azimuth;
+    both methods (scripts/reproduce_002.py's distance column)."""
+    cfg = tmp_path / "c.yaml"
+    for method in ("plain", "two_step"):
+        cfg.write_text(yaml.safe_dump({"pfa2": {"method": method}}))
+        assert run("pfa2", raw_file, "-o", tmp_path / f"{method}.h5", "--config", cfg).exit_code == 0
+        dist = read_product(tmp_path / f"{method}.h5", load=False).attrs["target_distance"]
+        assert dist.keys() == {"C", "P"}
+        assert dist["C"] == pytest.approx(0, abs=1e-6) and dist["P"] == pytest.approx(20, abs=1e-6)

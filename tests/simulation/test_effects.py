@@ -92,6 +92,13 @@ def test_range_gate_shrinks_the_window_and_focuses_to_theory(squint_pair):
         assert tg.peak_amplitude == pytest.approx(tp.peak_amplitude, rel=1e-3)
 
 
+def test_a_gated_raw_product_records_the_samples_a_fixed_gate_would_need(squint_pair):
+    """fixed_gate_samples: the ungated window of the same echoes (what the varied gate saves); only when gated."""
+    plain, gated = squint_pair
+    assert "fixed_gate_samples" not in plain.attrs
+    assert gated.attrs["fixed_gate_samples"] == plain.data.shape[1] > gated.data.shape[1]
+
+
 def test_gated_echoes_are_the_ungated_ones_shifted_by_the_gate(squint_pair):
     plain, gated = squint_pair
     fs = plain.radar.range_sampling_rate

@@ -52,6 +52,8 @@ from sarproc.focus.pfa.two_step import (
     pslr_rise_db,
     run_tasks,
     tile_rects,
+    track_corner_phase,
+    track_pslr_rise_db,
     track_radius,
     track_residual,
     valid_radius,
@@ -281,6 +283,7 @@ def pfa2(
     from sarproc.product.io import history_entry  # product layer; the core stays free of h5py at import
 
     targets = targets_in_frame(raw.targets, frame)
+    attrs["target_distance"] = target_distances(targets, frame)
     if params.method == "plain":
         attrs["focus_limits"] = _plain_limits(targets, frame, grid, radius, ph, rect, params)
     _record_target_theory(targets, ph, e_a, e_r, kg, params, radar)
@@ -348,6 +351,12 @@ def radius_reach(grid: Grid, radius: float, names: Sequence[str], a: np.ndarray,
     )
     dist = np.hypot(a, r)
     return RadiusReach(radius, reach, {n: float(d) for n, d in zip(names, dist) if d > radius})
+
+
+def target_distances(targets: np.ndarray, frame: GroundLosFrame) -> dict[str, float]:
+    """Each target's distance from the scene centre (the frame's reference O), m, in the ground plane."""
+    dist = np.hypot(targets["azimuth"], targets["range"] - frame.ground_range)
+    return {n: float(d) for n, d in zip(target_names(targets), dist)}
 
 
 def radius_message(reach: RadiusReach, factor: float, shown: int = 8) -> str:
@@ -453,12 +462,20 @@ class TwoStepScene:
 
 @dataclasses.dataclass(frozen=True)
 class SubImageSize:
-    """The sub-image core (m) and what bounds it: eq. (7)'s valid radius and a curved track's limit."""
+    """The sub-image core (m) and what bounds it: eq. (7)'s valid radius and a curved track's limit, with the
+    range r_ac (m) and K_max (rad/m) that limit is figured from."""
 
     core: float
     valid_radius: float
     track_residual: float
     track_limit: float  # inf for a track without wiggles
+    reference_range: float
+    k_max: float
+
+    @property
+    def track_pslr_rise(self) -> float:
+        """Largest PSLR rise, dB, the track's wiggle can cause on sub-images of this core."""
+        return track_pslr_rise_db(self.track_residual, self.reference_range, self.k_max, self.core)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -497,7 +514,7 @@ def _subimage_size(scene: TwoStepScene, params: Pfa2Params, radar: RadarMetadata
     curved = math.sqrt(2) * track_radius(wiggle, r_ac, k_max, params.track_phase_budget)
     core = params.subimage_size or min(radius, curved)
     if core > curved:
-        corner = k_max * (core / math.sqrt(2)) ** 2 * wiggle / (2 * r_ac**2)
+        corner = track_corner_phase(wiggle, r_ac, k_max, core)
         log.warning(
             "pfa2: sub-images of %.3g m exceed the %.3g m that the track's %.3g m wiggle allows: "
             "paired echoes of %.3g rad may raise a PSLR by up to %.2f dB",
@@ -507,7 +524,7 @@ def _subimage_size(scene: TwoStepScene, params: Pfa2Params, radar: RadarMetadata
             corner,
             pslr_rise_db(corner),
         )
-    return SubImageSize(core, radius, wiggle, curved)
+    return SubImageSize(core, radius, wiggle, curved, r_ac, k_max)
 
 
 def _first_step_grid(tiles: Sequence[Tile], rect1: Rect) -> Grid:
@@ -670,6 +687,9 @@ def _two_step(
         "valid_radius_eq7": size.valid_radius,
         "track_residual": size.track_residual,
         "track_core_limit": size.track_limit if math.isfinite(size.track_limit) else -1.0,
+        "track_reference_range": size.reference_range,
+        "track_k_max": size.k_max,
+        "track_pslr_rise": size.track_pslr_rise,
         "step1_shape": [first.grid.n_a, first.grid.n_r],
         "window_shape_max": [
             max(s[0].stop - s[0].start for s in layout.slices),

@@ -110,6 +110,18 @@ def pslr_rise_db(phase: float) -> float:
     return 20 * math.log10(1 + phase / (2 * FIRST_SIDELOBE))
 
 
+def track_corner_phase(residual: float, reference_range: float, k_max: float, core: float) -> float:
+    """Planar-wavefront phase error, rad, that a track's wiggle ``residual`` (m) leaves at the corners of a
+    sub-image ``core`` (m) wide: K_max (core / sqrt 2)^2 dr / (2 r^2) (:func:`track_radius`)."""
+    return k_max * (core / math.sqrt(2)) ** 2 * residual / (2 * reference_range**2)
+
+
+def track_pslr_rise_db(residual: float, reference_range: float, k_max: float, core: float) -> float:
+    """Largest PSLR rise, dB, that a track's wiggle ``residual`` (m) can cause on sub-images ``core`` (m) wide:
+    :func:`pslr_rise_db` of :func:`track_corner_phase`."""
+    return pslr_rise_db(track_corner_phase(residual, reference_range, k_max, core))
+
+
 @dataclasses.dataclass(frozen=True)
 class SubImageTask:
     """Everything one sub-image needs, as plain arrays (picklable; no product, no file).
