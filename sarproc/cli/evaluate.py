@@ -225,6 +225,9 @@ def false_target_lines(report: QualityReport, units: dict) -> list[str]:
             f"\n{label}: {_fmt(guard.level_db, '.2f')} dB relative to target {guard.reference_target}, "
             f"at {where(guard)}"
         )
+    if report.false_target_predicted is not None:
+        p = report.false_target_predicted
+        out.append(f"\nFalse target predicted: {_fmt(p['level_db'], '.2f')} dB ({p['source']})")
     return out
 
 

@@ -312,6 +312,9 @@ class QualityReport:
     residual_note: str | None = None  # why the residual figures were not taken, where asked for
     # every false target over the residual's floor (the first is false_target); None without the residual
     false_targets: FalseTargetList | None = None
+    # the false-target level the truth predicts (first order), where the product records one: {level_db, source};
+    # left out of to_dict when None
+    false_target_predicted: dict | None = None
 
     def target(self, name: str) -> TargetReport:
         for t in self.targets:
@@ -320,8 +323,12 @@ class QualityReport:
         raise KeyError(name)
 
     def to_dict(self) -> dict:
-        """JSON-able dict: non-finite floats become None (JSON has no NaN/inf)."""
-        return _jsonable(dataclasses.asdict(self))
+        """JSON-able dict: non-finite floats become None (JSON has no NaN/inf); no ``false_target_predicted`` entry
+        without a prediction."""
+        d = dataclasses.asdict(self)
+        if d["false_target_predicted"] is None:
+            del d["false_target_predicted"]
+        return _jsonable(d)
 
 
 def _jsonable(v: Any) -> Any:
@@ -2655,7 +2662,25 @@ def evaluate_product(
         product.attrs.get("theoretical_irw", (math.nan,) * 2),
     )
     targets = tuple(dataclasses.replace(t, notes=t.notes + notes.get(t.name, ())) for t in report.targets)
-    return dataclasses.replace(report, targets=targets, movers=mover_reports(product, table, report, source))
+    return dataclasses.replace(
+        report,
+        targets=targets,
+        movers=mover_reports(product, table, report, source),
+        false_target_predicted=predicted_false_target(product.attrs),
+    )
+
+
+def predicted_false_target(attrs: Mapping[str, Any]) -> dict | None:
+    """The first-order false-target level a product's truth predicts, or None: simulate's ``channel_errors`` (the
+    simulated channel imbalance's ghost level, eq. 6 of docs/multichannel.md), which reconstruct and backproject
+    carry."""
+    errors = attrs.get("channel_errors") or {}
+    if "ghost_level_db" not in errors:
+        return None
+    return {
+        "level_db": float(errors["ghost_level_db"]),
+        "source": "the simulated channel imbalance's ghosts, first order (channel_errors; eq. 6)",
+    }
 
 
 def focus_limit_notes(

@@ -47,6 +47,7 @@ class SimulationPlan:
     tx_offset: np.ndarray
     rx_offsets: np.ndarray
     block_pulses: int
+    attrs: dict = dataclasses.field(default_factory=dict)  # the data set's attributes (frame, effects' truth)
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -142,6 +143,9 @@ def plan_simulation(scene: Scene) -> SimulationPlan:
         aux["range_gate_offset"] = gate
     for e in scene.effects:
         aux.update(e.aux())
+    attrs: dict = {"frame": scene.target_frame.spec}
+    for e in scene.effects:
+        attrs.update(e.product_attrs(radar, aux))
     return SimulationPlan(
         kind=kind,
         dims=dims,
@@ -152,6 +156,7 @@ def plan_simulation(scene: Scene) -> SimulationPlan:
         tx_offset=tx_off,
         rx_offsets=rx_off,
         block_pulses=scene.params.simulation.block_pulses,
+        attrs=attrs,
     )
 
 
@@ -378,7 +383,7 @@ def simulate(scene: Scene, progress: ProgressFactory | None = None) -> Product:
         coords=plan.coords,
         radar=plan.radar,
         targets=plan.targets,
-        attrs={"frame": scene.target_frame.spec},
+        attrs=plan.attrs,
         aux=plan.aux,
         history=[scene.history_entry("simulate")],
     )

@@ -48,6 +48,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
+    from collections.abc import Mapping
+
     import numpy.typing as npt
 
     from sarproc.product.metadata import RadarMetadata
@@ -193,29 +195,63 @@ def ghost_level_db(tau: np.ndarray, prf: float, error_phase: np.ndarray, half_ba
     return float(20 * np.log10(best)) if best > 0 else float("-inf")
 
 
-def product_ghost_level_db(raw: Product, error_phase: np.ndarray) -> float:
+def beam_half_band(radar: RadarMetadata) -> float:
+    """Doppler half-band of the beam, Hz: v cos(theta) beamwidth / lambda (the target's flat spectrum in eq. 6)."""
+    return radar.velocity * math.cos(radar.squint) * radar.azimuth_beamwidth / radar.wavelength
+
+
+def velocity_error_phase(tau: npt.ArrayLike, dv_r: float, squint: float, wavelength: float) -> np.ndarray:
+    """Residual channel phase (rad per channel) of a slant-range velocity error dv_r, m/s: 4 pi dv_r cos(theta)
+    tau_n / lambda (eq. 8, second term, with the error in place of v_r)."""
+    return 4 * np.pi * dv_r * math.cos(squint) * np.asarray(tau, float) / wavelength
+
+
+def channel_ghost_level_db(
+    offsets: npt.ArrayLike, radar: RadarMetadata, channel_prf: float, error_phase: npt.ArrayLike
+) -> float:
     """:func:`ghost_level_db` (eq. 6) of a channel error ``error_phase`` (rad per channel; complex: with a gain
-    error) for a multichannel raw product: its channels' delays, PRF and the Doppler half-band of its beam."""
-    r = raw.radar
-    tx = np.asarray(raw.aux.get("tx_offset", np.zeros(3)), float).reshape(3)
-    offsets = np.asarray(raw.aux["rx_offset"], float)[:, 0] - tx[0]  # receivers along track from the transmitter
-    half_band = r.velocity * math.cos(r.squint) * r.azimuth_beamwidth / r.wavelength
-    return ghost_level_db(channel_delays(offsets, r.velocity), r.prf, error_phase, half_band)
+    error) for receivers at along-track ``offsets`` (m, from the transmitter) sampled at ``channel_prf``, with the
+    Doppler half-band of ``radar``'s beam."""
+    tau = channel_delays(offsets, radar.velocity)
+    return ghost_level_db(tau, channel_prf, np.asarray(error_phase), beam_half_band(radar))
+
+
+def product_ghost_level_db(raw: Product, error_phase: np.ndarray) -> float:
+    """:func:`channel_ghost_level_db` of a multichannel raw product: its receivers, PRF and beam."""
+    return channel_ghost_level_db(receiver_offsets(raw.aux), raw.radar, raw.radar.prf, error_phase)
+
+
+def receiver_offsets(aux: Mapping[str, np.ndarray]) -> np.ndarray:
+    """Along-track offsets of the receivers from the transmitter, m (aux ``rx_offset`` x minus ``tx_offset`` x)."""
+    tx = np.asarray(aux.get("tx_offset", np.zeros(3)), float).reshape(3)
+    return np.asarray(aux["rx_offset"], float).reshape(-1, 3)[:, 0] - tx[0]
+
+
+DOPPLER_SPECTRUM_BLOCK = 256  # range cells per block of doppler_power_spectrum (bounds its working memory)
 
 
 def doppler_power_spectrum(product: Product) -> tuple[np.ndarray, np.ndarray]:
     """(Doppler frequencies, Hz, ascending; power summed over range) of a single-channel raw product's azimuth
     spectrum with the squint's Doppler centroid 2 v sin(theta) / lambda removed: where a reconstructed
-    channel's band lies within the N PRF it carries, and its ghosts' bands (paper 003, Fig. 10)."""
+    channel's band lies within the N PRF it carries, and its ghosts' bands (paper 003, Fig. 10).
+    ``reconstruct`` stores it (aux ``doppler_frequency``, ``doppler_power``)."""
     if product.data.ndim != 2:
         raise ValueError(f"doppler_power_spectrum: a single-channel product, not one of {product.data.ndim} axes")
-    r = product.radar
-    t = np.asarray(product.coords["azimuth_time"], dtype=float)
-    deramped = product.data * np.exp(-2j * np.pi * 2 * r.velocity * math.sin(r.squint) / r.wavelength * t)[:, None]
-    return (
-        np.fft.fftshift(np.fft.fftfreq(len(deramped), 1 / r.prf)),
-        np.fft.fftshift(np.sum(np.abs(np.fft.fft(deramped, axis=0)) ** 2, axis=1)),
-    )
+    return azimuth_power_spectrum(product.data, np.asarray(product.coords["azimuth_time"], dtype=float), product.radar)
+
+
+def azimuth_power_spectrum(
+    data: np.ndarray, azimuth_time: np.ndarray, radar: RadarMetadata
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`doppler_power_spectrum` of ``data`` (azimuth_time, range) sampled at ``radar.prf``, computed in blocks
+    of DOPPLER_SPECTRUM_BLOCK range cells."""
+    r = radar
+    ramp = np.exp(-2j * np.pi * 2 * r.velocity * math.sin(r.squint) / r.wavelength * azimuth_time)[:, None]
+    power = np.zeros(len(data))
+    for c in range(0, data.shape[1], DOPPLER_SPECTRUM_BLOCK):
+        block = data[:, c : c + DOPPLER_SPECTRUM_BLOCK] * ramp
+        power += np.sum(np.abs(np.fft.fft(block, axis=0)) ** 2, axis=1)
+    return np.fft.fftshift(np.fft.fftfreq(len(data), 1 / r.prf)), np.fft.fftshift(power)
 
 
 def ghost_spacing(radar: RadarMetadata, prf: float | None = None) -> float:
