@@ -377,6 +377,9 @@ def evaluate(
             progress=progress_factory(want_progress(progress), "evaluate"),
             names=names,
         )
+    from sarproc.focus.multichannel.channels import ghost_predictions
+
+    report = ghost_predictions(product, report)  # the first-order ghost levels of a multichannel truth
     all_names = [n.decode() if isinstance(n, bytes) else str(n) for n in product.targets["name"]]
     failures = check_report(report, expect, source=str(expect_path), all_names=all_names) if expect else []
     units = {d: UNITS.get(d, "") for d in product.dims}

@@ -312,8 +312,8 @@ class QualityReport:
     residual_note: str | None = None  # why the residual figures were not taken, where asked for
     # every false target over the residual's floor (the first is false_target); None without the residual
     false_targets: FalseTargetList | None = None
-    # the false-target level the truth predicts (first order), where the product records one: {level_db, source};
-    # left out of to_dict when None
+    # the false-target level the truth predicts (first order), {level_db, source}: filled in by
+    # sarproc.focus.multichannel.channels.ghost_predictions (a simulated channel imbalance); not in to_dict when None
     false_target_predicted: dict | None = None
 
     def target(self, name: str) -> TargetReport:
@@ -2662,25 +2662,7 @@ def evaluate_product(
         product.attrs.get("theoretical_irw", (math.nan,) * 2),
     )
     targets = tuple(dataclasses.replace(t, notes=t.notes + notes.get(t.name, ())) for t in report.targets)
-    return dataclasses.replace(
-        report,
-        targets=targets,
-        movers=mover_reports(product, table, report, source),
-        false_target_predicted=predicted_false_target(product.attrs),
-    )
-
-
-def predicted_false_target(attrs: Mapping[str, Any]) -> dict | None:
-    """The first-order false-target level a product's truth predicts, or None: simulate's ``channel_errors`` (the
-    simulated channel imbalance's ghost level, eq. 6 of docs/multichannel.md), which reconstruct and backproject
-    carry."""
-    errors = attrs.get("channel_errors") or {}
-    if "ghost_level_db" not in errors:
-        return None
-    return {
-        "level_db": float(errors["ghost_level_db"]),
-        "source": "the simulated channel imbalance's ghosts, first order (channel_errors; eq. 6)",
-    }
+    return dataclasses.replace(report, targets=targets, movers=mover_reports(product, table, report, source))
 
 
 def focus_limit_notes(

@@ -17,9 +17,7 @@ metadata, track, frame), never at its true position. Per moving target the repor
      ``backproject`` carries into the image): matched to a truth target by where it appears, the
      window's slant range at its beam-centre time and that time (within the window's half length
      plus ``MATCH_CELLS`` cells, and ``MATCH_CELLS`` azimuth cells), never by velocity;
-* velocity errors (estimate - truth), the residual channel phase the slant-range velocity error leaves and its
-  first-order false-target level (:func:`velocity_ghost`, where the product records reconstruct's channels);
-  the relocated position (the table's, else the measured peak
+* velocity errors (estimate - truth); the relocated position (the table's, else the measured peak
   taken back to time 0 with the estimated velocity, :func:`sarproc.product.moving.relocate`) and its
   error against the true position; and the relocation error the velocity error alone implies
   (first order, R |dv_los| / (v cos(theta)), dv_los = dv_r cos(theta) + dv_a sin(theta)).
@@ -75,8 +73,8 @@ class MoverReport:
     relocation_error_xyz: tuple | None = None
     relocation_error_from_velocity: float | None = None  # first-order implied by the velocity error
     # the velocity error's residual channel phase (rad, largest over the channels; eq. 8 term 2) and the first-order
-    # false-target level it leaves (dB, eq. 6), where the product records its channels (reconstruct's
-    # channel_offsets and prf_in); -inf level without an error
+    # false-target level it leaves (dB, eq. 6; -inf without an error): filled in by the multichannel reconstruction's
+    # sarproc.focus.multichannel.channels.ghost_predictions where the image records its channels
     channel_phase_from_velocity: float | None = None
     ghost_level_from_velocity_db: float | None = None
 
@@ -189,23 +187,6 @@ def implied_relocation_error(radar: RadarMetadata, slant_range: float, dv_a: flo
     return abs(slant_range * (dv_r * math.cos(th) + dv_a * math.sin(th)) / (radar.velocity * math.cos(th)))
 
 
-def velocity_ghost(
-    radar: RadarMetadata, channel_offsets: Sequence[float], channel_prf: float, dv_r: float
-) -> tuple[float, float]:
-    """(largest residual channel phase, rad; first-order false-target level, dB) of a slant-range velocity error
-    ``dv_r`` (m/s) in a reconstruction of receivers at ``channel_offsets`` (m along track from the transmitter)
-    sampled at ``channel_prf``: eq. 8's second term with the error for v_r, then eq. 6 (docs/multichannel.md;
-    :mod:`sarproc.focus.multichannel.channels`). No error: (0, -inf)."""
-    from sarproc.focus.multichannel import channels
-
-    tau = channels.channel_delays(channel_offsets, radar.velocity)
-    phase = channels.velocity_error_phase(tau, dv_r, radar.squint, radar.wavelength)
-    if dv_r == 0:
-        return 0.0, -math.inf
-    level = channels.channel_ghost_level_db(channel_offsets, radar, channel_prf, phase)
-    return float(np.abs(phase).max()), level
-
-
 def _match_windows(
     windows: Sequence[dict], movers: Sequence[_TruthMover], radar: RadarMetadata, cell_range: float, cell_azimuth: float
 ) -> dict[str, dict]:
@@ -262,8 +243,6 @@ def mover_reports(
     cell_az = irw[list(product.dims).index("azimuth")] if "azimuth" in product.dims and irw else 1.0
     cell_rg = irw[list(product.dims).index("range")] if "range" in product.dims and irw else 1.0
     movers = _truth_movers(targets, apparent, measured, radar, times, positions)
-    rec = product.attrs.get("reconstruct") or {}
-    chans = (rec["channel_offsets"], float(rec["prf_in"])) if len(rec.get("channel_offsets") or ()) > 1 else None
     table = moving_target_table(product)
     if table:
         source_name, matched = "moving_targets", _match_table(table, movers, max(cell_az, cell_rg))
@@ -278,13 +257,7 @@ def mover_reports(
         peak = np.asarray(frame.to_xyz(*[coords[d] for d in frame.axes]), float).reshape(3)
         apparent_coords = {d: float(apparent[d][m.k]) for d in product.dims}
         est = matched.get(m.name)
-        report_m = _mover_report(m, peak, apparent_coords, est, source_name, radar, times, positions)
-        if report_m.v_r_error is not None and chans is not None:
-            phase, level = velocity_ghost(radar, *chans, report_m.v_r_error)
-            report_m = dataclasses.replace(
-                report_m, channel_phase_from_velocity=phase, ghost_level_from_velocity_db=level
-            )
-        out.append(report_m)
+        out.append(_mover_report(m, peak, apparent_coords, est, source_name, radar, times, positions))
     return tuple(out)
 
 

@@ -48,12 +48,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from collections.abc import Mapping
+    from collections.abc import Mapping, Sequence
 
     import numpy.typing as npt
 
     from sarproc.product.metadata import RadarMetadata
     from sarproc.product.model import Product
+    from sarproc.quality.metrics import QualityReport
 
 
 def channel_delays(
@@ -219,6 +220,51 @@ def channel_ghost_level_db(
 def product_ghost_level_db(raw: Product, error_phase: np.ndarray) -> float:
     """:func:`channel_ghost_level_db` of a multichannel raw product: its receivers, PRF and beam."""
     return channel_ghost_level_db(receiver_offsets(raw.aux), raw.radar, raw.radar.prf, error_phase)
+
+
+def velocity_ghost(
+    radar: RadarMetadata, channel_offsets: Sequence[float], channel_prf: float, dv_r: float
+) -> tuple[float, float]:
+    """(largest residual channel phase, rad; first-order false-target level, dB) of a slant-range velocity error
+    ``dv_r`` (m/s) in a reconstruction of receivers at ``channel_offsets`` (m along track from the transmitter)
+    sampled at ``channel_prf``: eq. 8's second term with the error for v_r, then eq. 6. No error: (0, -inf)."""
+    if dv_r == 0:
+        return 0.0, -math.inf
+    phase = velocity_error_phase(channel_delays(channel_offsets, radar.velocity), dv_r, radar.squint, radar.wavelength)
+    return float(np.abs(phase).max()), channel_ghost_level_db(channel_offsets, radar, channel_prf, phase)
+
+
+def ghost_predictions(image: Product, report: QualityReport) -> QualityReport:
+    """``report`` (evaluate's, of ``image``) with the first-order ghost levels its truth predicts, where ``image``
+    records reconstruct's channels (attribute ``reconstruct``: ``channel_offsets``, ``prf_in``):
+
+    * ``false_target_predicted``: of simulate's channel imbalance (attribute ``channel_errors``);
+    * each mover's ``channel_phase_from_velocity`` and ``ghost_level_from_velocity_db``: of its slant-range
+      velocity error (:func:`velocity_ghost`).
+    """
+    rec = image.attrs.get("reconstruct") or {}
+    offsets = rec.get("channel_offsets") or []
+    if len(offsets) < 2:
+        return report
+    prf = float(rec["prf_in"])
+    radar = image.radar
+    errors = image.attrs.get("channel_errors") or {}
+    predicted = report.false_target_predicted
+    if errors:
+        gain = (1 + np.asarray(errors["amplitude_imbalance"], float)) * np.exp(
+            1j * np.asarray(errors["phase_imbalance"], float)
+        )
+        predicted = {
+            "level_db": channel_ghost_level_db(offsets, radar, prf, -1j * np.log(gain)),
+            "source": "the simulated channel imbalance's ghosts, first order (channel_errors; eq. 6)",
+        }
+    movers = []
+    for m in report.movers:
+        if m.v_r_error is not None:
+            phase, level = velocity_ghost(radar, offsets, prf, m.v_r_error)
+            m = dataclasses.replace(m, channel_phase_from_velocity=phase, ghost_level_from_velocity_db=level)
+        movers.append(m)
+    return dataclasses.replace(report, false_target_predicted=predicted, movers=tuple(movers))
 
 
 def receiver_offsets(aux: Mapping[str, np.ndarray]) -> np.ndarray:

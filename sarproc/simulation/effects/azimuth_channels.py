@@ -70,20 +70,15 @@ class AzimuthChannels(ReceiverArray):
         self.channel_gain = (1.0 + self.amplitude_imbalance) * np.exp(1j * self.phase_imbalance)
 
     def product_attrs(self, radar: RadarMetadata, aux: dict) -> dict:
-        """With a channel imbalance, attribute ``channel_errors``: the imbalance (``phase_imbalance`` rad,
-        ``amplitude_imbalance``) and ``ghost_level_db``, the false-target level it leaves in a reconstruction that
-        does not calibrate it, first order (eq. 6 of docs/multichannel.md,
-        :func:`sarproc.focus.multichannel.channels.channel_ghost_level_db`), relative to the target's peak."""
+        """With a channel imbalance, attribute ``channel_errors``: the imbalance simulated (``phase_imbalance`` rad,
+        ``amplitude_imbalance`` per channel), from which evaluate predicts the ghosts it leaves (eq. 6 of
+        docs/multichannel.md, :func:`sarproc.focus.multichannel.channels.ghost_predictions`)."""
         if np.all(self.channel_gain == 1):
             return {}
-        from sarproc.focus.multichannel.channels import channel_ghost_level_db, receiver_offsets
-
-        level = channel_ghost_level_db(receiver_offsets(aux), radar, radar.prf, -1j * np.log(self.channel_gain))
         return {
             "channel_errors": {
                 "phase_imbalance": [float(p) for p in self.phase_imbalance],
                 "amplitude_imbalance": [float(a) for a in self.amplitude_imbalance],
-                "ghost_level_db": level,
             }
         }
 
