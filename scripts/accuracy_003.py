@@ -29,8 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from sarproc.cli.sweep_output import sweep_rows
-from sarproc.focus.multichannel.reconstruct import ReconstructParams
-from sarproc.product.config import build, load_yaml
+from sarproc.product.config import load_yaml
 from sarproc.product.io import read_product
 from sarproc.product.units import parse_quantity
 
@@ -42,6 +41,12 @@ def only_window(rec_path: Path) -> dict:
     if len(windows) != 1:
         raise SystemExit(f"{rec_path}: expected one moving-target window, got {len(windows)}: {windows}")
     return windows[0]
+
+
+def reconstruct_parameters(rec_path: Path) -> dict[str, Any]:
+    """The resolved parameters reconstruct recorded in its product's history (defaults filled in)."""
+    history = read_product(rec_path, load=False).history
+    return next(h["parameters"] for h in reversed(history) if "reconstruct" in str(h.get("command", "")))
 
 
 def _quality(row: dict[str, Any]) -> dict[str, Any]:
@@ -97,8 +102,8 @@ def from_sweeps(timed: Path, images: Path) -> list[dict[str, Any]]:
             "v_r_error": abs(mt["radial_velocity"] - v_r),
         }
         if any(k.startswith("reconstruct.") for k in knobs if k in row):
-            p = build(ReconstructParams, config.get("reconstruct") or {})
-            knob = f"search {p.search} step {p.velocity_step} m/s"
+            p = reconstruct_parameters(row["dir"] / "reconstruct.h5")
+            knob = f"search {p['search']} step {p['velocity_step']} m/s"
             search_rows.append({"knob": knob, **out, "mfta_db": _mfta(shots["strip"])})
         else:
             n = config["effects"]["azimuth_channels"]["n_receivers"]

@@ -10,7 +10,8 @@ only reads the products and reports it left under --results:
 * sweep-cases/ (configs/sweeps/reproduce_003_cases.yaml): Figs. 9 (v_a 10 m/s) and 10 (v_r 10 m/s), the
   static target, and the static target as one channel at N PRF;
 * sweep-given/ (reproduce_003_given.yaml): the false-target level against the velocity error (with the
-  first-order prediction, eq. 6 of docs/multichannel.md) and with the true velocity given;
+  first-order prediction, eq. 6 of docs/multichannel.md, from evaluate's moving-target report) and with the
+  true velocity given;
 * sweep-speeds/ (reproduce_003_speeds.yaml): the false-target level against v_r (paper Fig. 12);
 * sweep-clutter/ (reproduce_003_clutter.yaml): the clutter null with the redundant channel.
 
@@ -29,9 +30,7 @@ from typing import Any
 import numpy as np
 
 from sarproc.cli.markdown import markdown_table
-from sarproc.cli.sweep_output import pick_row as pick, raw_product_of as raw_of, sweep_rows
-from sarproc.focus.multichannel import channels
-from sarproc.focus.multichannel.channels import product_ghost_level_db as predicted_ghost_db
+from sarproc.cli.sweep_output import pick_row as pick, sweep_rows
 from sarproc.product.io import read_product
 from sarproc.product.model import Product
 
@@ -90,6 +89,12 @@ def metrics_rows(report: dict, mfta: dict[str, dict[str, float]], label: str) ->
     return rows
 
 
+def doppler_spectrum(reconstructed: Path) -> tuple[np.ndarray, np.ndarray]:
+    """(Doppler frequency, Hz; power) of a reconstructed product: reconstruct's aux doppler_frequency, doppler_power."""
+    aux = read_product(reconstructed, load=False).aux
+    return aux["doppler_frequency"], aux["doppler_power"]
+
+
 def estimate(reconstructed: Path) -> tuple[float, float]:
     """(v_r, v_a) of the one moving-target window of a reconstructed product (nan if none)."""
     mts = read_product(reconstructed, load=False).attrs["reconstruct"]["moving_targets"]
@@ -144,7 +149,7 @@ def main() -> None:
             row["v_r_est"], row["v_a_est"] = estimate(img["dir"] / "reconstruct.h5")
             single_rows.append(row)
             strips[(label, method)] = read_product(strip["dir"] / "backproject.h5")
-            spectra[(label, method)] = channels.doppler_power_spectrum(read_product(img["dir"] / "reconstruct.h5"))
+            spectra[(label, method)] = doppler_spectrum(img["dir"] / "reconstruct.h5")
             case_images[(scene, method)] = img["dir"] / "backproject.h5"
     ref_row = pick(cases, scene="single_n_prf-image")
     a = read_product(case_images[("static", "conventional")]).data
@@ -159,20 +164,18 @@ def main() -> None:
 
     # ---- false-target level against the velocity error (paper: about -40 dB at 0.1 m/s)
     given = sweep_rows(res / "sweep-given")
-    rb = read_product(raw_of(res / "sweep-given", "e0"), load=False)
-    lam, th = rb.radar.wavelength, rb.radar.squint
-    tau = channels.channel_delays(rb.aux["rx_offset"][:, 0], rb.radar.velocity)
     err_rows: list[dict[str, float]] = []
     for err in ERRORS:
         report = load_json(pick(given, scene=f"e{err:g}")["dir"] / "report.json")
-        phase = 4 * np.pi * err * math.cos(th) * tau / lam  # residual channel phase (paper eq. 8 term 2)
+        (mover,) = [m for m in report["movers"] if m["name"] == "T"]  # evaluate: the velocity error's ghosts
+        predicted = mover["ghost_level_from_velocity_db"]
         err_rows.append(
             {
                 "error": err,
                 "mfta_db": mfta_db(report),
                 "residual_db": residual_db(report),
-                "max_phase_deg": float(np.degrees(np.abs(phase).max())),
-                "predicted_db": predicted_ghost_db(rb, phase) if err > 0 else float("-inf"),
+                "max_phase_deg": math.degrees(mover["channel_phase_from_velocity"]),
+                "predicted_db": float("-inf") if predicted is None else predicted,
             }
         )
 

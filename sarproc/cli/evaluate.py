@@ -226,6 +226,9 @@ def false_target_lines(report: QualityReport, units: dict) -> list[str]:
             f"\n{label}: {_fmt(guard.level_db, '.2f')} dB relative to target {guard.reference_target}, "
             f"at {where(guard)}"
         )
+    if report.false_target_predicted is not None:
+        p = report.false_target_predicted
+        out.append(f"\nFalse target predicted: {_fmt(p['level_db'], '.2f')} dB ({p['source']})")
     return out
 
 
@@ -405,6 +408,9 @@ def evaluate(
             progress=progress_factory(want_progress(progress), "evaluate"),
             names=names,
         )
+    from sarproc.focus.multichannel.channels import ghost_predictions
+
+    report = ghost_predictions(product, report)  # the first-order ghost levels of a multichannel truth
     all_names = [n.decode() if isinstance(n, bytes) else str(n) for n in product.targets["name"]]
     failures = check_report(report, expect, source=str(expect_path), all_names=all_names) if expect else []
     units = {d: UNITS.get(d, "") for d in product.dims}

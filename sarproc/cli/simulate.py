@@ -56,7 +56,7 @@ def simulate(scene_path: Path, output: Path, overwrite: bool, progress: bool | N
             plan.coords,
             plan.radar,
             plan.targets,
-            attrs={"frame": scene.target_frame.spec, **plan.attrs},
+            attrs=plan.attrs,
             aux=plan.aux,
             history=history,
             inputs=[scene_path],

@@ -1035,8 +1035,9 @@ def plan_backprojection(
         attrs.update(period_attrs(radar, rx_offs))
         if params.range_window == "none":
             attrs.update(range_response_attrs(radar, len(raw.coords["range_time"]), params.range_filter))
-    if "reconstruct" in raw.attrs:  # its velocity estimates per moving-target window (evaluate reads them)
-        attrs["reconstruct"] = raw.attrs["reconstruct"]
+    for key in ("reconstruct", "channel_errors"):  # velocity estimates per moving-target window, the simulated
+        if key in raw.attrs:  # channel imbalance and its predicted ghost level: evaluate reads them
+            attrs[key] = raw.attrs[key]
     return BackprojectionPlan(
         frame, grid["azimuth"], grid["range"], targets, attrs, grid["elevation"] if three_d else None
     )

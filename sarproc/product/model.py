@@ -111,6 +111,12 @@ AUX_LAYOUT = {
     "tx_offset": (("xyz",), "m", "transmitter offset from the platform position"),
     "rx_offset": (("receiver", "xyz"), "m", "receiver offsets from the platform position"),
     "range_gate_offset": (("pulse",), "s", "receive-window start offset per pulse"),
+    "doppler_frequency": (("doppler",), "Hz", "Doppler frequency of doppler_power (squint centroid removed)"),
+    "doppler_power": (
+        ("doppler",),
+        "1",
+        "azimuth power spectrum summed over range, squint centroid removed (written by reconstruct)",
+    ),
     "moving_targets": (
         ("mover", "moving_target_field"),
         "see long_name",
@@ -121,6 +127,7 @@ AUX_DIM_DOC = {
     "pulse": "transmit pulse index",
     "receiver": "receive channel index",
     "xyz": "scene-frame component: 0 = x (along track), 1 = y, 2 = z (up)",
+    "doppler": "Doppler bin (ascending frequency)",
 }
 
 # Units of the targets table's fields (the table is a compound dataset: one map, no single unit).

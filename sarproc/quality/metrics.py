@@ -312,6 +312,9 @@ class QualityReport:
     residual_note: str | None = None  # why the residual figures were not taken, where asked for
     # every false target over the residual's floor (the first is false_target); None without the residual
     false_targets: FalseTargetList | None = None
+    # the false-target level the truth predicts (first order), {level_db, source}: filled in by
+    # sarproc.focus.multichannel.channels.ghost_predictions (a simulated channel imbalance); not in to_dict when None
+    false_target_predicted: dict | None = None
 
     def target(self, name: str) -> TargetReport:
         for t in self.targets:
@@ -320,8 +323,12 @@ class QualityReport:
         raise KeyError(name)
 
     def to_dict(self) -> dict:
-        """JSON-able dict: non-finite floats become None (JSON has no NaN/inf)."""
-        return _jsonable(dataclasses.asdict(self))
+        """JSON-able dict: non-finite floats become None (JSON has no NaN/inf); no ``false_target_predicted`` entry
+        without a prediction."""
+        d = dataclasses.asdict(self)
+        if d["false_target_predicted"] is None:
+            del d["false_target_predicted"]
+        return _jsonable(d)
 
 
 def _jsonable(v: Any) -> Any:

@@ -72,6 +72,11 @@ class MoverReport:
     relocation_error: float | None = None  # |relocated - true position|
     relocation_error_xyz: tuple | None = None
     relocation_error_from_velocity: float | None = None  # first-order implied by the velocity error
+    # the velocity error's residual channel phase (rad, largest over the channels; eq. 8 term 2) and the first-order
+    # false-target level it leaves (dB, eq. 6; -inf without an error): filled in by the multichannel reconstruction's
+    # sarproc.focus.multichannel.channels.ghost_predictions where the image records its channels
+    channel_phase_from_velocity: float | None = None
+    ghost_level_from_velocity_db: float | None = None
 
 
 def truth_frame(product: Product, source: str = "") -> Frame:

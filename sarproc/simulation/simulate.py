@@ -47,8 +47,8 @@ class SimulationPlan:
     tx_offset: np.ndarray
     rx_offsets: np.ndarray
     block_pulses: int
-    # attributes of the raw data set: fixed_gate_samples, the samples per pulse a fixed receive gate
-    # would need for the same echoes (only with a varied gate, effects.range_gate)
+    # attributes of the raw data set: the frame, the effects' truth, and fixed_gate_samples, the samples per
+    # pulse a fixed receive gate would need for the same echoes (only with a varied gate, effects.range_gate)
     attrs: dict = dataclasses.field(default_factory=dict)
 
     @property
@@ -140,7 +140,7 @@ def plan_simulation(scene: Scene) -> SimulationPlan:
     ref_delay = 2 * r.reference_range / C
     gate = _gate_offsets(scene, t, ref_delay)
     first, n_range = _receive_window(scene, t, tx_off, rx_off, gate)
-    attrs = {}
+    attrs: dict = {"frame": scene.target_frame.spec}
     if np.any(gate != 0):  # what the varied gate saves: the window a fixed gate needs for the same echoes
         attrs["fixed_gate_samples"] = _receive_window(scene, t, tx_off, rx_off, np.zeros_like(gate))[1]
     range_time = (first + np.arange(n_range)) / r.range_sampling_rate
@@ -157,6 +157,8 @@ def plan_simulation(scene: Scene) -> SimulationPlan:
         aux["range_gate_offset"] = gate
     for e in scene.effects:
         aux.update(e.aux())
+    for e in scene.effects:
+        attrs.update(e.product_attrs(radar, aux))
     return SimulationPlan(
         kind=kind,
         dims=dims,
@@ -394,7 +396,7 @@ def simulate(scene: Scene, progress: ProgressFactory | None = None) -> Product:
         coords=plan.coords,
         radar=plan.radar,
         targets=plan.targets,
-        attrs={"frame": scene.target_frame.spec, **plan.attrs},
+        attrs=plan.attrs,
         aux=plan.aux,
         history=[scene.history_entry("simulate")],
     )

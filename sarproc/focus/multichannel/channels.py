@@ -48,10 +48,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
+    from collections.abc import Mapping, Sequence
+
     import numpy.typing as npt
 
     from sarproc.product.metadata import RadarMetadata
     from sarproc.product.model import Product
+    from sarproc.quality.metrics import QualityReport
 
 
 def channel_delays(
@@ -193,29 +196,108 @@ def ghost_level_db(tau: np.ndarray, prf: float, error_phase: np.ndarray, half_ba
     return float(20 * np.log10(best)) if best > 0 else float("-inf")
 
 
-def product_ghost_level_db(raw: Product, error_phase: np.ndarray) -> float:
+def beam_half_band(radar: RadarMetadata) -> float:
+    """Doppler half-band of the beam, Hz: v cos(theta) beamwidth / lambda (the target's flat spectrum in eq. 6)."""
+    return radar.velocity * math.cos(radar.squint) * radar.azimuth_beamwidth / radar.wavelength
+
+
+def velocity_error_phase(tau: npt.ArrayLike, dv_r: float, squint: float, wavelength: float) -> np.ndarray:
+    """Residual channel phase (rad per channel) of a slant-range velocity error dv_r, m/s: 4 pi dv_r cos(theta)
+    tau_n / lambda (eq. 8, second term, with the error in place of v_r)."""
+    return 4 * np.pi * dv_r * math.cos(squint) * np.asarray(tau, float) / wavelength
+
+
+def channel_ghost_level_db(
+    offsets: npt.ArrayLike, radar: RadarMetadata, channel_prf: float, error_phase: npt.ArrayLike
+) -> float:
     """:func:`ghost_level_db` (eq. 6) of a channel error ``error_phase`` (rad per channel; complex: with a gain
-    error) for a multichannel raw product: its channels' delays, PRF and the Doppler half-band of its beam."""
-    r = raw.radar
-    tx = np.asarray(raw.aux.get("tx_offset", np.zeros(3)), float).reshape(3)
-    offsets = np.asarray(raw.aux["rx_offset"], float)[:, 0] - tx[0]  # receivers along track from the transmitter
-    half_band = r.velocity * math.cos(r.squint) * r.azimuth_beamwidth / r.wavelength
-    return ghost_level_db(channel_delays(offsets, r.velocity), r.prf, error_phase, half_band)
+    error) for receivers at along-track ``offsets`` (m, from the transmitter) sampled at ``channel_prf``, with the
+    Doppler half-band of ``radar``'s beam."""
+    tau = channel_delays(offsets, radar.velocity)
+    return ghost_level_db(tau, channel_prf, np.asarray(error_phase), beam_half_band(radar))
+
+
+def product_ghost_level_db(raw: Product, error_phase: np.ndarray) -> float:
+    """:func:`channel_ghost_level_db` of a multichannel raw product: its receivers, PRF and beam."""
+    return channel_ghost_level_db(receiver_offsets(raw.aux), raw.radar, raw.radar.prf, error_phase)
+
+
+def velocity_ghost(
+    radar: RadarMetadata, channel_offsets: Sequence[float], channel_prf: float, dv_r: float
+) -> tuple[float, float]:
+    """(largest residual channel phase, rad; first-order false-target level, dB) of a slant-range velocity error
+    ``dv_r`` (m/s) in a reconstruction of receivers at ``channel_offsets`` (m along track from the transmitter)
+    sampled at ``channel_prf``: eq. 8's second term with the error for v_r, then eq. 6. No error: (0, -inf)."""
+    if dv_r == 0:
+        return 0.0, -math.inf
+    phase = velocity_error_phase(channel_delays(channel_offsets, radar.velocity), dv_r, radar.squint, radar.wavelength)
+    return float(np.abs(phase).max()), channel_ghost_level_db(channel_offsets, radar, channel_prf, phase)
+
+
+def ghost_predictions(image: Product, report: QualityReport) -> QualityReport:
+    """``report`` (evaluate's, of ``image``) with the first-order ghost levels its truth predicts, where ``image``
+    records reconstruct's channels (attribute ``reconstruct``: ``channel_offsets``, ``prf_in``):
+
+    * ``false_target_predicted``: of simulate's channel imbalance (attribute ``channel_errors``);
+    * each mover's ``channel_phase_from_velocity`` and ``ghost_level_from_velocity_db``: of its slant-range
+      velocity error (:func:`velocity_ghost`).
+    """
+    rec = image.attrs.get("reconstruct") or {}
+    offsets = rec.get("channel_offsets") or []
+    if len(offsets) < 2:
+        return report
+    prf = float(rec["prf_in"])
+    radar = image.radar
+    errors = image.attrs.get("channel_errors") or {}
+    predicted = report.false_target_predicted
+    if errors:
+        gain = (1 + np.asarray(errors["amplitude_imbalance"], float)) * np.exp(
+            1j * np.asarray(errors["phase_imbalance"], float)
+        )
+        predicted = {
+            "level_db": channel_ghost_level_db(offsets, radar, prf, -1j * np.log(gain)),
+            "source": "the simulated channel imbalance's ghosts, first order (channel_errors; eq. 6)",
+        }
+    movers = []
+    for m in report.movers:
+        if m.v_r_error is not None:
+            phase, level = velocity_ghost(radar, offsets, prf, m.v_r_error)
+            m = dataclasses.replace(m, channel_phase_from_velocity=phase, ghost_level_from_velocity_db=level)
+        movers.append(m)
+    return dataclasses.replace(report, false_target_predicted=predicted, movers=tuple(movers))
+
+
+def receiver_offsets(aux: Mapping[str, np.ndarray]) -> np.ndarray:
+    """Along-track offsets of the receivers from the transmitter, m (aux ``rx_offset`` x minus ``tx_offset`` x)."""
+    tx = np.asarray(aux.get("tx_offset", np.zeros(3)), float).reshape(3)
+    return np.asarray(aux["rx_offset"], float).reshape(-1, 3)[:, 0] - tx[0]
+
+
+DOPPLER_SPECTRUM_BLOCK = 256  # range cells per block of doppler_power_spectrum (bounds its working memory)
 
 
 def doppler_power_spectrum(product: Product) -> tuple[np.ndarray, np.ndarray]:
     """(Doppler frequencies, Hz, ascending; power summed over range) of a single-channel raw product's azimuth
     spectrum with the squint's Doppler centroid 2 v sin(theta) / lambda removed: where a reconstructed
-    channel's band lies within the N PRF it carries, and its ghosts' bands (paper 003, Fig. 10)."""
+    channel's band lies within the N PRF it carries, and its ghosts' bands (paper 003, Fig. 10).
+    ``reconstruct`` stores it (aux ``doppler_frequency``, ``doppler_power``)."""
     if product.data.ndim != 2:
         raise ValueError(f"doppler_power_spectrum: a single-channel product, not one of {product.data.ndim} axes")
-    r = product.radar
-    t = np.asarray(product.coords["azimuth_time"], dtype=float)
-    deramped = product.data * np.exp(-2j * np.pi * 2 * r.velocity * math.sin(r.squint) / r.wavelength * t)[:, None]
-    return (
-        np.fft.fftshift(np.fft.fftfreq(len(deramped), 1 / r.prf)),
-        np.fft.fftshift(np.sum(np.abs(np.fft.fft(deramped, axis=0)) ** 2, axis=1)),
-    )
+    return azimuth_power_spectrum(product.data, np.asarray(product.coords["azimuth_time"], dtype=float), product.radar)
+
+
+def azimuth_power_spectrum(
+    data: np.ndarray, azimuth_time: np.ndarray, radar: RadarMetadata
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`doppler_power_spectrum` of ``data`` (azimuth_time, range) sampled at ``radar.prf``, computed in blocks
+    of DOPPLER_SPECTRUM_BLOCK range cells."""
+    r = radar
+    ramp = np.exp(-2j * np.pi * 2 * r.velocity * math.sin(r.squint) / r.wavelength * azimuth_time)[:, None]
+    power = np.zeros(len(data))
+    for c in range(0, data.shape[1], DOPPLER_SPECTRUM_BLOCK):
+        block = data[:, c : c + DOPPLER_SPECTRUM_BLOCK] * ramp
+        power += np.sum(np.abs(np.fft.fft(block, axis=0)) ** 2, axis=1)
+    return np.fft.fftshift(np.fft.fftfreq(len(data), 1 / r.prf)), np.fft.fftshift(power)
 
 
 def ghost_spacing(radar: RadarMetadata, prf: float | None = None) -> float:

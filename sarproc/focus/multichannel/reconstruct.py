@@ -3273,6 +3273,9 @@ def reconstruct(
         "noise_gain_db": 10 * math.log10(bank.noise_gain),
         "uniform_prf": 2 * g.velocity / (n_ch * float(np.mean(np.diff(g.dx)))) if n_ch > 1 else g.prf,
         "method": params.method,
+        # the receivers along track from the transmitter (m): with prf_in, the channels evaluate's first-order
+        # ghost level of a velocity error needs (sarproc.quality.moving), the image having one channel left
+        "channel_offsets": [float(x) for x in g.dx],
     }
     # With the clutter null, detection and estimation see only the chirp's range band: the bins outside it hold
     # the chirp's spectral tails aliased by the range sampling (true frequency f_r -+ f_s), whose azimuth history
@@ -3628,6 +3631,11 @@ def _output_product(
     else:  # no detection ran: an empty table, and no claim about the truth movers
         aux["moving_targets"] = np.zeros((0, len(MOVING_TARGET_COLUMNS)))
     radar = raw.radar.replace(prf=g.n * g.prf, n_channels=1)
+    # the reconstructed channel's Doppler power spectrum (squint centroid removed): where its band lies in the
+    # N PRF and its ghosts' bands (paper 003 Fig. 10; docs/product.md); left out where the output is not finite
+    freq, power = channels.azimuth_power_spectrum(out, g.out_times, radar)
+    if np.all(np.isfinite(power)):
+        aux["doppler_frequency"], aux["doppler_power"] = freq, power
     info.pop("_probes", None)  # _detect_and_focus's hand-over to _moving_target_rows, not product metadata
     attrs = dict(raw.attrs.items())
     attrs["reconstruct"] = info

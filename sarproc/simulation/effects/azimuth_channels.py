@@ -65,9 +65,22 @@ class AzimuthChannels(ReceiverArray):
         self.dx = along_track_offsets(params.n_receivers, params.spacing)
         self.receiver_offsets = offsets_along(self.dx, 0)
         n = params.n_receivers
-        phase = np.asarray(params.phase_imbalance or np.zeros(n), float)
-        amp = np.asarray(params.amplitude_imbalance or np.zeros(n), float)
-        self.channel_gain = (1.0 + amp) * np.exp(1j * phase)
+        self.phase_imbalance = np.asarray(params.phase_imbalance or np.zeros(n), float)
+        self.amplitude_imbalance = np.asarray(params.amplitude_imbalance or np.zeros(n), float)
+        self.channel_gain = (1.0 + self.amplitude_imbalance) * np.exp(1j * self.phase_imbalance)
+
+    def product_attrs(self, radar: RadarMetadata, aux: dict) -> dict:
+        """With a channel imbalance, attribute ``channel_errors``: the imbalance simulated (``phase_imbalance`` rad,
+        ``amplitude_imbalance`` per channel), from which evaluate predicts the ghosts it leaves (eq. 6 of
+        docs/multichannel.md, :func:`sarproc.focus.multichannel.channels.ghost_predictions`)."""
+        if np.all(self.channel_gain == 1):
+            return {}
+        return {
+            "channel_errors": {
+                "phase_imbalance": [float(p) for p in self.phase_imbalance],
+                "amplitude_imbalance": [float(a) for a in self.amplitude_imbalance],
+            }
+        }
 
     def gains(
         self, t: np.ndarray, platform_pos: np.ndarray, target_pos: np.ndarray, channel: int, gains: np.ndarray

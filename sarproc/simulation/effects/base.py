@@ -88,6 +88,10 @@ class Effect:
         """Extra arrays to store with the raw product."""
         return {}
 
+    def product_attrs(self, radar: RadarMetadata, aux: dict) -> dict:
+        """Extra attributes (truth the effect knows) for the raw product, given its final radar and aux arrays."""
+        return {}
+
 
 def offsets_along(values: np.ndarray, axis: int) -> np.ndarray:
     """(n, 3) receiver offsets, m: ``values`` along coordinate ``axis`` (0 along track, 1 cross track), 0 elsewhere."""
