@@ -318,6 +318,32 @@ def _noise_window(seed: int) -> tuple[rc._Window, rc._Geometry]:
     return win, g
 
 
+def test_the_noise_dips_bound_is_the_noise_draws_and_the_searchs_minimum_lifts_it():
+    """_noise_dip's second value, the bound a static point's value passes from the noise's draw alone at
+    POINT_TARGET_ALPHA (t sigma, sigma from the noise cells' own spread), on 100 noise windows (criterion cells 14-18 of
+    noise, as if they stood out of the floor: the worst static, no leakage of its own). At a fixed trial velocity
+    (8 m/s) `_noise_dip` / sigma has mean -0.02, standard deviation 0.99 and passes the bound in none of the 100: sigma
+    is the draw's scatter. At eq. 5's own minimum it is positive in 88 of 100, mean 0.88: the search picks the trial
+    where the criterion's noise falls furthest, so the sign rule takes back only a few such windows, and scene 016's
+    true M1 (0.40 of its sigma) stands under the median of noise alone (0.80): no bound tells them apart
+    (docs/multichannel.md section 12)."""
+    from scipy.special import stdtrit
+
+    fixed, at_minimum = [], []
+    for seed in range(100):
+        win, _ = _noise_window(seed)
+        far = rc._far_cells(win)
+        assert far is not None
+        t = float(stdtrit(len(far) - 1, 1 - rc.POINT_TARGET_ALPHA))
+        dip, bound = rc._noise_dip(win, 8.0, 0.0)
+        fixed.append(dip * t / bound)
+        dip, bound = rc._noise_dip(win, _searched(win).v_r, 0.0)
+        at_minimum.append(dip * t / bound)
+    z, zm = np.array(fixed), np.array(at_minimum)
+    assert abs(z.mean()) < 0.2 and 0.8 < z.std(ddof=1) < 1.25 and np.sum(z > t) <= 3, (z.mean(), z.std(ddof=1))
+    assert zm.mean() > 0.5 and np.sum(zm > 0) > 80 and np.median(zm) > 0.40, (zm.mean(), np.sum(zm > 0))
+
+
 def test_a_noise_windows_t_at_the_searchs_minimum_is_held_to_the_selections_critical_value():
     """A noise window (seed 33) whose eq. 5 dips (under 0.95 of its curve's median) and whose coherence t at the
     search's minimum, 2.90, passes Student's one-sided 1 % point (2.50, 23 degrees of freedom): main took it for
