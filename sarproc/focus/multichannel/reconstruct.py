@@ -185,8 +185,10 @@ class MovingTarget:
     # leakage_spread): a take-back of a weak detection weighs the larger (_static_within)
     untapered_spread: float = 0.0
     # without the clutter null: how much further eq. 5 falls from rest to its first estimate than the window's own
-    # noise does (_noise_dip; <= 0: no evidence of motion; nan: not measured)
+    # noise does (_noise_dip; <= 0: no evidence of motion; nan: not measured), and how far the noise's draw alone
+    # takes a static point's at POINT_TARGET_ALPHA (noise_dip_bound; under it: motion not significant, a warning)
     noise_dip: float = float("nan")
+    noise_dip_bound: float = 0.0
 
     def line_of_sight_velocity(self, squint: float) -> float:
         """m/s: the estimated velocity's component along the beam's line of sight (v_r cos + v_a sin)."""
@@ -1035,12 +1037,13 @@ def _incoherent(
     return not t > critical + shift
 
 
-def _noise_dip(win: _Window, v_r: float, v_a: float) -> float:
+def _noise_dip(win: _Window, v_r: float, v_a: float) -> tuple[float, float]:
     """How much further eq. 5 of the criterion's cells falls from rest to (``v_r``, ``v_a``) than the window's noise
     alone makes it fall there: (L(0) - L(v)) - s (F(0) - F(v)), L eq. 5 of the criterion's cells, F of the window's
     noise cells (its far cells, _far_cells, that hold no target: not over the cell-energy floor, _over_floor), s the
-    noise's share of the criterion's energy (a noise cell's mean energy over a criterion cell's, at rest). nan where
-    there are no criterion cells or fewer than 3 noise cells.
+    noise's share of the criterion's energy (a noise cell's mean energy over a criterion cell's, at rest); and the
+    bound a static point's value passes with probability POINT_TARGET_ALPHA from the noise's draw alone (below).
+    nan, 0 where there are no criterion cells or fewer than 3 noise cells.
 
     Eq. 5 of noise alone has its own dip: the window's channels are the detection's extraction band, and its noise
     leaks least where the trial Doppler centres that band (mover campaign scenes 015 and 017: the far cells' minimum
@@ -1050,14 +1053,30 @@ def _noise_dip(win: _Window, v_r: float, v_a: float) -> float:
     less than the noise's own. A point mover at v adds nothing out of band at v and O_m(0) > 0 at rest: its cells fall
     by s (F(0) - F(v)) + O_m(0) / T, more. So a fall no further than the noise's is no evidence of motion, whatever
     the SNR: the noise's dip pulls a weak static's eq. 5 minimum off rest by more than the SNR's 1-sigma says (a bias,
-    which no spread of the looks measures; scene 017's S2: 7.5 m/s, 2.4 sigma), and the fall measures it. No
-    threshold: the sign of an expectation; the noise draw's own scatter around it is what is left (section 11)."""
+    which no spread of the looks measures; scene 017's S2: 7.5 m/s, 2.4 sigma), and the fall measures it.
+
+    That is the sign of an expectation. The criterion's cells and the noise cells hold different draws of the noise, so
+    the value scatters around it: where a static point's own O_s(v) / T is small (a weak static pulled far by the
+    noise's dip), it is as often above 0 as below (scene 015's static over noise seeds: -0.0167 to +0.0104;
+    docs/multichannel.md section 13). The scatter is the noise's, from the noise cells themselves: each cell's
+    linearised share of the noise's fall, r_c = (O0_c - F(0) T0_c) / mean T0 - (Ov_c - F(v) Tv_c) / mean Tv (the delta
+    method for a ratio of sums), has variance V over the noise cells (range cells of noise are nearly independent: lag-1
+    correlation of r -0.20 to +0.32 on the campaign's noise windows, but 0.68-0.70 where a static's skirt reaches the
+    far cells, scene 006, whose sigma is then too small by up to 1.5); the criterion's noise fall is s times the mean of
+    n_crit such terms and the noise cells' estimate s times the mean of n_noise, so their difference has the standard
+    deviation s sqrt(V (1 / n_crit + 1 / n_noise)). The bound is that draw's one-sided POINT_TARGET_ALPHA point
+    (Student's, n_noise - 1 degrees of freedom: V is estimated): the significance a detection's eq. 5 dip must have to
+    be a point target at all (_incoherent), asked of whether that point moves. The signal's cross terms with the noise
+    are left out (they matter only where the signal's own leakage is large, and there the fall is far over the bound:
+    scene 004's movers at 134-188 of these sigmas, 013's at 5.4-8.2). The bound does not decide (the sign does): the
+    weakest true mover in noise measured, scene 016's M1, stands at 0.40 of its sigma, under two noise-pulled statics
+    (_warn_within_noise)."""
     if win.cells is None or (far := _far_cells(win)) is None:
-        return float("nan")
+        return float("nan"), 0.0
     profile = win.cell_energy
     noise = far[~_over_floor(profile, float(profile.max()))[far]]
     if len(noise) < 3:
-        return float("nan")
+        return float("nan"), 0.0
     out = np.abs(win.out_f) > win.g.half_band
 
     def cells(u: float) -> tuple[np.ndarray, np.ndarray]:  # per cell: eq. 5's out-of-band energy and total
@@ -1067,11 +1086,15 @@ def _noise_dip(win: _Window, v_r: float, v_a: float) -> float:
     (ov, tv), (o0, t0) = cells(v_r), cells(0.0)
     crit = win.cells
     if not (t0[crit].sum() > 0 and tv[crit].sum() > 0 and t0[noise].sum() > 0 and tv[noise].sum() > 0):
-        return float("nan")
+        return float("nan"), 0.0
     fall = o0[crit].sum() / t0[crit].sum() - ov[crit].sum() / tv[crit].sum()
-    noise_fall = o0[noise].sum() / t0[noise].sum() - ov[noise].sum() / tv[noise].sum()
+    f0, fv = o0[noise].sum() / t0[noise].sum(), ov[noise].sum() / tv[noise].sum()
     share = float(np.mean(t0[noise]) / np.mean(t0[crit]))
-    return float(fall - share * noise_fall)
+    r = (o0[noise] - f0 * t0[noise]) / np.mean(t0[noise]) - (ov[noise] - fv * tv[noise]) / np.mean(tv[noise])
+    sigma = share * math.sqrt(float(np.sum(r**2)) / (len(noise) - 1) * (1 / len(crit) + 1 / len(noise)))
+    from scipy.special import stdtrit  # Student's t (scipy.stats' import costs about 0.5 s of CPU)
+
+    return float(fall - share * (f0 - fv)), float(stdtrit(len(noise) - 1, 1 - POINT_TARGET_ALPHA)) * sigma
 
 
 def _coherence_t(win: _Window, v_r: float, v_a: float) -> tuple[float, int]:
@@ -1545,13 +1568,18 @@ def _estimate(
     centre = _centre(win, g, est, centre_range, centre_cell, null_fit)
     if flat_above is not None and est.result is not None and _incoherent(est, win, g, flat_above, params):
         return None, ["incoherent"]
-    noise_dip = float("nan")
+    noise_dip, noise_dip_bound = float("nan"), 0.0
     if flat_above is not None and null_fit is None and est.result is not None and not est.by_null_fit:
         # without the clutter null eq. 5 is the only evidence of motion: how much of its fall from rest the noise's
-        # own dip does not explain (_refocus takes the mover back where none is left)
-        noise_dip = _noise_dip(win, est.v_r, est.v_a)
+        # own dip does not explain (_refocus takes the mover back where none is left; _warn_within_noise warns where
+        # what is left is within the noise's draw)
+        noise_dip, noise_dip_bound = _noise_dip(win, est.v_r, est.v_a)
         log.debug(
-            "reconstruct: eq. 5 falls %.4f further from rest to %.2f m/s than the window's noise", noise_dip, est.v_r
+            "reconstruct: eq. 5 falls %.4f further from rest to %.2f m/s than the window's noise (its draw reaches "
+            "%.4f)",
+            noise_dip,
+            est.v_r,
+            noise_dip_bound,
         )
     t_c, slant_range = centre.t_c, centre.slant_range
     if params.autofocus and params.along_track_velocity is None:
@@ -1610,6 +1638,7 @@ def _estimate(
         leakage_spread=spread_weighed,
         untapered_spread=spread,
         noise_dip=noise_dip,
+        noise_dip_bound=noise_dip_bound,
     ), notes
 
 
@@ -2084,6 +2113,7 @@ def _detect_and_focus(
     for det in _examination_order(second, scan):
         _visit(det, scan, tally)
     kept = _drop_under_threshold(scan, tally)
+    _warn_within_noise(tally)
     _warn_merged(tally, kept)
     _warn_unseparated(scan, tally)
     _warn_unexamined(tally, params)
@@ -2702,7 +2732,10 @@ def _refocus(
         # _drop_under_threshold whatever the CFAR threshold where
         # - eq. 5 falls from rest to the estimate no further than the window's noise alone does (_noise_dip): its
         #   minimum is the noise's dip (mover campaign scene 017's static S2 band-limited, 16.2 dB, read at v_r
-        #   7.90 m/s, 2.4 sigma over detection_velocity; docs/multichannel.md section 11), or
+        #   7.90 m/s, 2.4 sigma over detection_velocity; docs/multichannel.md section 11). The sign, not the noise
+        #   draw's bound: a weak true mover stands inside that bound too (scene 016's M1, 0.40 of its sigma, under
+        #   two noise-pulled statics of scene 015 at 0.55 and 0.68; section 13); one kept inside it is warned of
+        #   (_warn_within_noise), or
         # - rest within STATIC_SIGMAS of the tabled v_los is not ruled out (scene 015's static S2 band-limited,
         #   16.8 dB: eq. 5's minimum pulled to v_r 4.97 m/s by the noise's own dip, 1-sigma 2.40; section 10). Not on
         #   the search bound: there eq. 5 falls towards the bound, away from rest, and the 1-sigma is the bound's
@@ -2876,6 +2909,29 @@ def _drop_under_threshold(scan: _Scan, tally: _Tally) -> dict[int, int]:
     tally.peaks = [p for k, p in enumerate(tally.peaks) if k not in drop]
     tally.counts["weak"] = len(drop)
     return index
+
+
+def _warn_within_noise(tally: _Tally) -> None:
+    """Warn of each mover kept (numbered as _drop_under_threshold kept them) whose only evidence of motion, eq. 5's
+    fall from rest without the clutter null, is beyond the window's noise's own (MovingTarget.noise_dip > 0) but within
+    what the noise's draw gives a static point at POINT_TARGET_ALPHA (noise_dip_bound): its motion is not
+    significant. Not taken back: a weak true mover stands there too (mover campaign scene 016's M1, 19.5 dB,
+    0.40 of the draw's sigma) with noise-pulled statics (scene 015's S2 over noise seeds, 0.55 and 0.68 of it);
+    docs/multichannel.md section 13."""
+    for i, (mt, det) in enumerate(zip(tally.movers, tally.peaks, strict=True)):
+        if 0 < mt.noise_dip <= mt.noise_dip_bound:
+            log.warning(
+                "reconstruct: mover %d (range cell %d, %.3f s, SNR %.1f dB): without a clutter null its motion rests "
+                "on eq. 5 falling from rest %.4f further than the window's noise alone does, within the %.4f the "
+                "noise's draw gives a static point at %g: it may be a static point pulled off rest by the noise",
+                i,
+                det.cell,
+                det.time,
+                det.snr_db,
+                mt.noise_dip,
+                mt.noise_dip_bound,
+                POINT_TARGET_ALPHA,
+            )
 
 
 def _warn_merged(tally: _Tally, kept: dict[int, int]) -> None:
