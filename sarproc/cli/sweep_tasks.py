@@ -34,7 +34,8 @@ tasks (every task's first run, then every task's second, ...), so a slow spell o
 hits all settings alike. The repeats write to ``tasks/<id>/repeat/`` (removed after), are checked to
 give the first run's products bit for bit (``repeats_identical``) and leave their time in
 ``tasks/<id>/repeat-<k>.done.json``. The row's ``focus_s`` is the best of the N times, with
-``focus_median_s`` and ``focus_spread_s`` (max - min); quality is the first run's.
+``focus_median_s`` and ``focus_spread_s`` (max - min); quality is the first run's. Each command of the chain
+keeps its own times too (``focus_step_times``, in table.json): a chain's step timed over the repeats alone.
 
 Dask is optional: ``run_serial`` needs nothing beyond sarproc; ``run_dask`` needs ``dask.distributed``
 (``pip install 'sarproc[distributed]'``).
@@ -71,7 +72,9 @@ if TYPE_CHECKING:
     from dask.distributed import Client
 
 TIME_COLUMNS = ("simulate_s", "focus_s", "focus_median_s", "focus_spread_s", "evaluate_s")
-TIMING_KEYS = TIME_COLUMNS + ("focus_times",)  # every key of a row that holds a measured time
+# every key of a row that holds a measured time (focus_step_s: each focus command's seconds, first run;
+# focus_step_times: each command's seconds over the first run and its repeats)
+TIMING_KEYS = TIME_COLUMNS + ("focus_times", "focus_step_s", "focus_step_times")
 QUALITY_COLUMNS = ("irw_dev", "pslr_db", "islr_db", "position_cells", "false_target_db")
 
 
@@ -443,11 +446,12 @@ def _run_task(task: Task, sim: dict) -> dict:
     config_path = task.directory / "config.yaml"
     _write_yaml_if_changed(config_path, task.config)
     source, key = Path(sim["path"]), sim["key"]
-    focus_s, skipped = 0.0, [sim["skipped"]]
+    focus_s, skipped, step_s = 0.0, [sim["skipped"]], {}
     for command, key in zip(task.focus, focus_keys(task, sim["key"])):
         out = task.directory / f"{command}.h5"
         rec = run_step(command, [source, "--config", config_path, "-o", out, "--overwrite", "--no-progress"], out, key)
         focus_s += rec["seconds"]
+        step_s[command] = rec["seconds"]
         skipped.append(rec["skipped"])
         source = out
     if not task.evaluate:
@@ -457,6 +461,7 @@ def _run_task(task: Task, sim: dict) -> dict:
             **task.setting,
             "simulate_s": sim["seconds"],
             "focus_s": focus_s,
+            "focus_step_s": step_s,
             "evaluate_s": None,
             **dict.fromkeys(QUALITY_COLUMNS),
             "skipped": all(skipped),
@@ -472,6 +477,7 @@ def _run_task(task: Task, sim: dict) -> dict:
         **task.setting,
         "simulate_s": sim["seconds"],
         "focus_s": focus_s,
+        "focus_step_s": step_s,
         "evaluate_s": rec["seconds"],
         **quality,
         "skipped": all(skipped),
@@ -519,7 +525,7 @@ def run_repeat(task: Task, sim: dict, k: int) -> dict:
     config_path = task.directory / "config.yaml"
     workdir = task.directory / "repeat"
     workdir.mkdir(parents=True, exist_ok=True)
-    source, seconds, identical, made = Path(sim["path"]), 0.0, True, []
+    source, seconds, identical, made, steps = Path(sim["path"]), 0.0, True, [], {}
     try:
         for command in task.focus:
             out = workdir / f"{command}.h5"
@@ -528,7 +534,8 @@ def run_repeat(task: Task, sim: dict, k: int) -> dict:
                 invoke(command, [source, "--config", config_path, "-o", out, "--overwrite", "--no-progress"])
             except Exception as exc:  # the step's own error, named with its command
                 raise ProcessingError(f"repeat {k} of sarproc {command} ({task.task_id}): {exc}") from exc
-            seconds += time.perf_counter() - start
+            steps[command] = time.perf_counter() - start
+            seconds += steps[command]
             made.append(out)
             identical = identical and _same_data(out, task.directory / f"{command}.h5")
             source = out
@@ -537,7 +544,7 @@ def run_repeat(task: Task, sim: dict, k: int) -> dict:
             path.unlink(missing_ok=True)
         with contextlib.suppress(OSError):
             workdir.rmdir()
-    record = {"key": key, "repeat": k, "seconds": seconds, "identical": identical}
+    record = {"key": key, "repeat": k, "seconds": seconds, "step_seconds": steps, "identical": identical}
     with atomic_path(record_path) as tmp:
         tmp.write_text(json.dumps(record, indent=1) + "\n")
     return record
@@ -551,7 +558,7 @@ def with_repeats(row: dict, repeats: list) -> dict:
         return {**row, "focus_median_s": None, "focus_spread_s": None, "focus_times": [], "repeats_identical": None}
     times = [row["focus_s"]] + [r["seconds"] for r in repeats]
     stats = timing_stats(times)
-    return {
+    out = {
         **row,
         "focus_s": stats["best"],
         "focus_median_s": stats["median"],
@@ -559,6 +566,10 @@ def with_repeats(row: dict, repeats: list) -> dict:
         "focus_times": times,
         "repeats_identical": all(r["identical"] for r in repeats) if repeats else None,
     }
+    first = row.get("focus_step_s")
+    if first and all(set(r.get("step_seconds") or {}) == set(first) for r in repeats):  # older records: none
+        out["focus_step_times"] = {c: [first[c]] + [r["step_seconds"][c] for r in repeats] for c in first}
+    return out
 
 
 def summarise_report(report: dict) -> dict:

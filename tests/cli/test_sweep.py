@@ -246,6 +246,8 @@ def test_repeats_time_the_focus_interleaved_and_check_determinism(tmp_path):
         assert len(times) == 3 and row["repeats_identical"] is True
         assert row["focus_s"] == min(times) and row["focus_spread_s"] == max(times) - min(times)
         assert min(times) <= row["focus_median_s"] <= max(times)
+        # each command of the chain keeps its own times over the same runs (a one-command chain: the chain's)
+        assert row["focus_step_times"] == {"backproject": times}
         assert not (task.directory / "repeat").exists()
     first_runs = [(t.directory / "backproject.h5").stat().st_mtime_ns for t in plan.tasks]
     rounds = [[(t.directory / f"repeat-{k}.done.json").stat().st_mtime_ns for t in plan.tasks] for k in (1, 2)]
