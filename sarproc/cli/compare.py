@@ -38,7 +38,7 @@ def compare(base: Path, new: Path, output: Path | None, overwrite: bool) -> None
         raise InputError(f"compare: {base} and {new} must be two files or two folders")
     pairs = [(base / n, new / n, n) for n in cmp.paired_names(base)] if base.is_dir() else [(base, new, new.name)]
     if output is not None:
-        from sarproc.product.io import check_output_path
+        from sarproc.product.io import atomic_path, check_output_path
 
         check_output_path(output, [base, new], overwrite=overwrite)
     tables, files = [], []
@@ -53,9 +53,8 @@ def compare(base: Path, new: Path, output: Path | None, overwrite: bool) -> None
         if rows:
             tables.append(markdown_table(columns, rows))
     if output is not None:
-        from sarproc.cli.evaluate import _write_text_atomic
-
         doc = {"base": str(base), "new": str(new), "files": files}
-        _write_text_atomic(output, json.dumps(doc, indent=2) + "\n", overwrite)
+        with atomic_path(output, overwrite=overwrite) as tmp:
+            tmp.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
     click.echo(f"Products of `{new}` against `{base}` (sarproc compare).\n")
     click.echo("\n\n".join(tables) if tables else "No files to compare.")

@@ -94,9 +94,8 @@ def ghost_test(
     clean image's own. Parameters come from the `evaluate:` section of --config. Exit status 2 on bad input
     (the two grids differ, a 3D cube).
     """
-    from sarproc.cli.evaluate import _write_text_atomic
     from sarproc.cli.progress import progress_factory
-    from sarproc.product.io import check_output_path, read_product
+    from sarproc.product.io import atomic_path, check_output_path, read_product
     from sarproc.quality.ghost_test import injected_ghosts
     from sarproc.quality.metrics import EvaluateParams
 
@@ -109,6 +108,7 @@ def ghost_test(
     test = injected_ghosts(clean, ghosted, params, wanted, progress_factory(want_progress(progress), "ghost-test"))
     if output is not None:
         doc = {"clean": str(clean_path), "ghosted": str(ghosted_path), **test.to_dict()}
-        _write_text_atomic(output, json.dumps(doc, indent=2) + "\n", overwrite)
+        with atomic_path(output, overwrite=overwrite) as tmp:
+            tmp.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
     if verbosity() >= 0:
         click.echo(ghost_table(test), err=stdout_taken())

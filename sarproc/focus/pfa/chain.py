@@ -67,7 +67,7 @@ from sarproc.product.model import Product, target_names
 from sarproc.product.theory import fill_target_theory, window_theory
 
 if TYPE_CHECKING:
-    from collections.abc import Iterator, Sequence
+    from collections.abc import Iterator, Mapping, Sequence
     from typing import Any
 
     from sarproc.focus.pfa.phase_history import PhaseHistory
@@ -342,15 +342,15 @@ class RadiusReach:
         return self.image_reach > self.radius or bool(self.beyond)
 
 
-def radius_reach(grid: Grid, radius: float, names: Sequence[str], a: np.ndarray, r: np.ndarray) -> RadiusReach:
-    """Distances of the grid's farthest corner and of each target (offsets ``a``, ``r`` from the reference)."""
+def radius_reach(grid: Grid, radius: float, distances: Mapping[str, float]) -> RadiusReach:
+    """Distance of the grid's farthest corner, and the targets of ``distances`` (name -> m from the reference,
+    :func:`target_distances`) beyond ``radius``."""
     reach = max(
         math.hypot(x, y)
         for x in (grid.a0, grid.a0 + (grid.n_a - 1) * grid.da)
         for y in (grid.r0, grid.r0 + (grid.n_r - 1) * grid.dr)
     )
-    dist = np.hypot(a, r)
-    return RadiusReach(radius, reach, {n: float(d) for n, d in zip(names, dist) if d > radius})
+    return RadiusReach(radius, reach, {n: d for n, d in distances.items() if d > radius})
 
 
 def target_distances(targets: np.ndarray, frame: GroundLosFrame) -> dict[str, float]:
@@ -389,7 +389,7 @@ def _plain_limits(
     ``valid_radius`` attribute), and (``correct_distortion`` off) each static target's predicted
     planar-wavefront displacement (m, azimuth and range), which its position error then includes."""
     names = target_names(targets)
-    reach = radius_reach(grid, radius, names, targets["azimuth"], targets["range"] - frame.ground_range)
+    reach = radius_reach(grid, radius, target_distances(targets, frame))
     if reach.exceeded:
         log.warning("pfa2: %s", radius_message(reach, params.valid_radius_factor), extra=IMAGE_DEFECT)
     limits: dict[str, Any] = {"image_reach": reach.image_reach, "beyond_valid_radius": reach.beyond}
