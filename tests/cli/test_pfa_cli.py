@@ -321,3 +321,39 @@ def test_pfa2_records_each_targets_distance_from_the_scene_centre(tmp_path, raw_
         dist = read_product(tmp_path / f"{method}.h5", load=False).attrs["target_distance"]
         assert dist.keys() == {"C", "P"}
         assert dist["C"] == pytest.approx(0, abs=1e-6) and dist["P"] == pytest.approx(20, abs=1e-6)
+
+
+# Session 41 new-user trial: a 45 deg squinted Ku-band spotlight at a steep depression (800 m over 1.2 km) turns
+# its lines of sight' ground-range component by 2.3 % over the aperture, more than its 1.25 % fractional
+# bandwidth: the first and last pulses' bands share no rectangle in the ground plane. Two-step PFA ended in
+# "internal error: ValueError: two-step PFA: a sub-image centre has no inscribed polar support" (exit 1), plain
+# PFA in a bare "supports do not overlap"; both now say why and what changes it, exit 2, no output.
+NO_COMMON_SUPPORT = {
+    "radar": {
+        "carrier_frequency": "16 GHz",
+        "bandwidth": "200 MHz",
+        "pulse_duration": "1 us",
+        "range_sampling_rate": "240 MHz",
+        "prf": "250 Hz",
+    },
+    "platform": {"velocity": "80 m/s", "altitude": "800 m"},
+    "geometry": {"reference_range": "1.2 km", "squint": "45 deg"},
+    "acquisition": {"mode": "spotlight", "aperture_time": "0.6 s"},
+    "targets": {"frame": "ground_los", "points": [{"name": "A"}]},
+}
+
+
+@pytest.mark.parametrize("method", ["two_step", "plain"])
+def test_supports_without_a_common_rectangle_are_refused_saying_why(tmp_path, method):
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(yaml.safe_dump(NO_COMMON_SUPPORT))
+    assert run("simulate", scene, "-o", tmp_path / "raw.h5").exit_code == 0
+    config = tmp_path / "c.yaml"
+    config.write_text(yaml.safe_dump({"pfa2": {"method": method}}))
+    result = run("pfa2", tmp_path / "raw.h5", "-o", tmp_path / "img.h5", "--config", config)
+    assert result.exit_code == 2, result.output
+    assert "internal error" not in result.output
+    assert "raw.h5: polar format: the pulses' polar supports share no rectangle" in result.output
+    assert "2.27 % spread, wider than the 1.25 % fractional bandwidth" in result.output
+    assert "radar.bandwidth" in result.output and "backproject" in result.output
+    assert not (tmp_path / "img.h5").exists()

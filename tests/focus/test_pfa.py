@@ -273,3 +273,19 @@ def test_a_sub_grid_holds_the_parent_pixels_it_names():
     assert (sub.n_a, sub.n_r, sub.da, sub.dr) == (12, 22, g.da, g.dr)
     np.testing.assert_allclose(sub.a, g.a[7:19], rtol=0, atol=1e-12)
     np.testing.assert_allclose(sub.r, g.r[3:25], rtol=0, atol=1e-12)
+
+
+def test_no_common_support_reason_names_the_spread_against_the_band():
+    """The pure reason behind pfa2's refusal: the lines of sight' range components spread by more than the
+    fractional bandwidth (Session 41 new-user trial)."""
+    from sarproc.focus.pfa.polar import inscribed_support, no_common_support_reason
+    from sarproc.product.errors import InputError
+
+    ur = -np.linspace(0.74, 0.7548, 9)  # 2.0 % spread
+    ua = np.linspace(-0.01, 0.01, 9)
+    freqs = np.array([-50e6, 50e6])  # 1 % of 10 GHz
+    text = no_common_support_reason(ur, 10e9, freqs)
+    assert "2 % spread, wider than the 1.01 % fractional bandwidth" in text
+    with pytest.raises(InputError, match="share no rectangle"):
+        inscribed_support(ua, ur, 10e9, freqs)
+    assert inscribed_support(ua, -np.full(9, 0.74), 10e9, freqs).valid

@@ -35,6 +35,7 @@ from sarproc.focus.pfa.polar import (
     KGrid,
     Rect,
     data_sampling,
+    inscribed_support,
     los_components,
     make_kgrid,
     pfa,
@@ -244,7 +245,7 @@ def pfa2(
     )
     timing["range_compression_moco"] = time.perf_counter() - t0
     ua, ur = los_components(ph.positions, origin, e_a, e_r)
-    rect = polar_support(ua, ur, ph.carrier_frequency, ph.freqs, "inscribed")
+    rect = inscribed_support(ua, ur, ph.carrier_frequency, ph.freqs)
     irw = _rect_irw(rect)
     grid = output_grid(params, raw, frame, irw)
     t0 = time.perf_counter()

@@ -139,6 +139,38 @@ def polar_support(
     return Rect(ka_lo, ka_hi, kr_lo, kr_hi)
 
 
+def inscribed_support(ua: np.ndarray, ur: np.ndarray, carrier_frequency: float, freqs: np.ndarray) -> Rect:
+    """:func:`polar_support`'s inscribed rectangle; raises InputError saying why where there is none."""
+    rect = polar_support(ua, ur, carrier_frequency, freqs, "inscribed")
+    if not rect.valid:
+        raise InputError(no_common_support_reason(ur, carrier_frequency, freqs))
+    return rect
+
+
+def no_common_support_reason(ur: np.ndarray, carrier_frequency: float, freqs: npt.ArrayLike) -> str:
+    """Why the pulses' polar supports share no rectangle, in a user's terms: each pulse's band lands on the image's
+    range axis scaled by its line of sight's component u . e_r; where that component varies over the aperture by
+    more than the fractional bandwidth (a squinted aperture whose depression angle changes along it, imaged in a
+    ground-plane frame), the first and last pulses' bands do not overlap."""
+    k = wavenumbers(carrier_frequency, [np.min(freqs), np.max(freqs)])
+    band = float(k[1] / k[0] - 1.0)
+    mag = np.abs(np.asarray(ur, float))
+    spread = float(mag.max() / mag.min() - 1.0) if mag.size and mag.min() > 0 else math.inf
+    if spread > band:
+        why = (
+            f"the pulses' lines of sight project onto the image's range axis with u.e_r from {mag.min():.4g} to "
+            f"{mag.max():.4g} over the aperture, a {100 * spread:.3g} % spread, wider than the {100 * band:.3g} % "
+            "fractional bandwidth, so the first and last pulses' range bands do not overlap (a squinted aperture "
+            "whose depression angle changes along it, imaged in the ground plane)"
+        )
+    else:
+        why = "the pulses' azimuth extents do not overlap"
+    return (
+        f"polar format: the pulses' polar supports share no rectangle: {why}; a wider radar.bandwidth, a shorter "
+        "acquisition.aperture_time or less geometry.squint makes one, or sarproc backproject focuses the scene"
+    )
+
+
 def _fft_length(spacing_guess: float, pixel: float, n_pixels: int) -> tuple[int, float]:
     """FFT length M >= n_pixels with M dk pixel = 2 pi, and the resulting dk <= spacing_guess.
 

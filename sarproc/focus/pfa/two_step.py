@@ -44,10 +44,10 @@ from sarproc.focus.pfa.polar import (
     KGrid,
     Rect,
     image_to_rect,
+    inscribed_support,
     los_components,
     make_kgrid,
     pfa,
-    polar_support,
     rect_to_polar,
     rotate_axes,
     wavenumbers,
@@ -359,10 +359,7 @@ def own_support(
         theta = theta[lit]
     angle = float((theta.min() + theta.max()) / 2)
     ua, ur = los_components(positions, point, *rotate_axes(e_azimuth, e_range, angle))
-    r = polar_support(ua, ur, carrier_frequency, np.asarray(band), "inscribed")
-    if not r.valid:
-        raise ValueError("two-step PFA: a sub-image centre has no inscribed polar support")
-    return TileSupport(angle, r)
+    return TileSupport(angle, inscribed_support(ua, ur, carrier_frequency, np.asarray(band)))
 
 
 def tile_rects(
