@@ -2749,8 +2749,29 @@ def _chosen_targets(
     """The targets named (``names``; None: all) and the others modelled as neighbours: those the image holds."""
     truth = np.stack([table[d].astype(float) for d in product.dims], axis=1)
     measured = np.array([names is None or n in names for n in all_names])
+    inside = _within_extent(product, truth)
+    if names is None and not inside.all():
+        raise InputError(outside_extent_message(product, truth, all_names, inside))
     # the targets left out of a subset are still modelled as neighbours where they lie in the image
-    return _ChosenTargets(truth, measured, measured | _within_extent(product, truth))
+    return _ChosenTargets(truth, measured, measured | inside)
+
+
+def outside_extent_message(product: Product, truth: np.ndarray, names: Sequence[str], inside: np.ndarray) -> str:
+    """Every target outside the image's extent (an image cropped to some targets), with the extent and the
+    targets it holds, which evaluate measures alone when named (``names`` / evaluate --targets)."""
+    out = [n for n, k in zip(names, inside) if not k]
+    extent = ", ".join(
+        f"{d} [{float(np.min(product.coords[d])):.6g}, {float(np.max(product.coords[d])):.6g}]" for d in product.dims
+    )
+    where = ", ".join(
+        f"{n!r} (" + ", ".join(f"{d} = {x:.6g}" for d, x in zip(product.dims, truth[i])) + ")"
+        for i, n in enumerate(names)
+        if not inside[i]
+    )
+    held = [n for n, k in zip(names, inside) if k]
+    hint = f"measure those it holds alone with --targets {','.join(held)}" if held else "it holds no target"
+    verb = "target {} lies" if len(out) == 1 else f"{len(out)} of {len(names)} targets {{}} lie"
+    return f"{verb.format(where)} outside the image extent ({extent}); {hint}"
 
 
 @dataclasses.dataclass(frozen=True)

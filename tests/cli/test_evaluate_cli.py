@@ -432,3 +432,20 @@ def test_image_without_truth_gets_the_truth_free_measures(tmp_path):
     assert dry.exit_code == 0 and "nothing computed" in dry.output and not (tmp_path / "dry.json").exists()
     assert run(path, "--expect", tmp_path / "x.yaml").exit_code == 2
     assert run(make_image(tmp_path / "t.h5"), "--reference", ref_path).exit_code == 2
+
+
+def test_targets_outside_a_cropped_image_are_all_named_with_the_subset_that_works(tmp_path):
+    """Session 41 new-user trial: an image backprojected on a grid around some targets only. evaluate refused
+    it naming the first target outside; it now names every one, the extent, and the --targets that measures
+    the targets the image holds (exit 2, no report)."""
+    far = {**TARGETS, "FAR1": (200.0, 0.0), "FAR2": (0.0, -300.0)}
+    path = make_image(tmp_path / "cropped.h5", targets=far)
+    result = run(path, "-o", tmp_path / "r.json")
+    assert result.exit_code == 2, result.output
+    assert "cropped.h5: 2 of 4 targets 'FAR1' (azimuth = 200, range = 0), 'FAR2' (azimuth = 0, range = -300) lie " in (
+        result.output
+    )
+    assert "outside the image extent (azimuth [-38.4, 37.8], range [-32, 31.5]); " in result.output
+    assert result.output.rstrip().endswith("measure those it holds alone with --targets A,B")
+    assert not (tmp_path / "r.json").exists()
+    assert run(path, "-o", tmp_path / "r.json", "--targets", "A,B").exit_code == 0
