@@ -47,6 +47,7 @@ never counted as a pass.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import itertools
@@ -775,6 +776,7 @@ def principal_support(
     window_nulls: float = 8.0,
     exact: bool = False,
     gram: np.ndarray | None = None,
+    ridge_angle: float = math.nan,
 ) -> Support:
     """Side-lobe ridge directions of the response centred in ``chip``, from its spectral support.
 
@@ -788,8 +790,8 @@ def principal_support(
     belongs to image axis a, in image samples per sample along axis a (V[a, a] = 1); f_c the power
     centroid of the band, cycles/sample (both in a :class:`Support`, with the axes whose ridge is the centre of a
     fan). Falls back to the image axes when no edge is found. ``gram`` (2D, optional): the physical Gram matrix
-    of the image's sample steps (:func:`_sample_gram`); a SAR support's two edge pairs are then perpendicular
-    in space (:func:`_perpendicular_second`).
+    of the image's sample steps (:func:`_sample_gram`); a SAR support's two ridges then make ``ridge_angle``
+    degrees in space (NaN: 90, the slant plane's; :func:`target_ridge_angles`), :func:`_perpendicular_second`.
     """
     ndim = chip.ndim
     nulls = np.asarray(nulls, dtype=float)
@@ -815,7 +817,7 @@ def principal_support(
     found, curved = _edge_normals(cand, peaks, u, g, ndim, arcs, exact)
     oblique = False
     if gram is not None and len(found) == 2:
-        found[1] = _perpendicular_second(found[0], found[1], nulls, gram)
+        found[1] = _perpendicular_second(found[0], found[1], nulls, gram, ridge_angle)
         oblique = not any(curved) and _obliqueness_deg(found[0], found[1]) > OBLIQUE_EDGE_DEG
     if len(found) < ndim or abs(np.linalg.det(np.array(found))) < 0.2:
         return Support(eye, f_c)
@@ -863,13 +865,20 @@ def _obliqueness_deg(first: np.ndarray, second: np.ndarray) -> float:
 
 
 def _ridges_in_space(
-    chip: _Chip, pos: np.ndarray, ridges: np.ndarray, nulls: np.ndarray, gram: np.ndarray, window_nulls: float
+    chip: _Chip,
+    pos: np.ndarray,
+    ridges: np.ndarray,
+    nulls: np.ndarray,
+    gram: np.ndarray,
+    window_nulls: float,
+    angle: float = math.nan,
 ) -> np.ndarray:
     """The ridges ``ridges`` (V of :func:`principal_support`: rows in samples, V[a, a] = 1) of the 2D response at
     ``pos`` (image indices) in ``chip``, refined in space: the ridge of the axis with the longer null in metres is
     turned, within RIDGE_SEARCH_DEG of where it is, to the direction along which the response's side lobes hold
     the most energy (the sum of |h|^2 on the line through the peak, from the main lobe's first nulls to
-    +-``window_nulls`` of that axis, as the cut measures them); the other is set perpendicular to it in space.
+    +-``window_nulls`` of that axis, as the cut measures them); the other is set at ``angle`` degrees to it in
+    space (NaN: 90, perpendicular; of the two such directions, the one nearer the other spectral ridge).
 
     The objective is one fixed function of one angle, evaluated on the band-limited interpolant (exact), so a
     scan at RIDGE_SCAN_DEG and golden sections about its maximum converge to RIDGE_TOL_DEG. Along the ridge of
@@ -928,7 +937,7 @@ def _ridges_in_space(
     if abs(_side_balance_db(along, lobes)) > RIDGE_BALANCE_DB:
         return ridges
     offsets = np.arange(-count, count + 1) * step
-    other = _turned(lower, theta + math.pi / 2)
+    other = _turned(lower, theta + _other_ridge_turn(lower, ridges[1 - k], theta, angle))
     across = through(other, -count * step, step, 2 * count + 1)
     if _fall_against_a_ridge(grid, profile, theta, along, np.abs(across) ** 2, offsets, lobes) < RIDGE_FALL_MIN:
         return ridges
@@ -937,6 +946,20 @@ def _ridges_in_space(
     out[k] = ridge / ridge[k]
     out[1 - k] = other / other[1 - k]
     return out
+
+
+def _other_ridge_turn(lower: np.ndarray, spectral: np.ndarray, theta: float, angle: float) -> float:
+    """The turn (rad) from the ridge at ``theta`` (space) to the other: +-``angle`` degrees (NaN: 90), the sign
+    whose direction lies nearer the ``spectral`` ridge (samples; ``lower``: the sample Gram's Cholesky factor)."""
+    if not math.isfinite(angle) or abs(angle - 90.0) < 1e-9:
+        return math.pi / 2
+    e = lower @ spectral
+    seen = math.atan2(e[1], e[0])
+
+    def off(turn: float) -> float:  # lines: directions modulo pi
+        return abs((seen - theta - turn + math.pi / 2) % math.pi - math.pi / 2)
+
+    return min((math.radians(angle), -math.radians(angle)), key=off)
 
 
 def _turned(lower: np.ndarray, theta: float) -> np.ndarray:
@@ -1002,12 +1025,22 @@ def _sample_gram(axes: Sequence[_Axis], metric: np.ndarray | None) -> np.ndarray
     return steps @ steps.T
 
 
-def _perpendicular_second(first: np.ndarray, second: np.ndarray, nulls: np.ndarray, gram: np.ndarray) -> np.ndarray:
+def _perpendicular_second(
+    first: np.ndarray, second: np.ndarray, nulls: np.ndarray, gram: np.ndarray, angle: float = math.nan
+) -> np.ndarray:
     """``second`` (edge normal, null-normalised frequency) where its ridge is within PERPENDICULAR_EDGE_DEG of
-    perpendicular in space to ``first``'s, else the normal whose ridge is. A ridge is parallel to its edge
-    normal (:func:`_ridges`): normal n is the ridge n * nulls in samples."""
+    making ``angle`` degrees in space (NaN: 90, perpendicular) with ``first``'s, else the normal whose ridge
+    does (of the two, the one nearer ``second``'s). A ridge is parallel to its edge normal (:func:`_ridges`):
+    normal n is the ridge n * nulls in samples."""
     r1, r2 = first * nulls, second * nulls
     perp = np.array([-(gram @ r1)[1], (gram @ r1)[0]])  # r1' G perp = 0: perpendicular in space
+    if math.isfinite(angle) and abs(angle - 90.0) > 1e-9:
+        # in space, r1 and perp are orthogonal: the ridges at +-angle from r1 are cos r1/|r1| +- sin perp/|perp|
+        n1, n_p = math.sqrt(float(r1 @ gram @ r1)), math.sqrt(float(perp @ gram @ perp))
+        c, s = math.cos(math.radians(angle)), math.sin(math.radians(angle))
+        options = [c * r1 / n1 + sign * s * perp / n_p for sign in (1.0, -1.0)]
+        n2 = math.sqrt(float(r2 @ gram @ r2))
+        perp = max(options, key=lambda o: abs(float(o @ gram @ r2)) / (math.sqrt(float(o @ gram @ o)) * n2))
     cos = abs(float(perp @ gram @ r2)) / math.sqrt(float(perp @ gram @ perp) * float(r2 @ gram @ r2))
     if cos >= math.cos(math.radians(PERPENDICULAR_EDGE_DEG)):
         return second
@@ -1311,6 +1344,7 @@ def evaluate_image(
     response_period: npt.ArrayLike | None = None,
     response_table: Sequence[tuple[np.ndarray, float] | None] | None = None,
     measure: npt.ArrayLike | None = None,
+    ridge_angles: npt.ArrayLike | None = None,
 ) -> QualityReport:
     """Measure every target of a 2D (azimuth, range) or 3D (elevation, azimuth, range) image.
 
@@ -1343,7 +1377,10 @@ def evaluate_image(
     neighbour models take it inside the table, their sinc beyond. measure: optional (n_targets,) booleans,
     the targets to report (a subset was asked for): the others are still found and subtracted from their
     neighbours' chips (so a measured target's figures are those of the run over every target), then kept out of
-    the false-target search like ``other_truth``. Raises InputError.
+    the false-target search like ``other_truth``. ridge_angles: optional (n_targets,) angle in space between each
+    target's two theoretical ridges, degrees (NaN: 90, the slant plane's; :func:`target_ridge_angles`): with a
+    ``metric``, a second support edge whose ridge is further than PERPENDICULAR_EDGE_DEG from it is replaced by
+    it. Raises InputError.
 
     Steps: :func:`_locate_targets` (pass 1, :func:`_find_peak` per target: peak and support on the image's chip;
     pass 2, :func:`_subtract_neighbours`: the groups' fitted responses off each chip, peak and support again),
@@ -1364,6 +1401,9 @@ def evaluate_image(
     done = steps(progress, len(names) * (2 if params.remove_neighbours else 1) + int(measured.sum()) + 1)
     mag = np.abs(data)
     gram = _sample_gram(axes, metric)
+    angles = np.full(len(names), np.nan) if ridge_angles is None else np.asarray(ridge_angles, float).ravel()
+    if angles.shape != (len(names),):
+        raise InputError(f"ridge_angles has {angles.size} values for {len(names)} targets")
     coinciding = coinciding_indices(truth, axes)  # one response each: neither refitted nor residual-modelled
     peaks = _locate_targets(
         data,
@@ -1380,6 +1420,7 @@ def evaluate_image(
         response_table,
         gram,
         frozenset(k for g in coinciding for k in g),
+        angles,
     )
     # only the measured targets from here on; the others (and other_truth) guard their neighbourhoods
     order = [int(i) for i in np.flatnonzero(measured)]
@@ -1483,20 +1524,24 @@ def _locate_targets(
     response_table: Sequence[tuple[np.ndarray, float] | None] | None,
     gram: np.ndarray | None = None,
     coinciding: frozenset[int] = frozenset(),
+    ridge_angles: np.ndarray | None = None,
 ) -> list[_Peak]:
     """Every target's :class:`_Peak`: pass 1 (:func:`_find_peak` on the image ``data``, magnitude ``mag``), then
     with ``params.remove_neighbours`` pass 2 (:func:`_subtract_neighbours`; the responses' known chirps and shapes
     are evaluate_image's ``target_chirp``, ``response_period`` and ``response_table``). ``done``: the progress
     steps, one per target and pass; ``gram``: :func:`_sample_gram`; ``coinciding``: the targets that coincide with
-    another (:func:`coinciding_indices`)."""
+    another (:func:`coinciding_indices`); ``ridge_angles``: evaluate_image's."""
+    angles = np.full(len(names), np.nan) if ridge_angles is None else ridge_angles
     peaks = [
-        _find_peak(data, mag, axes, name, t, half, nulls, params, gram)
-        for name, t in wrapped(done, list(zip(names, truth)))
+        _find_peak(data, mag, axes, name, t, half, nulls, params, gram, float(angle))
+        for name, t, angle in wrapped(done, list(zip(names, truth, angles)))
     ]
     if params.remove_neighbours:
         chirps = _chirps_in_samples(target_chirp, axes, len(names))
         shapes = _response_shapes(response_period, response_table, axes)
-        peaks = _subtract_neighbours(data, peaks, names, nulls, half, params, done, chirps, shapes, gram, coinciding)
+        peaks = _subtract_neighbours(
+            data, peaks, names, nulls, half, params, done, chirps, shapes, gram, coinciding, angles
+        )
     return peaks
 
 
@@ -1636,6 +1681,7 @@ def _find_peak(
     nulls: Sequence[float],
     params: EvaluateParams,
     gram: np.ndarray | None = None,
+    ridge_angle: float = math.nan,
 ) -> _Peak:
     """Pass 1: the strongest pixel within +-search_cells of the truth, the chip around it, its refined peak
     and support."""
@@ -1651,7 +1697,7 @@ def _find_peak(
     peak_index = tuple(int(s.start + i) for s, i in zip(win, k))
     chip = _Chip(data, peak_index, half)
     pos, value = chip.refine_peak(peak_index)
-    support = _support(chip, pos, nulls, params, gram)
+    support = _support(chip, pos, nulls, params, gram, ridge_angle)
     return _Peak(peak_index, chip, chip, pos, value, support.ridges, support.band_centre, fanned=support.fanned)
 
 
@@ -1667,6 +1713,7 @@ def _subtract_neighbours(
     shapes: ResponseShapes | None = None,
     gram: np.ndarray | None = None,
     coinciding: frozenset[int] = frozenset(),
+    ridge_angles: np.ndarray | None = None,
 ) -> list:
     """Pass 2: the ideal responses of every group of targets whose chips overlap are fitted jointly to the
     image; each target's chip loses the other members' fitted responses, and its peak and support are found
@@ -1696,7 +1743,8 @@ def _subtract_neighbours(
         cleaned = raw.data - fitted[i]
         chip = _Chip(None, peak.index, half, chip=(cleaned, raw.clipped))
         pos, value = chip.refine_peak(peak.position)
-        support = _support(chip, pos, nulls, params, gram)
+        angle = math.nan if ridge_angles is None else float(ridge_angles[i])
+        support = _support(chip, pos, nulls, params, gram, angle)
         out[i] = dataclasses.replace(
             peak,
             chip=chip,
@@ -1864,12 +1912,21 @@ def _target_axes(
 
 
 def _support(
-    chip: _Chip, pos: np.ndarray, nulls: npt.ArrayLike, params: EvaluateParams, gram: np.ndarray | None = None
+    chip: _Chip,
+    pos: np.ndarray,
+    nulls: npt.ArrayLike,
+    params: EvaluateParams,
+    gram: np.ndarray | None = None,
+    ridge_angle: float = math.nan,
 ) -> Support:
     if params.principal_axes and chip.data.ndim > 1:
-        support = principal_support(chip.data, chip.centers, nulls, exact=params.exact, gram=gram)
+        support = principal_support(
+            chip.data, chip.centers, nulls, exact=params.exact, gram=gram, ridge_angle=ridge_angle
+        )
         if support.oblique and gram is not None:
-            ridges = _ridges_in_space(chip, pos, support.ridges, np.asarray(nulls, float), gram, params.islr_nulls)
+            ridges = _ridges_in_space(
+                chip, pos, support.ridges, np.asarray(nulls, float), gram, params.islr_nulls, ridge_angle
+            )
             support = dataclasses.replace(support, ridges=ridges)
         return support
     return Support(np.eye(chip.data.ndim), np.asarray(chip.centers, dtype=float))
@@ -2606,6 +2663,43 @@ def frame_metric(product: Product) -> np.ndarray | None:
     return None if m is None or tuple(getattr(frame, "axes", ())) != tuple(product.dims) else m
 
 
+def target_ridge_angles(product: Product) -> np.ndarray:
+    """(n_targets,) the angle in space between each target's two theoretical ridges, degrees
+    (:func:`sarproc.product.theory.target_ridge_angle`, from the product's pulses and its targets table's frame
+    coordinates), for a 2D image whose frame has a metric and whose pulses are recorded; NaN elsewhere (evaluate
+    then takes the slant plane's 90), and for a polar-format image (``support_rectangle``: pfa2 resamples the
+    pulses' support onto a rectangle of the frame's k axes, whose edges are perpendicular)."""
+    from sarproc.product.frames import frame_from_spec
+    from sarproc.product.theory import target_ridge_angle
+
+    n = 0 if product.targets is None else len(product.targets)
+    out = np.full(n, np.nan)
+    metric = frame_metric(product)
+    pos = product.aux.get("platform_position")
+    if n == 0 or metric is None or pos is None or len(product.dims) != 2 or product.radar is None:
+        return out
+    if "support_rectangle" in product.attrs:
+        return out
+    if not all(d in (product.targets.dtype.names or ()) for d in product.dims):
+        return out
+    frame = frame_from_spec(product.attrs["frame"])
+    tx = pos + product.aux.get("tx_offset", np.zeros(3))
+    rx = pos + np.asarray(product.aux.get("rx_offset", np.zeros((1, 3))))[0]
+    for i in range(n):
+        coords = [float(product.targets[d][i]) for d in product.dims]
+        with contextlib.suppress(ValueError, FloatingPointError, ZeroDivisionError):
+            out[i] = target_ridge_angle(product.radar, tx, rx, frame, coords, metric)
+    out[np.abs(out - 90.0) < SLANT_RIDGE_ANGLE_TOL_DEG] = np.nan  # the slant plane's 90, as before
+    return out
+
+
+# Slant-plane frames (squint, zero_doppler, los) put the theory's ridges within 0.003 deg of 90 (the frame axes
+# are finite differences; demo 0.0027, an2012_exp1_small 0.0007, bp_squint30 0.0002): taken as 90, so their
+# reports stay those pinned; ground frames at a squint move by degrees (demo in a ground frame 86.8, nie2016_small
+# 88.4-88.8, 45 deg squint at 800 m over 1.2 km 36.9).
+SLANT_RIDGE_ANGLE_TOL_DEG = 0.1
+
+
 def evaluate_product(
     product: Product,
     params: EvaluateParams | None = None,
@@ -2652,6 +2746,7 @@ def evaluate_product(
             response_period=response_period(product, where),
             response_table=response_table(product, where),
             measure=chosen.measured[keep],
+            ridge_angles=target_ridge_angles(product)[keep],
         )
     except InputError as exc:
         raise InputError(f"{where}{exc}") from None
