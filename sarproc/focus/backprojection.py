@@ -956,6 +956,13 @@ def check_params(params: BackprojectParams) -> None:
         )
 
 
+# Default spacings sample each axis at least this much faster than the widest target support's extent along it
+# (theory.support_extent): the ridge IRW / oversample alone let a sheared support wrap (45 deg squint at 800 m
+# over 1.2 km in ground_los: range extent 2.83 cycles/m, sampled at 2.37 by 0.42 m), and evaluate's band-limited
+# chips then misread it (Session 41 new-user trial). Unsheared supports are sampled 2.26x faster already.
+SUPPORT_WRAP_MARGIN = 1.1
+
+
 def plan_backprojection(
     raw: Product, params: BackprojectParams, grid_targets: Sequence[str] | None = None
 ) -> BackprojectionPlan:
@@ -1008,6 +1015,17 @@ def plan_backprojection(
     # Default spacing from the finest own theory: a target lit by the pattern's skirts or side lobes has a
     # finer response than the -3 dB beam's (sampled at the centre theory, its IRW read 10 % short).
     finest = [min([t[a].irw for t in own] + [irw0[a]]) for a in range(len(frame.axes))]
+    if not three_d and rows:  # and fine enough that no target's support wraps (a sheared one reaches further)
+        extent = np.max(
+            [
+                theory.support_extent(
+                    radar, pos + tx_off, pos + rx_offs[0], frame, (targets["azimuth"][i], targets["range"][i])
+                )
+                for i in rows
+            ],
+            axis=0,
+        )
+        finest = [min(f, params.oversample / (SUPPORT_WRAP_MARGIN * e)) if e > 0 else f for f, e in zip(finest, extent)]
     grid = _default_grid(params, raw, frame, irw0, finest, grid_targets)
     n_pix = math.prod(len(v) for v in grid.values())
     if n_pix > params.max_pixels:

@@ -319,6 +319,18 @@ def _target_support(
     return _TargetSupport(kappa, weights, main, centre, range_band, azimuth_band)
 
 
+def support_extent(
+    radar: RadarMetadata, tx_pos: np.ndarray, rx_pos: np.ndarray, frame: Frame, coords: Sequence[float]
+) -> np.ndarray:
+    """(ndim,) the extent of a 2D frame target's support along each of the frame's frequency axes, cycles per axis
+    unit: the parallelogram of its range band and its -3 dB azimuth sweep (:func:`target_theory`), |R_a| + |A_a|.
+    A grid must sample each axis faster than this or the support wraps; where the ridges are the axes it is the
+    ridge's own band, but a sheared support (a squinted aperture at a steep depression in a ground plane) reaches
+    across far more of an axis than its ridge's band does."""
+    sup = _target_support(radar, tx_pos, rx_pos, frame, coords)
+    return np.abs(sup.range_band) + np.abs(sup.azimuth_band)
+
+
 def target_ridge_angle(
     radar: RadarMetadata,
     tx_pos: np.ndarray,

@@ -15,7 +15,7 @@ import pytest
 
 from sarproc.focus.backprojection import BackprojectParams, backproject
 from sarproc.product.frames import make_frame, targets_in_frame
-from sarproc.product.theory import target_ridge_angle
+from sarproc.product.theory import support_extent, target_ridge_angle
 from sarproc.quality.metrics import EvaluateParams, evaluate_product, target_ridge_angles
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
@@ -74,3 +74,26 @@ def test_a_polar_format_images_rectangle_keeps_perpendicular_ridges(image):
 
     rect = dataclasses.replace(image, attrs={**image.attrs, "support_rectangle": [0.0, 1.0, 0.0, 1.0]})
     assert np.isnan(target_ridge_angles(rect)).all()
+
+
+def test_the_default_grid_samples_the_sheared_support_without_wrapping():
+    """backproject's default spacing was the ridge IRW / oversample: 0.42 m in range, 2.37 samples/m, where the
+    sheared support reaches 2.83 cycles/m along range: it wrapped, and evaluate's band-limited chips misread it.
+    Each axis now samples at least SUPPORT_WRAP_MARGIN x the widest target support's extent along it."""
+    import numpy as np
+
+    from sarproc.focus.backprojection import SUPPORT_WRAP_MARGIN
+
+    raw = simulate(scene_from_mapping(SCENE))
+    image = backproject(raw, BackprojectParams())
+    frame = make_frame(image.attrs["frame"]["name"], raw.radar)
+    at = targets_in_frame(raw.targets, frame)
+    pos = raw.aux["platform_position"]
+    extent = support_extent(raw.radar, pos, pos, frame, (float(at["azimuth"][0]), float(at["range"][0])))
+    assert extent[1] == pytest.approx(2.83, abs=0.05)
+    for a, d in enumerate(image.dims):
+        assert abs(float(np.diff(image.coords[d][:2])[0])) <= 1 / (SUPPORT_WRAP_MARGIN * extent[a]) * (1 + 1e-9), d
+    target = evaluate_product(image, EvaluateParams()).target("A")
+    for ax in target.axes:
+        assert ax.irw_ratio == pytest.approx(1.0, abs=0.02), ax.axis
+        assert ax.pslr_db == pytest.approx(ax.pslr_theory_db, abs=0.3), ax.axis
