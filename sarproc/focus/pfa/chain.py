@@ -40,6 +40,7 @@ from sarproc.focus.pfa.polar import (
     make_kgrid,
     pfa,
     polar_support,
+    rectangle_range_theory,
     wavenumbers,
 )
 from sarproc.focus.pfa.two_step import (
@@ -49,6 +50,7 @@ from sarproc.focus.pfa.two_step import (
     lit_pulses,
     local_irw,
     mosaic,
+    own_range_theory,
     plan_tiles,
     pslr_rise_db,
     run_tasks,
@@ -427,12 +429,36 @@ def _record_target_theory(
     band = (float(ph.freqs[0]), float(ph.freqs[-1]))
     shapes = (window_theory("none"), window_theory(params.range_window))
     nulls: Sequence[float] = [x / SINC_IRW_FACTOR for x in kg.irw()]
+    if params.method != "two_step" and params.range_window != "none":
+        # the taper rides on each pulse's band, of which the rectangle keeps the middle: a truncated window
+        ua, ur = los_components(ph.positions, ph.reference, e_a, e_r)
+        rng = rectangle_range_theory(kg, ua, ur, ph.carrier_frequency, radar.bandwidth, params.range_window)
+        fill_target_theory(targets, ("azimuth", "range"), [[shapes[0].scaled(nulls[0]), rng]] * len(targets))
+        return
     own = []
     for i in range(len(targets)):
         if params.method == "two_step":
             point = np.array([targets["x"][i], targets["y"][i], targets["z"][i]], float)
             lit = lit_pulses(radar, ph.positions, point)
             nulls = local_irw(ph.positions, point, e_a, e_r, ph.carrier_frequency, band, factor=1.0, lit=lit)
+            if params.range_window != "none":  # its own rectangle keeps the middle of the tapered band
+                own.append(
+                    [
+                        shapes[0].scaled(nulls[0]),
+                        own_range_theory(
+                            ph.positions,
+                            point,
+                            e_a,
+                            e_r,
+                            ph.carrier_frequency,
+                            band,
+                            radar.bandwidth,
+                            params.range_window,
+                            lit,
+                        ),
+                    ]
+                )
+                continue
         own.append([shape.scaled(null) for shape, null in zip(shapes, nulls)])
     fill_target_theory(targets, ("azimuth", "range"), own)
 

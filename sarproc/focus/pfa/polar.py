@@ -41,6 +41,7 @@ from sarproc.product.sorted_values import median
 
 if TYPE_CHECKING:
     from sarproc.focus.pfa.phase_history import PhaseHistory
+    from sarproc.product.theory import ResponseTheory
 
 SUPPORTS = ("inscribed", "circumscribed")
 
@@ -137,6 +138,37 @@ def polar_support(
     ka_lo = max(float(e.min()) for e in ends)
     ka_hi = min(float(e.max()) for e in ends)
     return Rect(ka_lo, ka_hi, kr_lo, kr_hi)
+
+
+def rectangle_range_theory(
+    kg: KGrid,
+    ua: np.ndarray,
+    ur: np.ndarray,
+    carrier_frequency: float,
+    bandwidth: float,
+    window: str,
+) -> ResponseTheory:
+    """The range theory of a polar-format image whose pulses carry a ``window`` taper over their chirp band
+    (range compression) and whose support is the rectangle ``kg`` inscribed in their polar support: each point
+    (k_a, k_r) of the rectangle is the pulse whose line of sight has u_a / u_r = k_a / k_r, at the wavenumber
+    k_r / u_r, so its weight is the taper at that frequency, and the range response is the transform of the
+    weights averaged over k_a. The rectangle keeps only the middle of each pulse's band (the edge pulses' bands
+    shift by 1 - cos of their angle, and into the ground plane by the depression): a Hamming taper is cut off
+    above its pedestal, so its side lobes rise over the window's own (L-band, 10.7 % fractional bandwidth, 3 s
+    aperture at 3 km: the rectangle holds 97.6 % of the band, PSLR -40.5 dB instead of -42.7)."""
+    from sarproc.product.theory import response_theory, window_taper
+
+    order = np.argsort(ua / ur)
+    ratio, u_r = (ua / ur)[order], np.abs(ur[order])
+    ka, kr = kg.ka, kg.kr
+    pulse_ur = np.interp(ka[:, None] / kr[None, :], ratio, u_r)  # (n_ka, n_kr) the pulse through each point
+    freq = (np.abs(kr)[None, :] / pulse_ur) * C / (4 * math.pi) - carrier_frequency
+    x = freq / bandwidth
+    taper = np.where(np.abs(x) <= 0.5, window_taper(window, np.clip(x, -0.5, 0.5)), 0.0)
+    weights = taper.mean(axis=0)
+    k = kr / (2 * math.pi)  # cycles per metre
+    half = 0.5 * kg.dkr / (2 * math.pi)
+    return response_theory(k, weights, band=(float(k.min()) - half, float(k.max()) + half))
 
 
 def inscribed_support(ua: np.ndarray, ur: np.ndarray, carrier_frequency: float, freqs: np.ndarray) -> Rect:

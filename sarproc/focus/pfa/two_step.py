@@ -49,6 +49,7 @@ from sarproc.focus.pfa.polar import (
     make_kgrid,
     pfa,
     rect_to_polar,
+    rectangle_range_theory,
     rotate_axes,
     wavenumbers,
 )
@@ -59,6 +60,7 @@ if TYPE_CHECKING:
     import numpy.typing as npt
 
     from sarproc.product.metadata import RadarMetadata
+    from sarproc.product.theory import ResponseTheory
 
 
 def valid_radius(azimuth_resolution: float, reference_range: float, wavelength: float, ka: float = 1.3) -> float:
@@ -403,6 +405,30 @@ def local_irw(
     side-lobe ridges, turned by the support's angle; varies over a wide scene)."""
     r = own_support(positions, point, e_azimuth, e_range, carrier_frequency, band, lit).rect
     return factor * 2 * math.pi / (r.ka_hi - r.ka_lo), factor * 2 * math.pi / (r.kr_hi - r.kr_lo)
+
+
+def own_range_theory(
+    positions: np.ndarray,
+    point: npt.ArrayLike,
+    e_azimuth: np.ndarray,
+    e_range: np.ndarray,
+    carrier_frequency: float,
+    band: tuple[float, float],
+    bandwidth: float,
+    window: str,
+    lit: np.ndarray | None = None,
+    samples: int = 257,
+) -> ResponseTheory:
+    """A point's range theory under a ``window`` taper on each pulse's chirp band, over its own inscribed
+    rectangle (:func:`own_support`, on its turned axes), which keeps the middle of the band only
+    (:func:`rectangle_range_theory`)."""
+    sup = own_support(positions, point, e_azimuth, e_range, carrier_frequency, band, lit)
+    ua, ur = los_components(positions, point, *rotate_axes(e_azimuth, e_range, sup.angle))
+    r = sup.rect
+    kg = KGrid(
+        r.ka_lo, (r.ka_hi - r.ka_lo) / (samples - 1), samples, r.kr_lo, (r.kr_hi - r.kr_lo) / (samples - 1), samples
+    )
+    return rectangle_range_theory(kg, ua, ur, carrier_frequency, bandwidth, window)
 
 
 def mosaic(shape: tuple[int, int], tiles: list[Tile], results: Iterable[np.ndarray]) -> np.ndarray:
