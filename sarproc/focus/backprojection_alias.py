@@ -259,6 +259,17 @@ def edge_alias_message(aliases: list[EdgeAlias], prf: float) -> str:
     )
 
 
+def edge_alias_warning(image: Product) -> tuple[str, list[dict]]:
+    """What a focusing stage warns of its 2D ``image`` (empty: nothing) and records in its history: every target
+    alias whose azimuth side lobes enter it from beyond its azimuth edge (:func:`image_edge_aliases`), as
+    evaluate lists them. An image spanning the PRF's unambiguous extent has a target near one edge aliased just
+    beyond the other, its side lobes in the data as in any image of them: fine-focus (-31 dB on
+    configs/an2012_exp1_small.yaml) and pfa2 (Session 41 new-user trial: -45.6 and -48.8 dB at 35 GHz, squint
+    -35 deg, PRF 2 kHz, listed by evaluate, unsaid by pfa2 before) warn of them."""
+    aliases = image_edge_aliases(image)
+    return edge_alias_message(aliases, float(image.radar.prf)), edge_alias_records(aliases)
+
+
 def edge_alias_records(aliases: list[EdgeAlias]) -> list[dict]:
     """The edge aliases as an image's history records them (floats to 0.01)."""
     rounded = [dataclasses.asdict(a).items() for a in aliases]

@@ -326,6 +326,10 @@ def pfa2_estimate(stage: str, header: Product, params: Any) -> Plan:
     three input-sized and three image-sized complex64 arrays (fitted to nie2016_small, 385 MB, and the
     full Table 1 scene, 11.1 GB, docs/pfa.md); cost per input sample and per pixel (fitted to the small
     configs and the two full Table 1 scenes, 391 s and 190 s two-step)."""
+    from sarproc.focus.pfa.chain import check_polar_support
+
+    if header.kind == "raw" and "platform_position" in header.aux:
+        check_polar_support(header)  # no common rectangle: refused here as the run would
     n_in = math.prod(header_shape(header))
     n = image_pixels(header, params)
     n_pix = n[0] * n[1]

@@ -324,7 +324,7 @@ def test_pfa2_records_each_targets_distance_from_the_scene_centre(tmp_path, raw_
 
 
 # Session 41 new-user trial: a 45 deg squinted Ku-band spotlight at a steep depression (800 m over 1.2 km) turns
-# its lines of sight' ground-range component by 2.3 % over the aperture, more than its 1.25 % fractional
+# its lines of sight' ground-range component by 2.3 % over the aperture, more than its 1.26 % fractional
 # bandwidth: the first and last pulses' bands share no rectangle in the ground plane. Two-step PFA ended in
 # "internal error: ValueError: two-step PFA: a sub-image centre has no inscribed polar support" (exit 1), plain
 # PFA in a bare "supports do not overlap"; both now say why and what changes it, exit 2, no output.
@@ -354,6 +354,46 @@ def test_supports_without_a_common_rectangle_are_refused_saying_why(tmp_path, me
     assert result.exit_code == 2, result.output
     assert "internal error" not in result.output
     assert "raw.h5: polar format: the pulses' polar supports share no rectangle" in result.output
-    assert "2.27 % spread, wider than the 1.25 % fractional bandwidth" in result.output
+    assert "2.27 % spread, wider than the 1.26 % fractional bandwidth" in result.output
     assert "radar.bandwidth" in result.output and "backproject" in result.output
     assert not (tmp_path / "img.h5").exists()
+    # --dry-run checks everything: it refuses the same way from the header, before reading the data
+    dry = run("pfa2", tmp_path / "raw.h5", "-o", tmp_path / "img.h5", "--config", config, "--dry-run")
+    assert dry.exit_code == 2, dry.output
+    assert "2.27 % spread, wider than the 1.26 % fractional bandwidth" in dry.output
+
+
+def test_pfa2_warns_of_target_aliases_entering_from_beyond_its_azimuth_edges(tmp_path):
+    """Session 41 new-user trial: Ka-band, squint -35 deg, PRF 2 kHz; SW and E near the azimuth edges have
+    aliases just beyond the others. fine-focus and backproject warned of their side lobes entering the image and
+    evaluate listed them (-45.6 and -48.8 dB in pfa2's image); pfa2 said nothing. It now warns and records them."""
+    scene = {
+        "radar": {
+            "carrier_frequency": "35 GHz",
+            "bandwidth": "60 MHz",
+            "pulse_duration": "4 us",
+            "range_sampling_rate": "72 MHz",
+            "prf": "2000 Hz",
+        },
+        "platform": {"velocity": "7 km/s", "altitude": "0 m"},
+        "geometry": {"reference_range": "250 km", "squint": "-35 deg"},
+        "acquisition": {"mode": "spotlight", "aperture_time": "0.05 s"},
+        "targets": {
+            "frame": "squint",
+            "points": [
+                {"name": "C"},
+                {"name": "E", "azimuth": "100 m"},
+                {"name": "SW", "azimuth": "-100 m", "range": "300 m", "amplitude": 0.5},
+            ],
+        },
+        "pfa2": {},
+    }
+    path = tmp_path / "scene.yaml"
+    path.write_text(yaml.safe_dump(scene))
+    assert run("simulate", path, "-o", tmp_path / "raw.h5").exit_code == 0
+    res = run("pfa2", tmp_path / "raw.h5", "-o", tmp_path / "image.h5", "--config", path)
+    assert res.exit_code == 0, res.output
+    (line,) = _warnings(res.output, "pfa2: the PRF (2000 Hz) folds targets' echoes onto aliases")
+    assert "target SW's alias (+1 PRF)" in line and "target E's alias (-1 PRF)" in line
+    found = read_product(tmp_path / "image.h5").history[-1]["parameters"]["azimuth_edge_aliases"]
+    assert {(a["target"], a["order"]) for a in found} == {("SW", 1), ("E", -1)}

@@ -184,6 +184,16 @@ def image_frame(raw: Product) -> GroundLosFrame:
     return frame
 
 
+def check_polar_support(raw: Product) -> None:
+    """Raise InputError (:func:`inscribed_support`'s reason) where the pulses' polar supports, over the chirp
+    band, share no rectangle in the image frame: what pfa2 would find after range compression, told by --dry-run
+    from the header (the pulses' positions) before any data is read."""
+    frame = image_frame(raw)
+    ua, ur = los_components(antenna_positions(raw), frame.origin, frame.u_azimuth, frame.u_range)
+    half = 0.5 * float(raw.radar.bandwidth)
+    inscribed_support(ua, ur, float(raw.radar.carrier_frequency), np.array([-half, half]))
+
+
 def output_grid(params: Pfa2Params, raw: Product, frame: GroundLosFrame, irw: Sequence[float]) -> Grid:
     """Image grid (offsets from the frame origin along e_a, e_r)."""
     t = targets_in_frame(raw.targets, frame)
@@ -299,7 +309,12 @@ def pfa2(
         attrs=attrs,
     )
     out.aux = {k: v for k, v in raw.aux.items() if k in ("platform_position", "tx_offset", "rx_offset")}
-    out.history.append(history_entry("pfa2", as_dict(params)))
+    from sarproc.focus.backprojection_alias import edge_alias_warning
+
+    message, edge = edge_alias_warning(out)  # target aliases' side lobes entering from beyond the azimuth edges
+    if message:
+        log.warning("pfa2: %s", message, extra=IMAGE_DEFECT)
+    out.history.append(history_entry("pfa2", {**as_dict(params), "azimuth_edge_aliases": edge}))
     return out
 
 

@@ -598,12 +598,12 @@ def _warn_edge_aliases(image: Product) -> list[dict]:
     so a target near one edge has an alias just beyond the other, its side lobes in the data as in any image of
     them (the exact backprojection's too), at -31 dB on configs/an2012_exp1_small.yaml. Returns them for the
     history."""
-    from sarproc.focus.backprojection_alias import edge_alias_message, edge_alias_records, image_edge_aliases
+    from sarproc.focus.backprojection_alias import edge_alias_warning
 
-    aliases = image_edge_aliases(image)
-    if aliases:
-        log.warning("fine-focus: %s", edge_alias_message(aliases, float(image.radar.prf)), extra=IMAGE_DEFECT)
-    return edge_alias_records(aliases)
+    message, records = edge_alias_warning(image)
+    if message:
+        log.warning("fine-focus: %s", message, extra=IMAGE_DEFECT)
+    return records
 
 
 def _lrwc_frame(squint: float, altitude: float) -> SquintLrwcFrame:
