@@ -52,7 +52,11 @@ def _direction(m: AxisMetrics, dims: Sequence[str]) -> str:
 
 def _theory(value: float | None, m: AxisMetrics) -> str:
     """' (theory)' after a PSLR / ISLR when the target has its own."""
-    return "" if value is None or m.theory != "target" else f" ({value:.2f})"
+    if value is None or m.theory != "target":
+        return ""
+    from sarproc.product.theory import NO_SIDE_LOBES_DB
+
+    return " (none)" if value <= NO_SIDE_LOBES_DB else f" ({value:.2f})"  # a response without side lobes
 
 
 METRIC_COLUMNS = (

@@ -198,7 +198,20 @@ def response_theory(
         p = _mirrored(np.abs(np.cos(phase) @ w + 1j * (np.sin(phase) @ w)) ** 2)
     p /= p[m]  # w >= 0: the peak is at x = 0
     irw, pslr, islr, _ = cut_metrics(p, 1.0 / upsample, m, islr_nulls)
-    return ResponseTheory(irw=irw / span, null=1.0 / span, pslr_db=max(pslr, -300.0), islr_db=max(islr, -300.0))
+    return ResponseTheory(
+        irw=irw / span, null=1.0 / span, pslr_db=max(pslr, NO_SIDE_LOBES_DB), islr_db=max(islr, NO_SIDE_LOBES_DB)
+    )
+
+
+# The PSLR / ISLR of a response with no side lobe within the ISLR window: |h| falls off monotonically from its
+# peak, as where the lit aperture ends abruptly on one side and on a smooth beam skirt on the other (a target
+# beyond the track's end, or lit by the pattern's side lobes only). Not a level: say so (:func:`lobe_text`).
+NO_SIDE_LOBES_DB = -300.0
+
+
+def lobe_text(db: float, spec: str = ".1f") -> str:
+    """A theoretical PSLR / ISLR for people: 'none (no side lobes)' at :data:`NO_SIDE_LOBES_DB`, else the dB figure."""
+    return "none (no side lobes)" if db <= NO_SIDE_LOBES_DB else f"{format(db, spec)} dB"
 
 
 def _mirrored(half: np.ndarray) -> np.ndarray:

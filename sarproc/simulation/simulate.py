@@ -180,7 +180,7 @@ def illumination_warnings(scene: Scene, plan: SimulationPlan) -> list[str]:
     """One line per target outside the antenna's main beam or lit over only part of its aperture: the
     fraction of its full -3 dB aperture the track gives it and the along-track resolution it will have
     (sarproc.product.theory.illumination_survey); empty when every target is fully lit. Logged as warnings."""
-    from sarproc.product.theory import illumination_survey
+    from sarproc.product.theory import illumination_survey, lobe_text
 
     pos = plan.aux["platform_position"] + plan.tx_offset
     survey = illumination_survey(plan.radar, pos, scene.target_xyz.reshape(-1, 3), LIT_FRACTION_MIN)
@@ -204,7 +204,7 @@ def illumination_warnings(scene: Scene, plan: SimulationPlan) -> list[str]:
         else:
             loss = (
                 f"; expected along-track IRW {s.now.irw:.3g} m instead of {s.full.irw:.3g} m ({s.loss:.2f}x), "
-                f"PSLR {s.now.pslr_db:.1f} dB instead of {s.full.pslr_db:.1f} dB (antenna weighting, no window)"
+                f"PSLR {lobe_text(s.now.pslr_db)} instead of {lobe_text(s.full.pslr_db)} (antenna weighting, no window)"
             )
         lines.append(f"{scene.source}: target {name!r} is {what}{loss}")
     for line in lines:

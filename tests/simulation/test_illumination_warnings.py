@@ -65,3 +65,27 @@ def test_a_beam_that_never_sees_a_target_says_so(scene_mapping, caplog):
         caplog, stripmap(scene_mapping, {"name": "A"}, {"name": "F", "azimuth": "200 m"}, pattern="rect")
     )
     assert "'F' is outside the beam over the whole aperture" in line and "never lit" in line
+
+
+def test_a_response_without_side_lobes_is_said_so_not_minus_300_db(caplog):
+    """Session 41 new-user trial: C-band stripmap, 3 deg sinc beam, 150 m track at 4 km; BEYOND at +400 m sees
+    only the pattern's first side lobe, from near its peak at the track's end down to its null: a one-sided
+    aperture whose response falls off monotonically. The warning said 'PSLR -300.0 dB instead of -15.4 dB' (the
+    theory's floor) and evaluate's table '(-300.00)'."""
+    mapping = {
+        "radar": {
+            "carrier_frequency": "5.4 GHz",
+            "bandwidth": "50 MHz",
+            "pulse_duration": "5 us",
+            "range_sampling_rate": "60 MHz",
+            "prf": "400 Hz",
+        },
+        "platform": {"velocity": "100 m/s", "altitude": "1 km"},
+        "geometry": {"reference_range": "4 km"},
+        "acquisition": {"mode": "stripmap", "aperture_time": "1.5 s"},
+        "effects": {"antenna": {"pattern": "sinc", "azimuth_beamwidth": "3 deg"}},
+        "targets": {"frame": "zero_doppler", "points": [{"name": "A"}, {"name": "BEYOND", "azimuth": "400 m"}]},
+    }
+    (line,) = warnings_of(caplog, mapping)
+    assert "'BEYOND' is outside the main beam" in line
+    assert "PSLR none (no side lobes) instead of -15.4 dB" in line and "-300" not in line
