@@ -13,6 +13,7 @@ from click.testing import CliRunner
 
 from sarproc.cli.main import cli
 from sarproc.product.io import read_product
+from tests.quality.test_ground_plane_ridges import SCENE as GROUND_PLANE_SCENE
 
 ROOT = Path(__file__).resolve().parents[2]
 GOTCHA = ROOT.parent / "shared" / "data" / "gotcha"
@@ -328,19 +329,8 @@ def test_pfa2_records_each_targets_distance_from_the_scene_centre(tmp_path, raw_
 # bandwidth: the first and last pulses' bands share no rectangle in the ground plane. Two-step PFA ended in
 # "internal error: ValueError: two-step PFA: a sub-image centre has no inscribed polar support" (exit 1), plain
 # PFA in a bare "supports do not overlap"; both now say why and what changes it, exit 2, no output.
-NO_COMMON_SUPPORT = {
-    "radar": {
-        "carrier_frequency": "16 GHz",
-        "bandwidth": "200 MHz",
-        "pulse_duration": "1 us",
-        "range_sampling_rate": "240 MHz",
-        "prf": "250 Hz",
-    },
-    "platform": {"velocity": "80 m/s", "altitude": "800 m"},
-    "geometry": {"reference_range": "1.2 km", "squint": "45 deg"},
-    "acquisition": {"mode": "spotlight", "aperture_time": "0.6 s"},
-    "targets": {"frame": "ground_los", "points": [{"name": "A"}]},
-}
+# (the scene of tests/quality/test_ground_plane_ridges.py, whose backprojection evaluate measures)
+NO_COMMON_SUPPORT = GROUND_PLANE_SCENE
 
 
 @pytest.mark.parametrize("method", ["two_step", "plain"])
