@@ -353,31 +353,36 @@ def test_supports_without_a_common_rectangle_are_refused_saying_why(tmp_path, me
     assert "2.27 % spread, wider than the 1.26 % fractional bandwidth" in dry.output
 
 
+# Session 41 new-user trial, scene 2 (docs/cli.md rows 2-2c): Ka-band, squint -35 deg, PRF 2 kHz; SW and E near the
+# azimuth edges have their +-1 PRF aliases 129-131 m beyond the others
+KA_ALIAS_SCENE = {
+    "radar": {
+        "carrier_frequency": "35 GHz",
+        "bandwidth": "60 MHz",
+        "pulse_duration": "4 us",
+        "range_sampling_rate": "72 MHz",
+        "prf": "2000 Hz",
+    },
+    "platform": {"velocity": "7 km/s", "altitude": "0 m"},
+    "geometry": {"reference_range": "250 km", "squint": "-35 deg"},
+    "acquisition": {"mode": "spotlight", "aperture_time": "0.05 s"},
+    "targets": {
+        "frame": "squint",
+        "points": [
+            {"name": "C"},
+            {"name": "E", "azimuth": "100 m"},
+            {"name": "SW", "azimuth": "-100 m", "range": "300 m", "amplitude": 0.5},
+        ],
+    },
+    "pfa2": {},
+}
+
+
 def test_pfa2_warns_of_target_aliases_entering_from_beyond_its_azimuth_edges(tmp_path):
     """Session 41 new-user trial: Ka-band, squint -35 deg, PRF 2 kHz; SW and E near the azimuth edges have
     aliases just beyond the others. fine-focus and backproject warned of their side lobes entering the image and
     evaluate listed them (-45.6 and -48.8 dB in pfa2's image); pfa2 said nothing. It now warns and records them."""
-    scene = {
-        "radar": {
-            "carrier_frequency": "35 GHz",
-            "bandwidth": "60 MHz",
-            "pulse_duration": "4 us",
-            "range_sampling_rate": "72 MHz",
-            "prf": "2000 Hz",
-        },
-        "platform": {"velocity": "7 km/s", "altitude": "0 m"},
-        "geometry": {"reference_range": "250 km", "squint": "-35 deg"},
-        "acquisition": {"mode": "spotlight", "aperture_time": "0.05 s"},
-        "targets": {
-            "frame": "squint",
-            "points": [
-                {"name": "C"},
-                {"name": "E", "azimuth": "100 m"},
-                {"name": "SW", "azimuth": "-100 m", "range": "300 m", "amplitude": 0.5},
-            ],
-        },
-        "pfa2": {},
-    }
+    scene = KA_ALIAS_SCENE
     path = tmp_path / "scene.yaml"
     path.write_text(yaml.safe_dump(scene))
     assert run("simulate", path, "-o", tmp_path / "raw.h5").exit_code == 0
@@ -387,3 +392,20 @@ def test_pfa2_warns_of_target_aliases_entering_from_beyond_its_azimuth_edges(tmp
     assert "target SW's alias (+1 PRF)" in line and "target E's alias (-1 PRF)" in line
     found = read_product(tmp_path / "image.h5").history[-1]["parameters"]["azimuth_edge_aliases"]
     assert {(a["target"], a["order"]) for a in found} == {("SW", 1), ("E", -1)}
+
+
+def test_two_step_does_not_fold_aliases_beyond_the_edges_into_the_image(tmp_path):
+    """Session 41 new-user trial, row 2c: the two-step's step-1 image repeated along azimuth at the data's own
+    period plus a few pixels (442.4 m), so E's and SW's +-1 PRF aliases, 129-131 m beyond the image's edges (where
+    evaluate and the warning place them), came back inside it at the opposite edges: points at E's and SW's ranges,
+    azimuth +-152 m, -42.4 and -48.6 dB against N, listed by evaluate as false targets (plain PFA and backprojection
+    of the same raw have none there). Step 1 now repeats at the data's period plus its grid's extent."""
+    path = tmp_path / "scene.yaml"
+    path.write_text(yaml.safe_dump(KA_ALIAS_SCENE))
+    assert run("simulate", path, "-o", tmp_path / "raw.h5").exit_code == 0
+    res = run("pfa2", tmp_path / "raw.h5", "-o", tmp_path / "image.h5", "--config", path)
+    assert res.exit_code == 0, res.output
+    assert run("evaluate", tmp_path / "image.h5", "-o", tmp_path / "r.json").exit_code == 0
+    report = json.loads((tmp_path / "r.json").read_text())
+    assert report["false_targets"]["entries"] == []
+    assert report["false_target"]["level_db"] < -45.0
