@@ -51,7 +51,12 @@ def import_matplotlib_lean() -> None:
 @click.command()
 @input_argument
 @click.option(
-    "-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path), help="Output picture (PNG)."
+    "-o",
+    "--output",
+    required=True,
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="Output picture, always PNG: a name ending in another suffix (pic.jpg) is refused; one without a "
+    "suffix (/dev/null, a FIFO) is taken.",
 )
 @overwrite_option
 @dry_run_option
@@ -109,6 +114,11 @@ def quicklook(
     from sarproc.product.model import UNITS, target_names
     from sarproc.quality.budget import quicklook_estimate
 
+    if output.suffix and output.suffix.lower() != ".png":
+        # the picture is PNG whatever the name says: a pic.jpg of PNG bytes would be a file that lies
+        raise click.BadParameter(
+            f"{output}: quicklook writes PNG only; name it {output.with_suffix('.png').name}", param_hint="'-o'"
+        )
     header = read_product(input_path, kinds=("image", "image3d"), load=False)
     plan_outputs(input_path, [output], overwrite, lambda: quicklook_estimate("quicklook", header, max_pixels, renderer))
     magnitude, dims, coords, factors = read_magnitude_preview(input_path, max_side=max_pixels, header=header)

@@ -185,3 +185,16 @@ def test_default_picture_is_drawn_without_matplotlib(tmp_path, three_d):
     res = run(path, "-o", tmp_path / "mpl.png", "--renderer", "matplotlib")
     assert res.exit_code == 0, res.output
     assert (tmp_path / "mpl.png").read_bytes()[:8] == PNG_SIGNATURE
+
+
+@pytest.mark.parametrize("name", ["pic.jpg", "pic.JPEG", "pic.tif"])
+def test_an_output_named_for_another_format_is_refused(tmp_path, name):
+    """Session 41 new-user trial, row 3b: `quicklook -o pic.jpg` wrote PNG bytes into pic.jpg, silently."""
+    path, _ = image_without_targets(tmp_path / "img.h5")
+    res = run(path, "-o", tmp_path / name)
+    assert res.exit_code == 2, res.output
+    assert "'-o'" in res.output and "writes PNG only" in res.output and "pic.png" in res.output
+    assert not (tmp_path / name).exists()
+    assert run(path, "-o", tmp_path / "pic.PNG").exit_code == 0  # the suffix in any case
+    assert run(path, "-o", tmp_path / "picture").exit_code == 0  # none (a FIFO, /dev/null) is taken
+    assert (tmp_path / "picture").read_bytes().startswith(PNG_SIGNATURE)
