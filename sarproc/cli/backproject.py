@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -114,8 +115,19 @@ def backproject(
     parts = f" in {len(blocks)} blocks" if len(blocks) > 1 else ""
     summary(
         f"backproject: {'x'.join(map(str, plan.shape))} ({' x '.join(plan.dims)}) image{parts} in frame "
-        f"{plan.frame.spec['name']} -> {output} ({time.perf_counter() - start:.2f} s)"
+        f"{_frame_said(params.frame, plan.frame.spec)} -> {output} ({time.perf_counter() - start:.2f} s)"
     )
+
+
+def _frame_said(asked: str, spec: dict) -> str:
+    """The frame as the summary names it: the user's word first where the product's frame is named otherwise
+    (``frame: zero_doppler`` is a squint frame at 0 deg; Session 41 new-user trial, docs/cli.md row 1)."""
+    name = str(spec["name"])
+    if asked in ("product", name):
+        return name
+    if name == "squint" and "squint" in spec:
+        return f"{asked} (a {name} frame at {math.degrees(float(spec['squint'])):g} deg)"
+    return f"{asked} (a {name} frame)"
 
 
 def _writer(output: Path, header: Product, input_path: Path, overwrite: bool) -> ProductWriter:

@@ -70,6 +70,19 @@ def test_simulate_backproject_chain(tmp_path, raw_file):
         assert f["image"].shape == (len(f["azimuth"]), len(f["range"]))
 
 
+def test_backproject_summary_names_the_frame_asked_for(tmp_path, raw_file):
+    """Session 41 new-user trial, row 1: `frame: zero_doppler` was summed as "image in frame squint" (it is a squint
+    frame at 0 deg); the summary names what the user asked for, then what it is."""
+    scene = write_scene(
+        tmp_path / "zd.yaml", dict(SCENE, backproject={**SCENE["backproject"], "frame": "zero_doppler"})
+    )
+    res = run("backproject", raw_file, "--config", scene, "-o", tmp_path / "img.h5")
+    assert res.exit_code == 0, res.output
+    assert "image in frame zero_doppler (a squint frame at 0 deg) -> " in res.output
+    res = run("backproject", raw_file, "--config", tmp_path / "scene.yaml", "-o", tmp_path / "sq.h5")
+    assert "image in frame squint -> " in res.output  # the frame asked for, said once
+
+
 def test_real_subprocess_runs(tmp_path):
     scene = write_scene(tmp_path / "scene.yaml")
     out = subprocess.run(
