@@ -98,8 +98,9 @@ def mover_table(product: Product, report: dict | None) -> tuple[list[dict], list
 
 
 def counts(info: dict) -> dict:
-    """reconstruct's truth record without its per-mover relocation checks (tabulated in the table)."""
-    return {k: v for k, v in info.get("truth", {}).items() if k != "relocation"}
+    """reconstruct's truth record without its per-detection lists (relocation: tabulated in the table;
+    static_points, unmatched: the static points' matches, mover_campaign.py's)."""
+    return {k: v for k, v in info.get("truth", {}).items() if k not in ("relocation", "static_points", "unmatched")}
 
 
 def fmt(v: Any, spec: str) -> str:
