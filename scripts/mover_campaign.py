@@ -10,10 +10,11 @@ at 12 MHz: 12.5 m range cells, a few seconds of reconstruct), with drawn at rand
 * weak clutter (random seed; then four receivers and the clutter null) or none (three receivers), noise or none.
 
 For each scene the script runs ``sarproc simulate`` and ``sarproc reconstruct`` and reads the reconstructed
-product: the moving_targets table against the truth, reconstruct.truth (found, missed and why: a missed mover
-below the clutter null's minimum detectable velocity, or slower than detection_velocity, or under the CFAR
-threshold in noise is an expected miss), the warnings reconstruct printed, the static points' fate (a table row
-within 20 m of one: taken for a mover) and reconstruct's CPU time. Writes <results>/campaign.md and campaign.json.
+product: the moving_targets table against the truth (reconstruct's matching, truth_index), reconstruct.truth
+(found, missed and why: a missed mover below the clutter null's minimum detectable velocity, or slower than
+detection_velocity, or under the CFAR threshold in noise is an expected miss; the static points' fate,
+static_points: a table row within 20 m of one, taken for a mover; unmatched: each other row's nearest static
+point), the warnings reconstruct printed and reconstruct's CPU time. Writes <results>/campaign.md and campaign.json.
 
     PYTHONPATH=. python scripts/mover_campaign.py --n 30 --seed 1 --results results/mover-campaign
 """
@@ -42,7 +43,6 @@ from sarproc.product.model import moving_target_rows
 
 BASE = Path(__file__).resolve().parents[1] / "configs" / "xu_scene.yaml"
 DETECTION_VELOCITY = 1.0  # m/s, reconstruct's default: a detection slower than this is static
-MATCH_M = 20.0  # m, reconstruct's truth matching radius (apparent position)
 
 
 def vehicle(name: str, azimuth: float, rng: float, v_a: float, v_r: float, amplitude: float) -> dict:
@@ -180,15 +180,13 @@ def run_scene(mapping: dict, work: Path, tag: str, timeout: float) -> dict:
     names = [n.decode() for n in t["name"]]
     theta = math.radians(draws["squint_deg"])
     rows = moving_target_rows(rec.aux)
-    by_truth = {int(r["truth_index"]): r for r in rows if r["truth_index"] >= 0}
+    by_truth = {int(r["truth_index"]): r for r in rows if r["truth_index"] >= 0}  # reconstruct's matching
+    taken = {p["name"]: p["detections_within"] for p in truth.get("static_points", [])}  # and its static points'
     movers, statics = [], []
-    xyz_of = {name: np.array([t["x"][k], t["y"][k], t["z"][k]], float) for k, name in enumerate(names)}
     for k, name in enumerate(names):
-        xyz = xyz_of[name]
         v_a, v_r = float(t["vx"][k]), float(t["vy"][k])  # slant plane (altitude 0): vy is v_r, vx v_a
         if v_a == 0 and v_r == 0 and float(t["vz"][k]) == 0:
-            near = [r for r in rows if np.linalg.norm([r[f"apparent_{c}"] for c in "xyz"] - xyz) <= MATCH_M]
-            statics.append({"name": name, "amplitude": abs(t["amplitude"][k]), "taken_for_mover": len(near)})
+            statics.append({"name": name, "amplitude": abs(t["amplitude"][k]), "taken_for_mover": taken[name]})
             continue
         v_los = v_r * math.cos(theta) + v_a * math.sin(theta)
         m = {"name": name, "v_r": v_r, "v_a": v_a, "v_los": v_los, "amplitude": abs(t["amplitude"][k])}
@@ -208,26 +206,23 @@ def run_scene(mapping: dict, work: Path, tag: str, timeout: float) -> dict:
             m.update(found=False, reason=reason, mdv=float(mdv.group(1)) if mdv else None)
         movers.append(m)
     false = []
-    for r in rows:
-        if r["truth_index"] >= 0:
+    for u in truth.get("unmatched", []):  # rows matched to no mover: reconstruct's nearest static point and whether
+        r = rows[u["row"]]  # it lies at it (within its matching radius: taken for a mover, not a false alarm)
+        if u["at_static"]:
             continue
-        app = np.array([r[f"apparent_{c}"] for c in "xyz"])
-        # the nearest static point (a static one's apparent position is its own): within MATCH_M, taken for a mover
-        d = {x["name"]: float(np.linalg.norm(app - xyz_of[x["name"]])) for x in statics}
-        closest = min(d, key=d.__getitem__) if d else "-"
         false.append(
             {
                 "snr": r["snr"],
                 "v_r": r["v_r"],
                 "v_a": r["v_a"],
-                "nearest": closest,
-                "nearest_m": d.get(closest, math.inf),
+                "nearest": u["nearest_static"] or "-",
+                "nearest_m": math.inf if u["distance"] is None else u["distance"],
             }
         )
     out.update(
         movers=movers,
         statics=statics,
-        false_alarms=[f for f in false if f["nearest_m"] > MATCH_M],
+        false_alarms=false,
         detections=info.get("detections", {}),
         cfar_db=info.get("detection_cfar", {}).get("threshold_db"),
     )

@@ -77,10 +77,14 @@ def main(argv: list[str] | None = None) -> None:
         sarproc("ghost-test", str(clean), str(ghosted), "--levels", LEVELS, "-o", str(report))
         doc = json.loads(report.read_text())
     dims = doc["dims"]
+
+    def num(v: float | None, spec: str) -> str:  # ghost-test writes a non-finite figure as null
+        return "n/a" if v is None else format(v, spec)
+
     rows = [
         f"Scene {args.scene}{'' if args.waveform is None else f' (simulation.waveform: {args.waveform})'} processed by `{args.process}`; ghost G at {doc['ghost_position']} (strongest pixel of its response); "
-        f"clean image: residual floor {doc['floor_db']:.2f} dB, residual false target "
-        f"{doc['false_target_db']:.2f} dB, guard-window figure {doc['guard_db']:.2f} dB.",
+        f"clean image: residual floor {num(doc['floor_db'], '.2f')} dB, residual false target "
+        f"{num(doc['false_target_db'], '.2f')} dB, guard-window figure {num(doc['guard_db'], '.2f')} dB.",
         "",
         "| injected (dB) | found (dB) | error (dB) | "
         + " | ".join(f"{d} error (cells)" for d in dims)
@@ -89,9 +93,9 @@ def main(argv: list[str] | None = None) -> None:
     ]
     for r in doc["rows"]:
         rows.append(
-            f"| {r['injected_db']:.1f} | {r['found_db']:.2f} | {r['error_db']:+.2f} | "
-            + " | ".join(f"{r['error_cells'][d]:+.2f}" for d in dims)
-            + f" | {r['guard_db']:.2f} | {r['floor_db']:.2f} |"
+            f"| {r['injected_db']:.1f} | {num(r['found_db'], '.2f')} | {num(r['error_db'], '+.2f')} | "
+            + " | ".join(num(r["error_cells"][d], "+.2f") for d in dims)
+            + f" | {num(r['guard_db'], '.2f')} | {num(r['floor_db'], '.2f')} |"
         )
     publish("\n".join(rows) + "\n", args.out)
 

@@ -17,7 +17,7 @@ import click
     type=click.Path(dir_okay=False, path_type=Path),
     default=None,
     help="Also write the tables as JSON: per file its table and cells, and for products the signal figures as "
-    "numbers (signal_db: -Infinity when identical; max_rel).",
+    "numbers (signal_db: -Infinity when identical; max_rel; peak_db: NEW's peak over BASE's).",
 )
 @click.option("--overwrite", is_flag=True, help="Replace an existing -o file.")
 def compare(base: Path, new: Path, output: Path | None, overwrite: bool) -> None:

@@ -109,6 +109,6 @@ def ghost_test(
     if output is not None:
         doc = {"clean": str(clean_path), "ghosted": str(ghosted_path), **test.to_dict()}
         with atomic_path(output, overwrite=overwrite) as tmp:
-            tmp.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+            tmp.write_text(json.dumps(doc, indent=2, allow_nan=False) + "\n", encoding="utf-8")
     if verbosity() >= 0:
         click.echo(ghost_table(test), err=stdout_taken())

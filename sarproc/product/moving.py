@@ -188,13 +188,16 @@ def apparent_position(
     return static_equivalent(xyz + velocity * t_c, velocity, p, radar.velocity), t_c
 
 
+RELOCATE_TOLERANCE = 1e-4  # m: relocate's fixed-point steps stop when the apparent position is matched this close
+
+
 def relocate(
     radar: RadarMetadata,
     times: np.ndarray,
     apparent_xyz: npt.ArrayLike,
     velocity: npt.ArrayLike,
     positions: np.ndarray | None = None,
-    tolerance: float = 1e-4,
+    tolerance: float = RELOCATE_TOLERANCE,
     max_iterations: int = 50,
 ) -> np.ndarray:
     """Position at azimuth time 0 of a point moving at ``velocity`` that appears at ``apparent_xyz``.

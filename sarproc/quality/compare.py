@@ -72,6 +72,24 @@ def dataset_difference_db(a: h5py.Dataset, b: h5py.Dataset) -> tuple[float, floa
     return _ratios(err, sig, dmax, peak)
 
 
+def dataset_peak(a: h5py.Dataset) -> float:
+    """max |a| in float64, read in blocks along the first axis."""
+    row_bytes = max(1, int(np.prod(a.shape[1:], dtype=np.int64)) * a.dtype.itemsize)
+    step = max(1, BLOCK_BYTES // row_bytes)
+    peak = 0.0
+    for i in range(0, a.shape[0] if a.ndim else 1, step):
+        block = np.asarray(a[slice(i, i + step) if a.ndim else ()], dtype=np.complex128)
+        peak = max(peak, float(np.max(np.abs(block), initial=0.0)))
+    return peak
+
+
+def peak_ratio_db(base_peak: float, new_peak: float) -> float:
+    """20 log10(max |new| / max |base|): -inf where new is all zero, +inf where only base is."""
+    if new_peak == 0:
+        return -math.inf
+    return math.inf if base_peak == 0 else 20 * math.log10(new_peak / base_peak)
+
+
 def _same(a: Any, b: Any) -> bool:
     try:
         return bool(np.array_equal(np.asarray(a), np.asarray(b)))
@@ -121,11 +139,12 @@ def compare_hdf5(base: Path, new: Path) -> dict[str, Any]:
         if sa.shape != sb.shape:
             row["signal"] = f"shapes differ: {sa.shape} vs {sb.shape}"
             row["rel"] = ""
-            row["signal_db"] = row["max_rel"] = None
+            row["signal_db"] = row["max_rel"] = row["peak_db"] = None
         else:
             db, rel = dataset_difference_db(sa, sb)
             row["signal"], row["rel"] = _fmt_db(db), _fmt_rel(rel)
             row["signal_db"], row["max_rel"] = db, rel  # the numbers (-inf dB: identical)
+            row["peak_db"] = peak_ratio_db(dataset_peak(sa), dataset_peak(sb))
     dsets, attrs = hdf5_differences(base, new, signal)
     row["datasets"] = ", ".join(dsets) or "none"
     other = [a for a in attrs if a != "/@history"]
@@ -269,14 +288,15 @@ def same_bytes(b: Path, a: Path) -> str:
 
 def product_record(b: Path, a: Path, name: str) -> dict[str, Any]:
     """Row ``name`` of the products' table (``"row"``) with its signal figures as numbers: ``"signal_db"``
-    (difference power / signal power, dB; -inf identical) and ``"max_rel"`` (max |new - base| / max |base|),
-    None where the product is missing in new or the shapes differ."""
+    (difference power / signal power, dB; -inf identical), ``"max_rel"`` (max |new - base| / max |base|) and
+    ``"peak_db"`` (20 log10(max |new| / max |base|)), None where the product is missing in new or the shapes
+    differ."""
     if not a.exists():
         row = [name, "missing in new"] + [""] * (len(PRODUCT_COLUMNS) - 2)
-        return {"row": row, "signal_db": None, "max_rel": None}
+        return {"row": row, "signal_db": None, "max_rel": None, "peak_db": None}
     r = compare_hdf5(b, a)
     row = [name, r["kind"], r["shape"], r["signal"], r["rel"], r["datasets"], r["attrs"], same_bytes(b, a)]
-    return {"row": row, "signal_db": r["signal_db"], "max_rel": r["max_rel"]}
+    return {"row": row, "signal_db": r["signal_db"], "max_rel": r["max_rel"], "peak_db": r["peak_db"]}
 
 
 def product_row(b: Path, a: Path, name: str) -> list[str]:

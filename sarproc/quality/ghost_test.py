@@ -50,9 +50,12 @@ class GhostTest:
     rows: tuple[GhostRow, ...]
 
     def to_dict(self) -> dict:
-        return dataclasses.asdict(self) | {
-            "rows": [dataclasses.asdict(r) | {"error_db": r.error_db} for r in self.rows]
-        }
+        """JSON-able dict: non-finite floats become None (JSON has no NaN/inf), as evaluate's report."""
+        from sarproc.quality.metrics import jsonable
+
+        return jsonable(
+            dataclasses.asdict(self) | {"rows": [dataclasses.asdict(r) | {"error_db": r.error_db} for r in self.rows]}
+        )
 
 
 def _residual_figures(report: QualityReport) -> tuple[float, float, float]:

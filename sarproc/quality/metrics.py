@@ -329,14 +329,16 @@ class QualityReport:
         d = dataclasses.asdict(self)
         if d["false_target_predicted"] is None:
             del d["false_target_predicted"]
-        return _jsonable(d)
+        return jsonable(d)
 
 
-def _jsonable(v: Any) -> Any:
+def jsonable(v: Any) -> Any:
+    """``v`` for ``json.dumps(..., allow_nan=False)``: dicts, lists and tuples walked, numpy scalars as Python ones,
+    non-finite floats as None (JSON has no NaN/inf; evaluate's and ghost-test's reports)."""
     if isinstance(v, dict):
-        return {str(k): _jsonable(x) for k, x in v.items()}
+        return {str(k): jsonable(x) for k, x in v.items()}
     if isinstance(v, (list, tuple)):
-        return [_jsonable(x) for x in v]
+        return [jsonable(x) for x in v]
     if isinstance(v, (np.generic,)):
         v = v.item()
     if isinstance(v, float) and not math.isfinite(v):

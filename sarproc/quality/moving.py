@@ -20,7 +20,9 @@ metadata, track, frame), never at its true position. Per moving target the repor
 * velocity errors (estimate - truth); the relocated position (the table's, else the measured peak
   taken back to time 0 with the estimated velocity, :func:`sarproc.product.moving.relocate`) and its
   error against the true position; and the relocation error the velocity error alone implies
-  (first order, R |dv_los| / (v cos(theta)), dv_los = dv_r cos(theta) + dv_a sin(theta)).
+  (first order, R |dv_los| / (v cos(theta)), dv_los = dv_r cos(theta) + dv_a sin(theta));
+* the relocation's bound and verdict (:func:`relocation_check`, also written by reconstruct into its
+  ``truth`` record for every matched mover).
 
 Without an estimate (a single-channel image: nothing estimates velocities) the velocity and
 relocation fields are None and ``estimate`` says 'none'.
@@ -72,6 +74,12 @@ class MoverReport:
     relocation_error: float | None = None  # |relocated - true position|
     relocation_error_xyz: tuple | None = None
     relocation_error_from_velocity: float | None = None  # first-order implied by the velocity error
+    # the relocation's bound and verdict (relocation_check): |start - S|, the velocity error's own relocation error
+    # (S relocated with the estimated velocity, against the truth), their sum and whether relocation_error is within
+    apparent_position_error: float | None = None
+    velocity_relocation_error: float | None = None
+    relocation_bound: float | None = None
+    relocation_within_bound: bool | None = None
     # the velocity error's residual channel phase (rad, largest over the channels; eq. 8 term 2) and the first-order
     # false-target level it leaves (dB, eq. 6; -inf without an error): filled in by the multichannel reconstruction's
     # sarproc.focus.multichannel.channels.ghost_predictions where the image records its channels
@@ -185,6 +193,55 @@ def implied_relocation_error(radar: RadarMetadata, slant_range: float, dv_a: flo
     """First-order relocation error (m, scene) of velocity errors: R |dv_los| / (v cos(theta))."""
     th = radar.squint
     return abs(slant_range * (dv_r * math.cos(th) + dv_a * math.sin(th)) / (radar.velocity * math.cos(th)))
+
+
+def relocation_check(
+    radar: RadarMetadata,
+    times: np.ndarray,
+    positions: np.ndarray,
+    truth_xyz: np.ndarray,
+    truth_apparent: np.ndarray,
+    start: np.ndarray,
+    relocated: np.ndarray,
+    v_a: float,
+    v_r: float,
+) -> dict[str, Any]:
+    """A relocated mover against the truth, with the bound its errors allow (lengths m, scene frame).
+
+    The relocated position is f(start, v): the relocation map f (:func:`sarproc.product.moving.relocate`) of the
+    apparent position the relocation started from (reconstruct's table: its apparent position; evaluate without a
+    table: the measured peak) with the estimated velocity v = (``v_a``, ``v_r``); the truth position is
+    f(S, v_true), S its static equivalent (``truth_apparent``). Then f(start, v) - truth = [f(start, v) - f(S, v)]
+    + [f(S, v) - truth]: f moves a point by a shift of the velocity (a near-translation, Jacobian identity +
+    O(|v| / v_platform)), so the first term is at most the apparent-position error |start - S| times
+    (1 + |v| / v_platform), and the second is the velocity error's own relocation error, computed exactly (S
+    relocated with v). The bound is their sum (triangle inequality) plus twice relocate's convergence tolerance
+    (two relocated positions, each within RELOCATE_TOLERANCE of its fixed point): every term measured or stated by
+    the method, nothing allowed for by hand. Returns ``relocation_error``
+    (|relocated - truth|), ``apparent_position_error``, ``velocity_relocation_error``, ``relocation_bound`` and
+    ``relocation_within_bound``; the last three None where S cannot be relocated with v (no convergence)."""
+    truth_xyz, s = np.asarray(truth_xyz, float).reshape(3), np.asarray(truth_apparent, float).reshape(3)
+    out: dict[str, Any] = {
+        "relocation_error": float(np.linalg.norm(np.asarray(relocated, float).reshape(3) - truth_xyz)),
+        "apparent_position_error": float(np.linalg.norm(np.asarray(start, float).reshape(3) - s)),
+        "velocity_relocation_error": None,
+        "relocation_bound": None,
+        "relocation_within_bound": None,
+    }
+    try:
+        at_s = moving.relocate(radar, times, s, moving.scene_velocity(s, v_a, v_r, radar.altitude), positions)
+    except InputError:
+        return out
+    velocity_term = float(np.linalg.norm(at_s - truth_xyz))
+    speed = math.hypot(v_a, v_r)  # |v| (m/s), the relocation map's departure from a translation per v_platform
+    apparent_term = out["apparent_position_error"] * (1 + speed / radar.velocity)
+    bound = velocity_term + apparent_term + 2 * moving.RELOCATE_TOLERANCE
+    out.update(
+        velocity_relocation_error=velocity_term,
+        relocation_bound=bound,
+        relocation_within_bound=bool(out["relocation_error"] <= bound),
+    )
+    return out
 
 
 def _match_windows(
@@ -314,11 +371,11 @@ def _mover_report(
         e_vr = float(est.get("v_r", est.get("radial_velocity", math.nan)))
         e_va = float(est.get("v_a", est.get("along_track_velocity", math.nan)))
         relocated = _xyz(est, "relocated") if source_name == "moving_targets" else None
-        how = "table"
+        how, start = "table", _xyz(est, "apparent")
         if relocated is None and math.isfinite(e_vr) and math.isfinite(e_va):
             e_vel = moving.scene_velocity(peak, e_va, e_vr, radar.altitude)
             relocated = moving.relocate(radar, times, peak, e_vel, positions)
-            how = "measured peak + estimated velocity"
+            how, start = "measured peak + estimated velocity", peak
         implied = implied_relocation_error(radar, m.slant_range, e_va - v_a, e_vr - v_r)
         fields.update(
             estimate=source_name,
@@ -336,4 +393,7 @@ def _mover_report(
                 relocation_error=float(np.linalg.norm(err)),
                 relocation_error_xyz=tuple(float(c) for c in err),
             )
+            if start is not None and math.isfinite(e_vr) and math.isfinite(e_va):
+                check = relocation_check(radar, times, positions, m.xyz, m.apparent, start, relocated, e_va, e_vr)
+                fields.update({k: v for k, v in check.items() if k != "relocation_error"})
     return MoverReport(**fields)

@@ -400,6 +400,32 @@ def test_ghost_test_finds_the_injected_ghost_at_its_level(tmp_path):
     assert res.exit_code == 2, res.output
 
 
+def test_ghost_test_writes_strict_json_without_nan(tmp_path, monkeypatch):
+    """`sarproc ghost-test -o`: figures that are not finite (an unmeasured -inf floor, a NaN level) are written as
+    null, as evaluate's report (json.dumps allow_nan=False): the file parses as strict JSON and the table still
+    prints them."""
+    import sarproc.quality.ghost_test as gt
+
+    nan, inf = float("nan"), float("inf")
+    row = gt.GhostRow(-30.0, nan, {"azimuth": -20.0, "range": 20.0}, {"azimuth": 0.1, "range": inf}, -31.0, -inf)
+    fake = gt.GhostTest(("azimuth", "range"), {"azimuth": -20.0, "range": 20.0}, 1.0, 2.0, -inf, nan, -70.0, (row,))
+    monkeypatch.setattr(gt, "injected_ghosts", lambda *a, **k: fake)
+    clean = make_image(tmp_path / "clean.h5")
+    report = tmp_path / "ghost.json"
+    res = CliRunner().invoke(cli, ["ghost-test", str(clean), str(clean), "-o", str(report)])
+    assert res.exit_code == 0, res.output
+
+    def refuse(name):
+        raise ValueError(f"non-standard JSON constant {name}")
+
+    doc = json.loads(report.read_text(), parse_constant=refuse)
+    assert doc["floor_db"] is None and doc["false_target_db"] is None and doc["guard_db"] == -70.0
+    r = doc["rows"][0]
+    assert r["found_db"] is None and r["error_db"] is None and r["floor_db"] is None
+    assert r["error_cells"] == {"azimuth": 0.1, "range": None} and r["guard_db"] == -31.0
+    assert "| -30.0 | nan |" in res.output  # the printed table keeps the figures as they are
+
+
 def test_image_without_truth_gets_the_truth_free_measures(tmp_path):
     """An image with an empty targets table (real data): evaluate reports its entropy and brightest points, and
     against --reference the NCC and each point's offset (scripts/reproduce_gotcha.py's table)."""

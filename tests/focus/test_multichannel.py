@@ -408,3 +408,42 @@ def test_ground_moving_target_seen_from_500_km_altitude():
     assert mt["radial_velocity"] == pytest.approx(slant, abs=0.1)
     assert mt["along_track_velocity"] == pytest.approx(5.0, abs=0.3)
     assert_theory(evaluate_product(focused(rec, raw)), irw_tol=0.02, db_tol=0.3, pos_cells=0.1)
+
+
+def test_reconstruct_counts_the_non_finite_samples_it_writes(static_case):
+    """attrs['reconstruct']['non_finite_samples']: the NaN / Inf samples of the output (scripts/hard_cases_003.py
+    counted them itself before): 0 on a clean scene, and the output's own count where one bad input sample
+    spreads through the filter bank."""
+    raw, _ = static_case
+    rec = reconstruct(raw, ReconstructParams(method="conventional"))
+    assert rec.attrs["reconstruct"]["non_finite_samples"] == 0
+    bad = raw.derive(raw.kind, raw.data.copy(), raw.dims, raw.coords)
+    bad.data[1, 100, 50] = np.nan
+    rec = reconstruct(bad, ReconstructParams(method="conventional"))
+    count = int(np.count_nonzero(~np.isfinite(rec.data)))
+    assert count > 0 and rec.attrs["reconstruct"]["non_finite_samples"] == count
+
+
+def test_detections_matched_to_the_static_truth_points():
+    """reconstruct's truth record against the static points (scripts/mover_campaign.py matched them itself
+    before): per static point the table rows within TRUTH_MATCH_M of it, per row matched to no mover its nearest
+    static point, the distance and whether it lies at it."""
+    from sarproc.focus.multichannel import reconstruct as rc
+    from sarproc.product.model import MOVING_TARGET_COLUMNS, make_targets
+
+    xyz = [[0.0, 1000.0, 0.0], [500.0, 1000.0, 0.0], [0.0, 1300.0, 0.0]]
+    truth = make_targets(["S1", "M", "S2"], xyz, [1, 1, 1], velocity=[[0, 0, 0], [0, 5, 0], [0, 0, 0]])
+    col = [name for name, _, _ in MOVING_TARGET_COLUMNS]
+    rows = np.zeros((3, len(col)))
+    apparent = [[300.0, 1000.0, 0.0], [3.0, 1004.0, 0.0], [40.0, 1270.0, 0.0]]  # M's, 5 m from S1, 50 m from S2
+    for i, (a, k) in enumerate(zip(apparent, (1, -1, -1))):
+        rows[i, col.index("apparent_x") : col.index("apparent_z") + 1] = a
+        rows[i, col.index("truth_index")] = k
+    out = rc._static_matches(truth, rows, ["S1", "M", "S2"], [0, 2])
+    assert out["static_points"] == [{"name": "S1", "detections_within": 1}, {"name": "S2", "detections_within": 0}]
+    (u1, u2) = out["unmatched"]
+    assert u1 == {"row": 1, "nearest_static": "S1", "distance": pytest.approx(5.0), "at_static": True}
+    assert u2 == {"row": 2, "nearest_static": "S2", "distance": pytest.approx(50.0), "at_static": False}
+    none = rc._static_matches(truth, rows, ["S1", "M", "S2"], [])
+    assert none["static_points"] == [] and none["unmatched"][0]["nearest_static"] is None
+    assert none["unmatched"][0]["at_static"] is False and rc.TRUTH_MATCH_M == 20.0

@@ -96,3 +96,35 @@ def test_json_output_gives_the_products_signal_figures_as_numbers(tmp_path):
     (entry,) = json.loads(out.read_text())["files"]
     assert res.exit_code == 0 and entry["signal_db"] == -math.inf and entry["max_rel"] == 0
     assert CliRunner().invoke(cli, ["compare", str(base), str(new), "-o", str(out)]).exit_code == 2  # exists
+
+
+def test_json_output_gives_the_peak_ratio_and_the_norm_ratio(tmp_path, monkeypatch):
+    """`sarproc compare BASE NEW -o`: ``peak_db`` is 20 log10(max |new| / max |base|) and 10^(signal_db / 20) is
+    ||new - base|| / ||base|| (scripts/reproduce_003.py's static-against-single-channel figures, computed there
+    with numpy before), the peak read in blocks as the whole array's."""
+    from click.testing import CliRunner
+
+    from sarproc.cli.main import cli
+
+    base, new, out = tmp_path / "base.h5", tmp_path / "new.h5", tmp_path / "diff.json"
+    image_without_targets(base)
+    image_without_targets(new)
+    with h5py.File(new, "r+") as f:
+        d = f["image"]
+        k = np.unravel_index(np.argmax(np.abs(d[()])), d.shape)
+        d[k] = d[k] * np.complex64(1.25)  # the peak up by 1.94 dB
+        d[7, :] = d[7, :] * np.complex64(0.5)
+    with h5py.File(base) as fa, h5py.File(new) as fb:
+        a, b = fa["image"][()].astype(np.complex128), fb["image"][()].astype(np.complex128)
+        monkeypatch.setattr(cp, "BLOCK_BYTES", 5 * a.shape[1] * 8)  # 5 rows a block
+        assert cp.dataset_peak(fb["image"]) == np.abs(b).max()
+    res = CliRunner().invoke(cli, ["compare", str(base), str(new), "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    (entry,) = json.loads(out.read_text())["files"]
+    assert math.isclose(entry["peak_db"], 20 * math.log10(np.abs(b).max() / np.abs(a).max()), rel_tol=1e-12)
+    assert math.isclose(entry["peak_db"], 20 * math.log10(1.25), rel_tol=1e-6)
+    ratio = np.linalg.norm(b - a) / np.linalg.norm(a)
+    assert math.isclose(10 ** (entry["signal_db"] / 20), ratio, rel_tol=1e-12)
+    res = CliRunner().invoke(cli, ["compare", str(base), str(base), "-o", str(out), "--overwrite"])
+    assert json.loads(out.read_text())["files"][0]["peak_db"] == 0.0
+    assert cp.peak_ratio_db(0.0, 0.0) == -math.inf and cp.peak_ratio_db(0.0, 1.0) == math.inf

@@ -3558,6 +3558,61 @@ def _uncertainties(mt: MovingTarget, g: _Geometry, clutter_band: float | None) -
     return s_r, s_a, s_x
 
 
+TRUTH_MATCH_M = 20.0  # m: a detection within this of a truth point's apparent position is matched to it
+
+
+def _static_matches(truth: np.ndarray, rows: np.ndarray, names: list[str], static: list[int]) -> dict:
+    """The table's detections against the static truth points (whose apparent position is their own):
+    ``static_points``, per static point the detections within TRUTH_MATCH_M (a static point taken for a mover),
+    and ``unmatched``, per row matched to no truth mover (table order) its nearest static point and distance
+    (None without static points) and whether it lies within TRUTH_MATCH_M of it (``at_static``: not a false
+    alarm on the open scene)."""
+    col = {name: k for k, (name, _, _) in enumerate(MOVING_TARGET_COLUMNS)}
+    app = rows[:, [col["apparent_x"], col["apparent_y"], col["apparent_z"]]] if len(rows) else np.zeros((0, 3))
+    xyz = {k: np.array([truth[c][k] for c in "xyz"], float) for k in static}
+    dist = {k: np.linalg.norm(app - xyz[k], axis=1) for k in static}
+    points = [{"name": names[k], "detections_within": int(np.sum(dist[k] <= TRUTH_MATCH_M))} for k in static]
+    unmatched = []
+    for i in range(len(rows)):
+        if rows[i, col["truth_index"]] >= 0:
+            continue
+        k = min(static, key=lambda j: dist[j][i]) if static else None
+        d = None if k is None else float(dist[k][i])
+        unmatched.append(
+            {
+                "row": i,
+                "nearest_static": None if k is None else names[k],
+                "distance": d,
+                "at_static": d is not None and d <= TRUTH_MATCH_M,
+            }
+        )
+    return {"static_points": points, "unmatched": unmatched}
+
+
+def _relocation_checks(
+    raw: Product, g: _Geometry, rows: np.ndarray, truth_apparent: dict, names: list[str], centres: np.ndarray
+) -> list[dict]:
+    """Per table row matched to a truth mover, in table order: its name, row and relocation against the truth
+    (sarproc.quality.moving.relocation_check: the relocation error, the bound its apparent-position and velocity
+    errors allow, the verdict)."""
+    from sarproc.quality.moving import relocation_check
+
+    col = {name: k for k, (name, _, _) in enumerate(MOVING_TARGET_COLUMNS)}
+    out = []
+    for i, row in enumerate(rows):
+        k = int(row[col["truth_index"]])
+        relocated = row[[col["relocated_x"], col["relocated_y"], col["relocated_z"]]]
+        if k < 0 or not np.all(np.isfinite(relocated)):
+            continue
+        truth = np.array([raw.targets[c][k] for c in "xyz"], float)
+        start = row[[col["apparent_x"], col["apparent_y"], col["apparent_z"]]]
+        check = relocation_check(
+            raw.radar, g.times, centres, truth, truth_apparent[k], start, relocated, row[col["v_a"]], row[col["v_r"]]
+        )
+        out.append({"name": names[k], "row": i, **check})
+    return out
+
+
 def _moving_target_rows(
     raw: Product, g: _Geometry, movers: list[MovingTarget], info: dict, params: ReconstructParams
 ) -> np.ndarray:
@@ -3606,7 +3661,7 @@ def _moving_target_rows(
         )
     if out:
         rows = np.array(out, float)
-    # Match each truth mover to the nearest unclaimed detection within 20 m of its apparent position.
+    # Match each truth mover to the nearest unclaimed detection within TRUTH_MATCH_M of its apparent position.
     if moving_rows and len(rows):
         free = set(range(len(rows)))
         pairs = sorted(
@@ -3616,7 +3671,7 @@ def _moving_target_rows(
         )
         taken = set()
         for dist, i, k in pairs:
-            if dist <= 20.0 and i in free and k not in taken:
+            if dist <= TRUTH_MATCH_M and i in free and k not in taken:
                 rows[i, -1] = k
                 free.discard(i)
                 taken.add(k)
@@ -3635,6 +3690,8 @@ def _moving_target_rows(
             "missed": [names[k] for k in missed],
             "missed_reasons": reasons,
             "false_alarms": int(np.sum(rows[:, -1] < 0)) if len(rows) else 0,
+            "relocation": _relocation_checks(raw, g, rows, truth_apparent, names, centres),
+            **_static_matches(truth, rows, names, [k for k in range(len(truth)) if k not in moving_rows]),
         }
     return rows
 
@@ -3693,6 +3750,9 @@ def _output_product(
     if np.all(np.isfinite(power)):
         aux["doppler_frequency"], aux["doppler_power"] = freq, power
     info.pop("_probes", None)  # _detect_and_focus's hand-over to _moving_target_rows, not product metadata
+    # NaN or Inf samples written (0 but where the filter bank breaks down): every later stage refuses to read them
+    # (read_product's check_finite); recorded so that the product says so itself
+    info["non_finite_samples"] = int(out.size - np.count_nonzero(np.isfinite(out)))
     attrs = dict(raw.attrs.items())
     attrs["reconstruct"] = info
     prod = raw.derive(
