@@ -17,6 +17,10 @@ static_points: a table row within 20 m of one, taken for a mover; unmatched: eac
 point), the warnings reconstruct printed and reconstruct's CPU time. Writes <results>/campaign.md and campaign.json.
 
     PYTHONPATH=. python scripts/mover_campaign.py --n 30 --seed 1 --results results/mover-campaign
+
+``--compare A B`` pairs two campaigns of the same draws (e.g. two waveforms), scene by scene, each a comma-separated
+list of results directories pooled: per mover, static and scene the two outcomes side by side and an exact paired
+test per column (docs/multichannel.md section 14); writes <results>/compare.md.
 """
 
 from __future__ import annotations
@@ -342,7 +346,14 @@ def main() -> None:
     ap.add_argument("--results", default="results/mover-campaign")
     ap.add_argument("--timeout", type=float, default=300.0, help="stop a reconstruct after this many seconds of CPU")
     ap.add_argument("--retabulate", action="store_true", help="rewrite campaign.md from the results' campaign.json")
+    ap.add_argument("--compare", nargs=2, metavar=("A", "B"), help="pair two campaigns' results (see above)")
     args = ap.parse_args()
+    if args.compare:
+        lines = compare(pooled(args.compare[0]), pooled(args.compare[1]), args.compare)
+        Path(args.results).mkdir(parents=True, exist_ok=True)
+        (Path(args.results) / "compare.md").write_text("\n".join(lines) + "\n")
+        print("\n".join(lines))
+        return
     if args.retabulate:
         write(Path(args.results), json.loads((Path(args.results) / "campaign.json").read_text()), args)
         return
@@ -367,6 +378,104 @@ def main() -> None:
             write(out, results, args)  # after each scene: a stopped campaign keeps what it ran
     print("\n".join(summary(results)))
     print(sigma_line(results))
+
+
+def pooled(dirs: str) -> dict[str, dict]:
+    """The scenes of comma-separated results directories' campaign.json, by tag (a later directory's scene wins)."""
+    return {s["tag"]: s for d in dirs.split(",") for s in json.loads((Path(d) / "campaign.json").read_text())}
+
+
+def mcnemar(b: int, c: int) -> float:
+    """Exact two-sided McNemar (sign) test: the binomial(b + c, 1/2) probability of a split at least as uneven as
+    b : c between the discordant pairs."""
+    n, k = b + c, min(b, c)
+    return min(1.0, 2 * sum(math.comb(n, i) for i in range(k + 1)) / 2**n) if n else 1.0
+
+
+def compare(a: dict[str, dict], b: dict[str, dict], names: list[str]) -> list[str]:
+    """The two campaigns' columns over the scenes both ran without a crash, paired: per mover (found; an unexpected
+    miss; of those found in both, v_r within 0.1 m/s and within 3 sigma), per static (taken for a mover), per scene
+    (false alarms: counts), exact McNemar / sign tests on the discordant pairs (each listed); per mover found in
+    both, z^2 = (dv_r / sigma_r)^2 by the Wilcoxon signed-rank test. Two-sided p; no correction for the several
+    columns. Then each campaign's own summary over those scenes."""
+    from scipy.stats import wilcoxon
+
+    tags = sorted(t for t in a.keys() & b.keys() if "crash" not in a[t] and "crash" not in b[t])
+    rows, listed = [], []
+
+    def paired(label: str, pairs: list[tuple[str, bool, bool]]) -> None:
+        only_a = [k for k, x, y in pairs if x and not y]
+        only_b = [k for k, x, y in pairs if y and not x]
+        rows.append(
+            f"| {label} | {sum(x for _, x, _ in pairs)} / {len(pairs)} | {sum(y for _, _, y in pairs)} / "
+            f"{len(pairs)} | {len(only_a)} : {len(only_b)} | exact McNemar | {mcnemar(len(only_a), len(only_b)):.3g} |"
+        )
+        listed.append(f"- {label}: A only {', '.join(only_a) or '-'}; B only {', '.join(only_b) or '-'}")
+
+    movers = [
+        (f"{tag} {x['name']}", x, y, bool(a[tag]["noise"]))
+        for tag in tags
+        for x, y in zip(a[tag]["movers"], b[tag]["movers"], strict=True)
+    ]
+    assert all(x["name"] == y["name"] for _, x, y, _ in movers), "not the same draws"
+    paired("movers found", [(k, x["found"], y["found"]) for k, x, y, _ in movers])
+    paired(
+        "unexpected misses",
+        [(k, not x["found"] and not expected(x, n), not y["found"] and not expected(y, n)) for k, x, y, n in movers],
+    )
+    both = [(k, x, y) for k, x, y, _ in movers if x["found"] and y["found"]]
+    paired("found in both: v_r within 0.1 m/s", [(k, abs(x["dv_r"]) <= 0.1, abs(y["dv_r"]) <= 0.1) for k, x, y in both])
+    paired(
+        "found in both: v_r within 3 sigma",
+        [(k, abs(x["dv_r"]) <= 3 * x["s_r"], abs(y["dv_r"]) <= 3 * y["s_r"]) for k, x, y in both],
+    )
+    paired(
+        "statics taken for movers",
+        [
+            (f"{tag} {x['name']}", x["taken_for_mover"] > 0, y["taken_for_mover"] > 0)
+            for tag in tags
+            for x, y in zip(a[tag]["statics"], b[tag]["statics"], strict=True)
+        ],
+    )
+    fa = [(t, len(a[t]["false_alarms"]), len(b[t]["false_alarms"])) for t in tags]
+    more_a, more_b = [t for t, x, y in fa if x > y], [t for t, x, y in fa if y > x]
+    rows.append(
+        f"| false alarms (scenes with more) | {sum(x for _, x, _ in fa)} | {sum(y for _, _, y in fa)} | "
+        f"{len(more_a)} : {len(more_b)} | exact sign test | {mcnemar(len(more_a), len(more_b)):.3g} |"
+    )
+    listed.append(f"- false alarms, more in: A {', '.join(more_a) or '-'}; B {', '.join(more_b) or '-'}")
+    z2 = np.array([((x["dv_r"] / x["s_r"]) ** 2, (y["dv_r"] / y["s_r"]) ** 2) for _, x, y in both]).reshape(-1, 2)
+    rms = np.sqrt(z2.mean(axis=0)) if len(z2) else np.full(2, math.nan)
+    p_z = float(wilcoxon(z2[:, 1] - z2[:, 0]).pvalue) if np.any(z2[:, 1] != z2[:, 0]) else 1.0
+    rows.append(
+        f"| found in both: rms z = dv_r / sigma_r | {rms[0]:.2f} ({len(z2)}) | {rms[1]:.2f} ({len(z2)}) | "
+        f"{int(np.sum(z2[:, 0] > z2[:, 1]))} : {int(np.sum(z2[:, 1] > z2[:, 0]))} (larger z^2) | "
+        f"Wilcoxon signed-rank on z^2 | {p_z:.3g} |"
+    )
+    own = [[a[t] for t in tags], [b[t] for t in tags]]
+    return [
+        f"# Paired: A = {names[0]}, B = {names[1]}",
+        "",
+        f"{len(tags)} scenes ({', '.join(tags)}); crashed in either: {len(a.keys() & b.keys()) - len(tags)}.",
+        "",
+        "| column | A | B | discordant (A only : B only) | test | two-sided p |",
+        "|---|---|---|---|---|---|",
+        *rows,
+        "",
+        *listed,
+        "",
+        "A's own summary:",
+        "",
+        *summary(own[0]),
+        "",
+        sigma_line(own[0]),
+        "",
+        "B's own summary:",
+        "",
+        *summary(own[1]),
+        "",
+        sigma_line(own[1]),
+    ]
 
 
 def write(out: Path, results: list[dict], args: argparse.Namespace) -> None:
