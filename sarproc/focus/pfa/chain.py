@@ -595,13 +595,19 @@ def _first_step(scene: TwoStepScene, tiles: Sequence[Tile], interp: Interpolatio
     g1 = _first_step_grid(tiles, rect1)
     k_max = float(wavenumbers(ph.carrier_frequency, ph.freqs[-1]))
     dka, dkr = data_sampling(ua, ur, k_max, ph.freq_step)
+    if g1.n_a * g1.da <= 2 * math.pi / dka:
+        # The grid within the data's period: the FFT's period (the data's, rounded up to an FFT length) folds a
+        # +-1 PRF alias back near its own target, smeared over the band's spread of periods (-9.6 ... +63 m on
+        # nie2016_small), at the data's own ambiguity level (there the image is within -64 dB of the peak of the
+        # longer period's below, which would cost Table 1's scene 11.1 -> 17.0 GB peak memory).
+        img1, kg1 = pfa(ph, scene.e_a, scene.e_r, g1, rect=rect1, interp=interp)
+        return FirstStep(g1, img1, kg1, rect1)
     dka_lo = dka * float(wavenumbers(ph.carrier_frequency, ph.freqs[0])) / k_max  # at the band's bottom
-    # the step-1 image repeats every 2 pi / dka m along azimuth (its FFT); the data repeat every 2 pi / dka_lo at
-    # most (the PRF: a target's +-1 PRF alias lies that far from it, farthest at the band's lowest frequency). A
-    # period of the data's plus the grid's extent puts every such alias beyond the grid, not folded into it (step 1
-    # repeating at just over the data's period put E's and SW's aliases, 129 m beyond the image's edges, inside it
-    # at the other edges, -42.4 and -48.6 dB: Session 41 new-user trial, 35 GHz, squint -35 deg, PRF 2 kHz;
-    # docs/cli.md row 2d)
+    # A grid wider than the data's period (2 pi / dka, the PRF's: a target's +-1 PRF alias lies that far from it,
+    # farthest at the band's lowest frequency) made step 1 repeat at just over the grid, and aliases beyond one
+    # edge came back in at the other (E's and SW's, 129 m beyond the image's edges, inside it at -42.4 and -48.6
+    # dB: Session 41 new-user trial, 35 GHz, squint -35 deg, PRF 2 kHz; docs/cli.md row 2d). A period of the
+    # data's plus the grid's extent puts every such alias beyond the grid.
     period = 2 * math.pi / dka_lo + g1.n_a * g1.da
     kg1, _ = make_kgrid(rect1, 2 * math.pi / period, dkr, g1.da, g1.dr, g1.n_a, g1.n_r)
     img1, kg1 = pfa(ph, scene.e_a, scene.e_r, g1, kgrid=kg1, interp=interp)
