@@ -238,7 +238,7 @@ def test_a_clutter_response_eq_5_reads_at_rest_is_a_mover_only_where_the_null_fi
         "range_extent": "600 m",
         "seed": 3877,
     }
-    m["simulation"]["waveform"] = "band_limited"
+    m.setdefault("simulation", {})["waveform"] = "band_limited"
     rec = reconstruct(simulate(scene_from_mapping(m)), ReconstructParams(clutter_suppression=True))
     truth = rec.attrs["reconstruct"]["truth"]
     assert sorted(r["truth_index"] for r in rows(rec)) == [0, 1] and truth["false_alarms"] == 0, truth
