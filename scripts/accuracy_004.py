@@ -12,7 +12,8 @@ configs/sweeps/accuracy_004_wide.yaml, the wide-swath family, 7 tasks), the hard
 * the sweep's array3d time on the seven-target raw data (best and spread of its interleaved repeats as a
   CLI step, product I/O included);
 * the deviation of its cube from the float64 / sinc 32 reference cube of the reference sweep simulated from
-  the same scene with the same elevation padding (max |c - c_ref| over the peak, dB), where the grids agree;
+  the same scene with the same elevation padding (max |c - c_ref| over the peak, dB), where the grids agree,
+  from `sarproc compare REFERENCE CUBE -o` (its JSON's max_rel; None where the shapes differ);
 * the worst point-target quality over the seven targets, each simulated and focused alone (the
   paper's targets sit inside each other's ISLR windows; see scripts/reproduce_004.py), from the
   single-target tasks' reports (sarproc.quality.summary): largest |IRW/theory - 1|, highest PSLR,
@@ -30,6 +31,9 @@ import argparse
 import json
 import math
 import re
+import subprocess
+import sys
+import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -40,8 +44,6 @@ import yaml
 from sarproc.cli.sweep_output import same_simulation
 from sarproc.focus.array3d.linear_array import Array3DParams
 from sarproc.product.config import as_dict, build, load_yaml
-from sarproc.product.model import Product
-from sarproc.quality.image_measures import deviation_db
 from sarproc.quality.summary import worst_quality_json
 
 
@@ -58,9 +60,15 @@ def axis_quality(target: dict) -> dict:
     }
 
 
-def cube_deviation_db(cube: Product, ref: Product) -> float | None:
-    """The cube's deviation from the reference cube (None: another grid)."""
-    return deviation_db(cube.data, ref.data) if cube.data.shape == ref.data.shape else None
+def cube_deviation_db(cube: Path, ref: Path) -> float | None:
+    """The deviation of the cube in ``cube`` from the reference cube in ``ref``, 20 log10(max |cube - ref| /
+    max |ref|) floored at -600 dB, from `sarproc compare REF CUBE -o` (its max_rel; None: another grid)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "compare.json"
+        cmd = [sys.executable, "-m", "sarproc", "compare", str(ref), str(cube), "-o", str(out)]
+        subprocess.run(cmd, check=True, capture_output=True)
+        (entry,) = json.loads(out.read_text())["files"]
+    return None if entry["max_rel"] is None else 20 * math.log10(max(entry["max_rel"], 1e-30))
 
 
 def _params(task: Path) -> Array3DParams:
@@ -97,8 +105,6 @@ def sweep_family(directory: Path, scene: str, references: Path, singles: Sequenc
     """One row per task of ``scene`` in the sweep (its order): time, cube deviation from its reference cube in
     the sweep ``references`` and the worst quality over the targets of ``singles`` (the names of its one-target
     scenes with the same setting; empty: over the scene's own targets)."""
-    from sarproc.product.io import read_product
-
     doc = json.loads((directory / "table.json").read_text())
     if doc["failures"]:
         raise SystemExit(f"{directory}: the sweep has failed tasks: {doc['failures']}")
@@ -111,18 +117,14 @@ def sweep_family(directory: Path, scene: str, references: Path, singles: Sequenc
         tasks[key] = (row["task"], row)
         if row["scene"] == scene:
             order.append(key)
-    ref_cache: dict[Path, Product] = {}
     rows, used = [], set()
     for key in order:
         task_id, row = tasks[key]
         knobs = {k.split(".", 1)[1]: v for k, v in row.items() if k.startswith("array3d.")}
         label = ", ".join(f"{k} {v}" for k, v in knobs.items())
         params = _params(directory / "tasks" / task_id)
-        cube = read_product(directory / "tasks" / task_id / "array3d.h5")
         ref = reference_task(references, directory / "tasks" / task_id)
-        if ref not in ref_cache:
-            ref_cache[ref] = read_product(ref / "array3d.h5")
-        dev = cube_deviation_db(cube, ref_cache[ref])
+        dev = cube_deviation_db(directory / "tasks" / task_id / "array3d.h5", ref / "array3d.h5")
         reports = []
         for name in singles or (scene,):
             if (name, key[1]) not in tasks:

@@ -22,69 +22,17 @@ import os
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
-from sarproc.cli.plan_check import run_stage, within
+from sarproc.cli.plan_check import SMALL, all_chains, chain, run_stage, within
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIGS = ROOT / "configs"
-FOCUS = {
-    "an2012": ("preprocess", "coarse-focus", "fine-focus"),
-    "bp": ("backproject",),
-    "demo": ("backproject",),
-    "du2010": ("array3d",),
-    "nie2016": ("pfa2",),
-    "xu": ("reconstruct", "backproject"),
-}
-# the chains of the tests' scale: every stage at least once, each config seconds to run
-SMALL = ("demo", "an2012_exp1_small", "nie2016_sliding_small", "xu_small", "du2010_wide_swath")
-# config variants (stage sections only), run on their base scene's raw product
-VARIANTS = {
-    "an2012_exp1_linear": "an2012_exp1",
-    "an2012_exp1_none": "an2012_exp1",
-    "an2012_exp2_flow1": "an2012_exp2",
-    "xu_conventional": "xu_scene",
-}
-
-
-def chain(name: str, out: Path) -> list[list]:
-    """The stages of config ``name``: argument lists, each with its -o output."""
-    if name == "gotcha":
-        gotcha = Path(os.environ.get("GOTCHA_DIR", ROOT.parent / "shared" / "data" / "gotcha"))
-        cfg = CONFIGS / "gotcha.yaml"
-        return [
-            ["import-gotcha", gotcha, "-o", out / "gotcha_raw.h5"],
-            ["pfa2", out / "gotcha_raw.h5", "--config", cfg, "-o", out / "gotcha_pfa.h5"],
-            ["backproject", out / "gotcha_raw.h5", "--config", cfg, "-o", out / "gotcha_bp.h5"],
-        ]
-    if name == "formats":
-        return [
-            *chain("demo", out)[:2],
-            ["export-sicd", out / "demo_backproject.h5", "-o", out / "demo.nitf"],
-            ["export-cphd", out / "demo_raw.h5", "-o", out / "demo.cphd"],
-            ["import-cphd", out / "demo.cphd", "-o", out / "demo_from_cphd.h5"],
-        ]
-    base = VARIANTS.get(name, name)
-    cfg = CONFIGS / f"{name}.yaml"
-    stages = FOCUS[base.split("_")[0]]
-    steps = [] if name in VARIANTS else [["simulate", CONFIGS / f"{base}.yaml", "-o", out / f"{base}_raw.h5"]]
-    source = out / f"{base}_raw.h5"
-    for stage in stages:
-        target = out / f"{name}_{stage}.h5"
-        steps.append([stage, source, "--config", cfg, "-o", target])
-        source = target
-    steps.append(["evaluate", source, "--config", cfg, "-o", out / f"{name}_report.json"])
-    steps.append(["quicklook", source, "-o", out / f"{name}_quicklook.png"])
-    return steps
-
-
-def all_chains() -> list[str]:
-    names = [p.stem for p in sorted(CONFIGS.glob("*.yaml")) if not p.stem.endswith("_expect") and p.stem != "gotcha"]
-    return names + ["gotcha", "formats"]
+GOTCHA = Path(os.environ.get("GOTCHA_DIR", ROOT.parent / "shared" / "data" / "gotcha"))
 
 
 def measure(names: Iterable[str], out: Path, repeat: int = 1, log: Callable[[str], object] = print) -> list[dict]:
     rows = []
     for name in names:
-        for args in chain(name, out):
+        for args in chain(name, out, CONFIGS, GOTCHA):
             row = {"config": name, **run_stage(args, repeat, accept=within, cwd=ROOT)}
             rows.append(row)
             log(line(row))
@@ -112,13 +60,13 @@ HEAD = (
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("chains", nargs="*", help=f"configs to run (default: all: {', '.join(all_chains())})")
+    ap.add_argument("chains", nargs="*", help=f"configs to run (default: all: {', '.join(all_chains(CONFIGS))})")
     ap.add_argument("--small", action="store_true", help=f"the tests' configs: {', '.join(SMALL)}")
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "plan-accuracy")
     ap.add_argument("--repeat", type=int, default=3, help="real runs per stage at most (best wall time kept)")
     ap.add_argument("--markdown", type=Path, default=None, help="also write the table to this file")
     a = ap.parse_args()
-    names = a.chains or (list(SMALL) if a.small else all_chains())
+    names = a.chains or (list(SMALL) if a.small else all_chains(CONFIGS))
     a.out.mkdir(parents=True, exist_ok=True)
     print(HEAD)
     rows = measure(names, a.out, a.repeat)

@@ -4,7 +4,8 @@
 time), then runs it in a subprocess that reports its own peak RSS (VmHWM: interpreter and libraries
 included, as the plan counts them), its wall and CPU time and its output size. :func:`within` is the
 acceptance rule (every ratio plan / measured within 2x; time against the lower of wall and CPU time, since
-load on a shared machine stretches the wall clock of a mostly single-threaded run). Used by
+load on a shared machine stretches the wall clock of a mostly single-threaded run). :func:`all_chains` and
+:func:`chain`: the stages ``make plan-accuracy`` measures for every shipped config. Used by
 scripts/plan_accuracy.py (``make plan-accuracy``, docs/plans.md) and tests/cli/test_plans.py.
 """
 
@@ -144,3 +145,72 @@ def within(row: dict[str, Any], factor: float = 2.0) -> bool:
         and 1 / factor <= row["plan_s"] / measured_s
         and row["plan_s"] / row["wall"] <= factor
     )
+
+
+# The focusing stages of a scene config, by the first word of its name (paper or family) ...
+FOCUS = {
+    "an2012": ("preprocess", "coarse-focus", "fine-focus"),
+    "bp": ("backproject",),
+    "demo": ("backproject",),
+    "du2010": ("array3d",),
+    "nie2016": ("pfa2",),
+    "xu": ("reconstruct", "backproject"),
+}
+# ... or by its whole name where the first word names no processor
+FOCUS_OF = {"evaluate_campaign": ("backproject",)}  # scripts/evaluate_campaign.py backprojects its scenes
+# the chains of the tests' scale: every stage at least once, each config seconds to run
+SMALL = ("demo", "an2012_exp1_small", "nie2016_sliding_small", "xu_small", "du2010_wide_swath")
+# config variants (stage sections only), run on their base scene's raw product (Gotcha's: its pfa2 alone)
+VARIANTS = {
+    "an2012_exp1_linear": "an2012_exp1",
+    "an2012_exp1_none": "an2012_exp1",
+    "an2012_exp2_flow1": "an2012_exp2",
+    "xu_conventional": "xu_scene",
+    "pfa2_plain": "nie2016_small",  # make formats-readers, make residual-ghosts
+    "gotcha_two_step": "gotcha",  # make reproduce-gotcha
+}
+
+
+def chain(name: str, out: Path, configs: Path, gotcha: Path) -> list[list]:
+    """The stages of config ``name`` (a file ``configs/NAME.yaml``, or "gotcha": the files in ``gotcha``,
+    or "formats": the SICD/CPHD round trip on the demo): argument lists, each with its -o output in ``out``.
+    A variant (:data:`VARIANTS`) reads its base's raw product, so its base's chain must run first."""
+    if name == "gotcha":
+        cfg = configs / "gotcha.yaml"
+        return [
+            ["import-gotcha", gotcha, "-o", out / "gotcha_raw.h5"],
+            ["pfa2", out / "gotcha_raw.h5", "--config", cfg, "-o", out / "gotcha_pfa.h5"],
+            ["backproject", out / "gotcha_raw.h5", "--config", cfg, "-o", out / "gotcha_bp.h5"],
+        ]
+    if name == "formats":
+        return [
+            *chain("demo", out, configs, gotcha)[:2],
+            ["export-sicd", out / "demo_backproject.h5", "-o", out / "demo.nitf"],
+            ["export-cphd", out / "demo_raw.h5", "-o", out / "demo.cphd"],
+            ["import-cphd", out / "demo.cphd", "-o", out / "demo_from_cphd.h5"],
+        ]
+    base = VARIANTS.get(name, name)
+    cfg = configs / f"{name}.yaml"
+    if base == "gotcha":  # real data: focused, no truth to evaluate against
+        return [["pfa2", out / "gotcha_raw.h5", "--config", cfg, "-o", out / f"{name}_pfa.h5"]]
+    stages = FOCUS_OF.get(base) or FOCUS[base.split("_")[0]]
+    steps = [] if name in VARIANTS else [["simulate", configs / f"{base}.yaml", "-o", out / f"{base}_raw.h5"]]
+    source = out / f"{base}_raw.h5"
+    for stage in stages:
+        target = out / f"{name}_{stage}.h5"
+        steps.append([stage, source, "--config", cfg, "-o", target])
+        source = target
+    steps.append(["evaluate", source, "--config", cfg, "-o", out / f"{name}_report.json"])
+    steps.append(["quicklook", source, "-o", out / f"{name}_quicklook.png"])
+    return steps
+
+
+def all_chains(configs: Path) -> list[str]:
+    """Every shipped config of ``configs`` (``*_expect`` files excluded) as a chain name, each variant right
+    after its base, then "gotcha" (the Gotcha files; configs/gotcha.yaml) with its variants, and "formats"."""
+    names = [p.stem for p in sorted(configs.glob("*.yaml")) if not p.stem.endswith("_expect")]
+    bases = [n for n in names if n not in VARIANTS and n != "gotcha"] + ["gotcha"]
+    order: list[str] = []
+    for base in bases:
+        order += [base, *(n for n in names if VARIANTS.get(n) == base)]
+    return order + ["formats"]

@@ -17,7 +17,7 @@ import pytest
 from click.testing import CliRunner
 
 from sarproc.cli.main import cli
-from sarproc.cli.plan_check import run_stage, within
+from sarproc.cli.plan_check import all_chains, chain, run_stage, within
 
 ROOT = Path(__file__).resolve().parents[2]
 CONFIGS = ROOT / "configs"
@@ -123,3 +123,22 @@ def test_dry_run_checks_like_a_run_and_writes_nothing(inputs):
         "import-cphd",
     ):
         assert "--dry-run" in CliRunner().invoke(cli, [command, "--help"]).output, command
+
+
+def test_plan_accuracy_has_a_chain_for_every_shipped_config_and_makes_each_input_before_reading_it(tmp_path):
+    """`make plan-accuracy` (scripts/plan_accuracy.py) runs :func:`all_chains` in order: every shipped config
+    (evaluate_campaign.yaml, pfa2_plain.yaml and gotcha_two_step.yaml made it stop with a KeyError), each
+    stage reading a config that exists and a product an earlier stage wrote (xu_conventional, a variant,
+    ran before xu_scene, whose raw product it reads)."""
+    gotcha = tmp_path / "gotcha"
+    names = all_chains(CONFIGS)
+    shipped = {p.stem for p in CONFIGS.glob("*.yaml") if not p.stem.endswith("_expect")}
+    assert shipped <= set(names)
+    made: set[Path] = set()
+    for name in names:
+        for args in chain(name, tmp_path, CONFIGS, gotcha):
+            if "--config" in args:
+                assert Path(args[args.index("--config") + 1]).is_file(), (name, args)
+            source = Path(args[1])
+            assert source in made or source == gotcha or source.parent == CONFIGS, (name, args)
+            made.add(Path(args[args.index("-o") + 1]))
