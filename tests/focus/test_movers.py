@@ -112,13 +112,17 @@ def test_two_movers_in_one_range_window_are_both_found_and_estimated(two_movers,
     for name, row in by_name.items():
         assert abs(row["v_a"] - two_movers.targets["vx"][tt[name]]) <= 2 * row["v_a_sigma"], (name, row)
     assert all(m["autofocus_snr_db"] is None for m in rec.attrs["reconstruct"]["moving_targets"])
-    assert rec.attrs["reconstruct"]["truth"] == {
+    truth = rec.attrs["reconstruct"]["truth"]
+    assert {k: truth[k] for k in ("movers", "found", "missed", "missed_reasons", "false_alarms")} == {
         "movers": 2,
         "found": 2,
         "missed": [],
         "missed_reasons": [],
         "false_alarms": 0,
     }
+    # each found mover relocated within what its velocity and apparent-position errors explain (session 41)
+    assert sorted(r["name"] for r in truth["relocation"]) == ["M1", "M2"]
+    assert all(r["relocation_within_bound"] for r in truth["relocation"]), truth["relocation"]
 
 
 def test_whole_swath_detection_estimates_its_one_mover():
