@@ -1449,6 +1449,7 @@ def evaluate_image(
         dataclasses.replace(params, residual=False) if note else params,
         own_axes,
         truth[order],
+        np.isfinite(angles[order]),
     )
     done()
     return QualityReport(
@@ -1839,12 +1840,14 @@ def _false_targets(
     params: EvaluateParams,
     own_axes: Sequence[Sequence[_Axis]] | None = None,
     truth: np.ndarray | None = None,
+    sheared: Sequence[bool] = (),
 ) -> tuple:
     """(false target, guard-window false target, residual floor, false-target list): the strongest response
     outside every target's +-guard_cells window, and with ``params.residual`` the strongest on the residual
     image (then the reported one) with the residual's floor and every false target over it. ``own_axes``: each
     target's axes (:func:`_target_axes`); its response model starts from their null spacing (its own theory's
-    where it has one, else the image's)."""
+    where it has one, else the image's). ``sheared``: per target, whether its ridges are not perpendicular in
+    space (its theory's angle known): those models take a cubic carrier (:func:`fit_response_models`)."""
     indices = [p.index for p in peaks]
     guard = _false_target(data, mag, axes, guarded, indices, reports, half, params)
     if not params.residual or data.ndim == 3:  # cubes: RESIDUAL_3D_NOTE
@@ -1857,7 +1860,7 @@ def _false_targets(
     ]
     if truth is not None:  # a close pair found on one peak: the weaker one moved to its own (separated_starts)
         starts = separated_starts(starts, [[ax.to_index(x) for ax, x in zip(axes, t)] for t in truth], nulls, data)
-    models = fit_response_models(data, starts, nulls, params, support_shape=True)
+    models = fit_response_models(data, starts, nulls, params, support_shape=True, sheared=sheared)
     fanned = [i for i, p in enumerate(peaks) if p.fanned]
     own_nulls = None if own_axes is None else [np.array([ax.null for ax in own]) for own in own_axes]
     false, floor, listed = residual_false_target(

@@ -163,6 +163,10 @@ class ResponseModel:
     # the peak, samples; :func:`_fit_warp`): each pulse's wavefront is a circle about the platform, so the azimuth
     # ridge bends away in range by |x|^2 / 2R, and the look angles' chirps differ; None: none
     warp: np.ndarray | None = None
+    # the carrier's third-order phase (2D), cycles/sample^3: 2 pi (t0 x0^3 + t1 x0^2 x1 + t2 x0 x1^2 + t3 x1^3) (x
+    # the offset from the peak; :func:`_fit_cubic`): the wavefront's next term after the chirp, fitted on sheared
+    # supports only; None: none
+    cubic: np.ndarray | None = None
 
 
 @functools.cache
@@ -481,7 +485,20 @@ def model_values(points: npt.ArrayLike, model: ResponseModel) -> np.ndarray:
     values = basis @ model.coef
     if model.curvature:
         values = values + _curvature_values(np.asarray(points, dtype=float), model)
+    if model.cubic is not None:
+        x = np.asarray(points, dtype=float) - np.asarray(model.position, dtype=float)[:, None]
+        values = values * _cubic_carrier(x, model.cubic)
     return values
+
+
+def _cubic_monomials(x: Sequence[np.ndarray] | np.ndarray) -> list[np.ndarray]:
+    """x0^3, x0^2 x1, x0 x1^2, x1^3 of 2D offsets ``x`` (per-axis arrays, broadcastable)."""
+    return [x[0] ** 3, x[0] ** 2 * x[1], x[0] * x[1] ** 2, x[1] ** 3]
+
+
+def _cubic_carrier(x: Sequence[np.ndarray] | np.ndarray, cubic: np.ndarray) -> np.ndarray:
+    """exp(2 pi j sum_k cubic_k m_k(x)) (:func:`_cubic_monomials`) of 2D offsets ``x`` from the peak."""
+    return np.exp(2j * np.pi * sum(float(t) * m for t, m in zip(cubic, _cubic_monomials(x))))
 
 
 def _fresnel_box(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -576,7 +593,15 @@ class _BowColumns:
 
 def _model_on_box(slices: Sequence[slice], model: ResponseModel) -> np.ndarray:
     """A fitted response model on the image box ``slices`` (complex128, the box's shape): its straight support
-    (:func:`_straight_on_box`) plus what its range edges' bow adds (:func:`_curvature_sum`)."""
+    (:func:`_straight_on_box`) plus what its range edges' bow adds (:func:`_curvature_sum`), times its cubic
+    carrier (:func:`_cubic_carrier`) where it has one."""
+    if model.cubic is not None:
+        box = _model_on_box(slices, dataclasses.replace(model, cubic=None))
+        x = [
+            np.arange(s.start, s.stop, dtype=float).reshape([-1 if i == b else 1 for i in range(len(slices))]) - p
+            for b, (s, p) in enumerate(zip(slices, model.position))
+        ]
+        return box * _cubic_carrier(x, model.cubic)
     strips = model.kappa is not None and bool(np.any(model.kappa))  # what model_values sums: the strips
     if model.warp is not None and not (BOX_KERNEL and COMPILED and len(slices) == 2 and strips):
         # not separable: every sample's ridge coordinates
@@ -1302,11 +1327,18 @@ FIT_REACH_DB = -100.0  # other groups' side lobes are subtracted from a fit's sa
 
 
 def fit_response_models(
-    data: np.ndarray, found: list[FitStart], nulls: npt.ArrayLike, params: EvaluateParams, support_shape: bool = False
+    data: np.ndarray,
+    found: list[FitStart],
+    nulls: npt.ArrayLike,
+    params: EvaluateParams,
+    support_shape: bool = False,
+    sheared: Sequence[bool] = (),
 ) -> list[ResponseModel | None]:
-    """:func:`_fit_response_models` with the numerics ``params.exact`` asks for."""
+    """:func:`_fit_response_models` with the numerics ``params.exact`` asks for; ``sheared``: per target, whether
+    its support is sheared (its ridges not perpendicular in space): those lone targets get a cubic carrier
+    (:func:`_fit_cubics`)."""
     with numerics(params.exact):
-        return _fit_response_models(data, found, nulls, params, support_shape)
+        return _fit_response_models(data, found, nulls, params, support_shape, sheared)
 
 
 def _overlapping_groups(
@@ -1667,20 +1699,30 @@ def _fit_one_group(
 
 @single_blas
 def _fit_response_models(
-    data: np.ndarray, found: list[FitStart], nulls: npt.ArrayLike, params: EvaluateParams, support_shape: bool = False
+    data: np.ndarray,
+    found: list[FitStart],
+    nulls: npt.ArrayLike,
+    params: EvaluateParams,
+    support_shape: bool = False,
+    sheared: Sequence[bool] = (),
 ) -> list[ResponseModel | None]:
     """:func:`_fitted_response_models` with the other groups' models on a fit's samples evaluated once
     (:data:`_OTHERS`)."""
     before = (_OTHERS.cache, _OTHERS.boxes, _OTHERS.bounds)
     _OTHERS.cache, _OTHERS.boxes, _OTHERS.bounds = {}, {}, {}
     try:
-        return _fitted_response_models(data, found, nulls, params, support_shape)
+        return _fitted_response_models(data, found, nulls, params, support_shape, sheared)
     finally:
         _OTHERS.cache, _OTHERS.boxes, _OTHERS.bounds = before
 
 
 def _fitted_response_models(
-    data: np.ndarray, found: list[FitStart], nulls: npt.ArrayLike, params: EvaluateParams, support_shape: bool = False
+    data: np.ndarray,
+    found: list[FitStart],
+    nulls: npt.ArrayLike,
+    params: EvaluateParams,
+    support_shape: bool = False,
+    sheared: Sequence[bool] = (),
 ) -> list[ResponseModel | None]:
     """Every target's response model, fitted by complex least squares on the samples within
     +-``params.fit_nulls`` nulls of its peak (about two per null); with ``support_shape`` its support's
@@ -1757,7 +1799,83 @@ def _fitted_response_models(
                     members, far, rhs, models, found, nulls, own_orders.get(members[0], orders), centre, True
                 )
         _fit_warps(fits, models, live, reach)
+        if any(sheared):
+            _fit_cubics(fits, models, live, reach, sheared)
     return models
+
+
+# A sheared support (a squinted aperture at a steep depression in a ground plane: its ridges make 37 deg in space,
+# docs/cli.md row 7d) comes with a short range and a short wavelength: there the wavefront's third-order term
+# over the image, (2 / lambda) |d|^3 / 2R^2 (Ku band, 1.44 km, 18 m out: 0.2 cycles), is left by the chirp and the
+# warp; the far ridges carried it as a phase error (a lone 16 GHz target's range ridge 56 samples out left at -40
+# dB of its peak, 8 dB under the image there). Each lone sheared target's carrier takes a cubic phase
+# (ResponseModel.cubic), fitted by Gauss-Newton with its other parameters held (:func:`_fit_cubic`) and kept where
+# it leaves under CUBIC_GAIN of the misfit without. Targets whose ridges are perpendicular (every slant-plane
+# frame, pfa2's rectangles) are not searched: their models are as before, to the bit.
+CUBIC_GAIN = 0.9
+CUBIC_STEPS = 20
+
+
+def _fit_cubics(
+    fits: list, models: list[ResponseModel | None], live: list[int], reach: float, sheared: Sequence[bool]
+) -> None:
+    """Each lone sheared 2D target's cubic carrier (:func:`_fit_cubic`) on its box and ridge strips, the other
+    groups' models subtracted; kept where it leaves under :data:`CUBIC_GAIN` of the misfit without. Updates
+    ``models``."""
+    for members, _, _, far, y_far in fits:
+        k, model = members[0], models[members[0]]
+        if len(members) > 1 or model is None or not sheared[k]:
+            continue
+        rhs = _others_subtracted(y_far, far, members, live, models, reach)
+        cubed, before, after = _fit_cubic(far, rhs, model)
+        if after < CUBIC_GAIN * before:
+            models[k] = cubed
+
+
+def _fit_cubic(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> tuple[ResponseModel, float, float]:
+    """(model, misfit before, after): ``model`` with the cubic carrier (:attr:`ResponseModel.cubic`) that fits
+    ``y`` on ``points`` best, by Gauss-Newton from none (its other parameters held, amplitudes by linear least
+    squares, eliminated from the steps)."""
+    basis = response_basis(
+        points,
+        model.position,
+        model.ridges,
+        model.nulls,
+        model.band_centre,
+        model.orders,
+        model.chirp,
+        kappa=model.kappa,
+        warp=model.warp,
+    )
+    if model.curvature:
+        basis = basis + _BowColumns(points, model)(model.curvature)
+    mono = np.stack(_cubic_monomials(np.asarray(points, dtype=float) - np.asarray(model.position)[:, None]))
+
+    def solve(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, NormalEquations]:
+        coef, r, cost, normal = _amplitudes([basis * np.exp(2j * np.pi * (t @ mono))[:, None]], y)
+        return coef[0], r, cost, normal
+
+    t = np.zeros(4)
+    coef, r, cost, normal = solve(t)
+    before = cost
+    for _ in range(CUBIC_STEPS):
+        J = (2j * np.pi * mono * (y - r)).T  # d model / d t_k, the amplitudes held
+        step, predicted = _gauss_newton_step(normal, r, J, np.ones(4, dtype=bool))
+        if predicted <= 1e-6 * cost:
+            break
+        length = 1.0
+        for _halving in range(10):
+            trial = solve(t + length * step)
+            if trial[2] < cost:
+                break
+            length /= 2
+        else:
+            break
+        t = t + length * step
+        coef, r, cost, normal = trial
+    if cost >= before:
+        return model, before, before
+    return dataclasses.replace(model, coef=coef, cubic=t), before, cost
 
 
 # Each pulse's wavefront is a circle about the platform, not the plane wave of the band-limited model: a response's
