@@ -1814,6 +1814,9 @@ def _fitted_response_models(
 # frame, pfa2's rectangles) are not searched: their models are as before, to the bit.
 CUBIC_GAIN = 0.9
 CUBIC_STEPS = 20
+CUBIC_DV = 1e-4  # the cross slopes' central difference
+CUBIC_MAX_TILT_STEP = 0.01  # a step's cross-slope change at most
+CUBIC_CRAWL = 1e-3  # a step lowering the misfit by less than this of itself ends the fit
 
 
 def _fit_cubics(
@@ -1834,48 +1837,79 @@ def _fit_cubics(
 
 def _fit_cubic(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> tuple[ResponseModel, float, float]:
     """(model, misfit before, after): ``model`` with the cubic carrier (:attr:`ResponseModel.cubic`) that fits
-    ``y`` on ``points`` best, by Gauss-Newton from none (its other parameters held, amplitudes by linear least
-    squares, eliminated from the steps)."""
-    basis = response_basis(
-        points,
-        model.position,
-        model.ridges,
-        model.nulls,
-        model.band_centre,
-        model.orders,
-        model.chirp,
-        kappa=model.kappa,
-        warp=model.warp,
-    )
-    if model.curvature:
-        basis = basis + _BowColumns(points, model)(model.curvature)
-    mono = np.stack(_cubic_monomials(np.asarray(points, dtype=float) - np.asarray(model.position)[:, None]))
+    ``y`` on ``points`` best, by Gauss-Newton from none, its band centre and its ridges' cross slopes (V[0, 1],
+    V[1, 0]: the range edges' tilt against the ridges measured, 0.0058 range bands per azimuth band on the
+    trial's scene) refined with it; its other parameters held, amplitudes by linear least squares, eliminated
+    from the steps."""
+    x = np.asarray(points, dtype=float) - np.asarray(model.position, dtype=float)[:, None]
+    phases = np.stack([x[0], x[1], *_cubic_monomials(x)])  # band centre's shift, then the cubic's terms
+    cross = [(0, 1), (1, 0)]
 
-    def solve(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, NormalEquations]:
-        coef, r, cost, normal = _amplitudes([basis * np.exp(2j * np.pi * (t @ mono))[:, None]], y)
-        return coef[0], r, cost, normal
+    def base(V: np.ndarray) -> np.ndarray:
+        b = response_basis(
+            points,
+            model.position,
+            V,
+            model.nulls,
+            model.band_centre,
+            model.orders,
+            model.chirp,
+            kappa=model.kappa,
+            warp=model.warp,
+        )
+        if model.curvature:
+            b = b + _BowColumns(points, dataclasses.replace(model, ridges=V))(model.curvature)
+        return b
 
-    t = np.zeros(4)
-    coef, r, cost, normal = solve(t)
+    def ridges(theta: np.ndarray) -> np.ndarray:
+        V = np.array(model.ridges, dtype=float)
+        for (i, j), d in zip(cross, theta[6:]):
+            V[i, j] += d
+        return V
+
+    def solve(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, NormalEquations, np.ndarray]:
+        factor = np.exp(2j * np.pi * (theta[:6] @ phases))[:, None]
+        b = base(ridges(theta)) * factor
+        coef, r, cost, normal = _amplitudes([b], y)
+        return coef[0], r, cost, normal, factor
+
+    theta = np.zeros(6 + len(cross))
+    coef, r, cost, normal, factor = solve(theta)
     before = cost
+    slopes = []  # the basis' central differences in the cross slopes, taken once at the start (a chord method)
+    for i, j in cross:
+        dV = np.zeros((2, 2))
+        dV[i, j] = CUBIC_DV
+        slopes.append((base(model.ridges + dV) - base(model.ridges - dV)) / (2 * CUBIC_DV))
     for _ in range(CUBIC_STEPS):
-        J = (2j * np.pi * mono * (y - r)).T  # d model / d t_k, the amplitudes held
-        step, predicted = _gauss_newton_step(normal, r, J, np.ones(4, dtype=bool))
+        fit = y - r
+        cols = list(2j * np.pi * phases * fit)  # d model / d theta_k, the amplitudes held
+        cols += [(slope * factor) @ coef for slope in slopes]
+        step, predicted = _gauss_newton_step(normal, r, np.stack(cols, axis=1), np.ones(len(theta), dtype=bool))
         if predicted <= 1e-6 * cost:
             break
+        step[6:] = np.clip(step[6:], -CUBIC_MAX_TILT_STEP, CUBIC_MAX_TILT_STEP)
         length = 1.0
         for _halving in range(10):
-            trial = solve(t + length * step)
+            trial = solve(theta + length * step)
             if trial[2] < cost:
                 break
             length /= 2
         else:
             break
-        t = t + length * step
-        coef, r, cost, normal = trial
+        theta = theta + length * step
+        crawled = cost - trial[2] < CUBIC_CRAWL * cost
+        coef, r, cost, normal, factor = trial
+        if crawled:
+            break
     if cost >= before:
         return model, before, before
-    return dataclasses.replace(model, coef=coef, cubic=t), before, cost
+    centre = np.asarray(model.band_centre, dtype=float) + theta[:2]
+    return (
+        dataclasses.replace(model, coef=coef, cubic=theta[2:6], band_centre=centre, ridges=ridges(theta)),
+        before,
+        cost,
+    )
 
 
 # Each pulse's wavefront is a circle about the platform, not the plane wave of the band-limited model: a response's
