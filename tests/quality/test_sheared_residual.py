@@ -18,21 +18,7 @@ from sarproc.focus.backprojection import BackprojectParams, backproject
 from sarproc.quality.metrics import EvaluateParams, evaluate_product
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
-
-SCENE = {
-    "radar": {
-        "carrier_frequency": "16 GHz",
-        "bandwidth": "200 MHz",
-        "pulse_duration": "1 us",
-        "range_sampling_rate": "240 MHz",
-        "prf": "250 Hz",
-    },
-    "platform": {"velocity": "80 m/s", "altitude": "800 m"},
-    "geometry": {"reference_range": "1.2 km", "squint": "45 deg"},
-    "acquisition": {"mode": "spotlight", "aperture_time": "0.6 s"},
-    "backproject": {},
-    "targets": {"frame": "ground_los", "points": [{"name": "A"}]},
-}
+from tests.quality.test_ground_plane_ridges import SCENE  # the same scene, one target A
 
 
 @pytest.fixture(scope="module")
