@@ -2527,7 +2527,7 @@ def _residual_false_target(
     main lobes, the residual's floor inside the targets' guard windows (``unmodelled`` counted as misfits) and
     every false target over that floor (:func:`_listed_false_targets`; None without a finite floor).
     ``frames``: each target's model's ridge frame A (:func:`_ridge_frame`; None: no model)."""
-    from sarproc.quality.metrics import FalseTarget, _Chip  # metrics imports this module
+    from sarproc.quality.metrics import FalseTarget, refine_false_target  # metrics imports this module
 
     ref = max(reports, key=lambda r: r.peak_amplitude)
     mag = np.abs(residual)
@@ -2569,7 +2569,7 @@ def _residual_false_target(
             floor,
             listed,
         )
-    pos, value = _Chip(residual, k, half).refine_peak(k)
+    pos, value = refine_false_target(residual, k, half)
     return (
         FalseTarget(
             level_db=db(max(abs(value), pixel)),
@@ -2782,7 +2782,7 @@ def _listed_false_targets(
     target's model misfit (:meth:`_Residues.in_a_misfit`; ``in_misfits``), each refined like the single
     false target. ``maxima``: the local maxima of the search region. ``frames``: per target, its model's ridge
     frame (None: the image axes' nulls)."""
-    from sarproc.quality.metrics import _Chip  # metrics imports this module
+    from sarproc.quality.metrics import refine_false_target  # metrics imports this module
 
     ref = max(r.peak_amplitude for r in reports)
     threshold_db = floor_db + LIST_MARGIN_DB
@@ -2829,7 +2829,7 @@ def _listed_false_targets(
         kept.append(k)
 
     def entry(k: np.ndarray) -> ListedFalseTarget:
-        pos, value = _Chip(residual, tuple(k), half).refine_peak(tuple(k))
+        pos, value = refine_false_target(residual, tuple(k), half)
         pixel = float(mag[tuple(k)])
         near, dist = _nearest_target(pos, axes, peaks)
         return ListedFalseTarget(
