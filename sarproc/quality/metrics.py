@@ -2613,7 +2613,7 @@ def _false_target(
     )
 
 
-def refine_false_target(data: np.ndarray, k: Sequence[int], half: Sequence[int]) -> tuple[np.ndarray, complex]:
+def refine_false_target(data: np.ndarray, k: npt.ArrayLike, half: Sequence[int]) -> tuple[np.ndarray, complex]:
     """(position, value): the peak about a false target's strongest pixel ``k`` (image indices), free of the pixel
     grid's scalloping. Where ``k`` lies on the image's edge along an axis the chip's interpolant is not used along
     it: the chip is zero beyond the edge, and the band-limited interpolant of a response cut there overshoots
@@ -2621,7 +2621,7 @@ def refine_false_target(data: np.ndarray, k: Sequence[int], half: Sequence[int])
     axis the peak is a parabola through the edge sample and the two inside it (:func:`_edge_parabola`), its vertex
     kept within the half cell inside the edge (the pixel is the strongest: the peak lies no farther in; beyond
     the edge the image does not say, and the edge pixel is taken)."""
-    k = [int(i) for i in k]
+    k = [int(i) for i in np.ravel(k)]
     edges = [a for a, (i, n) in enumerate(zip(k, data.shape)) if n >= 3 and i in (0, n - 1)]
     chip = _Chip(data, k, half)
     pos, value = chip.refine_peak(k, fixed=edges)
