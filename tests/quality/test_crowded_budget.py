@@ -107,3 +107,41 @@ def test_the_trial_scene_of_crowded_hamming_targets_runs_no_fit_over_the_budget(
     assert report.residual is None
     assert report.residual_note is not None and "16 targets" in report.residual_note
     assert report.false_target == report.false_target_guard
+
+
+def test_a_costly_group_fit_stops_at_its_looser_tolerance(monkeypatch):
+    """The pinned crowded skewed 2D scene's cuts refit its three targets jointly (3 x 21 columns on 2680-3986 rows,
+    1.6e7 at most: under COSTLY_FIT, so its pinned figures stand); its fits crawl to FIT_MAX_STEPS (60 steps each,
+    the predicted decreases never under FIT_TOLERANCE). Counted as costly, they stop at COSTLY_TOLERANCE: 57 steps
+    in all instead of 180."""
+    from tests.quality.test_evaluate_pinned import _crowded_2d
+
+    img, coords, res, targets = _crowded_2d()
+    steps = []
+    original = residual._gauss_newton_step
+
+    def counted(*a, **k):
+        steps.append(1)
+        return original(*a, **k)
+
+    def run() -> list[int]:
+        per_fit = []
+        fit = residual._fit_group
+
+        def counting(*a, **k):
+            steps.clear()
+            out = fit(*a, **k)
+            per_fit.append(len(steps))
+            return out
+
+        with monkeypatch.context() as m:
+            m.setattr(residual, "_gauss_newton_step", counted)
+            m.setattr(residual, "_fit_group", counting)
+            evaluate_image(img, ("azimuth", "range"), coords, res, targets, params=EvaluateParams(residual=False))
+        return per_fit
+
+    default = run()
+    assert min(default) >= residual.FIT_MAX_STEPS  # as pinned: the crawl, every sweep
+    monkeypatch.setattr(residual, "COSTLY_FIT", 1e6)
+    costly = run()  # sweep 0 still 52 steps, sweeps 1 and 2 then 4 and 1
+    assert sum(costly) < sum(default) / 2
