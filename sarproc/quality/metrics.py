@@ -72,6 +72,8 @@ from sarproc.quality.linesum import exponential_sums
 from sarproc.quality.lstsq import least_squares
 from sarproc.quality.residual import (
     COINCIDE_NULLS,
+    RESIDUAL_BUDGET,
+    CrowdedGroup,
     FalseTargetList,
     FitStart,
     ResidualFloor,
@@ -1440,7 +1442,7 @@ def evaluate_image(
         note = RESIDUAL_3D_NOTE
     elif params.residual:
         note = coinciding_note([[str(names[k]) for k in g] for g in coinciding])
-    false, guard, floor, listed = _false_targets(
+    false, guard, floor, listed, crowded = _false_targets(
         data,
         mag,
         axes,
@@ -1454,6 +1456,7 @@ def evaluate_image(
         truth[order],
         (np.abs(angles[order] - 90.0) > CUBIC_SHEAR_DEG).tolist(),  # NaN (the slant plane): False
     )
+    note = note or crowded
     done()
     return QualityReport(
         dims=tuple(ax.name for ax in axes),
@@ -1845,17 +1848,18 @@ def _false_targets(
     truth: np.ndarray | None = None,
     sheared: Sequence[bool] = (),
 ) -> tuple:
-    """(false target, guard-window false target, residual floor, false-target list): the strongest response
-    outside every target's +-guard_cells window, and with ``params.residual`` the strongest on the residual
-    image (then the reported one) with the residual's floor and every false target over it. ``own_axes``: each
-    target's axes (:func:`_target_axes`); its response model starts from their null spacing (its own theory's
-    where it has one, else the image's). ``sheared``: per target, whether its ridges lie more than
-    :data:`CUBIC_SHEAR_DEG` off perpendicular in space: those models take a cubic carrier
-    (:func:`fit_response_models`)."""
+    """(false target, guard-window false target, residual floor, false-target list, note): the strongest
+    response outside every target's +-guard_cells window, and with ``params.residual`` the strongest on the
+    residual image (then the reported one) with the residual's floor and every false target over it.
+    ``own_axes``: each target's axes (:func:`_target_axes`); its response model starts from their null spacing
+    (its own theory's where it has one, else the image's). ``sheared``: per target, whether its ridges lie more
+    than :data:`CUBIC_SHEAR_DEG` off perpendicular in space: those models take a cubic carrier
+    (:func:`fit_response_models`). The note (else None) says why the residual was not taken where a group of
+    crowded targets is too large to fit jointly (:data:`residual.RESIDUAL_BUDGET`)."""
     indices = [p.index for p in peaks]
     guard = _false_target(data, mag, axes, guarded, indices, reports, half, params)
     if not params.residual or data.ndim == 3:  # cubes: RESIDUAL_3D_NOTE
-        return guard, guard, None, None
+        return guard, guard, None, None, None
     # a weighting's taper (Hamming: the band's cosine; times a Gaussian beam) needs more spectral orders
     params = dataclasses.replace(params, residual_orders=theory_residual_orders(reports, params.residual_orders))
     starts = [
@@ -1864,13 +1868,28 @@ def _false_targets(
     ]
     if truth is not None:  # a close pair found on one peak: the weaker one moved to its own (separated_starts)
         starts = separated_starts(starts, [[ax.to_index(x) for ax, x in zip(axes, t)] for t in truth], nulls, data)
-    models = fit_response_models(data, starts, nulls, params, support_shape=True, sheared=sheared)
+    try:
+        models = fit_response_models(
+            data, starts, nulls, params, support_shape=True, sheared=sheared, budget=RESIDUAL_BUDGET
+        )
+    except CrowdedGroup as crowded:
+        return guard, guard, None, None, crowded_note([reports[k].name for k in crowded.members], crowded)
     fanned = [i for i, p in enumerate(peaks) if p.fanned]
     own_nulls = None if own_axes is None else [np.array([ax.null for ax in own]) for own in own_axes]
     false, floor, listed = residual_false_target(
         data, models, axes, guarded, indices, reports, half, params, fanned, own_nulls or ()
     )
-    return false, guard, floor, listed
+    return false, guard, floor, listed, None
+
+
+def crowded_note(members: Sequence[str], crowded: CrowdedGroup) -> str:
+    """The report's residual note where a group of crowded targets is over :data:`residual.RESIDUAL_BUDGET`."""
+    shown = ", ".join(members[:6]) + (f" and {len(members) - 6} more" if len(members) > 6 else "")
+    return (
+        f"the residual false-target level is not taken: {len(members)} targets ({shown}) lie close enough to be "
+        f"fitted jointly, a least squares of {crowded.rows} rows x {crowded.columns} columns, over the "
+        f"{RESIDUAL_BUDGET:.0e} rows x columns^2 its time allows; the false target is the guard-window figure"
+    )
 
 
 def _target_axes(

@@ -784,6 +784,17 @@ STRETCH_MISFIT = 0.5  # only fits whose model leaves less than this of their sam
 # products: no restart or warp kept differs (models equal to the bit), while bp_beam_edge's losing restarts stop
 # after 15-36 of their 60 steps and 002 small plain's 25 warps after 46 of their 190 steps in all.
 LOSING_MARGIN = 20.0
+# A costly group fit (its least squares over COSTLY_FIT rows x columns^2: crowded targets fitted jointly, e.g. nine
+# Hamming-weighted targets 12 m apart in an L-band plain PFA image, 9 x 25 columns on 6823-10 131 rows) converges
+# by COSTLY_TOLERANCE of its misfit, not FIT_TOLERANCE. Such fits do not converge quadratically: their steps
+# alternate between a full one lowering the misfit by 0.3-0.9 times its prediction and a halved one, the predicted
+# decreases 1e-4..1e-7 of the misfit for 50 steps, and they ran to FIT_MAX_STEPS (on that scene 60 steps each of
+# the crowded cuts' three sweeps at 0.15 s a step, one thread). Run on (fit of the three sweeps' first, 80 steps)
+# the misfit falls 0.2 % after the step predicting 1e-4 (0.002108 -> 0.002104 of the samples' energy). Lone
+# targets' fits (every make target's small product) and the pinned scenes' crowded group (3 x 21 columns on 3986
+# rows: 1.6e7) stay under it, bit for bit (docs/performance.md, session 42).
+COSTLY_FIT = 1e8
+COSTLY_TOLERANCE = 1e-4
 MAX_CARRIER_STEP = 0.02  # cycles/sample: a step's band-centre change at most (scaled down to it)
 MAX_SHAPE_STEP = 0.01  # relative width / keystone change of a step at most
 KAPPA_LIMIT = 0.2  # |keystone| at most
@@ -996,6 +1007,9 @@ def _fit_group(
     stretch, last = 1.0, math.nan  # the next step's length in Gauss-Newton steps (:func:`_stretch`), the last measured
     energy = float(np.vdot(y, y).real)
     n_steps = FIT_MAX_STEPS if max_steps is None else max_steps
+    tolerance = (
+        COSTLY_TOLERANCE if fit_size(points.shape[1], len(members) * len(orders)) > COSTLY_FIT else FIT_TOLERANCE
+    )
     for n in range(n_steps):
         if cost <= 1e-30 * max(energy, 1e-300):
             break
@@ -1009,7 +1023,7 @@ def _fit_group(
         if held.any():
             free = ~held
             step, predicted = (np.zeros_like(step), 0.0) if not free.any() else _gauss_newton_step(normal, r, J, free)
-        if predicted <= FIT_TOLERANCE * cost:
+        if predicted <= tolerance * cost:
             break
         if bar is not None and _cannot_win(cost, predicted, n_steps - n, bar * energy):
             break
@@ -1039,6 +1053,11 @@ def _fit_group(
             break
     out = [fit.split(t) for t in thetas]
     return coef, [o[0] for o in out], [o[1] for o in out], [o[2] for o in out]
+
+
+def fit_size(rows: int, columns: int) -> float:
+    """Rows x columns^2 of a fit's least squares (its Gram matrix's cost, and a Gauss-Newton step's)."""
+    return float(rows) * float(columns) ** 2
 
 
 def _cannot_win(cost: float, predicted: float, steps_left: int, bar: float) -> bool:
@@ -1333,12 +1352,31 @@ def fit_response_models(
     params: EvaluateParams,
     support_shape: bool = False,
     sheared: Sequence[bool] = (),
+    budget: float | None = None,
 ) -> list[ResponseModel | None]:
     """:func:`_fit_response_models` with the numerics ``params.exact`` asks for; ``sheared``: per target, whether
     its support is sheared (its ridges not perpendicular in space): those lone targets get a cubic carrier
-    (:func:`_fit_cubics`)."""
+    (:func:`_fit_cubics`); with ``budget`` (rows x columns^2) a group whose joint fit is larger raises
+    :class:`CrowdedGroup` before any fit runs."""
     with numerics(params.exact):
-        return _fit_response_models(data, found, nulls, params, support_shape, sheared)
+        return _fit_response_models(data, found, nulls, params, support_shape, sheared, budget)
+
+
+# The residual's response models of crowded targets are fitted jointly, one least squares for the group, whose
+# cost grows as the cube of its members (rows x columns^2: each member adds its samples and its orders). Over
+# RESIDUAL_BUDGET the residual is not taken (the false target is then the guard-window figure, and the report says
+# why), as the crowded cuts' refit is not tried over metrics.REFIT_BUDGET. Nine Hamming targets 12 m apart in an
+# L-band plain PFA image: 9 x 25 columns on 10 131 rows, 5.1e8, fitted (about 15 s of CPU); 36 of them:
+# 36 x 25 on 26 379 rows, 2.1e10, whose fit did not end in 16 CPU-minutes (docs/cli.md, row 9b).
+RESIDUAL_BUDGET = 1e9
+
+
+class CrowdedGroup(Exception):
+    """A group of targets whose joint response-model fit is over its budget (:data:`RESIDUAL_BUDGET`)."""
+
+    def __init__(self, members: Sequence[int], rows: int, columns: int) -> None:
+        super().__init__(f"{len(members)} targets fitted jointly: {rows} rows x {columns} columns")
+        self.members, self.rows, self.columns = list(members), rows, columns
 
 
 def _overlapping_groups(
@@ -1705,13 +1743,14 @@ def _fit_response_models(
     params: EvaluateParams,
     support_shape: bool = False,
     sheared: Sequence[bool] = (),
+    budget: float | None = None,
 ) -> list[ResponseModel | None]:
     """:func:`_fitted_response_models` with the other groups' models on a fit's samples evaluated once
     (:data:`_OTHERS`)."""
     before = (_OTHERS.cache, _OTHERS.boxes, _OTHERS.bounds)
     _OTHERS.cache, _OTHERS.boxes, _OTHERS.bounds = {}, {}, {}
     try:
-        return _fitted_response_models(data, found, nulls, params, support_shape, sheared)
+        return _fitted_response_models(data, found, nulls, params, support_shape, sheared, budget)
     finally:
         _OTHERS.cache, _OTHERS.boxes, _OTHERS.bounds = before
 
@@ -1723,6 +1762,7 @@ def _fitted_response_models(
     params: EvaluateParams,
     support_shape: bool = False,
     sheared: Sequence[bool] = (),
+    budget: float | None = None,
 ) -> list[ResponseModel | None]:
     """Every target's response model, fitted by complex least squares on the samples within
     +-``params.fit_nulls`` nulls of its peak (about two per null); with ``support_shape`` its support's
@@ -1756,6 +1796,8 @@ def _fitted_response_models(
     for members in _overlapping_groups(found, live, own, half):
         near = unique_columns(np.concatenate([boxes[k] for k in members], axis=1), data.shape)[0]
         far = unique_columns(np.concatenate([strips[k] for k in members], axis=1), data.shape)[0]
+        if budget is not None and fit_size(far.shape[1], len(members) * len(orders)) > budget:
+            raise CrowdedGroup(members, far.shape[1], len(members) * len(orders))
         fits.append((members, near, data[tuple(near)].astype(complex), far, data[tuple(far)].astype(complex)))
     reach = 0.0 if params.exact else float(np.abs(data).max()) * 10 ** (FIT_REACH_DB / 20)
     _know_samples([fit[3] for fit in fits])  # every model bounded over all their boxes at once (:func:`_reach_by_box`)
