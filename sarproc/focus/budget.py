@@ -23,6 +23,9 @@ if TYPE_CHECKING:
 
 
 def preprocess_estimate(stage: str, header: Product, params: Any) -> Plan:
+    from sarproc.focus.squint_deramp.preprocess import check_fixed_gate
+
+    check_fixed_gate(header)  # --dry-run refuses what the run would
     n_az, n_rg = header_shape(header)
     b = complex_bytes(n_az, n_rg)
     block = complex_bytes(min(params.block_pulses, n_az), n_rg, itemsize=16) * 4

@@ -204,7 +204,12 @@ def _convert(value: object, tp: Any, meta: Mapping[str, Any], where: str) -> Any
         return value
     if tp is str:
         if not isinstance(value, str):
-            raise InputError(f"{where}: expected a string, got {value!r}")
+            hint = ""
+            if isinstance(value, bool):  # YAML 1.1: unquoted yes/no/on/off/y/n are booleans
+                hint = '; YAML reads an unquoted yes, no, on or off as true or false: quote it ("OFF")'
+            elif isinstance(value, int | float):
+                hint = "; quote it to keep it as text"
+            raise InputError(f"{where}: expected a string, got {value!r}{hint}")
         choices = meta.get("choices")
         if choices and value not in choices:
             raise InputError(f"{where}: {value!r} is not one of {list(choices)}")

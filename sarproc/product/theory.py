@@ -514,7 +514,8 @@ def _beam_k(radar: RadarMetadata, pos: np.ndarray, targets: np.ndarray) -> tuple
     u = _unit(tg - pos[:, None, :])
     k = 2 * u[..., 0] / radar.wavelength
     az, el = beam.off_boresight_angles(beam.boresight(radar, pos), pos, tg)
-    return k, np.abs(az) <= radar.azimuth_beamwidth / 2, np.abs(two_way_gain(radar, az, el))
+    g = np.abs(two_way_gain(radar, az, el))
+    return k, (np.abs(az) <= radar.azimuth_beamwidth / 2) & (g > 0), g  # g = 0: outside a rect elevation beam
 
 
 def _extent(k: np.ndarray, mask: np.ndarray) -> np.ndarray:
@@ -558,7 +559,7 @@ def illumination_survey(
         k, lit, g = _beam_k(radar, sub, targets[sl])
         kr, lit_r, _ = _beam_k(radar, sub, refs[sl])
         span = _extent(_full_support(radar, k, kr), lit_r)
-        fraction[sl] = np.where(span > 0, _extent(k, lit) / np.where(span > 0, span, 1), 1.0)
+        fraction[sl] = np.where(span > 0, _extent(k, lit) / np.where(span > 0, span, 1), lit.any(axis=0))
         peak[sl] = 20 * np.log10(np.maximum(g.max(axis=0), 1e-300))
     out = [TargetIllumination(float(min(f, 1.0)), float(p)) for f, p in zip(fraction, peak)]
     for i in np.argsort(fraction, kind="stable")[:max_detailed]:
@@ -567,7 +568,10 @@ def illumination_survey(
         k, lit, g = (a[:, 0] for a in _beam_k(radar, pos, targets[i : i + 1]))
         kr, lit_r, gr = (a[:, 0] for a in _beam_k(radar, pos, refs[i : i + 1]))
         kf = _full_support(radar, k, kr)
-        full = response_theory(kf, gr, sample_band(kf, lit_r & (gr > 0), gr))
+        try:
+            full = response_theory(kf, gr, sample_band(kf, lit_r & (gr > 0), gr))
+        except ValueError:  # the reference is unlit too (outside a rect elevation beam, as the target)
+            full = None
         try:
             now = response_theory(k, g, sample_band(k, lit & (g > 0), g))
         except ValueError:  # no gain at all (a rect beam that never sees it)

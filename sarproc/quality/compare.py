@@ -131,12 +131,17 @@ def _fmt_rel(rel: float) -> str:
 
 def compare_hdf5(base: Path, new: Path) -> dict[str, Any]:
     kind = read_product(base, load=False).kind
-    read_product(new, load=False)  # a readable product of its own
+    new_kind = read_product(new, load=False).kind  # a readable product of its own
     signal = DATA_NAME[kind]
     with h5py.File(base, "r") as fa, h5py.File(new, "r") as fb:
-        sa, sb = fa[signal], fb[signal]
+        sa = fa[signal]
         row: dict[str, Any] = {"kind": kind, "shape": "x".join(map(str, sa.shape))}
-        if sa.shape != sb.shape:
+        if new_kind != kind:  # no common signal dataset (an image against its raw, ...)
+            row["kind"] = f"{kind} vs {new_kind}"
+            row["signal"] = f"kinds differ: {kind} vs {new_kind}"
+            row["rel"] = ""
+            row["signal_db"] = row["max_rel"] = row["peak_db"] = None
+        elif sa.shape != (sb := fb[signal]).shape:
             row["signal"] = f"shapes differ: {sa.shape} vs {sb.shape}"
             row["rel"] = ""
             row["signal_db"] = row["max_rel"] = row["peak_db"] = None

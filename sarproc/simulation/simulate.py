@@ -197,10 +197,10 @@ def illumination_warnings(scene: Scene, plan: SimulationPlan) -> list[str]:
             )
         else:
             what = f"only partly illuminated: {100 * s.lit_fraction:.0f} % of its full -3 dB aperture lies on the track"
-        if s.full is None:
-            loss = "; resolution loss not computed (too many such targets)"
-        elif s.now is None:
+        if s.peak_gain_db < -300 or (s.now is None and s.full is not None):
             loss = "; it is never lit: no response is expected"
+        elif s.now is None or s.full is None:
+            loss = "; resolution loss not computed (too many such targets)"
         else:
             loss = (
                 f"; expected along-track IRW {s.now.irw:.3g} m instead of {s.full.irw:.3g} m ({s.loss:.2f}x), "

@@ -707,3 +707,21 @@ def test_flow1_progress_covers_the_resampling():
     assert img.attrs["flow"] == 1
     # range-frequency blocks, azimuth compression, the geometric resampling: each with its total
     assert_bars_complete(bars, count=3)
+
+
+def test_a_varied_range_gate_is_refused_not_defocused(exp1_small, tmp_path):
+    """Session 42 trial: a raw product with a varied receive gate (effects.range_gate, paper 002; the Gotcha
+    import too) went through preprocess -> coarse-focus -> fine-focus silently and came out defocused (10 deg
+    squint, 60 MHz: azimuth IRW/theory 1.52, range PSLR -0.1 dB, no warning). preprocess now refuses it."""
+    cfg, raw = exp1_small
+    gate = np.zeros(raw.data.shape[0])
+    gate[raw.data.shape[0] // 2 :] = 2 / raw.radar.range_sampling_rate  # one step of two samples
+    with pytest.raises(InputError, match="range_gate_offset.*fixed gate"):
+        preprocess(raw.derive("raw", raw.data, raw.dims, raw.coords, aux={**raw.aux, "range_gate_offset": gate}))
+    preprocess(raw.derive("raw", raw.data, raw.dims, raw.coords, aux={**raw.aux, "range_gate_offset": gate * 0}))
+    from sarproc.product.io import write_product
+
+    path = tmp_path / "raw.h5"
+    write_product(path, raw.derive("raw", raw.data, raw.dims, raw.coords, aux={**raw.aux, "range_gate_offset": gate}))
+    res = CliRunner().invoke(cli, ["preprocess", str(path), "-o", str(tmp_path / "pre.h5"), "--dry-run"])
+    assert res.exit_code == 2 and "fixed gate" in res.output, res.output  # the plan refuses it too

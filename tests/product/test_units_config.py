@@ -88,3 +88,27 @@ def test_build_converts_nested_models():
 def test_build_errors_name_file_and_key(mapping, message):
     with pytest.raises(InputError, match=message):
         build(Outer, mapping, source="f.yaml")
+
+
+def test_a_yaml_boolean_where_text_is_expected_says_to_quote_it():
+    """Session 42 trial: a target named OFF (unquoted) was refused as "expected a string, got False", with no
+    word that YAML had read it as a boolean."""
+    import yaml
+
+    from sarproc.simulation.scene import scene_from_mapping
+
+    scene = {
+        "radar": {
+            "carrier_frequency": "10 GHz",
+            "bandwidth": "20 MHz",
+            "pulse_duration": "5 us",
+            "range_sampling_rate": "24 MHz",
+            "prf": "800 Hz",
+        },
+        "platform": {"velocity": "7 km/s"},
+        "geometry": {"reference_range": "300 km"},
+        "acquisition": {"mode": "spotlight", "aperture_time": "0.1 s"},
+        "targets": yaml.safe_load("points: [{name: OFF}]"),
+    }
+    with pytest.raises(InputError, match=r'name: expected a string, got False; YAML reads .* quote it \("OFF"\)'):
+        scene_from_mapping(scene, source="scene.yaml")

@@ -128,3 +128,24 @@ def test_json_output_gives_the_peak_ratio_and_the_norm_ratio(tmp_path, monkeypat
     res = CliRunner().invoke(cli, ["compare", str(base), str(base), "-o", str(out), "--overwrite"])
     assert json.loads(out.read_text())["files"][0]["peak_db"] == 0.0
     assert cp.peak_ratio_db(0.0, 0.0) == -math.inf and cp.peak_ratio_db(0.0, 1.0) == math.inf
+
+
+def test_products_of_different_kinds_are_a_row_not_an_internal_error(tmp_path):
+    """Session 42 trial: `compare image.h5 raw.h5` (an image against its raw) ended in "internal error:
+    KeyError ... object 'image' doesn't exist", exit 1; two folders holding them likewise. Now the row says
+    the kinds differ, as it says shapes differ."""
+    from click.testing import CliRunner
+
+    from sarproc.cli.main import cli
+    from sarproc.product.io import read_product, write_product
+
+    image, _ = image_without_targets(tmp_path / "image.h5")
+    product = read_product(image)
+    raw = tmp_path / "raw.h5"
+    coords = {"azimuth_time": np.arange(300) * 1e-3, "range_time": 2e-6 + np.arange(170) * 1e-8}
+    write_product(raw, type(product)(**{**vars(product), "kind": "raw", "dims": tuple(coords), "coords": coords}))
+    res = CliRunner().invoke(cli, ["compare", str(image), str(raw), "-o", str(tmp_path / "d.json")])
+    assert res.exit_code == 0, res.output
+    (entry,) = json.loads((tmp_path / "d.json").read_text())["files"]
+    assert entry["cells"]["signal diff / signal"] == "kinds differ: image vs raw"
+    assert entry["signal_db"] is None and entry["peak_db"] is None

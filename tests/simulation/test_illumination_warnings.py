@@ -89,3 +89,34 @@ def test_a_response_without_side_lobes_is_said_so_not_minus_300_db(caplog):
     (line,) = warnings_of(caplog, mapping)
     assert "'BEYOND' is outside the main beam" in line
     assert "PSLR none (no side lobes) instead of -15.4 dB" in line and "-300" not in line
+
+
+def _nadir_cube(*points):
+    """A down-looking scene (paper 004's geometry) with a rect 6 deg elevation beam."""
+    return {
+        "radar": {
+            "carrier_frequency": "37.5 GHz",
+            "bandwidth": "375 MHz",
+            "pulse_duration": "1 us",
+            "range_sampling_rate": "450 MHz",
+            "prf": "400 Hz",
+        },
+        "platform": {"velocity": "50 m/s", "altitude": "500 m"},
+        "geometry": {"reference_range": "500 m"},
+        "acquisition": {"mode": "stripmap", "n_pulses": 61, "range_margin": "8 m"},
+        "targets": {"frame": "elevation", "origin": "absolute", "points": list(points)},
+        "effects": {"antenna": {"pattern": "rect", "azimuth_beamwidth": "0.57 deg", "elevation_beamwidth": "6 deg"}},
+    }
+
+
+def test_a_target_outside_a_rect_elevation_beam_is_never_lit(caplog):
+    """Session 42 trial: a target at 3.4 deg elevation outside a rect 6 deg elevation beam (no echo at all) got no
+    warning; the same target 2.21 m along track (partly lit in azimuth) ended simulate with "internal error:
+    ValueError: response_theory: no support sample has a positive weight", exit 1."""
+    a = {"name": "A", "azimuth": "0 m", "range": "490 m", "elevation": "0 deg"}
+    out = {"name": "OUT", "azimuth": "0 m", "range": "490 m", "elevation": "3.4 deg"}
+    edge = {**out, "name": "EDGE", "azimuth": "-2.21 m"}
+    for target in (out, edge):
+        (line,) = warnings_of(caplog, _nadir_cube(a, target))
+        assert f"'{target['name']}' is outside the beam over the whole aperture" in line and "never lit" in line
+    assert warnings_of(caplog, _nadir_cube(a, {**out, "elevation": "2.9 deg"})) == []

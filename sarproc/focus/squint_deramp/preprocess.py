@@ -107,6 +107,18 @@ def doppler_correction(
     return out
 
 
+def check_fixed_gate(raw: Product) -> None:
+    """Refuse a raw product whose receive gate moves (aux ``range_gate_offset``, paper 002's varied gate, the
+    Gotcha import): the chain's range axis is one fixed gate, and a moving one defocused silently."""
+    gate = np.asarray(raw.aux.get("range_gate_offset", np.zeros(1)), float)
+    if np.ptp(gate) > 0:
+        span = np.ptp(gate) * C / 2
+        raise InputError(
+            f"preprocess: aux/range_gate_offset: the receive gate moves over {span:.3g} m of slant range during "
+            "the acquisition; the paper 000 chain assumes a fixed gate (sarproc pfa2 or sarproc backproject focus it)"
+        )
+
+
 def preprocess(
     raw: Product, params: PreprocessParams = PreprocessParams(), progress: ProgressFactory | None = None
 ) -> Product:
@@ -117,6 +129,7 @@ def preprocess(
         raise InputError(f"preprocess needs a single-channel 'raw' product, got {raw.kind!r}")
     if tuple(raw.dims) != ("azimuth_time", "range_time"):
         raise InputError(f"preprocess: raw dims {raw.dims} must be ('azimuth_time', 'range_time')")
+    check_fixed_gate(raw)
     data = doppler_correction(
         raw.data, raw.coords["azimuth_time"], raw.radar, params.method, params.precision, params.block_pulses, progress
     )
