@@ -482,7 +482,7 @@ def test_band_limited_echoes_compress_with_their_replica_so_cross_window_ghosts_
     pulse and channel); compressed with the ideal chirp's phasor they leave a coherent plateau out to c T_p / 2
     (600 m here) that a mover's velocity window cuts into ghosts of the static target beside it (docs/multichannel.md
     sections 15, 16). Measured with A 300 m from the mover's window: ideal-chirp compression (main before) -53.03 /
-    -59.30 dB, 2.3 / 2.5 dB above the continuous echoes' -55.31 / -61.82; the replica's equalisation -68.32 / -76.22.
+    -59.30 dB, 2.3 / 2.5 dB above the continuous echoes' -55.31 / -61.82; the replica's equalisation -66.61 / -74.46.
     Continuous echoes keep the ideal chirp's phasor."""
     offset = -300.0
     points = [{"name": "A"}, mover("C", v_r=10.0, range=f"{offset} m")]

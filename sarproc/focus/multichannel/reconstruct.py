@@ -331,9 +331,11 @@ def simulated_waveform(raw: Product) -> str | None:
 # leaves the aliased part uncompressed: a coherent plateau out to c T_p / 2 from every target, which the velocity
 # windows cut into cross-window ghosts (docs/multichannel.md sections 15, 16). So band-limited echoes are equalised
 # with the replica's own spectrum (rangecomp.replica_spectrum, the replica backproject compresses with): 1 / H_s
-# within B/2, so the compressed spectrum is flat there; beyond B/2 the replica's phase conj(H_s) / |H_s|, scaled to
-# meet the flat level at the band's edge, so it rolls off as |H_s| does instead of stopping (a hard stop's sinc
-# tails ghost as well). No bin of that filter is zero, so the re-expansion (its reciprocal) restores every bin.
+# within B/2, so the compressed spectrum is flat there; beyond B/2 the replica's phase conj(H_s) / |H_s| times
+# |H_s| / edge^2 (edge: |H_s| at B/2), so the spectrum meets the flat level at the band's edge and rolls off as
+# |H_s|^2 instead of stopping (a hard stop's sinc tails ghost as well; a roll-off as |H_s| raised the noise of those
+# bins, -1.3 dB of detection SNR). No bin of that filter is zero, so the re-expansion (its reciprocal) restores
+# every bin.
 # A continuous echo's aliased part changes with each fractional delay (its coherent part is C(f) alone): it, and a
 # product with no simulation recorded, keep the stationary-phase phasor. replica_phase (phase only, unit modulus)
 # and replica_flat (1 / H_s within B/2, zero beyond: not invertible there) are the variants measured against it.
@@ -359,7 +361,9 @@ def range_compression_filters(
     if mode == "replica_flat":
         return np.where(band, flat, 0.0), np.where(band, h / scale, 0.0), mode
     edge = float(np.mean(mag[band & (np.abs(f_r) >= 0.49 * r.bandwidth)]))  # |H_s| at the band's edge
-    comp = np.where(band, flat, phase * (scale / edge))
+    # beyond B/2 the compressed spectrum is scale |H_s|^2 / edge^2: it meets the flat level at the edge and falls
+    # faster than |H_s|, so the noise of those bins, where the pulse has little energy, is not raised
+    comp = np.where(band, flat, phase * (scale * np.maximum(mag, 1e-12 * edge) / edge**2))
     return comp, 1.0 / comp, mode
 
 
