@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from sarproc.dsp.rangecomp import replica_spectrum
 from sarproc.focus.multichannel import channels, deramp, detection, velocity
 from sarproc.product import beam, fft as sfft, moving
 from sarproc.product.config import as_dict, param
@@ -45,6 +46,10 @@ if TYPE_CHECKING:
     from sarproc.product.steps import ProgressFactory
 
 log = logging.getLogger(__name__)
+
+
+# the range compressions reconstruct can apply (range_compression_filters)
+RANGE_COMPRESSION = ("stationary_phase", "replica_phase", "replica_flat", "replica_equalised")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -139,6 +144,16 @@ class ReconstructParams:
         default=1.2,
         gt=0,
         doc=("width of the nulled static band over the Doppler bandwidth (above 1: the spectral tails of the beam)"),
+    )
+    range_compression: str = param(
+        default="auto",
+        choices=("auto", *RANGE_COMPRESSION),
+        doc=(
+            "range compression before the deramp, undone after the reconstruction. auto: replica_equalised for the "
+            "band-limited echoes simulate records (1 / the sampled replica's spectrum within B/2, its phase beyond, "
+            "invertible in every bin), else stationary_phase (the ideal chirp's exp(j pi f^2 / K)); replica_phase "
+            "and replica_flat (zero beyond B/2) are variants (docs/multichannel.md section 16)"
+        ),
     )
 
     def validate(self) -> None:
@@ -298,8 +313,65 @@ def range_padding(
     return sfft.next_fast_len(n_rg + 2 * lead), lead
 
 
-def _to_deramped(raw: Product, g: _Geometry) -> tuple[np.ndarray, np.ndarray, int]:
-    """Channels in (azimuth time, range frequency), compressed and deramped; also f_r and the lead offset."""
+def simulated_waveform(raw: Product) -> str | None:
+    """The waveform ``simulate`` recorded in the raw product's provenance (its resolved scene's
+    ``simulation.waveform``: 'band_limited' or 'continuous'), or None where no simulation is recorded."""
+    for entry in raw.history:
+        parameters = entry.get("parameters") if isinstance(entry, dict) else None
+        sim = parameters.get("simulation") if isinstance(parameters, dict) else None
+        if isinstance(sim, dict) and sim.get("waveform") in ("band_limited", "continuous"):
+            return str(sim["waveform"])
+    return None
+
+
+# Range compression of the channels before the deramp (_to_deramped) and its inverse after the reconstruction
+# (_raw_echoes). A band-limited echo (simulate's simulation.waveform: band_limited) is the sampled chirp replica,
+# exactly delayed: its spectrum is the replica's H_s(f) = sum_k C(f - k f_s) (the continuous chirp's Fresnel tails
+# aliased into the band), the same in every pulse and channel. The stationary-phase phasor exp(+j pi f^2 / K)
+# leaves the aliased part uncompressed: a coherent plateau out to c T_p / 2 from every target, which the velocity
+# windows cut into cross-window ghosts (docs/multichannel.md sections 15, 16). So band-limited echoes are equalised
+# with the replica's own spectrum (rangecomp.replica_spectrum, the replica backproject compresses with): 1 / H_s
+# within B/2, so the compressed spectrum is flat there; beyond B/2 the replica's phase conj(H_s) / |H_s| times
+# |H_s| / edge^2 (edge: |H_s| at B/2), so the spectrum meets the flat level at the band's edge and rolls off as
+# |H_s|^2 instead of stopping (a hard stop's sinc tails ghost as well; a roll-off as |H_s| raised the noise of those
+# bins, -1.3 dB of detection SNR). No bin of that filter is zero, so the re-expansion (its reciprocal) restores
+# every bin.
+# A continuous echo's aliased part changes with each fractional delay (its coherent part is C(f) alone): it, and a
+# product with no simulation recorded, keep the stationary-phase phasor. replica_phase (phase only, unit modulus)
+# and replica_flat (1 / H_s within B/2, zero beyond: not invertible there) are the variants measured against it.
+def range_compression_filters(
+    raw: Product, f_r: np.ndarray, mode: str | None = None
+) -> tuple[np.ndarray, np.ndarray, str]:
+    """(compression filter, the re-expansion, its name in RANGE_COMPRESSION) on the unshifted range-frequency grid
+    ``f_r`` (above): replica_equalised for the band-limited echoes simulate records, else stationary_phase;
+    ``mode`` overrides."""
+    r = raw.radar
+    if mode is None:
+        mode = "replica_equalised" if simulated_waveform(raw) == "band_limited" else "stationary_phase"
+    if mode == "stationary_phase":
+        return deramp.compression_phasor(f_r, r.chirp_rate), deramp.compression_phasor(f_r, r.chirp_rate, -1), mode
+    h = replica_spectrum(r, len(f_r))
+    mag = np.abs(h)
+    phase = np.where(mag > 0, np.conj(h) / np.where(mag > 0, mag, 1.0), 1.0)
+    if mode == "replica_phase":
+        return phase, np.conj(phase), mode
+    band = np.abs(f_r) <= r.bandwidth / 2
+    scale = float(np.sqrt(np.mean(mag[band] ** 2)))  # the in-band energy kept
+    flat = scale / np.where(band, h, 1.0)
+    if mode == "replica_flat":
+        return np.where(band, flat, 0.0), np.where(band, h / scale, 0.0), mode
+    edge = float(np.mean(mag[band & (np.abs(f_r) >= 0.49 * r.bandwidth)]))  # |H_s| at the band's edge
+    # beyond B/2 the compressed spectrum is scale |H_s|^2 / edge^2: it meets the flat level at the edge and falls
+    # faster than |H_s|, so the noise of those bins, where the pulse has little energy, is not raised
+    comp = np.where(band, flat, phase * (scale * np.maximum(mag, 1e-12 * edge) / edge**2))
+    return comp, 1.0 / comp, mode
+
+
+def _to_deramped(
+    raw: Product, g: _Geometry, mode: str | None = None
+) -> tuple[np.ndarray, np.ndarray, int, np.ndarray, str]:
+    """Channels in (azimuth time, range frequency), compressed (range_compression_filters) and deramped; also f_r,
+    the lead offset, the compression's inverse (for _raw_echoes) and its name."""
     r = raw.radar
     n_ch, n_az, n_rg = raw.data.shape
     n_fft, lead = range_padding(n_rg, g.velocity, g.squint, g.times, g.prf, g.fs)
@@ -308,12 +380,12 @@ def _to_deramped(raw: Product, g: _Geometry) -> tuple[np.ndarray, np.ndarray, in
     buf[:, :, lead : lead + n_rg] = raw.data
     spec = sfft.fft(buf, axis=-1, workers=-1)
     del buf
-    comp = deramp.compression_phasor(f_r, r.chirp_rate)
+    comp, expand, mode = range_compression_filters(raw, f_r, mode)
     excess = channels.bistatic_excess(g.dx, g.squint, r.reference_range)
     for k in range(n_ch):
         spec[k] *= deramp.deramp_phasor(g.times + g.tau0[k], f_r, g.velocity, g.squint, g.fc)
         spec[k] *= comp * deramp.path_phasor(f_r, excess[k], g.fc)
-    return spec, f_r, lead
+    return spec, f_r, lead, expand, mode
 
 
 def _reconstruct(spec_tf: np.ndarray, bank: channels.FilterBank) -> np.ndarray:
@@ -3319,7 +3391,8 @@ def reconstruct(
     g = _geometry(raw, params)
     n_ch, n_az, n_rg = raw.data.shape
     bank = _filter_bank(g, n_az, params)
-    spec, f_r, lead = _to_deramped(raw, g)  # (N, n_az, n_fft) in (t, f_r)
+    mode = None if params.range_compression == "auto" else params.range_compression
+    spec, f_r, lead, expand, compression = _to_deramped(raw, g, mode)  # (N, n_az, n_fft) in (t, f_r)
     info = {
         "n_channels": int(n_ch),
         "prf_in": float(g.prf),
@@ -3329,6 +3402,7 @@ def reconstruct(
         "noise_gain_db": 10 * math.log10(bank.noise_gain),
         "uniform_prf": 2 * g.velocity / (n_ch * float(np.mean(np.diff(g.dx)))) if n_ch > 1 else g.prf,
         "method": params.method,
+        "range_compression": compression,
         # the receivers along track from the transmitter (m): with prf_in, the channels evaluate's first-order
         # ghost level of a velocity error needs (sarproc.quality.moving), the image having one channel left
         "channel_offsets": [float(x) for x in g.dx],
@@ -3357,7 +3431,7 @@ def reconstruct(
         mt, y = _whole_swath_mover(raw, params, g, spec, y, f_r, lead)
         movers.append(mt)
     del spec
-    out = _raw_echoes(y, g, f_r, raw.radar.chirp_rate, lead, n_rg)
+    out = _raw_echoes(y, g, f_r, expand, lead, n_rg)
     return _output_product(raw, params, g, out, info, movers)
 
 
@@ -3425,11 +3499,12 @@ def _whole_swath_mover(
     return mt, y
 
 
-def _raw_echoes(y: np.ndarray, g: _Geometry, f_r: np.ndarray, chirp_rate: float, lead: int, n_rg: int) -> np.ndarray:
+def _raw_echoes(y: np.ndarray, g: _Geometry, f_r: np.ndarray, expand: np.ndarray, lead: int, n_rg: int) -> np.ndarray:
     """The reconstruction ``y`` (t', f_r) back to raw echoes on the input's range samples: the deramp restored and
-    the chirp re-expanded, complex64 (t', range time). ``y`` is changed in place."""
+    the chirp re-expanded by ``expand`` (range_compression_filters), complex64 (t', range time). ``y`` is changed in
+    place."""
     y *= deramp.deramp_phasor(g.out_times, f_r, g.velocity, g.squint, g.fc, sign=+1)
-    y *= deramp.compression_phasor(f_r, chirp_rate, sign=-1)[None, :]
+    y *= expand[None, :]
     return sfft.ifft(y, axis=1, workers=-1)[:, lead : lead + n_rg].astype(np.complex64)
 
 
