@@ -672,6 +672,26 @@ def test_clutter_null_gain_and_minimum_detectable_velocity():
     assert detection.minimum_detectable_velocity(tau, prf, half_band, band_factor, lam, 10.0, v_max=5.0) == np.inf
 
 
+def test_minimum_detectable_velocity_searches_up_to_the_processed_bands_edge():
+    """Saying "undetectable at any speed" must mean every speed: the search runs to lambda N PRF / 4 (78.07 m/s here,
+    the Doppler offset at the processed band's edge), where the null is farthest from the clutter. It stopped at 50 m/s:
+    a mover needing 1 dB more gain than any speed up to 50 m/s gives (-3.27 dB) had no MDV, though 56.5 m/s gives it
+    (campaign scene 026's M3 and M6: MDV 55.1 and 68.8 m/s, not "undetectable at any speed")."""
+    tau, prf, half_band, band_factor, lam = _null_geometry()
+    gain = lambda v: detection.clutter_null_peak_gain(tau, prf, half_band, band_factor, lam, v, 256)  # noqa: E731
+    edge = lam * len(tau) * prf / 4
+    assert edge == pytest.approx(78.07, abs=0.01)
+    up_to_50 = max(gain(v) for v in np.arange(0.0, 50.01, 0.05))
+    need = 10 * np.log10(up_to_50) + 1.0
+    mdv = detection.minimum_detectable_velocity(tau, prf, half_band, band_factor, lam, need)
+    assert 50.0 < mdv < edge and mdv == pytest.approx(56.49, abs=0.05)
+    assert 10 * np.log10(gain(mdv)) >= need
+    # beyond what the band edge gives, no speed: inf is then true
+    top = max(gain(v) for v in np.arange(0.0, edge, 0.05))
+    over_top = 10 * np.log10(top) + 0.5
+    assert detection.minimum_detectable_velocity(tau, prf, half_band, band_factor, lam, over_top) == np.inf
+
+
 def test_a_mover_below_the_clutter_nulls_mdv_is_reported_missed_with_its_reason(movers_in_clutter):
     """SLOW is missed, and the product and the one warning say why, with numbers; no warning for the others."""
     rec, warnings = movers_in_clutter
