@@ -720,6 +720,26 @@ def test_a_mover_too_weak_for_any_speed_is_said_to_be_so(mdv, said):
     assert "inf" not in reason and "for its conventional SNR 5.7 dB and the CFAR threshold 52.2 dB" in reason
 
 
+@pytest.mark.parametrize("null", [True, False])
+def test_a_mover_taken_for_static_blames_clutter_only_where_the_null_runs(null):
+    """Mover campaign scene 029's M4 (v_los -1.431 m/s, read -0.694 at SNR 22.4 dB in noise; no clutter, no null):
+    its reason said "the static clutter in those cells outweighs it" in a scene without clutter. Without the null it
+    names what can have pulled the search there: the noise or another target in its cells."""
+    from sarproc.focus.multichannel.reconstruct import _miss_reason, _TruthProbe
+
+    probe = _TruthProbe(cell=316.0, index=100.0, snr_db=22.4, peak_index=100, peak_cell=316, v_los=-1.431)
+    rejected = [{"cell": 316, "index": 100, "snr_db": 22.4, "kind": "static", "v_los": -0.694}]
+    params = ReconstructParams(clutter_suppression=null)
+    reason = _miss_reason("M4", probe, rejected, 500.0, params, {"threshold_db": 15.0})
+    assert reason.startswith("M4: detected (SNR 22.4 dB) but taken for static: its velocity search estimated")
+    assert ("static clutter in those cells outweighs it" in reason) == null, reason
+    if not null:
+        assert reason.endswith(
+            "the true one is -1.431 m/s, 0.737 m/s from the estimate: without a clutter null the search reads its "
+            "window's channels as they are, so the noise there or another target in its cells pulled it"
+        )
+
+
 @pytest.mark.parametrize("shape", [(7, 9), (1, 5), (20, 3), (4, 1), (2, 2)])
 def test_maximum_filter_equals_scipy_ndimage(shape):
     from scipy import ndimage
