@@ -2539,24 +2539,18 @@ def _half_width(det: detection.Detection, scan: _Scan) -> float:
         return band
     rate = g.n * g.prf  # output samples per second
     reach = scan.params.window_margin + 2
-    near = [d for d in scan.found.dets if d is not det and abs(d.cell - det.cell) <= reach]
-    half, offsets = band, []
-    for d in near:
-        # a neighbour at the same apparent time (k = 0): one near an ambiguity k PRF / K_a of it may be its own
+    half = band
+    for d in scan.found.dets:
+        # only a neighbour at the same apparent time (k = 0): one near an ambiguity k PRF / K_a of it may be its own
         # response there (campaign scene 007's gaussian-beam family) or alias onto it (scene 000's M6 40 Hz from M5)
-        if abs(d.time - det.time) >= sp.ambiguity / 2 or d.power < MERGE_LEVEL * det.power:
-            continue  # as _merge: weaker ones are this one's residue
-        f_d = sp.ka0 * (d.time - det.time)
+        if d is det or abs(d.cell - det.cell) > reach or abs(d.time - det.time) >= sp.ambiguity / 2:
+            continue
+        if d.power < MERGE_LEVEL * det.power:  # as _merge: weaker ones are this one's residue or clutter's
+            continue
+        f_d = abs(sp.ka0 * (d.time - det.time))
         own = sp.ka0 * max(d.width, det.width) / rate
-        if MASK_WIDTHS * own < abs(f_d) < 2.5 * band:
-            half = min(half, abs(f_d) / 2.5)
-            offsets.append((f_d, own))
-    # ... and that neighbour's ambiguities (k != 0), at its offset modulo PRF within 2 of its widths: scene 020's M1
-    # at +1 x PRF / K_a lies 21.6 Hz from M2 (M1 itself 22.8 Hz); unnotched, M2's removal took it
-    for d in near:
-        f_d = (sp.ka0 * (d.time - det.time) + g.prf / 2) % g.prf - g.prf / 2
-        if any(abs(f_d - f) <= 2 * own for f, own in offsets) and abs(d.time - det.time) >= sp.ambiguity / 2:
-            half = min(half, abs(f_d) / 2.5)
+        if MASK_WIDTHS * own < f_d < 2.5 * band:
+            half = min(half, f_d / 2.5)
     return half
 
 
