@@ -354,26 +354,17 @@ def test_a_removal_notches_only_the_other_detections_its_mask_can_separate():
     def at(f_d, cell=100):
         return detection.Detection(cell, 0, f_d / ka0, 1.0, 1e-3, 4.0)
 
-    # within 2.5 x 25 Hz modulo PRF, at an ambiguity k PRF / K_a of it (k != 0), as scene 000's M6 was of M5
-    near = [at(f) for f in (40.0 + prf, -43.0 - prf, 62.0 + 2 * prf)]
+    near = [at(f) for f in (40.0, -43.0, 62.0, 40.0 + prf)]  # within 2.5 x 25 Hz (the last modulo PRF)
     far = [at(f) for f in (63.0, -70.0, 650.0, -1160.0)]
     outside = [at(650.0, cell=150)]  # beyond the window's cells
     scan = SimpleNamespace(
-        g=SimpleNamespace(prf=prf, n=3),
-        spacing=SimpleNamespace(ka0=ka0, ambiguity=prf / ka0),
-        params=SimpleNamespace(separation_bandwidth=band, window_margin=16),
+        g=SimpleNamespace(prf=prf),
+        spacing=SimpleNamespace(ka0=ka0),
+        params=SimpleNamespace(separation_bandwidth=band),
         found=SimpleNamespace(dets=[det, *near, *far, *outside]),
-        projector=None,  # no clutter null (with it the mask keeps separation_bandwidth: reconstruct._half_width)
     )
     w = SimpleNamespace(a=84, b=117)
-    assert rc._half_width(det, scan) == band
     assert rc._others(det, w, scan) == pytest.approx([63.0, -70.0, 650.0, -1160.0])
-    # One at its own apparent time (k = 0), 40 Hz away and resolved (4 samples = 2.7 Hz wide at 7500 samples/s, 5 x
-    # that under 40 Hz): the mask narrows to 40 / 2.5 Hz and the removal notches it (reconstruct._half_width).
-    scan.found.dets.append(at(40.0))
-    assert rc._half_width(det, scan) == pytest.approx(16.0)
-    # every other detection 2.5 x 16 Hz or more away (modulo PRF) is notched now, the narrowed pass band's complement
-    assert rc._others(det, w, scan) == pytest.approx([40.0, -43.0, 62.0, 63.0, -70.0, 650.0, -1160.0, 40.0])
 
 
 @pytest.mark.slow

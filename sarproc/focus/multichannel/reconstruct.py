@@ -567,9 +567,6 @@ NEIGHBOUR_LEVEL = 1e-3
 # (11 samples wide, 19.4 Hz from M3) stays merged at 5 and at 2.5; at 1.875 it is separated but its v_los reads 1.57
 # m/s (true 4.09): too narrow a mask cuts a defocused mover's own spectrum (docs/multichannel.md section 17)
 MASK_WIDTHS = 5.0
-# ... and only for a neighbour at least this fraction of its power: the level from which _merge says a merged response
-# looks like another target (a weaker one is more likely its own residue)
-MERGE_LEVEL = 0.25
 RANGE_TAPER_CELLS = 8  # range cells either side of a window over which its range taper is applied (_range_tapered)
 STATIC_CELLS = 2  # range cells either side of an examined static detection that share its answer (_visit)
 
@@ -2292,8 +2289,7 @@ def _merge(det: detection.Detection, k: int, scan: _Scan, tally: _Tally) -> None
     apart_azimuth = d_samples > 2 * max(peak.width, det.width) + 2
     # the mover's own response on the static leakage, examined from its ambiguity instead (_examination_order)
     on_leakage = n_amb != 0 and _on_leakage(det, peak)
-    apart = abs(det.cell - peak.cell) > spread or apart_azimuth
-    if det.power > MERGE_LEVEL * peak.power and apart and not on_leakage:
+    if det.power > 0.25 * peak.power and (abs(det.cell - peak.cell) > spread or apart_azimuth) and not on_leakage:
         if n_amb == 0:
             where = f"{1e3 * (det.time - peak.time):+.1f} ms from it in apparent time"
             cause = "another mover there shares its window and its velocity estimate"
@@ -2523,31 +2519,21 @@ def _range_tapered(scan: _Scan, a: int, b: int) -> np.ndarray:
 
 def _half_width(det: detection.Detection, scan: _Scan) -> float:
     """Half width (Hz) of ``det``'s separation mask: separation_bandwidth, or narrower where another detection in its
-    window's range cells (window_margin + 2) at the same apparent time (k = 0) sits nearer in dechirped Doppler than
-    2.5 x that, yet resolved from it: that offset / 2.5, so the neighbour is notched (_others' rule), not taken with
-    it. Resolved:
+    window's range cells (window_margin + 2) sits nearer in dechirped Doppler (modulo PRF) than 2.5 x that, yet
+    resolved from it: that offset / 2.5, so the neighbour is notched (_others' rule), not taken with it. Resolved:
     over MASK_WIDTHS of the pair's larger measured -3 dB width in Doppler (K_a width / output rate; a defocused
     response is wider), so the narrowed mask still passes MASK_WIDTHS / 2.5 of them either side. Mover campaign scene
     020: M1 and M2 (v_r 17.32 / 17.52 m/s, v_a 6.96 / -3.29 m/s) one range cell and 3.9 ms apart, 22.8 Hz at K_a
     5852 Hz/s, widths 2 samples (1.6 Hz): under the fixed 25 Hz (2.5 x: 62.5 Hz) M1 was merged with M2 as its own
     response; at 9.1 Hz both are found (docs/multichannel.md section 17)."""
     band, g, sp = scan.params.separation_bandwidth, scan.g, scan.spacing
-    if scan.projector is not None:
-        # On the clutter null's residual a mover's own response is split where the null cut its spectrum: V1 of
-        # test_movers.py's movers_in_clutter, two peaks 3 cells, 5.4 ms (28.6 Hz) and 1.2 dB apart; narrowing for
-        # them moved its v_r to -12.16 m/s (true -12.0). Two detections there are no evidence of two targets.
-        return band
     rate = g.n * g.prf  # output samples per second
     reach = scan.params.window_margin + 2
     half = band
     for d in scan.found.dets:
-        # only a neighbour at the same apparent time (k = 0): one near an ambiguity k PRF / K_a of it may be its own
-        # response there (campaign scene 007's gaussian-beam family) or alias onto it (scene 000's M6 40 Hz from M5)
-        if d is det or abs(d.cell - det.cell) > reach or abs(d.time - det.time) >= sp.ambiguity / 2:
+        if d is det or abs(d.cell - det.cell) > reach:
             continue
-        if d.power < MERGE_LEVEL * det.power:  # as _merge: weaker ones are this one's residue or clutter's
-            continue
-        f_d = abs(sp.ka0 * (d.time - det.time))
+        f_d = abs((sp.ka0 * (d.time - det.time) + g.prf / 2) % g.prf - g.prf / 2)
         own = sp.ka0 * max(d.width, det.width) / rate
         if MASK_WIDTHS * own < f_d < 2.5 * band:
             half = min(half, f_d / 2.5)
