@@ -112,9 +112,7 @@ class ReconstructParams:
         gt=0,
         doc=(
             "half width of the azimuth mask that separates one mover from the others in its range cells, in the "
-            "dechirped channel spectrum; movers closer than about 2.5 x this / K_a in apparent time are not separated, "
-            "unless their detections are resolved (over 5 of their Doppler widths apart): then the mask narrows to "
-            "their offset / 2.5"
+            "dechirped channel spectrum; movers closer than about 2.5 x this / K_a in apparent time are not separated"
         ),
     )
     max_detections: int = param(
