@@ -461,18 +461,3 @@ def test_noise_windows_through_the_null_fit_are_no_point_targets(monkeypatch):
         best.append(nf.mismatch(res.estimate, 0.0))
         assert rc._incoherent(est, w.win, g, 0.95), (cell, index, best[-1])
     assert min(best) > 2 * rc.NULL_FIT_MISMATCH, best
-
-
-def test_two_movers_one_range_cell_resolved_in_doppler_are_both_found():
-    """Mover campaign scene 020's M1 and M2 (sinc beam, 9.2 deg squint, three receivers 2 m apart; no clutter, no
-    noise): one range cell apart and 3.9 ms apart in apparent time, 22.8 Hz in dechirped Doppler at K_a 5852 Hz/s,
-    each 2 samples (1.6 Hz) wide in the detection image. The fixed 25 Hz separation mask (a neighbour notched only
-    from 62.5 Hz) merged M1 with M2 as its own response; M2's mask now narrows to 22.8 / 2.5 Hz (_half_width) and
-    both are found, each v_r within 0.1 m/s (docs/multichannel.md section 17)."""
-    m = mover_campaign_scene(9.2, "sinc", 3, "2 m", ("M1", 789.4, -114.0, 6.96, 17.32, 0.3844))
-    m["targets"]["points"] += movers(("M2", 643.0, -81.6, -3.29, 17.52, 0.5641))
-    rec = reconstruct(simulate(scene_from_mapping(m)), ReconstructParams(method="modified"))
-    found = sorted(rows(rec), key=lambda r: r["truth_index"])
-    assert [r["truth_index"] for r in found] == [0, 1], found
-    for r, v_r in zip(found, (17.32, 17.52), strict=True):
-        assert abs(r["v_r"] - v_r) < 0.1, r

@@ -560,11 +560,6 @@ LEAKAGE_SPREAD_STEP = 0.25
 # range-tapers its final eq. 5 search (_neighbours): scene 008's M3 and M4, -24 and -22 dB at M6 and M5, pulled them
 # 0.15-0.2 m/s (docs/multichannel.md section 8)
 NEIGHBOUR_LEVEL = 1e-3
-# _half_width: a neighbour narrows a detection's separation mask only beyond this many of the pair's larger measured
-# Doppler width (the narrowed mask, offset / 2.5, still passes 2 of them either side). Mover campaign scene 038's M2
-# (11 samples wide, 19.4 Hz from M3) stays merged at 5 and at 2.5; at 1.875 it is separated but its v_los reads 1.57
-# m/s (true 4.09): too narrow a mask cuts a defocused mover's own spectrum (docs/multichannel.md section 17)
-MASK_WIDTHS = 5.0
 RANGE_TAPER_CELLS = 8  # range cells either side of a window over which its range taper is applied (_range_tapered)
 STATIC_CELLS = 2  # range cells either side of an examined static detection that share its answer (_visit)
 
@@ -1817,13 +1812,12 @@ class _Spacing:
     t_ill: float  # illumination time (s)
     ghost_cells: int  # range cells a static point's ambiguity is smeared over either side
 
-    def apart(self, d1: detection.Detection, d2: detection.Detection, cells: int, sep: float | None = None) -> bool:
+    def apart(self, d1: detection.Detection, d2: detection.Detection, cells: int) -> bool:
         dt = (d1.time - d2.time) / self.ambiguity
         k = round(dt)
-        sep = self.sep if sep is None else sep
         return (
             abs(d1.cell - d2.cell) > (cells if k == 0 else max(cells, self.ghost_cells))
-            or abs(dt - k) * self.ambiguity > sep
+            or abs(dt - k) * self.ambiguity > self.sep
         )
 
 
@@ -2261,8 +2255,7 @@ def _shares_window(det: detection.Detection, k: int, scan: _Scan, tally: _Tally)
     """Whether ``det`` lies in mover k's window and separation mask (or an ambiguity of it): the same channels. At the
     same apparent time (k = 0) only inside the range cells of its window, which _window_bounds may have narrowed."""
     p, mt = tally.peaks[k], tally.movers[k]
-    sep = 1.5 * max(_half_width(det, scan), _half_width(p, scan)) / scan.spacing.ka0
-    if scan.spacing.apart(det, p, scan.params.window_margin, sep):
+    if scan.spacing.apart(det, p, scan.params.window_margin):
         return False
     return round((det.time - p.time) / scan.spacing.ambiguity) != 0 or mt.first_cell <= det.cell < mt.last_cell
 
@@ -2338,14 +2331,15 @@ def _examine(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
     # The other targets in this window (detected anywhere in its cells, not at this one's position or
     # ambiguities) keep their own reconstruction; everything else in the window takes this mover's.
     others = _others(det, w, scan)
-    band = _half_width(det, scan)
-    whole = detection.extract(w.x_w, g.times, g.prf, det.time, w.ka_w, band, notches=others)
+    whole = detection.extract(w.x_w, g.times, g.prf, det.time, w.ka_w, params.separation_bandwidth, notches=others)
     _remove_response(det, others, w, scan)
     # The reconstruction also spares the static targets the null hid from the detections (bright points in
     # the conventional image, in this window's cells, not at this detection's apparent time modulo PRF / K_a).
     spared = _spared(det, w, scan)
     if spared:
-        whole = detection.extract(w.x_w, g.times, g.prf, det.time, w.ka_w, band, notches=others + spared)
+        whole = detection.extract(
+            w.x_w, g.times, g.prf, det.time, w.ka_w, params.separation_bandwidth, notches=others + spared
+        )
     kind = "mover" if mt is not None else "incoherent" if notes == ["incoherent"] else "static"
     tally.removed.append(_Removed(det, w.lo, w.hi, kind))
     if mt is None:
@@ -2515,29 +2509,6 @@ def _range_tapered(scan: _Scan, a: int, b: int) -> np.ndarray:
     return sfft.fft(x_e[:, :, a - a_e : b - a_e], axis=-1, workers=-1)
 
 
-def _half_width(det: detection.Detection, scan: _Scan) -> float:
-    """Half width (Hz) of ``det``'s separation mask: separation_bandwidth, or narrower where another detection in its
-    window's range cells (window_margin + 2) sits nearer in dechirped Doppler (modulo PRF) than 2.5 x that, yet
-    resolved from it: that offset / 2.5, so the neighbour is notched (_others' rule), not taken with it. Resolved:
-    over MASK_WIDTHS of the pair's larger measured -3 dB width in Doppler (K_a width / output rate; a defocused
-    response is wider), so the narrowed mask still passes MASK_WIDTHS / 2.5 of them either side. Mover campaign scene
-    020: M1 and M2 (v_r 17.32 / 17.52 m/s, v_a 6.96 / -3.29 m/s) one range cell and 3.9 ms apart, 22.8 Hz at K_a
-    5852 Hz/s, widths 2 samples (1.6 Hz): under the fixed 25 Hz (2.5 x: 62.5 Hz) M1 was merged with M2 as its own
-    response; at 9.1 Hz both are found (docs/multichannel.md section 17)."""
-    band, g, sp = scan.params.separation_bandwidth, scan.g, scan.spacing
-    rate = g.n * g.prf  # output samples per second
-    reach = scan.params.window_margin + 2
-    half = band
-    for d in scan.found.dets:
-        if d is det or abs(d.cell - det.cell) > reach:
-            continue
-        f_d = abs((sp.ka0 * (d.time - det.time) + g.prf / 2) % g.prf - g.prf / 2)
-        own = sp.ka0 * max(d.width, det.width) / rate
-        if MASK_WIDTHS * own < f_d < 2.5 * band:
-            half = min(half, f_d / 2.5)
-    return half
-
-
 def _window_at(det: detection.Detection, scan: _Scan, tally: _Tally | None = None) -> _DetWindow:
     """The range cells of ``det``'s window (_window_bounds) and its channels separated from the rest of them.
 
@@ -2559,8 +2530,7 @@ def _window_at(det: detection.Detection, scan: _Scan, tally: _Tally | None = Non
     f_w = sfft.fftfreq(b - a, 1.0 / g.fs)
     ka_w = detection.fm_rate(g.velocity, g.squint, scan.found.r_mid, g.fc, f_w)
     x_w = sfft.fft(scan.x_tr[:, :, a:b], axis=-1, workers=-1)
-    band = _half_width(det, scan)
-    ext = detection.extract(x_w, g.times, g.prf, det.time, ka_w, band)
+    ext = detection.extract(x_w, g.times, g.prf, det.time, ka_w, params.separation_bandwidth)
     criterion = None
     if g.bandwidth > 0 and _neighbours(det, scan, tally):
         log.debug(
@@ -2568,7 +2538,9 @@ def _window_at(det: detection.Detection, scan: _Scan, tally: _Tally | None = Non
             det.cell,
             det.time,
         )
-        criterion = detection.extract(_range_tapered(scan, a, b), g.times, g.prf, det.time, ka_w, band)
+        criterion = detection.extract(
+            _range_tapered(scan, a, b), g.times, g.prf, det.time, ka_w, params.separation_bandwidth
+        )
     win = _Window(ext, f_w, g, params, criterion)
     if (lo, hi) != (a, b):
         win.gate = np.arange(lo - a, hi - a)
@@ -2604,9 +2576,8 @@ def _others(det: detection.Detection, w: _DetWindow, scan: _Scan) -> list[float]
     (their full stop reaching to 13-18 Hz from M5, inside its +-25 Hz pass band) and left |4.2| of |9.3| of M5's own
     response 0.1135 s from its second ambiguity (M5 alone: its removal takes all of it), which the null fit read as
     a false mover (v_r -18.43 m/s, SNR 55.7 dB). Scene 007: a static detection's removal with such notches added a
-    response one PRF / K_a from it, a second-pass detection examined for 12.7 s. The mask's half width is ``det``'s
-    own (_half_width)."""
-    g, ka0, band = scan.g, scan.spacing.ka0, _half_width(det, scan)
+    response one PRF / K_a from it, a second-pass detection examined for 12.7 s."""
+    g, ka0, band = scan.g, scan.spacing.ka0, scan.params.separation_bandwidth
     others = []
     for d in scan.found.dets:
         f_d = ka0 * (d.time - det.time)
@@ -2618,7 +2589,7 @@ def _others(det: detection.Detection, w: _DetWindow, scan: _Scan) -> list[float]
 
 def _spared(det: detection.Detection, w: _DetWindow, scan: _Scan) -> list[float]:
     """Doppler offsets (Hz, modulo PRF) of the conventional image's static peaks in ``w``'s cells, off ``det``'s."""
-    g, ka0, band = scan.g, scan.spacing.ka0, _half_width(det, scan)
+    g, ka0, band = scan.g, scan.spacing.ka0, scan.params.separation_bandwidth
     return [
         f_d
         for d in scan.found.static_peaks
@@ -2635,9 +2606,9 @@ def _remove_response(det: detection.Detection, others: list[float], w: _DetWindo
     only what they left (cut from the original channels every time, seven windows over one mover's cells each took
     a notch-edge piece of it again, a false companion 5.2 dB under it; a neighbour's side lobe its notch spared
     stayed a false alarm, mover campaign scene 000, docs/multichannel.md section 8)."""
-    g = scan.g
+    g, params = scan.g, scan.params
     x_w = sfft.fft(scan.x_left[:, :, w.a : w.b], axis=-1, workers=-1)
-    ext = detection.extract(x_w, g.times, g.prf, det.time, w.ka_w, _half_width(det, scan), notches=others)
+    ext = detection.extract(x_w, g.times, g.prf, det.time, w.ka_w, params.separation_bandwidth, notches=others)
     scan.x_left[:, :, w.lo : w.hi] -= sfft.ifft(ext, axis=-1, workers=-1)[:, :, w.lo - w.a : w.hi - w.a]
     x_fa = sfft.fft(ext, axis=1, workers=-1)
     if scan.projector is not None:
