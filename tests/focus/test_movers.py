@@ -672,6 +672,26 @@ def test_clutter_null_gain_and_minimum_detectable_velocity():
     assert detection.minimum_detectable_velocity(tau, prf, half_band, band_factor, lam, 10.0, v_max=5.0) == np.inf
 
 
+def test_minimum_detectable_velocity_searches_up_to_the_processed_bands_edge():
+    """Saying "undetectable at any speed" must mean every speed: the search runs to lambda N PRF / 4 (78.07 m/s here,
+    the Doppler offset at the processed band's edge), where the null is farthest from the clutter. It stopped at 50 m/s:
+    a mover needing 1 dB more gain than any speed up to 50 m/s gives (-3.27 dB) had no MDV, though 56.5 m/s gives it
+    (campaign scene 026's M3 and M6: MDV 55.1 and 68.8 m/s, not "undetectable at any speed")."""
+    tau, prf, half_band, band_factor, lam = _null_geometry()
+    gain = lambda v: detection.clutter_null_peak_gain(tau, prf, half_band, band_factor, lam, v, 256)  # noqa: E731
+    edge = lam * len(tau) * prf / 4
+    assert edge == pytest.approx(78.07, abs=0.01)
+    up_to_50 = max(gain(v) for v in np.arange(0.0, 50.01, 0.05))
+    need = 10 * np.log10(up_to_50) + 1.0
+    mdv = detection.minimum_detectable_velocity(tau, prf, half_band, band_factor, lam, need)
+    assert 50.0 < mdv < edge and mdv == pytest.approx(56.49, abs=0.05)
+    assert 10 * np.log10(gain(mdv)) >= need
+    # beyond what the band edge gives, no speed: inf is then true
+    top = max(gain(v) for v in np.arange(0.0, edge, 0.05))
+    over_top = 10 * np.log10(top) + 0.5
+    assert detection.minimum_detectable_velocity(tau, prf, half_band, band_factor, lam, over_top) == np.inf
+
+
 def test_a_mover_below_the_clutter_nulls_mdv_is_reported_missed_with_its_reason(movers_in_clutter):
     """SLOW is missed, and the product and the one warning say why, with numbers; no warning for the others."""
     rec, warnings = movers_in_clutter
@@ -698,6 +718,26 @@ def test_a_mover_too_weak_for_any_speed_is_said_to_be_so(mdv, said):
     reason = _miss_reason("M2", probe, [], 500.0, ReconstructParams(), {"threshold_db": 52.2})
     assert reason.startswith("M2: the clutter null keeps -11.5 dB of its peak (line-of-sight speed 20.04 m/s, " + said)
     assert "inf" not in reason and "for its conventional SNR 5.7 dB and the CFAR threshold 52.2 dB" in reason
+
+
+@pytest.mark.parametrize("null", [True, False])
+def test_a_mover_taken_for_static_blames_clutter_only_where_the_null_runs(null):
+    """Mover campaign scene 029's M4 (v_los -1.431 m/s, read -0.694 at SNR 22.4 dB in noise; no clutter, no null):
+    its reason said "the static clutter in those cells outweighs it" in a scene without clutter. Without the null it
+    names what can have pulled the search there: the noise or another target in its cells."""
+    from sarproc.focus.multichannel.reconstruct import _miss_reason, _TruthProbe
+
+    probe = _TruthProbe(cell=316.0, index=100.0, snr_db=22.4, peak_index=100, peak_cell=316, v_los=-1.431)
+    rejected = [{"cell": 316, "index": 100, "snr_db": 22.4, "kind": "static", "v_los": -0.694}]
+    params = ReconstructParams(clutter_suppression=null)
+    reason = _miss_reason("M4", probe, rejected, 500.0, params, {"threshold_db": 15.0})
+    assert reason.startswith("M4: detected (SNR 22.4 dB) but taken for static: its velocity search estimated")
+    assert ("static clutter in those cells outweighs it" in reason) == null, reason
+    if not null:
+        assert reason.endswith(
+            "the true one is -1.431 m/s, 0.737 m/s from the estimate: without a clutter null the search reads its "
+            "window's channels as they are, so the noise there or another target in its cells pulled it"
+        )
 
 
 @pytest.mark.parametrize("shape", [(7, 9), (1, 5), (20, 3), (4, 1), (2, 2)])

@@ -470,7 +470,7 @@ def minimum_detectable_velocity(
     band_factor: float,
     wavelength: float,
     required_gain_db: float | np.ndarray,
-    v_max: float = 50.0,
+    v_max: float | None = None,
 ) -> float:
     """Smallest |v_los| (m/s) at which one of a mover's responses through the clutter null passes the CFAR.
 
@@ -481,8 +481,17 @@ def minimum_detectable_velocity(
     (2 N - 1 values, k = -(N - 1) ... N - 1, as :func:`clutter_null_peak_gains`). The gains rise as
     v_los^2 from 0 at v_los = 0: the first crossing is bracketed on a 0.05 m/s grid and bisected to
     1 mm/s. inf if it is never reached below ``v_max``.
+
+    ``v_max`` (default) is the speed lambda N PRF / 4 whose Doppler offset 2 v_los / lambda reaches the edge of the
+    processed band N PRF: beyond it a mover's spectrum wraps round that band (its gains repeat with period
+    lambda N PRF / 2), so inf means no speed at all. A fixed 50 m/s missed the band edge of campaign scene 026's
+    radar (78.1 m/s), where the null, farthest from the clutter, lifts its M3 and M6 over the CFAR threshold by 3.1
+    and 0.6 dB: they were said "undetectable at any speed" (docs/multichannel.md section 17). The model keeps only
+    the part of a band-edge mover's spectrum inside the band (it does not wrap it), so it understates the gain there.
     """
     need = 10 ** (np.asarray(required_gain_db, float) / 10)
+    if v_max is None:
+        v_max = wavelength * len(tau) * prf / 4
 
     def passes(v: float) -> bool:
         return bool(np.any(clutter_null_peak_gains(tau, prf, half_band, band_factor, wavelength, v, 256) >= need))

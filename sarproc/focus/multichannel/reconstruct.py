@@ -3325,6 +3325,13 @@ def _miss_reason(
                 if abs(err) <= 0.2 * thr
                 else f"the true one is {probe.v_los:.3f} m/s: the search runs on its window's channels before the "
                 "null, where the static clutter in those cells outweighs it"
+                if params.clutter_suppression
+                # no null, no clutter said to be there: mover campaign scenes 029's M4 (v_los -1.43 read -0.69 m/s at
+                # 22.4 dB in noise, the same with its same-cell neighbour M3 taken out) and 036's M4 were told "the
+                # static clutter outweighs it" in scenes without clutter (docs/multichannel.md section 17)
+                else f"the true one is {probe.v_los:.3f} m/s, {abs(err):.3f} m/s from the estimate: without a clutter "
+                "null the search reads its window's channels as they are, so the noise there or another target in "
+                "its cells pulled it"
             )
             return (
                 f"{name}: detected (SNR {d['snr_db']:.1f} dB) but taken for static: its velocity search estimated a "
