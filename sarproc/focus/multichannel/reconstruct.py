@@ -3584,6 +3584,16 @@ def _beam_centre_point(platform_xyz: np.ndarray, slant_range: float, squint: flo
     return p + slant_range * np.array([ux, math.sqrt(max(0.0, 1.0 - ux**2 - uz**2)), uz])
 
 
+def _illumination_cut(t_c: float, t_ill: float, g: _Geometry) -> float:
+    """s: how much of a mover's illumination ``t_ill`` lies outside the data, from its energy's centroid ``t_c`` in
+    the output time (_centre): a cut c leaves t_ill - c lit, against the data's edge, centred c / 2 inside its
+    beam-centre time. 0 for a mover whose illumination the data hold whole."""
+    if not math.isfinite(t_c):
+        return 0.0
+    t0, t1 = float(g.out_times[0]), float(g.out_times[-1]) + 1.0 / (g.n * g.prf)
+    return max(0.0, t_ill - 2 * (t1 - t_c), t_ill - 2 * (t_c - t0))
+
+
 def _uncertainties(mt: MovingTarget, g: _Geometry, clutter_band: float | None) -> tuple[float, float, float]:
     """1-sigma v_r, v_a (m/s) and along-track relocation (m), each from what its estimator sees (docs/multichannel.md).
 
@@ -3631,6 +3641,9 @@ def _uncertainties(mt: MovingTarget, g: _Geometry, clutter_band: float | None) -
     ka = 2 * (g.velocity * cos) ** 2 / (lam * mt.apparent_range)
     t_ill = 2 * g.half_band / ka
     s_k = math.sqrt(90 / snr_af) / (math.pi * t_ill**2)
+    # a mover lit past the data's start or end: its Doppler band is cut on that side and eq. 5, flat across the cut,
+    # settles about half of it off the truth (_illumination_cut; docs/multichannel.md section 18)
+    s_los = max(s_los, lam / 2 * ka * _illumination_cut(mt.beam_centre_time, t_ill, g))
     # the clutter's pull, which the CRB misses: measured by the autofocus itself (illumination_pull)
     pull = abs(mt.autofocus_pull) if np.isfinite(mt.autofocus_pull) else 0.0
     floor_a = ALONG_TRACK_FLOOR if clutter_band is None else ALONG_TRACK_CLUTTER_FLOOR
