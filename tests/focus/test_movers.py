@@ -1816,3 +1816,31 @@ def test_a_movers_sigma_is_not_inflated_by_a_neighbour_its_taper_took_out(points
         row = by_name[name]
         err = row["v_r"] - rec.targets["vy"][tt[name]]
         assert abs(err) <= 3 * row["v_r_sigma"] and row["v_r_sigma"] < bound, (name, err, row["v_r_sigma"])
+
+
+def test_a_detection_no_velocity_explains_is_warned_of_where_it_is_against_the_final_threshold(caplog):
+    """Session 42 new-user trial, row 7b: "1 detection(s) above the CFAR threshold (SNR 50.4-50.4 dB) have no
+    slant-range velocity ..." where ``-v`` gave the CFAR threshold as 60.9 dB and the warning named no place. A
+    detection found before the measured background raised the threshold is now said to lie under it, with its
+    range cell and time."""
+    from sarproc.focus.multichannel import reconstruct as rec
+
+    def det(cell, time, snr_db):
+        return detection.Detection(cell=cell, index=10, time=time, power=10 ** (snr_db / 10), background=1.0, width=2.0)
+
+    tally = rec._Tally(0, {"detections": 2, "static": 0, "ambiguous": 0, "incoherent": 0, "explained": 0})
+    rec._reject(det(520, -0.279, 50.4), ["incoherent"], tally)
+    with caplog.at_level("WARNING", logger=rec.log.name):
+        rec._warn_unexamined(tally, ReconstructParams(), 60.9)
+    text = caplog.text
+    assert "above the CFAR threshold" not in text
+    assert "range cell 520 at -0.279 s, SNR 50.4 dB" in text and "all under the final CFAR threshold 60.9 dB" in text
+    caplog.clear()
+    rec._reject(det(300, 0.100, 70.0), ["incoherent"], tally)
+    with caplog.at_level("WARNING", logger=rec.log.name):
+        rec._warn_unexamined(tally, ReconstructParams(), 60.9)
+    assert "2 detection(s)" in caplog.text and "1 of them under the final CFAR threshold 60.9 dB" in caplog.text
+    caplog.clear()
+    with caplog.at_level("WARNING", logger=rec.log.name):
+        rec._warn_unexamined(tally, ReconstructParams(), 40.0)
+    assert "over the final CFAR threshold 40.0 dB" in caplog.text

@@ -1934,7 +1934,7 @@ class _Tally:
     movers: list[MovingTarget] = dataclasses.field(default_factory=list)
     peaks: list[detection.Detection] = dataclasses.field(default_factory=list)  # each mover's detection
     rejected: list[dict] = dataclasses.field(default_factory=list)  # examined, no mover (for the miss reasons)
-    flat_snr: list[float] = dataclasses.field(default_factory=list)  # SNR of those with no velocity dip
+    flat: list[detection.Detection] = dataclasses.field(default_factory=list)  # those with no velocity dip
     # examined and found static, with their line-of-sight velocity: the detections they make static (_visit)
     statics: list[tuple[detection.Detection, float]] = dataclasses.field(default_factory=list)
     ambiguity_residues: list[str] = dataclasses.field(default_factory=list)  # incoherent ones at a mover's ambiguity
@@ -2188,7 +2188,7 @@ def _detect_and_focus(
     _warn_within_noise(tally)
     _warn_merged(tally, kept)
     _warn_unseparated(scan, tally)
-    _warn_unexamined(tally, params)
+    _warn_unexamined(tally, params, found.cfar_db)
     counts["not_examined"] = tally.dropped
     counts["static_side_lobes"] = found.side_lobes
     if found.side_lobes:
@@ -2724,7 +2724,7 @@ def _reject(
     if kind == "static" and examined:
         tally.statics.append((det, float(notes[0].split()[1])))
     if kind == "incoherent":
-        tally.flat_snr.append(det.snr_db)
+        tally.flat.append(det)
         if ambiguity_of is not None:
             tally.ambiguity_residues.append(ambiguity_of)
     tally.rejected.append(
@@ -3039,17 +3039,31 @@ def _warn_unseparated(scan: _Scan, tally: _Tally) -> None:
                 )
 
 
-def _warn_unexamined(tally: _Tally, params: ReconstructParams) -> None:
-    """Warn of detections with no velocity dip and of those max_detections left unexamined."""
-    if tally.flat_snr:
+def _warn_unexamined(tally: _Tally, params: ReconstructParams, cfar_db: float) -> None:
+    """Warn of detections with no velocity dip and of those max_detections left unexamined. ``cfar_db``: the final
+    CFAR threshold; a detection found before the measured background raised it can lie under it (session 42
+    new-user trial, row 7b: "above the CFAR threshold (SNR 50.4 dB)" where ``-v`` gave the threshold as 60.9 dB)."""
+    if tally.flat:
+        snr = [d.snr_db for d in tally.flat]
+        places = "; ".join(f"range cell {d.cell} at {d.time:.3f} s, SNR {d.snr_db:.1f} dB" for d in tally.flat[:3])
+        if len(tally.flat) > 3:
+            places += f"; {len(tally.flat) - 3} more"
+        under = sum(x < cfar_db for x in snr)
+        if under == 0:
+            level = f"over the final CFAR threshold {cfar_db:.1f} dB"
+        else:
+            which = "all" if under == len(snr) else f"{under} of them"
+            level = (
+                f"{which} under the final CFAR threshold {cfar_db:.1f} dB, which the measured background set after "
+                "they were detected"
+            )
         log.warning(
-            "reconstruct: %d detection(s) above the CFAR threshold (SNR %.1f-%.1f dB) have no slant-range "
-            "velocity that explains them (too weak for the velocity search under about %.0f dB; no point target: "
-            "side lobes, clutter residue; or a point target whose velocity criterion has no dip); they are not in "
-            "moving_targets",
-            len(tally.flat_snr),
-            min(tally.flat_snr),
-            max(tally.flat_snr),
+            "reconstruct: %d detection(s) (%s; %s) have no slant-range velocity that explains them (too weak for "
+            "the velocity search under about %.0f dB; no point target: side lobes, clutter residue; or a point "
+            "target whose velocity criterion has no dip); they are not in moving_targets",
+            len(snr),
+            places,
+            level,
             WEAK_SEARCH_DB,
         )
     for where in tally.ambiguity_residues:
