@@ -930,6 +930,21 @@ def _amplitudes(bases: list[np.ndarray], y: np.ndarray) -> tuple[np.ndarray, np.
     return coef.reshape(len(bases), -1), r, float(np.vdot(r, r).real), normal
 
 
+def _halved_step(
+    solve: Callable[[np.ndarray], tuple], x: np.ndarray, step: np.ndarray, cost: float, halvings: int = 10
+) -> tuple[float, tuple] | None:
+    """(length, solve's result there): the first of the step's lengths 1, 1/2, 1/4, ... (``halvings`` of them)
+    whose misfit (the third item ``solve`` returns) is under ``cost``; None where none is (at the minimum to
+    rounding). The warp's and the sheared cubic's line search."""
+    length = 1.0
+    for _halving in range(halvings):
+        trial = solve(x + length * step)
+        if trial[2] < cost:
+            return length, trial
+        length /= 2
+    return None
+
+
 def _gauss_newton_step(
     normal: NormalEquations, r: np.ndarray, J: np.ndarray, free: np.ndarray
 ) -> tuple[np.ndarray, float]:
@@ -1931,14 +1946,10 @@ def _fit_cubic(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> tuple
         if predicted <= 1e-6 * cost:
             break
         step[6:] = np.clip(step[6:], -CUBIC_MAX_TILT_STEP, CUBIC_MAX_TILT_STEP)
-        length = 1.0
-        for _halving in range(10):
-            trial = solve(theta + length * step)
-            if trial[2] < cost:
-                break
-            length /= 2
-        else:
+        halved = _halved_step(solve, theta, step, cost)
+        if halved is None:
             break
+        length, trial = halved
         theta = theta + length * step
         crawled = cost - trial[2] < CUBIC_CRAWL * cost
         coef, r, cost, normal, factor = trial
@@ -2031,14 +2042,10 @@ def _fit_warp(
             break
         if gain is not None and _cannot_win(cost, predicted, WARP_STEPS - n, gain * before):
             break
-        length = 1.0
-        for _halving in range(10):
-            trial = solve(w + length * step)
-            if trial[2] < cost:
-                break
-            length /= 2
-        else:
+        halved = _halved_step(solve, w, step, cost)
+        if halved is None:
             break
+        length, trial = halved
         w = w + length * step
         c, coef, cost, normal, r = trial
     return dataclasses.replace(model, coef=coef, warp=tensor(w)), before, cost
