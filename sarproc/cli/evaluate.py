@@ -33,7 +33,7 @@ if TYPE_CHECKING:
     from sarproc.product.model import Product
     from sarproc.quality.metrics import AxisMetrics, CheckFailure, EvaluateParams, FalseTarget, QualityReport
     from sarproc.quality.moving import MoverReport
-    from sarproc.quality.residual import FalseTargetList
+    from sarproc.quality.residual import FalseTargetList, Misfit, ResidualFloor
 
 
 def _fmt(x: float | None, spec: str) -> str:
@@ -191,32 +191,21 @@ def false_target_lines(report: QualityReport, units: dict) -> list[str]:
     residual's floor, and outside the +-guard_cells windows of the image itself."""
 
     def where(ft: FalseTarget) -> str:
-        return ", ".join(f"{d} = {v:.4g} {units.get(d, '')}".rstrip() for d, v in ft.position.items())
+        return _position(ft.position, units)
 
     guard = report.false_target_guard if report.residual is not None else report.false_target
     out = []
     if report.residual is not None:
         ft, fl = report.false_target, report.residual
-        found = (
-            "none (no pixel outside the main lobes)"
-            if ft is None
-            else f"{_fmt(ft.level_db, '.2f')} dB relative to target {ft.reference_target}, at {where(ft)}"
-        )
         out.append(
-            f"\nFalse target: {found} (on the residual: every target's fitted response subtracted, main "
-            f"lobes of +-{fl.exclusion_cells:g} cells excluded); residual floor in the targets' guard windows "
-            f"{_fmt(fl.floor_db, '.2f')} dB, residual RMS {_fmt(fl.rms_db, '.2f')} dB"
+            f"\nFalse target: {_residual_false_target(ft, report, units)} (on the residual: every target's fitted "
+            f"response subtracted, main lobes of +-{fl.exclusion_cells:g} cells excluded); residual floor in the "
+            f"targets' guard windows {_fmt(fl.floor_db, '.2f')} dB, residual RMS {_fmt(fl.rms_db, '.2f')} dB"
         )
     if report.false_targets is not None:
         out += false_target_list_lines(report.false_targets, units)
     if report.residual is not None and report.residual.misfit_targets:
-        from sarproc.quality.residual import MISFIT_DB
-
-        out.append(
-            f"\nResidual: the models of {', '.join(report.residual.misfit_targets)} do not fit their responses "
-            f"(they leave over {MISFIT_DB:g} dB of the peak beside it: defocused?; or the notes say why); "
-            "the boxes their models were fitted on are left out of the false-target search."
-        )
+        out.append(_misfit_line(report.residual, units))
     if report.residual_note:
         out.append(f"\nResidual: {report.residual_note}.")
     label = "False target (guard window)" if report.residual is not None else "False target"
@@ -234,6 +223,68 @@ def false_target_lines(report: QualityReport, units: dict) -> list[str]:
         p = report.false_target_predicted
         out.append(f"\nFalse target predicted: {_fmt(p['level_db'], '.2f')} dB ({p['source']})")
     return out
+
+
+def _position(position: dict, units: dict) -> str:
+    """'azimuth = -421.48 m, range = 600241.76 m': 7 significant digits, so a place 600 km out is told to 0.1 m
+    (4 of them gave "range = 6.002e+05 m", which the session 42 trial read as a target's own place)."""
+    return ", ".join(f"{d} = {v:.7g} {units.get(d, '')}".rstrip() for d, v in position.items())
+
+
+def _residual_false_target(ft: FalseTarget | None, report: QualityReport, units: dict) -> str:
+    """The residual's false target as it is: a ghost (on the list), or, where the list holds none, the
+    strongest residual outside the main lobes said to be the floor or the residue of its nearest target's
+    model, with that target and how far (session 42 trial row 7c: a mover's own residue 2.8 cells out along
+    its range ridge read as a false target)."""
+    if ft is None:
+        return "none (no pixel outside the main lobes)"
+    level = f"{_fmt(ft.level_db, '.2f')} dB relative to the peak of {ft.reference_target} (the strongest target)"
+    near = (
+        ""
+        if ft.nearest_target is None
+        else f", {_fmt(ft.nearest_cells, '.1f')} cells from the peak of {ft.nearest_target}"
+    )
+    if ft.ghost is not False:
+        return f"{level}, at {_position(ft.position, units)}{near}"
+    listed = report.false_targets
+    margin = f"{listed.margin_db:g}" if listed is not None else "?"
+    inside = ft.nearest_cells is not None and ft.nearest_cells <= report.params.guard_cells
+    what = (
+        f"does not stand over what {ft.nearest_target}'s model leaves about it: {ft.nearest_target}'s own residue "
+        "(its response where the ideal one does not fit it: its defocus, or energy the processing left beside "
+        "it), or a ghost no stronger than that residue"
+        if inside
+        else "is the residual's floor, or a ghost no stronger than it"
+    )
+    return (
+        f"none over the residual floor + {margin} dB that is no target's residue (the list below); the strongest "
+        f"residual outside the main lobes, {level}, at {_position(ft.position, units)}{near}, {what}"
+    )
+
+
+def _misfit_line(residual: ResidualFloor, units: dict) -> str:
+    """Which targets' models do not fit them, and, per target, how much of its own peak its model leaves and
+    where: energy an ideal response does not have there (IRW and PSLR, taken on the main and first side lobes,
+    need not show it)."""
+    from sarproc.quality.residual import MISFIT_DB
+
+    def offset(m: Misfit) -> str:
+        parts = [
+            f"{abs(v):.3g} {units.get(d, '')}".rstrip() + f" ({abs(m.samples[d])} samples) in {d}"
+            for d, v in m.offset.items()
+            if m.samples[d] != 0
+        ]
+        return " and ".join(parts) or "on its peak"
+
+    each = "; ".join(f"{m.name}: {m.level_db:.1f} dB of its own peak {offset(m)} from it" for m in residual.misfits)
+    return (
+        f"\nResidual: the models of {', '.join(residual.misfit_targets)} do not fit their responses: each leaves "
+        f"over {MISFIT_DB:g} dB of its own peak inside the box it was fitted on"
+        + (f" ({each})" if each else "")
+        + ", energy an ideal response does not have there (IRW and PSLR, measured on the main and first side "
+        "lobes, need not show it): defocus, or energy the processing put beside it; or the notes say why. "
+        "Those boxes are left out of the false-target search."
+    )
 
 
 FALSE_TARGET_COLUMNS = ("#", "level (dB)", "position", "image samples", "nearest target", "distance (cells)")
@@ -263,7 +314,7 @@ def false_target_list_lines(listed: FalseTargetList, units: dict) -> list[str]:
         (
             str(n),
             _fmt(e.level_db, ".2f"),
-            ", ".join(f"{d} = {v:.4g} {units.get(d, '')}".rstrip() for d, v in e.position.items()),
+            _position(e.position, units),
             ", ".join(f"{v:.2f}" for v in e.index.values()),
             e.nearest_target,
             _fmt(e.nearest_cells, ".1f"),

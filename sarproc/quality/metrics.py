@@ -299,6 +299,13 @@ class FalseTarget:
     position: dict  # {dim: axis-unit position of the refined peak}
     pixel_level_db: float  # same with the raw pixel magnitude
     reference_target: str  # name of the strongest true target
+    # the residual's figure only (None elsewhere): the measured target whose peak is nearest and how far, in
+    # resolution cells of the image's theory, and whether it is a ghost: the false-target list's first entry
+    # (it stands over the residual's floor + LIST_MARGIN_DB and is no target's residue); False: it is not, so
+    # the strongest residual outside the main lobes is the floor itself or the residue of a target's model
+    nearest_target: str | None = None
+    nearest_cells: float | None = None
+    ghost: bool | None = None
 
 
 @dataclasses.dataclass(frozen=True)
