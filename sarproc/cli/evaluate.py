@@ -610,9 +610,13 @@ def _check_plot_dir(plot_dir: Path, input_path: Path) -> None:
     from sarproc.product.errors import InputError
     from sarproc.product.io import check_output_path
 
-    if plot_dir.exists() and not plot_dir.is_dir():
+    try:
+        exists = plot_dir.exists()
+    except PermissionError:  # a directory on its path this user may not search: check_output_path says so
+        exists = False
+    if exists and not plot_dir.is_dir():
         raise InputError(f"{plot_dir}: --plot needs a directory, this is a file")
-    check_output_path(plot_dir / "quicklook.png" if plot_dir.exists() else plot_dir, [input_path], overwrite=True)
+    check_output_path(plot_dir / "quicklook.png" if exists else plot_dir, [input_path], overwrite=True)
 
 
 def _expect_doc(expect_path: Path | None, failures: Sequence[CheckFailure]) -> dict:

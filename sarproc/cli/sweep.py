@@ -86,7 +86,14 @@ def sweep(
         summary(f"sweep: {len(plan.tasks)} tasks, {len(plan.sims)} raw products")
         return
     # Two sweeps into one directory would share steps: the second stops here, naming the first.
-    plan.output.mkdir(parents=True, exist_ok=True)
+    try:
+        plan.output.mkdir(parents=True, exist_ok=True)
+    except PermissionError as exc:  # session 43 row 11: it said only "<dir>: Permission denied"
+        from sarproc.product.errors import InputError
+
+        raise InputError(
+            f"{plan.output}: cannot create the output directory: {exc.strerror}; choose a writable location"
+        ) from None
     check_output_path(plan.output / "table.md", overwrite=True)
     if table_path is not None:
         check_output_path(table_path, [sweep_path], overwrite=True)

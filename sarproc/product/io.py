@@ -218,6 +218,14 @@ def check_output_path(output: str | Path, inputs: Sequence[str | Path] = (), ove
     (:func:`output_stream`) is not refused for existing: it is written through, never replaced.
     """
     out = Path(output)
+    try:  # a directory on the way that this user may not search (session 43 row 11: said as "Permission denied")
+        os.stat(out)
+    except PermissionError as exc:
+        raise InputError(
+            f"{out}: cannot reach it: {_os_cause(exc)} on a directory of its path; choose a writable location"
+        ) from None
+    except OSError:
+        pass  # missing (the usual case), a dangling link, ...: the checks below say which
     stream = output_stream(out)
     input_paths = [Path(i) for i in inputs if os.fspath(i) != "-"]  # "-" as an input is stdin
     if stream is not None:
@@ -675,6 +683,10 @@ def read_product(
     except (OSError, RuntimeError, KeyError, TypeError, ValueError) as exc:
         if isinstance(exc, InputError):
             raise
+        if isinstance(exc, PermissionError) or _errno_of(exc) in (_errno.EACCES, _errno.EPERM):
+            # a file, or a directory on its path, this user may not read (session 43 row 11: it was called
+            # "damaged or non-conforming")
+            raise InputError(f"{path}: cannot read it: {_os_cause(exc)}") from None
         raise InputError(f"{path}: damaged or non-conforming product: {' '.join(str(exc).split())[:300]}") from None
 
 
