@@ -2473,25 +2473,30 @@ def _ghosts_fill_box(
 
     if model is None or not report.peak_amplitude > 0:
         return False
-    box = window_slices(peak, _fit_box(axes, report, params, own_null), residual.shape)
-    local = np.array(residual, dtype=np.complex128)  # ghosts taken out of a copy
+    fit = np.array(_fit_box(axes, report, params, own_null))
+    reach = np.ceil(GHOST_NULLS * np.asarray(model.nulls, dtype=float)).astype(int)
+    # the ghosts are taken out of a copy of the box and the margin the fits and the peak refinement reach into
+    region = window_slices(peak, fit + np.maximum(reach, np.asarray(half)) + 1, residual.shape)
+    origin = np.array([r.start for r in region])
+    local = np.array(residual[region], dtype=np.complex128)
+    box = window_slices(peak - origin, fit, local.shape)
     level = report.peak_amplitude * 10 ** (MISFIT_DB / 20)
     lobe = np.array(
         [ax.cells_to_samples(params.exclusion_cells * main_lobe_broadening(report)) for ax in axes], dtype=float
     )
-    reach = np.ceil(GHOST_NULLS * np.asarray(model.nulls, dtype=float)).astype(int)
     for _ in range(GHOST_TRIES + 1):
         mag = np.abs(local[box])
         j = np.unravel_index(int(np.argmax(mag)), mag.shape)
         if mag[j] <= level:
             return True
         k = np.array([s.start + i for s, i in zip(box, j)])
-        if np.all(np.abs(k - peak) <= lobe):  # on its own main lobe: a misfit, whatever else lies beside it
+        if np.all(np.abs(k + origin - peak) <= lobe):  # on its own main lobe: a misfit, whatever lies beside it
             return False
         pos, _ = refine_false_target(local, k, half)
         win = window_slices(k, reach, local.shape)
-        grid = np.meshgrid(*[np.arange(w.start, w.stop, dtype=float) for w in win], indexing="ij")
-        g = model_values(np.array([x.ravel() for x in grid]), dataclasses.replace(model, position=np.asarray(pos)))
+        grid = np.meshgrid(*[np.arange(w.start, w.stop, dtype=float) + o for w, o in zip(win, origin)], indexing="ij")
+        moved = dataclasses.replace(model, position=np.asarray(pos, dtype=float) + origin)
+        g = model_values(np.array([x.ravel() for x in grid]), moved)
         y = local[win].ravel()
         gg = float(np.vdot(g, g).real)
         if gg == 0.0:
