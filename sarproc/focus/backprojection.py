@@ -998,33 +998,44 @@ def plan_backprojection(
     # true track (its illumination), not the static-equivalent position where the image focuses it. In 3D:
     # the array factor in elevation, the pulses' supports in the (azimuth, range) plane at its elevation.
     rows = list(range(len(targets)))
-    own = [
-        ([theory.array_elevation_theory(rx_offs[:, 1], radar.wavelength, targets["elevation"][i])] if three_d else [])
-        + theory.target_theory(
-            radar,
-            pos + tx_off,
-            pos + rx_offs[0],
-            _ElevationPlane(frame, targets["elevation"][i]) if three_d else frame,
-            (targets["azimuth"][i], targets["range"][i]),
-            range_window=params.range_window,
-            taper=taper,
-        )
-        for i in rows
-    ]
+    if three_d:
+        own = [
+            [theory.array_elevation_theory(rx_offs[:, 1], radar.wavelength, targets["elevation"][i])]
+            + theory.target_theory(
+                radar,
+                pos + tx_off,
+                pos + rx_offs[0],
+                _ElevationPlane(frame, targets["elevation"][i]),
+                (targets["azimuth"][i], targets["range"][i]),
+                range_window=params.range_window,
+                taper=taper,
+            )
+            for i in rows
+        ]
+    else:  # the theory, the support's extent and the ridge angle evaluate reads from one sighting of the pulses
+        metric = frame.metric()
+        shapes = [
+            theory.target_shape(
+                radar,
+                pos + tx_off,
+                pos + rx_offs[0],
+                frame,
+                (targets["azimuth"][i], targets["range"][i]),
+                range_window=params.range_window,
+                taper=taper,
+                metric=metric,
+            )
+            for i in rows
+        ]
+        own = [s.theory for s in shapes]
+        if "ridge_angle" in (targets.dtype.names or ()):  # evaluate reads it rather than sighting the pulses again
+            targets["ridge_angle"] = [0.0 if math.isnan(s.ridge_angle) else s.ridge_angle for s in shapes]
     theory.fill_target_theory(targets, frame.axes, own, rows=rows)
     # Default spacing from the finest own theory: a target lit by the pattern's skirts or side lobes has a
     # finer response than the -3 dB beam's (sampled at the centre theory, its IRW read 10 % short).
     finest = [min([t[a].irw for t in own] + [irw0[a]]) for a in range(len(frame.axes))]
     if not three_d and rows:  # and fine enough that no target's support wraps (a sheared one reaches further)
-        extent = np.max(
-            [
-                theory.support_extent(
-                    radar, pos + tx_off, pos + rx_offs[0], frame, (targets["azimuth"][i], targets["range"][i])
-                )
-                for i in rows
-            ],
-            axis=0,
-        )
+        extent = np.max([s.extent for s in shapes], axis=0)
         finest = [min(f, params.oversample / (SUPPORT_WRAP_MARGIN * e)) if e > 0 else f for f, e in zip(finest, extent)]
     grid = _default_grid(params, raw, frame, irw0, finest, grid_targets)
     n_pix = math.prod(len(v) for v in grid.values())

@@ -308,8 +308,11 @@ def frame_coordinates(frame: Frame, xyz: np.ndarray) -> tuple[np.ndarray, np.nda
 
 
 def targets_in_frame(targets: np.ndarray, frame: Frame) -> np.ndarray:
-    """A copy of a targets table with (azimuth, range, elevation) recomputed in ``frame``."""
+    """A copy of a targets table with (azimuth, range, elevation) recomputed in ``frame`` (and its ``ridge_angle``,
+    a frame's, 0: not recorded)."""
     out = np.array(targets, copy=True)
+    if "ridge_angle" in (out.dtype.names or ()):
+        out["ridge_angle"] = 0.0
     xyz = np.stack([out["x"], out["y"], out["z"]], axis=-1)
     for name, values in zip(("azimuth", "range", "elevation"), frame_coordinates(frame, xyz)):
         out[name] = values

@@ -54,6 +54,7 @@ from sarproc.product.model import (
     TARGET_DTYPE,
     TARGET_IRW_FIELDS,
     TARGET_NULL_FIELDS,
+    TARGET_RIDGE_FIELD,
     TARGET_SIDELOBE_FIELDS,
     TARGET_THEORY_FIELDS,
     TARGET_UNITS,
@@ -848,6 +849,11 @@ def _read_targets(f: h5py.File, path: Path) -> np.ndarray:
             raise InputError(
                 f"{path}: dataset 'targets' field {field!r} must be a positive null spacing or 0 (not recorded)"
             )
+    v = targets[TARGET_RIDGE_FIELD]
+    if not np.all(np.isfinite(v) & (v >= 0) & (v <= 90)):
+        raise InputError(
+            f"{path}: dataset 'targets' field {TARGET_RIDGE_FIELD!r} must be an angle in [0, 90] deg (0: not recorded)"
+        )
     for field in TARGET_SIDELOBE_FIELDS:  # a PSLR is <= 0 dB; an ISLR may exceed it (side lobes only)
         v = targets[field]
         if not np.all(np.isfinite(v) & ((v <= 0) if field.startswith("pslr") else True)):

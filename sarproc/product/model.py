@@ -28,12 +28,15 @@ PRODUCT_KINDS = ("raw", "raw_multichannel", "raw_array", "preprocessed", "coarse
 # ``theoretical_irw``), recorded by processors whose resolution varies over the scene; 0: not
 # recorded (the image attribute applies). null_<axis> is the null spacing 1/B of the target's own support
 # (IRW / null is the weighting's broadening factor, 0.886 unweighted), pslr_<axis> / islr_<axis> its
-# theoretical PSLR / ISLR, dB (sarproc.product.theory). Files written before these fields read as 0.
+# theoretical PSLR / ISLR, dB (sarproc.product.theory). ridge_angle: the angle in space between a 2D image target's
+# two theoretical side-lobe ridges, degrees (sarproc.product.theory.target_ridge_angle, untapered: what evaluate
+# computes from the pulses when it is 0). Files written before these fields read as 0.
 TARGET_AXES = ("azimuth", "range", "elevation")
 TARGET_IRW_FIELDS = tuple(f"irw_{a}" for a in TARGET_AXES)
 TARGET_NULL_FIELDS = tuple(f"null_{a}" for a in TARGET_AXES)
 TARGET_SIDELOBE_FIELDS = tuple(f"{m}_{a}" for m in ("pslr", "islr") for a in TARGET_AXES)
-TARGET_THEORY_FIELDS = TARGET_IRW_FIELDS + TARGET_NULL_FIELDS + TARGET_SIDELOBE_FIELDS
+TARGET_RIDGE_FIELD = "ridge_angle"
+TARGET_THEORY_FIELDS = TARGET_IRW_FIELDS + TARGET_NULL_FIELDS + TARGET_SIDELOBE_FIELDS + (TARGET_RIDGE_FIELD,)
 TARGET_DTYPE = np.dtype(
     [
         ("name", "S32"),
@@ -150,6 +153,7 @@ TARGET_UNITS = {
     "null_range": "m",
     "null_elevation": "rad",
     **dict.fromkeys(TARGET_SIDELOBE_FIELDS, "dB"),
+    TARGET_RIDGE_FIELD: "deg",
 }
 
 # Units of the numeric attributes stages put on the data set, stored as its JSON map
@@ -254,9 +258,11 @@ def make_targets(
 
 
 def as_target_table(table: np.ndarray) -> np.ndarray:
-    """``table`` as TARGET_DTYPE, field by field; irw_* fields it lacks (older files) become 0 (not recorded)."""
+    """``table`` as TARGET_DTYPE, field by field; irw_* and ridge_angle fields it lacks (older files) become 0 (not
+    recorded)."""
     table = np.asarray(table)
-    missing = [f for f in TARGET_NAMES if f not in (table.dtype.names or ()) and f not in TARGET_IRW_FIELDS]
+    optional = (*TARGET_IRW_FIELDS, TARGET_RIDGE_FIELD)
+    missing = [f for f in TARGET_NAMES if f not in (table.dtype.names or ()) and f not in optional]
     if missing:
         raise ValueError(f"targets table lacks field(s) {missing}")
     out = np.zeros(table.shape, dtype=TARGET_DTYPE)

@@ -18,6 +18,7 @@ lobes decay slowly).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import math
@@ -37,6 +38,7 @@ if TYPE_CHECKING:
 
     from sarproc.product.frames import Frame
     from sarproc.product.metadata import RadarMetadata
+    from sarproc.product.model import Product
 
 WINDOWS = ("none", "hamming")  # the weighting windows every processor offers (range and azimuth)
 ISLR_NULLS = 10.0  # the contract's ISLR window, +-nulls
@@ -301,6 +303,52 @@ class _TargetSupport:
         return [self.range_band if ax == "range" else self.azimuth_band for ax in axes]
 
 
+@dataclasses.dataclass(frozen=True)
+class _Sighting:
+    """What a target's k-space support takes from the geometry whatever the taper (:func:`_target_support`): the
+    two-way gain's magnitude over the pulses, which pulses see it inside the -3 dB beam, the two-way lines of
+    sight and the frame's axis vectors at it."""
+
+    gain: np.ndarray  # (n_pulses,) |two-way gain|
+    in_beam: np.ndarray  # (n_pulses,) bool
+    u: np.ndarray  # (n_pulses, 3) two-way line of sight
+    E: np.ndarray  # (3, ndim) the frame's axis vectors at the target
+    kappa: np.ndarray  # (n_pulses, ndim) cycles per axis unit
+
+
+def _sighting(
+    radar: RadarMetadata, tx_pos: np.ndarray, rx_pos: np.ndarray, frame: Frame, coords: Sequence[float]
+) -> _Sighting:
+    p0 = np.asarray(frame.to_xyz(*coords), float).reshape(3)
+    lit = illumination(radar, tx_pos, p0)
+    u = _unit(p0 - tx_pos) + _unit(p0 - rx_pos)  # (n_pulses, 3): two-way line of sight
+    eps = 1e-3
+    axes_xyz = []
+    for i in range(len(frame.axes)):
+        shifted = list(coords)
+        shifted[i] = shifted[i] + eps
+        axes_xyz.append((np.asarray(frame.to_xyz(*shifted), float).reshape(3) - p0) / eps)
+    E = np.stack(axes_xyz, axis=1)  # (3, ndim)
+    kappa = (u @ E) / radar.wavelength  # (n_pulses, ndim): cycles per axis unit
+    return _Sighting(np.abs(lit.gain), lit.in_beam, u, E, kappa)
+
+
+def _weighted_support(
+    radar: RadarMetadata, seen: _Sighting, azimuth_window: str = "none", taper: np.ndarray | None = None
+) -> _TargetSupport:
+    n = len(seen.u)
+    weights = seen.gain * (sample_taper(azimuth_window, n) if taper is None else np.asarray(taper))
+    if not np.any(weights > 0):
+        weights = np.ones(n)  # unlit (e.g. a rect beam that misses it): the aperture's theory
+    centre = int(np.clip(np.round(np.average(np.arange(n), weights=weights)), 0, n - 1))
+    kappa = seen.kappa
+    main = seen.in_beam & (weights > 0)
+    lit_rows = np.flatnonzero(main if np.count_nonzero(main) > 1 else weights > 0)
+    azimuth_band = kappa[lit_rows[-1]] - kappa[lit_rows[0]]
+    range_band = (radar.bandwidth / C) * (seen.u[centre] @ seen.E)
+    return _TargetSupport(kappa, weights, main, centre, range_band, azimuth_band)
+
+
 def _target_support(
     radar: RadarMetadata,
     tx_pos: np.ndarray,
@@ -310,26 +358,7 @@ def _target_support(
     azimuth_window: str = "none",
     taper: np.ndarray | None = None,
 ) -> _TargetSupport:
-    p0 = np.asarray(frame.to_xyz(*coords), float).reshape(3)
-    lit = illumination(radar, tx_pos, p0)
-    weights = np.abs(lit.gain) * (sample_taper(azimuth_window, len(tx_pos)) if taper is None else np.asarray(taper))
-    if not np.any(weights > 0):
-        weights = np.ones(len(tx_pos))  # unlit (e.g. a rect beam that misses it): the aperture's theory
-    u = _unit(p0 - tx_pos) + _unit(p0 - rx_pos)  # (n_pulses, 3): two-way line of sight
-    centre = int(np.clip(np.round(np.average(np.arange(len(u)), weights=weights)), 0, len(u) - 1))
-    eps = 1e-3
-    axes_xyz = []
-    for i in range(len(frame.axes)):
-        shifted = list(coords)
-        shifted[i] = shifted[i] + eps
-        axes_xyz.append((np.asarray(frame.to_xyz(*shifted), float).reshape(3) - p0) / eps)
-    E = np.stack(axes_xyz, axis=1)  # (3, ndim)
-    kappa = (u @ E) / radar.wavelength  # (n_pulses, ndim): cycles per axis unit
-    main = lit.in_beam & (weights > 0)
-    lit_rows = np.flatnonzero(main if np.count_nonzero(main) > 1 else weights > 0)
-    azimuth_band = kappa[lit_rows[-1]] - kappa[lit_rows[0]]
-    range_band = (radar.bandwidth / C) * (u[centre] @ E)
-    return _TargetSupport(kappa, weights, main, centre, range_band, azimuth_band)
+    return _weighted_support(radar, _sighting(radar, tx_pos, rx_pos, frame, coords), azimuth_window, taper)
 
 
 def support_extent(
@@ -340,7 +369,10 @@ def support_extent(
     A grid must sample each axis faster than this or the support wraps; where the ridges are the axes it is the
     ridge's own band, but a sheared support (a squinted aperture at a steep depression in a ground plane) reaches
     across far more of an axis than its ridge's band does."""
-    sup = _target_support(radar, tx_pos, rx_pos, frame, coords)
+    return _parallelogram_extent(_target_support(radar, tx_pos, rx_pos, frame, coords))
+
+
+def _parallelogram_extent(sup: _TargetSupport) -> np.ndarray:
     return np.abs(sup.range_band) + np.abs(sup.azimuth_band)
 
 
@@ -358,7 +390,10 @@ def target_ridge_angle(
     (the range band along the line of sight, the sweep across it); in a ground plane where the depression angle
     changes along the aperture (a squinted aperture at a steep depression) the sweep gains a ground-range
     component and the ridges close in: 36.9 deg at the scene centre of a 45 deg squint at 800 m over 1.2 km."""
-    sup = _target_support(radar, tx_pos, rx_pos, frame, coords, taper=taper)
+    return _ridge_angle(_target_support(radar, tx_pos, rx_pos, frame, coords, taper=taper), frame, metric)
+
+
+def _ridge_angle(sup: _TargetSupport, frame: Frame, metric: np.ndarray) -> float:
     v = [np.asarray(d, float) @ np.asarray(metric, float) for d in ridge_directions(sup.bands(frame.axes))]
     cos = abs(float(v[0] @ v[1])) / float(np.linalg.norm(v[0]) * np.linalg.norm(v[1]))
     return math.degrees(math.acos(min(1.0, cos)))
@@ -390,7 +425,12 @@ def target_theory(
     zero-Doppler or ground frame has both ridges rotated, and an axis' own band alone would put the range
     theory 1 / cos^2(squint) too wide along the ridge evaluate cuts.
     """
-    sup = _target_support(radar, tx_pos, rx_pos, frame, coords, azimuth_window, taper)
+    return _theory(
+        radar, frame, _target_support(radar, tx_pos, rx_pos, frame, coords, azimuth_window, taper), range_window
+    )
+
+
+def _theory(radar: RadarMetadata, frame: Frame, sup: _TargetSupport, range_window: str) -> list[ResponseTheory]:
     kappa, weights, main, centre, range_band = sup.kappa, sup.weights, sup.main, sup.centre, sup.range_band
     ridges = ridge_directions(sup.bands(frame.axes))
     # Each pulse sees the range band: its support is a segment kappa (1 + f / f_c) along its line of sight. A
@@ -412,6 +452,95 @@ def target_theory(
             band = sample_band(k, main, weights)
         out.append(response_theory(k, weights, band, segments=(fraction, range_window)))
     return out
+
+
+@dataclasses.dataclass(frozen=True)
+class TargetShape:
+    """One target's theory, support extent and ridge angle from one sighting (:func:`target_shape`)."""
+
+    theory: list[ResponseTheory]  # per axis, :func:`target_theory`
+    extent: np.ndarray  # (ndim,) cycles per axis unit, :func:`support_extent`
+    ridge_angle: float  # degrees, :func:`target_ridge_angle` (untapered); NaN: no metric, or not computable
+
+
+def target_shape(
+    radar: RadarMetadata,
+    tx_pos: np.ndarray,
+    rx_pos: np.ndarray,
+    frame: Frame,
+    coords: Sequence[float],
+    range_window: str = "none",
+    taper: np.ndarray | None = None,
+    metric: np.ndarray | None = None,
+) -> TargetShape:
+    """:func:`target_theory` (with ``taper``), :func:`support_extent` and :func:`target_ridge_angle` (both
+    untapered, as evaluate and the grid take them) of a 2D frame's target, the same numbers bit for bit, from one
+    sighting of the pulses (the gains, lines of sight and spatial frequencies) instead of three; the untapered
+    support is taken once for both, and serves the theory too where ``taper`` is all ones (``azimuth_window``
+    none: multiplying by 1.0 leaves the weights' bits)."""
+    seen = _sighting(radar, tx_pos, rx_pos, frame, coords)
+    plain = _weighted_support(radar, seen)
+    tapered = (
+        plain
+        if taper is None or bool(np.all(np.asarray(taper) == 1.0))
+        else _weighted_support(radar, seen, taper=taper)
+    )
+    angle = math.nan
+    if metric is not None:
+        with contextlib.suppress(ValueError, FloatingPointError, ZeroDivisionError):
+            angle = _ridge_angle(plain, frame, metric)
+    return TargetShape(_theory(radar, frame, tapered, range_window), _parallelogram_extent(plain), angle)
+
+
+def image_ridge_angles(product: Product, recorded: bool = True) -> np.ndarray:
+    """(n_targets,) :func:`target_ridge_angle` of each target of a 2D image, degrees, from its pulses (aux
+    ``platform_position``, ``tx_offset``, the first ``rx_offset``), its frame (``attrs['frame']``, whose axes are
+    the image's and which has a metric) and its targets table's frame coordinates; NaN where not taken: not such an
+    image, no radar or pulses, a polar-format image (``support_rectangle``: pfa2 resamples the support onto a
+    rectangle of the frame's k axes), or where it cannot be computed. ``recorded``: a target whose table records
+    its ``ridge_angle`` (not 0) keeps that (the processor took it from the same pulses: backproject, fine-focus;
+    evaluate then need not sight them again); the others are computed (older files, imports)."""
+    from sarproc.product.frames import frame_from_spec
+
+    targets = product.targets
+    n = 0 if targets is None else len(targets)
+    out = np.full(n, np.nan)
+    pos = product.aux.get("platform_position")
+    spec = product.attrs.get("frame")
+    if targets is None or n == 0 or pos is None or spec is None or len(product.dims) != 2 or product.radar is None:
+        return out
+    if "support_rectangle" in product.attrs:
+        return out
+    names = targets.dtype.names or ()
+    if not all(d in names for d in product.dims):
+        return out
+    try:
+        frame = frame_from_spec(spec)
+    except (InputError, TypeError, ValueError):
+        return out
+    metric = frame.metric()
+    if metric is None or tuple(getattr(frame, "axes", ())) != tuple(product.dims):
+        return out
+    tx = pos + product.aux.get("tx_offset", np.zeros(3))
+    rx = pos + np.asarray(product.aux.get("rx_offset", np.zeros((1, 3))))[0]
+    kept = targets["ridge_angle"] if recorded and "ridge_angle" in names else np.zeros(n)
+    for i in range(n):
+        if kept[i] > 0:
+            out[i] = kept[i]
+            continue
+        coords = [float(targets[d][i]) for d in product.dims]
+        with contextlib.suppress(ValueError, FloatingPointError, ZeroDivisionError):
+            out[i] = target_ridge_angle(product.radar, tx, rx, frame, coords, metric)
+    return out
+
+
+def record_ridge_angles(product: Product) -> None:
+    """Write :func:`image_ridge_angles` (computed, not read) into ``product``'s targets table, in place: 0 where
+    NaN (not recorded)."""
+    if product.targets is None or "ridge_angle" not in (product.targets.dtype.names or ()):
+        return
+    angles = image_ridge_angles(product, recorded=False)
+    product.targets["ridge_angle"] = np.where(np.isnan(angles), 0.0, angles)
 
 
 def ridge_directions(bands: Sequence[np.ndarray]) -> list[np.ndarray]:

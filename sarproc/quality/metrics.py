@@ -47,7 +47,6 @@ never counted as a pass.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import functools
 import itertools
@@ -2738,30 +2737,14 @@ def frame_metric(product: Product) -> np.ndarray | None:
 
 def target_ridge_angles(product: Product) -> np.ndarray:
     """(n_targets,) the angle in space between each target's two theoretical ridges, degrees
-    (:func:`sarproc.product.theory.target_ridge_angle`, from the product's pulses and its targets table's frame
-    coordinates), for a 2D image whose frame has a metric and whose pulses are recorded; NaN elsewhere (evaluate
-    then takes the slant plane's 90), and for a polar-format image (``support_rectangle``: pfa2 resamples the
-    pulses' support onto a rectangle of the frame's k axes, whose edges are perpendicular)."""
-    from sarproc.product.frames import frame_from_spec
-    from sarproc.product.theory import target_ridge_angle
+    (:func:`sarproc.product.theory.image_ridge_angles`: as its targets table records it, else from the product's
+    pulses and its targets table's frame coordinates), for a 2D image whose frame has a metric and whose pulses
+    are recorded; NaN elsewhere (evaluate then takes the slant plane's 90), and for a polar-format image
+    (``support_rectangle``: pfa2 resamples the pulses' support onto a rectangle of the frame's k axes, whose edges
+    are perpendicular)."""
+    from sarproc.product.theory import image_ridge_angles
 
-    n = 0 if product.targets is None else len(product.targets)
-    out = np.full(n, np.nan)
-    metric = frame_metric(product)
-    pos = product.aux.get("platform_position")
-    if n == 0 or metric is None or pos is None or len(product.dims) != 2 or product.radar is None:
-        return out
-    if "support_rectangle" in product.attrs:
-        return out
-    if not all(d in (product.targets.dtype.names or ()) for d in product.dims):
-        return out
-    frame = frame_from_spec(product.attrs["frame"])
-    tx = pos + product.aux.get("tx_offset", np.zeros(3))
-    rx = pos + np.asarray(product.aux.get("rx_offset", np.zeros((1, 3))))[0]
-    for i in range(n):
-        coords = [float(product.targets[d][i]) for d in product.dims]
-        with contextlib.suppress(ValueError, FloatingPointError, ZeroDivisionError):
-            out[i] = target_ridge_angle(product.radar, tx, rx, frame, coords, metric)
+    out = image_ridge_angles(product)
     out[np.abs(out - 90.0) < SLANT_RIDGE_ANGLE_TOL_DEG] = np.nan  # the slant plane's 90, as before
     return out
 

@@ -66,7 +66,7 @@ from sarproc.product.errors import IMAGE_DEFECT, InputError, ProcessingError
 from sarproc.product.frames import SquintFrame, SquintLrwcFrame, targets_in_frame
 from sarproc.product.metadata import SINC_IRW_FACTOR, C, RadarMetadata
 from sarproc.product.model import Product
-from sarproc.product.theory import fill_target_theory, window_theory
+from sarproc.product.theory import fill_target_theory, record_ridge_angles, window_theory
 
 log = logging.getLogger(__name__)
 
@@ -621,6 +621,7 @@ def fine_focus(
     out = coarse.derive(
         "image", img, ("azimuth", "range"), {"azimuth": azimuths, "range": ranges}, attrs=attrs, targets=targets
     )
+    record_ridge_angles(out)  # evaluate reads them rather than sighting the pulses again
     info = {
         "flow": choice.flow,
         "depth_of_focus_half_width": choice.depth_of_focus_half_width,
