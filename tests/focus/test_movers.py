@@ -210,8 +210,9 @@ def test_a_mover_beside_a_bright_static_point_at_its_apparent_time_is_not_taken_
     assert "range walk" not in caplog.text and "truth mover" not in caplog.text
 
 
-def mover_beside_a_static_point(azimuth=467.2):
-    """The mover campaign's scene 006, reduced to M1 and S3 (above); M1 at ``azimuth`` m."""
+def mover_beside_a_static_point(azimuth=467.2, waveform=None):
+    """The mover campaign's scene 006, reduced to M1 and S3 (above); M1 at ``azimuth`` m; ``waveform`` the simulated
+    echoes' (None: xu_scene.yaml's)."""
     m = scene(
         [
             vehicle("M1", azimuth, -156.1, 10.41, -7.37, 0.8665),
@@ -220,6 +221,8 @@ def mover_beside_a_static_point(azimuth=467.2):
     )
     m["radar"]["pulse_duration"] = "15 us"
     m["geometry"]["squint"] = "13.1 deg"
+    if waveform is not None:
+        m.setdefault("simulation", {})["waveform"] = waveform
     return m
 
 
@@ -274,8 +277,11 @@ def test_a_mover_taken_out_with_a_static_points_response_is_said_to_be():
     over S3's two-dimensional side-lobe envelope there (-31.8 dB) but with no 6 dB dip between the two along the path
     (-5.1 dB): one response (reconstruct._two_in_range), taken out with S3's and missed. Its reason names what took it
     out: S3, examined and found static, brighter in detection SNR and 8 cells away; not "a mover already examined",
-    which there was none. (At 467.2 m M1 is found: above; it was missed with this reason before.)"""
-    rec = reconstruct(simulate(scene_from_mapping(mover_beside_a_static_point(473.2))), ReconstructParams())
+    which there was none. (At 467.2 m M1 is found: above; it was missed with this reason before.) Continuous echoes:
+    band-limited ones, compressed with their replica, leave no aliased plateau under S3 and M1 is found (below)."""
+    rec = reconstruct(
+        simulate(scene_from_mapping(mover_beside_a_static_point(473.2, "continuous"))), ReconstructParams()
+    )
     truth = rec.attrs["reconstruct"]["truth"]
     assert truth["missed"] == ["M1"]
     (reason,) = truth["missed_reasons"]
@@ -284,6 +290,19 @@ def test_a_mover_taken_out_with_a_static_points_response_is_said_to_be():
     ), reason
     assert "dB brighter, -8 cells from it)" in reason and "fell under the CFAR threshold" in reason
     assert "mover" not in reason.removeprefix("M1:"), reason
+
+
+def test_a_mover_beside_a_static_point_band_limited_is_not_taken_out_with_it():
+    """The scene above (M1 at 473.2 m, continuous echoes: taken out with S3's response and missed), band-limited:
+    compressed with the sampled replica (reconstruct.range_compression auto: replica_equalised), M1 is found, v_r
+    -7.345 (1-sigma 0.069) and v_a 10.38 m/s for -7.37 and 10.41 (docs/multichannel.md section 19)."""
+    rec = reconstruct(
+        simulate(scene_from_mapping(mover_beside_a_static_point(473.2, "band_limited"))), ReconstructParams()
+    )
+    by_name, false = found(rec)
+    assert sorted(by_name) == ["M1"] and not false
+    row = by_name["M1"]
+    assert abs(row["v_r"] + 7.37) <= 2 * row["v_r_sigma"] and abs(row["v_a"] - 10.41) <= 2 * row["v_a_sigma"], row
 
 
 def test_overlapping_windows_take_a_movers_response_out_of_the_detection_image_once(monkeypatch):
