@@ -1875,3 +1875,19 @@ def test_an_examined_detections_take_out_leaves_undetected_movers_in_its_cells()
     if "M2" in reasons:
         stands = re.search(r"stands (-?[\d.]+) dB over the measured background", reasons["M2"])
         assert stands and float(stands.group(1)) > 50.0, reasons["M2"]
+
+
+def test_a_weaker_mover_merged_at_the_same_apparent_time_is_warned_of_without_truth(caplog):
+    """Mover campaign scene 038's M2 and M3 (gaussian beam, 12.8 deg squint, no clutter, no noise): M2, defocused (11
+    samples wide), 25 samples (19 Hz) from M3 in its range cell and 12.3 dB under it (this pair alone: 12 samples
+    wide, 23 samples, 12.5 dB), is merged with M3 as its own
+    response. _merge said so only from 6 dB under the mover (MERGE_LEVEL), so a product without truth gave no
+    warning; a response at the mover's apparent time resolved from it in azimuth is now said from 20 dB under it."""
+    m = mover_campaign_scene(12.8, "gaussian", 3, "2 m", ("M3", -68.3, 250.0, 4.58, 2.80, 0.6232))
+    m["targets"]["points"].append(vehicle("M2", -69.0, 245.3, -13.28, 7.21, 0.3509))
+    raw = simulate(scene_from_mapping(m))
+    raw.targets = raw.targets[:0]  # no truth: what a user's product says
+    with caplog.at_level(logging.WARNING, logger="sarproc"):
+        reconstruct(raw, ReconstructParams(method="modified"))
+    merged = [r.getMessage() for r in caplog.records if "could not be separated from it" in r.getMessage()]
+    assert merged and "12.5 dB under mover" in merged[0] and "in apparent time" in merged[0], merged

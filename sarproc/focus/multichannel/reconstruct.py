@@ -644,6 +644,9 @@ MASK_WIDTHS = 5.0
 # ... and only for a neighbour at least this fraction of its power: the level from which _merge says a merged response
 # looks like another target (a weaker one is more likely its own residue)
 MERGE_LEVEL = 0.25
+# ... and from this level for one at the mover's apparent time resolved from it in azimuth, without the clutter null
+# (_merge); chosen, not tuned (scene 038's is 12.3 dB under): a level of the first pass's 30 dB range, not measured
+MERGE_LEVEL_RESOLVED = 0.01
 RANGE_CUT_SAMPLES = 6  # azimuth samples either side of a detection whose range cut is no background (_range_cuts)
 STATIC_CELLS = 2  # range cells either side of an examined static detection that share its answer (_visit)
 
@@ -2387,7 +2390,13 @@ def _merge(det: detection.Detection, k: int, scan: _Scan, tally: _Tally) -> None
     # the mover's own response on the static leakage, examined from its ambiguity instead (_examination_order)
     on_leakage = n_amb != 0 and _on_leakage(det, peak)
     apart = abs(det.cell - peak.cell) > spread or apart_azimuth
-    if det.power > MERGE_LEVEL * peak.power and apart and not on_leakage:
+    # At its apparent time (k = 0), without the clutter null, a response resolved from the mover in azimuth (their -3 dB
+    # half widths apart twice over) passed the side-lobe test against it when detected: no structure of the mover's
+    # own (mover campaign scene 038: M2, defocused, 11 samples wide, 25 samples and 19 Hz from M3, 12.3 dB under it,
+    # merged with no warning, and M3's v_r read 3.41 for 2.80 m/s; docs/multichannel.md section 20)
+    resolved = n_amb == 0 and scan.projector is None and d_samples > peak.width + det.width + 2
+    level = MERGE_LEVEL_RESOLVED if resolved else MERGE_LEVEL
+    if det.power > level * peak.power and (apart or resolved) and not on_leakage:
         if n_amb == 0:
             where = f"{1e3 * (det.time - peak.time):+.1f} ms from it in apparent time"
             cause = "another mover there shares its window and its velocity estimate"
