@@ -1849,7 +1849,7 @@ def test_a_detection_no_velocity_explains_is_warned_of_where_it_is_against_the_f
 def test_an_examined_detections_take_out_leaves_undetected_movers_in_its_cells():
     """Mover campaign scene 039 (`scripts/mover_campaign.py --seed 1`; gaussian beam, no clutter, no noise): M2 and M4
     lie 30-32 dB under the brightest response (the static S2), under detection_level, so the first pass does not see
-    them; both lie in the range cells of the static S1 (595 and 125 Hz from it in dechirped Doppler). Its take-out
+    them; both lie in the range cells of the static S1 (569 and 120 Hz from it in dechirped Doppler). Its take-out
     removed everything in its cells but the other detections' notches, M2 46 dB and M4 28 dB of it, and neither was
     found. The take-out is now its pass band (REMOVAL_BANDS x separation_bandwidth, modulo PRF), and the measured
     background leaves out the known responses' range cuts (their pedestal, _range_cuts): M4 is found (v_r 2.351,

@@ -2768,7 +2768,7 @@ def _remove_response(det: detection.Detection, others: list[float], w: _DetWindo
     Only REMOVAL_BANDS x separation_bandwidth about the detection (modulo PRF: its ambiguities too) is taken, not
     everything in its cells but the other detections' notches: an undetected target in those cells (under
     detection_level of the strongest in the first pass) stays in the image for the second pass. Mover campaign
-    scene 039: the static S1's removal took the movers M2 and M4 (595 and 125 Hz from it) 46 and 28 dB down, and
+    scene 039: the static S1's removal took the movers M2 and M4 (569 and 120 Hz from it) 46 and 28 dB down, and
     neither was found (docs/multichannel.md section 20)."""
     g = scan.g
     x_w = sfft.fft(scan.x_left[:, :, w.a : w.b], axis=-1, workers=-1)
