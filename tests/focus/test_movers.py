@@ -293,7 +293,10 @@ def test_overlapping_windows_take_a_movers_response_out_of_the_detection_image_o
     time, the later removal took the notch's edge (36-40 Hz from the earlier mover) a second time: -37.6 dB of that
     mover's peak was left beside it (in the whole scene, with the clutter null, seven windows over M6's cells left
     -5.2 dB of it, a second-pass detection and a false warning "a response 5.2 dB under mover 1 ... could not be
-    separated"). Now what is left around each mover is -58 dB of its peak."""
+    separated"). Now what is left around each mover is -58 dB of its peak within its removal's band (+-2.5 x
+    separation_bandwidth, REMOVAL_BANDS: the notch edges at 36-40 Hz lie inside it). Beyond it (to +-85 Hz) the
+    removal takes only its taper's part of the mover's own side lobes (-41 dB before, -47 dB after) and adds
+    nothing (docs/multichannel.md section 20)."""
     from sarproc.focus.multichannel import reconstruct as rc
 
     m = scene_000([vehicle("M1", -181.6, 24.8, -2.30, -6.77, 0.3856), vehicle("M6", 57.2, -20.3, 3.39, 9.96, 0.3478)])
@@ -316,9 +319,15 @@ def test_overlapping_windows_take_a_movers_response_out_of_the_detection_image_o
     before, after = images["before"], images["after"]
     assert len(images["peaks"]) == 2
     for p in images["peaks"]:
-        rows = np.arange(p.index - 150, p.index + 151) % before.shape[0]  # +-85 Hz of dechirped Doppler
+        rows = np.arange(p.index - 110, p.index + 111) % before.shape[0]  # +-62 Hz of dechirped Doppler
         left = np.abs(after[np.ix_(rows, np.arange(p.cell - 3, p.cell + 4))]).max()
         assert 20 * math.log10(left / abs(before[p.index, p.cell])) < -50, (p, left)
+        rows = np.arange(p.index - 150, p.index + 151) % before.shape[0]  # +-85 Hz: nothing added
+        cells = np.arange(p.cell - 3, p.cell + 4)
+        assert np.all(
+            np.abs(after[np.ix_(rows, cells)])
+            <= np.abs(before[np.ix_(rows, cells)]) + 1e-3 * abs(before[p.index, p.cell])
+        )
 
 
 @pytest.mark.slow
@@ -338,7 +347,7 @@ def test_a_pixel_the_removals_took_under_a_movers_side_lobes_is_no_false_alarm(c
     check(rec, ["M1", "M5", "M6"])
 
 
-def test_a_removal_notches_only_the_other_detections_its_mask_can_separate():
+def test_a_removal_notches_only_the_other_detections_its_mask_can_separate(monkeypatch):
     """reconstruct._others: another detection in the window's cells is notched (spared by the removal) only 2.5 x
     separation_bandwidth or more from the examined one in dechirped Doppler (modulo PRF): a notch stops +-1 and tapers
     to +-1.5 x separation_bandwidth about it, as the examined one's own mask does, so a nearer notch stops part of the
@@ -364,6 +373,8 @@ def test_a_removal_notches_only_the_other_detections_its_mask_can_separate():
         found=SimpleNamespace(dets=[det, *near, *far, *outside]),
     )
     w = SimpleNamespace(a=84, b=117)
+    # the mask's whole half width (_half_width narrows it only for a resolved neighbour in its range extent)
+    monkeypatch.setattr(rc, "_half_width", lambda d, s: s.params.separation_bandwidth)
     assert rc._others(det, w, scan) == pytest.approx([63.0, -70.0, 650.0, -1160.0])
 
 

@@ -2391,10 +2391,12 @@ def _merge(det: detection.Detection, k: int, scan: _Scan, tally: _Tally) -> None
     on_leakage = n_amb != 0 and _on_leakage(det, peak)
     apart = abs(det.cell - peak.cell) > spread or apart_azimuth
     # At its apparent time (k = 0), without the clutter null, a response resolved from the mover in azimuth (their -3 dB
-    # half widths apart twice over) passed the side-lobe test against it when detected: no structure of the mover's
-    # own (mover campaign scene 038: M2, defocused, 11 samples wide, 25 samples and 19 Hz from M3, 12.3 dB under it,
+    # half widths apart twice over) and 12 dB over its side-lobe envelope there (twice find_detections' margin: a rect
+    # beam's mover had a response 5 samples off at -11.8 dB, on that envelope) is no structure of the mover's own
+    # (mover campaign scene 038: M2, defocused, 11 samples wide, 25 samples and 19 Hz from M3, 12.3 dB under it,
     # merged with no warning, and M3's v_r read 3.41 for 2.80 m/s; docs/multichannel.md section 20)
-    resolved = n_amb == 0 and scan.projector is None and d_samples > peak.width + det.width + 2
+    lobe = detection.SIDELOBE_MARGIN**2 * detection.sinc_sidelobes(d_samples / peak.width) * peak.power
+    resolved = n_amb == 0 and scan.projector is None and d_samples > peak.width + det.width + 2 and det.power > lobe
     level = MERGE_LEVEL_RESOLVED if resolved else MERGE_LEVEL
     if det.power > level * peak.power and (apart or resolved) and not on_leakage:
         if n_amb == 0:
