@@ -2771,12 +2771,15 @@ def _remove_response(det: detection.Detection, others: list[float], w: _DetWindo
     everything in its cells but the other detections' notches: an undetected target in those cells (under
     detection_level of the strongest in the first pass) stays in the image for the second pass. Mover campaign
     scene 039: the static S1's removal took the movers M2 and M4 (569 and 120 Hz from it) 46 and 28 dB down, and
-    neither was found (docs/multichannel.md section 20)."""
+    neither was found. Not on the clutter null's residual: there the complement also takes the clutter residue in
+    the detection's cells, and left in the image it made three second-pass false alarms in scene 012 (SNR 15-16 dB,
+    v_r +1.1 to +1.3 m/s; docs/multichannel.md section 20)."""
     g = scan.g
     x_w = sfft.fft(scan.x_left[:, :, w.a : w.b], axis=-1, workers=-1)
     band = _half_width(det, scan)
     ext = detection.extract(x_w, g.times, g.prf, det.time, w.ka_w, band, notches=others)
-    ext = detection.extract(ext, g.times, g.prf, det.time, w.ka_w, REMOVAL_BANDS * band)
+    if scan.projector is None:
+        ext = detection.extract(ext, g.times, g.prf, det.time, w.ka_w, REMOVAL_BANDS * band)
     scan.x_left[:, :, w.lo : w.hi] -= sfft.ifft(ext, axis=-1, workers=-1)[:, :, w.lo - w.a : w.hi - w.a]
     x_fa = sfft.fft(ext, axis=1, workers=-1)
     if scan.projector is not None:
