@@ -505,3 +505,66 @@ def test_a_mover_lit_past_the_datas_end_has_a_sigma_that_covers_eq_5s_cut_band()
     whole = rows(reconstruct(simulate(scene_from_mapping(_xu_small_mover(0.0))), ReconstructParams(method="modified")))
     assert [r["truth_index"] for r in whole] == [1], whole
     assert abs(whole[0]["v_r"] - 12.0) < 3 * whole[0]["v_r_sigma"] and whole[0]["v_r_sigma"] < 0.06, whole
+
+
+def test_two_movers_one_range_cell_resolved_in_doppler_are_both_found():
+    """Mover campaign scene 020's M1 and M2 (sinc beam, 9.2 deg squint, three receivers 2 m apart; no clutter, no
+    noise): one range cell apart and 3.9 ms apart in apparent time, 22.6 Hz in dechirped Doppler, each 2 samples
+    (1.6 Hz) wide in the detection image. The fixed 25 Hz separation mask (a neighbour notched only from 62.5 Hz)
+    merged M1 with M2 as its own response (main: one mover, v_r 17.66 m/s); M2's mask now narrows to 22.6 / 2.5 Hz
+    (_half_width: a neighbour within a mover's range extent, resolved in Doppler) and both are found, each v_r within
+    0.1 m/s (docs/multichannel.md sections 17, 20)."""
+    m = mover_campaign_scene(9.2, "sinc", 3, "2 m", ("M1", 789.4, -114.0, 6.96, 17.32, 0.3844))
+    m["targets"]["points"] += movers(("M2", 643.0, -81.6, -3.29, 17.52, 0.5641))
+    rec = reconstruct(simulate(scene_from_mapping(m)), ReconstructParams(method="modified"))
+    found = sorted(rows(rec), key=lambda r: r["truth_index"])
+    assert [r["truth_index"] for r in found] == [0, 1], found
+    for r, v_r in zip(found, (17.32, 17.52), strict=True):
+        assert abs(r["v_r"] - v_r) < 0.1, r
+
+
+def test_a_neighbour_resolved_in_range_keeps_the_whole_separation_mask():
+    """_half_width narrows a mask only for a neighbour its range cells cannot tell from it (within a mover's range
+    extent): mover campaign scene 008's M4 and M5 lie 4 cells apart (the extent 3.6 cells), 23.1 Hz apart in
+    dechirped Doppler. Narrowed to 9.2 Hz for them (session 42's rule, any neighbour within window_margin + 2
+    cells), M4 read v_r 1.22 m/s off (5.4 stated sigma) and M5 -0.082: the narrowed mask cut their own spectra; their
+    range gates and the range taper keep the neighbour out (docs/multichannel.md section 20). Unit test on the
+    detections of that pair and of scene 020's (one cell apart: narrowed)."""
+
+    def det(cell, index, width):
+        t = index / 7500.0
+        return detection.Detection(cell=cell, index=index, time=t, power=1.0, background=1e-6, width=width)
+
+    z = np.zeros(3)
+    g = rc._Geometry(
+        prf=2500.0,
+        times=z,
+        out_times=z,
+        dx=z,
+        tau0=z,
+        n=3,
+        velocity=7500.0,
+        squint=0.26,
+        fc=9.6e9,
+        half_band=1200.0,
+        fs=12e6,
+    )
+    ka0 = 5850.0
+    spacing = rc._Spacing(ka0, 2500.0 / ka0, 1.5 * 25.0 / ka0, 2 * 1200.0 / ka0, 10)
+
+    class Found:
+        r_mid = 600e3
+
+    class Scan:
+        projector = None
+        params = ReconstructParams()
+
+    scan = Scan()
+    scan.g, scan.spacing, scan.found = g, spacing, Found()
+    reach = rc._range_extent(20.0, scan)
+    for gap, narrowed in ((1, True), (math.floor(reach) + 1, False)):
+        a = det(290, 7856, 3.0)
+        b = det(290 + gap, 7856 + round(23.1 / ka0 * 7500), 2.0)
+        scan.found.dets = [a, b]
+        half = rc._half_width(a, scan)
+        assert (half < 10.0) == narrowed, (gap, reach, half)

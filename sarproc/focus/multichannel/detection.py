@@ -268,16 +268,19 @@ def local_peaks(power: np.ndarray) -> np.ndarray:
 
 
 def peak_cfar(
-    power: np.ndarray, bg: np.ndarray, pfa: float, floor_db: float
+    power: np.ndarray, bg: np.ndarray, pfa: float, floor_db: float, exclude: np.ndarray | None = None
 ) -> tuple[float, TailFit | None, np.ndarray]:
     """CFAR threshold (dB over the local background ``bg``) that the measured background's peaks exceed with
     probability ``pfa``, and at least ``floor_db``.
 
     The events are the local maxima of ``power`` (one per resolution cell: a threshold crossing is a peak); their
-    normalised powers z = power / bg are fitted by :func:`fit_tail`. Returns the threshold, the fit (None: too few
+    normalised powers z = power / bg are fitted by :func:`fit_tail`. ``exclude``: cells (True) whose peaks are no
+    part of the background (the known responses' own structure). Returns the threshold, the fit (None: too few
     peaks, the floor alone) and the sorted z of the peaks (to say how many of them exceed a given level).
     """
     peaks = local_peaks(power) & (bg > 0)
+    if exclude is not None:
+        peaks &= ~exclude
     z = np.sort((power[peaks] / bg[peaks]).astype(np.float64))
     try:
         fit = fit_tail(z)

@@ -633,6 +633,21 @@ LEAKAGE_SPREAD_STEP = 0.25
 # 0.15-0.2 m/s (docs/multichannel.md section 8)
 NEIGHBOUR_LEVEL = 1e-3
 RANGE_TAPER_CELLS = 8  # range cells either side of a window over which its range taper is applied (_range_tapered)
+# _remove_response takes this many separation_bandwidths about a detection (raised cosine to 1.5 x that): as far as
+# _others notches another detection, so all a detection's own response that its notches leave goes with it
+REMOVAL_BANDS = 2.5
+# _half_width: a neighbour narrows a detection's separation mask only beyond this many of the pair's larger measured
+# Doppler width (the narrowed mask, offset / 2.5, still passes 2 of them either side). Mover campaign scene 038's M2
+# (11 samples wide, 19.4 Hz from M3) stays merged at 5 and at 2.5; at 1.875 it is separated but its v_los reads 1.57
+# m/s (true 4.09): too narrow a mask cuts a defocused mover's own spectrum (docs/multichannel.md section 17)
+MASK_WIDTHS = 5.0
+# ... and only for a neighbour at least this fraction of its power: the level from which _merge says a merged response
+# looks like another target (a weaker one is more likely its own residue)
+MERGE_LEVEL = 0.25
+# ... and from this level for one at the mover's apparent time resolved from it in azimuth, without the clutter null
+# (_merge); chosen, not tuned (scene 038's is 12.3 dB under): a level of the first pass's 30 dB range, not measured
+MERGE_LEVEL_RESOLVED = 0.01
+RANGE_CUT_SAMPLES = 6  # azimuth samples either side of a detection whose range cut is no background (_range_cuts)
 STATIC_CELLS = 2  # range cells either side of an examined static detection that share its answer (_visit)
 
 
@@ -1872,6 +1887,7 @@ class _Detections:
     static: detection.StaticSources | None  # static_peaks as those side lobes' sources (residual mode only)
     tail: detection.TailFit | None = None  # the measured background's tail (_second_pass)
     background_peaks: np.ndarray | None = None  # sorted z of the measured background's peaks (_second_pass)
+    pulse_cells: int = 0  # range cells a response's range pedestal reaches either side (the chirp's T_p, _second_pass)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -1884,12 +1900,13 @@ class _Spacing:
     t_ill: float  # illumination time (s)
     ghost_cells: int  # range cells a static point's ambiguity is smeared over either side
 
-    def apart(self, d1: detection.Detection, d2: detection.Detection, cells: int) -> bool:
+    def apart(self, d1: detection.Detection, d2: detection.Detection, cells: int, sep: float | None = None) -> bool:
         dt = (d1.time - d2.time) / self.ambiguity
         k = round(dt)
+        sep = self.sep if sep is None else sep
         return (
             abs(d1.cell - d2.cell) > (cells if k == 0 else max(cells, self.ghost_cells))
-            or abs(dt - k) * self.ambiguity > self.sep
+            or abs(dt - k) * self.ambiguity > sep
         )
 
 
@@ -2050,6 +2067,7 @@ def _detect(
         range_width,
         side_lobes,
         static,
+        pulse_cells=math.ceil(r.pulse_duration * g.fs) + 2,
     )
 
 
@@ -2079,7 +2097,9 @@ def _second_pass(scan: _Scan, tally: _Tally) -> list[detection.Detection]:
     params, found, g = scan.params, scan.found, scan.g
     power = (found.image.real**2 + found.image.imag**2).astype(np.float32)
     bg = detection.background(power)
-    cfar_db, tail, z = detection.peak_cfar(power, bg, params.false_alarm_rate, params.detection_snr)
+    cfar_db, tail, z = detection.peak_cfar(
+        power, bg, params.false_alarm_rate, params.detection_snr, exclude=_range_cuts(found, power.shape)
+    )
     found.bg, found.cfar_db, found.tail, found.background_peaks = bg, cfar_db, tail, z
     dets, dropped, side_lobes = detection.find_detections(
         power,
@@ -2117,6 +2137,22 @@ def _second_pass(scan: _Scan, tally: _Tally) -> list[detection.Detection]:
         len(new),
     )
     return new
+
+
+def _range_cuts(found: _Detections, shape: tuple[int, ...]) -> np.ndarray:
+    """Cells (True) on the range cuts of the detections made so far: RANGE_CUT_SAMPLES azimuth samples either side of
+    each and its pulse_cells in range, where its range pedestal lies (the chirp's spectral tails; on the continuous
+    chirp's echoes out to T_p at -42 dB of the peak, 10-11 dB over the 1 / (pi x)^2 envelope). Those peaks are the
+    known responses' structure, not the background: in a scene without noise or clutter they were the measured
+    background's strongest peaks, whose tail fit (xi 0.8-0.9) set the threshold 64-69 dB over it, over two movers
+    the take-out had left whole (mover campaign scene 039, docs/multichannel.md section 20)."""
+    n_az, n_cells = shape
+    out = np.zeros(shape, bool)
+    rows = np.arange(-RANGE_CUT_SAMPLES, RANGE_CUT_SAMPLES + 1)
+    for d in found.dets:
+        cols = slice(max(0, d.cell - found.pulse_cells), min(n_cells, d.cell + found.pulse_cells + 1))
+        out[(d.index + rows) % n_az, cols] = True
+    return out
 
 
 def _cfar_info(found: _Detections, params: ReconstructParams) -> dict:
@@ -2327,7 +2363,8 @@ def _shares_window(det: detection.Detection, k: int, scan: _Scan, tally: _Tally)
     """Whether ``det`` lies in mover k's window and separation mask (or an ambiguity of it): the same channels. At the
     same apparent time (k = 0) only inside the range cells of its window, which _window_bounds may have narrowed."""
     p, mt = tally.peaks[k], tally.movers[k]
-    if scan.spacing.apart(det, p, scan.params.window_margin):
+    sep = 1.5 * max(_half_width(det, scan), _half_width(p, scan)) / scan.spacing.ka0
+    if scan.spacing.apart(det, p, scan.params.window_margin, sep):
         return False
     return round((det.time - p.time) / scan.spacing.ambiguity) != 0 or mt.first_cell <= det.cell < mt.last_cell
 
@@ -2352,7 +2389,16 @@ def _merge(det: detection.Detection, k: int, scan: _Scan, tally: _Tally) -> None
     apart_azimuth = d_samples > 2 * max(peak.width, det.width) + 2
     # the mover's own response on the static leakage, examined from its ambiguity instead (_examination_order)
     on_leakage = n_amb != 0 and _on_leakage(det, peak)
-    if det.power > 0.25 * peak.power and (abs(det.cell - peak.cell) > spread or apart_azimuth) and not on_leakage:
+    apart = abs(det.cell - peak.cell) > spread or apart_azimuth
+    # At its apparent time (k = 0), without the clutter null, a response resolved from the mover in azimuth (their -3 dB
+    # half widths apart twice over) and 12 dB over its side-lobe envelope there (twice find_detections' margin: a rect
+    # beam's mover had a response 5 samples off at -11.8 dB, on that envelope) is no structure of the mover's own
+    # (mover campaign scene 038: M2, defocused, 11 samples wide, 25 samples and 19 Hz from M3, 12.3 dB under it,
+    # merged with no warning, and M3's v_r read 3.41 for 2.80 m/s; docs/multichannel.md section 20)
+    lobe = detection.SIDELOBE_MARGIN**2 * detection.sinc_sidelobes(d_samples / peak.width) * peak.power
+    resolved = n_amb == 0 and scan.projector is None and d_samples > peak.width + det.width + 2 and det.power > lobe
+    level = MERGE_LEVEL_RESOLVED if resolved else MERGE_LEVEL
+    if det.power > level * peak.power and (apart or resolved) and not on_leakage:
         if n_amb == 0:
             where = f"{1e3 * (det.time - peak.time):+.1f} ms from it in apparent time"
             cause = "another mover there shares its window and its velocity estimate"
@@ -2403,15 +2449,14 @@ def _examine(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
     # The other targets in this window (detected anywhere in its cells, not at this one's position or
     # ambiguities) keep their own reconstruction; everything else in the window takes this mover's.
     others = _others(det, w, scan)
-    whole = detection.extract(w.x_w, g.times, g.prf, det.time, w.ka_w, params.separation_bandwidth, notches=others)
+    band = _half_width(det, scan)
+    whole = detection.extract(w.x_w, g.times, g.prf, det.time, w.ka_w, band, notches=others)
     _remove_response(det, others, w, scan)
     # The reconstruction also spares the static targets the null hid from the detections (bright points in
     # the conventional image, in this window's cells, not at this detection's apparent time modulo PRF / K_a).
     spared = _spared(det, w, scan)
     if spared:
-        whole = detection.extract(
-            w.x_w, g.times, g.prf, det.time, w.ka_w, params.separation_bandwidth, notches=others + spared
-        )
+        whole = detection.extract(w.x_w, g.times, g.prf, det.time, w.ka_w, band, notches=others + spared)
     kind = "mover" if mt is not None else "incoherent" if notes == ["incoherent"] else "static"
     tally.removed.append(_Removed(det, w.lo, w.hi, kind))
     if mt is None:
@@ -2581,6 +2626,49 @@ def _range_tapered(scan: _Scan, a: int, b: int) -> np.ndarray:
     return sfft.fft(x_e[:, :, a - a_e : b - a_e], axis=-1, workers=-1)
 
 
+def _half_width(det: detection.Detection, scan: _Scan) -> float:
+    """Half width (Hz) of ``det``'s separation mask: separation_bandwidth, or narrower where another detection that
+    its range cells cannot tell from it (within any mover's own range extent of it, the search bound's |v_los|, as
+    _window_bounds and _neighbours) at the same apparent time (k = 0) sits nearer in dechirped Doppler than 2.5 x
+    that, yet resolved from it: that offset / 2.5, so the neighbour is notched (_others' rule), not taken with it.
+    Resolved: over MASK_WIDTHS of the pair's larger measured -3 dB width in Doppler (K_a width / output rate; a
+    defocused response is wider), so the narrowed mask still passes MASK_WIDTHS / 2.5 of them either side. Mover
+    campaign scene 020: M1 and M2 (v_r 17.32 / 17.52 m/s, v_a 6.96 / -3.29 m/s) one range cell and 3.9 ms apart,
+    22.8 Hz at K_a 5852 Hz/s, widths 2 samples (1.6 Hz): under the fixed 25 Hz (2.5 x: 62.5 Hz) M1 was merged with
+    M2 as its own response; at 9.1 Hz both are found. A neighbour farther in range than a mover's extent is resolved
+    there: its own gate (_window_bounds) and the range taper (_neighbours) keep it out, and a narrowed mask only cuts
+    the mover's own spectrum (scene 008's M4 and M5, 4 cells and 23 Hz apart on a sinc beam: narrowed to 9.2 Hz,
+    their eq. 5 read v_r off by several stated sigma; docs/multichannel.md sections 17, 20)."""
+    band, g, sp = scan.params.separation_bandwidth, scan.g, scan.spacing
+    if scan.projector is not None:
+        # On the clutter null's residual a mover's own response is split where the null cut its spectrum: V1 of
+        # test_movers.py's movers_in_clutter, two peaks 3 cells, 5.4 ms (28.6 Hz) and 1.2 dB apart; narrowing for
+        # them moved its v_r to -12.16 m/s (true -12.0). Two detections there are no evidence of two targets.
+        return band
+    rate = g.n * g.prf  # output samples per second
+    params = scan.params
+    reach = _range_extent(max(abs(params.velocity_min), abs(params.velocity_max)), scan)
+    near = [d for d in scan.found.dets if d is not det and abs(d.cell - det.cell) <= reach]
+    half, offsets = band, []
+    for d in near:
+        # a neighbour at the same apparent time (k = 0): one near an ambiguity k PRF / K_a of it may be its own
+        # response there (campaign scene 007's gaussian-beam family) or alias onto it (scene 000's M6 40 Hz from M5)
+        if abs(d.time - det.time) >= sp.ambiguity / 2 or d.power < MERGE_LEVEL * det.power:
+            continue  # as _merge: weaker ones are this one's residue
+        f_d = sp.ka0 * (d.time - det.time)
+        own = sp.ka0 * max(d.width, det.width) / rate
+        if MASK_WIDTHS * own < abs(f_d) < 2.5 * band:
+            half = min(half, abs(f_d) / 2.5)
+            offsets.append((f_d, own))
+    # ... and that neighbour's ambiguities (k != 0), at its offset modulo PRF within 2 of its widths: scene 020's M1
+    # at +1 x PRF / K_a lies 21.6 Hz from M2 (M1 itself 22.8 Hz); unnotched, M2's removal took it
+    for d in near:
+        f_d = (sp.ka0 * (d.time - det.time) + g.prf / 2) % g.prf - g.prf / 2
+        if any(abs(f_d - f) <= 2 * own for f, own in offsets) and abs(d.time - det.time) >= sp.ambiguity / 2:
+            half = min(half, abs(f_d) / 2.5)
+    return half
+
+
 def _window_at(det: detection.Detection, scan: _Scan, tally: _Tally | None = None) -> _DetWindow:
     """The range cells of ``det``'s window (_window_bounds) and its channels separated from the rest of them.
 
@@ -2602,7 +2690,8 @@ def _window_at(det: detection.Detection, scan: _Scan, tally: _Tally | None = Non
     f_w = sfft.fftfreq(b - a, 1.0 / g.fs)
     ka_w = detection.fm_rate(g.velocity, g.squint, scan.found.r_mid, g.fc, f_w)
     x_w = sfft.fft(scan.x_tr[:, :, a:b], axis=-1, workers=-1)
-    ext = detection.extract(x_w, g.times, g.prf, det.time, ka_w, params.separation_bandwidth)
+    band = _half_width(det, scan)
+    ext = detection.extract(x_w, g.times, g.prf, det.time, ka_w, band)
     criterion = None
     if g.bandwidth > 0 and _neighbours(det, scan, tally):
         log.debug(
@@ -2610,9 +2699,7 @@ def _window_at(det: detection.Detection, scan: _Scan, tally: _Tally | None = Non
             det.cell,
             det.time,
         )
-        criterion = detection.extract(
-            _range_tapered(scan, a, b), g.times, g.prf, det.time, ka_w, params.separation_bandwidth
-        )
+        criterion = detection.extract(_range_tapered(scan, a, b), g.times, g.prf, det.time, ka_w, band)
     win = _Window(ext, f_w, g, params, criterion)
     if (lo, hi) != (a, b):
         win.gate = np.arange(lo - a, hi - a)
@@ -2648,8 +2735,9 @@ def _others(det: detection.Detection, w: _DetWindow, scan: _Scan) -> list[float]
     (their full stop reaching to 13-18 Hz from M5, inside its +-25 Hz pass band) and left |4.2| of |9.3| of M5's own
     response 0.1135 s from its second ambiguity (M5 alone: its removal takes all of it), which the null fit read as
     a false mover (v_r -18.43 m/s, SNR 55.7 dB). Scene 007: a static detection's removal with such notches added a
-    response one PRF / K_a from it, a second-pass detection examined for 12.7 s."""
-    g, ka0, band = scan.g, scan.spacing.ka0, scan.params.separation_bandwidth
+    response one PRF / K_a from it, a second-pass detection examined for 12.7 s. The mask's half width is
+    ``det``'s own (_half_width)."""
+    g, ka0, band = scan.g, scan.spacing.ka0, _half_width(det, scan)
     others = []
     for d in scan.found.dets:
         f_d = ka0 * (d.time - det.time)
@@ -2661,7 +2749,7 @@ def _others(det: detection.Detection, w: _DetWindow, scan: _Scan) -> list[float]
 
 def _spared(det: detection.Detection, w: _DetWindow, scan: _Scan) -> list[float]:
     """Doppler offsets (Hz, modulo PRF) of the conventional image's static peaks in ``w``'s cells, off ``det``'s."""
-    g, ka0, band = scan.g, scan.spacing.ka0, scan.params.separation_bandwidth
+    g, ka0, band = scan.g, scan.spacing.ka0, _half_width(det, scan)
     return [
         f_d
         for d in scan.found.static_peaks
@@ -2677,10 +2765,21 @@ def _remove_response(det: detection.Detection, others: list[float], w: _DetWindo
     too, so the detection image stays the compressed image of scan.x_left: a window overlapping earlier ones takes
     only what they left (cut from the original channels every time, seven windows over one mover's cells each took
     a notch-edge piece of it again, a false companion 5.2 dB under it; a neighbour's side lobe its notch spared
-    stayed a false alarm, mover campaign scene 000, docs/multichannel.md section 8)."""
-    g, params = scan.g, scan.params
+    stayed a false alarm, mover campaign scene 000, docs/multichannel.md section 8).
+
+    Only REMOVAL_BANDS x separation_bandwidth about the detection (modulo PRF: its ambiguities too) is taken, not
+    everything in its cells but the other detections' notches: an undetected target in those cells (under
+    detection_level of the strongest in the first pass) stays in the image for the second pass. Mover campaign
+    scene 039: the static S1's removal took the movers M2 and M4 (569 and 120 Hz from it) 46 and 28 dB down, and
+    neither was found. Not on the clutter null's residual: there the complement also takes the clutter residue in
+    the detection's cells, and left in the image it made three second-pass false alarms in scene 012 (SNR 15-16 dB,
+    v_r +1.1 to +1.3 m/s; docs/multichannel.md section 20)."""
+    g = scan.g
     x_w = sfft.fft(scan.x_left[:, :, w.a : w.b], axis=-1, workers=-1)
-    ext = detection.extract(x_w, g.times, g.prf, det.time, w.ka_w, params.separation_bandwidth, notches=others)
+    band = _half_width(det, scan)
+    ext = detection.extract(x_w, g.times, g.prf, det.time, w.ka_w, band, notches=others)
+    if scan.projector is None:
+        ext = detection.extract(ext, g.times, g.prf, det.time, w.ka_w, REMOVAL_BANDS * band)
     scan.x_left[:, :, w.lo : w.hi] -= sfft.ifft(ext, axis=-1, workers=-1)[:, :, w.lo - w.a : w.hi - w.a]
     x_fa = sfft.fft(ext, axis=1, workers=-1)
     if scan.projector is not None:
