@@ -2447,16 +2447,21 @@ def _examine(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
         null_fit=null_fit,
     )
     # The other targets in this window (detected anywhere in its cells, not at this one's position or
-    # ambiguities) keep their own reconstruction; everything else in the window takes this mover's.
+    # ambiguities) keep their own reconstruction; everything else in the window takes this mover's. So do those
+    # up to window_margin cells beyond its cells: their range side lobes in its cells, given this mover's
+    # reconstruction and cut at its edge, focus beside them (the session 42 trial, docs/multichannel.md section
+    # 22: static S 4 cells below M3's window, v_r 12 m/s, left -27.9 dB of its peak 4 cells from it in range; M1
+    # and M3 in each other's reach -34.8 and -35.2 dB; notched, -47.4, -47.2, -47.2 dB, as each alone).
     others = _others(det, w, scan)
     band = _half_width(det, scan)
-    whole = detection.extract(w.x_w, g.times, g.prf, det.time, w.ka_w, band, notches=others)
+    kept = _others(det, w, scan, params.window_margin)
+    whole = detection.extract(w.x_w, g.times, g.prf, det.time, w.ka_w, band, notches=kept)
     _remove_response(det, others, w, scan)
     # The reconstruction also spares the static targets the null hid from the detections (bright points in
     # the conventional image, in this window's cells, not at this detection's apparent time modulo PRF / K_a).
-    spared = _spared(det, w, scan)
+    spared = _spared(det, w, scan, params.window_margin)
     if spared:
-        whole = detection.extract(w.x_w, g.times, g.prf, det.time, w.ka_w, band, notches=others + spared)
+        whole = detection.extract(w.x_w, g.times, g.prf, det.time, w.ka_w, band, notches=kept + spared)
     kind = "mover" if mt is not None else "incoherent" if notes == ["incoherent"] else "static"
     tally.removed.append(_Removed(det, w.lo, w.hi, kind))
     if mt is None:
@@ -2724,9 +2729,10 @@ def _log_null_survival(det: detection.Detection, ext: np.ndarray, scan: _Scan) -
     )
 
 
-def _others(det: detection.Detection, w: _DetWindow, scan: _Scan) -> list[float]:
-    """Doppler offsets (Hz, modulo PRF) of the other detections in ``w``'s cells that its mask can separate from
-    ``det``: 2.5 separation_bandwidth or more from it (the parameter's "not separated", _ambiguity_of's reach).
+def _others(det: detection.Detection, w: _DetWindow, scan: _Scan, reach: int = 2) -> list[float]:
+    """Doppler offsets (Hz, modulo PRF) of the other detections in ``w``'s cells (or ``reach`` cells beyond them)
+    that its mask can separate from ``det``: 2.5 separation_bandwidth or more from it (the parameter's "not
+    separated", _ambiguity_of's reach).
 
     A notch stops +-separation_bandwidth about its detection and tapers to 1.5 x it (detection.extraction_mask), as
     ``det``'s own mask does: one nearer than 2.5 x stops part of ``det``'s own pass band, and the removal leaves that
@@ -2742,18 +2748,19 @@ def _others(det: detection.Detection, w: _DetWindow, scan: _Scan) -> list[float]
     for d in scan.found.dets:
         f_d = ka0 * (d.time - det.time)
         f_d = (f_d + g.prf / 2) % g.prf - g.prf / 2
-        if d is not det and w.a - 2 <= d.cell < w.b + 2 and abs(f_d) >= 2.5 * band:
+        if d is not det and w.a - reach <= d.cell < w.b + reach and abs(f_d) >= 2.5 * band:
             others.append(f_d)
     return others
 
 
-def _spared(det: detection.Detection, w: _DetWindow, scan: _Scan) -> list[float]:
-    """Doppler offsets (Hz, modulo PRF) of the conventional image's static peaks in ``w``'s cells, off ``det``'s."""
+def _spared(det: detection.Detection, w: _DetWindow, scan: _Scan, reach: int = 2) -> list[float]:
+    """Doppler offsets (Hz, modulo PRF) of the conventional image's static peaks in ``w``'s cells (or ``reach``
+    cells beyond them), off ``det``'s."""
     g, ka0, band = scan.g, scan.spacing.ka0, _half_width(det, scan)
     return [
         f_d
         for d in scan.found.static_peaks
-        if w.a - 2 <= d.cell < w.b + 2
+        if w.a - reach <= d.cell < w.b + reach
         and abs(f_d := (ka0 * (d.time - det.time) + g.prf / 2) % g.prf - g.prf / 2) > 1.5 * band
     ]
 
