@@ -1892,11 +1892,18 @@ def _fitted_response_models(
 # (ResponseModel.cubic), fitted by Gauss-Newton with its other parameters held (:func:`_fit_cubic`) and kept where
 # it leaves under CUBIC_GAIN of the misfit without. Targets whose ridges are perpendicular (every slant-plane
 # frame, pfa2's rectangles) are not searched: their models are as before, to the bit.
+# The range edges' bow is refined with the cubic (CUBIC_BOW; session 43): searched before the warp and the cubic,
+# it took 4 % off a misfit the cubic phase still dominated and was not kept (its probe gain 0.9), and a uniform
+# range band's sharp edges, an annulus' arcs against the model's chords (-0.032 range bands per azimuth band^2 on
+# the trial's lone target, fitted -0.032), left the floor at -49.3 dB beside the range ridge; with it -58.9 dB.
 CUBIC_GAIN = 0.9
 CUBIC_STEPS = 20
 CUBIC_DV = 1e-4  # the cross slopes' central difference
 CUBIC_MAX_TILT_STEP = 0.01  # a step's cross-slope change at most
 CUBIC_CRAWL = 1e-3  # a step lowering the misfit by less than this of itself ends the fit
+CUBIC_BOW = True  # the bow refined with the cubic (False: held as _fit_curvatures left it, as before session 43)
+CUBIC_DBOW = 1e-3  # the bow's central difference (range bands per azimuth band^2)
+CUBIC_MAX_BOW_STEP = 0.01  # a step's bow change at most
 
 
 def _fit_cubics(
@@ -1917,15 +1924,17 @@ def _fit_cubics(
 
 def _fit_cubic(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> tuple[ResponseModel, float, float]:
     """(model, misfit before, after): ``model`` with the cubic carrier (:attr:`ResponseModel.cubic`) that fits
-    ``y`` on ``points`` best, by Gauss-Newton from none, its band centre and its ridges' cross slopes (V[0, 1],
+    ``y`` on ``points`` best, by Gauss-Newton from none, its band centre, its ridges' cross slopes (V[0, 1],
     V[1, 0]: the range edges' tilt against the ridges measured, 0.0058 range bands per azimuth band on the
-    trial's scene) refined with it; its other parameters held, amplitudes by linear least squares, eliminated
-    from the steps."""
+    trial's scene) and its range edges' bow (:attr:`ResponseModel.curvature`, :data:`CUBIC_BOW`) refined with
+    it; its other parameters held, amplitudes by linear least squares, eliminated from the steps."""
     x = np.asarray(points, dtype=float) - np.asarray(model.position, dtype=float)[:, None]
     phases = np.stack([x[0], x[1], *_cubic_monomials(x)])  # band centre's shift, then the cubic's terms
     cross = [(0, 1), (1, 0)]
+    tilt = slice(6, 6 + len(cross))
+    bowed = CUBIC_BOW  # the bow, the last parameter
 
-    def base(V: np.ndarray) -> np.ndarray:
+    def base(V: np.ndarray, beta: float) -> np.ndarray:
         b = response_basis(
             points,
             model.position,
@@ -1937,30 +1946,37 @@ def _fit_cubic(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> tuple
             kappa=model.kappa,
             warp=model.warp,
         )
-        if model.curvature:
-            b = b + _BowColumns(points, dataclasses.replace(model, ridges=V))(model.curvature)
+        if beta:
+            b = b + _BowColumns(points, dataclasses.replace(model, ridges=V))(beta)
         return b
 
     def ridges(theta: np.ndarray) -> np.ndarray:
         V = np.array(model.ridges, dtype=float)
-        for (i, j), d in zip(cross, theta[6:]):
+        for (i, j), d in zip(cross, theta[tilt]):
             V[i, j] += d
         return V
 
+    def bow(theta: np.ndarray) -> float:  # within the bow search's +-CURVATURE_LIMIT
+        beta = model.curvature + (float(theta[-1]) if bowed else 0.0)
+        return min(max(beta, -CURVATURE_LIMIT), CURVATURE_LIMIT)
+
     def solve(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, NormalEquations, np.ndarray]:
         factor = np.exp(2j * np.pi * (theta[:6] @ phases))[:, None]
-        b = base(ridges(theta)) * factor
+        b = base(ridges(theta), bow(theta)) * factor
         coef, r, cost, normal = _amplitudes([b], y)
         return coef[0], r, cost, normal, factor
 
-    theta = np.zeros(6 + len(cross))
+    theta = np.zeros(6 + len(cross) + int(bowed))
     coef, r, cost, normal, factor = solve(theta)
     before = cost
-    slopes = []  # the basis' central differences in the cross slopes, taken once at the start (a chord method)
+    slopes = []  # the basis' central differences in the cross slopes (and the bow), once at the start (a chord)
     for i, j in cross:
         dV = np.zeros((2, 2))
         dV[i, j] = CUBIC_DV
-        slopes.append((base(model.ridges + dV) - base(model.ridges - dV)) / (2 * CUBIC_DV))
+        slopes.append((base(model.ridges + dV, bow(theta)) - base(model.ridges - dV, bow(theta))) / (2 * CUBIC_DV))
+    if bowed:
+        up, down = base(model.ridges, bow(theta) + CUBIC_DBOW), base(model.ridges, bow(theta) - CUBIC_DBOW)
+        slopes.append((up - down) / (2 * CUBIC_DBOW))
     for _ in range(CUBIC_STEPS):
         fit = y - r
         cols = list(2j * np.pi * phases * fit)  # d model / d theta_k, the amplitudes held
@@ -1968,7 +1984,9 @@ def _fit_cubic(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> tuple
         step, predicted = _gauss_newton_step(normal, r, np.stack(cols, axis=1), np.ones(len(theta), dtype=bool))
         if predicted <= 1e-6 * cost:
             break
-        step[6:] = np.clip(step[6:], -CUBIC_MAX_TILT_STEP, CUBIC_MAX_TILT_STEP)
+        step[tilt] = np.clip(step[tilt], -CUBIC_MAX_TILT_STEP, CUBIC_MAX_TILT_STEP)
+        if bowed:
+            step[-1] = np.clip(step[-1], -CUBIC_MAX_BOW_STEP, CUBIC_MAX_BOW_STEP)
         halved = _halved_step(solve, theta, step, cost)
         if halved is None:
             break
@@ -1981,11 +1999,10 @@ def _fit_cubic(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> tuple
     if cost >= before:
         return model, before, before
     centre = np.asarray(model.band_centre, dtype=float) + theta[:2]
-    return (
-        dataclasses.replace(model, coef=coef, cubic=theta[2:6], band_centre=centre, ridges=ridges(theta)),
-        before,
-        cost,
+    cubed = dataclasses.replace(
+        model, coef=coef, cubic=theta[2:6], band_centre=centre, ridges=ridges(theta), curvature=bow(theta)
     )
+    return cubed, before, cost
 
 
 # Each pulse's wavefront is a circle about the platform, not the plane wave of the band-limited model: a response's
