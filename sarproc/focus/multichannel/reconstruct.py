@@ -1084,6 +1084,7 @@ class _LitSpan:
     cut: float  # s: the mover's illumination outside the data
     t_0: float  # s: its beam-centre time, from its lit edge inside the data
     middle: float  # s: the middle of its lit part, t_0 -+ cut / 2 (where the autofocus measures R'', _autofocus)
+    at_end: bool  # cut by the data's end (its band's low Doppler lost), else by their start (its high Doppler)
 
 
 def _lit_span(
@@ -1144,7 +1145,7 @@ def _lit_span(
     inside = np.abs(t - t_0) <= h
     weight = np.zeros(len(p), np.float32)
     weight[inside] = 1.0 / np.sqrt(np.maximum(smooth[inside], 1e-6 * plateau))
-    return _LitSpan(weight, ka * h, ka, cut, t_0, middle)
+    return _LitSpan(weight, ka * h, ka, cut, t_0, middle, at_end)
 
 
 def _incoherent(
@@ -1758,8 +1759,7 @@ def _estimate(
     if can_search and params.radial_velocity is None and est.result is not None and not est.by_null_fit:
         # a mover lit past the data's start or end: eq. 5 on its span about its beam-centre time (_lit_span)
         span = _lit_span(centre.y_dem, win.cells, g, 1.0 / params.separation_bandwidth, centre.slant_range)
-        if span is not None:
-            _search_lit_span(est, win, params, g, span)
+        if span is not None and _search_lit_span(est, win, params, g, span):
             lit_cut = span.cut
             centre = _centre(win, g, est, centre_range, centre_cell, null_fit)
     t_c, slant_range = centre.t_c, centre.slant_range
@@ -1824,12 +1824,19 @@ def _estimate(
     ), notes
 
 
-def _search_lit_span(est: _Estimate, win: _Window, params: ReconstructParams, g: _Geometry, span: _LitSpan) -> None:
+def _search_lit_span(est: _Estimate, win: _Window, params: ReconstructParams, g: _Geometry, span: _LitSpan) -> bool:
     """v_r searched again by eq. 5 on ``span`` (set on the window for the later steps: the autofocus's refined search
     and eq. 5's spread) around the first estimate, over the whole cut's Doppler K_a c either side (eq. 5 on the whole
-    band settles within it) and a coarse step more; the search's trials are the span's alone."""
+    band settles within it) and a coarse step more; the search's trials are the span's alone.
+
+    Kept only where it moves v_los out of the cut, by no more than its Doppler lambda / 2 K_a c (and a search step
+    of slack either way): the whole band's minimum lies in the cut (its band slid to the lost side: v_los read low
+    where the end cut the low Doppler). Otherwise the run of lit samples was no beam's edge (another response in the
+    criterion's cells, a mover lit whole): the first estimate, its search and the whole band are restored (False)."""
+    first = (est.v_r, est.result)
     win.span = span
-    width = C / g.fc / 2 * span.ka * span.cut / math.cos(g.squint) + params.coarse_step / 4
+    reach = C / g.fc / 2 * span.ka * span.cut
+    width = reach / math.cos(g.squint) + params.coarse_step / 4
     lo, hi = max(params.velocity_min, est.v_r - width), min(params.velocity_max, est.v_r + width)
     log.debug(
         "reconstruct: lit %.1f ms past the data's edge: eq. 5 on |t' - %.4f s| <= h, band %.0f Hz, v_r in [%.2f, %.2f]",
@@ -1841,6 +1848,14 @@ def _search_lit_span(est: _Estimate, win: _Window, params: ReconstructParams, g:
     )
     est.result = _search(est, params, est.v_a, lo, hi, max(params.velocity_step, (hi - lo) / 8))
     est.v_r = est.result.estimate
+    moved = (est.v_r - first[0]) * math.cos(g.squint) * (1 if span.at_end else -1)
+    slack = params.velocity_step * math.cos(g.squint)
+    if -slack <= moved <= reach + slack:
+        return True
+    log.debug("reconstruct: the lit span moved v_los %.3f m/s (the cut's reach %.3f): not kept", moved, reach)
+    win.span = None
+    est.v_r, est.result = first
+    return False
 
 
 def blind_velocity_period(g: _Geometry) -> float:
