@@ -204,6 +204,9 @@ class MovingTarget:
     # takes a static point's at POINT_TARGET_ALPHA (noise_dip_bound; under it: motion not significant, a warning)
     noise_dip: float = float("nan")
     noise_dip_bound: float = 0.0
+    # s: a mover lit past the data's start or end whose eq. 5 searched the span about its beam-centre time (_lit_span,
+    # _search_lit_span): its illumination outside the data (0: none, or not corrected)
+    lit_cut: float = 0.0
 
     def line_of_sight_velocity(self, squint: float) -> float:
         """m/s: the estimated velocity's component along the beam's line of sight (v_r cos + v_a sin)."""
@@ -226,6 +229,7 @@ class _Geometry:
     # Hz: the band the null fit models a mover's reconstruction over (_NullFit; model_half_band); 0: half_band
     model_half_band: float = 0.0
     bandwidth: float = 0.0  # Hz: the chirp's range bandwidth (_window_at's range taper; 0: none)
+    antenna_pattern: str = "rect"  # the recorded azimuth pattern (rect where none is recorded; _lit_span)
 
 
 def _check_input(raw: Product) -> None:
@@ -271,6 +275,7 @@ def _geometry(raw: Product, params: ReconstructParams) -> _Geometry:
         fs=r.range_sampling_rate,
         model_half_band=model_half_band(r, band / 2, n * r.prf / 2),
         bandwidth=float(r.bandwidth),
+        antenna_pattern=r.antenna_pattern or "rect",
     )
 
 
@@ -413,6 +418,9 @@ class _Window:
         self.cells: np.ndarray | None = None  # the criterion's range cells (None: all of the window)
         # the cells this target may take (None: all): a second target at its Doppler holds the others (_window_bounds)
         self.gate: np.ndarray | None = None
+        # eq. 5 on the part of a mover's illumination symmetric about its beam-centre time, where the data cut the
+        # rest (_lit_span; None: the whole output time and band)
+        self.span: _LitSpan | None = None
 
     def keep_own_cells(self, margin: int = 2) -> None:
         """Restrict the criterion to the cells holding the target (noise in the others only dilutes eq. 5).
@@ -463,21 +471,30 @@ class _Window:
         """Eq. 5 on the range-tapered channels where there are (x_criterion), else ``leakage``."""
         return self.leakage(v_r, v_a, criterion=True)
 
-    def leakage(self, v_r: float, v_a: float, criterion: bool = False) -> float:
+    def criterion_spectrum(self, v_r: float, v_a: float, criterion: bool = False) -> tuple[np.ndarray, float]:
+        """What eq. 5 weighs and its half band: the demodulated spectrum and B_a / 2, or where a span is set (a mover
+        lit past the data's start or end, _lit_span) the reconstruction kept to that span in time and its half band."""
         spec = self.demodulated_spectrum(v_r, v_a, criterion)
+        if self.span is None:
+            return spec, self.g.half_band
+        y = sfft.ifft(spec, axis=0, workers=-1) * self.span.weight[:, None]
+        return sfft.fft(y, axis=0, workers=-1), self.span.half_band
+
+    def leakage(self, v_r: float, v_a: float, criterion: bool = False) -> float:
+        spec, half_band = self.criterion_spectrum(v_r, v_a, criterion)
         if self.cells is not None:
             spec = sfft.ifft(spec, axis=1, workers=-1)[:, self.cells]
-        return velocity.out_of_band_fraction(spec, self.out_f, self.g.half_band)
+        return velocity.out_of_band_fraction(spec, self.out_f, half_band)
 
     def leakage_looks(self, v_r: float, v_a: float, criterion: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """Eq. 5's out-of-band and total energy per range frequency of the criterion's cells (its independent
         looks: noise is independent between them, and a point target has the same azimuth spectrum in each): their
         sums over the looks are eq. 5's numerator and denominator (Parseval)."""
-        spec = self.demodulated_spectrum(v_r, v_a, criterion)
+        spec, half_band = self.criterion_spectrum(v_r, v_a, criterion)
         if self.cells is not None:
             spec = sfft.fft(sfft.ifft(spec, axis=1, workers=-1)[:, self.cells], axis=1, workers=-1)
         p = np.abs(spec) ** 2
-        return p[np.abs(self.out_f) > self.g.half_band].sum(axis=0), p.sum(axis=0)
+        return p[np.abs(self.out_f) > half_band].sum(axis=0), p.sum(axis=0)
 
     def coherence_looks(
         self, v_r: float, v_a: float, cells: np.ndarray | None = None
@@ -1067,6 +1084,85 @@ def _centre(
     return _Centre(y_dem, t_c, slant_range, own_cells, shift, centre_cell)
 
 
+# Power, as a fraction of the lit plateau, at which a mover's sharp (rect beam) illumination edge is located: the
+# separation's pass band (detection.extract) smooths the edge symmetrically about it, amplitude 1/2 there
+LIT_EDGE = 0.25
+
+
+@dataclasses.dataclass(frozen=True)
+class _LitSpan:
+    """Eq. 5 on a mover lit past the data's start or end (_lit_span)."""
+
+    weight: np.ndarray  # (N n_az,) float32 over the output time: the span, its envelope flattened; 0 outside
+    half_band: float  # Hz: K_a h, the Doppler half band the span holds
+    ka: float  # Hz/s: the azimuth FM rate at the mover's range
+    cut: float  # s: the mover's illumination outside the data
+    t_0: float  # s: its beam-centre time, from its lit edge inside the data
+    middle: float  # s: the middle of its lit part, t_0 -+ cut / 2 (where the autofocus measures R'', _autofocus)
+    at_end: bool  # cut by the data's end (its band's low Doppler lost), else by their start (its high Doppler)
+
+
+def _lit_span(
+    y_dem: np.ndarray, cells: np.ndarray | None, g: _Geometry, reach: float, slant_range: float
+) -> _LitSpan | None:
+    """Where a rect beam's mover is lit past the data's start or end: the span of output time symmetric about its
+    beam-centre time that the data hold, over which eq. 5 is unbiased again (None: lit whole, or no sharp edge to
+    tell it by).
+
+    A rect beam lights a point for t_ill = B_a / K_a; past the data's end its Doppler band lacks K_a c on one side (c
+    the time cut). Eq. 5's band |f| <= B_a / 2 then lets the narrower band slide into the cut at no cost, and its
+    minimum settles in it (docs/multichannel.md sections 18 and 21). The lit edge inside the data is the beam's: the
+    beam-centre time is t_0 = t_1 + t_ill / 2 (start edge t_1, the end cut; mirrored for the start), and the
+    reconstruction kept to |t' - t_0| <= h, h = (data end - ``reach``) - t_0, holds the band |f| <= K_a h whole at
+    the true velocity, its two edges made alike by the same cut. ``reach`` (s) keeps the span off the data's edge,
+    where the separation's pass band smooths the mover's energy and wraps it to the other end; within the span the
+    envelope is flattened (its power smoothed over one pulse, divided out) so the ripple that smoothing leaves does
+    not weigh one band edge over the other.
+
+    ``y_dem`` (t', f_r) the window's demodulated reconstruction at the first estimate, ``cells`` the criterion's
+    range cells (None: all). The edges: the longest run of output samples over LIT_EDGE of the plateau (the median
+    over half the peak), interpolated. Only a rect beam has such an edge; the run must be shorter than t_ill by
+    more than one output sample, longer than half of it, and touch one data edge (within ``reach``) only."""
+    if g.antenna_pattern != "rect":
+        return None
+    y = sfft.ifft(y_dem, axis=1, workers=-1)
+    if cells is not None:
+        y = y[:, cells]
+    p = np.sum(np.abs(y) ** 2, axis=1)
+    if not p.max() > 0:
+        return None
+    plateau = median(p[p > 0.5 * p.max()])
+    level = LIT_EDGE * plateau
+    d = np.diff(np.concatenate([[0], (p > level).astype(np.int8), [0]]))
+    starts, ends = np.nonzero(d == 1)[0], np.nonzero(d == -1)[0]
+    k = int(np.argmax(ends - starts))
+    i1, i2 = int(starts[k]), int(ends[k]) - 1
+    t = g.out_times
+    dt = 1.0 / (g.n * g.prf)
+    t_start, t_end = float(t[0]), float(t[-1]) + dt
+    t1 = float(t[i1] - dt * (p[i1] - level) / (p[i1] - p[i1 - 1])) if i1 > 0 else t_start
+    t2 = float(t[i2] + dt * (p[i2] - level) / (p[i2] - p[i2 + 1])) if i2 < len(p) - 1 else t_end
+    lam = C / g.fc
+    ka = 2 * (g.velocity * math.cos(g.squint)) ** 2 / (lam * slant_range)
+    t_ill = 2 * g.half_band / ka
+    at_end, at_start = t_end - t2 < reach, t1 - t_start < reach
+    if at_end == at_start or not t_ill / 2 < t2 - t1 < t_ill - dt:
+        return None
+    if at_end:  # the start edge t1 is the beam's
+        t_0, cut, middle = t1 + t_ill / 2, t1 + t_ill - t_end, (t1 + t_end) / 2
+        h = t_end - reach - t_0
+    else:
+        t_0, cut, middle = t2 - t_ill / 2, t_start - (t2 - t_ill), (t_start + t2) / 2
+        h = t_0 - (t_start + reach)
+    if not (cut > dt and h > t_ill / 4):
+        return None
+    smooth = np.convolve(p, np.ones(g.n) / g.n, mode="same")
+    inside = np.abs(t - t_0) <= h
+    weight = np.zeros(len(p), np.float32)
+    weight[inside] = 1.0 / np.sqrt(np.maximum(smooth[inside], 1e-6 * plateau))
+    return _LitSpan(weight, ka * h, ka, cut, t_0, middle, at_end)
+
+
 def _incoherent(
     est: _Estimate, win: _Window, g: _Geometry, flat_above: float, params: ReconstructParams | None = None
 ) -> bool:
@@ -1399,6 +1495,12 @@ def _autofocus(
     lam = C / g.fc
     vr_a = (v_los - v_a * math.sin(g.squint)) / math.cos(g.squint)
     acc = velocity.range_acceleration(g.velocity, v_a, vr_a, g.squint, slant_range)
+    if win.span is not None:
+        # a mover lit past the data's start or end (_lit_span): the sharpness measures R'' where its lit part is
+        # centred (the cubic term is odd about that time, not about t_0), R''(t_0) + jerk (middle - t_0) with jerk
+        # = -3 R' R'' / R; 2.9 ms off t_0 at 5.7 ms of cut is +0.14 m/s of v_a (docs/multichannel.md section 21)
+        rdot = -(g.velocity - v_a) * math.sin(g.squint) + vr_a * math.cos(g.squint)
+        acc -= -3 * rdot * acc / slant_range * (win.span.middle - win.span.t_0)
     t_ill = 2 * g.half_band * lam * slant_range / (2 * (g.velocity * math.cos(g.squint)) ** 2)
     f_az = sfft.fftfreq(len(g.out_times), 1.0 / (g.n * g.prf))
     ph = deramp.quadratic_phasor(g.out_times, np.zeros(1), acc, t_c, g.fc)
@@ -1668,6 +1770,13 @@ def _estimate(
             est.v_r,
             noise_dip_bound,
         )
+    lit_cut = 0.0
+    if can_search and params.radial_velocity is None and est.result is not None and not est.by_null_fit:
+        # a mover lit past the data's start or end: eq. 5 on its span about its beam-centre time (_lit_span)
+        span = _lit_span(centre.y_dem, win.cells, g, 1.0 / params.separation_bandwidth, centre.slant_range)
+        if span is not None and _search_lit_span(est, win, params, g, span):
+            lit_cut = span.cut
+            centre = _centre(win, g, est, centre_range, centre_cell, null_fit)
     t_c, slant_range = centre.t_c, centre.slant_range
     if params.autofocus and params.along_track_velocity is None:
         t_c, slant_range = _autofocus(est, win, params, g, centre, can_search)
@@ -1726,7 +1835,42 @@ def _estimate(
         untapered_spread=spread,
         noise_dip=noise_dip,
         noise_dip_bound=noise_dip_bound,
+        lit_cut=lit_cut,
     ), notes
+
+
+def _search_lit_span(est: _Estimate, win: _Window, params: ReconstructParams, g: _Geometry, span: _LitSpan) -> bool:
+    """v_r searched again by eq. 5 on ``span`` (set on the window for the later steps: the autofocus's refined search
+    and eq. 5's spread) around the first estimate, over the whole cut's Doppler K_a c either side (eq. 5 on the whole
+    band settles within it) and a coarse step more; the search's trials are the span's alone.
+
+    Kept only where it moves v_los out of the cut, by no more than its Doppler lambda / 2 K_a c (and a search step
+    of slack either way): the whole band's minimum lies in the cut (its band slid to the lost side: v_los read low
+    where the end cut the low Doppler). Otherwise the run of lit samples was no beam's edge (another response in the
+    criterion's cells, a mover lit whole): the first estimate, its search and the whole band are restored (False)."""
+    first = (est.v_r, est.result)
+    win.span = span
+    reach = C / g.fc / 2 * span.ka * span.cut
+    width = reach / math.cos(g.squint) + params.coarse_step / 4
+    lo, hi = max(params.velocity_min, est.v_r - width), min(params.velocity_max, est.v_r + width)
+    log.debug(
+        "reconstruct: lit %.1f ms past the data's edge: eq. 5 on |t' - %.4f s| <= h, band %.0f Hz, v_r in [%.2f, %.2f]",
+        1e3 * span.cut,
+        span.t_0,
+        span.half_band,
+        lo,
+        hi,
+    )
+    est.result = _search(est, params, est.v_a, lo, hi, max(params.velocity_step, (hi - lo) / 8))
+    est.v_r = est.result.estimate
+    moved = (est.v_r - first[0]) * math.cos(g.squint) * (1 if span.at_end else -1)
+    slack = params.velocity_step * math.cos(g.squint)
+    if -slack <= moved <= reach + slack:
+        return True
+    log.debug("reconstruct: the lit span moved v_los %.3f m/s (the cut's reach %.3f): not kept", moved, reach)
+    win.span = None
+    est.v_r, est.result = first
+    return False
 
 
 def blind_velocity_period(g: _Geometry) -> float:
@@ -3761,9 +3905,15 @@ def _uncertainties(mt: MovingTarget, g: _Geometry, clutter_band: float | None) -
     ka = 2 * (g.velocity * cos) ** 2 / (lam * mt.apparent_range)
     t_ill = 2 * g.half_band / ka
     s_k = math.sqrt(90 / snr_af) / (math.pi * t_ill**2)
-    # a mover lit past the data's start or end: its Doppler band is cut on that side and eq. 5, flat across the cut,
-    # settles about half of it off the truth (_illumination_cut; docs/multichannel.md section 18)
-    s_los = max(s_los, lam / 2 * ka * _illumination_cut(mt.beam_centre_time, t_ill, g))
+    if mt.lit_cut > 0:
+        # eq. 5 searched the span symmetric about the beam-centre time its lit edge gives (_lit_span): an error dt of
+        # that time moves the span's band K_a dt off centre; the edge is located to about one output sample
+        s_los = math.hypot(s_los, lam / 2 * ka / (g.n * g.prf))
+    else:
+        # a mover lit past the data's start or end, not corrected (no rect beam's edge to tell its beam-centre time,
+        # or eq. 5 not the criterion): its Doppler band is cut on that side and eq. 5, flat across the cut, settles
+        # about half of it off the truth (_illumination_cut; docs/multichannel.md sections 18 and 21)
+        s_los = max(s_los, lam / 2 * ka * _illumination_cut(mt.beam_centre_time, t_ill, g))
     # the clutter's pull, which the CRB misses: measured by the autofocus itself (illumination_pull)
     pull = abs(mt.autofocus_pull) if np.isfinite(mt.autofocus_pull) else 0.0
     floor_a = ALONG_TRACK_FLOOR if clutter_band is None else ALONG_TRACK_CLUTTER_FLOOR
