@@ -114,6 +114,39 @@ def mover_campaign_scene(squint, pattern, n_receivers, spacing, mover, noise_snr
     return m
 
 
+# The session 42 new-user trial's targets (docs/cli.md, "Session 42 new-user trial", row 7), squint frame
+TRIAL_POINTS = {
+    "S": {"name": "S", "azimuth": "0 m", "range": "0 m"},
+    "M1": {"name": "M1", "azimuth": "300 m", "range": "60 m", "velocity": ["0 m/s", "4 m/s", "0 m/s"]},
+    "M2": {"name": "M2", "azimuth": "-300 m", "range": "-60 m", "velocity": ["5 m/s", "-3 m/s", "0 m/s"]},
+    "M3": {"name": "M3", "azimuth": "600 m", "range": "-120 m", "velocity": ["0 m/s", "12 m/s", "0 m/s"]},
+}
+
+
+def trial_mover_scene(points: list[dict]) -> dict:
+    """The session 42 trial's radar (configs/xu_small.yaml's: 3 channels 5 m apart, PRF 1000 Hz, 20 deg squint,
+    0.6 s, rect beam 0.305 deg; continuous chirp) with ``points`` (squint frame)."""
+    return {
+        "radar": {
+            "carrier_frequency": "9.6 GHz",
+            "bandwidth": "30 MHz",
+            "pulse_duration": "4 us",
+            "range_sampling_rate": "36 MHz",
+            "prf": "1000 Hz",
+        },
+        "platform": {"velocity": "7500 m/s", "altitude": "0 m"},
+        "geometry": {"reference_range": "600 km", "squint": "20 deg"},
+        "acquisition": {"mode": "stripmap", "aperture_time": "0.6 s", "range_margin": "30 m"},
+        "targets": {"frame": "squint", "points": points},
+        "effects": {
+            "antenna": {"pattern": "rect", "azimuth_beamwidth": "0.305 deg"},
+            "azimuth_channels": {"n_receivers": 3, "spacing": "5 m"},
+            "target_motion": {},
+        },
+        "simulation": {"waveform": "continuous"},
+    }
+
+
 def warped_model(rng, position=(60.3, 81.7), kappa=0.02, curvature=0.0, cross_warp=True):
     """A warped, keystoned 2D response model of evaluate's residual (sarproc.quality.residual.ResponseModel: skewed
     ridges, a chirp, a band centre, as pfa2's images give), its coefficients drawn from ``rng``."""

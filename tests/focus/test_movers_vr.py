@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from helpers import mover_campaign_scene
+from helpers import TRIAL_POINTS, mover_campaign_scene, trial_mover_scene
 from sarproc.focus.multichannel import channels, detection, reconstruct as rc, velocity
 from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct
 from sarproc.product import fft as sfft
@@ -466,31 +466,7 @@ def test_noise_windows_through_the_null_fit_are_no_point_targets(monkeypatch):
 def _xu_small_mover(azimuth: float) -> dict:
     """configs/xu_small.yaml's radar (3 channels 5 m apart, PRF 1000 Hz, 20 deg squint, 0.6 s, rect beam 0.305 deg)
     with a static point and one mover at v_r 12 m/s (the session 42 trial's M3), ``azimuth`` m along track."""
-    return {
-        "radar": {
-            "carrier_frequency": "9.6 GHz",
-            "bandwidth": "30 MHz",
-            "pulse_duration": "4 us",
-            "range_sampling_rate": "36 MHz",
-            "prf": "1000 Hz",
-        },
-        "platform": {"velocity": "7500 m/s", "altitude": "0 m"},
-        "geometry": {"reference_range": "600 km", "squint": "20 deg"},
-        "acquisition": {"mode": "stripmap", "aperture_time": "0.6 s", "range_margin": "30 m"},
-        "targets": {
-            "frame": "squint",
-            "points": [
-                {"name": "S", "azimuth": "0 m", "range": "0 m"},
-                {"name": "M", "azimuth": f"{azimuth} m", "range": "-120 m", "velocity": ["0 m/s", "12 m/s", "0 m/s"]},
-            ],
-        },
-        "effects": {
-            "antenna": {"pattern": "rect", "azimuth_beamwidth": "0.305 deg"},
-            "azimuth_channels": {"n_receivers": 3, "spacing": "5 m"},
-            "target_motion": {},
-        },
-        "simulation": {"waveform": "continuous"},
-    }
+    return trial_mover_scene([TRIAL_POINTS["S"], {**TRIAL_POINTS["M3"], "name": "M", "azimuth": f"{azimuth} m"}])
 
 
 def test_a_mover_lit_past_the_datas_end_has_a_sigma_that_covers_eq_5s_cut_band():

@@ -17,39 +17,14 @@ import dataclasses
 import numpy as np
 import pytest
 
+from helpers import TRIAL_POINTS, trial_mover_scene
 from sarproc.focus.backprojection import BackprojectParams, backproject
 from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct
 from sarproc.quality.metrics import EvaluateParams, evaluate_product
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
 
-TRIAL = {  # /tmp/ux42-m/mc.yaml of the session 42 trial
-    "radar": {
-        "carrier_frequency": "9.6 GHz",
-        "bandwidth": "30 MHz",
-        "pulse_duration": "4 us",
-        "range_sampling_rate": "36 MHz",
-        "prf": "1000 Hz",
-    },
-    "platform": {"velocity": "7500 m/s", "altitude": "0 m"},
-    "geometry": {"reference_range": "600 km", "squint": "20 deg"},
-    "acquisition": {"mode": "stripmap", "aperture_time": "0.6 s", "range_margin": "30 m"},
-    "targets": {
-        "frame": "squint",
-        "points": [
-            {"name": "S", "azimuth": "0 m", "range": "0 m"},
-            {"name": "M1", "azimuth": "300 m", "range": "60 m", "velocity": ["0 m/s", "4 m/s", "0 m/s"]},
-            {"name": "M2", "azimuth": "-300 m", "range": "-60 m", "velocity": ["5 m/s", "-3 m/s", "0 m/s"]},
-            {"name": "M3", "azimuth": "600 m", "range": "-120 m", "velocity": ["0 m/s", "12 m/s", "0 m/s"]},
-        ],
-    },
-    "effects": {
-        "antenna": {"pattern": "rect", "azimuth_beamwidth": "0.305 deg"},
-        "azimuth_channels": {"n_receivers": 3, "spacing": "5 m"},
-        "target_motion": {},
-    },
-    "simulation": {"waveform": "continuous"},
-}
+TRIAL = trial_mover_scene(list(TRIAL_POINTS.values()))  # /tmp/ux42-m/mc.yaml of the session 42 trial
 
 
 @pytest.fixture(scope="module")
