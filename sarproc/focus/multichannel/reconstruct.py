@@ -2539,8 +2539,10 @@ def _merge(det: detection.Detection, k: int, scan: _Scan, tally: _Tally) -> None
     # beam's mover had a response 5 samples off at -11.8 dB, on that envelope) is no structure of the mover's own
     # (mover campaign scene 038: M2, defocused, 11 samples wide, 25 samples and 19 Hz from M3, 12.3 dB under it,
     # merged with no warning, and M3's v_r read 3.41 for 2.80 m/s; docs/multichannel.md section 20)
-    lobe = detection.SIDELOBE_MARGIN**2 * detection.sinc_sidelobes(d_samples / peak.width) * peak.power
-    resolved = n_amb == 0 and scan.projector is None and d_samples > peak.width + det.width + 2 and det.power > lobe
+    resolved = n_amb == 0 and scan.projector is None and d_samples > peak.width + det.width + 2
+    if resolved:  # (not at the mover's own apparent time: there the envelope has no value)
+        lobe = detection.SIDELOBE_MARGIN**2 * detection.sinc_sidelobes(d_samples / peak.width) * peak.power
+        resolved = det.power > lobe
     level = MERGE_LEVEL_RESOLVED if resolved else MERGE_LEVEL
     if det.power > level * peak.power and (apart or resolved) and not on_leakage:
         if n_amb == 0:
