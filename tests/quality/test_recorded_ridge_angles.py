@@ -26,21 +26,14 @@ from sarproc.product.model import as_target_table
 from sarproc.quality.metrics import target_ridge_angles
 from sarproc.simulation.scene import scene_from_mapping
 from sarproc.simulation.simulate import simulate
+from tests.quality.test_ground_plane_ridges import SCENE as GROUND_PLANE_SCENE
 
 ROOT = Path(__file__).resolve().parents[2]
 
-# tests/quality/test_ground_plane_ridges.py's sheared scene (ridges 36.9 deg apart in space), two targets
+# tests/quality/test_ground_plane_ridges.py's sheared scene (ridges 36.9 deg apart in space) with a second target
+# and no backproject key
 SCENE = {
-    "radar": {
-        "carrier_frequency": "16 GHz",
-        "bandwidth": "200 MHz",
-        "pulse_duration": "1 us",
-        "range_sampling_rate": "240 MHz",
-        "prf": "250 Hz",
-    },
-    "platform": {"velocity": "80 m/s", "altitude": "800 m"},
-    "geometry": {"reference_range": "1.2 km", "squint": "45 deg"},
-    "acquisition": {"mode": "spotlight", "aperture_time": "0.6 s"},
+    **{key: value for key, value in GROUND_PLANE_SCENE.items() if key != "backproject"},
     "targets": {"frame": "ground_los", "points": [{"name": "A"}, {"name": "B", "azimuth": "6 m", "range": "-5 m"}]},
 }
 PARAMS = BackprojectParams(
