@@ -323,3 +323,54 @@ def test_ridges_in_space_same_with_the_nufft_lines(monkeypatch):
     reference = evaluate_image(*args, **kw)
     assert dict(_floats(fast.to_dict())) == dict(_floats(reference.to_dict()))
     assert any(abs(m.angle_deg) > 20 for m in fast.targets[0].axes)  # the ridge was turned in space
+
+
+def _close_targets_cube() -> tuple:
+    """An oversampled 3D cube (3-4 samples per null on two axes, as paper 004's elevation and azimuth) of three
+    targets two to three nulls apart, off the sample grid, with skewed ridges and band offsets."""
+    steps, res = (0.25, 0.3, 0.3), (1.0, 1.0, 0.4)
+    coords = [axis_coords(40, steps[0]), axis_coords(44, steps[1]), axis_coords(32, steps[2])]
+    e, a, r = np.meshgrid(*coords, indexing="ij")
+    img = np.zeros(e.shape, dtype=complex)
+    targets = [(0.13, -0.21, 0.07), (0.13, 2.07, 0.07), (-2.61, -0.21, 0.95)]
+    for (te, ta, tr), amp in zip(targets, (1.0, 0.7j, 0.5)):
+        de, da, dr = e - te, a - ta, r - tr
+        img += (
+            amp
+            * np.sinc(0.886 / res[0] * (de + 0.05 * dr))
+            * np.sinc(0.886 / res[1] * da)
+            * np.sinc(0.886 / res[2] * (dr + 0.1 * da))
+            * np.exp(2j * np.pi * (0.2 / steps[1] * da - 0.3 / steps[0] * de + 0.1 / steps[2] * dr))
+        )
+    return img, coords, res, targets
+
+
+def test_3d_peak_refinement_by_local_moments_equals_the_zooms():
+    """A cube chip's peak refinement takes its zooms after the first from the spectrum's local moments: the same
+    grid points as every zoom by the chip's values (the position to the bit), the peak value to rounding, on
+    each of three close targets' chips (the neighbours' side lobes in each) and from starts off the peak."""
+    from sarproc.quality.metrics import _Chip
+
+    img, coords, _, targets = _close_targets_cube()
+    steps = [c[1] - c[0] for c in coords]
+    for t in targets:
+        index = [int(round((x - c[0]) / s)) for x, c, s in zip(t, coords, steps)]
+        chip = _Chip(img, index, (16, 14, 12))
+        for offset in ((0, 0, 0), (1, -1, 0), (-1, 0, 1)):
+            start = np.add(index, offset)
+            pos, value = chip.refine_peak(start)
+            ref_pos, ref_value = chip.refine_peak(start, exact=True)
+            np.testing.assert_array_equal(pos, ref_pos)
+            assert abs(value - ref_value) <= 1e-13 * abs(ref_value)
+
+
+def test_rolled_magnitude_equals_numpys_roll():
+    """The support spectrum's magnitude written where the roll puts it equals np.roll of np.abs, bit for bit."""
+    from sarproc.quality.metrics import rolled_abs
+
+    rng = np.random.default_rng(3)
+    for shape in ((131, 105, 41), (9, 1, 4), (64, 33)):
+        x = rng.standard_normal(shape) + 1j * rng.standard_normal(shape)
+        for shift in itertools.islice(itertools.product(*[(0, 5, -7, 300)] * len(shape)), 12):
+            expected = np.roll(np.abs(x), shift, axis=tuple(range(len(shape))))
+            np.testing.assert_array_equal(rolled_abs(x, shift), expected)
