@@ -1441,6 +1441,35 @@ def test_eq_5s_sigma_from_its_looks_is_that_of_its_estimate_in_noise(one_mover_w
     assert 0.05 < scatter < 0.5 and scatter / 1.5 < stated < 1.5 * scatter, (scatter, stated)
 
 
+def test_eq_5s_sigma_gives_its_estimates_errors_in_noise_rms_z_near_1(one_mover_window):
+    """reconstruct._leakage_spread over 32 noise draws (the test above's window and noise, -10 dB per sample): the
+    errors of the estimates over their stated sigmas, z = (v_r - 5) / sigma, have an rms near 1. The noise's part of
+    eq. 5 is a random walk in v_r, so the curvature at the estimate read the noise's own dip and the score over a
+    fixed 0.25 m/s understated the walk: the stated sigma was 0.6 of the scatter and rms z 1.9, with one draw's
+    sigma 0 (no curvature over 0.25 m/s). For 32 draws of a unit normal z the rms lies in 0.75-1.23 (95 %); the
+    sigma is itself estimated from 6-7 looks, which widens z's tails (Student's t with 5 degrees of freedom: rms
+    1.29), so the bound is 0.7-1.5 (docs/multichannel.md section 24)."""
+    from sarproc.focus.multichannel import reconstruct as rc, velocity
+
+    x_w, f_w, g, params = one_mover_window
+
+    def estimate(x):
+        win = rc._Window(x, f_w, g, params)
+        win.keep_own_cells()
+        v = velocity.fast_search(lambda u: win.leakage(u, 0.0), -20.0, 20.0, 0.1, 2.0).estimate
+        return v, rc._leakage_spread(win, v, 0.0)
+
+    rng = np.random.default_rng(1)
+    power = float(np.mean(np.abs(x_w[:, :, 4:10]) ** 2))
+    z = []
+    for _ in range(32):
+        noise = rng.standard_normal(x_w.shape) + 1j * rng.standard_normal(x_w.shape)
+        v, spread = estimate(x_w + noise * math.sqrt(power / 2 * 10.0))
+        z.append((v - 5.0) / spread if spread > 0 else math.inf)
+    rms = math.sqrt(float(np.mean(np.square(z))))
+    assert 0.7 < rms < 1.5, rms
+
+
 def test_the_null_fit_rules_out_rest_only_where_rest_leaves_the_residual_unexplained():
     """reconstruct._rest_ruled_out, _drop_under_threshold's third condition: rest must leave more than
     NULL_FIT_MISMATCH of the residual unexplained (and more than the estimate). Mover campaign scene 014's clutter
