@@ -1059,8 +1059,8 @@ def _leakage_spread(
     sigma_w^2 / 2h: it is taken over the estimate's own sigma (h iterated to sigma(h), from ``step``, no finer than
     the search's step, over which its parabola takes the estimate, nor one output Doppler bin; at most 4 ``step``),
     where the linear sandwich gives the parabola-plus-walk's scatter (Chernoff's variance 0.26) to 3 %. (2) The
-    curvature at the estimate is where the walk made a dip: over ``step`` it read 1.5x the mean curve's (one mover at
-    -5 dB per sample), and varied 45 % from draw to draw; it is measured as the difference of L at +-H and at +-H / 2
+    curvature at the estimate is where the walk made a dip: over ``step`` it read 1.3-1.6x the mean curve's (one mover
+    at -5 dB per sample), and varied 42 % from draw to draw; it is measured as the difference of L at +-H and +-H / 2
     (H = LEAKAGE_CURVATURE_STEPS x h, at least ``step``), the dip at the minimum left out. Before both, the stated
     sigma was 0.6-0.7 of the scatter over 64 noise draws. 0 where there is no minimum (that curvature <= 0) or fewer
     than 2 looks."""
