@@ -642,9 +642,14 @@ NULL_FIT_AMBIGUOUS = 1.0
 # search estimated, is tabled only with its line-of-sight speed this many 1-sigma over detection_velocity
 # (_drop_under_threshold)
 STATIC_SIGMAS = 2.0
-# m/s: the central-difference step of eq. 5's looks' scores and curvature (_leakage_spread; on mover campaign scene 014
-# its three windows' sigmas change by under 5 % between 0.1 and 0.5 m/s)
+# m/s: the first central-difference step of eq. 5's looks' scores (_leakage_spread; on mover campaign scene 014 its
+# three windows' sigmas change by under 5 % between 0.1 and 0.5 m/s), and the least step of its curvature
 LEAKAGE_SPREAD_STEP = 0.25
+# _leakage_spread's curvature is measured between this many of its score's step and half of it either side (the
+# points nearer the minimum, where the noise's own dip deepens the curve, left out): on one mover in noise 4 or more
+# read the mean curve's curvature at the estimate (docs/multichannel.md section 24)
+LEAKAGE_CURVATURE_STEPS = 5.0
+LEAKAGE_SPREAD_ROUNDS = 6  # _leakage_spread's steps, each its last sigma, until they agree to 5 %
 # A neighbour whose range side lobes (unweighted sinc envelope) reach a detection over this fraction of its power
 # range-tapers its final eq. 5 search (_neighbours): scene 008's M3 and M4, -24 and -22 dB at M6 and M5, pulled them
 # 0.15-0.2 m/s (docs/multichannel.md section 8)
@@ -1046,19 +1051,54 @@ def _leakage_spread(
     Where the window holds a mixture (clutter scatterers, side lobes), the looks see it mixed differently and their
     minima disagree however high the SNR (mover campaign scene 014's clutter read at v_r -1.34 m/s: looks' minima
     from -2 to beyond +1.7 m/s; eq. 5 only 3.4 % under its value at rest): the SNR's curvature bound misses that.
-    Derivatives by central differences over ``step``; 0 where there is no minimum (L'' <= 0) or fewer than 2 looks."""
+
+    Noise is not smooth in u: as the trial Doppler moves, the noise's Doppler bins cross the band's edges one by one,
+    so its part of L is a random walk (its increments' variance grows as |du|, measured from 0.01 to 1 m/s), and the
+    minimum's scatter is that of a parabola plus a random walk (Chernoff's), not -L' / L'' at any fixed step. Two
+    things follow (docs/multichannel.md section 24). (1) The score's central difference over h has the walk's variance
+    sigma_w^2 / 2h: it is taken over the estimate's own sigma (h iterated to sigma(h), from ``step``, no finer than
+    the search's step, over which its parabola takes the estimate, nor one output Doppler bin; at most 4 ``step``),
+    where the linear sandwich gives the parabola-plus-walk's scatter (Chernoff's variance 0.26) to 3 %. (2) The
+    curvature at the estimate is where the walk made a dip: over ``step`` it read 1.3-1.6x the mean curve's (one mover
+    at -5 dB per sample), and varied 42 % from draw to draw; it is measured as the difference of L at +-H and +-H / 2
+    (H = LEAKAGE_CURVATURE_STEPS x h, at least ``step``), the dip at the minimum left out. Before both, the stated
+    sigma was 0.6-0.7 of the scatter over 64 noise draws. 0 where there is no minimum (that curvature <= 0) or fewer
+    than 2 looks."""
     # ``criterion``: the looks of the range-tapered channels (final_leakage) where a neighbour tapered the final
     # search, else of the channels themselves
-    (om, tm), (o0, t0), (op, tp) = (win.leakage_looks(v_r + k * step, v_a, criterion) for k in (-1, 0, 1))
+    g = win.g
+    # m/s of v_r: the search's step (its parabola's differences are over it) or one output Doppler bin
+    finest = max(win.params.velocity_step, C / g.fc * g.prf / (2 * len(g.times) * math.cos(g.squint)))
+    cache: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+
+    def looks(du: float) -> tuple[np.ndarray, np.ndarray]:
+        if du not in cache:
+            cache[du] = win.leakage_looks(v_r + du, v_a, criterion)
+        return cache[du]
+
+    def at(du: float) -> float:
+        o, t = looks(du)
+        total = float(t.sum())
+        return float(o.sum()) / total if total > 0 else math.nan
+
+    o0, t0 = looks(0.0)
     n, total = len(o0), float(t0.sum())
-    if n < 2 or total <= 0 or tm.sum() <= 0 or tp.sum() <= 0:
+    if n < 2 or total <= 0:
         return 0.0
-    at = float(o0.sum()) / total
-    curvature = (float(om.sum() / tm.sum()) - 2 * at + float(op.sum() / tp.sum())) / step**2
-    if not curvature > 0:
-        return 0.0
-    score = ((op - om) - at * (tp - tm)) / (2 * step * total)
-    return float(math.sqrt(n / (n - 1) * float(np.sum(score**2))) / curvature)
+    h, spread = step, 0.0
+    for _ in range(LEAKAGE_SPREAD_ROUNDS):
+        wide = max(step, LEAKAGE_CURVATURE_STEPS * h)
+        curvature = ((at(wide) + at(-wide)) - (at(wide / 2) + at(-wide / 2))) / (0.75 * wide**2)
+        (om, tm), (op, tp) = looks(-h), looks(h)
+        if not curvature > 0 or tm.sum() <= 0 or tp.sum() <= 0:
+            return 0.0
+        score = ((op - om) - at(0.0) * (tp - tm)) / (2 * h * total)
+        spread = float(math.sqrt(n / (n - 1) * float(np.sum(score**2))) / curvature)
+        following = min(max(spread, finest), 4 * step)
+        if abs(following - h) <= 0.05 * h:
+            break
+        h = following
+    return spread
 
 
 def _centre(
