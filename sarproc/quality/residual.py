@@ -1904,6 +1904,8 @@ CUBIC_CRAWL = 1e-3  # a step lowering the misfit by less than this of itself end
 CUBIC_BOW = True  # the bow refined with the cubic (False: held as _fit_curvatures left it, as before session 43)
 CUBIC_DBOW = 1e-3  # the bow's central difference (range bands per azimuth band^2)
 CUBIC_MAX_BOW_STEP = 0.01  # a step's bow change at most
+CUBIC_DWARP = 1e-7  # the warp's central difference (nulls per sample^2)
+CUBIC_NEAR_NULLS = 20.0  # nulls along each ridge the warp and cubic are fitted on first (0: the whole strips at once)
 
 
 def _fit_cubics(
@@ -1917,24 +1919,66 @@ def _fit_cubics(
         if len(members) > 1 or model is None or not sheared[k]:
             continue
         rhs = _others_subtracted(y_far, far, members, live, models, reach)
-        cubed, before, after = _fit_cubic(far, rhs, model)
+        if CUBIC_NEAR_NULLS and model.cubic is None:
+            model = _fit_near_first(far, rhs, model)
+        cubed, before, after = _fit_cubic(far, rhs, model, warped=CUBIC_NEAR_NULLS > 0 and model.cubic is not None)
+        if CUBIC_NEAR_NULLS and model is not models[k]:  # the staged terms judged against the model without them
+            before, after = _misfit(models[k], far, rhs), _misfit(cubed, far, rhs)
         if after < CUBIC_GAIN * before:
             models[k] = cubed
 
 
-def _fit_cubic(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> tuple[ResponseModel, float, float]:
+def _fit_near_first(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> ResponseModel:
+    """``model`` with the warp (where it has none) and the cubic carrier fitted first on the samples within
+    :data:`CUBIC_NEAR_NULLS` nulls of its peak along each ridge (:func:`_fit_warp`, :func:`_fit_cubic`), each kept
+    where it leaves under its gain of the misfit there: the start of the whole strips' cubic fit."""
+    A, p = _ridge_frame(model.position, model.ridges, model.nulls)
+    near = np.max(np.abs(A @ (np.asarray(points, dtype=float) - p[:, None])), axis=0) <= CUBIC_NEAR_NULLS
+    if near.all():
+        return model
+    pts, rhs = points[:, near], y[near]
+    if model.warp is None:
+        warped, before, after = _fit_warp(pts, rhs, model, WARP_GAIN)
+        if after < WARP_GAIN * before:
+            model = warped
+    cubed, before, after = _fit_cubic(pts, rhs, model)
+    return cubed if after < CUBIC_GAIN * before else model
+
+
+def _fit_cubic(
+    points: np.ndarray, y: np.ndarray, model: ResponseModel, warped: bool = False
+) -> tuple[ResponseModel, float, float]:
     """(model, misfit before, after): ``model`` with the cubic carrier (:attr:`ResponseModel.cubic`) that fits
     ``y`` on ``points`` best, by Gauss-Newton from none, its band centre, its ridges' cross slopes (V[0, 1],
     V[1, 0]: the range edges' tilt against the ridges measured, 0.0058 range bands per azimuth band on the
     trial's scene) and its range edges' bow (:attr:`ResponseModel.curvature`, :data:`CUBIC_BOW`) refined with
     it; its other parameters held, amplitudes by linear least squares, eliminated from the steps."""
     x = np.asarray(points, dtype=float) - np.asarray(model.position, dtype=float)[:, None]
-    phases = np.stack([x[0], x[1], *_cubic_monomials(x)])  # band centre's shift, then the cubic's terms
+    # band centre's shift, the cubic's terms, then (``warped``) the chirp's
+    rows = [x[0], x[1], *_cubic_monomials(x)] + ([x[0] ** 2 / 2, x[0] * x[1], x[1] ** 2 / 2] if warped else [])
+    phases = np.stack(rows)
+    n_ph = len(rows)
     cross = [(0, 1), (1, 0)]
-    tilt = slice(6, 6 + len(cross))
+    tilt = slice(n_ph, n_ph + len(cross))
     bowed = CUBIC_BOW  # the bow, the last parameter
+    pairs = _chirp_pairs(2)
+    n_warp = 2 * len(pairs) if warped else 0  # the warp's terms (:func:`_fit_warp`), after the cross slopes
+    bend = slice(tilt.stop, tilt.stop + n_warp)
+    warp0 = np.zeros((2, 2, 2)) if model.warp is None else np.asarray(model.warp, dtype=float)
 
-    def base(V: np.ndarray, beta: float) -> np.ndarray:
+    def warp_of(w: np.ndarray) -> np.ndarray | None:
+        if not n_warp:
+            return model.warp
+        W = warp0.copy()
+        for a in range(2):
+            for q, (i, j) in enumerate(pairs):
+                W[a, i, j] += w[a * len(pairs) + q]
+                if i != j:
+                    W[a, j, i] += w[a * len(pairs) + q]
+        return W
+
+    def base(V: np.ndarray, beta: float, w: np.ndarray | None = None) -> np.ndarray:
+        W = warp_of(np.zeros(n_warp) if w is None else w)
         b = response_basis(
             points,
             model.position,
@@ -1944,10 +1988,10 @@ def _fit_cubic(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> tuple
             model.orders,
             model.chirp,
             kappa=model.kappa,
-            warp=model.warp,
+            warp=W,
         )
         if beta:
-            b = b + _BowColumns(points, dataclasses.replace(model, ridges=V))(beta)
+            b = b + _BowColumns(points, dataclasses.replace(model, ridges=V, warp=W))(beta)
         return b
 
     def ridges(theta: np.ndarray) -> np.ndarray:
@@ -1961,12 +2005,14 @@ def _fit_cubic(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> tuple
         return min(max(beta, -CURVATURE_LIMIT), CURVATURE_LIMIT)
 
     def solve(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, NormalEquations, np.ndarray]:
-        factor = np.exp(2j * np.pi * (theta[:6] @ phases))[:, None]
-        b = base(ridges(theta), bow(theta)) * factor
+        factor = np.exp(2j * np.pi * (theta[:n_ph] @ phases))[:, None]
+        b = base(ridges(theta), bow(theta), theta[bend]) * factor
         coef, r, cost, normal = _amplitudes([b], y)
         return coef[0], r, cost, normal, factor
 
-    theta = np.zeros(6 + len(cross) + int(bowed))
+    theta = np.zeros(n_ph + len(cross) + n_warp + int(bowed))
+    if model.cubic is not None:  # from the cubic fitted already (:func:`_fit_near_first`)
+        theta[2:6] = model.cubic
     coef, r, cost, normal, factor = solve(theta)
     before = cost
     slopes = []  # the basis' central differences in the cross slopes (and the bow), once at the start (a chord)
@@ -1977,6 +2023,13 @@ def _fit_cubic(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> tuple
     if bowed:
         up, down = base(model.ridges, bow(theta) + CUBIC_DBOW), base(model.ridges, bow(theta) - CUBIC_DBOW)
         slopes.append((up - down) / (2 * CUBIC_DBOW))
+    for q in range(n_warp):
+        dw = np.zeros(n_warp)
+        dw[q] = CUBIC_DWARP
+        slopes.insert(
+            len(cross) + q,
+            (base(model.ridges, bow(theta), dw) - base(model.ridges, bow(theta), -dw)) / (2 * CUBIC_DWARP),
+        )
     for _ in range(CUBIC_STEPS):
         fit = y - r
         cols = list(2j * np.pi * phases * fit)  # d model / d theta_k, the amplitudes held
@@ -2000,7 +2053,14 @@ def _fit_cubic(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> tuple
         return model, before, before
     centre = np.asarray(model.band_centre, dtype=float) + theta[:2]
     cubed = dataclasses.replace(
-        model, coef=coef, cubic=theta[2:6], band_centre=centre, ridges=ridges(theta), curvature=bow(theta)
+        model,
+        coef=coef,
+        cubic=theta[2:6],
+        band_centre=centre,
+        ridges=ridges(theta),
+        curvature=bow(theta),
+        warp=warp_of(theta[bend]),
+        chirp=model.chirp + np.array([[theta[6], theta[7]], [theta[7], theta[8]]]) if warped else model.chirp,
     )
     return cubed, before, cost
 
