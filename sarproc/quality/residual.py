@@ -1919,9 +1919,10 @@ def _fit_cubics(
         if len(members) > 1 or model is None or not sheared[k]:
             continue
         rhs = _others_subtracted(y_far, far, members, live, models, reach)
-        if CUBIC_NEAR_NULLS and model.cubic is None:
+        staged = CUBIC_NEAR_NULLS > 0
+        if staged and model.cubic is None:
             model = _fit_near_first(far, rhs, model)
-        cubed, before, after = _fit_cubic(far, rhs, model, warped=CUBIC_NEAR_NULLS > 0 and model.cubic is not None)
+        cubed, before, after = _fit_cubic(far, rhs, model, warped=staged)
         if CUBIC_NEAR_NULLS and model is not models[k]:  # the staged terms judged against the model without them
             before, after = _misfit(models[k], far, rhs), _misfit(cubed, far, rhs)
         if after < CUBIC_GAIN * before:
@@ -1937,10 +1938,12 @@ def _fit_near_first(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> 
     if near.all():
         return model
     pts, rhs = points[:, near], y[near]
-    if model.warp is None:
-        warped, before, after = _fit_warp(pts, rhs, model, WARP_GAIN)
-        if after < WARP_GAIN * before:
-            model = warped
+    straight = dataclasses.replace(model, warp=None)  # a warp fitted on the whole strips from none may be astray
+    warped, before, after = _fit_warp(pts, rhs, straight, WARP_GAIN)
+    if after < WARP_GAIN * before:
+        model = warped
+    elif model.warp is not None and _misfit(straight, pts, rhs) <= _misfit(model, pts, rhs):
+        model = straight
     cubed, before, after = _fit_cubic(pts, rhs, model)
     return cubed if after < CUBIC_GAIN * before else model
 
@@ -1964,6 +1967,9 @@ def _fit_cubic(
     pairs = _chirp_pairs(2)
     n_warp = 2 * len(pairs) if warped else 0  # the warp's terms (:func:`_fit_warp`), after the cross slopes
     bend = slice(tilt.stop, tilt.stop + n_warp)
+    keyed = model.kappa is not None
+    n_shape = (2 + int(keyed)) if warped else 0  # the widths' relative changes and the keystone's, after the warp
+    form = slice(bend.stop, bend.stop + n_shape)
     warp0 = np.zeros((2, 2, 2)) if model.warp is None else np.asarray(model.warp, dtype=float)
 
     def warp_of(w: np.ndarray) -> np.ndarray | None:
@@ -1977,21 +1983,20 @@ def _fit_cubic(
                     W[a, j, i] += w[a * len(pairs) + q]
         return W
 
-    def base(V: np.ndarray, beta: float, w: np.ndarray | None = None) -> np.ndarray:
+    def shaped(sh: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
+        if sh is None or not n_shape:
+            return model.nulls, model.kappa
+        kappa = model.kappa + sh[2:3] if keyed else model.kappa
+        return model.nulls * (1 + sh[:2]), kappa
+
+    def base(V: np.ndarray, beta: float, w: np.ndarray | None = None, sh: np.ndarray | None = None) -> np.ndarray:
         W = warp_of(np.zeros(n_warp) if w is None else w)
+        nulls, kappa = shaped(sh)
         b = response_basis(
-            points,
-            model.position,
-            V,
-            model.nulls,
-            model.band_centre,
-            model.orders,
-            model.chirp,
-            kappa=model.kappa,
-            warp=W,
+            points, model.position, V, nulls, model.band_centre, model.orders, model.chirp, kappa=kappa, warp=W
         )
         if beta:
-            b = b + _BowColumns(points, dataclasses.replace(model, ridges=V, warp=W))(beta)
+            b = b + _BowColumns(points, dataclasses.replace(model, ridges=V, warp=W, nulls=nulls, kappa=kappa))(beta)
         return b
 
     def ridges(theta: np.ndarray) -> np.ndarray:
@@ -2006,11 +2011,11 @@ def _fit_cubic(
 
     def solve(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, NormalEquations, np.ndarray]:
         factor = np.exp(2j * np.pi * (theta[:n_ph] @ phases))[:, None]
-        b = base(ridges(theta), bow(theta), theta[bend]) * factor
+        b = base(ridges(theta), bow(theta), theta[bend], theta[form]) * factor
         coef, r, cost, normal = _amplitudes([b], y)
         return coef[0], r, cost, normal, factor
 
-    theta = np.zeros(n_ph + len(cross) + n_warp + int(bowed))
+    theta = np.zeros(n_ph + len(cross) + n_warp + n_shape + int(bowed))
     if model.cubic is not None:  # from the cubic fitted already (:func:`_fit_near_first`)
         theta[2:6] = model.cubic
     coef, r, cost, normal, factor = solve(theta)
@@ -2020,16 +2025,19 @@ def _fit_cubic(
         dV = np.zeros((2, 2))
         dV[i, j] = CUBIC_DV
         slopes.append((base(model.ridges + dV, bow(theta)) - base(model.ridges - dV, bow(theta))) / (2 * CUBIC_DV))
-    if bowed:
-        up, down = base(model.ridges, bow(theta) + CUBIC_DBOW), base(model.ridges, bow(theta) - CUBIC_DBOW)
-        slopes.append((up - down) / (2 * CUBIC_DBOW))
     for q in range(n_warp):
         dw = np.zeros(n_warp)
         dw[q] = CUBIC_DWARP
-        slopes.insert(
-            len(cross) + q,
-            (base(model.ridges, bow(theta), dw) - base(model.ridges, bow(theta), -dw)) / (2 * CUBIC_DWARP),
+        slopes.append((base(model.ridges, bow(theta), dw) - base(model.ridges, bow(theta), -dw)) / (2 * CUBIC_DWARP))
+    for q in range(n_shape):
+        ds = np.zeros(n_shape)
+        ds[q] = FD_STEP
+        slopes.append(
+            (base(model.ridges, bow(theta), None, ds) - base(model.ridges, bow(theta), None, -ds)) / (2 * FD_STEP)
         )
+    if bowed:
+        up, down = base(model.ridges, bow(theta) + CUBIC_DBOW), base(model.ridges, bow(theta) - CUBIC_DBOW)
+        slopes.append((up - down) / (2 * CUBIC_DBOW))
     for _ in range(CUBIC_STEPS):
         fit = y - r
         cols = list(2j * np.pi * phases * fit)  # d model / d theta_k, the amplitudes held
@@ -2040,6 +2048,7 @@ def _fit_cubic(
         step[tilt] = np.clip(step[tilt], -CUBIC_MAX_TILT_STEP, CUBIC_MAX_TILT_STEP)
         if bowed:
             step[-1] = np.clip(step[-1], -CUBIC_MAX_BOW_STEP, CUBIC_MAX_BOW_STEP)
+        step[form] = np.clip(step[form], -MAX_SHAPE_STEP, MAX_SHAPE_STEP)
         halved = _halved_step(solve, theta, step, cost)
         if halved is None:
             break
@@ -2060,6 +2069,8 @@ def _fit_cubic(
         ridges=ridges(theta),
         curvature=bow(theta),
         warp=warp_of(theta[bend]),
+        nulls=shaped(theta[form])[0],
+        kappa=shaped(theta[form])[1],
         chirp=model.chirp + np.array([[theta[6], theta[7]], [theta[7], theta[8]]]) if warped else model.chirp,
     )
     return cubed, before, cost
