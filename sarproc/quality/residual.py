@@ -1896,6 +1896,12 @@ def _fitted_response_models(
 # it took 4 % off a misfit the cubic phase still dominated and was not kept (its probe gain 0.9), and a uniform
 # range band's sharp edges, an annulus' arcs against the model's chords (-0.032 range bands per azimuth band^2 on
 # the trial's lone target, fitted -0.032), left the floor at -49.3 dB beside the range ridge; with it -58.9 dB.
+# On a larger image the strips reach 40 nulls and more (the trial's 3x4 grid, 340 x 390 samples): there the
+# wavefront's phase errors far out are cycles, Gauss-Newton from no warp and no cubic does not converge (a lone
+# target at the grid's middle: warp 0.867, cubic 0.995 of the misfit, both rejected; floor -37.95 dB), so both are
+# fitted first within CUBIC_NEAR_NULLS of the peak (:func:`_fit_near_first`), then on the whole strips with the
+# warp, the chirp, the widths and the keystone refined in the cubic's Gauss-Newton (session 44: -65.76 dB; the 3x4
+# -32.78 -> -37.45 dB, its targets' shared ridge lines still fitted one target at a time; docs/cli.md).
 CUBIC_GAIN = 0.9
 CUBIC_STEPS = 20
 CUBIC_DV = 1e-4  # the cross slopes' central difference
@@ -1912,8 +1918,9 @@ def _fit_cubics(
     fits: list, models: list[ResponseModel | None], live: list[int], reach: float, sheared: Sequence[bool]
 ) -> None:
     """Each lone sheared 2D target's cubic carrier (:func:`_fit_cubic`) on its box and ridge strips, the other
-    groups' models subtracted; kept where it leaves under :data:`CUBIC_GAIN` of the misfit without. Updates
-    ``models``."""
+    groups' models subtracted: first near its peak (:func:`_fit_near_first`), then on the whole strips with its
+    warp, chirp, widths and keystone; kept where it leaves under :data:`CUBIC_GAIN` of the misfit without.
+    Updates ``models``."""
     for members, _, _, far, y_far in fits:
         k, model = members[0], models[members[0]]
         if len(members) > 1 or model is None or not sheared[k]:
@@ -1952,10 +1959,12 @@ def _fit_cubic(
     points: np.ndarray, y: np.ndarray, model: ResponseModel, warped: bool = False
 ) -> tuple[ResponseModel, float, float]:
     """(model, misfit before, after): ``model`` with the cubic carrier (:attr:`ResponseModel.cubic`) that fits
-    ``y`` on ``points`` best, by Gauss-Newton from none, its band centre, its ridges' cross slopes (V[0, 1],
-    V[1, 0]: the range edges' tilt against the ridges measured, 0.0058 range bands per azimuth band on the
-    trial's scene) and its range edges' bow (:attr:`ResponseModel.curvature`, :data:`CUBIC_BOW`) refined with
-    it; its other parameters held, amplitudes by linear least squares, eliminated from the steps."""
+    ``y`` on ``points`` best, by Gauss-Newton from none (or from ``model.cubic``), its band centre, its ridges'
+    cross slopes (V[0, 1], V[1, 0]: the range edges' tilt against the ridges measured, 0.0058 range bands per
+    azimuth band on the trial's scene) and its range edges' bow (:attr:`ResponseModel.curvature`,
+    :data:`CUBIC_BOW`) refined with it; with ``warped`` its warp, chirp, widths and keystone too (the whole
+    strips' fit of :func:`_fit_cubics`); its other parameters held, amplitudes by linear least squares,
+    eliminated from the steps."""
     x = np.asarray(points, dtype=float) - np.asarray(model.position, dtype=float)[:, None]
     # band centre's shift, the cubic's terms, then (``warped``) the chirp's
     rows = [x[0], x[1], *_cubic_monomials(x)] + ([x[0] ** 2 / 2, x[0] * x[1], x[1] ** 2 / 2] if warped else [])
