@@ -1967,6 +1967,12 @@ def _fitted_response_models(
 # it took 4 % off a misfit the cubic phase still dominated and was not kept (its probe gain 0.9), and a uniform
 # range band's sharp edges, an annulus' arcs against the model's chords (-0.032 range bands per azimuth band^2 on
 # the trial's lone target, fitted -0.032), left the floor at -49.3 dB beside the range ridge; with it -58.9 dB.
+# On a larger image the strips reach 40 nulls and more (the trial's 3x4 grid, 340 x 390 samples): there the
+# wavefront's phase errors far out are cycles, Gauss-Newton from no warp and no cubic does not converge (a lone
+# target at the grid's middle: warp 0.867, cubic 0.995 of the misfit, both rejected; floor -37.95 dB), so both are
+# fitted first within CUBIC_NEAR_NULLS of the peak (:func:`_fit_near_first`), then on the whole strips with the
+# warp, the chirp, the widths and the keystone refined in the cubic's Gauss-Newton (session 44: -65.76 dB; the 3x4
+# -32.78 -> -37.45 dB, its targets' shared ridge lines still fitted one target at a time; docs/cli.md).
 CUBIC_GAIN = 0.9
 CUBIC_STEPS = 20
 CUBIC_DV = 1e-4  # the cross slopes' central difference
@@ -1975,50 +1981,102 @@ CUBIC_CRAWL = 1e-3  # a step lowering the misfit by less than this of itself end
 CUBIC_BOW = True  # the bow refined with the cubic (False: held as _fit_curvatures left it, as before session 43)
 CUBIC_DBOW = 1e-3  # the bow's central difference (range bands per azimuth band^2)
 CUBIC_MAX_BOW_STEP = 0.01  # a step's bow change at most
+CUBIC_DWARP = 1e-7  # the warp's central difference (nulls per sample^2)
+CUBIC_NEAR_NULLS = 20.0  # nulls along each ridge the warp and cubic are fitted on first (0: the whole strips at once)
 
 
 def _fit_cubics(
     fits: list, models: list[ResponseModel | None], live: list[int], reach: float, sheared: Sequence[bool]
 ) -> None:
     """Each lone sheared 2D target's cubic carrier (:func:`_fit_cubic`) on its box and ridge strips, the other
-    groups' models subtracted; kept where it leaves under :data:`CUBIC_GAIN` of the misfit without. Updates
-    ``models``."""
+    groups' models subtracted: first near its peak (:func:`_fit_near_first`), then on the whole strips with its
+    warp, chirp, widths and keystone; kept where it leaves under :data:`CUBIC_GAIN` of the misfit without.
+    Updates ``models``."""
     for members, _, _, far, y_far in fits:
         k, model = members[0], models[members[0]]
         if len(members) > 1 or model is None or not sheared[k]:
             continue
         rhs = _others_subtracted(y_far, far, members, live, models, reach)
-        cubed, before, after = _fit_cubic(far, rhs, model)
+        staged = CUBIC_NEAR_NULLS > 0
+        if staged and model.cubic is None:
+            model = _fit_near_first(far, rhs, model)
+        cubed, before, after = _fit_cubic(far, rhs, model, warped=staged)
+        if CUBIC_NEAR_NULLS and model is not models[k]:  # the staged terms judged against the model without them
+            before, after = _misfit(models[k], far, rhs), _misfit(cubed, far, rhs)
         if after < CUBIC_GAIN * before:
             models[k] = cubed
 
 
-def _fit_cubic(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> tuple[ResponseModel, float, float]:
-    """(model, misfit before, after): ``model`` with the cubic carrier (:attr:`ResponseModel.cubic`) that fits
-    ``y`` on ``points`` best, by Gauss-Newton from none, its band centre, its ridges' cross slopes (V[0, 1],
-    V[1, 0]: the range edges' tilt against the ridges measured, 0.0058 range bands per azimuth band on the
-    trial's scene) and its range edges' bow (:attr:`ResponseModel.curvature`, :data:`CUBIC_BOW`) refined with
-    it; its other parameters held, amplitudes by linear least squares, eliminated from the steps."""
-    x = np.asarray(points, dtype=float) - np.asarray(model.position, dtype=float)[:, None]
-    phases = np.stack([x[0], x[1], *_cubic_monomials(x)])  # band centre's shift, then the cubic's terms
-    cross = [(0, 1), (1, 0)]
-    tilt = slice(6, 6 + len(cross))
-    bowed = CUBIC_BOW  # the bow, the last parameter
+def _fit_near_first(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> ResponseModel:
+    """``model`` with the warp (where it has none) and the cubic carrier fitted first on the samples within
+    :data:`CUBIC_NEAR_NULLS` nulls of its peak along each ridge (:func:`_fit_warp`, :func:`_fit_cubic`), each kept
+    where it leaves under its gain of the misfit there: the start of the whole strips' cubic fit."""
+    A, p = _ridge_frame(model.position, model.ridges, model.nulls)
+    near = np.max(np.abs(A @ (np.asarray(points, dtype=float) - p[:, None])), axis=0) <= CUBIC_NEAR_NULLS
+    if near.all():
+        return model
+    pts, rhs = points[:, near], y[near]
+    straight = dataclasses.replace(model, warp=None)  # a warp fitted on the whole strips from none may be astray
+    warped, before, after = _fit_warp(pts, rhs, straight, WARP_GAIN)
+    if after < WARP_GAIN * before:
+        model = warped
+    elif model.warp is not None and _misfit(straight, pts, rhs) <= _misfit(model, pts, rhs):
+        model = straight
+    cubed, before, after = _fit_cubic(pts, rhs, model)
+    return cubed if after < CUBIC_GAIN * before else model
 
-    def base(V: np.ndarray, beta: float) -> np.ndarray:
+
+def _fit_cubic(
+    points: np.ndarray, y: np.ndarray, model: ResponseModel, warped: bool = False
+) -> tuple[ResponseModel, float, float]:
+    """(model, misfit before, after): ``model`` with the cubic carrier (:attr:`ResponseModel.cubic`) that fits
+    ``y`` on ``points`` best, by Gauss-Newton from none (or from ``model.cubic``), its band centre, its ridges'
+    cross slopes (V[0, 1], V[1, 0]: the range edges' tilt against the ridges measured, 0.0058 range bands per
+    azimuth band on the trial's scene) and its range edges' bow (:attr:`ResponseModel.curvature`,
+    :data:`CUBIC_BOW`) refined with it; with ``warped`` its warp, chirp, widths and keystone too (the whole
+    strips' fit of :func:`_fit_cubics`); its other parameters held, amplitudes by linear least squares,
+    eliminated from the steps."""
+    x = np.asarray(points, dtype=float) - np.asarray(model.position, dtype=float)[:, None]
+    # band centre's shift, the cubic's terms, then (``warped``) the chirp's
+    rows = [x[0], x[1], *_cubic_monomials(x)] + ([x[0] ** 2 / 2, x[0] * x[1], x[1] ** 2 / 2] if warped else [])
+    phases = np.stack(rows)
+    n_ph = len(rows)
+    cross = [(0, 1), (1, 0)]
+    tilt = slice(n_ph, n_ph + len(cross))
+    bowed = CUBIC_BOW  # the bow, the last parameter
+    pairs = _chirp_pairs(2)
+    n_warp = 2 * len(pairs) if warped else 0  # the warp's terms (:func:`_fit_warp`), after the cross slopes
+    bend = slice(tilt.stop, tilt.stop + n_warp)
+    keyed = model.kappa is not None
+    n_shape = (2 + int(keyed)) if warped else 0  # the widths' relative changes and the keystone's, after the warp
+    form = slice(bend.stop, bend.stop + n_shape)
+    warp0 = np.zeros((2, 2, 2)) if model.warp is None else np.asarray(model.warp, dtype=float)
+
+    def warp_of(w: np.ndarray) -> np.ndarray | None:
+        if not n_warp:
+            return model.warp
+        W = warp0.copy()
+        for a in range(2):
+            for q, (i, j) in enumerate(pairs):
+                W[a, i, j] += w[a * len(pairs) + q]
+                if i != j:
+                    W[a, j, i] += w[a * len(pairs) + q]
+        return W
+
+    def shaped(sh: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
+        if sh is None or not n_shape:
+            return model.nulls, model.kappa
+        kappa = model.kappa + sh[2:3] if keyed else model.kappa
+        return model.nulls * (1 + sh[:2]), kappa
+
+    def base(V: np.ndarray, beta: float, w: np.ndarray | None = None, sh: np.ndarray | None = None) -> np.ndarray:
+        W = warp_of(np.zeros(n_warp) if w is None else w)
+        nulls, kappa = shaped(sh)
         b = response_basis(
-            points,
-            model.position,
-            V,
-            model.nulls,
-            model.band_centre,
-            model.orders,
-            model.chirp,
-            kappa=model.kappa,
-            warp=model.warp,
+            points, model.position, V, nulls, model.band_centre, model.orders, model.chirp, kappa=kappa, warp=W
         )
         if beta:
-            b = b + _BowColumns(points, dataclasses.replace(model, ridges=V))(beta)
+            b = b + _BowColumns(points, dataclasses.replace(model, ridges=V, warp=W, nulls=nulls, kappa=kappa))(beta)
         return b
 
     def ridges(theta: np.ndarray) -> np.ndarray:
@@ -2032,12 +2090,14 @@ def _fit_cubic(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> tuple
         return min(max(beta, -CURVATURE_LIMIT), CURVATURE_LIMIT)
 
     def solve(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, NormalEquations, np.ndarray]:
-        factor = np.exp(2j * np.pi * (theta[:6] @ phases))[:, None]
-        b = base(ridges(theta), bow(theta)) * factor
+        factor = np.exp(2j * np.pi * (theta[:n_ph] @ phases))[:, None]
+        b = base(ridges(theta), bow(theta), theta[bend], theta[form]) * factor
         coef, r, cost, normal = _amplitudes([b], y)
         return coef[0], r, cost, normal, factor
 
-    theta = np.zeros(6 + len(cross) + int(bowed))
+    theta = np.zeros(n_ph + len(cross) + n_warp + n_shape + int(bowed))
+    if model.cubic is not None:  # from the cubic fitted already (:func:`_fit_near_first`)
+        theta[2:6] = model.cubic
     coef, r, cost, normal, factor = solve(theta)
     before = cost
     slopes = []  # the basis' central differences in the cross slopes (and the bow), once at the start (a chord)
@@ -2045,6 +2105,16 @@ def _fit_cubic(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> tuple
         dV = np.zeros((2, 2))
         dV[i, j] = CUBIC_DV
         slopes.append((base(model.ridges + dV, bow(theta)) - base(model.ridges - dV, bow(theta))) / (2 * CUBIC_DV))
+    for q in range(n_warp):
+        dw = np.zeros(n_warp)
+        dw[q] = CUBIC_DWARP
+        slopes.append((base(model.ridges, bow(theta), dw) - base(model.ridges, bow(theta), -dw)) / (2 * CUBIC_DWARP))
+    for q in range(n_shape):
+        ds = np.zeros(n_shape)
+        ds[q] = FD_STEP
+        slopes.append(
+            (base(model.ridges, bow(theta), None, ds) - base(model.ridges, bow(theta), None, -ds)) / (2 * FD_STEP)
+        )
     if bowed:
         up, down = base(model.ridges, bow(theta) + CUBIC_DBOW), base(model.ridges, bow(theta) - CUBIC_DBOW)
         slopes.append((up - down) / (2 * CUBIC_DBOW))
@@ -2058,6 +2128,7 @@ def _fit_cubic(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> tuple
         step[tilt] = np.clip(step[tilt], -CUBIC_MAX_TILT_STEP, CUBIC_MAX_TILT_STEP)
         if bowed:
             step[-1] = np.clip(step[-1], -CUBIC_MAX_BOW_STEP, CUBIC_MAX_BOW_STEP)
+        step[form] = np.clip(step[form], -MAX_SHAPE_STEP, MAX_SHAPE_STEP)
         halved = _halved_step(solve, theta, step, cost)
         if halved is None:
             break
@@ -2071,7 +2142,16 @@ def _fit_cubic(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> tuple
         return model, before, before
     centre = np.asarray(model.band_centre, dtype=float) + theta[:2]
     cubed = dataclasses.replace(
-        model, coef=coef, cubic=theta[2:6], band_centre=centre, ridges=ridges(theta), curvature=bow(theta)
+        model,
+        coef=coef,
+        cubic=theta[2:6],
+        band_centre=centre,
+        ridges=ridges(theta),
+        curvature=bow(theta),
+        warp=warp_of(theta[bend]),
+        nulls=shaped(theta[form])[0],
+        kappa=shaped(theta[form])[1],
+        chirp=model.chirp + np.array([[theta[6], theta[7]], [theta[7], theta[8]]]) if warped else model.chirp,
     )
     return cubed, before, cost
 
