@@ -422,7 +422,7 @@ class _Window:
         # rest (_lit_span; None: the whole output time and band)
         self.span: _LitSpan | None = None
 
-    def keep_own_cells(self, margin: int = 2) -> None:
+    def keep_own_cells(self, margin: int = 2, centre: int | None = None, reach: float = math.inf) -> None:
         """Restrict the criterion to the cells holding the target (noise in the others only dilutes eq. 5).
 
         A cell is the target's when its energy (over all pulses and channels) rises 5 % of the way from the
@@ -432,10 +432,37 @@ class _Window:
         noise: there 5 % of the way is inside the noise cells' own spread, and many of the window's noise cells
         passed it (mover campaign scene 013 M1, detection SNR 22.5 dB, 5.9 dB over the floor in its cell: 19
         criterion cells, eq. 5's dip 0.6 % deep and taken for no point target; docs/multichannel.md section 8).
+
+        With ``centre`` (the detection's window cell), where the strongest cell lies farther than ``reach`` from it
+        (beyond any mover's own range extent: another target's response, whose main lobe or range pedestal reaches
+        into the window from beyond its edge), the target's cells are those standing out by the strongest within
+        ``reach`` of ``centre``, and of those only the run around it. Mover campaign scene 036 (continuous chirp, no
+        clutter, noise): M4 (v_los -8.9 m/s, 47.5 dB) 17 cells and 22 Hz from the static S1 (69.5 dB), whose cell
+        next to the window's edge held 71.6 dB of energy against M4's 56.7 dB: the criterion took S1's cells 329-332,
+        eq. 5 read rest (v_los -0.008 m/s) and M4 was taken for static (docs/multichannel.md section 25).
         """
         p = self.cell_energy
-        own = np.nonzero(_over_floor(p, float(p.max() if self.gate is None else p[self.gate].max())))[0]
-        keep = _widened(own, len(p), margin)
+        cells = np.arange(len(p)) if self.gate is None else self.gate
+        strongest = int(cells[np.argmax(p[cells])])
+        near = cells[np.abs(cells - centre) <= reach] if centre is not None else cells
+        if centre is not None and abs(strongest - centre) > reach and len(near):
+            own = np.nonzero(_over_floor(p, float(p[near].max())))[0]
+            keep = _widened(own, len(p), margin)
+            # the run around the target's strongest cell near the detection: a run apart from it is another target's
+            top = int(near[np.argmax(p[near])])
+            if not keep[top]:  # nothing near it stands out: its own cell and margin
+                keep = _widened(np.array([top]), len(p), margin)
+            run = np.zeros(len(p), bool)
+            lo, hi = top, top
+            while lo > 0 and keep[lo - 1]:
+                lo -= 1
+            while hi < len(p) - 1 and keep[hi + 1]:
+                hi += 1
+            run[lo : hi + 1] = True
+            keep = run
+        else:
+            own = np.nonzero(_over_floor(p, float(p[strongest])))[0]
+            keep = _widened(own, len(p), margin)
         if self.gate is not None:
             gate = np.zeros(len(p), bool)
             gate[self.gate] = True
@@ -2856,7 +2883,13 @@ def _window_at(det: detection.Detection, scan: _Scan, tally: _Tally | None = Non
     win = _Window(ext, f_w, g, params, criterion)
     if (lo, hi) != (a, b):
         win.gate = np.arange(lo - a, hi - a)
-    win.keep_own_cells()
+    if scan.projector is None:
+        # the criterion's cells are the detection's own, not those of a brighter target beyond its range extent
+        # (under the null the window's channels hold the clutter the null takes out: its cells are left as they were)
+        reach = _range_extent(max(abs(params.velocity_min), abs(params.velocity_max)), scan)
+        win.keep_own_cells(centre=det.cell - a, reach=reach)
+    else:
+        win.keep_own_cells()
     return _DetWindow(a, b, f_w, ka_w, x_w, ext, win, lo, hi)
 
 
