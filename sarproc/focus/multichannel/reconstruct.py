@@ -692,6 +692,9 @@ MERGE_LEVEL = 0.25
 # (_merge); chosen, not tuned (scene 038's is 12.3 dB under): a level of the first pass's 30 dB range, not measured
 MERGE_LEVEL_RESOLVED = 0.01
 RANGE_CUT_SAMPLES = 6  # azimuth samples either side of a detection whose range cut is no background (_range_cuts)
+# How far (in standard deviations of its background's amplitude, sqrt(background / 2)) the removals must take a
+# detection's amplitude down to have taken its response (_visit): the background alone moves it by a Gaussian draw
+TAKEN_SIGMAS = 3.0
 STATIC_CELLS = 2  # range cells either side of an examined static detection that share its answer (_visit)
 
 
@@ -2464,7 +2467,16 @@ def _visit(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
     params, found, sep = scan.params, scan.found, scan.spacing.sep
     threshold = 10 ** (found.cfar_db / 10)
     left = found.image[det.index, det.cell]
-    explained = abs(left) ** 2 < threshold * found.bg[det.index, det.cell]
+    # under the threshold once the removals took their responses out, and taken down by them by more than its own
+    # background could move it (TAKEN_SIGMAS): a target of its own that the removals spared (notched) loses only the
+    # background they took with them, and one that passed the threshold by less than that falls under it without
+    # being explained by anything (mover campaign scene 027, clutter null: M4 at SNR 15.1 dB, notched 289 Hz off in
+    # a brighter mover's removal, kept its response but lost the clutter residue and noise the complement took: 1.9
+    # dB, an amplitude drop of 1.6 of its background's sigmas; docs/multichannel.md section 25)
+    drop = math.sqrt(det.power) - abs(left)
+    explained = abs(left) ** 2 < threshold * found.bg[det.index, det.cell] and drop > TAKEN_SIGMAS * math.sqrt(
+        det.background / 2
+    )
     explained = explained or _under_side_lobes(det, float(abs(left) ** 2), scan, tally)
     tally.visited.append(det)
     same = [k for k, p in enumerate(tally.peaks) if _shares_window(det, k, scan, tally)]
