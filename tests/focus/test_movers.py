@@ -1948,3 +1948,21 @@ def test_the_pass_band_take_out_is_kept_off_the_clutter_nulls_residual():
     by_name, false = found(rec)
     assert not false, false
     assert {"M1", "M2", "M5"} <= set(by_name), sorted(by_name)
+
+
+def test_eq5s_cells_are_the_detections_own_not_a_brighter_neighbours_beyond_its_reach():
+    """Mover campaign scene 036's M4 and S1 (gaussian beam, 17.1 deg squint, no clutter; noise-free here): M4 (v_los
+    -8.9 m/s) appears 17 range cells and 22 Hz from the static S1, 18 dB brighter, just beyond M4's window. S1's
+    main lobe reaches into the window's edge cell and its range pedestal fills the rest, so the window's strongest cell
+    was S1's: the criterion's cells (keep_own_cells) were S1's, eq. 5 read rest (v_los -0.002 m/s) and M4 was taken
+    for static. The criterion now keeps the cells standing out around the detection itself where the strongest lies
+    beyond any mover's range extent from it (docs/multichannel.md section 25)."""
+    m = mover_campaign_scene(
+        17.1, "gaussian", 3, "2 m", ("M4", -599.6, -118.1, -7.08, -7.14, 0.6789), statics=[(210.3, -145.3, 8.521)]
+    )
+    rec = reconstruct(simulate(scene_from_mapping(m)), ReconstructParams(method="modified"))
+    by_name, false = found(rec)
+    assert not false, false
+    assert "M4" in by_name, rec.attrs["reconstruct"]["truth"].get("missed_reasons")
+    row = by_name["M4"]
+    assert abs(row["v_r"] - -7.14) < 3 * row["v_r_sigma"], row
