@@ -422,7 +422,7 @@ class _Window:
         # rest (_lit_span; None: the whole output time and band)
         self.span: _LitSpan | None = None
 
-    def keep_own_cells(self, margin: int = 2) -> None:
+    def keep_own_cells(self, margin: int = 2, centre: int | None = None, reach: float = math.inf) -> None:
         """Restrict the criterion to the cells holding the target (noise in the others only dilutes eq. 5).
 
         A cell is the target's when its energy (over all pulses and channels) rises 5 % of the way from the
@@ -432,10 +432,37 @@ class _Window:
         noise: there 5 % of the way is inside the noise cells' own spread, and many of the window's noise cells
         passed it (mover campaign scene 013 M1, detection SNR 22.5 dB, 5.9 dB over the floor in its cell: 19
         criterion cells, eq. 5's dip 0.6 % deep and taken for no point target; docs/multichannel.md section 8).
+
+        With ``centre`` (the detection's window cell), where the strongest cell lies farther than ``reach`` from it
+        (beyond any mover's own range extent: another target's response, whose main lobe or range pedestal reaches
+        into the window from beyond its edge), the target's cells are those standing out by the strongest within
+        ``reach`` of ``centre``, and of those only the run around it. Mover campaign scene 036 (continuous chirp, no
+        clutter, noise): M4 (v_los -8.9 m/s, 47.5 dB) 17 cells and 22 Hz from the static S1 (69.5 dB), whose cell
+        next to the window's edge held 71.6 dB of energy against M4's 56.7 dB: the criterion took S1's cells 329-332,
+        eq. 5 read rest (v_los -0.008 m/s) and M4 was taken for static (docs/multichannel.md section 25).
         """
         p = self.cell_energy
-        own = np.nonzero(_over_floor(p, float(p.max() if self.gate is None else p[self.gate].max())))[0]
-        keep = _widened(own, len(p), margin)
+        cells = np.arange(len(p)) if self.gate is None else self.gate
+        strongest = int(cells[np.argmax(p[cells])])
+        near = cells[np.abs(cells - centre) <= reach] if centre is not None else cells
+        if centre is not None and abs(strongest - centre) > reach and len(near):
+            own = np.nonzero(_over_floor(p, float(p[near].max())))[0]
+            keep = _widened(own, len(p), margin)
+            # the run around the target's strongest cell near the detection: a run apart from it is another target's
+            top = int(near[np.argmax(p[near])])
+            if not keep[top]:  # nothing near it stands out: its own cell and margin
+                keep = _widened(np.array([top]), len(p), margin)
+            run = np.zeros(len(p), bool)
+            lo, hi = top, top
+            while lo > 0 and keep[lo - 1]:
+                lo -= 1
+            while hi < len(p) - 1 and keep[hi + 1]:
+                hi += 1
+            run[lo : hi + 1] = True
+            keep = run
+        else:
+            own = np.nonzero(_over_floor(p, float(p[strongest])))[0]
+            keep = _widened(own, len(p), margin)
         if self.gate is not None:
             gate = np.zeros(len(p), bool)
             gate[self.gate] = True
@@ -670,6 +697,9 @@ MERGE_LEVEL = 0.25
 # (_merge); chosen, not tuned (scene 038's is 12.3 dB under): a level of the first pass's 30 dB range, not measured
 MERGE_LEVEL_RESOLVED = 0.01
 RANGE_CUT_SAMPLES = 6  # azimuth samples either side of a detection whose range cut is no background (_range_cuts)
+# How far (in standard deviations of its background's amplitude, sqrt(background / 2)) the removals must take a
+# detection's amplitude down to have taken its response (_visit): the background alone moves it by a Gaussian draw
+TAKEN_SIGMAS = 3.0
 STATIC_CELLS = 2  # range cells either side of an examined static detection that share its answer (_visit)
 
 
@@ -2477,7 +2507,16 @@ def _visit(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
     params, found, sep = scan.params, scan.found, scan.spacing.sep
     threshold = 10 ** (found.cfar_db / 10)
     left = found.image[det.index, det.cell]
-    explained = abs(left) ** 2 < threshold * found.bg[det.index, det.cell]
+    # under the threshold once the removals took their responses out, and taken down by them by more than its own
+    # background could move it (TAKEN_SIGMAS): a target of its own that the removals spared (notched) loses only the
+    # background they took with them, and one that passed the threshold by less than that falls under it without
+    # being explained by anything (mover campaign scene 027, clutter null: M4 at SNR 15.1 dB, notched 289 Hz off in
+    # a brighter mover's removal, kept its response but lost the clutter residue and noise the complement took: 1.9
+    # dB, an amplitude drop of 1.6 of its background's sigmas; docs/multichannel.md section 25)
+    drop = math.sqrt(det.power) - abs(left)
+    explained = abs(left) ** 2 < threshold * found.bg[det.index, det.cell] and drop > TAKEN_SIGMAS * math.sqrt(
+        det.background / 2
+    )
     explained = explained or _under_side_lobes(det, float(abs(left) ** 2), scan, tally)
     tally.visited.append(det)
     same = [k for k, p in enumerate(tally.peaks) if _shares_window(det, k, scan, tally)]
@@ -2896,7 +2935,13 @@ def _window_at(det: detection.Detection, scan: _Scan, tally: _Tally | None = Non
     win = _Window(ext, f_w, g, params, criterion)
     if (lo, hi) != (a, b):
         win.gate = np.arange(lo - a, hi - a)
-    win.keep_own_cells()
+    if scan.projector is None:
+        # the criterion's cells are the detection's own, not those of a brighter target beyond its range extent
+        # (under the null the window's channels hold the clutter the null takes out: its cells are left as they were)
+        reach = _range_extent(max(abs(params.velocity_min), abs(params.velocity_max)), scan)
+        win.keep_own_cells(centre=det.cell - a, reach=reach)
+    else:
+        win.keep_own_cells()
     return _DetWindow(a, b, f_w, ka_w, x_w, ext, win, lo, hi)
 
 
