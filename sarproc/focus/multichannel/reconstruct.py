@@ -1123,14 +1123,14 @@ def _lit_span(
     range cells (None: all). The edges: the longest run of output samples over LIT_EDGE of the plateau (the median
     over half the peak), interpolated. Only a rect beam has such an edge; the run must be shorter than t_ill by
     more than one output sample, longer than half of it, and touch one data edge (within ``reach``) only."""
-    if g.antenna_pattern != "rect":
-        return None
     y = sfft.ifft(y_dem, axis=1, workers=-1)
     if cells is not None:
         y = y[:, cells]
     p = np.sum(np.abs(y) ** 2, axis=1)
     if not p.max() > 0:
         return None
+    if g.antenna_pattern != "rect":
+        return _pattern_span(p, g, reach, slant_range)
     plateau = median(p[p > 0.5 * p.max()])
     level = LIT_EDGE * plateau
     d = np.diff(np.concatenate([[0], (p > level).astype(np.int8), [0]]))
@@ -1161,6 +1161,62 @@ def _lit_span(
     weight = np.zeros(len(p), np.float32)
     weight[inside] = 1.0 / np.sqrt(np.maximum(smooth[inside], 1e-6 * plateau))
     return _LitSpan(weight, ka * h, ka, cut, t_0, middle, at_end)
+
+
+def _pattern_envelope(f: np.ndarray, g: _Geometry) -> np.ndarray:
+    """The two-way power of the recorded (non-rect) azimuth pattern at Doppler ``f`` (Hz) from the beam's centre, 1
+    there; the -3 dB one-way band is 2 g.half_band (small angles: the pattern's angle over its beamwidth is f / B_a)."""
+    return beam.one_way_amplitude(1e-3 * f / (2 * g.half_band), 1e-3, g.antenna_pattern) ** 4
+
+
+def _pattern_span(p: np.ndarray, g: _Geometry, reach: float, slant_range: float) -> _LitSpan | None:
+    """_lit_span for a beam with no sharp edge (sinc, gaussian): the beam-centre time t_0 from the recorded pattern's
+    two-way envelope P(K_a (t' - t_0)) fitted (least squares, free amplitude) to the reconstruction's power ``p``
+    within the data (``reach`` off either edge, where the separation smooths and wraps it), and the span
+    |t' - t_0| <= h, h the lesser of the data's hold either side of t_0 (less ``reach``) and t_ill / 2 (eq. 5's
+    band B_a / 2: the pattern's -3 dB band), its envelope flattened as the rect beam's. Over the span the mover's
+    demodulated spectrum at its true velocity is flat and symmetric about 0 whatever the pattern, so eq. 5 on it is
+    unbiased where the data cut the pattern's skirt (model_half_band) on one side more than on the other (the
+    sinc's skirt, 1.71 B_a / 2, lasts 0.775 s on xu_small's radar: past 0.6 s of data wherever the mover is;
+    docs/multichannel.md section 26). None where the data hold the skirt whole or h is under t_ill / 4. ``cut`` is
+    the skirt's one-sided excess: how much more of it the nearer data edge cuts."""
+    t = g.out_times
+    dt = 1.0 / (g.n * g.prf)
+    t_start, t_end = float(t[0]), float(t[-1]) + dt
+    lam = C / g.fc
+    ka = 2 * (g.velocity * math.cos(g.squint)) ** 2 / (lam * slant_range)
+    t_ill = 2 * g.half_band / ka
+    skirt = max(g.model_half_band, g.half_band) / ka
+    inner = (t >= t_start + reach) & (t <= t_end - reach)
+    if np.count_nonzero(inner) < 3:
+        return None
+    # t_0 on the grid of output samples inside the data, then a parabola through the best and its neighbours
+    grid, pi = t[inner], p[inner]
+    score = np.empty(len(grid))
+    for k in range(0, len(grid), 256):
+        m = _pattern_envelope(ka * (grid[None, :] - grid[k : k + 256, None]), g)
+        score[k : k + 256] = (m @ pi) ** 2 / np.maximum(np.sum(m**2, axis=1), 1e-300)
+    j = int(np.argmax(score))
+    t_0 = float(grid[j])
+    if 0 < j < len(grid) - 1:
+        a, b, c = score[j - 1], score[j], score[j + 1]
+        if a - 2 * b + c < 0:
+            t_0 += dt * 0.5 * (a - c) / (a - 2 * b + c)
+    left, right = t_0 - t_start, t_end - t_0
+    if min(left, right) >= skirt:  # the data hold the skirt whole: eq. 5 on the whole band as before
+        return None
+    h = min(left - reach, right - reach, t_ill / 2)
+    if not h > t_ill / 4:
+        return None
+    at_end = right < left
+    cut = min(skirt, max(left, right)) - min(skirt, min(left, right))
+    plateau = float(p.max())
+    smooth = np.convolve(p, np.ones(g.n) / g.n, mode="same")
+    inside = np.abs(t - t_0) <= h
+    weight = np.zeros(len(p), np.float32)
+    weight[inside] = 1.0 / np.sqrt(np.maximum(smooth[inside], 1e-6 * plateau))
+    # _autofocus runs on the span itself, the cubic term about t_0 taken out: R'' is measured at t_0 (middle = t_0)
+    return _LitSpan(weight, ka * h, ka, cut, t_0, t_0, at_end)
 
 
 def _incoherent(
@@ -1292,10 +1348,25 @@ def _coherence_t(win: _Window, v_r: float, v_a: float) -> tuple[float, int]:
     in them: the looks of the window's far cells (more than 2 from any criterion cell; noise with the same
     processing, and d is free of the noise's level) where there are 3 or more, with n_far - 1 degrees of freedom;
     else the criterion's own looks, n - 1. Student's under no point target either way: the far looks are
-    independent of the criterion's."""
+    independent of the criterion's.
+
+    Far looks that are themselves significantly coherent at (v_r, v_a) (their own t over the one-sided
+    POINT_TARGET_ALPHA point) hold the point target, not noise: its range side lobes, where the window has little
+    or no noise. Their spread is then the side lobes' structure across the range band, not the noise's, and the
+    criterion's own looks give it (a noise-free sinc-beam mover at the scene's centre, band-limited echoes: far
+    looks at -0.19 but +0.05 to +0.28 at the range band's edges, t 2.65 against 9.3 from its own looks' spread ...
+    the mover was missed; docs/multichannel.md section 26). Under no point target the far looks are independent
+    of the criterion's, so the switch leaves the criterion's Student's t as it was."""
     d = _coherence_d(*win.coherence_looks(v_r, v_a))
     far = _far_cells(win)
-    spread = d if far is None else _coherence_d(*win.coherence_looks(v_r, v_a, far))
+    if far is None:
+        return _t(d, d)
+    spread = _coherence_d(*win.coherence_looks(v_r, v_a, far))
+    t_far, dof_far = _t(spread, spread)
+    from scipy.special import stdtrit  # Student's t (scipy.stats' import costs about 0.5 s of CPU)
+
+    if dof_far >= 1 and len(d) >= 2 and t_far > float(stdtrit(dof_far, 1 - POINT_TARGET_ALPHA)):
+        return _t(d, d)
     return _t(d, spread)
 
 
@@ -1481,10 +1552,26 @@ def _autofocus(
     keep = cell_power >= 0.01 * cell_power.max() if centre.own_cells is None else centre.own_cells
     y_cells = np.ascontiguousarray(y_cells[:, keep])
     t_c, slant_range = centre.t_c, centre.slant_range
+    # a beam with no sharp edge cut by the data (_pattern_span): the autofocus on the span symmetric about the
+    # beam-centre time its pattern gives, the cubic term about that time taken out with the trial's R'' (jerk -3 R'
+    # R'' / R), so the sharpness measures R'' there. On the whole output time the data's two edges cut the skirt
+    # unequally and the reconstruction past N PRF / 2 from the mover's Doppler (|t' - t_0| > 0.28 s here) is no
+    # mover's: R'' carried from the lit energy's centroid by the jerk read v_a -1.77 ... +0.79 m/s at +-300 ... +-625 m,
+    # the cubic about t_0 alone -1.36 ... +0.0, the span alone -0.09 ... +0.16; both within 0.015 (section 26)
+    cubic_about = None
+    if win.span is not None and g.antenna_pattern != "rect":
+        cubic_about = win.span.t_0
+        y_cells = np.ascontiguousarray(y_cells * (win.span.weight > 0)[:, None])
 
     def crit(u: float) -> float:  # keep the line-of-sight velocity found by the search while v_a varies
         acc = _acceleration_keeping_los(g, v_los, u, slant_range)
-        ph = deramp.quadratic_phasor(g.out_times, np.zeros(1), acc, t_c, g.fc)
+        if cubic_about is not None:
+            rdot = v_los - g.velocity * math.sin(g.squint)  # -(v - v_a) sin(theta) + v_r cos(theta)
+            dt = g.out_times - cubic_about
+            jerk = -3 * rdot * acc / slant_range
+            ph = np.exp(2j * np.pi * g.fc / C * (acc * dt**2 + jerk * dt**3 / 3)).astype(np.complex64)[:, None]
+        else:
+            ph = deramp.quadratic_phasor(g.out_times, np.zeros(1), acc, t_c, g.fc)
         return velocity.sharpness(sfft.fft(y_cells * ph, axis=0, workers=-1))
 
     v_a, af = velocity.maximise(crit, est.v_a - params.autofocus_span, est.v_a + params.autofocus_span, 1.0)
@@ -1495,7 +1582,7 @@ def _autofocus(
     lam = C / g.fc
     vr_a = (v_los - v_a * math.sin(g.squint)) / math.cos(g.squint)
     acc = velocity.range_acceleration(g.velocity, v_a, vr_a, g.squint, slant_range)
-    if win.span is not None:
+    if win.span is not None and cubic_about is None:
         # a mover lit past the data's start or end (_lit_span): the sharpness measures R'' where its lit part is
         # centred (the cubic term is odd about that time, not about t_0), R''(t_0) + jerk (middle - t_0) with jerk
         # = -3 R' R'' / R; 2.9 ms off t_0 at 5.7 ms of cut is +0.14 m/s of v_a (docs/multichannel.md section 21)
