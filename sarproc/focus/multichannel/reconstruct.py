@@ -1190,16 +1190,24 @@ def _pattern_span(p: np.ndarray, g: _Geometry, reach: float, slant_range: float)
     inner = (t >= t_start + reach) & (t <= t_end - reach)
     if np.count_nonzero(inner) < 3:
         return None
-    # t_0 on the grid of output samples inside the data, then a parabola through the best and its neighbours
-    grid, pi = t[inner], p[inner]
-    score = np.empty(len(grid))
-    for k in range(0, len(grid), 256):
-        m = _pattern_envelope(ka * (grid[None, :] - grid[k : k + 256, None]), g)
-        score[k : k + 256] = (m @ pi) ** 2 / np.maximum(np.sum(m**2, axis=1), 1e-300)
-    j = int(np.argmax(score))
-    t_0 = float(grid[j])
-    if 0 < j < len(grid) - 1:
-        a, b, c = score[j - 1], score[j], score[j + 1]
+    # t_0: the envelope smoothed over one pulse and kept every k-th sample (it varies over tens of ms), searched on
+    # that coarse grid, then on the output samples within k of the best, then a parabola through the best and its
+    # neighbours (the cost is that of a few thousand envelopes, not of the output samples squared)
+    smooth = np.convolve(p, np.ones(g.n) / g.n, mode="same")
+    k = max(1, int(np.count_nonzero(inner)) // 256)
+    tk, pk = t[inner][::k], smooth[inner][::k]
+
+    def score(centres: np.ndarray) -> np.ndarray:
+        m = _pattern_envelope(ka * (tk[None, :] - centres[:, None]), g)
+        return (m @ pk) ** 2 / np.maximum(np.sum(m**2, axis=1), 1e-300)
+
+    j = int(np.argmax(score(tk)))
+    fine = t[inner][max(0, j * k - k) : j * k + k + 1]
+    s_fine = score(fine)
+    j = int(np.argmax(s_fine))
+    t_0 = float(fine[j])
+    if 0 < j < len(fine) - 1:
+        a, b, c = s_fine[j - 1], s_fine[j], s_fine[j + 1]
         if a - 2 * b + c < 0:
             t_0 += dt * 0.5 * (a - c) / (a - 2 * b + c)
     left, right = t_0 - t_start, t_end - t_0
@@ -1211,7 +1219,6 @@ def _pattern_span(p: np.ndarray, g: _Geometry, reach: float, slant_range: float)
     at_end = right < left
     cut = min(skirt, max(left, right)) - min(skirt, min(left, right))
     plateau = float(p.max())
-    smooth = np.convolve(p, np.ones(g.n) / g.n, mode="same")
     inside = np.abs(t - t_0) <= h
     weight = np.zeros(len(p), np.float32)
     weight[inside] = 1.0 / np.sqrt(np.maximum(smooth[inside], 1e-6 * plateau))
