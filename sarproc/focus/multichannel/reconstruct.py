@@ -1867,7 +1867,15 @@ def _estimate(
     lit_cut = 0.0
     if can_search and params.radial_velocity is None and est.result is not None and not est.by_null_fit:
         # a mover lit past the data's start or end: eq. 5 on its span about its beam-centre time (_lit_span)
-        span = _lit_span(centre.y_dem, win.cells, g, 1.0 / params.separation_bandwidth, centre.slant_range)
+        # a beam with no sharp edge (_pattern_span) only where the window holds the mover alone: a neighbour's
+        # response (range-tapered criterion, or a gate) is in the envelope the pattern is fitted to, and a sinc pair
+        # 4 cells apart read M5 0.129 m/s off that way (tests/focus/test_movers.py, docs/multichannel.md section 26)
+        alone = g.antenna_pattern == "rect" or (win.x_criterion is None and win.gate is None)
+        span = (
+            _lit_span(centre.y_dem, win.cells, g, 1.0 / params.separation_bandwidth, centre.slant_range)
+            if alone
+            else None
+        )
         if span is not None and _search_lit_span(est, win, params, g, span):
             lit_cut = span.cut
             centre = _centre(win, g, est, centre_range, centre_cell, null_fit)
@@ -1946,6 +1954,10 @@ def _search_lit_span(est: _Estimate, win: _Window, params: ReconstructParams, g:
     win.span = span
     reach = C / g.fc / 2 * span.ka * span.cut
     width = reach / math.cos(g.squint) + params.coarse_step / 4
+    if g.antenna_pattern != "rect":
+        # a skirt's cut moves eq. 5 far less than its Doppler says (its energy is low): xu_small's sinc movers at
+        # +-300 ... +-625 m moved 0.2-1.0 m/s, where lambda / 2 K_a c is 1.8-5.4 m/s
+        width = min(width, params.coarse_step)
     lo, hi = max(params.velocity_min, est.v_r - width), min(params.velocity_max, est.v_r + width)
     log.debug(
         "reconstruct: lit %.1f ms past the data's edge: eq. 5 on |t' - %.4f s| <= h, band %.0f Hz, v_r in [%.2f, %.2f]",
