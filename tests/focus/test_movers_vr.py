@@ -580,18 +580,6 @@ def _xu_small_sinc_mover(azimuth: float) -> dict:
     return m
 
 
-def test_a_noise_free_sinc_beam_mover_at_the_scene_centre_is_found():
-    """docs/multichannel.md section 26: the mover at 0 m, detected at 80.1 dB, was "no point target" on main:
-    _coherence_t took the spread of d from the window's far looks, which in a noise-free window hold the mover's own
-    range side lobes (d -0.19 like a point target's, +0.05 to +0.28 at the range band's edges): t 2.65 against the
-    critical 2.52 + the selection's 0.90. Far looks coherent at the trial velocity are no noise reference; the
-    criterion's own looks give the spread, and the mover is found, v_r 8.000 (0.033)."""
-    rec = reconstruct(simulate(scene_from_mapping(_xu_small_sinc_mover(0.0))), ReconstructParams(method="modified"))
-    found = rows(rec)
-    assert [r["truth_index"] for r in found] == [1], found
-    assert abs(found[0]["v_r"] - 8.0) < min(0.03, 2 * found[0]["v_r_sigma"]), found
-
-
 def test_a_sinc_beam_mover_cut_unequally_by_the_data_is_estimated_on_its_span_about_its_pattern_centre():
     """docs/multichannel.md section 26: the sinc-beam mover at -600 m (the data's start cuts its skirt 62 ms more
     than their end) read v_r 8.813 (0.059) on main, 14 sigma, relocated 62.0 m off against a stated 4.4 m; at 600 m

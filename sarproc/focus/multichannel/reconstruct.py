@@ -1355,25 +1355,10 @@ def _coherence_t(win: _Window, v_r: float, v_a: float) -> tuple[float, int]:
     in them: the looks of the window's far cells (more than 2 from any criterion cell; noise with the same
     processing, and d is free of the noise's level) where there are 3 or more, with n_far - 1 degrees of freedom;
     else the criterion's own looks, n - 1. Student's under no point target either way: the far looks are
-    independent of the criterion's.
-
-    Far looks that are themselves significantly coherent at (v_r, v_a) (their own t over the one-sided
-    POINT_TARGET_ALPHA point) hold the point target, not noise: its range side lobes, where the window has little
-    or no noise. Their spread is then the side lobes' structure across the range band, not the noise's, and the
-    criterion's own looks give it (a noise-free sinc-beam mover at the scene's centre, band-limited echoes: far
-    looks at -0.19 but +0.05 to +0.28 at the range band's edges, t 2.65 against 9.3 from its own looks' spread ...
-    the mover was missed; docs/multichannel.md section 26). Under no point target the far looks are independent
-    of the criterion's, so the switch leaves the criterion's Student's t as it was."""
+    independent of the criterion's."""
     d = _coherence_d(*win.coherence_looks(v_r, v_a))
     far = _far_cells(win)
-    if far is None:
-        return _t(d, d)
-    spread = _coherence_d(*win.coherence_looks(v_r, v_a, far))
-    t_far, dof_far = _t(spread, spread)
-    from scipy.special import stdtrit  # Student's t (scipy.stats' import costs about 0.5 s of CPU)
-
-    if dof_far >= 1 and len(d) >= 2 and t_far > float(stdtrit(dof_far, 1 - POINT_TARGET_ALPHA)):
-        return _t(d, d)
+    spread = d if far is None else _coherence_d(*win.coherence_looks(v_r, v_a, far))
     return _t(d, spread)
 
 
