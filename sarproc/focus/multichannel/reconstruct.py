@@ -1193,14 +1193,14 @@ def _lit_span(
     range cells (None: all). The edges: the longest run of output samples over LIT_EDGE of the plateau (the median
     over half the peak), interpolated. Only a rect beam has such an edge; the run must be shorter than t_ill by
     more than one output sample, longer than half of it, and touch one data edge (within ``reach``) only."""
-    if g.antenna_pattern != "rect":
-        return None
     y = sfft.ifft(y_dem, axis=1, workers=-1)
     if cells is not None:
         y = y[:, cells]
     p = np.sum(np.abs(y) ** 2, axis=1)
     if not p.max() > 0:
         return None
+    if g.antenna_pattern != "rect":
+        return _pattern_span(p, g, reach, slant_range)
     plateau = median(p[p > 0.5 * p.max()])
     level = LIT_EDGE * plateau
     d = np.diff(np.concatenate([[0], (p > level).astype(np.int8), [0]]))
@@ -1231,6 +1231,69 @@ def _lit_span(
     weight = np.zeros(len(p), np.float32)
     weight[inside] = 1.0 / np.sqrt(np.maximum(smooth[inside], 1e-6 * plateau))
     return _LitSpan(weight, ka * h, ka, cut, t_0, middle, at_end)
+
+
+def _pattern_envelope(f: np.ndarray, g: _Geometry) -> np.ndarray:
+    """The two-way power of the recorded (non-rect) azimuth pattern at Doppler ``f`` (Hz) from the beam's centre, 1
+    there; the -3 dB one-way band is 2 g.half_band (small angles: the pattern's angle over its beamwidth is f / B_a)."""
+    return beam.one_way_amplitude(1e-3 * f / (2 * g.half_band), 1e-3, g.antenna_pattern) ** 4
+
+
+def _pattern_span(p: np.ndarray, g: _Geometry, reach: float, slant_range: float) -> _LitSpan | None:
+    """_lit_span for a beam with no sharp edge (sinc, gaussian): the beam-centre time t_0 from the recorded pattern's
+    two-way envelope P(K_a (t' - t_0)) fitted (least squares, free amplitude) to the reconstruction's power ``p``
+    within the data (``reach`` off either edge, where the separation smooths and wraps it), and the span
+    |t' - t_0| <= h, h the lesser of the data's hold either side of t_0 (less ``reach``) and t_ill / 2 (eq. 5's
+    band B_a / 2: the pattern's -3 dB band), its envelope flattened as the rect beam's. Over the span the mover's
+    demodulated spectrum at its true velocity is flat and symmetric about 0 whatever the pattern, so eq. 5 on it is
+    unbiased where the data cut the pattern's skirt (model_half_band) on one side more than on the other (the
+    sinc's skirt, 1.71 B_a / 2, lasts 0.775 s on xu_small's radar: past 0.6 s of data wherever the mover is;
+    docs/multichannel.md section 26). None where the data hold the skirt whole or h is under t_ill / 4. ``cut`` is
+    the skirt's one-sided excess: how much more of it the nearer data edge cuts."""
+    t = g.out_times
+    dt = 1.0 / (g.n * g.prf)
+    t_start, t_end = float(t[0]), float(t[-1]) + dt
+    lam = C / g.fc
+    ka = 2 * (g.velocity * math.cos(g.squint)) ** 2 / (lam * slant_range)
+    t_ill = 2 * g.half_band / ka
+    skirt = max(g.model_half_band, g.half_band) / ka
+    inner = (t >= t_start + reach) & (t <= t_end - reach)
+    if np.count_nonzero(inner) < 3:
+        return None
+    # t_0: the envelope smoothed over one pulse and kept every k-th sample (it varies over tens of ms), searched on
+    # that coarse grid, then on the output samples within k of the best, then a parabola through the best and its
+    # neighbours (the cost is that of a few thousand envelopes, not of the output samples squared)
+    smooth = np.convolve(p, np.ones(g.n) / g.n, mode="same")
+    k = max(1, int(np.count_nonzero(inner)) // 256)
+    tk, pk = t[inner][::k], smooth[inner][::k]
+
+    def score(centres: np.ndarray) -> np.ndarray:
+        m = _pattern_envelope(ka * (tk[None, :] - centres[:, None]), g)
+        return (m @ pk) ** 2 / np.maximum(np.sum(m**2, axis=1), 1e-300)
+
+    j = int(np.argmax(score(tk)))
+    fine = t[inner][max(0, j * k - k) : j * k + k + 1]
+    s_fine = score(fine)
+    j = int(np.argmax(s_fine))
+    t_0 = float(fine[j])
+    if 0 < j < len(fine) - 1:
+        a, b, c = s_fine[j - 1], s_fine[j], s_fine[j + 1]
+        if a - 2 * b + c < 0:
+            t_0 += dt * 0.5 * (a - c) / (a - 2 * b + c)
+    left, right = t_0 - t_start, t_end - t_0
+    if min(left, right) >= skirt:  # the data hold the skirt whole: eq. 5 on the whole band as before
+        return None
+    h = min(left - reach, right - reach, t_ill / 2)
+    if not h > t_ill / 4:
+        return None
+    at_end = right < left
+    cut = min(skirt, max(left, right)) - min(skirt, min(left, right))
+    plateau = float(p.max())
+    inside = np.abs(t - t_0) <= h
+    weight = np.zeros(len(p), np.float32)
+    weight[inside] = 1.0 / np.sqrt(np.maximum(smooth[inside], 1e-6 * plateau))
+    # _autofocus runs on the span itself, the cubic term about t_0 taken out: R'' is measured at t_0 (middle = t_0)
+    return _LitSpan(weight, ka * h, ka, cut, t_0, t_0, at_end)
 
 
 def _incoherent(
@@ -1551,10 +1614,26 @@ def _autofocus(
     keep = cell_power >= 0.01 * cell_power.max() if centre.own_cells is None else centre.own_cells
     y_cells = np.ascontiguousarray(y_cells[:, keep])
     t_c, slant_range = centre.t_c, centre.slant_range
+    # a beam with no sharp edge cut by the data (_pattern_span): the autofocus on the span symmetric about the
+    # beam-centre time its pattern gives, the cubic term about that time taken out with the trial's R'' (jerk -3 R'
+    # R'' / R), so the sharpness measures R'' there. On the whole output time the data's two edges cut the skirt
+    # unequally and the reconstruction past N PRF / 2 from the mover's Doppler (|t' - t_0| > 0.28 s here) is no
+    # mover's: R'' carried from the lit energy's centroid by the jerk read v_a -1.77 ... +0.79 m/s at +-300 ... +-625 m,
+    # the cubic about t_0 alone -1.36 ... +0.0, the span alone -0.09 ... +0.16; both within 0.015 (section 26)
+    cubic_about = None
+    if win.span is not None and g.antenna_pattern != "rect":
+        cubic_about = win.span.t_0
+        y_cells = np.ascontiguousarray(y_cells * (win.span.weight > 0)[:, None])
 
     def crit(u: float) -> float:  # keep the line-of-sight velocity found by the search while v_a varies
         acc = _acceleration_keeping_los(g, v_los, u, slant_range)
-        ph = deramp.quadratic_phasor(g.out_times, np.zeros(1), acc, t_c, g.fc)
+        if cubic_about is not None:
+            rdot = v_los - g.velocity * math.sin(g.squint)  # -(v - v_a) sin(theta) + v_r cos(theta)
+            dt = g.out_times - cubic_about
+            jerk = -3 * rdot * acc / slant_range
+            ph = np.exp(2j * np.pi * g.fc / C * (acc * dt**2 + jerk * dt**3 / 3)).astype(np.complex64)[:, None]
+        else:
+            ph = deramp.quadratic_phasor(g.out_times, np.zeros(1), acc, t_c, g.fc)
         return velocity.sharpness(sfft.fft(y_cells * ph, axis=0, workers=-1))
 
     v_a, af = velocity.maximise(crit, est.v_a - params.autofocus_span, est.v_a + params.autofocus_span, 1.0)
@@ -1565,7 +1644,7 @@ def _autofocus(
     lam = C / g.fc
     vr_a = (v_los - v_a * math.sin(g.squint)) / math.cos(g.squint)
     acc = velocity.range_acceleration(g.velocity, v_a, vr_a, g.squint, slant_range)
-    if win.span is not None:
+    if win.span is not None and cubic_about is None:
         # a mover lit past the data's start or end (_lit_span): the sharpness measures R'' where its lit part is
         # centred (the cubic term is odd about that time, not about t_0), R''(t_0) + jerk (middle - t_0) with jerk
         # = -3 R' R'' / R; 2.9 ms off t_0 at 5.7 ms of cut is +0.14 m/s of v_a (docs/multichannel.md section 21)
@@ -1843,7 +1922,15 @@ def _estimate(
     lit_cut = 0.0
     if can_search and params.radial_velocity is None and est.result is not None and not est.by_null_fit:
         # a mover lit past the data's start or end: eq. 5 on its span about its beam-centre time (_lit_span)
-        span = _lit_span(centre.y_dem, win.cells, g, 1.0 / params.separation_bandwidth, centre.slant_range)
+        # a beam with no sharp edge (_pattern_span) only where the window holds the mover alone: a neighbour's
+        # response (range-tapered criterion, or a gate) is in the envelope the pattern is fitted to, and a sinc pair
+        # 4 cells apart read M5 0.129 m/s off that way (tests/focus/test_movers.py, docs/multichannel.md section 26)
+        alone = g.antenna_pattern == "rect" or (win.x_criterion is None and win.gate is None)
+        span = (
+            _lit_span(centre.y_dem, win.cells, g, 1.0 / params.separation_bandwidth, centre.slant_range)
+            if alone
+            else None
+        )
         if span is not None and _search_lit_span(est, win, params, g, span):
             lit_cut = span.cut
             centre = _centre(win, g, est, centre_range, centre_cell, null_fit)
@@ -1922,6 +2009,10 @@ def _search_lit_span(est: _Estimate, win: _Window, params: ReconstructParams, g:
     win.span = span
     reach = C / g.fc / 2 * span.ka * span.cut
     width = reach / math.cos(g.squint) + params.coarse_step / 4
+    if g.antenna_pattern != "rect":
+        # a skirt's cut moves eq. 5 far less than its Doppler says (its energy is low): xu_small's sinc movers at
+        # +-300 ... +-625 m moved 0.2-1.0 m/s, where lambda / 2 K_a c is 1.8-5.4 m/s
+        width = min(width, params.coarse_step)
     lo, hi = max(params.velocity_min, est.v_r - width), min(params.velocity_max, est.v_r + width)
     log.debug(
         "reconstruct: lit %.1f ms past the data's edge: eq. 5 on |t' - %.4f s| <= h, band %.0f Hz, v_r in [%.2f, %.2f]",
