@@ -1212,9 +1212,7 @@ def _lit_span(
     t_start, t_end = float(t[0]), float(t[-1]) + dt
     t1 = float(t[i1] - dt * (p[i1] - level) / (p[i1] - p[i1 - 1])) if i1 > 0 else t_start
     t2 = float(t[i2] + dt * (p[i2] - level) / (p[i2] - p[i2 + 1])) if i2 < len(p) - 1 else t_end
-    lam = C / g.fc
-    ka = 2 * (g.velocity * math.cos(g.squint)) ** 2 / (lam * slant_range)
-    t_ill = 2 * g.half_band / ka
+    ka, t_ill = _illumination(g, slant_range)
     at_end, at_start = t_end - t2 < reach, t1 - t_start < reach
     if at_end == at_start or not t_ill / 2 < t2 - t1 < t_ill - dt:
         return None
@@ -1231,6 +1229,14 @@ def _lit_span(
     weight = np.zeros(len(p), np.float32)
     weight[inside] = 1.0 / np.sqrt(np.maximum(smooth[inside], 1e-6 * plateau))
     return _LitSpan(weight, ka * h, ka, cut, t_0, middle, at_end)
+
+
+def _illumination(g: _Geometry, slant_range: float) -> tuple[float, float]:
+    """A static point's azimuth FM rate K_a at ``slant_range`` (eq. 7 at the carrier: :func:`detection.fm_rate` at
+    f_r = 0, written as 2 (v cos theta)^2 / (lambda R) so the lit spans keep their bits) and the time
+    t_ill = B_a / K_a the beam's band lights it for (the lit span's and the pattern span's scale)."""
+    ka = 2 * (g.velocity * math.cos(g.squint)) ** 2 / (C / g.fc * slant_range)
+    return ka, 2 * g.half_band / ka
 
 
 def _pattern_envelope(f: np.ndarray, g: _Geometry) -> np.ndarray:
@@ -1253,9 +1259,7 @@ def _pattern_span(p: np.ndarray, g: _Geometry, reach: float, slant_range: float)
     t = g.out_times
     dt = 1.0 / (g.n * g.prf)
     t_start, t_end = float(t[0]), float(t[-1]) + dt
-    lam = C / g.fc
-    ka = 2 * (g.velocity * math.cos(g.squint)) ** 2 / (lam * slant_range)
-    t_ill = 2 * g.half_band / ka
+    ka, t_ill = _illumination(g, slant_range)
     skirt = max(g.model_half_band, g.half_band) / ka
     inner = (t >= t_start + reach) & (t <= t_end - reach)
     if np.count_nonzero(inner) < 3:
