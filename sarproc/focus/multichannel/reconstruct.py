@@ -1352,7 +1352,7 @@ def _incoherent(
     if t > float(stdtrit(dof, 1 - POINT_TARGET_ALPHA / span)):
         return False
     n = len(win.cells) if win.cells is not None else win.x.shape[-1]
-    shift = _selection_shift(win, est.v_a, n, _far_cells(win), params, t - critical)
+    shift = _selection_shift(win, est.v_a, n, _reference_cells(win), params, t - critical)
     log.debug("reconstruct: the search's minimum shifts t by %.2f (a point target: > %.2f)", shift, critical + shift)
     return not t > critical + shift
 
@@ -1426,14 +1426,39 @@ def _coherence_t(win: _Window, v_r: float, v_a: float) -> tuple[float, int]:
     give with their phases unrelated (_Window.coherence_looks). Without a point target (noise, or channels with no
     common velocity) each d_k has mean 0 (the cross-channel terms' phases are uniform); a point target at (v_r,
     v_a) makes every d_k negative. t = -mean(d) / (s / sqrt(n)), s the spread of d over looks with no point target
-    in them: the looks of the window's far cells (more than 2 from any criterion cell; noise with the same
-    processing, and d is free of the noise's level) where there are 3 or more, with n_far - 1 degrees of freedom;
-    else the criterion's own looks, n - 1. Student's under no point target either way: the far looks are
-    independent of the criterion's."""
+    in them: the looks of the window's noise cells (_reference_cells: far from the criterion's, and over its range
+    side lobes; noise with the same processing, and d is free of the noise's level) where there are 3 or more, with
+    n_far - 1 degrees of freedom; else the criterion's own looks, n - 1. Student's under no point target either
+    way: the far looks are independent of the criterion's."""
     d = _coherence_d(*win.coherence_looks(v_r, v_a))
-    far = _far_cells(win)
+    far = _reference_cells(win)
     spread = d if far is None else _coherence_d(*win.coherence_looks(v_r, v_a, far))
     return _t(d, spread)
+
+
+def _reference_cells(win: _Window) -> np.ndarray | None:
+    """_coherence_t's noise cells: the far cells (_far_cells) whose energy is over the criterion's range side-lobe
+    envelope there (each criterion cell's energy times the unweighted sinc's, detection.sinc_sidelobes, at its
+    distance in range resolutions), where 3 or more are (None: the criterion's own looks are the spread's).
+
+    A cell under that envelope may hold the criterion's own side lobes, coherent at its velocity, not noise: in a
+    noise-free window (xu_small's radar, sinc beam, band-limited echoes, a mover at v_r 8 m/s at the beam centre;
+    docs/multichannel.md sections 26.1 and 29) the 22 far cells held only the mover's side lobes (-33 to -44 dB of
+    its peak, 3-10 dB under the envelope), whose d was -0.19 in most looks and up to +0.28 at the range band's edge:
+    their spread, the side lobes' structure over the band, put t at 2.65 against a bar of 3.42 and the mover was
+    missed. Noise cells stand over the envelope (18 dB or more under a noise criterion cell: 3 cells or more off, at
+    the 1.2 cells per resolution of xu_small's and the campaign's radars), so noise windows keep every far cell and
+    their test is unchanged (300 of 300 seeded noise windows); a neighbour's cells over it stay (campaign scene 039's
+    M3: 9 far cells over the envelope, all M4's)."""
+    far = _far_cells(win)
+    if far is None or win.cells is None:
+        return far
+    energy = win.cell_energy
+    width = max(1.0, win.g.fs / win.g.bandwidth) if win.g.bandwidth > 0 else 1.0
+    offset = np.abs(far[:, None] - win.cells[None, :]) / width  # >= 3 cells: far cells are more than 2 away
+    envelope = np.max(energy[win.cells][None, :] / (np.pi * offset) ** 2, axis=1)  # detection.sinc_sidelobes
+    noise = far[energy[far] > envelope]
+    return noise if len(noise) >= 3 else None
 
 
 def _coherence_d(o: np.ndarray, t: np.ndarray, o0: np.ndarray, t0: np.ndarray) -> np.ndarray:
