@@ -1889,6 +1889,7 @@ def _estimate(
     static_below: float | None = None,
     flat_above: float | None = None,
     null_fit: _NullFit | None = None,
+    crowded: bool = False,
 ) -> tuple[MovingTarget | None, list[str]]:
     """Slant-range velocity by the leakage search, along-track by autofocus, then a refined search.
 
@@ -1900,7 +1901,8 @@ def _estimate(
     velocity that explains it (noise, or a response that is no point target): (None, ["incoherent"];
     _incoherent). With ``null_fit`` (a detection on the clutter-null residual), an eq. 5
     estimate that leaves more than NULL_FIT_MISMATCH of that residual unexplained was pulled by the clutter
-    in the window: the velocity is searched again by the null fit (_NullFit), and that criterion kept.
+    in the window: the velocity is searched again by the null fit (_NullFit), and that criterion kept. ``crowded``:
+    another target's detection shares the window (_crowded; no pattern span).
 
     Steps: _first_search (eq. 5, blind velocity), _null_refit, the static test, _centre (beam-centre time),
     _incoherent, _autofocus (v_a, then v_r refined), _bound_notes; the null fit then locates the mover.
@@ -1956,8 +1958,13 @@ def _estimate(
         # 4 cells apart read M5 0.129 m/s off that way (tests/focus/test_movers.py, docs/multichannel.md section 26).
         # Nor under the clutter null (null_fit): its residue is in that envelope too, and the span's sigma does not
         # hold it: mover campaign scenes 007 M1 (gaussian) and 012 M2 (sinc) read -0.606 +- 0.040 and +1.786 +- 0.122
-        # m/s that way, against +0.836 +- 0.523 and +1.255 +- 0.414 without the span (section 27)
-        alone = g.antenna_pattern == "rect" or (win.x_criterion is None and win.gate is None and null_fit is None)
+        # m/s that way, against +0.836 +- 0.523 and +1.255 +- 0.414 without the span (section 27). Nor beside a
+        # detection that will be merged with it as another target (_crowded): scene 038's M2 (12.3 dB under M3, 25
+        # samples off in azimuth, the same cell) left 0.20 of the envelope's fit unexplained (a mover alone 2e-6) and
+        # M3 read -0.704 +- 0.083 m/s, +0.605 +- 0.188 without the span (section 28)
+        alone = g.antenna_pattern == "rect" or (
+            win.x_criterion is None and win.gate is None and null_fit is None and not crowded
+        )
         span = (
             _lit_span(centre.y_dem, win.cells, g, 1.0 / params.separation_bandwidth, centre.slant_range)
             if alone
@@ -2717,22 +2724,22 @@ def _shares_window(det: detection.Detection, k: int, scan: _Scan, tally: _Tally)
     return round((det.time - p.time) / scan.spacing.ambiguity) != 0 or mt.first_cell <= det.cell < mt.last_cell
 
 
-def _merge(det: detection.Detection, k: int, scan: _Scan, tally: _Tally) -> None:
-    """Count ``det`` as part of mover ``k``; warn when it looks like another target sharing its window."""
+def _response_spread(v_los: float, n_amb: int, scan: _Scan) -> float:
+    """Walk-corrected range cells a mover at ``v_los`` spreads over either side of its peak (_range_extent), at its
+    ambiguity ``n_amb`` (k PRF / K_a) further: that walks by lambda k PRF / 2 m/s against the mover."""
     g, sp = scan.g, scan.spacing
-    peak = tally.peaks[k]
-    tally.counts["ambiguous"] += 1
-    tally.rejected.append({"cell": det.cell, "index": det.index, "snr_db": det.snr_db, "kind": "merged", "mover": k})
-    log.debug("reconstruct: detection at cell %d, %.4f s merged with mover %d", det.cell, det.time, k)
-    # A mover spreads over its range walk |v_los| T and curvature R'' T^2 / 8 in walk-corrected range:
-    # a response inside that is its own; one beyond it and as strong is another target.
-    own = tally.movers[k]
-    v_los_k = own.line_of_sight_velocity(g.squint)
-    spread = _range_extent(v_los_k, scan)
+    return _range_extent(v_los, scan) + abs(n_amb) * C / g.fc * g.prf / 2 * sp.t_ill * 2 * g.fs / C
+
+
+def _another_target(det: detection.Detection, peak: detection.Detection, spread: float, scan: _Scan) -> bool:
+    """Whether ``det``, sharing the window of the mover examined at ``peak`` (_shares_window), looks like another
+    target there rather than the mover's own response (_merge warns of it): as strong as MERGE_LEVEL of it and
+    beyond its range extent ``spread`` there (cells either side of its peak, _response_spread) or its azimuth width,
+    or, at its apparent time without the clutter null, resolved from it in azimuth and over its side-lobe envelope
+    there."""
+    g, sp = scan.g, scan.spacing
     n_amb = round((det.time - peak.time) / sp.ambiguity)
-    # an ambiguity k PRF / K_a away walks by lambda k PRF / 2 m/s against the mover: smeared further
-    spread += abs(n_amb) * C / g.fc * g.prf / 2 * sp.t_ill * 2 * g.fs / C
-    # ... or beyond its own azimuth width (the same range cells, a different apparent azimuth)
+    # beyond its range extent, or beyond its own azimuth width (the same range cells, a different apparent azimuth)
     d_samples = abs((det.time - peak.time) - n_amb * sp.ambiguity) * g.n * g.prf
     apart_azimuth = d_samples > 2 * max(peak.width, det.width) + 2
     # the mover's own response on the static leakage, examined from its ambiguity instead (_examination_order)
@@ -2748,7 +2755,21 @@ def _merge(det: detection.Detection, k: int, scan: _Scan, tally: _Tally) -> None
         lobe = detection.SIDELOBE_MARGIN**2 * detection.sinc_sidelobes(d_samples / peak.width) * peak.power
         resolved = det.power > lobe
     level = MERGE_LEVEL_RESOLVED if resolved else MERGE_LEVEL
-    if det.power > level * peak.power and (apart or resolved) and not on_leakage:
+    return det.power > level * peak.power and (apart or resolved) and not on_leakage
+
+
+def _merge(det: detection.Detection, k: int, scan: _Scan, tally: _Tally) -> None:
+    """Count ``det`` as part of mover ``k``; warn when it looks like another target sharing its window."""
+    g, sp = scan.g, scan.spacing
+    peak = tally.peaks[k]
+    tally.counts["ambiguous"] += 1
+    tally.rejected.append({"cell": det.cell, "index": det.index, "snr_db": det.snr_db, "kind": "merged", "mover": k})
+    log.debug("reconstruct: detection at cell %d, %.4f s merged with mover %d", det.cell, det.time, k)
+    # A mover spreads over its range walk |v_los| T and curvature R'' T^2 / 8 in walk-corrected range:
+    # a response inside that is its own; one beyond it and as strong is another target.
+    n_amb = round((det.time - peak.time) / sp.ambiguity)
+    spread = _response_spread(tally.movers[k].line_of_sight_velocity(g.squint), n_amb, scan)
+    if _another_target(det, peak, spread, scan):
         if n_amb == 0:
             where = f"{1e3 * (det.time - peak.time):+.1f} ms from it in apparent time"
             cause = "another mover there shares its window and its velocity estimate"
@@ -2762,6 +2783,23 @@ def _merge(det: detection.Detection, k: int, scan: _Scan, tally: _Tally) -> None
             cause = "its ambiguity's residue, or another mover there sharing its window (not examined on its own)"
         under_db = 10 * math.log10(peak.power / det.power)
         tally.merged.append(_MergedResponse(k, under_db, det.cell, det.cell - peak.cell, spread, where, cause))
+
+
+def _crowded(det: detection.Detection, w: _DetWindow, scan: _Scan, tally: _Tally) -> bool:
+    """Whether a detection not yet visited lies in ``det``'s window at its apparent time (k = 0), inside its target's
+    cells and separation mask (_shares_window: it will be merged with this mover), and looks like another target
+    there (_another_target, its range extent that of the search bound's |v_los|: the widest a mover's own response
+    can be): the product will warn that it shares the mover's window and velocity estimate (_warn_merged)."""
+    sp, params = scan.spacing, scan.params
+    seen = {id(d) for d in tally.visited}
+    spread = _response_spread(max(abs(params.velocity_min), abs(params.velocity_max)), 0, scan)
+    for d in scan.found.dets:
+        if id(d) in seen or round((d.time - det.time) / sp.ambiguity) != 0 or not w.lo <= d.cell < w.hi:
+            continue
+        sep = 1.5 * max(_half_width(d, scan), _half_width(det, scan)) / sp.ka0
+        if not sp.apart(d, det, params.window_margin, sep) and _another_target(d, det, spread, scan):
+            return True
+    return False
 
 
 def _examine(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
@@ -2795,6 +2833,7 @@ def _examine(det: detection.Detection, scan: _Scan, tally: _Tally) -> None:
         static_below=params.detection_velocity,
         flat_above=0.95,
         null_fit=null_fit,
+        crowded=_crowded(det, w, scan, tally),
     )
     # The other targets in this window (detected anywhere in its cells, not at this one's position or
     # ambiguities) keep their own reconstruction; everything else in the window takes this mover's. So do those
