@@ -38,6 +38,24 @@ def replica_spectrum(radar: RadarMetadata, n_fft: int) -> np.ndarray:
     return sfft.fft(circ)
 
 
+def replica_alias_power(radar: RadarMetadata, n_fft: int, oversample: int = 8) -> np.ndarray:
+    """|H_s|^2 with the aliases summed in power: sum_k |C(f - k f_s)|^2 on replica_spectrum's grid (n_fft bins,
+    unshifted), C the continuous chirp's spectrum (the chirp sampled ``oversample`` times finer, the same rect).
+
+    replica_spectrum is the coherent sum sum_k C(f - k f_s); beyond B/2 its terms are the Fresnel tails of the
+    pulse's end and of its start, and their beat (period 1 / T_p) is a ripple in |H_s| that this sum has not."""
+    fs, tp, m = radar.range_sampling_rate, radar.pulse_duration, oversample
+    half = int(math.floor(tp * fs / 2)) * m + (m - 1)
+    tau = np.arange(-half, half + 1) / (m * fs)
+    h = np.where(np.abs(tau) <= tp / 2, np.exp(1j * np.pi * radar.chirp_rate * tau**2), 0)
+    circ = np.zeros(n_fft * m, complex)
+    circ[: half + 1] = h[half:]
+    circ[n_fft * m - half :] = h[:half]
+    fine = np.abs(sfft.fft(circ)) ** 2 / m**2
+    # the replica is the fine chirp's every m-th sample: its bin q holds the fine bins q + k n_fft
+    return fine.reshape(m, n_fft).sum(axis=0)
+
+
 def spectral_window(name: str, freqs: np.ndarray, bandwidth: float) -> np.ndarray:
     """Amplitude taper over the band |f| <= B/2 (zero outside); the windows and their theory are
     sarproc.product.theory's."""

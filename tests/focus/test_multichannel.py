@@ -517,3 +517,35 @@ def test_range_compression_is_undone_exactly(waveform):
         assert err < 1e-5  # complex64 rounding
         flat = reconstruct(raw, ReconstructParams(method="conventional", range_compression="replica_flat"))
         assert np.max(np.abs(flat.data - ideal.data)) / np.max(np.abs(ideal.data)) > 1e-3
+
+
+@pytest.mark.parametrize("offset", [0.0, 0.7, 1.9])
+def test_replica_compression_leaves_no_copy_one_pulse_length_away(offset):
+    """A band-limited echo's replica spectrum |H_s| beyond B/2 is two aliased Fresnel tails (of the pulse's end
+    and its start) beating with period 1 / T_p; the compressed spectrum kept that beat beyond B/2 (|H_s|^2 to
+    f_s / 2) and so put a copy of every response one pulse length either side in range: -36 dB here, where a band
+    B's response has side lobes of 1 / (pi B T_p) = -51.5 dB at T_p. The CFAR took such copies for targets (the
+    -600 m sinc scene's false alarm, docs/multichannel.md sections 26.3 and 30). The roll-off is now the replica's
+    power with its aliases summed in power: the copy is under that side-lobe level (-56.5 ... -61 dB), at
+    fractional delays too, and so is every far side lobe."""
+    from sarproc.focus.multichannel import reconstruct as rc
+
+    raw = simulate(scene_from_mapping(scene([{"name": "A", "range": f"{offset} m"}], simulation=None)))
+    r = raw.radar
+    n_rg = raw.data.shape[2]
+    n_fft = sfft.next_fast_len(4 * n_rg)
+    f_r = sfft.fftfreq(n_fft, 1.0 / r.range_sampling_rate)
+    comp, expand, mode = rc.range_compression_filters(raw, f_r)
+    assert mode == "replica_equalised"
+    x = np.zeros(n_fft, complex)
+    x[:n_rg] = raw.data[0, raw.data.shape[1] // 2]
+    y = np.abs(sfft.ifft(sfft.fft(x) * comp))
+    k = int(np.argmax(y))
+    lag = round(r.pulse_duration * r.range_sampling_rate)
+    side_lobe = 20 * math.log10(1 / (math.pi * r.bandwidth * r.pulse_duration))
+    for centre in (k - lag, k + lag):
+        copy = 20 * math.log10(float(y[centre - 4 : centre + 5].max() / y[k]))
+        assert copy < side_lobe - 3.0, (offset, centre - k, copy, side_lobe)
+    far = 20 * math.log10(float(np.max(np.r_[y[k - 2 * lag : k - 60], y[k + 60 : k + 2 * lag]]) / y[k]))
+    assert far < side_lobe, far
+    assert np.all(np.abs(comp) > 0) and np.allclose(comp * expand, 1.0)

@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sarproc.dsp.rangecomp import replica_spectrum
+from sarproc.dsp.rangecomp import replica_alias_power, replica_spectrum
 from sarproc.focus.multichannel import channels, deramp, detection, velocity
 from sarproc.product import beam, fft as sfft, moving
 from sarproc.product.config import as_dict, param
@@ -50,6 +50,10 @@ log = logging.getLogger(__name__)
 
 # the range compressions reconstruct can apply (range_compression_filters)
 RANGE_COMPRESSION = ("stationary_phase", "replica_phase", "replica_flat", "replica_equalised")
+# replica_equalised beyond B/2 (range_compression_filters): the roll-off's width, a fraction of the guard band
+# (f_s - B) / 2, and the floor under it, re the flat level (docs/multichannel.md section 30)
+REPLICA_ROLL_OFF = 1.0
+REPLICA_FLOOR = 0.1
 
 
 @dataclasses.dataclass(frozen=True)
@@ -150,9 +154,9 @@ class ReconstructParams:
         choices=("auto", *RANGE_COMPRESSION),
         doc=(
             "range compression before the deramp, undone after the reconstruction. auto: replica_equalised for the "
-            "band-limited echoes simulate records (1 / the sampled replica's spectrum within B/2, its phase beyond, "
-            "invertible in every bin), else stationary_phase (the ideal chirp's exp(j pi f^2 / K)); replica_phase "
-            "and replica_flat (zero beyond B/2) are variants (docs/multichannel.md section 16)"
+            "band-limited echoes simulate records (1 / the sampled replica's spectrum within B/2, a smooth "
+            "roll-off beyond, invertible in every bin), else stationary_phase (the ideal chirp's exp(j pi f^2 / K)); "
+            "replica_phase and replica_flat (zero beyond B/2) are variants (docs/multichannel.md sections 16, 30)"
         ),
     )
 
@@ -336,11 +340,11 @@ def simulated_waveform(raw: Product) -> str | None:
 # leaves the aliased part uncompressed: a coherent plateau out to c T_p / 2 from every target, which the velocity
 # windows cut into cross-window ghosts (docs/multichannel.md sections 15, 16). So band-limited echoes are equalised
 # with the replica's own spectrum (rangecomp.replica_spectrum, the replica backproject compresses with): 1 / H_s
-# within B/2, so the compressed spectrum is flat there; beyond B/2 the replica's phase conj(H_s) / |H_s| times
-# |H_s| / edge^2 (edge: |H_s| at B/2), so the spectrum meets the flat level at the band's edge and rolls off as
-# |H_s|^2 instead of stopping (a hard stop's sinc tails ghost as well; a roll-off as |H_s| raised the noise of those
-# bins, -1.3 dB of detection SNR). No bin of that filter is zero, so the re-expansion (its reciprocal) restores
-# every bin.
+# within B/2, so the compressed spectrum is flat there; beyond B/2 it rolls off instead of stopping (a hard stop's
+# sinc tails ghost as well) as the replica's power there, its aliased tails summed in power, tapered to f_s / 2
+# (section 30; session 42's |H_s|^2 roll-off kept the tails' beat, a copy of every response one pulse length away;
+# a roll-off as |H_s| raised the noise of those bins, -1.3 dB of detection SNR). No bin of the filter is zero, so
+# the re-expansion (its reciprocal) restores every bin.
 # A continuous echo's aliased part changes with each fractional delay (its coherent part is C(f) alone): it, and a
 # product with no simulation recorded, keep the stationary-phase phasor. replica_phase (phase only, unit modulus)
 # and replica_flat (1 / H_s within B/2, zero beyond: not invertible there) are the variants measured against it.
@@ -365,10 +369,21 @@ def range_compression_filters(
     flat = scale / np.where(band, h, 1.0)
     if mode == "replica_flat":
         return np.where(band, flat, 0.0), np.where(band, h / scale, 0.0), mode
-    edge = float(np.mean(mag[band & (np.abs(f_r) >= 0.49 * r.bandwidth)]))  # |H_s| at the band's edge
-    # beyond B/2 the compressed spectrum is scale |H_s|^2 / edge^2: it meets the flat level at the edge and falls
-    # faster than |H_s|, so the noise of those bins, where the pulse has little energy, is not raised
-    comp = np.where(band, flat, phase * (scale * np.maximum(mag, 1e-12 * edge) / edge**2))
+    ends = band & (np.abs(f_r) >= 0.49 * r.bandwidth)
+    edge = float(np.mean(mag[ends]))  # |H_s| at the band's edge
+    # beyond B/2 the compressed spectrum is scale (w P / P_edge + REPLICA_FLOOR (1 - w) |H_s|^2 / edge^2): P the
+    # replica's power with its aliases summed in power (rangecomp.replica_alias_power), w a raised cosine from 1 at
+    # B/2 to 0 at f_s / 2, then the floor, which keeps every bin invertible. |H_s|^2 there is the Fresnel tails of
+    # the pulse's end and of its start beating with period 1 / T_p; a compressed spectrum that keeps the beat
+    # (|H_s|^2 / edge^2 to f_s / 2, as before) puts a copy of every response one pulse length either side in
+    # range, -36 dB; P is |H_s|^2 without it (docs/multichannel.md section 30)
+    power = replica_alias_power(r, len(f_r))
+    guard = (r.range_sampling_rate - r.bandwidth) / 2
+    x = np.clip((np.abs(f_r) - r.bandwidth / 2) / (REPLICA_ROLL_OFF * guard), 0.0, 1.0)
+    w = 0.5 * (1.0 + np.cos(np.pi * x))
+    safe = np.maximum(mag, 1e-12 * edge)
+    out = scale * (w * power / float(np.mean(power[ends])) + REPLICA_FLOOR * (1.0 - w) * safe**2 / edge**2)
+    comp = np.where(band, flat, phase * out / safe)
     return comp, 1.0 / comp, mode
 
 
