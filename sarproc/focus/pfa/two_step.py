@@ -24,13 +24,21 @@ tiles (a rectangle on the mosaic's axes holds samples turned by theta_p - theta_
 centre jumps at the seam: -27 dB between the two halves of a response, tests/focus/test_pfa_seams.py).
 The planar-wavefront distortion and that turn are taken out together when each tile is read back at
 the distorted place of its own pixels of the output grid (:func:`focus_subimage`).
+
+A sub-image that returns its core alone cuts every response's far ridges at the seams: only a target's own
+sub-image holds its spectrum, and a neighbour's rectangle passes none of its step-1 side lobes. With blended
+seams (``pfa2.subimage_reach`` > 0) the step-1 image is cut into a partition of unity instead
+(:func:`partition_weights`: each core's distorted box, raised-cosine edges in the windows' overlap), each piece
+is focused by its own sub-image onto its core grown by the reach (:func:`grown_slices`) and the pieces are
+added (:func:`mosaic`): linear, so each content is focused once, by the sub-image that holds it, and its
+ridges run on to the grown core's edge.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -240,6 +248,9 @@ class Tile:
     center_offset: tuple[float, float]
     window: tuple[float, float, float, float]  # a_min, a_max, r_min, r_max, m from O
     window_center: tuple[float, float]
+    # the core's bounds in the step-1 image (its edges' distorted places), a_min, a_max, r_min, r_max, m from O;
+    # infinite on the grid's outer sides: the cells of the step-1 image's partition (:func:`partition_weights`)
+    box: tuple[float, float, float, float] = (-math.inf, math.inf, -math.inf, math.inf)
 
 
 def plan_tiles(
@@ -285,6 +296,14 @@ def plan_tiles(
             ]
             ga = overlap * (a_hi - a_lo) / 2
             gr = overlap * (r_hi - r_lo) / 2
+            # the core's edges lie half a pixel beyond its outer pixels (the seam between two tiles' pixels)
+            edge = [(d.azimuth, d.range) for d in dist[1:]]
+            box = (
+                min(e[0] for e in edge) - out.da / 2 if i > 0 else -math.inf,
+                max(e[0] for e in edge) + out.da / 2 if i < n_ta - 1 else math.inf,
+                min(e[1] for e in edge) - out.dr / 2 if j > 0 else -math.inf,
+                max(e[1] for e in edge) + out.dr / 2 if j < n_tr - 1 else math.inf,
+            )
             win = (
                 min(d.azimuth - d.spread_azimuth / 2 for d in dist) - ga,
                 max(d.azimuth + d.spread_azimuth / 2 for d in dist) + ga,
@@ -292,7 +311,14 @@ def plan_tiles(
                 max(d.range + d.spread_range / 2 for d in dist) + gr,
             )
             tiles.append(
-                Tile(slice(int(ia), int(ib)), slice(int(ja), int(jb)), (ca, cr), win, (dist[0].azimuth, dist[0].range))
+                Tile(
+                    slice(int(ia), int(ib)),
+                    slice(int(ja), int(jb)),
+                    (ca, cr),
+                    win,
+                    (dist[0].azimuth, dist[0].range),
+                    box,
+                )
             )
     return tiles
 
@@ -431,11 +457,55 @@ def own_range_theory(
     return rectangle_range_theory(kg, ua, ur, carrier_frequency, bandwidth, window)
 
 
-def mosaic(shape: tuple[int, int], tiles: list[Tile], results: Iterable[np.ndarray]) -> np.ndarray:
-    """Place each tile's core into the output image."""
+def _ramp(x: np.ndarray, lo: float, hi: float, half: float) -> np.ndarray:
+    """1 inside [lo, hi], 0 beyond, a raised cosine over +-``half`` (m) about each finite bound."""
+    out = np.ones(len(x))
+    for edge, side in ((lo, 1.0), (hi, -1.0)):
+        if math.isfinite(edge):
+            s = np.clip(side * (x - edge) / (2 * half) + 0.5, 0.0, 1.0)
+            out *= 0.5 - 0.5 * np.cos(math.pi * s)
+    return out
+
+
+def partition_weights(tiles: Sequence[Tile], index: int, grid: Grid, half: tuple[float, float]) -> np.ndarray:
+    """Tile ``index``'s piece of a partition of unity of the step-1 image, on ``grid`` (n_a, n_r) float32.
+
+    Each tile's cell is its :attr:`Tile.box` with raised-cosine edges +-``half`` (m, azimuth and range) wide;
+    normalised by the sum over all cells, the pieces add up to one wherever a cell reaches (the boxes of
+    neighbours meet at their seam, up to the distortion's variation along it, far less than ``half``).
+    """
+    a, r = grid.a, grid.r
+    num = np.outer(_ramp(a, *tiles[index].box[:2], half[0]), _ramp(r, *tiles[index].box[2:], half[1]))
+    total = np.zeros_like(num)
+    for t in tiles:
+        wa, wr = _ramp(a, *t.box[:2], half[0]), _ramp(r, *t.box[2:], half[1])
+        if wa.any() and wr.any():
+            total += np.outer(wa, wr)
+    return np.divide(num, total, out=np.zeros_like(num), where=total > 0).astype(np.float32)
+
+
+def grown_slices(tile: Tile, shape: tuple[int, int], margin: tuple[int, int]) -> tuple[slice, slice]:
+    """The tile's core grown by ``margin`` pixels (azimuth, range) on every side, clipped to the grid."""
+    return (
+        slice(max(0, tile.rows.start - margin[0]), min(shape[0], tile.rows.stop + margin[0])),
+        slice(max(0, tile.cols.start - margin[1]), min(shape[1], tile.cols.stop + margin[1])),
+    )
+
+
+def mosaic(
+    shape: tuple[int, int],
+    tiles: list[Tile],
+    results: Iterable[np.ndarray],
+    margin: tuple[int, int] | None = None,
+) -> np.ndarray:
+    """Place each tile's core into the output image; with ``margin``, add each tile's grown core
+    (:func:`grown_slices`: the focused pieces of a partition of unity, which overlap)."""
     img = np.zeros(shape, np.complex64)
     for t, sub in zip(tiles, results):
-        img[t.rows, t.cols] = sub
+        if margin is None:
+            img[t.rows, t.cols] = sub
+        else:
+            img[grown_slices(t, shape, margin)] += sub
     return img
 
 
