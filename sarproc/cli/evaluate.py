@@ -386,6 +386,13 @@ def _write_text_atomic(path: Path, text: str, overwrite: bool = True) -> None:
     show_default=True,
     help="An image without truth only: how many of its brightest points to locate.",
 )
+@click.option(
+    "--workers",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Threads for the targets' and fit groups' independent work (default: every core); any number gives "
+    "the same report, bit for bit.",
+)
 @config_option
 @progress_option
 @max_memory_option
@@ -399,6 +406,7 @@ def evaluate(
     target_names: str | None,
     reference_path: Path | None,
     points: int,
+    workers: int | None,
     config_path: Path | None,
     progress: bool | None,
 ) -> None:
@@ -427,6 +435,7 @@ def evaluate(
     from sarproc.product.io import check_output_path, read_product
     from sarproc.product.model import UNITS
     from sarproc.product.run import mark_published
+    from sarproc.quality import threads
     from sarproc.quality.budget import evaluate_estimate
     from sarproc.quality.metrics import EvaluateParams, check_report, evaluate_product, expectations_from_mapping
     from sarproc.quality.summary import tolerance_score
@@ -455,7 +464,7 @@ def evaluate(
     report_plan(plan, [output], input_path)
 
     product = read_product(input_path, kinds=("image", "image3d"))
-    with naming(input_path, config_path, "evaluate"):
+    with naming(input_path, config_path, "evaluate"), threads.workers(workers):
         report = evaluate_product(
             product,
             params,

@@ -84,6 +84,7 @@ from sarproc.quality.residual import (
     spectral_orders,
     unique_columns,
 )
+from sarproc.quality.threads import ordered_map
 
 # Samples per null spacing 1/B below which an axis is undersampled. A grid at exactly 1/B is critically sampled
 # and measurable (the cut is sinc-interpolated); array3d at elevation padding 1 steps asin(lambda / (N d)), which
@@ -1498,10 +1499,16 @@ def evaluate_image(
     # only the measured targets from here on; the others (and other_truth) guard their neighbourhoods
     order = [int(i) for i in np.flatnonzero(measured)]
     peaks, own_axes = [peaks[i] for i in order], [own_axes[i] for i in order]
-    reports = [
-        _measure(peak, own, truth[i], names[i], params, metric)
-        for peak, own, i in wrapped(done, list(zip(peaks, own_axes, order)))
-    ]
+    reports = list(
+        wrapped(
+            done,
+            ordered_map(
+                lambda a: _measure(a[0], a[1], truth[a[2]], names[a[2]], params, metric),
+                zip(peaks, own_axes, order),
+                params.exact,
+            ),
+        )
+    )
     guarded = _guarded_positions(truth, measured, other_truth, len(axes))
     note = None
     if params.residual and data.ndim == 3:
@@ -1607,10 +1614,16 @@ def _locate_targets(
     steps, one per target and pass; ``gram``: :func:`_sample_gram`; ``coinciding``: the targets that coincide with
     another (:func:`coinciding_indices`); ``ridge_angles``: evaluate_image's."""
     angles = np.full(len(names), np.nan) if ridge_angles is None else ridge_angles
-    peaks = [
-        _find_peak(data, mag, axes, name, t, half, nulls, params, gram, float(angle))
-        for name, t, angle in wrapped(done, list(zip(names, truth, angles)))
-    ]
+    peaks = list(
+        wrapped(
+            done,
+            ordered_map(
+                lambda a: _find_peak(data, mag, axes, a[0], a[1], half, nulls, params, gram, float(a[2])),
+                zip(names, truth, angles),
+                params.exact,
+            ),
+        )
+    )
     if params.remove_neighbours:
         chirps = _chirps_in_samples(target_chirp, axes, len(names))
         shapes = _response_shapes(response_period, response_table, axes)
@@ -1811,15 +1824,19 @@ def _subtract_neighbours(
         if near and abs(peak.value) > 0:
             others[i] = near
     fitted = _neighbours_on_chips(data.shape, [p.raw for p in peaks], models, others, hamming, params.exact)
+
+    def found_again(i: int) -> tuple[_Chip, np.ndarray, complex, Support]:
+        peak = peaks[i]
+        chip = _Chip(None, peak.index, half, chip=(peak.raw.data - fitted[i], peak.raw.clipped))
+        pos, value = chip.refine_peak(peak.position, exact=params.exact)
+        angle = math.nan if ridge_angles is None else float(ridge_angles[i])
+        return chip, pos, value, _support(chip, pos, nulls, params, gram, angle)
+
+    again = ordered_map(found_again, [i for i in range(len(peaks)) if i in others], params.exact)
     for i, peak in wrapped(done, list(enumerate(peaks))):
         if i not in others:
             continue
-        raw = peak.raw
-        cleaned = raw.data - fitted[i]
-        chip = _Chip(None, peak.index, half, chip=(cleaned, raw.clipped))
-        pos, value = chip.refine_peak(peak.position, exact=params.exact)
-        angle = math.nan if ridge_angles is None else float(ridge_angles[i])
-        support = _support(chip, pos, nulls, params, gram, angle)
+        chip, pos, value, support = next(again)
         out[i] = dataclasses.replace(
             peak,
             chip=chip,
@@ -2103,14 +2120,18 @@ def _neighbour_models(
     nulls = np.asarray(nulls, dtype=float)
     models = {}
     period = _period_in_samples(shapes, nulls)
-    for members in _overlapping_groups(peaks, np.asarray(half, dtype=float) + nulls, nulls, period):
+
+    def group_fit(members: list[int]) -> tuple[list, tuple | None]:  # reads no other group's fit
         points, y, boxes = _group_samples(data, [peaks[k].position for k in members], nulls)
         own = None if chirps is None else [chirps[k] if np.any(chirps[k] != 0) else None for k in members]
         fit = _fit_ideal_group(points, y, [peaks[k] for k in members], nulls, params, boxes, own, shapes)
         # a group holding coinciding targets (coinciding_targets) has their sum on one peak, not one member's
         # response: the refit cannot explain it (paper 004's receiver 14 image: 4 s CPU, refused), nor is it tried
         tried = not coinciding.intersection(members)
-        rich = _refit_rich(data, points, y, fit, members, nulls, params) if tried else None
+        return fit, _refit_rich(data, points, y, fit, members, nulls, params) if tried else None
+
+    groups = _overlapping_groups(peaks, np.asarray(half, dtype=float) + nulls, nulls, period)
+    for members, (fit, rich) in zip(groups, ordered_map(group_fit, groups, params.exact)):
         for q, k in enumerate(members):
             models[k] = dataclasses.replace(fit[q], group=frozenset(members))
             if rich is not None:

@@ -20,6 +20,7 @@ import numpy as np
 from sarproc.quality import residual_aot
 from sarproc.quality.blas import single_blas
 from sarproc.quality.lstsq import NormalEquations, least_squares
+from sarproc.quality.threads import ordered_map
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -1555,13 +1556,15 @@ def _restart_misfitted_lone(
     by +-:data:`RESTART_BAND_FRACTION` of its band along each axis; the model with the lowest box misfit
     kept where it halves the first fit's (as :func:`_widen_misfitted_lone` keeps a model: a basin, not a
     nudge within one). Updates ``models`` in place."""
-    for members, near, y_near, _, _ in fits:
+
+    def restarted(fit: tuple) -> ResponseModel | None:  # reads and replaces its own target's model only
+        members, near, y_near, _, _ = fit
         k, model = members[0], models[members[0]]
         if len(members) > 1 or model is None:
-            continue
+            return None
         first = _misfit(model, near, y_near)
         if not WIDTH_SEARCH_MISFIT < first < RESTART_MISFIT_MAX:
-            continue
+            return None
         best, kept = 0.5 * first, None
         # its band: one cycle per null
         for starts in _band_shifted_starts(found, {k: RESTART_BAND_FRACTION / model.nulls}, near.shape[0]):
@@ -1570,8 +1573,11 @@ def _restart_misfitted_lone(
             _fit_one_group(members, near, y_near, trial, starts, nulls, orders, centre, support_shape, bar=best)
             if (misfit := _misfit(trial[k], near, y_near)) < best:
                 best, kept = misfit, trial[k]
+        return kept
+
+    for fit, kept in zip(fits, list(ordered_map(restarted, fits))):
         if kept is not None:
-            models[k] = kept
+            models[fit[0][0]] = kept
 
 
 def _group_misfit(models: Sequence[ResponseModel | None], points: np.ndarray, y: np.ndarray) -> float:
@@ -1601,49 +1607,69 @@ def _restart_misfitted_groups(
     misfit 5.0e-3 against 2.0e-5 at the band centres each alone finds (2.9e-5 their lone models as they are):
     both misfits, floor -33.8 dB. The common restart finds T2's basin (misfit 3.7e-4), T1 then starts from
     T2's band centre and finds its own (2.0e-5): floor -54.8 dB."""
-    for members, near, y_near, _, _ in fits:
-        if len(members) < 2 or any(models[k] is None for k in members):
-            continue
-        first = _group_misfit([models[k] for k in members], near, y_near)
-        if not WIDTH_SEARCH_MISFIT < first < RESTART_MISFIT_MAX:
-            continue
-        band = {k: 1.0 / m.nulls for k in members if (m := models[k]) is not None}  # cycles/sample per axis
-        best, kept = 0.5 * first, None
-        probe, probed = math.inf, None
-        steps = {k: RESTART_BAND_FRACTION * band[k] for k in members}
-        for starts in _band_shifted_starts(found, steps, near.shape[0]):
-            trial: list[ResponseModel | None] = [None] * len(models)
-            _fit_one_group(members, near, y_near, trial, starts, nulls, orders, centre, True, PROBE_STEPS)
-            if (misfit := _group_misfit([trial[k] for k in members], near, y_near)) < probe:
-                probe, probed = misfit, trial
-        if probed is not None:  # the most promising basin's fit carried to convergence
-            _fit_one_group(members, near, y_near, probed, found, nulls, orders, centre, True)
-            if (misfit := _group_misfit([probed[k] for k in members], near, y_near)) < best:
-                kept = probed
-        if kept is None:  # no other basin for the group as a whole: none sought for each member
-            continue
-        for k in members:
-            models[k] = kept[k]
-        # then each member started from each other member's band centre (a close pair shares its illumination),
-        # the others from their models
-        current = _group_misfit([models[k] for k in members], near, y_near)
-        for k in members:
-            best, kept = 0.8 * current, None
-            for other in members:
-                m = models[other]
-                if other == k or m is None:
-                    continue
-                starts = list(found)
-                starts[k] = dataclasses.replace(found[k], band_centre=m.band_centre)
-                trial = list(models)
-                trial[k] = None
-                _fit_one_group(members, near, y_near, trial, starts, nulls, orders, centre, True)
-                if (misfit := _group_misfit([trial[j] for j in members], near, y_near)) < best:
-                    best, kept = misfit, trial
-            if kept is not None:
-                for j in members:
-                    models[j] = kept[j]
-                current = best
+
+    def restarted(fit: tuple) -> dict[int, ResponseModel | None]:  # its members' models, reading no others'
+        mine = list(models)
+        _restart_misfitted_group(fit, mine, found, nulls, orders, centre)
+        return {k: mine[k] for k in fit[0]}
+
+    for replaced in list(ordered_map(restarted, fits)):
+        for k, model in replaced.items():
+            models[k] = model
+
+
+def _restart_misfitted_group(
+    fit: tuple,
+    models: list[ResponseModel | None],
+    found: list[FitStart],
+    nulls: np.ndarray,
+    orders: np.ndarray,
+    centre: dict[int, np.ndarray],
+) -> None:
+    """One group's :func:`_restart_misfitted_groups`: its members' ``models`` replaced in place."""
+    members, near, y_near, _, _ = fit
+    if len(members) < 2 or any(models[k] is None for k in members):
+        return
+    first = _group_misfit([models[k] for k in members], near, y_near)
+    if not WIDTH_SEARCH_MISFIT < first < RESTART_MISFIT_MAX:
+        return
+    band = {k: 1.0 / m.nulls for k in members if (m := models[k]) is not None}  # cycles/sample per axis
+    best, kept = 0.5 * first, None
+    probe, probed = math.inf, None
+    steps = {k: RESTART_BAND_FRACTION * band[k] for k in members}
+    for starts in _band_shifted_starts(found, steps, near.shape[0]):
+        trial: list[ResponseModel | None] = [None] * len(models)
+        _fit_one_group(members, near, y_near, trial, starts, nulls, orders, centre, True, PROBE_STEPS)
+        if (misfit := _group_misfit([trial[k] for k in members], near, y_near)) < probe:
+            probe, probed = misfit, trial
+    if probed is not None:  # the most promising basin's fit carried to convergence
+        _fit_one_group(members, near, y_near, probed, found, nulls, orders, centre, True)
+        if (misfit := _group_misfit([probed[k] for k in members], near, y_near)) < best:
+            kept = probed
+    if kept is None:  # no other basin for the group as a whole: none sought for each member
+        return
+    for k in members:
+        models[k] = kept[k]
+    # then each member started from each other member's band centre (a close pair shares its illumination),
+    # the others from their models
+    current = _group_misfit([models[k] for k in members], near, y_near)
+    for k in members:
+        best, kept = 0.8 * current, None
+        for other in members:
+            m = models[other]
+            if other == k or m is None:
+                continue
+            starts = list(found)
+            starts[k] = dataclasses.replace(found[k], band_centre=m.band_centre)
+            trial = list(models)
+            trial[k] = None
+            _fit_one_group(members, near, y_near, trial, starts, nulls, orders, centre, True)
+            if (misfit := _group_misfit([trial[j] for j in members], near, y_near)) < best:
+                best, kept = misfit, trial
+        if kept is not None:
+            for j in members:
+                models[j] = kept[j]
+            current = best
 
 
 def _widen_misfitted_lone(
@@ -1664,14 +1690,16 @@ def _widen_misfitted_lone(
     does (structure no band-limited model follows, e.g. the two-step PFA's, is not chased at every target). Updates
     ``models``, ``own_orders``, ``centre`` and ``fits`` in place."""
     ndim = data.ndim
-    for g, (members, near, y_near, far, y_far) in enumerate(fits):
+
+    def widened(fit: tuple) -> tuple[ResponseModel, np.ndarray, tuple] | None:  # its own target's model only
+        members, near, y_near, far, y_far = fit
         k, model = members[0], models[members[0]]
         if model is None or len(members) > 1 or (before := _misfit(model, near, y_near)) <= WIDTH_SEARCH_MISFIT:
-            continue
+            return None
         rich = dataclasses.replace(model, orders=richer, kappa=None)
         linear = _search_widths(rich, near, y_near, own[k], below=0.5 * before)[1]
         if linear >= 0.5 * before:
-            continue
+            return None
         samples = (near, y_near, far, y_far)
         trial = _refit_lone(model, found[k], near, y_near, own[k], richer, np.ones(ndim))
         scale = np.ones(ndim)
@@ -1683,6 +1711,13 @@ def _widen_misfitted_lone(
             samples = (at, data[tuple(at)].astype(complex), along, data[tuple(along)].astype(complex))
             trial = _refit_lone(trial, found[k], samples[0], samples[1], own[k], richer, scale)
         if _misfit(trial, samples[0], samples[1]) < 0.5 * before:
+            return trial, scale, samples
+        return None
+
+    for g, done in enumerate(list(ordered_map(widened, fits))):
+        if done is not None:
+            members, (trial, scale, samples) = fits[g][0], done
+            k = members[0]
             models[k], own_orders[k], centre[k] = trial, richer, scale * own[k] / nulls
             fits[g] = (members, *samples)
 
@@ -1915,6 +1950,7 @@ def _fitted_response_models(
     rich = max(2, params.residual_orders + RICHER_EXTRA_ORDERS)
     richer = spectral_orders(ndim, rich, rich + (ndim == 2))
     own_orders: dict[int, np.ndarray] = {}  # a misfitted lone member's orders (one more than the theory's, >= 2)
+
     # Sweep 0 on the boxes alone (the chirp converges from zero there); then on boxes and ridge strips, with
     # the other groups' models subtracted.
     # These sweeps descend on no one misfit (each group fits its own samples, the others' models held) and three
@@ -1929,18 +1965,28 @@ def _fitted_response_models(
     # targets converges from either start (floor -42.18 / -42.16 dB, misfit 2.75e-3) at 30-60 times the CPU; each
     # group fitted on every group's samples (a descent on one misfit) settles from either start too, but at
     # -38.55 dB (0.01 dB apart after 10 sweeps; 10-20 times the CPU): its fits have minima 3.6 dB apart in floor.
+    def first_fit(fit: tuple) -> list[ResponseModel | None]:
+        members, near, y_near = fit[:3]
+        mine = list(models)
+        _fit_one_group(
+            members, near, y_near, mine, found, nulls, own_orders.get(members[0], orders), centre, support_shape
+        )
+        return [mine[k] for k in members]
+
     for sweep in range(3):
         if sweep == 1 and support_shape:
             _restart_misfitted_lone(fits, models, found, nulls, orders, centre, support_shape)
             _restart_misfitted_groups(fits, models, found, nulls, orders, centre)
             _widen_misfitted_lone(data, fits, models, found, own, nulls, richer, params, own_orders, centre)
-        for members, near, y_near, far, y_far in fits:
-            if sweep == 0:
-                points, rhs = near, y_near
-            else:
-                points, rhs = far, _others_subtracted(y_far, far, members, live, models, reach)
+        if sweep == 0:  # each group on its own box alone: no group reads another's model (then in order)
+            for members, fitted in zip([f[0] for f in fits], list(ordered_map(first_fit, fits, params.exact))):
+                for k, model in zip(members, fitted):
+                    models[k] = model
+            continue
+        for members, _, _, far, y_far in fits:
+            rhs = _others_subtracted(y_far, far, members, live, models, reach)
             group_orders = own_orders.get(members[0], orders)
-            _fit_one_group(members, points, rhs, models, found, nulls, group_orders, centre, support_shape)
+            _fit_one_group(members, far, rhs, models, found, nulls, group_orders, centre, support_shape)
     if support_shape and ndim == 2:
         bowed = _fit_curvatures(fits, models, live, reach)
         for members, _, _, far, y_far in fits:  # their band centres, chirps and shapes again, the bow held
@@ -2561,6 +2607,7 @@ def subtract_models(
     warped model's levels are :data:`WARPED_REACH_DB` lower."""
     edges, lo, hi = _block_grid(out.shape)
     grid = tuple(len(e) - 1 for e in edges)
+    parts: list[tuple[tuple[slice, ...], ResponseModel]] = []  # in the order they are subtracted
     for model in models:
         if model is None:
             continue
@@ -2572,8 +2619,10 @@ def subtract_models(
         for box in _boxes(needed, edges):
             rows = max(1, block_samples // max(1, math.prod(s.stop - s.start for s in box[1:])))
             for start in range(box[0].start, box[0].stop, rows):
-                part = (slice(start, min(box[0].stop, start + rows)),) + box[1:]
-                out[part] -= _model_on_box(part, model)
+                parts.append(((slice(start, min(box[0].stop, start + rows)),) + box[1:], model))
+    # each part's values on threads (they read only their model), subtracted in this order
+    for (part, _), values in zip(parts, ordered_map(lambda p: _model_on_box(*p), parts)):
+        out[part] -= values
 
 
 def _exclusion_mask(
