@@ -1998,6 +1998,8 @@ def _fitted_response_models(
         _fit_warps(fits, models, live, reach)
         if any(sheared):
             _fit_cubics(fits, models, live, reach, sheared)
+            if LINE_ROUNDS:
+                _fit_ridge_lines(fits, models, live, reach, sheared, data.shape)
     return models
 
 
@@ -2053,6 +2055,58 @@ def _fit_cubics(
             models[k] = cubed
 
 
+# Targets on one ridge line (the trial's 3x4: the three of a range column share their azimuth ridge, T00_03 and
+# T01_02 their range ridge) each leave the other's ridge under their own strips there: only their sum is measured,
+# and fitted one target at a time, the others subtracted, the alternation converges slowly (session 44: -37.50 dB
+# after one round of whole-strip fits, -38.43 after three). A pair of sheared lone targets whose ridge strips
+# share over LINE_SHARE of the smaller strip set (their boxes left out) is fitted jointly on the union of their
+# strips (:func:`_fit_cubics_jointly`), the other targets' models subtracted, kept where it lowers the pair's misfit
+# there (session 45: the 3x4 -37.45 -> -37.90 dB uniform, -38.50 -> -40.07 Hamming; docs/cli.md). On the 3x4
+# (340 x 390 samples) collinear ridges share 0.08-0.35 of a target's strip samples, ridges crossing at an angle
+# 0.02-0.05. LINE_ROUNDS 0: not fitted (as before session 45).
+LINE_SHARE = 0.06
+LINE_ROUNDS = 1
+
+
+def _ridge_line_pairs(fits: list, models: list[ResponseModel | None], sheared: Sequence[bool], shape: tuple) -> list:
+    """(j, k, union of their strips, its values) per pair of sheared lone targets whose ridge strips share over
+    :data:`LINE_SHARE` of the smaller one's samples beyond their boxes, most shared first."""
+    lone = {}
+    for members, near, _, far, y_far in fits:
+        k = members[0]
+        if len(members) == 1 and models[k] is not None and sheared[k]:
+            flat = np.ravel_multi_index(tuple(far), shape)
+            lone[k] = (far, y_far, np.setdiff1d(flat, np.ravel_multi_index(tuple(near), shape)))
+    pairs = []
+    for j, k in itertools.combinations(sorted(lone), 2):
+        shared = np.intersect1d(lone[j][2], lone[k][2]).size
+        if shared > LINE_SHARE * min(lone[j][2].size, lone[k][2].size):
+            points, inverse = unique_columns(np.concatenate([lone[j][0], lone[k][0]], axis=1), shape)
+            values = np.empty(points.shape[1], complex)
+            values[inverse] = np.concatenate([lone[j][1], lone[k][1]])
+            pairs.append((shared, j, k, points, values))
+    pairs.sort(key=lambda p: -p[0])
+    return [p[1:] for p in pairs]
+
+
+def _fit_ridge_lines(
+    fits: list, models: list[ResponseModel | None], live: list[int], reach: float, sheared: Sequence[bool], shape: tuple
+) -> None:
+    """Each pair of sheared lone targets on one ridge line (:func:`_ridge_line_pairs`) fitted jointly on the union of
+    their strips, the other targets' models subtracted (:func:`_fit_cubics_jointly`, warped), kept where the pair
+    leaves less there. Updates ``models``."""
+    pairs = _ridge_line_pairs(fits, models, sheared, shape)
+    for _ in range(LINE_ROUNDS):
+        for j, k, points, values in pairs:
+            pair = [models[j], models[k]]
+            if pair[0] is None or pair[1] is None:
+                continue
+            rhs = _others_subtracted(values, points, [j, k], live, models, reach)
+            fitted, before, after = _fit_cubics_jointly(points, rhs, pair, warped=True)
+            if after < before:
+                models[j], models[k] = fitted
+
+
 def _fit_near_first(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> ResponseModel:
     """``model`` with the warp (where it has none) and the cubic carrier fitted first on the samples within
     :data:`CUBIC_NEAR_NULLS` nulls of its peak along each ridge (:func:`_fit_warp`, :func:`_fit_cubic`), each kept
@@ -2081,125 +2135,183 @@ def _fit_cubic(
     azimuth band on the trial's scene) and its range edges' bow (:attr:`ResponseModel.curvature`,
     :data:`CUBIC_BOW`) refined with it; with ``warped`` its warp, chirp, widths and keystone too (the whole
     strips' fit of :func:`_fit_cubics`); its other parameters held, amplitudes by linear least squares,
-    eliminated from the steps."""
-    x = np.asarray(points, dtype=float) - np.asarray(model.position, dtype=float)[:, None]
-    # band centre's shift, the cubic's terms, then (``warped``) the chirp's
-    rows = [x[0], x[1], *_cubic_monomials(x)] + ([x[0] ** 2 / 2, x[0] * x[1], x[1] ** 2 / 2] if warped else [])
-    phases = np.stack(rows)
-    n_ph = len(rows)
-    cross = [(0, 1), (1, 0)]
-    tilt = slice(n_ph, n_ph + len(cross))
-    bowed = CUBIC_BOW  # the bow, the last parameter
-    pairs = _chirp_pairs(2)
-    n_warp = 2 * len(pairs) if warped else 0  # the warp's terms (:func:`_fit_warp`), after the cross slopes
-    bend = slice(tilt.stop, tilt.stop + n_warp)
-    keyed = model.kappa is not None
-    n_shape = (2 + int(keyed)) if warped else 0  # the widths' relative changes and the keystone's, after the warp
-    form = slice(bend.stop, bend.stop + n_shape)
-    warp0 = np.zeros((2, 2, 2)) if model.warp is None else np.asarray(model.warp, dtype=float)
+    eliminated from the steps. :func:`_fit_cubics_jointly` of the one model."""
+    fitted, before, after = _fit_cubics_jointly(points, y, [model], warped)
+    return fitted[0], before, after
 
-    def warp_of(w: np.ndarray) -> np.ndarray | None:
-        if not n_warp:
-            return model.warp
-        W = warp0.copy()
+
+class _CubicTerms:
+    """One model's parameters in :func:`_fit_cubics_jointly` (band centre's shift, the cubic's four terms, with
+    ``warped`` the chirp's three; the two cross slopes; with ``warped`` the warp's six terms, the widths' relative
+    changes and the keystone's; the bow, :data:`CUBIC_BOW`): its basis at them, its Jacobian's columns (the basis'
+    derivatives in the cross slopes, warp, shape and bow are central differences taken once, at the start: a
+    chord), its step's limits and the model they give."""
+
+    def __init__(self, points: np.ndarray, model: ResponseModel, warped: bool) -> None:
+        self.points, self.model, self.warped = points, model, warped
+        x = np.asarray(points, dtype=float) - np.asarray(model.position, dtype=float)[:, None]
+        # band centre's shift, the cubic's terms, then (``warped``) the chirp's
+        rows = [x[0], x[1], *_cubic_monomials(x)] + ([x[0] ** 2 / 2, x[0] * x[1], x[1] ** 2 / 2] if warped else [])
+        self.phases = np.stack(rows)
+        n_ph = len(rows)
+        self.n_ph = n_ph
+        self.cross = [(0, 1), (1, 0)]
+        self.tilt = slice(n_ph, n_ph + len(self.cross))
+        self.bowed = CUBIC_BOW  # the bow, the last parameter
+        self.pairs = _chirp_pairs(2)
+        self.n_warp = 2 * len(self.pairs) if warped else 0  # the warp's terms (:func:`_fit_warp`), after the slopes
+        self.bend = slice(self.tilt.stop, self.tilt.stop + self.n_warp)
+        self.keyed = model.kappa is not None
+        self.n_shape = (2 + int(self.keyed)) if warped else 0  # the widths' relative changes and keystone's, then
+        self.form = slice(self.bend.stop, self.bend.stop + self.n_shape)
+        self.warp0 = np.zeros((2, 2, 2)) if model.warp is None else np.asarray(model.warp, dtype=float)
+        self.size = n_ph + len(self.cross) + self.n_warp + self.n_shape + int(self.bowed)
+
+    def warp_of(self, w: np.ndarray) -> np.ndarray | None:
+        if not self.n_warp:
+            return self.model.warp
+        W = self.warp0.copy()
         for a in range(2):
-            for q, (i, j) in enumerate(pairs):
-                W[a, i, j] += w[a * len(pairs) + q]
+            for q, (i, j) in enumerate(self.pairs):
+                W[a, i, j] += w[a * len(self.pairs) + q]
                 if i != j:
-                    W[a, j, i] += w[a * len(pairs) + q]
+                    W[a, j, i] += w[a * len(self.pairs) + q]
         return W
 
-    def shaped(sh: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
-        if sh is None or not n_shape:
+    def shaped(self, sh: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
+        model = self.model
+        if sh is None or not self.n_shape:
             return model.nulls, model.kappa
-        kappa = model.kappa + sh[2:3] if keyed else model.kappa
+        kappa = model.kappa + sh[2:3] if self.keyed else model.kappa
         return model.nulls * (1 + sh[:2]), kappa
 
-    def base(V: np.ndarray, beta: float, w: np.ndarray | None = None, sh: np.ndarray | None = None) -> np.ndarray:
-        W = warp_of(np.zeros(n_warp) if w is None else w)
-        nulls, kappa = shaped(sh)
+    def base(self, V: np.ndarray, beta: float, w: np.ndarray | None = None, sh: np.ndarray | None = None) -> np.ndarray:
+        model = self.model
+        W = self.warp_of(np.zeros(self.n_warp) if w is None else w)
+        nulls, kappa = self.shaped(sh)
         b = response_basis(
-            points, model.position, V, nulls, model.band_centre, model.orders, model.chirp, kappa=kappa, warp=W
+            self.points, model.position, V, nulls, model.band_centre, model.orders, model.chirp, kappa=kappa, warp=W
         )
         if beta:
-            b = b + _BowColumns(points, dataclasses.replace(model, ridges=V, warp=W, nulls=nulls, kappa=kappa))(beta)
+            b = b + _BowColumns(self.points, dataclasses.replace(model, ridges=V, warp=W, nulls=nulls, kappa=kappa))(
+                beta
+            )
         return b
 
-    def ridges(theta: np.ndarray) -> np.ndarray:
-        V = np.array(model.ridges, dtype=float)
-        for (i, j), d in zip(cross, theta[tilt]):
+    def ridges(self, theta: np.ndarray) -> np.ndarray:
+        V = np.array(self.model.ridges, dtype=float)
+        for (i, j), d in zip(self.cross, theta[self.tilt]):
             V[i, j] += d
         return V
 
-    def bow(theta: np.ndarray) -> float:  # within the bow search's +-CURVATURE_LIMIT
-        beta = model.curvature + (float(theta[-1]) if bowed else 0.0)
+    def bow(self, theta: np.ndarray) -> float:  # within the bow search's +-CURVATURE_LIMIT
+        beta = self.model.curvature + (float(theta[-1]) if self.bowed else 0.0)
         return min(max(beta, -CURVATURE_LIMIT), CURVATURE_LIMIT)
 
-    def solve(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, NormalEquations, np.ndarray]:
-        factor = np.exp(2j * np.pi * (theta[:n_ph] @ phases))[:, None]
-        b = base(ridges(theta), bow(theta), theta[bend], theta[form]) * factor
-        coef, r, cost, normal = _amplitudes([b], y)
-        return coef[0], r, cost, normal, factor
+    def start(self) -> np.ndarray:
+        theta = np.zeros(self.size)
+        if self.model.cubic is not None:  # from the cubic fitted already (:func:`_fit_near_first`)
+            theta[2:6] = self.model.cubic
+        return theta
 
-    theta = np.zeros(n_ph + len(cross) + n_warp + n_shape + int(bowed))
-    if model.cubic is not None:  # from the cubic fitted already (:func:`_fit_near_first`)
-        theta[2:6] = model.cubic
-    coef, r, cost, normal, factor = solve(theta)
-    before = cost
-    slopes = []  # the basis' central differences in the cross slopes (and the bow), once at the start (a chord)
-    for i, j in cross:
-        dV = np.zeros((2, 2))
-        dV[i, j] = CUBIC_DV
-        slopes.append((base(model.ridges + dV, bow(theta)) - base(model.ridges - dV, bow(theta))) / (2 * CUBIC_DV))
-    for q in range(n_warp):
-        dw = np.zeros(n_warp)
-        dw[q] = CUBIC_DWARP
-        slopes.append((base(model.ridges, bow(theta), dw) - base(model.ridges, bow(theta), -dw)) / (2 * CUBIC_DWARP))
-    for q in range(n_shape):
-        ds = np.zeros(n_shape)
-        ds[q] = FD_STEP
-        slopes.append(
-            (base(model.ridges, bow(theta), None, ds) - base(model.ridges, bow(theta), None, -ds)) / (2 * FD_STEP)
+    def basis(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(basis with its carrier's refinement, that factor) at ``theta``."""
+        factor = np.exp(2j * np.pi * (theta[: self.n_ph] @ self.phases))[:, None]
+        return self.base(self.ridges(theta), self.bow(theta), theta[self.bend], theta[self.form]) * factor, factor
+
+    def chords(self, theta: np.ndarray) -> list[np.ndarray]:
+        """The basis' central differences in the cross slopes, warp, shape and bow at ``theta``."""
+        V, beta = self.model.ridges, self.bow(theta)
+        slopes = []
+        for i, j in self.cross:
+            dV = np.zeros((2, 2))
+            dV[i, j] = CUBIC_DV
+            slopes.append((self.base(V + dV, beta) - self.base(V - dV, beta)) / (2 * CUBIC_DV))
+        for q in range(self.n_warp):
+            dw = np.zeros(self.n_warp)
+            dw[q] = CUBIC_DWARP
+            slopes.append((self.base(V, beta, dw) - self.base(V, beta, -dw)) / (2 * CUBIC_DWARP))
+        for q in range(self.n_shape):
+            ds = np.zeros(self.n_shape)
+            ds[q] = FD_STEP
+            slopes.append((self.base(V, beta, None, ds) - self.base(V, beta, None, -ds)) / (2 * FD_STEP))
+        if self.bowed:
+            up, down = self.base(V, beta + CUBIC_DBOW), self.base(V, beta - CUBIC_DBOW)
+            slopes.append((up - down) / (2 * CUBIC_DBOW))
+        return slopes
+
+    def clip(self, step: np.ndarray) -> None:
+        step[self.tilt] = np.clip(step[self.tilt], -CUBIC_MAX_TILT_STEP, CUBIC_MAX_TILT_STEP)
+        if self.bowed:
+            step[-1] = np.clip(step[-1], -CUBIC_MAX_BOW_STEP, CUBIC_MAX_BOW_STEP)
+        step[self.form] = np.clip(step[self.form], -MAX_SHAPE_STEP, MAX_SHAPE_STEP)
+
+    def fitted(self, theta: np.ndarray, coef: np.ndarray) -> ResponseModel:
+        model = self.model
+        centre = np.asarray(model.band_centre, dtype=float) + theta[:2]
+        chirp = model.chirp + np.array([[theta[6], theta[7]], [theta[7], theta[8]]]) if self.warped else model.chirp
+        return dataclasses.replace(
+            model,
+            coef=coef,
+            cubic=theta[2:6],
+            band_centre=centre,
+            ridges=self.ridges(theta),
+            curvature=self.bow(theta),
+            warp=self.warp_of(theta[self.bend]),
+            nulls=self.shaped(theta[self.form])[0],
+            kappa=self.shaped(theta[self.form])[1],
+            chirp=chirp,
         )
-    if bowed:
-        up, down = base(model.ridges, bow(theta) + CUBIC_DBOW), base(model.ridges, bow(theta) - CUBIC_DBOW)
-        slopes.append((up - down) / (2 * CUBIC_DBOW))
+
+
+def _fit_cubics_jointly(
+    points: np.ndarray, y: np.ndarray, models: Sequence[ResponseModel], warped: bool = False
+) -> tuple[list[ResponseModel], float, float]:
+    """(models, misfit before, after): :func:`_fit_cubic`'s parameters of every model (:class:`_CubicTerms`) solved
+    together on ``points`` / ``y``, their amplitudes by one linear least squares: targets on one ridge line, whose
+    sum alone is measured there (:func:`_fit_ridge_lines`). The models as given where no step lowers the misfit."""
+    terms = [_CubicTerms(points, m, warped) for m in models]
+    cuts = np.cumsum([0] + [t.size for t in terms])
+    spans = [slice(int(a), int(b)) for a, b in zip(cuts[:-1], cuts[1:])]
+
+    def solve(theta: np.ndarray) -> tuple[list, np.ndarray, float, NormalEquations, list, list]:
+        parts = [t.basis(theta[s]) for t, s in zip(terms, spans)]
+        bases = [b for b, _ in parts]
+        normal = NormalEquations(np.concatenate(bases, axis=1))
+        solved = normal.solve(y)
+        r = y - normal.B @ solved
+        coef = np.split(solved, np.cumsum([b.shape[1] for b in bases])[:-1])  # the members' orders may differ
+        return coef, r, float(np.vdot(r, r).real), normal, [f for _, f in parts], bases
+
+    theta = np.concatenate([t.start() for t in terms])
+    coef, r, cost, normal, factors, bases = solve(theta)
+    before = cost
+    slopes = [t.chords(theta[s]) for t, s in zip(terms, spans)]  # once, at the start (a chord)
     for _ in range(CUBIC_STEPS):
-        fit = y - r
-        cols = list(2j * np.pi * phases * fit)  # d model / d theta_k, the amplitudes held
-        cols += [(slope * factor) @ coef for slope in slopes]
+        cols = []
+        for q, t in enumerate(terms):
+            fit = y - r if len(terms) == 1 else bases[q] @ coef[q]
+            cols += list(2j * np.pi * t.phases * fit)  # d model / d theta_k, the amplitudes held
+            cols += [(slope * factors[q]) @ coef[q] for slope in slopes[q]]
         step, predicted = _gauss_newton_step(normal, r, np.stack(cols, axis=1), np.ones(len(theta), dtype=bool))
         if predicted <= 1e-6 * cost:
             break
-        step[tilt] = np.clip(step[tilt], -CUBIC_MAX_TILT_STEP, CUBIC_MAX_TILT_STEP)
-        if bowed:
-            step[-1] = np.clip(step[-1], -CUBIC_MAX_BOW_STEP, CUBIC_MAX_BOW_STEP)
-        step[form] = np.clip(step[form], -MAX_SHAPE_STEP, MAX_SHAPE_STEP)
+        for t, s in zip(terms, spans):
+            part = step[s]
+            t.clip(part)
+            step[s] = part
         halved = _halved_step(solve, theta, step, cost)
         if halved is None:
             break
         length, trial = halved
         theta = theta + length * step
         crawled = cost - trial[2] < CUBIC_CRAWL * cost
-        coef, r, cost, normal, factor = trial
+        coef, r, cost, normal, factors, bases = trial
         if crawled:
             break
     if cost >= before:
-        return model, before, before
-    centre = np.asarray(model.band_centre, dtype=float) + theta[:2]
-    cubed = dataclasses.replace(
-        model,
-        coef=coef,
-        cubic=theta[2:6],
-        band_centre=centre,
-        ridges=ridges(theta),
-        curvature=bow(theta),
-        warp=warp_of(theta[bend]),
-        nulls=shaped(theta[form])[0],
-        kappa=shaped(theta[form])[1],
-        chirp=model.chirp + np.array([[theta[6], theta[7]], [theta[7], theta[8]]]) if warped else model.chirp,
-    )
-    return cubed, before, cost
+        return list(models), before, before
+    return [t.fitted(theta[s], coef[q]) for q, (t, s) in enumerate(zip(terms, spans))], before, cost
 
 
 # Each pulse's wavefront is a circle about the platform, not the plane wave of the band-limited model: a response's
