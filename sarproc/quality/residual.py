@@ -1998,7 +1998,7 @@ def _fitted_response_models(
         _fit_warps(fits, models, live, reach)
         if any(sheared):
             _fit_cubics(fits, models, live, reach, sheared)
-            if LINE_ROUNDS:
+            if params.joint_ridge_lines:
                 _fit_ridge_lines(fits, models, live, reach, sheared, data.shape)
     return models
 
@@ -2063,9 +2063,8 @@ def _fit_cubics(
 # strips (:func:`_fit_cubics_jointly`), the other targets' models subtracted, kept where it lowers the pair's misfit
 # there (session 45: the 3x4 -37.45 -> -37.90 dB uniform, -38.50 -> -40.07 Hamming; docs/cli.md). On the 3x4
 # (340 x 390 samples) collinear ridges share 0.08-0.35 of a target's strip samples, ridges crossing at an angle
-# 0.02-0.05. LINE_ROUNDS 0: not fitted (as before session 45).
+# 0.02-0.05. Opt-in (EvaluateParams.joint_ridge_lines): it costs 1.8-2.2x evaluate's CPU on the 3x4.
 LINE_SHARE = 0.06
-LINE_ROUNDS = 1
 
 
 def _ridge_line_pairs(fits: list, models: list[ResponseModel | None], sheared: Sequence[bool], shape: tuple) -> list:
@@ -2095,16 +2094,14 @@ def _fit_ridge_lines(
     """Each pair of sheared lone targets on one ridge line (:func:`_ridge_line_pairs`) fitted jointly on the union of
     their strips, the other targets' models subtracted (:func:`_fit_cubics_jointly`, warped), kept where the pair
     leaves less there. Updates ``models``."""
-    pairs = _ridge_line_pairs(fits, models, sheared, shape)
-    for _ in range(LINE_ROUNDS):
-        for j, k, points, values in pairs:
-            pair = [models[j], models[k]]
-            if pair[0] is None or pair[1] is None:
-                continue
-            rhs = _others_subtracted(values, points, [j, k], live, models, reach)
-            fitted, before, after = _fit_cubics_jointly(points, rhs, pair, warped=True)
-            if after < before:
-                models[j], models[k] = fitted
+    for j, k, points, values in _ridge_line_pairs(fits, models, sheared, shape):
+        pair = [models[j], models[k]]
+        if pair[0] is None or pair[1] is None:
+            continue
+        rhs = _others_subtracted(values, points, [j, k], live, models, reach)
+        fitted, before, after = _fit_cubics_jointly(points, rhs, pair, warped=True)
+        if after < before:
+            models[j], models[k] = fitted
 
 
 def _fit_near_first(points: np.ndarray, y: np.ndarray, model: ResponseModel) -> ResponseModel:

@@ -93,9 +93,10 @@ def test_targets_on_a_shared_ridge_line_are_fitted_jointly():
     """The 3x4, Hamming range window: each column's three targets share their azimuth ridge, T00_03 and T01_02 their
     range ridge; fitted one at a time, the others subtracted, main floors at -38.50 dB (false target -37.22); with
     each such pair fitted jointly on the union of their strips (:func:`sarproc.quality.residual._fit_ridge_lines`)
-    -40.07 / -39.95 (in process, 2026-12-07; docs/cli.md "Session 45: shared ridge lines")."""
+    -40.07 / -39.95 (in process, 2026-12-07; docs/cli.md "Session 45: shared ridge lines"); opt-in
+    (EvaluateParams.joint_ridge_lines) for its CPU."""
     raw = simulate(scene_from_mapping(scene(lambda i, j: 1.0)))
     image = backproject(raw, BackprojectParams(frame="ground_los", range_window="hamming"))
-    report = evaluate_product(image, EvaluateParams())
+    report = evaluate_product(image, EvaluateParams(joint_ridge_lines=True))
     assert report.residual.floor_db < -39.5
     assert report.false_target.level_db < -39.0
