@@ -125,15 +125,16 @@ class Pfa2Params:
         doc=("two_step: extra window around each core, as a fraction of the core (the paper: 512 of 2048 = 0.25)"),
     )
     subimage_reach: float = param(
-        default=0.0,
+        default=0.5,
         ge=0,
         le=1,
         doc=(
             "two_step: how far each sub-image's output reaches past its core, as a fraction of the core; above 0 "
             "the step-1 image is cut into a partition of unity (pieces blended across each seam), each piece "
             "focused onto its core grown by this much and the pieces added, so that a target's far ridges "
-            "cross the seams; 0: each sub-image returns its core alone (ridges stop at the seams). 0.5: residual "
-            "floor -35.8 -> -45.7 dB on nie2016_small for 15-30 % more CPU (docs/pfa.md, session 45)"
+            "cross the seams; 0: each sub-image returns its core alone (ridges stop at the seams). 0.5 against 0: "
+            "residual floor -38.5 -> -46.1 dB on Table 1 (nie2016) for 1.42x the two-step's wall (docs/pfa.md, "
+            "sessions 45-46)"
         ),
     )
     subimage_oversampling: float = param(
