@@ -680,6 +680,9 @@ NULL_FIT_FLAT = 0.02
 # detection_velocity: not clutter's pull to 0) by more than this is reported as ambiguous and its 1-sigma made at
 # least the difference (xu_traffic's one overrule, V9: eq. 5 -0.01 m/s, static)
 NULL_FIT_AMBIGUOUS = 1.0
+# m/s of v_r: eq. 5's first search weighs a second minimum of its curve this far or farther from its estimate
+# (_rival_minimum): nearer, it is the same minimum's noise (mover campaign scene 013's M1: -12.5 and -9.0 m/s)
+RIVAL_APART = 4.0
 # A mover whose detection is under the measured CFAR threshold, or (without the clutter null) any mover that eq. 5's
 # search estimated, is tabled only with its line-of-sight speed this many 1-sigma over detection_velocity
 # (_drop_under_threshold)
@@ -923,6 +926,9 @@ class _Estimate:
     # neither eq. 5 nor the null fit's search explains the clutter-null residual: (eq. 5's v_r and its mismatch,
     # the null fit's best v_r and its mismatch); None when one of them does, or without the null fit
     unexplained: tuple[float, float, float, float] | None = None
+    # eq. 5's two minima its looks do not tell apart (_rival_minimum): (reported v_r, other v_r, t, critical t, the
+    # reported one's range walk, the other's; at the first search's v_a); None: one minimum, or one significantly lower
+    rival: tuple[float, float, float, float, float, float] | None = None
     autofocus: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 2)))  # (n, 2) v_a, sharpness
     autofocus_snr: float = math.inf  # integrated signal to clutter-plus-noise ratio the autofocus saw (_autofocus_snr)
     pull: float = float("nan")  # m/s: v_a's offset on the mover's illumination alone (illumination_pull)
@@ -983,6 +989,74 @@ def _first_search(win: _Window, params: ReconstructParams, g: _Geometry, can_sea
         v_r = alias.estimate
     est.v_r, est.result = v_r, result
     return est
+
+
+def _rival_minimum(est: _Estimate, win: _Window, params: ReconstructParams, g: _Geometry, mover_above: float) -> None:
+    """Eq. 5's curve with a second minimum, apart from the estimate's, that its looks do not tell from it.
+
+    The first search's coarse trials may hold another local minimum at least RIVAL_APART from the estimate, in a
+    basin of its own (the curve between them rises over it by half its dip under the curve's median,
+    velocity.curve_median), both a mover's (|v_los| >= ``mover_above``). It is searched to the search's step, and the
+    two compared look by look (_Window.leakage_looks: noise is independent between looks): d_k = O_k / T_k at the
+    other minimum less at the estimate, t = mean(d) / (s / sqrt(n)). A t over the one-sided POINT_TARGET_ALPHA point
+    of Student's (n - 1 degrees of freedom) keeps the estimate: eq. 5 is significantly lower there. Otherwise the data's
+    eq. 5 cannot tell them apart (mover campaign scene 013 band-limited: M2, v_r 16.77 m/s, 16.9 dB in noise, partly
+    lit past the data's end, its minimum at +18.2 m/s at v_a 0 and another at -17.0, 0.0038 lower, t 0.4;
+    docs/multichannel.md section 32): the one with the smaller residual range walk (_Window.walk_rate, the only other
+    evidence; in noise it reads far under the true walk, but in order) is kept, est.rival records both, and _estimate
+    warns with both (the 1-sigma stays eq. 5's at the one kept: two discrete candidates are no spread, and one as
+    wide as their difference took the scene's true M1 and M2 for static, _drop_under_threshold)."""
+    if est.result is None or len(est.result.trials) < 3:
+        return
+    trials = est.result.trials
+    coarse = trials[np.isclose(np.mod(trials[:, 0] - params.velocity_min + 1e-9, params.coarse_step), 0, atol=1e-6)]
+    if len(coarse) < 3:
+        return
+    u, y = coarse[:, 0], coarse[:, 1]
+    level = velocity.curve_median(trials)
+    best, rival = est.criterion(est.v_r, est.v_a), None
+    for i in range(len(u)):
+        # a bound's trial is no minimum: the curve may fall on beyond it (a blind-velocity alias's basin)
+        if i in (0, len(u) - 1) or abs(u[i] - est.v_r) < RIVAL_APART or y[i] > min(y[i - 1], y[i + 1]):
+            continue
+        if abs(channels.line_of_sight_velocity(u[i], est.v_a, g.squint)) < mover_above:
+            continue
+        between = y[(u > min(u[i], est.v_r)) & (u < max(u[i], est.v_r))]
+        if len(between) == 0 or between.max() - max(y[i], best) < 0.5 * (level - y[i]):
+            continue
+        if rival is None or y[i] < rival[1]:
+            rival = (float(u[i]), float(y[i]))
+    if rival is None:
+        return
+    lo = max(params.velocity_min, rival[0] - params.coarse_step)
+    hi = min(params.velocity_max, rival[0] + params.coarse_step)
+    found = _search(est, params, est.v_a, lo, hi, params.coarse_step / 4)
+    other = found.estimate
+    o1, t1 = win.leakage_looks(est.v_r, est.v_a)
+    o2, t2 = win.leakage_looks(other, est.v_a)
+    d = o2 / np.maximum(t2, 1e-300) - o1 / np.maximum(t1, 1e-300)
+    if len(d) < 2:
+        return
+    from scipy.special import stdtrit  # Student's t (scipy.stats' import costs about 0.5 s of CPU)
+
+    sd, mean = float(np.std(d, ddof=1)), float(np.mean(d))
+    t = mean / (sd / math.sqrt(len(d))) if sd > 0 else (math.inf if mean > 0 else 0.0)
+    critical = float(stdtrit(len(d) - 1, 1 - POINT_TARGET_ALPHA))
+    log.debug(
+        "reconstruct: eq. 5's other minimum %.2f m/s (estimate %.2f): higher by t %.2f (apart: > %.2f)",
+        other,
+        est.v_r,
+        t,
+        critical,
+    )
+    if t > critical:
+        return
+    walk, walk_other = abs(win.walk_rate(est.v_r, est.v_a)), abs(win.walk_rate(other, est.v_a))
+    if walk_other < walk:
+        est.v_r, other, walk, walk_other = other, est.v_r, walk_other, walk
+        merged = np.concatenate([trials, found.trials])
+        est.result = velocity.SearchResult(est.v_r, found.at_bound, merged[np.argsort(merged[:, 0])], len(merged))
+    est.rival = (est.v_r, other, t, critical, walk, walk_other)
 
 
 def _minimum_width(result: velocity.SearchResult, margin: float = NULL_FIT_FLAT) -> float:
@@ -1935,6 +2009,8 @@ def _estimate(
         _null_refit(est, params, null_fit, static_below, g.squint)
     if static_below is not None and abs(v_los_first := est.v_los(g)) < static_below:
         return None, [f"static {v_los_first:.6g}"]
+    if static_below is not None and not est.by_null_fit and params.radial_velocity is None:
+        _rival_minimum(est, win, params, g, static_below)
     if flat_above is not None and est.unexplained is not None:
         # A residual that no velocity explains is no point mover (xu_traffic_static: V5's ambiguity residue
         # -1 x PRF / K_a from it, 16.2 dB, eq. 5 5.70 m/s leaving 1.00 of it, the null fit's best 0.32).
@@ -2023,6 +2099,13 @@ def _estimate(
             f"v_r ambiguous: eq. 5 gives {est.overruled[0] / cos:.2f} m/s, the null fit "
             f"{est.overruled[1] / cos:.2f} m/s (at v_a 0; eq. 5 leaves the clutter-null residual unexplained, "
             f"the null fit's model may not hold here); the 1-sigma is at least their difference"
+        )
+    if est.rival is not None:
+        kept, other, t, critical, walk, walk_other = est.rival
+        notes.append(
+            f"v_r ambiguous: eq. 5 has two minima, {kept:.2f} and {other:.2f} m/s at the first search's v_a, that "
+            f"its looks do not tell apart (t {t:.2f}, apart over {critical:.2f}); {kept:.2f} taken, its range walk "
+            f"the smaller ({walk:.2f} against {walk_other:.2f} m/s), the other as likely by eq. 5"
         )
     return MovingTarget(
         first_cell=0,
