@@ -105,12 +105,12 @@ def _campaign_025() -> dict:
 
 
 def test_range_pedestal_of_a_movers_ambiguity_is_no_second_pass_false_alarm():
-    """docs/multichannel.md section 34: in campaign scene 025 (band-limited) the second pass detected two peaks 17
-    cells either side of M2's -1 x PRF / K_a response, 6 azimuth samples off its index, 45.7 / 45.9 dB under it
-    (19-20 dB under its range side-lobe envelope): its range pedestal, skewed by the range-azimuth coupling beyond
-    the max(2, width) samples find_detections' envelope test reaches. One was examined as a mover (v_r 12.31 m/s, a
-    false alarm), the other taken for static. Now the three movers are found alone and the product counts the two
-    as range_pedestal."""
+    """docs/multichannel.md section 34: in campaign scene 025 (band-limited) the second pass detected two peaks in
+    cells 134 and 168, either side of M2's -1 x PRF / K_a response (cells 150-151), 6 azimuth samples off its index,
+    45.7 / 45.9 dB under it (18.5-19.3 dB under its range side-lobe envelope): its range pedestal, skewed by the
+    range-azimuth coupling beyond the max(2, width) samples find_detections' envelope test reaches. One was examined
+    as a mover (v_r 12.31 m/s, a false alarm), the other taken for static. Now the three movers are found alone and
+    the product counts the two as range_pedestal."""
     rec = reconstruct(simulate(scene_from_mapping(_campaign_025())), ReconstructParams(method="modified"))
     info = rec.attrs["reconstruct"]
     truth = info["truth"]

@@ -2511,10 +2511,10 @@ def _on_range_pedestal(det: detection.Detection, found: _Detections, n_az: int) 
     background as that response's structure) and under its range side-lobe envelope with SIDELOBE_MARGIN
     (detection.side_lobe_of's). find_detections applies that envelope only within max(2, width) samples of the
     detection's azimuth index; a mover's ambiguity, skewed by its range-azimuth coupling, has its range side lobes
-    further off its index (mover campaign scene 025 band-limited: two candidates 17 cells either side of M2's
-    -1 x PRF / K_a response, 6 samples off its index, 45.8 dB under it and 19 dB under the envelope, read as a
-    static point and a false mover at v_r 12.3 m/s; docs/multichannel.md section 34). Only without the clutter
-    null, as _range_cuts (with it, the cuts hold clutter residue that is background)."""
+    further off its index (mover campaign scene 025 band-limited: two candidates in cells 134 and 168, either side of
+    M2's -1 x PRF / K_a response in cells 150-151, 6 samples off its index, 45.7 / 45.9 dB under it and 18.5-19.3 dB
+    under the envelope, read as a static point and a false mover at v_r 12.3 m/s; docs/multichannel.md section 34).
+    Only without the clutter null, as _range_cuts (with it, the cuts hold clutter residue that is background)."""
     for d in found.dets:
         if d.power <= det.power:
             continue
