@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import sarproc.quality.residual as residual
-from helpers import TRIAL_POINTS, trial_mover_scene
+from helpers import TRIAL_POINTS, mover_campaign_scene, trial_mover_scene
 from sarproc.focus.backprojection import BackprojectParams, backproject
 from sarproc.focus.multichannel.reconstruct import ReconstructParams, reconstruct
 from sarproc.product.model import moving_target_rows
@@ -65,43 +65,18 @@ def test_a_fast_movers_refocus_leaves_the_targets_beside_its_window_as_alone(mon
 
 
 def _campaign_025() -> dict:
-    """Mover campaign scene 025 (scripts/mover_campaign.py --seed 1; its YAML as the campaign writes it), band-limited
+    """Mover campaign scene 025 (scripts/mover_campaign.py --seed 1; the same mapping as its YAML), band-limited
     echoes (simulate's default): three movers sharing range cells 150-151, a gaussian beam, no clutter, no noise."""
-
-    def mover(name, az, rg, v_a, v_r, amp):
-        return {
-            "name": name,
-            "azimuth": f"{az} m",
-            "range": f"{rg} m",
-            "amplitude": amp,
-            "velocity": [f"{v_a} m/s", f"{v_r} m/s", "0 m/s"],
-        }
-
-    return {
-        "acquisition": {"aperture_time": "1.2 s", "mode": "stripmap", "range_margin": "40 m"},
-        "effects": {
-            "antenna": {"azimuth_beamwidth": "0.507 deg", "pattern": "gaussian"},
-            "azimuth_channels": {"n_receivers": 3, "spacing": "2 m"},
-            "target_motion": {},
-        },
-        "geometry": {"reference_range": "600 km", "squint": "1.8 deg"},
-        "platform": {"altitude": "0 m", "velocity": "7500 m/s"},
-        "radar": {
-            "bandwidth": "10 MHz",
-            "carrier_frequency": "9.6 GHz",
-            "prf": "2500 Hz",
-            "pulse_duration": "15 us",
-            "range_sampling_rate": "12 MHz",
-        },
-        "targets": {
-            "frame": "squint",
-            "points": [
-                mover("M1", 826.8, 236.0, 9.57, 3.42, 0.8002),
-                mover("M2", 835.3, 231.4, 11.16, 7.62, 0.7313),
-                mover("M3", 841.3, 230.4, -7.89, 11.55, 0.3976),
-            ],
-        },
-    }
+    movers = [
+        ("M1", 826.8, 236.0, 9.57, 3.42, 0.8002),
+        ("M2", 835.3, 231.4, 11.16, 7.62, 0.7313),
+        ("M3", 841.3, 230.4, -7.89, 11.55, 0.3976),
+    ]
+    scenes = [mover_campaign_scene(1.8, "gaussian", 3, "2 m", m) for m in movers]
+    m = scenes[0]
+    m.pop("simulation", None)  # xu_scene.yaml pins the continuous chirp
+    m["targets"]["points"] = [s["targets"]["points"][0] for s in scenes]
+    return m
 
 
 def test_range_pedestal_of_a_movers_ambiguity_is_no_second_pass_false_alarm():
