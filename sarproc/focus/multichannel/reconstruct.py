@@ -2563,6 +2563,10 @@ def _second_pass(scan: _Scan, tally: _Tally) -> list[detection.Detection]:
         if not any(abs(d.cell - p.cell) <= 2 and abs(d.index - p.index) <= max(2.0, p.width) for p in found.dets)
     ]
     tally.dropped += dropped
+    if cuts is not None:
+        pedestal = [d for d in new if _on_range_pedestal(d, found, scan.n_out)]
+        new = [d for d in new if d not in pedestal]
+        tally.counts["range_pedestal"] = len(pedestal)
     found.dets.extend(new)
     for probe in found.probes.values():
         i, c = probe.peak_index, probe.peak_cell
@@ -2573,14 +2577,50 @@ def _second_pass(scan: _Scan, tally: _Tally) -> list[detection.Detection]:
         probe.background_peaks_above = int(len(z) - np.searchsorted(z, level, side="right"))
     log.info(
         "reconstruct: measured background (%d peaks, tail xi %.2f): CFAR threshold %.1f dB for a false-alarm rate "
-        "%.3g per peak; %d new detection(s)",
+        "%.3g per peak; %d new detection(s)%s",
         len(z),
         tail.xi if tail is not None else float("nan"),
         cfar_db,
         params.false_alarm_rate,
         len(new),
+        f" ({n} more on a detection's range pedestal)" if (n := tally.counts.get("range_pedestal", 0)) else "",
     )
     return new
+
+
+def _on_range_pedestal(det: detection.Detection, found: _Detections, n_az: int) -> bool:
+    """Whether a second-pass candidate lies on a stronger earlier detection's range cut as _range_cuts spans it
+    (RANGE_CUT_SAMPLES azimuth samples either side, pulse_cells in range: the cells the CFAR left out of the
+    background as that response's structure) and under its range side-lobe envelope with SIDELOBE_MARGIN
+    (detection.side_lobe_of's). find_detections applies that envelope only within max(2, width) samples of the
+    detection's azimuth index; a mover's ambiguity, skewed by its range-azimuth coupling, has its range side lobes
+    further off its index (mover campaign scene 025 band-limited: two candidates in cells 134 and 168, either side of
+    M2's -1 x PRF / K_a response in cells 150-151, 6 samples off its index, 45.7 / 45.9 dB under it and 18.5-19.3 dB
+    under the envelope, read as a static point and a false mover at v_r 12.3 m/s; docs/multichannel.md section 34).
+    Only without the clutter null, as _range_cuts (with it, the cuts hold clutter residue that is background)."""
+    for d in found.dets:
+        if d.power <= det.power:
+            continue
+        dt = abs(det.index - d.index)
+        dt = min(dt, n_az - dt)
+        dr = abs(det.cell - d.cell)
+        if dt > RANGE_CUT_SAMPLES or dr > found.pulse_cells:
+            continue
+        envelope = detection.SIDELOBE_MARGIN * detection.sinc_sidelobes(max(dr / found.range_width, 0.5))
+        if det.power < d.power * envelope:
+            log.debug(
+                "reconstruct: candidate at cell %d, %.4f s (SNR %.1f dB) on the range cut of the detection at cell %d, "
+                "%.4f s, %.1f dB under it (its side-lobe envelope %.1f dB under): its range pedestal, not examined",
+                det.cell,
+                det.time,
+                det.snr_db,
+                d.cell,
+                d.time,
+                10 * math.log10(d.power / det.power),
+                -10 * math.log10(envelope),
+            )
+            return True
+    return False
 
 
 def _range_cuts(found: _Detections, shape: tuple[int, ...]) -> np.ndarray:
