@@ -46,11 +46,20 @@ def _spread_numpy(coef: np.ndarray, x: np.ndarray, grid_size: int) -> np.ndarray
         c, u = coef[start : start + _BLOCK], np.mod(x[start : start + _BLOCK] * grid_size / (2 * np.pi), grid_size)
         first = np.ceil(u - half)
         z2 = np.minimum(((first[:, None] + taps - u[:, None]) / half) ** 2, 1.0)
-        w = np.exp(_BETA * (np.sqrt(1.0 - z2) - 1.0)) * (z2 < 1.0)
+        w = _libm_exp(_BETA * (np.sqrt(1.0 - z2) - 1.0)) * (z2 < 1.0)
         idx = ((first.astype(np.int64)[:, None] + taps) % grid_size).ravel()
         re += np.bincount(idx, weights=(c.real[:, None] * w).ravel(), minlength=grid_size)
         im += np.bincount(idx, weights=(c.imag[:, None] * w).ravel(), minlength=grid_size)
     return re + 1j * im
+
+
+def _libm_exp(x: np.ndarray) -> np.ndarray:
+    """exp(x) of real x as libm rounds it, as the compiled kernel's ``math.exp`` does: numpy's own exp of a float64
+    array is a SIMD loop on AVX-512 machines that rounds some 5 % of values one ulp otherwise (then the first
+    evaluation in a process, spreading here before numba's kernels load, differed from the later ones in the last
+    bits). numpy's complex exp calls libm's cexp, whose real part at a zero imaginary part is libm's exp(x) times
+    cos(0) = 1: the same bits on every machine (tests/quality/test_evaluate_fast_paths.py)."""
+    return np.exp(x.astype(np.complex128)).real
 
 
 @functools.cache

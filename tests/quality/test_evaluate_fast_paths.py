@@ -174,16 +174,17 @@ def test_compiled_spread_is_the_numpy_grid(terms, grid, monkeypatch):
     x = rng.uniform(-np.pi, np.pi, terms)
     x[:3] = [-np.pi, 0.0, math.nextafter(np.pi, 0.0)]
     got, want = linesum._spread(coef, x, grid), linesum._spread_numpy(coef, x, grid)
-    if _numpy_exp_is_libms():
-        assert np.array_equal(_bits(got), _bits(want))
-    else:  # numpy's SIMD exp (AVX-512 builds) rounds its last bit otherwise than libm's, which numba calls
-        np.testing.assert_allclose(got, want, rtol=1e-13, atol=1e-13 * float(np.abs(want).max()))
+    # on every machine: numpy's SIMD exp (AVX-512 builds) would round its last bit otherwise than libm's, which
+    # numba calls; the reference takes libm's (linesum._libm_exp)
+    assert np.array_equal(_bits(got), _bits(want))
 
 
-def _numpy_exp_is_libms() -> bool:
-    """Whether numpy's exp gives libm's bits here (the machines the bit-for-bit claim was measured on: no AVX-512)."""
+def test_libm_exp_is_libms_exp():
+    """The numpy reference's exp gives libm's bits (math.exp's) where numpy's own exp does not (AVX-512)."""
     z = np.random.default_rng(0).uniform(-40.0, 0.0, 100_000)
-    return bool(np.array_equal(_bits(np.exp(z)), _bits(np.array([math.exp(v) for v in z]))))
+    z[:3] = [0.0, -40.0, -1e-300]
+    want = np.array([math.exp(v) for v in z])
+    assert np.array_equal(_bits(linesum._libm_exp(z)), _bits(want))
 
 
 @pytest.mark.parametrize(
