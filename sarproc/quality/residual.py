@@ -1777,24 +1777,26 @@ def _prefetch_others(
     live: list[int],
     reach: float,
     reads: Callable[[list[int]], bool] | None = None,
+    refitted: int | None = None,
 ) -> None:
-    """Before a serial loop over ``fits`` in which each reading group (``reads(members)``; None: every group)
-    subtracts the other groups' models (:func:`_others_subtracted`) and then replaces its own: the values of the
-    models of the groups after it, which no fit of the loop replaces before it reads them, computed ahead on
-    :data:`_OTHERS`'s pool (the first reader's first), the same function of the same model and samples, so the
-    same bits; the loop takes them where it would have computed them, in its own order. The models of the groups
-    before a reader are refitted in the loop first: those are computed where read, as before. Nothing where no
-    pool runs (one thread, ``EvaluateParams.exact``)."""
+    """For a serial loop over ``fits`` in which each reading group (``reads(members)``; None: every group) subtracts
+    the other groups' models (:func:`_others_subtracted`) and then may replace its own: the values of the models a
+    reader will read as they stand now, computed ahead on :data:`_OTHERS`'s pool, the first reader's first. At the
+    loop's start (``refitted`` None) those of the groups after each reader (no fit of the loop replaces them before
+    it reads them); after group ``refitted``'s fit, its new models for the readers after it. The same function of
+    the same model and samples, so the same bits; the loop takes each where it would have computed it, in its own
+    order. Nothing where no pool runs (one thread, ``EvaluateParams.exact``)."""
     pool, cache, pending = _OTHERS.pool, _OTHERS.cache, _OTHERS.pending
     if pool is None or cache is None or pending is None:
         return
     group = {k: g for g, fit in enumerate(fits) for k in fit[0]}
+    sources = live if refitted is None else [k for k in fits[refitted][0] if k in group]
     for g, (members, _, _, far, _) in enumerate(fits):
-        if reads is not None and not reads(members):
+        if (refitted is not None and g <= refitted) or (reads is not None and not reads(members)):
             continue
-        for j in live:
+        for j in sources:
             m = models[j]
-            if m is None or group.get(j, len(fits)) <= g:
+            if m is None or j in members or (refitted is None and group.get(j, len(fits)) <= g):
                 continue
             key = (id(m), id(far), reach)
             hit = cache.get(key) or pending.get(key)
@@ -2037,18 +2039,22 @@ def _fitted_response_models(
                     models[k] = model
             continue
         _prefetch_others(fits, models, live, reach)
-        for members, _, _, far, y_far in fits:
+        for g, (members, _, _, far, y_far) in enumerate(fits):
             rhs = _others_subtracted(y_far, far, members, live, models, reach)
             group_orders = own_orders.get(members[0], orders)
             _fit_one_group(members, far, rhs, models, found, nulls, group_orders, centre, support_shape)
+            _prefetch_others(fits, models, live, reach, refitted=g)
     if support_shape and ndim == 2:
         bowed = _fit_curvatures(fits, models, live, reach)
-        for members, _, _, far, y_far in fits:  # their band centres, chirps and shapes again, the bow held
+        reads = lambda members: members[0] in bowed  # noqa: E731
+        _prefetch_others(fits, models, live, reach, reads)
+        for g, (members, _, _, far, y_far) in enumerate(fits):  # their centres, chirps and shapes again, bow held
             if members[0] in bowed:
                 rhs = _others_subtracted(y_far, far, members, live, models, reach)
                 _fit_one_group(
                     members, far, rhs, models, found, nulls, own_orders.get(members[0], orders), centre, True
                 )
+                _prefetch_others(fits, models, live, reach, reads, refitted=g)
         _fit_warps(fits, models, live, reach)
         if any(sheared):
             _fit_cubics(fits, models, live, reach, sheared)
@@ -2379,8 +2385,9 @@ WARP_DC = 1e-3  # nulls: the central difference of the basis along each ridge co
 def _fit_warps(fits: list, models: list[ResponseModel | None], live: list[int], reach: float) -> None:
     """Each lone 2D target's warp (:func:`_fit_warp`) on its box and ridge strips, the other groups' models
     subtracted; kept where it leaves under :data:`WARP_GAIN` of the misfit without. Updates ``models``."""
-    _prefetch_others(fits, models, live, reach, lambda members: len(members) == 1 and models[members[0]] is not None)
-    for members, _, _, far, y_far in fits:
+    reads = lambda members: len(members) == 1 and models[members[0]] is not None  # noqa: E731
+    _prefetch_others(fits, models, live, reach, reads)
+    for g, (members, _, _, far, y_far) in enumerate(fits):
         k, model = members[0], models[members[0]]
         if len(members) > 1 or model is None:
             continue
@@ -2388,6 +2395,7 @@ def _fit_warps(fits: list, models: list[ResponseModel | None], live: list[int], 
         warped, before, after = _fit_warp(far, rhs, model, WARP_GAIN)
         if after < WARP_GAIN * before:
             models[k] = warped
+            _prefetch_others(fits, models, live, reach, reads, refitted=g)
 
 
 def _fit_warp(
@@ -2476,8 +2484,9 @@ def _fit_curvatures(fits: list, models: list[ResponseModel | None], live: list[i
     strips (the other groups' models subtracted), kept where it leaves under :data:`CURVATURE_GAIN` of the
     straight model's misfit. Updates ``models`` in place; returns the targets given a bow."""
     bowed = set()
-    _prefetch_others(fits, models, live, reach, lambda members: len(members) == 1 and models[members[0]] is not None)
-    for members, _, _, far, y_far in fits:
+    reads = lambda members: len(members) == 1 and models[members[0]] is not None  # noqa: E731
+    _prefetch_others(fits, models, live, reach, reads)
+    for g, (members, _, _, far, y_far) in enumerate(fits):
         k, model = members[0], models[members[0]]
         if len(members) > 1 or model is None:
             continue
@@ -2486,6 +2495,7 @@ def _fit_curvatures(fits: list, models: list[ResponseModel | None], live: list[i
         if after < CURVATURE_GAIN * before and beta:
             models[k] = dataclasses.replace(model, coef=coef, curvature=beta)
             bowed.add(k)
+            _prefetch_others(fits, models, live, reach, reads, refitted=g)
     return bowed
 
 
