@@ -17,12 +17,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sarproc.quality import residual_aot
+from sarproc.quality import residual_aot, threads
 from sarproc.quality.blas import single_blas
 from sarproc.quality.lstsq import NormalEquations, least_squares
 from sarproc.quality.threads import ordered_map
 
 if TYPE_CHECKING:
+    from concurrent.futures import Executor
+
     import numpy.typing as npt
 
     from sarproc.quality.metrics import EvaluateParams, FalseTarget, TargetReport, _Axis
@@ -1736,26 +1738,75 @@ def _others_subtracted(
     small two-step are of models no fit has replaced since; and where a model's envelope over the box holding all of
     ``points`` decides that it reaches all of them or none, it is not bounded at each (:func:`_reach_by_box`)."""
     rhs = y.copy()
-    cache = _OTHERS.cache
+    cache, pending = _OTHERS.cache, _OTHERS.pending
     for j in live:
         m = models[j]
         if j in members or m is None:
             continue
-        hit = None if cache is None else cache.get((id(m), id(points), reach))
+        key = (id(m), id(points), reach)
+        hit = None if cache is None else cache.get(key)
         if hit is not None and hit[0] is m and hit[1] is points:
             near, values = hit[2], hit[3]
         else:
-            decided = _reach_by_box(m, points, reach) if cache is not None else None
-            if decided is False:
-                near, values = None, None
+            ahead = None if pending is None else pending.pop(key, None)
+            if ahead is not None and ahead[0] is m and ahead[1] is points:  # asked for ahead (:func:`_prefetch_others`)
+                # not started yet: computed here (the thread would only be waited for)
+                near, values = _values_near(m, points, reach, ahead[2]) if ahead[3].cancel() else ahead[3].result()
             else:
-                near = np.ones(points.shape[1], dtype=bool) if decided else envelope_bound(m, points.T) >= reach
-                values = model_values(points[:, near], m) if near.any() else None
+                decided = _reach_by_box(m, points, reach) if cache is not None else None
+                near, values = (None, None) if decided is False else _values_near(m, points, reach, decided)
             if cache is not None:  # the objects held with their values, so their ids are not reused
-                cache[(id(m), id(points), reach)] = (m, points, near, values)
+                cache[key] = (m, points, near, values)
         if values is not None:
             rhs[near] -= values
     return rhs
+
+
+def _values_near(
+    model: ResponseModel, points: np.ndarray, reach: float, decided: bool | None
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """Which of ``points`` ``model``'s envelope reaches ``reach`` at (all where ``decided``; else bounded at each)
+    and the model's values there (None where at none): what :func:`_others_subtracted` subtracts."""
+    near = np.ones(points.shape[1], dtype=bool) if decided else envelope_bound(model, points.T) >= reach
+    return near, model_values(points[:, near], model) if near.any() else None
+
+
+def _prefetch_others(
+    fits: list,
+    models: list[ResponseModel | None],
+    live: list[int],
+    reach: float,
+    reads: Callable[[list[int]], bool] | None = None,
+    refitted: int | None = None,
+) -> None:
+    """For a serial loop over ``fits`` in which each reading group (``reads(members)``; None: every group) subtracts
+    the other groups' models (:func:`_others_subtracted`) and then may replace its own: the values of the models a
+    reader will read as they stand now, computed ahead on :data:`_OTHERS`'s pool, the first reader's first. At the
+    loop's start (``refitted`` None) those of the groups after each reader (no fit of the loop replaces them before
+    it reads them); after group ``refitted``'s fit, its new models for the readers after it. The same function of
+    the same model and samples, so the same bits; the loop takes each where it would have computed it, in its own
+    order. Nothing where no pool runs (one thread, ``EvaluateParams.exact``)."""
+    pool, cache, pending = _OTHERS.pool, _OTHERS.cache, _OTHERS.pending
+    if pool is None or cache is None or pending is None:
+        return
+    group = {k: g for g, fit in enumerate(fits) for k in fit[0]}
+    sources = live if refitted is None else [k for k in fits[refitted][0] if k in group]
+    for g, (members, _, _, far, _) in enumerate(fits):
+        if (refitted is not None and g <= refitted) or (reads is not None and not reads(members)):
+            continue
+        for j in sources:
+            m = models[j]
+            if m is None or j in members or (refitted is None and group.get(j, len(fits)) <= g):
+                continue
+            key = (id(m), id(far), reach)
+            hit = cache.get(key) or pending.get(key)
+            if hit is not None and hit[0] is m and hit[1] is far:
+                continue
+            decided = _reach_by_box(m, far, reach)
+            if decided is False:
+                cache[key] = (m, far, None, None)
+            else:
+                pending[key] = (m, far, decided, pool.submit(_values_near, m, far, reach, decided))
 
 
 # A model's envelope over a box bounds its envelope at every sample in the box from above (:func:`envelope_bound`)
@@ -1813,6 +1864,8 @@ class _OthersCache(threading.local):
     cache: dict | None = None
     boxes: dict | None = None
     bounds: dict | None = None
+    pool: Executor | None = None
+    pending: dict | None = None
 
 
 _OTHERS = _OthersCache()
@@ -1891,12 +1944,14 @@ def _fit_response_models(
 ) -> list[ResponseModel | None]:
     """:func:`_fitted_response_models` with the other groups' models on a fit's samples evaluated once
     (:data:`_OTHERS`)."""
-    before = (_OTHERS.cache, _OTHERS.boxes, _OTHERS.bounds)
-    _OTHERS.cache, _OTHERS.boxes, _OTHERS.bounds = {}, {}, {}
-    try:
-        return _fitted_response_models(data, found, nulls, params, support_shape, sheared, budget)
-    finally:
-        _OTHERS.cache, _OTHERS.boxes, _OTHERS.bounds = before
+    before = (_OTHERS.cache, _OTHERS.boxes, _OTHERS.bounds, _OTHERS.pool, _OTHERS.pending)
+    _OTHERS.cache, _OTHERS.boxes, _OTHERS.bounds, _OTHERS.pending = {}, {}, {}, {}
+    with threads.pool(params.exact) as ahead:
+        _OTHERS.pool = ahead
+        try:
+            return _fitted_response_models(data, found, nulls, params, support_shape, sheared, budget)
+        finally:
+            _OTHERS.cache, _OTHERS.boxes, _OTHERS.bounds, _OTHERS.pool, _OTHERS.pending = before
 
 
 def _fitted_response_models(
@@ -1983,18 +2038,23 @@ def _fitted_response_models(
                 for k, model in zip(members, fitted):
                     models[k] = model
             continue
-        for members, _, _, far, y_far in fits:
+        _prefetch_others(fits, models, live, reach)
+        for g, (members, _, _, far, y_far) in enumerate(fits):
             rhs = _others_subtracted(y_far, far, members, live, models, reach)
             group_orders = own_orders.get(members[0], orders)
             _fit_one_group(members, far, rhs, models, found, nulls, group_orders, centre, support_shape)
+            _prefetch_others(fits, models, live, reach, refitted=g)
     if support_shape and ndim == 2:
         bowed = _fit_curvatures(fits, models, live, reach)
-        for members, _, _, far, y_far in fits:  # their band centres, chirps and shapes again, the bow held
+        reads = lambda members: members[0] in bowed  # noqa: E731
+        _prefetch_others(fits, models, live, reach, reads)
+        for g, (members, _, _, far, y_far) in enumerate(fits):  # their centres, chirps and shapes again, bow held
             if members[0] in bowed:
                 rhs = _others_subtracted(y_far, far, members, live, models, reach)
                 _fit_one_group(
                     members, far, rhs, models, found, nulls, own_orders.get(members[0], orders), centre, True
                 )
+                _prefetch_others(fits, models, live, reach, reads, refitted=g)
         _fit_warps(fits, models, live, reach)
         if any(sheared):
             _fit_cubics(fits, models, live, reach, sheared)
@@ -2325,7 +2385,9 @@ WARP_DC = 1e-3  # nulls: the central difference of the basis along each ridge co
 def _fit_warps(fits: list, models: list[ResponseModel | None], live: list[int], reach: float) -> None:
     """Each lone 2D target's warp (:func:`_fit_warp`) on its box and ridge strips, the other groups' models
     subtracted; kept where it leaves under :data:`WARP_GAIN` of the misfit without. Updates ``models``."""
-    for members, _, _, far, y_far in fits:
+    reads = lambda members: len(members) == 1 and models[members[0]] is not None  # noqa: E731
+    _prefetch_others(fits, models, live, reach, reads)
+    for g, (members, _, _, far, y_far) in enumerate(fits):
         k, model = members[0], models[members[0]]
         if len(members) > 1 or model is None:
             continue
@@ -2333,6 +2395,7 @@ def _fit_warps(fits: list, models: list[ResponseModel | None], live: list[int], 
         warped, before, after = _fit_warp(far, rhs, model, WARP_GAIN)
         if after < WARP_GAIN * before:
             models[k] = warped
+            _prefetch_others(fits, models, live, reach, reads, refitted=g)
 
 
 def _fit_warp(
@@ -2421,7 +2484,9 @@ def _fit_curvatures(fits: list, models: list[ResponseModel | None], live: list[i
     strips (the other groups' models subtracted), kept where it leaves under :data:`CURVATURE_GAIN` of the
     straight model's misfit. Updates ``models`` in place; returns the targets given a bow."""
     bowed = set()
-    for members, _, _, far, y_far in fits:
+    reads = lambda members: len(members) == 1 and models[members[0]] is not None  # noqa: E731
+    _prefetch_others(fits, models, live, reach, reads)
+    for g, (members, _, _, far, y_far) in enumerate(fits):
         k, model = members[0], models[members[0]]
         if len(members) > 1 or model is None:
             continue
@@ -2430,6 +2495,7 @@ def _fit_curvatures(fits: list, models: list[ResponseModel | None], live: list[i
         if after < CURVATURE_GAIN * before and beta:
             models[k] = dataclasses.replace(model, coef=coef, curvature=beta)
             bowed.add(k)
+            _prefetch_others(fits, models, live, reach, reads, refitted=g)
     return bowed
 
 

@@ -19,7 +19,7 @@ from contextvars import ContextVar
 from typing import TYPE_CHECKING, TypeVar
 
 if TYPE_CHECKING:
-    from concurrent.futures import Future
+    from concurrent.futures import Executor, Future
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -75,3 +75,21 @@ def ordered_map(func: Callable[[T], R], items: Iterable[T], serial: bool = False
         finally:
             for future in pending:
                 future.cancel()
+
+
+@contextmanager
+def pool(serial: bool = False) -> Iterator[Executor | None]:
+    """Within: a pool of :func:`worker_count` - 1 threads (the calling thread works too) for pieces asked for ahead
+    of the serial loop that reads them, or None where that is one thread (or ``serial``); its pieces not started
+    are cancelled at the end."""
+    n = 1 if serial else worker_count()
+    if n <= 1:
+        yield None
+        return
+    from concurrent.futures import ThreadPoolExecutor
+
+    executor = ThreadPoolExecutor(max_workers=n - 1, thread_name_prefix=_PREFIX)
+    try:
+        yield executor
+    finally:
+        executor.shutdown(wait=True, cancel_futures=True)

@@ -3,8 +3,13 @@ serial run's bit for bit, whatever the number of threads (issue 20 item 5, sessi
 
 from __future__ import annotations
 
+import json
+import os
+import subprocess
+import sys
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -133,3 +138,60 @@ def test_serial_where_asked_and_inside_a_pool():
     assert inner == [1, 1, 1, 1]
     with threads.workers(None):
         assert threads.worker_count() >= 1
+
+
+def test_the_others_models_asked_for_ahead_give_the_serial_bits(scene, monkeypatch):
+    """The residual's Gauss-Seidel loops (sweeps 1-2, bows, warps) with the values of the models that no fit of the
+    loop replaces before a group reads them computed ahead on a pool (residual._prefetch_others): some of them do
+    run on the pool's thread, and the report is the serial one bit for bit."""
+    img, coords, truth = scene
+    with threads.workers(1):
+        serial = evaluate_image(img, DIMS, coords, tr.RES, truth, params=tr.PARAMS)
+    used: list[str] = []
+    real = residual._values_near
+
+    def recorded(*a, **k):
+        used.append(threading.current_thread().name)
+        return real(*a, **k)
+
+    monkeypatch.setattr(residual, "_values_near", recorded)
+    with threads.workers(2):
+        ahead = evaluate_image(img, DIMS, coords, tr.RES, truth, params=tr.PARAMS)
+    assert _bits(ahead) == _bits(serial)
+    assert any(t.startswith("sarproc-evaluate") for t in used)  # computed ahead on the pool
+    assert any(not t.startswith("sarproc-evaluate") for t in used)  # and where read (refitted in the loop)
+
+
+_FIRST_AND_SECOND = """
+import json, sys
+sys.path[:0] = [sys.argv[1], sys.argv[1] + "/tests"]
+from sarproc.quality import linesum, residual_aot, threads
+from sarproc.quality.metrics import evaluate_image
+import tests.quality.test_residual as tr
+from tests.quality.test_evaluate_threads import DIMS, _bits, _crowded
+
+numpy_spreads = []
+real = linesum._spread_numpy
+linesum._spread_numpy = lambda *a: numpy_spreads.append(1) or real(*a)
+img, coords, truth = _crowded()
+before = residual_aot.spread_kernels() is None
+with threads.workers(1):
+    reports = [_bits(evaluate_image(img, DIMS, coords, tr.RES, truth, params=tr.PARAMS)) for _ in range(2)]
+print(json.dumps({"numpy_first": before and len(numpy_spreads) > 0, "equal": reports[0] == reports[1],
+                  "differ": [str(a) for a, b in zip(*reports) if a != b][:4]}))
+"""
+
+
+def test_the_first_evaluation_in_a_process_gives_the_later_bits():
+    """Under SARPROC_AOT=0 a process's first evaluation spreads the cuts' line sums in numpy (numba's kernels not
+    loaded yet) and the later ones with the compiled kernel: the same bits now (linesum._libm_exp; numpy's own exp
+    on AVX-512 made a PSLR and an IRW differ by 2 ulp here). In a fresh process, so that it is the first."""
+    root = Path(__file__).resolve().parents[2]
+    env = dict(os.environ, SARPROC_AOT="0")
+    run = subprocess.run(
+        [sys.executable, "-c", _FIRST_AND_SECOND, str(root)], env=env, cwd=root, capture_output=True, text=True
+    )
+    assert run.returncode == 0, run.stderr
+    found = json.loads(run.stdout.strip().splitlines()[-1])
+    assert found["numpy_first"]  # the first evaluation did take numpy's spreading
+    assert found["equal"], found["differ"]
