@@ -2564,9 +2564,9 @@ def _second_pass(scan: _Scan, tally: _Tally) -> list[detection.Detection]:
     ]
     tally.dropped += dropped
     if cuts is not None:
-        pedestal = [d for d in new if _on_range_pedestal(d, found, scan.n_out)]
-        new = [d for d in new if d not in pedestal]
-        tally.counts["range_pedestal"] = len(pedestal)
+        on_pedestal = [_on_range_pedestal(d, found, scan.n_out) for d in new]
+        new = [d for d, dropped_here in zip(new, on_pedestal) if not dropped_here]
+        tally.counts["range_pedestal"] = sum(on_pedestal)
     found.dets.extend(new)
     for probe in found.probes.values():
         i, c = probe.peak_index, probe.peak_cell
